@@ -1,0 +1,190 @@
+"""AlphaPose results JSON -> :class:`Keypoints2D` (formats.md section 3.2).
+
+The file is a flat list, one entry per detected person per image::
+
+    {"image_id": "<k>.jpg", "category_id": 1, "keypoints": [x1, y1, c1, ...],
+     "score": float, "box": [x, y, w, h], "idx": track id}
+
+For video input ``k`` is the 0-based frame index (AlphaPose ``alphapose/utils/detector.py``).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pcnet.stages.conventions import get_layout
+
+from .registry import register_2d
+from .types import AdapterError, Keypoints2D
+from .validate import clip_confidence, layout_from_count, read_json
+
+# Keypoints per detection -> layout. 133 (COCO-WholeBody) starts with COCO-17 and 136
+# (Halpe-136) with the 26 Halpe body joints, so those keep only their body part.
+_LAYOUT_BY_COUNT = {17: "coco17", 26: "halpe26", 133: "coco17", 136: "halpe26"}
+_IMAGE_ID = re.compile(r"(\d+)\.[A-Za-z0-9]+")
+
+
+def _frame_index(p: Path, i: int, image_id: Any) -> int:
+    if isinstance(image_id, int) and not isinstance(image_id, bool) and image_id >= 0:
+        return image_id
+    m = _IMAGE_ID.fullmatch(str(image_id))
+    if m is None:
+        raise AdapterError(p, f"[{i}].image_id", "'<k>.jpg' with a 0-based frame index k", repr(image_id))
+    return int(m.group(1))
+
+
+def _track_id(p: Path, i: int, idx: Any) -> int | None:
+    """AlphaPose writes ``idx`` as an int track id with ``--pose_track``/PoseFlow; without a
+    tracker it writes the pose-NMS proposal ids as a (nested) list such as ``[0.0]`` or
+    ``[[0.0], [0.0]]`` (one element per merged proposal). The first id is used then."""
+    if idx is None:
+        return None
+    flat = idx
+    while isinstance(flat, list):
+        if not flat:
+            return None
+        flat = flat[0]
+    if isinstance(flat, bool) or not isinstance(flat, (int, float)) or not math.isfinite(flat):
+        raise AdapterError(p, f"[{i}].idx", "an integer track id or a list of ids", repr(idx))
+    return int(flat)
+
+
+def _parse(p: Path, data: Any) -> tuple[list[tuple[int, int | None, float, np.ndarray]], int, bool, bool]:
+    """Return (entries (frame, track, score, keypoints (K, 3))), K, any list-form idx,
+    any missing score)."""
+    if not isinstance(data, list):
+        got = f"a JSON object with keys {sorted(data)[:6]}" if isinstance(data, dict) else type(data).__name__
+        raise AdapterError(p, "top level", "a list of detections (AlphaPose results JSON, formats.md 3.2)", got)
+    if not data:
+        raise AdapterError(p, "top level", "at least one detection", "an empty list")
+    entries = []
+    count = None
+    list_idx = missing_score = False
+    for i, det in enumerate(data):
+        if not isinstance(det, dict) or "image_id" not in det or "keypoints" not in det:
+            got = f"keys {sorted(det)[:6]}" if isinstance(det, dict) else type(det).__name__
+            raise AdapterError(p, f"[{i}]", "a detection with 'image_id' and 'keypoints'", got)
+        kp = det["keypoints"]
+        if not isinstance(kp, list) or any(isinstance(v, (list, dict, str, bool)) or v is None for v in kp):
+            raise AdapterError(p, f"[{i}].keypoints", "a flat list of numbers x1,y1,c1,...", type(kp).__name__ + " of nested values")
+        if len(kp) % 3:
+            raise AdapterError(p, f"[{i}].keypoints", "a multiple of 3 values (x, y, score per joint)", f"{len(kp)} values")
+        n = len(kp) // 3
+        if count is None:
+            layout_from_count(p, f"[{i}].keypoints", n, _LAYOUT_BY_COUNT)
+            count = n
+        elif n != count:
+            raise AdapterError(p, f"[{i}].keypoints", f"{3 * count} values like the first detection", f"{len(kp)}")
+        arr = np.asarray(kp, np.float64).reshape(n, 3)
+        score = det.get("score")
+        if score is None:
+            missing_score = True
+            score = float(np.nanmean(arr[:, 2]))
+        elif isinstance(score, bool) or not isinstance(score, (int, float)):
+            raise AdapterError(p, f"[{i}].score", "a number", repr(score))
+        list_idx |= isinstance(det.get("idx"), list)
+        entries.append((_frame_index(p, i, det["image_id"]), _track_id(p, i, det.get("idx")), float(score), arr))
+    return entries, count, list_idx, missing_score
+
+
+def load_alphapose(path: str | Path, person: int | None = None, num_frames: int | None = None) -> Keypoints2D:
+    """Read an AlphaPose results JSON (``alphapose-results.json``) into ``Keypoints2D``.
+
+    Args:
+        path: the JSON file.
+        person: track id (the ``idx`` field) to keep. ``None`` keeps the track with the
+            highest summed score over the sequence, where a track's score in one frame is its
+            best detection ``score`` there (so duplicate detections do not count twice);
+            ties go to the lower id. Entries without ``idx`` form one track (id ``None``).
+        num_frames: length ``T`` of the output; default: largest frame index + 1.
+
+    Returns:
+        ``Keypoints2D`` with ``points`` float32 ``(T, J, 3)`` (x_px, y_px, confidence),
+        layout ``coco17`` (51 values per detection) or ``halpe26`` (78 values; 399 and 408
+        values keep their first 17 / 26 body joints), ``track_id`` the chosen id.
+        Frames with no detection of the chosen track are NaN. When a frame has several
+        detections of that track (AlphaPose without a tracker gives every person the same
+        ``idx``), the one with the highest ``score`` is kept. Confidences are clipped to
+        [0, 1]: AlphaPose's keypoint scores are not normalised (its docs give [0, 6] for
+        COCO; the real files here reach 1.13).
+
+    Raises:
+        AdapterError: missing/empty/invalid JSON; not a list of detections (e.g. an MMPose
+            file); an ``image_id`` that is not ``<k>.jpg``; a keypoint count other than
+            17/26/133/136 joints; an unknown ``person``; a frame index ``>= num_frames``;
+            no finite keypoint.
+
+    Source of the format facts: formats.md section 3.2; MotionBERT's reader ignores
+    ``image_id`` (section 1.1), which is why this adapter groups by it.
+    """
+    p = Path(path)
+    entries, count, list_idx, missing_score = _parse(p, read_json(p))
+
+    # Best detection per (track, frame): the file order decides only exact score ties.
+    best: dict[int | None, dict[int, tuple[float, np.ndarray]]] = {}
+    duplicates: dict[int | None, set[int]] = {}
+    for frame, track, score, kp in entries:
+        per_frame = best.setdefault(track, {})
+        if frame in per_frame:
+            duplicates.setdefault(track, set()).add(frame)
+            if score <= per_frame[frame][0]:
+                continue
+        per_frame[frame] = (score, kp)
+
+    totals = {t: sum(s for s, _ in frames.values()) for t, frames in best.items()}
+    if person is not None:
+        if person not in best:
+            known = sorted(t for t in best if t is not None)
+            raise AdapterError(p, "idx", f"track id person={person} to be present", f"track ids {known}")
+        track = person
+        how = f"track {person} chosen by person="
+    else:
+        # Highest summed score first, then the lower id; id None sorts last.
+        track = min(best, key=lambda t: (-totals[t], t is None, t if t is not None else 0))
+        how = f"track {track} chosen as the highest summed per-frame score ({totals[track]:.1f} over {len(best[track])} frames)"
+        if len(best) > 1:
+            others = ", ".join(f"{t}: {totals[t]:.1f}" for t in sorted(best, key=lambda t: (t is None, t or 0)) if t != track)
+            how += f"; other tracks {others}"
+
+    max_frame = max(f for f, *_ in entries)
+    if num_frames is None:
+        num_frames = max_frame + 1
+    elif num_frames < 1 or max_frame >= num_frames:
+        raise AdapterError(p, "image_id", f"frame indices < num_frames={num_frames}", f"frame index {max_frame}")
+    layout = _LAYOUT_BY_COUNT[count]
+    n_joints = get_layout(layout).num_joints
+    points = np.full((num_frames, n_joints, 3), np.nan, np.float32)
+    for frame, (_, kp) in best[track].items():
+        points[frame] = kp[:n_joints]
+    if not np.isfinite(points).any():
+        raise AdapterError(p, "keypoints", "some finite keypoints for the chosen track", "only NaN")
+    points, raw_max = clip_confidence(points)
+
+    notes = [f"AlphaPose results JSON (formats.md 3.2), {count} keypoints -> {layout}", how]
+    if count != n_joints:
+        notes.append(f"kept the first {n_joints} of {count} joints (body part)")
+    if list_idx:
+        notes.append("idx is list-form (AlphaPose without a tracker: pose-NMS proposal ids, not a real track); first id used")
+    if missing_score:
+        notes.append("entries without 'score' scored by their mean keypoint confidence")
+    dup = sorted(duplicates.get(track, ()))
+    if dup:
+        notes.append(f"frames with several detections of track {track}: {dup}; highest score kept")
+    missing = num_frames - len(best[track])
+    if missing:
+        notes.append(f"{missing} of {num_frames} frames without a detection -> NaN")
+    notes.append(f"confidence clipped to [0, 1] (raw max {raw_max:.3f})")
+    return Keypoints2D(points, layout, str(p), track_id=track, notes="; ".join(notes))
+
+
+@register_2d("alphapose")
+class AlphaPoseAdapter:
+    """Registry entry for :func:`load_alphapose` (options: ``person``, ``num_frames``)."""
+
+    def load(self, path: str | Path, **options) -> Keypoints2D:
+        return load_alphapose(path, **options)

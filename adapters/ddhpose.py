@@ -1,0 +1,82 @@
+"""D3DP / DDHPose-style diffusion lifter output -> :class:`Poses3D` (formats.md section 2).
+
+DDHPose itself has no in-the-wild output format (formats.md 2.1); the natural file is D3DP's
+in-the-wild ``test_3d_{video}_output.npy`` (``(K_steps, H_hyp, N, 17, 3)``, camera space,
+metres, root zeroed) or an export of it with fewer axes.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .registry import register_3d
+from .types import AdapterError, Poses3D
+from .validate import load_npy, require_some_finite
+
+
+def _pick(p: Path, name: str, value: object, size: int, also: str = "") -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not -size <= value < size:
+        raise AdapterError(p, name, f"{also}an integer index in [-{size}, {size})", repr(value))
+    return int(value) % size
+
+
+def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean") -> Poses3D:
+    """Read a D3DP/DDHPose prediction array into ``Poses3D``.
+
+    Args:
+        path: ``.npy`` of shape ``(K, H, N, 17, 3)`` (sampling steps, hypotheses, frames),
+            ``(H, N, 17, 3)`` or ``(N, 17, 3)``.
+        step: sampling step to keep for 5-D input; default the last (the final denoised
+            sample). Ignored for fewer axes.
+        hypothesis: ``"mean"`` (default: the mean over hypotheses, formats.md 2.2's
+            recommendation; a NaN in any hypothesis gives NaN) or an integer index.
+            Must be ``"mean"`` for ``(N, 17, 3)`` input.
+
+    Returns:
+        ``Poses3D``: ``(N, 17, 3)`` float32 H36M-17, metres, camera frame (x right, y down,
+        z forward; D3DP's camera space is VideoPose3D's, so no axis changes). Root as
+        delivered (D3DP zeroes it).
+
+    Raises:
+        AdapterError: missing/unreadable file, a ``.mat`` (DDHPose's 3DHP output is in the
+            MPI-INF-3DHP-17 layout), a ``_postprocess`` file (world z-up frame for display),
+            wrong rank or joint count, a bad ``step``/``hypothesis``, all NaN.
+
+    Source of the format facts: formats.md sections 2.1-2.2 (D3DP
+    ``in_the_wild/videopose_diffusion.py``, ``in_the_wild/utils.py`` L286).
+    """
+    p = Path(path)
+    if p.suffix.lower() == ".mat":
+        raise AdapterError(p, "format", "a .npy in H36M-17 (DDHPose main_3dhp .mat files use MPI-INF-3DHP-17)", ".mat")
+    if "_postprocess" in p.name:
+        raise AdapterError(p, "file", "the camera-space test_3d_<video>_output.npy",
+                           "a _postprocess file (camera_to_world, z up, height rebased: display only)")
+    arr = load_npy(p, ndim=(3, 4, 5), num_joints=17, field="predictions")
+    notes = [f"D3DP/DDHPose predictions {arr.shape} (formats.md 2.2), H36M-17, metres, camera frame, no axis changed"]
+    if arr.ndim == 5:
+        k = _pick(p, "step", step, arr.shape[0])
+        notes.append(f"sampling step {k} of 0..{arr.shape[0] - 1}")
+        arr = arr[k]
+    if arr.ndim == 4:
+        if hypothesis == "mean":
+            notes.append(f"mean over {arr.shape[0]} hypotheses")
+            arr = arr.mean(0)
+        else:
+            h = _pick(p, "hypothesis", hypothesis, arr.shape[0], "'mean' or ")
+            notes.append(f"hypothesis {h} of 0..{arr.shape[0] - 1}")
+            arr = arr[h]
+    elif hypothesis != "mean":
+        raise AdapterError(p, "hypothesis", "'mean' for a (N, 17, 3) file without a hypothesis axis", repr(hypothesis))
+    require_some_finite(p, "predictions", arr)
+    notes.append("root as delivered (D3DP zeroes it)")
+    return Poses3D(np.ascontiguousarray(arr, np.float32), "h36m17", units="m", source=str(p), notes="; ".join(notes))
+
+
+@register_3d("ddhpose")
+class DDHPoseAdapter:
+    """Registry entry for :func:`load_ddhpose` (options: ``step``, ``hypothesis``)."""
+
+    def load(self, path: str | Path, **options) -> Poses3D:
+        return load_ddhpose(path, **options)

@@ -1,0 +1,152 @@
+"""Any 3D joint array (.npy, .npz, .csv) with a stated layout, axes and units -> :class:`Poses3D`.
+
+The only maths is what the user declares: an axis permutation with sign flips (``axes=``)
+and a unit scale (``units=``).
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from pcnet.stages.conventions import get_layout
+
+from .registry import register_3d
+from .types import AdapterError, Poses3D
+from .validate import load_array_file, require_file, require_numeric, require_some_finite
+
+# Letter -> (camera axis, sign) in the OpenCV camera frame: x Right, y Down, z Forward.
+_AXIS_LETTERS = {"R": (0, 1.0), "L": (0, -1.0), "D": (1, 1.0), "U": (1, -1.0), "F": (2, 1.0), "B": (2, -1.0)}
+# Unit -> (scale, unit tag of the result).
+_UNITS = {"m": (1.0, "m"), "cm": (0.01, "m"), "mm": (0.001, "m"), "normalised": (1.0, "normalised"), "px": (1.0, "px")}
+
+
+def axes_to_camera(axes: str) -> np.ndarray:
+    """Matrix ``M`` (3, 3) with ``X_cam = X_src @ M`` for row-vector joints.
+
+    ``axes`` has one letter per source axis (x, y, z) naming the camera-frame direction it
+    points to: ``R``/``L`` (image right/left), ``D``/``U`` (image down/up), ``F``/``B``
+    (away from / towards the camera); each of the three pairs used once. ``"RDF"`` is the
+    identity (OpenCV), ``"RUB"`` flips y and z (OpenGL camera), ``"RFU"`` is a z-up frame
+    looking along +y. A left-handed source (e.g. ``"RUF"``) becomes right-handed through
+    its single flip: that is a relabelling, not a mirror of the body, because the letters
+    say where each source axis really points.
+
+    Raises:
+        ValueError: not three letters from R/L/U/D/F/B with each pair once.
+    """
+    spec = str(axes).upper()
+    if len(spec) != 3 or any(c not in _AXIS_LETTERS for c in spec):
+        raise ValueError(f"axes {axes!r}: expected 3 letters from R/L, U/D, F/B such as 'RDF'")
+    m = np.zeros((3, 3), np.float32)
+    for src, letter in enumerate(spec):
+        cam, sign = _AXIS_LETTERS[letter]
+        m[src, cam] = sign
+    if sorted(_AXIS_LETTERS[c][0] for c in spec) != [0, 1, 2]:
+        raise ValueError(f"axes {axes!r}: expected each of R/L, U/D, F/B exactly once")
+    return m
+
+
+def _read_csv(p: Path, delimiter: str) -> np.ndarray:
+    rows: list[list[float]] = []
+    with p.open(newline="", encoding="utf-8", errors="replace") as fh:
+        for line_no, row in enumerate(csv.reader(fh, delimiter=delimiter), start=1):
+            cells = [c.strip() for c in row]
+            if not any(cells):
+                continue
+            try:
+                # An empty cell is a missing value, so NaN, never 0.
+                rows.append([float(c) if c else float("nan") for c in cells])
+            except ValueError:
+                if rows or line_no > 1:
+                    raise AdapterError(p, f"line {line_no}", "numbers only after the optional header", repr(row[:4])) from None
+                continue  # the header
+    if not rows:
+        raise AdapterError(p, "rows", "at least one data row", "none")
+    widths = {len(r) for r in rows}
+    if len(widths) != 1:
+        raise AdapterError(p, "columns", "the same number of columns on every row", f"widths {sorted(widths)}")
+    return np.asarray(rows, np.float32)
+
+
+def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
+                 key: str | None = None, delimiter: str = ",") -> Poses3D:
+    """Read a plain 3D joint array and declare what it is.
+
+    Args:
+        path: ``.npy``; ``.npz`` (``key=`` names the array unless there is only one);
+            ``.csv``/``.txt``: one row per frame, ``J*3`` columns ``x, y, z`` per joint in
+            layout order, an optional header line, empty cells = missing.
+            Arrays may be ``(T, J, 3)`` or ``(T, J*3)``.
+        layout: joint layout name (``h36m17``, ``coco17``, ``halpe26``, ``body25``, ``blazepose33``).
+        axes: where the source's x, y, z point in the camera frame, see :func:`axes_to_camera`
+            (default ``"RDF"``: already OpenCV camera axes).
+        units: ``"m"``, ``"cm"``/``"mm"`` (converted to metres), ``"normalised"`` or ``"px"``.
+        key: array name inside an ``.npz``.
+        delimiter: CSV separator.
+
+    Returns:
+        ``Poses3D``: float32 ``(T, J, 3)`` in the camera frame (x right, y down, z forward),
+        units ``m`` / ``normalised`` / ``px``; NaN preserved; root as delivered.
+
+    Raises:
+        AdapterError: missing/unreadable file, unknown extension, bad ``layout``, ``axes``
+            or ``units``, wrong column count or shape for the layout, non-numeric content,
+            all NaN.
+
+    Source of the target conventions: CONVENTIONS.md "Camera frame"; the file format is
+    the user's declaration, not an upstream fact.
+    """
+    p = Path(path)
+    try:
+        lay = get_layout(layout)
+    except ValueError as exc:
+        raise AdapterError(p, "layout", "a known layout name (h36m17, coco17, halpe26, body25, blazepose33)", repr(layout)) from exc
+    try:
+        m = axes_to_camera(axes)
+    except ValueError:
+        raise AdapterError(p, "axes", "3 letters from R/L, U/D, F/B, each pair once (e.g. 'RDF', 'RUB')", repr(axes)) from None
+    if units not in _UNITS:
+        raise AdapterError(p, "units", f"one of {sorted(_UNITS)}", repr(units))
+
+    suffix = p.suffix.lower()
+    if suffix in (".csv", ".txt"):
+        arr = _read_csv(require_file(p, "a CSV file"), delimiter)
+        field = "columns"
+    elif suffix in (".npy", ".npz"):
+        arr = require_numeric(p, key or "array", load_array_file(p, key))
+        field = key or "array"
+    else:
+        require_file(p)
+        raise AdapterError(p, "extension", "one of .npy, .npz, .csv, .txt", repr(p.suffix))
+
+    j = lay.num_joints
+    if arr.ndim == 2 and arr.shape[1] == 3 * j:
+        arr = arr.reshape(arr.shape[0], j, 3)
+    if arr.ndim != 3 or arr.shape[1:] != (j, 3):
+        raise AdapterError(p, field, f"(T, {j}, 3) or (T, {3 * j}) values for layout {lay.name}", f"shape {arr.shape}")
+    require_some_finite(p, field, arr)
+
+    scale, unit_tag = _UNITS[units]
+    # Index-and-sign instead of ``arr @ m``: NaN * 0 would spread one missing coordinate
+    # to the whole joint.
+    joints = np.empty_like(arr)
+    for src, cam in zip(*np.nonzero(m)):
+        joints[..., cam] = arr[..., src] * (m[src, cam] * np.float32(scale))
+    notes = [f"generic {suffix} file, layout {lay.name}, declared axes {axes.upper()} -> camera RDF"]
+    if axes.upper() != "RDF":
+        notes.append(f"X_cam = X_src @ {m.astype(int).tolist()}")
+    notes.append(f"units {units}" + (f" x {scale:g} -> m" if scale != 1.0 else ""))
+    notes.append("root as delivered")
+    return Poses3D(joints.astype(np.float32), lay.name, units=unit_tag, source=str(p), notes="; ".join(notes))
+
+
+@register_3d("generic")
+class GenericAdapter:
+    """Registry entry for :func:`load_generic` (options: ``layout``, ``axes``, ``units``,
+    ``key``, ``delimiter``)."""
+
+    def load(self, path: str | Path, **options) -> Poses3D:
+        return load_generic(path, **options)

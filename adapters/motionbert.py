@@ -1,0 +1,74 @@
+"""MotionBERT ``infer_wild.py`` output ``X3D.npy`` -> :class:`Poses3D` (formats.md section 1.3)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .registry import register_3d
+from .types import AdapterError, Poses3D
+from .validate import load_npy
+
+# Default-mode x, y come from 2D input clipped to [-1, 1] (formats.md 1.2); the network's
+# outputs stay near that range. Pixel-mode x, y are image pixels, i.e. hundreds. A bound
+# between the two catches a file read in the wrong mode.
+_NORMALISED_BOUND = 4.0
+
+
+def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) -> Poses3D:
+    """Read MotionBERT's ``X3D.npy`` into ``Poses3D``.
+
+    Args:
+        path: ``X3D.npy``, float32 ``(T, 17, 3)`` H36M-17.
+        pixel: ``True`` for output of ``infer_wild.py --pixel``.
+        clip_len: MotionBERT's clip length (``--clip_len``, 243), used for the notes.
+
+    Returns:
+        ``Poses3D`` with layout ``h36m17`` and frame ``camera`` (x right, y down as in the
+        image; z depth in the same scale, increasing away from the camera: formats.md 1.3,
+        the z sign is derived, not stated upstream). No axis is changed.
+
+        * default: units ``normalised`` (x, y about [-1, 1] of the sequence's square crop,
+          z in the same scale);
+        * ``pixel=True``: units ``px`` (x, y image pixels of the input video, z pixels).
+
+        The root is **not** root-relative: it keeps its image position, and MotionBERT set
+        the root z of the first frame of every ``clip_len``-frame clip to 0
+        (``predicted_3d_pos[:,0,0,2] = 0``), so z can jump at frames ``clip_len``,
+        ``2*clip_len``, ... Subtract the pelvis per frame before use.
+
+    Raises:
+        AdapterError: missing/unreadable file, not ``(T, 17, 3)``, all NaN, or x/y
+            magnitudes that contradict ``pixel`` (normalised values above 4, or pixel values
+            all within 4).
+
+    Source of the format facts: formats.md sections 1.2-1.3 (``infer_wild.py`` L65-97;
+    maintainer answers in Walter0807/MotionBERT issues #9 and #21).
+    """
+    p = Path(path)
+    arr = load_npy(p, ndim=3, num_joints=17, field="X3D")
+    xy_max = float(np.nanmax(np.abs(arr[..., :2])))
+    if pixel and xy_max <= _NORMALISED_BOUND:
+        raise AdapterError(p, "X3D x/y values", "image pixels for pixel=True (infer_wild --pixel)",
+                           f"max |x|,|y| {xy_max:.2f}, which looks normalised; use pixel=False")
+    if not pixel and xy_max > _NORMALISED_BOUND:
+        raise AdapterError(p, "X3D x/y values", f"normalised coordinates within about [-1, 1] (|x|,|y| <= {_NORMALISED_BOUND})",
+                           f"max {xy_max:.1f}, which looks like pixels; use pixel=True")
+    clip_starts = list(range(0, arr.shape[0], clip_len))
+    shown = ", ".join(map(str, clip_starts[:6])) + (", ..." if len(clip_starts) > 6 else "")
+    units = "px" if pixel else "normalised"
+    notes = (f"MotionBERT X3D.npy (formats.md 1.3), H36M-17, units {units}"
+             + (" (x, y image pixels, z pixels)" if pixel else " (image-normalised, about [-1, 1])")
+             + "; axes x right, y down, z away from the camera (z sign derived); no axis changed"
+             + f"; root not centred: MotionBERT zeroed the root z of the first frame of each {clip_len}-frame clip "
+             + f"(frames {shown}), so z may jump there")
+    return Poses3D(arr, "h36m17", units=units, source=str(p), notes=notes)
+
+
+@register_3d("motionbert")
+class MotionBERTAdapter:
+    """Registry entry for :func:`load_motionbert` (options: ``pixel``, ``clip_len``)."""
+
+    def load(self, path: str | Path, **options) -> Poses3D:
+        return load_motionbert(path, **options)

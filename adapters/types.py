@@ -1,0 +1,146 @@
+"""What every adapter returns: 2D keypoints, 3D poses in the camera frame, video facts,
+and the one error type adapters raise.
+
+Contracts (``CONVENTIONS.md``): arrays are float32 ``(T, J, 3)``; missing joints or frames
+are NaN, never 0; 2D confidence lies in [0, 1]; 3D poses are in the OpenCV camera frame
+(+x right in the image, +y down, +z forward, away from the camera).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pcnet.stages.conventions import get_layout
+
+#: Units a :class:`Poses3D` may carry. ``normalised`` is MotionBERT's image-normalised
+#: scale (about [-1, 1]); ``px`` is image pixels; both stay tagged until a later stage
+#: scales them to metres.
+POSE_UNITS: tuple[str, ...] = ("m", "normalised", "px")
+
+
+class AdapterError(ValueError):
+    """A foreign file could not be translated into pcnet's conventions.
+
+    The message is one line and always names the file, the field and what was expected,
+    e.g. ``file 'a.json': field 'keypoints': expected 51 or 78 values, got 40``.
+
+    Attributes:
+        path: the offending file (or folder) as given.
+        field: the key, column, axis or property that failed.
+        expected: what the adapter needed.
+        got: what it found, or ``None``.
+    """
+
+    def __init__(self, path: object, field: str, expected: str, got: object = None):
+        self.path = str(path)
+        self.field = field
+        self.expected = expected
+        self.got = got
+        msg = f"file {self.path!r}: field {field!r}: expected {expected}"
+        if got is not None:
+            msg += f", got {got}"
+        # One line, so that log greps and test matches see file, field and expectation together.
+        super().__init__(" ".join(msg.split()))
+
+
+def _check_array(arr: np.ndarray, what: str, source: str, layout: str) -> None:
+    lay = get_layout(layout)
+    if not isinstance(arr, np.ndarray) or arr.dtype != np.float32:
+        raise ValueError(f"{source}: {what} must be a float32 numpy array")
+    if arr.ndim != 3 or arr.shape[1:] != (lay.num_joints, 3):
+        raise ValueError(
+            f"{source}: {what} must have shape (T, {lay.num_joints}, 3) for layout "
+            f"{lay.name}, got {arr.shape}"
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Keypoints2D:
+    """2D keypoints of one person over a video.
+
+    Attributes:
+        points: float32 ``(T, J, 3)``: x_px, y_px (image pixels, origin top-left, y down)
+            and confidence in [0, 1]. A missing joint or frame is NaN in all three channels.
+        layout: joint layout name understood by ``pcnet.stages.conventions.get_layout``
+            (``coco17``, ``halpe26``, ``body25``, ``blazepose33``, ``h36m17``); ``J`` matches it.
+        source: path of the file or folder read.
+        track_id: the tracker id of the chosen person when the file has one, else ``None``.
+        notes: what the adapter did (selection, clipping, fills), for provenance.
+
+    ``eq=False`` because numpy arrays have no single truth value; compare ``points``
+    explicitly. The dataclass is frozen; the array itself is not copied or locked.
+    """
+
+    points: np.ndarray
+    layout: str
+    source: str
+    track_id: int | None = None
+    notes: str = ""
+
+    def __post_init__(self) -> None:
+        _check_array(self.points, "points", self.source, self.layout)
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.points.shape[0])
+
+
+@dataclass(frozen=True, eq=False)
+class Poses3D:
+    """3D joints of one person over a video, in the camera frame.
+
+    Attributes:
+        joints: float32 ``(T, J, 3)`` in the OpenCV camera frame (+x right in the image,
+            +y down, +z forward, away from the camera). NaN marks missing joints/frames.
+            The root is **as delivered by the source** (e.g. MotionBERT keeps the root's
+            image position; D3DP zeroes it): the caller remaps to H36M-17 and subtracts the
+            pelvis per frame to get the root-relative poses of ``CONVENTIONS.md``.
+        layout: joint layout name (see :class:`Keypoints2D`).
+        frame: always ``"camera"``.
+        units: ``"m"``, ``"normalised"`` (MotionBERT image-normalised) or ``"px"``.
+        source: path of the file read.
+        notes: how the source was converted (axis flips, units, hypothesis choice, caveats).
+    """
+
+    joints: np.ndarray
+    layout: str
+    frame: str = "camera"
+    units: str = "m"
+    source: str = ""
+    notes: str = ""
+
+    def __post_init__(self) -> None:
+        _check_array(self.joints, "joints", self.source, self.layout)
+        if self.frame != "camera":
+            raise ValueError(f"{self.source}: frame must be 'camera', got {self.frame!r}")
+        if self.units not in POSE_UNITS:
+            raise ValueError(f"{self.source}: units must be one of {POSE_UNITS}, got {self.units!r}")
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.joints.shape[0])
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """Facts about a video file as OpenCV reports them.
+
+    Attributes:
+        path: the file.
+        frame_count: number of frames; ``probe_video`` checks the container's count by
+            decoding the last frame and counts by decoding when the container overstates.
+        fps: frames per second (> 0).
+        width, height: frame size in pixels.
+    """
+
+    path: str
+    frame_count: int
+    fps: float
+    width: int
+    height: int
+
+    @property
+    def duration_s(self) -> float:
+        return self.frame_count / self.fps

@@ -1,0 +1,43 @@
+"""VideoPose3D ``run.py --viz-export`` output -> :class:`Poses3D` (formats.md section 2.2)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .registry import register_3d
+from .types import Poses3D
+from .validate import load_npy
+
+
+def load_videopose3d(path: str | Path) -> Poses3D:
+    """Read a VideoPose3D export ``(N, 17, 3)`` ``.npy`` into ``Poses3D``.
+
+    Returns:
+        ``Poses3D``: float32 ``(N, 17, 3)`` H36M-17, metres, camera frame (x right, y down,
+        z forward: VideoPose3D ``common/camera.py`` projects ``f*X[:2]/X[2] + c`` to pixels),
+        no axis changed. VideoPose3D is trained with a zero root target but does not zero
+        the root in ``evaluate`` (``run.py`` L682-688), so the root is near, not exactly at,
+        the origin (about 1e-4 m in the yoga exports); the caller centres it.
+
+    Raises:
+        AdapterError: missing/unreadable file, not ``(N, 17, 3)``, all NaN.
+
+    Source of the format facts: formats.md section 2.2 (VideoPose3D INFERENCE.md step 5,
+    ``prepare_data_h36m.py`` L73 "Meters instead of millimeters").
+    """
+    p = Path(path)
+    arr = load_npy(p, ndim=3, num_joints=17, field="poses")
+    root = float(np.nanmax(np.abs(arr[:, 0])))
+    notes = ("VideoPose3D export (formats.md 2.2), H36M-17, metres, camera frame x right / y down / z forward, "
+             f"no axis changed; root as delivered (max |root| {root:.2g} m)")
+    return Poses3D(arr, "h36m17", units="m", source=str(p), notes=notes)
+
+
+@register_3d("videopose3d")
+class VideoPose3DAdapter:
+    """Registry entry for :func:`load_videopose3d` (no options)."""
+
+    def load(self, path: str | Path) -> Poses3D:
+        return load_videopose3d(path)

@@ -1,0 +1,223 @@
+"""Mocap datasets: loading, clip splits, and (input, canonical target, R) pairs.
+
+Pure numpy, so evaluation runs without torch. Every random choice draws from a
+``numpy.random.Generator`` seeded by the caller: same seed, same pairs.
+
+Mocap format (``shared/data/README.md``): an ``.npz`` with one float32 ``(T, 17, 3)``
+array per clip (H36M-17, metres, world frame with +Y up, pelvis not centred), and
+optionally a ``.json`` beside it mapping clip name -> ``{"frames", "fps", ...}``.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pcnet.stages.canonical import canonical_rotation, to_canonical
+from pcnet.stages.conventions import H36M_PARENTS, PELVIS
+from pcnet.stages.rotations import sample_camera_rotations
+
+SPLITS = ("train", "val", "test", "all")
+
+
+@dataclass(frozen=True)
+class Clip:
+    name: str
+    joints: np.ndarray  # (T, 17, 3) world frame, metres
+    fps: float
+
+
+def load_mocap(path: str | Path) -> list[Clip]:
+    """Load every clip of a mocap ``.npz`` (sorted by name).
+
+    Raises:
+        FileNotFoundError: missing file.
+        ValueError: not a readable npz, no arrays, or an array that is not ``(T, 17, 3)``
+            (the message names the file and the key).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: mocap file not found")
+    try:
+        data = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile) as err:
+        raise ValueError(f"{path}: not a readable .npz mocap file ({err})") from err
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise ValueError(f"{path}: expected an .npz with one (T, 17, 3) array per clip, got a single array")
+    meta_path = path.with_suffix(".json")
+    meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+    clips = []
+    with data:
+        if not data.files:
+            raise ValueError(f"{path}: the npz holds no clips")
+        for name in sorted(data.files):
+            arr = data[name]
+            if arr.ndim != 3 or arr.shape[1:] != (17, 3) or arr.shape[0] < 1:
+                raise ValueError(f"{path}: clip {name!r} has shape {arr.shape}, expected (T, 17, 3) H36M-17 in metres")
+            clips.append(Clip(name, arr.astype(np.float32), float(meta.get(name, {}).get("fps", 30.0))))
+    return clips
+
+
+def clip_split(name: str) -> str:
+    """Deterministic split of a whole clip by its name: ``crc32(name) % 10`` in 0-7 ->
+    train, 8 -> val, 9 -> test (about 80/10/10). Whole clips never straddle splits."""
+    bucket = zlib.crc32(name.encode("utf-8")) % 10
+    return "train" if bucket < 8 else ("val" if bucket == 8 else "test")
+
+
+def select_split(clips: list[Clip], split: str) -> list[Clip]:
+    """Clips of ``split`` (``train``/``val``/``test``/``all``).
+
+    Raises:
+        ValueError: unknown split name.
+    """
+    if split not in SPLITS:
+        raise ValueError(f"unknown split {split!r}; expected one of {SPLITS}")
+    return [c for c in clips if split == "all" or clip_split(c.name) == split]
+
+
+@dataclass(frozen=True)
+class Augmentation:
+    """Skeleton-proportion augmentation, applied per clip in the canonical frame (the target
+    changes with it). Bandai's hips are about 0.13 m wide, Human3.6M's about 0.25 m, so
+    the hip bones get the widest range (shared/data/README.md)."""
+
+    hip_width: tuple[float, float] = (0.9, 2.1)
+    shoulder_width: tuple[float, float] = (0.85, 1.35)
+    other_bones_sigma: float = 0.07
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Upstream-like noise on the camera-frame input only (metres, camera frame): monocular
+    lifters err most along the camera's depth axis."""
+
+    jitter_m: float = 0.015
+    depth_m: float = 0.04
+    bone_scale_sigma: float = 0.04
+    drop_prob: float = 0.01
+
+
+def _bone_scale(X: np.ndarray, factors: np.ndarray) -> np.ndarray:
+    """Scale each bone vector of ``X`` ``(N, 17, 3)`` by ``factors`` ``(N, 17)`` (indexed by
+    child joint), rebuilding positions outward from the pelvis."""
+    out = X.copy()
+    for child, parent in enumerate(H36M_PARENTS):
+        if parent >= 0:
+            out[:, child] = out[:, parent] + factors[:, child, None] * (X[:, child] - X[:, parent])
+    return out
+
+
+def _proportion_factors(n: int, aug: Augmentation, rng: np.random.Generator) -> np.ndarray:
+    f = np.clip(rng.normal(1.0, aug.other_bones_sigma, (n, 17)), 0.8, 1.2)
+    hip = rng.uniform(*aug.hip_width, n)
+    sho = rng.uniform(*aug.shoulder_width, n)
+    f[:, [1, 4]] = hip[:, None]
+    f[:, [11, 14]] = sho[:, None]
+    # left and right limbs of one body keep equal lengths
+    for left, right in ((5, 2), (6, 3), (12, 15), (13, 16)):
+        f[:, right] = f[:, left]
+    return f
+
+
+@dataclass(frozen=True)
+class PairSet:
+    """Pairs for training or evaluation.
+
+    inputs: ``(N, 17, 3)`` float32 camera frame (OpenCV axes), pelvis-centred, metres;
+    canonical: ``(N, 17, 3)`` float32 canonical target; R: ``(N, 3, 3)`` float64 true
+    canonical->camera rotation; clip: ``(N,)`` int clip index; frame: ``(N,)`` frame index.
+    """
+
+    inputs: np.ndarray
+    canonical: np.ndarray
+    R: np.ndarray
+    clip: np.ndarray
+    frame: np.ndarray
+    clip_names: tuple[str, ...]
+
+
+def make_pairs(
+    clips: list[Clip],
+    views: str = "paper",
+    seed: int = 0,
+    camera: str = "per-frame",
+    noise: Noise | None = None,
+    augmentation: Augmentation | None = None,
+    frame_stride: int = 1,
+    max_frames: int | None = None,
+) -> PairSet:
+    """Build (camera-frame input, canonical target, R) pairs from world-frame mocap.
+
+    Canonical targets follow ``CONVENTIONS.md`` (gravity up, pelvis heading); frames whose
+    heading is undefined (hip line near vertical) are dropped. ``R`` is sampled from
+    ``views`` ("paper"/"wide", :func:`pcnet.stages.rotations.sample_camera_rotations`), one
+    per frame (``camera="per-frame"``, the paper's protocol) or one per clip
+    (``camera="per-clip"``, a fixed camera). The input is ``canonical @ R.T``, then
+    ``noise`` if given. ``frame_stride`` keeps every k-th frame; ``max_frames`` then keeps
+    at most that many frames, evenly spaced over the whole set (deterministic).
+
+    Raises:
+        ValueError: unknown ``camera``, no clips, or no valid frame.
+    """
+    if camera not in ("per-frame", "per-clip"):
+        raise ValueError(f"unknown camera mode {camera!r}; expected 'per-frame' or 'per-clip'")
+    if not clips:
+        raise ValueError("no clips to build pairs from (empty split?)")
+    rng = np.random.default_rng(seed)
+    idx_clip = np.concatenate([np.full(len(c.joints[::frame_stride]), i) for i, c in enumerate(clips)])
+    idx_frame = np.concatenate([np.arange(0, len(c.joints), frame_stride) for c in clips])
+    world = np.concatenate([c.joints[::frame_stride] for c in clips]).astype(np.float64)
+    if max_frames is not None and len(world) > max_frames:
+        keep = np.linspace(0, len(world) - 1, max_frames).round().astype(int)
+        world, idx_clip, idx_frame = world[keep], idx_clip[keep], idx_frame[keep]
+
+    R_world, valid = canonical_rotation(world, (0.0, 1.0, 0.0))
+    canon = to_canonical(world, R_world).astype(np.float64)
+    if augmentation is not None:
+        per_clip = _proportion_factors(len(clips), augmentation, rng)
+        canon = _bone_scale(canon, per_clip[idx_clip])
+        # Re-derive the frame: scaling the hip bones can turn the hip line slightly.
+        R_aug, valid_aug = canonical_rotation(canon, (0.0, 1.0, 0.0))
+        canon = to_canonical(canon, R_aug).astype(np.float64)
+        valid &= valid_aug
+    if not valid.any():
+        raise ValueError("no frame with a defined canonical heading")
+    canon, idx_clip, idx_frame = canon[valid], idx_clip[valid], idx_frame[valid]
+    n = len(canon)
+
+    if camera == "per-frame":
+        R = sample_camera_rotations(n, views, rng)
+    else:
+        R = sample_camera_rotations(len(clips), views, rng)[idx_clip]
+    inputs = np.einsum("nij,nkj->nki", R, canon)
+    if noise is not None:
+        inputs = apply_noise(inputs, noise, rng, idx_clip)
+    return PairSet(
+        inputs.astype(np.float32), canon.astype(np.float32), R, idx_clip, idx_frame,
+        tuple(c.name for c in clips),
+    )
+
+
+def apply_noise(inputs: np.ndarray, noise: Noise, rng: np.random.Generator, clip: np.ndarray | None = None) -> np.ndarray:
+    """Upstream-like errors on camera-frame poses ``(N, 17, 3)`` (metres): per-clip
+    bone-length scaling (an estimator's skeleton differs from the subject's), isotropic
+    per-joint jitter, extra error along the camera depth axis +z, and dropped joints set to
+    NaN (never the pelvis, which defines the origin). Returns pelvis-centred float64."""
+    X = np.asarray(inputs, np.float64)
+    n = len(X)
+    clip = np.arange(n) if clip is None else clip
+    factors = np.clip(rng.normal(1.0, noise.bone_scale_sigma, (int(clip.max()) + 1, 17)), 0.85, 1.15)
+    X = _bone_scale(X, factors[clip])
+    X = X + rng.normal(0.0, noise.jitter_m, X.shape)
+    X[..., 2] += rng.normal(0.0, noise.depth_m, X.shape[:2])
+    X = X - X[:, PELVIS : PELVIS + 1]
+    drop = rng.random(X.shape[:2]) < noise.drop_prob
+    drop[:, PELVIS] = False
+    X[drop] = np.nan
+    return X

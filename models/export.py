@@ -1,0 +1,64 @@
+"""Export a trained 3DPCNet to ONNX with a dynamic batch axis (needs torch and onnx)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .network import PCNet
+
+OPSET = 18
+
+
+class _Exported(torch.nn.Module):
+    """Inference graph: normalised poses ``x`` (B,17,3) -> ``rotation`` (B,3,3),
+    ``residual`` (B,17,3) (normalised units)."""
+
+    def __init__(self, model: PCNet):
+        super().__init__()
+        self.model = model
+
+    def forward(self, x):
+        return self.model(x)
+
+
+def export_onnx(model: PCNet, path: str | Path, metadata: dict | None = None) -> Path:
+    """Write ``model`` as ONNX (opset 18) to ``path`` atomically, plus ``<path>.json`` with
+    the architecture and ``metadata``. The batch axis is dynamic; the graph is traced with
+    a batch of 4 because exporters specialise example dimensions of size 0 or 1, and the
+    fused MHA fast path (no ONNX symbolic) is disabled while tracing (formats.md section 5).
+    """
+    path = Path(path)
+    model = model.eval()
+    x = torch.randn(4, 17, 3)
+    tmp = path.with_suffix(".onnx.tmp")
+    fast = torch.backends.mha.get_fastpath_enabled()
+    torch.backends.mha.set_fastpath_enabled(False)
+    try:
+        with torch.no_grad():
+            torch.onnx.export(
+                _Exported(model), (x,), str(tmp), input_names=["x"], output_names=["rotation", "residual"],
+                dynamic_axes={"x": {0: "batch"}, "rotation": {0: "batch"}, "residual": {0: "batch"}},
+                opset_version=OPSET, dynamo=False,
+            )
+    finally:
+        torch.backends.mha.set_fastpath_enabled(fast)
+    tmp.replace(path)
+    info = {"model_config": model.cfg.to_dict(), "opset": OPSET, **(metadata or {})}
+    path.with_suffix(".json").write_text(json.dumps(info, indent=2))
+    return path
+
+
+def max_difference(model: PCNet, path: str | Path, x: np.ndarray) -> float:
+    """Largest absolute difference on ``rotation`` between torch and onnxruntime for the
+    normalised inputs ``x`` ``(N, 17, 3)``."""
+    import onnxruntime as ort
+
+    sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    with torch.no_grad():
+        R_torch = model.eval()(torch.from_numpy(x.astype(np.float32)))[0].numpy()
+    R_ort = sess.run(["rotation"], {"x": x.astype(np.float32)})[0]
+    return float(np.abs(R_torch - R_ort).max())

@@ -1,0 +1,147 @@
+"""The 3DPCNet network (paper section 2.1): hybrid GCN + Transformer encoder, cross-attention
+fusion with an adaptive gate, a 6D rotation head and an optional residual head.
+
+Input ``x`` ``(B, 17, 3)``: H36M-17, camera frame, pelvis-centred, scale-normalised by
+:func:`pcnet.models.preprocess.normalize_input`. Output ``R_hat`` ``(B, 3, 3)`` maps
+canonical to camera (``CONVENTIONS.md``), so the canonical pose is ``x @ R_hat + Delta``
+(row vectors; the paper's ``R^T X + Delta``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+from pcnet.stages.conventions import H36M_BONES
+
+NUM_JOINTS = 17
+
+
+@dataclass(frozen=True)
+class PCNetConfig:
+    """Architecture; the defaults are the paper's (section 2.2.2, implementation details)."""
+
+    hidden: int = 256
+    output: int = 384
+    gcn_layers: int = 3
+    transformer_layers: int = 2
+    heads: int = 8
+    feedforward: int = 512
+    dropout: float = 0.1
+    residual: bool = True
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def rotation_6d_to_matrix(d6: torch.Tensor) -> torch.Tensor:
+    """6D ``(..., 6)`` -> rotation matrix ``(..., 3, 3)`` by Gram-Schmidt (Zhou et al. 2019).
+
+    The 6D vector holds the first two columns ``[a1, a2]``; ``R = [b1 b2 b3]`` with
+    ``b1 = a1/|a1|``, ``b2 = normalize(a2 - (b1.a2) b1)``, ``b3 = b1 x b2``. The cross
+    product is written out because ONNX has no Cross operator (onnx/onnx#2683). Same
+    convention as :func:`pcnet.stages.rotations.rotation_6d_to_matrix`.
+    """
+    a1, a2 = d6[..., 0:3], d6[..., 3:6]
+    b1 = F.normalize(a1, dim=-1, eps=1e-6)
+    b2 = F.normalize(a2 - (b1 * a2).sum(-1, keepdim=True) * b1, dim=-1, eps=1e-6)
+    x1, y1, z1 = b1.unbind(-1)
+    x2, y2, z2 = b2.unbind(-1)
+    b3 = torch.stack([y1 * z2 - z1 * y2, z1 * x2 - x1 * z2, x1 * y2 - y1 * x2], dim=-1)
+    return torch.stack([b1, b2, b3], dim=-1)
+
+
+def skeleton_adjacency() -> torch.Tensor:
+    """``A0``: the H36M-17 bone graph with self-loops, ``(17, 17)`` float32."""
+    A = torch.eye(NUM_JOINTS)
+    for a, b in H36M_BONES:
+        A[a, b] = A[b, a] = 1.0
+    return A
+
+
+def _sym_normalize(A: torch.Tensor) -> torch.Tensor:
+    d = A.sum(-1).clamp_min(1e-6).rsqrt()
+    return d[:, None] * A * d[None, :]
+
+
+class AdaptiveGCN(nn.Module):
+    """GCN branch on ``A = sigmoid(alpha) A0 + (1 - sigmoid(alpha)) A_learned`` (paper 2.1.1);
+    ``A_learned`` is symmetric and non-negative (sigmoid of a symmetrised parameter), both
+    graphs symmetrically degree-normalised."""
+
+    def __init__(self, cfg: PCNetConfig):
+        super().__init__()
+        self.register_buffer("A0", _sym_normalize(skeleton_adjacency()))
+        self.alpha = nn.Parameter(torch.tensor(2.0))
+        self.learned = nn.Parameter(torch.zeros(NUM_JOINTS, NUM_JOINTS))
+        self.embed = nn.Linear(3, cfg.hidden)
+        self.layers = nn.ModuleList(nn.Linear(cfg.hidden, cfg.hidden) for _ in range(cfg.gcn_layers))
+        self.norms = nn.ModuleList(nn.LayerNorm(cfg.hidden) for _ in range(cfg.gcn_layers))
+        self.drop = nn.Dropout(cfg.dropout)
+
+    def learned_adjacency(self) -> torch.Tensor:
+        return _sym_normalize(torch.sigmoid(0.5 * (self.learned + self.learned.T)))
+
+    def adjacency(self) -> torch.Tensor:
+        g = torch.sigmoid(self.alpha)
+        return g * self.A0 + (1 - g) * self.learned_adjacency()
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        A = self.adjacency()
+        h = self.embed(x)
+        for lin, norm in zip(self.layers, self.norms):
+            h = h + self.drop(F.gelu(norm(torch.matmul(A, lin(h)))))
+        return h
+
+
+class PCNet(nn.Module):
+    """3DPCNet. ``forward(x)`` -> ``(R_hat (B,3,3), delta (B,17,3))``; with
+    ``return_aux=True`` also a dict of tensors the regularisers need."""
+
+    def __init__(self, cfg: PCNetConfig = PCNetConfig()):
+        super().__init__()
+        self.cfg = cfg
+        H = cfg.hidden
+        self.gcn = AdaptiveGCN(cfg)
+        self.embed = nn.Linear(3, H)
+        self.pos = nn.Parameter(0.02 * torch.randn(1, NUM_JOINTS, H))
+        layer = nn.TransformerEncoderLayer(
+            H, cfg.heads, cfg.feedforward, cfg.dropout, activation="gelu", batch_first=True, norm_first=True
+        )
+        self.transformer = nn.TransformerEncoder(layer, cfg.transformer_layers, enable_nested_tensor=False)
+        self.cross = nn.MultiheadAttention(H, cfg.heads, dropout=cfg.dropout, batch_first=True)
+        # Flattened (not pooled) joints keep left/right identity, which decides the heading.
+        self.proj_fused = nn.Linear(NUM_JOINTS * H, cfg.output)
+        self.proj_gcn = nn.Linear(NUM_JOINTS * H, cfg.output)
+        self.proj_trans = nn.Linear(NUM_JOINTS * H, cfg.output)
+        self.gate = nn.Sequential(nn.Linear(2 * cfg.output, H), nn.GELU(), nn.Linear(H, 2))
+        self.rot_head = nn.Sequential(nn.Linear(cfg.output, H), nn.GELU(), nn.Linear(H, 6))
+        self.res_head = (
+            nn.Sequential(nn.Linear(cfg.output, H), nn.GELU(), nn.Linear(H, NUM_JOINTS * 3)) if cfg.residual else None
+        )
+        if self.res_head is not None:
+            nn.init.zeros_(self.res_head[-1].weight)
+            nn.init.zeros_(self.res_head[-1].bias)
+
+    def forward(self, x: torch.Tensor, return_aux: bool = False):
+        h_gcn = self.gcn(x)
+        h_trans = self.transformer(self.embed(x) + self.pos)
+        attended, attn = self.cross(
+            h_gcn, h_trans, h_trans, need_weights=return_aux, average_attn_weights=False
+        )
+        z_gcn = self.proj_gcn(h_gcn.flatten(1))
+        z_trans = self.proj_trans(h_trans.flatten(1))
+        z_fused = self.proj_fused(attended.flatten(1))
+        w = torch.softmax(self.gate(torch.cat([z_gcn, z_trans], -1)), -1)
+        z = z_fused + w[:, 0:1] * z_gcn + w[:, 1:2] * z_trans
+        R = rotation_6d_to_matrix(self.rot_head(z))
+        if self.res_head is not None:
+            delta = self.res_head(z).reshape(-1, NUM_JOINTS, 3)
+        else:
+            delta = torch.zeros_like(x)
+        if not return_aux:
+            return R, delta
+        return R, delta, {"attention": attn, "gate": w}

@@ -1,0 +1,80 @@
+"""The canonical frame of ``CONVENTIONS.md`` built from poses whose up direction is known,
+and the maps between camera and canonical coordinates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .conventions import L_HIP, PELVIS, R_HIP, check_poses
+from .rotations import normalize
+
+# A hip line closer than this to the up axis (|horizontal part| / |hip line|) leaves the
+# heading undefined (sin 5.7 deg): such frames are flagged invalid, never guessed.
+MIN_HORIZONTAL_HIP_FRACTION = 0.1
+
+
+def canonical_rotation(joints: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation from the canonical frame to the frame of ``joints``, given that frame's up.
+
+    Per ``CONVENTIONS.md``: +Y = ``up``; +Z = the horizontal component (perpendicular to Y)
+    of ``right_hip - left_hip``, normalised; +X = Y x Z. The columns of the returned matrix
+    are those axes expressed in the input frame, so ``x_in = R @ x_canon``.
+
+    Args:
+        joints: ``(N, 17, 3)`` or ``(17, 3)`` H36M-17 poses in any right-handed frame.
+        up: ``(3,)`` or ``(N, 3)`` the up direction (against gravity) in that frame.
+
+    Returns:
+        ``R`` ``(N, 3, 3)`` float64 and ``valid`` ``(N,)`` bool. Frames whose hips are NaN,
+        coincident, or whose hip line is within 5.7 deg of vertical get a NaN ``R`` and
+        ``valid = False``.
+
+    Raises:
+        ValueError: wrong joint shape.
+    """
+    X = check_poses(joints, "joints").astype(np.float64)
+    up = normalize(np.broadcast_to(np.asarray(up, np.float64), (X.shape[0], 3)))
+    hip = X[:, R_HIP] - X[:, L_HIP]
+    horizontal = hip - np.sum(hip * up, -1, keepdims=True) * up
+    hip_len = np.linalg.norm(hip, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = np.linalg.norm(horizontal, axis=-1) / hip_len
+    valid = np.isfinite(frac) & (frac > MIN_HORIZONTAL_HIP_FRACTION) & np.isfinite(up).all(-1)
+    z = normalize(horizontal)
+    x = np.cross(up, z)
+    R = np.stack([x, up, z], axis=-1)
+    R[~valid] = np.nan
+    return R, valid
+
+
+def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | None = None) -> np.ndarray:
+    """Camera-frame poses -> canonical poses: ``X_canon = (X_cam - pelvis) @ R (+ residual)``.
+
+    Args:
+        joints_cam: ``(N, J, 3)`` camera frame, any units.
+        R: ``(N, 3, 3)`` canonical->camera.
+        residual: optional ``(N, J, 3)`` correction added in the canonical frame
+            (3DPCNet's Delta, paper section 2.1.2).
+
+    Returns:
+        ``(N, J, 3)`` pelvis-centred canonical poses, same units, float32.
+    """
+    X = np.asarray(joints_cam, np.float64)
+    X = X - X[:, PELVIS : PELVIS + 1]
+    out = X @ np.asarray(R, np.float64)
+    if residual is not None:
+        out = out + residual
+    return out.astype(np.float32)
+
+
+def to_camera(joints_canon: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Canonical poses ``(N, J, 3)`` -> camera frame: ``X_cam = X_canon @ R^T``; float32."""
+    return (np.asarray(joints_canon, np.float64) @ np.swapaxes(R, -1, -2)).astype(np.float32)
+
+
+def world_to_canonical(joints_world: np.ndarray, up: np.ndarray = (0.0, 1.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """World-frame mocap ``(N, 17, 3)`` with known ``up`` -> pelvis-centred canonical poses
+    ``(N, 17, 3)`` float32 and ``valid`` ``(N,)``; invalid frames are NaN."""
+    R, valid = canonical_rotation(joints_world, up)
+    return to_canonical(joints_world, R), valid

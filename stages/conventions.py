@@ -1,0 +1,196 @@
+"""pcnet's conventions as data: joint layouts, their mappings to H36M-17, and the frames.
+
+Everything here restates ``CONVENTIONS.md``; every room of pcnet imports it, nothing
+redefines it.
+
+Frames
+------
+* **camera frame** (what adapters deliver): OpenCV axes, +x right in the image, +y down,
+  +z forward (away from the camera), pelvis at the origin.
+* **canonical frame** (what rectification delivers, ISB / OpenSim global-frame axes):
+  origin pelvis, +Y up (against gravity), +Z the subject's right (horizontal part of
+  right_hip - left_hip), +X anterior = Y x Z.
+* **rotation**: ``R`` maps canonical to camera, ``x_cam = R @ x_canon``; for row-vector
+  arrays ``X_cam = X_canon @ R.T`` and ``X_canon = X_cam @ R``. Up in the camera frame is
+  ``R[:, 1]``.
+
+Joint-layout sources: H36M-17 from VideoPose3D ``common/skeleton.py``; COCO-17 and Halpe-26
+from AlphaPose/Halpe-FullBody; BODY_25 from OpenPose ``doc/02_output.md``; BlazePose-33 from
+MediaPipe ``PoseLandmark``. Mappings to H36M-17: MotionBERT ``coco2h36m`` / ``halpe2h36m``;
+BODY_25 and BlazePose-33 follow the same mid-point recipe with their own indices.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+H36M_JOINTS: tuple[str, ...] = (
+    "pelvis", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee",
+    "left_ankle", "spine", "thorax", "neck_nose", "head", "left_shoulder",
+    "left_elbow", "left_wrist", "right_shoulder", "right_elbow", "right_wrist",
+)
+H36M_PARENTS: tuple[int, ...] = (-1, 0, 1, 2, 0, 4, 5, 0, 7, 8, 9, 8, 11, 12, 8, 14, 15)
+H36M_BONES: tuple[tuple[int, int], ...] = tuple(
+    (p, c) for c, p in enumerate(H36M_PARENTS) if p >= 0
+)
+H36M_LR_PAIRS: tuple[tuple[int, int], ...] = ((4, 1), (5, 2), (6, 3), (11, 14), (12, 15), (13, 16))
+
+# Named indices used by the geometry; joint 9 (nose) is never a spine point.
+PELVIS, R_HIP, R_KNEE, R_ANKLE, L_HIP, L_KNEE, L_ANKLE = 0, 1, 2, 3, 4, 5, 6
+SPINE, THORAX, NECK_NOSE, HEAD = 7, 8, 9, 10
+L_SHOULDER, L_ELBOW, L_WRIST, R_SHOULDER, R_ELBOW, R_WRIST = 11, 12, 13, 14, 15, 16
+
+# Canonical->camera rotation of a level camera in front of the subject, looking at it:
+# canonical up (+Y) -> camera -y, subject's right (+Z) -> image left (-x),
+# anterior (+X, towards the camera) -> camera -z.
+R_FRONTAL = np.array([[0.0, 0.0, -1.0], [0.0, -1.0, 0.0], [-1.0, 0.0, 0.0]])
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A 2D/3D keypoint layout and its recipe to H36M-17.
+
+    ``to_h36m[k]`` lists the source joints whose mean gives H36M joint ``k`` (coordinates
+    are averaged; confidence takes the minimum so that one missing parent invalidates the
+    synthetic joint, formats.md section 3.3).
+    """
+
+    name: str
+    joints: tuple[str, ...]
+    bones: tuple[tuple[int, int], ...]
+    lr_pairs: tuple[tuple[int, int], ...]
+    to_h36m: tuple[tuple[int, ...], ...]
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.joints)
+
+
+_COCO_JOINTS = (
+    "nose", "left_eye", "right_eye", "left_ear", "right_ear", "left_shoulder",
+    "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_hip",
+    "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
+)
+_COCO_BONES = (
+    (15, 13), (13, 11), (16, 14), (14, 12), (11, 12), (5, 11), (6, 12), (5, 6), (5, 7),
+    (6, 8), (7, 9), (8, 10), (1, 2), (0, 1), (0, 2), (1, 3), (2, 4),
+)
+_COCO_LR = ((1, 2), (3, 4), (5, 6), (7, 8), (9, 10), (11, 12), (13, 14), (15, 16))
+
+H36M17 = Layout(
+    "h36m17", H36M_JOINTS, H36M_BONES, H36M_LR_PAIRS, tuple((k,) for k in range(17))
+)
+
+COCO17 = Layout(
+    "coco17", _COCO_JOINTS, _COCO_BONES, _COCO_LR,
+    (
+        (11, 12), (12,), (14,), (16,), (11,), (13,), (15,),
+        (5, 6, 11, 12),  # spine = mean(pelvis, thorax) = mean of shoulders and hips
+        (5, 6), (0,), (1, 2), (5,), (7,), (9,), (6,), (8,), (10,),
+    ),
+)
+
+HALPE26 = Layout(
+    "halpe26",
+    _COCO_JOINTS + (
+        "head", "neck", "hip", "left_big_toe", "right_big_toe", "left_small_toe",
+        "right_small_toe", "left_heel", "right_heel",
+    ),
+    _COCO_BONES[:12] + (
+        (17, 18), (18, 19), (18, 5), (18, 6), (19, 11), (19, 12), (0, 18),
+        (15, 20), (15, 22), (15, 24), (16, 21), (16, 23), (16, 25),
+    ),
+    _COCO_LR + ((20, 21), (22, 23), (24, 25)),
+    (
+        (19,), (12,), (14,), (16,), (11,), (13,), (15,), (18, 19), (18,), (0,), (17,),
+        (5,), (7,), (9,), (6,), (8,), (10,),
+    ),
+)
+
+BODY25 = Layout(
+    "body25",
+    (
+        "nose", "neck", "right_shoulder", "right_elbow", "right_wrist", "left_shoulder",
+        "left_elbow", "left_wrist", "mid_hip", "right_hip", "right_knee", "right_ankle",
+        "left_hip", "left_knee", "left_ankle", "right_eye", "left_eye", "right_ear",
+        "left_ear", "left_big_toe", "left_small_toe", "left_heel", "right_big_toe",
+        "right_small_toe", "right_heel",
+    ),
+    (
+        (0, 1), (1, 2), (2, 3), (3, 4), (1, 5), (5, 6), (6, 7), (1, 8), (8, 9), (9, 10),
+        (10, 11), (8, 12), (12, 13), (13, 14), (0, 15), (15, 17), (0, 16), (16, 18),
+        (14, 19), (19, 20), (14, 21), (11, 22), (22, 23), (11, 24),
+    ),
+    (
+        (5, 2), (6, 3), (7, 4), (12, 9), (13, 10), (14, 11), (16, 15), (18, 17),
+        (19, 22), (20, 23), (21, 24),
+    ),
+    (
+        (8,), (9,), (10,), (11,), (12,), (13,), (14,), (1, 8), (1,), (0,), (15, 16),
+        (5,), (6,), (7,), (2,), (3,), (4,),
+    ),
+)
+
+BLAZEPOSE33 = Layout(
+    "blazepose33",
+    (
+        "nose", "left_eye_inner", "left_eye", "left_eye_outer", "right_eye_inner",
+        "right_eye", "right_eye_outer", "left_ear", "right_ear", "mouth_left",
+        "mouth_right", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
+        "left_wrist", "right_wrist", "left_pinky", "right_pinky", "left_index",
+        "right_index", "left_thumb", "right_thumb", "left_hip", "right_hip", "left_knee",
+        "right_knee", "left_ankle", "right_ankle", "left_heel", "right_heel",
+        "left_foot_index", "right_foot_index",
+    ),
+    (
+        (11, 12), (11, 13), (13, 15), (12, 14), (14, 16), (11, 23), (12, 24), (23, 24),
+        (23, 25), (25, 27), (24, 26), (26, 28), (27, 29), (29, 31), (27, 31), (28, 30),
+        (30, 32), (28, 32), (0, 2), (0, 5), (2, 7), (5, 8),
+    ),
+    (
+        (1, 4), (2, 5), (3, 6), (7, 8), (9, 10), (11, 12), (13, 14), (15, 16), (17, 18),
+        (19, 20), (21, 22), (23, 24), (25, 26), (27, 28), (29, 30), (31, 32),
+    ),
+    (
+        (23, 24), (24,), (26,), (28,), (23,), (25,), (27,), (11, 12, 23, 24), (11, 12),
+        (0,), (2, 5), (11,), (13,), (15,), (12,), (14,), (16,),
+    ),
+)
+
+LAYOUTS: dict[str, Layout] = {
+    lay.name: lay for lay in (H36M17, COCO17, HALPE26, BODY25, BLAZEPOSE33)
+}
+
+
+def get_layout(name: str) -> Layout:
+    """Look up a layout by name (``h36m17``, ``coco17``, ``halpe26``, ``body25``, ``blazepose33``).
+
+    Raises:
+        ValueError: for an unknown name, listing the known ones.
+    """
+    key = name.lower().replace("-", "").replace("_", "")
+    for lay in LAYOUTS.values():
+        if lay.name == key:
+            return lay
+    raise ValueError(f"unknown joint layout {name!r}; expected one of {sorted(LAYOUTS)}")
+
+
+def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -> np.ndarray:
+    """Validate and return ``joints`` as float32 ``(N, J, 3)``; a single ``(J, 3)`` pose is
+    promoted to ``(1, J, 3)``.
+
+    Raises:
+        ValueError: naming ``name`` and the expected shape when the shape is wrong.
+    """
+    arr = np.asarray(joints)
+    if arr.ndim == 2:
+        arr = arr[None]
+    if arr.ndim != 3 or arr.shape[1:] != (num_joints, 3):
+        raise ValueError(
+            f"{name}: expected shape (N, {num_joints}, 3) H36M-17 joints, got {tuple(np.shape(joints))}"
+        )
+    if not np.issubdtype(arr.dtype, np.number):
+        raise ValueError(f"{name}: expected a numeric array, got dtype {arr.dtype}")
+    return arr.astype(np.float32, copy=False)

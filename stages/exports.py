@@ -1,0 +1,363 @@
+"""Writers for pcnet's outputs: NPZ, per-frame kinematics CSV, OpenSim TRC and a PNG
+of the wrists before and after rectification.
+
+Every writer is atomic: it writes a hidden temporary file in the destination folder and
+``os.replace``-s it onto the target (an atomic rename on POSIX and Windows when both
+are on one file system). On any error the temporary file is removed and the target is
+left as it was, so a crash never leaves a half-written file for a user to load.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import json
+import os
+import uuid
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .conventions import H36M_JOINTS, L_WRIST, R_WRIST
+from .kinematics import Kinematics
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success rename it onto ``path``.
+
+    The temporary (``.<name>.<uuid4><suffix>``, not created here) lives in the same
+    folder so ``os.replace`` stays a rename (never a cross-device copy), and the caller
+    creates it with the usual permissions. On an exception the temporary is deleted and
+    the exception propagates; ``path`` is untouched.
+
+    Raises:
+        FileNotFoundError: the destination folder does not exist.
+    """
+    target = Path(path)
+    if not target.parent.is_dir():
+        raise FileNotFoundError(f"destination folder does not exist: {target.parent}")
+    # A fresh unique name rather than mkstemp: mkstemp creates the file with mode 0600,
+    # which os.replace would carry over to the user's output.
+    tmp_path = target.parent / f".{target.name}.{uuid.uuid4().hex}{suffix}"
+    try:
+        yield tmp_path
+        os.replace(tmp_path, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+        raise
+
+
+# ---------------------------------------------------------------------------------------
+# NPZ
+
+
+def _npz_value(key: str, value: object) -> np.ndarray:
+    if isinstance(value, Mapping):
+        # Metadata dicts become JSON text so the file loads with allow_pickle=False.
+        return np.asarray(json.dumps(value, sort_keys=True, default=_json_default))
+    try:
+        arr = np.asarray(value)
+    except ValueError:  # numpy 2 refuses ragged nested sequences outright
+        arr = np.asarray(value, dtype=object)
+    if arr.dtype == object:
+        raise TypeError(
+            f"write_npz: {key!r} would be stored as a pickled object array; pass a numeric "
+            f"array, a string, or a dict (stored as JSON)"
+        )
+    return arr
+
+
+def _json_default(o: object) -> object:
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def write_npz(path: str | os.PathLike, **arrays_and_metadata: object) -> Path:
+    """Write arrays and metadata to an uncompressed ``.npz``, atomically.
+
+    Arrays, numbers, strings and bools are stored as numpy arrays under their keyword;
+    a ``dict`` is stored as a 0-d string array holding its JSON text (so every key loads
+    with ``np.load(path, allow_pickle=False)``; decode with ``json.loads(str(f[key]))``).
+
+    Args:
+        path: destination file (the name is used as given; no ``.npz`` is appended).
+        **arrays_and_metadata: ``name=value`` pairs.
+
+    Returns:
+        the destination path.
+
+    Raises:
+        TypeError: a value that would need pickling (ragged lists, arbitrary objects).
+        ValueError: no keyword given.
+    """
+    if not arrays_and_metadata:
+        raise ValueError("write_npz: nothing to write")
+    payload = {k: _npz_value(k, v) for k, v in arrays_and_metadata.items()}
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        # A file object, not a name: np.savez would append ".npz" to the temp name.
+        np.savez(fh, **payload)
+    return Path(path)
+
+
+# ---------------------------------------------------------------------------------------
+# CSV
+
+
+def unit_token(unit: str) -> str:
+    """Unit string -> header-safe token: ``"m/s^2"`` -> ``"m_per_s2"``, ``"m"`` -> ``"m"``."""
+    return unit.replace("/", "_per_").replace("^", "").replace(" ", "_")
+
+
+def _fmt(v: float) -> str:
+    # Empty field for missing values, as the TRC writer does; 7 significant digits keep
+    # micrometre resolution on metre-scale data.
+    return f"{v:.7g}" if v == v else ""
+
+
+def write_kinematics_csv(
+    path: str | os.PathLike,
+    frame_index: np.ndarray,
+    time_s: np.ndarray,
+    kinematics: Kinematics,
+    extra_columns: Mapping[str, np.ndarray] | None = None,
+    joints: Sequence[str] | None = None,
+) -> Path:
+    """Write one CSV row per frame with positions, velocities, accelerations, speeds and
+    angles of canonical kinematics, atomically.
+
+    Columns, in order: ``frame``, ``time_s``; per joint ``{joint}_{x,y,z}_{u}``,
+    ``{joint}_{vx,vy,vz}_{u}_per_s``, ``{joint}_{ax,ay,az}_{u}_per_s2``,
+    ``{joint}_speed_{u}_per_s`` (``u`` = ``kinematics.units``, e.g. ``m``); per angle
+    ``{angle}_deg``; then ``extra_columns`` under their own names (put the unit in the
+    name, e.g. ``tilt_error_deg``). Axes are canonical (x anterior, y up, z subject's
+    right). Missing values (NaN) are empty fields. Comma-separated, ``\\n`` line ends,
+    UTF-8, written with the :mod:`csv` module.
+
+    Args:
+        path: destination ``.csv``.
+        frame_index: ``(T,)`` integer frame numbers (e.g. source-video frame indices).
+        time_s: ``(T,)`` times in seconds.
+        kinematics: :class:`~pcnet.stages.kinematics.Kinematics` with ``T`` frames.
+        extra_columns: optional ``name -> (T,)`` numeric or bool columns.
+        joints: joint names to include (default: all 17 H36M-17 joints).
+
+    Returns:
+        the destination path.
+
+    Raises:
+        ValueError: a column whose length is not ``T``, an unknown joint, or a duplicate
+            column name.
+    """
+    k = kinematics
+    T = k.num_frames
+    frame_index = np.asarray(frame_index)
+    time_s = np.asarray(time_s, dtype=np.float64)
+    extra = dict(extra_columns or {})
+    for name, col in (("frame_index", frame_index), ("time_s", time_s), *extra.items()):
+        if np.shape(col) != (T,):
+            raise ValueError(f"write_kinematics_csv: column {name!r} must have shape ({T},), got {np.shape(col)}")
+    names = list(k.joint_names)
+    chosen = list(joints) if joints is not None else names
+    unknown = [j for j in chosen if j not in names]
+    if unknown:
+        raise ValueError(f"write_kinematics_csv: unknown joints {unknown}; known: {names}")
+
+    u, v, a = unit_token(k.units), unit_token(k.velocity_units), unit_token(k.acceleration_units)
+    header = ["frame", "time_s"]
+    blocks: list[np.ndarray] = [time_s[:, None]]
+    for j in chosen:
+        i = names.index(j)
+        header += [f"{j}_{c}_{u}" for c in "xyz"]
+        header += [f"{j}_v{c}_{v}" for c in "xyz"]
+        header += [f"{j}_a{c}_{a}" for c in "xyz"]
+        header += [f"{j}_speed_{v}"]
+        blocks += [k.positions[:, i], k.velocity[:, i], k.acceleration[:, i], k.speed[:, i, None]]
+    for name, ang in k.angles.items():
+        header.append(f"{name}_deg")
+        blocks.append(np.asarray(ang, np.float64)[:, None])
+    for name, col in extra.items():
+        header.append(name)
+        blocks.append(np.asarray(col, np.float64)[:, None])
+    dup = {h for h in header if header.count(h) > 1}
+    if dup:
+        raise ValueError(f"write_kinematics_csv: duplicate column names {sorted(dup)}")
+    table = np.concatenate(blocks, axis=1)
+
+    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(header)
+        for f, row in zip(frame_index.tolist(), table.tolist()):
+            writer.writerow([str(f), *map(_fmt, row)])
+    return Path(path)
+
+
+# ---------------------------------------------------------------------------------------
+# TRC
+
+
+def write_trc(
+    path: str | os.PathLike,
+    canonical: np.ndarray,
+    fps: float,
+    joint_names: Sequence[str] = H36M_JOINTS,
+    units: str = "m",
+) -> Path:
+    """Write canonical poses as an OpenSim ``.trc`` marker file, atomically.
+
+    Layout (as read by OpenSim 4's ``TRCFileAdapter``, opensim-core
+    ``OpenSim/Common/TRCFileAdapter.cpp``): tab-separated;
+    line 1 ``PathFileType 4 (X/Y/Z) <file name>``; line 2 the eight keys ``DataRate
+    CameraRate NumFrames NumMarkers Units OrigDataRate OrigDataStartFrame OrigNumFrames``;
+    line 3 their values; line 4 ``Frame# Time`` and each marker name followed by two
+    empty fields; line 5 ``X1 Y1 Z1 X2 ...``; line 6 empty; then one row per frame:
+    1-based frame number, time ``(frame - 1) / fps`` in s, and x y z per marker.
+
+    Coordinates: the canonical frame is OpenSim's ground frame (X forward, Y up, Z right),
+    so values are written unchanged. Pelvis-centred: the model's pelvis stays at the
+    origin (no global translation).
+
+    **Missing markers**: a NaN marker is written as three empty fields. OpenSim's reader
+    keeps empty tokens and stores such a marker as NaN, which inverse kinematics skips
+    for that frame. Every value, including the last, is followed by a tab (as OpenSim's
+    own writer does): the tokenizer drops only a final empty token, so a missing last
+    marker still yields the expected column count. Readers that collapse consecutive
+    tabs (some older tools) cannot read missing markers in any TRC.
+
+    Args:
+        path: destination ``.trc``.
+        canonical: ``(T, J, 3)`` canonical poses in ``units``; NaN for missing.
+        fps: frame rate in Hz (DataRate, CameraRate, OrigDataRate).
+        joint_names: ``J`` marker names (no tabs or line breaks); default H36M-17.
+        units: ``"m"`` (OpenSim's default) or ``"mm"``.
+
+    Returns:
+        the destination path.
+
+    Raises:
+        ValueError: shape/name mismatch, a name with a tab/newline, duplicate names,
+            ``fps <= 0`` or unknown units.
+    """
+    X = np.asarray(canonical, dtype=np.float64)
+    names = list(joint_names)
+    if X.ndim != 3 or X.shape[2] != 3 or X.shape[1] != len(names):
+        raise ValueError(f"write_trc: expected (T, {len(names)}, 3) markers, got {X.shape}")
+    if any(("\t" in n or "\n" in n or not n.strip()) for n in names) or len(set(names)) != len(names):
+        raise ValueError(f"write_trc: marker names must be unique, non-empty, without tabs: {names}")
+    if not fps > 0:
+        raise ValueError(f"write_trc: fps must be > 0, got {fps!r}")
+    if units not in ("m", "mm"):
+        raise ValueError(f"write_trc: units must be 'm' or 'mm', got {units!r}")
+    T, J = X.shape[:2]
+    rate = f"{fps:.6g}"
+    lines = [
+        f"PathFileType\t4\t(X/Y/Z)\t{Path(path).name}",
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
+        f"{rate}\t{rate}\t{T}\t{J}\t{units}\t{rate}\t1\t{T}",
+        "Frame#\tTime\t" + "".join(f"{n}\t\t\t" for n in names),
+        "\t\t" + "".join(f"X{i}\tY{i}\tZ{i}\t" for i in range(1, J + 1)),
+        "",
+    ]
+    flat = X.reshape(T, J * 3)
+    with atomic_path(path) as tmp, open(tmp, "w", newline="\n", encoding="utf-8") as fh:
+        fh.write("\n".join(lines) + "\n")
+        for t, row in enumerate(flat.tolist()):
+            fields = "\t".join(_fmt_trc(v) for v in row)
+            fh.write(f"{t + 1}\t{t / fps:.6f}\t{fields}\t\n")
+    return Path(path)
+
+
+def _fmt_trc(v: float) -> str:
+    return f"{v:.6f}" if v == v else ""
+
+
+# ---------------------------------------------------------------------------------------
+# PNG
+
+
+def plot_wrists(
+    path_png: str | os.PathLike,
+    camera: np.ndarray,
+    canonical: np.ndarray,
+    fps: float,
+    acc_camera: np.ndarray,
+    acc_canonical: np.ndarray,
+    units: str = "m",
+) -> Path:
+    """PNG of wrist trajectories and accelerations before and after rectification.
+
+    Two columns (camera frame | canonical frame) by three rows: wrist position
+    components, wrist acceleration components, and acceleration magnitude, against time
+    in seconds; left wrist dashed, right wrist solid. The magnitude row is
+    frame-independent and should match between columns; the components show what
+    rectification changes (e.g. camera-y mixes vertical and depth motion when the camera
+    is tilted, canonical-y is vertical). Rendered with matplotlib's Agg canvas (no
+    pyplot, no display needed), written atomically.
+
+    Args:
+        path_png: destination ``.png``.
+        camera: ``(T, 17, 3)`` camera-frame poses (x right, y down, z forward), ``units``.
+        canonical: ``(T, 17, 3)`` canonical poses (x anterior, y up, z right), ``units``.
+        fps: frame rate in Hz.
+        acc_camera, acc_canonical: ``(T, 17, 3)`` accelerations in ``units/s^2``.
+        units: length unit label.
+
+    Returns:
+        the destination path.
+
+    Raises:
+        ValueError: mismatched shapes or ``fps <= 0``.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    arrays = [np.asarray(a, np.float64) for a in (camera, canonical, acc_camera, acc_canonical)]
+    T = arrays[0].shape[0]
+    for a in arrays:
+        if a.shape != (T, 17, 3):
+            raise ValueError(f"plot_wrists: expected four (T, 17, 3) arrays, got {[x.shape for x in arrays]}")
+    if not fps > 0:
+        raise ValueError(f"plot_wrists: fps must be > 0, got {fps!r}")
+    cam, can, acam, acan = arrays
+    t = np.arange(T) / fps
+    acc_u = f"{units}/s²"
+    columns = (
+        ("camera frame (x right, y down, z forward)", cam, acam, ("x", "y", "z")),
+        ("canonical frame (x anterior, y up, z right)", can, acan, ("x", "y", "z")),
+    )
+    comp_colors = ("tab:red", "tab:green", "tab:blue")
+    fig = Figure(figsize=(13, 9), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(3, 2, sharex=True)
+    for col, (title, pos, acc, labels) in enumerate(columns):
+        ax_p, ax_a, ax_m = axes[:, col]
+        for joint, side, style in ((L_WRIST, "left", "--"), (R_WRIST, "right", "-")):
+            for c in range(3):
+                ax_p.plot(t, pos[:, joint, c], style, color=comp_colors[c], lw=1,
+                          label=f"{side} wrist {labels[c]}")
+                ax_a.plot(t, acc[:, joint, c], style, color=comp_colors[c], lw=0.8,
+                          label=f"{side} wrist a{labels[c]}")
+            ax_m.plot(t, np.linalg.norm(acc[:, joint], axis=-1), style, color="k", lw=0.8,
+                      label=f"{side} wrist |a|")
+        ax_p.set_title(title)
+        ax_p.set_ylabel(f"position ({units})")
+        ax_a.set_ylabel(f"acceleration ({acc_u})")
+        ax_m.set_ylabel(f"|acceleration| ({acc_u})")
+        ax_m.set_xlabel("time (s)")
+        for ax in (ax_p, ax_a, ax_m):
+            ax.grid(True, alpha=0.3)
+            ax.legend(fontsize=7, ncol=2, loc="upper right")
+    fig.suptitle("Wrists before (camera frame) and after (canonical frame) rectification")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    with atomic_path(path_png) as tmp:
+        tmp.write_bytes(buf.getvalue())
+    return Path(path_png)

@@ -1,0 +1,426 @@
+"""Kinematics of canonical poses: low-pass filtering, derivatives and plane-decomposed
+joint angles.
+
+The angles here are projections onto the planes of the canonical frame
+(``CONVENTIONS.md``: +X anterior, +Y up, +Z the subject's right, pelvis origin), so they
+depend on that frame: in the camera frame "sagittal" would mean "the image's x-z plane"
+and a camera tilt would read as trunk lean. That is why pcnet rectifies first.
+
+NaN policy: NaN never turns into a number. Filters and derivatives work on each
+contiguous run of finite samples separately and never bridge a gap.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+from scipy.signal import butter, sosfiltfilt
+
+from .conventions import (
+    H36M_JOINTS,
+    L_ANKLE,
+    L_ELBOW,
+    L_HIP,
+    L_KNEE,
+    L_SHOULDER,
+    L_WRIST,
+    PELVIS,
+    R_ANKLE,
+    R_ELBOW,
+    R_HIP,
+    R_KNEE,
+    R_SHOULDER,
+    R_WRIST,
+    THORAX,
+    check_poses,
+)
+from .rotations import angle_between
+
+# ---------------------------------------------------------------------------------------
+# contiguous finite runs
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``[start, stop)`` of each run of True in a 1-D bool array."""
+    padded = np.concatenate([[False], mask, [False]])
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
+
+
+def _by_mask(x2: np.ndarray):
+    """Group the columns of ``x2`` ``(T, C)`` by their finite-sample pattern.
+
+    Yields ``(columns, runs)``; columns sharing a pattern (the x, y, z of a joint, or
+    every column of a gap-free sequence) are processed together, which keeps a
+    36,000 x 51 array at a handful of vectorised calls.
+    """
+    finite = np.isfinite(x2)
+    # Keyed on the packed bytes of each column: np.unique(axis=0) sorts and is ~10x slower.
+    packed = np.packbits(finite, axis=0)
+    groups: dict[bytes, list[int]] = {}
+    for c in range(x2.shape[1]):
+        groups.setdefault(packed[:, c].tobytes(), []).append(c)
+    for cols in groups.values():
+        yield np.asarray(cols), _runs(finite[:, cols[0]])
+
+
+def _as_2d(x: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 0:
+        raise ValueError("expected an array with time on axis 0, got a scalar")
+    return x.reshape(x.shape[0], -1), x.shape
+
+
+# ---------------------------------------------------------------------------------------
+# filtering
+
+
+def _design_cutoff(fps: float, cutoff_hz: float, passes: int, order_per_pass: int) -> float:
+    """Cutoff to design each pass with so that the multi-pass filter is -3 dB at
+    ``cutoff_hz`` (Winter 2009, section 3.4.4.3; generalised to order ``p`` per pass:
+    ``C = (2^(1/n) - 1)^(1/(2p))``, applied to the pre-warped digital frequency
+    ``tan(pi f / fs)``)."""
+    C = (2.0 ** (1.0 / passes) - 1.0) ** (1.0 / (2 * order_per_pass))
+    warped = np.tan(np.pi * cutoff_hz / fps) / C
+    return float(fps / np.pi * np.arctan(warped))
+
+
+def butterworth_lowpass(
+    x: np.ndarray,
+    fps: float,
+    cutoff_hz: float = 6.0,
+    order: int = 4,
+    *,
+    return_unfiltered: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    """Zero-phase Butterworth low-pass filter along axis 0, NaN-gap aware.
+
+    **Order convention** (the biomechanics one, Winter 2009 section 3.4.4): ``order`` is
+    the order of the final zero-phase filter. Each pass of ``scipy.signal.sosfiltfilt`` is
+    a Butterworth of ``order // 2`` (default 2), and the forward plus backward pass
+    doubles it, so ``order=4`` is the "4th-order zero-lag Butterworth" of the gait
+    literature. The per-pass cutoff is corrected (Winter's ``C = 0.802`` for two passes
+    of a 2nd-order filter, see :func:`_design_cutoff`) so that the **final** response is
+    -3 dB (gain 1/sqrt(2)) at ``cutoff_hz``, not the -6 dB an uncorrected dual pass gives.
+
+    **Gaps**: each contiguous run of finite samples of each channel is filtered on its
+    own (edges padded by ``sosfiltfilt``'s default odd extension). Nothing is
+    interpolated across a gap and NaN stays NaN. A run no longer than the filter's
+    ``padlen`` cannot be filtered: it is returned unchanged and flagged.
+
+    Args:
+        x: ``(T, ...)`` samples along axis 0 (e.g. ``(T, 17, 3)`` positions), any units.
+        fps: sampling rate in Hz (> 0).
+        cutoff_hz: -3 dB frequency of the final filter in Hz; 6 Hz is a common choice
+            for human movement (Winter 2009).
+        order: even order of the final zero-phase filter (>= 2).
+        return_unfiltered: also return the flag array.
+
+    Returns:
+        float64 array shaped like ``x``; with ``return_unfiltered=True`` also a bool array
+        shaped like ``x``, True where a finite sample was left unfiltered because its run
+        was too short.
+
+    Raises:
+        ValueError: ``fps <= 0``, ``cutoff_hz`` not in ``(0, fps/2)``, or ``order`` odd
+            or < 2.
+    """
+    if not fps > 0:
+        raise ValueError(f"fps must be > 0, got {fps!r}")
+    if not 0 < cutoff_hz < fps / 2:
+        raise ValueError(
+            f"cutoff_hz must lie in (0, fps/2) = (0, {fps / 2:g}) Hz (Nyquist), got {cutoff_hz!r}"
+        )
+    if order < 2 or order % 2:
+        raise ValueError(
+            f"order is the order of the zero-phase (dual-pass) result and must be even and "
+            f">= 2, got {order!r}"
+        )
+    per_pass = order // 2
+    design = _design_cutoff(fps, cutoff_hz, passes=2, order_per_pass=per_pass)
+    sos = butter(per_pass, design, btype="low", fs=fps, output="sos")
+    # sosfiltfilt's own default padlen, so "too short" means what scipy means.
+    padlen = 3 * (2 * len(sos) + 1 - min((sos[:, 2] == 0).sum(), (sos[:, 5] == 0).sum()))
+
+    x2, shape = _as_2d(x)
+    out = np.full_like(x2, np.nan)
+    unfiltered = np.zeros(x2.shape, dtype=bool)
+    for cols, runs in _by_mask(x2):
+        for a, b in runs:
+            seg = x2[a:b][:, cols]
+            if b - a <= padlen:
+                out[a:b, cols] = seg
+                unfiltered[a:b, cols] = True
+            else:
+                out[a:b, cols] = sosfiltfilt(sos, seg, axis=0)
+    out = out.reshape(shape)
+    if return_unfiltered:
+        return out, unfiltered.reshape(shape)
+    return out
+
+
+# ---------------------------------------------------------------------------------------
+# derivatives
+
+
+def derivatives(x: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity and acceleration by finite differences along axis 0, within finite runs.
+
+    Velocity: ``numpy.gradient`` (central difference ``(x[i+1] - x[i-1]) / (2 dt)``
+    inside a run, second-order one-sided differences at run ends). Acceleration: the
+    central second difference ``(x[i+1] - 2 x[i] + x[i-1]) / dt^2`` inside a run (Winter
+    2009, section 3.4.5, eq. 3.17-3.18), and at a run's first and last sample the
+    three-point one-sided value, which equals its neighbour's. Both are exact for
+    quadratic trajectories. Runs of one sample give NaN velocity; runs shorter than three
+    samples give NaN acceleration. NaN inputs stay NaN.
+
+    Args:
+        x: ``(T, ...)`` samples, any units ``u``.
+        fps: sampling rate in Hz (> 0).
+
+    Returns:
+        ``(velocity, acceleration)`` float64 shaped like ``x``, in ``u/s`` and ``u/s^2``.
+
+    Raises:
+        ValueError: ``fps <= 0``.
+    """
+    if not fps > 0:
+        raise ValueError(f"fps must be > 0, got {fps!r}")
+    dt = 1.0 / fps
+    x2, shape = _as_2d(x)
+    vel = np.full_like(x2, np.nan)
+    acc = np.full_like(x2, np.nan)
+    for cols, runs in _by_mask(x2):
+        for a, b in runs:
+            seg = x2[a:b][:, cols]
+            n = b - a
+            if n >= 2:
+                vel[a:b, cols] = np.gradient(seg, dt, axis=0, edge_order=2 if n >= 3 else 1)
+            if n >= 3:
+                second = (seg[2:] - 2.0 * seg[1:-1] + seg[:-2]) / dt**2
+                acc[a + 1 : b - 1, cols] = second
+                acc[a, cols] = second[0]
+                acc[b - 1, cols] = second[-1]
+    return vel.reshape(shape), acc.reshape(shape)
+
+
+# ---------------------------------------------------------------------------------------
+# joint angles
+
+#: A segment whose projection onto a plane is shorter than this fraction of its length
+#: lies within 14.5 deg of the plane's normal: its in-plane angle is undefined, so NaN.
+MIN_PROJECTED_FRACTION = 0.25
+
+# Canonical axes (CONVENTIONS.md).
+_X, _Y, _Z = 0, 1, 2
+
+
+def _plane_angle(
+    forward: np.ndarray, reference: np.ndarray, length: np.ndarray, wrap_below: float | None
+) -> np.ndarray:
+    """In-plane angle (deg) ``atan2(forward, reference)`` of a segment whose components
+    along the plane's two axes are ``forward`` and ``reference`` ``(T,)``.
+
+    With ``wrap_below`` set, angles <= it get +360 (limbs use -90: the range becomes
+    (-90, 270], so flexion past overhead keeps increasing instead of jumping to -180).
+    NaN where the in-plane projection is shorter than ``MIN_PROJECTED_FRACTION * length``.
+    """
+    ang = np.degrees(np.arctan2(forward, reference))
+    if wrap_below is not None:
+        ang = np.where(ang <= wrap_below, ang + 360.0, ang)
+    proj = np.hypot(forward, reference)
+    with np.errstate(invalid="ignore"):
+        ok = (proj >= MIN_PROJECTED_FRACTION * length) & (length > 0)
+    return np.where(ok, ang, np.nan)
+
+
+def _limb_angle(X: np.ndarray, proximal: int, distal: int, axis: int, sign: float) -> np.ndarray:
+    """Segment proximal->distal from straight down (-Y) towards ``sign * axis``."""
+    v = X[:, distal] - X[:, proximal]
+    return _plane_angle(sign * v[:, axis], -v[:, _Y], np.linalg.norm(v, axis=-1), -90.0)
+
+
+def _inter_segment(X: np.ndarray, a: int, b: int, c: int) -> np.ndarray:
+    """Flexion at ``b`` of the chain a-b-c: ``180 - angle(a-b, c-b)`` = angle between
+    ``b - a`` and ``c - b``; 0 = straight."""
+    return np.degrees(angle_between(X[:, b] - X[:, a], X[:, c] - X[:, b]))
+
+
+_RIGHT, _LEFT = 1.0, -1.0
+
+#: Names of :func:`joint_angles` outputs, in output order; all in degrees.
+ANGLE_NAMES: tuple[str, ...] = (
+    "trunk_inclination",
+    "trunk_flexion",
+    "trunk_lateral_flexion",
+    "left_hip_flexion",
+    "right_hip_flexion",
+    "left_hip_abduction",
+    "right_hip_abduction",
+    "left_knee_flexion",
+    "right_knee_flexion",
+    "left_shoulder_flexion",
+    "right_shoulder_flexion",
+    "left_shoulder_abduction",
+    "right_shoulder_abduction",
+    "left_elbow_flexion",
+    "right_elbow_flexion",
+)
+
+
+def joint_angles(canonical: np.ndarray) -> dict[str, np.ndarray]:
+    """Plane-decomposed segment and joint angles of canonical poses, in degrees.
+
+    Input frame: canonical (+X anterior, +Y up against gravity, +Z subject's right).
+    "Sagittal plane" = X-Y, "frontal plane" = Z-Y. Segment angles are **absolute**
+    (segment vs. gravity in the pelvis-heading frame; no pelvic tilt is removed), not
+    the ISB joint coordinate system angles between two segment frames (Wu et al. 2002,
+    2005), which H36M-17's joint centres cannot define (no marker sets a segment's
+    axial rotation).
+
+    * ``trunk_inclination``: angle between pelvis->thorax and +Y, in [0, 180];
+      0 = upright, 90 = horizontal (lying), unsigned.
+    * ``trunk_flexion``: ``v = thorax - pelvis`` in the sagittal plane, angle from +Y
+      ``atan2(v_x, v_y)`` in (-180, 180]: positive = leaning anterior, negative = back.
+    * ``trunk_lateral_flexion``: the same in the frontal plane, ``atan2(v_z, v_y)``:
+      positive = leaning towards the subject's right.
+    * ``{side}_hip_flexion``: thigh ``v = knee - hip`` in the sagittal plane, angle from
+      -Y (hanging straight down) ``atan2(v_x, -v_y)``: positive = flexion (knee in front
+      of the hip), negative = extension; 90 = thigh horizontal forward.
+    * ``{side}_hip_abduction``: thigh in the frontal plane, ``atan2(s v_z, -v_y)`` with
+      ``s = +1`` right, ``-1`` left (the Z axis points to the subject's right, so the
+      sign is mirrored for the left side): positive = abduction (knee away from the
+      midline), negative = adduction (crossing the midline).
+    * ``{side}_shoulder_flexion`` / ``{side}_shoulder_abduction``: the same two
+      definitions for the upper arm ``v = elbow - shoulder``: 0 = arm hanging, 90 = arm
+      horizontal forward / sideways, 180 = overhead.
+    * ``{side}_knee_flexion``: ``180 - angle(hip-knee-ankle)``, i.e. the angle between
+      thigh and shank; 0 = straight, unsigned in [0, 180], frame-independent.
+    * ``{side}_elbow_flexion``: ``180 - angle(shoulder-elbow-wrist)``; 0 = straight.
+
+    Limb plane angles are wrapped to (-90, 270] so that motion through overhead does not
+    jump by 360. A segment whose projection onto the plane is shorter than
+    :data:`MIN_PROJECTED_FRACTION` of its length (within 14.5 deg of the plane normal,
+    e.g. the frontal-plane angle of a thigh pointing straight forward) gets NaN, as does
+    any angle with a NaN joint.
+
+    Args:
+        canonical: ``(T, 17, 3)`` or ``(17, 3)`` H36M-17 canonical poses, any units.
+
+    Returns:
+        dict ``name -> (T,)`` float64 degrees, keys in :data:`ANGLE_NAMES` order.
+
+    Raises:
+        ValueError: wrong shape.
+    """
+    X = check_poses(canonical, "canonical").astype(np.float64)
+    trunk = X[:, THORAX] - X[:, PELVIS]
+    trunk_len = np.linalg.norm(trunk, axis=-1)
+    out = {
+        "trunk_inclination": np.degrees(angle_between(trunk, np.array([0.0, 1.0, 0.0]))),
+        "trunk_flexion": _plane_angle(trunk[:, _X], trunk[:, _Y], trunk_len, None),
+        "trunk_lateral_flexion": _plane_angle(trunk[:, _Z], trunk[:, _Y], trunk_len, None),
+    }
+    for side, s, hip, knee, ankle, sho, elb, wri in (
+        ("left", _LEFT, L_HIP, L_KNEE, L_ANKLE, L_SHOULDER, L_ELBOW, L_WRIST),
+        ("right", _RIGHT, R_HIP, R_KNEE, R_ANKLE, R_SHOULDER, R_ELBOW, R_WRIST),
+    ):
+        out[f"{side}_hip_flexion"] = _limb_angle(X, hip, knee, _X, 1.0)
+        out[f"{side}_hip_abduction"] = _limb_angle(X, hip, knee, _Z, s)
+        out[f"{side}_knee_flexion"] = _inter_segment(X, hip, knee, ankle)
+        out[f"{side}_shoulder_flexion"] = _limb_angle(X, sho, elb, _X, 1.0)
+        out[f"{side}_shoulder_abduction"] = _limb_angle(X, sho, elb, _Z, s)
+        out[f"{side}_elbow_flexion"] = _inter_segment(X, sho, elb, wri)
+    return {name: out[name] for name in ANGLE_NAMES}
+
+
+# ---------------------------------------------------------------------------------------
+# bundle
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Filtered canonical positions and their derivatives and angles.
+
+    Attributes:
+        positions: ``(T, 17, 3)`` float64 filtered canonical positions, ``units``.
+        velocity: ``(T, 17, 3)`` float64, ``velocity_units``.
+        acceleration: ``(T, 17, 3)`` float64, ``acceleration_units``.
+        speed: ``(T, 17)`` float64 ``|velocity|``, ``velocity_units``.
+        angles: ``name -> (T,)`` degrees (:func:`joint_angles` of ``positions``).
+        unfiltered: ``(T, 17, 3)`` bool, finite samples left unfiltered (run too short).
+        fps, cutoff_hz: sampling rate and filter cutoff (None = not filtered).
+        units, velocity_units, acceleration_units: e.g. ``"m"``, ``"m/s"``, ``"m/s^2"``.
+        joint_names: H36M-17 names, index-aligned with axis 1.
+    """
+
+    positions: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    speed: np.ndarray
+    angles: Mapping[str, np.ndarray]
+    unfiltered: np.ndarray
+    fps: float
+    cutoff_hz: float | None
+    units: str
+    velocity_units: str
+    acceleration_units: str
+    joint_names: tuple[str, ...] = field(default=H36M_JOINTS)
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.positions.shape[0])
+
+
+def compute_kinematics(
+    canonical: np.ndarray,
+    fps: float,
+    cutoff_hz: float | None = 6.0,
+    units: str = "m",
+    order: int = 4,
+) -> Kinematics:
+    """Filter canonical poses, then differentiate and compute angles.
+
+    Order of operations follows Winter (2009, ch. 3): low-pass the coordinates
+    (:func:`butterworth_lowpass`), then differentiate (:func:`derivatives`) and compute
+    angles (:func:`joint_angles`) from the filtered coordinates.
+
+    Args:
+        canonical: ``(T, 17, 3)`` H36M-17 canonical poses (pelvis origin, Y up), NaN for
+            missing.
+        fps: sampling rate in Hz.
+        cutoff_hz: -3 dB cutoff of the zero-phase filter; None skips filtering.
+        units: length unit of ``canonical``: ``"m"`` when metric, else e.g.
+            ``"normalised"``; velocity units are then ``"<units>/s"``.
+        order: order of the zero-phase filter (see :func:`butterworth_lowpass`).
+
+    Returns:
+        a frozen :class:`Kinematics`.
+
+    Raises:
+        ValueError: wrong shape, ``fps <= 0``, or an invalid cutoff/order.
+    """
+    X = check_poses(canonical, "canonical").astype(np.float64)
+    if not fps > 0:
+        raise ValueError(f"fps must be > 0, got {fps!r}")
+    if cutoff_hz is None:
+        pos, unfiltered = X.copy(), np.isfinite(X)
+    else:
+        pos, unfiltered = butterworth_lowpass(X, fps, cutoff_hz, order, return_unfiltered=True)
+    vel, acc = derivatives(pos, fps)
+    return Kinematics(
+        positions=pos,
+        velocity=vel,
+        acceleration=acc,
+        speed=np.linalg.norm(vel, axis=-1),
+        angles=MappingProxyType(joint_angles(pos)),
+        unfiltered=unfiltered,
+        fps=float(fps),
+        cutoff_hz=None if cutoff_hz is None else float(cutoff_hz),
+        units=units,
+        velocity_units=f"{units}/s",
+        acceleration_units=f"{units}/s^2",
+    )

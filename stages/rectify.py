@@ -1,0 +1,61 @@
+"""Rectification stage: camera-frame poses -> canonical poses, rotations, up vectors."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .canonical import to_canonical
+from .conventions import check_poses
+from .geometric import geometric_rotation
+
+METHODS = ("pcnet", "pcnet-rigid", "geometric")
+
+
+@dataclass(frozen=True)
+class Rectified:
+    """Output of :func:`rectify` for ``T`` frames.
+
+    rotation ``(T, 3, 3)`` canonical->camera; canonical ``(T, 17, 3)`` pelvis-centred
+    canonical poses in the input's units; up ``(T, 3)`` unit up direction in the camera
+    frame (``rotation[:, :, 1]``); valid ``(T,)``; method name. Invalid frames are NaN.
+    """
+
+    rotation: np.ndarray
+    canonical: np.ndarray
+    up: np.ndarray
+    valid: np.ndarray
+    method: str
+
+
+def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None):
+    """Per-frame canonical->camera rotations ``(T, 3, 3)``, residuals ``(T, 17, 3)`` (zeros
+    unless ``method == "pcnet"``) and validity ``(T,)`` for camera-frame H36M-17 poses.
+
+    Methods: ``pcnet`` (3DPCNet with its residual, onnxruntime), ``pcnet-rigid`` (the same
+    rotation, residual dropped: a rigid rotation of the input), ``geometric`` (paper 2.3).
+
+    Raises:
+        ValueError: unknown method or wrong shape.
+    """
+    X = check_poses(joints_cam, "joints_cam")
+    if method == "geometric":
+        R, valid = geometric_rotation(X)
+        return R, np.zeros(X.shape, np.float64), valid
+    if method in ("pcnet", "pcnet-rigid"):
+        from pcnet.models.inference import get_session
+
+        R, residual, valid = get_session(None if weights is None else str(weights)).predict(X)
+        if method == "pcnet-rigid":
+            residual = np.where(valid[:, None, None], 0.0, np.nan)
+        return R, residual, valid
+    raise ValueError(f"unknown rectification method {method!r}; expected one of {METHODS}")
+
+
+def rectify(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None) -> Rectified:
+    """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
+    (``CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN."""
+    R, residual, valid = estimate_rotations(joints_cam, method, weights)
+    canonical = to_canonical(joints_cam, R, residual)
+    return Rectified(R, canonical, R[:, :, 1].copy(), valid, method)

@@ -1,0 +1,44 @@
+"""Remap keypoints from any known layout to H36M-17, and mask low-confidence joints."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .conventions import Layout, get_layout
+
+
+def remap_to_h36m(points: np.ndarray, layout: Layout | str, confidence_channel: bool = False) -> np.ndarray:
+    """Convert ``(T, J, C)`` keypoints of ``layout`` into H36M-17 ``(T, 17, C)`` float32.
+
+    Coordinates of synthetic joints (pelvis, spine, thorax, head in COCO-17 ...) are the
+    mean of their source joints (MotionBERT ``coco2h36m`` / ``halpe2h36m``); NaN sources
+    give NaN. With ``confidence_channel`` the last channel is a confidence and takes the
+    minimum over the sources, so one missing hip invalidates the pelvis (formats.md 3.3).
+
+    Raises:
+        ValueError: when ``J`` does not match the layout's joint count.
+    """
+    lay = get_layout(layout) if isinstance(layout, str) else layout
+    pts = np.asarray(points, np.float32)
+    if pts.ndim != 3 or pts.shape[1] != lay.num_joints:
+        raise ValueError(
+            f"keypoints: layout {lay.name} expects (T, {lay.num_joints}, C), got {pts.shape}"
+        )
+    out = np.empty((pts.shape[0], 17, pts.shape[2]), np.float32)
+    for k, src in enumerate(lay.to_h36m):
+        sel = pts[:, list(src)]
+        out[:, k] = sel.mean(1)
+        if confidence_channel:
+            out[:, k, -1] = sel[..., -1].min(1)
+    return out
+
+
+def mask_low_confidence(joints3d: np.ndarray, confidence: np.ndarray, threshold: float) -> np.ndarray:
+    """Set 3D joints ``(T, 17, 3)`` to NaN where the 2D ``confidence`` ``(T, 17)`` is below
+    ``threshold`` or NaN. Returns a new float32 array."""
+    out = np.array(joints3d, np.float32, copy=True)
+    conf = np.asarray(confidence, np.float32)
+    if conf.shape != out.shape[:2]:
+        raise ValueError(f"confidence: expected shape {out.shape[:2]}, got {conf.shape}")
+    out[~(conf >= threshold)] = np.nan
+    return out

@@ -1,0 +1,192 @@
+"""Rotation maths on numpy arrays (the torch twin of :func:`rotation_6d_to_matrix` lives in
+``pcnet.models.network``).
+
+Conventions (``CONVENTIONS.md``): rotation matrices act on column vectors, ``R`` maps the
+canonical frame to the camera frame, batches put the matrix in the last two axes
+``(..., 3, 3)``. Angles are radians unless a name ends in ``_deg``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .conventions import R_FRONTAL
+
+_EPS = 1e-8
+
+
+def normalize(v: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Unit vectors along ``axis``; zero-length vectors become NaN (never a silent zero)."""
+    n = np.linalg.norm(v, axis=axis, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > _EPS, v / n, np.nan)
+
+
+def rotation_6d_to_matrix(d6: np.ndarray) -> np.ndarray:
+    """6D representation ``(..., 6)`` -> rotation matrix ``(..., 3, 3)`` by Gram-Schmidt.
+
+    The 6D vector holds the first two columns of the matrix, ``[a1, a2]`` (Zhou et al. 2019,
+    "On the continuity of rotation representations", eq. 15-16):
+    ``b1 = a1/|a1|, b2 = normalize(a2 - (b1.a2) b1), b3 = b1 x b2``, ``R = [b1 b2 b3]``.
+    Degenerate inputs (``a1 = 0`` or ``a2 || a1``) give NaN.
+    """
+    d6 = np.asarray(d6, dtype=np.float64)
+    a1, a2 = d6[..., 0:3], d6[..., 3:6]
+    b1 = normalize(a1)
+    b2 = normalize(a2 - np.sum(b1 * a2, axis=-1, keepdims=True) * b1)
+    b3 = np.cross(b1, b2)
+    return np.stack([b1, b2, b3], axis=-1)
+
+
+def matrix_to_rotation_6d(R: np.ndarray) -> np.ndarray:
+    """Rotation matrix ``(..., 3, 3)`` -> 6D ``(..., 6)``: its first two columns, concatenated."""
+    R = np.asarray(R)
+    return np.concatenate([R[..., :, 0], R[..., :, 1]], axis=-1)
+
+
+def geodesic_angle(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
+    """Geodesic distance on SO(3), radians, ``(...)``: ``arccos((tr(R1 R2^T) - 1) / 2)``
+    with the argument clamped to [-1, 1] (3DPCNet paper eq. 1)."""
+    tr = np.einsum("...ij,...ij->...", R1, R2)  # tr(R1 R2^T)
+    return np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0))
+
+
+def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angle in radians between vectors ``(..., 3)``, robust near 0 and pi (atan2 form)."""
+    cross = np.linalg.norm(np.cross(u, v), axis=-1)
+    return np.arctan2(cross, np.sum(u * v, axis=-1))
+
+
+def twist_angle(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Swing-twist decomposition: signed angle (radians, in (-pi, pi]) of the twist of ``R``
+    ``(..., 3, 3)`` about the unit ``axis`` ``(3,)`` or ``(..., 3)``.
+
+    With quaternion ``q = (v, w)``, the twist is ``normalize(w, (v.a) a)``, so the angle is
+    ``2 atan2(v.a, w)``; it is the same for swing-then-twist and twist-then-swing.
+    """
+    shape = np.shape(R)[:-2]
+    q = Rotation.from_matrix(np.reshape(R, (-1, 3, 3))).as_quat()  # (x, y, z, w)
+    q = q.reshape(shape + (4,))
+    along = np.sum(q[..., :3] * axis, axis=-1)
+    ang = 2.0 * np.arctan2(along, q[..., 3])
+    return (ang + np.pi) % (2 * np.pi) - np.pi
+
+
+def axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
+    """Right-handed rotation matrices ``(..., 3, 3)`` about ``"x"``, ``"y"`` or ``"z"`` by
+    ``angle`` radians ``(...)`` (counter-clockwise looking down the axis)."""
+    angle = np.asarray(angle, dtype=np.float64)
+    c, s = np.cos(angle), np.sin(angle)
+    o, z = np.ones_like(angle), np.zeros_like(angle)
+    rows = {
+        "x": [[o, z, z], [z, c, -s], [z, s, c]],
+        "y": [[c, z, s], [z, o, z], [-s, z, c]],
+        "z": [[c, -s, z], [s, c, z], [z, z, o]],
+    }[axis]
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def compose_camera_rotation(heading: np.ndarray, pitch: np.ndarray, roll: np.ndarray) -> np.ndarray:
+    """Canonical->camera rotation ``(..., 3, 3)`` from heading, camera pitch and camera roll
+    (radians, each ``(...)``).
+
+    ``R = Rz(roll) @ Rx(pitch) @ R_FRONTAL @ Ry(heading)``: the subject turned by ``heading``
+    about its up axis (0 = facing the camera, positive = counter-clockwise seen from above),
+    seen by a frontal camera that is then pitched about its x axis (positive = looking
+    down at the subject, i.e. camera elevation) and rolled about its optical axis.
+    Inverse of :func:`decompose_camera_rotation`.
+    """
+    return axis_rotation("z", roll) @ axis_rotation("x", pitch) @ R_FRONTAL @ axis_rotation("y", heading)
+
+
+def decompose_camera_rotation(R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tilt/heading decomposition of canonical->camera rotations ``(..., 3, 3)``.
+
+    Returns ``(heading, pitch, roll)`` in radians with :func:`compose_camera_rotation`'s
+    meaning. Pitch and roll (the camera's tilt relative to gravity) depend only on the up
+    vector ``u = R[:, 1]`` in the camera frame: ``pitch = asin(-u_z)``,
+    ``roll = atan2(u_x, -u_y)``; heading is what is left about the up axis.
+    """
+    up = R[..., :, 1]
+    pitch = np.arcsin(np.clip(-up[..., 2], -1.0, 1.0))
+    roll = np.arctan2(up[..., 0], -up[..., 1])
+    M = np.swapaxes(R_FRONTAL, -1, -2) @ axis_rotation("x", -pitch) @ axis_rotation("z", -roll) @ R
+    heading = np.arctan2(M[..., 0, 2], M[..., 0, 0])
+    return heading, pitch, roll
+
+
+def _truncnormal(rng: np.random.Generator, sigma: float, clip: float, n: int) -> np.ndarray:
+    return np.clip(rng.normal(0.0, sigma, n), -clip, clip)
+
+
+def sample_camera_rotations(n: int, distribution: str, rng: np.random.Generator) -> np.ndarray:
+    """Sample ``n`` camera-like canonical->camera rotations ``(n, 3, 3)`` float64.
+
+    ``distribution`` (``CONVENTIONS.md``, "Camera-like rotation sampling"):
+
+    * ``"paper"`` (3DPCNet reference code): 75% yaw U(-70, 70), pitch N(0, 12) clip 20,
+      roll N(0, 4) clip 8; 15% yaw +-90 + N(0, 10), pitch N(0, 8) clip 15, roll N(0, 3)
+      clip 6; 10% yaw 180 + N(0, 20), pitch and roll as the side views; then
+      |pitch| <= 25, |roll| <= 12 (degrees).
+    * ``"wide"``: yaw U(-180, 180), pitch U(-45, 45), roll N(0, 10) clip 25.
+
+    Yaw is the camera's azimuth around the subject, so the subject's heading relative to
+    the camera is ``-yaw``; pitch is the camera's elevation, roll its tilt about its optical
+    axis (see :func:`compose_camera_rotation`).
+
+    Raises:
+        ValueError: for an unknown distribution name.
+    """
+    if distribution == "paper":
+        kind = rng.choice(3, size=n, p=[0.75, 0.15, 0.10])
+        yaw = rng.uniform(-70, 70, n)
+        pitch = _truncnormal(rng, 12, 20, n)
+        roll = _truncnormal(rng, 4, 8, n)
+        side_pitch = _truncnormal(rng, 8, 15, n)
+        side_roll = _truncnormal(rng, 3, 6, n)
+        side_yaw = rng.choice([-90.0, 90.0], size=n) + rng.normal(0, 10, n)
+        back_yaw = 180.0 + rng.normal(0, 20, n)
+        yaw = np.where(kind == 1, side_yaw, np.where(kind == 2, back_yaw, yaw))
+        pitch = np.clip(np.where(kind > 0, side_pitch, pitch), -25, 25)
+        roll = np.clip(np.where(kind > 0, side_roll, roll), -12, 12)
+    elif distribution == "wide":
+        yaw = rng.uniform(-180, 180, n)
+        pitch = rng.uniform(-45, 45, n)
+        roll = _truncnormal(rng, 10, 25, n)
+    else:
+        raise ValueError(f"unknown view distribution {distribution!r}; expected 'paper' or 'wide'")
+    return compose_camera_rotation(np.radians(-yaw), np.radians(pitch), np.radians(roll))
+
+
+def similarity_procrustes(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """Align ``X`` to ``Y`` with the best similarity transform per item (Umeyama 1991):
+    ``X_aligned = s X R + t`` minimising ``|X_aligned - Y|^2`` with ``R`` a proper rotation.
+
+    Args:
+        X, Y: ``(N, J, 3)``; joints that are NaN in either are ignored in the fit. An item
+        with fewer than 3 usable joints comes back NaN.
+
+    Returns:
+        ``(N, J, 3)`` float64, ``X`` aligned to ``Y``.
+    """
+    X = np.asarray(X, np.float64)
+    Y = np.asarray(Y, np.float64)
+    ok = np.isfinite(X).all(-1) & np.isfinite(Y).all(-1)  # (N, J)
+    w = ok[..., None].astype(np.float64)
+    cnt = np.maximum(w.sum(1, keepdims=True), 1.0)
+    Xz, Yz = np.where(ok[..., None], X, 0.0), np.where(ok[..., None], Y, 0.0)
+    mx, my = (Xz * w).sum(1, keepdims=True) / cnt, (Yz * w).sum(1, keepdims=True) / cnt
+    X0, Y0 = (Xz - mx) * w, (Yz - my) * w
+    H = np.swapaxes(X0, 1, 2) @ Y0  # (N, 3, 3)
+    U, S, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(U @ Vt))
+    D = np.ones_like(S)
+    D[:, -1] = d
+    R = (U * D[:, None, :]) @ Vt
+    varx = (X0**2).sum((1, 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = (S * D).sum(-1) / varx
+    out = s[:, None, None] * ((X - mx) @ R) + my
+    out[ok.sum(1) < 3] = np.nan
+    return out

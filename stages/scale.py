@@ -1,0 +1,128 @@
+"""Metric scaling of non-metric lifter output from the subject's height.
+
+MotionBERT's default output is in normalised image units (formats.md section 1.3) and
+no lifter recovers metres from one camera. Given the subject's standing height, one
+scale factor per sequence turns the skeleton into metres.
+
+The estimate uses **bone lengths, not vertical extent**, so it does not need a standing
+frame: a lying, crouching or cartwheeling subject scales the same way.
+
+Derivation of :data:`CHAIN_TO_STATURE`
+--------------------------------------
+The chain is ankle -> knee -> hip (leg; left and right averaged) plus
+pelvis -> spine -> thorax -> neck_nose -> head (trunk, neck and head).
+
+* In the Human3.6M reference skeleton (the 32-joint offsets shipped with H36M and used
+  by Martinez et al. 2017, ``human-motion-prediction/src/forward_kinematics.py``,
+  millimetres) these bones are exactly collinear and vertical in the rest pose:
+  shank 454.21, thigh 442.89, pelvis->spine 233.38, spine->thorax 257.08,
+  thorax->neck_nose 121.13, neck_nose->head 115.00; sum 1623.7 mm. H36M-17 joint 10
+  ("head") is that skeleton's head end site, i.e. the top of the head, and the hip
+  joints sit level with the pelvis (a purely lateral 132.95 mm offset). So the chain
+  spans ankle joint -> vertex of a standing subject.
+* Stature adds the ankle-joint height above the floor, 0.039 H (Drillis & Contini 1966,
+  as tabulated in Winter, *Biomechanics and Motor Control of Human Movement*, 4th ed.,
+  2009, fig. 4.1).
+* Hence chain = (1 - 0.039) H and ``CHAIN_TO_STATURE = 0.961``.
+
+The lateral pelvis->hip bones are left out of the chain on purpose: in that skeleton
+they are horizontal and add nothing to stature. Assumptions, stated so users can judge
+them: the subject's proportions match H36M's head-to-ankle proportions; the lifter's
+bone lengths are those of a real skeleton up to one scale. Body proportions alone vary
+by a few per cent between people (Winter's leg fraction 0.491 H would give an H36M
+stature of 1.83 m against 1.69 m from the whole chain), so expect about +-5 % on the
+scale.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .conventions import (
+    HEAD,
+    L_ANKLE,
+    L_HIP,
+    L_KNEE,
+    NECK_NOSE,
+    PELVIS,
+    R_ANKLE,
+    R_HIP,
+    R_KNEE,
+    SPINE,
+    THORAX,
+    check_poses,
+)
+
+#: Head-to-ankle bone chain divided by stature (module docstring: H36M reference
+#: skeleton + Drillis & Contini ankle height 0.039 H).
+CHAIN_TO_STATURE = 1.0 - 0.039
+
+_LEG_BONES = (((R_ANKLE, R_KNEE), (R_KNEE, R_HIP)), ((L_ANKLE, L_KNEE), (L_KNEE, L_HIP)))
+_AXIAL_BONES = ((PELVIS, SPINE), (SPINE, THORAX), (THORAX, NECK_NOSE), (NECK_NOSE, HEAD))
+
+
+def _bone_length(X: np.ndarray, a: int, b: int) -> np.ndarray:
+    return np.linalg.norm(X[:, b] - X[:, a], axis=-1)
+
+
+def height_chain_length(joints: np.ndarray) -> np.ndarray:
+    """Per-frame standing-height proxy: the head-to-ankle chain of bone lengths.
+
+    ``shank + thigh`` (mean of left and right; one side alone when the other is NaN)
+    ``+ |pelvis-spine| + |spine-thorax| + |thorax-neck_nose| + |neck_nose-head|``.
+
+    Args:
+        joints: ``(T, 17, 3)`` H36M-17, any frame, any units.
+
+    Returns:
+        ``(T,)`` float64 in the units of ``joints``; NaN where the chain is incomplete.
+
+    Raises:
+        ValueError: wrong shape.
+    """
+    X = check_poses(joints, "joints").astype(np.float64)
+    legs = np.stack([sum(_bone_length(X, a, b) for a, b in side) for side in _LEG_BONES], -1)
+    # One visible leg is enough: left and right legs have the same length.
+    n = np.isfinite(legs).sum(-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        leg = np.where(n > 0, np.nansum(legs, axis=-1) / n, np.nan)
+    axial = sum(_bone_length(X, a, b) for a, b in _AXIAL_BONES)
+    return leg + axial
+
+
+def scale_to_height(joints: np.ndarray, height_m: float) -> tuple[np.ndarray, float]:
+    """Scale a pose sequence to metres from the subject's standing height.
+
+    ``factor = height_m / (median_t chain_t / CHAIN_TO_STATURE)``, where ``chain_t`` is
+    :func:`height_chain_length` and the median runs over the frames where the chain is
+    finite and positive (robust to frames with a mis-estimated limb). See the module
+    docstring for the derivation of ``CHAIN_TO_STATURE = 0.961`` (H36M reference skeleton,
+    Drillis & Contini / Winter 2009 ankle height) and its +-5 % uncertainty.
+
+    Args:
+        joints: ``(T, 17, 3)`` (or ``(17, 3)``) H36M-17 poses in any frame and any
+            consistent units (normalised, pixels, metres); NaN for missing joints.
+        height_m: the subject's standing height in metres.
+
+    Returns:
+        ``(scaled, factor)``: ``scaled`` float32 ``(T, 17, 3)`` = ``joints * factor`` in
+        metres (NaN stays NaN), and ``factor`` (float, metres per input unit).
+
+    Raises:
+        ValueError: ``height_m`` not a finite number > 0, wrong shape, or no frame with a
+            complete head-to-ankle chain.
+    """
+    if not np.isfinite(height_m) or height_m <= 0:
+        raise ValueError(f"height_m must be a finite height in metres > 0, got {height_m!r}")
+    X = check_poses(joints, "joints")
+    chain = height_chain_length(X)
+    good = np.isfinite(chain) & (chain > 0)
+    if not good.any():
+        raise ValueError(
+            "scale_to_height: no frame has a complete ankle-knee-hip / pelvis-spine-thorax-"
+            "neck_nose-head chain, so the skeleton size cannot be estimated"
+        )
+    stature = float(np.median(chain[good])) / CHAIN_TO_STATURE
+    factor = float(height_m) / stature
+    return (X.astype(np.float64) * factor).astype(np.float32), factor
+

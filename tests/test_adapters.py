@@ -1,0 +1,745 @@
+"""pcnet.adapters on real data: shapes, layouts, NaN for missing, person selection,
+left/right and axis checks from physical facts of the recordings, and bad input.
+
+Fixtures (tests/fixtures/README.md) are verbatim cuts of ../shared/data/real. MMPose and
+OpenPose have no real files there, so their inputs are the real AlphaPose detections
+rewritten in those writers' schemas (formats.md 3.2); DDHPose inputs stack real
+VideoPose3D poses into its hypothesis axes. Full-data checks skip without ../shared/data.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pcnet.adapters import (
+    AdapterError,
+    Keypoints2D,
+    Poses3D,
+    available_2d,
+    available_3d,
+    axes_to_camera,
+    get_2d_adapter,
+    get_3d_adapter,
+    iter_frames,
+    load_alphapose,
+    load_ddhpose,
+    load_generic,
+    load_mediapipe_2d,
+    load_mediapipe_3d,
+    load_mmpose,
+    load_motionbert,
+    load_openpose,
+    load_videopose3d,
+    probe_video,
+    read_frame,
+    register_3d,
+)
+from pcnet.adapters.registry import unregister
+from pcnet.stages.conventions import (
+    HEAD, L_ANKLE, L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_ANKLE, R_HIP, R_SHOULDER, THORAX, get_layout,
+)
+from pcnet.stages.remap import remap_to_h36m
+
+FIX = Path(__file__).resolve().parent / "fixtures"
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+BOXING_AP = FIX / "boxing_alphapose_f000-059.json"  # frames 0-59, one detection each, idx 1
+AP809 = FIX / "alphapose809_f130-159.json"  # frames 130-159, two detections in frame 144
+BOXING_X3D = FIX / "boxing_X3D_f000-059.npy"
+MEDIAPIPE = FIX / "mediapipe_blazepose33_f000-059.npz"  # frames 0-2 have no person
+YOGA = {  # 100-frame windows where each pose is held
+    "Tadasana": FIX / "yoga_Abhay_Tadasana_f000-099.npy",  # standing, facing the camera
+    "Shavasana": FIX / "yoga_Abhay_Shavasana_f200-299.npy",  # lying on the back, side view
+    "Bhujangasana": FIX / "yoga_Abhay_Bhujangasana_f150-249.npy",  # cobra: prone, chest up
+}
+CLIP = FIX / "boxing2_f000-009.mp4"
+
+
+def shared(*parts: str) -> Path:
+    if not SHARED.exists():
+        pytest.skip(f"../shared/data not present: {SHARED} (full-data check)")
+    p = SHARED.joinpath(*parts)
+    if not p.exists():
+        pytest.skip(f"../shared/data not present: {p} missing")
+    return p
+
+
+def raw_entries(path: Path) -> list[dict]:
+    return json.loads(path.read_text())
+
+
+def frac(mask: np.ndarray) -> float:
+    return float(np.mean(mask))
+
+
+def assert_names_file(err: pytest.ExceptionInfo, path: Path) -> None:
+    msg = str(err.value)
+    assert Path(path).name in msg, msg
+    assert "\n" not in msg
+
+
+# --------------------------------------------------------------------------- types, registry
+
+
+def test_adapter_error_is_one_line_with_file_field_expected():
+    err = AdapterError("/x/y.json", "keypoints", "51 or 78 values\nper detection", got=40)
+    assert isinstance(err, ValueError)
+    assert str(err) == "file '/x/y.json': field 'keypoints': expected 51 or 78 values per detection, got 40"
+    assert (err.path, err.field, err.got) == ("/x/y.json", "keypoints", 40)
+
+
+def test_result_types_validate_their_arrays():
+    pts = np.zeros((2, 17, 3), np.float32)
+    assert Keypoints2D(pts, "coco17", "a").num_frames == 2
+    with pytest.raises(ValueError, match="shape"):
+        Keypoints2D(pts, "halpe26", "a")
+    with pytest.raises(ValueError, match="float32"):
+        Keypoints2D(pts.astype(np.float64), "coco17", "a")
+    with pytest.raises(ValueError, match="units"):
+        Poses3D(pts, "h36m17", units="mm")
+    with pytest.raises(ValueError, match="camera"):
+        Poses3D(pts, "h36m17", frame="world")
+
+
+def test_registry_lists_and_returns_builtin_adapters():
+    assert available_2d() == ["alphapose", "mediapipe", "mmpose", "openpose"]
+    assert available_3d() == ["ddhpose", "generic", "mediapipe", "motionbert", "videopose3d"]
+    kp = get_2d_adapter("alphapose").load(BOXING_AP, num_frames=70)
+    assert isinstance(kp, Keypoints2D) and kp.num_frames == 70
+    assert isinstance(get_3d_adapter("videopose3d").load(YOGA["Tadasana"]), Poses3D)
+    with pytest.raises(ValueError, match="available"):
+        get_2d_adapter("no_such_detector")
+
+
+def test_registering_a_user_adapter(tmp_path):
+    @register_3d("test_rub_mm")
+    class RubMillimetres:
+        def load(self, path, **options):
+            return load_generic(path, axes="RUB", units="mm")
+
+    try:
+        assert "test_rub_mm" in available_3d()
+        base = np.load(YOGA["Tadasana"])
+        np.save(tmp_path / "p.npy", base * np.array([1000, -1000, -1000], np.float32))
+        out = get_3d_adapter("test_rub_mm").load(tmp_path / "p.npy")
+        np.testing.assert_allclose(out.joints, base, atol=1e-6)
+        with pytest.raises(ValueError, match="already used"):
+            register_3d("test_rub_mm")(type("Other", (), {"load": lambda self, p: None}))
+        with pytest.raises(TypeError, match="load"):
+            register_3d("test_no_load")(type("NoLoad", (), {}))
+    finally:
+        unregister("test_rub_mm", "3d")
+    assert "test_rub_mm" not in available_3d()
+
+
+# --------------------------------------------------------------------------- AlphaPose
+
+
+def test_alphapose_boxing_shapes_and_confidence_clipping():
+    kp = load_alphapose(BOXING_AP)
+    raw = np.array([e["keypoints"] for e in raw_entries(BOXING_AP)], np.float32).reshape(60, 26, 3)
+    assert kp.points.shape == (60, 26, 3) and kp.points.dtype == np.float32
+    assert kp.layout == "halpe26" and kp.track_id == 1
+    np.testing.assert_array_equal(kp.points[..., :2], raw[..., :2])
+    assert raw[..., 2].max() > 1.0  # AlphaPose scores are not bounded by 1 ...
+    assert kp.points[..., 2].max() == 1.0  # ... so the adapter clips them
+    np.testing.assert_array_equal(kp.points[..., 2], np.clip(raw[..., 2], 0, 1))
+    assert "clipped" in kp.notes
+
+
+def test_alphapose_boxing_left_right_after_remap():
+    # The boxer faces image-left (towards the bag) in an orthodox stance: toes point left
+    # and the left (lead) foot is the one further left in the image.
+    kp = load_alphapose(BOXING_AP)
+    halpe = kp.points
+    assert frac(halpe[:, 20, 0] < halpe[:, 24, 0]) == 1.0  # left big toe ahead of left heel
+    h36m = remap_to_h36m(kp.points, kp.layout, confidence_channel=True)
+    assert frac(h36m[:, L_ANKLE, 0] < h36m[:, R_ANKLE, 0]) == 1.0
+    assert frac(h36m[:, L_HIP, 0] < h36m[:, R_HIP, 0]) > 0.7
+    assert frac(h36m[:, NECK_NOSE, 0] < h36m[:, PELVIS, 0]) == 1.0
+
+
+def test_alphapose_809_two_people_frame_is_deterministic(tmp_path):
+    entries = raw_entries(AP809)
+    in_144 = [e for e in entries if e["image_id"] == "144.jpg"]
+    assert len(in_144) == 2 and in_144[0]["score"] > in_144[1]["score"]
+    kp = load_alphapose(AP809)
+    # Frames are indexed by image_id: the cut starts at frame 130, so 0-129 are NaN.
+    assert kp.points.shape == (160, 26, 3)
+    assert np.isnan(kp.points[:130]).all() and np.isfinite(kp.points[130:]).all()
+    assert kp.track_id == 0  # list-form idx [0.0] / [[0.0], [0.0]] without a tracker
+    best = np.array(in_144[0]["keypoints"], np.float32).reshape(26, 3)
+    np.testing.assert_array_equal(kp.points[144, :, :2], best[:, :2])
+    assert "[144]" in kp.notes and "list-form" in kp.notes
+    # File order does not matter.
+    rev = tmp_path / "reversed.json"
+    rev.write_text(json.dumps(entries[::-1]))
+    np.testing.assert_array_equal(load_alphapose(rev).points, kp.points)
+    np.testing.assert_array_equal(load_alphapose(AP809, person=0).points, kp.points)
+    with pytest.raises(AdapterError, match="idx") as err:
+        load_alphapose(AP809, person=1)
+    assert_names_file(err, AP809)
+
+
+def test_alphapose_track_choice_by_summed_score_and_tie_break(tmp_path):
+    entries = raw_entries(BOXING_AP)
+    # Track 7: frames 0-29 only, better per frame (score + 1) but a lower sum over the video.
+    intruder = []
+    for e in entries[:30]:
+        f = dict(e, idx=7, score=e["score"] + 1.0)
+        f["keypoints"] = [v + 100.0 if i % 3 == 0 else v for i, v in enumerate(e["keypoints"])]
+        intruder.append(f)
+    path = tmp_path / "two_tracks.json"
+    path.write_text(json.dumps(intruder + entries))
+    base = load_alphapose(BOXING_AP).points
+    chosen = load_alphapose(path)
+    assert chosen.track_id == 1
+    np.testing.assert_array_equal(chosen.points, base)
+    seven = load_alphapose(path, person=7)
+    assert seven.track_id == 7 and seven.points.shape == (60, 26, 3)
+    np.testing.assert_array_equal(seven.points[:30, :, 0], base[:30, :, 0] + 100.0)
+    assert np.isnan(seven.points[30:]).all()
+    # Equal sums: the lower id wins, whatever the order in the file.
+    tie = tmp_path / "tie.json"
+    tie.write_text(json.dumps([dict(e, idx=4) for e in entries] + [dict(e, idx=2) for e in entries]))
+    assert load_alphapose(tie).track_id == 2
+
+
+def test_alphapose_frames_and_layouts(tmp_path):
+    padded = load_alphapose(BOXING_AP, num_frames=75)
+    assert padded.points.shape == (75, 26, 3) and np.isnan(padded.points[60:]).all()
+    with pytest.raises(AdapterError, match="num_frames"):
+        load_alphapose(BOXING_AP, num_frames=50)
+    coco = tmp_path / "coco.json"
+    coco.write_text(json.dumps([dict(e, keypoints=e["keypoints"][:51]) for e in raw_entries(BOXING_AP)]))
+    kp = load_alphapose(coco)
+    assert kp.layout == "coco17" and kp.points.shape == (60, 17, 3)
+    np.testing.assert_array_equal(kp.points[..., :2], load_alphapose(BOXING_AP).points[:, :17, :2])
+
+
+# --------------------------------------------------------------------------- MMPose (real detections, MMPose schema)
+
+
+def _mm_instance(e: dict, n: int | None = None) -> dict:
+    kp = np.array(e["keypoints"]).reshape(-1, 3)[:n]
+    x, y, w, h = e["box"]
+    return {"keypoints": kp[:, :2].tolist(), "keypoint_scores": kp[:, 2].tolist(),
+            "bbox": [[x, y, x + w, y + h]], "bbox_score": e["score"]}
+
+
+def _mm_frames(entries: list[dict], base: int, n: int | None = None) -> list[dict]:
+    by_frame: dict[int, list] = {}
+    for e in entries:
+        by_frame.setdefault(int(e["image_id"][:-4]), []).append(_mm_instance(e, n))
+    return [{"frame_id": f + base, "instances": inst} for f, inst in sorted(by_frame.items())]
+
+
+def test_mmpose_both_writers_match_alphapose(tmp_path):
+    entries = raw_entries(AP809)
+    demo = tmp_path / "demo_preds.json"  # topdown_demo_with_mmdet: 1-based frame_id
+    demo.write_text(json.dumps({"meta_info": {"dataset_name": "halpe26"}, "instance_info": _mm_frames(entries, 1)}))
+    infer = tmp_path / "video.json"  # MMPoseInferencer: 0-based frame_id
+    infer.write_text(json.dumps(_mm_frames(entries, 0)))
+    ref = load_alphapose(AP809).points
+    for path in (demo, infer):
+        kp = load_mmpose(path)
+        assert kp.layout == "halpe26" and kp.points.shape == (160, 26, 3) and kp.track_id is None
+        # Frame 144: the instance with the higher mean keypoint score is AlphaPose's choice too.
+        np.testing.assert_array_equal(kp.points, ref)
+    assert "1-based" in load_mmpose(demo).notes and "0-based" in load_mmpose(infer).notes
+    second = load_mmpose(infer, person=1)
+    assert np.isfinite(second.points).all(axis=(1, 2)).nonzero()[0].tolist() == [144]
+    other = np.array([e for e in entries if e["image_id"] == "144.jpg"][1]["keypoints"]).reshape(26, 3)
+    np.testing.assert_allclose(second.points[144, :, :2], other[:, :2])
+
+
+def test_mmpose_wholebody_and_single_image(tmp_path):
+    entries = raw_entries(BOXING_AP)
+    frames = _mm_frames(entries, 0, n=17)
+    for fr in frames:  # COCO-WholeBody: 17 body joints then 116 feet/face/hands
+        for inst in fr["instances"]:
+            inst["keypoints"] += [[0.0, 0.0]] * 116
+            inst["keypoint_scores"] += [0.0] * 116
+    wb = tmp_path / "wholebody.json"
+    wb.write_text(json.dumps(frames))
+    kp = load_mmpose(wb)
+    assert kp.layout == "coco17" and kp.points.shape == (60, 17, 3)
+    np.testing.assert_allclose(kp.points[..., :2], load_alphapose(BOXING_AP).points[:, :17, :2])
+    single = tmp_path / "image.json"
+    single.write_text(json.dumps([_mm_instance(entries[5])]))
+    one = load_mmpose(single)
+    assert one.points.shape == (1, 26, 3)
+    np.testing.assert_allclose(one.points[0, :, :2], load_alphapose(BOXING_AP).points[5, :, :2])
+
+
+def test_mmpose_and_alphapose_refuse_each_others_files(tmp_path):
+    mm = tmp_path / "mm.json"
+    mm.write_text(json.dumps(_mm_frames(raw_entries(BOXING_AP), 0)))
+    with pytest.raises(AdapterError, match="image_id") as err:
+        load_alphapose(mm)
+    assert_names_file(err, mm)
+    with pytest.raises(AdapterError, match="frame_id") as err:
+        load_mmpose(BOXING_AP)
+    assert_names_file(err, BOXING_AP)
+    demo_dict = tmp_path / "dict.json"
+    demo_dict.write_text(json.dumps({"meta_info": {}, "instance_info": _mm_frames(raw_entries(BOXING_AP), 1)}))
+    with pytest.raises(AdapterError, match="list of detections") as err:
+        load_alphapose(demo_dict)
+    assert_names_file(err, demo_dict)
+
+
+def test_mmpose_wrong_joint_count(tmp_path):
+    bad = tmp_path / "twenty.json"
+    bad.write_text(json.dumps(_mm_frames(raw_entries(BOXING_AP), 0, n=20)))
+    with pytest.raises(AdapterError, match="20 joints") as err:
+        load_mmpose(bad)
+    assert_names_file(err, bad)
+
+
+# --------------------------------------------------------------------------- OpenPose (real detections, OpenPose schema)
+
+
+def _write_openpose(folder: Path, people_by_frame: dict[int, list[list[float]]]) -> Path:
+    folder.mkdir()
+    for frame, people in people_by_frame.items():
+        doc = {"version": 1.3, "people": [
+            {"person_id": [-1], "pose_keypoints_2d": kp, "face_keypoints_2d": [],
+             "hand_left_keypoints_2d": [], "hand_right_keypoints_2d": []} for kp in people]}
+        (folder / f"clip_{frame:012d}_keypoints.json").write_text(json.dumps(doc))
+    return folder
+
+
+def _halpe_people(entries: list[dict]) -> dict[int, list[list[float]]]:
+    by_frame: dict[int, list] = {}
+    for e in entries[::-1]:  # frame 144: the weaker detection comes first
+        by_frame.setdefault(int(e["image_id"][:-4]), []).append(list(e["keypoints"]))
+    return by_frame
+
+
+def test_openpose_folder_selection_and_missing(tmp_path):
+    people = _halpe_people(raw_entries(AP809))
+    del people[135]  # no file for this frame
+    people[140] = []  # a file with nobody
+    people[131][0][3 * 11: 3 * 11 + 3] = [0.0, 0.0, 0.0]  # undetected left hip
+    kp = load_openpose(_write_openpose(tmp_path / "op", people))
+    ref = load_alphapose(AP809).points
+    assert kp.layout == "halpe26" and kp.points.shape == (160, 26, 3)
+    assert np.isnan(kp.points[[135, 140]]).all() and np.isnan(kp.points[:130]).all()
+    assert np.isnan(kp.points[131, 11]).all() and np.isfinite(kp.points[131, 12]).all()
+    keep = [f for f in range(130, 160) if f not in (131, 135, 140)]
+    np.testing.assert_array_equal(kp.points[keep], ref[keep])  # incl. frame 144's stronger person
+
+
+def test_openpose_body25_from_real_detections(tmp_path):
+    halpe, body25 = get_layout("halpe26"), get_layout("body25")
+    names = {n: i for i, n in enumerate(halpe.joints)} | {"mid_hip": halpe.joints.index("hip")}
+    order = [names[n] for n in body25.joints]
+    ref = load_alphapose(BOXING_AP)
+    people = {f: [ref.points[f, order].ravel().tolist()] for f in range(60)}
+    kp = load_openpose(_write_openpose(tmp_path / "b25", people))
+    assert kp.layout == "body25" and kp.points.shape == (60, 25, 3)
+    a = remap_to_h36m(kp.points, "body25", confidence_channel=True)
+    b = remap_to_h36m(ref.points, "halpe26", confidence_channel=True)
+    same = [k for k in range(17) if k != HEAD]  # BODY_25 has no head top: mid-eyes instead
+    np.testing.assert_allclose(a[:, same], b[:, same], atol=1e-4)
+    assert frac(a[:, L_ANKLE, 0] < a[:, R_ANKLE, 0]) == 1.0
+
+
+def test_openpose_bad_inputs(tmp_path):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(AdapterError, match="keypoints.json") as err:
+        load_openpose(empty)
+    assert_names_file(err, empty)
+    with pytest.raises(AdapterError, match="folder"):
+        load_openpose(BOXING_AP)
+    wrong = tmp_path / "wrong"
+    wrong.mkdir()
+    bad_file = wrong / "clip_000000000000_keypoints.json"
+    bad_file.write_text(BOXING_AP.read_text())  # an AlphaPose list, not an OpenPose frame
+    with pytest.raises(AdapterError, match="people") as err:
+        load_openpose(wrong)
+    assert_names_file(err, bad_file)
+    coco18 = _write_openpose(tmp_path / "coco18", {0: [[1.0, 2.0, 0.5] * 18]})
+    with pytest.raises(AdapterError, match="18 joints"):
+        load_openpose(coco18)
+
+
+# --------------------------------------------------------------------------- MediaPipe
+
+
+def test_mediapipe_2d_shapes_nan_and_left_right():
+    kp = load_mediapipe_2d(MEDIAPIPE)
+    assert kp.layout == "blazepose33" and kp.points.shape == (60, 33, 3)
+    empty = np.isnan(kp.points).all(axis=(1, 2))
+    assert empty.nonzero()[0].tolist() == [0, 1, 2]  # MediaPipe found nobody there
+    assert np.isfinite(kp.points[3:]).all()
+    assert np.nanmin(kp.points[..., 2]) >= 0 and np.nanmax(kp.points[..., 2]) <= 1
+    # Frames 3-59: the man on the box faces the camera, so his left is image right.
+    h36m = remap_to_h36m(kp.points[3:], kp.layout, confidence_channel=True)
+    assert frac(h36m[:, L_HIP, 0] > h36m[:, R_HIP, 0]) > 0.85
+    assert frac(h36m[:, L_SHOULDER, 0] > h36m[:, R_SHOULDER, 0]) > 0.85
+
+
+def test_mediapipe_world_landmarks_are_in_the_camera_frame():
+    p3 = load_mediapipe_3d(MEDIAPIPE)
+    assert p3.units == "m" and p3.frame == "camera" and p3.layout == "blazepose33"
+    assert np.isnan(p3.joints[:3]).all()
+    h = remap_to_h36m(p3.joints[3:], p3.layout)
+    assert np.abs(h[:, PELVIS]).max() < 0.01  # MediaPipe's origin is the mid-hip
+    # Facing the camera: left at +x (right in the image), nose nearer (smaller z) than the
+    # pelvis, head above (smaller y) the ankles; metres: hips about 0.1-0.4 m apart.
+    assert frac(h[:, L_HIP, 0] > h[:, R_HIP, 0]) > 0.85
+    assert frac(h[:, NECK_NOSE, 2] < h[:, PELVIS, 2]) > 0.85
+    assert frac(h[:, HEAD, 1] < np.minimum(h[:, L_ANKLE, 1], h[:, R_ANKLE, 1])) > 0.9
+    hip_width = np.linalg.norm(h[:, L_HIP] - h[:, R_HIP], axis=-1)
+    assert 0.1 < np.median(hip_width) < 0.4
+    # The 3D left/right agrees with the 2D one frame by frame.
+    kp = remap_to_h36m(load_mediapipe_2d(MEDIAPIPE).points[3:], "blazepose33")
+    agree = np.sign(kp[:, L_HIP, 0] - kp[:, R_HIP, 0]) == np.sign(h[:, L_HIP, 0] - h[:, R_HIP, 0])
+    assert frac(agree) > 0.85
+
+
+def test_mediapipe_full_file_nan_frames():
+    path = shared("real", "sports2d_demo", "mediapipe_blazepose33.npz")
+    kp, p3 = load_mediapipe_2d(path), load_mediapipe_3d(path)
+    assert kp.points.shape == p3.joints.shape == (230, 33, 3)
+    empty = np.isnan(p3.joints).all(axis=(1, 2)).nonzero()[0].tolist()
+    assert empty == [0, 1, 2, 169, 201, 227, 228, 229]
+    assert np.isnan(kp.points).all(axis=(1, 2)).nonzero()[0].tolist() == empty
+
+
+# --------------------------------------------------------------------------- MotionBERT
+
+
+def test_motionbert_fixture_units_and_notes():
+    p3 = load_motionbert(BOXING_X3D)
+    assert p3.joints.shape == (60, 17, 3) and p3.layout == "h36m17" and p3.units == "normalised"
+    assert p3.joints[0, PELVIS, 2] == 0.0  # first frame of a 243-frame clip
+    assert "243" in p3.notes and "zeroed" in p3.notes
+    assert np.abs(p3.joints).max() < 1.5
+
+
+def test_motionbert_axes_on_the_boxer():
+    h = load_motionbert(BOXING_X3D).joints
+    assert frac(h[:, HEAD, 1] < h[:, PELVIS, 1]) == 1.0  # y down
+    # Facing image-left with the left side towards the camera (left = up x forward):
+    assert frac(h[:, L_HIP, 2] < h[:, R_HIP, 2]) == 1.0
+    assert frac(h[:, L_SHOULDER, 2] < h[:, R_SHOULDER, 2]) == 1.0
+    assert frac(h[:, L_ANKLE, 0] < h[:, R_ANKLE, 0]) == 1.0  # lead foot, as in the 2D
+
+
+def test_motionbert_pixel_mode(tmp_path):
+    norm = np.load(BOXING_X3D)
+    w, h = 854, 480  # infer_wild --pixel: out * min(w, h) / 2, then x, y += (w/2, h/2)
+    px = norm * (min(w, h) / 2)
+    px[..., :2] += [w / 2, h / 2]
+    path = tmp_path / "X3D_pixel.npy"
+    np.save(path, px.astype(np.float32))
+    p3 = load_motionbert(path, pixel=True)
+    assert p3.units == "px"
+    np.testing.assert_allclose(p3.joints, px, rtol=1e-6)
+    with pytest.raises(AdapterError, match="pixel=True") as err:
+        load_motionbert(path)
+    assert_names_file(err, path)
+    with pytest.raises(AdapterError, match="pixel=False"):
+        load_motionbert(BOXING_X3D, pixel=True)
+
+
+def test_motionbert_full_file_clip_boundary():
+    p3 = load_motionbert(shared("real", "boxing_motionbert", "X3D.npy"))
+    assert p3.joints.shape == (301, 17, 3)
+    assert p3.joints[0, PELVIS, 2] == 0.0 and p3.joints[243, PELVIS, 2] == 0.0
+    assert p3.joints[242, PELVIS, 2] != 0.0
+    assert "0, 243" in p3.notes
+
+
+# --------------------------------------------------------------------------- DDHPose / D3DP
+
+
+def _hypotheses(tmp_path: Path) -> tuple[np.ndarray, Path, Path]:
+    base = np.load(YOGA["Tadasana"])
+    k, hyp = 2, 3
+    offset = np.array([[k_ * 0.1 + (h_ - 1) * 0.01 for h_ in range(hyp)] for k_ in range(k)], np.float32)
+    arr5 = base[None, None] + offset[:, :, None, None, None]  # (K, H, N, 17, 3)
+    p5, p4 = tmp_path / "test_3d_yoga_output.npy", tmp_path / "four.npy"
+    np.save(p5, arr5)
+    np.save(p4, arr5[0])
+    return base, p5, p4
+
+
+def test_ddhpose_steps_and_hypotheses(tmp_path):
+    base, p5, p4 = _hypotheses(tmp_path)
+    mean = load_ddhpose(p5)  # last step, mean over hypotheses
+    assert mean.joints.shape == (100, 17, 3) and mean.units == "m" and mean.layout == "h36m17"
+    np.testing.assert_allclose(mean.joints, base + 0.1, atol=1e-6)
+    np.testing.assert_allclose(load_ddhpose(p5, step=0).joints, base, atol=1e-6)
+    np.testing.assert_allclose(load_ddhpose(p5, hypothesis=2).joints, base + 0.11, atol=1e-6)
+    np.testing.assert_allclose(load_ddhpose(p4, hypothesis=0).joints, base - 0.01, atol=1e-6)
+    np.testing.assert_allclose(load_ddhpose(YOGA["Tadasana"]).joints, base)
+    assert "hypothesis 2" in load_ddhpose(p5, hypothesis=2).notes
+
+
+def test_ddhpose_bad_options_and_files(tmp_path):
+    _, p5, _ = _hypotheses(tmp_path)
+    for kwargs in ({"hypothesis": 3}, {"hypothesis": "median"}, {"step": 2}):
+        with pytest.raises(AdapterError) as err:
+            load_ddhpose(p5, **kwargs)
+        assert_names_file(err, p5)
+    with pytest.raises(AdapterError, match="hypothesis"):
+        load_ddhpose(YOGA["Tadasana"], hypothesis=1)
+    post = tmp_path / "test_3d_output_yoga_postprocess.npy"
+    np.save(post, np.load(YOGA["Tadasana"]))
+    with pytest.raises(AdapterError, match="_postprocess"):
+        load_ddhpose(post)
+    mat = tmp_path / "inference_data_P_Agg.mat"
+    mat.write_bytes(b"MATLAB 5.0")
+    with pytest.raises(AdapterError, match="MPI-INF-3DHP"):
+        load_ddhpose(mat)
+
+
+# --------------------------------------------------------------------------- VideoPose3D
+
+
+def test_videopose3d_standing_and_lying_poses():
+    stand = load_videopose3d(YOGA["Tadasana"])
+    assert stand.joints.shape == (100, 17, 3) and stand.units == "m" and stand.layout == "h36m17"
+    h = stand.joints
+    # Tadasana: standing, facing the camera.
+    assert frac(h[:, L_HIP, 0] > h[:, R_HIP, 0]) == 1.0
+    assert frac(h[:, HEAD, 1] < h[:, PELVIS, 1]) == 1.0
+    assert frac(h[:, NECK_NOSE, 2] < h[:, PELVIS, 2]) > 0.9
+    assert 0.15 < np.median(np.linalg.norm(h[:, L_HIP] - h[:, R_HIP], axis=-1)) < 0.35  # metres
+    trunk = h[:, THORAX] - h[:, PELVIS]
+    assert np.all(np.abs(trunk[:, 1]) > 3 * np.abs(trunk[:, 0]))
+    # Shavasana: lying, seen from the side: trunk and legs run along image x, opposite ways.
+    lying = load_videopose3d(YOGA["Shavasana"]).joints
+    trunk = lying[:, THORAX] - lying[:, PELVIS]
+    legs = (lying[:, L_ANKLE] + lying[:, R_ANKLE]) / 2 - lying[:, PELVIS]
+    assert np.all(np.abs(trunk[:, 0]) > 3 * np.abs(trunk[:, 1]))
+    assert np.all(np.abs(legs[:, 0]) > 3 * np.abs(legs[:, 1])) and np.all(trunk[:, 0] * legs[:, 0] < 0)
+    # Bhujangasana: legs along the floor, chest lifted above the pelvis.
+    cobra = load_videopose3d(YOGA["Bhujangasana"]).joints
+    legs = (cobra[:, L_ANKLE] + cobra[:, R_ANKLE]) / 2 - cobra[:, PELVIS]
+    assert np.all(np.abs(legs[:, 0]) > 3 * np.abs(legs[:, 1]))
+    assert frac(cobra[:, HEAD, 1] < cobra[:, PELVIS, 1]) == 1.0
+
+
+def test_videopose3d_all_real_exports_load():
+    folder = shared("real", "yoga_videopose3d")
+    files = sorted(folder.glob("*.npy"))
+    assert len(files) >= 90
+    for f in files:
+        p3 = load_videopose3d(f)
+        assert p3.joints.shape[1:] == (17, 3) and np.isfinite(p3.joints).all()
+        assert np.abs(p3.joints[:, PELVIS]).max() < 1e-3
+
+
+# --------------------------------------------------------------------------- generic
+
+
+def test_generic_csv_rub_millimetres_with_header_and_gaps(tmp_path):
+    base = np.load(YOGA["Tadasana"])[:20]
+    src = base * np.array([1000.0, -1000.0, -1000.0])  # OpenGL-like camera axes, mm
+    rows = [[f"{v:.4f}" for v in r] for r in src.reshape(20, -1)]
+    rows[3][3 * L_HIP + 2] = ""  # one missing z
+    header = ",".join(f"{n}_{c}" for n in get_layout("h36m17").joints for c in "xyz")
+    path = tmp_path / "poses.csv"
+    path.write_text(header + "\n" + "\n".join(",".join(r) for r in rows) + "\n")
+    p3 = load_generic(path, layout="h36m17", axes="RUB", units="mm")
+    assert p3.units == "m" and p3.joints.shape == (20, 17, 3)
+    expect = base.copy()
+    expect[3, L_HIP, 2] = np.nan
+    np.testing.assert_allclose(p3.joints, expect, atol=1e-6)
+    assert np.isfinite(p3.joints[3, L_HIP, :2]).all()  # the gap does not spread to x, y
+
+
+def test_generic_npz_key_and_axis_permutation(tmp_path):
+    base = np.load(YOGA["Tadasana"])
+    z_up = np.stack([base[..., 0], base[..., 2], -base[..., 1]], -1)  # x right, y forward, z up
+    path = tmp_path / "poses.npz"
+    np.savez(path, poses=z_up.reshape(100, 51), other=np.zeros(3))
+    np.testing.assert_allclose(load_generic(path, key="poses", axes="RFU").joints, base)
+    with pytest.raises(AdapterError, match="key") as err:
+        load_generic(path)
+    assert_names_file(err, path)
+    np.testing.assert_allclose(load_generic(YOGA["Tadasana"], units="normalised").joints, base)
+    assert load_generic(YOGA["Tadasana"], units="px").units == "px"
+
+
+def test_axes_to_camera_spec():
+    np.testing.assert_array_equal(axes_to_camera("RDF"), np.eye(3))
+    assert np.linalg.det(axes_to_camera("RUB")) == 1.0
+    assert np.linalg.det(axes_to_camera("RUF")) == -1.0  # left-handed source
+    np.testing.assert_array_equal(np.array([1.0, 2.0, 3.0]) @ axes_to_camera("LUF"), [-1.0, -2.0, 3.0])
+    for bad in ("RRF", "XYZ", "RD", "RDFB", "RLF"):
+        with pytest.raises(ValueError):
+            axes_to_camera(bad)
+
+
+def test_generic_bad_declarations(tmp_path):
+    tad = YOGA["Tadasana"]
+    for kwargs, field in (({"axes": "RRF"}, "axes"), ({"units": "inch"}, "units"),
+                          ({"layout": "smpl24"}, "layout"), ({"layout": "halpe26"}, "array")):
+        with pytest.raises(AdapterError, match=field) as err:
+            load_generic(tad, **kwargs)
+        assert_names_file(err, tad)
+    short = tmp_path / "short.csv"
+    short.write_text("1,2,3\n4,5,6\n")
+    with pytest.raises(AdapterError, match="51"):
+        load_generic(short)
+    text = tmp_path / "text.csv"
+    text.write_text("a,b,c\n1,2,3\nx,y,z\n")
+    with pytest.raises(AdapterError, match="line 3"):
+        load_generic(text, layout="h36m17")
+    other = tmp_path / "poses.bvh"
+    other.write_text("HIERARCHY")
+    with pytest.raises(AdapterError, match="extension"):
+        load_generic(other)
+
+
+# --------------------------------------------------------------------------- bad input, every adapter
+
+LOADERS_2D = [(n, ".json") for n in ("alphapose", "mmpose")] + [("mediapipe", ".npz")]
+LOADERS_3D = [(n, ".npy") for n in ("motionbert", "ddhpose", "videopose3d", "generic")] + [("mediapipe", ".npz")]
+
+
+@pytest.mark.parametrize("kind,name,ext", [("2d", n, e) for n, e in LOADERS_2D] + [("3d", n, e) for n, e in LOADERS_3D])
+def test_missing_file_names_the_file(tmp_path, kind, name, ext):
+    adapter = get_2d_adapter(name) if kind == "2d" else get_3d_adapter(name)
+    missing = tmp_path / f"not_here{ext}"
+    with pytest.raises(AdapterError, match="no such file") as err:
+        adapter.load(missing)
+    assert_names_file(err, missing)
+
+
+def test_missing_openpose_folder(tmp_path):
+    with pytest.raises(AdapterError, match="no such folder") as err:
+        load_openpose(tmp_path / "nowhere")
+    assert_names_file(err, tmp_path / "nowhere")
+
+
+@pytest.mark.parametrize("loader", [load_alphapose, load_mmpose])
+@pytest.mark.parametrize("content,match", [("", "empty file"), ("  \n", "empty file"), ("[]", "empty list"),
+                                           ("{not json", "valid JSON"), ('"text"', "str")])
+def test_empty_or_invalid_json(tmp_path, loader, content, match):
+    path = tmp_path / "results.json"
+    path.write_text(content)
+    with pytest.raises(AdapterError, match=match) as err:
+        loader(path)
+    assert_names_file(err, path)
+
+
+def test_wrong_joint_counts(tmp_path):
+    entries = raw_entries(BOXING_AP)[:3]
+    for n_values, match in ((40, "multiple of 3"), (60, "20 joints")):
+        path = tmp_path / f"ap{n_values}.json"
+        path.write_text(json.dumps([dict(e, keypoints=e["keypoints"][:n_values]) for e in entries]))
+        with pytest.raises(AdapterError, match=match) as err:
+            load_alphapose(path)
+        assert_names_file(err, path)
+    arr16 = tmp_path / "sixteen.npy"
+    np.save(arr16, np.load(BOXING_X3D)[:, :16])
+    for loader in (load_motionbert, load_videopose3d, load_ddhpose):
+        with pytest.raises(AdapterError, match=r"\(60, 16, 3\)") as err:
+            loader(arr16)
+        assert_names_file(err, arr16)
+    mp = dict(np.load(MEDIAPIPE))
+    mp["world_3d"] = mp["world_3d"][:, :25]
+    bad_mp = tmp_path / "mp25.npz"
+    np.savez(bad_mp, **mp)
+    with pytest.raises(AdapterError, match="world_3d") as err:
+        load_mediapipe_3d(bad_mp)
+    assert_names_file(err, bad_mp)
+
+
+def test_nan_only_inputs(tmp_path):
+    nan3d = tmp_path / "nan.npy"
+    np.save(nan3d, np.full((5, 17, 3), np.nan, np.float32))
+    for loader in (load_motionbert, load_videopose3d, load_ddhpose, load_generic):
+        with pytest.raises(AdapterError, match="NaN") as err:
+            loader(nan3d)
+        assert_names_file(err, nan3d)
+    mp = dict(np.load(MEDIAPIPE))
+    mp["keypoints_2d"] = np.full_like(mp["keypoints_2d"], np.nan)
+    nan_mp = tmp_path / "nan_mp.npz"
+    np.savez(nan_mp, **mp)
+    with pytest.raises(AdapterError, match="keypoints_2d") as err:
+        load_mediapipe_2d(nan_mp)
+    assert_names_file(err, nan_mp)
+    load_mediapipe_3d(nan_mp)  # world_3d is still real: only the broken array is refused
+    nan_json = tmp_path / "nan.json"
+    nan_json.write_text(json.dumps([dict(e, keypoints=[float("nan")] * 78) for e in raw_entries(BOXING_AP)[:3]]))
+    with pytest.raises(AdapterError, match="NaN") as err:
+        load_alphapose(nan_json)
+    assert_names_file(err, nan_json)
+
+
+def test_not_a_numpy_file(tmp_path):
+    fake = tmp_path / "X3D.npy"
+    fake.write_text("this is not numpy")
+    with pytest.raises(AdapterError, match="content") as err:
+        load_motionbert(fake)
+    assert_names_file(err, fake)
+    with pytest.raises(AdapterError, match="content") as err:
+        load_mediapipe_3d(fake)
+    assert_names_file(err, fake)
+
+
+# --------------------------------------------------------------------------- video
+
+
+def test_video_probe_read_and_iterate_fixture_clip():
+    info = probe_video(CLIP)
+    assert (info.frame_count, info.fps, info.width, info.height) == (10, 30.0, 854, 480)
+    frames = list(iter_frames(CLIP))
+    assert len(frames) == 10 and frames[0].shape == (480, 854, 3) and frames[0].dtype == np.uint8
+    np.testing.assert_array_equal(read_frame(CLIP, 7), frames[7])  # seeking is frame-exact
+    middle = list(iter_frames(CLIP, start=3, stop=6))
+    assert len(middle) == 3
+    np.testing.assert_array_equal(middle[0], frames[3])
+    assert not np.array_equal(frames[0], frames[9])
+    for bad in (10, -1):
+        with pytest.raises(AdapterError, match="index") as err:
+            read_frame(CLIP, bad)
+        assert_names_file(err, CLIP)
+
+
+def test_unreadable_and_missing_video(tmp_path):
+    junk = tmp_path / "junk.mp4"
+    junk.write_bytes(b"\x00\x01 definitely not a video" * 50)
+    for call in (probe_video, lambda p: read_frame(p, 0), iter_frames):
+        with pytest.raises(AdapterError, match="video") as err:
+            call(junk)
+        assert_names_file(err, junk)
+    with pytest.raises(AdapterError, match="no such file") as err:
+        probe_video(tmp_path / "gone.mp4")
+    assert_names_file(err, tmp_path / "gone.mp4")
+
+
+def test_full_videos_frame_counts_match_their_keypoints():
+    boxing = shared("real", "boxing_motionbert", "boxing2.mp4")
+    info = probe_video(boxing)
+    # The container claims 360 frames; 301 decode, matching AlphaPose and MotionBERT.
+    assert probe_video(boxing, verify=False).frame_count == 360
+    assert info.frame_count == 301 == load_motionbert(boxing.with_name("X3D.npy")).num_frames
+    assert load_alphapose(boxing.with_name("alphapose-results.json")).num_frames == 301
+    demo = probe_video(shared("real", "sports2d_demo", "demo.mp4"))
+    mp = np.load(shared("real", "sports2d_demo", "mediapipe_blazepose33.npz"))
+    assert (demo.frame_count, demo.width, demo.height) == (230, int(mp["width"]), int(mp["height"]))
+
+
+def test_full_alphapose_files():
+    boxing = load_alphapose(shared("real", "boxing_motionbert", "alphapose-results.json"))
+    assert boxing.points.shape == (301, 26, 3) and np.isfinite(boxing.points).all()
+    np.testing.assert_array_equal(boxing.points[:60], load_alphapose(BOXING_AP).points)
+    h = remap_to_h36m(boxing.points, "halpe26", confidence_channel=True)
+    assert frac(h[:, L_ANKLE, 0] < h[:, R_ANKLE, 0]) > 0.95
+    full = load_alphapose(shared("real", "alphapose_halpe26_809", "alphapose-results.json"))
+    assert full.points.shape == (809, 26, 3) and full.track_id == 0
+    assert "[144]" in full.notes  # the only frame with two detections
+    np.testing.assert_array_equal(full.points[130:160], load_alphapose(AP809).points[130:160])

@@ -1,0 +1,645 @@
+"""Downstream stages: metric scaling, filtering, derivatives, joint angles, the
+exporters (NPZ, CSV, TRC, PNG) and the rerun recording.
+
+Real data: ``tests/fixtures/yoga_vp3d_Bhumi_Tadasana.npy`` (a real VideoPose3D export,
+camera frame, metres; see fixtures/README.md); the full ``export_Abhay_Tadasana.npy`` and
+the boxing video from ``../shared/data`` when present (skipped otherwise).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pcnet.stages import exports, kinematics
+from pcnet.stages.canonical import canonical_rotation, to_canonical
+from pcnet.stages.conventions import (
+    H36M_JOINTS,
+    H36M_PARENTS,
+    L_ANKLE,
+    L_ELBOW,
+    L_KNEE,
+    L_SHOULDER,
+    L_WRIST,
+    PELVIS,
+    R_ANKLE,
+    R_ELBOW,
+    R_HIP,
+    R_KNEE,
+    R_SHOULDER,
+    R_WRIST,
+    R_FRONTAL,
+)
+from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
+from pcnet.stages.geometric import geometric_rotation
+from pcnet.stages.kinematics import (
+    butterworth_lowpass,
+    compute_kinematics,
+    derivatives,
+    joint_angles,
+)
+from pcnet.stages.rotations import axis_rotation
+from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length, scale_to_height
+
+FPS_YOGA = 30.0  # the yoga exports state no rate; 30 fps assumed (fixtures/README.md)
+FIXTURES = Path(__file__).resolve().parent / "fixtures"
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
+def shared(*parts: str) -> Path:
+    """A file under ../shared/data; the test skips when it is absent (fresh clone)."""
+    path = SHARED_DATA.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"{path} not present: this real-data check runs only beside ../shared/data")
+    return path
+
+
+@pytest.fixture(scope="module")
+def yoga_cam() -> np.ndarray:
+    """Real VideoPose3D poses, camera frame, metres, (1234, 17, 3)."""
+    return np.load(FIXTURES / "yoga_vp3d_Bhumi_Tadasana.npy")
+
+
+@pytest.fixture(scope="module")
+def yoga_level(yoga_cam) -> np.ndarray:
+    """Canonical poses assuming a level camera (up = camera -y): gravity is not taken
+    from the trunk, so trunk angles are not zero by construction."""
+    R, valid = canonical_rotation(yoga_cam, np.array([0.0, -1.0, 0.0]))
+    assert valid.all()
+    return to_canonical(yoga_cam, R)
+
+
+# --- a constructed skeleton -----------------------------------------------------------
+
+# Human3.6M reference skeleton (Martinez et al. 2017, forward_kinematics.py offsets, mm),
+# standing, arms hanging, in the canonical frame (X anterior, Y up, Z right), metres.
+_H36M_REF_MM = {
+    "right_hip": (0, 0, 132.95), "right_knee": (0, -442.89, 0), "right_ankle": (0, -454.21, 0),
+    "left_hip": (0, 0, -132.95), "left_knee": (0, -442.89, 0), "left_ankle": (0, -454.21, 0),
+    "spine": (0, 233.38, 0), "thorax": (0, 257.08, 0), "neck_nose": (0, 121.13, 0),
+    "head": (0, 115.00, 0), "left_shoulder": (0, 0, -151.03), "left_elbow": (0, -278.88, 0),
+    "left_wrist": (0, -251.73, 0), "right_shoulder": (0, 0, 151.03),
+    "right_elbow": (0, -278.88, 0), "right_wrist": (0, -251.73, 0),
+}
+
+
+def standing_pose() -> np.ndarray:
+    X = np.zeros((17, 3))
+    for j, name in enumerate(H36M_JOINTS):
+        if j:
+            X[j] = X[H36M_PARENTS[j]] + np.array(_H36M_REF_MM[name]) / 1000.0
+    return X
+
+
+def descendants(j: int) -> list[int]:
+    out = [j]
+    for c, p in enumerate(H36M_PARENTS):
+        if p in out and c not in out:
+            out.append(c)
+    return out
+
+
+def rotate_chain(X: np.ndarray, pivot: int, first: int, axis: str, deg: float) -> np.ndarray:
+    """Rotate joint ``first`` and everything below it about joint ``pivot``."""
+    X = X.copy()
+    R = axis_rotation(axis, np.radians(deg))
+    idx = descendants(first)
+    X[idx] = (X[idx] - X[pivot]) @ R.T + X[pivot]
+    return X
+
+
+# --- scale ---------------------------------------------------------------------------
+
+
+def test_scale_ratio_reproduces_h36m_reference_stature():
+    # The H36M reference skeleton in millimetres; its chain is 1623.7 mm, so its stature
+    # is 1623.7 / 0.961 mm and scaling to that height must give exactly 1 mm -> 1 mm/1000.
+    X = standing_pose()[None] * 1000.0
+    chain = height_chain_length(X)[0]
+    assert chain == pytest.approx(1623.69, abs=0.01)
+    stature_m = chain / CHAIN_TO_STATURE / 1000.0
+    scaled, factor = scale_to_height(X, stature_m)
+    assert factor == pytest.approx(1e-3, rel=1e-9)
+    assert np.allclose(scaled, X / 1000.0, atol=1e-6)
+
+
+def test_scale_uses_bone_lengths_so_any_pose_scales_alike(yoga_cam):
+    X = yoga_cam[:300].astype(np.float64)
+    # Fake a non-metric lifter: an arbitrary unit and a rotated, crouched copy.
+    unit = 0.37
+    crouched = np.stack([rotate_chain(p, R_KNEE, R_ANKLE, "z", -80.0) for p in X])
+    lying = crouched @ axis_rotation("x", np.radians(90.0)).T
+    _, f_ref = scale_to_height(X, 1.70)
+    _, f_unit = scale_to_height(X * unit, 1.70)
+    _, f_lying = scale_to_height(lying, 1.70)
+    assert f_unit == pytest.approx(f_ref / unit, rel=1e-6)
+    assert f_lying == pytest.approx(f_ref, rel=1e-6)
+
+
+def test_scale_real_metric_output_is_plausible_and_nan_safe(yoga_cam):
+    X = yoga_cam.copy()
+    X[10:50] = np.nan  # missing frames
+    X[60:70, L_KNEE] = np.nan  # one leg missing: the other leg is used
+    scaled, factor = scale_to_height(X, 1.70)
+    # VideoPose3D is already metric: the factor stays near 1 for an adult.
+    assert 0.8 < factor < 1.3
+    assert np.isnan(scaled[10:50]).all() and np.isfinite(scaled[60:70, R_KNEE]).all()
+    assert np.isfinite(height_chain_length(X)[60:70]).all()
+    assert scaled.dtype == np.float32
+
+
+def test_scale_errors(yoga_cam):
+    with pytest.raises(ValueError, match="height_m"):
+        scale_to_height(yoga_cam, 0.0)
+    with pytest.raises(ValueError, match="height_m"):
+        scale_to_height(yoga_cam, -1.7)
+    with pytest.raises(ValueError, match="no frame"):
+        scale_to_height(np.full((5, 17, 3), np.nan), 1.7)
+
+
+# --- Butterworth ---------------------------------------------------------------------
+
+
+def test_butterworth_keeps_low_removes_high_and_is_minus_3db_at_cutoff():
+    fps, n = 100.0, 3000
+    t = np.arange(n) / fps
+    low, high = np.sin(2 * np.pi * 1.0 * t), 0.5 * np.sin(2 * np.pi * 20.0 * t)
+    y = butterworth_lowpass(low + high, fps, cutoff_hz=6.0)
+    core = slice(200, -200)
+    assert np.max(np.abs(y[core] - low[core])) < 0.01
+    at_cut = butterworth_lowpass(np.sin(2 * np.pi * 6.0 * t), fps, cutoff_hz=6.0)
+    # "4th order" = 2nd order per pass, cutoff corrected so the dual pass is -3 dB at 6 Hz.
+    assert np.max(np.abs(at_cut[core])) == pytest.approx(1 / np.sqrt(2), abs=0.01)
+
+
+def test_butterworth_nan_gaps_stay_nan_and_are_not_bridged():
+    fps = 100.0
+    t = np.arange(600) / fps
+    x = np.where(t < 3.0, 0.0, 100.0) + 0.2 * np.sin(2 * np.pi * 25 * t)
+    x[295:305] = np.nan  # the step hides inside the gap
+    x[450:455] = np.nan
+    x[452] = 7.0  # an isolated 1-sample run between NaNs
+    y, flagged = butterworth_lowpass(x, fps, 6.0, return_unfiltered=True)
+    assert np.isnan(y[295:305]).all() and np.isnan(y[[450, 451, 453, 454]]).all()
+    # Filtering across the gap would smear the 0 -> 100 step (tens of units) into both
+    # sides; per-run filtering leaves only the 0.2-amplitude edge ripple.
+    assert np.max(np.abs(y[200:295])) < 0.25
+    assert np.max(np.abs(y[305:400] - 100.0)) < 0.25
+    assert np.max(np.abs(y[220:280])) < 0.01
+    assert flagged[452] and y[452] == 7.0 and flagged.sum() == 1
+
+
+def test_butterworth_multichannel_real_data(yoga_level):
+    X = yoga_level.astype(np.float64).copy()
+    X[100:120, L_WRIST] = np.nan
+    Y, flagged = butterworth_lowpass(X, FPS_YOGA, 6.0, return_unfiltered=True)
+    assert Y.shape == X.shape and not flagged.any()
+    assert np.array_equal(np.isnan(Y), np.isnan(X))
+    # Real estimator jitter is mostly above 6 Hz: the frame-to-frame jerk drops.
+    jitter = lambda a: np.nanmedian(np.abs(np.diff(a, 2, axis=0)))  # noqa: E731
+    assert jitter(Y) < 0.5 * jitter(X)
+
+
+def test_butterworth_argument_errors():
+    x = np.zeros(100)
+    with pytest.raises(ValueError, match="Nyquist"):
+        butterworth_lowpass(x, 30.0, cutoff_hz=15.0)
+    with pytest.raises(ValueError, match="even"):
+        butterworth_lowpass(x, 30.0, cutoff_hz=6.0, order=3)
+
+
+# --- derivatives ---------------------------------------------------------------------
+
+
+def test_derivatives_of_known_trajectories():
+    fps = 50.0
+    t = np.arange(200) / fps
+    quad = np.stack([1 + 2 * t - 3 * t**2, 0.5 * t**2], -1)
+    v, a = derivatives(quad, fps)
+    assert np.allclose(v, np.stack([2 - 6 * t, t], -1), atol=1e-9)
+    assert np.allclose(a, np.broadcast_to([-6.0, 1.0], a.shape), atol=1e-6)
+    fps = 1000.0
+    t = np.arange(2000) / fps
+    v, a = derivatives(np.sin(2 * np.pi * t), fps)
+    w = 2 * np.pi
+    assert np.max(np.abs(v[1:-1] - w * np.cos(w * t[1:-1]))) < 1e-3 * w
+    assert np.max(np.abs(a[1:-1] + w**2 * np.sin(w * t[1:-1]))) < 1e-3 * w**2
+
+
+def test_derivatives_respect_gaps():
+    x = np.arange(20, dtype=float) ** 2
+    x[5] = np.nan
+    x[7] = np.nan  # finite runs: [0, 5), [6, 7) (one sample), [8, 20)
+    v, a = derivatives(x, 1.0)
+    assert np.isnan(v[[5, 6, 7]]).all() and np.isnan(a[[5, 6, 7]]).all()
+    # Inside runs the quadratic is differentiated exactly: no value leaks across a gap.
+    assert np.allclose(v[8:], 2 * np.arange(8, 20)) and np.allclose(a[8:], 2.0)
+    assert np.allclose(v[:5], 2 * np.arange(5)) and np.allclose(a[:5], 2.0)
+    two = np.array([0.0, 1.0, np.nan])
+    v, a = derivatives(two, 1.0)
+    assert np.allclose(v[:2], 1.0) and np.isnan(a).all()
+
+
+# --- joint angles --------------------------------------------------------------------
+
+
+def test_angles_zero_when_standing_with_arms_down():
+    ang = joint_angles(standing_pose())
+    for name, value in ang.items():
+        assert abs(value[0]) < 1e-4, name
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_angle_signs_on_constructed_limbs(side):
+    s = 1.0 if side == "right" else -1.0  # +Z is the subject's right
+    hip, knee, ankle = (R_HIP, R_KNEE, R_ANKLE) if side == "right" else (4, L_KNEE, L_ANKLE)
+    sho, elb, wri = (R_SHOULDER, R_ELBOW, R_WRIST) if side == "right" else (L_SHOULDER, L_ELBOW, L_WRIST)
+    other = "left" if side == "right" else "right"
+    X0 = standing_pose()
+
+    flexed = rotate_chain(X0, hip, knee, "z", 30.0)  # about +Z: knee moves anterior (+X)
+    a = joint_angles(flexed)
+    assert a[f"{side}_hip_flexion"][0] == pytest.approx(30.0, abs=1e-4)
+    assert a[f"{other}_hip_flexion"][0] == pytest.approx(0.0, abs=1e-4)
+    assert a[f"{side}_knee_flexion"][0] == pytest.approx(0.0, abs=1e-4)
+
+    # Knee moved away from the midline: towards +Z on the right, -Z on the left.
+    abducted = rotate_chain(X0, hip, knee, "x", -s * 20.0)
+    assert np.sign(abducted[knee, 2] - X0[knee, 2]) == s
+    assert joint_angles(abducted)[f"{side}_hip_abduction"][0] == pytest.approx(20.0, abs=1e-4)
+    adducted = rotate_chain(X0, hip, knee, "x", s * 15.0)
+    assert joint_angles(adducted)[f"{side}_hip_abduction"][0] == pytest.approx(-15.0, abs=1e-4)
+
+    bent = rotate_chain(X0, knee, ankle, "z", -60.0)  # foot goes back
+    a = joint_angles(bent)
+    assert a[f"{side}_knee_flexion"][0] == pytest.approx(60.0, abs=1e-4)
+    assert a[f"{side}_hip_flexion"][0] == pytest.approx(0.0, abs=1e-4)
+
+    arm_fwd = rotate_chain(X0, sho, elb, "z", 90.0)
+    a = joint_angles(arm_fwd)
+    assert a[f"{side}_shoulder_flexion"][0] == pytest.approx(90.0, abs=1e-4)
+    # A horizontal forward arm has no frontal-plane angle.
+    assert np.isnan(a[f"{side}_shoulder_abduction"][0])
+    overhead = rotate_chain(X0, sho, elb, "x", -s * 200.0)  # abducted past overhead
+    assert joint_angles(overhead)[f"{side}_shoulder_abduction"][0] == pytest.approx(200.0, abs=1e-4)
+    elbow = rotate_chain(X0, elb, wri, "z", 90.0)
+    assert joint_angles(elbow)[f"{side}_elbow_flexion"][0] == pytest.approx(90.0, abs=1e-4)
+
+
+def test_trunk_angles_on_constructed_lean():
+    X0 = standing_pose()
+    fwd = rotate_chain(X0, PELVIS, 7, "z", -20.0)  # about -Z: thorax moves anterior (+X)
+    assert fwd[8, 0] > 0
+    a = joint_angles(fwd)
+    assert a["trunk_inclination"][0] == pytest.approx(20.0, abs=1e-4)
+    assert a["trunk_flexion"][0] == pytest.approx(20.0, abs=1e-4)
+    assert a["trunk_lateral_flexion"][0] == pytest.approx(0.0, abs=1e-4)
+    right = rotate_chain(X0, PELVIS, 7, "x", 15.0)  # thorax towards +Z (subject's right)
+    assert right[8, 2] > 0
+    a = joint_angles(right)
+    assert a["trunk_lateral_flexion"][0] == pytest.approx(15.0, abs=1e-4)
+    assert a["trunk_inclination"][0] == pytest.approx(15.0, abs=1e-4)
+
+
+def test_angles_survive_camera_rotation_and_rectification():
+    # A right hip flexed 40 deg and a left shoulder abducted 70 deg, seen by a camera at
+    # yaw 35, pitch 10: geometric rectification recovers the canonical angles, while the
+    # same maths on raw camera coordinates does not.
+    X = rotate_chain(standing_pose(), R_HIP, R_KNEE, "z", 40.0)
+    X = rotate_chain(X, L_SHOULDER, L_ELBOW, "x", 70.0)
+    R = R_FRONTAL @ axis_rotation("y", np.radians(35.0)) @ axis_rotation("z", np.radians(10.0))
+    cam = (X @ R.T)[None] + np.array([0.1, -0.2, 3.0])
+    R_hat, valid = geometric_rotation(cam)
+    a = joint_angles(to_canonical(cam, R_hat))
+    assert valid.all()
+    assert a["right_hip_flexion"][0] == pytest.approx(40.0, abs=1e-4)
+    assert a["left_shoulder_abduction"][0] == pytest.approx(70.0, abs=1e-4)
+    raw = joint_angles(cam - cam[:, :1])
+    assert abs(raw["right_hip_flexion"][0] - 40.0) > 10.0
+
+
+def test_angles_on_real_standing_sequence(yoga_level):
+    a = joint_angles(yoga_level)
+    med = {k: float(np.nanmedian(v)) for k, v in a.items()}
+    assert med["trunk_inclination"] < 10.0
+    assert med["left_knee_flexion"] < 30.0 and med["right_knee_flexion"] < 30.0
+    # Tadasana with feet together: both thighs converge (adduction, negative) and the
+    # raised arms abduct both shoulders near 170 deg: mirrored signs agree left/right.
+    assert med["left_hip_abduction"] < 0 and med["right_hip_abduction"] < 0
+    assert med["left_shoulder_abduction"] > 150 and med["right_shoulder_abduction"] > 150
+
+
+def test_angles_on_full_real_file_when_available():
+    X = np.load(shared("real", "yoga_videopose3d", "export_Abhay_Tadasana.npy"))
+    R, valid = geometric_rotation(X)
+    k = compute_kinematics(to_canonical(X, R), FPS_YOGA, 6.0, "m")
+    assert valid.all() and k.positions.shape == X.shape
+    assert np.nanmedian(k.angles["trunk_inclination"]) < 10.0
+    assert np.nanpercentile(k.angles["left_knee_flexion"], 5) < 30.0
+
+
+# --- compute_kinematics --------------------------------------------------------------
+
+
+def test_compute_kinematics_bundle(yoga_level):
+    k = compute_kinematics(yoga_level, FPS_YOGA, 6.0, "m")
+    T = len(yoga_level)
+    assert k.positions.shape == k.velocity.shape == k.acceleration.shape == (T, 17, 3)
+    assert (k.units, k.velocity_units, k.acceleration_units) == ("m", "m/s", "m/s^2")
+    assert np.allclose(k.speed, np.linalg.norm(k.velocity, axis=-1))
+    assert np.allclose(k.angles["left_knee_flexion"], joint_angles(k.positions)["left_knee_flexion"], equal_nan=True)
+    v, _ = derivatives(k.positions, FPS_YOGA)
+    assert np.allclose(k.velocity, v)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        k.fps = 60.0  # type: ignore[misc]
+    raw = compute_kinematics(yoga_level, FPS_YOGA, None, "normalised")
+    assert raw.velocity_units == "normalised/s" and np.allclose(raw.positions, yoga_level)
+
+
+# --- exports -------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def kin(yoga_level):
+    return compute_kinematics(yoga_level[:200], FPS_YOGA, 6.0, "m")
+
+
+def leftovers(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir())
+
+
+def test_npz_roundtrip_without_pickle(tmp_path, kin):
+    path = write_npz(tmp_path / "run.npz", canonical=kin.positions, fps=30.0, units="m",
+                     meta={"source": "yoga", "height_m": 1.7})
+    with np.load(path, allow_pickle=False) as f:
+        assert np.array_equal(f["canonical"], kin.positions)
+        assert float(f["fps"]) == 30.0 and str(f["units"]) == "m"
+        import json
+
+        assert json.loads(str(f["meta"])) == {"height_m": 1.7, "source": "yoga"}
+    with pytest.raises(TypeError, match="pickled"):
+        write_npz(tmp_path / "bad.npz", ragged=[np.zeros(2), np.zeros(3)])
+    assert leftovers(tmp_path) == ["run.npz"]
+
+
+def test_csv_rows_headers_units_and_values(tmp_path, kin):
+    T = kin.num_frames
+    valid = np.ones(T, bool)
+    valid[5] = False
+    path = write_kinematics_csv(tmp_path / "k.csv", np.arange(T) + 100, np.arange(T) / FPS_YOGA, kin,
+                                {"valid": valid, "tilt_deg": np.full(T, np.nan)})
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh))
+    header, body = rows[0], rows[1:]
+    assert len(body) == T
+    for col in ("frame", "time_s", "right_wrist_x_m", "right_wrist_vx_m_per_s",
+                "right_wrist_az_m_per_s2", "right_wrist_speed_m_per_s", "trunk_inclination_deg",
+                "left_knee_flexion_deg", "valid", "tilt_deg"):
+        assert col in header, col
+    assert len(header) == 2 + 17 * 10 + len(kin.angles) + 2
+    c = header.index("right_wrist_vx_m_per_s")
+    got = np.array([float(r[c]) for r in body])
+    assert np.allclose(got, kin.velocity[:, R_WRIST, 0], rtol=1e-6, atol=1e-9)
+    assert body[0][0] == "100" and body[5][header.index("valid")] == "0"
+    assert all(r[header.index("tilt_deg")] == "" for r in body)  # NaN -> empty field
+
+
+def test_csv_rejects_wrong_lengths(tmp_path, kin):
+    with pytest.raises(ValueError, match="valid"):
+        write_kinematics_csv(tmp_path / "k.csv", np.arange(kin.num_frames), np.arange(kin.num_frames),
+                             kin, {"valid": np.ones(3)})
+    assert leftovers(tmp_path) == []
+
+
+def read_trc(path: Path):
+    """A minimal TRC reader following OpenSim 4's TRCFileAdapter/FileAdapter::tokenize:
+    every tab ends a token (empty tokens kept), a final empty token is dropped."""
+
+    def tokens(line: str) -> list[str]:
+        parts = line.rstrip("\n").split("\t")
+        return parts[:-1] if parts and parts[-1] == "" else parts
+
+    lines = path.read_text().split("\n")
+    assert tokens(lines[0])[:3] == ["PathFileType", "4", "(X/Y/Z)"]
+    meta = dict(zip(tokens(lines[1]), tokens(lines[2])))
+    labels = [t for t in tokens(lines[3]) if t]
+    xyz = [t for t in tokens(lines[4]) if t]
+    assert lines[5] == ""
+    n = int(meta["NumMarkers"])
+    rows = []
+    for line in lines[6:]:
+        if not line:
+            break
+        row = tokens(line)
+        assert len(row) == 2 + 3 * n, "OpenSim RowLengthMismatch"
+        rows.append([float(v) if v else np.nan for v in row])
+    return meta, labels, xyz, np.array(rows)
+
+
+def test_trc_parses_back_with_missing_markers(tmp_path, yoga_level):
+    X = yoga_level[:50].astype(np.float64).copy()
+    X[3, R_WRIST] = np.nan  # the last marker: the hardest case for the tokenizer
+    X[4, PELVIS] = np.nan
+    path = write_trc(tmp_path / "poses.trc", X, FPS_YOGA)
+    meta, labels, xyz, data = read_trc(path)
+    assert list(meta) == ["DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units",
+                          "OrigDataRate", "OrigDataStartFrame", "OrigNumFrames"]
+    assert meta["NumFrames"] == "50" and meta["NumMarkers"] == "17" and meta["Units"] == "m"
+    assert float(meta["DataRate"]) == FPS_YOGA
+    assert labels == ["Frame#", "Time", *H36M_JOINTS]
+    assert xyz == [f"{c}{i}" for i in range(1, 18) for c in "XYZ"]
+    assert data.shape == (50, 2 + 51)
+    assert np.array_equal(data[:, 0], np.arange(1, 51))
+    assert np.allclose(data[:, 1], np.arange(50) / FPS_YOGA, atol=1e-6)
+    back = data[:, 2:].reshape(50, 17, 3)
+    assert np.array_equal(np.isnan(back), np.isnan(X))
+    assert np.allclose(back, X, atol=1e-6, equal_nan=True)
+
+
+def test_png_is_written(tmp_path, yoga_cam, yoga_level):
+    cam, can = yoga_cam[:300], yoga_level[:300]
+    _, acam = derivatives(butterworth_lowpass(cam, FPS_YOGA), FPS_YOGA)
+    _, acan = derivatives(butterworth_lowpass(can, FPS_YOGA), FPS_YOGA)
+    path = plot_wrists(tmp_path / "wrists.png", cam, can, FPS_YOGA, acam, acan)
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
+
+
+@pytest.mark.parametrize("writer", ["npz", "csv", "trc", "png"])
+def test_writers_are_atomic(tmp_path, monkeypatch, kin, yoga_level, writer):
+    """A failure mid-write leaves neither a partial target nor a temp file, and keeps an
+    existing target unchanged."""
+    target = tmp_path / f"out.{writer}"
+    target.write_text("previous")
+    T = kin.num_frames
+    calls = {"n": 0}
+
+    def boom(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] > 5:  # fail after a few rows reached the temp file
+            raise OSError("disk full (simulated)")
+        return orig(*args, **kwargs)
+
+    if writer == "npz":
+        orig = np.savez
+
+        def boom_savez(fh, **kw):  # write some bytes, then fail
+            fh.write(b"PK\x03\x04partial")
+            raise OSError("disk full (simulated)")
+
+        monkeypatch.setattr(exports.np, "savez", boom_savez)
+        call = lambda: write_npz(target, a=np.zeros(3))  # noqa: E731
+    elif writer == "csv":
+        orig = exports._fmt
+        monkeypatch.setattr(exports, "_fmt", boom)
+        call = lambda: write_kinematics_csv(target, np.arange(T), np.arange(T) / 30.0, kin)  # noqa: E731
+    elif writer == "trc":
+        orig = exports._fmt_trc
+        monkeypatch.setattr(exports, "_fmt_trc", boom)
+        call = lambda: write_trc(target, yoga_level[:20], 30.0)  # noqa: E731
+    else:
+        from matplotlib.figure import Figure
+
+        monkeypatch.setattr(Figure, "savefig", lambda *a, **k: (_ for _ in ()).throw(OSError("simulated")))
+        z = np.zeros((10, 17, 3))
+        call = lambda: plot_wrists(target, z, z, 30.0, z, z)  # noqa: E731
+    with pytest.raises(OSError, match="simulated"):
+        call()
+    assert leftovers(tmp_path) == [target.name]
+    assert target.read_text() == "previous"
+
+
+# --- rerun ---------------------------------------------------------------------------
+
+
+def rrd_summary(path: Path):
+    """Rows per entity (temporal) and the set of static entities, via rerun's own reader."""
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(path)
+    rows, static, chunks = Counter(), set(), {}
+    for ch in reader.stream():
+        if ch.is_static:
+            static.add(ch.entity_path)
+        else:
+            rows[ch.entity_path] += ch.num_rows
+            chunks.setdefault(ch.entity_path, []).append(ch)
+    origins = set()
+    for ch in reader.stream(store=reader.blueprints()[0]):
+        rb = ch.to_record_batch()
+        if "ViewBlueprint:space_origin" in rb.schema.names:
+            origins.update(v[0] for v in rb.column("ViewBlueprint:space_origin").to_pylist())
+    return rows, static, chunks, origins
+
+
+def _inputs(cam: np.ndarray):
+    R, valid = geometric_rotation(cam)
+    can = to_canonical(cam, R)
+    return R, valid, can
+
+
+def test_rerun_recording_entities_rows_and_blueprint(tmp_path, yoga_cam):
+    from pcnet.stages.rerun_log import series_from_kinematics, write_recording
+
+    cam = yoga_cam.copy()
+    cam[40:45] = np.nan  # missing frames
+    R, valid, can = _inputs(cam)
+    k = compute_kinematics(can, FPS_YOGA, 6.0, "m")
+    series = series_from_kinematics(k)
+    kp = np.concatenate([cam[..., :2] * 400 + 300, np.full(cam.shape[:2] + (1,), 0.9)], -1)
+    kp[7, L_WRIST, 2] = 0.0  # a zero-confidence keypoint is hidden
+    path = write_recording(tmp_path / "run.rrd", fps=FPS_YOGA, joints_cam=cam, canonical=can,
+                           rotations=R, up=R[:, :, 1], valid=valid, keypoints2d=kp, series=series)
+    assert leftovers(tmp_path) == ["run.rrd"]
+    rows, static, chunks, origins = rrd_summary(path)
+    T = len(cam)
+    for entity in ("/camera/skeleton/joints", "/camera/skeleton/bones", "/canonical/skeleton/joints",
+                   "/canonical/skeleton/bones", "/camera/body_axes", "/camera/up",
+                   "/video/keypoints", "/video/skeleton", "/series/status/valid"):
+        assert rows[entity] == T, entity
+    for name, values in series.items():
+        assert rows["/series/" + name] == np.isfinite(values).sum(), name
+    assert {"/camera", "/canonical", "/camera/wrist_paths/right_wrist",
+            "/canonical/wrist_paths/left_wrist", "/"} <= static
+    assert {"camera", "canonical", "video", "series/angles_deg", "series/position_m"} <= origins
+    # Per-frame partitions: frame 40 (NaN) has no joints, frame 7 has 16 2D keypoints.
+    rb = chunks["/canonical/skeleton/joints"][0].to_record_batch()
+    frames = rb.column("frame").to_pylist()
+    pos = rb.column("Points3D:positions").to_pylist()
+    by_frame = dict(zip(frames, pos))
+    assert len(by_frame[40]) == 0 and len(by_frame[0]) == 17
+    assert np.allclose(np.array(by_frame[0]), can[0], atol=1e-6)
+    rb2 = chunks["/video/keypoints"][0].to_record_batch()
+    kp_by_frame = dict(zip(rb2.column("frame").to_pylist(), rb2.column("Points2D:positions").to_pylist()))
+    assert len(kp_by_frame[7]) == 16
+
+
+def test_rerun_video_lines_up_with_frames(tmp_path):
+    from pcnet.stages.rerun_log import write_recording
+
+    video = shared("real", "boxing_motionbert", "boxing2.mp4")
+    X = np.load(shared("real", "boxing_motionbert", "X3D.npy"))  # (301, 17, 3) normalised
+    X = X - X[:, :1]
+    R, valid, can = _inputs(X)
+    path = write_recording(tmp_path / "box.rrd", fps=30.0, joints_cam=X, canonical=can, rotations=R,
+                           up=R[:, :, 1], valid=valid, keypoints2d=None, video_path=video,
+                           series={"trunk": joint_angles(can)["trunk_inclination"]})
+    rows, static, chunks, origins = rrd_summary(path)
+    import rerun as rr
+
+    ts = rr.AssetVideo(path=video).read_frame_timestamps_nanos()
+    assert "/video" in static and rows["/video"] == len(ts)
+    assert rows["/camera/skeleton/joints"] == len(X)
+    assert "video" in origins
+    # Pose frame t carries the video's own timestamp of frame t.
+    rb = chunks["/camera/skeleton/joints"][0].to_record_batch()
+    vt = rb.column("video_time").cast("int64").to_numpy()
+    assert np.array_equal(vt, ts[: len(X)])
+
+
+def test_rerun_write_is_atomic(tmp_path, monkeypatch, yoga_cam):
+    import rerun as rr
+
+    from pcnet.stages.rerun_log import write_recording
+
+    cam = yoga_cam[:50]
+    R, valid, can = _inputs(cam)
+    orig = rr.RecordingStream.send_columns
+    calls = {"n": 0}
+
+    def boom(self, *a, **k):
+        calls["n"] += 1
+        if calls["n"] == 4:
+            raise RuntimeError("simulated failure mid-recording")
+        return orig(self, *a, **k)
+
+    monkeypatch.setattr(rr.RecordingStream, "send_columns", boom)
+    with pytest.raises(RuntimeError, match="simulated"):
+        write_recording(tmp_path / "x.rrd", fps=30.0, joints_cam=cam, canonical=can, rotations=R,
+                        up=R[:, :, 1], valid=valid)
+    assert leftovers(tmp_path) == []
+
+
+def test_rerun_36000_frames_is_fast(tmp_path, yoga_cam):
+    """Columnar logging: a 20-minute sequence (36,000 frames at 30 fps, the real
+    sequence tiled) must write in seconds. A per-frame rr.log loop takes minutes."""
+    from pcnet.stages.rerun_log import series_from_kinematics, write_recording
+
+    reps = int(np.ceil(36000 / len(yoga_cam)))
+    cam = np.tile(yoga_cam, (reps, 1, 1))[:36000]
+    R, valid, can = _inputs(cam)
+    k = compute_kinematics(can, FPS_YOGA, 6.0, "m")
+    series = series_from_kinematics(k)
+    kp = np.concatenate([cam[..., :2] * 400 + 300, np.ones(cam.shape[:2] + (1,))], -1)
+    t0 = time.perf_counter()
+    path = write_recording(tmp_path / "long.rrd", fps=FPS_YOGA, joints_cam=cam, canonical=can,
+                           rotations=R, up=R[:, :, 1], valid=valid, keypoints2d=kp, series=series)
+    elapsed = time.perf_counter() - t0
+    assert path.stat().st_size > 1_000_000
+    assert elapsed < 20.0, f"36,000 frames took {elapsed:.1f} s"
