@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
 from pcnet.stages.rectify import METHODS
 
 
@@ -90,6 +91,106 @@ def export(checkpoint, out_path):
 
     path = export_onnx(load_checkpoint(checkpoint), out_path, {"checkpoint": str(checkpoint)})
     click.echo(f"wrote {path}")
+
+
+EXAMPLE_DIR = Path(__file__).parent / "example_data"
+
+
+def _run_and_report(cfg) -> None:
+    from pcnet.adapters import AdapterError
+    from pcnet.pipeline.runner import run_pipeline
+
+    try:
+        result = run_pipeline(cfg)
+    except (OSError, ValueError, AdapterError) as err:
+        _fail(str(err))
+    click.echo(result.summary())
+
+
+@main.command()
+@click.option("--config", "config_path", type=click.Path(dir_okay=False), default=None,
+              help="TOML file with the same fields; command-line options override it.")
+@click.option("--video", type=click.Path(dir_okay=False), default=None, help="The recorded video (optional).")
+@click.option("--keypoints2d", type=click.Path(), default=None, help="2D keypoint file (or OpenPose folder).")
+@click.option("--keypoints2d-format", type=click.Choice(KEYPOINT_FORMATS), default=None)
+@click.option("--lifter", type=click.Choice(LIFTERS), default=None, help="Which 3D lifter wrote --lifter-output.")
+@click.option("--lifter-output", type=click.Path(dir_okay=False), default=None)
+@click.option("--method", type=click.Choice(METHODS), default=None, help="Rectification method [pcnet].")
+@click.option("--mode", type=click.Choice(MODES), default=None,
+              help="frame | sequence (static camera) | smooth (moving camera) | auto [auto].")
+@click.option("--height", type=float, default=None, help="Subject height in metres, to scale non-metric output.")
+@click.option("--fps", type=float, default=None, help="Frame rate when no video is given.")
+@click.option("--person", type=int, default=None, help="2D track id to follow (AlphaPose idx / MMPose instance).")
+@click.option("--confidence-threshold", type=float, default=None, help="2D confidence below which 3D joints become NaN [0.3].")
+@click.option("--cutoff-hz", type=float, default=None, help="Butterworth low-pass cutoff [6 Hz].")
+@click.option("--align", type=click.Choice(ALIGN), default=None, help="How to match differing frame counts [none = error].")
+@click.option("--pixel", is_flag=True, default=None, help="MotionBERT output made with --pixel.")
+@click.option("--hypothesis", default=None, help="DDHPose: 'mean' or a hypothesis index.")
+@click.option("--layout", default=None, help="generic lifter: joint layout of the file (h36m17, coco17, ...).")
+@click.option("--axes", default=None, help="generic lifter: axis letters of the file, e.g. RDF (OpenCV), RUB.")
+@click.option("--units", default=None, help="generic lifter: m, cm, mm, normalised or px.")
+@click.option("--key", default=None, help="generic lifter: array name inside an npz.")
+@click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
+@click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
+@click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")
+def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, **options):
+    """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
+    poses, kinematics, CSV/TRC/NPZ/PNG exports and a rerun recording."""
+    from pcnet.pipeline.config import RunConfig, load_run_config
+
+    lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
+                                        ("key", key)) if v}
+    if hypothesis is not None:
+        lifter_options["hypothesis"] = int(hypothesis) if hypothesis.lstrip("-").isdigit() else hypothesis
+    if no_recording:
+        options["recording"] = False
+    try:
+        if config_path:
+            cfg = load_run_config(config_path, **options)
+            cfg.lifter_options.update(lifter_options)
+        else:
+            given = {k: v for k, v in options.items() if v is not None}
+            for needed in ("lifter", "lifter_output"):
+                if needed not in given:
+                    _fail(f"--{needed.replace('_', '-')} is required (or give --config)")
+            cfg = RunConfig(**given, lifter_options=lifter_options).validate()
+    except (TypeError, ValueError) as err:
+        _fail(str(err))
+    _run_and_report(cfg)
+
+
+@main.command()
+@click.option("--out", type=click.Path(file_okay=False), default="pcnet_demo", show_default=True)
+@click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True)
+@click.option("--overwrite", is_flag=True)
+def demo(out, method, overwrite):
+    """The whole pipeline on the bundled real example (boxing video, AlphaPose Halpe-26,
+    MotionBERT); scaled to an assumed 1.75 m subject."""
+    from pcnet.pipeline.config import RunConfig
+
+    cfg = RunConfig(
+        video=str(EXAMPLE_DIR / "boxing2.mp4"), keypoints2d=str(EXAMPLE_DIR / "alphapose-results.json"),
+        keypoints2d_format="alphapose", lifter="motionbert", lifter_output=str(EXAMPLE_DIR / "X3D.npy"),
+        out=out, method=method, height=1.75, overwrite=overwrite,
+    )
+    click.echo("pcnet demo: boxing_motionbert (MotionBERT repository, Apache-2.0), subject height assumed 1.75 m")
+    _run_and_report(cfg)
+
+
+@main.command()
+@click.argument("manifest", type=click.Path(exists=True, dir_okay=False))
+@click.option("--workers", type=int, default=2, show_default=True)
+@click.option("--overwrite", is_flag=True)
+def batch(manifest, workers, overwrite):
+    """Process many recordings in parallel: one CSV row each, columns named like the fields
+    of `pcnet run` (lifter, lifter_output, keypoints2d, keypoints2d_format, video, out, ...).
+    A failing row is reported and does not stop the others."""
+    from pcnet.pipeline.batch import format_summary, run_batch
+
+    results = run_batch(manifest, workers=workers, overwrite=overwrite)
+    click.echo(format_summary(results))
+    if any(r["status"] != "ok" for r in results):
+        sys.exit(1)
 
 
 if __name__ == "__main__":

@@ -164,7 +164,9 @@ def write_kinematics_csv(
     extra = dict(extra_columns or {})
     for name, col in (("frame_index", frame_index), ("time_s", time_s), *extra.items()):
         if np.shape(col) != (T,):
-            raise ValueError(f"write_kinematics_csv: column {name!r} must have shape ({T},), got {np.shape(col)}")
+            raise ValueError(
+                f"write_kinematics_csv: column {name!r} must have shape ({T},), got {np.shape(col)}"
+            )
     names = list(k.joint_names)
     chosen = list(joints) if joints is not None else names
     unknown = [j for j in chosen if j not in names]
@@ -296,11 +298,13 @@ def plot_wrists(
 
     Two columns (camera frame | canonical frame) by three rows: wrist position
     components, wrist acceleration components, and acceleration magnitude, against time
-    in seconds; left wrist dashed, right wrist solid. The magnitude row is
-    frame-independent and should match between columns; the components show what
-    rectification changes (e.g. camera-y mixes vertical and depth motion when the camera
-    is tilted, canonical-y is vertical). Rendered with matplotlib's Agg canvas (no
-    pyplot, no display needed), written atomically.
+    in seconds; left wrist dashed, right wrist solid. The components show what
+    rectification changes (camera-y mixes vertical and depth motion when the camera is
+    tilted; canonical-y is vertical). The magnitude row matches between columns only
+    when the rotation is constant over time (one rotation per sequence); per-frame
+    rotations make the canonical frame a moving frame, and its jitter shows up there.
+    Rendered with matplotlib's Agg canvas (no pyplot, no display needed), written
+    atomically.
 
     Args:
         path_png: destination ``.png``.

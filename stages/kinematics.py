@@ -80,7 +80,9 @@ def _as_2d(x: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
 
 def _design_cutoff(fps: float, cutoff_hz: float, passes: int, order_per_pass: int) -> float:
     """Cutoff to design each pass with so that the multi-pass filter is -3 dB at
-    ``cutoff_hz`` (Winter 2009, section 3.4.4.3; generalised to order ``p`` per pass:
+    ``cutoff_hz`` (Winter, *Biomechanics and Motor Control of Human Movement*, 4th ed.,
+    2009, ch. 3, cutoff correction for multiple-pass filters; generalised to order ``p``
+    per pass:
     ``C = (2^(1/n) - 1)^(1/(2p))``, applied to the pre-warped digital frequency
     ``tan(pi f / fs)``)."""
     C = (2.0 ** (1.0 / passes) - 1.0) ** (1.0 / (2 * order_per_pass))
@@ -98,7 +100,7 @@ def butterworth_lowpass(
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Zero-phase Butterworth low-pass filter along axis 0, NaN-gap aware.
 
-    **Order convention** (the biomechanics one, Winter 2009 section 3.4.4): ``order`` is
+    **Order convention** (the biomechanics one, Winter 2009 ch. 3): ``order`` is
     the order of the final zero-phase filter. Each pass of ``scipy.signal.sosfiltfilt`` is
     a Butterworth of ``order // 2`` (default 2), and the forward plus backward pass
     doubles it, so ``order=4`` is the "4th-order zero-lag Butterworth" of the gait
@@ -170,9 +172,10 @@ def derivatives(x: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
     """Velocity and acceleration by finite differences along axis 0, within finite runs.
 
     Velocity: ``numpy.gradient`` (central difference ``(x[i+1] - x[i-1]) / (2 dt)``
-    inside a run, second-order one-sided differences at run ends). Acceleration: the
-    central second difference ``(x[i+1] - 2 x[i] + x[i-1]) / dt^2`` inside a run (Winter
-    2009, section 3.4.5, eq. 3.17-3.18), and at a run's first and last sample the
+    inside a run, second-order one-sided differences at run ends; a two-sample run gets
+    the forward difference). Acceleration: the
+    central second difference ``(x[i+1] - 2 x[i] + x[i-1]) / dt^2`` inside a run (the
+    finite differences of Winter 2009, ch. 3), and at a run's first and last sample the
     three-point one-sided value, which equals its neighbour's. Both are exact for
     quadratic trajectories. Runs of one sample give NaN velocity; runs shorter than three
     samples give NaN acceleration. NaN inputs stay NaN.

@@ -369,7 +369,9 @@ def _log_all(
         send(path, rr.Scalars.columns(scalars=values[ok]), idx=index(frames[ok], seconds[ok]))
 
 
-def series_from_kinematics(kinematics, joints: tuple[str, ...] = ("left_wrist", "right_wrist")) -> dict[str, np.ndarray]:
+def series_from_kinematics(
+    kinematics, joints: tuple[str, ...] = ("left_wrist", "right_wrist")
+) -> dict[str, np.ndarray]:
     """Time series for :func:`write_recording` from a
     :class:`~pcnet.stages.kinematics.Kinematics`: per joint the position, velocity and
     acceleration components and the speed, plus every angle.

@@ -15,11 +15,12 @@ pelvis -> spine -> thorax -> neck_nose -> head (trunk, neck and head).
 * In the Human3.6M reference skeleton (the 32-joint offsets shipped with H36M and used
   by Martinez et al. 2017, ``human-motion-prediction/src/forward_kinematics.py``,
   millimetres) these bones are exactly collinear and vertical in the rest pose:
-  shank 454.21, thigh 442.89, pelvis->spine 233.38, spine->thorax 257.08,
-  thorax->neck_nose 121.13, neck_nose->head 115.00; sum 1623.7 mm. H36M-17 joint 10
-  ("head") is that skeleton's head end site, i.e. the top of the head, and the hip
-  joints sit level with the pelvis (a purely lateral 132.95 mm offset). So the chain
-  spans ankle joint -> vertex of a standing subject.
+  shank 454.21, thigh 442.89, pelvis->spine 233.48 (0.10 + 233.38), spine->thorax
+  257.08, thorax->neck_nose 121.13, neck_nose->head 115.00; sum 1623.8 mm. H36M-17
+  joint 10 ("head") is that skeleton's head end site (VideoPose3D keeps 32-joint index
+  15, the end of the head segment), taken here as the vertex, and the hip joints sit
+  level with the pelvis (a purely lateral 132.95 mm offset). So the chain spans ankle
+  joint -> vertex of a standing subject.
 * Stature adds the ankle-joint height above the floor, 0.039 H (Drillis & Contini 1966,
   as tabulated in Winter, *Biomechanics and Motor Control of Human Movement*, 4th ed.,
   2009, fig. 4.1).
@@ -28,10 +29,10 @@ pelvis -> spine -> thorax -> neck_nose -> head (trunk, neck and head).
 The lateral pelvis->hip bones are left out of the chain on purpose: in that skeleton
 they are horizontal and add nothing to stature. Assumptions, stated so users can judge
 them: the subject's proportions match H36M's head-to-ankle proportions; the lifter's
-bone lengths are those of a real skeleton up to one scale. Body proportions alone vary
-by a few per cent between people (Winter's leg fraction 0.491 H would give an H36M
-stature of 1.83 m against 1.69 m from the whole chain), so expect about +-5 % on the
-scale.
+bone lengths are those of a real skeleton up to one scale. Proportions differ between
+people and between anthropometric tables (Winter's leg fraction 0.491 H would give the
+H36M skeleton a stature of 1.83 m, against 1.69 m from the whole chain), so expect the
+scale to be off by several per cent (up to about 8 %) for an individual.
 """
 
 from __future__ import annotations
@@ -97,7 +98,7 @@ def scale_to_height(joints: np.ndarray, height_m: float) -> tuple[np.ndarray, fl
     :func:`height_chain_length` and the median runs over the frames where the chain is
     finite and positive (robust to frames with a mis-estimated limb). See the module
     docstring for the derivation of ``CHAIN_TO_STATURE = 0.961`` (H36M reference skeleton,
-    Drillis & Contini / Winter 2009 ankle height) and its +-5 % uncertainty.
+    Drillis & Contini / Winter 2009 ankle height) and its uncertainty (several per cent).
 
     Args:
         joints: ``(T, 17, 3)`` (or ``(17, 3)``) H36M-17 poses in any frame and any

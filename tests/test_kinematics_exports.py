@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcnet.stages import exports, kinematics
+from pcnet.stages import exports
 from pcnet.stages.canonical import canonical_rotation, to_canonical
 from pcnet.stages.conventions import (
     H36M_JOINTS,
@@ -82,7 +82,7 @@ def yoga_level(yoga_cam) -> np.ndarray:
 _H36M_REF_MM = {
     "right_hip": (0, 0, 132.95), "right_knee": (0, -442.89, 0), "right_ankle": (0, -454.21, 0),
     "left_hip": (0, 0, -132.95), "left_knee": (0, -442.89, 0), "left_ankle": (0, -454.21, 0),
-    "spine": (0, 233.38, 0), "thorax": (0, 257.08, 0), "neck_nose": (0, 121.13, 0),
+    "spine": (0, 233.48, 0), "thorax": (0, 257.08, 0), "neck_nose": (0, 121.13, 0),
     "head": (0, 115.00, 0), "left_shoulder": (0, 0, -151.03), "left_elbow": (0, -278.88, 0),
     "left_wrist": (0, -251.73, 0), "right_shoulder": (0, 0, 151.03),
     "right_elbow": (0, -278.88, 0), "right_wrist": (0, -251.73, 0),
@@ -118,11 +118,11 @@ def rotate_chain(X: np.ndarray, pivot: int, first: int, axis: str, deg: float) -
 
 
 def test_scale_ratio_reproduces_h36m_reference_stature():
-    # The H36M reference skeleton in millimetres; its chain is 1623.7 mm, so its stature
-    # is 1623.7 / 0.961 mm and scaling to that height must give exactly 1 mm -> 1 mm/1000.
+    # The H36M reference skeleton in millimetres: its chain is 1623.8 mm, so its stature
+    # is 1623.8 / 0.961 mm, and scaling to that height must map 1 mm to 0.001 m.
     X = standing_pose()[None] * 1000.0
     chain = height_chain_length(X)[0]
-    assert chain == pytest.approx(1623.69, abs=0.01)
+    assert chain == pytest.approx(1623.79, abs=0.01)
     stature_m = chain / CHAIN_TO_STATURE / 1000.0
     scaled, factor = scale_to_height(X, stature_m)
     assert factor == pytest.approx(1e-3, rel=1e-9)
@@ -353,7 +353,8 @@ def test_compute_kinematics_bundle(yoga_level):
     assert k.positions.shape == k.velocity.shape == k.acceleration.shape == (T, 17, 3)
     assert (k.units, k.velocity_units, k.acceleration_units) == ("m", "m/s", "m/s^2")
     assert np.allclose(k.speed, np.linalg.norm(k.velocity, axis=-1))
-    assert np.allclose(k.angles["left_knee_flexion"], joint_angles(k.positions)["left_knee_flexion"], equal_nan=True)
+    knee = joint_angles(k.positions)["left_knee_flexion"]
+    assert np.allclose(k.angles["left_knee_flexion"], knee, equal_nan=True)
     v, _ = derivatives(k.positions, FPS_YOGA)
     assert np.allclose(k.velocity, v)
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -473,44 +474,56 @@ def test_png_is_written(tmp_path, yoga_cam, yoga_level):
 
 @pytest.mark.parametrize("writer", ["npz", "csv", "trc", "png"])
 def test_writers_are_atomic(tmp_path, monkeypatch, kin, yoga_level, writer):
-    """A failure mid-write leaves neither a partial target nor a temp file, and keeps an
-    existing target unchanged."""
+    """A failure mid-write (a partial temp file exists) leaves neither a partial target
+    nor the temp file, and keeps an existing target unchanged."""
     target = tmp_path / f"out.{writer}"
     target.write_text("previous")
     T = kin.num_frames
-    calls = {"n": 0}
+    seen_partial = []
 
-    def boom(*args, **kwargs):
-        calls["n"] += 1
-        if calls["n"] > 5:  # fail after a few rows reached the temp file
-            raise OSError("disk full (simulated)")
-        return orig(*args, **kwargs)
+    def fail() -> None:
+        seen_partial.append([p.name for p in tmp_path.iterdir() if p.name.startswith(".out.")])
+        raise OSError("disk full (simulated)")
+
+    def after(n_calls: int, orig):
+        calls = {"n": 0}
+
+        def wrapped(*args, **kwargs):
+            calls["n"] += 1
+            if calls["n"] > n_calls:
+                fail()
+            return orig(*args, **kwargs)
+
+        return wrapped
 
     if writer == "npz":
-        orig = np.savez
 
-        def boom_savez(fh, **kw):  # write some bytes, then fail
+        def partial_savez(fh, **kw):
             fh.write(b"PK\x03\x04partial")
-            raise OSError("disk full (simulated)")
+            fh.flush()
+            fail()
 
-        monkeypatch.setattr(exports.np, "savez", boom_savez)
+        monkeypatch.setattr(exports.np, "savez", partial_savez)
         call = lambda: write_npz(target, a=np.zeros(3))  # noqa: E731
-    elif writer == "csv":
-        orig = exports._fmt
-        monkeypatch.setattr(exports, "_fmt", boom)
+    elif writer == "csv":  # fails after about 10 rows
+        monkeypatch.setattr(exports, "_fmt", after(2000, exports._fmt))
         call = lambda: write_kinematics_csv(target, np.arange(T), np.arange(T) / 30.0, kin)  # noqa: E731
-    elif writer == "trc":
-        orig = exports._fmt_trc
-        monkeypatch.setattr(exports, "_fmt_trc", boom)
-        call = lambda: write_trc(target, yoga_level[:20], 30.0)  # noqa: E731
+    elif writer == "trc":  # fails after about 40 rows
+        monkeypatch.setattr(exports, "_fmt_trc", after(2000, exports._fmt_trc))
+        call = lambda: write_trc(target, yoga_level[:100], 30.0)  # noqa: E731
     else:
-        from matplotlib.figure import Figure
+        orig_write = Path.write_bytes
 
-        monkeypatch.setattr(Figure, "savefig", lambda *a, **k: (_ for _ in ()).throw(OSError("simulated")))
+        def partial_write(self, data):
+            orig_write(self, data[: len(data) // 2])
+            fail()
+
+        monkeypatch.setattr(Path, "write_bytes", partial_write)
         z = np.zeros((10, 17, 3))
         call = lambda: plot_wrists(target, z, z, 30.0, z, z)  # noqa: E731
     with pytest.raises(OSError, match="simulated"):
         call()
+    assert len(seen_partial) == 1 and len(seen_partial[0]) == 1  # a temp file existed
     assert leftovers(tmp_path) == [target.name]
     assert target.read_text() == "previous"
 

