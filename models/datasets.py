@@ -192,9 +192,9 @@ def make_pairs(
     n = len(canon)
 
     if camera == "per-frame":
-        R = sample_camera_rotations(n, views, rng)
+        R = sample_views(n, views, rng)
     else:
-        R = sample_camera_rotations(len(clips), views, rng)[idx_clip]
+        R = sample_views(len(clips), views, rng)[idx_clip]
     inputs = np.einsum("nij,nkj->nki", R, canon)
     if noise is not None:
         inputs = apply_noise(inputs, noise, rng, idx_clip)
@@ -202,6 +202,17 @@ def make_pairs(
         inputs.astype(np.float32), canon.astype(np.float32), R, idx_clip, idx_frame,
         tuple(c.name for c in clips),
     )
+
+
+def sample_views(n: int, views: str, rng: np.random.Generator) -> np.ndarray:
+    """``n`` camera rotations from ``"paper"`` or ``"wide"`` (CONVENTIONS.md), or
+    ``"paper+wide"``: each rotation drawn from either with probability 1/2 (a training mix
+    that keeps the common near-frontal views dense while covering people turning around)."""
+    if views == "paper+wide":
+        pick = rng.random(n) < 0.5
+        return np.where(pick[:, None, None], sample_camera_rotations(n, "paper", rng),
+                        sample_camera_rotations(n, "wide", rng))
+    return sample_camera_rotations(n, views, rng)
 
 
 def apply_noise(inputs: np.ndarray, noise: Noise, rng: np.random.Generator, clip: np.ndarray | None = None) -> np.ndarray:

@@ -1,31 +1,48 @@
-"""Atomic file writing: outputs appear whole or not at all."""
+"""Atomic file writing: an output appears whole or not at all.
+
+A writer writes a hidden temporary file in the destination folder and ``os.replace``-s it
+onto the target (an atomic rename on POSIX and Windows when both are on one file system).
+On any error the temporary file is removed and the target is left as it was.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import os
-import tempfile
-from contextlib import contextmanager
+import uuid
+from collections.abc import Iterator
 from pathlib import Path
 
 
-@contextmanager
-def atomic_path(path: str | Path):
-    """Yield a temporary path beside ``path``; on success it is renamed to ``path``
-    (``os.replace``, atomic on one filesystem), on error it is removed."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix, dir=path.parent)
-    os.close(fd)
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success rename it onto ``path``.
+
+    The temporary (``.<name>.<uuid4><suffix>``, not created here) lives in the same
+    folder so ``os.replace`` stays a rename (never a cross-device copy), and the caller
+    creates it with the usual permissions. On an exception the temporary is deleted and
+    the exception propagates; ``path`` is untouched.
+
+    Raises:
+        FileNotFoundError: the destination folder does not exist.
+    """
+    target = Path(path)
+    if not target.parent.is_dir():
+        raise FileNotFoundError(f"destination folder does not exist: {target.parent}")
+    # A fresh unique name rather than mkstemp: mkstemp creates the file with mode 0600,
+    # which os.replace would carry over to the user's output.
+    tmp_path = target.parent / f".{target.name}.{uuid.uuid4().hex}{suffix}"
     try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+        yield tmp_path
+        os.replace(tmp_path, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+        raise
 
 
-def write_text(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` atomically."""
+def write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` to ``path`` atomically (the destination folder must exist)."""
     with atomic_path(path) as tmp:
         tmp.write_text(text)
     return Path(path)

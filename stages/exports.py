@@ -9,46 +9,18 @@ left as it was, so a crash never leaves a half-written file for a user to load.
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
 import json
 import os
-import uuid
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import atomic_path
 from .conventions import H36M_JOINTS, L_WRIST, R_WRIST
 from .kinematics import Kinematics
-
-
-@contextlib.contextmanager
-def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; on success rename it onto ``path``.
-
-    The temporary (``.<name>.<uuid4><suffix>``, not created here) lives in the same
-    folder so ``os.replace`` stays a rename (never a cross-device copy), and the caller
-    creates it with the usual permissions. On an exception the temporary is deleted and
-    the exception propagates; ``path`` is untouched.
-
-    Raises:
-        FileNotFoundError: the destination folder does not exist.
-    """
-    target = Path(path)
-    if not target.parent.is_dir():
-        raise FileNotFoundError(f"destination folder does not exist: {target.parent}")
-    # A fresh unique name rather than mkstemp: mkstemp creates the file with mode 0600,
-    # which os.replace would carry over to the user's output.
-    tmp_path = target.parent / f".{target.name}.{uuid.uuid4().hex}{suffix}"
-    try:
-        yield tmp_path
-        os.replace(tmp_path, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            tmp_path.unlink()
-        raise
 
 
 # ---------------------------------------------------------------------------------------

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from .conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
-from .exports import atomic_path
+from .atomic import atomic_path
 
 _BONE_A = np.array([a for a, _ in H36M_BONES])
 _BONE_B = np.array([b for _, b in H36M_BONES])

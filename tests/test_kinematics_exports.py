@@ -11,11 +11,11 @@ from __future__ import annotations
 import csv
 import dataclasses
 import time
-from collections import Counter
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import FIXTURES, rrd_summary, shared
 
 from pcnet.stages import exports
 from pcnet.stages.canonical import canonical_rotation, to_canonical
@@ -48,16 +48,6 @@ from pcnet.stages.rotations import axis_rotation
 from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length, scale_to_height
 
 FPS_YOGA = 30.0  # the yoga exports state no rate; 30 fps assumed (fixtures/README.md)
-FIXTURES = Path(__file__).resolve().parent / "fixtures"
-SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
-
-
-def shared(*parts: str) -> Path:
-    """A file under ../shared/data; the test skips when it is absent (fresh clone)."""
-    path = SHARED_DATA.joinpath(*parts)
-    if not path.exists():
-        pytest.skip(f"{path} not present: this real-data check runs only beside ../shared/data")
-    return path
 
 
 @pytest.fixture(scope="module")
@@ -529,26 +519,6 @@ def test_writers_are_atomic(tmp_path, monkeypatch, kin, yoga_level, writer):
 
 
 # --- rerun ---------------------------------------------------------------------------
-
-
-def rrd_summary(path: Path):
-    """Rows per entity (temporal) and the set of static entities, via rerun's own reader."""
-    from rerun.chunk import RrdReader
-
-    reader = RrdReader(path)
-    rows, static, chunks = Counter(), set(), {}
-    for ch in reader.stream():
-        if ch.is_static:
-            static.add(ch.entity_path)
-        else:
-            rows[ch.entity_path] += ch.num_rows
-            chunks.setdefault(ch.entity_path, []).append(ch)
-    origins = set()
-    for ch in reader.stream(store=reader.blueprints()[0]):
-        rb = ch.to_record_batch()
-        if "ViewBlueprint:space_origin" in rb.schema.names:
-            origins.update(v[0] for v in rb.column("ViewBlueprint:space_origin").to_pylist())
-    return rows, static, chunks, origins
 
 
 def _inputs(cam: np.ndarray):

@@ -1,0 +1,46 @@
+"""Why pcnet: the same movement filmed from two places gives different trajectories; after
+rectification they agree.
+
+    python examples/compare_two_views.py [--data MOCAP.npz] [--clip NAME] [--method pcnet]
+
+Takes a real mocap clip (default: a Bandai walk from the test fixtures), films it with two
+fixed synthetic cameras (front-left and side-right, pitched differently), and compares the
+right-wrist trajectory seen by the two cameras before and after rectification.
+"""
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from pcnet.models.datasets import load_mocap
+from pcnet.stages.canonical import to_canonical, world_to_canonical
+from pcnet.stages.conventions import R_WRIST
+from pcnet.stages.rectify import estimate_rotations
+from pcnet.stages.rotations import compose_camera_rotation
+from pcnet.stages.temporal import rectify_sequence
+
+ROOT = Path(__file__).resolve().parents[1]
+ap = argparse.ArgumentParser()
+ap.add_argument("--data", default=str(ROOT / "tests" / "fixtures" / "mocap_small.npz"))
+ap.add_argument("--clip", default=None)
+ap.add_argument("--method", default="pcnet")
+args = ap.parse_args()
+
+clips = {c.name: c for c in load_mocap(args.data)}
+clip = clips[args.clip] if args.clip else next(iter(clips.values()))
+canon, _ = world_to_canonical(clip.joints)
+cameras = {"front-left, 10 deg down": compose_camera_rotation(np.radians(35), np.radians(10), np.radians(2)),
+           "right side, 25 deg down": compose_camera_rotation(np.radians(-100), np.radians(25), np.radians(-4))}
+wrist = {}
+for name, R in cameras.items():
+    cam = canon @ R.T  # what a lifter would report in this camera's frame (noise-free here)
+    R_hat, residual, valid = estimate_rotations(cam, args.method)
+    R_seq, report = rectify_sequence(R_hat, valid, "auto", clip.fps, cam)
+    wrist[name] = (cam[:, R_WRIST], to_canonical(cam, R_seq)[:, R_WRIST], report["mode"])
+
+(a_cam, a_can, mode_a), (b_cam, b_can, mode_b) = wrist.values()
+rms = lambda d: 100 * float(np.sqrt(np.nanmean(np.sum(d**2, -1))))  # noqa: E731
+print(f"clip {clip.name} ({len(canon)} frames), method {args.method}, modes {mode_a}/{mode_b}")
+print(f"right wrist, RMS difference between the two views: camera frames {rms(a_cam - b_cam):.1f} cm, "
+      f"after rectification {rms(a_can - b_can):.1f} cm")

@@ -1,0 +1,23 @@
+"""Rectify an array of H36M-17 camera-frame poses with the Python API.
+
+    python examples/rectify_array.py [POSES.npy]
+
+Default input: the bundled MotionBERT output of the `pcnet demo` example.
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import pcnet.pipeline
+from pcnet.stages.rectify import rectify
+from pcnet.stages.rotations import decompose_camera_rotation
+
+path = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(pcnet.pipeline.__file__).parent / "example_data" / "X3D.npy"
+joints = np.load(path)  # (T, 17, 3), camera frame: x right, y down, z forward
+res = rectify(joints, method="pcnet")  # or "pcnet-rigid", "geometric"
+heading, pitch, roll = decompose_camera_rotation(res.rotation)
+print(f"{path.name}: {len(joints)} frames, {int(res.valid.sum())} valid")
+print(f"camera pitch {np.degrees(np.nanmean(pitch)):+.1f} deg, roll {np.degrees(np.nanmean(roll)):+.1f} deg")
+print(f"frame 0 canonical head (x anterior, y up, z right): {res.canonical[0, 10].round(3)}")

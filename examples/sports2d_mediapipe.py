@@ -1,0 +1,23 @@
+"""Run the whole pipeline on the MediaPipe BlazePose results of the Sports2D demo video.
+
+    python examples/sports2d_mediapipe.py [--out DIR]
+
+Needs ../shared/data/real/sports2d_demo (video + mediapipe_blazepose33.npz). MediaPipe world
+landmarks are metric, so no --height is needed.
+"""
+
+import argparse
+from pathlib import Path
+
+from pcnet.pipeline.config import RunConfig
+from pcnet.pipeline.runner import run_pipeline
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real" / "sports2d_demo"
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--out", default="sports2d_out")
+args = ap.parse_args()
+npz = str(DATA / "mediapipe_blazepose33.npz")
+cfg = RunConfig(video=str(DATA / "demo.mp4"), keypoints2d=npz, keypoints2d_format="mediapipe",
+                lifter="mediapipe", lifter_output=npz, out=args.out, overwrite=True)
+print(run_pipeline(cfg).summary())
