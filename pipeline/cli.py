@@ -28,17 +28,19 @@ def _fail(message: str) -> None:
 @click.option("--views", type=click.Choice(["paper", "wide"]), default="paper", show_default=True)
 @click.option("--camera", type=click.Choice(["per-frame", "per-clip"]), default="per-frame", show_default=True)
 @click.option("--noise/--no-noise", default=False, show_default=True, help="Upstream-like noise on the inputs.")
+@click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
+              help="Per-frame (paper) or sequence-aware rectification of each clip.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--max-frames", type=int, default=None, help="Evaluate at most N evenly spaced frames.")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
-def evaluate(method, data, split, views, camera, noise, seed, max_frames, weights, json_out):
+def evaluate(method, data, split, views, camera, noise, mode, seed, max_frames, weights, json_out):
     """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras."""
     from pcnet.pipeline.evaluate import evaluate as run_eval, format_table
     from pcnet.stages.atomic import write_text
 
     try:
-        result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise)
+        result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise, mode)
     except (OSError, ValueError) as err:
         _fail(str(err))
     click.echo(format_table(result))
@@ -51,8 +53,11 @@ def evaluate(method, data, split, views, camera, noise, seed, max_frames, weight
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True)
 @click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True)
 @click.option("--key", default=None, help="Array name inside an .npz input.")
+@click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
+              help="frame: each frame alone (paper); sequence: one up for a static camera; smooth: moving camera.")
+@click.option("--fps", type=float, default=30.0, show_default=True, help="Frame rate (for --mode smooth/auto).")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None)
-def rectify(input_path, out_path, method, key, weights):
+def rectify(input_path, out_path, method, key, mode, fps, weights):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
@@ -62,12 +67,12 @@ def rectify(input_path, out_path, method, key, weights):
 
     try:
         joints = load_pose_array(input_path, key)
-        res = run_rectify(joints, method, weights)
+        res = run_rectify(joints, method, weights, mode=mode, fps=fps)
     except (OSError, ValueError) as err:
         _fail(str(err))
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
-              method=np.array(method))
-    click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}")
+              method=np.array(method), mode=np.array(res.mode))
+    click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}")
 
 
 @main.command()

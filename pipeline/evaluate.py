@@ -11,6 +11,7 @@ from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.rectify import estimate_rotations
+from pcnet.stages.temporal import rectify_sequence
 
 
 def evaluate(
@@ -23,11 +24,14 @@ def evaluate(
     weights: str | None = None,
     camera: str = "per-frame",
     noise: bool = False,
+    mode: str = "frame",
 ) -> dict:
     """Evaluate ``method`` on the ``split`` clips of a mocap npz.
 
     Pairs come from :func:`pcnet.models.datasets.make_pairs` (clean inputs unless
-    ``noise``); the canonical prediction is ``(X - pelvis) @ R_hat (+ residual)``, compared
+    ``noise``); ``mode`` other than ``"frame"`` post-processes each clip's per-frame
+    rotations with :func:`pcnet.stages.temporal.rectify_sequence` (``sequence`` assumes a
+    static camera, meaningful with ``camera="per-clip"``); the canonical prediction is ``(X - pelvis) @ R_hat (+ residual)``, compared
     with the canonical target. Frames a method marks invalid are counted, not scored.
 
     Returns:
@@ -41,12 +45,25 @@ def evaluate(
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=Noise() if noise else None,
                        max_frames=max_frames)
     R_hat, residual, valid = estimate_rotations(pairs.inputs, method, weights)
+    modes_run: dict[str, int] = {}
+    if mode != "frame":
+        for i, clip in enumerate(clips):
+            sel = np.flatnonzero(pairs.clip == i)
+            if len(sel) == 0:
+                continue
+            R_clip, report = rectify_sequence(R_hat[sel], valid[sel], mode, clip.fps, pairs.inputs[sel])
+            R_hat[sel] = R_clip
+            valid[sel] &= np.asarray(report["valid"], bool)
+            modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
+        R_hat[~valid] = np.nan
     canon_hat = to_canonical(pairs.inputs, R_hat, residual)
     errors = evaluate_rotations(R_hat, pairs.R, canon_hat, pairs.canonical)
     result = {
         "method": method, "views": views, "split": split, "data": str(data), "seed": seed,
-        "camera": camera, "noise": noise, "frames": int(len(valid)), "invalid_frames": int((~valid).sum()),
+        "camera": camera, "noise": noise, "mode": mode, "frames": int(len(valid)), "invalid_frames": int((~valid).sum()),
     }
+    if modes_run:
+        result["clip_modes"] = modes_run
     result.update({name: summarize(errors[name]) for name in METRICS})
     return result
 
@@ -54,7 +71,7 @@ def evaluate(
 def format_table(result: dict) -> str:
     """The result as a plain-text table (one row per metric: mean, median, p95)."""
     head = (f"method={result['method']} views={result['views']} split={result['split']} "
-            f"camera={result['camera']} noise={result['noise']} frames={result['frames']} "
+            f"camera={result['camera']} noise={result['noise']} mode={result['mode']} frames={result['frames']} "
             f"invalid={result['invalid_frames']} seed={result['seed']}")
     lines = [head, f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}"]
     for name in METRICS:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import shutil
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -47,6 +48,7 @@ class RunResult:
     report: dict
     outputs: dict[str, Path] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    seconds: dict[str, float] = field(default_factory=dict)
 
     def summary(self) -> str:
         """A one-screen text summary."""
@@ -106,8 +108,14 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
     if out.exists() and not cfg.overwrite:
         raise FileExistsError(f"{out}: output folder exists; choose another --out or pass --overwrite")
     bar = tqdm(total=len(STEPS), desc="pcnet", disable=not progress, unit="stage")
+    seconds: dict[str, float] = {}
+    clock = [time.perf_counter(), None]
 
     def step(name: str) -> None:
+        now = time.perf_counter()
+        if clock[1] is not None:
+            seconds[clock[1]] = now - clock[0]
+        clock[:] = [now, name]
         bar.set_postfix_str(name)
 
     step("inputs")
@@ -182,6 +190,7 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
             )
             outputs["recording"] = tmp / "recording.rrd"
         bar.update()
+        step("done")
         if out.exists():
             shutil.rmtree(out)
         tmp.rename(out)
@@ -198,7 +207,7 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
         camera_tilt_deg=float(np.mean(tilt)) if ok.any() else float("nan"),
         camera_pitch_deg=float(np.degrees(np.mean(pitch[ok]))) if ok.any() else float("nan"),
         camera_roll_deg=float(np.degrees(np.mean(roll[ok]))) if ok.any() else float("nan"),
-        report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes,
+        report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
     )
 
 

@@ -27,6 +27,8 @@ class Rectified:
     up: np.ndarray
     valid: np.ndarray
     method: str
+    mode: str = "frame"
+    report: dict | None = None
 
 
 def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None):
@@ -53,9 +55,24 @@ def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: s
     raise ValueError(f"unknown rectification method {method!r}; expected one of {METHODS}")
 
 
-def rectify(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None) -> Rectified:
+def rectify(
+    joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None, mode: str = "frame", fps: float = 30.0
+) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
-    (``CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN."""
+    (``CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
+
+    ``mode``: ``frame`` (each frame alone, the paper), ``sequence`` (one up direction for a
+    static camera), ``smooth`` (SO(3) smoothing for a moving camera, needs ``fps``) or
+    ``auto`` (:func:`pcnet.stages.temporal.rectify_sequence`); ``report`` then says what ran.
+    """
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
+    report = None
+    if mode != "frame":
+        from .temporal import rectify_sequence
+
+        R, report = rectify_sequence(R, valid, mode, fps, joints_cam)
+        valid = valid & np.asarray(report["valid"], bool)
+        R[~valid] = np.nan
+        mode = report["mode"]
     canonical = to_canonical(joints_cam, R, residual)
-    return Rectified(R, canonical, R[:, :, 1].copy(), valid, method)
+    return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, mode, report)

@@ -595,7 +595,13 @@ def sequence_rectify(
             block = max(1, T // _MIN_BLOCKS)
         rng = np.random.default_rng(seed)
         idx = _block_indices(T, block, n_bootstrap, rng)
-        ub, _ = robust_mean_direction(ups[idx], w[idx], init=u_pose)
+        # Replicates in chunks: all at once would hold (B, T, 3) arrays several times over,
+        # hundreds of MB for a 20-minute recording.
+        chunk = max(1, 2_000_000 // max(T, 1))
+        ub = np.concatenate([
+            robust_mean_direction(ups[idx[i : i + chunk]], w[idx[i : i + chunk]], init=u_pose)[0]
+            for i in range(0, n_bootstrap, chunk)
+        ])
         if contacts is not None:
             # Each replicate refits the plane to the contacts of its resampled frames; one
             # with too few contacts to fit a plane is dropped (falling back to the pose-based
