@@ -32,6 +32,17 @@ class Clip:
     fps: float
 
 
+def load_numpy_file(path: Path, what: str):
+    """``np.load`` without pickles; a missing or unreadable file raises an error naming
+    ``path`` and ``what`` was expected (FileNotFoundError / ValueError)."""
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: {what} file not found")
+    try:
+        return np.load(path, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile) as err:
+        raise ValueError(f"{path}: not a readable {what} file ({err})") from err
+
+
 def load_mocap(path: str | Path) -> list[Clip]:
     """Load every clip of a mocap ``.npz`` (sorted by name).
 
@@ -41,12 +52,7 @@ def load_mocap(path: str | Path) -> list[Clip]:
             (the message names the file and the key).
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: mocap file not found")
-    try:
-        data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as err:
-        raise ValueError(f"{path}: not a readable .npz mocap file ({err})") from err
+    data = load_numpy_file(path, "mocap .npz")
     if not isinstance(data, np.lib.npyio.NpzFile):
         raise ValueError(f"{path}: expected an .npz with one (T, 17, 3) array per clip, got a single array")
     meta_path = path.with_suffix(".json")

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-import zipfile
 from pathlib import Path
 
 import numpy as np
+
+from pcnet.models.datasets import load_numpy_file
 
 
 def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
@@ -17,12 +18,7 @@ def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
         ValueError: unreadable file, missing/ambiguous key, or wrong shape, naming the file.
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: file not found")
-    try:
-        data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as err:
-        raise ValueError(f"{path}: not a readable .npy/.npz file ({err})") from err
+    data = load_numpy_file(path, ".npy/.npz pose")
     if isinstance(data, np.lib.npyio.NpzFile):
         with data:
             if key is None:
