@@ -44,6 +44,7 @@ class TrainConfig:
     threads: int = 0  # 0 = torch default
     device: str = "auto"  # auto = cuda when present
     val_frames: int = 20000
+    init_checkpoint: str | None = None  # start from these weights (fine-tuning), fresh optimiser
     model: PCNetConfig = field(default_factory=PCNetConfig)
     loss: LossWeights = field(default_factory=LossWeights)
 
@@ -123,6 +124,8 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     )
 
     model = PCNet(cfg.model).to(device)
+    if cfg.init_checkpoint:
+        model.load_state_dict(torch.load(cfg.init_checkpoint, map_location=device, weights_only=False)["model"])
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     n_train = sum(len(c.joints[:: cfg.frame_stride]) for c in train_clips)
     steps_per_epoch = math.ceil(n_train / cfg.batch_size)

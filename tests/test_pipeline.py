@@ -197,3 +197,28 @@ def test_installed_package_has_no_generic_top_level_modules(tmp_path):
     location, bare = out.stdout.splitlines()
     assert location.endswith(str(Path("models", "__init__.py")))
     assert bare == "[]"
+
+
+def test_rectify_command_npy_npz_and_bad_input(tmp_path):
+    """`pcnet rectify`: the low-level entry point on real VideoPose3D poses."""
+    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
+    poses[5, 11] = np.nan  # a missing shoulder: that frame is flagged, the others survive
+    src = tmp_path / "poses.npz"
+    np.savez(src, joints=poses, other=np.zeros(3))
+    out = tmp_path / "out.npz"
+    res = _invoke("rectify", src, "--key", "joints", "--out", out, "--method", "pcnet-rigid", "--mode", "sequence")
+    assert res.exit_code == 0, res.output
+    with np.load(out) as npz:
+        R, canonical, up, valid = npz["rotation"], npz["canonical"], npz["up"], npz["valid"]
+        assert str(npz["method"]) == "pcnet-rigid" and str(npz["mode"]) == "sequence"
+    assert not valid[5] and valid[np.arange(100) != 5].all()
+    np.testing.assert_allclose(up, R[:, :, 1])
+    ok = np.arange(100) != 5
+    np.testing.assert_allclose(canonical[ok], ((poses - poses[:, :1]) @ R)[ok], atol=1e-5)
+    assert (canonical[ok, HEAD, 1] > 0.4).all()  # standing: the head is up in the canonical frame
+    res = _invoke("rectify", src, "--out", tmp_path / "x.npz")
+    assert res.exit_code != 0 and "--key" in res.output and not (tmp_path / "x.npz").exists()
+    bad = tmp_path / "bad.npy"
+    np.save(bad, poses[:, :16])
+    res = _invoke("rectify", bad, "--out", tmp_path / "y.npz")
+    assert res.exit_code != 0 and "bad.npy" in res.output and "(T, 17, 3)" in res.output
