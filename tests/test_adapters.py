@@ -38,14 +38,15 @@ from pcnet.adapters import (
     read_frame,
     register_3d,
 )
+from conftest import FIXTURES, SHARED_DATA as SHARED, shared
+
 from pcnet.adapters.registry import unregister
 from pcnet.stages.conventions import (
     HEAD, L_ANKLE, L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_ANKLE, R_HIP, R_SHOULDER, THORAX, get_layout,
 )
 from pcnet.stages.remap import remap_to_h36m
 
-FIX = Path(__file__).resolve().parent / "fixtures"
-SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+FIX = FIXTURES
 
 BOXING_AP = FIX / "boxing_alphapose_f000-059.json"  # frames 0-59, one detection each, idx 1
 AP809 = FIX / "alphapose809_f130-159.json"  # frames 130-159, two detections in frame 144
@@ -58,14 +59,6 @@ YOGA = {  # 100-frame windows where each pose is held
 }
 CLIP = FIX / "boxing2_f000-009.mp4"
 
-
-def shared(*parts: str) -> Path:
-    if not SHARED.exists():
-        pytest.skip(f"../shared/data not present: {SHARED} (full-data check)")
-    p = SHARED.joinpath(*parts)
-    if not p.exists():
-        pytest.skip(f"../shared/data not present: {p} missing")
-    return p
 
 
 def raw_entries(path: Path) -> list[dict]:
