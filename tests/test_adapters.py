@@ -38,7 +38,7 @@ from pcnet.adapters import (
     read_frame,
     register_3d,
 )
-from conftest import FIXTURES, SHARED_DATA as SHARED, shared
+from conftest import FIXTURES, shared
 
 from pcnet.adapters.registry import unregister
 from pcnet.stages.conventions import (
