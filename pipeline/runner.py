@@ -17,16 +17,14 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
-from pcnet.stages.canonical import to_canonical
 from pcnet.stages.conventions import H36M_JOINTS, L_WRIST, PELVIS, R_WRIST
 from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
 from pcnet.stages.kinematics import compute_kinematics
-from pcnet.stages.rectify import estimate_rotations
+from pcnet.stages.rectify import NO_VALID_FRAME, rectify
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
 from pcnet.stages.rerun_log import series_from_kinematics, write_recording
 from pcnet.stages.rotations import decompose_camera_rotation
 from pcnet.stages.scale import scale_to_height
-from pcnet.stages.temporal import rectify_sequence
 
 from .config import RunConfig
 
@@ -54,8 +52,8 @@ class RunResult:
         """A one-screen text summary."""
         lines = [
             f"frames            {self.frames} ({self.frames - self.valid_frames} dropped: no valid pose)",
-            f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}; "
-            f"spread of per-frame up {self.report.get('spread_deg', float('nan')):.1f} deg)",
+            f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}"
+            + (f"; spread of per-frame up {self.report['spread_deg']:.1f} deg)" if "spread_deg" in self.report else ")"),
             f"camera tilt       {self.camera_tilt_deg:.1f} deg from level "
             f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)",
             f"units             {self.units}",
@@ -107,7 +105,11 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
     out = Path(cfg.out)
     if out.exists() and not cfg.overwrite:
         raise FileExistsError(f"{out}: output folder exists; choose another --out or pass --overwrite")
-    bar = tqdm(total=len(STEPS), desc="pcnet", disable=not progress, unit="stage")
+    with tqdm(total=len(STEPS), desc="pcnet", disable=not progress, unit="stage") as bar:
+        return _run_stages(cfg, out, bar)
+
+
+def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     seconds: dict[str, float] = {}
     clock = [time.perf_counter(), None]
 
@@ -133,13 +135,13 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
     bar.update()
 
     step("rectify")
-    R, residual, valid = estimate_rotations(joints, cfg.method, cfg.weights)
-    if not valid.any():
-        raise ValueError(f"{cfg.lifter_output}: no frame has the hips, thorax and shoulders needed to rectify")
-    rotations, report = rectify_sequence(R, valid, cfg.mode, fps, joints)
-    valid = np.asarray(report["valid"], bool) & valid
-    rotations[~valid] = np.nan
-    canonical = to_canonical(joints, rotations, residual if cfg.method == "pcnet" else None)
+    try:
+        res = rectify(joints, cfg.method, cfg.weights, cfg.mode, fps)
+    except ValueError as err:
+        raise ValueError(f"{cfg.lifter_output}: {err}") from err
+    if not res.valid.any():
+        raise ValueError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
+    rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
     bar.update()
 
     step("scale")
@@ -197,8 +199,6 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    finally:
-        bar.close()
 
     ok = valid & np.isfinite(pitch)
     tilt = np.degrees(np.arccos(np.clip(-rotations[ok, 1, 1], -1, 1)))  # angle of up from image-up

@@ -11,6 +11,7 @@ from .conventions import check_poses
 from .geometric import geometric_rotation
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
+NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
 
 
 @dataclass(frozen=True)
@@ -63,16 +64,20 @@ def rectify(
 
     ``mode``: ``frame`` (each frame alone, the paper), ``sequence`` (one up direction for a
     static camera), ``smooth`` (SO(3) smoothing for a moving camera, needs ``fps``) or
-    ``auto`` (:func:`pcnet.stages.temporal.rectify_sequence`); ``report`` then says what ran.
+    ``auto`` (:func:`pcnet.stages.temporal.rectify_sequence`); ``report`` says what ran.
+
+    Raises:
+        ValueError: unknown method or mode, wrong shape, or (sequence modes) no valid frame.
     """
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
-    report = None
+    report: dict = {"requested_mode": mode, "mode": "frame"}
     if mode != "frame":
         from .temporal import rectify_sequence
 
+        if not valid.any():
+            raise ValueError(NO_VALID_FRAME)
         R, report = rectify_sequence(R, valid, mode, fps, joints_cam)
         valid = valid & np.asarray(report["valid"], bool)
         R[~valid] = np.nan
-        mode = report["mode"]
     canonical = to_canonical(joints_cam, R, residual)
-    return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, mode, report)
+    return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report)
