@@ -107,6 +107,9 @@ class Noise:
     depth_m: float = 0.04
     bone_scale_sigma: float = 0.04
     drop_prob: float = 0.01
+    # Share of poses that get the noise; the rest stay clean, so a model trained with
+    # fraction < 1 stays precise on clean inputs (mocap, good lifters) as well.
+    fraction: float = 1.0
 
 
 def _bone_scale(X: np.ndarray, factors: np.ndarray) -> np.ndarray:
@@ -225,8 +228,10 @@ def apply_noise(inputs: np.ndarray, noise: Noise, rng: np.random.Generator, clip
     """Upstream-like errors on camera-frame poses ``(N, 17, 3)`` (metres): per-clip
     bone-length scaling (an estimator's skeleton differs from the subject's), isotropic
     per-joint jitter, extra error along the camera depth axis +z, and dropped joints set to
-    NaN (never the pelvis, which defines the origin). Returns pelvis-centred float64."""
-    X = np.asarray(inputs, np.float64)
+    NaN (never the pelvis, which defines the origin); only a ``noise.fraction`` share of
+    the poses (drawn at random) is changed. Returns pelvis-centred float64."""
+    clean = np.asarray(inputs, np.float64)
+    X = clean
     n = len(X)
     clip = np.arange(n) if clip is None else clip
     factors = np.clip(rng.normal(1.0, noise.bone_scale_sigma, (int(clip.max()) + 1, 17)), 0.85, 1.15)
@@ -237,4 +242,7 @@ def apply_noise(inputs: np.ndarray, noise: Noise, rng: np.random.Generator, clip
     drop = rng.random(X.shape[:2]) < noise.drop_prob
     drop[:, PELVIS] = False
     X[drop] = np.nan
+    if noise.fraction < 1.0:
+        keep_clean = rng.random(n) >= noise.fraction
+        X[keep_clean] = clean[keep_clean] - clean[keep_clean, PELVIS : PELVIS + 1]
     return X

@@ -39,6 +39,7 @@ class TrainConfig:
     views: str = "wide"
     frame_stride: int = 1
     noise: bool = True
+    noise_fraction: float = 1.0  # share of training poses that get the noise (validation: all)
     augment: bool = True
     seed: int = 0
     threads: int = 0  # 0 = torch default
@@ -76,7 +77,7 @@ def _device(name: str) -> torch.device:
 def _epoch_tensors(clips, cfg: TrainConfig, seed: int, views: str, noise: bool, augment: bool, **kw):
     pairs = make_pairs(
         clips, views=views, seed=seed,
-        noise=Noise() if noise else None,
+        noise=Noise(fraction=kw.get("noise_fraction", 1.0)) if noise else None,
         augmentation=Augmentation() if augment else None,
         frame_stride=kw.get("frame_stride", cfg.frame_stride),
         max_frames=kw.get("max_frames"),
@@ -142,7 +143,8 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
 
     for epoch in range(start, cfg.epochs):
         t0 = time.time()
-        x, R, canon = _epoch_tensors(train_clips, cfg, cfg.seed + epoch, cfg.views, cfg.noise, cfg.augment)
+        x, R, canon = _epoch_tensors(train_clips, cfg, cfg.seed + epoch, cfg.views, cfg.noise, cfg.augment,
+                                  noise_fraction=cfg.noise_fraction)
         gen = torch.Generator().manual_seed(cfg.seed + epoch)
         order = torch.randperm(len(x), generator=gen)
         model.train()

@@ -208,6 +208,21 @@ def test_pairs_are_deterministic_and_consistent():
     assert hip.max() > 1.5 * np.linalg.norm(clean.canonical[:, 1] - clean.canonical[:, 4], axis=-1).max()
 
 
+def test_noise_fraction_leaves_the_rest_clean():
+    from pcnet.models.datasets import Noise, apply_noise
+
+    clips = load_mocap(BANDAI)
+    X = make_pairs(clips, "paper", seed=0).inputs.astype(np.float64)
+    rng = np.random.default_rng(0)
+    half = apply_noise(X, Noise(fraction=0.5), rng)
+    changed = ~np.all(np.isclose(half, X, atol=1e-12, equal_nan=False), axis=(1, 2))
+    assert 0.35 < changed.mean() < 0.65, changed.mean()
+    np.testing.assert_allclose(half[~changed], X[~changed], atol=1e-12)  # untouched rows exact, no NaN
+    none = apply_noise(X, Noise(fraction=0.0), np.random.default_rng(1))
+    np.testing.assert_allclose(none, X, atol=1e-12)
+    assert np.isnan(apply_noise(X, Noise(), np.random.default_rng(1))).any()
+
+
 def test_evaluate_cli_json(tmp_path):
     from pcnet.pipeline.cli import main
 

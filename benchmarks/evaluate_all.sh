@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Re-run every `pcnet evaluate` behind the README's result tables; JSON into
+# benchmarks/results/. Then `python benchmarks/readme_tables.py` prints the tables.
+# Needs ../shared/data (the mocap); about 10 minutes on 2 cores.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+OUT=benchmarks/results
+MOCAP=${MOCAP:-../shared/data/mocap}
+declare -A DATA=([bandai_test]="$MOCAP/bandai_h36m17.npz --split test" [deepmimic_all]="$MOCAP/deepmimic_h36m17.npz --split all")
+for key in bandai_test deepmimic_all; do
+  for views in paper wide; do
+    for method in geometric pcnet pcnet-rigid; do
+      # clean inputs, one random camera per frame (the paper's protocol)
+      pcnet evaluate --method $method --data ${DATA[$key]} --views $views --json $OUT/${method}_${key}_${views}.json
+    done
+    for mode in frame sequence; do
+      # one fixed camera per clip, upstream-like noise (issue 5's protocol)
+      pcnet evaluate --method pcnet --data ${DATA[$key]} --views $views --camera per-clip --noise --mode $mode \
+        --json $OUT/pcnet_${key}_${views}_perclip_noise_${mode}.json
+    done
+  done
+  for method in geometric pcnet pcnet-rigid; do
+    # upstream-like noise, one random camera per frame
+    pcnet evaluate --method $method --data ${DATA[$key]} --views paper --noise --json $OUT/${method}_${key}_paper_noise.json
+  done
+done
