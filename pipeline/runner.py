@@ -54,8 +54,7 @@ class RunResult:
             f"frames            {self.frames} ({self.frames - self.valid_frames} dropped: no valid pose)",
             f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}"
             + (f"; spread of per-frame up {self.report['spread_deg']:.1f} deg)" if "spread_deg" in self.report else ")"),
-            f"camera tilt       {self.camera_tilt_deg:.1f} deg from level "
-            f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)",
+            f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(),
             f"units             {self.units}",
         ]
         lines += [f"note              {n}" for n in self.notes]
@@ -63,6 +62,15 @@ class RunResult:
         if "recording" in self.outputs:
             lines.append(f"open the recording with:  rerun {self.outputs['recording']}")
         return "\n".join(lines)
+
+
+    def _pitch_roll(self) -> str:
+        pitch_unc = self.report.get("camera_pitch_uncertainty_deg", float("nan"))
+        roll_unc = self.report.get("camera_roll_uncertainty_deg", float("nan"))
+        if not (np.isfinite(pitch_unc) and np.isfinite(roll_unc)):
+            return f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)"
+        return (f"(pitch {self.camera_pitch_deg:+.1f} +- {pitch_unc:.1f}, roll {self.camera_roll_deg:+.1f} "
+                f"+- {roll_unc:.1f} deg; 95 % block bootstrap, evidence: {self.report.get('evidence')})")
 
 
 def _load_inputs(cfg: RunConfig):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import glob
+import re
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +43,9 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     assert f"rerun {out / 'recording.rrd'}" in res.output
     frames = len(np.load(EXAMPLE_DIR / "X3D.npy"))
     assert f"frames            {frames}" in res.output
+    # a static camera: one tilt for the whole video, with its bootstrap uncertainty
+    assert "mode sequence (requested auto" in res.output
+    assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % block bootstrap", res.output)
     with open(out / "kinematics.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == frames
