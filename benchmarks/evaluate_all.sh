@@ -13,10 +13,16 @@ for key in bandai_test deepmimic_all; do
       # clean inputs, one random camera per frame (the paper's protocol)
       pcnet evaluate --method $method --data ${DATA[$key]} --views $views --json $OUT/${method}_${key}_${views}.json
     done
+    # the network's own heading (the paper's model alone, no hip-line heading)
+    pcnet evaluate --method pcnet --heading predicted --data ${DATA[$key]} --views $views \
+      --json $OUT/pcnet_${key}_${views}_predicted_heading.json
     for mode in frame sequence; do
       # one fixed camera per clip, upstream-like noise (issue 5's protocol)
       pcnet evaluate --method pcnet --data ${DATA[$key]} --views $views --camera per-clip --noise --mode $mode \
         --json $OUT/pcnet_${key}_${views}_perclip_noise_${mode}.json
+      # one fixed camera per clip, clean inputs (mocap-like: the hip-line heading applies)
+      pcnet evaluate --method pcnet --data ${DATA[$key]} --views $views --camera per-clip --mode $mode \
+        --json $OUT/pcnet_${key}_${views}_perclip_clean_${mode}.json
     done
   done
   for method in geometric pcnet pcnet-rigid; do

@@ -30,6 +30,7 @@ def main() -> None:
         for views in ("paper", "wide"):
             for method in ("geometric", "pcnet", "pcnet-rigid"):
                 print(row(f"{label}, {views}", method, load(f"{method}_{key}_{views}")))
+            print(row(f"{label}, {views}", "pcnet, heading predicted", load(f"pcnet_{key}_{views}_predicted_heading")))
     print("\n| data, views | method | rotation | tilt | heading | MPJPE | PA-MPJPE |\n|---|---|---|---|---|---|---|")
     for key, label in DATASETS:
         for method in ("geometric", "pcnet", "pcnet-rigid"):
@@ -39,6 +40,11 @@ def main() -> None:
         for views in ("paper", "wide"):
             for mode in ("frame", "sequence"):
                 print(row(f"{label}, {views}", mode, load(f"pcnet_{key}_{views}_perclip_noise_{mode}"), ALL_METRICS[:4]))
+    print("\n| data, views | mode | rotation | tilt | heading | MPJPE |\n|---|---|---|---|---|---|")
+    for key, label in DATASETS:
+        for views in ("paper", "wide"):
+            for mode in ("frame", "sequence"):
+                print(row(f"{label}, {views}", mode, load(f"pcnet_{key}_{views}_perclip_clean_{mode}"), ALL_METRICS[:4]))
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
+from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS
 
 
@@ -30,17 +31,20 @@ def _fail(message: str) -> None:
 @click.option("--noise/--no-noise", default=False, show_default=True, help="Upstream-like noise on the inputs.")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="Per-frame (paper) or sequence-aware rectification of each clip.")
+@click.option("--heading", type=click.Choice(HEADING_SOURCES), default=None,
+              help="Heading about the up axis from: predicted (the method's rotation), hips (the input's "
+                   "hip line, exact on clean mocap) or auto (hips when precise) [auto; geometric: predicted].")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--max-frames", type=int, default=None, help="Evaluate at most N evenly spaced frames.")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
-def evaluate(method, data, split, views, camera, noise, mode, seed, max_frames, weights, json_out):
+def evaluate(method, data, split, views, camera, noise, mode, heading, seed, max_frames, weights, json_out):
     """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras."""
     from pcnet.pipeline.evaluate import evaluate as run_eval, format_table
     from pcnet.stages.atomic import write_text
 
     try:
-        result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise, mode)
+        result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise, mode, heading)
     except (OSError, ValueError) as err:
         _fail(str(err))
     click.echo(format_table(result))
@@ -56,8 +60,11 @@ def evaluate(method, data, split, views, camera, noise, mode, seed, max_frames, 
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="frame: each frame alone (paper); sequence: one up for a static camera; smooth: moving camera.")
 @click.option("--fps", type=float, default=30.0, show_default=True, help="Frame rate (for --mode smooth/auto).")
+@click.option("--heading", type=click.Choice(HEADING_SOURCES), default=None,
+              help="Heading about the up axis from: predicted (the method's rotation), hips (the input's "
+                   "hip line, exact on clean mocap) or auto (hips when precise) [auto; geometric: predicted].")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None)
-def rectify(input_path, out_path, method, key, mode, fps, weights):
+def rectify(input_path, out_path, method, key, mode, fps, heading, weights):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
@@ -67,12 +74,13 @@ def rectify(input_path, out_path, method, key, mode, fps, weights):
 
     try:
         joints = load_pose_array(input_path, key)
-        res = run_rectify(joints, method, weights, mode=mode, fps=fps)
+        res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading)
     except (OSError, ValueError) as err:
         _fail(str(err))
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
-              method=np.array(method), mode=np.array(res.mode))
-    click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}")
+              method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source))
+    click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}, "
+               f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)")
 
 
 @main.command()
@@ -123,6 +131,9 @@ def _run_and_report(cfg) -> None:
 @click.option("--method", type=click.Choice(METHODS), default=None, help="Rectification method [pcnet].")
 @click.option("--mode", type=click.Choice(MODES), default=None,
               help="frame | sequence (static camera) | smooth (moving camera) | auto [auto].")
+@click.option("--heading", type=click.Choice(HEADING_SOURCES), default=None,
+              help="Heading about the up axis from: predicted (the method's rotation), hips (the input's "
+                   "hip line, exact on clean mocap) or auto (hips when precise) [auto; geometric: predicted].")
 @click.option("--height", type=float, default=None, help="Subject height in metres, to scale non-metric output.")
 @click.option("--fps", type=float, default=None, help="Frame rate when no video is given.")
 @click.option("--person", type=int, default=None, help="2D track id to follow (AlphaPose idx / MMPose instance).")

@@ -18,7 +18,8 @@ class RunConfig:
 
     ``lifter_options`` are passed to the 3D adapter (``pixel`` for motionbert,
     ``hypothesis``/``step`` for ddhpose, ``layout``/``axes``/``units``/``key`` for generic);
-    ``person`` picks a 2D track (AlphaPose ``idx``, MMPose instance position).
+    ``person`` picks a 2D track (AlphaPose ``idx``, MMPose instance position); ``heading``
+    is the heading source of :func:`pcnet.stages.rectify.rectify` (``None`` = its default).
     """
 
     lifter: str
@@ -29,6 +30,7 @@ class RunConfig:
     out: str = "pcnet_out"
     method: str = "pcnet"
     mode: str = "auto"
+    heading: str | None = None
     height: float | None = None
     fps: float | None = None
     person: int | None = None
@@ -50,6 +52,10 @@ class RunConfig:
         ):
             if value not in choices:
                 raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
+        from pcnet.stages.heading import HEADING_SOURCES
+
+        if self.heading is not None and self.heading not in HEADING_SOURCES:
+            raise ValueError(f"heading: expected one of {HEADING_SOURCES}, got {self.heading!r}")
         if self.keypoints2d_format is not None and self.keypoints2d_format not in KEYPOINT_FORMATS:
             raise ValueError(f"keypoints2d_format: expected one of {KEYPOINT_FORMATS}, got {self.keypoints2d_format!r}")
         if (self.keypoints2d is None) != (self.keypoints2d_format is None):

@@ -10,7 +10,8 @@ import numpy as np
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
-from pcnet.stages.rectify import estimate_rotations
+from pcnet.stages.heading import apply_heading
+from pcnet.stages.rectify import default_heading_source, estimate_rotations
 from pcnet.stages.temporal import rectify_sequence
 
 
@@ -25,18 +26,23 @@ def evaluate(
     camera: str = "per-frame",
     noise: bool = False,
     mode: str = "frame",
+    heading: str | None = None,
 ) -> dict:
     """Evaluate ``method`` on the ``split`` clips of a mocap npz.
 
     Pairs come from :func:`pcnet.models.datasets.make_pairs` (clean inputs unless
     ``noise``); ``mode`` other than ``"frame"`` post-processes each clip's per-frame
     rotations with :func:`pcnet.stages.temporal.rectify_sequence` (``sequence`` assumes a
-    static camera, meaningful with ``camera="per-clip"``); the canonical prediction is ``(X - pelvis) @ R_hat (+ residual)``, compared
-    with the canonical target. Frames a method marks invalid are counted, not scored.
+    static camera, meaningful with ``camera="per-clip"``); ``heading`` then chooses each
+    clip's heading source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the
+    method's default, :func:`pcnet.stages.rectify.default_heading_source`), each clip being
+    one recording whatever the camera protocol. The canonical prediction is
+    ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target. Frames a method marks invalid are counted, not scored.
 
     Returns:
-        ``{"method", "views", "split", "data", "seed", "camera", "noise", "frames",
-        "invalid_frames", "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
+        ``{"method", "views", "split", "data", "seed", "camera", "noise", "mode",
+        "heading", "frames", "invalid_frames", "clip_heading_sources" (clips per source
+        used), "clip_modes" (sequence modes only), "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
         :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres).
     """
     clips = select_split(load_mocap(data), split)
@@ -44,34 +50,41 @@ def evaluate(
         raise ValueError(f"{data}: split {split!r} has no clips")
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=Noise() if noise else None,
                        max_frames=max_frames)
+    heading = default_heading_source(method) if heading is None else heading
     R_hat, residual, valid = estimate_rotations(pairs.inputs, method, weights)
     modes_run: dict[str, int] = {}
-    if mode != "frame":
-        for i, clip in enumerate(clips):
-            sel = np.flatnonzero(pairs.clip == i)
-            if len(sel) == 0:
-                continue
+    headings_run: dict[str, int] = {}
+    for i, clip in enumerate(clips):
+        sel = np.flatnonzero(pairs.clip == i)
+        if len(sel) == 0:
+            continue
+        if mode != "frame":
             R_clip, report = rectify_sequence(R_hat[sel], valid[sel], mode, clip.fps, pairs.inputs[sel])
-            R_hat[sel] = R_clip
             valid[sel] &= np.asarray(report["valid"], bool)
+            R_hat[sel] = np.where(valid[sel, None, None], R_clip, np.nan)
             modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
-        R_hat[~valid] = np.nan
+        R_hat[sel], report = apply_heading(pairs.inputs[sel], R_hat[sel], valid[sel], heading)
+        headings_run[report["heading_source"]] = headings_run.get(report["heading_source"], 0) + 1
     canon_hat = to_canonical(pairs.inputs, R_hat, residual)
     errors = evaluate_rotations(R_hat, pairs.R, canon_hat, pairs.canonical)
     result = {
         "method": method, "views": views, "split": split, "data": str(data), "seed": seed,
-        "camera": camera, "noise": noise, "mode": mode, "frames": int(len(valid)), "invalid_frames": int((~valid).sum()),
+        "camera": camera, "noise": noise, "mode": mode, "heading": heading,
+        "frames": int(len(valid)), "invalid_frames": int((~valid).sum()),
     }
     if modes_run:
         result["clip_modes"] = modes_run
+    result["clip_heading_sources"] = headings_run
     result.update({name: summarize(errors[name]) for name in METRICS})
     return result
 
 
 def format_table(result: dict) -> str:
     """The result as a plain-text table (one row per metric: mean, median, p95)."""
+    sources = ",".join(f"{k}:{v}" for k, v in result.get("clip_heading_sources", {}).items())
     head = (f"method={result['method']} views={result['views']} split={result['split']} "
-            f"camera={result['camera']} noise={result['noise']} mode={result['mode']} frames={result['frames']} "
+            f"camera={result['camera']} noise={result['noise']} mode={result['mode']} "
+            f"heading={result.get('heading', 'predicted')} (clips {sources}) frames={result['frames']} "
             f"invalid={result['invalid_frames']} seed={result['seed']}")
     lines = [head, f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}"]
     for name in METRICS:

@@ -54,6 +54,9 @@ class RunResult:
             f"frames            {self.frames} ({self.frames - self.valid_frames} dropped: no valid pose)",
             f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}"
             + (f"; spread of per-frame up {self.report['spread_deg']:.1f} deg)" if "spread_deg" in self.report else ")"),
+            f"heading           from {self.report.get('heading_source')} (requested "
+            f"{self.report.get('requested_heading_source')}; hip width varies "
+            f"{self.report.get('hip_width_cv_percent', float('nan')):.1f} %)",
             f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(),
             f"units             {self.units}",
         ]
@@ -144,7 +147,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
 
     step("rectify")
     try:
-        res = rectify(joints, cfg.method, cfg.weights, cfg.mode, fps)
+        res = rectify(joints, cfg.method, cfg.weights, cfg.mode, fps, cfg.heading)
     except ValueError as err:
         raise ValueError(f"{cfg.lifter_output}: {err}") from err
     if not res.valid.any():
@@ -176,7 +179,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         write_npz(
             tmp / "canonical.npz", rotation=rotations, canonical=canonical, joints_camera=joints,
             up=rotations[:, :, 1], valid=valid, heading_deg=np.degrees(heading), fps=fps, units=units,
-            method=cfg.method, mode=report["mode"], joint_names=np.array(H36M_JOINTS),
+            method=cfg.method, mode=report["mode"], heading_source=report["heading_source"], joint_names=np.array(H36M_JOINTS),
             keypoints2d=kp2d if kp2d is not None else np.zeros((0, 17, 3), np.float32),
             report=_jsonable(report),
         )

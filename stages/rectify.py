@@ -9,6 +9,7 @@ import numpy as np
 from .canonical import to_canonical
 from .conventions import check_poses
 from .geometric import geometric_rotation
+from .heading import HEADING_SOURCES, apply_heading
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -30,6 +31,7 @@ class Rectified:
     method: str
     mode: str = "frame"
     report: dict | None = None
+    heading_source: str = "predicted"
 
 
 def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None):
@@ -56,19 +58,38 @@ def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: s
     raise ValueError(f"unknown rectification method {method!r}; expected one of {METHODS}")
 
 
+def default_heading_source(method: str) -> str:
+    """``"auto"`` for the 3DPCNet methods; ``"predicted"`` for ``geometric``, which stays the
+    paper's baseline (section 2.3: heading from the shoulder line)."""
+    return "predicted" if method == "geometric" else "auto"
+
+
 def rectify(
-    joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None, mode: str = "frame", fps: float = 30.0
+    joints_cam: np.ndarray,
+    method: str = "pcnet",
+    weights: str | None = None,
+    mode: str = "frame",
+    fps: float = 30.0,
+    heading: str | None = None,
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
     (``CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
 
     ``mode``: ``frame`` (each frame alone, the paper), ``sequence`` (one up direction for a
     static camera), ``smooth`` (SO(3) smoothing for a moving camera, needs ``fps``) or
-    ``auto`` (:func:`pcnet.stages.temporal.rectify_sequence`); ``report`` says what ran.
+    ``auto`` (:func:`pcnet.stages.temporal.rectify_sequence`). ``heading``: where the
+    heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
+    input's hip line, the canonical frame's definition) or ``auto`` (hips when they are
+    precise, :func:`pcnet.stages.heading.apply_heading`); ``None`` =
+    :func:`default_heading_source`. ``report`` says what ran.
 
     Raises:
-        ValueError: unknown method or mode, wrong shape, or (sequence modes) no valid frame.
+        ValueError: unknown method, mode or heading source, wrong shape, or (sequence modes)
+            no valid frame.
     """
+    heading = default_heading_source(method) if heading is None else heading
+    if heading not in HEADING_SOURCES:
+        raise ValueError(f"unknown heading source {heading!r}; expected one of {HEADING_SOURCES}")
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
     report: dict = {"requested_mode": mode, "mode": "frame"}
     if mode != "frame":
@@ -79,5 +100,8 @@ def rectify(
         R, report = rectify_sequence(R, valid, mode, fps, joints_cam)
         valid = valid & np.asarray(report["valid"], bool)
         R[~valid] = np.nan
+    R, heading_report = apply_heading(joints_cam, R, valid, heading)
+    report.update(heading_report)
     canonical = to_canonical(joints_cam, R, residual)
-    return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report)
+    return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report,
+                     heading_report["heading_source"])

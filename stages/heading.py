@@ -1,0 +1,140 @@
+"""Heading from the hip line: the canonical frame's own definition of heading.
+
+``CONVENTIONS.md`` defines canonical +Z as the horizontal part of ``right_hip - left_hip``.
+Once the up direction is known, the heading is therefore a function of the input's hips,
+not something to estimate. 3DPCNet (paper section 2.1) predicts the whole rotation, so its
+heading carries the network's error (about 1.7 deg mean on clean mocap) although the hips
+in a clean input give it exactly. With a monocular lifter's hips the opposite holds: their
+jitter and depth error (tens of millimetres over a ~0.25 m hip width) make the hip line far
+worse than the network, which reads heading from the whole body.
+
+This stage keeps a rotation's up (column 1) and replaces its heading by the hip line's when
+asked (``"hips"``), keeps it (``"predicted"``), or decides per sequence (``"auto"``) from how
+precise the hip joints are: the pelvis is rigid, so the distance between the hips is constant
+in a real body and its frame-to-frame variation measures the hip joints' noise. A relative
+variation (coefficient of variation, CV) ``c`` means about ``c`` radians of noise on the hip
+line's direction; "auto" uses the hips when ``c <= 1 %`` (about 0.6 deg, half the network's
+median heading error on clean mocap).
+
+Shapes and frames: ``R`` ``(T, 3, 3)`` canonical->camera (``x_cam = R @ x_canon``); joints
+``(T, 17, 3)`` H36M-17, camera frame (OpenCV axes), any length unit; angles in degrees.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .canonical import canonical_rotation
+from .conventions import L_HIP, R_HIP, check_poses
+
+HEADING_SOURCES = ("auto", "predicted", "hips")
+
+# Largest hip-width coefficient of variation (percent) for which "auto" trusts the hips.
+# Measured: every clip of Bandai and DeepMimic (mocap) 0 %; with the upstream-like noise of
+# `pcnet evaluate --noise` 20-36 %; real lifter files in ../shared/data/real 0.45-42 %, 8 of
+# 94 at or below 1 % (MotionBERT boxing 3.3 %). `python benchmarks/heading_source.py`.
+AUTO_MAX_HIP_WIDTH_CV_PERCENT = 1.0
+# Fewer valid frames than this give no usable width statistic: "auto" keeps the prediction.
+AUTO_MIN_FRAMES = 10
+
+
+def hip_width_cv_percent(joints_cam: np.ndarray, valid: np.ndarray | None = None) -> float:
+    """Coefficient of variation (std / mean, percent) of the hip width
+    ``|right_hip - left_hip|`` over the valid frames of ``(T, 17, 3)`` poses: 0 for a rigid
+    pelvis (mocap), large for noisy hip joints. NaN with fewer than 2 frames having both hips.
+
+    Raises:
+        ValueError: wrong joint shape.
+    """
+    X = check_poses(joints_cam, "joints_cam").astype(np.float64)
+    width = np.linalg.norm(X[:, R_HIP] - X[:, L_HIP], axis=-1)
+    keep = np.isfinite(width) & (True if valid is None else np.asarray(valid, bool))
+    if keep.sum() < 2 or not width[keep].mean() > 0:
+        return float("nan")
+    return float(100.0 * width[keep].std() / width[keep].mean())
+
+
+def hip_line_rotations(joints_cam: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotations with the up of ``R`` and the heading of the input's hip line.
+
+    Column 1 (up) is kept; +Z becomes the normalised horizontal part of
+    ``right_hip - left_hip`` and +X = Y x Z (``CONVENTIONS.md``, canonical frame), via
+    :func:`pcnet.stages.canonical.canonical_rotation`.
+
+    Args:
+        joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any unit.
+        R: ``(T, 3, 3)`` canonical->camera rotations (NaN rows allowed).
+
+    Returns:
+        ``(R_hips (T, 3, 3) float64, ok (T,) bool)``; NaN where a hip is missing, ``R`` is
+        NaN, or the hip line is within 5.7 deg of the up axis (heading undefined).
+
+    Raises:
+        ValueError: wrong joint shape, or ``R`` not ``(T, 3, 3)`` for the same ``T``.
+    """
+    X = check_poses(joints_cam, "joints_cam")
+    R = np.asarray(R, np.float64)
+    if R.shape != (len(X), 3, 3):
+        raise ValueError(f"R: expected shape ({len(X)}, 3, 3), got {R.shape}")
+    return canonical_rotation(X, R[:, :, 1])
+
+
+def heading_difference_deg(R: np.ndarray, R_other: np.ndarray) -> np.ndarray:
+    """Signed angle ``(T,)`` in degrees, in (-180, 180], from the anterior axis ``R[:, :, 0]``
+    to ``R_other[:, :, 0]`` about the shared up ``R[:, :, 1]`` (right-hand rule). Both
+    rotations must share their up column; NaN where either is NaN."""
+    a, b, up = R[:, :, 0], R_other[:, :, 0], R[:, :, 1]
+    return np.degrees(np.arctan2(np.sum(up * np.cross(a, b), -1), np.sum(a * b, -1)))
+
+
+def apply_heading(
+    joints_cam: np.ndarray,
+    R: np.ndarray,
+    valid: np.ndarray,
+    source: str = "auto",
+    max_cv_percent: float = AUTO_MAX_HIP_WIDTH_CV_PERCENT,
+) -> tuple[np.ndarray, dict]:
+    """Choose where a sequence's heading comes from; the up directions are never changed.
+
+    ``"predicted"`` returns ``R``; ``"hips"`` takes the heading of the hip line in every
+    frame where it is defined (other valid frames keep ``R``, counted in the report);
+    ``"auto"`` does the same as ``"hips"`` when the sequence has at least
+    :data:`AUTO_MIN_FRAMES` valid frames and its :func:`hip_width_cv_percent` is at most
+    ``max_cv_percent``, else ``"predicted"``. Pass one recording at a time (one subject,
+    one lifter): the statistic assumes one pelvis.
+
+    Args:
+        joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any unit.
+        R: ``(T, 3, 3)`` canonical->camera rotations (any estimator, any rectify mode).
+        valid: ``(T,)`` bool, frames with a rotation.
+        source: one of :data:`HEADING_SOURCES`.
+        max_cv_percent: the ``"auto"`` threshold (percent).
+
+    Returns:
+        ``(rotations (T, 3, 3) float64, report)`` with ``heading_source`` (what was used:
+        ``"predicted"`` or ``"hips"``), ``requested_heading_source``,
+        ``hip_width_cv_percent``, ``heading_difference_median_deg`` (median absolute
+        hip-line vs predicted heading over the valid frames, NaN when no frame has both)
+        and ``hip_heading_undefined_frames`` (valid frames that kept the predicted heading).
+
+    Raises:
+        ValueError: unknown ``source`` or mismatched shapes.
+    """
+    if source not in HEADING_SOURCES:
+        raise ValueError(f"unknown heading source {source!r}; expected one of {HEADING_SOURCES}")
+    R = np.asarray(R, np.float64)
+    valid = np.asarray(valid, bool)
+    cv = hip_width_cv_percent(joints_cam, valid)
+    report = {"requested_heading_source": source, "heading_source": "predicted", "hip_width_cv_percent": cv,
+              "heading_difference_median_deg": float("nan"), "hip_heading_undefined_frames": 0}
+    R_hips, ok = hip_line_rotations(joints_cam, R)
+    ok &= valid
+    if ok.any():
+        report["heading_difference_median_deg"] = float(np.median(np.abs(heading_difference_deg(R[ok], R_hips[ok]))))
+    if source == "auto":
+        source = "hips" if valid.sum() >= AUTO_MIN_FRAMES and cv <= max_cv_percent else "predicted"
+    if source == "predicted":
+        return R, report
+    report["heading_source"] = "hips"
+    report["hip_heading_undefined_frames"] = int((valid & ~ok).sum())
+    return np.where(ok[:, None, None], R_hips, R), report
