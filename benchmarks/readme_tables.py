@@ -35,16 +35,13 @@ def main() -> None:
     for key, label in DATASETS:
         for method in ("geometric", "pcnet", "pcnet-rigid"):
             print(row(f"{label}, paper, noise", method, load(f"{method}_{key}_paper_noise")))
-    print("\n| data, views | mode | rotation | tilt | heading | MPJPE |\n|---|---|---|---|---|---|")
-    for key, label in DATASETS:
-        for views in ("paper", "wide"):
-            for mode in ("frame", "sequence"):
-                print(row(f"{label}, {views}", mode, load(f"pcnet_{key}_{views}_perclip_noise_{mode}"), ALL_METRICS[:4]))
-    print("\n| data, views | mode | rotation | tilt | heading | MPJPE |\n|---|---|---|---|---|---|")
-    for key, label in DATASETS:
-        for views in ("paper", "wide"):
-            for mode in ("frame", "sequence"):
-                print(row(f"{label}, {views}", mode, load(f"pcnet_{key}_{views}_perclip_clean_{mode}"), ALL_METRICS[:4]))
+    for inputs in ("noise", "clean"):  # per-clip cameras: with noise, then clean inputs
+        print("\n| data, views | mode | rotation | tilt | heading | MPJPE |\n|---|---|---|---|---|---|")
+        for key, label in DATASETS:
+            for views in ("paper", "wide"):
+                for mode in ("frame", "sequence"):
+                    result = load(f"pcnet_{key}_{views}_perclip_{inputs}_{mode}")
+                    print(row(f"{label}, {views}", mode, result, ALL_METRICS[:4]))
 
 
 if __name__ == "__main__":

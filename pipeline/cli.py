@@ -18,6 +18,12 @@ def main() -> None:
     """pcnet: rectify monocular 3D human poses into a gravity-aligned, body-centred frame."""
 
 
+_heading_option = click.option(
+    "--heading", type=click.Choice(HEADING_SOURCES), default=None,
+    help="Heading about the up axis from: predicted (the method's rotation), hips (the input's hip line, "
+         "exact on clean mocap) or auto (hips when precise) [auto; geometric: predicted].")
+
+
 def _fail(message: str) -> None:
     raise click.ClickException(message)
 
@@ -31,9 +37,7 @@ def _fail(message: str) -> None:
 @click.option("--noise/--no-noise", default=False, show_default=True, help="Upstream-like noise on the inputs.")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="Per-frame (paper) or sequence-aware rectification of each clip.")
-@click.option("--heading", type=click.Choice(HEADING_SOURCES), default=None,
-              help="Heading about the up axis from: predicted (the method's rotation), hips (the input's "
-                   "hip line, exact on clean mocap) or auto (hips when precise) [auto; geometric: predicted].")
+@_heading_option
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--max-frames", type=int, default=None, help="Evaluate at most N evenly spaced frames.")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
@@ -60,9 +64,7 @@ def evaluate(method, data, split, views, camera, noise, mode, heading, seed, max
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="frame: each frame alone (paper); sequence: one up for a static camera; smooth: moving camera.")
 @click.option("--fps", type=float, default=30.0, show_default=True, help="Frame rate (for --mode smooth/auto).")
-@click.option("--heading", type=click.Choice(HEADING_SOURCES), default=None,
-              help="Heading about the up axis from: predicted (the method's rotation), hips (the input's "
-                   "hip line, exact on clean mocap) or auto (hips when precise) [auto; geometric: predicted].")
+@_heading_option
 @click.option("--weights", type=click.Path(dir_okay=False), default=None)
 def rectify(input_path, out_path, method, key, mode, fps, heading, weights):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
@@ -131,9 +133,7 @@ def _run_and_report(cfg) -> None:
 @click.option("--method", type=click.Choice(METHODS), default=None, help="Rectification method [pcnet].")
 @click.option("--mode", type=click.Choice(MODES), default=None,
               help="frame | sequence (static camera) | smooth (moving camera) | auto [auto].")
-@click.option("--heading", type=click.Choice(HEADING_SOURCES), default=None,
-              help="Heading about the up axis from: predicted (the method's rotation), hips (the input's "
-                   "hip line, exact on clean mocap) or auto (hips when precise) [auto; geometric: predicted].")
+@_heading_option
 @click.option("--height", type=float, default=None, help="Subject height in metres, to scale non-metric output.")
 @click.option("--fps", type=float, default=None, help="Frame rate when no video is given.")
 @click.option("--person", type=int, default=None, help="2D track id to follow (AlphaPose idx / MMPose instance).")

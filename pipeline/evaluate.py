@@ -11,7 +11,7 @@ from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.heading import apply_heading
-from pcnet.stages.rectify import default_heading_source, estimate_rotations
+from pcnet.stages.rectify import estimate_rotations, resolve_heading_source
 from pcnet.stages.temporal import rectify_sequence
 
 
@@ -35,22 +35,26 @@ def evaluate(
     rotations with :func:`pcnet.stages.temporal.rectify_sequence` (``sequence`` assumes a
     static camera, meaningful with ``camera="per-clip"``); ``heading`` then chooses each
     clip's heading source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the
-    method's default, :func:`pcnet.stages.rectify.default_heading_source`), each clip being
+    method's default, :func:`pcnet.stages.rectify.resolve_heading_source`), each clip being
     one recording whatever the camera protocol. The canonical prediction is
-    ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target. Frames a method marks invalid are counted, not scored.
+    ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target. Frames a
+    method marks invalid are counted, not scored.
 
     Returns:
         ``{"method", "views", "split", "data", "seed", "camera", "noise", "mode",
         "heading", "frames", "invalid_frames", "clip_heading_sources" (clips per source
-        used), "clip_modes" (sequence modes only), "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
-        :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres).
+        used), "clip_modes" (sequence modes only), "<metric>": {"mean", "median", "p95"}
+        ...}`` with the metrics of :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres).
+
+    Raises:
+        ValueError: empty split, unknown method or heading source (before any inference).
     """
+    heading = resolve_heading_source(method, heading)
     clips = select_split(load_mocap(data), split)
     if not clips:
         raise ValueError(f"{data}: split {split!r} has no clips")
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=Noise() if noise else None,
                        max_frames=max_frames)
-    heading = default_heading_source(method) if heading is None else heading
     R_hat, residual, valid = estimate_rotations(pairs.inputs, method, weights)
     modes_run: dict[str, int] = {}
     headings_run: dict[str, int] = {}

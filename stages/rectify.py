@@ -58,10 +58,20 @@ def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: s
     raise ValueError(f"unknown rectification method {method!r}; expected one of {METHODS}")
 
 
-def default_heading_source(method: str) -> str:
-    """``"auto"`` for the 3DPCNet methods; ``"predicted"`` for ``geometric``, which stays the
-    paper's baseline (section 2.3: heading from the shoulder line)."""
-    return "predicted" if method == "geometric" else "auto"
+def resolve_heading_source(method: str, heading: str | None) -> str:
+    """The heading source to use: ``heading`` itself, or for ``None`` the method's default,
+    ``"auto"`` for the 3DPCNet methods and ``"predicted"`` for ``geometric``, which stays the
+    paper's baseline (section 2.3: heading from the shoulder line).
+
+    Raises:
+        ValueError: ``heading`` is not ``None`` or one of
+            :data:`pcnet.stages.heading.HEADING_SOURCES`.
+    """
+    if heading is None:
+        return "predicted" if method == "geometric" else "auto"
+    if heading not in HEADING_SOURCES:
+        raise ValueError(f"unknown heading source {heading!r}; expected one of {HEADING_SOURCES}")
+    return heading
 
 
 def rectify(
@@ -81,15 +91,13 @@ def rectify(
     heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
     input's hip line, the canonical frame's definition) or ``auto`` (hips when they are
     precise, :func:`pcnet.stages.heading.apply_heading`); ``None`` =
-    :func:`default_heading_source`. ``report`` says what ran.
+    :func:`resolve_heading_source`. ``report`` says what ran.
 
     Raises:
         ValueError: unknown method, mode or heading source, wrong shape, or (sequence modes)
             no valid frame.
     """
-    heading = default_heading_source(method) if heading is None else heading
-    if heading not in HEADING_SOURCES:
-        raise ValueError(f"unknown heading source {heading!r}; expected one of {HEADING_SOURCES}")
+    heading = resolve_heading_source(method, heading)
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
     report: dict = {"requested_mode": mode, "mode": "frame"}
     if mode != "frame":

@@ -13,7 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from pcnet.models.datasets import Noise, apply_noise
-from pcnet.stages.canonical import world_to_canonical
+from pcnet.stages.canonical import canonical_rotation, to_canonical, world_to_canonical
 from pcnet.stages.heading import (
     AUTO_MAX_HIP_WIDTH_CV_PERCENT,
     apply_heading,
@@ -34,13 +34,10 @@ def _camera_view(seed: int = 0):
     """One Bandai clip seen by a fixed 'paper' camera: camera-frame joints and true R."""
     with np.load(FIXTURES / "mocap_small.npz") as d:
         world = d[CLIP].astype(np.float64)
-    canon, valid = world_to_canonical(world)
+    R_world, valid = canonical_rotation(world, (0.0, 1.0, 0.0))
     assert valid.all()
-    R0 = sample_camera_rotations(1, "paper", np.random.default_rng(seed))[0]
-    from pcnet.stages.canonical import canonical_rotation
-
-    R_world, _ = canonical_rotation(world, (0.0, 1.0, 0.0))
-    R_true = R0 @ R_world
+    canon = to_canonical(world, R_world)
+    R_true = sample_camera_rotations(1, "paper", np.random.default_rng(seed))[0] @ R_world
     joints = canon.astype(np.float64) @ R_true.transpose(0, 2, 1)
     return joints, R_true
 
