@@ -55,7 +55,7 @@ def load_config(path: str | Path) -> TrainConfig:
     and ``[loss]`` tables. Relative data paths are resolved against the current directory.
 
     Raises:
-        ValueError: an unknown key (named with the file).
+        ValueError: an unknown key, top-level or in ``[model]`` / ``[loss]`` (named with the file).
     """
     path = Path(path)
     raw = tomllib.loads(path.read_text())
@@ -63,9 +63,17 @@ def load_config(path: str | Path) -> TrainConfig:
     unknown = set(raw) - known
     if unknown:
         raise ValueError(f"{path}: unknown keys {sorted(unknown)}; expected some of {sorted(known)}")
-    model = PCNetConfig(**raw.pop("model", {}))
-    loss = LossWeights(**raw.pop("loss", {}))
-    return TrainConfig(**raw, model=model, loss=loss)
+    tables = {}
+    for table, cls in (("model", PCNetConfig), ("loss", LossWeights)):
+        given = raw.pop(table, {})
+        allowed = {f.name for f in fields(cls)}
+        if not isinstance(given, dict):
+            raise ValueError(f"{path}: {table} must be a [{table}] table, got {given!r}")
+        if set(given) - allowed:
+            raise ValueError(f"{path}: [{table}] has unknown keys {sorted(set(given) - allowed)}; "
+                             f"expected some of {sorted(allowed)}")
+        tables[table] = cls(**given)
+    return TrainConfig(**raw, **tables)
 
 
 def _device(name: str) -> torch.device:

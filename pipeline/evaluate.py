@@ -63,7 +63,8 @@ def evaluate(
         if len(sel) == 0:
             continue
         if mode != "frame":
-            R_clip, report = rectify_sequence(R_hat[sel], valid[sel], mode, clip.fps, pairs.inputs[sel])
+            # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
+            R_clip, report = rectify_sequence(R_hat[sel], valid[sel], mode, clip.fps, pairs.inputs[sel], n_bootstrap=0)
             valid[sel] &= np.asarray(report["valid"], bool)
             R_hat[sel] = np.where(valid[sel, None, None], R_clip, np.nan)
             modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1

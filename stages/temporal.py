@@ -805,6 +805,7 @@ def rectify_sequence(
     threshold_deg: float = MODE_THRESHOLD_DEG,
     time_constant_s: float = 0.2,
     heading_time_constant_s: float | None = None,
+    n_bootstrap: int = BOOTSTRAP_REPLICATES,
 ) -> tuple[np.ndarray, dict]:
     """Sequence-level rectification of per-frame predictions.
 
@@ -823,6 +824,8 @@ def rectify_sequence(
         time_constant_s: smoothing kernel std in seconds (smooth mode).
         heading_time_constant_s: heading smoothing in sequence mode (``None`` = per-frame),
             see :func:`sequence_rectify`.
+        n_bootstrap: bootstrap replicates of the sequence-mode uncertainties (0 = none,
+            NaN uncertainties; the rotations do not depend on it).
 
     Returns:
         ``(rotations (T, 3, 3) float64, report)``; ``report`` has ``mode`` (the mode run),
@@ -852,7 +855,8 @@ def rectify_sequence(
         out = smooth_rotations(R, ok, fps, time_constant_s)
         report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)), time_constant_s=time_constant_s)
     else:
-        res = sequence_rectify(R, ok, joints_cam, weights, fps=fps, heading_time_constant_s=heading_time_constant_s)
+        res = sequence_rectify(R, ok, joints_cam, weights, fps=fps, heading_time_constant_s=heading_time_constant_s,
+                               n_bootstrap=n_bootstrap)
         out = res.rotations
         report.update(
             evidence=res.evidence,
