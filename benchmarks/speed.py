@@ -4,6 +4,9 @@ width and the paper's width (randomly initialised: speed does not depend on the 
 
     python benchmarks/speed.py [--seconds 3] [--threads 0]
 
+Last, the training rows: poses/s of one AdamW step (forward, the paper's loss, backward) at
+batch 1024, what an epoch of `pcnet train` costs per pose on this machine.
+
 Needs the [train] extra (torch, onnx) for the torch column and the paper-width export.
 Inputs are real Bandai poses from the committed test fixture.
 """
@@ -22,6 +25,7 @@ import torch
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.models.export import export_onnx
 from pcnet.models.inference import DEFAULT_WEIGHTS
+from pcnet.models.losses import LossWeights, composite_loss
 from pcnet.models.network import PCNet, PCNetConfig
 from pcnet.models.preprocess import normalize_input
 from pcnet.stages.geometric import geometric_rotation
@@ -39,6 +43,22 @@ def rate(fn, batch: int, seconds: float) -> float:
     return n * batch / (time.perf_counter() - t0)
 
 
+def training_rate(cfg: PCNetConfig, x: np.ndarray, R: np.ndarray, canon: np.ndarray, seconds: float) -> float:
+    """Poses/s of AdamW training steps on the normalised inputs ``x`` with their targets."""
+    model = PCNet(cfg).train()
+    opt = torch.optim.AdamW(model.parameters(), lr=1e-4)
+    xb, Rb, cb = (torch.from_numpy(a).float() for a in (x, R, canon))
+
+    def step():
+        R_hat, delta, aux = model(xb, return_aux=True)
+        loss, _ = composite_loss(model, xb, R_hat, delta, aux, Rb, cb, LossWeights())
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+
+    return rate(step, len(x), seconds)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=3.0)
@@ -48,7 +68,9 @@ def main() -> None:
         torch.set_num_threads(args.threads)
     pairs = make_pairs(load_mocap(FIXTURE), "paper", seed=0)
     poses = np.resize(pairs.inputs, (1024, 17, 3))
-    x, _, _ = normalize_input(poses)
+    x, scale, _ = normalize_input(poses)
+    R_true = np.resize(pairs.R, (1024, 3, 3))
+    canon = np.resize(pairs.canonical, (1024, 17, 3)) / scale[:, None, None]
 
     shipped = PCNetConfig(**__import__("json").loads(DEFAULT_WEIGHTS.with_suffix(".json").read_text())["model_config"])
     presets = {"shipped": shipped, "paper": PCNetConfig()}
@@ -71,6 +93,9 @@ def main() -> None:
                 xb = x[:batch]
                 rows.append((f"3DPCNet {name} onnxruntime", width, batch,
                              rate(lambda: sess.run(["rotation"], {"x": xb}), batch, args.seconds)))
+    for name, cfg in presets.items():
+        rows.append((f"3DPCNet {name} training step", f"{cfg.hidden}/{cfg.output}", 1024,
+                     training_rate(cfg, x, R_true, canon, args.seconds)))
     print(f"torch {torch.__version__} threads={torch.get_num_threads()}, onnxruntime {ort.__version__}")
     print(f"{'method':<34}{'hidden/out':>11}{'batch':>7}{'poses/s':>12}")
     for name, width, batch, r in rows:
