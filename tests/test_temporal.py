@@ -440,6 +440,12 @@ def test_rectify_sequence_modes_and_report():
     assert np.allclose(smooth_h[rep["valid"]][:, :, 1], rep["up"], atol=1e-9)
     assert np.nanmedian(heading_error_deg(smooth_h, R)) < np.nanmedian(heading_error_deg(plain, R))
 
+    # Without bootstrap (what `pcnet evaluate` uses) the rotations are the same and only the
+    # uncertainties are missing.
+    quick, rep = tm.rectify_sequence(Rg, vg, "sequence", FPS, n_bootstrap=0)
+    np.testing.assert_array_equal(quick, plain)
+    assert np.isnan(rep["up_uncertainty_deg"]) and np.isnan(rep["camera_pitch_uncertainty_deg"])
+
 
 # ------------------------------------------------------------------------------ shared data
 
