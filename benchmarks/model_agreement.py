@@ -38,7 +38,7 @@ def main() -> None:
     true_up = pairs.R[:, :, 1]
     ups, errors = [], []
     for w in args.weights:
-        R, _, valid = PCNetSession(w).predict(pairs.inputs)
+        R = PCNetSession(w).predict(pairs.inputs)[0]
         ups.append(R[:, :, 1])
         errors.append(np.degrees(angle_between(R[:, :, 1], true_up)))
     ok = np.isfinite(errors[0]) & np.isfinite(errors[1])

@@ -59,21 +59,22 @@ def load_config(path: str | Path) -> TrainConfig:
     """
     path = Path(path)
     raw = tomllib.loads(path.read_text())
-    known = {f.name for f in fields(TrainConfig)}
-    unknown = set(raw) - known
-    if unknown:
-        raise ValueError(f"{path}: unknown keys {sorted(unknown)}; expected some of {sorted(known)}")
+    _check_keys(path, "", raw, TrainConfig)
     tables = {}
     for table, cls in (("model", PCNetConfig), ("loss", LossWeights)):
         given = raw.pop(table, {})
-        allowed = {f.name for f in fields(cls)}
         if not isinstance(given, dict):
             raise ValueError(f"{path}: {table} must be a [{table}] table, got {given!r}")
-        if set(given) - allowed:
-            raise ValueError(f"{path}: [{table}] has unknown keys {sorted(set(given) - allowed)}; "
-                             f"expected some of {sorted(allowed)}")
+        _check_keys(path, f"[{table}] has ", given, cls)
         tables[table] = cls(**given)
     return TrainConfig(**raw, **tables)
+
+
+def _check_keys(path: Path, where: str, given: dict, cls) -> None:
+    allowed = {f.name for f in fields(cls)}
+    unknown = set(given) - allowed
+    if unknown:
+        raise ValueError(f"{path}: {where}unknown keys {sorted(unknown)}; expected some of {sorted(allowed)}")
 
 
 def _device(name: str) -> torch.device:

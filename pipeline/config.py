@@ -46,18 +46,17 @@ class RunConfig:
         """Check choices and combinations; raises ValueError naming the field."""
         from pcnet.stages.rectify import METHODS
 
-        for name, value, choices in (
-            ("lifter", self.lifter, LIFTERS), ("method", self.method, METHODS), ("mode", self.mode, MODES),
-            ("align", self.align, ALIGN),
-        ):
-            if value not in choices:
-                raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
         from pcnet.stages.heading import HEADING_SOURCES
 
-        if self.heading is not None and self.heading not in HEADING_SOURCES:
-            raise ValueError(f"heading: expected one of {HEADING_SOURCES}, got {self.heading!r}")
-        if self.keypoints2d_format is not None and self.keypoints2d_format not in KEYPOINT_FORMATS:
-            raise ValueError(f"keypoints2d_format: expected one of {KEYPOINT_FORMATS}, got {self.keypoints2d_format!r}")
+        # (field, value, choices, None allowed)
+        for name, value, choices, optional in (
+            ("lifter", self.lifter, LIFTERS, False), ("method", self.method, METHODS, False),
+            ("mode", self.mode, MODES, False), ("align", self.align, ALIGN, False),
+            ("heading", self.heading, HEADING_SOURCES, True),
+            ("keypoints2d_format", self.keypoints2d_format, KEYPOINT_FORMATS, True),
+        ):
+            if not (optional and value is None) and value not in choices:
+                raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
         if (self.keypoints2d is None) != (self.keypoints2d_format is None):
             raise ValueError("keypoints2d and keypoints2d_format: give both or neither")
         if self.video is None and self.fps is None:

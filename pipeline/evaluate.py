@@ -10,9 +10,7 @@ import numpy as np
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
-from pcnet.stages.heading import apply_heading
-from pcnet.stages.rectify import estimate_rotations, resolve_heading_source
-from pcnet.stages.temporal import rectify_sequence
+from pcnet.stages.rectify import estimate_rotations, finish_rotations, resolve_heading_source
 
 
 def evaluate(
@@ -36,7 +34,8 @@ def evaluate(
     static camera, meaningful with ``camera="per-clip"``); ``heading`` then chooses each
     clip's heading source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the
     method's default, :func:`pcnet.stages.rectify.resolve_heading_source`), each clip being
-    one recording whatever the camera protocol. The canonical prediction is
+    one recording whatever the camera protocol (both steps by
+    :func:`pcnet.stages.rectify.finish_rotations`, as in ``rectify``). The canonical prediction is
     ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target. Frames a
     method marks invalid are counted, not scored.
 
@@ -62,13 +61,11 @@ def evaluate(
         sel = np.flatnonzero(pairs.clip == i)
         if len(sel) == 0:
             continue
+        # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
+        R_hat[sel], valid[sel], report = finish_rotations(
+            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0)
         if mode != "frame":
-            # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
-            R_clip, report = rectify_sequence(R_hat[sel], valid[sel], mode, clip.fps, pairs.inputs[sel], n_bootstrap=0)
-            valid[sel] &= np.asarray(report["valid"], bool)
-            R_hat[sel] = np.where(valid[sel, None, None], R_clip, np.nan)
             modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
-        R_hat[sel], report = apply_heading(pairs.inputs[sel], R_hat[sel], valid[sel], heading)
         headings_run[report["heading_source"]] = headings_run.get(report["heading_source"], 0) + 1
     canon_hat = to_canonical(pairs.inputs, R_hat, residual)
     errors = evaluate_rotations(R_hat, pairs.R, canon_hat, pairs.canonical)

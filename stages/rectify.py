@@ -10,6 +10,7 @@ from .canonical import to_canonical
 from .conventions import check_poses
 from .geometric import geometric_rotation
 from .heading import HEADING_SOURCES, apply_heading
+from .temporal import BOOTSTRAP_REPLICATES, rectify_sequence
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -99,17 +100,46 @@ def rectify(
     """
     heading = resolve_heading_source(method, heading)
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
-    report: dict = {"requested_mode": mode, "mode": "frame"}
-    if mode != "frame":
-        from .temporal import rectify_sequence
-
-        if not valid.any():
-            raise ValueError(NO_VALID_FRAME)
-        R, report = rectify_sequence(R, valid, mode, fps, joints_cam)
-        valid = valid & np.asarray(report["valid"], bool)
-        R[~valid] = np.nan
-    R, heading_report = apply_heading(joints_cam, R, valid, heading)
-    report.update(heading_report)
+    R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading)
     canonical = to_canonical(joints_cam, R, residual)
     return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report,
-                     heading_report["heading_source"])
+                     report["heading_source"])
+
+
+def finish_rotations(
+    joints_cam: np.ndarray,
+    R: np.ndarray,
+    valid: np.ndarray,
+    mode: str,
+    fps: float,
+    heading: str,
+    n_bootstrap: int = BOOTSTRAP_REPLICATES,
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The steps after a per-frame estimator, for one recording: the rectify ``mode``
+    (:func:`pcnet.stages.temporal.rectify_sequence` unless ``"frame"``), then the
+    ``heading`` source (:func:`pcnet.stages.heading.apply_heading`; the up is kept).
+
+    Args:
+        joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses.
+        R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool.
+        mode, fps: as :func:`rectify`; heading: one of
+            :data:`pcnet.stages.heading.HEADING_SOURCES` (already resolved).
+        n_bootstrap: sequence-mode uncertainty replicates (0 = none; rotations unchanged).
+
+    Returns:
+        ``(R (T, 3, 3) float64, NaN where not valid; valid (T,) bool; report)`` with
+        ``requested_mode``, ``mode`` and the sequence and heading reports.
+
+    Raises:
+        ValueError: unknown mode or heading source, or (sequence modes) no valid frame.
+    """
+    report: dict = {"requested_mode": mode, "mode": "frame"}
+    if mode != "frame":
+        if not valid.any():
+            raise ValueError(NO_VALID_FRAME)
+        R, report = rectify_sequence(R, valid, mode, fps, joints_cam, n_bootstrap=n_bootstrap)
+        valid = valid & np.asarray(report["valid"], bool)
+        R = np.where(valid[:, None, None], R, np.nan)
+    R, heading_report = apply_heading(joints_cam, R, valid, heading)
+    report.update(heading_report)
+    return R, valid, report
