@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Re-run every `pcnet evaluate` behind the README's result tables; JSON into
 # benchmarks/results/. Then `python benchmarks/readme_tables.py` prints the tables.
-# Needs ../shared/data (the mocap); about 10 minutes on 2 cores.
+# Needs ../shared/data (the mocap); about 15 minutes on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=benchmarks/results
@@ -16,14 +16,23 @@ for key in bandai_test deepmimic_all; do
     # the network's own heading (the paper's model alone, no hip-line heading)
     pcnet evaluate --method pcnet --heading predicted --data ${DATA[$key]} --views $views \
       --json $OUT/pcnet_${key}_${views}_predicted_heading.json
-    for mode in frame sequence; do
+    for mode in frame sequence-norefiner sequence; do
+      args="--mode ${mode%-norefiner}"
+      [[ $mode == *-norefiner ]] && args="$args --no-up-refiner"
       # one fixed camera per clip, upstream-like noise (issue 5's protocol)
-      pcnet evaluate --method pcnet --data ${DATA[$key]} --views $views --camera per-clip --noise --mode $mode \
+      pcnet evaluate --method pcnet --data ${DATA[$key]} --views $views --camera per-clip --noise $args \
         --json $OUT/pcnet_${key}_${views}_perclip_noise_${mode}.json
       # one fixed camera per clip, clean inputs (mocap-like: the hip-line heading applies)
-      pcnet evaluate --method pcnet --data ${DATA[$key]} --views $views --camera per-clip --mode $mode \
+      pcnet evaluate --method pcnet --data ${DATA[$key]} --views $views --camera per-clip $args \
         --json $OUT/pcnet_${key}_${views}_perclip_clean_${mode}.json
     done
+  done
+  for mode in frame sequence-norefiner sequence; do
+    args="--mode ${mode%-norefiner}"
+    [[ $mode == *-norefiner ]] && args="$args --no-up-refiner"
+    # one camera fixed in the world: the subject's own turns show (a real recording)
+    pcnet evaluate --method pcnet --data ${DATA[$key]} --views paper --camera static --noise $args \
+      --json $OUT/pcnet_${key}_paper_static_noise_${mode}.json
   done
   for method in geometric pcnet pcnet-rigid; do
     # upstream-like noise, one random camera per frame

@@ -151,6 +151,9 @@ class PairSet:
     clip_names: tuple[str, ...]
 
 
+CAMERAS = ("per-frame", "per-clip", "static")
+
+
 def make_pairs(
     clips: list[Clip],
     views: str = "paper",
@@ -166,16 +169,20 @@ def make_pairs(
     Canonical targets follow ``CONVENTIONS.md`` (gravity up, pelvis heading); frames whose
     heading is undefined (hip line near vertical) are dropped. ``R`` is sampled from
     ``views`` ("paper"/"wide", :func:`pcnet.stages.rotations.sample_camera_rotations`), one
-    per frame (``camera="per-frame"``, the paper's protocol) or one per clip
-    (``camera="per-clip"``, a fixed camera). The input is ``canonical @ R.T``, then
+    per frame (``camera="per-frame"``, the paper's protocol) or one per clip: with
+    ``camera="per-clip"`` the camera keeps its place relative to the body's heading (a
+    camera fixed in tilt that pans with the subject's turns, so every frame stays in the
+    view distribution), with ``camera="static"`` it is fixed in the world (the sampled view
+    holds at the clip's first frame; the subject's own turning then shows, as in a real
+    recording). The input is ``canonical @ R.T``, then
     ``noise`` if given. ``frame_stride`` keeps every k-th frame; ``max_frames`` then keeps
     at most that many frames, evenly spaced over the whole set (deterministic).
 
     Raises:
         ValueError: unknown ``camera``, no clips, or no valid frame.
     """
-    if camera not in ("per-frame", "per-clip"):
-        raise ValueError(f"unknown camera mode {camera!r}; expected 'per-frame' or 'per-clip'")
+    if camera not in CAMERAS:
+        raise ValueError(f"unknown camera mode {camera!r}; expected one of {CAMERAS}")
     if not clips:
         raise ValueError("no clips to build pairs from (empty split?)")
     rng = np.random.default_rng(seed)
@@ -194,16 +201,23 @@ def make_pairs(
         # Re-derive the frame: scaling the hip bones can turn the hip line slightly.
         R_aug, valid_aug = canonical_rotation(canon, (0.0, 1.0, 0.0))
         canon = to_canonical(canon, R_aug).astype(np.float64)
+        R_world = np.einsum("nij,njk->nik", R_world, R_aug)
         valid &= valid_aug
     if not valid.any():
         raise ValueError("no frame with a defined canonical heading")
-    canon, idx_clip, idx_frame = canon[valid], idx_clip[valid], idx_frame[valid]
+    canon, idx_clip, idx_frame, R_world = canon[valid], idx_clip[valid], idx_frame[valid], R_world[valid]
     n = len(canon)
 
     if camera == "per-frame":
         R = sample_views(n, views, rng)
     else:
         R = sample_views(len(clips), views, rng)[idx_clip]
+    if camera == "static":
+        # canonical->world is a turn about the vertical; undo the first frame's, keep the rest
+        first = np.unique(idx_clip, return_index=True)[1]
+        R_first = np.empty((len(clips), 3, 3))
+        R_first[idx_clip[first]] = R_world[first]
+        R = np.einsum("nij,nkj,nkl->nil", R, R_first[idx_clip], R_world)
     inputs = np.einsum("nij,nkj->nki", R, canon)
     if noise is not None:
         inputs = apply_noise(inputs, noise, rng, idx_clip)

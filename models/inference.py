@@ -1,17 +1,19 @@
-"""Run-time 3DPCNet inference with onnxruntime (no torch)."""
+"""Run-time inference with onnxruntime (no torch): 3DPCNet and the static-camera up refiner."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
-from .preprocess import normalize_input
+from .preprocess import normalize_input, window_features, window_indices
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
 DEFAULT_WEIGHTS = WEIGHTS_DIR / "pcnet_small.onnx"
+DEFAULT_UP_REFINER = WEIGHTS_DIR / "up_refiner.onnx"
 
 
 class PCNetSession:
@@ -27,17 +29,7 @@ class PCNetSession:
     """
 
     def __init__(self, weights: str | Path | None = None, threads: int = 0):
-        import onnxruntime as ort
-
-        self.path = Path(weights) if weights else DEFAULT_WEIGHTS
-        if not self.path.is_file():
-            raise FileNotFoundError(f"{self.path}: 3DPCNet ONNX weights not found")
-        opts = ort.SessionOptions()
-        if threads:
-            opts.intra_op_num_threads = threads
-        self.session = ort.InferenceSession(str(self.path), opts, providers=["CPUExecutionProvider"])
-        meta = self.path.with_suffix(".json")
-        self.info = json.loads(meta.read_text()) if meta.is_file() else {}
+        self.path, self.session, self.info = _open(weights, DEFAULT_WEIGHTS, "3DPCNet", threads)
 
     def predict(self, joints_cam: np.ndarray, batch_size: int = 4096) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         x, scale, valid = normalize_input(joints_cam)
@@ -57,3 +49,119 @@ class PCNetSession:
 def get_session(weights: str | None = None) -> PCNetSession:
     """A cached :class:`PCNetSession` (``None`` = the shipped weights)."""
     return PCNetSession(weights)
+
+
+def _open(weights, default: Path, what: str, threads: int):
+    """(path, onnxruntime session, the ``.json`` beside the weights or {})."""
+    import onnxruntime as ort
+
+    path = Path(weights) if weights else default
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: {what} ONNX weights not found")
+    opts = ort.SessionOptions()
+    if threads:
+        opts.intra_op_num_threads = threads
+    session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+    meta = path.with_suffix(".json")
+    return path, session, json.loads(meta.read_text()) if meta.is_file() else {}
+
+
+class UpRefinerSession:
+    """An onnxruntime session of the static-camera up refiner (:mod:`pcnet.models.up_refiner`).
+
+    ``refine(joints_cam, R, valid, fps)`` corrects each frame's up direction from the poses
+    around it, assuming a camera that does not move over the window (``offsets_s`` in the
+    weights' ``.json``, about +-0.5 s): the network reads the window in the frame's
+    predicted canonical frame and returns the true up expressed there, ``(u_x, u_z)``
+    (``u_y`` follows from unit length). The corrected rotation is the predicted one turned
+    by the smallest rotation taking its up to the corrected up, so the heading is kept.
+    Trained on the errors of one 3DPCNet (``base_weights`` in the ``.json``); other
+    weights need their own refiner.
+
+    Raises:
+        FileNotFoundError: the weights file does not exist.
+        ValueError: its ``.json`` lacks ``offsets_s`` (the window, seconds).
+    """
+
+    def __init__(self, weights: str | Path | None = None, threads: int = 0):
+        self.path, self.session, self.info = _open(weights, DEFAULT_UP_REFINER, "up refiner", threads)
+        self.offsets_s = np.asarray(self.info.get("offsets_s", []), np.float64)
+        if self.offsets_s.size == 0:
+            raise ValueError(f"{self.path.with_suffix('.json')}: field 'offsets_s' (window offsets in seconds) missing")
+        self.max_median_correction_deg = float(self.info.get("max_median_correction_deg", np.inf))
+
+    def refine(self, joints_cam: np.ndarray, R: np.ndarray, valid: np.ndarray, fps: float,
+               batch_size: int = 4096) -> tuple[np.ndarray, dict]:
+        """Refined canonical->camera rotations, or ``R`` unchanged for a motion unlike the
+        training data.
+
+        Domain check: if the median correction over the sequence's valid frames exceeds
+        ``max_median_correction_deg`` (the ``.json``; the largest per-clip median the
+        refiner made on the held-out val split, set by training), the motion is outside
+        what it learnt (on DeepMimic: crawling, rolling, getting up, kicks) and its
+        corrections are not trusted; ``R`` is returned as given.
+
+        Args:
+            joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses of ONE static-camera
+                recording, any units.
+            R: ``(T, 3, 3)`` per-frame canonical->camera predictions of the base network.
+            valid: ``(T,)`` bool; invalid frames (or NaN ``R``) stay as given.
+            fps: frame rate in Hz (the window is defined in seconds).
+
+        Returns:
+            ``(R (T, 3, 3) float64, info)``, ``info`` = ``{"applied": bool,
+            "median_correction_deg": float, "max_median_correction_deg": float}``.
+        """
+        R = np.asarray(R, np.float64)
+        x, _, ok = normalize_input(joints_cam)
+        ok &= np.asarray(valid, bool) & np.isfinite(R).all((1, 2))
+        out = R.copy()
+        idx = window_indices(ok, fps, self.offsets_s)
+        centres = np.flatnonzero(ok)
+        for i in range(0, len(centres), batch_size):
+            c = centres[i : i + batch_size]
+            feats = window_features(x, R[c], idx[c])
+            (up_xz,) = self.session.run(["up_xz"], {"features": feats})
+            out[c] = tilt_to_up(R[c], up_xz.astype(np.float64))
+        cos = np.clip(np.sum(out[centres, :, 1] * R[centres, :, 1], -1), -1.0, 1.0)
+        median = float(np.degrees(np.median(np.arccos(cos)))) if len(centres) else 0.0
+        applied = median <= self.max_median_correction_deg
+        info = {"applied": bool(applied), "median_correction_deg": median,
+                "max_median_correction_deg": self.max_median_correction_deg}
+        return (out if applied else R.copy()), info
+
+
+def tilt_to_up(R: np.ndarray, up_xz: np.ndarray) -> np.ndarray:
+    """Turn each rotation by the smallest rotation that takes its up column ``R[:, :, 1]``
+    to ``R @ (u_x, u_y, u_z)``, with ``u_y = sqrt(1 - u_x^2 - u_z^2)`` (clamped to tilts of
+    at most 60 deg). ``R`` ``(N, 3, 3)`` canonical->camera, ``up_xz`` ``(N, 2)``: the
+    target up in the rotation's own canonical frame. Returns ``(N, 3, 3)`` float64."""
+    from scipy.spatial.transform import Rotation
+
+    a, b = up_xz[:, 0], up_xz[:, 1]
+    u = np.stack([a, np.sqrt(np.clip(1.0 - a * a - b * b, 0.25, 1.0)), b], -1)
+    u /= np.linalg.norm(u, axis=-1, keepdims=True)
+    # In the canonical frame the smallest rotation from +Y to u has axis Y x u.
+    axis = np.stack([u[:, 2], np.zeros(len(u)), -u[:, 0]], -1)
+    sin = np.linalg.norm(axis, axis=-1)
+    rotvec = axis / np.maximum(sin, 1e-12)[:, None] * np.arctan2(sin, u[:, 1])[:, None]
+    # R @ Q with Q acting in the canonical frame equals (R Q R^T) R: the same turn seen in the camera frame.
+    return np.einsum("nij,njk->nik", R, Rotation.from_rotvec(rotvec).as_matrix())
+
+
+@lru_cache(maxsize=8)
+def file_sha256(path: str) -> str:
+    """Hex SHA-256 of a file's bytes (cached per path)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+@lru_cache(maxsize=4)
+def shipped_up_refiner(weights: str | None = None):
+    """The shipped refiner's :meth:`UpRefinerSession.refine` when ``weights`` (``None`` =
+    the shipped 3DPCNet) is the network it was trained on (same SHA-256 as the refiner's
+    ``base_weights_sha256``), else ``None``: a refiner learns one network's errors."""
+    refiner = UpRefinerSession()
+    base = Path(weights) if weights else DEFAULT_WEIGHTS
+    if file_sha256(str(base)) != refiner.info.get("base_weights_sha256"):
+        return None
+    return refiner.refine

@@ -51,3 +51,49 @@ def normalize_input(joints_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
     x = np.zeros_like(X, dtype=np.float32)
     x[valid] = (X[valid] / scale[valid, None, None]).astype(np.float32)
     return x, scale, valid
+
+
+def window_indices(valid: np.ndarray, fps: float, offsets_s: np.ndarray) -> np.ndarray:
+    """Frame indices of each frame's temporal window, for the static-camera up refiner.
+
+    Frame ``t``'s window is ``t + round(offsets_s * fps)``, clamped to the sequence; a
+    neighbour that is invalid is replaced by ``t`` itself, so no window holds a pose the
+    network cannot rectify.
+
+    Args:
+        valid: ``(T,)`` bool, frames :func:`normalize_input` accepted.
+        fps: frame rate in Hz, > 0.
+        offsets_s: ``(W,)`` window offsets in seconds (0 = the centre frame).
+
+    Returns:
+        ``(T, W)`` int64 indices into the sequence.
+
+    Raises:
+        ValueError: non-positive ``fps``.
+    """
+    if not fps > 0:
+        raise ValueError(f"fps must be positive, got {fps}")
+    valid = np.asarray(valid, bool)
+    T = len(valid)
+    steps = np.round(np.asarray(offsets_s, np.float64) * fps).astype(np.int64)
+    centre = np.arange(T)[:, None]
+    idx = np.clip(centre + steps[None], 0, max(T - 1, 0))
+    return np.where(valid[idx], idx, centre)
+
+
+def window_features(x: np.ndarray, R_centre: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """The up refiner's input: every pose of a window seen in its centre frame's predicted
+    canonical frame. With a static camera the whole window then shares the centre frame's
+    tilt error, which is what the refiner reads (how the poses move relative to gravity).
+
+    Args:
+        x: ``(T, 17, 3)`` float32 normalised camera-frame poses (:func:`normalize_input`).
+        R_centre: ``(N, 3, 3)`` the centre frames' canonical->camera rotations (finite).
+        idx: ``(N, W)`` window indices into ``x`` (:func:`window_indices` rows).
+
+    Returns:
+        ``(N, W * 51)`` float32, row-major over (window, joint, canonical axis).
+    """
+    win = x[idx].astype(np.float32)                                  # (N, W, 17, 3) camera frame
+    canon = np.einsum("nwjc,nck->nwjk", win, np.asarray(R_centre, np.float32))
+    return canon.reshape(len(idx), -1)

@@ -8,9 +8,10 @@ from pathlib import Path
 
 import click
 
+from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
 from pcnet.stages.heading import HEADING_SOURCES
-from pcnet.stages.rectify import METHODS
+from pcnet.stages.rectify import METHODS, up_refiner_note
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -18,6 +19,7 @@ def main() -> None:
     """pcnet: rectify monocular 3D human poses into a gravity-aligned, body-centred frame."""
 
 
+_UP_REFINER_HELP = "Sequence mode: correct each frame's up from the motion around it first (shipped weights only)."
 _heading_option = click.option(
     "--heading", type=click.Choice(HEADING_SOURCES), default=None,
     help="Heading about the up axis from: predicted (the method's rotation), hips (the input's hip line, "
@@ -33,7 +35,8 @@ def _fail(message: str) -> None:
 @click.option("--data", type=click.Path(dir_okay=False), required=True, help="Mocap .npz (shared mocap format).")
 @click.option("--split", type=click.Choice(["train", "val", "test", "all"]), default="test", show_default=True)
 @click.option("--views", type=click.Choice(["paper", "wide"]), default="paper", show_default=True)
-@click.option("--camera", type=click.Choice(["per-frame", "per-clip"]), default="per-frame", show_default=True)
+@click.option("--camera", type=click.Choice(CAMERAS), default="per-frame", show_default=True,
+              help="per-frame: a new camera each frame (paper); per-clip: one camera per clip, panning with the subject's turns; static: one camera fixed in the world.")
 @click.option("--noise/--no-noise", default=False, show_default=True, help="Upstream-like noise on the inputs.")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="Per-frame (paper) or sequence-aware rectification of each clip.")
@@ -42,13 +45,15 @@ def _fail(message: str) -> None:
 @click.option("--max-frames", type=int, default=None, help="Evaluate at most N evenly spaced frames.")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
-def evaluate(method, data, split, views, camera, noise, mode, heading, seed, max_frames, weights, json_out):
+@click.option("--up-refiner/--no-up-refiner", default=True, show_default=True, help=_UP_REFINER_HELP)
+def evaluate(method, data, split, views, camera, noise, mode, heading, seed, max_frames, weights, json_out, up_refiner):
     """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras."""
     from pcnet.pipeline.evaluate import evaluate as run_eval, format_table
     from pcnet.stages.atomic import write_text
 
     try:
-        result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise, mode, heading)
+        result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise, mode, heading,
+                          up_refiner)
     except (OSError, ValueError) as err:
         _fail(str(err))
     click.echo(format_table(result))
@@ -66,7 +71,8 @@ def evaluate(method, data, split, views, camera, noise, mode, heading, seed, max
 @click.option("--fps", type=float, default=30.0, show_default=True, help="Frame rate (for --mode smooth/auto).")
 @_heading_option
 @click.option("--weights", type=click.Path(dir_okay=False), default=None)
-def rectify(input_path, out_path, method, key, mode, fps, heading, weights):
+@click.option("--up-refiner/--no-up-refiner", default=True, show_default=True, help=_UP_REFINER_HELP)
+def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_refiner):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
@@ -76,13 +82,14 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights):
 
     try:
         joints = load_pose_array(input_path, key)
-        res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading)
+        res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading, up_refiner=up_refiner)
     except (OSError, ValueError) as err:
         _fail(str(err))
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source))
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}, "
-               f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)")
+               f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)"
+               + up_refiner_note(res.report))
 
 
 @main.command()
@@ -100,12 +107,35 @@ def train(config_path, no_resume):
 @click.option("--checkpoint", type=click.Path(exists=True, dir_okay=False), required=True)
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True)
 def export(checkpoint, out_path):
-    """Export a checkpoint to ONNX (dynamic batch)."""
-    from pcnet.models.export import export_onnx
-    from pcnet.models.train import load_checkpoint
+    """Export a 3DPCNet or up-refiner checkpoint to ONNX (dynamic batch)."""
+    import torch
 
-    path = export_onnx(load_checkpoint(checkpoint), out_path, {"checkpoint": str(checkpoint)})
+    meta = {"checkpoint": str(checkpoint)}
+    if torch.load(checkpoint, map_location="cpu", weights_only=False).get("kind") == "up_refiner":
+        from pcnet.models.up_refiner import export_refiner_onnx, load_refiner_checkpoint
+
+        try:
+            model, cfg, domain = load_refiner_checkpoint(checkpoint)
+        except ValueError as err:
+            _fail(str(err))
+        path = export_refiner_onnx(model, cfg, out_path, {**meta, **domain})
+    else:
+        from pcnet.models.export import export_onnx
+        from pcnet.models.train import load_checkpoint
+
+        path = export_onnx(load_checkpoint(checkpoint), out_path, meta)
     click.echo(f"wrote {path}")
+
+
+@main.command("train-refiner")
+@click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False), required=True)
+@click.option("--no-resume", is_flag=True, help="Start again even if a checkpoint exists.")
+def train_refiner(config_path, no_resume):
+    """Train the static-camera up refiner on a 3DPCNet's errors (needs torch)."""
+    from pcnet.models.up_refiner import load_refiner_config, train_refiner as run_train
+
+    best = run_train(load_refiner_config(config_path), resume=not no_resume)
+    click.echo(f"best checkpoint: {best}")
 
 
 EXAMPLE_DIR = Path(__file__).parent / "example_data"
@@ -149,6 +179,7 @@ def _run_and_report(cfg) -> None:
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 @click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")
+@click.option("--up-refiner/--no-up-refiner", default=None, help=_UP_REFINER_HELP + " [on]")
 def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, **options):
     """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
     poses, kinematics, CSV/TRC/NPZ/PNG exports and a rerun recording."""

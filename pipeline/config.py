@@ -19,7 +19,8 @@ class RunConfig:
     ``lifter_options`` are passed to the 3D adapter (``pixel`` for motionbert,
     ``hypothesis``/``step`` for ddhpose, ``layout``/``axes``/``units``/``key`` for generic);
     ``person`` picks a 2D track (AlphaPose ``idx``, MMPose instance position); ``heading``
-    is the heading source of :func:`pcnet.stages.rectify.rectify` (``None`` = its default).
+    is the heading source of :func:`pcnet.stages.rectify.rectify` (``None`` = its default);
+    ``up_refiner`` its sequence-mode up refiner (on by default).
     """
 
     lifter: str
@@ -40,6 +41,7 @@ class RunConfig:
     overwrite: bool = False
     recording: bool = True
     weights: str | None = None
+    up_refiner: bool = True
     lifter_options: dict = field(default_factory=dict)
 
     def validate(self) -> "RunConfig":

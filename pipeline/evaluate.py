@@ -10,7 +10,7 @@ import numpy as np
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
-from pcnet.stages.rectify import estimate_rotations, finish_rotations, resolve_heading_source
+from pcnet.stages.rectify import estimate_rotations, finish_rotations, resolve_heading_source, up_refiner_for
 
 
 def evaluate(
@@ -25,6 +25,7 @@ def evaluate(
     noise: bool = False,
     mode: str = "frame",
     heading: str | None = None,
+    up_refiner: bool = True,
 ) -> dict:
     """Evaluate ``method`` on the ``split`` clips of a mocap npz.
 
@@ -35,14 +36,16 @@ def evaluate(
     clip's heading source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the
     method's default, :func:`pcnet.stages.rectify.resolve_heading_source`), each clip being
     one recording whatever the camera protocol (both steps by
-    :func:`pcnet.stages.rectify.finish_rotations`, as in ``rectify``). The canonical prediction is
+    :func:`pcnet.stages.rectify.finish_rotations`, as in ``rectify``, with the static-camera
+    up refiner in sequence mode when ``up_refiner`` and the method and weights allow it,
+    :func:`pcnet.stages.rectify.up_refiner_for`). The canonical prediction is
     ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target. Frames a
     method marks invalid are counted, not scored.
 
     Returns:
         ``{"method", "views", "split", "data", "seed", "camera", "noise", "mode",
         "heading", "frames", "invalid_frames", "clip_heading_sources" (clips per source
-        used), "clip_modes" (sequence modes only), "<metric>": {"mean", "median", "p95"}
+        used), "clip_modes" and "up_refined_clips" (sequence modes only), "<metric>": {"mean", "median", "p95"}
         ...}`` with the metrics of :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres).
 
     Raises:
@@ -55,7 +58,9 @@ def evaluate(
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=Noise() if noise else None,
                        max_frames=max_frames)
     R_hat, residual, valid = estimate_rotations(pairs.inputs, method, weights)
+    refiner = up_refiner_for(method, weights, up_refiner)
     modes_run: dict[str, int] = {}
+    refined_clips = 0
     headings_run: dict[str, int] = {}
     for i, clip in enumerate(clips):
         sel = np.flatnonzero(pairs.clip == i)
@@ -63,9 +68,10 @@ def evaluate(
             continue
         # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
         R_hat[sel], valid[sel], report = finish_rotations(
-            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0)
+            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0, up_refiner=refiner)
         if mode != "frame":
             modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
+            refined_clips += bool(report.get("up_refined"))
         headings_run[report["heading_source"]] = headings_run.get(report["heading_source"], 0) + 1
     canon_hat = to_canonical(pairs.inputs, R_hat, residual)
     errors = evaluate_rotations(R_hat, pairs.R, canon_hat, pairs.canonical)
@@ -76,6 +82,7 @@ def evaluate(
     }
     if modes_run:
         result["clip_modes"] = modes_run
+        result["up_refined_clips"] = refined_clips
     result["clip_heading_sources"] = headings_run
     result.update({name: summarize(errors[name]) for name in METRICS})
     return result

@@ -75,6 +75,29 @@ def resolve_heading_source(method: str, heading: str | None) -> str:
     return heading
 
 
+def up_refiner_for(method: str, weights: str | None, use: bool = True):
+    """The static-camera up refiner for sequence mode, or ``None``: only for the 3DPCNet
+    methods with the network the shipped refiner was trained on
+    (:func:`pcnet.models.inference.shipped_up_refiner`), and only if ``use``."""
+    if not use or method not in ("pcnet", "pcnet-rigid"):
+        return None
+    from pcnet.models.inference import shipped_up_refiner
+
+    return shipped_up_refiner(None if weights is None else str(weights))
+
+
+def up_refiner_note(report: dict) -> str:
+    """``"; up refined from the motion"``, ``"; up refiner not used (...)"`` or ``""`` (it
+    did not run), for one-line summaries of a rectify ``report``."""
+    info = report.get("up_refiner")
+    if not info:
+        return ""
+    if info["applied"]:
+        return f"; up refined from the motion (median correction {info['median_correction_deg']:.1f} deg)"
+    return (f"; up refiner not used: median correction {info['median_correction_deg']:.1f} deg > "
+            f"{info['max_median_correction_deg']:.1f} deg, a motion unlike its training data")
+
+
 def rectify(
     joints_cam: np.ndarray,
     method: str = "pcnet",
@@ -82,6 +105,7 @@ def rectify(
     mode: str = "frame",
     fps: float = 30.0,
     heading: str | None = None,
+    up_refiner: bool = True,
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
     (``CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
@@ -92,7 +116,9 @@ def rectify(
     heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
     input's hip line, the canonical frame's definition) or ``auto`` (hips when they are
     precise, :func:`pcnet.stages.heading.apply_heading`); ``None`` =
-    :func:`resolve_heading_source`. ``report`` says what ran.
+    :func:`resolve_heading_source`. ``up_refiner``: in sequence mode, correct the per-frame
+    ups from the motion around each frame first (:func:`up_refiner_for`; the report's
+    ``up_refined`` says whether it ran). ``report`` says what ran.
 
     Raises:
         ValueError: unknown method, mode or heading source, wrong shape, or (sequence modes)
@@ -100,7 +126,8 @@ def rectify(
     """
     heading = resolve_heading_source(method, heading)
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
-    R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading)
+    R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading,
+                                        up_refiner=up_refiner_for(method, weights, up_refiner))
     canonical = to_canonical(joints_cam, R, residual)
     return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report,
                      report["heading_source"])
@@ -114,6 +141,7 @@ def finish_rotations(
     fps: float,
     heading: str,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
+    up_refiner=None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The steps after a per-frame estimator, for one recording: the rectify ``mode``
     (:func:`pcnet.stages.temporal.rectify_sequence` unless ``"frame"``), then the
@@ -125,6 +153,7 @@ def finish_rotations(
         mode, fps: as :func:`rectify`; heading: one of
             :data:`pcnet.stages.heading.HEADING_SOURCES` (already resolved).
         n_bootstrap: sequence-mode uncertainty replicates (0 = none; rotations unchanged).
+        up_refiner: ``None`` or the sequence-mode up refiner callable (:func:`up_refiner_for`).
 
     Returns:
         ``(R (T, 3, 3) float64, NaN where not valid; valid (T,) bool; report)`` with
@@ -137,7 +166,7 @@ def finish_rotations(
     if mode != "frame":
         if not valid.any():
             raise ValueError(NO_VALID_FRAME)
-        R, report = rectify_sequence(R, valid, mode, fps, joints_cam, n_bootstrap=n_bootstrap)
+        R, report = rectify_sequence(R, valid, mode, fps, joints_cam, n_bootstrap=n_bootstrap, up_refiner=up_refiner)
         valid = valid & np.asarray(report["valid"], bool)
         R = np.where(valid[:, None, None], R, np.nan)
     R, heading_report = apply_heading(joints_cam, R, valid, heading)

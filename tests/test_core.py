@@ -208,6 +208,30 @@ def test_pairs_are_deterministic_and_consistent():
     assert hip.max() > 1.5 * np.linalg.norm(clean.canonical[:, 1] - clean.canonical[:, 4], axis=-1).max()
 
 
+def test_static_camera_is_fixed_in_the_world():
+    """camera="static": every frame of a clip is its world pose (pelvis-centred) seen by ONE
+    rotation, with the same up as "per-clip" (which pans with the subject's heading instead)."""
+    from scipy.spatial.transform import Rotation
+
+    clips = load_mocap(BANDAI)
+    per_clip = make_pairs(clips, "paper", seed=3, camera="per-clip")
+    static = make_pairs(clips, "paper", seed=3, camera="static")
+    np.testing.assert_allclose(static.canonical, per_clip.canonical)
+    np.testing.assert_allclose(static.R[:, :, 1], per_clip.R[:, :, 1], atol=1e-12)
+    for i, clip in enumerate(clips):
+        sel = np.flatnonzero(static.clip == i)
+        np.testing.assert_allclose(static.R[sel[0]], per_clip.R[sel[0]], atol=1e-12)
+        world = clip.joints[static.frame[sel]].astype(np.float64)
+        world = (world - world[:, :1]).reshape(-1, 3)
+        residual = {}
+        for name, pairs in (("static", static), ("per-clip", per_clip)):
+            X = pairs.inputs[sel].astype(np.float64).reshape(-1, 3)
+            rot, _ = Rotation.align_vectors(X, world)
+            residual[name] = np.abs(rot.apply(world) - X).max()
+        assert residual["static"] < 1e-4, (clip.name, residual)
+        assert residual["per-clip"] > 100 * residual["static"], (clip.name, residual)
+
+
 def test_noise_fraction_leaves_the_rest_clean():
     from pcnet.models.datasets import Noise, apply_noise
 
