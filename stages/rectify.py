@@ -87,13 +87,14 @@ def up_refiner_for(method: str, weights: str | None, use: bool = True):
 
 
 def up_refiner_note(report: dict) -> str:
-    """``"; up refined from the motion"``, ``"; up refiner not used (...)"`` or ``""`` (it
-    did not run), for one-line summaries of a rectify ``report``."""
+    """``"; up refined from the motion, ..."``, ``"; up refiner not used: ..."`` (its domain
+    check declined) or ``""`` (it did not run), for one-line summaries of a rectify
+    ``report``."""
     info = report.get("up_refiner")
     if not info:
         return ""
     if info["applied"]:
-        return f"; up refined from the motion (median correction {info['median_correction_deg']:.1f} deg)"
+        return f"; up refined from the motion, median correction {info['median_correction_deg']:.1f} deg"
     return (f"; up refiner not used: median correction {info['median_correction_deg']:.1f} deg > "
             f"{info['max_median_correction_deg']:.1f} deg, a motion unlike its training data")
 
