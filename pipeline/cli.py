@@ -86,7 +86,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_r
     except (OSError, ValueError) as err:
         _fail(str(err))
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
-              method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source))
+              method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
+              up_refined=np.array(bool(res.report.get("up_refined", False))))
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}, "
                f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)"
                + up_refiner_note(res.report))
