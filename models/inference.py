@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pcnet.stages.rotations import angle_between
+
 from .preprocess import normalize_input, window_features, window_indices
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
@@ -123,8 +125,8 @@ class UpRefinerSession:
             feats = window_features(x, R[c], idx[c])
             (up_xz,) = self.session.run(["up_xz"], {"features": feats})
             out[c] = tilt_to_up(R[c], up_xz.astype(np.float64))
-        cos = np.clip(np.sum(out[centres, :, 1] * R[centres, :, 1], -1), -1.0, 1.0)
-        median = float(np.degrees(np.median(np.arccos(cos)))) if len(centres) else 0.0
+        moved = angle_between(out[centres, :, 1], R[centres, :, 1])
+        median = float(np.degrees(np.median(moved))) if len(centres) else 0.0
         applied = median <= self.max_median_correction_deg
         info = {"applied": bool(applied), "median_correction_deg": median,
                 "max_median_correction_deg": self.max_median_correction_deg}

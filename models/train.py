@@ -59,18 +59,20 @@ def load_config(path: str | Path) -> TrainConfig:
     """
     path = Path(path)
     raw = tomllib.loads(path.read_text())
-    _check_keys(path, "", raw, TrainConfig)
+    check_config_keys(path, "", raw, TrainConfig)
     tables = {}
     for table, cls in (("model", PCNetConfig), ("loss", LossWeights)):
         given = raw.pop(table, {})
         if not isinstance(given, dict):
             raise ValueError(f"{path}: {table} must be a [{table}] table, got {given!r}")
-        _check_keys(path, f"[{table}] has ", given, cls)
+        check_config_keys(path, f"[{table}] has ", given, cls)
         tables[table] = cls(**given)
     return TrainConfig(**raw, **tables)
 
 
-def _check_keys(path: Path, where: str, given: dict, cls) -> None:
+def check_config_keys(path: Path, where: str, given: dict, cls) -> None:
+    """Raise ValueError naming ``path`` (and ``where`` in it) if ``given`` has keys that are
+    not fields of the dataclass ``cls``."""
     allowed = {f.name for f in fields(cls)}
     unknown = set(given) - allowed
     if unknown:

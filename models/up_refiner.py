@@ -21,16 +21,19 @@ from __future__ import annotations
 import json
 import time
 import tomllib
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 import torch
 from tqdm import tqdm
 
+from pcnet.stages.rotations import angle_between
+
 from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
 from .inference import DEFAULT_WEIGHTS, PCNetSession, file_sha256, tilt_to_up
 from .preprocess import normalize_input, window_features, window_indices
+from .train import check_config_keys
 
 OPSET = 18
 
@@ -69,10 +72,7 @@ def load_refiner_config(path: str | Path) -> RefinerConfig:
     """
     path = Path(path)
     raw = tomllib.loads(path.read_text())
-    allowed = {f.name for f in fields(RefinerConfig)}
-    unknown = set(raw) - allowed
-    if unknown:
-        raise ValueError(f"{path}: unknown keys {sorted(unknown)}; expected some of {sorted(allowed)}")
+    check_config_keys(path, "", raw, RefinerConfig)
     cfg = RefinerConfig(**raw)
     if len(cfg.cameras) != len(cfg.noise_fractions) or not cfg.cameras:
         raise ValueError(f"{path}: cameras and noise_fractions must be non-empty lists of the same length "
@@ -144,7 +144,7 @@ def _refined(model: UpRefinerNet, d: _Draw, batch: int = 8192) -> tuple[np.ndarr
 
 
 def _angle_deg(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return np.degrees(np.arccos(np.clip((u * v).sum(-1), -1.0, 1.0)))
+    return np.degrees(angle_between(u, v))
 
 
 def _max_clip_median_correction_deg(model: UpRefinerNet, d: _Draw) -> float:
