@@ -10,8 +10,7 @@ from __future__ import annotations
 import json
 import math
 import time
-import tomllib
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +23,7 @@ from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
 from .losses import LossWeights, composite_loss
 from .network import PCNet, PCNetConfig
 from .preprocess import normalize_input
+from .toml_config import check_config_keys, read_toml
 
 
 @dataclass
@@ -58,7 +58,7 @@ def load_config(path: str | Path) -> TrainConfig:
         ValueError: an unknown key, top-level or in ``[model]`` / ``[loss]`` (named with the file).
     """
     path = Path(path)
-    raw = tomllib.loads(path.read_text())
+    raw = read_toml(path)
     check_config_keys(path, "", raw, TrainConfig)
     tables = {}
     for table, cls in (("model", PCNetConfig), ("loss", LossWeights)):
@@ -68,15 +68,6 @@ def load_config(path: str | Path) -> TrainConfig:
         check_config_keys(path, f"[{table}] has ", given, cls)
         tables[table] = cls(**given)
     return TrainConfig(**raw, **tables)
-
-
-def check_config_keys(path: Path, where: str, given: dict, cls) -> None:
-    """Raise ValueError naming ``path`` (and ``where`` in it) if ``given`` has keys that are
-    not fields of the dataclass ``cls``."""
-    allowed = {f.name for f in fields(cls)}
-    unknown = set(given) - allowed
-    if unknown:
-        raise ValueError(f"{path}: {where}unknown keys {sorted(unknown)}; expected some of {sorted(allowed)}")
 
 
 def _device(name: str) -> torch.device:

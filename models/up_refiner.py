@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import time
-import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -33,7 +32,7 @@ from pcnet.stages.rotations import angle_between
 from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
 from .inference import DEFAULT_WEIGHTS, PCNetSession, file_sha256, tilt_to_up
 from .preprocess import normalize_input, window_features, window_indices
-from .train import check_config_keys
+from .toml_config import check_config_keys, read_toml
 
 OPSET = 18
 
@@ -67,11 +66,11 @@ def load_refiner_config(path: str | Path) -> RefinerConfig:
     """Read a TOML file with top-level keys of :class:`RefinerConfig`.
 
     Raises:
-        ValueError: an unknown key, ``cameras`` / ``noise_fractions`` of different lengths or
-            a camera other than static / per-clip (named with the file).
+        ValueError: not TOML, an unknown key, ``cameras`` / ``noise_fractions`` of different
+            lengths or a camera other than static / per-clip (named with the file).
     """
     path = Path(path)
-    raw = tomllib.loads(path.read_text())
+    raw = read_toml(path)
     check_config_keys(path, "", raw, RefinerConfig)
     cfg = RefinerConfig(**raw)
     if len(cfg.cameras) != len(cfg.noise_fractions) or not cfg.cameras:

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-import tomllib
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
+
+from pcnet.models.toml_config import check_config_keys, read_toml
 
 KEYPOINT_FORMATS = ("alphapose", "mmpose", "openpose", "mediapipe")
 LIFTERS = ("motionbert", "ddhpose", "videopose3d", "mediapipe", "generic")
@@ -79,14 +80,8 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
         ValueError: unknown keys or invalid values, naming the file.
     """
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as err:
-        raise ValueError(f"{path}: not a readable TOML config ({err})") from err
-    known = {f.name for f in fields(RunConfig)}
-    unknown = set(raw) - known
-    if unknown:
-        raise ValueError(f"{path}: unknown keys {sorted(unknown)}; expected some of {sorted(known)}")
+    raw = read_toml(path)
+    check_config_keys(path, "", raw, RunConfig)
     for key in ("video", "keypoints2d", "lifter_output", "out", "weights"):
         if isinstance(raw.get(key), str):
             raw[key] = str((path.parent / raw[key]).resolve()) if not Path(raw[key]).is_absolute() else raw[key]
