@@ -100,7 +100,10 @@ def train(config_path, no_resume):
     """Train 3DPCNet (needs the [train] extra: torch)."""
     from pcnet.models.train import load_config, train as run_train
 
-    best = run_train(load_config(config_path), resume=not no_resume)
+    try:
+        best = run_train(load_config(config_path), resume=not no_resume)
+    except (OSError, ValueError) as err:
+        _fail(str(err))
     click.echo(f"best checkpoint: {best}")
 
 
@@ -112,7 +115,13 @@ def export(checkpoint, out_path):
     import torch
 
     meta = {"checkpoint": str(checkpoint)}
-    if torch.load(checkpoint, map_location="cpu", weights_only=False).get("kind") == "up_refiner":
+    try:
+        ck = torch.load(checkpoint, map_location="cpu", weights_only=False)
+    except Exception as err:  # torch raises pickle, zip and runtime errors on foreign files
+        _fail(f"{checkpoint}: not a pcnet checkpoint ({type(err).__name__}: {err})")
+    if not isinstance(ck, dict) or "model" not in ck:
+        _fail(f"{checkpoint}: not a pcnet checkpoint (no 'model' entry)")
+    if ck.get("kind") == "up_refiner":
         from pcnet.models.up_refiner import export_refiner_onnx, load_refiner_checkpoint
 
         try:
@@ -135,7 +144,10 @@ def train_refiner(config_path, no_resume):
     """Train the static-camera up refiner on a 3DPCNet's errors (needs torch)."""
     from pcnet.models.up_refiner import load_refiner_config, train_refiner as run_train
 
-    best = run_train(load_refiner_config(config_path), resume=not no_resume)
+    try:
+        best = run_train(load_refiner_config(config_path), resume=not no_resume)
+    except (OSError, ValueError) as err:
+        _fail(str(err))
     click.echo(f"best checkpoint: {best}")
 
 

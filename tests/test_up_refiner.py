@@ -162,3 +162,24 @@ def test_onnx_export_matches_torch(tmp_path):
         ref = net(torch.from_numpy(feats)).numpy()
     (got,) = sess.session.run(["up_xz"], {"features": feats})
     assert np.abs(got - ref).max() <= 1e-5
+
+
+def test_refiner_commands_reject_bad_files_in_one_line(tmp_path):
+    pytest.importorskip("torch")
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text("epochs = 2\n[oops\n")
+    res = CliRunner().invoke(main, ["train-refiner", "--config", str(bad)])
+    assert res.exit_code == 1 and "bad.toml: not a readable TOML config" in res.output
+    bad.write_text('cameras = ["static"]\n')
+    res = CliRunner().invoke(main, ["train-refiner", "--config", str(bad)])
+    assert res.exit_code == 1 and "cameras and noise_fractions" in res.output
+    junk = tmp_path / "junk.pt"
+    junk.write_bytes(b"not a checkpoint")
+    out = tmp_path / "r.onnx"
+    res = CliRunner().invoke(main, ["export", "--checkpoint", str(junk), "--out", str(out)])
+    assert res.exit_code == 1 and "junk.pt: not a pcnet checkpoint" in res.output
+    assert not out.exists() and len(res.output.strip().splitlines()) == 1
