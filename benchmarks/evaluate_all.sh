@@ -13,8 +13,11 @@ for key in bandai_test deepmimic_all; do
       # clean inputs, one random camera per frame (the paper's protocol)
       pcnet evaluate --method $method --data ${DATA[$key]} --views $views --json $OUT/${method}_${key}_${views}.json
     done
-    # the network's own heading (the paper's model alone, no hip-line heading)
-    pcnet evaluate --method pcnet --heading predicted --data ${DATA[$key]} --views $views \
+    # 3DPCNet without pcnet's frame up refiner (hip-line heading as the default)
+    pcnet evaluate --method pcnet --no-up-refiner --data ${DATA[$key]} --views $views \
+      --json $OUT/pcnet_${key}_${views}_norefiner.json
+    # the paper's model alone: the network's own heading, no up refiner
+    pcnet evaluate --method pcnet --heading predicted --no-up-refiner --data ${DATA[$key]} --views $views \
       --json $OUT/pcnet_${key}_${views}_predicted_heading.json
     for mode in frame sequence-norefiner sequence; do
       args="--mode ${mode%-norefiner}"
@@ -38,4 +41,6 @@ for key in bandai_test deepmimic_all; do
     # upstream-like noise, one random camera per frame
     pcnet evaluate --method $method --data ${DATA[$key]} --views paper --noise --json $OUT/${method}_${key}_paper_noise.json
   done
+  pcnet evaluate --method pcnet --no-up-refiner --data ${DATA[$key]} --views paper --noise \
+    --json $OUT/pcnet_${key}_paper_noise_norefiner.json
 done

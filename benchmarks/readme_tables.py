@@ -30,11 +30,14 @@ def main() -> None:
         for views in ("paper", "wide"):
             for method in ("geometric", "pcnet", "pcnet-rigid"):
                 print(row(f"{label}, {views}", method, load(f"{method}_{key}_{views}")))
-            print(row(f"{label}, {views}", "pcnet, heading predicted", load(f"pcnet_{key}_{views}_predicted_heading")))
+            print(row(f"{label}, {views}", "pcnet, no up refiner", load(f"pcnet_{key}_{views}_norefiner")))
+            print(row(f"{label}, {views}", "3DPCNet alone (heading predicted, no up refiner)",
+                      load(f"pcnet_{key}_{views}_predicted_heading")))
     print("\n| data, views | method | rotation | tilt | heading | MPJPE | PA-MPJPE |\n|---|---|---|---|---|---|---|")
     for key, label in DATASETS:
         for method in ("geometric", "pcnet", "pcnet-rigid"):
             print(row(f"{label}, paper, noise", method, load(f"{method}_{key}_paper_noise")))
+        print(row(f"{label}, paper, noise", "pcnet, no up refiner", load(f"pcnet_{key}_paper_noise_norefiner")))
     modes = (("frame", "frame"), ("sequence-norefiner", "sequence, no up refiner"), ("sequence", "sequence"))
     header = "\n| data, views | mode | rotation | tilt | heading | MPJPE |\n|---|---|---|---|---|---|"
     for inputs in ("noise", "clean"):  # per-clip cameras: with noise, then clean inputs

@@ -1,4 +1,5 @@
-"""Run-time inference with onnxruntime (no torch): 3DPCNet and the static-camera up refiner."""
+"""Run-time inference with onnxruntime (no torch): 3DPCNet and the up refiners (frame and
+static-camera)."""
 
 from __future__ import annotations
 
@@ -11,11 +12,12 @@ import numpy as np
 
 from pcnet.stages.rotations import angle_between
 
-from .preprocess import normalize_input, window_features, window_indices
+from .preprocess import normalize_input, refiner_features, refiner_up_xz, window_indices
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
 DEFAULT_WEIGHTS = WEIGHTS_DIR / "pcnet_small.onnx"
 DEFAULT_UP_REFINER = WEIGHTS_DIR / "up_refiner.onnx"
+DEFAULT_FRAME_REFINER = WEIGHTS_DIR / "frame_up_refiner.onnx"
 
 
 class PCNetSession:
@@ -69,14 +71,19 @@ def _open(weights, default: Path, what: str, threads: int):
 
 
 class UpRefinerSession:
-    """An onnxruntime session of the static-camera up refiner (:mod:`pcnet.models.up_refiner`).
+    """An onnxruntime session of an up refiner (:mod:`pcnet.models.up_refiner`): the frame
+    up refiner (a one-frame window) or the static-camera one.
 
     ``refine(joints_cam, R, valid, fps)`` corrects each frame's up direction from the poses
-    around it, assuming a camera that does not move over the window (``offsets_s`` in the
-    weights' ``.json``, about +-0.5 s): the network reads the window in the frame's
-    predicted canonical frame and returns the true up expressed there, ``(u_x, u_z)``
-    (``u_y`` follows from unit length). The corrected rotation is the predicted one turned
-    by the smallest rotation taking its up to the corrected up, so the heading is kept.
+    in its window (``offsets_s`` in the weights' ``.json``: ``[0]`` for the frame refiner,
+    about +-0.5 s for the static-camera one, which assumes a camera that does not move over
+    the window): the network reads the window in the frame's predicted canonical frame and
+    returns the true up expressed there, ``(u_x, u_z)`` (``u_y`` follows from unit length),
+    or (``input_frame = "body"`` in the ``.json``, the frame refiner) reads the pose in a
+    frame fixed to the body and returns the true up in that frame
+    (:func:`pcnet.models.preprocess.refiner_features`). The corrected rotation is the
+    predicted one turned by the smallest rotation taking its up to the corrected up, so the
+    heading is kept.
     Trained on the errors of one 3DPCNet (``base_weights`` in the ``.json``); other
     weights need their own refiner.
 
@@ -85,12 +92,13 @@ class UpRefinerSession:
         ValueError: its ``.json`` lacks ``offsets_s`` (the window, seconds).
     """
 
-    def __init__(self, weights: str | Path | None = None, threads: int = 0):
-        self.path, self.session, self.info = _open(weights, DEFAULT_UP_REFINER, "up refiner", threads)
+    def __init__(self, weights: str | Path | None = None, threads: int = 0, default: Path = DEFAULT_UP_REFINER):
+        self.path, self.session, self.info = _open(weights, default, "up refiner", threads)
         self.offsets_s = np.asarray(self.info.get("offsets_s", []), np.float64)
         if self.offsets_s.size == 0:
             raise ValueError(f"{self.path.with_suffix('.json')}: field 'offsets_s' (window offsets in seconds) missing")
         self.max_median_correction_deg = float(self.info.get("max_median_correction_deg", np.inf))
+        self.input_frame = self.info.get("input_frame", "predicted")
 
     def refine(self, joints_cam: np.ndarray, R: np.ndarray, valid: np.ndarray, fps: float,
                batch_size: int = 4096) -> tuple[np.ndarray, dict]:
@@ -122,9 +130,9 @@ class UpRefinerSession:
         centres = np.flatnonzero(ok)
         for i in range(0, len(centres), batch_size):
             c = centres[i : i + batch_size]
-            feats = window_features(x, R[c], idx[c])
-            (up_xz,) = self.session.run(["up_xz"], {"features": feats})
-            out[c] = tilt_to_up(R[c], up_xz.astype(np.float64))
+            feats = refiner_features(self.input_frame, x, R[c], idx[c])
+            (raw,) = self.session.run(None, {"features": feats})
+            out[c] = tilt_to_up(R[c], refiner_up_xz(self.input_frame, x[c], R[c], raw))
         moved = angle_between(out[centres, :, 1], R[centres, :, 1])
         median = float(np.degrees(np.median(moved))) if len(centres) else 0.0
         applied = median <= self.max_median_correction_deg
@@ -158,12 +166,23 @@ def file_sha256(path: str) -> str:
 
 
 @lru_cache(maxsize=4)
-def shipped_up_refiner(weights: str | None = None):
-    """The shipped refiner's :meth:`UpRefinerSession.refine` when ``weights`` (``None`` =
-    the shipped 3DPCNet) is the network it was trained on (same SHA-256 as the refiner's
+def shipped_frame_refiner(weights: str | None = None):
+    """The shipped frame up refiner's :meth:`UpRefinerSession.refine` when ``weights``
+    (``None`` = the shipped 3DPCNet) is the network it was trained on (same SHA-256 as its
     ``base_weights_sha256``), else ``None``: a refiner learns one network's errors."""
+    refiner = UpRefinerSession(default=DEFAULT_FRAME_REFINER)
+    return refiner.refine if _trained_on(refiner, weights) else None
+
+
+@lru_cache(maxsize=4)
+def shipped_up_refiner(weights: str | None = None):
+    """The shipped static-camera up refiner's :meth:`UpRefinerSession.refine` when
+    ``weights`` (``None`` = the shipped 3DPCNet) is the network it was trained on, else
+    ``None``."""
     refiner = UpRefinerSession()
+    return refiner.refine if _trained_on(refiner, weights) else None
+
+
+def _trained_on(refiner: UpRefinerSession, weights: str | None) -> bool:
     base = Path(weights) if weights else DEFAULT_WEIGHTS
-    if file_sha256(str(base)) != refiner.info.get("base_weights_sha256"):
-        return None
-    return refiner.refine
+    return file_sha256(str(base)) == refiner.info.get("base_weights_sha256")

@@ -97,3 +97,59 @@ def window_features(x: np.ndarray, R_centre: np.ndarray, idx: np.ndarray) -> np.
     win = x[idx].astype(np.float32)                                  # (N, W, 17, 3) camera frame
     canon = np.einsum("nwjc,nck->nwjk", win, np.asarray(R_centre, np.float32))
     return canon.reshape(len(idx), -1)
+
+
+REFINER_INPUTS = ("predicted", "body")
+
+
+def body_frame(x: np.ndarray) -> np.ndarray:
+    """A frame fixed to the body by the pose alone: columns = the spine axis (pelvis ->
+    thorax), the hip line (right_hip - left_hip) made perpendicular to it, and their cross
+    product. ``x`` ``(N, 17, 3)`` pelvis-centred (:func:`normalize_input`); returns
+    ``(N, 3, 3)`` float64 body->input-frame rotations (NaN where spine or hips are degenerate).
+    Any camera rotation of the input rotates it alike, so a pose seen in it is the same
+    from every camera."""
+    from pcnet.stages.rotations import normalize
+
+    x = np.asarray(x, np.float64)
+    spine = normalize(x[:, 8] - x[:, PELVIS])
+    hips = x[:, R_HIP] - x[:, L_HIP]
+    side = normalize(hips - np.sum(hips * spine, -1, keepdims=True) * spine)
+    return np.stack([spine, side, np.cross(spine, side)], -1)
+
+
+def refiner_features(kind: str, x: np.ndarray, R_centre: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """An up refiner's input for its ``kind`` (the ``input_frame`` of its ``.json``).
+
+    ``"predicted"``: :func:`window_features` (the window in the centre frames' predicted
+    canonical frame). ``"body"`` (one-frame windows): the centre pose in its
+    :func:`body_frame`, the same from every camera, so the refiner needs to learn no
+    rotation equivariance, only how this pose stands relative to gravity (``R_centre`` is
+    not used).
+
+    Returns:
+        ``(N, F)`` float32: ``F = W * 51``.
+
+    Raises:
+        ValueError: unknown ``kind``.
+    """
+    if kind == "predicted":
+        return window_features(x, R_centre, idx)
+    if kind != "body":
+        raise ValueError(f"unknown refiner input frame {kind!r}; expected one of {REFINER_INPUTS}")
+    pose = np.asarray(x[idx[:, 0]], np.float64)
+    return np.einsum("njc,nck->njk", pose, body_frame(pose)).reshape(len(idx), -1).astype(np.float32)
+
+
+def refiner_up_xz(kind: str, x_centre: np.ndarray, R_centre: np.ndarray, output: np.ndarray) -> np.ndarray:
+    """An up refiner's output as the corrected up ``(u_x, u_z)`` in the centre frames'
+    predicted canonical frame ``R_centre`` ``(N, 3, 3)`` (what
+    :func:`pcnet.models.inference.tilt_to_up` takes), ``(N, 2)`` float64. ``"predicted"``
+    refiners output it directly; ``"body"`` ones output the up in :func:`body_frame` of the
+    centre pose ``x_centre`` ``(N, 17, 3)``, normalised here."""
+    output = np.asarray(output, np.float64)
+    if kind == "predicted":
+        return output
+    B = body_frame(x_centre)
+    up_cam = np.einsum("nij,nj->ni", B, output / np.linalg.norm(output, axis=-1, keepdims=True))
+    return np.einsum("nji,nj->ni", np.asarray(R_centre, np.float64), up_cam)[:, [0, 2]]

@@ -1,11 +1,22 @@
-"""Static-camera up refiner: training and ONNX export (needs torch).
+"""Up refiners: training and ONNX export (needs torch).
 
-pcnet's addition, not in the 3DPCNet paper. A per-frame network cannot tell a leaning
-body from a tilted camera: on Bandai it underestimates the forward lean of running in
+pcnet's additions, not in the 3DPCNet paper. Two refiners share this code and differ by
+their window (``offsets_s``) and input frame (``input_frame``):
+
+Frame up refiner (``offsets_s = [0.0]``, ``input_frame = "body"``): re-estimates each
+frame's up from that pose alone, seen in a frame fixed to the body (spine axis and hip
+line, :func:`pcnet.models.preprocess.body_frame`). The pose is then the same from every
+camera, so the MLP spends nothing on rotation equivariance, which 3DPCNet must learn from
+camera-frame input; trained on clean mocap (Bandai proportions), it is used on
+mocap-precise inputs only (:func:`pcnet.stages.heading.precise_hips`). Its output replaces
+the network's up; the heading is kept.
+
+Static-camera refiner (+-0.53 s window, for ``--mode sequence``): a per-frame network
+cannot tell a leaning body from a tilted camera: on Bandai it underestimates the forward lean of running in
 every frame alike, so averaging frames (``--mode sequence``) keeps that bias. Over a
 fraction of a second a fixed camera shows more: how the body moves relative to gravity
 (a stance foot slides back parallel to the floor, the trunk swings about a vertical).
-The refiner reads a window of poses around each frame, all expressed in that frame's
+It reads a window of poses around each frame, all expressed in that frame's
 predicted canonical frame (:func:`pcnet.models.preprocess.window_features`), and
 predicts the true up in that frame; run time is
 :class:`pcnet.models.inference.UpRefinerSession` (onnxruntime).
@@ -31,7 +42,7 @@ from pcnet.stages.rotations import angle_between
 
 from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
 from .inference import DEFAULT_WEIGHTS, PCNetSession, file_sha256, tilt_to_up
-from .preprocess import normalize_input, window_features, window_indices
+from .preprocess import REFINER_INPUTS, body_frame, normalize_input, refiner_features, refiner_up_xz, window_indices
 from .toml_config import check_config_keys, read_toml
 
 OPSET = 18
@@ -46,7 +57,11 @@ class RefinerConfig:
     base_weights: str | None = None  # the 3DPCNet whose errors are learnt (None = shipped)
     # Window: 17 poses 1/15 s apart, +-0.53 s around the frame.
     offsets_s: list[float] = field(default_factory=lambda: [k / 30.0 for k in range(-16, 17, 2)])
+    # "predicted": the window seen in the predicted canonical frame; "body" (one-frame
+    # windows): the pose in a frame fixed to the body (its output replaces the network's up).
+    input_frame: str = "predicted"
     hidden: int = 512
+    layers: int = 2  # hidden layers of the MLP
     epochs: int = 8
     batch_size: int = 1024
     lr: float = 1e-3
@@ -55,8 +70,12 @@ class RefinerConfig:
     # One camera draw over the train split per entry (make_pairs' camera protocol) with that
     # entry's share of noisy poses: "static" cameras show the subject's own turns within a
     # window (real recordings), "per-clip" ones pan with them (the evaluation protocol).
+    # "per-frame" (a new camera every frame, the paper's protocol) suits a one-frame window only.
     cameras: list[str] = field(default_factory=lambda: ["static", "per-clip", "static", "per-clip"])
     noise_fractions: list[float] = field(default_factory=lambda: [1.0, 1.0, 0.5, 0.5])
+    # Validation draw (val split, paper views): picks the best epoch and sets the domain check.
+    val_camera: str = "static"
+    val_noise_fraction: float = 1.0
     augment: bool = True  # skeleton-proportion augmentation of the training draws (as 3DPCNet's)
     seed: int = 11
     threads: int = 0
@@ -67,7 +86,8 @@ def load_refiner_config(path: str | Path) -> RefinerConfig:
 
     Raises:
         ValueError: not TOML, an unknown key, ``cameras`` / ``noise_fractions`` of different
-            lengths or a camera other than static / per-clip (named with the file).
+            lengths, a camera other than static / per-clip, or per-frame with a window of
+            more than one frame (named with the file).
     """
     path = Path(path)
     raw = read_toml(path)
@@ -76,23 +96,31 @@ def load_refiner_config(path: str | Path) -> RefinerConfig:
     if len(cfg.cameras) != len(cfg.noise_fractions) or not cfg.cameras:
         raise ValueError(f"{path}: cameras and noise_fractions must be non-empty lists of the same length "
                          f"(one entry per camera draw), got {len(cfg.cameras)} and {len(cfg.noise_fractions)}")
-    bad = sorted(set(cfg.cameras) - {"static", "per-clip"})
+    if cfg.input_frame not in REFINER_INPUTS or (cfg.input_frame == "body" and len(cfg.offsets_s) != 1):
+        raise ValueError(f"{path}: input_frame: expected one of {REFINER_INPUTS} ('body' with a one-frame "
+                         f"window, offsets_s = [0.0]), got {cfg.input_frame!r} with {len(cfg.offsets_s)} offsets")
+    allowed = {"static", "per-clip"} | ({"per-frame"} if len(cfg.offsets_s) == 1 else set())
+    bad = sorted(set(cfg.cameras + [cfg.val_camera]) - allowed)
     if bad:
-        raise ValueError(f"{path}: cameras: expected 'static' or 'per-clip' entries, got {bad}")
+        raise ValueError(f"{path}: cameras, val_camera: expected {sorted(allowed)} for a window of "
+                         f"{len(cfg.offsets_s)} frame(s), got {bad}")
     return cfg
 
 
 class UpRefinerNet(torch.nn.Module):
-    """MLP: window features ``(B, W * 51)`` -> ``up_xz`` ``(B, 2)``."""
+    """MLP with ``layers`` hidden GELU layers: features ``(B, F)`` -> ``(B, 2)`` ``up_xz`` in
+    the predicted canonical frame (``input_frame="predicted"``, ``F = W * 51``) or ``(B, 3)``
+    the up in the body frame, unnormalised (``"body"``, ``F = 51``;
+    :func:`pcnet.models.preprocess.refiner_features`)."""
 
-    def __init__(self, window: int, hidden: int):
+    def __init__(self, window: int, hidden: int, layers: int = 2, input_frame: str = "predicted"):
         super().__init__()
-        self.window, self.hidden = window, hidden
-        self.net = torch.nn.Sequential(
-            torch.nn.Linear(window * 51, hidden), torch.nn.GELU(),
-            torch.nn.Linear(hidden, hidden), torch.nn.GELU(),
-            torch.nn.Linear(hidden, 2),
-        )
+        self.window, self.hidden, self.input_frame = window, hidden, input_frame
+        self.n_features = window * 51
+        self.n_out = 2 if input_frame == "predicted" else 3
+        widths = [self.n_features] + [hidden] * layers
+        blocks = [m for a, b in zip(widths, widths[1:]) for m in (torch.nn.Linear(a, b), torch.nn.GELU())]
+        self.net = torch.nn.Sequential(*blocks, torch.nn.Linear(hidden, self.n_out))
 
     def forward(self, features: torch.Tensor) -> torch.Tensor:
         return self.net(features)
@@ -106,7 +134,8 @@ class _Draw:
     R_hat: np.ndarray
     idx: np.ndarray
     centres: np.ndarray
-    target: np.ndarray
+    true_up: np.ndarray  # (N, 3) camera frame, per centre
+    target: np.ndarray  # what the network outputs: up_xz (predicted frame) or the up in the body frame
     clip: np.ndarray  # clip index of each centre
 
 
@@ -123,13 +152,25 @@ def _draw(clips, cfg: RefinerConfig, session: PCNetSession, views: str, camera: 
         if len(sel):
             idx[sel] = sel[0] + window_indices(valid[sel], clip.fps, np.asarray(cfg.offsets_s))
     centres = np.flatnonzero(valid)
-    true_up = np.einsum("nki,nk->ni", R_hat[centres], pairs.R[centres][:, :, 1])
-    return _Draw(x, R_hat, idx, centres, true_up[:, [0, 2]].astype(np.float32), pairs.clip[centres])
+    true_up = pairs.R[centres][:, :, 1]
+    if cfg.input_frame == "predicted":
+        target = np.einsum("nki,nk->ni", R_hat[centres], true_up)[:, [0, 2]]
+    else:
+        target = np.einsum("nki,nk->ni", body_frame(x[centres]), true_up)
+    return _Draw(x, R_hat, idx, centres, true_up, target.astype(np.float32), pairs.clip[centres])
 
 
-def _features(d: _Draw, rows: np.ndarray) -> torch.Tensor:
+def _features(model: UpRefinerNet, d: _Draw, rows: np.ndarray) -> torch.Tensor:
     c = d.centres[rows]
-    return torch.from_numpy(window_features(d.x, d.R_hat[c], d.idx[c]))
+    return torch.from_numpy(refiner_features(model.input_frame, d.x, d.R_hat[c], d.idx[c]))
+
+
+def _loss(model: UpRefinerNet, out: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Squared error of ``up_xz`` (for small errors, the tilt error in radians squared), or
+    of the normalised body-frame up (the squared chord of the tilt error)."""
+    if model.input_frame == "body":
+        out = torch.nn.functional.normalize(out, dim=-1)
+    return ((out - target) ** 2).sum(-1).mean()
 
 
 @torch.no_grad()
@@ -137,9 +178,9 @@ def _refined(model: UpRefinerNet, d: _Draw, batch: int = 8192) -> tuple[np.ndarr
     """The centres' base rotations and refined rotations, ``(N, 3, 3)`` each."""
     model.eval()
     rows = np.arange(len(d.centres))
-    pred = np.concatenate([model(_features(d, rows[i : i + batch])).numpy() for i in range(0, len(rows), batch)])
+    pred = np.concatenate([model(_features(model, d, rows[i : i + batch])).numpy() for i in range(0, len(rows), batch)])
     R = d.R_hat[d.centres]
-    return R, tilt_to_up(R, pred.astype(np.float64))
+    return R, tilt_to_up(R, refiner_up_xz(model.input_frame, d.x[d.centres], R, pred))
 
 
 def _angle_deg(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -157,14 +198,12 @@ def _max_clip_median_correction_deg(model: UpRefinerNet, d: _Draw) -> float:
 def _val_tilt_deg(model: UpRefinerNet, d: _Draw) -> tuple[float, float]:
     """Mean per-frame tilt error (deg) of the base predictions and of the refined ones."""
     R, refined = _refined(model, d)
-    true_up = np.einsum("nij,nj->ni", R, np.stack([d.target[:, 0], np.zeros(len(R)), d.target[:, 1]], -1))
-    true_up += R[:, :, 1] * np.sqrt(np.clip(1 - (d.target ** 2).sum(-1), 0, 1))[:, None]
-    return float(_angle_deg(R[:, :, 1], true_up).mean()), float(_angle_deg(refined[:, :, 1], true_up).mean())
+    return float(_angle_deg(R[:, :, 1], d.true_up).mean()), float(_angle_deg(refined[:, :, 1], d.true_up).mean())
 
 
 def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True) -> Path:
     """Train the up refiner; returns the best checkpoint (lowest val per-frame tilt error;
-    val = the val split, paper views, full noise, static cameras). Writes ``last.pt``
+    val = the val split, paper views, ``val_camera``, ``val_noise_fraction``). Writes ``last.pt``
     (resumable), ``best.pt`` and ``metrics.jsonl`` (with the seconds of data preparation)
     to ``cfg.out_dir``.
 
@@ -182,10 +221,10 @@ def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True
     train_clips, val_clips = select_split(clips, "train"), select_split(clips, "val")
     draws = [_draw(train_clips, cfg, session, cfg.views, camera, cfg.seed + k, f, cfg.augment)
              for k, (camera, f) in enumerate(zip(cfg.cameras, cfg.noise_fractions))]
-    val = _draw(val_clips, cfg, session, "paper", "static", 10_000 + cfg.seed, 1.0, False)
+    val = _draw(val_clips, cfg, session, "paper", cfg.val_camera, 10_000 + cfg.seed, cfg.val_noise_fraction, False)
     prep_s = time.time() - t0
 
-    model = UpRefinerNet(len(cfg.offsets_s), cfg.hidden)
+    model = UpRefinerNet(len(cfg.offsets_s), cfg.hidden, cfg.layers, cfg.input_frame)
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     pool = np.concatenate([np.stack([np.full(len(d.centres), k), np.arange(len(d.centres))], 1)
                            for k, d in enumerate(draws)])
@@ -214,9 +253,9 @@ def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True
             feats, targets = [], []
             for k, d in enumerate(draws):
                 rows = batch[batch[:, 0] == k, 1]
-                feats.append(_features(d, rows))
+                feats.append(_features(model, d, rows))
                 targets.append(torch.from_numpy(d.target[rows]))
-            loss = ((model(torch.cat(feats)) - torch.cat(targets)) ** 2).sum(-1).mean()
+            loss = _loss(model, model(torch.cat(feats)), torch.cat(targets))
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
@@ -257,27 +296,30 @@ def load_refiner_checkpoint(path: str | Path) -> tuple[UpRefinerNet, RefinerConf
     if "max_median_correction_deg" not in ck:
         raise ValueError(f"{path}: no 'max_median_correction_deg' (the domain check is set when training finishes)")
     cfg = RefinerConfig(**ck["config"])
-    model = UpRefinerNet(len(cfg.offsets_s), cfg.hidden)
+    model = UpRefinerNet(len(cfg.offsets_s), cfg.hidden, cfg.layers, cfg.input_frame)
     model.load_state_dict(ck["model"])
     return model.eval(), cfg, {"max_median_correction_deg": ck["max_median_correction_deg"]}
 
 
 def export_refiner_onnx(model: UpRefinerNet, cfg: RefinerConfig, path: str | Path, metadata: dict | None = None) -> Path:
-    """Write the refiner as ONNX (``features`` (B, W*51) -> ``up_xz`` (B, 2), dynamic batch)
-    atomically, plus ``<path>.json`` with ``offsets_s``, ``hidden``, the base weights' file
-    name and SHA-256 (run time applies the refiner to that network only) and ``metadata``
-    (give it ``max_median_correction_deg`` from :func:`load_refiner_checkpoint`)."""
+    """Write the refiner as ONNX (``features`` (B, F) -> ``up_xz`` (B, 2), or ``up_body``
+    (B, 3) for ``input_frame="body"``; dynamic batch) atomically, plus ``<path>.json`` with
+    ``offsets_s``, ``input_frame``, ``hidden``, ``layers``, the base weights' file name and
+    SHA-256 (run time applies the refiner to that network only) and ``metadata`` (give it ``max_median_correction_deg`` from
+    :func:`load_refiner_checkpoint`)."""
     path = Path(path)
     tmp = path.with_suffix(".onnx.tmp")
+    out_name = "up_xz" if model.input_frame == "predicted" else "up_body"
     with torch.no_grad():
         torch.onnx.export(
-            model.eval(), (torch.zeros(4, model.window * 51),), str(tmp), input_names=["features"],
-            output_names=["up_xz"], dynamic_axes={"features": {0: "batch"}, "up_xz": {0: "batch"}},
+            model.eval(), (torch.zeros(4, model.n_features),), str(tmp), input_names=["features"],
+            output_names=[out_name], dynamic_axes={"features": {0: "batch"}, out_name: {0: "batch"}},
             opset_version=OPSET, dynamo=False,
         )
     tmp.replace(path)
     base = Path(cfg.base_weights) if cfg.base_weights else DEFAULT_WEIGHTS
-    info = {"offsets_s": list(cfg.offsets_s), "hidden": cfg.hidden, "base_weights": base.name,
-            "base_weights_sha256": file_sha256(str(base)), "opset": OPSET, **(metadata or {})}
+    info = {"offsets_s": list(cfg.offsets_s), "input_frame": cfg.input_frame, "hidden": cfg.hidden, "layers": cfg.layers, "base_weights": base.name,
+            "base_weights_sha256": file_sha256(str(base)), "opset": OPSET}
+    info.update(metadata or {})
     path.with_suffix(".json").write_text(json.dumps(info, indent=2))
     return path

@@ -19,7 +19,8 @@ def main() -> None:
     """pcnet: rectify monocular 3D human poses into a gravity-aligned, body-centred frame."""
 
 
-_UP_REFINER_HELP = "Sequence mode: correct each frame's up from the motion around it first (shipped weights only)."
+_UP_REFINER_HELP = ("pcnet's up refiners (shipped weights only): correct every frame's up from its pose and, in sequence "
+                    "mode, from the motion around it; --no-up-refiner gives the paper's 3DPCNet alone.")
 _heading_option = click.option(
     "--heading", type=click.Choice(HEADING_SOURCES), default=None,
     help="Heading about the up axis from: predicted (the method's rotation), hips (the input's hip line, "
@@ -87,7 +88,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_r
         _fail(str(err))
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
-              up_refined=np.array(bool(res.report.get("up_refined", False))))
+              up_refined=np.array(bool(res.report.get("up_refined", False))),
+              frame_refined=np.array(bool(res.report["frame_refined"])))
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}, "
                f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)"
                + up_refiner_note(res.report))

@@ -21,7 +21,7 @@ class RunConfig:
     ``hypothesis``/``step`` for ddhpose, ``layout``/``axes``/``units``/``key`` for generic);
     ``person`` picks a 2D track (AlphaPose ``idx``, MMPose instance position); ``heading``
     is the heading source of :func:`pcnet.stages.rectify.rectify` (``None`` = its default);
-    ``up_refiner`` its sequence-mode up refiner (on by default).
+    ``up_refiner`` its up refiners (frame, and static-camera in sequence mode; on by default).
     """
 
     lifter: str

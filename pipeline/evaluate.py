@@ -10,7 +10,8 @@ import numpy as np
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
-from pcnet.stages.rectify import estimate_rotations, finish_rotations, resolve_heading_source, up_refiner_for
+from pcnet.stages.rectify import (estimate_rotations, finish_rotations, frame_refiner_for, resolve_heading_source,
+                                  up_refiner_for)
 
 
 def evaluate(
@@ -36,16 +37,18 @@ def evaluate(
     clip's heading source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the
     method's default, :func:`pcnet.stages.rectify.resolve_heading_source`), each clip being
     one recording whatever the camera protocol (both steps by
-    :func:`pcnet.stages.rectify.finish_rotations`, as in ``rectify``, with the static-camera
-    up refiner in sequence mode when ``up_refiner`` and the method and weights allow it,
-    :func:`pcnet.stages.rectify.up_refiner_for`). The canonical prediction is
+    :func:`pcnet.stages.rectify.finish_rotations`, as in ``rectify``, after the frame up
+    refiner and with the static-camera up refiner in sequence mode when ``up_refiner`` and
+    the method and weights allow them, :func:`pcnet.stages.rectify.frame_refiner_for`,
+    :func:`pcnet.stages.rectify.up_refiner_for`; ``up_refiner=False`` scores the paper's
+    3DPCNet alone). The canonical prediction is
     ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target. Frames a
     method marks invalid are counted, not scored.
 
     Returns:
         ``{"method", "views", "split", "data", "seed", "camera", "noise", "mode",
         "heading", "frames", "invalid_frames", "clip_heading_sources" (clips per source
-        used), "clip_modes" and "up_refined_clips" (sequence modes only), "<metric>": {"mean", "median", "p95"}
+        used), "frame_refined_clips" (when the frame up refiner ran), "clip_modes" and "up_refined_clips" (sequence modes only), "<metric>": {"mean", "median", "p95"}
         ...}`` with the metrics of :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres).
 
     Raises:
@@ -59,8 +62,9 @@ def evaluate(
                        max_frames=max_frames)
     R_hat, residual, valid = estimate_rotations(pairs.inputs, method, weights)
     refiner = up_refiner_for(method, weights, up_refiner)
+    frame_refiner = frame_refiner_for(method, weights, up_refiner)
     modes_run: dict[str, int] = {}
-    refined_clips = 0
+    refined_clips = frame_refined_clips = 0
     headings_run: dict[str, int] = {}
     for i, clip in enumerate(clips):
         sel = np.flatnonzero(pairs.clip == i)
@@ -68,7 +72,9 @@ def evaluate(
             continue
         # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
         R_hat[sel], valid[sel], report = finish_rotations(
-            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0, up_refiner=refiner)
+            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0, up_refiner=refiner,
+            frame_refiner=frame_refiner)
+        frame_refined_clips += bool(report["frame_refined"])
         if mode != "frame":
             modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
             refined_clips += bool(report.get("up_refined"))
@@ -80,6 +86,8 @@ def evaluate(
         "camera": camera, "noise": noise, "mode": mode, "heading": heading,
         "frames": int(len(valid)), "invalid_frames": int((~valid).sum()),
     }
+    if frame_refiner is not None:
+        result["frame_refined_clips"] = frame_refined_clips
     if modes_run:
         result["clip_modes"] = modes_run
         result["up_refined_clips"] = refined_clips

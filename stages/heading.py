@@ -38,6 +38,14 @@ AUTO_MAX_HIP_WIDTH_CV_PERCENT = 1.0
 AUTO_MIN_FRAMES = 10
 
 
+def precise_hips(joints_cam: np.ndarray, valid: np.ndarray, max_cv_percent: float = AUTO_MAX_HIP_WIDTH_CV_PERCENT):
+    """``(precise, cv)``: whether a recording's hips are mocap-precise, i.e. it has at least
+    :data:`AUTO_MIN_FRAMES` valid frames and a :func:`hip_width_cv_percent` of at most
+    ``max_cv_percent`` (the pelvis is rigid, so its width should not change), and that CV."""
+    cv = hip_width_cv_percent(joints_cam, valid)
+    return bool(np.asarray(valid, bool).sum() >= AUTO_MIN_FRAMES and cv <= max_cv_percent), cv
+
+
 def hip_width_cv_percent(joints_cam: np.ndarray, valid: np.ndarray | None = None) -> float:
     """Coefficient of variation (std / mean, percent) of the hip width
     ``|right_hip - left_hip|`` over the valid frames of ``(T, 17, 3)`` poses: 0 for a rigid
@@ -124,7 +132,7 @@ def apply_heading(
         raise ValueError(f"unknown heading source {source!r}; expected one of {HEADING_SOURCES}")
     R = np.asarray(R, np.float64)
     valid = np.asarray(valid, bool)
-    cv = hip_width_cv_percent(joints_cam, valid)
+    precise, cv = precise_hips(joints_cam, valid, max_cv_percent)
     report = {"requested_heading_source": source, "heading_source": "predicted", "hip_width_cv_percent": cv,
               "heading_difference_median_deg": float("nan"), "hip_heading_undefined_frames": 0}
     R_hips, ok = hip_line_rotations(joints_cam, R)
@@ -132,7 +140,7 @@ def apply_heading(
     if ok.any():
         report["heading_difference_median_deg"] = float(np.median(np.abs(heading_difference_deg(R[ok], R_hips[ok]))))
     if source == "auto":
-        source = "hips" if valid.sum() >= AUTO_MIN_FRAMES and cv <= max_cv_percent else "predicted"
+        source = "hips" if precise else "predicted"
     if source == "predicted":
         return R, report
     report["heading_source"] = "hips"

@@ -10,7 +10,7 @@ from pcnet.models.train import load_config  # noqa: E402
 from pcnet.models.up_refiner import load_refiner_config  # noqa: E402
 
 ALL_CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.toml"))
-REFINER_CONFIGS = [p for p in ALL_CONFIGS if p.stem.startswith("up_refiner")]
+REFINER_CONFIGS = [p for p in ALL_CONFIGS if p.stem.endswith("up_refiner")]
 CONFIGS = [p for p in ALL_CONFIGS if p not in REFINER_CONFIGS]
 
 

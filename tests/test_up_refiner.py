@@ -15,7 +15,7 @@ import pytest
 
 from pcnet.models.datasets import Noise, load_mocap, make_pairs
 from pcnet.models.inference import DEFAULT_WEIGHTS, UpRefinerSession, get_session, shipped_up_refiner, tilt_to_up
-from pcnet.models.preprocess import normalize_input, window_features, window_indices
+from pcnet.models.preprocess import normalize_input, refiner_features, window_features, window_indices
 from pcnet.stages.rectify import rectify, up_refiner_for, up_refiner_note
 from pcnet.stages.rotations import angle_between, axis_rotation, sample_camera_rotations
 
@@ -144,24 +144,50 @@ def test_refiner_declines_motion_unlike_its_training_data():
     assert res.report["up_refiner"]["applied"] and "refined" in up_refiner_note(res.report)
 
 
-def test_onnx_export_matches_torch(tmp_path):
+@pytest.mark.parametrize("input_frame, offsets", [("predicted", None), ("body", [0.0])])
+def test_onnx_export_matches_torch(tmp_path, input_frame, offsets):
     torch = pytest.importorskip("torch")
     from pcnet.models.up_refiner import RefinerConfig, UpRefinerNet, export_refiner_onnx
 
-    cfg = RefinerConfig(hidden=32)
+    cfg = RefinerConfig(hidden=32, input_frame=input_frame, **({"offsets_s": offsets} if offsets else {}))
     torch.manual_seed(0)
-    net = UpRefinerNet(len(cfg.offsets_s), cfg.hidden)
+    net = UpRefinerNet(len(cfg.offsets_s), cfg.hidden, cfg.layers, cfg.input_frame)
+    torch.nn.init.normal_(net.net[-1].weight, std=0.1)  # a trained-like, non-zero correction
     path = export_refiner_onnx(net, cfg, tmp_path / "r.onnx", {"max_median_correction_deg": 6.0})
     sess = UpRefinerSession(path)
     assert np.allclose(sess.offsets_s, cfg.offsets_s) and sess.max_median_correction_deg == 6.0
+    assert sess.input_frame == input_frame
     X = _static_camera_views()[2][1]
     x, _, valid = normalize_input(X)
     R = np.repeat(axis_rotation("x", np.array([0.2])), len(x), 0)
-    feats = window_features(x, R, window_indices(valid, 30.0, sess.offsets_s))
+    feats = refiner_features(input_frame, x, R, window_indices(valid, 30.0, sess.offsets_s))
     with torch.no_grad():
         ref = net(torch.from_numpy(feats)).numpy()
-    (got,) = sess.session.run(["up_xz"], {"features": feats})
+    (got,) = sess.session.run(None, {"features": feats})
+    assert got.shape == (len(x), 2 if input_frame == "predicted" else 3)
     assert np.abs(got - ref).max() <= 1e-5
+
+
+def test_body_frame_features_are_the_same_from_every_camera():
+    """The frame refiner's input does not change when the camera turns, and an output equal
+    to the predicted up (any length) maps back to no correction."""
+    from pcnet.models.preprocess import body_frame, refiner_up_xz
+
+    _, X, _ = _static_camera_views()[0]
+    x, _, valid = normalize_input(X)
+    R = get_session().predict(X)[0]
+    idx = np.arange(len(x))[:, None]
+    Q = sample_camera_rotations(1, "wide", np.random.default_rng(3))[0]
+    f = refiner_features("body", x, R, idx)
+    f_turned = refiner_features("body", (x @ Q.T).astype(np.float32), Q @ R, idx)
+    assert f.shape == (len(x), 51) and np.abs(f - f_turned).max() < 1e-4
+    B = body_frame(x)
+    assert np.allclose(np.einsum("nji,njk->nik", B, B), np.eye(3), atol=1e-9)
+    assert np.allclose(B[:, :, 0], (x[:, 8] / np.linalg.norm(x[:, 8], axis=-1, keepdims=True)), atol=1e-6)
+    unchanged = refiner_up_xz("body", x, R, 2.0 * np.einsum("nji,nj->ni", B, R[:, :, 1]))
+    assert np.abs(unchanged).max() < 1e-6
+    with pytest.raises(ValueError, match="refiner input frame"):
+        refiner_features("camera", x, R, idx)
 
 
 def test_refiner_commands_reject_bad_files_in_one_line(tmp_path):
