@@ -95,18 +95,28 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_r
                + up_refiner_note(res.report))
 
 
-@main.command()
-@click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False), required=True)
-@click.option("--no-resume", is_flag=True, help="Start again even if a checkpoint exists.")
-def train(config_path, no_resume):
-    """Train 3DPCNet (needs the [train] extra: torch)."""
-    from pcnet.models.train import load_config, train as run_train
+def _training_options(command):
+    """``--config FILE`` and ``--no-resume``, shared by the training commands."""
+    command = click.option("--no-resume", is_flag=True, help="Start again even if a checkpoint exists.")(command)
+    return click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False), required=True)(command)
 
+
+def _run_training(load_config, run_train, config_path, no_resume) -> None:
+    """Load a training config, train, print the best checkpoint; bad files end in one line."""
     try:
         best = run_train(load_config(config_path), resume=not no_resume)
     except (OSError, ValueError) as err:
         _fail(str(err))
     click.echo(f"best checkpoint: {best}")
+
+
+@main.command()
+@_training_options
+def train(config_path, no_resume):
+    """Train 3DPCNet (needs the [train] extra: torch)."""
+    from pcnet.models.train import load_config, train as run_train
+
+    _run_training(load_config, run_train, config_path, no_resume)
 
 
 @main.command()
@@ -140,17 +150,12 @@ def export(checkpoint, out_path):
 
 
 @main.command("train-refiner")
-@click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False), required=True)
-@click.option("--no-resume", is_flag=True, help="Start again even if a checkpoint exists.")
+@_training_options
 def train_refiner(config_path, no_resume):
-    """Train the static-camera up refiner on a 3DPCNet's errors (needs torch)."""
+    """Train an up refiner (frame or static-camera) on a 3DPCNet's errors (needs torch)."""
     from pcnet.models.up_refiner import load_refiner_config, train_refiner as run_train
 
-    try:
-        best = run_train(load_refiner_config(config_path), resume=not no_resume)
-    except (OSError, ValueError) as err:
-        _fail(str(err))
-    click.echo(f"best checkpoint: {best}")
+    _run_training(load_refiner_config, run_train, config_path, no_resume)
 
 
 EXAMPLE_DIR = Path(__file__).parent / "example_data"
