@@ -21,21 +21,43 @@ from pcnet.stages.conventions import get_layout
 
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D
-from .validate import clip_confidence, layout_from_count, read_json
+from .validate import checked_keypoints, frame_count_for, json_numbers, layout_from_count, read_json
 
 # Keypoints per detection -> layout. 133 (COCO-WholeBody) starts with COCO-17 and 136
 # (Halpe-136) with the 26 Halpe body joints, so those keep only their body part.
 _LAYOUT_BY_COUNT = {17: "coco17", 26: "halpe26", 133: "coco17", 136: "halpe26"}
-_IMAGE_ID = re.compile(r"(\d+)\.[A-Za-z0-9]+")
+_IMAGE_ID = re.compile(r"(\d{1,18})\.[A-Za-z0-9]+")
 
 
 def _frame_index(p: Path, i: int, image_id: Any) -> int:
     if isinstance(image_id, int) and not isinstance(image_id, bool) and image_id >= 0:
         return image_id
-    m = _IMAGE_ID.fullmatch(str(image_id))
+    # Only strings are parsed: str(3.5) would read as frame 3. 18 digits keep int() far
+    # from Python's digit limit; frame_count_for bounds the value.
+    m = _IMAGE_ID.fullmatch(image_id) if isinstance(image_id, str) else None
     if m is None:
-        raise AdapterError(p, f"[{i}].image_id", "'<k>.jpg' with a 0-based frame index k", repr(image_id))
+        raise AdapterError(p, f"[{i}].image_id", "'<k>.jpg' with a 0-based frame index k of at most 18 digits",
+                           repr(image_id)[:80])
     return int(m.group(1))
+
+
+def _score(p: Path, i: int, score: Any, kp: np.ndarray) -> tuple[float, bool]:
+    """(detection score, whether it was missing). A missing or non-finite score is unknown:
+    the mean finite keypoint confidence stands in (0 when there is none)."""
+    if score is not None and (isinstance(score, bool) or not isinstance(score, (int, float))):
+        raise AdapterError(p, f"[{i}].score", "a number", repr(score)[:80])
+    if score is not None:
+        try:
+            value = float(score)
+        except OverflowError:
+            raise AdapterError(p, f"[{i}].score", "a number within float range", "a larger integer") from None
+        if math.isfinite(value):
+            return value, False
+    conf = kp[:, 2][np.isfinite(kp[:, 2])]
+    if not conf.size:
+        return 0.0, True
+    with np.errstate(over="ignore"):  # scores near 1e308 sum to inf, still the largest
+        return float(conf.mean()), True
 
 
 def _track_id(p: Path, i: int, idx: Any) -> int | None:
@@ -49,8 +71,8 @@ def _track_id(p: Path, i: int, idx: Any) -> int | None:
         if not flat:
             return None
         flat = flat[0]
-    if isinstance(flat, bool) or not isinstance(flat, (int, float)) or not math.isfinite(flat):
-        raise AdapterError(p, f"[{i}].idx", "an integer track id or a list of ids", repr(idx))
+    if isinstance(flat, bool) or not isinstance(flat, (int, float)) or (isinstance(flat, float) and not math.isfinite(flat)):
+        raise AdapterError(p, f"[{i}].idx", "an integer track id or a list of ids", repr(idx)[:80])
     return int(flat)
 
 
@@ -70,8 +92,8 @@ def _parse(p: Path, data: Any) -> tuple[list[tuple[int, int | None, float, np.nd
             got = f"keys {sorted(det)[:6]}" if isinstance(det, dict) else type(det).__name__
             raise AdapterError(p, f"[{i}]", "a detection with 'image_id' and 'keypoints'", got)
         kp = det["keypoints"]
-        if not isinstance(kp, list) or any(isinstance(v, (list, dict, str, bool)) or v is None for v in kp):
-            raise AdapterError(p, f"[{i}].keypoints", "a flat list of numbers x1,y1,c1,...", type(kp).__name__ + " of nested values")
+        if not isinstance(kp, list):
+            raise AdapterError(p, f"[{i}].keypoints", "a flat list of numbers x1,y1,c1,...", type(kp).__name__)
         if len(kp) % 3:
             raise AdapterError(p, f"[{i}].keypoints", "a multiple of 3 values (x, y, score per joint)", f"{len(kp)} values")
         n = len(kp) // 3
@@ -80,19 +102,16 @@ def _parse(p: Path, data: Any) -> tuple[list[tuple[int, int | None, float, np.nd
             count = n
         elif n != count:
             raise AdapterError(p, f"[{i}].keypoints", f"{3 * count} values like the first detection", f"{len(kp)}")
-        arr = np.asarray(kp, np.float64).reshape(n, 3)
-        score = det.get("score")
-        if score is None:
-            missing_score = True
-            score = float(np.nanmean(arr[:, 2]))
-        elif isinstance(score, bool) or not isinstance(score, (int, float)):
-            raise AdapterError(p, f"[{i}].score", "a number", repr(score))
+        arr = json_numbers(p, f"[{i}].keypoints", kp).reshape(n, 3)
+        score, no_score = _score(p, i, det.get("score"), arr)
+        missing_score |= no_score
         list_idx |= isinstance(det.get("idx"), list)
-        entries.append((_frame_index(p, i, det["image_id"]), _track_id(p, i, det.get("idx")), float(score), arr))
+        entries.append((_frame_index(p, i, det["image_id"]), _track_id(p, i, det.get("idx")), score, arr))
     return entries, count, list_idx, missing_score
 
 
-def load_alphapose(path: str | Path, person: int | None = None, num_frames: int | None = None) -> Keypoints2D:
+def load_alphapose(path: str | Path, person: int | None = None, num_frames: int | None = None,
+                   frame_count: int | None = None) -> Keypoints2D:
     """Read an AlphaPose results JSON (``alphapose-results.json``) into ``Keypoints2D``.
 
     Args:
@@ -102,6 +121,11 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
             best detection ``score`` there (so duplicate detections do not count twice);
             ties go to the lower id. Entries without ``idx`` form one track (id ``None``).
         num_frames: length ``T`` of the output; default: largest frame index + 1.
+        frame_count: the video's frame count, when known (the pipeline passes it): every
+            frame index must be below it. Without it, a frame index above
+            ``100 * detections + 10000`` is refused as implausible for the file's size
+            (:func:`~pcnet.adapters.validate.frame_count_for`), so a damaged ``image_id``
+            never allocates gigabytes. It does not change ``T``.
 
     Returns:
         ``Keypoints2D`` with ``points`` float32 ``(T, J, 3)`` (x_px, y_px, confidence),
@@ -116,13 +140,17 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     Raises:
         AdapterError: missing/empty/invalid JSON; not a list of detections (e.g. an MMPose
             file); an ``image_id`` that is not ``<k>.jpg``; a keypoint count other than
-            17/26/133/136 joints; an unknown ``person``; a frame index ``>= num_frames``;
-            no finite keypoint.
+            17/26/133/136 joints; keypoints that are not numbers; an unknown ``person``; a
+            frame index ``>= num_frames``, ``>= frame_count`` or implausible without it;
+            ``|x|``/``|y|`` beyond 1e5 px (naming frame and joint); no finite keypoint.
+            ``inf`` and ``NaN`` values are missing data: the joint is NaN.
 
     Source of the format facts: formats.md section 3.2; MotionBERT's reader ignores
     ``image_id`` (section 1.1), which is why this adapter groups by it.
     """
     p = Path(path)
+    if person is not None and (isinstance(person, bool) or not isinstance(person, int)):
+        raise AdapterError(p, "person", "an integer track id or None", repr(person))
     entries, count, list_idx, missing_score = _parse(p, read_json(p))
 
     # Best detection per (track, frame): the file order decides only exact score ties.
@@ -152,18 +180,13 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
             how += f"; other tracks {others}"
 
     max_frame = max(f for f, *_ in entries)
-    if num_frames is None:
-        num_frames = max_frame + 1
-    elif num_frames < 1 or max_frame >= num_frames:
-        raise AdapterError(p, "image_id", f"frame indices < num_frames={num_frames}", f"frame index {max_frame}")
+    num_frames = frame_count_for(p, "image_id", max_frame, len(entries), frame_count, num_frames)
     layout = _LAYOUT_BY_COUNT[count]
     n_joints = get_layout(layout).num_joints
-    points = np.full((num_frames, n_joints, 3), np.nan, np.float32)
+    points = np.full((num_frames, n_joints, 3), np.nan)
     for frame, (_, kp) in best[track].items():
         points[frame] = kp[:n_joints]
-    if not np.isfinite(points).any():
-        raise AdapterError(p, "keypoints", "some finite keypoints for the chosen track", "only NaN")
-    points, raw_max = clip_confidence(points)
+    points, raw_max = checked_keypoints(p, "keypoints", points, layout)
 
     notes = [f"AlphaPose results JSON (formats.md 3.2), {count} keypoints -> {layout}", how]
     if count != n_joints:
@@ -184,7 +207,9 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
 
 @register_2d("alphapose")
 class AlphaPoseAdapter:
-    """Registry entry for :func:`load_alphapose` (options: ``person``, ``num_frames``)."""
+    """Registry entry for :func:`load_alphapose` (options: ``person``, ``num_frames``,
+    ``frame_count``)."""
 
-    def load(self, path: str | Path, **options) -> Keypoints2D:
-        return load_alphapose(path, **options)
+    def load(self, path: str | Path, *, person: int | None = None, num_frames: int | None = None,
+             frame_count: int | None = None) -> Keypoints2D:
+        return load_alphapose(path, person=person, num_frames=num_frames, frame_count=frame_count)

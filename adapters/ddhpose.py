@@ -13,7 +13,7 @@ import numpy as np
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import load_npy, require_some_finite
+from .validate import checked_poses, load_npy, require_some_finite
 
 
 def _pick(p: Path, name: str, value: object, size: int, also: str = "") -> int:
@@ -42,7 +42,8 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
     Raises:
         AdapterError: missing/unreadable file, a ``.mat`` (DDHPose's 3DHP output is in the
             MPI-INF-3DHP-17 layout), a ``_postprocess`` file (world z-up frame for display),
-            wrong rank or joint count, a bad ``step``/``hypothesis``, all NaN.
+            wrong rank, dtype or joint count, a bad ``step``/``hypothesis``, all NaN, a
+            coordinate beyond 100 m (naming frame and joint). ``inf`` is missing data (NaN).
 
     Source of the format facts: formats.md sections 2.1-2.2 (D3DP
     ``in_the_wild/videopose_diffusion.py``, ``in_the_wild/utils.py`` L286).
@@ -60,23 +61,25 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         notes.append(f"sampling step {k} of 0..{arr.shape[0] - 1}")
         arr = arr[k]
     if arr.ndim == 4:
-        if hypothesis == "mean":
+        if isinstance(hypothesis, str) and hypothesis == "mean":
             notes.append(f"mean over {arr.shape[0]} hypotheses")
-            arr = arr.mean(0)
+            # float64: a float32 sum of huge values would overflow to inf and pass as missing.
+            arr = arr.mean(0, dtype=np.float64)
         else:
             h = _pick(p, "hypothesis", hypothesis, arr.shape[0], "'mean' or ")
             notes.append(f"hypothesis {h} of 0..{arr.shape[0] - 1}")
             arr = arr[h]
-    elif hypothesis != "mean":
+    elif not (isinstance(hypothesis, str) and hypothesis == "mean"):
         raise AdapterError(p, "hypothesis", "'mean' for a (N, 17, 3) file without a hypothesis axis", repr(hypothesis))
     require_some_finite(p, "predictions", arr)
     notes.append("root as delivered (D3DP zeroes it)")
-    return Poses3D(np.ascontiguousarray(arr, np.float32), "h36m17", units="m", source=str(p), notes="; ".join(notes))
+    joints = checked_poses(p, "predictions", arr, "h36m17", "m")
+    return Poses3D(np.ascontiguousarray(joints), "h36m17", units="m", source=str(p), notes="; ".join(notes))
 
 
 @register_3d("ddhpose")
 class DDHPoseAdapter:
     """Registry entry for :func:`load_ddhpose` (options: ``step``, ``hypothesis``)."""
 
-    def load(self, path: str | Path, **options) -> Poses3D:
-        return load_ddhpose(path, **options)
+    def load(self, path: str | Path, *, step: int = -1, hypothesis: int | str = "mean") -> Poses3D:
+        return load_ddhpose(path, step=step, hypothesis=hypothesis)

@@ -7,6 +7,7 @@ and a unit scale (``units=``).
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ from pcnet.stages.conventions import get_layout
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import load_array_file, require_file, require_numeric, require_some_finite
+from .validate import checked_poses, load_array_file, require_file, require_numeric, require_some_finite
 
 # Letter -> (camera axis, sign) in the OpenCV camera frame: x Right, y Down, z Forward.
 _AXIS_LETTERS = {"R": (0, 1.0), "L": (0, -1.0), "D": (1, 1.0), "U": (1, -1.0), "F": (2, 1.0), "B": (2, -1.0)}
@@ -49,26 +50,58 @@ def axes_to_camera(axes: str) -> np.ndarray:
     return m
 
 
+def _cell(c: str) -> float:
+    """A CSV cell as a float; empty is missing (NaN, never 0). Raises ValueError for text and
+    for a finite literal beyond float64 range (``1e400``), which ``float`` would turn into
+    inf and so, silently, into a missing value."""
+    if not c:
+        return float("nan")
+    v = float(c)
+    if math.isinf(v) and "inf" not in c.lower():
+        raise ValueError(c)
+    return v
+
+
+def _is_number(c: str) -> bool:
+    try:
+        float(c)
+    except ValueError:
+        return False
+    return True
+
+
 def _read_csv(p: Path, delimiter: str) -> np.ndarray:
     rows: list[list[float]] = []
     with p.open(newline="", encoding="utf-8", errors="replace") as fh:
-        for line_no, row in enumerate(csv.reader(fh, delimiter=delimiter), start=1):
+        reader = csv.reader(fh, delimiter=delimiter)
+        line_no = 0
+        header_seen = False
+        while True:
+            try:
+                row = next(reader)
+            except StopIteration:
+                break
+            except csv.Error as exc:  # e.g. a field beyond csv's size limit: not a pose table
+                raise AdapterError(p, f"line {reader.line_num}", "a CSV table of numbers", str(exc)[:120]) from exc
+            line_no = reader.line_num
             cells = [c.strip() for c in row]
             if not any(cells):
                 continue
             try:
-                # An empty cell is a missing value, so NaN, never 0.
-                rows.append([float(c) if c else float("nan") for c in cells])
+                rows.append([_cell(c) for c in cells])
             except ValueError:
-                if rows or line_no > 1:
-                    raise AdapterError(p, f"line {line_no}", "numbers only after the optional header", repr(row[:4])) from None
-                continue  # the header
+                # A header is a first line without a single number; a first line with some
+                # numbers is a damaged data row, which must not vanish as a "header".
+                if rows or header_seen or any(_is_number(c) for c in cells):
+                    raise AdapterError(p, f"line {line_no}", "numbers only after the optional header line of names",
+                                       repr(row[:4])[:120]) from None
+                header_seen = True
     if not rows:
         raise AdapterError(p, "rows", "at least one data row", "none")
     widths = {len(r) for r in rows}
     if len(widths) != 1:
-        raise AdapterError(p, "columns", "the same number of columns on every row", f"widths {sorted(widths)}")
-    return np.asarray(rows, np.float32)
+        raise AdapterError(p, "columns", "the same number of columns on every row", f"widths {sorted(widths)[:10]}")
+    return np.asarray(rows, np.float64)
 
 
 def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
@@ -91,30 +124,42 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
         ``Poses3D``: float32 ``(T, J, 3)`` in the camera frame (x right, y down, z forward),
         units ``m`` / ``normalised`` / ``px``; NaN preserved; root as delivered.
 
+        ``inf`` (and ``inf`` cells) are missing data: NaN.
+
     Raises:
-        AdapterError: missing/unreadable file, unknown extension, bad ``layout``, ``axes``
-            or ``units``, wrong column count or shape for the layout, non-numeric content,
-            all NaN.
+        AdapterError: missing/unreadable file, unknown extension, bad ``layout``, ``axes``,
+            ``units``, ``key`` or ``delimiter``, wrong column count or shape for the layout,
+            non-numeric content (bool, complex, text, pickled objects), all NaN, a coordinate
+            beyond the bound of its units after scaling (100 m, 1e5 px, 1e3 normalised;
+            naming frame and joint).
 
     Source of the target conventions: CONVENTIONS.md "Camera frame"; the file format is
     the user's declaration, not an upstream fact.
     """
     p = Path(path)
     try:
+        if not isinstance(layout, str):
+            raise ValueError(layout)
         lay = get_layout(layout)
     except ValueError as exc:
         raise AdapterError(p, "layout", "a known layout name (h36m17, coco17, halpe26, body25, blazepose33)", repr(layout)) from exc
     try:
+        if not isinstance(axes, str):
+            raise ValueError(axes)
         m = axes_to_camera(axes)
     except ValueError:
         raise AdapterError(p, "axes", "3 letters from R/L, U/D, F/B, each pair once (e.g. 'RDF', 'RUB')", repr(axes)) from None
-    if units not in _UNITS:
+    if not isinstance(units, str) or units not in _UNITS:
         raise AdapterError(p, "units", f"one of {sorted(_UNITS)}", repr(units))
+    if key is not None and not isinstance(key, str):
+        raise AdapterError(p, "key", "the name of an array in the .npz, or None", repr(key))
+    if not isinstance(delimiter, str) or len(delimiter) != 1:
+        raise AdapterError(p, "delimiter", "a single character", repr(delimiter))
 
     suffix = p.suffix.lower()
     if suffix in (".csv", ".txt"):
-        arr = _read_csv(require_file(p, "a CSV file"), delimiter)
         field = "columns"
+        arr = require_numeric(p, field, _read_csv(require_file(p, "a CSV file"), delimiter))
     elif suffix in (".npy", ".npz"):
         arr = require_numeric(p, key or "array", load_array_file(p, key))
         field = key or "array"
@@ -140,7 +185,8 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
         notes.append(f"X_cam = X_src @ {m.astype(int).tolist()}")
     notes.append(f"units {units}" + (f" x {scale:g} -> m" if scale != 1.0 else ""))
     notes.append("root as delivered")
-    return Poses3D(joints.astype(np.float32), lay.name, units=unit_tag, source=str(p), notes="; ".join(notes))
+    joints = checked_poses(p, field, joints, lay.name, unit_tag)
+    return Poses3D(joints, lay.name, units=unit_tag, source=str(p), notes="; ".join(notes))
 
 
 @register_3d("generic")
@@ -148,5 +194,6 @@ class GenericAdapter:
     """Registry entry for :func:`load_generic` (options: ``layout``, ``axes``, ``units``,
     ``key``, ``delimiter``)."""
 
-    def load(self, path: str | Path, **options) -> Poses3D:
-        return load_generic(path, **options)
+    def load(self, path: str | Path, *, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
+             key: str | None = None, delimiter: str = ",") -> Poses3D:
+        return load_generic(path, layout=layout, axes=axes, units=units, key=key, delimiter=delimiter)

@@ -23,7 +23,14 @@ from pcnet.stages.conventions import get_layout
 
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D
-from .validate import clip_confidence, layout_from_count, read_json
+from .validate import (
+    checked_keypoints,
+    frame_count_for,
+    json_numbers,
+    layout_from_count,
+    read_json,
+    require_option_int,
+)
 
 # 133 = COCO-WholeBody, whose first 17 joints are COCO-17.
 _LAYOUT_BY_COUNT = {17: "coco17", 26: "halpe26", 133: "coco17"}
@@ -55,7 +62,7 @@ def _frames(p: Path, data: Any) -> tuple[list[tuple[int, list, str]], str]:
             raise AdapterError(p, field, "a frame record with 'frame_id' and 'instances' (MMPose, formats.md 3.2)", got)
         fid = rec["frame_id"]
         if isinstance(fid, bool) or not isinstance(fid, int) or fid < base:
-            raise AdapterError(p, f"{field}.frame_id", f"an integer >= {base}", repr(fid))
+            raise AdapterError(p, f"{field}.frame_id", f"an integer >= {base}", repr(fid)[:80])
         if not isinstance(rec["instances"], list):
             raise AdapterError(p, f"{field}.instances", "a list", type(rec["instances"]).__name__)
         out.append((fid - base, rec["instances"], f"{field}.instances"))
@@ -67,11 +74,8 @@ def _instance(p: Path, field: str, inst: Any, count: int | None) -> np.ndarray:
     if not isinstance(inst, dict) or "keypoints" not in inst or "keypoint_scores" not in inst:
         got = f"keys {sorted(inst)[:6]}" if isinstance(inst, dict) else type(inst).__name__
         raise AdapterError(p, field, "an instance with 'keypoints' and 'keypoint_scores'", got)
-    try:
-        xy = np.asarray(inst["keypoints"], np.float64)
-        sc = np.asarray(inst["keypoint_scores"], np.float64)
-    except (TypeError, ValueError) as exc:
-        raise AdapterError(p, f"{field}.keypoints", "numeric [[x, y], ...] and a list of scores", str(exc)) from exc
+    xy = json_numbers(p, f"{field}.keypoints", inst["keypoints"], depth=2)
+    sc = json_numbers(p, f"{field}.keypoint_scores", inst["keypoint_scores"])
     if xy.ndim != 2 or xy.shape[1] != 2 or sc.shape != (xy.shape[0],):
         raise AdapterError(p, f"{field}.keypoints", "[[x, y], ...] with one keypoint_scores value per joint",
                            f"keypoints {xy.shape}, keypoint_scores {sc.shape}")
@@ -80,7 +84,18 @@ def _instance(p: Path, field: str, inst: Any, count: int | None) -> np.ndarray:
     return np.concatenate([xy, sc[:, None]], 1)
 
 
-def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | None = None) -> Keypoints2D:
+def _mean_score(kp: np.ndarray) -> float:
+    """Mean of the finite keypoint scores (-inf without any): inf/NaN scores are missing,
+    and an instance without a score never wins over one with a score."""
+    sc = kp[:, 2][np.isfinite(kp[:, 2])]
+    if not sc.size:
+        return -np.inf
+    with np.errstate(over="ignore"):  # scores near 1e308 sum to inf, still the largest
+        return float(sc.mean())
+
+
+def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | None = None,
+                frame_count: int | None = None) -> Keypoints2D:
     """Read MMPose/RTMPose prediction JSON (either writer) into ``Keypoints2D``.
 
     Args:
@@ -90,6 +105,10 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
             instances is NaN. ``None`` keeps, per frame, the instance with the highest mean
             ``keypoint_scores`` (ties: the earlier instance).
         num_frames: length ``T``; default: largest 0-based frame index + 1.
+        frame_count: the video's frame count, when known (the pipeline passes it): every
+            0-based frame index must be below it. Without it, an index above
+            ``100 * frame records + 10000`` is refused as implausible for the file's size
+            (:func:`~pcnet.adapters.validate.frame_count_for`). It does not change ``T``.
 
     Returns:
         ``Keypoints2D``: ``points`` float32 ``(T, J, 3)`` x_px, y_px, score clipped to [0, 1]
@@ -99,13 +118,17 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
 
     Raises:
         AdapterError: missing/empty/invalid JSON; neither writer's structure (e.g. an
-            AlphaPose list); a bad ``frame_id``; malformed instances; a joint count other
-            than 17/26/133; a frame index ``>= num_frames``; nothing finite.
+            AlphaPose list); a bad ``frame_id``; malformed instances (values that are not
+            numbers); a joint count other than 17/26/133; a bad ``person``; a frame index
+            ``>= num_frames``, ``>= frame_count`` or implausible without it; ``|x|``/``|y|``
+            beyond 1e5 px (naming frame and joint); nothing finite. ``inf``/``NaN`` values
+            are missing data: the joint is NaN.
 
     Source of the format facts: formats.md section 3.2 (``demo/topdown_demo_with_mmdet.py``
     L233/L277-290, ``base_mmpose_inferencer.py`` L678-691, ``structures/utils.py``).
     """
     p = Path(path)
+    person = require_option_int(p, "person", person, 0)
     frames, writer = _frames(p, read_json(p))
     count = None
     chosen: dict[int, list[np.ndarray]] = {}
@@ -123,13 +146,10 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
         raise AdapterError(p, "instances", "at least one instance in some frame", "no instances")
 
     max_frame = max(chosen)
-    if num_frames is None:
-        num_frames = max_frame + 1
-    elif num_frames < 1 or max_frame >= num_frames:
-        raise AdapterError(p, "frame_id", f"0-based frame indices < num_frames={num_frames}", f"frame index {max_frame}")
+    num_frames = frame_count_for(p, "frame_id", max_frame, len(frames), frame_count, num_frames)
     layout = _LAYOUT_BY_COUNT[count]
     n_joints = get_layout(layout).num_joints
-    points = np.full((num_frames, n_joints, 3), np.nan, np.float32)
+    points = np.full((num_frames, n_joints, 3), np.nan)
     for frame, parsed in chosen.items():
         if not parsed:
             continue
@@ -137,11 +157,8 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
             if person < len(parsed):
                 points[frame] = parsed[person][:n_joints]
             continue
-        means = [float(np.nanmean(a[:, 2])) if np.isfinite(a[:, 2]).any() else -np.inf for a in parsed]
-        points[frame] = parsed[int(np.argmax(means))][:n_joints]
-    if not np.isfinite(points).any():
-        raise AdapterError(p, "keypoints", "some finite keypoints for the chosen person", "only NaN")
-    points, raw_max = clip_confidence(points)
+        points[frame] = parsed[int(np.argmax([_mean_score(a) for a in parsed]))][:n_joints]
+    points, raw_max = checked_keypoints(p, "keypoints", points, layout)
 
     empty = int(np.isnan(points).all(axis=(1, 2)).sum())
     notes = [f"MMPose JSON from {writer} (formats.md 3.2), {count} joints -> {layout}",
@@ -156,7 +173,9 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
 
 @register_2d("mmpose")
 class MMPoseAdapter:
-    """Registry entry for :func:`load_mmpose` (options: ``person``, ``num_frames``)."""
+    """Registry entry for :func:`load_mmpose` (options: ``person``, ``num_frames``,
+    ``frame_count``)."""
 
-    def load(self, path: str | Path, **options) -> Keypoints2D:
-        return load_mmpose(path, **options)
+    def load(self, path: str | Path, *, person: int | None = None, num_frames: int | None = None,
+             frame_count: int | None = None) -> Keypoints2D:
+        return load_mmpose(path, person=person, num_frames=num_frames, frame_count=frame_count)

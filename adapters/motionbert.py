@@ -8,7 +8,7 @@ import numpy as np
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import load_npy
+from .validate import checked_poses, finite_max_abs, load_npy, require_option_int
 
 # Default-mode x, y come from 2D input clipped to [-1, 1] (formats.md 1.2); the network's
 # outputs stay near that range. Pixel-mode x, y are image pixels, i.e. hundreds. A bound
@@ -38,17 +38,23 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
         (``predicted_3d_pos[:,0,0,2] = 0``), so z can jump at frames ``clip_len``,
         ``2*clip_len``, ... Subtract the pelvis per frame before use.
 
+        ``inf`` values are missing data (NaN) and are ignored when checking the units.
+
     Raises:
-        AdapterError: missing/unreadable file, not ``(T, 17, 3)``, all NaN, or x/y
+        AdapterError: missing/unreadable file, not ``(T, 17, 3)`` real numbers, all NaN, x/y
             magnitudes that contradict ``pixel`` (normalised values above 4, or pixel values
-            all within 4).
+            all within 4), a coordinate beyond the bound of its units (1e3 normalised, 1e5
+            px; naming frame and joint), or ``clip_len`` not a positive integer.
 
     Source of the format facts: formats.md sections 1.2-1.3 (``infer_wild.py`` L65-97;
     maintainer answers in Walter0807/MotionBERT issues #9 and #21).
     """
     p = Path(path)
+    clip_len = require_option_int(p, "clip_len", clip_len, 1, allow_none=False)
     arr = load_npy(p, ndim=3, num_joints=17, field="X3D")
-    xy_max = float(np.nanmax(np.abs(arr[..., :2])))
+    xy_max = finite_max_abs(arr[..., :2])
+    if not np.isfinite(xy_max):
+        raise AdapterError(p, "X3D x/y values", "some finite x, y coordinates", "only NaN/inf")
     if pixel and xy_max <= _NORMALISED_BOUND:
         raise AdapterError(p, "X3D x/y values", "image pixels for pixel=True (infer_wild --pixel)",
                            f"max |x|,|y| {xy_max:.2f}, which looks normalised; use pixel=False")
@@ -58,6 +64,7 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
     clip_starts = list(range(0, arr.shape[0], clip_len))
     shown = ", ".join(map(str, clip_starts[:6])) + (", ..." if len(clip_starts) > 6 else "")
     units = "px" if pixel else "normalised"
+    arr = checked_poses(p, "X3D", arr, "h36m17", units)
     notes = (f"MotionBERT X3D.npy (formats.md 1.3), H36M-17, units {units}"
              + (" (x, y image pixels, z pixels)" if pixel else " (image-normalised, about [-1, 1])")
              + "; axes x right, y down, z away from the camera (z sign derived); no axis changed"
@@ -70,5 +77,5 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
 class MotionBERTAdapter:
     """Registry entry for :func:`load_motionbert` (options: ``pixel``, ``clip_len``)."""
 
-    def load(self, path: str | Path, **options) -> Poses3D:
-        return load_motionbert(path, **options)
+    def load(self, path: str | Path, *, pixel: bool = False, clip_len: int = 243) -> Poses3D:
+        return load_motionbert(path, pixel=pixel, clip_len=clip_len)

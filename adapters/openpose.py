@@ -19,11 +19,13 @@ from pcnet.stages.conventions import get_layout
 
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D
-from .validate import clip_confidence, layout_from_count, read_json
+from .validate import checked_keypoints, frame_count_for, json_numbers, layout_from_count, read_json
 
 _LAYOUT_BY_COUNT = {25: "body25", 26: "halpe26", 33: "blazepose33", 17: "coco17"}
 # The frame number is the digit run right before "_keypoints.json" (12 digits for OpenPose).
 _FRAME_NUMBER = re.compile(r"(\d+)_keypoints\.json$")
+# Longer digit runs are no frame number; the bound also keeps int() cheap.
+_MAX_DIGITS = 18
 
 
 def _frame_files(folder: Path) -> list[tuple[int, Path]]:
@@ -34,8 +36,9 @@ def _frame_files(folder: Path) -> list[tuple[int, Path]]:
     files = []
     for f in folder.glob("*_keypoints.json"):
         m = _FRAME_NUMBER.search(f.name)
-        if m is None:
-            raise AdapterError(f, "file name", "'<video>_<frame number>_keypoints.json'", repr(f.name))
+        if m is None or len(m.group(1).lstrip("0")) > _MAX_DIGITS:
+            raise AdapterError(f, "file name", f"'<video>_<frame number of at most {_MAX_DIGITS} digits>_keypoints.json'",
+                               repr(f.name))
         files.append((int(m.group(1)), f))
     if not files:
         raise AdapterError(folder, "*_keypoints.json", "at least one OpenPose per-frame JSON file", "none")
@@ -46,7 +49,8 @@ def _frame_files(folder: Path) -> list[tuple[int, Path]]:
     return files
 
 
-def load_openpose(path: str | Path, layout: str | None = None, num_frames: int | None = None) -> Keypoints2D:
+def load_openpose(path: str | Path, layout: str | None = None, num_frames: int | None = None,
+                  frame_count: int | None = None) -> Keypoints2D:
     """Read a folder of OpenPose-schema per-frame JSON files into ``Keypoints2D``.
 
     Args:
@@ -55,6 +59,10 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
             (25 -> ``body25``, 26 -> ``halpe26``, 33 -> ``blazepose33``, 17 -> ``coco17``).
             OpenPose's 18-joint COCO model is not supported (no such layout in pcnet).
         num_frames: length ``T``; default: largest frame number + 1.
+        frame_count: the video's frame count, when known (the pipeline passes it): every
+            frame number must be below it. Without it, a frame number above
+            ``100 * files + 10000`` is refused as implausible
+            (:func:`~pcnet.adapters.validate.frame_count_for`). It does not change ``T``.
 
     Returns:
         ``Keypoints2D``: ``points`` float32 ``(T, J, 3)``. Row ``k`` is the file with frame
@@ -67,8 +75,11 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
     Raises:
         AdapterError: missing folder, no ``*_keypoints.json`` files, a file that is not
             JSON or has no ``people`` list, a keypoint list whose length is not a multiple of
-            3 or whose joint count differs between files or from ``layout``, a frame number
-            ``>= num_frames``, nothing finite. The message names the offending file.
+            3, holds values that are not numbers, or whose joint count differs between files
+            or from ``layout``; a frame number ``>= num_frames``, ``>= frame_count`` or
+            implausible without it; ``|x|``/``|y|`` beyond 1e5 px (naming frame and joint);
+            nothing finite. The message names the offending file. ``inf``/``NaN`` values are
+            missing data: the joint is NaN.
 
     Source of the format facts: formats.md section 3.2 (OpenPose ``doc/02_output.md``,
     ``videoCaptureReader.cpp`` L78, ``wPeopleJsonSaver.hpp`` L67); 0 score = missing:
@@ -77,6 +88,8 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
     folder = Path(path)
     if layout is not None:
         try:
+            if not isinstance(layout, str):
+                raise ValueError(layout)
             layout = get_layout(layout).name
         except ValueError as exc:
             raise AdapterError(folder, "layout", "a known layout name", repr(layout)) from exc
@@ -107,11 +120,10 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
                 count = n
             elif n != count:
                 raise AdapterError(f, f"people[{i}].pose_keypoints_2d", f"{count} joints like the other files", f"{n} joints")
-            try:
-                arr = np.asarray(kp, np.float64).reshape(n, 3)
-            except (TypeError, ValueError) as exc:
-                raise AdapterError(f, f"people[{i}].pose_keypoints_2d", "numbers", str(exc)) from exc
-            total = float(np.nansum(arr[:, 2]))
+            arr = json_numbers(f, f"people[{i}].pose_keypoints_2d", kp).reshape(n, 3)
+            conf = arr[:, 2][np.isfinite(arr[:, 2])]
+            with np.errstate(over="ignore"):  # sums near 1e308 overflow to inf, still the largest
+                total = float(conf.sum())
             if total > best_sum:
                 best, best_sum = arr, total
         if best is not None:
@@ -120,19 +132,16 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
         raise AdapterError(folder, "people", "at least one person in some frame", f"no people in {len(files)} files")
 
     max_frame = files[-1][0]
-    if num_frames is None:
-        num_frames = max_frame + 1
-    elif num_frames < 1 or max_frame >= num_frames:
-        raise AdapterError(folder, "frame number", f"frame numbers < num_frames={num_frames}", f"frame {max_frame}")
+    num_frames = frame_count_for(files[-1][1], "frame number", max_frame, len(files), frame_count, num_frames)
     layout = get_layout(layout).name
-    points = np.full((num_frames, count, 3), np.nan, np.float32)
+    points = np.full((num_frames, count, 3), np.nan)
     for frame, arr in chosen.items():
         points[frame] = arr
     undetected = points[..., 2] == 0
     points[undetected] = np.nan
     if not np.isfinite(points).any():
         raise AdapterError(folder, "pose_keypoints_2d", "some detected joints", "only 0,0,0 joints")
-    points, raw_max = clip_confidence(points)
+    points, raw_max = checked_keypoints(folder, "pose_keypoints_2d", points, layout)
 
     empty = int(np.isnan(points).all(axis=(1, 2)).sum())
     notes = [f"OpenPose per-frame JSON (formats.md 3.2), {len(files)} files, {count} joints -> {layout}",
@@ -146,7 +155,9 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
 
 @register_2d("openpose")
 class OpenPoseAdapter:
-    """Registry entry for :func:`load_openpose` (options: ``layout``, ``num_frames``)."""
+    """Registry entry for :func:`load_openpose` (options: ``layout``, ``num_frames``,
+    ``frame_count``)."""
 
-    def load(self, path: str | Path, **options) -> Keypoints2D:
-        return load_openpose(path, **options)
+    def load(self, path: str | Path, *, layout: str | None = None, num_frames: int | None = None,
+             frame_count: int | None = None) -> Keypoints2D:
+        return load_openpose(path, layout=layout, num_frames=num_frames, frame_count=frame_count)

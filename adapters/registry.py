@@ -29,6 +29,8 @@ from __future__ import annotations
 
 from typing import Callable, TypeVar
 
+from pcnet.stages.errors import InputError
+
 _ADAPTERS_2D: dict[str, type] = {}
 _ADAPTERS_3D: dict[str, type] = {}
 
@@ -74,7 +76,7 @@ def _get(table: dict[str, type], kind: str, name: str):
     try:
         return table[name]()
     except KeyError:
-        raise ValueError(f"unknown {kind} adapter {name!r}; available: {sorted(table)}") from None
+        raise InputError(f"unknown {kind} adapter {name!r}; available: {sorted(table)}") from None
 
 
 def get_2d_adapter(name: str):

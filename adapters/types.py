@@ -8,11 +8,13 @@ are NaN, never 0; 2D confidence lies in [0, 1]; 3D poses are in the OpenCV camer
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from pcnet.stages.conventions import get_layout
+from pcnet.stages.errors import InputError
 
 #: Units a :class:`Poses3D` may carry. ``normalised`` is MotionBERT's image-normalised
 #: scale (about [-1, 1]); ``px`` is image pixels; both stay tagged until a later stage
@@ -20,11 +22,12 @@ from pcnet.stages.conventions import get_layout
 POSE_UNITS: tuple[str, ...] = ("m", "normalised", "px")
 
 
-class AdapterError(ValueError):
+class AdapterError(InputError):
     """A foreign file could not be translated into pcnet's conventions.
 
     The message is one line and always names the file, the field and what was expected,
-    e.g. ``file 'a.json': field 'keypoints': expected 51 or 78 values, got 40``.
+    e.g. ``file 'a.json': field 'keypoints': expected 51 or 78 values, got 40``; what was
+    found is cut to 300 characters.
 
     Attributes:
         path: the offending file (or folder) as given.
@@ -40,7 +43,9 @@ class AdapterError(ValueError):
         self.got = got
         msg = f"file {self.path!r}: field {field!r}: expected {expected}"
         if got is not None:
-            msg += f", got {got}"
+            text = str(got)
+            # Foreign content can be huge (a 4000-digit frame index): keep the line readable.
+            msg += f", got {text if len(text) <= 300 else text[:297] + '...'}"
         # One line, so that log greps and test matches see file, field and expectation together.
         super().__init__(" ".join(msg.split()))
 
@@ -56,6 +61,15 @@ def _check_array(arr: np.ndarray, what: str, source: str, layout: str) -> None:
         )
 
 
+def _check_fps(fps: object, source: str) -> None:
+    # bool is an int subclass, and True frames per second is never meant.
+    if fps is None:
+        return
+    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(fps) or fps <= 0:
+        raise ValueError(f"{source}: fps must be None or a positive finite number, got {fps!r}")
+
+
 @dataclass(frozen=True, eq=False)
 class Keypoints2D:
     """2D keypoints of one person over a video.
@@ -68,6 +82,8 @@ class Keypoints2D:
         source: path of the file or folder read.
         track_id: the tracker id of the chosen person when the file has one, else ``None``.
         notes: what the adapter did (selection, clipping, fills), for provenance.
+        fps: frames per second when the file states it (MediaPipe npz), else ``None``: the
+            caller then needs the video or ``--fps``.
 
     ``eq=False`` because numpy arrays have no single truth value; compare ``points``
     explicitly. The dataclass is frozen; the array itself is not copied or locked.
@@ -78,9 +94,11 @@ class Keypoints2D:
     source: str
     track_id: int | None = None
     notes: str = ""
+    fps: float | None = None
 
     def __post_init__(self) -> None:
         _check_array(self.points, "points", self.source, self.layout)
+        _check_fps(self.fps, self.source)
 
     @property
     def num_frames(self) -> int:
@@ -102,6 +120,7 @@ class Poses3D:
         units: ``"m"``, ``"normalised"`` (MotionBERT image-normalised) or ``"px"``.
         source: path of the file read.
         notes: how the source was converted (axis flips, units, hypothesis choice, caveats).
+        fps: frames per second when the file states it (MediaPipe npz), else ``None``.
     """
 
     joints: np.ndarray
@@ -110,9 +129,11 @@ class Poses3D:
     units: str = "m"
     source: str = ""
     notes: str = ""
+    fps: float | None = None
 
     def __post_init__(self) -> None:
         _check_array(self.joints, "joints", self.source, self.layout)
+        _check_fps(self.fps, self.source)
         if self.frame != "camera":
             raise ValueError(f"{self.source}: frame must be 'camera', got {self.frame!r}")
         if self.units not in POSE_UNITS:

@@ -1,18 +1,72 @@
-"""Checks shared by adapters: the file exists and parses, arrays have the right shape and
-are not all NaN, keypoint counts name a layout. Every failure is an
-:class:`~pcnet.adapters.types.AdapterError` naming the file and the field.
+"""Checks shared by adapters, so that every bad input ends in one
+:class:`~pcnet.adapters.types.AdapterError` line naming the file and the field.
+
+Two mechanisms every adapter goes through:
+
+* **reading**: :func:`read_json` and :func:`open_numpy` (with :func:`load_array_file`,
+  :func:`load_npy` and :func:`json_numbers` on top) parse untrusted bytes. They check the
+  file's own claims before acting on them (a ``.npy`` header's shape against the bytes
+  present, so a damaged header never allocates gigabytes), refuse pickled object arrays,
+  and turn every parser failure into an ``AdapterError``.
+* **finishing**: :func:`checked_keypoints` (2D) and :func:`checked_poses` (3D) are the
+  last step before an adapter builds its result. Non-finite values become NaN (missing
+  data), coordinates beyond :data:`pcnet.stages.conventions.MAX_ABS_COORDINATE` for their
+  units are refused naming the frame and joint, 2D confidence is clipped to [0, 1], and
+  an all-missing result is refused.
+
+:func:`frame_count_for` bounds the frame indices written inside a file before an adapter
+allocates one row per frame.
 """
 
 from __future__ import annotations
 
 import json
+import math
+import struct
+import tokenize
 import zipfile
+import zlib
 from pathlib import Path
-from typing import Any, Mapping
+from typing import IO, Any, Mapping, Sequence
 
 import numpy as np
 
+from pcnet.stages.conventions import MAX_ABS_COORDINATE, get_layout, validate_poses
+from pcnet.stages.errors import InputError
+
 from .types import AdapterError
+
+_NPY_MAGIC = b"\x93NUMPY"
+# Local file header, and the end-of-archive record that starts an empty zip.
+_ZIP_MAGICS = (b"PK\x03\x04", b"PK\x05\x06")
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+# What numpy's header parser and zipfile raise on damaged bytes: numpy tokenizes and
+# literal-evals the header (tokenize.TokenError, SyntaxError), zlib.error for a bad deflate
+# stream, NotImplementedError for an unknown compression method, RuntimeError for an
+# encrypted member, struct.error for a short record. Caught only around parsing.
+_PARSE_ERRORS = (ValueError, TypeError, KeyError, OSError, EOFError, OverflowError, SyntaxError,
+                 tokenize.TokenError, zipfile.BadZipFile, zlib.error, NotImplementedError, RuntimeError,
+                 struct.error)
+# Plain numeric or text dtypes; text arrays are legitimate metadata (MediaPipe's "layout").
+_LOADABLE_KINDS = "biufcSU"
+# Content-derived bound on frame indices when the video's frame count is unknown, see
+# frame_count_for.
+FRAMES_PER_RECORD = 100
+FRAMES_SLACK = 10_000
+
+
+def _short(text: object, limit: int = 200) -> str:
+    """``text`` on one line, at most ``limit`` characters: messages quote foreign content."""
+    s = " ".join(str(text).split())
+    return s if len(s) <= limit else s[: limit - 3] + "..."
+
+
+def describe_keys(keys: Sequence[str], limit: int = 10) -> str:
+    """``"3 arrays: 'a', 'b', 'c'"``; at most ``limit`` names, then ``...``, so that an
+    archive with thousands of arrays still gives a one-line, readable message."""
+    shown = ", ".join(repr(k) for k in list(keys)[:limit])
+    more = ", ..." if len(keys) > limit else ""
+    return f"{len(keys)} array{'s' if len(keys) != 1 else ''}: {shown}{more}" if keys else "no arrays"
 
 
 def require_file(path: str | Path, what: str = "a readable file") -> Path:
@@ -34,67 +88,258 @@ def require_file(path: str | Path, what: str = "a readable file") -> Path:
     return p
 
 
+class _FloatOverflow(Exception):
+    pass
+
+
+def _json_float(text: str) -> float:
+    # float("1e400") is inf, which the adapters would take for a missing value; a literal
+    # that large is a damaged number, not missing data.
+    value = float(text)
+    if math.isinf(value):
+        raise _FloatOverflow(text)
+    return value
+
+
 def read_json(path: str | Path) -> Any:
-    """Parse a JSON file.
+    """Parse a JSON file. ``NaN``/``Infinity`` literals parse to floats; the adapters treat
+    them as missing data.
 
     Raises:
-        AdapterError: field ``path`` (missing/unreadable), ``content`` (empty file or
-            invalid JSON, with the parser's line and column).
+        AdapterError: field ``path`` (missing/unreadable), ``content`` (empty file, invalid
+            JSON with the parser's line and column, a number literal beyond float64 range,
+            an integer of more digits than Python converts, or nesting deeper than the
+            parser's recursion limit).
     """
     p = require_file(path, "a JSON file")
     text = p.read_text(encoding="utf-8", errors="replace")
     if not text.strip():
         raise AdapterError(p, "content", "JSON", "an empty file")
     try:
-        return json.loads(text)
+        return json.loads(text, parse_float=_json_float)
+    except _FloatOverflow as exc:
+        raise AdapterError(p, "content", "JSON numbers within float64 range", _short(exc, 40)) from None
     except json.JSONDecodeError as exc:
         raise AdapterError(p, "content", "valid JSON", f"{exc.msg} at line {exc.lineno} column {exc.colno}") from exc
+    except ValueError as exc:  # int digit limit (CVE-2020-10735 guard)
+        raise AdapterError(p, "content", "JSON numbers of at most 4300 digits", _short(exc)) from exc
+    except RecursionError as exc:
+        raise AdapterError(p, "content", "JSON nested at most a few hundred levels deep", "deeper nesting") from exc
+
+
+def json_numbers(p: str | Path, field: str, value: Any, depth: int = 1) -> np.ndarray:
+    """A JSON list of numbers (``depth=1``) or of lists of numbers (``depth=2``) as a
+    float64 array.
+
+    JSON's typing is checked rather than left to numpy, which would silently read
+    ``true`` as 1 and ``"1.5"`` as 1.5.
+
+    Raises:
+        AdapterError: ``field`` when ``value`` is not such a list, holds booleans, strings,
+            null or objects, is ragged, or holds an integer beyond float64's range.
+    """
+    shape = "a list of numbers" if depth == 1 else "a list of [numbers] lists"
+
+    def bad(v: Any) -> AdapterError:
+        return AdapterError(p, field, shape, _short(f"{type(v).__name__} {v!r}", 80))
+
+    if not isinstance(value, list):
+        raise bad(value)
+    if not value:
+        return np.zeros((0,) * depth)
+    stack = [(value, depth)]
+    while stack:
+        items, level = stack.pop()
+        for v in items:
+            if level > 1:
+                if not isinstance(v, list):
+                    raise bad(v)
+                stack.append((v, level - 1))
+            elif type(v) not in (int, float):  # bool is a subclass of int: refused here
+                raise bad(v)
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except OverflowError as exc:
+        raise AdapterError(p, field, "numbers within float64 range", "a larger integer") from exc
+    except ValueError as exc:
+        raise AdapterError(p, field, f"{shape}, all of one length", "lists of different lengths") from exc
+    if arr.ndim != depth:
+        raise AdapterError(p, field, shape, f"{arr.ndim} levels of lists")
+    return arr
+
+
+# --------------------------------------------------------------------------- numpy files
+
+
+def _read_npy(p: Path, field: str, fp: IO[bytes], size: int) -> np.ndarray:
+    """One array from an open ``.npy`` stream of ``size`` bytes in all.
+
+    The header's shape and dtype are checked against the bytes present before anything is
+    allocated: a damaged header claiming 10**12 elements is refused, not a MemoryError.
+    """
+    try:
+        version = np.lib.format.read_magic(fp)
+        if version == (1, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_1_0(fp)
+        elif version == (2, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_2_0(fp)
+        else:
+            # 3.0 only adds utf-8 structured field names: never a pose array.
+            raise AdapterError(p, field, "a .npy of format version 1.0 or 2.0", f"version {version}")
+        start = fp.tell()
+    except AdapterError:
+        raise
+    except _PARSE_ERRORS as exc:
+        raise AdapterError(p, field, "a .npy array header", f"a damaged header ({_short(exc, 120)})") from exc
+    if dtype.hasobject:
+        raise AdapterError(p, field, "a numeric array", "a pickled object array (dtype object), refused for safety")
+    if dtype.kind not in _LOADABLE_KINDS or dtype.itemsize == 0:
+        raise AdapterError(p, field, "a plain numeric array", f"dtype {dtype}")
+    if any(d < 0 for d in shape):
+        raise AdapterError(p, field, "a .npy header with a valid shape", f"shape {shape}")
+    count = math.prod(shape)
+    nbytes = count * dtype.itemsize
+    if nbytes > size - start:
+        raise AdapterError(p, field, f"{nbytes} bytes of data for shape {shape} {dtype} (the .npy header)",
+                           f"{max(size - start, 0)} bytes: the file is truncated or its header damaged")
+    try:
+        data = fp.read(nbytes)
+    except _PARSE_ERRORS as exc:
+        raise AdapterError(p, field, "readable array data", _short(f"{type(exc).__name__}: {exc}", 120)) from exc
+    if len(data) != nbytes:
+        raise AdapterError(p, field, f"{nbytes} bytes of data for shape {shape} {dtype}",
+                           f"{len(data)} bytes: the file is truncated")
+    arr = np.frombuffer(data, dtype=dtype, count=count)
+    arr = arr.reshape(shape[::-1]).T if fortran else arr.reshape(shape)
+    return arr.copy()  # frombuffer's array is read-only and pins the bytes
+
+
+class NumpyArchive(np.lib.npyio.NpzFile):
+    """An ``.npz`` opened by :func:`open_numpy`: numpy's ``NpzFile`` (``files``, ``[key]``,
+    ``with``) whose members load through the same checks as a ``.npy`` file.
+
+    ``archive[key]`` returns an ndarray or raises :class:`AdapterError` naming the file and
+    ``key`` (damaged member, pickled object array, not a ``.npy`` member, unknown
+    compression); an unknown key is a ``KeyError`` as for any mapping.
+    """
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        fid = self.path.open("rb")
+        try:
+            super().__init__(fid, own_fid=True, allow_pickle=False)
+        except BaseException:
+            fid.close()
+            raise
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        if key not in self.files:
+            raise KeyError(f"{key} is not a file in the archive")
+        names = self.zip.namelist()
+        name = key + ".npy" if key + ".npy" in names else key
+        try:
+            info = self.zip.getinfo(name)
+            with self.zip.open(info) as fp:
+                if fp.read(len(_NPY_MAGIC)) != _NPY_MAGIC:
+                    raise AdapterError(self.path, key, "a .npy array inside the .npz", "another kind of member")
+                fp.seek(0)
+                return _read_npy(self.path, key, fp, info.file_size)
+        except AdapterError:
+            raise
+        except _PARSE_ERRORS as exc:
+            raise AdapterError(self.path, key, "a readable .npy member",
+                               _short(f"a damaged archive ({type(exc).__name__}: {exc})", 160)) from exc
+
+
+def open_numpy(path: str | Path) -> np.ndarray | NumpyArchive:
+    """Open a ``.npy`` (returns the array) or ``.npz`` (returns a :class:`NumpyArchive`,
+    use it in a ``with`` block), deciding by the file's first bytes, not its name.
+
+    Pickled object arrays are refused (the safety of ``np.load(allow_pickle=False)``);
+    text and numeric dtypes load, the caller checks which it needs.
+
+    Raises:
+        AdapterError: field ``path`` (missing/unreadable); ``content`` when the file is not
+            numpy at all (e.g. a CSV: the message says so, not "pickled data"), a damaged
+            zip, or a ``.npy`` whose header is damaged, disagrees with the file's size, or
+            holds a pickled object array.
+    """
+    p = require_file(path, "a .npy or .npz file")
+    try:
+        with p.open("rb") as fp:
+            head = fp.read(len(_NPY_MAGIC))
+            if head == _NPY_MAGIC:
+                fp.seek(0)
+                return _read_npy(p, "content", fp, p.stat().st_size)
+    except OSError as exc:
+        raise AdapterError(p, "path", "a readable file", f"unreadable ({exc.strerror})") from exc
+    if head[:4] in _ZIP_MAGICS:
+        try:
+            return NumpyArchive(p)
+        except _PARSE_ERRORS as exc:
+            raise AdapterError(p, "content", "a numpy .npz archive",
+                               _short(f"a damaged zip ({type(exc).__name__}: {exc})", 160)) from exc
+    got = "an empty file" if not head else f"a file that is not numpy (it starts with {head!r})"
+    raise AdapterError(p, "content", "a numpy .npy/.npz file", got)
 
 
 def load_array_file(path: str | Path, key: str | None = None) -> np.ndarray:
     """Load one array from ``.npy`` or from ``.npz`` (``key``; optional when the archive
-    holds a single array). Pickled objects are refused (``allow_pickle=False``).
+    holds a single array). Pickled objects are refused; see :func:`open_numpy`.
 
     Raises:
-        AdapterError: field ``path``, ``content`` (not a numpy file) or ``key``.
+        AdapterError: field ``path``, ``content`` (not a numpy file, damaged, pickled) or
+            ``key`` (missing or ambiguous; at most 10 names are listed).
     """
-    p = require_file(path, "a .npy or .npz file")
-    try:
-        data = np.load(p, allow_pickle=False)
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise AdapterError(p, "content", "a numpy .npy/.npz file", type(exc).__name__ + ": " + str(exc)) from exc
-    if isinstance(data, np.lib.npyio.NpzFile):
-        with data:
-            keys = list(data.files)
-            if key is None:
-                if len(keys) != 1:
-                    raise AdapterError(p, "key", "key= naming one of the archive's arrays", f"keys {keys}")
-                key = keys[0]
-            if key not in keys:
-                raise AdapterError(p, key, f"an array named {key!r} in the archive", f"keys {keys}")
-            try:
-                return data[key]
-            except ValueError as exc:
-                raise AdapterError(p, key, "a numeric array (no pickled objects)", str(exc)) from exc
-    return data
+    p = Path(path)
+    data = open_numpy(p)
+    if not isinstance(data, NumpyArchive):
+        return data
+    with data:
+        keys = list(data.files)
+        if key is None:
+            if len(keys) != 1:
+                raise AdapterError(p, "key", "key= naming one of the archive's arrays", describe_keys(keys))
+            key = keys[0]
+        if key not in keys:
+            raise AdapterError(p, "key", f"an array named {key!r} in the archive", describe_keys(keys))
+        return data[key]
 
 
-def require_numeric(p: Path, field: str, arr: Any) -> np.ndarray:
-    """Return ``arr`` as float32 after checking it is numeric.
+def require_numeric(p: str | Path, field: str, arr: Any) -> np.ndarray:
+    """Return ``arr`` as float32 after checking it holds real numbers (int or float dtype).
+
+    ``inf``/``-inf`` become NaN (missing data, as the conventions say), and so does any
+    NaN payload. A finite value too large for float32 is refused rather than turned into inf
+    and then silently into NaN.
 
     Raises:
-        AdapterError: ``field`` holds strings, objects, or is not an array.
+        AdapterError: ``field`` holds booleans, complex numbers, strings or objects, or a
+            value beyond float32's range (its index is named).
     """
     a = np.asarray(arr)
-    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
-        raise AdapterError(p, field, "a numeric array", f"dtype {a.dtype}")
-    return a.astype(np.float32)
+    if a.dtype.kind not in "iuf":
+        raise AdapterError(p, field, "a real-valued numeric array (int or float)", f"dtype {a.dtype}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = a.astype(np.float32)
+    inf = np.isinf(out)
+    if a.dtype.kind == "f" and a.dtype.itemsize > 4:
+        overflow = inf & np.isfinite(a)
+        if overflow.any():
+            idx = tuple(int(i) for i in np.argwhere(overflow)[0])
+            raise AdapterError(p, field, f"values within float32 range (|v| <= {_FLOAT32_MAX:.3g})",
+                               f"{float(a[idx]):.4g} at index {idx}")
+    # Every non-finite value becomes the one quiet NaN: inf is missing data, and a signalling
+    # NaN from a damaged file would raise "invalid value" warnings in later arithmetic.
+    out[~np.isfinite(out)] = np.nan
+    return out
 
 
 def load_npy(path: str | Path, ndim: int | tuple[int, ...] = 3, num_joints: int | None = None,
              key: str | None = None, field: str = "array") -> np.ndarray:
     """Load a numeric array with ``ndim`` dimensions whose last two axes are
-    ``(num_joints, 3)``; return it as float32. It must hold at least one finite value.
+    ``(num_joints, 3)``; return it as float32 with ``inf`` as NaN. It must hold at least
+    one finite value.
 
     Raises:
         AdapterError: the file checks of :func:`load_array_file`, then ``field`` for a wrong
@@ -118,6 +363,13 @@ def require_some_finite(p: str | Path, field: str, arr: np.ndarray) -> None:
         raise AdapterError(p, field, "some finite values", "only NaN/inf")
 
 
+def finite_max_abs(arr: np.ndarray) -> float:
+    """Largest finite ``|value|`` of ``arr``; NaN when it has none (no all-NaN warning)."""
+    a = np.asarray(arr)
+    finite = a[np.isfinite(a)]
+    return float(np.abs(finite).max()) if finite.size else float("nan")
+
+
 def layout_from_count(p: str | Path, field: str, count: int, table: Mapping[int, str]) -> str:
     """Name of the layout for a keypoint ``count`` according to ``table``.
 
@@ -132,8 +384,134 @@ def layout_from_count(p: str | Path, field: str, count: int, table: Mapping[int,
 
 def clip_confidence(points: np.ndarray) -> tuple[np.ndarray, float]:
     """Clip channel 2 of ``(T, J, 3)`` points to [0, 1] in place (NaN stays NaN); return the
-    points and the largest raw confidence (NaN when there is none)."""
+    points and the largest finite raw confidence (NaN when there is none)."""
     conf = points[..., 2]
-    raw_max = float(np.nanmax(conf)) if np.isfinite(conf).any() else float("nan")
+    finite = conf[np.isfinite(conf)]
+    raw_max = float(finite.max()) if finite.size else float("nan")
     np.clip(conf, 0.0, 1.0, out=conf)
     return points, raw_max
+
+
+# --------------------------------------------------------------------------- options
+
+
+def require_option_int(p: str | Path, name: str, value: Any, minimum: int = 0, allow_none: bool = True) -> int | None:
+    """``value`` of option ``name`` as an int >= ``minimum`` (``None`` passes when allowed).
+
+    Raises:
+        AdapterError: field ``name`` for a bool, a non-integer or a smaller value.
+    """
+    if value is None and allow_none:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise AdapterError(p, name, f"an integer >= {minimum}" + (" or None" if allow_none else ""), repr(value))
+    return int(value)
+
+
+def frame_count_for(p: str | Path, field: str, max_index: int, records: int,
+                    frame_count: int | None = None, num_frames: int | None = None) -> int:
+    """Number of output frames ``T`` for a file whose largest 0-based frame index is
+    ``max_index``, checked before one row per frame is allocated.
+
+    The rule: with ``frame_count`` (the video's frame count) every index must be below it.
+    Without it, an index above ``100 * records + 10000`` (``records`` = detections, frame
+    records or files in the input) is refused as implausible: a tracker writes at least one
+    record per hundred frames of a real recording, and ``image_id "2000000000.jpg"`` in a
+    10 kB file would otherwise allocate hundreds of GiB. Sparse files beyond that need
+    ``frame_count``. ``num_frames`` (the requested ``T``) obeys the same bound.
+
+    Returns:
+        ``num_frames`` when given, else ``max_index + 1``.
+
+    Raises:
+        AdapterError: ``field`` naming the index and the bound; ``frame_count`` or
+            ``num_frames`` that is not a positive integer.
+    """
+    frame_count = require_option_int(p, "frame_count", frame_count, 1)
+    num_frames = require_option_int(p, "num_frames", num_frames, 1)
+    if frame_count is not None:
+        limit, why = frame_count, f"< frame_count={frame_count} (the video's frame count)"
+    else:
+        limit = FRAMES_PER_RECORD * records + FRAMES_SLACK + 1
+        why = (f"<= {limit - 1}, plausible for a file of {records} records "
+               f"(100 x records + 10000); pass frame_count (the video's frame count) for sparser files")
+    if max_index >= limit:
+        raise AdapterError(p, field, f"0-based frame indices {why}", f"frame index {max_index}")
+    if num_frames is None:
+        return max_index + 1
+    if max_index >= num_frames:
+        raise AdapterError(p, field, f"frame indices < num_frames={num_frames}", f"frame index {max_index}")
+    if num_frames > limit:
+        source = "the video's frame count" if frame_count is not None else f"the bound for {records} records"
+        raise AdapterError(p, "num_frames", f"at most {limit} frames ({source})", num_frames)
+    return num_frames
+
+
+# --------------------------------------------------------------------------- finishing
+
+
+def _refuse_beyond(p: str | Path, field: str, values: np.ndarray, bound: float, unit: str, layout: str) -> None:
+    """Refuse any finite ``|values|`` above ``bound``, naming the first frame and joint.
+
+    ``values`` is ``(T, J, C)``, compared in its own precision (float64 for JSON input) so
+    that 1e300 is named, not first overflowed to inf.
+    """
+    with np.errstate(invalid="ignore"):
+        beyond = np.abs(values) > bound
+    hits = beyond.any(axis=2)
+    if hits.any():
+        t, j = (int(i) for i in np.argwhere(hits)[0])
+        value = float(values[t, j][beyond[t, j]][0])
+        name = get_layout(layout).joints[j]
+        raise AdapterError(p, f"{field} (frame {t}, joint {name})", f"|coordinate| <= {bound:g} {unit}",
+                           f"{value:.4g} ({int(hits.sum())} joints beyond it)")
+
+
+def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str) -> tuple[np.ndarray, float]:
+    """The last step of every 2D adapter: make ``(T, J, 3)`` x_px, y_px, confidence obey
+    the conventions.
+
+    A joint with any non-finite channel (``inf``, NaN, JSON ``Infinity``) is missing: NaN in
+    all three channels. ``|x|`` or ``|y|`` beyond ``MAX_ABS_COORDINATE["px"]`` (1e5) is
+    refused. Confidence is clipped to [0, 1].
+
+    Returns:
+        (float32 ``(T, J, 3)`` points, largest finite raw confidence or NaN).
+
+    Raises:
+        AdapterError: ``field`` naming frame and joint for a coordinate beyond the bound,
+            or when no finite keypoint is left.
+    """
+    pts = np.array(points, dtype=np.float64)
+    n_joints = get_layout(layout).num_joints
+    if pts.ndim != 3 or pts.shape[1:] != (n_joints, 3):
+        raise AdapterError(p, field, f"(T, {n_joints}, 3) keypoints for layout {layout}", f"shape {pts.shape}")
+    pts[~np.isfinite(pts).all(axis=2)] = np.nan
+    _refuse_beyond(p, field, pts[..., :2], MAX_ABS_COORDINATE["px"], "px", layout)
+    if not np.isfinite(pts).any():
+        raise AdapterError(p, field, "some finite keypoints", "only NaN/inf")
+    pts, raw_max = clip_confidence(pts)
+    return pts.astype(np.float32), raw_max
+
+
+def checked_poses(p: str | Path, field: str, joints: np.ndarray, layout: str, units: str) -> np.ndarray:
+    """The last step of every 3D adapter: ``(T, J, 3)`` joints in ``units`` through
+    :func:`pcnet.stages.conventions.validate_poses`, the check every entry point shares.
+
+    ``inf`` becomes NaN; a coordinate beyond ``MAX_ABS_COORDINATE[units]`` (100 m, 1e5 px,
+    1e3 normalised) is refused naming the frame and the joint of ``layout``.
+
+    Returns:
+        float32 ``(T, J, 3)``.
+
+    Raises:
+        AdapterError: ``field`` for a coordinate beyond the bound, the wrong dtype or shape,
+            no frame, or no finite value.
+    """
+    lay = get_layout(layout)
+    try:
+        return validate_poses(joints, source=str(p), units=units, num_joints=lay.num_joints, joint_names=lay.joints)
+    except InputError as exc:
+        msg = str(exc)
+        msg = msg[len(str(p)) + 2:] if msg.startswith(f"{p}: ") else msg
+        raise AdapterError(p, field, f"valid {layout} joints in units {units!r}", msg) from None

@@ -6,6 +6,7 @@ Frames are BGR ``uint8`` ``(H, W, 3)`` arrays, OpenCV's native order (convert wi
 
 from __future__ import annotations
 
+import math
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
@@ -26,6 +27,13 @@ def _capture(p: Path) -> Iterator[cv2.VideoCapture]:
         yield cap
     finally:
         cap.release()
+
+
+def _prop(cap: cv2.VideoCapture, prop: int) -> float:
+    """A capture property; 0 when OpenCV reports NaN/inf (damaged containers do), so that
+    the checks below refuse it instead of int() raising."""
+    value = float(cap.get(prop))
+    return value if math.isfinite(value) else 0.0
 
 
 def _count_by_decoding(cap: cv2.VideoCapture) -> int:
@@ -52,15 +60,15 @@ def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
 
     Raises:
         AdapterError: missing/unreadable file (field ``path``), a file OpenCV cannot open
-            (``video stream``), no decodable frame (``frame_count``), a non-positive frame
-            rate (``fps``) or size (``width/height``).
+            (``video stream``: any non-video file), no decodable frame (``frame_count``), a
+            non-positive or non-finite frame rate (``fps``) or size (``width/height``).
     """
     p = require_file(path, "a video file")
     with _capture(p) as cap:
-        count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
-        fps = float(cap.get(cv2.CAP_PROP_FPS))
-        width = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
-        height = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        count = int(_prop(cap, cv2.CAP_PROP_FRAME_COUNT))
+        fps = _prop(cap, cv2.CAP_PROP_FPS)
+        width = int(_prop(cap, cv2.CAP_PROP_FRAME_WIDTH))
+        height = int(_prop(cap, cv2.CAP_PROP_FRAME_HEIGHT))
         ok, _ = cap.read()
         if ok and verify:
             last_ok = False
@@ -72,7 +80,7 @@ def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
     if count <= 0 or not ok:
         raise AdapterError(p, "frame_count", "at least one decodable frame", f"{count} frames, first frame {'read' if ok else 'unreadable'}")
     if not fps > 0:
-        raise AdapterError(p, "fps", "a positive frame rate", fps)
+        raise AdapterError(p, "fps", "a positive finite frame rate", fps)
     if width <= 0 or height <= 0:
         raise AdapterError(p, "width/height", "a positive frame size", f"{width}x{height}")
     return VideoInfo(str(p), count, fps, width, height)

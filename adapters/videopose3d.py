@@ -4,11 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from .registry import register_3d
 from .types import Poses3D
-from .validate import load_npy
+from .validate import checked_poses, finite_max_abs, load_npy
 
 
 def load_videopose3d(path: str | Path) -> Poses3D:
@@ -21,15 +19,18 @@ def load_videopose3d(path: str | Path) -> Poses3D:
         the root in ``evaluate`` (``run.py`` L682-688), so the root is near, not exactly at,
         the origin (about 1e-4 m in the yoga exports); the caller centres it.
 
+        ``inf`` is missing data (NaN).
+
     Raises:
-        AdapterError: missing/unreadable file, not ``(N, 17, 3)``, all NaN.
+        AdapterError: missing/unreadable file, not ``(N, 17, 3)`` real numbers, all NaN, a
+            coordinate beyond 100 m (naming frame and joint).
 
     Source of the format facts: formats.md section 2.2 (VideoPose3D INFERENCE.md step 5,
     ``prepare_data_h36m.py`` L73 "Meters instead of millimeters").
     """
     p = Path(path)
-    arr = load_npy(p, ndim=3, num_joints=17, field="poses")
-    root = float(np.nanmax(np.abs(arr[:, 0])))
+    arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
+    root = finite_max_abs(arr[:, 0])
     notes = ("VideoPose3D export (formats.md 2.2), H36M-17, metres, camera frame x right / y down / z forward, "
              f"no axis changed; root as delivered (max |root| {root:.2g} m)")
     return Poses3D(arr, "h36m17", units="m", source=str(p), notes=notes)

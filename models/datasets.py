@@ -11,7 +11,6 @@ optionally a ``.json`` beside it mapping clip name -> ``{"frames", "fps", ...}``
 from __future__ import annotations
 
 import json
-import zipfile
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +19,7 @@ import numpy as np
 
 from pcnet.stages.canonical import canonical_rotation, to_canonical
 from pcnet.stages.conventions import H36M_PARENTS, PELVIS
+from pcnet.stages.errors import InputError
 from pcnet.stages.rotations import sample_camera_rotations
 
 SPLITS = ("train", "val", "test", "all")
@@ -33,14 +33,30 @@ class Clip:
 
 
 def load_numpy_file(path: Path, what: str):
-    """``np.load`` without pickles; a missing or unreadable file raises an error naming
-    ``path`` and ``what`` was expected (FileNotFoundError / ValueError)."""
+    """Open a ``.npy`` or ``.npz`` without pickles, like ``np.load(path, allow_pickle=False)``.
+
+    Returns:
+        the array of a ``.npy``, or for a ``.npz`` an ``np.lib.npyio.NpzFile``
+        (:class:`pcnet.adapters.validate.NumpyArchive`) whose ``[key]`` raises
+        :class:`~pcnet.stages.errors.InputError` for a damaged or pickled member.
+
+    Raises:
+        FileNotFoundError: missing file (naming ``path`` and ``what``).
+        InputError: ``"PATH: not a readable WHAT file (REASON)"``: not numpy at all (a CSV
+            is called that, not "pickled data"), a damaged file or header, or a pickled
+            object array.
+    """
+    # Imported here: the adapters package loads OpenCV, which datasets users rarely need.
+    from pcnet.adapters.types import AdapterError
+    from pcnet.adapters.validate import open_numpy
+
+    path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: {what} file not found")
     try:
-        return np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as err:
-        raise ValueError(f"{path}: not a readable {what} file ({err})") from err
+        return open_numpy(path)
+    except AdapterError as err:
+        raise InputError(f"{path}: not a readable {what} file ({err.got})") from err
 
 
 def load_mocap(path: str | Path) -> list[Clip]:
@@ -54,17 +70,17 @@ def load_mocap(path: str | Path) -> list[Clip]:
     path = Path(path)
     data = load_numpy_file(path, "mocap .npz")
     if not isinstance(data, np.lib.npyio.NpzFile):
-        raise ValueError(f"{path}: expected an .npz with one (T, 17, 3) array per clip, got a single array")
+        raise InputError(f"{path}: expected an .npz with one (T, 17, 3) array per clip, got a single array")
     meta_path = path.with_suffix(".json")
     meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
     clips = []
     with data:
         if not data.files:
-            raise ValueError(f"{path}: the npz holds no clips")
+            raise InputError(f"{path}: the npz holds no clips")
         for name in sorted(data.files):
             arr = data[name]
             if arr.ndim != 3 or arr.shape[1:] != (17, 3) or arr.shape[0] < 1:
-                raise ValueError(f"{path}: clip {name!r} has shape {arr.shape}, expected (T, 17, 3) H36M-17 in metres")
+                raise InputError(f"{path}: clip {name!r} has shape {arr.shape}, expected (T, 17, 3) H36M-17 in metres")
             clips.append(Clip(name, arr.astype(np.float32), float(meta.get(name, {}).get("fps", 30.0))))
     return clips
 
@@ -83,7 +99,7 @@ def select_split(clips: list[Clip], split: str) -> list[Clip]:
         ValueError: unknown split name.
     """
     if split not in SPLITS:
-        raise ValueError(f"unknown split {split!r}; expected one of {SPLITS}")
+        raise InputError(f"unknown split {split!r}; expected one of {SPLITS}")
     return [c for c in clips if split == "all" or clip_split(c.name) == split]
 
 
@@ -182,9 +198,9 @@ def make_pairs(
         ValueError: unknown ``camera``, no clips, or no valid frame.
     """
     if camera not in CAMERAS:
-        raise ValueError(f"unknown camera mode {camera!r}; expected one of {CAMERAS}")
+        raise InputError(f"unknown camera mode {camera!r}; expected one of {CAMERAS}")
     if not clips:
-        raise ValueError("no clips to build pairs from (empty split?)")
+        raise InputError("no clips to build pairs from (empty split?)")
     rng = np.random.default_rng(seed)
     idx_clip = np.concatenate([np.full(len(c.joints[::frame_stride]), i) for i, c in enumerate(clips)])
     idx_frame = np.concatenate([np.arange(0, len(c.joints), frame_stride) for c in clips])
@@ -204,7 +220,7 @@ def make_pairs(
         R_world = np.einsum("nij,njk->nik", R_world, R_aug)
         valid &= valid_aug
     if not valid.any():
-        raise ValueError("no frame with a defined canonical heading")
+        raise InputError("no frame with a defined canonical heading")
     canon, idx_clip, idx_frame, R_world = canon[valid], idx_clip[valid], idx_frame[valid], R_world[valid]
     n = len(canon)
 

@@ -8,6 +8,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from pcnet.stages.atomic import atomic_path, write_text
+
+from .checkpoint import load_checkpoint_dict
 from .network import PCNet
 
 OPSET = 18
@@ -34,11 +37,10 @@ def export_onnx(model: PCNet, path: str | Path, metadata: dict | None = None) ->
     path = Path(path)
     model = model.eval()
     x = torch.randn(4, 17, 3)
-    tmp = path.with_suffix(".onnx.tmp")
     fast = torch.backends.mha.get_fastpath_enabled()
     torch.backends.mha.set_fastpath_enabled(False)
     try:
-        with torch.no_grad():
+        with atomic_path(path) as tmp, torch.no_grad():
             torch.onnx.export(
                 _Exported(model), (x,), str(tmp), input_names=["x"], output_names=["rotation", "residual"],
                 dynamic_axes={"x": {0: "batch"}, "rotation": {0: "batch"}, "residual": {0: "batch"}},
@@ -46,10 +48,34 @@ def export_onnx(model: PCNet, path: str | Path, metadata: dict | None = None) ->
             )
     finally:
         torch.backends.mha.set_fastpath_enabled(fast)
-    tmp.replace(path)
     info = {"model_config": model.cfg.to_dict(), "opset": OPSET, **(metadata or {})}
-    path.with_suffix(".json").write_text(json.dumps(info, indent=2))
+    write_text(path.with_suffix(".json"), json.dumps(info, indent=2))
     return path
+
+
+def export_checkpoint(checkpoint: str | Path, path: str | Path) -> Path:
+    """Export a 3DPCNet or up-refiner checkpoint (``best.pt``; its ``kind`` entry says
+    which) to ONNX at ``path``, plus ``<path>.json`` naming the checkpoint. The checkpoint is
+    read with ``weights_only=True`` and fully checked before anything is written.
+
+    Returns:
+        ``path``.
+
+    Raises:
+        InputError: ``<checkpoint>: not a pcnet checkpoint (<reason>)`` (a pickle with
+            Python objects, random bytes, a missing file, missing entries, weights that do
+            not fit their config, an unfinished refiner run), or a refiner's base weights missing.
+        FileNotFoundError: the folder of ``path`` does not exist.
+    """
+    meta = {"checkpoint": str(checkpoint)}
+    if load_checkpoint_dict(checkpoint)["kind"] == "up_refiner":
+        from .up_refiner import export_refiner_onnx, load_refiner_checkpoint
+
+        model, cfg, domain = load_refiner_checkpoint(checkpoint)
+        return export_refiner_onnx(model, cfg, path, {**meta, **domain})
+    from .train import load_checkpoint
+
+    return export_onnx(load_checkpoint(checkpoint), path, meta)
 
 
 def max_difference(model: PCNet, path: str | Path, x: np.ndarray) -> float:

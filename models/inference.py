@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from pcnet.stages.errors import InputError
 from pcnet.stages.rotations import angle_between
 
 from .preprocess import normalize_input, refiner_features, refiner_up_xz, window_indices
@@ -29,11 +31,14 @@ class PCNetSession:
     frames (missing hips, thorax or shoulders; zero-size pose) are NaN.
 
     Raises:
-        FileNotFoundError: the weights file does not exist.
+        InputError: ``<path>: no such file``, ``<path>: not an ONNX model (<reason>)``, or an
+            ONNX model without 3DPCNet's input ``x`` (B, 17, 3) and outputs ``rotation``,
+            ``residual``.
     """
 
     def __init__(self, weights: str | Path | None = None, threads: int = 0):
-        self.path, self.session, self.info = _open(weights, DEFAULT_WEIGHTS, "3DPCNet", threads)
+        self.path, self.session, self.info = _open(weights, DEFAULT_WEIGHTS, threads)
+        _check_signature(self.path, self.session, "3DPCNet", {"x": [17, 3]}, {"rotation": [3, 3], "residual": [17, 3]})
 
     def predict(self, joints_cam: np.ndarray, batch_size: int = 4096) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         x, scale, valid = normalize_input(joints_cam)
@@ -55,19 +60,62 @@ def get_session(weights: str | None = None) -> PCNetSession:
     return PCNetSession(weights)
 
 
-def _open(weights, default: Path, what: str, threads: int):
-    """(path, onnxruntime session, the ``.json`` beside the weights or {})."""
+def _open(weights, default: Path, threads: int):
+    """(path, onnxruntime session, the ``.json`` beside the weights or {}).
+
+    Raises:
+        InputError: the file is missing, not an ONNX model onnxruntime can run, or its
+            ``.json`` is not a JSON object.
+    """
     import onnxruntime as ort
 
     path = Path(weights) if weights else default
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: {what} ONNX weights not found")
+        raise InputError(f"{path}: no such file")
     opts = ort.SessionOptions()
     if threads:
         opts.intra_op_num_threads = threads
-    session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+    try:
+        session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+    except Exception as err:  # onnxruntime's InvalidProtobuf, Fail, InvalidGraph, ... share no base class
+        raise InputError(f"{path}: not an ONNX model ({_ort_reason(err)})") from err
     meta = path.with_suffix(".json")
-    return path, session, json.loads(meta.read_text()) if meta.is_file() else {}
+    info = {}
+    if meta.is_file():
+        try:
+            info = json.loads(meta.read_text())
+        except (OSError, UnicodeDecodeError, ValueError) as err:
+            raise InputError(f"{meta}: not readable JSON beside the weights ({err})") from err
+        if not isinstance(info, dict):
+            raise InputError(f"{meta}: expected a JSON object beside the weights, got {type(info).__name__}")
+    return path, session, info
+
+
+def _ort_reason(err: Exception) -> str:
+    """onnxruntime's message without its ``[ONNXRuntimeError] : 7 : ... failed:`` prefix."""
+    text = " ".join(str(err).split())
+    found = re.search(r"failed:\s*(.+)", text)
+    text = found.group(1) if found else text
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+def _check_signature(path: Path, session, what: str, inputs: dict[str, list], outputs: dict[str, list]) -> None:
+    """Raise :class:`InputError` unless the model has exactly the named ``inputs`` and at
+    least the named ``outputs``, each with a leading batch axis and then the given sizes."""
+    found_in = {i.name: i.shape for i in session.get_inputs()}
+    found_out = {o.name: o.shape for o in session.get_outputs()}
+    expected = "inputs " + ", ".join(f"{k} (batch, {', '.join(map(str, v))})" for k, v in inputs.items())
+    expected += "; outputs " + ", ".join(f"{k} (batch, {', '.join(map(str, v))})" for k, v in outputs.items())
+    got = (f"inputs {', '.join(f'{k} {v}' for k, v in found_in.items())}; "
+           f"outputs {', '.join(f'{k} {v}' for k, v in found_out.items())}")
+    ok = set(found_in) == set(inputs) and set(outputs) <= set(found_out)
+    for name, dims in (*inputs.items(), *outputs.items()):
+        shape = found_in.get(name) or found_out.get(name)
+        # a dimension given by name (a symbolic axis) cannot be checked here
+        if ok and (len(shape) != 1 + len(dims) or any(isinstance(a, int) and a != b for a, b in zip(shape[1:], dims))):
+            ok = False
+    if not ok:
+        raise InputError(f"{path}: not {what} weights: expected {expected}, got {got}")
 
 
 class UpRefinerSession:
@@ -88,17 +136,28 @@ class UpRefinerSession:
     weights need their own refiner.
 
     Raises:
-        FileNotFoundError: the weights file does not exist.
-        ValueError: its ``.json`` lacks ``offsets_s`` (the window, seconds).
+        InputError: ``<path>: no such file``, ``<path>: not an ONNX model (<reason>)``, its
+            ``.json`` lacks ``offsets_s`` (the window, seconds), or the model's input
+            ``features`` / output do not fit that window and ``input_frame``.
     """
 
     def __init__(self, weights: str | Path | None = None, threads: int = 0, default: Path = DEFAULT_UP_REFINER):
-        self.path, self.session, self.info = _open(weights, default, "up refiner", threads)
-        self.offsets_s = np.asarray(self.info.get("offsets_s", []), np.float64)
+        self.path, self.session, self.info = _open(weights, default, threads)
+        meta = self.path.with_suffix(".json")
+        try:
+            self.offsets_s = np.asarray(self.info.get("offsets_s", []), np.float64).reshape(-1)
+            self.max_median_correction_deg = float(self.info.get("max_median_correction_deg", np.inf))
+        except (TypeError, ValueError) as err:
+            raise InputError(f"{meta}: field 'offsets_s' / 'max_median_correction_deg': expected numbers ({err})") from err
         if self.offsets_s.size == 0:
-            raise ValueError(f"{self.path.with_suffix('.json')}: field 'offsets_s' (window offsets in seconds) missing")
-        self.max_median_correction_deg = float(self.info.get("max_median_correction_deg", np.inf))
+            raise InputError(f"{meta}: field 'offsets_s' (window offsets in seconds) missing")
         self.input_frame = self.info.get("input_frame", "predicted")
+        n_out = 2 if self.input_frame == "predicted" else 3
+        outputs = [o.name for o in self.session.get_outputs()]
+        if len(outputs) != 1:
+            raise InputError(f"{self.path}: not up-refiner weights: expected one output, got {outputs}")
+        _check_signature(self.path, self.session, "up-refiner", {"features": [self.offsets_s.size * 51]},
+                         {outputs[0]: [n_out]})
 
     def refine(self, joints_cam: np.ndarray, R: np.ndarray, valid: np.ndarray, fps: float,
                batch_size: int = 4096) -> tuple[np.ndarray, dict]:

@@ -16,6 +16,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from pcnet.stages.conventions import H36M_BONES
+from pcnet.stages.errors import InputError
 
 NUM_JOINTS = 17
 
@@ -32,6 +33,19 @@ class PCNetConfig:
     feedforward: int = 512
     dropout: float = 0.1
     residual: bool = True
+
+    def __post_init__(self) -> None:
+        # Sizes torch would otherwise reject with a traceback deep inside nn.MultiheadAttention.
+        for name in ("hidden", "output", "heads", "feedforward"):
+            if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
+                raise InputError(f"[model] field {name!r}: expected an integer >= 1, got {getattr(self, name)!r}")
+        for name in ("gcn_layers", "transformer_layers"):
+            if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
+                raise InputError(f"[model] field {name!r}: expected an integer >= 0, got {getattr(self, name)!r}")
+        if self.hidden % self.heads:
+            raise InputError(f"[model] field 'heads': expected a divisor of hidden ({self.hidden}), got {self.heads}")
+        if not 0 <= self.dropout < 1:
+            raise InputError(f"[model] field 'dropout': expected a value in [0, 1), got {self.dropout}")
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from pcnet.stages.conventions import H36M_PARENTS, L_HIP, PELVIS, R_HIP, check_poses
+from pcnet.stages.errors import InputError
 
 # Joints needed to define the body frame at all; a frame missing any is invalid.
 _REQUIRED = (R_HIP, L_HIP, 8, 11, 14)
@@ -72,7 +73,7 @@ def window_indices(valid: np.ndarray, fps: float, offsets_s: np.ndarray) -> np.n
         ValueError: non-positive ``fps``.
     """
     if not fps > 0:
-        raise ValueError(f"fps must be positive, got {fps}")
+        raise InputError(f"fps must be positive, got {fps}")
     valid = np.asarray(valid, bool)
     T = len(valid)
     steps = np.round(np.asarray(offsets_s, np.float64) * fps).astype(np.int64)
@@ -136,7 +137,7 @@ def refiner_features(kind: str, x: np.ndarray, R_centre: np.ndarray, idx: np.nda
     if kind == "predicted":
         return window_features(x, R_centre, idx)
     if kind != "body":
-        raise ValueError(f"unknown refiner input frame {kind!r}; expected one of {REFINER_INPUTS}")
+        raise InputError(f"unknown refiner input frame {kind!r}; expected one of {REFINER_INPUTS}")
     pose = np.asarray(x[idx[:, 0]], np.float64)
     return np.einsum("njc,nck->njk", pose, body_frame(pose)).reshape(len(idx), -1).astype(np.float32)
 

@@ -17,8 +17,11 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from pcnet.stages.errors import InputError
 from pcnet.stages.metrics import rotation_error_deg, summarize, tilt_error_deg
 
+from .checkpoint import (config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint, resume_point,
+                         save_checkpoint)
 from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
 from .losses import LossWeights, composite_loss
 from .network import PCNet, PCNetConfig
@@ -55,7 +58,8 @@ def load_config(path: str | Path) -> TrainConfig:
     and ``[loss]`` tables. Relative data paths are resolved against the current directory.
 
     Raises:
-        ValueError: an unknown key, top-level or in ``[model]`` / ``[loss]`` (named with the file).
+        InputError: not TOML, an unknown key or a value of the wrong type, top-level or in
+            ``[model]`` / ``[loss]`` (named with the file).
     """
     path = Path(path)
     raw = read_toml(path)
@@ -64,16 +68,27 @@ def load_config(path: str | Path) -> TrainConfig:
     for table, cls in (("model", PCNetConfig), ("loss", LossWeights)):
         given = raw.pop(table, {})
         if not isinstance(given, dict):
-            raise ValueError(f"{path}: {table} must be a [{table}] table, got {given!r}")
+            raise InputError(f"{path}: {table} must be a [{table}] table, got {given!r}")
         check_config_keys(path, f"[{table}] has ", given, cls)
         tables[table] = cls(**given)
     return TrainConfig(**raw, **tables)
 
 
 def _device(name: str) -> torch.device:
+    """``auto`` = cuda when present.
+
+    Raises:
+        InputError: an unknown device name, or cuda asked for where there is none.
+    """
     if name == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    return torch.device(name)
+    try:
+        device = torch.device(name)
+    except RuntimeError as err:
+        raise InputError(f"device {name!r}: not a torch device ({' '.join(str(err).split())})") from err
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise InputError(f"device {name!r}: CUDA is not available here (use device = \"auto\" or \"cpu\")")
+    return device
 
 
 def _epoch_tensors(clips, cfg: TrainConfig, seed: int, views: str, noise: bool, augment: bool, **kw):
@@ -108,19 +123,29 @@ def validate(model: PCNet, x, R, device, batch: int = 4096) -> dict:
 def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     """Train 3DPCNet; returns the path of the best checkpoint (lowest validation rotation
     error). Writes ``last.pt`` (resumable), ``best.pt`` and ``metrics.jsonl`` to
-    ``cfg.out_dir``.
+    ``cfg.out_dir``; checkpoints hold tensors and plain types only
+    (:mod:`pcnet.models.checkpoint`).
+
+    Everything is read and checked (data, ``init_checkpoint``, ``last.pt`` when resuming)
+    before ``cfg.out_dir`` is created, so a bad input leaves no run folder behind.
 
     Raises:
-        ValueError: empty training or validation split.
+        InputError: empty training or validation split, an unknown device, or an
+            ``init_checkpoint`` / ``last.pt`` that is not a 3DPCNet checkpoint of this
+            architecture.
+        FileNotFoundError, ValueError: a missing or unreadable data file.
     """
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     device = _device(cfg.device)
     out = Path(cfg.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     clips = [c for path in cfg.data for c in load_mocap(path)]
     train_clips, val_clips = select_split(clips, "train"), select_split(clips, "val")
+    for split, chosen in (("train", train_clips), ("val", val_clips)):
+        if not chosen:
+            raise InputError(f"data {cfg.data}: no clips in the {split} split "
+                             f"(clips are split by name, pcnet.models.datasets.clip_split)")
     x_val, R_val, _ = _epoch_tensors(
         val_clips, cfg, seed=10_000 + cfg.seed, views=cfg.views, noise=cfg.noise, augment=False,
         frame_stride=1, max_frames=cfg.val_frames,
@@ -128,7 +153,8 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
 
     model = PCNet(cfg.model).to(device)
     if cfg.init_checkpoint:
-        model.load_state_dict(torch.load(cfg.init_checkpoint, map_location=device, weights_only=False)["model"])
+        ck = load_checkpoint_dict(cfg.init_checkpoint, kind="pcnet", map_location=device)
+        load_state(cfg.init_checkpoint, model, ck["model"], "model")
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     n_train = sum(len(c.joints[:: cfg.frame_stride]) for c in train_clips)
     steps_per_epoch = math.ceil(n_train / cfg.batch_size)
@@ -136,11 +162,13 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     start, best = 0, float("inf")
     last = out / "last.pt"
     if resume and last.is_file():
-        ck = torch.load(last, map_location=device, weights_only=False)
-        model.load_state_dict(ck["model"])
-        opt.load_state_dict(ck["optimizer"])
-        sched.load_state_dict(ck["scheduler"])
-        start, best = ck["epoch"] + 1, ck["best"]
+        ck = load_checkpoint_dict(last, kind="pcnet", required=("model", "optimizer", "scheduler", "epoch", "best"),
+                                  map_location=device)
+        load_state(last, model, ck["model"], "model")
+        load_state(last, opt, ck["optimizer"], "optimizer")
+        load_state(last, sched, ck["scheduler"], "scheduler")
+        start, best = resume_point(last, ck)
+    out.mkdir(parents=True, exist_ok=True)
     (out / "config.json").write_text(json.dumps(asdict(cfg), indent=2))
 
     for epoch in range(start, cfg.epochs):
@@ -163,30 +191,41 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
             opt.step()
             sched.step()
             for k, v in parts.items():
-                running[k] = running.get(k, 0.0) + (v - running.get(k, 0.0)) / n
+                running[k] = running.get(k, 0.0) + (float(v) - running.get(k, 0.0)) / n
             bar.set_postfix({k: f"{v:.4f}" for k, v in running.items() if k in ("total", "rot", "pose")})
-        metrics = validate(model, x_val, R_val, device)
-        record = {"epoch": epoch + 1, "seconds": round(time.time() - t0, 1), "lr": sched.get_last_lr()[0],
+        metrics = {k: float(v) for k, v in validate(model, x_val, R_val, device).items()}
+        record = {"epoch": epoch + 1, "seconds": round(time.time() - t0, 1), "lr": float(sched.get_last_lr()[0]),
                   **{f"train_{k}": v for k, v in running.items()}, **metrics}
         with open(out / "metrics.jsonl", "a") as fh:
             fh.write(json.dumps(record) + "\n")
         if progress:
             tqdm.write(json.dumps(record))
-        ck = {"model": model.state_dict(), "optimizer": opt.state_dict(), "scheduler": sched.state_dict(),
-              "epoch": epoch, "best": min(best, metrics["val_rotation_deg"]), "config": asdict(cfg)}
-        torch.save(ck, out / "last.pt.tmp")
-        Path(out / "last.pt.tmp").replace(last)
+        save_checkpoint({"kind": "pcnet", "model": model.state_dict(), "optimizer": opt.state_dict(),
+                         "scheduler": sched.state_dict(), "epoch": epoch,
+                         "best": min(best, metrics["val_rotation_deg"]), "model_config": cfg.model.to_dict(),
+                         "config": asdict(cfg)}, last)
         if metrics["val_rotation_deg"] < best:
             best = metrics["val_rotation_deg"]
-            torch.save({"model": model.state_dict(), "model_config": cfg.model.to_dict(), "epoch": epoch + 1,
-                        "val": metrics}, out / "best.pt")
+            save_checkpoint({"kind": "pcnet", "model": model.state_dict(), "model_config": cfg.model.to_dict(),
+                             "epoch": epoch + 1, "val": metrics}, out / "best.pt")
     return out / "best.pt"
 
 
 def load_checkpoint(path: str | Path) -> PCNet:
-    """A :class:`PCNet` in eval mode from ``best.pt`` / ``last.pt``."""
-    ck = torch.load(path, map_location="cpu", weights_only=False)
-    cfg = ck.get("model_config") or ck["config"]["model"]
-    model = PCNet(PCNetConfig(**cfg))
-    model.load_state_dict(ck["model"])
+    """A :class:`PCNet` in eval mode from a 3DPCNet ``best.pt`` / ``last.pt``, read with
+    ``weights_only=True`` (no code in the file runs).
+
+    Raises:
+        InputError: ``<path>: not a pcnet checkpoint (<reason>)``: not a 3DPCNet checkpoint,
+            or its weights do not fit its ``model_config``.
+    """
+    ck = load_checkpoint_dict(path, kind="pcnet")
+    given = ck.get("model_config")
+    if given is None:
+        config = ck.get("config")
+        given = config.get("model") if isinstance(config, dict) else None
+    if given is None:
+        raise not_a_checkpoint(path, "no 'model_config' entry")
+    model = PCNet(config_from_dict(path, "model_config", given, PCNetConfig))
+    load_state(path, model, ck["model"], "model")
     return model.eval()

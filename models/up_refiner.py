@@ -38,8 +38,12 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from pcnet.stages.atomic import atomic_path, write_text
+from pcnet.stages.errors import InputError
 from pcnet.stages.rotations import angle_between
 
+from .checkpoint import (config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint, resume_point,
+                         save_checkpoint)
 from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
 from .inference import DEFAULT_WEIGHTS, PCNetSession, file_sha256, tilt_to_up
 from .preprocess import REFINER_INPUTS, body_frame, normalize_input, refiner_features, refiner_up_xz, window_indices
@@ -85,24 +89,24 @@ def load_refiner_config(path: str | Path) -> RefinerConfig:
     """Read a TOML file with top-level keys of :class:`RefinerConfig`.
 
     Raises:
-        ValueError: not TOML, an unknown key, ``cameras`` / ``noise_fractions`` of different
-            lengths, a camera other than static / per-clip, or per-frame with a window of
-            more than one frame (named with the file).
+        InputError: not TOML, an unknown key, a value of the wrong type, ``cameras`` /
+            ``noise_fractions`` of different lengths, a camera other than static /
+            per-clip, or per-frame with a window of more than one frame (named with the file).
     """
     path = Path(path)
     raw = read_toml(path)
     check_config_keys(path, "", raw, RefinerConfig)
     cfg = RefinerConfig(**raw)
     if len(cfg.cameras) != len(cfg.noise_fractions) or not cfg.cameras:
-        raise ValueError(f"{path}: cameras and noise_fractions must be non-empty lists of the same length "
+        raise InputError(f"{path}: cameras and noise_fractions must be non-empty lists of the same length "
                          f"(one entry per camera draw), got {len(cfg.cameras)} and {len(cfg.noise_fractions)}")
     if cfg.input_frame not in REFINER_INPUTS or (cfg.input_frame == "body" and len(cfg.offsets_s) != 1):
-        raise ValueError(f"{path}: input_frame: expected one of {REFINER_INPUTS} ('body' with a one-frame "
+        raise InputError(f"{path}: input_frame: expected one of {REFINER_INPUTS} ('body' with a one-frame "
                          f"window, offsets_s = [0.0]), got {cfg.input_frame!r} with {len(cfg.offsets_s)} offsets")
     allowed = {"static", "per-clip"} | ({"per-frame"} if len(cfg.offsets_s) == 1 else set())
     bad = sorted(set(cfg.cameras + [cfg.val_camera]) - allowed)
     if bad:
-        raise ValueError(f"{path}: cameras, val_camera: expected {sorted(allowed)} for a window of "
+        raise InputError(f"{path}: cameras, val_camera: expected {sorted(allowed)} for a window of "
                          f"{len(cfg.offsets_s)} frame(s), got {bad}")
     return cfg
 
@@ -205,20 +209,29 @@ def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True
     """Train the up refiner; returns the best checkpoint (lowest val per-frame tilt error;
     val = the val split, paper views, ``val_camera``, ``val_noise_fraction``). Writes ``last.pt``
     (resumable), ``best.pt`` and ``metrics.jsonl`` (with the seconds of data preparation)
-    to ``cfg.out_dir``.
+    to ``cfg.out_dir``; checkpoints hold tensors and plain types only
+    (:mod:`pcnet.models.checkpoint`).
+
+    Everything is read and checked (base weights, data, ``last.pt`` when resuming) before
+    ``cfg.out_dir`` is created, so a bad input leaves no run folder behind.
 
     Raises:
-        ValueError: empty split; FileNotFoundError: base weights missing.
+        InputError: empty split, base weights missing or not ONNX, or a ``last.pt`` that is
+            not an up-refiner checkpoint of this architecture.
+        FileNotFoundError, ValueError: a missing or unreadable data file.
     """
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     out = Path(cfg.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     t0 = time.time()
     session = PCNetSession(cfg.base_weights, threads=cfg.threads)
     clips = [c for path in cfg.data for c in load_mocap(path)]
     train_clips, val_clips = select_split(clips, "train"), select_split(clips, "val")
+    for split, chosen in (("train", train_clips), ("val", val_clips)):
+        if not chosen:
+            raise InputError(f"data {cfg.data}: no clips in the {split} split "
+                             f"(clips are split by name, pcnet.models.datasets.clip_split)")
     draws = [_draw(train_clips, cfg, session, cfg.views, camera, cfg.seed + k, f, cfg.augment)
              for k, (camera, f) in enumerate(zip(cfg.cameras, cfg.noise_fractions))]
     val = _draw(val_clips, cfg, session, "paper", cfg.val_camera, 10_000 + cfg.seed, cfg.val_noise_fraction, False)
@@ -233,11 +246,12 @@ def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True
     start, best = 0, float("inf")
     last = out / "last.pt"
     if resume and last.is_file():
-        ck = torch.load(last, map_location="cpu", weights_only=False)
-        model.load_state_dict(ck["model"])
-        opt.load_state_dict(ck["optimizer"])
-        sched.load_state_dict(ck["scheduler"])
-        start, best = ck["epoch"] + 1, ck["best"]
+        ck = load_checkpoint_dict(last, kind="up_refiner", required=("model", "optimizer", "scheduler", "epoch", "best"))
+        load_state(last, model, ck["model"], "model")
+        load_state(last, opt, ck["optimizer"], "optimizer")
+        load_state(last, sched, ck["scheduler"], "scheduler")
+        start, best = resume_point(last, ck)
+    out.mkdir(parents=True, exist_ok=True)
     (out / "config.json").write_text(json.dumps(asdict(cfg), indent=2))
     with open(out / "metrics.jsonl", "a") as fh:
         fh.write(json.dumps({"data_preparation_seconds": round(prep_s, 1)}) + "\n")
@@ -270,35 +284,39 @@ def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True
         if progress:
             tqdm.write(json.dumps(record))
         best_now = min(best, refined_deg)
-        ck = {"model": model.state_dict(), "optimizer": opt.state_dict(), "scheduler": sched.state_dict(),
-              "epoch": epoch, "best": best_now, "config": asdict(cfg)}
-        torch.save(ck, out / "last.pt.tmp")
-        Path(out / "last.pt.tmp").replace(last)
+        save_checkpoint({"kind": "up_refiner", "model": model.state_dict(), "optimizer": opt.state_dict(),
+                         "scheduler": sched.state_dict(), "epoch": epoch, "best": best_now, "config": asdict(cfg)},
+                        last)
         if refined_deg < best:
             best = refined_deg
-            torch.save({"kind": "up_refiner", "model": model.state_dict(), "config": asdict(cfg),
-                        "epoch": epoch + 1, "val": record}, out / "best.pt")
-    best_ck = torch.load(out / "best.pt", map_location="cpu", weights_only=False)
-    model.load_state_dict(best_ck["model"])
+            save_checkpoint({"kind": "up_refiner", "model": model.state_dict(), "config": asdict(cfg),
+                             "epoch": epoch + 1, "val": record}, out / "best.pt")
+    best_ck = load_checkpoint_dict(out / "best.pt", kind="up_refiner")
+    load_state(out / "best.pt", model, best_ck["model"], "model")
     best_ck["max_median_correction_deg"] = _max_clip_median_correction_deg(model, val)
-    torch.save(best_ck, out / "best.pt")
+    save_checkpoint(best_ck, out / "best.pt")
     return out / "best.pt"
 
 
 def load_refiner_checkpoint(path: str | Path) -> tuple[UpRefinerNet, RefinerConfig, dict]:
     """The refiner in eval mode, its training config and ``{"max_median_correction_deg"}``
-    (its domain check; only in a finished run's ``best.pt``), from a checkpoint.
+    (its domain check; only in a finished run's ``best.pt``), from a checkpoint read with
+    ``weights_only=True`` (no code in the file runs).
 
     Raises:
-        ValueError: a ``best.pt`` without the domain check (training did not finish).
+        InputError: ``<path>: not a pcnet checkpoint (<reason>)``: not an up-refiner
+            checkpoint, weights that do not fit its config, or a ``best.pt`` without the
+            domain check (training did not finish).
     """
-    ck = torch.load(path, map_location="cpu", weights_only=False)
-    if "max_median_correction_deg" not in ck:
-        raise ValueError(f"{path}: no 'max_median_correction_deg' (the domain check is set when training finishes)")
-    cfg = RefinerConfig(**ck["config"])
+    ck = load_checkpoint_dict(path, kind="up_refiner", required=("model", "config"))
+    domain = ck.get("max_median_correction_deg")
+    if type(domain) not in (int, float):
+        raise not_a_checkpoint(path, "no 'max_median_correction_deg': the domain check is set when training "
+                                     "finishes")
+    cfg = config_from_dict(path, "config", ck["config"], RefinerConfig)
     model = UpRefinerNet(len(cfg.offsets_s), cfg.hidden, cfg.layers, cfg.input_frame)
-    model.load_state_dict(ck["model"])
-    return model.eval(), cfg, {"max_median_correction_deg": ck["max_median_correction_deg"]}
+    load_state(path, model, ck["model"], "model")
+    return model.eval(), cfg, {"max_median_correction_deg": float(domain)}
 
 
 def export_refiner_onnx(model: UpRefinerNet, cfg: RefinerConfig, path: str | Path, metadata: dict | None = None) -> Path:
@@ -306,20 +324,26 @@ def export_refiner_onnx(model: UpRefinerNet, cfg: RefinerConfig, path: str | Pat
     (B, 3) for ``input_frame="body"``; dynamic batch) atomically, plus ``<path>.json`` with
     ``offsets_s``, ``input_frame``, ``hidden``, ``layers``, the base weights' file name and
     SHA-256 (run time applies the refiner to that network only) and ``metadata`` (give it ``max_median_correction_deg`` from
-    :func:`load_refiner_checkpoint`)."""
+    :func:`load_refiner_checkpoint`).
+
+    Raises:
+        InputError: the base weights file is missing (nothing is written then).
+    """
     path = Path(path)
-    tmp = path.with_suffix(".onnx.tmp")
+    base = Path(cfg.base_weights) if cfg.base_weights else DEFAULT_WEIGHTS
+    # Checked before anything is written: without the base's hash the refiner is unusable.
+    if not base.is_file():
+        raise InputError(f"{base}: no such file (the base 3DPCNet weights the refiner was trained on, "
+                         f"base_weights in its config)")
+    info = {"offsets_s": list(cfg.offsets_s), "input_frame": cfg.input_frame, "hidden": cfg.hidden, "layers": cfg.layers, "base_weights": base.name,
+            "base_weights_sha256": file_sha256(str(base)), "opset": OPSET}
+    info.update(metadata or {})
     out_name = "up_xz" if model.input_frame == "predicted" else "up_body"
-    with torch.no_grad():
+    with atomic_path(path) as tmp, torch.no_grad():
         torch.onnx.export(
             model.eval(), (torch.zeros(4, model.n_features),), str(tmp), input_names=["features"],
             output_names=[out_name], dynamic_axes={"features": {0: "batch"}, out_name: {0: "batch"}},
             opset_version=OPSET, dynamo=False,
         )
-    tmp.replace(path)
-    base = Path(cfg.base_weights) if cfg.base_weights else DEFAULT_WEIGHTS
-    info = {"offsets_s": list(cfg.offsets_s), "input_frame": cfg.input_frame, "hidden": cfg.hidden, "layers": cfg.layers, "base_weights": base.name,
-            "base_weights_sha256": file_sha256(str(base)), "opset": OPSET}
-    info.update(metadata or {})
-    path.with_suffix(".json").write_text(json.dumps(info, indent=2))
+    write_text(path.with_suffix(".json"), json.dumps(info, indent=2))
     return path

@@ -7,10 +7,20 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import fields
 from pathlib import Path
 
+from pcnet.stages.errors import InputError
+
 from .config import RunConfig
 
 _NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold": float, "cutoff_hz": float}
 _LIFTER_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key")
+_BOOLEAN = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}
+
+
+def _boolean(key: str, raw: str) -> bool:
+    try:
+        return _BOOLEAN[raw.lower()]
+    except KeyError:
+        raise InputError(f"column {key}: expected true/false (1/0, yes/no), got {raw!r}") from None
 
 
 def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
@@ -19,7 +29,7 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
     known = {f.name for f in fields(RunConfig)} | set(_LIFTER_OPTIONS)
     unknown = {k for k in row if k and k not in known}
     if unknown:
-        raise ValueError(f"unknown columns {sorted(unknown)}")
+        raise InputError(f"unknown columns {sorted(unknown)}; expected some of {sorted(known)}")
     values, options = {}, {}
     for key, raw in row.items():
         if raw is None or str(raw).strip() == "":
@@ -31,19 +41,19 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
             try:
                 values[key] = _NUMERIC[key](raw)
             except ValueError:
-                raise ValueError(f"column {key}: expected a number, got {raw!r}") from None
+                raise InputError(f"column {key}: expected a number, got {raw!r}") from None
         elif key == "pixel":
-            options["pixel"] = raw.lower() in ("1", "true", "yes")
+            options["pixel"] = _boolean(key, raw)
         elif key == "hypothesis":
             options[key] = int(raw) if raw.lstrip("-").isdigit() else raw
         elif key in _LIFTER_OPTIONS:
             options[key] = raw
-        elif key in ("overwrite", "recording"):
-            values[key] = raw.lower() in ("1", "true", "yes")
+        elif key in ("overwrite", "recording", "fps_override"):
+            values[key] = _boolean(key, raw)
         else:
             values[key] = raw
     values.setdefault("overwrite", overwrite)
-    return RunConfig(**values, lifter_options=options).validate()
+    return RunConfig(**values, lifter_options=options).validate("manifest row")
 
 
 def _run_row(args: tuple[int, dict, str, bool]) -> dict:
@@ -60,14 +70,40 @@ def _run_row(args: tuple[int, dict, str, bool]) -> dict:
                 "out": row.get("out", ""), "error": f"{type(err).__name__}: {err}"}
 
 
+def read_manifest(manifest: Path) -> list[dict]:
+    """The rows of a CSV manifest (a header line, then one recording per line).
+
+    Raises:
+        InputError: the file is empty, not UTF-8 text, not CSV, has no header or no rows,
+            or a row has more cells than the header (naming the manifest and the line).
+    """
+    try:
+        text = manifest.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise InputError(f"{manifest}: expected a UTF-8 CSV manifest, got binary data (byte {err.start})") from None
+    if "\x00" in text:
+        raise InputError(f"{manifest}: expected a UTF-8 CSV manifest, got binary data (NUL bytes)")
+    if not text.strip():
+        raise InputError(f"{manifest}: expected a CSV manifest with a header and rows, got an empty file")
+    try:
+        reader = csv.DictReader(text.splitlines())
+        rows = list(reader)
+    except csv.Error as err:
+        raise InputError(f"{manifest}: expected CSV, got {err}") from None
+    for line, row in enumerate(rows, start=2):
+        if None in row:
+            raise InputError(f"{manifest}: line {line}: expected at most {len(reader.fieldnames)} cells "
+                             f"(the header's), got {len(reader.fieldnames) + len(row[None])}")
+    if not rows:
+        raise InputError(f"{manifest}: expected at least one row below the header {reader.fieldnames}, got none")
+    return rows
+
+
 def run_batch(manifest: str | Path, workers: int = 2, overwrite: bool = False) -> list[dict]:
     """Run every row of ``manifest`` (CSV with a header) in ``workers`` processes; returns
     one result dict per row, in manifest order."""
     manifest = Path(manifest)
-    with open(manifest, newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    if not rows:
-        raise ValueError(f"{manifest}: the manifest has no rows")
+    rows = read_manifest(manifest)
     jobs = [(i + 1, row, str(manifest.parent), overwrite) for i, row in enumerate(rows)]
     if workers <= 1:
         return [_run_row(j) for j in jobs]

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 import sys
 from pathlib import Path
 
@@ -10,13 +12,57 @@ import click
 
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
+from pcnet.stages.errors import InputError
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, up_refiner_note
 
+#: Exit status after Ctrl-C or SIGTERM (128 + SIGINT, the shell's convention).
+EXIT_INTERRUPTED = 130
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+
+def one_line(err: BaseException) -> str:
+    """The one-line message of an expected error: an :class:`InputError`'s own text, or an
+    ``OSError``'s file and reason (``FileExistsError`` of pcnet itself carries its text)."""
+    if isinstance(err, OSError) and err.filename is not None:
+        names = " -> ".join(str(f) for f in (err.filename, err.filename2) if f is not None)
+        return f"{names}: {err.strerror or err}"
+    return " ".join(str(err).split())
+
+
+class _ErrorBoundary(click.Group):
+    """Every command's body runs here: bad input (:class:`InputError`, an ``OSError`` from
+    the user's files or folders) ends in one line and exit 1, Ctrl-C and SIGTERM in one line
+    and exit 130. Any other exception is a bug of pcnet and keeps its traceback."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except (InputError, OSError) as err:
+            raise click.ClickException(one_line(err)) from err
+        except KeyboardInterrupt:
+            click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
+            raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+
+
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+@click.group(cls=_ErrorBoundary, context_settings={"help_option_names": ["-h", "--help"]})
 def main() -> None:
     """pcnet: rectify monocular 3D human poses into a gravity-aligned, body-centred frame."""
+    # SIGTERM (a scheduler's or `kill`'s stop) unwinds like Ctrl-C, so the same clean-up runs.
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+        signal.signal(signal.SIGTERM, _raise_interrupt)
+
+
+def _writable_folder(path: str | os.PathLike, option: str) -> None:
+    """Refuse, before any work, an output file whose folder is missing or read-only."""
+    folder = Path(path).resolve().parent
+    if not folder.is_dir():
+        raise InputError(f"{option} {path}: expected an existing folder for it, got no folder {folder}")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"{option} {path}: expected a folder pcnet may write to, got read-only {folder}")
 
 
 _UP_REFINER_HELP = ("pcnet's up refiners (shipped weights only): correct every frame's up from its pose and, in sequence "
@@ -25,10 +71,6 @@ _heading_option = click.option(
     "--heading", type=click.Choice(HEADING_SOURCES), default=None,
     help="Heading about the up axis from: predicted (the method's rotation), hips (the input's hip line, "
          "exact on clean mocap) or auto (hips when precise) [auto; geometric: predicted].")
-
-
-def _fail(message: str) -> None:
-    raise click.ClickException(message)
 
 
 @main.command()
@@ -52,11 +94,11 @@ def evaluate(method, data, split, views, camera, noise, mode, heading, seed, max
     from pcnet.pipeline.evaluate import evaluate as run_eval, format_table
     from pcnet.stages.atomic import write_text
 
-    try:
-        result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise, mode, heading,
-                          up_refiner)
-    except (OSError, ValueError) as err:
-        _fail(str(err))
+    if json_out:
+        _writable_folder(json_out, "--json")
+    if max_frames is not None and max_frames < 1:
+        raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
+    result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise, mode, heading, up_refiner)
     click.echo(format_table(result))
     if json_out:
         write_text(json_out, json.dumps(result, indent=2) + "\n")
@@ -81,11 +123,13 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_r
     from pcnet.stages.exports import write_npz
     from pcnet.stages.rectify import rectify as run_rectify
 
-    try:
-        joints = load_pose_array(input_path, key)
-        res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading, up_refiner=up_refiner)
-    except (OSError, ValueError) as err:
-        _fail(str(err))
+    _writable_folder(out_path, "--out")
+    if Path(out_path).resolve() == Path(input_path).resolve():
+        raise InputError(f"--out {out_path}: expected a new file, got the input file itself")
+    if not (fps > 0 and np.isfinite(fps)):
+        raise InputError(f"--fps: expected a frame rate > 0, got {fps}")
+    joints = load_pose_array(input_path, key)
+    res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading, up_refiner=up_refiner)
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
               up_refined=np.array(bool(res.report.get("up_refined", False))),
@@ -98,15 +142,12 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_r
 def _training_options(command):
     """``--config FILE`` and ``--no-resume``, shared by the training commands."""
     command = click.option("--no-resume", is_flag=True, help="Start again even if a checkpoint exists.")(command)
-    return click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False), required=True)(command)
+    return click.option("--config", "config_path", type=click.Path(dir_okay=False), required=True)(command)
 
 
 def _run_training(load_config, run_train, config_path, no_resume) -> None:
     """Load a training config, train, print the best checkpoint; bad files end in one line."""
-    try:
-        best = run_train(load_config(config_path), resume=not no_resume)
-    except (OSError, ValueError) as err:
-        _fail(str(err))
+    best = run_train(load_config(config_path), resume=not no_resume)
     click.echo(f"best checkpoint: {best}")
 
 
@@ -120,33 +161,14 @@ def train(config_path, no_resume):
 
 
 @main.command()
-@click.option("--checkpoint", type=click.Path(exists=True, dir_okay=False), required=True)
+@click.option("--checkpoint", type=click.Path(dir_okay=False), required=True)
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True)
 def export(checkpoint, out_path):
     """Export a 3DPCNet or up-refiner checkpoint to ONNX (dynamic batch)."""
-    import torch
+    from pcnet.models.export import export_checkpoint
 
-    meta = {"checkpoint": str(checkpoint)}
-    try:
-        ck = torch.load(checkpoint, map_location="cpu", weights_only=False)
-    except Exception as err:  # torch raises pickle, zip and runtime errors on foreign files
-        _fail(f"{checkpoint}: not a pcnet checkpoint ({type(err).__name__}: {err})")
-    if not isinstance(ck, dict) or "model" not in ck:
-        _fail(f"{checkpoint}: not a pcnet checkpoint (no 'model' entry)")
-    if ck.get("kind") == "up_refiner":
-        from pcnet.models.up_refiner import export_refiner_onnx, load_refiner_checkpoint
-
-        try:
-            model, cfg, domain = load_refiner_checkpoint(checkpoint)
-        except ValueError as err:
-            _fail(str(err))
-        path = export_refiner_onnx(model, cfg, out_path, {**meta, **domain})
-    else:
-        from pcnet.models.export import export_onnx
-        from pcnet.models.train import load_checkpoint
-
-        path = export_onnx(load_checkpoint(checkpoint), out_path, meta)
-    click.echo(f"wrote {path}")
+    _writable_folder(out_path, "--out")
+    click.echo(f"wrote {export_checkpoint(checkpoint, out_path)}")
 
 
 @main.command("train-refiner")
@@ -162,14 +184,9 @@ EXAMPLE_DIR = Path(__file__).parent / "example_data"
 
 
 def _run_and_report(cfg) -> None:
-    from pcnet.adapters import AdapterError
     from pcnet.pipeline.runner import run_pipeline
 
-    try:
-        result = run_pipeline(cfg)
-    except (OSError, ValueError, AdapterError) as err:
-        _fail(str(err))
-    click.echo(result.summary())
+    click.echo(run_pipeline(cfg).summary())
 
 
 @main.command()
@@ -181,11 +198,15 @@ def _run_and_report(cfg) -> None:
 @click.option("--lifter", type=click.Choice(LIFTERS), default=None, help="Which 3D lifter wrote --lifter-output.")
 @click.option("--lifter-output", type=click.Path(dir_okay=False), default=None)
 @click.option("--method", type=click.Choice(METHODS), default=None, help="Rectification method [pcnet].")
+@click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights [shipped].")
 @click.option("--mode", type=click.Choice(MODES), default=None,
               help="frame | sequence (static camera) | smooth (moving camera) | auto [auto].")
 @_heading_option
 @click.option("--height", type=float, default=None, help="Subject height in metres, to scale non-metric output.")
-@click.option("--fps", type=float, default=None, help="Frame rate when no video is given.")
+@click.option("--fps", type=float, default=None,
+              help="Frame rate when neither the video nor the input files give it.")
+@click.option("--fps-override", is_flag=True, default=None,
+              help="Use --fps even though it differs from the video's own rate.")
 @click.option("--person", type=int, default=None, help="2D track id to follow (AlphaPose idx / MMPose instance).")
 @click.option("--confidence-threshold", type=float, default=None, help="2D confidence below which 3D joints become NaN [0.3].")
 @click.option("--cutoff-hz", type=float, default=None, help="Butterworth low-pass cutoff [6 Hz].")
@@ -211,18 +232,15 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, 
         lifter_options["hypothesis"] = int(hypothesis) if hypothesis.lstrip("-").isdigit() else hypothesis
     if no_recording:
         options["recording"] = False
-    try:
-        if config_path:
-            cfg = load_run_config(config_path, **options)
-            cfg.lifter_options.update(lifter_options)
-        else:
-            given = {k: v for k, v in options.items() if v is not None}
-            for needed in ("lifter", "lifter_output"):
-                if needed not in given:
-                    _fail(f"--{needed.replace('_', '-')} is required (or give --config)")
-            cfg = RunConfig(**given, lifter_options=lifter_options).validate()
-    except (TypeError, ValueError) as err:
-        _fail(str(err))
+    if config_path:
+        cfg = load_run_config(config_path, **options)
+        cfg.lifter_options.update(lifter_options)
+    else:
+        given = {k: v for k, v in options.items() if v is not None}
+        for needed in ("lifter", "lifter_output"):
+            if needed not in given:
+                raise InputError(f"--{needed.replace('_', '-')}: expected a value (or --config FILE), got none")
+        cfg = RunConfig(**given, lifter_options=lifter_options).validate("command line")
     _run_and_report(cfg)
 
 
@@ -234,18 +252,20 @@ def demo(out, method, overwrite):
     """The whole pipeline on the bundled real example (boxing video, AlphaPose Halpe-26,
     MotionBERT); scaled to an assumed 1.75 m subject."""
     from pcnet.pipeline.config import RunConfig
+    from pcnet.pipeline.outdir import check_out_folder
 
     cfg = RunConfig(
         video=str(EXAMPLE_DIR / "boxing2.mp4"), keypoints2d=str(EXAMPLE_DIR / "alphapose-results.json"),
         keypoints2d_format="alphapose", lifter="motionbert", lifter_output=str(EXAMPLE_DIR / "X3D.npy"),
         out=out, method=method, height=1.75, overwrite=overwrite,
     )
+    check_out_folder(out, (EXAMPLE_DIR,), overwrite)  # before the banner: a refusal is the only line
     click.echo("pcnet demo: boxing_motionbert (MotionBERT repository, Apache-2.0), subject height assumed 1.75 m")
     _run_and_report(cfg)
 
 
 @main.command()
-@click.argument("manifest", type=click.Path(exists=True, dir_okay=False))
+@click.argument("manifest", type=click.Path(dir_okay=False))
 @click.option("--workers", type=int, default=2, show_default=True)
 @click.option("--overwrite", is_flag=True)
 def batch(manifest, workers, overwrite):

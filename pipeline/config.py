@@ -2,15 +2,21 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from pcnet.models.toml_config import check_config_keys, read_toml
+from pcnet.models.toml_config import check_config_keys, check_config_types, read_toml
+from pcnet.stages.errors import InputError
 
 KEYPOINT_FORMATS = ("alphapose", "mmpose", "openpose", "mediapipe")
 LIFTERS = ("motionbert", "ddhpose", "videopose3d", "mediapipe", "generic")
 MODES = ("auto", "frame", "sequence", "smooth")
 ALIGN = ("none", "truncate")
+# Plausible ranges: the shortest to the tallest adult or child recorded (Guinness: 0.55-2.72 m),
+# and the fastest consumer high-speed video.
+MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0
+MAX_FPS = 10_000.0
 
 
 @dataclass
@@ -22,6 +28,8 @@ class RunConfig:
     ``person`` picks a 2D track (AlphaPose ``idx``, MMPose instance position); ``heading``
     is the heading source of :func:`pcnet.stages.rectify.rectify` (``None`` = its default);
     ``up_refiner`` its up refiners (frame, and static-camera in sequence mode; on by default).
+    ``fps`` is needed only when neither a video nor an input file gives the frame rate; with
+    a video it must match the video's rate unless ``fps_override``.
     """
 
     lifter: str
@@ -35,6 +43,7 @@ class RunConfig:
     heading: str | None = None
     height: float | None = None
     fps: float | None = None
+    fps_override: bool = False
     person: int | None = None
     confidence_threshold: float = 0.3
     cutoff_hz: float = 6.0
@@ -45,12 +54,17 @@ class RunConfig:
     up_refiner: bool = True
     lifter_options: dict = field(default_factory=dict)
 
-    def validate(self) -> "RunConfig":
-        """Check choices and combinations; raises ValueError naming the field."""
+    def validate(self, source: str = "config") -> "RunConfig":
+        """Check every field's type (against the annotations), choices, ranges and
+        combinations.
+
+        Raises:
+            InputError: naming ``source``, the field, what was expected and what was given.
+        """
+        from pcnet.stages.heading import HEADING_SOURCES
         from pcnet.stages.rectify import METHODS
 
-        from pcnet.stages.heading import HEADING_SOURCES
-
+        check_config_types(source, "", asdict(self), RunConfig)
         # (field, value, choices, None allowed)
         for name, value, choices, optional in (
             ("lifter", self.lifter, LIFTERS, False), ("method", self.method, METHODS, False),
@@ -59,15 +73,21 @@ class RunConfig:
             ("keypoints2d_format", self.keypoints2d_format, KEYPOINT_FORMATS, True),
         ):
             if not (optional and value is None) and value not in choices:
-                raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
+                raise InputError(f"{source}: field {name!r}: expected one of {choices}, got {value!r}")
         if (self.keypoints2d is None) != (self.keypoints2d_format is None):
-            raise ValueError("keypoints2d and keypoints2d_format: give both or neither")
-        if self.video is None and self.fps is None:
-            raise ValueError("fps: needed when no video is given (the frame rate of the keypoint files)")
-        if self.height is not None and not self.height > 0:
-            raise ValueError(f"height: expected the subject's height in metres (> 0), got {self.height}")
-        if not 0 <= self.confidence_threshold <= 1:
-            raise ValueError(f"confidence_threshold: expected a value in [0, 1], got {self.confidence_threshold}")
+            raise InputError(f"{source}: fields 'keypoints2d' and 'keypoints2d_format': expected both or neither, "
+                             f"got {self.keypoints2d!r} and {self.keypoints2d_format!r}")
+        # (field, value, low, high, unit): ranges that a real recording can have
+        for name, value, low, high, unit in (
+            ("height", self.height, MIN_HEIGHT_M, MAX_HEIGHT_M, "m (the subject's height)"),
+            ("fps", self.fps, 1.0, MAX_FPS, "frames per second"),
+            ("cutoff_hz", self.cutoff_hz, 0.1, MAX_FPS / 2, "Hz"),
+            ("confidence_threshold", self.confidence_threshold, 0.0, 1.0, "(2D confidence)"),
+        ):
+            if value is not None and not (math.isfinite(value) and low <= value <= high):
+                raise InputError(f"{source}: field {name!r}: expected a value in [{low:g}, {high:g}] {unit}, got {value!r}")
+        if self.person is not None and self.person < 0:
+            raise InputError(f"{source}: field 'person': expected a track id >= 0, got {self.person}")
         return self
 
 
@@ -77,7 +97,8 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
     ``overrides`` (not None) win.
 
     Raises:
-        ValueError: unknown keys or invalid values, naming the file.
+        InputError: unknown keys, values of the wrong type or invalid values, naming the file
+            and the field.
     """
     path = Path(path)
     raw = read_toml(path)
@@ -86,7 +107,7 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
         if isinstance(raw.get(key), str):
             raw[key] = str((path.parent / raw[key]).resolve()) if not Path(raw[key]).is_absolute() else raw[key]
     raw.update({k: v for k, v in overrides.items() if v is not None})
-    try:
-        return RunConfig(**raw).validate()
-    except (TypeError, ValueError) as err:
-        raise ValueError(f"{path}: {err}") from err
+    for needed in ("lifter", "lifter_output"):
+        if needed not in raw:
+            raise InputError(f"{path}: field {needed!r}: expected a value (or --{needed.replace('_', '-')}), got none")
+    return RunConfig(**raw).validate(str(path))

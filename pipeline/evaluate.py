@@ -10,6 +10,7 @@ import numpy as np
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
+from pcnet.stages.errors import InputError
 from pcnet.stages.rectify import (estimate_rotations, finish_rotations, frame_refiner_for, resolve_heading_source,
                                   up_refiner_for)
 
@@ -57,7 +58,7 @@ def evaluate(
     heading = resolve_heading_source(method, heading)
     clips = select_split(load_mocap(data), split)
     if not clips:
-        raise ValueError(f"{data}: split {split!r} has no clips")
+        raise InputError(f"{data}: split {split!r} has no clips")
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=Noise() if noise else None,
                        max_frames=max_frames)
     R_hat, residual, valid = estimate_rotations(pairs.inputs, method, weights)

@@ -6,30 +6,41 @@ from pathlib import Path
 
 import numpy as np
 
+from pcnet.adapters.validate import NumpyArchive, describe_keys
 from pcnet.models.datasets import load_numpy_file
+from pcnet.stages.conventions import validate_poses
+from pcnet.stages.errors import InputError
 
 
 def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
     """Read ``(T, 17, 3)`` H36M-17 camera-frame poses from ``.npy`` or ``.npz`` (``key``
     names the array; optional when the npz holds exactly one).
 
+    The array goes through :func:`pcnet.stages.conventions.validate_poses`, the check the
+    API applies too: real numbers only, ``inf`` becomes NaN (missing), no unit is assumed
+    so coordinates beyond 1e5 are refused.
+
+    Returns:
+        float32 ``(T, 17, 3)``.
+
     Raises:
         FileNotFoundError: missing file.
-        ValueError: unreadable file, missing/ambiguous key, or wrong shape, naming the file.
+        InputError: not a numpy file (a CSV or random bytes is called that, not "pickled
+            data"), a pickled object array, a damaged file, a missing/ambiguous key (at
+            most 10 names listed), bool/complex/text values, wrong shape, no finite value,
+            or a coordinate beyond the bound; one line naming the file.
     """
     path = Path(path)
     data = load_numpy_file(path, ".npy/.npz pose")
-    if isinstance(data, np.lib.npyio.NpzFile):
+    if isinstance(data, NumpyArchive):
         with data:
             if key is None:
                 if len(data.files) != 1:
-                    raise ValueError(f"{path}: holds arrays {data.files}; choose one with --key")
+                    raise InputError(f"{path}: holds {describe_keys(data.files)}; choose one with --key")
                 key = data.files[0]
             if key not in data.files:
-                raise ValueError(f"{path}: no array {key!r}; it holds {data.files}")
+                raise InputError(f"{path}: no array {key!r}; it holds {describe_keys(data.files)}")
             arr = data[key]
     else:
         arr = data
-    if arr.ndim != 3 or arr.shape[1:] != (17, 3):
-        raise ValueError(f"{path}{f' [{key}]' if key else ''}: expected (T, 17, 3) H36M-17 poses, got {arr.shape}")
-    return arr.astype(np.float32)
+    return validate_poses(arr, source=f"{path}{f' [{key}]' if key else ''}", units=None)

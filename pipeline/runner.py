@@ -1,14 +1,15 @@
 """The staged pipeline behind ``pcnet run``: files -> H36M-17 -> rectification -> kinematics
 -> exports and a rerun recording.
 
-All outputs are written into a temporary folder beside ``out`` that is renamed to ``out``
-only when every stage has succeeded, so a failure never leaves a half-written result.
+All outputs are written into a hidden folder beside ``out`` that replaces ``out`` by renames
+only when every stage has succeeded (:mod:`pcnet.pipeline.outdir`), so a failure or a kill
+never leaves a half-written result and ``--overwrite`` never deletes anything but a previous
+pcnet output.
 """
 
 from __future__ import annotations
 
-import shutil
-import tempfile
+import inspect
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,9 +18,10 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
-from pcnet.stages.conventions import H36M_JOINTS, L_WRIST, PELVIS, R_WRIST
+from pcnet.stages.conventions import H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, fill_pelvis_from_hips, validate_poses
+from pcnet.stages.errors import InputError
 from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
-from pcnet.stages.kinematics import compute_kinematics
+from pcnet.stages.kinematics import compute_kinematics, flag_counts, format_flag_counts
 from pcnet.stages.rectify import NO_VALID_FRAME, rectify, up_refiner_note
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
 from pcnet.stages.rerun_log import series_from_kinematics, write_recording
@@ -27,6 +29,7 @@ from pcnet.stages.rotations import decompose_camera_rotation
 from pcnet.stages.scale import scale_to_height
 
 from .config import RunConfig
+from .outdir import check_out_folder, staged_output
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
 
@@ -77,16 +80,55 @@ class RunResult:
                 f"+- {roll_unc:.1f} deg; 95 % block bootstrap, evidence: {self.report.get('evidence')})")
 
 
+#: Relative difference between ``--fps`` and the video's own rate accepted as the same rate.
+FPS_TOLERANCE = 0.01
+
+
+def _frame_rate(cfg: RunConfig, video, *carried: float | None) -> float:
+    """The recording's frame rate: the video's, ``--fps`` (an error when it contradicts the
+    video unless ``fps_override``), or the one an input file carries (MediaPipe npz)."""
+    if video is not None:
+        if cfg.fps is not None and abs(cfg.fps - video.fps) > FPS_TOLERANCE * video.fps and not cfg.fps_override:
+            raise InputError(f"--fps {cfg.fps:g}: expected the video's own rate, got a mismatch with {cfg.video} "
+                             f"({video.fps:g} fps); pass --fps-override to use --fps anyway")
+        return float(cfg.fps if cfg.fps is not None else video.fps)
+    if cfg.fps is not None:
+        return float(cfg.fps)
+    for fps in carried:
+        if fps is not None:
+            return float(fps)
+    raise InputError("fps: needed when no video is given and the input files do not carry their frame rate "
+                     "(pass --fps)")
+
+
+def _checked_options(kind: str, name: str, adapter, options: dict) -> dict:
+    """``options`` if the adapter's ``load`` takes them all, else one line naming them
+    (rather than a TypeError from deep inside the adapter)."""
+    params = inspect.signature(adapter.load).parameters
+    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        return options
+    taken = [n for n, p in params.items() if p.kind is p.KEYWORD_ONLY]
+    unknown = sorted(set(options) - set(taken))
+    if unknown:
+        raise InputError(f"{kind}_options: expected some of {taken} for the {name} adapter, got {unknown}")
+    return options
+
+
 def _load_inputs(cfg: RunConfig):
     video = probe_video(cfg.video) if cfg.video else None
-    fps = float(cfg.fps or video.fps)
-    kp2d = None
+    kp2d, kp_fps = None, None
     if cfg.keypoints2d:
+        adapter = get_2d_adapter(cfg.keypoints2d_format)
         options = {"person": cfg.person} if cfg.keypoints2d_format in ("alphapose", "mmpose") else {}
-        kp = get_2d_adapter(cfg.keypoints2d_format).load(cfg.keypoints2d, **options)
-        kp2d = remap_to_h36m(kp.points, kp.layout, confidence_channel=True)
-    poses = get_3d_adapter(cfg.lifter).load(cfg.lifter_output, **cfg.lifter_options)
+        if video is not None and "frame_count" in inspect.signature(adapter.load).parameters:
+            options["frame_count"] = video.frame_count
+        kp = adapter.load(cfg.keypoints2d, **options)
+        kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
+    adapter = get_3d_adapter(cfg.lifter)
+    poses = adapter.load(cfg.lifter_output, **_checked_options("lifter", cfg.lifter, adapter, cfg.lifter_options))
+    fps = _frame_rate(cfg, video, getattr(poses, "fps", None), kp_fps)
     joints = poses.joints if poses.layout == "h36m17" else remap_to_h36m(poses.joints, poses.layout)
+    joints = validate_poses(joints, str(cfg.lifter_output), poses.units)
     return video, fps, kp2d, joints, poses.units
 
 
@@ -100,7 +142,7 @@ def _align(cfg: RunConfig, video, kp2d, joints):
     if len({c for _, c in counts.values()}) > 1:
         if cfg.align != "truncate":
             detail = ", ".join(f"{k} {p}: {c} frames" for k, (p, c) in counts.items())
-            raise ValueError(f"frame counts differ ({detail}); pass --align truncate to use the first {n} frames")
+            raise InputError(f"frame counts differ ({detail}); pass --align truncate to use the first {n} frames")
         joints = joints[:n]
         kp2d = None if kp2d is None else kp2d[:n]
     return kp2d, joints
@@ -111,12 +153,11 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
 
     Raises:
         FileExistsError: ``cfg.out`` exists and ``cfg.overwrite`` is False.
-        ValueError / pcnet.adapters.AdapterError: bad inputs, naming file and field.
+        pcnet.stages.errors.InputError (``AdapterError`` is one): bad inputs or an unsafe
+            ``out`` (:func:`pcnet.pipeline.outdir.check_out_folder`), naming file and field.
     """
     cfg.validate()
-    out = Path(cfg.out)
-    if out.exists() and not cfg.overwrite:
-        raise FileExistsError(f"{out}: output folder exists; choose another --out or pass --overwrite")
+    out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights), cfg.overwrite)
     with tqdm(total=len(STEPS), desc="pcnet", disable=not progress, unit="stage") as bar:
         return _run_stages(cfg, out, bar)
 
@@ -139,20 +180,23 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
 
     step("remap")
     notes: list[str] = []
+    joints, pelvis_filled = fill_pelvis_from_hips(joints)
+    if pelvis_filled.any():
+        notes.append(f"pelvis missing in {int(pelvis_filled.sum())} frames: taken as the hip midpoint")
     joints = joints - joints[:, PELVIS : PELVIS + 1]  # root-relative camera frame
     if kp2d is not None:
         joints = mask_low_confidence(joints, kp2d[..., 2], cfg.confidence_threshold)
     if not np.isfinite(joints).any():
-        raise ValueError(f"{cfg.lifter_output}: every joint of every frame is missing (NaN) after masking")
+        raise InputError(f"{cfg.lifter_output}: every joint of every frame is missing (NaN) after masking")
     bar.update()
 
     step("rectify")
     try:
         res = rectify(joints, cfg.method, cfg.weights, cfg.mode, fps, cfg.heading, cfg.up_refiner)
     except ValueError as err:
-        raise ValueError(f"{cfg.lifter_output}: {err}") from err
+        raise InputError(f"{cfg.lifter_output}: {err}") from err
     if not res.valid.any():
-        raise ValueError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
+        raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
     rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
     bar.update()
 
@@ -169,11 +213,12 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     step("kinematics")
     kin = compute_kinematics(canonical, fps, cfg.cutoff_hz, units)
     kin_cam = compute_kinematics(joints, fps, cfg.cutoff_hz, units)
+    flags = format_flag_counts(kin)
+    if flags:
+        notes.append(flags)
     bar.update()
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with staged_output(out) as tmp:
         step("exports")
         frames = np.arange(len(joints))
         heading, pitch, roll = decompose_camera_rotation(rotations)
@@ -182,6 +227,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             up=rotations[:, :, 1], valid=valid, heading_deg=np.degrees(heading), fps=fps, units=units,
             method=cfg.method, mode=report["mode"], heading_source=report["heading_source"], joint_names=np.array(H36M_JOINTS),
             keypoints2d=kp2d if kp2d is not None else np.zeros((0, 17, 3), np.float32),
+            missing=kin.missing, unfiltered=kin.unfiltered, flag_counts=flag_counts(kin),
             report=_jsonable(report),
         )
         write_kinematics_csv(tmp / "kinematics.csv", frames, frames / fps, kin,
@@ -205,12 +251,6 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             outputs["recording"] = tmp / "recording.rrd"
         bar.update()
         step("done")
-        if out.exists():
-            shutil.rmtree(out)
-        tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
 
     ok = valid & np.isfinite(pitch)
     tilt = np.degrees(np.arccos(np.clip(-rotations[ok, 1, 1], -1, 1)))  # angle of up from image-up

@@ -13,6 +13,8 @@ import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
+from .errors import InputError
+
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]:
@@ -24,17 +26,24 @@ def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]
     the exception propagates; ``path`` is untouched.
 
     Raises:
-        FileNotFoundError: the destination folder does not exist.
+        InputError: the destination folder does not exist, or it (or the target) cannot be
+            written; the message names ``path``, never the hidden temporary.
     """
     target = Path(path)
     if not target.parent.is_dir():
-        raise FileNotFoundError(f"destination folder does not exist: {target.parent}")
+        raise InputError(f"{target}: expected an existing destination folder, got no folder {target.parent}")
     # A fresh unique name rather than mkstemp: mkstemp creates the file with mode 0600,
     # which os.replace would carry over to the user's output.
     tmp_path = target.parent / f".{target.name}.{uuid.uuid4().hex}{suffix}"
     try:
         yield tmp_path
         os.replace(tmp_path, target)
+    except OSError as err:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+        if err.filename is not None and Path(err.filename) in (tmp_path, target):
+            raise InputError(f"{target}: cannot write it ({err.strerror or err})") from err
+        raise
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             tmp_path.unlink()

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import InputError
+
 H36M_JOINTS: tuple[str, ...] = (
     "pelvis", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee",
     "left_ankle", "spine", "thorax", "neck_nose", "head", "left_shoulder",
@@ -174,7 +176,7 @@ def get_layout(name: str) -> Layout:
     for lay in LAYOUTS.values():
         if lay.name == key:
             return lay
-    raise ValueError(f"unknown joint layout {name!r}; expected one of {sorted(LAYOUTS)}")
+    raise InputError(f"unknown joint layout {name!r}; expected one of {sorted(LAYOUTS)}")
 
 
 def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -> np.ndarray:
@@ -188,9 +190,83 @@ def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -
     if arr.ndim == 2:
         arr = arr[None]
     if arr.ndim != 3 or arr.shape[1:] != (num_joints, 3):
-        raise ValueError(
+        raise InputError(
             f"{name}: expected shape (N, {num_joints}, 3) H36M-17 joints, got {tuple(np.shape(joints))}"
         )
     if not np.issubdtype(arr.dtype, np.number):
-        raise ValueError(f"{name}: expected a numeric array, got dtype {arr.dtype}")
+        raise InputError(f"{name}: expected a numeric array, got dtype {arr.dtype}")
     return arr.astype(np.float32, copy=False)
+
+
+#: Largest plausible absolute coordinate per unit (``Poses3D.units``; ``None`` = unknown):
+#: 100 m (no recording spans more), 1e5 px (a 100-megapixel frame is 1e4 wide) and 1e3 for
+#: MotionBERT's image-normalised scale (about [-1, 1]). Larger values are a unit or file
+#: error, never a pose.
+MAX_ABS_COORDINATE: dict[str | None, float] = {"m": 100.0, "px": 1e5, "normalised": 1e3, None: 1e5}
+
+
+def validate_poses(joints: object, source: str = "poses", units: str | None = None,
+                   num_joints: int = 17, joint_names: tuple[str, ...] | None = None) -> np.ndarray:
+    """The one check every entry point applies to 3D poses (``pcnet rectify``,
+    :func:`pcnet.stages.rectify.rectify`, ``pcnet run`` after its adapter).
+
+    Args:
+        joints: ``(T, J, 3)`` array (a single ``(J, 3)`` pose is promoted), real numbers
+            (float or int dtype; bool, complex, strings and objects are refused).
+        source: the file or argument named in errors.
+        units: ``"m"``, ``"px"``, ``"normalised"`` or ``None`` (unknown) for the magnitude
+            bound :data:`MAX_ABS_COORDINATE`.
+        num_joints, joint_names: the layout's joint count and names (default H36M-17's), for
+            the shape check and the message.
+
+    Returns:
+        float32 ``(T, J, 3)``; non-finite values (``inf``) become NaN: missing data.
+
+    Raises:
+        InputError: wrong dtype or shape, no frame, no finite value, or a coordinate beyond
+            the bound for ``units`` (naming the frame and joint).
+    """
+    arr = np.asarray(joints)
+    if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise InputError(f"{source}: expected real-valued (float) joint coordinates, got dtype {arr.dtype}")
+    if arr.ndim == 2:
+        arr = arr[None]
+    if arr.ndim != 3 or arr.shape[1:] != (num_joints, 3):
+        raise InputError(f"{source}: expected shape (T, {num_joints}, 3) joints, got {tuple(np.shape(joints))}")
+    if arr.shape[0] == 0:
+        raise InputError(f"{source}: expected at least one frame, got shape {arr.shape}")
+    # The bound is checked on the values as given: a float64 beyond float32's range would
+    # otherwise become inf, then NaN, and pass as missing data.
+    with np.errstate(invalid="ignore"):  # signalling NaNs in a file are missing data too
+        values = arr.astype(np.float64)
+    finite = np.isfinite(values)
+    if not finite.any():
+        raise InputError(f"{source}: expected some finite joint coordinates, got only NaN/inf")
+    bound = MAX_ABS_COORDINATE[units]
+    too_big = finite & (np.abs(np.where(finite, values, 0.0)) > bound)
+    if too_big.any():
+        t, j, axis = np.argwhere(too_big)[0]
+        name = H36M_JOINTS[j] if joint_names is None else joint_names[j]
+        raise InputError(f"{source}: frame {t}, joint {name}: expected |coordinate| <= {bound:g} "
+                         f"{units or '(any unit)'}, got {values[t, j, axis]:.4g} "
+                         f"({int(too_big.any(axis=2).sum())} joint values beyond it)")
+    return np.where(finite, values, np.nan).astype(np.float32)
+
+
+def fill_pelvis_from_hips(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """H36M-17 pelvis rule: a missing (NaN) pelvis is the midpoint of the hips when both are
+    present (H36M's pelvis is the hip-joint midpoint, VideoPose3D ``common/h36m_dataset.py``
+    skeleton); otherwise it stays missing and the frame cannot be rectified.
+
+    Args:
+        joints: float ``(T, 17, 3)`` H36M-17, any frame and units.
+
+    Returns:
+        ``(joints copy with the pelvis filled, filled (T,) bool)``.
+    """
+    out = np.array(joints, copy=True)
+    missing = np.isnan(out[:, PELVIS]).any(axis=1)
+    hips_ok = np.isfinite(out[:, [L_HIP, R_HIP]]).all(axis=(1, 2))
+    filled = missing & hips_ok
+    out[filled, PELVIS] = 0.5 * (out[filled, L_HIP] + out[filled, R_HIP])
+    return out, filled

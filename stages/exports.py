@@ -103,16 +103,28 @@ def write_kinematics_csv(
     extra_columns: Mapping[str, np.ndarray] | None = None,
     joints: Sequence[str] | None = None,
 ) -> Path:
-    """Write one CSV row per frame with positions, velocities, accelerations, speeds and
-    angles of canonical kinematics, atomically.
+    """Write one CSV row per frame with positions, velocities, accelerations, speeds,
+    per-joint missing/unfiltered flags and angles of canonical kinematics, atomically.
 
     Columns, in order: ``frame``, ``time_s``; per joint ``{joint}_{x,y,z}_{u}``,
     ``{joint}_{vx,vy,vz}_{u}_per_s``, ``{joint}_{ax,ay,az}_{u}_per_s2``,
-    ``{joint}_speed_{u}_per_s`` (``u`` = ``kinematics.units``, e.g. ``m``); per angle
-    ``{angle}_deg``; then ``extra_columns`` under their own names (put the unit in the
-    name, e.g. ``tilt_error_deg``). Axes are canonical (x anterior, y up, z subject's
-    right). Missing values (NaN) are empty fields. Comma-separated, ``\\n`` line ends,
-    UTF-8, written with the :mod:`csv` module.
+    ``{joint}_speed_{u}_per_s``, ``{joint}_missing``, ``{joint}_unfiltered``
+    (``u`` = ``kinematics.units``, e.g. ``m``); per angle ``{angle}_deg``; then
+    ``extra_columns`` under their own names (put the unit in the name, e.g.
+    ``tilt_error_deg``). Axes are canonical (x anterior, y up, z subject's right).
+    Missing values (NaN) are empty fields. Comma-separated, ``\\n`` line ends, UTF-8,
+    written with the :mod:`csv` module.
+
+    **Flags** (``0``/``1``, never empty): ``{joint}_missing`` = 1 where the joint's
+    position is NaN in that frame (:attr:`Kinematics.missing`; its position, velocity
+    and acceleration fields are empty); ``{joint}_unfiltered`` = 1 where the position is
+    finite but raw, its run of finite frames too short for the low-pass filter
+    (:attr:`Kinematics.unfiltered`; the position is written, velocity and acceleration
+    are empty). An empty velocity/acceleration with both flags 0 is a run's first or
+    last frame (recording ends, next to a gap), where central differences are undefined
+    (:func:`~pcnet.stages.kinematics.derivatives`). Two 0/1 columns per joint rather
+    than one coded flags column: a spreadsheet or ``pandas`` user can sum or filter them
+    directly, without a code table, at the cost of two narrow columns per joint.
 
     Args:
         path: destination ``.csv``.
@@ -153,8 +165,9 @@ def write_kinematics_csv(
         header += [f"{j}_{c}_{u}" for c in "xyz"]
         header += [f"{j}_v{c}_{v}" for c in "xyz"]
         header += [f"{j}_a{c}_{a}" for c in "xyz"]
-        header += [f"{j}_speed_{v}"]
-        blocks += [k.positions[:, i], k.velocity[:, i], k.acceleration[:, i], k.speed[:, i, None]]
+        header += [f"{j}_speed_{v}", f"{j}_missing", f"{j}_unfiltered"]
+        blocks += [k.positions[:, i], k.velocity[:, i], k.acceleration[:, i], k.speed[:, i, None],
+                   k.missing[:, i, None], k.unfiltered[:, i, None]]
     for name, ang in k.angles.items():
         header.append(f"{name}_deg")
         blocks.append(np.asarray(ang, np.float64)[:, None])

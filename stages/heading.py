@@ -26,6 +26,7 @@ import numpy as np
 
 from .canonical import canonical_rotation
 from .conventions import L_HIP, R_HIP, check_poses
+from .errors import InputError
 
 HEADING_SOURCES = ("auto", "predicted", "hips")
 
@@ -83,7 +84,7 @@ def hip_line_rotations(joints_cam: np.ndarray, R: np.ndarray) -> tuple[np.ndarra
     X = check_poses(joints_cam, "joints_cam")
     R = np.asarray(R, np.float64)
     if R.shape != (len(X), 3, 3):
-        raise ValueError(f"R: expected shape ({len(X)}, 3, 3), got {R.shape}")
+        raise InputError(f"R: expected shape ({len(X)}, 3, 3), got {R.shape}")
     return canonical_rotation(X, R[:, :, 1])
 
 
@@ -129,7 +130,7 @@ def apply_heading(
         ValueError: unknown ``source`` or mismatched shapes.
     """
     if source not in HEADING_SOURCES:
-        raise ValueError(f"unknown heading source {source!r}; expected one of {HEADING_SOURCES}")
+        raise InputError(f"unknown heading source {source!r}; expected one of {HEADING_SOURCES}")
     R = np.asarray(R, np.float64)
     valid = np.asarray(valid, bool)
     precise, cv = precise_hips(joints_cam, valid, max_cv_percent)

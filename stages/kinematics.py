@@ -7,14 +7,19 @@ depend on that frame: in the camera frame "sagittal" would mean "the image's x-z
 and a camera tilt would read as trunk lean. That is why pcnet rectifies first.
 
 NaN policy: NaN never turns into a number. Filters and derivatives work on each
-contiguous run of finite samples separately and never bridge a gap.
+contiguous run of finite samples separately and never bridge a gap. Derivatives are
+central differences only, so the first and last sample of every run (the recording's
+ends and both sides of a gap) and samples the filter had to leave raw get no velocity or
+acceleration (NaN) rather than a one-sided or noise-amplified estimate; the per-joint
+flags :attr:`Kinematics.missing` / :attr:`Kinematics.unfiltered` and
+:func:`flag_counts` say where and how often that happened.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping
+from typing import Literal, Mapping
 
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
@@ -38,6 +43,7 @@ from .conventions import (
     check_poses,
 )
 from .rotations import angle_between
+from .errors import InputError
 
 # ---------------------------------------------------------------------------------------
 # contiguous finite runs
@@ -70,7 +76,7 @@ def _by_mask(x2: np.ndarray):
 def _as_2d(x: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 0:
-        raise ValueError("expected an array with time on axis 0, got a scalar")
+        raise InputError("expected an array with time on axis 0, got a scalar")
     return x.reshape(x.shape[0], -1), x.shape
 
 
@@ -131,13 +137,13 @@ def butterworth_lowpass(
             or < 2.
     """
     if not fps > 0:
-        raise ValueError(f"fps must be > 0, got {fps!r}")
+        raise InputError(f"fps must be > 0, got {fps!r}")
     if not 0 < cutoff_hz < fps / 2:
-        raise ValueError(
+        raise InputError(
             f"cutoff_hz must lie in (0, fps/2) = (0, {fps / 2:g}) Hz (Nyquist), got {cutoff_hz!r}"
         )
     if order < 2 or order % 2:
-        raise ValueError(
+        raise InputError(
             f"order is the order of the zero-phase (dual-pass) result and must be even and "
             f">= 2, got {order!r}"
         )
@@ -168,34 +174,61 @@ def butterworth_lowpass(
 # derivatives
 
 
-def derivatives(x: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
+def derivatives(
+    x: np.ndarray, fps: float, *, edges: Literal["nan", "one-sided"] = "nan"
+) -> tuple[np.ndarray, np.ndarray]:
     """Velocity and acceleration by finite differences along axis 0, within finite runs.
 
-    Velocity: ``numpy.gradient`` (central difference ``(x[i+1] - x[i-1]) / (2 dt)``
-    inside a run, second-order one-sided differences at run ends; a two-sample run gets
-    the forward difference). Acceleration: the
-    central second difference ``(x[i+1] - 2 x[i] + x[i-1]) / dt^2`` inside a run (the
-    finite differences of Winter 2009, ch. 3), and at a run's first and last sample the
-    three-point one-sided value, which equals its neighbour's. Both are exact for
-    quadratic trajectories. Runs of one sample give NaN velocity; runs shorter than three
-    samples give NaN acceleration. NaN inputs stay NaN.
+    Inside a run of finite samples: the central first difference
+    ``v[i] = (x[i+1] - x[i-1]) / (2 dt)`` and the central second difference
+    ``a[i] = (x[i+1] - 2 x[i] + x[i-1]) / dt^2`` (the finite differences of Winter,
+    *Biomechanics and Motor Control of Human Movement*, 4th ed., 2009, ch. 3). Both are
+    exact for quadratic trajectories.
+
+    **Run edges** (``edges="nan"``, the default): the central stencil needs both
+    neighbours, so the first and last sample of every finite run (the recording's first
+    and last frame and each sample next to a gap) get NaN velocity and acceleration, as
+    do runs shorter than three samples. Why not one-sided differences: they are a
+    different, noisier estimator (the second-order one-sided velocity
+    ``(-3 x0 + 4 x1 - x2) / (2 dt)`` has 13x the white-noise variance of the central one:
+    ``(9 + 16 + 1) / 4`` vs ``(1 + 1) / 4``), applied exactly where the data are worst: the
+    zero-phase filter of :func:`butterworth_lowpass` pads a run by odd reflection about its
+    end sample, so that sample comes out with its raw noise unchanged. Winter (2009,
+    ch. 3) differentiates with these central differences and therefore has no derivative
+    at the first and last data point; the same holds at every gap here. Which samples are
+    blank follows from the positions' NaN pattern alone.
+
+    ``edges="one-sided"`` restores the older behaviour: ``numpy.gradient`` with
+    second-order one-sided velocity at run ends (forward difference for a two-sample
+    run) and each run end's acceleration copied from its neighbour.
 
     Args:
-        x: ``(T, ...)`` samples, any units ``u``.
+        x: ``(T, ...)`` samples, any units ``u``; NaN = missing.
         fps: sampling rate in Hz (> 0).
+        edges: ``"nan"`` (default) or ``"one-sided"``, see above.
 
     Returns:
-        ``(velocity, acceleration)`` float64 shaped like ``x``, in ``u/s`` and ``u/s^2``.
+        ``(velocity, acceleration)`` float64 shaped like ``x``, in ``u/s`` and ``u/s^2``;
+        NaN wherever the stencil is incomplete.
 
     Raises:
-        ValueError: ``fps <= 0``.
+        ValueError: ``fps <= 0`` or an unknown ``edges``.
     """
     if not fps > 0:
-        raise ValueError(f"fps must be > 0, got {fps!r}")
+        raise InputError(f"fps must be > 0, got {fps!r}")
+    if edges not in ("nan", "one-sided"):
+        raise InputError(f"edges must be 'nan' or 'one-sided', got {edges!r}")
     dt = 1.0 / fps
     x2, shape = _as_2d(x)
     vel = np.full_like(x2, np.nan)
     acc = np.full_like(x2, np.nan)
+    if edges == "nan":
+        # NaN propagates through the stencils; only the velocity skips x[i] and needs it
+        # masked, so a lone missing sample between two finite ones stays missing.
+        centre = x2[1:-1]
+        vel[1:-1] = np.where(np.isfinite(centre), (x2[2:] - x2[:-2]) / (2.0 * dt), np.nan)
+        acc[1:-1] = (x2[2:] - 2.0 * centre + x2[:-2]) / dt**2
+        return vel.reshape(shape), acc.reshape(shape)
     for cols, runs in _by_mask(x2):
         for a, b in runs:
             seg = x2[a:b][:, cols]
@@ -346,15 +379,26 @@ def joint_angles(canonical: np.ndarray) -> dict[str, np.ndarray]:
 
 @dataclass(frozen=True)
 class Kinematics:
-    """Filtered canonical positions and their derivatives and angles.
+    """Filtered canonical positions and their derivatives and angles, with per-joint flags
+    saying which positions are missing or raw.
 
     Attributes:
-        positions: ``(T, 17, 3)`` float64 filtered canonical positions, ``units``.
-        velocity: ``(T, 17, 3)`` float64, ``velocity_units``.
-        acceleration: ``(T, 17, 3)`` float64, ``acceleration_units``.
+        positions: ``(T, 17, 3)`` float64 filtered canonical positions, ``units``; raw
+            where ``unfiltered``, NaN where ``missing``.
+        velocity: ``(T, 17, 3)`` float64, ``velocity_units``; NaN where ``missing`` or
+            ``unfiltered``, and at the first and last sample of every finite run
+            (:func:`derivatives`, central differences only).
+        acceleration: ``(T, 17, 3)`` float64, ``acceleration_units``; NaN as ``velocity``.
         speed: ``(T, 17)`` float64 ``|velocity|``, ``velocity_units``.
-        angles: ``name -> (T,)`` degrees (:func:`joint_angles` of ``positions``).
-        unfiltered: ``(T, 17, 3)`` bool, finite samples left unfiltered (run too short).
+        angles: ``name -> (T,)`` degrees (:func:`joint_angles` of ``positions``, so an
+            angle uses raw positions where a joint is ``unfiltered``).
+        unfiltered: ``(T, 17)`` bool, True where the joint's position is finite but left
+            raw because its run of finite samples (on any of the 3 axes) was too short
+            for the Butterworth filter (:func:`butterworth_lowpass`). All False when
+            ``cutoff_hz`` is None (nothing was filtered, by request).
+        missing: ``(T, 17)`` bool, True where the joint's position is NaN (any axis) in
+            that frame: masked by the 2D confidence, dropped by the lifter, or a frame
+            without a pose. ``missing`` and ``unfiltered`` never both hold.
         fps, cutoff_hz: sampling rate and filter cutoff (None = not filtered).
         units, velocity_units, acceleration_units: e.g. ``"m"``, ``"m/s"``, ``"m/s^2"``.
         joint_names: H36M-17 names, index-aligned with axis 1.
@@ -366,6 +410,7 @@ class Kinematics:
     speed: np.ndarray
     angles: Mapping[str, np.ndarray]
     unfiltered: np.ndarray
+    missing: np.ndarray
     fps: float
     cutoff_hz: float | None
     units: str
@@ -391,39 +436,136 @@ def compute_kinematics(
     (:func:`butterworth_lowpass`), then differentiate (:func:`derivatives`) and compute
     angles (:func:`joint_angles`) from the filtered coordinates.
 
+    Samples the filter had to leave raw (runs of finite samples too short for it, e.g. a
+    few frames between two masked frames) keep their raw position, flagged in
+    ``unfiltered``, but get NaN velocity and acceleration: differentiating unfiltered
+    coordinates amplifies their noise by ``(2 pi f)^2`` at frequency ``f`` for the
+    acceleration (Winter 2009, ch. 3), which is what produced 79 m/s^2 at frame 0 of the
+    demo's right wrist (a 4-frame raw run before a masked frame). A derivative from
+    filtered and raw samples mixed would be neither, so none is given.
+
+    Residual edge effect (not blanked): the second sample of a filtered run uses the
+    run's end sample, which keeps its raw noise (see :func:`derivatives`); on white noise
+    its acceleration noise is about 1.6x that of the run's interior.
+
     Args:
         canonical: ``(T, 17, 3)`` H36M-17 canonical poses (pelvis origin, Y up), NaN for
             missing.
         fps: sampling rate in Hz.
-        cutoff_hz: -3 dB cutoff of the zero-phase filter; None skips filtering.
+        cutoff_hz: -3 dB cutoff of the zero-phase filter; None skips filtering (then
+            nothing is flagged ``unfiltered`` and every finite run is differentiated).
         units: length unit of ``canonical``: ``"m"`` when metric, else e.g.
             ``"normalised"``; velocity units are then ``"<units>/s"``.
         order: order of the zero-phase filter (see :func:`butterworth_lowpass`).
 
     Returns:
-        a frozen :class:`Kinematics`.
+        a frozen :class:`Kinematics`; :func:`flag_counts` / :func:`format_flag_counts`
+        summarise its flags.
 
     Raises:
         ValueError: wrong shape, ``fps <= 0``, or an invalid cutoff/order.
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
     if not fps > 0:
-        raise ValueError(f"fps must be > 0, got {fps!r}")
+        raise InputError(f"fps must be > 0, got {fps!r}")
+    missing = ~np.isfinite(X).all(axis=-1)
     if cutoff_hz is None:
-        pos, unfiltered = X.copy(), np.isfinite(X)
+        pos, raw = X.copy(), np.zeros(X.shape, dtype=bool)
     else:
-        pos, unfiltered = butterworth_lowpass(X, fps, cutoff_hz, order, return_unfiltered=True)
-    vel, acc = derivatives(pos, fps)
+        pos, raw = butterworth_lowpass(X, fps, cutoff_hz, order, return_unfiltered=True)
+    vel, acc = derivatives(np.where(raw, np.nan, pos), fps)
     return Kinematics(
         positions=pos,
         velocity=vel,
         acceleration=acc,
         speed=np.linalg.norm(vel, axis=-1),
         angles=MappingProxyType(joint_angles(pos)),
-        unfiltered=unfiltered,
+        unfiltered=raw.any(axis=-1) & ~missing,
+        missing=missing,
         fps=float(fps),
         cutoff_hz=None if cutoff_hz is None else float(cutoff_hz),
         units=units,
         velocity_units=f"{units}/s",
         acceleration_units=f"{units}/s^2",
     )
+
+
+# ---------------------------------------------------------------------------------------
+# flag summary
+
+
+def flag_counts(kinematics: Kinematics) -> dict:
+    """Per-joint and total counts of the ``missing`` and ``unfiltered`` flags, for a run
+    summary or a JSON report (plain ``int``/``dict``/``str``, JSON-serialisable).
+
+    Args:
+        kinematics: a :class:`Kinematics` with ``T`` frames.
+
+    Returns:
+        dict with
+
+        * ``"frames"``: ``T``;
+        * ``"missing"``: ``joint name -> frames`` in which that joint is NaN, only joints
+          with at least one, in H36M-17 order;
+        * ``"missing_with_pose"``: the same, counting only frames in which some other
+          joint is present (a joint masked on its own rather than a frame without a pose);
+        * ``"frames_without_pose"``: frames in which every joint is missing;
+        * ``"unfiltered"``: ``joint name -> frames`` in which its position is raw
+          (run too short for the filter), only joints with at least one;
+        * ``"missing_total"``, ``"unfiltered_total"``: joint-frames flagged, summed over
+          joints;
+        * ``"frames_with_missing"``, ``"frames_with_unfiltered"``: frames with at least
+          one flagged joint.
+    """
+    k = kinematics
+    missing = np.asarray(k.missing, dtype=bool)
+    unfiltered = np.asarray(k.unfiltered, dtype=bool)
+    no_pose = missing.all(axis=1)
+    names = list(k.joint_names)
+
+    def per_joint(flags: np.ndarray) -> dict[str, int]:
+        n = flags.sum(axis=0)
+        return {names[j]: int(n[j]) for j in np.flatnonzero(n)}
+
+    return {
+        "frames": int(missing.shape[0]),
+        "missing": per_joint(missing),
+        "missing_with_pose": per_joint(missing & ~no_pose[:, None]),
+        "frames_without_pose": int(no_pose.sum()),
+        "unfiltered": per_joint(unfiltered),
+        "missing_total": int(missing.sum()),
+        "unfiltered_total": int(unfiltered.sum()),
+        "frames_with_missing": int(missing.any(axis=1).sum()),
+        "frames_with_unfiltered": int(unfiltered.any(axis=1).sum()),
+    }
+
+
+def _frames(n: int) -> str:
+    return f"{n} frame" if n == 1 else f"{n} frames"
+
+
+def format_flag_counts(counts: Kinematics | Mapping) -> str:
+    """One line for a run summary, ``''`` when nothing is flagged.
+
+    Example: ``"missing: right_wrist 1 frame; no pose: 3 frames; unfiltered: right_wrist
+    4 frames (runs shorter than the filter needs; no velocity/acceleration there)"``.
+    Joints missing only in frames without any pose are reported once, as ``no pose``.
+
+    Args:
+        counts: the dict of :func:`flag_counts`, or a :class:`Kinematics` (counted here).
+
+    Returns:
+        the line, without a trailing newline.
+    """
+    c = flag_counts(counts) if isinstance(counts, Kinematics) else counts
+    parts = []
+    if c["missing_with_pose"]:
+        parts.append("missing: " + ", ".join(f"{j} {_frames(n)}" for j, n in c["missing_with_pose"].items()))
+    if c["frames_without_pose"]:
+        parts.append(f"no pose: {_frames(c['frames_without_pose'])}")
+    if c["unfiltered"]:
+        parts.append(
+            "unfiltered: " + ", ".join(f"{j} {_frames(n)}" for j, n in c["unfiltered"].items())
+            + " (runs shorter than the filter needs; no velocity/acceleration there)"
+        )
+    return "; ".join(parts)

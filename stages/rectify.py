@@ -7,10 +7,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .canonical import to_canonical
-from .conventions import check_poses
+from .conventions import check_poses, fill_pelvis_from_hips, validate_poses
 from .geometric import geometric_rotation
 from .heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES, HEADING_SOURCES, apply_heading, precise_hips
 from .temporal import BOOTSTRAP_REPLICATES, rectify_sequence
+from .errors import InputError
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -56,7 +57,7 @@ def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: s
         if method == "pcnet-rigid":
             residual = np.where(valid[:, None, None], 0.0, np.nan)
         return R, residual, valid
-    raise ValueError(f"unknown rectification method {method!r}; expected one of {METHODS}")
+    raise InputError(f"unknown rectification method {method!r}; expected one of {METHODS}")
 
 
 def resolve_heading_source(method: str, heading: str | None) -> str:
@@ -71,7 +72,7 @@ def resolve_heading_source(method: str, heading: str | None) -> str:
     if heading is None:
         return "predicted" if method == "geometric" else "auto"
     if heading not in HEADING_SOURCES:
-        raise ValueError(f"unknown heading source {heading!r}; expected one of {HEADING_SOURCES}")
+        raise InputError(f"unknown heading source {heading!r}; expected one of {HEADING_SOURCES}")
     return heading
 
 
@@ -142,15 +143,24 @@ def rectify(
     the motion around each frame (:func:`up_refiner_for`; ``up_refined``). ``False`` gives
     the paper's 3DPCNet alone. ``report`` says what ran.
 
+    Input rules shared with ``pcnet run`` and ``pcnet rectify``:
+    :func:`pcnet.stages.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least
+    one frame and one finite value, non-finite = missing) and the pelvis rule
+    :func:`pcnet.stages.conventions.fill_pelvis_from_hips` (a missing pelvis is the hip
+    midpoint; a frame still without a pelvis is invalid). The report's
+    ``pelvis_from_hips_frames`` counts the filled frames.
+
     Raises:
-        ValueError: unknown method, mode or heading source, wrong shape, or (sequence modes)
-            no valid frame.
+        InputError (a ValueError): bad input array (see above), unknown method, mode or
+            heading source, or (sequence modes) no valid frame.
     """
     heading = resolve_heading_source(method, heading)
+    joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
     R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading,
                                         up_refiner=up_refiner_for(method, weights, up_refiner),
                                         frame_refiner=frame_refiner_for(method, weights, up_refiner))
+    report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
     canonical = to_canonical(joints_cam, R, residual)
     return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report,
                      report["heading_source"])
@@ -203,7 +213,7 @@ def finish_rotations(
                                                f"or fewer than {AUTO_MIN_FRAMES} valid frames: inputs less precise than mocap")
     if mode != "frame":
         if not valid.any():
-            raise ValueError(NO_VALID_FRAME)
+            raise InputError(NO_VALID_FRAME)
         R, sequence_report = rectify_sequence(R, valid, mode, fps, joints_cam, n_bootstrap=n_bootstrap,
                                               up_refiner=up_refiner)
         report.update(sequence_report)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .conventions import Layout, get_layout
+from .errors import InputError
 
 
 def remap_to_h36m(points: np.ndarray, layout: Layout | str, confidence_channel: bool = False) -> np.ndarray:
@@ -21,7 +22,7 @@ def remap_to_h36m(points: np.ndarray, layout: Layout | str, confidence_channel: 
     lay = get_layout(layout) if isinstance(layout, str) else layout
     pts = np.asarray(points, np.float32)
     if pts.ndim != 3 or pts.shape[1] != lay.num_joints:
-        raise ValueError(
+        raise InputError(
             f"keypoints: layout {lay.name} expects (T, {lay.num_joints}, C), got {pts.shape}"
         )
     out = np.empty((pts.shape[0], 17, pts.shape[2]), np.float32)
@@ -39,6 +40,6 @@ def mask_low_confidence(joints3d: np.ndarray, confidence: np.ndarray, threshold:
     out = np.array(joints3d, np.float32, copy=True)
     conf = np.asarray(confidence, np.float32)
     if conf.shape != out.shape[:2]:
-        raise ValueError(f"confidence: expected shape {out.shape[:2]}, got {conf.shape}")
+        raise InputError(f"confidence: expected shape {out.shape[:2]}, got {conf.shape}")
     out[~(conf >= threshold)] = np.nan
     return out

@@ -43,6 +43,7 @@ import numpy as np
 
 from .conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
 from .atomic import atomic_path
+from .errors import InputError
 
 _BONE_A = np.array([a for a, _ in H36M_BONES])
 _BONE_B = np.array([b for _, b in H36M_BONES])
@@ -65,7 +66,7 @@ _UP_COLOUR = (250, 200, 0)
 def _check(name: str, arr: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray:
     a = np.asarray(arr, dtype=np.float64)
     if a.shape != shape:
-        raise ValueError(f"write_recording: {name} must have shape {shape}, got {a.shape}")
+        raise InputError(f"write_recording: {name} must have shape {shape}, got {a.shape}")
     return a
 
 
@@ -121,7 +122,7 @@ def _series_path(name: str) -> tuple[str, str]:
     """``"group/leaf"`` -> (``"series/group/leaf"``, group); a bare name is its own group."""
     parts = [p for p in str(name).strip("/").split("/") if p]
     if not parts:
-        raise ValueError(f"write_recording: empty series name {name!r}")
+        raise InputError(f"write_recording: empty series name {name!r}")
     return "series/" + "/".join(parts), parts[0]
 
 
@@ -202,7 +203,7 @@ def write_recording(
     import rerun as rr
 
     if not fps > 0:
-        raise ValueError(f"write_recording: fps must be > 0, got {fps!r}")
+        raise InputError(f"write_recording: fps must be > 0, got {fps!r}")
     cam = np.asarray(joints_cam, dtype=np.float64)
     T = cam.shape[0]
     cam = _check("joints_cam", cam, (T, 17, 3))
@@ -211,13 +212,13 @@ def write_recording(
     up = _check("up", up, (T, 3))
     valid = np.asarray(valid, dtype=bool)
     if valid.shape != (T,):
-        raise ValueError(f"write_recording: valid must have shape ({T},), got {valid.shape}")
+        raise InputError(f"write_recording: valid must have shape ({T},), got {valid.shape}")
     kp = None if keypoints2d is None else _check("keypoints2d", keypoints2d, (T, 17, 3))
     series_arrays = {}
     for name, values in dict(series or {}).items():
         key = _series_path(name)
         if key in series_arrays or key[0] == "series/status/valid":
-            raise ValueError(f"write_recording: series {name!r} collides with another series")
+            raise InputError(f"write_recording: series {name!r} collides with another series")
         series_arrays[key] = _check(f"series[{name!r}]", values, (T,))
     canon_paths = (
         {"left_wrist": can[:, L_WRIST], "right_wrist": can[:, R_WRIST]}
@@ -392,7 +393,7 @@ def series_from_kinematics(
     out: dict[str, np.ndarray] = {}
     for j in joints:
         if j not in names:
-            raise ValueError(f"series_from_kinematics: unknown joint {j!r}")
+            raise InputError(f"series_from_kinematics: unknown joint {j!r}")
         i = names.index(j)
         for c, axis in enumerate("xyz"):
             out[f"position_{u}/{j}_{axis}"] = k.positions[:, i, c]

@@ -12,6 +12,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .conventions import R_FRONTAL
+from .errors import InputError
 
 _EPS = 1e-8
 
@@ -155,7 +156,7 @@ def sample_camera_rotations(n: int, distribution: str, rng: np.random.Generator)
         pitch = rng.uniform(-45, 45, n)
         roll = _truncnormal(rng, 10, 25, n)
     else:
-        raise ValueError(f"unknown view distribution {distribution!r}; expected 'paper' or 'wide'")
+        raise InputError(f"unknown view distribution {distribution!r}; expected 'paper' or 'wide'")
     return compose_camera_rotation(np.radians(-yaw), np.radians(pitch), np.radians(roll))
 
 

@@ -53,6 +53,7 @@ from .conventions import (
     THORAX,
     check_poses,
 )
+from .errors import InputError
 
 #: Head-to-ankle bone chain divided by stature (module docstring: H36M reference
 #: skeleton + Drillis & Contini ankle height 0.039 H).
@@ -114,12 +115,12 @@ def scale_to_height(joints: np.ndarray, height_m: float) -> tuple[np.ndarray, fl
             complete head-to-ankle chain.
     """
     if not np.isfinite(height_m) or height_m <= 0:
-        raise ValueError(f"height_m must be a finite height in metres > 0, got {height_m!r}")
+        raise InputError(f"height_m must be a finite height in metres > 0, got {height_m!r}")
     X = check_poses(joints, "joints")
     chain = height_chain_length(X)
     good = np.isfinite(chain) & (chain > 0)
     if not good.any():
-        raise ValueError(
+        raise InputError(
             "scale_to_height: no frame has a complete ankle-knee-hip / pelvis-spine-thorax-"
             "neck_nose-head chain, so the skeleton size cannot be estimated"
         )

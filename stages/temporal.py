@@ -28,6 +28,7 @@ from scipy.spatial.transform import Rotation
 
 from .conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE, check_poses
 from .rotations import angle_between, decompose_camera_rotation, normalize
+from .errors import InputError
 
 MODES = ("frame", "sequence", "smooth", "auto")
 
@@ -220,7 +221,7 @@ def robust_mean_direction(
     if single:
         u = u[None]
     if u.ndim != 3 or u.shape[-1] != 3:
-        raise ValueError(f"u: expected shape (N, 3) or (B, N, 3), got {np.shape(u)}")
+        raise InputError(f"u: expected shape (N, 3) or (B, N, 3), got {np.shape(u)}")
     w = np.ones(u.shape[:2]) if w is None else np.broadcast_to(np.asarray(w, np.float64), u.shape[:2])
     ok = np.isfinite(u).all(-1) & np.isfinite(w) & (w > 0)
     u = np.where(ok[..., None], u, 0.0)
@@ -263,12 +264,12 @@ def robust_mean_direction(
 def _check_R(R: np.ndarray, valid: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     R = np.asarray(R, np.float64)
     if R.ndim != 3 or R.shape[1:] != (3, 3):
-        raise ValueError(f"R: expected shape (T, 3, 3) rotations, got {R.shape}")
+        raise InputError(f"R: expected shape (T, 3, 3) rotations, got {R.shape}")
     if valid is None:
         valid = np.ones(len(R), bool)
     valid = np.asarray(valid)
     if valid.shape != (len(R),):
-        raise ValueError(f"valid: expected shape ({len(R)},), got {valid.shape}")
+        raise InputError(f"valid: expected shape ({len(R)},), got {valid.shape}")
     return R, valid.astype(bool) & np.isfinite(R).all((1, 2))
 
 
@@ -548,16 +549,16 @@ def sequence_rectify(
     R, ok = _check_R(R, valid)
     T = len(R)
     if not fps > 0:
-        raise ValueError(f"fps must be positive, got {fps}")
+        raise InputError(f"fps must be positive, got {fps}")
     w = np.ones(T) if weights is None else np.asarray(weights, np.float64)
     if w.shape != (T,):
-        raise ValueError(f"weights: expected shape ({T},), got {w.shape}")
+        raise InputError(f"weights: expected shape ({T},), got {w.shape}")
     if np.any(~np.isfinite(w[ok])) or np.any(w[ok] < 0):
-        raise ValueError("weights must be finite and non-negative")
+        raise InputError("weights must be finite and non-negative")
     ups = frame_ups(R)
     ok &= np.isfinite(ups).all(-1) & (w > 0)
     if not ok.any():
-        raise ValueError("sequence_rectify: no valid frame (all invalid, NaN or zero weight)")
+        raise InputError("sequence_rectify: no valid frame (all invalid, NaN or zero weight)")
     w = np.where(ok, w, 0.0)
 
     u_pose, _ = robust_mean_direction(ups, w)
@@ -566,7 +567,7 @@ def sequence_rectify(
     if use_ground_plane and joints_cam is not None:
         J = check_poses(joints_cam, "joints_cam").astype(np.float64)
         if len(J) != T:
-            raise ValueError(f"joints_cam: expected {T} frames, got {len(J)}")
+            raise InputError(f"joints_cam: expected {T} frames, got {len(J)}")
         up, gp = _ground_plane(J, ok, u_pose, fps, pose_prior_deg, ground_gate_deg)
     contacts = gp.pop("_contacts", None)
     evidence = "poses+ground_plane" if gp["used"] else "poses"
@@ -686,9 +687,9 @@ def smooth_rotations(
     """
     R, ok = _check_R(R, valid)
     if not fps > 0:
-        raise ValueError(f"fps must be positive, got {fps}")
+        raise InputError(f"fps must be positive, got {fps}")
     if not time_constant_s >= 0:
-        raise ValueError(f"time_constant_s must be >= 0, got {time_constant_s}")
+        raise InputError(f"time_constant_s must be >= 0, got {time_constant_s}")
     T = len(R)
     out = np.full((T, 3, 3), np.nan)
     if not ok.any():
@@ -787,7 +788,7 @@ def choose_mode(
     """
     spread = up_spread_deg(R, valid, fps)
     if not np.isfinite(spread):
-        raise ValueError("choose_mode: no valid frame")
+        raise InputError("choose_mode: no valid frame")
     return ("sequence" if spread <= threshold_deg else "smooth"), spread
 
 
@@ -846,10 +847,10 @@ def rectify_sequence(
         ValueError: unknown mode, bad shapes, non-positive fps, no valid frame.
     """
     if mode not in MODES:
-        raise ValueError(f"unknown mode {mode!r}; expected one of {MODES}")
+        raise InputError(f"unknown mode {mode!r}; expected one of {MODES}")
     R, ok = _check_R(R, valid)
     if not fps > 0:
-        raise ValueError(f"fps must be positive, got {fps}")
+        raise InputError(f"fps must be positive, got {fps}")
     if mode == "auto":
         run, spread = choose_mode(R, ok, threshold_deg, fps)
     else:

@@ -42,6 +42,8 @@ from pcnet.stages.kinematics import (
     butterworth_lowpass,
     compute_kinematics,
     derivatives,
+    flag_counts,
+    format_flag_counts,
     joint_angles,
 )
 from pcnet.stages.rotations import axis_rotation
@@ -212,8 +214,17 @@ def test_derivatives_of_known_trajectories():
     t = np.arange(200) / fps
     quad = np.stack([1 + 2 * t - 3 * t**2, 0.5 * t**2], -1)
     v, a = derivatives(quad, fps)
-    assert np.allclose(v, np.stack([2 - 6 * t, t], -1), atol=1e-9)
-    assert np.allclose(a, np.broadcast_to([-6.0, 1.0], a.shape), atol=1e-6)
+    # Central differences are exact on a quadratic; the two end samples have no
+    # central stencil and stay blank.
+    assert np.isnan(v[[0, -1]]).all() and np.isnan(a[[0, -1]]).all()
+    assert np.allclose(v[1:-1], np.stack([2 - 6 * t, t], -1)[1:-1], atol=1e-9)
+    assert np.allclose(a[1:-1], [-6.0, 1.0], atol=1e-6)
+    # The older one-sided ends, kept behind edges="one-sided", are exact there too.
+    v1, a1 = derivatives(quad, fps, edges="one-sided")
+    assert np.allclose(v1, np.stack([2 - 6 * t, t], -1), atol=1e-9)
+    assert np.allclose(a1, np.broadcast_to([-6.0, 1.0], a1.shape), atol=1e-6)
+    with pytest.raises(ValueError, match="edges"):
+        derivatives(quad, fps, edges="forward")  # type: ignore[arg-type]
     fps = 1000.0
     t = np.arange(2000) / fps
     v, a = derivatives(np.sin(2 * np.pi * t), fps)
@@ -227,12 +238,23 @@ def test_derivatives_respect_gaps():
     x[5] = np.nan
     x[7] = np.nan  # finite runs: [0, 5), [6, 7) (one sample), [8, 20)
     v, a = derivatives(x, 1.0)
-    assert np.isnan(v[[5, 6, 7]]).all() and np.isnan(a[[5, 6, 7]]).all()
+    # Missing samples, the lone sample and every run's first and last sample: no
+    # central stencil, so no derivative (a one-sided value would bridge nothing but
+    # would be a different, noisier estimator).
+    blank = [0, 4, 5, 6, 7, 8, 19]
+    assert np.isnan(v[blank]).all() and np.isnan(a[blank]).all()
+    inner = np.setdiff1d(np.arange(20), blank)
+    assert np.isfinite(v[inner]).all() and np.isfinite(a[inner]).all()
     # Inside runs the quadratic is differentiated exactly: no value leaks across a gap.
+    assert np.allclose(v[inner], 2 * inner) and np.allclose(a[inner], 2.0)
+    v, a = derivatives(np.array([0.0, 1.0, np.nan]), 1.0)
+    assert np.isnan(v).all() and np.isnan(a).all()
+    # edges="one-sided": runs of two get a forward difference, end accelerations copy
+    # their neighbour.
+    v, a = derivatives(x, 1.0, edges="one-sided")
+    assert np.isnan(v[[5, 6, 7]]).all() and np.isnan(a[[5, 6, 7]]).all()
     assert np.allclose(v[8:], 2 * np.arange(8, 20)) and np.allclose(a[8:], 2.0)
-    assert np.allclose(v[:5], 2 * np.arange(5)) and np.allclose(a[:5], 2.0)
-    two = np.array([0.0, 1.0, np.nan])
-    v, a = derivatives(two, 1.0)
+    v, a = derivatives(np.array([0.0, 1.0, np.nan]), 1.0, edges="one-sided")
     assert np.allclose(v[:2], 1.0) and np.isnan(a).all()
 
 
@@ -342,15 +364,127 @@ def test_compute_kinematics_bundle(yoga_level):
     T = len(yoga_level)
     assert k.positions.shape == k.velocity.shape == k.acceleration.shape == (T, 17, 3)
     assert (k.units, k.velocity_units, k.acceleration_units) == ("m", "m/s", "m/s^2")
-    assert np.allclose(k.speed, np.linalg.norm(k.velocity, axis=-1))
+    assert np.allclose(k.speed, np.linalg.norm(k.velocity, axis=-1), equal_nan=True)
     knee = joint_angles(k.positions)["left_knee_flexion"]
     assert np.allclose(k.angles["left_knee_flexion"], knee, equal_nan=True)
     v, _ = derivatives(k.positions, FPS_YOGA)
-    assert np.allclose(k.velocity, v)
+    assert np.allclose(k.velocity, v, equal_nan=True)
+    # A gap-free recording: only the first and last frame lack derivatives, nothing is
+    # flagged.
+    assert np.isnan(k.acceleration[[0, -1]]).all() and np.isfinite(k.acceleration[1:-1]).all()
+    assert k.missing.shape == k.unfiltered.shape == (T, 17) and k.missing.dtype == bool
+    assert not k.missing.any() and not k.unfiltered.any()
     with pytest.raises(dataclasses.FrozenInstanceError):
         k.fps = 60.0  # type: ignore[misc]
     raw = compute_kinematics(yoga_level, FPS_YOGA, None, "normalised")
     assert raw.velocity_units == "normalised/s" and np.allclose(raw.positions, yoga_level)
+
+
+# --- missing / unfiltered flags ------------------------------------------------------
+
+
+def _wrist_acc_norm(k) -> np.ndarray:
+    return np.linalg.norm(k.acceleration[:, R_WRIST], axis=-1)
+
+
+def read_csv(path: Path) -> tuple[list[str], list[list[str]]]:
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh))
+    return rows[0], rows[1:]
+
+
+def test_wrist_masked_in_one_frame_is_flagged_in_the_csv(tmp_path, yoga_level):
+    """The demo's case on real data: the right wrist masked in frame 4 leaves a 4-frame
+    run [0, 4) too short for the filter. Frame 4 is flagged missing, frames 0-3
+    unfiltered with their raw positions and no derivatives, frame 5 (first after the
+    gap) has no central stencil, frame 6 on is differentiated as usual."""
+    X = yoga_level.astype(np.float64).copy()
+    X[4, R_WRIST] = np.nan
+    k = compute_kinematics(X, FPS_YOGA, 6.0, "m")
+    T = len(X)
+    assert np.flatnonzero(k.missing[:, R_WRIST]).tolist() == [4]
+    assert np.flatnonzero(k.unfiltered[:, R_WRIST]).tolist() == [0, 1, 2, 3]
+    assert k.missing.sum() == 1 and k.unfiltered.sum() == 4  # no other joint touched
+    assert np.array_equal(k.positions[:4, R_WRIST], X[:4, R_WRIST])  # raw, not dropped
+    assert np.isnan(k.velocity[:6, R_WRIST]).all() and np.isnan(k.acceleration[:6, R_WRIST]).all()
+    assert np.isfinite(k.acceleration[6:-1, R_WRIST]).all()
+    assert np.isfinite(k.acceleration[1:-1, R_ELBOW]).all()  # other joints keep theirs
+
+    path = write_kinematics_csv(tmp_path / "k.csv", np.arange(T), np.arange(T) / FPS_YOGA, k,
+                                extra_columns={"valid": np.ones(T, int)})
+    header, body = read_csv(path)
+    col = lambda name: [r[header.index(name)] for r in body]  # noqa: E731
+    missing, unfiltered = col("right_wrist_missing"), col("right_wrist_unfiltered")
+    assert missing[4] == "1" and missing.count("1") == 1 and set(missing) == {"0", "1"}
+    assert unfiltered[:4] == ["1"] * 4 and unfiltered.count("1") == 4
+    assert col("right_wrist_x_m")[4] == "" and col("right_wrist_x_m")[0] != ""
+    assert col("right_wrist_ax_m_per_s2")[:6] == [""] * 6 and col("right_wrist_ax_m_per_s2")[6] != ""
+    assert col("valid")[4] == "1"  # the frame is valid: only the flags say the wrist is not
+    for j in H36M_JOINTS:
+        if j != "right_wrist":
+            assert set(col(f"{j}_missing")) == {"0"} and set(col(f"{j}_unfiltered")) == {"0"}, j
+
+    counts = flag_counts(k)
+    assert counts["missing"] == {"right_wrist": 1} and counts["unfiltered"] == {"right_wrist": 4}
+    assert (counts["missing_total"], counts["unfiltered_total"]) == (1, 4)
+    assert (counts["frames_with_missing"], counts["frames_with_unfiltered"]) == (1, 4)
+    assert counts["frames_without_pose"] == 0 and counts["frames"] == T
+    assert format_flag_counts(k) == format_flag_counts(counts) == (
+        "missing: right_wrist 1 frame; unfiltered: right_wrist 4 frames "
+        "(runs shorter than the filter needs; no velocity/acceleration there)")
+
+
+def test_no_acceleration_spike_at_gap_edges(yoga_level):
+    """A short run of raw samples between two masked frames, placed over the noisiest
+    stretch of the real wrist track (raw second differences up to about 100 m/s^2 near
+    frame 1160), and single masked frames all along the recording: no acceleration
+    within 3 frames of a gap exceeds the unmasked recording's maximum. Differentiating
+    the raw run (the previous behaviour) does."""
+    X = yoga_level.astype(np.float64)
+    ceiling = np.nanmax(_wrist_acc_norm(compute_kinematics(X, FPS_YOGA, 6.0, "m")))
+    assert 20.0 < ceiling < 60.0
+
+    Y = X.copy()
+    Y[[1155, 1164], R_WRIST] = np.nan  # run [1156, 1164): 8 frames, too short to filter
+    k = compute_kinematics(Y, FPS_YOGA, 6.0, "m")
+    assert np.flatnonzero(k.unfiltered[:, R_WRIST]).tolist() == list(range(1156, 1164))
+    near = slice(1150, 1171)
+    assert np.nanmax(_wrist_acc_norm(k)[near]) <= ceiling
+    assert np.isnan(_wrist_acc_norm(k)[1154:1166]).all()
+    # The old path (raw samples differentiated, one-sided ends): a spike well above it.
+    _, old = derivatives(butterworth_lowpass(Y, FPS_YOGA, 6.0), FPS_YOGA, edges="one-sided")
+    assert np.nanmax(np.linalg.norm(old[near, R_WRIST], axis=-1)) > 1.5 * ceiling
+
+    worst = 0.0
+    for t in range(12, len(X) - 12, 11):  # filtered runs on both sides of the gap
+        Y = X.copy()
+        Y[t, R_WRIST] = np.nan
+        a = _wrist_acc_norm(compute_kinematics(Y, FPS_YOGA, 6.0, "m"))
+        assert np.isnan(a[t - 1 : t + 2]).all(), t
+        worst = max(worst, float(np.nanmax(a[t - 3 : t + 4])))
+    assert worst <= ceiling
+
+
+def test_flag_counts_frames_without_pose_and_nothing_flagged(yoga_level):
+    X = yoga_level[:300].astype(np.float64).copy()
+    assert format_flag_counts(compute_kinematics(X, FPS_YOGA, 6.0, "m")) == ""
+    X[40:43] = np.nan  # frames without any pose
+    X[100, L_WRIST] = np.nan
+    X[200:203, L_ANKLE] = np.nan
+    k = compute_kinematics(X, FPS_YOGA, 6.0, "m")
+    c = flag_counts(k)
+    assert c["missing"]["left_wrist"] == 4 and c["missing"]["pelvis"] == 3 and len(c["missing"]) == 17
+    assert c["missing_with_pose"] == {"left_ankle": 3, "left_wrist": 1}
+    assert c["frames_without_pose"] == 3 and c["frames_with_missing"] == 7
+    assert c["missing_total"] == 17 * 3 + 1 + 3 and c["unfiltered_total"] == 0
+    assert format_flag_counts(c) == "missing: left_ankle 3 frames, left_wrist 1 frame; no pose: 3 frames"
+    import json
+
+    assert json.loads(json.dumps(c)) == c  # plain types: fits a JSON report
+    # Filtering switched off: nothing is "left unfiltered"; derivatives still central only.
+    raw = compute_kinematics(X, FPS_YOGA, None, "m")
+    assert not raw.unfiltered.any() and np.array_equal(raw.missing, k.missing)
+    assert np.isnan(raw.acceleration[[39, 43], 0]).all() and np.isfinite(raw.acceleration[44, 1]).all()
 
 
 # --- exports -------------------------------------------------------------------------
@@ -367,9 +501,12 @@ def leftovers(folder: Path) -> list[str]:
 
 def test_npz_roundtrip_without_pickle(tmp_path, kin):
     path = write_npz(tmp_path / "run.npz", canonical=kin.positions, fps=30.0, units="m",
-                     meta={"source": "yoga", "height_m": 1.7})
+                     meta={"source": "yoga", "height_m": 1.7}, missing=kin.missing,
+                     unfiltered=kin.unfiltered, flag_counts=flag_counts(kin))
     with np.load(path, allow_pickle=False) as f:
         assert np.array_equal(f["canonical"], kin.positions)
+        assert f["missing"].dtype == bool and f["unfiltered"].shape == (kin.num_frames, 17)
+        assert np.array_equal(f["missing"], kin.missing)
         assert float(f["fps"]) == 30.0 and str(f["units"]) == "m"
         import json
 
@@ -393,10 +530,13 @@ def test_csv_rows_headers_units_and_values(tmp_path, kin):
                 "right_wrist_az_m_per_s2", "right_wrist_speed_m_per_s", "trunk_inclination_deg",
                 "left_knee_flexion_deg", "valid", "tilt_deg"):
         assert col in header, col
-    assert len(header) == 2 + 17 * 10 + len(kin.angles) + 2
+    assert len(header) == 2 + 17 * 12 + len(kin.angles) + 2
+    assert header[header.index("right_wrist_speed_m_per_s") + 1 :][:2] == [
+        "right_wrist_missing", "right_wrist_unfiltered"]
     c = header.index("right_wrist_vx_m_per_s")
-    got = np.array([float(r[c]) for r in body])
-    assert np.allclose(got, kin.velocity[:, R_WRIST, 0], rtol=1e-6, atol=1e-9)
+    got = np.array([float(r[c]) if r[c] else np.nan for r in body])
+    assert np.allclose(got, kin.velocity[:, R_WRIST, 0], rtol=1e-6, atol=1e-9, equal_nan=True)
+    assert body[0][c] == "" and body[1][c] != ""  # the first frame has no central difference
     assert body[0][0] == "100" and body[5][header.index("valid")] == "0"
     assert all(r[header.index("tilt_deg")] == "" for r in body)  # NaN -> empty field
 

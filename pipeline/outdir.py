@@ -1,0 +1,182 @@
+"""Output folders that never cost the user a file: checked before any work, written beside
+the destination, swapped in by renames.
+
+Rules (README "Safety"):
+
+* ``--out`` may not be the current folder or one of its ancestors, may not contain any
+  input file (an input's own folder or any folder above it), and may not be an input.
+* ``--overwrite`` replaces only a previous pcnet output: a folder holding the marker file
+  :data:`MARKER` and nothing that marker does not list. Anything else is refused, whatever
+  the flag says.
+* A run writes into a hidden sibling ``.<out>.pcnet-tmp-<id>`` (with the marker), then
+  renames the old output to ``.<out>.pcnet-trash-<id>``, the new one to ``out``, and only
+  then deletes the trash. A kill at any instant leaves either the whole old or the whole new
+  output at ``out`` (or, between the two renames, the whole old one in the trash, which the
+  next run renames back); the next run removes leftovers whose marker names a process that
+  is no longer running.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import socket
+import time
+import uuid
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+
+from pcnet.stages.errors import InputError
+
+MARKER = ".pcnet-output"
+TMP_TAG = ".pcnet-tmp-"
+TRASH_TAG = ".pcnet-trash-"
+
+
+def _is_within(path: Path, folder: Path) -> bool:
+    return path == folder or folder in path.parents
+
+
+def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike | None] = (),
+                     overwrite: bool = False) -> Path:
+    """Check that ``out`` may be written (and, with ``overwrite``, replaced) before any work.
+
+    Args:
+        out: the output folder as the user gave it (``.``, ``x/..`` and symlinks resolved).
+        inputs: the run's input files or folders (``None`` entries ignored).
+        overwrite: the user asked to replace an existing output.
+
+    Returns:
+        the resolved absolute output path.
+
+    Raises:
+        InputError: one line naming ``out`` and the rule it breaks.
+    """
+    given = str(out)
+    target = Path(out).resolve()
+    cwd = Path.cwd().resolve()
+    if _is_within(cwd, target):
+        raise InputError(f"--out {given}: expected a new folder for pcnet's outputs, got the current folder "
+                         f"or one above it ({target})")
+    for item in inputs:
+        if item is None:
+            continue
+        source = Path(item).resolve()
+        if _is_within(source, target) or _is_within(target, source):
+            raise InputError(f"--out {given}: expected a folder apart from the inputs, got one that "
+                             f"{'is' if source == target else 'contains' if _is_within(source, target) else 'lies inside'}"
+                             f" the input {item}")
+    if not target.exists() and not target.is_symlink():
+        return target
+    if not overwrite:
+        raise FileExistsError(f"{given}: output folder exists; choose another --out or pass --overwrite")
+    foreign = foreign_entries(target)
+    if foreign:
+        shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+        raise InputError(f"--out {given}: --overwrite replaces only a previous pcnet output, got a folder holding "
+                         f"files pcnet did not write ({shown}); choose another --out")
+    return target
+
+
+def foreign_entries(folder: Path) -> list[str]:
+    """Names in ``folder`` that its pcnet marker does not list (all of them when there is no
+    valid marker, or ``[folder name]`` when ``folder`` is not a folder)."""
+    if folder.is_symlink() or not folder.is_dir():
+        return [folder.name]
+    names = sorted(p.name for p in folder.iterdir())
+    listed = read_marker(folder).get("files")
+    if not isinstance(listed, list):
+        return names
+    return [n for n in names if n != MARKER and n not in listed]
+
+
+def read_marker(folder: Path) -> dict:
+    """The marker's JSON content, ``{}`` when it is missing or unreadable."""
+    try:
+        data = json.loads((folder / MARKER).read_text())
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _write_marker(folder: Path, state: str) -> None:
+    files = sorted(p.name for p in folder.iterdir() if p.name != MARKER)
+    info = {"writer": "pcnet", "state": state, "pid": os.getpid(), "host": socket.gethostname(),
+            "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files}
+    (folder / MARKER).write_text(json.dumps(info, indent=1) + "\n")
+
+
+def _process_alive(info: dict) -> bool:
+    if info.get("host") != socket.gethostname() or not isinstance(info.get("pid"), int):
+        return False
+    try:
+        os.kill(info["pid"], 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's live process
+        return True
+    return info["pid"] != os.getpid()
+
+
+def clean_stale(target: Path) -> list[Path]:
+    """Remove pcnet's own leftovers beside ``target`` from killed runs: hidden temp and trash
+    folders whose marker names a process no longer running. A trash folder left between the
+    two renames of a replacement is renamed back to ``target`` when ``target`` is missing.
+    Folders without a pcnet marker are never touched. Returns what was removed."""
+    removed: list[Path] = []
+    if not target.parent.is_dir():
+        return removed
+    for entry in sorted(target.parent.iterdir()):
+        name = entry.name
+        if not name.startswith(".") or not (TMP_TAG in name or TRASH_TAG in name):
+            continue
+        if entry.is_symlink() or not entry.is_dir():
+            continue
+        info = read_marker(entry)
+        if info.get("writer") != "pcnet" or _process_alive(info):
+            continue
+        if TRASH_TAG in name and name.startswith(f".{target.name}{TRASH_TAG}") and not target.exists():
+            os.rename(entry, target)
+            continue
+        shutil.rmtree(entry, ignore_errors=True)
+        removed.append(entry)
+    return removed
+
+
+@contextlib.contextmanager
+def staged_output(out: str | os.PathLike) -> Iterator[Path]:
+    """Yield a fresh hidden folder beside ``out`` to write into; on success swap it in as
+    ``out`` (see the module docstring), on any exception (``KeyboardInterrupt`` and the
+    CLI's SIGTERM included) delete it and leave ``out`` as it was.
+
+    Folders are created with the process umask (as ``mkdir`` does), not ``0700``. Call
+    :func:`check_out_folder` first; this function does not re-check the rules.
+
+    Raises:
+        InputError: the output folder (or its parent) cannot be created or written,
+            naming ``out``, not the hidden temporary.
+    """
+    target = Path(out).resolve()
+    given = str(out)
+    tmp = target.parent / f".{target.name}{TMP_TAG}{uuid.uuid4().hex[:12]}"
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        clean_stale(target)
+        tmp.mkdir()
+        _write_marker(tmp, "writing")
+    except OSError as err:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise InputError(f"--out {given}: cannot create the output folder there ({err.strerror or err})") from err
+    try:
+        yield tmp
+        _write_marker(tmp, "complete")
+        trash = target.parent / f".{target.name}{TRASH_TAG}{uuid.uuid4().hex[:12]}"
+        if target.exists():
+            os.rename(target, trash)
+        os.rename(tmp, target)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    shutil.rmtree(trash, ignore_errors=True)

@@ -1,0 +1,30 @@
+"""The one error type for bad input: a user's file, option or array that pcnet refuses.
+
+Every entry point (``pcnet`` commands, :func:`pcnet.stages.rectify.rectify`, the adapters,
+the config loaders) raises :class:`InputError` (or a subclass such as
+:class:`pcnet.adapters.AdapterError`) for input it cannot use; the command line turns it
+into one line and exit status 1. Any other exception is a bug in pcnet.
+"""
+
+from __future__ import annotations
+
+
+class InputError(ValueError):
+    """Input pcnet refuses, with a one-line message naming the file (or option), the field,
+    what was expected and what was found.
+
+    A ``ValueError`` subclass, so callers that already catch ``ValueError`` keep working.
+    Newlines in the message are folded into spaces so that it stays one line.
+    """
+
+    def __init__(self, message: str):
+        super().__init__(" ".join(str(message).split()))
+
+
+def input_error(source: object, field: str, expected: str, got: object) -> InputError:
+    """An :class:`InputError` worded ``SOURCE: field 'FIELD': expected EXPECTED, got GOT``;
+    ``got`` is shortened to 200 characters so a huge value never floods the terminal."""
+    text = str(got)
+    if len(text) > 200:
+        text = text[:197] + "..."
+    return InputError(f"{source}: field {field!r}: expected {expected}, got {text}")

@@ -1,0 +1,269 @@
+"""Checkpoints never run code: a pickle payload given to ``pcnet export`` or as a training
+``init_checkpoint`` is refused without executing; bad checkpoints, configs and ONNX weights
+end in one line (exit 1) and leave nothing behind; real checkpoints round-trip with
+``weights_only=True`` (train, resume, fine-tune, export of both kinds)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import zipfile
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import FIXTURES
+
+torch = pytest.importorskip("torch", reason="torch (the [train] extra) not installed")
+pytest.importorskip("onnx", reason="onnx (the [train] extra) not installed")
+
+from pcnet.models.checkpoint import load_checkpoint_dict  # noqa: E402
+from pcnet.models.datasets import clip_split, load_mocap  # noqa: E402
+from pcnet.models.inference import DEFAULT_UP_REFINER, PCNetSession, UpRefinerSession  # noqa: E402
+from pcnet.models.train import load_config, train  # noqa: E402
+from pcnet.models.up_refiner import load_refiner_config, train_refiner  # noqa: E402
+from pcnet.pipeline.cli import main  # noqa: E402
+from pcnet.stages.errors import InputError  # noqa: E402
+
+# Tiny models run fastest on one thread, and multi-threaded torch stalls on a busy machine.
+torch.set_num_threads(1)
+POSES = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"
+TINY_MODEL = "[model]\nhidden = 16\noutput = 24\nfeedforward = 32\nheads = 2\ngcn_layers = 1\ntransformer_layers = 1\n"
+
+
+class _Payload:
+    """Pickles as "call exec(code)": what a crafted checkpoint runs under weights_only=False."""
+
+    def __init__(self, marker):
+        self.code = f"open({str(marker)!r}, 'w').close()"
+
+    def __reduce__(self):
+        return (exec, (self.code,))
+
+
+def _evil_checkpoint(path, marker):
+    torch.save({"kind": "pcnet", "model": _Payload(marker), "model_config": {}, "epoch": 1}, path)
+    return path
+
+
+def _one_line_failure(res, *needles):
+    lines = res.output.strip().splitlines()
+    assert res.exit_code == 1, res.output
+    assert len(lines) == 1, res.output
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+    return lines[0]
+
+
+def _cli(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def mocap(tmp_path_factory):
+    """Two train clips and one val clip (clip_split goes by name), about 100 frames."""
+    clips = load_mocap(FIXTURES / "bandai_small.npz")
+    val_name = next(f"val_{i}" for i in range(100) if clip_split(f"val_{i}") == "val")
+    train_names = [f"train_{i}" for i in range(100) if clip_split(f"train_{i}") == "train"][:2]
+    arrays = {train_names[0]: clips[0].joints, train_names[1]: clips[3].joints, val_name: clips[2].joints[:24]}
+    path = tmp_path_factory.mktemp("mocap") / "tiny.npz"
+    np.savez(path, **arrays)
+    return path
+
+
+def _train_config(tmp_path, mocap, name="cfg.toml", **fields):
+    values = {"data": [str(mocap)], "out_dir": str(tmp_path / "run"), "epochs": 1, "batch_size": 64,
+              "val_frames": 24, "frame_stride": 2, "threads": 1, "device": "cpu", "views": "wide", **fields}
+    text = "".join(f"{k} = {json.dumps(v)}\n" for k, v in values.items() if v is not None)
+    path = tmp_path / name
+    path.write_text(text + TINY_MODEL)
+    return path
+
+
+def test_the_payload_is_real(tmp_path):
+    """The payload does run under weights_only=False, so its absence below means refusal."""
+    marker = tmp_path / "ran"
+    torch.load(_evil_checkpoint(tmp_path / "evil.pt", marker), weights_only=False)
+    assert marker.exists()
+
+
+def test_export_refuses_a_pickle_payload_without_running_it(tmp_path):
+    marker, out = tmp_path / "ran", tmp_path / "x.onnx"
+    evil = _evil_checkpoint(tmp_path / "evil.pt", marker)
+    line = _one_line_failure(_cli("export", "--checkpoint", evil, "--out", out), "evil.pt: not a pcnet checkpoint (")
+    assert "Python object (exec)" in line and "refused" in line
+    assert not marker.exists()
+    assert not out.exists() and not out.with_suffix(".json").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["evil.pt"]
+
+
+def test_train_refuses_a_pickle_payload_as_init_checkpoint_and_creates_nothing(tmp_path, mocap):
+    marker = tmp_path / "ran"
+    evil = _evil_checkpoint(tmp_path / "evil.pt", marker)
+    cfg = _train_config(tmp_path, mocap, init_checkpoint=str(evil))
+    _one_line_failure(_cli("train", "--config", cfg), "evil.pt: not a pcnet checkpoint (")
+    assert not marker.exists()
+    assert not (tmp_path / "run").exists()
+
+
+def _write_junk(kind, path):
+    if kind == "random bytes":
+        path.write_bytes(np.random.default_rng(0).bytes(512))
+    elif kind == "text":
+        path.write_text("not a checkpoint\n")
+    elif kind == "empty":
+        path.write_bytes(b"")
+    elif kind == "foreign zip":
+        with zipfile.ZipFile(path, "w") as z:
+            z.writestr("notes.txt", "hello")
+    elif kind == "a list":
+        torch.save([1, 2, 3], path)
+    elif kind == "no model":
+        torch.save({"epoch": 3}, path)
+    elif kind == "model not tensors":
+        torch.save({"model": {"w": "nope"}, "model_config": {}}, path)
+    elif kind == "unknown kind":
+        torch.save({"kind": "other", "model": {}}, path)
+    elif kind == "bad config":
+        torch.save({"kind": "pcnet", "model": {}, "model_config": {"hidden": "wide"}}, path)
+    elif kind == "weights of another net":
+        torch.save({"kind": "pcnet", "model": {"w": torch.zeros(2)}, "model_config": {}}, path)
+    elif kind == "unfinished refiner":
+        torch.save({"kind": "up_refiner", "model": {}, "config": {}}, path)
+    elif kind != "missing":
+        raise AssertionError(kind)
+    return path
+
+
+JUNK = ["random bytes", "text", "empty", "foreign zip", "a list", "no model", "model not tensors", "unknown kind",
+        "bad config", "weights of another net", "unfinished refiner", "missing"]
+
+
+@pytest.mark.parametrize("kind", JUNK)
+def test_anything_but_a_checkpoint_is_one_input_error(tmp_path, kind):
+    from pcnet.models.export import export_checkpoint
+
+    junk = _write_junk(kind, tmp_path / "junk.pt")
+    out = tmp_path / "x.onnx"
+    with pytest.raises(InputError) as info:
+        export_checkpoint(junk, out)
+    message = str(info.value)
+    assert message.startswith(f"{junk}: not a pcnet checkpoint (") and message.endswith(")")
+    assert "\n" not in message and len(message) < 400, message
+    assert not out.exists()
+
+
+def test_random_bytes_through_the_command_line(tmp_path):
+    junk = _write_junk("random bytes", tmp_path / "junk.pt")
+    out = tmp_path / "x.onnx"
+    _one_line_failure(_cli("export", "--checkpoint", junk, "--out", out), "junk.pt: not a pcnet checkpoint (")
+    assert not out.exists()
+
+
+def test_a_wrongly_typed_config_fails_in_one_line_before_creating_anything(tmp_path, mocap):
+    cfg = _train_config(tmp_path, mocap, epochs="many")
+    _one_line_failure(_cli("train", "--config", cfg), "cfg.toml", "'epochs'", "expected int")
+    assert not (tmp_path / "run").exists()
+    refiner = tmp_path / "refiner.toml"
+    refiner.write_text(f'data = ["{mocap}"]\nout_dir = "{tmp_path / "rrun"}"\nhidden = "big"\n')
+    _one_line_failure(_cli("train-refiner", "--config", refiner), "refiner.toml", "'hidden'", "expected int")
+    assert not (tmp_path / "rrun").exists()
+
+
+def test_bad_data_or_no_val_split_creates_no_run_folder(tmp_path, mocap):
+    cfg = _train_config(tmp_path, mocap, data=[str(tmp_path / "nope.npz")])
+    _one_line_failure(_cli("train", "--config", cfg), "nope.npz")
+    cfg = _train_config(tmp_path, mocap, data=[str(FIXTURES / "bandai_small.npz")])
+    _one_line_failure(_cli("train", "--config", cfg), "no clips in the val split")
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, mocap):
+    cfg = load_config(_train_config(tmp_path, mocap))
+    best = train(cfg, progress=False)
+    for name in ("best.pt", "last.pt"):
+        ck = torch.load(best.parent / name, map_location="cpu", weights_only=True)
+        assert ck["kind"] == "pcnet" and ck["model_config"]["hidden"] == 16
+    out = tmp_path / "tiny.onnx"
+    res = _cli("export", "--checkpoint", best, "--out", out)
+    assert res.exit_code == 0, res.output
+    assert json.loads(out.with_suffix(".json").read_text())["model_config"]["hidden"] == 16
+    R, _, valid = PCNetSession(out).predict(np.load(POSES)[:8])
+    assert valid.all() and np.allclose(R @ np.swapaxes(R, 1, 2), np.eye(3), atol=1e-5)
+
+    # resuming from last.pt runs only the epoch that is new
+    train(dataclasses.replace(cfg, epochs=2), progress=False)
+    epochs = [json.loads(line)["epoch"] for line in (best.parent / "metrics.jsonl").read_text().splitlines()]
+    assert epochs == [1, 2]
+    assert torch.load(best.parent / "last.pt", weights_only=True)["epoch"] == 1
+
+    # fine-tuning from best.pt; a checkpoint of another architecture is one line
+    tuned = train(dataclasses.replace(cfg, out_dir=str(tmp_path / "tuned"), init_checkpoint=str(best)),
+                  progress=False)
+    assert tuned.is_file()
+    other = dataclasses.replace(cfg, out_dir=str(tmp_path / "other"), init_checkpoint=str(best),
+                                model=dataclasses.replace(cfg.model, hidden=8))
+    with pytest.raises(InputError, match=r"best\.pt: not a pcnet checkpoint \('model' does not fit"):
+        train(other, progress=False)
+    assert not (tmp_path / "other").exists()
+
+
+def test_an_up_refiner_checkpoint_round_trips_and_exports(tmp_path, mocap):
+    cfg_path = tmp_path / "refiner.toml"
+    cfg_path.write_text(
+        f'data = ["{mocap}"]\nout_dir = "{tmp_path / "rrun"}"\noffsets_s = [0.0]\ninput_frame = "body"\n'
+        'hidden = 16\nlayers = 1\nepochs = 2\nbatch_size = 32\ncameras = ["per-frame"]\nnoise_fractions = [0.0]\n'
+        'val_camera = "per-frame"\nval_noise_fraction = 0.0\naugment = false\nthreads = 1\n')
+    cfg = load_refiner_config(cfg_path)
+    best = train_refiner(cfg, progress=False)
+    ck = torch.load(best, map_location="cpu", weights_only=True)
+    assert ck["kind"] == "up_refiner" and ck["config"]["hidden"] == 16 and "max_median_correction_deg" in ck
+    lines = (best.parent / "metrics.jsonl").read_text().splitlines()
+    assert train_refiner(cfg, progress=False) == best  # resumed from last.pt: no epoch left to run
+    assert len((best.parent / "metrics.jsonl").read_text().splitlines()) == len(lines) + 1  # only the prep line
+    out = tmp_path / "r.onnx"
+    res = _cli("export", "--checkpoint", best, "--out", out)
+    assert res.exit_code == 0, res.output
+    sess = UpRefinerSession(out)
+    assert sess.input_frame == "body" and list(sess.offsets_s) == [0.0]
+    # a refiner's last.pt is not a 3DPCNet: refused as an init_checkpoint
+    with pytest.raises(InputError, match=r"last\.pt: not a pcnet checkpoint \(kind 'up_refiner', expected 'pcnet'\)"):
+        load_checkpoint_dict(best.parent / "last.pt", kind="pcnet")
+
+
+def test_weights_that_are_not_3dpcnet_onnx_fail_in_one_line(tmp_path):
+    text = tmp_path / "weights.onnx"
+    text.write_text("these are not weights\n")
+    out = tmp_path / "out.npz"
+    _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", text), "weights.onnx: not an ONNX model (")
+    _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", tmp_path / "gone.onnx"),
+                      "gone.onnx: no such file")
+    # a real ONNX model of another network (the up refiner: input 'features')
+    _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", DEFAULT_UP_REFINER),
+                      "up_refiner.onnx: not 3DPCNet weights", "features")
+    assert not out.exists()
+    with pytest.raises(InputError, match=r"pcnet_small\.onnx: not up-refiner weights"):
+        UpRefinerSession(_copy_with_json(tmp_path, "pcnet_small", {"offsets_s": [0.0]}))
+
+
+def _copy_with_json(tmp_path, stem, info):
+    from pcnet.models.inference import WEIGHTS_DIR
+
+    path = tmp_path / f"{stem}.onnx"
+    path.write_bytes((WEIGHTS_DIR / f"{stem}.onnx").read_bytes())
+    path.with_suffix(".json").write_text(json.dumps(info))
+    return path
+
+
+def test_no_code_path_loads_checkpoints_with_pickle():
+    """Every torch.load in the package passes weights_only=True (a new call site must too)."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    calls = []
+    for folder in ("adapters", "models", "pipeline", "stages"):
+        for path in (root / folder).rglob("*.py"):
+            calls += [(path.name, m.group(0)) for m in re.finditer(r"torch\.load\([^)]*\)", path.read_text())]
+    assert calls, "no torch.load found: the check lost its target"
+    assert all("weights_only=True" in call for _, call in calls), calls

@@ -1,0 +1,293 @@
+"""Safety of the commands as a user meets them: nothing the user wrote is ever deleted,
+outputs appear whole or not at all (also under SIGKILL / SIGTERM), every bad input ends in
+one line and exit 1, and the API and the command line agree on what a valid frame is."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import FIXTURES
+
+from pcnet.pipeline.cli import main
+from pcnet.pipeline.outdir import MARKER, TMP_TAG, TRASH_TAG, read_marker
+from pcnet.stages.conventions import L_HIP, PELVIS
+from pcnet.stages.rectify import rectify
+
+POSES = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"  # VideoPose3D, (100, 17, 3) metres, camera frame
+VIDEO = FIXTURES / "boxing2_f000-009.mp4"
+
+
+def _invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def _one_line_error(res, *needles: str) -> None:
+    """Exit 1 with one 'Error: ...' line naming every needle, and no traceback."""
+    assert res.exit_code == 1, (res.exit_code, res.output, res.exception)
+    assert isinstance(res.exception, SystemExit), repr(res.exception)  # not an unexpected exception
+    errors = [ln for ln in res.output.splitlines() if ln.startswith("Error: ")]
+    assert len(errors) == 1 and "Traceback" not in res.output, res.output
+    for needle in needles:
+        assert needle in errors[0], (needle, errors[0])
+
+
+@pytest.fixture
+def user_folder(tmp_path, monkeypatch):
+    """A user's working folder holding their input and a file of their own."""
+    folder = tmp_path / "work"
+    folder.mkdir()
+    (folder / "poses.npy").write_bytes(POSES.read_bytes())
+    (folder / "notes.txt").write_text("mine")
+    monkeypatch.chdir(folder)
+    return folder
+
+
+def _contents(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+RUN = ("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30", "--method", "geometric",
+       "--no-recording")
+
+
+@pytest.mark.parametrize("out", [".", "sub/..", "..", "./"])
+@pytest.mark.parametrize("command", ["demo", "run"])
+def test_overwrite_never_empties_the_current_folder_or_its_parents(user_folder, command, out):
+    before = _contents(user_folder.parent)
+    args = ("demo", "--method", "geometric") if command == "demo" else RUN
+    _one_line_error(_invoke(*args, "--out", out, "--overwrite"), f"--out {out}", "current folder")
+    assert _contents(user_folder.parent) == before
+
+
+def test_out_may_not_contain_an_input_or_a_folder_of_the_users(user_folder):
+    sub = user_folder / "data"
+    sub.mkdir()
+    (sub / "poses.npy").write_bytes(POSES.read_bytes())
+    args = ["run", "--lifter", "generic", "--lifter-output", "data/poses.npy", "--fps", "30", "--method", "geometric"]
+    _one_line_error(_invoke(*args, "--out", "data", "--overwrite"), "input data/poses.npy")
+    assert (sub / "poses.npy").read_bytes() == POSES.read_bytes()
+    # A folder of the user's (no pcnet marker) is never replaced.
+    theirs = user_folder / "results"
+    theirs.mkdir()
+    (theirs / "figure.png").write_bytes(b"png")
+    _one_line_error(_invoke(*RUN, "--out", theirs, "--overwrite"), "did not write", "figure.png")
+    assert (theirs / "figure.png").read_bytes() == b"png"
+
+
+def test_overwrite_replaces_a_previous_output_and_refuses_once_the_user_added_a_file(user_folder):
+    assert _invoke(*RUN, "--out", "o").exit_code == 0
+    marker = read_marker(user_folder / "o")
+    assert marker["state"] == "complete" and "canonical.npz" in marker["files"]
+    assert sorted(p.name for p in (user_folder / "o").iterdir()) == sorted(marker["files"] + [MARKER])
+    res = _invoke(*RUN, "--out", "o", "--overwrite")
+    assert res.exit_code == 0, res.output
+    (user_folder / "o" / "my_analysis.xlsx").write_text("mine")
+    _one_line_error(_invoke(*RUN, "--out", "o", "--overwrite"), "my_analysis.xlsx")
+    assert (user_folder / "o" / "my_analysis.xlsx").read_text() == "mine"
+    assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp folder left
+
+
+def test_output_folders_follow_the_umask(user_folder):
+    old = os.umask(0o022)
+    try:
+        assert _invoke(*RUN, "--out", "o").exit_code == 0
+    finally:
+        os.umask(old)
+    assert (user_folder / "o").stat().st_mode & 0o777 == 0o755
+
+
+@pytest.mark.parametrize("field, value", [("overwrite", '"false"'), ("recording", '"false"'), ("fps", '"30"'),
+                                          ("height", "true"), ("person", "1.5")])
+def test_toml_fields_are_type_checked(user_folder, field, value):
+    (user_folder / "o").mkdir()
+    (user_folder / "o" / "precious.txt").write_text("mine")
+    lines = {"lifter": '"generic"', "lifter_output": '"poses.npy"', "fps": "30", "out": '"o"', field: value}
+    (user_folder / "run.toml").write_text("".join(f"{k} = {v}\n" for k, v in lines.items()))
+    _one_line_error(_invoke("run", "--config", "run.toml"), "run.toml", f"field {field!r}", "expected")
+    assert (user_folder / "o" / "precious.txt").read_text() == "mine"
+
+
+def _run_cli(folder: Path, *args: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "pcnet.pipeline.cli", *args], cwd=folder,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _complete(out: Path) -> bool:
+    info = read_marker(out)
+    return info.get("state") == "complete" and all((out / f).is_file() for f in info["files"])
+
+
+def test_sigkill_during_overwrite_leaves_the_old_or_the_new_output_whole(user_folder):
+    """Kill `pcnet run --overwrite` at spread-out instants: `out` is always a complete
+    result (or, between the two renames, absent with the old one whole in the trash), and the
+    next run removes every leftover."""
+    args = [*RUN, "--out", "o", "--overwrite"]
+    first = _run_cli(user_folder, *args[:-1])
+    assert first.wait(60) == 0, first.stderr.read()
+    killed_late = 0
+    for delay in (0.2, 0.5, 0.8, 1.0, 1.2, 1.4, 1.7):
+        proc = _run_cli(user_folder, *args)
+        time.sleep(delay)
+        proc.kill()
+        proc.wait(30)
+        killed_late += proc.returncode == -signal.SIGKILL
+        trash = list(user_folder.glob(f".o{TRASH_TAG}*"))
+        assert _complete(user_folder / "o") or (not (user_folder / "o").exists() and len(trash) == 1
+                                                 and _complete(trash[0]))
+    assert killed_late >= 3  # the kills landed while the runs were working
+    last = _run_cli(user_folder, *args)
+    assert last.wait(60) == 0, last.stderr.read()
+    assert _complete(user_folder / "o")
+    leftovers = [p.name for p in user_folder.iterdir() if TMP_TAG in p.name or TRASH_TAG in p.name]
+    assert leftovers == [], leftovers
+    assert (user_folder / "notes.txt").read_text() == "mine"
+
+
+def test_sigterm_is_handled_like_ctrl_c(user_folder):
+    """SIGTERM while the recording is written: exit 130, one line, no temp folder, no out."""
+    proc = _run_cli(user_folder, "run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30",
+                    "--out", "o")
+    deadline = time.time() + 60
+    while time.time() < deadline and not list(user_folder.glob(f".o{TMP_TAG}*")):
+        time.sleep(0.01)  # wait until it is writing its outputs
+    assert list(user_folder.glob(f".o{TMP_TAG}*")), "the run never started writing"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    assert not (user_folder / "o").exists()
+    assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]
+
+
+def test_stale_temp_folders_of_killed_runs_are_removed_but_nothing_else(user_folder):
+    stale = user_folder / f".o{TMP_TAG}dead"
+    stale.mkdir()
+    (stale / MARKER).write_text(json.dumps({"writer": "pcnet", "state": "writing", "pid": 2**22 + 7,
+                                            "host": os.uname().nodename, "files": []}))
+    (stale / "canonical.npz").write_bytes(b"x" * 1000)
+    lookalike = user_folder / f".o{TMP_TAG}users"  # no pcnet marker: not ours
+    lookalike.mkdir()
+    (lookalike / "thesis.tex").write_text("mine")
+    assert _invoke(*RUN, "--out", "o").exit_code == 0
+    assert not stale.exists()
+    assert (lookalike / "thesis.tex").read_text() == "mine"
+
+
+def _poses_with_gaps(folder: Path) -> Path:
+    X = np.load(POSES).astype(np.float32)
+    X[5:10, PELVIS] = np.nan  # pelvis missing, hips present: pelvis = hip midpoint
+    X[20:23, PELVIS] = np.nan
+    X[20:23, L_HIP] = np.nan  # pelvis and a hip missing: invalid everywhere
+    X[30, 3, 0] = np.inf  # non-finite = missing, never exported as inf
+    path = folder / "gaps.npy"
+    np.save(path, X)
+    return path
+
+
+def test_api_and_command_line_agree_on_valid_frames(user_folder):
+    path = _poses_with_gaps(user_folder)
+    api = rectify(np.load(path), "geometric")
+    assert api.valid[5:10].all() and np.isfinite(api.canonical[5:10]).all()
+    assert not api.valid[20:23].any()
+    assert api.report["pelvis_from_hips_frames"] == 5
+    res = _invoke("run", "--lifter", "generic", "--lifter-output", path, "--fps", "30", "--method", "geometric",
+                  "--no-recording", "--out", "o")
+    assert res.exit_code == 0, res.output
+    assert "pelvis missing in 5 frames" in res.output
+    with np.load(user_folder / "o" / "canonical.npz") as npz:
+        np.testing.assert_array_equal(npz["valid"], api.valid)
+        assert not np.isinf(npz["canonical"]).any() and not np.isinf(npz["joints_camera"]).any()
+    text = (user_folder / "o" / "canonical.trc").read_text() + (user_folder / "o" / "kinematics.csv").read_text()
+    assert "inf" not in text.lower()
+    res = _invoke("rectify", path, "--out", "r.npz", "--method", "geometric")
+    assert res.exit_code == 0, res.output
+    with np.load(user_folder / "r.npz") as npz:
+        np.testing.assert_array_equal(npz["valid"], api.valid)
+
+
+@pytest.mark.parametrize("bad, needles", [
+    (lambda X: X.astype(bool), ["dtype bool"]),
+    (lambda X: X.astype(np.complex64), ["dtype complex64"]),
+    (lambda X: X.astype(str), ["dtype <U"]),
+    (lambda X: X[:0], ["at least one frame"]),
+    (lambda X: np.full_like(X, np.nan), ["finite"]),
+    (lambda X: np.where(np.arange(100)[:, None, None] == 42, 1e30, X), ["frame 42", "pelvis", "1e+30"]),
+])
+def test_rectify_api_and_cli_refuse_the_same_arrays(user_folder, bad, needles):
+    X = bad(np.load(POSES))
+    with pytest.raises(ValueError) as err:
+        rectify(X, "geometric")
+    for needle in needles:
+        assert needle in str(err.value)
+    np.save(user_folder / "bad.npy", X)
+    _one_line_error(_invoke("rectify", "bad.npy", "--out", "r.npz", "--method", "geometric"), "bad.npy", *needles)
+    assert not (user_folder / "r.npz").exists()
+
+
+def test_fps_must_match_the_video_unless_overridden(user_folder):
+    args = ["run", "--video", VIDEO, "--lifter", "generic", "--lifter-output", "short.npy", "--method", "geometric",
+            "--no-recording"]
+    np.save(user_folder / "short.npy", np.load(POSES)[:10])
+    _one_line_error(_invoke(*args, "--fps", "60", "--out", "o"), "--fps 60", "--fps-override")
+    assert not (user_folder / "o").exists()
+    res = _invoke(*args, "--fps", "60", "--fps-override", "--out", "o")
+    assert res.exit_code == 0, res.output
+    with np.load(user_folder / "o" / "canonical.npz") as npz:
+        assert float(npz["fps"]) == 60.0
+
+
+@pytest.mark.parametrize("args, needles", [
+    (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "0", "--out", "o"), ["fps", "got 0.0"]),
+    (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30", "--height", "1e38", "--out", "o"),
+     ["height", "1e+38"]),
+    (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--out", "o"), ["fps"]),
+    (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30", "--weights", "notes.txt",
+      "--out", "o"), ["notes.txt"]),
+    (("run", "--lifter", "generic", "--lifter-output", "nothere.npy", "--fps", "30", "--out", "o"), ["nothere.npy"]),
+    (("rectify", "poses.npy", "--out", "nodir/x.npz"), ["nodir"]),
+    (("rectify", "poses.npy", "--out", "notes.txt/x.npz"), ["notes.txt"]),
+    (("rectify", "poses.npy", "--out", "poses.npy"), ["input file itself"]),
+    (("evaluate", "--method", "geometric", "--data", str(FIXTURES / "mocap_small.npz"), "--json", "nodir/x.json"),
+     ["--json", "nodir"]),
+])
+def test_bad_options_end_in_one_line(user_folder, args, needles):
+    before = _contents(user_folder)
+    _one_line_error(_invoke(*args), *needles)
+    assert _contents(user_folder) == before
+
+
+def test_unknown_lifter_options_in_toml_end_in_one_line(user_folder):
+    (user_folder / "run.toml").write_text('lifter = "generic"\nlifter_output = "poses.npy"\nfps = 30\n'
+                                          'out = "o"\n[lifter_options]\nfoo = 1\n')
+    _one_line_error(_invoke("run", "--config", "run.toml"), "foo")
+    assert not (user_folder / "o").exists()
+
+
+@pytest.mark.parametrize("content, needle", [(b"", "empty"), (b"\x00\xff\xfe\x89PNG\x00" * 20, "binary"),
+                                             (b"lifter,lifter_output,out\n", "at least one row"),
+                                             (b"lifter,out\ngeneric,o,extra,cells\n", "line 2")])
+def test_bad_batch_manifests_end_in_one_line(user_folder, content, needle):
+    (user_folder / "m.csv").write_bytes(content)
+    _one_line_error(_invoke("batch", "m.csv"), "m.csv", needle)
+
+
+def test_unexpected_errors_keep_their_traceback(user_folder, monkeypatch):
+    """The error boundary turns only expected errors into one line: a bug stays visible."""
+    import pcnet.pipeline.runner as runner
+
+    def broken(*_args, **_kwargs):
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(runner, "compute_kinematics", broken)
+    res = _invoke(*RUN, "--out", "o")
+    assert isinstance(res.exception, RuntimeError)
+    assert not (user_folder / "o").exists()
