@@ -1,9 +1,11 @@
 """Print the README's result tables (markdown) from the JSON that
-``benchmarks/evaluate_all.sh`` wrote to benchmarks/results/."""
+``benchmarks/evaluate_all.sh`` wrote to benchmarks/results/; with the argument ``heldout``,
+the held-out evaluation's table from benchmarks/results/heldout/."""
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 RESULTS = Path(__file__).parent / "results"
@@ -53,5 +55,42 @@ def main() -> None:
             print(row(f"{label}, paper", name, load(f"pcnet_{key}_paper_static_noise_{mode}"), ALL_METRICS[:4]))
 
 
+HELDOUT_ROWS = (  # (file stem without the method, data/split label, protocol label)
+    ("bandai_test_motion-style_frame", "Bandai test, motion-style", "frame, clean"),
+    ("bandai_test_clip_frame", "Bandai test, clip", "frame, clean"),
+    ("bandai_unseen_frame", "Bandai, groups unseen by the weights", "frame, clean"),
+    ("bandai_test_motion-style_perclip_lifter_sequence", "Bandai test, motion-style", "per-clip, lifter, sequence"),
+    ("bandai_test_clip_perclip_lifter_sequence", "Bandai test, clip", "per-clip, lifter, sequence"),
+    ("bandai_unseen_perclip_lifter_sequence", "Bandai, groups unseen by the weights", "per-clip, lifter, sequence"),
+    ("deepmimic_all_lifter_frame", "DeepMimic all", "frame, lifter"),
+    ("deepmimic_all_perclip_lifter_sequence", "DeepMimic all", "per-clip, lifter, sequence"),
+)
+HELDOUT_METHODS = (("geometric", "geometric"), ("pcnet", "pcnet"), ("pcnet", "pcnet, no up refiner"))
+
+
+def heldout() -> None:
+    """The held-out table: each row with its clips, groups, scored and invalid frames (left out
+    of the metrics) and, for Bandai, the clips the shipped weights trained on. Rows of one
+    data/protocol must have scored the same frames (``frame_set``): checked."""
+    folder = RESULTS / "heldout"
+    print("| data, split | protocol | method | clips / groups | frames (invalid) | trained on | rotation | tilt "
+          "| heading | MPJPE | PA-MPJPE |\n|---|---|---|---|---|---|---|---|---|---|---|")
+    for stem, data, protocol in HELDOUT_ROWS:
+        sets = set()
+        for method, label in HELDOUT_METHODS:
+            suffix = "_norefiner" if "no up refiner" in label else ""
+            path = folder / f"{method}_{stem}{suffix}.json"
+            if not path.is_file():
+                continue
+            r = json.loads(path.read_text())
+            sets.add(r["frame_set"])
+            o = r.get("shipped_training_overlap")
+            trained = f"{o['clips_trained_on']} clips, {o['groups_with_a_trained_take']} groups" if o else "none"
+            print(f"| {data} | {protocol} | {label} | {r['clips']} / {r['groups']} | {r['frames']} "
+                  f"({r['invalid_frames']}) | {trained} | " + " | ".join(cell(r, m) for m in ALL_METRICS) + " |")
+        if len(sets) > 1:
+            raise SystemExit(f"{stem}: methods scored different frames {sorted(sets)}")
+
+
 if __name__ == "__main__":
-    main()
+    heldout() if sys.argv[1:] == ["heldout"] else main()

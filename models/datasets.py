@@ -11,12 +11,14 @@ optionally a ``.json`` beside it mapping clip name -> ``{"frames", "fps", ...}``
 from __future__ import annotations
 
 import json
+import re
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from pcnet.models.lifter_noise import LifterNoise, apply_lifter_noise
 from pcnet.stages.canonical import canonical_rotation, to_canonical
 from pcnet.stages.conventions import H36M_PARENTS, PELVIS
 from pcnet.stages.errors import InputError
@@ -30,6 +32,8 @@ class Clip:
     name: str
     joints: np.ndarray  # (T, 17, 3) world frame, metres
     fps: float
+    # Performer id from the metadata json (CMU: "subject"); None where the source has none.
+    subject: int | None = None
 
 
 def load_numpy_file(path: Path, what: str):
@@ -81,26 +85,158 @@ def load_mocap(path: str | Path) -> list[Clip]:
             arr = data[name]
             if arr.ndim != 3 or arr.shape[1:] != (17, 3) or arr.shape[0] < 1:
                 raise InputError(f"{path}: clip {name!r} has shape {arr.shape}, expected (T, 17, 3) H36M-17 in metres")
-            clips.append(Clip(name, arr.astype(np.float32), float(meta.get(name, {}).get("fps", 30.0))))
+            info = meta.get(name, {})
+            subject = info.get("subject")
+            clips.append(Clip(name, arr.astype(np.float32), float(info.get("fps", 30.0)),
+                              subject if isinstance(subject, int) and not isinstance(subject, bool) else None))
     return clips
 
 
 def clip_split(name: str) -> str:
     """Deterministic split of a whole clip by its name: ``crc32(name) % 10`` in 0-7 ->
-    train, 8 -> val, 9 -> test (about 80/10/10). Whole clips never straddle splits."""
-    bucket = zlib.crc32(name.encode("utf-8")) % 10
+    train, 8 -> val, 9 -> test (about 80/10/10). Whole clips never straddle splits, but the
+    takes of one motion and style do (the ``"clip"`` scheme of :func:`select_split`)."""
+    return _bucket_split(name)
+
+
+def _bucket_split(key: str) -> str:
+    # zlib.crc32, not hash(): Python salts str hashes per process, a split must not move.
+    bucket = zlib.crc32(key.encode("utf-8")) % 10
     return "train" if bucket < 8 else ("val" if bucket == 8 else "test")
 
 
-def select_split(clips: list[Clip], split: str) -> list[Clip]:
-    """Clips of ``split`` (``train``/``val``/``test``/``all``).
+SPLIT_SCHEMES = ("clip", "motion-style")
+
+#: Bandai clip names, ``<dataset>_<motion>_<style>_<take>``: ``dataset-<n>``, then motion and
+#: style as lower-case words joined by hyphens (never underscores), then a numeric take, e.g.
+#: ``dataset-1_bow_active_001``, ``dataset-2_raise-up-left-hand_youthful_034``. All 3076
+#: names of ``bandai_h36m17.npz`` match (226 groups; ``tests/test_heldout_eval.py``).
+BANDAI_NAME = re.compile(r"(dataset-\d+)_([a-z0-9]+(?:-[a-z0-9]+)*)_([a-z0-9]+(?:-[a-z0-9]+)*)_(\d+)")
+#: CMU Graphics Lab clip names, ``<subject>_<trial>`` (``008_01`` = subject 8, trial 1), as in
+#: ``cmu_train_h36m17.npz``, whose json also gives ``subject`` (equal to the prefix for all 101).
+CMU_NAME = re.compile(r"(\d{2,3})_(\d{2,3})")
+
+#: Bandai styles held out of train and val and put whole into test, per dataset: the styles
+#: with the lowest ``crc32("<dataset>/<style>")`` (a fixed rule, not a choice by results), 2 of
+#: dataset-1's 15 styles and 1 of dataset-2's 7 (about 13 % and 14 % of each dataset's styles).
+#: Style names recur across the two datasets ("feminine", "active", "normal"): a held-out
+#: style is unseen in its own dataset only; the other dataset's takes under that name (other
+#: motions, recorded separately) remain in train. A dataset not listed here holds no style out.
+HELDOUT_TEST_STYLES: dict[str, tuple[str, ...]] = {
+    "dataset-1": ("feminine", "chimpira"),
+    "dataset-2": ("active",),
+}
+#: How many styles :data:`HELDOUT_TEST_STYLES` holds out per dataset (the rule's quota).
+HELDOUT_STYLE_COUNT = {"dataset-1": 2, "dataset-2": 1}
+
+#: CMU subjects held out whole (``cmu_train_h36m17.json`` ``subject``). Chosen by hand so that each
+#: held-out subject's activities are also done by a training subject (walks: 8; salsa: 61;
+#: soccer kicks: 11; climbing, jumping, sitting, laughing: 13): the split measures new
+#: people, not new activities. Train keeps 8, 9, 11, 13, 61 and any other subject.
+CMU_HOLDOUT_SUBJECTS: dict[str, tuple[int, ...]] = {"val": (12, 60), "test": (10, 14)}
+
+
+def parse_bandai_name(name: str) -> tuple[str, str, str, int] | None:
+    """``(dataset, motion, style, take)`` of a Bandai clip name (:data:`BANDAI_NAME`), e.g.
+    ``"dataset-1_bow_active_001"`` -> ``("dataset-1", "bow", "active", 1)``; ``None`` for any
+    other name."""
+    m = BANDAI_NAME.fullmatch(name)
+    return None if m is None else (m.group(1), m.group(2), m.group(3), int(m.group(4)))
+
+
+def clip_subject(clip: Clip) -> int | None:
+    """The CMU subject of a clip: its metadata ``subject``, else the ``<subject>_<trial>``
+    name prefix (:data:`CMU_NAME`); ``None`` for other clips."""
+    if clip.subject is not None:
+        return clip.subject
+    m = CMU_NAME.fullmatch(clip.name)
+    return None if m is None else int(m.group(1))
+
+
+def group_key(clip: Clip) -> str | None:
+    """The unit the ``"motion-style"`` scheme keeps whole: ``"<dataset>_<motion>_<style>"``
+    for Bandai (all takes of one motion in one style), ``"cmu-subject-<id>"`` for CMU (all of
+    one performer's clips); ``None`` for a clip with neither (e.g. DeepMimic)."""
+    parsed = parse_bandai_name(clip.name)
+    if parsed is not None:
+        return "_".join(parsed[:3])
+    subject = clip_subject(clip)
+    return None if subject is None else f"cmu-subject-{subject}"
+
+
+def motion_style_split(clip: Clip) -> str:
+    """Split of a clip under the ``"motion-style"`` scheme (no group straddles splits).
+
+    Bandai (:func:`parse_bandai_name`): a style of :data:`HELDOUT_TEST_STYLES` -> test;
+    otherwise the whole ``(dataset, motion, style)`` group by ``crc32("<dataset>_<motion>_<style>")
+    % 10``: 0-7 train, 8 val, 9 test. CMU (:func:`clip_subject`): subjects of
+    :data:`CMU_HOLDOUT_SUBJECTS` -> val / test, every other subject -> train.
 
     Raises:
-        ValueError: unknown split name.
+        InputError: a clip that is neither Bandai nor CMU (no motion, style or subject in its
+            name or metadata): use split "all" (cross-dataset) or the "clip" scheme.
+    """
+    parsed = parse_bandai_name(clip.name)
+    if parsed is not None:
+        dataset, motion, style, _ = parsed
+        if style in HELDOUT_TEST_STYLES.get(dataset, ()):
+            return "test"
+        return _bucket_split(f"{dataset}_{motion}_{style}")
+    subject = clip_subject(clip)
+    if subject is not None:
+        for split, subjects in CMU_HOLDOUT_SUBJECTS.items():
+            if subject in subjects:
+                return split
+        return "train"
+    raise InputError(f"clip {clip.name!r}: split scheme 'motion-style' expected a Bandai name "
+                     f"<dataset>_<motion>_<style>_<take> or a CMU subject (name <subject>_<trial> or json "
+                     f"'subject'), got neither; use split 'all' (cross-dataset) or split scheme 'clip'")
+
+
+def clip_split_of(clip: Clip, scheme: str = "clip") -> str:
+    """``"train"``/``"val"``/``"test"`` of one clip under ``scheme`` (:data:`SPLIT_SCHEMES`).
+
+    Raises:
+        InputError: unknown scheme, or a clip the scheme cannot place (:func:`motion_style_split`).
+    """
+    if scheme == "clip":
+        return clip_split(clip.name)
+    if scheme == "motion-style":
+        return motion_style_split(clip)
+    raise InputError(f"split scheme {scheme!r}: expected one of {SPLIT_SCHEMES}")
+
+
+def select_split(clips: list[Clip], split: str, scheme: str = "clip") -> list[Clip]:
+    """Clips of ``split`` (``train``/``val``/``test``/``all``) under ``scheme``.
+
+    Schemes: ``"clip"`` (the default, what every training config and the shipped weights
+    used: :func:`clip_split`, each take hashed alone, so most test clips have a sibling take
+    of the same motion and style in train) and ``"motion-style"``
+    (:func:`motion_style_split`: whole Bandai motion-style groups and whole styles held out,
+    CMU split by subject). ``"all"`` returns every clip under either scheme.
+
+    On ``bandai_h36m17.npz`` (3076 clips, 226 groups): ``"clip"`` gives train / val / test
+    2475 / 293 / 308 clips (333,044 / 39,986 / 43,815 frames), and 75 of the 89 test groups
+    have a take in train; ``"motion-style"`` gives 1971 / 195 / 910 clips in 158 / 19 / 49
+    groups (283,280 / 30,710 / 102,855 frames), 30 of the test groups from the held-out
+    styles. On ``cmu_train_h36m17.npz``: val subjects 12, 60 (11 clips), test 10, 14 (28).
+
+    Raises:
+        InputError: unknown split or scheme, or (``"motion-style"``) a clip that is neither
+            Bandai nor CMU.
     """
     if split not in SPLITS:
         raise InputError(f"unknown split {split!r}; expected one of {SPLITS}")
-    return [c for c in clips if split == "all" or clip_split(c.name) == split]
+    if scheme not in SPLIT_SCHEMES:
+        raise InputError(f"split scheme {scheme!r}: expected one of {SPLIT_SCHEMES}")
+    return [c for c in clips if split == "all" or clip_split_of(c, scheme) == split]
+
+
+def groups_in_split(clips: list[Clip], split: str, scheme: str = "clip") -> set[str]:
+    """The :func:`group_key` of every clip of ``split`` under ``scheme`` (clips without a
+    group count under their own name): which motion-style groups (CMU subjects) a model
+    trained on that split has seen at least one take of."""
+    return {group_key(c) or c.name for c in select_split(clips, split, scheme)}
 
 
 @dataclass(frozen=True)
@@ -175,7 +311,7 @@ def make_pairs(
     views: str = "paper",
     seed: int = 0,
     camera: str = "per-frame",
-    noise: Noise | None = None,
+    noise: Noise | LifterNoise | None = None,
     augmentation: Augmentation | None = None,
     frame_stride: int = 1,
     max_frames: int | None = None,
@@ -191,7 +327,11 @@ def make_pairs(
     view distribution), with ``camera="static"`` it is fixed in the world (the sampled view
     holds at the clip's first frame; the subject's own turning then shows, as in a real
     recording). The input is ``canonical @ R.T``, then
-    ``noise`` if given. ``frame_stride`` keeps every k-th frame; ``max_frames`` then keeps
+    ``noise`` if given: :class:`Noise` (frame-independent, :func:`apply_noise`) or
+    :class:`pcnet.models.lifter_noise.LifterNoise` (errors that persist over each clip,
+    drawn over the clip's full length so that stride and ``max_frames`` keep each kept
+    frame's error; with per-frame cameras drawn in a per-clip reference camera first, see
+    :func:`_lifter_inputs`). ``frame_stride`` keeps every k-th frame; ``max_frames`` then keeps
     at most that many frames, evenly spaced over the whole set (deterministic).
 
     Raises:
@@ -234,13 +374,35 @@ def make_pairs(
         R_first = np.empty((len(clips), 3, 3))
         R_first[idx_clip[first]] = R_world[first]
         R = np.einsum("nij,nkj,nkl->nil", R, R_first[idx_clip], R_world)
-    inputs = np.einsum("nij,nkj->nki", R, canon)
-    if noise is not None:
-        inputs = apply_noise(inputs, noise, rng, idx_clip)
+    if isinstance(noise, LifterNoise):
+        inputs = _lifter_inputs(clips, canon, R, idx_clip, idx_frame, camera, views, noise, rng)
+    else:
+        inputs = np.einsum("nij,nkj->nki", R, canon)
+        if noise is not None:
+            inputs = apply_noise(inputs, noise, rng, idx_clip)
     return PairSet(
         inputs.astype(np.float32), canon.astype(np.float32), R, idx_clip, idx_frame,
         tuple(c.name for c in clips),
     )
+
+
+def _lifter_inputs(clips, canon, R, idx_clip, idx_frame, camera, views, noise, rng) -> np.ndarray:
+    """Camera-frame inputs with :mod:`pcnet.models.lifter_noise` errors. A lifter's errors
+    live in the frame of the one camera that filmed the clip; with a new camera every frame
+    (``per-frame``) they are drawn in a per-clip reference camera (one more draw from
+    ``views``), taken back to the canonical frame, and only then turned by each frame's own
+    camera: the temporal structure survives, the depth axis of the errors is the reference
+    camera's, not each frame's."""
+    n_frames = np.array([len(c.joints) for c in clips])
+    fps = np.array([c.fps for c in clips])
+    if camera == "per-frame":
+        R_ref = sample_views(len(clips), views, rng)[idx_clip]
+        ref = np.einsum("nij,nkj->nki", R_ref, canon)
+        noisy_canon = np.einsum("nki,nij->nkj", apply_lifter_noise(ref, idx_clip, idx_frame, n_frames, fps, rng, noise),
+                                R_ref)
+        return np.einsum("nij,nkj->nki", R, noisy_canon)
+    inputs = np.einsum("nij,nkj->nki", R, canon)
+    return apply_lifter_noise(inputs, idx_clip, idx_frame, n_frames, fps, rng, noise)
 
 
 def sample_views(n: int, views: str, rng: np.random.Generator) -> np.ndarray:

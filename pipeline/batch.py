@@ -9,7 +9,7 @@ from pathlib import Path
 
 from pcnet.stages.errors import InputError
 
-from .config import RunConfig
+from .config import RunConfig, parse_hypothesis
 
 _NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold": float, "cutoff_hz": float}
 _LIFTER_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key")
@@ -45,7 +45,7 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
         elif key == "pixel":
             options["pixel"] = _boolean(key, raw)
         elif key == "hypothesis":
-            options[key] = int(raw) if raw.lstrip("-").isdigit() else raw
+            options[key] = parse_hypothesis(raw)
         elif key in _LIFTER_OPTIONS:
             options[key] = raw
         elif key in ("overwrite", "recording", "fps_override"):

@@ -77,10 +77,22 @@ _heading_option = click.option(
 @click.option("--method", type=click.Choice(METHODS), required=True)
 @click.option("--data", type=click.Path(dir_okay=False), required=True, help="Mocap .npz (shared mocap format).")
 @click.option("--split", type=click.Choice(["train", "val", "test", "all"]), default="test", show_default=True)
+@click.option("--split-scheme", type=click.Choice(["motion-style", "clip"]), default="motion-style", show_default=True,
+              help="motion-style: whole Bandai motion-style groups and some whole styles held out of train (CMU: "
+                   "whole subjects); clip: the old per-take hash the shipped weights were trained with, which puts "
+                   "sibling takes of most test clips in train.")
+@click.option("--unseen-by", type=click.Choice(["motion-style", "clip"]), default=None,
+              help="Keep only clips whose motion-style group (CMU: subject) has no take in this scheme's train "
+                   "split; with the shipped weights (trained on the clip split) --unseen-by clip scores data they never saw.")
 @click.option("--views", type=click.Choice(["paper", "wide"]), default="paper", show_default=True)
 @click.option("--camera", type=click.Choice(CAMERAS), default="per-frame", show_default=True,
               help="per-frame: a new camera each frame (paper); per-clip: one camera per clip, panning with the subject's turns; static: one camera fixed in the world.")
-@click.option("--noise/--no-noise", default=False, show_default=True, help="Upstream-like noise on the inputs.")
+@click.option("--noise", type=click.Choice(["none", "frame", "lifter"]), default="none", is_flag=False,
+              flag_value="frame", show_default=True,
+              help="Input noise: frame (each frame's error drawn anew; --noise alone), lifter (errors that persist "
+                   "over a clip like a monocular lifter's, pcnet.models.lifter_noise; use a per-clip or static "
+                   "camera for sequence modes) or none.")
+@click.option("--no-noise", "no_noise", is_flag=True, hidden=True, help="Same as --noise none (older spelling).")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="Per-frame (paper) or sequence-aware rectification of each clip.")
 @_heading_option
@@ -89,8 +101,11 @@ _heading_option = click.option(
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
 @click.option("--up-refiner/--no-up-refiner", default=True, show_default=True, help=_UP_REFINER_HELP)
-def evaluate(method, data, split, views, camera, noise, mode, heading, seed, max_frames, weights, json_out, up_refiner):
-    """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras."""
+def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise, no_noise, mode, heading, seed,
+             max_frames, weights, json_out, up_refiner):
+    """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras.
+    --max-frames scores N evenly spaced frames of whole rectified clips (same method, same
+    per-clip decisions); invalid frames are counted and excluded."""
     from pcnet.pipeline.evaluate import evaluate as run_eval, format_table
     from pcnet.stages.atomic import write_text
 
@@ -98,7 +113,8 @@ def evaluate(method, data, split, views, camera, noise, mode, heading, seed, max
         _writable_folder(json_out, "--json")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
-    result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise, mode, heading, up_refiner)
+    result = run_eval(method, data, split, views, seed, max_frames, weights, camera, "none" if no_noise else noise,
+                      mode, heading, up_refiner, split_scheme=split_scheme, unseen_by=unseen_by)
     click.echo(format_table(result))
     if json_out:
         write_text(json_out, json.dumps(result, indent=2) + "\n")
@@ -115,19 +131,22 @@ def evaluate(method, data, split, views, camera, noise, mode, heading, seed, max
 @_heading_option
 @click.option("--weights", type=click.Path(dir_okay=False), default=None)
 @click.option("--up-refiner/--no-up-refiner", default=True, show_default=True, help=_UP_REFINER_HELP)
-def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_refiner):
+@click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
+def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_refiner, overwrite):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
     from pcnet.pipeline.io import load_pose_array
+    from pcnet.stages.conventions import validate_fps
     from pcnet.stages.exports import write_npz
     from pcnet.stages.rectify import rectify as run_rectify
 
     _writable_folder(out_path, "--out")
     if Path(out_path).resolve() == Path(input_path).resolve():
         raise InputError(f"--out {out_path}: expected a new file, got the input file itself")
-    if not (fps > 0 and np.isfinite(fps)):
-        raise InputError(f"--fps: expected a frame rate > 0, got {fps}")
+    if Path(out_path).exists() and not overwrite:
+        raise InputError(f"--out {out_path}: expected a new file, got an existing one; pass --overwrite to replace it")
+    validate_fps(fps, "--fps")
     joints = load_pose_array(input_path, key)
     res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading, up_refiner=up_refiner)
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
@@ -224,12 +243,12 @@ def _run_and_report(cfg) -> None:
 def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, **options):
     """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
     poses, kinematics, CSV/TRC/NPZ/PNG exports and a rerun recording."""
-    from pcnet.pipeline.config import RunConfig, load_run_config
+    from pcnet.pipeline.config import RunConfig, load_run_config, parse_hypothesis
 
     lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
                                         ("key", key)) if v}
     if hypothesis is not None:
-        lifter_options["hypothesis"] = int(hypothesis) if hypothesis.lstrip("-").isdigit() else hypothesis
+        lifter_options["hypothesis"] = parse_hypothesis(hypothesis)
     if no_recording:
         options["recording"] = False
     if config_path:

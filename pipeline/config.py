@@ -3,20 +3,20 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from pcnet.models.toml_config import check_config_keys, check_config_types, read_toml
+from pcnet.stages.conventions import MAX_FPS, MIN_FPS
 from pcnet.stages.errors import InputError
 
 KEYPOINT_FORMATS = ("alphapose", "mmpose", "openpose", "mediapipe")
 LIFTERS = ("motionbert", "ddhpose", "videopose3d", "mediapipe", "generic")
 MODES = ("auto", "frame", "sequence", "smooth")
 ALIGN = ("none", "truncate")
-# Plausible ranges: the shortest to the tallest adult or child recorded (Guinness: 0.55-2.72 m),
-# and the fastest consumer high-speed video.
+# Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
 MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0
-MAX_FPS = 10_000.0
 
 
 @dataclass
@@ -80,7 +80,7 @@ class RunConfig:
         # (field, value, low, high, unit): ranges that a real recording can have
         for name, value, low, high, unit in (
             ("height", self.height, MIN_HEIGHT_M, MAX_HEIGHT_M, "m (the subject's height)"),
-            ("fps", self.fps, 1.0, MAX_FPS, "frames per second"),
+            ("fps", self.fps, MIN_FPS, MAX_FPS, "frames per second"),
             ("cutoff_hz", self.cutoff_hz, 0.1, MAX_FPS / 2, "Hz"),
             ("confidence_threshold", self.confidence_threshold, 0.0, 1.0, "(2D confidence)"),
         ):
@@ -89,6 +89,13 @@ class RunConfig:
         if self.person is not None and self.person < 0:
             raise InputError(f"{source}: field 'person': expected a track id >= 0, got {self.person}")
         return self
+
+
+def parse_hypothesis(text: str) -> int | str:
+    """DDHPose ``--hypothesis`` / manifest cell: a decimal integer index, or a name
+    (``mean``) left for the adapter to check. ``"²"`` or ``"--5"`` are names, not numbers."""
+    text = text.strip()
+    return int(text) if re.fullmatch(r"-?[0-9]+", text) else text
 
 
 def load_run_config(path: str | Path, **overrides) -> RunConfig:

@@ -3,16 +3,80 @@ method on mocap with synthetic camera views (deterministic for a given seed)."""
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 
 import numpy as np
 
-from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
+from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, clip_split, group_key, groups_in_split, load_mocap,
+                                   make_pairs, parse_bandai_name, select_split)
+from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.errors import InputError
 from pcnet.stages.rectify import (estimate_rotations, finish_rotations, frame_refiner_for, resolve_heading_source,
                                   up_refiner_for)
+
+#: Input noise of ``pcnet evaluate --noise``: none (clean mocap), ``frame`` (every frame's
+#: error drawn anew, :class:`pcnet.models.datasets.Noise`) or ``lifter`` (errors that persist
+#: over a clip like a monocular lifter's, :mod:`pcnet.models.lifter_noise`).
+NOISE_KINDS = ("none", "frame", "lifter")
+
+
+def noise_kind(noise: bool | str | None) -> str:
+    """``noise`` as one of :data:`NOISE_KINDS`: ``True`` is ``"frame"`` (the flag's old
+    meaning), ``False``/``None`` ``"none"``.
+
+    Raises:
+        InputError: any other value.
+    """
+    if noise is True:
+        return "frame"
+    if noise is False or noise is None:
+        return "none"
+    if noise not in NOISE_KINDS:
+        raise InputError(f"--noise: expected one of {NOISE_KINDS}, got {noise!r}")
+    return noise
+
+
+def _noise_model(kind: str):
+    return {"none": None, "frame": Noise(), "lifter": LifterNoise()}[kind]
+
+
+def scored_indices(n: int, max_frames: int | None) -> np.ndarray:
+    """Indices of the pairs that are scored: all ``n``, or ``max_frames`` evenly spaced over
+    them (``linspace(0, n - 1, max_frames)`` rounded, the rule ``make_pairs`` used). They
+    depend on the frames only, never on the method, so every method is scored on the same
+    frames."""
+    if max_frames is None or n <= max_frames:
+        return np.arange(n)
+    return np.unique(np.linspace(0, n - 1, max_frames).round().astype(int))
+
+
+def frame_set_id(clip_names: tuple[str, ...], clip: np.ndarray, frame: np.ndarray) -> str:
+    """A short digest (16 hex digits, SHA-256) of the scored ``(clip name, frame index)``
+    pairs: equal in two results exactly when they scored the same frames of the same clips."""
+    h = hashlib.sha256()
+    for name in clip_names:
+        h.update(name.encode("utf-8") + b"\0")
+    h.update(np.ascontiguousarray(clip, np.int64).tobytes())
+    h.update(np.ascontiguousarray(frame, np.int64).tobytes())
+    return h.hexdigest()[:16]
+
+
+def _shipped_training_overlap(all_clips, chosen) -> dict | None:
+    """How much of the evaluated Bandai data the shipped weights trained on: every shipped
+    network (configs/*.toml) trained on Bandai's ``clip``-scheme train split. ``None`` when no
+    evaluated clip has a Bandai name (the shipped weights saw no other dataset)."""
+    bandai = [c for c in chosen if parse_bandai_name(c.name) is not None]
+    if not bandai:
+        return None
+    seen_groups = groups_in_split([c for c in all_clips if parse_bandai_name(c.name) is not None], "train", "clip")
+    groups = {group_key(c) for c in bandai}
+    return {
+        "scheme": "clip", "clips": len(bandai), "clips_trained_on": sum(clip_split(c.name) == "train" for c in bandai),
+        "groups": len(groups), "groups_with_a_trained_take": len(groups & seen_groups),
+    }
 
 
 def evaluate(
@@ -24,49 +88,86 @@ def evaluate(
     max_frames: int | None = None,
     weights: str | None = None,
     camera: str = "per-frame",
-    noise: bool = False,
+    noise: bool | str = "none",
     mode: str = "frame",
     heading: str | None = None,
     up_refiner: bool = True,
+    split_scheme: str = "motion-style",
+    unseen_by: str | None = None,
+    details: bool = False,
 ) -> dict:
     """Evaluate ``method`` on the ``split`` clips of a mocap npz.
 
-    Pairs come from :func:`pcnet.models.datasets.make_pairs` (clean inputs unless
-    ``noise``); ``mode`` other than ``"frame"`` post-processes each clip's per-frame
-    rotations with :func:`pcnet.stages.temporal.rectify_sequence` (``sequence`` assumes a
-    static camera, meaningful with ``camera="per-clip"``); ``heading`` then chooses each
-    clip's heading source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the
-    method's default, :func:`pcnet.stages.rectify.resolve_heading_source`), each clip being
-    one recording whatever the camera protocol (both steps by
-    :func:`pcnet.stages.rectify.finish_rotations`, as in ``rectify``, after the frame up
-    refiner and with the static-camera up refiner in sequence mode when ``up_refiner`` and
-    the method and weights allow them, :func:`pcnet.stages.rectify.frame_refiner_for`,
-    :func:`pcnet.stages.rectify.up_refiner_for`; ``up_refiner=False`` scores the paper's
-    3DPCNet alone). The canonical prediction is
-    ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target. Frames a
-    method marks invalid are counted, not scored.
+    Clips: :func:`pcnet.models.datasets.select_split` under ``split_scheme`` (``"motion-style"``:
+    whole Bandai motion-style groups and styles held out, CMU by subject; ``"clip"``: the old
+    per-take hash the shipped weights were trained with). ``unseen_by`` (a scheme) then keeps
+    only clips whose group (:func:`pcnet.models.datasets.group_key`; a clip without one: the
+    clip itself) has no take in that scheme's train split of the same file: with the shipped
+    weights, ``unseen_by="clip"`` scores only motion-style groups they never trained on.
+
+    Pairs come from :func:`pcnet.models.datasets.make_pairs` over whole clips, with ``noise``
+    (:data:`NOISE_KINDS`; ``True``/``False`` mean ``"frame"``/``"none"``). ``mode`` other than
+    ``"frame"`` post-processes each clip's per-frame rotations with
+    :func:`pcnet.stages.temporal.rectify_sequence` (``sequence`` assumes a static camera,
+    meaningful with ``camera="per-clip"``); ``heading`` then chooses each clip's heading
+    source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the method's default,
+    :func:`pcnet.stages.rectify.resolve_heading_source`), each clip being one recording
+    whatever the camera protocol (both steps by :func:`pcnet.stages.rectify.finish_rotations`,
+    as in ``rectify``, after the frame up refiner and with the static-camera up refiner in
+    sequence mode when ``up_refiner`` and the method and weights allow them,
+    :func:`pcnet.stages.rectify.frame_refiner_for`, :func:`pcnet.stages.rectify.up_refiner_for`;
+    ``up_refiner=False`` scores the paper's 3DPCNet alone). The canonical prediction is
+    ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target.
+
+    ``max_frames`` only chooses which frames are scored (:func:`scored_indices`): every clip
+    is rectified whole first, so per-clip decisions (heading source, frame refiner, sequence
+    mode) and each frame's noise are those of the full run, and the scored frames are a subset
+    of its frames with the same errors. Frames the method marks invalid are counted
+    (``invalid_frames``) and left out of every metric; the scored frames do not depend on the
+    method (``frame_set`` names them), so methods are compared on the same frames, each
+    excluding its own invalid ones.
 
     Returns:
-        ``{"method", "views", "split", "data", "seed", "camera", "noise", "mode",
-        "heading", "frames", "invalid_frames", "clip_heading_sources" (clips per source
-        used), "frame_refined_clips" (when the frame up refiner ran), "clip_modes" and "up_refined_clips" (sequence modes only), "<metric>": {"mean", "median", "p95"}
-        ...}`` with the metrics of :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres).
+        ``{"method", "views", "split", "split_scheme", "unseen_by", "data", "seed", "camera",
+        "noise", "mode", "heading", "clips", "groups", "frames" (scored frames),
+        "total_frames" (frames rectified), "invalid_frames" (of the scored ones),
+        "valid_frames", "frame_set", "clip_heading_sources" (clips per source used),
+        "frame_refined_clips" (when the frame up refiner ran), "clip_modes" and
+        "up_refined_clips" (sequence modes only), "shipped_training_overlap" (Bandai data:
+        evaluated clips and groups the shipped weights' clip-scheme train split contains, or
+        ``None``), "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
+        :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres), over the valid scored
+        frames. With ``details``: also ``"per_clip"`` (name, heading_source, mode,
+        frame_refined, up_refined per clip) and ``"per_frame"`` (``clip``, ``frame``,
+        ``valid`` and each metric as arrays over the scored frames).
 
     Raises:
-        ValueError: empty split, unknown method or heading source (before any inference).
+        InputError: empty split (after ``unseen_by``), unknown method, heading source, noise
+            or split scheme, a clip the scheme cannot place, ``max_frames < 1`` (before any
+            inference).
     """
     heading = resolve_heading_source(method, heading)
-    clips = select_split(load_mocap(data), split)
+    kind = noise_kind(noise)
+    if max_frames is not None and max_frames < 1:
+        raise InputError(f"max_frames: expected a count >= 1, got {max_frames}")
+    if unseen_by is not None and unseen_by not in SPLIT_SCHEMES:
+        raise InputError(f"unseen_by {unseen_by!r}: expected one of {SPLIT_SCHEMES} or none")
+    all_clips = load_mocap(data)
+    clips = select_split(all_clips, split, split_scheme)
+    if unseen_by is not None:
+        seen = groups_in_split(all_clips, "train", unseen_by)
+        clips = [c for c in clips if (group_key(c) or c.name) not in seen]
     if not clips:
-        raise InputError(f"{data}: split {split!r} has no clips")
-    pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=Noise() if noise else None,
-                       max_frames=max_frames)
+        extra = f" with no group in the {unseen_by!r} train split" if unseen_by else ""
+        raise InputError(f"{data}: split {split!r} (scheme {split_scheme!r}) has no clips{extra}")
+    pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=_noise_model(kind))
     R_hat, residual, valid = estimate_rotations(pairs.inputs, method, weights)
     refiner = up_refiner_for(method, weights, up_refiner)
     frame_refiner = frame_refiner_for(method, weights, up_refiner)
     modes_run: dict[str, int] = {}
     refined_clips = frame_refined_clips = 0
     headings_run: dict[str, int] = {}
+    per_clip = []
     for i, clip in enumerate(clips):
         sel = np.flatnonzero(pairs.clip == i)
         if len(sel) == 0:
@@ -80,12 +181,21 @@ def evaluate(
             modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
             refined_clips += bool(report.get("up_refined"))
         headings_run[report["heading_source"]] = headings_run.get(report["heading_source"], 0) + 1
-    canon_hat = to_canonical(pairs.inputs, R_hat, residual)
-    errors = evaluate_rotations(R_hat, pairs.R, canon_hat, pairs.canonical)
+        per_clip.append({"name": clip.name, "heading_source": report["heading_source"], "mode": report["mode"],
+                         "frame_refined": bool(report["frame_refined"]), "up_refined": bool(report.get("up_refined"))})
+    keep = scored_indices(len(valid), max_frames)
+    valid_k = valid[keep]
+    canon_hat = to_canonical(pairs.inputs[keep], R_hat[keep], residual[keep])
+    errors = evaluate_rotations(R_hat[keep], pairs.R[keep], canon_hat, pairs.canonical[keep])
+    for name in METRICS:  # a method's invalid frames never count, whatever it returned there
+        errors[name] = np.where(valid_k, errors[name], np.nan)
     result = {
-        "method": method, "views": views, "split": split, "data": str(data), "seed": seed,
-        "camera": camera, "noise": noise, "mode": mode, "heading": heading,
-        "frames": int(len(valid)), "invalid_frames": int((~valid).sum()),
+        "method": method, "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
+        "data": str(data), "seed": seed, "camera": camera, "noise": kind, "mode": mode, "heading": heading,
+        "clips": len(clips), "groups": len({group_key(c) or c.name for c in clips}),
+        "frames": len(keep), "total_frames": len(valid),
+        "invalid_frames": int((~valid_k).sum()), "valid_frames": int(valid_k.sum()),
+        "frame_set": frame_set_id(pairs.clip_names, pairs.clip[keep], pairs.frame[keep]),
     }
     if frame_refiner is not None:
         result["frame_refined_clips"] = frame_refined_clips
@@ -93,17 +203,32 @@ def evaluate(
         result["clip_modes"] = modes_run
         result["up_refined_clips"] = refined_clips
     result["clip_heading_sources"] = headings_run
+    result["shipped_training_overlap"] = _shipped_training_overlap(all_clips, clips)
     result.update({name: summarize(errors[name]) for name in METRICS})
+    if details:
+        result["per_clip"] = per_clip
+        result["per_frame"] = {"clip": pairs.clip[keep], "frame": pairs.frame[keep], "valid": valid_k, **errors}
     return result
 
 
 def format_table(result: dict) -> str:
-    """The result as a plain-text table (one row per metric: mean, median, p95)."""
+    """The result as a plain-text table (one row per metric: mean, median, p95), headed by
+    the protocol, the clip and frame counts (invalid frames are excluded from the metrics)
+    and, for Bandai data, how much of it the shipped weights trained on."""
     sources = ",".join(f"{k}:{v}" for k, v in result.get("clip_heading_sources", {}).items())
+    unseen = f" unseen-by={result['unseen_by']}" if result.get("unseen_by") else ""
     head = (f"method={result['method']} views={result['views']} split={result['split']} "
+            f"scheme={result.get('split_scheme', 'clip')}{unseen} "
             f"camera={result['camera']} noise={result['noise']} mode={result['mode']} "
-            f"heading={result.get('heading', 'predicted')} (clips {sources}) frames={result['frames']} "
-            f"invalid={result['invalid_frames']} seed={result['seed']}")
+            f"heading={result.get('heading', 'predicted')} (clips {sources}) seed={result['seed']}\n"
+            f"clips={result.get('clips', '?')} groups={result.get('groups', '?')} frames={result['frames']} "
+            f"(of {result.get('total_frames', result['frames'])} rectified) invalid={result['invalid_frames']} "
+            f"(excluded) frame_set={result.get('frame_set', '?')}")
+    overlap = result.get("shipped_training_overlap")
+    if overlap:
+        head += (f"\nshipped weights trained on {overlap['clips_trained_on']} of these {overlap['clips']} Bandai clips "
+                 f"and on takes of {overlap['groups_with_a_trained_take']} of their {overlap['groups']} "
+                 f"motion-style groups (clip-scheme train split)")
     lines = [head, f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}"]
     for name in METRICS:
         s = result[name]

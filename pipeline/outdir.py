@@ -6,8 +6,8 @@ Rules (README "Safety"):
 * ``--out`` may not be the current folder or one of its ancestors, may not contain any
   input file (an input's own folder or any folder above it), and may not be an input.
 * ``--overwrite`` replaces only a previous pcnet output: a folder holding the marker file
-  :data:`MARKER` and nothing that marker does not list. Anything else is refused, whatever
-  the flag says.
+  :data:`MARKER` and nothing that marker does not list, each file unchanged since (size and
+  modification time). Anything else is refused, whatever the flag says.
 * A run writes into a hidden sibling ``.<out>.pcnet-tmp-<id>`` (with the marker), then
   renames the old output to ``.<out>.pcnet-trash-<id>``, the new one to ``out``, and only
   then deletes the trash. A kill at any instant leaves either the whole old or the whole new
@@ -76,20 +76,32 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
     if foreign:
         shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
         raise InputError(f"--out {given}: --overwrite replaces only a previous pcnet output, got a folder holding "
-                         f"files pcnet did not write ({shown}); choose another --out")
+                         f"files pcnet did not write or that changed since ({shown}); choose another --out")
     return target
 
 
 def foreign_entries(folder: Path) -> list[str]:
-    """Names in ``folder`` that its pcnet marker does not list (all of them when there is no
-    valid marker, or ``[folder name]`` when ``folder`` is not a folder)."""
+    """Names in ``folder`` that pcnet did not write, or that changed since (all of them when
+    there is no valid marker; ``[folder name]`` when ``folder`` is not a folder). The marker
+    records each file's size and modification time, so an output the user edited (a CSV
+    opened and saved) counts as theirs and is never deleted."""
     if folder.is_symlink() or not folder.is_dir():
         return [folder.name]
-    names = sorted(p.name for p in folder.iterdir())
     listed = read_marker(folder).get("files")
-    if not isinstance(listed, list):
-        return names
-    return [n for n in names if n != MARKER and n not in listed]
+    if not isinstance(listed, dict):
+        listed = {}
+    foreign = []
+    for entry in sorted(folder.iterdir(), key=lambda p: p.name):
+        if entry.name == MARKER:
+            continue
+        if entry.name not in listed or entry.is_symlink() or not entry.is_file() or listed[entry.name] != _stamp(entry):
+            foreign.append(entry.name)
+    return foreign
+
+
+def _stamp(path: Path) -> dict:
+    st = path.stat()
+    return {"size": st.st_size, "mtime_ns": st.st_mtime_ns}
 
 
 def read_marker(folder: Path) -> dict:
@@ -102,7 +114,7 @@ def read_marker(folder: Path) -> dict:
 
 
 def _write_marker(folder: Path, state: str) -> None:
-    files = sorted(p.name for p in folder.iterdir() if p.name != MARKER)
+    files = {p.name: _stamp(p) for p in sorted(folder.iterdir()) if p.name != MARKER and p.is_file()}
     info = {"writer": "pcnet", "state": state, "pid": os.getpid(), "host": socket.gethostname(),
             "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files}
     (folder / MARKER).write_text(json.dumps(info, indent=1) + "\n")
@@ -165,18 +177,31 @@ def staged_output(out: str | os.PathLike) -> Iterator[Path]:
         target.parent.mkdir(parents=True, exist_ok=True)
         clean_stale(target)
         tmp.mkdir()
-        _write_marker(tmp, "writing")
     except OSError as err:
-        shutil.rmtree(tmp, ignore_errors=True)
         raise InputError(f"--out {given}: cannot create the output folder there ({err.strerror or err})") from err
     try:
+        _write_marker(tmp, "writing")
         yield tmp
         _write_marker(tmp, "complete")
-        trash = target.parent / f".{target.name}{TRASH_TAG}{uuid.uuid4().hex[:12]}"
-        if target.exists():
-            os.rename(target, trash)
-        os.rename(tmp, target)
+        trash = _swap_in(tmp, target)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    shutil.rmtree(trash, ignore_errors=True)
+    if trash is not None:
+        shutil.rmtree(trash, ignore_errors=True)
+
+
+def _swap_in(tmp: Path, target: Path) -> Path | None:
+    """Rename ``target`` (if any) to a trash name, then ``tmp`` to ``target``; if the second
+    rename fails or is interrupted, the old output goes back. Returns the trash path."""
+    trash = None
+    if target.exists():
+        trash = target.parent / f".{target.name}{TRASH_TAG}{uuid.uuid4().hex[:12]}"
+        os.rename(target, trash)
+    try:
+        os.rename(tmp, target)
+    except BaseException:
+        if trash is not None and not target.exists():
+            os.rename(trash, target)
+        raise
+    return trash

@@ -18,9 +18,12 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
-from pcnet.stages.conventions import H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, fill_pelvis_from_hips, validate_poses
+from pcnet.stages.conventions import (H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, fill_pelvis_from_hips, validate_fps,
+                                      validate_poses)
 from pcnet.stages.errors import InputError
 from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
+from pcnet.stages.flags import (NON_UPRIGHT_TRUNK_DEG, camera_tilt, non_upright_fraction, orientation_flags,
+                               track_segments, track_switch_flag)
 from pcnet.stages.kinematics import compute_kinematics, flag_counts, format_flag_counts
 from pcnet.stages.rectify import NO_VALID_FRAME, rectify, up_refiner_note
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
@@ -50,6 +53,7 @@ class RunResult:
     outputs: dict[str, Path] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     seconds: dict[str, float] = field(default_factory=dict)
+    flags: list[str] = field(default_factory=list)
 
     def summary(self) -> str:
         """A one-screen text summary."""
@@ -64,6 +68,7 @@ class RunResult:
             f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(),
             f"units             {self.units}",
         ]
+        lines += [f"WARNING           {f}" for f in self.flags]
         lines += [f"note              {n}" for n in self.notes]
         lines += [f"{name:<18}{path}" for name, path in self.outputs.items()]
         if "recording" in self.outputs:
@@ -84,19 +89,20 @@ class RunResult:
 FPS_TOLERANCE = 0.01
 
 
-def _frame_rate(cfg: RunConfig, video, *carried: float | None) -> float:
+def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]) -> float:
     """The recording's frame rate: the video's, ``--fps`` (an error when it contradicts the
-    video unless ``fps_override``), or the one an input file carries (MediaPipe npz)."""
+    video unless ``fps_override``), or the one an input file carries (MediaPipe npz), given
+    as ``(file, fps or None)`` pairs."""
     if video is not None:
         if cfg.fps is not None and abs(cfg.fps - video.fps) > FPS_TOLERANCE * video.fps and not cfg.fps_override:
             raise InputError(f"--fps {cfg.fps:g}: expected the video's own rate, got a mismatch with {cfg.video} "
                              f"({video.fps:g} fps); pass --fps-override to use --fps anyway")
-        return float(cfg.fps if cfg.fps is not None else video.fps)
+        return validate_fps(cfg.fps if cfg.fps is not None else video.fps, f"{cfg.video}: frame rate")
     if cfg.fps is not None:
         return float(cfg.fps)
-    for fps in carried:
+    for source, fps in carried:
         if fps is not None:
-            return float(fps)
+            return validate_fps(fps, f"{source}: field 'fps'")
     raise InputError("fps: needed when no video is given and the input files do not carry their frame rate "
                      "(pass --fps)")
 
@@ -126,7 +132,7 @@ def _load_inputs(cfg: RunConfig):
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
     adapter = get_3d_adapter(cfg.lifter)
     poses = adapter.load(cfg.lifter_output, **_checked_options("lifter", cfg.lifter, adapter, cfg.lifter_options))
-    fps = _frame_rate(cfg, video, getattr(poses, "fps", None), kp_fps)
+    fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = poses.joints if poses.layout == "h36m17" else remap_to_h36m(poses.joints, poses.layout)
     joints = validate_poses(joints, str(cfg.lifter_output), poses.units)
     return video, fps, kp2d, joints, poses.units
@@ -198,6 +204,17 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     if not res.valid.any():
         raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
     rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
+    tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
+    flags = orientation_flags(tilt)
+    lying = non_upright_fraction(canonical, valid)
+    if lying > 0.5:
+        flags.append(f"the trunk is more than {NON_UPRIGHT_TRUNK_DEG:.0f} deg from vertical in {100 * lying:.0f} % of "
+                     f"frames (lying, crawling or inverted?): such poses are far from the networks' upright training "
+                     f"data, so the up direction is uncertain")
+    segment = None
+    if kp2d is not None:
+        segment, events = track_segments(kp2d, fps)
+        flags += track_switch_flag(segment, events)
     bar.update()
 
     step("scale")
@@ -213,9 +230,9 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     step("kinematics")
     kin = compute_kinematics(canonical, fps, cfg.cutoff_hz, units)
     kin_cam = compute_kinematics(joints, fps, cfg.cutoff_hz, units)
-    flags = format_flag_counts(kin)
-    if flags:
-        notes.append(flags)
+    missing_note = format_flag_counts(kin)
+    if missing_note:
+        notes.append(missing_note)
     bar.update()
 
     with staged_output(out) as tmp:
@@ -228,6 +245,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             method=cfg.method, mode=report["mode"], heading_source=report["heading_source"], joint_names=np.array(H36M_JOINTS),
             keypoints2d=kp2d if kp2d is not None else np.zeros((0, 17, 3), np.float32),
             missing=kin.missing, unfiltered=kin.unfiltered, flag_counts=flag_counts(kin),
+            flags=np.array(flags, dtype=str), track_segment=segment if segment is not None else np.zeros(0, int),
             report=_jsonable(report),
         )
         write_kinematics_csv(tmp / "kinematics.csv", frames, frames / fps, kin,
@@ -247,18 +265,15 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
                 tmp / "recording.rrd", fps=fps, joints_cam=joints, canonical=canonical, rotations=rotations,
                 up=rotations[:, :, 1], valid=valid, keypoints2d=kp2d, video_path=cfg.video,
                 wrist_paths=wrists, series=series_from_kinematics(kin), min_confidence=cfg.confidence_threshold,
+                flags=flags,
             )
             outputs["recording"] = tmp / "recording.rrd"
         bar.update()
         step("done")
 
-    ok = valid & np.isfinite(pitch)
-    tilt = np.degrees(np.arccos(np.clip(-rotations[ok, 1, 1], -1, 1)))  # angle of up from image-up
     return RunResult(
         frames=len(joints), valid_frames=int(valid.sum()), units=units, method=cfg.method, mode=report["mode"],
-        camera_tilt_deg=float(np.mean(tilt)) if ok.any() else float("nan"),
-        camera_pitch_deg=float(np.degrees(np.mean(pitch[ok]))) if ok.any() else float("nan"),
-        camera_roll_deg=float(np.degrees(np.mean(roll[ok]))) if ok.any() else float("nan"),
+        camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg, flags=flags,
         report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
     )
 

@@ -205,6 +205,27 @@ def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -
 MAX_ABS_COORDINATE: dict[str | None, float] = {"m": 100.0, "px": 1e5, "normalised": 1e3, None: 1e5}
 
 
+#: Frame rates pcnet accepts (Hz): from a slow 1 fps time-lapse to high-speed video.
+MIN_FPS, MAX_FPS = 1.0, 10_000.0
+
+
+def validate_fps(fps: object, source: str = "fps") -> float:
+    """The frame rate as a float after checking it is a finite number in
+    [:data:`MIN_FPS`, :data:`MAX_FPS`] Hz (filters and windows are sized from it, so an absurd
+    rate would ask for absurd memory).
+
+    Raises:
+        InputError: naming ``source``, the range and the value.
+    """
+    try:
+        value = float(fps)
+    except (TypeError, ValueError):
+        raise InputError(f"{source}: expected a frame rate in Hz, got {fps!r}") from None
+    if isinstance(fps, bool) or not (np.isfinite(value) and MIN_FPS <= value <= MAX_FPS):
+        raise InputError(f"{source}: expected a frame rate in [{MIN_FPS:g}, {MAX_FPS:g}] Hz, got {value:g}")
+    return value
+
+
 def validate_poses(joints: object, source: str = "poses", units: str | None = None,
                    num_joints: int = 17, joint_names: tuple[str, ...] | None = None) -> np.ndarray:
     """The one check every entry point applies to 3D poses (``pcnet rectify``,

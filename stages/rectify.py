@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .canonical import to_canonical
-from .conventions import check_poses, fill_pelvis_from_hips, validate_poses
+from .conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from .geometric import geometric_rotation
 from .heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES, HEADING_SOURCES, apply_heading, precise_hips
 from .temporal import BOOTSTRAP_REPLICATES, rectify_sequence
@@ -155,6 +155,7 @@ def rectify(
             heading source, or (sequence modes) no valid frame.
     """
     heading = resolve_heading_source(method, heading)
+    fps = validate_fps(fps)
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
     R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading,

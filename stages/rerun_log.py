@@ -36,7 +36,7 @@ frame (an empty batch on a frame clears the previous one).
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -162,6 +162,7 @@ def write_recording(
     series: Mapping[str, np.ndarray] | None = None,
     application_id: str = "pcnet",
     min_confidence: float = 0.0,
+    flags: Sequence[str] = (),
 ) -> Path:
     """Write a ``.rrd`` recording of one sequence with a default blueprint, atomically.
 
@@ -191,6 +192,8 @@ def write_recording(
             value is not finite is not logged for that series.
         application_id: rerun application id.
         min_confidence: 2D keypoints at or below it are hidden.
+        flags: the run's warnings (:mod:`pcnet.stages.flags`), logged as a static text
+            document ``flags`` so the viewer shows them beside the data.
 
     Returns:
         the destination path.
@@ -260,6 +263,8 @@ def write_recording(
                 rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset,
                 video_ns, canon_paths, series_arrays, arrow_len, min_confidence,
             )
+            text = "\n".join(f"- {f}" for f in flags) if flags else "no warnings"
+            rec.log("flags", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True, strict=True)
         finally:
             # disconnect() flushes and closes the file sink before the rename.
             rec.flush()

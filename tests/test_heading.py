@@ -153,5 +153,5 @@ def test_cli_rectify_reports_the_heading_source(tmp_path):
     assert "heading from hips" in result.output
     with np.load(out) as d:
         assert str(d["heading_source"]) == "hips"
-    result = CliRunner().invoke(main, ["rectify", str(tmp_path / "poses.npy"), "--out", str(out), "--heading", "predicted"])
+    result = CliRunner().invoke(main, ["rectify", str(tmp_path / "poses.npy"), "--out", str(out), "--heading", "predicted", "--overwrite"])
     assert result.exit_code == 0 and "heading from predicted" in result.output

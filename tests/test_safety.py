@@ -87,9 +87,15 @@ def test_overwrite_replaces_a_previous_output_and_refuses_once_the_user_added_a_
     assert _invoke(*RUN, "--out", "o").exit_code == 0
     marker = read_marker(user_folder / "o")
     assert marker["state"] == "complete" and "canonical.npz" in marker["files"]
-    assert sorted(p.name for p in (user_folder / "o").iterdir()) == sorted(marker["files"] + [MARKER])
+    assert sorted(p.name for p in (user_folder / "o").iterdir()) == sorted([*marker["files"], MARKER])
     res = _invoke(*RUN, "--out", "o", "--overwrite")
     assert res.exit_code == 0, res.output
+    # An output the user edited (opened in a spreadsheet and saved) is theirs now.
+    with open(user_folder / "o" / "kinematics.csv", "a") as fh:
+        fh.write("my note\n")
+    _one_line_error(_invoke(*RUN, "--out", "o", "--overwrite"), "kinematics.csv", "changed since")
+    assert (user_folder / "o" / "kinematics.csv").read_text().endswith("my note\n")
+    (user_folder / "o" / "kinematics.csv").unlink()
     (user_folder / "o" / "my_analysis.xlsx").write_text("mine")
     _one_line_error(_invoke(*RUN, "--out", "o", "--overwrite"), "my_analysis.xlsx")
     assert (user_folder / "o" / "my_analysis.xlsx").read_text() == "mine"
@@ -256,6 +262,10 @@ def test_fps_must_match_the_video_unless_overridden(user_folder):
     (("rectify", "poses.npy", "--out", "nodir/x.npz"), ["nodir"]),
     (("rectify", "poses.npy", "--out", "notes.txt/x.npz"), ["notes.txt"]),
     (("rectify", "poses.npy", "--out", "poses.npy"), ["input file itself"]),
+    (("rectify", "poses.npy", "--out", "notes.txt"), ["notes.txt", "--overwrite"]),
+    (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30", "--hypothesis", "²", "--out", "o"),
+     ["hypothesis"]),
+    (("rectify", "poses.npy", "--out", "r.npz", "--fps", "1e12", "--mode", "smooth"), ["fps", "1e+12"]),
     (("evaluate", "--method", "geometric", "--data", str(FIXTURES / "mocap_small.npz"), "--json", "nodir/x.json"),
      ["--json", "nodir"]),
 ])
@@ -291,3 +301,12 @@ def test_unexpected_errors_keep_their_traceback(user_folder, monkeypatch):
     res = _invoke(*RUN, "--out", "o")
     assert isinstance(res.exception, RuntimeError)
     assert not (user_folder / "o").exists()
+
+
+def test_inputs_that_carry_their_frame_rate_need_no_fps(user_folder):
+    """A MediaPipe npz stores its fps: `pcnet run` takes it from there."""
+    res = _invoke("run", "--lifter", "mediapipe", "--lifter-output", FIXTURES / "mediapipe_blazepose33_f000-059.npz",
+                  "--method", "geometric", "--no-recording", "--out", "o")
+    assert res.exit_code == 0, res.output
+    with np.load(user_folder / "o" / "canonical.npz") as npz, np.load(FIXTURES / "mediapipe_blazepose33_f000-059.npz") as mp:
+        assert float(npz["fps"]) == float(mp["fps"])

@@ -1,0 +1,134 @@
+"""Warnings a run must not keep to itself: an input that is probably upside down or has its
+axes wrong, poses far from upright everyday movement, and a 2D track that jumps to another
+person. Each check is arrays in, plain values out; the pipeline prints them in the run
+summary and stores them in the outputs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .conventions import PELVIS, THORAX
+
+#: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
+#: probably upside down or its axes are wrong: a real camera films a standing scene with
+#: the sky above, and even a phone held in portrait leaves up within 90 deg of some image
+#: axis but not beyond 90 deg from image-up unless it is upside down.
+UPSIDE_DOWN_TILT_DEG = 90.0
+#: Tilt beyond which the estimate disagrees with the camera prior: most real cameras are
+#: within about 30 deg of level. Either the camera was tilted that much, or the pose is not
+#: upright (lying, seated, bent over), which a pose alone cannot tell apart.
+UNUSUAL_TILT_DEG = 30.0
+#: Trunk (pelvis -> thorax) angle from the canonical vertical beyond which a pose is far from
+#: the upright poses the shipped networks learnt (lying, crawling, handstand).
+NON_UPRIGHT_TRUNK_DEG = 60.0
+#: A 2D pelvis jump, in torso lengths, that one person cannot make between two frames at
+#: 30 fps (2 torso lengths = about 1 m in 1/30 s = 30 m/s); each further frame of a gap
+#: allows 0.7 torso lengths more (a 10 m/s sprint).
+SWITCH_JUMP_TORSOS = 2.0
+SWITCH_JUMP_PER_EXTRA_FRAME = 0.7
+
+
+def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, float]:
+    """Tilt, pitch and roll (degrees) of the camera from the mean estimated up direction.
+
+    One up vector for the whole recording (the normalised mean of the valid frames' ups), so
+    the three numbers are consistent: ``cos(tilt) = cos(pitch) cos(roll)`` with
+    ``pitch = asin(-u_z)``, ``roll = atan2(u_x, -u_y)``
+    (:func:`pcnet.stages.rotations.decompose_camera_rotation`'s convention).
+
+    Args:
+        up_cam: ``(T, 3)`` unit up directions in the camera frame (OpenCV axes).
+        valid: ``(T,)`` bool.
+
+    Returns:
+        ``(tilt, pitch, roll)`` in degrees, NaN when no frame is valid.
+    """
+    ok = np.asarray(valid, bool) & np.isfinite(up_cam).all(axis=1)
+    if not ok.any():
+        return float("nan"), float("nan"), float("nan")
+    u = up_cam[ok].mean(axis=0)
+    u = u / np.linalg.norm(u)
+    tilt = np.degrees(np.arccos(np.clip(-u[1], -1.0, 1.0)))
+    pitch = np.degrees(np.arcsin(np.clip(-u[2], -1.0, 1.0)))
+    roll = np.degrees(np.arctan2(u[0], -u[1]))
+    return float(tilt), float(pitch), float(roll)
+
+
+def orientation_flags(tilt_deg: float) -> list[str]:
+    """Flags for a camera tilt (degrees from image-up) that real recordings rarely have."""
+    if not np.isfinite(tilt_deg):
+        return []
+    if tilt_deg > UPSIDE_DOWN_TILT_DEG:
+        return [f"up points {tilt_deg:.0f} deg away from image-up: the input is probably upside down or its "
+                f"axes are wrong (check --axes / the lifter's axis convention)"]
+    if tilt_deg > UNUSUAL_TILT_DEG:
+        return [f"camera tilt {tilt_deg:.0f} deg: beyond the {UNUSUAL_TILT_DEG:.0f} deg of most real cameras; either "
+                f"the camera was tilted that much or the subject is not upright (lying, seated, bent), which the poses "
+                f"alone cannot tell apart: check the result, and --axes"]
+    return []
+
+
+def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:
+    """Share of valid frames whose trunk (pelvis -> thorax) is more than
+    :data:`NON_UPRIGHT_TRUNK_DEG` from the canonical vertical (+Y).
+
+    Args:
+        canonical: ``(T, 17, 3)`` H36M-17 canonical poses (Y up), any units.
+        valid: ``(T,)`` bool.
+
+    Returns:
+        the fraction in [0, 1], NaN without a usable frame.
+    """
+    trunk = canonical[:, THORAX] - canonical[:, PELVIS]
+    ok = np.asarray(valid, bool) & np.isfinite(trunk).all(axis=1)
+    if not ok.any():
+        return float("nan")
+    t = trunk[ok] / np.linalg.norm(trunk[ok], axis=1, keepdims=True)
+    return float(np.mean(np.degrees(np.arccos(np.clip(t[:, 1], -1.0, 1.0))) > NON_UPRIGHT_TRUNK_DEG))
+
+
+def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, list[tuple[int, float]]]:
+    """Split a 2D track where it jumps farther than one person can move: a tracker that
+    switched to someone else.
+
+    The 2D pelvis may move at most :data:`SWITCH_JUMP_TORSOS` torso lengths (pelvis ->
+    thorax in pixels, the larger of the two frames') between consecutive present frames at
+    30 fps, plus :data:`SWITCH_JUMP_PER_EXTRA_FRAME` per further frame of a gap (scaled by
+    ``30 / fps``).
+
+    Args:
+        keypoints2d: ``(T, 17, 3)`` H36M-17 x_px, y_px, confidence; NaN = missing.
+        fps: frame rate in Hz (> 0).
+
+    Returns:
+        ``(segment (T,) int, events)``: ``segment`` numbers the stretches between jumps from
+        0 (frames without a pelvis or thorax keep the number of the stretch they lie in);
+        ``events`` lists ``(first frame after the jump, jump in torso lengths)``.
+    """
+    xy = np.asarray(keypoints2d, np.float64)[..., :2]
+    pelvis, thorax = xy[:, PELVIS], xy[:, THORAX]
+    torso = np.linalg.norm(thorax - pelvis, axis=1)
+    present = np.flatnonzero(np.isfinite(pelvis).all(axis=1) & np.isfinite(torso) & (torso > 0))
+    segment = np.zeros(len(xy), int)
+    events: list[tuple[int, float]] = []
+    for a, b in zip(present[:-1], present[1:]):
+        frames = (b - a) * 30.0 / fps
+        jump = np.linalg.norm(pelvis[b] - pelvis[a]) / max(torso[a], torso[b])
+        if jump > SWITCH_JUMP_TORSOS + SWITCH_JUMP_PER_EXTRA_FRAME * max(frames - 1.0, 0.0):
+            events.append((int(b), float(jump)))
+            segment[b:] += 1
+    return segment, events
+
+
+def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]]) -> list[str]:
+    """A one-line flag naming the jumps and the frames outside the longest stretch."""
+    if not events:
+        return []
+    counts = np.bincount(segment)
+    main = int(np.argmax(counts))
+    suspect = np.flatnonzero(segment != main)
+    jumps = ", ".join(f"frame {f} ({j:.1f} torso lengths)" for f, j in events[:5])
+    more = f" and {len(events) - 5} more" if len(events) > 5 else ""
+    return [f"2D track probably switches person: jumps at {jumps}{more}; {len(suspect)} frames lie outside the "
+            f"longest stretch (track_segment != {main} in canonical.npz); check --person"]

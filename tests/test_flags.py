@@ -1,0 +1,94 @@
+"""Warnings pcnet must give instead of a silent answer: upside-down or axis-swapped input,
+non-upright poses, 2D track switches; a camera tilt consistent with its pitch and roll."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import FIXTURES, rrd_summary, shared
+
+from pcnet.pipeline.cli import main
+from pcnet.stages.flags import camera_tilt, non_upright_fraction, orientation_flags, track_segments
+from pcnet.stages.rectify import rectify
+from pcnet.stages.remap import remap_to_h36m
+
+TADASANA = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"  # real VideoPose3D, standing, camera frame
+MEDIAPIPE = FIXTURES / "mediapipe_blazepose33_f000-059.npz"
+
+
+def _roll(X: np.ndarray, degrees: float) -> np.ndarray:
+    """The same poses seen by a camera rolled about its optical axis."""
+    a = np.radians(degrees)
+    Q = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    return (X @ Q.T).astype(np.float32)
+
+
+def test_camera_tilt_is_consistent_with_its_pitch_and_roll():
+    rng = np.random.default_rng(0)
+    up = rng.normal(size=(200, 3)) * [0.3, 1.0, 0.3] - [0, 1.0, 0]
+    for chunk in np.array_split(up, 20):
+        u = chunk / np.linalg.norm(chunk, axis=1, keepdims=True)
+        tilt, pitch, roll = camera_tilt(u, np.ones(len(u), bool))
+        assert np.cos(np.radians(tilt)) == pytest.approx(np.cos(np.radians(pitch)) * np.cos(np.radians(roll)), abs=1e-9)
+
+
+def test_smooth_mode_summary_prints_a_consistent_tilt(tmp_path):
+    res = CliRunner().invoke(main, ["run", "--lifter", "generic", "--lifter-output", str(TADASANA), "--fps", "30",
+                                    "--mode", "smooth", "--no-recording", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    tilt, pitch, roll = map(float, re.search(r"camera tilt\s+([\d.]+) deg from level \(pitch ([+-][\d.]+), roll "
+                                             r"([+-][\d.]+)", res.output).groups())
+    assert np.cos(np.radians(tilt)) == pytest.approx(np.cos(np.radians(pitch)) * np.cos(np.radians(roll)), abs=2e-3)
+
+
+@pytest.mark.parametrize("method", ["pcnet", "geometric"])
+@pytest.mark.parametrize("degrees", [90, 180])
+def test_rolled_or_upside_down_real_input_is_flagged(method, degrees):
+    """A portrait or upside-down camera that nothing corrected: some warning must say so."""
+    res = rectify(_roll(np.load(TADASANA), degrees), method, mode="sequence")
+    tilt = camera_tilt(res.up, res.valid)[0]
+    warnings = orientation_flags(tilt) + (["non-upright"] if non_upright_fraction(res.canonical, res.valid) > 0.5 else [])
+    assert warnings, (method, degrees, tilt)
+
+
+def test_upright_real_input_with_a_level_camera_is_not_flagged():
+    res = rectify(np.load(TADASANA), "geometric", mode="sequence")
+    assert orientation_flags(camera_tilt(res.up, res.valid)[0]) == []
+    assert non_upright_fraction(res.canonical, res.valid) == 0.0
+
+
+def _mediapipe_2d(path) -> tuple[np.ndarray, float]:
+    with np.load(path) as d:
+        return remap_to_h36m(d["keypoints_2d"].astype(np.float32), "blazepose33", confidence_channel=True), float(d["fps"])
+
+
+def test_a_track_that_jumps_to_another_place_is_split():
+    kp, fps = _mediapipe_2d(MEDIAPIPE)
+    assert track_segments(kp, fps)[1] == []  # one real person walking: no jump
+    jumped = kp.copy()
+    jumped[30:, :, 0] += 600.0  # the tracker picks someone 600 px to the right
+    segment, events = track_segments(jumped, fps)
+    assert [f for f, _ in events] == [30] and (segment[:30] == 0).all() and (segment[30:] == 1).all()
+
+
+def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
+    """Sports2D demo: MediaPipe's track leaves the walking person around frame 169 and
+    jumps again around frame 201 (two people in the video)."""
+    path = shared("real", "sports2d_demo", "mediapipe_blazepose33.npz")
+    kp, fps = _mediapipe_2d(path)
+    _, events = track_segments(kp, fps)
+    assert [f for f, _ in events] == [170, 202]
+    out = tmp_path / "o"
+    res = CliRunner().invoke(main, ["run", "--lifter", "mediapipe", "--lifter-output", str(path), "--keypoints2d",
+                                    str(path), "--keypoints2d-format", "mediapipe", "--method", "geometric",
+                                    "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "WARNING           2D track probably switches person" in res.output
+    with np.load(out / "canonical.npz") as npz:
+        assert "switches person" in str(npz["flags"][0])
+        assert np.bincount(npz["track_segment"]).tolist() == [170, 32, 28]
+    _, static, _, _ = rrd_summary(out / "recording.rrd")
+    assert "/flags" in static

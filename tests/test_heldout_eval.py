@@ -1,0 +1,381 @@
+"""Held-out evaluation: motion-style and subject splits, lifter-like noise, and scoring
+(invalid frames, --max-frames) of ``pcnet evaluate``."""
+
+from __future__ import annotations
+
+import json
+import zlib
+from collections import Counter
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import FIXTURES, shared
+
+from pcnet.models import lifter_noise as ln
+from pcnet.models.datasets import (CMU_HOLDOUT_SUBJECTS, HELDOUT_STYLE_COUNT, HELDOUT_TEST_STYLES, SPLIT_SCHEMES,
+                                   Clip, Noise, apply_noise, clip_split_of, group_key, load_mocap, make_pairs,
+                                   parse_bandai_name, select_split)
+from pcnet.stages.errors import InputError
+from pcnet.stages.metrics import mpjpe_mm
+
+BANDAI_FIXTURES = ("bandai_small.npz", "bandai_test_clips.npz", "mocap_small.npz")
+TEST_CLIPS = FIXTURES / "bandai_test_clips.npz"
+
+
+def _clips(names, subjects=None) -> list[Clip]:
+    subjects = subjects or {}
+    return [Clip(n, np.zeros((1, 17, 3), np.float32), 30.0, subjects.get(n)) for n in names]
+
+
+def _fixture_names() -> list[str]:
+    """Every Bandai name in the fixtures, each with 40 more takes of its group: a group has many
+    takes in the full data, and the split must keep all of them together."""
+    names = {n for f in BANDAI_FIXTURES for n in np.load(FIXTURES / f).files}
+    more = {f"{n.rsplit('_', 1)[0]}_{k:03d}" for n in names for k in range(1, 41)}
+    return sorted(names | more)
+
+
+def _bandai_names(full: bool) -> list[str]:
+    if full:
+        return sorted(json.loads(shared("mocap", "bandai_h36m17.json").read_text()))
+    return _fixture_names()
+
+
+def test_bandai_name_parse():
+    assert parse_bandai_name("dataset-1_bow_active_001") == ("dataset-1", "bow", "active", 1)
+    assert parse_bandai_name("dataset-2_raise-up-left-hand_not-confident_034") == (
+        "dataset-2", "raise-up-left-hand", "not-confident", 34)
+    for bad in ("dataset-1_bow_active", "dataset-1_bow_active_001.bvh", "humanoid3d_walk.txt", "008_01",
+                "dataset-1_bow_very_active_001", "dataset_bow_active_001", "Dataset-1_bow_active_001"):
+        assert parse_bandai_name(bad) is None, bad
+    for name in _fixture_names():
+        assert parse_bandai_name(name) is not None, name
+
+
+def test_every_shared_bandai_name_parses():
+    names = _bandai_names(full=True)
+    assert len(names) == 3076
+    parsed = [parse_bandai_name(n) for n in names]
+    assert all(p is not None for p in parsed)
+    assert len({p[:3] for p in parsed}) == 226
+    # the parse round-trips: nothing of a name is lost or merged
+    assert all(f"{d}_{m}_{s}_{t:03d}" == n for n, (d, m, s, t) in zip(names, parsed))
+
+
+@pytest.mark.parametrize("full", [False, True], ids=["fixture-names", "shared-json"])
+def test_motion_style_split_keeps_groups_and_held_out_styles_whole(full):
+    clips = _clips(_bandai_names(full))
+    groups = {s: {group_key(c) for c in select_split(clips, s, "motion-style")} for s in ("train", "val", "test")}
+    assert not groups["train"] & groups["test"]
+    assert not groups["train"] & groups["val"]
+    assert not groups["val"] & groups["test"]
+    assert sum(len(select_split(clips, s, "motion-style")) for s in ("train", "val", "test")) == len(clips)
+    held = {(d, s) for d, styles in HELDOUT_TEST_STYLES.items() for s in styles}
+    style_of = {s: {parse_bandai_name(c.name)[0::2][:2] for c in select_split(clips, s, "motion-style")}
+                for s in ("train", "val", "test")}
+    assert not held & (style_of["train"] | style_of["val"])
+    if full:
+        assert held <= style_of["test"]  # every held-out style really is in test
+        # the old scheme splits takes of one group: what the new one exists to prevent
+        old = {s: {group_key(c) for c in select_split(clips, s, "clip")} for s in ("train", "test")}
+        assert len(old["train"] & old["test"]) == 75
+
+
+def test_split_counts_are_pinned():
+    """Counts stay put across processes and versions (a stable hash, not Python's)."""
+    meta = json.loads(shared("mocap", "bandai_h36m17.json").read_text())
+    clips = _clips(sorted(meta))
+    counts = {(scheme, s): len(select_split(clips, s, scheme)) for scheme in SPLIT_SCHEMES
+              for s in ("train", "val", "test")}
+    assert counts == {("clip", "train"): 2475, ("clip", "val"): 293, ("clip", "test"): 308,
+                      ("motion-style", "train"): 1971, ("motion-style", "val"): 195,
+                      ("motion-style", "test"): 910}
+    assert select_split(clips, "test") == select_split(clips, "test", "clip")  # trainers' default unchanged
+
+
+def test_held_out_styles_follow_the_documented_rule():
+    meta = json.loads(shared("mocap", "bandai_h36m17.json").read_text())
+    styles: dict[str, set] = {}
+    for name in meta:
+        d, _, s, _ = parse_bandai_name(name)
+        styles.setdefault(d, set()).add(s)
+    for d, found in styles.items():
+        ranked = sorted(found, key=lambda s: zlib.crc32(f"{d}/{s}".encode()))
+        assert HELDOUT_TEST_STYLES[d] == tuple(ranked[: HELDOUT_STYLE_COUNT[d]])
+
+
+def test_cmu_split_is_subject_wise():
+    # names alone (<subject>_<trial>) ...
+    names = [f"{s:03d}_{t:02d}" for s in (8, 9, 10, 11, 12, 13, 14, 60, 61) for t in range(1, 6)]
+    by_split = {s: {int(c.name[:3]) for c in select_split(_clips(names), s, "motion-style")}
+                for s in ("train", "val", "test")}
+    assert by_split["val"] == set(CMU_HOLDOUT_SUBJECTS["val"])
+    assert by_split["test"] == set(CMU_HOLDOUT_SUBJECTS["test"])
+    assert not by_split["train"] & (by_split["val"] | by_split["test"])
+    # ... and the json's subject wins over the name
+    assert clip_split_of(_clips(["x"], {"x": 14})[0], "motion-style") == "test"
+
+
+def test_cmu_split_on_the_shared_file():
+    meta = json.loads(shared("mocap", "cmu_train_h36m17.json").read_text())
+    clips = _clips(sorted(meta), {n: v["subject"] for n, v in meta.items()})
+    subjects = {s: {c.subject for c in select_split(clips, s, "motion-style")} for s in ("train", "val", "test")}
+    assert subjects["val"] == set(CMU_HOLDOUT_SUBJECTS["val"]) and subjects["test"] == set(CMU_HOLDOUT_SUBJECTS["test"])
+    assert not subjects["train"] & (subjects["val"] | subjects["test"])
+    assert all(int(c.name.split("_")[0]) == c.subject for c in clips)
+
+
+def test_load_mocap_reads_subject(tmp_path):
+    np.savez(tmp_path / "m.npz", a=np.zeros((3, 17, 3), np.float32))
+    (tmp_path / "m.json").write_text(json.dumps({"a": {"fps": 25.0, "subject": 12}}))
+    (clip,) = load_mocap(tmp_path / "m.npz")
+    assert clip.subject == 12 and clip.fps == 25.0
+    assert clip_split_of(clip, "motion-style") == "val"
+
+
+def test_motion_style_refuses_clips_it_cannot_place():
+    clips = load_mocap(FIXTURES / "deepmimic_small.npz")
+    with pytest.raises(InputError, match="humanoid3d.*split 'all'"):
+        select_split(clips, "test", "motion-style")
+    assert len(select_split(clips, "all", "motion-style")) == len(clips)
+    with pytest.raises(InputError, match="split scheme"):
+        select_split(clips, "test", "take")
+
+
+# ---------------------------------------------------------------- lifter-like noise
+
+
+def test_lifter_noise_is_deterministic():
+    clips = load_mocap(TEST_CLIPS)
+    a = make_pairs(clips, seed=4, camera="per-clip", noise=ln.LifterNoise())
+    b = make_pairs(clips, seed=4, camera="per-clip", noise=ln.LifterNoise())
+    c = make_pairs(clips, seed=5, camera="per-clip", noise=ln.LifterNoise())
+    np.testing.assert_array_equal(a.inputs, b.inputs)
+    assert not np.allclose(a.inputs, c.inputs)
+    e1 = ln.sample_lifter_errors(90, 30.0, np.random.default_rng(1))
+    e2 = ln.sample_lifter_errors(90, 30.0, np.random.default_rng(1))
+    np.testing.assert_array_equal(e1.offsets, e2.offsets)
+    assert e1.lean_deg == e2.lean_deg
+
+
+def _autocorr(x: np.ndarray, lag: int) -> float:
+    x = x.reshape(len(x), -1)
+    x = x - x.mean(0)
+    return float((x[lag:] * x[:-lag]).sum() / np.sqrt((x[lag:] ** 2).sum() * (x[:-lag] ** 2).sum()))
+
+
+def test_lifter_offsets_are_temporally_correlated():
+    fps = 30.0
+    e = ln.sample_lifter_errors(int(600 * fps), fps, np.random.default_rng(0))
+    lag = int(0.5 * fps)
+    r = _autocorr(e.offsets[:, 1:], lag)
+    assert r > 0.5, r
+    assert abs(r - np.exp(-0.5 / ln.OFFSET_TIME_CONSTANT_S)) < 0.05
+    assert abs(_autocorr(e.jitter[:, 1:], lag)) < 0.1  # the fast part is white
+    # the frame noise it replaces is not correlated at all
+    X = np.zeros((int(60 * fps), 17, 3))
+    frame = apply_noise(X, Noise(drop_prob=0.0), np.random.default_rng(0), np.zeros(len(X), int))
+    assert abs(_autocorr(frame[:, 1:], lag)) < 0.1
+    # the offsets scale as documented: std per axis at a weight-1 joint
+    sd = e.offsets[:, 12].std(0)  # left elbow, weight 1
+    np.testing.assert_allclose(sd, [ln.OFFSET_SIGMA_XY_M, ln.OFFSET_SIGMA_XY_M, ln.OFFSET_SIGMA_Z_M], rtol=0.25)
+    # the events happen at about their rates
+    assert 0.5 * ln.BURST_RATE_HZ * 0.4 < e.burst.mean() < 2 * ln.BURST_RATE_HZ * 0.4
+    assert 0 < (e.swap >= 0).mean() < 0.03
+
+
+# Every component switched off; a test turns one back on.
+ONLY = {"offset_sigma_xy_m": 0.0, "offset_sigma_z_m": 0.0, "bone_scale_sigma": 0.0, "lean_sigma_deg": 0.0,
+        "depth_scale_sigma": 0.0, "jitter_m": 0.0, "burst_jitter_m": 0.0, "swap_rate_hz": 0.0}
+
+
+def _camera_clip() -> np.ndarray:
+    clips = load_mocap(TEST_CLIPS)[:1]
+    return make_pairs(clips, seed=0, camera="per-clip").inputs.astype(np.float64)
+
+
+def test_lifter_noise_has_its_per_clip_biases():
+    X = _camera_clip()
+    rng = np.random.default_rng(7)
+    # depth: z relative to the pelvis scaled by one factor for the whole clip, x and y kept
+    p = ln.LifterNoise(**{**ONLY, "depth_scale_sigma": ln.DEPTH_SCALE_SIGMA})
+    e = ln.sample_lifter_errors(len(X), 30.0, rng, p)
+    Y = ln.apply_lifter_errors(X, e)
+    np.testing.assert_allclose(Y[..., 2], X[..., 2] * e.depth_scale, atol=1e-12)
+    np.testing.assert_allclose(Y[..., :2], X[..., :2], atol=1e-12)
+    # lean: every frame turned by the same angle about the camera x axis, top toward the camera
+    p = ln.LifterNoise(**{**ONLY, "lean_sigma_deg": 5.0})
+    e = ln.sample_lifter_errors(len(X), 30.0, np.random.default_rng(3), p)
+    e = ln.LifterErrors(e.offsets, e.jitter, e.burst, e.swap, e.bone_scale, 4.0, e.depth_scale)
+    Y = ln.apply_lifter_errors(X, e)
+    head_before, head_after = X[:, 10, 1:], Y[:, 10, 1:]
+    turn = np.degrees(np.arctan2(head_after[:, 1], head_after[:, 0]) - np.arctan2(head_before[:, 1], head_before[:, 0]))
+    np.testing.assert_allclose((turn + 180) % 360 - 180, 4.0, atol=1e-6)  # +4 deg in the y-z plane
+    assert (Y[:, 10, 2] < X[:, 10, 2]).all()
+    np.testing.assert_allclose(Y[..., 0], X[..., 0], atol=1e-12)
+    # bones: each bone length times its per-clip factor, left = right
+    p = ln.LifterNoise(**{**ONLY, "bone_scale_sigma": ln.BONE_SCALE_SIGMA})
+    e = ln.sample_lifter_errors(len(X), 30.0, np.random.default_rng(5), p)
+    Y = ln.apply_lifter_errors(X, e)
+    from pcnet.stages.conventions import H36M_PARENTS
+
+    for child, parent in enumerate(H36M_PARENTS):
+        if parent >= 0:
+            ratio = np.linalg.norm(Y[:, child] - Y[:, parent], axis=-1) / np.linalg.norm(X[:, child] - X[:, parent], axis=-1)
+            np.testing.assert_allclose(ratio, e.bone_scale[child], rtol=1e-9)
+    assert e.bone_scale[1] == e.bone_scale[4] and e.bone_scale[13] == e.bone_scale[16]
+    # over many clips the biases have their documented spread
+    draws = [ln.sample_lifter_errors(10, 30.0, np.random.default_rng(s)) for s in range(600)]
+    assert abs(np.std([d.lean_deg for d in draws]) / ln.LEAN_SIGMA_DEG - 1) < 0.15
+    assert abs(np.std([d.depth_scale for d in draws]) / ln.DEPTH_SCALE_SIGMA - 1) < 0.15
+    assert max(abs(d.lean_deg) for d in draws) <= ln.LEAN_CLIP_DEG
+
+
+def test_lifter_noise_swaps_sides():
+    X = _camera_clip()
+    p = ln.LifterNoise(**{**ONLY, "swap_rate_hz": 2.0})
+    e = ln.sample_lifter_errors(len(X), 30.0, np.random.default_rng(2), p)
+    Y = ln.apply_lifter_errors(X, e)
+    legs = np.flatnonzero(e.swap == ln.SWAP_PARTS.index("legs"))
+    assert len(legs) and np.allclose(Y[legs, 1], X[legs, 4]) and np.allclose(Y[legs, 14], X[legs, 14])
+    np.testing.assert_allclose(Y[e.swap < 0], X[e.swap < 0] - X[e.swap < 0, :1], atol=1e-12)
+
+
+def test_lifter_noise_mpjpe_is_a_lifters():
+    clips = load_mocap(TEST_CLIPS)
+    errors = []
+    for seed in range(10):
+        clean = make_pairs(clips, seed=seed, camera="per-clip")
+        noisy = make_pairs(clips, seed=seed, camera="per-clip", noise=ln.LifterNoise())
+        errors.append(mpjpe_mm(noisy.inputs, clean.inputs).mean())
+    lo, hi = ln.MPJPE_RANGE_MM
+    assert lo <= np.mean(errors) <= hi, errors
+    assert abs(np.mean(errors) - ln.EXPECTED_MPJPE_MM) < 3.0
+
+
+def test_lifter_noise_per_frame_cameras_keep_the_temporal_errors():
+    """With a new camera every frame the errors are drawn in one reference camera per clip:
+    the error in the canonical frame then changes slowly, not frame to frame."""
+    clips = load_mocap(TEST_CLIPS)[:3]
+    clean = make_pairs(clips, seed=1, camera="per-frame")
+    noisy = make_pairs(clips, seed=1, camera="per-frame", noise=ln.LifterNoise(jitter_m=0.0, burst_jitter_m=0.0,
+                                                                              swap_rate_hz=0.0))
+    np.testing.assert_allclose(noisy.R, clean.R)
+    err = np.einsum("nkj,nji->nki", noisy.inputs.astype(np.float64), clean.R) - clean.canonical
+    step = np.abs(np.diff(err, axis=0))[np.diff(noisy.clip) == 0].mean()
+    assert step < 0.2 * np.abs(err).mean()
+
+
+def test_lifter_noise_of_a_frame_does_not_depend_on_subsampling():
+    clips = load_mocap(TEST_CLIPS)
+    full = make_pairs(clips, seed=2, camera="per-clip", noise=ln.LifterNoise())
+    # the same frames at stride 3: the same per-clip cameras and the same errors on them
+    strided = make_pairs(clips, seed=2, camera="per-clip", noise=ln.LifterNoise(), frame_stride=3)
+    pos = {(c, f): i for i, (c, f) in enumerate(zip(full.clip, full.frame))}
+    rows = [pos[(c, f)] for c, f in zip(strided.clip, strided.frame)]
+    np.testing.assert_allclose(strided.inputs, full.inputs[rows], atol=1e-6)
+
+
+# ---------------------------------------------------------------- pcnet evaluate
+
+
+def test_max_frames_keeps_the_per_clip_decisions():
+    """--max-frames scores a subset of whole rectified clips: same heading source, refiners
+    and modes per clip, same errors on the kept frames. (It used to subsample before
+    rectifying: 60-frame clips kept 8 frames, fewer than `auto` needs, and switched to the
+    predicted heading.)"""
+    from pcnet.pipeline.evaluate import evaluate
+
+    for kw in ({"camera": "per-frame", "noise": "none", "mode": "frame"},
+               {"camera": "per-clip", "noise": "lifter", "mode": "sequence"}):
+        full = evaluate("pcnet", TEST_CLIPS, "all", details=True, **kw)
+        sub = evaluate("pcnet", TEST_CLIPS, "all", max_frames=100, details=True, **kw)
+        assert sub["frames"] == 100 and full["frames"] == sub["total_frames"] == 720
+        assert sub["per_clip"] == full["per_clip"]
+        assert sub["clip_heading_sources"] == full["clip_heading_sources"]
+        assert sub.get("clip_modes") == full.get("clip_modes")
+        pos = {(c, f): i for i, (c, f) in enumerate(zip(full["per_frame"]["clip"], full["per_frame"]["frame"]))}
+        rows = [pos[(c, f)] for c, f in zip(sub["per_frame"]["clip"], sub["per_frame"]["frame"])]
+        for name in ("rotation_deg", "tilt_deg", "heading_deg", "mpjpe_mm"):
+            np.testing.assert_allclose(sub["per_frame"][name], full["per_frame"][name][rows], atol=1e-9)
+    assert full["clip_heading_sources"] == {"predicted": 12}  # noisy: the network's heading
+    clean = evaluate("pcnet", TEST_CLIPS, "all", max_frames=100)
+    assert clean["clip_heading_sources"] == {"hips": 12}  # clean mocap: the hip line, on every clip
+
+
+def test_invalid_frames_are_counted_and_excluded():
+    from pcnet.pipeline.evaluate import evaluate
+    from pcnet.stages.metrics import summarize
+
+    res = evaluate("geometric", TEST_CLIPS, "all", noise="frame", details=True)  # dropped joints
+    pf = res["per_frame"]
+    assert res["invalid_frames"] == int((~pf["valid"]).sum()) > 0
+    assert res["valid_frames"] + res["invalid_frames"] == res["frames"]
+    for name in ("rotation_deg", "mpjpe_mm"):
+        assert np.isnan(pf[name][~pf["valid"]]).all()
+        assert res[name] == summarize(pf[name][pf["valid"]])
+    other = evaluate("pcnet", TEST_CLIPS, "all", noise="frame")
+    assert other["frame_set"] == res["frame_set"]  # both methods scored on the same frames
+
+
+def test_frames_marked_invalid_never_count_even_with_a_rotation(monkeypatch):
+    """A method may return a finite rotation for a frame it marks invalid: still excluded."""
+    import pcnet.pipeline.evaluate as ev
+
+    real = ev.estimate_rotations
+
+    def flagging(X, method, weights):
+        R, residual, valid = real(X, method, weights)
+        valid = valid.copy()
+        valid[::7] = False  # keep R: a finite but disowned prediction
+        R[::7] = np.eye(3)
+        return R, residual, valid
+
+    monkeypatch.setattr(ev, "estimate_rotations", flagging)
+    res = ev.evaluate("geometric", TEST_CLIPS, "all", details=True)
+    assert res["invalid_frames"] == len(range(0, 720, 7))
+    assert np.isnan(res["per_frame"]["rotation_deg"][::7]).all()
+    assert res["rotation_deg"]["p95"] < 60  # the identity frames (errors up to 180 deg) left out
+
+
+def test_evaluate_cli_noise_and_scheme_options(tmp_path):
+    from pcnet.pipeline.cli import evaluate as cli_evaluate
+    from pcnet.pipeline.cli import main
+    from pcnet.pipeline.evaluate import NOISE_KINDS
+
+    choices = {p.name: p.type.choices for p in cli_evaluate.params if hasattr(p.type, "choices")}
+    assert tuple(choices["noise"]) == NOISE_KINDS
+    assert set(choices["split_scheme"]) == set(SPLIT_SCHEMES) == set(choices["unseen_by"])
+    base = ["evaluate", "--method", "geometric", "--data", str(TEST_CLIPS), "--split", "all"]
+    seen = {}
+    for extra, kind in (([], "none"), (["--noise"], "frame"), (["--noise", "lifter"], "lifter"),
+                        (["--noise", "--no-noise"], "none"), (["--noise", "frame", "--mode", "frame"], "frame")):
+        out = tmp_path / "r.json"
+        res = CliRunner().invoke(main, base + extra + ["--json", str(out)])
+        assert res.exit_code == 0, res.output
+        result = json.loads(out.read_text())
+        assert result["noise"] == kind, extra
+        seen.setdefault(kind, result["mpjpe_mm"])
+        assert seen[kind] == result["mpjpe_mm"]  # deterministic
+    assert len({json.dumps(v) for v in seen.values()}) == 3
+    res = CliRunner().invoke(main, base[:-2] + ["--split", "test"])  # default scheme motion-style
+    assert res.exit_code == 0, res.output
+    assert "scheme=motion-style" in res.output
+    res = CliRunner().invoke(main, ["evaluate", "--method", "geometric", "--data",
+                                    str(FIXTURES / "deepmimic_small.npz")])
+    assert res.exit_code == 1 and "split 'all'" in res.output and "Traceback" not in res.output
+
+
+def test_unseen_by_keeps_groups_the_weights_never_saw():
+    from pcnet.pipeline.evaluate import evaluate
+
+    data = shared("mocap", "bandai_h36m17.npz")
+    res = evaluate("geometric", data, "all", split_scheme="clip", unseen_by="clip", max_frames=200)
+    assert res["clips"] == res["groups"] == 31
+    assert res["shipped_training_overlap"]["clips_trained_on"] == 0
+    assert res["shipped_training_overlap"]["groups_with_a_trained_take"] == 0
+    test = evaluate("geometric", data, "test", max_frames=200)
+    assert (test["clips"], test["groups"]) == (910, 49)
+    assert test["shipped_training_overlap"]["groups_with_a_trained_take"] == 47
+    assert Counter(test["clip_heading_sources"]) == Counter({"predicted": 910})
