@@ -1,0 +1,225 @@
+"""Tilt error against a lab-calibrated gravity direction: real MediaPipe poses, 4 real cameras.
+
+    python benchmarks/gravity_benchmark.py [--data ../shared/data] [--out benchmarks/results/gravity_benchmark.txt]
+
+Data: real/pose2sim_gravity/statictrial_camXX.npz (Pose2Sim demo lab, 4 calibrated static
+portrait cameras looking down 18-25 deg, 60 fps, one man standing still in a T-pose, 11 frames;
+../shared/data/README.md section "real/pose2sim_gravity/"). Truth: `up_camera`, world up
+(Qualisys +Z) in the camera's OpenCV frame, = R[:, 1] under CONVENTIONS.md (R maps
+canonical -> camera); its pitch = asin(-u_z) (positive = camera looking down) and roll =
+atan2(u_x, -u_y) (pcnet.stages.rotations.decompose_camera_rotation).
+
+Poses are read as `pcnet run --lifter mediapipe` reads them (pipeline/runner.py `_load_inputs`):
+load_mediapipe_3d -> remap_to_h36m -> validate_poses -> fill_pelvis_from_hips -> pelvis-centred.
+
+Methods (rows): pcnet frame / sequence mode, each with and without the up refiners
+(`rectify(..., up_refiner=True/False)`), the geometric baseline (paper 2.3) in frame and
+sequence mode, and two trivial baselines: a level camera (up = -y) and MediaPipe's own trunk
+(pelvis -> thorax = mid-hip -> mid-shoulder) as up.
+
+Columns: `err` = tilt error (angle between estimated and true up, deg): frame modes and the
+trunk = mean over valid frames of the per-frame error (`max` = the worst frame); sequence modes
+= the one sequence up. `pitch`/`roll` of the estimate (frame modes: of the normalised mean of
+the per-frame ups). Sequence mode only: the report's 95 % moving-block-bootstrap cone
+(`up_uncertainty_deg`) and whether it contains the truth (`in`), and the pitch/roll half-widths
+(`camera_pitch/roll_uncertainty_deg`) and whether both intervals contain the true pitch and
+roll (`in`). `refiners`: F = frame up refiner (runs only on mocap-precise inputs, hip-width CV
+<= 1 %), S = sequence up refiner; `+` applied, `x` declined by its domain check, `-` skipped.
+
+Orientation robustness: the same poses seen by the camera rolled about its optical axis by a
+further 90, 180 and -90 deg (a phone held the other way: X' = X @ Qz.T, true up' = Qz @ up).
+This rotates the lifter's 3D output; a real rolled video would also change what MediaPipe sees.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from pcnet.adapters import load_mediapipe_3d
+from pcnet.stages.conventions import PELVIS, THORAX, fill_pelvis_from_hips, validate_poses
+from pcnet.stages.rectify import rectify
+from pcnet.stages.remap import remap_to_h36m
+from pcnet.stages.rotations import angle_between, axis_rotation, normalize
+
+DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+RESULT = Path(__file__).resolve().parent / "results" / "gravity_benchmark.txt"
+COMMAND = "python benchmarks/gravity_benchmark.py --data ../shared/data"
+FOLDER = ("real", "pose2sim_gravity")
+ROLLS_DEG = (0, 90, 180, -90)
+# (label, method, mode, up_refiner)
+CONFIGS = (
+    ("pcnet frame +ref", "pcnet", "frame", True),
+    ("pcnet frame -ref", "pcnet", "frame", False),
+    ("pcnet seq +ref", "pcnet", "sequence", True),
+    ("pcnet seq -ref", "pcnet", "sequence", False),
+    ("geometric frame", "geometric", "frame", False),
+    ("geometric seq", "geometric", "sequence", False),
+)
+BASELINES = ("level camera (-y)", "trunk (MediaPipe)")
+IMAGE_UP = np.array([0.0, -1.0, 0.0])
+
+
+def load_camera(path: str | Path) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(joints (T, 17, 3) float64 pelvis-centred camera frame, true up (3,), fps)`` of one
+    statictrial npz, read the way ``pcnet run --lifter mediapipe`` reads it."""
+    poses = load_mediapipe_3d(path)
+    joints = remap_to_h36m(poses.joints, poses.layout)
+    joints = validate_poses(joints, str(path), poses.units)
+    joints, _ = fill_pelvis_from_hips(joints)
+    joints = joints.astype(np.float64) - joints[:, PELVIS : PELVIS + 1]
+    with np.load(path) as f:
+        up = np.asarray(f["up_camera"], np.float64)
+    return joints, up / np.linalg.norm(up), float(poses.fps or 60.0)
+
+
+def deg_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angle in degrees between vectors ``(..., 3)`` (NaN stays NaN)."""
+    return np.degrees(angle_between(np.asarray(u, np.float64), np.asarray(v, np.float64)))
+
+
+def pitch_roll_deg(up: np.ndarray) -> tuple[float, float]:
+    """decompose_camera_rotation's camera tilt from an up vector: pitch = asin(-u_z),
+    roll = atan2(u_x, -u_y), degrees."""
+    up = normalize(np.asarray(up, np.float64))
+    return float(np.degrees(np.arcsin(np.clip(-up[2], -1, 1)))), float(np.degrees(np.arctan2(up[0], -up[1])))
+
+
+def trunk_directions(joints: np.ndarray) -> np.ndarray:
+    """Unit pelvis -> thorax directions ``(T, 3)`` (NaN where missing)."""
+    return normalize(joints[:, THORAX] - joints[:, PELVIS])
+
+
+def roll_view(joints: np.ndarray, up: np.ndarray, roll_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """The poses and the true up seen by the camera rolled about its optical (z) axis:
+    ``X' = X @ Q.T``, ``up' = Q @ up`` with ``Q = axis_rotation("z", roll)``."""
+    Q = axis_rotation("z", np.radians(roll_deg))
+    return joints @ Q.T, Q @ up
+
+
+def _refiner_flags(report: dict) -> str:
+    frame = report.get("frame_refiner")
+    f = "-" if frame is None else ("+" if frame["applied"] else "x")
+    if "up_refined" not in report:
+        return f"F{f}"
+    seq = report.get("up_refiner")
+    s = "-" if seq is None else ("+" if seq["applied"] else "x")
+    return f"F{f} S{s}"
+
+
+def evaluate_view(joints: np.ndarray, up_true: np.ndarray, fps: float) -> list[dict]:
+    """Every method's and baseline's row for one camera view (see the module docstring)."""
+    rows = []
+    T = len(joints)
+    true_pitch, true_roll = pitch_roll_deg(up_true)
+    for label, method, mode, refine in CONFIGS:
+        out = rectify(joints, method, mode=mode, fps=fps, up_refiner=refine)
+        rep = out.report or {}
+        row = {"method": label, "valid": int(out.valid.sum()), "frames": T, "refiners": _refiner_flags(rep)}
+        if mode == "frame":
+            ups = out.up[out.valid]
+            err = deg_between(ups, up_true[None])
+            row.update(err=float(err.mean()) if len(err) else np.nan, max=float(err.max()) if len(err) else np.nan)
+            mean_up = normalize(ups.mean(0)) if len(ups) else np.full(3, np.nan)
+        else:
+            mean_up = np.asarray(rep["up"], np.float64)
+            err = float(deg_between(mean_up, up_true))
+            row.update(err=err, max=err)
+            cone = rep.get("up_uncertainty_deg", np.nan)
+            dp, dr = rep.get("camera_pitch_uncertainty_deg", np.nan), rep.get("camera_roll_uncertainty_deg", np.nan)
+            p, r = rep["camera_pitch_deg"], rep["camera_roll_deg"]
+            droll = abs((r - true_roll + 180.0) % 360.0 - 180.0)
+            row.update(cone=cone, in_cone=bool(err <= cone) if np.isfinite(cone) else None,
+                       pr_halfwidth=(dp, dr),
+                       in_pr=bool(abs(p - true_pitch) <= dp and droll <= dr) if np.isfinite(dp + dr) else None)
+        row["pitch"], row["roll"] = pitch_roll_deg(mean_up)
+        rows.append(row)
+    level = float(deg_between(IMAGE_UP, up_true))
+    p, r = pitch_roll_deg(IMAGE_UP)
+    rows.append({"method": BASELINES[0], "valid": T, "frames": T, "err": level, "max": level,
+                 "pitch": p, "roll": r, "refiners": ""})
+    trunk = trunk_directions(joints)
+    ok = np.isfinite(trunk).all(1)
+    err = deg_between(trunk[ok], up_true[None])
+    p, r = pitch_roll_deg(normalize(trunk[ok].mean(0)))
+    rows.append({"method": BASELINES[1], "valid": int(ok.sum()), "frames": T, "err": float(err.mean()),
+                 "max": float(err.max()), "pitch": p, "roll": r, "refiners": ""})
+    return rows
+
+
+def _yn(v) -> str:
+    return "-" if v is None else ("yes" if v else "NO")
+
+
+def format_rows(camera: str, roll: int, up_true: np.ndarray, rows: list[dict]) -> list[str]:
+    p, r = pitch_roll_deg(up_true)
+    lines = [(f"{camera} + roll {roll:+d} deg: true up ({up_true[0]:+.3f}, {up_true[1]:+.3f}, {up_true[2]:+.3f}), "
+              f"pitch {p:+.1f}, roll {r:+.1f}")]
+    for row in rows:
+        seq = "cone" in row
+        cone = f"{row['cone']:6.2f} {_yn(row['in_cone']):>3}" if seq else f"{'-':>6} {'':>3}"
+        pr = (f"+-{row['pr_halfwidth'][0]:.2f}/{row['pr_halfwidth'][1]:.2f} {_yn(row['in_pr']):>3}" if seq
+              else f"{'-':>13} {'':>3}")
+        lines.append(f"  {row['method']:<19}{row['valid']:>3}/{row['frames']:<3}{row['err']:>7.1f}{row['max']:>7.1f}"
+                     f"{row['pitch']:>7.1f}{row['roll']:>8.1f}   {cone}  {pr:>17}  {row['refiners']}")
+    return lines
+
+
+HEADER = (f"  {'method':<19}{'valid':>7}{'err':>7}{'max':>7}{'pitch':>7}{'roll':>8}   {'cone95 in':>10}"
+          f"  {'pitch/roll 95 in':>17}  refiners")
+
+
+def run(data: Path) -> list[str]:
+    folder = data.joinpath(*FOLDER)
+    paths = sorted(folder.glob("statictrial_cam*.npz"))
+    lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
+             "Tilt error (deg) vs the calibrated up; see the script's docstring for every column.", "", HEADER]
+    summary: dict[tuple[str, int], list[dict]] = {}
+    for path in paths:
+        joints, up, fps = load_camera(path)
+        camera = path.stem.replace("statictrial_", "")
+        for roll in ROLLS_DEG:
+            J, u = roll_view(joints, up, roll)
+            rows = evaluate_view(J, u, fps)
+            lines += format_rows(camera, roll, u, rows)
+            for row in rows:
+                summary.setdefault((row["method"], roll), []).append(row)
+        lines.append("")
+    lines.append(f"Summary over the {len(paths)} cameras: mean tilt error (deg) [worst camera]; "
+                 "sequence modes: cameras whose 95 % cone / pitch-roll intervals contain the truth")
+    labels = [c[0] for c in CONFIGS] + list(BASELINES)
+    lines.append(f"  {'method':<19}" + "".join(f"{'roll ' + format(r, '+d'):>17}" for r in ROLLS_DEG)
+                 + "   in cone / in pitch-roll (all rolls)")
+    for label in labels:
+        cells, cover = "", ""
+        for roll in ROLLS_DEG:
+            rs = summary[(label, roll)]
+            e = np.array([x["err"] for x in rs])
+            cells += f"{np.nanmean(e):>10.1f} [{np.nanmax(e):>4.1f}]"
+        rs = [x for roll in ROLLS_DEG for x in summary[(label, roll)]]
+        if "cone" in rs[0]:
+            cover = (f"   {sum(bool(x['in_cone']) for x in rs)}/{len(rs)}"
+                     f" / {sum(bool(x['in_pr']) for x in rs)}/{len(rs)}")
+        lines.append(f"  {label:<19}{cells}{cover}")
+    return lines
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", default=str(DEFAULT), help="data root (default ../shared/data)")
+    ap.add_argument("--out", default=str(RESULT), help="where the table is written too")
+    args = ap.parse_args()
+    folder = Path(args.data).joinpath(*FOLDER)
+    if not sorted(folder.glob("statictrial_cam*.npz")):
+        sys.exit(f"gravity_benchmark: no statictrial_cam*.npz under {folder}; pass --data <data root>")
+    text = "\n".join(line.rstrip() for line in run(Path(args.data))) + "\n"
+    print(text, end="")
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(text)
+
+
+if __name__ == "__main__":
+    main()

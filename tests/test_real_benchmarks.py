@@ -1,0 +1,166 @@
+"""The real-data benchmarks (benchmarks/gravity_benchmark.py, yoga_physics.py, equivariance.py):
+their metrics, sign conventions and baselines, on fixtures and (when present) ../shared/data."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from conftest import FIXTURES, ROOT, shared
+from pcnet.stages.conventions import PELVIS, R_FRONTAL, THORAX
+from pcnet.stages.rotations import axis_rotation, compose_camera_rotation
+
+sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
+import equivariance  # noqa: E402
+import gravity_benchmark  # noqa: E402
+import yoga_physics  # noqa: E402
+
+CAMS = ("cam01", "cam02", "cam03", "cam04")
+
+
+def _stats():
+    path = shared("real", "pose2sim_gravity", "pose2sim_gravity_stats.json")
+    return json.loads(path.read_text())["trials"]["statictrial"]["per_camera"]
+
+
+def test_gravity_truth_and_baselines_reproduce_the_data_stats():
+    """up_camera, its pitch/roll signs and both trivial baselines agree with the numbers in
+    pose2sim_gravity_stats.json (computed independently when the data were built)."""
+    stats = _stats()
+    for cam in CAMS:
+        s = stats[cam]
+        joints, up, fps = gravity_benchmark.load_camera(shared("real", "pose2sim_gravity", f"statictrial_{cam}.npz"))
+        assert joints.shape == (11, 17, 3) and fps == 60.0
+        np.testing.assert_allclose(joints[:, PELVIS], 0.0, atol=1e-6)
+        np.testing.assert_allclose(up, s["up_camera"], atol=1e-4)
+        pitch, roll = gravity_benchmark.pitch_roll_deg(up)
+        assert pitch == pytest.approx(s["pitch_down_deg"], abs=0.01)
+        assert roll == pytest.approx(s["roll_deg"], abs=0.01)
+        rows = {r["method"]: r for r in gravity_benchmark.evaluate_view(joints, up, fps)}
+        base = s["baselines_all_valid"]
+        assert rows["level camera (-y)"]["err"] == pytest.approx(base["level_camera_deg"], abs=0.1)
+        assert rows["trunk (MediaPipe)"]["err"] == pytest.approx(base["trunk_per_frame_mean_deg"], abs=0.1)
+        for row in rows.values():
+            assert row["valid"] == 11 and np.isfinite(row["err"]) and 0.0 <= row["err"] <= 180.0
+            if "cone" in row:  # sequence modes carry the bootstrap interval and its verdict
+                assert row["in_cone"] == (row["err"] <= row["cone"])
+
+
+def test_gravity_roll_views_turn_the_truth_with_the_poses():
+    """Rolling the camera by 180 deg about its optical axis: the level-camera error becomes
+    180 - tilt, the trunk baseline (rotation-equivariant) does not change, and 0 deg is the identity."""
+    joints, up, _ = gravity_benchmark.load_camera(shared("real", "pose2sim_gravity", "statictrial_cam01.npz"))
+    J0, u0 = gravity_benchmark.roll_view(joints, up, 0)
+    np.testing.assert_allclose(J0, joints, atol=1e-12)
+    np.testing.assert_allclose(u0, up, atol=1e-12)
+    tilt = float(gravity_benchmark.deg_between(gravity_benchmark.IMAGE_UP, up))
+    J, u = gravity_benchmark.roll_view(joints, up, 180)
+    np.testing.assert_allclose(u, [-up[0], -up[1], up[2]], atol=1e-12)
+    assert float(gravity_benchmark.deg_between(gravity_benchmark.IMAGE_UP, u)) == pytest.approx(180.0 - tilt, abs=1e-9)
+    e0 = gravity_benchmark.deg_between(gravity_benchmark.trunk_directions(joints), up[None])
+    e1 = gravity_benchmark.deg_between(gravity_benchmark.trunk_directions(J), u[None])
+    np.testing.assert_allclose(e1, e0, atol=1e-9)
+
+
+def _upright_pose() -> np.ndarray:
+    """A real standing mocap pose (+Y up, metres), pelvis-centred and turned so that its
+    pelvis -> thorax line is exactly vertical."""
+    pose = np.load(FIXTURES / "mocap_small.npz")["dataset-2_raise-up-both-hands_elderly_024"][0].astype(np.float64)
+    pose = pose - pose[PELVIS]
+    trunk = pose[THORAX] / np.linalg.norm(pose[THORAX])
+    assert np.degrees(np.arccos(trunk[1])) > 1.0  # the real pose leans: the turn below matters
+    rot, _ = Rotation.align_vectors([[0.0, 1.0, 0.0]], [trunk])
+    return rot.apply(pose)
+
+
+def test_yoga_trunk_angle_upright_lying_and_image_up():
+    upright = _upright_pose()
+    lying = upright @ axis_rotation("z", np.radians(90.0)).T  # about the subject's right: on the back
+    tilted = upright @ axis_rotation("x", np.radians(37.0)).T  # sideways lean of 37 deg
+    poses = np.stack([upright, lying, tilted])
+    np.testing.assert_allclose(yoga_physics.trunk_angles_deg(poses), [0.0, 90.0, 37.0], atol=1e-6)
+    # median over valid frames only, NaN joints skipped
+    assert yoga_physics.median_trunk_deg(poses, np.array([False, True, False])) == pytest.approx(90.0, abs=1e-6)
+    nan = poses.copy()
+    nan[0, THORAX] = np.nan
+    assert yoga_physics.median_trunk_deg(nan[:2], None) == pytest.approx(90.0, abs=1e-6)
+    assert np.isnan(yoga_physics.median_trunk_deg(poses, np.zeros(3, bool)))
+    # the lower trunk (pelvis -> spine) is a different segment
+    assert yoga_physics.trunk_angles_deg(upright[None], lower=True)[0] > 0.01
+    # camera frame: a level frontal camera shows the trunk along image up (-y); a camera
+    # pitched down by 20 deg tilts it by 20 deg from image up
+    cam = upright @ R_FRONTAL.T
+    assert yoga_physics.trunk_angles_deg(cam[None], yoga_physics.IMAGE_UP)[0] == pytest.approx(0.0, abs=1e-6)
+    assert yoga_physics.trunk_angles_deg(cam[None], yoga_physics.CANONICAL_UP)[0] == pytest.approx(180.0, abs=1e-6)
+    R = compose_camera_rotation(np.radians(25.0), np.radians(20.0), 0.0)
+    assert yoga_physics.trunk_angles_deg((upright @ R.T)[None], yoga_physics.IMAGE_UP)[0] == pytest.approx(20.0, abs=1e-6)
+
+
+def test_yoga_input_trunk_on_real_fixtures():
+    """The camera-frame input of real VideoPose3D clips (level home cameras): lying
+    Shavasana is horizontal in the image, standing Tadasana vertical."""
+    lying = np.load(FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy")
+    standing = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
+    assert yoga_physics.verdict("Shavasana", yoga_physics.median_trunk_deg(lying, None, yoga_physics.IMAGE_UP)) == "PASS"
+    assert yoga_physics.verdict("Tadasana", yoga_physics.median_trunk_deg(standing, None, yoga_physics.IMAGE_UP)) == "PASS"
+    assert yoga_physics.verdict("Tadasana", yoga_physics.median_trunk_deg(lying, None, yoga_physics.IMAGE_UP)) == "FAIL"
+
+
+def test_yoga_names_and_targets():
+    from pathlib import Path
+
+    assert yoga_physics.parse_name(Path("export_Abhay_Bhujangasana.npy")) == ("Abhay", "Bhujangasana")
+    assert yoga_physics.parse_name(Path("export_Santosh_Tadasana.mp4.npy")) == ("Santosh", "Tadasana")
+    assert yoga_physics.parse_name(Path("demo.npy")) == ("-", "demo")
+    assert yoga_physics.verdict("Shavasana", 80.0) == "PASS"
+    assert yoga_physics.verdict("Shavasana", 79.9) == "FAIL"
+    assert yoga_physics.verdict("Padmasana", 15.0) == "PASS"
+    assert yoga_physics.verdict("Padmasana", 15.1) == "FAIL"
+    assert yoga_physics.verdict("Tadasana", 6.1) == "FAIL"
+    assert yoga_physics.verdict("Tadasana", float("nan")) == "n/a"
+    assert yoga_physics.verdict("Trikonasana", 40.0) is None
+
+
+def test_equivariance_metric_sees_a_camera_locked_estimator():
+    """The metric is not trivially 0: an estimator that always answers image up (-y)
+    ignores a roll (extra error = the roll angle) and a pitch, but not a yaw (y is its axis)."""
+    T = 4
+    up = np.tile([0.0, -1.0, 0.0], (T, 1))
+    ok = np.ones(T, bool)
+    for angle in (30, 90, 150):
+        for axis, expected in (("z", angle), ("x", angle), ("y", 0.0)):
+            Q = axis_rotation(axis, np.radians(angle))
+            assert equivariance.extra_error_deg(up, ok, up, ok, Q) == pytest.approx(expected, abs=1e-9)
+    Q = axis_rotation("z", np.radians(30.0))
+    assert np.isnan(equivariance.extra_error_deg(up, ok, up, np.zeros(T, bool), Q))
+
+
+def test_geometric_baseline_is_exactly_equivariant_on_real_poses():
+    """The geometric baseline uses only the torso's own geometry: rotating the camera about
+    any axis (yaw about y included) turns its up exactly, and flags no frame."""
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64)
+    joints = joints - joints[:, PELVIS : PELVIS + 1]
+    res = equivariance.equivariance(joints, 30.0, "geometric", "frame", False)
+    assert len(res) == 3 * len(equivariance.ANGLES_DEG)
+    for (axis, angle), (err, valid) in res.items():
+        assert err < 1e-5, (axis, angle, err)
+        assert valid == 1.0
+    X, Q = equivariance.rotate_view(joints, "y", 90.0)
+    np.testing.assert_allclose(X[:, :, 1], joints[:, :, 1], atol=1e-12)  # yaw keeps camera y
+    np.testing.assert_allclose(Q @ np.array([0.0, 0.0, 1.0]), [1.0, 0.0, 0.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("script", ["gravity_benchmark.py", "yoga_physics.py", "equivariance.py"])
+def test_scripts_exit_with_one_line_without_data(script, tmp_path):
+    out = tmp_path / "table.txt"
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), "--data", str(tmp_path / "absent"),
+                           "--out", str(out)], check=False, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1
+    assert proc.stdout == ""
+    assert len(proc.stderr.strip().splitlines()) == 1 and "--data" in proc.stderr
+    assert not out.exists()
