@@ -20,7 +20,7 @@ import numpy as np
 
 from pcnet.models.lifter_noise import LifterNoise, apply_lifter_noise
 from pcnet.stages.canonical import canonical_rotation, to_canonical
-from pcnet.stages.conventions import H36M_PARENTS, PELVIS
+from pcnet.stages.conventions import H36M_PARENTS, PELVIS, validate_fps, validate_poses
 from pcnet.stages.errors import InputError
 from pcnet.stages.rotations import sample_camera_rotations
 
@@ -75,21 +75,41 @@ def load_mocap(path: str | Path) -> list[Clip]:
     data = load_numpy_file(path, "mocap .npz")
     if not isinstance(data, np.lib.npyio.NpzFile):
         raise InputError(f"{path}: expected an .npz with one (T, 17, 3) array per clip, got a single array")
-    meta_path = path.with_suffix(".json")
-    meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+    meta = _read_sidecar(path.with_suffix(".json"))
     clips = []
     with data:
         if not data.files:
             raise InputError(f"{path}: the npz holds no clips")
         for name in sorted(data.files):
-            arr = data[name]
-            if arr.ndim != 3 or arr.shape[1:] != (17, 3) or arr.shape[0] < 1:
-                raise InputError(f"{path}: clip {name!r} has shape {arr.shape}, expected (T, 17, 3) H36M-17 in metres")
+            arr = validate_poses(data[name], f"{path} [clip {name}]", units="m")
+            if not np.isfinite(arr).all(axis=(1, 2)).any():
+                raise InputError(f"{path} [clip {name}]: expected at least one frame with all 17 joints, got none")
             info = meta.get(name, {})
+            if not isinstance(info, dict):
+                raise InputError(f"{path.with_suffix('.json')}: field {name!r}: expected an object, got {info!r}")
             subject = info.get("subject")
-            clips.append(Clip(name, arr.astype(np.float32), float(info.get("fps", 30.0)),
+            fps = validate_fps(info.get("fps", 30.0), f"{path.with_suffix('.json')}: clip {name}: field 'fps'")
+            clips.append(Clip(name, arr, fps,
                               subject if isinstance(subject, int) and not isinstance(subject, bool) else None))
     return clips
+
+
+def _read_sidecar(path: Path) -> dict:
+    """The optional ``.json`` beside a mocap npz (clip name -> frames, fps, subject, ...);
+    ``{}`` when there is none.
+
+    Raises:
+        InputError: it exists but is not a UTF-8 JSON object.
+    """
+    if not path.is_file():
+        return {}
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        raise InputError(f"{path}: expected the mocap's JSON metadata, got unreadable content ({err})") from None
+    if not isinstance(meta, dict):
+        raise InputError(f"{path}: expected a JSON object (clip name -> metadata), got {type(meta).__name__}")
+    return meta
 
 
 def clip_split(name: str) -> str:
@@ -360,7 +380,8 @@ def make_pairs(
         R_world = np.einsum("nij,njk->nik", R_world, R_aug)
         valid &= valid_aug
     if not valid.any():
-        raise InputError("no frame with a defined canonical heading")
+        names = ", ".join(c.name for c in clips[:3]) + (f" and {len(clips) - 3} more" if len(clips) > 3 else "")
+        raise InputError(f"clips {names}: expected frames with a defined canonical heading (distinct hips), got none")
     canon, idx_clip, idx_frame, R_world = canon[valid], idx_clip[valid], idx_frame[valid], R_world[valid]
     n = len(canon)
 

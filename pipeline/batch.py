@@ -27,9 +27,10 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
     """A :class:`RunConfig` from one manifest row (empty cells = defaults; relative paths are
     relative to the manifest's folder). Raises ValueError naming the bad column."""
     known = {f.name for f in fields(RunConfig)} | set(_LIFTER_OPTIONS)
-    unknown = {k for k in row if k and k not in known}
+    unknown = {k for k in row if k not in known}
     if unknown:
-        raise InputError(f"unknown columns {sorted(unknown)}; expected some of {sorted(known)}")
+        raise InputError(f"unknown columns {sorted(unknown)[:5]}; expected columns named like the fields of `pcnet run`"
+                         f" (lifter, lifter_output, keypoints2d, keypoints2d_format, video, out, ...)")
     values, options = {}, {}
     for key, raw in row.items():
         if raw is None or str(raw).strip() == "":
@@ -53,6 +54,9 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
         else:
             values[key] = raw
     values.setdefault("overwrite", overwrite)
+    for needed in ("lifter", "lifter_output"):
+        if needed not in values:
+            raise InputError(f"column {needed}: expected a value in every row, got none")
     return RunConfig(**values, lifter_options=options).validate("manifest row")
 
 
@@ -99,11 +103,36 @@ def read_manifest(manifest: Path) -> list[dict]:
     return rows
 
 
+def _refuse_shared_outputs(manifest: Path, rows: list[dict]) -> None:
+    """Two rows writing one output folder would silently replace each other: refused before
+    any row runs (rows without ``out`` share the default ``pcnet_out`` too)."""
+    seen: dict[Path, int] = {}
+    for line, row in enumerate(rows, start=2):
+        out = (row.get("out") or "").strip() or "pcnet_out"
+        target = (manifest.parent / out).resolve()
+        if target in seen:
+            raise InputError(f"{manifest}: line {line}: column out: expected a folder of its own, got {out!r}, "
+                             f"which line {seen[target]} also writes")
+        seen[target] = line
+
+
 def run_batch(manifest: str | Path, workers: int = 2, overwrite: bool = False) -> list[dict]:
     """Run every row of ``manifest`` (CSV with a header) in ``workers`` processes; returns
-    one result dict per row, in manifest order."""
+    one result dict per row, in manifest order.
+
+    Raises:
+        InputError: before any row runs, for an unreadable manifest, two rows sharing an
+            output folder, or a row whose settings are invalid (naming the line). A row whose
+            inputs fail while it runs is reported in its result instead.
+    """
     manifest = Path(manifest)
     rows = read_manifest(manifest)
+    _refuse_shared_outputs(manifest, rows)
+    for line, row in enumerate(rows, start=2):  # every row's settings checked before any row runs
+        try:
+            row_to_config(row, manifest.parent, overwrite)
+        except InputError as err:
+            raise InputError(f"{manifest}: line {line}: {err}") from None
     jobs = [(i + 1, row, str(manifest.parent), overwrite) for i, row in enumerate(rows)]
     if workers <= 1:
         return [_run_row(j) for j in jobs]

@@ -31,14 +31,17 @@ def one_line(err: BaseException) -> str:
 
 class _ErrorBoundary(click.Group):
     """Every command's body runs here: bad input (:class:`InputError`, an ``OSError`` from
-    the user's files or folders) ends in one line and exit 1, Ctrl-C and SIGTERM in one line
-    and exit 130. Any other exception is a bug of pcnet and keeps its traceback."""
+    the user's files or folders, a bad option value) ends in one line and exit 1, Ctrl-C and
+    SIGTERM in one line and exit 130. Any other exception is a bug of pcnet and keeps its traceback."""
 
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
         except (InputError, OSError) as err:
             raise click.ClickException(one_line(err)) from err
+        except click.UsageError as err:  # a bad option value: one line and exit 1 like any bad input
+            hint = f" (see pcnet {err.ctx.info_name} --help)" if err.ctx is not None and err.ctx.parent else ""
+            raise click.ClickException(one_line(err.format_message()) + hint) from err
         except KeyboardInterrupt:
             click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
             raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
@@ -56,13 +59,25 @@ def main() -> None:
         signal.signal(signal.SIGTERM, _raise_interrupt)
 
 
-def _writable_folder(path: str | os.PathLike, option: str) -> None:
-    """Refuse, before any work, an output file whose folder is missing or read-only."""
-    folder = Path(path).resolve().parent
+def _new_output_file(path: str | os.PathLike, option: str, overwrite: bool = False, inputs=(),
+                     companions: tuple[str, ...] = ()) -> None:
+    """Refuse, before any work, an output file that pcnet must not write: its folder is
+    missing or read-only, it is one of the ``inputs``, or it (or a ``companions`` file written
+    beside it, e.g. ``.json`` metadata) exists and ``overwrite`` is not set."""
+    target = Path(path).resolve()
+    folder = target.parent
     if not folder.is_dir():
         raise InputError(f"{option} {path}: expected an existing folder for it, got no folder {folder}")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise InputError(f"{option} {path}: expected a folder pcnet may write to, got read-only {folder}")
+    written = [target] + [target.with_suffix(suffix) for suffix in companions]
+    for item in inputs:
+        if item is not None and Path(item).resolve() in written:
+            raise InputError(f"{option} {path}: expected a new file, got the input {item} itself")
+    for file in written:
+        if file.exists() and not overwrite:
+            raise InputError(f"{option} {path}: expected a new file, got an existing {file.name}; "
+                             f"pass --overwrite to replace it")
 
 
 _UP_REFINER_HELP = ("pcnet's up refiners (shipped weights only): correct every frame's up from its pose and, in sequence "
@@ -96,13 +111,14 @@ _heading_option = click.option(
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="Per-frame (paper) or sequence-aware rectification of each clip.")
 @_heading_option
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option("--max-frames", type=int, default=None, help="Evaluate at most N evenly spaced frames.")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing --json file.")
 @click.option("--up-refiner/--no-up-refiner", default=True, show_default=True, help=_UP_REFINER_HELP)
 def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise, no_noise, mode, heading, seed,
-             max_frames, weights, json_out, up_refiner):
+             max_frames, weights, json_out, overwrite, up_refiner):
     """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras.
     --max-frames scores N evenly spaced frames of whole rectified clips (same method, same
     per-clip decisions); invalid frames are counted and excluded."""
@@ -110,7 +126,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
     from pcnet.stages.atomic import write_text
 
     if json_out:
-        _writable_folder(json_out, "--json")
+        _new_output_file(json_out, "--json", overwrite, inputs=(data, weights))
     if max_frames is not None and max_frames < 1:
         raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
     result = run_eval(method, data, split, views, seed, max_frames, weights, camera, "none" if no_noise else noise,
@@ -141,11 +157,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_r
     from pcnet.stages.exports import write_npz
     from pcnet.stages.rectify import rectify as run_rectify
 
-    _writable_folder(out_path, "--out")
-    if Path(out_path).resolve() == Path(input_path).resolve():
-        raise InputError(f"--out {out_path}: expected a new file, got the input file itself")
-    if Path(out_path).exists() and not overwrite:
-        raise InputError(f"--out {out_path}: expected a new file, got an existing one; pass --overwrite to replace it")
+    _new_output_file(out_path, "--out", overwrite, inputs=(input_path, weights))
     validate_fps(fps, "--fps")
     joints = load_pose_array(input_path, key)
     res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading, up_refiner=up_refiner)
@@ -182,11 +194,13 @@ def train(config_path, no_resume):
 @main.command()
 @click.option("--checkpoint", type=click.Path(dir_okay=False), required=True)
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True)
-def export(checkpoint, out_path):
-    """Export a 3DPCNet or up-refiner checkpoint to ONNX (dynamic batch)."""
+@click.option("--overwrite", is_flag=True, help="Replace an existing --out file (and its .json).")
+def export(checkpoint, out_path, overwrite):
+    """Export a 3DPCNet or up-refiner checkpoint to ONNX (dynamic batch) with its .json
+    metadata beside it."""
     from pcnet.models.export import export_checkpoint
 
-    _writable_folder(out_path, "--out")
+    _new_output_file(out_path, "--out", overwrite, inputs=(checkpoint,), companions=(".json",))
     click.echo(f"wrote {export_checkpoint(checkpoint, out_path)}")
 
 
@@ -285,7 +299,7 @@ def demo(out, method, overwrite):
 
 @main.command()
 @click.argument("manifest", type=click.Path(dir_okay=False))
-@click.option("--workers", type=int, default=2, show_default=True)
+@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True)
 @click.option("--overwrite", is_flag=True)
 def batch(manifest, workers, overwrite):
     """Process many recordings in parallel: one CSV row each, columns named like the fields

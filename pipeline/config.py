@@ -88,6 +88,15 @@ class RunConfig:
                 raise InputError(f"{source}: field {name!r}: expected a value in [{low:g}, {high:g}] {unit}, got {value!r}")
         if self.person is not None and self.person < 0:
             raise InputError(f"{source}: field 'person': expected a track id >= 0, got {self.person}")
+        # Options that would be silently ignored are mistakes the user should hear about.
+        if self.person is not None and self.keypoints2d_format not in ("alphapose", "mmpose"):
+            raise InputError(f"{source}: field 'person': expected 2D keypoints with several tracks (alphapose or "
+                             f"mmpose), got keypoints2d_format {self.keypoints2d_format!r}")
+        if self.weights is not None and self.method == "geometric":
+            raise InputError(f"{source}: field 'weights': expected a 3DPCNet method (pcnet, pcnet-rigid), got method "
+                             f"'geometric', which uses no weights")
+        if self.fps_override and self.fps is None:
+            raise InputError(f"{source}: field 'fps_override': expected together with fps, got no fps")
         return self
 
 

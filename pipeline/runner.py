@@ -99,6 +99,10 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
                              f"({video.fps:g} fps); pass --fps-override to use --fps anyway")
         return validate_fps(cfg.fps if cfg.fps is not None else video.fps, f"{cfg.video}: frame rate")
     if cfg.fps is not None:
+        for source, fps in carried:
+            if fps is not None and abs(cfg.fps - fps) > FPS_TOLERANCE * fps and not cfg.fps_override:
+                raise InputError(f"--fps {cfg.fps:g}: expected the rate {source} records ({fps:g} fps), got a "
+                                 f"mismatch; pass --fps-override to use --fps anyway")
         return float(cfg.fps)
     for source, fps in carried:
         if fps is not None:

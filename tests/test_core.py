@@ -179,7 +179,7 @@ def test_mocap_loading_and_splits(tmp_path):
     assert sum(len(select_split(clips, s)) for s in ("train", "val", "test")) == len(clips)
     bad = tmp_path / "bad.npz"
     np.savez(bad, clip=np.zeros((4, 16, 3)))
-    with pytest.raises(ValueError, match=r"bad.npz: clip 'clip' has shape \(4, 16, 3\)"):
+    with pytest.raises(ValueError, match=r"bad.npz \[clip clip\]: expected shape \(T, 17, 3\) joints, got \(4, 16, 3\)"):
         load_mocap(bad)
     (tmp_path / "junk.npz").write_bytes(b"not a zip")
     with pytest.raises(ValueError, match="junk.npz: not a readable"):
@@ -260,7 +260,9 @@ def test_evaluate_cli_json(tmp_path):
     for key in ("rotation_deg", "tilt_deg", "heading_deg", "mpjpe_mm", "pa_mpjpe_mm"):
         assert set(first[key]) == {"mean", "median", "p95"}
         assert f"{first[key]['mean']:.2f}" in res.output
-    assert CliRunner().invoke(main, args).exit_code == 0
+    again = CliRunner().invoke(main, args)  # an existing --json is the user's until --overwrite
+    assert again.exit_code == 1 and "--overwrite" in again.output and json.loads(out.read_text()) == first
+    assert CliRunner().invoke(main, [*args, "--overwrite"]).exit_code == 0
     assert json.loads(out.read_text()) == first  # deterministic for a seed
     res = CliRunner().invoke(main, ["evaluate", "--method", "geometric", "--data", str(tmp_path / "none.npz")])
     assert res.exit_code != 0 and "none.npz" in res.output

@@ -352,7 +352,7 @@ def test_evaluate_cli_noise_and_scheme_options(tmp_path):
     for extra, kind in (([], "none"), (["--noise"], "frame"), (["--noise", "lifter"], "lifter"),
                         (["--noise", "--no-noise"], "none"), (["--noise", "frame", "--mode", "frame"], "frame")):
         out = tmp_path / "r.json"
-        res = CliRunner().invoke(main, base + extra + ["--json", str(out)])
+        res = CliRunner().invoke(main, base + extra + ["--json", str(out), "--overwrite"])
         assert res.exit_code == 0, res.output
         result = json.loads(out.read_text())
         assert result["noise"] == kind, extra

@@ -261,7 +261,18 @@ def test_fps_must_match_the_video_unless_overridden(user_folder):
     (("run", "--lifter", "generic", "--lifter-output", "nothere.npy", "--fps", "30", "--out", "o"), ["nothere.npy"]),
     (("rectify", "poses.npy", "--out", "nodir/x.npz"), ["nodir"]),
     (("rectify", "poses.npy", "--out", "notes.txt/x.npz"), ["notes.txt"]),
-    (("rectify", "poses.npy", "--out", "poses.npy"), ["input file itself"]),
+    (("rectify", "poses.npy", "--out", "poses.npy"), ["the input poses.npy itself"]),
+    (("evaluate", "--method", "geometric", "--data", str(FIXTURES / "mocap_small.npz"), "--json", "notes.txt"),
+     ["notes.txt", "--overwrite"]),
+    (("export", "--checkpoint", "notes.txt", "--out", "notes.txt"), ["input notes.txt itself"]),
+    (("evaluate", "--method", "geometric", "--data", str(FIXTURES / "mocap_small.npz"), "--seed", "-1"), ["--seed"]),
+    (("batch", "m.csv", "--workers", "0"), ["--workers"]),
+    (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30", "--person", "1", "--out", "o"),
+     ["person"]),
+    (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30", "--method", "geometric",
+      "--weights", "notes.txt", "--out", "o"), ["weights", "geometric"]),
+    (("run", "--lifter", "mediapipe", "--lifter-output", str(FIXTURES / "mediapipe_blazepose33_f000-059.npz"),
+      "--fps", "60", "--out", "o"), ["--fps 60", "30 fps", "--fps-override"]),
     (("rectify", "poses.npy", "--out", "notes.txt"), ["notes.txt", "--overwrite"]),
     (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30", "--hypothesis", "²", "--out", "o"),
      ["hypothesis"]),
@@ -283,6 +294,9 @@ def test_unknown_lifter_options_in_toml_end_in_one_line(user_folder):
 
 
 @pytest.mark.parametrize("content, needle", [(b"", "empty"), (b"\x00\xff\xfe\x89PNG\x00" * 20, "binary"),
+                                             (b"lifter,lifter_output,out\ngeneric,poses.npy,a\ngeneric,poses.npy,a\n",
+                                              "line 3"),
+                                             (b"lifter,out\ngeneric,o\n", "lifter_output"),
                                              (b"lifter,lifter_output,out\n", "at least one row"),
                                              (b"lifter,out\ngeneric,o,extra,cells\n", "line 2")])
 def test_bad_batch_manifests_end_in_one_line(user_folder, content, needle):
