@@ -4,9 +4,12 @@ run-time pipeline uses it too)."""
 from __future__ import annotations
 
 import dataclasses
+import math
+import re
 import tomllib
 import types
 import typing
+from collections.abc import Mapping
 from pathlib import Path
 
 from pcnet.stages.errors import InputError
@@ -85,3 +88,120 @@ def check_config_keys(path: str | Path, where: str, given: dict, cls) -> None:
     if unknown:
         raise InputError(f"{path}: {where}unknown keys {sorted(unknown)}; expected some of {sorted(allowed)}")
     check_config_types(path, where, given, cls)
+
+
+class Range(typing.NamedTuple):
+    """A field's valid values: finite numbers from ``low`` to ``high``, each end included
+    unless its flag says otherwise (``Range(0, 1, low_inclusive=False)`` is ``(0, 1]``).
+    A plain tuple ``(low, high[, low_inclusive[, high_inclusive]])`` means the same."""
+
+    low: float
+    high: float
+    low_inclusive: bool = True
+    high_inclusive: bool = True
+
+    def __contains__(self, value: object) -> bool:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            return False
+        above = value >= self.low if self.low_inclusive else value > self.low
+        below = value <= self.high if self.high_inclusive else value < self.high
+        return above and below
+
+    def describe(self, integer: bool = False) -> str:
+        """``an integer in [1, 10000]`` / ``a finite number in (0, 1]``."""
+        kind = "an integer" if integer else "a finite number"
+        return (f"{kind} in {'[' if self.low_inclusive else '('}{_number(self.low)}, "
+                f"{_number(self.high)}{']' if self.high_inclusive else ')'}")
+
+
+def _number(x: float) -> str:
+    return str(int(x)) if float(x).is_integer() and abs(x) < 1e15 else f"{x:g}"
+
+
+def _field_values(cfg: object) -> Mapping:
+    if isinstance(cfg, Mapping):
+        return cfg
+    return {f.name: getattr(cfg, f.name) for f in dataclasses.fields(cfg)}
+
+
+def _is_int_field(cls, name: str) -> bool:
+    if cls is None:
+        return False
+    tp = typing.get_type_hints(cls).get(name)
+    args = typing.get_args(tp)
+    return tp is int or (typing.get_origin(tp) in (list, tuple) and args[:1] == (int,))
+
+
+def _got(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+def check_ranges(path: str | Path, where: str, cfg: object, bounds: Mapping[str, tuple], cls=None) -> None:
+    """Raise :class:`InputError` naming ``path``, the field, its valid range and the value
+    when a numeric field of ``cfg`` (a dataclass instance, or a mapping of given values,
+    types already checked) is not finite or outside its :class:`Range` in ``bounds``.
+    A list field's every entry must be in the range; ``None`` (an optional field left
+    unset) and fields absent from a mapping are skipped. ``cls`` (default: the type of a
+    dataclass ``cfg``) tells integer fields from real ones for the message."""
+    values = _field_values(cfg)
+    if cls is None and dataclasses.is_dataclass(cfg):
+        cls = type(cfg)
+    for name, bound in bounds.items():
+        if name not in values or values[name] is None:
+            continue
+        bound, value = Range(*bound), values[name]
+        what = bound.describe(_is_int_field(cls, name))
+        if isinstance(value, (list, tuple)):
+            for i, item in enumerate(value):
+                if item not in bound:
+                    raise InputError(f"{path}: {where}field {name!r}: expected every entry {what}, "
+                                     f"got {_got(item)} at index {i}")
+        elif value not in bound:
+            raise InputError(f"{path}: {where}field {name!r}: expected {what}, got {_got(value)}")
+
+
+def _choice_matches(value: object, allowed: str) -> bool:
+    if allowed.endswith(":<n>"):  # "cuda:<n>": that prefix and a device number
+        return isinstance(value, str) and re.fullmatch(re.escape(allowed[:-3]) + r"\d+", value) is not None
+    return value == allowed
+
+
+def check_choices(path: str | Path, where: str, cfg: object, choices: Mapping[str, typing.Sequence[str]]) -> None:
+    """Raise :class:`InputError` naming ``path``, the field, the allowed values and the
+    value when a field of ``cfg`` (dataclass instance or mapping) is not one of its
+    ``choices`` (for a list field: every entry). An allowed value ``"name:<n>"`` stands for
+    ``name:0``, ``name:1``, ... ``None`` and absent fields are skipped."""
+    values = _field_values(cfg)
+    for name, allowed in choices.items():
+        if name not in values or values[name] is None:
+            continue
+        value = values[name]
+        listed = ", ".join(repr(a) for a in allowed)
+        items = list(enumerate(value)) if isinstance(value, (list, tuple)) else [(None, value)]
+        for i, item in items:
+            if not any(_choice_matches(item, a) for a in allowed):
+                at = "" if i is None else f" at index {i}"
+                every = "" if i is None else "every entry "
+                raise InputError(f"{path}: {where}field {name!r}: expected {every}one of {listed}, "
+                                 f"got {_got(item)}{at}")
+
+
+def check_lengths(path: str | Path, where: str, cfg: object, lengths: Mapping[str, tuple[int, int]]) -> None:
+    """Raise :class:`InputError` naming ``path`` and the field when a list or string field
+    of ``cfg`` has fewer than ``low`` or more than ``high`` entries (characters); ``None``
+    and absent fields are skipped. Strings in a list must not be empty."""
+    values = _field_values(cfg)
+    for name, (low, high) in lengths.items():
+        if name not in values or values[name] is None:
+            continue
+        value = values[name]
+        kind = "entries" if isinstance(value, (list, tuple)) else "characters"
+        if not low <= len(value) <= high:
+            raise InputError(f"{path}: {where}field {name!r}: expected {low} to {high} {kind}, "
+                             f"got {len(value)} ({_got(value)})")
+        if isinstance(value, (list, tuple)):
+            for i, item in enumerate(value):
+                if isinstance(item, str) and not item.strip():
+                    raise InputError(f"{path}: {where}field {name!r}: expected non-empty strings, "
+                                     f"got {item!r} at index {i}")

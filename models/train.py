@@ -7,6 +7,7 @@ Each epoch draws fresh camera rotations, proportion augmentation and upstream-li
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -26,12 +27,14 @@ from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
 from .losses import LossWeights, composite_loss
 from .network import PCNet, PCNetConfig
 from .preprocess import normalize_input
-from .toml_config import check_config_keys, read_toml
+from .toml_config import Range, check_choices, check_config_keys, check_lengths, check_ranges, read_toml
 
 
 @dataclass
 class TrainConfig:
-    """Everything a training run depends on; loaded from TOML by :func:`load_config`."""
+    """Everything a training run depends on; loaded from TOML by :func:`load_config` (valid
+    values: :data:`TRAIN_RANGES`, :data:`MODEL_RANGES`, :data:`LOSS_RANGES`, :data:`VIEWS`,
+    :data:`DEVICES`)."""
 
     data: list[str] = field(default_factory=lambda: ["../shared/data/mocap/bandai_h36m17.npz"])
     out_dir: str = "runs/pcnet"
@@ -53,24 +56,72 @@ class TrainConfig:
     loss: LossWeights = field(default_factory=LossWeights)
 
 
+#: View distributions of :func:`pcnet.models.datasets.sample_views`.
+VIEWS = ("paper", "wide", "paper+wide")
+#: Devices a config may name (``cuda:<n>``: that GPU; ``auto``: cuda when present).
+DEVICES = ("auto", "cpu", "cuda", "cuda:<n>")
+#: Random seeds (numpy, torch; ``seed + epoch`` and ``10_000 + seed`` stay valid too).
+SEED_RANGE = Range(0, 2**31 - 1)
+
+#: Valid values of :class:`TrainConfig`'s numeric fields (every value also finite).
+TRAIN_RANGES = {
+    "epochs": Range(1, 10_000),
+    "batch_size": Range(1, 1_048_576),
+    "lr": Range(0, 1, low_inclusive=False),  # AdamW learning rate, (0, 1]
+    "weight_decay": Range(0, 1),
+    "frame_stride": Range(1, 10_000),
+    "noise_fraction": Range(0, 1),  # a share of the poses
+    "seed": SEED_RANGE,
+    "threads": Range(0, 1024),  # 0 = torch default
+    "val_frames": Range(1, 100_000_000),
+}
+#: :class:`PCNetConfig` (``[model]``): sizes and dropout; ``hidden`` must also be a
+#: multiple of ``heads`` (checked by :class:`PCNetConfig`).
+MODEL_RANGES = {
+    "hidden": Range(1, 2048),
+    "output": Range(1, 4096),
+    "gcn_layers": Range(0, 32),
+    "transformer_layers": Range(0, 32),
+    "heads": Range(1, 64),
+    "feedforward": Range(1, 8192),
+    "dropout": Range(0, 1, high_inclusive=False),
+}
+#: :class:`LossWeights` (``[loss]``): every weight in [0, 100].
+LOSS_RANGES = {f.name: Range(0, 100) for f in dataclasses.fields(LossWeights)}
+#: Lists and paths: at least one data file, a non-empty out_dir.
+TRAIN_LENGTHS = {"data": (1, 10_000), "out_dir": (1, 4096), "init_checkpoint": (1, 4096)}
+
+
 def load_config(path: str | Path) -> TrainConfig:
     """Read a TOML file with top-level keys of :class:`TrainConfig` and optional ``[model]``
     and ``[loss]`` tables. Relative data paths are resolved against the current directory.
 
+    Every value is checked here, before anything is created: types, then the ranges of
+    :data:`TRAIN_RANGES`, :data:`MODEL_RANGES` and :data:`LOSS_RANGES` (all values finite),
+    ``views`` in :data:`VIEWS`, ``device`` in :data:`DEVICES` and a non-empty ``data`` list.
+
     Raises:
-        InputError: not TOML, an unknown key or a value of the wrong type, top-level or in
-            ``[model]`` / ``[loss]`` (named with the file).
+        InputError: not TOML, an unknown key, a value of the wrong type or out of its
+            range or choices, top-level or in ``[model]`` / ``[loss]`` (named with the
+            file and the field).
     """
     path = Path(path)
     raw = read_toml(path)
     check_config_keys(path, "", raw, TrainConfig)
+    check_ranges(path, "", raw, TRAIN_RANGES, TrainConfig)
+    check_choices(path, "", raw, {"views": VIEWS, "device": DEVICES})
+    check_lengths(path, "", raw, TRAIN_LENGTHS)
     tables = {}
-    for table, cls in (("model", PCNetConfig), ("loss", LossWeights)):
+    for table, cls, bounds in (("model", PCNetConfig, MODEL_RANGES), ("loss", LossWeights, LOSS_RANGES)):
         given = raw.pop(table, {})
         if not isinstance(given, dict):
             raise InputError(f"{path}: {table} must be a [{table}] table, got {given!r}")
         check_config_keys(path, f"[{table}] has ", given, cls)
-        tables[table] = cls(**given)
+        check_ranges(path, f"[{table}] has ", given, bounds, cls)
+        try:
+            tables[table] = cls(**given)
+        except InputError as err:  # PCNetConfig's own checks (hidden a multiple of heads)
+            raise InputError(f"{path}: {err}") from err
     return TrainConfig(**raw, **tables)
 
 
@@ -88,6 +139,8 @@ def _device(name: str) -> torch.device:
         raise InputError(f"device {name!r}: not a torch device ({' '.join(str(err).split())})") from err
     if device.type == "cuda" and not torch.cuda.is_available():
         raise InputError(f"device {name!r}: CUDA is not available here (use device = \"auto\" or \"cpu\")")
+    if device.type == "cuda" and device.index is not None and device.index >= torch.cuda.device_count():
+        raise InputError(f"device {name!r}: no such GPU here ({torch.cuda.device_count()} visible)")
     return device
 
 

@@ -44,17 +44,19 @@ from pcnet.stages.rotations import angle_between
 
 from .checkpoint import (config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint, resume_point,
                          save_checkpoint)
-from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
+from .datasets import CAMERAS, Augmentation, Noise, load_mocap, make_pairs, select_split
 from .inference import DEFAULT_WEIGHTS, PCNetSession, file_sha256, tilt_to_up
 from .preprocess import REFINER_INPUTS, body_frame, normalize_input, refiner_features, refiner_up_xz, window_indices
-from .toml_config import check_config_keys, read_toml
+from .toml_config import Range, check_choices, check_config_keys, check_lengths, check_ranges, read_toml
+from .train import SEED_RANGE, VIEWS
 
 OPSET = 18
 
 
 @dataclass
 class RefinerConfig:
-    """A refiner training run; loaded from TOML by :func:`load_refiner_config`."""
+    """A refiner training run; loaded from TOML by :func:`load_refiner_config` (valid values:
+    :data:`REFINER_RANGES`, :data:`REFINER_LENGTHS` and the choices checked there)."""
 
     data: list[str] = field(default_factory=lambda: ["../shared/data/mocap/bandai_h36m17.npz"])
     out_dir: str = "runs/up_refiner"
@@ -85,22 +87,52 @@ class RefinerConfig:
     threads: int = 0
 
 
+#: Valid values of :class:`RefinerConfig`'s numeric fields (every value, every list entry,
+#: also finite).
+REFINER_RANGES = {
+    "offsets_s": Range(-5, 5),  # seconds around the frame
+    "hidden": Range(1, 8192),
+    "layers": Range(1, 32),
+    "epochs": Range(1, 10_000),
+    "batch_size": Range(1, 1_048_576),
+    "lr": Range(0, 1, low_inclusive=False),  # OneCycle peak learning rate, (0, 1]
+    "weight_decay": Range(0, 1),
+    "noise_fractions": Range(0, 1),  # shares of the poses
+    "val_noise_fraction": Range(0, 1),
+    "seed": SEED_RANGE,
+    "threads": Range(0, 1024),  # 0 = torch / onnxruntime default
+}
+#: Lists and paths: 1 to 255 window offsets, 1 to 64 camera draws, at least one data file.
+REFINER_LENGTHS = {"data": (1, 10_000), "out_dir": (1, 4096), "base_weights": (1, 4096), "offsets_s": (1, 255),
+                   "cameras": (1, 64), "noise_fractions": (1, 64)}
+
+
 def load_refiner_config(path: str | Path) -> RefinerConfig:
     """Read a TOML file with top-level keys of :class:`RefinerConfig`.
 
+    Every value is checked here, before anything is created: types, the ranges of
+    :data:`REFINER_RANGES` (all values finite), the list lengths of :data:`REFINER_LENGTHS`,
+    ``views`` in :data:`pcnet.models.train.VIEWS`, ``input_frame`` in
+    :data:`pcnet.models.preprocess.REFINER_INPUTS` and the cameras below.
+
     Raises:
-        InputError: not TOML, an unknown key, a value of the wrong type, ``cameras`` /
-            ``noise_fractions`` of different lengths, a camera other than static /
-            per-clip, or per-frame with a window of more than one frame (named with the file).
+        InputError: not TOML, an unknown key, a value of the wrong type or out of its
+            range or choices, ``cameras`` / ``noise_fractions`` of different lengths, a
+            camera other than static / per-clip, or per-frame or ``input_frame = "body"``
+            with a window of more than one frame (named with the file and the field).
     """
     path = Path(path)
     raw = read_toml(path)
     check_config_keys(path, "", raw, RefinerConfig)
     cfg = RefinerConfig(**raw)
-    if len(cfg.cameras) != len(cfg.noise_fractions) or not cfg.cameras:
+    check_ranges(path, "", cfg, REFINER_RANGES)
+    check_lengths(path, "", cfg, REFINER_LENGTHS)
+    check_choices(path, "", cfg, {"views": VIEWS, "input_frame": REFINER_INPUTS, "cameras": CAMERAS,
+                                  "val_camera": CAMERAS})
+    if len(cfg.cameras) != len(cfg.noise_fractions):
         raise InputError(f"{path}: cameras and noise_fractions must be non-empty lists of the same length "
                          f"(one entry per camera draw), got {len(cfg.cameras)} and {len(cfg.noise_fractions)}")
-    if cfg.input_frame not in REFINER_INPUTS or (cfg.input_frame == "body" and len(cfg.offsets_s) != 1):
+    if cfg.input_frame == "body" and len(cfg.offsets_s) != 1:
         raise InputError(f"{path}: input_frame: expected one of {REFINER_INPUTS} ('body' with a one-frame "
                          f"window, offsets_s = [0.0]), got {cfg.input_frame!r} with {len(cfg.offsets_s)} offsets")
     allowed = {"static", "per-clip"} | ({"per-frame"} if len(cfg.offsets_s) == 1 else set())
@@ -216,8 +248,9 @@ def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True
     ``cfg.out_dir`` is created, so a bad input leaves no run folder behind.
 
     Raises:
-        InputError: empty split, base weights missing or not ONNX, or a ``last.pt`` that is
-            not an up-refiner checkpoint of this architecture.
+        InputError: empty split, base weights missing or not ONNX, a ``batch_size`` larger
+            than the training windows, or a ``last.pt`` that is not an up-refiner checkpoint
+            of this architecture.
         FileNotFoundError, ValueError: a missing or unreadable data file.
     """
     if cfg.threads:
@@ -242,6 +275,9 @@ def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True
     pool = np.concatenate([np.stack([np.full(len(d.centres), k), np.arange(len(d.centres))], 1)
                            for k, d in enumerate(draws)])
     steps_per_epoch = len(pool) // cfg.batch_size
+    if steps_per_epoch == 0:
+        raise InputError(f"batch_size {cfg.batch_size}: larger than the {len(pool)} training windows of "
+                         f"data {cfg.data}")
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, cfg.lr, total_steps=cfg.epochs * steps_per_epoch)
     start, best = 0, float("inf")
     last = out / "last.pt"
@@ -267,6 +303,8 @@ def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True
             feats, targets = [], []
             for k, d in enumerate(draws):
                 rows = batch[batch[:, 0] == k, 1]
+                if not len(rows):  # a small batch may hold no window of this draw
+                    continue
                 feats.append(_features(model, d, rows))
                 targets.append(torch.from_numpy(d.target[rows]))
             loss = _loss(model, model(torch.cat(feats)), torch.cat(targets))

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import zipfile
 
 import numpy as np
@@ -267,3 +268,155 @@ def test_no_code_path_loads_checkpoints_with_pickle():
             calls += [(path.name, m.group(0)) for m in re.finditer(r"torch\.load\([^)]*\)", path.read_text())]
     assert calls, "no torch.load found: the check lost its target"
     assert all("weights_only=True" in call for _, call in calls), calls
+
+
+# Type-correct but absurd values: refused right after loading, in one line naming the file
+# and the field, before anything (out_dir, runs/) is created. Values are TOML literals.
+TRAIN_BASE = {"epochs": "1", "batch_size": "64", "val_frames": "24", "frame_stride": "2", "threads": "1",
+              "device": '"cpu"', "views": '"wide"', "out_dir": '"run"'}
+TRAIN_MODEL = {"hidden": "16", "output": "24", "feedforward": "32", "heads": "2", "gcn_layers": "1",
+               "transformer_layers": "1"}
+BAD_TRAIN = [  # (field named in the message, top-level overrides, [model] overrides, [loss] overrides)
+    ("epochs", {"epochs": "0"}, {}, {}),
+    ("epochs", {"epochs": "-3"}, {}, {}),
+    ("batch_size", {"batch_size": "0"}, {}, {}),
+    ("lr", {"lr": "nan"}, {}, {}),
+    ("lr", {"lr": "inf"}, {}, {}),
+    ("lr", {"lr": "10"}, {}, {}),
+    ("lr", {"lr": "0.0"}, {}, {}),
+    ("lr", {"lr": "-1e-3"}, {}, {}),
+    ("weight_decay", {"weight_decay": "50"}, {}, {}),
+    ("weight_decay", {"weight_decay": "-0.1"}, {}, {}),
+    ("frame_stride", {"frame_stride": "0"}, {}, {}),
+    ("threads", {"threads": "-1"}, {}, {}),
+    ("seed", {"seed": "-1"}, {}, {}),
+    ("noise_fraction", {"noise_fraction": "20"}, {}, {}),
+    ("noise_fraction", {"noise_fraction": "-0.5"}, {}, {}),
+    ("noise_fraction", {"noise_fraction": "nan"}, {}, {}),
+    ("val_frames", {"val_frames": "0"}, {}, {}),
+    ("views", {"views": '"bogus"'}, {}, {}),
+    ("device", {"device": '"gpu"'}, {}, {}),
+    ("device", {"device": '"cuda:x"'}, {}, {}),
+    ("data", {"data": "[]"}, {}, {}),
+    ("data", {"data": '[""]'}, {}, {}),
+    ("out_dir", {"out_dir": '""'}, {}, {}),
+    ("hidden", {}, {"hidden": "0"}, {}),
+    ("heads", {}, {"heads": "3"}, {}),  # not a divisor of hidden 16
+    ("heads", {}, {"heads": "-2"}, {}),
+    ("dropout", {}, {"dropout": "1.0"}, {}),
+    ("dropout", {}, {"dropout": "nan"}, {}),
+    ("gcn_layers", {}, {"gcn_layers": "-1"}, {}),
+    ("rot", {}, {}, {"rot": "-1.0"}),
+    ("pose", {}, {}, {"pose": "inf"}),
+]
+REFINER_BASE = {"out_dir": '"rrun"', "offsets_s": "[0.0]", "input_frame": '"body"', "hidden": "16", "layers": "1",
+                "epochs": "1", "batch_size": "32", "cameras": '["per-frame"]', "noise_fractions": "[0.0]",
+                "val_camera": '"per-frame"', "val_noise_fraction": "0.0", "augment": "false", "threads": "1"}
+BAD_REFINER = [  # (field named in the message, overrides)
+    ("hidden", {"hidden": "0"}),
+    ("layers", {"layers": "0"}),
+    ("epochs", {"epochs": "0"}),
+    ("lr", {"lr": "nan"}),
+    ("lr", {"lr": "inf"}),
+    ("lr", {"lr": "10"}),
+    ("batch_size", {"batch_size": "0"}),
+    ("weight_decay", {"weight_decay": "50"}),
+    ("val_noise_fraction", {"val_noise_fraction": "50"}),
+    ("noise_fractions", {"cameras": '["per-frame", "static"]', "noise_fractions": "[1.0, 20.0]"}),
+    ("noise_fractions", {"noise_fractions": "[nan]"}),
+    ("offsets_s", {"offsets_s": "[1e9]"}),
+    ("offsets_s", {"offsets_s": "[nan]"}),
+    ("offsets_s", {"offsets_s": "[]"}),
+    ("views", {"views": '"bogus"'}),
+    ("cameras", {"cameras": '["bogus"]'}),
+    ("cameras", {"cameras": "[]", "noise_fractions": "[]"}),
+    ("val_camera", {"val_camera": '"bogus"'}),
+    ("input_frame", {"input_frame": '"bogus"'}),
+    ("seed", {"seed": "-1"}),
+    ("threads", {"threads": "-1"}),
+    ("data", {"data": "[]"}),
+    ("out_dir", {"out_dir": '""'}),
+]
+
+
+def _toml(top, **tables):
+    text = "".join(f"{k} = {v}\n" for k, v in top.items())
+    for name, values in tables.items():
+        text += f"[{name}]\n" + "".join(f"{k} = {v}\n" for k, v in values.items())
+    return text
+
+
+def _assert_refused_cleanly(res, tmp_path, config, field):
+    lines = res.output.strip().splitlines()
+    assert res.exit_code == 1, res.output
+    assert isinstance(res.exception, SystemExit), res.exc_info  # no traceback: an InputError
+    assert len(lines) == 1 and lines[0].startswith("Error: "), res.output
+    assert config.name in lines[0] and f"'{field}'" in lines[0], lines[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [config.name]  # no out_dir, no runs/
+
+
+@pytest.mark.parametrize("field, top, model, loss", BAD_TRAIN,
+                         ids=[f"{f}={next(iter({**t, **m, **l}.values()))}" for f, t, m, l in BAD_TRAIN])
+def test_train_refuses_out_of_range_values_before_creating_anything(tmp_path, monkeypatch, mocap, field, top, model,
+                                                                    loss):
+    monkeypatch.chdir(tmp_path)
+    config = tmp_path / "bad.toml"
+    tables = {"model": {**TRAIN_MODEL, **model}} | ({"loss": loss} if loss else {})
+    config.write_text(_toml({"data": json.dumps([str(mocap)]), **TRAIN_BASE, **top}, **tables))
+    _assert_refused_cleanly(CliRunner().invoke(main, ["train", "--config", config.name]), tmp_path, config, field)
+
+
+@pytest.mark.parametrize("field, top", BAD_REFINER,
+                         ids=[f"{f}={next(iter(t.values()))}" for f, t in BAD_REFINER])
+def test_train_refiner_refuses_out_of_range_values_before_creating_anything(tmp_path, monkeypatch, mocap, field,
+                                                                            top):
+    monkeypatch.chdir(tmp_path)
+    config = tmp_path / "bad.toml"
+    config.write_text(_toml({"data": json.dumps([str(mocap)]), **REFINER_BASE, **top}))
+    _assert_refused_cleanly(CliRunner().invoke(main, ["train-refiner", "--config", config.name]), tmp_path, config,
+                            field)
+
+
+def test_the_ends_of_the_ranges_are_accepted(tmp_path, mocap):
+    from pcnet.models.train import DEVICES, TRAIN_RANGES
+    from pcnet.models.up_refiner import REFINER_RANGES
+
+    config = tmp_path / "edge.toml"
+    config.write_text(_toml({"data": json.dumps([str(mocap)]), **TRAIN_BASE, "lr": "1.0", "weight_decay": "0",
+                             "noise_fraction": "0.0", "seed": "0", "threads": "0", "device": '"cuda:0"'},
+                            model={**TRAIN_MODEL, "dropout": "0.0", "gcn_layers": "0"}, loss={"reg": "0"}))
+    cfg = load_config(config)
+    assert cfg.lr == 1.0 and cfg.noise_fraction == 0.0 and cfg.model.gcn_layers == 0 and cfg.loss.reg == 0
+    assert "cuda:<n>" in DEVICES and (0 in TRAIN_RANGES["lr"]) is False and 1 in TRAIN_RANGES["lr"]
+    config.write_text(_toml({**REFINER_BASE, "noise_fractions": "[1.0]", "val_noise_fraction": "1.0",
+                             "offsets_s": "[5.0]", "weight_decay": "1"}))
+    cfg = load_refiner_config(config)
+    assert cfg.offsets_s == [5.0] and cfg.noise_fractions == [1.0]
+    assert math.inf not in REFINER_RANGES["offsets_s"] and -5 in REFINER_RANGES["offsets_s"]
+
+
+def test_every_shipped_config_is_in_range():
+    from pathlib import Path
+
+    configs = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.toml"))
+    assert configs
+    for path in configs:
+        (load_refiner_config if path.stem.endswith("up_refiner") else load_config)(path)
+
+
+def test_a_refiner_batch_smaller_than_its_draws_trains_and_a_batch_too_big_is_one_line(tmp_path, monkeypatch, mocap):
+    """A batch of 4 over 4 camera draws may hold no window of some draw (that draw is
+    skipped); a batch larger than all training windows is refused before out_dir exists."""
+    monkeypatch.chdir(tmp_path)
+    draws = {"cameras": '["per-frame", "per-clip", "static", "per-clip"]', "noise_fractions": "[0.0, 0.0, 0.5, 0.5]"}
+    config = tmp_path / "small.toml"
+    config.write_text(_toml({"data": json.dumps([str(mocap)]), **REFINER_BASE, **draws, "batch_size": "4"}))
+    res = CliRunner().invoke(main, ["train-refiner", "--config", config.name])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "rrun" / "best.pt").is_file()
+    config = tmp_path / "big.toml"
+    config.write_text(_toml({"data": json.dumps([str(mocap)]), **REFINER_BASE, "out_dir": '"big"',
+                             "batch_size": "1000000"}))
+    line = _one_line_failure(CliRunner().invoke(main, ["train-refiner", "--config", config.name]), "batch_size")
+    assert "larger than the" in line
+    assert not (tmp_path / "big").exists()
