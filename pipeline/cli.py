@@ -12,12 +12,11 @@ import click
 
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
+from pcnet.pipeline.entry import EXIT_INTERRUPTED, raise_interrupt
 from pcnet.stages.errors import InputError
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, up_refiner_note
 
-#: Exit status after Ctrl-C or SIGTERM (128 + SIGINT, the shell's convention).
-EXIT_INTERRUPTED = 130
 
 
 def one_line(err: BaseException) -> str:
@@ -47,16 +46,12 @@ class _ErrorBoundary(click.Group):
             raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
 
 
-def _raise_interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt(f"signal {signum}")
-
-
 @click.group(cls=_ErrorBoundary, context_settings={"help_option_names": ["-h", "--help"]})
 def main() -> None:
     """pcnet: rectify monocular 3D human poses into a gravity-aligned, body-centred frame."""
     # SIGTERM (a scheduler's or `kill`'s stop) unwinds like Ctrl-C, so the same clean-up runs.
     if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
-        signal.signal(signal.SIGTERM, _raise_interrupt)
+        signal.signal(signal.SIGTERM, raise_interrupt)
 
 
 def _new_output_file(path: str | os.PathLike, option: str, overwrite: bool = False, inputs=(),

@@ -176,10 +176,14 @@ def staged_output(out: str | os.PathLike) -> Iterator[Path]:
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         clean_stale(target)
-        tmp.mkdir()
     except OSError as err:
         raise InputError(f"--out {given}: cannot create the output folder there ({err.strerror or err})") from err
     try:
+        # Inside the clean-up block: an interrupt arriving as mkdir returns must not leave it.
+        try:
+            tmp.mkdir()
+        except OSError as err:
+            raise InputError(f"--out {given}: cannot create the output folder there ({err.strerror or err})") from err
         _write_marker(tmp, "writing")
         yield tmp
         _write_marker(tmp, "complete")

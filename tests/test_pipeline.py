@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import FIXTURES, ROOT, rrd_summary, shared
+from conftest import FIXTURES, rrd_summary, shared
 
 from pcnet.pipeline.cli import EXAMPLE_DIR, main
 from pcnet.pipeline.config import RunConfig

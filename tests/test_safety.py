@@ -324,3 +324,19 @@ def test_inputs_that_carry_their_frame_rate_need_no_fps(user_folder):
     assert res.exit_code == 0, res.output
     with np.load(user_folder / "o" / "canonical.npz") as npz, np.load(FIXTURES / "mediapipe_blazepose33_f000-059.npz") as mp:
         assert float(npz["fps"]) == float(mp["fps"])
+
+
+@pytest.mark.parametrize("delay", [0.15, 0.4])
+def test_ctrl_c_while_starting_is_one_line(user_folder, delay):
+    """Ctrl-C while the command line is still importing its libraries: exit 130, no
+    traceback, nothing written (the console entry point installs the handling first)."""
+    command = Path(sys.executable).with_name("pcnet")  # the console script users run
+    proc = subprocess.Popen([str(command), *RUN, "--out", "o"], cwd=user_folder,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert "Traceback" not in err, err
+    assert proc.returncode in (130, 0), (proc.returncode, err)  # 0: it finished before the signal
+    if proc.returncode == 130:
+        assert "interrupted" in err and not (user_folder / "o").exists()
