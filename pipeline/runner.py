@@ -22,8 +22,8 @@ from pcnet.stages.conventions import (H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, fil
                                       validate_poses)
 from pcnet.stages.errors import InputError
 from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
-from pcnet.stages.flags import (NON_UPRIGHT_TRUNK_DEG, camera_tilt, non_upright_fraction, orientation_flags,
-                               track_segments, track_switch_flag)
+from pcnet.stages.flags import (NON_UPRIGHT_TRUNK_DEG, body_size_flag, camera_tilt, non_upright_fraction,
+                               orientation_flags, track_segments, track_switch_flag)
 from pcnet.stages.kinematics import compute_kinematics, flag_counts, format_flag_counts
 from pcnet.stages.rectify import NO_VALID_FRAME, rectify, up_refiner_note
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
@@ -209,7 +209,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
     rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
     tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
-    flags = orientation_flags(tilt)
+    flags = orientation_flags(tilt) + (body_size_flag(joints, units) if cfg.height is None else [])
     lying = non_upright_fraction(canonical, valid)
     if lying > 0.5:
         flags.append(f"the trunk is more than {NON_UPRIGHT_TRUNK_DEG:.0f} deg from vertical in {100 * lying:.0f} % of "

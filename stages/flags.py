@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .conventions import PELVIS, THORAX
+from .conventions import L_HIP, L_KNEE, PELVIS, R_HIP, R_KNEE, THORAX
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
 #: probably upside down or its axes are wrong: a real camera films a standing scene with
@@ -67,6 +67,35 @@ def orientation_flags(tilt_deg: float) -> list[str]:
                 f"the camera was tilted that much or the subject is not upright (lying, seated, bent), which the poses "
                 f"alone cannot tell apart: check the result, and --axes"]
     return []
+
+
+#: Thigh (hip -> knee) lengths, metres, that a person can have: a small child's 0.2 m to
+#: 0.7 m (adult thighs are about 0.4-0.5 m, Winter's anthropometric table: 0.245 x height).
+THIGH_RANGE_M = (0.2, 0.7)
+
+
+def body_size_flag(joints: np.ndarray, units: str) -> list[str]:
+    """A flag when poses said to be in metres have a body no person has (median thigh
+    length outside :data:`THIGH_RANGE_M`): usually millimetres or centimetres given as
+    metres, or a lifter's normalised output.
+
+    Args:
+        joints: ``(T, 17, 3)`` H36M-17 poses in ``units``.
+        units: the poses' units; only ``"m"`` is checked.
+    """
+    if units != "m":
+        return []
+    thighs = np.concatenate([np.linalg.norm(joints[:, k] - joints[:, h], axis=1)
+                             for h, k in ((L_HIP, L_KNEE), (R_HIP, R_KNEE))])
+    thighs = thighs[np.isfinite(thighs)]
+    if not thighs.size:
+        return []
+    median = float(np.median(thighs))
+    low, high = THIGH_RANGE_M
+    if low <= median <= high:
+        return []
+    return [f"median thigh length {median:.3g} m is outside the {low}-{high} m a person has: the lifter output is "
+            f"probably not in metres (check --units, or give --height to scale it)"]
 
 
 def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:

@@ -92,3 +92,12 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
         assert np.bincount(npz["track_segment"]).tolist() == [170, 32, 28]
     _, static, _, _ = rrd_summary(out / "recording.rrd")
     assert "/flags" in static
+
+
+@pytest.mark.parametrize("scale, flagged", [(1.0, False), (10.0, True), (0.01, True), (1000.0, True)])
+def test_metres_that_are_not_metres_are_flagged(scale, flagged):
+    """Real VideoPose3D metres pass; the same poses x10, x0.01 (cm read as m?) or x1000 (mm) do not."""
+    from pcnet.stages.flags import body_size_flag
+
+    assert bool(body_size_flag(np.load(TADASANA) * scale, "m")) == flagged
+    assert body_size_flag(np.load(TADASANA) * scale, "normalised") == []
