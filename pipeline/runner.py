@@ -77,12 +77,17 @@ class RunResult:
 
 
     def _pitch_roll(self) -> str:
-        pitch_unc = self.report.get("camera_pitch_uncertainty_deg", float("nan"))
-        roll_unc = self.report.get("camera_roll_uncertainty_deg", float("nan"))
+        from pcnet.stages.uncertainty import LABEL as UNCERTAINTY_LABEL
+
+        pitch_unc = self.report.get("camera_pitch_interval_deg", float("nan"))
+        roll_unc = self.report.get("camera_roll_interval_deg", float("nan"))
         if not (np.isfinite(pitch_unc) and np.isfinite(roll_unc)):
             return f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)"
         return (f"(pitch {self.camera_pitch_deg:+.1f} +- {pitch_unc:.1f}, roll {self.camera_roll_deg:+.1f} "
-                f"+- {roll_unc:.1f} deg; 95 % block bootstrap, evidence: {self.report.get('evidence')})")
+                f"+- {roll_unc:.1f} deg; {UNCERTAINTY_LABEL}; bootstrap alone +- "
+                f"{self.report.get('camera_pitch_uncertainty_deg', float('nan')):.1f}/"
+                f"{self.report.get('camera_roll_uncertainty_deg', float('nan')):.1f}; "
+                f"evidence: {self.report.get('evidence')})")
 
 
 #: Relative difference between ``--fps`` and the video's own rate accepted as the same rate.

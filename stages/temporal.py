@@ -29,6 +29,7 @@ from scipy.spatial.transform import Rotation
 from .conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE, check_poses
 from .rotations import angle_between, decompose_camera_rotation, normalize
 from .errors import InputError
+from .uncertainty import calibrated_interval
 
 MODES = ("frame", "sequence", "smooth", "auto")
 
@@ -839,7 +840,10 @@ def rectify_sequence(
         ``requested_mode``, ``spread_deg`` (:func:`up_spread_deg`), ``evidence``
         (``"poses"``, ``"poses+ground_plane"`` or ``"per-frame"``), ``valid`` (T,), and in
         sequence mode ``up``, ``up_uncertainty_deg``, ``camera_pitch_deg``,
-        ``camera_roll_deg`` and their ``*_uncertainty_deg``, ``up_spread_deg``,
+        ``camera_roll_deg`` and their ``*_uncertainty_deg`` (the bootstrap's 95 % half-widths
+        alone), ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
+        that add the lifter's systematic per-clip error calibrated on CMU,
+        :func:`pcnet.stages.uncertainty.calibrated_interval`), ``up_spread_deg``,
         ``up_spread_p95_deg``, ``ground_plane``, ``up_refined`` (whether ``up_refiner``'s
         correction was used) and ``up_refiner`` (its ``info``, or ``None``).
 
@@ -883,6 +887,8 @@ def rectify_sequence(
             camera_roll_deg=res.camera_roll_deg,
             camera_pitch_uncertainty_deg=res.camera_pitch_uncertainty_deg,
             camera_roll_uncertainty_deg=res.camera_roll_uncertainty_deg,
+            camera_pitch_interval_deg=calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch"),
+            camera_roll_interval_deg=calibrated_interval(res.camera_roll_uncertainty_deg, "roll"),
             up_spread_deg=res.up_spread_deg,
             up_spread_p95_deg=res.up_spread_p95_deg,
             ground_plane=res.ground_plane,

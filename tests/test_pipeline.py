@@ -43,9 +43,11 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     assert f"rerun {out / 'recording.rrd'}" in res.output
     frames = len(np.load(EXAMPLE_DIR / "X3D.npy"))
     assert f"frames            {frames}" in res.output
-    # a static camera: one tilt for the whole video, with its bootstrap uncertainty
+    # a static camera: one tilt for the whole video, with its calibrated 95 % interval
+    # (bootstrap + the lifter's systematic error, stages/uncertainty.py) and the bootstrap alone
     assert "mode sequence (requested auto" in res.output
-    assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % block bootstrap", res.output)
+    assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval incl\. "
+                     r"the lifter's systematic error, calibrated on CMU; bootstrap alone \+- \d+\.\d/\d+\.\d", res.output)
     with open(out / "kinematics.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == frames

@@ -1,0 +1,189 @@
+"""Calibrated camera pitch/roll intervals: systematic-error model on CMU, coverage on held-out data.
+
+    python benchmarks/calibrate_uncertainty.py [--data ../shared/data] [--out benchmarks/results/uncertainty.txt]
+
+Sequence mode's moving-block bootstrap over frames (stages/temporal.py) only measures how
+much the frames disagree; a lifter's error that persists over a whole clip moves every frame
+the same way and is invisible to it. This script measures that systematic error and checks
+the interval of pcnet.stages.uncertainty.calibrated_interval:
+half = sqrt(bootstrap_half^2 + (Z * sigma_sys[axis])^2).
+
+Views: pcnet.models.datasets.make_pairs(clips, views="paper", camera="static",
+noise=LifterNoise(), seed=s) -- the inputs of `pcnet evaluate --camera static --noise lifter
+--mode sequence` -- one static camera per clip (true up = R[:, 1], constant over the clip).
+Each clip's camera-frame joints are rectified as `pcnet run` does:
+pcnet.stages.rectify.rectify(joints, "pcnet", mode="sequence", fps=clip.fps) with the default
+refiners and bootstrap (200 replicates). Errors are signed, estimate - truth, pitch =
+asin(-u_z), roll = atan2(u_x, -u_y) (decompose_camera_rotation), degrees.
+
+Calibration (never used for coverage): ../shared/data/mocap/cmu_train_h36m17.npz, all 101
+clips, seeds 0, 1, 2 (3 views x lifter-noise draws per clip; the shipped weights trained on
+Bandai only). Per axis and clip-view, the systematic error the bootstrap does not explain is
+s_i = sqrt(max(e_i^2 - b_i^2, 0)) / Z (e = signed error, b = bootstrap half-width, Z = 1.96):
+the interval covers e_i iff sigma_sys >= s_i, so sigma_sys = the conformal 95 % quantile of
+s_i (the ceil(0.95 (n + 1))-th smallest) gives 95 % per-axis coverage on exchangeable data.
+Also printed: the RMS and median of the signed errors (the bias), for reference.
+
+Held-out coverage (share of clip-views whose true pitch, roll, and both lie inside their
+intervals), before = bootstrap only, after = calibrated:
+- DeepMimic (deepmimic_h36m17.npz, all 81 clips, seed 0): other motions (flips, crawls, rolls).
+- Bandai clips unseen by the shipped weights (`--split all --split-scheme clip --unseen-by
+  clip`: groups with no take in the clip-scheme train split; 31 clips), seeds 0, 1, 2.
+- The 4 real Pose2Sim cameras (real/pose2sim_gravity, real MediaPipe, 11 frames, calibrated
+  true up; read as benchmarks/gravity_benchmark.py reads them), as filmed (roll 0), and the
+  16 views with the camera also rolled by 90/180/-90 deg (gravity_benchmark's views).
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from gravity_benchmark import ROLLS_DEG, load_camera, pitch_roll_deg, roll_view  # noqa: E402
+
+from pcnet.models.datasets import group_key, groups_in_split, load_mocap, make_pairs, select_split  # noqa: E402
+from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
+from pcnet.stages import uncertainty  # noqa: E402
+from pcnet.stages.rectify import rectify  # noqa: E402
+
+DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+RESULT = Path(__file__).resolve().parent / "results" / "uncertainty.txt"
+COMMAND = "python benchmarks/calibrate_uncertainty.py --data ../shared/data"
+Z = 1.96
+LEVEL = 0.95
+CAL_SEEDS = (0, 1, 2)
+AXES = ("pitch", "roll")
+
+
+def wrap(d):
+    return (np.asarray(d, np.float64) + 180.0) % 360.0 - 180.0
+
+
+def rectify_row(joints: np.ndarray, up_true: np.ndarray, fps: float) -> dict:
+    """One recording: signed pitch/roll errors of the sequence up and the bootstrap half-widths."""
+    rep = rectify(joints, "pcnet", mode="sequence", fps=fps).report
+    tp, tr = pitch_roll_deg(up_true)
+    return {"err_pitch": rep["camera_pitch_deg"] - tp, "err_roll": float(wrap(rep["camera_roll_deg"] - tr)),
+            "boot_pitch": rep["camera_pitch_uncertainty_deg"], "boot_roll": rep["camera_roll_uncertainty_deg"],
+            "mode": rep["mode"]}
+
+
+def mocap_rows(clips, seeds) -> list[dict]:
+    rows = []
+    for seed in seeds:
+        pairs = make_pairs(clips, views="paper", seed=seed, camera="static", noise=LifterNoise())
+        for i, clip in enumerate(clips):
+            sel = np.flatnonzero(pairs.clip == i)
+            if len(sel) < 2:
+                continue
+            up = pairs.R[sel[0]][:, 1]
+            rows.append({"clip": clip.name, "seed": seed,
+                         **rectify_row(pairs.inputs[sel].astype(np.float64), up, clip.fps)})
+    return rows
+
+
+def arrays(rows):
+    e = np.array([[r["err_pitch"], r["err_roll"]] for r in rows], np.float64)
+    b = np.array([[r["boot_pitch"], r["boot_roll"]] for r in rows], np.float64)
+    return e, b
+
+
+def calibrate(rows) -> dict:
+    e, b = arrays(rows)
+    s = np.sqrt(np.maximum(e ** 2 - b ** 2, 0.0)) / Z
+    n = len(s)
+    k = int(np.ceil(LEVEL * (n + 1)))  # conformal rank
+    out = {"n": n, "rank": k}
+    for j, ax in enumerate(AXES):
+        out[ax] = {"sigma_sys": float(np.sort(s[:, j])[min(k, n) - 1]), "rms_err": float(np.sqrt(np.mean(e[:, j] ** 2))),
+                   "bias": float(np.median(e[:, j])), "median_boot": float(np.median(b[:, j])),
+                   "p95_abs_err": float(np.percentile(np.abs(e[:, j]), 95))}
+    return out
+
+
+def coverage(rows, sigma=None) -> tuple[float, float, float, float, float]:
+    """(pitch, roll, both) coverage, median half-widths (pitch, roll)."""
+    e, b = arrays(rows)
+    if sigma is None:
+        h = b
+    else:
+        h = np.stack([uncertainty.calibrated_interval(b[:, j], ax, sigma_sys_deg=sigma[ax])
+                      for j, ax in enumerate(AXES)], 1)
+    inside = np.abs(e) <= h
+    return (float(inside[:, 0].mean()), float(inside[:, 1].mean()), float(inside.all(1).mean()),
+            float(np.median(h[:, 0])), float(np.median(h[:, 1])))
+
+
+def pose2sim_rows(data: Path, rolls) -> list[dict]:
+    rows = []
+    for path in sorted(data.joinpath("real", "pose2sim_gravity").glob("statictrial_cam*.npz")):
+        joints, up, fps = load_camera(path)
+        for roll in rolls:
+            j, u = roll_view(joints, up, roll)
+            rows.append({"clip": f"{path.stem} roll {roll:+d}", "seed": 0, **rectify_row(j, u, fps)})
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=DEFAULT)
+    ap.add_argument("--out", type=Path, default=RESULT)
+    args = ap.parse_args(argv)
+    mocap = args.data / "mocap"
+
+    cal_rows = mocap_rows(load_mocap(mocap / "cmu_train_h36m17.npz"), CAL_SEEDS)
+    cal = calibrate(cal_rows)
+    sigma = {ax: cal[ax]["sigma_sys"] for ax in AXES}
+
+    bandai = load_mocap(mocap / "bandai_h36m17.npz")
+    seen = groups_in_split(bandai, "train", "clip")
+    unseen = [c for c in select_split(bandai, "all", "clip") if (group_key(c) or c.name) not in seen]
+    sets = {
+        "CMU (calibration set, in-sample)": cal_rows,
+        "DeepMimic all, seed 0": mocap_rows(load_mocap(mocap / "deepmimic_h36m17.npz"), (0,)),
+        f"Bandai unseen-by-clip ({len(unseen)} clips), seeds 0-2": mocap_rows(unseen, CAL_SEEDS),
+        "Pose2Sim real, 4 cams, roll 0": pose2sim_rows(args.data, (0,)),
+        "Pose2Sim real, 4 cams x 4 rolls": pose2sim_rows(args.data, ROLLS_DEG),
+    }
+    shipped = {ax: uncertainty.SIGMA_SYS_DEG[ax] for ax in AXES}
+    lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
+             f"date {datetime.date.today().isoformat()}; method pcnet, mode sequence, default refiners; "
+             f"Z = {Z}; see the script's docstring.", "",
+             f"Calibration on CMU ({cal['n']} clip-views = 101 clips x seeds {CAL_SEEDS}, conformal rank {cal['rank']}):"]
+    for ax in AXES:
+        c = cal[ax]
+        lines.append(f"  {ax:<5} sigma_sys_deg = {c['sigma_sys']:.2f}   (rms signed error {c['rms_err']:.2f}, "
+                     f"median signed error {c['bias']:+.2f}, p95 |error| {c['p95_abs_err']:.2f}, "
+                     f"median bootstrap half-width {c['median_boot']:.2f} deg)")
+    lines.append(f"  constants in pcnet/stages/uncertainty.py: Z = {uncertainty.Z}, SIGMA_SYS_DEG = "
+                 f"pitch {shipped['pitch']:.2f}, roll {shipped['roll']:.2f}")
+    lines += ["", "Coverage of the 95 % intervals (share of clip-views whose truth lies inside; "
+              "half = median half-width, deg):",
+              f"  {'data':<44}{'n':>5}  {'before: pitch  roll  both':>26} {'half p/r':>11}  "
+              f"{'after: pitch  roll  both':>25} {'half p/r':>11}"]
+    for name, rows in sets.items():
+        bp, br, bb, bhp, bhr = coverage(rows)
+        ap_, ar, ab, ahp, ahr = coverage(rows, shipped)
+        lines.append(f"  {name:<44}{len(rows):>5}  {bp:>13.0%} {br:>5.0%} {bb:>5.0%} {bhp:>5.2f}/{bhr:<5.2f}  "
+                     f"{ap_:>12.0%} {ar:>5.0%} {ab:>5.0%} {ahp:>5.2f}/{ahr:<5.2f}")
+    p2s = sets["Pose2Sim real, 4 cams x 4 rolls"]
+    lines += ["", "Pose2Sim views (signed error pitch/roll, bootstrap and calibrated half-widths, deg):"]
+    for r in p2s:
+        hp = uncertainty.calibrated_interval(r["boot_pitch"], "pitch", sigma_sys_deg=shipped["pitch"])
+        hr = uncertainty.calibrated_interval(r["boot_roll"], "roll", sigma_sys_deg=shipped["roll"])
+        lines.append(f"  {r['clip']:<28} err {r['err_pitch']:+7.1f} {r['err_roll']:+7.1f}   boot +-{r['boot_pitch']:.2f}/"
+                     f"{r['boot_roll']:.2f}   calibrated +-{hp:.2f}/{hr:.2f}")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,79 @@
+"""Calibrated pitch/roll intervals (stages/uncertainty.py) and their recorded calibration."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import shared
+from pcnet.stages.uncertainty import SIGMA_SYS_DEG, Z, calibrated_interval
+
+RESULT = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "uncertainty.txt"
+
+
+@pytest.mark.parametrize("axis", ["pitch", "roll"])
+def test_interval_covers_bootstrap_and_is_monotone(axis):
+    b = np.linspace(0.0, 20.0, 201)
+    h = calibrated_interval(b, axis)
+    assert h.shape == b.shape
+    assert (h >= b).all() and (np.diff(h) > 0).all()
+    assert calibrated_interval(0.0, axis) == pytest.approx(Z * SIGMA_SYS_DEG[axis])
+    assert isinstance(calibrated_interval(1.0, axis), float)
+    assert np.isnan(calibrated_interval(np.nan, axis))
+    with pytest.raises(ValueError):
+        calibrated_interval(1.0, "yaw")
+
+
+def test_constants_match_recorded_calibration():
+    text = RESULT.read_text()
+    assert "python benchmarks/calibrate_uncertainty.py" in text
+    for axis in ("pitch", "roll"):
+        m = re.search(rf"^\s+{axis}\s+sigma_sys_deg = (\d+\.\d+)", text, re.M)
+        assert m, f"{RESULT}: no calibrated sigma for {axis}"
+        assert SIGMA_SYS_DEG[axis] == pytest.approx(float(m.group(1)), abs=0.005)
+    m = re.search(r"Z = (\d+\.\d+); see", text)
+    assert m and float(m.group(1)) == pytest.approx(Z)
+
+
+def test_report_carries_calibrated_and_bootstrap_halfwidths():
+    from pcnet.stages import temporal as tm
+
+    rng = np.random.default_rng(0)
+    R0 = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    R0 *= np.sign(np.linalg.det(R0))
+    noise = [np.linalg.qr(np.eye(3) + 0.05 * rng.normal(size=(3, 3)))[0] for _ in range(60)]
+    R = np.stack([n * np.sign(np.linalg.det(n)) @ R0 for n in noise])
+    _, rep = tm.rectify_sequence(R, None, "sequence", 30.0)
+    for axis in ("pitch", "roll"):
+        boot = rep[f"camera_{axis}_uncertainty_deg"]
+        assert np.isfinite(boot)
+        assert rep[f"camera_{axis}_interval_deg"] == pytest.approx(calibrated_interval(boot, axis))
+
+
+def test_coverage_on_heldout_deepmimic_clips():
+    """A few DeepMimic clips (never used for calibration), static camera, lifter noise, seed 0:
+    the calibrated intervals must contain the true pitch and roll far more often than the
+    bootstrap alone, and in most clips."""
+    from pcnet.models.datasets import load_mocap, make_pairs
+    from pcnet.models.lifter_noise import LifterNoise
+    from pcnet.stages.rectify import rectify
+
+    clips = load_mocap(shared("mocap", "deepmimic_h36m17.npz"))
+    clips = [c for c in clips if 60 <= len(c.joints) <= 400][::3][:10]
+    pairs = make_pairs(clips, views="paper", seed=0, camera="static", noise=LifterNoise())
+    inside_boot, inside_cal = [], []
+    for i, clip in enumerate(clips):
+        sel = np.flatnonzero(pairs.clip == i)
+        up = pairs.R[sel[0]][:, 1]
+        true_p, true_r = np.degrees(np.arcsin(-up[2])), np.degrees(np.arctan2(up[0], -up[1]))
+        rep = rectify(pairs.inputs[sel].astype(np.float64), "pcnet", mode="sequence", fps=clip.fps).report
+        e = np.abs([rep["camera_pitch_deg"] - true_p, (rep["camera_roll_deg"] - true_r + 180) % 360 - 180])
+        boot = np.array([rep["camera_pitch_uncertainty_deg"], rep["camera_roll_uncertainty_deg"]])
+        cal = np.array([rep["camera_pitch_interval_deg"], rep["camera_roll_interval_deg"]])
+        inside_boot.append(bool((e <= boot).all()))
+        inside_cal.append(bool((e <= cal).all()))
+    assert len(clips) >= 8
+    assert np.mean(inside_cal) >= 0.7, (inside_boot, inside_cal)
+    assert np.mean(inside_cal) >= np.mean(inside_boot)
