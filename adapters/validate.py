@@ -294,6 +294,8 @@ def load_array_file(path: str | Path, key: str | None = None) -> np.ndarray:
     p = Path(path)
     data = open_numpy(p)
     if not isinstance(data, NumpyArchive):
+        if key is not None:  # a key that would be silently ignored is a mistake
+            raise AdapterError(p, "key", "no key for a single-array .npy file", repr(key))
         return data
     with data:
         keys = list(data.files)

@@ -55,8 +55,10 @@ def load_numpy_file(path: Path, what: str):
     from pcnet.adapters.validate import open_numpy
 
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"{path}: {what} file not found")
+    if not path.is_file():
+        raise InputError(f"{path}: expected a regular {what} file, got a folder, device or pipe")
     try:
         return open_numpy(path)
     except AdapterError as err:

@@ -26,7 +26,8 @@ def _boolean(key: str, raw: str) -> bool:
 def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
     """A :class:`RunConfig` from one manifest row (empty cells = defaults; relative paths are
     relative to the manifest's folder). Raises ValueError naming the bad column."""
-    known = {f.name for f in fields(RunConfig)} | set(_LIFTER_OPTIONS)
+    # lifter_options is a table in TOML; in a manifest its entries are columns of their own.
+    known = ({f.name for f in fields(RunConfig)} - {"lifter_options"}) | set(_LIFTER_OPTIONS)
     unknown = {k for k in row if k not in known}
     if unknown:
         raise InputError(f"unknown columns {sorted(unknown)[:5]}; expected columns named like the fields of `pcnet run`"

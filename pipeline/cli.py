@@ -15,7 +15,7 @@ from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
 from pcnet.pipeline.entry import EXIT_INTERRUPTED, raise_interrupt
 from pcnet.stages.errors import InputError
 from pcnet.stages.heading import HEADING_SOURCES
-from pcnet.stages.rectify import METHODS, up_refiner_note
+from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, up_refiner_note
 
 
 
@@ -122,6 +122,8 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
 
     if json_out:
         _new_output_file(json_out, "--json", overwrite, inputs=(data, weights))
+    if weights is not None and method == "geometric":
+        raise InputError("--weights: expected a 3DPCNet method (pcnet, pcnet-rigid), got --method geometric")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
     result = run_eval(method, data, split, views, seed, max_frames, weights, camera, "none" if no_noise else noise,
@@ -154,8 +156,12 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_r
 
     _new_output_file(out_path, "--out", overwrite, inputs=(input_path, weights))
     validate_fps(fps, "--fps")
+    if weights is not None and method == "geometric":
+        raise InputError("--weights: expected a 3DPCNet method (pcnet, pcnet-rigid), got --method geometric")
     joints = load_pose_array(input_path, key)
     res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading, up_refiner=up_refiner)
+    if not res.valid.any():  # the same rule as pcnet run: nothing is written
+        raise InputError(f"{input_path}: {NO_VALID_FRAME}")
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
               up_refined=np.array(bool(res.report.get("up_refined", False))),

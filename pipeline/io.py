@@ -42,5 +42,7 @@ def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
                 raise InputError(f"{path}: no array {key!r}; it holds {describe_keys(data.files)}")
             arr = data[key]
     else:
+        if key is not None:  # a key that would be silently ignored is a mistake
+            raise InputError(f"{path}: --key {key!r}: expected no key for a single-array .npy file, got one")
         arr = data
     return validate_poses(arr, source=f"{path}{f' [{key}]' if key else ''}", units=None)

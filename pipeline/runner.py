@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import inspect
 import time
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,6 +19,7 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
+from pcnet.models.toml_config import type_name, value_matches
 from pcnet.stages.conventions import (H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, fill_pelvis_from_hips, validate_fps,
                                       validate_poses)
 from pcnet.stages.errors import InputError
@@ -126,6 +128,11 @@ def _checked_options(kind: str, name: str, adapter, options: dict) -> dict:
     unknown = sorted(set(options) - set(taken))
     if unknown:
         raise InputError(f"{kind}_options: expected some of {taken} for the {name} adapter, got {unknown}")
+    hints = typing.get_type_hints(adapter.load)
+    for option, value in options.items():
+        if option in hints and not value_matches(value, hints[option]):
+            raise InputError(f"{kind}_options: field {option!r}: expected {type_name(hints[option])} for the {name} "
+                             f"adapter, got {value!r} ({type(value).__name__})")
     return options
 
 
@@ -202,7 +209,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     if kp2d is not None:
         joints = mask_low_confidence(joints, kp2d[..., 2], cfg.confidence_threshold)
     if not np.isfinite(joints).any():
-        raise InputError(f"{cfg.lifter_output}: every joint of every frame is missing (NaN) after masking")
+        raise InputError(f"{cfg.lifter_output}: every joint of every frame is missing (NaN) after masking the joints "
+                         f"whose 2D confidence in {cfg.keypoints2d} is below {cfg.confidence_threshold:g}")
     bar.update()
 
     step("rectify")

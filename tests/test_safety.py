@@ -262,6 +262,11 @@ def test_fps_must_match_the_video_unless_overridden(user_folder):
     (("rectify", "poses.npy", "--out", "nodir/x.npz"), ["nodir"]),
     (("rectify", "poses.npy", "--out", "notes.txt/x.npz"), ["notes.txt"]),
     (("rectify", "poses.npy", "--out", "poses.npy"), ["the input poses.npy itself"]),
+    (("rectify", "poses.npy", "--out", "r.npz", "--key", "joints"), ["--key", "single-array"]),
+    (("rectify", "nohips.npy", "--out", "r.npz"), ["nohips.npy", "hips"]),
+    (("rectify", ".", "--out", "r.npz"), ["."]),
+    (("evaluate", "--method", "geometric", "--data", str(FIXTURES / "mocap_small.npz"), "--weights", "notes.txt"),
+     ["--weights", "geometric"]),
     (("evaluate", "--method", "geometric", "--data", str(FIXTURES / "mocap_small.npz"), "--json", "notes.txt"),
      ["notes.txt", "--overwrite"]),
     (("export", "--checkpoint", "notes.txt", "--out", "notes.txt"), ["input notes.txt itself"]),
@@ -281,9 +286,20 @@ def test_fps_must_match_the_video_unless_overridden(user_folder):
      ["--json", "nodir"]),
 ])
 def test_bad_options_end_in_one_line(user_folder, args, needles):
+    X = np.load(POSES)
+    X[:, [1, 4]] = np.nan  # no hips: no frame can be rectified
+    np.save(user_folder / "nohips.npy", X)
     before = _contents(user_folder)
     _one_line_error(_invoke(*args), *needles)
     assert _contents(user_folder) == before
+
+
+def test_lifter_options_are_type_checked_against_the_adapter(user_folder):
+    (user_folder / "run.toml").write_text(f'lifter = "motionbert"\nlifter_output = "{FIXTURES / "boxing_X3D_f000-059.npy"}"'
+                                          '\nfps = 30\nout = "o"\n[lifter_options]\npixel = "yes"\n')
+    _one_line_error(_invoke("run", "--config", "run.toml"), "pixel", "expected bool", "'yes'")
+    (user_folder / "m.csv").write_text("lifter,lifter_output,fps,lifter_options\ngeneric,poses.npy,30,x\n")
+    _one_line_error(_invoke("batch", "m.csv"), "m.csv", "line 2", "unknown columns ['lifter_options']")
 
 
 def test_unknown_lifter_options_in_toml_end_in_one_line(user_folder):
