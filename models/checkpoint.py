@@ -202,3 +202,37 @@ def _state_mismatch(expected: dict, given: dict) -> str:
     parts = [f"{len(keys)} {what} (e.g. {keys[0]!r})" for keys, what in
              ((missing, "missing"), (unexpected, "unexpected"), (shaped, "of another shape")) if keys]
     return ", ".join(parts)
+
+
+#: What a training run writes into its ``out_dir`` (``pcnet train``, ``pcnet train-refiner``).
+RUN_FILES = frozenset({"config.json", "metrics.jsonl", "last.pt", "best.pt"})
+
+
+def check_run_folder(out_dir: str | Path) -> None:
+    """Refuse, before any work, an ``out_dir`` a training run must not write into: the
+    current folder or one above it, a file, or an existing folder that is not a previous run
+    (anything besides :data:`RUN_FILES`, or no ``last.pt`` to resume). A run writes
+    ``config.json`` and appends to ``metrics.jsonl``, so a user's files of those names must
+    never be taken for a run's.
+
+    Raises:
+        InputError: naming ``out_dir`` and what it holds.
+    """
+    given = str(out_dir)
+    target = Path(out_dir).resolve()
+    cwd = Path.cwd().resolve()
+    if target == cwd or target in cwd.parents:
+        raise InputError(f"out_dir {given}: expected a folder for this run, got the current folder or one above it")
+    if not target.exists():
+        return
+    if not target.is_dir():
+        raise InputError(f"out_dir {given}: expected a folder, got a file")
+    names = sorted(p.name for p in target.iterdir())
+    foreign = [n for n in names if n not in RUN_FILES]
+    if foreign:
+        shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+        raise InputError(f"out_dir {given}: expected a new folder or a previous training run's, got one holding "
+                         f"files a run does not write ({shown})")
+    if names and "last.pt" not in names:
+        raise InputError(f"out_dir {given}: expected a new folder or a previous training run's (with last.pt), got "
+                         f"one holding {', '.join(names)} without last.pt; choose another out_dir")

@@ -21,8 +21,8 @@ from tqdm import tqdm
 from pcnet.stages.errors import InputError
 from pcnet.stages.metrics import rotation_error_deg, summarize, tilt_error_deg
 
-from .checkpoint import (config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint, resume_point,
-                         save_checkpoint)
+from .checkpoint import (check_run_folder, config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint,
+                         resume_point, save_checkpoint)
 from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
 from .losses import LossWeights, composite_loss
 from .network import PCNet, PCNetConfig
@@ -193,6 +193,7 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     torch.manual_seed(cfg.seed)
     device = _device(cfg.device)
     out = Path(cfg.out_dir)
+    check_run_folder(out)
     clips = [c for path in cfg.data for c in load_mocap(path)]
     train_clips, val_clips = select_split(clips, "train"), select_split(clips, "val")
     for split, chosen in (("train", train_clips), ("val", val_clips)):

@@ -42,8 +42,8 @@ from pcnet.stages.atomic import atomic_path, write_text
 from pcnet.stages.errors import InputError
 from pcnet.stages.rotations import angle_between
 
-from .checkpoint import (config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint, resume_point,
-                         save_checkpoint)
+from .checkpoint import (check_run_folder, config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint,
+                         resume_point, save_checkpoint)
 from .datasets import CAMERAS, Augmentation, Noise, load_mocap, make_pairs, select_split
 from .inference import DEFAULT_WEIGHTS, PCNetSession, file_sha256, tilt_to_up
 from .preprocess import REFINER_INPUTS, body_frame, normalize_input, refiner_features, refiner_up_xz, window_indices
@@ -257,6 +257,7 @@ def train_refiner(cfg: RefinerConfig, resume: bool = True, progress: bool = True
         torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     out = Path(cfg.out_dir)
+    check_run_folder(out)
     t0 = time.time()
     session = PCNetSession(cfg.base_weights, threads=cfg.threads)
     clips = [c for path in cfg.data for c in load_mocap(path)]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import io
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import fields
 from pathlib import Path
@@ -91,7 +92,7 @@ def read_manifest(manifest: Path) -> list[dict]:
     if not text.strip():
         raise InputError(f"{manifest}: expected a CSV manifest with a header and rows, got an empty file")
     try:
-        reader = csv.DictReader(text.splitlines())
+        reader = csv.DictReader(io.StringIO(text, newline=""))  # quoted cells may hold newlines
         rows = list(reader)
     except csv.Error as err:
         raise InputError(f"{manifest}: expected CSV, got {err}") from None

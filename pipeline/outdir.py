@@ -30,6 +30,8 @@ from pathlib import Path
 
 from pcnet.stages.errors import InputError
 
+from .entry import check_interrupted
+
 MARKER = ".pcnet-output"
 TMP_TAG = ".pcnet-tmp-"
 TRASH_TAG = ".pcnet-trash-"
@@ -186,6 +188,7 @@ def staged_output(out: str | os.PathLike) -> Iterator[Path]:
             raise InputError(f"--out {given}: cannot create the output folder there ({err.strerror or err})") from err
         _write_marker(tmp, "writing")
         yield tmp
+        check_interrupted()  # an interrupt swallowed on the way must still stop the swap
         _write_marker(tmp, "complete")
         trash = _swap_in(tmp, target)
     except BaseException:

@@ -420,3 +420,23 @@ def test_a_refiner_batch_smaller_than_its_draws_trains_and_a_batch_too_big_is_on
     line = _one_line_failure(CliRunner().invoke(main, ["train-refiner", "--config", config.name]), "batch_size")
     assert "larger than the" in line
     assert not (tmp_path / "big").exists()
+
+
+@pytest.mark.parametrize("command", ["train", "train-refiner"])
+@pytest.mark.parametrize("out_dir, theirs", [(".", None), ("proj", ["config.json", "metrics.jsonl"]),
+                                             ("proj", ["notes.txt"])])
+def test_training_never_writes_into_a_folder_of_the_users(tmp_path, monkeypatch, command, out_dir, theirs):
+    """A user's config.json / metrics.jsonl must not be taken for a run's (no last.pt)."""
+    from pcnet.models.checkpoint import check_run_folder
+
+    monkeypatch.chdir(tmp_path)
+    for name in theirs or ():
+        (tmp_path / out_dir).mkdir(exist_ok=True)
+        (tmp_path / out_dir / name).write_text("mine\n")
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    with pytest.raises(ValueError, match="out_dir"):
+        check_run_folder(out_dir)
+    (tmp_path / "cfg.toml").write_text(f'data = ["{FIXTURES / "mocap_small.npz"}"]\nout_dir = "{out_dir}"\nepochs = 1\n')
+    res = CliRunner().invoke(main, [command, "--config", "cfg.toml"])
+    assert res.exit_code == 1 and "out_dir" in res.output and "Traceback" not in res.output, res.output
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file() and p.name != "cfg.toml"} == before
