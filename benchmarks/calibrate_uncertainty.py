@@ -138,7 +138,6 @@ def main(argv=None) -> int:
 
     cal_rows = mocap_rows(load_mocap(mocap / "cmu_train_h36m17.npz"), CAL_SEEDS)
     cal = calibrate(cal_rows)
-    sigma = {ax: cal[ax]["sigma_sys"] for ax in AXES}
 
     bandai = load_mocap(mocap / "bandai_h36m17.npz")
     seen = groups_in_split(bandai, "train", "clip")

@@ -15,7 +15,7 @@ from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
 from pcnet.pipeline.entry import EXIT_INTERRUPTED, raise_interrupt
 from pcnet.stages.errors import InputError
 from pcnet.stages.heading import HEADING_SOURCES
-from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, up_refiner_note
+from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, check_method_weights, up_refiner_note
 
 
 
@@ -122,8 +122,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
 
     if json_out:
         _new_output_file(json_out, "--json", overwrite, inputs=(data, weights))
-    if weights is not None and method == "geometric":
-        raise InputError("--weights: expected a 3DPCNet method (pcnet, pcnet-rigid), got --method geometric")
+    check_method_weights(method, weights, "--weights")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
     result = run_eval(method, data, split, views, seed, max_frames, weights, camera, "none" if no_noise else noise,
@@ -156,8 +155,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_r
 
     _new_output_file(out_path, "--out", overwrite, inputs=(input_path, weights))
     validate_fps(fps, "--fps")
-    if weights is not None and method == "geometric":
-        raise InputError("--weights: expected a 3DPCNet method (pcnet, pcnet-rigid), got --method geometric")
+    check_method_weights(method, weights, "--weights")
     joints = load_pose_array(input_path, key)
     res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading, up_refiner=up_refiner)
     if not res.valid.any():  # the same rule as pcnet run: nothing is written
@@ -271,10 +269,7 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, 
         cfg.lifter_options.update(lifter_options)
     else:
         given = {k: v for k, v in options.items() if v is not None}
-        for needed in ("lifter", "lifter_output"):
-            if needed not in given:
-                raise InputError(f"--{needed.replace('_', '-')}: expected a value (or --config FILE), got none")
-        cfg = RunConfig(**given, lifter_options=lifter_options).validate("command line")
+        cfg = RunConfig.from_values("command line (or give --config FILE)", {**given, "lifter_options": lifter_options})
     _run_and_report(cfg)
 
 

@@ -54,6 +54,21 @@ class RunConfig:
     up_refiner: bool = True
     lifter_options: dict = field(default_factory=dict)
 
+    @classmethod
+    def from_values(cls, source: str, values: dict) -> "RunConfig":
+        """Build and :meth:`validate` a config from parsed values (a TOML table, a manifest
+        row, command-line options), naming ``source`` in errors; the fields without a default
+        (``lifter``, ``lifter_output``) missing is one line too, not a ``TypeError``.
+
+        Raises:
+            InputError: a required field is missing, or :meth:`validate` refuses a value.
+        """
+        for needed in ("lifter", "lifter_output"):
+            if values.get(needed) is None:
+                raise InputError(f"{source}: field {needed!r} (--{needed.replace('_', '-')}): expected a value, "
+                                 f"got none")
+        return cls(**values).validate(source)
+
     def validate(self, source: str = "config") -> "RunConfig":
         """Check every field's type (against the annotations), choices, ranges and
         combinations.
@@ -62,7 +77,7 @@ class RunConfig:
             InputError: naming ``source``, the field, what was expected and what was given.
         """
         from pcnet.stages.heading import HEADING_SOURCES
-        from pcnet.stages.rectify import METHODS
+        from pcnet.stages.rectify import METHODS, check_method_weights
 
         check_config_types(source, "", asdict(self), RunConfig)
         # (field, value, choices, None allowed)
@@ -92,9 +107,7 @@ class RunConfig:
         if self.person is not None and self.keypoints2d_format not in ("alphapose", "mmpose"):
             raise InputError(f"{source}: field 'person': expected 2D keypoints with several tracks (alphapose or "
                              f"mmpose), got keypoints2d_format {self.keypoints2d_format!r}")
-        if self.weights is not None and self.method == "geometric":
-            raise InputError(f"{source}: field 'weights': expected a 3DPCNet method (pcnet, pcnet-rigid), got method "
-                             f"'geometric', which uses no weights")
+        check_method_weights(self.method, self.weights, f"{source}: field 'weights'")
         if self.fps_override and self.fps is None:
             raise InputError(f"{source}: field 'fps_override': expected together with fps, got no fps")
         return self
@@ -123,7 +136,4 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
         if isinstance(raw.get(key), str):
             raw[key] = str((path.parent / raw[key]).resolve()) if not Path(raw[key]).is_absolute() else raw[key]
     raw.update({k: v for k, v in overrides.items() if v is not None})
-    for needed in ("lifter", "lifter_output"):
-        if needed not in raw:
-            raise InputError(f"{path}: field {needed!r}: expected a value (or --{needed.replace('_', '-')}), got none")
-    return RunConfig(**raw).validate(str(path))
+    return RunConfig.from_values(str(path), raw)

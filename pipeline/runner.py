@@ -24,14 +24,15 @@ from pcnet.stages.conventions import (H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, fil
                                       validate_poses)
 from pcnet.stages.errors import InputError
 from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
-from pcnet.stages.flags import (NON_UPRIGHT_TRUNK_DEG, body_size_flag, camera_tilt, non_upright_fraction,
-                               orientation_flags, track_segments, track_switch_flag)
+from pcnet.stages.flags import (body_size_flag, camera_tilt, non_upright_flag, orientation_flags, track_segments,
+                               track_switch_flag)
 from pcnet.stages.kinematics import compute_kinematics, flag_counts, format_flag_counts
 from pcnet.stages.rectify import NO_VALID_FRAME, rectify, up_refiner_note
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
 from pcnet.stages.rerun_log import series_from_kinematics, write_recording
 from pcnet.stages.rotations import decompose_camera_rotation
 from pcnet.stages.scale import scale_to_height
+from pcnet.stages.uncertainty import LABEL as UNCERTAINTY_LABEL
 
 from .config import RunConfig
 from .outdir import check_out_folder, staged_output
@@ -79,8 +80,6 @@ class RunResult:
 
 
     def _pitch_roll(self) -> str:
-        from pcnet.stages.uncertainty import LABEL as UNCERTAINTY_LABEL
-
         pitch_unc = self.report.get("camera_pitch_interval_deg", float("nan"))
         roll_unc = self.report.get("camera_roll_interval_deg", float("nan"))
         if not (np.isfinite(pitch_unc) and np.isfinite(roll_unc)):
@@ -97,23 +96,20 @@ FPS_TOLERANCE = 0.01
 
 
 def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]) -> float:
-    """The recording's frame rate: the video's, ``--fps`` (an error when it contradicts the
-    video unless ``fps_override``), or the one an input file carries (MediaPipe npz), given
-    as ``(file, fps or None)`` pairs."""
-    if video is not None:
-        if cfg.fps is not None and abs(cfg.fps - video.fps) > FPS_TOLERANCE * video.fps and not cfg.fps_override:
-            raise InputError(f"--fps {cfg.fps:g}: expected the video's own rate, got a mismatch with {cfg.video} "
-                             f"({video.fps:g} fps); pass --fps-override to use --fps anyway")
-        return validate_fps(cfg.fps if cfg.fps is not None else video.fps, f"{cfg.video}: frame rate")
+    """The recording's frame rate: ``--fps``, else the video's, else the one an input file
+    carries (MediaPipe npz), given as ``(file, fps or None)`` pairs. ``--fps`` contradicting
+    the video's or a file's own rate is an error unless ``fps_override``."""
+    recorded = [(cfg.video, video.fps)] if video is not None else []
+    recorded += [(source, fps) for source, fps in carried if fps is not None]
     if cfg.fps is not None:
-        for source, fps in carried:
-            if fps is not None and abs(cfg.fps - fps) > FPS_TOLERANCE * fps and not cfg.fps_override:
+        for source, fps in recorded:
+            if abs(cfg.fps - fps) > FPS_TOLERANCE * fps and not cfg.fps_override:
                 raise InputError(f"--fps {cfg.fps:g}: expected the rate {source} records ({fps:g} fps), got a "
                                  f"mismatch; pass --fps-override to use --fps anyway")
         return float(cfg.fps)
-    for source, fps in carried:
-        if fps is not None:
-            return validate_fps(fps, f"{source}: field 'fps'")
+    if recorded:
+        source, fps = recorded[0]
+        return validate_fps(fps, f"{source}: frame rate")
     raise InputError("fps: needed when no video is given and the input files do not carry their frame rate "
                      "(pass --fps)")
 
@@ -223,11 +219,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
     tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
     flags = orientation_flags(tilt) + (body_size_flag(joints, units) if cfg.height is None else [])
-    lying = non_upright_fraction(canonical, valid)
-    if lying > 0.5:
-        flags.append(f"the trunk is more than {NON_UPRIGHT_TRUNK_DEG:.0f} deg from vertical in {100 * lying:.0f} % of "
-                     f"frames (lying, crawling or inverted?): such poses are far from the networks' upright training "
-                     f"data, so the up direction is uncertain")
+    flags += non_upright_flag(canonical, valid)
     segment = None
     if kp2d is not None:
         segment, events = track_segments(kp2d, fps)

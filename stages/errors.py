@@ -20,11 +20,3 @@ class InputError(ValueError):
     def __init__(self, message: str):
         super().__init__(" ".join(str(message).split()))
 
-
-def input_error(source: object, field: str, expected: str, got: object) -> InputError:
-    """An :class:`InputError` worded ``SOURCE: field 'FIELD': expected EXPECTED, got GOT``;
-    ``got`` is shortened to 200 characters so a huge value never floods the terminal."""
-    text = str(got)
-    if len(text) > 200:
-        text = text[:197] + "..."
-    return InputError(f"{source}: field {field!r}: expected {expected}, got {text}")

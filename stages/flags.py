@@ -117,6 +117,16 @@ def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:
     return float(np.mean(np.degrees(np.arccos(np.clip(t[:, 1], -1.0, 1.0))) > NON_UPRIGHT_TRUNK_DEG))
 
 
+def non_upright_flag(canonical: np.ndarray, valid: np.ndarray) -> list[str]:
+    """A flag when most valid frames are not upright (:func:`non_upright_fraction` > 0.5)."""
+    share = non_upright_fraction(canonical, valid)
+    if not share > 0.5:
+        return []
+    return [f"the trunk is more than {NON_UPRIGHT_TRUNK_DEG:.0f} deg from vertical in {100 * share:.0f} % of frames "
+            f"(lying, crawling or inverted?): such poses are far from the networks' upright training data, so the up "
+            f"direction is uncertain"]
+
+
 def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, list[tuple[int, float]]]:
     """Split a 2D track where it jumps farther than one person can move: a tracker that
     switched to someone else.

@@ -36,6 +36,18 @@ class Rectified:
     heading_source: str = "predicted"
 
 
+def check_method_weights(method: str, weights: str | None, source: str = "weights") -> None:
+    """Refuse ``weights`` given with a method that uses none (``geometric``): silently
+    ignoring them would report the baseline as if it were the network.
+
+    Raises:
+        InputError: naming ``source``.
+    """
+    if weights is not None and method == "geometric":
+        raise InputError(f"{source}: expected a 3DPCNet method (pcnet, pcnet-rigid), got method 'geometric', "
+                         f"which uses no weights")
+
+
 def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None):
     """Per-frame canonical->camera rotations ``(T, 3, 3)``, residuals ``(T, 17, 3)`` (zeros
     unless ``method == "pcnet"``) and validity ``(T,)`` for camera-frame H36M-17 poses.
@@ -44,9 +56,10 @@ def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: s
     rotation, residual dropped: a rigid rotation of the input), ``geometric`` (paper 2.3).
 
     Raises:
-        ValueError: unknown method or wrong shape.
+        InputError: unknown method, wrong shape, or ``weights`` with ``geometric``.
     """
     X = check_poses(joints_cam, "joints_cam")
+    check_method_weights(method, weights)
     if method == "geometric":
         R, valid = geometric_rotation(X)
         return R, np.zeros(X.shape, np.float64), valid
