@@ -101,3 +101,16 @@ def test_metres_that_are_not_metres_are_flagged(scale, flagged):
 
     assert bool(body_size_flag(np.load(TADASANA) * scale, "m")) == flagged
     assert body_size_flag(np.load(TADASANA) * scale, "normalised") == []
+
+
+def test_camera_tilt_matches_the_rotation_decomposition_on_real_poses():
+    """Sequence mode has one up: the summary's pitch and roll equal those of
+    decompose_camera_rotation on the rectified rotations (same convention, column 1 = up)."""
+    from pcnet.stages.rotations import decompose_camera_rotation
+
+    res = rectify(_roll(np.load(TADASANA), 20), "geometric", mode="sequence")
+    _, pitch, roll = decompose_camera_rotation(res.rotation[res.valid])
+    tilt, p, r = camera_tilt(res.rotation[:, :, 1], res.valid)
+    assert p == pytest.approx(np.degrees(pitch).mean(), abs=1e-3) and r == pytest.approx(np.degrees(roll).mean(), abs=1e-3)
+    assert r == pytest.approx(20 + np.degrees(decompose_camera_rotation(
+        rectify(np.load(TADASANA), "geometric", mode="sequence").rotation[:1])[2][0]), abs=0.5)
