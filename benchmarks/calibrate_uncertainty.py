@@ -13,7 +13,7 @@ noise=LifterNoise(), seed=s) -- the inputs of `pcnet evaluate --camera static --
 --mode sequence` -- one static camera per clip (true up = R[:, 1], constant over the clip).
 Each clip's camera-frame joints are rectified as `pcnet run` does:
 pcnet.stages.rectify.rectify(joints, "pcnet", mode="sequence", fps=clip.fps) with the default
-refiners and bootstrap (200 replicates). Errors are signed, estimate - truth, pitch =
+bootstrap (200 replicates). Errors are signed, estimate - truth, pitch =
 asin(-u_z), roll = atan2(u_x, -u_y) (decompose_camera_rotation), degrees.
 
 Calibration (never used for coverage): ../shared/data/mocap/cmu_train_h36m17.npz, all 101
@@ -151,7 +151,7 @@ def main(argv=None) -> int:
     }
     shipped = {ax: uncertainty.SIGMA_SYS_DEG[ax] for ax in AXES}
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
-             f"date {datetime.date.today().isoformat()}; method pcnet, mode sequence, default refiners; "
+             f"date {datetime.date.today().isoformat()}; method pcnet, mode sequence; "
              f"Z = {Z}; see the script's docstring.", "",
              f"Calibration on CMU ({cal['n']} clip-views = 101 clips x seeds {CAL_SEEDS}, conformal rank {cal['rank']}):"]
     for ax in AXES:

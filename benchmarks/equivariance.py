@@ -20,8 +20,7 @@ Each is read with its pcnet adapter and pelvis-centred; to bound the run time on
 `--frames` frames (default 300 = 10 s at 30 fps, consecutive, so sequence mode sees real motion)
 are used.
 
-Methods: geometric frame / sequence mode, pcnet frame / sequence mode with (+ref) and without
-(-ref) the up refiners (`rectify(..., up_refiner=True/False)`).
+Methods: geometric frame / sequence mode, pcnet frame / sequence mode.
 Valid fraction: frames the method marks valid in the rotated view (flagged/invalid = the rest).
 """
 
@@ -45,14 +44,12 @@ RESULT = Path(__file__).resolve().parent / "results" / "equivariance.txt"
 AXES = ("x", "y", "z")
 AXIS_NAMES = {"x": "pitch", "y": "yaw", "z": "roll"}
 ANGLES_DEG = (0, 30, 60, 90, 120, 150, 180)
-# (label, method, mode, up_refiner)
+# (label, method, mode)
 CONFIGS = (
-    ("geometric frame", "geometric", "frame", False),
-    ("geometric seq", "geometric", "sequence", False),
-    ("pcnet frame +ref", "pcnet", "frame", True),
-    ("pcnet frame -ref", "pcnet", "frame", False),
-    ("pcnet seq +ref", "pcnet", "sequence", True),
-    ("pcnet seq -ref", "pcnet", "sequence", False),
+    ("geometric frame", "geometric", "frame"),
+    ("geometric seq", "geometric", "sequence"),
+    ("pcnet frame", "pcnet", "frame"),
+    ("pcnet seq", "pcnet", "sequence"),
 )
 YOGA = ("Bhumi_Tadasana", "Bhumi_Padmasana", "Bhumi_Bhujangasana", "Bhumi_Shavasana")
 
@@ -98,15 +95,15 @@ def extra_error_deg(up0: np.ndarray, valid0: np.ndarray, up_rot: np.ndarray, val
     return float(np.degrees(angle_between(up_rot[both], up0[both] @ Q.T)).mean())
 
 
-def equivariance(joints: np.ndarray, fps: float, method: str, mode: str, refine: bool,
+def equivariance(joints: np.ndarray, fps: float, method: str, mode: str,
                  axes=AXES, angles=ANGLES_DEG) -> dict[tuple[str, int], tuple[float, float]]:
     """``{(axis, angle): (extra error deg, valid fraction)}`` for one clip and configuration."""
-    base = rectify(joints, method, mode=mode, fps=fps, up_refiner=refine)
+    base = rectify(joints, method, mode=mode, fps=fps)
     out = {}
     for axis in axes:
         for angle in angles:
             X, Q = rotate_view(joints, axis, angle)
-            res = base if angle == 0 else rectify(X, method, mode=mode, fps=fps, up_refiner=refine)
+            res = base if angle == 0 else rectify(X, method, mode=mode, fps=fps)
             out[(axis, angle)] = (extra_error_deg(base.up, base.valid, res.up, res.valid, Q), float(res.valid.mean()))
     return out
 
@@ -114,7 +111,7 @@ def equivariance(joints: np.ndarray, fps: float, method: str, mode: str, refine:
 def run(data: Path, frames: int = 300) -> list[str]:
     clips = load_clips(data, frames)
     t0 = time.perf_counter()
-    results = {(c[0], name): equivariance(J, fps, c[1], c[2], c[3]) for name, J, fps in clips for c in CONFIGS}
+    results = {(c[0], name): equivariance(J, fps, c[1], c[2]) for name, J, fps in clips for c in CONFIGS}
     seconds = time.perf_counter() - t0
     lines = [__doc__.splitlines()[0], "",
              f"    python benchmarks/equivariance.py --data ../shared/data --frames {frames}", "",

@@ -12,8 +12,7 @@ atan2(u_x, -u_y) (pcnet.stages.rotations.decompose_camera_rotation).
 Poses are read as `pcnet run --lifter mediapipe` reads them (pipeline/runner.py `_load_inputs`):
 load_mediapipe_3d -> remap_to_h36m -> validate_poses -> fill_pelvis_from_hips -> pelvis-centred.
 
-Methods (rows): pcnet frame / sequence mode, each with and without the up refiners
-(`rectify(..., up_refiner=True/False)`), the geometric baseline (paper 2.3) in frame and
+Methods (rows): pcnet frame / sequence mode, the geometric baseline (paper 2.3) in frame and
 sequence mode, and two trivial baselines: a level camera (up = -y) and MediaPipe's own trunk
 (pelvis -> thorax = mid-hip -> mid-shoulder) as up.
 
@@ -23,8 +22,7 @@ trunk = mean over valid frames of the per-frame error (`max` = the worst frame);
 the per-frame ups). Sequence mode only: the report's 95 % moving-block-bootstrap cone
 (`up_uncertainty_deg`) and whether it contains the truth (`in`), and the pitch/roll half-widths
 (`camera_pitch/roll_uncertainty_deg`) and whether both intervals contain the true pitch and
-roll (`in`). `refiners`: F = frame up refiner (runs only on mocap-precise inputs, hip-width CV
-<= 1 %), S = sequence up refiner; `+` applied, `x` declined by its domain check, `-` skipped.
+roll (`in`).
 
 Orientation robustness: the same poses seen by the camera rolled about its optical axis by a
 further 90, 180 and -90 deg (a phone held the other way: X' = X @ Qz.T, true up' = Qz @ up).
@@ -50,14 +48,12 @@ RESULT = Path(__file__).resolve().parent / "results" / "gravity_benchmark.txt"
 COMMAND = "python benchmarks/gravity_benchmark.py --data ../shared/data"
 FOLDER = ("real", "pose2sim_gravity")
 ROLLS_DEG = (0, 90, 180, -90)
-# (label, method, mode, up_refiner)
+# (label, method, mode)
 CONFIGS = (
-    ("pcnet frame +ref", "pcnet", "frame", True),
-    ("pcnet frame -ref", "pcnet", "frame", False),
-    ("pcnet seq +ref", "pcnet", "sequence", True),
-    ("pcnet seq -ref", "pcnet", "sequence", False),
-    ("geometric frame", "geometric", "frame", False),
-    ("geometric seq", "geometric", "sequence", False),
+    ("pcnet frame", "pcnet", "frame"),
+    ("pcnet seq", "pcnet", "sequence"),
+    ("geometric frame", "geometric", "frame"),
+    ("geometric seq", "geometric", "sequence"),
 )
 BASELINES = ("level camera (-y)", "trunk (MediaPipe)")
 IMAGE_UP = np.array([0.0, -1.0, 0.0])
@@ -100,25 +96,15 @@ def roll_view(joints: np.ndarray, up: np.ndarray, roll_deg: float) -> tuple[np.n
     return joints @ Q.T, Q @ up
 
 
-def _refiner_flags(report: dict) -> str:
-    frame = report.get("frame_refiner")
-    f = "-" if frame is None else ("+" if frame["applied"] else "x")
-    if "up_refined" not in report:
-        return f"F{f}"
-    seq = report.get("up_refiner")
-    s = "-" if seq is None else ("+" if seq["applied"] else "x")
-    return f"F{f} S{s}"
-
-
 def evaluate_view(joints: np.ndarray, up_true: np.ndarray, fps: float) -> list[dict]:
     """Every method's and baseline's row for one camera view (see the module docstring)."""
     rows = []
     T = len(joints)
     true_pitch, true_roll = pitch_roll_deg(up_true)
-    for label, method, mode, refine in CONFIGS:
-        out = rectify(joints, method, mode=mode, fps=fps, up_refiner=refine)
+    for label, method, mode in CONFIGS:
+        out = rectify(joints, method, mode=mode, fps=fps)
         rep = out.report or {}
-        row = {"method": label, "valid": int(out.valid.sum()), "frames": T, "refiners": _refiner_flags(rep)}
+        row = {"method": label, "valid": int(out.valid.sum()), "frames": T}
         if mode == "frame":
             ups = out.up[out.valid]
             err = deg_between(ups, up_true[None])
@@ -140,13 +126,13 @@ def evaluate_view(joints: np.ndarray, up_true: np.ndarray, fps: float) -> list[d
     level = float(deg_between(IMAGE_UP, up_true))
     p, r = pitch_roll_deg(IMAGE_UP)
     rows.append({"method": BASELINES[0], "valid": T, "frames": T, "err": level, "max": level,
-                 "pitch": p, "roll": r, "refiners": ""})
+                 "pitch": p, "roll": r})
     trunk = trunk_directions(joints)
     ok = np.isfinite(trunk).all(1)
     err = deg_between(trunk[ok], up_true[None])
     p, r = pitch_roll_deg(normalize(trunk[ok].mean(0)))
     rows.append({"method": BASELINES[1], "valid": int(ok.sum()), "frames": T, "err": float(err.mean()),
-                 "max": float(err.max()), "pitch": p, "roll": r, "refiners": ""})
+                 "max": float(err.max()), "pitch": p, "roll": r})
     return rows
 
 
@@ -164,12 +150,12 @@ def format_rows(camera: str, roll: int, up_true: np.ndarray, rows: list[dict]) -
         pr = (f"+-{row['pr_halfwidth'][0]:.2f}/{row['pr_halfwidth'][1]:.2f} {_yn(row['in_pr']):>3}" if seq
               else f"{'-':>13} {'':>3}")
         lines.append(f"  {row['method']:<19}{row['valid']:>3}/{row['frames']:<3}{row['err']:>7.1f}{row['max']:>7.1f}"
-                     f"{row['pitch']:>7.1f}{row['roll']:>8.1f}   {cone}  {pr:>17}  {row['refiners']}")
+                     f"{row['pitch']:>7.1f}{row['roll']:>8.1f}   {cone}  {pr:>17}")
     return lines
 
 
 HEADER = (f"  {'method':<19}{'valid':>7}{'err':>7}{'max':>7}{'pitch':>7}{'roll':>8}   {'cone95 in':>10}"
-          f"  {'pitch/roll 95 in':>17}  refiners")
+          f"  {'pitch/roll 95 in':>17}")
 
 
 def run(data: Path) -> list[str]:

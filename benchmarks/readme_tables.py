@@ -32,15 +32,13 @@ def main() -> None:
         for views in ("paper", "wide"):
             for method in ("geometric", "pcnet", "pcnet-rigid"):
                 print(row(f"{label}, {views}", method, load(f"{method}_{key}_{views}")))
-            print(row(f"{label}, {views}", "pcnet, no up refiner", load(f"pcnet_{key}_{views}_norefiner")))
-            print(row(f"{label}, {views}", "3DPCNet alone (heading predicted, no up refiner)",
+            print(row(f"{label}, {views}", "3DPCNet alone (heading predicted)",
                       load(f"pcnet_{key}_{views}_predicted_heading")))
     print("\n| data, views | method | rotation | tilt | heading | MPJPE | PA-MPJPE |\n|---|---|---|---|---|---|---|")
     for key, label in DATASETS:
         for method in ("geometric", "pcnet", "pcnet-rigid"):
             print(row(f"{label}, paper, noise", method, load(f"{method}_{key}_paper_noise")))
-        print(row(f"{label}, paper, noise", "pcnet, no up refiner", load(f"pcnet_{key}_paper_noise_norefiner")))
-    modes = (("frame", "frame"), ("sequence-norefiner", "sequence, no up refiner"), ("sequence", "sequence"))
+    modes = (("frame", "frame"), ("sequence", "sequence"))
     header = "\n| data, views | mode | rotation | tilt | heading | MPJPE |\n|---|---|---|---|---|---|"
     for inputs in ("noise", "clean"):  # per-clip cameras: with noise, then clean inputs
         print(header)
@@ -65,7 +63,7 @@ HELDOUT_ROWS = (  # (file stem without the method, data/split label, protocol la
     ("deepmimic_all_lifter_frame", "DeepMimic all", "frame, lifter"),
     ("deepmimic_all_perclip_lifter_sequence", "DeepMimic all", "per-clip, lifter, sequence"),
 )
-HELDOUT_METHODS = (("geometric", "geometric"), ("pcnet", "pcnet"), ("pcnet", "pcnet, no up refiner"))
+HELDOUT_METHODS = ("geometric", "pcnet")
 
 
 def heldout() -> None:
@@ -77,16 +75,15 @@ def heldout() -> None:
           "| heading | MPJPE | PA-MPJPE |\n|---|---|---|---|---|---|---|---|---|---|---|")
     for stem, data, protocol in HELDOUT_ROWS:
         sets = set()
-        for method, label in HELDOUT_METHODS:
-            suffix = "_norefiner" if "no up refiner" in label else ""
-            path = folder / f"{method}_{stem}{suffix}.json"
+        for method in HELDOUT_METHODS:
+            path = folder / f"{method}_{stem}.json"
             if not path.is_file():
                 continue
             r = json.loads(path.read_text())
             sets.add(r["frame_set"])
             o = r.get("shipped_training_overlap")
             trained = f"{o['clips_trained_on']} clips, {o['groups_with_a_trained_take']} groups" if o else "none"
-            print(f"| {data} | {protocol} | {label} | {r['clips']} / {r['groups']} | {r['frames']} "
+            print(f"| {data} | {protocol} | {method} | {r['clips']} / {r['groups']} | {r['frames']} "
                   f"({r['invalid_frames']}) | {trained} | " + " | ".join(cell(r, m) for m in ALL_METRICS) + " |")
         if len(sets) > 1:
             raise SystemExit(f"{stem}: methods scored different frames {sorted(sets)}")

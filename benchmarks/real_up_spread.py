@@ -6,9 +6,7 @@
 Files: boxing_motionbert/X3D.npy (MotionBERT) and every yoga_videopose3d/*.npy
 (VideoPose3D), all filmed by static cameras, 30 fps assumed for the yoga exports.
 Columns: frame-mode spread of per-frame ups around their robust mean (median and p95, deg),
-the sequence estimate's 95 % bootstrap cone (deg), its camera pitch/roll, how far the
-static-camera up refiner moves that estimate (deg; "-" where it did not run or its domain
-check declined), and auto's choice.
+the sequence estimate's 95 % bootstrap cone (deg), its camera pitch/roll, and auto's choice.
 """
 
 from __future__ import annotations
@@ -18,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.stages.rectify import estimate_rotations, up_refiner_for
+from pcnet.stages.rectify import estimate_rotations
 from pcnet.stages.rotations import angle_between
 from pcnet.stages.temporal import rectify_sequence
 
@@ -32,10 +30,7 @@ def main() -> None:
     args = ap.parse_args()
     data = Path(args.data)
     files = [data / "boxing_motionbert" / "X3D.npy"] + sorted((data / "yoga_videopose3d").glob("*.npy"))
-    print(f"{'file':<34}{'frames':>7}{'spread med':>11}{'p95':>7}{'seq cone':>9}{'pitch':>7}{'roll':>7}"
-          f"{'refiner':>8}  auto")
-    refiner = up_refiner_for(args.method, None)
-    refined_files: list[str] = []
+    print(f"{'file':<34}{'frames':>7}{'spread med':>11}{'p95':>7}{'seq cone':>9}{'pitch':>7}{'roll':>7}  auto")
     choices = {}
     for path in files:
         joints = np.load(path)
@@ -43,19 +38,12 @@ def main() -> None:
         R, _, valid = estimate_rotations(joints, args.method)
         _, seq = rectify_sequence(R, valid, "sequence", 30.0, joints)
         _, auto = rectify_sequence(R, valid, "auto", 30.0, joints)
-        shift = "-"  # not run, or declined by its domain check
-        if refiner is not None:
-            _, refined = rectify_sequence(R, valid, "sequence", 30.0, joints, n_bootstrap=0, up_refiner=refiner)
-            if refined["up_refined"]:
-                shift = f"{np.degrees(angle_between(refined['up'], seq['up'])):.1f}"
-                refined_files.append(path.stem)
         dev = np.degrees(angle_between(R[valid][:, :, 1], seq["up"][None]))
         choices[auto["mode"]] = choices.get(auto["mode"], 0) + 1
         print(f"{path.parent.name[:6] + '/' + path.stem[:27]:<34}{len(joints):>7}{np.median(dev):>11.1f}"
               f"{np.percentile(dev, 95):>7.1f}{seq['up_uncertainty_deg']:>9.2f}{seq['camera_pitch_deg']:>7.1f}"
-              f"{seq['camera_roll_deg']:>7.1f}{shift:>8}  {auto['mode']} ({auto['spread_deg']:.1f})")
+              f"{seq['camera_roll_deg']:>7.1f}  {auto['mode']} ({auto['spread_deg']:.1f})")
     print("auto chose:", choices)
-    print(f"up refiner ran on {len(refined_files)} of {len(files)} files:", ", ".join(refined_files))
 
 
 if __name__ == "__main__":

@@ -17,8 +17,7 @@ included) and image up (-y) for the camera-frame input itself (assumes a level c
 lower trunk is pelvis -> spine (0 -> 7).
 
 Methods (columns): `input` (camera frame, image up = -y), geometric frame and sequence mode
-(paper 2.3 baseline), pcnet frame / sequence mode with (+ref) and without (-ref) the up refiners
-(`rectify(..., up_refiner=True/False)`).
+(paper 2.3 baseline), pcnet frame / sequence mode.
 
 Physical targets (trunk from vertical, per file): Shavasana (lying supine) >= 80 deg,
 Padmasana (seated lotus) <= 15 deg, Tadasana (standing) <= 6 deg. Bhujangasana (prone cobra):
@@ -54,15 +53,13 @@ FOLDER = ("real", "yoga_videopose3d")
 FPS = 30.0
 CANONICAL_UP = np.array([0.0, 1.0, 0.0])
 IMAGE_UP = np.array([0.0, -1.0, 0.0])
-# (label, method, mode, up_refiner); None = the camera-frame input itself
+# (label, method, mode); None = the camera-frame input itself
 CONFIGS = (
-    ("input", None, None, None),
-    ("geo frame", "geometric", "frame", False),
-    ("geo seq", "geometric", "sequence", False),
-    ("pcnet f+ref", "pcnet", "frame", True),
-    ("pcnet f-ref", "pcnet", "frame", False),
-    ("pcnet s+ref", "pcnet", "sequence", True),
-    ("pcnet s-ref", "pcnet", "sequence", False),
+    ("input", None, None),
+    ("geo frame", "geometric", "frame"),
+    ("geo seq", "geometric", "sequence"),
+    ("pcnet frame", "pcnet", "frame"),
+    ("pcnet seq", "pcnet", "sequence"),
 )
 # asana -> (comparison, threshold deg) for the whole-trunk angle from vertical
 TARGETS = {"Shavasana": (">=", 80.0), "Padmasana": ("<=", 15.0), "Tadasana": ("<=", 6.0)}
@@ -115,12 +112,12 @@ def verdict(asana: str, angle: float) -> str | None:
 def evaluate_file(joints: np.ndarray, fps: float) -> dict[str, dict]:
     """``{label: {"trunk", "lower", "valid_frac"}}`` for every configuration."""
     out = {}
-    for label, method, mode, refine in CONFIGS:
+    for label, method, mode in CONFIGS:
         if method is None:
             out[label] = {"trunk": median_trunk_deg(joints, None, IMAGE_UP),
                           "lower": median_trunk_deg(joints, None, IMAGE_UP, lower=True), "valid_frac": 1.0}
             continue
-        res = rectify(joints, method, mode=mode, fps=fps, up_refiner=refine)
+        res = rectify(joints, method, mode=mode, fps=fps)
         out[label] = {"trunk": median_trunk_deg(res.canonical, res.valid),
                       "lower": median_trunk_deg(res.canonical, res.valid, lower=True),
                       "valid_frac": float(np.mean(res.valid))}

@@ -5,12 +5,12 @@ list, tuple, str, int, float, bool, None): configs are stored as dicts
 (:func:`dataclasses.asdict`) and rebuilt on load. It is read with
 ``torch.load(..., weights_only=True)``, which refuses any pickled Python object, so a
 crafted ``.pt`` cannot execute code. Every entry point that reads a checkpoint (``pcnet
-export``, ``init_checkpoint`` and resuming in ``pcnet train`` / ``train-refiner``) goes
-through :func:`load_checkpoint_dict`.
+export``, ``init_checkpoint`` and resuming in ``pcnet train``) goes through
+:func:`load_checkpoint_dict`.
 
-Entries: ``kind`` (``"pcnet"`` or ``"up_refiner"``; a 3DPCNet checkpoint without it is
-taken as ``"pcnet"``), ``model`` (the state dict) and, by file, ``model_config`` /
-``config`` / ``optimizer`` / ``scheduler`` / ``epoch`` / ``best`` / ``val``.
+Entries: ``kind`` (``"pcnet"``; a checkpoint without it is taken as ``"pcnet"``), ``model``
+(the state dict) and, by file, ``model_config`` / ``config`` / ``optimizer`` /
+``scheduler`` / ``epoch`` / ``best`` / ``val``.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from pcnet.stages.errors import InputError
 
 from .toml_config import check_config_keys
 
-KINDS = ("pcnet", "up_refiner")
+KINDS = ("pcnet",)
 # Exact types: a numpy float64 is a float subclass but pickles as a numpy object, which
 # weights_only refuses, so such a checkpoint would save but never load again.
 _PLAIN = (str, int, float, bool, type(None))
@@ -98,7 +98,7 @@ def load_checkpoint_dict(path: str | Path, kind: str | None = None, required: tu
 
     Args:
         path: a ``best.pt`` / ``last.pt``.
-        kind: ``"pcnet"`` or ``"up_refiner"`` to require that kind; None accepts either.
+        kind: ``"pcnet"`` to require that kind; None accepts any of :data:`KINDS`.
         required: entries that must be present besides ``kind``.
         map_location: where tensors are loaded (``torch.load``'s argument).
 
@@ -204,7 +204,7 @@ def _state_mismatch(expected: dict, given: dict) -> str:
     return ", ".join(parts)
 
 
-#: What a training run writes into its ``out_dir`` (``pcnet train``, ``pcnet train-refiner``).
+#: What a training run writes into its ``out_dir`` (``pcnet train``).
 RUN_FILES = frozenset({"config.json", "metrics.jsonl", "last.pt", "best.pt"})
 
 

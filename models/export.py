@@ -10,7 +10,6 @@ import torch
 
 from pcnet.stages.atomic import atomic_path, write_text
 
-from .checkpoint import load_checkpoint_dict
 from .network import PCNet
 
 OPSET = 18
@@ -54,9 +53,9 @@ def export_onnx(model: PCNet, path: str | Path, metadata: dict | None = None) ->
 
 
 def export_checkpoint(checkpoint: str | Path, path: str | Path) -> Path:
-    """Export a 3DPCNet or up-refiner checkpoint (``best.pt``; its ``kind`` entry says
-    which) to ONNX at ``path``, plus ``<path>.json`` naming the checkpoint. The checkpoint is
-    read with ``weights_only=True`` and fully checked before anything is written.
+    """Export a 3DPCNet checkpoint (``best.pt``) to ONNX at ``path``, plus ``<path>.json``
+    naming the checkpoint. The checkpoint is read with ``weights_only=True`` and fully
+    checked before anything is written.
 
     Returns:
         ``path``.
@@ -64,18 +63,12 @@ def export_checkpoint(checkpoint: str | Path, path: str | Path) -> Path:
     Raises:
         InputError: ``<checkpoint>: not a pcnet checkpoint (<reason>)`` (a pickle with
             Python objects, random bytes, a missing file, missing entries, weights that do
-            not fit their config, an unfinished refiner run), or a refiner's base weights missing.
+            not fit their config).
         FileNotFoundError: the folder of ``path`` does not exist.
     """
-    meta = {"checkpoint": str(checkpoint)}
-    if load_checkpoint_dict(checkpoint)["kind"] == "up_refiner":
-        from .up_refiner import export_refiner_onnx, load_refiner_checkpoint
-
-        model, cfg, domain = load_refiner_checkpoint(checkpoint)
-        return export_refiner_onnx(model, cfg, path, {**meta, **domain})
     from .train import load_checkpoint
 
-    return export_onnx(load_checkpoint(checkpoint), path, meta)
+    return export_onnx(load_checkpoint(checkpoint), path, {"checkpoint": str(checkpoint)})
 
 
 def max_difference(model: PCNet, path: str | Path, x: np.ndarray) -> float:

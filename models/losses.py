@@ -65,6 +65,10 @@ def attention_diversity(attn: torch.Tensor) -> torch.Tensor:
     return (off / (h * (h - 1))).mean()
 
 
+#: roma's asin clamping for the geodesic loss (finite gradients).
+ROT_CLAMP = 1.0 - 1e-6
+
+
 def composite_loss(model, x, R_hat, delta, aux, R_true, canon_true, w: LossWeights):
     """Total loss and a dict of its (detached) parts.
 
@@ -75,7 +79,9 @@ def composite_loss(model, x, R_hat, delta, aux, R_true, canon_true, w: LossWeigh
     """
     canon_hat = x @ R_hat + delta
     l_pose = (canon_hat - canon_true).pow(2).sum(-1).mean()
-    l_rot = roma.rotmat_geodesic_distance(R_hat, R_true).mean()
+    # asin is clamped below 1 so a prediction at 180 deg (common at initialisation when the
+    # input is in the body frame and every pose looks alike) has a finite gradient.
+    l_rot = roma.rotmat_geodesic_distance(R_hat, R_true, clamping=ROT_CLAMP).mean()
     l_cyc = (canon_hat @ R_hat.transpose(1, 2) - x).pow(2).sum(-1).mean()
     l_perc = perceptual_loss(canon_hat, canon_true)
     gcn = model.gcn

@@ -15,10 +15,12 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from pcnet.stages.conventions import H36M_BONES
+from pcnet.stages.conventions import H36M_BONES, L_HIP, PELVIS, R_HIP, THORAX
 from pcnet.stages.errors import InputError
 
 NUM_JOINTS = 17
+#: Frames the network's input may be expressed in (:class:`PCNetConfig` ``input_frame``).
+INPUT_FRAMES = ("camera", "body")
 
 
 @dataclass(frozen=True)
@@ -33,6 +35,10 @@ class PCNetConfig:
     feedforward: int = 512
     dropout: float = 0.1
     residual: bool = True
+    # "camera": the paper's input (camera-frame poses); "body": the same poses first
+    # expressed in a frame fixed to the body (:func:`body_frame`), pcnet's addition that
+    # makes the prediction exactly equivariant to camera rotation.
+    input_frame: str = "camera"
 
     def __post_init__(self) -> None:
         # Sizes torch would otherwise reject with a traceback deep inside nn.MultiheadAttention.
@@ -46,6 +52,8 @@ class PCNetConfig:
             raise InputError(f"[model] field 'heads': expected a divisor of hidden ({self.hidden}), got {self.heads}")
         if not 0 <= self.dropout < 1:
             raise InputError(f"[model] field 'dropout': expected a value in [0, 1), got {self.dropout}")
+        if self.input_frame not in INPUT_FRAMES:
+            raise InputError(f"[model] field 'input_frame': expected one of {INPUT_FRAMES}, got {self.input_frame!r}")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -59,13 +67,27 @@ def rotation_6d_to_matrix(d6: torch.Tensor) -> torch.Tensor:
     product is written out because ONNX has no Cross operator (onnx/onnx#2683). Same
     convention as :func:`pcnet.stages.rotations.rotation_6d_to_matrix`.
     """
-    a1, a2 = d6[..., 0:3], d6[..., 3:6]
+    return _orthonormal_columns(d6[..., 0:3], d6[..., 3:6])
+
+
+def _orthonormal_columns(a1: torch.Tensor, a2: torch.Tensor) -> torch.Tensor:
+    """``[b1 b2 b1 x b2]`` by Gram-Schmidt of ``a1``, ``a2`` ``(..., 3)``; the cross product
+    is written out because ONNX has no Cross operator (onnx/onnx#2683)."""
     b1 = F.normalize(a1, dim=-1, eps=1e-6)
     b2 = F.normalize(a2 - (b1 * a2).sum(-1, keepdim=True) * b1, dim=-1, eps=1e-6)
     x1, y1, z1 = b1.unbind(-1)
     x2, y2, z2 = b2.unbind(-1)
     b3 = torch.stack([y1 * z2 - z1 * y2, z1 * x2 - x1 * z2, x1 * y2 - y1 * x2], dim=-1)
     return torch.stack([b1, b2, b3], dim=-1)
+
+
+def body_frame(x: torch.Tensor) -> torch.Tensor:
+    """A frame fixed to the body by the pose alone, ``(B, 3, 3)`` body->input rotations:
+    columns = the spine axis (pelvis -> thorax), the hip line (right hip - left hip) made
+    perpendicular to it, and their cross product. ``x`` ``(B, 17, 3)`` pelvis-centred
+    H36M-17. Rotating the camera rotates this frame alike, so ``x @ body_frame(x)`` (the
+    pose in body coordinates) is the same from every camera."""
+    return _orthonormal_columns(x[:, THORAX] - x[:, PELVIS], x[:, R_HIP] - x[:, L_HIP])
 
 
 def skeleton_adjacency() -> torch.Tensor:
@@ -113,7 +135,10 @@ class AdaptiveGCN(nn.Module):
 
 class PCNet(nn.Module):
     """3DPCNet. ``forward(x)`` -> ``(R_hat (B,3,3), delta (B,17,3))``; with
-    ``return_aux=True`` also a dict of tensors the regularisers need."""
+    ``return_aux=True`` also a dict of tensors the regularisers need. With
+    ``input_frame = "body"`` the encoder reads ``x @ body_frame(x)`` and ``R_hat`` is the
+    predicted canonical->body rotation composed with body->camera, so inputs, outputs and
+    losses keep the camera-frame meaning of the paper."""
 
     def __init__(self, cfg: PCNetConfig = PCNetConfig()):
         super().__init__()
@@ -141,6 +166,9 @@ class PCNet(nn.Module):
             nn.init.zeros_(self.res_head[-1].bias)
 
     def forward(self, x: torch.Tensor, return_aux: bool = False):
+        B = body_frame(x) if self.cfg.input_frame == "body" else None
+        if B is not None:
+            x = x @ B
         h_gcn = self.gcn(x)
         h_trans = self.transformer(self.embed(x) + self.pos)
         attended, attn = self.cross(
@@ -152,6 +180,8 @@ class PCNet(nn.Module):
         w = torch.softmax(self.gate(torch.cat([z_gcn, z_trans], -1)), -1)
         z = z_fused + w[:, 0:1] * z_gcn + w[:, 1:2] * z_trans
         R = rotation_6d_to_matrix(self.rot_head(z))
+        if B is not None:  # canonical -> body, then body -> camera
+            R = B @ R
         if self.res_head is not None:
             delta = self.res_head(z).reshape(-1, NUM_JOINTS, 3)
         else:

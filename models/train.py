@@ -23,7 +23,8 @@ from pcnet.stages.metrics import rotation_error_deg, summarize, tilt_error_deg
 
 from .checkpoint import (check_run_folder, config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint,
                          resume_point, save_checkpoint)
-from .datasets import Augmentation, Noise, load_mocap, make_pairs, select_split
+from .datasets import SPLIT_SCHEMES, Augmentation, Noise, load_mocap, make_pairs, select_split
+from .lifter_noise import LifterNoise
 from .losses import LossWeights, composite_loss
 from .network import PCNet, PCNetConfig
 from .preprocess import normalize_input
@@ -37,6 +38,12 @@ class TrainConfig:
     :data:`DEVICES`)."""
 
     data: list[str] = field(default_factory=lambda: ["../shared/data/mocap/bandai_h36m17.npz"])
+    # How many times each ``data`` file's clips enter an epoch (each copy with its own
+    # cameras, proportions and noise): weights a small set of rare pose types; [] = once each.
+    data_repeats: list[int] = field(default_factory=list)
+    # Train/val clips (:data:`pcnet.models.datasets.SPLIT_SCHEMES`): "motion-style" keeps
+    # every take of a held-out motion+style (Bandai) or subject (CMU) out of training.
+    split_scheme: str = "clip"
     out_dir: str = "runs/pcnet"
     epochs: int = 80
     batch_size: int = 1024
@@ -46,6 +53,9 @@ class TrainConfig:
     frame_stride: int = 1
     noise: bool = True
     noise_fraction: float = 1.0  # share of training poses that get the noise (validation: all)
+    # "frame": frame-independent upstream noise (models.datasets.Noise); "lifter": errors
+    # that persist over a clip (models.lifter_noise.LifterNoise), as real lifters make.
+    noise_model: str = "frame"
     augment: bool = True
     seed: int = 0
     threads: int = 0  # 0 = torch default
@@ -58,6 +68,8 @@ class TrainConfig:
 
 #: View distributions of :func:`pcnet.models.datasets.sample_views`.
 VIEWS = ("paper", "wide", "paper+wide")
+#: Noise models of :class:`TrainConfig` ``noise_model``.
+NOISE_MODELS = ("frame", "lifter")
 #: Devices a config may name (``cuda:<n>``: that GPU; ``auto``: cuda when present).
 DEVICES = ("auto", "cpu", "cuda", "cuda:<n>")
 #: Random seeds (numpy, torch; ``seed + epoch`` and ``10_000 + seed`` stay valid too).
@@ -89,7 +101,8 @@ MODEL_RANGES = {
 #: :class:`LossWeights` (``[loss]``): every weight in [0, 100].
 LOSS_RANGES = {f.name: Range(0, 100) for f in dataclasses.fields(LossWeights)}
 #: Lists and paths: at least one data file, a non-empty out_dir.
-TRAIN_LENGTHS = {"data": (1, 10_000), "out_dir": (1, 4096), "init_checkpoint": (1, 4096)}
+TRAIN_LENGTHS = {"data": (1, 10_000), "out_dir": (1, 4096), "init_checkpoint": (1, 4096),
+                 "data_repeats": (0, 10_000)}
 
 
 def load_config(path: str | Path) -> TrainConfig:
@@ -109,8 +122,12 @@ def load_config(path: str | Path) -> TrainConfig:
     raw = read_toml(path)
     check_config_keys(path, "", raw, TrainConfig)
     check_ranges(path, "", raw, TRAIN_RANGES, TrainConfig)
-    check_choices(path, "", raw, {"views": VIEWS, "device": DEVICES})
+    check_choices(path, "", raw, {"views": VIEWS, "device": DEVICES, "split_scheme": SPLIT_SCHEMES,
+                                  "noise_model": NOISE_MODELS})
     check_lengths(path, "", raw, TRAIN_LENGTHS)
+    repeats = raw.get("data_repeats", [])
+    if repeats and (len(repeats) != len(raw.get("data", TrainConfig().data)) or min(repeats) < 1 or max(repeats) > 100):
+        raise InputError(f"{path}: data_repeats: expected one integer in [1, 100] per data file, got {repeats!r}")
     tables = {}
     for table, cls, bounds in (("model", PCNetConfig, MODEL_RANGES), ("loss", LossWeights, LOSS_RANGES)):
         given = raw.pop(table, {})
@@ -145,14 +162,21 @@ def _device(name: str) -> torch.device:
 
 
 def _epoch_tensors(clips, cfg: TrainConfig, seed: int, views: str, noise: bool, augment: bool, **kw):
+    fraction = kw.get("noise_fraction", 1.0)
+    lifter = noise and cfg.noise_model == "lifter"
     pairs = make_pairs(
         clips, views=views, seed=seed,
-        noise=Noise(fraction=kw.get("noise_fraction", 1.0)) if noise else None,
+        noise=(LifterNoise() if lifter else Noise(fraction=fraction)) if noise else None,
         augmentation=Augmentation() if augment else None,
         frame_stride=kw.get("frame_stride", cfg.frame_stride),
         max_frames=kw.get("max_frames"),
     )
-    x, scale, valid = normalize_input(pairs.inputs)
+    inputs = pairs.inputs
+    if lifter and fraction < 1.0:  # LifterNoise draws whole clips; the clean share is put back per pose
+        clean = np.random.default_rng(seed + 7919).random(len(inputs)) >= fraction
+        inputs = inputs.copy()
+        inputs[clean] = np.einsum("nij,nkj->nki", pairs.R[clean], pairs.canonical[clean])
+    x, scale, valid = normalize_input(inputs)
     canon = pairs.canonical[valid] / scale[valid, None, None]
     return (
         torch.from_numpy(x[valid]),
@@ -194,12 +218,14 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     device = _device(cfg.device)
     out = Path(cfg.out_dir)
     check_run_folder(out)
-    clips = [c for path in cfg.data for c in load_mocap(path)]
-    train_clips, val_clips = select_split(clips, "train"), select_split(clips, "val")
+    repeats = cfg.data_repeats or [1] * len(cfg.data)
+    loaded = [load_mocap(path) for path in cfg.data]
+    train_clips = [c for clips, k in zip(loaded, repeats) for c in select_split(clips, "train", cfg.split_scheme) * k]
+    val_clips = [c for clips in loaded for c in select_split(clips, "val", cfg.split_scheme)]
     for split, chosen in (("train", train_clips), ("val", val_clips)):
         if not chosen:
-            raise InputError(f"data {cfg.data}: no clips in the {split} split "
-                             f"(clips are split by name, pcnet.models.datasets.clip_split)")
+            raise InputError(f"data {cfg.data}: no clips in the {split} split of scheme {cfg.split_scheme!r} "
+                             f"(pcnet.models.datasets.select_split)")
     x_val, R_val, _ = _epoch_tensors(
         val_clips, cfg, seed=10_000 + cfg.seed, views=cfg.views, noise=cfg.noise, augment=False,
         frame_stride=1, max_frames=cfg.val_frames,

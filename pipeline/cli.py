@@ -15,7 +15,7 @@ from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
 from pcnet.pipeline.entry import EXIT_INTERRUPTED, raise_interrupt
 from pcnet.stages.errors import InputError
 from pcnet.stages.heading import HEADING_SOURCES
-from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, check_method_weights, up_refiner_note
+from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, check_method_weights
 
 
 
@@ -75,8 +75,6 @@ def _new_output_file(path: str | os.PathLike, option: str, overwrite: bool = Fal
                              f"pass --overwrite to replace it")
 
 
-_UP_REFINER_HELP = ("pcnet's up refiners (shipped weights only): correct every frame's up from its pose and, in sequence "
-                    "mode, from the motion around it; --no-up-refiner gives the paper's 3DPCNet alone.")
 _heading_option = click.option(
     "--heading", type=click.Choice(HEADING_SOURCES), default=None,
     help="Heading about the up axis from: predicted (the method's rotation), hips (the input's hip line, "
@@ -111,9 +109,8 @@ _heading_option = click.option(
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --json file.")
-@click.option("--up-refiner/--no-up-refiner", default=True, show_default=True, help=_UP_REFINER_HELP)
 def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise, no_noise, mode, heading, seed,
-             max_frames, weights, json_out, overwrite, up_refiner):
+             max_frames, weights, json_out, overwrite):
     """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras.
     --max-frames scores N evenly spaced frames of whole rectified clips (same method, same
     per-clip decisions); invalid frames are counted and excluded."""
@@ -126,7 +123,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
     if max_frames is not None and max_frames < 1:
         raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
     result = run_eval(method, data, split, views, seed, max_frames, weights, camera, "none" if no_noise else noise,
-                      mode, heading, up_refiner, split_scheme=split_scheme, unseen_by=unseen_by)
+                      mode, heading, split_scheme=split_scheme, unseen_by=unseen_by)
     click.echo(format_table(result))
     if json_out:
         write_text(json_out, json.dumps(result, indent=2) + "\n")
@@ -142,9 +139,8 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
 @click.option("--fps", type=float, default=30.0, show_default=True, help="Frame rate (for --mode smooth/auto).")
 @_heading_option
 @click.option("--weights", type=click.Path(dir_okay=False), default=None)
-@click.option("--up-refiner/--no-up-refiner", default=True, show_default=True, help=_UP_REFINER_HELP)
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
-def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_refiner, overwrite):
+def rectify(input_path, out_path, method, key, mode, fps, heading, weights, overwrite):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
@@ -157,16 +153,13 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, up_r
     validate_fps(fps, "--fps")
     check_method_weights(method, weights, "--weights")
     joints = load_pose_array(input_path, key)
-    res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading, up_refiner=up_refiner)
+    res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading)
     if not res.valid.any():  # the same rule as pcnet run: nothing is written
         raise InputError(f"{input_path}: {NO_VALID_FRAME}")
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
-              method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
-              up_refined=np.array(bool(res.report.get("up_refined", False))),
-              frame_refined=np.array(bool(res.report["frame_refined"])))
+              method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source))
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}, "
-               f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)"
-               + up_refiner_note(res.report))
+               f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)")
 
 
 def _training_options(command):
@@ -195,21 +188,12 @@ def train(config_path, no_resume):
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True)
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file (and its .json).")
 def export(checkpoint, out_path, overwrite):
-    """Export a 3DPCNet or up-refiner checkpoint to ONNX (dynamic batch) with its .json
-    metadata beside it."""
+    """Export a 3DPCNet checkpoint to ONNX (dynamic batch) with its .json metadata beside
+    it."""
     from pcnet.models.export import export_checkpoint
 
     _new_output_file(out_path, "--out", overwrite, inputs=(checkpoint,), companions=(".json",))
     click.echo(f"wrote {export_checkpoint(checkpoint, out_path)}")
-
-
-@main.command("train-refiner")
-@_training_options
-def train_refiner(config_path, no_resume):
-    """Train an up refiner (frame or static-camera) on a 3DPCNet's errors (needs torch)."""
-    from pcnet.models.up_refiner import load_refiner_config, train_refiner as run_train
-
-    _run_training(load_refiner_config, run_train, config_path, no_resume)
 
 
 EXAMPLE_DIR = Path(__file__).parent / "example_data"
@@ -252,7 +236,6 @@ def _run_and_report(cfg) -> None:
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 @click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")
-@click.option("--up-refiner/--no-up-refiner", default=None, help=_UP_REFINER_HELP + " [on]")
 def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, **options):
     """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
     poses, kinematics, CSV/TRC/NPZ/PNG exports and a rerun recording."""

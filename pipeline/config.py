@@ -26,8 +26,7 @@ class RunConfig:
     ``lifter_options`` are passed to the 3D adapter (``pixel`` for motionbert,
     ``hypothesis``/``step`` for ddhpose, ``layout``/``axes``/``units``/``key`` for generic);
     ``person`` picks a 2D track (AlphaPose ``idx``, MMPose instance position); ``heading``
-    is the heading source of :func:`pcnet.stages.rectify.rectify` (``None`` = its default);
-    ``up_refiner`` its up refiners (frame, and static-camera in sequence mode; on by default).
+    is the heading source of :func:`pcnet.stages.rectify.rectify` (``None`` = its default).
     ``fps`` is needed only when neither a video nor an input file gives the frame rate; with
     a video it must match the video's rate unless ``fps_override``.
     """
@@ -51,7 +50,6 @@ class RunConfig:
     overwrite: bool = False
     recording: bool = True
     weights: str | None = None
-    up_refiner: bool = True
     lifter_options: dict = field(default_factory=dict)
 
     @classmethod

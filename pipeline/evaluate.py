@@ -14,8 +14,7 @@ from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.errors import InputError
-from pcnet.stages.rectify import (estimate_rotations, finish_rotations, frame_refiner_for, resolve_heading_source,
-                                  up_refiner_for)
+from pcnet.stages.rectify import estimate_rotations, finish_rotations, resolve_heading_source
 
 #: Input noise of ``pcnet evaluate --noise``: none (clean mocap), ``frame`` (every frame's
 #: error drawn anew, :class:`pcnet.models.datasets.Noise`) or ``lifter`` (errors that persist
@@ -91,7 +90,6 @@ def evaluate(
     noise: bool | str = "none",
     mode: str = "frame",
     heading: str | None = None,
-    up_refiner: bool = True,
     split_scheme: str = "motion-style",
     unseen_by: str | None = None,
     details: bool = False,
@@ -113,15 +111,12 @@ def evaluate(
     source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the method's default,
     :func:`pcnet.stages.rectify.resolve_heading_source`), each clip being one recording
     whatever the camera protocol (both steps by :func:`pcnet.stages.rectify.finish_rotations`,
-    as in ``rectify``, after the frame up refiner and with the static-camera up refiner in
-    sequence mode when ``up_refiner`` and the method and weights allow them,
-    :func:`pcnet.stages.rectify.frame_refiner_for`, :func:`pcnet.stages.rectify.up_refiner_for`;
-    ``up_refiner=False`` scores the paper's 3DPCNet alone). The canonical prediction is
+    as in ``rectify``). The canonical prediction is
     ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target.
 
     ``max_frames`` only chooses which frames are scored (:func:`scored_indices`): every clip
-    is rectified whole first, so per-clip decisions (heading source, frame refiner, sequence
-    mode) and each frame's noise are those of the full run, and the scored frames are a subset
+    is rectified whole first, so per-clip decisions (heading source, sequence mode) and each
+    frame's noise are those of the full run, and the scored frames are a subset
     of its frames with the same errors. Frames the method marks invalid are counted
     (``invalid_frames``) and left out of every metric; the scored frames do not depend on the
     method (``frame_set`` names them), so methods are compared on the same frames, each
@@ -132,14 +127,13 @@ def evaluate(
         "noise", "mode", "heading", "clips", "groups", "frames" (scored frames),
         "total_frames" (frames rectified), "invalid_frames" (of the scored ones),
         "valid_frames", "frame_set", "clip_heading_sources" (clips per source used),
-        "frame_refined_clips" (when the frame up refiner ran), "clip_modes" and
-        "up_refined_clips" (sequence modes only), "shipped_training_overlap" (Bandai data:
+        "clip_modes" (sequence modes only), "shipped_training_overlap" (Bandai data:
         evaluated clips and groups the shipped weights' clip-scheme train split contains, or
         ``None``), "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
         :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres), over the valid scored
-        frames. With ``details``: also ``"per_clip"`` (name, heading_source, mode,
-        frame_refined, up_refined per clip) and ``"per_frame"`` (``clip``, ``frame``,
-        ``valid`` and each metric as arrays over the scored frames).
+        frames. With ``details``: also ``"per_clip"`` (name, heading_source and mode per clip)
+        and ``"per_frame"`` (``clip``, ``frame``, ``valid`` and each metric as arrays over the
+        scored frames).
 
     Raises:
         InputError: empty split (after ``unseen_by``), unknown method, heading source, noise
@@ -162,10 +156,7 @@ def evaluate(
         raise InputError(f"{data}: split {split!r} (scheme {split_scheme!r}) has no clips{extra}")
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=_noise_model(kind))
     R_hat, residual, valid = estimate_rotations(pairs.inputs, method, weights)
-    refiner = up_refiner_for(method, weights, up_refiner)
-    frame_refiner = frame_refiner_for(method, weights, up_refiner)
     modes_run: dict[str, int] = {}
-    refined_clips = frame_refined_clips = 0
     headings_run: dict[str, int] = {}
     per_clip = []
     for i, clip in enumerate(clips):
@@ -174,15 +165,11 @@ def evaluate(
             continue
         # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
         R_hat[sel], valid[sel], report = finish_rotations(
-            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0, up_refiner=refiner,
-            frame_refiner=frame_refiner)
-        frame_refined_clips += bool(report["frame_refined"])
+            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0)
         if mode != "frame":
             modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
-            refined_clips += bool(report.get("up_refined"))
         headings_run[report["heading_source"]] = headings_run.get(report["heading_source"], 0) + 1
-        per_clip.append({"name": clip.name, "heading_source": report["heading_source"], "mode": report["mode"],
-                         "frame_refined": bool(report["frame_refined"]), "up_refined": bool(report.get("up_refined"))})
+        per_clip.append({"name": clip.name, "heading_source": report["heading_source"], "mode": report["mode"]})
     keep = scored_indices(len(valid), max_frames)
     valid_k = valid[keep]
     canon_hat = to_canonical(pairs.inputs[keep], R_hat[keep], residual[keep])
@@ -197,11 +184,8 @@ def evaluate(
         "invalid_frames": int((~valid_k).sum()), "valid_frames": int(valid_k.sum()),
         "frame_set": frame_set_id(pairs.clip_names, pairs.clip[keep], pairs.frame[keep]),
     }
-    if frame_refiner is not None:
-        result["frame_refined_clips"] = frame_refined_clips
     if modes_run:
         result["clip_modes"] = modes_run
-        result["up_refined_clips"] = refined_clips
     result["clip_heading_sources"] = headings_run
     result["shipped_training_overlap"] = _shipped_training_overlap(all_clips, clips)
     result.update({name: summarize(errors[name]) for name in METRICS})

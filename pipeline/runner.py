@@ -27,7 +27,7 @@ from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, w
 from pcnet.stages.flags import (body_size_flag, camera_tilt, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag)
 from pcnet.stages.kinematics import compute_kinematics, flag_counts, format_flag_counts
-from pcnet.stages.rectify import NO_VALID_FRAME, rectify, up_refiner_note
+from pcnet.stages.rectify import NO_VALID_FRAME, rectify
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
 from pcnet.stages.rerun_log import series_from_kinematics, write_recording
 from pcnet.stages.rotations import decompose_camera_rotation
@@ -64,7 +64,7 @@ class RunResult:
             f"frames            {self.frames} ({self.frames - self.valid_frames} dropped: no valid pose)",
             f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}"
             + (f"; spread of per-frame up {self.report['spread_deg']:.1f} deg" if "spread_deg" in self.report else "")
-            + up_refiner_note(self.report) + ")",
+            + ")",
             f"heading           from {self.report.get('heading_source')} (requested "
             f"{self.report.get('requested_heading_source')}; hip width varies "
             f"{self.report.get('hip_width_cv_percent', float('nan')):.1f} %)",
@@ -211,7 +211,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
 
     step("rectify")
     try:
-        res = rectify(joints, cfg.method, cfg.weights, cfg.mode, fps, cfg.heading, cfg.up_refiner)
+        res = rectify(joints, cfg.method, cfg.weights, cfg.mode, fps, cfg.heading)
     except ValueError as err:
         raise InputError(f"{cfg.lifter_output}: {err}") from err
     if not res.valid.any():

@@ -9,7 +9,7 @@ import numpy as np
 from .canonical import to_canonical
 from .conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from .geometric import geometric_rotation
-from .heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES, HEADING_SOURCES, apply_heading, precise_hips
+from .heading import HEADING_SOURCES, apply_heading
 from .temporal import BOOTSTRAP_REPLICATES, rectify_sequence
 from .errors import InputError
 
@@ -89,49 +89,6 @@ def resolve_heading_source(method: str, heading: str | None) -> str:
     return heading
 
 
-def up_refiner_for(method: str, weights: str | None, use: bool = True):
-    """The static-camera up refiner for sequence mode, or ``None``: only for the 3DPCNet
-    methods with the network the shipped refiner was trained on
-    (:func:`pcnet.models.inference.shipped_up_refiner`), and only if ``use``."""
-    if not use or method not in ("pcnet", "pcnet-rigid"):
-        return None
-    from pcnet.models.inference import shipped_up_refiner
-
-    return shipped_up_refiner(None if weights is None else str(weights))
-
-
-def frame_refiner_for(method: str, weights: str | None, use: bool = True):
-    """The frame up refiner (one pose at a time, every mode), or ``None``: only for the
-    3DPCNet methods with the network the shipped frame refiner was trained on
-    (:func:`pcnet.models.inference.shipped_frame_refiner`), and only if ``use``."""
-    if not use or method not in ("pcnet", "pcnet-rigid"):
-        return None
-    from pcnet.models.inference import shipped_frame_refiner
-
-    return shipped_frame_refiner(None if weights is None else str(weights))
-
-
-def up_refiner_note(report: dict) -> str:
-    """What the up refiners did, for one-line summaries of a rectify ``report``: ``"; up
-    refined from the motion, ..."``, ``"; ... refiner not used: ..."`` (a domain check
-    declined) or ``""`` (they ran as expected or not at all)."""
-    notes = []
-    frame = report.get("frame_refiner")
-    if frame and not frame["applied"]:
-        notes.append("; frame up refiner" + _declined(frame))
-    info = report.get("up_refiner")
-    if info and info["applied"]:
-        notes.append(f"; up refined from the motion, median correction {info['median_correction_deg']:.1f} deg")
-    elif info:
-        notes.append("; up refiner" + _declined(info))
-    return "".join(notes)
-
-
-def _declined(info: dict) -> str:
-    return (f" not used: median correction {info['median_correction_deg']:.1f} deg > "
-            f"{info['max_median_correction_deg']:.1f} deg, poses unlike its training data")
-
-
 def rectify(
     joints_cam: np.ndarray,
     method: str = "pcnet",
@@ -139,7 +96,6 @@ def rectify(
     mode: str = "frame",
     fps: float = 30.0,
     heading: str | None = None,
-    up_refiner: bool = True,
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
     (``CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
@@ -150,11 +106,7 @@ def rectify(
     heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
     input's hip line, the canonical frame's definition) or ``auto`` (hips when they are
     precise, :func:`pcnet.stages.heading.apply_heading`); ``None`` =
-    :func:`resolve_heading_source`. ``up_refiner``: use pcnet's up refiners (not the
-    paper's): every frame's up re-estimated from its pose when the inputs are mocap-precise
-    (:func:`frame_refiner_for`; the report's ``frame_refined``) and, in sequence mode, from
-    the motion around each frame (:func:`up_refiner_for`; ``up_refined``). ``False`` gives
-    the paper's 3DPCNet alone. ``report`` says what ran.
+    :func:`resolve_heading_source`. ``report`` says what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
     :func:`pcnet.stages.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least
@@ -171,9 +123,7 @@ def rectify(
     fps = validate_fps(fps)
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
-    R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading,
-                                        up_refiner=up_refiner_for(method, weights, up_refiner),
-                                        frame_refiner=frame_refiner_for(method, weights, up_refiner))
+    R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading)
     report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
     canonical = to_canonical(joints_cam, R, residual)
     return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report,
@@ -188,14 +138,10 @@ def finish_rotations(
     fps: float,
     heading: str,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
-    up_refiner=None,
-    frame_refiner=None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The steps after a per-frame estimator, for one recording: the frame up refiner (if
-    given, and only for mocap-precise inputs: :func:`pcnet.stages.heading.precise_hips`,
-    the test of ``--heading auto``), the rectify ``mode`` (:func:`pcnet.stages.temporal.rectify_sequence` unless
-    ``"frame"``), then the ``heading`` source (:func:`pcnet.stages.heading.apply_heading`;
-    the up is kept).
+    """The steps after a per-frame estimator, for one recording: the rectify ``mode``
+    (:func:`pcnet.stages.temporal.rectify_sequence` unless ``"frame"``), then the ``heading``
+    source (:func:`pcnet.stages.heading.apply_heading`; the up is kept).
 
     Args:
         joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses.
@@ -203,33 +149,19 @@ def finish_rotations(
         mode, fps: as :func:`rectify`; heading: one of
             :data:`pcnet.stages.heading.HEADING_SOURCES` (already resolved).
         n_bootstrap: sequence-mode uncertainty replicates (0 = none; rotations unchanged).
-        up_refiner: ``None`` or the sequence-mode up refiner callable (:func:`up_refiner_for`).
-        frame_refiner: ``None`` or the frame up refiner callable (:func:`frame_refiner_for`).
 
     Returns:
         ``(R (T, 3, 3) float64, NaN where not valid; valid (T,) bool; report)`` with
-        ``requested_mode``, ``mode``, ``frame_refined`` and ``frame_refiner`` (its info or
-        ``None``; ``frame_refiner_skipped`` says why it did not run on imprecise inputs) and
-        the sequence and heading reports.
+        ``requested_mode``, ``mode`` and the sequence and heading reports.
 
     Raises:
         ValueError: unknown mode or heading source, or (sequence modes) no valid frame.
     """
-    report: dict = {"requested_mode": mode, "mode": "frame", "frame_refined": False, "frame_refiner": None}
-    if frame_refiner is not None and valid.any():
-        # It learnt clean mocap poses: used where the hips are as precise (rigid pelvis).
-        precise, cv = precise_hips(joints_cam, valid)
-        if precise:
-            R, info = frame_refiner(joints_cam, R, valid, fps)
-            report.update(frame_refined=info["applied"], frame_refiner=info)
-        else:
-            report["frame_refiner_skipped"] = (f"hip width CV {cv:.2f} % > {AUTO_MAX_HIP_WIDTH_CV_PERCENT:g} % "
-                                               f"or fewer than {AUTO_MIN_FRAMES} valid frames: inputs less precise than mocap")
+    report: dict = {"requested_mode": mode, "mode": "frame"}
     if mode != "frame":
         if not valid.any():
             raise InputError(NO_VALID_FRAME)
-        R, sequence_report = rectify_sequence(R, valid, mode, fps, joints_cam, n_bootstrap=n_bootstrap,
-                                              up_refiner=up_refiner)
+        R, sequence_report = rectify_sequence(R, valid, mode, fps, joints_cam, n_bootstrap=n_bootstrap)
         report.update(sequence_report)
         valid = valid & np.asarray(report["valid"], bool)
         R = np.where(valid[:, None, None], R, np.nan)

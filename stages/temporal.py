@@ -808,7 +808,6 @@ def rectify_sequence(
     time_constant_s: float = 0.2,
     heading_time_constant_s: float | None = None,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
-    up_refiner=None,
 ) -> tuple[np.ndarray, dict]:
     """Sequence-level rectification of per-frame predictions.
 
@@ -829,11 +828,6 @@ def rectify_sequence(
             see :func:`sequence_rectify`.
         n_bootstrap: bootstrap replicates of the sequence-mode uncertainties (0 = none,
             NaN uncertainties; the rotations do not depend on it).
-        up_refiner: optional callable ``(joints_cam, R, valid, fps) -> (R, info)`` run on
-            the per-frame predictions when sequence mode runs (after ``auto`` has decided, on
-            the unrefined spread), e.g.
-            :meth:`pcnet.models.inference.UpRefinerSession.refine`; ``info["applied"]``
-            False keeps ``R``. Needs ``joints_cam``.
 
     Returns:
         ``(rotations (T, 3, 3) float64, report)``; ``report`` has ``mode`` (the mode run),
@@ -844,8 +838,7 @@ def rectify_sequence(
         alone), ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
         that add the lifter's systematic per-clip error calibrated on CMU,
         :func:`pcnet.stages.uncertainty.calibrated_interval`), ``up_spread_deg``,
-        ``up_spread_p95_deg``, ``ground_plane``, ``up_refined`` (whether ``up_refiner``'s
-        correction was used) and ``up_refiner`` (its ``info``, or ``None``).
+        ``up_spread_p95_deg`` and ``ground_plane``.
 
     Raises:
         ValueError: unknown mode, bad shapes, non-positive fps, no valid frame.
@@ -867,18 +860,10 @@ def rectify_sequence(
         out = smooth_rotations(R, ok, fps, time_constant_s)
         report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)), time_constant_s=time_constant_s)
     else:
-        refined, refiner_info = False, None
-        if up_refiner is not None and joints_cam is not None:
-            R_refined, refiner_info = up_refiner(joints_cam, R, ok, fps)
-            refined = refiner_info["applied"]
-            if refined:
-                R = np.where(ok[:, None, None], R_refined, np.nan)
         res = sequence_rectify(R, ok, joints_cam, weights, fps=fps, heading_time_constant_s=heading_time_constant_s,
                                n_bootstrap=n_bootstrap)
         out = res.rotations
         report.update(
-            up_refined=refined,
-            up_refiner=refiner_info,
             evidence=res.evidence,
             valid=res.valid,
             up=res.up,

@@ -13,15 +13,17 @@ Provenance of the constants (``benchmarks/results/uncertainty.txt``, made by
 ``python benchmarks/calibrate_uncertainty.py --data ../shared/data``, 2026-11-22):
 CMU (``mocap/cmu_train_h36m17.npz``, all 101 clips; the shipped 3DPCNet trained on Bandai only)
 x seeds 0, 1, 2 = 303 clip-views, each a static "paper" camera with lifter-like noise
-(``make_pairs(..., camera="static", noise=LifterNoise())``), rectified as ``pcnet run`` does
-(``rectify(joints, "pcnet", mode="sequence")``, default refiners, 200 bootstrap replicates).
+(``make_pairs(..., camera="static", noise=LifterNoise())``), rectified as ``pcnet run`` did
+then (``rectify(joints, "pcnet", mode="sequence")``, 200 bootstrap replicates; that run
+still included the per-frame and motion-based up corrections pcnet has since dropped).
 Per axis, ``s_i = sqrt(max(e_i^2 - b_i^2, 0)) / Z`` (signed error ``e``, bootstrap half-width
 ``b``), and ``SIGMA_SYS_DEG`` is the conformal 95 % quantile of ``s_i``: the interval then
 covers 95 % of those clip-views per axis. Coverage on held-out data (DeepMimic, unseen Bandai,
 real Pose2Sim cameras) is in the results file.
 
-Scope: the constants were calibrated for the ``pcnet`` method with its up refiners on
-lifter-like inputs; other methods get the same widening without their own calibration.
+Scope: the constants were calibrated for the ``pcnet`` method (the weights and up
+corrections of that date) on lifter-like inputs; other methods get the same widening
+without their own calibration.
 """
 from __future__ import annotations
 

@@ -1,13 +1,12 @@
 """Checkpoints never run code: a pickle payload given to ``pcnet export`` or as a training
 ``init_checkpoint`` is refused without executing; bad checkpoints, configs and ONNX weights
 end in one line (exit 1) and leave nothing behind; real checkpoints round-trip with
-``weights_only=True`` (train, resume, fine-tune, export of both kinds)."""
+``weights_only=True`` (train, resume, fine-tune, export)."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import zipfile
 
 import numpy as np
@@ -18,11 +17,9 @@ from conftest import FIXTURES
 torch = pytest.importorskip("torch", reason="torch (the [train] extra) not installed")
 pytest.importorskip("onnx", reason="onnx (the [train] extra) not installed")
 
-from pcnet.models.checkpoint import load_checkpoint_dict  # noqa: E402
 from pcnet.models.datasets import clip_split, load_mocap  # noqa: E402
-from pcnet.models.inference import DEFAULT_UP_REFINER, PCNetSession, UpRefinerSession  # noqa: E402
+from pcnet.models.inference import PCNetSession  # noqa: E402
 from pcnet.models.train import load_config, train  # noqa: E402
-from pcnet.models.up_refiner import load_refiner_config, train_refiner  # noqa: E402
 from pcnet.pipeline.cli import main  # noqa: E402
 from pcnet.stages.errors import InputError  # noqa: E402
 
@@ -129,15 +126,13 @@ def _write_junk(kind, path):
         torch.save({"kind": "pcnet", "model": {}, "model_config": {"hidden": "wide"}}, path)
     elif kind == "weights of another net":
         torch.save({"kind": "pcnet", "model": {"w": torch.zeros(2)}, "model_config": {}}, path)
-    elif kind == "unfinished refiner":
-        torch.save({"kind": "up_refiner", "model": {}, "config": {}}, path)
     elif kind != "missing":
         raise AssertionError(kind)
     return path
 
 
 JUNK = ["random bytes", "text", "empty", "foreign zip", "a list", "no model", "model not tensors", "unknown kind",
-        "bad config", "weights of another net", "unfinished refiner", "missing"]
+        "bad config", "weights of another net", "missing"]
 
 
 @pytest.mark.parametrize("kind", JUNK)
@@ -165,10 +160,6 @@ def test_a_wrongly_typed_config_fails_in_one_line_before_creating_anything(tmp_p
     cfg = _train_config(tmp_path, mocap, epochs="many")
     _one_line_failure(_cli("train", "--config", cfg), "cfg.toml", "'epochs'", "expected int")
     assert not (tmp_path / "run").exists()
-    refiner = tmp_path / "refiner.toml"
-    refiner.write_text(f'data = ["{mocap}"]\nout_dir = "{tmp_path / "rrun"}"\nhidden = "big"\n')
-    _one_line_failure(_cli("train-refiner", "--config", refiner), "refiner.toml", "'hidden'", "expected int")
-    assert not (tmp_path / "rrun").exists()
 
 
 def test_bad_data_or_no_val_split_creates_no_run_folder(tmp_path, mocap):
@@ -209,29 +200,6 @@ def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, 
     assert not (tmp_path / "other").exists()
 
 
-def test_an_up_refiner_checkpoint_round_trips_and_exports(tmp_path, mocap):
-    cfg_path = tmp_path / "refiner.toml"
-    cfg_path.write_text(
-        f'data = ["{mocap}"]\nout_dir = "{tmp_path / "rrun"}"\noffsets_s = [0.0]\ninput_frame = "body"\n'
-        'hidden = 16\nlayers = 1\nepochs = 2\nbatch_size = 32\ncameras = ["per-frame"]\nnoise_fractions = [0.0]\n'
-        'val_camera = "per-frame"\nval_noise_fraction = 0.0\naugment = false\nthreads = 1\n')
-    cfg = load_refiner_config(cfg_path)
-    best = train_refiner(cfg, progress=False)
-    ck = torch.load(best, map_location="cpu", weights_only=True)
-    assert ck["kind"] == "up_refiner" and ck["config"]["hidden"] == 16 and "max_median_correction_deg" in ck
-    lines = (best.parent / "metrics.jsonl").read_text().splitlines()
-    assert train_refiner(cfg, progress=False) == best  # resumed from last.pt: no epoch left to run
-    assert len((best.parent / "metrics.jsonl").read_text().splitlines()) == len(lines) + 1  # only the prep line
-    out = tmp_path / "r.onnx"
-    res = _cli("export", "--checkpoint", best, "--out", out)
-    assert res.exit_code == 0, res.output
-    sess = UpRefinerSession(out)
-    assert sess.input_frame == "body" and list(sess.offsets_s) == [0.0]
-    # a refiner's last.pt is not a 3DPCNet: refused as an init_checkpoint
-    with pytest.raises(InputError, match=r"last\.pt: not a pcnet checkpoint \(kind 'up_refiner', expected 'pcnet'\)"):
-        load_checkpoint_dict(best.parent / "last.pt", kind="pcnet")
-
-
 def test_weights_that_are_not_3dpcnet_onnx_fail_in_one_line(tmp_path):
     text = tmp_path / "weights.onnx"
     text.write_text("these are not weights\n")
@@ -239,21 +207,14 @@ def test_weights_that_are_not_3dpcnet_onnx_fail_in_one_line(tmp_path):
     _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", text), "weights.onnx: not an ONNX model (")
     _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", tmp_path / "gone.onnx"),
                       "gone.onnx: no such file")
-    # a real ONNX model of another network (the up refiner: input 'features')
-    _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", DEFAULT_UP_REFINER),
-                      "up_refiner.onnx: not 3DPCNet weights", "features")
+    # a real ONNX model of another network (input 'features')
+    other = tmp_path / "other.onnx"
+    torch.onnx.export(torch.nn.Linear(51, 2), (torch.zeros(4, 51),), str(other), input_names=["features"],
+                      output_names=["up"], dynamic_axes={"features": {0: "batch"}, "up": {0: "batch"}},
+                      opset_version=18, dynamo=False)
+    _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", other),
+                      "other.onnx: not 3DPCNet weights", "features")
     assert not out.exists()
-    with pytest.raises(InputError, match=r"pcnet_small\.onnx: not up-refiner weights"):
-        UpRefinerSession(_copy_with_json(tmp_path, "pcnet_small", {"offsets_s": [0.0]}))
-
-
-def _copy_with_json(tmp_path, stem, info):
-    from pcnet.models.inference import WEIGHTS_DIR
-
-    path = tmp_path / f"{stem}.onnx"
-    path.write_bytes((WEIGHTS_DIR / f"{stem}.onnx").read_bytes())
-    path.with_suffix(".json").write_text(json.dumps(info))
-    return path
 
 
 def test_no_code_path_loads_checkpoints_with_pickle():
@@ -309,34 +270,6 @@ BAD_TRAIN = [  # (field named in the message, top-level overrides, [model] overr
     ("rot", {}, {}, {"rot": "-1.0"}),
     ("pose", {}, {}, {"pose": "inf"}),
 ]
-REFINER_BASE = {"out_dir": '"rrun"', "offsets_s": "[0.0]", "input_frame": '"body"', "hidden": "16", "layers": "1",
-                "epochs": "1", "batch_size": "32", "cameras": '["per-frame"]', "noise_fractions": "[0.0]",
-                "val_camera": '"per-frame"', "val_noise_fraction": "0.0", "augment": "false", "threads": "1"}
-BAD_REFINER = [  # (field named in the message, overrides)
-    ("hidden", {"hidden": "0"}),
-    ("layers", {"layers": "0"}),
-    ("epochs", {"epochs": "0"}),
-    ("lr", {"lr": "nan"}),
-    ("lr", {"lr": "inf"}),
-    ("lr", {"lr": "10"}),
-    ("batch_size", {"batch_size": "0"}),
-    ("weight_decay", {"weight_decay": "50"}),
-    ("val_noise_fraction", {"val_noise_fraction": "50"}),
-    ("noise_fractions", {"cameras": '["per-frame", "static"]', "noise_fractions": "[1.0, 20.0]"}),
-    ("noise_fractions", {"noise_fractions": "[nan]"}),
-    ("offsets_s", {"offsets_s": "[1e9]"}),
-    ("offsets_s", {"offsets_s": "[nan]"}),
-    ("offsets_s", {"offsets_s": "[]"}),
-    ("views", {"views": '"bogus"'}),
-    ("cameras", {"cameras": '["bogus"]'}),
-    ("cameras", {"cameras": "[]", "noise_fractions": "[]"}),
-    ("val_camera", {"val_camera": '"bogus"'}),
-    ("input_frame", {"input_frame": '"bogus"'}),
-    ("seed", {"seed": "-1"}),
-    ("threads", {"threads": "-1"}),
-    ("data", {"data": "[]"}),
-    ("out_dir", {"out_dir": '""'}),
-]
 
 
 def _toml(top, **tables):
@@ -366,20 +299,8 @@ def test_train_refuses_out_of_range_values_before_creating_anything(tmp_path, mo
     _assert_refused_cleanly(CliRunner().invoke(main, ["train", "--config", config.name]), tmp_path, config, field)
 
 
-@pytest.mark.parametrize("field, top", BAD_REFINER,
-                         ids=[f"{f}={next(iter(t.values()))}" for f, t in BAD_REFINER])
-def test_train_refiner_refuses_out_of_range_values_before_creating_anything(tmp_path, monkeypatch, mocap, field,
-                                                                            top):
-    monkeypatch.chdir(tmp_path)
-    config = tmp_path / "bad.toml"
-    config.write_text(_toml({"data": json.dumps([str(mocap)]), **REFINER_BASE, **top}))
-    _assert_refused_cleanly(CliRunner().invoke(main, ["train-refiner", "--config", config.name]), tmp_path, config,
-                            field)
-
-
 def test_the_ends_of_the_ranges_are_accepted(tmp_path, mocap):
     from pcnet.models.train import DEVICES, TRAIN_RANGES
-    from pcnet.models.up_refiner import REFINER_RANGES
 
     config = tmp_path / "edge.toml"
     config.write_text(_toml({"data": json.dumps([str(mocap)]), **TRAIN_BASE, "lr": "1.0", "weight_decay": "0",
@@ -388,11 +309,6 @@ def test_the_ends_of_the_ranges_are_accepted(tmp_path, mocap):
     cfg = load_config(config)
     assert cfg.lr == 1.0 and cfg.noise_fraction == 0.0 and cfg.model.gcn_layers == 0 and cfg.loss.reg == 0
     assert "cuda:<n>" in DEVICES and (0 in TRAIN_RANGES["lr"]) is False and 1 in TRAIN_RANGES["lr"]
-    config.write_text(_toml({**REFINER_BASE, "noise_fractions": "[1.0]", "val_noise_fraction": "1.0",
-                             "offsets_s": "[5.0]", "weight_decay": "1"}))
-    cfg = load_refiner_config(config)
-    assert cfg.offsets_s == [5.0] and cfg.noise_fractions == [1.0]
-    assert math.inf not in REFINER_RANGES["offsets_s"] and -5 in REFINER_RANGES["offsets_s"]
 
 
 def test_every_shipped_config_is_in_range():
@@ -401,31 +317,12 @@ def test_every_shipped_config_is_in_range():
     configs = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.toml"))
     assert configs
     for path in configs:
-        (load_refiner_config if path.stem.endswith("up_refiner") else load_config)(path)
+        load_config(path)
 
 
-def test_a_refiner_batch_smaller_than_its_draws_trains_and_a_batch_too_big_is_one_line(tmp_path, monkeypatch, mocap):
-    """A batch of 4 over 4 camera draws may hold no window of some draw (that draw is
-    skipped); a batch larger than all training windows is refused before out_dir exists."""
-    monkeypatch.chdir(tmp_path)
-    draws = {"cameras": '["per-frame", "per-clip", "static", "per-clip"]', "noise_fractions": "[0.0, 0.0, 0.5, 0.5]"}
-    config = tmp_path / "small.toml"
-    config.write_text(_toml({"data": json.dumps([str(mocap)]), **REFINER_BASE, **draws, "batch_size": "4"}))
-    res = CliRunner().invoke(main, ["train-refiner", "--config", config.name])
-    assert res.exit_code == 0, res.output
-    assert (tmp_path / "rrun" / "best.pt").is_file()
-    config = tmp_path / "big.toml"
-    config.write_text(_toml({"data": json.dumps([str(mocap)]), **REFINER_BASE, "out_dir": '"big"',
-                             "batch_size": "1000000"}))
-    line = _one_line_failure(CliRunner().invoke(main, ["train-refiner", "--config", config.name]), "batch_size")
-    assert "larger than the" in line
-    assert not (tmp_path / "big").exists()
-
-
-@pytest.mark.parametrize("command", ["train", "train-refiner"])
 @pytest.mark.parametrize("out_dir, theirs", [(".", None), ("proj", ["config.json", "metrics.jsonl"]),
                                              ("proj", ["notes.txt"])])
-def test_training_never_writes_into_a_folder_of_the_users(tmp_path, monkeypatch, command, out_dir, theirs):
+def test_training_never_writes_into_a_folder_of_the_users(tmp_path, monkeypatch, out_dir, theirs):
     """A user's config.json / metrics.jsonl must not be taken for a run's (no last.pt)."""
     from pcnet.models.checkpoint import check_run_folder
 
@@ -437,6 +334,6 @@ def test_training_never_writes_into_a_folder_of_the_users(tmp_path, monkeypatch,
     with pytest.raises(ValueError, match="out_dir"):
         check_run_folder(out_dir)
     (tmp_path / "cfg.toml").write_text(f'data = ["{FIXTURES / "mocap_small.npz"}"]\nout_dir = "{out_dir}"\nepochs = 1\n')
-    res = CliRunner().invoke(main, [command, "--config", "cfg.toml"])
+    res = CliRunner().invoke(main, ["train", "--config", "cfg.toml"])
     assert res.exit_code == 1 and "out_dir" in res.output and "Traceback" not in res.output, res.output
     assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file() and p.name != "cfg.toml"} == before

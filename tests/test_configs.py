@@ -7,11 +7,8 @@ import pytest
 
 pytest.importorskip("torch")
 from pcnet.models.train import load_config  # noqa: E402
-from pcnet.models.up_refiner import load_refiner_config  # noqa: E402
 
-ALL_CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.toml"))
-REFINER_CONFIGS = [p for p in ALL_CONFIGS if p.stem.endswith("up_refiner")]
-CONFIGS = [p for p in ALL_CONFIGS if p not in REFINER_CONFIGS]
+CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.toml"))
 
 
 @pytest.mark.parametrize("path", CONFIGS, ids=[p.name for p in CONFIGS])
@@ -23,12 +20,6 @@ def test_shipped_config_loads(path):
         assert str(Path(cfg.init_checkpoint).parent) in producers
 
 
-@pytest.mark.parametrize("path", REFINER_CONFIGS, ids=[p.name for p in REFINER_CONFIGS])
-def test_shipped_refiner_config_loads(path):
-    cfg = load_refiner_config(path)
-    assert cfg.epochs > 0 and cfg.hidden > 0 and 0.0 in cfg.offsets_s and cfg.noise_fractions
-
-
 def test_config_errors_name_the_file_and_the_key(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("epochs = 2\n[model]\nhiden = 64\n")
@@ -37,6 +28,3 @@ def test_config_errors_name_the_file_and_the_key(tmp_path):
     bad.write_text("epoch = 2\n")
     with pytest.raises(ValueError, match=r"bad\.toml.*epoch"):
         load_config(bad)
-    bad.write_text("epoch = 2\n")
-    with pytest.raises(ValueError, match=r"bad\.toml.*epoch"):
-        load_refiner_config(bad)

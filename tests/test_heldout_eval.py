@@ -281,8 +281,8 @@ def test_lifter_noise_of_a_frame_does_not_depend_on_subsampling():
 
 
 def test_max_frames_keeps_the_per_clip_decisions():
-    """--max-frames scores a subset of whole rectified clips: same heading source, refiners
-    and modes per clip, same errors on the kept frames. (It used to subsample before
+    """--max-frames scores a subset of whole rectified clips: same heading source and modes
+    per clip, same errors on the kept frames. (It used to subsample before
     rectifying: 60-frame clips kept 8 frames, fewer than `auto` needs, and switched to the
     predicted heading.)"""
     from pcnet.pipeline.evaluate import evaluate

@@ -145,7 +145,7 @@ def test_geometric_baseline_is_exactly_equivariant_on_real_poses():
     any axis (yaw about y included) turns its up exactly, and flags no frame."""
     joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64)
     joints = joints - joints[:, PELVIS : PELVIS + 1]
-    res = equivariance.equivariance(joints, 30.0, "geometric", "frame", False)
+    res = equivariance.equivariance(joints, 30.0, "geometric", "frame")
     assert len(res) == 3 * len(equivariance.ANGLES_DEG)
     for (axis, angle), (err, valid) in res.items():
         assert err < 1e-5, (axis, angle, err)

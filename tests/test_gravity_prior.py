@@ -1,0 +1,89 @@
+"""Static-camera up posterior (pcnet.stages.gravity_prior) on real VideoPose3D yoga poses."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from pcnet.stages.conventions import PELVIS, THORAX
+from pcnet.stages.gravity_prior import LEVEL_UP, gravity_posterior
+from pcnet.stages.rotations import angle_between
+
+FIX = Path(__file__).parent / "fixtures"
+
+
+def _trunk(name: str) -> np.ndarray:
+    """Mean camera-frame trunk direction of a real yoga fixture (x right, y down)."""
+    X = np.load(FIX / name, allow_pickle=False).astype(np.float64)
+    t = X[:, THORAX] - X[:, PELVIS]
+    t /= np.linalg.norm(t, axis=-1, keepdims=True)
+    return t.mean(0)
+
+
+def _deg(a, b) -> float:
+    return float(np.degrees(angle_between(np.asarray(a, float), np.asarray(b, float))))
+
+
+def test_standing_level_camera_keeps_the_pose_up():
+    trunk = _trunk("yoga_Abhay_Tadasana_f000-099.npy")
+    up = trunk / np.linalg.norm(trunk)
+    g = gravity_posterior(up, 4.0, trunk)
+    assert g.reading == "upright" and g.p_lying < 0.05
+    # the level-camera prior pulls by at most k_cam / (k_pose + k_cam) of the angle to -y
+    assert _deg(g.up, up) <= 0.05 * _deg(up, LEVEL_UP) + 1e-6
+
+
+@pytest.mark.parametrize("axis,angle", [("z", 180.0), ("x", 180.0), ("y", 180.0)])
+def test_rotated_camera_standing_body_keeps_its_up(axis, angle):
+    """Upside-down cameras: the uniform part of the camera prior leaves the pose-based up
+    where it is (no pull towards a level camera)."""
+    Q = Rotation.from_euler(axis, angle, degrees=True).as_matrix()
+    trunk = Q @ _trunk("yoga_Abhay_Tadasana_f000-099.npy")
+    up = trunk / np.linalg.norm(trunk)
+    g = gravity_posterior(up, 4.0, trunk)
+    assert g.reading == "upright"
+    assert _deg(g.up, up) < 0.5
+
+
+def test_tilted_camera_pull_is_bounded():
+    """A camera rolled 45 deg: the level-camera prior moves the up by the posterior's share
+    k_cam / (k_pose + k_cam) of the angle at most (4 % for 4 vs 20 deg)."""
+    Q = Rotation.from_euler("z", 45.0, degrees=True).as_matrix()
+    trunk = Q @ _trunk("yoga_Abhay_Tadasana_f000-099.npy")
+    up = trunk / np.linalg.norm(trunk)
+    g = gravity_posterior(up, 4.0, trunk)
+    assert g.reading == "upright"
+    assert 0.0 < _deg(g.up, up) <= (20.0**-2 / (4.0**-2 + 20.0**-2)) * _deg(up, LEVEL_UP) + 1e-6
+
+
+def test_lying_body_level_camera_is_read_as_lying():
+    """Real Shavasana (supine): the trunk is horizontal in the image; a network reading the
+    body as upright puts up along it. The posterior takes the lying reading and the level
+    camera's up, with an interval as wide as that evidence is."""
+    trunk = _trunk("yoga_Abhay_Shavasana_f200-299.npy")
+    assert _deg(trunk, LEVEL_UP) > 75  # the input itself: trunk near horizontal
+    g = gravity_posterior(trunk / np.linalg.norm(trunk), 4.0, trunk)
+    assert g.reading == "lying" and g.p_lying > 0.5
+    assert abs(_deg(g.up, trunk) - 90.0) < 5.0  # up perpendicular to the trunk
+    assert _deg(g.up, LEVEL_UP) < 20.0
+    assert g.pitch_half_deg > 15.0 and g.roll_half_deg > 15.0
+
+
+def test_standing_body_camera_rolled_90_is_ambiguous_and_read_as_lying():
+    """The documented limit: the same skeleton as a lying body under a level camera."""
+    Q = Rotation.from_euler("z", 90.0, degrees=True).as_matrix()
+    trunk = Q @ _trunk("yoga_Abhay_Tadasana_f000-099.npy")
+    g = gravity_posterior(trunk / np.linalg.norm(trunk), 4.0, trunk)
+    assert g.reading == "lying" and 0.5 < g.p_lying < 0.9
+
+
+def test_no_trunk_means_no_lying_reading():
+    g = gravity_posterior(np.array([1.0, 0.0, 0.0]), 4.0, None)
+    assert g.reading == "upright" and g.p_lying == 0.0
+
+
+@pytest.mark.parametrize("up,sigma", [((0, 0, 0), 4.0), ((np.nan, 1, 0), 4.0), ((0, -1, 0), 0.0), ((0, -1), 4.0)])
+def test_bad_arguments_are_refused(up, sigma):
+    with pytest.raises(ValueError):
+        gravity_posterior(np.array(up, float), sigma, None)
