@@ -81,7 +81,7 @@ def heldout() -> None:
                 continue
             r = json.loads(path.read_text())
             sets.add(r["frame_set"])
-            o = r.get("shipped_training_overlap")
+            o = r.get("training_overlap", r.get("shipped_training_overlap"))
             trained = f"{o['clips_trained_on']} clips, {o['groups_with_a_trained_take']} groups" if o else "none"
             print(f"| {data} | {protocol} | {method} | {r['clips']} / {r['groups']} | {r['frames']} "
                   f"({r['invalid_frames']}) | {trained} | " + " | ".join(cell(r, m) for m in ALL_METRICS) + " |")

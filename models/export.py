@@ -68,7 +68,26 @@ def export_checkpoint(checkpoint: str | Path, path: str | Path) -> Path:
     """
     from .train import load_checkpoint
 
-    return export_onnx(load_checkpoint(checkpoint), path, {"checkpoint": str(checkpoint)})
+    model = load_checkpoint(checkpoint)
+    return export_onnx(model, path, {"checkpoint": str(checkpoint), **training_record(checkpoint)})
+
+
+#: Fields of a run's ``config.json`` copied beside exported weights (what they trained on).
+TRAINING_FIELDS = ("data", "data_repeats", "split_scheme", "noise", "noise_model", "noise_fraction", "views",
+                   "frame_stride", "epochs", "augment", "seed")
+
+
+def training_record(checkpoint: str | Path) -> dict:
+    """``{"training_config": {...}}`` from the ``config.json`` that ``pcnet train`` wrote beside
+    ``checkpoint`` (:data:`TRAINING_FIELDS`), or ``{}`` when there is none or it is not a JSON
+    object: evaluation reads it to say how much of a dataset the weights trained on."""
+    try:
+        config = json.loads((Path(checkpoint).parent / "config.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(config, dict):
+        return {}
+    return {"training_config": {k: config[k] for k in TRAINING_FIELDS if k in config}}
 
 
 def max_difference(model: PCNet, path: str | Path, x: np.ndarray) -> float:

@@ -75,6 +75,11 @@ def _new_output_file(path: str | os.PathLike, option: str, overwrite: bool = Fal
                              f"pass --overwrite to replace it")
 
 
+_camera_prior_option = click.option(
+    "--no-camera-prior", "camera_prior", flag_value=False, default=None,
+    help="Sequence modes: up from the poses (and floor contacts) alone, without the camera prior and the "
+         "lying reading (with --mode frame --heading predicted: the paper's model alone).")
+
 _heading_option = click.option(
     "--heading", type=click.Choice(HEADING_SOURCES), default=None,
     help="Heading about the up axis from: predicted (the method's rotation), hips (the input's hip line, "
@@ -104,13 +109,14 @@ _heading_option = click.option(
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="Per-frame (paper) or sequence-aware rectification of each clip.")
 @_heading_option
+@_camera_prior_option
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option("--max-frames", type=int, default=None, help="Evaluate at most N evenly spaced frames.")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --json file.")
-def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise, no_noise, mode, heading, seed,
-             max_frames, weights, json_out, overwrite):
+def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise, no_noise, mode, heading, camera_prior,
+             seed, max_frames, weights, json_out, overwrite):
     """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras.
     --max-frames scores N evenly spaced frames of whole rectified clips (same method, same
     per-clip decisions); invalid frames are counted and excluded."""
@@ -123,7 +129,8 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
     if max_frames is not None and max_frames < 1:
         raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
     result = run_eval(method, data, split, views, seed, max_frames, weights, camera, "none" if no_noise else noise,
-                      mode, heading, split_scheme=split_scheme, unseen_by=unseen_by)
+                      mode, heading, split_scheme=split_scheme, unseen_by=unseen_by,
+                      camera_prior=camera_prior is not False)
     click.echo(format_table(result))
     if json_out:
         write_text(json_out, json.dumps(result, indent=2) + "\n")
@@ -138,9 +145,10 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
               help="frame: each frame alone (paper); sequence: one up for a static camera; smooth: moving camera.")
 @click.option("--fps", type=float, default=30.0, show_default=True, help="Frame rate (for --mode smooth/auto).")
 @_heading_option
+@_camera_prior_option
 @click.option("--weights", type=click.Path(dir_okay=False), default=None)
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
-def rectify(input_path, out_path, method, key, mode, fps, heading, weights, overwrite):
+def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior, weights, overwrite):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
@@ -153,7 +161,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, weights, over
     validate_fps(fps, "--fps")
     check_method_weights(method, weights, "--weights")
     joints = load_pose_array(input_path, key)
-    res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading)
+    res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading,
+                      camera_prior=camera_prior is not False)
     if not res.valid.any():  # the same rule as pcnet run: nothing is written
         raise InputError(f"{input_path}: {NO_VALID_FRAME}")
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
@@ -218,6 +227,7 @@ def _run_and_report(cfg) -> None:
 @click.option("--mode", type=click.Choice(MODES), default=None,
               help="frame | sequence (static camera) | smooth (moving camera) | auto [auto].")
 @_heading_option
+@_camera_prior_option
 @click.option("--height", type=float, default=None, help="Subject height in metres, to scale non-metric output.")
 @click.option("--fps", type=float, default=None,
               help="Frame rate when neither the video nor the input files give it.")

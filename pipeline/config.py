@@ -28,7 +28,9 @@ class RunConfig:
     ``person`` picks a 2D track (AlphaPose ``idx``, MMPose instance position); ``heading``
     is the heading source of :func:`pcnet.stages.rectify.rectify` (``None`` = its default).
     ``fps`` is needed only when neither a video nor an input file gives the frame rate; with
-    a video it must match the video's rate unless ``fps_override``.
+    a video it must match the video's rate unless ``fps_override``. ``camera_prior``:
+    sequence modes weigh the poses against a camera prior and a lying reading
+    (:mod:`pcnet.stages.gravity_prior`).
     """
 
     lifter: str
@@ -50,6 +52,7 @@ class RunConfig:
     overwrite: bool = False
     recording: bool = True
     weights: str | None = None
+    camera_prior: bool = True
     lifter_options: dict = field(default_factory=dict)
 
     @classmethod

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, clip_split, group_key, groups_in_split, load_mocap,
+from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split, load_mocap,
                                    make_pairs, parse_bandai_name, select_split)
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.canonical import to_canonical
@@ -63,17 +63,35 @@ def frame_set_id(clip_names: tuple[str, ...], clip: np.ndarray, frame: np.ndarra
     return h.hexdigest()[:16]
 
 
-def _shipped_training_overlap(all_clips, chosen) -> dict | None:
-    """How much of the evaluated Bandai data the shipped weights trained on: every shipped
-    network (configs/*.toml) trained on Bandai's ``clip``-scheme train split. ``None`` when no
-    evaluated clip has a Bandai name (the shipped weights saw no other dataset)."""
-    bandai = [c for c in chosen if parse_bandai_name(c.name) is not None]
-    if not bandai:
+def training_record(weights: str | None) -> dict:
+    """What the evaluated weights trained on: the ``training_config`` of the ``.json`` beside
+    the ONNX file (``pcnet export`` copies it from the run folder), ``{}`` when unknown."""
+    from pcnet.models.inference import DEFAULT_WEIGHTS
+
+    meta = Path(weights or DEFAULT_WEIGHTS).with_suffix(".json")
+    try:
+        import json
+
+        record = json.loads(meta.read_text()).get("training_config", {})
+    except (OSError, ValueError, AttributeError):
+        return {}
+    return record if isinstance(record, dict) else {}
+
+
+def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict | None:
+    """How much of the evaluated data the weights trained on, by their ``training_config``:
+    ``None`` when the weights' training data is unknown or does not include this file (by
+    name: a cross-dataset test), else the clips of their train split among ``chosen`` and
+    the motion-style groups (CMU: subjects) of ``chosen`` with a take in that split."""
+    names = {Path(str(d)).name for d in record.get("data", [])}
+    scheme = record.get("split_scheme", "clip")
+    if Path(data).name not in names or scheme not in SPLIT_SCHEMES:
         return None
-    seen_groups = groups_in_split([c for c in all_clips if parse_bandai_name(c.name) is not None], "train", "clip")
-    groups = {group_key(c) for c in bandai}
+    seen_groups = groups_in_split(all_clips, "train", scheme)
+    groups = {group_key(c) or c.name for c in chosen}
     return {
-        "scheme": "clip", "clips": len(bandai), "clips_trained_on": sum(clip_split(c.name) == "train" for c in bandai),
+        "scheme": scheme, "clips": len(chosen),
+        "clips_trained_on": sum(clip_split_of(c, scheme) == "train" for c in chosen),
         "groups": len(groups), "groups_with_a_trained_take": len(groups & seen_groups),
     }
 
@@ -93,6 +111,7 @@ def evaluate(
     split_scheme: str = "motion-style",
     unseen_by: str | None = None,
     details: bool = False,
+    camera_prior: bool = True,
 ) -> dict:
     """Evaluate ``method`` on the ``split`` clips of a mocap npz.
 
@@ -124,12 +143,12 @@ def evaluate(
 
     Returns:
         ``{"method", "views", "split", "split_scheme", "unseen_by", "data", "seed", "camera",
-        "noise", "mode", "heading", "clips", "groups", "frames" (scored frames),
+        "noise", "mode", "heading", "camera_prior", "clips", "groups", "frames" (scored frames),
         "total_frames" (frames rectified), "invalid_frames" (of the scored ones),
         "valid_frames", "frame_set", "clip_heading_sources" (clips per source used),
-        "clip_modes" (sequence modes only), "shipped_training_overlap" (Bandai data:
-        evaluated clips and groups the shipped weights' clip-scheme train split contains, or
-        ``None``), "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
+        "clip_modes" (sequence modes only), "camera_prior", "training_overlap" (evaluated
+        clips and groups the evaluated weights' train split contains, by their
+        ``training_config``, :func:`_training_overlap`; ``None`` for other data), "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
         :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres), over the valid scored
         frames. With ``details``: also ``"per_clip"`` (name, heading_source and mode per clip)
         and ``"per_frame"`` (``clip``, ``frame``, ``valid`` and each metric as arrays over the
@@ -165,7 +184,8 @@ def evaluate(
             continue
         # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
         R_hat[sel], valid[sel], report = finish_rotations(
-            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0)
+            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0,
+            camera_prior=camera_prior)
         if mode != "frame":
             modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
         headings_run[report["heading_source"]] = headings_run.get(report["heading_source"], 0) + 1
@@ -179,6 +199,7 @@ def evaluate(
     result = {
         "method": method, "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
         "data": str(data), "seed": seed, "camera": camera, "noise": kind, "mode": mode, "heading": heading,
+        "camera_prior": camera_prior,
         "clips": len(clips), "groups": len({group_key(c) or c.name for c in clips}),
         "frames": len(keep), "total_frames": len(valid),
         "invalid_frames": int((~valid_k).sum()), "valid_frames": int(valid_k.sum()),
@@ -187,7 +208,8 @@ def evaluate(
     if modes_run:
         result["clip_modes"] = modes_run
     result["clip_heading_sources"] = headings_run
-    result["shipped_training_overlap"] = _shipped_training_overlap(all_clips, clips)
+    result["training_overlap"] = (None if method == "geometric"
+                                  else _training_overlap(data, all_clips, clips, training_record(weights)))
     result.update({name: summarize(errors[name]) for name in METRICS})
     if details:
         result["per_clip"] = per_clip
@@ -208,11 +230,11 @@ def format_table(result: dict) -> str:
             f"clips={result.get('clips', '?')} groups={result.get('groups', '?')} frames={result['frames']} "
             f"(of {result.get('total_frames', result['frames'])} rectified) invalid={result['invalid_frames']} "
             f"(excluded) frame_set={result.get('frame_set', '?')}")
-    overlap = result.get("shipped_training_overlap")
+    overlap = result.get("training_overlap")
     if overlap:
-        head += (f"\nshipped weights trained on {overlap['clips_trained_on']} of these {overlap['clips']} Bandai clips "
+        head += (f"\nthe weights trained on {overlap['clips_trained_on']} of these {overlap['clips']} clips "
                  f"and on takes of {overlap['groups_with_a_trained_take']} of their {overlap['groups']} "
-                 f"motion-style groups (clip-scheme train split)")
+                 f"motion-style groups or subjects ({overlap['scheme']}-scheme train split)")
     lines = [head, f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}"]
     for name in METRICS:
         s = result[name]

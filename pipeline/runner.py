@@ -24,7 +24,7 @@ from pcnet.stages.conventions import (H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, fil
                                       validate_poses)
 from pcnet.stages.errors import InputError
 from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
-from pcnet.stages.flags import (body_size_flag, camera_tilt, non_upright_flag, orientation_flags, track_segments,
+from pcnet.stages.flags import (body_size_flag, camera_tilt, gravity_reading_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag)
 from pcnet.stages.kinematics import compute_kinematics, flag_counts, format_flag_counts
 from pcnet.stages.rectify import NO_VALID_FRAME, rectify
@@ -211,7 +211,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
 
     step("rectify")
     try:
-        res = rectify(joints, cfg.method, cfg.weights, cfg.mode, fps, cfg.heading)
+        res = rectify(joints, cfg.method, cfg.weights, cfg.mode, fps, cfg.heading, camera_prior=cfg.camera_prior)
     except ValueError as err:
         raise InputError(f"{cfg.lifter_output}: {err}") from err
     if not res.valid.any():
@@ -219,7 +219,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
     tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
     flags = orientation_flags(tilt) + (body_size_flag(joints, units) if cfg.height is None else [])
-    flags += non_upright_flag(canonical, valid)
+    flags += non_upright_flag(canonical, valid) + gravity_reading_flag(res.report.get("gravity"))
     segment = None
     if kp2d is not None:
         segment, events = track_segments(kp2d, fps)

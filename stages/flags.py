@@ -127,6 +127,30 @@ def non_upright_flag(canonical: np.ndarray, valid: np.ndarray) -> list[str]:
             f"direction is uncertain"]
 
 
+#: Posterior probability of the lying reading from which the other reading is also named.
+AMBIGUOUS_READING_P = 0.1
+
+
+def gravity_reading_flag(gravity: dict | None) -> list[str]:
+    """A flag for sequence mode's camera-prior posterior
+    (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report`): the body was read as
+    lying (up from the camera prior, not from the pose), or the other reading kept a
+    posterior probability of at least :data:`AMBIGUOUS_READING_P`. ``None`` (frame or
+    smooth mode, or no camera prior) gives none."""
+    if not gravity:
+        return []
+    p = gravity["p_lying"]
+    if gravity["reading"] == "lying":
+        return [f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is taken "
+                f"from the camera prior (near level, +-{gravity['interval_deg']:.0f} deg) across the trunk; a body "
+                f"standing straight under a camera rolled 90 deg looks the same (pass --no-camera-prior if so)"]
+    if p >= AMBIGUOUS_READING_P:
+        return [f"ambiguous body orientation: read as upright, but a lying body under a level camera keeps "
+                f"{100 * p:.0f} % posterior probability (pose-based up {gravity['pose_camera_angle_deg']:.0f} deg "
+                f"from a level camera's)"]
+    return []
+
+
 def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, list[tuple[int, float]]]:
     """Split a 2D track where it jumps farther than one person can move: a tracker that
     switched to someone else.

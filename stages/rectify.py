@@ -96,6 +96,7 @@ def rectify(
     mode: str = "frame",
     fps: float = 30.0,
     heading: str | None = None,
+    camera_prior: bool = True,
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
     (``CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
@@ -106,7 +107,10 @@ def rectify(
     heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
     input's hip line, the canonical frame's definition) or ``auto`` (hips when they are
     precise, :func:`pcnet.stages.heading.apply_heading`); ``None`` =
-    :func:`resolve_heading_source`. ``report`` says what ran.
+    :func:`resolve_heading_source`. ``camera_prior``: in the sequence modes, weigh the
+    pose evidence against a camera prior and a lying reading
+    (:mod:`pcnet.stages.gravity_prior`; ``False`` with ``mode="frame"`` and
+    ``heading="predicted"`` is the paper's model alone). ``report`` says what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
     :func:`pcnet.stages.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least
@@ -123,7 +127,7 @@ def rectify(
     fps = validate_fps(fps)
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
-    R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading)
+    R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading, camera_prior=camera_prior)
     report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
     canonical = to_canonical(joints_cam, R, residual)
     return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report,
@@ -138,6 +142,7 @@ def finish_rotations(
     fps: float,
     heading: str,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
+    camera_prior: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The steps after a per-frame estimator, for one recording: the rectify ``mode``
     (:func:`pcnet.stages.temporal.rectify_sequence` unless ``"frame"``), then the ``heading``
@@ -149,6 +154,7 @@ def finish_rotations(
         mode, fps: as :func:`rectify`; heading: one of
             :data:`pcnet.stages.heading.HEADING_SOURCES` (already resolved).
         n_bootstrap: sequence-mode uncertainty replicates (0 = none; rotations unchanged).
+        camera_prior: as :func:`rectify` (sequence modes only).
 
     Returns:
         ``(R (T, 3, 3) float64, NaN where not valid; valid (T,) bool; report)`` with
@@ -161,7 +167,8 @@ def finish_rotations(
     if mode != "frame":
         if not valid.any():
             raise InputError(NO_VALID_FRAME)
-        R, sequence_report = rectify_sequence(R, valid, mode, fps, joints_cam, n_bootstrap=n_bootstrap)
+        R, sequence_report = rectify_sequence(R, valid, mode, fps, joints_cam, n_bootstrap=n_bootstrap,
+                                              camera_prior=camera_prior)
         report.update(sequence_report)
         valid = valid & np.asarray(report["valid"], bool)
         R = np.where(valid[:, None, None], R, np.nan)

@@ -26,10 +26,26 @@ import numpy as np
 from scipy.ndimage import convolve1d
 from scipy.spatial.transform import Rotation
 
-from .conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE, check_poses
+from .conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE, THORAX, check_poses
+from .gravity_prior import GravityPosterior, gravity_posterior
 from .rotations import angle_between, decompose_camera_rotation, normalize
 from .errors import InputError
-from .uncertainty import calibrated_interval
+from .uncertainty import SIGMA_SYS_DEG, calibrated_interval
+
+#: Angular std (deg) of the pose-based sequence up for the camera-prior posterior: the RMS
+#: of the calibrated per-axis systematic errors (:data:`pcnet.stages.uncertainty.SIGMA_SYS_DEG`).
+POSE_EVIDENCE_SIGMA_DEG = float(np.sqrt(np.mean(np.square(list(SIGMA_SYS_DEG.values())))))
+
+
+def mean_trunk(joints_cam: np.ndarray, ok: np.ndarray) -> np.ndarray | None:
+    """Mean unit trunk direction (pelvis -> thorax) over the frames ``ok`` of ``(T, 17, 3)``
+    camera-frame joints, ``(3,)``; ``None`` if no frame has both joints."""
+    t = joints_cam[:, THORAX] - joints_cam[:, PELVIS]
+    n = np.linalg.norm(t, axis=-1)
+    use = ok & np.isfinite(t).all(-1) & (n > 0)
+    if not use.any():
+        return None
+    return (t[use] / n[use, None]).mean(0)
 
 MODES = ("frame", "sequence", "smooth", "auto")
 
@@ -106,7 +122,10 @@ class SequenceResult:
         up_spread_deg: (weighted) median angle between the per-frame ups ``R[:, :, 1]`` and
             ``up``, degrees: how much the per-frame estimator disagrees with the pooled up.
         up_spread_p95_deg: the 95th percentile of the same angles.
-        evidence: ``"poses"`` or ``"poses+ground_plane"``.
+        evidence: ``"poses"`` or ``"poses+ground_plane"``, with ``"+camera_prior"`` when
+            the camera prior was used.
+        gravity: the :class:`pcnet.stages.gravity_prior.GravityPosterior` (``None`` without
+            the camera prior).
         valid: ``(T,)`` bool, frames with a rotation.
         ground_plane: diagnostics of the ground-plane step (``{"used": bool, "reason": str,
             ...}``); the reason says why it was skipped when it was.
@@ -125,6 +144,7 @@ class SequenceResult:
     evidence: str
     valid: np.ndarray
     ground_plane: dict = field(default_factory=dict)
+    gravity: GravityPosterior | None = None
 
 
 # ============================================================================ sphere helpers
@@ -491,6 +511,7 @@ def sequence_rectify(
     ground_gate_deg: float = GROUND_GATE_DEG,
     heading_time_constant_s: float | None = None,
     seed: int = 0,
+    camera_prior: bool = True,
 ) -> SequenceResult:
     """One up direction for a static-camera sequence, per-frame heading about it.
 
@@ -510,6 +531,12 @@ def sequence_rectify(
        the contacts alone constrain some tilt direction better than the prior, and the
        result is within ``ground_gate_deg`` of the pose-based up. Otherwise skipped, with
        the reason in ``ground_plane["reason"]``.
+    2b. **Camera prior** (``camera_prior``): the up of steps 1-2 (std
+       :data:`POSE_EVIDENCE_SIGMA_DEG`) and a lying reading (up perpendicular to the mean
+       trunk, :func:`mean_trunk`) are weighed against a prior over the camera's orientation
+       (:func:`pcnet.stages.gravity_prior.gravity_posterior`); the posterior's reading and mode
+       replace the up. An upright reading moves by at most a few percent of its angle to a
+       level camera; a lying one takes the level camera's up in the plane across the trunk.
     3. **Heading**: :func:`rotations_about_up`, the rotation with the sequence up closest to
        each frame's prediction; optionally smoothed over time with :func:`smooth_rotations`
        (``heading_time_constant_s``): rotations sharing one up column average to a rotation
@@ -539,6 +566,7 @@ def sequence_rectify(
         heading_time_constant_s: ``None`` (default, per-frame heading) or the kernel std in
             seconds of the heading smoothing.
         seed: bootstrap random seed.
+        camera_prior: step 2b.
 
     Returns:
         :class:`SequenceResult`.
@@ -565,13 +593,19 @@ def sequence_rectify(
     u_pose, _ = robust_mean_direction(ups, w)
     up, gp = u_pose, {"used": False, "reason": "not requested" if not use_ground_plane else "no joints_cam"}
     J = None
-    if use_ground_plane and joints_cam is not None:
+    if joints_cam is not None:
         J = check_poses(joints_cam, "joints_cam").astype(np.float64)
         if len(J) != T:
             raise InputError(f"joints_cam: expected {T} frames, got {len(J)}")
+    if use_ground_plane and J is not None:
         up, gp = _ground_plane(J, ok, u_pose, fps, pose_prior_deg, ground_gate_deg)
     contacts = gp.pop("_contacts", None)
     evidence = "poses+ground_plane" if gp["used"] else "poses"
+    up_evidence, gravity = up, None
+    if camera_prior:
+        gravity = gravity_posterior(up, POSE_EVIDENCE_SIGMA_DEG, None if J is None else mean_trunk(J, ok))
+        up = gravity.up
+        evidence += "+camera_prior"
 
     rotations, hok = rotations_about_up(R, up)
     out_valid = ok & hok
@@ -620,11 +654,14 @@ def sequence_rectify(
                 ub[b] = _fit_plane_map(Pb, fb, ub[b], np.radians(pose_prior_deg))[0]
         good = np.isfinite(ub).all(-1)
         if good.any():
+            # Spread of the replicates about the evidence they resample (the camera prior's
+            # pull is not sampling error).
             ub = ub[good]
-            unc["up"] = float(np.percentile(np.degrees(angle_between(ub, up[None])), 95))
+            unc["up"] = float(np.percentile(np.degrees(angle_between(ub, up_evidence[None])), 95))
             pb, rb = _pitch_roll_deg(ub)
-            dp = pb - pitch
-            dr = (rb - roll + 180.0) % 360.0 - 180.0
+            pe, re_ = _pitch_roll_deg(up_evidence)
+            dp = pb - pe
+            dr = (rb - re_ + 180.0) % 360.0 - 180.0
             unc["pitch"] = float(np.percentile(np.abs(dp), 95))
             unc["roll"] = float(np.percentile(np.abs(dr), 95))
 
@@ -642,6 +679,7 @@ def sequence_rectify(
         evidence=evidence,
         valid=out_valid,
         ground_plane=gp,
+        gravity=gravity,
     )
 
 
@@ -808,6 +846,7 @@ def rectify_sequence(
     time_constant_s: float = 0.2,
     heading_time_constant_s: float | None = None,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
+    camera_prior: bool = True,
 ) -> tuple[np.ndarray, dict]:
     """Sequence-level rectification of per-frame predictions.
 
@@ -828,6 +867,9 @@ def rectify_sequence(
             see :func:`sequence_rectify`.
         n_bootstrap: bootstrap replicates of the sequence-mode uncertainties (0 = none,
             NaN uncertainties; the rotations do not depend on it).
+        camera_prior: sequence mode combines the pose evidence with a camera prior and a
+            lying reading (:mod:`pcnet.stages.gravity_prior`); ``False`` = poses (and floor
+            contacts) alone.
 
     Returns:
         ``(rotations (T, 3, 3) float64, report)``; ``report`` has ``mode`` (the mode run),
@@ -837,8 +879,9 @@ def rectify_sequence(
         ``camera_roll_deg`` and their ``*_uncertainty_deg`` (the bootstrap's 95 % half-widths
         alone), ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
         that add the lifter's systematic per-clip error calibrated on CMU,
-        :func:`pcnet.stages.uncertainty.calibrated_interval`), ``up_spread_deg``,
-        ``up_spread_p95_deg`` and ``ground_plane``.
+        :func:`pcnet.stages.uncertainty.calibrated_interval`; for a ``lying`` reading the
+        posterior's), ``up_spread_deg``, ``up_spread_p95_deg``, ``ground_plane`` and
+        ``gravity`` (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report`, or ``None``).
 
     Raises:
         ValueError: unknown mode, bad shapes, non-positive fps, no valid frame.
@@ -861,8 +904,16 @@ def rectify_sequence(
         report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)), time_constant_s=time_constant_s)
     else:
         res = sequence_rectify(R, ok, joints_cam, weights, fps=fps, heading_time_constant_s=heading_time_constant_s,
-                               n_bootstrap=n_bootstrap)
+                               n_bootstrap=n_bootstrap, camera_prior=camera_prior)
         out = res.rotations
+        g = res.gravity
+        if g is not None and g.reading == "lying":
+            # The up comes from the camera prior, not from resampled poses: its interval is
+            # the posterior's (tens of degrees), not the bootstrap's.
+            pitch_half, roll_half = g.pitch_half_deg, g.roll_half_deg
+        else:
+            pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch")
+            roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll")
         report.update(
             evidence=res.evidence,
             valid=res.valid,
@@ -872,8 +923,9 @@ def rectify_sequence(
             camera_roll_deg=res.camera_roll_deg,
             camera_pitch_uncertainty_deg=res.camera_pitch_uncertainty_deg,
             camera_roll_uncertainty_deg=res.camera_roll_uncertainty_deg,
-            camera_pitch_interval_deg=calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch"),
-            camera_roll_interval_deg=calibrated_interval(res.camera_roll_uncertainty_deg, "roll"),
+            camera_pitch_interval_deg=pitch_half,
+            camera_roll_interval_deg=roll_half,
+            gravity=None if g is None else g.report(),
             up_spread_deg=res.up_spread_deg,
             up_spread_p95_deg=res.up_spread_p95_deg,
             ground_plane=res.ground_plane,

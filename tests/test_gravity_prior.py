@@ -87,3 +87,57 @@ def test_no_trunk_means_no_lying_reading():
 def test_bad_arguments_are_refused(up, sigma):
     with pytest.raises(ValueError):
         gravity_posterior(np.array(up, float), sigma, None)
+
+
+def _trunk_from_vertical_deg(canonical: np.ndarray) -> float:
+    t = canonical[:, THORAX] - canonical[:, PELVIS]
+    t = t[np.isfinite(t).all(-1)]
+    return float(np.median(np.degrees(np.arccos(np.clip(t[:, 1] / np.linalg.norm(t, axis=-1), -1, 1)))))
+
+
+def test_sequence_mode_reads_a_real_lying_body_as_lying():
+    """End to end on real Shavasana (geometric per-frame method: its up IS the trunk axis, the
+    worst case): sequence mode with the camera prior lays the trunk down; without it the
+    trunk stands up."""
+    from pcnet.stages.rectify import rectify
+
+    X = np.load(FIX / "yoga_Abhay_Shavasana_f200-299.npy", allow_pickle=False).astype(np.float64)
+    with_prior = rectify(X, "geometric", mode="sequence", fps=30.0)
+    gravity = with_prior.report["gravity"]
+    assert gravity["reading"] == "lying" and with_prior.report["evidence"].endswith("+camera_prior")
+    assert _trunk_from_vertical_deg(with_prior.canonical) > 75.0
+    assert with_prior.report["camera_pitch_interval_deg"] > 15.0  # the posterior's width, not the bootstrap's
+    alone = rectify(X, "geometric", mode="sequence", fps=30.0, camera_prior=False)
+    assert alone.report["gravity"] is None and _trunk_from_vertical_deg(alone.canonical) < 30.0
+
+
+def test_reading_flags_name_the_reading():
+    from pcnet.stages.flags import gravity_reading_flag
+
+    trunk = _trunk("yoga_Abhay_Shavasana_f200-299.npy")
+    lying = gravity_posterior(trunk / np.linalg.norm(trunk), 4.0, trunk).report()
+    (flag,) = gravity_reading_flag(lying)
+    assert "read as lying" in flag and "--no-camera-prior" in flag
+    upright = gravity_posterior(LEVEL_UP, 4.0, LEVEL_UP).report()
+    assert gravity_reading_flag(upright) == [] and gravity_reading_flag(None) == []
+    Q = Rotation.from_euler("z", 70.0, degrees=True).as_matrix()
+    tilted = gravity_posterior(Q @ LEVEL_UP, 4.0, Q @ LEVEL_UP).report()
+    assert tilted["reading"] == "upright" and tilted["p_lying"] >= 0.1
+    assert "ambiguous" in gravity_reading_flag(tilted)[0]
+
+
+def test_cli_no_camera_prior_switch(tmp_path):
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+
+    src = FIX / "yoga_Abhay_Shavasana_f200-299.npy"
+    trunk = {}
+    for name, extra in (("prior", []), ("alone", ["--no-camera-prior"])):
+        out = tmp_path / f"{name}.npz"
+        res = CliRunner().invoke(main, ["rectify", str(src), "--out", str(out), "--method", "geometric",
+                                        "--mode", "sequence", *extra])
+        assert res.exit_code == 0, res.output
+        with np.load(out, allow_pickle=False) as z:
+            trunk[name] = _trunk_from_vertical_deg(z["canonical"])
+    assert trunk["prior"] > 75.0 > 30.0 > trunk["alone"]

@@ -368,14 +368,23 @@ def test_evaluate_cli_noise_and_scheme_options(tmp_path):
 
 
 def test_unseen_by_keeps_groups_the_weights_never_saw():
-    from pcnet.pipeline.evaluate import evaluate
+    from pcnet.models.datasets import load_mocap, select_split
+    from pcnet.pipeline.evaluate import _training_overlap, evaluate
 
     data = shared("mocap", "bandai_h36m17.npz")
     res = evaluate("geometric", data, "all", split_scheme="clip", unseen_by="clip", max_frames=200)
     assert res["clips"] == res["groups"] == 31
-    assert res["shipped_training_overlap"]["clips_trained_on"] == 0
-    assert res["shipped_training_overlap"]["groups_with_a_trained_take"] == 0
+    assert res["training_overlap"] is None  # the baseline trained on nothing
+    clips = load_mocap(data)
+    unseen_names = {c.name for c in select_split(clips, "all")} - {c.name for c in select_split(clips, "train", "clip")}
+    clip_record = {"data": ["x/bandai_h36m17.npz"], "split_scheme": "clip"}
     test = evaluate("geometric", data, "test", max_frames=200)
     assert (test["clips"], test["groups"]) == (910, 49)
-    assert test["shipped_training_overlap"]["groups_with_a_trained_take"] == 47
+    chosen = select_split(clips, "test", "motion-style")
+    assert _training_overlap(data, clips, chosen, clip_record)["groups_with_a_trained_take"] == 47
+    style_record = {"data": ["../shared/data/mocap/bandai_h36m17.npz"], "split_scheme": "motion-style"}
+    overlap = _training_overlap(data, clips, chosen, style_record)
+    assert overlap["clips_trained_on"] == overlap["groups_with_a_trained_take"] == 0
+    assert _training_overlap(data, clips, chosen, {"data": ["cmu_train_h36m17.npz"]}) is None
+    assert unseen_names  # clips outside the clip-scheme train split exist
     assert Counter(test["clip_heading_sources"]) == Counter({"predicted": 910})

@@ -48,6 +48,12 @@ WALK, RUN, RAISE = (
 # ------------------------------------------------------------------------------ helpers
 
 
+def _pose_only(*args, **kwargs):
+    """sequence_rectify from the poses (and floor contacts) alone: these tests check that
+    estimator; the camera prior on top is tested in test_gravity_prior.py and below."""
+    return tm.sequence_rectify(*args, camera_prior=False, **kwargs)
+
+
 def _clips() -> dict[str, np.ndarray]:
     with np.load(FIXTURE) as d:
         return {k: d[k].astype(np.float64) for k in d.files}
@@ -117,7 +123,7 @@ def test_exact_predictions_recover_ground_truth(clip):
     W = CLIPS[clip]
     R0 = _static_camera(0)
     R, X_rel, _ = _view(W, R0)
-    res = tm.sequence_rectify(R, None, fps=FPS)
+    res = _pose_only(R, None, fps=FPS)
     assert res.valid.all() and res.evidence == "poses"
     np.testing.assert_allclose(res.rotations, R, atol=1e-9)
     assert _deg(angle_between(res.up, R0[:, 1])) < 1e-6
@@ -139,7 +145,7 @@ def test_sequence_mode_lower_tilt_error_than_frame_mode():
             R0 = _static_camera(seed)
             _, X_rel, _ = _view(W, R0)
             Rg, vg = geometric_rotation(_noisy(X_rel, rng))
-            res = tm.sequence_rectify(Rg, vg, fps=FPS, n_bootstrap=0)
+            res = _pose_only(Rg, vg, fps=FPS, n_bootstrap=0)
             frame.append(np.median(_deg(angle_between(Rg[vg][:, :, 1], R0[:, 1]))))
             seq.append(_deg(angle_between(res.up, R0[:, 1])))
     frame, seq = np.array(frame), np.array(seq)
@@ -158,7 +164,7 @@ def test_outlier_frames_barely_move_the_sequence_up():
     bad = rng.choice(len(R), len(R) // 5, replace=False)
     R_out = R.copy()
     R_out[bad] = Rotation.random(len(bad), random_state=7).as_matrix()
-    res = tm.sequence_rectify(R_out, None, fps=FPS, n_bootstrap=0)
+    res = _pose_only(R_out, None, fps=FPS, n_bootstrap=0)
     assert _deg(angle_between(res.up, R[0, :, 1])) < 1e-6
 
     # Noisy geometric predictions: compare with the estimate from the clean frames only, so
@@ -173,8 +179,8 @@ def test_outlier_frames_barely_move_the_sequence_up():
             out[rng.choice(len(Rg), len(Rg) // 5, replace=False)] = True
             R_out = Rg.copy()
             R_out[out] = Rotation.random(out.sum(), random_state=seed).as_matrix()
-            clean = tm.sequence_rectify(Rg, vg & ~out, fps=FPS, n_bootstrap=0).up
-            robust = tm.sequence_rectify(R_out, vg | out, fps=FPS, n_bootstrap=0).up
+            clean = _pose_only(Rg, vg & ~out, fps=FPS, n_bootstrap=0).up
+            robust = _pose_only(R_out, vg | out, fps=FPS, n_bootstrap=0).up
             ups = tm.frame_ups(R_out)[vg | out]
             mean = ups.mean(0) / np.linalg.norm(ups.mean(0))
             shift.append(_deg(angle_between(robust, clean)))
@@ -193,8 +199,8 @@ def test_zero_weight_frames_are_ignored():
     R_bad[:30] = Rotation.random(30, random_state=3).as_matrix()
     w = np.ones(len(R))
     w[:30] = 0.0
-    a = tm.sequence_rectify(R_bad, None, weights=w, n_bootstrap=0)
-    b = tm.sequence_rectify(R, np.arange(len(R)) >= 30, n_bootstrap=0)
+    a = _pose_only(R_bad, None, weights=w, n_bootstrap=0)
+    b = _pose_only(R, np.arange(len(R)) >= 30, n_bootstrap=0)
     np.testing.assert_allclose(a.up, b.up, atol=1e-12)
     assert not a.valid[:30].any() and a.valid[30:].all()
 
@@ -208,7 +214,7 @@ def test_heading_follows_true_heading():
         true_heading = np.degrees(decompose_camera_rotation(R)[0])
         assert np.ptp(np.degrees(np.unwrap(np.radians(true_heading)))) > 90  # the subject turns
         Rg, vg = geometric_rotation(_noisy(X_rel, rng))
-        res = tm.sequence_rectify(Rg, vg, fps=FPS, n_bootstrap=0)
+        res = _pose_only(Rg, vg, fps=FPS, n_bootstrap=0)
         errs.append(np.nanmedian(np.abs(_wrap(res.heading_deg - true_heading))))
         frame_errs.append(np.nanmedian(heading_error_deg(Rg, R)))
     print(f"\nheading error (deg) on a walk turning 117 deg: sequence mode {np.round(errs, 1)}, "
@@ -224,7 +230,7 @@ def test_up_uncertainty_covers_truth_for_unbiased_noise():
         for W in CLIPS.values():
             R0 = _static_camera(seed)
             R, _, _ = _view(W, R0)
-            res = tm.sequence_rectify(_rotation_noise(R, rng, 5.0, 0.8), None, fps=FPS)
+            res = _pose_only(_rotation_noise(R, rng, 5.0, 0.8), None, fps=FPS)
             cover.append(_deg(angle_between(res.up, R0[:, 1])) <= res.up_uncertainty_deg)
             radius.append(res.up_uncertainty_deg)
     print(f"\n95% bootstrap cone, AR(1) 5 deg noise: coverage {np.mean(cover):.2f}, "
@@ -244,8 +250,8 @@ def test_ground_plane_refines_tilt_when_feet_trace_the_floor():
         _, _, X_abs = _view(CLIPS[WALK], R0)
         X = _noisy(X_abs, rng)
         Rg, vg = geometric_rotation(X)
-        e_pose = _deg(angle_between(tm.sequence_rectify(Rg, vg, fps=FPS, n_bootstrap=0).up, R0[:, 1]))
-        res = tm.sequence_rectify(Rg, vg, X, fps=FPS, n_bootstrap=50)
+        e_pose = _deg(angle_between(_pose_only(Rg, vg, fps=FPS, n_bootstrap=0).up, R0[:, 1]))
+        res = _pose_only(Rg, vg, X, fps=FPS, n_bootstrap=50)
         e_gp = _deg(angle_between(res.up, R0[:, 1]))
         print(f"\nwalk-turn camera {seed}: tilt error poses {e_pose:.2f} -> poses+ground_plane "
               f"{e_gp:.2f} deg (95% cone {res.up_uncertainty_deg:.2f}); {res.ground_plane}")
@@ -260,9 +266,9 @@ def test_ground_plane_refines_tilt_when_feet_trace_the_floor():
         _, _, X_abs = _view(CLIPS[RUN], R0)
         X = _noisy(X_abs, rng)
         Rg, vg = geometric_rotation(X)
-        res = tm.sequence_rectify(Rg, vg, X, fps=FPS, n_bootstrap=0)
+        res = _pose_only(Rg, vg, X, fps=FPS, n_bootstrap=0)
         if res.evidence == "poses+ground_plane":
-            pose.append(_deg(angle_between(tm.sequence_rectify(Rg, vg, fps=FPS, n_bootstrap=0).up, R0[:, 1])))
+            pose.append(_deg(angle_between(_pose_only(Rg, vg, fps=FPS, n_bootstrap=0).up, R0[:, 1])))
             plane.append(_deg(angle_between(res.up, R0[:, 1])))
     print(f"run: ground plane used for {len(plane)}/8 cameras; "
           f"tilt error {np.mean(pose):.2f} -> {np.mean(plane):.2f} deg")
@@ -275,29 +281,29 @@ def test_ground_plane_skipped_when_evidence_unusable():
     R, X_rel, X_abs = _view(CLIPS[WALK], R0)
     Rg, vg = geometric_rotation(_noisy(X_rel, rng))
     # Root-relative joints (most lifters): feet relative to the pelvis, not to the floor.
-    res = tm.sequence_rectify(Rg, vg, _noisy(X_rel, rng), n_bootstrap=0)
+    res = _pose_only(Rg, vg, _noisy(X_rel, rng), n_bootstrap=0)
     assert res.evidence == "poses" and "pelvis" in res.ground_plane["reason"]
     # A subject in place: no floor area covered.
     _, _, X_in_place = _view(CLIPS[RAISE], R0)
     Rr, vr = geometric_rotation(X_in_place)
-    assert tm.sequence_rectify(Rr, vr, X_in_place, n_bootstrap=0).evidence == "poses"
+    assert _pose_only(Rr, vr, X_in_place, n_bootstrap=0).evidence == "poses"
     # Not requested.
-    res = tm.sequence_rectify(Rg, vg, _noisy(X_abs, rng), use_ground_plane=False, n_bootstrap=0)
+    res = _pose_only(Rg, vg, _noisy(X_abs, rng), use_ground_plane=False, n_bootstrap=0)
     assert res.evidence == "poses" and res.ground_plane["reason"] == "not requested"
 
 
 def test_input_errors():
     R, _, _ = _view(CLIPS[RAISE], _static_camera(0))
     with pytest.raises(ValueError):
-        tm.sequence_rectify(R[:, :2], None)
+        _pose_only(R[:, :2], None)
     with pytest.raises(ValueError):
-        tm.sequence_rectify(R, np.ones(3, bool))
+        _pose_only(R, np.ones(3, bool))
     with pytest.raises(ValueError):
-        tm.sequence_rectify(R, None, weights=-np.ones(len(R)))
+        _pose_only(R, None, weights=-np.ones(len(R)))
     with pytest.raises(ValueError):
-        tm.sequence_rectify(R, np.zeros(len(R), bool))
+        _pose_only(R, np.zeros(len(R), bool))
     with pytest.raises(ValueError):
-        tm.sequence_rectify(R, None, joints_cam=np.zeros((len(R) - 1, 17, 3)))
+        _pose_only(R, None, joints_cam=np.zeros((len(R) - 1, 17, 3)))
     with pytest.raises(ValueError):
         tm.rectify_sequence(R, None, mode="median")
     with pytest.raises(ValueError):
@@ -421,7 +427,7 @@ def test_rectify_sequence_modes_and_report():
     assert rep["mode"] == "frame" and rep["evidence"] == "per-frame"
     assert np.isnan(out[:3]).all() and np.array_equal(out[3:], Rg[3:])
 
-    out, rep = tm.rectify_sequence(Rg, vg, "auto", FPS, X_rel)
+    out, rep = tm.rectify_sequence(Rg, vg, "auto", FPS, X_rel, camera_prior=False)
     assert rep["requested_mode"] == "auto" and rep["mode"] == "sequence"
     for key in ("up", "up_uncertainty_deg", "camera_pitch_deg", "camera_roll_deg",
                 "camera_pitch_uncertainty_deg", "camera_roll_uncertainty_deg",
@@ -470,7 +476,7 @@ def test_bandai_clips_static_and_moving_camera():
         _, X_s, _ = _view(W, R0)
         Rg, vg = geometric_rotation(_noisy(X_s, rng))
         frame.append(np.median(_deg(angle_between(Rg[vg][:, :, 1], R0[:, 1]))))
-        seq.append(_deg(angle_between(tm.sequence_rectify(Rg, vg, fps=FPS, n_bootstrap=0).up, R0[:, 1])))
+        seq.append(_deg(angle_between(_pose_only(Rg, vg, fps=FPS, n_bootstrap=0).up, R0[:, 1])))
         spread_static.append(tm.choose_mode(Rg, vg, fps=FPS)[1])
         _, X_m, _ = _view(W, _moving_camera(len(W), rng, pitch_sweep_deg=30.0))
         spread_moving.append(tm.choose_mode(*geometric_rotation(_noisy(X_m, rng)), fps=FPS)[1])
