@@ -33,10 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
+from configurations import CONFIGURATIONS, Configuration
 from gravity_benchmark import load_camera
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.stages.conventions import PELVIS
-from pcnet.stages.rectify import rectify
 from pcnet.stages.rotations import angle_between, axis_rotation
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -45,12 +45,7 @@ AXES = ("x", "y", "z")
 AXIS_NAMES = {"x": "pitch", "y": "yaw", "z": "roll"}
 ANGLES_DEG = (0, 30, 60, 90, 120, 150, 180)
 # (label, method, mode)
-CONFIGS = (
-    ("geometric frame", "geometric", "frame"),
-    ("geometric seq", "geometric", "sequence"),
-    ("pcnet frame", "pcnet", "frame"),
-    ("pcnet seq", "pcnet", "sequence"),
-)
+CONFIGS = CONFIGURATIONS
 YOGA = ("Bhumi_Tadasana", "Bhumi_Padmasana", "Bhumi_Bhujangasana", "Bhumi_Shavasana")
 
 
@@ -95,15 +90,15 @@ def extra_error_deg(up0: np.ndarray, valid0: np.ndarray, up_rot: np.ndarray, val
     return float(np.degrees(angle_between(up_rot[both], up0[both] @ Q.T)).mean())
 
 
-def equivariance(joints: np.ndarray, fps: float, method: str, mode: str,
+def equivariance(joints: np.ndarray, fps: float, config: Configuration,
                  axes=AXES, angles=ANGLES_DEG) -> dict[tuple[str, int], tuple[float, float]]:
     """``{(axis, angle): (extra error deg, valid fraction)}`` for one clip and configuration."""
-    base = rectify(joints, method, mode=mode, fps=fps)
+    base = config.rectify(joints, fps)
     out = {}
     for axis in axes:
         for angle in angles:
             X, Q = rotate_view(joints, axis, angle)
-            res = base if angle == 0 else rectify(X, method, mode=mode, fps=fps)
+            res = base if angle == 0 else config.rectify(X, fps)
             out[(axis, angle)] = (extra_error_deg(base.up, base.valid, res.up, res.valid, Q), float(res.valid.mean()))
     return out
 
@@ -111,7 +106,7 @@ def equivariance(joints: np.ndarray, fps: float, method: str, mode: str,
 def run(data: Path, frames: int = 300) -> list[str]:
     clips = load_clips(data, frames)
     t0 = time.perf_counter()
-    results = {(c[0], name): equivariance(J, fps, c[1], c[2]) for name, J, fps in clips for c in CONFIGS}
+    results = {(c[0], name): equivariance(J, fps, c) for name, J, fps in clips for c in CONFIGS}
     seconds = time.perf_counter() - t0
     lines = [__doc__.splitlines()[0], "",
              f"    python benchmarks/equivariance.py --data ../shared/data --frames {frames}", "",

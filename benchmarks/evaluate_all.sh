@@ -51,24 +51,30 @@ HO=$OUT/heldout
 mkdir -p $HO
 ho() { local name=$1; shift; echo "== $name: pcnet evaluate $*" > $HO/$name.txt; pcnet evaluate "$@" --json $HO/$name.json | tee -a $HO/$name.txt; }
 BANDAI=$MOCAP/bandai_h36m17.npz
+CMU=$MOCAP/cmu_train_h36m17.npz
+DEEPMIMIC=$MOCAP/deepmimic_h36m17.npz
 LIFTER_SEQ="--camera per-clip --noise lifter --mode sequence"
-for method in pcnet geometric; do
+# Three models: the shipped body-frame 3DPCNet (pcnet: motion-style train split + CMU train
+# subjects), the previous camera-frame 3DPCNet (pcnet-camera: the paper's input, Bandai
+# clip-scheme train split; models/weights/pcnet_camera.onnx) and the geometric baseline.
+declare -A ARGS=([pcnet]="--method pcnet" [pcnet-camera]="--method pcnet --weights models/weights/pcnet_camera.onnx"
+                 [geometric]="--method geometric")
+for model in pcnet pcnet-camera geometric; do
+  m=${ARGS[$model]}
   for scheme in motion-style clip; do
-    ho ${method}_bandai_test_${scheme}_frame --method $method --data $BANDAI --split test --split-scheme $scheme
-    ho ${method}_bandai_test_${scheme}_perclip_lifter_sequence --method $method --data $BANDAI --split test \
-      --split-scheme $scheme $LIFTER_SEQ
+    ho ${model}_bandai_test_${scheme}_frame $m --data $BANDAI --split test --split-scheme $scheme
   done
-  ho ${method}_bandai_unseen_frame --method $method --data $BANDAI --split all --split-scheme clip --unseen-by clip
-  ho ${method}_bandai_unseen_perclip_lifter_sequence --method $method --data $BANDAI --split all --split-scheme clip \
-    --unseen-by clip $LIFTER_SEQ
-  ho ${method}_deepmimic_all_lifter_frame --method $method --data $MOCAP/deepmimic_h36m17.npz --split all \
-    --noise lifter
-  ho ${method}_deepmimic_all_perclip_lifter_sequence --method $method --data $MOCAP/deepmimic_h36m17.npz \
-    --split all $LIFTER_SEQ
+  ho ${model}_bandai_test_motion-style_lifter_frame $m --data $BANDAI --split test --noise lifter
+  ho ${model}_bandai_test_motion-style_perclip_lifter_sequence $m --data $BANDAI --split test $LIFTER_SEQ
+  ho ${model}_bandai_unseen_frame $m --data $BANDAI --split all --split-scheme clip --unseen-by clip
+  ho ${model}_cmu_test_frame $m --data $CMU --split test
+  ho ${model}_cmu_test_perclip_lifter_sequence $m --data $CMU --split test $LIFTER_SEQ
+  ho ${model}_deepmimic_all_frame $m --data $DEEPMIMIC --split all
+  ho ${model}_deepmimic_all_lifter_frame $m --data $DEEPMIMIC --split all --noise lifter
+  ho ${model}_deepmimic_all_perclip_lifter_sequence $m --data $DEEPMIMIC --split all $LIFTER_SEQ
 done
-# frame-independent noise in sequence mode: how much it flatters sequence averaging next to lifter noise
-ho pcnet_bandai_test_motion-style_perclip_frame_sequence --method pcnet --data $BANDAI --split test --camera per-clip \
-  --noise frame --mode sequence
-# --max-frames scores a subset of whole rectified clips: same decisions, same numbers up to sampling
-ho pcnet_bandai_test_motion-style_perclip_lifter_sequence_max20000 --method pcnet --data $BANDAI --split test \
-  $LIFTER_SEQ --max-frames 20000
+# Sequence mode without the camera prior (the pose evidence alone), shipped weights
+ho pcnet_deepmimic_all_perclip_lifter_sequence_noprior --method pcnet --data $DEEPMIMIC --split all $LIFTER_SEQ \
+  --no-camera-prior
+ho pcnet_bandai_test_motion-style_perclip_lifter_sequence_noprior --method pcnet --data $BANDAI --split test \
+  $LIFTER_SEQ --no-camera-prior

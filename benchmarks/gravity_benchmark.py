@@ -37,9 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
+from configurations import CONFIGURATIONS
 from pcnet.adapters import load_mediapipe_3d
 from pcnet.stages.conventions import PELVIS, THORAX, fill_pelvis_from_hips, validate_poses
-from pcnet.stages.rectify import rectify
 from pcnet.stages.remap import remap_to_h36m
 from pcnet.stages.rotations import angle_between, axis_rotation, normalize
 
@@ -49,12 +49,7 @@ COMMAND = "python benchmarks/gravity_benchmark.py --data ../shared/data"
 FOLDER = ("real", "pose2sim_gravity")
 ROLLS_DEG = (0, 90, 180, -90)
 # (label, method, mode)
-CONFIGS = (
-    ("pcnet frame", "pcnet", "frame"),
-    ("pcnet seq", "pcnet", "sequence"),
-    ("geometric frame", "geometric", "frame"),
-    ("geometric seq", "geometric", "sequence"),
-)
+CONFIGS = CONFIGURATIONS
 BASELINES = ("level camera (-y)", "trunk (MediaPipe)")
 IMAGE_UP = np.array([0.0, -1.0, 0.0])
 
@@ -101,10 +96,11 @@ def evaluate_view(joints: np.ndarray, up_true: np.ndarray, fps: float) -> list[d
     rows = []
     T = len(joints)
     true_pitch, true_roll = pitch_roll_deg(up_true)
-    for label, method, mode in CONFIGS:
-        out = rectify(joints, method, mode=mode, fps=fps)
+    for config in CONFIGS:
+        out = config.rectify(joints, fps)
         rep = out.report or {}
-        row = {"method": label, "valid": int(out.valid.sum()), "frames": T}
+        mode = config.mode
+        row = {"method": config.label, "valid": int(out.valid.sum()), "frames": T}
         if mode == "frame":
             ups = out.up[out.valid]
             err = deg_between(ups, up_true[None])

@@ -53,17 +53,22 @@ def main() -> None:
             print(row(f"{label}, paper", name, load(f"pcnet_{key}_paper_static_noise_{mode}"), ALL_METRICS[:4]))
 
 
-HELDOUT_ROWS = (  # (file stem without the method, data/split label, protocol label)
+HELDOUT_ROWS = (  # (file stem without the model, data/split label, protocol label)
     ("bandai_test_motion-style_frame", "Bandai test, motion-style", "frame, clean"),
-    ("bandai_test_clip_frame", "Bandai test, clip", "frame, clean"),
-    ("bandai_unseen_frame", "Bandai, groups unseen by the weights", "frame, clean"),
+    ("bandai_test_motion-style_lifter_frame", "Bandai test, motion-style", "frame, lifter"),
     ("bandai_test_motion-style_perclip_lifter_sequence", "Bandai test, motion-style", "per-clip, lifter, sequence"),
-    ("bandai_test_clip_perclip_lifter_sequence", "Bandai test, clip", "per-clip, lifter, sequence"),
-    ("bandai_unseen_perclip_lifter_sequence", "Bandai, groups unseen by the weights", "per-clip, lifter, sequence"),
+    ("bandai_test_motion-style_perclip_lifter_sequence_noprior", "Bandai test, motion-style",
+     "per-clip, lifter, sequence, no camera prior"),
+    ("bandai_test_clip_frame", "Bandai test, clip (old split)", "frame, clean"),
+    ("bandai_unseen_frame", "Bandai, groups unseen by the clip split", "frame, clean"),
+    ("cmu_test_frame", "CMU test subjects 10, 14", "frame, clean"),
+    ("cmu_test_perclip_lifter_sequence", "CMU test subjects 10, 14", "per-clip, lifter, sequence"),
+    ("deepmimic_all_frame", "DeepMimic all", "frame, clean"),
     ("deepmimic_all_lifter_frame", "DeepMimic all", "frame, lifter"),
     ("deepmimic_all_perclip_lifter_sequence", "DeepMimic all", "per-clip, lifter, sequence"),
+    ("deepmimic_all_perclip_lifter_sequence_noprior", "DeepMimic all", "per-clip, lifter, sequence, no camera prior"),
 )
-HELDOUT_METHODS = ("geometric", "pcnet")
+HELDOUT_METHODS = ("geometric", "pcnet-camera", "pcnet")
 
 
 def heldout() -> None:

@@ -42,9 +42,9 @@ from pathlib import Path
 
 import numpy as np
 
+from configurations import CONFIGURATIONS
 from pcnet.adapters import load_videopose3d
 from pcnet.stages.conventions import PELVIS, SPINE, THORAX
-from pcnet.stages.rectify import rectify
 from pcnet.stages.rotations import angle_between
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -54,13 +54,7 @@ FPS = 30.0
 CANONICAL_UP = np.array([0.0, 1.0, 0.0])
 IMAGE_UP = np.array([0.0, -1.0, 0.0])
 # (label, method, mode); None = the camera-frame input itself
-CONFIGS = (
-    ("input", None, None),
-    ("geo frame", "geometric", "frame"),
-    ("geo seq", "geometric", "sequence"),
-    ("pcnet frame", "pcnet", "frame"),
-    ("pcnet seq", "pcnet", "sequence"),
-)
+CONFIGS = (None, *CONFIGURATIONS)  # None: the camera-frame input itself ("input" column)
 # asana -> (comparison, threshold deg) for the whole-trunk angle from vertical
 TARGETS = {"Shavasana": (">=", 80.0), "Padmasana": ("<=", 15.0), "Tadasana": ("<=", 6.0)}
 ASANA_ORDER = ("Tadasana", "Vrikshasana", "Trikonasana", "Padmasana", "Bhujangasana", "Shavasana", "demo")
@@ -112,20 +106,20 @@ def verdict(asana: str, angle: float) -> str | None:
 def evaluate_file(joints: np.ndarray, fps: float) -> dict[str, dict]:
     """``{label: {"trunk", "lower", "valid_frac"}}`` for every configuration."""
     out = {}
-    for label, method, mode in CONFIGS:
-        if method is None:
-            out[label] = {"trunk": median_trunk_deg(joints, None, IMAGE_UP),
-                          "lower": median_trunk_deg(joints, None, IMAGE_UP, lower=True), "valid_frac": 1.0}
+    for config in CONFIGS:
+        if config is None:
+            out["input"] = {"trunk": median_trunk_deg(joints, None, IMAGE_UP),
+                            "lower": median_trunk_deg(joints, None, IMAGE_UP, lower=True), "valid_frac": 1.0}
             continue
-        res = rectify(joints, method, mode=mode, fps=fps)
-        out[label] = {"trunk": median_trunk_deg(res.canonical, res.valid),
+        res = config.rectify(joints, fps)
+        out[config.label] = {"trunk": median_trunk_deg(res.canonical, res.valid),
                       "lower": median_trunk_deg(res.canonical, res.valid, lower=True),
                       "valid_frac": float(np.mean(res.valid))}
     return out
 
 
 def _summary(lines: list[str], title: str, results: list[tuple[str, str, int, dict]], key: str) -> None:
-    labels = [c[0] for c in CONFIGS]
+    labels = ["input" if c is None else c.label for c in CONFIGS]
     lines += ["", title, f"{'asana':<13}{'n':>3}  " + "".join(f"{lab:>18}" for lab in labels)]
     asanas = [a for a in ASANA_ORDER if any(r[1] == a for r in results)]
     asanas += sorted({r[1] for r in results} - set(asanas))
@@ -142,7 +136,7 @@ def _summary(lines: list[str], title: str, results: list[tuple[str, str, int, di
 def run(data: Path, stride: int = 2) -> list[str]:
     # Named exports first, so that a duplicate is dropped under its less informative name.
     paths = sorted(data.joinpath(*FOLDER).glob("*.npy"), key=lambda p: (not _plain_export(p), p.name))
-    labels = [c[0] for c in CONFIGS]
+    labels = ["input" if c is None else c.label for c in CONFIGS]
     cmd = f"python benchmarks/yoga_physics.py --data ../shared/data --stride {stride}"
     lines = [__doc__.splitlines()[0], "", f"    {cmd}", "",
              (f"{len(paths)} files (repeats skipped, see below), {FPS:g} fps / stride {stride}. Median trunk angle "

@@ -69,6 +69,7 @@ class RunResult:
             f"{self.report.get('requested_heading_source')}; hip width varies "
             f"{self.report.get('hip_width_cv_percent', float('nan')):.1f} %)",
             f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(),
+            *self._frame_bound(),
             f"units             {self.units}",
         ]
         lines += [f"WARNING           {f}" for f in self.flags]
@@ -78,6 +79,13 @@ class RunResult:
             lines.append(f"open the recording with:  rerun {self.outputs['recording']}")
         return "\n".join(lines)
 
+
+    def _frame_bound(self) -> list[str]:
+        bound = self.report.get("frame_tilt_95_deg", float("nan"))
+        if self.mode == "sequence" or not np.isfinite(bound):
+            return []
+        return [f"per-frame up      within {bound:.1f} deg of the true up in 95 % of frames (calibrated on held-out "
+                f"mocap with lifter-like noise; unusual poses and rotated cameras excepted)"]
 
     def _pitch_roll(self) -> str:
         pitch_unc = self.report.get("camera_pitch_interval_deg", float("nan"))

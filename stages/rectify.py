@@ -11,6 +11,7 @@ from .conventions import check_poses, fill_pelvis_from_hips, validate_fps, valid
 from .geometric import geometric_rotation
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import BOOTSTRAP_REPLICATES, rectify_sequence
+from .uncertainty import FRAME_TILT_95_DEG
 from .errors import InputError
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
@@ -129,6 +130,8 @@ def rectify(
     R, residual, valid = estimate_rotations(joints_cam, method, weights)
     R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading, camera_prior=camera_prior)
     report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
+    # A per-frame bound calibrated for the shipped weights only (other weights: none).
+    report["frame_tilt_95_deg"] = FRAME_TILT_95_DEG if method != "geometric" and weights is None else float("nan")
     canonical = to_canonical(joints_cam, R, residual)
     return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report,
                      report["heading_source"])

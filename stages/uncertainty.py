@@ -35,6 +35,11 @@ Z = 1.96
 #: Per-axis systematic (per-clip) error of the sequence up, degrees; see the module docstring.
 SIGMA_SYS_DEG = {"pitch": 3.77, "roll": 2.39}
 
+#: Per-frame tilt error (deg) that 95 % of frames stay within: conformal 95 % quantile of the
+#: shipped weights' per-frame tilt errors on the calibration split (frame mode, lifter-like
+#: noise, a new camera per frame); see ``benchmarks/results/uncertainty.txt``.
+FRAME_TILT_95_DEG = float("nan")
+
 #: What the interval is, for printed summaries.
 LABEL = "95 % interval incl. the lifter's systematic error, calibrated on CMU"
 

@@ -79,6 +79,44 @@ def test_onnx_export_matches_torch_on_real_poses(tmp_path):
         assert max_difference(model, path, x.numpy()) <= 1e-4
 
 
+def test_body_frame_input_is_exactly_equivariant(tmp_path):
+    """input_frame = "body": a camera rotated by Q gives R_hat rotated by Q (any Q, incl. 90
+    and 180 deg rolls), in torch and in the exported ONNX graph; the residual is unchanged."""
+    from scipy.spatial.transform import Rotation
+
+    torch.manual_seed(0)
+    model = PCNet(PCNetConfig(hidden=32, output=48, feedforward=64, heads=4, dropout=0.0,
+                              input_frame="body")).eval()
+    x, _, _, _ = _pairs(16, 4)
+    Qs = [Rotation.from_euler("z", a, degrees=True).as_matrix() for a in (90.0, 180.0)]
+    Qs += list(Rotation.random(3, random_state=1).as_matrix())
+    with torch.no_grad():
+        R0, d0 = model(x)
+        for Q in Qs:
+            Qt = torch.from_numpy(Q.astype(np.float32))
+            R1, d1 = model(x @ Qt.T)
+            assert torch.allclose(R1, Qt @ R0, atol=1e-4)  # float32 round-off through the encoder
+            assert torch.allclose(d1, d0, atol=1e-4)
+    pytest.importorskip("onnx", reason="onnx (the [train] extra) not installed")
+    from pcnet.models.export import export_onnx, max_difference
+
+    path = export_onnx(model, tmp_path / "body.onnx")
+    assert max_difference(model, path, x.numpy()) <= 1e-4
+
+
+def test_geodesic_loss_gradient_is_finite_at_180_degrees():
+    """Body-frame inputs look alike at initialisation, so predictions 180 deg from the truth
+    are common: the loss must still give finite gradients there."""
+    model = PCNet(TINY)
+    x, R, canon, _ = _pairs(4, 5)
+    flip = torch.diag(torch.tensor([-1.0, -1.0, 1.0]))
+    R_hat = (R @ flip).requires_grad_(True)  # exactly 180 deg from the truth
+    delta = torch.zeros_like(x)
+    loss, _ = composite_loss(model, x, R_hat, delta, {"attention": None}, R, canon, LossWeights())
+    loss.backward()
+    assert torch.isfinite(R_hat.grad).all()
+
+
 @pytest.mark.skipif(not DEFAULT_WEIGHTS.is_file(), reason="shipped weights not built yet")
 def test_shipped_weights_match_their_checkpoint_free_session_on_real_poses():
     """The shipped ONNX graph gives valid rotations on real mocap, and the rotation it gives

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import shared
-from pcnet.stages.uncertainty import SIGMA_SYS_DEG, Z, calibrated_interval
+from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, SIGMA_SYS_DEG, Z, calibrated_interval
 
 RESULT = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "uncertainty.txt"
 
@@ -33,6 +33,8 @@ def test_constants_match_recorded_calibration():
         m = re.search(rf"^\s+{axis}\s+sigma_sys_deg = (\d+\.\d+)", text, re.M)
         assert m, f"{RESULT}: no calibrated sigma for {axis}"
         assert SIGMA_SYS_DEG[axis] == pytest.approx(float(m.group(1)), abs=0.005)
+    m = re.search(r"FRAME_TILT_95_DEG = (\d+\.\d+)", text)
+    assert m and FRAME_TILT_95_DEG == pytest.approx(float(m.group(1)), abs=0.005)
     m = re.search(r"Z = (\d+\.\d+); see", text)
     assert m and float(m.group(1)) == pytest.approx(Z)
 
