@@ -878,7 +878,7 @@ def rectify_sequence(
         sequence mode ``up``, ``up_uncertainty_deg``, ``camera_pitch_deg``,
         ``camera_roll_deg`` and their ``*_uncertainty_deg`` (the bootstrap's 95 % half-widths
         alone), ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
-        that add the lifter's systematic per-clip error calibrated on CMU,
+        that add the lifter's systematic per-clip error calibrated on held-out mocap,
         :func:`pcnet.stages.uncertainty.calibrated_interval`; for a ``lying`` reading the
         posterior's), ``up_spread_deg``, ``up_spread_p95_deg``, ``ground_plane`` and
         ``gravity`` (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report`, or ``None``).
