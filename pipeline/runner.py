@@ -92,8 +92,10 @@ class RunResult:
         roll_unc = self.report.get("camera_roll_interval_deg", float("nan"))
         if not (np.isfinite(pitch_unc) and np.isfinite(roll_unc)):
             return f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)"
+        lying = (self.report.get("gravity") or {}).get("reading") == "lying"
+        label = "95 % posterior interval of the lying reading (camera prior)" if lying else UNCERTAINTY_LABEL
         return (f"(pitch {self.camera_pitch_deg:+.1f} +- {pitch_unc:.1f}, roll {self.camera_roll_deg:+.1f} "
-                f"+- {roll_unc:.1f} deg; {UNCERTAINTY_LABEL}; bootstrap alone +- "
+                f"+- {roll_unc:.1f} deg; {label}; bootstrap alone +- "
                 f"{self.report.get('camera_pitch_uncertainty_deg', float('nan')):.1f}/"
                 f"{self.report.get('camera_roll_uncertainty_deg', float('nan')):.1f}; "
                 f"evidence: {self.report.get('evidence')})")

@@ -141,3 +141,21 @@ def test_cli_no_camera_prior_switch(tmp_path):
         with np.load(out, allow_pickle=False) as z:
             trunk[name] = _trunk_from_vertical_deg(z["canonical"])
     assert trunk["prior"] > 75.0 > 30.0 > trunk["alone"]
+
+
+def test_pcnet_run_says_when_it_reads_a_lying_body(tmp_path):
+    """`pcnet run` on real Shavasana (VideoPose3D): the summary names the lying reading and
+    prints the posterior's interval, not the upright calibration's."""
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+
+    res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output",
+                                    str(FIX / "yoga_Abhay_Shavasana_f200-299.npy"), "--fps", "30",
+                                    "--out", str(tmp_path / "out"), "--no-recording"])
+    assert res.exit_code == 0, res.output
+    assert "WARNING           body read as lying" in res.output
+    assert "posterior interval of the lying reading" in res.output
+    with np.load(tmp_path / "out" / "canonical.npz", allow_pickle=False) as z:
+        assert any("read as lying" in f for f in z["flags"])
+        assert _trunk_from_vertical_deg(z["canonical"]) > 75.0
