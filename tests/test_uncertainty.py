@@ -79,3 +79,21 @@ def test_coverage_on_heldout_deepmimic_clips():
     assert len(clips) >= 8
     assert np.mean(inside_cal) >= 0.7, (inside_boot, inside_cal)
     assert np.mean(inside_cal) >= np.mean(inside_boot)
+
+
+def test_frame_mode_summary_prints_the_calibrated_per_frame_bound(tmp_path):
+    """Frame mode has no sequence interval; the summary prints the per-frame tilt bound
+    calibrated on held-out mocap (FRAME_TILT_95_DEG), sequence mode does not."""
+    from click.testing import CliRunner
+
+    from conftest import FIXTURES
+    from pcnet.pipeline.cli import main
+
+    src = str(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
+    args = ["run", "--lifter", "videopose3d", "--lifter-output", src, "--fps", "30", "--no-recording"]
+    res = CliRunner().invoke(main, [*args, "--mode", "frame", "--out", str(tmp_path / "f")])
+    assert res.exit_code == 0, res.output
+    assert f"within {FRAME_TILT_95_DEG:.1f} deg of the true up in 95 % of frames" in res.output
+    res = CliRunner().invoke(main, [*args, "--mode", "sequence", "--out", str(tmp_path / "s")])
+    assert res.exit_code == 0, res.output
+    assert "of the true up in 95 % of frames" not in res.output
