@@ -1,7 +1,7 @@
 """pcnet.adapters: translate foreign pose files into pcnet's conventions.
 
 Each adapter reads one upstream format and returns arrays + layout + frame + units, with
-NaN for anything missing (``CONVENTIONS.md``). No pose maths happens here beyond axis
+NaN for anything missing (``docs/CONVENTIONS.md``). No pose maths happens here beyond axis
 flips/permutations, unit scaling and picking a person or hypothesis; remapping to H36M-17
 (``pcnet.stages.remap.remap_to_h36m``) and root-centring are the caller's steps.
 

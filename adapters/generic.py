@@ -133,7 +133,7 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
             beyond the bound of its units after scaling (100 m, 1e5 px, 1e3 normalised;
             naming frame and joint).
 
-    Source of the target conventions: CONVENTIONS.md "Camera frame"; the file format is
+    Source of the target conventions: docs/CONVENTIONS.md "Camera frame"; the file format is
     the user's declaration, not an upstream fact.
     """
     p = Path(path)

@@ -1,7 +1,7 @@
 """What every adapter returns: 2D keypoints, 3D poses in the camera frame, video facts,
 and the one error type adapters raise.
 
-Contracts (``CONVENTIONS.md``): arrays are float32 ``(T, J, 3)``; missing joints or frames
+Contracts (``docs/CONVENTIONS.md``): arrays are float32 ``(T, J, 3)``; missing joints or frames
 are NaN, never 0; 2D confidence lies in [0, 1]; 3D poses are in the OpenCV camera frame
 (+x right in the image, +y down, +z forward, away from the camera).
 """
@@ -114,7 +114,7 @@ class Poses3D:
             +y down, +z forward, away from the camera). NaN marks missing joints/frames.
             The root is **as delivered by the source** (e.g. MotionBERT keeps the root's
             image position; D3DP zeroes it): the caller remaps to H36M-17 and subtracts the
-            pelvis per frame to get the root-relative poses of ``CONVENTIONS.md``.
+            pelvis per frame to get the root-relative poses of ``docs/CONVENTIONS.md``.
         layout: joint layout name (see :class:`Keypoints2D`).
         frame: always ``"camera"``.
         units: ``"m"``, ``"normalised"`` (MotionBERT image-normalised) or ``"px"``.

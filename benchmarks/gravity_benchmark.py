@@ -5,7 +5,7 @@
 Data: real/pose2sim_gravity/statictrial_camXX.npz (Pose2Sim demo lab, 4 calibrated static
 portrait cameras looking down 18-25 deg, 60 fps, one man standing still in a T-pose, 11 frames;
 ../shared/data/README.md section "real/pose2sim_gravity/"). Truth: `up_camera`, world up
-(Qualisys +Z) in the camera's OpenCV frame, = R[:, 1] under CONVENTIONS.md (R maps
+(Qualisys +Z) in the camera's OpenCV frame, = R[:, 1] under docs/CONVENTIONS.md (R maps
 canonical -> camera); its pitch = asin(-u_z) (positive = camera looking down) and roll =
 atan2(u_x, -u_y) (pcnet.stages.rotations.decompose_camera_rotation).
 

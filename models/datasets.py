@@ -340,7 +340,7 @@ def make_pairs(
 ) -> PairSet:
     """Build (camera-frame input, canonical target, R) pairs from world-frame mocap.
 
-    Canonical targets follow ``CONVENTIONS.md`` (gravity up, pelvis heading); frames whose
+    Canonical targets follow ``docs/CONVENTIONS.md`` (gravity up, pelvis heading); frames whose
     heading is undefined (hip line near vertical) are dropped. ``R`` is sampled from
     ``views`` ("paper"/"wide", :func:`pcnet.stages.rotations.sample_camera_rotations`), one
     per frame (``camera="per-frame"``, the paper's protocol) or one per clip: with
@@ -429,7 +429,7 @@ def _lifter_inputs(clips, canon, R, idx_clip, idx_frame, camera, views, noise, r
 
 
 def sample_views(n: int, views: str, rng: np.random.Generator) -> np.ndarray:
-    """``n`` camera rotations from ``"paper"`` or ``"wide"`` (CONVENTIONS.md), or
+    """``n`` camera rotations from ``"paper"`` or ``"wide"`` (docs/CONVENTIONS.md), or
     ``"paper+wide"``: each rotation drawn from either with probability 1/2 (a training mix
     that keeps the common near-frontal views dense while covering people turning around)."""
     if views == "paper+wide":

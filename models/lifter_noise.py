@@ -7,7 +7,7 @@ because its biases (a depth it got wrong, a skeleton of average proportions, a t
 leans toward the camera) belong to the recording, not the frame. Frame-independent noise
 therefore flatters anything that averages over a sequence. This module draws errors with
 that structure, for one clip at a time, in the **camera frame** (OpenCV axes: +x right,
-+y down, +z forward, metres, pelvis at the origin; ``CONVENTIONS.md``):
++y down, +z forward, metres, pelvis at the origin; ``docs/CONVENTIONS.md``):
 
 1. per-clip limb lengths: every bone scaled by ``N(1, BONE_SCALE_SIGMA)`` (clipped to
    ``1 +- BONE_SCALE_CLIP``), left and right alike (lifters output symmetric, average

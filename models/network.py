@@ -3,7 +3,7 @@ fusion with an adaptive gate, a 6D rotation head and an optional residual head.
 
 Input ``x`` ``(B, 17, 3)``: H36M-17, camera frame, pelvis-centred, scale-normalised by
 :func:`pcnet.models.preprocess.normalize_input`. Output ``R_hat`` ``(B, 3, 3)`` maps
-canonical to camera (``CONVENTIONS.md``), so the canonical pose is ``x @ R_hat + Delta``
+canonical to camera (``docs/CONVENTIONS.md``), so the canonical pose is ``x @ R_hat + Delta``
 (row vectors; the paper's ``R^T X + Delta``).
 """
 

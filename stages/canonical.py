@@ -1,4 +1,4 @@
-"""The canonical frame of ``CONVENTIONS.md`` built from poses whose up direction is known,
+"""The canonical frame of ``docs/CONVENTIONS.md`` built from poses whose up direction is known,
 and the maps between camera and canonical coordinates.
 """
 
@@ -17,7 +17,7 @@ MIN_HORIZONTAL_HIP_FRACTION = 0.1
 def canonical_rotation(joints: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rotation from the canonical frame to the frame of ``joints``, given that frame's up.
 
-    Per ``CONVENTIONS.md``: +Y = ``up``; +Z = the horizontal component (perpendicular to Y)
+    Per ``docs/CONVENTIONS.md``: +Y = ``up``; +Z = the horizontal component (perpendicular to Y)
     of ``right_hip - left_hip``, normalised; +X = Y x Z. The columns of the returned matrix
     are those axes expressed in the input frame, so ``x_in = R @ x_canon``.
 

@@ -1,6 +1,6 @@
 """pcnet's conventions as data: joint layouts, their mappings to H36M-17, and the frames.
 
-Everything here restates ``CONVENTIONS.md``; every room of pcnet imports it, nothing
+Everything here restates ``docs/CONVENTIONS.md``; every room of pcnet imports it, nothing
 redefines it.
 
 Frames

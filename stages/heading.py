@@ -1,6 +1,6 @@
 """Heading from the hip line: the canonical frame's own definition of heading.
 
-``CONVENTIONS.md`` defines canonical +Z as the horizontal part of ``right_hip - left_hip``.
+``docs/CONVENTIONS.md`` defines canonical +Z as the horizontal part of ``right_hip - left_hip``.
 Once the up direction is known, the heading is therefore a function of the input's hips,
 not something to estimate. 3DPCNet (paper section 2.1) predicts the whole rotation, so its
 heading carries the network's error (about 1.7 deg mean on clean mocap) although the hips
@@ -67,7 +67,7 @@ def hip_line_rotations(joints_cam: np.ndarray, R: np.ndarray) -> tuple[np.ndarra
     """Rotations with the up of ``R`` and the heading of the input's hip line.
 
     Column 1 (up) is kept; +Z becomes the normalised horizontal part of
-    ``right_hip - left_hip`` and +X = Y x Z (``CONVENTIONS.md``, canonical frame), via
+    ``right_hip - left_hip`` and +X = Y x Z (``docs/CONVENTIONS.md``, canonical frame), via
     :func:`pcnet.stages.canonical.canonical_rotation`.
 
     Args:

@@ -2,7 +2,7 @@
 joint angles.
 
 The angles here are projections onto the planes of the canonical frame
-(``CONVENTIONS.md``: +X anterior, +Y up, +Z the subject's right, pelvis origin), so they
+(``docs/CONVENTIONS.md``: +X anterior, +Y up, +Z the subject's right, pelvis origin), so they
 depend on that frame: in the camera frame "sagittal" would mean "the image's x-z plane"
 and a camera tilt would read as trunk lean. That is why pcnet rectifies first.
 
@@ -250,7 +250,7 @@ def derivatives(
 #: lies within 14.5 deg of the plane's normal: its in-plane angle is undefined, so NaN.
 MIN_PROJECTED_FRACTION = 0.25
 
-# Canonical axes (CONVENTIONS.md).
+# Canonical axes (docs/CONVENTIONS.md).
 _X, _Y, _Z = 0, 1, 2
 
 

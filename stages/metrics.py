@@ -1,4 +1,4 @@
-"""Evaluation metrics of ``CONVENTIONS.md`` ("Error metrics") and their summaries."""
+"""Evaluation metrics of ``docs/CONVENTIONS.md`` ("Error metrics") and their summaries."""
 
 from __future__ import annotations
 

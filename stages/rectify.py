@@ -100,7 +100,7 @@ def rectify(
     camera_prior: bool = True,
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
-    (``CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
+    (``docs/CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
 
     ``mode``: ``frame`` (each frame alone, the paper), ``sequence`` (one up direction for a
     static camera), ``smooth`` (SO(3) smoothing for a moving camera, needs ``fps``) or

@@ -1,7 +1,7 @@
 """Rotation maths on numpy arrays (the torch twin of :func:`rotation_6d_to_matrix` lives in
 ``pcnet.models.network``).
 
-Conventions (``CONVENTIONS.md``): rotation matrices act on column vectors, ``R`` maps the
+Conventions (``docs/CONVENTIONS.md``): rotation matrices act on column vectors, ``R`` maps the
 canonical frame to the camera frame, batches put the matrix in the last two axes
 ``(..., 3, 3)``. Angles are radians unless a name ends in ``_deg``.
 """
@@ -124,7 +124,7 @@ def _truncnormal(rng: np.random.Generator, sigma: float, clip: float, n: int) ->
 def sample_camera_rotations(n: int, distribution: str, rng: np.random.Generator) -> np.ndarray:
     """Sample ``n`` camera-like canonical->camera rotations ``(n, 3, 3)`` float64.
 
-    ``distribution`` (``CONVENTIONS.md``, "Camera-like rotation sampling"):
+    ``distribution`` (``docs/CONVENTIONS.md``, "Camera-like rotation sampling"):
 
     * ``"paper"`` (3DPCNet reference code): 75% yaw U(-70, 70), pitch N(0, 12) clip 20,
       roll N(0, 4) clip 8; 15% yaw +-90 + N(0, 10), pitch N(0, 8) clip 15, roll N(0, 3)

@@ -2,7 +2,7 @@
 
 The 3DPCNet paper rectifies every frame on its own. In a video from a fixed camera (clinics,
 labs, most sports recordings) the up direction in the camera frame, ``R[:, 1]``
-(``CONVENTIONS.md``), is the same in every frame; only the subject's heading changes. This
+(``docs/CONVENTIONS.md``), is the same in every frame; only the subject's heading changes. This
 module pools the per-frame predictions of any per-frame estimator (the geometric baseline,
 the learned network, ...) accordingly:
 
@@ -316,7 +316,7 @@ def rotations_about_up(R: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.nd
     With ``a = R_t[:, 0]`` (anterior), ``c = R_t[:, 2]`` (subject's right) and ``Y = up``,
     maximising ``tr(R'^T R_t)`` over ``R' = [X, Y, X x Y]`` gives
     ``X = normalize(a_perp + Y x c)``, ``a_perp = a - (a.Y) Y``; then ``Z = X x Y`` (so that
-    ``X = Y x Z``, right-handed, ``CONVENTIONS.md``). This is the projection of the anterior
+    ``X = Y x Z``, right-handed, ``docs/CONVENTIONS.md``). This is the projection of the anterior
     axis onto the plane perpendicular to ``up`` combined with the anterior axis implied by
     the lateral axis (``Y x c``), so it stays defined when one of them is (anti)parallel to
     ``up``; it is undefined only when ``R_t``'s own up is nearly opposite to ``up``.
