@@ -1,4 +1,4 @@
-"""AlphaPose results JSON -> :class:`Keypoints2D` (formats.md section 3.2).
+"""AlphaPose results JSON -> :class:`Keypoints2D` (AlphaPose ``docs/output.md``).
 
 The file is a flat list, one entry per detected person per image::
 
@@ -81,7 +81,7 @@ def _parse(p: Path, data: Any) -> tuple[list[tuple[int, int | None, float, np.nd
     any missing score)."""
     if not isinstance(data, list):
         got = f"a JSON object with keys {sorted(data)[:6]}" if isinstance(data, dict) else type(data).__name__
-        raise AdapterError(p, "top level", "a list of detections (AlphaPose results JSON, formats.md 3.2)", got)
+        raise AdapterError(p, "top level", "a list of detections (AlphaPose results JSON, AlphaPose docs/output.md)", got)
     if not data:
         raise AdapterError(p, "top level", "at least one detection", "an empty list")
     entries = []
@@ -145,8 +145,10 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
             ``|x|``/``|y|`` beyond 1e5 px (naming frame and joint); no finite keypoint.
             ``inf`` and ``NaN`` values are missing data: the joint is NaN.
 
-    Source of the format facts: formats.md section 3.2; MotionBERT's reader ignores
-    ``image_id`` (section 1.1), which is why this adapter groups by it.
+    Source of the format facts: MVIG-SJTU/AlphaPose ``docs/output.md`` and its writer
+    ``alphapose/utils/pPose_nms.py`` ``write_json``; MotionBERT's reader
+    (``lib/data/dataset_wild.py`` ``read_input``) ignores ``image_id``, which is why this
+    adapter groups by it.
     """
     p = Path(path)
     if person is not None and (isinstance(person, bool) or not isinstance(person, int)):
@@ -188,7 +190,7 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
         points[frame] = kp[:n_joints]
     points, raw_max = checked_keypoints(p, "keypoints", points, layout)
 
-    notes = [f"AlphaPose results JSON (formats.md 3.2), {count} keypoints -> {layout}", how]
+    notes = [f"AlphaPose results JSON (AlphaPose docs/output.md), {count} keypoints -> {layout}", how]
     if count != n_joints:
         notes.append(f"kept the first {n_joints} of {count} joints (body part)")
     if list_idx:

@@ -1,7 +1,10 @@
-"""D3DP / DDHPose-style diffusion lifter output -> :class:`Poses3D` (formats.md section 2).
+"""D3DP / DDHPose-style diffusion lifter output -> :class:`Poses3D`.
 
-DDHPose itself has no in-the-wild output format (formats.md 2.1); the natural file is D3DP's
-in-the-wild ``test_3d_{video}_output.npy`` (``(K_steps, H_hyp, N, 17, 3)``, camera space,
+DDHPose itself has no in-the-wild output format (Andyen512/DDHPose ``main.py``
+``--viz-export`` needs H36M ground truth and ``-d custom`` imports a
+``common/custom_dataset.py`` the repository lacks); the natural file is D3DP's
+in-the-wild ``test_3d_{video}_output.npy`` (written by paTRICK-swk/D3DP
+``in_the_wild/videopose_diffusion.py``: ``(K_steps, H_hyp, N, 17, 3)``, camera space,
 metres, root zeroed) or an export of it with fewer axes.
 """
 
@@ -30,8 +33,9 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
             ``(H, N, 17, 3)`` or ``(N, 17, 3)``.
         step: sampling step to keep for 5-D input; default the last (the final denoised
             sample). Ignored for fewer axes.
-        hypothesis: ``"mean"`` (default: the mean over hypotheses, formats.md 2.2's
-            recommendation; a NaN in any hypothesis gives NaN) or an integer index.
+        hypothesis: ``"mean"`` (default: the mean over hypotheses, pcnet's own choice,
+            not an upstream convention; a NaN in any hypothesis gives NaN) or an integer
+            index.
             Must be ``"mean"`` for ``(N, 17, 3)`` input.
 
     Returns:
@@ -45,8 +49,10 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
             wrong rank, dtype or joint count, a bad ``step``/``hypothesis``, all NaN, a
             coordinate beyond 100 m (naming frame and joint). ``inf`` is missing data (NaN).
 
-    Source of the format facts: formats.md sections 2.1-2.2 (D3DP
-    ``in_the_wild/videopose_diffusion.py``, ``in_the_wild/utils.py`` L286).
+    Source of the format facts: paTRICK-swk/D3DP (commit afcdd05)
+    ``in_the_wild/videopose_diffusion.py``, ``in_the_wild/utils.py`` L286
+    (``evaluate_diffusion`` zeroes the root) and README "Testing on in-the-wild videos";
+    Andyen512/DDHPose ``main.py`` and ``main_3dhp.py`` (the ``.mat`` output).
     """
     p = Path(path)
     if p.suffix.lower() == ".mat":
@@ -55,7 +61,7 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         raise AdapterError(p, "file", "the camera-space test_3d_<video>_output.npy",
                            "a _postprocess file (camera_to_world, z up, height rebased: display only)")
     arr = load_npy(p, ndim=(3, 4, 5), num_joints=17, field="predictions")
-    notes = [f"D3DP/DDHPose predictions {arr.shape} (formats.md 2.2), H36M-17, metres, camera frame, no axis changed"]
+    notes = [f"D3DP/DDHPose predictions {arr.shape} (D3DP in_the_wild output), H36M-17, metres, camera frame, no axis changed"]
     if arr.ndim == 5:
         k = _pick(p, "step", step, arr.shape[0])
         notes.append(f"sampling step {k} of 0..{arr.shape[0] - 1}")

@@ -1,6 +1,8 @@
 """MediaPipe BlazePose-33 results (.npz) -> :class:`Keypoints2D` and :class:`Poses3D`.
 
-MediaPipe has no file format of its own (formats.md section 3.2). pcnet reads the ``.npz``
+MediaPipe has no file format of its own (its results are in-memory objects:
+google-ai-edge/mediapipe ``mediapipe/tasks/python/vision/pose_landmarker.py``
+``PoseLandmarkerResult``; ``docs/solutions/pose.md`` "Output"). pcnet reads the ``.npz``
 written by ``shared/data/tools/mediapipe_extract.py`` (MediaPipe 0.10.21 Pose)::
 
     keypoints_2d  (T, 33, 3) float32  x_px, y_px, visibility
@@ -19,7 +21,7 @@ Axes of ``world_3d``, checked on the real file ``sports2d_demo/mediapipe_blazepo
 * nose nearer the camera than the mid-hip (smaller z) in 93%: +z points away from the camera.
 
 So the world landmarks are already in the OpenCV camera orientation (x right, y down,
-z forward), as MediaPipe's maintainers state (formats.md 3.2, google-ai-edge/mediapipe
+z forward), as MediaPipe's maintainers state (google-ai-edge/mediapipe
 issue #4205), and the adapter applies the identity. They are camera-aligned, not
 gravity-aligned, and carry no global translation.
 """

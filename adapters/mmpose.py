@@ -1,4 +1,4 @@
-"""MMPose / RTMPose prediction JSON -> :class:`Keypoints2D` (formats.md section 3.2).
+"""MMPose / RTMPose prediction JSON -> :class:`Keypoints2D` (open-mmlab/mmpose).
 
 Two writers exist:
 
@@ -40,7 +40,7 @@ def _frames(p: Path, data: Any) -> tuple[list[tuple[int, list, str]], str]:
     """Return ([(0-based frame, instances, field path)], writer description)."""
     if isinstance(data, dict):
         if "instance_info" not in data:
-            raise AdapterError(p, "instance_info", "an MMPose predictions object with 'instance_info' (formats.md 3.2)",
+            raise AdapterError(p, "instance_info", "an MMPose predictions object with 'instance_info' (MMPose topdown_demo_with_mmdet.py)",
                                f"keys {sorted(data)[:6]}")
         records, base, where = data["instance_info"], 1, "instance_info"
         writer = "topdown_demo_with_mmdet --save-predictions (1-based frame_id)"
@@ -59,7 +59,7 @@ def _frames(p: Path, data: Any) -> tuple[list[tuple[int, list, str]], str]:
         field = f"{where}[{i}]"
         if not isinstance(rec, dict) or "frame_id" not in rec or "instances" not in rec:
             got = f"keys {sorted(rec)[:6]}" if isinstance(rec, dict) else type(rec).__name__
-            raise AdapterError(p, field, "a frame record with 'frame_id' and 'instances' (MMPose, formats.md 3.2)", got)
+            raise AdapterError(p, field, "a frame record with 'frame_id' and 'instances' (MMPose prediction JSON)", got)
         fid = rec["frame_id"]
         if isinstance(fid, bool) or not isinstance(fid, int) or fid < base:
             raise AdapterError(p, f"{field}.frame_id", f"an integer >= {base}", repr(fid)[:80])
@@ -124,8 +124,10 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
             beyond 1e5 px (naming frame and joint); nothing finite. ``inf``/``NaN`` values
             are missing data: the joint is NaN.
 
-    Source of the format facts: formats.md section 3.2 (``demo/topdown_demo_with_mmdet.py``
-    L233/L277-290, ``base_mmpose_inferencer.py`` L678-691, ``structures/utils.py``).
+    Source of the format facts: open-mmlab/mmpose (commit 759b39c)
+    ``demo/topdown_demo_with_mmdet.py`` L233/L277-290,
+    ``mmpose/apis/inferencers/base_mmpose_inferencer.py`` L678-691,
+    ``mmpose/structures/utils.py`` ``split_instances``.
     """
     p = Path(path)
     person = require_option_int(p, "person", person, 0)
@@ -161,7 +163,7 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
     points, raw_max = checked_keypoints(p, "keypoints", points, layout)
 
     empty = int(np.isnan(points).all(axis=(1, 2)).sum())
-    notes = [f"MMPose JSON from {writer} (formats.md 3.2), {count} joints -> {layout}",
+    notes = [f"MMPose JSON from {writer}, {count} joints -> {layout}",
              f"instance index {person} per frame" if person is not None else "per frame the instance with the highest mean keypoint score"]
     if count != n_joints:
         notes.append(f"kept the first {n_joints} of {count} joints (COCO body part)")

@@ -1,4 +1,4 @@
-"""MotionBERT ``infer_wild.py`` output ``X3D.npy`` -> :class:`Poses3D` (formats.md section 1.3)."""
+"""MotionBERT ``infer_wild.py`` output ``X3D.npy`` -> :class:`Poses3D` (Walter0807/MotionBERT)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ from .registry import register_3d
 from .types import AdapterError, Poses3D
 from .validate import checked_poses, finite_max_abs, load_npy, require_option_int
 
-# Default-mode x, y come from 2D input clipped to [-1, 1] (formats.md 1.2); the network's
+# Default-mode x, y come from 2D input clipped to [-1, 1] (MotionBERT
+# lib/utils/utils_data.py:crop_scale, called from lib/data/dataset_wild.py); the network's
 # outputs stay near that range. Pixel-mode x, y are image pixels, i.e. hundreds. A bound
 # between the two catches a file read in the wrong mode.
 _NORMALISED_BOUND = 4.0
@@ -26,8 +27,10 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
 
     Returns:
         ``Poses3D`` with layout ``h36m17`` and frame ``camera`` (x right, y down as in the
-        image; z depth in the same scale, increasing away from the camera: formats.md 1.3,
-        the z sign is derived, not stated upstream). No axis is changed.
+        image; z depth in the same scale, increasing away from the camera: MotionBERT
+        ``infer_wild.py`` and ``lib/data/datareader_h36m.py`` ``read_3d``; the z sign is
+        derived, not stated upstream: Walter0807/MotionBERT issue #124, which asks it, is
+        unanswered). No axis is changed.
 
         * default: units ``normalised`` (x, y about [-1, 1] of the sequence's square crop,
           z in the same scale);
@@ -46,8 +49,9 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
             all within 4), a coordinate beyond the bound of its units (1e3 normalised, 1e5
             px; naming frame and joint), or ``clip_len`` not a positive integer.
 
-    Source of the format facts: formats.md sections 1.2-1.3 (``infer_wild.py`` L65-97;
-    maintainer answers in Walter0807/MotionBERT issues #9 and #21).
+    Source of the format facts: Walter0807/MotionBERT (commit dccfe7b) ``infer_wild.py``
+    L65-97 and ``lib/utils/utils_data.py`` ``crop_scale``; maintainer answers in
+    Walter0807/MotionBERT issues #9 and #21.
     """
     p = Path(path)
     clip_len = require_option_int(p, "clip_len", clip_len, 1, allow_none=False)
@@ -65,7 +69,7 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
     shown = ", ".join(map(str, clip_starts[:6])) + (", ..." if len(clip_starts) > 6 else "")
     units = "px" if pixel else "normalised"
     arr = checked_poses(p, "X3D", arr, "h36m17", units)
-    notes = (f"MotionBERT X3D.npy (formats.md 1.3), H36M-17, units {units}"
+    notes = (f"MotionBERT X3D.npy (infer_wild.py), H36M-17, units {units}"
              + (" (x, y image pixels, z pixels)" if pixel else " (image-normalised, about [-1, 1])")
              + "; axes x right, y down, z away from the camera (z sign derived); no axis changed"
              + f"; root not centred: MotionBERT zeroed the root z of the first frame of each {clip_len}-frame clip "

@@ -1,4 +1,4 @@
-"""OpenPose ``--write_json`` folder -> :class:`Keypoints2D` (formats.md section 3.2).
+"""OpenPose ``--write_json`` folder -> :class:`Keypoints2D` (OpenPose ``doc/02_output.md``).
 
 OpenPose writes one file per frame, ``<video>_<12-digit frame>_keypoints.json``::
 
@@ -81,9 +81,10 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
             nothing finite. The message names the offending file. ``inf``/``NaN`` values are
             missing data: the joint is NaN.
 
-    Source of the format facts: formats.md section 3.2 (OpenPose ``doc/02_output.md``,
-    ``videoCaptureReader.cpp`` L78, ``wPeopleJsonSaver.hpp`` L67); 0 score = missing:
-    formats.md section 3.3.
+    Source of the format facts: CMU-Perceptual-Computing-Lab/openpose (commit 5c5d965)
+    ``doc/02_output.md`` (JSON schema; undetected joints are ``0, 0, 0``, hence 0 score =
+    missing), ``src/openpose/producer/videoCaptureReader.cpp`` L78 (12-digit frame number),
+    ``include/openpose/filestream/wPeopleJsonSaver.hpp`` L67 (``_keypoints`` suffix).
     """
     folder = Path(path)
     if layout is not None:
@@ -144,7 +145,7 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
     points, raw_max = checked_keypoints(folder, "pose_keypoints_2d", points, layout)
 
     empty = int(np.isnan(points).all(axis=(1, 2)).sum())
-    notes = [f"OpenPose per-frame JSON (formats.md 3.2), {len(files)} files, {count} joints -> {layout}",
+    notes = [f"OpenPose per-frame JSON (OpenPose doc/02_output.md), {len(files)} files, {count} joints -> {layout}",
              "per frame the person with the highest summed confidence",
              f"{int(undetected.sum())} joints with confidence 0 -> NaN"]
     if empty:

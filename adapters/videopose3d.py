@@ -1,4 +1,4 @@
-"""VideoPose3D ``run.py --viz-export`` output -> :class:`Poses3D` (formats.md section 2.2)."""
+"""VideoPose3D ``run.py --viz-export`` output -> :class:`Poses3D` (VideoPose3D ``INFERENCE.md``)."""
 
 from __future__ import annotations
 
@@ -25,13 +25,14 @@ def load_videopose3d(path: str | Path) -> Poses3D:
         AdapterError: missing/unreadable file, not ``(N, 17, 3)`` real numbers, all NaN, a
             coordinate beyond 100 m (naming frame and joint).
 
-    Source of the format facts: formats.md section 2.2 (VideoPose3D INFERENCE.md step 5,
-    ``prepare_data_h36m.py`` L73 "Meters instead of millimeters").
+    Source of the format facts: facebookresearch/VideoPose3D (commit 1afb1ca)
+    ``INFERENCE.md`` step 5, ``data/prepare_data_h36m.py`` L73 "Meters instead of
+    millimeters", ``common/camera.py`` ``project_to_2d`` (x right, y down, z forward).
     """
     p = Path(path)
     arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
     root = finite_max_abs(arr[:, 0])
-    notes = ("VideoPose3D export (formats.md 2.2), H36M-17, metres, camera frame x right / y down / z forward, "
+    notes = ("VideoPose3D export (VideoPose3D INFERENCE.md), H36M-17, metres, camera frame x right / y down / z forward, "
              f"no axis changed; root as delivered (max |root| {root:.2g} m)")
     return Poses3D(arr, "h36m17", units="m", source=str(p), notes=notes)
 

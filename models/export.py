@@ -30,8 +30,12 @@ class _Exported(torch.nn.Module):
 def export_onnx(model: PCNet, path: str | Path, metadata: dict | None = None) -> Path:
     """Write ``model`` as ONNX (opset 18) to ``path`` atomically, plus ``<path>.json`` with
     the architecture and ``metadata``. The batch axis is dynamic; the graph is traced with
-    a batch of 4 because exporters specialise example dimensions of size 0 or 1, and the
-    fused MHA fast path (no ONNX symbolic) is disabled while tracing (formats.md section 5).
+    a batch of 4 because exporters specialise example dimensions of size 0 or 1
+    (pytorch/pytorch issues #144242 and #157621), and the fused MHA fast path (no ONNX
+    symbolic for ``aten::_transformer_encoder_layer_fwd`` /
+    ``aten::_native_multi_head_attention``: pytorch/pytorch issues #94434 and #143107) is
+    disabled while tracing with ``torch.backends.mha.set_fastpath_enabled`` (PyTorch docs,
+    ``torch.backends.mha``).
     """
     path = Path(path)
     model = model.eval()

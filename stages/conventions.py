@@ -56,7 +56,8 @@ class Layout:
 
     ``to_h36m[k]`` lists the source joints whose mean gives H36M joint ``k`` (coordinates
     are averaged; confidence takes the minimum so that one missing parent invalidates the
-    synthetic joint, formats.md section 3.3).
+    synthetic joint, pcnet's own choice: MotionBERT's ``halpe2h36m``/``coco2h36m`` in
+    ``lib/data/dataset_wild.py``/``lib/data/dataset_action.py`` average it instead).
     """
 
     name: str

@@ -14,7 +14,9 @@ def remap_to_h36m(points: np.ndarray, layout: Layout | str, confidence_channel: 
     Coordinates of synthetic joints (pelvis, spine, thorax, head in COCO-17 ...) are the
     mean of their source joints (MotionBERT ``coco2h36m`` / ``halpe2h36m``); NaN sources
     give NaN. With ``confidence_channel`` the last channel is a confidence and takes the
-    minimum over the sources, so one missing hip invalidates the pelvis (formats.md 3.3).
+    minimum over the sources, so one missing hip invalidates the pelvis (pcnet's own
+    choice: MotionBERT's ``halpe2h36m`` in ``lib/data/dataset_wild.py`` and ``coco2h36m``
+    in ``lib/data/dataset_action.py`` average the confidence like the coordinates).
 
     Raises:
         ValueError: when ``J`` does not match the layout's joint count.

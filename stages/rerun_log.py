@@ -1,7 +1,10 @@
 """A rerun (``.rrd``) recording of one pcnet run: video with 2D keypoints, the skeleton
 in the camera frame and in the canonical frame, wrist paths, and time series.
 
-Written for rerun-sdk 0.41 (``/work/shared/reference/formats.md`` section 4): an explicit
+Written for rerun-sdk 0.41 (API as defined in the rerun-sdk 0.41.0 Python package:
+``rerun/recording_stream.py`` ``RecordingStream.save``/``send_columns``,
+``rerun/_send_columns.py``, ``rerun/blueprint/``; reference docs at
+ref.rerun.io/docs/python): an explicit
 ``rr.RecordingStream`` (never the global one) saved with a default blueprint, and
 columnar ``rr.send_columns`` for every per-frame series, so 36,000 frames take about a
 second (no per-frame ``rr.log`` loop).

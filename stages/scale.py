@@ -1,7 +1,8 @@
 """Metric scaling of non-metric lifter output from the subject's height.
 
-MotionBERT's default output is in normalised image units (formats.md section 1.3) and
-no lifter recovers metres from one camera. Given the subject's standing height, one
+MotionBERT's default output is in normalised image units (Walter0807/MotionBERT
+``infer_wild.py``, ``X3D.npy``; maintainer answers in its issues #9 and #21) and no
+lifter recovers metres from one camera. Given the subject's standing height, one
 scale factor per sequence turns the skeleton into metres.
 
 The estimate uses **bone lengths, not vertical extent**, so it does not need a standing

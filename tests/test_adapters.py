@@ -3,8 +3,10 @@ left/right and axis checks from physical facts of the recordings, and bad input.
 
 Fixtures (tests/fixtures/README.md) are verbatim cuts of ../shared/data/real. MMPose and
 OpenPose have no real files there, so their inputs are the real AlphaPose detections
-rewritten in those writers' schemas (formats.md 3.2); DDHPose inputs stack real
-VideoPose3D poses into its hypothesis axes. Full-data checks skip without ../shared/data.
+rewritten in those writers' schemas (MMPose ``demo/topdown_demo_with_mmdet.py`` and
+``mmpose/apis/inferencers/base_mmpose_inferencer.py``; OpenPose ``doc/02_output.md``);
+DDHPose inputs stack real VideoPose3D poses into its hypothesis axes. Full-data checks
+skip without ../shared/data.
 """
 
 from __future__ import annotations

@@ -47,8 +47,9 @@ def test_layouts_are_consistent():
 
 def test_halpe_and_coco_mappings_agree_with_motionbert_on_real_data():
     """MotionBERT made boxing X3D.npy from this AlphaPose file with its halpe2h36m: our
-    Halpe-26 remap, normalised like MotionBERT's crop_scale (formats.md 1.2), must land on
-    X3D's x, y joint by joint, and clearly worse with left and right swapped."""
+    Halpe-26 remap, normalised like MotionBERT's crop_scale (``lib/utils/utils_data.py``,
+    called from ``lib/data/dataset_wild.py:read_input``), must land on X3D's x, y joint
+    by joint, and clearly worse with left and right swapped."""
     items = json.loads(shared("real", "boxing_motionbert", "alphapose-results.json").read_text())
     kp = np.array([it["keypoints"] for it in items], np.float32).reshape(len(items), 26, 3)
     halpe = remap_to_h36m(kp, "halpe26", confidence_channel=True)
