@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split, load_mocap,
-                                   make_pairs, parse_bandai_name, select_split)
+                                   make_pairs, select_split)
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
@@ -63,23 +63,18 @@ def frame_set_id(clip_names: tuple[str, ...], clip: np.ndarray, frame: np.ndarra
     return h.hexdigest()[:16]
 
 
-def training_record(weights: str | None) -> dict:
-    """What the evaluated weights trained on: the ``training_config`` of the ``.json`` beside
-    the ONNX file (``pcnet export`` copies it from the run folder), ``{}`` when unknown."""
-    from pcnet.models.inference import DEFAULT_WEIGHTS
+def _training_config(weights: str | None) -> dict:
+    """The evaluated weights' ``training_config`` from the ``.json`` their cached session
+    already read (:class:`pcnet.models.inference.PCNetSession` ``info``); ``{}`` if absent."""
+    from pcnet.models.inference import get_session
 
-    meta = Path(weights or DEFAULT_WEIGHTS).with_suffix(".json")
-    try:
-        import json
-
-        record = json.loads(meta.read_text()).get("training_config", {})
-    except (OSError, ValueError, AttributeError):
-        return {}
+    record = get_session(None if weights is None else str(weights)).info.get("training_config", {})
     return record if isinstance(record, dict) else {}
 
 
 def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict | None:
-    """How much of the evaluated data the weights trained on, by their ``training_config``:
+    """How much of the evaluated data the weights trained on, by their ``training_config``
+    (the ``.json`` beside the ONNX file, which ``pcnet export`` fills from the run folder):
     ``None`` when the weights' training data is unknown or does not include this file (by
     name: a cross-dataset test), else the clips of their train split among ``chosen`` and
     the motion-style groups (CMU: subjects) of ``chosen`` with a take in that split."""
@@ -209,7 +204,7 @@ def evaluate(
         result["clip_modes"] = modes_run
     result["clip_heading_sources"] = headings_run
     result["training_overlap"] = (None if method == "geometric"
-                                  else _training_overlap(data, all_clips, clips, training_record(weights)))
+                                  else _training_overlap(data, all_clips, clips, _training_config(weights)))
     result.update({name: summarize(errors[name]) for name in METRICS})
     if details:
         result["per_clip"] = per_clip

@@ -9,16 +9,16 @@ from scipy.spatial.transform import Rotation
 from pcnet.stages.conventions import PELVIS, THORAX
 from pcnet.stages.gravity_prior import LEVEL_UP, gravity_posterior
 from pcnet.stages.rotations import angle_between
+from pcnet.stages.temporal import mean_trunk
 
 FIX = Path(__file__).parent / "fixtures"
 
 
 def _trunk(name: str) -> np.ndarray:
-    """Mean camera-frame trunk direction of a real yoga fixture (x right, y down)."""
+    """Mean camera-frame trunk direction of a real yoga fixture (x right, y down), as
+    sequence mode computes it."""
     X = np.load(FIX / name, allow_pickle=False).astype(np.float64)
-    t = X[:, THORAX] - X[:, PELVIS]
-    t /= np.linalg.norm(t, axis=-1, keepdims=True)
-    return t.mean(0)
+    return mean_trunk(X, np.ones(len(X), bool))
 
 
 def _deg(a, b) -> float:
