@@ -40,3 +40,6 @@ CONFIGURATIONS = (
     Configuration("pcnet seq-prior", "pcnet", "sequence", camera_prior=False),
     Configuration("pcnet seq", "pcnet", "sequence"),
 )
+
+#: Width of a text-table column that holds a configuration label (the longest, plus a gap).
+LABEL_WIDTH = max(len(c.label) for c in CONFIGURATIONS) + 2

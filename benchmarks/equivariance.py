@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from configurations import CONFIGURATIONS, Configuration
+from configurations import CONFIGURATIONS, LABEL_WIDTH, Configuration
 from gravity_benchmark import load_camera
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.stages.conventions import PELVIS
@@ -106,18 +106,18 @@ def equivariance(joints: np.ndarray, fps: float, config: Configuration,
 def run(data: Path, frames: int = 300) -> list[str]:
     clips = load_clips(data, frames)
     t0 = time.perf_counter()
-    results = {(c[0], name): equivariance(J, fps, c) for name, J, fps in clips for c in CONFIGS}
+    results = {(c.label, name): equivariance(J, fps, c) for name, J, fps in clips for c in CONFIGS}
     seconds = time.perf_counter() - t0
     lines = [__doc__.splitlines()[0], "",
              f"    python benchmarks/equivariance.py --data ../shared/data --frames {frames}", "",
              "Clips: " + "; ".join(f"{n} ({len(J)} frames, {fps:g} fps)" for n, J, fps in clips), ""]
-    head = f"{'method':<18}{'axis':<7}" + "".join(f"{a:>8}" for a in ANGLES_DEG)
+    head = f"{'method':<{LABEL_WIDTH}}{'axis':<7}" + "".join(f"{a:>8}" for a in ANGLES_DEG)
 
     def table(title: str, cell):
         lines.extend([title, head])
         for c in CONFIGS:
             for axis in AXES:
-                lines.append(f"{c[0]:<18}{AXIS_NAMES[axis]:<7}" + "".join(cell(c[0], axis, a) for a in ANGLES_DEG))
+                lines.append(f"{c.label:<{LABEL_WIDTH}}{AXIS_NAMES[axis]:<7}" + "".join(cell(c.label, axis, a) for a in ANGLES_DEG))
         lines.append("")
 
     def over_clips(label, axis, angle, i):
@@ -130,15 +130,15 @@ def run(data: Path, frames: int = 300) -> list[str]:
     table("Valid fraction in the rotated view, lowest over clips (1 = no frame flagged)",
           lambda lab, ax, a: f"{np.min(over_clips(lab, ax, a, 1)):>8.2f}")
     lines.append("Per clip: extra error (deg) mean over the nonzero angles [worst angle] per axis")
-    lines.append(f"{'clip':<26}{'method':<18}" + "".join(f"{AXIS_NAMES[a]:>15}" for a in AXES))
+    lines.append(f"{'clip':<26}{'method':<{LABEL_WIDTH}}" + "".join(f"{AXIS_NAMES[a]:>15}" for a in AXES))
     for name, _, _ in clips:
         for c in CONFIGS:
-            r = results[(c[0], name)]
+            r = results[(c.label, name)]
             cells = ""
             for axis in AXES:
                 e = np.array([r[(axis, a)][0] for a in ANGLES_DEG if a != 0])
                 cells += f"{np.nanmean(e):>8.1f} [{np.nanmax(e):>4.0f}]"
-            lines.append(f"{name:<26}{c[0]:<18}{cells}")
+            lines.append(f"{name:<26}{c.label:<{LABEL_WIDTH}}{cells}")
     lines += ["", f"({seconds:.0f} s)"]
     return lines
 

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from configurations import CONFIGURATIONS
+from configurations import CONFIGURATIONS, LABEL_WIDTH
 from pcnet.adapters import load_mediapipe_3d
 from pcnet.stages.conventions import PELVIS, THORAX, fill_pelvis_from_hips, validate_poses
 from pcnet.stages.remap import remap_to_h36m
@@ -145,12 +145,12 @@ def format_rows(camera: str, roll: int, up_true: np.ndarray, rows: list[dict]) -
         cone = f"{row['cone']:6.2f} {_yn(row['in_cone']):>3}" if seq else f"{'-':>6} {'':>3}"
         pr = (f"+-{row['pr_halfwidth'][0]:.2f}/{row['pr_halfwidth'][1]:.2f} {_yn(row['in_pr']):>3}" if seq
               else f"{'-':>13} {'':>3}")
-        lines.append(f"  {row['method']:<19}{row['valid']:>3}/{row['frames']:<3}{row['err']:>7.1f}{row['max']:>7.1f}"
+        lines.append(f"  {row['method']:<{LABEL_WIDTH}}{row['valid']:>3}/{row['frames']:<3}{row['err']:>7.1f}{row['max']:>7.1f}"
                      f"{row['pitch']:>7.1f}{row['roll']:>8.1f}   {cone}  {pr:>17}")
     return lines
 
 
-HEADER = (f"  {'method':<19}{'valid':>7}{'err':>7}{'max':>7}{'pitch':>7}{'roll':>8}   {'cone95 in':>10}"
+HEADER = (f"  {'method':<{LABEL_WIDTH}}{'valid':>7}{'err':>7}{'max':>7}{'pitch':>7}{'roll':>8}   {'cone95 in':>10}"
           f"  {'pitch/roll 95 in':>17}")
 
 
@@ -172,8 +172,8 @@ def run(data: Path) -> list[str]:
         lines.append("")
     lines.append(f"Summary over the {len(paths)} cameras: mean tilt error (deg) [worst camera]; "
                  "sequence modes: cameras whose 95 % cone / pitch-roll intervals contain the truth")
-    labels = [c[0] for c in CONFIGS] + list(BASELINES)
-    lines.append(f"  {'method':<19}" + "".join(f"{'roll ' + format(r, '+d'):>17}" for r in ROLLS_DEG)
+    labels = [c.label for c in CONFIGS] + list(BASELINES)
+    lines.append(f"  {'method':<{LABEL_WIDTH}}" + "".join(f"{'roll ' + format(r, '+d'):>17}" for r in ROLLS_DEG)
                  + "   in cone / in pitch-roll (all rolls)")
     for label in labels:
         cells, cover = "", ""
@@ -185,7 +185,7 @@ def run(data: Path) -> list[str]:
         if "cone" in rs[0]:
             cover = (f"   {sum(bool(x['in_cone']) for x in rs)}/{len(rs)}"
                      f" / {sum(bool(x['in_pr']) for x in rs)}/{len(rs)}")
-        lines.append(f"  {label:<19}{cells}{cover}")
+        lines.append(f"  {label:<{LABEL_WIDTH}}{cells}{cover}")
     return lines
 
 

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from configurations import CONFIGURATIONS
+from configurations import CONFIGURATIONS, LABEL_WIDTH
 from pcnet.adapters import load_videopose3d
 from pcnet.stages.conventions import PELVIS, SPINE, THORAX
 from pcnet.stages.rotations import angle_between
@@ -120,7 +120,7 @@ def evaluate_file(joints: np.ndarray, fps: float) -> dict[str, dict]:
 
 def _summary(lines: list[str], title: str, results: list[tuple[str, str, int, dict]], key: str) -> None:
     labels = ["input" if c is None else c.label for c in CONFIGS]
-    lines += ["", title, f"{'asana':<13}{'n':>3}  " + "".join(f"{lab:>18}" for lab in labels)]
+    lines += ["", title, f"{'asana':<13}{'n':>3}  " + "".join(f"{lab:>{LABEL_WIDTH}}" for lab in labels)]
     asanas = [a for a in ASANA_ORDER if any(r[1] == a for r in results)]
     asanas += sorted({r[1] for r in results} - set(asanas))
     for asana in asanas:
@@ -129,7 +129,8 @@ def _summary(lines: list[str], title: str, results: list[tuple[str, str, int, di
         for lab in labels:
             v = np.array([r[3][lab][key] for r in rows])
             v = v[np.isfinite(v)]
-            cells += f"{np.median(v):>7.1f} [{v.min():>3.0f},{v.max():>3.0f}]" if len(v) else f"{'n/a':>18}"
+            cell = f"{np.median(v):.1f} [{v.min():>3.0f},{v.max():>3.0f}]" if len(v) else "n/a"
+            cells += f"{cell:>{LABEL_WIDTH}}"
         lines.append(f"{asana:<13}{len(rows):>3}  {cells}")
 
 
@@ -143,7 +144,7 @@ def run(data: Path, stride: int = 2) -> list[str]:
               "from vertical (deg) per file; `*` = under half of the frames valid for that method."),
              ("Targets: " + ", ".join(f"{a} {op} {t:g}" for a, (op, t) in TARGETS.items()) + ". "
               "geo: +Y is the trunk axis by construction (small angles whatever the pose)."), "",
-             f"{'file (person asana)':<28}{'frames':>7}" + "".join(f"{lab:>12}" for lab in labels)]
+             f"{'file (person asana)':<28}{'frames':>7}" + "".join(f"{lab:>{LABEL_WIDTH}}" for lab in labels)]
     results, seen, skipped = [], {}, []
     t0 = time.perf_counter()
     for path in paths:
@@ -158,7 +159,8 @@ def run(data: Path, stride: int = 2) -> list[str]:
         joints = joints - joints[:, PELVIS : PELVIS + 1]
         res = evaluate_file(joints, FPS / stride)
         results.append((person, asana, len(joints), res))
-        cells = "".join(f"{res[lab]['trunk']:>11.1f}{'*' if res[lab]['valid_frac'] < 0.5 else ' '}" for lab in labels)
+        cells = "".join(f"{res[lab]['trunk']:>{LABEL_WIDTH - 1}.1f}{'*' if res[lab]['valid_frac'] < 0.5 else ' '}"
+                        for lab in labels)
         lines.append(f"{(person + ' ' + asana)[:27]:<28}{len(joints):>7}{cells}")
     seconds = time.perf_counter() - t0
     if skipped:
@@ -167,14 +169,15 @@ def run(data: Path, stride: int = 2) -> list[str]:
     _summary(lines, "Per asana, lower trunk (pelvis -> spine) from vertical: median [min, max] over files (deg)",
              results, "lower")
     lines += ["", "Physics targets, files PASS / FAIL (n/a = no valid frame)",
-              f"{'asana':<13}{'target':>9}  " + "".join(f"{lab:>13}" for lab in labels)]
+              f"{'asana':<13}{'target':>9}  " + "".join(f"{lab:>{LABEL_WIDTH}}" for lab in labels)]
     for asana, (op, thr) in TARGETS.items():
         rows = [r for r in results if r[1] == asana]
         cells = ""
         for lab in labels:
             v = [verdict(asana, r[3][lab]["trunk"]) for r in rows]
             na = v.count("n/a")
-            cells += f"{v.count('PASS'):>6} / {v.count('FAIL'):<2}" + (f"+{na}na" if na else "   ")
+            cell = f"{v.count('PASS')} / {v.count('FAIL'):<2}" + (f"+{na}na" if na else "   ")
+            cells += f"{cell:>{LABEL_WIDTH}}"
         lines.append(f"{asana:<13}{op + ' ' + format(thr, 'g'):>9}  {cells}")
     lines += ["", f"({len(results)} distinct files, {sum(r[2] for r in results)} frames, {seconds:.0f} s)"]
     return lines
