@@ -1,23 +1,23 @@
 """The rectification configurations the real-data benchmarks compare (one table column each).
 
 - ``geo``: the paper's geometric baseline (section 2.3), frame and sequence mode;
-- ``3dpcnet-cam``: the previous shipped 3DPCNet, the paper's camera-frame input trained on Bandai's
-  clip-scheme train split (models/weights/pcnet_camera.onnx), frame mode and sequence mode
-  from the poses alone: the paper's model without pcnet's additions;
-- ``pcnet``: the shipped body-frame 3DPCNet (configs/pcnet_body.toml), frame mode, sequence mode
-  from the poses alone (``-prior``) and with the camera prior and lying reading (the default of
-  ``pcnet run``, stages/gravity_prior.py).
+- ``cam-net``: the shipped camera-frame 3DPCNet alone (the paper's input, configs/pcnet_camera.toml),
+  frame mode; ``body-net``: the shipped body-frame 3DPCNet alone (configs/pcnet_body.toml);
+- ``pcnet``: the shipped pair gated by camera orientation (models/view_gate.py), frame mode,
+  sequence mode from the poses alone (``-prior``) and with the camera prior and lying reading
+  (the default of ``pcnet run``, stages/gravity_prior.py).
 """
 from __future__ import annotations
 
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS
 from pcnet.stages.rectify import Rectified, rectify
 
-CAMERA_FRAME_WEIGHTS = str(Path(__file__).resolve().parents[1] / "models" / "weights" / "pcnet_camera.onnx")
+CAMERA_NET = str(CAMERA_WEIGHTS)
+BODY_NET = str(BODY_WEIGHTS)
 
 
 class Configuration(NamedTuple):
@@ -34,8 +34,8 @@ class Configuration(NamedTuple):
 CONFIGURATIONS = (
     Configuration("geo frame", "geometric", "frame"),
     Configuration("geo seq", "geometric", "sequence"),
-    Configuration("3dpcnet-cam frame", "pcnet", "frame", CAMERA_FRAME_WEIGHTS),
-    Configuration("3dpcnet-cam seq-prior", "pcnet", "sequence", CAMERA_FRAME_WEIGHTS, camera_prior=False),
+    Configuration("cam-net frame", "pcnet", "frame", CAMERA_NET),
+    Configuration("body-net frame", "pcnet", "frame", BODY_NET),
     Configuration("pcnet frame", "pcnet", "frame"),
     Configuration("pcnet seq-prior", "pcnet", "sequence", camera_prior=False),
     Configuration("pcnet seq", "pcnet", "sequence"),

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Re-run every `pcnet evaluate` behind the README's held-out table: JSON and printed tables in
 # benchmarks/results/heldout/; then `python benchmarks/readme_tables.py` prints the table.
-# Needs ../shared/data (the mocap); about 20 minutes on 2 cores.
+# Needs ../shared/data (the mocap); about 45 minutes on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=benchmarks/results
@@ -19,12 +19,13 @@ BANDAI=$MOCAP/bandai_h36m17.npz
 CMU=$MOCAP/cmu_train_h36m17.npz
 DEEPMIMIC=$MOCAP/deepmimic_h36m17.npz
 LIFTER_SEQ="--camera per-clip --noise lifter --mode sequence"
-# Three models: the shipped body-frame 3DPCNet (pcnet: motion-style train split + CMU train
-# subjects), the previous camera-frame 3DPCNet (pcnet-camera: the paper's input, Bandai
-# clip-scheme train split; models/weights/pcnet_camera.onnx) and the geometric baseline.
-declare -A ARGS=([pcnet]="--method pcnet" [pcnet-camera]="--method pcnet --weights models/weights/pcnet_camera.onnx"
-                 [geometric]="--method geometric")
-for model in pcnet pcnet-camera geometric; do
+# Four estimators: the shipped pair gated by camera orientation (pcnet, models/view_gate.py),
+# each of its two 3DPCNets alone (both trained on the motion-style train split + CMU train
+# subjects: pcnet-camnet = the paper's camera-frame input, pcnet-bodynet = the body-frame
+# input) and the geometric baseline.
+declare -A ARGS=([pcnet]="--method pcnet" [pcnet-camnet]="--method pcnet --weights models/weights/pcnet_camera.onnx"
+                 [pcnet-bodynet]="--method pcnet --weights models/weights/pcnet_body.onnx" [geometric]="--method geometric")
+for model in pcnet pcnet-camnet pcnet-bodynet geometric; do
   m=${ARGS[$model]}
   for scheme in motion-style clip; do
     ho ${model}_bandai_test_${scheme}_frame $m --data $BANDAI --split test --split-scheme $scheme

@@ -33,7 +33,7 @@ HELDOUT_ROWS = (  # (file stem without the model, data/split label, protocol lab
     ("deepmimic_all_perclip_lifter_sequence", "DeepMimic all", "per-clip, lifter, sequence"),
     ("deepmimic_all_perclip_lifter_sequence_noprior", "DeepMimic all", "per-clip, lifter, sequence, no camera prior"),
 )
-HELDOUT_METHODS = ("geometric", "pcnet-camera", "pcnet")
+HELDOUT_METHODS = ("geometric", "pcnet-camnet", "pcnet-bodynet", "pcnet")
 
 
 def heldout() -> None:

@@ -1,6 +1,8 @@
 """Rectification speed on this machine: poses/s of the geometric baseline (numpy), 3DPCNet in
 torch eager mode and 3DPCNet in onnxruntime, at batch 1 and batch 1024, for the shipped
-width and the paper's width (randomly initialised: speed does not depend on the weights).
+width and the paper's width (randomly initialised: speed does not depend on the weights),
+and the shipped pair as `pcnet run` calls it (both networks, the view gate, the blend;
+models/inference.py: ViewGatedPCNet).
 
     python benchmarks/speed.py [--seconds 3] [--threads 0]
 
@@ -24,7 +26,7 @@ import torch
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.models.export import export_onnx
-from pcnet.models.inference import DEFAULT_WEIGHTS
+from pcnet.models.inference import DEFAULT_WEIGHTS, ViewGatedPCNet
 from pcnet.models.losses import LossWeights, composite_loss
 from pcnet.models.network import PCNet, PCNetConfig
 from pcnet.models.preprocess import normalize_input
@@ -93,6 +95,10 @@ def main() -> None:
                 xb = x[:batch]
                 rows.append((f"3DPCNet {name} onnxruntime", width, batch,
                              rate(lambda: sess.run(["rotation"], {"x": xb}), batch, args.seconds)))
+    gated = ViewGatedPCNet(threads=args.threads)
+    for batch in (1, 1024):  # what `pcnet run` calls: both networks, the gate, the blend
+        rows.append(("pcnet shipped pair (gated)", "2 nets", batch,
+                     rate(lambda: gated.predict(poses[:batch]), batch, args.seconds)))
     for name, cfg in presets.items():
         rows.append((f"3DPCNet {name} training step", f"{cfg.hidden}/{cfg.output}", 1024,
                      training_rate(cfg, x, R_true, canon, args.seconds)))

@@ -1,4 +1,5 @@
-"""Run-time inference with onnxruntime (no torch): 3DPCNet."""
+"""Run-time inference with onnxruntime (no torch): 3DPCNet, and the shipped pair of them
+gated by camera orientation (:mod:`pcnet.models.view_gate`)."""
 
 from __future__ import annotations
 
@@ -12,9 +13,14 @@ import numpy as np
 from pcnet.stages.errors import InputError
 
 from .preprocess import normalize_input
+from .view_gate import blend_rotations, camera_frame_weight
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
-DEFAULT_WEIGHTS = WEIGHTS_DIR / "pcnet_small.onnx"
+#: The shipped camera-frame 3DPCNet (configs/pcnet_camera.toml) and body-frame 3DPCNet
+#: (configs/pcnet_body.toml); without ``weights`` pcnet runs both (:class:`ViewGatedPCNet`).
+CAMERA_WEIGHTS = WEIGHTS_DIR / "pcnet_camera.onnx"
+BODY_WEIGHTS = WEIGHTS_DIR / "pcnet_body.onnx"
+DEFAULT_WEIGHTS = CAMERA_WEIGHTS
 
 
 class PCNetSession:
@@ -49,10 +55,38 @@ class PCNetSession:
         return R, residual, valid
 
 
+class ViewGatedPCNet:
+    """The shipped pair: the camera-frame and the body-frame 3DPCNet, blended per frame by
+    :func:`pcnet.models.view_gate.camera_frame_weight` (camera-frame inside its training
+    views, body-frame beyond them).
+
+    ``predict(joints_cam, fps)`` as :meth:`PCNetSession.predict` (one recording per call:
+    the gate's running median runs over the frames in order); ``predict_gated`` also returns
+    the camera-frame weight ``(N,)`` (NaN where not valid). ``info`` is the camera-frame
+    weights' ``.json`` (both were trained on the same split).
+    """
+
+    def __init__(self, threads: int = 0):
+        self.camera = PCNetSession(CAMERA_WEIGHTS, threads)
+        self.body = PCNetSession(BODY_WEIGHTS, threads)
+        self.path, self.info = self.camera.path, self.camera.info
+
+    def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0):
+        R_cam, res_cam, valid = self.camera.predict(joints_cam)
+        R_body, res_body, _ = self.body.predict(joints_cam)
+        weight = camera_frame_weight(R_body, valid, fps)
+        w = weight[:, None, None]
+        return blend_rotations(R_body, R_cam, weight), w * res_cam + (1 - w) * res_body, valid, weight
+
+    def predict(self, joints_cam: np.ndarray, fps: float = 30.0):
+        return self.predict_gated(joints_cam, fps)[:3]
+
+
 @lru_cache(maxsize=4)
-def get_session(weights: str | None = None) -> PCNetSession:
-    """A cached :class:`PCNetSession` (``None`` = the shipped weights)."""
-    return PCNetSession(weights)
+def get_session(weights: str | None = None) -> PCNetSession | ViewGatedPCNet:
+    """A cached :class:`PCNetSession` of ``weights``, or for ``None`` the shipped
+    :class:`ViewGatedPCNet`."""
+    return ViewGatedPCNet() if weights is None else PCNetSession(weights)
 
 
 def _open(weights, default: Path, threads: int):

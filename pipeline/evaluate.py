@@ -169,7 +169,8 @@ def evaluate(
         extra = f" with no group in the {unseen_by!r} train split" if unseen_by else ""
         raise InputError(f"{data}: split {split!r} (scheme {split_scheme!r}) has no clips{extra}")
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=_noise_model(kind))
-    R_hat, residual, valid = estimate_rotations(pairs.inputs, method, weights)
+    n = len(pairs.inputs)
+    R_hat, residual, valid = np.full((n, 3, 3), np.nan), np.full((n, 17, 3), np.nan), np.zeros(n, bool)
     modes_run: dict[str, int] = {}
     headings_run: dict[str, int] = {}
     per_clip = []
@@ -177,6 +178,8 @@ def evaluate(
         sel = np.flatnonzero(pairs.clip == i)
         if len(sel) == 0:
             continue
+        # One clip is one recording for every per-recording step, the estimator's too.
+        R_hat[sel], residual[sel], valid[sel] = estimate_rotations(pairs.inputs[sel], method, weights, fps=clip.fps)
         # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
         R_hat[sel], valid[sel], report = finish_rotations(
             pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0,

@@ -24,7 +24,7 @@ from pcnet.stages.conventions import (H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, fil
                                       validate_poses)
 from pcnet.stages.errors import InputError
 from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
-from pcnet.stages.flags import (body_size_flag, camera_tilt, gravity_reading_flag, non_upright_flag, orientation_flags, track_segments,
+from pcnet.stages.flags import (body_size_flag, camera_tilt, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag)
 from pcnet.stages.kinematics import compute_kinematics, flag_counts, format_flag_counts
 from pcnet.stages.rectify import NO_VALID_FRAME, rectify
@@ -230,6 +230,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
     flags = orientation_flags(tilt) + (body_size_flag(joints, units) if cfg.height is None else [])
     flags += non_upright_flag(canonical, valid) + gravity_reading_flag(res.report.get("gravity"))
+    flags += view_gate_flag(report.get("view_gate"))
     segment = None
     if kp2d is not None:
         segment, events = track_segments(kp2d, fps)
@@ -266,6 +267,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             missing=kin.missing, unfiltered=kin.unfiltered, flag_counts=flag_counts(kin),
             flags=np.array(flags, dtype=str), track_segment=segment if segment is not None else np.zeros(0, int),
             report=_jsonable(report),
+            camera_frame_weight=report.get("camera_frame_weight", np.zeros(0)),
         )
         write_kinematics_csv(tmp / "kinematics.csv", frames, frames / fps, kin,
                              extra_columns={"valid": valid.astype(int), "heading_deg": np.degrees(heading)})

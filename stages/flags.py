@@ -151,6 +151,27 @@ def gravity_reading_flag(gravity: dict | None) -> list[str]:
     return []
 
 
+#: Share of valid frames outside the camera-frame network's views above which it is flagged.
+OUTSIDE_VIEWS_SHARE = 0.05
+
+
+def view_gate_flag(view_gate: dict | None) -> list[str]:
+    """A flag when the shipped camera-frame 3DPCNet was (partly) set aside for the
+    body-frame one (:func:`pcnet.stages.rectify.gate_report`) on more than
+    :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the camera read as rolled beyond
+    25 deg or pitched beyond 45 deg, or a body whose trunk is far from the image's vertical.
+    ``None`` (one estimator ran) gives none."""
+    if not view_gate or not view_gate["frames"]:
+        return []
+    outside = view_gate["body_frame_frames"] + view_gate["blended_frames"]
+    if outside <= OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
+        return []
+    return [f"camera outside the views the camera-frame network was trained on (roll beyond 25 deg or pitch beyond "
+            f"45 deg, or a body lying across the image) in {outside} of {view_gate['frames']} frames: the "
+            f"rotation-equivariant body-frame network was used there ({view_gate['body_frame_frames']} frames alone, "
+            f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)"]
+
+
 def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, list[tuple[int, float]]]:
     """Split a 2D track where it jumps farther than one person can move: a tracker that
     switched to someone else.

@@ -49,29 +49,57 @@ def check_method_weights(method: str, weights: str | None, source: str = "weight
                          f"which uses no weights")
 
 
-def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None):
+def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None,
+                       fps: float = 30.0):
     """Per-frame canonical->camera rotations ``(T, 3, 3)``, residuals ``(T, 17, 3)`` (zeros
     unless ``method == "pcnet"``) and validity ``(T,)`` for camera-frame H36M-17 poses.
 
     Methods: ``pcnet`` (3DPCNet with its residual, onnxruntime), ``pcnet-rigid`` (the same
     rotation, residual dropped: a rigid rotation of the input), ``geometric`` (paper 2.3).
+    Without ``weights`` the 3DPCNet methods run the shipped pair gated by camera orientation
+    (:class:`pcnet.models.inference.ViewGatedPCNet`; ``fps`` sets its window, one recording
+    per call). See :func:`estimate_rotations_gated` for the gate's weights.
 
     Raises:
         InputError: unknown method, wrong shape, or ``weights`` with ``geometric``.
     """
+    return estimate_rotations_gated(joints_cam, method, weights, fps)[:3]
+
+
+def estimate_rotations_gated(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None,
+                             fps: float = 30.0):
+    """:func:`estimate_rotations` plus the camera-frame network's weight ``(T,)`` per frame
+    (:func:`pcnet.models.view_gate.camera_frame_weight`; NaN where not valid), or ``None``
+    when one estimator ran (``geometric``, or given ``weights``)."""
     X = check_poses(joints_cam, "joints_cam")
     check_method_weights(method, weights)
     if method == "geometric":
         R, valid = geometric_rotation(X)
-        return R, np.zeros(X.shape, np.float64), valid
+        return R, np.zeros(X.shape, np.float64), valid, None
     if method in ("pcnet", "pcnet-rigid"):
         from pcnet.models.inference import get_session
 
-        R, residual, valid = get_session(None if weights is None else str(weights)).predict(X)
+        session = get_session(None if weights is None else str(weights))
+        if weights is None:
+            R, residual, valid, gate = session.predict_gated(X, fps)
+        else:
+            (R, residual, valid), gate = session.predict(X), None
         if method == "pcnet-rigid":
             residual = np.where(valid[:, None, None], 0.0, np.nan)
-        return R, residual, valid
+        return R, residual, valid, gate
     raise InputError(f"unknown rectification method {method!r}; expected one of {METHODS}")
+
+
+def gate_report(gate: np.ndarray | None, valid: np.ndarray) -> dict | None:
+    """Summary of the camera-frame network's weights over the valid frames: its mean share
+    and the frames where the body-frame network alone (weight 0) or a blend ran; ``None``
+    when one estimator ran."""
+    if gate is None:
+        return None
+    w = gate[valid]
+    return {"camera_frame_share": float(np.mean(w)) if len(w) else float("nan"),
+            "body_frame_frames": int(np.sum(w == 0.0)), "blended_frames": int(np.sum((w > 0.0) & (w < 1.0))),
+            "frames": int(len(w))}
 
 
 def resolve_heading_source(method: str, heading: str | None) -> str:
@@ -118,7 +146,9 @@ def rectify(
     one frame and one finite value, non-finite = missing) and the pelvis rule
     :func:`pcnet.stages.conventions.fill_pelvis_from_hips` (a missing pelvis is the hip
     midpoint; a frame still without a pelvis is invalid). The report's
-    ``pelvis_from_hips_frames`` counts the filled frames.
+    ``pelvis_from_hips_frames`` counts the filled frames; ``view_gate``
+    (:func:`gate_report`) and ``camera_frame_weight`` ``(T,)`` say how far the shipped
+    camera-frame network was trusted (3DPCNet methods without ``weights``).
 
     Raises:
         InputError (a ValueError): bad input array (see above), unknown method, mode or
@@ -127,9 +157,12 @@ def rectify(
     heading = resolve_heading_source(method, heading)
     fps = validate_fps(fps)
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
-    R, residual, valid = estimate_rotations(joints_cam, method, weights)
+    R, residual, valid, gate = estimate_rotations_gated(joints_cam, method, weights, fps)
     R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading, camera_prior=camera_prior)
     report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
+    report["view_gate"] = gate_report(gate, valid)
+    if gate is not None:
+        report["camera_frame_weight"] = np.where(valid, gate, np.nan)
     # A per-frame bound calibrated for the shipped weights only (other weights: none).
     report["frame_tilt_95_deg"] = FRAME_TILT_95_DEG if method != "geometric" and weights is None else float("nan")
     canonical = to_canonical(joints_cam, R, residual)

@@ -155,12 +155,15 @@ def test_geometric_baseline_is_exactly_equivariant_on_real_poses():
     np.testing.assert_allclose(Q @ np.array([0.0, 0.0, 1.0]), [1.0, 0.0, 0.0], atol=1e-12)
 
 
-def test_shipped_pcnet_is_exactly_equivariant_on_real_poses():
-    """The shipped 3DPCNet reads poses in a body-fixed frame: any camera rotation (portrait
-    roll, upside down, yaw) turns its per-frame up exactly, on real VideoPose3D poses."""
+def test_shipped_body_frame_network_is_exactly_equivariant_on_real_poses():
+    """The shipped body-frame 3DPCNet reads poses in a body-fixed frame: any camera rotation
+    (portrait roll, upside down, yaw) turns its per-frame up exactly, on real VideoPose3D poses."""
+    from pcnet.models.inference import BODY_WEIGHTS
+
     joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64)
     joints = joints - joints[:, PELVIS : PELVIS + 1]
-    res = equivariance.equivariance(joints, 30.0, equivariance.Configuration("pcnet frame", "pcnet", "frame"))
+    config = equivariance.Configuration("body-net frame", "pcnet", "frame", str(BODY_WEIGHTS))
+    res = equivariance.equivariance(joints, 30.0, config)
     for (axis, angle), (err, valid) in res.items():
         assert err < 1e-3, (axis, angle, err)
         assert valid == 1.0

@@ -1,0 +1,100 @@
+"""The view gate between the shipped camera-frame and body-frame 3DPCNets (models/view_gate.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import FIXTURES
+
+from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
+from pcnet.models.view_gate import PITCH_RAMP_DEG, ROLL_RAMP_DEG, blend_rotations, camera_frame_weight
+from pcnet.stages.conventions import PELVIS
+from pcnet.stages.flags import view_gate_flag
+from pcnet.stages.rectify import rectify
+from pcnet.stages.rotations import axis_rotation, compose_camera_rotation, geodesic_angle
+
+
+def _cameras(pitch_deg, roll_deg) -> np.ndarray:
+    pitch, roll = np.radians(np.broadcast_arrays(pitch_deg, roll_deg))
+    return compose_camera_rotation(np.zeros_like(pitch), pitch, roll)
+
+
+def _real_standing() -> np.ndarray:
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64)
+    return joints - joints[:, PELVIS : PELVIS + 1]
+
+
+def test_weight_follows_the_camera_reading_through_the_ramps():
+    T = 1
+    ones = np.ones(T, bool)
+    mid_roll = np.mean(ROLL_RAMP_DEG)
+    assert camera_frame_weight(_cameras(0.0, [0.0]), ones)[0] == 1.0
+    assert camera_frame_weight(_cameras(0.0, [-ROLL_RAMP_DEG[0]]), ones)[0] == pytest.approx(1.0)
+    assert camera_frame_weight(_cameras(0.0, [mid_roll]), ones)[0] == pytest.approx(0.5)
+    assert camera_frame_weight(_cameras(0.0, [-90.0]), ones)[0] == 0.0
+    assert camera_frame_weight(_cameras(0.0, [180.0]), ones)[0] == 0.0
+    assert camera_frame_weight(_cameras([-np.mean(PITCH_RAMP_DEG)], 0.0), ones)[0] == pytest.approx(0.5)
+    assert camera_frame_weight(_cameras([PITCH_RAMP_DEG[1] + 1], 0.0), ones)[0] == 0.0
+
+
+def test_a_few_outlying_frames_do_not_switch_networks_but_a_turned_camera_does():
+    roll = np.zeros(120)
+    roll[40:43] = 90.0  # three hard poses read as a rolled camera
+    roll[80:] = 90.0  # the phone turned to portrait for the last 40 frames
+    valid = np.ones(120, bool)
+    valid[10] = False
+    w = camera_frame_weight(_cameras(0.0, roll), valid, fps=30.0)
+    assert np.isnan(w[10])
+    assert (w[:75][valid[:75]] == 1.0).all()
+    assert (w[-10:] == 0.0).all()
+
+
+def test_blend_is_the_geodesic_between_the_two_rotations():
+    rng = np.random.default_rng(0)
+    from scipy.spatial.transform import Rotation
+
+    A, B = Rotation.random(5, random_state=1).as_matrix(), Rotation.random(5, random_state=2).as_matrix()
+    np.testing.assert_allclose(blend_rotations(A, B, np.zeros(5)), A, atol=1e-12)
+    np.testing.assert_allclose(blend_rotations(A, B, np.ones(5)), B, atol=1e-9)
+    w = rng.uniform(size=5)
+    M = blend_rotations(A, B, w)
+    total = geodesic_angle(A, B)
+    np.testing.assert_allclose(geodesic_angle(A, M), w * total, atol=1e-7)
+    np.testing.assert_allclose(geodesic_angle(M, B), (1 - w) * total, atol=1e-7)
+    A[2] = np.nan
+    assert np.isnan(blend_rotations(A, B, w)[2]).all() and np.isfinite(blend_rotations(A, B, w)[3]).all()
+
+
+def test_shipped_pair_uses_the_camera_network_for_a_level_camera_and_the_body_network_in_portrait():
+    """Real VideoPose3D standing poses: under the lifter's own (near level) camera the gate
+    trusts the camera-frame network; rolled 90 deg (portrait) or 180 deg it hands over to
+    the body-frame network, whose answer turns exactly with the camera."""
+    X = _real_standing()
+    gated = ViewGatedPCNet()
+    assert gated.camera.path == CAMERA_WEIGHTS and gated.body.path == BODY_WEIGHTS
+    R0, _, valid0, w0 = gated.predict_gated(X)
+    assert valid0.all() and (w0 == 1.0).all()
+    np.testing.assert_allclose(R0, PCNetSession(CAMERA_WEIGHTS).predict(X)[0], atol=1e-6)
+    body0 = PCNetSession(BODY_WEIGHTS).predict(X)[0]
+    for roll in (90.0, 180.0):
+        Q = axis_rotation("z", np.radians(roll))
+        R, residual, valid, w = gated.predict_gated(X @ Q.T)
+        assert (w == 0.0).all()
+        np.testing.assert_allclose(R, Q @ body0, atol=1e-4)  # equivariant: the up turns with the camera
+        assert np.isfinite(residual).all()
+
+
+def test_lying_body_goes_to_the_body_network_and_is_flagged():
+    """Real VideoPose3D Shavasana (lying supine) under a level camera: the body-frame network
+    reads the trunk as up, the gate hands over to it, and the report says so; sequence mode
+    then reads the body as lying (stages/gravity_prior.py)."""
+    X = np.load(FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy")
+    res = rectify(X, "pcnet", mode="sequence")
+    gate = res.report["view_gate"]
+    assert gate["camera_frame_share"] < 0.05 and gate["frames"] == 100
+    assert res.report["gravity"]["reading"] == "lying"
+    assert res.report["camera_frame_weight"].shape == (100,)
+    (line,) = view_gate_flag(gate)
+    assert "body-frame network was used" in line and f"of {gate['frames']} frames" in line
+    assert view_gate_flag(rectify(_real_standing(), "pcnet").report["view_gate"]) == []
+    assert rectify(_real_standing(), "pcnet", weights=str(BODY_WEIGHTS)).report["view_gate"] is None
