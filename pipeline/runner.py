@@ -33,11 +33,17 @@ from pcnet.stages.rerun_log import series_from_kinematics, write_recording
 from pcnet.stages.rotations import decompose_camera_rotation
 from pcnet.stages.scale import scale_to_height
 from pcnet.stages.uncertainty import LABEL as UNCERTAINTY_LABEL
+from pcnet.stages.world_frame import to_world, world_frame
 
 from .config import RunConfig
 from .outdir import check_out_folder, staged_output
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
+WORLD_LABEL = "world frame (x forward at the start, y up, z right; floor y = 0)"
+CANONICAL_LABEL = "canonical frame (x anterior, y up, z right)"
+WORLD_SUMMARY = ("world, fixed for the recording: +Y up, +X the subject's forward over the first second, floor at "
+                 "y = 0 under the lowest joint; the pelvis's horizontal path is not observable from a root-relative "
+                 "lifter (x = z = 0)")
 
 
 @dataclass
@@ -70,6 +76,8 @@ class RunResult:
             f"{self.report.get('hip_width_cv_percent', float('nan')):.1f} %)",
             f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(),
             *self._frame_bound(),
+            f"kinematics frame  " + (WORLD_SUMMARY if self.report.get("kinematics_frame") == "world"
+                                     else "canonical (turns with the pelvis; no fixed frame without a static camera)"),
             f"units             {self.units}",
         ]
         lines += [f"WARNING           {f}" for f in self.flags]
@@ -248,7 +256,20 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     bar.update()
 
     step("kinematics")
-    kin = compute_kinematics(canonical, fps, cfg.cutoff_hz, units)
+    # Anything differentiated in time lives in one fixed frame per recording; only a static
+    # camera (sequence mode) gives one.
+    world, world_rotation = None, np.full((3, 3), np.nan)
+    if report["mode"] == "sequence":
+        frame = world_frame(rotations, valid, fps)
+        world, world_rotation = to_world(joints, frame), frame.rotation
+        kin = compute_kinematics(world, fps, cfg.cutoff_hz, units)
+    else:
+        flags.append(f"no fixed world frame: mode {report['mode']} (a moving camera, or one the up estimates "
+                     f"disagree on) has no fixed heading, so positions, velocities and accelerations are in the "
+                     f"per-frame canonical frame, which turns with the pelvis (rotating-frame terms); use "
+                     f"--mode sequence if the camera was static")
+        kin = compute_kinematics(canonical, fps, cfg.cutoff_hz, units)
+    report["kinematics_frame"] = "world" if world is not None else "canonical"
     kin_cam = compute_kinematics(joints, fps, cfg.cutoff_hz, units)
     missing_note = format_flag_counts(kin)
     if missing_note:
@@ -268,14 +289,18 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             flags=np.array(flags, dtype=str), track_segment=segment if segment is not None else np.zeros(0, int),
             report=_jsonable(report),
             camera_frame_weight=report.get("camera_frame_weight", np.zeros(0)),
+            joints_world=world if world is not None else np.zeros((0, 17, 3)), world_rotation=world_rotation,
         )
         write_kinematics_csv(tmp / "kinematics.csv", frames, frames / fps, kin,
                              extra_columns={"valid": valid.astype(int), "heading_deg": np.degrees(heading)})
         outputs = {"canonical.npz": tmp / "canonical.npz", "kinematics.csv": tmp / "kinematics.csv"}
+        rectified, label = (world, WORLD_LABEL) if world is not None else (canonical, CANONICAL_LABEL)
         if units == "m":
-            write_trc(tmp / "canonical.trc", canonical, fps)
-            outputs["canonical.trc"] = tmp / "canonical.trc"
-        plot_wrists(tmp / "wrists.png", joints, canonical, fps, kin_cam.acceleration, kin.acceleration, units)
+            trc = "world.trc" if world is not None else "canonical.trc"
+            write_trc(tmp / trc, rectified, fps)
+            outputs[trc] = tmp / trc
+        plot_wrists(tmp / "wrists.png", joints, rectified, fps, kin_cam.acceleration, kin.acceleration, units,
+                    frame_label=label)
         outputs["wrists.png"] = tmp / "wrists.png"
         bar.update()
 
@@ -286,7 +311,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
                 tmp / "recording.rrd", fps=fps, joints_cam=joints, canonical=canonical, rotations=rotations,
                 up=rotations[:, :, 1], valid=valid, keypoints2d=kp2d, video_path=cfg.video,
                 wrist_paths=wrists, series=series_from_kinematics(kin), min_confidence=cfg.confidence_threshold,
-                flags=flags,
+                flags=flags, world=world,
             )
             outputs["recording"] = tmp / "recording.rrd"
         bar.update()

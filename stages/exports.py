@@ -104,14 +104,14 @@ def write_kinematics_csv(
     joints: Sequence[str] | None = None,
 ) -> Path:
     """Write one CSV row per frame with positions, velocities, accelerations, speeds,
-    per-joint missing/unfiltered flags and angles of canonical kinematics, atomically.
+    per-joint missing/unfiltered flags and angles of the kinematics (world or canonical frame), atomically.
 
     Columns, in order: ``frame``, ``time_s``; per joint ``{joint}_{x,y,z}_{u}``,
     ``{joint}_{vx,vy,vz}_{u}_per_s``, ``{joint}_{ax,ay,az}_{u}_per_s2``,
     ``{joint}_speed_{u}_per_s``, ``{joint}_missing``, ``{joint}_unfiltered``
     (``u`` = ``kinematics.units``, e.g. ``m``); per angle ``{angle}_deg``; then
     ``extra_columns`` under their own names (put the unit in the name, e.g.
-    ``tilt_error_deg``). Axes are canonical (x anterior, y up, z subject's right).
+    ``tilt_error_deg``). Axes: x anterior, y up, z subject's right (the world frame of a static camera, else canonical).
     Missing values (NaN) are empty fields. Comma-separated, ``\\n`` line ends, UTF-8,
     written with the :mod:`csv` module.
 
@@ -193,12 +193,13 @@ def write_kinematics_csv(
 
 def write_trc(
     path: str | os.PathLike,
-    canonical: np.ndarray,
+    poses: np.ndarray,
     fps: float,
     joint_names: Sequence[str] = H36M_JOINTS,
     units: str = "m",
 ) -> Path:
-    """Write canonical poses as an OpenSim ``.trc`` marker file, atomically.
+    """Write Y-up poses (the recording's world frame, :mod:`pcnet.stages.world_frame`, or the
+    canonical frame) as an OpenSim ``.trc`` marker file, atomically.
 
     Layout (as read by OpenSim 4's ``TRCFileAdapter``, opensim-core
     ``OpenSim/Common/TRCFileAdapter.cpp``): tab-separated;
@@ -208,9 +209,10 @@ def write_trc(
     empty fields; line 5 ``X1 Y1 Z1 X2 ...``; line 6 empty; then one row per frame:
     1-based frame number, time ``(frame - 1) / fps`` in s, and x y z per marker.
 
-    Coordinates: the canonical frame is OpenSim's ground frame (X forward, Y up, Z right),
-    so values are written unchanged. Pelvis-centred: the model's pelvis stays at the
-    origin (no global translation).
+    Coordinates: the world and canonical frames have OpenSim's ground-frame axis roles (X
+    forward, Y up, Z right), so values are written unchanged. World-frame markers stand on
+    the floor (y = 0) with the pelvis at x = z = 0 (a root-relative lifter gives no
+    horizontal translation); canonical markers are pelvis-centred.
 
     **Missing markers**: a NaN marker is written as three empty fields. OpenSim's reader
     keeps empty tokens and stores such a marker as NaN, which inverse kinematics skips
@@ -221,7 +223,7 @@ def write_trc(
 
     Args:
         path: destination ``.trc``.
-        canonical: ``(T, J, 3)`` canonical poses in ``units``; NaN for missing.
+        poses: ``(T, J, 3)`` world-frame (or canonical) poses in ``units``; NaN for missing.
         fps: frame rate in Hz (DataRate, CameraRate, OrigDataRate).
         joint_names: ``J`` marker names (no tabs or line breaks); default H36M-17.
         units: ``"m"`` (OpenSim's default) or ``"mm"``.
@@ -233,7 +235,7 @@ def write_trc(
         ValueError: shape/name mismatch, a name with a tab/newline, duplicate names,
             ``fps <= 0`` or unknown units.
     """
-    X = np.asarray(canonical, dtype=np.float64)
+    X = np.asarray(poses, dtype=np.float64)
     names = list(joint_names)
     if X.ndim != 3 or X.shape[2] != 3 or X.shape[1] != len(names):
         raise ValueError(f"write_trc: expected (T, {len(names)}, 3) markers, got {X.shape}")
@@ -278,10 +280,12 @@ def plot_wrists(
     acc_camera: np.ndarray,
     acc_canonical: np.ndarray,
     units: str = "m",
+    frame_label: str = "canonical frame (x anterior, y up, z right)",
 ) -> Path:
     """PNG of wrist trajectories and accelerations before and after rectification.
 
-    Two columns (camera frame | canonical frame) by three rows: wrist position
+    Two columns (camera frame | ``frame_label``: the recording's world frame or the
+    canonical frame) by three rows: wrist position
     components, wrist acceleration components, and acceleration magnitude, against time
     in seconds; left wrist dashed, right wrist solid. The components show what
     rectification changes (camera-y mixes vertical and depth motion when the camera is
@@ -294,10 +298,12 @@ def plot_wrists(
     Args:
         path_png: destination ``.png``.
         camera: ``(T, 17, 3)`` camera-frame poses (x right, y down, z forward), ``units``.
-        canonical: ``(T, 17, 3)`` canonical poses (x anterior, y up, z right), ``units``.
+        canonical: ``(T, 17, 3)`` rectified poses (x anterior, y up, z right: world or
+            canonical frame), ``units``.
         fps: frame rate in Hz.
         acc_camera, acc_canonical: ``(T, 17, 3)`` accelerations in ``units/s^2``.
         units: length unit label.
+        frame_label: title of the rectified column.
 
     Returns:
         the destination path.
@@ -320,7 +326,7 @@ def plot_wrists(
     acc_u = f"{units}/s²"
     columns = (
         ("camera frame (x right, y down, z forward)", cam, acam, ("x", "y", "z")),
-        ("canonical frame (x anterior, y up, z right)", can, acan, ("x", "y", "z")),
+        (frame_label, can, acan, ("x", "y", "z")),
     )
     comp_colors = ("tab:red", "tab:green", "tab:blue")
     fig = Figure(figsize=(13, 9), layout="constrained")
@@ -344,7 +350,7 @@ def plot_wrists(
         for ax in (ax_p, ax_a, ax_m):
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7, ncol=2, loc="upper right")
-    fig.suptitle("Wrists before (camera frame) and after (canonical frame) rectification")
+    fig.suptitle(f"Wrists before (camera frame) and after ({frame_label.split(' (')[0]}) rectification")
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     with atomic_path(path_png) as tmp:

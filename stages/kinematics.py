@@ -42,6 +42,7 @@ from .conventions import (
     THORAX,
     check_poses,
 )
+from .isb_angles import isb_joint_angles
 from .rotations import angle_between
 from .errors import InputError
 
@@ -290,25 +291,28 @@ _RIGHT, _LEFT = 1.0, -1.0
 #: Names of :func:`joint_angles` outputs, in output order; all in degrees.
 ANGLE_NAMES: tuple[str, ...] = (
     "trunk_inclination",
-    "trunk_flexion",
-    "trunk_lateral_flexion",
-    "left_hip_flexion",
-    "right_hip_flexion",
-    "left_hip_abduction",
-    "right_hip_abduction",
-    "left_knee_flexion",
-    "right_knee_flexion",
-    "left_shoulder_flexion",
-    "right_shoulder_flexion",
-    "left_shoulder_abduction",
-    "right_shoulder_abduction",
-    "left_elbow_flexion",
-    "right_elbow_flexion",
+    "trunk_sagittal_inclination",
+    "trunk_frontal_inclination",
+    "left_thigh_sagittal_inclination",
+    "right_thigh_sagittal_inclination",
+    "left_thigh_frontal_inclination",
+    "right_thigh_frontal_inclination",
+    "left_knee_flexion_unsigned",
+    "right_knee_flexion_unsigned",
+    "left_upper_arm_sagittal_inclination",
+    "right_upper_arm_sagittal_inclination",
+    "left_upper_arm_frontal_inclination",
+    "right_upper_arm_frontal_inclination",
+    "left_elbow_flexion_unsigned",
+    "right_elbow_flexion_unsigned",
 )
 
 
 def joint_angles(canonical: np.ndarray) -> dict[str, np.ndarray]:
-    """Plane-decomposed segment and joint angles of canonical poses, in degrees.
+    """Segment inclinations (plane projections of a segment against gravity) and the
+    unsigned knee and elbow flexion of canonical poses, in degrees. Named for what they
+    are, not as clinical joint angles: those, with ISB conventions, are
+    :func:`pcnet.stages.isb_angles.isb_joint_angles`.
 
     Input frame: canonical (+X anterior, +Y up against gravity, +Z subject's right).
     "Sagittal plane" = X-Y, "frontal plane" = Z-Y. Segment angles are **absolute**
@@ -319,23 +323,23 @@ def joint_angles(canonical: np.ndarray) -> dict[str, np.ndarray]:
 
     * ``trunk_inclination``: angle between pelvis->thorax and +Y, in [0, 180];
       0 = upright, 90 = horizontal (lying), unsigned.
-    * ``trunk_flexion``: ``v = thorax - pelvis`` in the sagittal plane, angle from +Y
+    * ``trunk_sagittal_inclination``: ``v = thorax - pelvis`` in the sagittal plane, angle from +Y
       ``atan2(v_x, v_y)`` in (-180, 180]: positive = leaning anterior, negative = back.
-    * ``trunk_lateral_flexion``: the same in the frontal plane, ``atan2(v_z, v_y)``:
+    * ``trunk_frontal_inclination``: the same in the frontal plane, ``atan2(v_z, v_y)``:
       positive = leaning towards the subject's right.
-    * ``{side}_hip_flexion``: thigh ``v = knee - hip`` in the sagittal plane, angle from
+    * ``{side}_thigh_sagittal_inclination``: thigh ``v = knee - hip`` in the sagittal plane, angle from
       -Y (hanging straight down) ``atan2(v_x, -v_y)``: positive = flexion (knee in front
       of the hip), negative = extension; 90 = thigh horizontal forward.
-    * ``{side}_hip_abduction``: thigh in the frontal plane, ``atan2(s v_z, -v_y)`` with
+    * ``{side}_thigh_frontal_inclination``: thigh in the frontal plane, ``atan2(s v_z, -v_y)`` with
       ``s = +1`` right, ``-1`` left (the Z axis points to the subject's right, so the
       sign is mirrored for the left side): positive = abduction (knee away from the
       midline), negative = adduction (crossing the midline).
-    * ``{side}_shoulder_flexion`` / ``{side}_shoulder_abduction``: the same two
+    * ``{side}_upper_arm_sagittal_inclination`` / ``{side}_upper_arm_frontal_inclination``: the same two
       definitions for the upper arm ``v = elbow - shoulder``: 0 = arm hanging, 90 = arm
       horizontal forward / sideways, 180 = overhead.
-    * ``{side}_knee_flexion``: ``180 - angle(hip-knee-ankle)``, i.e. the angle between
+    * ``{side}_knee_flexion_unsigned``: ``180 - angle(hip-knee-ankle)``, i.e. the angle between
       thigh and shank; 0 = straight, unsigned in [0, 180], frame-independent.
-    * ``{side}_elbow_flexion``: ``180 - angle(shoulder-elbow-wrist)``; 0 = straight.
+    * ``{side}_elbow_flexion_unsigned``: ``180 - angle(shoulder-elbow-wrist)``; 0 = straight.
 
     Limb plane angles are wrapped to (-90, 270] so that motion through overhead does not
     jump by 360. A segment whose projection onto the plane is shorter than
@@ -357,19 +361,19 @@ def joint_angles(canonical: np.ndarray) -> dict[str, np.ndarray]:
     trunk_len = np.linalg.norm(trunk, axis=-1)
     out = {
         "trunk_inclination": np.degrees(angle_between(trunk, np.array([0.0, 1.0, 0.0]))),
-        "trunk_flexion": _plane_angle(trunk[:, _X], trunk[:, _Y], trunk_len, None),
-        "trunk_lateral_flexion": _plane_angle(trunk[:, _Z], trunk[:, _Y], trunk_len, None),
+        "trunk_sagittal_inclination": _plane_angle(trunk[:, _X], trunk[:, _Y], trunk_len, None),
+        "trunk_frontal_inclination": _plane_angle(trunk[:, _Z], trunk[:, _Y], trunk_len, None),
     }
     for side, s, hip, knee, ankle, sho, elb, wri in (
         ("left", _LEFT, L_HIP, L_KNEE, L_ANKLE, L_SHOULDER, L_ELBOW, L_WRIST),
         ("right", _RIGHT, R_HIP, R_KNEE, R_ANKLE, R_SHOULDER, R_ELBOW, R_WRIST),
     ):
-        out[f"{side}_hip_flexion"] = _limb_angle(X, hip, knee, _X, 1.0)
-        out[f"{side}_hip_abduction"] = _limb_angle(X, hip, knee, _Z, s)
-        out[f"{side}_knee_flexion"] = _inter_segment(X, hip, knee, ankle)
-        out[f"{side}_shoulder_flexion"] = _limb_angle(X, sho, elb, _X, 1.0)
-        out[f"{side}_shoulder_abduction"] = _limb_angle(X, sho, elb, _Z, s)
-        out[f"{side}_elbow_flexion"] = _inter_segment(X, sho, elb, wri)
+        out[f"{side}_thigh_sagittal_inclination"] = _limb_angle(X, hip, knee, _X, 1.0)
+        out[f"{side}_thigh_frontal_inclination"] = _limb_angle(X, hip, knee, _Z, s)
+        out[f"{side}_knee_flexion_unsigned"] = _inter_segment(X, hip, knee, ankle)
+        out[f"{side}_upper_arm_sagittal_inclination"] = _limb_angle(X, sho, elb, _X, 1.0)
+        out[f"{side}_upper_arm_frontal_inclination"] = _limb_angle(X, sho, elb, _Z, s)
+        out[f"{side}_elbow_flexion_unsigned"] = _inter_segment(X, sho, elb, wri)
     return {name: out[name] for name in ANGLE_NAMES}
 
 
@@ -423,6 +427,29 @@ class Kinematics:
         return int(self.positions.shape[0])
 
 
+def pelvis_heading_frame(poses: np.ndarray) -> np.ndarray:
+    """Y-up poses turned about +Y, per frame, so that the horizontal part of the hip line
+    (right_hip - left_hip) points along +Z: the canonical frame's heading definition
+    (docs/CONVENTIONS.md), applied to world-frame (or canonical) poses.
+
+    Args:
+        poses: ``(T, 17, 3)`` H36M-17 poses with +Y up (world or canonical frame), any units.
+
+    Returns:
+        ``(T, 17, 3)`` float64; NaN for frames whose hip line is missing or vertical.
+    """
+    X = np.asarray(poses, np.float64)
+    hips = X[:, R_HIP] - X[:, L_HIP]
+    a, b = hips[:, _X], hips[:, _Z]
+    n = np.hypot(a, b)
+    ok = np.isfinite(n) & (n > 1e-9 * np.maximum(1.0, np.linalg.norm(np.nan_to_num(hips), axis=-1)))
+    a, b = np.where(ok, a / np.where(ok, n, 1.0), np.nan), np.where(ok, b / np.where(ok, n, 1.0), np.nan)
+    out = X.copy()
+    out[..., _X] = b[:, None] * X[..., _X] - a[:, None] * X[..., _Z]
+    out[..., _Z] = a[:, None] * X[..., _X] + b[:, None] * X[..., _Z]
+    return out
+
+
 def compute_kinematics(
     canonical: np.ndarray,
     fps: float,
@@ -430,11 +457,16 @@ def compute_kinematics(
     units: str = "m",
     order: int = 4,
 ) -> Kinematics:
-    """Filter canonical poses, then differentiate and compute angles.
+    """Filter Y-up poses, then differentiate and compute angles.
 
     Order of operations follows Winter (2009, ch. 3): low-pass the coordinates
     (:func:`butterworth_lowpass`), then differentiate (:func:`derivatives`) and compute
-    angles (:func:`joint_angles`) from the filtered coordinates.
+    angles from the filtered coordinates: the segment inclinations of :func:`joint_angles`
+    (turned into the pelvis heading frame, :func:`pelvis_heading_frame`, so they mean the
+    same from world or canonical poses) and the ISB joint angles of
+    :func:`pcnet.stages.isb_angles.isb_joint_angles` (names without their ``_deg`` suffix). Positions, velocities and accelerations are in the input's frame: the
+    recording's world frame (:mod:`pcnet.stages.world_frame`) for anything differentiated in
+    time; the canonical frame turns with the pelvis and adds rotating-frame terms.
 
     Samples the filter had to leave raw (runs of finite samples too short for it, e.g. a
     few frames between two masked frames) keep their raw position, flagged in
@@ -449,8 +481,8 @@ def compute_kinematics(
     its acceleration noise is about 1.6x that of the run's interior.
 
     Args:
-        canonical: ``(T, 17, 3)`` H36M-17 canonical poses (pelvis origin, Y up), NaN for
-            missing.
+        canonical: ``(T, 17, 3)`` H36M-17 poses with +Y up (world frame, or canonical:
+            pelvis origin), NaN for missing.
         fps: sampling rate in Hz.
         cutoff_hz: -3 dB cutoff of the zero-phase filter; None skips filtering (then
             nothing is flagged ``unfiltered`` and every finite run is differentiated).
@@ -479,7 +511,8 @@ def compute_kinematics(
         velocity=vel,
         acceleration=acc,
         speed=np.linalg.norm(vel, axis=-1),
-        angles=MappingProxyType(joint_angles(pos)),
+        angles=MappingProxyType({**joint_angles(pelvis_heading_frame(pos)),
+                                 **{k.removesuffix("_deg"): v for k, v in isb_joint_angles(pos).items()}}),
         unfiltered=raw.any(axis=-1) & ~missing,
         missing=missing,
         fps=float(fps),

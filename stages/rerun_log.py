@@ -26,7 +26,10 @@ Entity tree (all per-frame data is on the ``frame`` (sequence) and ``video_time`
     /canonical                      ViewCoordinates FUR (X forward, Y up, Z right), static
     /canonical/skeleton/joints      Points3D
     /canonical/skeleton/bones       LineStrips3D
-    /canonical/wrist_paths/{name}   LineStrips3D (static), one strip per finite run
+    /canonical/wrist_paths/{name}   LineStrips3D (static), one strip per finite run (no world given)
+    /world                          ViewCoordinates FUR, static (when world poses are given)
+    /world/skeleton/joints, bones   as for canonical, in the recording's fixed world frame
+    /world/wrist_paths/{name}       LineStrips3D (static), the wrist paths when world is given
     /series/{group}/{name}          Scalars (+ SeriesLines, static), one row per frame
                                     where the value is finite
     /series/status/valid            Scalars: 1 where the rotation is valid, else 0
@@ -129,10 +132,10 @@ def _series_path(name: str) -> tuple[str, str]:
     return "series/" + "/".join(parts), parts[0]
 
 
-def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float):
-    """The default layout: top row video + 2D overlay | camera 3D | canonical 3D; bottom
-    row one time-series view per series group (side by side up to four, tabs beyond);
-    the time panel on the ``frame`` timeline at ``fps``."""
+def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float, has_world: bool = False):
+    """The default layout: top row video + 2D overlay | camera 3D | canonical 3D (| world
+    3D); bottom row one time-series view per series group (side by side up to four, tabs
+    beyond); the time panel on the ``frame`` timeline at ``fps``."""
     import rerun.blueprint as rrb
 
     top = []
@@ -142,6 +145,8 @@ def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float):
         rrb.Spatial3DView(origin="camera", name="camera frame (x right, y down, z forward)"),
         rrb.Spatial3DView(origin="canonical", name="canonical frame (X anterior, Y up, Z right)"),
     ]
+    if has_world:
+        top.append(rrb.Spatial3DView(origin="world", name="world frame (fixed per recording, floor at y = 0)"))
     plots = [rrb.TimeSeriesView(origin=f"series/{g}", name=g.replace("_", " ")) for g in series_groups]
     rows = [rrb.Horizontal(*top)]
     if plots:
@@ -166,6 +171,7 @@ def write_recording(
     application_id: str = "pcnet",
     min_confidence: float = 0.0,
     flags: Sequence[str] = (),
+    world: np.ndarray | None = None,
 ) -> Path:
     """Write a ``.rrd`` recording of one sequence with a default blueprint, atomically.
 
@@ -187,9 +193,10 @@ def write_recording(
             joints with confidence <= ``min_confidence`` or NaN are not drawn.
         video_path: optional MP4 (rerun's AssetVideo reads MP4 only); embedded in the
             recording.
-        wrist_paths: optional ``name -> (T, 3)`` canonical-frame paths to draw (e.g.
-            filtered wrists); default: the wrists of ``canonical``. The camera view always
-            gets the pelvis-relative wrists of ``joints_cam``.
+        wrist_paths: optional ``name -> (T, 3)`` paths to draw (e.g. filtered wrists), in
+            the world frame when ``world`` is given, else in the canonical frame; default:
+            the wrists of ``world`` or ``canonical``. The camera view always gets the
+            pelvis-relative wrists of ``joints_cam``.
         series: optional ``name -> (T,)`` values; ``"group/leaf"`` names are grouped into
             one plot per group (e.g. ``"wrist_speed/right_m_per_s"``). A frame where a
             value is not finite is not logged for that series.
@@ -197,6 +204,8 @@ def write_recording(
         min_confidence: 2D keypoints at or below it are hidden.
         flags: the run's warnings (:mod:`pcnet.stages.flags`), logged as a static text
             document ``flags`` so the viewer shows them beside the data.
+        world: optional ``(T, 17, 3)`` poses in the recording's world frame
+            (:mod:`pcnet.stages.world_frame`), drawn as a third 3D view ``world``.
 
     Returns:
         the destination path.
@@ -226,8 +235,10 @@ def write_recording(
         if key in series_arrays or key[0] == "series/status/valid":
             raise InputError(f"write_recording: series {name!r} collides with another series")
         series_arrays[key] = _check(f"series[{name!r}]", values, (T,))
+    wld = None if world is None else _check("world", world, (T, 17, 3))
+    path_space, path_poses = ("canonical", can) if wld is None else ("world", wld)
     canon_paths = (
-        {"left_wrist": can[:, L_WRIST], "right_wrist": can[:, R_WRIST]}
+        {"left_wrist": path_poses[:, L_WRIST], "right_wrist": path_poses[:, R_WRIST]}
         if wrist_paths is None
         else {str(k): _check(f"wrist_paths[{k!r}]", p, (T, 3)) for k, p in wrist_paths.items()}
     )
@@ -248,7 +259,7 @@ def write_recording(
 
     groups = list(dict.fromkeys([g for _, g in series_arrays] + ["status"]))
     has_image = asset is not None or kp is not None
-    blueprint = build_blueprint(has_image=has_image, series_groups=groups, fps=fps)
+    blueprint = build_blueprint(has_image=has_image, series_groups=groups, fps=fps, has_world=wld is not None)
 
     # Arrow length: 60 % of the median pelvis-thorax distance, in the data's own units.
     torso = np.linalg.norm(cam[:, THORAX] - cam[:, PELVIS], axis=-1)
@@ -264,7 +275,7 @@ def write_recording(
             rec.save(tmp, default_blueprint=blueprint)
             _log_all(
                 rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset,
-                video_ns, canon_paths, series_arrays, arrow_len, min_confidence,
+                video_ns, canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space,
             )
             text = "\n".join(f"- {f}" for f in flags) if flags else "no warnings"
             rec.log("flags", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True, strict=True)
@@ -281,7 +292,7 @@ def write_recording(
 
 def _log_all(
     rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset, video_ns,
-    canon_paths, series_arrays, arrow_len, min_confidence,
+    canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space,
 ) -> None:
     # strict=True everywhere: rerun's default turns API misuse into a warning and drops
     # the data, which would yield a silently incomplete recording.
@@ -329,7 +340,11 @@ def _log_all(
     log("camera", rr.ViewCoordinates.RDF)
     # FUR = X forward, Y up, Z right: exactly the canonical axes (right-handed, Y up).
     log("canonical", rr.ViewCoordinates.FUR)
-    for space, X in (("camera", cam), ("canonical", can)):
+    spaces = [("camera", cam), ("canonical", can)]
+    if wld is not None:
+        log("world", rr.ViewCoordinates.FUR)  # the world frame has the canonical frame's axis roles
+        spaces.append(("world", wld))
+    for space, X in spaces:
         log(f"{space}/skeleton/joints", rr.Points3D.from_fields(class_ids=0, radii=rr.Radius.ui_points(5.0)))
         send(f"{space}/skeleton/joints", _points_columns(rr, X))
         log(f"{space}/skeleton/bones", rr.LineStrips3D.from_fields(radii=rr.Radius.ui_points(2.5)))
@@ -361,7 +376,7 @@ def _log_all(
         ("camera", "right_wrist"): cam_rel[:, R_WRIST],
     }
     for name, p in canon_paths.items():
-        paths[("canonical", name)] = p
+        paths[(path_space, name)] = p
     for (space, name), p in paths.items():
         strips = _finite_strips(p)
         if strips:

@@ -277,31 +277,31 @@ def test_angle_signs_on_constructed_limbs(side):
 
     flexed = rotate_chain(X0, hip, knee, "z", 30.0)  # about +Z: knee moves anterior (+X)
     a = joint_angles(flexed)
-    assert a[f"{side}_hip_flexion"][0] == pytest.approx(30.0, abs=1e-4)
-    assert a[f"{other}_hip_flexion"][0] == pytest.approx(0.0, abs=1e-4)
-    assert a[f"{side}_knee_flexion"][0] == pytest.approx(0.0, abs=1e-4)
+    assert a[f"{side}_thigh_sagittal_inclination"][0] == pytest.approx(30.0, abs=1e-4)
+    assert a[f"{other}_thigh_sagittal_inclination"][0] == pytest.approx(0.0, abs=1e-4)
+    assert a[f"{side}_knee_flexion_unsigned"][0] == pytest.approx(0.0, abs=1e-4)
 
     # Knee moved away from the midline: towards +Z on the right, -Z on the left.
     abducted = rotate_chain(X0, hip, knee, "x", -s * 20.0)
     assert np.sign(abducted[knee, 2] - X0[knee, 2]) == s
-    assert joint_angles(abducted)[f"{side}_hip_abduction"][0] == pytest.approx(20.0, abs=1e-4)
+    assert joint_angles(abducted)[f"{side}_thigh_frontal_inclination"][0] == pytest.approx(20.0, abs=1e-4)
     adducted = rotate_chain(X0, hip, knee, "x", s * 15.0)
-    assert joint_angles(adducted)[f"{side}_hip_abduction"][0] == pytest.approx(-15.0, abs=1e-4)
+    assert joint_angles(adducted)[f"{side}_thigh_frontal_inclination"][0] == pytest.approx(-15.0, abs=1e-4)
 
     bent = rotate_chain(X0, knee, ankle, "z", -60.0)  # foot goes back
     a = joint_angles(bent)
-    assert a[f"{side}_knee_flexion"][0] == pytest.approx(60.0, abs=1e-4)
-    assert a[f"{side}_hip_flexion"][0] == pytest.approx(0.0, abs=1e-4)
+    assert a[f"{side}_knee_flexion_unsigned"][0] == pytest.approx(60.0, abs=1e-4)
+    assert a[f"{side}_thigh_sagittal_inclination"][0] == pytest.approx(0.0, abs=1e-4)
 
     arm_fwd = rotate_chain(X0, sho, elb, "z", 90.0)
     a = joint_angles(arm_fwd)
-    assert a[f"{side}_shoulder_flexion"][0] == pytest.approx(90.0, abs=1e-4)
+    assert a[f"{side}_upper_arm_sagittal_inclination"][0] == pytest.approx(90.0, abs=1e-4)
     # A horizontal forward arm has no frontal-plane angle.
-    assert np.isnan(a[f"{side}_shoulder_abduction"][0])
+    assert np.isnan(a[f"{side}_upper_arm_frontal_inclination"][0])
     overhead = rotate_chain(X0, sho, elb, "x", -s * 200.0)  # abducted past overhead
-    assert joint_angles(overhead)[f"{side}_shoulder_abduction"][0] == pytest.approx(200.0, abs=1e-4)
+    assert joint_angles(overhead)[f"{side}_upper_arm_frontal_inclination"][0] == pytest.approx(200.0, abs=1e-4)
     elbow = rotate_chain(X0, elb, wri, "z", 90.0)
-    assert joint_angles(elbow)[f"{side}_elbow_flexion"][0] == pytest.approx(90.0, abs=1e-4)
+    assert joint_angles(elbow)[f"{side}_elbow_flexion_unsigned"][0] == pytest.approx(90.0, abs=1e-4)
 
 
 def test_trunk_angles_on_constructed_lean():
@@ -310,12 +310,12 @@ def test_trunk_angles_on_constructed_lean():
     assert fwd[8, 0] > 0
     a = joint_angles(fwd)
     assert a["trunk_inclination"][0] == pytest.approx(20.0, abs=1e-4)
-    assert a["trunk_flexion"][0] == pytest.approx(20.0, abs=1e-4)
-    assert a["trunk_lateral_flexion"][0] == pytest.approx(0.0, abs=1e-4)
+    assert a["trunk_sagittal_inclination"][0] == pytest.approx(20.0, abs=1e-4)
+    assert a["trunk_frontal_inclination"][0] == pytest.approx(0.0, abs=1e-4)
     right = rotate_chain(X0, PELVIS, 7, "x", 15.0)  # thorax towards +Z (subject's right)
     assert right[8, 2] > 0
     a = joint_angles(right)
-    assert a["trunk_lateral_flexion"][0] == pytest.approx(15.0, abs=1e-4)
+    assert a["trunk_frontal_inclination"][0] == pytest.approx(15.0, abs=1e-4)
     assert a["trunk_inclination"][0] == pytest.approx(15.0, abs=1e-4)
 
 
@@ -330,21 +330,21 @@ def test_angles_survive_camera_rotation_and_rectification():
     R_hat, valid = geometric_rotation(cam)
     a = joint_angles(to_canonical(cam, R_hat))
     assert valid.all()
-    assert a["right_hip_flexion"][0] == pytest.approx(40.0, abs=1e-4)
-    assert a["left_shoulder_abduction"][0] == pytest.approx(70.0, abs=1e-4)
+    assert a["right_thigh_sagittal_inclination"][0] == pytest.approx(40.0, abs=1e-4)
+    assert a["left_upper_arm_frontal_inclination"][0] == pytest.approx(70.0, abs=1e-4)
     raw = joint_angles(cam - cam[:, :1])
-    assert abs(raw["right_hip_flexion"][0] - 40.0) > 10.0
+    assert abs(raw["right_thigh_sagittal_inclination"][0] - 40.0) > 10.0
 
 
 def test_angles_on_real_standing_sequence(yoga_level):
     a = joint_angles(yoga_level)
     med = {k: float(np.nanmedian(v)) for k, v in a.items()}
     assert med["trunk_inclination"] < 10.0
-    assert med["left_knee_flexion"] < 30.0 and med["right_knee_flexion"] < 30.0
+    assert med["left_knee_flexion_unsigned"] < 30.0 and med["right_knee_flexion_unsigned"] < 30.0
     # Tadasana with feet together: both thighs converge (adduction, negative) and the
     # raised arms abduct both shoulders near 170 deg: mirrored signs agree left/right.
-    assert med["left_hip_abduction"] < 0 and med["right_hip_abduction"] < 0
-    assert med["left_shoulder_abduction"] > 150 and med["right_shoulder_abduction"] > 150
+    assert med["left_thigh_frontal_inclination"] < 0 and med["right_thigh_frontal_inclination"] < 0
+    assert med["left_upper_arm_frontal_inclination"] > 150 and med["right_upper_arm_frontal_inclination"] > 150
 
 
 def test_angles_on_full_real_file_when_available():
@@ -353,7 +353,7 @@ def test_angles_on_full_real_file_when_available():
     k = compute_kinematics(to_canonical(X, R), FPS_YOGA, 6.0, "m")
     assert valid.all() and k.positions.shape == X.shape
     assert np.nanmedian(k.angles["trunk_inclination"]) < 10.0
-    assert np.nanpercentile(k.angles["left_knee_flexion"], 5) < 30.0
+    assert np.nanpercentile(k.angles["left_knee_flexion_unsigned"], 5) < 30.0
 
 
 # --- compute_kinematics --------------------------------------------------------------
@@ -365,8 +365,8 @@ def test_compute_kinematics_bundle(yoga_level):
     assert k.positions.shape == k.velocity.shape == k.acceleration.shape == (T, 17, 3)
     assert (k.units, k.velocity_units, k.acceleration_units) == ("m", "m/s", "m/s^2")
     assert np.allclose(k.speed, np.linalg.norm(k.velocity, axis=-1), equal_nan=True)
-    knee = joint_angles(k.positions)["left_knee_flexion"]
-    assert np.allclose(k.angles["left_knee_flexion"], knee, equal_nan=True)
+    knee = joint_angles(k.positions)["left_knee_flexion_unsigned"]
+    assert np.allclose(k.angles["left_knee_flexion_unsigned"], knee, equal_nan=True)
     v, _ = derivatives(k.positions, FPS_YOGA)
     assert np.allclose(k.velocity, v, equal_nan=True)
     # A gap-free recording: only the first and last frame lack derivatives, nothing is
@@ -528,7 +528,7 @@ def test_csv_rows_headers_units_and_values(tmp_path, kin):
     assert len(body) == T
     for col in ("frame", "time_s", "right_wrist_x_m", "right_wrist_vx_m_per_s",
                 "right_wrist_az_m_per_s2", "right_wrist_speed_m_per_s", "trunk_inclination_deg",
-                "left_knee_flexion_deg", "valid", "tilt_deg"):
+                "left_knee_flexion_unsigned_deg", "valid", "tilt_deg"):
         assert col in header, col
     assert len(header) == 2 + 17 * 12 + len(kin.angles) + 2
     assert header[header.index("right_wrist_speed_m_per_s") + 1 :][:2] == [

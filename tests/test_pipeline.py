@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import glob
 import re
 from pathlib import Path
@@ -52,12 +53,14 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
         rows = list(csv.DictReader(fh))
     assert len(rows) == frames
     assert "right_wrist_vx_m_per_s" in rows[0] and "trunk_inclination_deg" in rows[0]
-    header, data = _trc(out / "canonical.trc")
+    header, data = _trc(out / "world.trc")  # a static camera: markers in the recording's world frame
     assert int(header["NumFrames"]) == frames and int(header["NumMarkers"]) == 17 and header["Units"] == "m"
     assert data.shape == (frames, 2 + 17 * 3)
+    assert "kinematics frame  world, fixed for the recording" in res.output
     rows_per_entity, static, _, origins = rrd_summary(out / "recording.rrd")
     assert "/video" in static
-    for entity in ("/camera/skeleton/joints", "/canonical/skeleton/joints", "/video/keypoints"):
+    for entity in ("/camera/skeleton/joints", "/canonical/skeleton/joints", "/world/skeleton/joints",
+                   "/video/keypoints"):
         assert rows_per_entity[entity] == frames, entity
     assert any(e.startswith("/series/") for e in rows_per_entity)
     with np.load(out / "canonical.npz") as npz:
@@ -65,6 +68,16 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
         assert str(npz["method"]) == "pcnet" and npz["valid"].all()
         # canonical Y is up: the head is above the pelvis while boxing upright
         assert np.median(npz["canonical"][:, HEAD, 1] - npz["canonical"][:, PELVIS, 1]) > 0.4
+        world, W = npz["joints_world"], npz["world_rotation"]
+        assert json.loads(str(npz["report"]))["kinematics_frame"] == "world"
+        np.testing.assert_allclose(W @ W.T, np.eye(3), atol=1e-9)
+        # one fixed frame: the world pose is the camera pose turned by one rotation, lowest joint on y = 0
+        lifted = npz["joints_camera"] @ W.T
+        np.testing.assert_allclose(world - world[:, :1], lifted - lifted[:, :1], atol=1e-6)
+        np.testing.assert_allclose(np.nanmin(world[..., 1], axis=1), 0.0, atol=1e-9)
+        np.testing.assert_allclose(world[:, PELVIS, [0, 2]], 0.0, atol=1e-9)
+        # its up is the sequence's up
+        np.testing.assert_allclose(W[1], npz["up"][0], atol=1e-9)
     assert (out / "wrists.png").stat().st_size > 10_000
     assert not list(tmp_path.glob(".demo.*"))  # no temporary folder left
 
@@ -138,7 +151,9 @@ def test_nan_only_sequence_is_a_clear_error(tmp_path):
     assert res.exit_code != 0 and "nan.npy" in res.output
 
 
-def test_toml_config_and_batch_with_one_failing_row(tmp_path):
+def test_toml_config(tmp_path):
+    # The batch half of this test (a manifest with one failing row) is in tests/test_batch.py:
+    # a missing input is now refused before any row runs, so its failing row fails at run time.
     cfg = tmp_path / "run.toml"
     cfg.write_text(
         f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nkeypoints2d = "{BOX_2D}"\n'
@@ -147,19 +162,6 @@ def test_toml_config_and_batch_with_one_failing_row(tmp_path):
     res = _invoke("run", "--config", cfg)
     assert res.exit_code == 0, res.output
     assert (tmp_path / "from_toml" / "kinematics.csv").is_file()
-
-    manifest = tmp_path / "manifest.csv"
-    manifest.write_text(
-        "lifter,lifter_output,keypoints2d,keypoints2d_format,fps,out,method,recording\n"
-        f"motionbert,{BOX_3D},{BOX_2D},alphapose,30,b1,geometric,false\n"
-        f"motionbert,{tmp_path / 'missing.npy'},,,30,b2,geometric,false\n"
-        f"mediapipe,{MEDIAPIPE},{MEDIAPIPE},mediapipe,30,b3,geometric,false\n"
-    )
-    res = _invoke("batch", manifest, "--workers", "2")
-    assert res.exit_code == 1  # one row failed
-    assert "2 of 3 recordings processed" in res.output and "missing.npy" in res.output
-    assert (tmp_path / "b1" / "canonical.npz").is_file() and (tmp_path / "b3" / "canonical.npz").is_file()
-    assert not (tmp_path / "b2").exists()
 
 
 def test_every_yoga_file_rectifies_and_standing_trunks_are_vertical():

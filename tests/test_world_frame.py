@@ -1,0 +1,91 @@
+"""One fixed world frame per recording (stages/world_frame.py) and kinematics in it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import FIXTURES
+
+from pcnet.models.datasets import load_mocap
+from pcnet.stages.canonical import canonical_rotation, to_canonical
+from pcnet.stages.conventions import H36M_JOINTS, PELVIS
+from pcnet.stages.errors import InputError
+from pcnet.stages.kinematics import compute_kinematics
+from pcnet.stages.rotations import axis_rotation
+from pcnet.stages.world_frame import to_world, world_frame
+
+FPS = 30.0
+R_WRIST = H36M_JOINTS.index("right_wrist")
+CAMERA = axis_rotation("x", np.radians(-15.0)) @ axis_rotation("y", np.radians(40.0))  # world -> camera, tilted
+
+
+def _filmed(world_joints: np.ndarray):
+    """Pelvis-centred camera-frame poses of mocap ``(T, 17, 3)`` (Y up) seen by ``CAMERA``,
+    with the true canonical->camera rotations."""
+    rel = world_joints - world_joints[:, PELVIS : PELVIS + 1]
+    cam = rel @ CAMERA.T
+    R, valid = canonical_rotation(cam, CAMERA @ np.array([0.0, 1.0, 0.0]))
+    assert valid.all()
+    return cam, R
+
+
+def test_world_frame_is_the_mocap_frame_turned_about_up_with_the_feet_on_the_floor():
+    J = load_mocap(FIXTURES / "bandai_small.npz")[0].joints.astype(np.float64)
+    cam, R = _filmed(J)
+    frame = world_frame(R, np.ones(len(R), bool), FPS)
+    W = frame.rotation
+    np.testing.assert_allclose(W @ W.T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(W), 1.0, atol=1e-12)
+    turn = W @ CAMERA  # mocap world -> pcnet world: a turn about the vertical only
+    np.testing.assert_allclose(turn[1], [0.0, 1.0, 0.0], atol=1e-9)
+    assert frame.heading_frames == min(len(R), int(FPS))
+    world = to_world(cam, frame)
+    rel = J - J[:, PELVIS : PELVIS + 1]
+    # heights above the lowest joint centre are the mocap's; the pelvis has no horizontal path
+    expected_y = rel[..., 1] - rel[..., 1].min(axis=1, keepdims=True)
+    np.testing.assert_allclose(world[..., 1], expected_y, atol=1e-9)
+    np.testing.assert_allclose(world[:, PELVIS, [0, 2]], 0.0, atol=1e-12)
+    # +X is the subject's forward at the start: the first frames' canonical X has no sideways part
+    forward = (W @ R[: int(FPS), :, 0].T).T
+    assert abs(np.mean(forward[:, 2])) < 1e-9 and np.mean(forward[:, 0]) > 0.9
+
+
+def test_a_subject_turning_on_the_spot_moves_in_the_world_frame_but_not_in_the_canonical_one():
+    """The physics the world frame exists for: a body turning at 90 deg/s about the vertical
+    has wrists that move (speed = omega x radius); the canonical frame turns with the pelvis,
+    so there the wrist stands still (a rotating-frame artefact)."""
+    J = load_mocap(FIXTURES / "bandai_small.npz")[0].joints.astype(np.float64)
+    pose = J[0] - J[0, PELVIS]
+    T, omega = 90, np.radians(90.0)
+    turning = np.stack([pose @ axis_rotation("y", omega * t / FPS).T for t in range(T)])
+    cam, R = _filmed(turning)
+    world = to_world(cam, world_frame(R, np.ones(T, bool), FPS))
+    kin_world = compute_kinematics(world, FPS, cutoff_hz=None)
+    kin_canon = compute_kinematics(to_canonical(cam, R), FPS, cutoff_hz=None)
+    radius = np.hypot(pose[R_WRIST, 0], pose[R_WRIST, 2])
+    inner = slice(5, T - 5)
+    np.testing.assert_allclose(kin_world.speed[inner, R_WRIST], omega * radius, rtol=2e-3)
+    assert np.nanmax(kin_canon.speed[inner, R_WRIST]) < 1e-6
+    # joint angles do not depend on the frame they are computed in
+    for name, angle in kin_world.angles.items():
+        np.testing.assert_allclose(angle, kin_canon.angles[name], atol=1e-4, err_msg=name)
+
+
+def test_world_frame_refuses_what_has_no_up_or_heading():
+    R = np.tile(np.eye(3), (10, 1, 1))
+    with pytest.raises(InputError, match="no valid frame"):
+        world_frame(R, np.zeros(10, bool), FPS)
+    lying_face_up = np.tile(axis_rotation("z", np.radians(90.0)) @ axis_rotation("x", np.radians(90.0)), (10, 1, 1))
+    lying_face_up[:, :, 1] = lying_face_up[:, :, 0]  # forward along the up: no horizontal part
+    with pytest.raises(InputError, match="no horizontal part"):
+        world_frame(lying_face_up, np.ones(10, bool), FPS)
+
+
+def test_missing_joints_stay_missing_and_an_empty_frame_stays_nan():
+    J = load_mocap(FIXTURES / "bandai_small.npz")[0].joints[:20].astype(np.float64)
+    cam, R = _filmed(J)
+    cam[3, R_WRIST] = np.nan
+    cam[7] = np.nan
+    world = to_world(cam, world_frame(R, np.ones(20, bool), FPS))
+    assert np.isnan(world[3, R_WRIST]).all() and np.isfinite(np.delete(world[3], R_WRIST, 0)).all()
+    assert np.isnan(world[7]).all()
