@@ -4,6 +4,7 @@ gated by camera orientation (:mod:`pcnet.models.view_gate`)."""
 from __future__ import annotations
 
 import json
+import os
 import re
 from functools import lru_cache
 from pathlib import Path
@@ -102,6 +103,8 @@ def _open(weights, default: Path, threads: int):
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     opts = ort.SessionOptions()
+    # `pcnet batch` gives each worker its share of the cores (pipeline/batch_worker.py).
+    threads = threads or int(os.environ.get("PCNET_ORT_THREADS") or 0)
     if threads:
         opts.intra_op_num_threads = threads
     try:

@@ -1,17 +1,44 @@
-"""``pcnet batch``: many recordings from a CSV manifest, in parallel processes."""
+"""``pcnet batch``: many recordings from a CSV manifest, one row each, on a local pool of
+worker processes (``--engine local``) or on Ray (``--engine ray``, one task per row).
+
+The manifest is validated whole before any work; each row then runs the ``pcnet run``
+pipeline into its own output folder (written beside it and renamed in, so a failed or
+stopped row leaves no half-written folder); a row that succeeded gets a resume marker
+(:mod:`pcnet.pipeline.batch_marker`) so that a re-run skips it while its inputs, settings
+and the pcnet version are unchanged. The JSON summary (default ``MANIFEST.pcnet_batch.json``)
+records every row: see :data:`SUMMARY_FIELDS`.
+"""
 
 from __future__ import annotations
 
 import csv
 import io
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import fields
+import json
+import os
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
+from pcnet.stages.atomic import write_text
 from pcnet.stages.errors import InputError
 
+from .batch_marker import completed_record, input_files, pcnet_version, read_batch_marker
+from .batch_worker import cpu_cores
 from .config import RunConfig, parse_hypothesis
+from .entry import EXIT_INTERRUPTED
+from .outdir import check_out_folder, clean_stale
 
+ENGINES = ("local", "ray")
+STATUSES = ("ok", "skipped", "failed", "cancelled")
+#: Previous statuses that --retry-failed does not run again.
+DONE = ("ok", "skipped")
+SUMMARY_SUFFIX = ".pcnet_batch.json"
+ROW_SOURCE = "manifest row"
+#: Seconds between rewrites of the JSON summary while a batch runs.
+SUMMARY_EVERY_S = 2.0
+#: Up to this many rows the summary is rewritten at every result (a rewrite costs little).
+SUMMARY_EVERY_RESULT_ROWS = 200
 _NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold": float, "cutoff_hz": float}
 _LIFTER_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key")
 _BOOLEAN = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}
@@ -26,7 +53,11 @@ def _boolean(key: str, raw: str) -> bool:
 
 def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
     """A :class:`RunConfig` from one manifest row (empty cells = defaults; relative paths are
-    relative to the manifest's folder). Raises ValueError naming the bad column."""
+    relative to ``base``, the manifest's folder; no ``out`` = ``base/pcnet_out``).
+
+    Raises:
+        InputError: an unknown column, or a value the column does not take (naming it).
+    """
     # lifter_options is a table in TOML; in a manifest its entries are columns of their own.
     known = ({f.name for f in fields(RunConfig)} - {"lifter_options"}) | set(_LIFTER_OPTIONS)
     unknown = {k for k in row if k not in known}
@@ -56,21 +87,8 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
         else:
             values[key] = raw
     values.setdefault("overwrite", overwrite)
-    return RunConfig.from_values("manifest row", {**values, "lifter_options": options})
-
-
-def _run_row(args: tuple[int, dict, str, bool]) -> dict:
-    index, row, base, overwrite = args
-    from pcnet.pipeline.runner import run_pipeline
-
-    try:
-        cfg = row_to_config(row, Path(base), overwrite)
-        result = run_pipeline(cfg, progress=False)
-        return {"row": index, "status": "ok", "frames": result.frames, "valid": result.valid_frames,
-                "mode": result.mode, "out": cfg.out, "error": ""}
-    except Exception as err:  # one recording's failure must not stop the others
-        return {"row": index, "status": "failed", "frames": 0, "valid": 0, "mode": "",
-                "out": row.get("out", ""), "error": f"{type(err).__name__}: {err}"}
+    values.setdefault("out", str(base / "pcnet_out"))  # beside the manifest, like every relative path
+    return RunConfig.from_values(ROW_SOURCE, {**values, "lifter_options": options})
 
 
 def read_manifest(manifest: Path) -> list[dict]:
@@ -102,49 +120,402 @@ def read_manifest(manifest: Path) -> list[dict]:
     return rows
 
 
-def _refuse_shared_outputs(manifest: Path, rows: list[dict]) -> None:
-    """Two rows writing one output folder would silently replace each other: refused before
-    any row runs (rows without ``out`` share the default ``pcnet_out`` too)."""
+class ManifestError(InputError):
+    """Everything wrong with a manifest, found before any row ran: ``lines`` holds one line
+    per problem (manifest, line, column, expected, found), printed one per line."""
+
+    def __init__(self, lines: list[str]):
+        super().__init__("; ".join(lines))
+        self.lines = list(lines)
+
+
+@dataclass
+class BatchOptions:
+    """``pcnet batch``'s options (see :func:`run_batch`)."""
+
+    engine: str = "local"
+    workers: int | None = None
+    retries: int = 0
+    address: str | None = None
+    overwrite: bool = False
+    retry_failed: bool = False
+    summary_json: str | os.PathLike | None = None
+
+
+@dataclass
+class PlannedRow:
+    """One manifest row after validation: its config, and ``run`` or ``skip`` with the result
+    a skipped row reports (from its output's marker or the previous summary)."""
+
+    row: int
+    line: int
+    config: dict
+    cells: dict = field(default_factory=dict)
+    action: str = "run"
+    known: dict = field(default_factory=dict)
+
+    @property
+    def out(self) -> Path:
+        return Path(self.config["out"])
+
+
+@dataclass
+class BatchReport:
+    """What a batch did: ``rows`` (per-row summary dicts, manifest order), whether it was
+    interrupted, where the JSON summary went, wall time and the engine's start-up time."""
+
+    rows: list[dict]
+    interrupted: bool
+    summary_path: Path
+    seconds: float
+    engine_start_seconds: float = 0.0
+
+    def counts(self) -> dict[str, int]:
+        return {status: sum(r["status"] == status for r in self.rows) for status in STATUSES}
+
+    @property
+    def exit_code(self) -> int:
+        """130 when interrupted, 1 when a row failed, else 0."""
+        if self.interrupted:
+            return EXIT_INTERRUPTED
+        return 1 if self.counts()["failed"] else 0
+
+
+def default_summary_path(manifest: str | os.PathLike) -> Path:
+    """``<manifest>.pcnet_batch.json`` beside the manifest."""
+    manifest = Path(manifest)
+    return manifest.with_name(manifest.name + SUMMARY_SUFFIX)
+
+
+def _input_problems(where: str, row: dict, config: dict) -> list[str]:
+    """Input files a row names that do not exist (or are folders), one line each."""
+    problems = []
+    for column, path in input_files(config).items():
+        if not Path(path).is_file():
+            found = "a folder" if Path(path).is_dir() else "no such file"
+            problems.append(f"{where}: column {column}: expected an existing file, got "
+                            f"{(row.get(column) or '').strip()!r} ({found}: {path})")
+    return problems
+
+
+def _out_problem(where: str, row: dict, config: dict) -> str | None:
+    """``out`` that is an input's folder or contains one (an ``--overwrite`` could then
+    replace the inputs' folder), or None. ``out`` inside an input's folder is fine: the
+    common layout of outputs beside their recordings."""
+    out = Path(config["out"]).resolve()
+    given = (row.get("out") or "").strip() or "pcnet_out"
+    for column, path in input_files(config).items():
+        folder = Path(path).resolve().parent
+        if folder == out or out in folder.parents:
+            relation = "is" if folder == out else "contains"
+            return (f"{where}: column out: expected a folder apart from the inputs, got {given!r}, which {relation} "
+                    f"the folder of {column} {path}")
+    return None
+
+
+def _shared_out_problems(manifest: Path, planned: list[PlannedRow]) -> dict[int, str]:
+    """``{line: problem}`` of rows writing an output folder an earlier row writes: they
+    would silently replace each other (rows without ``out`` share ``pcnet_out`` beside the
+    manifest)."""
     seen: dict[Path, int] = {}
-    for line, row in enumerate(rows, start=2):
-        out = (row.get("out") or "").strip() or "pcnet_out"
-        target = (manifest.parent / out).resolve()
+    problems = {}
+    for item in planned:
+        target = item.out.resolve()
         if target in seen:
-            raise InputError(f"{manifest}: line {line}: column out: expected a folder of its own, got {out!r}, "
-                             f"which line {seen[target]} also writes")
-        seen[target] = line
+            given = (item.cells.get("out") or "").strip() or "pcnet_out"
+            problems[item.line] = (f"{manifest}: line {item.line}: column out: expected a folder of its own, got "
+                                   f"{given!r}, which line {seen[target]} also writes")
+        else:
+            seen[target] = item.line
+    return problems
 
 
-def run_batch(manifest: str | Path, workers: int = 2, overwrite: bool = False) -> list[dict]:
-    """Run every row of ``manifest`` (CSV with a header) in ``workers`` processes; returns
-    one result dict per row, in manifest order.
+def _parse_rows(manifest: Path, rows: list[dict], overwrite: bool) -> tuple[list[PlannedRow], dict[int, str]]:
+    """Every row's config (absolute paths), and ``{line: problem}`` for the rows whose
+    settings, input files or ``out`` (against the inputs) are wrong."""
+    base = manifest.resolve().parent
+    planned, problems = [], {}
+    for index, row in enumerate(rows, start=1):
+        where = f"{manifest}: line {index + 1}"
+        try:
+            cfg = row_to_config(row, base, overwrite)
+        except InputError as err:
+            # RunConfig names its source "manifest row"; here the row is the line already.
+            problems[index + 1] = f"{where}: {str(err).replace(ROW_SOURCE + ': field ', 'column ')}"
+            continue
+        config = asdict(cfg)
+        found = _input_problems(where, row, config) or [p for p in [_out_problem(where, row, config)] if p]
+        if found:
+            problems[index + 1] = "\n".join(found)
+        planned.append(PlannedRow(index, index + 1, config, row))
+    return planned, problems
+
+
+def read_previous_summary(path: Path) -> dict[str, dict]:
+    """``{resolved out: row}`` of a previous run's JSON summary.
 
     Raises:
-        InputError: before any row runs, for an unreadable manifest, two rows sharing an
-            output folder, or a row whose settings are invalid (naming the line). A row whose
-            inputs fail while it runs is reported in its result instead.
+        InputError: the summary is missing or not a pcnet batch summary.
+    """
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(f"--retry-failed: expected the previous run's summary {path}, got no such file; run without "
+                         f"--retry-failed first (or name the summary with --summary-json)") from None
+    except (OSError, ValueError) as err:
+        raise InputError(f"--retry-failed: expected the previous run's summary {path}, got {err}") from None
+    if not isinstance(data, dict) or data.get("writer") != "pcnet batch" or not isinstance(data.get("rows"), list):
+        raise InputError(f"--retry-failed: expected a pcnet batch summary in {path}, got another file")
+    return {str(Path(r["out"]).resolve()): r for r in data["rows"] if isinstance(r, dict) and r.get("out")}
+
+
+def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] | None) -> None:
+    """Set ``item.action``: skip a row whose output is complete and current (or, with
+    ``--retry-failed``, that succeeded last time); re-run a row over its own previous
+    batch output (``overwrite``, which still refuses files pcnet did not write)."""
+    if previous is not None:
+        before = previous.get(str(item.out.resolve()))
+        if before is not None and before.get("status") in DONE:
+            item.action = "skip"
+            item.known = {k: before.get(k) for k in ("frames", "valid", "mode")}
+            return
+    if options.overwrite:
+        item.config["overwrite"] = True
+        return
+    if not item.out.exists():
+        return
+    record = completed_record(item.out, item.config)
+    if record is not None:
+        item.action = "skip"
+        item.known = dict(record.get("result") or {})
+    elif read_batch_marker(item.out):
+        item.config["overwrite"] = True  # our own earlier output of changed inputs or settings
+
+
+def _out_folder_problem(manifest: Path, item: PlannedRow) -> str | None:
+    """What :func:`~pcnet.pipeline.outdir.check_out_folder` (the rule ``pcnet run`` applies)
+    refuses about a row that will run, as a manifest line, or None."""
+    try:
+        check_out_folder(item.config["out"], input_files(item.config).values(), item.config["overwrite"])
+    except (InputError, OSError) as err:
+        text = " ".join(str(err).split()).removeprefix(f"--out {item.config['out']}: ")
+        if isinstance(err, FileExistsError):
+            given = (item.cells.get("out") or "").strip() or "pcnet_out"
+            kind = "folder" if item.out.is_dir() else "file"
+            text = (f"expected a new folder, got {given!r}, an existing {kind} without a pcnet batch marker "
+                    f"({item.config['out']}); pass --overwrite to replace a previous pcnet output")
+        return f"{manifest}: line {item.line}: column out: {text}"
+    return None
+
+
+def _check_summary_path(path: Path, manifest: Path, planned: list[PlannedRow]) -> None:
+    """The summary may replace only an earlier pcnet batch summary, in a writable folder,
+    and may not be the manifest or an input.
+
+    Raises:
+        InputError: naming ``--summary-json``, the path and the rule.
+    """
+    resolved = path.resolve()
+    inputs = {Path(p).resolve() for item in planned for p in input_files(item.config).values()}
+    if resolved == manifest.resolve() or resolved in inputs:
+        raise InputError(f"--summary-json {path}: expected a file of its own, got the manifest or an input")
+    if not resolved.parent.is_dir() or not os.access(resolved.parent, os.W_OK):
+        raise InputError(f"--summary-json {path}: expected a writable folder for the batch summary, got "
+                         f"{resolved.parent}; name another place with --summary-json")
+    if resolved.exists():
+        try:
+            ours = json.loads(resolved.read_text()).get("writer") == "pcnet batch"
+        except (OSError, ValueError, AttributeError):
+            ours = False
+        if not ours:
+            raise InputError(f"--summary-json {path}: expected a new file or an earlier pcnet batch summary, got a "
+                             f"file pcnet did not write; name another place with --summary-json")
+
+
+def plan_batch(manifest: str | os.PathLike, options: BatchOptions) -> tuple[list[PlannedRow], Path]:
+    """Validate the whole manifest and decide, per row, run or skip; returns the rows and
+    the summary path. Nothing is written.
+
+    Raises:
+        InputError: an unreadable manifest (:func:`read_manifest`), a missing or foreign
+            ``--retry-failed`` summary, an unusable ``--summary-json`` path.
+        ManifestError: one line per problem of any row: unknown columns or bad values, an
+            input file that does not exist, an ``out`` that is (or contains) an input's
+            folder, two rows sharing an ``out``, an ``out`` that ``pcnet run`` would refuse
+            (an existing folder without ``--overwrite``, a folder holding files pcnet did
+            not write, the current folder).
     """
     manifest = Path(manifest)
-    rows = read_manifest(manifest)
-    _refuse_shared_outputs(manifest, rows)
-    for line, row in enumerate(rows, start=2):  # every row's settings checked before any row runs
-        try:
-            row_to_config(row, manifest.parent, overwrite)
-        except InputError as err:
-            raise InputError(f"{manifest}: line {line}: {err}") from None
-    jobs = [(i + 1, row, str(manifest.parent), overwrite) for i, row in enumerate(rows)]
-    if workers <= 1:
-        return [_run_row(j) for j in jobs]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(_run_row, jobs))
+    planned, problems = _parse_rows(manifest, read_manifest(manifest), options.overwrite)
+    for line, problem in _shared_out_problems(manifest, planned).items():
+        problems.setdefault(line, problem)
+    summary = Path(options.summary_json) if options.summary_json else default_summary_path(manifest)
+    _check_summary_path(summary, manifest, planned)
+    previous = read_previous_summary(summary) if options.retry_failed else None
+    for item in planned:
+        if item.line in problems:
+            continue
+        _decide(item, options, previous)
+        problem = _out_folder_problem(manifest, item) if item.action == "run" else None
+        if problem:
+            problems[item.line] = problem
+    if problems:
+        raise ManifestError([line for _, text in sorted(problems.items()) for line in text.split("\n")])
+    return planned, summary
 
 
-def format_summary(results: list[dict]) -> str:
-    """A plain-text table: row, status, frames, valid, mode, output or error."""
-    lines = [f"{'row':>4}  {'status':<7}{'frames':>7}{'valid':>7}  {'mode':<9}output / error"]
-    for r in results:
-        lines.append(f"{r['row']:>4}  {r['status']:<7}{r['frames']:>7}{r['valid']:>7}  {r['mode']:<9}"
-                     f"{r['out'] if r['status'] == 'ok' else r['error']}")
-    ok = sum(r["status"] == "ok" for r in results)
-    lines.append(f"{ok} of {len(results)} recordings processed")
+def _engine(options: BatchOptions, on_result):
+    if options.engine == "ray":
+        from .batch_ray import RayEngine
+
+        return RayEngine(options.workers, options.retries, options.address, on_result)
+    from .batch_local import LocalEngine
+
+    return LocalEngine(options.workers or cpu_cores(), options.retries, on_result)
+
+
+def _row_summary(item: PlannedRow, result: dict | None, status: str | None = None) -> dict:
+    """A row of the summary: the engine's result, or a skipped / cancelled / pending row."""
+    base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": 0, "valid": 0,
+            "mode": "", "seconds": None, "error": "", "host": "", "pid": None, "attempts": 0, "threads": None}
+    if item.action == "skip":
+        base.update(status="skipped", **{k: v for k, v in item.known.items() if v is not None})
+    elif result is not None:
+        base.update(result, row=item.row)
+    return base
+
+
+class _SummaryWriter:
+    """Writes the JSON summary atomically while the batch runs, so that a driver that dies
+    still leaves what finished (at every result, or at most every :data:`SUMMARY_EVERY_S`
+    for batches over :data:`SUMMARY_EVERY_RESULT_ROWS` rows, whose rewrites would add up),
+    and at the end."""
+
+    def __init__(self, path: Path, header: dict):
+        self.path, self.header, self.last = path, header, 0.0
+
+    def write(self, rows: list[dict], force: bool = False, **extra) -> None:
+        now = time.monotonic()
+        if not force and len(rows) > SUMMARY_EVERY_RESULT_ROWS and now - self.last < SUMMARY_EVERY_S:
+            return
+        self.last = now
+        counts = {status: sum(r["status"] == status for r in rows) for status in (*STATUSES, "pending")}
+        data = {**self.header, **extra, "counts": counts, "rows": rows}
+        write_text(self.path, json.dumps(data, indent=1) + "\n")
+
+
+def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
+              progress: Callable[[str], None] | None = None) -> BatchReport:
+    """Validate ``manifest``, then run its rows that need running with ``options.engine``
+    and write the JSON summary (:func:`summary_fields`).
+
+    ``progress`` gets one line per row as it finishes. Ctrl-C (or SIGTERM) stops the batch:
+    no further row starts, running rows are stopped without leaving half-written folders,
+    and the report marks them ``cancelled`` (``exit_code`` 130).
+
+    Raises:
+        InputError, ManifestError: see :func:`plan_batch`; nothing has run then.
+    """
+    options = options or BatchOptions()
+    started = time.perf_counter()
+    planned, summary_path = plan_batch(manifest, options)
+    by_row = {item.row: item for item in planned}
+    results: dict[int, dict] = {}
+    jobs = [{"row": item.row, "config": item.config} for item in planned if item.action == "run"]
+    header = _summary_header(manifest, options, len(jobs))
+    writer = _SummaryWriter(summary_path, header)
+
+    def rows(unfinished: str) -> list[dict]:
+        return [_row_summary(item, results.get(item.row), unfinished) for item in planned]
+
+    def on_result(result: dict) -> None:
+        results[result["row"]] = result
+        if progress is not None:
+            progress(_progress_line(len(results), len(jobs), by_row[result["row"]], result))
+        writer.write(rows("pending"))
+
+    writer.write(rows("pending"), force=True)
+    engine = _engine(options, on_result)
+    try:
+        _, interrupted = engine.run(jobs)
+    except KeyboardInterrupt:  # arrived outside the engine's loop (e.g. while Ray started)
+        interrupted = True
+    final = rows("cancelled")
+    if interrupted and not (options.engine == "ray" and options.address):
+        _clean_cancelled(planned, results)
+    seconds = time.perf_counter() - started
+    start_s = getattr(engine, "start_seconds", 0.0)
+    writer.write(final, force=True, interrupted=interrupted, seconds=round(seconds, 3),
+                 engine_start_seconds=round(start_s, 3))
+    return BatchReport(final, interrupted, summary_path, seconds, start_s)
+
+
+def _summary_header(manifest, options: BatchOptions, jobs: int) -> dict:
+    workers = options.workers or (None if options.engine == "ray" and options.address else cpu_cores())
+    return {"writer": "pcnet batch", "pcnet_version": pcnet_version(), "manifest": str(Path(manifest).resolve()),
+            "engine": options.engine, "address": options.address, "workers": workers, "rows_to_run": jobs,
+            "retries": options.retries, "overwrite": options.overwrite, "retry_failed": options.retry_failed,
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "interrupted": False}
+
+
+def _clean_cancelled(planned: list[PlannedRow], results: dict[int, dict]) -> None:
+    """Remove the staged folders that stopped rows left (their processes are gone; only
+    folders carrying pcnet's marker naming a dead process are touched)."""
+    for item in planned:
+        if item.action == "run" and item.row not in results:
+            try:
+                clean_stale(item.out.resolve())
+            except OSError:
+                pass
+
+
+def _progress_line(done: int, total: int, item: PlannedRow, result: dict) -> str:
+    detail = str(item.out) if result["status"] == "ok" else result["error"]
+    took = f" {result['seconds']:.1f} s" if result.get("seconds") is not None else ""
+    return f"[{done}/{total}] line {item.line} {result['status']}{took}: {detail}"
+
+
+def summary_fields() -> dict[str, str]:
+    """What each per-row field of the JSON summary (and the table) means."""
+    return dict(SUMMARY_FIELDS)
+
+
+SUMMARY_FIELDS = {
+    "row": "1-based row number in the manifest (below the header)",
+    "line": "line of the manifest the row is on",
+    "out": "the row's output folder (absolute)",
+    "status": "ok: ran and wrote its output; skipped: not run, its output is complete and current (or, with "
+              "--retry-failed, it succeeded last time); failed: ran and failed (see error), its out left as it was; "
+              "cancelled: unfinished when the batch was interrupted, its out left as it was; pending: still running "
+              "(only in a summary written while the batch runs)",
+    "frames": "frames of the recording (0 when it did not run through)",
+    "valid": "frames with a rectified pose",
+    "mode": "rectification mode used (frame, sequence, smooth)",
+    "seconds": "run time of the last attempt in its worker (null: not run, or its worker died)",
+    "error": "one-line reason of a failed row",
+    "host": "host name of the worker that ran the last attempt",
+    "pid": "process id of that worker",
+    "attempts": "times the row was started (more than 1 when a worker died and --retries allowed another)",
+    "threads": "threads per library the worker was given (OMP/OpenBLAS/MKL_NUM_THREADS, PCNET_ORT_THREADS)",
+    "traceback": "only for a failure that is a bug of pcnet (not bad input): its Python traceback",
+}
+
+
+def format_summary(report: BatchReport) -> str:
+    """The results table: one line per row (status, attempts, frames, valid, seconds,
+    worker host:pid, output folder or error), then the counts and the summary path."""
+    lines = [f"{'row':>4}  {'status':<10}{'tries':>5}{'frames':>8}{'valid':>7}{'seconds':>9}  {'worker':<22}"
+             f"output / error"]
+    for r in report.rows:
+        seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else "-"
+        worker = f"{r['host']}:{r['pid']}" if r.get("pid") else "-"
+        detail = r["error"] if r["status"] == "failed" else r["out"]
+        lines.append(f"{r['row']:>4}  {r['status']:<10}{r['attempts']:>5}{r['frames']:>8}{r['valid']:>7}{seconds:>9}  "
+                     f"{worker:<22}{detail}")
+    counts = report.counts()
+    done = counts["ok"] + counts["skipped"]
+    lines.append(f"{done} of {len(report.rows)} recordings processed ({', '.join(f'{v} {k}' for k, v in counts.items())})"
+                 f" in {report.seconds:.1f} s; summary {report.summary_path}")
+    if report.interrupted:
+        lines.append("interrupted: no further row started; cancelled rows left their output folders as they were")
     return "\n".join(lines)

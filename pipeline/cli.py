@@ -246,9 +246,13 @@ def _run_and_report(cfg) -> None:
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 @click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")
-def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, **options):
+@click.option("--opensim", "with_opensim", is_flag=True, default=False,
+              help="Then scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`).")
+@click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")
+def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, with_opensim, mass, **options):
     """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
-    poses, kinematics, CSV/TRC/NPZ/PNG exports and a rerun recording."""
+    poses, kinematics in the recording's world frame, CSV/TRC/NPZ/PNG exports and a rerun
+    recording (with --opensim also OpenSim scaling and inverse kinematics)."""
     from pcnet.pipeline.config import RunConfig, load_run_config, parse_hypothesis
 
     lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
@@ -263,7 +267,13 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, 
     else:
         given = {k: v for k, v in options.items() if v is not None}
         cfg = RunConfig.from_values("command line (or give --config FILE)", {**given, "lifter_options": lifter_options})
+    if with_opensim:
+        from pcnet.stages.opensim_ik import import_opensim
+
+        import_opensim()  # before any work: without OpenSim, one line saying how to get it
     _run_and_report(cfg)
+    if with_opensim:
+        click.get_current_context().invoke(opensim, out_dir=cfg.out, height=cfg.height, mass=mass, overwrite=False)
 
 
 @main.command()
@@ -288,18 +298,95 @@ def demo(out, method, overwrite):
 
 @main.command()
 @click.argument("manifest", type=click.Path(dir_okay=False))
-@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True)
-@click.option("--overwrite", is_flag=True)
-def batch(manifest, workers, overwrite):
-    """Process many recordings in parallel: one CSV row each, columns named like the fields
-    of `pcnet run` (lifter, lifter_output, keypoints2d, keypoints2d_format, video, out, ...).
-    A failing row is reported and does not stop the others."""
-    from pcnet.pipeline.batch import format_summary, run_batch
+@click.option("--engine", type=click.Choice(("local", "ray")), default="local", show_default=True,
+              help="local: worker processes on this machine; ray: one Ray task per row (pip install \"pcnet[ray]\")")
+@click.option("--address", default=None, metavar="ADDR",
+              help="with --engine ray: a running Ray cluster (host:port printed by `ray start --head`, or auto); "
+                   "without it a local Ray instance is started")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="rows run at once  [default: this machine's CPU cores; with --address: the cluster's CPUs]")
+@click.option("--retries", type=click.IntRange(min=0), default=0, show_default=True,
+              help="times a row is started again when its worker process died (killed by the OS, out of memory)")
+@click.option("--overwrite", is_flag=True, help="run every row again, replacing previous pcnet outputs")
+@click.option("--retry-failed", is_flag=True,
+              help="run only the rows that did not succeed in the previous run (read from its JSON summary)")
+@click.option("--summary-json", type=click.Path(dir_okay=False), default=None,
+              help="the JSON summary to write (and, with --retry-failed, to read)  [default: MANIFEST.pcnet_batch.json]")
+def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, summary_json):
+    """Process many recordings: one CSV row each, columns named like the fields of
+    `pcnet run` (lifter, lifter_output, keypoints2d, keypoints2d_format, video, out, ...).
 
-    results = run_batch(manifest, workers=workers, overwrite=overwrite)
-    click.echo(format_summary(results))
-    if any(r["status"] != "ok" for r in results):
-        sys.exit(1)
+    The whole manifest is checked before any row runs (one line per problem, exit 1). A
+    failing row is reported and does not stop the others; a row whose output is complete
+    and whose inputs, settings and pcnet version are unchanged is skipped. Prints a results
+    table and writes a JSON summary. Exit 0 when every row succeeded or was skipped, 1 when
+    a row failed, 130 on Ctrl-C (running rows are stopped, nothing half-written is left).
+    """
+    from pcnet.pipeline.batch import BatchOptions, ManifestError, format_summary, run_batch
+    from pcnet.pipeline.batch_ray import import_ray
+
+    if address and engine != "ray":
+        raise InputError(f"--address {address}: expected together with --engine ray, got --engine {engine}")
+    if engine == "ray":
+        import_ray()  # before any work: without Ray, one line saying how to get it
+    options = BatchOptions(engine=engine, workers=workers, retries=retries, address=address, overwrite=overwrite,
+                           retry_failed=retry_failed, summary_json=summary_json)
+    try:
+        report = run_batch(manifest, options, progress=lambda line: click.echo(line, err=True))
+    except ManifestError as err:
+        for line in err.lines:
+            click.echo(f"Error: {line}", err=True)
+        raise click.exceptions.Exit(1) from None
+    click.echo(format_summary(report))
+    if report.exit_code:
+        raise click.exceptions.Exit(report.exit_code)
+
+
+@main.command()
+@click.argument("out_dir", type=click.Path(file_okay=False))
+@click.option("--height", type=float, default=None, help="Subject height in metres (recorded in the scaled model).")
+@click.option("--mass", type=float, default=None, help="Subject mass in kg (sets the scaled model's total mass).")
+@click.option("--overwrite", is_flag=True, help="Replace earlier OpenSim outputs of pcnet in OUT_DIR.")
+def opensim(out_dir, height, mass, overwrite):
+    """Scale an OpenSim model to the subject and solve inverse kinematics on OUT_DIR/world.trc
+    (a `pcnet run` output with a static camera; pip install "pcnet[opensim]").
+
+    Writes OUT_DIR/scaled_model.osim, ik.mot and ik_marker_errors.sto and prints the marker
+    RMS / max error and the IK speed (stages/opensim_ik.py).
+    """
+    from pcnet.pipeline.outdir import is_owned, register_files
+    from pcnet.stages.opensim_ik import OUTPUTS, import_opensim, scale_and_ik
+
+    folder = Path(out_dir)
+    if not folder.is_dir():
+        raise InputError(f"{out_dir}: expected a `pcnet run` output folder, got no folder")
+    trc = folder / "world.trc"
+    if not trc.is_file():
+        if (folder / "canonical.trc").is_file():
+            raise InputError(f"{out_dir}: expected world.trc, got only canonical.trc: a moving camera has no fixed "
+                             f"world frame for IK")
+        raise InputError(f"{out_dir}: expected world.trc (from `pcnet run` with a static camera and metric poses: "
+                         f"a metric lifter or --height), got none")
+    import_opensim()  # before any work: without OpenSim, one line saying how to get it
+
+    existing = [name for name in OUTPUTS if (folder / name).exists()]
+    if existing and not overwrite:
+        raise InputError(f"{out_dir}: expected no earlier OpenSim outputs, got {', '.join(existing)}; "
+                         f"pass --overwrite to replace them")
+    foreign = [name for name in existing if not is_owned(folder, name)]
+    if foreign:
+        raise InputError(f"{out_dir}: --overwrite replaces only OpenSim outputs pcnet wrote, got "
+                         f"{', '.join(foreign)} written or changed by someone else; move them away")
+    result = scale_and_ik(trc, folder, height, mass, overwrite=overwrite)
+    # so that `pcnet run --overwrite` still recognises the whole folder as pcnet's output
+    register_files(folder, OUTPUTS)
+    click.echo(f"model             {result['outputs']['scaled_model.osim']}")
+    click.echo(f"ik                {result['outputs']['ik.mot']}")
+    click.echo(f"marker errors     {result['outputs']['ik_marker_errors.sto']}")
+    click.echo(f"marker RMS        {100 * result['marker_rms_m']:.2f} cm over {result['frames']} frames "
+               f"(max {100 * result['marker_max_m']:.2f} cm)")
+    click.echo(f"IK speed          {result['frames_per_s']:.1f} frames/s ({result['seconds']:.1f} s; "
+               f"scaling {result['scale_seconds']:.1f} s)")
 
 
 if __name__ == "__main__":

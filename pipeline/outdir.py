@@ -106,6 +106,32 @@ def _stamp(path: Path) -> dict:
     return {"size": st.st_size, "mtime_ns": st.st_mtime_ns}
 
 
+def owned_files(folder: Path) -> dict:
+    """``name -> stamp`` of the files the folder's pcnet marker lists (``{}`` when the folder
+    has no pcnet marker)."""
+    info = read_marker(folder)
+    files = info.get("files") if info.get("writer") == "pcnet" else None
+    return files if isinstance(files, dict) else {}
+
+
+def is_owned(folder: Path, name: str) -> bool:
+    """Whether ``folder/name`` is a file pcnet wrote there, unchanged since (size and
+    modification time as the marker records them)."""
+    path = folder / name
+    return path.is_file() and not path.is_symlink() and owned_files(folder).get(name) == _stamp(path)
+
+
+def register_files(folder: Path, names) -> None:
+    """Add files pcnet has just written into ``folder`` to its pcnet marker, so that the
+    folder stays recognisably pcnet's (``--overwrite`` may replace it); nothing happens for a
+    folder without a pcnet marker."""
+    info = read_marker(folder)
+    if info.get("writer") != "pcnet":
+        return
+    info["files"] = {**owned_files(folder), **{n: _stamp(folder / n) for n in names}}
+    (folder / MARKER).write_text(json.dumps(info, indent=1) + "\n")
+
+
 def read_marker(folder: Path) -> dict:
     """The marker's JSON content, ``{}`` when it is missing or unreadable."""
     try:
@@ -123,7 +149,11 @@ def _write_marker(folder: Path, state: str) -> None:
 
 
 def _process_alive(info: dict) -> bool:
-    if info.get("host") != socket.gethostname() or not isinstance(info.get("pid"), int):
+    # A process on another host (a cluster node sharing this filesystem) cannot be checked
+    # from here: its folder is left alone rather than deleted under a running row.
+    if info.get("host") != socket.gethostname():
+        return True
+    if not isinstance(info.get("pid"), int):
         return False
     try:
         os.kill(info["pid"], 0)

@@ -1,0 +1,115 @@
+"""The resume marker of ``pcnet batch``: ``OUT/.pcnet_batch.json``, written after a row
+succeeded, says which inputs (sha256), settings and pcnet version produced that output.
+
+A re-run skips a row whose output folder is complete (pcnet's own output marker says
+``complete``) and whose batch marker matches the row's inputs, settings and the installed
+pcnet version. The marker is listed in the output folder's ``.pcnet-output`` file list, so a
+later ``--overwrite`` (or a re-run after an input changed) may replace the folder.
+
+Only the standard library is imported here: batch workers import this module before they
+set their thread counts, which must happen before numpy is imported.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import socket
+import time
+from importlib import metadata
+from pathlib import Path
+
+from pcnet.stages.atomic import write_text
+
+from .outdir import read_marker, register_files
+
+BATCH_MARKER = ".pcnet_batch.json"
+#: RunConfig fields that name input files (hashed into the marker).
+INPUT_FIELDS = ("lifter_output", "keypoints2d", "video", "weights")
+#: RunConfig fields that do not change what a row writes (``out`` is where the marker lives).
+_NOT_SETTINGS = ("out", "overwrite")
+_CHUNK = 1 << 20
+
+
+def pcnet_version() -> str:
+    """The installed pcnet distribution's version (``unknown`` when pcnet is not installed,
+    e.g. imported from a bare checkout)."""
+    try:
+        return metadata.version("pcnet")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def input_files(config: dict) -> dict[str, str]:
+    """``{field: path}`` of the input files a row's config names (fields left empty omitted)."""
+    return {name: str(config[name]) for name in INPUT_FIELDS if config.get(name)}
+
+
+def settings_of(config: dict) -> dict:
+    """The part of a row's config (``dataclasses.asdict(RunConfig)``) that decides its
+    outputs, as JSON-comparable values."""
+    return json.loads(json.dumps({k: v for k, v in config.items() if k not in _NOT_SETTINGS}, sort_keys=True))
+
+
+def sha256_file(path: str | os.PathLike) -> str:
+    """Hex sha256 of a file's bytes, read in 1 MiB chunks (bounded memory for long videos)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while chunk := fh.read(_CHUNK):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def input_hashes(config: dict) -> dict[str, dict]:
+    """``{field: {"path", "sha256"}}`` for every input file of a row."""
+    return {name: {"path": path, "sha256": sha256_file(path)} for name, path in input_files(config).items()}
+
+
+def write_batch_marker(out: Path, config: dict, inputs: dict[str, dict], result: dict) -> Path:
+    """Write ``out/.pcnet_batch.json`` (atomically) and list it in pcnet's output marker,
+    with the same size and modification-time stamp :mod:`pcnet.pipeline.outdir` records,
+    so that ``--overwrite`` still sees a folder holding only pcnet's files.
+
+    ``inputs`` are the hashes taken before the row ran (what the run read), ``result`` the
+    row's frames, valid frames and mode (shown again when a re-run skips the row).
+    """
+    record = {
+        "writer": "pcnet batch", "pcnet_version": pcnet_version(), "settings": settings_of(config),
+        "inputs": inputs, "result": {k: result.get(k) for k in ("frames", "valid", "mode")},
+        "host": socket.gethostname(), "pid": os.getpid(), "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    }
+    path = write_text(out / BATCH_MARKER, json.dumps(record, indent=1) + "\n")
+    register_files(out, [BATCH_MARKER])
+    return path
+
+
+def read_batch_marker(out: Path) -> dict:
+    """The batch marker of ``out``, ``{}`` when missing, unreadable or not pcnet batch's."""
+    try:
+        data = json.loads((out / BATCH_MARKER).read_text())
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) and data.get("writer") == "pcnet batch" else {}
+
+
+def completed_record(out: Path, config: dict) -> dict | None:
+    """The batch marker of ``out`` when the folder holds a complete output of exactly this
+    row (same settings, same pcnet version, same input paths and sha256), else ``None``.
+    Inputs are hashed only when everything cheaper already matches."""
+    if read_marker(out).get("state") != "complete":
+        return None
+    record = read_batch_marker(out)
+    if not record or record.get("pcnet_version") != pcnet_version() or record.get("settings") != settings_of(config):
+        return None
+    recorded = record.get("inputs")
+    files = input_files(config)
+    if not isinstance(recorded, dict) or not all(isinstance(v, dict) for v in recorded.values()):
+        return None
+    if {name: entry.get("path") for name, entry in recorded.items()} != files:
+        return None
+    try:
+        same = all(sha256_file(path) == recorded[name].get("sha256") for name, path in files.items())
+    except OSError:
+        return None
+    return record if same else None

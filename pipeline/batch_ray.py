@@ -1,0 +1,188 @@
+"""The Ray engine of ``pcnet batch``: one Ray task per manifest row.
+
+Ray re-runs a task whose worker process died (``max_retries``; an exception raised by the
+row itself is its result and is not retried, a bad input fails the same way every time).
+Results are taken with ``ray.wait`` as they finish. Without an address a local Ray
+instance with ``workers`` CPUs is started (and stopped afterwards); with one, the driver
+joins that cluster, which every node must reach the inputs and outputs on (a shared file
+system, docs/cluster.md).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from pcnet.stages.errors import InputError
+
+from .batch_local import environment, sigint_ignored
+from .batch_worker import TEST_HOOK, cpu_cores, execute_row, set_opencv_threads, thread_env, threads_per_worker
+
+RAY_MISSING = 'pcnet batch --engine ray needs Ray: pip install "pcnet[ray]"'
+_POLL_S = 0.5
+#: Seconds given to force-cancelled tasks to end before the driver reports and returns.
+CANCEL_GRACE_S = 1.0
+
+
+def import_ray():
+    """The ``ray`` module.
+
+    Raises:
+        InputError: Ray is not installed (the ``ray`` extra), one line saying how to get it.
+    """
+    try:
+        import ray
+    except ImportError:
+        raise InputError(RAY_MISSING) from None
+    return ray
+
+
+class _Attempts:
+    """A Ray actor counting the attempts at each row: Ray does not tell a retried task
+    that it is a retry, and a row whose last worker died has no result to say so."""
+
+    def __init__(self):
+        self.seen: dict[int, dict] = {}
+
+    def start(self, row: int, host: str, pid: int) -> int:
+        entry = self.seen.setdefault(row, {"attempts": 0})
+        entry.update(attempts=entry["attempts"] + 1, host=host, pid=pid)
+        return entry["attempts"]
+
+    def last(self, row: int) -> dict:
+        return self.seen.get(row, {"attempts": 0})
+
+
+def ray_row(job: dict, attempts, threads: int) -> dict:
+    """The Ray task body: count the attempt, then :func:`execute_row`.
+
+    The count is read only after the row ran: a task blocked in ``ray.get`` hands its CPU
+    back to Ray, which would start another row beside it and oversubscribe the node.
+    """
+    import ray
+
+    counted = attempts.start.remote(job["row"], socket.gethostname(), os.getpid())
+    set_opencv_threads(threads)
+    result = execute_row(job)
+    result["attempts"] = ray.get(counted)
+    return result
+
+
+@dataclass
+class RayEngine:
+    """Run jobs as Ray tasks. ``address`` ``None`` starts a local instance with ``workers``
+    CPUs; otherwise ``workers`` (when given) caps the rows in flight on the cluster.
+
+    :meth:`run` returns ``(results, interrupted)`` like
+    :class:`pcnet.pipeline.batch_local.LocalEngine`: on ``KeyboardInterrupt`` every
+    unfinished task is force-cancelled (its worker process killed) and left out of
+    ``results``.
+    """
+
+    workers: int | None
+    retries: int = 0
+    address: str | None = None
+    on_result: Callable[[dict], None] = lambda result: None
+    start_seconds: float = 0.0
+
+    def run(self, jobs: list[dict]) -> tuple[list[dict], bool]:
+        if not jobs:
+            return [], False
+        ray = import_ray()
+        owned = not ray.is_initialized()  # a program (or test) that already called ray.init keeps its Ray
+        local = owned and not self.address
+        threads = threads_per_worker(self.workers or cpu_cores()) if local else 1
+        env = thread_env(threads)
+        if os.environ.get(TEST_HOOK):
+            env[TEST_HOOK] = os.environ[TEST_HOOK]
+        started = time.perf_counter()
+        if owned:
+            self._init(ray, env if local else {})
+        self.start_seconds = time.perf_counter() - started
+        try:
+            # The local instance started here passed the variables to every worker already;
+            # elsewhere a runtime environment carries them (it costs dedicated workers).
+            return self._run(ray, jobs, threads, None if local else {"env_vars": env})
+        finally:
+            if owned:
+                ray.shutdown()  # stops the local instance; on a cluster only disconnects
+
+    def _init(self, ray, env: dict[str, str]) -> None:
+        """Join the cluster at ``address``, or start a local instance with ``workers`` CPUs
+        whose worker processes inherit ``env`` (Ray's own processes copy it at start)."""
+        options = {"log_to_driver": False, "logging_level": logging.ERROR}
+        if self.address:
+            ray.init(address=self.address, **options)
+            return
+        with environment(env):
+            ray.init(num_cpus=self.workers or cpu_cores(), include_dashboard=False, **options)
+
+    def _run(self, ray, jobs: list[dict], threads: int, runtime_env: dict | None) -> tuple[list[dict], bool]:
+        # Each task reserves one CPU, so a node runs one task per CPU (one thread each on a
+        # cluster; cores // workers on the local instance started with --workers CPUs).
+        attempts = ray.remote(num_cpus=0)(_Attempts).remote()
+        task = ray.remote(num_cpus=1, max_retries=self.retries, retry_exceptions=False)(ray_row)
+        if runtime_env:
+            task = task.options(runtime_env=runtime_env)
+        cap = self.workers if self.address and self.workers else len(jobs)
+        queue, in_flight, results = list(jobs), {}, []
+        try:
+            while queue or in_flight:
+                while queue and len(in_flight) < cap:
+                    job = queue.pop(0)
+                    in_flight[task.remote(job, attempts, threads)] = job
+                done, _ = ray.wait(list(in_flight), num_returns=1, timeout=_POLL_S)
+                for ref in done:
+                    result = self._result(ray, ref, in_flight.pop(ref), attempts)
+                    results.append(result)
+                    self.on_result(result)
+        except KeyboardInterrupt:
+            with sigint_ignored():  # a second Ctrl-C while stopping is ignored: the stop is bounded
+                self._drain(ray, in_flight, attempts, results)
+                _cancel_all(ray, list(in_flight))
+            return results, True
+        return results, False
+
+    def _drain(self, ray, in_flight: dict, attempts, results: list[dict]) -> None:
+        """File the results of tasks that finished before the interrupt was seen."""
+        try:
+            done, _ = ray.wait(list(in_flight), num_returns=len(in_flight), timeout=0)
+            for ref in done:
+                result = self._result(ray, ref, in_flight.pop(ref), attempts)
+                results.append(result)
+                self.on_result(result)
+        except Exception:  # noqa: BLE001 - a local instance stopped by the same Ctrl-C: nothing to file
+            pass
+
+    def _result(self, ray, ref, job: dict, attempts) -> dict:
+        """The task's result, or a failed row when its last worker died (retries spent)."""
+        try:
+            return ray.get(ref)
+        except ray.exceptions.RayError as err:
+            last = ray.get(attempts.last.remote(job["row"]))
+            return {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
+                    "error": f"Ray: {_first_line(err)}", "host": last.get("host", ""), "pid": last.get("pid"),
+                    "attempts": last["attempts"]}
+
+def _cancel_all(ray, refs: list) -> None:
+    """Force-cancel (kill the workers of) every unfinished task, waiting a moment so that
+    the caller can clean their staged folders once their processes are gone."""
+    for ref in refs:
+        try:
+            ray.cancel(ref, force=True)
+        except Exception:  # noqa: BLE001 - a task that finished meanwhile cannot be cancelled
+            pass
+    if refs:
+        try:
+            ray.wait(refs, num_returns=len(refs), timeout=CANCEL_GRACE_S)
+        except Exception:  # noqa: BLE001 - a local instance stopped by the same Ctrl-C
+            pass
+
+
+def _first_line(err: BaseException) -> str:
+    lines = [ln.strip() for ln in str(err).splitlines() if ln.strip()]
+    return lines[0] if lines else type(err).__name__

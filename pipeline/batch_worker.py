@@ -1,0 +1,122 @@
+"""One manifest row, run inside a batch worker (a child process of the local engine or a Ray
+worker): the same pipeline and output contract as ``pcnet run``, then the resume marker.
+
+Only the standard library is imported at module level: a worker sets its thread counts
+(:func:`thread_env`) before anything imports numpy or onnxruntime.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+import traceback
+from pathlib import Path
+
+#: Thread-count variables set in every worker: numpy's BLAS (OpenMP, OpenBLAS, MKL) and
+#: onnxruntime's intra-op pool (``PCNET_ORT_THREADS``, read by pcnet's ONNX session).
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "PCNET_ORT_THREADS")
+#: Test hook, see :func:`_test_hook`.
+TEST_HOOK = "PCNET_BATCH_TEST_HOOK"
+_HOLD_LIMIT_S = 120.0
+
+
+def cpu_cores() -> int:
+    """CPU cores this process may run on (its affinity mask where the OS has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        return os.cpu_count() or 1
+
+
+def threads_per_worker(workers: int, cores: int | None = None) -> int:
+    """Threads each of ``workers`` concurrent rows may use so that together they fill
+    ``cores`` without oversubscribing them: ``max(1, cores // workers)``."""
+    return max(1, (cores or cpu_cores()) // max(1, workers))
+
+
+def thread_env(threads: int) -> dict[str, str]:
+    """The worker environment for ``threads`` threads per library. A variable the user
+    already set is kept: they may know their machine better (Ray follows the same rule for
+    ``OMP_NUM_THREADS``)."""
+    return {name: os.environ.get(name) or str(threads) for name in THREAD_VARIABLES}
+
+
+def set_opencv_threads(threads: int) -> None:
+    """OpenCV reads no environment variable for its pool; set it once numpy is allowed in."""
+    try:
+        import cv2
+    except ImportError:
+        return
+    cv2.setNumThreads(threads)
+
+
+def _test_hook(row: int) -> None:
+    """Test hook for tests/test_batch.py, inert unless ``PCNET_BATCH_TEST_HOOK`` names a
+    folder: each attempt at row ``row`` then creates ``started-<row>-<pid>`` there and waits
+    while ``hold-<row>`` exists (at most two minutes), so that a test can kill or interrupt
+    the worker running a known row at a known moment, without timing guesses."""
+    folder = os.environ.get(TEST_HOOK)
+    if not folder:
+        return
+    folder = Path(folder)
+    (folder / f"started-{row}-{os.getpid()}").touch()
+    deadline = time.monotonic() + _HOLD_LIMIT_S
+    while (folder / f"hold-{row}").exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
+
+
+def error_line(err: BaseException) -> str:
+    """A failed row's one-line error: an expected error's own text (bad input, a file
+    problem), any other exception with its type so that a bug is recognisable."""
+    from pcnet.stages.errors import InputError
+
+    if isinstance(err, OSError) and err.filename is not None:
+        names = " -> ".join(str(f) for f in (err.filename, err.filename2) if f is not None)
+        return f"{names}: {err.strerror or err}"
+    text = " ".join(str(err).split())
+    return text if isinstance(err, (InputError, OSError)) else f"{type(err).__name__}: {text}"
+
+
+def _int_or_none(text: str | None) -> int | None:
+    try:
+        return int(text)
+    except (TypeError, ValueError):
+        return None
+
+
+def execute_row(job: dict) -> dict:
+    """Run one row and return its result (the per-row fields of the batch summary).
+
+    ``job``: ``row`` (1-based), ``config`` (``dataclasses.asdict`` of the row's
+    :class:`~pcnet.pipeline.config.RunConfig`, absolute paths), ``attempt``.
+
+    Never raises for a failing row (bad input, a bug): the error is the result, with its
+    traceback for unexpected exceptions. ``KeyboardInterrupt`` (the engine stopping the
+    worker) propagates after ``run_pipeline`` has removed its half-written folder.
+    """
+    result = {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
+              "error": "", "host": socket.gethostname(), "pid": os.getpid(), "attempts": job.get("attempt", 1),
+              "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS"))}
+    _test_hook(job["row"])
+    from pcnet.stages.errors import InputError
+
+    from .batch_marker import input_hashes, write_batch_marker
+
+    started = time.perf_counter()
+    try:
+        from pcnet.pipeline.config import RunConfig
+        from pcnet.pipeline.runner import run_pipeline
+
+        started = time.perf_counter()  # after the imports: a fresh worker's first row is not slower
+        config = job["config"]
+        inputs = input_hashes(config)  # before the run: the marker must describe what was read
+        run = run_pipeline(RunConfig(**config), progress=False)
+        result.update(status="ok", frames=run.frames, valid=run.valid_frames, mode=run.mode)
+        write_batch_marker(Path(config["out"]), config, inputs, result)
+    except Exception as err:  # one row's failure is its result; the batch goes on
+        result.update(status="failed", error=error_line(err))
+        if not isinstance(err, (InputError, OSError)):
+            result["traceback"] = traceback.format_exc()
+    result["seconds"] = round(time.perf_counter() - started, 3)
+    return result

@@ -1,0 +1,362 @@
+"""OpenSim scaling and inverse kinematics of pcnet's world-frame TRC (optional extra).
+
+``pcnet run`` writes ``world.trc`` for a static camera: the 17 H36M-17 joint centres as
+markers named as :data:`pcnet.stages.conventions.H36M_JOINTS`, in metres, in the recording's
+world frame, which has OpenSim's ground-frame axis roles (+X forward, +Y up, +Z right; floor
+at y = 0 at the ankle-centre height; [CONVENTIONS.md](../docs/CONVENTIONS.md) "World frame").
+:func:`scale_and_ik` scales a full-body model to the subject from those markers and solves
+inverse kinematics over the whole recording.
+
+Model and setup files (``pcnet/pipeline/opensim_data/``, see ``ATTRIBUTION.md`` there):
+
+* ``Model_H36M17.osim``: Pose2Sim's ``Model_Pose2Sim_simple.osim`` (Pagnon et al. 2021,
+  BSD-3-Clause; after Rajagopal et al. 2016) without mesh geometry, with the coordinates no
+  joint-centre marker constrains locked at 0 (ankle, subtalar, mtp, pronation/supination,
+  wrist flexion/deviation).
+* ``Markers_H36M17.xml``: one marker per H36M-17 joint at the model's joint centres, read
+  from the joints' parent offset frames in the ``.osim`` (hips, knees, ankles, shoulders,
+  elbows, wrists; ``pelvis`` at the midpoint of the hip centres). ``spine``, ``thorax``,
+  ``neck_nose`` and ``head`` have no joint in the model: they are ``fixed=false`` and the
+  ScaleTool's marker placer moves them to where the subject's static window has them.
+* ``Scaling_Setup_H36M17.xml``: measurement-based scaling (marker-pair distances averaged over
+  the whole recording: hip width -> pelvis; hip-shoulder -> torso X Y and head; shoulder width ->
+  torso Z; hip-knee -> femur; knee-ankle -> tibia and foot; shoulder-elbow -> humerus;
+  elbow-wrist -> forearm and hand; each side on its own), then the marker placer on a static
+  window.
+* ``IK_Setup_H36M17.xml``: the marker weights (1; 0.5 for spine, neck_nose, head) and the
+  solver accuracy 1e-4 (OpenSim's default 1e-5 is 3x slower for < 1 mm less RMS on the demo and
+  mocap clips, and on a Bandai kick it kept the right arm in a wrong local solution for 60+ frames;
+  benchmarks/opensim_ik.py).
+
+Sources: opensim-core ``ScaleTool`` / ``ModelScaler`` / ``MarkerPlacer`` and
+``InverseKinematicsTool`` (https://opensimconfluence.atlassian.net/wiki/spaces/OpenSim/pages/
+53090037/How+Scaling+Works and .../53089741/How+Inverse+Kinematics+Works; opensim-core
+``OpenSim/Tools/ScaleTool.cpp``, ``InverseKinematicsTool.cpp``); the Pose2Sim repository
+(https://github.com/perfanalytics/pose2sim, ``Pose2Sim/OpenSim_Setup/``) for the model and
+the layout of the setup files.
+
+``opensim`` (PyPI, ``pip install "pcnet[opensim]"``) is imported only when a function here
+runs, so pcnet works without it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import shutil
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+from .conventions import H36M_JOINTS
+from .errors import InputError
+
+MISSING_OPENSIM = 'pcnet opensim needs OpenSim: pip install "pcnet[opensim]"'
+DATA_DIR = Path(__file__).resolve().parent.parent / "pipeline" / "opensim_data"
+MODEL_FILE = "Model_H36M17.osim"
+MARKER_FILE = "Markers_H36M17.xml"
+SCALE_SETUP = "Scaling_Setup_H36M17.xml"
+IK_SETUP = "IK_Setup_H36M17.xml"
+OUTPUTS = ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto")
+
+
+def _data_dir() -> Path:
+    """The shipped model and setup files: beside the installed ``pcnet.pipeline`` package."""
+    try:
+        import pcnet.pipeline as pipeline_pkg
+
+        folder = Path(pipeline_pkg.__file__).resolve().parent / "opensim_data"
+    except ImportError:  # pragma: no cover - pcnet.pipeline is part of the same distribution
+        folder = DATA_DIR
+    return folder if folder.is_dir() else DATA_DIR
+
+
+def import_opensim():
+    """Import ``opensim`` with its log quiet (warnings only) and no ``opensim.log`` in the
+    working folder. Raises :class:`InputError` with :data:`MISSING_OPENSIM` when missing."""
+    try:
+        import opensim
+    except ImportError as err:
+        raise InputError(MISSING_OPENSIM) from err
+    with contextlib.suppress(Exception):
+        opensim.Logger.removeFileSink()
+        opensim.Logger.setLevelString("warn")
+    return opensim
+
+
+def read_trc(trc_path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, list[str], str]:
+    """Read a ``.trc`` as written by :func:`pcnet.stages.exports.write_trc`.
+
+    Returns:
+        ``(times (T,) s, markers (T, M, 3) in the file's units with NaN for empty fields,
+        marker names (M,), units)``.
+
+    Raises:
+        InputError: the file is not a TRC with at least one frame.
+    """
+    path = Path(trc_path)
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as err:
+        raise InputError(f"{path}: cannot read it ({err.strerror or err})") from err
+    try:
+        keys, values = lines[1].split("\t"), lines[2].split("\t")
+        header = dict(zip(keys, values))
+        units = header.get("Units", "m").strip()
+        names = [n for n in lines[3].split("\t")[2:] if n.strip()]
+        rows = []
+        for line in lines[5:]:
+            if not line.strip():
+                continue
+            fields = line.split("\t")
+            vals = [float(f) if f.strip() else math.nan for f in fields[1:2 + 3 * len(names)]]
+            vals += [math.nan] * (1 + 3 * len(names) - len(vals))
+            rows.append(vals)
+    except (IndexError, ValueError) as err:
+        raise InputError(f"{path}: expected an OpenSim .trc marker file (pcnet's world.trc), "
+                         f"got unreadable content ({err})") from err
+    if not rows or not names:
+        raise InputError(f"{path}: expected markers and at least one frame, got none")
+    data = np.asarray(rows, dtype=float)
+    return data[:, 0], data[:, 1:].reshape(len(rows), len(names), 3), names, units
+
+
+def static_window(times: np.ndarray, markers: np.ndarray, seconds: float = 0.5) -> tuple[float, float]:
+    """The static window for the marker placer: among windows of ``seconds`` (at least one
+    frame) whose frames have every marker, the one with the least mean marker speed; when no
+    frame is complete, the window with the most markers present.
+
+    Args:
+        times: ``(T,)`` s, increasing.
+        markers: ``(T, M, 3)``, NaN for missing.
+        seconds: window length.
+
+    Returns:
+        ``(start_s, end_s)`` (inclusive frame times).
+    """
+    T = len(times)
+    dt = float(np.median(np.diff(times))) if T > 1 else 1.0
+    n = int(max(1, min(T, round(seconds / dt))))
+    present = np.isfinite(markers).all(axis=2).sum(axis=1)  # (T,)
+    complete = present == markers.shape[1]
+    speed = np.full(T, np.inf)
+    if T > 1:
+        v = np.linalg.norm(np.diff(markers, axis=0), axis=2) / dt  # (T-1, M)
+        s = np.nanmean(np.where(np.isfinite(v), v, np.nan), axis=1) if np.isfinite(v).any() else np.full(T - 1, np.inf)
+        speed[1:] = np.where(np.isfinite(s), s, np.inf)
+        speed[0] = speed[1]
+    else:
+        speed[:] = 0.0
+    best, best_key = 0, None
+    for start in range(T - n + 1):
+        sl = slice(start, start + n)
+        key = (0 if complete[sl].all() else 1, -int(present[sl].sum()), float(np.mean(speed[sl])))
+        if best_key is None or key < best_key:
+            best, best_key = start, key
+    return float(times[best]), float(times[best + n - 1])
+
+
+def _array(osim, a: float, b: float):
+    arr = osim.ArrayDouble()
+    arr.append(float(a))
+    arr.append(float(b))
+    return arr
+
+
+@contextlib.contextmanager
+def _stdout_to(path: Path):
+    """Send the process's stdout (file descriptor 1: OpenSim's C++ log and model summaries)
+    to ``path`` for the duration; yields ``path``."""
+    import sys
+
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(path, "w") as sink:
+            os.dup2(sink.fileno(), 1)
+            try:
+                yield path
+            finally:
+                os.dup2(saved, 1)
+    finally:
+        os.close(saved)
+
+
+def _last_message(log: Path) -> str:
+    """The last warning/error line OpenSim wrote, for a one-line error message."""
+    with contextlib.suppress(OSError):
+        lines = [line.strip() for line in log.read_text().splitlines()
+                 if "[error]" in line or "[warning]" in line or "rror" in line]
+        if lines:
+            return lines[-1][:300]
+    return "no message from OpenSim"
+
+
+def _parse_sto(path: Path) -> tuple[list[str], np.ndarray]:
+    lines = path.read_text().splitlines()
+    end = next(i for i, line in enumerate(lines) if line.strip() == "endheader")
+    cols = lines[end + 1].split("\t")
+    rows = [[float(x) for x in line.split("\t")] for line in lines[end + 2:] if line.strip()]
+    return [c.strip() for c in cols], np.asarray(rows, dtype=float).reshape(-1, len(cols))
+
+
+def scale_and_ik(
+    trc_path: str | os.PathLike,
+    out_dir: str | os.PathLike,
+    height_m: float | None,
+    mass_kg: float | None = None,
+    *,
+    static_seconds: float = 0.5,
+    overwrite: bool = False,
+) -> dict:
+    """Scale the shipped model to the subject of ``trc_path`` and solve inverse kinematics.
+
+    1. ScaleTool (opensim-core): measurement-based scale factors from marker-pair distances
+       averaged over the whole recording (``Scaling_Setup_H36M17.xml``), then the marker
+       placer on the :func:`static_window` (``static_seconds``) moves the four trunk/head
+       markers that have no joint in the model. ``mass_kg`` sets the total mass with the
+       generic model's mass distribution; without it the segment masses scale with the
+       segments. ``height_m`` is recorded in the model (ScaleTool's ``height``, informational;
+       pcnet's TRC is already scaled to it by ``pcnet run --height``).
+    2. InverseKinematicsTool over every frame of the TRC (weights in ``IK_Setup_H36M17.xml``;
+       missing markers are skipped in their frames).
+
+    Writes into ``out_dir`` (which must exist): ``scaled_model.osim``, ``ik.mot`` (generalised
+    coordinates per frame; rotations in degrees, pelvis translations in metres, ground frame =
+    the TRC's frame) and ``ik_marker_errors.sto`` (OpenSim's per-frame
+    ``total_squared_error``, ``marker_error_RMS``, ``marker_error_max`` in metres). The tools run
+    in a hidden temporary folder inside ``out_dir``; the three files are renamed into place
+    only when both tools succeeded, and only that temporary folder is ever deleted.
+
+    Args:
+        trc_path: an OpenSim marker file with the H36M-17 joint centres (pcnet's
+            ``world.trc``: ``(T, 17, 3)`` markers, metres, Y up, X forward, Z right).
+        out_dir: existing destination folder.
+        height_m: the subject's height in metres (recorded), or ``None``.
+        mass_kg: the subject's mass in kg, or ``None``.
+        static_seconds: length of the marker placer's static window in seconds.
+        overwrite: replace existing output files of these names (else refuse).
+
+    Returns:
+        ``{"marker_rms_m"`` (RMS over all frames and markers), ``"marker_max_m"`` (largest
+        single marker error), ``"marker_rms_median_frame_m"``, ``"frames"``, ``"seconds"`` (IK
+        wall time), ``"frames_per_s"``, ``"scale_seconds"``, ``"static_window_s"``,
+        ``"outputs"`` (paths)``}``.
+
+    Raises:
+        InputError: opensim is missing, the TRC is unreadable or lacks H36M-17 markers, the
+            outputs exist without ``overwrite``, or a tool failed.
+    """
+    osim = import_opensim()
+    trc = Path(trc_path).resolve()
+    out = Path(out_dir).resolve()
+    if not out.is_dir():
+        raise InputError(f"{out_dir}: expected an existing output folder, got none")
+    if height_m is not None and not (0.5 <= float(height_m) <= 2.5):
+        raise InputError(f"--height: expected the subject's height in metres (0.5 to 2.5), got {height_m}")
+    if mass_kg is not None and not (10.0 <= float(mass_kg) <= 300.0):
+        raise InputError(f"--mass: expected the subject's mass in kg (10 to 300), got {mass_kg}")
+    times, markers, names, units = read_trc(trc)
+    missing = [j for j in H36M_JOINTS if j not in names]
+    if missing:
+        raise InputError(f"{trc}: expected the H36M-17 joint markers, got none named {', '.join(missing)}")
+    if len(times) < 2:
+        raise InputError(f"{trc}: expected at least 2 frames for scaling and IK, got {len(times)}")
+    if units not in ("m", "mm"):
+        raise InputError(f"{trc}: expected Units m or mm, got {units!r}")
+    existing = [name for name in OUTPUTS if (out / name).exists()]
+    if existing and not overwrite:
+        raise InputError(f"{out_dir}: expected no earlier OpenSim outputs, got {', '.join(existing)}; "
+                         f"pass --overwrite to replace them")
+
+    data = _data_dir()
+    start_s, end_s = float(times[0]), float(times[-1])
+    order = [names.index(j) for j in H36M_JOINTS]
+    joints = markers[:, order]  # (T, 17, 3)
+    complete = np.isfinite(joints).all(axis=(1, 2))
+    if not complete.any():
+        raise InputError(f"{trc}: expected at least one frame with all 17 joint markers for scaling, got none")
+    fps = 1.0 / float(np.median(np.diff(times)))
+    tmp = out / f".pcnet-opensim-tmp-{uuid.uuid4().hex[:12]}"
+    tmp.mkdir()
+    try:
+        # The ScaleTool averages marker-pair distances (and the placer marker positions) over
+        # its time range and a single missing marker spoils a measurement: scale on the
+        # complete frames only (their own copy, times renumbered).
+        from .exports import write_trc
+
+        scale_trc = write_trc(tmp / "scale_frames.trc", joints[complete], fps, H36M_JOINTS, units)
+        c_times = np.arange(int(complete.sum())) / fps
+        c0, c1 = static_window(c_times, joints[complete], static_seconds)
+        kept = np.flatnonzero(complete)
+        w0 = float(times[kept[round(c0 * fps)]])
+        w1 = float(times[kept[round(c1 * fps)]])
+        # --- scaling -------------------------------------------------------------------
+        t_scale = time.perf_counter()
+        tool = osim.ScaleTool(str(data / SCALE_SETUP))
+        tool.setPathToSubject("")
+        tool.setSubjectMass(float(mass_kg) if mass_kg is not None else -1.0)
+        tool.setSubjectHeight(float(height_m) * 1000.0 if height_m is not None else -1.0)
+        gmm = tool.getGenericModelMaker()
+        gmm.setModelFileName(str(data / MODEL_FILE))
+        gmm.setMarkerSetFileName(str(data / MARKER_FILE))
+        scaler = tool.getModelScaler()
+        scaler.setMarkerFileName(str(scale_trc))
+        scaler.setTimeRange(_array(osim, float(c_times[0]), float(c_times[-1])))
+        scaler.setPreserveMassDist(mass_kg is not None)
+        scaler.setOutputModelFileName(str(tmp / "scaled_only.osim"))
+        scaler.setOutputScaleFileName(str(tmp / "scale_factors.xml"))
+        placer = tool.getMarkerPlacer()
+        placer.setMarkerFileName(str(scale_trc))
+        placer.setTimeRange(_array(osim, c0, c1))
+        placer.setOutputModelFileName(str(tmp / "scaled_model.osim"))
+        placer.setOutputMotionFileName(str(tmp / "static_pose.mot"))
+        placer.setMaxMarkerMovement(-1.0)
+        with _stdout_to(tmp / "opensim_scale.log") as log:
+            ok = tool.run()
+        unused = [line.strip() for line in log.read_text().splitlines() if "not used to scale" in line]
+        if not ok or not (tmp / "scaled_model.osim").is_file() or unused:
+            raise InputError(f"{trc}: OpenSim scaling failed ({_last_message(log)})")
+        scale_seconds = time.perf_counter() - t_scale
+
+        # --- inverse kinematics ----------------------------------------------------------
+        ik = osim.InverseKinematicsTool(str(data / IK_SETUP))
+        model = osim.Model(str(tmp / "scaled_model.osim"))
+        ik.setModel(model)
+        ik.set_marker_file(str(trc))
+        ik.setStartTime(start_s)
+        ik.setEndTime(end_s)
+        ik.setResultsDir(str(tmp))
+        ik.setOutputMotionFileName(str(tmp / "ik.mot"))
+        ik.set_report_errors(True)
+        t_ik = time.perf_counter()
+        with _stdout_to(tmp / "opensim_ik.log") as log:
+            ok = ik.run()
+        ik_seconds = time.perf_counter() - t_ik
+        errors = sorted(tmp.glob("*_ik_marker_errors.sto"))
+        if not ok or not (tmp / "ik.mot").is_file() or not errors:
+            raise InputError(f"{trc}: OpenSim inverse kinematics failed ({_last_message(log)})")
+        os.replace(errors[0], tmp / "ik_marker_errors.sto")
+
+        cols, err = _parse_sto(tmp / "ik_marker_errors.sto")
+        rms = err[:, cols.index("marker_error_RMS")]
+        mx = err[:, cols.index("marker_error_max")]
+        frames = len(rms)
+        for name in OUTPUTS:
+            os.replace(tmp / name, out / name)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return {
+        "marker_rms_m": float(np.sqrt(np.mean(rms ** 2))),
+        "marker_max_m": float(np.max(mx)),
+        "marker_rms_median_frame_m": float(np.median(rms)),
+        "frames": frames,
+        "seconds": float(ik_seconds),
+        "frames_per_s": float(frames / ik_seconds) if ik_seconds > 0 else math.inf,
+        "scale_seconds": float(scale_seconds),
+        "static_window_s": (w0, w1),
+        "outputs": {name: str(out / name) for name in OUTPUTS},
+    }

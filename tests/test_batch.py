@@ -1,0 +1,365 @@
+"""`pcnet batch` on real inputs (the boxing fixture: AlphaPose + MotionBERT, 60 frames):
+validation before any work, isolation from dead workers (local and Ray), resume and
+--retry-failed, Ctrl-C, the JSON summary.
+
+Rows that must be killed or interrupted at a known moment use the worker's test hook
+(``PCNET_BATCH_TEST_HOOK``, pipeline/batch_worker.py): the worker running row i creates
+``started-<i>-<pid>`` and waits while ``hold-<i>`` exists.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import FIXTURES
+
+from pcnet.pipeline.batch import BatchOptions, run_batch
+from pcnet.pipeline.batch_marker import BATCH_MARKER
+from pcnet.pipeline.batch_worker import TEST_HOOK, cpu_cores
+from pcnet.pipeline.cli import main
+from pcnet.pipeline.outdir import MARKER, TMP_TAG, read_marker
+
+BOX_2D = FIXTURES / "boxing_alphapose_f000-059.json"
+BOX_3D = FIXTURES / "boxing_X3D_f000-059.npy"
+MEDIAPIPE = FIXTURES / "mediapipe_blazepose33_f000-059.npz"
+HEADER = "lifter,lifter_output,keypoints2d,keypoints2d_format,fps,out,method,recording"
+
+
+def _row(out: str, lifter_output=BOX_3D, method: str = "geometric") -> str:
+    return f"motionbert,{lifter_output},{BOX_2D},alphapose,30,{out},{method},false"
+
+
+def _manifest(folder: Path, *rows: str, name: str = "m.csv") -> Path:
+    path = folder / name
+    path.write_text("\n".join((HEADER, *rows)) + "\n")
+    return path
+
+
+def _invoke(*args):
+    return CliRunner().invoke(main, ["batch", *[str(a) for a in args]])
+
+
+def _summary(manifest: Path) -> dict:
+    return json.loads(manifest.with_name(manifest.name + ".pcnet_batch.json").read_text())
+
+
+def _statuses(manifest: Path) -> list[str]:
+    return [r["status"] for r in _summary(manifest)["rows"]]
+
+
+def _wait_for(predicate, timeout: float = 60.0, what: str = "") -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.02)
+
+
+def _started(hook: Path, row: int) -> list[int]:
+    """PIDs of the workers that started row ``row`` (test hook files)."""
+    return [int(p.name.rsplit("-", 1)[1]) for p in hook.glob(f"started-{row}-*")]
+
+
+def _spawn_batch(*args, hook: Path) -> subprocess.Popen:
+    """`pcnet batch` in its own process, as a user starts it (entry point, signal handlers)."""
+    env = dict(os.environ, **{TEST_HOOK: str(hook)})
+    return subprocess.Popen([sys.executable, "-m", "pcnet.pipeline.entry", "batch", *[str(a) for a in args]],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+
+
+@pytest.fixture
+def hook(tmp_path):
+    folder = tmp_path / "hook"
+    folder.mkdir()
+    return folder
+
+
+def test_rows_run_in_workers_and_one_failing_row_does_not_stop_the_others(tmp_path):
+    """Same outputs as `pcnet run` per row, a marker in each, the table and the summary;
+    a row that fails while it runs (all joints NaN) fails alone, its `out` never created."""
+    nan = tmp_path / "nan.npy"
+    np.save(nan, np.full((60, 17, 3), np.nan, np.float32))
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f"{HEADER}\n{_row('b1', method='pcnet')}\n{_row('b2', lifter_output=nan)}\n"
+                        f"mediapipe,{MEDIAPIPE},{MEDIAPIPE},mediapipe,30,b3,geometric,false\n")
+    res = _invoke(manifest, "--workers", "2")
+    assert res.exit_code == 1, res.output  # one row failed
+    assert "2 of 3 recordings processed (2 ok, 0 skipped, 1 failed, 0 cancelled)" in res.output
+    summary = _summary(manifest)
+    assert [r["status"] for r in summary["rows"]] == ["ok", "failed", "ok"]
+    b1, b2, b3 = summary["rows"]
+    assert "nan.npy" in b2["error"] and "only NaN" in b2["error"] and "traceback" not in b2
+    assert b1["frames"] == 60 and b1["valid"] == 60 and b1["attempts"] == 1 and b1["host"] and b1["pid"] != os.getpid()
+    # the thread count reached the worker's environment (a value the user set is kept)
+    assert b1["threads"] == int(os.environ.get("PCNET_ORT_THREADS") or max(1, cpu_cores() // 2))
+    assert summary["counts"] == {"ok": 2, "skipped": 0, "failed": 1, "cancelled": 0, "pending": 0}
+    for out in ("b1", "b3"):
+        assert {"canonical.npz", "kinematics.csv", BATCH_MARKER} <= {p.name for p in (tmp_path / out).iterdir()}
+        assert BATCH_MARKER in read_marker(tmp_path / out)["files"]  # --overwrite may replace it later
+    assert not (tmp_path / "b2").exists()
+    marker = json.loads((tmp_path / "b1" / BATCH_MARKER).read_text())
+    assert marker["settings"]["method"] == "pcnet" and len(marker["inputs"]["lifter_output"]["sha256"]) == 64
+
+
+def test_the_whole_manifest_is_checked_before_any_work(tmp_path):
+    """One line per problem (manifest, line, column, expected, found), exit 1, nothing
+    written: not even the rows without a problem ran."""
+    inputs = tmp_path / "in"
+    inputs.mkdir()
+    x3d = inputs / "x.npy"
+    x3d.write_bytes(BOX_3D.read_bytes())
+    (tmp_path / "theirs").mkdir()
+    (tmp_path / "theirs" / "notes.txt").write_text("mine")
+    manifest = _manifest(
+        tmp_path,
+        _row("ok1", lifter_output=x3d),                 # line 2: fine
+        _row("o2", lifter_output=tmp_path / "nothere.npy"),  # line 3: missing input
+        _row("in", lifter_output=x3d),                  # line 4: out is the input's folder
+        _row(".", lifter_output=x3d),                   # line 5: out contains the input's folder
+        _row("same", lifter_output=x3d),                # line 6
+        _row("same", lifter_output=x3d),                # line 7: shares line 6's out
+        _row("theirs", lifter_output=x3d),              # line 8: an existing folder pcnet did not write
+        _row("o9", lifter_output=x3d, method="bogus"),  # line 9: bad value
+    )
+    before = sorted(p.name for p in tmp_path.iterdir())
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and "Traceback" not in res.output, res.output
+    errors = [ln for ln in res.output.splitlines() if ln.startswith("Error: ")]
+    assert len(errors) == 6, res.output
+    expected = [("line 3", "column lifter_output", "expected an existing file", "nothere.npy"),
+                ("line 4", "column out", "expected a folder apart from the inputs", "'in', which is the folder of"),
+                ("line 5", "column out", "'.', which contains the folder of"),
+                ("line 7", "column out", "expected a folder of its own", "'same', which line 6 also writes"),
+                ("line 8", "column out", "'theirs', an existing folder", "--overwrite"),
+                ("line 9", "column 'method'", "expected one of", "'bogus'")]
+    for needles in expected:
+        assert any(all(n in e for n in needles) for e in errors), (needles, errors)
+    assert all(str(manifest) in e for e in errors)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # no output, no summary
+    assert (tmp_path / "theirs" / "notes.txt").read_text() == "mine"
+
+
+def test_shared_out_is_refused_even_with_several_workers(tmp_path):
+    """Issue 16: two rows with one `out` both reported ok with --workers 2."""
+    manifest = _manifest(tmp_path, _row("a"), _row("a"))
+    res = _invoke(manifest, "--workers", "2")
+    assert res.exit_code == 1 and "line 3: column out: expected a folder of its own" in res.output
+    assert not (tmp_path / "a").exists()
+
+
+def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
+    x3d = tmp_path / "x.npy"
+    x3d.write_bytes(BOX_3D.read_bytes())
+    manifest = _manifest(tmp_path, _row("r1"), _row("r2", lifter_output=x3d))
+    assert _invoke(manifest, "--workers", "1").exit_code == 0
+    first = (tmp_path / "r2" / "kinematics.csv").stat().st_mtime_ns
+
+    res = _invoke(manifest, "--workers", "1")  # nothing changed: both skipped, nothing rewritten
+    assert res.exit_code == 0 and _statuses(manifest) == ["skipped", "skipped"], res.output
+    assert _summary(manifest)["rows"][1]["frames"] == 60  # what the skipped row had produced
+    assert (tmp_path / "r2" / "kinematics.csv").stat().st_mtime_ns == first
+
+    poses = np.load(x3d)
+    np.save(x3d, poses * 1.01)  # same shape, new content: only row 2 runs again, over its own output
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 0 and _statuses(manifest) == ["skipped", "ok"], res.output
+    assert (tmp_path / "r2" / "kinematics.csv").stat().st_mtime_ns != first
+
+    manifest.write_text(manifest.read_text().replace("r1,geometric", "r1,pcnet"))  # a setting changed
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 0 and _statuses(manifest) == ["ok", "skipped"], res.output
+    assert json.loads((tmp_path / "r1" / BATCH_MARKER).read_text())["settings"]["method"] == "pcnet"
+
+    assert _invoke(manifest, "--workers", "2", "--overwrite").exit_code == 0
+    assert _statuses(manifest) == ["ok", "ok"]
+
+    # a file of the user's own in an output folder is never deleted: re-running that row is refused
+    (tmp_path / "r2" / "notes.txt").write_text("mine")
+    np.save(x3d, poses)
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 1 and "line 3: column out" in res.output and "notes.txt" in res.output, res.output
+    assert (tmp_path / "r2" / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.parametrize("retries", [0, 1])
+def test_a_killed_worker_fails_or_retries_only_its_row(tmp_path, hook, retries):
+    """A worker killed by the OS (SIGKILL, as an out-of-memory kill) while running row 2:
+    the batch completes; without retries row 2 fails alone and --retry-failed then runs
+    only it; with --retries 1 it runs again in a fresh worker and succeeds."""
+    manifest = _manifest(tmp_path, *(_row(f"k{i}") for i in range(1, 5)))
+    (hook / "hold-2").touch()
+    proc = _spawn_batch(manifest, "--workers", "2", "--retries", retries, hook=hook)
+    try:
+        _wait_for(lambda: _started(hook, 2), what="row 2 to start")
+        victim = _started(hook, 2)[0]
+        os.kill(victim, signal.SIGKILL)
+        (hook / "hold-2").unlink()  # a retry must not wait
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    rows = _summary(manifest)["rows"]
+    if retries:
+        assert proc.returncode == 0, out + err
+        assert [r["status"] for r in rows] == ["ok"] * 4
+        assert rows[1]["attempts"] == 2 and rows[1]["pid"] != victim and len(_started(hook, 2)) == 2
+        return
+    assert proc.returncode == 1, out + err
+    assert [r["status"] for r in rows] == ["ok", "failed", "ok", "ok"]
+    assert f"worker process {victim} was killed by SIGKILL" in rows[1]["error"] and rows[1]["pid"] == victim
+    assert "3 of 4 recordings processed" in out and not (tmp_path / "k2").exists()
+    assert not list(tmp_path.glob(f".k2{TMP_TAG}*"))
+
+    res = _invoke(manifest, "--retry-failed")
+    assert res.exit_code == 0, res.output
+    assert _statuses(manifest) == ["skipped", "ok", "skipped", "skipped"]
+    assert (tmp_path / "k2" / "canonical.npz").is_file()
+
+
+def test_the_summary_replaces_only_an_earlier_summary(tmp_path):
+    manifest = _manifest(tmp_path, _row("a"))
+    theirs = tmp_path / "m.csv.pcnet_batch.json"
+    theirs.write_text("my notes")
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and "--summary-json" in res.output and "pcnet did not write" in res.output
+    assert theirs.read_text() == "my notes" and not (tmp_path / "a").exists()
+
+
+def test_retry_failed_needs_a_previous_summary(tmp_path):
+    manifest = _manifest(tmp_path, _row("a"))
+    res = _invoke(manifest, "--retry-failed")
+    assert res.exit_code == 1 and "--retry-failed" in res.output and "m.csv.pcnet_batch.json" in res.output
+    assert not (tmp_path / "a").exists()
+
+
+def test_ctrl_c_stops_at_once_and_prints_what_finished(tmp_path, hook):
+    """SIGINT while rows 2 and 3 run (row 1 done, row 4 waiting): exit 130 within ~2 s,
+    the table printed, rows 2-4 cancelled, no output or staged folder left for them."""
+    manifest = _manifest(tmp_path, *(_row(f"c{i}") for i in range(1, 5)))
+    (hook / "hold-2").touch()
+    (hook / "hold-3").touch()
+    proc = _spawn_batch(manifest, "--workers", "2", hook=hook)
+    try:
+        _wait_for(lambda: _started(hook, 2) and _started(hook, 3), what="rows 2 and 3 to start")
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+        took = time.monotonic() - sent
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, out + err
+    assert took < 3.0, took
+    assert "interrupted" in out and "1 of 4 recordings processed (1 ok, 0 skipped, 0 failed, 3 cancelled)" in out
+    summary = _summary(manifest)
+    assert summary["interrupted"] is True and _statuses(manifest) == ["ok", "cancelled", "cancelled", "cancelled"]
+    assert (tmp_path / "c1" / MARKER).is_file()
+    assert not any((tmp_path / f"c{i}").exists() for i in (2, 3, 4))
+    assert not list(tmp_path.glob(f".*{TMP_TAG}*"))
+    for pid in _started(hook, 2) + _started(hook, 3):  # the running rows' workers are gone
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
+def test_ray_engine_without_ray_says_how_to_get_it(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` raises ImportError
+    manifest = _manifest(tmp_path, _row("a"))
+    res = _invoke(manifest, "--engine", "ray")
+    assert res.exit_code == 1
+    assert res.output.strip() == 'Error: pcnet batch --engine ray needs Ray: pip install "pcnet[ray]"'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
+
+
+def test_address_needs_the_ray_engine(tmp_path):
+    res = _invoke(_manifest(tmp_path, _row("a")), "--address", "auto")
+    assert res.exit_code == 1 and "--address" in res.output and "--engine ray" in res.output
+
+
+def _needs_ray():
+    pytest.importorskip("ray", reason='Ray is not installed (pip install "pcnet[ray]"): the Ray engine is tested '
+                                      'where it is (.ci/run installs it)')
+
+
+def test_ray_engine_retries_a_killed_worker_and_the_batch_succeeds(tmp_path, hook):
+    """Issue 16's measurement, on a local Ray instance (`ray.init(num_cpus=2)`): a Ray worker
+    process killed by PID while running row 2; Ray runs the task again (max_retries), the
+    batch completes with exit 0 and the summary says row 2 took two attempts."""
+    _needs_ray()
+    manifest = _manifest(tmp_path, *(_row(f"y{i}", method="pcnet" if i == 1 else "geometric") for i in range(1, 5)))
+    (hook / "hold-2").touch()
+    proc = _spawn_batch(manifest, "--engine", "ray", "--workers", "2", "--retries", "1", hook=hook)
+    try:
+        _wait_for(lambda: _started(hook, 2), what="row 2 to start on Ray")
+        victim = _started(hook, 2)[0]
+        os.kill(victim, signal.SIGKILL)
+        (hook / "hold-2").unlink()
+        out, err = proc.communicate(timeout=90)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, out + err
+    summary = _summary(manifest)
+    rows = summary["rows"]
+    assert summary["engine"] == "ray" and [r["status"] for r in rows] == ["ok"] * 4
+    assert rows[1]["attempts"] == 2 and rows[1]["pid"] != victim and len(_started(hook, 2)) == 2
+    assert all(r["attempts"] == 1 for i, r in enumerate(rows) if i != 1)
+    assert rows[0]["threads"] == int(os.environ.get("PCNET_ORT_THREADS") or max(1, cpu_cores() // 2))
+    for i in range(1, 5):
+        assert (tmp_path / f"y{i}" / "canonical.npz").is_file() and (tmp_path / f"y{i}" / BATCH_MARKER).is_file()
+
+    again = run_batch(manifest, BatchOptions(engine="ray", workers=2))  # resume on Ray: nothing to run
+    assert [r["status"] for r in again.rows] == ["skipped"] * 4
+
+
+def test_ray_engine_reports_a_failing_row_and_stops_on_ctrl_c(tmp_path, hook):
+    """A row's own error is its result (not retried, even with --retries); Ctrl-C cancels the
+    running tasks (ray.cancel(force=True)), prints the table and exits 130."""
+    _needs_ray()
+    nan = tmp_path / "nan.npy"
+    np.save(nan, np.full((60, 17, 3), np.nan, np.float32))
+    manifest = _manifest(tmp_path, _row("z1", lifter_output=nan), _row("z2"), _row("z3"))
+    (hook / "hold-2").touch()
+    (hook / "hold-3").touch()
+    proc = _spawn_batch(manifest, "--engine", "ray", "--workers", "2", "--retries", "1", hook=hook)
+    try:
+        # Ray starts row 3 as soon as row 1 has failed, maybe before the driver has taken row 1's
+        # result: wait for that too (the summary is rewritten at every result).
+        _wait_for(lambda: _started(hook, 2) and _started(hook, 3) and _statuses(manifest)[0] == "failed",
+                  what="rows 2 and 3 to start on Ray, row 1 to fail")
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+        took = time.monotonic() - sent
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, out + err
+    assert took < 5.0, took  # cancelling and stopping the local Ray instance
+    rows = _summary(manifest)["rows"]
+    assert [r["status"] for r in rows] == ["failed", "cancelled", "cancelled"], out
+    assert "only NaN" in rows[0]["error"] and rows[0]["attempts"] == 1
+    assert "cancelled" in out and not (tmp_path / "z2").exists() and not list(tmp_path.glob(f".*{TMP_TAG}*"))
+
+
+def test_staged_folders_of_rows_on_other_hosts_are_left_alone(tmp_path):
+    """A cluster node cannot check a process on another node: its staged folder may belong
+    to a row still running there, so it is kept; a dead local process's is removed."""
+    import json as _json
+    import socket
+
+    from pcnet.pipeline.outdir import MARKER, TMP_TAG, clean_stale
+
+    def staged(name: str, host: str, pid: int):
+        folder = tmp_path / f".out{TMP_TAG}{name}"
+        folder.mkdir()
+        (folder / MARKER).write_text(_json.dumps({"writer": "pcnet", "host": host, "pid": pid}))
+        return folder
+
+    remote = staged("a", "another-node", 12345)
+    dead = staged("b", socket.gethostname(), 2**22 + 7)  # above any pid this kernel hands out
+    removed = clean_stale(tmp_path / "out")
+    assert removed == [dead] and remote.is_dir() and not dead.exists()

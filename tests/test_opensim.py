@@ -1,0 +1,130 @@
+"""`pcnet opensim`: OpenSim scaling + inverse kinematics of a run's world.trc (stages/opensim_ik.py).
+
+The real-clip test needs the optional extra (``pip install "pcnet[opensim]"``; CI installs it)
+and is skipped with that reason otherwise. The error tests that need no OpenSim always run.
+"""
+
+from __future__ import annotations
+
+import builtins
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from pcnet.pipeline.cli import main
+from pcnet.stages.errors import InputError
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "pipeline" / "example_data"
+FRAMES = 60  # 2 s of the bundled boxing clip
+
+
+def _cli(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def short_run(tmp_path_factory) -> Path:
+    """`pcnet run` (pcnet, --height 1.75, no recording) on the first 60 frames of the bundled
+    MotionBERT example, with its AlphaPose 2D keypoints."""
+    tmp = tmp_path_factory.mktemp("opensim_run")
+    x3d = tmp / "X3D_60.npy"
+    np.save(x3d, np.load(EXAMPLE / "X3D.npy")[:FRAMES])
+    out = tmp / "out"
+    res = _cli("run", "--lifter", "motionbert", "--lifter-output", x3d, "--keypoints2d",
+               EXAMPLE / "alphapose-results.json", "--keypoints2d-format", "alphapose", "--fps", 30,
+               "--align", "truncate", "--height", 1.75, "--method", "pcnet", "--out", out, "--no-recording")
+    assert res.exit_code == 0, res.output
+    assert (out / "world.trc").is_file(), res.output
+    return out
+
+
+def test_scale_and_ik_on_a_short_real_clip(short_run, tmp_path):
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    from pcnet.stages.opensim_ik import scale_and_ik
+
+    out = tmp_path / "ik"
+    out.mkdir()
+    r = scale_and_ik(short_run / "world.trc", out, 1.75)
+    for name in ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto"):
+        assert (out / name).is_file() and (out / name).stat().st_size > 0, name
+    assert sorted(p.name for p in out.iterdir()) == ["ik.mot", "ik_marker_errors.sto", "scaled_model.osim"]
+    assert r["frames"] == FRAMES
+    # Measured 1.53 cm RMS / 3.95 cm max on these 60 frames (1.73 / 6.51 cm on all 301); the
+    # issue's target is < 2 cm RMS.
+    assert r["marker_rms_m"] < 0.02, r
+    assert r["marker_max_m"] < 0.06, r
+    assert np.isfinite(r["frames_per_s"]) and r["frames_per_s"] > 0
+    # ik.mot: one row per frame and the model's coordinates.
+    lines = (out / "ik.mot").read_text().splitlines()
+    end = lines.index("endheader")
+    cols = lines[end + 1].split("\t")
+    assert "knee_angle_r" in cols and "hip_flexion_l" in cols
+    assert len([line for line in lines[end + 2:] if line.strip()]) == FRAMES
+    # Existing outputs are refused without overwrite and replaced with it.
+    with pytest.raises(InputError, match="--overwrite"):
+        scale_and_ik(short_run / "world.trc", out, 1.75)
+    scale_and_ik(short_run / "world.trc", out, 1.75, 70.0, overwrite=True)
+
+
+def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_path):
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    import shutil
+
+    out = tmp_path / "run"
+    shutil.copytree(short_run, out)
+    res = _cli("opensim", out, "--height", 1.75)
+    assert res.exit_code == 0, res.output
+    assert "marker RMS" in res.output and "frames/s" in res.output
+    listed = json.loads((out / ".pcnet-output").read_text())["files"]
+    assert {"scaled_model.osim", "ik.mot", "ik_marker_errors.sto"} <= set(listed)
+    again = _cli("opensim", out)
+    assert again.exit_code == 1 and "--overwrite" in again.output
+    # A file of the same name that pcnet did not write is never replaced.
+    (out / "ik.mot").write_text("mine\n")
+    res = _cli("opensim", out, "--overwrite")
+    assert res.exit_code == 1 and "ik.mot" in res.output
+    assert (out / "ik.mot").read_text() == "mine\n"
+
+
+def test_cli_opensim_without_world_trc(tmp_path):
+    res = _cli("opensim", tmp_path / "missing")
+    assert res.exit_code == 1 and "no folder" in res.output
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    res = _cli("opensim", empty)
+    assert res.exit_code == 1 and "world.trc" in res.output
+    moving = tmp_path / "moving"
+    moving.mkdir()
+    (moving / "canonical.trc").write_text("")
+    res = _cli("opensim", moving)
+    assert res.exit_code == 1
+    assert "a moving camera has no fixed world frame for IK" in res.output
+    assert len(res.output.strip().splitlines()) == 1
+
+
+def test_missing_opensim_is_one_line(short_run, monkeypatch):
+    real_import = builtins.__import__
+
+    def no_opensim(name, *args, **kwargs):
+        if name == "opensim" or name.startswith("opensim."):
+            raise ImportError("No module named 'opensim'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_opensim)
+    res = _cli("opensim", short_run)
+    assert res.exit_code == 1
+    assert res.output.strip() == 'Error: pcnet opensim needs OpenSim: pip install "pcnet[opensim]"'
+
+
+def test_pcnet_run_with_opensim_writes_the_ik_beside_the_run(tmp_path):
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    x3d = tmp_path / "X3D_60.npy"
+    np.save(x3d, np.load(EXAMPLE / "X3D.npy")[:FRAMES])
+    out = tmp_path / "out"
+    res = _cli("run", "--lifter", "motionbert", "--lifter-output", x3d, "--fps", 30, "--height", 1.75,
+               "--out", out, "--no-recording", "--opensim", "--mass", 70)
+    assert res.exit_code == 0, res.output
+    assert "marker RMS" in res.output
+    assert {"world.trc", "scaled_model.osim", "ik.mot", "ik_marker_errors.sto"} <= {p.name for p in out.iterdir()}
