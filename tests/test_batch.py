@@ -56,6 +56,14 @@ def _statuses(manifest: Path) -> list[str]:
     return [r["status"] for r in _summary(manifest)["rows"]]
 
 
+def _interrupt(proc) -> tuple[str, str, float]:
+    """Ctrl-C to a running `pcnet batch`: its stdout, stderr and seconds until it exited."""
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=30)
+    return out, err, time.monotonic() - sent
+
+
 def _wait_for(predicate, timeout: float = 60.0, what: str = "") -> None:
     deadline = time.monotonic() + timeout
     while not predicate():
@@ -248,10 +256,7 @@ def test_ctrl_c_stops_at_once_and_prints_what_finished(tmp_path, hook):
     proc = _spawn_batch(manifest, "--workers", "2", hook=hook)
     try:
         _wait_for(lambda: _started(hook, 2) and _started(hook, 3), what="rows 2 and 3 to start")
-        sent = time.monotonic()
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
-        took = time.monotonic() - sent
+        out, err, took = _interrupt(proc)
     finally:
         proc.kill()
     assert proc.returncode == 130, out + err
@@ -331,10 +336,7 @@ def test_ray_engine_reports_a_failing_row_and_stops_on_ctrl_c(tmp_path, hook):
         # result: wait for that too (the summary is rewritten at every result).
         _wait_for(lambda: _started(hook, 2) and _started(hook, 3) and _statuses(manifest)[0] == "failed",
                   what="rows 2 and 3 to start on Ray, row 1 to fail")
-        sent = time.monotonic()
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
-        took = time.monotonic() - sent
+        out, err, took = _interrupt(proc)
     finally:
         proc.kill()
     assert proc.returncode == 130, out + err
