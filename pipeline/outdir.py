@@ -28,6 +28,7 @@ import uuid
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
+from pcnet.stages.atomic import write_text
 from pcnet.stages.errors import InputError
 
 from .entry import check_interrupted
@@ -129,7 +130,7 @@ def register_files(folder: Path, names) -> None:
     if info.get("writer") != "pcnet":
         return
     info["files"] = {**owned_files(folder), **{n: _stamp(folder / n) for n in names}}
-    (folder / MARKER).write_text(json.dumps(info, indent=1) + "\n")
+    write_text(folder / MARKER, json.dumps(info, indent=1) + "\n")
 
 
 def read_marker(folder: Path) -> dict:
@@ -145,7 +146,9 @@ def _write_marker(folder: Path, state: str) -> None:
     files = {p.name: _stamp(p) for p in sorted(folder.iterdir()) if p.name != MARKER and p.is_file()}
     info = {"writer": "pcnet", "state": state, "pid": os.getpid(), "host": socket.gethostname(),
             "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files}
-    (folder / MARKER).write_text(json.dumps(info, indent=1) + "\n")
+    # atomically: a process killed while rewriting it must not leave a folder without a marker,
+    # which clean_stale would then never recognise as pcnet's
+    write_text(folder / MARKER, json.dumps(info, indent=1) + "\n")
 
 
 def _process_alive(info: dict) -> bool:
@@ -179,6 +182,10 @@ def clean_stale(target: Path) -> list[Path]:
         if entry.is_symlink() or not entry.is_dir():
             continue
         info = read_marker(entry)
+        if not info and TMP_TAG in name and not any(entry.iterdir()):
+            entry.rmdir()  # killed between creating its staged folder and writing the marker
+            removed.append(entry)
+            continue
         if info.get("writer") != "pcnet" or _process_alive(info):
             continue
         if TRASH_TAG in name and name.startswith(f".{target.name}{TRASH_TAG}") and not target.exists():

@@ -347,7 +347,7 @@ def test_ray_engine_reports_a_failing_row_and_stops_on_ctrl_c(tmp_path, hook):
     assert "cancelled" in out and not (tmp_path / "z2").exists() and not list(tmp_path.glob(f".*{TMP_TAG}*"))
 
 
-def test_staged_folders_of_rows_on_other_hosts_are_left_alone(tmp_path):
+def test_staged_folders_of_rows_on_other_hosts_and_unmarked_files_are_left_alone(tmp_path):
     """A cluster node cannot check a process on another node: its staged folder may belong
     to a row still running there, so it is kept; a dead local process's is removed."""
     import json as _json
@@ -363,5 +363,10 @@ def test_staged_folders_of_rows_on_other_hosts_are_left_alone(tmp_path):
 
     remote = staged("a", "another-node", 12345)
     dead = staged("b", socket.gethostname(), 2**22 + 7)  # above any pid this kernel hands out
+    empty = tmp_path / f".out{TMP_TAG}c"  # killed between mkdir and its marker
+    empty.mkdir()
+    unmarked = tmp_path / f".out{TMP_TAG}d"  # not provably pcnet's: never touched
+    unmarked.mkdir()
+    (unmarked / "data.bin").write_bytes(b"x")
     removed = clean_stale(tmp_path / "out")
-    assert removed == [dead] and remote.is_dir() and not dead.exists()
+    assert sorted(removed) == [dead, empty] and remote.is_dir() and unmarked.is_dir()
