@@ -246,6 +246,8 @@ def _run_and_report(cfg) -> None:
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 @click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")
+@click.option("--c3d", is_flag=True, default=None,
+              help="Also write the markers as C3D (world.c3d or canonical.c3d; metric poses; pip install \"pcnet[c3d]\").")
 @click.option("--opensim", "with_opensim", is_flag=True, default=False,
               help="Then scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`).")
 @click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")

@@ -30,7 +30,8 @@ class RunConfig:
     ``fps`` is needed only when neither a video nor an input file gives the frame rate; with
     a video it must match the video's rate unless ``fps_override``. ``camera_prior``:
     sequence modes weigh the poses against a camera prior and a lying reading
-    (:mod:`pcnet.stages.gravity_prior`).
+    (:mod:`pcnet.stages.gravity_prior`). ``c3d``: also write the markers as a C3D file
+    (needs the ``c3d`` extra, ezc3d).
     """
 
     lifter: str
@@ -53,6 +54,7 @@ class RunConfig:
     recording: bool = True
     weights: str | None = None
     camera_prior: bool = True
+    c3d: bool = False
     lifter_options: dict = field(default_factory=dict)
 
     @classmethod

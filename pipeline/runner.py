@@ -23,7 +23,7 @@ from pcnet.models.toml_config import type_name, value_matches
 from pcnet.stages.conventions import (H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, fill_pelvis_from_hips, validate_fps,
                                       validate_poses)
 from pcnet.stages.errors import InputError
-from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
+from pcnet.stages.exports import plot_wrists, require_ezc3d, write_c3d, write_kinematics_csv, write_npz, write_trc
 from pcnet.stages.flags import (body_size_flag, camera_tilt, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag)
 from pcnet.stages.kinematics import compute_kinematics, flag_counts, format_flag_counts
@@ -192,6 +192,8 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
         pcnet.stages.errors.InputError (``AdapterError`` is one): bad inputs or an unsafe
             ``out`` (:func:`pcnet.pipeline.outdir.check_out_folder`), naming file and field.
     """
+    if cfg.c3d:
+        require_ezc3d()  # before any work: without ezc3d, one line saying how to get it
     cfg.validate()
     out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights), cfg.overwrite)
     with tqdm(total=len(STEPS), desc="pcnet", disable=not progress, unit="stage") as bar:
@@ -299,6 +301,10 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             trc = "world.trc" if world is not None else "canonical.trc"
             write_trc(tmp / trc, rectified, fps)
             outputs[trc] = tmp / trc
+            if cfg.c3d:
+                c3d = trc.replace(".trc", ".c3d")
+                write_c3d(tmp / c3d, rectified, fps)
+                outputs[c3d] = tmp / c3d
         plot_wrists(tmp / "wrists.png", joints, rectified, fps, kin_cam.acceleration, kin.acceleration, units,
                     frame_label=label)
         outputs["wrists.png"] = tmp / "wrists.png"

@@ -20,6 +20,7 @@ import numpy as np
 
 from .atomic import atomic_path
 from .conventions import H36M_JOINTS, L_WRIST, R_WRIST
+from .errors import InputError
 from .kinematics import Kinematics
 
 
@@ -261,6 +262,61 @@ def write_trc(
         for t, row in enumerate(flat.tolist()):
             fields = "\t".join(_fmt_trc(v) for v in row)
             fh.write(f"{t + 1}\t{t / fps:.6f}\t{fields}\t\n")
+    return Path(path)
+
+
+def require_ezc3d():
+    """The ezc3d module. Raises InputError with one line naming the extra when it is missing."""
+    try:
+        import ezc3d
+    except ImportError:
+        raise InputError('C3D export needs ezc3d: pip install "pcnet[c3d]"') from None
+    return ezc3d
+
+
+def write_c3d(
+    path: str | os.PathLike,
+    poses: np.ndarray,
+    fps: float,
+    joint_names: Sequence[str] = H36M_JOINTS,
+    units: str = "m",
+) -> Path:
+    """Write Y-up poses (world or canonical frame, as :func:`write_trc`) as a C3D marker file
+    with ezc3d (https://github.com/pyomeca/ezc3d), atomically.
+
+    POINT:RATE = ``fps``, POINT:LABELS = ``joint_names``, POINT:UNITS = ``units``; the
+    coordinates are written unchanged (X forward, Y up, Z right); a missing marker (NaN) is
+    written as NaN, which ezc3d stores as an invalid sample (residual -1).
+
+    Args:
+        path: destination ``.c3d``; poses: ``(T, J, 3)`` float; fps: Hz; joint_names: ``J``
+            labels; units: ``"m"`` or ``"mm"``.
+
+    Returns:
+        the destination path.
+
+    Raises:
+        InputError: ezc3d is not installed (one line naming the extra), a shape or name
+            mismatch, ``fps <= 0`` or unknown units.
+    """
+    ezc3d = require_ezc3d()
+    X = np.asarray(poses, dtype=np.float64)
+    names = [str(n) for n in joint_names]
+    if X.ndim != 3 or X.shape[2] != 3 or X.shape[1] != len(names):
+        raise InputError(f"write_c3d: expected (T, {len(names)}, 3) markers, got {X.shape}")
+    if not fps > 0:
+        raise InputError(f"write_c3d: fps must be > 0, got {fps!r}")
+    if units not in ("m", "mm"):
+        raise InputError(f"write_c3d: units must be 'm' or 'mm', got {units!r}")
+    c3d = ezc3d.c3d()
+    c3d["parameters"]["POINT"]["RATE"]["value"] = [float(fps)]
+    c3d["parameters"]["POINT"]["LABELS"]["value"] = tuple(names)
+    c3d["parameters"]["POINT"]["UNITS"]["value"] = [units]
+    points = np.ones((4, X.shape[1], X.shape[0]))
+    points[:3] = np.transpose(X, (2, 1, 0))
+    c3d["data"]["points"] = points
+    with atomic_path(path, suffix=".c3d") as tmp:
+        c3d.write(str(tmp))
     return Path(path)
 
 
