@@ -236,16 +236,7 @@ def write_trc(
         ValueError: shape/name mismatch, a name with a tab/newline, duplicate names,
             ``fps <= 0`` or unknown units.
     """
-    X = np.asarray(poses, dtype=np.float64)
-    names = list(joint_names)
-    if X.ndim != 3 or X.shape[2] != 3 or X.shape[1] != len(names):
-        raise ValueError(f"write_trc: expected (T, {len(names)}, 3) markers, got {X.shape}")
-    if any(("\t" in n or "\n" in n or not n.strip()) for n in names) or len(set(names)) != len(names):
-        raise ValueError(f"write_trc: marker names must be unique, non-empty, without tabs: {names}")
-    if not fps > 0:
-        raise ValueError(f"write_trc: fps must be > 0, got {fps!r}")
-    if units not in ("m", "mm"):
-        raise ValueError(f"write_trc: units must be 'm' or 'mm', got {units!r}")
+    X, names = _checked_markers("write_trc", poses, joint_names, fps, units)
     T, J = X.shape[:2]
     rate = f"{fps:.6g}"
     lines = [
@@ -300,14 +291,7 @@ def write_c3d(
             mismatch, ``fps <= 0`` or unknown units.
     """
     ezc3d = require_ezc3d()
-    X = np.asarray(poses, dtype=np.float64)
-    names = [str(n) for n in joint_names]
-    if X.ndim != 3 or X.shape[2] != 3 or X.shape[1] != len(names):
-        raise InputError(f"write_c3d: expected (T, {len(names)}, 3) markers, got {X.shape}")
-    if not fps > 0:
-        raise InputError(f"write_c3d: fps must be > 0, got {fps!r}")
-    if units not in ("m", "mm"):
-        raise InputError(f"write_c3d: units must be 'm' or 'mm', got {units!r}")
+    X, names = _checked_markers("write_c3d", poses, joint_names, fps, units)
     c3d = ezc3d.c3d()
     c3d["parameters"]["POINT"]["RATE"]["value"] = [float(fps)]
     c3d["parameters"]["POINT"]["LABELS"]["value"] = tuple(names)
@@ -318,6 +302,26 @@ def write_c3d(
     with atomic_path(path, suffix=".c3d") as tmp:
         c3d.write(str(tmp))
     return Path(path)
+
+
+def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tuple[np.ndarray, list[str]]:
+    """``(poses as (T, J, 3) float64, J marker names)`` for a marker file writer.
+
+    Raises:
+        InputError: a shape/name mismatch, a name with a tab/newline, duplicate or empty
+            names, ``fps <= 0`` or units other than ``"m"``/``"mm"``, naming ``who``.
+    """
+    X = np.asarray(poses, dtype=np.float64)
+    names = [str(n) for n in joint_names]
+    if X.ndim != 3 or X.shape[2] != 3 or X.shape[1] != len(names):
+        raise InputError(f"{who}: expected (T, {len(names)}, 3) markers, got {X.shape}")
+    if any(("\t" in n or "\n" in n or not n.strip()) for n in names) or len(set(names)) != len(names):
+        raise InputError(f"{who}: marker names must be unique, non-empty, without tabs: {names}")
+    if not fps > 0:
+        raise InputError(f"{who}: fps must be > 0, got {fps!r}")
+    if units not in ("m", "mm"):
+        raise InputError(f"{who}: units must be 'm' or 'mm', got {units!r}")
+    return X, names
 
 
 def _fmt_trc(v: float) -> str:
