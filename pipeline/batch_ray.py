@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from pcnet.stages.errors import InputError
+from pcnet.stages.errors import import_extra
 
 from .batch_local import environment, sigint_ignored
 from .batch_worker import TEST_HOOK, cpu_cores, execute_row, set_opencv_threads, thread_env, threads_per_worker
@@ -34,11 +34,7 @@ def import_ray():
     Raises:
         InputError: Ray is not installed (the ``ray`` extra), one line saying how to get it.
     """
-    try:
-        import ray
-    except ImportError:
-        raise InputError(RAY_MISSING) from None
-    return ray
+    return import_extra("ray", RAY_MISSING)
 
 
 class _Attempts:

@@ -371,11 +371,8 @@ def opensim(out_dir, height, mass, overwrite):
                          f"a metric lifter or --height), got none")
     import_opensim()  # before any work: without OpenSim, one line saying how to get it
 
-    existing = [name for name in OUTPUTS if (folder / name).exists()]
-    if existing and not overwrite:
-        raise InputError(f"{out_dir}: expected no earlier OpenSim outputs, got {', '.join(existing)}; "
-                         f"pass --overwrite to replace them")
-    foreign = [name for name in existing if not is_owned(folder, name)]
+    # scale_and_ik refuses earlier outputs without --overwrite; with it, only pcnet's own go
+    foreign = [name for name in OUTPUTS if overwrite and (folder / name).exists() and not is_owned(folder, name)]
     if foreign:
         raise InputError(f"{out_dir}: --overwrite replaces only OpenSim outputs pcnet wrote, got "
                          f"{', '.join(foreign)} written or changed by someone else; move them away")

@@ -93,13 +93,14 @@ def foreign_entries(folder: Path) -> list[str]:
     listed = read_marker(folder).get("files")
     if not isinstance(listed, dict):
         listed = {}
-    foreign = []
-    for entry in sorted(folder.iterdir(), key=lambda p: p.name):
-        if entry.name == MARKER:
-            continue
-        if entry.name not in listed or entry.is_symlink() or not entry.is_file() or listed[entry.name] != _stamp(entry):
-            foreign.append(entry.name)
-    return foreign
+    return [entry.name for entry in sorted(folder.iterdir(), key=lambda p: p.name)
+            if entry.name != MARKER and not _listed_unchanged(entry, listed)]
+
+
+def _listed_unchanged(path: Path, listed: dict) -> bool:
+    """Whether ``path`` is a plain file that ``listed`` (a marker's ``files``) records with
+    its current size and modification time."""
+    return path.name in listed and not path.is_symlink() and path.is_file() and listed[path.name] == _stamp(path)
 
 
 def _stamp(path: Path) -> dict:
@@ -118,8 +119,7 @@ def owned_files(folder: Path) -> dict:
 def is_owned(folder: Path, name: str) -> bool:
     """Whether ``folder/name`` is a file pcnet wrote there, unchanged since (size and
     modification time as the marker records them)."""
-    path = folder / name
-    return path.is_file() and not path.is_symlink() and owned_files(folder).get(name) == _stamp(path)
+    return _listed_unchanged(folder / name, owned_files(folder))
 
 
 def register_files(folder: Path, names) -> None:

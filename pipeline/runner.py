@@ -39,8 +39,8 @@ from .config import RunConfig
 from .outdir import check_out_folder, staged_output
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
-WORLD_LABEL = "world frame (x forward at the start, y up, z right; floor y = 0)"
-CANONICAL_LABEL = "canonical frame (x anterior, y up, z right)"
+FRAME_LABELS = {"world": "world frame (x forward at the start, y up, z right; floor y = 0)",
+                "canonical": "canonical frame (x anterior, y up, z right)"}
 WORLD_SUMMARY = ("world, fixed for the recording: +Y up, +X the subject's forward over the first second, floor at "
                  "y = 0 under the lowest joint; the pelvis's horizontal path is not observable from a root-relative "
                  "lifter (x = z = 0)")
@@ -76,7 +76,7 @@ class RunResult:
             f"{self.report.get('hip_width_cv_percent', float('nan')):.1f} %)",
             f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(),
             *self._frame_bound(),
-            f"kinematics frame  " + (WORLD_SUMMARY if self.report.get("kinematics_frame") == "world"
+            "kinematics frame  " + (WORLD_SUMMARY if self.report.get("kinematics_frame") == "world"
                                      else "canonical (turns with the pelvis; no fixed frame without a static camera)"),
             f"units             {self.units}",
         ]
@@ -271,7 +271,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
                      f"per-frame canonical frame, which turns with the pelvis (rotating-frame terms); use "
                      f"--mode sequence if the camera was static")
         kin = compute_kinematics(canonical, fps, cfg.cutoff_hz, units)
-    report["kinematics_frame"] = "world" if world is not None else "canonical"
+    report["kinematics_frame"] = kin_frame = "world" if world is not None else "canonical"
     kin_cam = compute_kinematics(joints, fps, cfg.cutoff_hz, units)
     missing_note = format_flag_counts(kin)
     if missing_note:
@@ -296,17 +296,16 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         write_kinematics_csv(tmp / "kinematics.csv", frames, frames / fps, kin,
                              extra_columns={"valid": valid.astype(int), "heading_deg": np.degrees(heading)})
         outputs = {"canonical.npz": tmp / "canonical.npz", "kinematics.csv": tmp / "kinematics.csv"}
-        rectified, label = (world, WORLD_LABEL) if world is not None else (canonical, CANONICAL_LABEL)
+        rectified = world if world is not None else canonical
         if units == "m":
-            trc = "world.trc" if world is not None else "canonical.trc"
+            trc, c3d = f"{kin_frame}.trc", f"{kin_frame}.c3d"
             write_trc(tmp / trc, rectified, fps)
             outputs[trc] = tmp / trc
             if cfg.c3d:
-                c3d = trc.replace(".trc", ".c3d")
                 write_c3d(tmp / c3d, rectified, fps)
                 outputs[c3d] = tmp / c3d
         plot_wrists(tmp / "wrists.png", joints, rectified, fps, kin_cam.acceleration, kin.acceleration, units,
-                    frame_label=label)
+                    frame_label=FRAME_LABELS[kin_frame])
         outputs["wrists.png"] = tmp / "wrists.png"
         bar.update()
 

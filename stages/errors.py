@@ -8,6 +8,8 @@ into one line and exit status 1. Any other exception is a bug in pcnet.
 
 from __future__ import annotations
 
+import importlib
+
 
 class InputError(ValueError):
     """Input pcnet refuses, with a one-line message naming the file (or option), the field,
@@ -20,3 +22,15 @@ class InputError(ValueError):
     def __init__(self, message: str):
         super().__init__(" ".join(str(message).split()))
 
+
+
+def import_extra(module: str, missing: str):
+    """The optional dependency ``module`` (an extra such as ``pcnet[ray]``), imported.
+
+    Raises:
+        InputError: ``missing`` (one line naming the extra) when it is not installed.
+    """
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise InputError(missing) from None

@@ -20,7 +20,7 @@ import numpy as np
 
 from .atomic import atomic_path
 from .conventions import H36M_JOINTS, L_WRIST, R_WRIST
-from .errors import InputError
+from .errors import InputError, import_extra
 from .kinematics import Kinematics
 
 
@@ -258,11 +258,7 @@ def write_trc(
 
 def require_ezc3d():
     """The ezc3d module. Raises InputError with one line naming the extra when it is missing."""
-    try:
-        import ezc3d
-    except ImportError:
-        raise InputError('C3D export needs ezc3d: pip install "pcnet[c3d]"') from None
-    return ezc3d
+    return import_extra("ezc3d", 'C3D export needs ezc3d: pip install "pcnet[c3d]"')
 
 
 def write_c3d(

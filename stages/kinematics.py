@@ -42,6 +42,7 @@ from .conventions import (
     THORAX,
     check_poses,
 )
+from .canonical import canonical_rotation
 from .isb_angles import isb_joint_angles
 from .rotations import angle_between
 from .errors import InputError
@@ -428,26 +429,21 @@ class Kinematics:
 
 
 def pelvis_heading_frame(poses: np.ndarray) -> np.ndarray:
-    """Y-up poses turned about +Y, per frame, so that the horizontal part of the hip line
-    (right_hip - left_hip) points along +Z: the canonical frame's heading definition
-    (docs/CONVENTIONS.md), applied to world-frame (or canonical) poses.
+    """Y-up poses turned about +Y, per frame, into the canonical frame's axes
+    (:func:`pcnet.stages.canonical.canonical_rotation` with up = +Y: +Z along the horizontal
+    part of the hip line, docs/CONVENTIONS.md), without moving the origin: applied to
+    world-frame (or canonical) poses, for angles that must not depend on the world heading.
 
     Args:
         poses: ``(T, 17, 3)`` H36M-17 poses with +Y up (world or canonical frame), any units.
 
     Returns:
-        ``(T, 17, 3)`` float64; NaN for frames whose hip line is missing or vertical.
+        ``(T, 17, 3)`` float64; NaN for frames whose hip line is missing or within
+        :func:`~pcnet.stages.canonical.canonical_rotation`'s limit of vertical.
     """
     X = np.asarray(poses, np.float64)
-    hips = X[:, R_HIP] - X[:, L_HIP]
-    a, b = hips[:, _X], hips[:, _Z]
-    n = np.hypot(a, b)
-    ok = np.isfinite(n) & (n > 1e-9 * np.maximum(1.0, np.linalg.norm(np.nan_to_num(hips), axis=-1)))
-    a, b = np.where(ok, a / np.where(ok, n, 1.0), np.nan), np.where(ok, b / np.where(ok, n, 1.0), np.nan)
-    out = X.copy()
-    out[..., _X] = b[:, None] * X[..., _X] - a[:, None] * X[..., _Z]
-    out[..., _Z] = a[:, None] * X[..., _X] + b[:, None] * X[..., _Z]
-    return out
+    R, _ = canonical_rotation(X, (0.0, 1.0, 0.0))
+    return X @ R
 
 
 def compute_kinematics(

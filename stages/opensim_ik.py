@@ -52,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from .conventions import H36M_JOINTS
-from .errors import InputError
+from .errors import InputError, import_extra
 
 MISSING_OPENSIM = 'pcnet opensim needs OpenSim: pip install "pcnet[opensim]"'
 DATA_DIR = Path(__file__).resolve().parent.parent / "pipeline" / "opensim_data"
@@ -77,10 +77,7 @@ def _data_dir() -> Path:
 def import_opensim():
     """Import ``opensim`` with its log quiet (warnings only) and no ``opensim.log`` in the
     working folder. Raises :class:`InputError` with :data:`MISSING_OPENSIM` when missing."""
-    try:
-        import opensim
-    except ImportError as err:
-        raise InputError(MISSING_OPENSIM) from err
+    opensim = import_extra("opensim", MISSING_OPENSIM)
     with contextlib.suppress(Exception):
         opensim.Logger.removeFileSink()
         opensim.Logger.setLevelString("warn")

@@ -6,8 +6,8 @@ and is skipped with that reason otherwise. The error tests that need no OpenSim 
 
 from __future__ import annotations
 
-import builtins
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -105,14 +105,7 @@ def test_cli_opensim_without_world_trc(tmp_path):
 
 
 def test_missing_opensim_is_one_line(short_run, monkeypatch):
-    real_import = builtins.__import__
-
-    def no_opensim(name, *args, **kwargs):
-        if name == "opensim" or name.startswith("opensim."):
-            raise ImportError("No module named 'opensim'")
-        return real_import(name, *args, **kwargs)
-
-    monkeypatch.setattr(builtins, "__import__", no_opensim)
+    monkeypatch.setitem(sys.modules, "opensim", None)  # `import opensim` raises ImportError
     res = _cli("opensim", short_run)
     assert res.exit_code == 1
     assert res.output.strip() == 'Error: pcnet opensim needs OpenSim: pip install "pcnet[opensim]"'
