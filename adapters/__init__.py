@@ -7,7 +7,7 @@ flips/permutations, unit scaling and picking a person or hypothesis; remapping t
 
 2D (``Keypoints2D``): ``alphapose``, ``mmpose``, ``openpose``, ``mediapipe``.
 3D (``Poses3D``, camera frame): ``motionbert``, ``ddhpose``, ``videopose3d``, ``mediapipe``,
-``generic``.
+``generic``, and the depth-sensor skeletons ``kinect_v1`` (20 joints) and ``azure_kinect`` (32).
 
 Use either the functions (``load_alphapose(path, person=...)``) or the registry
 (``get_2d_adapter("alphapose").load(path, person=...)``); see ``registry`` for adding one.
@@ -32,6 +32,7 @@ from .motionbert import load_motionbert
 from .ddhpose import load_ddhpose
 from .videopose3d import load_videopose3d
 from .generic import axes_to_camera, load_generic
+from .kinect import load_azure_kinect, load_kinect_v1
 from .video import iter_frames, probe_video, read_frame
 
 __all__ = [
@@ -39,5 +40,6 @@ __all__ = [
     "available_2d", "available_3d", "get_2d_adapter", "get_3d_adapter", "register_2d", "register_3d",
     "load_alphapose", "load_mmpose", "load_openpose", "load_mediapipe_2d", "load_mediapipe_3d",
     "load_motionbert", "load_ddhpose", "load_videopose3d", "load_generic", "axes_to_camera",
+    "load_kinect_v1", "load_azure_kinect",
     "probe_video", "read_frame", "iter_frames",
 ]

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -21,7 +21,7 @@ from pcnet.stages.conventions import get_layout
 
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D
-from .validate import checked_keypoints, frame_count_for, json_numbers, layout_from_count, read_json
+from .validate import checked_keypoints, frame_count_for, iter_json_array, json_numbers, layout_from_count
 
 # Keypoints per detection -> layout. 133 (COCO-WholeBody) starts with COCO-17 and 136
 # (Halpe-136) with the 26 Halpe body joints, so those keep only their body part.
@@ -76,18 +76,16 @@ def _track_id(p: Path, i: int, idx: Any) -> int | None:
     return int(flat)
 
 
-def _parse(p: Path, data: Any) -> tuple[list[tuple[int, int | None, float, np.ndarray]], int, bool, bool]:
+TOP_LEVEL = "a list of detections (AlphaPose results JSON, AlphaPose docs/output.md)"
+
+
+def _parse(p: Path, items: Iterator[Any]) -> tuple[list[tuple[int, int | None, float, np.ndarray]], int, bool, bool]:
     """Return (entries (frame, track, score, keypoints (K, 3))), K, any list-form idx,
-    any missing score)."""
-    if not isinstance(data, list):
-        got = f"a JSON object with keys {sorted(data)[:6]}" if isinstance(data, dict) else type(data).__name__
-        raise AdapterError(p, "top level", "a list of detections (AlphaPose results JSON, AlphaPose docs/output.md)", got)
-    if not data:
-        raise AdapterError(p, "top level", "at least one detection", "an empty list")
+    any missing score) from the file's top-level items (:func:`iter_json_array`)."""
     entries = []
     count = None
     list_idx = missing_score = False
-    for i, det in enumerate(data):
+    for i, det in enumerate(items):
         if not isinstance(det, dict) or "image_id" not in det or "keypoints" not in det:
             got = f"keys {sorted(det)[:6]}" if isinstance(det, dict) else type(det).__name__
             raise AdapterError(p, f"[{i}]", "a detection with 'image_id' and 'keypoints'", got)
@@ -107,6 +105,8 @@ def _parse(p: Path, data: Any) -> tuple[list[tuple[int, int | None, float, np.nd
         missing_score |= no_score
         list_idx |= isinstance(det.get("idx"), list)
         entries.append((_frame_index(p, i, det["image_id"]), _track_id(p, i, det.get("idx")), score, arr))
+    if not entries:
+        raise AdapterError(p, "top level", "at least one detection", "an empty list")
     return entries, count, list_idx, missing_score
 
 
@@ -153,7 +153,7 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     p = Path(path)
     if person is not None and (isinstance(person, bool) or not isinstance(person, int)):
         raise AdapterError(p, "person", "an integer track id or None", repr(person))
-    entries, count, list_idx, missing_score = _parse(p, read_json(p))
+    entries, count, list_idx, missing_score = _parse(p, iter_json_array(p, TOP_LEVEL))
 
     # Best detection per (track, frame): the file order decides only exact score ties.
     best: dict[int | None, dict[int, tuple[float, np.ndarray]]] = {}

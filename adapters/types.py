@@ -121,6 +121,11 @@ class Poses3D:
         source: path of the file read.
         notes: how the source was converted (axis flips, units, hypothesis choice, caveats).
         fps: frames per second when the file states it (MediaPipe npz), else ``None``.
+        root_translation: True when the root's camera-frame position is a measurement in
+            ``units`` (a depth sensor's skeleton: Kinect v1, Azure Kinect), so the pipeline
+            keeps the pelvis's path in the world frame; False when the root is zeroed,
+            image-normalised or a fixed depth (monocular lifters), where the horizontal
+            path is not observable.
     """
 
     joints: np.ndarray
@@ -130,6 +135,7 @@ class Poses3D:
     source: str = ""
     notes: str = ""
     fps: float | None = None
+    root_translation: bool = False
 
     def __post_init__(self) -> None:
         _check_array(self.joints, "joints", self.source, self.layout)

@@ -20,6 +20,7 @@ allocates one row per frame.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import struct
@@ -27,7 +28,7 @@ import tokenize
 import zipfile
 import zlib
 from pathlib import Path
-from typing import IO, Any, Mapping, Sequence
+from typing import IO, Any, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -115,8 +116,15 @@ def read_json(path: str | Path) -> Any:
     text = p.read_text(encoding="utf-8", errors="replace")
     if not text.strip():
         raise AdapterError(p, "content", "JSON", "an empty file")
-    try:
+    with _json_errors(p):
         return json.loads(text, parse_float=_json_float)
+
+
+@contextlib.contextmanager
+def _json_errors(p: Path) -> Iterator[None]:
+    """Parser errors as one-line AdapterErrors naming the file."""
+    try:
+        yield
     except _FloatOverflow as exc:
         raise AdapterError(p, "content", "JSON numbers within float64 range", _short(exc, 40)) from None
     except json.JSONDecodeError as exc:
@@ -125,6 +133,51 @@ def read_json(path: str | Path) -> Any:
         raise AdapterError(p, "content", "JSON numbers of at most 4300 digits", _short(exc)) from exc
     except RecursionError as exc:
         raise AdapterError(p, "content", "JSON nested at most a few hundred levels deep", "deeper nesting") from exc
+
+
+def iter_json_array(path: str | Path, expected: str) -> Iterator[Any]:
+    """The items of a JSON file whose top level is an array, decoded one at a time.
+
+    Same parsing and errors as :func:`read_json`, but only one item's Python objects exist
+    at a time (the file's text stays in memory): a 2-hour AlphaPose file parsed whole is
+    about 1.3 GB of Python floats, item by item it is the text plus the caller's arrays.
+
+    Args:
+        path: the JSON file.
+        expected: what the top-level array holds, for the error when it is not an array
+            (e.g. ``"a list of detections (AlphaPose docs/output.md)"``).
+
+    Raises:
+        AdapterError: as :func:`read_json`; field ``top level`` when it is not an array.
+    """
+    p = require_file(path, "a JSON file")
+    text = p.read_text(encoding="utf-8", errors="replace")
+    if not text.strip():
+        raise AdapterError(p, "content", "JSON", "an empty file")
+    start = len(text) - len(text.lstrip())
+    if text[start] != "[":
+        data = read_json(p)  # invalid JSON reads as read_json's error
+        got = f"a JSON object with keys {sorted(data)[:6]}" if isinstance(data, dict) else type(data).__name__
+        raise AdapterError(p, "top level", expected, got)
+    decoder = json.JSONDecoder(parse_float=_json_float)
+    ws = json.decoder.WHITESPACE.match
+    pos = ws(text, start + 1).end()
+    with _json_errors(p):
+        if text.startswith("]", pos):
+            pos += 1
+        else:
+            while True:
+                item, pos = decoder.raw_decode(text, pos)
+                yield item
+                pos = ws(text, pos).end()
+                if text.startswith("]", pos):
+                    pos += 1
+                    break
+                if not text.startswith(",", pos):
+                    raise json.JSONDecodeError("Expecting ',' delimiter", text, pos)
+                pos = ws(text, pos + 1).end()
+        if ws(text, pos).end() != len(text):
+            raise json.JSONDecodeError("Extra data", text, ws(text, pos).end())
 
 
 def json_numbers(p: str | Path, field: str, value: Any, depth: int = 1) -> np.ndarray:

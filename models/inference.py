@@ -42,7 +42,10 @@ class PCNetSession:
         self.path, self.session, self.info = _open(weights, DEFAULT_WEIGHTS, threads)
         _check_signature(self.path, self.session, "3DPCNet", {"x": [17, 3]}, {"rotation": [3, 3], "residual": [17, 3]})
 
-    def predict(self, joints_cam: np.ndarray, batch_size: int = 4096) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def predict(self, joints_cam: np.ndarray, batch_size: int = 256) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        # onnxruntime's arena keeps the largest batch's activations for the session's life:
+        # 1 GB per network at 4096 poses, 0.1 GB at 256, which is no slower on 2 cores
+        # (7,000 vs 4,900 poses/s, `benchmarks/speed.py`).
         x, scale, valid = normalize_input(joints_cam)
         n = len(x)
         R = np.full((n, 3, 3), np.nan)

@@ -82,7 +82,7 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
             options[key] = parse_hypothesis(raw)
         elif key in _LIFTER_OPTIONS:
             options[key] = raw
-        elif key in ("overwrite", "recording", "fps_override", "c3d", "camera_prior"):
+        elif key in ("overwrite", "recording", "fps_override", "c3d", "camera_prior", "residual_cutoff"):
             values[key] = _boolean(key, raw)
         else:
             values[key] = raw

@@ -236,6 +236,8 @@ def _run_and_report(cfg) -> None:
 @click.option("--person", type=int, default=None, help="2D track id to follow (AlphaPose idx / MMPose instance).")
 @click.option("--confidence-threshold", type=float, default=None, help="2D confidence below which 3D joints become NaN [0.3].")
 @click.option("--cutoff-hz", type=float, default=None, help="Butterworth low-pass cutoff [6 Hz].")
+@click.option("--residual-cutoff", is_flag=True, default=None,
+              help="Choose the cutoff by Winter's residual analysis of the recording instead of --cutoff-hz.")
 @click.option("--align", type=click.Choice(ALIGN), default=None, help="How to match differing frame counts [none = error].")
 @click.option("--pixel", is_flag=True, default=None, help="MotionBERT output made with --pixel.")
 @click.option("--hypothesis", default=None, help="DDHPose: 'mean' or a hypothesis index.")

@@ -12,7 +12,7 @@ from pcnet.stages.conventions import MAX_FPS, MIN_FPS
 from pcnet.stages.errors import InputError
 
 KEYPOINT_FORMATS = ("alphapose", "mmpose", "openpose", "mediapipe")
-LIFTERS = ("motionbert", "ddhpose", "videopose3d", "mediapipe", "generic")
+LIFTERS = ("motionbert", "ddhpose", "videopose3d", "mediapipe", "generic", "kinect_v1", "azure_kinect")
 MODES = ("auto", "frame", "sequence", "smooth")
 ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
@@ -31,7 +31,9 @@ class RunConfig:
     a video it must match the video's rate unless ``fps_override``. ``camera_prior``:
     sequence modes weigh the poses against a camera prior and a lying reading
     (:mod:`pcnet.stages.gravity_prior`). ``c3d``: also write the markers as a C3D file
-    (needs the ``c3d`` extra, ezc3d).
+    (needs the ``c3d`` extra, ezc3d). ``residual_cutoff``: choose the low-pass cutoff by
+    Winter's residual analysis of the recording (:func:`pcnet.stages.kinematics.residual_analysis`)
+    instead of ``cutoff_hz``.
     """
 
     lifter: str
@@ -55,6 +57,7 @@ class RunConfig:
     weights: str | None = None
     camera_prior: bool = True
     c3d: bool = False
+    residual_cutoff: bool = False
     lifter_options: dict = field(default_factory=dict)
 
     @classmethod

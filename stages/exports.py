@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import json
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,7 @@ from .atomic import atomic_path
 from .conventions import H36M_JOINTS, L_WRIST, R_WRIST
 from .errors import InputError, import_extra
 from .kinematics import Kinematics
+from .plots import display_samples
 
 
 # ---------------------------------------------------------------------------------------
@@ -85,6 +87,10 @@ def write_npz(path: str | os.PathLike, **arrays_and_metadata: object) -> Path:
 # CSV
 
 
+#: Rows formatted per block by the CSV and TRC writers.
+TEXT_BLOCK_ROWS = 2048
+
+
 def unit_token(unit: str) -> str:
     """Unit string -> header-safe token: ``"m/s^2"`` -> ``"m_per_s2"``, ``"m"`` -> ``"m"``."""
     return unit.replace("/", "_per_").replace("^", "").replace(" ", "_")
@@ -100,7 +106,7 @@ def write_kinematics_csv(
     path: str | os.PathLike,
     frame_index: np.ndarray,
     time_s: np.ndarray,
-    kinematics: Kinematics,
+    kinematics: Kinematics | Iterable[Kinematics],
     extra_columns: Mapping[str, np.ndarray] | None = None,
     joints: Sequence[str] | None = None,
 ) -> Path:
@@ -131,7 +137,9 @@ def write_kinematics_csv(
         path: destination ``.csv``.
         frame_index: ``(T,)`` integer frame numbers (e.g. source-video frame indices).
         time_s: ``(T,)`` times in seconds.
-        kinematics: :class:`~pcnet.stages.kinematics.Kinematics` with ``T`` frames.
+        kinematics: :class:`~pcnet.stages.kinematics.Kinematics` with ``T`` frames, or
+            consecutive chunks of it (:func:`~pcnet.stages.kinematics.kinematics_chunks`),
+            written as they come so a long recording never needs all its rows in memory.
         extra_columns: optional ``name -> (T,)`` numeric or bool columns.
         joints: joint names to include (default: all 17 H36M-17 joints).
 
@@ -139,52 +147,64 @@ def write_kinematics_csv(
         the destination path.
 
     Raises:
-        ValueError: a column whose length is not ``T``, an unknown joint, or a duplicate
-            column name.
+        ValueError: a column whose length is not ``T``, chunks that do not add up to ``T``
+            frames, an unknown joint, or a duplicate column name.
     """
-    k = kinematics
-    T = k.num_frames
+    chunks = iter([kinematics]) if isinstance(kinematics, Kinematics) else iter(kinematics)
+    first = next(chunks, None)
+    if first is None:
+        raise ValueError("write_kinematics_csv: no kinematics given")
     frame_index = np.asarray(frame_index)
     time_s = np.asarray(time_s, dtype=np.float64)
+    T = first.num_frames if isinstance(kinematics, Kinematics) else len(frame_index)
     extra = dict(extra_columns or {})
     for name, col in (("frame_index", frame_index), ("time_s", time_s), *extra.items()):
         if np.shape(col) != (T,):
             raise ValueError(
                 f"write_kinematics_csv: column {name!r} must have shape ({T},), got {np.shape(col)}"
             )
-    names = list(k.joint_names)
+    names = list(first.joint_names)
     chosen = list(joints) if joints is not None else names
     unknown = [j for j in chosen if j not in names]
     if unknown:
         raise ValueError(f"write_kinematics_csv: unknown joints {unknown}; known: {names}")
+    columns = [names.index(j) for j in chosen]
 
-    u, v, a = unit_token(k.units), unit_token(k.velocity_units), unit_token(k.acceleration_units)
+    u, v, a = unit_token(first.units), unit_token(first.velocity_units), unit_token(first.acceleration_units)
     header = ["frame", "time_s"]
-    blocks: list[np.ndarray] = [time_s[:, None]]
     for j in chosen:
-        i = names.index(j)
         header += [f"{j}_{c}_{u}" for c in "xyz"]
         header += [f"{j}_v{c}_{v}" for c in "xyz"]
         header += [f"{j}_a{c}_{a}" for c in "xyz"]
         header += [f"{j}_speed_{v}", f"{j}_missing", f"{j}_unfiltered"]
-        blocks += [k.positions[:, i], k.velocity[:, i], k.acceleration[:, i], k.speed[:, i, None],
-                   k.missing[:, i, None], k.unfiltered[:, i, None]]
-    for name, ang in k.angles.items():
-        header.append(f"{name}_deg")
-        blocks.append(np.asarray(ang, np.float64)[:, None])
-    for name, col in extra.items():
-        header.append(name)
-        blocks.append(np.asarray(col, np.float64)[:, None])
+    header += [f"{name}_deg" for name in first.angles] + list(extra)
     dup = {h for h in header if header.count(h) > 1}
     if dup:
         raise ValueError(f"write_kinematics_csv: duplicate column names {sorted(dup)}")
-    table = np.concatenate(blocks, axis=1)
 
     with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(header)
-        for f, row in zip(frame_index.tolist(), table.tolist()):
-            writer.writerow([str(f), *map(_fmt, row)])
+        done = 0
+        for k in itertools.chain([first], chunks):
+            # Rows formatted a block at a time: .tolist() of a whole 2-hour table is GBs of floats.
+            for lo in range(0, k.num_frames, TEXT_BLOCK_ROWS):
+                hi = min(k.num_frames, lo + TEXT_BLOCK_ROWS)
+                rows = slice(done + lo, done + hi)
+                if rows.stop > T:
+                    raise ValueError(f"write_kinematics_csv: the kinematics chunks have more than the {T} frames of frame_index")
+                blocks = [time_s[rows, None]]
+                for i in columns:
+                    blocks += [k.positions[lo:hi, i], k.velocity[lo:hi, i], k.acceleration[lo:hi, i],
+                               k.speed[lo:hi, i, None], k.missing[lo:hi, i, None], k.unfiltered[lo:hi, i, None]]
+                blocks += [np.asarray(ang, np.float64)[lo:hi, None] for ang in k.angles.values()]
+                blocks += [np.asarray(col, np.float64)[rows, None] for col in extra.values()]
+                table = np.concatenate(blocks, axis=1)
+                for f, row in zip(frame_index[rows].tolist(), table.tolist()):
+                    writer.writerow([str(f), *map(_fmt, row)])
+            done += k.num_frames
+        if done != T:
+            raise ValueError(f"write_kinematics_csv: the kinematics chunks have {done} frames, frame_index has {T}")
     return Path(path)
 
 
@@ -250,9 +270,10 @@ def write_trc(
     flat = X.reshape(T, J * 3)
     with atomic_path(path) as tmp, open(tmp, "w", newline="\n", encoding="utf-8") as fh:
         fh.write("\n".join(lines) + "\n")
-        for t, row in enumerate(flat.tolist()):
-            fields = "\t".join(_fmt_trc(v) for v in row)
-            fh.write(f"{t + 1}\t{t / fps:.6f}\t{fields}\t\n")
+        for lo in range(0, T, TEXT_BLOCK_ROWS):
+            for t, row in enumerate(flat[lo : lo + TEXT_BLOCK_ROWS].tolist(), start=lo):
+                fields = "\t".join(_fmt_trc(v) for v in row)
+                fh.write(f"{t + 1}\t{t / fps:.6f}\t{fields}\t\n")
     return Path(path)
 
 
@@ -357,7 +378,8 @@ def plot_wrists(
         canonical: ``(T, 17, 3)`` rectified poses (x anterior, y up, z right: world or
             canonical frame), ``units``.
         fps: frame rate in Hz.
-        acc_camera, acc_canonical: ``(T, 17, 3)`` accelerations in ``units/s^2``.
+        acc_camera, acc_canonical: ``(T, 2, 3)`` left- and right-wrist accelerations in
+            ``units/s^2`` (only the wrists, so a long recording need not keep every joint's).
         units: length unit label.
         frame_label: title of the rectified column.
 
@@ -372,9 +394,9 @@ def plot_wrists(
 
     arrays = [np.asarray(a, np.float64) for a in (camera, canonical, acc_camera, acc_canonical)]
     T = arrays[0].shape[0]
-    for a in arrays:
-        if a.shape != (T, 17, 3):
-            raise ValueError(f"plot_wrists: expected four (T, 17, 3) arrays, got {[x.shape for x in arrays]}")
+    if [a.shape for a in arrays] != [(T, 17, 3), (T, 17, 3), (T, 2, 3), (T, 2, 3)]:
+        raise ValueError(f"plot_wrists: expected (T, 17, 3) poses and (T, 2, 3) wrist accelerations, "
+                         f"got {[x.shape for x in arrays]}")
     if not fps > 0:
         raise ValueError(f"plot_wrists: fps must be > 0, got {fps!r}")
     cam, can, acam, acan = arrays
@@ -390,13 +412,13 @@ def plot_wrists(
     axes = fig.subplots(3, 2, sharex=True)
     for col, (title, pos, acc, labels) in enumerate(columns):
         ax_p, ax_a, ax_m = axes[:, col]
-        for joint, side, style in ((L_WRIST, "left", "--"), (R_WRIST, "right", "-")):
+        for w, (joint, side, style) in enumerate(((L_WRIST, "left", "--"), (R_WRIST, "right", "-"))):
             for c in range(3):
-                ax_p.plot(t, pos[:, joint, c], style, color=comp_colors[c], lw=1,
+                ax_p.plot(*display_samples(t, pos[:, joint, c]), style, color=comp_colors[c], lw=1,
                           label=f"{side} wrist {labels[c]}")
-                ax_a.plot(t, acc[:, joint, c], style, color=comp_colors[c], lw=0.8,
+                ax_a.plot(*display_samples(t, acc[:, w, c]), style, color=comp_colors[c], lw=0.8,
                           label=f"{side} wrist a{labels[c]}")
-            ax_m.plot(t, np.linalg.norm(acc[:, joint], axis=-1), style, color="k", lw=0.8,
+            ax_m.plot(*display_samples(t, np.linalg.norm(acc[:, w], axis=-1)), style, color="k", lw=0.8,
                       label=f"{side} wrist |a|")
         ax_p.set_title(title)
         ax_p.set_ylabel(f"position ({units})")

@@ -172,6 +172,25 @@ def view_gate_flag(view_gate: dict | None) -> list[str]:
             f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)"]
 
 
+def floor_flag(feet_visible: np.ndarray, present: np.ndarray) -> list[str]:
+    """A flag when frames with a pose show no ankle, so the world frame's floor was not seen
+    there (:func:`pcnet.stages.world_frame.floor_heights`): heights interpolated from the
+    frames that saw it, or, with no ankle anywhere, relative to the pelvis.
+
+    Args:
+        feet_visible, present: ``(T,)`` bool: an ankle is finite; any joint is finite.
+    """
+    missing = int((present & ~feet_visible).sum())
+    total = int(present.sum())
+    if not missing:
+        return []
+    if missing == total:
+        return ["no ankle visible in any frame: no floor, so world-frame heights are relative to the pelvis "
+                "(y = 0 at the pelvis), not to the ground"]
+    return [f"no ankle visible in {missing} of {total} frames: the floor was not seen there, so the pelvis's height "
+            f"above it is interpolated from the nearest frames that saw it"]
+
+
 def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, list[tuple[int, float]]]:
     """Split a 2D track where it jumps farther than one person can move: a tracker that
     switched to someone else.

@@ -17,12 +17,13 @@ flags :attr:`Kinematics.missing` / :attr:`Kinematics.unfiltered` and
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
-from typing import Literal, Mapping
+from typing import Iterable, Iterator, Literal, Mapping
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
+from scipy.signal import butter, sos2zpk, sosfiltfilt
 
 from .conventions import (
     H36M_JOINTS,
@@ -98,6 +99,16 @@ def _design_cutoff(fps: float, cutoff_hz: float, passes: int, order_per_pass: in
     return float(fps / np.pi * np.arctan(warped))
 
 
+def _lowpass_design(fps: float, cutoff_hz: float, order: int) -> tuple[np.ndarray, int]:
+    """(second-order sections of one pass, ``sosfiltfilt``'s default ``padlen``)."""
+    per_pass = order // 2
+    design = _design_cutoff(fps, cutoff_hz, passes=2, order_per_pass=per_pass)
+    sos = butter(per_pass, design, btype="low", fs=fps, output="sos")
+    # sosfiltfilt's own default padlen, so "too short" means what scipy means.
+    padlen = 3 * (2 * len(sos) + 1 - min((sos[:, 2] == 0).sum(), (sos[:, 5] == 0).sum()))
+    return sos, int(padlen)
+
+
 def butterworth_lowpass(
     x: np.ndarray,
     fps: float,
@@ -149,11 +160,7 @@ def butterworth_lowpass(
             f"order is the order of the zero-phase (dual-pass) result and must be even and "
             f">= 2, got {order!r}"
         )
-    per_pass = order // 2
-    design = _design_cutoff(fps, cutoff_hz, passes=2, order_per_pass=per_pass)
-    sos = butter(per_pass, design, btype="low", fs=fps, output="sos")
-    # sosfiltfilt's own default padlen, so "too short" means what scipy means.
-    padlen = 3 * (2 * len(sos) + 1 - min((sos[:, 2] == 0).sum(), (sos[:, 5] == 0).sum()))
+    sos, padlen = _lowpass_design(fps, cutoff_hz, order)
 
     x2, shape = _as_2d(x)
     out = np.full_like(x2, np.nan)
@@ -170,6 +177,87 @@ def butterworth_lowpass(
     if return_unfiltered:
         return out, unfiltered.reshape(shape)
     return out
+
+
+#: Band of the Nyquist frequency over which the residual is taken as noise and fitted by a
+#: line (:func:`residual_analysis`).
+RESIDUAL_FIT_BAND = (0.5, 0.9)
+
+
+@dataclass(frozen=True)
+class ResidualAnalysis:
+    """Winter's residual analysis of a recording (:func:`residual_analysis`).
+
+    Attributes:
+        cutoff_hz: the recording's cutoff, the median of ``per_signal_hz``.
+        per_signal_hz: ``(C,)`` cutoff of each signal (NaN: too short or constant).
+        frequencies_hz: ``(F,)`` cutoffs tried.
+        residual: ``(F,)`` median over signals of the RMS residual, input units.
+        noise: median over signals of the fitted noise level (the line's intercept).
+    """
+
+    cutoff_hz: float
+    per_signal_hz: np.ndarray
+    frequencies_hz: np.ndarray
+    residual: np.ndarray
+    noise: float
+
+
+def residual_analysis(x: np.ndarray, fps: float, order: int = 4, n_frequencies: int = 40) -> ResidualAnalysis:
+    """The low-pass cutoff by Winter's residual analysis (Winter, *Biomechanics and Motor
+    Control of Human Movement*, 4th ed., 2009, sec. 3.4.4.3), per signal.
+
+    For cutoffs ``f`` from 0.5 Hz to 0.95 x Nyquist, the RMS residual ``R(f)`` between a
+    signal and its :func:`butterworth_lowpass` (same ``order``) is computed over its filtered
+    samples. Where only noise is removed, ``R(f)`` falls as a straight line to 0 at the Nyquist
+    frequency; the line fitted over :data:`RESIDUAL_FIT_BAND` of Nyquist meets ``f = 0`` at
+    the noise level ``a``, and the cutoff is the lowest ``f`` with ``R(f) <= a``: below it the
+    filter would remove signal as well as noise. Each signal (a joint's x, y or z) gets its
+    own cutoff; the recording's is their median (one filter for all joints keeps joint angles
+    consistent).
+
+    Args:
+        x: ``(T, ...)`` samples along axis 0 (e.g. ``(T, 17, 3)`` positions), NaN = missing.
+        fps: sampling rate in Hz.
+        order: order of the zero-phase filter, as :func:`butterworth_lowpass`.
+        n_frequencies: cutoffs tried.
+
+    Returns:
+        :class:`ResidualAnalysis`.
+
+    Raises:
+        InputError: ``fps <= 0``, or no signal long enough to filter (more than the filter's
+            pad length of finite samples in a run).
+    """
+    if not fps > 0:
+        raise InputError(f"fps must be > 0, got {fps!r}")
+    x2, _ = _as_2d(x)
+    nyquist = fps / 2
+    freqs = np.linspace(0.5, 0.95 * nyquist, n_frequencies)
+    residual = np.full((len(freqs), x2.shape[1]), np.nan)
+    for i, f in enumerate(freqs):
+        smooth, raw = butterworth_lowpass(x2, fps, float(f), order, return_unfiltered=True)
+        diff = np.where(raw, np.nan, x2 - smooth)
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN signals stay NaN
+            residual[i] = np.sqrt(np.nanmean(diff**2, axis=0))
+    band = (freqs >= RESIDUAL_FIT_BAND[0] * nyquist) & (freqs <= RESIDUAL_FIT_BAND[1] * nyquist)
+    per_signal = np.full(x2.shape[1], np.nan)
+    noise = np.full(x2.shape[1], np.nan)
+    for c in range(x2.shape[1]):
+        r = residual[:, c]
+        if not np.isfinite(r).all() or not r[0] > 0:
+            continue
+        slope, intercept = np.polyfit(freqs[band], r[band], 1)
+        below = np.flatnonzero(r <= intercept)
+        noise[c] = intercept
+        per_signal[c] = freqs[below[0]] if len(below) else freqs[-1]
+    if not np.isfinite(per_signal).any():
+        raise InputError("residual analysis: no signal has a run of finite samples long enough to filter")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        curve = np.nanmedian(residual, axis=1)
+    return ResidualAnalysis(float(np.nanmedian(per_signal)), per_signal, freqs, curve, float(np.nanmedian(noise)))
 
 
 # ---------------------------------------------------------------------------------------
@@ -520,6 +608,144 @@ def compute_kinematics(
 
 
 # ---------------------------------------------------------------------------------------
+# long recordings in chunks
+
+#: Frames per chunk of :func:`kinematics_chunks`: about 2 min at 30 fps, so a chunk's
+#: arrays (and the CSV rows formatted from them) stay in the tens of MB.
+CHUNK_FRAMES = 4096
+
+
+def settle_frames(fps: float, cutoff_hz: float | None, order: int = 4, tol: float = 1e-12) -> int:
+    """Frames of context on each side that make a chunk's kinematics equal those of the whole
+    recording to a relative ``tol``.
+
+    A zero-phase filter started at a chunk edge (``sosfiltfilt``'s odd extension and
+    steady-state initial conditions) differs from the same filter run through the edge by
+    a transient that decays as ``r^n`` after ``n`` samples, ``r`` the largest pole radius
+    of one pass (a stable IIR filter's impulse response, Oppenheim & Schafer,
+    *Discrete-Time Signal Processing*, 3rd ed., 2010, sec. 3.3); the central differences of
+    :func:`derivatives` need one more sample. The count also exceeds the filter's
+    ``padlen``, so a finite run cut at a chunk edge is never mistaken for one too short to
+    filter.
+
+    Args:
+        fps, cutoff_hz, order: as :func:`butterworth_lowpass`; ``cutoff_hz`` None = no filter.
+        tol: relative size of the transient left at the kept samples.
+
+    Returns:
+        frames (int >= 2).
+
+    Raises:
+        InputError: as :func:`butterworth_lowpass` for an invalid filter.
+    """
+    if cutoff_hz is None:
+        return 2
+    if not fps > 0:
+        raise InputError(f"fps must be > 0, got {fps!r}")
+    if not 0 < cutoff_hz < fps / 2:
+        raise InputError(f"cutoff_hz must lie in (0, fps/2) = (0, {fps / 2:g}) Hz (Nyquist), got {cutoff_hz!r}")
+    sos, padlen = _lowpass_design(fps, cutoff_hz, order)
+    radius = float(np.abs(sos2zpk(sos)[1]).max())
+    decay = int(np.ceil(np.log(tol) / np.log(radius))) if radius > 0 else 1
+    return max(decay, padlen + 1) + 2
+
+
+def select_frames(kinematics: Kinematics, start: int, stop: int, joints: Iterable[str] | None = None,
+                  dtype: type | None = None) -> Kinematics:
+    """Frames ``[start, stop)`` (and optionally only the named ``joints``, in that order) of a
+    :class:`Kinematics`; angles keep every angle. ``dtype`` (e.g. ``np.float32``, half the
+    memory for what a long recording keeps for its plots) converts the float arrays.
+
+    Raises:
+        InputError: an unknown joint name.
+    """
+    k = kinematics
+    names = list(k.joint_names)
+    chosen = names if joints is None else list(joints)
+    unknown = [j for j in chosen if j not in names]
+    if unknown:
+        raise InputError(f"select_frames: unknown joints {unknown}; known: {names}")
+    idx = [names.index(j) for j in chosen]
+    cut = slice(start, stop)
+
+    def take(a: np.ndarray) -> np.ndarray:
+        a = a[cut][:, idx]
+        return a if dtype is None else a.astype(dtype)
+
+    return replace(
+        k, positions=take(k.positions), velocity=take(k.velocity),
+        acceleration=take(k.acceleration), speed=take(k.speed),
+        angles=MappingProxyType({n: v[cut] if dtype is None else v[cut].astype(dtype) for n, v in k.angles.items()}),
+        unfiltered=k.unfiltered[cut][:, idx], missing=k.missing[cut][:, idx], joint_names=tuple(chosen),
+    )
+
+
+def concat_frames(parts: Iterable[Kinematics]) -> Kinematics:
+    """Consecutive :class:`Kinematics` chunks (same joints, angles, units and rate) as one.
+
+    Raises:
+        InputError: no chunk, or chunks that differ in joints, angles, units or rate.
+    """
+    parts = list(parts)
+    if not parts:
+        raise InputError("concat_frames: no kinematics chunk given")
+    first = parts[0]
+    for p in parts[1:]:
+        if (p.joint_names, tuple(p.angles), p.units, p.fps, p.cutoff_hz) != (
+                first.joint_names, tuple(first.angles), first.units, first.fps, first.cutoff_hz):
+            raise InputError("concat_frames: chunks differ in joints, angles, units, rate or cutoff")
+
+    def cat(name: str) -> np.ndarray:
+        return np.concatenate([getattr(p, name) for p in parts])
+
+    return replace(
+        first, positions=cat("positions"), velocity=cat("velocity"), acceleration=cat("acceleration"),
+        speed=cat("speed"), unfiltered=cat("unfiltered"), missing=cat("missing"),
+        angles=MappingProxyType({n: np.concatenate([p.angles[n] for p in parts]) for n in first.angles}),
+    )
+
+
+def kinematics_chunks(
+    poses: np.ndarray,
+    fps: float,
+    cutoff_hz: float | None = 6.0,
+    units: str = "m",
+    order: int = 4,
+    chunk_frames: int | None = None,
+) -> Iterator[Kinematics]:
+    """:func:`compute_kinematics` of a long recording as consecutive chunks of at most
+    ``chunk_frames`` frames, so memory stays bounded by the chunk, not the recording.
+
+    Each chunk is computed on itself plus :func:`settle_frames` of context on both sides and
+    cut back, so the concatenated chunks equal ``compute_kinematics(poses, ...)`` to about
+    1e-12 relative (filter transients; tested in ``tests/test_kinematics_exports.py``), with
+    identical NaN and flag patterns.
+
+    Args:
+        poses: ``(T, 17, 3)`` Y-up poses, as :func:`compute_kinematics`.
+        fps, cutoff_hz, units, order: as :func:`compute_kinematics`.
+        chunk_frames: frames per yielded chunk (> 0); default :data:`CHUNK_FRAMES`.
+
+    Yields:
+        :class:`Kinematics` of frames ``[0, c), [c, 2c), ...``.
+
+    Raises:
+        InputError: as :func:`compute_kinematics`, or ``chunk_frames < 1``.
+    """
+    X = check_poses(poses, "poses")
+    chunk_frames = CHUNK_FRAMES if chunk_frames is None else chunk_frames
+    if chunk_frames < 1:
+        raise InputError(f"chunk_frames must be >= 1, got {chunk_frames!r}")
+    pad = settle_frames(fps, cutoff_hz, order)
+    T = len(X)
+    for start in range(0, T, chunk_frames):
+        stop = min(T, start + chunk_frames)
+        lo, hi = max(0, start - pad), min(T, stop + pad)
+        k = compute_kinematics(X[lo:hi], fps, cutoff_hz, units, order)
+        yield select_frames(k, start - lo, stop - lo)
+
+
+# ---------------------------------------------------------------------------------------
 # flag summary
 
 
@@ -528,7 +754,8 @@ def flag_counts(kinematics: Kinematics) -> dict:
     summary or a JSON report (plain ``int``/``dict``/``str``, JSON-serialisable).
 
     Args:
-        kinematics: a :class:`Kinematics` with ``T`` frames.
+        kinematics: a :class:`Kinematics` with ``T`` frames (:func:`count_flags` takes
+            the two flag arrays alone, e.g. gathered from :func:`kinematics_chunks`).
 
     Returns:
         dict with
@@ -546,11 +773,16 @@ def flag_counts(kinematics: Kinematics) -> dict:
         * ``"frames_with_missing"``, ``"frames_with_unfiltered"``: frames with at least
           one flagged joint.
     """
-    k = kinematics
-    missing = np.asarray(k.missing, dtype=bool)
-    unfiltered = np.asarray(k.unfiltered, dtype=bool)
+    return count_flags(kinematics.missing, kinematics.unfiltered, kinematics.joint_names)
+
+
+def count_flags(missing: np.ndarray, unfiltered: np.ndarray, joint_names: Iterable[str] = H36M_JOINTS) -> dict:
+    """:func:`flag_counts` from ``(T, J)`` bool ``missing`` and ``unfiltered`` flags
+    (:attr:`Kinematics.missing`, :attr:`Kinematics.unfiltered`) of joints ``joint_names``."""
+    missing = np.asarray(missing, dtype=bool)
+    unfiltered = np.asarray(unfiltered, dtype=bool)
     no_pose = missing.all(axis=1)
-    names = list(k.joint_names)
+    names = list(joint_names)
 
     def per_joint(flags: np.ndarray) -> dict[str, int]:
         n = flags.sum(axis=0)

@@ -30,9 +30,19 @@ Entity tree (all per-frame data is on the ``frame`` (sequence) and ``video_time`
     /world                          ViewCoordinates FUR, static (when world poses are given)
     /world/skeleton/joints, bones   as for canonical, in the recording's fixed world frame
     /world/wrist_paths/{name}       LineStrips3D (static), the wrist paths when world is given
+    /world/floor                    LineStrips3D (static): a grid on the floor plane y = 0
+                                    around the subject's horizontal extent (world only)
     /series/{group}/{name}          Scalars (+ SeriesLines, static), one row per frame
-                                    where the value is finite
+                                    where the value is finite; ``group`` may be nested
+                                    (``angles_deg/hip``): one plot per group
     /series/status/valid            Scalars: 1 where the rotation is valid, else 0
+
+Readability: joint labels are off by default (``show_labels=False`` on the 2D and 3D
+joints: the H36M names from the annotation context would cover the person; hovering a
+joint still shows its name); left joints and bones blue, right red, midline grey; series
+colours from :func:`pcnet.stages.plots.series_colours` (left cool, right warm, so left
+and right never share a colour); angles split into one plot per joint or segment
+(:func:`pcnet.stages.plots.angle_group`, at most six series each).
 
 Missing data is left out, never drawn as zeros: NaN joints, bones with a NaN end,
 invalid frames' arrows and non-finite series samples are simply not logged for that
@@ -47,15 +57,20 @@ from pathlib import Path
 
 import numpy as np
 
-from .conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
 from .atomic import atomic_path
+from .conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
 from .errors import InputError
+from .plots import LEFT_COLOURS, RIGHT_COLOURS, angle_group, series_colours
 
 _BONE_A = np.array([a for a, _ in H36M_BONES])
 _BONE_B = np.array([b for _, b in H36M_BONES])
 
-# Left blue, right red, midline grey (the usual pose-viewer colouring).
-_LEFT_C, _RIGHT_C, _MID_C = (40, 110, 235), (230, 60, 50), (170, 170, 170)
+# Left blue, right red, midline grey (the usual pose-viewer colouring); the same blue and
+# red start the series colour families of stages/plots.py.
+_LEFT_C, _RIGHT_C, _MID_C = LEFT_COLOURS[0], RIGHT_COLOURS[0], (170, 170, 170)
+_FLOOR_C = (105, 105, 105)
+#: Frames per send_columns call.
+SEND_BLOCK_FRAMES = 4096
 
 
 def _side_colour(name: str) -> tuple[int, int, int]:
@@ -70,7 +85,9 @@ _UP_COLOUR = (250, 200, 0)
 
 
 def _check(name: str, arr: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray:
-    a = np.asarray(arr, dtype=np.float64)
+    # float32 stays float32 (what rerun stores): a float64 copy of a 2-hour recording's poses is 88 MB each.
+    a = np.asarray(arr)
+    a = a if a.dtype in (np.float32, np.float64) else a.astype(np.float64)
     if a.shape != shape:
         raise InputError(f"write_recording: {name} must have shape {shape}, got {a.shape}")
     return a
@@ -125,17 +142,62 @@ def _finite_strips(path: np.ndarray) -> list[np.ndarray]:
 
 
 def _series_path(name: str) -> tuple[str, str]:
-    """``"group/leaf"`` -> (``"series/group/leaf"``, group); a bare name is its own group."""
+    """``"group/leaf"`` -> (``"series/group/leaf"``, group), where the group is everything
+    before the last ``/`` (``"angles_deg/hip/left_hip_flexion"`` -> group
+    ``"angles_deg/hip"``); a bare name is its own group."""
     parts = [p for p in str(name).strip("/").split("/") if p]
     if not parts:
         raise InputError(f"write_recording: empty series name {name!r}")
-    return "series/" + "/".join(parts), parts[0]
+    group = "/".join(parts[:-1]) if len(parts) > 1 else parts[0]
+    return "series/" + "/".join(parts), group
+
+
+def _floor_grid(world: np.ndarray, torso: float) -> list[np.ndarray]:
+    """Line strips of a square grid on the floor plane y = 0 of the world frame, covering
+    the horizontal extent of every finite joint plus a margin of about one and a half torso
+    lengths; spacing a round number (1, 2 or 5 x 10^k) near the torso length (0.5 for a
+    metric adult), at most 100 lines per direction. Empty when no joint is finite."""
+    xz = world[..., [0, 2]].reshape(-1, 2)
+    xz = xz[np.isfinite(xz).all(-1)]
+    if not xz.size or not (np.isfinite(torso) and torso > 0):
+        return []
+    lo, hi = xz.min(0) - 1.5 * torso, xz.max(0) + 1.5 * torso
+    exp = np.floor(np.log10(torso))
+    step = min((m * 10.0**exp for m in (1.0, 2.0, 5.0, 10.0)), key=lambda v: abs(np.log(v / torso)))
+    while ((hi - lo) / step).max() > 100:
+        step *= 2.0
+    lo, hi = np.floor(lo / step) * step, np.ceil(hi / step) * step
+    xs = np.arange(lo[0], hi[0] + step / 2, step)
+    zs = np.arange(lo[1], hi[1] + step / 2, step)
+    strips = [np.array([[x, 0.0, lo[1]], [x, 0.0, hi[1]]]) for x in xs]
+    strips += [np.array([[lo[0], 0.0, z], [hi[0], 0.0, z]]) for z in zs]
+    return strips
+
+
+def _series_views(series_groups: Sequence[str]):
+    """One TimeSeriesView per group; a group's view shows its own series only, not those
+    of a nested group (``angles_deg`` next to ``angles_deg/hip``)."""
+    import rerun.blueprint as rrb
+
+    views = {}
+    for g in series_groups:
+        nested = [h for h in series_groups if h != g and h.startswith(g + "/")]
+        contents = ["+ $origin/**"] + [f"- /series/{h}/**" for h in nested]
+        title = g.replace("/", ": ").replace("_", " ")
+        views[g] = rrb.TimeSeriesView(origin=f"series/{g}", contents=contents, name=title)
+    return views
 
 
 def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float, has_world: bool = False):
     """The default layout: top row video + 2D overlay | camera 3D | canonical 3D (| world
-    3D); bottom row one time-series view per series group (side by side up to four, tabs
-    beyond); the time panel on the ``frame`` timeline at ``fps``."""
+    3D); bottom row the time series, one ``TimeSeriesView`` per series group.
+
+    Groups are gathered by their first path component (``angles_deg/hip``,
+    ``angles_deg/knee``, ... -> ``angles_deg``): a component with several groups becomes one
+    grid (a tab named after it); groups alone in their component (``position_m``,
+    ``speed_m_per_s``, ``status``, ...) share one grid, the first tab. One tab is shown
+    without a tab bar. The time panel is on the ``frame`` timeline at ``fps``.
+    """
     import rerun.blueprint as rrb
 
     top = []
@@ -147,10 +209,20 @@ def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float, ha
     ]
     if has_world:
         top.append(rrb.Spatial3DView(origin="world", name="world frame (fixed per recording, floor at y = 0)"))
-    plots = [rrb.TimeSeriesView(origin=f"series/{g}", name=g.replace("_", " ")) for g in series_groups]
+    views = _series_views(list(dict.fromkeys(series_groups)))
+    by_head: dict[str, list[str]] = {}
+    for g in views:
+        by_head.setdefault(g.split("/", 1)[0], []).append(g)
+    singles = [views[gs[0]] for gs in by_head.values() if len(gs) == 1]
+    tabs = []
+    if singles:
+        tabs.append(singles[0] if len(singles) == 1 else rrb.Grid(*singles, name="time series"))
+    for head, gs in by_head.items():
+        if len(gs) > 1:
+            tabs.append(rrb.Grid(*(views[g] for g in gs), name=head.replace("_", " ")))
     rows = [rrb.Horizontal(*top)]
-    if plots:
-        rows.append(rrb.Horizontal(*plots) if len(plots) <= 4 else rrb.Tabs(*plots))
+    if tabs:
+        rows.append(tabs[0] if len(tabs) == 1 else rrb.Tabs(*tabs))
     layout = rrb.Vertical(*rows, row_shares=[3, 2][: len(rows)])
     return rrb.Blueprint(layout, rrb.TimePanel(timeline="frame", fps=float(fps)))
 
@@ -172,6 +244,8 @@ def write_recording(
     min_confidence: float = 0.0,
     flags: Sequence[str] = (),
     world: np.ndarray | None = None,
+    show_labels: bool = False,
+    floor: bool = True,
 ) -> Path:
     """Write a ``.rrd`` recording of one sequence with a default blueprint, atomically.
 
@@ -206,6 +280,9 @@ def write_recording(
             document ``flags`` so the viewer shows them beside the data.
         world: optional ``(T, 17, 3)`` poses in the recording's world frame
             (:mod:`pcnet.stages.world_frame`), drawn as a third 3D view ``world``.
+        show_labels: show the joint names beside the 2D and 3D joints (off by default: they
+            cover the person; the viewer still names a hovered joint and can switch them on).
+        floor: draw the floor grid ``/world/floor`` at y = 0 (only with ``world``).
 
     Returns:
         the destination path.
@@ -219,7 +296,7 @@ def write_recording(
 
     if not fps > 0:
         raise InputError(f"write_recording: fps must be > 0, got {fps!r}")
-    cam = np.asarray(joints_cam, dtype=np.float64)
+    cam = np.asarray(joints_cam)
     T = cam.shape[0]
     cam = _check("joints_cam", cam, (T, 17, 3))
     can = _check("canonical", canonical, (T, 17, 3))
@@ -276,6 +353,7 @@ def write_recording(
             _log_all(
                 rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset,
                 video_ns, canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space,
+                show_labels=bool(show_labels), floor=bool(floor),
             )
             text = "\n".join(f"- {f}" for f in flags) if flags else "no warnings"
             rec.log("flags", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True, strict=True)
@@ -292,7 +370,8 @@ def write_recording(
 
 def _log_all(
     rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset, video_ns,
-    canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space,
+    canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space, *,
+    show_labels: bool = False, floor: bool = True,
 ) -> None:
     # strict=True everywhere: rerun's default turns API misuse into a warning and drops
     # the data, which would yield a silently incomplete recording.
@@ -328,13 +407,21 @@ def _log_all(
                 rr.TimeColumn("video_time", duration=video_ns * 1e-9),
             ],
         )
+    # Per-frame data goes out a block of frames at a time: the Arrow columns of a whole
+    # 2-hour recording would hold GBs at once; the file sink writes each block as it comes.
+    blocks = [slice(lo, lo + SEND_BLOCK_FRAMES) for lo in range(0, len(frames), SEND_BLOCK_FRAMES)]
+
+    def block_index(b: slice) -> list:
+        return index(frames[b], seconds[b])
+
     if kp is not None:
-        xy = kp[..., :2]
         conf_ok = np.isfinite(kp[..., 2]) & (kp[..., 2] > min_confidence)
-        log("video/keypoints", rr.Points2D.from_fields(class_ids=0, radii=rr.Radius.ui_points(4.0)))
-        send("video/keypoints", _points_columns(rr, xy, conf_ok, dims=2))
+        log("video/keypoints", rr.Points2D.from_fields(
+            class_ids=0, radii=rr.Radius.ui_points(4.0), show_labels=show_labels))
         log("video/skeleton", rr.LineStrips2D.from_fields(radii=rr.Radius.ui_points(2.0)))
-        send("video/skeleton", _bones_columns(rr, xy, conf_ok, dims=2))
+        for b in blocks:
+            send("video/keypoints", _points_columns(rr, kp[b, :, :2], conf_ok[b], dims=2), block_index(b))
+            send("video/skeleton", _bones_columns(rr, kp[b, :, :2], conf_ok[b], dims=2), block_index(b))
 
     # --- 3D views
     log("camera", rr.ViewCoordinates.RDF)
@@ -344,30 +431,34 @@ def _log_all(
     if wld is not None:
         log("world", rr.ViewCoordinates.FUR)  # the world frame has the canonical frame's axis roles
         spaces.append(("world", wld))
+        torso = np.linalg.norm(wld[:, THORAX] - wld[:, PELVIS], axis=-1)
+        torso = torso[np.isfinite(torso) & (torso > 0)]
+        grid = _floor_grid(wld, float(np.median(torso)) if torso.size else np.nan) if floor else []
+        if grid:
+            log("world/floor", rr.LineStrips3D(grid, colors=[_FLOOR_C], radii=rr.Radius.ui_points(0.75)))
     for space, X in spaces:
-        log(f"{space}/skeleton/joints", rr.Points3D.from_fields(class_ids=0, radii=rr.Radius.ui_points(5.0)))
-        send(f"{space}/skeleton/joints", _points_columns(rr, X))
+        log(f"{space}/skeleton/joints", rr.Points3D.from_fields(
+            class_ids=0, radii=rr.Radius.ui_points(5.0), show_labels=show_labels))
         log(f"{space}/skeleton/bones", rr.LineStrips3D.from_fields(radii=rr.Radius.ui_points(2.5)))
-        send(f"{space}/skeleton/bones", _bones_columns(rr, X))
+        for b in blocks:
+            send(f"{space}/skeleton/joints", _points_columns(rr, X[b]), block_index(b))
+            send(f"{space}/skeleton/bones", _bones_columns(rr, X[b]), block_index(b))
 
     axes_ok = valid & np.isfinite(R).all((1, 2)) & np.isfinite(cam[:, PELVIS]).all(-1)
-    origins = np.repeat(cam[axes_ok, PELVIS], 3, axis=0)
-    vectors = (np.swapaxes(R[axes_ok], 1, 2) * arrow_len).reshape(-1, 3)  # rows = columns of R
-    log("camera/body_axes", rr.Arrows3D.from_fields(colors=_AXIS_COLOURS, labels=_AXIS_LABELS))
-    send(
-        "camera/body_axes",
-        rr.Arrows3D.columns(vectors=vectors, origins=origins).partition(3 * axes_ok.astype(np.int64)),
-    )
     up_norm = np.linalg.norm(up, axis=-1)
     up_ok = valid & np.isfinite(up_norm) & (up_norm > 0) & np.isfinite(cam[:, PELVIS]).all(-1)
+    log("camera/body_axes", rr.Arrows3D.from_fields(colors=_AXIS_COLOURS, labels=_AXIS_LABELS))
     log("camera/up", rr.Arrows3D.from_fields(colors=[_UP_COLOUR], labels=["up"]))
-    send(
-        "camera/up",
-        rr.Arrows3D.columns(
-            vectors=up[up_ok] * (1.3 * arrow_len / up_norm[up_ok, None]),
-            origins=cam[up_ok, PELVIS],
-        ).partition(up_ok.astype(np.int64)),
-    )
+    for b in blocks:
+        ok, R_b, cam_b = axes_ok[b], R[b], cam[b]
+        vectors = (np.swapaxes(R_b[ok], 1, 2) * arrow_len).reshape(-1, 3)  # rows = columns of R
+        send("camera/body_axes", rr.Arrows3D.columns(
+            vectors=vectors, origins=np.repeat(cam_b[ok, PELVIS], 3, axis=0)).partition(3 * ok.astype(np.int64)),
+            block_index(b))
+        ok, n_b = up_ok[b], up_norm[b]
+        send("camera/up", rr.Arrows3D.columns(
+            vectors=up[b][ok] * (1.3 * arrow_len / n_b[ok, None]), origins=cam_b[ok, PELVIS],
+        ).partition(ok.astype(np.int64)), block_index(b))
 
     # --- wrist paths (static: the whole trajectory is the point of the picture)
     cam_rel = cam - cam[:, PELVIS : PELVIS + 1]
@@ -387,10 +478,15 @@ def _log_all(
 
     # --- time series
     status = {("series/status/valid", "status"): valid.astype(np.float64)}
-    for (path, _group), values in {**series_arrays, **status}.items():
-        ok = np.isfinite(values)
-        log(path, rr.SeriesLines(names=path.rsplit("/", 1)[-1]))
-        send(path, rr.Scalars.columns(scalars=values[ok]), idx=index(frames[ok], seconds[ok]))
+    everything = {**series_arrays, **status}
+    colours: dict[str, tuple[int, int, int]] = {}
+    for group in dict.fromkeys(g for _, g in everything):
+        colours.update(series_colours([p for p, g in everything if g == group]))
+    for (path, _group), values in everything.items():
+        log(path, rr.SeriesLines(names=path.rsplit("/", 1)[-1], colors=[colours[path]]))
+        for b in blocks:
+            ok = np.isfinite(values[b])
+            send(path, rr.Scalars.columns(scalars=values[b][ok]), idx=index(frames[b][ok], seconds[b][ok]))
 
 
 def series_from_kinematics(
@@ -401,9 +497,11 @@ def series_from_kinematics(
     acceleration components and the speed, plus every angle.
 
     Names are ``"{group}/{joint}_{component}"`` with groups ``position_{u}``,
-    ``velocity_{u}_per_s``, ``acceleration_{u}_per_s2``, ``speed_{u}_per_s`` and
-    ``angles_deg`` (``u`` = the kinematics' length unit), so the recording gets one plot
-    per quantity with its unit in the title.
+    ``velocity_{u}_per_s``, ``acceleration_{u}_per_s2``, ``speed_{u}_per_s``
+    (``u`` = the kinematics' length unit), and ``"angles_deg/{angle group}/{angle}"`` with
+    the groups of :func:`pcnet.stages.plots.angle_group` (``trunk``, ``hip``, ``knee``,
+    ``shoulder``, ``elbow``, the segment inclinations, ...), so the recording gets one plot
+    per quantity or angle group (at most six series) with its unit in the title.
 
     Raises:
         ValueError: an unknown joint name.
@@ -424,5 +522,5 @@ def series_from_kinematics(
             out[f"acceleration_{a}/{j}_a{axis}"] = k.acceleration[:, i, c]
         out[f"speed_{v}/{j}"] = k.speed[:, i]
     for name, ang in k.angles.items():
-        out[f"angles_deg/{name}"] = np.asarray(ang)
+        out[f"angles_deg/{angle_group(name)}/{name}"] = np.asarray(ang)
     return out

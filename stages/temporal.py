@@ -489,13 +489,15 @@ def _ground_plane(J, ok, u_pose, fps, prior_deg, gate_deg):
 # ============================================================================ main estimator
 
 
-def _block_indices(T: int, block: int, B: int, rng: np.random.Generator) -> np.ndarray:
-    """Moving-block bootstrap (Kunsch 1989): ``(B, T)`` frame indices built from
-    ``ceil(T / block)`` blocks of consecutive frames with uniform random starts."""
-    n_blocks = -(-T // block)
-    starts = rng.integers(0, T - block + 1, size=(B, n_blocks))
-    idx = (starts[:, :, None] + np.arange(block)).reshape(B, -1)[:, :T]
-    return idx
+def _block_starts(T: int, block: int, B: int, rng: np.random.Generator) -> np.ndarray:
+    """Moving-block bootstrap (Kunsch 1989): ``(B, ceil(T / block))`` uniform random starts
+    of the blocks of consecutive frames each replicate is built from."""
+    return rng.integers(0, T - block + 1, size=(B, -(-T // block)))
+
+
+def _block_indices(starts: np.ndarray, block: int, T: int) -> np.ndarray:
+    """``(b, T)`` frame indices of the replicates whose block starts are ``starts`` ``(b, n)``."""
+    return (starts[:, :, None] + np.arange(block)).reshape(len(starts), -1)[:, :T]
 
 
 def sequence_rectify(
@@ -630,23 +632,22 @@ def sequence_rectify(
         if T < _MIN_BLOCKS * block:
             block = max(1, T // _MIN_BLOCKS)
         rng = np.random.default_rng(seed)
-        idx = _block_indices(T, block, n_bootstrap, rng)
-        # Replicates in chunks: all at once would hold (B, T, 3) arrays several times over,
-        # hundreds of MB for a 20-minute recording.
-        chunk = max(1, 2_000_000 // max(T, 1))
+        starts = _block_starts(T, block, n_bootstrap, rng)
+        # Replicates in chunks, their frame indices built per chunk: all at once would hold
+        # (B, T) indices and (B, T, 3) arrays several times over, GBs for a 2-hour recording.
+        chunk = max(1, 500_000 // max(T, 1))
         ub = np.concatenate([
-            robust_mean_direction(ups[idx[i : i + chunk]], w[idx[i : i + chunk]], init=u_pose)[0]
+            robust_mean_direction(ups[idx], w[idx], init=u_pose)[0]
             for i in range(0, n_bootstrap, chunk)
+            for idx in [_block_indices(starts[i : i + chunk], block, T)]
         ])
         if contacts is not None:
             # Each replicate refits the plane to the contacts of its resampled frames; one
             # with too few contacts to fit a plane is dropped (falling back to the pose-based
             # up there would mix two estimators into one interval).
             P, frames, foot = contacts
-            counts = np.zeros((n_bootstrap, T), int)
-            np.add.at(counts, (np.repeat(np.arange(n_bootstrap), T), idx.ravel()), 1)
             for b in range(n_bootstrap):
-                rep = counts[b, frames]
+                rep = np.bincount(_block_indices(starts[b : b + 1], block, T)[0], minlength=T)[frames]
                 Pb, fb = np.repeat(P, rep, 0), np.repeat(foot, rep)
                 if not np.isfinite(ub[b]).all() or len(Pb) < 3 or len(np.unique(fb)) < 2:
                     ub[b] = np.nan

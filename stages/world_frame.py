@@ -7,8 +7,10 @@ it carries rotating-frame terms and the network's heading jitter. For a static c
 valid second, +Z = X x Y (the subject's right then), and poses in it with the floor at
 y = 0.
 
-What a root-relative lifter (VideoPose3D, MediaPipe world landmarks, MotionBERT in
-camera-normalised mode) cannot give: the pelvis's horizontal path. It stays at x = z = 0;
+A depth sensor's skeleton (Kinect v1, Azure Kinect: ``Poses3D.root_translation``) measures
+the pelvis's camera-frame position: the pelvis then follows its path (x = z = 0 at the start)
+above one floor for the whole recording. What a root-relative lifter (VideoPose3D, MediaPipe
+world landmarks, MotionBERT in camera-normalised mode) cannot give: the pelvis's horizontal path. It stays at x = z = 0;
 the vertical is measured from the floor, taken as the plane of the lowest joint centre in
 each frame (a stance ankle when standing, H36M-17 has no sole or toe joint; the body's
 lowest joint when lying), so the pelvis rises and falls with the legs but a flight phase
@@ -21,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .conventions import L_ANKLE, PELVIS, R_ANKLE
 from .errors import InputError
 
 #: Seconds at the start of the recording whose forward direction sets the world heading.
@@ -72,22 +75,72 @@ def world_frame(R: np.ndarray, valid: np.ndarray, fps: float) -> WorldFrame:
     return WorldFrame(np.stack([x, up, np.cross(x, up)]), len(first))
 
 
-def to_world(joints_cam: np.ndarray, frame: WorldFrame) -> np.ndarray:
+def to_world(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | None = None) -> np.ndarray:
     """Pelvis-centred camera-frame poses in the recording's world frame, floor at y = 0.
 
     Args:
         joints_cam: ``(T, 17, 3)`` H36M-17 root-relative camera-frame poses (pelvis at the
             origin), any units; NaN = missing.
         frame: from :func:`world_frame`.
+        root_cam: optional ``(T, 3)`` measured camera-frame pelvis positions in the same
+            units (a depth sensor's skeleton, ``Poses3D.root_translation``); NaN = unknown.
 
     Returns:
-        ``(T, 17, 3)`` float64: ``x_w = W x_cam`` with each frame lifted so that its lowest
-        joint centre lies at y = 0 (module docstring); the pelvis at x = z = 0. Frames
-        without any finite joint stay NaN.
+        ``(T, 17, 3)`` float64, ``x_w = W x_cam``. Without ``root_cam``: each frame lifted so
+        that its lowest joint centre lies at y = 0 and the pelvis at x = z = 0 (module
+        docstring). With ``root_cam``: the pelvis follows its measured path, x = z = 0 at the
+        first frame with a root, and one floor for the recording at the median over frames of
+        the lowest joint centre (the subject is on the floor most of the time, so a jump
+        lifts the whole body); a frame without a root is NaN. Frames without any finite joint
+        stay NaN.
+
+    Raises:
+        InputError: ``root_cam`` of the wrong shape or without a finite frame.
     """
     P = np.asarray(joints_cam, np.float64) @ frame.rotation.T
+    if root_cam is not None:
+        root = np.asarray(root_cam, np.float64)
+        if root.shape != (len(P), 3):
+            raise InputError(f"world frame: root_cam must have shape ({len(P)}, 3), got {root.shape}")
+        root = root @ frame.rotation.T
+        known = np.flatnonzero(np.isfinite(root).all(axis=1))
+        if not len(known):
+            raise InputError("world frame: the root's camera-frame position is missing in every frame")
+        root[:, [0, 2]] -= root[known[0], [0, 2]]
+        P += root[:, None]
+    lowest, feet = floor_heights(P)
+    if root_cam is None:
+        P[..., 1] -= lowest[:, None]
+    else:
+        P[..., 1] -= np.median(lowest[feet]) if feet.any() else np.nanmedian(P[:, PELVIS, 1])
+    return P
+
+
+def floor_heights(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame, the floor's height under poses ``P`` ``(T, 17, 3)`` (+Y up) and whether it
+    was seen.
+
+    The floor is the lowest joint centre of a frame in which an ankle is visible (finite):
+    the stance foot, or the lowest body part when lying. Without a visible ankle the lowest
+    joint is not on the floor (a knee, a hip: the feet are out of the picture or masked), so
+    those frames take the pelvis's height above the floor interpolated in time from the
+    nearest frames that saw it (held at the ends); when no frame shows an ankle there is no
+    floor and heights are relative to the pelvis (its y is the floor's). Frames without any
+    finite joint are NaN.
+
+    Returns:
+        ``(floor_y (T,), feet_visible (T,) bool)``.
+    """
     present = np.isfinite(P[..., 1]).any(axis=1)
     lowest = np.full(len(P), np.nan)
     lowest[present] = np.nanmin(P[present, :, 1], axis=1)
-    P[..., 1] -= lowest[:, None]
-    return P
+    feet = np.isfinite(P[:, [L_ANKLE, R_ANKLE], 1]).any(axis=1)
+    pelvis_y = P[:, PELVIS, 1]
+    seen = np.flatnonzero(feet & np.isfinite(pelvis_y))
+    above = pelvis_y - lowest  # the pelvis's height above the floor where the feet show it
+    if len(seen):
+        frames = np.arange(len(P))
+        lowest = np.where(feet, lowest, pelvis_y - np.interp(frames, seen, above[seen]))
+    else:
+        lowest = np.where(present, pelvis_y, np.nan)
+    return lowest, feet

@@ -102,7 +102,7 @@ def test_result_types_validate_their_arrays():
 
 def test_registry_lists_and_returns_builtin_adapters():
     assert available_2d() == ["alphapose", "mediapipe", "mmpose", "openpose"]
-    assert available_3d() == ["ddhpose", "generic", "mediapipe", "motionbert", "videopose3d"]
+    assert available_3d() == ["azure_kinect", "ddhpose", "generic", "kinect_v1", "mediapipe", "motionbert", "videopose3d"]
     kp = get_2d_adapter("alphapose").load(BOXING_AP, num_frames=70)
     assert isinstance(kp, Keypoints2D) and kp.num_frames == 70
     assert isinstance(get_3d_adapter("videopose3d").load(YOGA["Tadasana"]), Poses3D)
@@ -738,3 +738,36 @@ def test_full_alphapose_files():
     assert full.points.shape == (809, 26, 3) and full.track_id == 0
     assert "[144]" in full.notes  # the only frame with two detections
     np.testing.assert_array_equal(full.points[130:160], load_alphapose(AP809).points[130:160])
+
+
+@pytest.mark.parametrize("text, message", [
+    ('[{"a": 1} {"a": 2}]', "Expecting ',' delimiter at line 1 column 11"),
+    ('[{"a": 1}] x', "Extra data at line 1 column 12"),
+    ('[{"a": 1},', "Expecting value at line 1 column 11"),
+    ('[1e400]', "JSON numbers within float64 range"),
+    ('{"a": [1]}', "field 'top level': expected a list, got a JSON object with keys ['a']"),
+    ('  ', "empty file"),
+])
+def test_item_by_item_json_has_the_whole_file_parsers_errors(tmp_path, text, message):
+    """AlphaPose files are read one detection at a time (a 2-hour file parsed whole is GBs of
+    Python floats); damaged files still give one line naming file, place and problem."""
+    from pcnet.adapters.validate import iter_json_array
+
+    path = tmp_path / "bad.json"
+    path.write_text(text)
+    with pytest.raises(AdapterError) as err:
+        list(iter_json_array(path, "a list"))
+    assert message in str(err.value) and str(path) in str(err.value)
+
+
+def test_item_by_item_json_equals_the_whole_file(tmp_path):
+    import json as json_module
+
+    from pcnet.adapters.validate import iter_json_array, read_json
+
+    path = FIXTURES / "boxing_alphapose_f000-059.json"
+    assert list(iter_json_array(path, "a list")) == read_json(path)
+    spaced = json_module.dumps([{"x": float("nan")}, [], {}], indent=3)
+    (tmp_path / "spaced.json").write_text(f"\n {spaced} \n")
+    items = list(iter_json_array(tmp_path / "spaced.json", "a list"))
+    assert items[1:] == [[], {}] and items[0]["x"] != items[0]["x"]  # NaN literal = missing data

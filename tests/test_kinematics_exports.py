@@ -41,11 +41,17 @@ from pcnet.stages.geometric import geometric_rotation
 from pcnet.stages.kinematics import (
     butterworth_lowpass,
     compute_kinematics,
+    concat_frames,
+    count_flags,
     derivatives,
     flag_counts,
     format_flag_counts,
     joint_angles,
+    kinematics_chunks,
+    residual_analysis,
+    settle_frames,
 )
+from pcnet.stages.errors import InputError
 from pcnet.stages.rotations import axis_rotation
 from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length, scale_to_height
 
@@ -597,7 +603,8 @@ def test_png_is_written(tmp_path, yoga_cam, yoga_level):
     cam, can = yoga_cam[:300], yoga_level[:300]
     _, acam = derivatives(butterworth_lowpass(cam, FPS_YOGA), FPS_YOGA)
     _, acan = derivatives(butterworth_lowpass(can, FPS_YOGA), FPS_YOGA)
-    path = plot_wrists(tmp_path / "wrists.png", cam, can, FPS_YOGA, acam, acan)
+    wrists = [L_WRIST, R_WRIST]
+    path = plot_wrists(tmp_path / "wrists.png", cam, can, FPS_YOGA, acam[:, wrists], acan[:, wrists])
     data = path.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
 
@@ -650,7 +657,7 @@ def test_writers_are_atomic(tmp_path, monkeypatch, kin, yoga_level, writer):
 
         monkeypatch.setattr(Path, "write_bytes", partial_write)
         z = np.zeros((10, 17, 3))
-        call = lambda: plot_wrists(target, z, z, 30.0, z, z)  # noqa: E731
+        call = lambda: plot_wrists(target, z, z, 30.0, z[:, :2], z[:, :2])  # noqa: E731
     with pytest.raises(OSError, match="simulated"):
         call()
     assert len(seen_partial) == 1 and len(seen_partial[0]) == 1  # a temp file existed
@@ -690,7 +697,7 @@ def test_rerun_recording_entities_rows_and_blueprint(tmp_path, yoga_cam):
         assert rows["/series/" + name] == np.isfinite(values).sum(), name
     assert {"/camera", "/canonical", "/camera/wrist_paths/right_wrist",
             "/canonical/wrist_paths/left_wrist", "/"} <= static
-    assert {"camera", "canonical", "video", "series/angles_deg", "series/position_m"} <= origins
+    assert {"camera", "canonical", "video", "series/angles_deg/hip", "series/angles_deg/knee", "series/position_m"} <= origins
     # Per-frame partitions: frame 40 (NaN) has no joints, frame 7 has 16 2D keypoints.
     rb = chunks["/canonical/skeleton/joints"][0].to_record_batch()
     frames = rb.column("frame").to_pylist()
@@ -809,3 +816,59 @@ def test_c3d_without_ezc3d_is_one_line_before_any_work(monkeypatch, tmp_path):
     with pytest.raises(InputError, match=r'C3D export needs ezc3d: pip install "pcnet\[c3d\]"'):
         run_pipeline(cfg, progress=False)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("fps, cutoff, chunk", [(30.0, 6.0, 97), (30.0, 6.0, 1), (60.0, 2.0, 250), (30.0, None, 13)])
+def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff, chunk):
+    """kinematics_chunks (bounded memory for long recordings) == compute_kinematics of the
+    whole recording: values to ~1e-12 relative, identical NaN, missing and unfiltered flags,
+    across gaps that cross chunk edges and runs too short to filter."""
+    X = yoga_level.astype(np.float64).copy()
+    rng = np.random.default_rng(3)
+    X[rng.random(X.shape[:2]) < 0.01] = np.nan
+    X[300:340] = np.nan  # a gap
+    X[345:350, 13] = np.nan  # leaves a short raw run for the wrist
+    whole = compute_kinematics(X, fps, cutoff)
+    parts = list(kinematics_chunks(X, fps, cutoff, chunk_frames=chunk))
+    assert [p.num_frames for p in parts[:-1]] == [chunk] * (len(parts) - 1)
+    joined = concat_frames(parts)
+    for name in ("positions", "velocity", "acceleration", "speed"):
+        a, b = getattr(whole, name), getattr(joined, name)
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=name)
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9, equal_nan=True, err_msg=name)
+    np.testing.assert_array_equal(whole.missing, joined.missing)
+    np.testing.assert_array_equal(whole.unfiltered, joined.unfiltered)
+    assert whole.missing.any() and (whole.unfiltered.any() or cutoff is None)
+    for name, angle in whole.angles.items():
+        np.testing.assert_allclose(angle, joined.angles[name], rtol=1e-9, atol=1e-9, equal_nan=True, err_msg=name)
+    assert count_flags(joined.missing, joined.unfiltered) == flag_counts(whole)
+
+
+def test_settle_frames_follow_the_filter():
+    """Context grows as the filter's poles approach the unit circle (lower cutoff / higher
+    rate) and always exceeds the filter's pad length."""
+    assert settle_frames(30.0, None) == 2
+    assert 10 < settle_frames(30.0, 6.0) < settle_frames(60.0, 6.0) < settle_frames(200.0, 1.0)
+    with pytest.raises(InputError):
+        settle_frames(30.0, 20.0)
+
+
+def test_residual_analysis_finds_the_noise_and_lowers_the_cutoff_for_noisier_data():
+    """Winter's residual analysis on real mocap (tests/fixtures/mocap_small.npz) with added
+    white noise: the fitted noise level is the added noise, and the cutoff falls as the noise
+    grows (more of the spectrum is noise)."""
+    with np.load(FIXTURES / "mocap_small.npz") as d:
+        X = d["dataset-2_walk-turn-left_active_001"].astype(np.float64)
+    rng = np.random.default_rng(0)
+    cutoffs = []
+    for sigma in (0.005, 0.02):
+        r = residual_analysis(X + rng.normal(0.0, sigma, X.shape), 30.0)
+        assert abs(r.noise - sigma) < 0.15 * sigma
+        assert r.per_signal_hz.shape == (51,) and 0.5 <= r.cutoff_hz <= 14.25
+        cutoffs.append(r.cutoff_hz)
+    assert cutoffs[1] < cutoffs[0] < 6.0
+    gappy = X.copy()
+    gappy[40:50] = np.nan
+    assert np.isfinite(residual_analysis(gappy, 30.0).cutoff_hz)
+    with pytest.raises(InputError, match="long enough to filter"):
+        residual_analysis(X[:5], 30.0)

@@ -78,8 +78,57 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
         np.testing.assert_allclose(world[:, PELVIS, [0, 2]], 0.0, atol=1e-9)
         # its up is the sequence's up
         np.testing.assert_allclose(W[1], npz["up"][0], atol=1e-9)
-    assert (out / "wrists.png").stat().st_size > 10_000
+    for png in ("wrists.png", "angles.png", "speeds.png"):
+        assert (out / png).stat().st_size > 10_000, png
+    bvh = (out / "world.bvh").read_text()
+    assert bvh.startswith("HIERARCHY\nROOT pelvis") and f"Frames: {frames}\n" in bvh
     assert not list(tmp_path.glob(".demo.*"))  # no temporary folder left
+
+
+def _csv_numbers(path: Path) -> tuple[list[str], np.ndarray]:
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh))
+    return rows[0], np.array([[float(v) if v else np.nan for v in r] for r in rows[1:]])
+
+
+def test_long_recordings_in_chunks_give_the_outputs_of_one_piece(tmp_path, monkeypatch):
+    """Kinematics, CSV/TRC/BVH text and rerun columns go out a block of frames at a time so
+    memory does not grow with a recording's length (issue: bounded memory); with blocks far
+    smaller than the recording (a filter's context crossing every edge) every output equals
+    the one-piece run within float tolerance."""
+    import pcnet.stages.bvh as bvh
+    import pcnet.stages.exports as exports
+    import pcnet.stages.kinematics as kinematics
+    import pcnet.stages.rerun_log as rerun_log
+
+    args = ("run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--lifter", "motionbert",
+            "--lifter-output", BOX_3D, "--fps", "30", "--height", "1.75", "--mode", "sequence")
+    whole = _invoke(*args, "--out", tmp_path / "whole")
+    assert whole.exit_code == 0, whole.output
+    for module, name, size in ((kinematics, "CHUNK_FRAMES", 7), (exports, "TEXT_BLOCK_ROWS", 5),
+                               (bvh, "TEXT_BLOCK_ROWS", 6), (rerun_log, "SEND_BLOCK_FRAMES", 9)):
+        assert getattr(module, name) > 60  # the one-piece run really was one piece
+        monkeypatch.setattr(module, name, size)
+    chunked = _invoke(*args, "--out", tmp_path / "chunked")
+    assert chunked.exit_code == 0, chunked.output
+    a, b = tmp_path / "whole", tmp_path / "chunked"
+    head_a, csv_a = _csv_numbers(a / "kinematics.csv")
+    head_b, csv_b = _csv_numbers(b / "kinematics.csv")
+    assert head_a == head_b and csv_a.shape == csv_b.shape == (60, len(head_a))
+    np.testing.assert_array_equal(np.isnan(csv_a), np.isnan(csv_b))
+    np.testing.assert_allclose(csv_a, csv_b, rtol=1e-6, atol=1e-6, equal_nan=True)  # the CSV's 7 digits
+    assert (a / "world.trc").read_text() == (b / "world.trc").read_text()
+    bvh_a, bvh_b = ((p / "world.bvh").read_text().split("Frame Time:") for p in (a, b))
+    assert bvh_a[0] == bvh_b[0]
+    rows_a, rows_b = (np.array([[float(v) for v in r.split()] for r in t[1].splitlines()[1:]]) for t in (bvh_a, bvh_b))
+    np.testing.assert_allclose(rows_a, rows_b, atol=2e-6)
+    with np.load(a / "canonical.npz") as na, np.load(b / "canonical.npz") as nb:
+        for key in na.files:
+            if na[key].dtype.kind in "fc":
+                np.testing.assert_allclose(na[key], nb[key], rtol=1e-9, atol=1e-12, equal_nan=True, err_msg=key)
+            else:
+                assert np.array_equal(na[key], nb[key]), key
+    assert rrd_summary(a / "recording.rrd")[0] == rrd_summary(b / "recording.rrd")[0]
 
 
 def test_run_refuses_an_existing_folder_and_leaves_no_partial_output(tmp_path, monkeypatch):
@@ -230,3 +279,52 @@ def test_rectify_command_npy_npz_and_bad_input(tmp_path):
     np.save(bad, poses[:, :16])
     res = _invoke("rectify", bad, "--out", tmp_path / "y.npz")
     assert res.exit_code != 0 and "bad.npy" in res.output and "(T, 17, 3)" in res.output
+
+
+def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
+    """`pcnet run --lifter kinect_v1`: a depth sensor's skeleton measures where the pelvis is,
+    so world.trc and the CSV carry the walk's path (root-relative lifters cannot). The
+    skeleton is a real mocap walk (tests/fixtures/mocap_small.npz) written as Kinect v1
+    joints in skeleton space (x = the sensor's left, y up, z depth) 3 m in front of a
+    level sensor."""
+    from pcnet.adapters.kinect import KINECT_V1_JOINTS_UTD
+
+    with np.load(FIXTURES / "mocap_small.npz") as d:
+        J = d["dataset-2_walk-turn-left_active_001"].astype(np.float64)
+    names = dict(zip(("pelvis", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee", "left_ankle",
+                      "spine", "thorax", "neck_nose", "head", "left_shoulder", "left_elbow", "left_wrist",
+                      "right_shoulder", "right_elbow", "right_wrist"), J.transpose(1, 0, 2)))
+    kinect = {"hip_center": names["pelvis"] + [0.0, 0.07, 0.0], "spine": names["spine"],
+              "shoulder_center": names["thorax"], "head": names["head"]}
+    for side in ("left", "right"):
+        for a, b in (("shoulder", "shoulder"), ("elbow", "elbow"), ("wrist", "wrist"), ("hip", "hip"),
+                     ("knee", "knee"), ("ankle", "ankle")):
+            kinect[f"{side}_{a}"] = names[f"{side}_{b}"]
+        kinect[f"{side}_hand"] = names[f"{side}_wrist"]
+        kinect[f"{side}_foot"] = names[f"{side}_ankle"]
+    # mocap (x, y up, z) turned half a turn about the vertical (a rotation, no mirror) -> skeleton space, 3 m away
+    skel = np.stack([kinect[n] for n in KINECT_V1_JOINTS_UTD], axis=1) * [-1.0, 1.0, -1.0] + [0.0, 0.0, 3.0]
+    np.save(tmp_path / "walk_kinect.npy", skel.astype(np.float32))
+    res = _invoke("run", "--lifter", "kinect_v1", "--lifter-output", tmp_path / "walk_kinect.npy", "--fps", "30",
+                  "--mode", "sequence", "--no-recording", "--out", tmp_path / "o")
+    assert res.exit_code == 0, res.output
+    assert "the pelvis follows the path the depth sensor measured" in res.output
+    with np.load(tmp_path / "o" / "canonical.npz") as npz:
+        world = npz["joints_world"]
+        assert json.loads(str(npz["report"]))["root_path"] == "measured"
+    true_path = np.linalg.norm(J[-1, 0, [0, 2]] - J[0, 0, [0, 2]])
+    path = np.linalg.norm(world[-1, PELVIS, [0, 2]] - world[0, PELVIS, [0, 2]])
+    assert true_path > 2.0 and abs(path - true_path) < 0.05 * true_path
+    np.testing.assert_allclose(world[0, PELVIS, [0, 2]], 0.0, atol=1e-9)
+
+
+def test_residual_cutoff_option_chooses_and_reports_the_cutoff(tmp_path):
+    res = _invoke("run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--lifter", "motionbert",
+                  "--lifter-output", BOX_3D, "--fps", "30", "--height", "1.75", "--residual-cutoff", "--no-recording",
+                  "--out", tmp_path / "o")
+    assert res.exit_code == 0, res.output
+    assert "by residual analysis (Winter" in res.output
+    with np.load(tmp_path / "o" / "canonical.npz") as npz:
+        report = json.loads(str(npz["report"]))
+    assert report["cutoff_source"] == "residual analysis" and 0.5 <= report["cutoff_hz"] < 15.0
+    assert report["cutoff_hz"] != 6.0

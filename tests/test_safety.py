@@ -328,7 +328,7 @@ def test_unexpected_errors_keep_their_traceback(user_folder, monkeypatch):
     def broken(*_args, **_kwargs):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(runner, "compute_kinematics", broken)
+    monkeypatch.setattr(runner, "kinematics_chunks", broken)
     res = _invoke(*RUN, "--out", "o")
     assert isinstance(res.exception, RuntimeError)
     assert not (user_folder / "o").exists()

@@ -89,3 +89,53 @@ def test_missing_joints_stay_missing_and_an_empty_frame_stays_nan():
     world = to_world(cam, world_frame(R, np.ones(20, bool), FPS))
     assert np.isnan(world[3, R_WRIST]).all() and np.isfinite(np.delete(world[3], R_WRIST, 0)).all()
     assert np.isnan(world[7]).all()
+
+
+def test_a_measured_root_path_is_kept_above_one_floor():
+    """A depth sensor measures the pelvis (Poses3D.root_translation): the world frame keeps the
+    real walk's path (turned about the vertical, starting at x = z = 0) and one floor for the
+    recording, so a frame's lowest joint may leave it (swing, jumps) instead of being pinned."""
+    with np.load(FIXTURES / "mocap_small.npz") as d:
+        J = d["dataset-2_walk-turn-left_active_001"].astype(np.float64)  # real walk, metres, Y up
+    cam, R = _filmed(J)
+    root_cam = J[:, PELVIS] @ CAMERA.T + np.array([0.1, -0.2, 3.0])  # the sensor 3 m away
+    frame = world_frame(R, np.ones(len(R), bool), FPS)
+    world = to_world(cam, frame, root_cam)
+    turn = frame.rotation @ CAMERA
+    truth = (J - J[0, PELVIS] * np.array([1.0, 0.0, 1.0])) @ turn.T
+    truth[..., 1] -= np.median(truth[..., 1].min(axis=1))
+    np.testing.assert_allclose(world, truth, atol=1e-9)
+    path = np.linalg.norm(world[-1, PELVIS, [0, 2]] - world[0, PELVIS, [0, 2]])
+    assert path > 2.0  # the walk covers metres, which a root-relative lifter cannot show
+    assert np.ptp(world[..., 1].min(axis=1)) > 0.01  # one floor: the lowest joint varies per frame
+    missing = root_cam.copy()
+    missing[5] = np.nan
+    assert np.isnan(to_world(cam, frame, missing)[5]).all() and np.isfinite(to_world(cam, frame, missing)[6]).all()
+    with pytest.raises(InputError, match="root_cam must have shape"):
+        to_world(cam, frame, root_cam[:-1])
+
+
+def test_frames_without_visible_feet_keep_the_floor_they_last_saw():
+    """No visible ankle (masked, out of the picture): the lowest joint is not on the floor, so
+    the pelvis's height above the floor is carried over from the frames that saw the feet; with
+    no ankle anywhere there is no floor and heights are relative to the pelvis."""
+    from pcnet.stages.conventions import L_ANKLE, R_ANKLE
+    from pcnet.stages.world_frame import floor_heights
+
+    J = load_mocap(FIXTURES / "bandai_small.npz")[0].joints[:60].astype(np.float64)
+    cam, R = _filmed(J)
+    frame = world_frame(R, np.ones(len(R), bool), FPS)
+    full = to_world(cam, frame)
+    hidden = cam.copy()
+    hidden[20:30, [L_ANKLE, R_ANKLE]] = np.nan
+    world = to_world(hidden, frame)
+    _, feet = floor_heights(hidden @ frame.rotation.T)
+    assert not feet[20:30].any() and feet[:20].all() and feet[30:].all()
+    np.testing.assert_allclose(world[:20], full[:20], atol=1e-12)
+    # the pelvis height there is interpolated between frames 19 and 30, not the knee's height
+    pelvis = world[:, PELVIS, 1]
+    np.testing.assert_allclose(pelvis[20:30], np.interp(np.arange(20, 30), [19, 30], pelvis[[19, 30]]), atol=1e-9)
+    assert np.all(np.abs(pelvis[20:30] - full[20:30, PELVIS, 1]) < 0.05)  # close to the truth
+    no_feet = cam.copy()
+    no_feet[:, [L_ANKLE, R_ANKLE]] = np.nan
+    np.testing.assert_allclose(to_world(no_feet, frame)[:, PELVIS, 1], 0.0, atol=1e-12)

@@ -1,0 +1,252 @@
+"""BVH export (:mod:`pcnet.stages.bvh`): written files read back with bvhio
+(https://github.com/Wasserwecken/bvhio), an independent BVH reader and forward-kinematics
+implementation, must reproduce real poses rigidified to their median bone lengths within 1 mm.
+
+Real data: ``tests/fixtures/mocap_small.npz`` (Bandai Namco motion capture converted to
+H36M-17, world frame +Y up, metres, 30 fps) and ``tests/fixtures/yoga_vp3d_Bhumi_Tadasana.npy``
+(a VideoPose3D network output, camera frame, metres; its bone lengths vary from frame to
+frame); see fixtures/README.md.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import FIXTURES
+from pcnet.stages.bvh import bvh_motion, write_bvh
+from pcnet.stages.conventions import H36M_BONES, H36M_JOINTS
+from pcnet.stages.errors import InputError
+
+with warnings.catch_warnings():  # bvhio imports PyGLM as "glm", which PyGLM marks as deprecated
+    warnings.simplefilter("ignore", PendingDeprecationWarning)
+    import bvhio  # the dev extra's BVH reader: an independent parser and forward kinematics
+
+FPS = 30.0
+CLIPS = ("dataset-2_walk-turn-left_active_001", "dataset-2_raise-up-both-hands_elderly_024",
+         "dataset-2_run_masculine_037")
+LINKS = ("pelvis_to_right_hip", "pelvis_to_left_hip", "thorax_to_neck_nose",
+         "thorax_to_left_shoulder", "thorax_to_right_shoulder")
+
+
+@pytest.fixture(scope="module")
+def mocap() -> dict[str, np.ndarray]:
+    """Real motion capture, world frame (+Y up, floor at the ankle-centre height), metres."""
+    with np.load(FIXTURES / "mocap_small.npz") as d:
+        return {k: d[k].astype(np.float64) for k in CLIPS}
+
+
+@pytest.fixture(scope="module")
+def yoga_world() -> np.ndarray:
+    """Real VideoPose3D output (non-rigid bones), 90 frames, turned from the camera frame
+    (y down, z forward) to a Y-up frame by a half turn about x (a level camera assumed)."""
+    cam = np.load(FIXTURES / "yoga_vp3d_Bhumi_Tadasana.npy")[::10][:90].astype(np.float64)
+    return cam * np.array([1.0, -1.0, -1.0])
+
+
+def rigidify(X: np.ndarray) -> np.ndarray:
+    """Each bone scaled to its median length over the complete frames, its direction kept,
+    from the pelvis outwards (written here independently of the module)."""
+    complete = np.isfinite(X).all(axis=(1, 2))
+    out = X.copy()
+    for p, c in H36M_BONES:  # parents come before children in H36M-17 order
+        v = X[:, c] - X[:, p]
+        length = np.median(np.linalg.norm(v[complete], axis=-1))
+        with np.errstate(invalid="ignore"):  # NaN stays NaN
+            out[:, c] = out[:, p] + length * v / np.linalg.norm(v, axis=-1, keepdims=True)
+    return out
+
+
+def read_positions(path, names=H36M_JOINTS) -> np.ndarray:
+    """World positions ``(T, 17, 3)`` of the named joints, by bvhio's forward kinematics."""
+    root = bvhio.readAsHierarchy(str(path))
+    joints = {j.Name: j for j, _, _ in root.layout()}
+    frames = root.getKeyframeRange()[1] + 1
+    out = np.empty((frames, len(names), 3))
+    for f in range(frames):
+        root.loadPose(f, recursive=True)
+        out[f] = [tuple(joints[n].PositionWorld) for n in names]
+    return out
+
+
+@pytest.mark.parametrize("clip", CLIPS)
+def test_roundtrip_mocap_within_1mm(tmp_path, mocap, clip):
+    X = mocap[clip]
+    path = write_bvh(tmp_path / "world.bvh", X, FPS)
+    Y = read_positions(path)
+    assert Y.shape == X.shape
+    err_rigid = np.abs(Y - rigidify(X)).max()
+    err_raw = np.linalg.norm(Y - X, axis=-1).max()
+    print(f"{clip}: max error vs rigidified {err_rigid * 1e3:.4f} mm, vs raw {err_raw * 1e3:.2f} mm")
+    assert err_rigid < 1e-3
+    # mocap bones are nearly rigid: the raw poses are close too (midpoint joints vary by a few mm)
+    assert err_raw < 0.02
+    # the module's own account of what it wrote agrees with the reader
+    m = bvh_motion(X)
+    assert np.abs(m.positions - Y).max() < 1e-4
+    np.testing.assert_allclose(np.nanmax(m.deviation), err_raw, atol=1e-4)
+    assert not m.filled.any()
+
+
+def test_roundtrip_network_output_within_1mm(tmp_path, yoga_world):
+    X = yoga_world
+    path = write_bvh(tmp_path / "world.bvh", X, FPS)
+    Y = read_positions(path)
+    err_rigid = np.abs(Y - rigidify(X)).max()
+    err_raw = np.linalg.norm(Y - X, axis=-1)
+    print(f"VideoPose3D: max error vs rigidified {err_rigid * 1e3:.4f} mm; vs raw "
+          f"max {err_raw.max() * 1e3:.1f} mm, mean {err_raw.mean() * 1e3:.1f} mm")
+    assert err_rigid < 1e-3
+    assert err_raw.max() > 1e-3  # its bones do vary: the rigid comparison is the meaningful one
+
+
+def test_header(tmp_path, mocap):
+    X = mocap[CLIPS[1]][:40]
+    fps = 29.97
+    path = write_bvh(tmp_path / "canonical.bvh", X, fps)
+    bvh = bvhio.readAsBvh(str(path))
+    assert bvh.FrameCount == 40
+    assert bvh.FrameTime == pytest.approx(1 / fps, rel=1e-8)
+    joints = []
+
+    def walk(j, depth):
+        joints.append((j, depth))
+        for c in j.Children:
+            walk(c, depth + 1)
+
+    walk(bvh.Root, 0)
+    names = [j.Name for j, _ in joints]
+    assert names[0] == "pelvis"
+    assert sorted(names) == sorted(H36M_JOINTS + LINKS)
+    channels = {j.Name: j.Channels for j, _ in joints}
+    assert channels["pelvis"] == ["Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation"]
+    assert all(sorted(channels[n]) == ["Xrotation", "Yrotation", "Zrotation"] for n in names[1:])
+    # per joint, the bone's rest axis in the middle: legs/trunk ZYX, arms XZY, thorax ZXY
+    for n in ("right_hip", "left_knee", "spine", "neck_nose", "right_ankle"):
+        assert channels[n] == ["Zrotation", "Yrotation", "Xrotation"], n
+    for n in ("left_shoulder", "right_elbow", "pelvis_to_right_hip", "thorax_to_left_shoulder"):
+        assert channels[n] == ["Xrotation", "Zrotation", "Yrotation"], n
+    assert channels["thorax"] == ["Zrotation", "Xrotation", "Yrotation"]
+    assert sorted(j.Name for j, _ in joints if not j.Children) == sorted(
+        ["right_ankle", "left_ankle", "head", "left_wrist", "right_wrist"])
+    offsets = {j.Name: np.array(tuple(j.Offset)) for j, _ in joints}
+    for link in LINKS:
+        assert np.abs(offsets[link]).max() == 0
+    # T-pose rest: legs down, trunk up, arms out sideways (left -Z, right +Z)
+    for n in ("right_knee", "right_ankle", "left_knee", "left_ankle"):
+        assert offsets[n][1] < 0 and np.abs(offsets[n][[0, 2]]).max() == 0
+    for n in ("spine", "thorax", "head"):
+        assert offsets[n][1] > 0 and np.abs(offsets[n][[0, 2]]).max() == 0
+    assert offsets["left_elbow"][2] < 0 and offsets["right_wrist"][2] > 0
+    assert offsets["right_hip"][2] > 0 > offsets["left_hip"][2]
+    text = path.read_text()
+    assert "nan" not in text.lower()
+    assert text.count("End Site") == 5
+
+
+def test_rest_pose_has_zero_rotations(tmp_path, mocap):
+    """The T-pose the offsets describe, written as a motion, gives zero rotation channels:
+    the rotations are relative to the documented rest pose (and the Euler order matches
+    the reader's: the positions come back too)."""
+    m = bvh_motion(mocap[CLIPS[0]])
+    rest = np.zeros((len(m.names), 3))
+    for n in range(1, len(m.names)):
+        rest[n] = rest[m.parents[n]] + m.offsets[n]
+    pose = rest[[list(m.joint_index).index(j) for j in range(17)]] + np.array([0.0, 0.9, 0.0])
+    X = np.repeat(pose[None], 3, axis=0)
+    path = write_bvh(tmp_path / "rest.bvh", X, FPS)
+    rows = np.loadtxt(path, skiprows=path.read_text().splitlines().index("MOTION") + 3, ndmin=2)
+    assert rows.shape == (3, 6 + 3 * (len(m.names) - 1))
+    assert np.abs(rows[:, 3:]).max() < 1e-4
+    assert np.abs(read_positions(path) - X).max() < 1e-5
+
+
+def test_missing_joints_are_filled_and_reported(tmp_path, mocap):
+    X = mocap[CLIPS[0]][:30].copy()
+    X[10] = np.nan  # a whole frame
+    X[20, 13] = np.nan  # a wrist
+    X[0, 3] = np.inf  # an ankle in the first frame: held from the next finite sample
+    m = bvh_motion(X)
+    expect = np.zeros((30, 17), bool)
+    expect[10] = True
+    expect[20, 13] = expect[0, 3] = True
+    np.testing.assert_array_equal(m.filled, expect)
+    np.testing.assert_array_equal(np.flatnonzero(m.filled_frames), [0, 10, 20])
+    path = write_bvh(tmp_path / "gaps.bvh", X, FPS)
+    assert "nan" not in path.read_text().lower() and "inf" not in path.read_text().lower()
+    Y = read_positions(path)
+    ok = ~expect.any(axis=1)
+    assert np.abs(Y[ok] - rigidify(X)[ok]).max() < 1e-3
+    # the filled whole frame is the interpolation of its neighbours (then rigidified)
+    filled = X.copy()
+    filled[10] = (X[9] + X[11]) / 2
+    filled[20, 13] = (X[19, 13] + X[21, 13]) / 2
+    filled[0, 3] = X[1, 3]
+    assert np.abs(Y - rigidify(filled)).max() < 1e-3
+    assert np.isnan(m.deviation[expect]).all()
+
+
+def test_bad_input(tmp_path, mocap):
+    X = mocap[CLIPS[0]][:5]
+    out = tmp_path / "x.bvh"
+    cases = [
+        ({"poses": X[:, :16]}, r"\(T, 17, 3\).*\(5, 16, 3\)"),
+        ({"poses": X[0]}, r"\(T, 17, 3\).*\(17, 3\)"),
+        ({"poses": X[:0]}, r"T >= 1"),
+        ({"poses": X.astype(str)}, "dtype"),
+        ({"fps": 0.0}, r"fps.*got 0"),
+        ({"fps": -30.0}, r"fps.*got -30"),
+        ({"fps": float("nan")}, "fps"),
+        ({"units": "inch"}, r"units.*'inch'"),
+        ({"poses": np.full_like(X, np.nan)}, r"all 17 joints finite.*none of 5"),
+        ({"joint_names": H36M_JOINTS[:16]}, "17 H36M-17 joint names"),
+        ({"joint_names": ("left hip",) + H36M_JOINTS[1:]}, "without whitespace"),
+        ({"joint_names": ("spine",) + H36M_JOINTS[1:]}, "unique"),
+        ({"poses": np.zeros_like(X)}, "positive length"),
+    ]
+    for override, match in cases:
+        kwargs = {"poses": X, "fps": FPS} | override
+        with pytest.raises(InputError, match=match):
+            write_bvh(out, kwargs.pop("poses"), kwargs.pop("fps"), **kwargs)
+        assert not out.exists()
+    with pytest.raises(InputError, match="existing destination folder"):
+        write_bvh(tmp_path / "no" / "x.bvh", X, FPS)
+
+
+def test_failed_write_leaves_the_old_file(tmp_path, mocap):
+    out = write_bvh(tmp_path / "x.bvh", mocap[CLIPS[0]][:5], FPS)
+    before = out.read_bytes()
+    with pytest.raises(InputError):
+        write_bvh(out, np.full((5, 17, 3), np.nan), FPS)
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.bvh"]
+
+
+@pytest.mark.parametrize("clip", CLIPS)
+def test_channels_are_continuous(mocap, clip):
+    """Real motion capture at 30 fps turns no joint by more than ~30 degrees per frame: the
+    channels must not jump either (no 360-degree wraps, no gimbal-lock flips: a single ZXY
+    order for the arms would lock with the arms hanging, as in all three clips)."""
+    m = bvh_motion(mocap[clip])
+    step = np.abs(np.diff(m.euler_deg, axis=0))
+    assert step.max() < 45, (m.names[np.unravel_index(step.argmax(), step.shape)[1]], step.max())
+
+
+def test_written_in_blocks_equals_the_whole_recording(tmp_path, mocap, monkeypatch):
+    """write_bvh streams its channels a block of frames at a time (bounded memory for long
+    recordings); with tiny blocks the file must hold what bvh_motion computes at once,
+    including the unwrapping and the holding of a degenerate pelvis frame across block edges."""
+    import pcnet.stages.bvh as bvh
+
+    X = np.concatenate([mocap[c] for c in CLIPS])
+    X[40:45, 3] = np.nan
+    X[63, 4] = X[63, 1] + (X[63, 7] - X[63, 0])  # first frame of a block: hip line along the spine, frame held
+    m = bvh_motion(X)
+    monkeypatch.setattr(bvh, "TEXT_BLOCK_ROWS", 7)
+    path = write_bvh(tmp_path / "blocks.bvh", X, FPS)
+    rows = path.read_text().split("Frame Time:")[1].splitlines()[1:]
+    values = np.array([[float(v) for v in r.split()] for r in rows])
+    expected = np.concatenate([m.root_position, m.euler_deg.reshape(len(X), -1)], axis=1)
+    assert values.shape == expected.shape
+    assert np.abs(values - expected).max() < 1e-6  # the file's 6 decimals
