@@ -28,7 +28,7 @@ from pcnet.stages.bvh import write_bvh
 from pcnet.stages.errors import InputError
 from pcnet.stages.exports import plot_wrists, require_ezc3d, write_c3d, write_kinematics_csv, write_npz, write_trc
 from pcnet.stages.flags import (body_size_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
-                               track_switch_flag)
+                               track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import (concat_frames, count_flags, format_flag_counts, kinematics_chunks,
                                      residual_analysis, select_frames)
 from pcnet.stages.plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
@@ -349,6 +349,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         kin = concat_frames(kept)
         missing, unfiltered = np.concatenate(missing), np.concatenate(unfiltered)
         counts = count_flags(missing, unfiltered)
+        flags += unfiltered_flag(missing, unfiltered, fps, cutoff)
         missing_note = format_flag_counts(counts)
         if missing_note:
             notes.append(missing_note)

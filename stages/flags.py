@@ -172,6 +172,22 @@ def view_gate_flag(view_gate: dict | None) -> list[str]:
             f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)"]
 
 
+def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float, cutoff_hz: float | None) -> list[str]:
+    """A flag when no joint position could be low-pass filtered: every run of present frames
+    is shorter than the filter needs (:func:`pcnet.stages.kinematics.butterworth_lowpass`), so
+    positions are raw and there are no velocities or accelerations.
+
+    Args:
+        missing, unfiltered: ``(T, 17)`` bool flags of :class:`pcnet.stages.kinematics.Kinematics`.
+    """
+    present = ~np.asarray(missing, bool)
+    if cutoff_hz is None or not present.any() or not np.asarray(unfiltered, bool)[present].all():
+        return []
+    return [f"too short to filter: no run of present frames is longer than the {cutoff_hz:g} Hz low-pass filter "
+            f"needs at {fps:g} fps ({len(present)} frames), so positions are raw and no velocity or acceleration "
+            f"is given"]
+
+
 def floor_flag(feet_visible: np.ndarray, present: np.ndarray) -> list[str]:
     """A flag when frames with a pose show no ankle, so the world frame's floor was not seen
     there (:func:`pcnet.stages.world_frame.floor_heights`): heights interpolated from the

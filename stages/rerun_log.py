@@ -377,6 +377,9 @@ def _log_all(
     # the data, which would yield a silently incomplete recording.
     def send(path: str, columns, idx=None) -> None:
         rec.send_columns(path, indexes=idx or index(), columns=columns, strict=True)
+        # Wait for the file sink: without it rerun's batcher queues a long recording's blocks
+        # faster than they are written (measured: +490 MB vs +250 MB for 2 hours at 30 fps).
+        rec.flush()
 
     def log(path: str, *items, static: bool = True) -> None:
         rec.log(path, *items, static=static, strict=True)
@@ -461,10 +464,9 @@ def _log_all(
         ).partition(ok.astype(np.int64)), block_index(b))
 
     # --- wrist paths (static: the whole trajectory is the point of the picture)
-    cam_rel = cam - cam[:, PELVIS : PELVIS + 1]
     paths = {
-        ("camera", "left_wrist"): cam_rel[:, L_WRIST],
-        ("camera", "right_wrist"): cam_rel[:, R_WRIST],
+        ("camera", "left_wrist"): cam[:, L_WRIST] - cam[:, PELVIS],
+        ("camera", "right_wrist"): cam[:, R_WRIST] - cam[:, PELVIS],
     }
     for name, p in canon_paths.items():
         paths[(path_space, name)] = p

@@ -328,3 +328,25 @@ def test_residual_cutoff_option_chooses_and_reports_the_cutoff(tmp_path):
         report = json.loads(str(npz["report"]))
     assert report["cutoff_source"] == "residual analysis" and 0.5 <= report["cutoff_hz"] < 15.0
     assert report["cutoff_hz"] != 6.0
+
+
+def test_short_recordings_and_hidden_feet_are_flagged(tmp_path):
+    """Bad input the biomechanics outputs must not hide: a recording too short to filter (raw
+    positions, no derivatives) and one with the feet out of the picture (no floor)."""
+    x3d = np.load(BOX_3D)
+    np.save(tmp_path / "short.npy", x3d[:5])
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "short.npy", "--fps", "30",
+                  "--height", "1.75", "--no-recording", "--out", tmp_path / "a")
+    assert res.exit_code == 0, res.output
+    assert "WARNING           too short to filter" in res.output
+    with np.load(tmp_path / "a" / "canonical.npz") as npz:
+        assert any(f.startswith("too short to filter") for f in npz["flags"])
+    no_feet = x3d.copy()
+    no_feet[:, [3, 6]] = np.nan  # both ankles (H36M-17)
+    np.save(tmp_path / "no_feet.npy", no_feet)
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "no_feet.npy", "--fps", "30",
+                  "--mode", "sequence", "--no-recording", "--out", tmp_path / "b")  # no --height: that needs the legs
+    assert res.exit_code == 0, res.output
+    assert "WARNING           no ankle visible in any frame: no floor" in res.output
+    with np.load(tmp_path / "b" / "canonical.npz") as npz:
+        np.testing.assert_allclose(npz["joints_world"][:, PELVIS, 1], 0.0, atol=1e-9)
