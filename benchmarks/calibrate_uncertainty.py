@@ -12,7 +12,7 @@ Views: pcnet.models.datasets.make_pairs(clips, views="paper", camera="static",
 noise=LifterNoise(), seed=s) -- the inputs of `pcnet evaluate --camera static --noise lifter
 --mode sequence` -- one static camera per clip (true up = R[:, 1], constant over the clip).
 Each clip's camera-frame joints are rectified as `pcnet run` does:
-pcnet.stages.rectify.rectify(joints, "pcnet", mode="sequence", fps=clip.fps) with the default
+pcnet.pipeline.rectification.rectify(joints, "pcnet", mode="sequence", fps=clip.fps) with the default
 bootstrap (200 replicates). Errors are signed, estimate - truth, pitch =
 asin(-u_z), roll = atan2(u_x, -u_y) (decompose_camera_rotation), degrees.
 
@@ -58,7 +58,7 @@ from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: 
 from pcnet.stages.metrics import tilt_error_deg  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
 from pcnet.stages import uncertainty  # noqa: E402
-from pcnet.stages.rectify import rectify  # noqa: E402
+from pcnet.pipeline.rectification import rectify  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "uncertainty.txt"

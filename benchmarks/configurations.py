@@ -14,7 +14,8 @@ from typing import NamedTuple
 import numpy as np
 
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS
-from pcnet.stages.rectify import Rectified, rectify
+from pcnet.pipeline.rectification import rectify
+from pcnet.stages.rectify import Rectified
 
 CAMERA_NET = str(CAMERA_WEIGHTS)
 BODY_NET = str(BODY_WEIGHTS)

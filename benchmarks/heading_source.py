@@ -19,7 +19,7 @@ import numpy as np
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, apply_heading
-from pcnet.stages.rectify import estimate_rotations
+from pcnet.pipeline.rectification import estimate_rotations
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 

@@ -92,8 +92,8 @@ def load_sequence(path: Path) -> dict:
 def up_estimates(joints: np.ndarray, fps: float) -> dict[str, dict]:
     """Per method: ``up`` ``(T, 3)`` unit up in the camera frame (NaN where not valid) and the
     rotations ``R`` ``(T, 3, 3)`` / ``valid`` ``(T,)`` where a rectification ran; the same
-    :func:`pcnet.stages.rectify.rectify` calls as ``pcnet run`` (default heading, camera prior)."""
-    from pcnet.stages.rectify import rectify
+    :func:`pcnet.pipeline.rectification.rectify` calls as ``pcnet run`` (default heading, camera prior)."""
+    from pcnet.pipeline.rectification import rectify
 
     T = len(joints)
     out = {"level": {"up": np.tile(KINECT_UP, (T, 1)), "valid": np.ones(T, bool)}}

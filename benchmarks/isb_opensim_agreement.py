@@ -443,7 +443,7 @@ def main() -> None:
     osim = import_opensim()
     command = "python benchmarks/isb_opensim_agreement.py" + "".join(f" {a}" for a in sys.argv[1:])
     machine = (f"{os.cpu_count()} CPU cores ({platform.machine()}), Python {platform.python_version()}, "
-               f"OpenSim {osim.__version__}; model pipeline/opensim_data/Model_H36M17.osim")
+               f"OpenSim {osim.__version__}; model stages/opensim_data/Model_H36M17.osim")
     doc = __doc__.split("Pairs and the sign mapping applied", 1)[1]
     lines = [f"    {command}", "", machine, "", "Pairs and the sign mapping applied" + doc.split("Writes benchmarks/")[0].rstrip(), ""]
     lines += model_check(osim) + [""]

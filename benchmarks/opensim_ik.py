@@ -90,7 +90,7 @@ def main() -> None:
     osim = import_opensim()
     command = "python benchmarks/opensim_ik.py" + "".join(f" {a}" for a in sys.argv[1:])
     machine = (f"{os.cpu_count()} CPU cores ({platform.machine()}), Python {platform.python_version()}, "
-               f"OpenSim {osim.__version__}; IK single-threaded; model pipeline/opensim_data/Model_H36M17.osim")
+               f"OpenSim {osim.__version__}; IK single-threaded; model stages/opensim_data/Model_H36M17.osim")
     header = (f"{'recording':<42} {'frames':>6} {'RMS cm':>7} {'max cm':>7} {'median frame RMS cm':>20} "
               f"{'IK frames/s':>12} {'scale s':>8}")
     lines = [f"    {command}", "", machine, "", header]

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.stages.rectify import estimate_rotations
+from pcnet.pipeline.rectification import estimate_rotations
 from pcnet.stages.rotations import angle_between
 from pcnet.stages.temporal import rectify_sequence
 

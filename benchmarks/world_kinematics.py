@@ -45,7 +45,8 @@ from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.canonical import canonical_rotation, to_canonical
 from pcnet.stages.conventions import H36M_JOINTS, PELVIS
 from pcnet.stages.kinematics import compute_kinematics
-from pcnet.stages.rectify import estimate_rotations, finish_rotations
+from pcnet.pipeline.rectification import estimate_rotations
+from pcnet.stages.rectify import finish_rotations
 from pcnet.stages.world_frame import to_world, world_frame
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"

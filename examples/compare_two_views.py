@@ -16,7 +16,7 @@ import numpy as np
 from pcnet.models.datasets import load_mocap
 from pcnet.stages.canonical import to_canonical, world_to_canonical
 from pcnet.stages.conventions import R_WRIST
-from pcnet.stages.rectify import estimate_rotations
+from pcnet.pipeline.rectification import estimate_rotations
 from pcnet.stages.rotations import compose_camera_rotation
 from pcnet.stages.temporal import rectify_sequence
 

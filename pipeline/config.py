@@ -26,7 +26,7 @@ class RunConfig:
     ``lifter_options`` are passed to the 3D adapter (``pixel`` for motionbert,
     ``hypothesis``/``step`` for ddhpose, ``layout``/``axes``/``units``/``key`` for generic);
     ``person`` picks a 2D track (AlphaPose ``idx``, MMPose instance position); ``heading``
-    is the heading source of :func:`pcnet.stages.rectify.rectify` (``None`` = its default).
+    is the heading source of :func:`pcnet.pipeline.rectification.rectify` (``None`` = its default).
     ``fps`` is needed only when neither a video nor an input file gives the frame rate; with
     a video it must match the video's rate unless ``fps_override``. ``camera_prior``:
     sequence modes weigh the poses against a camera prior and a lying reading

@@ -14,7 +14,8 @@ from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.canonical import to_canonical
 from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.errors import InputError
-from pcnet.stages.rectify import estimate_rotations, finish_rotations, resolve_heading_source
+from pcnet.pipeline.rectification import estimate_rotations
+from pcnet.stages.rectify import finish_rotations, resolve_heading_source
 
 #: Input noise of ``pcnet evaluate --noise``: none (clean mocap), ``frame`` (every frame's
 #: error drawn anew, :class:`pcnet.models.datasets.Noise`) or ``lifter`` (errors that persist

@@ -32,7 +32,8 @@ from pcnet.stages.flags import (body_size_flag, camera_tilt, floor_flag, gravity
 from pcnet.stages.kinematics import (concat_frames, count_flags, format_flag_counts, kinematics_chunks,
                                      residual_analysis, select_frames)
 from pcnet.stages.plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
-from pcnet.stages.rectify import NO_VALID_FRAME, rectify
+from pcnet.pipeline.rectification import rectify
+from pcnet.stages.rectify import NO_VALID_FRAME
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
 from pcnet.stages.rerun_log import series_from_kinematics, write_recording
 from pcnet.stages.rotations import decompose_camera_rotation

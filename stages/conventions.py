@@ -230,7 +230,7 @@ def validate_fps(fps: object, source: str = "fps") -> float:
 def validate_poses(joints: object, source: str = "poses", units: str | None = None,
                    num_joints: int = 17, joint_names: tuple[str, ...] | None = None) -> np.ndarray:
     """The one check every entry point applies to 3D poses (``pcnet rectify``,
-    :func:`pcnet.stages.rectify.rectify`, ``pcnet run`` after its adapter).
+    :func:`pcnet.pipeline.rectification.rectify`, ``pcnet run`` after its adapter).
 
     Args:
         joints: ``(T, J, 3)`` array (a single ``(J, 3)`` pose is promoted), real numbers

@@ -1,6 +1,6 @@
 """The one error type for bad input: a user's file, option or array that pcnet refuses.
 
-Every entry point (``pcnet`` commands, :func:`pcnet.stages.rectify.rectify`, the adapters,
+Every entry point (``pcnet`` commands, :func:`pcnet.pipeline.rectification.rectify`, the adapters,
 the config loaders) raises :class:`InputError` (or a subclass such as
 :class:`pcnet.adapters.AdapterError`) for input it cannot use; the command line turns it
 into one line and exit status 1. Any other exception is a bug in pcnet.

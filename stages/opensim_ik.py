@@ -7,7 +7,7 @@ at y = 0 at the ankle-centre height; [CONVENTIONS.md](../docs/CONVENTIONS.md) "W
 :func:`scale_and_ik` scales a full-body model to the subject from those markers and solves
 inverse kinematics over the whole recording.
 
-Model and setup files (``pcnet/pipeline/opensim_data/``, see ``ATTRIBUTION.md`` there):
+Model and setup files (``pcnet/stages/opensim_data/``, see ``ATTRIBUTION.md`` there):
 
 * ``Model_H36M17.osim``: Pose2Sim's ``Model_Pose2Sim_simple.osim`` (Pagnon et al. 2021,
   BSD-3-Clause; after Rajagopal et al. 2016) without mesh geometry, with the coordinates no
@@ -55,23 +55,12 @@ from .conventions import H36M_JOINTS
 from .errors import InputError, import_extra
 
 MISSING_OPENSIM = 'pcnet opensim needs OpenSim: pip install "pcnet[opensim]"'
-DATA_DIR = Path(__file__).resolve().parent.parent / "pipeline" / "opensim_data"
+DATA_DIR = Path(__file__).resolve().parent / "opensim_data"
 MODEL_FILE = "Model_H36M17.osim"
 MARKER_FILE = "Markers_H36M17.xml"
 SCALE_SETUP = "Scaling_Setup_H36M17.xml"
 IK_SETUP = "IK_Setup_H36M17.xml"
 OUTPUTS = ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto")
-
-
-def _data_dir() -> Path:
-    """The shipped model and setup files: beside the installed ``pcnet.pipeline`` package."""
-    try:
-        import pcnet.pipeline as pipeline_pkg
-
-        folder = Path(pipeline_pkg.__file__).resolve().parent / "opensim_data"
-    except ImportError:  # pragma: no cover - pcnet.pipeline is part of the same distribution
-        folder = DATA_DIR
-    return folder if folder.is_dir() else DATA_DIR
 
 
 def import_opensim():
@@ -269,7 +258,7 @@ def scale_and_ik(
         raise InputError(f"{out_dir}: expected no earlier OpenSim outputs, got {', '.join(existing)}; "
                          f"pass --overwrite to replace them")
 
-    data = _data_dir()
+    data = DATA_DIR
     start_s, end_s = float(times[0]), float(times[-1])
     order = [names.index(j) for j in H36M_JOINTS]
     joints = markers[:, order]  # (T, 17, 3)

@@ -12,7 +12,7 @@ from conftest import FIXTURES, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
 from pcnet.stages.flags import camera_tilt, non_upright_fraction, orientation_flags, track_segments
-from pcnet.stages.rectify import rectify
+from pcnet.pipeline.rectification import rectify
 from pcnet.stages.remap import remap_to_h36m
 
 TADASANA = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"  # real VideoPose3D, standing, camera frame

@@ -99,7 +99,7 @@ def test_sequence_mode_reads_a_real_lying_body_as_lying():
     """End to end on real Shavasana (geometric per-frame method: its up IS the trunk axis, the
     worst case): sequence mode with the camera prior lays the trunk down; without it the
     trunk stands up."""
-    from pcnet.stages.rectify import rectify
+    from pcnet.pipeline.rectification import rectify
 
     X = np.load(FIX / "yoga_Abhay_Shavasana_f200-299.npy", allow_pickle=False).astype(np.float64)
     with_prior = rectify(X, "geometric", mode="sequence", fps=30.0)

@@ -22,7 +22,7 @@ from pcnet.stages.heading import (
     hip_width_cv_percent,
 )
 from pcnet.stages.metrics import heading_error_deg, tilt_error_deg
-from pcnet.stages.rectify import rectify
+from pcnet.pipeline.rectification import rectify
 from pcnet.stages.rotations import angle_between, axis_rotation, sample_camera_rotations
 
 from conftest import FIXTURES

@@ -143,7 +143,7 @@ def test_inference_runs_with_torch_blocked():
                 if name == "torch" or name.startswith("torch."):
                     raise ImportError("torch blocked for this test")
         sys.meta_path.insert(0, Block())
-        from pcnet.stages.rectify import rectify
+        from pcnet.pipeline.rectification import rectify
         from pcnet.models.datasets import load_mocap
         joints = load_mocap(sys.argv[1])[0].joints
         res = rectify(joints, "pcnet")

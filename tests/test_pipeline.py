@@ -223,7 +223,7 @@ def test_every_yoga_file_rectifies_and_standing_trunks_are_vertical():
     measured 6-30 deg, a known weakness (README, "Limits")."""
     files = sorted(glob.glob(str(shared("real", "yoga_videopose3d") / "*.npy")))
     assert len(files) == 90
-    from pcnet.stages.rectify import rectify
+    from pcnet.pipeline.rectification import rectify
 
     trunk_deg = {}
     for path in files:

@@ -60,7 +60,7 @@ def test_coverage_on_heldout_deepmimic_clips():
     bootstrap alone, and in most clips."""
     from pcnet.models.datasets import load_mocap, make_pairs
     from pcnet.models.lifter_noise import LifterNoise
-    from pcnet.stages.rectify import rectify
+    from pcnet.pipeline.rectification import rectify
 
     clips = load_mocap(shared("mocap", "deepmimic_h36m17.npz"))
     clips = [c for c in clips if 60 <= len(c.joints) <= 400][::3][:10]
