@@ -504,21 +504,19 @@ def sequence_rectify(
     R: np.ndarray,
     valid: np.ndarray | None = None,
     joints_cam: np.ndarray | None = None,
-    weights: np.ndarray | None = None,
     use_ground_plane: bool = True,
     *,
     fps: float = 30.0,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
     pose_prior_deg: float = POSE_PRIOR_DEG,
     ground_gate_deg: float = GROUND_GATE_DEG,
-    heading_time_constant_s: float | None = None,
     seed: int = 0,
     camera_prior: bool = True,
 ) -> SequenceResult:
     """One up direction for a static-camera sequence, per-frame heading about it.
 
     1. **Up**: :func:`robust_mean_direction` of the per-frame ups ``R[:, :, 1]`` (Weiszfeld
-       geometric median on S^2, then Tukey-biweight IRLS), weighted by ``weights``.
+       geometric median on S^2, then Tukey-biweight IRLS).
     2. **Ground plane** (``use_ground_plane`` and ``joints_cam`` given): ankles (3, 6) that
        are the lowest in their frame along the current up (within 0.05 leg lengths) and
        quasi-static (speed < 1 leg length/s over +-0.1 s) are floor contacts. The floor
@@ -540,10 +538,7 @@ def sequence_rectify(
        replace the up. An upright reading moves by at most a few percent of its angle to a
        level camera; a lying one takes the level camera's up in the plane across the trunk.
     3. **Heading**: :func:`rotations_about_up`, the rotation with the sequence up closest to
-       each frame's prediction; optionally smoothed over time with :func:`smooth_rotations`
-       (``heading_time_constant_s``): rotations sharing one up column average to a rotation
-       with that up (the quaternions lie in one 2D subspace of R^4), so only the heading
-       is smoothed; invalid frames near valid ones are then filled.
+       each frame's prediction.
     4. **Uncertainty**: moving-block bootstrap (Kunsch 1989, "The jackknife and the bootstrap
        for general stationary observations", Ann. Stat. 17: 1217) over frames, 1 s blocks
        (``fps``), ``n_bootstrap`` replicates, deterministic (``seed``), re-running steps 1-2.
@@ -560,13 +555,10 @@ def sequence_rectify(
         valid: ``(T,)`` bool; frames with NaN ``R`` are invalid too. ``None`` = all.
         joints_cam: optional ``(T, 17, 3)`` H36M-17 camera-frame joints (any unit), for the
             ground plane.
-        weights: optional ``(T,)`` non-negative per-frame confidences.
         use_ground_plane: try the ground-plane refinement.
         fps: frame rate (bootstrap block length, contact speeds).
         n_bootstrap: bootstrap replicates (0 = no uncertainty, NaN).
         pose_prior_deg, ground_gate_deg: ground-plane parameters above.
-        heading_time_constant_s: ``None`` (default, per-frame heading) or the kernel std in
-            seconds of the heading smoothing.
         seed: bootstrap random seed.
         camera_prior: step 2b.
 
@@ -574,23 +566,18 @@ def sequence_rectify(
         :class:`SequenceResult`.
 
     Raises:
-        ValueError: wrong shapes, negative/non-finite weights, non-positive fps, or no
+        ValueError: wrong shapes, non-positive fps, or no
             valid frame.
     """
     R, ok = _check_R(R, valid)
     T = len(R)
     if not fps > 0:
         raise InputError(f"fps must be positive, got {fps}")
-    w = np.ones(T) if weights is None else np.asarray(weights, np.float64)
-    if w.shape != (T,):
-        raise InputError(f"weights: expected shape ({T},), got {w.shape}")
-    if np.any(~np.isfinite(w[ok])) or np.any(w[ok] < 0):
-        raise InputError("weights must be finite and non-negative")
     ups = frame_ups(R)
-    ok &= np.isfinite(ups).all(-1) & (w > 0)
+    ok &= np.isfinite(ups).all(-1)
     if not ok.any():
-        raise InputError("sequence_rectify: no valid frame (all invalid, NaN or zero weight)")
-    w = np.where(ok, w, 0.0)
+        raise InputError("sequence_rectify: no valid frame (all invalid or NaN)")
+    w = ok.astype(np.float64)
 
     u_pose, _ = robust_mean_direction(ups, w)
     up, gp = u_pose, {"used": False, "reason": "not requested" if not use_ground_plane else "no joints_cam"}
@@ -612,11 +599,6 @@ def sequence_rectify(
     rotations, hok = rotations_about_up(R, up)
     out_valid = ok & hok
     rotations[~out_valid] = np.nan
-    if heading_time_constant_s is not None and out_valid.any():
-        # Re-impose the up exactly (the eigen-solver's round-off) after smoothing.
-        rotations, out_valid = rotations_about_up(
-            smooth_rotations(rotations, out_valid, fps, heading_time_constant_s), up
-        )
     heading = np.full(T, np.nan)
     if out_valid.any():
         heading[out_valid] = np.degrees(decompose_camera_rotation(rotations[out_valid])[0])
@@ -842,10 +824,8 @@ def rectify_sequence(
     fps: float = 30.0,
     joints_cam: np.ndarray | None = None,
     *,
-    weights: np.ndarray | None = None,
     threshold_deg: float = MODE_THRESHOLD_DEG,
     time_constant_s: float = 0.2,
-    heading_time_constant_s: float | None = None,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
     camera_prior: bool = True,
 ) -> tuple[np.ndarray, dict]:
@@ -861,11 +841,8 @@ def rectify_sequence(
         mode: one of :data:`MODES`.
         fps: frame rate, > 0.
         joints_cam: optional ``(T, 17, 3)`` camera-frame joints (ground plane, sequence mode).
-        weights: optional ``(T,)`` per-frame confidences (sequence mode).
         threshold_deg: ``choose_mode`` threshold.
         time_constant_s: smoothing kernel std in seconds (smooth mode).
-        heading_time_constant_s: heading smoothing in sequence mode (``None`` = per-frame),
-            see :func:`sequence_rectify`.
         n_bootstrap: bootstrap replicates of the sequence-mode uncertainties (0 = none,
             NaN uncertainties; the rotations do not depend on it).
         camera_prior: sequence mode combines the pose evidence with a camera prior and a
@@ -904,8 +881,7 @@ def rectify_sequence(
         out = smooth_rotations(R, ok, fps, time_constant_s)
         report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)), time_constant_s=time_constant_s)
     else:
-        res = sequence_rectify(R, ok, joints_cam, weights, fps=fps, heading_time_constant_s=heading_time_constant_s,
-                               n_bootstrap=n_bootstrap, camera_prior=camera_prior)
+        res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=n_bootstrap, camera_prior=camera_prior)
         out = res.rotations
         g = res.gravity
         if g is not None and g.reading == "lying":

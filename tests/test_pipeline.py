@@ -281,12 +281,10 @@ def test_rectify_command_npy_npz_and_bad_input(tmp_path):
     assert res.exit_code != 0 and "bad.npy" in res.output and "(T, 17, 3)" in res.output
 
 
-def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
-    """`pcnet run --lifter kinect_v1`: a depth sensor's skeleton measures where the pelvis is,
-    so world.trc and the CSV carry the walk's path (root-relative lifters cannot). The
-    skeleton is a real mocap walk (tests/fixtures/mocap_small.npz) written as Kinect v1
-    joints in skeleton space (x = the sensor's left, y up, z depth) 3 m in front of a
-    level sensor."""
+def _kinect_walk(path: Path, pitch_deg: float = 0.0) -> np.ndarray:
+    """A real mocap walk (tests/fixtures/mocap_small.npz) written as Kinect v1 joints in skeleton
+    space (x = the sensor's left, y up, z depth) 3 m in front of a sensor pitched by ``pitch_deg``
+    (about its x axis); returns the mocap joints."""
     from pcnet.adapters.kinect import KINECT_V1_JOINTS_UTD
 
     with np.load(FIXTURES / "mocap_small.npz") as d:
@@ -297,21 +295,34 @@ def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
     kinect = {"hip_center": names["pelvis"] + [0.0, 0.07, 0.0], "spine": names["spine"],
               "shoulder_center": names["thorax"], "head": names["head"]}
     for side in ("left", "right"):
-        for a, b in (("shoulder", "shoulder"), ("elbow", "elbow"), ("wrist", "wrist"), ("hip", "hip"),
-                     ("knee", "knee"), ("ankle", "ankle")):
-            kinect[f"{side}_{a}"] = names[f"{side}_{b}"]
+        for joint in ("shoulder", "elbow", "wrist", "hip", "knee", "ankle"):
+            kinect[f"{side}_{joint}"] = names[f"{side}_{joint}"]
         kinect[f"{side}_hand"] = names[f"{side}_wrist"]
         kinect[f"{side}_foot"] = names[f"{side}_ankle"]
     # mocap (x, y up, z) turned half a turn about the vertical (a rotation, no mirror) -> skeleton space, 3 m away
     skel = np.stack([kinect[n] for n in KINECT_V1_JOINTS_UTD], axis=1) * [-1.0, 1.0, -1.0] + [0.0, 0.0, 3.0]
-    np.save(tmp_path / "walk_kinect.npy", skel.astype(np.float32))
+    a = np.radians(pitch_deg)
+    tilt = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+    np.save(path, (skel @ tilt.T).astype(np.float32))
+    return J
+
+
+def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
+    """`pcnet run --lifter kinect_v1`: a depth sensor's skeleton measures where the pelvis is,
+    so world.trc and the CSV carry the walk's path (root-relative lifters cannot). The
+    skeleton is a real mocap walk (tests/fixtures/mocap_small.npz) written as Kinect v1
+    joints in skeleton space (x = the sensor's left, y up, z depth) 3 m in front of a
+    level sensor."""
+    J = _kinect_walk(tmp_path / "walk_kinect.npy")
     res = _invoke("run", "--lifter", "kinect_v1", "--lifter-output", tmp_path / "walk_kinect.npy", "--fps", "30",
                   "--mode", "sequence", "--no-recording", "--out", tmp_path / "o")
     assert res.exit_code == 0, res.output
     assert "the pelvis follows the path the depth sensor measured" in res.output
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
-        world = npz["joints_world"]
-        assert json.loads(str(npz["report"]))["root_path"] == "measured"
+        world, report = npz["joints_world"], json.loads(str(npz["report"]))
+    assert report["root_path"] == "measured"
+    # the measured root makes the foot contacts a floor sequence mode can fit (stages/temporal.py)
+    assert report["evidence"].startswith("poses+ground_plane") and report["ground_plane"]["used"]
     true_path = np.linalg.norm(J[-1, 0, [0, 2]] - J[0, 0, [0, 2]])
     path = np.linalg.norm(world[-1, PELVIS, [0, 2]] - world[0, PELVIS, [0, 2]])
     assert true_path > 2.0 and abs(path - true_path) < 0.05 * true_path
@@ -350,3 +361,22 @@ def test_short_recordings_and_hidden_feet_are_flagged(tmp_path):
     assert "WARNING           no ankle visible in any frame: no floor" in res.output
     with np.load(tmp_path / "b" / "canonical.npz") as npz:
         np.testing.assert_allclose(npz["joints_world"][:, PELVIS, 1], 0.0, atol=1e-9)
+
+
+def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):
+    """With a depth sensor's measured root the foot contacts trace the floor, which refines
+    the sequence up (stages/temporal.py, ground plane); root-relative, the same poses cannot."""
+    from pcnet.adapters.kinect import load_kinect_v1
+    from pcnet.pipeline.rectification import rectify
+
+    _kinect_walk(tmp_path / "walk.npy", pitch_deg=10.0)
+    J = load_kinect_v1(tmp_path / "walk.npy", fps=30.0).joints.astype(np.float64)
+    a = np.radians(10.0)
+    true_up = np.array([0.0, -np.cos(a), np.sin(a)])  # skeleton-space +Y seen by the pitched sensor (camera frame)
+    errors = {}
+    for name, X in (("root-relative", J - J[:, PELVIS : PELVIS + 1]), ("measured root", J)):
+        res = rectify(X, "pcnet", None, "sequence", 30.0)
+        up = np.mean(res.up[res.valid], axis=0)
+        errors[name] = np.degrees(np.arccos(np.clip(up @ true_up / np.linalg.norm(up), -1.0, 1.0)))
+        print(f"\n{name}: evidence {res.report['evidence']}, sequence up {errors[name]:.2f} deg from the truth")
+    assert errors["measured root"] < 0.5 < errors["root-relative"]
