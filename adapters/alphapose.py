@@ -17,7 +17,7 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from pcnet.stages.conventions import get_layout
+from pcnet.stages.core.conventions import get_layout
 
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.stages.conventions import get_layout
+from pcnet.stages.core.conventions import get_layout
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D

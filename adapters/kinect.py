@@ -19,7 +19,7 @@ Two sensors, both depth cameras with their own skeleton trackers (not RGB monocu
   camera (same docs), so "level" refers to the depth camera, not the device case.
 
 Mapping to H36M-17 (``docs/CONVENTIONS.md``; H36M names from
-``pcnet.stages.conventions.H36M_JOINTS``), one rule per H36M joint:
+``pcnet.stages.core.conventions.H36M_JOINTS``), one rule per H36M joint:
 
 =============  ==========================================  ================================
 H36M joint     Kinect v1                                   Azure Kinect
@@ -38,7 +38,7 @@ elbows, wrists
 Why these choices:
 
 * pelvis: Human3.6M's pelvis is the hip-joint midpoint (the rule of
-  :func:`pcnet.stages.conventions.fill_pelvis_from_hips`). Kinect v1's hip_center sits about
+  :func:`pcnet.stages.core.conventions.fill_pelvis_from_hips`). Kinect v1's hip_center sits about
   7 cm above the hip joints and Azure's PELVIS is its own estimate; both are dropped so the
   root means what it means everywhere in pcnet.
 * spine: Kinect v1's "spine" sits just above hip_center (8 cm; UTD-MHAD data README), not
@@ -71,7 +71,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.stages.conventions import H36M_JOINTS
+from pcnet.stages.core.conventions import H36M_JOINTS
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D

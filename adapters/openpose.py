@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.stages.conventions import get_layout
+from pcnet.stages.core.conventions import get_layout
 
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D

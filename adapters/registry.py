@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from typing import Callable, TypeVar
 
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.errors import InputError
 
 _ADAPTERS_2D: dict[str, type] = {}
 _ADAPTERS_3D: dict[str, type] = {}

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pcnet.stages.conventions import get_layout
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.conventions import get_layout
+from pcnet.stages.core.errors import InputError
 
 #: Units a :class:`Poses3D` may carry. ``normalised`` is MotionBERT's image-normalised
 #: scale (about [-1, 1]); ``px`` is image pixels; both stay tagged until a later stage
@@ -77,7 +77,7 @@ class Keypoints2D:
     Attributes:
         points: float32 ``(T, J, 3)``: x_px, y_px (image pixels, origin top-left, y down)
             and confidence in [0, 1]. A missing joint or frame is NaN in all three channels.
-        layout: joint layout name understood by ``pcnet.stages.conventions.get_layout``
+        layout: joint layout name understood by ``pcnet.stages.core.conventions.get_layout``
             (``coco17``, ``halpe26``, ``body25``, ``blazepose33``, ``h36m17``); ``J`` matches it.
         source: path of the file or folder read.
         track_id: the tracker id of the chosen person when the file has one, else ``None``.

@@ -10,7 +10,7 @@ Two mechanisms every adapter goes through:
   and turn every parser failure into an ``AdapterError``.
 * **finishing**: :func:`checked_keypoints` (2D) and :func:`checked_poses` (3D) are the
   last step before an adapter builds its result. Non-finite values become NaN (missing
-  data), coordinates beyond :data:`pcnet.stages.conventions.MAX_ABS_COORDINATE` for their
+  data), coordinates beyond :data:`pcnet.stages.core.conventions.MAX_ABS_COORDINATE` for their
   units are refused naming the frame and joint, 2D confidence is clipped to [0, 1], and
   an all-missing result is refused.
 
@@ -32,8 +32,8 @@ from typing import IO, Any, Iterator, Mapping, Sequence
 
 import numpy as np
 
-from pcnet.stages.conventions import MAX_ABS_COORDINATE, get_layout, validate_poses
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout, validate_poses
+from pcnet.stages.core.errors import InputError
 
 from .types import AdapterError
 
@@ -551,7 +551,7 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
 
 def checked_poses(p: str | Path, field: str, joints: np.ndarray, layout: str, units: str) -> np.ndarray:
     """The last step of every 3D adapter: ``(T, J, 3)`` joints in ``units`` through
-    :func:`pcnet.stages.conventions.validate_poses`, the check every entry point shares.
+    :func:`pcnet.stages.core.conventions.validate_poses`, the check every entry point shares.
 
     ``inf`` becomes NaN; a coordinate beyond ``MAX_ABS_COORDINATE[units]`` (100 m, 1e5 px,
     1e3 normalised) is refused naming the frame and the joint of ``layout``.

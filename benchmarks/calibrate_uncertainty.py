@@ -55,7 +55,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gravity_benchmark import ROLLS_DEG, load_camera, pitch_roll_deg, roll_view  # noqa: E402
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
-from pcnet.stages.metrics import tilt_error_deg  # noqa: E402
+from pcnet.stages.core.metrics import tilt_error_deg  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
 from pcnet.stages import uncertainty  # noqa: E402
 from pcnet.pipeline.rectification import rectify  # noqa: E402

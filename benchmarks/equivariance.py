@@ -11,7 +11,7 @@ equivariant method whatever its own error; it measures only what the camera's or
 
 Axes are the camera's: x = pitch (looking up/down), y = yaw (turning left/right, i.e. about the
 image's vertical axis), z = roll about the optical axis (portrait/landscape/upside-down);
-angles 0, 30, ..., 180 deg (pcnet.stages.rotations.axis_rotation, right-handed).
+angles 0, 30, ..., 180 deg (pcnet.stages.core.rotations.axis_rotation, right-handed).
 
 Clips (real, no ground truth needed): yoga_videopose3d Bhumi Tadasana / Padmasana / Bhujangasana /
 Shavasana (VideoPose3D, metres, 30 fps assumed), boxing_motionbert/X3D.npy (MotionBERT,
@@ -36,8 +36,8 @@ import numpy as np
 from configurations import CONFIGURATIONS, LABEL_WIDTH, Configuration
 from gravity_benchmark import load_camera
 from pcnet.adapters import load_motionbert, load_videopose3d
-from pcnet.stages.conventions import PELVIS
-from pcnet.stages.rotations import angle_between, axis_rotation
+from pcnet.stages.core.conventions import PELVIS
+from pcnet.stages.core.rotations import angle_between, axis_rotation
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "equivariance.txt"

@@ -7,7 +7,7 @@ portrait cameras looking down 18-25 deg, 60 fps, one man standing still in a T-p
 ../shared/data/README.md section "real/pose2sim_gravity/"). Truth: `up_camera`, world up
 (Qualisys +Z) in the camera's OpenCV frame, = R[:, 1] under docs/CONVENTIONS.md (R maps
 canonical -> camera); its pitch = asin(-u_z) (positive = camera looking down) and roll =
-atan2(u_x, -u_y) (pcnet.stages.rotations.decompose_camera_rotation).
+atan2(u_x, -u_y) (pcnet.stages.core.rotations.decompose_camera_rotation).
 
 Poses are read as `pcnet run --lifter mediapipe` reads them (pipeline/runner.py `_load_inputs`):
 load_mediapipe_3d -> remap_to_h36m -> validate_poses -> fill_pelvis_from_hips -> pelvis-centred.
@@ -39,9 +39,9 @@ import numpy as np
 
 from configurations import CONFIGURATIONS, LABEL_WIDTH
 from pcnet.adapters import load_mediapipe_3d
-from pcnet.stages.conventions import PELVIS, THORAX, fill_pelvis_from_hips, validate_poses
+from pcnet.stages.core.conventions import PELVIS, THORAX, fill_pelvis_from_hips, validate_poses
 from pcnet.stages.remap import remap_to_h36m
-from pcnet.stages.rotations import angle_between, axis_rotation, normalize
+from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "gravity_benchmark.txt"

@@ -78,7 +78,7 @@ def load_sequence(path: Path) -> dict:
     (metres, via :func:`pcnet.adapters.kinect.load_kinect_v1`), ``fps`` (the effective skeleton
     rate), ``acc_g`` ``(N, 3)`` (g), ``imu_fps``, ``saturated`` ``(N,)`` bool, and ids."""
     from pcnet.adapters.kinect import load_kinect_v1
-    from pcnet.stages.conventions import PELVIS, fill_pelvis_from_hips
+    from pcnet.stages.core.conventions import PELVIS, fill_pelvis_from_hips
 
     poses = load_kinect_v1(path)
     joints, _ = fill_pelvis_from_hips(poses.joints)
@@ -109,7 +109,7 @@ def wrist_specific_force(joints: np.ndarray, up: np.ndarray, fps: float, cutoff_
     :func:`pcnet.stages.kinematics.compute_kinematics` (Butterworth ``cutoff_hz``, central
     differences) of camera-frame ``joints`` ``(T, 17, 3)`` (static camera), ``g = -9.81 up``
     with ``up`` ``(T, 3)`` or ``(3,)`` in the camera frame. NaN where either is missing."""
-    from pcnet.stages.conventions import R_WRIST
+    from pcnet.stages.core.conventions import R_WRIST
     from pcnet.stages.kinematics import compute_kinematics
 
     a = compute_kinematics(joints, fps, cutoff_hz).acceleration[:, R_WRIST]
@@ -121,7 +121,7 @@ def wrist_specific_force_world(joints: np.ndarray, R: np.ndarray, valid: np.ndar
     """The same through ``pcnet run``'s world path: :func:`pcnet.stages.world_frame.world_frame`
     and :func:`~pcnet.stages.world_frame.to_world` (+Y up, floor at y = 0), then
     ``compute_kinematics``; ``|a - (0, -9.81, 0)| / 9.81`` ``(T,)``."""
-    from pcnet.stages.conventions import R_WRIST
+    from pcnet.stages.core.conventions import R_WRIST
     from pcnet.stages.kinematics import compute_kinematics
     from pcnet.stages.world_frame import to_world, world_frame
 
@@ -175,7 +175,7 @@ def compare(skel: np.ndarray, fps: float, imu: np.ndarray, imu_fps: float, satur
 def evaluate_sequence(seq: dict, cutoff_hz: float) -> dict:
     """All methods for one loaded sequence (:func:`load_sequence`): per method r, RMS (g),
     lag (s), samples, up angle to -y_cv (deg, median over frames) and the aligned series."""
-    from pcnet.stages.rotations import angle_between
+    from pcnet.stages.core.rotations import angle_between
 
     ups = up_estimates(seq["joints"], seq["fps"])
     imu = imu_magnitude(seq["acc_g"], seq["imu_fps"], cutoff_hz)

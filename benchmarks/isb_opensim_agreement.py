@@ -283,7 +283,7 @@ def model_check_stats(osim, n_poses: int = 300, seed: int = 0) -> dict[str, dict
     """pcnet angles on the unscaled model's joint-centre markers at random coordinates vs the
     coordinates, per pair (angle label): least-squares ``slope`` and ``offset`` of
     pcnet = slope * (sign * OpenSim) + offset, ``residual`` MAE (deg), ``r``, ``poses``."""
-    from pcnet.stages.conventions import H36M_JOINTS
+    from pcnet.stages.core.conventions import H36M_JOINTS
     from pcnet.stages.isb_angles import isb_joint_angles
     from pcnet.stages.opensim_ik import DATA_DIR, MARKER_FILE, MODEL_FILE
 
@@ -380,7 +380,7 @@ def run_demo(tmp: Path) -> tuple[Path, Path]:
 
 def compare_recording(osim, trc: Path, work: Path) -> tuple[dict, dict, dict]:
     """pcnet angles of the TRC's poses, OpenSim's (coordinates + derived) and scale_and_ik's result."""
-    from pcnet.stages.conventions import H36M_JOINTS
+    from pcnet.stages.core.conventions import H36M_JOINTS
     from pcnet.stages.isb_angles import isb_joint_angles
     from pcnet.stages.opensim_ik import read_trc, scale_and_ik
 
@@ -402,7 +402,7 @@ def demo_csv_check(csv: Path, pc: dict[str, np.ndarray]) -> str:
     unfiltered poses (``pc``, what OpenSim gets): the largest |difference| (deg) of each."""
     import csv as csvmod
 
-    from pcnet.stages.conventions import H36M_JOINTS
+    from pcnet.stages.core.conventions import H36M_JOINTS
     from pcnet.stages.isb_angles import isb_joint_angles
 
     with open(csv, newline="") as f:

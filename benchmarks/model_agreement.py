@@ -20,7 +20,7 @@ import numpy as np
 
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.models.inference import PCNetSession
-from pcnet.stages.rotations import angle_between, normalize
+from pcnet.stages.core.rotations import angle_between, normalize
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "mocap" / "bandai_h36m17.npz"
 

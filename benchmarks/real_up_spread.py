@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from pcnet.pipeline.rectification import estimate_rotations
-from pcnet.stages.rotations import angle_between
+from pcnet.stages.core.rotations import angle_between
 from pcnet.stages.temporal import rectify_sequence
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"

@@ -30,7 +30,7 @@ from pcnet.models.inference import DEFAULT_WEIGHTS, ViewGatedPCNet
 from pcnet.models.losses import LossWeights, composite_loss
 from pcnet.models.network import PCNet, PCNetConfig
 from pcnet.models.preprocess import normalize_input
-from pcnet.stages.geometric import geometric_rotation
+from pcnet.stages.core.geometric import geometric_rotation
 
 FIXTURE = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "bandai_small.npz"
 

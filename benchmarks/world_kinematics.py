@@ -42,8 +42,8 @@ import numpy as np
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
-from pcnet.stages.canonical import canonical_rotation, to_canonical
-from pcnet.stages.conventions import H36M_JOINTS, PELVIS
+from pcnet.stages.core.canonical import canonical_rotation, to_canonical
+from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS
 from pcnet.stages.kinematics import compute_kinematics
 from pcnet.pipeline.rectification import estimate_rotations
 from pcnet.stages.rectify import finish_rotations

@@ -11,7 +11,7 @@ No ground truth; static cameras, 30 fps assumed (as benchmarks/real_up_spread.py
 Read with pcnet.adapters.load_videopose3d and pelvis-centred (what `pcnet run --lifter videopose3d` does).
 
 Trunk angle from vertical: the angle between pelvis -> thorax (H36M joints 0 -> 8;
-pcnet.stages.conventions PELVIS, THORAX) and up, per frame, then the median over the method's
+pcnet.stages.core.conventions PELVIS, THORAX) and up, per frame, then the median over the method's
 valid frames. Up is canonical +Y for the rectified poses (`Rectified.canonical`, pcnet's residual
 included) and image up (-y) for the camera-frame input itself (assumes a level camera). The
 lower trunk is pelvis -> spine (0 -> 7).
@@ -44,8 +44,8 @@ import numpy as np
 
 from configurations import CONFIGURATIONS, LABEL_WIDTH
 from pcnet.adapters import load_videopose3d
-from pcnet.stages.conventions import PELVIS, SPINE, THORAX
-from pcnet.stages.rotations import angle_between
+from pcnet.stages.core.conventions import PELVIS, SPINE, THORAX
+from pcnet.stages.core.rotations import angle_between
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "yoga_physics.txt"

@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from pcnet.models.datasets import load_mocap
-from pcnet.stages.canonical import to_canonical, world_to_canonical
-from pcnet.stages.conventions import R_WRIST
+from pcnet.stages.core.canonical import to_canonical, world_to_canonical
+from pcnet.stages.core.conventions import R_WRIST
 from pcnet.pipeline.rectification import estimate_rotations
-from pcnet.stages.rotations import compose_camera_rotation
+from pcnet.stages.core.rotations import compose_camera_rotation
 from pcnet.stages.temporal import rectify_sequence
 
 ROOT = Path(__file__).resolve().parents[1]

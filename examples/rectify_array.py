@@ -12,7 +12,7 @@ import numpy as np
 
 import pcnet.pipeline
 from pcnet.pipeline.rectification import rectify
-from pcnet.stages.rotations import decompose_camera_rotation
+from pcnet.stages.core.rotations import decompose_camera_rotation
 
 path = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(pcnet.pipeline.__file__).parent / "example_data" / "X3D.npy"
 joints = np.load(path)  # (T, 17, 3), camera frame: x right, y down, z forward

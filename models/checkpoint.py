@@ -23,8 +23,8 @@ from pathlib import Path
 
 import torch
 
-from pcnet.stages.atomic import atomic_path
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.atomic import atomic_path
+from pcnet.stages.core.errors import InputError
 
 from .toml_config import check_config_keys
 

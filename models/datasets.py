@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from pcnet.models.lifter_noise import LifterNoise, apply_lifter_noise
-from pcnet.stages.canonical import canonical_rotation, to_canonical
-from pcnet.stages.conventions import H36M_PARENTS, PELVIS, validate_fps, validate_poses
-from pcnet.stages.errors import InputError
-from pcnet.stages.rotations import sample_camera_rotations
+from pcnet.stages.core.canonical import canonical_rotation, to_canonical
+from pcnet.stages.core.conventions import H36M_PARENTS, PELVIS, validate_fps, validate_poses
+from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.rotations import sample_camera_rotations
 
 SPLITS = ("train", "val", "test", "all")
 
@@ -42,7 +42,7 @@ def load_numpy_file(path: Path, what: str):
     Returns:
         the array of a ``.npy``, or for a ``.npz`` an ``np.lib.npyio.NpzFile``
         (:class:`pcnet.adapters.validate.NumpyArchive`) whose ``[key]`` raises
-        :class:`~pcnet.stages.errors.InputError` for a damaged or pickled member.
+        :class:`~pcnet.stages.core.errors.InputError` for a damaged or pickled member.
 
     Raises:
         FileNotFoundError: missing file (naming ``path`` and ``what``).
@@ -342,7 +342,7 @@ def make_pairs(
 
     Canonical targets follow ``docs/CONVENTIONS.md`` (gravity up, pelvis heading); frames whose
     heading is undefined (hip line near vertical) are dropped. ``R`` is sampled from
-    ``views`` ("paper"/"wide", :func:`pcnet.stages.rotations.sample_camera_rotations`), one
+    ``views`` ("paper"/"wide", :func:`pcnet.stages.core.rotations.sample_camera_rotations`), one
     per frame (``camera="per-frame"``, the paper's protocol) or one per clip: with
     ``camera="per-clip"`` the camera keeps its place relative to the body's heading (a
     camera fixed in tilt that pans with the subject's turns, so every frame stays in the

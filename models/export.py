@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pcnet.stages.atomic import atomic_path, write_text
+from pcnet.stages.core.atomic import atomic_path, write_text
 
 from .network import PCNet
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.errors import InputError
 
 from .preprocess import normalize_input
 from .view_gate import blend_rotations, camera_frame_weight

@@ -55,8 +55,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pcnet.stages.conventions import H36M_PARENTS, PELVIS
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.conventions import H36M_PARENTS, PELVIS
+from pcnet.stages.core.errors import InputError
 
 #: Correlation time (s) of the slow offsets: temporal lifters smooth over a 243-frame window
 #: (VideoPose3D; MotionBERT), 4.9-8 s at 50-30 fps, so an error persists for seconds; 1.5 s is

@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass
 import roma
 import torch
 
-from pcnet.stages.conventions import H36M_BONES
+from pcnet.stages.core.conventions import H36M_BONES
 
 _BONES = torch.tensor(H36M_BONES)
 # Pairs of bones sharing a joint (parent bone, child bone), whose angle L_perc preserves.

@@ -15,8 +15,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from pcnet.stages.conventions import H36M_BONES, L_HIP, PELVIS, R_HIP, THORAX
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.conventions import H36M_BONES, L_HIP, PELVIS, R_HIP, THORAX
+from pcnet.stages.core.errors import InputError
 
 NUM_JOINTS = 17
 #: Frames the network's input may be expressed in (:class:`PCNetConfig` ``input_frame``).
@@ -65,7 +65,7 @@ def rotation_6d_to_matrix(d6: torch.Tensor) -> torch.Tensor:
     The 6D vector holds the first two columns ``[a1, a2]``; ``R = [b1 b2 b3]`` with
     ``b1 = a1/|a1|``, ``b2 = normalize(a2 - (b1.a2) b1)``, ``b3 = b1 x b2``. The cross
     product is written out because ONNX has no Cross operator (onnx/onnx#2683). Same
-    convention as :func:`pcnet.stages.rotations.rotation_6d_to_matrix`.
+    convention as :func:`pcnet.stages.core.rotations.rotation_6d_to_matrix`.
     """
     return _orthonormal_columns(d6[..., 0:3], d6[..., 3:6])
 

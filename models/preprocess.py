@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pcnet.stages.conventions import H36M_PARENTS, L_HIP, PELVIS, R_HIP, check_poses
+from pcnet.stages.core.conventions import H36M_PARENTS, L_HIP, PELVIS, R_HIP, check_poses
 
 # Joints needed to define the body frame at all; a frame missing any is invalid.
 _REQUIRED = (R_HIP, L_HIP, 8, 11, 14)

@@ -12,7 +12,7 @@ import typing
 from collections.abc import Mapping
 from pathlib import Path
 
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.errors import InputError
 
 
 def read_toml(path: str | Path) -> dict:

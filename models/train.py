@@ -18,8 +18,8 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from pcnet.stages.errors import InputError
-from pcnet.stages.metrics import rotation_error_deg, summarize, tilt_error_deg
+from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.metrics import rotation_error_deg, summarize, tilt_error_deg
 
 from .checkpoint import (check_run_folder, config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint,
                          resume_point, save_checkpoint)

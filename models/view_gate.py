@@ -27,7 +27,7 @@ import numpy as np
 from scipy.ndimage import median_filter
 from scipy.spatial.transform import Rotation
 
-from pcnet.stages.rotations import decompose_camera_rotation
+from pcnet.stages.core.rotations import decompose_camera_rotation
 
 #: Camera-frame network weight ramps (degrees): full weight up to the first value, none from
 #: the second on; centred on the edges of the training views (|roll| 25, |pitch| 45).
@@ -53,7 +53,7 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
 
     Returns:
         ``(T,)`` float64 in [0, 1]; NaN where not valid. Pitch and roll are
-        :func:`pcnet.stages.rotations.decompose_camera_rotation`'s, their absolute values
+        :func:`pcnet.stages.core.rotations.decompose_camera_rotation`'s, their absolute values
         median-filtered over the valid frames in order.
     """
     weight = np.full(len(valid), np.nan)

@@ -20,8 +20,8 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
-from pcnet.stages.atomic import write_text
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.atomic import write_text
+from pcnet.stages.core.errors import InputError
 
 from .batch_marker import completed_record, input_files, pcnet_version, read_batch_marker
 from .batch_worker import cpu_cores

@@ -20,7 +20,7 @@ import time
 from importlib import metadata
 from pathlib import Path
 
-from pcnet.stages.atomic import write_text
+from pcnet.stages.core.atomic import write_text
 
 from .outdir import read_marker, register_files
 

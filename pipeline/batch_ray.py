@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from pcnet.stages.errors import import_extra
+from pcnet.stages.core.errors import import_extra
 
 from .batch_local import environment, sigint_ignored
 from .batch_worker import TEST_HOOK, cpu_cores, execute_row, set_opencv_threads, thread_env, threads_per_worker

@@ -69,7 +69,7 @@ def _test_hook(row: int) -> None:
 def error_line(err: BaseException) -> str:
     """A failed row's one-line error: an expected error's own text (bad input, a file
     problem), any other exception with its type so that a bug is recognisable."""
-    from pcnet.stages.errors import InputError
+    from pcnet.stages.core.errors import InputError
 
     if isinstance(err, OSError) and err.filename is not None:
         names = " -> ".join(str(f) for f in (err.filename, err.filename2) if f is not None)
@@ -99,7 +99,7 @@ def execute_row(job: dict) -> dict:
               "error": "", "host": socket.gethostname(), "pid": os.getpid(), "attempts": job.get("attempt", 1),
               "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS"))}
     _test_hook(job["row"])
-    from pcnet.stages.errors import InputError
+    from pcnet.stages.core.errors import InputError
 
     from .batch_marker import input_hashes, write_batch_marker
 

@@ -13,7 +13,7 @@ import click
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
 from pcnet.pipeline.entry import EXIT_INTERRUPTED, raise_interrupt
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.errors import InputError
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, check_method_weights
 
@@ -121,7 +121,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
     --max-frames scores N evenly spaced frames of whole rectified clips (same method, same
     per-clip decisions); invalid frames are counted and excluded."""
     from pcnet.pipeline.evaluate import evaluate as run_eval, format_table
-    from pcnet.stages.atomic import write_text
+    from pcnet.stages.core.atomic import write_text
 
     if json_out:
         _new_output_file(json_out, "--json", overwrite, inputs=(data, weights))
@@ -153,7 +153,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     import numpy as np
 
     from pcnet.pipeline.io import load_pose_array
-    from pcnet.stages.conventions import validate_fps
+    from pcnet.stages.core.conventions import validate_fps
     from pcnet.stages.exports import write_npz
     from pcnet.pipeline.rectification import rectify as run_rectify
 

@@ -8,8 +8,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from pcnet.models.toml_config import check_config_keys, check_config_types, read_toml
-from pcnet.stages.conventions import MAX_FPS, MIN_FPS
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
+from pcnet.stages.core.errors import InputError
 
 KEYPOINT_FORMATS = ("alphapose", "mmpose", "openpose", "mediapipe")
 LIFTERS = ("motionbert", "ddhpose", "videopose3d", "mediapipe", "generic", "kinect_v1", "azure_kinect")

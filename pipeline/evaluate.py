@@ -11,9 +11,9 @@ import numpy as np
 from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split, load_mocap,
                                    make_pairs, select_split)
 from pcnet.models.lifter_noise import LifterNoise
-from pcnet.stages.canonical import to_canonical
-from pcnet.stages.metrics import METRICS, evaluate_rotations, summarize
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.canonical import to_canonical
+from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
+from pcnet.stages.core.errors import InputError
 from pcnet.pipeline.rectification import estimate_rotations
 from pcnet.stages.rectify import finish_rotations, resolve_heading_source
 
@@ -145,7 +145,7 @@ def evaluate(
         "clip_modes" (sequence modes only), "camera_prior", "training_overlap" (evaluated
         clips and groups the evaluated weights' train split contains, by their
         ``training_config``, :func:`_training_overlap`; ``None`` for other data), "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
-        :data:`pcnet.stages.metrics.METRICS` (degrees, millimetres), over the valid scored
+        :data:`pcnet.stages.core.metrics.METRICS` (degrees, millimetres), over the valid scored
         frames. With ``details``: also ``"per_clip"`` (name, heading_source and mode per clip)
         and ``"per_frame"`` (``clip``, ``frame``, ``valid`` and each metric as arrays over the
         scored frames).

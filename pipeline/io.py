@@ -8,15 +8,15 @@ import numpy as np
 
 from pcnet.adapters.validate import NumpyArchive, describe_keys
 from pcnet.models.datasets import load_numpy_file
-from pcnet.stages.conventions import validate_poses
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.conventions import validate_poses
+from pcnet.stages.core.errors import InputError
 
 
 def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
     """Read ``(T, 17, 3)`` H36M-17 camera-frame poses from ``.npy`` or ``.npz`` (``key``
     names the array; optional when the npz holds exactly one).
 
-    The array goes through :func:`pcnet.stages.conventions.validate_poses`, the check the
+    The array goes through :func:`pcnet.stages.core.conventions.validate_poses`, the check the
     API applies too: real numbers only, ``inf`` becomes NaN (missing), no unit is assumed
     so coordinates beyond 1e5 are refused.
 

@@ -28,8 +28,8 @@ import uuid
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from pcnet.stages.atomic import write_text
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.atomic import write_text
+from pcnet.stages.core.errors import InputError
 
 from .entry import check_interrupted
 

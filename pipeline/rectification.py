@@ -1,7 +1,7 @@
 """Rectification composed: a per-frame estimator (the geometric baseline of
-:mod:`pcnet.stages.geometric`, or 3DPCNet through :mod:`pcnet.models.inference`), then the
+:mod:`pcnet.stages.core.geometric`, or 3DPCNet through :mod:`pcnet.models.inference`), then the
 stages after it (:func:`pcnet.stages.rectify.finish_rotations`: sequence modes, heading) and
-the canonical poses (:func:`pcnet.stages.canonical.to_canonical`).
+the canonical poses (:func:`pcnet.stages.core.canonical.to_canonical`).
 
 It lives in the pipeline because it is the one room allowed to use both ``models`` and
 ``stages`` (docs/architecture.md): the stages never import the network.
@@ -12,10 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from pcnet.models.inference import get_session
-from pcnet.stages.canonical import to_canonical
-from pcnet.stages.conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
-from pcnet.stages.errors import InputError
-from pcnet.stages.geometric import geometric_rotation
+from pcnet.stages.core.canonical import to_canonical
+from pcnet.stages.core.conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
+from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.geometric import geometric_rotation
 from pcnet.stages.rectify import (METHODS, Rectified, check_method_weights, finish_rotations, gate_report,
                                   resolve_heading_source)
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG
@@ -84,9 +84,9 @@ def rectify(
     ``heading="predicted"`` is the paper's model alone). ``report`` says what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
-    :func:`pcnet.stages.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least
+    :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least
     one frame and one finite value, non-finite = missing) and the pelvis rule
-    :func:`pcnet.stages.conventions.fill_pelvis_from_hips` (a missing pelvis is the hip
+    :func:`pcnet.stages.core.conventions.fill_pelvis_from_hips` (a missing pelvis is the hip
     midpoint; a frame still without a pelvis is invalid). The report's
     ``pelvis_from_hips_frames`` counts the filled frames; ``view_gate``
     (:func:`gate_report`) and ``camera_frame_weight`` ``(T,)`` say how far the shipped

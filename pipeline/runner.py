@@ -22,10 +22,10 @@ from tqdm import tqdm
 
 from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
 from pcnet.models.toml_config import type_name, value_matches
-from pcnet.stages.conventions import (H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps,
+from pcnet.stages.core.conventions import (H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps,
                                       validate_poses)
 from pcnet.stages.bvh import write_bvh
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.errors import InputError
 from pcnet.stages.exports import plot_wrists, require_ezc3d, write_c3d, write_kinematics_csv, write_npz, write_trc
 from pcnet.stages.flags import (body_size_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag, unfiltered_flag)
@@ -36,7 +36,7 @@ from pcnet.pipeline.rectification import rectify
 from pcnet.stages.rectify import NO_VALID_FRAME
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
 from pcnet.stages.rerun_log import series_from_kinematics, write_recording
-from pcnet.stages.rotations import decompose_camera_rotation
+from pcnet.stages.core.rotations import decompose_camera_rotation
 from pcnet.stages.scale import scale_to_height
 from pcnet.stages.uncertainty import LABEL as UNCERTAINTY_LABEL
 from pcnet.stages.world_frame import floor_heights, to_world, world_frame
@@ -222,7 +222,7 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
 
     Raises:
         FileExistsError: ``cfg.out`` exists and ``cfg.overwrite`` is False.
-        pcnet.stages.errors.InputError (``AdapterError`` is one): bad inputs or an unsafe
+        pcnet.stages.core.errors.InputError (``AdapterError`` is one): bad inputs or an unsafe
             ``out`` (:func:`pcnet.pipeline.outdir.check_out_folder`), naming file and field.
     """
     _freed_arrays_back_to_the_os()

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path
-from .conventions import H36M_JOINTS, L_WRIST, R_WRIST
-from .errors import InputError, import_extra
+from .core.atomic import atomic_path
+from .core.conventions import H36M_JOINTS, L_WRIST, R_WRIST
+from .core.errors import InputError, import_extra
 from .kinematics import Kinematics
 from .plots import display_samples
 

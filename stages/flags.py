@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .conventions import L_HIP, L_KNEE, PELVIS, R_HIP, R_KNEE, THORAX
+from .core.conventions import L_HIP, L_KNEE, PELVIS, R_HIP, R_KNEE, THORAX
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
 #: probably upside down or its axes are wrong: a real camera films a standing scene with
@@ -35,7 +35,7 @@ def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, fl
     One up vector for the whole recording (the normalised mean of the valid frames' ups), so
     the three numbers are consistent: ``cos(tilt) = cos(pitch) cos(roll)`` with
     ``pitch = asin(-u_z)``, ``roll = atan2(u_x, -u_y)``
-    (:func:`pcnet.stages.rotations.decompose_camera_rotation`'s convention).
+    (:func:`pcnet.stages.core.rotations.decompose_camera_rotation`'s convention).
 
     Args:
         up_cam: ``(T, 3)`` unit up directions in the camera frame (OpenCV axes).

@@ -68,7 +68,7 @@ class GravityPosterior:
     ``"lying"``; p_lying: posterior probability of the lying reading; interval_deg: 95 %
     cone half-angle of the posterior within the chosen reading (deg); pitch_half_deg,
     roll_half_deg: 95 % half-widths of camera pitch / roll within the chosen reading (deg,
-    :func:`pcnet.stages.rotations.decompose_camera_rotation`'s angles);
+    :func:`pcnet.stages.core.rotations.decompose_camera_rotation`'s angles);
     pose_camera_angle_deg: angle between the pose-based up and a level camera's up.
     """
 

@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .canonical import canonical_rotation
-from .conventions import L_HIP, R_HIP, check_poses
-from .errors import InputError
+from .core.canonical import canonical_rotation
+from .core.conventions import L_HIP, R_HIP, check_poses
+from .core.errors import InputError
 
 HEADING_SOURCES = ("auto", "predicted", "hips")
 
@@ -68,7 +68,7 @@ def hip_line_rotations(joints_cam: np.ndarray, R: np.ndarray) -> tuple[np.ndarra
 
     Column 1 (up) is kept; +Z becomes the normalised horizontal part of
     ``right_hip - left_hip`` and +X = Y x Z (``docs/CONVENTIONS.md``, canonical frame), via
-    :func:`pcnet.stages.canonical.canonical_rotation`.
+    :func:`pcnet.stages.core.canonical.canonical_rotation`.
 
     Args:
         joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any unit.

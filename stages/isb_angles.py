@@ -62,7 +62,7 @@ from types import MappingProxyType
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .conventions import (
+from .core.conventions import (
     L_HIP,
     L_SHOULDER,
     PELVIS,
@@ -75,7 +75,7 @@ from .conventions import (
     SPINE,
     THORAX,
 )
-from .errors import InputError
+from .core.errors import InputError
 
 #: Two directions that define a pelvis, thorax or heading frame (pelvis->spine vs the hip
 #: line; spine->thorax vs the shoulder line; thorax Z vs vertical) must be at least this far

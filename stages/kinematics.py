@@ -25,7 +25,7 @@ from typing import Iterable, Iterator, Literal, Mapping
 import numpy as np
 from scipy.signal import butter, sos2zpk, sosfiltfilt
 
-from .conventions import (
+from .core.conventions import (
     H36M_JOINTS,
     L_ANKLE,
     L_ELBOW,
@@ -43,10 +43,10 @@ from .conventions import (
     THORAX,
     check_poses,
 )
-from .canonical import canonical_rotation
+from .core.canonical import canonical_rotation
 from .isb_angles import isb_joint_angles
-from .rotations import angle_between
-from .errors import InputError
+from .core.rotations import angle_between
+from .core.errors import InputError
 
 # ---------------------------------------------------------------------------------------
 # contiguous finite runs
@@ -518,7 +518,7 @@ class Kinematics:
 
 def pelvis_heading_frame(poses: np.ndarray) -> np.ndarray:
     """Y-up poses turned about +Y, per frame, into the canonical frame's axes
-    (:func:`pcnet.stages.canonical.canonical_rotation` with up = +Y: +Z along the horizontal
+    (:func:`pcnet.stages.core.canonical.canonical_rotation` with up = +Y: +Z along the horizontal
     part of the hip line, docs/CONVENTIONS.md), without moving the origin: applied to
     world-frame (or canonical) poses, for angles that must not depend on the world heading.
 
@@ -527,7 +527,7 @@ def pelvis_heading_frame(poses: np.ndarray) -> np.ndarray:
 
     Returns:
         ``(T, 17, 3)`` float64; NaN for frames whose hip line is missing or within
-        :func:`~pcnet.stages.canonical.canonical_rotation`'s limit of vertical.
+        :func:`~pcnet.stages.core.canonical.canonical_rotation`'s limit of vertical.
     """
     X = np.asarray(poses, np.float64)
     R, _ = canonical_rotation(X, (0.0, 1.0, 0.0))

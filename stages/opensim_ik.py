@@ -1,7 +1,7 @@
 """OpenSim scaling and inverse kinematics of pcnet's world-frame TRC (optional extra).
 
 ``pcnet run`` writes ``world.trc`` for a static camera: the 17 H36M-17 joint centres as
-markers named as :data:`pcnet.stages.conventions.H36M_JOINTS`, in metres, in the recording's
+markers named as :data:`pcnet.stages.core.conventions.H36M_JOINTS`, in metres, in the recording's
 world frame, which has OpenSim's ground-frame axis roles (+X forward, +Y up, +Z right; floor
 at y = 0 at the ankle-centre height; [CONVENTIONS.md](../docs/CONVENTIONS.md) "World frame").
 :func:`scale_and_ik` scales a full-body model to the subject from those markers and solves
@@ -51,8 +51,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .conventions import H36M_JOINTS
-from .errors import InputError, import_extra
+from .core.conventions import H36M_JOINTS
+from .core.errors import InputError, import_extra
 
 MISSING_OPENSIM = 'pcnet opensim needs OpenSim: pip install "pcnet[opensim]"'
 DATA_DIR = Path(__file__).resolve().parent / "opensim_data"

@@ -17,7 +17,7 @@ palette; within a side, the n-th series of a group gets the n-th colour of the f
 In the PNGs the left side is also dashed, the right solid (as in ``wrists.png``).
 
 Rendering uses matplotlib's Agg canvas (no pyplot, no display); every PNG is written
-atomically (:mod:`pcnet.stages.atomic`). NaN samples (missing joints, undefined angles,
+atomically (:mod:`pcnet.stages.core.atomic`). NaN samples (missing joints, undefined angles,
 run edges without a derivative) are gaps in the lines, never zeros.
 """
 
@@ -32,8 +32,8 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .atomic import atomic_path
-from .errors import InputError
+from .core.atomic import atomic_path
+from .core.errors import InputError
 
 #: Samples per plotted line above which a line is drawn from per-bin extremes.
 MAX_PLOT_SAMPLES = 4000

@@ -13,7 +13,7 @@ import numpy as np
 
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import BOOTSTRAP_REPLICATES, rectify_sequence
-from .errors import InputError
+from .core.errors import InputError
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .conventions import Layout, get_layout
-from .errors import InputError
+from .core.conventions import Layout, get_layout
+from .core.errors import InputError
 
 
 def remap_to_h36m(points: np.ndarray, layout: Layout | str, confidence_channel: bool = False) -> np.ndarray:

@@ -57,9 +57,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path
-from .conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
-from .errors import InputError
+from .core.atomic import atomic_path
+from .core.conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
+from .core.errors import InputError
 from .plots import LEFT_COLOURS, RIGHT_COLOURS, angle_group, series_colours
 
 _BONE_A = np.array([a for a, _ in H36M_BONES])

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .conventions import (
+from .core.conventions import (
     HEAD,
     L_ANKLE,
     L_HIP,
@@ -54,7 +54,7 @@ from .conventions import (
     THORAX,
     check_poses,
 )
-from .errors import InputError
+from .core.errors import InputError
 
 #: Head-to-ankle bone chain divided by stature (module docstring: H36M reference
 #: skeleton + Drillis & Contini ankle height 0.039 H).

@@ -26,10 +26,10 @@ import numpy as np
 from scipy.ndimage import convolve1d
 from scipy.spatial.transform import Rotation
 
-from .conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE, THORAX, check_poses
+from .core.conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE, THORAX, check_poses
 from .gravity_prior import GravityPosterior, gravity_posterior
-from .rotations import angle_between, decompose_camera_rotation, normalize
-from .errors import InputError
+from .core.rotations import angle_between, decompose_camera_rotation, normalize
+from .core.errors import InputError
 from .uncertainty import SIGMA_SYS_DEG, calibrated_interval
 
 #: Angular std (deg) of the pose-based sequence up for the camera-prior posterior: the RMS
@@ -112,7 +112,7 @@ class SequenceResult:
         up_uncertainty_deg: radius of the 95% moving-block-bootstrap confidence cone around
             ``up`` (95th percentile of the bootstrap replicates' angles to ``up``), degrees.
         camera_pitch_deg, camera_roll_deg: the camera's tilt from ``up`` with
-            :func:`~pcnet.stages.rotations.decompose_camera_rotation`'s meaning:
+            :func:`~pcnet.stages.core.rotations.decompose_camera_rotation`'s meaning:
             ``pitch = asin(-u_z)`` (positive = camera looking down), ``roll = atan2(u_x, -u_y)``.
         camera_pitch_uncertainty_deg, camera_roll_uncertainty_deg: 95th percentile of the
             bootstrap replicates' absolute pitch / roll differences from the estimate

@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .conventions import L_ANKLE, PELVIS, R_ANKLE
-from .errors import InputError
+from .core.conventions import L_ANKLE, PELVIS, R_ANKLE
+from .core.errors import InputError
 
 #: Seconds at the start of the recording whose forward direction sets the world heading.
 HEADING_WINDOW_S = 1.0

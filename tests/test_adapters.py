@@ -43,7 +43,7 @@ from pcnet.adapters import (
 from conftest import FIXTURES, shared
 
 from pcnet.adapters.registry import unregister
-from pcnet.stages.conventions import (
+from pcnet.stages.core.conventions import (
     HEAD, L_ANKLE, L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_ANKLE, R_HIP, R_SHOULDER, THORAX, get_layout,
 )
 from pcnet.stages.remap import remap_to_h36m

@@ -1,7 +1,7 @@
 """The rooms' import directions (docs/architecture.md), read from the source with ``ast``.
 
-- the geometry core (``stages``: conventions, rotations, canonical, metrics, geometric, errors,
-  atomic) imports nothing of pcnet outside itself;
+- the geometry core (``stages/core/``: conventions, rotations, canonical, metrics, geometric,
+  errors, atomic) imports nothing of pcnet outside itself;
 - the other ``stages`` import only ``stages``: never the network (``models``), the file formats
   (``adapters``) or the composition (``pipeline``);
 - ``models`` and ``adapters`` use ``stages`` only through the core; ``models`` may read the
@@ -18,64 +18,68 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 ROOMS = ("adapters", "stages", "models", "pipeline")
-CORE = {"conventions", "rotations", "canonical", "metrics", "geometric", "errors", "atomic"}
+CORE = "stages.core"
 
 
-def _imports(room: str) -> dict[str, set[tuple[str, str]]]:
-    """module name -> {(room, module)} of the pcnet modules it imports (absolute or relative)."""
-    out: dict[str, set[tuple[str, str]]] = {}
-    for path in sorted((ROOT / room).rglob("*.py")):
-        found: set[tuple[str, str]] = set()
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom):
-                if node.level:
-                    parts = [room] + (node.module.split(".") if node.module else [])
-                    if len(parts) == 1:
-                        found |= {(room, a.name) for a in node.names}
+def _package(path: Path) -> str:
+    """Dotted package (without ``pcnet.``) holding ``path``: ``stages/core/rotations.py`` -> ``stages.core``."""
+    return ".".join(path.relative_to(ROOT).parent.parts)
+
+
+def _imports() -> dict[str, set[str]]:
+    """``room/file.py`` -> the pcnet modules it imports, dotted without ``pcnet.``."""
+    out: dict[str, set[str]] = {}
+    for room in ROOMS:
+        for path in sorted((ROOT / room).rglob("*.py")):
+            package = _package(path)
+            found: set[str] = set()
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.ImportFrom):
+                    if node.level:
+                        base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                        target = ".".join(base + ([node.module] if node.module else []))
+                    elif node.module and node.module.startswith("pcnet."):
+                        target = node.module[len("pcnet."):]
+                    else:
                         continue
-                elif node.module and node.module.startswith("pcnet."):
-                    parts = node.module.split(".")[1:]
-                    if len(parts) == 1:
-                        found |= {(parts[0], a.name) for a in node.names}
-                        continue
-                else:
-                    continue
-                found.add((parts[0], parts[1]))
-            elif isinstance(node, ast.Import):
-                for alias in node.names:
-                    parts = alias.name.split(".")
-                    if parts[0] == "pcnet" and len(parts) > 1:
-                        found.add((parts[1], parts[2] if len(parts) > 2 else "__init__"))
-        out[path.stem] = {(r, m) for r, m in found if r in ROOMS}
+                    found |= {f"{target}.{a.name}" for a in node.names}
+                elif isinstance(node, ast.Import):
+                    found |= {a.name[len("pcnet."):] for a in node.names if a.name.startswith("pcnet.")}
+            out[str(path.relative_to(ROOT))] = {t for t in found if t.split(".")[0] in ROOMS}
     return out
 
 
-IMPORTS = {room: _imports(room) for room in ROOMS}
+IMPORTS = _imports()
 
 
-def _violations(room: str, allowed) -> list[str]:
-    return [f"{room}/{module}.py imports pcnet.{r}.{m}" for module, deps in IMPORTS[room].items()
-            for r, m in sorted(deps) if not allowed(module, r, m)]
+def _in(target: str, where: str) -> bool:
+    return target == where or target.startswith(where + ".")
+
+
+def _violations(files: str, allowed) -> list[str]:
+    return [f"{f} imports pcnet.{t}" for f, targets in IMPORTS.items() if _in(_package(ROOT / f), files)
+            for t in sorted(targets) if not allowed(f, t)]
 
 
 def test_the_rooms_were_read():
-    assert CORE <= set(IMPORTS["stages"]) and "rectification" in IMPORTS["pipeline"]
-    assert ("models", "inference") in IMPORTS["pipeline"]["rectification"]  # the reader sees imports
+    assert any(f.startswith("stages/core/") for f in IMPORTS)
+    assert any(_in(t, "models.inference") for t in IMPORTS["pipeline/rectification.py"])  # imports are seen
+    assert any(_in(t, CORE) for t in IMPORTS["stages/kinematics.py"])  # relative imports resolved
 
 
-@pytest.mark.parametrize("room, rule, allowed", [
-    ("stages", "the geometry core imports only the core; other stages only stages",
-     lambda mod, r, m: r == "stages" and (m in CORE if mod in CORE else True)),
+@pytest.mark.parametrize("files, rule, allowed", [
+    (CORE, "the geometry core imports only itself", lambda f, t: _in(t, CORE)),
+    ("stages", "stages import only stages", lambda f, t: _in(t, "stages")),
     ("models", "models use stages only through the core (and may read the adapters' checks)",
-     lambda mod, r, m: r == "models" or (r == "stages" and m in CORE) or r == "adapters"),
+     lambda f, t: _in(t, "models") or _in(t, CORE) or _in(t, "adapters")),
     ("adapters", "adapters use stages only through the core and never import models or pipeline",
-     lambda mod, r, m: r == "adapters" or (r == "stages" and m in CORE)),
+     lambda f, t: _in(t, "adapters") or _in(t, CORE)),
 ])
-def test_import_directions(room, rule, allowed):
-    assert _violations(room, allowed) == [], rule
+def test_import_directions(files, rule, allowed):
+    assert _violations(files, allowed) == [], rule
 
 
 def test_nothing_imports_the_pipeline_but_itself():
-    offenders = [f"{room}/{module}.py" for room in ("adapters", "stages", "models")
-                 for module, deps in IMPORTS[room].items() if any(r == "pipeline" for r, _ in deps)]
+    offenders = [f for f, targets in IMPORTS.items() if not f.startswith("pipeline/")
+                 and any(_in(t, "pipeline") for t in targets)]
     assert offenders == []

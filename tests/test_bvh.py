@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from conftest import FIXTURES
 from pcnet.stages.bvh import bvh_motion, write_bvh
-from pcnet.stages.conventions import H36M_BONES, H36M_JOINTS
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.conventions import H36M_BONES, H36M_JOINTS
+from pcnet.stages.core.errors import InputError
 
 with warnings.catch_warnings():  # bvhio imports PyGLM as "glm", which PyGLM marks as deprecated
     warnings.simplefilter("ignore", PendingDeprecationWarning)

@@ -21,7 +21,7 @@ from pcnet.models.datasets import clip_split, load_mocap  # noqa: E402
 from pcnet.models.inference import PCNetSession  # noqa: E402
 from pcnet.models.train import load_config, train  # noqa: E402
 from pcnet.pipeline.cli import main  # noqa: E402
-from pcnet.stages.errors import InputError  # noqa: E402
+from pcnet.stages.core.errors import InputError  # noqa: E402
 
 # Tiny models run fastest on one thread, and multi-threaded torch stalls on a busy machine.
 torch.set_num_threads(1)

@@ -11,11 +11,11 @@ from scipy.spatial.transform import Rotation
 from conftest import FIXTURES, shared
 
 from pcnet.models.datasets import clip_split, load_mocap, make_pairs, select_split
-from pcnet.stages import rotations as rot
-from pcnet.stages.canonical import canonical_rotation, to_canonical, world_to_canonical
-from pcnet.stages.conventions import H36M_PARENTS, LAYOUTS, check_poses, get_layout
-from pcnet.stages.geometric import geometric_rotation
-from pcnet.stages.metrics import heading_error_deg, mpjpe_mm, pa_mpjpe_mm, rotation_error_deg, tilt_error_deg
+from pcnet.stages.core import rotations as rot
+from pcnet.stages.core.canonical import canonical_rotation, to_canonical, world_to_canonical
+from pcnet.stages.core.conventions import H36M_PARENTS, LAYOUTS, check_poses, get_layout
+from pcnet.stages.core.geometric import geometric_rotation
+from pcnet.stages.core.metrics import heading_error_deg, mpjpe_mm, pa_mpjpe_mm, rotation_error_deg, tilt_error_deg
 from pcnet.stages.remap import remap_to_h36m
 
 BANDAI = FIXTURES / "bandai_small.npz"

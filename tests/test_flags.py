@@ -106,7 +106,7 @@ def test_metres_that_are_not_metres_are_flagged(scale, flagged):
 def test_camera_tilt_matches_the_rotation_decomposition_on_real_poses():
     """Sequence mode has one up: the summary's pitch and roll equal those of
     decompose_camera_rotation on the rectified rotations (same convention, column 1 = up)."""
-    from pcnet.stages.rotations import decompose_camera_rotation
+    from pcnet.stages.core.rotations import decompose_camera_rotation
 
     res = rectify(_roll(np.load(TADASANA), 20), "geometric", mode="sequence")
     _, pitch, roll = decompose_camera_rotation(res.rotation[res.valid])

@@ -3,7 +3,7 @@
 The property, for any input: the call either returns a result that obeys the conventions
 (float32 ``(T, J, 3)``, finite or NaN, never inf, 2D confidence in [0, 1], coordinates
 within ``MAX_ABS_COORDINATE`` for their units, a missing 2D joint NaN in all channels), or
-raises :class:`pcnet.stages.errors.InputError` (``AdapterError`` is one) whose message is
+raises :class:`pcnet.stages.core.errors.InputError` (``AdapterError`` is one) whose message is
 one line. Any other exception, and any numpy warning (run as errors), fails the test.
 
 Inputs: random bytes; truncated and garbled copies of the real fixtures; JSON of random
@@ -50,8 +50,8 @@ from pcnet.adapters import (
 from pcnet.adapters.validate import describe_keys, frame_count_for
 from pcnet.models.datasets import load_numpy_file
 from pcnet.pipeline.io import load_pose_array
-from pcnet.stages.conventions import MAX_ABS_COORDINATE, get_layout
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout
+from pcnet.stages.core.errors import InputError
 
 FUZZ = settings(
     max_examples=int(os.environ.get("PCNET_FUZZ_EXAMPLES", "40")),

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pcnet.stages.conventions import PELVIS, THORAX
+from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.gravity_prior import LEVEL_UP, gravity_posterior
-from pcnet.stages.rotations import angle_between
+from pcnet.stages.core.rotations import angle_between
 from pcnet.stages.temporal import mean_trunk
 
 FIX = Path(__file__).parent / "fixtures"

@@ -13,7 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from pcnet.models.datasets import Noise, apply_noise
-from pcnet.stages.canonical import canonical_rotation, to_canonical, world_to_canonical
+from pcnet.stages.core.canonical import canonical_rotation, to_canonical, world_to_canonical
 from pcnet.stages.heading import (
     AUTO_MAX_HIP_WIDTH_CV_PERCENT,
     apply_heading,
@@ -21,9 +21,9 @@ from pcnet.stages.heading import (
     hip_line_rotations,
     hip_width_cv_percent,
 )
-from pcnet.stages.metrics import heading_error_deg, tilt_error_deg
+from pcnet.stages.core.metrics import heading_error_deg, tilt_error_deg
 from pcnet.pipeline.rectification import rectify
-from pcnet.stages.rotations import angle_between, axis_rotation, sample_camera_rotations
+from pcnet.stages.core.rotations import angle_between, axis_rotation, sample_camera_rotations
 
 from conftest import FIXTURES
 

@@ -16,8 +16,8 @@ from pcnet.models import lifter_noise as ln
 from pcnet.models.datasets import (CMU_HOLDOUT_SUBJECTS, HELDOUT_STYLE_COUNT, HELDOUT_TEST_STYLES, SPLIT_SCHEMES,
                                    Clip, Noise, apply_noise, clip_split_of, group_key, load_mocap, make_pairs,
                                    parse_bandai_name, select_split)
-from pcnet.stages.errors import InputError
-from pcnet.stages.metrics import mpjpe_mm
+from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.metrics import mpjpe_mm
 
 BANDAI_FIXTURES = ("bandai_small.npz", "bandai_test_clips.npz", "mocap_small.npz")
 TEST_CLIPS = FIXTURES / "bandai_test_clips.npz"
@@ -218,7 +218,7 @@ def test_lifter_noise_has_its_per_clip_biases():
     p = ln.LifterNoise(**{**ONLY, "bone_scale_sigma": ln.BONE_SCALE_SIGMA})
     e = ln.sample_lifter_errors(len(X), 30.0, np.random.default_rng(5), p)
     Y = ln.apply_lifter_errors(X, e)
-    from pcnet.stages.conventions import H36M_PARENTS
+    from pcnet.stages.core.conventions import H36M_PARENTS
 
     for child, parent in enumerate(H36M_PARENTS):
         if parent >= 0:
@@ -306,7 +306,7 @@ def test_max_frames_keeps_the_per_clip_decisions():
 
 def test_invalid_frames_are_counted_and_excluded():
     from pcnet.pipeline.evaluate import evaluate
-    from pcnet.stages.metrics import summarize
+    from pcnet.stages.core.metrics import summarize
 
     res = evaluate("geometric", TEST_CLIPS, "all", noise="frame", details=True)  # dropped joints
     pf = res["per_frame"]

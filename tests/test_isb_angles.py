@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from conftest import FIXTURES
 from pcnet.models.datasets import load_mocap
-from pcnet.stages.conventions import (
+from pcnet.stages.core.conventions import (
     L_ANKLE,
     L_ELBOW,
     L_HIP,

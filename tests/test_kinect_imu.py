@@ -23,7 +23,7 @@ from pcnet.adapters.kinect import (
     load_azure_kinect,
     load_kinect_v1,
 )
-from pcnet.stages.conventions import (
+from pcnet.stages.core.conventions import (
     HEAD,
     L_HIP,
     L_SHOULDER,

@@ -18,8 +18,8 @@ import pytest
 from conftest import FIXTURES, rrd_summary, shared
 
 from pcnet.stages import exports
-from pcnet.stages.canonical import canonical_rotation, to_canonical
-from pcnet.stages.conventions import (
+from pcnet.stages.core.canonical import canonical_rotation, to_canonical
+from pcnet.stages.core.conventions import (
     H36M_JOINTS,
     H36M_PARENTS,
     L_ANKLE,
@@ -37,7 +37,7 @@ from pcnet.stages.conventions import (
     R_FRONTAL,
 )
 from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
-from pcnet.stages.geometric import geometric_rotation
+from pcnet.stages.core.geometric import geometric_rotation
 from pcnet.stages.kinematics import (
     butterworth_lowpass,
     compute_kinematics,
@@ -51,8 +51,8 @@ from pcnet.stages.kinematics import (
     residual_analysis,
     settle_frames,
 )
-from pcnet.stages.errors import InputError
-from pcnet.stages.rotations import axis_rotation
+from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.rotations import axis_rotation
 from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length, scale_to_height
 
 FPS_YOGA = 30.0  # the yoga exports state no rate; 30 fps assumed (fixtures/README.md)
@@ -808,7 +808,7 @@ def test_c3d_without_ezc3d_is_one_line_before_any_work(monkeypatch, tmp_path):
 
     from pcnet.pipeline.config import RunConfig
     from pcnet.pipeline.runner import run_pipeline
-    from pcnet.stages.errors import InputError
+    from pcnet.stages.core.errors import InputError
 
     monkeypatch.setitem(sys.modules, "ezc3d", None)  # import ezc3d -> ImportError
     cfg = RunConfig(lifter="motionbert", lifter_output=str(tmp_path / "never_read.npy"), fps=30,

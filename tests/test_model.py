@@ -13,7 +13,7 @@ from conftest import FIXTURES, ROOT
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.models.inference import DEFAULT_WEIGHTS
 from pcnet.models.preprocess import normalize_input
-from pcnet.stages.metrics import rotation_error_deg
+from pcnet.stages.core.metrics import rotation_error_deg
 
 torch = pytest.importorskip("torch", reason="torch (the [train] extra) not installed")
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 from pcnet.pipeline.cli import main
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.errors import InputError
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "pipeline" / "example_data"
 FRAMES = 60  # 2 s of the bundled boxing clip

@@ -16,7 +16,7 @@ from conftest import FIXTURES, rrd_summary, shared
 from pcnet.pipeline.cli import EXAMPLE_DIR, main
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
-from pcnet.stages.conventions import HEAD, PELVIS, THORAX
+from pcnet.stages.core.conventions import HEAD, PELVIS, THORAX
 
 BOX_2D = FIXTURES / "boxing_alphapose_f000-059.json"
 BOX_3D = FIXTURES / "boxing_X3D_f000-059.npy"

@@ -14,8 +14,8 @@ import io
 import numpy as np
 import pytest
 from conftest import FIXTURES, rrd_summary
-from pcnet.stages.canonical import canonical_rotation, to_canonical
-from pcnet.stages.conventions import L_WRIST
+from pcnet.stages.core.canonical import canonical_rotation, to_canonical
+from pcnet.stages.core.conventions import L_WRIST
 from pcnet.stages.isb_angles import NAMES as ISB_NAMES
 from pcnet.stages.kinematics import ANGLE_NAMES, compute_kinematics
 from pcnet.stages.plots import (

@@ -12,8 +12,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from conftest import FIXTURES, ROOT, shared
-from pcnet.stages.conventions import PELVIS, R_FRONTAL, THORAX
-from pcnet.stages.rotations import axis_rotation, compose_camera_rotation
+from pcnet.stages.core.conventions import PELVIS, R_FRONTAL, THORAX
+from pcnet.stages.core.rotations import axis_rotation, compose_camera_rotation
 
 sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
 import equivariance  # noqa: E402

@@ -19,7 +19,7 @@ from conftest import FIXTURES
 
 from pcnet.pipeline.cli import main
 from pcnet.pipeline.outdir import MARKER, TMP_TAG, TRASH_TAG, read_marker
-from pcnet.stages.conventions import L_HIP, PELVIS
+from pcnet.stages.core.conventions import L_HIP, PELVIS
 from pcnet.pipeline.rectification import rectify
 
 POSES = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"  # VideoPose3D, (100, 17, 3) metres, camera frame

@@ -22,10 +22,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pcnet.stages import temporal as tm
-from pcnet.stages.canonical import canonical_rotation, world_to_canonical
-from pcnet.stages.geometric import geometric_rotation
-from pcnet.stages.metrics import heading_error_deg
-from pcnet.stages.rotations import (
+from pcnet.stages.core.canonical import canonical_rotation, world_to_canonical
+from pcnet.stages.core.geometric import geometric_rotation
+from pcnet.stages.core.metrics import heading_error_deg
+from pcnet.stages.core.rotations import (
     angle_between,
     axis_rotation,
     compose_camera_rotation,

@@ -8,10 +8,10 @@ from conftest import FIXTURES
 
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
 from pcnet.models.view_gate import PITCH_RAMP_DEG, ROLL_RAMP_DEG, blend_rotations, camera_frame_weight
-from pcnet.stages.conventions import PELVIS
+from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.flags import view_gate_flag
 from pcnet.pipeline.rectification import rectify
-from pcnet.stages.rotations import axis_rotation, compose_camera_rotation, geodesic_angle
+from pcnet.stages.core.rotations import axis_rotation, compose_camera_rotation, geodesic_angle
 
 
 def _cameras(pitch_deg, roll_deg) -> np.ndarray:

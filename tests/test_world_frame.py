@@ -7,11 +7,11 @@ import pytest
 from conftest import FIXTURES
 
 from pcnet.models.datasets import load_mocap
-from pcnet.stages.canonical import canonical_rotation, to_canonical
-from pcnet.stages.conventions import H36M_JOINTS, PELVIS
-from pcnet.stages.errors import InputError
+from pcnet.stages.core.canonical import canonical_rotation, to_canonical
+from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS
+from pcnet.stages.core.errors import InputError
 from pcnet.stages.kinematics import compute_kinematics
-from pcnet.stages.rotations import axis_rotation
+from pcnet.stages.core.rotations import axis_rotation
 from pcnet.stages.world_frame import to_world, world_frame
 
 FPS = 30.0
@@ -119,7 +119,7 @@ def test_frames_without_visible_feet_keep_the_floor_they_last_saw():
     """No visible ankle (masked, out of the picture): the lowest joint is not on the floor, so
     the pelvis's height above the floor is carried over from the frames that saw the feet; with
     no ankle anywhere there is no floor and heights are relative to the pelvis."""
-    from pcnet.stages.conventions import L_ANKLE, R_ANKLE
+    from pcnet.stages.core.conventions import L_ANKLE, R_ANKLE
     from pcnet.stages.world_frame import floor_heights
 
     J = load_mocap(FIXTURES / "bandai_small.npz")[0].joints[:60].astype(np.float64)
