@@ -5,7 +5,7 @@
 What is compared. The same H36M-17 joint centres go two ways:
 - pcnet: :func:`pcnet.stages.isb_angles.isb_joint_angles` (ISB: Wu et al. 2002/2005, knee per
   Grood & Suntay 1983; segment frames from joint centres, docs/joint_angles.md);
-- OpenSim: the poses written as TRC (:func:`pcnet.stages.exports.write_trc`), then
+- OpenSim: the poses written as TRC (:func:`pcnet.stages.sinks.exports.write_trc`), then
   :func:`pcnet.stages.opensim_ik.scale_and_ik` (the shipped Model_H36M17.osim = Pose2Sim's
   Model_Pose2Sim_simple, after Rajagopal et al. 2016; one scaled model per recording), its
   ``ik.mot``.
@@ -436,7 +436,7 @@ def main() -> None:
     ap.add_argument("--max-frames", type=int, default=300, help="first frames of each mocap clip")
     ap.add_argument("--no-demo", action="store_true")
     args = ap.parse_args()
-    from pcnet.stages.exports import write_trc
+    from pcnet.stages.sinks.exports import write_trc
     from pcnet.stages.opensim_ik import import_opensim
 
     t0 = time.perf_counter()

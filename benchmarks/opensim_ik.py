@@ -7,7 +7,7 @@ IK thread):
 - demo: `pcnet run` on the bundled example (MotionBERT + AlphaPose, 301 frames, 3DPCNet,
   --height 1.75, no recording), its world.trc;
 - mocap: real motion-capture clips (../shared/data/mocap: a Bandai walk and kick, a CMU
-  clip; metres, +Y up, already a gravity frame) written with pcnet.stages.exports.write_trc
+  clip; metres, +Y up, already a gravity frame) written with pcnet.stages.sinks.exports.write_trc
   after moving the first frame's pelvis to x = z = 0 and the floor (5th percentile of the
   lowest joint centre) to y = 0, as stages/world_frame.py does; at most --max-frames frames.
   Without ../shared/data, the Bandai clips of tests/fixtures/bandai_test_clips.npz.
@@ -84,7 +84,7 @@ def main() -> None:
     ap.add_argument("--data", default=str(ROOT.parent / "shared" / "data"))
     ap.add_argument("--max-frames", type=int, default=300)
     args = ap.parse_args()
-    from pcnet.stages.exports import write_trc
+    from pcnet.stages.sinks.exports import write_trc
     from pcnet.stages.opensim_ik import import_opensim, scale_and_ik
 
     osim = import_opensim()

@@ -154,7 +154,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
 
     from pcnet.pipeline.io import load_pose_array
     from pcnet.stages.core.conventions import validate_fps
-    from pcnet.stages.exports import write_npz
+    from pcnet.stages.sinks.exports import write_npz
     from pcnet.pipeline.rectification import rectify as run_rectify
 
     _new_output_file(out_path, "--out", overwrite, inputs=(input_path, weights))

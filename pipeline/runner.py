@@ -24,18 +24,18 @@ from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
 from pcnet.models.toml_config import type_name, value_matches
 from pcnet.stages.core.conventions import (H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps,
                                       validate_poses)
-from pcnet.stages.bvh import write_bvh
+from pcnet.stages.sinks.bvh import write_bvh
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.exports import plot_wrists, require_ezc3d, write_c3d, write_kinematics_csv, write_npz, write_trc
+from pcnet.stages.sinks.exports import plot_wrists, require_ezc3d, write_c3d, write_kinematics_csv, write_npz, write_trc
 from pcnet.stages.flags import (body_size_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import (concat_frames, count_flags, format_flag_counts, kinematics_chunks,
                                      residual_analysis, select_frames)
-from pcnet.stages.plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
+from pcnet.stages.sinks.plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.rectify import NO_VALID_FRAME
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
-from pcnet.stages.rerun_log import series_from_kinematics, write_recording
+from pcnet.stages.sinks.rerun_log import series_from_kinematics, write_recording
 from pcnet.stages.core.rotations import decompose_camera_rotation
 from pcnet.stages.scale import scale_to_height
 from pcnet.stages.uncertainty import LABEL as UNCERTAINTY_LABEL

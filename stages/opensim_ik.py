@@ -74,7 +74,7 @@ def import_opensim():
 
 
 def read_trc(trc_path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, list[str], str]:
-    """Read a ``.trc`` as written by :func:`pcnet.stages.exports.write_trc`.
+    """Read a ``.trc`` as written by :func:`pcnet.stages.sinks.exports.write_trc`.
 
     Returns:
         ``(times (T,) s, markers (T, M, 3) in the file's units with NaN for empty fields,
@@ -272,7 +272,7 @@ def scale_and_ik(
         # The ScaleTool averages marker-pair distances (and the placer marker positions) over
         # its time range and a single missing marker spoils a measurement: scale on the
         # complete frames only (their own copy, times renumbered).
-        from .exports import write_trc
+        from .sinks.exports import write_trc
 
         scale_trc = write_trc(tmp / "scale_frames.trc", joints[complete], fps, H36M_JOINTS, units)
         c_times = np.arange(int(complete.sum())) / fps

@@ -1,4 +1,4 @@
-"""BVH export (:mod:`pcnet.stages.bvh`): written files read back with bvhio
+"""BVH export (:mod:`pcnet.stages.sinks.bvh`): written files read back with bvhio
 (https://github.com/Wasserwecken/bvhio), an independent BVH reader and forward-kinematics
 implementation, must reproduce real poses rigidified to their median bone lengths within 1 mm.
 
@@ -15,7 +15,7 @@ import warnings
 import numpy as np
 import pytest
 from conftest import FIXTURES
-from pcnet.stages.bvh import bvh_motion, write_bvh
+from pcnet.stages.sinks.bvh import bvh_motion, write_bvh
 from pcnet.stages.core.conventions import H36M_BONES, H36M_JOINTS
 from pcnet.stages.core.errors import InputError
 
@@ -237,7 +237,7 @@ def test_written_in_blocks_equals_the_whole_recording(tmp_path, mocap, monkeypat
     """write_bvh streams its channels a block of frames at a time (bounded memory for long
     recordings); with tiny blocks the file must hold what bvh_motion computes at once,
     including the unwrapping and the holding of a degenerate pelvis frame across block edges."""
-    import pcnet.stages.bvh as bvh
+    import pcnet.stages.sinks.bvh as bvh
 
     X = np.concatenate([mocap[c] for c in CLIPS])
     X[40:45, 3] = np.nan

@@ -44,7 +44,7 @@ def test_sign_mappings_on_the_model_itself():
 def test_real_clip_agrees_with_opensim_ik(tmp_path):
     pytest.importorskip("opensim", reason=SKIP)
     from pcnet.models.datasets import load_mocap
-    from pcnet.stages.exports import write_trc
+    from pcnet.stages.sinks.exports import write_trc
     from pcnet.stages.opensim_ik import import_opensim
 
     clip = next(c for c in load_mocap(FIXTURES / "mocap_small.npz") if c.name == "dataset-2_run_masculine_037")

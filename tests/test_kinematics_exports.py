@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from conftest import FIXTURES, rrd_summary, shared
 
-from pcnet.stages import exports
+from pcnet.stages.sinks import exports
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
 from pcnet.stages.core.conventions import (
     H36M_JOINTS,
@@ -36,7 +36,7 @@ from pcnet.stages.core.conventions import (
     R_WRIST,
     R_FRONTAL,
 )
-from pcnet.stages.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
+from pcnet.stages.sinks.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
 from pcnet.stages.core.geometric import geometric_rotation
 from pcnet.stages.kinematics import (
     butterworth_lowpass,
@@ -675,7 +675,7 @@ def _inputs(cam: np.ndarray):
 
 
 def test_rerun_recording_entities_rows_and_blueprint(tmp_path, yoga_cam):
-    from pcnet.stages.rerun_log import series_from_kinematics, write_recording
+    from pcnet.stages.sinks.rerun_log import series_from_kinematics, write_recording
 
     cam = yoga_cam.copy()
     cam[40:45] = np.nan  # missing frames
@@ -711,7 +711,7 @@ def test_rerun_recording_entities_rows_and_blueprint(tmp_path, yoga_cam):
 
 
 def test_rerun_video_lines_up_with_frames(tmp_path):
-    from pcnet.stages.rerun_log import write_recording
+    from pcnet.stages.sinks.rerun_log import write_recording
 
     video = shared("real", "boxing_motionbert", "boxing2.mp4")
     X = np.load(shared("real", "boxing_motionbert", "X3D.npy"))  # (301, 17, 3) normalised
@@ -736,7 +736,7 @@ def test_rerun_video_lines_up_with_frames(tmp_path):
 def test_rerun_write_is_atomic(tmp_path, monkeypatch, yoga_cam):
     import rerun as rr
 
-    from pcnet.stages.rerun_log import write_recording
+    from pcnet.stages.sinks.rerun_log import write_recording
 
     cam = yoga_cam[:50]
     R, valid, can = _inputs(cam)
@@ -759,7 +759,7 @@ def test_rerun_write_is_atomic(tmp_path, monkeypatch, yoga_cam):
 def test_rerun_36000_frames_is_fast(tmp_path, yoga_cam):
     """Columnar logging: a 20-minute sequence (36,000 frames at 30 fps, the real
     sequence tiled) must write in seconds. A per-frame rr.log loop takes minutes."""
-    from pcnet.stages.rerun_log import series_from_kinematics, write_recording
+    from pcnet.stages.sinks.rerun_log import series_from_kinematics, write_recording
 
     reps = int(np.ceil(36000 / len(yoga_cam)))
     cam = np.tile(yoga_cam, (reps, 1, 1))[:36000]

@@ -96,10 +96,10 @@ def test_long_recordings_in_chunks_give_the_outputs_of_one_piece(tmp_path, monke
     memory does not grow with a recording's length (issue: bounded memory); with blocks far
     smaller than the recording (a filter's context crossing every edge) every output equals
     the one-piece run within float tolerance."""
-    import pcnet.stages.bvh as bvh
-    import pcnet.stages.exports as exports
+    import pcnet.stages.sinks.bvh as bvh
+    import pcnet.stages.sinks.exports as exports
     import pcnet.stages.kinematics as kinematics
-    import pcnet.stages.rerun_log as rerun_log
+    import pcnet.stages.sinks.rerun_log as rerun_log
 
     args = ("run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--lifter", "motionbert",
             "--lifter-output", BOX_3D, "--fps", "30", "--height", "1.75", "--mode", "sequence")

@@ -1,5 +1,5 @@
-"""Joint-angle and joint-speed PNGs (``stages/plots.py``) and the readability of the rerun
-recording (``stages/rerun_log.py``): floor in the world view, joint labels off, left/right
+"""Joint-angle and joint-speed PNGs (``stages/sinks/plots.py``) and the readability of the rerun
+recording (``stages/sinks/rerun_log.py``): floor in the world view, joint labels off, left/right
 colours apart, angle plots split into small groups.
 
 Real data: ``tests/fixtures/mocap_small.npz`` (Bandai Namco Research Motiondataset clips,
@@ -18,7 +18,7 @@ from pcnet.stages.core.canonical import canonical_rotation, to_canonical
 from pcnet.stages.core.conventions import L_WRIST
 from pcnet.stages.isb_angles import NAMES as ISB_NAMES
 from pcnet.stages.kinematics import ANGLE_NAMES, compute_kinematics
-from pcnet.stages.plots import (
+from pcnet.stages.sinks.plots import (
     ANGLE_GROUPS,
     LEFT_COLOURS,
     RIGHT_COLOURS,
@@ -164,7 +164,7 @@ def test_plots_refuse_a_wrong_frame_rate_and_leave_nothing(tmp_path, walk):
 
 
 def _recording(tmp_path, clip: str, **kw):
-    from pcnet.stages.rerun_log import series_from_kinematics, write_recording
+    from pcnet.stages.sinks.rerun_log import series_from_kinematics, write_recording
 
     W = _world(clip)
     R, valid = canonical_rotation(W, (0.0, 1.0, 0.0))  # camera frame = world frame here
@@ -274,7 +274,7 @@ def test_rerun_time_series_are_split_into_small_groups_with_side_colours(tmp_pat
 def test_long_series_are_drawn_from_their_extremes():
     """A 2-hour series is drawn from per-bin minima and maxima: every peak, the envelope and
     the gaps survive; short series are drawn as they are."""
-    from pcnet.stages.plots import display_samples
+    from pcnet.stages.sinks.plots import display_samples
 
     with np.load(FIXTURES / "mocap_small.npz") as d:
         wrist = d["dataset-2_walk-turn-left_active_001"][:, 16, 1].astype(np.float64)  # real right-wrist height

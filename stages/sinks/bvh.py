@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .core.atomic import atomic_path
-from .core.conventions import (
+from ..core.atomic import atomic_path
+from ..core.conventions import (
     H36M_JOINTS,
     H36M_PARENTS,
     HEAD,
@@ -60,7 +60,7 @@ from .core.conventions import (
     THORAX,
     validate_fps,
 )
-from .core.errors import InputError
+from ..core.errors import InputError
 from .exports import TEXT_BLOCK_ROWS
 
 #: Rotation order (scipy intrinsic sequence = BVH channel order) of the pelvis and thorax,

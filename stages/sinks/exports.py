@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .core.atomic import atomic_path
-from .core.conventions import H36M_JOINTS, L_WRIST, R_WRIST
-from .core.errors import InputError, import_extra
-from .kinematics import Kinematics
+from ..core.atomic import atomic_path
+from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST
+from ..core.errors import InputError, import_extra
+from ..kinematics import Kinematics
 from .plots import display_samples
 
 

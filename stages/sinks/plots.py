@@ -2,7 +2,7 @@
 grouping and colours of angle series that the rerun recording shares with them.
 
 The wrists plot (positions and accelerations before and after rectification) is
-:func:`pcnet.stages.exports.plot_wrists`; the plots here sit beside it in a run's output
+:func:`pcnet.stages.sinks.exports.plot_wrists`; the plots here sit beside it in a run's output
 folder (``angles.png``, ``speeds.png``).
 
 Grouping: the angles of :class:`~pcnet.stages.kinematics.Kinematics` (the ISB joint angles
@@ -32,8 +32,8 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .core.atomic import atomic_path
-from .core.errors import InputError
+from ..core.atomic import atomic_path
+from ..core.errors import InputError
 
 #: Samples per plotted line above which a line is drawn from per-bin extremes.
 MAX_PLOT_SAMPLES = 4000

@@ -40,9 +40,9 @@ Entity tree (all per-frame data is on the ``frame`` (sequence) and ``video_time`
 Readability: joint labels are off by default (``show_labels=False`` on the 2D and 3D
 joints: the H36M names from the annotation context would cover the person; hovering a
 joint still shows its name); left joints and bones blue, right red, midline grey; series
-colours from :func:`pcnet.stages.plots.series_colours` (left cool, right warm, so left
+colours from :func:`pcnet.stages.sinks.plots.series_colours` (left cool, right warm, so left
 and right never share a colour); angles split into one plot per joint or segment
-(:func:`pcnet.stages.plots.angle_group`, at most six series each).
+(:func:`pcnet.stages.sinks.plots.angle_group`, at most six series each).
 
 Missing data is left out, never drawn as zeros: NaN joints, bones with a NaN end,
 invalid frames' arrows and non-finite series samples are simply not logged for that
@@ -57,16 +57,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .core.atomic import atomic_path
-from .core.conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
-from .core.errors import InputError
+from ..core.atomic import atomic_path
+from ..core.conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
+from ..core.errors import InputError
 from .plots import LEFT_COLOURS, RIGHT_COLOURS, angle_group, series_colours
 
 _BONE_A = np.array([a for a, _ in H36M_BONES])
 _BONE_B = np.array([b for _, b in H36M_BONES])
 
 # Left blue, right red, midline grey (the usual pose-viewer colouring); the same blue and
-# red start the series colour families of stages/plots.py.
+# red start the series colour families of stages/sinks/plots.py.
 _LEFT_C, _RIGHT_C, _MID_C = LEFT_COLOURS[0], RIGHT_COLOURS[0], (170, 170, 170)
 _FLOOR_C = (105, 105, 105)
 #: Frames per send_columns call.
@@ -501,7 +501,7 @@ def series_from_kinematics(
     Names are ``"{group}/{joint}_{component}"`` with groups ``position_{u}``,
     ``velocity_{u}_per_s``, ``acceleration_{u}_per_s2``, ``speed_{u}_per_s``
     (``u`` = the kinematics' length unit), and ``"angles_deg/{angle group}/{angle}"`` with
-    the groups of :func:`pcnet.stages.plots.angle_group` (``trunk``, ``hip``, ``knee``,
+    the groups of :func:`pcnet.stages.sinks.plots.angle_group` (``trunk``, ``hip``, ``knee``,
     ``shoulder``, ``elbow``, the segment inclinations, ...), so the recording gets one plot
     per quantity or angle group (at most six series) with its unit in the title.
 
