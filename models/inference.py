@@ -44,8 +44,8 @@ class PCNetSession:
 
     def predict(self, joints_cam: np.ndarray, batch_size: int = 256) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         # onnxruntime's arena keeps the largest batch's activations for the session's life:
-        # 1 GB per network at 4096 poses, 0.1 GB at 256, which is no slower on 2 cores
-        # (7,000 vs 4,900 poses/s, `benchmarks/speed.py`).
+        # peak RSS 1,060 MB at 4,096 poses, 181 MB at 256, which is faster on 2 cores
+        # (9,859 vs 6,798 poses/s, `python benchmarks/ort_batch_memory.py`).
         x, scale, valid = normalize_input(joints_cam)
         n = len(x)
         R = np.full((n, 3, 3), np.nan)
