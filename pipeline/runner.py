@@ -269,7 +269,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     step("rectify")
     try:
         # A measured root lets sequence mode fit the floor to the foot contacts
-        # (stages/temporal.py: the ground plane); the estimators centre each pose themselves.
+        # (stages/ground_plane.py); the estimators centre each pose themselves.
         located = joints if root_cam is None else joints + root_cam[:, None].astype(joints.dtype)
         res = rectify(located, cfg.method, cfg.weights, cfg.mode, fps, cfg.heading, camera_prior=cfg.camera_prior)
     except ValueError as err:

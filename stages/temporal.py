@@ -6,8 +6,10 @@ labs, most sports recordings) the up direction in the camera frame, ``R[:, 1]``
 module pools the per-frame predictions of any per-frame estimator (the geometric baseline,
 the learned network, ...) accordingly:
 
-* :func:`sequence_rectify` - one robust up direction for the whole sequence, per-frame
-  heading about it, optional ground-plane refinement from foot contacts, and uncertainties.
+* :func:`sequence_rectify` - one robust up direction for the whole sequence
+  (:func:`pcnet.stages.spherical.robust_mean_direction`), per-frame heading about it, the
+  ground-plane refinement from foot contacts when the root is measured
+  (:mod:`pcnet.stages.ground_plane`), and uncertainties.
 * :func:`smooth_rotations` - for moving cameras: zero-phase Gaussian smoothing on SO(3)
   (weighted chordal quaternion mean; no Euler angles anywhere).
 * :func:`choose_mode` - static or moving camera, from the spread of the per-frame ups.
@@ -26,10 +28,12 @@ import numpy as np
 from scipy.ndimage import convolve1d
 from scipy.spatial.transform import Rotation
 
-from .core.conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE, THORAX, check_poses
-from .gravity_prior import GravityPosterior, gravity_posterior
-from .core.rotations import angle_between, decompose_camera_rotation, normalize
+from .core.conventions import PELVIS, THORAX, check_poses
 from .core.errors import InputError
+from .core.rotations import angle_between, decompose_camera_rotation, normalize
+from .gravity_prior import GravityPosterior, gravity_posterior
+from .ground_plane import GROUND_GATE_DEG, POSE_PRIOR_DEG, fit_plane_map, ground_plane_up
+from .spherical import robust_mean_direction, weighted_quantile
 from .uncertainty import SIGMA_SYS_DEG, calibrated_interval
 
 #: Angular std (deg) of the pose-based sequence up for the camera-prior posterior: the RMS
@@ -49,21 +53,6 @@ def mean_trunk(joints_cam: np.ndarray, ok: np.ndarray) -> np.ndarray | None:
 
 MODES = ("frame", "sequence", "smooth", "auto")
 
-# --- robust mean direction ------------------------------------------------------------------
-# Tukey biweight tuning constant (95% efficiency at the Gaussian, Beaton & Tukey 1974).
-TUKEY_C = 4.685
-# Median of a Rayleigh(sigma) variable is sigma * sqrt(2 ln 2): the angular residual of an
-# isotropic 2D Gaussian error in the tangent plane is Rayleigh, so median/1.1774 estimates sigma.
-_RAYLEIGH_MEDIAN = float(np.sqrt(2.0 * np.log(2.0)))
-# Scale floor: with (near-)exact predictions the residual scale collapses to 0 and every
-# weight would become 0/0; 0.25 deg is far below any real estimator's per-frame noise.
-MIN_SCALE_DEG = 0.25
-_MAX_ITER = 100
-# Weiszfeld only provides the start and the scale, so a loose tolerance suffices; the
-# Tukey stage converges quickly (and its result is what is returned).
-_TOL_WEISZFELD_RAD = 1e-6
-_TOL_RAD = 1e-9
-
 # --- uncertainty ------------------------------------------------------------------------------
 BOOTSTRAP_REPLICATES = 200
 # Block length of the moving-block bootstrap. Consecutive frames of a pose sequence are not
@@ -76,24 +65,6 @@ _MIN_BLOCKS = 5
 # |a_perp + u x c| is 2 when a frame's up agrees with the sequence up and 0 when it is flipped
 # (180 deg): below this (frame up more than ~170 deg off) the heading is undefined.
 _MIN_HEADING_NORM = 0.2
-
-# --- ground plane -----------------------------------------------------------------------------
-# Max angle between the pose-based up and the refined up: larger disagreements mean one of the
-# two is grossly wrong (stairs, a ramp, feet floating in depth) and we cannot tell which.
-# Not smaller: the geometric baseline's trunk-lean bias alone reaches ~15 deg when running.
-GROUND_GATE_DEG = 20.0
-POSE_PRIOR_DEG = 5.0  # prior std of the pose-based up's systematic tilt error (see _ground_plane)
-_CONTACT_HEIGHT_FRAC = 0.05  # of leg length: "as low as the lowest ankle in that frame"
-_CONTACT_SPEED_FRAC = 1.0  # leg lengths per second: quasi-static foot
-_SPEED_HALF_WINDOW_S = 0.1  # central difference over +-0.1 s (averages detector jitter)
-_MAX_RESIDUAL_FRAC = 0.05  # robust plane residual / leg length: the contacts are coplanar
-_MIN_CONTACTS = 20
-# A pelvis that moves less than this (std, leg lengths) on some camera axis is taken as
-# pinned there: MotionBERT's root depth has std 0.002-0.009 leg lengths over the shared real
-# clips. Conservative: a subject walking exactly across the image (constant depth) is also
-# skipped, which only costs the refinement.
-_MIN_PELVIS_STD_FRAC = 0.02
-_MIN_FOOTFALLS = 4
 
 # --- mode choice ------------------------------------------------------------------------------
 # See choose_mode for the measurements behind these numbers.
@@ -145,138 +116,6 @@ class SequenceResult:
     valid: np.ndarray
     ground_plane: dict = field(default_factory=dict)
     gravity: GravityPosterior | None = None
-
-
-# ============================================================================ sphere helpers
-
-
-def _angles(m: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Angles ``(B, N)`` (radians) between ``m`` ``(B, 3)`` and unit ``u`` ``(B, N, 3)``,
-    with their cosines and sines."""
-    cos = np.clip(np.matmul(u, m[:, :, None])[..., 0], -1.0, 1.0)
-    sin = np.sqrt(1.0 - cos * cos)
-    return np.arctan2(sin, cos), cos, sin
-
-
-def _tangent_step(m: np.ndarray, u: np.ndarray, coef: np.ndarray, cos: np.ndarray) -> np.ndarray:
-    """``sum_i coef_i perp_i`` with ``perp_i = u_i - (u_i.m) m`` (the unnormalised log-map
-    direction), without materialising ``perp``: ``coef @ u - (coef . cos) m``."""
-    return np.matmul(coef[:, None, :], u)[:, 0] - np.sum(coef * cos, -1)[:, None] * m
-
-
-def _exp_map(m: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Exp map of S^2 at ``m`` ``(B, 3)`` of tangent vectors ``v`` ``(B, 3)``."""
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        direction = np.where(n > 1e-15, v / n, 0.0)
-    out = np.cos(n) * m + np.sin(n) * direction
-    return out / np.linalg.norm(out, axis=-1, keepdims=True)
-
-
-def _weighted_quantile(x: np.ndarray, w: np.ndarray, q: float) -> np.ndarray:
-    """Weighted ``q``-quantile along the last axis of ``x`` ``(B, N)`` with weights ``w``
-    (zero weights ignored); NaN where all weights are zero. Lower weighted quantile (the
-    smallest x whose cumulative weight reaches q), so it is a data value."""
-    order = np.argsort(x, axis=-1)
-    xs = np.take_along_axis(x, order, -1)
-    ws = np.take_along_axis(w, order, -1)
-    cw = np.cumsum(ws, -1)
-    total = cw[..., -1:]
-    idx = np.argmax(cw >= q * total - 1e-12 * total, axis=-1)
-    out = np.take_along_axis(xs, idx[..., None], -1)[..., 0]
-    return np.where(total[..., 0] > 0, out, np.nan)
-
-
-def _irls(m: np.ndarray, u: np.ndarray, w: np.ndarray, weight_fn, tol: float) -> np.ndarray:
-    """Iteratively reweighted tangent-space mean on S^2: ``m <- exp_m(sum a_i log_m(u_i) /
-    sum a_i)`` with ``a = weight_fn(theta, w, rows)``, until the step is below ``tol``
-    radians (at most ``_MAX_ITER`` steps). Only unconverged rows of the batch keep iterating."""
-    m = m.copy()
-    act = np.arange(len(m))
-    for _ in range(_MAX_ITER):
-        mu, uu = m[act], u[act]
-        th, cos, sin = _angles(mu, uu)
-        # log_m(u_i) = (theta_i / sin_i) perp_i; below 1e-7 rad the ratio is 1.
-        ratio = np.where(sin > 1e-7, th / np.maximum(sin, 1e-300), 1.0)
-        a = weight_fn(th, w[act], act)
-        tot = a.sum(-1)
-        step = _tangent_step(mu, uu, a * ratio, cos) / np.maximum(tot, 1e-300)[:, None]
-        step = np.where((tot > 0)[:, None], step, 0.0)
-        m[act] = _exp_map(mu, step)
-        act = act[np.linalg.norm(step, axis=-1) >= tol]
-        if len(act) == 0:
-            break
-    return m
-
-
-def robust_mean_direction(
-    u: np.ndarray, w: np.ndarray | None = None, init: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Robust mean of unit vectors on the sphere S^2.
-
-    Two stages, both intrinsic (tangent-space updates at the current estimate):
-
-    1. Geometric median by the Riemannian Weiszfeld iteration with unit step (Fletcher,
-       Venkatasubramanian & Joshi 2009, "The geometric median on Riemannian manifolds with
-       application to robust atlas estimation", NeuroImage 45: S143-S152): breakdown point
-       50%, used as the start and to set the residual scale.
-    2. Tukey-biweight M-estimate by iteratively reweighted least squares in the tangent space
-       (weights ``w_i (1 - (theta_i/c)^2)^2`` for ``theta_i < c``, else 0;
-       ``c = 4.685 sigma``), with ``sigma = max(median(theta)/sqrt(2 ln 2), 0.25 deg)``
-       fixed from the geometric median's residuals (Rayleigh-consistent scale for isotropic
-       tangent-plane noise). Frames beyond ``c`` (about 4 x the median residual) get zero
-       weight: a gross outlier does not move the estimate at all.
-
-    Args:
-        u: ``(N, 3)`` or ``(B, N, 3)`` unit vectors (NaN rows are ignored).
-        w: optional ``(N,)`` / ``(B, N)`` non-negative confidence weights.
-        init: optional ``(3,)`` / ``(B, 3)`` start for the Weiszfeld iteration (default:
-            the normalised weighted mean); only speeds up convergence.
-
-    Returns:
-        ``(m, sigma)``: ``m`` ``(3,)`` / ``(B, 3)`` unit mean direction (NaN if no usable
-        vector), ``sigma`` ``()`` / ``(B,)`` the residual scale in radians.
-    """
-    single = np.ndim(u) == 2
-    u = np.asarray(u, np.float64)
-    if single:
-        u = u[None]
-    if u.ndim != 3 or u.shape[-1] != 3:
-        raise InputError(f"u: expected shape (N, 3) or (B, N, 3), got {np.shape(u)}")
-    w = np.ones(u.shape[:2]) if w is None else np.broadcast_to(np.asarray(w, np.float64), u.shape[:2])
-    ok = np.isfinite(u).all(-1) & np.isfinite(w) & (w > 0)
-    u = np.where(ok[..., None], u, 0.0)
-    w = np.where(ok, w, 0.0)
-    has = w.sum(-1) > 0
-
-    # Start: normalised weighted mean; if it nearly cancels (antipodal clusters) use the
-    # principal axis of the scatter matrix, oriented to the heavier side.
-    s = np.matmul(w[:, None, :], u)[:, 0]
-    m = normalize(s)
-    bad = ~(np.linalg.norm(s, axis=-1) > 1e-6 * np.maximum(w.sum(-1), 1e-300))
-    if np.any(bad & has):
-        S = np.einsum("bn,bni,bnj->bij", w, u, u)
-        ax = np.linalg.eigh(S)[1][..., -1]
-        sgn = np.where(np.sum(w * np.sign(np.matmul(u, ax[:, :, None])[..., 0]), -1) < 0, -1.0, 1.0)
-        m = np.where((bad & has)[:, None], ax * sgn[:, None], m)
-    if init is not None:
-        m = np.broadcast_to(normalize(np.asarray(init, np.float64)), m.shape)
-    m = np.where(has[:, None] & np.isfinite(m), m, np.array([0.0, 0.0, 1.0]))
-
-    m = _irls(m, u, w, lambda th, ww, sel: ww / np.maximum(th, 1e-12), _TOL_WEISZFELD_RAD)  # Weiszfeld
-
-    th = _angles(m, u)[0]
-    sigma = np.maximum(_weighted_quantile(th, w, 0.5) / _RAYLEIGH_MEDIAN, np.radians(MIN_SCALE_DEG))
-    sigma = np.where(has, sigma, np.nan)
-    c = TUKEY_C * np.where(has, sigma, 1.0)
-
-    def tukey(th, ww, sel):
-        r = th / c[sel, None]
-        return ww * np.where(r < 1.0, (1.0 - r**2) ** 2, 0.0)
-
-    m = _irls(m, u, w, tukey, _TOL_RAD)
-    m = np.where(has[:, None], m, np.nan)
-    return (m[0], sigma[0]) if single else (m, sigma)
 
 
 # ============================================================================ input checks
@@ -340,150 +179,6 @@ def rotations_about_up(R: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.nd
     out = np.stack([X, Y, Z], axis=-1)
     out[~ok] = np.nan
     return out, ok
-
-
-# ============================================================================ ground plane
-
-
-def _leg_length(J: np.ndarray) -> float:
-    legs = [
-        np.linalg.norm(J[:, R_HIP] - J[:, R_KNEE], axis=-1) + np.linalg.norm(J[:, R_KNEE] - J[:, R_ANKLE], axis=-1),
-        np.linalg.norm(J[:, L_HIP] - J[:, L_KNEE], axis=-1) + np.linalg.norm(J[:, L_KNEE] - J[:, L_ANKLE], axis=-1),
-    ]
-    return float(np.nanmedian(np.concatenate(legs)))
-
-
-def _tangent_basis(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    helper = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = normalize(helper - np.dot(helper, u) * u)
-    return e1, np.cross(u, e1)
-
-
-def _detect_contacts(J: np.ndarray, ok: np.ndarray, up: np.ndarray, fps: float, leg: float):
-    """Quasi-static lowest ankles. Returns points ``(K, 3)``, their frame index ``(K,)`` and
-    a footfall id ``(K,)`` (runs of consecutive contact frames of one ankle)."""
-    T = len(J)
-    ank = J[:, [R_ANKLE, L_ANKLE]]  # (T, 2, 3)
-    h = ank @ up
-    k = max(1, int(round(_SPEED_HALF_WINDOW_S * fps)))
-    speed = np.full((T, 2), np.nan)
-    if T > 2 * k:
-        speed[k:-k] = np.linalg.norm(ank[2 * k :] - ank[: -2 * k], axis=-1) / (2 * k / fps)
-    with np.errstate(invalid="ignore"):
-        low = h <= np.nanmin(h, axis=1, keepdims=True) + _CONTACT_HEIGHT_FRAC * leg
-        slow = speed < _CONTACT_SPEED_FRAC * leg
-    contact = low & slow & ok[:, None] & np.isfinite(h)
-    pts, frames, foot_ids = [], [], []
-    next_id = 0
-    for side in range(2):
-        c = contact[:, side]
-        starts = np.flatnonzero(c & ~np.r_[False, c[:-1]])
-        run = np.cumsum(c & ~np.r_[False, c[:-1]]) - 1 + next_id
-        idx = np.flatnonzero(c)
-        pts.append(ank[idx, side])
-        frames.append(idx)
-        foot_ids.append(run[idx])
-        next_id += len(starts)
-    return np.concatenate(pts), np.concatenate(frames), np.concatenate(foot_ids)
-
-
-def _fit_plane_map(P: np.ndarray, foot: np.ndarray, u_pose: np.ndarray, prior_rad: float):
-    """MAP tilt of the floor from contact points, with the pose-based up as prior.
-
-    Model: ``n = normalize(u + a e1 + b e2)`` (``e1, e2`` span the plane perpendicular to
-    the pose up ``u``); a contact ``p`` on the plane ``n.p = d`` has height
-    ``h = p.u = d - a q1 - b q2`` with ``q = (p.e1, p.e2)``. Linear least squares in
-    ``(d, a, b)`` with a Gaussian prior ``a, b ~ N(0, prior^2)`` and Tukey-biweight IRLS
-    against false contacts. Consecutive contacts of one footfall share most of their error,
-    so the data information is scaled by (number of footfalls / number of contacts).
-    Returns ``(n, residual_scale, data_std_min_rad)`` or ``None`` if it cannot be fitted.
-    """
-    e1, e2 = _tangent_basis(u_pose)
-    h = P @ u_pose
-    A = np.stack([np.ones(len(P)), -(P @ e1), -(P @ e2)], -1)
-    n_foot = len(np.unique(foot))
-    eff = n_foot / len(P)
-    prior = np.diag([0.0, 1.0, 1.0]) / prior_rad**2
-    wts = np.ones(len(P))
-    theta = np.linalg.lstsq(A, h, rcond=None)[0]
-    scale = None
-    for _ in range(20):
-        r = h - A @ theta
-        if scale is None:  # scale from the unregularised fit, fixed afterwards (as above)
-            scale = max(1.4826 * np.median(np.abs(r - np.median(r))), 1e-9)
-        x = r / (TUKEY_C * scale)
-        wts = np.where(np.abs(x) < 1, (1 - x**2) ** 2, 0.0)
-        info = eff * (A.T * wts) @ A / scale**2
-        new = np.linalg.solve(info + prior, eff * (A.T * wts) @ h / scale**2)
-        done = np.max(np.abs(new - theta)) < 1e-12
-        theta = new
-        if done:
-            break
-    info = eff * (A.T * wts) @ A / scale**2
-    # The data-only angular std along the best-constrained tilt direction: marginalise d.
-    try:
-        cov_data = np.linalg.inv(info)[1:, 1:]
-        data_std = float(np.sqrt(np.min(np.linalg.eigvalsh(cov_data))))
-    except np.linalg.LinAlgError:
-        data_std = np.inf
-    n = normalize(u_pose + theta[1] * e1 + theta[2] * e2)
-    return n, float(scale), data_std
-
-
-def _ground_plane(J, ok, u_pose, fps, prior_deg, gate_deg):
-    """Ground-plane refinement of the up direction; returns ``(up, info)``."""
-    info: dict = {"used": False}
-    fin = ok & np.isfinite(J[:, [PELVIS, R_ANKLE, L_ANKLE, R_HIP, L_HIP, R_KNEE, L_KNEE]]).all((1, 2))
-    if fin.sum() < _MIN_CONTACTS:
-        info["reason"] = "too few frames with finite legs"
-        return u_pose, info
-    leg = _leg_length(J[fin])
-    if not np.isfinite(leg) or leg <= 0:
-        info["reason"] = "leg length undefined"
-        return u_pose, info
-    # Root-relative lifters (VideoPose3D, MotionBERT's root z = 0) pin the pelvis on some axis:
-    # feet are then placed relative to the pelvis, and their height below it changes with knee
-    # flexion and pelvis bob, so contacts do not trace the floor. Only a pelvis that moves
-    # freely in all three axes counts as an absolute trajectory.
-    pel_std = np.std(J[fin, PELVIS], axis=0)
-    if np.any(pel_std < _MIN_PELVIS_STD_FRAC * leg):
-        info["reason"] = (
-            "pelvis (nearly) fixed on a camera axis: root-relative or depth-pinned joints, "
-            "or a subject in place; foot contacts cannot span the floor"
-        )
-        return u_pose, info
-    P, frames, foot = _detect_contacts(J, fin, u_pose, fps, leg)
-    info.update(n_contacts=int(len(P)), n_footfalls=int(len(np.unique(foot))) if len(P) else 0)
-    if len(P) < _MIN_CONTACTS or info["n_footfalls"] < _MIN_FOOTFALLS:
-        info["reason"] = f"too few quasi-static foot contacts ({len(P)} contacts, {info['n_footfalls']} footfalls)"
-        return u_pose, info
-    prior = np.radians(prior_deg)
-    n, scale, data_std = _fit_plane_map(P, foot, u_pose, prior)
-    # One more pass: contacts re-detected along the refined up, prior still the pose up.
-    P2, frames2, foot2 = _detect_contacts(J, fin, n, fps, leg)
-    if len(P2) >= _MIN_CONTACTS and len(np.unique(foot2)) >= _MIN_FOOTFALLS:
-        P, frames, foot = P2, frames2, foot2
-        n, scale, data_std = _fit_plane_map(P, foot, u_pose, prior)
-    tilt = float(np.degrees(angle_between(n, u_pose)))
-    info.update(
-        n_contacts=int(len(P)),
-        n_footfalls=int(len(np.unique(foot))),
-        residual_over_leg=scale / leg,
-        plane_best_std_deg=float(np.degrees(data_std)),
-        correction_deg=tilt,
-    )
-    if scale > _MAX_RESIDUAL_FRAC * leg:
-        info["reason"] = f"contacts not coplanar (residual {scale / leg:.3f} leg lengths)"
-    elif data_std > prior:
-        info["reason"] = "contacts span too small an area to constrain the tilt"
-    elif tilt > gate_deg:
-        info["reason"] = f"plane normal {tilt:.1f} deg from the pose-based up (> {gate_deg} deg)"
-    else:
-        info["used"] = True
-        info["reason"] = "ok"
-        info["_contacts"] = (P, frames, foot)
-        return n, info
-    return u_pose, info
 
 
 # ============================================================================ main estimator
@@ -587,7 +282,7 @@ def sequence_rectify(
         if len(J) != T:
             raise InputError(f"joints_cam: expected {T} frames, got {len(J)}")
     if use_ground_plane and J is not None:
-        up, gp = _ground_plane(J, ok, u_pose, fps, pose_prior_deg, ground_gate_deg)
+        up, gp = ground_plane_up(J, ok, u_pose, fps, pose_prior_deg, ground_gate_deg)
     contacts = gp.pop("_contacts", None)
     evidence = "poses+ground_plane" if gp["used"] else "poses"
     up_evidence, gravity = up, None
@@ -604,8 +299,8 @@ def sequence_rectify(
         heading[out_valid] = np.degrees(decompose_camera_rotation(rotations[out_valid])[0])
 
     dev = angle_between(ups, up[None])
-    spread = float(np.degrees(_weighted_quantile(np.where(ok, dev, 0.0)[None], w[None], 0.5)[0]))
-    spread95 = float(np.degrees(_weighted_quantile(np.where(ok, dev, 0.0)[None], w[None], 0.95)[0]))
+    spread = float(np.degrees(weighted_quantile(np.where(ok, dev, 0.0)[None], w[None], 0.5)[0]))
+    spread95 = float(np.degrees(weighted_quantile(np.where(ok, dev, 0.0)[None], w[None], 0.95)[0]))
     pitch, roll = _pitch_roll_deg(up)
 
     unc = dict(up=np.nan, pitch=np.nan, roll=np.nan)
@@ -634,7 +329,7 @@ def sequence_rectify(
                 if not np.isfinite(ub[b]).all() or len(Pb) < 3 or len(np.unique(fb)) < 2:
                     ub[b] = np.nan
                     continue
-                ub[b] = _fit_plane_map(Pb, fb, ub[b], np.radians(pose_prior_deg))[0]
+                ub[b] = fit_plane_map(Pb, fb, ub[b], np.radians(pose_prior_deg))[0]
         good = np.isfinite(ub).all(-1)
         if good.any():
             # Spread of the replicates about the evidence they resample (the camera prior's

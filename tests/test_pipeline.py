@@ -321,7 +321,7 @@ def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         world, report = npz["joints_world"], json.loads(str(npz["report"]))
     assert report["root_path"] == "measured"
-    # the measured root makes the foot contacts a floor sequence mode can fit (stages/temporal.py)
+    # the measured root makes the foot contacts a floor sequence mode can fit (stages/ground_plane.py)
     assert report["evidence"].startswith("poses+ground_plane") and report["ground_plane"]["used"]
     true_path = np.linalg.norm(J[-1, 0, [0, 2]] - J[0, 0, [0, 2]])
     path = np.linalg.norm(world[-1, PELVIS, [0, 2]] - world[0, PELVIS, [0, 2]])
@@ -365,7 +365,7 @@ def test_short_recordings_and_hidden_feet_are_flagged(tmp_path):
 
 def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):
     """With a depth sensor's measured root the foot contacts trace the floor, which refines
-    the sequence up (stages/temporal.py, ground plane); root-relative, the same poses cannot."""
+    the sequence up (stages/ground_plane.py); root-relative, the same poses cannot."""
     from pcnet.adapters.kinect import load_kinect_v1
     from pcnet.pipeline.rectification import rectify
 
