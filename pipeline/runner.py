@@ -29,8 +29,8 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.sinks.exports import plot_wrists, require_ezc3d, write_c3d, write_kinematics_csv, write_npz, write_trc
 from pcnet.stages.flags import (body_size_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag, unfiltered_flag)
-from pcnet.stages.kinematics import (concat_frames, count_flags, format_flag_counts, kinematics_chunks,
-                                     residual_analysis, select_frames)
+from pcnet.stages.kinematics import (concat_frames, count_flags, filtered_derivatives, format_flag_counts,
+                                     kinematics_chunks, residual_analysis, select_frames)
 from pcnet.stages.sinks.plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.rectify import NO_VALID_FRAME
@@ -39,7 +39,7 @@ from pcnet.stages.sinks.rerun_log import series_from_kinematics, write_recording
 from pcnet.stages.core.rotations import decompose_camera_rotation
 from pcnet.stages.scale import scale_to_height
 from pcnet.stages.uncertainty import LABEL as UNCERTAINTY_LABEL
-from pcnet.stages.world_frame import floor_heights, to_world, world_frame
+from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
 from .config import RunConfig
 from .outdir import check_out_folder, staged_output
@@ -305,8 +305,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     if report["mode"] == "sequence":
         frame = world_frame(rotations, valid, fps)
         world, world_rotation = to_world(joints, frame, root_cam), frame.rotation
-        _, feet = floor_heights(joints @ frame.rotation.T)
-        flags += floor_flag(feet, np.isfinite(joints).any(axis=(1, 2)))
+        flags += floor_flag(feet_visible(joints), np.isfinite(joints).any(axis=(1, 2)))
         report["root_path"] = "measured" if root_cam is not None else "not observable"
     else:
         flags.append(f"no fixed world frame: mode {report['mode']} (a moving camera, or one the up estimates "
@@ -327,10 +326,9 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
                      f"{np.nanpercentile(analysis.per_signal_hz, 90):.1f} Hz, 10th-90th percentile)")
     report["cutoff_hz"] = cutoff
     report["cutoff_source"] = "residual analysis" if cfg.residual_cutoff else "cutoff_hz"
-    # Camera-frame kinematics only feed the before/after wrist plot.
-    wrist_idx = [H36M_JOINTS.index(n) for n in WRISTS]
-    acc_cam = np.concatenate([k.acceleration[:, wrist_idx]
-                              for k in kinematics_chunks(joints, fps, cutoff, units)]).astype(np.float32)
+    # Camera-frame wrist accelerations only feed the before/after wrist plot: two joints,
+    # small enough to filter whole, and no angles to compute.
+    acc_cam = filtered_derivatives(joints[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
 
     with staged_output(out) as tmp:
         frames = np.arange(len(joints))

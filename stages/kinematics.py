@@ -100,7 +100,19 @@ def _design_cutoff(fps: float, cutoff_hz: float, passes: int, order_per_pass: in
 
 
 def _lowpass_design(fps: float, cutoff_hz: float, order: int) -> tuple[np.ndarray, int]:
-    """(second-order sections of one pass, ``sosfiltfilt``'s default ``padlen``)."""
+    """(second-order sections of one pass, ``sosfiltfilt``'s default ``padlen``), after the
+    argument checks of :func:`butterworth_lowpass`."""
+    if not fps > 0:
+        raise InputError(f"fps must be > 0, got {fps!r}")
+    if not 0 < cutoff_hz < fps / 2:
+        raise InputError(
+            f"cutoff_hz must lie in (0, fps/2) = (0, {fps / 2:g}) Hz (Nyquist), got {cutoff_hz!r}"
+        )
+    if order < 2 or order % 2:
+        raise InputError(
+            f"order is the order of the zero-phase (dual-pass) result and must be even and "
+            f">= 2, got {order!r}"
+        )
     per_pass = order // 2
     design = _design_cutoff(fps, cutoff_hz, passes=2, order_per_pass=per_pass)
     sos = butter(per_pass, design, btype="low", fs=fps, output="sos")
@@ -149,17 +161,6 @@ def butterworth_lowpass(
         ValueError: ``fps <= 0``, ``cutoff_hz`` not in ``(0, fps/2)``, or ``order`` odd
             or < 2.
     """
-    if not fps > 0:
-        raise InputError(f"fps must be > 0, got {fps!r}")
-    if not 0 < cutoff_hz < fps / 2:
-        raise InputError(
-            f"cutoff_hz must lie in (0, fps/2) = (0, {fps / 2:g}) Hz (Nyquist), got {cutoff_hz!r}"
-        )
-    if order < 2 or order % 2:
-        raise InputError(
-            f"order is the order of the zero-phase (dual-pass) result and must be even and "
-            f">= 2, got {order!r}"
-        )
     sos, padlen = _lowpass_design(fps, cutoff_hz, order)
 
     x2, shape = _as_2d(x)
@@ -534,6 +535,34 @@ def pelvis_heading_frame(poses: np.ndarray) -> np.ndarray:
     return X @ R
 
 
+def filtered_derivatives(
+    x: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, order: int = 4
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Low-pass, then differentiate, with :func:`compute_kinematics`'s rules: samples the
+    filter left raw get no velocity or acceleration.
+
+    Args:
+        x: ``(T, ...)`` samples along axis 0 (e.g. some joints' positions), NaN = missing.
+        fps, cutoff_hz, order: as :func:`compute_kinematics` (``cutoff_hz`` None = no filter).
+
+    Returns:
+        ``(positions, unfiltered, velocity, acceleration)`` shaped like ``x``: float64 filtered
+        positions, bool raw-sample flags, and their derivatives in units/s and units/s^2.
+
+    Raises:
+        InputError: ``fps <= 0`` or an invalid cutoff/order.
+    """
+    if not fps > 0:
+        raise InputError(f"fps must be > 0, got {fps!r}")
+    x = np.asarray(x, np.float64)
+    if cutoff_hz is None:
+        pos, raw = x.copy(), np.zeros(x.shape, dtype=bool)
+    else:
+        pos, raw = butterworth_lowpass(x, fps, cutoff_hz, order, return_unfiltered=True)
+    vel, acc = derivatives(np.where(raw, np.nan, pos), fps)
+    return pos, raw, vel, acc
+
+
 def compute_kinematics(
     canonical: np.ndarray,
     fps: float,
@@ -582,14 +611,8 @@ def compute_kinematics(
         ValueError: wrong shape, ``fps <= 0``, or an invalid cutoff/order.
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
-    if not fps > 0:
-        raise InputError(f"fps must be > 0, got {fps!r}")
     missing = ~np.isfinite(X).all(axis=-1)
-    if cutoff_hz is None:
-        pos, raw = X.copy(), np.zeros(X.shape, dtype=bool)
-    else:
-        pos, raw = butterworth_lowpass(X, fps, cutoff_hz, order, return_unfiltered=True)
-    vel, acc = derivatives(np.where(raw, np.nan, pos), fps)
+    pos, raw, vel, acc = filtered_derivatives(X, fps, cutoff_hz, order)
     return Kinematics(
         positions=pos,
         velocity=vel,
@@ -640,10 +663,6 @@ def settle_frames(fps: float, cutoff_hz: float | None, order: int = 4, tol: floa
     """
     if cutoff_hz is None:
         return 2
-    if not fps > 0:
-        raise InputError(f"fps must be > 0, got {fps!r}")
-    if not 0 < cutoff_hz < fps / 2:
-        raise InputError(f"cutoff_hz must lie in (0, fps/2) = (0, {fps / 2:g}) Hz (Nyquist), got {cutoff_hz!r}")
     sos, padlen = _lowpass_design(fps, cutoff_hz, order)
     radius = float(np.abs(sos2zpk(sos)[1]).max())
     decay = int(np.ceil(np.log(tol) / np.log(radius))) if radius > 0 else 1

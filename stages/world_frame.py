@@ -134,7 +134,7 @@ def floor_heights(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     present = np.isfinite(P[..., 1]).any(axis=1)
     lowest = np.full(len(P), np.nan)
     lowest[present] = np.nanmin(P[present, :, 1], axis=1)
-    feet = np.isfinite(P[:, [L_ANKLE, R_ANKLE], 1]).any(axis=1)
+    feet = feet_visible(P)
     pelvis_y = P[:, PELVIS, 1]
     seen = np.flatnonzero(feet & np.isfinite(pelvis_y))
     above = pelvis_y - lowest  # the pelvis's height above the floor where the feet show it
@@ -144,3 +144,9 @@ def floor_heights(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     else:
         lowest = np.where(present, pelvis_y, np.nan)
     return lowest, feet
+
+
+def feet_visible(poses: np.ndarray) -> np.ndarray:
+    """``(T,)`` bool: frames of ``(T, 17, 3)`` poses (any frame: a rotation keeps a joint finite
+    or missing) with at least one ankle present, the frames in which the floor is seen."""
+    return np.isfinite(np.asarray(poses)[:, [L_ANKLE, R_ANKLE]]).all(axis=-1).any(axis=1)

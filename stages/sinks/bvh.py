@@ -508,7 +508,6 @@ def write_bvh(
     X, names = _checked_poses(poses, joint_names)
     P, _ = _fill(X)
     sk = _skeleton(X, P, names)
-    N = len(sk.names)
     kids = sk.children
     lines = ["HIERARCHY"]
 

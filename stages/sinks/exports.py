@@ -10,7 +10,6 @@ left as it was, so a crash never leaves a half-written file for a user to load.
 from __future__ import annotations
 
 import csv
-import io
 import itertools
 import json
 import os
@@ -23,7 +22,7 @@ from ..core.atomic import atomic_path
 from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST
 from ..core.errors import InputError, import_extra
 from ..kinematics import Kinematics
-from .plots import display_samples
+from .plots import display_samples, new_figure, save_png
 
 
 # ---------------------------------------------------------------------------------------
@@ -389,9 +388,6 @@ def plot_wrists(
     Raises:
         ValueError: mismatched shapes or ``fps <= 0``.
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     arrays = [np.asarray(a, np.float64) for a in (camera, canonical, acc_camera, acc_canonical)]
     T = arrays[0].shape[0]
     if [a.shape for a in arrays] != [(T, 17, 3), (T, 17, 3), (T, 2, 3), (T, 2, 3)]:
@@ -407,9 +403,7 @@ def plot_wrists(
         (frame_label, can, acan, ("x", "y", "z")),
     )
     comp_colors = ("tab:red", "tab:green", "tab:blue")
-    fig = Figure(figsize=(13, 9), layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(3, 2, sharex=True)
+    fig, axes = new_figure(3, 2, 8.0 / 3.0)
     for col, (title, pos, acc, labels) in enumerate(columns):
         ax_p, ax_a, ax_m = axes[:, col]
         for w, (joint, side, style) in enumerate(((L_WRIST, "left", "--"), (R_WRIST, "right", "-"))):
@@ -429,8 +423,4 @@ def plot_wrists(
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7, ncol=2, loc="upper right")
     fig.suptitle(f"Wrists before (camera frame) and after ({frame_label.split(' (')[0]}) rectification")
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    with atomic_path(path_png) as tmp:
-        tmp.write_bytes(buf.getvalue())
-    return Path(path_png)
+    return save_png(fig, path_png)

@@ -196,7 +196,9 @@ def _time_axis(kin, fps: float, who: str) -> np.ndarray:
     return np.arange(kin.num_frames) / float(fps)
 
 
-def _new_figure(rows: int, cols: int, height_per_row: float):
+def new_figure(rows: int, cols: int, height_per_row: float):
+    """A 13-inch-wide Agg :class:`~matplotlib.figure.Figure` (no pyplot, no display) with a
+    ``(rows, cols)`` grid of axes sharing x; ``(fig, axes (rows, cols))``."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -226,7 +228,7 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame"):
         groups = {g: ns for g, ns in groups.items() if g not in REDUNDANT_IN_PNG}
     ncols = 2 if len(groups) > 1 else 1
     nrows = int(np.ceil(len(groups) / ncols))
-    fig, axes = _new_figure(nrows, ncols, 2.4)
+    fig, axes = new_figure(nrows, ncols, 2.4)
     for ax, (group, names) in zip(axes.flat, groups.items()):
         colours = series_colours(names)
         finite = False
@@ -272,7 +274,7 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
     unit = f"{kin.units if units is None else units}/s"
     groups = {title: [j for j in joints if j in names] for title, joints in SPEED_GROUPS.items()}
     groups = {k: v for k, v in groups.items() if v}
-    fig, axes = _new_figure(len(groups), 1, 2.6)
+    fig, axes = new_figure(len(groups), 1, 2.6)
     for ax, (title, joints) in zip(axes[:, 0], groups.items()):
         colours = series_colours(joints)
         finite = False
@@ -294,7 +296,8 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
     return fig
 
 
-def _save_png(fig, path_png: str | os.PathLike) -> Path:
+def save_png(fig, path_png: str | os.PathLike) -> Path:
+    """Render ``fig`` to PNG (110 dpi) and write it atomically to ``path_png``."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     with atomic_path(path_png) as tmp:
@@ -332,7 +335,7 @@ def plot_joint_angles(path_png: str | os.PathLike, kin, fps: float, *, frame_lab
         InputError: ``fps <= 0`` or not ``kin.fps``, no angles, an angle not ``(T,)``, or the
             destination folder missing / not writable.
     """
-    return _save_png(joint_angles_figure(kin, fps, frame_label=frame_label), path_png)
+    return save_png(joint_angles_figure(kin, fps, frame_label=frame_label), path_png)
 
 
 def plot_joint_speeds(
@@ -362,4 +365,4 @@ def plot_joint_speeds(
         InputError: ``fps <= 0`` or not ``kin.fps``, ``speed`` not ``(T, J)``, or the
             destination folder missing / not writable.
     """
-    return _save_png(joint_speeds_figure(kin, fps, units, frame_label=frame_label), path_png)
+    return save_png(joint_speeds_figure(kin, fps, units, frame_label=frame_label), path_png)

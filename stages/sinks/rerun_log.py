@@ -152,6 +152,14 @@ def _series_path(name: str) -> tuple[str, str]:
     return "series/" + "/".join(parts), group
 
 
+def _median_torso(X: np.ndarray) -> float:
+    """Median pelvis-thorax distance of poses ``(T, 17, 3)`` over the frames with a positive
+    one, in their units; NaN when none."""
+    torso = np.linalg.norm(X[:, THORAX] - X[:, PELVIS], axis=-1)
+    torso = torso[np.isfinite(torso) & (torso > 0)]
+    return float(np.median(torso)) if torso.size else float("nan")
+
+
 def _floor_grid(world: np.ndarray, torso: float) -> list[np.ndarray]:
     """Line strips of a square grid on the floor plane y = 0 of the world frame, covering
     the horizontal extent of every finite joint plus a margin of about one and a half torso
@@ -339,9 +347,8 @@ def write_recording(
     blueprint = build_blueprint(has_image=has_image, series_groups=groups, fps=fps, has_world=wld is not None)
 
     # Arrow length: 60 % of the median pelvis-thorax distance, in the data's own units.
-    torso = np.linalg.norm(cam[:, THORAX] - cam[:, PELVIS], axis=-1)
-    torso = torso[np.isfinite(torso) & (torso > 0)]
-    arrow_len = 0.6 * float(np.median(torso)) if torso.size else 1.0
+    torso = _median_torso(cam)
+    arrow_len = 0.6 * torso if np.isfinite(torso) else 1.0
 
     def index(t: np.ndarray = frames, s: np.ndarray = seconds) -> list:
         return [rr.TimeColumn("frame", sequence=t), rr.TimeColumn("video_time", duration=s)]
@@ -434,9 +441,7 @@ def _log_all(
     if wld is not None:
         log("world", rr.ViewCoordinates.FUR)  # the world frame has the canonical frame's axis roles
         spaces.append(("world", wld))
-        torso = np.linalg.norm(wld[:, THORAX] - wld[:, PELVIS], axis=-1)
-        torso = torso[np.isfinite(torso) & (torso > 0)]
-        grid = _floor_grid(wld, float(np.median(torso)) if torso.size else np.nan) if floor else []
+        grid = _floor_grid(wld, _median_torso(wld)) if floor else []
         if grid:
             log("world/floor", rr.LineStrips3D(grid, colors=[_FLOOR_C], radii=rr.Radius.ui_points(0.75)))
     for space, X in spaces:
