@@ -1,0 +1,115 @@
+"""Is balance evidence worth adding to sequence mode? A measured experiment, not shipped code.
+
+    python benchmarks/balance_evidence.py --data ../shared/data [--max-clips 200]
+
+The idea (issue "Generalise honestly", section 2): over a recording on the floor, the body's
+centre of mass lies above its support on average, so the direction from the supporting
+ankles to the centre of mass is an estimate of up that no pose network's training bias
+touches. Here: segment masses and centre-of-mass positions from de Leva (1996), "Adjustments
+to Zatsiorsky-Seluyanov's segment inertia parameters", J. Biomech. 29(9): 1223-1230,
+Table 4 (male; hand and foot lumped at the wrist and ankle); support = the ankles lowest
+along the current up (within 0.05 leg lengths) in frames where an ankle is the body's lowest
+point, moved forward by ``--cop-offset`` leg lengths (the centre of pressure of quiet
+standing lies a few cm in front of the ankle joint); up = robust mean direction of the
+per-frame ankle->centre-of-mass directions, 3 iterations from the network's sequence up.
+
+Each clip is one static camera (the paper's view distribution, per clip) with lifter-like
+noise (models/lifter_noise.py). Rows: Bandai and CMU validation (where a weight would be
+chosen), Bandai and CMU test, DeepMimic; columns: sequence-up tilt error of the shipped
+pair (robust mean of its per-frame ups), of the balance estimate, and of their normalised
+weighted mean with the balance weight given.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pcnet.models.datasets import load_mocap, make_pairs, select_split
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.pipeline.rectification import estimate_rotations
+from pcnet.stages.core.rotations import angle_between, normalize
+from pcnet.stages.spherical import robust_mean_direction
+
+DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+RESULT = Path(__file__).resolve().parent / "results" / "balance_evidence.txt"
+#: (mass fraction, proximal joint, distal joint, centre of mass as a fraction from proximal),
+#: H36M-17 indices; de Leva 1996 Table 4, male. Head+neck: vertex -> cervicale (H36M head ->
+#: thorax); trunk: cervicale -> mid-hip (thorax -> pelvis).
+SEGMENTS = ((0.0694, 10, 8, 0.5002), (0.4346, 8, 0, 0.4486),
+            (0.0271, 11, 12, 0.5772), (0.0271, 14, 15, 0.5772),
+            (0.0162, 12, 13, 0.4574), (0.0162, 15, 16, 0.4574),
+            (0.0061, 13, 13, 0.0), (0.0061, 16, 16, 0.0),
+            (0.1416, 4, 5, 0.4095), (0.1416, 1, 2, 0.4095),
+            (0.0433, 5, 6, 0.4459), (0.0433, 2, 3, 0.4459),
+            (0.0137, 6, 6, 0.0), (0.0137, 3, 3, 0.0))
+SETS = (("Bandai val", "bandai_h36m17.npz", "val"), ("CMU val", "cmu_train_h36m17.npz", "val"),
+        ("Bandai test", "bandai_h36m17.npz", "test"), ("CMU test", "cmu_train_h36m17.npz", "test"),
+        ("DeepMimic all", "deepmimic_h36m17.npz", "all"))
+WEIGHTS = (0.2, 0.35, 0.5)
+
+
+def centre_of_mass(J: np.ndarray) -> np.ndarray:
+    """``(T, 17, 3)`` H36M-17 joints -> ``(T, 3)`` whole-body centre of mass (same frame, unit)."""
+    c = sum(f * (J[:, p] + r * (J[:, d] - J[:, p])) for f, p, d, r in SEGMENTS)
+    return c / sum(f for f, *_ in SEGMENTS)
+
+
+def balance_up(J: np.ndarray, u0: np.ndarray, cop_offset: float, tol: float = 0.05) -> np.ndarray | None:
+    """Up from support -> centre of mass directions (module docstring); ``None`` if < 10 frames stand."""
+    leg = np.nanmedian(np.linalg.norm(J[:, 1] - J[:, 2], axis=-1) + np.linalg.norm(J[:, 2] - J[:, 3], axis=-1))
+    com, u = centre_of_mass(J), u0
+    for _ in range(3):
+        h = J @ u
+        low = h.min(1)
+        ankle_h = h[:, [3, 6]]
+        support = (ankle_h <= low[:, None] + tol * leg) & (ankle_h.min(1) <= low + tol * leg)[:, None]
+        n = support.sum(1)
+        stand = n > 0
+        if stand.sum() < 10:
+            return None
+        S = (J[:, [3, 6]] * support[..., None]).sum(1) / np.maximum(n, 1)[:, None]
+        anterior = normalize(np.cross(u, normalize(J[:, 1] - J[:, 4])))
+        d = normalize(com - (S + cop_offset * leg * anterior))
+        u, _ = robust_mean_direction(d[stand], np.ones(stand.sum()), init=u)
+    return u
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=DEFAULT)
+    ap.add_argument("--max-clips", type=int, default=200, help="first N clips of each set")
+    ap.add_argument("--cop-offset", type=float, default=0.06, help="leg lengths (0.06 ~ 5 cm)")
+    args = ap.parse_args()
+    t0 = time.time()
+    head = f"| set | clips | pcnet sequence | balance | " + " | ".join(f"mix {w}" for w in WEIGHTS) + " |"
+    lines = [f"python benchmarks/balance_evidence.py --max-clips {args.max_clips} --cop-offset {args.cop_offset}",
+             "sequence-up tilt error, deg, mean / median over clips (static camera per clip, lifter-like noise)",
+             head, "|" + "---|" * (head.count("|") - 1)]
+    for label, file, split in SETS:
+        clips = select_split(load_mocap(args.data / "mocap" / file), split, "motion-style")[: args.max_clips]
+        pairs = make_pairs(clips, views="paper", seed=0, camera="per-clip", noise=LifterNoise())
+        rows = []
+        for i, clip in enumerate(clips):
+            sel = np.flatnonzero(pairs.clip == i)
+            R, _, valid = estimate_rotations(pairs.inputs[sel], "pcnet", None, fps=clip.fps)
+            ok = valid & np.isfinite(R[:, :, 1]).all(-1)
+            u_net, _ = robust_mean_direction(R[ok, :, 1], np.ones(ok.sum()))
+            u_bal = balance_up(pairs.inputs[sel].astype(np.float64), u_net, args.cop_offset)
+            truth = pairs.R[sel[0]][:, 1]
+            ups = [u_net, u_bal] + [None if u_bal is None else normalize((1 - w) * u_net + w * u_bal) for w in WEIGHTS]
+            rows.append([np.nan if u is None else np.degrees(angle_between(u, truth)) for u in ups])
+        r = np.array(rows)
+        cells = [f"{np.nanmean(c):.2f} / {np.nanmedian(c):.2f}" for c in r.T]
+        lines.append(f"| {label} | {len(clips)} ({np.isfinite(r[:, 1]).sum()} standing) | " + " | ".join(cells) + " |")
+        print(lines[-1], flush=True)
+    lines.append(f"wall time {time.time() - t0:.0f} s")
+    RESULT.write_text("\n".join(lines) + "\n")
+    print(f"wrote {RESULT}")
+
+
+if __name__ == "__main__":
+    main()
