@@ -30,7 +30,7 @@ import numpy as np
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
-from pcnet.pipeline.rectification import estimate_rotations
+from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.core.rotations import angle_between, normalize
 from pcnet.stages.spherical import robust_mean_direction
 
@@ -95,8 +95,8 @@ def main() -> None:
         rows = []
         for i, clip in enumerate(clips):
             sel = np.flatnonzero(pairs.clip == i)
-            R, _, valid = estimate_rotations(pairs.inputs[sel], "pcnet", None, fps=clip.fps)
-            ok = valid & np.isfinite(R[:, :, 1]).all(-1)
+            estimate = make_estimator("pcnet")(pairs.inputs[sel], clip.fps)
+            R, ok = estimate.rotation, estimate.valid & np.isfinite(estimate.rotation[:, :, 1]).all(-1)
             u_net, _ = robust_mean_direction(R[ok, :, 1], np.ones(ok.sum()))
             u_bal = balance_up(pairs.inputs[sel].astype(np.float64), u_net, args.cop_offset)
             truth = pairs.R[sel[0]][:, 1]

@@ -19,14 +19,14 @@ import numpy as np
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, apply_heading
-from pcnet.pipeline.rectification import estimate_rotations
+from pcnet.pipeline.rectification import make_estimator
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 
 
 def decide(joints: np.ndarray) -> dict:
-    R, _, valid = estimate_rotations(joints, "pcnet")
-    return apply_heading(joints, R, valid, "auto")[1]
+    estimate = make_estimator("pcnet")(joints, 30.0)
+    return apply_heading(joints, estimate.rotation, estimate.valid, "auto")[1]
 
 
 def main() -> None:

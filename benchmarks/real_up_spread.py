@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.pipeline.rectification import estimate_rotations
+from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.core.rotations import angle_between
 from pcnet.stages.temporal import rectify_sequence
 
@@ -35,7 +35,8 @@ def main() -> None:
     for path in files:
         joints = np.load(path)
         joints = joints - joints[:, :1]
-        R, _, valid = estimate_rotations(joints, args.method)
+        estimate = make_estimator(args.method)(joints, 30.0)
+        R, valid = estimate.rotation, estimate.valid
         _, seq = rectify_sequence(R, valid, "sequence", 30.0, joints)
         _, auto = rectify_sequence(R, valid, "auto", 30.0, joints)
         dev = np.degrees(angle_between(R[valid][:, :, 1], seq["up"][None]))

@@ -45,8 +45,8 @@ from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
 from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS
 from pcnet.stages.kinematics import compute_kinematics
-from pcnet.pipeline.rectification import estimate_rotations
-from pcnet.stages.rectify import finish_rotations
+from pcnet.pipeline.rectification import make_estimator
+from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence
 from pcnet.stages.world_frame import to_world, world_frame
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -71,12 +71,13 @@ def clip_errors(inputs, R_true, mocap, fps) -> tuple[dict[str, dict[str, np.ndar
     """Per-frame, per-joint absolute errors ``{frame_kind: {quantity: (T, 17)}}`` for one clip,
     and its angles ``{"truth" | "world" | "canonical" | "world_true_rotation" |
     "canonical_no_residual": {name: (T,)}, "valid": (T,), "up_error_deg": float}``."""
-    R_hat, residual, valid = estimate_rotations(inputs, "pcnet", fps=fps)
-    R_hat, valid, _ = finish_rotations(inputs, R_hat, valid, "sequence", fps, "auto", n_bootstrap=0)
+    chain = Rectification(make_estimator("pcnet"), SequenceEvidence("sequence", n_bootstrap=0), HeadingStep("auto"))
+    rectified = chain(inputs, fps)
+    R_hat, valid = rectified.rotation, rectified.valid
     truth = compute_kinematics(true_world(mocap, R_true, fps), fps)
     frame = world_frame(R_hat, valid, fps)
     world = compute_kinematics(to_world(inputs, frame), fps)
-    canonical = compute_kinematics(to_canonical(inputs, R_hat, residual), fps)
+    canonical = compute_kinematics(rectified.canonical, fps)
     out = {}
     for kind, k in (("world", world), ("canonical", canonical)):
         e = {"speed": np.abs(k.speed - truth.speed),

@@ -16,7 +16,7 @@ import numpy as np
 from pcnet.models.datasets import load_mocap
 from pcnet.stages.core.canonical import to_canonical, world_to_canonical
 from pcnet.stages.core.conventions import R_WRIST
-from pcnet.pipeline.rectification import estimate_rotations
+from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.core.rotations import compose_camera_rotation
 from pcnet.stages.temporal import rectify_sequence
 
@@ -35,8 +35,8 @@ cameras = {"front-left, 10 deg down": compose_camera_rotation(np.radians(35), np
 wrist = {}
 for name, R in cameras.items():
     cam = canon @ R.T  # what a lifter would report in this camera's frame (noise-free here)
-    R_hat, residual, valid = estimate_rotations(cam, args.method)
-    R_seq, report = rectify_sequence(R_hat, valid, "auto", clip.fps, cam)
+    estimate = make_estimator(args.method)(cam, clip.fps)
+    R_seq, report = rectify_sequence(estimate.rotation, estimate.valid, "auto", clip.fps, cam)
     wrist[name] = (cam[:, R_WRIST], to_canonical(cam, R_seq)[:, R_WRIST], report["mode"])
 
 (a_cam, a_can, mode_a), (b_cam, b_can, mode_b) = wrist.values()

@@ -11,11 +11,10 @@ import numpy as np
 from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split, load_mocap,
                                    make_pairs, select_split)
 from pcnet.models.lifter_noise import LifterNoise
-from pcnet.stages.core.canonical import to_canonical
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.core.errors import InputError
-from pcnet.pipeline.rectification import estimate_rotations
-from pcnet.stages.rectify import finish_rotations, resolve_heading_source
+from pcnet.pipeline.rectification import make_estimator
+from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, resolve_heading_source
 
 #: Input noise of ``pcnet evaluate --noise``: none (clean mocap), ``frame`` (every frame's
 #: error drawn anew, :class:`pcnet.models.datasets.Noise`) or ``lifter`` (errors that persist
@@ -125,7 +124,7 @@ def evaluate(
     meaningful with ``camera="per-clip"``); ``heading`` then chooses each clip's heading
     source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the method's default,
     :func:`pcnet.stages.rectify.resolve_heading_source`), each clip being one recording
-    whatever the camera protocol (both steps by :func:`pcnet.stages.rectify.finish_rotations`,
+    whatever the camera protocol (the steps of :class:`pcnet.stages.rectify.Rectification`,
     as in ``rectify``). The canonical prediction is
     ``(X - pelvis) @ R_hat (+ residual)``, compared with the canonical target.
 
@@ -170,8 +169,11 @@ def evaluate(
         extra = f" with no group in the {unseen_by!r} train split" if unseen_by else ""
         raise InputError(f"{data}: split {split!r} (scheme {split_scheme!r}) has no clips{extra}")
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=_noise_model(kind))
+    # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
+    chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior, n_bootstrap=0),
+                          HeadingStep(heading))
     n = len(pairs.inputs)
-    R_hat, residual, valid = np.full((n, 3, 3), np.nan), np.full((n, 17, 3), np.nan), np.zeros(n, bool)
+    R_hat, canon_hat, valid = np.full((n, 3, 3), np.nan), np.full((n, 17, 3), np.nan), np.zeros(n, bool)
     modes_run: dict[str, int] = {}
     headings_run: dict[str, int] = {}
     per_clip = []
@@ -180,19 +182,15 @@ def evaluate(
         if len(sel) == 0:
             continue
         # One clip is one recording for every per-recording step, the estimator's too.
-        R_hat[sel], residual[sel], valid[sel] = estimate_rotations(pairs.inputs[sel], method, weights, fps=clip.fps)
-        # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
-        R_hat[sel], valid[sel], report = finish_rotations(
-            pairs.inputs[sel], R_hat[sel], valid[sel], mode, clip.fps, heading, n_bootstrap=0,
-            camera_prior=camera_prior)
+        res = chain(pairs.inputs[sel], clip.fps)
+        R_hat[sel], canon_hat[sel], valid[sel], report = res.rotation, res.canonical, res.valid, res.report
         if mode != "frame":
             modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
         headings_run[report["heading_source"]] = headings_run.get(report["heading_source"], 0) + 1
         per_clip.append({"name": clip.name, "heading_source": report["heading_source"], "mode": report["mode"]})
     keep = scored_indices(len(valid), max_frames)
     valid_k = valid[keep]
-    canon_hat = to_canonical(pairs.inputs[keep], R_hat[keep], residual[keep])
-    errors = evaluate_rotations(R_hat[keep], pairs.R[keep], canon_hat, pairs.canonical[keep])
+    errors = evaluate_rotations(R_hat[keep], pairs.R[keep], canon_hat[keep], pairs.canonical[keep])
     for name in METRICS:  # a method's invalid frames never count, whatever it returned there
         errors[name] = np.where(valid_k, errors[name], np.nan)
     result = {

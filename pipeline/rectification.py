@@ -1,7 +1,7 @@
-"""Rectification composed: a per-frame estimator (the geometric baseline of
-:mod:`pcnet.stages.core.geometric`, or 3DPCNet through :mod:`pcnet.models.inference`), then the
-stages after it (:func:`pcnet.stages.rectify.finish_rotations`: sequence modes, heading) and
-the canonical poses (:func:`pcnet.stages.core.canonical.to_canonical`).
+"""Rectification composed: the pipeline picks the per-frame estimator (the geometric
+baseline, or 3DPCNet through :mod:`pcnet.models.inference`, :func:`make_estimator`) and hands
+it to the chain of steps in :mod:`pcnet.stages.rectify` (:class:`~pcnet.stages.rectify.Rectification`:
+estimate -> sequence evidence -> heading).
 
 It lives in the pipeline because it is the one room allowed to use both ``models`` and
 ``stages`` (docs/architecture.md): the stages never import the network.
@@ -9,54 +9,62 @@ It lives in the pipeline because it is the one room allowed to use both ``models
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from pcnet.models.inference import get_session
-from pcnet.stages.core.canonical import to_canonical
 from pcnet.stages.core.conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.geometric import geometric_rotation
-from pcnet.stages.rectify import (METHODS, Rectified, check_method_weights, finish_rotations, gate_report,
+from pcnet.stages.rectify import (METHODS, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
+                                  Rectification, Rectified, SequenceEvidence, check_method_weights,
                                   resolve_heading_source)
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG
 
 
-def estimate_rotations(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None,
-                       fps: float = 30.0):
-    """Per-frame canonical->camera rotations ``(T, 3, 3)``, residuals ``(T, 17, 3)`` (zeros
-    unless ``method == "pcnet"``) and validity ``(T,)`` for camera-frame H36M-17 poses.
+@dataclass(frozen=True)
+class NetworkEstimator:
+    """3DPCNet as step 1 (:class:`pcnet.stages.rectify.FrameEstimator`): the shipped pair gated
+    by camera orientation (:class:`pcnet.models.inference.ViewGatedPCNet`, ``weights=None``;
+    ``fps`` sets the gate's window, one recording per call) or one network's ``weights``
+    (``.onnx``). ``rigid`` drops the residual (method ``pcnet-rigid``: a rigid rotation of the
+    input). The per-frame tilt bound is calibrated for the shipped weights only."""
 
-    Methods: ``pcnet`` (3DPCNet with its residual, onnxruntime), ``pcnet-rigid`` (the same
-    rotation, residual dropped: a rigid rotation of the input), ``geometric`` (paper 2.3).
-    Without ``weights`` the 3DPCNet methods run the shipped pair gated by camera orientation
-    (:class:`pcnet.models.inference.ViewGatedPCNet`; ``fps`` sets its window, one recording
-    per call). See :func:`estimate_rotations_gated` for the gate's weights.
+    weights: str | None = None
+    rigid: bool = False
 
-    Raises:
-        InputError: unknown method, wrong shape, or ``weights`` with ``geometric``.
-    """
-    return estimate_rotations_gated(joints_cam, method, weights, fps)[:3]
+    @property
+    def name(self) -> str:
+        return "pcnet-rigid" if self.rigid else "pcnet"
 
+    @property
+    def frame_tilt_95_deg(self) -> float:
+        return FRAME_TILT_95_DEG if self.weights is None else float("nan")
 
-def estimate_rotations_gated(joints_cam: np.ndarray, method: str = "pcnet", weights: str | None = None,
-                             fps: float = 30.0):
-    """:func:`estimate_rotations` plus the camera-frame network's weight ``(T,)`` per frame
-    (:func:`pcnet.models.view_gate.camera_frame_weight`; NaN where not valid), or ``None``
-    when one estimator ran (``geometric``, or given ``weights``)."""
-    X = check_poses(joints_cam, "joints_cam")
-    check_method_weights(method, weights)
-    if method == "geometric":
-        R, valid = geometric_rotation(X)
-        return R, np.zeros(X.shape, np.float64), valid, None
-    if method in ("pcnet", "pcnet-rigid"):
-        session = get_session(None if weights is None else str(weights))
-        if weights is None:
+    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0) -> FrameEstimate:
+        X = check_poses(joints_cam, "joints_cam")
+        session = get_session(None if self.weights is None else str(self.weights))
+        if self.weights is None:
             R, residual, valid, gate = session.predict_gated(X, fps)
         else:
             (R, residual, valid), gate = session.predict(X), None
-        if method == "pcnet-rigid":
+        if self.rigid:
             residual = np.where(valid[:, None, None], 0.0, np.nan)
-        return R, residual, valid, gate
+        return FrameEstimate(R, residual, valid, gate)
+
+
+def make_estimator(method: str = "pcnet", weights: str | None = None) -> FrameEstimator:
+    """Step 1 for ``method`` (:data:`pcnet.stages.rectify.METHODS`): ``pcnet`` (3DPCNet with its
+    residual), ``pcnet-rigid`` (the same rotation, no residual), ``geometric`` (paper 2.3).
+
+    Raises:
+        InputError: unknown method, or ``weights`` with ``geometric``.
+    """
+    check_method_weights(method, weights)
+    if method == "geometric":
+        return GeometricEstimator()
+    if method in ("pcnet", "pcnet-rigid"):
+        return NetworkEstimator(None if weights is None else str(weights), rigid=method == "pcnet-rigid")
     raise InputError(f"unknown rectification method {method!r}; expected one of {METHODS}")
 
 
@@ -74,7 +82,8 @@ def rectify(
 
     ``mode``: ``frame`` (each frame alone, the paper), ``sequence`` (one up direction for a
     static camera), ``smooth`` (SO(3) smoothing for a moving camera, needs ``fps``) or
-    ``auto`` (:func:`pcnet.stages.temporal.rectify_sequence`). ``heading``: where the
+    ``auto`` (:func:`pcnet.stages.temporal.rectify_sequence`); the steps are
+    :class:`pcnet.stages.rectify.Rectification`'s with :func:`make_estimator`'s estimator. ``heading``: where the
     heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
     input's hip line, the canonical frame's definition) or ``auto`` (hips when they are
     precise, :func:`pcnet.stages.heading.apply_heading`); ``None`` =
@@ -89,24 +98,17 @@ def rectify(
     :func:`pcnet.stages.core.conventions.fill_pelvis_from_hips` (a missing pelvis is the hip
     midpoint; a frame still without a pelvis is invalid). The report's
     ``pelvis_from_hips_frames`` counts the filled frames; ``view_gate``
-    (:func:`gate_report`) and ``camera_frame_weight`` ``(T,)`` say how far the shipped
+    (:func:`pcnet.stages.rectify.gate_report`) and ``camera_frame_weight`` ``(T,)`` say how far the shipped
     camera-frame network was trusted (3DPCNet methods without ``weights``).
 
     Raises:
         InputError (a ValueError): bad input array (see above), unknown method, mode or
             heading source, or (sequence modes) no valid frame.
     """
-    heading = resolve_heading_source(method, heading)
+    heading_step = HeadingStep(resolve_heading_source(method, heading))
+    chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior), heading_step)
     fps = validate_fps(fps)
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
-    R, residual, valid, gate = estimate_rotations_gated(joints_cam, method, weights, fps)
-    R, valid, report = finish_rotations(joints_cam, R, valid, mode, fps, heading, camera_prior=camera_prior)
-    report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
-    report["view_gate"] = gate_report(gate, valid)
-    if gate is not None:
-        report["camera_frame_weight"] = np.where(valid, gate, np.nan)
-    # A per-frame bound calibrated for the shipped weights only (other weights: none).
-    report["frame_tilt_95_deg"] = FRAME_TILT_95_DEG if method != "geometric" and weights is None else float("nan")
-    canonical = to_canonical(joints_cam, R, residual)
-    return Rectified(R, canonical, R[:, :, 1].copy(), valid, method, report["mode"], report,
-                     report["heading_source"])
+    result = chain(joints_cam, fps)
+    result.report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
+    return result

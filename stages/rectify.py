@@ -1,19 +1,33 @@
-"""Rectification steps after a per-frame estimator: the sequence modes and the heading source
-(:func:`finish_rotations`), the result type and the option checks.
+"""Rectification as a chain of steps, each a small object with one contract, composed by
+:class:`Rectification`:
 
-The estimators themselves (the geometric baseline, 3DPCNet through onnxruntime) and the
-composed :func:`pcnet.pipeline.rectification.rectify` live in the pipeline, which is the room
-allowed to use both ``stages`` and ``models`` (docs/architecture.md)."""
+1. **estimate per frame**: a :class:`FrameEstimator` (``joints_cam, fps -> FrameEstimate``):
+   :class:`GeometricEstimator` (paper section 2.3) here, 3DPCNet through onnxruntime built
+   by the pipeline (:func:`pcnet.pipeline.rectification.make_estimator`), so that stages never
+   import the network;
+2. **sequence evidence**: :class:`SequenceEvidence` (``"frame"`` = none, the paper; the
+   static-camera sequence up with floor contacts and camera prior, or SO(3) smoothing,
+   :func:`pcnet.stages.temporal.rectify_sequence`);
+3. **heading**: :class:`HeadingStep` (predicted or hip line, :func:`pcnet.stages.heading.apply_heading`);
+4. **world frame**: one gravity-aligned frame per recording, built by the pipeline from the
+   result (:func:`pcnet.stages.world_frame.world_frame`), after scaling.
+
+Shapes and frames: ``joints_cam`` ``(T, 17, 3)`` H36M-17, OpenCV camera frame, any unit;
+rotations ``(T, 3, 3)`` canonical->camera (docs/CONVENTIONS.md); invalid frames NaN."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
-from .heading import HEADING_SOURCES, apply_heading
-from .temporal import BOOTSTRAP_REPLICATES, rectify_sequence
+from .core.canonical import to_canonical
+from .core.conventions import check_poses
 from .core.errors import InputError
+from .core.geometric import geometric_rotation
+from .heading import HEADING_SOURCES, apply_heading
+from .temporal import BOOTSTRAP_REPLICATES, MODES, rectify_sequence
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -21,7 +35,7 @@ NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
 
 @dataclass(frozen=True)
 class Rectified:
-    """Output of :func:`pcnet.pipeline.rectification.rectify` for ``T`` frames.
+    """Output of :class:`Rectification` for ``T`` frames.
 
     rotation ``(T, 3, 3)`` canonical->camera; canonical ``(T, 17, 3)`` pelvis-centred
     canonical poses in the input's units; up ``(T, 3)`` unit up direction in the camera
@@ -78,44 +92,131 @@ def resolve_heading_source(method: str, heading: str | None) -> str:
     return heading
 
 
-def finish_rotations(
-    joints_cam: np.ndarray,
-    R: np.ndarray,
-    valid: np.ndarray,
-    mode: str,
-    fps: float,
-    heading: str,
-    n_bootstrap: int = BOOTSTRAP_REPLICATES,
-    camera_prior: bool = True,
-) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The steps after a per-frame estimator, for one recording: the rectify ``mode``
-    (:func:`pcnet.stages.temporal.rectify_sequence` unless ``"frame"``), then the ``heading``
-    source (:func:`pcnet.stages.heading.apply_heading`; the up is kept).
+@dataclass(frozen=True)
+class FrameEstimate:
+    """Step 1's output for ``T`` frames: ``rotation`` ``(T, 3, 3)`` float64 canonical->camera,
+    ``residual`` ``(T, 17, 3)`` the non-rigid correction in the canonical frame and the
+    input's units (the paper's Delta; zeros for estimators without one), ``valid`` ``(T,)``
+    bool (NaN rotations where False), ``camera_frame_weight`` ``(T,)`` the shipped pair's
+    trust in its camera-frame network per frame (:mod:`pcnet.models.view_gate`; ``None`` when
+    one estimator ran)."""
 
-    Args:
-        joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses.
-        R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool.
-        mode, fps: as :func:`pcnet.pipeline.rectification.rectify`; heading: one of
-            :data:`pcnet.stages.heading.HEADING_SOURCES` (already resolved).
-        n_bootstrap: sequence-mode uncertainty replicates (0 = none; rotations unchanged).
-        camera_prior: as :func:`pcnet.pipeline.rectification.rectify` (sequence modes only).
+    rotation: np.ndarray
+    residual: np.ndarray
+    valid: np.ndarray
+    camera_frame_weight: np.ndarray | None = None
 
-    Returns:
-        ``(R (T, 3, 3) float64, NaN where not valid; valid (T,) bool; report)`` with
-        ``requested_mode``, ``mode`` and the sequence and heading reports.
 
-    Raises:
-        ValueError: unknown mode or heading source, or (sequence modes) no valid frame.
+class FrameEstimator(Protocol):
+    """Step 1: per-frame canonical->camera rotations of one recording.
+
+    ``name`` is the method name reported (:data:`METHODS`); ``frame_tilt_95_deg`` the
+    per-frame tilt bound calibrated for it (:data:`pcnet.stages.uncertainty.FRAME_TILT_95_DEG`
+    for the shipped weights; NaN when none was calibrated)."""
+
+    name: str
+    frame_tilt_95_deg: float
+
+    def __call__(self, joints_cam: np.ndarray, fps: float) -> FrameEstimate: ...
+
+
+@dataclass(frozen=True)
+class GeometricEstimator:
+    """The paper's geometric baseline (section 2.3; :func:`pcnet.stages.core.geometric.geometric_rotation`):
+    up from the trunk, heading from the shoulder line, no residual."""
+
+    name: str = "geometric"
+    frame_tilt_95_deg: float = float("nan")
+
+    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0) -> FrameEstimate:
+        X = check_poses(joints_cam, "joints_cam")
+        R, valid = geometric_rotation(X)
+        return FrameEstimate(R, np.zeros(X.shape, np.float64), valid)
+
+
+@dataclass(frozen=True)
+class SequenceEvidence:
+    """Step 2: what the whole recording says beyond each frame (:func:`pcnet.stages.temporal.rectify_sequence`).
+
+    ``mode``: ``"frame"`` (nothing; the paper's per-frame rotations), ``"sequence"`` (static
+    camera: one up, floor contacts when the root is measured, the camera prior if
+    ``camera_prior``), ``"smooth"`` (moving camera) or ``"auto"``. ``n_bootstrap``: replicates
+    of the sequence-mode uncertainty (0 = none; the rotations do not depend on it).
     """
-    report: dict = {"requested_mode": mode, "mode": "frame"}
-    if mode != "frame":
+
+    mode: str = "frame"
+    camera_prior: bool = True
+    n_bootstrap: int = BOOTSTRAP_REPLICATES
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise InputError(f"unknown mode {self.mode!r}; expected one of {MODES}")
+
+    def __call__(self, joints_cam: np.ndarray, R: np.ndarray, valid: np.ndarray,
+                 fps: float) -> tuple[np.ndarray, np.ndarray, dict]:
+        """``(R (T, 3, 3) float64, NaN where not valid; valid (T,) bool; report)``; the report
+        has ``requested_mode``, ``mode`` and, outside frame mode, the sequence report.
+
+        Raises:
+            InputError: (sequence modes) no valid frame; bad shapes or fps.
+        """
+        report: dict = {"requested_mode": self.mode, "mode": "frame"}
+        if self.mode == "frame":
+            return R, valid, report
         if not valid.any():
             raise InputError(NO_VALID_FRAME)
-        R, sequence_report = rectify_sequence(R, valid, mode, fps, joints_cam, n_bootstrap=n_bootstrap,
-                                              camera_prior=camera_prior)
+        R, sequence_report = rectify_sequence(R, valid, self.mode, fps, joints_cam, n_bootstrap=self.n_bootstrap,
+                                              camera_prior=self.camera_prior)
         report.update(sequence_report)
         valid = valid & np.asarray(report["valid"], bool)
-        R = np.where(valid[:, None, None], R, np.nan)
-    R, heading_report = apply_heading(joints_cam, R, valid, heading)
-    report.update(heading_report)
-    return R, valid, report
+        return np.where(valid[:, None, None], R, np.nan), valid, report
+
+
+@dataclass(frozen=True)
+class HeadingStep:
+    """Step 3: where the heading about each frame's up comes from (``source``, one of
+    :data:`pcnet.stages.heading.HEADING_SOURCES`, already resolved by
+    :func:`resolve_heading_source`); :func:`pcnet.stages.heading.apply_heading`, the up kept."""
+
+    source: str = "auto"
+
+    def __post_init__(self) -> None:
+        if self.source not in HEADING_SOURCES:
+            raise InputError(f"unknown heading source {self.source!r}; expected one of {HEADING_SOURCES}")
+
+    def __call__(self, joints_cam: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, dict]:
+        return apply_heading(joints_cam, R, valid, self.source)
+
+
+@dataclass(frozen=True)
+class Rectification:
+    """Steps 1-3 for one recording: ``estimator`` -> ``sequence`` -> ``heading``, then the
+    canonical poses ``(X - pelvis) @ R + residual`` (:func:`pcnet.stages.core.canonical.to_canonical`).
+
+    Calling it with ``joints_cam`` ``(T, 17, 3)`` (camera frame, any unit, NaN = missing) and
+    ``fps`` returns :class:`Rectified`; its report holds the sequence and heading reports,
+    ``view_gate`` (:func:`gate_report`), ``camera_frame_weight`` ``(T,)`` (the shipped pair
+    only) and ``frame_tilt_95_deg``. Input rules (dtype, the pelvis from the hips) are the
+    caller's: :func:`pcnet.pipeline.rectification.rectify`.
+
+    Raises:
+        InputError: bad shapes, or (sequence modes) no valid frame.
+    """
+
+    estimator: FrameEstimator
+    sequence: SequenceEvidence = SequenceEvidence()
+    heading: HeadingStep = HeadingStep("predicted")
+
+    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0) -> Rectified:
+        estimate = self.estimator(joints_cam, fps)
+        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps)
+        R, heading_report = self.heading(joints_cam, R, valid)
+        report.update(heading_report)
+        gate = estimate.camera_frame_weight
+        report["view_gate"] = gate_report(gate, valid)
+        if gate is not None:
+            report["camera_frame_weight"] = np.where(valid, gate, np.nan)
+        report["frame_tilt_95_deg"] = self.estimator.frame_tilt_95_deg
+        canonical = to_canonical(joints_cam, R, estimate.residual)
+        return Rectified(R, canonical, R[:, :, 1].copy(), valid, self.estimator.name, report["mode"], report,
+                         report["heading_source"])

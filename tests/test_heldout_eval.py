@@ -323,16 +323,18 @@ def test_frames_marked_invalid_never_count_even_with_a_rotation(monkeypatch):
     """A method may return a finite rotation for a frame it marks invalid: still excluded."""
     import pcnet.pipeline.evaluate as ev
 
-    real = ev.estimate_rotations
+    from pcnet.stages.rectify import FrameEstimate, GeometricEstimator
 
-    def flagging(X, method, weights, fps):
-        R, residual, valid = real(X, method, weights, fps)
-        valid = valid.copy()
-        valid[::7] = False  # keep R: a finite but disowned prediction (every 7th frame of each clip)
-        R[::7] = np.eye(3)
-        return R, residual, valid
+    class Flagging(GeometricEstimator):
+        def __call__(self, X, fps=30.0):
+            estimate = super().__call__(X, fps)
+            valid = estimate.valid.copy()
+            valid[::7] = False  # keep R: a finite but disowned prediction (every 7th frame of each clip)
+            R = estimate.rotation.copy()
+            R[::7] = np.eye(3)
+            return FrameEstimate(R, estimate.residual, valid)
 
-    monkeypatch.setattr(ev, "estimate_rotations", flagging)
+    monkeypatch.setattr(ev, "make_estimator", lambda method, weights: Flagging())
     res = ev.evaluate("geometric", TEST_CLIPS, "all", details=True)
     disowned = np.concatenate([np.arange(len(c.joints)) % 7 == 0 for c in load_mocap(TEST_CLIPS)])
     assert res["invalid_frames"] == disowned.sum() > 0
