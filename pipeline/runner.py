@@ -24,19 +24,16 @@ from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
 from pcnet.models.toml_config import type_name, value_matches
 from pcnet.stages.core.conventions import (H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps,
                                       validate_poses)
-from pcnet.stages.sinks.bvh import write_bvh
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.sinks.exports import plot_wrists, require_ezc3d, write_c3d, write_kinematics_csv, write_npz, write_trc
+from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (body_size_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag, unfiltered_flag)
-from pcnet.stages.kinematics import (concat_frames, count_flags, filtered_derivatives, format_flag_counts,
-                                     kinematics_chunks, residual_analysis, select_frames)
-from pcnet.stages.sinks.plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
+from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.rectify import NO_VALID_FRAME
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
-from pcnet.stages.sinks.rerun_log import series_from_kinematics, write_recording
-from pcnet.stages.core.rotations import decompose_camera_rotation
+from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
+                                      write_motion_files, write_rerun)
 from pcnet.stages.scale import scale_to_height
 from pcnet.stages.uncertainty import LABEL as UNCERTAINTY_LABEL
 from pcnet.stages.world_frame import feet_visible, to_world, world_frame
@@ -44,12 +41,7 @@ from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 from .config import RunConfig
 from .outdir import check_out_folder, staged_output
 
-WRISTS = ("left_wrist", "right_wrist")
-#: Joints whose filtered kinematics stay in memory after the CSV is written (plots, recording).
-KEPT_JOINTS = tuple(dict.fromkeys(WRISTS + sum(SPEED_GROUPS.values(), ())))
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
-FRAME_LABELS = {"world": "world frame (x forward at the start, y up, z right; floor y = 0)",
-                "canonical": "canonical frame (x anterior, y up, z right)"}
 WORLD_SUMMARY = {
     "not observable": "world, fixed for the recording: +Y up, +X the subject's forward over the first second, floor "
                       "at y = 0 under the lowest joint; the pelvis's horizontal path is not observable from a "
@@ -330,82 +322,29 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     # small enough to filter whole, and no angles to compute.
     acc_cam = filtered_derivatives(joints[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
 
+    result = RecordingResult(
+        fps=fps, units=units, method=cfg.method, report=report, flags=flags, notes=notes, joints_camera=joints,
+        rotation=rotations, canonical=canonical, valid=valid, kinematics_frame=kin_frame, poses=rectified,
+        world=world, world_rotation=world_rotation, keypoints2d=kp2d, track_segment=segment, video=cfg.video,
+        min_confidence=cfg.confidence_threshold, wrist_acceleration_camera=acc_cam)
     with staged_output(out) as tmp:
-        frames = np.arange(len(joints))
-        heading, pitch, roll = decompose_camera_rotation(rotations)
-        # Kinematics go to the CSV chunk by chunk so that memory does not grow with the
-        # recording's length; only what the summary, plots and recording use is kept.
-        kept: list = []
-        missing, unfiltered = [], []
-
-        def keeping(chunks):
-            for k in chunks:
-                kept.append(select_frames(k, 0, k.num_frames, KEPT_JOINTS, dtype=np.float32))
-                missing.append(k.missing)
-                unfiltered.append(k.unfiltered)
-                yield k
-
-        write_kinematics_csv(tmp / "kinematics.csv", frames, frames / fps,
-                             keeping(kinematics_chunks(rectified, fps, cutoff, units)),
-                             extra_columns={"valid": valid.astype(int), "heading_deg": np.degrees(heading)})
-        kin = concat_frames(kept)
-        missing, unfiltered = np.concatenate(missing), np.concatenate(unfiltered)
-        counts = count_flags(missing, unfiltered)
-        flags += unfiltered_flag(missing, unfiltered, fps, cutoff)
-        missing_note = format_flag_counts(counts)
+        result.kinematics_blocks = kinematics_chunks(rectified, fps, cutoff, units)
+        table = write_kinematics_table(result, tmp)
+        flags += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
+        missing_note = format_flag_counts(result.flag_counts)
         if missing_note:
             notes.append(missing_note)
         bar.update()
 
         step("exports")
-        write_npz(
-            tmp / "canonical.npz", rotation=rotations, canonical=canonical, joints_camera=joints,
-            up=rotations[:, :, 1], valid=valid, heading_deg=np.degrees(heading), fps=fps, units=units,
-            method=cfg.method, mode=report["mode"], heading_source=report["heading_source"], joint_names=np.array(H36M_JOINTS),
-            keypoints2d=kp2d if kp2d is not None else np.zeros((0, 17, 3), np.float32),
-            missing=missing, unfiltered=unfiltered, flag_counts=counts,
-            flags=np.array(flags, dtype=str), track_segment=segment if segment is not None else np.zeros(0, int),
-            report=_jsonable(report),
-            camera_frame_weight=report.get("camera_frame_weight", np.zeros(0)),
-            joints_world=world if world is not None else np.zeros((0, 17, 3)), world_rotation=world_rotation,
-        )
-        outputs = {"canonical.npz": tmp / "canonical.npz", "kinematics.csv": tmp / "kinematics.csv"}
-        if units == "m":
-            trc, c3d = f"{kin_frame}.trc", f"{kin_frame}.c3d"
-            write_trc(tmp / trc, rectified, fps)
-            outputs[trc] = tmp / trc
-            if cfg.c3d:
-                write_c3d(tmp / c3d, rectified, fps)
-                outputs[c3d] = tmp / c3d
-            bvh = f"{kin_frame}.bvh"
-            incomplete = ~np.isfinite(rectified).all(axis=(1, 2))
-            if incomplete.all():
-                notes.append(f"{bvh} not written: no frame has all 17 joints (BVH needs one for the bone lengths)")
-            else:
-                write_bvh(tmp / bvh, rectified, fps)
-                outputs[bvh] = tmp / bvh
-                if incomplete.any():
-                    notes.append(f"{bvh}: {int(incomplete.sum())} of {len(incomplete)} frames had missing joints, "
-                                 f"filled by linear interpolation in time (BVH cannot hold NaN; the CSV, TRC and "
-                                 f"npz keep them missing)")
-        plot_wrists(tmp / "wrists.png", joints, rectified, fps, acc_cam,
-                    select_frames(kin, 0, kin.num_frames, WRISTS).acceleration, units,
-                    frame_label=FRAME_LABELS[kin_frame])
-        outputs["wrists.png"] = tmp / "wrists.png"
-        for name, plot in (("angles.png", plot_joint_angles), ("speeds.png", plot_joint_speeds)):
-            outputs[name] = plot(tmp / name, kin, fps, frame_label=FRAME_LABELS[kin_frame])
+        outputs = {**write_arrays(result, tmp), **table}
+        outputs.update(write_motion_files(result, tmp, c3d=cfg.c3d))
+        outputs.update(write_figures(result, tmp))
         bar.update()
 
         step("recording")
         if cfg.recording:
-            wrists = {n: kin.positions[:, KEPT_JOINTS.index(n)] for n in WRISTS}
-            write_recording(
-                tmp / "recording.rrd", fps=fps, joints_cam=joints, canonical=canonical, rotations=rotations,
-                up=rotations[:, :, 1], valid=valid, keypoints2d=kp2d, video_path=cfg.video,
-                wrist_paths=wrists, series=series_from_kinematics(kin), min_confidence=cfg.confidence_threshold,
-                flags=flags, world=world,
-            )
-            outputs["recording"] = tmp / "recording.rrd"
+            outputs.update(write_rerun(result, tmp))
         bar.update()
         step("done")
 
@@ -415,18 +354,3 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
     )
 
-
-def _jsonable(report: dict) -> dict:
-    """The report without per-frame arrays, with numpy scalars as floats."""
-    clean = {}
-    for k, v in report.items():
-        if isinstance(v, np.ndarray):
-            if v.ndim == 0 or v.size <= 3:
-                clean[k] = v.tolist()
-        elif isinstance(v, (np.floating, np.integer)):
-            clean[k] = v.item()
-        elif isinstance(v, dict):
-            clean[k] = _jsonable(v)
-        else:
-            clean[k] = v
-    return clean

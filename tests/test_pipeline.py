@@ -145,7 +145,7 @@ def test_run_refuses_an_existing_folder_and_leaves_no_partial_output(tmp_path, m
     def boom(*a, **k):
         raise OSError("disk full while writing the recording")
 
-    monkeypatch.setattr(runner, "write_recording", boom)
+    monkeypatch.setattr(runner, "write_rerun", boom)
     cfg = RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30, out=str(tmp_path / "new"))
     with pytest.raises(OSError, match="disk full"):
         run_pipeline(cfg, progress=False)

@@ -1,0 +1,206 @@
+"""One recording's result, the object every output sink reads, and the sinks as functions of it.
+
+The runner (``pcnet run``, :mod:`pcnet.pipeline.runner`) fills a :class:`RecordingResult` and
+calls the sinks in order; each writes its files into a folder (the run's staged folder) and
+returns ``{output name: path}``. The file formats themselves are the array-level writers of
+:mod:`.exports`, :mod:`.bvh`, :mod:`.plots` and :mod:`.rerun_log` (docs/outputs.md).
+
+Frames and units: ``joints_camera`` root-relative OpenCV camera frame; ``canonical`` per-frame
+canonical frame (docs/CONVENTIONS.md); ``poses`` the frame the kinematics live in
+(``kinematics_frame``: ``"world"``, one gravity-aligned frame per recording, or
+``"canonical"``); lengths in ``units``; rotations ``(T, 3, 3)`` canonical->camera.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from ..core.conventions import H36M_JOINTS
+from ..core.rotations import decompose_camera_rotation
+from ..kinematics import concat_frames, count_flags, select_frames
+from .bvh import write_bvh
+from .exports import plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
+from .plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
+from .rerun_log import series_from_kinematics, write_recording
+
+WRISTS = ("left_wrist", "right_wrist")
+#: Joints whose filtered kinematics stay in memory after the CSV is written (plots, recording).
+KEPT_JOINTS = tuple(dict.fromkeys(WRISTS + sum(SPEED_GROUPS.values(), ())))
+FRAME_LABELS = {"world": "world frame (x forward at the start, y up, z right; floor y = 0)",
+                "canonical": "canonical frame (x anterior, y up, z right)"}
+
+
+@dataclass
+class RecordingResult:
+    """Everything the sinks write for one recording of ``T`` frames.
+
+    Filled in two steps: the arrays before the kinematics table, then the kept kinematics
+    (``kinematics``, ``missing``, ``unfiltered``, ``flag_counts``), which
+    :func:`write_kinematics_table` fills while it streams ``kinematics_blocks``.
+
+    Attributes:
+        fps: frame rate, Hz. units: length unit of every position (``"m"`` for metric runs).
+        method: rectification method name. report: the rectification report (JSON-able
+            after :func:`jsonable`). flags: ``WARNING`` texts. notes: run notes; sinks
+            append theirs (e.g. frames BVH interpolated).
+        joints_camera: ``(T, 17, 3)`` float root-relative camera-frame poses.
+        rotation: ``(T, 3, 3)`` canonical->camera; canonical ``(T, 17, 3)``; valid ``(T,)`` bool.
+        kinematics_frame: ``"world"`` or ``"canonical"``; poses ``(T, 17, 3)`` in it.
+        world: ``(T, 17, 3)`` world-frame poses or ``None``; world_rotation ``(3, 3)``
+            (NaN without a world frame).
+        keypoints2d: ``(T, 17, 3)`` px + confidence or ``None``; track_segment ``(T,)`` int or
+            ``None``; video: the video path or ``None``; min_confidence: 2D threshold.
+        wrist_acceleration_camera: ``(T, 2, 3)`` filtered camera-frame wrist accelerations.
+        kinematics_blocks: iterable of :class:`pcnet.stages.kinematics.Kinematics` blocks in
+            frame order, consumed once by :func:`write_kinematics_table`.
+        kinematics: :data:`KEPT_JOINTS`' kinematics, float32 (after the table); missing, unfiltered
+            ``(T, 17)`` bool; flag_counts: :func:`pcnet.stages.kinematics.count_flags`.
+    """
+
+    fps: float
+    units: str
+    method: str
+    report: dict
+    flags: list[str]
+    notes: list[str]
+    joints_camera: np.ndarray
+    rotation: np.ndarray
+    canonical: np.ndarray
+    valid: np.ndarray
+    kinematics_frame: str
+    poses: np.ndarray
+    world: np.ndarray | None
+    world_rotation: np.ndarray
+    keypoints2d: np.ndarray | None = None
+    track_segment: np.ndarray | None = None
+    video: str | None = None
+    min_confidence: float = 0.0
+    wrist_acceleration_camera: np.ndarray | None = None
+    kinematics_blocks: Iterable = ()
+    kinematics: object = None
+    missing: np.ndarray | None = None
+    unfiltered: np.ndarray | None = None
+    flag_counts: dict = field(default_factory=dict)
+
+    @cached_property
+    def heading_deg(self) -> np.ndarray:
+        """``(T,)`` camera heading of each frame's rotation, degrees
+        (:func:`pcnet.stages.core.rotations.decompose_camera_rotation`)."""
+        return np.degrees(decompose_camera_rotation(self.rotation)[0])
+
+    @property
+    def frame_label(self) -> str:
+        return FRAME_LABELS[self.kinematics_frame]
+
+
+def jsonable(report: dict) -> dict:
+    """The report without per-frame arrays (arrays of up to 3 values kept as lists), numpy
+    scalars as Python numbers, nested dicts alike."""
+    clean = {}
+    for k, v in report.items():
+        if isinstance(v, np.ndarray):
+            if v.ndim == 0 or v.size <= 3:
+                clean[k] = v.tolist()
+        elif isinstance(v, (np.floating, np.integer)):
+            clean[k] = v.item()
+        elif isinstance(v, dict):
+            clean[k] = jsonable(v)
+        else:
+            clean[k] = v
+    return clean
+
+
+def write_kinematics_table(r: RecordingResult, folder: Path) -> dict[str, Path]:
+    """``kinematics.csv`` (:func:`.exports.write_kinematics_csv`, with the ``valid`` and
+    ``heading_deg`` columns) from ``r.kinematics_blocks``, consumed once; fills
+    ``r.kinematics`` (:data:`KEPT_JOINTS` only, float32: what a long recording keeps for the
+    plots and the recording), ``r.missing``, ``r.unfiltered`` and ``r.flag_counts``."""
+    kept, missing, unfiltered = [], [], []
+
+    def keeping(blocks):
+        for k in blocks:
+            kept.append(select_frames(k, 0, k.num_frames, KEPT_JOINTS, dtype=np.float32))
+            missing.append(k.missing)
+            unfiltered.append(k.unfiltered)
+            yield k
+
+    frames = np.arange(len(r.joints_camera))
+    path = folder / "kinematics.csv"
+    write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks),
+                         extra_columns={"valid": r.valid.astype(int), "heading_deg": r.heading_deg})
+    r.kinematics = concat_frames(kept)
+    r.missing, r.unfiltered = np.concatenate(missing), np.concatenate(unfiltered)
+    r.flag_counts = count_flags(r.missing, r.unfiltered)
+    return {"kinematics.csv": path}
+
+
+def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
+    """``canonical.npz`` (:func:`.exports.write_npz`; keys in docs/outputs.md)."""
+    path = folder / "canonical.npz"
+    empty = np.zeros(0)
+    write_npz(
+        path, rotation=r.rotation, canonical=r.canonical, joints_camera=r.joints_camera,
+        up=r.rotation[:, :, 1], valid=r.valid, heading_deg=r.heading_deg, fps=r.fps, units=r.units,
+        method=r.method, mode=r.report["mode"], heading_source=r.report["heading_source"],
+        joint_names=np.array(H36M_JOINTS),
+        keypoints2d=r.keypoints2d if r.keypoints2d is not None else np.zeros((0, 17, 3), np.float32),
+        missing=r.missing, unfiltered=r.unfiltered, flag_counts=r.flag_counts,
+        flags=np.array(r.flags, dtype=str), track_segment=r.track_segment if r.track_segment is not None else np.zeros(0, int),
+        report=jsonable(r.report), camera_frame_weight=r.report.get("camera_frame_weight", empty),
+        joints_world=r.world if r.world is not None else np.zeros((0, 17, 3)), world_rotation=r.world_rotation,
+    )
+    return {"canonical.npz": path}
+
+
+def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False) -> dict[str, Path]:
+    """Metric runs only (``r.units == "m"``): ``<frame>.trc``, ``<frame>.c3d`` (``c3d``) and
+    ``<frame>.bvh`` of ``r.poses`` (:func:`.exports.write_trc`, :func:`.exports.write_c3d`,
+    :func:`.bvh.write_bvh`); a BVH needs one frame with all 17 joints (else a note, no file)
+    and interpolates gaps (a note counts them)."""
+    if r.units != "m":
+        return {}
+    name = r.kinematics_frame
+    out = {f"{name}.trc": folder / f"{name}.trc"}
+    write_trc(out[f"{name}.trc"], r.poses, r.fps)
+    if c3d:
+        out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", r.poses, r.fps)
+    bvh = f"{name}.bvh"
+    incomplete = ~np.isfinite(r.poses).all(axis=(1, 2))
+    if incomplete.all():
+        r.notes.append(f"{bvh} not written: no frame has all 17 joints (BVH needs one for the bone lengths)")
+        return out
+    out[bvh] = write_bvh(folder / bvh, r.poses, r.fps)
+    if incomplete.any():
+        r.notes.append(f"{bvh}: {int(incomplete.sum())} of {len(incomplete)} frames had missing joints, "
+                       f"filled by linear interpolation in time (BVH cannot hold NaN; the CSV, TRC and "
+                       f"npz keep them missing)")
+    return out
+
+
+def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
+    """``wrists.png`` (camera frame against ``r.kinematics_frame``), ``angles.png`` and
+    ``speeds.png`` (:mod:`.plots`)."""
+    kin = r.kinematics
+    wrist_acc = select_frames(kin, 0, kin.num_frames, WRISTS).acceleration
+    out = {"wrists.png": plot_wrists(folder / "wrists.png", r.joints_camera, r.poses, r.fps,
+                                     r.wrist_acceleration_camera, wrist_acc, r.units, frame_label=r.frame_label)}
+    for name, plot in (("angles.png", plot_joint_angles), ("speeds.png", plot_joint_speeds)):
+        out[name] = plot(folder / name, kin, r.fps, frame_label=r.frame_label)
+    return out
+
+
+def write_rerun(r: RecordingResult, folder: Path) -> dict[str, Path]:
+    """``recording.rrd`` (:func:`.rerun_log.write_recording`): video, 2D keypoints, camera,
+    canonical and world views, wrist paths, kinematics series and flags."""
+    path = write_recording(
+        folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera, canonical=r.canonical,
+        rotations=r.rotation, up=r.rotation[:, :, 1], valid=r.valid, keypoints2d=r.keypoints2d,
+        video_path=r.video, wrist_paths={n: r.kinematics.positions[:, KEPT_JOINTS.index(n)] for n in WRISTS},
+        series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence, flags=r.flags, world=r.world,
+    )
+    return {"recording": path}
