@@ -69,6 +69,8 @@ _MIN_HEADING_NORM = 0.2
 # --- mode choice ------------------------------------------------------------------------------
 # See choose_mode for the measurements behind these numbers.
 MODE_THRESHOLD_DEG = 5.0
+#: Kernel std (s) of smooth mode's SO(3) smoothing (:func:`smooth_rotations`).
+SMOOTH_TIME_CONSTANT_S = 0.2
 MODE_SMOOTHING_S = 0.5
 
 
@@ -199,24 +201,20 @@ def sequence_rectify(
     R: np.ndarray,
     valid: np.ndarray | None = None,
     joints_cam: np.ndarray | None = None,
-    use_ground_plane: bool = True,
     *,
     fps: float = 30.0,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
-    pose_prior_deg: float = POSE_PRIOR_DEG,
-    ground_gate_deg: float = GROUND_GATE_DEG,
-    seed: int = 0,
     camera_prior: bool = True,
 ) -> SequenceResult:
     """One up direction for a static-camera sequence, per-frame heading about it.
 
     1. **Up**: :func:`robust_mean_direction` of the per-frame ups ``R[:, :, 1]`` (Weiszfeld
        geometric median on S^2, then Tukey-biweight IRLS).
-    2. **Ground plane** (``use_ground_plane`` and ``joints_cam`` given): ankles (3, 6) that
+    2. **Ground plane** (``joints_cam`` given): ankles (3, 6) that
        are the lowest in their frame along the current up (within 0.05 leg lengths) and
        quasi-static (speed < 1 leg length/s over +-0.1 s) are floor contacts. The floor
        tilt is fitted to them by MAP least squares with the pose-based up as a Gaussian prior
-       of std ``pose_prior_deg`` (the expected *systematic* tilt error of a per-frame
+       of std :data:`pcnet.stages.ground_plane.POSE_PRIOR_DEG` (the expected *systematic* tilt error of a per-frame
        estimator, which no within-sequence statistic reveals; the geometric baseline's
        trunk-lean bias measured 3-5 deg on Bandai walking, ~14 deg running), so the plane
        only corrects the directions its contacts actually span (a straight walk fixes the
@@ -224,7 +222,7 @@ def sequence_rectify(
        or depth-pinned lifters give foot positions relative to the pelvis, not the floor),
        >= 20 contacts from >= 4 footfalls, robust plane residual <= 0.05 leg lengths,
        the contacts alone constrain some tilt direction better than the prior, and the
-       result is within ``ground_gate_deg`` of the pose-based up. Otherwise skipped, with
+       result is within :data:`pcnet.stages.ground_plane.GROUND_GATE_DEG` of the pose-based up. Otherwise skipped, with
        the reason in ``ground_plane["reason"]``.
     2b. **Camera prior** (``camera_prior``): the up of steps 1-2 (std
        :data:`POSE_EVIDENCE_SIGMA_DEG`) and a lying reading (up perpendicular to the mean
@@ -236,7 +234,7 @@ def sequence_rectify(
        each frame's prediction.
     4. **Uncertainty**: moving-block bootstrap (Kunsch 1989, "The jackknife and the bootstrap
        for general stationary observations", Ann. Stat. 17: 1217) over frames, 1 s blocks
-       (``fps``), ``n_bootstrap`` replicates, deterministic (``seed``), re-running steps 1-2.
+       (``fps``), ``n_bootstrap`` replicates, deterministic (seed 0), re-running steps 1-2.
        Sequences shorter than 5 blocks use ``T // 5`` frame blocks (optimistic intervals).
        Measured: with unbiased AR(1) rotation noise (5 deg per axis, lag-1 correlation 0.8)
        on 90-120-frame clips (4-5 blocks) the 95% cone covered the truth in 80-90% of trials
@@ -250,11 +248,8 @@ def sequence_rectify(
         valid: ``(T,)`` bool; frames with NaN ``R`` are invalid too. ``None`` = all.
         joints_cam: optional ``(T, 17, 3)`` H36M-17 camera-frame joints (any unit), for the
             ground plane.
-        use_ground_plane: try the ground-plane refinement.
         fps: frame rate (bootstrap block length, contact speeds).
         n_bootstrap: bootstrap replicates (0 = no uncertainty, NaN).
-        pose_prior_deg, ground_gate_deg: ground-plane parameters above.
-        seed: bootstrap random seed.
         camera_prior: step 2b.
 
     Returns:
@@ -275,14 +270,14 @@ def sequence_rectify(
     w = ok.astype(np.float64)
 
     u_pose, _ = robust_mean_direction(ups, w)
-    up, gp = u_pose, {"used": False, "reason": "not requested" if not use_ground_plane else "no joints_cam"}
+    up, gp = u_pose, {"used": False, "reason": "no joints_cam"}
     J = None
     if joints_cam is not None:
         J = check_poses(joints_cam, "joints_cam").astype(np.float64)
         if len(J) != T:
             raise InputError(f"joints_cam: expected {T} frames, got {len(J)}")
-    if use_ground_plane and J is not None:
-        up, gp = ground_plane_up(J, ok, u_pose, fps, pose_prior_deg, ground_gate_deg)
+    if J is not None:
+        up, gp = ground_plane_up(J, ok, u_pose, fps, POSE_PRIOR_DEG, GROUND_GATE_DEG)
     contacts = gp.pop("_contacts", None)
     evidence = "poses+ground_plane" if gp["used"] else "poses"
     up_evidence, gravity = up, None
@@ -308,7 +303,7 @@ def sequence_rectify(
         block = max(1, int(round(BOOTSTRAP_BLOCK_S * fps)))
         if T < _MIN_BLOCKS * block:
             block = max(1, T // _MIN_BLOCKS)
-        rng = np.random.default_rng(seed)
+        rng = np.random.default_rng(0)
         starts = _block_starts(T, block, n_bootstrap, rng)
         # Replicates in chunks, their frame indices built per chunk: all at once would hold
         # (B, T) indices and (B, T, 3) arrays several times over, GBs for a 2-hour recording.
@@ -329,7 +324,7 @@ def sequence_rectify(
                 if not np.isfinite(ub[b]).all() or len(Pb) < 3 or len(np.unique(fb)) < 2:
                     ub[b] = np.nan
                     continue
-                ub[b] = fit_plane_map(Pb, fb, ub[b], np.radians(pose_prior_deg))[0]
+                ub[b] = fit_plane_map(Pb, fb, ub[b], np.radians(POSE_PRIOR_DEG))[0]
         good = np.isfinite(ub).all(-1)
         if good.any():
             # Spread of the replicates about the evidence they resample (the camera prior's
@@ -519,8 +514,6 @@ def rectify_sequence(
     fps: float = 30.0,
     joints_cam: np.ndarray | None = None,
     *,
-    threshold_deg: float = MODE_THRESHOLD_DEG,
-    time_constant_s: float = 0.2,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
     camera_prior: bool = True,
 ) -> tuple[np.ndarray, dict]:
@@ -536,8 +529,6 @@ def rectify_sequence(
         mode: one of :data:`MODES`.
         fps: frame rate, > 0.
         joints_cam: optional ``(T, 17, 3)`` camera-frame joints (ground plane, sequence mode).
-        threshold_deg: ``choose_mode`` threshold.
-        time_constant_s: smoothing kernel std in seconds (smooth mode).
         n_bootstrap: bootstrap replicates of the sequence-mode uncertainties (0 = none,
             NaN uncertainties; the rotations do not depend on it).
         camera_prior: sequence mode combines the pose evidence with a camera prior and a
@@ -565,7 +556,7 @@ def rectify_sequence(
     if not fps > 0:
         raise InputError(f"fps must be positive, got {fps}")
     if mode == "auto":
-        run, spread = choose_mode(R, ok, threshold_deg, fps)
+        run, spread = choose_mode(R, ok, MODE_THRESHOLD_DEG, fps)
     else:
         run, spread = mode, up_spread_deg(R, ok, fps)
     report: dict = {"requested_mode": mode, "mode": run, "spread_deg": spread}
@@ -573,8 +564,8 @@ def rectify_sequence(
         out = np.where(ok[:, None, None], R, np.nan)
         report.update(evidence="per-frame", valid=ok)
     elif run == "smooth":
-        out = smooth_rotations(R, ok, fps, time_constant_s)
-        report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)), time_constant_s=time_constant_s)
+        out = smooth_rotations(R, ok, fps, SMOOTH_TIME_CONSTANT_S)
+        report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)), time_constant_s=SMOOTH_TIME_CONSTANT_S)
     else:
         res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=n_bootstrap, camera_prior=camera_prior)
         out = res.rotations

@@ -274,9 +274,9 @@ def test_ground_plane_skipped_when_evidence_unusable():
     _, _, X_in_place = _view(CLIPS[RAISE], R0)
     Rr, vr = geometric_rotation(X_in_place)
     assert _pose_only(Rr, vr, X_in_place, n_bootstrap=0).evidence == "poses"
-    # Not requested.
-    res = _pose_only(Rg, vg, _noisy(X_abs, rng), use_ground_plane=False, n_bootstrap=0)
-    assert res.evidence == "poses" and res.ground_plane["reason"] == "not requested"
+    # No joints given.
+    res = _pose_only(Rg, vg, None, n_bootstrap=0)
+    assert res.evidence == "poses" and res.ground_plane["reason"] == "no joints_cam"
 
 
 def test_input_errors():
@@ -422,8 +422,9 @@ def test_rectify_sequence_modes_and_report():
     assert np.isfinite(rep["up_uncertainty_deg"]) and rep["evidence"] == "poses"
     assert _deg(angle_between(rep["up"], R0[:, 1])) < np.median(_deg(angle_between(Rg[vg][:, :, 1], R0[:, 1])))
 
-    out, rep = tm.rectify_sequence(Rg, vg, "smooth", FPS, time_constant_s=0.3)
-    assert rep["mode"] == "smooth" and np.allclose(out, tm.smooth_rotations(Rg, vg, FPS, 0.3), equal_nan=True)
+    out, rep = tm.rectify_sequence(Rg, vg, "smooth", FPS)
+    smooth = tm.smooth_rotations(Rg, vg, FPS, tm.SMOOTH_TIME_CONSTANT_S)
+    assert rep["mode"] == "smooth" and np.allclose(out, smooth, equal_nan=True)
 
     plain, _ = tm.rectify_sequence(Rg, vg, "sequence", FPS)
 
