@@ -407,7 +407,7 @@ class _SummaryWriter:
 def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
               progress: Callable[[str], None] | None = None) -> BatchReport:
     """Validate ``manifest``, then run its rows that need running with ``options.engine``
-    and write the JSON summary (:func:`summary_fields`).
+    and write the JSON summary (:data:`SUMMARY_FIELDS`).
 
     ``progress`` gets one line per row as it finishes. Ctrl-C (or SIGTERM) stops the batch:
     no further row starts, running rows are stopped without leaving half-written folders,
@@ -475,11 +475,7 @@ def _progress_line(done: int, total: int, item: PlannedRow, result: dict) -> str
     return f"[{done}/{total}] line {item.line} {result['status']}{took}: {detail}"
 
 
-def summary_fields() -> dict[str, str]:
-    """What each per-row field of the JSON summary (and the table) means."""
-    return dict(SUMMARY_FIELDS)
-
-
+#: What each per-row field of the JSON summary (and the table) means.
 SUMMARY_FIELDS = {
     "row": "1-based row number in the manifest (below the header)",
     "line": "line of the manifest the row is on",

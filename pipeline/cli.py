@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from pcnet.models.datasets import CAMERAS
+from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
 from pcnet.pipeline.entry import EXIT_INTERRUPTED, raise_interrupt
 from pcnet.stages.core.errors import InputError
@@ -302,7 +303,7 @@ def demo(out, method, overwrite):
 
 @main.command()
 @click.argument("manifest", type=click.Path(dir_okay=False))
-@click.option("--engine", type=click.Choice(("local", "ray")), default="local", show_default=True,
+@click.option("--engine", type=click.Choice(ENGINES), default="local", show_default=True,
               help="local: worker processes on this machine; ray: one Ray task per row (pip install \"pcnet[ray]\")")
 @click.option("--address", default=None, metavar="ADDR",
               help="with --engine ray: a running Ray cluster (host:port printed by `ray start --head`, or auto); "
