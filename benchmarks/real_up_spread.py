@@ -18,7 +18,7 @@ import numpy as np
 
 from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.core.rotations import angle_between
-from pcnet.stages.temporal import rectify_sequence
+from pcnet.stages.rectify import SequenceEvidence
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 
@@ -37,8 +37,8 @@ def main() -> None:
         joints = joints - joints[:, :1]
         estimate = make_estimator(args.method)(joints, 30.0)
         R, valid = estimate.rotation, estimate.valid
-        _, seq = rectify_sequence(R, valid, "sequence", 30.0, joints)
-        _, auto = rectify_sequence(R, valid, "auto", 30.0, joints)
+        seq = SequenceEvidence("sequence")(joints, R, valid, 30.0)[2]
+        auto = SequenceEvidence("auto")(joints, R, valid, 30.0)[2]
         dev = np.degrees(angle_between(R[valid][:, :, 1], seq["up"][None]))
         choices[auto["mode"]] = choices.get(auto["mode"], 0) + 1
         print(f"{path.parent.name[:6] + '/' + path.stem[:27]:<34}{len(joints):>7}{np.median(dev):>11.1f}"

@@ -18,7 +18,7 @@ from pcnet.stages.core.canonical import to_canonical, world_to_canonical
 from pcnet.stages.core.conventions import R_WRIST
 from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.core.rotations import compose_camera_rotation
-from pcnet.stages.temporal import rectify_sequence
+from pcnet.stages.rectify import SequenceEvidence
 
 ROOT = Path(__file__).resolve().parents[1]
 ap = argparse.ArgumentParser()
@@ -36,7 +36,7 @@ wrist = {}
 for name, R in cameras.items():
     cam = canon @ R.T  # what a lifter would report in this camera's frame (noise-free here)
     estimate = make_estimator(args.method)(cam, clip.fps)
-    R_seq, report = rectify_sequence(estimate.rotation, estimate.valid, "auto", clip.fps, cam)
+    R_seq, _, report = SequenceEvidence("auto")(cam, estimate.rotation, estimate.valid, clip.fps)
     wrist[name] = (cam[:, R_WRIST], to_canonical(cam, R_seq)[:, R_WRIST], report["mode"])
 
 (a_cam, a_can, mode_a), (b_cam, b_can, mode_b) = wrist.values()

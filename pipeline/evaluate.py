@@ -120,7 +120,7 @@ def evaluate(
     Pairs come from :func:`pcnet.models.datasets.make_pairs` over whole clips, with ``noise``
     (:data:`NOISE_KINDS`; ``True``/``False`` mean ``"frame"``/``"none"``). ``mode`` other than
     ``"frame"`` post-processes each clip's per-frame rotations with
-    :func:`pcnet.stages.temporal.rectify_sequence` (``sequence`` assumes a static camera,
+    :class:`pcnet.stages.rectify.SequenceEvidence` (``sequence`` assumes a static camera,
     meaningful with ``camera="per-clip"``); ``heading`` then chooses each clip's heading
     source (:func:`pcnet.stages.heading.apply_heading`; ``None`` = the method's default,
     :func:`pcnet.stages.rectify.resolve_heading_source`), each clip being one recording

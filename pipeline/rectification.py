@@ -82,7 +82,7 @@ def rectify(
 
     ``mode``: ``frame`` (each frame alone, the paper), ``sequence`` (one up direction for a
     static camera), ``smooth`` (SO(3) smoothing for a moving camera, needs ``fps``) or
-    ``auto`` (:func:`pcnet.stages.temporal.rectify_sequence`); the steps are
+    ``auto`` (:class:`pcnet.stages.rectify.SequenceEvidence`); the steps are
     :class:`pcnet.stages.rectify.Rectification`'s with :func:`make_estimator`'s estimator. ``heading``: where the
     heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
     input's hip line, the canonical frame's definition) or ``auto`` (hips when they are

@@ -6,8 +6,8 @@
    by the pipeline (:func:`pcnet.pipeline.rectification.make_estimator`), so that stages never
    import the network;
 2. **sequence evidence**: :class:`SequenceEvidence` (``"frame"`` = none, the paper; the
-   static-camera sequence up with floor contacts and camera prior, or SO(3) smoothing,
-   :func:`pcnet.stages.temporal.rectify_sequence`);
+   static-camera sequence up with floor contacts and camera prior, or SO(3) smoothing, the
+   estimators in :mod:`pcnet.stages.temporal`);
 3. **heading**: :class:`HeadingStep` (predicted or hip line, :func:`pcnet.stages.heading.apply_heading`);
 4. **world frame**: one gravity-aligned frame per recording, built by the pipeline from the
    result (:func:`pcnet.stages.world_frame.world_frame`), after scaling.
@@ -27,7 +27,9 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.geometric import geometric_rotation
 from .heading import HEADING_SOURCES, apply_heading
-from .temporal import BOOTSTRAP_REPLICATES, MODES, rectify_sequence
+from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
+                       choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
+from .uncertainty import calibrated_interval
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -136,12 +138,18 @@ class GeometricEstimator:
 
 @dataclass(frozen=True)
 class SequenceEvidence:
-    """Step 2: what the whole recording says beyond each frame (:func:`pcnet.stages.temporal.rectify_sequence`).
+    """Step 2: what the whole recording says beyond each frame.
 
-    ``mode``: ``"frame"`` (nothing; the paper's per-frame rotations), ``"sequence"`` (static
-    camera: one up, floor contacts when the root is measured, the camera prior if
-    ``camera_prior``), ``"smooth"`` (moving camera) or ``"auto"``. ``n_bootstrap``: replicates
-    of the sequence-mode uncertainty (0 = none; the rotations do not depend on it).
+    ``mode``: ``"frame"`` (nothing; the paper's per-frame rotations, returned as given),
+    ``"sequence"`` (static camera: :func:`pcnet.stages.temporal.sequence_rectify`, one up,
+    floor contacts when the root is measured, the camera prior if ``camera_prior``),
+    ``"smooth"`` (moving camera: :func:`pcnet.stages.temporal.smooth_rotations`, kernel
+    :data:`pcnet.stages.temporal.SMOOTH_TIME_CONSTANT_S`) or ``"auto"`` (one of the last two by
+    :func:`pcnet.stages.temporal.choose_mode`). ``n_bootstrap``: replicates of the
+    sequence-mode uncertainty (0 = none, NaN; the rotations do not depend on it).
+
+    Raises:
+        InputError: unknown ``mode``.
     """
 
     mode: str = "frame"
@@ -152,24 +160,72 @@ class SequenceEvidence:
         if self.mode not in MODES:
             raise InputError(f"unknown mode {self.mode!r}; expected one of {MODES}")
 
-    def __call__(self, joints_cam: np.ndarray, R: np.ndarray, valid: np.ndarray,
+    def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
                  fps: float) -> tuple[np.ndarray, np.ndarray, dict]:
-        """``(R (T, 3, 3) float64, NaN where not valid; valid (T,) bool; report)``; the report
-        has ``requested_mode``, ``mode`` and, outside frame mode, the sequence report.
+        """Apply the mode to one recording.
+
+        Args:
+            joints_cam: ``(T, 17, 3)`` camera-frame joints (floor contacts and the lying
+                reading in sequence mode) or ``None``.
+            R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool or
+                ``None`` (all). fps: frame rate, > 0.
+
+        Returns:
+            ``(R (T, 3, 3) float64, NaN where not valid (frame mode: as given); valid (T,)
+            bool; report)``. The report has ``requested_mode`` and ``mode`` (the mode run),
+            and outside frame mode ``spread_deg`` (:func:`pcnet.stages.temporal.up_spread_deg`),
+            ``evidence`` (``"per-frame"``, ``"poses"``, ``"poses+ground_plane"``, with
+            ``"+camera_prior"``), ``valid``; in smooth mode ``time_constant_s``; in sequence mode
+            ``up``, ``up_uncertainty_deg``, ``camera_pitch_deg``, ``camera_roll_deg`` and their
+            ``*_uncertainty_deg`` (the bootstrap's 95 % half-widths alone),
+            ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
+            adding the lifter's systematic per-clip error calibrated on held-out mocap,
+            :func:`pcnet.stages.uncertainty.calibrated_interval`; for a ``lying`` reading the
+            posterior's), ``up_spread_deg``, ``up_spread_p95_deg``, ``ground_plane`` and
+            ``gravity`` (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report` or ``None``).
 
         Raises:
-            InputError: (sequence modes) no valid frame; bad shapes or fps.
+            InputError: bad shapes, non-positive fps, or (not frame mode) no valid frame.
         """
         report: dict = {"requested_mode": self.mode, "mode": "frame"}
         if self.mode == "frame":
             return R, valid, report
-        if not valid.any():
+        R, ok = check_rotations(R, valid)
+        if not ok.any():
             raise InputError(NO_VALID_FRAME)
-        R, sequence_report = rectify_sequence(R, valid, self.mode, fps, joints_cam, n_bootstrap=self.n_bootstrap,
-                                              camera_prior=self.camera_prior)
-        report.update(sequence_report)
-        valid = valid & np.asarray(report["valid"], bool)
-        return np.where(valid[:, None, None], R, np.nan), valid, report
+        if not fps > 0:
+            raise InputError(f"fps must be positive, got {fps}")
+        if self.mode == "auto":
+            run, spread = choose_mode(R, ok, MODE_THRESHOLD_DEG, fps)
+        else:
+            run, spread = self.mode, up_spread_deg(R, ok, fps)
+        report.update(mode=run, spread_deg=spread)
+        if run == "smooth":
+            out = smooth_rotations(R, ok, fps, SMOOTH_TIME_CONSTANT_S)
+            report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)),
+                          time_constant_s=SMOOTH_TIME_CONSTANT_S)
+        else:
+            res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=self.n_bootstrap,
+                                   camera_prior=self.camera_prior)
+            out, g = res.rotations, res.gravity
+            if g is not None and g.reading == "lying":
+                # The up comes from the camera prior, not from resampled poses: its interval
+                # is the posterior's (tens of degrees), not the bootstrap's.
+                pitch_half, roll_half = g.pitch_half_deg, g.roll_half_deg
+            else:
+                pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch")
+                roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll")
+            report.update(
+                evidence=res.evidence, valid=res.valid, up=res.up, up_uncertainty_deg=res.up_uncertainty_deg,
+                camera_pitch_deg=res.camera_pitch_deg, camera_roll_deg=res.camera_roll_deg,
+                camera_pitch_uncertainty_deg=res.camera_pitch_uncertainty_deg,
+                camera_roll_uncertainty_deg=res.camera_roll_uncertainty_deg,
+                camera_pitch_interval_deg=pitch_half, camera_roll_interval_deg=roll_half,
+                gravity=None if g is None else g.report(), up_spread_deg=res.up_spread_deg,
+                up_spread_p95_deg=res.up_spread_p95_deg, ground_plane=res.ground_plane,
+            )
+        valid = ok & np.asarray(report["valid"], bool)
+        return np.where(valid[:, None, None], out, np.nan), valid, report
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,9 @@ the learned network, ...) accordingly:
 * :func:`smooth_rotations` - for moving cameras: zero-phase Gaussian smoothing on SO(3)
   (weighted chordal quaternion mean; no Euler angles anywhere).
 * :func:`choose_mode` - static or moving camera, from the spread of the per-frame ups.
-* :func:`rectify_sequence` - one entry point for ``"frame" | "sequence" | "smooth" | "auto"``.
+* :func:`check_rotations` - the shared check of per-frame rotations and validity.
+
+The mode dispatch is :class:`pcnet.stages.rectify.SequenceEvidence`.
 
 Frames and shapes: ``R`` ``(T, 3, 3)`` canonical->camera (``x_cam = R @ x_canon``); joints
 ``(T, 17, 3)`` H36M-17 in the camera frame (OpenCV axes, any length unit); angles in public
@@ -34,7 +36,7 @@ from .core.rotations import angle_between, decompose_camera_rotation, normalize
 from .gravity_prior import GravityPosterior, gravity_posterior
 from .ground_plane import GROUND_GATE_DEG, POSE_PRIOR_DEG, fit_plane_map, ground_plane_up
 from .spherical import robust_mean_direction, weighted_quantile
-from .uncertainty import SIGMA_SYS_DEG, calibrated_interval
+from .uncertainty import SIGMA_SYS_DEG
 
 #: Angular std (deg) of the pose-based sequence up for the camera-prior posterior: the RMS
 #: of the calibrated per-axis systematic errors (:data:`pcnet.stages.uncertainty.SIGMA_SYS_DEG`).
@@ -123,7 +125,12 @@ class SequenceResult:
 # ============================================================================ input checks
 
 
-def _check_R(R: np.ndarray, valid: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+def check_rotations(R: np.ndarray, valid: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """``(R (T, 3, 3) float64, ok (T,) bool)``: ``valid`` (``None`` = all) and finite ``R``.
+
+    Raises:
+        InputError: ``R`` not ``(T, 3, 3)`` or ``valid`` not ``(T,)``.
+    """
     R = np.asarray(R, np.float64)
     if R.ndim != 3 or R.shape[1:] != (3, 3):
         raise InputError(f"R: expected shape (T, 3, 3) rotations, got {R.shape}")
@@ -259,7 +266,7 @@ def sequence_rectify(
         ValueError: wrong shapes, non-positive fps, or no
             valid frame.
     """
-    R, ok = _check_R(R, valid)
+    R, ok = check_rotations(R, valid)
     T = len(R)
     if not fps > 0:
         raise InputError(f"fps must be positive, got {fps}")
@@ -397,7 +404,7 @@ def smooth_rotations(
     Raises:
         ValueError: bad shapes, non-positive fps, negative time constant.
     """
-    R, ok = _check_R(R, valid)
+    R, ok = check_rotations(R, valid)
     if not fps > 0:
         raise InputError(f"fps must be positive, got {fps}")
     if not time_constant_s >= 0:
@@ -436,7 +443,7 @@ def up_spread_deg(
     changes (punches, steps) are fast; smoothing removes the latter so the statistic
     measures the former. Without ``fps`` the raw ups are used.
     """
-    R, ok = _check_R(R, valid)
+    R, ok = check_rotations(R, valid)
     if fps is not None and smoothing_s > 0:
         R = smooth_rotations(R, ok, fps, smoothing_s)
         ok = ok & np.isfinite(R).all((1, 2))
@@ -502,95 +509,3 @@ def choose_mode(
     if not np.isfinite(spread):
         raise InputError("choose_mode: no valid frame")
     return ("sequence" if spread <= threshold_deg else "smooth"), spread
-
-
-# ============================================================================ entry point
-
-
-def rectify_sequence(
-    R: np.ndarray,
-    valid: np.ndarray | None,
-    mode: str = "auto",
-    fps: float = 30.0,
-    joints_cam: np.ndarray | None = None,
-    *,
-    n_bootstrap: int = BOOTSTRAP_REPLICATES,
-    camera_prior: bool = True,
-) -> tuple[np.ndarray, dict]:
-    """Sequence-level rectification of per-frame predictions.
-
-    Modes: ``"frame"`` returns ``R`` as is (the paper's per-frame behaviour); ``"sequence"``
-    :func:`sequence_rectify` (static camera); ``"smooth"`` :func:`smooth_rotations`
-    (moving camera); ``"auto"`` picks one of the last two with :func:`choose_mode`.
-
-    Args:
-        R: ``(T, 3, 3)`` canonical->camera per-frame predictions.
-        valid: ``(T,)`` bool or ``None``.
-        mode: one of :data:`MODES`.
-        fps: frame rate, > 0.
-        joints_cam: optional ``(T, 17, 3)`` camera-frame joints (ground plane, sequence mode).
-        n_bootstrap: bootstrap replicates of the sequence-mode uncertainties (0 = none,
-            NaN uncertainties; the rotations do not depend on it).
-        camera_prior: sequence mode combines the pose evidence with a camera prior and a
-            lying reading (:mod:`pcnet.stages.gravity_prior`); ``False`` = poses (and floor
-            contacts) alone.
-
-    Returns:
-        ``(rotations (T, 3, 3) float64, report)``; ``report`` has ``mode`` (the mode run),
-        ``requested_mode``, ``spread_deg`` (:func:`up_spread_deg`), ``evidence``
-        (``"poses"``, ``"poses+ground_plane"`` or ``"per-frame"``), ``valid`` (T,), and in
-        sequence mode ``up``, ``up_uncertainty_deg``, ``camera_pitch_deg``,
-        ``camera_roll_deg`` and their ``*_uncertainty_deg`` (the bootstrap's 95 % half-widths
-        alone), ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
-        that add the lifter's systematic per-clip error calibrated on held-out mocap,
-        :func:`pcnet.stages.uncertainty.calibrated_interval`; for a ``lying`` reading the
-        posterior's), ``up_spread_deg``, ``up_spread_p95_deg``, ``ground_plane`` and
-        ``gravity`` (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report`, or ``None``).
-
-    Raises:
-        ValueError: unknown mode, bad shapes, non-positive fps, no valid frame.
-    """
-    if mode not in MODES:
-        raise InputError(f"unknown mode {mode!r}; expected one of {MODES}")
-    R, ok = _check_R(R, valid)
-    if not fps > 0:
-        raise InputError(f"fps must be positive, got {fps}")
-    if mode == "auto":
-        run, spread = choose_mode(R, ok, MODE_THRESHOLD_DEG, fps)
-    else:
-        run, spread = mode, up_spread_deg(R, ok, fps)
-    report: dict = {"requested_mode": mode, "mode": run, "spread_deg": spread}
-    if run == "frame":
-        out = np.where(ok[:, None, None], R, np.nan)
-        report.update(evidence="per-frame", valid=ok)
-    elif run == "smooth":
-        out = smooth_rotations(R, ok, fps, SMOOTH_TIME_CONSTANT_S)
-        report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)), time_constant_s=SMOOTH_TIME_CONSTANT_S)
-    else:
-        res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=n_bootstrap, camera_prior=camera_prior)
-        out = res.rotations
-        g = res.gravity
-        if g is not None and g.reading == "lying":
-            # The up comes from the camera prior, not from resampled poses: its interval is
-            # the posterior's (tens of degrees), not the bootstrap's.
-            pitch_half, roll_half = g.pitch_half_deg, g.roll_half_deg
-        else:
-            pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch")
-            roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll")
-        report.update(
-            evidence=res.evidence,
-            valid=res.valid,
-            up=res.up,
-            up_uncertainty_deg=res.up_uncertainty_deg,
-            camera_pitch_deg=res.camera_pitch_deg,
-            camera_roll_deg=res.camera_roll_deg,
-            camera_pitch_uncertainty_deg=res.camera_pitch_uncertainty_deg,
-            camera_roll_uncertainty_deg=res.camera_roll_uncertainty_deg,
-            camera_pitch_interval_deg=pitch_half,
-            camera_roll_interval_deg=roll_half,
-            gravity=None if g is None else g.report(),
-            up_spread_deg=res.up_spread_deg,
-            up_spread_p95_deg=res.up_spread_p95_deg,
-            ground_plane=res.ground_plane,
-        )
-    return out, report

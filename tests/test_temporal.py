@@ -22,6 +22,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pcnet.stages import temporal as tm
+from pcnet.stages.rectify import SequenceEvidence
 from pcnet.stages.core.canonical import canonical_rotation, world_to_canonical
 from pcnet.stages.core.geometric import geometric_rotation
 from pcnet.stages.core.metrics import heading_error_deg
@@ -290,7 +291,7 @@ def test_input_errors():
     with pytest.raises(ValueError):
         _pose_only(R, None, joints_cam=np.zeros((len(R) - 1, 17, 3)))
     with pytest.raises(ValueError):
-        tm.rectify_sequence(R, None, mode="median")
+        SequenceEvidence("median")
     with pytest.raises(ValueError):
         tm.smooth_rotations(R, None, fps=0.0)
 
@@ -401,18 +402,18 @@ def test_choose_mode_with_geometric_predictions():
             assert tm.choose_mode(*geometric_rotation(_noisy(X_m, rng)), fps=FPS)[0] == "smooth"
 
 
-def test_rectify_sequence_modes_and_report():
+def test_sequence_evidence_modes_and_report():
     rng = np.random.default_rng(0)
     R0 = _static_camera(3)
     R, X_rel, _ = _view(CLIPS[RAISE], R0)
     Rg, vg = geometric_rotation(_noisy(X_rel, rng))
     vg[:3] = False
 
-    out, rep = tm.rectify_sequence(Rg, vg, "frame", FPS)
-    assert rep["mode"] == "frame" and rep["evidence"] == "per-frame"
-    assert np.isnan(out[:3]).all() and np.array_equal(out[3:], Rg[3:])
+    out, valid, rep = SequenceEvidence("frame")(X_rel, Rg, vg, FPS)
+    assert rep == {"requested_mode": "frame", "mode": "frame"}  # the paper's per-frame rotations, untouched
+    assert out is Rg and valid is vg
 
-    out, rep = tm.rectify_sequence(Rg, vg, "auto", FPS, X_rel, camera_prior=False)
+    out, _, rep = SequenceEvidence("auto", camera_prior=False)(X_rel, Rg, vg, FPS)
     assert rep["requested_mode"] == "auto" and rep["mode"] == "sequence"
     for key in ("up", "up_uncertainty_deg", "camera_pitch_deg", "camera_roll_deg",
                 "camera_pitch_uncertainty_deg", "camera_roll_uncertainty_deg",
@@ -422,15 +423,16 @@ def test_rectify_sequence_modes_and_report():
     assert np.isfinite(rep["up_uncertainty_deg"]) and rep["evidence"] == "poses"
     assert _deg(angle_between(rep["up"], R0[:, 1])) < np.median(_deg(angle_between(Rg[vg][:, :, 1], R0[:, 1])))
 
-    out, rep = tm.rectify_sequence(Rg, vg, "smooth", FPS)
+    out, valid, rep = SequenceEvidence("smooth")(None, Rg, vg, FPS)
     smooth = tm.smooth_rotations(Rg, vg, FPS, tm.SMOOTH_TIME_CONSTANT_S)
-    assert rep["mode"] == "smooth" and np.allclose(out, smooth, equal_nan=True)
+    assert rep["mode"] == "smooth" and np.array_equal(valid, vg)
+    assert np.allclose(out[valid], smooth[valid]) and np.isnan(out[~valid]).all()
 
-    plain, _ = tm.rectify_sequence(Rg, vg, "sequence", FPS)
+    plain = SequenceEvidence("sequence")(None, Rg, vg, FPS)[0]
 
     # Without bootstrap (what `pcnet evaluate` uses) the rotations are the same and only the
     # uncertainties are missing.
-    quick, rep = tm.rectify_sequence(Rg, vg, "sequence", FPS, n_bootstrap=0)
+    quick, _, rep = SequenceEvidence("sequence", n_bootstrap=0)(None, Rg, vg, FPS)
     np.testing.assert_array_equal(quick, plain)
     assert np.isnan(rep["up_uncertainty_deg"]) and np.isnan(rep["camera_pitch_uncertainty_deg"])
 
@@ -490,7 +492,7 @@ def test_real_static_camera_videos():
         mode, spread = tm.choose_mode(R, valid, fps=FPS)
         by_asana.setdefault(asana, []).append(spread)
         if asana in ("Tadasana", "boxing"):
-            rot, rep = tm.rectify_sequence(R, valid, "auto", FPS, X)
+            rot, _, rep = SequenceEvidence("auto")(X, R, valid, FPS)
             assert rep["mode"] == "sequence", (f.name, spread)
             assert np.allclose(rot[rep["valid"]][:, :, 1], rep["up"])
             print(f"{f.stem[7:] if f != BOXING else 'boxing_X3D':32s} {len(X):5d} "

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import shared
+from pcnet.stages.rectify import SequenceEvidence
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, SIGMA_SYS_DEG, Z, calibrated_interval
 
 RESULT = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "uncertainty.txt"
@@ -40,14 +41,12 @@ def test_constants_match_recorded_calibration():
 
 
 def test_report_carries_calibrated_and_bootstrap_halfwidths():
-    from pcnet.stages import temporal as tm
-
     rng = np.random.default_rng(0)
     R0 = np.linalg.qr(rng.normal(size=(3, 3)))[0]
     R0 *= np.sign(np.linalg.det(R0))
     noise = [np.linalg.qr(np.eye(3) + 0.05 * rng.normal(size=(3, 3)))[0] for _ in range(60)]
     R = np.stack([n * np.sign(np.linalg.det(n)) @ R0 for n in noise])
-    _, rep = tm.rectify_sequence(R, None, "sequence", 30.0)
+    _, _, rep = SequenceEvidence("sequence")(None, R, None, 30.0)
     for axis in ("pitch", "roll"):
         boot = rep[f"camera_{axis}_uncertainty_deg"]
         assert np.isfinite(boot)
