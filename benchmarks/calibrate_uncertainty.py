@@ -1,4 +1,4 @@
-"""Calibrated up uncertainty: systematic-error model and per-frame bound on the motion-style val split, coverage on held-out data.
+"""Calibrated up uncertainty of sequence mode: systematic-error model on the motion-style val split, coverage on held-out data.
 
     python benchmarks/calibrate_uncertainty.py [--data ../shared/data] [--out benchmarks/results/uncertainty.txt]
 
@@ -26,11 +26,7 @@ the interval covers e_i iff sigma_sys >= s_i, so sigma_sys = the conformal 95 % 
 s_i (the ceil(0.95 (n + 1))-th smallest) gives 95 % per-axis coverage on exchangeable data.
 Also printed: the RMS and median of the signed errors (the bias), for reference.
 
-Per-frame bound: every frame of the same validation clips seen by a new "paper" camera per frame
-with lifter-like noise (make_pairs(..., camera="per-frame", noise=LifterNoise()), seed 0),
-method pcnet, mode frame; FRAME_TILT_95_DEG = the conformal 95 % quantile of the per-frame tilt
-errors (pcnet.stages.uncertainty.FRAME_TILT_95_DEG). Its coverage is the share of frames of the
-held-out sets within it.
+The per-frame bound (frame and smooth modes) is calibrated by benchmarks/calibrate_frame_bound.py.
 
 Held-out coverage (share of clip-views whose true pitch, roll, and both lie inside their
 intervals), before = bootstrap only, after = calibrated:
@@ -55,7 +51,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gravity_benchmark import ROLLS_DEG, load_camera, pitch_roll_deg, roll_view  # noqa: E402
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
-from pcnet.stages.core.metrics import tilt_error_deg  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
 from pcnet.stages import uncertainty  # noqa: E402
 from pcnet.pipeline.rectification import rectify  # noqa: E402
@@ -97,26 +92,6 @@ def mocap_rows(clips, seeds, camera_prior: bool = True) -> list[dict]:
             rows.append({"clip": clip.name, "seed": seed,
                          **rectify_row(pairs.inputs[sel].astype(np.float64), up, clip.fps, camera_prior)})
     return rows
-
-
-def frame_tilts(clips, seed: int = 0) -> np.ndarray:
-    """Per-frame tilt errors (deg) of pcnet, frame mode, a new paper camera per frame with
-    lifter-like noise; invalid frames left out."""
-    pairs = make_pairs(clips, views="paper", seed=seed, camera="per-frame", noise=LifterNoise())
-    out = []
-    for i, clip in enumerate(clips):
-        sel = np.flatnonzero(pairs.clip == i)
-        if len(sel) == 0:
-            continue
-        res = rectify(pairs.inputs[sel].astype(np.float64), "pcnet", mode="frame", fps=clip.fps)
-        ok = res.valid
-        out.append(tilt_error_deg(res.rotation[ok], pairs.R[sel][ok]))
-    return np.concatenate(out)
-
-
-def conformal(x: np.ndarray) -> float:
-    x = np.sort(np.asarray(x, np.float64))
-    return float(x[min(int(np.ceil(LEVEL * (len(x) + 1))), len(x)) - 1])
 
 
 def arrays(rows):
@@ -180,8 +155,6 @@ def main(argv=None) -> int:
     # the camera-prior posterior, and this keeps the calibration independent of its constants.
     cal_rows = mocap_rows(val, CAL_SEEDS, camera_prior=False)
     cal = calibrate(cal_rows)
-    frame_cal = conformal(frame_tilts(val))
-    frame_sets = {"motion-style test": frame_tilts(test), "DeepMimic all": frame_tilts(deepmimic)}
     sets = {
         "motion-style val (calibration set, in-sample)": cal_rows,
         f"motion-style test ({len(test)} clips), seed 0": mocap_rows(test, (0,)),
@@ -192,7 +165,6 @@ def main(argv=None) -> int:
     # Coverage is measured with the values calibrated here (rounded as they are shipped);
     # the constants in pcnet/stages/uncertainty.py must equal them (tests/test_uncertainty.py).
     shipped = {ax: round(cal[ax]["sigma_sys"], 2) for ax in AXES}
-    frame_bound = round(frame_cal, 2)
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              f"date {datetime.date.today().isoformat()}; method pcnet, mode sequence (camera prior on); "
              f"Z = {Z}; see the script's docstring.", "",
@@ -205,11 +177,6 @@ def main(argv=None) -> int:
                      f"median bootstrap half-width {c['median_boot']:.2f} deg)")
     lines.append(f"  constants for pcnet/stages/uncertainty.py: Z = {uncertainty.Z}, SIGMA_SYS_DEG = "
                  f"pitch {shipped['pitch']:.2f}, roll {shipped['roll']:.2f}")
-    lines += ["", f"Per-frame tilt bound (frame mode, lifter noise, new paper camera per frame, conformal 95 % "
-              f"quantile on the calibration split): FRAME_TILT_95_DEG = {frame_bound:.2f}"]
-    for name, tilts in frame_sets.items():
-        lines.append(f"  coverage on {name}: {np.mean(tilts <= frame_bound):.1%} of "
-                     f"{len(tilts)} frames (median tilt error {np.median(tilts):.2f} deg)")
     lines += ["", "Coverage of the 95 % intervals (share of clip-views whose truth lies inside; "
               "half = median half-width, deg):",
               f"  {'data':<44}{'n':>5}  {'before: pitch  roll  both':>26} {'half p/r':>11}  "

@@ -43,7 +43,7 @@ def tilt_by_roll(path: Path, split: str, lifter: bool, stride: int, gated: ViewG
         for roll in ROLLS_DEG:
             Q = axis_rotation("z", np.radians(roll))
             X, up = pairs.inputs[sel] @ Q.T, pairs.R[sel][:, :, 1] @ Q.T
-            R, _, valid, weight = gated.predict_gated(X, clip.fps / stride)
+            R, _, valid, weight, _ = gated.predict_gated(X, clip.fps / stride)
             R_cam, R_body = gated.camera.predict(X)[0], gated.body.predict(X)[0]
             for name, est in (("camera-frame", R_cam), ("body-frame", R_body), ("gated", R)):
                 e = np.degrees(angle_between(est[valid][:, :, 1], up[valid]))

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.rotations import angle_between
 
 from .preprocess import normalize_input
 from .view_gate import blend_rotations, camera_frame_weight
@@ -66,7 +67,9 @@ class ViewGatedPCNet:
 
     ``predict(joints_cam, fps)`` as :meth:`PCNetSession.predict` (one recording per call:
     the gate's running median runs over the frames in order); ``predict_gated`` also returns
-    the camera-frame weight ``(N,)`` (NaN where not valid). ``info`` is the camera-frame
+    the camera-frame weight ``(N,)`` (NaN where not valid) and the angle between the two
+    networks' up directions ``(N,)`` in degrees (NaN where not valid), a per-frame sign of poses
+    unlike the training data (:func:`pcnet.stages.uncertainty.frame_tilt_bound`). ``info`` is the camera-frame
     weights' ``.json`` (both were trained on the same split).
     """
 
@@ -80,7 +83,9 @@ class ViewGatedPCNet:
         R_body, res_body, _ = self.body.predict(joints_cam)
         weight = camera_frame_weight(R_body, valid, fps)
         w = weight[:, None, None]
-        return blend_rotations(R_body, R_cam, weight), w * res_cam + (1 - w) * res_body, valid, weight
+        disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
+        return (blend_rotations(R_body, R_cam, weight), w * res_cam + (1 - w) * res_body, valid, weight,
+                disagreement)
 
     def predict(self, joints_cam: np.ndarray, fps: float = 30.0):
         return self.predict_gated(joints_cam, fps)[:3]

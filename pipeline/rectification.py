@@ -45,12 +45,12 @@ class NetworkEstimator:
         X = check_poses(joints_cam, "joints_cam")
         session = get_session(None if self.weights is None else str(self.weights))
         if self.weights is None:
-            R, residual, valid, gate = session.predict_gated(X, fps)
+            R, residual, valid, gate, disagreement = session.predict_gated(X, fps)
         else:
-            (R, residual, valid), gate = session.predict(X), None
+            (R, residual, valid), gate, disagreement = session.predict(X), None, None
         if self.rigid:
             residual = np.where(valid[:, None, None], 0.0, np.nan)
-        return FrameEstimate(R, residual, valid, gate)
+        return FrameEstimate(R, residual, valid, gate, disagreement)
 
 
 def make_estimator(method: str = "pcnet", weights: str | None = None) -> FrameEstimator:

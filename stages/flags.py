@@ -172,6 +172,37 @@ def view_gate_flag(view_gate: dict | None) -> list[str]:
             f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)"]
 
 
+#: Share of valid frames whose per-frame bound the networks' disagreement at least doubles
+#: from which :func:`disagreement_flag` warns.
+DISAGREEMENT_SHARE = 0.05
+
+
+def disagreement_flag(bound_deg: np.ndarray | None, base_deg: float) -> list[str]:
+    """A flag when the shipped pair's two 3DPCNets disagree so much on more than
+    :data:`DISAGREEMENT_SHARE` of the valid frames that their per-frame tilt bound
+    (:func:`pcnet.stages.uncertainty.frame_tilt_bound`) is at least twice ``base_deg``: poses
+    unlike the training data, where the per-frame up is least reliable (on DeepMimic the
+    tenth of frames with the largest disagreement hold most of its large errors).
+
+    Args:
+        bound_deg: ``(T,)`` per-frame bound, degrees, NaN where not valid; ``None`` or all
+            NaN (one estimator ran, uncalibrated weights) gives none.
+        base_deg: the bound where the networks agree (:data:`pcnet.stages.uncertainty.FRAME_TILT_95_DEG`).
+    """
+    if bound_deg is None:
+        return []
+    b = np.asarray(bound_deg, np.float64)
+    b = b[np.isfinite(b)]
+    if not len(b) or not np.isfinite(base_deg):
+        return []
+    wide = b >= 2.0 * base_deg
+    if wide.mean() <= DISAGREEMENT_SHARE:
+        return []
+    return [f"the two 3DPCNets disagree on {int(wide.sum())} of {len(b)} frames ({100 * wide.mean():.0f} %) so much "
+            f"that their per-frame up bound is {2 * base_deg:.0f}-{b.max():.0f} deg (else {base_deg:.1f}): poses "
+            f"unlike the training data, whose per-frame up is uncertain (frame_tilt_bound_deg in canonical.npz)"]
+
+
 def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float, cutoff_hz: float | None) -> list[str]:
     """A flag when no joint position could be low-pass filtered: every run of present frames
     is shorter than the filter needs (:func:`pcnet.stages.kinematics.butterworth_lowpass`), so

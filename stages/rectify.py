@@ -29,7 +29,7 @@ from .core.geometric import geometric_rotation
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
-from .uncertainty import calibrated_interval
+from .uncertainty import calibrated_interval, frame_tilt_bound
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -100,13 +100,15 @@ class FrameEstimate:
     ``residual`` ``(T, 17, 3)`` the non-rigid correction in the canonical frame and the
     input's units (the paper's Delta; zeros for estimators without one), ``valid`` ``(T,)``
     bool (NaN rotations where False), ``camera_frame_weight`` ``(T,)`` the shipped pair's
-    trust in its camera-frame network per frame (:mod:`pcnet.models.view_gate`; ``None`` when
+    trust in its camera-frame network per frame (:mod:`pcnet.models.view_gate`) and
+    ``disagreement_deg`` ``(T,)`` the angle between its two networks' ups (both ``None`` when
     one estimator ran)."""
 
     rotation: np.ndarray
     residual: np.ndarray
     valid: np.ndarray
     camera_frame_weight: np.ndarray | None = None
+    disagreement_deg: np.ndarray | None = None
 
 
 class FrameEstimator(Protocol):
@@ -252,7 +254,10 @@ class Rectification:
     Calling it with ``joints_cam`` ``(T, 17, 3)`` (camera frame, any unit, NaN = missing) and
     ``fps`` returns :class:`Rectified`; its report holds the sequence and heading reports,
     ``view_gate`` (:func:`gate_report`), ``camera_frame_weight`` ``(T,)`` (the shipped pair
-    only) and ``frame_tilt_95_deg``. Input rules (dtype, the pelvis from the hips) are the
+    only), ``frame_tilt_95_deg`` (the estimator's calibrated per-frame bound where nothing
+    widens it, NaN when uncalibrated) and ``frame_tilt_bound_deg`` ``(T,)`` (per frame, widened
+    where the pair's networks disagree, :func:`pcnet.stages.uncertainty.frame_tilt_bound`;
+    NaN where not valid or uncalibrated). Input rules (dtype, the pelvis from the hips) are the
     caller's: :func:`pcnet.pipeline.rectification.rectify`.
 
     Raises:
@@ -272,7 +277,13 @@ class Rectification:
         report["view_gate"] = gate_report(gate, valid)
         if gate is not None:
             report["camera_frame_weight"] = np.where(valid, gate, np.nan)
-        report["frame_tilt_95_deg"] = self.estimator.frame_tilt_95_deg
+        base = self.estimator.frame_tilt_95_deg
+        report["frame_tilt_95_deg"] = base
+        if estimate.disagreement_deg is None:
+            bound = np.full(len(valid), base)
+        else:
+            bound = frame_tilt_bound(estimate.disagreement_deg, gate, base)
+        report["frame_tilt_bound_deg"] = np.where(valid, bound, np.nan)
         canonical = to_canonical(joints_cam, R, estimate.residual)
         return Rectified(R, canonical, R[:, :, 1].copy(), valid, self.estimator.name, report["mode"], report,
                          report["heading_source"])

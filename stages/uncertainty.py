@@ -21,10 +21,27 @@ bootstrap replicates): the pose evidence's own error, which is also the pose std
 camera-prior posterior (:data:`pcnet.stages.temporal.POSE_EVIDENCE_SIGMA_DEG`).
 Per axis, ``s_i = sqrt(max(e_i^2 - b_i^2, 0)) / Z`` (signed error ``e``, bootstrap half-width
 ``b``), and ``SIGMA_SYS_DEG`` is the conformal 95 % quantile of ``s_i``: the interval then
-covers 95 % of those clip-views per axis. ``FRAME_TILT_95_DEG`` is the conformal 95 % quantile
-of the per-frame tilt errors of the same clips (frame mode, a new camera per frame, lifter
-noise). Coverage on held-out data (the motion-style test split, DeepMimic, real Pose2Sim
-cameras) is in the results file.
+covers 95 % of those clip-views per axis.
+
+Per frame (:func:`frame_tilt_bound`): the shipped pair runs two 3DPCNets, and where they
+disagree the pose is unlike what they learnt (on DeepMimic the tenth of frames with the largest
+disagreement hold most of the large errors). The bound is
+``w sqrt(FRAME_TILT_95_DEG^2 + (FRAME_DISAGREEMENT_FACTOR d)^2) + (1 - w) FRAME_TILT_95_BODY_DEG``,
+``d`` the angle between
+the two networks' ups and ``w`` the camera-frame network's weight (a rolled camera, ``w = 0``,
+puts the camera-frame network outside its views, so its disagreement says nothing about the
+pose; there the body-frame network answers and its own bound ``FRAME_TILT_95_BODY_DEG``
+applies, the conformal 95 % quantile of its per-frame tilt errors on the same clips, valid
+under any camera roll because that network is rotation-equivariant). On the same calibration
+clips (frame mode, a new camera per frame, lifter noise):
+``FRAME_DISAGREEMENT_FACTOR`` is the smallest factor on a 0.25 grid whose bound covers 95 %
+of the tenth of frames with the largest ``d`` (conditional coverage where the networks
+disagree), and ``FRAME_TILT_95_DEG`` then the conformal 95 % quantile of
+``sqrt(max(e^2 - (k d)^2, 0))``, so the bound covers 95 % of all calibration frames (every one
+of which the camera-frame network answers, ``w = 1``).
+Coverage on held-out data (the motion-style test split, DeepMimic, real Pose2Sim cameras) is
+in ``benchmarks/results/frame_bound.txt`` (``python benchmarks/calibrate_frame_bound.py --data
+../shared/data``) and ``benchmarks/results/uncertainty.txt`` (sequence intervals).
 
 A lying reading of the camera-prior posterior (:mod:`pcnet.stages.gravity_prior`) reports
 the posterior's own interval instead.
@@ -42,10 +59,15 @@ Z = 1.96
 #: Per-axis systematic (per-clip) error of the sequence up, degrees; see the module docstring.
 SIGMA_SYS_DEG = {"pitch": 3.46, "roll": 1.15}
 
-#: Per-frame tilt error (deg) that 95 % of frames stay within: conformal 95 % quantile of the
-#: shipped weights' per-frame tilt errors on the calibration split (frame mode, lifter-like
-#: noise, a new camera per frame); see ``benchmarks/results/uncertainty.txt``.
-FRAME_TILT_95_DEG = 7.82
+#: Per-frame tilt bound (deg) where the two networks agree: the base of :func:`frame_tilt_bound`
+#: (module docstring; ``python benchmarks/calibrate_frame_bound.py --data ../shared/data``,
+#: ``benchmarks/results/frame_bound.txt``).
+FRAME_TILT_95_DEG = 7.07
+#: How much of the two networks' disagreement (deg) is added to the per-frame bound.
+FRAME_DISAGREEMENT_FACTOR = 1.75
+#: Per-frame tilt bound (deg) of the body-frame network alone, which answers where the view gate
+#: sets the camera-frame network aside (``w = 0``: a rolled camera, a body across the image).
+FRAME_TILT_95_BODY_DEG = 8.60
 
 #: What the interval is, for printed summaries.
 LABEL = "95 % interval incl. the lifter's systematic error, calibrated on held-out mocap"
@@ -75,3 +97,27 @@ def calibrated_interval(boot_half_deg, axis: str, sigma_sys_deg: float | None = 
     b = np.asarray(boot_half_deg, np.float64)
     half = np.sqrt(b ** 2 + (Z * sigma) ** 2)
     return float(half) if half.ndim == 0 else half
+
+
+def frame_tilt_bound(disagreement_deg, camera_frame_weight, base_deg: float = FRAME_TILT_95_DEG,
+                     factor: float = FRAME_DISAGREEMENT_FACTOR, body_deg: float = FRAME_TILT_95_BODY_DEG) -> np.ndarray:
+    """Per-frame 95 % bound on the tilt error of the shipped pair's up, degrees:
+    ``w sqrt(base^2 + (factor d)^2) + (1 - w) body`` (module docstring for the calibration): the
+    camera-frame network's bound, widened by the two networks' disagreement ``d``, where the gate
+    trusts it (``w = 1``), the body-frame network's own bound where it answers alone
+    (``w = 0``), in between for blended frames.
+
+    Args:
+        disagreement_deg: ``(T,)`` angle between the camera-frame and body-frame networks' up
+            directions, degrees (NaN = invalid frame, bound NaN).
+        camera_frame_weight: ``(T,)`` the view gate's weight ``w`` in [0, 1]
+            (:func:`pcnet.models.view_gate.camera_frame_weight`).
+        base_deg, factor, body_deg: overrides of :data:`FRAME_TILT_95_DEG`,
+            :data:`FRAME_DISAGREEMENT_FACTOR` and :data:`FRAME_TILT_95_BODY_DEG` (calibration scripts).
+
+    Returns:
+        ``(T,)`` float64 degrees, ``>= min(base_deg, body_deg)`` where finite.
+    """
+    w = np.asarray(camera_frame_weight, np.float64)
+    d = np.asarray(disagreement_deg, np.float64)
+    return w * np.sqrt(base_deg ** 2 + (factor * d) ** 2) + (1.0 - w) * body_deg

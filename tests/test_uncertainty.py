@@ -9,9 +9,11 @@ import pytest
 
 from conftest import shared
 from pcnet.stages.rectify import SequenceEvidence
-from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, SIGMA_SYS_DEG, Z, calibrated_interval
+from pcnet.stages.uncertainty import (FRAME_DISAGREEMENT_FACTOR, FRAME_TILT_95_BODY_DEG, FRAME_TILT_95_DEG, SIGMA_SYS_DEG,
+                                      Z, calibrated_interval, frame_tilt_bound)
 
 RESULT = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "uncertainty.txt"
+FRAME_RESULT = RESULT.with_name("frame_bound.txt")
 
 
 @pytest.mark.parametrize("axis", ["pitch", "roll"])
@@ -34,8 +36,13 @@ def test_constants_match_recorded_calibration():
         m = re.search(rf"^\s+{axis}\s+sigma_sys_deg = (\d+\.\d+)", text, re.M)
         assert m, f"{RESULT}: no calibrated sigma for {axis}"
         assert SIGMA_SYS_DEG[axis] == pytest.approx(float(m.group(1)), abs=0.005)
-    m = re.search(r"FRAME_TILT_95_DEG = (\d+\.\d+)", text)
+    frame = FRAME_RESULT.read_text()
+    assert "python benchmarks/calibrate_frame_bound.py" in frame
+    m = re.search(r"FRAME_TILT_95_DEG = (\d+\.\d+), FRAME_DISAGREEMENT_FACTOR = (\d+\.\d+), "
+                  r"FRAME_TILT_95_BODY_DEG = (\d+\.\d+)", frame)
     assert m and FRAME_TILT_95_DEG == pytest.approx(float(m.group(1)), abs=0.005)
+    assert FRAME_DISAGREEMENT_FACTOR == pytest.approx(float(m.group(2)), abs=0.005)
+    assert FRAME_TILT_95_BODY_DEG == pytest.approx(float(m.group(3)), abs=0.005)
     m = re.search(r"Z = (\d+\.\d+); see", text)
     assert m and float(m.group(1)) == pytest.approx(Z)
 
@@ -92,7 +99,41 @@ def test_frame_mode_summary_prints_the_calibrated_per_frame_bound(tmp_path):
     args = ["run", "--lifter", "videopose3d", "--lifter-output", src, "--fps", "30", "--no-recording"]
     res = CliRunner().invoke(main, [*args, "--mode", "frame", "--out", str(tmp_path / "f")])
     assert res.exit_code == 0, res.output
-    assert f"within {FRAME_TILT_95_DEG:.1f} deg of the true up in 95 % of frames" in res.output
+    assert f"within {FRAME_TILT_95_DEG:.1f} deg of the true up in 95 % of frames where the two networks agree" in res.output
+    with np.load(tmp_path / "f" / "canonical.npz") as npz:
+        bound, valid = npz["frame_tilt_bound_deg"], npz["valid"]
+    assert bound.shape == valid.shape and np.isfinite(bound[valid]).all() and np.isnan(bound[~valid]).all()
+    assert (bound[valid] >= min(FRAME_TILT_95_DEG, FRAME_TILT_95_BODY_DEG) - 1e-9).all()
     res = CliRunner().invoke(main, [*args, "--mode", "sequence", "--out", str(tmp_path / "s")])
     assert res.exit_code == 0, res.output
     assert "of the true up in 95 % of frames" not in res.output
+
+
+def test_frame_bound_widens_with_disagreement_and_hands_over_with_the_gate():
+    """The per-frame bound is the calibrated base where the two networks agree, grows with
+    their disagreement where the camera-frame network answers, and is the body-frame
+    network's own bound where the gate set the camera-frame network aside."""
+    d = np.array([0.0, 2.0, 5.0, 10.0, 20.0, np.nan])
+    on = frame_tilt_bound(d, np.ones(6))
+    assert on[0] == pytest.approx(FRAME_TILT_95_DEG)
+    assert (np.diff(on[:5]) > 0).all() and np.isnan(on[5])
+    assert on[4] == pytest.approx(np.hypot(FRAME_TILT_95_DEG, FRAME_DISAGREEMENT_FACTOR * 20.0))
+    off = frame_tilt_bound(d[:5], np.zeros(5))
+    np.testing.assert_allclose(off, FRAME_TILT_95_BODY_DEG)  # disagreement with an out-of-view network says nothing
+    half = frame_tilt_bound(np.array([10.0]), np.array([0.5]))
+    assert half[0] == pytest.approx(0.5 * on[3] + 0.5 * FRAME_TILT_95_BODY_DEG)
+
+
+def test_disagreement_flag():
+    from pcnet.stages.flags import DISAGREEMENT_SHARE, disagreement_flag
+
+    base = FRAME_TILT_95_DEG
+    calm = np.full(100, base)
+    assert disagreement_flag(calm, base) == [] and disagreement_flag(None, base) == []
+    assert disagreement_flag(np.full(5, np.nan), base) == []
+    wide = calm.copy()
+    wide[: int(DISAGREEMENT_SHARE * 100)] = 3 * base  # exactly the share: not yet
+    assert disagreement_flag(wide, base) == []
+    wide[: int(DISAGREEMENT_SHARE * 100) + 2] = 3 * base
+    (text,) = disagreement_flag(wide, base)
+    assert "7 of 100 frames" in text and "frame_tilt_bound_deg" in text

@@ -11,7 +11,7 @@ from pcnet.models.view_gate import PITCH_RAMP_DEG, ROLL_RAMP_DEG, blend_rotation
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.flags import view_gate_flag
 from pcnet.pipeline.rectification import rectify
-from pcnet.stages.core.rotations import axis_rotation, compose_camera_rotation, geodesic_angle
+from pcnet.stages.core.rotations import angle_between, axis_rotation, compose_camera_rotation, geodesic_angle
 
 
 def _cameras(pitch_deg, roll_deg) -> np.ndarray:
@@ -72,13 +72,15 @@ def test_shipped_pair_uses_the_camera_network_for_a_level_camera_and_the_body_ne
     X = _real_standing()
     gated = ViewGatedPCNet()
     assert gated.camera.path == CAMERA_WEIGHTS and gated.body.path == BODY_WEIGHTS
-    R0, _, valid0, w0 = gated.predict_gated(X)
+    R0, _, valid0, w0, d0 = gated.predict_gated(X)
     assert valid0.all() and (w0 == 1.0).all()
     np.testing.assert_allclose(R0, PCNetSession(CAMERA_WEIGHTS).predict(X)[0], atol=1e-6)
     body0 = PCNetSession(BODY_WEIGHTS).predict(X)[0]
+    # The disagreement is the angle between the two networks' ups (the per-frame bound's input).
+    np.testing.assert_allclose(d0, np.degrees(angle_between(R0[:, :, 1], body0[:, :, 1])), atol=1e-4)
     for roll in (90.0, 180.0):
         Q = axis_rotation("z", np.radians(roll))
-        R, residual, valid, w = gated.predict_gated(X @ Q.T)
+        R, residual, valid, w, _ = gated.predict_gated(X @ Q.T)
         assert (w == 0.0).all()
         np.testing.assert_allclose(R, Q @ body0, atol=1e-4)  # equivariant: the up turns with the camera
         assert np.isfinite(residual).all()
