@@ -17,7 +17,7 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from pcnet.stages.core.conventions import get_layout
+from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout
 
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D
@@ -102,6 +102,11 @@ def _parse(p: Path, items: Iterator[Any]) -> tuple[list[tuple[int, int | None, f
             raise AdapterError(p, f"[{i}].keypoints", f"{3 * count} values like the first detection", f"{len(kp)}")
         arr = json_numbers(p, f"[{i}].keypoints", kp).reshape(n, 3)
         score, no_score = _score(p, i, det.get("score"), arr)
+        if np.isfinite(arr).all() and (np.abs(arr[:, :2]) <= MAX_ABS_COORDINATE["px"]).all():
+            # Kept as the float32 the keypoints end as (checked_keypoints): every detection of
+            # a long file is held until the best per frame is known. Values beyond the bound or
+            # not finite stay float64 for checked_keypoints' exact message and NaN rule.
+            arr = arr.astype(np.float32)
         missing_score |= no_score
         list_idx |= isinstance(det.get("idx"), list)
         entries.append((_frame_index(p, i, det["image_id"]), _track_id(p, i, det.get("idx")), score, arr))
@@ -185,9 +190,12 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     num_frames = frame_count_for(p, "image_id", max_frame, len(entries), frame_count, num_frames)
     layout = _LAYOUT_BY_COUNT[count]
     n_joints = get_layout(layout).num_joints
+    del entries  # every detection; only the chosen track's are needed from here on
     points = np.full((num_frames, n_joints, 3), np.nan)
     for frame, (_, kp) in best[track].items():
         points[frame] = kp[:n_joints]
+    found = len(best[track])
+    del best
     points, raw_max = checked_keypoints(p, "keypoints", points, layout)
 
     notes = [f"AlphaPose results JSON (AlphaPose docs/output.md), {count} keypoints -> {layout}", how]
@@ -200,7 +208,7 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     dup = sorted(duplicates.get(track, ()))
     if dup:
         notes.append(f"frames with several detections of track {track}: {dup}; highest score kept")
-    missing = num_frames - len(best[track])
+    missing = num_frames - found
     if missing:
         notes.append(f"{missing} of {num_frames} frames without a detection -> NaN")
     notes.append(f"confidence clipped to [0, 1] (raw max {raw_max:.3f})")

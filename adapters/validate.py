@@ -135,12 +135,22 @@ def _json_errors(p: Path) -> Iterator[None]:
         raise AdapterError(p, "content", "JSON nested at most a few hundred levels deep", "deeper nesting") from exc
 
 
+#: Characters read at a time by :func:`iter_json_array`.
+JSON_CHUNK_CHARS = 1 << 20
+
+
+class _Malformed(Exception):
+    """A JSON syntax error met while streaming; reported by re-parsing the whole text so the
+    line and column are the file's (an error path only)."""
+
+
 def iter_json_array(path: str | Path, expected: str) -> Iterator[Any]:
     """The items of a JSON file whose top level is an array, decoded one at a time.
 
-    Same parsing and errors as :func:`read_json`, but only one item's Python objects exist
-    at a time (the file's text stays in memory): a 2-hour AlphaPose file parsed whole is
-    about 1.3 GB of Python floats, item by item it is the text plus the caller's arrays.
+    Same parsing and errors as :func:`read_json`, but the file is read
+    :data:`JSON_CHUNK_CHARS` characters at a time and only one item's Python objects exist at
+    a time: a 2-hour AlphaPose file parsed whole is about 1.3 GB of Python floats, and its text
+    alone about 0.3 GB; streamed, memory holds one chunk plus the caller's arrays.
 
     Args:
         path: the JSON file.
@@ -151,7 +161,75 @@ def iter_json_array(path: str | Path, expected: str) -> Iterator[Any]:
         AdapterError: as :func:`read_json`; field ``top level`` when it is not an array.
     """
     p = require_file(path, "a JSON file")
-    text = p.read_text(encoding="utf-8", errors="replace")
+    try:
+        yield from _stream_array(p, expected)
+    except _Malformed:
+        for _ in _text_array(p, p.read_text(encoding="utf-8", errors="replace"), expected):
+            pass
+        raise AdapterError(p, "content", "valid JSON", "a syntax error") from None  # _text_array raised first
+
+
+def _stream_array(p: Path, expected: str) -> Iterator[Any]:
+    decoder = json.JSONDecoder(parse_float=_json_float)
+    ws = json.decoder.WHITESPACE.match
+    with open(p, encoding="utf-8", errors="replace") as fh:
+        buf, eof = "", False
+
+        def more(keep_from: int) -> int:
+            """Drop ``buf[:keep_from]``, append the next chunk; the new index of ``keep_from``."""
+            nonlocal buf, eof
+            chunk = fh.read(JSON_CHUNK_CHARS)
+            eof = not chunk
+            buf = buf[keep_from:] + chunk
+            return 0
+
+        def skip_ws(pos: int) -> int:
+            pos = ws(buf, pos).end()
+            while pos == len(buf) and not eof:
+                pos = more(pos)
+                pos = ws(buf, pos).end()
+            return pos
+
+        pos = skip_ws(0)
+        if pos == len(buf):
+            raise AdapterError(p, "content", "JSON", "an empty file")
+        if buf[pos] != "[":
+            yield from _text_array(p, p.read_text(encoding="utf-8", errors="replace"), expected)
+            return
+        with _json_errors(p):
+            pos = skip_ws(pos + 1)
+            if buf.startswith("]", pos):
+                pos += 1
+            else:
+                while True:
+                    while True:
+                        try:
+                            item, end = decoder.raw_decode(buf, pos)
+                        except json.JSONDecodeError:
+                            if eof:
+                                raise _Malformed from None
+                            pos = more(pos)
+                            continue
+                        # A number cut by the chunk's end ("1." of "1.25") decodes short: an
+                        # item is whole when a delimiter follows it.
+                        if eof or (end < len(buf) and buf[end] in " \t\n\r,]"):
+                            break
+                        pos = more(pos)
+                    yield item
+                    pos = skip_ws(end)
+                    if buf.startswith("]", pos):
+                        pos += 1
+                        break
+                    if not buf.startswith(",", pos):
+                        raise _Malformed
+                    pos = skip_ws(pos + 1)
+            if skip_ws(pos) != len(buf):
+                raise _Malformed
+
+
+def _text_array(p: Path, text: str, expected: str) -> Iterator[Any]:
+    """:func:`iter_json_array` over the whole text (files whose top level is not an array,
+    and the exact line and column of a syntax error)."""
     if not text.strip():
         raise AdapterError(p, "content", "JSON", "an empty file")
     start = len(text) - len(text.lstrip())

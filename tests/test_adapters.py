@@ -748,11 +748,15 @@ def test_full_alphapose_files():
     ('{"a": [1]}', "field 'top level': expected a list, got a JSON object with keys ['a']"),
     ('  ', "empty file"),
 ])
-def test_item_by_item_json_has_the_whole_file_parsers_errors(tmp_path, text, message):
-    """AlphaPose files are read one detection at a time (a 2-hour file parsed whole is GBs of
-    Python floats); damaged files still give one line naming file, place and problem."""
+@pytest.mark.parametrize("chunk", [1, 3, 1 << 20])
+def test_item_by_item_json_has_the_whole_file_parsers_errors(tmp_path, monkeypatch, text, message, chunk):
+    """AlphaPose files are read one detection at a time, in chunks of text (a 2-hour file
+    parsed whole is GBs of Python floats); damaged files still give one line naming file,
+    place and problem, wherever the chunks end."""
+    import pcnet.adapters.validate as validate
     from pcnet.adapters.validate import iter_json_array
 
+    monkeypatch.setattr(validate, "JSON_CHUNK_CHARS", chunk)
     path = tmp_path / "bad.json"
     path.write_text(text)
     with pytest.raises(AdapterError) as err:
@@ -760,13 +764,18 @@ def test_item_by_item_json_has_the_whole_file_parsers_errors(tmp_path, text, mes
     assert message in str(err.value) and str(path) in str(err.value)
 
 
-def test_item_by_item_json_equals_the_whole_file(tmp_path):
+@pytest.mark.parametrize("chunk", [1, 7, 4096, 1 << 20])
+def test_item_by_item_json_equals_the_whole_file(tmp_path, monkeypatch, chunk):
     import json as json_module
 
+    import pcnet.adapters.validate as validate
     from pcnet.adapters.validate import iter_json_array, read_json
 
+    monkeypatch.setattr(validate, "JSON_CHUNK_CHARS", chunk)  # chunk ends inside numbers, keys, items
     path = FIXTURES / "boxing_alphapose_f000-059.json"
     assert list(iter_json_array(path, "a list")) == read_json(path)
+    (tmp_path / "numbers.json").write_text("[1.25, 123456789, -7e-3 ,2]  ")  # top-level numbers cut at chunk ends
+    assert list(iter_json_array(tmp_path / "numbers.json", "a list")) == [1.25, 123456789, -7e-3, 2]
     spaced = json_module.dumps([{"x": float("nan")}, [], {}], indent=3)
     (tmp_path / "spaced.json").write_text(f"\n {spaced} \n")
     items = list(iter_json_array(tmp_path / "spaced.json", "a list"))
