@@ -167,7 +167,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     if not res.valid.any():  # the same rule as pcnet run: nothing is written
         raise InputError(f"{input_path}: {NO_VALID_FRAME}")
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
-              method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source))
+              method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
+              frame_tilt_bound_deg=res.report["frame_tilt_bound_deg"])
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}, "
                f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)")
 

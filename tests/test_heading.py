@@ -153,5 +153,7 @@ def test_cli_rectify_reports_the_heading_source(tmp_path):
     assert "heading from hips" in result.output
     with np.load(out) as d:
         assert str(d["heading_source"]) == "hips"
+        bound, valid = d["frame_tilt_bound_deg"], d["valid"]
+    assert bound.shape == valid.shape and (bound[valid] >= 7.0).all()  # the shipped pair's calibrated bound
     result = CliRunner().invoke(main, ["rectify", str(tmp_path / "poses.npy"), "--out", str(out), "--heading", "predicted", "--overwrite"])
     assert result.exit_code == 0 and "heading from predicted" in result.output
