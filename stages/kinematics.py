@@ -699,29 +699,57 @@ def select_frames(kinematics: Kinematics, start: int, stop: int, joints: Iterabl
     )
 
 
-def concat_frames(parts: Iterable[Kinematics]) -> Kinematics:
-    """Consecutive :class:`Kinematics` chunks (same joints, angles, units and rate) as one.
+_FRAME_ARRAYS = ("positions", "velocity", "acceleration", "speed", "unfiltered", "missing")
+
+
+class FrameGatherer:
+    """Consecutive :class:`Kinematics` blocks of one recording (e.g. from
+    :func:`kinematics_chunks`), written into arrays allocated once for ``num_frames`` frames:
+    no list of per-block copies and no concatenation, so what a long recording keeps takes
+    only its final memory. ``joints`` keeps only those joints (in that order; angles keep every
+    angle) and ``dtype`` converts the float arrays (:func:`select_frames`).
+
+    ``add(block)`` appends a block; ``result()`` returns the gathered :class:`Kinematics`.
 
     Raises:
-        InputError: no chunk, or chunks that differ in joints, angles, units or rate.
+        InputError: blocks that differ in joints, angles, units, rate or cutoff, more frames
+            than ``num_frames``, or ``result()`` before exactly ``num_frames`` frames came.
     """
-    parts = list(parts)
-    if not parts:
-        raise InputError("concat_frames: no kinematics chunk given")
-    first = parts[0]
-    for p in parts[1:]:
-        if (p.joint_names, tuple(p.angles), p.units, p.fps, p.cutoff_hz) != (
-                first.joint_names, tuple(first.angles), first.units, first.fps, first.cutoff_hz):
-            raise InputError("concat_frames: chunks differ in joints, angles, units, rate or cutoff")
 
-    def cat(name: str) -> np.ndarray:
-        return np.concatenate([getattr(p, name) for p in parts])
+    def __init__(self, num_frames: int, joints: Iterable[str] | None = None, dtype: type | None = None):
+        self.num_frames = int(num_frames)
+        self.joints = None if joints is None else tuple(joints)
+        self.dtype = dtype
+        self.filled = 0
+        self._first: Kinematics | None = None
+        self._arrays: dict[str, np.ndarray] = {}
+        self._angles: dict[str, np.ndarray] = {}
 
-    return replace(
-        first, positions=cat("positions"), velocity=cat("velocity"), acceleration=cat("acceleration"),
-        speed=cat("speed"), unfiltered=cat("unfiltered"), missing=cat("missing"),
-        angles=MappingProxyType({n: np.concatenate([p.angles[n] for p in parts]) for n in first.angles}),
-    )
+    def add(self, block: Kinematics) -> None:
+        k = select_frames(block, 0, block.num_frames, self.joints, self.dtype)
+        if self._first is None:
+            self._first = k
+            self._arrays = {n: np.empty((self.num_frames,) + getattr(k, n).shape[1:], getattr(k, n).dtype)
+                            for n in _FRAME_ARRAYS}
+            self._angles = {n: np.empty(self.num_frames, v.dtype) for n, v in k.angles.items()}
+        elif (k.joint_names, tuple(k.angles), k.units, k.fps, k.cutoff_hz) != (
+                self._first.joint_names, tuple(self._first.angles), self._first.units, self._first.fps,
+                self._first.cutoff_hz):
+            raise InputError("FrameGatherer: blocks differ in joints, angles, units, rate or cutoff")
+        stop = self.filled + k.num_frames
+        if stop > self.num_frames:
+            raise InputError(f"FrameGatherer: more than the {self.num_frames} frames announced")
+        rows = slice(self.filled, stop)
+        for n in _FRAME_ARRAYS:
+            self._arrays[n][rows] = getattr(k, n)
+        for n, v in k.angles.items():
+            self._angles[n][rows] = v
+        self.filled = stop
+
+    def result(self) -> Kinematics:
+        if self._first is None or self.filled != self.num_frames:
+            raise InputError(f"FrameGatherer: {self.filled} of {self.num_frames} frames gathered")
+        return replace(self._first, **self._arrays, angles=MappingProxyType(self._angles))
 
 
 def kinematics_chunks(

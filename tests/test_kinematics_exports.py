@@ -41,7 +41,7 @@ from pcnet.stages.core.geometric import geometric_rotation
 from pcnet.stages.kinematics import (
     butterworth_lowpass,
     compute_kinematics,
-    concat_frames,
+    FrameGatherer,
     count_flags,
     derivatives,
     flag_counts,
@@ -831,7 +831,10 @@ def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff,
     whole = compute_kinematics(X, fps, cutoff)
     parts = list(kinematics_chunks(X, fps, cutoff, chunk_frames=chunk))
     assert [p.num_frames for p in parts[:-1]] == [chunk] * (len(parts) - 1)
-    joined = concat_frames(parts)
+    gather = FrameGatherer(len(X))
+    for part in parts:
+        gather.add(part)
+    joined = gather.result()
     for name in ("positions", "velocity", "acceleration", "speed"):
         a, b = getattr(whole, name), getattr(joined, name)
         np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=name)
@@ -842,6 +845,12 @@ def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff,
     for name, angle in whole.angles.items():
         np.testing.assert_allclose(angle, joined.angles[name], rtol=1e-9, atol=1e-9, equal_nan=True, err_msg=name)
     assert count_flags(joined.missing, joined.unfiltered) == flag_counts(whole)
+    with pytest.raises(InputError):
+        gather.add(parts[0])  # more frames than announced
+    short = FrameGatherer(len(X) + 1)
+    short.add(parts[0])
+    with pytest.raises(InputError):
+        short.result()
 
 
 def test_settle_frames_follow_the_filter():

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core.conventions import H36M_JOINTS
 from ..core.rotations import decompose_camera_rotation
-from ..kinematics import concat_frames, count_flags, select_frames
+from ..kinematics import FrameGatherer, count_flags, select_frames
 from .bvh import write_bvh
 from .exports import plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
 from .plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
@@ -120,21 +120,25 @@ def write_kinematics_table(r: RecordingResult, folder: Path) -> dict[str, Path]:
     ``heading_deg`` columns) from ``r.kinematics_blocks``, consumed once; fills
     ``r.kinematics`` (:data:`KEPT_JOINTS` only, float32: what a long recording keeps for the
     plots and the recording), ``r.missing``, ``r.unfiltered`` and ``r.flag_counts``."""
-    kept, missing, unfiltered = [], [], []
+    T = len(r.joints_camera)
+    kept = FrameGatherer(T, KEPT_JOINTS, np.float32)
+    missing, unfiltered = np.zeros((T, 17), bool), np.zeros((T, 17), bool)
 
     def keeping(blocks):
+        start = 0
         for k in blocks:
-            kept.append(select_frames(k, 0, k.num_frames, KEPT_JOINTS, dtype=np.float32))
-            missing.append(k.missing)
-            unfiltered.append(k.unfiltered)
+            kept.add(k)
+            missing[start : start + k.num_frames] = k.missing
+            unfiltered[start : start + k.num_frames] = k.unfiltered
+            start += k.num_frames
             yield k
 
-    frames = np.arange(len(r.joints_camera))
+    frames = np.arange(T)
     path = folder / "kinematics.csv"
     write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks),
                          extra_columns={"valid": r.valid.astype(int), "heading_deg": r.heading_deg})
-    r.kinematics = concat_frames(kept)
-    r.missing, r.unfiltered = np.concatenate(missing), np.concatenate(unfiltered)
+    r.kinematics = kept.result()
+    r.missing, r.unfiltered = missing, unfiltered
     r.flag_counts = count_flags(r.missing, r.unfiltered)
     return {"kinematics.csv": path}
 
