@@ -140,8 +140,8 @@ JSON_CHUNK_CHARS = 1 << 20
 
 
 class _Malformed(Exception):
-    """A JSON syntax error met while streaming; reported by re-parsing the whole text so the
-    line and column are the file's (an error path only)."""
+    """A JSON syntax error met while streaming; reported by :func:`read_json` on the whole file
+    so the message, line and column are the file's (an error path only)."""
 
 
 def iter_json_array(path: str | Path, expected: str) -> Iterator[Any]:
@@ -164,9 +164,8 @@ def iter_json_array(path: str | Path, expected: str) -> Iterator[Any]:
     try:
         yield from _stream_array(p, expected)
     except _Malformed:
-        for _ in _text_array(p, p.read_text(encoding="utf-8", errors="replace"), expected):
-            pass
-        raise AdapterError(p, "content", "valid JSON", "a syntax error") from None  # _text_array raised first
+        read_json(p)  # raises the parser's error with the file's line and column
+        raise AdapterError(p, "content", "valid JSON", "a syntax error") from None  # not reached
 
 
 def _stream_array(p: Path, expected: str) -> Iterator[Any]:
@@ -194,8 +193,9 @@ def _stream_array(p: Path, expected: str) -> Iterator[Any]:
         if pos == len(buf):
             raise AdapterError(p, "content", "JSON", "an empty file")
         if buf[pos] != "[":
-            yield from _text_array(p, p.read_text(encoding="utf-8", errors="replace"), expected)
-            return
+            data = read_json(p)  # invalid JSON reads as read_json's error
+            got = f"a JSON object with keys {sorted(data)[:6]}" if isinstance(data, dict) else type(data).__name__
+            raise AdapterError(p, "top level", expected, got)
         with _json_errors(p):
             pos = skip_ws(pos + 1)
             if buf.startswith("]", pos):
@@ -225,37 +225,6 @@ def _stream_array(p: Path, expected: str) -> Iterator[Any]:
                     pos = skip_ws(pos + 1)
             if skip_ws(pos) != len(buf):
                 raise _Malformed
-
-
-def _text_array(p: Path, text: str, expected: str) -> Iterator[Any]:
-    """:func:`iter_json_array` over the whole text (files whose top level is not an array,
-    and the exact line and column of a syntax error)."""
-    if not text.strip():
-        raise AdapterError(p, "content", "JSON", "an empty file")
-    start = len(text) - len(text.lstrip())
-    if text[start] != "[":
-        data = read_json(p)  # invalid JSON reads as read_json's error
-        got = f"a JSON object with keys {sorted(data)[:6]}" if isinstance(data, dict) else type(data).__name__
-        raise AdapterError(p, "top level", expected, got)
-    decoder = json.JSONDecoder(parse_float=_json_float)
-    ws = json.decoder.WHITESPACE.match
-    pos = ws(text, start + 1).end()
-    with _json_errors(p):
-        if text.startswith("]", pos):
-            pos += 1
-        else:
-            while True:
-                item, pos = decoder.raw_decode(text, pos)
-                yield item
-                pos = ws(text, pos).end()
-                if text.startswith("]", pos):
-                    pos += 1
-                    break
-                if not text.startswith(",", pos):
-                    raise json.JSONDecodeError("Expecting ',' delimiter", text, pos)
-                pos = ws(text, pos + 1).end()
-        if ws(text, pos).end() != len(text):
-            raise json.JSONDecodeError("Extra data", text, ws(text, pos).end())
 
 
 def json_numbers(p: str | Path, field: str, value: Any, depth: int = 1) -> np.ndarray:

@@ -125,12 +125,10 @@ def write_kinematics_table(r: RecordingResult, folder: Path) -> dict[str, Path]:
     missing, unfiltered = np.zeros((T, 17), bool), np.zeros((T, 17), bool)
 
     def keeping(blocks):
-        start = 0
         for k in blocks:
+            rows = slice(kept.filled, kept.filled + k.num_frames)
             kept.add(k)
-            missing[start : start + k.num_frames] = k.missing
-            unfiltered[start : start + k.num_frames] = k.unfiltered
-            start += k.num_frames
+            missing[rows], unfiltered[rows] = k.missing, k.unfiltered
             yield k
 
     frames = np.arange(T)
