@@ -36,6 +36,10 @@ from .entry import check_interrupted
 MARKER = ".pcnet-output"
 TMP_TAG = ".pcnet-tmp-"
 TRASH_TAG = ".pcnet-trash-"
+#: An empty staged folder without a marker is a leftover only once it is this old (s): a row
+#: that has just created its folder writes its marker within microseconds, and another row's
+#: clean-up running in that window must not remove it (as Ray rows starting together did).
+EMPTY_STAGED_GRACE_S = 60.0
 
 
 def _is_within(path: Path, folder: Path) -> bool:
@@ -182,7 +186,8 @@ def clean_stale(target: Path) -> list[Path]:
         if entry.is_symlink() or not entry.is_dir():
             continue
         info = read_marker(entry)
-        if not info and TMP_TAG in name and not any(entry.iterdir()):
+        if (not info and TMP_TAG in name and not any(entry.iterdir())
+                and time.time() - entry.stat().st_mtime > EMPTY_STAGED_GRACE_S):
             entry.rmdir()  # killed between creating its staged folder and writing the marker
             removed.append(entry)
             continue
