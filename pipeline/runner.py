@@ -274,9 +274,12 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     if not res.valid.any():
         raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
     rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
+    # Whole-recording arrays: drop every reference the rest of the run does not read, or the
+    # superseded copies (unscaled canonical, unscaled joints) stay resident to the end.
+    del res, located
     tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
     flags = orientation_flags(tilt) + (body_size_flag(joints, units) if cfg.height is None else [])
-    flags += non_upright_flag(canonical, valid) + gravity_reading_flag(res.report.get("gravity"))
+    flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
     flags += view_gate_flag(report.get("view_gate"))
     flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
     segment = None
