@@ -26,7 +26,9 @@ groups incl. the held-out styles, CMU test subjects 10 and 14), DeepMimic (all 8
 other motions: flips, crawls, rolls, get-ups), and the 4 real Pose2Sim cameras (11 frames each,
 real MediaPipe, true up from the calibration; read as benchmarks/gravity_benchmark.py reads
 them); and the motion-style test split seen through cameras rolled by 90 deg (a phone held in
-portrait: the body-frame network answers). Writes benchmarks/results/frame_bound.txt.
+portrait: the body-frame network answers). Then DeepMimic by motion group (running, zombie
+walks, get-ups, crawl and roll, other): coverage, gate weight, disagreement and the error's
+signed pitch and roll. Writes benchmarks/results/frame_bound.txt.
 """
 
 from __future__ import annotations
@@ -77,6 +79,49 @@ def mocap_views(clips, roll_deg: float = 0.0):
         sel = np.flatnonzero(pairs.clip == i)
         if len(sel):
             yield pairs.inputs[sel] @ Q.T, pairs.R[sel][:, :, 1] @ Q.T, clip.fps
+
+
+#: DeepMimic clip-name patterns of the breakdown, first match wins (the rest: "other").
+DEEPMIMIC_GROUPS = (("running (SIE captures)", "sie_humanoid3d_run"), ("zombie walks (trunk bent forward)", "zombie"),
+                    ("get-ups from the floor", "getup"), ("crawl and roll", ("crawl", "roll")))
+
+
+def deepmimic_group(name: str) -> str:
+    for group, patterns in DEEPMIMIC_GROUPS:
+        if any(p in name for p in ((patterns,) if isinstance(patterns, str) else patterns)):
+            return group
+    return "other"
+
+
+def deepmimic_breakdown(estimator, clips) -> list[str]:
+    """Where the bound misses on DeepMimic, per group of motions: coverage, the gate's mean
+    weight, the median disagreement, and the tilt error split into signed pitch (+ = the
+    predicted up leans anterior of the true one) and roll in the true canonical frame."""
+    pairs = make_pairs(clips, views="paper", seed=0, camera="per-frame", noise=LifterNoise())
+    rows: dict[str, list] = {}
+    for i, clip in enumerate(clips):
+        sel = np.flatnonzero(pairs.clip == i)
+        if not len(sel):
+            continue
+        est = estimator(pairs.inputs[sel], clip.fps)
+        ok = est.valid
+        truth = pairs.R[sel][ok]
+        up = np.einsum("tji,tj->ti", truth, est.rotation[ok][:, :, 1])  # predicted up, true canonical axes
+        e = np.degrees(angle_between(est.rotation[ok][:, :, 1], truth[:, :, 1]))
+        d, w = est.disagreement_deg[ok], est.camera_frame_weight[ok]
+        rows.setdefault(deepmimic_group(clip.name), []).append(
+            (e, d, w, np.degrees(np.arctan2(up[:, 0], up[:, 1])), np.degrees(np.arctan2(up[:, 2], up[:, 1]))))
+    lines = ["", "DeepMimic by motion group (the same frames; pitch + = predicted up anterior of the true one):",
+             f"  {'group':<36}{'frames':>8}{'coverage':>10}{'mean w':>8}{'median d':>10}{'pitch mean':>12}"
+             f"{'mean |pitch|':>14}{'mean |roll|':>13}{'median e':>10}"]
+    for group in [g for g, _ in DEEPMIMIC_GROUPS] + ["other"]:
+        if group not in rows:
+            continue
+        e, d, w, pitch, roll = (np.concatenate(a) for a in zip(*rows[group]))
+        cov = np.mean(e <= uncertainty.frame_tilt_bound(d, w))
+        lines.append(f"  {group:<36}{len(e):>8}{cov:>10.1%}{w.mean():>8.2f}{np.median(d):>10.1f}{pitch.mean():>+12.2f}"
+                     f"{np.abs(pitch).mean():>14.2f}{np.abs(roll).mean():>13.2f}{np.median(e):>10.1f}")
+    return lines
 
 
 def pose2sim_views(data: Path):
@@ -153,6 +198,7 @@ def main(argv=None) -> int:
         c1, m1, t1 = covers(e, d, w, base, chosen, body)
         lines.append(f"  {name:<52}{len(e):>8}  {c0:>8.1%} {m0:>6.2f} top {t0:>6.1%}  "
                      f"{c1:>8.1%} {m1:>6.2f} top {t1:>6.1%}")
+    lines += deepmimic_breakdown(estimator, load_mocap(mocap / "deepmimic_h36m17.npz"))
     text = "\n".join(lines) + "\n"
     print(text)
     args.out.parent.mkdir(parents=True, exist_ok=True)
