@@ -22,9 +22,8 @@ import contextlib
 from pathlib import Path
 
 import numpy as np
-
 import pcnet.pipeline.evaluate as evaluate_module
-import pcnet.stages.temporal as temporal
+from pcnet.stages import temporal
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, frame_tilt_bound
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
