@@ -42,6 +42,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gravity_benchmark import load_camera  # noqa: E402
+from report import print_and_save  # noqa: E402
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
@@ -199,10 +200,7 @@ def main(argv=None) -> int:
         lines.append(f"  {name:<52}{len(e):>8}  {c0:>8.1%} {m0:>6.2f} top {t0:>6.1%}  "
                      f"{c1:>8.1%} {m1:>6.2f} top {t1:>6.1%}")
     lines += deepmimic_breakdown(estimator, load_mocap(mocap / "deepmimic_h36m17.npz"))
-    text = "\n".join(lines) + "\n"
-    print(text)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text)
+    print_and_save(lines, args.out)
     return 0
 
 

@@ -49,6 +49,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gravity_benchmark import ROLLS_DEG, load_camera, pitch_roll_deg, roll_view  # noqa: E402
+from report import print_and_save  # noqa: E402
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
@@ -197,10 +198,7 @@ def main(argv=None) -> int:
             hr = uncertainty.calibrated_interval(r["boot_roll"], "roll", sigma_sys_deg=shipped["roll"])
         lines.append(f"  {r['clip']:<28} err {r['err_pitch']:+7.1f} {r['err_roll']:+7.1f}   boot +-{r['boot_pitch']:.2f}/"
                      f"{r['boot_roll']:.2f}   reported +-{hp:.2f}/{hr:.2f} ({r['reading']})")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text)
+    print_and_save(lines, args.out)
     return 0
 
 

@@ -19,12 +19,18 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import sys
 from pathlib import Path
 
 import numpy as np
-import pcnet.pipeline.evaluate as evaluate_module
-from pcnet.stages import temporal
-from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, frame_tilt_bound
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from report import print_and_save  # noqa: E402
+
+import pcnet.pipeline.evaluate as evaluate_module  # noqa: E402
+from pcnet.stages import temporal  # noqa: E402
+from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, frame_tilt_bound  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "sequence_frame_weights.txt"
@@ -84,10 +90,7 @@ def main(argv=None) -> int:
         fmt = "{mean:.2f} / {median:.2f} / {p95:.2f}"
         lines.append(f"  {name.split('_')[0] + ' ' + split:<34}{fmt.format(**base):>24}{fmt.format(**weighted):>26}")
         print(lines[-1], flush=True)
-    text = "\n".join(lines) + "\n"
-    print(text)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text)
+    print_and_save(lines, args.out)
     return 0
 
 
