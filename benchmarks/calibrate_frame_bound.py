@@ -42,9 +42,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gravity_benchmark import load_camera  # noqa: E402
+from mocap_sets import training_mix_splits  # noqa: E402
 from report import print_and_save  # noqa: E402
 
-from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
 from pcnet.models.inference import BODY_WEIGHTS  # noqa: E402
 from pcnet.pipeline.rectification import make_estimator  # noqa: E402
@@ -94,12 +95,13 @@ def deepmimic_group(name: str) -> str:
     return "other"
 
 
-def deepmimic_breakdown(estimator, clips) -> list[str]:
-    """Where the bound misses on DeepMimic, per group of motions: coverage, the gate's mean
-    weight, the median disagreement, and the tilt error split into signed pitch (+ = the
-    predicted up leans anterior of the true one) and roll in the true canonical frame."""
+def deepmimic_frames(estimator, clips) -> dict[str, np.ndarray]:
+    """Over the valid frames of DeepMimic's views (those of :func:`mocap_views`, clip by clip,
+    so ``e``, ``d``, ``w`` equal :func:`frames_of`'s): the tilt error ``e``, ``d``, ``w``, the
+    error split into signed ``pitch`` (+ = the predicted up leans anterior of the true one)
+    and ``roll`` in the true canonical frame, and each frame's motion ``group``."""
     pairs = make_pairs(clips, views="paper", seed=0, camera="per-frame", noise=LifterNoise())
-    rows: dict[str, list] = {}
+    columns: dict[str, list] = {k: [] for k in ("e", "d", "w", "pitch", "roll", "group")}
     for i, clip in enumerate(clips):
         sel = np.flatnonzero(pairs.clip == i)
         if not len(sel):
@@ -108,18 +110,28 @@ def deepmimic_breakdown(estimator, clips) -> list[str]:
         ok = est.valid
         truth = pairs.R[sel][ok]
         up = np.einsum("tji,tj->ti", truth, est.rotation[ok][:, :, 1])  # predicted up, true canonical axes
-        e = np.degrees(angle_between(est.rotation[ok][:, :, 1], truth[:, :, 1]))
-        d, w = est.disagreement_deg[ok], est.camera_frame_weight[ok]
-        rows.setdefault(deepmimic_group(clip.name), []).append(
-            (e, d, w, np.degrees(np.arctan2(up[:, 0], up[:, 1])), np.degrees(np.arctan2(up[:, 2], up[:, 1]))))
+        columns["e"].append(np.degrees(angle_between(est.rotation[ok][:, :, 1], truth[:, :, 1])))
+        columns["d"].append(est.disagreement_deg[ok])
+        columns["w"].append(est.camera_frame_weight[ok])
+        columns["pitch"].append(np.degrees(np.arctan2(up[:, 0], up[:, 1])))
+        columns["roll"].append(np.degrees(np.arctan2(up[:, 2], up[:, 1])))
+        columns["group"].append(np.full(int(ok.sum()), deepmimic_group(clip.name)))
+    return {k: np.concatenate(v) for k, v in columns.items()}
+
+
+def deepmimic_breakdown(frames: dict[str, np.ndarray], base: float, k: float, body: float) -> list[str]:
+    """Where the bound (``base``, ``k``, ``body`` as calibrated) misses on DeepMimic, per group
+    of motions (:func:`deepmimic_frames`): coverage, the gate's mean weight, the median
+    disagreement, and the error's signed pitch and roll."""
     lines = ["", "DeepMimic by motion group (the same frames; pitch + = predicted up anterior of the true one):",
              f"  {'group':<36}{'frames':>8}{'coverage':>10}{'mean w':>8}{'median d':>10}{'pitch mean':>12}"
              f"{'mean |pitch|':>14}{'mean |roll|':>13}{'median e':>10}"]
     for group in [g for g, _ in DEEPMIMIC_GROUPS] + ["other"]:
-        if group not in rows:
+        here = frames["group"] == group
+        if not here.any():
             continue
-        e, d, w, pitch, roll = (np.concatenate(a) for a in zip(*rows[group]))
-        cov = np.mean(e <= uncertainty.frame_tilt_bound(d, w))
+        e, d, w, pitch, roll = (frames[n][here] for n in ("e", "d", "w", "pitch", "roll"))
+        cov = np.mean(e <= uncertainty.frame_tilt_bound(d, w, base, k, body))
         lines.append(f"  {group:<36}{len(e):>8}{cov:>10.1%}{w.mean():>8.2f}{np.median(d):>10.1f}{pitch.mean():>+12.2f}"
                      f"{np.abs(pitch).mean():>14.2f}{np.abs(roll).mean():>13.2f}{np.median(e):>10.1f}")
     return lines
@@ -154,23 +166,17 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, default=DEFAULT)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
-    mocap = args.data / "mocap"
-
-    def split(name, part):
-        return select_split(load_mocap(mocap / name), part, "motion-style")
-
     estimator = make_estimator("pcnet")
-    val = split("bandai_h36m17.npz", "val") + split("cmu_train_h36m17.npz", "val")
-    test = split("bandai_h36m17.npz", "test") + split("cmu_train_h36m17.npz", "test")
+    val, test = training_mix_splits(args.data, "val", "test")
     cal = frames_of(estimator, mocap_views(val))
     if not (cal[2] == 1.0).all():
         raise SystemExit("calibration frames the camera-frame network did not answer alone: the fit assumes w = 1")
     body = round(conformal(frames_of(make_estimator("pcnet", str(BODY_WEIGHTS)), mocap_views(val))[0]), 2)
+    deepmimic = deepmimic_frames(estimator, load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"))
     held_out = {
         "motion-style test (Bandai test groups, CMU 10, 14)": frames_of(estimator, mocap_views(test)),
         "motion-style test, camera rolled 90 deg (portrait)": frames_of(estimator, mocap_views(test, 90.0)),
-        "DeepMimic all (other motions, never trained on)": frames_of(
-            estimator, mocap_views(load_mocap(mocap / "deepmimic_h36m17.npz"))),
+        "DeepMimic all (other motions, never trained on)": (deepmimic["e"], deepmimic["d"], deepmimic["w"]),
         "Pose2Sim real cameras (4 x 11 frames)": frames_of(estimator, pose2sim_views(args.data)),
     }
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
@@ -199,7 +205,7 @@ def main(argv=None) -> int:
         c1, m1, t1 = covers(e, d, w, base, chosen, body)
         lines.append(f"  {name:<52}{len(e):>8}  {c0:>8.1%} {m0:>6.2f} top {t0:>6.1%}  "
                      f"{c1:>8.1%} {m1:>6.2f} top {t1:>6.1%}")
-    lines += deepmimic_breakdown(estimator, load_mocap(mocap / "deepmimic_h36m17.npz"))
+    lines += deepmimic_breakdown(deepmimic, base, chosen, body)
     print_and_save(lines, args.out)
     return 0
 

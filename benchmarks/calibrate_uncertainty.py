@@ -49,9 +49,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gravity_benchmark import ROLLS_DEG, load_camera, pitch_roll_deg, roll_view  # noqa: E402
+from mocap_sets import training_mix_splits  # noqa: E402
 from report import print_and_save  # noqa: E402
 
-from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
 from pcnet.stages import uncertainty  # noqa: E402
 from pcnet.pipeline.rectification import rectify  # noqa: E402
@@ -144,14 +145,9 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, default=DEFAULT)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
-    mocap = args.data / "mocap"
 
-    def split(name, part):
-        return select_split(load_mocap(mocap / name), part, "motion-style")
-
-    val = split("bandai_h36m17.npz", "val") + split("cmu_train_h36m17.npz", "val")
-    test = split("bandai_h36m17.npz", "test") + split("cmu_train_h36m17.npz", "test")
-    deepmimic = load_mocap(mocap / "deepmimic_h36m17.npz")
+    val, test = training_mix_splits(args.data, "val", "test")
+    deepmimic = load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz")
     # The pose evidence's own systematic error (no camera prior): it is also the pose std of
     # the camera-prior posterior, and this keeps the calibration independent of its constants.
     cal_rows = mocap_rows(val, CAL_SEEDS, camera_prior=False)
