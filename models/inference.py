@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pcnet.stages.core.conventions import check_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import angle_between
 
@@ -23,6 +24,25 @@ WEIGHTS_DIR = Path(__file__).parent / "weights"
 CAMERA_WEIGHTS = WEIGHTS_DIR / "pcnet_camera.onnx"
 BODY_WEIGHTS = WEIGHTS_DIR / "pcnet_body.onnx"
 DEFAULT_WEIGHTS = CAMERA_WEIGHTS
+
+
+#: Frames normalised (and blended) per block: each frame's arithmetic is its own, so the
+#: result equals the one-piece computation while a long recording's float64 temporaries stay
+#: a block long.
+CHUNK_FRAMES = 8192
+
+
+def normalized_in_chunks(joints_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`pcnet.models.preprocess.normalize_input` of ``(N, 17, 3)`` poses, computed
+    :data:`CHUNK_FRAMES` frames at a time into whole ``x`` ``(N, 17, 3)`` float32, ``scale``
+    ``(N,)`` float64 and ``valid`` ``(N,)`` bool (the same values as one call)."""
+    joints_cam = check_poses(joints_cam, "joints_cam")
+    n = len(joints_cam)
+    x, scale, valid = np.zeros((n, 17, 3), np.float32), np.zeros(n), np.zeros(n, bool)
+    for lo in range(0, n, CHUNK_FRAMES):
+        rows = slice(lo, lo + CHUNK_FRAMES)
+        x[rows], scale[rows], valid[rows] = normalize_input(joints_cam[rows])
+    return x, scale, valid
 
 
 class PCNetSession:
@@ -47,7 +67,7 @@ class PCNetSession:
         # onnxruntime's arena keeps the largest batch's activations for the session's life:
         # peak RSS 1,060 MB at 4,096 poses, 181 MB at 256, which is faster on 2 cores
         # (9,859 vs 6,798 poses/s, `python benchmarks/ort_batch_memory.py`).
-        x, scale, valid = normalize_input(joints_cam)
+        x, scale, valid = normalized_in_chunks(joints_cam)
         n = len(x)
         R = np.full((n, 3, 3), np.nan)
         residual = np.full((n, 17, 3), np.nan)
@@ -82,10 +102,19 @@ class ViewGatedPCNet:
         R_cam, res_cam, valid = self.camera.predict(joints_cam)
         R_body, res_body, _ = self.body.predict(joints_cam)
         weight = camera_frame_weight(R_body, valid, fps)
-        w = weight[:, None, None]
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
-        return (blend_rotations(R_body, R_cam, weight), w * res_cam + (1 - w) * res_body, valid, weight,
-                disagreement)
+        # The blended residual overwrites the camera-frame one a block at a time: whole-recording
+        # temporaries of (T, 17, 3) float64 each were most of a long recording's peak memory.
+        for lo in range(0, len(weight), CHUNK_FRAMES):
+            rows = slice(lo, lo + CHUNK_FRAMES)
+            w = weight[rows, None, None]
+            res_cam[rows] = w * res_cam[rows] + (1 - w) * res_body[rows]
+        del res_body
+        R = np.full(R_body.shape, np.nan)
+        for lo in range(0, len(weight), CHUNK_FRAMES):
+            rows = slice(lo, lo + CHUNK_FRAMES)
+            R[rows] = blend_rotations(R_body[rows], R_cam[rows], weight[rows])
+        return R, res_cam, valid, weight, disagreement
 
     def predict(self, joints_cam: np.ndarray, fps: float = 30.0):
         return self.predict_gated(joints_cam, fps)[:3]

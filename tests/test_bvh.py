@@ -167,6 +167,8 @@ def test_missing_joints_are_filled_and_reported(tmp_path, mocap):
     X[10] = np.nan  # a whole frame
     X[20, 13] = np.nan  # a wrist
     X[0, 3] = np.inf  # an ankle in the first frame: held from the next finite sample
+    X = X.astype(np.float64)  # the writer reads float64 poses without a copy: it must not change them
+    given = X.copy()
     m = bvh_motion(X)
     expect = np.zeros((30, 17), bool)
     expect[10] = True
@@ -174,6 +176,7 @@ def test_missing_joints_are_filled_and_reported(tmp_path, mocap):
     np.testing.assert_array_equal(m.filled, expect)
     np.testing.assert_array_equal(np.flatnonzero(m.filled_frames), [0, 10, 20])
     path = write_bvh(tmp_path / "gaps.bvh", X, FPS)
+    np.testing.assert_array_equal(X, given)
     assert "nan" not in path.read_text().lower() and "inf" not in path.read_text().lower()
     Y = read_positions(path)
     ok = ~expect.any(axis=1)

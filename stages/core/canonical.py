@@ -53,19 +53,29 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
 
     Args:
         joints_cam: ``(N, J, 3)`` camera frame, any units.
-        R: ``(N, 3, 3)`` canonical->camera.
+        R: ``(N, 3, 3)`` canonical->camera, or one ``(3, 3)`` for every frame.
         residual: optional ``(N, J, 3)`` correction added in the canonical frame
             (3DPCNet's Delta, paper section 2.1.2).
 
     Returns:
         ``(N, J, 3)`` pelvis-centred canonical poses, same units, float32.
     """
-    X = np.asarray(joints_cam, np.float64)
-    X = X - X[:, PELVIS : PELVIS + 1]
-    out = X @ np.asarray(R, np.float64)
-    if residual is not None:
-        out = out + residual
-    return out.astype(np.float32)
+    joints_cam, R = np.asarray(joints_cam), np.asarray(R)
+    out = np.empty(joints_cam.shape, np.float32)
+    # A block of frames at a time: each frame's arithmetic is its own, and a long recording's
+    # float64 temporaries stay a block long.
+    for lo in range(0, len(out), BLOCK_FRAMES):
+        rows = slice(lo, lo + BLOCK_FRAMES)
+        X = np.asarray(joints_cam[rows], np.float64)
+        block = (X - X[:, PELVIS : PELVIS + 1]) @ np.asarray(R[rows] if R.ndim == 3 else R, np.float64)
+        if residual is not None:
+            block += residual[rows]
+        out[rows] = block
+    return out
+
+
+#: Frames per block in :func:`to_canonical` (float64 temporaries of a block, not a recording).
+BLOCK_FRAMES = 8192
 
 
 def to_camera(joints_canon: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -221,6 +221,8 @@ def _fill(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per joint and coordinate, linear interpolation in time over missing samples (held
     constant before the first / after the last finite one). Returns (filled, filled mask)."""
     missing = ~np.isfinite(X).all(axis=-1)
+    if not missing.any():
+        return X, missing
     Y = X.copy()
     t = np.arange(len(X))
     for j in np.flatnonzero(missing.any(axis=0)):
@@ -261,9 +263,10 @@ def _checked_poses(poses: np.ndarray, joint_names: Sequence[str]) -> tuple[np.nd
         raise InputError(f"{who}: expected real-valued (float) joint coordinates, got dtype {arr.dtype}")
     if arr.ndim != 3 or arr.shape[1:] != (17, 3) or arr.shape[0] == 0:
         raise InputError(f"{who}: expected poses of shape (T, 17, 3) with T >= 1 (H36M-17 joints), got {arr.shape}")
-    with np.errstate(invalid="ignore"):
-        X = arr.astype(np.float64)
-    X[~np.isfinite(X)] = np.nan
+    # No copy of a float64 recording (a 2-hour one is 176 MB) unless it holds inf to replace.
+    X = arr.astype(np.float64, copy=False)
+    if np.isinf(X).any():
+        X = np.where(np.isinf(X), np.nan, X)
     if not np.isfinite(X).all(axis=(1, 2)).any():
         raise InputError(f"{who}: expected at least one frame with all 17 joints finite, got none of {len(X)} frames")
     return X, names
@@ -290,11 +293,12 @@ def _skeleton(X: np.ndarray, P: np.ndarray, names: list[str]) -> _Skeleton:
     node_names, node_parent, node_joint = _nodes(names)
     N = len(node_names)
     # The link children's rest directions are their median directions in the pelvis/thorax frames.
-    frames = _body_frames(P[complete])
+    P_complete = P if complete.all() else P[complete]
+    frames = _body_frames(P_complete)
     rest_dir = dict(_REST_DIR)
     for c in _LINKED:
         p = H36M_PARENTS[c]
-        local = np.einsum("tji,tj->ti", frames[p], P[complete, c] - P[complete, p])
+        local = np.einsum("tji,tj->ti", frames[p], P_complete[:, c] - P_complete[:, p])
         rest_dir[c] = _unit(np.median(_unit(local)[0], axis=0))[0]
     for _, (zl, zr) in _FRAMES.values():
         # One forward (x) component for the pair, their heights and lengths kept, so that the
