@@ -103,16 +103,13 @@ class ViewGatedPCNet:
         R_body, res_body, _ = self.body.predict(joints_cam)
         weight = camera_frame_weight(R_body, valid, fps)
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
-        # The blended residual overwrites the camera-frame one a block at a time: whole-recording
-        # temporaries of (T, 17, 3) float64 each were most of a long recording's peak memory.
+        # Blended a block at a time, the residual into the camera-frame one's array: whole-recording
+        # (T, 17, 3) float64 temporaries would add to the rectification stage's peak.
+        R = np.full(R_body.shape, np.nan)
         for lo in range(0, len(weight), CHUNK_FRAMES):
             rows = slice(lo, lo + CHUNK_FRAMES)
             w = weight[rows, None, None]
             res_cam[rows] = w * res_cam[rows] + (1 - w) * res_body[rows]
-        del res_body
-        R = np.full(R_body.shape, np.nan)
-        for lo in range(0, len(weight), CHUNK_FRAMES):
-            rows = slice(lo, lo + CHUNK_FRAMES)
             R[rows] = blend_rotations(R_body[rows], R_cam[rows], weight[rows])
         return R, res_cam, valid, weight, disagreement
 
