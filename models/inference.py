@@ -64,10 +64,15 @@ class PCNetSession:
         _check_signature(self.path, self.session, "3DPCNet", {"x": [17, 3]}, {"rotation": [3, 3], "residual": [17, 3]})
 
     def predict(self, joints_cam: np.ndarray, batch_size: int = 256) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.predict_normalized(*normalized_in_chunks(joints_cam), batch_size=batch_size)
+
+    def predict_normalized(self, x: np.ndarray, scale: np.ndarray, valid: np.ndarray,
+                           batch_size: int = 256) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`predict` from :func:`normalized_in_chunks`'s ``(x, scale, valid)``, so that
+        several networks can share one normalisation of a recording."""
         # onnxruntime's arena keeps the largest batch's activations for the session's life:
         # peak RSS 1,060 MB at 4,096 poses, 181 MB at 256, which is faster on 2 cores
         # (9,859 vs 6,798 poses/s, `python benchmarks/ort_batch_memory.py`).
-        x, scale, valid = normalized_in_chunks(joints_cam)
         n = len(x)
         R = np.full((n, 3, 3), np.nan)
         residual = np.full((n, 17, 3), np.nan)
@@ -99,8 +104,10 @@ class ViewGatedPCNet:
         self.path, self.info = self.camera.path, self.camera.info
 
     def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0):
-        R_cam, res_cam, valid = self.camera.predict(joints_cam)
-        R_body, res_body, _ = self.body.predict(joints_cam)
+        normalized = normalized_in_chunks(joints_cam)  # both networks read the same input
+        R_cam, res_cam, valid = self.camera.predict_normalized(*normalized)
+        R_body, res_body, _ = self.body.predict_normalized(*normalized)
+        del normalized
         weight = camera_frame_weight(R_body, valid, fps)
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
         # Blended a block at a time, the residual into the camera-frame one's array: whole-recording

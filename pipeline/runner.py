@@ -246,10 +246,9 @@ def _glibc():
         return None
     try:
         libc = ctypes.CDLL("libc.so.6")
-        libc.mallopt, libc.malloc_trim  # noqa: B018 (both are glibc's; musl has neither)
-        return libc
-    except (OSError, AttributeError):
+    except OSError:
         return None
+    return libc if hasattr(libc, "mallopt") and hasattr(libc, "malloc_trim") else None  # musl has neither
 
 
 def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
@@ -386,9 +385,10 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
 
         step("exports")
         outputs = {**write_arrays(result, tmp), **table}
-        for sink in (lambda: write_motion_files(result, tmp, c3d=cfg.c3d), lambda: write_figures(result, tmp)):
-            _trim_heap()
-            outputs.update(sink())
+        _trim_heap()
+        outputs.update(write_motion_files(result, tmp, c3d=cfg.c3d))
+        _trim_heap()
+        outputs.update(write_figures(result, tmp))
         bar.update()
 
         step("recording")

@@ -48,6 +48,10 @@ def canonical_rotation(joints: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, 
     return R, valid
 
 
+#: Frames per block in :func:`to_canonical` (float64 temporaries of a block, not a recording).
+BLOCK_FRAMES = 8192
+
+
 def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | None = None) -> np.ndarray:
     """Camera-frame poses -> canonical poses: ``X_canon = (X_cam - pelvis) @ R (+ residual)``.
 
@@ -72,10 +76,6 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
             block += residual[rows]
         out[rows] = block
     return out
-
-
-#: Frames per block in :func:`to_canonical` (float64 temporaries of a block, not a recording).
-BLOCK_FRAMES = 8192
 
 
 def to_camera(joints_canon: np.ndarray, R: np.ndarray) -> np.ndarray:
