@@ -20,10 +20,22 @@ Axes of ``world_3d``, checked on the real file ``sports2d_demo/mediapipe_blazepo
 * nose above the ankles (smaller y) in 95%: +y is image down;
 * nose nearer the camera than the mid-hip (smaller z) in 93%: +z points away from the camera.
 
-So the world landmarks are already in the OpenCV camera orientation (x right, y down,
-z forward), as MediaPipe's maintainers state (google-ai-edge/mediapipe
-issue #4205), and the adapter applies the identity. They are camera-aligned, not
-gravity-aligned, and carry no global translation.
+So the world landmarks have the OpenCV camera's axis orientation (x right, y down, z forward),
+as MediaPipe's maintainers state (google-ai-edge/mediapipe issue #4205). They are
+camera-aligned, not gravity-aligned, and carry no global translation.
+
+They are aligned with the camera MediaPipe's model sees, though: BlazePose's region of
+interest is a crop centred on the mid-hip (Bazarevsky et al., "BlazePose: On-device Real-time
+Body Pose tracking", CVPR Workshops 2020, section 3), and MediaPipe takes the world landmarks
+out of that crop by undoing only the crop's in-plane rotation
+(``mediapipe/calculators/util/world_landmark_projection_calculator.cc``), so they are seen by a
+virtual camera looking along the ray through the mid-hip pixel, not along the real optical
+axis (:mod:`pcnet.stages.core.perspective`). :func:`load_mediapipe_3d` turns each frame from that
+virtual camera into the real one (``x = R_ray @ x_world``). Measured on the four calibrated
+lab cameras of ``pose2sim_gravity`` (true intrinsics ``K`` in the file): MediaPipe's trunk
+direction is 13.1 / 13.1 / 13.2 / 5.7 deg from gravity as delivered and 9.0 / 8.0 / 10.7 / 4.4
+after the turn, each camera gaining nearly its whole ray angle (4.4 / 5.2 / 2.6 / 2.8 deg), as
+a virtual camera predicts (``python benchmarks/gravity_benchmark.py``, "trunk" rows).
 """
 
 from __future__ import annotations
@@ -32,6 +44,14 @@ import math
 from pathlib import Path
 
 import numpy as np
+
+from pcnet.stages.core.conventions import BLAZEPOSE33
+from pcnet.stages.core.perspective import (
+    DEFAULT_FOCAL_35MM,
+    focal_px_from_35mm,
+    intrinsics,
+    virtual_camera_rotation,
+)
 
 from .registry import register_2d, register_3d
 from .types import AdapterError, Keypoints2D, Poses3D
@@ -60,8 +80,9 @@ def _positive_scalar(p: Path, archive: NumpyArchive, key: str) -> float | None:
     return value
 
 
-def _read(path: str | Path, key: str) -> tuple[Path, np.ndarray, str, float | None]:
-    """(path, float32 array ``key`` (T, 33, 3) with inf as NaN, metadata text, fps or None)."""
+def _read(path: str | Path, key: str) -> tuple[Path, np.ndarray, str, dict]:
+    """(path, float32 array ``key`` (T, 33, 3) with inf as NaN, metadata text, scalars: ``fps``,
+    ``width``, ``height`` (each a float or None))."""
     p = require_file(path, "a MediaPipe results .npz")
     archive = open_numpy(p)
     if not isinstance(archive, NumpyArchive):
@@ -79,7 +100,7 @@ def _read(path: str | Path, key: str) -> tuple[Path, np.ndarray, str, float | No
     if arr.ndim != 3 or arr.shape[1:] != (33, 3):
         raise AdapterError(p, key, "shape (T, 33, 3) BlazePose-33", f"shape {arr.shape}")
     require_some_finite(p, key, arr)
-    return p, arr, meta, scalars["fps"]
+    return p, arr, meta, scalars
 
 
 def load_mediapipe_2d(path: str | Path) -> Keypoints2D:
@@ -98,7 +119,8 @@ def load_mediapipe_2d(path: str | Path) -> Keypoints2D:
             that is not one positive finite number, ``|x|``/``|y|`` beyond 1e5 px (naming
             frame and joint).
     """
-    p, arr, meta, fps = _read(path, "keypoints_2d")
+    p, arr, meta, scalars = _read(path, "keypoints_2d")
+    fps = scalars["fps"]
     points, raw_max = checked_keypoints(p, "keypoints_2d", arr, "blazepose33")
     empty = int(np.isnan(points).all(axis=(1, 2)).sum())
     notes = (f"MediaPipe BlazePose-33 keypoints_2d ({meta}); confidence = visibility "
@@ -106,30 +128,117 @@ def load_mediapipe_2d(path: str | Path) -> Keypoints2D:
     return Keypoints2D(points, "blazepose33", str(p), track_id=None, notes=notes, fps=fps)
 
 
-def load_mediapipe_3d(path: str | Path) -> Poses3D:
+def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_camera: bool = True) -> Poses3D:
     """Read ``world_3d`` (MediaPipe pose_world_landmarks) into ``Poses3D``.
 
+    Args:
+        path: the MediaPipe ``.npz``.
+        focal_px: the video's focal length in pixels (principal point at the image centre);
+            ``None``: the file's ``K`` when it has one, else a smartphone main camera's
+            (:data:`pcnet.stages.core.perspective.DEFAULT_FOCAL_35MM` mm, 35 mm equivalent).
+        real_camera: turn each frame from the virtual camera looking at the mid-hip into the
+            real camera (module docstring); ``False`` keeps the landmarks as delivered.
+
     Returns:
-        ``joints`` float32 ``(T, 33, 3)``, metres, camera frame (x right, y down, z away
-        from the camera: MediaPipe's world axes already are, see the module docstring for
-        the check on real data; no flip applied), origin the mid-hip point as MediaPipe
-        delivers it (which is H36M's pelvis after ``remap_to_h36m``); layout ``blazepose33``
-        (the caller remaps); frames without a person stay NaN, ``inf`` becomes NaN. ``fps``
-        is the file's ``fps`` field when present, else ``None``.
+        ``joints`` float32 ``(T, 33, 3)``, metres, real camera frame (x right, y down, z away
+        from the camera), each frame turned by the rotation from the virtual camera through
+        its mid-hip pixel (``keypoints_2d`` of the same file; a frame without one takes the
+        nearest frames' pixel, interpolated) to the real camera
+        (:func:`pcnet.stages.core.perspective.virtual_camera_rotation`); origin the mid-hip
+        point (H36M's pelvis after ``remap_to_h36m``); layout ``blazepose33`` (the caller
+        remaps); frames without a person stay NaN, ``inf`` becomes NaN. ``fps`` is the file's
+        ``fps`` field when present, else ``None``. ``summary_note`` says which focal length
+        was used and how large the turn was.
 
     Raises:
         AdapterError: missing file, not an npz, no ``world_3d``, a ``layout`` other than
             ``blazepose33``, wrong shape or dtype, all NaN, an ``fps``/``width``/``height``
             that is not one positive finite number, a coordinate beyond 100 m (naming frame
-            and joint).
+            and joint); with ``real_camera``: a ``keypoints_2d`` whose shape differs from
+            ``world_3d``'s, a ``K`` that is not a (3, 3) finite matrix with positive focal
+            lengths, or a ``focal_px`` that is not a positive finite number or comes without
+            ``width``/``height``. A file without ``keypoints_2d`` (or without a mid-hip pixel
+            in any frame with a pose), or without ``K`` and image size, is read as delivered,
+            and ``summary_note`` says so.
     """
-    p, arr, meta, fps = _read(path, "world_3d")
+    p, arr, meta, scalars = _read(path, "world_3d")
     arr = checked_poses(p, "world_3d", arr, "blazepose33", "m")
     empty = int(np.isnan(arr).all(axis=(1, 2)).sum())
     notes = (f"MediaPipe BlazePose-33 world landmarks ({meta}); metres, origin mid-hip; axes already "
-             "x right / y down / z away from the camera (checked on real data, identity applied); "
+             "x right / y down / z away from the camera (checked on real data); "
              f"camera-aligned, not gravity-aligned; {empty} frames without a person -> NaN")
-    return Poses3D(arr, "blazepose33", units="m", source=str(p), notes=notes, fps=fps)
+    summary_note = ""
+    if real_camera:
+        K, focal_source = _intrinsics(p, scalars, focal_px)
+        hip_px, filled = _mid_hip_pixels(p, arr)
+        if K is None or hip_px is None:
+            summary_note = ("MediaPipe world landmarks left in MediaPipe's virtual camera at the mid-hip, not turned "
+                            f"into the real camera: {focal_source if K is None else filled} (a tilt error of up to "
+                            "the person's angle off the image centre)")
+        else:
+            R = virtual_camera_rotation(hip_px, K)
+            arr = np.einsum("tij,tkj->tki", R, arr).astype(np.float32)
+            turn = np.degrees(np.arccos(np.clip(R[:, 2, 2], -1.0, 1.0)))
+            turn = turn[np.isfinite(turn)]
+            summary_note = (f"MediaPipe world landmarks turned from the virtual camera at the mid-hip into the real camera "
+                            f"(focal length {K[0, 0]:.0f} px, {focal_source}; turn median {np.median(turn):.1f}, "
+                            f"max {turn.max():.1f} deg" + (f"; mid-hip pixel interpolated in {filled} frames" if filled else "")
+                            + ")")
+        notes += "; " + summary_note
+    return Poses3D(arr, "blazepose33", units="m", source=str(p), notes=notes, fps=scalars["fps"],
+                   summary_note=summary_note)
+
+
+def _intrinsics(p: Path, scalars: dict, focal_px: float | None) -> tuple[np.ndarray | None, str]:
+    """``(K (3, 3), where its focal length came from)``: ``focal_px`` with the image centre,
+    else the file's ``K``, else the default smartphone focal length with the image centre;
+    ``(None, why)`` without ``K`` and without the image size."""
+    width, height = scalars["width"], scalars["height"]
+    if focal_px is not None:
+        if isinstance(focal_px, bool) or not (isinstance(focal_px, (int, float)) and math.isfinite(focal_px) and focal_px > 0):
+            raise AdapterError(p, "focal_px", "a positive finite focal length in pixels", repr(focal_px))
+        if width is None or height is None:
+            raise AdapterError(p, "width/height", "the image size, to place the principal point for --focal-px",
+                               "no such field")
+        return intrinsics(width, height, float(focal_px)), "given"
+    with open_numpy(p) as archive:
+        K = archive["K"] if "K" in archive.files else None
+    if K is not None:
+        K = require_numeric(p, "K", K).astype(np.float64)
+        if K.shape != (3, 3) or not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
+            found = f"shape {K.shape}" + (f", diagonal {np.diag(K).tolist()}" if K.shape == (3, 3) else "")
+            raise AdapterError(p, "K", "a (3, 3) finite camera matrix with positive focal lengths", found)
+        return K, "the file's K"
+    if width is None or height is None:
+        return None, "the file has neither K nor width/height"
+    focal = focal_px_from_35mm(width, height)
+    return intrinsics(width, height, focal), (f"assumed: a phone's {DEFAULT_FOCAL_35MM:g} mm equivalent; "
+                                              "give --focal-px for another camera")
+
+
+def _mid_hip_pixels(p: Path, world: np.ndarray) -> tuple[np.ndarray | None, int | str]:
+    """Each frame's mid-hip pixel ``(T, 2)`` from the same file's ``keypoints_2d`` (left and
+    right hip, BlazePose 23 and 24), linearly interpolated over frames with a pose but no
+    pixel (NaN where there is no pose), and how many frames were interpolated; ``(None, why)``
+    where the file has no usable ``keypoints_2d``."""
+    with open_numpy(p) as archive:
+        if "keypoints_2d" not in archive.files:
+            return None, "the file has no keypoints_2d"
+        keypoints = require_numeric(p, "keypoints_2d", archive["keypoints_2d"])
+    if keypoints.ndim != 3 or keypoints.shape[1:] != (33, 3) or len(keypoints) != len(world):
+        raise AdapterError(p, "keypoints_2d", f"shape ({len(world)}, 33, 3) like world_3d", f"shape {keypoints.shape}")
+    left, right = BLAZEPOSE33.joints.index("left_hip"), BLAZEPOSE33.joints.index("right_hip")
+    with np.errstate(invalid="ignore"):
+        pixel = (keypoints[:, left, :2].astype(np.float64) + keypoints[:, right, :2]) / 2.0
+    known = np.isfinite(pixel).all(axis=1)
+    posed = np.isfinite(world).any(axis=(1, 2))
+    if not (known & posed).any():
+        return None, "keypoints_2d has no mid-hip pixel in any frame with a pose"
+    frames = np.arange(len(pixel))
+    for axis in (0, 1):
+        pixel[:, axis] = np.interp(frames, frames[known], pixel[known, axis])
+    pixel[~posed] = np.nan
+    return pixel, int((posed & ~known).sum())
 
 
 @register_2d("mediapipe")
@@ -142,7 +251,7 @@ class MediaPipe2DAdapter:
 
 @register_3d("mediapipe")
 class MediaPipe3DAdapter:
-    """Registry entry for :func:`load_mediapipe_3d` (no options)."""
+    """Registry entry for :func:`load_mediapipe_3d` (option ``focal_px``)."""
 
-    def load(self, path: str | Path) -> Poses3D:
-        return load_mediapipe_3d(path)
+    def load(self, path: str | Path, *, focal_px: float | None = None) -> Poses3D:
+        return load_mediapipe_3d(path, focal_px=focal_px)

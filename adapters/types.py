@@ -126,6 +126,9 @@ class Poses3D:
             keeps the pelvis's path in the world frame; False when the root is zeroed,
             image-normalised or a fixed depth (monocular lifters), where the horizontal
             path is not observable.
+        summary_note: one line the run summary should show about this conversion (a
+            correction applied to the lifter's output, with the assumption it rests on);
+            empty for none.
     """
 
     joints: np.ndarray
@@ -136,6 +139,7 @@ class Poses3D:
     notes: str = ""
     fps: float | None = None
     root_translation: bool = False
+    summary_note: str = ""
 
     def __post_init__(self) -> None:
         _check_array(self.joints, "joints", self.source, self.layout)

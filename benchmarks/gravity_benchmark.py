@@ -10,11 +10,17 @@ canonical -> camera); its pitch = asin(-u_z) (positive = camera looking down) an
 atan2(u_x, -u_y) (pcnet.stages.core.rotations.decompose_camera_rotation).
 
 Poses are read as `pcnet run --lifter mediapipe` reads them (pipeline/runner.py `_load_inputs`):
-load_mediapipe_3d -> remap_to_h36m -> validate_poses -> fill_pelvis_from_hips -> pelvis-centred.
+load_mediapipe_3d (which turns each frame from MediaPipe's virtual camera at the mid-hip into the
+real camera with the file's calibrated K, adapters/mediapipe.py) -> remap_to_h36m ->
+validate_poses -> fill_pelvis_from_hips -> pelvis-centred. `--as-delivered` reads the world
+landmarks untouched instead (`load_mediapipe_3d(..., real_camera=False)`), `--focal-px F`
+ignores the file's K and assumes F with the image centre (`pcnet run --focal-px`), and
+`--assumed-focal` the default a recording without K gets (a phone's 26 mm equivalent).
 
 Methods (rows): pcnet frame / sequence mode, the geometric baseline (paper 2.3) in frame and
-sequence mode, and two trivial baselines: a level camera (up = -y) and MediaPipe's own trunk
-(pelvis -> thorax = mid-hip -> mid-shoulder) as up.
+sequence mode, and three trivial baselines: a level camera (up = -y) and MediaPipe's own trunk
+(pelvis -> thorax = mid-hip -> mid-shoulder) as up, as read (`trunk (real cam)`) and as
+MediaPipe delivered it (`trunk (delivered)`).
 
 Columns: `err` = tilt error (angle between estimated and true up, deg): frame modes and the
 trunk = mean over valid frames of the per-frame error (`max` = the worst frame); sequence modes
@@ -41,6 +47,7 @@ from configurations import CONFIGURATIONS, LABEL_WIDTH
 from pcnet.adapters import load_mediapipe_3d
 from pcnet.stages.core.conventions import PELVIS, THORAX, fill_pelvis_from_hips, validate_poses
 from pcnet.stages.remap import remap_to_h36m
+from pcnet.stages.core.perspective import focal_px_from_35mm
 from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -50,14 +57,15 @@ FOLDER = ("real", "pose2sim_gravity")
 ROLLS_DEG = (0, 90, 180, -90)
 # (label, method, mode)
 CONFIGS = CONFIGURATIONS
-BASELINES = ("level camera (-y)", "trunk (MediaPipe)")
+BASELINES = ("level camera (-y)", "trunk (real cam)", "trunk (delivered)")
 IMAGE_UP = np.array([0.0, -1.0, 0.0])
 
 
-def load_camera(path: str | Path) -> tuple[np.ndarray, np.ndarray, float]:
+def load_camera(path: str | Path, **options) -> tuple[np.ndarray, np.ndarray, float]:
     """``(joints (T, 17, 3) float64 pelvis-centred camera frame, true up (3,), fps)`` of one
-    statictrial npz, read the way ``pcnet run --lifter mediapipe`` reads it."""
-    poses = load_mediapipe_3d(path)
+    statictrial npz, read the way ``pcnet run --lifter mediapipe`` reads it (``options`` go to
+    :func:`load_mediapipe_3d`: ``focal_px``, ``real_camera``)."""
+    poses = load_mediapipe_3d(path, **options)
     joints = remap_to_h36m(poses.joints, poses.layout)
     joints = validate_poses(joints, str(path), poses.units)
     joints, _ = fill_pelvis_from_hips(joints)
@@ -91,8 +99,9 @@ def roll_view(joints: np.ndarray, up: np.ndarray, roll_deg: float) -> tuple[np.n
     return joints @ Q.T, Q @ up
 
 
-def evaluate_view(joints: np.ndarray, up_true: np.ndarray, fps: float) -> list[dict]:
-    """Every method's and baseline's row for one camera view (see the module docstring)."""
+def evaluate_view(joints: np.ndarray, up_true: np.ndarray, fps: float, delivered: np.ndarray) -> list[dict]:
+    """Every method's and baseline's row for one camera view (see the module docstring);
+    ``delivered``: the same poses as MediaPipe delivered them, for the last baseline."""
     rows = []
     T = len(joints)
     true_pitch, true_roll = pitch_roll_deg(up_true)
@@ -123,12 +132,13 @@ def evaluate_view(joints: np.ndarray, up_true: np.ndarray, fps: float) -> list[d
     p, r = pitch_roll_deg(IMAGE_UP)
     rows.append({"method": BASELINES[0], "valid": T, "frames": T, "err": level, "max": level,
                  "pitch": p, "roll": r})
-    trunk = trunk_directions(joints)
-    ok = np.isfinite(trunk).all(1)
-    err = deg_between(trunk[ok], up_true[None])
-    p, r = pitch_roll_deg(normalize(trunk[ok].mean(0)))
-    rows.append({"method": BASELINES[1], "valid": int(ok.sum()), "frames": T, "err": float(err.mean()),
-                 "max": float(err.max()), "pitch": p, "roll": r})
+    for label, poses in zip(BASELINES[1:], (joints, delivered)):
+        trunk = trunk_directions(poses)
+        ok = np.isfinite(trunk).all(1)
+        err = deg_between(trunk[ok], up_true[None])
+        p, r = pitch_roll_deg(normalize(trunk[ok].mean(0)))
+        rows.append({"method": label, "valid": int(ok.sum()), "frames": T, "err": float(err.mean()),
+                     "max": float(err.max()), "pitch": p, "roll": r})
     return rows
 
 
@@ -154,18 +164,20 @@ HEADER = (f"  {'method':<{LABEL_WIDTH}}{'valid':>7}{'err':>7}{'max':>7}{'pitch':
           f"  {'pitch/roll 95 in':>17}")
 
 
-def run(data: Path) -> list[str]:
+def run(data: Path, options: dict | None = None, command: str = COMMAND) -> list[str]:
+    """The report's lines; ``options`` go to :func:`load_camera` (how the poses are read)."""
     folder = data.joinpath(*FOLDER)
     paths = sorted(folder.glob("statictrial_cam*.npz"))
-    lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
+    lines = [__doc__.splitlines()[0], "", f"    {command}", "",
              "Tilt error (deg) vs the calibrated up; see the script's docstring for every column.", "", HEADER]
     summary: dict[tuple[str, int], list[dict]] = {}
     for path in paths:
-        joints, up, fps = load_camera(path)
+        joints, up, fps = load_camera(path, **(options or {}))
+        delivered = load_camera(path, real_camera=False)[0]
         camera = path.stem.replace("statictrial_", "")
         for roll in ROLLS_DEG:
             J, u = roll_view(joints, up, roll)
-            rows = evaluate_view(J, u, fps)
+            rows = evaluate_view(J, u, fps, roll_view(delivered, up, roll)[0])
             lines += format_rows(camera, roll, u, rows)
             for row in rows:
                 summary.setdefault((row["method"], roll), []).append(row)
@@ -192,15 +204,32 @@ def run(data: Path) -> list[str]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=str(DEFAULT), help="data root (default ../shared/data)")
-    ap.add_argument("--out", default=str(RESULT), help="where the table is written too")
+    ap.add_argument("--out", default=None, help=f"where the table is written too (default {RESULT}, "
+                    "or beside it with the reading's name as a suffix)")
+    how = ap.add_mutually_exclusive_group()
+    how.add_argument("--as-delivered", action="store_true", help="MediaPipe's world landmarks untouched")
+    how.add_argument("--focal-px", type=float, default=None, help="assume this focal length (px) instead of the file's K")
+    how.add_argument("--assumed-focal", action="store_true",
+                     help="assume the default a recording without K gets (a phone's 26 mm equivalent)")
     args = ap.parse_args()
     folder = Path(args.data).joinpath(*FOLDER)
     if not sorted(folder.glob("statictrial_cam*.npz")):
         sys.exit(f"gravity_benchmark: no statictrial_cam*.npz under {folder}; pass --data <data root>")
-    text = "\n".join(line.rstrip() for line in run(Path(args.data))) + "\n"
+    options, suffix, command = {}, "", COMMAND
+    if args.as_delivered:
+        options, suffix, command = {"real_camera": False}, "_as_delivered", COMMAND + " --as-delivered"
+    elif args.focal_px is not None:
+        options, suffix, command = {"focal_px": args.focal_px}, f"_focal{args.focal_px:g}", f"{COMMAND} --focal-px {args.focal_px:g}"
+    elif args.assumed_focal:
+        with np.load(min(folder.glob("statictrial_cam*.npz"))) as f:
+            width, height = float(f["width"]), float(f["height"])
+        options = {"focal_px": focal_px_from_35mm(width, height)}
+        suffix, command = "_assumed_focal", COMMAND + " --assumed-focal"
+    out = args.out or str(RESULT.with_name(RESULT.stem + suffix + RESULT.suffix))
+    text = "\n".join(line.rstrip() for line in run(Path(args.data), options, command)) + "\n"
     print(text, end="")
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text)
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    Path(out).write_text(text)
 
 
 if __name__ == "__main__":

@@ -3,7 +3,9 @@
     python examples/sports2d_mediapipe.py [--out DIR]
 
 Needs ../shared/data/real/sports2d_demo (video + mediapipe_blazepose33.npz). MediaPipe world
-landmarks are metric, so no --height is needed.
+landmarks are metric, so no --height is needed. The demo video states no focal length, so the
+turn from MediaPipe's virtual camera into the real one assumes a phone's (the summary's note
+says so); ``lifter_options={"focal_px": F}`` gives the real one (``pcnet run --focal-px F``).
 """
 
 import argparse

@@ -40,7 +40,7 @@ SUMMARY_EVERY_S = 2.0
 #: Up to this many rows the summary is rewritten at every result (a rewrite costs little).
 SUMMARY_EVERY_RESULT_ROWS = 200
 _NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold": float, "cutoff_hz": float}
-_LIFTER_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key")
+_LIFTER_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "focal_px")
 _BOOLEAN = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}
 
 
@@ -71,11 +71,15 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
         raw = str(raw).strip()
         if key in ("video", "keypoints2d", "lifter_output", "out", "weights"):
             values[key] = str(base / raw) if not Path(raw).is_absolute() else raw
-        elif key in _NUMERIC:
+        elif key in _NUMERIC or key == "focal_px":
             try:
-                values[key] = _NUMERIC[key](raw)
+                number = float(raw) if key == "focal_px" else _NUMERIC[key](raw)
             except ValueError:
                 raise InputError(f"column {key}: expected a number, got {raw!r}") from None
+            if key == "focal_px":
+                options[key] = number
+            else:
+                values[key] = number
         elif key == "pixel":
             options["pixel"] = _boolean(key, raw)
         elif key == "hypothesis":

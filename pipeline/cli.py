@@ -247,6 +247,8 @@ def _run_and_report(cfg) -> None:
 @click.option("--axes", default=None, help="generic lifter: axis letters of the file, e.g. RDF (OpenCV), RUB.")
 @click.option("--units", default=None, help="generic lifter: m, cm, mm, normalised or px.")
 @click.option("--key", default=None, help="generic lifter: array name inside an npz.")
+@click.option("--focal-px", type=float, default=None,
+              help="mediapipe lifter: the video's focal length in pixels [the file's K, else a phone's 26 mm equivalent].")
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 @click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")
@@ -255,7 +257,7 @@ def _run_and_report(cfg) -> None:
 @click.option("--opensim", "with_opensim", is_flag=True, default=False,
               help="Then scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`).")
 @click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")
-def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, with_opensim, mass, **options):
+def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_recording, with_opensim, mass, **options):
     """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
     poses, kinematics in the recording's world frame, CSV/TRC/NPZ/PNG exports and a rerun
     recording (with --opensim also OpenSim scaling and inverse kinematics)."""
@@ -263,6 +265,8 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, no_recording, 
 
     lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
                                         ("key", key)) if v}
+    if focal_px is not None:
+        lifter_options["focal_px"] = focal_px
     if hypothesis is not None:
         lifter_options["hypothesis"] = parse_hypothesis(hypothesis)
     if no_recording:

@@ -177,7 +177,7 @@ def _load_inputs(cfg: RunConfig):
     fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = poses.joints if poses.layout == "h36m17" else remap_to_h36m(poses.joints, poses.layout)
     joints = validate_poses(joints, str(cfg.lifter_output), poses.units)
-    return video, fps, kp2d, joints, poses.units, poses.root_translation
+    return video, fps, kp2d, joints, poses.units, poses.root_translation, poses.summary_note
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):
@@ -281,12 +281,12 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         _trim_heap()
 
     step("inputs")
-    video, fps, kp2d, joints, units, measured_root = _load_inputs(cfg)
+    video, fps, kp2d, joints, units, measured_root, lifter_note = _load_inputs(cfg)
     kp2d, joints = _align(cfg, video, kp2d, joints)
     bar.update()
 
     step("remap")
-    notes: list[str] = []
+    notes: list[str] = [lifter_note] if lifter_note else []
     joints, pelvis_filled = fill_pelvis_from_hips(joints)
     if pelvis_filled.any():
         notes.append(f"pelvis missing in {int(pelvis_filled.sum())} frames: taken as the hip midpoint")

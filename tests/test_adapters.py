@@ -399,6 +399,62 @@ def test_mediapipe_world_landmarks_are_in_the_camera_frame():
     assert frac(agree) > 0.85
 
 
+def test_mediapipe_world_landmarks_are_turned_from_the_virtual_camera_into_the_real_one(tmp_path):
+    from pcnet.stages.core.perspective import focal_px_from_35mm, intrinsics, virtual_camera_rotation
+
+    delivered = load_mediapipe_3d(MEDIAPIPE, real_camera=False)
+    assert delivered.summary_note == ""
+    mp = dict(np.load(MEDIAPIPE))
+    hips = (mp["keypoints_2d"][:, 23, :2].astype(np.float64) + mp["keypoints_2d"][:, 24, :2]) / 2
+    width, height = float(mp["width"]), float(mp["height"])
+
+    def expected(K):
+        return np.einsum("tij,tkj->tki", virtual_camera_rotation(hips, K), delivered.joints)
+
+    # No K in the file: a phone's 26 mm equivalent, principal point at the image centre.
+    read = load_mediapipe_3d(MEDIAPIPE)
+    np.testing.assert_allclose(read.joints, expected(intrinsics(width, height, focal_px_from_35mm(width, height))),
+                               atol=1e-5)
+    assert "assumed" in read.summary_note and "--focal-px" in read.summary_note
+    assert np.isnan(read.joints[:3]).all()  # no person: still NaN
+    # The turn is a rotation: bone lengths unchanged; it is not the identity here.
+    def shoulder_to_hip(J):
+        return np.linalg.norm(J[3:, 11] - J[3:, 23], axis=-1)
+
+    np.testing.assert_allclose(shoulder_to_hip(read.joints), shoulder_to_hip(delivered.joints), rtol=1e-5)
+    assert np.abs(read.joints[3:] - delivered.joints[3:]).max() > 0.01
+    # --focal-px wins over everything; the file's K over the default.
+    np.testing.assert_allclose(load_mediapipe_3d(MEDIAPIPE, focal_px=2000.0).joints,
+                               expected(intrinsics(width, height, 2000.0)), atol=1e-5)
+    K = np.array([[1500.0, 0.0, 700.0], [0.0, 1500.0, 400.0], [0.0, 0.0, 1.0]])
+    with_k = tmp_path / "with_k.npz"
+    np.savez(with_k, **mp, K=K)
+    read_k = load_mediapipe_3d(with_k)
+    np.testing.assert_allclose(read_k.joints, expected(K), atol=1e-5)
+    assert "the file's K" in read_k.summary_note
+    assert get_3d_adapter("mediapipe").load(with_k, focal_px=2000.0).summary_note.startswith("MediaPipe world")
+    for bad_k in (np.eye(2), np.diag([0.0, 1.0, 1.0]), np.full((3, 3), np.nan)):
+        bad = tmp_path / "bad_k.npz"
+        np.savez(bad, **mp, K=bad_k)
+        with pytest.raises(AdapterError, match="K") as err:
+            load_mediapipe_3d(bad)
+        assert_names_file(err, bad)
+    for bad_focal in (0.0, -5.0, float("nan"), True):
+        with pytest.raises(AdapterError, match="focal_px"):
+            load_mediapipe_3d(MEDIAPIPE, focal_px=bad_focal)
+    # Without what the turn needs, the landmarks are read as delivered and the note says why.
+    no_size = tmp_path / "no_size.npz"
+    np.savez(no_size, **{k: v for k, v in mp.items() if k not in ("width", "height")})
+    read_ns = load_mediapipe_3d(no_size)
+    np.testing.assert_array_equal(read_ns.joints, delivered.joints)
+    assert "neither K nor width/height" in read_ns.summary_note
+    with pytest.raises(AdapterError, match="width/height"):
+        load_mediapipe_3d(no_size, focal_px=1000.0)
+    no_2d = tmp_path / "no_2d.npz"
+    np.savez(no_2d, **{k: v for k, v in mp.items() if k != "keypoints_2d"})
+    assert "no keypoints_2d" in load_mediapipe_3d(no_2d).summary_note
+
+
 def test_mediapipe_full_file_nan_frames():
     path = shared("real", "sports2d_demo", "mediapipe_blazepose33.npz")
     kp, p3 = load_mediapipe_2d(path), load_mediapipe_3d(path)

@@ -267,3 +267,35 @@ def test_evaluate_cli_json(tmp_path):
     assert json.loads(out.read_text()) == first  # deterministic for a seed
     res = CliRunner().invoke(main, ["evaluate", "--method", "geometric", "--data", str(tmp_path / "none.npz")])
     assert res.exit_code != 0 and "none.npz" in res.output
+
+
+def test_virtual_camera_rotation_turns_the_optical_axis_onto_the_ray():
+    from pcnet.stages.core.perspective import intrinsics, virtual_camera_rotation
+
+    K = intrinsics(1920.0, 1080.0, 1000.0)
+    pixels = np.array([[960.0, 540.0], [1960.0, 540.0], [300.0, 100.0], [np.nan, 5.0]])
+    R = virtual_camera_rotation(pixels, K)
+    np.testing.assert_allclose(R[0], np.eye(3), atol=1e-12)  # at the principal point
+    # One focal length right of the centre: the ray is 45 deg about +y (x = f, z = f).
+    np.testing.assert_allclose(R[1], rot.axis_rotation("y", np.radians(45.0)), atol=1e-12)
+    ray = np.linalg.solve(K, [300.0, 100.0, 1.0])
+    np.testing.assert_allclose(R[2] @ [0.0, 0.0, 1.0], ray / np.linalg.norm(ray), atol=1e-12)
+    np.testing.assert_allclose(R[2] @ R[2].T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R[2]) == pytest.approx(1.0)
+    # The smallest such rotation: its axis lies in the image plane (no extra roll).
+    axis = Rotation.from_matrix(R[2]).as_rotvec()
+    assert abs(axis[2]) < 1e-12
+    assert np.degrees(np.linalg.norm(axis)) == pytest.approx(np.degrees(np.arccos(ray[2] / np.linalg.norm(ray))))
+    assert np.isnan(R[3]).all()
+
+
+def test_focal_length_from_the_35mm_equivalent_keeps_the_diagonal_angle_of_view():
+    from pcnet.stages.core.errors import InputError
+    from pcnet.stages.core.perspective import focal_px_from_35mm
+
+    f = focal_px_from_35mm(1920.0, 1080.0, 26.0)
+    diagonal_fov = 2 * np.degrees(np.arctan(np.hypot(1920.0, 1080.0) / 2 / f))
+    assert diagonal_fov == pytest.approx(2 * np.degrees(np.arctan(np.hypot(36.0, 24.0) / 2 / 26.0)))
+    assert focal_px_from_35mm(36.0, 24.0, 50.0) == pytest.approx(50.0)  # the film frame in mm
+    with pytest.raises(InputError, match="width"):
+        focal_px_from_35mm(0.0, 1080.0)

@@ -164,6 +164,21 @@ def test_mediapipe_with_nan_frames_runs_and_flags_them(tmp_path):
         valid, canonical = npz["valid"], npz["canonical"]
     assert result.frames == 60 and not valid[:3].any() and valid[3:].mean() > 0.9
     assert np.isnan(canonical[:3]).all() and result.units == "m"
+    assert "virtual camera" in result.summary() and "assumed" in result.summary()
+
+
+def test_focal_length_reaches_the_mediapipe_adapter_from_the_cli_and_a_manifest(tmp_path):
+    from pcnet.pipeline.batch import row_to_config
+    from pcnet.stages.core.errors import InputError
+
+    res = _invoke("run", "--lifter", "mediapipe", "--lifter-output", MEDIAPIPE, "--fps", "30", "--method", "geometric",
+                  "--focal-px", "1500", "--out", tmp_path / "o", "--no-recording")
+    assert res.exit_code == 0, res.output
+    assert "focal length 1500 px, given" in res.output
+    cfg = row_to_config({"lifter": "mediapipe", "lifter_output": str(MEDIAPIPE), "focal_px": "1500"}, tmp_path, False)
+    assert cfg.lifter_options == {"focal_px": 1500.0}
+    with pytest.raises(InputError, match="focal_px: expected a number"):
+        row_to_config({"lifter": "mediapipe", "lifter_output": str(MEDIAPIPE), "focal_px": "wide"}, tmp_path, False)
 
 
 def test_mismatched_frame_counts_need_align(tmp_path):
