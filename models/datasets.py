@@ -20,7 +20,7 @@ import numpy as np
 
 from pcnet.models.lifter_noise import LifterNoise, apply_lifter_noise
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
-from pcnet.stages.core.conventions import H36M_PARENTS, PELVIS, validate_fps, validate_poses
+from pcnet.stages.core.conventions import H36M_LR_PAIRS, H36M_PARENTS, PELVIS, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import sample_camera_rotations
 
@@ -270,6 +270,10 @@ class Augmentation:
     hip_width: tuple[float, float] = (0.9, 2.1)
     shoulder_width: tuple[float, float] = (0.85, 1.35)
     other_bones_sigma: float = 0.07
+    # Share of clips mirrored left-right (sagittal plane, left and right joints swapped): the
+    # mirror image of a movement is a movement people make (a left kick for a right one);
+    # flip augmentation as in VideoPose3D (Pavllo et al., CVPR 2019, section 4). 0 = none.
+    mirror_fraction: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -294,6 +298,19 @@ def _bone_scale(X: np.ndarray, factors: np.ndarray) -> np.ndarray:
         if parent >= 0:
             out[:, child] = out[:, parent] + factors[:, child, None] * (X[:, child] - X[:, parent])
     return out
+
+
+_MIRROR_Z = np.diag([1.0, 1.0, -1.0])
+_LEFT_RIGHT = np.arange(17)
+for _left, _right in H36M_LR_PAIRS:
+    _LEFT_RIGHT[_left], _LEFT_RIGHT[_right] = _right, _left
+
+
+def mirror_canonical(canon: np.ndarray) -> np.ndarray:
+    """The left-right mirror image of canonical poses ``(N, 17, 3)`` (any units): ``z -> -z``
+    (the subject's right) and every left joint swapped with its right one, so that the result
+    is again in the canonical frame (right hip at +z, docs/CONVENTIONS.md)."""
+    return (np.asarray(canon) * np.array([1.0, 1.0, -1.0]))[:, _LEFT_RIGHT]
 
 
 def _proportion_factors(n: int, aug: Augmentation, rng: np.random.Generator) -> np.ndarray:
@@ -381,6 +398,11 @@ def make_pairs(
         canon = to_canonical(canon, R_aug).astype(np.float64)
         R_world = np.einsum("nij,njk->nik", R_world, R_aug)
         valid &= valid_aug
+        if augmentation.mirror_fraction > 0:
+            mirrored = (rng.random(len(clips)) < augmentation.mirror_fraction)[idx_clip]
+            canon[mirrored] = mirror_canonical(canon[mirrored])
+            # The mirrored body turns the other way: canonical->world mirrored about the same plane.
+            R_world[mirrored] = _MIRROR_Z @ R_world[mirrored] @ _MIRROR_Z
     if not valid.any():
         names = ", ".join(c.name for c in clips[:3]) + (f" and {len(clips) - 3} more" if len(clips) > 3 else "")
         raise InputError(f"clips {names}: expected frames with a defined canonical heading (distinct hips), got none")

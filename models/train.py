@@ -57,6 +57,8 @@ class TrainConfig:
     # that persist over a clip (models.lifter_noise.LifterNoise), as real lifters make.
     noise_model: str = "frame"
     augment: bool = True
+    # Share of clips mirrored left-right per epoch (with ``augment``; models.datasets.Augmentation).
+    mirror_fraction: float = 0.0
     seed: int = 0
     threads: int = 0  # 0 = torch default
     device: str = "auto"  # auto = cuda when present
@@ -83,6 +85,7 @@ TRAIN_RANGES = {
     "weight_decay": Range(0, 1),
     "frame_stride": Range(1, 10_000),
     "noise_fraction": Range(0, 1),  # a share of the poses
+    "mirror_fraction": Range(0, 1),  # a share of the clips
     "seed": SEED_RANGE,
     "threads": Range(0, 1024),  # 0 = torch default
     "val_frames": Range(1, 100_000_000),
@@ -167,7 +170,7 @@ def _epoch_tensors(clips, cfg: TrainConfig, seed: int, views: str, noise: bool, 
     pairs = make_pairs(
         clips, views=views, seed=seed,
         noise=(LifterNoise() if lifter else Noise(fraction=fraction)) if noise else None,
-        augmentation=Augmentation() if augment else None,
+        augmentation=Augmentation(mirror_fraction=cfg.mirror_fraction) if augment else None,
         frame_stride=kw.get("frame_stride", cfg.frame_stride),
         max_frames=kw.get("max_frames"),
     )

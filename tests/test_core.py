@@ -299,3 +299,25 @@ def test_focal_length_from_the_35mm_equivalent_keeps_the_diagonal_angle_of_view(
     assert focal_px_from_35mm(36.0, 24.0, 50.0) == pytest.approx(50.0)  # the film frame in mm
     with pytest.raises(InputError, match="width"):
         focal_px_from_35mm(0.0, 1080.0)
+
+
+def test_mirrored_clips_stay_canonical_and_keep_input_and_target_consistent():
+    from pcnet.models.datasets import Augmentation, mirror_canonical
+
+    clips = load_mocap(FIXTURES / "bandai_small.npz")[:4]
+    canon = world_to_canonical(np.concatenate([c.joints for c in clips]).astype(np.float64))[0]
+    mirrored = mirror_canonical(canon)
+    # Again canonical (the frame of a canonical pose is the identity) and a true mirror image.
+    R, ok = canonical_rotation(mirrored, (0.0, 1.0, 0.0))
+    np.testing.assert_allclose(R[ok], np.broadcast_to(np.eye(3), R[ok].shape), atol=1e-9)
+    np.testing.assert_allclose(mirror_canonical(mirrored), canon, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(mirrored[:, 2] - mirrored[:, 1], axis=-1),  # right knee-hip
+                               np.linalg.norm(canon[:, 5] - canon[:, 4], axis=-1), atol=1e-12)  # left's
+    for camera in ("per-frame", "static"):
+        pairs = make_pairs(clips, "paper", seed=1, camera=camera, augmentation=Augmentation(mirror_fraction=0.5))
+        np.testing.assert_allclose(pairs.inputs, np.einsum("nij,nkj->nki", pairs.R, pairs.canonical), atol=1e-5)
+        R, _ = canonical_rotation(pairs.canonical.astype(np.float64), (0.0, 1.0, 0.0))
+        np.testing.assert_allclose(R, np.broadcast_to(np.eye(3), R.shape), atol=1e-5)
+    plain = make_pairs(clips, "paper", seed=1, augmentation=Augmentation())
+    some = make_pairs(clips, "paper", seed=1, augmentation=Augmentation(mirror_fraction=1.0))
+    np.testing.assert_allclose(some.canonical, mirror_canonical(plain.canonical.astype(np.float64)), atol=1e-6)
