@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.stages.core.conventions import BLAZEPOSE33
+from pcnet.stages.core.conventions import BLAZEPOSE33, PELVIS
 from pcnet.stages.core.perspective import (
     DEFAULT_FOCAL_35MM,
     focal_px_from_35mm,
@@ -169,8 +169,11 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
              f"camera-aligned, not gravity-aligned; {empty} frames without a person -> NaN")
     summary_note = ""
     if real_camera:
-        K, focal_source = _intrinsics(p, scalars, focal_px)
-        hip_px, filled = _mid_hip_pixels(p, arr)
+        with open_numpy(p) as archive:  # _read checked that it is an npz
+            K = archive["K"] if "K" in archive.files else None
+            keypoints = archive["keypoints_2d"] if "keypoints_2d" in archive.files else None
+        K, focal_source = _intrinsics(p, scalars, focal_px, K)
+        hip_px, filled = _mid_hip_pixels(p, arr, keypoints)
         if K is None or hip_px is None:
             summary_note = ("MediaPipe world landmarks left in MediaPipe's virtual camera at the mid-hip, not turned "
                             f"into the real camera: {focal_source if K is None else filled} (a tilt error of up to "
@@ -189,10 +192,10 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
                    summary_note=summary_note)
 
 
-def _intrinsics(p: Path, scalars: dict, focal_px: float | None) -> tuple[np.ndarray | None, str]:
+def _intrinsics(p: Path, scalars: dict, focal_px: float | None, K: np.ndarray | None) -> tuple[np.ndarray | None, str]:
     """``(K (3, 3), where its focal length came from)``: ``focal_px`` with the image centre,
-    else the file's ``K``, else the default smartphone focal length with the image centre;
-    ``(None, why)`` without ``K`` and without the image size."""
+    else the file's ``K`` (``None`` when it has none), else the default smartphone focal
+    length with the image centre; ``(None, why)`` without ``K`` and without the image size."""
     width, height = scalars["width"], scalars["height"]
     if focal_px is not None:
         if isinstance(focal_px, bool) or not (isinstance(focal_px, (int, float)) and math.isfinite(focal_px) and focal_px > 0):
@@ -201,8 +204,6 @@ def _intrinsics(p: Path, scalars: dict, focal_px: float | None) -> tuple[np.ndar
             raise AdapterError(p, "width/height", "the image size, to place the principal point for --focal-px",
                                "no such field")
         return intrinsics(width, height, float(focal_px)), "given"
-    with open_numpy(p) as archive:
-        K = archive["K"] if "K" in archive.files else None
     if K is not None:
         K = require_numeric(p, "K", K).astype(np.float64)
         if K.shape != (3, 3) or not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
@@ -216,20 +217,18 @@ def _intrinsics(p: Path, scalars: dict, focal_px: float | None) -> tuple[np.ndar
                                               "give --focal-px for another camera")
 
 
-def _mid_hip_pixels(p: Path, world: np.ndarray) -> tuple[np.ndarray | None, int | str]:
-    """Each frame's mid-hip pixel ``(T, 2)`` from the same file's ``keypoints_2d`` (left and
-    right hip, BlazePose 23 and 24), linearly interpolated over frames with a pose but no
-    pixel (NaN where there is no pose), and how many frames were interpolated; ``(None, why)``
-    where the file has no usable ``keypoints_2d``."""
-    with open_numpy(p) as archive:
-        if "keypoints_2d" not in archive.files:
-            return None, "the file has no keypoints_2d"
-        keypoints = require_numeric(p, "keypoints_2d", archive["keypoints_2d"])
+def _mid_hip_pixels(p: Path, world: np.ndarray, keypoints: np.ndarray | None) -> tuple[np.ndarray | None, int | str]:
+    """Each frame's mid-hip pixel ``(T, 2)`` from the same file's ``keypoints_2d`` (``None``
+    when it has none): the H36M pelvis of BlazePose-33 (the mean of its two hips), linearly
+    interpolated over frames with a pose but no pixel (NaN where there is no pose), and how
+    many frames were interpolated; ``(None, why)`` where there is no usable pixel."""
+    if keypoints is None:
+        return None, "the file has no keypoints_2d"
+    keypoints = require_numeric(p, "keypoints_2d", keypoints)
     if keypoints.ndim != 3 or keypoints.shape[1:] != (33, 3) or len(keypoints) != len(world):
         raise AdapterError(p, "keypoints_2d", f"shape ({len(world)}, 33, 3) like world_3d", f"shape {keypoints.shape}")
-    left, right = BLAZEPOSE33.joints.index("left_hip"), BLAZEPOSE33.joints.index("right_hip")
     with np.errstate(invalid="ignore"):
-        pixel = (keypoints[:, left, :2].astype(np.float64) + keypoints[:, right, :2]) / 2.0
+        pixel = keypoints[:, list(BLAZEPOSE33.to_h36m[PELVIS]), :2].astype(np.float64).mean(axis=1)
     known = np.isfinite(pixel).all(axis=1)
     posed = np.isfinite(world).any(axis=(1, 2))
     if not (known & posed).any():

@@ -39,7 +39,8 @@ ROW_SOURCE = "manifest row"
 SUMMARY_EVERY_S = 2.0
 #: Up to this many rows the summary is rewritten at every result (a rewrite costs little).
 SUMMARY_EVERY_RESULT_ROWS = 200
-_NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold": float, "cutoff_hz": float}
+_NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold": float, "cutoff_hz": float,
+            "focal_px": float}
 _LIFTER_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "focal_px")
 _BOOLEAN = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}
 
@@ -71,15 +72,12 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
         raw = str(raw).strip()
         if key in ("video", "keypoints2d", "lifter_output", "out", "weights"):
             values[key] = str(base / raw) if not Path(raw).is_absolute() else raw
-        elif key in _NUMERIC or key == "focal_px":
+        elif key in _NUMERIC:
             try:
-                number = float(raw) if key == "focal_px" else _NUMERIC[key](raw)
+                number = _NUMERIC[key](raw)
             except ValueError:
                 raise InputError(f"column {key}: expected a number, got {raw!r}") from None
-            if key == "focal_px":
-                options[key] = number
-            else:
-                values[key] = number
+            (options if key in _LIFTER_OPTIONS else values)[key] = number
         elif key == "pixel":
             options["pixel"] = _boolean(key, raw)
         elif key == "hypothesis":
