@@ -25,7 +25,8 @@ LIFTER_SEQ="--camera per-clip --noise lifter --mode sequence"
 # input) and the geometric baseline.
 declare -A ARGS=([pcnet]="--method pcnet" [pcnet-camnet]="--method pcnet --weights models/weights/pcnet_camera.onnx"
                  [pcnet-bodynet]="--method pcnet --weights models/weights/pcnet_body.onnx" [geometric]="--method geometric")
-for model in pcnet pcnet-camnet pcnet-bodynet geometric; do
+# MODELS="pcnet" re-runs one estimator's rows (and the pcnet-only rows below).
+for model in ${MODELS:-pcnet pcnet-camnet pcnet-bodynet geometric}; do
   m=${ARGS[$model]}
   for scheme in motion-style clip; do
     ho ${model}_bandai_test_${scheme}_frame $m --data $BANDAI --split test --split-scheme $scheme

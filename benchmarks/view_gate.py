@@ -33,24 +33,31 @@ SETS = (("DeepMimic all", "deepmimic_h36m17.npz", "all", False), ("Bandai test",
         ("Bandai test lifter", "bandai_h36m17.npz", "test", True))
 
 
+def rolled_views(clips, lifter: bool, stride: int, rolls=ROLLS_DEG):
+    """Per clip and roll: ``(fps, roll, X (N, 17, 3) camera-frame poses, up (N, 3) true up)``,
+    the clip seen by the paper's per-frame cameras rolled by ``roll`` deg about the optical
+    axis (X' = X @ Q.T, u' = Q u), every ``stride``-th frame."""
+    pairs = make_pairs(clips, views="paper", seed=0, camera="per-frame", noise=LifterNoise() if lifter else None)
+    for i, clip in enumerate(clips):
+        sel = np.flatnonzero(pairs.clip == i)[::stride]
+        for roll in rolls:
+            Q = axis_rotation("z", np.radians(roll))
+            yield clip.fps / stride, roll, pairs.inputs[sel] @ Q.T, pairs.R[sel][:, :, 1] @ Q.T
+
+
 def tilt_by_roll(path: Path, split: str, lifter: bool, stride: int, gated: ViewGatedPCNet) -> dict:
     """``{(estimator, roll): (sum of tilt errors deg, frames)}`` over the split's clips."""
     clips = select_split(load_mocap(path), split, "motion-style")
-    pairs = make_pairs(clips, views="paper", seed=0, camera="per-frame", noise=LifterNoise() if lifter else None)
     sums: dict = {}
-    for i, clip in enumerate(clips):
-        sel = np.flatnonzero(pairs.clip == i)[::stride]
-        for roll in ROLLS_DEG:
-            Q = axis_rotation("z", np.radians(roll))
-            X, up = pairs.inputs[sel] @ Q.T, pairs.R[sel][:, :, 1] @ Q.T
-            R, _, valid, weight, _ = gated.predict_gated(X, clip.fps / stride)
-            R_cam, R_body = gated.camera.predict(X)[0], gated.body.predict(X)[0]
-            for name, est in (("camera-frame", R_cam), ("body-frame", R_body), ("gated", R)):
-                e = np.degrees(angle_between(est[valid][:, :, 1], up[valid]))
-                s, n = sums.get((name, roll), (0.0, 0))
-                sums[(name, roll)] = (s + e.sum(), n + len(e))
-            s, n = sums.get(("share", roll), (0.0, 0))
-            sums[("share", roll)] = (s + weight[valid].sum(), n + int(valid.sum()))
+    for fps, roll, X, up in rolled_views(clips, lifter, stride):
+        R, _, valid, weight, _ = gated.predict_gated(X, fps)
+        R_cam, R_body = gated.camera.predict(X)[0], gated.body.predict(X)[0]
+        for name, est in (("camera-frame", R_cam), ("body-frame", R_body), ("gated", R)):
+            e = np.degrees(angle_between(est[valid][:, :, 1], up[valid]))
+            s, n = sums.get((name, roll), (0.0, 0))
+            sums[(name, roll)] = (s + e.sum(), n + len(e))
+        s, n = sums.get(("share", roll), (0.0, 0))
+        sums[("share", roll)] = (s + weight[valid].sum(), n + int(valid.sum()))
     return sums
 
 

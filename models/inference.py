@@ -108,7 +108,7 @@ class ViewGatedPCNet:
         R_cam, res_cam, valid = self.camera.predict_normalized(*normalized)
         R_body, res_body, _ = self.body.predict_normalized(*normalized)
         del normalized
-        weight = camera_frame_weight(R_body, valid, fps)
+        weight = camera_frame_weight(R_body, valid, fps, R_cam)
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
         # Blended a block at a time, the residual into the camera-frame one's array: whole-recording
         # (T, 17, 3) float64 temporaries would add to the rectification stage's peak.

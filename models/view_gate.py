@@ -9,16 +9,22 @@ camera-frame network only knows cameras inside its training views ("paper" + "wi
 distributions, docs/CONVENTIONS.md: |roll| <= 25 deg, |pitch| <= 45 deg); outside them its
 answer is pulled back towards a level camera (at 90 deg roll its tilt error is ~43 deg).
 
-The gate reads the camera pitch and roll from the body-frame network's up (it has no
-preference for level cameras, so its reading is not pulled into the range it tests; the
-camera-frame network reads a lying body under a level camera as a camera rolled ~25 deg and
-answers half-way), takes the running median over about two seconds (so a few hard poses do
-not switch networks, while a phone turned during the recording does), and gives the
-camera-frame network the weight 1 inside the range less a 5 deg margin, 0 beyond it plus
-5 deg, linear in between. A body lying across the image reads as a rolled camera: the
-body-frame network answers, and in sequence mode the camera prior weighs the lying reading
-(:mod:`pcnet.stages.gravity_prior`). Measured on held-out motion capture
-(benchmarks/results/view_gate.txt).
+The gate reads the camera pitch and roll from both networks' ups, each as a running median
+over about two seconds (so a few hard poses do not switch networks, while a phone turned
+during the recording does). The body-frame network has no preference for level cameras, so
+its reading is not pulled into the range it tests; but it reads every body as upright, so a
+seated, squatting or bent-over body under a level camera also reads as a steep camera. The
+camera-frame network's own reading tells these apart: for such bodies it reads a level
+camera, while for a camera really rolled 45 deg or more it reads one outside its training
+views (its answer is pulled back towards level, but not inside the range). The camera-frame
+network therefore gets full weight when the body-frame reading is inside the range less a
+5 deg margin (as before), and also when its own reading is inside that range while the
+body-frame reading is not far beyond it (roll below 45-60 deg, pitch below 60-75 deg:
+beyond those even the camera-frame network sometimes reads a 90 deg roll as inside, on the
+validation split); linear ramps in between. A body lying across the image reads as a
+rolled camera to both: the body-frame network answers, and in sequence mode the camera prior
+weighs the lying reading (:mod:`pcnet.stages.gravity_prior`). Measured on held-out motion
+capture (benchmarks/results/view_gate.txt).
 """
 
 from __future__ import annotations
@@ -33,6 +39,10 @@ from pcnet.stages.core.rotations import decompose_camera_rotation
 #: the second on; centred on the edges of the training views (|roll| 25, |pitch| 45).
 ROLL_RAMP_DEG = (20.0, 30.0)
 PITCH_RAMP_DEG = (40.0, 50.0)
+#: Beyond these body-frame readings (roll, pitch ramps, degrees) the camera-frame network's
+#: own reading no longer vouches for it.
+BODY_READING_LIMIT_ROLL_DEG = (45.0, 60.0)
+BODY_READING_LIMIT_PITCH_DEG = (60.0, 75.0)
 #: Running-median window of the camera reading, seconds.
 WINDOW_S = 2.0
 
@@ -41,8 +51,21 @@ def _ramp(x: np.ndarray, full: float, none: float) -> np.ndarray:
     return np.clip((none - x) / (none - full), 0.0, 1.0)
 
 
-def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0) -> np.ndarray:
-    """Weight of the camera-frame network per frame, from the body-frame network's rotations.
+def _camera_reading(R: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Running medians of ``|roll|`` and ``|pitch|`` (deg) of ``(T, 3, 3)`` rotations."""
+    _, pitch, roll = decompose_camera_rotation(R)
+    return (median_filter(np.degrees(np.abs(roll)), size=size, mode="nearest"),
+            median_filter(np.degrees(np.abs(pitch)), size=size, mode="nearest"))
+
+
+def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0,
+                        R_camera_net: np.ndarray | None = None) -> np.ndarray:
+    """Weight of the camera-frame network per frame, from both networks' camera readings.
+
+    ``w = max(in(body), in(camera) * near(body))``: ``in`` is 1 inside the training views
+    less a margin (:data:`ROLL_RAMP_DEG`, :data:`PITCH_RAMP_DEG`), ``near`` 1 while the
+    body-frame reading is not far beyond them (:data:`BODY_READING_LIMIT_ROLL_DEG`,
+    :data:`BODY_READING_LIMIT_PITCH_DEG`), each a product of linear ramps in roll and pitch.
 
     Args:
         R_body_net: ``(T, 3, 3)`` canonical->camera rotations of the body-frame 3DPCNet
@@ -50,6 +73,8 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
         valid: ``(T,)`` bool, the frames with a rotation.
         fps: frame rate (Hz) that sets the running-median window (:data:`WINDOW_S`); one
             recording per call.
+        R_camera_net: ``(T, 3, 3)`` the camera-frame 3DPCNet's rotations; ``None`` uses the
+            body-frame reading alone (``w = in(body)``).
 
     Returns:
         ``(T,)`` float64 in [0, 1]; NaN where not valid. Pitch and roll are
@@ -60,11 +85,14 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
     idx = np.flatnonzero(valid)
     if len(idx) == 0:
         return weight
-    _, pitch, roll = decompose_camera_rotation(R_body_net[idx])
     size = max(1, int(round(WINDOW_S * fps)) | 1)
-    roll_deg = median_filter(np.degrees(np.abs(roll)), size=size, mode="nearest")
-    pitch_deg = median_filter(np.degrees(np.abs(pitch)), size=size, mode="nearest")
-    weight[idx] = _ramp(roll_deg, *ROLL_RAMP_DEG) * _ramp(pitch_deg, *PITCH_RAMP_DEG)
+    roll_b, pitch_b = _camera_reading(R_body_net[idx], size)
+    weight[idx] = _ramp(roll_b, *ROLL_RAMP_DEG) * _ramp(pitch_b, *PITCH_RAMP_DEG)
+    if R_camera_net is not None:
+        roll_c, pitch_c = _camera_reading(R_camera_net[idx], size)
+        vouched = (_ramp(roll_c, *ROLL_RAMP_DEG) * _ramp(pitch_c, *PITCH_RAMP_DEG)
+                   * _ramp(roll_b, *BODY_READING_LIMIT_ROLL_DEG) * _ramp(pitch_b, *BODY_READING_LIMIT_PITCH_DEG))
+        weight[idx] = np.maximum(weight[idx], vouched)
     return weight
 
 

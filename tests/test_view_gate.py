@@ -7,7 +7,8 @@ import pytest
 from conftest import FIXTURES
 
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
-from pcnet.models.view_gate import PITCH_RAMP_DEG, ROLL_RAMP_DEG, blend_rotations, camera_frame_weight
+from pcnet.models.view_gate import (BODY_READING_LIMIT_PITCH_DEG, BODY_READING_LIMIT_ROLL_DEG, PITCH_RAMP_DEG,
+                                    ROLL_RAMP_DEG, blend_rotations, camera_frame_weight)
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.flags import view_gate_flag
 from pcnet.pipeline.rectification import rectify
@@ -35,6 +36,27 @@ def test_weight_follows_the_camera_reading_through_the_ramps():
     assert camera_frame_weight(_cameras(0.0, [180.0]), ones)[0] == 0.0
     assert camera_frame_weight(_cameras([-np.mean(PITCH_RAMP_DEG)], 0.0), ones)[0] == pytest.approx(0.5)
     assert camera_frame_weight(_cameras([PITCH_RAMP_DEG[1] + 1], 0.0), ones)[0] == 0.0
+
+
+def test_a_level_camera_reading_vouches_for_the_camera_frame_network_unless_the_body_reading_is_far_out():
+    ones = np.ones(1, bool)
+    level = _cameras(0.0, [0.0])
+    # A seated or bent-over body under a level camera: the body-frame network reads a steep
+    # camera, the camera-frame network a level one.
+    bent = _cameras([-PITCH_RAMP_DEG[1] - 5.0], 0.0)
+    assert camera_frame_weight(bent, ones)[0] == 0.0
+    assert camera_frame_weight(bent, ones, R_camera_net=level)[0] == 1.0
+    # Half-way along the body-reading limit: half the weight.
+    mid = _cameras([-np.mean(BODY_READING_LIMIT_PITCH_DEG)], 0.0)
+    assert camera_frame_weight(mid, ones, R_camera_net=level)[0] == pytest.approx(0.5)
+    # A camera rolled 90 deg: however level the camera-frame network reads it, it is out.
+    portrait = _cameras(0.0, [BODY_READING_LIMIT_ROLL_DEG[1] + 1.0])
+    assert camera_frame_weight(portrait, ones, R_camera_net=level)[0] == 0.0
+    # Both readings outside the training views: the body-frame network answers.
+    rolled = _cameras(0.0, [ROLL_RAMP_DEG[1] + 5.0])
+    assert camera_frame_weight(rolled, ones, R_camera_net=rolled)[0] == 0.0
+    # Inside the views the camera-frame reading never lowers the weight.
+    assert camera_frame_weight(level, ones, R_camera_net=rolled)[0] == 1.0
 
 
 def test_a_few_outlying_frames_do_not_switch_networks_but_a_turned_camera_does():

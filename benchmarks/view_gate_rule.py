@@ -1,0 +1,73 @@
+"""The view gate's rule, measured where it was chosen: the body-frame reading alone (the
+previous release) against the shipped rule that lets the camera-frame network's own reading
+vouch for it (models/view_gate.py), per-frame tilt error with the camera rolled 0-180 deg.
+
+    python benchmarks/view_gate_rule.py --data ../shared/data [--split val] [--stride 3]
+
+`--split val` (default) is the motion-style validation split of the training mix (Bandai
+validation groups, CMU subjects 12 and 60), on which the rule and its limits were chosen;
+`test` the motion-style test split, `deepmimic` every DeepMimic clip. Same protocol as
+benchmarks/view_gate.py (the paper's camera distribution, a new camera every frame, clean
+poses and lifter-like noise, every `--stride`-th frame).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+from mocap_sets import training_mix_splits
+from report import print_and_save
+from view_gate import rolled_views
+
+from pcnet.models.datasets import load_mocap, select_split
+from pcnet.models.inference import ViewGatedPCNet, normalized_in_chunks
+from pcnet.models.view_gate import blend_rotations, camera_frame_weight
+from pcnet.stages.core.rotations import angle_between
+
+DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+ROLLS_DEG = (0, 15, 30, 45, 60, 90, 180)
+RULES = ("camera-frame alone", "body-frame alone", "body reading (before)", "both readings (shipped)")
+
+
+def tilt_by_rule(clips, lifter: bool, stride: int, pair: ViewGatedPCNet) -> dict:
+    """``{(rule, roll): (sum of tilt errors deg, frames)}`` over ``clips``."""
+    sums: dict = {}
+    for fps, roll, X, up in rolled_views(clips, lifter, stride, ROLLS_DEG):
+        normalized = normalized_in_chunks(X)
+        R_cam, _, valid = pair.camera.predict_normalized(*normalized)
+        R_body, _, _ = pair.body.predict_normalized(*normalized)
+        estimates = (R_cam, R_body, blend_rotations(R_body, R_cam, camera_frame_weight(R_body, valid, fps)),
+                     blend_rotations(R_body, R_cam, camera_frame_weight(R_body, valid, fps, R_cam)))
+        for rule, R in zip(RULES, estimates):
+            e = np.degrees(angle_between(R[valid][:, :, 1], up[valid]))
+            s, n = sums.get((rule, roll), (0.0, 0))
+            sums[(rule, roll)] = (s + e.sum(), n + len(e))
+    return sums
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=DEFAULT)
+    ap.add_argument("--split", choices=("val", "test", "deepmimic"), default="val")
+    ap.add_argument("--stride", type=int, default=3)
+    args = ap.parse_args()
+    if args.split == "deepmimic":
+        clips = select_split(load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"), "all", "motion-style")
+    else:
+        clips = training_mix_splits(args.data, args.split)[0]
+    pair = ViewGatedPCNet()
+    lines = [f"    python benchmarks/view_gate_rule.py --data {args.data} --split {args.split} --stride {args.stride}", "",
+             f"Mean tilt error (deg) per camera roll, {len(clips)} clips", ""]
+    for lifter in (False, True):
+        sums = tilt_by_rule(clips, lifter, args.stride, pair)
+        lines.append(f"{'noise ' + ('lifter' if lifter else 'clean'):<26}" + "".join(f"{r:>8}" for r in ROLLS_DEG))
+        for rule in RULES:
+            lines.append(f"{rule:<26}" + "".join(f"{sums[(rule, r)][0] / sums[(rule, r)][1]:>8.2f}" for r in ROLLS_DEG))
+        lines.append("")
+    print_and_save(lines, Path(__file__).resolve().parent / "results" / f"view_gate_rule_{args.split}.txt")
+
+
+if __name__ == "__main__":
+    main()
