@@ -23,8 +23,9 @@ body-frame reading is not far beyond it (roll below 45-60 deg, pitch below 60-75
 beyond those even the camera-frame network sometimes reads a 90 deg roll as inside, on the
 validation split); linear ramps in between. A body lying across the image reads as a
 rolled camera to both: the body-frame network answers, and in sequence mode the camera prior
-weighs the lying reading (:mod:`pcnet.stages.gravity_prior`). Measured on held-out motion
-capture (benchmarks/results/view_gate.txt).
+weighs the lying reading (:mod:`pcnet.stages.gravity_prior`). Measured on motion capture:
+this rule against the body-frame reading alone in benchmarks/results/view_gate_rule_*.txt
+(benchmarks/view_gate_rule.py), the previous rule in benchmarks/results/view_gate.txt.
 """
 
 from __future__ import annotations
