@@ -11,7 +11,8 @@ per-axis systematic error measured on data the shipped weights never trained on:
     half = sqrt(bootstrap_half^2 + (Z * SIGMA_SYS_DEG[axis])^2)
 
 Provenance of the constants (``benchmarks/results/uncertainty.txt``, made by
-``python benchmarks/calibrate_uncertainty.py --data ../shared/data``, 2026-11-22): the
+``python benchmarks/calibrate_uncertainty.py --data ../shared/data``, 2026-11-22; re-run
+with the shipped view-gate rule on 2026-11-23: the same constants): the
 motion-style *validation* split (Bandai validation groups and CMU validation subjects 12, 60,
 206 clips; the shipped weights trained on the train split only) x seeds 0, 1, 2 = 618
 clip-views, each a static "paper" camera with lifter-like noise
