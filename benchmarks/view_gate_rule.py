@@ -1,11 +1,18 @@
-"""The view gate's rule, measured where it was chosen: the body-frame reading alone (the
-previous release) against the shipped rule that lets the camera-frame network's own reading
-vouch for it (models/view_gate.py), per-frame tilt error with the camera rolled 0-180 deg.
+"""The view gate's rule, measured where it was chosen: the shipped rule (models/view_gate.py)
+against the two earlier releases' rules, per-frame tilt error with the camera rolled 0-180 deg.
 
     python benchmarks/view_gate_rule.py --data ../shared/data [--split val] [--stride 3]
 
+Rules (w = the camera-frame network's weight; in(x) = 1 up to 20 deg roll / 40 deg pitch, 0
+from 30 / 50, linear between):
+- release 1, body reading: w = in(body-frame reading);
+- release 2, both readings: w = max(in(body), in(camera-frame reading) * near(body)), near =
+  1 below 45 deg roll / 60 deg pitch of the body-frame reading, 0 from 60 / 75;
+- shipped: models/view_gate.py: camera_frame_weight, release 2 with both readings' roll
+  ramp at 10-20 deg (in(x) = 1 up to 10 deg roll, 0 from 20).
+
 `--split val` (default) is the motion-style validation split of the training mix (Bandai
-validation groups, CMU subjects 12 and 60), on which the rule and its limits were chosen;
+validation groups, CMU subjects 12 and 60), on which the rules and their limits were chosen;
 `test` the motion-style test split, `deepmimic` every DeepMimic clip. Same protocol as
 benchmarks/view_gate.py (the paper's camera distribution, a new camera every frame, clean
 poses and lifter-like noise, every `--stride`-th frame).
@@ -23,12 +30,31 @@ from view_gate import rolled_views
 
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.inference import ViewGatedPCNet, normalized_in_chunks
-from pcnet.models.view_gate import blend_rotations, camera_frame_weight
+from pcnet.models.view_gate import WINDOW_S, blend_rotations, camera_frame_weight, camera_reading
 from pcnet.stages.core.rotations import angle_between
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 ROLLS_DEG = (0, 15, 30, 45, 60, 90, 180)
-RULES = ("camera-frame alone", "body-frame alone", "body reading (before)", "both readings (shipped)")
+RULES = ("camera-frame alone", "body-frame alone", "release 1: body reading", "release 2: both readings",
+         "shipped")
+
+
+def _ramp(x: np.ndarray, full: float, none: float) -> np.ndarray:
+    return np.clip((none - x) / (none - full), 0.0, 1.0)
+
+
+def earlier_release_weights(R_body: np.ndarray, R_cam: np.ndarray, valid: np.ndarray, fps: float):
+    """The camera-frame weights of release 1 and release 2's rules (module docstring), ``(T,)``
+    each, NaN where not valid."""
+    w1, w2 = np.full(len(valid), np.nan), np.full(len(valid), np.nan)
+    idx = np.flatnonzero(valid)
+    if len(idx):
+        size = max(1, int(round(WINDOW_S * fps)) | 1)
+        (roll_b, pitch_b), (roll_c, pitch_c) = camera_reading(R_body[idx], size), camera_reading(R_cam[idx], size)
+        w1[idx] = _ramp(roll_b, 20, 30) * _ramp(pitch_b, 40, 50)
+        vouched = _ramp(roll_c, 20, 30) * _ramp(pitch_c, 40, 50) * _ramp(roll_b, 45, 60) * _ramp(pitch_b, 60, 75)
+        w2[idx] = np.maximum(w1[idx], vouched)
+    return w1, w2
 
 
 def tilt_by_rule(clips, lifter: bool, stride: int, pair: ViewGatedPCNet) -> dict:
@@ -38,7 +64,8 @@ def tilt_by_rule(clips, lifter: bool, stride: int, pair: ViewGatedPCNet) -> dict
         normalized = normalized_in_chunks(X)
         R_cam, _, valid = pair.camera.predict_normalized(*normalized)
         R_body, _, _ = pair.body.predict_normalized(*normalized)
-        estimates = (R_cam, R_body, blend_rotations(R_body, R_cam, camera_frame_weight(R_body, valid, fps)),
+        w1, w2 = earlier_release_weights(R_body, R_cam, valid, fps)
+        estimates = (R_cam, R_body, blend_rotations(R_body, R_cam, w1), blend_rotations(R_body, R_cam, w2),
                      blend_rotations(R_body, R_cam, camera_frame_weight(R_body, valid, fps, R_cam)))
         for rule, R in zip(RULES, estimates):
             e = np.degrees(angle_between(R[valid][:, :, 1], up[valid]))
@@ -62,9 +89,9 @@ def main() -> None:
              f"Mean tilt error (deg) per camera roll, {len(clips)} clips", ""]
     for lifter in (False, True):
         sums = tilt_by_rule(clips, lifter, args.stride, pair)
-        lines.append(f"{'noise ' + ('lifter' if lifter else 'clean'):<26}" + "".join(f"{r:>8}" for r in ROLLS_DEG))
+        lines.append(f"{'noise ' + ('lifter' if lifter else 'clean'):<28}" + "".join(f"{r:>8}" for r in ROLLS_DEG))
         for rule in RULES:
-            lines.append(f"{rule:<26}" + "".join(f"{sums[(rule, r)][0] / sums[(rule, r)][1]:>8.2f}" for r in ROLLS_DEG))
+            lines.append(f"{rule:<28}" + "".join(f"{sums[(rule, r)][0] / sums[(rule, r)][1]:>8.2f}" for r in ROLLS_DEG))
         lines.append("")
     print_and_save(lines, Path(__file__).resolve().parent / "results" / f"view_gate_rule_{args.split}.txt")
 

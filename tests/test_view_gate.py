@@ -55,6 +55,10 @@ def test_a_level_camera_reading_vouches_for_the_camera_frame_network_unless_the_
     # Both readings outside the training views: the body-frame network answers.
     rolled = _cameras(0.0, [ROLL_RAMP_DEG[1] + 5.0])
     assert camera_frame_weight(rolled, ones, R_camera_net=rolled)[0] == 0.0
+    # A camera rolled 30 deg that the camera-frame network reads as rolled only 15 deg (its
+    # answer pulled towards the level cameras it trained on): at most half its weight.
+    half_read = _cameras(0.0, [np.mean(ROLL_RAMP_DEG)])
+    assert camera_frame_weight(_cameras(0.0, [30.0]), ones, R_camera_net=half_read)[0] == pytest.approx(0.5)
     # Inside the views the camera-frame reading never lowers the weight.
     assert camera_frame_weight(level, ones, R_camera_net=rolled)[0] == 1.0
 
