@@ -30,7 +30,7 @@ from view_gate import rolled_views
 
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.inference import ViewGatedPCNet, normalized_in_chunks
-from pcnet.models.view_gate import WINDOW_S, blend_rotations, camera_frame_weight, camera_reading
+from pcnet.models.view_gate import blend_rotations, camera_frame_weight
 from pcnet.stages.core.rotations import angle_between
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -39,22 +39,8 @@ RULES = ("camera-frame alone", "body-frame alone", "release 1: body reading", "r
          "shipped")
 
 
-def _ramp(x: np.ndarray, full: float, none: float) -> np.ndarray:
-    return np.clip((none - x) / (none - full), 0.0, 1.0)
-
-
-def earlier_release_weights(R_body: np.ndarray, R_cam: np.ndarray, valid: np.ndarray, fps: float):
-    """The camera-frame weights of release 1 and release 2's rules (module docstring), ``(T,)``
-    each, NaN where not valid."""
-    w1, w2 = np.full(len(valid), np.nan), np.full(len(valid), np.nan)
-    idx = np.flatnonzero(valid)
-    if len(idx):
-        size = max(1, int(round(WINDOW_S * fps)) | 1)
-        (roll_b, pitch_b), (roll_c, pitch_c) = camera_reading(R_body[idx], size), camera_reading(R_cam[idx], size)
-        w1[idx] = _ramp(roll_b, 20, 30) * _ramp(pitch_b, 40, 50)
-        vouched = _ramp(roll_c, 20, 30) * _ramp(pitch_c, 40, 50) * _ramp(roll_b, 45, 60) * _ramp(pitch_b, 60, 75)
-        w2[idx] = np.maximum(w1[idx], vouched)
-    return w1, w2
+#: The roll ramp (deg) of releases 1 and 2.
+EARLIER_ROLL_RAMP_DEG = (20.0, 30.0)
 
 
 def tilt_by_rule(clips, lifter: bool, stride: int, pair: ViewGatedPCNet) -> dict:
@@ -64,7 +50,8 @@ def tilt_by_rule(clips, lifter: bool, stride: int, pair: ViewGatedPCNet) -> dict
         normalized = normalized_in_chunks(X)
         R_cam, _, valid = pair.camera.predict_normalized(*normalized)
         R_body, _, _ = pair.body.predict_normalized(*normalized)
-        w1, w2 = earlier_release_weights(R_body, R_cam, valid, fps)
+        w1 = camera_frame_weight(R_body, valid, fps, roll_ramp_deg=EARLIER_ROLL_RAMP_DEG)
+        w2 = camera_frame_weight(R_body, valid, fps, R_cam, roll_ramp_deg=EARLIER_ROLL_RAMP_DEG)
         estimates = (R_cam, R_body, blend_rotations(R_body, R_cam, w1), blend_rotations(R_body, R_cam, w2),
                      blend_rotations(R_body, R_cam, camera_frame_weight(R_body, valid, fps, R_cam)))
         for rule, R in zip(RULES, estimates):

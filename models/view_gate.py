@@ -70,7 +70,8 @@ def camera_reading(R: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0,
-                        R_camera_net: np.ndarray | None = None) -> np.ndarray:
+                        R_camera_net: np.ndarray | None = None,
+                        roll_ramp_deg: tuple[float, float] = ROLL_RAMP_DEG) -> np.ndarray:
     """Weight of the camera-frame network per frame, from both networks' camera readings.
 
     ``w = max(in(body), in(camera) * near(body))``: ``in`` is 1 inside the training views
@@ -86,6 +87,8 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
             recording per call.
         R_camera_net: ``(T, 3, 3)`` the camera-frame 3DPCNet's rotations; ``None`` uses the
             body-frame reading alone (``w = in(body)``).
+        roll_ramp_deg: the roll ramp of ``in`` (default :data:`ROLL_RAMP_DEG`; earlier
+            releases used ``(20, 30)``, benchmarks/view_gate_rule.py).
 
     Returns:
         ``(T,)`` float64 in [0, 1]; NaN where not valid. Pitch and roll are
@@ -98,10 +101,10 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
         return weight
     size = max(1, int(round(WINDOW_S * fps)) | 1)
     roll_b, pitch_b = camera_reading(R_body_net[idx], size)
-    weight[idx] = _ramp(roll_b, *ROLL_RAMP_DEG) * _ramp(pitch_b, *PITCH_RAMP_DEG)
+    weight[idx] = _ramp(roll_b, *roll_ramp_deg) * _ramp(pitch_b, *PITCH_RAMP_DEG)
     if R_camera_net is not None:
         roll_c, pitch_c = camera_reading(R_camera_net[idx], size)
-        vouched = (_ramp(roll_c, *ROLL_RAMP_DEG) * _ramp(pitch_c, *PITCH_RAMP_DEG)
+        vouched = (_ramp(roll_c, *roll_ramp_deg) * _ramp(pitch_c, *PITCH_RAMP_DEG)
                    * _ramp(roll_b, *BODY_READING_LIMIT_ROLL_DEG) * _ramp(pitch_b, *BODY_READING_LIMIT_PITCH_DEG))
         weight[idx] = np.maximum(weight[idx], vouched)
     return weight
