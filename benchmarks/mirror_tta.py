@@ -4,7 +4,7 @@
 
 The mirror image of a pose seen by a camera is a pose a person could make, seen by the same
 camera: x_cam -> -x_cam with every left joint swapped for its right one
-(:data:`pcnet.models.datasets._LEFT_RIGHT`). Its true up is the original's with ``u_x``
+(:data:`pcnet.stages.core.conventions.H36M_MIRROR_ORDER`). Its true up is the original's with ``u_x``
 negated, so a network's answer for the mirrored pose, mirrored back, is a second estimate of
 the same up; their normalised sum is the test-time average. Costs one more network pass per
 network (the pair: 4 instead of 2).
@@ -30,9 +30,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mocap_sets import training_mix_splits  # noqa: E402
 from report import print_and_save  # noqa: E402
 
-from pcnet.models.datasets import _LEFT_RIGHT, load_mocap, make_pairs  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
+from pcnet.stages.core.conventions import H36M_MIRROR_ORDER  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "mirror_tta.txt"
@@ -51,7 +52,7 @@ def rows_for(name: str, clips, sessions) -> list[str]:
         pairs = make_pairs(clips, views="paper", seed=0, camera="per-frame", noise=noise, max_frames=MAX_FRAMES)
         X = pairs.inputs.astype(np.float64)
         truth = pairs.R[:, :, 1]
-        mirrored = (X * MIRROR_X)[:, _LEFT_RIGHT]
+        mirrored = (X * MIRROR_X)[:, list(H36M_MIRROR_ORDER)]
         for net, session in sessions:
             R, _, ok = session.predict(X)
             Rm, _, ok_m = session.predict(mirrored)

@@ -20,7 +20,7 @@ import numpy as np
 
 from pcnet.models.lifter_noise import LifterNoise, apply_lifter_noise
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
-from pcnet.stages.core.conventions import H36M_LR_PAIRS, H36M_PARENTS, PELVIS, validate_fps, validate_poses
+from pcnet.stages.core.conventions import H36M_MIRROR_ORDER, H36M_PARENTS, PELVIS, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import sample_camera_rotations
 
@@ -301,16 +301,13 @@ def _bone_scale(X: np.ndarray, factors: np.ndarray) -> np.ndarray:
 
 
 _MIRROR_Z = np.diag([1.0, 1.0, -1.0])
-_LEFT_RIGHT = np.arange(17)
-for _left, _right in H36M_LR_PAIRS:
-    _LEFT_RIGHT[_left], _LEFT_RIGHT[_right] = _right, _left
 
 
 def mirror_canonical(canon: np.ndarray) -> np.ndarray:
     """The left-right mirror image of canonical poses ``(N, 17, 3)`` (any units): ``z -> -z``
     (the subject's right) and every left joint swapped with its right one, so that the result
     is again in the canonical frame (right hip at +z, docs/CONVENTIONS.md)."""
-    return (np.asarray(canon) * np.array([1.0, 1.0, -1.0]))[:, _LEFT_RIGHT]
+    return (np.asarray(canon) * np.array([1.0, 1.0, -1.0]))[:, list(H36M_MIRROR_ORDER)]
 
 
 def _proportion_factors(n: int, aug: Augmentation, rng: np.random.Generator) -> np.ndarray:
