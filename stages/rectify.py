@@ -29,7 +29,7 @@ from .core.geometric import geometric_rotation
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
-from .uncertainty import calibrated_interval, frame_tilt_bound
+from .uncertainty import bound_weights, calibrated_interval, frame_tilt_bound
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -163,14 +163,15 @@ class SequenceEvidence:
             raise InputError(f"unknown mode {self.mode!r}; expected one of {MODES}")
 
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
-                 fps: float) -> tuple[np.ndarray, np.ndarray, dict]:
+                 fps: float, frame_weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
         """Apply the mode to one recording.
 
         Args:
             joints_cam: ``(T, 17, 3)`` camera-frame joints (floor contacts and the lying
                 reading in sequence mode) or ``None``.
             R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool or
-                ``None`` (all). fps: frame rate, > 0.
+                ``None`` (all). fps: frame rate, > 0. frame_weights: optional ``(T,)`` weights
+                of the frames in sequence mode's up (:func:`pcnet.stages.temporal.sequence_rectify`).
 
         Returns:
             ``(R (T, 3, 3) float64, NaN where not valid (frame mode: as given); valid (T,)
@@ -208,7 +209,7 @@ class SequenceEvidence:
                           time_constant_s=SMOOTH_TIME_CONSTANT_S)
         else:
             res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=self.n_bootstrap,
-                                   camera_prior=self.camera_prior)
+                                   camera_prior=self.camera_prior, frame_weights=frame_weights)
             out, g = res.rotations, res.gravity
             if g is not None and g.reading == "lying":
                 # The up comes from the camera prior, not from resampled poses: its interval
@@ -228,6 +229,18 @@ class SequenceEvidence:
             )
         valid = ok & np.asarray(report["valid"], bool)
         return np.where(valid[:, None, None], out, np.nan), valid, report
+
+
+def frame_bound_and_weights(estimate: FrameEstimate, base_deg: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """Per-frame tilt bound ``(T,)`` (deg; :func:`pcnet.stages.uncertainty.frame_tilt_bound`, widened
+    where the shipped pair's networks disagree; ``base_deg`` throughout for one estimator) and
+    the frames' weights in sequence mode's up: inverse variance from that bound
+    (:func:`pcnet.stages.uncertainty.bound_weights`), so frames the two networks disagree on
+    count less; ``None`` (equal weights) without a calibrated bound or a second network."""
+    if estimate.disagreement_deg is None:
+        return np.full(len(estimate.valid), base_deg), None
+    bound = frame_tilt_bound(estimate.disagreement_deg, estimate.camera_frame_weight, base_deg)
+    return bound, (bound_weights(bound, base_deg) if np.isfinite(base_deg) else None)
 
 
 @dataclass(frozen=True)
@@ -270,19 +283,17 @@ class Rectification:
 
     def __call__(self, joints_cam: np.ndarray, fps: float = 30.0) -> Rectified:
         estimate = self.estimator(joints_cam, fps)
-        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps)
+        gate = estimate.camera_frame_weight
+        base = self.estimator.frame_tilt_95_deg
+        bound, weights = frame_bound_and_weights(estimate, base)
+        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, weights)
+        report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)
-        gate = estimate.camera_frame_weight
         report["view_gate"] = gate_report(gate, valid)
         if gate is not None:
             report["camera_frame_weight"] = np.where(valid, gate, np.nan)
-        base = self.estimator.frame_tilt_95_deg
         report["frame_tilt_95_deg"] = base
-        if estimate.disagreement_deg is None:
-            bound = np.full(len(valid), base)
-        else:
-            bound = frame_tilt_bound(estimate.disagreement_deg, gate, base)
         report["frame_tilt_bound_deg"] = np.where(valid, bound, np.nan)
         canonical = to_canonical(joints_cam, R, estimate.residual)
         return Rectified(R, canonical, R[:, :, 1].copy(), valid, self.estimator.name, report["mode"], report,

@@ -12,7 +12,9 @@ per-axis systematic error measured on data the shipped weights never trained on:
 
 Provenance of the constants (``benchmarks/results/uncertainty.txt``, made by
 ``python benchmarks/calibrate_uncertainty.py --data ../shared/data``, 2026-11-22; re-run
-with the shipped view-gate rule on 2026-11-23: the same constants): the
+with the shipped view-gate rule on 2026-11-23: the same constants; re-run with the sequence up
+weighted by the per-frame bound, :func:`bound_weights`, on 2026-11-23: pitch 3.46 -> 3.44, roll
+1.15 -> 1.12): the
 motion-style *validation* split (Bandai validation groups and CMU validation subjects 12, 60,
 206 clips; the shipped weights trained on the train split only) x seeds 0, 1, 2 = 618
 clip-views, each a static "paper" camera with lifter-like noise
@@ -59,7 +61,7 @@ import numpy as np
 Z = 1.96
 
 #: Per-axis systematic (per-clip) error of the sequence up, degrees; see the module docstring.
-SIGMA_SYS_DEG = {"pitch": 3.46, "roll": 1.15}
+SIGMA_SYS_DEG = {"pitch": 3.44, "roll": 1.12}
 
 #: Per-frame tilt bound (deg) where the two networks agree: the base of :func:`frame_tilt_bound`
 #: (module docstring; ``python benchmarks/calibrate_frame_bound.py --data ../shared/data``,
@@ -123,3 +125,21 @@ def frame_tilt_bound(disagreement_deg, camera_frame_weight, base_deg: float = FR
     w = np.asarray(camera_frame_weight, np.float64)
     d = np.asarray(disagreement_deg, np.float64)
     return w * np.sqrt(base_deg ** 2 + (factor * d) ** 2) + (1.0 - w) * body_deg
+
+
+def bound_weights(bound_deg, base_deg: float = FRAME_TILT_95_DEG) -> np.ndarray:
+    """Per-frame weights of sequence mode's up from the per-frame tilt bound:
+    ``(base_deg / bound)^2``, inverse variance when the bound is proportional to each frame's
+    error std, so frames where the two networks disagree (poses unlike the training data)
+    count less; 0 where the bound is not finite (invalid frames).
+
+    Args:
+        bound_deg: ``(T,)`` :func:`frame_tilt_bound`, degrees (NaN = invalid frame).
+        base_deg: the bound where the networks agree (:data:`FRAME_TILT_95_DEG`); weight 1 there.
+
+    Returns:
+        ``(T,)`` float64 weights in ``[0, (base_deg / min bound)^2]``.
+    """
+    b = np.asarray(bound_deg, np.float64)
+    ok = np.isfinite(b) & (b > 0)
+    return np.where(ok, (base_deg / np.where(ok, b, 1.0)) ** 2, 0.0)

@@ -1,6 +1,7 @@
 """Calibrated pitch/roll intervals (stages/uncertainty.py) and their recorded calibration."""
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -9,7 +10,7 @@ import pytest
 
 from conftest import shared
 from pcnet.stages.rectify import SequenceEvidence
-from pcnet.stages.uncertainty import (FRAME_DISAGREEMENT_FACTOR, FRAME_TILT_95_BODY_DEG, FRAME_TILT_95_DEG, SIGMA_SYS_DEG,
+from pcnet.stages.uncertainty import (bound_weights, FRAME_DISAGREEMENT_FACTOR, FRAME_TILT_95_BODY_DEG, FRAME_TILT_95_DEG, SIGMA_SYS_DEG,
                                       Z, calibrated_interval, frame_tilt_bound)
 
 RESULT = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "uncertainty.txt"
@@ -107,6 +108,8 @@ def test_frame_mode_summary_prints_the_calibrated_per_frame_bound(tmp_path):
     res = CliRunner().invoke(main, [*args, "--mode", "sequence", "--out", str(tmp_path / "s")])
     assert res.exit_code == 0, res.output
     assert "of the true up in 95 % of frames" not in res.output
+    with np.load(tmp_path / "s" / "canonical.npz") as npz:  # the sequence up weighs frames by that bound
+        assert json.loads(str(npz["report"]))["sequence_frame_weights"] == "per-frame bound"
 
 
 def test_frame_bound_widens_with_disagreement_and_hands_over_with_the_gate():
@@ -123,6 +126,10 @@ def test_frame_bound_widens_with_disagreement_and_hands_over_with_the_gate():
     half = frame_tilt_bound(np.array([10.0]), np.array([0.5]))
     assert half[0] == pytest.approx(0.5 * on[3] + 0.5 * FRAME_TILT_95_BODY_DEG)
 
+
+def test_bound_weights_are_inverse_variance_of_the_bound():
+    b = np.array([FRAME_TILT_95_DEG, 2 * FRAME_TILT_95_DEG, np.nan, 0.0])
+    np.testing.assert_allclose(bound_weights(b), [1.0, 0.25, 0.0, 0.0])
 
 def test_disagreement_flag():
     from pcnet.stages.flags import DISAGREEMENT_SHARE, disagreement_flag
