@@ -34,16 +34,13 @@ from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
 from pcnet.stages.core.conventions import H36M_MIRROR_ORDER  # noqa: E402
+from pcnet.stages.core.rotations import angle_between  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "mirror_tta.txt"
 COMMAND = "python benchmarks/mirror_tta.py --data ../shared/data"
 MIRROR_X = np.array([-1.0, 1.0, 1.0])
 MAX_FRAMES = 40_000
-
-
-def tilt_deg(up: np.ndarray, truth: np.ndarray) -> np.ndarray:
-    return np.degrees(np.arccos(np.clip(np.sum(up * truth, axis=1), -1.0, 1.0)))
 
 
 def rows_for(name: str, clips, sessions) -> list[str]:
@@ -60,7 +57,7 @@ def rows_for(name: str, clips, sessions) -> list[str]:
             mean = up + up_back
             mean /= np.linalg.norm(mean, axis=1, keepdims=True)
             both = ok & ok_m
-            cells = [tilt_deg(u, truth)[both] for u in (up, up_back, mean)]
+            cells = [np.degrees(angle_between(u, truth))[both] for u in (up, up_back, mean)]
             out.append(f"| {name} | {'lifter noise' if noise else 'clean'} | {net} | {int(both.sum())} | "
                        + " | ".join(f"{c.mean():.2f} / {np.percentile(c, 95):.2f}" for c in cells) + " |")
             print(out[-1], flush=True)

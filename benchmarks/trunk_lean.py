@@ -42,12 +42,11 @@ from report import print_and_save  # noqa: E402
 
 from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
 from pcnet.pipeline.rectification import rectify  # noqa: E402
-from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS  # noqa: E402
+from pcnet.stages.core.conventions import PELVIS, THORAX  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "trunk_lean.txt"
 COMMAND = "python benchmarks/trunk_lean.py --data ../shared/data"
-THORAX = H36M_JOINTS.index("thorax")
 TRAIN_EVERY = 8
 #: Bands of the clips' median forward trunk lean, degrees.
 LEAN_BANDS_DEG = (-90, 0, 5, 10, 20, 45, 90)
@@ -67,7 +66,8 @@ def clip_rows(clips) -> np.ndarray:
             continue
         # estimated up in the true canonical frame: R_true^T u_est
         u = np.einsum("nji,nj->ni", pairs.R[sel][ok], res.up[ok])
-        trunk = pairs.canonical[sel][ok][:, THORAX] - pairs.canonical[sel][ok][:, PELVIS]
+        canonical = pairs.canonical[sel][ok]
+        trunk = canonical[:, THORAX] - canonical[:, PELVIS]
         rows.append((np.median(np.degrees(np.arctan2(trunk[:, 0], trunk[:, 1]))),
                      np.median(np.degrees(np.arctan2(u[:, 0], u[:, 1]))),
                      np.median(np.degrees(np.arctan2(u[:, 2], u[:, 1])))))

@@ -40,9 +40,8 @@ H36M_BONES: tuple[tuple[int, int], ...] = tuple(
 H36M_LR_PAIRS: tuple[tuple[int, int], ...] = ((4, 1), (5, 2), (6, 3), (11, 14), (12, 15), (13, 16))
 #: Joint order of the left-right mirror image: ``poses[:, H36M_MIRROR_ORDER]`` swaps every left
 #: joint with its right one (:data:`H36M_LR_PAIRS`); the mirror's coordinate flip is the caller's.
-H36M_MIRROR_ORDER: tuple[int, ...] = tuple(
-    dict(H36M_LR_PAIRS).get(j, {r: l for l, r in H36M_LR_PAIRS}.get(j, j)) for j in range(17)
-)
+_MIRROR_SWAP = {**dict(H36M_LR_PAIRS), **{right: left for left, right in H36M_LR_PAIRS}}
+H36M_MIRROR_ORDER: tuple[int, ...] = tuple(_MIRROR_SWAP.get(j, j) for j in range(17))
 
 # Named indices used by the geometry; joint 9 (nose) is never a spine point.
 PELVIS, R_HIP, R_KNEE, R_ANKLE, L_HIP, L_KNEE, L_ANKLE = 0, 1, 2, 3, 4, 5, 6
