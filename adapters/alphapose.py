@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import re
 from pathlib import Path
+from dataclasses import dataclass, field
 from typing import Any, Iterator
 
 import numpy as np
@@ -79,12 +80,23 @@ def _track_id(p: Path, i: int, idx: Any) -> int | None:
 TOP_LEVEL = "a list of detections (AlphaPose results JSON, AlphaPose docs/output.md)"
 
 
-def _parse(p: Path, items: Iterator[Any]) -> tuple[list[tuple[int, int | None, float, np.ndarray]], int, bool, bool]:
-    """Return (entries (frame, track, score, keypoints (K, 3))), K, any list-form idx,
-    any missing score) from the file's top-level items (:func:`iter_json_array`)."""
-    entries = []
-    count = None
-    list_idx = missing_score = False
+@dataclass
+class _Scan:
+    """Pass 1 over the file: what choosing the track and sizing the output needs, no keypoints."""
+
+    count: int | None = None
+    entries: int = 0
+    max_frame: int = -1
+    list_idx: bool = False
+    missing_score: bool = False
+    #: best detection score per (track, frame); the file order decides only exact ties
+    best: dict = field(default_factory=dict)
+    duplicates: dict = field(default_factory=dict)
+
+
+def _detections(p: Path, items: Iterator[Any], scan: _Scan) -> Iterator[tuple[int, int | None, float, np.ndarray]]:
+    """``(frame, track, score, keypoints (K, 3) float64)`` of every detection, checked, with
+    ``scan`` updated as they come (the file's top-level items, :func:`iter_json_array`)."""
     for i, det in enumerate(items):
         if not isinstance(det, dict) or "image_id" not in det or "keypoints" not in det:
             got = f"keys {sorted(det)[:6]}" if isinstance(det, dict) else type(det).__name__
@@ -95,24 +107,59 @@ def _parse(p: Path, items: Iterator[Any]) -> tuple[list[tuple[int, int | None, f
         if len(kp) % 3:
             raise AdapterError(p, f"[{i}].keypoints", "a multiple of 3 values (x, y, score per joint)", f"{len(kp)} values")
         n = len(kp) // 3
-        if count is None:
+        if scan.count is None:
             layout_from_count(p, f"[{i}].keypoints", n, _LAYOUT_BY_COUNT)
-            count = n
-        elif n != count:
-            raise AdapterError(p, f"[{i}].keypoints", f"{3 * count} values like the first detection", f"{len(kp)}")
+            scan.count = n
+        elif n != scan.count:
+            raise AdapterError(p, f"[{i}].keypoints", f"{3 * scan.count} values like the first detection", f"{len(kp)}")
         arr = json_numbers(p, f"[{i}].keypoints", kp).reshape(n, 3)
         score, no_score = _score(p, i, det.get("score"), arr)
-        if np.isfinite(arr).all() and (np.abs(arr[:, :2]) <= MAX_ABS_COORDINATE["px"]).all():
-            # Kept as the float32 the keypoints end as (checked_keypoints): every detection of
-            # a long file is held until the best per frame is known. Values beyond the bound or
-            # not finite stay float64 for checked_keypoints' exact message and NaN rule.
-            arr = arr.astype(np.float32)
-        missing_score |= no_score
-        list_idx |= isinstance(det.get("idx"), list)
-        entries.append((_frame_index(p, i, det["image_id"]), _track_id(p, i, det.get("idx")), score, arr))
-    if not entries:
+        scan.missing_score |= no_score
+        scan.list_idx |= isinstance(det.get("idx"), list)
+        frame, track = _frame_index(p, i, det["image_id"]), _track_id(p, i, det.get("idx"))
+        scan.entries += 1
+        scan.max_frame = max(scan.max_frame, frame)
+        yield frame, track, score, arr
+
+
+def _scan(p: Path) -> _Scan:
+    """Pass 1: check every detection and keep each track's best score per frame."""
+    scan = _Scan()
+    for frame, track, score, _ in _detections(p, iter_json_array(p, TOP_LEVEL), scan):
+        per_frame = scan.best.setdefault(track, {})
+        if frame in per_frame:
+            scan.duplicates.setdefault(track, set()).add(frame)
+            if score <= per_frame[frame]:
+                continue
+        per_frame[frame] = score
+    if not scan.entries:
         raise AdapterError(p, "top level", "at least one detection", "an empty list")
-    return entries, count, list_idx, missing_score
+    return scan
+
+
+#: float32's largest value: a keypoint coordinate beyond it cannot be held in the float32
+#: output (it would become inf, i.e. missing) and is refused as beyond the pixel bound.
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def _collect(p: Path, track: int | None, best: dict[int, float], points: np.ndarray, layout: str) -> None:
+    """Pass 2: the chosen track's best detection per frame into ``points`` ``(T, J, 3)``
+    float32: the first detection in file order with the frame's best score, as pass 1 kept it."""
+    taken = np.zeros(len(points), bool)
+    n_joints = points.shape[1]
+    for frame, t, score, kp in _detections(p, iter_json_array(p, TOP_LEVEL), _Scan()):
+        if t != track or taken[frame] or score != best[frame]:
+            continue
+        kp = kp[:n_joints]
+        huge = np.isfinite(kp[:, :2]) & (np.abs(kp[:, :2]) > _FLOAT32_MAX)
+        if huge.any():
+            j = int(np.argwhere(huge)[0][0])
+            raise AdapterError(p, f"keypoints (frame {frame}, joint {get_layout(layout).joints[j]})",
+                               f"|coordinate| <= {MAX_ABS_COORDINATE['px']:g} px", f"{kp[j, :2][huge[j]][0]:.4g}")
+        # A confidence beyond float32 is clipped at its largest value (then to 1); inf and NaN
+        # stay non-finite: missing.
+        points[frame] = np.where(np.isfinite(kp), np.clip(kp, -_FLOAT32_MAX, _FLOAT32_MAX), kp)
+        taken[frame] = True
 
 
 def load_alphapose(path: str | Path, person: int | None = None, num_frames: int | None = None,
@@ -158,20 +205,11 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     p = Path(path)
     if person is not None and (isinstance(person, bool) or not isinstance(person, int)):
         raise AdapterError(p, "person", "an integer track id or None", repr(person))
-    entries, count, list_idx, missing_score = _parse(p, iter_json_array(p, TOP_LEVEL))
-
-    # Best detection per (track, frame): the file order decides only exact score ties.
-    best: dict[int | None, dict[int, tuple[float, np.ndarray]]] = {}
-    duplicates: dict[int | None, set[int]] = {}
-    for frame, track, score, kp in entries:
-        per_frame = best.setdefault(track, {})
-        if frame in per_frame:
-            duplicates.setdefault(track, set()).add(frame)
-            if score <= per_frame[frame][0]:
-                continue
-        per_frame[frame] = (score, kp)
-
-    totals = {t: sum(s for s, _ in frames.values()) for t, frames in best.items()}
+    # Two passes over the file, so that only the chosen track's keypoints are ever held (a
+    # long file's every detection would be GBs): scores per track and frame, then keypoints.
+    scan = _scan(p)
+    best, duplicates, count = scan.best, scan.duplicates, scan.count
+    totals = {t: sum(frames.values()) for t, frames in best.items()}
     if person is not None:
         if person not in best:
             known = sorted(t for t in best if t is not None)
@@ -186,24 +224,22 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
             others = ", ".join(f"{t}: {totals[t]:.1f}" for t in sorted(best, key=lambda t: (t is None, t or 0)) if t != track)
             how += f"; other tracks {others}"
 
-    max_frame = max(f for f, *_ in entries)
-    num_frames = frame_count_for(p, "image_id", max_frame, len(entries), frame_count, num_frames)
+    num_frames = frame_count_for(p, "image_id", scan.max_frame, scan.entries, frame_count, num_frames)
     layout = _LAYOUT_BY_COUNT[count]
     n_joints = get_layout(layout).num_joints
-    del entries  # every detection; only the chosen track's are needed from here on
-    points = np.full((num_frames, n_joints, 3), np.nan)
-    for frame, (_, kp) in best[track].items():
-        points[frame] = kp[:n_joints]
+    points = np.full((num_frames, n_joints, 3), np.nan, np.float32)
+    _collect(p, track, best[track], points, layout)
     found = len(best[track])
-    del best
-    points, raw_max = checked_keypoints(p, "keypoints", points, layout)
+    scan_list_idx, scan_missing_score = scan.list_idx, scan.missing_score
+    del best, scan
+    points, raw_max = checked_keypoints(p, "keypoints", points, layout, in_place=True)
 
     notes = [f"AlphaPose results JSON (AlphaPose docs/output.md), {count} keypoints -> {layout}", how]
     if count != n_joints:
         notes.append(f"kept the first {n_joints} of {count} joints (body part)")
-    if list_idx:
+    if scan_list_idx:
         notes.append("idx is list-form (AlphaPose without a tracker: pose-NMS proposal ids, not a real track); first id used")
-    if missing_score:
+    if scan_missing_score:
         notes.append("entries without 'score' scored by their mean keypoint confidence")
     dup = sorted(duplicates.get(track, ()))
     if dup:

@@ -68,7 +68,7 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
     clip_starts = list(range(0, arr.shape[0], clip_len))
     shown = ", ".join(map(str, clip_starts[:6])) + (", ..." if len(clip_starts) > 6 else "")
     units = "px" if pixel else "normalised"
-    arr = checked_poses(p, "X3D", arr, "h36m17", units)
+    arr = checked_poses(p, "X3D", arr, "h36m17", units, in_place=True)
     notes = (f"MotionBERT X3D.npy (infer_wild.py), H36M-17, units {units}"
              + (" (x, y image pixels, z pixels)" if pixel else " (image-normalised, about [-1, 1])")
              + "; axes x right, y down, z away from the camera (z sign derived); no axis changed"

@@ -34,6 +34,7 @@ import numpy as np
 
 from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout, validate_poses
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.framestore import frame_blocks
 
 from .types import AdapterError
 
@@ -468,8 +469,15 @@ def require_some_finite(p: str | Path, field: str, arr: np.ndarray) -> None:
 def finite_max_abs(arr: np.ndarray) -> float:
     """Largest finite ``|value|`` of ``arr``; NaN when it has none (no all-NaN warning)."""
     a = np.asarray(arr)
-    finite = a[np.isfinite(a)]
-    return float(np.abs(finite).max()) if finite.size else float("nan")
+    if a.ndim == 0:
+        a = a[None]
+    best = float("nan")
+    for rows in frame_blocks(len(a)):  # a block at a time: no whole-recording copies
+        block = a[rows]
+        finite = block[np.isfinite(block)]
+        if finite.size:
+            best = float(np.fmax(best, np.abs(finite).max()))
+    return best
 
 
 def layout_from_count(p: str | Path, field: str, count: int, table: Mapping[int, str]) -> str:
@@ -552,30 +560,38 @@ def frame_count_for(p: str | Path, field: str, max_index: int, records: int,
 # --------------------------------------------------------------------------- finishing
 
 
-def _refuse_beyond(p: str | Path, field: str, values: np.ndarray, bound: float, unit: str, layout: str) -> None:
-    """Refuse any finite ``|values|`` above ``bound``, naming the first frame and joint.
-
-    ``values`` is ``(T, J, C)``, compared in its own precision (float64 for JSON input) so
-    that 1e300 is named, not first overflowed to inf.
-    """
+def _beyond(values: np.ndarray, bound: float) -> tuple[tuple[int, int, float] | None, int]:
+    """``((frame, joint, value) of the first finite |value| above ``bound`` or None, number
+    of joints with one)`` for ``(T, J, C)`` values, in their own precision."""
     with np.errstate(invalid="ignore"):
         beyond = np.abs(values) > bound
     hits = beyond.any(axis=2)
-    if hits.any():
-        t, j = (int(i) for i in np.argwhere(hits)[0])
-        value = float(values[t, j][beyond[t, j]][0])
+    if not hits.any():
+        return None, 0
+    t, j = (int(i) for i in np.argwhere(hits)[0])
+    return (t, j, float(values[t, j][beyond[t, j]][0])), int(hits.sum())
+
+
+def _raise_beyond(p, field: str, first, count: int, bound: float, unit: str, layout: str) -> None:
+    if first is not None:
+        t, j, value = first
         name = get_layout(layout).joints[j]
         raise AdapterError(p, f"{field} (frame {t}, joint {name})", f"|coordinate| <= {bound:g} {unit}",
-                           f"{value:.4g} ({int(hits.sum())} joints beyond it)")
+                           f"{value:.4g} ({count} joints beyond it)")
 
 
-def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str) -> tuple[np.ndarray, float]:
+def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str,
+                      in_place: bool = False) -> tuple[np.ndarray, float]:
     """The last step of every 2D adapter: make ``(T, J, 3)`` x_px, y_px, confidence obey
     the conventions.
 
     A joint with any non-finite channel (``inf``, NaN, JSON ``Infinity``) is missing: NaN in
     all three channels. ``|x|`` or ``|y|`` beyond ``MAX_ABS_COORDINATE["px"]`` (1e5) is
     refused. Confidence is clipped to [0, 1].
+
+    ``in_place``: write the result into ``points`` when it is a writable float32 array (a
+    long recording's keypoints are then not copied); checked a block of frames at a time in
+    float64, the precision the bound is checked in.
 
     Returns:
         (float32 ``(T, J, 3)`` points, largest finite raw confidence or NaN).
@@ -584,24 +600,39 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
         AdapterError: ``field`` naming frame and joint for a coordinate beyond the bound,
             or when no finite keypoint is left.
     """
-    pts = np.array(points, dtype=np.float64)
+    points = np.asarray(points)
     n_joints = get_layout(layout).num_joints
-    if pts.ndim != 3 or pts.shape[1:] != (n_joints, 3):
-        raise AdapterError(p, field, f"(T, {n_joints}, 3) keypoints for layout {layout}", f"shape {pts.shape}")
-    pts[~np.isfinite(pts).all(axis=2)] = np.nan
-    _refuse_beyond(p, field, pts[..., :2], MAX_ABS_COORDINATE["px"], "px", layout)
-    if not np.isfinite(pts).any():
+    if points.ndim != 3 or points.shape[1:] != (n_joints, 3):
+        raise AdapterError(p, field, f"(T, {n_joints}, 3) keypoints for layout {layout}", f"shape {points.shape}")
+    in_place = in_place and points.dtype == np.float32 and points.flags.writeable
+    out = points if in_place else np.empty(points.shape, np.float32)
+    bound = MAX_ABS_COORDINATE["px"]
+    any_finite, raw_max, first, count = False, float("nan"), None, 0
+    for rows in frame_blocks(len(points)):
+        pts = np.array(points[rows], dtype=np.float64)
+        pts[~np.isfinite(pts).all(axis=2)] = np.nan  # a joint with any non-finite channel is missing
+        block_first, block_count = _beyond(pts[..., :2], bound)
+        if first is None and block_first is not None:
+            first = (rows.start + block_first[0],) + block_first[1:]
+        count += block_count
+        any_finite |= bool(np.isfinite(pts).any())
+        pts, block_max = clip_confidence(pts)
+        raw_max = float(np.fmax(raw_max, block_max))
+        out[rows] = pts
+    _raise_beyond(p, field, first, count, bound, "px", layout)
+    if not any_finite:
         raise AdapterError(p, field, "some finite keypoints", "only NaN/inf")
-    pts, raw_max = clip_confidence(pts)
-    return pts.astype(np.float32), raw_max
+    return out, raw_max
 
 
-def checked_poses(p: str | Path, field: str, joints: np.ndarray, layout: str, units: str) -> np.ndarray:
+def checked_poses(p: str | Path, field: str, joints: np.ndarray, layout: str, units: str,
+                  in_place: bool = False) -> np.ndarray:
     """The last step of every 3D adapter: ``(T, J, 3)`` joints in ``units`` through
     :func:`pcnet.stages.core.conventions.validate_poses`, the check every entry point shares.
 
     ``inf`` becomes NaN; a coordinate beyond ``MAX_ABS_COORDINATE[units]`` (100 m, 1e5 px,
-    1e3 normalised) is refused naming the frame and the joint of ``layout``.
+    1e3 normalised) is refused naming the frame and the joint of ``layout``. ``in_place``: an
+    adapter's own float32 array is cleaned where it is (no copy of a long recording).
 
     Returns:
         float32 ``(T, J, 3)``.
@@ -612,7 +643,8 @@ def checked_poses(p: str | Path, field: str, joints: np.ndarray, layout: str, un
     """
     lay = get_layout(layout)
     try:
-        return validate_poses(joints, source=str(p), units=units, num_joints=lay.num_joints, joint_names=lay.joints)
+        return validate_poses(joints, source=str(p), units=units, num_joints=lay.num_joints, joint_names=lay.joints,
+                              in_place=in_place)
     except InputError as exc:
         msg = str(exc)
         msg = msg[len(str(p)) + 2:] if msg.startswith(f"{p}: ") else msg

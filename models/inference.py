@@ -13,6 +13,7 @@ import numpy as np
 
 from pcnet.stages.core.conventions import check_poses
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.framestore import frame_blocks
 from pcnet.stages.core.rotations import angle_between
 
 from .preprocess import normalize_input
@@ -63,8 +64,19 @@ class PCNetSession:
         self.path, self.session, self.info = _open(weights, DEFAULT_WEIGHTS, threads)
         _check_signature(self.path, self.session, "3DPCNet", {"x": [17, 3]}, {"rotation": [3, 3], "residual": [17, 3]})
 
-    def predict(self, joints_cam: np.ndarray, batch_size: int = 256) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return self.predict_normalized(*normalized_in_chunks(joints_cam), batch_size=batch_size)
+    def predict(self, joints_cam: np.ndarray, batch_size: int = 256,
+                residual: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(R, residual, valid)`` of ``joints_cam`` (in memory or a
+        :class:`~pcnet.stages.core.framestore.FrameArray`), :data:`CHUNK_FRAMES` frames at a
+        time; the residual goes into ``residual`` when given (any ``(N, 17, 3)`` array taking
+        slice assignment, e.g. a FrameArray: a long recording's residual stays on disk)."""
+        n = len(check_poses(joints_cam, "joints_cam"))
+        R, valid = np.full((n, 3, 3), np.nan), np.zeros(n, bool)
+        residual = np.full((n, 17, 3), np.nan) if residual is None else residual
+        for rows in frame_blocks(n, CHUNK_FRAMES):
+            R[rows], residual[rows], valid[rows] = self.predict_normalized(
+                *normalize_input(check_poses(joints_cam[rows], "joints_cam")), batch_size=batch_size)
+        return R, residual, valid
 
     def predict_normalized(self, x: np.ndarray, scale: np.ndarray, valid: np.ndarray,
                            batch_size: int = 256) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -103,18 +115,25 @@ class ViewGatedPCNet:
         self.body = PCNetSession(BODY_WEIGHTS, threads)
         self.path, self.info = self.camera.path, self.camera.info
 
-    def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0):
-        normalized = normalized_in_chunks(joints_cam)  # both networks read the same input
-        R_cam, res_cam, valid = self.camera.predict_normalized(*normalized)
-        R_body, res_body, _ = self.body.predict_normalized(*normalized)
-        del normalized
+    def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0, allocate=None):
+        """``(R, residual, valid, camera-frame weight, disagreement in deg)``; ``joints_cam``
+        in memory or on disk, read :data:`CHUNK_FRAMES` frames at a time. ``allocate(name,
+        shape, dtype)`` makes the two ``(N, 17, 3)`` float64 residual arrays (NaN-filled;
+        default in memory; the pipeline's are on disk, so only the ``(N, 3, 3)`` rotations and
+        per-frame values of a long recording are in memory)."""
+        n = len(check_poses(joints_cam, "joints_cam"))
+        allocate = allocate or (lambda name, shape, dtype: np.full(shape, np.nan, dtype))
+        res_cam, res_body = (allocate(name, (n, 17, 3), np.float64) for name in ("residual", "residual_body"))
+        R_cam, R_body, valid = np.full((n, 3, 3), np.nan), np.full((n, 3, 3), np.nan), np.zeros(n, bool)
+        for rows in frame_blocks(n, CHUNK_FRAMES):
+            normalized = normalize_input(check_poses(joints_cam[rows], "joints_cam"))  # both networks read it
+            R_cam[rows], res_cam[rows], valid[rows] = self.camera.predict_normalized(*normalized)
+            R_body[rows], res_body[rows], _ = self.body.predict_normalized(*normalized)
         weight = camera_frame_weight(R_body, valid, fps, R_cam)
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
-        # Blended a block at a time, the residual into the camera-frame one's array: whole-recording
-        # (T, 17, 3) float64 temporaries would add to the rectification stage's peak.
+        # Blended a block at a time, the residual into the camera-frame one's array.
         R = np.full(R_body.shape, np.nan)
-        for lo in range(0, len(weight), CHUNK_FRAMES):
-            rows = slice(lo, lo + CHUNK_FRAMES)
+        for rows in frame_blocks(n, CHUNK_FRAMES):
             w = weight[rows, None, None]
             res_cam[rows] = w * res_cam[rows] + (1 - w) * res_body[rows]
             R[rows] = blend_rotations(R_body[rows], R_cam[rows], weight[rows])

@@ -16,8 +16,9 @@ import numpy as np
 from pcnet.models.inference import get_session
 from pcnet.stages.core.conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.rectify import (METHODS, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
-                                  Rectification, Rectified, SequenceEvidence, check_method_weights,
+from pcnet.stages.core.framestore import frame_blocks
+from pcnet.stages.rectify import (METHODS, Allocate, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
+                                  Rectification, Rectified, SequenceEvidence, check_method_weights, in_memory,
                                   resolve_heading_source)
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG
 
@@ -41,15 +42,17 @@ class NetworkEstimator:
     def frame_tilt_95_deg(self) -> float:
         return FRAME_TILT_95_DEG if self.weights is None else float("nan")
 
-    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0) -> FrameEstimate:
+    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0, allocate: Allocate | None = None) -> FrameEstimate:
         X = check_poses(joints_cam, "joints_cam")
         session = get_session(None if self.weights is None else str(self.weights))
         if self.weights is None:
-            R, residual, valid, gate, disagreement = session.predict_gated(X, fps)
+            R, residual, valid, gate, disagreement = session.predict_gated(X, fps, allocate)
         else:
-            (R, residual, valid), gate, disagreement = session.predict(X), None, None
+            residual = (allocate or in_memory)("residual", X.shape, np.float64)
+            (R, residual, valid), gate, disagreement = session.predict(X, residual=residual), None, None
         if self.rigid:
-            residual = np.where(valid[:, None, None], 0.0, np.nan)
+            for rows in frame_blocks(len(valid)):
+                residual[rows] = np.where(valid[rows, None, None], 0.0, np.nan)
         return FrameEstimate(R, residual, valid, gate, disagreement)
 
 
@@ -105,10 +108,25 @@ def rectify(
         InputError (a ValueError): bad input array (see above), unknown method, mode or
             heading source, or (sequence modes) no valid frame.
     """
-    heading_step = HeadingStep(resolve_heading_source(method, heading))
-    chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior), heading_step)
-    fps = validate_fps(fps)
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
-    result = chain(joints_cam, fps)
+    result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior)
     result.report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
     return result
+
+
+def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = None, mode: str = "frame",
+                    fps: float = 30.0, heading: str | None = None, camera_prior: bool = True,
+                    allocate: Allocate | None = None) -> Rectified:
+    """:func:`rectify` of poses that already passed its input rules (``pcnet run`` applies
+    them a block at a time), in memory or a
+    :class:`~pcnet.stages.core.framestore.FrameArray`; ``allocate`` makes the residual and
+    canonical arrays (:data:`pcnet.stages.rectify.Allocate`; default in memory). No
+    ``pelvis_from_hips_frames`` in the report.
+
+    Raises:
+        InputError: as :func:`rectify`, but for the input rules.
+    """
+    heading_step = HeadingStep(resolve_heading_source(method, heading))
+    chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior), heading_step,
+                          allocate)
+    return chain(joints_cam, validate_fps(fps))

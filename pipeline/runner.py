@@ -24,18 +24,19 @@ from tqdm import tqdm
 from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
 from pcnet.models.toml_config import type_name, value_matches
 from pcnet.stages.core.conventions import (H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps,
-                                      validate_poses)
+                                           validate_poses)
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.framestore import FrameStore, frame_blocks
 from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (body_size_flag, disagreement_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
-from pcnet.pipeline.rectification import rectify
+from pcnet.pipeline.rectification import rectify_checked
 from pcnet.stages.rectify import NO_VALID_FRAME
 from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
                                       write_motion_files, write_rerun)
-from pcnet.stages.scale import scale_to_height
+from pcnet.stages.scale import height_factor
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL
 from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
@@ -172,11 +173,12 @@ def _load_inputs(cfg: RunConfig):
             options["frame_count"] = video.frame_count
         kp = adapter.load(cfg.keypoints2d, **options)
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
+        del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)
     poses = adapter.load(cfg.lifter_output, **_checked_options("lifter", cfg.lifter, adapter, cfg.lifter_options))
     fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = poses.joints if poses.layout == "h36m17" else remap_to_h36m(poses.joints, poses.layout)
-    joints = validate_poses(joints, str(cfg.lifter_output), poses.units)
+    joints = validate_poses(joints, str(cfg.lifter_output), poses.units, in_place=joints is poses.joints)
     return video, fps, kp2d, joints, poses.units, poses.root_translation, poses.summary_note
 
 
@@ -268,6 +270,58 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
         return _run_stages(cfg, out, bar)
 
 
+def _present(poses) -> np.ndarray:
+    """``(T,)`` bool: frames with any finite joint, read a block at a time."""
+    return np.concatenate([np.isfinite(poses[rows]).any(axis=(1, 2)) for rows in frame_blocks(len(poses))])
+
+
+def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: FrameStore):
+    """The remap step a block of frames at a time into ``store``: the pelvis rule, the root
+    (kept as a measurement for a depth sensor), root-relative poses and the joints masked by
+    their 2D confidence. Returns ``(joints_camera, keypoints2d or None, root_cam (T, 3)
+    float64 or None, pelvis-filled frame count)``."""
+    T = len(joints)
+    cam = store.create("joints_camera", (T, 17, 3), np.float32)
+    kp = None if kp2d is None else store.create("keypoints2d", kp2d.shape, np.float32)
+    # Only a depth sensor measures where the root is; a monocular lifter's root is zeroed,
+    # image-normalised or a fixed depth.
+    root_cam = np.full((T, 3), np.nan) if measured_root else None
+    filled, finite = 0, False
+    for rows in frame_blocks(T):
+        J, pelvis_filled = fill_pelvis_from_hips(joints[rows])
+        filled += int(pelvis_filled.sum())
+        if root_cam is not None:
+            root_cam[rows] = J[:, PELVIS]
+        J = J - J[:, PELVIS : PELVIS + 1]  # root-relative camera frame
+        if kp is not None:
+            kp[rows] = kp2d[rows]
+            J = mask_low_confidence(J, kp2d[rows, :, 2], cfg.confidence_threshold)
+        finite |= bool(np.isfinite(J).any())
+        cam[rows] = J
+    if not finite:
+        raise InputError(f"{cfg.lifter_output}: every joint of every frame is missing (NaN) after masking the joints "
+                         f"whose 2D confidence in {cfg.keypoints2d} is below {cfg.confidence_threshold:g}")
+    return cam, kp, root_cam, filled
+
+
+def _located(cam, root_cam: np.ndarray | None, store: FrameStore):
+    """Camera-frame joints with the measured root put back (sequence mode fits the floor to
+    the foot contacts, stages/ground_plane.py), or ``cam`` itself."""
+    if root_cam is None:
+        return cam
+    located = store.create("joints_located", cam.shape, np.float32)
+    for rows in frame_blocks(len(cam)):
+        located[rows] = cam[rows] + root_cam[rows, None].astype(np.float32)
+    return located
+
+
+def _scaled_in_place(arr, factor: float, precision=np.float64) -> None:
+    """Multiply a float32 pose array (on disk) by ``factor`` in ``precision``, a block at a
+    time (float64: :func:`pcnet.stages.scale.scale_to_height`'s arithmetic)."""
+    for rows in frame_blocks(len(arr)):
+        arr[rows] = (arr[rows].astype(precision) * factor).astype(np.float32)
+
+
 def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     seconds: dict[str, float] = {}
     clock = [time.perf_counter(), None]
@@ -280,103 +334,99 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         bar.set_postfix_str(name)
         _trim_heap()
 
-    step("inputs")
-    video, fps, kp2d, joints, units, measured_root, lifter_note = _load_inputs(cfg)
-    kp2d, joints = _align(cfg, video, kp2d, joints)
-    bar.update()
+    # Whole-recording pose arrays live in a store in the staged output folder and are read a
+    # block of frames at a time, so memory does not grow with the recording's length; the
+    # store is removed before the folder is swapped in.
+    with staged_output(out) as tmp, FrameStore(tmp) as store:
+        step("inputs")
+        video, fps, kp2d, joints, units, measured_root, lifter_note = _load_inputs(cfg)
+        kp2d, joints = _align(cfg, video, kp2d, joints)
+        bar.update()
 
-    step("remap")
-    notes: list[str] = [lifter_note] if lifter_note else []
-    joints, pelvis_filled = fill_pelvis_from_hips(joints)
-    if pelvis_filled.any():
-        notes.append(f"pelvis missing in {int(pelvis_filled.sum())} frames: taken as the hip midpoint")
-    # Only a depth sensor measures where the root is; a monocular lifter's root is zeroed,
-    # image-normalised or a fixed depth.
-    root_cam = joints[:, PELVIS].astype(np.float64) if measured_root else None
-    joints = joints - joints[:, PELVIS : PELVIS + 1]  # root-relative camera frame
-    if kp2d is not None:
-        joints = mask_low_confidence(joints, kp2d[..., 2], cfg.confidence_threshold)
-    if not np.isfinite(joints).any():
-        raise InputError(f"{cfg.lifter_output}: every joint of every frame is missing (NaN) after masking the joints "
-                         f"whose 2D confidence in {cfg.keypoints2d} is below {cfg.confidence_threshold:g}")
-    bar.update()
+        step("remap")
+        notes: list[str] = [lifter_note] if lifter_note else []
+        cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store)
+        del joints
+        if pelvis_filled:
+            notes.append(f"pelvis missing in {pelvis_filled} frames: taken as the hip midpoint")
+        bar.update()
 
-    step("rectify")
-    try:
-        # A measured root lets sequence mode fit the floor to the foot contacts
-        # (stages/ground_plane.py); the estimators centre each pose themselves.
-        located = joints if root_cam is None else joints + root_cam[:, None].astype(joints.dtype)
-        res = rectify(located, cfg.method, cfg.weights, cfg.mode, fps, cfg.heading, camera_prior=cfg.camera_prior)
-    except ValueError as err:
-        raise InputError(f"{cfg.lifter_output}: {err}") from err
-    if not res.valid.any():
-        raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
-    rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
-    # Whole-recording arrays: drop every reference the rest of the run does not read, or the
-    # superseded copies (unscaled canonical, unscaled joints) stay resident to the end.
-    del res, located
-    tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
-    flags = orientation_flags(tilt) + (body_size_flag(joints, units) if cfg.height is None else [])
-    flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
-    flags += view_gate_flag(report.get("view_gate"))
-    flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
-    segment = None
-    if kp2d is not None:
-        segment, events = track_segments(kp2d, fps)
-        flags += track_switch_flag(segment, events)
-    bar.update()
-
-    step("scale")
-    if cfg.height is not None:
-        joints, factor = scale_to_height(joints, cfg.height)
-        canonical = (canonical * factor).astype(np.float32)
-        root_cam = None if root_cam is None else root_cam * factor
-        notes.append(f"scaled by {factor:.4g} to a {cfg.height} m subject (from {units})")
-        units = "m"
-    elif units != "m":
-        notes.append(f"lifter output is {units}, not metres: give --height for metric kinematics and a TRC file")
-    bar.update()
-
-    step("kinematics")
-    # Anything differentiated in time lives in one fixed frame per recording; only a static
-    # camera (sequence mode) gives one.
-    world, world_rotation = None, np.full((3, 3), np.nan)
-    if report["mode"] == "sequence":
-        frame = world_frame(rotations, valid, fps)
-        world, world_rotation = to_world(joints, frame, root_cam), frame.rotation
-        flags += floor_flag(feet_visible(joints), np.isfinite(joints).any(axis=(1, 2)))
-        report["root_path"] = "measured" if root_cam is not None else "not observable"
-    else:
-        flags.append(f"no fixed world frame: mode {report['mode']} (a moving camera, or one the up estimates "
-                     f"disagree on) has no fixed heading, so positions, velocities and accelerations are in the "
-                     f"per-frame canonical frame, which turns with the pelvis (rotating-frame terms); use "
-                     f"--mode sequence if the camera was static")
-    report["kinematics_frame"] = kin_frame = "world" if world is not None else "canonical"
-    rectified = world if world is not None else canonical
-    cutoff = cfg.cutoff_hz
-    if cfg.residual_cutoff:
+        step("rectify")
         try:
-            analysis = residual_analysis(rectified, fps)
-        except InputError as err:
+            res = rectify_checked(_located(cam, root_cam, store), cfg.method, cfg.weights, cfg.mode, fps, cfg.heading,
+                                  camera_prior=cfg.camera_prior, allocate=store.create)
+        except ValueError as err:
             raise InputError(f"{cfg.lifter_output}: {err}") from err
-        cutoff = analysis.cutoff_hz
-        notes.append(f"low-pass cutoff {cutoff:.2f} Hz by residual analysis (Winter; noise {analysis.noise:.3g} "
-                     f"{units}; per-coordinate cutoffs {np.nanpercentile(analysis.per_signal_hz, 10):.1f}-"
-                     f"{np.nanpercentile(analysis.per_signal_hz, 90):.1f} Hz, 10th-90th percentile)")
-    report["cutoff_hz"] = cutoff
-    report["cutoff_source"] = "residual analysis" if cfg.residual_cutoff else "cutoff_hz"
-    # Camera-frame wrist accelerations only feed the before/after wrist plot: two joints,
-    # small enough to filter whole, and no angles to compute.
-    acc_cam = filtered_derivatives(joints[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
+        if not res.valid.any():
+            raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
+        rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
+        report["pelvis_from_hips_frames"] = pelvis_filled
+        del res
+        tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
+        flags = orientation_flags(tilt) + (body_size_flag(cam, units) if cfg.height is None else [])
+        flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
+        flags += view_gate_flag(report.get("view_gate"))
+        flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
+        segment = None
+        if kp2d is not None:
+            segment, events = track_segments(kp2d, fps)
+            flags += track_switch_flag(segment, events)
+        bar.update()
 
-    result = RecordingResult(
-        fps=fps, units=units, method=cfg.method, report=report, flags=flags, notes=notes, joints_camera=joints,
-        rotation=rotations, canonical=canonical, valid=valid, kinematics_frame=kin_frame, poses=rectified,
-        world=world, world_rotation=world_rotation, keypoints2d=kp2d, track_segment=segment, video=cfg.video,
-        min_confidence=cfg.confidence_threshold, wrist_acceleration_camera=acc_cam)
-    with staged_output(out) as tmp:
+        step("scale")
+        if cfg.height is not None:
+            factor = height_factor(cam, cfg.height)
+            _scaled_in_place(cam, factor)
+            _scaled_in_place(canonical, factor, np.float32)
+            root_cam = None if root_cam is None else root_cam * factor
+            notes.append(f"scaled by {factor:.4g} to a {cfg.height} m subject (from {units})")
+            units = "m"
+        elif units != "m":
+            notes.append(f"lifter output is {units}, not metres: give --height for metric kinematics and a TRC file")
+        bar.update()
+
+        step("kinematics")
+        # Anything differentiated in time lives in one fixed frame per recording; only a static
+        # camera (sequence mode) gives one.
+        world, world_rotation = None, np.full((3, 3), np.nan)
+        if report["mode"] == "sequence":
+            frame = world_frame(rotations, valid, fps)
+            world = to_world(cam, frame, root_cam, out=store.create("joints_world", cam.shape, np.float64))
+            world_rotation = frame.rotation
+            flags += floor_flag(feet_visible(cam), _present(cam))
+            report["root_path"] = "measured" if root_cam is not None else "not observable"
+        else:
+            flags.append(f"no fixed world frame: mode {report['mode']} (a moving camera, or one the up estimates "
+                         f"disagree on) has no fixed heading, so positions, velocities and accelerations are in the "
+                         f"per-frame canonical frame, which turns with the pelvis (rotating-frame terms); use "
+                         f"--mode sequence if the camera was static")
+        report["kinematics_frame"] = kin_frame = "world" if world is not None else "canonical"
+        rectified = world if world is not None else canonical
+        cutoff = cfg.cutoff_hz
+        if cfg.residual_cutoff:
+            try:
+                # Winter's residual analysis filters every coordinate whole: the one step
+                # that reads the poses into memory (opt-in).
+                analysis = residual_analysis(rectified[:], fps)
+            except InputError as err:
+                raise InputError(f"{cfg.lifter_output}: {err}") from err
+            cutoff = analysis.cutoff_hz
+            notes.append(f"low-pass cutoff {cutoff:.2f} Hz by residual analysis (Winter; noise {analysis.noise:.3g} "
+                         f"{units}; per-coordinate cutoffs {np.nanpercentile(analysis.per_signal_hz, 10):.1f}-"
+                         f"{np.nanpercentile(analysis.per_signal_hz, 90):.1f} Hz, 10th-90th percentile)")
+        report["cutoff_hz"] = cutoff
+        report["cutoff_source"] = "residual analysis" if cfg.residual_cutoff else "cutoff_hz"
+        # Camera-frame wrist accelerations only feed the before/after wrist plot: two joints,
+        # small enough to filter whole, and no angles to compute.
+        acc_cam = filtered_derivatives(cam[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
+
+        result = RecordingResult(
+            fps=fps, units=units, method=cfg.method, report=report, flags=flags, notes=notes, joints_camera=cam,
+            rotation=rotations, canonical=canonical, valid=valid, kinematics_frame=kin_frame, poses=rectified,
+            world=world, world_rotation=world_rotation, keypoints2d=kp2d, track_segment=segment, video=cfg.video,
+            min_confidence=cfg.confidence_threshold, wrist_acceleration_camera=acc_cam)
         result.kinematics_blocks = kinematics_chunks(rectified, fps, cutoff, units)
-        table = write_kinematics_table(result, tmp)
+        table = write_kinematics_table(result, tmp, allocate=store.create)
         flags += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
         missing_note = format_flag_counts(result.flag_counts)
         if missing_note:
@@ -396,9 +446,10 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             outputs.update(write_rerun(result, tmp))
         bar.update()
         step("done")
+        frames = len(cam)
 
     return RunResult(
-        frames=len(joints), valid_frames=int(valid.sum()), units=units, method=cfg.method, mode=report["mode"],
+        frames=frames, valid_frames=int(valid.sum()), units=units, method=cfg.method, mode=report["mode"],
         camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg, flags=flags,
         report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
     )

@@ -256,11 +256,11 @@ def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, lis
         0 (frames without a pelvis or thorax keep the number of the stretch they lie in);
         ``events`` lists ``(first frame after the jump, jump in torso lengths)``.
     """
-    xy = np.asarray(keypoints2d, np.float64)[..., :2]
-    pelvis, thorax = xy[:, PELVIS], xy[:, THORAX]
+    # Two columns read (a long recording's keypoints are on disk, read a block at a time).
+    pelvis, thorax = (np.asarray(keypoints2d[:, j, :2], np.float64) for j in (PELVIS, THORAX))
     torso = np.linalg.norm(thorax - pelvis, axis=1)
     present = np.flatnonzero(np.isfinite(pelvis).all(axis=1) & np.isfinite(torso) & (torso > 0))
-    segment = np.zeros(len(xy), int)
+    segment = np.zeros(len(keypoints2d), int)
     events: list[tuple[int, float]] = []
     for a, b in zip(present[:-1], present[1:]):
         frames = (b - a) * 30.0 / fps

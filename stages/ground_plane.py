@@ -35,10 +35,19 @@ _MIN_FOOTFALLS = 4
 
 
 
-def _leg_length(J: np.ndarray) -> float:
+def _joint(J, j: int, frames: np.ndarray | None = None) -> np.ndarray:
+    """Joint ``j`` of ``(T, 17, 3)`` poses (in memory or a
+    :class:`~pcnet.stages.core.framestore.FrameArray`) as float64 ``(T, 3)``, or only ``frames``."""
+    x = np.asarray(J[:, j], np.float64)
+    return x if frames is None else x[frames]
+
+
+def _leg_length(J, frames: np.ndarray) -> float:
+    R_hip, R_knee, R_ankle, L_hip, L_knee, L_ankle = (_joint(J, j, frames) for j in
+                                                      (R_HIP, R_KNEE, R_ANKLE, L_HIP, L_KNEE, L_ANKLE))
     legs = [
-        np.linalg.norm(J[:, R_HIP] - J[:, R_KNEE], axis=-1) + np.linalg.norm(J[:, R_KNEE] - J[:, R_ANKLE], axis=-1),
-        np.linalg.norm(J[:, L_HIP] - J[:, L_KNEE], axis=-1) + np.linalg.norm(J[:, L_KNEE] - J[:, L_ANKLE], axis=-1),
+        np.linalg.norm(R_hip - R_knee, axis=-1) + np.linalg.norm(R_knee - R_ankle, axis=-1),
+        np.linalg.norm(L_hip - L_knee, axis=-1) + np.linalg.norm(L_knee - L_ankle, axis=-1),
     ]
     return float(np.nanmedian(np.concatenate(legs)))
 
@@ -53,7 +62,7 @@ def _detect_contacts(J: np.ndarray, ok: np.ndarray, up: np.ndarray, fps: float, 
     """Quasi-static lowest ankles. Returns points ``(K, 3)``, their frame index ``(K,)`` and
     a footfall id ``(K,)`` (runs of consecutive contact frames of one ankle)."""
     T = len(J)
-    ank = J[:, [R_ANKLE, L_ANKLE]]  # (T, 2, 3)
+    ank = np.asarray(J[:, [R_ANKLE, L_ANKLE]], np.float64)  # (T, 2, 3)
     h = ank @ up
     k = max(1, int(round(_SPEED_HALF_WINDOW_S * fps)))
     speed = np.full((T, 2), np.nan)
@@ -127,7 +136,7 @@ def ground_plane_up(J, ok, u_pose, fps, prior_deg, gate_deg):
     if fin.sum() < _MIN_CONTACTS:
         info["reason"] = "too few frames with finite legs"
         return u_pose, info
-    leg = _leg_length(J[fin])
+    leg = _leg_length(J, fin)
     if not np.isfinite(leg) or leg <= 0:
         info["reason"] = "leg length undefined"
         return u_pose, info
@@ -135,7 +144,7 @@ def ground_plane_up(J, ok, u_pose, fps, prior_deg, gate_deg):
     # feet are then placed relative to the pelvis, and their height below it changes with knee
     # flexion and pelvis bob, so contacts do not trace the floor. Only a pelvis that moves
     # freely in all three axes counts as an absolute trajectory.
-    pel_std = np.std(J[fin, PELVIS], axis=0)
+    pel_std = np.std(_joint(J, PELVIS, fin), axis=0)
     if np.any(pel_std < _MIN_PELVIS_STD_FRAC * leg):
         info["reason"] = (
             "pelvis (nearly) fixed on a camera axis: root-relative or depth-pinned joints, "

@@ -55,8 +55,8 @@ def hip_width_cv_percent(joints_cam: np.ndarray, valid: np.ndarray | None = None
     Raises:
         ValueError: wrong joint shape.
     """
-    X = check_poses(joints_cam, "joints_cam").astype(np.float64)
-    width = np.linalg.norm(X[:, R_HIP] - X[:, L_HIP], axis=-1)
+    X = check_poses(joints_cam, "joints_cam")
+    width = np.linalg.norm(np.asarray(X[:, R_HIP], np.float64) - np.asarray(X[:, L_HIP], np.float64), axis=-1)
     keep = np.isfinite(width) & (True if valid is None else np.asarray(valid, bool))
     if keep.sum() < 2 or not width[keep].mean() > 0:
         return float("nan")

@@ -707,7 +707,9 @@ class FrameGatherer:
     :func:`kinematics_chunks`), written into arrays allocated once for ``num_frames`` frames:
     no list of per-block copies and no concatenation, so what a long recording keeps takes
     only its final memory. ``joints`` keeps only those joints (in that order; angles keep every
-    angle) and ``dtype`` converts the float arrays (:func:`select_frames`).
+    angle) and ``dtype`` converts the float arrays (:func:`select_frames`). ``allocate(name,
+    shape, dtype)`` makes each array (default in memory; ``pcnet run`` gives a
+    :class:`~pcnet.stages.core.framestore.FrameStore`'s, so a long recording's stay on disk).
 
     ``add(block)`` appends a block; ``result()`` returns the gathered :class:`Kinematics`.
 
@@ -716,8 +718,10 @@ class FrameGatherer:
             than ``num_frames``, or ``result()`` before exactly ``num_frames`` frames came.
     """
 
-    def __init__(self, num_frames: int, joints: Iterable[str] | None = None, dtype: type | None = None):
+    def __init__(self, num_frames: int, joints: Iterable[str] | None = None, dtype: type | None = None,
+                 allocate=None):
         self.num_frames = int(num_frames)
+        self.allocate = allocate or (lambda name, shape, dtype: np.empty(shape, dtype))
         self.joints = None if joints is None else tuple(joints)
         self.dtype = dtype
         self.filled = 0
@@ -729,9 +733,10 @@ class FrameGatherer:
         k = select_frames(block, 0, block.num_frames, self.joints, self.dtype)
         if self._first is None:
             self._first = k
-            self._arrays = {n: np.empty((self.num_frames,) + getattr(k, n).shape[1:], getattr(k, n).dtype)
-                            for n in _FRAME_ARRAYS}
-            self._angles = {n: np.empty(self.num_frames, v.dtype) for n, v in k.angles.items()}
+            self._arrays = {n: self.allocate(f"kept_{n}", (self.num_frames,) + getattr(k, n).shape[1:],
+                                             getattr(k, n).dtype) for n in _FRAME_ARRAYS}
+            self._angles = {n: self.allocate(f"kept_angle_{n}", (self.num_frames,), v.dtype)
+                            for n, v in k.angles.items()}
         elif (k.joint_names, tuple(k.angles), k.units, k.fps, k.cutoff_hz) != (
                 self._first.joint_names, tuple(self._first.angles), self._first.units, self._first.fps,
                 self._first.cutoff_hz):
@@ -769,7 +774,8 @@ def kinematics_chunks(
     identical NaN and flag patterns.
 
     Args:
-        poses: ``(T, 17, 3)`` Y-up poses, as :func:`compute_kinematics`.
+        poses: ``(T, 17, 3)`` Y-up poses, as :func:`compute_kinematics`; in memory or a
+            :class:`~pcnet.stages.core.framestore.FrameArray` (read a chunk at a time).
         fps, cutoff_hz, units, order: as :func:`compute_kinematics`.
         chunk_frames: frames per yielded chunk (> 0); default :data:`CHUNK_FRAMES`.
 
@@ -788,7 +794,7 @@ def kinematics_chunks(
     for start in range(0, T, chunk_frames):
         stop = min(T, start + chunk_frames)
         lo, hi = max(0, start - pad), min(T, stop + pad)
-        k = compute_kinematics(X[lo:hi], fps, cutoff_hz, units, order)
+        k = compute_kinematics(check_poses(X[lo:hi], "poses"), fps, cutoff_hz, units, order)
         yield select_frames(k, start - lo, stop - lo)
 
 

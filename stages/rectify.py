@@ -17,6 +17,7 @@ rotations ``(T, 3, 3)`` canonical->camera (docs/CONVENTIONS.md); invalid frames 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -25,6 +26,7 @@ import numpy as np
 from .core.canonical import to_canonical
 from .core.conventions import check_poses
 from .core.errors import InputError
+from .core.framestore import frame_blocks
 from .core.geometric import geometric_rotation
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
@@ -32,6 +34,16 @@ from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_T
 from .uncertainty import bound_weights, calibrated_interval, frame_tilt_bound
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
+
+#: ``allocate(name, shape, dtype)``: a new NaN-filled ``(T, ...)`` array for a whole-recording
+#: result (the residual, the canonical poses): :func:`in_memory`, or a
+#: :class:`~pcnet.stages.core.framestore.FrameStore`'s ``create`` for a long recording.
+Allocate = Callable[[str, tuple, type], np.ndarray]
+
+
+def in_memory(name: str, shape: tuple, dtype) -> np.ndarray:
+    """The default :data:`Allocate`: a NaN-filled in-memory array (``name`` unused)."""
+    return np.full(shape, np.nan, dtype)
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
 
 
@@ -121,7 +133,9 @@ class FrameEstimator(Protocol):
     name: str
     frame_tilt_95_deg: float
 
-    def __call__(self, joints_cam: np.ndarray, fps: float) -> FrameEstimate: ...
+    def __call__(self, joints_cam: np.ndarray, fps: float, allocate: Allocate | None = None) -> FrameEstimate:
+        """``allocate`` (optional; only passed when the chain has one) makes the residual
+        array (:data:`Allocate`)."""
 
 
 @dataclass(frozen=True)
@@ -132,10 +146,13 @@ class GeometricEstimator:
     name: str = "geometric"
     frame_tilt_95_deg: float = float("nan")
 
-    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0) -> FrameEstimate:
+    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0, allocate: Allocate | None = None) -> FrameEstimate:
         X = check_poses(joints_cam, "joints_cam")
         R, valid = geometric_rotation(X)
-        return FrameEstimate(R, np.zeros(X.shape, np.float64), valid)
+        residual = (allocate or in_memory)("residual", X.shape, np.float64)
+        for rows in frame_blocks(len(X)):
+            residual[rows] = 0.0
+        return FrameEstimate(R, residual, valid)
 
 
 @dataclass(frozen=True)
@@ -280,9 +297,12 @@ class Rectification:
     estimator: FrameEstimator
     sequence: SequenceEvidence = SequenceEvidence()
     heading: HeadingStep = HeadingStep("predicted")
+    allocate: Allocate | None = None
 
     def __call__(self, joints_cam: np.ndarray, fps: float = 30.0) -> Rectified:
-        estimate = self.estimator(joints_cam, fps)
+        # An estimator written without ``allocate`` still runs (in memory).
+        estimate = self.estimator(joints_cam, fps) if self.allocate is None else \
+            self.estimator(joints_cam, fps, self.allocate)
         gate = estimate.camera_frame_weight
         base = self.estimator.frame_tilt_95_deg
         bound, weights = frame_bound_and_weights(estimate, base)
@@ -295,6 +315,7 @@ class Rectification:
             report["camera_frame_weight"] = np.where(valid, gate, np.nan)
         report["frame_tilt_95_deg"] = base
         report["frame_tilt_bound_deg"] = np.where(valid, bound, np.nan)
-        canonical = to_canonical(joints_cam, R, estimate.residual)
+        canonical = to_canonical(joints_cam, R, estimate.residual,
+                                 out=(self.allocate or in_memory)("canonical", joints_cam.shape, np.float32))
         return Rectified(R, canonical, R[:, :, 1].copy(), valid, self.estimator.name, report["mode"], report,
                          report["heading_source"])

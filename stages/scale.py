@@ -65,7 +65,7 @@ _AXIAL_BONES = ((PELVIS, SPINE), (SPINE, THORAX), (THORAX, NECK_NOSE), (NECK_NOS
 
 
 def _bone_length(X: np.ndarray, a: int, b: int) -> np.ndarray:
-    return np.linalg.norm(X[:, b] - X[:, a], axis=-1)
+    return np.linalg.norm(np.asarray(X[:, b], np.float64) - np.asarray(X[:, a], np.float64), axis=-1)
 
 
 def height_chain_length(joints: np.ndarray) -> np.ndarray:
@@ -83,7 +83,7 @@ def height_chain_length(joints: np.ndarray) -> np.ndarray:
     Raises:
         ValueError: wrong shape.
     """
-    X = check_poses(joints, "joints").astype(np.float64)
+    X = check_poses(joints, "joints")  # joint columns read as float64 (in memory or on disk)
     legs = np.stack([sum(_bone_length(X, a, b) for a, b in side) for side in _LEG_BONES], -1)
     # One visible leg is enough: left and right legs have the same length.
     n = np.isfinite(legs).sum(-1)
@@ -115,10 +115,22 @@ def scale_to_height(joints: np.ndarray, height_m: float) -> tuple[np.ndarray, fl
         ValueError: ``height_m`` not a finite number > 0, wrong shape, or no frame with a
             complete head-to-ankle chain.
     """
+    X = check_poses(joints, "joints")
+    factor = height_factor(X, height_m)
+    return (X.astype(np.float64) * factor).astype(np.float32), factor
+
+
+def height_factor(joints: np.ndarray, height_m: float) -> float:
+    """:func:`scale_to_height`'s ``factor`` (metres per input unit) alone, for poses in
+    memory or on disk (:class:`~pcnet.stages.core.framestore.FrameArray`, scaled a block at a
+    time by the caller).
+
+    Raises:
+        ValueError: as :func:`scale_to_height`.
+    """
     if not np.isfinite(height_m) or height_m <= 0:
         raise InputError(f"height_m must be a finite height in metres > 0, got {height_m!r}")
-    X = check_poses(joints, "joints")
-    chain = height_chain_length(X)
+    chain = height_chain_length(check_poses(joints, "joints"))
     good = np.isfinite(chain) & (chain > 0)
     if not good.any():
         raise InputError(
@@ -126,6 +138,5 @@ def scale_to_height(joints: np.ndarray, height_m: float) -> tuple[np.ndarray, fl
             "neck_nose-head chain, so the skeleton size cannot be estimated"
         )
     stature = float(np.median(chain[good])) / CHAIN_TO_STATURE
-    factor = float(height_m) / stature
-    return (X.astype(np.float64) * factor).astype(np.float32), factor
+    return float(height_m) / stature
 

@@ -46,7 +46,7 @@ POSE_EVIDENCE_SIGMA_DEG = float(np.sqrt(np.mean(np.square(list(SIGMA_SYS_DEG.val
 def mean_trunk(joints_cam: np.ndarray, ok: np.ndarray) -> np.ndarray | None:
     """Mean unit trunk direction (pelvis -> thorax) over the frames ``ok`` of ``(T, 17, 3)``
     camera-frame joints, ``(3,)``; ``None`` if no frame has both joints."""
-    t = joints_cam[:, THORAX] - joints_cam[:, PELVIS]
+    t = np.asarray(joints_cam[:, THORAX], np.float64) - np.asarray(joints_cam[:, PELVIS], np.float64)
     n = np.linalg.norm(t, axis=-1)
     use = ok & np.isfinite(t).all(-1) & (n > 0)
     if not use.any():
@@ -291,7 +291,9 @@ def sequence_rectify(
     up, gp = u_pose, {"used": False, "reason": "no joints_cam"}
     J = None
     if joints_cam is not None:
-        J = check_poses(joints_cam, "joints_cam").astype(np.float64)
+        # Left as given (float32, or on disk for a long recording): the estimators read the
+        # joints they use as float64 columns.
+        J = check_poses(joints_cam, "joints_cam")
         if len(J) != T:
             raise InputError(f"joints_cam: expected {T} frames, got {len(J)}")
     if J is not None:

@@ -25,6 +25,7 @@ import numpy as np
 
 from .core.conventions import L_ANKLE, PELVIS, R_ANKLE
 from .core.errors import InputError
+from .core.framestore import frame_blocks
 
 #: Seconds at the start of the recording whose forward direction sets the world heading.
 HEADING_WINDOW_S = 1.0
@@ -75,7 +76,8 @@ def world_frame(R: np.ndarray, valid: np.ndarray, fps: float) -> WorldFrame:
     return WorldFrame(np.stack([x, up, np.cross(x, up)]), len(first))
 
 
-def to_world(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | None = None) -> np.ndarray:
+def to_world(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | None = None,
+             out: np.ndarray | None = None) -> np.ndarray:
     """Pelvis-centred camera-frame poses in the recording's world frame, floor at y = 0.
 
     Args:
@@ -92,28 +94,68 @@ def to_world(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | N
         first frame with a root, and one floor for the recording at the median over frames of
         the lowest joint centre (the subject is on the floor most of the time, so a jump
         lifts the whole body); a frame without a root is NaN. Frames without any finite joint
-        stay NaN.
+        stay NaN. Written into ``out`` when given (any float64 ``(T, 17, 3)`` array taking
+        slice assignment: a long recording's is a
+        :class:`~pcnet.stages.core.framestore.FrameArray`); ``joints_cam`` may be one too:
+        both are read and written a block of frames at a time.
 
     Raises:
         InputError: ``root_cam`` of the wrong shape or without a finite frame.
     """
-    P = np.asarray(joints_cam, np.float64) @ frame.rotation.T
+    T = len(joints_cam)
+    root = None
     if root_cam is not None:
         root = np.asarray(root_cam, np.float64)
-        if root.shape != (len(P), 3):
-            raise InputError(f"world frame: root_cam must have shape ({len(P)}, 3), got {root.shape}")
+        if root.shape != (T, 3):
+            raise InputError(f"world frame: root_cam must have shape ({T}, 3), got {root.shape}")
         root = root @ frame.rotation.T
         known = np.flatnonzero(np.isfinite(root).all(axis=1))
         if not len(known):
             raise InputError("world frame: the root's camera-frame position is missing in every frame")
         root[:, [0, 2]] -= root[known[0], [0, 2]]
-        P += root[:, None]
-    lowest, feet = floor_heights(P)
-    if root_cam is None:
-        P[..., 1] -= lowest[:, None]
+
+    def rotated(rows: slice) -> np.ndarray:
+        P = np.asarray(joints_cam[rows], np.float64) @ frame.rotation.T
+        if root is not None:
+            P += root[rows, None]
+        return P
+
+    # Two passes over the frames: the floor under each frame needs its neighbours' (a gap
+    # is interpolated), then every frame is shifted onto it.
+    summaries = [_floor_evidence(rotated(rows)) for rows in frame_blocks(T)]
+    lowest, feet = _floor_from(*(np.concatenate(s) for s in zip(*summaries)))
+    if root is None:
+        shift = lowest
     else:
-        P[..., 1] -= np.median(lowest[feet]) if feet.any() else np.nanmedian(P[:, PELVIS, 1])
-    return P
+        pelvis_y = np.concatenate([s[3] for s in summaries])
+        shift = np.full(T, np.median(lowest[feet]) if feet.any() else np.nanmedian(pelvis_y))
+    out = np.empty((T, 17, 3)) if out is None else out
+    for rows in frame_blocks(T):
+        P = rotated(rows)
+        P[..., 1] -= shift[rows, None]
+        out[rows] = P
+    return out
+
+
+def _floor_evidence(P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per frame of Y-up poses ``(T, 17, 3)``: ``(present, lowest joint height (NaN when
+    absent), feet visible, pelvis height)``, what :func:`floor_heights` needs."""
+    present = np.isfinite(P[..., 1]).any(axis=1)
+    lowest = np.full(len(P), np.nan)
+    lowest[present] = np.nanmin(P[present, :, 1], axis=1)
+    return present, lowest, feet_visible(P), P[:, PELVIS, 1]
+
+
+def _floor_from(present: np.ndarray, lowest: np.ndarray, feet: np.ndarray,
+                pelvis_y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    seen = np.flatnonzero(feet & np.isfinite(pelvis_y))
+    above = pelvis_y - lowest  # the pelvis's height above the floor where the feet show it
+    if len(seen):
+        frames = np.arange(len(lowest))
+        lowest = np.where(feet, lowest, pelvis_y - np.interp(frames, seen, above[seen]))
+    else:
+        lowest = np.where(present, pelvis_y, np.nan)
+    return lowest, feet
 
 
 def floor_heights(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -131,22 +173,10 @@ def floor_heights(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Returns:
         ``(floor_y (T,), feet_visible (T,) bool)``.
     """
-    present = np.isfinite(P[..., 1]).any(axis=1)
-    lowest = np.full(len(P), np.nan)
-    lowest[present] = np.nanmin(P[present, :, 1], axis=1)
-    feet = feet_visible(P)
-    pelvis_y = P[:, PELVIS, 1]
-    seen = np.flatnonzero(feet & np.isfinite(pelvis_y))
-    above = pelvis_y - lowest  # the pelvis's height above the floor where the feet show it
-    if len(seen):
-        frames = np.arange(len(P))
-        lowest = np.where(feet, lowest, pelvis_y - np.interp(frames, seen, above[seen]))
-    else:
-        lowest = np.where(present, pelvis_y, np.nan)
-    return lowest, feet
+    return _floor_from(*_floor_evidence(np.asarray(P, np.float64)))
 
 
 def feet_visible(poses: np.ndarray) -> np.ndarray:
     """``(T,)`` bool: frames of ``(T, 17, 3)`` poses (any frame: a rotation keeps a joint finite
     or missing) with at least one ankle present, the frames in which the floor is seen."""
-    return np.isfinite(np.asarray(poses)[:, [L_ANKLE, R_ANKLE]]).all(axis=-1).any(axis=1)
+    return np.isfinite(poses[:, [L_ANKLE, R_ANKLE]]).all(axis=-1).any(axis=1)

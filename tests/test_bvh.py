@@ -253,3 +253,10 @@ def test_written_in_blocks_equals_the_whole_recording(tmp_path, mocap, monkeypat
     expected = np.concatenate([m.root_position, m.euler_deg.reshape(len(X), -1)], axis=1)
     assert values.shape == expected.shape
     assert np.abs(values - expected).max() < 1e-6  # the file's 6 decimals
+    # A long recording's poses are on disk: read a block at a time, the same file.
+    from pcnet.stages.core.framestore import FrameStore
+
+    with FrameStore(tmp_path) as store:
+        on_disk = store.create("poses", X.shape, np.float64)
+        on_disk[0 : len(X)] = X
+        assert write_bvh(tmp_path / "disk.bvh", on_disk, FPS).read_text() == path.read_text()

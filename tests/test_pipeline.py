@@ -93,12 +93,14 @@ def _csv_numbers(path: Path) -> tuple[list[str], np.ndarray]:
 
 def test_long_recordings_in_chunks_give_the_outputs_of_one_piece(tmp_path, monkeypatch):
     """Network input normalisation, the pair's blend, canonical poses, kinematics, CSV/TRC/BVH
-    text and rerun columns go out a block of frames at a time so
+    text, rerun columns and the whole-recording arrays on disk (stages/core/framestore.py) go
+    a block of frames at a time so
     memory does not grow with a recording's length (issue: bounded memory); with blocks far
     smaller than the recording (a filter's context crossing every edge) every output equals
     the one-piece run within float tolerance."""
     import pcnet.models.inference as inference
     import pcnet.stages.core.canonical as canonical
+    import pcnet.stages.core.framestore as framestore
     import pcnet.stages.kinematics as kinematics
     import pcnet.stages.sinks.bvh as bvh
     import pcnet.stages.sinks.exports as exports
@@ -110,7 +112,8 @@ def test_long_recordings_in_chunks_give_the_outputs_of_one_piece(tmp_path, monke
     assert whole.exit_code == 0, whole.output
     for module, name, size in ((kinematics, "CHUNK_FRAMES", 7), (exports, "TEXT_BLOCK_ROWS", 5),
                                (bvh, "TEXT_BLOCK_ROWS", 6), (rerun_log, "SEND_BLOCK_FRAMES", 9),
-                               (inference, "CHUNK_FRAMES", 8), (canonical, "BLOCK_FRAMES", 11)):
+                               (inference, "CHUNK_FRAMES", 8), (canonical, "BLOCK_FRAMES", 11),
+                               (framestore, "BLOCK_FRAMES", 10)):
         assert getattr(module, name) > 60  # the one-piece run really was one piece
         monkeypatch.setattr(module, name, size)
     chunked = _invoke(*args, "--out", tmp_path / "chunked")

@@ -33,9 +33,9 @@ def canonical_rotation(joints: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, 
     Raises:
         ValueError: wrong joint shape.
     """
-    X = check_poses(joints, "joints").astype(np.float64)
+    X = check_poses(joints, "joints")  # left as given: on disk for a long recording
     up = normalize(np.broadcast_to(np.asarray(up, np.float64), (X.shape[0], 3)))
-    hip = X[:, R_HIP] - X[:, L_HIP]
+    hip = np.asarray(X[:, R_HIP], np.float64) - np.asarray(X[:, L_HIP], np.float64)
     horizontal = hip - np.sum(hip * up, -1, keepdims=True) * up
     hip_len = np.linalg.norm(hip, axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -52,7 +52,8 @@ def canonical_rotation(joints: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, 
 BLOCK_FRAMES = 8192
 
 
-def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | None = None) -> np.ndarray:
+def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | None = None,
+                 out: np.ndarray | None = None) -> np.ndarray:
     """Camera-frame poses -> canonical poses: ``X_canon = (X_cam - pelvis) @ R (+ residual)``.
 
     Args:
@@ -60,12 +61,15 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
         R: ``(N, 3, 3)`` canonical->camera, or one ``(3, 3)`` for every frame.
         residual: optional ``(N, J, 3)`` correction added in the canonical frame
             (3DPCNet's Delta, paper section 2.1.2).
+        out: optional float32 ``(N, J, 3)`` array to write into (a
+            :class:`~pcnet.stages.core.framestore.FrameArray` for a long recording).
+        ``joints_cam`` and ``residual`` may be on disk too: they are read a block at a time.
 
     Returns:
-        ``(N, J, 3)`` pelvis-centred canonical poses, same units, float32.
+        ``(N, J, 3)`` pelvis-centred canonical poses, same units, float32 (``out`` if given).
     """
-    joints_cam, R = np.asarray(joints_cam), np.asarray(R)
-    out = np.empty(joints_cam.shape, np.float32)
+    R = np.asarray(R)
+    out = np.empty(joints_cam.shape, np.float32) if out is None else out
     # A block of frames at a time: each frame's arithmetic is its own, and a long recording's
     # float64 temporaries stay a block long.
     for lo in range(0, len(out), BLOCK_FRAMES):
@@ -73,7 +77,7 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
         X = np.asarray(joints_cam[rows], np.float64)
         block = (X - X[:, PELVIS : PELVIS + 1]) @ np.asarray(R[rows] if R.ndim == 3 else R, np.float64)
         if residual is not None:
-            block += residual[rows]
+            block += np.asarray(residual[rows], np.float64)
         out[rows] = block
     return out
 

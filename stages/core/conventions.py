@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .framestore import FrameArray, frame_blocks
+
 from .errors import InputError
 
 H36M_JOINTS: tuple[str, ...] = (
@@ -186,11 +188,17 @@ def get_layout(name: str) -> Layout:
 
 def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -> np.ndarray:
     """Validate and return ``joints`` as float32 ``(N, J, 3)``; a single ``(J, 3)`` pose is
-    promoted to ``(1, J, 3)``.
+    promoted to ``(1, J, 3)``. A long recording's :class:`~.framestore.FrameArray` (on disk,
+    float) is returned as it is once its shape is checked.
 
     Raises:
         ValueError: naming ``name`` and the expected shape when the shape is wrong.
     """
+    if isinstance(joints, FrameArray):  # on disk: checked, never read whole
+        if joints.shape[1:] != (num_joints, 3) or not np.issubdtype(joints.dtype, np.floating):
+            raise InputError(f"{name}: expected float (N, {num_joints}, 3) H36M-17 joints, got "
+                             f"{joints.shape} {joints.dtype}")
+        return joints
     arr = np.asarray(joints)
     if arr.ndim == 2:
         arr = arr[None]
@@ -232,7 +240,8 @@ def validate_fps(fps: object, source: str = "fps") -> float:
 
 
 def validate_poses(joints: object, source: str = "poses", units: str | None = None,
-                   num_joints: int = 17, joint_names: tuple[str, ...] | None = None) -> np.ndarray:
+                   num_joints: int = 17, joint_names: tuple[str, ...] | None = None,
+                   in_place: bool = False) -> np.ndarray:
     """The one check every entry point applies to 3D poses (``pcnet rectify``,
     :func:`pcnet.pipeline.rectification.rectify`, ``pcnet run`` after its adapter).
 
@@ -244,6 +253,9 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
             bound :data:`MAX_ABS_COORDINATE`.
         num_joints, joint_names: the layout's joint count and names (default H36M-17's), for
             the shape check and the message.
+        in_place: write the result into ``joints`` when it is a writable float32 array (the
+            caller's own: a long recording is not copied). Checked a block of frames at a
+            time either way.
 
     Returns:
         float32 ``(T, J, 3)``; non-finite values (``inf``) become NaN: missing data.
@@ -261,22 +273,33 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
         raise InputError(f"{source}: expected shape (T, {num_joints}, 3) joints, got {tuple(np.shape(joints))}")
     if arr.shape[0] == 0:
         raise InputError(f"{source}: expected at least one frame, got shape {arr.shape}")
-    # The bound is checked on the values as given: a float64 beyond float32's range would
-    # otherwise become inf, then NaN, and pass as missing data.
-    with np.errstate(invalid="ignore"):  # signalling NaNs in a file are missing data too
-        values = arr.astype(np.float64)
-    finite = np.isfinite(values)
-    if not finite.any():
-        raise InputError(f"{source}: expected some finite joint coordinates, got only NaN/inf")
     bound = MAX_ABS_COORDINATE[units]
-    too_big = finite & (np.abs(np.where(finite, values, 0.0)) > bound)
-    if too_big.any():
-        t, j, axis = np.argwhere(too_big)[0]
+    in_place = in_place and arr.dtype == np.float32 and arr.flags.writeable and arr.ndim == np.ndim(joints)
+    out = arr if in_place else np.empty(arr.shape, np.float32)
+    any_finite, first, count = False, None, 0
+    # A block of frames at a time: float64 copies of a long recording would be hundreds of MB.
+    for rows in frame_blocks(len(arr)):
+        # The bound is checked on the values as given: a float64 beyond float32's range would
+        # otherwise become inf, then NaN, and pass as missing data.
+        with np.errstate(invalid="ignore"):  # signalling NaNs in a file are missing data too
+            values = arr[rows].astype(np.float64)
+        finite = np.isfinite(values)
+        any_finite |= bool(finite.any())
+        too_big = finite & (np.abs(np.where(finite, values, 0.0)) > bound)
+        if too_big.any():
+            if first is None:
+                t, j, axis = np.argwhere(too_big)[0]
+                first = (rows.start + int(t), int(j), float(values[t, j, axis]))
+            count += int(too_big.any(axis=2).sum())
+        out[rows] = np.where(finite, values, np.nan)
+    if not any_finite:
+        raise InputError(f"{source}: expected some finite joint coordinates, got only NaN/inf")
+    if first is not None:
+        t, j, value = first
         name = H36M_JOINTS[j] if joint_names is None else joint_names[j]
         raise InputError(f"{source}: frame {t}, joint {name}: expected |coordinate| <= {bound:g} "
-                         f"{units or '(any unit)'}, got {values[t, j, axis]:.4g} "
-                         f"({int(too_big.any(axis=2).sum())} joint values beyond it)")
-    return np.where(finite, values, np.nan).astype(np.float32)
+                         f"{units or '(any unit)'}, got {value:.4g} ({count} joint values beyond it)")
+    return out
 
 
 def fill_pelvis_from_hips(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

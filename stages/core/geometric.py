@@ -32,8 +32,8 @@ def geometric_rotation(joints_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Raises:
         ValueError: wrong shape.
     """
-    X = check_poses(joints_cam, "joints_cam").astype(np.float64)
-    torso = X[:, _TORSO]  # (N, 4, 3)
+    X = check_poses(joints_cam, "joints_cam")  # in memory or on disk: four joints read
+    torso = np.asarray(X[:, _TORSO], np.float64)  # (N, 4, 3)
     finite = np.isfinite(torso).all((1, 2))
     torso = np.where(finite[:, None, None], torso, 0.0)
     centred = torso - torso.mean(1, keepdims=True)

@@ -61,6 +61,7 @@ from ..core.conventions import (
     validate_fps,
 )
 from ..core.errors import InputError
+from ..core.framestore import FrameArray
 from .exports import TEXT_BLOCK_ROWS
 
 #: Rotation order (scipy intrinsic sequence = BVH channel order) of the pelvis and thorax,
@@ -232,6 +233,70 @@ def _fill(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return Y, missing
 
 
+def _rows(X, lo: int, hi: int) -> np.ndarray:
+    """Frames ``[lo, hi)`` of in-memory or on-disk poses as float64, inf as NaN (missing)."""
+    with np.errstate(invalid="ignore"):
+        block = np.asarray(X[lo:hi], np.float64)
+    return np.where(np.isinf(block), np.nan, block)
+
+
+def _streamed_skeleton(poses, names: list[str]):
+    """:func:`_skeleton` of ``(T, 17, 3)`` poses in memory or on disk
+    (:class:`~pcnet.stages.core.framestore.FrameArray`) read a block of frames at a time:
+    ``(poses, known (T, 17) bool: joints with all three coordinates finite, skeleton)``.
+
+    Raises:
+        InputError: as :func:`_checked_poses`.
+    """
+    who = "write_bvh"
+    if not isinstance(poses, FrameArray):
+        poses = np.asarray(poses)
+    dtype = poses.dtype
+    if dtype == bool or not (np.issubdtype(dtype, np.floating) or np.issubdtype(dtype, np.integer)):
+        raise InputError(f"{who}: expected real-valued (float) joint coordinates, got dtype {dtype}")
+    shape = tuple(np.shape(poses))
+    if len(shape) != 3 or shape[1:] != (17, 3) or shape[0] == 0:
+        raise InputError(f"{who}: expected poses of shape (T, 17, 3) with T >= 1 (H36M-17 joints), got {shape}")
+    T = shape[0]
+    known = np.zeros((T, 17), bool)
+    lengths, directions, before = [], {c: [] for c in _LINKED}, None
+    for lo in range(0, T, TEXT_BLOCK_ROWS):
+        hi = min(T, lo + TEXT_BLOCK_ROWS)
+        block = _rows(poses, lo, hi)
+        known[lo:hi] = np.isfinite(block).all(axis=-1)
+        L, D, before = _skeleton_samples(block[known[lo:hi].all(axis=1)], before)
+        lengths.append(L)
+        for c in _LINKED:
+            directions[c].append(D[c])
+    if not known.all(axis=1).any():
+        raise InputError(f"{who}: expected at least one frame with all 17 joints finite, got none of {T} frames")
+    sk = _skeleton_from(np.concatenate(lengths), {c: np.concatenate(d) for c, d in directions.items()}, names)
+    return poses, known, sk
+
+
+def _filled_rows(X, known: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """Frames ``[lo, hi)`` of :func:`_fill` of the whole recording ``X`` (in memory or on
+    disk), reading besides the block only the nearest known frame before and after each gap
+    that crosses its edges (the interpolation's end points)."""
+    block = _rows(X, lo, hi)
+    missing = ~known[lo:hi]
+    if not missing.any():
+        return block
+    t = np.arange(lo, hi)
+    for j in np.flatnonzero(missing.any(axis=0)):
+        frames = np.flatnonzero(known[:, j])
+        if not len(frames):  # never seen: stays NaN, as np.interp of nothing cannot fill it
+            continue
+        inside = frames[(frames >= lo) & (frames < hi)]
+        before, after = frames[frames < lo][-1:], frames[frames >= hi][:1]
+        points = np.concatenate([before, inside, after])
+        values = np.concatenate([_rows(X, f, f + 1)[:, j] for f in before]
+                                + [block[inside - lo, j]] + [_rows(X, f, f + 1)[:, j] for f in after])
+        for k in range(3):
+            block[:, j, k] = np.interp(t, points, values[:, k])
+    return block
+
+
 def _check_names(who: str, joint_names: Sequence[str]) -> list[str]:
     names = [str(n) for n in joint_names]
     if len(names) != 17:
@@ -280,11 +345,33 @@ def _body_frames(P: np.ndarray, before: dict[int, np.ndarray] | None = None) -> 
             for j, ((a, b), (zl, zr)) in _FRAMES.items()}
 
 
+_BONES = [(p, c) for c, p in enumerate(H36M_PARENTS) if p >= 0]
+
+
+def _skeleton_samples(Xc: np.ndarray, before: dict[int, np.ndarray] | None = None):
+    """What the rest skeleton is the median of, from frames with all 17 joints ``Xc``
+    ``(n, 17, 3)`` float64: bone lengths ``(n, 16)``, the link children's unit directions in
+    the pelvis/thorax frames ``{joint: (n, 3)}``, and those frames' last rotations, the
+    ``before`` of the next block (:func:`_hold`), so that a recording's samples gathered a
+    block of frames at a time are the whole recording's."""
+    lengths = np.stack([np.linalg.norm(Xc[:, c] - Xc[:, p], axis=-1) for p, c in _BONES], axis=-1)
+    frames = _body_frames(Xc, before)
+    directions = {c: _unit(np.einsum("tji,tj->ti", frames[H36M_PARENTS[c]], Xc[:, c] - Xc[:, H36M_PARENTS[c]]))[0]
+                  for c in _LINKED}
+    return lengths, directions, ({j: f[-1] for j, f in frames.items()} if len(Xc) else before)
+
+
 def _skeleton(X: np.ndarray, P: np.ndarray, names: list[str]) -> _Skeleton:
-    """The rest skeleton of raw poses ``X`` and their gap-filled version ``P``."""
+    """The rest skeleton of raw poses ``X`` (its gap-filled version ``P`` equals it on the
+    complete frames, which are all the skeleton reads)."""
     complete = np.isfinite(X).all(axis=(1, 2))
-    bones = [(p, c) for c, p in enumerate(H36M_PARENTS) if p >= 0]
-    lengths = np.array([np.median(np.linalg.norm(X[complete, c] - X[complete, p], axis=-1)) for p, c in bones])
+    return _skeleton_from(*_skeleton_samples(X[complete])[:2], names)
+
+
+def _skeleton_from(bone_lengths: np.ndarray, link_directions: dict[int, np.ndarray], names: list[str]) -> _Skeleton:
+    """The rest skeleton from :func:`_skeleton_samples` of every complete frame."""
+    bones = _BONES
+    lengths = np.median(bone_lengths, axis=0)
     length = {c: lengths[i] for i, (_, c) in enumerate(bones)}
     if not (lengths > 0).all():
         zero = [f"{names[p]}-{names[c]}" for (p, c), L in zip(bones, lengths) if not L > 0]
@@ -293,13 +380,9 @@ def _skeleton(X: np.ndarray, P: np.ndarray, names: list[str]) -> _Skeleton:
     node_names, node_parent, node_joint = _nodes(names)
     N = len(node_names)
     # The link children's rest directions are their median directions in the pelvis/thorax frames.
-    P_complete = P if complete.all() else P[complete]
-    frames = _body_frames(P_complete)
     rest_dir = dict(_REST_DIR)
     for c in _LINKED:
-        p = H36M_PARENTS[c]
-        local = np.einsum("tji,tj->ti", frames[p], P_complete[:, c] - P_complete[:, p])
-        rest_dir[c] = _unit(np.median(_unit(local)[0], axis=0))[0]
+        rest_dir[c] = _unit(np.median(link_directions[c], axis=0))[0]
     for _, (zl, zr) in _FRAMES.values():
         # One forward (x) component for the pair, their heights and lengths kept, so that the
         # rest pose's pelvis/thorax frame is exactly the identity (zero channels = rest pose).
@@ -509,9 +592,8 @@ def write_bvh(
     fps = validate_fps(fps, "write_bvh: fps")
     if units not in BVH_UNITS:
         raise InputError(f"write_bvh: units must be one of {list(BVH_UNITS)}, got {units!r}")
-    X, names = _checked_poses(poses, joint_names)
-    P, _ = _fill(X)
-    sk = _skeleton(X, P, names)
+    names = _check_names("write_bvh", joint_names)
+    X, known, sk = _streamed_skeleton(poses, names)
     kids = sk.children
     lines = ["HIERARCHY"]
 
@@ -534,7 +616,7 @@ def write_bvh(
         lines.append(f"{ind}}}")
 
     block(0, 0)
-    T = len(P)
+    T = len(X)
     lines += ["MOTION", f"Frames: {T}", f"Frame Time: {1.0 / fps:.10f}"]
     previous, last_W = None, None
     with atomic_path(path) as tmp, open(tmp, "w", newline="\n", encoding="utf-8") as fh:
@@ -542,7 +624,7 @@ def write_bvh(
         # Channels a block of frames at a time (each frame's rotations are its own; only the
         # unwrapping carries over), so a 2-hour recording never holds all its rotations.
         for lo in range(0, T, TEXT_BLOCK_ROWS):
-            block_P = P[lo : lo + TEXT_BLOCK_ROWS]
+            block_P = _filled_rows(X, known, lo, min(T, lo + TEXT_BLOCK_ROWS))
             W = _world_rotations(block_P, sk, last_W)
             euler = _euler(W, sk, previous)
             previous, last_W = euler[-1], W[-1]

@@ -13,6 +13,7 @@ import csv
 import itertools
 import json
 import os
+import zipfile
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
@@ -21,6 +22,7 @@ import numpy as np
 from ..core.atomic import atomic_path
 from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST
 from ..core.errors import InputError, import_extra
+from ..core.framestore import FrameArray, frame_blocks
 from ..kinematics import Kinematics
 from .plots import display_samples, new_figure, save_png
 
@@ -29,7 +31,9 @@ from .plots import display_samples, new_figure, save_png
 # NPZ
 
 
-def _npz_value(key: str, value: object) -> np.ndarray:
+def _npz_value(key: str, value: object) -> np.ndarray | FrameArray:
+    if isinstance(value, FrameArray):
+        return value
     if isinstance(value, Mapping):
         # Metadata dicts become JSON text so the file loads with allow_pickle=False.
         return np.asarray(json.dumps(value, sort_keys=True, default=_json_default))
@@ -60,7 +64,10 @@ def write_npz(path: str | os.PathLike, **arrays_and_metadata: object) -> Path:
 
     Arrays, numbers, strings and bools are stored as numpy arrays under their keyword;
     a ``dict`` is stored as a 0-d string array holding its JSON text (so every key loads
-    with ``np.load(path, allow_pickle=False)``; decode with ``json.loads(str(f[key]))``).
+    with ``np.load(path, allow_pickle=False)``; decode with ``json.loads(str(f[key]))``); a
+    :class:`~pcnet.stages.core.framestore.FrameArray` (a long recording's array on disk) is
+    copied in from its ``.npy`` file a block at a time, never read whole. The archive is what
+    ``np.savez`` writes: stored (uncompressed) ``<key>.npy`` members, ZIP64 when needed.
 
     Args:
         path: destination file (the name is used as given; no ``.npz`` is appended).
@@ -76,9 +83,14 @@ def write_npz(path: str | os.PathLike, **arrays_and_metadata: object) -> Path:
     if not arrays_and_metadata:
         raise ValueError("write_npz: nothing to write")
     payload = {k: _npz_value(k, v) for k, v in arrays_and_metadata.items()}
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        # A file object, not a name: np.savez would append ".npz" to the temp name.
-        np.savez(fh, **payload)
+    with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for key, value in payload.items():
+            if isinstance(value, FrameArray):
+                value.flush()
+                zf.write(value.path, arcname=f"{key}.npy")  # zipfile copies the file in blocks
+            else:
+                with zf.open(f"{key}.npy", "w", force_zip64=True) as member:
+                    np.lib.format.write_array(member, value, allow_pickle=False)
     return Path(path)
 
 
@@ -266,11 +278,11 @@ def write_trc(
         "\t\t" + "".join(f"X{i}\tY{i}\tZ{i}\t" for i in range(1, J + 1)),
         "",
     ]
-    flat = X.reshape(T, J * 3)
     with atomic_path(path) as tmp, open(tmp, "w", newline="\n", encoding="utf-8") as fh:
         fh.write("\n".join(lines) + "\n")
         for lo in range(0, T, TEXT_BLOCK_ROWS):
-            for t, row in enumerate(flat[lo : lo + TEXT_BLOCK_ROWS].tolist(), start=lo):
+            block = np.asarray(X[lo : lo + TEXT_BLOCK_ROWS], np.float64).reshape(-1, J * 3)
+            for t, row in enumerate(block.tolist(), start=lo):
                 fields = "\t".join(_fmt_trc(v) for v in row)
                 fh.write(f"{t + 1}\t{t / fps:.6f}\t{fields}\t\n")
     return Path(path)
@@ -313,7 +325,9 @@ def write_c3d(
     c3d["parameters"]["POINT"]["LABELS"]["value"] = tuple(names)
     c3d["parameters"]["POINT"]["UNITS"]["value"] = [units]
     points = np.ones((4, X.shape[1], X.shape[0]))
-    points[:3] = np.transpose(X, (2, 1, 0))
+    # ezc3d takes the whole point array: the C3D export (opt-in, --c3d) holds the recording.
+    for rows in frame_blocks(len(X)):
+        points[:3, :, rows] = np.transpose(np.asarray(X[rows], np.float64), (2, 1, 0))
     c3d["data"]["points"] = points
     with atomic_path(path, suffix=".c3d") as tmp:
         c3d.write(str(tmp))
@@ -321,13 +335,14 @@ def write_c3d(
 
 
 def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tuple[np.ndarray, list[str]]:
-    """``(poses as (T, J, 3) float64, J marker names)`` for a marker file writer.
+    """``(poses as (T, J, 3) float64, J marker names)`` for a marker file writer (a
+    :class:`~pcnet.stages.core.framestore.FrameArray` stays on disk: read it a block at a time).
 
     Raises:
         InputError: a shape/name mismatch, a name with a tab/newline, duplicate or empty
             names, ``fps <= 0`` or units other than ``"m"``/``"mm"``, naming ``who``.
     """
-    X = np.asarray(poses, dtype=np.float64)
+    X = poses if isinstance(poses, FrameArray) else np.asarray(poses, dtype=np.float64)
     names = [str(n) for n in joint_names]
     if X.ndim != 3 or X.shape[2] != 3 or X.shape[1] != len(names):
         raise InputError(f"{who}: expected (T, {len(names)}, 3) markers, got {X.shape}")
@@ -388,14 +403,15 @@ def plot_wrists(
     Raises:
         ValueError: mismatched shapes or ``fps <= 0``.
     """
-    arrays = [np.asarray(a, np.float64) for a in (camera, canonical, acc_camera, acc_canonical)]
-    T = arrays[0].shape[0]
-    if [a.shape for a in arrays] != [(T, 17, 3), (T, 17, 3), (T, 2, 3), (T, 2, 3)]:
-        raise ValueError(f"plot_wrists: expected (T, 17, 3) poses and (T, 2, 3) wrist accelerations, "
-                         f"got {[x.shape for x in arrays]}")
+    shapes = [tuple(np.shape(a)) for a in (camera, canonical, acc_camera, acc_canonical)]
+    T = shapes[0][0] if shapes[0] else 0
+    if shapes != [(T, 17, 3), (T, 17, 3), (T, 2, 3), (T, 2, 3)]:
+        raise ValueError(f"plot_wrists: expected (T, 17, 3) poses and (T, 2, 3) wrist accelerations, got {shapes}")
     if not fps > 0:
         raise ValueError(f"plot_wrists: fps must be > 0, got {fps!r}")
-    cam, can, acam, acan = arrays
+    # Only the wrists are drawn: two joints read (a long recording's poses are on disk).
+    cam, can = (np.asarray(p[:, [L_WRIST, R_WRIST]], np.float64) for p in (camera, canonical))
+    acam, acan = (np.asarray(a, np.float64) for a in (acc_camera, acc_canonical))
     t = np.arange(T) / fps
     acc_u = f"{units}/s²"
     columns = (
@@ -406,9 +422,9 @@ def plot_wrists(
     fig, axes = new_figure(3, 2, 8.0 / 3.0)
     for col, (title, pos, acc, labels) in enumerate(columns):
         ax_p, ax_a, ax_m = axes[:, col]
-        for w, (joint, side, style) in enumerate(((L_WRIST, "left", "--"), (R_WRIST, "right", "-"))):
+        for w, (side, style) in enumerate((("left", "--"), ("right", "-"))):
             for c in range(3):
-                ax_p.plot(*display_samples(t, pos[:, joint, c]), style, color=comp_colors[c], lw=1,
+                ax_p.plot(*display_samples(t, pos[:, w, c]), style, color=comp_colors[c], lw=1,
                           label=f"{side} wrist {labels[c]}")
                 ax_a.plot(*display_samples(t, acc[:, w, c]), style, color=comp_colors[c], lw=0.8,
                           label=f"{side} wrist a{labels[c]}")

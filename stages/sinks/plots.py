@@ -267,10 +267,10 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
         InputError: ``fps <= 0`` or not the kinematics' rate, or ``kin.speed`` not ``(T, J)``.
     """
     t = _time_axis(kin, fps, "plot_joint_speeds")
-    speed = np.asarray(kin.speed, np.float64)
+    speed = kin.speed  # read a joint at a time (a long recording's is on disk)
     names = list(kin.joint_names)
-    if speed.shape != (len(t), len(names)):
-        raise InputError(f"plot_joint_speeds: speed must be {(len(t), len(names))}, got {speed.shape}")
+    if tuple(np.shape(speed)) != (len(t), len(names)):
+        raise InputError(f"plot_joint_speeds: speed must be {(len(t), len(names))}, got {np.shape(speed)}")
     unit = f"{kin.units if units is None else units}/s"
     groups = {title: [j for j in joints if j in names] for title, joints in SPEED_GROUPS.items()}
     groups = {k: v for k, v in groups.items() if v}
@@ -279,7 +279,7 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
         colours = series_colours(joints)
         finite = False
         for j in joints:
-            y = speed[:, names.index(j)]
+            y = np.asarray(speed[:, names.index(j)], np.float64)
             finite |= bool(np.isfinite(y).any())
             style = "--" if side_of(j) == "left" else "-"
             ax.plot(*display_samples(t, y), style, color=_rgb(colours[j]), lw=1.0, label=j.replace("_", " "))

@@ -60,6 +60,7 @@ import numpy as np
 from ..core.atomic import atomic_path
 from ..core.conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
 from ..core.errors import InputError
+from ..core.framestore import FrameArray, FrameColumn, column, frame_blocks
 from .plots import LEFT_COLOURS, RIGHT_COLOURS, angle_group, series_colours
 
 _BONE_A = np.array([a for a, _ in H36M_BONES])
@@ -86,6 +87,10 @@ _UP_COLOUR = (250, 200, 0)
 
 def _check(name: str, arr: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray:
     # float32 stays float32 (what rerun stores): a float64 copy of a 2-hour recording's poses is 88 MB each.
+    if isinstance(arr, (FrameArray, FrameColumn)):  # on disk, read a block at a time when sent
+        if tuple(arr.shape) != shape:
+            raise InputError(f"write_recording: {name} must have shape {shape}, got {tuple(arr.shape)}")
+        return arr
     a = np.asarray(arr)
     a = a if a.dtype in (np.float32, np.float64) else a.astype(np.float64)
     if a.shape != shape:
@@ -165,11 +170,16 @@ def _floor_grid(world: np.ndarray, torso: float) -> list[np.ndarray]:
     the horizontal extent of every finite joint plus a margin of about one and a half torso
     lengths; spacing a round number (1, 2 or 5 x 10^k) near the torso length (0.5 for a
     metric adult), at most 100 lines per direction. Empty when no joint is finite."""
-    xz = world[..., [0, 2]].reshape(-1, 2)
-    xz = xz[np.isfinite(xz).all(-1)]
-    if not xz.size or not (np.isfinite(torso) and torso > 0):
+    extents = []  # per block of frames: the finite joints' (min, max) of x and z
+    for rows in frame_blocks(len(world)):
+        xz = world[rows][..., [0, 2]].reshape(-1, 2)
+        xz = xz[np.isfinite(xz).all(-1)]
+        if xz.size:
+            extents.append((xz.min(0), xz.max(0)))
+    if not extents or not (np.isfinite(torso) and torso > 0):
         return []
-    lo, hi = xz.min(0) - 1.5 * torso, xz.max(0) + 1.5 * torso
+    lo = np.min([e[0] for e in extents], axis=0) - 1.5 * torso
+    hi = np.max([e[1] for e in extents], axis=0) + 1.5 * torso
     exp = np.floor(np.log10(torso))
     step = min((m * 10.0**exp for m in (1.0, 2.0, 5.0, 10.0)), key=lambda v: abs(np.log(v / torso)))
     while ((hi - lo) / step).max() > 100:
@@ -304,9 +314,8 @@ def write_recording(
 
     if not fps > 0:
         raise InputError(f"write_recording: fps must be > 0, got {fps!r}")
-    cam = np.asarray(joints_cam)
-    T = cam.shape[0]
-    cam = _check("joints_cam", cam, (T, 17, 3))
+    T = len(joints_cam)
+    cam = _check("joints_cam", joints_cam, (T, 17, 3))
     can = _check("canonical", canonical, (T, 17, 3))
     R = _check("rotations", rotations, (T, 3, 3))
     up = _check("up", up, (T, 3))
@@ -323,9 +332,9 @@ def write_recording(
     wld = None if world is None else _check("world", world, (T, 17, 3))
     path_space, path_poses = ("canonical", can) if wld is None else ("world", wld)
     canon_paths = (
-        {"left_wrist": path_poses[:, L_WRIST], "right_wrist": path_poses[:, R_WRIST]}
+        {"left_wrist": np.asarray(path_poses[:, L_WRIST]), "right_wrist": np.asarray(path_poses[:, R_WRIST])}
         if wrist_paths is None
-        else {str(k): _check(f"wrist_paths[{k!r}]", p, (T, 3)) for k, p in wrist_paths.items()}
+        else {str(k): np.asarray(_check(f"wrist_paths[{k!r}]", p, (T, 3))) for k, p in wrist_paths.items()}
     )
     if video_path is not None and not Path(video_path).is_file():
         raise FileNotFoundError(f"write_recording: video not found: {video_path}")
@@ -425,13 +434,14 @@ def _log_all(
         return index(frames[b], seconds[b])
 
     if kp is not None:
-        conf_ok = np.isfinite(kp[..., 2]) & (kp[..., 2] > min_confidence)
         log("video/keypoints", rr.Points2D.from_fields(
             class_ids=0, radii=rr.Radius.ui_points(4.0), show_labels=show_labels))
         log("video/skeleton", rr.LineStrips2D.from_fields(radii=rr.Radius.ui_points(2.0)))
         for b in blocks:
-            send("video/keypoints", _points_columns(rr, kp[b, :, :2], conf_ok[b], dims=2), block_index(b))
-            send("video/skeleton", _bones_columns(rr, kp[b, :, :2], conf_ok[b], dims=2), block_index(b))
+            kp_b = kp[b]
+            conf_ok = np.isfinite(kp_b[..., 2]) & (kp_b[..., 2] > min_confidence)
+            send("video/keypoints", _points_columns(rr, kp_b[:, :, :2], conf_ok, dims=2), block_index(b))
+            send("video/skeleton", _bones_columns(rr, kp_b[:, :, :2], conf_ok, dims=2), block_index(b))
 
     # --- 3D views
     log("camera", rr.ViewCoordinates.RDF)
@@ -449,29 +459,31 @@ def _log_all(
             class_ids=0, radii=rr.Radius.ui_points(5.0), show_labels=show_labels))
         log(f"{space}/skeleton/bones", rr.LineStrips3D.from_fields(radii=rr.Radius.ui_points(2.5)))
         for b in blocks:
-            send(f"{space}/skeleton/joints", _points_columns(rr, X[b]), block_index(b))
-            send(f"{space}/skeleton/bones", _bones_columns(rr, X[b]), block_index(b))
+            X_b = X[b]
+            send(f"{space}/skeleton/joints", _points_columns(rr, X_b), block_index(b))
+            send(f"{space}/skeleton/bones", _bones_columns(rr, X_b), block_index(b))
 
-    axes_ok = valid & np.isfinite(R).all((1, 2)) & np.isfinite(cam[:, PELVIS]).all(-1)
+    pelvis = np.asarray(cam[:, PELVIS])
+    axes_ok = valid & np.isfinite(R).all((1, 2)) & np.isfinite(pelvis).all(-1)
     up_norm = np.linalg.norm(up, axis=-1)
-    up_ok = valid & np.isfinite(up_norm) & (up_norm > 0) & np.isfinite(cam[:, PELVIS]).all(-1)
+    up_ok = valid & np.isfinite(up_norm) & (up_norm > 0) & np.isfinite(pelvis).all(-1)
     log("camera/body_axes", rr.Arrows3D.from_fields(colors=_AXIS_COLOURS, labels=_AXIS_LABELS))
     log("camera/up", rr.Arrows3D.from_fields(colors=[_UP_COLOUR], labels=["up"]))
     for b in blocks:
-        ok, R_b, cam_b = axes_ok[b], R[b], cam[b]
+        ok, R_b, pelvis_b = axes_ok[b], R[b], pelvis[b]
         vectors = (np.swapaxes(R_b[ok], 1, 2) * arrow_len).reshape(-1, 3)  # rows = columns of R
         send("camera/body_axes", rr.Arrows3D.columns(
-            vectors=vectors, origins=np.repeat(cam_b[ok, PELVIS], 3, axis=0)).partition(3 * ok.astype(np.int64)),
+            vectors=vectors, origins=np.repeat(pelvis_b[ok], 3, axis=0)).partition(3 * ok.astype(np.int64)),
             block_index(b))
         ok, n_b = up_ok[b], up_norm[b]
         send("camera/up", rr.Arrows3D.columns(
-            vectors=up[b][ok] * (1.3 * arrow_len / n_b[ok, None]), origins=cam_b[ok, PELVIS],
+            vectors=up[b][ok] * (1.3 * arrow_len / n_b[ok, None]), origins=pelvis_b[ok],
         ).partition(ok.astype(np.int64)), block_index(b))
 
     # --- wrist paths (static: the whole trajectory is the point of the picture)
     paths = {
-        ("camera", "left_wrist"): cam[:, L_WRIST] - cam[:, PELVIS],
-        ("camera", "right_wrist"): cam[:, R_WRIST] - cam[:, PELVIS],
+        ("camera", "left_wrist"): np.asarray(cam[:, L_WRIST]) - pelvis,
+        ("camera", "right_wrist"): np.asarray(cam[:, R_WRIST]) - pelvis,
     }
     for name, p in canon_paths.items():
         paths[(path_space, name)] = p
@@ -492,8 +504,9 @@ def _log_all(
     for (path, _group), values in everything.items():
         log(path, rr.SeriesLines(names=path.rsplit("/", 1)[-1], colors=[colours[path]]))
         for b in blocks:
-            ok = np.isfinite(values[b])
-            send(path, rr.Scalars.columns(scalars=values[b][ok]), idx=index(frames[b][ok], seconds[b][ok]))
+            values_b = np.asarray(values[b])
+            ok = np.isfinite(values_b)
+            send(path, rr.Scalars.columns(scalars=values_b[ok]), idx=index(frames[b][ok], seconds[b][ok]))
 
 
 def series_from_kinematics(
@@ -523,11 +536,12 @@ def series_from_kinematics(
         if j not in names:
             raise InputError(f"series_from_kinematics: unknown joint {j!r}")
         i = names.index(j)
+        # Columns (lazy for a long recording's kinematics on disk, read a block at a time).
         for c, axis in enumerate("xyz"):
-            out[f"position_{u}/{j}_{axis}"] = k.positions[:, i, c]
-            out[f"velocity_{v}/{j}_v{axis}"] = k.velocity[:, i, c]
-            out[f"acceleration_{a}/{j}_a{axis}"] = k.acceleration[:, i, c]
-        out[f"speed_{v}/{j}"] = k.speed[:, i]
+            out[f"position_{u}/{j}_{axis}"] = column(k.positions, i, c)
+            out[f"velocity_{v}/{j}_v{axis}"] = column(k.velocity, i, c)
+            out[f"acceleration_{a}/{j}_a{axis}"] = column(k.acceleration, i, c)
+        out[f"speed_{v}/{j}"] = column(k.speed, i)
     for name, ang in k.angles.items():
-        out[f"angles_deg/{angle_group(name)}/{name}"] = np.asarray(ang)
+        out[f"angles_deg/{angle_group(name)}/{name}"] = column(ang)
     return out

@@ -22,7 +22,8 @@ import numpy as np
 
 from ..core.conventions import H36M_JOINTS
 from ..core.rotations import decompose_camera_rotation
-from ..kinematics import FrameGatherer, count_flags, select_frames
+from ..core.framestore import column, frame_blocks
+from ..kinematics import FrameGatherer, count_flags
 from .bvh import write_bvh
 from .exports import plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
 from .plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
@@ -115,13 +116,14 @@ def jsonable(report: dict) -> dict:
     return clean
 
 
-def write_kinematics_table(r: RecordingResult, folder: Path) -> dict[str, Path]:
+def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> dict[str, Path]:
     """``kinematics.csv`` (:func:`.exports.write_kinematics_csv`, with the ``valid`` and
     ``heading_deg`` columns) from ``r.kinematics_blocks``, consumed once; fills
     ``r.kinematics`` (:data:`KEPT_JOINTS` only, float32: what a long recording keeps for the
-    plots and the recording), ``r.missing``, ``r.unfiltered`` and ``r.flag_counts``."""
+    plots and the recording; in arrays from ``allocate``, :class:`~pcnet.stages.kinematics.FrameGatherer`),
+    ``r.missing``, ``r.unfiltered`` and ``r.flag_counts``."""
     T = len(r.joints_camera)
-    kept = FrameGatherer(T, KEPT_JOINTS, np.float32)
+    kept = FrameGatherer(T, KEPT_JOINTS, np.float32, allocate)
     missing, unfiltered = np.zeros((T, 17), bool), np.zeros((T, 17), bool)
 
     def keeping(blocks):
@@ -173,7 +175,7 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False) -> d
     if c3d:
         out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", r.poses, r.fps)
     bvh = f"{name}.bvh"
-    incomplete = ~np.isfinite(r.poses).all(axis=(1, 2))
+    incomplete = np.concatenate([~np.isfinite(r.poses[rows]).all(axis=(1, 2)) for rows in frame_blocks(len(r.poses))])
     if incomplete.all():
         r.notes.append(f"{bvh} not written: no frame has all 17 joints (BVH needs one for the bone lengths)")
         return out
@@ -189,7 +191,7 @@ def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
     """``wrists.png`` (camera frame against ``r.kinematics_frame``), ``angles.png`` and
     ``speeds.png`` (:mod:`.plots`)."""
     kin = r.kinematics
-    wrist_acc = select_frames(kin, 0, kin.num_frames, WRISTS).acceleration
+    wrist_acc = kin.acceleration[:, [KEPT_JOINTS.index(n) for n in WRISTS]]
     out = {"wrists.png": plot_wrists(folder / "wrists.png", r.joints_camera, r.poses, r.fps,
                                      r.wrist_acceleration_camera, wrist_acc, r.units, frame_label=r.frame_label)}
     for name, plot in (("angles.png", plot_joint_angles), ("speeds.png", plot_joint_speeds)):
@@ -203,7 +205,7 @@ def write_rerun(r: RecordingResult, folder: Path) -> dict[str, Path]:
     path = write_recording(
         folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera, canonical=r.canonical,
         rotations=r.rotation, up=r.rotation[:, :, 1], valid=r.valid, keypoints2d=r.keypoints2d,
-        video_path=r.video, wrist_paths={n: r.kinematics.positions[:, KEPT_JOINTS.index(n)] for n in WRISTS},
+        video_path=r.video, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
         series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence, flags=r.flags, world=r.world,
     )
     return {"recording": path}

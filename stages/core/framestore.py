@@ -1,0 +1,226 @@
+"""Whole-recording arrays kept on disk and read or written a block of frames at a time, so
+that a long recording's memory does not grow with its length (``pcnet run``, issue "bounded
+memory for long ones").
+
+Each array is one ``.npy`` file (numpy's format, ``numpy.lib.format``), so a finished array
+can go into ``canonical.npz`` as it is. Reads and writes are file I/O into fresh arrays, not
+memory maps: the pages of a map count in the process's resident memory for as long as the
+map lives, which would put the whole file back in it.
+
+Axis 0 is always frames. An array supports ``a[i:j]`` (and ``a[i:j, ...]``, ``a[:, k]``,
+which read a block at a time), ``a[i:j] = values``, ``len(a)``, ``shape``, ``dtype``; it
+refuses ``np.asarray(a)`` of a pose-sized array (a whole-recording read) with a TypeError,
+so code that was not written for it fails loudly rather than quietly loading everything.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+from numpy.lib import format as npy_format
+
+#: Frames per block in :meth:`FrameArray.blocks` and the block-wise readers (a 17-joint
+#: float64 block is 3.3 MB).
+BLOCK_FRAMES = 8192
+#: Values per frame up to which ``np.asarray`` may read a :class:`FrameArray` whole: a
+#: ``(T,)`` or ``(T, 3)`` column (24 bytes a frame in float64), which plots and per-frame
+#: logic need whole anyway.
+MAX_WHOLE_ROW_ITEMS = 3
+
+
+class FrameArray:
+    """A ``(T, ...)`` array in a ``.npy`` file, accessed a block of frames at a time.
+
+    Create one with :meth:`FrameStore.create` or open an existing C-ordered ``.npy`` file
+    read-only with :meth:`open`.
+
+    Raises:
+        TypeError: ``np.asarray`` of the whole array, a step other than 1, or an index that
+            is neither an int, a slice nor a tuple starting with one.
+        ValueError: writing a block of the wrong shape, or writing a read-only array.
+    """
+
+    def __init__(self, path: Path, shape: tuple[int, ...], dtype: np.dtype, offset: int, writable: bool):
+        self.path = Path(path)
+        self.shape = tuple(int(s) for s in shape)
+        self.dtype = np.dtype(dtype)
+        self.writable = writable
+        self._offset = offset
+        self._row_items = int(np.prod(self.shape[1:], dtype=np.int64))
+        self._fh = open(self.path, "r+b" if writable else "rb")
+
+    @classmethod
+    def open(cls, path: str | os.PathLike) -> FrameArray:
+        """A read-only view of an existing ``.npy`` file.
+
+        Raises:
+            ValueError: not a ``.npy`` file, Fortran order, object dtype or no frame axis.
+        """
+        with open(path, "rb") as fh:
+            version = npy_format.read_magic(fh)
+            header = npy_format.read_array_header_1_0 if version == (1, 0) else npy_format.read_array_header_2_0
+            shape, fortran, dtype = header(fh)
+            offset = fh.tell()
+        if fortran or dtype.hasobject or len(shape) < 1:
+            raise ValueError(f"{path}: expected a C-ordered numeric .npy array with a frame axis, got "
+                             f"shape {shape}, dtype {dtype}, fortran_order {fortran}")
+        return cls(Path(path), shape, dtype, offset, writable=False)
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __array__(self, dtype=None, copy=None):
+        if self._row_items > MAX_WHOLE_ROW_ITEMS:
+            raise TypeError(f"{self.path.name}: a whole-recording array on disk; read it a block at a time "
+                            f"(a[i:j]) rather than with np.asarray")
+        return np.asarray(self.read(0, len(self)), dtype)
+
+    def column(self, *index) -> FrameColumn:
+        """``a[:, *index]`` as a :class:`FrameColumn`, read only when sliced or converted."""
+        return FrameColumn(self, index)
+
+    def _rows(self, key: slice) -> tuple[int, int]:
+        start, stop, step = key.indices(len(self))
+        if step != 1:
+            raise TypeError(f"{self.path.name}: only contiguous frame ranges can be read, got step {step}")
+        return start, max(start, stop)
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        """Frames ``[start, stop)`` as a new in-memory array ``(stop - start, ...)``."""
+        n = max(0, stop - start)
+        self._fh.seek(self._offset + start * self._row_items * self.dtype.itemsize)
+        data = np.fromfile(self._fh, dtype=self.dtype, count=n * self._row_items)
+        return data.reshape((n,) + self.shape[1:])
+
+    def __getitem__(self, key):
+        rest: tuple = ()
+        if isinstance(key, tuple):
+            key, rest = key[0], key[1:]
+        if isinstance(key, (int, np.integer)):
+            i = int(key) + (len(self) if key < 0 else 0)
+            if not 0 <= i < len(self):
+                raise IndexError(f"{self.path.name}: frame {key} of {len(self)}")
+            block = self.read(i, i + 1)[0]
+            return block[rest] if rest else block
+        if not isinstance(key, slice):
+            raise TypeError(f"{self.path.name}: index frames with an int or a slice, got {type(key).__name__}")
+        start, stop = self._rows(key)
+        if not rest:
+            return self.read(start, stop)
+        if stop - start > BLOCK_FRAMES:
+            return np.concatenate([self.read(lo, min(stop, lo + BLOCK_FRAMES))[(slice(None),) + rest]
+                                   for lo in range(start, stop, BLOCK_FRAMES)])
+        return self.read(start, stop)[(slice(None),) + rest]
+
+    def __setitem__(self, key, value) -> None:
+        if not self.writable:
+            raise ValueError(f"{self.path.name}: read-only")
+        if not isinstance(key, slice):
+            raise TypeError(f"{self.path.name}: write a slice of frames, got {type(key).__name__}")
+        start, stop = self._rows(key)
+        block = np.broadcast_to(np.asarray(value, self.dtype), (stop - start,) + self.shape[1:])
+        self._fh.seek(self._offset + start * self._row_items * self.dtype.itemsize)
+        np.ascontiguousarray(block).tofile(self._fh)
+
+    def blocks(self, size: int | None = None) -> Iterator[slice]:
+        """Consecutive frame slices of at most ``size`` (default :data:`BLOCK_FRAMES`) frames
+        covering the array."""
+        return frame_blocks(len(self), size)
+
+    def flush(self) -> None:
+        self._fh.flush()
+
+    def close(self) -> None:
+        self._fh.close()
+
+
+class FrameColumn:
+    """``arr[:, *index]`` of a :class:`FrameArray`, read lazily: ``c[i:j]`` reads frames
+    ``[i, j)`` only; ``np.asarray(c)`` reads the whole column (a few values per frame)."""
+
+    def __init__(self, arr: FrameArray, index: tuple):
+        self.arr, self.index = arr, tuple(index)
+        self.shape = (len(arr),) + np.empty((1,) + arr.shape[1:], arr.dtype)[(slice(None),) + self.index].shape[1:]
+        self.dtype = arr.dtype
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, key):
+        rows = self.arr[key]
+        return rows[(slice(None),) + self.index] if isinstance(key, slice) else rows[self.index]
+
+    def __array__(self, dtype=None, copy=None):
+        return np.asarray(self.arr[(slice(None),) + self.index], dtype)
+
+
+def column(arr, *index):
+    """``arr[:, *index]``: at once for an in-memory array, a lazy :class:`FrameColumn` for a
+    :class:`FrameArray`."""
+    return arr.column(*index) if isinstance(arr, FrameArray) else arr[(slice(None),) + index]
+
+
+def frame_blocks(n: int, size: int | None = None) -> Iterator[slice]:
+    """Consecutive slices of at most ``size`` (default :data:`BLOCK_FRAMES`, read at call
+    time) frames covering ``n`` frames."""
+    size = size or BLOCK_FRAMES
+    return (slice(lo, min(n, lo + size)) for lo in range(0, n, size))
+
+
+class FrameStore:
+    """A folder of :class:`FrameArray` files for one recording; ``close()`` deletes the folder,
+    which the store created (``tempfile.mkdtemp``) and nothing else writes into.
+
+    ``folder``: where to create it (the run's staged output folder, so the arrays are on the
+    disk the outputs go to, not in a RAM-backed ``/tmp``).
+    """
+
+    def __init__(self, folder: str | os.PathLike):
+        self.folder = Path(tempfile.mkdtemp(prefix=".frames-", dir=folder))
+        self._arrays: list[FrameArray] = []
+
+    def create(self, name: str, shape: tuple[int, ...], dtype, fill: float | None = np.nan) -> FrameArray:
+        """A new writable ``(T, ...)`` array ``name.npy``, every value ``fill`` (``None``: left
+        as the file system gives it, zeros)."""
+        path = self.folder / f"{name}.npy"
+        dtype = np.dtype(dtype)
+        with open(path, "wb") as fh:
+            npy_format.write_array_header_1_0(fh, {"descr": npy_format.dtype_to_descr(dtype),
+                                                    "fortran_order": False, "shape": tuple(shape)})
+            offset = fh.tell()
+            fh.truncate(offset + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize)
+        arr = FrameArray(path, shape, dtype, offset, writable=True)
+        if fill is not None and fill != 0:
+            for rows in arr.blocks():
+                arr[rows] = fill
+        self._arrays.append(arr)
+        return arr
+
+    def close(self) -> None:
+        for arr in self._arrays:
+            arr.close()
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def __enter__(self) -> FrameStore:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def read_columns(arr, columns) -> np.ndarray:
+    """``arr[:, columns]`` of an in-memory or on-disk ``(T, J, ...)`` array, read a block at
+    a time (only the selected columns are ever whole)."""
+    if isinstance(arr, np.ndarray):
+        return arr[:, columns]
+    return np.concatenate([arr[rows][:, columns] for rows in frame_blocks(len(arr))]) if len(arr) else \
+        np.empty((0,) + np.empty((0,) + arr.shape[1:], arr.dtype)[:, columns].shape[1:], arr.dtype)
