@@ -8,8 +8,9 @@ length, runs the whole pipeline without the video (video decoding excluded) with
 rectification, kinematics, every export and the rerun recording, each length in a fresh
 process, and prints frames/s, the per-stage time split and the process's peak resident
 memory (``ru_maxrss``; the input files are written by the parent, so their generation does
-not count). Bounded memory means the peak stays flat as the recording grows;
-``--stage-memory`` also prints where the peak is reached, step by step.
+not count). Bounded memory means the peak stays flat as the recording grows; the
+whole-recording arrays go to disk beside the output while the run lasts (their size is
+printed). ``--stage-memory`` also prints where the peak is reached, step by step.
 """
 
 from __future__ import annotations
@@ -92,8 +93,17 @@ def run_one(folder: Path, fps: float, method: str, mode: str, stage_memory: bool
     """Run the pipeline on the files in ``folder`` in this process; what it measured."""
     from pcnet.pipeline import runner
     from pcnet.pipeline.config import RunConfig
+    from pcnet.stages.core.framestore import FrameStore
 
     steps = watch_steps(runner) if stage_memory else []
+    store_bytes = [0]
+    close = FrameStore.close
+
+    def measured_close(store) -> None:  # the disk the whole-recording arrays took, before removal
+        store_bytes[0] = max(store_bytes[0], sum(f.stat().st_size for f in store.folder.iterdir()))
+        close(store)
+
+    FrameStore.close = measured_close
     cfg = RunConfig(lifter="motionbert", lifter_output=str(folder / "X3D.npy"), keypoints2d=str(folder / "ap.json"),
                     keypoints2d_format="alphapose", fps=fps, height=1.75, method=method, mode=mode,
                     out=str(folder / "out"))
@@ -104,6 +114,7 @@ def run_one(folder: Path, fps: float, method: str, mode: str, stage_memory: bool
         "frames": result.frames, "mode": result.mode, "seconds": total,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "outputs_mb": sum(p.stat().st_size for p in (folder / "out").iterdir()) / 1e6,
+        "store_mb": store_bytes[0] / 1e6,
         "stages": result.seconds, "steps": steps,
     }
 
@@ -135,7 +146,8 @@ def main() -> None:
         stages = ", ".join(f"{k} {v:.1f}" for k, v in r["stages"].items())
         print(f"{minutes:g} min = {r['frames']} frames, method {args.method}, mode {r['mode']}: {r['seconds']:.1f} s, "
               f"{r['frames'] / r['seconds']:.0f} frames/s, peak RSS {r['peak_rss_mb']:.0f} MB, "
-              f"outputs {r['outputs_mb']:.0f} MB; stages (s): {stages}", flush=True)
+              f"outputs {r['outputs_mb']:.0f} MB, arrays on disk while running {r['store_mb']:.0f} MB; "
+              f"stages (s): {stages}", flush=True)
         for st in r["steps"]:
             print(f"    {st['step']:<24} RSS before {st['before_mb']:6.0f}  peak {st['peak_mb']:6.0f}  "
                   f"after {st['after_mb']:6.0f} MB", flush=True)
