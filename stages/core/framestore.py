@@ -36,8 +36,7 @@ MAX_WHOLE_ROW_ITEMS = 3
 class FrameArray:
     """A ``(T, ...)`` array in a ``.npy`` file, accessed a block of frames at a time.
 
-    Create one with :meth:`FrameStore.create` or open an existing C-ordered ``.npy`` file
-    read-only with :meth:`open`.
+    Made by :meth:`FrameStore.create`.
 
     Raises:
         TypeError: ``np.asarray`` of the whole array, a step other than 1, or an index that
@@ -45,7 +44,7 @@ class FrameArray:
         ValueError: writing a block of the wrong shape, or writing a read-only array.
     """
 
-    def __init__(self, path: Path, shape: tuple[int, ...], dtype: np.dtype, offset: int, writable: bool):
+    def __init__(self, path: Path, shape: tuple[int, ...], dtype: np.dtype, offset: int, writable: bool = True):
         self.path = Path(path)
         self.shape = tuple(int(s) for s in shape)
         self.dtype = np.dtype(dtype)
@@ -53,23 +52,6 @@ class FrameArray:
         self._offset = offset
         self._row_items = int(np.prod(self.shape[1:], dtype=np.int64))
         self._fh = open(self.path, "r+b" if writable else "rb")
-
-    @classmethod
-    def open(cls, path: str | os.PathLike) -> FrameArray:
-        """A read-only view of an existing ``.npy`` file.
-
-        Raises:
-            ValueError: not a ``.npy`` file, Fortran order, object dtype or no frame axis.
-        """
-        with open(path, "rb") as fh:
-            version = npy_format.read_magic(fh)
-            header = npy_format.read_array_header_1_0 if version == (1, 0) else npy_format.read_array_header_2_0
-            shape, fortran, dtype = header(fh)
-            offset = fh.tell()
-        if fortran or dtype.hasobject or len(shape) < 1:
-            raise ValueError(f"{path}: expected a C-ordered numeric .npy array with a frame axis, got "
-                             f"shape {shape}, dtype {dtype}, fortran_order {fortran}")
-        return cls(Path(path), shape, dtype, offset, writable=False)
 
     @property
     def ndim(self) -> int:
@@ -189,8 +171,8 @@ class FrameStore:
         self._arrays: list[FrameArray] = []
 
     def create(self, name: str, shape: tuple[int, ...], dtype, fill: float | None = np.nan) -> FrameArray:
-        """A new writable ``(T, ...)`` array ``name.npy``, every value ``fill`` (``None``: left
-        as the file system gives it, zeros)."""
+        """A new writable ``(T, ...)`` array ``name.npy``: a float array has every value
+        ``fill`` (NaN, missing, until written; ``None``: zeros), any other dtype zeros."""
         path = self.folder / f"{name}.npy"
         dtype = np.dtype(dtype)
         with open(path, "wb") as fh:
@@ -199,7 +181,7 @@ class FrameStore:
             offset = fh.tell()
             fh.truncate(offset + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize)
         arr = FrameArray(path, shape, dtype, offset, writable=True)
-        if fill is not None and fill != 0:
+        if dtype.kind == "f" and fill is not None and fill != 0:
             for rows in arr.blocks():
                 arr[rows] = fill
         self._arrays.append(arr)
@@ -215,12 +197,3 @@ class FrameStore:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-
-def read_columns(arr, columns) -> np.ndarray:
-    """``arr[:, columns]`` of an in-memory or on-disk ``(T, J, ...)`` array, read a block at
-    a time (only the selected columns are ever whole)."""
-    if isinstance(arr, np.ndarray):
-        return arr[:, columns]
-    return np.concatenate([arr[rows][:, columns] for rows in frame_blocks(len(arr))]) if len(arr) else \
-        np.empty((0,) + np.empty((0,) + arr.shape[1:], arr.dtype)[:, columns].shape[1:], arr.dtype)
