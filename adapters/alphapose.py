@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import math
 import re
-from pathlib import Path
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Iterator
 
 import numpy as np
@@ -230,16 +230,14 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     points = np.full((num_frames, n_joints, 3), np.nan, np.float32)
     _collect(p, track, best[track], points, layout)
     found = len(best[track])
-    scan_list_idx, scan_missing_score = scan.list_idx, scan.missing_score
-    del best, scan
     points, raw_max = checked_keypoints(p, "keypoints", points, layout, in_place=True)
 
     notes = [f"AlphaPose results JSON (AlphaPose docs/output.md), {count} keypoints -> {layout}", how]
     if count != n_joints:
         notes.append(f"kept the first {n_joints} of {count} joints (body part)")
-    if scan_list_idx:
+    if scan.list_idx:
         notes.append("idx is list-form (AlphaPose without a tracker: pose-NMS proposal ids, not a real track); first id used")
-    if scan_missing_score:
+    if scan.missing_score:
         notes.append("entries without 'score' scored by their mean keypoint confidence")
     dup = sorted(duplicates.get(track, ()))
     if dup:

@@ -13,7 +13,7 @@ import numpy as np
 
 from pcnet.stages.core.conventions import check_poses
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.framestore import frame_blocks
+from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.core.rotations import angle_between
 
 from .preprocess import normalize_input
@@ -72,7 +72,7 @@ class PCNetSession:
         slice assignment, e.g. a FrameArray: a long recording's residual stays on disk)."""
         n = len(check_poses(joints_cam, "joints_cam"))
         R, valid = np.full((n, 3, 3), np.nan), np.zeros(n, bool)
-        residual = np.full((n, 17, 3), np.nan) if residual is None else residual
+        residual = in_memory("residual", (n, 17, 3), np.float64) if residual is None else residual
         for rows in frame_blocks(n, CHUNK_FRAMES):
             R[rows], residual[rows], valid[rows] = self.predict_normalized(
                 *normalize_input(check_poses(joints_cam[rows], "joints_cam")), batch_size=batch_size)
@@ -122,8 +122,8 @@ class ViewGatedPCNet:
         default in memory; the pipeline's are on disk, so only the ``(N, 3, 3)`` rotations and
         per-frame values of a long recording are in memory)."""
         n = len(check_poses(joints_cam, "joints_cam"))
-        allocate = allocate or (lambda name, shape, dtype: np.full(shape, np.nan, dtype))
-        res_cam, res_body = (allocate(name, (n, 17, 3), np.float64) for name in ("residual", "residual_body"))
+        res_cam, res_body = ((allocate or in_memory)(name, (n, 17, 3), np.float64)
+                             for name in ("residual", "residual_body"))
         R_cam, R_body, valid = np.full((n, 3, 3), np.nan), np.full((n, 3, 3), np.nan), np.zeros(n, bool)
         for rows in frame_blocks(n, CHUNK_FRAMES):
             normalized = normalize_input(check_poses(joints_cam[rows], "joints_cam"))  # both networks read it

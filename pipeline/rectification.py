@@ -16,9 +16,9 @@ import numpy as np
 from pcnet.models.inference import get_session
 from pcnet.stages.core.conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.framestore import frame_blocks
+from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.rectify import (METHODS, Allocate, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
-                                  Rectification, Rectified, SequenceEvidence, check_method_weights, in_memory,
+                                  Rectification, Rectified, SequenceEvidence, check_method_weights,
                                   resolve_heading_source)
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG
 

@@ -26,7 +26,7 @@ import numpy as np
 from .core.canonical import to_canonical
 from .core.conventions import check_poses
 from .core.errors import InputError
-from .core.framestore import frame_blocks
+from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
@@ -34,17 +34,13 @@ from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_T
 from .uncertainty import bound_weights, calibrated_interval, frame_tilt_bound
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
+NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
 
 #: ``allocate(name, shape, dtype)``: a new NaN-filled ``(T, ...)`` array for a whole-recording
-#: result (the residual, the canonical poses): :func:`in_memory`, or a
+#: result (the residual, the canonical poses):
+#: :func:`~pcnet.stages.core.framestore.in_memory`, or a
 #: :class:`~pcnet.stages.core.framestore.FrameStore`'s ``create`` for a long recording.
 Allocate = Callable[[str, tuple, type], np.ndarray]
-
-
-def in_memory(name: str, shape: tuple, dtype) -> np.ndarray:
-    """The default :data:`Allocate`: a NaN-filled in-memory array (``name`` unused)."""
-    return np.full(shape, np.nan, dtype)
-NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
 
 
 @dataclass(frozen=True)

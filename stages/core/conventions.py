@@ -26,9 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .framestore import FrameArray, frame_blocks
-
 from .errors import InputError
+from .framestore import FrameArray, frame_blocks
 
 H36M_JOINTS: tuple[str, ...] = (
     "pelvis", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee",

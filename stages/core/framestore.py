@@ -151,6 +151,12 @@ def column(arr, *index):
     return arr.column(*index) if isinstance(arr, FrameArray) else arr[(slice(None),) + index]
 
 
+def in_memory(name: str, shape: tuple, dtype) -> np.ndarray:
+    """:meth:`FrameStore.create`'s in-memory stand-in: a new NaN-filled array (``name``
+    unused), what a short recording or an API call without a store gets."""
+    return np.full(shape, np.nan, dtype)
+
+
 def frame_blocks(n: int, size: int | None = None) -> Iterator[slice]:
     """Consecutive slices of at most ``size`` (default :data:`BLOCK_FRAMES`, read at call
     time) frames covering ``n`` frames."""

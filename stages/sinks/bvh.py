@@ -39,6 +39,7 @@ from scipy.spatial.transform import Rotation
 
 from ..core.atomic import atomic_path
 from ..core.conventions import (
+    H36M_BONES,
     H36M_JOINTS,
     H36M_PARENTS,
     HEAD,
@@ -248,16 +249,8 @@ def _streamed_skeleton(poses, names: list[str]):
     Raises:
         InputError: as :func:`_checked_poses`.
     """
-    who = "write_bvh"
-    if not isinstance(poses, FrameArray):
-        poses = np.asarray(poses)
-    dtype = poses.dtype
-    if dtype == bool or not (np.issubdtype(dtype, np.floating) or np.issubdtype(dtype, np.integer)):
-        raise InputError(f"{who}: expected real-valued (float) joint coordinates, got dtype {dtype}")
-    shape = tuple(np.shape(poses))
-    if len(shape) != 3 or shape[1:] != (17, 3) or shape[0] == 0:
-        raise InputError(f"{who}: expected poses of shape (T, 17, 3) with T >= 1 (H36M-17 joints), got {shape}")
-    T = shape[0]
+    poses = _pose_array(poses)
+    T = len(poses)
     known = np.zeros((T, 17), bool)
     lengths, directions, before = [], {c: [] for c in _LINKED}, None
     for lo in range(0, T, TEXT_BLOCK_ROWS):
@@ -268,8 +261,7 @@ def _streamed_skeleton(poses, names: list[str]):
         lengths.append(L)
         for c in _LINKED:
             directions[c].append(D[c])
-    if not known.all(axis=1).any():
-        raise InputError(f"{who}: expected at least one frame with all 17 joints finite, got none of {T} frames")
+    _require_a_complete_frame(known.all(axis=1))
     sk = _skeleton_from(np.concatenate(lengths), {c: np.concatenate(d) for c, d in directions.items()}, names)
     return poses, known, sk
 
@@ -320,20 +312,36 @@ class _Skeleton:
     lengths: np.ndarray
 
 
-def _checked_poses(poses: np.ndarray, joint_names: Sequence[str]) -> tuple[np.ndarray, list[str]]:
-    who = "write_bvh"
-    names = _check_names(who, joint_names)
-    arr = np.asarray(poses)
+def _pose_array(poses):
+    """``poses`` (in memory, or a :class:`~pcnet.stages.core.framestore.FrameArray` left on
+    disk) once its dtype and ``(T, 17, 3)`` shape are checked.
+
+    Raises:
+        InputError: a non-numeric dtype, or a shape other than ``(T, 17, 3)`` with ``T >= 1``.
+    """
+    arr = poses if isinstance(poses, FrameArray) else np.asarray(poses)
     if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
-        raise InputError(f"{who}: expected real-valued (float) joint coordinates, got dtype {arr.dtype}")
+        raise InputError(f"write_bvh: expected real-valued (float) joint coordinates, got dtype {arr.dtype}")
     if arr.ndim != 3 or arr.shape[1:] != (17, 3) or arr.shape[0] == 0:
-        raise InputError(f"{who}: expected poses of shape (T, 17, 3) with T >= 1 (H36M-17 joints), got {arr.shape}")
+        raise InputError(f"write_bvh: expected poses of shape (T, 17, 3) with T >= 1 (H36M-17 joints), "
+                         f"got {tuple(arr.shape)}")
+    return arr
+
+
+def _require_a_complete_frame(complete: np.ndarray) -> None:
+    """Raise :class:`InputError` unless a frame of ``complete`` ``(T,)`` has all 17 joints."""
+    if not complete.any():
+        raise InputError(f"write_bvh: expected at least one frame with all 17 joints finite, got none of "
+                         f"{len(complete)} frames")
+
+
+def _checked_poses(poses: np.ndarray, joint_names: Sequence[str]) -> tuple[np.ndarray, list[str]]:
+    names = _check_names("write_bvh", joint_names)
     # No copy of a float64 recording (a 2-hour one is 176 MB) unless it holds inf to replace.
-    X = arr.astype(np.float64, copy=False)
+    X = np.asarray(_pose_array(poses)).astype(np.float64, copy=False)
     if np.isinf(X).any():
         X = np.where(np.isinf(X), np.nan, X)
-    if not np.isfinite(X).all(axis=(1, 2)).any():
-        raise InputError(f"{who}: expected at least one frame with all 17 joints finite, got none of {len(X)} frames")
+    _require_a_complete_frame(np.isfinite(X).all(axis=(1, 2)))
     return X, names
 
 
@@ -345,16 +353,13 @@ def _body_frames(P: np.ndarray, before: dict[int, np.ndarray] | None = None) -> 
             for j, ((a, b), (zl, zr)) in _FRAMES.items()}
 
 
-_BONES = [(p, c) for c, p in enumerate(H36M_PARENTS) if p >= 0]
-
-
 def _skeleton_samples(Xc: np.ndarray, before: dict[int, np.ndarray] | None = None):
     """What the rest skeleton is the median of, from frames with all 17 joints ``Xc``
     ``(n, 17, 3)`` float64: bone lengths ``(n, 16)``, the link children's unit directions in
     the pelvis/thorax frames ``{joint: (n, 3)}``, and those frames' last rotations, the
     ``before`` of the next block (:func:`_hold`), so that a recording's samples gathered a
     block of frames at a time are the whole recording's."""
-    lengths = np.stack([np.linalg.norm(Xc[:, c] - Xc[:, p], axis=-1) for p, c in _BONES], axis=-1)
+    lengths = np.stack([np.linalg.norm(Xc[:, c] - Xc[:, p], axis=-1) for p, c in H36M_BONES], axis=-1)
     frames = _body_frames(Xc, before)
     directions = {c: _unit(np.einsum("tji,tj->ti", frames[H36M_PARENTS[c]], Xc[:, c] - Xc[:, H36M_PARENTS[c]]))[0]
                   for c in _LINKED}
@@ -370,7 +375,7 @@ def _skeleton(X: np.ndarray, P: np.ndarray, names: list[str]) -> _Skeleton:
 
 def _skeleton_from(bone_lengths: np.ndarray, link_directions: dict[int, np.ndarray], names: list[str]) -> _Skeleton:
     """The rest skeleton from :func:`_skeleton_samples` of every complete frame."""
-    bones = _BONES
+    bones = H36M_BONES
     lengths = np.median(bone_lengths, axis=0)
     length = {c: lengths[i] for i, (_, c) in enumerate(bones)}
     if not (lengths > 0).all():
