@@ -29,16 +29,34 @@ def check_interrupted() -> None:
 def main() -> None:
     """Entry point of ``pcnet`` (``[project.scripts]``): SIGINT and SIGTERM unwind as
     ``KeyboardInterrupt`` and are remembered (:func:`check_interrupted`), then
-    :func:`pcnet.pipeline.cli.main` runs every command under its error boundary."""
+    :func:`pcnet.pipeline.cli.main` runs every command under its error boundary.
+
+    click runs in non-standalone mode so that an interrupt outside a command's body (while
+    click parses the arguments) also ends in exit 130; in standalone mode click would turn it
+    into "Aborted!" and exit 1."""
     signal.signal(signal.SIGTERM, raise_interrupt)
     signal.signal(signal.SIGINT, raise_interrupt)
     try:
+        import click
+
         from pcnet.pipeline.cli import main as cli
     except KeyboardInterrupt:
-        sys.stderr.write("pcnet: interrupted before starting; nothing was written\n")
-        raise SystemExit(EXIT_INTERRUPTED) from None
-    cli()
+        _stop("pcnet: interrupted before starting; nothing was written")
+    try:
+        code = cli.main(prog_name="pcnet", standalone_mode=False)
+    except click.ClickException as err:
+        err.show()
+        raise SystemExit(err.exit_code) from None
+    except (click.Abort, KeyboardInterrupt):
+        if not _interrupted.is_set():  # click's Abort for an end of input at a prompt
+            _stop("Aborted!", status=1)
+        _stop("pcnet: interrupted; nothing half-written was left behind")
+    raise SystemExit(code if isinstance(code, int) else 0)
 
+
+def _stop(line: str, status: int = EXIT_INTERRUPTED) -> None:
+    sys.stderr.write(line + "\n")
+    raise SystemExit(status) from None
 
 if __name__ == "__main__":
     main()

@@ -343,6 +343,31 @@ def test_inputs_that_carry_their_frame_rate_need_no_fps(user_folder):
         assert float(npz["fps"]) == float(mp["fps"])
 
 
+def test_ctrl_c_while_click_parses_the_arguments_is_exit_130(user_folder, monkeypatch, capsys):
+    """An interrupt that lands while click parses the command line (outside any command's
+    body, where click itself would print "Aborted!" and exit 1) still ends in one line and
+    exit 130. Deterministic counterpart of the timed subprocess test below."""
+    from pcnet.pipeline import entry
+
+    def interrupted_parse(*args, **kwargs):
+        entry.raise_interrupt(signal.SIGINT, None)
+
+    monkeypatch.setattr(main, "make_context", interrupted_parse)
+    monkeypatch.setattr(sys, "argv", ["pcnet", *RUN, "--out", "o"])
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with pytest.raises(SystemExit) as stop:
+            entry.main()
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+        entry._interrupted.clear()
+    err = capsys.readouterr().err
+    assert stop.value.code == 130
+    assert err.strip() == "pcnet: interrupted; nothing half-written was left behind"
+    assert not (user_folder / "o").exists()
+
+
 @pytest.mark.parametrize("delay", [0.5, 0.9])
 def test_ctrl_c_while_starting_is_one_line(user_folder, delay):
     """Ctrl-C while the command line is still importing its libraries (about 1 s): exit 130,
