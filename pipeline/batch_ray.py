@@ -121,6 +121,10 @@ class RayEngine:
         # Each task reserves one CPU, so a node runs one task per CPU (one thread each on a
         # cluster; cores // workers on the local instance started with --workers CPUs).
         attempts = ray.remote(num_cpus=0)(_Attempts).remote()
+        # Until the counter's process is up, a task's count waits inside its own worker and
+        # dies with it; a counter that is alive before any task starts receives each count
+        # within milliseconds of the attempt's start.
+        ray.get(attempts.last.remote(-1))
         task = ray.remote(num_cpus=1, max_retries=self.retries, retry_exceptions=False)(ray_row)
         if runtime_env:
             task = task.options(runtime_env=runtime_env)
