@@ -441,7 +441,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         step("exports")
         outputs = {**write_arrays(result, tmp), **table}
         _trim_heap()
-        outputs.update(write_motion_files(result, tmp, c3d=cfg.c3d))
+        outputs.update(write_motion_files(result, tmp, c3d=cfg.c3d, allocate=store.create))
         _trim_heap()
         outputs.update(write_figures(result, tmp))
         bar.update()

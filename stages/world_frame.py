@@ -143,7 +143,7 @@ def _floor_evidence(P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     present = np.isfinite(P[..., 1]).any(axis=1)
     lowest = np.full(len(P), np.nan)
     lowest[present] = np.nanmin(P[present, :, 1], axis=1)
-    return present, lowest, feet_visible(P), P[:, PELVIS, 1]
+    return present, lowest, feet_visible(P), P[:, PELVIS, 1].copy()  # a view would keep the block
 
 
 def _floor_from(present: np.ndarray, lowest: np.ndarray, feet: np.ndarray,

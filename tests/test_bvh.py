@@ -260,3 +260,5 @@ def test_written_in_blocks_equals_the_whole_recording(tmp_path, mocap, monkeypat
         on_disk = store.create("poses", X.shape, np.float64)
         on_disk[0 : len(X)] = X
         assert write_bvh(tmp_path / "disk.bvh", on_disk, FPS).read_text() == path.read_text()
+        # ... and with the skeleton's per-frame samples on disk too (what pcnet run does)
+        assert write_bvh(tmp_path / "disk2.bvh", on_disk, FPS, allocate=store.create).read_text() == path.read_text()

@@ -33,6 +33,7 @@ def test_a_stored_array_reads_back_what_was_written_by_blocks_slices_and_columns
         lazy = column(a, 16, 1)
         assert lazy.shape == (len(poses),)
         np.testing.assert_array_equal(lazy[5:9], poses[5:9, 16, 1])
+        np.testing.assert_array_equal(lazy[3:40], poses[3:40, 16, 1])  # across five block edges
         np.testing.assert_array_equal(np.asarray(lazy), poses[:, 16, 1])
         a.flush()
         np.testing.assert_array_equal(np.load(a.path, allow_pickle=False), poses)  # a plain .npy file
@@ -44,6 +45,27 @@ def test_a_stored_array_reads_back_what_was_written_by_blocks_slices_and_columns
         folder = store.folder
         assert folder.parent == tmp_path and folder.is_dir()
     assert not folder.exists() and tmp_path.is_dir()  # removes its own folder only
+
+
+def test_a_column_of_a_long_array_is_read_without_holding_the_array(tmp_path, monkeypatch):
+    """Reading one joint of every frame holds one block of frames at a time besides the
+    column itself, not the whole array (numpy's allocations, traced by tracemalloc)."""
+    import tracemalloc
+
+    monkeypatch.setattr(framestore, "BLOCK_FRAMES", 1000)
+    frames = 20000
+    with FrameStore(tmp_path) as store:
+        a = store.create("world", (frames, 17, 3), np.float64)  # 8.2 MB on disk
+        for rows in a.blocks():
+            a[rows] = np.arange(rows.start, rows.stop, dtype=float)[:, None, None]
+        tracemalloc.start()
+        try:
+            wrist = a[:, 16]
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        np.testing.assert_array_equal(wrist[:, 0], np.arange(frames))
+        assert peak < wrist.nbytes + 3 * 1000 * 17 * 3 * 8, peak  # the column and a block or so, not 8.2 MB
 
 
 def test_a_pose_sized_array_on_disk_refuses_a_whole_read_but_a_column_may(tmp_path, poses):

@@ -98,10 +98,18 @@ class FrameArray:
         start, stop = self._rows(key)
         if not rest:
             return self.read(start, stop)
-        if stop - start > BLOCK_FRAMES:
-            return np.concatenate([self.read(lo, min(stop, lo + BLOCK_FRAMES))[(slice(None),) + rest]
-                                   for lo in range(start, stop, BLOCK_FRAMES)])
-        return self.read(start, stop)[(slice(None),) + rest]
+        if stop - start <= BLOCK_FRAMES:
+            return self.read(start, stop)[(slice(None),) + rest]
+        # Filled block by block: a list of the blocks' column views would keep every whole
+        # block alive until the end, i.e. the whole array in memory.
+        first = self.read(start, min(stop, start + BLOCK_FRAMES))[(slice(None),) + rest]
+        out = np.empty((stop - start,) + first.shape[1:], first.dtype)
+        out[:len(first)] = first
+        del first
+        for lo in range(start + BLOCK_FRAMES, stop, BLOCK_FRAMES):
+            hi = min(stop, lo + BLOCK_FRAMES)
+            out[lo - start:hi - start] = self.read(lo, hi)[(slice(None),) + rest]
+        return out
 
     def __setitem__(self, key, value) -> None:
         if not self.writable:
@@ -138,8 +146,9 @@ class FrameColumn:
         return self.shape[0]
 
     def __getitem__(self, key):
-        rows = self.arr[key]
-        return rows[(slice(None),) + self.index] if isinstance(key, slice) else rows[self.index]
+        if isinstance(key, slice):
+            return self.arr[(key,) + self.index]  # block by block, never the whole rows
+        return self.arr[key][self.index]
 
     def __array__(self, dtype=None, copy=None):
         return np.asarray(self.arr[(slice(None),) + self.index], dtype)

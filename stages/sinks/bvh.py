@@ -62,7 +62,7 @@ from ..core.conventions import (
     validate_fps,
 )
 from ..core.errors import InputError
-from ..core.framestore import FrameArray
+from ..core.framestore import FrameArray, column, in_memory
 from .exports import TEXT_BLOCK_ROWS
 
 #: Rotation order (scipy intrinsic sequence = BVH channel order) of the pelvis and thorax,
@@ -241,29 +241,41 @@ def _rows(X, lo: int, hi: int) -> np.ndarray:
     return np.where(np.isinf(block), np.nan, block)
 
 
-def _streamed_skeleton(poses, names: list[str]):
+def _streamed_skeleton(poses, names: list[str], allocate=None):
     """:func:`_skeleton` of ``(T, 17, 3)`` poses in memory or on disk
     (:class:`~pcnet.stages.core.framestore.FrameArray`) read a block of frames at a time:
     ``(poses, known (T, 17) bool: joints with all three coordinates finite, skeleton)``.
+    The per-frame samples the skeleton is the median of go into arrays from ``allocate(name,
+    shape, dtype)`` (default in memory; a :class:`~pcnet.stages.core.framestore.FrameStore`'s
+    keeps a long recording's on disk).
 
     Raises:
         InputError: as :func:`_checked_poses`.
     """
     poses = _pose_array(poses)
     T = len(poses)
+    allocate = allocate or in_memory
     known = np.zeros((T, 17), bool)
-    lengths, directions, before = [], {c: [] for c in _LINKED}, None
+    lengths = allocate("bvh_bone_lengths", (T, len(H36M_BONES)), np.float64)
+    directions = {c: allocate(f"bvh_link_direction_{c}", (T, 3), np.float64) for c in _LINKED}
+    count, before = 0, None
     for lo in range(0, T, TEXT_BLOCK_ROWS):
         hi = min(T, lo + TEXT_BLOCK_ROWS)
         block = _rows(poses, lo, hi)
         known[lo:hi] = np.isfinite(block).all(axis=-1)
         L, D, before = _skeleton_samples(block[known[lo:hi].all(axis=1)], before)
-        lengths.append(L)
+        lengths[count:count + len(L)] = L
         for c in _LINKED:
-            directions[c].append(D[c])
+            directions[c][count:count + len(L)] = D[c]
+        count += len(L)
     _require_a_complete_frame(known.all(axis=1))
-    sk = _skeleton_from(np.concatenate(lengths), {c: np.concatenate(d) for c, d in directions.items()}, names)
-    return poses, known, sk
+    return poses, known, _skeleton_from(lengths, directions, names, count)
+
+
+def _column_medians(samples, count: int) -> np.ndarray:
+    """Median of each column of the first ``count`` rows of ``samples`` ``(n, k)``, read a
+    column at a time (``samples`` may be on disk); equal to ``np.median(samples[:count], axis=0)``."""
+    return np.array([np.median(column(samples, i)[:count]) for i in range(samples.shape[1])])
 
 
 def _filled_rows(X, known: np.ndarray, lo: int, hi: int) -> np.ndarray:
@@ -373,10 +385,12 @@ def _skeleton(X: np.ndarray, P: np.ndarray, names: list[str]) -> _Skeleton:
     return _skeleton_from(*_skeleton_samples(X[complete])[:2], names)
 
 
-def _skeleton_from(bone_lengths: np.ndarray, link_directions: dict[int, np.ndarray], names: list[str]) -> _Skeleton:
-    """The rest skeleton from :func:`_skeleton_samples` of every complete frame."""
+def _skeleton_from(bone_lengths, link_directions: dict, names: list[str], count: int | None = None) -> _Skeleton:
+    """The rest skeleton from :func:`_skeleton_samples` of every complete frame (the first
+    ``count`` rows of the samples, default all)."""
     bones = H36M_BONES
-    lengths = np.median(bone_lengths, axis=0)
+    count = len(bone_lengths) if count is None else count
+    lengths = _column_medians(bone_lengths, count)
     length = {c: lengths[i] for i, (_, c) in enumerate(bones)}
     if not (lengths > 0).all():
         zero = [f"{names[p]}-{names[c]}" for (p, c), L in zip(bones, lengths) if not L > 0]
@@ -387,7 +401,7 @@ def _skeleton_from(bone_lengths: np.ndarray, link_directions: dict[int, np.ndarr
     # The link children's rest directions are their median directions in the pelvis/thorax frames.
     rest_dir = dict(_REST_DIR)
     for c in _LINKED:
-        rest_dir[c] = _unit(np.median(link_directions[c], axis=0))[0]
+        rest_dir[c] = _unit(_column_medians(link_directions[c], count))[0]
     for _, (zl, zr) in _FRAMES.values():
         # One forward (x) component for the pair, their heights and lengths kept, so that the
         # rest pose's pelvis/thorax frame is exactly the identity (zero channels = rest pose).
@@ -504,6 +518,7 @@ def write_bvh(
     *,
     units: str = "m",
     joint_names: Sequence[str] = H36M_JOINTS,
+    allocate=None,
 ) -> Path:
     """Write H36M-17 world-frame poses as a BVH (Biovision hierarchy) motion file, atomically.
 
@@ -585,6 +600,10 @@ def write_bvh(
         fps: frame rate in Hz; ``Frame Time`` is ``1 / fps`` s.
         units: ``"m"`` (default, pcnet's unit), ``"cm"`` or ``"mm"``.
         joint_names: the 17 joint names (unique, no whitespace); default H36M-17's.
+        allocate: ``allocate(name, shape, dtype)`` for the per-frame samples of the bone
+            lengths and link directions (float64, 31 values per frame) whose medians give the
+            skeleton; default in memory (``pcnet run`` passes its
+            :class:`~pcnet.stages.core.framestore.FrameStore`'s ``create``).
 
     Returns:
         the destination path.
@@ -598,7 +617,7 @@ def write_bvh(
     if units not in BVH_UNITS:
         raise InputError(f"write_bvh: units must be one of {list(BVH_UNITS)}, got {units!r}")
     names = _check_names("write_bvh", joint_names)
-    X, known, sk = _streamed_skeleton(poses, names)
+    X, known, sk = _streamed_skeleton(poses, names, allocate)
     kids = sk.children
     lines = ["HIERARCHY"]
 

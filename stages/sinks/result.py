@@ -162,11 +162,12 @@ def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
     return {"canonical.npz": path}
 
 
-def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False) -> dict[str, Path]:
+def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allocate=None) -> dict[str, Path]:
     """Metric runs only (``r.units == "m"``): ``<frame>.trc``, ``<frame>.c3d`` (``c3d``) and
     ``<frame>.bvh`` of ``r.poses`` (:func:`.exports.write_trc`, :func:`.exports.write_c3d`,
     :func:`.bvh.write_bvh`); a BVH needs one frame with all 17 joints (else a note, no file)
-    and interpolates gaps (a note counts them)."""
+    and interpolates gaps (a note counts them). ``allocate`` makes the BVH skeleton's
+    per-frame samples (:func:`.bvh.write_bvh`)."""
     if r.units != "m":
         return {}
     name = r.kinematics_frame
@@ -179,7 +180,7 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False) -> d
     if incomplete.all():
         r.notes.append(f"{bvh} not written: no frame has all 17 joints (BVH needs one for the bone lengths)")
         return out
-    out[bvh] = write_bvh(folder / bvh, r.poses, r.fps)
+    out[bvh] = write_bvh(folder / bvh, r.poses, r.fps, allocate=allocate)
     if incomplete.any():
         r.notes.append(f"{bvh}: {int(incomplete.sum())} of {len(incomplete)} frames had missing joints, "
                        f"filled by linear interpolation in time (BVH cannot hold NaN; the CSV, TRC and "
