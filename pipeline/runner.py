@@ -27,7 +27,7 @@ from pcnet.models.toml_config import type_name, value_matches
 from pcnet.stages.core.conventions import (H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps,
                                            validate_poses)
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.framestore import FrameStore, frame_blocks
+from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (body_size_flag, disagreement_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag, unfiltered_flag)
@@ -277,7 +277,7 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
 
 def _present(poses) -> np.ndarray:
     """``(T,)`` bool: frames with any finite joint, read a block at a time."""
-    return np.concatenate([np.isfinite(poses[rows]).any(axis=(1, 2)) for rows in frame_blocks(len(poses))])
+    return per_frame(lambda P: np.isfinite(P).any(axis=(1, 2)), poses)
 
 
 def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: FrameStore):
@@ -318,6 +318,14 @@ def _located(cam, root_cam: np.ndarray | None, store: FrameStore):
     for rows in frame_blocks(len(cam)):
         located[rows] = cam[rows] + root_cam[rows, None].astype(np.float32)
     return located
+
+
+def _moved_to_disk(arr: np.ndarray, name: str, store: FrameStore):
+    """``arr`` copied into the run's frame store a block of frames at a time."""
+    stored = store.create(name, arr.shape, arr.dtype, fill=None)
+    for rows in frame_blocks(len(arr)):
+        stored[rows] = arr[rows]
+    return stored
 
 
 def _scaled_in_place(arr, factor: float, precision=np.float64) -> None:
@@ -425,6 +433,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         # small enough to filter whole, and no angles to compute.
         acc_cam = filtered_derivatives(cam[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
 
+        rotations = _moved_to_disk(rotations, "rotation", store)  # only the sinks read them from here on
         result = RecordingResult(
             fps=fps, units=units, method=cfg.method, report=report, flags=flags, notes=notes, joints_camera=cam,
             rotation=rotations, canonical=canonical, valid=valid, kinematics_frame=kin_frame, poses=rectified,

@@ -173,6 +173,15 @@ def frame_blocks(n: int, size: int | None = None) -> Iterator[slice]:
     return (slice(lo, min(n, lo + size)) for lo in range(0, n, size))
 
 
+def per_frame(f, arr) -> np.ndarray:
+    """``f(arr[rows])`` for each block of frames of ``arr`` (in memory or a
+    :class:`FrameArray`), concatenated: a per-frame result ``(T, ...)`` computed with one
+    block of the input in memory at a time. ``f`` must map ``n`` frames to ``n`` rows."""
+    if not len(arr):
+        return np.asarray(f(arr[0:0]))
+    return np.concatenate([f(arr[rows]) for rows in frame_blocks(len(arr))])
+
+
 class FrameStore:
     """A folder of :class:`FrameArray` files for one recording; ``close()`` deletes the folder,
     which the store created (``tempfile.mkdtemp``) and nothing else writes into.

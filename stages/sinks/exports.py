@@ -410,8 +410,9 @@ def plot_wrists(
     if not fps > 0:
         raise ValueError(f"plot_wrists: fps must be > 0, got {fps!r}")
     # Only the wrists are drawn: two joints read (a long recording's poses are on disk).
-    cam, can = (np.asarray(p[:, [L_WRIST, R_WRIST]], np.float64) for p in (camera, canonical))
-    acam, acan = (np.asarray(a, np.float64) for a in (acc_camera, acc_canonical))
+    # Kept in their own precision (float32 for a run's): display_samples converts one series at a time.
+    cam, can = (np.asarray(p[:, [L_WRIST, R_WRIST]]) for p in (camera, canonical))
+    acam, acan = (np.asarray(a) for a in (acc_camera, acc_canonical))
     t = np.arange(T) / fps
     acc_u = f"{units}/s²"
     columns = (
@@ -428,7 +429,7 @@ def plot_wrists(
                           label=f"{side} wrist {labels[c]}")
                 ax_a.plot(*display_samples(t, acc[:, w, c]), style, color=comp_colors[c], lw=0.8,
                           label=f"{side} wrist a{labels[c]}")
-            ax_m.plot(*display_samples(t, np.linalg.norm(acc[:, w], axis=-1)), style, color="k", lw=0.8,
+            ax_m.plot(*display_samples(t, np.linalg.norm(acc[:, w].astype(np.float64), axis=-1)), style, color="k", lw=0.8,
                       label=f"{side} wrist |a|")
         ax_p.set_title(title)
         ax_p.set_ylabel(f"position ({units})")

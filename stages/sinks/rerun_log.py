@@ -60,7 +60,7 @@ import numpy as np
 from ..core.atomic import atomic_path
 from ..core.conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
 from ..core.errors import InputError
-from ..core.framestore import FrameArray, FrameColumn, column, frame_blocks
+from ..core.framestore import FrameArray, FrameColumn, column, frame_blocks, per_frame
 from .plots import LEFT_COLOURS, RIGHT_COLOURS, angle_group, series_colours
 
 _BONE_A = np.array([a for a, _ in H36M_BONES])
@@ -464,7 +464,7 @@ def _log_all(
             send(f"{space}/skeleton/bones", _bones_columns(rr, X_b), block_index(b))
 
     pelvis = np.asarray(cam[:, PELVIS])
-    axes_ok = valid & np.isfinite(R).all((1, 2)) & np.isfinite(pelvis).all(-1)
+    axes_ok = valid & per_frame(lambda R_b: np.isfinite(R_b).all((1, 2)), R) & np.isfinite(pelvis).all(-1)
     up_norm = np.linalg.norm(up, axis=-1)
     up_ok = valid & np.isfinite(up_norm) & (up_norm > 0) & np.isfinite(pelvis).all(-1)
     log("camera/body_axes", rr.Arrows3D.from_fields(colors=_AXIS_COLOURS, labels=_AXIS_LABELS))

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core.conventions import H36M_JOINTS
 from ..core.rotations import decompose_camera_rotation
-from ..core.framestore import column, frame_blocks
+from ..core.framestore import column, per_frame
 from ..kinematics import FrameGatherer, count_flags
 from .bvh import write_bvh
 from .exports import plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
@@ -92,7 +92,7 @@ class RecordingResult:
     def heading_deg(self) -> np.ndarray:
         """``(T,)`` camera heading of each frame's rotation, degrees
         (:func:`pcnet.stages.core.rotations.decompose_camera_rotation`)."""
-        return np.degrees(decompose_camera_rotation(self.rotation)[0])
+        return per_frame(lambda R: np.degrees(decompose_camera_rotation(R)[0]), self.rotation)
 
     @property
     def frame_label(self) -> str:
@@ -176,7 +176,7 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
     if c3d:
         out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", r.poses, r.fps)
     bvh = f"{name}.bvh"
-    incomplete = np.concatenate([~np.isfinite(r.poses[rows]).all(axis=(1, 2)) for rows in frame_blocks(len(r.poses))])
+    incomplete = per_frame(lambda P: ~np.isfinite(P).all(axis=(1, 2)), r.poses)
     if incomplete.all():
         r.notes.append(f"{bvh} not written: no frame has all 17 joints (BVH needs one for the bone lengths)")
         return out
