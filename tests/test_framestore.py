@@ -9,7 +9,7 @@ import pytest
 from conftest import FIXTURES
 
 import pcnet.stages.core.framestore as framestore
-from pcnet.stages.core.framestore import FrameArray, FrameStore, column
+from pcnet.stages.core.framestore import FrameArray, FrameStore, column, per_frame
 from pcnet.stages.sinks.exports import write_npz
 
 
@@ -66,6 +66,18 @@ def test_a_column_of_a_long_array_is_read_without_holding_the_array(tmp_path, mo
             tracemalloc.stop()
         np.testing.assert_array_equal(wrist[:, 0], np.arange(frames))
         assert peak < wrist.nbytes + 3 * 1000 * 17 * 3 * 8, peak  # the column and a block or so, not 8.2 MB
+
+
+def test_per_frame_results_computed_block_by_block_equal_the_whole(tmp_path, poses, monkeypatch):
+    monkeypatch.setattr(framestore, "BLOCK_FRAMES", 7)
+    complete = lambda P: np.isfinite(P).all(axis=(1, 2))  # noqa: E731
+    with FrameStore(tmp_path) as store:
+        a = store.create("poses", poses.shape, np.float32)
+        a[0:len(poses) - 3] = poses[:-3]  # the last three frames stay missing
+        expected = np.arange(len(poses)) < len(poses) - 3
+        np.testing.assert_array_equal(per_frame(complete, a), expected)
+        np.testing.assert_array_equal(per_frame(complete, poses), np.ones(len(poses), bool))
+        assert per_frame(complete, poses[:0]).shape == (0,)
 
 
 def test_a_pose_sized_array_on_disk_refuses_a_whole_read_but_a_column_may(tmp_path, poses):

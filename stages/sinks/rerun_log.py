@@ -331,10 +331,11 @@ def write_recording(
         series_arrays[key] = _check(f"series[{name!r}]", values, (T,))
     wld = None if world is None else _check("world", world, (T, 17, 3))
     path_space, path_poses = ("canonical", can) if wld is None else ("world", wld)
+    # Read when drawn, one path at a time (a long recording's are on disk).
     canon_paths = (
-        {"left_wrist": np.asarray(path_poses[:, L_WRIST]), "right_wrist": np.asarray(path_poses[:, R_WRIST])}
+        {"left_wrist": column(path_poses, L_WRIST), "right_wrist": column(path_poses, R_WRIST)}
         if wrist_paths is None
-        else {str(k): np.asarray(_check(f"wrist_paths[{k!r}]", p, (T, 3))) for k, p in wrist_paths.items()}
+        else {str(k): _check(f"wrist_paths[{k!r}]", p, (T, 3)) for k, p in wrist_paths.items()}
     )
     if video_path is not None and not Path(video_path).is_file():
         raise FileNotFoundError(f"write_recording: video not found: {video_path}")
@@ -465,7 +466,7 @@ def _log_all(
 
     pelvis = np.asarray(cam[:, PELVIS])
     axes_ok = valid & per_frame(lambda R_b: np.isfinite(R_b).all((1, 2)), R) & np.isfinite(pelvis).all(-1)
-    up_norm = np.linalg.norm(up, axis=-1)
+    up_norm = per_frame(lambda u: np.linalg.norm(u, axis=-1), up)
     up_ok = valid & np.isfinite(up_norm) & (up_norm > 0) & np.isfinite(pelvis).all(-1)
     log("camera/body_axes", rr.Arrows3D.from_fields(colors=_AXIS_COLOURS, labels=_AXIS_LABELS))
     log("camera/up", rr.Arrows3D.from_fields(colors=[_UP_COLOUR], labels=["up"]))
@@ -482,13 +483,13 @@ def _log_all(
 
     # --- wrist paths (static: the whole trajectory is the point of the picture)
     paths = {
-        ("camera", "left_wrist"): np.asarray(cam[:, L_WRIST]) - pelvis,
-        ("camera", "right_wrist"): np.asarray(cam[:, R_WRIST]) - pelvis,
+        ("camera", "left_wrist"): lambda: np.asarray(column(cam, L_WRIST)) - pelvis,
+        ("camera", "right_wrist"): lambda: np.asarray(column(cam, R_WRIST)) - pelvis,
     }
     for name, p in canon_paths.items():
-        paths[(path_space, name)] = p
-    for (space, name), p in paths.items():
-        strips = _finite_strips(p)
+        paths[(path_space, name)] = lambda p=p: np.asarray(p)
+    for (space, name), read in paths.items():
+        strips = _finite_strips(read())
         if strips:
             log(
                 f"{space}/wrist_paths/{name}",

@@ -205,7 +205,7 @@ def write_rerun(r: RecordingResult, folder: Path) -> dict[str, Path]:
     canonical and world views, wrist paths, kinematics series and flags."""
     path = write_recording(
         folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera, canonical=r.canonical,
-        rotations=r.rotation, up=r.rotation[:, :, 1], valid=r.valid, keypoints2d=r.keypoints2d,
+        rotations=r.rotation, up=column(r.rotation, slice(None), 1), valid=r.valid, keypoints2d=r.keypoints2d,
         video_path=r.video, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
         series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence, flags=r.flags, world=r.world,
     )
