@@ -131,13 +131,12 @@ class ViewGatedPCNet:
             R_body[rows], res_body[rows], _ = self.body.predict_normalized(*normalized)
         weight = camera_frame_weight(R_body, valid, fps, R_cam)
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
-        # Blended a block at a time, the residual into the camera-frame one's array.
-        R = np.full(R_body.shape, np.nan)
+        # Blended a block at a time into the camera-frame network's arrays (no third copy).
         for rows in frame_blocks(n, CHUNK_FRAMES):
             w = weight[rows, None, None]
             res_cam[rows] = w * res_cam[rows] + (1 - w) * res_body[rows]
-            R[rows] = blend_rotations(R_body[rows], R_cam[rows], weight[rows])
-        return R, res_cam, valid, weight, disagreement
+            R_cam[rows] = blend_rotations(R_body[rows], R_cam[rows], weight[rows])
+        return R_cam, res_cam, valid, weight, disagreement
 
     def predict(self, joints_cam: np.ndarray, fps: float = 30.0):
         return self.predict_gated(joints_cam, fps)[:3]
