@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .conventions import L_HIP, PELVIS, R_HIP, check_poses
+from .framestore import frame_blocks
 from .rotations import normalize
 
 # A hip line closer than this to the up axis (|horizontal part| / |hip line|) leaves the
@@ -48,10 +49,6 @@ def canonical_rotation(joints: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, 
     return R, valid
 
 
-#: Frames per block in :func:`to_canonical` (float64 temporaries of a block, not a recording).
-BLOCK_FRAMES = 8192
-
-
 def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | None = None,
                  out: np.ndarray | None = None) -> np.ndarray:
     """Camera-frame poses -> canonical poses: ``X_canon = (X_cam - pelvis) @ R (+ residual)``.
@@ -72,8 +69,7 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
     out = np.empty(joints_cam.shape, np.float32) if out is None else out
     # A block of frames at a time: each frame's arithmetic is its own, and a long recording's
     # float64 temporaries stay a block long.
-    for lo in range(0, len(out), BLOCK_FRAMES):
-        rows = slice(lo, lo + BLOCK_FRAMES)
+    for rows in frame_blocks(len(out)):
         X = np.asarray(joints_cam[rows], np.float64)
         block = (X - X[:, PELVIS : PELVIS + 1]) @ np.asarray(R[rows] if R.ndim == 3 else R, np.float64)
         if residual is not None:

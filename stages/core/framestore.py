@@ -98,18 +98,19 @@ class FrameArray:
         start, stop = self._rows(key)
         if not rest:
             return self.read(start, stop)
+        index = (slice(None),) + rest
         if stop - start <= BLOCK_FRAMES:
-            return self.read(start, stop)[(slice(None),) + rest]
+            return self.read(start, stop)[index]
         # Filled block by block: a list of the blocks' column views would keep every whole
         # block alive until the end, i.e. the whole array in memory.
-        first = self.read(start, min(stop, start + BLOCK_FRAMES))[(slice(None),) + rest]
-        out = np.empty((stop - start,) + first.shape[1:], first.dtype)
-        out[:len(first)] = first
-        del first
-        for lo in range(start + BLOCK_FRAMES, stop, BLOCK_FRAMES):
-            hi = min(stop, lo + BLOCK_FRAMES)
-            out[lo - start:hi - start] = self.read(lo, hi)[(slice(None),) + rest]
+        out = np.empty((stop - start,) + self.row_shape(rest), self.dtype)
+        for rows in frame_blocks(stop - start):
+            out[rows] = self.read(start + rows.start, start + rows.stop)[index]
         return out
+
+    def row_shape(self, index: tuple = ()) -> tuple[int, ...]:
+        """The shape of one frame of ``a[:, *index]``."""
+        return np.empty((0,) + self.shape[1:], self.dtype)[(slice(None),) + tuple(index)].shape[1:]
 
     def __setitem__(self, key, value) -> None:
         if not self.writable:
@@ -139,7 +140,7 @@ class FrameColumn:
 
     def __init__(self, arr: FrameArray, index: tuple):
         self.arr, self.index = arr, tuple(index)
-        self.shape = (len(arr),) + np.empty((1,) + arr.shape[1:], arr.dtype)[(slice(None),) + self.index].shape[1:]
+        self.shape = (len(arr),) + arr.row_shape(self.index)
         self.dtype = arr.dtype
 
     def __len__(self) -> int:

@@ -378,9 +378,9 @@ def _skeleton_samples(Xc: np.ndarray, before: dict[int, np.ndarray] | None = Non
     return lengths, directions, ({j: f[-1] for j, f in frames.items()} if len(Xc) else before)
 
 
-def _skeleton(X: np.ndarray, P: np.ndarray, names: list[str]) -> _Skeleton:
-    """The rest skeleton of raw poses ``X`` (its gap-filled version ``P`` equals it on the
-    complete frames, which are all the skeleton reads)."""
+def _skeleton(X: np.ndarray, names: list[str]) -> _Skeleton:
+    """The rest skeleton of raw poses ``X``, from their complete frames (where the gap-filled
+    poses equal them)."""
     complete = np.isfinite(X).all(axis=(1, 2))
     return _skeleton_from(*_skeleton_samples(X[complete])[:2], names)
 
@@ -488,7 +488,7 @@ def bvh_motion(poses: np.ndarray, joint_names: Sequence[str] = H36M_JOINTS) -> B
     """
     X, names = _checked_poses(poses, joint_names)
     P, missing = _fill(X)
-    sk = _skeleton(X, P, names)
+    sk = _skeleton(X, names)
     W = _world_rotations(P, sk)
     euler = _euler(W, sk)
 

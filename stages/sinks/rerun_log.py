@@ -429,7 +429,7 @@ def _log_all(
         )
     # Per-frame data goes out a block of frames at a time: the Arrow columns of a whole
     # 2-hour recording would hold GBs at once; the file sink writes each block as it comes.
-    blocks = [slice(lo, lo + SEND_BLOCK_FRAMES) for lo in range(0, len(frames), SEND_BLOCK_FRAMES)]
+    blocks = list(frame_blocks(len(frames), SEND_BLOCK_FRAMES))
 
     def block_index(b: slice) -> list:
         return index(frames[b], seconds[b])
@@ -482,14 +482,13 @@ def _log_all(
         ).partition(ok.astype(np.int64)), block_index(b))
 
     # --- wrist paths (static: the whole trajectory is the point of the picture)
-    paths = {
-        ("camera", "left_wrist"): lambda: np.asarray(column(cam, L_WRIST)) - pelvis,
-        ("camera", "right_wrist"): lambda: np.asarray(column(cam, R_WRIST)) - pelvis,
-    }
-    for name, p in canon_paths.items():
-        paths[(path_space, name)] = lambda p=p: np.asarray(p)
-    for (space, name), read in paths.items():
-        strips = _finite_strips(read())
+    # (space, name, path, origin subtracted): each read only while it is logged.
+    paths = [("camera", "left_wrist", column(cam, L_WRIST), pelvis),
+             ("camera", "right_wrist", column(cam, R_WRIST), pelvis)]
+    paths += [(path_space, name, p, None) for name, p in canon_paths.items()]
+    for space, name, p, origin in paths:
+        p = np.asarray(p)
+        strips = _finite_strips(p if origin is None else p - origin)
         if strips:
             log(
                 f"{space}/wrist_paths/{name}",
