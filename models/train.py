@@ -23,7 +23,7 @@ from pcnet.stages.core.metrics import rotation_error_deg, summarize, tilt_error_
 
 from .checkpoint import (check_run_folder, config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint,
                          resume_point, save_checkpoint)
-from .datasets import SPLIT_SCHEMES, Augmentation, Noise, load_mocap, make_pairs, select_split
+from .datasets import SPLIT_SCHEMES, Augmentation, Noise, lean_balance_weights, load_mocap, make_pairs, select_split
 from .lifter_noise import LifterNoise
 from .losses import LossWeights, composite_loss
 from .network import PCNet, PCNetConfig
@@ -59,6 +59,10 @@ class TrainConfig:
     augment: bool = True
     # Share of clips mirrored left-right per epoch (with ``augment``; models.datasets.Augmentation).
     mirror_fraction: float = 0.0
+    # > 0: each epoch draws its poses with replacement from every frame of the training
+    # clips (not every ``frame_stride``-th), weighted by inverse trunk-lean frequency capped
+    # at this value (models.datasets.lean_balance_weights); the epoch keeps its length.
+    lean_balance_cap: float = 0.0
     seed: int = 0
     threads: int = 0  # 0 = torch default
     device: str = "auto"  # auto = cuda when present
@@ -86,6 +90,7 @@ TRAIN_RANGES = {
     "frame_stride": Range(1, 10_000),
     "noise_fraction": Range(0, 1),  # a share of the poses
     "mirror_fraction": Range(0, 1),  # a share of the clips
+    "lean_balance_cap": Range(0, 1000),  # 0 = off, else a weight cap >= 1
     "seed": SEED_RANGE,
     "threads": Range(0, 1024),  # 0 = torch default
     "val_frames": Range(1, 100_000_000),
@@ -131,6 +136,9 @@ def load_config(path: str | Path) -> TrainConfig:
     repeats = raw.get("data_repeats", [])
     if repeats and (len(repeats) != len(raw.get("data", TrainConfig().data)) or min(repeats) < 1 or max(repeats) > 100):
         raise InputError(f"{path}: data_repeats: expected one integer in [1, 100] per data file, got {repeats!r}")
+    cap = raw.get("lean_balance_cap", 0)
+    if 0 < cap < 1:
+        raise InputError(f"{path}: field 'lean_balance_cap': expected 0 (off) or a weight cap >= 1, got {cap}")
     tables = {}
     for table, cls, bounds in (("model", PCNetConfig, MODEL_RANGES), ("loss", LossWeights, LOSS_RANGES)):
         given = raw.pop(table, {})
@@ -256,13 +264,18 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
 
     for epoch in range(start, cfg.epochs):
         t0 = time.time()
-        x, R, canon = _epoch_tensors(train_clips, cfg, cfg.seed + epoch, cfg.views, cfg.noise, cfg.augment,
-                                  noise_fraction=cfg.noise_fraction)
         gen = torch.Generator().manual_seed(cfg.seed + epoch)
-        order = torch.randperm(len(x), generator=gen)
+        balanced = cfg.lean_balance_cap > 0
+        x, R, canon = _epoch_tensors(train_clips, cfg, cfg.seed + epoch, cfg.views, cfg.noise, cfg.augment,
+                                  noise_fraction=cfg.noise_fraction, frame_stride=1 if balanced else cfg.frame_stride)
+        if balanced:
+            weights = torch.from_numpy(lean_balance_weights(canon.numpy(), cfg.lean_balance_cap))
+            order = torch.multinomial(weights, min(n_train, len(x)), replacement=True, generator=gen)
+        else:
+            order = torch.randperm(len(x), generator=gen)
         model.train()
         running: dict[str, float] = {}
-        bar = tqdm(range(0, len(x), cfg.batch_size), desc=f"epoch {epoch + 1}/{cfg.epochs}", disable=not progress)
+        bar = tqdm(range(0, len(order), cfg.batch_size), desc=f"epoch {epoch + 1}/{cfg.epochs}", disable=not progress)
         for n, i in enumerate(bar, 1):
             idx = order[i : i + cfg.batch_size]
             xb, Rb, cb = x[idx].to(device), R[idx].to(device), canon[idx].to(device)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -173,25 +174,20 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
                f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)")
 
 
-def _training_options(command):
-    """``--config FILE`` and ``--no-resume``, shared by the training commands."""
-    command = click.option("--no-resume", is_flag=True, help="Start again even if a checkpoint exists.")(command)
-    return click.option("--config", "config_path", type=click.Path(dir_okay=False), required=True)(command)
-
-
-def _run_training(load_config, run_train, config_path, no_resume) -> None:
-    """Load a training config, train, print the best checkpoint; bad files end in one line."""
-    best = run_train(load_config(config_path), resume=not no_resume)
-    click.echo(f"best checkpoint: {best}")
-
-
 @main.command()
-@_training_options
-def train(config_path, no_resume):
+@click.option("--config", "config_path", type=click.Path(dir_okay=False), required=True)
+@click.option("--no-resume", is_flag=True, help="Start again even if a checkpoint exists.")
+@click.option("--seed", default=None, type=click.IntRange(0, 2**31 - 1),
+              help="Seed instead of the config's (several runs of one recipe).")
+@click.option("--out-dir", default=None, type=click.Path(file_okay=False),
+              help="Write the run here instead of the config's out_dir.")
+def train(config_path, no_resume, seed, out_dir):
     """Train 3DPCNet (needs the [train] extra: torch)."""
     from pcnet.models.train import load_config, train as run_train
 
-    _run_training(load_config, run_train, config_path, no_resume)
+    overrides = {k: v for k, v in (("seed", seed), ("out_dir", out_dir)) if v is not None}
+    best = run_train(dataclasses.replace(load_config(config_path), **overrides), resume=not no_resume)
+    click.echo(f"best checkpoint: {best}")
 
 
 @main.command()

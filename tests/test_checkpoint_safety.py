@@ -170,6 +170,30 @@ def test_bad_data_or_no_val_split_creates_no_run_folder(tmp_path, mocap):
     assert not (tmp_path / "run").exists()
 
 
+def test_lean_balanced_epochs_keep_their_length_and_a_finite_loss(tmp_path, mocap):
+    """With lean_balance_cap the epoch draws from every frame but keeps the stride's length:
+    as many batches as without it, none empty (an empty batch's loss is NaN)."""
+    for cap in (0.0, 10.0):
+        cfg = load_config(_train_config(tmp_path, mocap, name=f"cap{cap}.toml", lean_balance_cap=cap,
+                                        out_dir=str(tmp_path / f"run{cap}")))
+        train(cfg, progress=False)
+        record = json.loads((tmp_path / f"run{cap}" / "metrics.jsonl").read_text())
+        assert np.isfinite(record["train_total"]) and np.isfinite(record["val_rotation_deg"]), record
+        assert cfg.lean_balance_cap == cap
+
+
+def test_train_seed_and_out_dir_override_the_config(tmp_path, mocap):
+    """Several runs of one recipe: ``--seed`` and ``--out-dir`` replace the config's values;
+    a seed outside [0, 2**31 - 1] is one line, exit 1, and nothing is created."""
+    cfg = _train_config(tmp_path, mocap, seed=5)
+    res = _cli("train", "--config", cfg, "--seed", "12", "--out-dir", tmp_path / "seed12")
+    assert res.exit_code == 0, res.output
+    assert json.loads((tmp_path / "seed12" / "config.json").read_text())["seed"] == 12
+    assert not (tmp_path / "run").exists()  # the config's out_dir was not used
+    _one_line_failure(_cli("train", "--config", cfg, "--seed", "-1", "--out-dir", tmp_path / "bad"), "--seed")
+    assert not (tmp_path / "bad").exists()
+
+
 def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, mocap):
     cfg = load_config(_train_config(tmp_path, mocap))
     best = train(cfg, progress=False)
@@ -255,6 +279,8 @@ BAD_TRAIN = [  # (field named in the message, top-level overrides, [model] overr
     ("noise_fraction", {"noise_fraction": "-0.5"}, {}, {}),
     ("noise_fraction", {"noise_fraction": "nan"}, {}, {}),
     ("val_frames", {"val_frames": "0"}, {}, {}),
+    ("lean_balance_cap", {"lean_balance_cap": "0.5"}, {}, {}),  # a cap below 1 would down-weight upright poses
+    ("lean_balance_cap", {"lean_balance_cap": "-1"}, {}, {}),
     ("views", {"views": '"bogus"'}, {}, {}),
     ("device", {"device": '"gpu"'}, {}, {}),
     ("device", {"device": '"cuda:x"'}, {}, {}),
