@@ -17,8 +17,11 @@ seen where it acts and where it costs.
   every frame (``make_pairs(clips, views="paper", seed=0)``: the held-out table's protocol).
 
 Sets: the training mix's motion-style test split, Bandai and CMU (test subjects 10, 14)
-apart, and DeepMimic (never trained on). The first row of each set is the training mix's
-train split's lean distribution (every 4th frame, what the configs train on), for reference.
+apart, and DeepMimic (never trained on). The first rows give, for reference, the training
+mix's train split's lean distribution (every 4th frame, what the configs train on) and the
+share a lean-balanced epoch draws from each band (every frame, with the proportion
+augmentation, the CMU clips twice as the configs' ``data_repeats``, weighted by
+:func:`pcnet.models.datasets.lean_balance_weights`).
 """
 
 from __future__ import annotations
@@ -34,7 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mocap_sets import training_mix_splits  # noqa: E402
 from report import print_and_save  # noqa: E402
 
-from pcnet.models.datasets import clip_subject, load_mocap, make_pairs, trunk_lean_deg  # noqa: E402
+from pcnet.models.datasets import (  # noqa: E402
+    Augmentation, clip_subject, lean_balance_weights, load_mocap, make_pairs, trunk_lean_deg)
 from pcnet.models.inference import PCNetSession  # noqa: E402
 from pcnet.stages.core.metrics import tilt_error_deg  # noqa: E402
 
@@ -42,12 +46,17 @@ DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 BANDS_DEG = (0, 5, 10, 15, 20, 30, 45, 90, 180)
 
 
-def _band_table_row(label: str, lean: np.ndarray, err: np.ndarray | None) -> str:
+#: The ``lean_balance_cap`` values of configs/pcnet_camera_lean*.toml, whose drawn shares are shown.
+CAPS = (3.0, 10.0)
+
+
+def _band_table_row(label: str, lean: np.ndarray, err: np.ndarray | None, weights: np.ndarray | None = None) -> str:
     band = np.digitize(lean, BANDS_DEG) - 1
+    weights = np.ones(len(lean)) if weights is None else weights
     cells = []
     for k in range(len(BANDS_DEG) - 1):
         sel = band == k
-        share = f"{100 * sel.mean():.1f} %"
+        share = f"{100 * weights[sel].sum() / weights.sum():.1f} %"
         cells.append(share if err is None else (f"{np.nanmean(err[sel]):.2f} ({share})" if sel.any() else "-"))
     total = "" if err is None else f"{np.nanmean(err):.2f}"
     return f"| {label} | {total} | " + " | ".join(cells) + " |"
@@ -61,7 +70,11 @@ def main() -> None:
     args = ap.parse_args()
 
     train, test = training_mix_splits(args.data, "train", "test")
-    train_pairs = make_pairs(train, views="paper", seed=0, frame_stride=4)
+    train_lean = trunk_lean_deg(make_pairs(train, views="paper", seed=0, frame_stride=4).canonical)
+    # what a balanced epoch draws from: every frame, proportions augmented (models/train.py)
+    # CMU twice, as the configs' data_repeats = [1, 2]
+    repeated = train + [c for c in train if clip_subject(c) is not None]
+    pool = make_pairs(repeated, views="paper", seed=0, augmentation=Augmentation()).canonical
     sets = {
         "Bandai motion-style test": [c for c in test if clip_subject(c) is None],
         "CMU test subjects": [c for c in test if clip_subject(c) is not None],
@@ -77,7 +90,9 @@ def main() -> None:
         "",
         f"| set / weights | mean | {head} |",
         "|---|---|" + "---|" * (len(BANDS_DEG) - 1),
-        _band_table_row("training mix train split (share of frames)", trunk_lean_deg(train_pairs.canonical), None),
+        _band_table_row("training mix train split (share of frames)", train_lean, None),
+        *(_band_table_row(f"drawn with lean_balance_cap = {cap:g} (expected share)", trunk_lean_deg(pool), None,
+                          lean_balance_weights(pool, cap)) for cap in CAPS),
     ]
     for name, clips in sets.items():
         pairs = make_pairs(clips, views="paper", seed=0)

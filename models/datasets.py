@@ -342,7 +342,7 @@ def lean_balance_weights(canonical: np.ndarray, cap: float) -> np.ndarray:
     training set: inverse frequency of each pose's :data:`LEAN_BIN_DEG` bin of
     :func:`trunk_lean_deg`, relative to the most populated bin (weight 1) and capped at
     ``cap``. Upright poses fill most mocap (Bandai's and CMU's training clips: 89 % of
-    frames lean under 10 deg, 1.8 % over 20), which teaches the network that a trunk is
+    frames lean under 10 deg, 1.9 % over 20), which teaches the network that a trunk is
     nearly vertical; held-out motions lean more (CMU test subjects and DeepMimic: 25-42 %
     over 10 deg). Re-weighting by the frequency of a rare class with a cap is the usual
     class-balancing recipe; the cap keeps a handful of extreme frames from dominating.
