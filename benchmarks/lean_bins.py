@@ -10,7 +10,7 @@ training change aimed at leaning poses (``lean_balance_cap``, models/MODEL_CARD.
 seen where it acts and where it costs.
 
 - trunk lean: angle of pelvis -> thorax from the true up in the canonical frame
-  (:func:`pcnet.models.datasets.trunk_lean_deg`), degrees;
+  (:func:`pcnet.stages.core.canonical.trunk_lean_deg`), degrees;
 - tilt error: angle between the estimated and the true up
   (:func:`pcnet.stages.core.metrics.tilt_error_deg`), one network alone
   (:class:`pcnet.models.inference.PCNetSession`), per frame, clean poses, a new "paper" camera
@@ -38,8 +38,9 @@ from mocap_sets import training_mix_splits  # noqa: E402
 from report import print_and_save  # noqa: E402
 
 from pcnet.models.datasets import (  # noqa: E402
-    Augmentation, clip_subject, lean_balance_weights, load_mocap, make_pairs, trunk_lean_deg)
+    Augmentation, clip_subject, lean_balance_weights, load_mocap, make_pairs)
 from pcnet.models.inference import PCNetSession  # noqa: E402
+from pcnet.stages.core.canonical import trunk_lean_deg  # noqa: E402
 from pcnet.stages.core.metrics import tilt_error_deg  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -74,7 +75,7 @@ def main() -> None:
     # what a balanced epoch draws from: every frame, proportions augmented (models/train.py)
     # CMU twice, as the configs' data_repeats = [1, 2]
     repeated = train + [c for c in train if clip_subject(c) is not None]
-    pool = make_pairs(repeated, views="paper", seed=0, augmentation=Augmentation()).canonical
+    pool_lean = trunk_lean_deg(make_pairs(repeated, views="paper", seed=0, augmentation=Augmentation()).canonical)
     sets = {
         "Bandai motion-style test": [c for c in test if clip_subject(c) is None],
         "CMU test subjects": [c for c in test if clip_subject(c) is not None],
@@ -91,8 +92,8 @@ def main() -> None:
         f"| set / weights | mean | {head} |",
         "|---|---|" + "---|" * (len(BANDS_DEG) - 1),
         _band_table_row("training mix train split (share of frames)", train_lean, None),
-        *(_band_table_row(f"drawn with lean_balance_cap = {cap:g} (expected share)", trunk_lean_deg(pool), None,
-                          lean_balance_weights(pool, cap)) for cap in CAPS),
+        *(_band_table_row(f"drawn with lean_balance_cap = {cap:g} (expected share)", pool_lean, None,
+                          lean_balance_weights(pool_lean, cap)) for cap in CAPS),
     ]
     for name, clips in sets.items():
         pairs = make_pairs(clips, views="paper", seed=0)

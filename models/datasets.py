@@ -20,7 +20,7 @@ import numpy as np
 
 from pcnet.models.lifter_noise import LifterNoise, apply_lifter_noise
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
-from pcnet.stages.core.conventions import H36M_MIRROR_ORDER, H36M_PARENTS, PELVIS, THORAX, validate_fps, validate_poses
+from pcnet.stages.core.conventions import H36M_MIRROR_ORDER, H36M_PARENTS, PELVIS, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import sample_camera_rotations
 
@@ -326,24 +326,14 @@ def _proportion_factors(n: int, aug: Augmentation, rng: np.random.Generator) -> 
 LEAN_BIN_DEG = 5.0
 
 
-def trunk_lean_deg(canonical: np.ndarray) -> np.ndarray:
-    """Angle between the trunk (pelvis -> thorax) and gravity up, degrees, ``(N,)`` float64,
-    of canonical-frame poses ``(N, 17, 3)`` (any units; +Y up, docs/CONVENTIONS.md); NaN where
-    the trunk has no length or a joint is missing."""
-    trunk = np.asarray(canonical, np.float64)[:, THORAX] - np.asarray(canonical, np.float64)[:, PELVIS]
-    length = np.linalg.norm(trunk, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.where(length > 0, trunk[:, 1] / length, np.nan)
-    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
-
-
-def lean_balance_weights(canonical: np.ndarray, cap: float) -> np.ndarray:
+def lean_balance_weights(lean_deg: np.ndarray, cap: float) -> np.ndarray:
     """Sampling weights ``(N,)`` float64 that flatten the trunk-lean distribution of a
-    training set: inverse frequency of each pose's :data:`LEAN_BIN_DEG` bin of
-    :func:`trunk_lean_deg`, relative to the most populated bin (weight 1) and capped at
-    ``cap``. Upright poses fill most mocap (Bandai's and CMU's training clips: 89 % of
-    frames lean under 10 deg, 1.9 % over 20), which teaches the network that a trunk is
-    nearly vertical; held-out motions lean more (CMU test subjects and DeepMimic: 25-42 %
+    training set: inverse frequency of each pose's :data:`LEAN_BIN_DEG` bin of its trunk
+    lean ``lean_deg`` ``(N,)`` (degrees, :func:`pcnet.stages.core.canonical.trunk_lean_deg`),
+    relative to the most populated bin (weight 1) and capped at ``cap``. Upright poses fill
+    most mocap (Bandai's and CMU's training clips: 89 % of frames lean under 10 deg, 1.9 %
+    over 20), which teaches the network that a trunk is
+    nearly vertical; held-out motions lean more (CMU test subjects and DeepMimic: 41-43 %
     over 10 deg). Re-weighting by the frequency of a rare class with a cap is the usual
     class-balancing recipe; the cap keeps a handful of extreme frames from dominating.
     Frames without a lean (NaN) get weight 1.
@@ -353,7 +343,7 @@ def lean_balance_weights(canonical: np.ndarray, cap: float) -> np.ndarray:
     """
     if not cap >= 1:
         raise ValueError(f"lean balance cap: expected >= 1, got {cap}")
-    lean = trunk_lean_deg(canonical)
+    lean = np.asarray(lean_deg, np.float64)
     known = np.isfinite(lean)
     bins = np.zeros(len(lean), np.int64)
     bins[known] = (lean[known] // LEAN_BIN_DEG).astype(np.int64)

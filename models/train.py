@@ -19,6 +19,7 @@ import torch
 from tqdm import tqdm
 
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.canonical import trunk_lean_deg
 from pcnet.stages.core.metrics import rotation_error_deg, summarize, tilt_error_deg
 
 from .checkpoint import (check_run_folder, config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint,
@@ -269,7 +270,7 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
         x, R, canon = _epoch_tensors(train_clips, cfg, cfg.seed + epoch, cfg.views, cfg.noise, cfg.augment,
                                   noise_fraction=cfg.noise_fraction, frame_stride=1 if balanced else cfg.frame_stride)
         if balanced:
-            weights = torch.from_numpy(lean_balance_weights(canon.numpy(), cfg.lean_balance_cap))
+            weights = torch.from_numpy(lean_balance_weights(trunk_lean_deg(canon.numpy()), cfg.lean_balance_cap))
             order = torch.multinomial(weights, min(n_train, len(x)), replacement=True, generator=gen)
         else:
             order = torch.randperm(len(x), generator=gen)

@@ -171,8 +171,8 @@ def test_bad_data_or_no_val_split_creates_no_run_folder(tmp_path, mocap):
 
 
 def test_lean_balanced_epochs_keep_their_length_and_a_finite_loss(tmp_path, mocap):
-    """With lean_balance_cap the epoch draws from every frame but keeps the stride's length:
-    as many batches as without it, none empty (an empty batch's loss is NaN)."""
+    """With lean_balance_cap the epoch draws from every frame, yet the batches cover only the
+    draws: none is empty (an empty batch's loss is NaN)."""
     for cap in (0.0, 10.0):
         cfg = load_config(_train_config(tmp_path, mocap, name=f"cap{cap}.toml", lean_balance_cap=cap,
                                         out_dir=str(tmp_path / f"run{cap}")))

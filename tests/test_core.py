@@ -324,7 +324,8 @@ def test_mirrored_clips_stay_canonical_and_keep_input_and_target_consistent():
 
 
 def test_lean_balance_weights_flatten_the_trunk_lean_of_real_mocap():
-    from pcnet.models.datasets import lean_balance_weights, trunk_lean_deg
+    from pcnet.models.datasets import lean_balance_weights
+    from pcnet.stages.core.canonical import trunk_lean_deg
 
     clips = load_mocap(BANDAI) + load_mocap(DEEPMIMIC)  # upright takes and floor motions
     canon = world_to_canonical(np.concatenate([c.joints for c in clips]).astype(np.float64))[0]
@@ -332,16 +333,16 @@ def test_lean_balance_weights_flatten_the_trunk_lean_of_real_mocap():
     trunk = canon[:, 8] - canon[:, 0]
     np.testing.assert_allclose(np.cos(np.radians(lean)), trunk[:, 1] / np.linalg.norm(trunk, axis=-1), atol=1e-9)
     assert (lean > 45).any() and (lean < 5).mean() > 0.2  # the fixture has both kinds
-    w = lean_balance_weights(canon, 10.0)
+    w = lean_balance_weights(lean, 10.0)
     assert w.min() == 1.0 and w.max() <= 10.0
     common = np.bincount((lean // 5).astype(int)).argmax()
     assert np.all(w[(lean // 5).astype(int) == common] == 1.0)
     assert w[lean > 45].mean() > 3 * w[lean < 5].mean()
     # weighted draws: a larger share of leaning poses than the raw frames
     assert np.average(lean > 15, weights=w) > 1.5 * np.mean(lean > 15)
-    assert np.array_equal(lean_balance_weights(canon, 1.0), np.ones(len(canon)))
+    assert np.array_equal(lean_balance_weights(lean, 1.0), np.ones(len(canon)))
     missing = canon.copy()
     missing[:3, 8] = np.nan
-    assert np.all(lean_balance_weights(missing, 10.0)[:3] == 1.0)
+    assert np.all(lean_balance_weights(trunk_lean_deg(missing), 10.0)[:3] == 1.0)
     with pytest.raises(ValueError, match="cap"):
-        lean_balance_weights(canon, 0.5)
+        lean_balance_weights(lean, 0.5)

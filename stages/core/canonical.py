@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .conventions import L_HIP, PELVIS, R_HIP, check_poses
+from .conventions import L_HIP, PELVIS, R_HIP, THORAX, check_poses
 from .framestore import frame_blocks
 from .rotations import normalize
 
@@ -88,3 +88,15 @@ def world_to_canonical(joints_world: np.ndarray, up: np.ndarray = (0.0, 1.0, 0.0
     ``(N, 17, 3)`` float32 and ``valid`` ``(N,)``; invalid frames are NaN."""
     R, valid = canonical_rotation(joints_world, up)
     return to_canonical(joints_world, R), valid
+
+
+def trunk_lean_deg(canonical: np.ndarray) -> np.ndarray:
+    """Angle between the trunk (pelvis -> thorax) and gravity up, degrees, ``(N,)`` float64,
+    of canonical-frame poses ``(N, 17, 3)`` (any units; +Y up, docs/CONVENTIONS.md); NaN where
+    the trunk has no length or a joint is missing."""
+    canonical = np.asarray(canonical, np.float64)
+    trunk = canonical[:, THORAX] - canonical[:, PELVIS]
+    length = np.linalg.norm(trunk, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.where(length > 0, trunk[:, 1] / length, np.nan)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
