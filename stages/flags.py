@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .core.canonical import trunk_lean_deg
 from .core.conventions import L_HIP, L_KNEE, PELVIS, R_HIP, R_KNEE, THORAX
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
@@ -107,14 +108,14 @@ def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:
         valid: ``(T,)`` bool.
 
     Returns:
-        the fraction in [0, 1], NaN without a usable frame.
+        the fraction in [0, 1] (:func:`~.core.canonical.trunk_lean_deg`), NaN without a
+        usable frame (valid, with a trunk of non-zero length).
     """
-    trunk = canonical[:, THORAX] - canonical[:, PELVIS]
-    ok = np.asarray(valid, bool) & np.isfinite(trunk).all(axis=1)
+    lean = trunk_lean_deg(canonical)
+    ok = np.asarray(valid, bool) & np.isfinite(lean)
     if not ok.any():
         return float("nan")
-    t = trunk[ok] / np.linalg.norm(trunk[ok], axis=1, keepdims=True)
-    return float(np.mean(np.degrees(np.arccos(np.clip(t[:, 1], -1.0, 1.0))) > NON_UPRIGHT_TRUNK_DEG))
+    return float(np.mean(lean[ok] > NON_UPRIGHT_TRUNK_DEG))
 
 
 def non_upright_flag(canonical: np.ndarray, valid: np.ndarray) -> list[str]:

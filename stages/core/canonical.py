@@ -92,10 +92,10 @@ def world_to_canonical(joints_world: np.ndarray, up: np.ndarray = (0.0, 1.0, 0.0
 
 def trunk_lean_deg(canonical: np.ndarray) -> np.ndarray:
     """Angle between the trunk (pelvis -> thorax) and gravity up, degrees, ``(N,)`` float64,
-    of canonical-frame poses ``(N, 17, 3)`` (any units; +Y up, docs/CONVENTIONS.md); NaN where
-    the trunk has no length or a joint is missing."""
-    canonical = np.asarray(canonical, np.float64)
-    trunk = canonical[:, THORAX] - canonical[:, PELVIS]
+    of canonical-frame poses ``(N, 17, 3)`` (any units; +Y up, docs/CONVENTIONS.md), an array
+    or a :class:`~.framestore.FrameArray` (only its two joint columns are read); NaN where the
+    trunk has no length or a joint is missing."""
+    trunk = np.asarray(canonical[:, THORAX], np.float64) - np.asarray(canonical[:, PELVIS], np.float64)
     length = np.linalg.norm(trunk, axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         cos = np.where(length > 0, trunk[:, 1] / length, np.nan)
