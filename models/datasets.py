@@ -20,7 +20,8 @@ import numpy as np
 
 from pcnet.models.lifter_noise import LifterNoise, apply_lifter_noise
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
-from pcnet.stages.core.conventions import H36M_MIRROR_ORDER, H36M_PARENTS, PELVIS, validate_fps, validate_poses
+from pcnet.stages.core.conventions import (
+    H36M_MIRROR_ORDER, H36M_PARENTS, HEAD, NECK_NOSE, PELVIS, SPINE, THORAX, validate_fps, validate_poses)
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import sample_camera_rotations
 
@@ -274,6 +275,15 @@ class Augmentation:
     # mirror image of a movement is a movement people make (a left kick for a right one);
     # flip augmentation as in VideoPose3D (Pavllo et al., CVPR 2019, section 4). 0 = none.
     mirror_fraction: float = 0.0
+    # Habitual posture differs between people: standing trunk inclination and forward head
+    # posture vary by several degrees across healthy adults, and a network that learned a
+    # few actors' posture reads another person's lean as camera tilt. Per clip, the upper
+    # body (spine and everything above, joints 7-16) turns about the pelvis by a sagittal
+    # and a lateral angle, and the neck and head (9, 10) about the thorax by a further
+    # sagittal angle, each ~ N(0, sigma^2) in degrees, legs and gravity unchanged. 0 = none.
+    trunk_sagittal_sigma_deg: float = 0.0
+    trunk_lateral_sigma_deg: float = 0.0
+    head_sagittal_sigma_deg: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -320,6 +330,49 @@ def _proportion_factors(n: int, aug: Augmentation, rng: np.random.Generator) -> 
     for left, right in ((5, 2), (6, 3), (12, 15), (13, 16)):
         f[:, right] = f[:, left]
     return f
+
+
+_UPPER_BODY = np.arange(SPINE, 17)
+_HEAD = np.array([NECK_NOSE, HEAD])
+
+
+def _axis_rotations(angles_deg: np.ndarray, axis: int) -> np.ndarray:
+    """``(n, 3, 3)`` right-handed rotations by ``angles_deg`` ``(n,)`` about coordinate ``axis``."""
+    a = np.radians(angles_deg)
+    c, s = np.cos(a), np.sin(a)
+    i, j = [k for k in range(3) if k != axis]
+    R = np.zeros((len(a), 3, 3))
+    R[:, axis, axis] = 1.0
+    R[:, i, i], R[:, j, j] = c, c
+    R[:, j, i], R[:, i, j] = s, -s
+    return R
+
+
+def posture_rotations(n: int, aug: Augmentation, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
+    """Per-clip posture turns of :class:`Augmentation` (canonical frame: +Y up, +Z the
+    subject's right, so sagittal = about Z, lateral = about X): ``(trunk, head)``, each
+    ``(n, 3, 3)`` float64; ``None`` without drawing when every sigma is 0, so that configs
+    without posture augmentation keep their random stream."""
+    if not (aug.trunk_sagittal_sigma_deg or aug.trunk_lateral_sigma_deg or aug.head_sagittal_sigma_deg):
+        return None
+    sagittal = rng.normal(0.0, aug.trunk_sagittal_sigma_deg, n)
+    lateral = rng.normal(0.0, aug.trunk_lateral_sigma_deg, n)
+    head = rng.normal(0.0, aug.head_sagittal_sigma_deg, n)
+    trunk = _axis_rotations(sagittal, 2) @ _axis_rotations(lateral, 0)
+    return trunk, _axis_rotations(head, 2)
+
+
+def apply_posture(canon: np.ndarray, trunk: np.ndarray, head: np.ndarray) -> np.ndarray:
+    """Canonical poses ``(N, 17, 3)`` with the upper body turned by ``trunk`` ``(N, 3, 3)``
+    about the pelvis and then the neck and head by ``head`` ``(N, 3, 3)`` about the thorax
+    (:class:`Augmentation`'s posture terms); pelvis and legs unchanged, so the hip line and
+    the canonical frame stay as they were."""
+    out = np.array(canon, np.float64, copy=True)
+    pelvis = out[:, PELVIS : PELVIS + 1]
+    out[:, _UPPER_BODY] = pelvis + np.einsum("nij,nkj->nki", trunk, out[:, _UPPER_BODY] - pelvis)
+    thorax = out[:, THORAX : THORAX + 1]
+    out[:, _HEAD] = thorax + np.einsum("nij,nkj->nki", head, out[:, _HEAD] - thorax)
+    return out
 
 
 #: Width of the trunk-lean bins of :func:`lean_balance_weights`, degrees.
@@ -427,6 +480,9 @@ def make_pairs(
         canon = to_canonical(canon, R_aug).astype(np.float64)
         R_world = np.einsum("nij,njk->nik", R_world, R_aug)
         valid &= valid_aug
+        posture = posture_rotations(len(clips), augmentation, rng)
+        if posture is not None:
+            canon = apply_posture(canon, posture[0][idx_clip], posture[1][idx_clip])
         if augmentation.mirror_fraction > 0:
             mirrored = (rng.random(len(clips)) < augmentation.mirror_fraction)[idx_clip]
             canon[mirrored] = mirror_canonical(canon[mirrored])

@@ -64,6 +64,12 @@ class TrainConfig:
     # clips (not every ``frame_stride``-th), weighted by inverse trunk-lean frequency capped
     # at this value (models.datasets.lean_balance_weights); the epoch keeps its length.
     lean_balance_cap: float = 0.0
+    # Per-clip posture augmentation, degrees (with ``augment``; models.datasets.Augmentation):
+    # std of the upper body's sagittal and lateral turn about the pelvis and of the head's
+    # sagittal turn about the thorax. 0 = off.
+    trunk_sagittal_sigma_deg: float = 0.0
+    trunk_lateral_sigma_deg: float = 0.0
+    head_sagittal_sigma_deg: float = 0.0
     seed: int = 0
     threads: int = 0  # 0 = torch default
     device: str = "auto"  # auto = cuda when present
@@ -92,6 +98,9 @@ TRAIN_RANGES = {
     "noise_fraction": Range(0, 1),  # a share of the poses
     "mirror_fraction": Range(0, 1),  # a share of the clips
     "lean_balance_cap": Range(0, 1000),  # 0 = off, else a weight cap >= 1
+    "trunk_sagittal_sigma_deg": Range(0, 45),
+    "trunk_lateral_sigma_deg": Range(0, 45),
+    "head_sagittal_sigma_deg": Range(0, 45),
     "seed": SEED_RANGE,
     "threads": Range(0, 1024),  # 0 = torch default
     "val_frames": Range(1, 100_000_000),
@@ -179,7 +188,10 @@ def _epoch_tensors(clips, cfg: TrainConfig, seed: int, views: str, noise: bool, 
     pairs = make_pairs(
         clips, views=views, seed=seed,
         noise=(LifterNoise() if lifter else Noise(fraction=fraction)) if noise else None,
-        augmentation=Augmentation(mirror_fraction=cfg.mirror_fraction) if augment else None,
+        augmentation=Augmentation(
+            mirror_fraction=cfg.mirror_fraction, trunk_sagittal_sigma_deg=cfg.trunk_sagittal_sigma_deg,
+            trunk_lateral_sigma_deg=cfg.trunk_lateral_sigma_deg, head_sagittal_sigma_deg=cfg.head_sagittal_sigma_deg,
+        ) if augment else None,
         frame_stride=kw.get("frame_stride", cfg.frame_stride),
         max_frames=kw.get("max_frames"),
     )

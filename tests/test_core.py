@@ -323,6 +323,33 @@ def test_mirrored_clips_stay_canonical_and_keep_input_and_target_consistent():
     np.testing.assert_allclose(some.canonical, mirror_canonical(plain.canonical.astype(np.float64)), atol=1e-6)
 
 
+def test_posture_augmentation_turns_the_upper_body_and_keeps_legs_frame_and_bones():
+    from pcnet.models.datasets import Augmentation
+    from pcnet.stages.core.canonical import trunk_lean_deg
+
+    clips = load_mocap(FIXTURES / "bandai_small.npz")[:6]
+    plain = make_pairs(clips, "paper", seed=2, augmentation=Augmentation())
+    posture = Augmentation(trunk_sagittal_sigma_deg=8.0, trunk_lateral_sigma_deg=3.0, head_sagittal_sigma_deg=10.0)
+    turned = make_pairs(clips, "paper", seed=2, augmentation=posture)
+    # Pelvis and legs as they were, so the hip line and the canonical frame too.
+    np.testing.assert_allclose(turned.canonical[:, :7], plain.canonical[:, :7], atol=1e-6)
+    R, _ = canonical_rotation(turned.canonical.astype(np.float64), (0.0, 1.0, 0.0))
+    np.testing.assert_allclose(R, np.broadcast_to(np.eye(3), R.shape), atol=1e-5)
+    np.testing.assert_allclose(turned.inputs, np.einsum("nij,nkj->nki", turned.R, turned.canonical), atol=1e-5)
+    for child, parent in enumerate(H36M_PARENTS):
+        if parent >= 0:
+            np.testing.assert_allclose(np.linalg.norm(turned.canonical[:, child] - turned.canonical[:, parent], axis=-1),
+                                       np.linalg.norm(plain.canonical[:, child] - plain.canonical[:, parent], axis=-1),
+                                       atol=1e-5)
+    # One turn per clip: the change of trunk lean varies between clips, barely within one.
+    change = trunk_lean_deg(turned.canonical) - trunk_lean_deg(plain.canonical)
+    per_clip = np.array([change[turned.clip == i].mean() for i in range(len(clips))])
+    assert per_clip.std() > 2.0
+    # Off by default, without touching the random stream of older configs.
+    again = make_pairs(clips, "paper", seed=2, augmentation=Augmentation())
+    np.testing.assert_array_equal(again.inputs, plain.inputs)
+
+
 def test_lean_balance_weights_flatten_the_trunk_lean_of_real_mocap():
     from pcnet.models.datasets import lean_balance_weights
     from pcnet.stages.core.canonical import trunk_lean_deg
