@@ -6,7 +6,10 @@ Sequence mode's moving-block bootstrap over frames (stages/temporal.py) only mea
 much the frames disagree; a lifter's error that persists over a whole clip moves every frame
 the same way and is invisible to it. This script measures that systematic error and checks
 the interval of pcnet.stages.uncertainty.calibrated_interval:
-half = sqrt(bootstrap_half^2 + (Z * sigma_sys[axis])^2).
+half = sqrt(bootstrap_half^2 + (Z * sigma_sys[axis] * r)^2), r the recording's evidence scale
+(pcnet.stages.uncertainty.evidence_scale: its mean per-frame bound relative to the bound where
+the two networks agree; about 1 on poses like the training data, larger where the networks
+disagree).
 
 Views: pcnet.models.datasets.make_pairs(clips, views="paper", camera="static",
 noise=LifterNoise(), seed=s) -- the inputs of `pcnet evaluate --camera static --noise lifter
@@ -21,7 +24,8 @@ weights never trained on (configs/pcnet_body.toml trains on the motion-style tra
 Bandai validation groups and CMU validation subjects (pcnet.models.datasets.select_split(...,
 "val", "motion-style")), seeds 0, 1, 2 (3 views x lifter-noise draws per clip). Per axis and
 clip-view, the systematic error the bootstrap does not explain is
-s_i = sqrt(max(e_i^2 - b_i^2, 0)) / Z (e = signed error, b = bootstrap half-width, Z = 1.96):
+s_i = sqrt(max(e_i^2 - b_i^2, 0)) / (Z r_i) (e = signed error, b = bootstrap half-width,
+Z = 1.96, r = evidence scale: normalised non-conformity scores, Lei et al., JASA 2018, 5.2):
 the interval covers e_i iff sigma_sys >= s_i, so sigma_sys = the conformal 95 % quantile of
 s_i (the ceil(0.95 (n + 1))-th smallest) gives 95 % per-axis coverage on exchangeable data.
 Also printed: the RMS and median of the signed errors (the bias), for reference.
@@ -79,7 +83,7 @@ def rectify_row(joints: np.ndarray, up_true: np.ndarray, fps: float, camera_prio
             "boot_pitch": rep["camera_pitch_uncertainty_deg"], "boot_roll": rep["camera_roll_uncertainty_deg"],
             "reading": (rep.get("gravity") or {}).get("reading", "upright"),
             "half_pitch": rep["camera_pitch_interval_deg"], "half_roll": rep["camera_roll_interval_deg"],
-            "mode": rep["mode"]}
+            "scale": rep.get("evidence_scale", 1.0), "mode": rep["mode"]}
 
 
 def mocap_rows(clips, seeds, camera_prior: bool = True) -> list[dict]:
@@ -99,15 +103,15 @@ def mocap_rows(clips, seeds, camera_prior: bool = True) -> list[dict]:
 def arrays(rows):
     e = np.array([[r["err_pitch"], r["err_roll"]] for r in rows], np.float64)
     b = np.array([[r["boot_pitch"], r["boot_roll"]] for r in rows], np.float64)
-    return e, b
+    return e, b, np.array([r["scale"] for r in rows], np.float64)
 
 
 def calibrate(rows) -> dict:
-    e, b = arrays(rows)
-    s = np.sqrt(np.maximum(e ** 2 - b ** 2, 0.0)) / Z
+    e, b, r = arrays(rows)
+    s = np.sqrt(np.maximum(e ** 2 - b ** 2, 0.0)) / (Z * r[:, None])
     n = len(s)
     k = int(np.ceil(LEVEL * (n + 1)))  # conformal rank
-    out = {"n": n, "rank": k}
+    out = {"n": n, "rank": k, "scale": np.percentile(r, [50, 95, 100])}
     for j, ax in enumerate(AXES):
         out[ax] = {"sigma_sys": float(np.sort(s[:, j])[min(k, n) - 1]), "rms_err": float(np.sqrt(np.mean(e[:, j] ** 2))),
                    "bias": float(np.median(e[:, j])), "median_boot": float(np.median(b[:, j])),
@@ -117,11 +121,11 @@ def calibrate(rows) -> dict:
 
 def coverage(rows, sigma=None) -> tuple[float, float, float, float, float]:
     """(pitch, roll, both) coverage, median half-widths (pitch, roll)."""
-    e, b = arrays(rows)
+    e, b, r = arrays(rows)
     if sigma is None:
         h = b
     else:  # what pcnet reports: calibrated for an upright reading, the posterior's for a lying one
-        h = np.stack([uncertainty.calibrated_interval(b[:, j], ax, sigma_sys_deg=sigma[ax])
+        h = np.stack([uncertainty.calibrated_interval(b[:, j], ax, sigma_sys_deg=sigma[ax], scale=r)
                       for j, ax in enumerate(AXES)], 1)
         lying = np.array([r["reading"] == "lying" for r in rows])
         h[lying] = np.array([[r["half_pitch"], r["half_roll"]] for r in rows])[lying]
@@ -166,7 +170,8 @@ def main(argv=None) -> int:
              f"date {datetime.date.today().isoformat()}; method pcnet, mode sequence (camera prior on); "
              f"Z = {Z}; see the script's docstring.", "",
              f"Calibration on the motion-style val split ({cal['n']} clip-views = {len(val)} clips x seeds "
-             f"{CAL_SEEDS}, conformal rank {cal['rank']}):"]
+             f"{CAL_SEEDS}, conformal rank {cal['rank']}; evidence scale median / p95 / max "
+             f"{cal['scale'][0]:.2f} / {cal['scale'][1]:.2f} / {cal['scale'][2]:.2f}):"]
     for ax in AXES:
         c = cal[ax]
         lines.append(f"  {ax:<5} sigma_sys_deg = {c['sigma_sys']:.2f}   (rms signed error {c['rms_err']:.2f}, "
@@ -190,10 +195,10 @@ def main(argv=None) -> int:
         if r["reading"] == "lying":
             hp, hr = r["half_pitch"], r["half_roll"]
         else:
-            hp = uncertainty.calibrated_interval(r["boot_pitch"], "pitch", sigma_sys_deg=shipped["pitch"])
-            hr = uncertainty.calibrated_interval(r["boot_roll"], "roll", sigma_sys_deg=shipped["roll"])
+            hp = uncertainty.calibrated_interval(r["boot_pitch"], "pitch", sigma_sys_deg=shipped["pitch"], scale=r["scale"])
+            hr = uncertainty.calibrated_interval(r["boot_roll"], "roll", sigma_sys_deg=shipped["roll"], scale=r["scale"])
         lines.append(f"  {r['clip']:<28} err {r['err_pitch']:+7.1f} {r['err_roll']:+7.1f}   boot +-{r['boot_pitch']:.2f}/"
-                     f"{r['boot_roll']:.2f}   reported +-{hp:.2f}/{hr:.2f} ({r['reading']})")
+                     f"{r['boot_roll']:.2f}   scale {r['scale']:.2f}   reported +-{hp:.2f}/{hr:.2f} ({r['reading']})")
     print_and_save(lines, args.out)
     return 0
 

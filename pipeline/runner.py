@@ -120,7 +120,14 @@ class RunResult:
                 f"+- {roll_unc:.1f} deg; {label}; bootstrap alone +- "
                 f"{self.report.get('camera_pitch_uncertainty_deg', float('nan')):.1f}/"
                 f"{self.report.get('camera_roll_uncertainty_deg', float('nan')):.1f}; "
-                f"evidence: {self.report.get('evidence')})")
+                f"evidence: {self.report.get('evidence')}{self._evidence_scale()})")
+
+    def _evidence_scale(self) -> str:
+        scale = self.report.get("evidence_scale", 1.0)
+        if not scale > 1.05:
+            return ""
+        return (f"; poses unlike the training data: the pose evidence's systematic error taken {scale:.1f}x "
+                f"the calibration set's")
 
 
 #: Relative difference between ``--fps`` and the video's own rate accepted as the same rate.

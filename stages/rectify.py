@@ -31,7 +31,7 @@ from .core.geometric import geometric_rotation
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
-from .uncertainty import bound_weights, calibrated_interval, frame_tilt_bound
+from .uncertainty import bound_weights, calibrated_interval, evidence_scale, frame_tilt_bound
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -176,7 +176,8 @@ class SequenceEvidence:
             raise InputError(f"unknown mode {self.mode!r}; expected one of {MODES}")
 
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
-                 fps: float, frame_weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+                 fps: float, frame_weights: np.ndarray | None = None,
+                 evidence_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, dict]:
         """Apply the mode to one recording.
 
         Args:
@@ -185,6 +186,9 @@ class SequenceEvidence:
             R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool or
                 ``None`` (all). fps: frame rate, > 0. frame_weights: optional ``(T,)`` weights
                 of the frames in sequence mode's up (:func:`pcnet.stages.temporal.sequence_rectify`).
+                evidence_scale: :func:`pcnet.stages.uncertainty.evidence_scale` of the
+                recording: widens the pose evidence's std in the camera prior and the
+                calibrated intervals (1 = a pose like the calibration set's).
 
         Returns:
             ``(R (T, 3, 3) float64, NaN where not valid (frame mode: as given); valid (T,)
@@ -195,9 +199,10 @@ class SequenceEvidence:
             ``up``, ``up_uncertainty_deg``, ``camera_pitch_deg``, ``camera_roll_deg`` and their
             ``*_uncertainty_deg`` (the bootstrap's 95 % half-widths alone),
             ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
-            adding the lifter's systematic per-clip error calibrated on held-out mocap,
-            :func:`pcnet.stages.uncertainty.calibrated_interval`; for a ``lying`` reading the
-            posterior's), ``up_spread_deg``, ``up_spread_p95_deg``, ``ground_plane`` and
+            adding the lifter's systematic per-clip error calibrated on held-out mocap and
+            scaled by ``evidence_scale``, :func:`pcnet.stages.uncertainty.calibrated_interval`;
+            for a ``lying`` reading the posterior's), ``evidence_scale``, ``up_spread_deg``,
+            ``up_spread_p95_deg``, ``ground_plane`` and
             ``gravity`` (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report` or ``None``).
 
         Raises:
@@ -222,21 +227,23 @@ class SequenceEvidence:
                           time_constant_s=SMOOTH_TIME_CONSTANT_S)
         else:
             res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=self.n_bootstrap,
-                                   camera_prior=self.camera_prior, frame_weights=frame_weights)
+                                   camera_prior=self.camera_prior, frame_weights=frame_weights,
+                                   evidence_scale=evidence_scale)
             out, g = res.rotations, res.gravity
             if g is not None and g.reading == "lying":
                 # The up comes from the camera prior, not from resampled poses: its interval
                 # is the posterior's (tens of degrees), not the bootstrap's.
                 pitch_half, roll_half = g.pitch_half_deg, g.roll_half_deg
             else:
-                pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch")
-                roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll")
+                pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch", scale=evidence_scale)
+                roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll", scale=evidence_scale)
             report.update(
                 evidence=res.evidence, valid=res.valid, up=res.up, up_uncertainty_deg=res.up_uncertainty_deg,
                 camera_pitch_deg=res.camera_pitch_deg, camera_roll_deg=res.camera_roll_deg,
                 camera_pitch_uncertainty_deg=res.camera_pitch_uncertainty_deg,
                 camera_roll_uncertainty_deg=res.camera_roll_uncertainty_deg,
                 camera_pitch_interval_deg=pitch_half, camera_roll_interval_deg=roll_half,
+                evidence_scale=evidence_scale,
                 gravity=None if g is None else g.report(), up_spread_deg=res.up_spread_deg,
                 up_spread_p95_deg=res.up_spread_p95_deg, ground_plane=res.ground_plane,
             )
@@ -302,7 +309,8 @@ class Rectification:
         gate = estimate.camera_frame_weight
         base = self.estimator.frame_tilt_95_deg
         bound, weights = frame_bound_and_weights(estimate, base)
-        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, weights)
+        scale = evidence_scale(bound, base) if weights is not None else 1.0
+        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, weights, scale)
         report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)

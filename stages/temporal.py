@@ -213,6 +213,7 @@ def sequence_rectify(
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
     camera_prior: bool = True,
     frame_weights: np.ndarray | None = None,
+    evidence_scale: float = 1.0,
 ) -> SequenceResult:
     """One up direction for a static-camera sequence, per-frame heading about it.
 
@@ -233,8 +234,8 @@ def sequence_rectify(
        result is within :data:`pcnet.stages.ground_plane.GROUND_GATE_DEG` of the pose-based up. Otherwise skipped, with
        the reason in ``ground_plane["reason"]``.
     2b. **Camera prior** (``camera_prior``): the up of steps 1-2 (std
-       :data:`POSE_EVIDENCE_SIGMA_DEG`) and a lying reading (up perpendicular to the mean
-       trunk, :func:`mean_trunk`) are weighed against a prior over the camera's orientation
+       :data:`POSE_EVIDENCE_SIGMA_DEG` times ``evidence_scale``) and a lying reading (up
+       perpendicular to the mean trunk, :func:`mean_trunk`) are weighed against a prior over the camera's orientation
        (:func:`pcnet.stages.gravity_prior.gravity_posterior`); the posterior's reading and mode
        replace the up. An upright reading moves by at most a few percent of its angle to a
        level camera; a lying one takes the level camera's up in the plane across the trunk.
@@ -262,13 +263,16 @@ def sequence_rectify(
         frame_weights: optional ``(T,)`` weights of the frames in steps 1 and 4 and in the
             spread (e.g. :func:`pcnet.stages.uncertainty.bound_weights`); non-finite or
             negative = 0; ``None``, or no valid frame with a positive weight, = equal weights.
+        evidence_scale: factor on the pose evidence's std in step 2b
+            (:func:`pcnet.stages.uncertainty.evidence_scale`: > 1 where the poses are unlike
+            the training data, so the camera prior counts more); positive.
 
     Returns:
         :class:`SequenceResult`.
 
     Raises:
-        ValueError: wrong shapes, non-positive fps, or no
-            valid frame.
+        ValueError: wrong shapes, non-positive fps, no valid frame, or (with the camera
+            prior) a non-positive ``evidence_scale``.
     """
     R, ok = check_rotations(R, valid)
     T = len(R)
@@ -302,7 +306,10 @@ def sequence_rectify(
     evidence = "poses+ground_plane" if gp["used"] else "poses"
     up_evidence, gravity = up, None
     if camera_prior:
-        gravity = gravity_posterior(up, POSE_EVIDENCE_SIGMA_DEG, None if J is None else mean_trunk(J, ok))
+        if not (np.isfinite(evidence_scale) and evidence_scale > 0):
+            raise InputError(f"evidence_scale: expected a positive number, got {evidence_scale}")
+        gravity = gravity_posterior(up, POSE_EVIDENCE_SIGMA_DEG * evidence_scale,
+                                    None if J is None else mean_trunk(J, ok))
         up = gravity.up
         evidence += "+camera_prior"
 

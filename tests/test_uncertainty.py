@@ -11,7 +11,7 @@ import pytest
 from conftest import shared
 from pcnet.stages.rectify import SequenceEvidence
 from pcnet.stages.uncertainty import (bound_weights, FRAME_DISAGREEMENT_FACTOR, FRAME_TILT_95_BODY_DEG, FRAME_TILT_95_DEG, SIGMA_SYS_DEG,
-                                      Z, calibrated_interval, frame_tilt_bound)
+                                      Z, calibrated_interval, evidence_scale, frame_tilt_bound)
 
 RESULT = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "uncertainty.txt"
 FRAME_RESULT = RESULT.with_name("frame_bound.txt")
@@ -130,6 +130,36 @@ def test_frame_bound_widens_with_disagreement_and_hands_over_with_the_gate():
 def test_bound_weights_are_inverse_variance_of_the_bound():
     b = np.array([FRAME_TILT_95_DEG, 2 * FRAME_TILT_95_DEG, np.nan, 0.0])
     np.testing.assert_allclose(bound_weights(b), [1.0, 0.25, 0.0, 0.0])
+
+def test_evidence_scale_is_the_weighted_bound_relative_to_agreement():
+    base = FRAME_TILT_95_DEG
+    assert evidence_scale(np.full(50, base)) == pytest.approx(1.0)
+    assert evidence_scale(np.full(50, 3 * base)) == pytest.approx(3.0)
+    # Frames weigh as in the sequence up (inverse variance): one calm frame among wide ones counts most.
+    mixed = np.array([base, 4 * base, 4 * base, np.nan])
+    # weights 1, 1/16, 1/16; sum w (b / base) = 1 + 2 (1/16) 4
+    assert evidence_scale(mixed) == pytest.approx((1 + 2 * 0.25) / (1 + 2 * 0.0625))
+    assert 1.0 < evidence_scale(mixed) < 4.0
+    assert evidence_scale(np.full(3, np.nan)) == 1.0 and evidence_scale(np.full(3, base), np.nan) == 1.0
+    # The interval widens with it; scale 1 is the calibrated interval.
+    assert calibrated_interval(0.5, "pitch", scale=1.0) == pytest.approx(calibrated_interval(0.5, "pitch"))
+    assert calibrated_interval(0.0, "pitch", scale=3.0) == pytest.approx(3 * Z * SIGMA_SYS_DEG["pitch"])
+
+
+def test_unfamiliar_real_poses_get_wider_intervals_than_standing():
+    """Real VideoPose3D yoga (fixtures): a seated lotus, where the two networks disagree,
+    gets an evidence scale above 1 and a wider sequence interval than a standing pose."""
+    from conftest import FIXTURES
+    from pcnet.pipeline.rectification import rectify
+
+    reps = {}
+    for name in ("yoga_vp3d_Bhumi_Tadasana.npy", "yoga_Abhay_Padmasana_f200-299.npy"):
+        joints = np.load(FIXTURES / name, allow_pickle=False).astype(np.float64)
+        reps[name] = rectify(joints - joints[:, :1], "pcnet", mode="sequence", fps=30.0).report
+    stand, lotus = reps.values()
+    assert stand["evidence_scale"] < 1.2 and lotus["evidence_scale"] > 2.0
+    assert lotus["camera_pitch_interval_deg"] > stand["camera_pitch_interval_deg"]
+
 
 def test_disagreement_flag():
     from pcnet.stages.flags import DISAGREEMENT_SHARE, disagreement_flag
