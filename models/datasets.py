@@ -23,7 +23,7 @@ from pcnet.stages.core.canonical import canonical_rotation, to_canonical
 from pcnet.stages.core.conventions import (
     H36M_MIRROR_ORDER, H36M_PARENTS, HEAD, NECK_NOSE, PELVIS, SPINE, THORAX, validate_fps, validate_poses)
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.rotations import sample_camera_rotations
+from pcnet.stages.core.rotations import axis_rotation, sample_camera_rotations
 
 SPLITS = ("train", "val", "test", "all")
 
@@ -336,18 +336,6 @@ _UPPER_BODY = np.arange(SPINE, 17)
 _HEAD = np.array([NECK_NOSE, HEAD])
 
 
-def _axis_rotations(angles_deg: np.ndarray, axis: int) -> np.ndarray:
-    """``(n, 3, 3)`` right-handed rotations by ``angles_deg`` ``(n,)`` about coordinate ``axis``."""
-    a = np.radians(angles_deg)
-    c, s = np.cos(a), np.sin(a)
-    i, j = [k for k in range(3) if k != axis]
-    R = np.zeros((len(a), 3, 3))
-    R[:, axis, axis] = 1.0
-    R[:, i, i], R[:, j, j] = c, c
-    R[:, j, i], R[:, i, j] = s, -s
-    return R
-
-
 def posture_rotations(n: int, aug: Augmentation, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
     """Per-clip posture turns of :class:`Augmentation` (canonical frame: +Y up, +Z the
     subject's right, so sagittal = about Z, lateral = about X): ``(trunk, head)``, each
@@ -358,8 +346,8 @@ def posture_rotations(n: int, aug: Augmentation, rng: np.random.Generator) -> tu
     sagittal = rng.normal(0.0, aug.trunk_sagittal_sigma_deg, n)
     lateral = rng.normal(0.0, aug.trunk_lateral_sigma_deg, n)
     head = rng.normal(0.0, aug.head_sagittal_sigma_deg, n)
-    trunk = _axis_rotations(sagittal, 2) @ _axis_rotations(lateral, 0)
-    return trunk, _axis_rotations(head, 2)
+    trunk = axis_rotation("z", np.radians(sagittal)) @ axis_rotation("x", np.radians(lateral))
+    return trunk, axis_rotation("z", np.radians(head))
 
 
 def apply_posture(canon: np.ndarray, trunk: np.ndarray, head: np.ndarray) -> np.ndarray:
