@@ -38,7 +38,7 @@ from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
                                       write_motion_files, write_rerun)
 from pcnet.stages.scale import height_factor
-from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL
+from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL, UNFAMILIAR_EVIDENCE_SCALE
 from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
 from .config import RunConfig
@@ -124,7 +124,7 @@ class RunResult:
 
     def _evidence_scale(self) -> str:
         scale = self.report.get("evidence_scale", 1.0)
-        if not scale > 1.05:
+        if not scale > UNFAMILIAR_EVIDENCE_SCALE:
             return ""
         return (f"; poses unlike the training data: the pose evidence's systematic error taken {scale:.1f}x "
                 f"the calibration set's")

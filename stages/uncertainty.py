@@ -77,6 +77,10 @@ FRAME_DISAGREEMENT_FACTOR = 1.75
 #: sets the camera-frame network aside (``w = 0``: a rolled camera, a body across the image).
 FRAME_TILT_95_BODY_DEG = 8.60
 
+#: Evidence scale above which the run summary says the poses are unlike the training data:
+#: beyond every calibration clip-view's (1.36 at most, ``benchmarks/results/uncertainty.txt``).
+UNFAMILIAR_EVIDENCE_SCALE = 1.5
+
 #: What the interval is, for printed summaries.
 LABEL = "95 % interval incl. the lifter's systematic error, calibrated on held-out mocap"
 

@@ -161,6 +161,23 @@ def test_unfamiliar_real_poses_get_wider_intervals_than_standing():
     assert lotus["camera_pitch_interval_deg"] > stand["camera_pitch_interval_deg"]
 
 
+def test_summary_names_an_unfamiliar_recording(tmp_path):
+    """The run summary's camera tilt line says when the evidence scale is beyond the
+    calibration clips' (the seated lotus), and stays quiet for a standing pose."""
+    from click.testing import CliRunner
+
+    from conftest import FIXTURES
+    from pcnet.pipeline.cli import main
+
+    said = {}
+    for name in ("yoga_vp3d_Bhumi_Tadasana.npy", "yoga_Abhay_Padmasana_f200-299.npy"):
+        res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output", str(FIXTURES / name),
+                                        "--fps", "30", "--no-recording", "--out", str(tmp_path / name)])
+        assert res.exit_code == 0, res.output
+        said[name] = "poses unlike the training data: the pose evidence's systematic error taken" in res.output
+    assert said == {"yoga_vp3d_Bhumi_Tadasana.npy": False, "yoga_Abhay_Padmasana_f200-299.npy": True}
+
+
 def test_disagreement_flag():
     from pcnet.stages.flags import DISAGREEMENT_SHARE, disagreement_flag
 
