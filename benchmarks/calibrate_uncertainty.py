@@ -107,11 +107,11 @@ def arrays(rows):
 
 
 def calibrate(rows) -> dict:
-    e, b, r = arrays(rows)
-    s = np.sqrt(np.maximum(e ** 2 - b ** 2, 0.0)) / (Z * r[:, None])
+    e, b, scale = arrays(rows)
+    s = np.sqrt(np.maximum(e ** 2 - b ** 2, 0.0)) / (Z * scale[:, None])
     n = len(s)
     k = int(np.ceil(LEVEL * (n + 1)))  # conformal rank
-    out = {"n": n, "rank": k, "scale": np.percentile(r, [50, 95, 100])}
+    out = {"n": n, "rank": k, "scale": np.percentile(scale, [50, 95, 100])}
     for j, ax in enumerate(AXES):
         out[ax] = {"sigma_sys": float(np.sort(s[:, j])[min(k, n) - 1]), "rms_err": float(np.sqrt(np.mean(e[:, j] ** 2))),
                    "bias": float(np.median(e[:, j])), "median_boot": float(np.median(b[:, j])),
@@ -121,11 +121,11 @@ def calibrate(rows) -> dict:
 
 def coverage(rows, sigma=None) -> tuple[float, float, float, float, float]:
     """(pitch, roll, both) coverage, median half-widths (pitch, roll)."""
-    e, b, r = arrays(rows)
+    e, b, scale = arrays(rows)
     if sigma is None:
         h = b
     else:  # what pcnet reports: calibrated for an upright reading, the posterior's for a lying one
-        h = np.stack([uncertainty.calibrated_interval(b[:, j], ax, sigma_sys_deg=sigma[ax], scale=r)
+        h = np.stack([uncertainty.calibrated_interval(b[:, j], ax, sigma_sys_deg=sigma[ax], scale=scale)
                       for j, ax in enumerate(AXES)], 1)
         lying = np.array([r["reading"] == "lying" for r in rows])
         h[lying] = np.array([[r["half_pitch"], r["half_roll"]] for r in rows])[lying]

@@ -309,8 +309,8 @@ class Rectification:
         gate = estimate.camera_frame_weight
         base = self.estimator.frame_tilt_95_deg
         bound, weights = frame_bound_and_weights(estimate, base)
-        scale = evidence_scale(bound, base) if weights is not None else 1.0
-        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, weights, scale)
+        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, weights,
+                                         evidence_scale(bound, base))
         report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)

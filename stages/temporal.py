@@ -235,10 +235,12 @@ def sequence_rectify(
        the reason in ``ground_plane["reason"]``.
     2b. **Camera prior** (``camera_prior``): the up of steps 1-2 (std
        :data:`POSE_EVIDENCE_SIGMA_DEG` times ``evidence_scale``) and a lying reading (up
-       perpendicular to the mean trunk, :func:`mean_trunk`) are weighed against a prior over the camera's orientation
-       (:func:`pcnet.stages.gravity_prior.gravity_posterior`); the posterior's reading and mode
-       replace the up. An upright reading moves by at most a few percent of its angle to a
-       level camera; a lying one takes the level camera's up in the plane across the trunk.
+       perpendicular to the mean trunk, :func:`mean_trunk`) are weighed against a prior over
+       the camera's orientation (:func:`pcnet.stages.gravity_prior.gravity_posterior`); the
+       posterior's reading and mode replace the up. An upright reading moves towards a level
+       camera by a few percent of its angle to it where the poses are familiar, more with a
+       larger ``evidence_scale``; a lying one takes the level camera's up in the plane across
+       the trunk.
     3. **Heading**: :func:`rotations_about_up`, the rotation with the sequence up closest to
        each frame's prediction.
     4. **Uncertainty**: moving-block bootstrap (Kunsch 1989, "The jackknife and the bootstrap
