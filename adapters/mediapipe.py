@@ -167,7 +167,7 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
     notes = (f"MediaPipe BlazePose-33 world landmarks ({meta}); metres, origin mid-hip; axes already "
              "x right / y down / z away from the camera (checked on real data); "
              f"camera-aligned, not gravity-aligned; {empty} frames without a person -> NaN")
-    summary_note = ""
+    summary_note, turn_median = "", 0.0
     if real_camera:
         with open_numpy(p) as archive:  # _read checked that it is an npz
             K = archive["K"] if "K" in archive.files else None
@@ -183,13 +183,14 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
             arr = np.einsum("tij,tkj->tki", R, arr).astype(np.float32)
             turn = np.degrees(np.arccos(np.clip(R[:, 2, 2], -1.0, 1.0)))
             turn = turn[np.isfinite(turn)]
+            turn_median = float(np.median(turn))
             summary_note = (f"MediaPipe world landmarks turned from the virtual camera at the mid-hip into the real camera "
-                            f"(focal length {K[0, 0]:.0f} px, {focal_source}; turn median {np.median(turn):.1f}, "
+                            f"(focal length {K[0, 0]:.0f} px, {focal_source}; turn median {turn_median:.1f}, "
                             f"max {turn.max():.1f} deg" + (f"; mid-hip pixel interpolated in {filled} frames" if filled else "")
                             + ")")
         notes += "; " + summary_note
     return Poses3D(arr, "blazepose33", units="m", source=str(p), notes=notes, fps=scalars["fps"],
-                   summary_note=summary_note)
+                   summary_note=summary_note, frame_turn_deg=turn_median)
 
 
 def _intrinsics(p: Path, scalars: dict, focal_px: float | None, K: np.ndarray | None) -> tuple[np.ndarray | None, str]:

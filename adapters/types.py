@@ -129,6 +129,11 @@ class Poses3D:
         summary_note: one line the run summary should show about this conversion (a
             correction applied to the lifter's output, with the assumption it rests on);
             empty for none.
+        frame_turn_deg: median angle (deg) by which the adapter turned each frame from the
+            frame the lifter is assumed to answer in into the camera frame (MediaPipe: its
+            virtual camera aimed at the person -> the real camera); 0 for none. The
+            assumption cannot be checked from the file, so the pipeline flags a turn larger
+            than its stated tilt uncertainty (:func:`pcnet.stages.flags.lifter_frame_flag`).
     """
 
     joints: np.ndarray
@@ -140,6 +145,7 @@ class Poses3D:
     fps: float | None = None
     root_translation: bool = False
     summary_note: str = ""
+    frame_turn_deg: float = 0.0
 
     def __post_init__(self) -> None:
         _check_array(self.joints, "joints", self.source, self.layout)

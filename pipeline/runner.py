@@ -29,7 +29,7 @@ from pcnet.stages.core.conventions import (H36M_JOINTS, PELVIS, fill_pelvis_from
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (body_size_flag, disagreement_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
+from pcnet.stages.flags import (body_size_flag, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
@@ -187,7 +187,14 @@ def _load_inputs(cfg: RunConfig):
     fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = poses.joints if poses.layout == "h36m17" else remap_to_h36m(poses.joints, poses.layout)
     joints = validate_poses(joints, str(cfg.lifter_output), poses.units, in_place=joints is poses.joints)
-    return video, fps, kp2d, joints, poses.units, poses.root_translation, poses.summary_note
+    return video, fps, kp2d, joints, poses.units, poses.root_translation, poses.summary_note, poses.frame_turn_deg
+
+
+def _tilt_tolerance(report: dict) -> float:
+    """The camera tilt uncertainty the summary states (deg): the larger 95 % pitch/roll
+    half-width in sequence mode, else the per-frame bound where the two networks agree."""
+    halves = [report.get("camera_pitch_interval_deg", np.nan), report.get("camera_roll_interval_deg", np.nan)]
+    return float(max(halves)) if np.isfinite(halves).all() else float(report.get("frame_tilt_95_deg", np.nan))
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):
@@ -359,7 +366,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     # store is removed before the folder is swapped in.
     with staged_output(out) as tmp, FrameStore(tmp) as store:
         step("inputs")
-        video, fps, kp2d, joints, units, measured_root, lifter_note = _load_inputs(cfg)
+        video, fps, kp2d, joints, units, measured_root, lifter_note, lifter_turn = _load_inputs(cfg)
         kp2d, joints = _align(cfg, video, kp2d, joints)
         bar.update()
 
@@ -387,6 +394,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
         flags += view_gate_flag(report.get("view_gate"))
         flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
+        flags += lifter_frame_flag(lifter_turn, _tilt_tolerance(report))
         segment = None
         if kp2d is not None:
             segment, events = track_segments(kp2d, fps)

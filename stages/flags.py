@@ -272,6 +272,28 @@ def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, lis
     return segment, events
 
 
+def lifter_frame_flag(turn_deg: float, tolerance_deg: float) -> list[str]:
+    """A flag when an adapter turned the lifter's output into the camera frame by more than
+    the run's own tilt uncertainty (``tolerance_deg``: the larger of the camera pitch and
+    roll 95 % half-widths, or the per-frame bound where no interval is printed).
+
+    The turn rests on an assumption the file cannot confirm (MediaPipe's world landmarks
+    answer in a virtual camera aimed at the person: adapters/mediapipe.py). On real videos
+    with known gravity it helped where the cameras looked down at the person and hurt where
+    one looked up at him (benchmarks/results/gravity_benchmark.txt and vanishing_gravity.txt:
+    the Sports2D demo errs 18 deg turned by 15.5 deg, 8 untouched), so the tilt may be off by
+    up to about the turn beyond its interval. ``turn_deg`` 0 (no turn) or a non-finite
+    tolerance gives none.
+    """
+    if not (turn_deg > 0 and np.isfinite(tolerance_deg)) or turn_deg <= tolerance_deg:
+        return []
+    return [f"the lifter's output was turned by a median {turn_deg:.1f} deg into the real camera (MediaPipe's "
+            f"landmarks taken as seen from a virtual camera aimed at the person, an assumption the file cannot "
+            f"confirm), more than the tilt's stated uncertainty ({tolerance_deg:.1f} deg): the camera tilt may be off "
+            f"by up to about the turn; give the video's true focal length (--focal-px), or compare a run with the "
+            f"person near the image centre"]
+
+
 def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]]) -> list[str]:
     """A one-line flag naming the jumps and the frames outside the longest stretch."""
     if not events:

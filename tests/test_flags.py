@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from conftest import FIXTURES, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
-from pcnet.stages.flags import camera_tilt, non_upright_fraction, orientation_flags, track_segments
+from pcnet.stages.flags import camera_tilt, lifter_frame_flag, non_upright_fraction, orientation_flags, track_segments
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.remap import remap_to_h36m
 
@@ -114,3 +114,23 @@ def test_camera_tilt_matches_the_rotation_decomposition_on_real_poses():
     assert p == pytest.approx(np.degrees(pitch).mean(), abs=1e-3) and r == pytest.approx(np.degrees(roll).mean(), abs=1e-3)
     assert r == pytest.approx(20 + np.degrees(decompose_camera_rotation(
         rectify(np.load(TADASANA), "geometric", mode="sequence").rotation[:1])[2][0]), abs=0.5)
+
+
+def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
+    assert lifter_frame_flag(15.5, 7.4) and "15.5 deg" in lifter_frame_flag(15.5, 7.4)[0]
+    assert lifter_frame_flag(4.4, 7.2) == []  # Pose2Sim cam01: calibrated K, person near the centre
+    assert lifter_frame_flag(0.0, 1.0) == [] and lifter_frame_flag(15.0, float("nan")) == []
+
+
+def test_a_large_mediapipe_turn_is_flagged_and_a_negligible_one_is_not(tmp_path):
+    """Real MediaPipe (Sports2D demo, the man on the box, above the image centre): with the
+    assumed phone focal length his landmarks are turned by about 15 deg into the real camera,
+    more than the run's tilt uncertainty; a (hypothetical) long lens turns them by under 1."""
+    for focal, flagged in ((None, True), (100000.0, False)):
+        out = tmp_path / f"o{focal}"
+        args = ["run", "--lifter", "mediapipe", "--lifter-output", str(MEDIAPIPE), "--no-recording", "--out", str(out)]
+        res = CliRunner().invoke(main, args + ([] if focal is None else ["--focal-px", str(focal)]))
+        assert res.exit_code == 0, res.output
+        assert ("turned by a median" in res.output) is flagged, res.output
+        with np.load(out / "canonical.npz") as npz:
+            assert any("turned by a median" in str(f) for f in npz["flags"]) is flagged
