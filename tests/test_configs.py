@@ -1,6 +1,8 @@
 """The training configs shipped in configs/ load, and a stage's init_checkpoint is written by
 another shipped config (so the documented chains run in order)."""
 
+import json
+from dataclasses import asdict
 from pathlib import Path
 
 import pytest
@@ -8,7 +10,8 @@ import pytest
 pytest.importorskip("torch")
 from pcnet.models.train import load_config  # noqa: E402
 
-CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.toml"))
+ROOT = Path(__file__).resolve().parents[1]
+CONFIGS = sorted((ROOT / "configs").glob("*.toml"))
 
 
 @pytest.mark.parametrize("path", CONFIGS, ids=[p.name for p in CONFIGS])
@@ -45,8 +48,21 @@ def test_generalisation_fields_are_checked(tmp_path, text, field):
         load_config(bad)
 
 
+SHIPPED = {"pcnet_camera": "pcnet_camera_posture.toml", "pcnet_body": "pcnet_body_posture.toml"}
+
+
 def test_shipped_default_trains_on_the_motion_style_split_with_cmu():
-    """The shipped weights' config keeps held-out motions, styles and CMU subjects out of training."""
-    cfg = load_config(Path(__file__).resolve().parents[1] / "configs" / "pcnet_body.toml")
-    assert cfg.split_scheme == "motion-style" and cfg.model.input_frame == "body"
-    assert cfg.noise_model == "lifter" and any("cmu" in d for d in cfg.data)
+    """The shipped weights' configs keep held-out motions, styles and CMU subjects out of training."""
+    for name, config in SHIPPED.items():
+        cfg = load_config(ROOT / "configs" / config)
+        assert cfg.split_scheme == "motion-style" and cfg.noise_model == "lifter" and any("cmu" in d for d in cfg.data)
+        assert cfg.trunk_sagittal_sigma_deg > 0 and cfg.model.input_frame == name.split("_")[1]
+
+
+@pytest.mark.parametrize("name", sorted(SHIPPED))
+def test_shipped_weights_were_trained_with_the_config_that_says_so(name):
+    """Every training field the exported weights record equals the shipped config's."""
+    recorded = json.loads((ROOT / "models" / "weights" / f"{name}.json").read_text())
+    cfg = asdict(load_config(ROOT / "configs" / SHIPPED[name]))
+    assert recorded["training_config"] and {k: cfg[k] for k in recorded["training_config"]} == recorded["training_config"]
+    assert {k: cfg["model"][k] for k in recorded["model_config"]} == recorded["model_config"]
