@@ -281,7 +281,7 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float) -> list[str]:
     answer in a virtual camera aimed at the person: adapters/mediapipe.py). On real videos
     with known gravity it helped where the cameras looked down at the person and hurt where
     one looked up at him (benchmarks/results/gravity_benchmark.txt and vanishing_gravity.txt:
-    the Sports2D demo errs 18 deg turned by 15.5 deg, 8 untouched), so the tilt may be off by
+    the Sports2D demo errs 16 deg turned by 15.5 deg, 6 untouched), so the tilt may be off by
     up to about the turn beyond its interval. ``turn_deg`` 0 (no turn) or a non-finite
     tolerance gives none.
     """
