@@ -13,13 +13,13 @@ the same videos:
   up = the vertical vanishing point back-projected, ``u ~ K^-1 v`` (Hartley and Zisserman,
   Multiple View Geometry, 2nd ed., section 8.6.1); focal length from the vertical and the
   left wall's vanishing points, which belong to orthogonal directions:
-  ``f^2 = -(v1 - p).(v2 - p)`` (ibid. section 8.8, example 8.27; principal point p at the
-  image centre, square pixels).
+  ``f^2 = -(v1 - p).(v2 - p)`` (ibid. section 8.8, calibration from orthogonal vanishing
+  points; principal point p at the image centre, square pixels).
 - sports2d (real/sports2d_demo: MediaPipe BlazePose, 230 frames, static camera): the camera
   is nearly level, so vertical edges are nearly parallel and their vanishing point is badly
-  conditioned; up = the normal of the horizon line ``u ~ K^T l`` (ibid. result 8.16), the
-  horizon through the vanishing points of two horizontal directions (a building's facade and
-  the box's louvres). No orthogonal pair fixes the focal length, so the truth is computed
+  conditioned; up = the normal of the horizon line ``u ~ K^T l`` (ibid. section 8.6.2,
+  vanishing lines), the horizon through the vanishing points of two horizontal directions
+  (a building's facade and the box's louvres). No orthogonal pair fixes the focal length, so the truth is computed
   with the one `pcnet run` assumes for this file (a phone's 26 mm equivalent,
   stages/core/perspective.py) and its sensitivity to 0.7x and 1.4x that focal length is
   printed. Only the first 169 frames are scored: MediaPipe follows the man on the box until

@@ -18,6 +18,7 @@ from pcnet.stages.core.rotations import axis_rotation, compose_camera_rotation
 sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
 import equivariance  # noqa: E402
 import gravity_benchmark  # noqa: E402
+import vanishing_gravity  # noqa: E402
 import yoga_physics  # noqa: E402
 
 CAMS = ("cam01", "cam02", "cam03", "cam04")
@@ -183,3 +184,33 @@ def test_scripts_exit_with_one_line_without_data(script, tmp_path):
     assert proc.stdout == ""
     assert len(proc.stderr.strip().splitlines()) == 1 and "--data" in proc.stderr
     assert not out.exists()
+
+
+def test_vanishing_points_recover_a_known_camera_up_and_focal_length():
+    """Edges of a synthetic room seen by a known camera (pitch 9 deg down, roll -2, f 600 px):
+    the vertical vanishing point with the focal length from an orthogonal pair, and the
+    horizon of two horizontal directions, both give back the true up."""
+    pitch, roll, f, (w, h) = np.radians(9.0), np.radians(-2.0), 600.0, (854, 480)
+    up = np.array([np.cos(pitch) * np.sin(roll), -np.cos(pitch) * np.cos(roll), -np.sin(pitch)])
+    across = np.cross(up, [0.0, 0.0, 1.0])
+    across /= np.linalg.norm(across)
+    along = np.cross(across, up)
+    K = np.array([[f, 0, w / 2], [0, f, h / 2], [0, 0, 1.0]])
+    rng = np.random.default_rng(0)
+
+    def segments(direction):
+        start = rng.uniform([-2, -1, 4], [2, 1, 8], size=(6, 3))
+        ends = [start, start + 0.8 * direction]
+        px = [(K @ e.T).T for e in ends]
+        return np.hstack([p[:, :2] / p[:, 2:] for p in px])
+
+    groups = {"vertical": segments(up), "left_wall": segments(along), "back_wall": segments(across)}
+    centre = np.array([w / 2, h / 2])
+    spec = {"up_from": "vertical", "focal_from": ["vertical", "left_wall"]}
+    got, focal = vanishing_gravity.true_up(spec, groups, centre, None)
+    assert focal == pytest.approx(f, rel=1e-6) and np.degrees(np.arccos(min(1.0, got @ up))) < 1e-4
+    spec = {"up_from": "horizon", "horizon": ["left_wall", "back_wall"], "focal_from": None}
+    got, _ = vanishing_gravity.true_up(spec, groups, centre, f)
+    assert np.degrees(np.arccos(min(1.0, got @ up))) < 1e-4
+    assert vanishing_gravity.edge_residual_deg(groups["vertical"], up, f, centre) < 1e-4
+    assert vanishing_gravity.edge_residual_deg(groups["vertical"], np.array([0.0, -1.0, 0.0]), f, centre) > 0.5
