@@ -59,7 +59,7 @@ from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
 from pcnet.stages.core.conventions import PELVIS, fill_pelvis_from_hips, validate_poses
 from pcnet.stages.core.perspective import focal_px_from_35mm
-from pcnet.stages.core.rotations import normalize
+from pcnet.stages.core.rotations import compose_camera_rotation, normalize
 from pcnet.stages.remap import remap_to_h36m
 
 HERE = Path(__file__).resolve().parent
@@ -215,8 +215,7 @@ def pcnet_run_row(data: Path, run: dict, up_true: np.ndarray) -> tuple[str, np.n
     dp, dr = rep.get("camera_pitch_interval_deg", np.nan), rep.get("camera_roll_interval_deg", np.nan)
     inside = "-" if not np.isfinite(dp + dr) else ("yes" if abs(p - tp) <= dp and abs(r - tr) <= dr else "NO")
     # the up its summary's pitch and roll describe (smooth mode has no single sequence up)
-    pr = np.radians([p, r])
-    up = np.array([np.cos(pr[0]) * np.sin(pr[1]), -np.cos(pr[0]) * np.cos(pr[1]), -np.sin(pr[0])])
+    up = compose_camera_rotation(0.0, np.radians(p), np.radians(r))[:, 1]
     err = deg_between(up, up_true)
     return (f"  {'pcnet run':<{LABEL_WIDTH}}mode {result.mode}: tilt error {err:.1f}, pitch {p:+.1f} +- {dp:.1f}, "
             f"roll {r:+.1f} +- {dr:.1f}; intervals contain the truth: {inside}"), up
