@@ -169,7 +169,10 @@ class VideoInfo:
         frame_count: number of frames; ``probe_video`` checks the container's count by
             decoding the last frame and counts by decoding when the container overstates.
         fps: frames per second (> 0).
-        width, height: frame size in pixels.
+        width, height: frame size in pixels, as displayed.
+        rotation_deg: the container's display rotation, clockwise, one of 0, 90, 180, 270:
+            the stored frames are the displayed ones turned by it counter-clockwise (a phone's
+            portrait video stored as landscape frames: 90 or 270).
     """
 
     path: str
@@ -177,6 +180,12 @@ class VideoInfo:
     fps: float
     width: int
     height: int
+    rotation_deg: int = 0
+
+    @property
+    def stored_size(self) -> tuple[int, int]:
+        """``(width, height)`` of the frames as stored in the file (before the display rotation)."""
+        return (self.height, self.width) if self.rotation_deg in (90, 270) else (self.width, self.height)
 
     @property
     def duration_s(self) -> float:

@@ -45,7 +45,13 @@ def _count_by_decoding(cap: cv2.VideoCapture) -> int:
 
 
 def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
-    """Frame count, frame rate and size of a video.
+    """Frame count, frame rate, size and display rotation of a video.
+
+    Phones store a portrait video as landscape frames plus a display rotation in the
+    container (the MP4 track header's matrix, ISO/IEC 14496-12 section 8.3.2, ``tkhd``); a
+    player, and OpenCV since 4.5 (``CAP_PROP_ORIENTATION_AUTO``, on by default), turns the
+    frames by it. ``rotation_deg`` is that rotation (``CAP_PROP_ORIENTATION_META``, clockwise,
+    rounded to a multiple of 90) and ``width``/``height`` the size as displayed.
 
     Args:
         path: the video file.
@@ -69,6 +75,7 @@ def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
         fps = _prop(cap, cv2.CAP_PROP_FPS)
         width = int(_prop(cap, cv2.CAP_PROP_FRAME_WIDTH))
         height = int(_prop(cap, cv2.CAP_PROP_FRAME_HEIGHT))
+        rotation = int(round(_prop(cap, cv2.CAP_PROP_ORIENTATION_META) / 90.0)) * 90 % 360
         ok, _ = cap.read()
         if ok and verify:
             last_ok = False
@@ -83,7 +90,7 @@ def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
         raise AdapterError(p, "fps", "a positive finite frame rate", fps)
     if width <= 0 or height <= 0:
         raise AdapterError(p, "width/height", "a positive frame size", f"{width}x{height}")
-    return VideoInfo(str(p), count, fps, width, height)
+    return VideoInfo(str(p), count, fps, width, height, rotation)
 
 
 def read_frame(path: str | Path, index: int) -> np.ndarray:

@@ -36,7 +36,7 @@ import numpy as np
 from configurations import CONFIGURATIONS, LABEL_WIDTH, Configuration
 from gravity_benchmark import load_camera
 from pcnet.adapters import load_motionbert, load_videopose3d
-from pcnet.stages.core.conventions import PELVIS
+from pcnet.stages.core.conventions import root_relative
 from pcnet.stages.core.rotations import angle_between, axis_rotation
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -47,11 +47,6 @@ ANGLES_DEG = (0, 30, 60, 90, 120, 150, 180)
 # (label, method, mode)
 CONFIGS = CONFIGURATIONS
 YOGA = ("Bhumi_Tadasana", "Bhumi_Padmasana", "Bhumi_Bhujangasana", "Bhumi_Shavasana")
-
-
-def _centre(joints: np.ndarray) -> np.ndarray:
-    J = np.asarray(joints, np.float64)
-    return J - J[:, PELVIS : PELVIS + 1]
 
 
 def middle(joints: np.ndarray, frames: int) -> np.ndarray:
@@ -66,9 +61,9 @@ def load_clips(data: Path, frames: int = 300) -> list[tuple[str, np.ndarray, flo
     clips = []
     for name in YOGA:
         poses = load_videopose3d(real / "yoga_videopose3d" / f"export_{name}.npy")
-        clips.append((f"yoga {name.replace('_', ' ')}", middle(_centre(poses.joints), frames), 30.0))
+        clips.append((f"yoga {name.replace('_', ' ')}", middle(root_relative(poses.joints)[0], frames), 30.0))
     poses = load_motionbert(real / "boxing_motionbert" / "X3D.npy")
-    clips.append(("boxing MotionBERT", middle(_centre(poses.joints), frames), 30.0))
+    clips.append(("boxing MotionBERT", middle(root_relative(poses.joints)[0], frames), 30.0))
     joints, _, fps = load_camera(real / "pose2sim_gravity" / "statictrial_cam01.npz")
     clips.append(("pose2sim cam01", middle(joints, frames), fps))
     return clips

@@ -11,8 +11,8 @@ atan2(u_x, -u_y) (pcnet.stages.core.rotations.decompose_camera_rotation).
 
 Poses are read as `pcnet run --lifter mediapipe` reads them (pipeline/runner.py `_load_inputs`):
 load_mediapipe_3d (which turns each frame from MediaPipe's virtual camera at the mid-hip into the
-real camera with the file's calibrated K, adapters/mediapipe.py) -> remap_to_h36m ->
-validate_poses -> fill_pelvis_from_hips -> pelvis-centred. `--as-delivered` reads the world
+real camera with the file's calibrated K, adapters/mediapipe.py) -> pcnet.pipeline.io.lifter_joints
+(H36M-17, validated) -> pcnet.stages.core.conventions.root_relative (pelvis from the hips, centred). `--as-delivered` reads the world
 landmarks untouched instead (`load_mediapipe_3d(..., real_camera=False)`), `--focal-px F`
 ignores the file's K and assumes F with the image centre (`pcnet run --focal-px`), and
 `--assumed-focal` the default a recording without K gets (a phone's 26 mm equivalent).
@@ -45,8 +45,8 @@ import numpy as np
 
 from configurations import CONFIGURATIONS, LABEL_WIDTH
 from pcnet.adapters import load_mediapipe_3d
-from pcnet.stages.core.conventions import PELVIS, THORAX, fill_pelvis_from_hips, validate_poses
-from pcnet.stages.remap import remap_to_h36m
+from pcnet.pipeline.io import lifter_joints
+from pcnet.stages.core.conventions import PELVIS, THORAX, root_relative
 from pcnet.stages.core.perspective import focal_px_from_35mm
 from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize
 
@@ -66,10 +66,7 @@ def load_camera(path: str | Path, **options) -> tuple[np.ndarray, np.ndarray, fl
     statictrial npz, read the way ``pcnet run --lifter mediapipe`` reads it (``options`` go to
     :func:`load_mediapipe_3d`: ``focal_px``, ``real_camera``)."""
     poses = load_mediapipe_3d(path, **options)
-    joints = remap_to_h36m(poses.joints, poses.layout)
-    joints = validate_poses(joints, str(path), poses.units)
-    joints, _ = fill_pelvis_from_hips(joints)
-    joints = joints.astype(np.float64) - joints[:, PELVIS : PELVIS + 1]
+    joints, _ = root_relative(lifter_joints(poses, str(path)))
     with np.load(path) as f:
         up = np.asarray(f["up_camera"], np.float64)
     return joints, up / np.linalg.norm(up), float(poses.fps or 60.0)

@@ -74,15 +74,14 @@ KINECT_UP = np.array([0.0, -1.0, 0.0])
 
 
 def load_sequence(path: Path) -> dict:
-    """One UTD-MHAD file: H36M-17 root-relative camera-frame joints ``(T, 17, 3)`` float32
+    """One UTD-MHAD file: H36M-17 root-relative camera-frame joints ``(T, 17, 3)`` float64
     (metres, via :func:`pcnet.adapters.kinect.load_kinect_v1`), ``fps`` (the effective skeleton
     rate), ``acc_g`` ``(N, 3)`` (g), ``imu_fps``, ``saturated`` ``(N,)`` bool, and ids."""
     from pcnet.adapters.kinect import load_kinect_v1
-    from pcnet.stages.core.conventions import PELVIS, fill_pelvis_from_hips
+    from pcnet.stages.core.conventions import root_relative
 
     poses = load_kinect_v1(path)
-    joints, _ = fill_pelvis_from_hips(poses.joints)
-    joints = joints - joints[:, PELVIS:PELVIS + 1]
+    joints, _ = root_relative(poses.joints)
     with np.load(path) as d:
         return {"name": path.stem, "joints": joints, "fps": float(poses.fps), "acc_g": d["acc_g"].astype(np.float64),
                 "imu_fps": float(d["imu_fps"]), "saturated": d["acc_saturated"].astype(bool),

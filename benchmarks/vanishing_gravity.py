@@ -57,10 +57,10 @@ from pcnet.adapters import load_mediapipe_3d
 from pcnet.adapters.registry import get_3d_adapter
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
-from pcnet.stages.core.conventions import PELVIS, fill_pelvis_from_hips, validate_poses
+from pcnet.pipeline.io import lifter_joints
+from pcnet.stages.core.conventions import root_relative
 from pcnet.stages.core.perspective import focal_px_from_35mm
 from pcnet.stages.core.rotations import compose_camera_rotation, normalize
-from pcnet.stages.remap import remap_to_h36m
 
 HERE = Path(__file__).resolve().parent
 DEFAULT = HERE.parents[1] / "shared" / "data"
@@ -178,10 +178,8 @@ def read_poses(data: Path, run: dict, options: dict) -> tuple[np.ndarray, float]
     path = data / run["lifter_output"]
     # the adapter's options are pcnet run's; the untouched MediaPipe reading is the loader's own
     poses = load_mediapipe_3d(path, **options) if "real_camera" in options else get_3d_adapter(run["lifter"]).load(path, **options)
-    joints = poses.joints if poses.layout == "h36m17" else remap_to_h36m(poses.joints, poses.layout)
-    joints, _ = fill_pelvis_from_hips(validate_poses(joints, str(path), poses.units))
-    joints = joints.astype(np.float64)
-    return joints - joints[:, PELVIS : PELVIS + 1], float(poses.fps or 30.0)
+    joints, _ = root_relative(lifter_joints(poses, str(path)))
+    return joints, float(poses.fps or 30.0)
 
 
 def config_rows(joints: np.ndarray, fps: float, up_true: np.ndarray) -> list[str]:

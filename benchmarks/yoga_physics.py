@@ -44,7 +44,7 @@ import numpy as np
 
 from configurations import CONFIGURATIONS, LABEL_WIDTH
 from pcnet.adapters import load_videopose3d
-from pcnet.stages.core.conventions import PELVIS, SPINE, THORAX
+from pcnet.stages.core.conventions import PELVIS, SPINE, THORAX, root_relative
 from pcnet.stages.core.rotations import angle_between
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -157,8 +157,7 @@ def run(data: Path, stride: int = 2) -> list[str]:
             skipped.append(f"{path.name} (= {seen[digest]})")
             continue
         seen[digest] = path.name
-        joints = poses.joints[::stride].astype(np.float64)
-        joints = joints - joints[:, PELVIS : PELVIS + 1]
+        joints, _ = root_relative(poses.joints[::stride])
         res = evaluate_file(joints, FPS / stride)
         results.append((person, asana, len(joints), res))
         cells = "".join(f"{res[lab]['trunk']:>{LABEL_WIDTH - 1}.1f}{'*' if res[lab]['valid_frac'] < 0.5 else ' '}"

@@ -1,4 +1,5 @@
-"""Small file readers of the pipeline room (pcnet's own array files)."""
+"""Small readers of the pipeline room: pcnet's own array files, and a lifter adapter's output
+as ``pcnet run`` takes it."""
 
 from __future__ import annotations
 
@@ -6,10 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
+from pcnet.adapters.types import Poses3D
 from pcnet.adapters.validate import NumpyArchive, describe_keys
 from pcnet.models.datasets import load_numpy_file
 from pcnet.stages.core.conventions import validate_poses
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.remap import remap_to_h36m
 
 
 def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
@@ -46,3 +49,23 @@ def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
             raise InputError(f"{path}: --key {key!r}: expected no key for a single-array .npy file, got one")
         arr = data
     return validate_poses(arr, source=f"{path}{f' [{key}]' if key else ''}", units=None)
+
+
+def lifter_joints(poses: Poses3D, source: str) -> np.ndarray:
+    """H36M-17 camera-frame joints from a 3D adapter's output, as ``pcnet run`` reads every
+    lifter: remapped from the adapter's layout (:func:`pcnet.stages.remap.remap_to_h36m`),
+    then :func:`pcnet.stages.core.conventions.validate_poses` with the adapter's units.
+
+    Args:
+        poses: what a registered 3D adapter's ``load`` returned.
+        source: the file named in errors.
+
+    Returns:
+        float32 ``(T, 17, 3)``, camera frame (OpenCV axes), the adapter's units; NaN = missing.
+        An H36M-17 float32 array is validated in place (a long recording is not copied).
+
+    Raises:
+        InputError: see :func:`pcnet.stages.core.conventions.validate_poses`.
+    """
+    joints = poses.joints if poses.layout == "h36m17" else remap_to_h36m(poses.joints, poses.layout)
+    return validate_poses(joints, source, poses.units, in_place=joints is poses.joints)

@@ -373,3 +373,21 @@ def test_lean_balance_weights_flatten_the_trunk_lean_of_real_mocap():
     assert np.all(lean_balance_weights(trunk_lean_deg(missing), 10.0)[:3] == 1.0)
     with pytest.raises(ValueError, match="cap"):
         lean_balance_weights(lean, 0.5)
+
+
+def test_root_relative_fills_the_pelvis_from_the_hips_and_centres_on_it():
+    """Real VideoPose3D poses: a missing pelvis becomes the hip midpoint before centring; a
+    frame without pelvis or hips stays missing (never zeros)."""
+    from pcnet.stages.core.conventions import L_HIP, PELVIS, R_HIP, root_relative
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:5].astype(np.float32) + 1.0
+    joints[1, PELVIS] = np.nan
+    joints[2, [PELVIS, L_HIP]] = np.nan
+    rel, filled = root_relative(joints)
+    assert rel.dtype == np.float64 and rel.shape == joints.shape
+    assert filled.tolist() == [False, True, False, False, False]
+    np.testing.assert_allclose(rel[0], joints[0] - joints[0, PELVIS], atol=1e-6)
+    mid = 0.5 * (joints[1, L_HIP] + joints[1, R_HIP])
+    np.testing.assert_allclose(rel[1, PELVIS + 1 :], joints[1, PELVIS + 1 :] - mid, atol=1e-6)
+    assert (rel[1, PELVIS] == 0).all()
+    assert np.isnan(rel[2]).all()

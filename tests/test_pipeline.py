@@ -401,3 +401,25 @@ def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):
         errors[name] = np.degrees(np.arccos(np.clip(up @ true_up / np.linalg.norm(up), -1.0, 1.0)))
         print(f"\n{name}: evidence {res.report['evidence']}, sequence up {errors[name]:.2f} deg from the truth")
     assert errors["measured root"] < 0.5 < errors["root-relative"]
+
+
+def test_lifter_joints_is_what_pcnet_run_reads_from_a_lifter():
+    """A real MediaPipe file: BlazePose-33 remapped to H36M-17 (pelvis = hip midpoint), float32,
+    NaN kept; an H36M-17 float32 output is validated without a copy, and a bad value is one
+    InputError naming the file."""
+    from pcnet.adapters import Poses3D, load_mediapipe_3d
+    from pcnet.pipeline.io import lifter_joints
+    from pcnet.stages.core.conventions import L_HIP, PELVIS, R_HIP
+    from pcnet.stages.core.errors import InputError
+
+    path = FIXTURES / "mediapipe_blazepose33_f000-059.npz"
+    poses = load_mediapipe_3d(path)
+    joints = lifter_joints(poses, str(path))
+    assert joints.shape == (len(poses.joints), 17, 3) and joints.dtype == np.float32
+    ok = np.isfinite(joints[:, [L_HIP, R_HIP]]).all((1, 2))
+    np.testing.assert_allclose(joints[ok, PELVIS], 0.5 * (joints[ok, L_HIP] + joints[ok, R_HIP]), atol=1e-5)
+    h36m = Poses3D(joints=joints.copy(), layout="h36m17", units="m", source=str(path))
+    assert lifter_joints(h36m, str(path)) is h36m.joints
+    h36m.joints[0, 0, 0] = 1e9
+    with pytest.raises(InputError, match="mediapipe_blazepose33"):
+        lifter_joints(h36m, str(path))

@@ -318,3 +318,18 @@ def fill_pelvis_from_hips(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     filled = missing & hips_ok
     out[filled, PELVIS] = 0.5 * (out[filled, L_HIP] + out[filled, R_HIP])
     return out, filled
+
+
+def root_relative(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pelvis-centred poses, the input of every rectifier: :func:`fill_pelvis_from_hips`,
+    then the pelvis subtracted from every joint.
+
+    Args:
+        joints: ``(T, 17, 3)`` H36M-17, any frame and units (NaN = missing).
+
+    Returns:
+        ``(float64 (T, 17, 3) root-relative joints, pelvis filled from the hips (T,) bool)``;
+        frames still without a pelvis are all NaN.
+    """
+    out, filled = fill_pelvis_from_hips(np.asarray(joints, np.float64))
+    return out - out[:, PELVIS : PELVIS + 1], filled

@@ -264,6 +264,7 @@ def write_recording(
     world: np.ndarray | None = None,
     show_labels: bool = False,
     floor: bool = True,
+    notes: list[str] | None = None,
 ) -> Path:
     """Write a ``.rrd`` recording of one sequence with a default blueprint, atomically.
 
@@ -284,7 +285,9 @@ def write_recording(
         keypoints2d: optional ``(T, 17, 3)`` x_px, y_px, confidence in H36M-17 order;
             joints with confidence <= ``min_confidence`` or NaN are not drawn.
         video_path: optional MP4 (rerun's AssetVideo reads MP4 only); embedded in the
-            recording.
+            recording. A video whose codec rerun cannot play (e.g. MPEG-4 Part 2, ``mp4v``;
+            rerun 0.x plays H.264, H.265, AV1 and VP9) is left out, the rest recorded, and a
+            line saying so appended to ``notes``.
         wrist_paths: optional ``name -> (T, 3)`` paths to draw (e.g. filtered wrists), in
             the world frame when ``world`` is given, else in the canonical frame; default:
             the wrists of ``world`` or ``canonical``. The camera view always gets the
@@ -301,6 +304,7 @@ def write_recording(
         show_labels: show the joint names beside the 2D and 3D joints (off by default: they
             cover the person; the viewer still names a hovered joint and can switch them on).
         floor: draw the floor grid ``/world/floor`` at y = 0 (only with ``world``).
+        notes: where a line about a video left out is appended (the run summary's notes).
 
     Returns:
         the destination path.
@@ -344,8 +348,15 @@ def write_recording(
     seconds = frames / float(fps)
     asset, video_ns = None, None
     if video_path is not None:
-        asset = rr.AssetVideo(path=video_path)
-        video_ns = asset.read_frame_timestamps_nanos()
+        try:
+            asset = rr.AssetVideo(path=video_path)
+            video_ns = asset.read_frame_timestamps_nanos()
+        except RuntimeError as err:  # rerun's own video reader: an unsupported codec or container
+            asset, video_ns = None, None
+            if notes is not None:
+                notes.append(f"recording.rrd: {video_path} left out, rerun cannot play it ({err}); poses, keypoints "
+                             f"and series are recorded without the picture")
+    if video_ns is not None:
         n = min(T, len(video_ns))
         seconds[:n] = video_ns[:n] * 1e-9
         # Poses beyond the video's last frame continue at 1/fps so time stays monotonic.

@@ -208,5 +208,6 @@ def write_rerun(r: RecordingResult, folder: Path) -> dict[str, Path]:
         rotations=r.rotation, up=column(r.rotation, slice(None), 1), valid=r.valid, keypoints2d=r.keypoints2d,
         video_path=r.video, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
         series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence, flags=r.flags, world=r.world,
+        notes=r.notes,
     )
     return {"recording": path}

@@ -1,0 +1,113 @@
+"""Phone videos stored turned from how they are displayed (MP4 display rotation): probing the
+rotation, telling which frames the 2D keypoints are in, and the camera prior that follows,
+on the real boxing fixtures re-stored the way a phone stores a portrait video."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import FIXTURES, ROOT
+from pcnet.adapters import VideoInfo, iter_frames, probe_video
+from pcnet.pipeline.config import RunConfig
+from pcnet.pipeline.runner import _keypoint_frame, run_pipeline
+from pcnet.stages.core.rotations import angle_between
+from pcnet.stages.gravity_prior import IMAGE_UP, level_up
+
+sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
+import display_rotation  # noqa: E402
+
+CLIP = FIXTURES / "boxing2_f000-009.mp4"
+RUN = dict(keypoints2d=str(FIXTURES / "boxing_alphapose_f000-059.json"), keypoints2d_format="alphapose",
+           lifter="motionbert", lifter_output=str(FIXTURES / "boxing_X3D_f000-059.npy"))
+
+
+@pytest.mark.parametrize("rotation", [90, 180, 270])
+def test_probe_reads_the_display_rotation_a_phone_writes(tmp_path, rotation):
+    """Frames stored turned counter-clockwise, the rotation in the track header: OpenCV shows
+    the original frames, and the probe reports the rotation and both sizes."""
+    video = tmp_path / "phone.mp4"
+    display_rotation.write_stored_video(CLIP, video, rotation, rotation)
+    info = probe_video(video)
+    assert (info.rotation_deg, info.width, info.height, info.frame_count) == (rotation, 854, 480, 10)
+    assert info.stored_size == ((480, 854) if rotation in (90, 270) else (854, 480))
+    shown, original = next(iter(iter_frames(video))), next(iter(iter_frames(CLIP)))
+    assert shown.shape == original.shape
+    assert np.abs(shown.astype(int) - original).mean() < 8  # the same picture, re-encoded
+    assert probe_video(CLIP).rotation_deg == 0
+
+
+@pytest.mark.parametrize("rotation", [90, 180, 270])
+def test_level_up_is_the_displayed_up_seen_in_the_stored_frames(rotation):
+    """The stored frames' pixels and camera axes turn together: the displayed image's up, as
+    pixels moved into the stored frame, points where level_up says."""
+    top, bottom = np.array([400.0, 100.0]), np.array([400.0, 300.0])  # displayed: top above bottom
+    stored = display_rotation.stored_pixels(np.stack([top, bottom]), rotation, 854, 480)
+    up_px = (stored[0] - stored[1]) / np.linalg.norm(stored[0] - stored[1])
+    expected = level_up(rotation, "stored")
+    np.testing.assert_allclose(up_px, expected[:2], atol=1e-12)
+    np.testing.assert_allclose(display_rotation.camera_turn(rotation) @ np.array(IMAGE_UP), expected, atol=1e-12)
+    assert level_up(rotation, "displayed") == IMAGE_UP == level_up(rotation, "unknown") == level_up(0, "stored")
+    with pytest.raises(ValueError, match="rotation_deg"):
+        level_up(45, "stored")
+    with pytest.raises(ValueError, match="keypoint_frame"):
+        level_up(90, "sideways")
+
+
+def test_keypoint_frame_is_the_one_whose_size_holds_the_keypoints():
+    video = VideoInfo("phone.mp4", 10, 30.0, 1080, 1920, rotation_deg=90)  # portrait as displayed
+    kp = np.full((2, 17, 3), np.nan)
+    kp[0, :3, :2] = [[100, 200], [1500, 300], [900, 1000]]  # x beyond the displayed width: stored
+    assert _keypoint_frame(video, kp) == "stored"
+    kp[0, :3, :2] = [[100, 200], [1000, 1700], [900, 1000]]  # y beyond the stored height: displayed
+    assert _keypoint_frame(video, kp) == "displayed"
+    kp[0, :3, :2] = [[100, 200], [1000, 1100], [900, 1000]]  # fits both (within the 5 % edge margin)
+    assert _keypoint_frame(video, kp) == "unknown"
+    kp[0, :3, :2] = [[100, 200], [3000, 3000], [900, 1000]]  # fits neither: not this video's pixels
+    assert _keypoint_frame(video, kp) == "unknown"
+    assert _keypoint_frame(VideoInfo("landscape.mp4", 10, 30.0, 854, 480), kp) == "unknown"
+
+
+def _clip_inputs(tmp_path) -> dict:
+    """The fixture's keypoints and lifter output cut to the video fixture's 10 frames."""
+    people = [p for p in json.loads(Path(RUN["keypoints2d"]).read_text()) if int(p["image_id"].split(".")[0]) < 10]
+    (tmp_path / "kp.json").write_text(json.dumps(people))
+    np.save(tmp_path / "X3D.npy", np.load(RUN["lifter_output"])[:10])
+    return dict(RUN, keypoints2d=str(tmp_path / "kp.json"), lifter_output=str(tmp_path / "X3D.npy"))
+
+
+def _run(tmp_path, name: str, rotation: int, tag: int, stored: bool):
+    folder = tmp_path / name
+    folder.mkdir()
+    video = folder / "video.mp4"
+    display_rotation.write_stored_video(CLIP, video, rotation, tag)
+    run = display_rotation.write_stored_inputs(_clip_inputs(tmp_path), tmp_path, folder, rotation if stored else 0,
+                                               854, 480)
+    cfg = RunConfig(**dict(run, video=str(video)), out=str(folder / "out"), mode="sequence", recording=False)
+    return run_pipeline(cfg, progress=False)
+
+
+def test_pcnet_run_on_a_phone_video_whose_frames_the_detector_read_as_stored(tmp_path):
+    """Real MotionBERT poses of the boxing fixture, re-stored turned 90 deg with the rotation in
+    the container and the keypoints in the stored frames: the run finds the same camera up as
+    on the original, turned with the frames, and says which frames it took. With the rotation
+    lost the same poses are read as a body lying under a level camera (the documented limit)."""
+    original = _run(tmp_path, "original", 0, 0, False)
+    turned = _run(tmp_path, "turned", 90, 90, True)
+    lost = _run(tmp_path, "lost", 90, 0, True)
+    up = original.report["up"]
+    expected = display_rotation.camera_turn(90) @ up
+    assert original.report["gravity"]["reading"] == turned.report["gravity"]["reading"] == "upright"
+    # Turned 90 deg, the body-frame network answers instead of the camera-frame one; the two
+    # differ by about 3.5 deg on real poses (benchmarks/equivariance.py).
+    assert np.degrees(angle_between(turned.report["up"], expected)) < 5.0
+    assert turned.report["display_rotation"] == {"rotation_deg": 90, "keypoint_frame": "stored",
+                                                 "level_camera_up": [-1.0, 0.0, 0.0]}
+    assert any("2D keypoints are in its stored frames" in n for n in turned.notes), turned.notes
+    assert "display_rotation" not in original.report and "display_rotation" not in lost.report
+    assert lost.report["gravity"]["reading"] == "lying"
+    assert np.degrees(angle_between(lost.report["up"], expected)) > 45.0
