@@ -111,3 +111,17 @@ def test_pcnet_run_on_a_phone_video_whose_frames_the_detector_read_as_stored(tmp
     assert "display_rotation" not in original.report and "display_rotation" not in lost.report
     assert lost.report["gravity"]["reading"] == "lying"
     assert np.degrees(angle_between(lost.report["up"], expected)) > 45.0
+
+
+def test_a_video_rerun_cannot_play_is_left_out_of_the_recording_with_a_note(tmp_path):
+    """The video fixture is MPEG-4 Part 2 (``mp4v``, what OpenCV's own writer makes), which
+    rerun does not decode: the run still writes everything, the recording without the
+    picture (but with the 2D keypoints), and says so."""
+    from conftest import rrd_summary
+
+    run = _clip_inputs(tmp_path)
+    result = run_pipeline(RunConfig(**dict(run, video=str(CLIP)), out=str(tmp_path / "out")), progress=False)
+    assert any("recording.rrd" in n and "left out" in n and "mp4v" in n for n in result.notes), result.notes
+    rows, static, _, _ = rrd_summary(tmp_path / "out" / "recording.rrd")
+    assert "/video" not in static and "/video" not in rows
+    assert rows["/video/keypoints"] == 10
