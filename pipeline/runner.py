@@ -219,16 +219,18 @@ def _keypoint_frame(video, kp2d) -> str:
     return next(iter(f for f, ok in fits.items() if ok)) if sum(fits.values()) == 1 else "unknown"
 
 
-def _level_note(video, frame: str, level: tuple[float, float, float]) -> str:
+def _level_note(video, frame: str, level: tuple[float, float, float], have_keypoints: bool) -> str:
     where = {(-1.0, 0.0, 0.0): "left (-x)", (1.0, 0.0, 0.0): "right (+x)", (0.0, 1.0, 0.0): "bottom (+y)"}
-    said = {"stored": f"its stored frames, so the camera prior takes the displayed image's up, at the stored "
-                      f"image's {where.get(level, level)}, as a level camera's",
-            "displayed": "its displayed frames: the camera prior takes their up as a level camera's",
-            "unknown": "frames whose size cannot tell stored from displayed, so the camera prior takes the displayed "
-                       "image's up as a level camera's (if the 2D detector read the stored frames, a standing body may "
-                       "be read as lying: compare --no-camera-prior)"}
+    unknown = ("the camera prior takes the displayed image's up as a level camera's (if the lifter saw the stored "
+               "frames, a standing body may be read as lying: compare --no-camera-prior)")
+    said = {"stored": f"the 2D keypoints are in its stored frames, so the camera prior takes the displayed image's "
+                      f"up, at the stored image's {where.get(level, level)}, as a level camera's",
+            "displayed": "the 2D keypoints are in its displayed frames: the camera prior takes their up as a level "
+                         "camera's",
+            "unknown": (f"the 2D keypoints fit both the stored and the displayed frame size, so {unknown}"
+                        if have_keypoints else f"no 2D keypoints tell which frames the lifter saw, so {unknown}")}
     return (f"{video.path}: displayed turned {video.rotation_deg} deg clockwise from how it is stored (its container's "
-            f"display rotation; a phone's portrait video); the 2D keypoints are in {said[frame]}")
+            f"display rotation; a phone's portrait video); {said[frame]}")
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):
@@ -411,7 +413,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         step("remap")
         notes: list[str] = [lifter_note] if lifter_note else []
         if video is not None and video.rotation_deg:
-            notes.append(_level_note(video, frame, level))
+            notes.append(_level_note(video, frame, level, kp2d is not None))
         cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store)
         del joints
         if pelvis_filled:

@@ -113,6 +113,21 @@ def test_pcnet_run_on_a_phone_video_whose_frames_the_detector_read_as_stored(tmp
     assert np.degrees(angle_between(lost.report["up"], expected)) > 45.0
 
 
+
+def test_without_keypoints_a_display_rotation_keeps_the_displayed_up_and_says_why(tmp_path):
+    """A 3D file and a turned video but no 2D keypoints: nothing tells which frames the lifter
+    saw, so the camera prior keeps the displayed image's up and the note says so."""
+    video = tmp_path / "video.mp4"
+    display_rotation.write_stored_video(CLIP, video, 90, 90)
+    run = _clip_inputs(tmp_path)
+    cfg = RunConfig(video=str(video), lifter=run["lifter"], lifter_output=run["lifter_output"], out=str(tmp_path / "out"),
+                    mode="sequence", recording=False)
+    result = run_pipeline(cfg, progress=False)
+    assert result.report["display_rotation"]["keypoint_frame"] == "unknown"
+    assert result.report["gravity"]["priors"]["level_camera_up"] == list(IMAGE_UP)
+    assert any("no 2D keypoints tell which frames" in n for n in result.notes), result.notes
+
+
 def test_a_video_rerun_cannot_play_is_left_out_of_the_recording_with_a_note(tmp_path):
     """The video fixture is MPEG-4 Part 2 (``mp4v``, what OpenCV's own writer makes), which
     rerun does not decode: the run still writes everything, the recording without the
