@@ -28,7 +28,6 @@ from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS, fill_pelvis_from_
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.gravity_prior import IMAGE_UP, level_up
 from pcnet.stages.flags import (body_size_flag, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
@@ -43,6 +42,7 @@ from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
 from .config import RunConfig
 from .io import lifter_joints
+from .video_orientation import camera_level
 from .outdir import check_out_folder, staged_output
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
@@ -195,42 +195,6 @@ def _tilt_tolerance(report: dict) -> float:
     half-width in sequence mode, else the per-frame bound where the two networks agree."""
     halves = [report.get("camera_pitch_interval_deg", np.nan), report.get("camera_roll_interval_deg", np.nan)]
     return float(max(halves)) if np.isfinite(halves).all() else float(report.get("frame_tilt_95_deg", np.nan))
-
-
-#: Share of the frame size by which 2D keypoints may lie beyond the image's edge and still be
-#: taken as in that frame (detectors extrapolate joints of a body cut by the edge).
-EDGE_MARGIN = 0.05
-
-
-def _keypoint_frame(video, kp2d) -> str:
-    """Which frames of a video stored turned from how it is displayed the 2D keypoints are in
-    (:data:`pcnet.stages.gravity_prior.KEYPOINT_FRAMES`): the one whose size holds every
-    present keypoint (within :data:`EDGE_MARGIN`), ``"unknown"`` when both or neither do."""
-    if kp2d is None or video.rotation_deg == 0:
-        return "unknown"
-    top = np.full(2, -np.inf)
-    for rows in frame_blocks(len(kp2d)):
-        xy = np.asarray(kp2d[rows, :, :2], np.float64).reshape(-1, 2)
-        xy = xy[np.isfinite(xy).all(axis=1)]
-        if len(xy):
-            top = np.maximum(top, xy.max(axis=0))
-    fits = {frame: bool(np.all(top <= np.asarray(size) * (1.0 + EDGE_MARGIN)))
-            for frame, size in (("displayed", (video.width, video.height)), ("stored", video.stored_size))}
-    return next(iter(f for f, ok in fits.items() if ok)) if sum(fits.values()) == 1 else "unknown"
-
-
-def _level_note(video, frame: str, level: tuple[float, float, float], have_keypoints: bool) -> str:
-    where = {(-1.0, 0.0, 0.0): "left (-x)", (1.0, 0.0, 0.0): "right (+x)", (0.0, 1.0, 0.0): "bottom (+y)"}
-    unknown = ("the camera prior takes the displayed image's up as a level camera's (if the lifter saw the stored "
-               "frames, a standing body may be read as lying: compare --no-camera-prior)")
-    said = {"stored": f"the 2D keypoints are in its stored frames, so the camera prior takes the displayed image's "
-                      f"up, at the stored image's {where.get(level, level)}, as a level camera's",
-            "displayed": "the 2D keypoints are in its displayed frames: the camera prior takes their up as a level "
-                         "camera's",
-            "unknown": (f"the 2D keypoints fit both the stored and the displayed frame size, so {unknown}"
-                        if have_keypoints else f"no 2D keypoints tell which frames the lifter saw, so {unknown}")}
-    return (f"{video.path}: displayed turned {video.rotation_deg} deg clockwise from how it is stored (its container's "
-            f"display rotation; a phone's portrait video); {said[frame]}")
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):
@@ -404,16 +368,13 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         step("inputs")
         video, fps, kp2d, joints, units, measured_root, lifter_note, lifter_turn = _load_inputs(cfg)
         kp2d, joints = _align(cfg, video, kp2d, joints)
-        level, frame = IMAGE_UP, "unknown"
-        if video is not None and video.rotation_deg:
-            frame = _keypoint_frame(video, kp2d)
-            level = level_up(video.rotation_deg, frame)
+        level, frame, orientation_note = camera_level(video, kp2d)
         bar.update()
 
         step("remap")
         notes: list[str] = [lifter_note] if lifter_note else []
-        if video is not None and video.rotation_deg:
-            notes.append(_level_note(video, frame, level, kp2d is not None))
+        if orientation_note:
+            notes.append(orientation_note)
         cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store)
         del joints
         if pelvis_filled:
@@ -430,7 +391,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
         rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
         report["pelvis_from_hips_frames"] = pelvis_filled
-        if video is not None and video.rotation_deg:
+        if orientation_note:
             report["display_rotation"] = {"rotation_deg": video.rotation_deg, "keypoint_frame": frame,
                                           "level_camera_up": list(level)}
         del res

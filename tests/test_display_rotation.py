@@ -14,7 +14,8 @@ import pytest
 from conftest import FIXTURES, ROOT
 from pcnet.adapters import VideoInfo, iter_frames, probe_video
 from pcnet.pipeline.config import RunConfig
-from pcnet.pipeline.runner import _keypoint_frame, run_pipeline
+from pcnet.pipeline.runner import run_pipeline
+from pcnet.pipeline.video_orientation import keypoint_frame
 from pcnet.stages.core.rotations import angle_between
 from pcnet.stages.gravity_prior import IMAGE_UP, level_up
 
@@ -62,14 +63,14 @@ def test_keypoint_frame_is_the_one_whose_size_holds_the_keypoints():
     video = VideoInfo("phone.mp4", 10, 30.0, 1080, 1920, rotation_deg=90)  # portrait as displayed
     kp = np.full((2, 17, 3), np.nan)
     kp[0, :3, :2] = [[100, 200], [1500, 300], [900, 1000]]  # x beyond the displayed width: stored
-    assert _keypoint_frame(video, kp) == "stored"
+    assert keypoint_frame(video, kp) == "stored"
     kp[0, :3, :2] = [[100, 200], [1000, 1700], [900, 1000]]  # y beyond the stored height: displayed
-    assert _keypoint_frame(video, kp) == "displayed"
+    assert keypoint_frame(video, kp) == "displayed"
     kp[0, :3, :2] = [[100, 200], [1000, 1100], [900, 1000]]  # fits both (within the 5 % edge margin)
-    assert _keypoint_frame(video, kp) == "unknown"
+    assert keypoint_frame(video, kp) == "unknown"
     kp[0, :3, :2] = [[100, 200], [3000, 3000], [900, 1000]]  # fits neither: not this video's pixels
-    assert _keypoint_frame(video, kp) == "unknown"
-    assert _keypoint_frame(VideoInfo("landscape.mp4", 10, 30.0, 854, 480), kp) == "unknown"
+    assert keypoint_frame(video, kp) == "unknown"
+    assert keypoint_frame(VideoInfo("landscape.mp4", 10, 30.0, 854, 480), kp) == "unknown"
 
 
 def _clip_inputs(tmp_path) -> dict:
