@@ -14,9 +14,10 @@ and the rotation written into the container, so that OpenCV shows the original f
 detector that ignores the rotation delivers: pixels and camera axes turned exactly like the
 frames) or as displayed (a detector that applies it); a last variant drops the container's
 rotation (a re-encode that lost it). Rows: tilt error of `pcnet run`'s camera up (defaults,
-sequence mode when its auto mode picks it: the report's sequence up) against the truth turned
-into the frame the lifter answered in, the keypoint frame pcnet decided, the reading of the body, and whether
-the printed 95 % pitch and roll intervals contain the truth.
+sequence mode when its auto mode picks it: the report's sequence up) against the truth in
+pcnet's camera frame (the displayed one where it turned the inputs into it, else the lifter's),
+the keypoint frame pcnet decided, whether it turned the inputs, the reading of the body, and
+whether the printed 95 % pitch and roll intervals contain the truth.
 
 Only the storage is synthetic: poses, video and truth are the real recording's. What the
 turn cannot reproduce: a detector run on turned pixels gives slightly different keypoints.
@@ -40,6 +41,7 @@ from vanishing_gravity import LINES, RECORDINGS, truth
 from pcnet.adapters import iter_frames, probe_video
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
+from pcnet.pipeline.video_orientation import display_turn
 from pcnet.stages.core.perspective import focal_px_from_35mm
 
 HERE = Path(__file__).resolve().parent
@@ -57,15 +59,6 @@ CASES = (
     ("stored turned 90, keypoints as displayed", 90, 90, False),
     ("stored turned 90, rotation lost, keypoints in stored frames", 90, 0, True),
 )
-
-
-def camera_turn(rotation_deg: int) -> np.ndarray:
-    """``(3, 3)`` rotation taking displayed-camera coordinates (OpenCV axes) to those of the
-    frames stored turned counter-clockwise by ``rotation_deg``: the displayed image's up
-    ``(0, -1, 0)`` goes to ``(-sin a, -cos a, 0)``."""
-    a = np.radians(rotation_deg)
-    c, s = round(np.cos(a)), round(np.sin(a))
-    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def stored_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int) -> np.ndarray:
@@ -122,7 +115,7 @@ def write_stored_inputs(run: dict, data: Path, tmp: Path, rotation_deg: int, wid
     keypoints.write_text(json.dumps(people))
     X = np.load(data / run["lifter_output"], allow_pickle=False)
     lifter = tmp / "X3D.npy"
-    np.save(lifter, (X @ camera_turn(rotation_deg).T).astype(np.float32))
+    np.save(lifter, (X @ display_turn(rotation_deg).T).astype(np.float32))
     return dict(run, keypoints2d=str(keypoints), lifter_output=str(lifter))
 
 
@@ -138,19 +131,17 @@ def run_case(data: Path, run: dict, case: tuple, up_true: np.ndarray, width: int
         result = run_pipeline(RunConfig(**dict(inputs, video=str(video)), out=str(tmp / "out"), recording=False),
                               progress=False)
     rep = result.report
-    truth_here = camera_turn(rotation if stored else 0) @ up_true
-    # the summary's pitch and roll are the displayed image's when pcnet knew the frames were
-    # stored turned, else those of the frames the lifter saw
-    known = (rep.get("display_rotation") or {}).get("keypoint_frame") == "stored"
-    tp, tr = pitch_roll_deg(up_true if known else truth_here)
+    # pcnet's camera frame: the displayed one where it turned the inputs, else the lifter's
+    turned = (rep.get("display_rotation") or {}).get("turned_into_displayed_frame", False)
+    truth_here = up_true if turned else display_turn(rotation if stored else 0) @ up_true
+    tp, tr = pitch_roll_deg(truth_here)
     dp, dr = rep.get("camera_pitch_interval_deg", np.nan), rep.get("camera_roll_interval_deg", np.nan)
     droll = (result.camera_roll_deg - tr + 180.0) % 360.0 - 180.0
     inside = "-" if not np.isfinite(dp + dr) else ("yes" if abs(result.camera_pitch_deg - tp) <= dp and abs(droll) <= dr else "NO")
     gravity = rep.get("gravity") or {}
-    level = (gravity.get("priors") or {}).get("level_camera_up", "-")
     frame = (rep.get("display_rotation") or {}).get("keypoint_frame", "-")
     return (f"| {label} | {deg_between(rep['up'], truth_here):.1f} | {result.mode} | {gravity.get('reading', '-')} "
-            f"(p lying {gravity.get('p_lying', float('nan')):.2f}) | {frame} | {level} | {inside} |")
+            f"(p lying {gravity.get('p_lying', float('nan')):.2f}) | {frame} | {'yes' if turned else 'no'} | {inside} |")
 
 
 def main() -> None:
@@ -168,8 +159,8 @@ def main() -> None:
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              f"boxing (MotionBERT), true up as displayed: pitch {pitch_roll_deg(up_true)[0]:+.1f}, roll "
              f"{pitch_roll_deg(up_true)[1]:+.1f} (benchmarks/vanishing_gravity.py)", "",
-             "| case | tilt error (deg) | mode | reading | keypoint frame found | camera prior's level up | 95 % intervals "
-             "contain the truth |",
+             "| case | tilt error (deg) | mode | reading | keypoint frame found | turned into the displayed frame | "
+             "95 % intervals contain the truth |",
              "|---|---|---|---|---|---|---|"]
     print("\n".join(lines), flush=True)
     for case in CASES:

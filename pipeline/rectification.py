@@ -17,7 +17,6 @@ from pcnet.models.inference import get_session
 from pcnet.stages.core.conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import frame_blocks, in_memory
-from pcnet.stages.gravity_prior import IMAGE_UP
 from pcnet.stages.rectify import (METHODS, Allocate, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
                                   Rectification, Rectified, SequenceEvidence, check_method_weights,
                                   resolve_heading_source)
@@ -80,7 +79,6 @@ def rectify(
     fps: float = 30.0,
     heading: str | None = None,
     camera_prior: bool = True,
-    level_up: tuple[float, float, float] = IMAGE_UP,
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
     (``docs/CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
@@ -95,10 +93,7 @@ def rectify(
     :func:`resolve_heading_source`. ``camera_prior``: in the sequence modes, weigh the
     pose evidence against a camera prior and a lying reading
     (:mod:`pcnet.stages.gravity_prior`; ``False`` with ``mode="frame"`` and
-    ``heading="predicted"`` is the paper's model alone); ``level_up``: the camera prior's
-    level-camera up (:func:`pcnet.stages.gravity_prior.level_up`: image up, unless the
-    lifter saw a video's frames stored turned from how they are displayed). ``report`` says
-    what ran.
+    ``heading="predicted"`` is the paper's model alone). ``report`` says what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
     :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least
@@ -114,15 +109,14 @@ def rectify(
             heading source, or (sequence modes) no valid frame.
     """
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
-    result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, level_up=level_up)
+    result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior)
     result.report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
     return result
 
 
 def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = None, mode: str = "frame",
                     fps: float = 30.0, heading: str | None = None, camera_prior: bool = True,
-                    allocate: Allocate | None = None,
-                    level_up: tuple[float, float, float] = IMAGE_UP) -> Rectified:
+                    allocate: Allocate | None = None) -> Rectified:
     """:func:`rectify` of poses that already passed its input rules (``pcnet run`` applies
     them a block at a time), in memory or a
     :class:`~pcnet.stages.core.framestore.FrameArray`; ``allocate`` makes the residual and
@@ -133,6 +127,6 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
         InputError: as :func:`rectify`, but for the input rules.
     """
     heading_step = HeadingStep(resolve_heading_source(method, heading))
-    chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior, level_up=level_up), heading_step,
+    chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior), heading_step,
                           allocate)
     return chain(joints_cam, validate_fps(fps))

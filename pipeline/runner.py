@@ -42,7 +42,7 @@ from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
 from .config import RunConfig
 from .io import lifter_joints
-from .video_orientation import camera_level
+from .video_orientation import DisplayOrientation, display_orientation
 from .outdir import check_out_folder, staged_output
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
@@ -294,11 +294,13 @@ def _present(poses) -> np.ndarray:
     return per_frame(lambda P: np.isfinite(P).any(axis=(1, 2)), poses)
 
 
-def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: FrameStore):
-    """The remap step a block of frames at a time into ``store``: the pelvis rule, the root
-    (kept as a measurement for a depth sensor), root-relative poses and the joints masked by
-    their 2D confidence. Returns ``(joints_camera, keypoints2d or None, root_cam (T, 3)
-    float64 or None, pelvis-filled frame count)``."""
+def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: FrameStore,
+                  orientation: DisplayOrientation, video):
+    """The remap step a block of frames at a time into ``store``: the pelvis rule, the turn
+    into a phone video's displayed frame (``orientation``), the root (kept as a measurement
+    for a depth sensor), root-relative poses and the joints masked by their 2D confidence.
+    Returns ``(joints_camera, keypoints2d or None, root_cam (T, 3) float64 or None,
+    pelvis-filled frame count)``."""
     T = len(joints)
     cam = store.create("joints_camera", (T, 17, 3), np.float32)
     kp = None if kp2d is None else store.create("keypoints2d", kp2d.shape, np.float32)
@@ -308,12 +310,14 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
     filled, finite = 0, False
     for rows in frame_blocks(T):
         J, pelvis_filled = fill_pelvis_from_hips(joints[rows])
+        J = orientation.joints(J)
         filled += int(pelvis_filled.sum())
         if root_cam is not None:
             root_cam[rows] = J[:, PELVIS]
         J = J - J[:, PELVIS : PELVIS + 1]  # root-relative camera frame
         if kp is not None:
-            kp[rows] = kp2d[rows]
+            kp[rows] = kp2d[rows] if orientation.turn is None else orientation.pixels(kp2d[rows], video.width,
+                                                                                      video.height)
             J = mask_low_confidence(J, kp2d[rows, :, 2], cfg.confidence_threshold)
         finite |= bool(np.isfinite(J).any())
         cam[rows] = J
@@ -368,14 +372,14 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         step("inputs")
         video, fps, kp2d, joints, units, measured_root, lifter_note, lifter_turn = _load_inputs(cfg)
         kp2d, joints = _align(cfg, video, kp2d, joints)
-        level, frame, orientation_note = camera_level(video, kp2d)
+        orientation = display_orientation(video, kp2d)
         bar.update()
 
         step("remap")
         notes: list[str] = [lifter_note] if lifter_note else []
-        if orientation_note:
-            notes.append(orientation_note)
-        cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store)
+        if orientation.note:
+            notes.append(orientation.note)
+        cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store, orientation, video)
         del joints
         if pelvis_filled:
             notes.append(f"pelvis missing in {pelvis_filled} frames: taken as the hip midpoint")
@@ -384,18 +388,17 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         step("rectify")
         try:
             res = rectify_checked(_located(cam, root_cam, store), cfg.method, cfg.weights, cfg.mode, fps, cfg.heading,
-                                  camera_prior=cfg.camera_prior, allocate=store.create, level_up=level)
+                                  camera_prior=cfg.camera_prior, allocate=store.create)
         except ValueError as err:
             raise InputError(f"{cfg.lifter_output}: {err}") from err
         if not res.valid.any():
             raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
         rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
         report["pelvis_from_hips_frames"] = pelvis_filled
-        if orientation_note:
-            report["display_rotation"] = {"rotation_deg": video.rotation_deg, "keypoint_frame": frame,
-                                          "level_camera_up": list(level)}
+        if orientation.note:
+            report["display_rotation"] = orientation.report()
         del res
-        tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid, level)
+        tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
         flags = orientation_flags(tilt) + (body_size_flag(cam, units) if cfg.height is None else [])
         flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
         flags += view_gate_flag(report.get("view_gate"))

@@ -1,26 +1,62 @@
-"""Which way up the lifter saw a video: a phone's portrait video is stored as landscape
-frames plus a display rotation in its container (:func:`pcnet.adapters.probe_video`), and a 2D
-detector may have read either the stored or the displayed frames. The 2D keypoints' extent
-tells which, and the camera prior's level-camera up follows
-(:func:`pcnet.stages.gravity_prior.level_up`)."""
+"""Which way up the lifter saw a video. A phone stores a portrait video as landscape frames plus
+a display rotation in its container (:func:`pcnet.adapters.probe_video`), and a 2D detector
+may have read the stored frames or the displayed ones. The 2D keypoints' extent tells which;
+keypoints and lifter output from the stored frames are turned into the displayed frame, so
+the rest of the pipeline sees the picture as the phone showed it: the camera prior's level
+camera (image up), the camera-frame network's training views, and the summary's pitch and
+roll all refer to the displayed image.
+"""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from pcnet.adapters import VideoInfo
 from pcnet.stages.core.framestore import frame_blocks
-from pcnet.stages.gravity_prior import IMAGE_UP, level_up
 
 #: Share of the frame size by which 2D keypoints may lie beyond the image's edge and still be
 #: taken as in that frame (detectors extrapolate joints of a body cut by the edge).
 EDGE_MARGIN = 0.05
+#: Which frames of a video stored turned from how it is displayed the 2D keypoints are in.
+KEYPOINT_FRAMES = ("stored", "displayed", "unknown")
+
+
+def display_turn(rotation_deg: int) -> np.ndarray:
+    """``(3, 3)`` rotation ``Q`` taking the displayed camera's coordinates (OpenCV axes) to those
+    of frames stored turned counter-clockwise by ``rotation_deg`` (``x_stored = Q @ x_displayed``):
+    the displayed image's up ``(0, -1, 0)`` goes to ``(-sin a, -cos a, 0)``, so 90 deg puts it
+    at the stored image's left.
+
+    Raises:
+        ValueError: a rotation other than 0, 90, 180 or 270.
+    """
+    if rotation_deg not in (0, 90, 180, 270):
+        raise ValueError(f"rotation_deg: expected 0, 90, 180 or 270, got {rotation_deg!r}")
+    c, s = round(np.cos(np.radians(rotation_deg))), round(np.sin(np.radians(rotation_deg)))
+    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def displayed_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int) -> np.ndarray:
+    """Pixel coordinates ``(..., 2)`` in frames stored turned counter-clockwise by
+    ``rotation_deg`` -> in the ``width x height`` displayed frame (the inverse of
+    ``cv2.rotate``'s mapping; NaN stays NaN).
+
+    Raises:
+        ValueError: a rotation other than 0, 90, 180 or 270.
+    """
+    display_turn(rotation_deg)  # the check
+    xs, ys = xy[..., 0], xy[..., 1]
+    back = {0: (xs, ys), 90: (width - 1 - ys, xs), 180: (width - 1 - xs, height - 1 - ys), 270: (ys, height - 1 - xs)}
+    return np.stack(back[rotation_deg], -1)
 
 
 def keypoint_frame(video: VideoInfo, kp2d) -> str:
     """Which frames of a video stored turned from how it is displayed the 2D keypoints are in
-    (:data:`pcnet.stages.gravity_prior.KEYPOINT_FRAMES`): the one whose size holds every
-    present keypoint (within :data:`EDGE_MARGIN`), ``"unknown"`` when both or neither do."""
+    (:data:`KEYPOINT_FRAMES`): the one whose size holds every present keypoint (within
+    :data:`EDGE_MARGIN`), ``"unknown"`` when both or neither do, or without keypoints or a
+    rotation."""
     if kp2d is None or video.rotation_deg == 0:
         return "unknown"
     top = np.full(2, -np.inf)
@@ -34,23 +70,40 @@ def keypoint_frame(video: VideoInfo, kp2d) -> str:
     return next(iter(f for f, ok in fits.items() if ok)) if sum(fits.values()) == 1 else "unknown"
 
 
-def _note(video, frame: str, level: tuple[float, float, float], have_keypoints: bool) -> str:
-    where = {(-1.0, 0.0, 0.0): "left (-x)", (1.0, 0.0, 0.0): "right (+x)", (0.0, 1.0, 0.0): "bottom (+y)"}
-    unknown = ("the camera prior takes the displayed image's up as a level camera's (if the lifter saw the stored "
-               "frames, a standing body may be read as lying: compare --no-camera-prior)")
-    said = {"stored": f"the 2D keypoints are in its stored frames, so the camera prior takes the displayed image's "
-                      f"up, at the stored image's {where.get(level, level)}, as a level camera's",
-            "displayed": "the 2D keypoints are in its displayed frames: the camera prior takes their up as a level "
-                         "camera's",
-            "unknown": (f"the 2D keypoints fit both the stored and the displayed frame size, so {unknown}"
-                        if have_keypoints else f"no 2D keypoints tell which frames the lifter saw, so {unknown}")}
-    return (f"{video.path}: displayed turned {video.rotation_deg} deg clockwise from how it is stored (its container's "
-            f"display rotation; a phone's portrait video); {said[frame]}")
+@dataclass(frozen=True)
+class DisplayOrientation:
+    """What :func:`display_orientation` decided for a recording.
+
+    rotation_deg: the video's display rotation (0 without a video); keypoint_frame: one of
+    :data:`KEYPOINT_FRAMES`; turn: :func:`display_turn` when the keypoints and lifter output
+    are in the stored frames and are to be turned into the displayed one, else ``None``;
+    note: a line for the run summary (empty without a display rotation).
+    """
+
+    rotation_deg: int = 0
+    keypoint_frame: str = "unknown"
+    turn: np.ndarray | None = None
+    note: str = ""
+
+    def joints(self, J: np.ndarray) -> np.ndarray:
+        """Camera-frame joints ``(..., 3)`` into the displayed camera frame (as given when not turned)."""
+        return J if self.turn is None else J @ self.turn
+
+    def pixels(self, kp: np.ndarray, width: int, height: int) -> np.ndarray:
+        """2D keypoints ``(..., 3)`` (x_px, y_px, confidence) into the displayed frame."""
+        if self.turn is None:
+            return kp
+        out = np.array(kp, copy=True)
+        out[..., :2] = displayed_pixels(out[..., :2], self.rotation_deg, width, height)
+        return out
+
+    def report(self) -> dict:
+        return {"rotation_deg": self.rotation_deg, "keypoint_frame": self.keypoint_frame,
+                "turned_into_displayed_frame": self.turn is not None}
 
 
-
-def camera_level(video: VideoInfo | None, kp2d) -> tuple[tuple[float, float, float], str, str]:
-    """The camera prior's level-camera up for a recording, in the frame the lifter answered in.
+def display_orientation(video: VideoInfo | None, kp2d) -> DisplayOrientation:
+    """Whether to turn a recording's keypoints and lifter output into the displayed frame.
 
     Args:
         video: the probed video or ``None``.
@@ -58,13 +111,26 @@ def camera_level(video: VideoInfo | None, kp2d) -> tuple[tuple[float, float, flo
             memory or on disk) or ``None``.
 
     Returns:
-        ``(level up (x, y, z), keypoint frame, note)``: image up, ``"unknown"`` and no note
-        (``""``) unless the video states a display rotation; then :func:`keypoint_frame`'s
-        answer, :func:`pcnet.stages.gravity_prior.level_up` of it and a line for the run
-        summary saying what was decided.
+        :class:`DisplayOrientation`: nothing to do unless the video states a display
+        rotation; then :func:`keypoint_frame`'s answer, the turn for ``"stored"``, and a note.
+        ``"unknown"`` (a 180 deg rotation keeps the frame size; keypoints inside both sizes;
+        no keypoints) leaves the input as it is: detectors that read video through OpenCV
+        >= 4.5 or a player see the displayed frames.
     """
     if video is None or not video.rotation_deg:
-        return IMAGE_UP, "unknown", ""
+        return DisplayOrientation()
     frame = keypoint_frame(video, kp2d)
-    level = level_up(video.rotation_deg, frame)
-    return level, frame, _note(video, frame, level, kp2d is not None)
+    head = (f"{video.path}: displayed turned {video.rotation_deg} deg clockwise from how it is stored (its "
+            f"container's display rotation; a phone's portrait video); ")
+    if frame == "stored":
+        return DisplayOrientation(video.rotation_deg, frame, display_turn(video.rotation_deg),
+                                  head + "the 2D keypoints are in its stored frames, so they and the lifter's output "
+                                         "were turned into the displayed frame (camera pitch, roll and the camera-"
+                                         "frame outputs refer to the picture as displayed)")
+    unknown = ("taken as they are (if the lifter saw the stored frames, a standing body may be read as lying: "
+               "compare --no-camera-prior)")
+    said = {"displayed": "the 2D keypoints are in its displayed frames, taken as they are",
+            "unknown": (f"the 2D keypoints fit both the stored and the displayed frame size, so they are {unknown}"
+                        if kp2d is not None else f"no 2D keypoints tell which frames the lifter saw; its output is "
+                                                 f"{unknown}")}
+    return DisplayOrientation(video.rotation_deg, frame, None, head + said[frame])

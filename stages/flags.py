@@ -30,22 +30,17 @@ SWITCH_JUMP_TORSOS = 2.0
 SWITCH_JUMP_PER_EXTRA_FRAME = 0.7
 
 
-def camera_tilt(up_cam: np.ndarray, valid: np.ndarray,
-                level_up: tuple[float, float, float] = (0.0, -1.0, 0.0)) -> tuple[float, float, float]:
+def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, float]:
     """Tilt, pitch and roll (degrees) of the camera from the mean estimated up direction.
 
     One up vector for the whole recording (the normalised mean of the valid frames' ups), so
     the three numbers are consistent: ``cos(tilt) = cos(pitch) cos(roll)`` with
     ``pitch = asin(-u_z)``, ``roll = atan2(u_x, -u_y)``
-    (:func:`pcnet.stages.core.rotations.decompose_camera_rotation`'s convention), measured
-    from ``level_up``: image up, or the displayed image's up in frames stored turned about
-    the optical axis (:func:`pcnet.stages.gravity_prior.level_up`; the pitch does not change,
-    the roll is then the displayed image's).
+    (:func:`pcnet.stages.core.rotations.decompose_camera_rotation`'s convention).
 
     Args:
         up_cam: ``(T, 3)`` unit up directions in the camera frame (OpenCV axes).
         valid: ``(T,)`` bool.
-        level_up: a level camera's up, ``(x, y, 0)`` unit.
 
     Returns:
         ``(tilt, pitch, roll)`` in degrees, NaN when no frame is valid.
@@ -55,11 +50,9 @@ def camera_tilt(up_cam: np.ndarray, valid: np.ndarray,
         return float("nan"), float("nan"), float("nan")
     u = up_cam[ok].mean(axis=0)
     u = u / np.linalg.norm(u)
-    lx, ly, _ = level_up
-    level, right = np.array([lx, ly, 0.0]), np.array([-ly, lx, 0.0])  # the displayed image's up and right
-    tilt = np.degrees(np.arccos(np.clip(u @ level, -1.0, 1.0)))
+    tilt = np.degrees(np.arccos(np.clip(-u[1], -1.0, 1.0)))
     pitch = np.degrees(np.arcsin(np.clip(-u[2], -1.0, 1.0)))
-    roll = np.degrees(np.arctan2(u @ right, u @ level))
+    roll = np.degrees(np.arctan2(u[0], -u[1]))
     return float(tilt), float(pitch), float(roll)
 
 

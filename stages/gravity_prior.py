@@ -20,10 +20,7 @@ x right, y down, z forward, so a level camera sees up = -y):
 - **camera prior**: with probability :data:`LEVEL_CAMERA_PRIOR` a camera within about
   :data:`LEVEL_CAMERA_SIGMA_DEG` of level (tripods, hand-held phones: landscape or portrait
   video both show the scene upright), otherwise any orientation (uniform), so an upside-down
-  or sideways-stored video keeps its pose-based up instead of being pulled to level. "Level"
-  is the displayed image's up: ``-y``, or, where the lifter saw a video's frames stored
-  turned from how they are displayed (a phone's portrait video whose display rotation the 2D
-  detector did not apply), that direction in the stored frames (:func:`level_up`).
+  or sideways-stored video keeps its pose-based up instead of being pulled to level.
 
 ``vMF(u; mu, k) = k / (4 pi sinh k) exp(k u . mu)`` is the von Mises-Fisher density
 (Mardia & Jupp, "Directional Statistics", 2000, section 9.3.2; angular std ~ 1/sqrt(k)).
@@ -59,43 +56,6 @@ LEVEL_CAMERA_SIGMA_DEG = 20.0
 GRID_POINTS = 40_000
 #: Camera-frame up of a level camera (OpenCV axes, y down).
 LEVEL_UP = np.array([0.0, -1.0, 0.0])
-#: :data:`LEVEL_UP` as the tuple :func:`level_up` returns: a video shown as stored.
-IMAGE_UP = (0.0, -1.0, 0.0)
-#: Which frames of a video stored turned from how it is displayed a recording's 2D keypoints
-#: (and so the lifter's camera) are in: as stored, as displayed, or not told by the keypoints.
-KEYPOINT_FRAMES = ("stored", "displayed", "unknown")
-
-
-def level_up(rotation_deg: int, keypoint_frame: str) -> tuple[float, float, float]:
-    """Camera-frame up of a level camera, in the frame the lifter answered in.
-
-    A video displayed turned clockwise by ``rotation_deg`` stores each frame turned
-    counter-clockwise by it; a 2D detector that read the stored frames saw the displayed
-    image's up at ``(-sin a, -cos a, 0)`` (OpenCV axes: 90 deg puts it at the stored image's
-    left, ``-x``).
-
-    Args:
-        rotation_deg: the container's display rotation, clockwise: 0, 90, 180 or 270
-            (:class:`pcnet.adapters.VideoInfo`).
-        keypoint_frame: one of :data:`KEYPOINT_FRAMES`.
-
-    Returns:
-        ``(x, y, z)`` unit: the stored frames' direction for ``"stored"``, else image up,
-        ``"unknown"`` included (detectors that read video through OpenCV >= 4.5 or a player
-        see the displayed frames; a prior split between the two directions read the real
-        lying poses of a Shavasana fixture as standing).
-
-    Raises:
-        ValueError: a rotation not one of the four, or an unknown frame.
-    """
-    if rotation_deg not in (0, 90, 180, 270):
-        raise ValueError(f"rotation_deg: expected 0, 90, 180 or 270, got {rotation_deg!r}")
-    if keypoint_frame not in KEYPOINT_FRAMES:
-        raise ValueError(f"keypoint_frame: expected one of {KEYPOINT_FRAMES}, got {keypoint_frame!r}")
-    if rotation_deg == 0 or keypoint_frame != "stored":
-        return IMAGE_UP
-    a = np.radians(rotation_deg)
-    return (float(round(-np.sin(a))) + 0.0, float(round(-np.cos(a))) + 0.0, 0.0)
 
 _FOUR_PI = 4.0 * np.pi
 
@@ -109,8 +69,7 @@ class GravityPosterior:
     cone half-angle of the posterior within the chosen reading (deg); pitch_half_deg,
     roll_half_deg: 95 % half-widths of camera pitch / roll within the chosen reading (deg,
     :func:`pcnet.stages.core.rotations.decompose_camera_rotation`'s angles);
-    pose_camera_angle_deg: angle between the pose-based up and a level camera's up;
-    level_up: that level camera's up (:func:`level_up`).
+    pose_camera_angle_deg: angle between the pose-based up and a level camera's up.
     """
 
     up: np.ndarray
@@ -120,7 +79,6 @@ class GravityPosterior:
     pitch_half_deg: float
     roll_half_deg: float
     pose_camera_angle_deg: float
-    level_up: tuple[float, float, float] = IMAGE_UP
 
     def report(self) -> dict:
         """JSON-ready summary with the priors used."""
@@ -128,8 +86,7 @@ class GravityPosterior:
                 "interval_deg": round(self.interval_deg, 2),
                 "pose_camera_angle_deg": round(self.pose_camera_angle_deg, 2),
                 "priors": {"lying": LYING_PRIOR, "girdle_sigma_deg": GIRDLE_SIGMA_DEG,
-                           "level_camera": LEVEL_CAMERA_PRIOR, "level_camera_sigma_deg": LEVEL_CAMERA_SIGMA_DEG,
-                           "level_camera_up": list(self.level_up)}}
+                           "level_camera": LEVEL_CAMERA_PRIOR, "level_camera_sigma_deg": LEVEL_CAMERA_SIGMA_DEG}}
 
 
 def fibonacci_sphere(n: int) -> np.ndarray:
@@ -161,16 +118,15 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _upright_mode(m: np.ndarray, k_pose: float, k_cam: float, level: np.ndarray, log_w_level: float,
-                  log_w_uniform: float) -> np.ndarray:
+def _upright_mode(m: np.ndarray, k_pose: float, k_cam: float, log_w_level: float, log_w_uniform: float) -> np.ndarray:
     """Mode of ``vMF(m, k_pose) x [w vMF(c, k_cam) + (1 - w) / 4pi]``: the stationarity
     condition is ``u ~ k_pose m + k_cam r(u) c`` with ``r`` the level component's
     responsibility at ``u``; iterated from ``m``."""
     u = m
     for _ in range(50):
-        a = log_w_level + _log_vmf(np.dot(u, level), k_cam)
+        a = log_w_level + _log_vmf(np.dot(u, LEVEL_UP), k_cam)
         r = 1.0 / (1.0 + np.exp(log_w_uniform - np.log(_FOUR_PI) - a))
-        new = _unit(k_pose * m + k_cam * r * level)
+        new = _unit(k_pose * m + k_cam * r * LEVEL_UP)
         if np.dot(new, u) > 1.0 - 1e-15:
             return new
         u = new
@@ -193,8 +149,7 @@ def _half_widths(grid: np.ndarray, p: np.ndarray, up: np.ndarray) -> tuple[float
     return q95(cone), q95(np.abs(pitch - p0)), q95(np.abs(dr))
 
 
-def gravity_posterior(pose_up: np.ndarray, pose_sigma_deg: float, trunk: np.ndarray | None,
-                      level: tuple[float, float, float] = IMAGE_UP) -> GravityPosterior:
+def gravity_posterior(pose_up: np.ndarray, pose_sigma_deg: float, trunk: np.ndarray | None) -> GravityPosterior:
     """Posterior over a static camera's up (module docstring).
 
     Args:
@@ -202,7 +157,6 @@ def gravity_posterior(pose_up: np.ndarray, pose_sigma_deg: float, trunk: np.ndar
         pose_sigma_deg: its angular std (deg), > 0: systematic error and sampling spread.
         trunk: ``(3,)`` mean camera-frame trunk direction (pelvis -> thorax, any length), or
             ``None`` (no lying reading).
-        level: camera-frame up of a level camera, unit (:func:`level_up`).
 
     Returns:
         :class:`GravityPosterior`.
@@ -219,9 +173,8 @@ def gravity_posterior(pose_up: np.ndarray, pose_sigma_deg: float, trunk: np.ndar
     k_pose = 1.0 / np.radians(pose_sigma_deg) ** 2
     k_cam = 1.0 / np.radians(LEVEL_CAMERA_SIGMA_DEG) ** 2
     k_girdle = 1.0 / (2.0 * np.radians(GIRDLE_SIGMA_DEG) ** 2)
-    c = np.asarray(level, np.float64)
     grid = fibonacci_sphere(GRID_POINTS)
-    log_cam = np.logaddexp(np.log(LEVEL_CAMERA_PRIOR) + _log_vmf(grid @ c, k_cam),
+    log_cam = np.logaddexp(np.log(LEVEL_CAMERA_PRIOR) + _log_vmf(grid @ LEVEL_UP, k_cam),
                            np.log(1.0 - LEVEL_CAMERA_PRIOR) - np.log(_FOUR_PI))
     log_upright = np.log(1.0 - LYING_PRIOR) + _log_vmf(grid @ m, k_pose) + log_cam
     have_trunk = trunk is not None and np.isfinite(trunk).all() and np.linalg.norm(trunk) > 1e-9
@@ -234,13 +187,13 @@ def gravity_posterior(pose_up: np.ndarray, pose_sigma_deg: float, trunk: np.ndar
     top = max(log_upright.max(), log_lying.max())
     mass_up, mass_lying = np.exp(log_upright - top).sum(), np.exp(log_lying - top).sum()
     p_lying = float(mass_lying / (mass_up + mass_lying))
-    angle = float(np.degrees(np.arccos(np.clip(np.dot(m, c), -1, 1))))
+    angle = float(np.degrees(np.arccos(np.clip(np.dot(m, LEVEL_UP), -1, 1))))
     if p_lying > 0.5:
         weights = np.exp(log_lying - log_lying.max())
         up, reading = grid[int(np.argmax(log_lying))], "lying"
     else:
         weights = np.exp(log_upright - log_upright.max())
-        up = _upright_mode(m, k_pose, k_cam, c, np.log(LEVEL_CAMERA_PRIOR), np.log(1.0 - LEVEL_CAMERA_PRIOR))
+        up = _upright_mode(m, k_pose, k_cam, np.log(LEVEL_CAMERA_PRIOR), np.log(1.0 - LEVEL_CAMERA_PRIOR))
         reading = "upright"
     cone, pitch_half, roll_half = _half_widths(grid, weights, up)
-    return GravityPosterior(up, reading, p_lying, cone, pitch_half, roll_half, angle, tuple(level))
+    return GravityPosterior(up, reading, p_lying, cone, pitch_half, roll_half, angle)

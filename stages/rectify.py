@@ -28,7 +28,6 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
-from .gravity_prior import IMAGE_UP
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
@@ -163,8 +162,6 @@ class SequenceEvidence:
     :data:`pcnet.stages.temporal.SMOOTH_TIME_CONSTANT_S`) or ``"auto"`` (one of the last two by
     :func:`pcnet.stages.temporal.choose_mode`). ``n_bootstrap``: replicates of the
     sequence-mode uncertainty (0 = none, NaN; the rotations do not depend on it).
-    ``level_up``: the camera prior's level-camera up
-    (:func:`pcnet.stages.gravity_prior.level_up`).
 
     Raises:
         InputError: unknown ``mode``.
@@ -173,7 +170,6 @@ class SequenceEvidence:
     mode: str = "frame"
     camera_prior: bool = True
     n_bootstrap: int = BOOTSTRAP_REPLICATES
-    level_up: tuple[float, float, float] = IMAGE_UP
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -232,7 +228,7 @@ class SequenceEvidence:
         else:
             res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=self.n_bootstrap,
                                    camera_prior=self.camera_prior, frame_weights=frame_weights,
-                                   evidence_scale=evidence_scale, level_up=self.level_up)
+                                   evidence_scale=evidence_scale)
             out, g = res.rotations, res.gravity
             if g is not None and g.reading == "lying":
                 # The up comes from the camera prior, not from resampled poses: its interval

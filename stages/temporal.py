@@ -33,7 +33,7 @@ from scipy.spatial.transform import Rotation
 from .core.conventions import PELVIS, THORAX, check_poses
 from .core.errors import InputError
 from .core.rotations import angle_between, decompose_camera_rotation, normalize
-from .gravity_prior import IMAGE_UP, GravityPosterior, gravity_posterior
+from .gravity_prior import GravityPosterior, gravity_posterior
 from .ground_plane import GROUND_GATE_DEG, POSE_PRIOR_DEG, fit_plane_map, ground_plane_up
 from .spherical import robust_mean_direction, weighted_quantile
 from .uncertainty import SIGMA_SYS_DEG
@@ -214,7 +214,6 @@ def sequence_rectify(
     camera_prior: bool = True,
     frame_weights: np.ndarray | None = None,
     evidence_scale: float = 1.0,
-    level_up: tuple[float, float, float] = IMAGE_UP,
 ) -> SequenceResult:
     """One up direction for a static-camera sequence, per-frame heading about it.
 
@@ -269,9 +268,6 @@ def sequence_rectify(
         evidence_scale: factor on the pose evidence's std in step 2b
             (:func:`pcnet.stages.uncertainty.evidence_scale`: > 1 where the poses are unlike
             the training data, so the camera prior counts more); positive.
-        level_up: the camera prior's level-camera up in the camera frame
-            (:func:`pcnet.stages.gravity_prior.level_up`; image up unless the video's frames
-            were stored turned from how they are displayed).
 
     Returns:
         :class:`SequenceResult`.
@@ -315,7 +311,7 @@ def sequence_rectify(
         if not (np.isfinite(evidence_scale) and evidence_scale > 0):
             raise InputError(f"evidence_scale: expected a positive number, got {evidence_scale}")
         gravity = gravity_posterior(up, POSE_EVIDENCE_SIGMA_DEG * evidence_scale,
-                                    None if J is None else mean_trunk(J, ok), level_up)
+                                    None if J is None else mean_trunk(J, ok))
         up = gravity.up
         evidence += "+camera_prior"
 

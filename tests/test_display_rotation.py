@@ -1,5 +1,5 @@
 """Phone videos stored turned from how they are displayed (MP4 display rotation): probing the
-rotation, telling which frames the 2D keypoints are in, and the camera prior that follows,
+rotation, telling which frames the 2D keypoints are in, and turning them into the displayed frame,
 on the real boxing fixtures re-stored the way a phone stores a portrait video."""
 
 from __future__ import annotations
@@ -15,9 +15,8 @@ from conftest import FIXTURES, ROOT
 from pcnet.adapters import VideoInfo, iter_frames, probe_video
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
-from pcnet.pipeline.video_orientation import keypoint_frame
+from pcnet.pipeline.video_orientation import DisplayOrientation, display_turn, displayed_pixels, keypoint_frame
 from pcnet.stages.core.rotations import angle_between
-from pcnet.stages.gravity_prior import IMAGE_UP, level_up
 
 sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
 import display_rotation  # noqa: E402
@@ -43,20 +42,22 @@ def test_probe_reads_the_display_rotation_a_phone_writes(tmp_path, rotation):
 
 
 @pytest.mark.parametrize("rotation", [90, 180, 270])
-def test_level_up_is_the_displayed_up_seen_in_the_stored_frames(rotation):
-    """The stored frames' pixels and camera axes turn together: the displayed image's up, as
-    pixels moved into the stored frame, points where level_up says."""
+def test_display_turn_and_pixels_undo_the_storage(rotation):
+    """Pixels and camera axes turn together: the displayed image's up, as pixels moved into the
+    stored frame, points where the display turn puts the camera's up, and both mappings
+    return to the displayed frame exactly."""
     top, bottom = np.array([400.0, 100.0]), np.array([400.0, 300.0])  # displayed: top above bottom
     stored = display_rotation.stored_pixels(np.stack([top, bottom]), rotation, 854, 480)
     up_px = (stored[0] - stored[1]) / np.linalg.norm(stored[0] - stored[1])
-    expected = level_up(rotation, "stored")
-    np.testing.assert_allclose(up_px, expected[:2], atol=1e-12)
-    np.testing.assert_allclose(display_rotation.camera_turn(rotation) @ np.array(IMAGE_UP), expected, atol=1e-12)
-    assert level_up(rotation, "displayed") == IMAGE_UP == level_up(rotation, "unknown") == level_up(0, "stored")
+    Q = display_turn(rotation)
+    np.testing.assert_allclose(up_px, (Q @ [0.0, -1.0, 0.0])[:2], atol=1e-12)
+    np.testing.assert_allclose(displayed_pixels(stored, rotation, 854, 480), np.stack([top, bottom]), atol=1e-12)
+    X = np.load(RUN["lifter_output"])[:5].astype(np.float64)
+    turned = DisplayOrientation(rotation, "stored", Q)
+    np.testing.assert_allclose(turned.joints(X @ Q.T), X, atol=1e-12)
+    assert DisplayOrientation().joints(X) is X
     with pytest.raises(ValueError, match="rotation_deg"):
-        level_up(45, "stored")
-    with pytest.raises(ValueError, match="keypoint_frame"):
-        level_up(90, "sideways")
+        display_turn(45)
 
 
 def test_keypoint_frame_is_the_one_whose_size_holds_the_keypoints():
@@ -94,38 +95,41 @@ def _run(tmp_path, name: str, rotation: int, tag: int, stored: bool):
 
 def test_pcnet_run_on_a_phone_video_whose_frames_the_detector_read_as_stored(tmp_path):
     """Real MotionBERT poses of the boxing fixture, re-stored turned 90 deg with the rotation in
-    the container and the keypoints in the stored frames: the run finds the same camera up as
-    on the original, turned with the frames, and says which frames it took. With the rotation
-    lost the same poses are read as a body lying under a level camera (the documented limit)."""
+    the container and the keypoints in the stored frames: pcnet turns them back into the
+    displayed frame, so the run is the original's (same up, pitch, roll and camera-frame
+    outputs) and says what it did. With the rotation lost the same poses are read as a body
+    lying under a level camera (the documented limit)."""
     original = _run(tmp_path, "original", 0, 0, False)
     turned = _run(tmp_path, "turned", 90, 90, True)
     lost = _run(tmp_path, "lost", 90, 0, True)
     up = original.report["up"]
-    expected = display_rotation.camera_turn(90) @ up
     assert original.report["gravity"]["reading"] == turned.report["gravity"]["reading"] == "upright"
-    # Turned 90 deg, the body-frame network answers instead of the camera-frame one; the two
-    # differ by about 3.5 deg on real poses (benchmarks/equivariance.py).
-    assert np.degrees(angle_between(turned.report["up"], expected)) < 5.0
+    assert np.degrees(angle_between(turned.report["up"], up)) < 0.01
+    assert abs(turned.camera_pitch_deg - original.camera_pitch_deg) < 0.01
+    assert abs(turned.camera_roll_deg - original.camera_roll_deg) < 0.01
     assert turned.report["display_rotation"] == {"rotation_deg": 90, "keypoint_frame": "stored",
-                                                 "level_camera_up": [-1.0, 0.0, 0.0]}
-    assert any("2D keypoints are in its stored frames" in n for n in turned.notes), turned.notes
+                                                 "turned_into_displayed_frame": True}
+    assert any("turned into the displayed frame" in n for n in turned.notes), turned.notes
+    a, b = (np.load(r.outputs["canonical.npz"]) for r in (original, turned))
+    np.testing.assert_allclose(b["joints_camera"], a["joints_camera"], atol=1e-5)
+    np.testing.assert_allclose(b["keypoints2d"], a["keypoints2d"], atol=1e-3)
     assert "display_rotation" not in original.report and "display_rotation" not in lost.report
     assert lost.report["gravity"]["reading"] == "lying"
-    assert np.degrees(angle_between(lost.report["up"], expected)) > 45.0
+    assert np.degrees(angle_between(lost.report["up"], display_turn(90) @ up)) > 45.0
 
 
 
-def test_without_keypoints_a_display_rotation_keeps_the_displayed_up_and_says_why(tmp_path):
+def test_without_keypoints_a_display_rotation_leaves_the_input_and_says_why(tmp_path):
     """A 3D file and a turned video but no 2D keypoints: nothing tells which frames the lifter
-    saw, so the camera prior keeps the displayed image's up and the note says so."""
+    saw, so its output is taken as it is and the note says so."""
     video = tmp_path / "video.mp4"
     display_rotation.write_stored_video(CLIP, video, 90, 90)
     run = _clip_inputs(tmp_path)
     cfg = RunConfig(video=str(video), lifter=run["lifter"], lifter_output=run["lifter_output"], out=str(tmp_path / "out"),
                     mode="sequence", recording=False)
     result = run_pipeline(cfg, progress=False)
-    assert result.report["display_rotation"]["keypoint_frame"] == "unknown"
-    assert result.report["gravity"]["priors"]["level_camera_up"] == list(IMAGE_UP)
+    assert result.report["display_rotation"] == {"rotation_deg": 90, "keypoint_frame": "unknown",
+                                                 "turned_into_displayed_frame": False}
     assert any("no 2D keypoints tell which frames" in n for n in result.notes), result.notes
 
 
