@@ -8,7 +8,7 @@ header (ISO/IEC 14496-12 section 8.3.2, the ``tkhd`` matrix); players and OpenCV
 the frames by it, detectors that read the stored frames see the person lying across the image.
 The real boxing recording (MotionBERT on AlphaPose, ../shared/data/real/boxing_motionbert),
 whose true up is known from its vanishing points (benchmarks/vanishing_gravity.py), is
-re-stored the way a phone stores it: every frame turned counter-clockwise by 90 (or 270) deg
+re-stored the way a phone stores it: every frame turned counter-clockwise by 90, 180 or 270 deg
 and the rotation written into the container, so that OpenCV shows the original frames. The
 2D keypoints and the lifter's 3D output are then given either in the stored frames (what a
 detector that ignores the rotation delivers: pixels and camera axes turned exactly like the
@@ -57,6 +57,7 @@ CASES = (
     ("stored turned 180, keypoints in stored frames", 180, 180, True),
     ("stored turned 270, keypoints in stored frames", 270, 270, True),
     ("stored turned 90, keypoints as displayed", 90, 90, False),
+    ("stored turned 180, keypoints as displayed", 180, 180, False),
     ("stored turned 90, rotation lost, keypoints in stored frames", 90, 0, True),
 )
 

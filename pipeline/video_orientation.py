@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pcnet.adapters import VideoInfo
+from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.framestore import frame_blocks
 
 #: Share of the frame size by which 2D keypoints may lie beyond the image's edge and still be
@@ -21,6 +22,10 @@ from pcnet.stages.core.framestore import frame_blocks
 EDGE_MARGIN = 0.05
 #: Which frames of a video stored turned from how it is displayed the 2D keypoints are in.
 KEYPOINT_FRAMES = ("stored", "displayed", "unknown")
+#: A video displayed upside down from how it is stored keeps its frame size; then the body
+#: tells: the share of frames whose 2D thorax lies more than half a torso length below the
+#: pelvis (head-down in the stored frames: upright as displayed), or above it, needed to call it.
+INVERTED_SHARE = 0.8
 
 
 def display_turn(rotation_deg: int) -> np.ndarray:
@@ -54,17 +59,32 @@ def displayed_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int)
 
 def keypoint_frame(video: VideoInfo, kp2d) -> str:
     """Which frames of a video stored turned from how it is displayed the 2D keypoints are in
-    (:data:`KEYPOINT_FRAMES`): the one whose size holds every present keypoint (within
-    :data:`EDGE_MARGIN`), ``"unknown"`` when both or neither do, or without keypoints or a
-    rotation."""
+    (:data:`KEYPOINT_FRAMES`): for a quarter turn, the one whose size holds every present
+    keypoint (within :data:`EDGE_MARGIN`), ``"unknown"`` when both or neither do; for a half
+    turn (same size), ``"stored"`` when the body stands on its head in at least
+    :data:`INVERTED_SHARE` of the frames with a pelvis and thorax, ``"displayed"`` when it
+    stands upright in as many (a body lying across the image, or inverted in the room, is
+    ``"unknown"``); ``"unknown"`` without keypoints or a rotation."""
     if kp2d is None or video.rotation_deg == 0:
         return "unknown"
     top = np.full(2, -np.inf)
+    down = up = seen = 0
     for rows in frame_blocks(len(kp2d)):
-        xy = np.asarray(kp2d[rows, :, :2], np.float64).reshape(-1, 2)
+        block = np.asarray(kp2d[rows, :, :2], np.float64)
+        xy = block.reshape(-1, 2)
         xy = xy[np.isfinite(xy).all(axis=1)]
         if len(xy):
             top = np.maximum(top, xy.max(axis=0))
+        trunk = block[:, THORAX] - block[:, PELVIS]  # pixels, y down
+        length = np.linalg.norm(trunk, axis=1)
+        ok = np.isfinite(length) & (length > 0)
+        seen += int(ok.sum())
+        down += int((trunk[ok, 1] > 0.5 * length[ok]).sum())
+        up += int((trunk[ok, 1] < -0.5 * length[ok]).sum())
+    if video.rotation_deg == 180:
+        if seen and down >= INVERTED_SHARE * seen:
+            return "stored"
+        return "displayed" if seen and up >= INVERTED_SHARE * seen else "unknown"
     fits = {frame: bool(np.all(top <= np.asarray(size) * (1.0 + EDGE_MARGIN)))
             for frame, size in (("displayed", (video.width, video.height)), ("stored", video.stored_size))}
     return next(iter(f for f, ok in fits.items() if ok)) if sum(fits.values()) == 1 else "unknown"
@@ -113,9 +133,9 @@ def display_orientation(video: VideoInfo | None, kp2d) -> DisplayOrientation:
     Returns:
         :class:`DisplayOrientation`: nothing to do unless the video states a display
         rotation; then :func:`keypoint_frame`'s answer, the turn for ``"stored"``, and a note.
-        ``"unknown"`` (a 180 deg rotation keeps the frame size; keypoints inside both sizes;
-        no keypoints) leaves the input as it is: detectors that read video through OpenCV
-        >= 4.5 or a player see the displayed frames.
+        ``"unknown"`` (keypoints inside both sizes, a half turn whose body is neither clearly
+        upright nor on its head, no keypoints) leaves the input as it is: detectors that
+        read video through OpenCV >= 4.5 or a player see the displayed frames.
     """
     if video is None or not video.rotation_deg:
         return DisplayOrientation()
@@ -130,7 +150,8 @@ def display_orientation(video: VideoInfo | None, kp2d) -> DisplayOrientation:
     unknown = ("taken as they are (if the lifter saw the stored frames, a standing body may be read as lying: "
                "compare --no-camera-prior)")
     said = {"displayed": "the 2D keypoints are in its displayed frames, taken as they are",
-            "unknown": (f"the 2D keypoints fit both the stored and the displayed frame size, so they are {unknown}"
+            "unknown": (f"neither the 2D keypoints' extent nor (for a half turn) the body's orientation in them tells "
+                        f"which frames they are in, so they are {unknown}"
                         if kp2d is not None else f"no 2D keypoints tell which frames the lifter saw; its output is "
                                                  f"{unknown}")}
     return DisplayOrientation(video.rotation_deg, frame, None, head + said[frame])

@@ -74,6 +74,26 @@ def test_keypoint_frame_is_the_one_whose_size_holds_the_keypoints():
     assert keypoint_frame(VideoInfo("landscape.mp4", 10, 30.0, 854, 480), kp) == "unknown"
 
 
+
+def test_a_half_turn_is_told_by_the_body_standing_on_its_head():
+    """Landscape filmed with the phone the other way round: the frame size does not change, so
+    the real keypoints of the boxing fixture tell, upright as displayed or upside down as
+    stored; a body lying across the image tells nothing."""
+    from pcnet.adapters import load_alphapose
+    from pcnet.stages.remap import remap_to_h36m
+
+    kp = load_alphapose(RUN["keypoints2d"])
+    kp2d = remap_to_h36m(kp.points, kp.layout, confidence_channel=True)
+    video = VideoInfo("phone.mp4", 60, 30.0, 854, 480, rotation_deg=180)
+    assert keypoint_frame(video, kp2d) == "displayed"
+    stored = kp2d.copy()
+    stored[..., :2] = display_rotation.stored_pixels(kp2d[..., :2], 180, 854, 480)
+    assert keypoint_frame(video, stored) == "stored"
+    lying = kp2d.copy()
+    lying[..., :2] = display_rotation.stored_pixels(kp2d[..., :2], 90, 854, 480)
+    assert keypoint_frame(video, lying) == "unknown"
+
+
 def _clip_inputs(tmp_path) -> dict:
     """The fixture's keypoints and lifter output cut to the video fixture's 10 frames."""
     people = [p for p in json.loads(Path(RUN["keypoints2d"]).read_text()) if int(p["image_id"].split(".")[0]) < 10]
