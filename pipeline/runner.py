@@ -295,7 +295,7 @@ def _present(poses) -> np.ndarray:
 
 
 def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: FrameStore,
-                  orientation: DisplayOrientation, video):
+                  orientation: DisplayOrientation):
     """The remap step a block of frames at a time into ``store``: the pelvis rule, the turn
     into a phone video's displayed frame (``orientation``), the root (kept as a measurement
     for a depth sensor), root-relative poses and the joints masked by their 2D confidence.
@@ -316,8 +316,7 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
             root_cam[rows] = J[:, PELVIS]
         J = J - J[:, PELVIS : PELVIS + 1]  # root-relative camera frame
         if kp is not None:
-            kp[rows] = kp2d[rows] if orientation.turn is None else orientation.pixels(kp2d[rows], video.width,
-                                                                                      video.height)
+            kp[rows] = orientation.pixels(kp2d[rows])
             J = mask_low_confidence(J, kp2d[rows, :, 2], cfg.confidence_threshold)
         finite |= bool(np.isfinite(J).any())
         cam[rows] = J
@@ -379,7 +378,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         notes: list[str] = [lifter_note] if lifter_note else []
         if orientation.note:
             notes.append(orientation.note)
-        cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store, orientation, video)
+        cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store, orientation)
         del joints
         if pelvis_filled:
             notes.append(f"pelvis missing in {pelvis_filled} frames: taken as the hip midpoint")

@@ -97,24 +97,27 @@ class DisplayOrientation:
     rotation_deg: the video's display rotation (0 without a video); keypoint_frame: one of
     :data:`KEYPOINT_FRAMES`; turn: :func:`display_turn` when the keypoints and lifter output
     are in the stored frames and are to be turned into the displayed one, else ``None``;
-    note: a line for the run summary (empty without a display rotation).
+    note: a line for the run summary (empty without a display rotation); displayed_size:
+    the video's ``(width, height)`` as displayed.
     """
 
     rotation_deg: int = 0
     keypoint_frame: str = "unknown"
     turn: np.ndarray | None = None
     note: str = ""
+    displayed_size: tuple[int, int] = (0, 0)
 
     def joints(self, J: np.ndarray) -> np.ndarray:
         """Camera-frame joints ``(..., 3)`` into the displayed camera frame (as given when not turned)."""
         return J if self.turn is None else J @ self.turn
 
-    def pixels(self, kp: np.ndarray, width: int, height: int) -> np.ndarray:
-        """2D keypoints ``(..., 3)`` (x_px, y_px, confidence) into the displayed frame."""
+    def pixels(self, kp: np.ndarray) -> np.ndarray:
+        """2D keypoints ``(..., 3)`` (x_px, y_px, confidence) into the displayed frame (as given
+        when not turned)."""
         if self.turn is None:
             return kp
         out = np.array(kp, copy=True)
-        out[..., :2] = displayed_pixels(out[..., :2], self.rotation_deg, width, height)
+        out[..., :2] = displayed_pixels(out[..., :2], self.rotation_deg, *self.displayed_size)
         return out
 
     def report(self) -> dict:
@@ -146,7 +149,8 @@ def display_orientation(video: VideoInfo | None, kp2d) -> DisplayOrientation:
         return DisplayOrientation(video.rotation_deg, frame, display_turn(video.rotation_deg),
                                   head + "the 2D keypoints are in its stored frames, so they and the lifter's output "
                                          "were turned into the displayed frame (camera pitch, roll and the camera-"
-                                         "frame outputs refer to the picture as displayed)")
+                                         "frame outputs refer to the picture as displayed)",
+                                  (video.width, video.height))
     unknown = ("taken as they are (if the lifter saw the stored frames, a standing body may be read as lying: "
                "compare --no-camera-prior)")
     said = {"displayed": "the 2D keypoints are in its displayed frames, taken as they are",
@@ -154,4 +158,4 @@ def display_orientation(video: VideoInfo | None, kp2d) -> DisplayOrientation:
                         f"which frames they are in, so they are {unknown}"
                         if kp2d is not None else f"no 2D keypoints tell which frames the lifter saw; its output is "
                                                  f"{unknown}")}
-    return DisplayOrientation(video.rotation_deg, frame, None, head + said[frame])
+    return DisplayOrientation(video.rotation_deg, frame, None, head + said[frame], (video.width, video.height))
