@@ -111,7 +111,7 @@ def load_mediapipe_2d(path: str | Path) -> Keypoints2D:
         likelihood that the landmark is visible, not a detection score; clipped to [0, 1]
         defensively); layout ``blazepose33``; frames without a person stay NaN, and so
         does any joint with a non-finite value. ``fps`` is the file's ``fps`` field when
-        present, else ``None``.
+        present, else ``None``; ``image_size`` its ``width`` and ``height`` when both are.
 
     Raises:
         AdapterError: missing file, not an npz, no ``keypoints_2d``, a ``layout`` other than
@@ -125,7 +125,9 @@ def load_mediapipe_2d(path: str | Path) -> Keypoints2D:
     empty = int(np.isnan(points).all(axis=(1, 2)).sum())
     notes = (f"MediaPipe BlazePose-33 keypoints_2d ({meta}); confidence = visibility "
              f"(raw max {raw_max:.3f}); {empty} frames without a person -> NaN")
-    return Keypoints2D(points, "blazepose33", str(p), track_id=None, notes=notes, fps=fps)
+    size = None if scalars["width"] is None or scalars["height"] is None else \
+        (int(round(scalars["width"])), int(round(scalars["height"])))
+    return Keypoints2D(points, "blazepose33", str(p), track_id=None, notes=notes, fps=fps, image_size=size)
 
 
 def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_camera: bool = True) -> Poses3D:

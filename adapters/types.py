@@ -84,6 +84,8 @@ class Keypoints2D:
         notes: what the adapter did (selection, clipping, fills), for provenance.
         fps: frames per second when the file states it (MediaPipe npz), else ``None``: the
             caller then needs the video or ``--fps``.
+        image_size: ``(width, height)`` in pixels of the frames the keypoints were detected
+            on, when the file states it (MediaPipe npz), else ``None``.
 
     ``eq=False`` because numpy arrays have no single truth value; compare ``points``
     explicitly. The dataclass is frozen; the array itself is not copied or locked.
@@ -95,6 +97,7 @@ class Keypoints2D:
     track_id: int | None = None
     notes: str = ""
     fps: float | None = None
+    image_size: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         _check_array(self.points, "points", self.source, self.layout)

@@ -60,6 +60,12 @@ CASES = (
     ("stored turned 180, keypoints as displayed", 180, 180, False),
     ("stored turned 90, rotation lost, keypoints in stored frames", 90, 0, True),
 )
+#: The portrait cameras: as filmed, stored turned as a phone stores portrait video (with and
+#: without the archive's image size), and lost.
+POSE2SIM_CASES = (CASES[0], CASES[1], ("stored turned 90, keypoints in stored frames, no image size in the archive",
+                                       90, 90, True), CASES[-1])
+TABLE_HEAD = ("| case | tilt error (deg) | mode | reading | keypoint frame found | turned into the displayed frame | "
+              "95 % intervals contain the truth |", "|---|---|---|---|---|---|---|")
 
 
 def stored_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int) -> np.ndarray:
@@ -120,17 +126,38 @@ def write_stored_inputs(run: dict, data: Path, tmp: Path, rotation_deg: int, wid
     return dict(run, keypoints2d=str(keypoints), lifter_output=str(lifter))
 
 
-def run_case(data: Path, run: dict, case: tuple, up_true: np.ndarray, width: int, height: int) -> str:
-    label, rotation, tag, stored = case
-    with tempfile.TemporaryDirectory() as name:
-        tmp = Path(name)
-        video = tmp / "video.mp4"
-        write_stored_video(data / run["video"], video, rotation, tag)
-        inputs = write_stored_inputs(run, data, tmp, rotation if stored else 0, width, height)
-        inputs = {k: str(data / v) if k in ("keypoints2d", "lifter_output") and not Path(v).is_absolute() else v
-                  for k, v in inputs.items()}
-        result = run_pipeline(RunConfig(**dict(inputs, video=str(video)), out=str(tmp / "out"), recording=False),
-                              progress=False)
+def write_stored_mediapipe(src: Path, dst: Path, rotation_deg: int, keep_size: bool = True) -> None:
+    """A Pose2Sim MediaPipe archive as MediaPipe would have written it on the stored frames:
+    2D pixels, the camera matrix, the image size, the world landmarks (camera axes) and the
+    calibration's up and pose turned with the frames; ``keep_size=False`` drops ``width``
+    and ``height`` (a keypoint file that states no image size; the camera matrix stays)."""
+    with np.load(src, allow_pickle=False) as f:
+        arrays = {k: f[k] for k in f.files}
+    width, height = int(arrays["width"]), int(arrays["height"])
+    Q = display_turn(rotation_deg)
+    kp = arrays["keypoints_2d"].astype(np.float64)
+    kp[..., :2] = stored_pixels(kp[..., :2], rotation_deg, width, height)
+    K = arrays["K"].copy()
+    K[:2, 2] = stored_pixels(K[:2, 2], rotation_deg, width, height)
+    if rotation_deg in (90, 270):
+        K[0, 0], K[1, 1] = K[1, 1], K[0, 0]
+        arrays.update(width=np.int64(height), height=np.int64(width), calib_size=arrays["calib_size"][::-1].copy())
+    arrays.update(keypoints_2d=kp.astype(np.float32), K=K, world_3d=(arrays["world_3d"] @ Q.T).astype(np.float32),
+                  up_camera=Q @ arrays["up_camera"], R_world_to_cam=Q @ arrays["R_world_to_cam"],
+                  t_world_to_cam=Q @ arrays["t_world_to_cam"])
+    if not keep_size:
+        del arrays["width"], arrays["height"]
+    np.savez(dst, **arrays)
+
+
+def run_case(label: str, video_src: Path, inputs: dict, tmp: Path, case: tuple, up_true: np.ndarray) -> str:
+    """`pcnet run` on ``video_src`` re-stored as ``case`` says, with ``inputs`` (already in the
+    frames the case names); one table row."""
+    _, rotation, tag, stored = case
+    video = tmp / "video.mp4"
+    write_stored_video(video_src, video, rotation, tag)
+    result = run_pipeline(RunConfig(**dict(inputs, video=str(video)), out=str(tmp / "out"), recording=False),
+                          progress=False)
     rep = result.report
     # pcnet's camera frame: the displayed one where it turned the inputs, else the lifter's
     turned = (rep.get("display_rotation") or {}).get("turned_into_displayed_frame", False)
@@ -160,13 +187,30 @@ def main() -> None:
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              f"boxing (MotionBERT), true up as displayed: pitch {pitch_roll_deg(up_true)[0]:+.1f}, roll "
              f"{pitch_roll_deg(up_true)[1]:+.1f} (benchmarks/vanishing_gravity.py)", "",
-             "| case | tilt error (deg) | mode | reading | keypoint frame found | turned into the displayed frame | "
-             "95 % intervals contain the truth |",
-             "|---|---|---|---|---|---|---|"]
+             *TABLE_HEAD]
     print("\n".join(lines), flush=True)
     for case in CASES:
-        lines.append(run_case(args.data, run, case, up_true, info.width, info.height))
+        with tempfile.TemporaryDirectory() as name:
+            tmp = Path(name)
+            inputs = write_stored_inputs(run, args.data, tmp, case[1] if case[3] else 0, info.width, info.height)
+            lines.append(run_case(f"boxing, {case[0]}", args.data / run["video"], inputs, tmp, case, up_true))
         print(lines[-1], flush=True)
+    lines += ["", "Pose2Sim's four calibrated portrait cameras (MediaPipe; true up from the calibration), the same "
+              "storage with the archive turned as MediaPipe run on the stored frames would write it:", "",
+              *TABLE_HEAD]
+    for path in sorted((args.data / "real" / "pose2sim_gravity").glob("statictrial_cam*.npz")):
+        with np.load(path, allow_pickle=False) as f:
+            up_cam = np.asarray(f["up_camera"], np.float64)
+        for case in POSE2SIM_CASES:
+            with tempfile.TemporaryDirectory() as name:
+                tmp = Path(name)
+                npz = tmp / path.name
+                write_stored_mediapipe(path, npz, case[1] if case[3] else 0, keep_size="no image size" not in case[0])
+                inputs = dict(keypoints2d=str(npz), keypoints2d_format="mediapipe", lifter="mediapipe",
+                              lifter_output=str(npz))
+                lines.append(run_case(f"{path.stem.split('_')[-1]}, {case[0]}", path.with_suffix(".mp4"), inputs,
+                                      tmp, case, up_cam / np.linalg.norm(up_cam)))
+            print(lines[-1], flush=True)
     lines.append(f"({time.perf_counter() - t0:.0f} s)")
     args.out.write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")

@@ -174,7 +174,7 @@ def _checked_options(kind: str, name: str, adapter, options: dict) -> dict:
 
 def _load_inputs(cfg: RunConfig):
     video = probe_video(cfg.video) if cfg.video else None
-    kp2d, kp_fps = None, None
+    kp2d, kp_fps, kp_size = None, None, None
     if cfg.keypoints2d:
         adapter = get_2d_adapter(cfg.keypoints2d_format)
         options = {"person": cfg.person} if cfg.keypoints2d_format in ("alphapose", "mmpose") else {}
@@ -182,12 +182,14 @@ def _load_inputs(cfg: RunConfig):
             options["frame_count"] = video.frame_count
         kp = adapter.load(cfg.keypoints2d, **options)
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
+        kp_size = getattr(kp, "image_size", None)
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)
     poses = adapter.load(cfg.lifter_output, **_checked_options("lifter", cfg.lifter, adapter, cfg.lifter_options))
     fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output))
-    return video, fps, kp2d, joints, poses.units, poses.root_translation, poses.summary_note, poses.frame_turn_deg
+    return (video, fps, kp2d, kp_size, joints, poses.units, poses.root_translation, poses.summary_note,
+            poses.frame_turn_deg)
 
 
 def _tilt_tolerance(report: dict) -> float:
@@ -369,9 +371,9 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     # store is removed before the folder is swapped in.
     with staged_output(out) as tmp, FrameStore(tmp) as store:
         step("inputs")
-        video, fps, kp2d, joints, units, measured_root, lifter_note, lifter_turn = _load_inputs(cfg)
+        video, fps, kp2d, kp_size, joints, units, measured_root, lifter_note, lifter_turn = _load_inputs(cfg)
         kp2d, joints = _align(cfg, video, kp2d, joints)
-        orientation = display_orientation(video, kp2d)
+        orientation = display_orientation(video, kp2d, kp_size)
         bar.update()
 
         step("remap")

@@ -57,9 +57,10 @@ def displayed_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int)
     return np.stack(back[rotation_deg], -1)
 
 
-def keypoint_frame(video: VideoInfo, kp2d) -> str:
+def keypoint_frame(video: VideoInfo, kp2d, image_size: tuple[int, int] | None = None) -> str:
     """Which frames of a video stored turned from how it is displayed the 2D keypoints are in
-    (:data:`KEYPOINT_FRAMES`): for a quarter turn, the one whose size holds every present
+    (:data:`KEYPOINT_FRAMES`): for a quarter turn, the one whose size the keypoint file states
+    (``image_size``, ``(width, height)``), else the one whose size holds every present
     keypoint (within :data:`EDGE_MARGIN`), ``"unknown"`` when both or neither do; for a half
     turn (same size), ``"stored"`` when the body stands on its head in at least
     :data:`INVERTED_SHARE` of the frames with a pelvis and thorax, ``"displayed"`` when it
@@ -67,6 +68,11 @@ def keypoint_frame(video: VideoInfo, kp2d) -> str:
     ``"unknown"``); ``"unknown"`` without keypoints or a rotation."""
     if kp2d is None or video.rotation_deg == 0:
         return "unknown"
+    if image_size is not None and video.rotation_deg != 180:
+        sizes = {"displayed": (video.width, video.height), "stored": video.stored_size}
+        named = [frame for frame, size in sizes.items() if tuple(image_size) == size]
+        if len(named) == 1:
+            return named[0]
     top = np.full(2, -np.inf)
     down = up = seen = 0
     for rows in frame_blocks(len(kp2d)):
@@ -125,13 +131,15 @@ class DisplayOrientation:
                 "turned_into_displayed_frame": self.turn is not None}
 
 
-def display_orientation(video: VideoInfo | None, kp2d) -> DisplayOrientation:
+def display_orientation(video: VideoInfo | None, kp2d, image_size: tuple[int, int] | None = None) -> DisplayOrientation:
     """Whether to turn a recording's keypoints and lifter output into the displayed frame.
 
     Args:
         video: the probed video or ``None``.
         kp2d: ``(T, 17, 3)`` H36M-17 2D keypoints (x_px, y_px, confidence; NaN = missing, in
             memory or on disk) or ``None``.
+        image_size: ``(width, height)`` the keypoint file states for its frames, or ``None``
+            (:attr:`pcnet.adapters.Keypoints2D.image_size`).
 
     Returns:
         :class:`DisplayOrientation`: nothing to do unless the video states a display
@@ -142,7 +150,7 @@ def display_orientation(video: VideoInfo | None, kp2d) -> DisplayOrientation:
     """
     if video is None or not video.rotation_deg:
         return DisplayOrientation()
-    frame = keypoint_frame(video, kp2d)
+    frame = keypoint_frame(video, kp2d, image_size)
     head = (f"{video.path}: displayed turned {video.rotation_deg} deg clockwise from how it is stored (its "
             f"container's display rotation; a phone's portrait video); ")
     if frame == "stored":
@@ -154,8 +162,8 @@ def display_orientation(video: VideoInfo | None, kp2d) -> DisplayOrientation:
     unknown = ("taken as they are (if the lifter saw the stored frames, a standing body may be read as lying: "
                "compare --no-camera-prior)")
     said = {"displayed": "the 2D keypoints are in its displayed frames, taken as they are",
-            "unknown": (f"neither the 2D keypoints' extent nor (for a half turn) the body's orientation in them tells "
-                        f"which frames they are in, so they are {unknown}"
+            "unknown": (f"neither the keypoint file's image size, the 2D keypoints' extent nor (for a half turn) the "
+                        f"body's orientation in them tells which frames they are in, so they are {unknown}"
                         if kp2d is not None else f"no 2D keypoints tell which frames the lifter saw; its output is "
                                                  f"{unknown}")}
     return DisplayOrientation(video.rotation_deg, frame, None, head + said[frame], (video.width, video.height))

@@ -69,6 +69,10 @@ def test_keypoint_frame_is_the_one_whose_size_holds_the_keypoints():
     assert keypoint_frame(video, kp) == "displayed"
     kp[0, :3, :2] = [[100, 200], [1000, 1100], [900, 1000]]  # fits both (within the 5 % edge margin)
     assert keypoint_frame(video, kp) == "unknown"
+    # the keypoint file's own image size (MediaPipe's archive states it) tells
+    assert keypoint_frame(video, kp, image_size=(1920, 1080)) == "stored"
+    assert keypoint_frame(video, kp, image_size=(1080, 1920)) == "displayed"
+    assert keypoint_frame(video, kp, image_size=(640, 480)) == "unknown"
     kp[0, :3, :2] = [[100, 200], [3000, 3000], [900, 1000]]  # fits neither: not this video's pixels
     assert keypoint_frame(video, kp) == "unknown"
     assert keypoint_frame(VideoInfo("landscape.mp4", 10, 30.0, 854, 480), kp) == "unknown"
@@ -165,3 +169,13 @@ def test_a_video_rerun_cannot_play_is_left_out_of_the_recording_with_a_note(tmp_
     rows, static, _, _ = rrd_summary(tmp_path / "out" / "recording.rrd")
     assert "/video" not in static and "/video" not in rows
     assert rows["/video/keypoints"] == 10
+
+
+def test_mediapipe_archive_states_the_frames_it_was_detected_on():
+    """The MediaPipe 2D adapter reports the archive's width and height, which decide the frame
+    where the keypoints' extent cannot."""
+    from pcnet.adapters import load_mediapipe_2d
+
+    kp = load_mediapipe_2d(FIXTURES / "mediapipe_blazepose33_f000-059.npz")
+    with np.load(FIXTURES / "mediapipe_blazepose33_f000-059.npz", allow_pickle=False) as f:
+        assert kp.image_size == (int(f["width"]), int(f["height"]))
