@@ -117,7 +117,9 @@ class Poses3D:
             +y down, +z forward, away from the camera). NaN marks missing joints/frames.
             The root is **as delivered by the source** (e.g. MotionBERT keeps the root's
             image position; D3DP zeroes it): the caller remaps to H36M-17 and subtracts the
-            pelvis per frame to get the root-relative poses of ``docs/CONVENTIONS.md``.
+            pelvis per frame to get the root-relative poses of ``docs/CONVENTIONS.md``
+            (``pcnet.pipeline.io.lifter_joints``, then
+            ``pcnet.stages.core.conventions.root_relative``).
         layout: joint layout name (see :class:`Keypoints2D`).
         frame: always ``"camera"``.
         units: ``"m"``, ``"normalised"`` (MotionBERT image-normalised) or ``"px"``.

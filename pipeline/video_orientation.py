@@ -127,6 +127,7 @@ class DisplayOrientation:
         return out
 
     def report(self) -> dict:
+        """JSON-ready ``report["display_rotation"]`` of the run (docs/outputs.md)."""
         return {"rotation_deg": self.rotation_deg, "keypoint_frame": self.keypoint_frame,
                 "turned_into_displayed_frame": self.turn is not None}
 
