@@ -34,7 +34,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import Delaunay
+from scipy.spatial import Delaunay, QhullError
 
 from balance_evidence import centre_of_mass
 from gravity_benchmark import load_camera
@@ -69,7 +69,7 @@ def hull_distance(p: np.ndarray, points: np.ndarray) -> float:
         try:
             if Delaunay(points).find_simplex(p) >= 0:
                 return 0.0
-        except Exception:  # collinear points: the hull is a segment
+        except QhullError:  # collinear points: the hull is a segment
             pass
     if len(points) == 1:
         return float(np.linalg.norm(p - points[0]))

@@ -68,32 +68,37 @@ def keypoint_frame(video: VideoInfo, kp2d, image_size: tuple[int, int] | None = 
     ``"unknown"``); ``"unknown"`` without keypoints or a rotation."""
     if kp2d is None or video.rotation_deg == 0:
         return "unknown"
-    if image_size is not None and video.rotation_deg != 180:
-        sizes = {"displayed": (video.width, video.height), "stored": video.stored_size}
+    if video.rotation_deg == 180:
+        return _half_turn_frame(kp2d)
+    sizes = {"displayed": (video.width, video.height), "stored": video.stored_size}
+    if image_size is not None:
         named = [frame for frame, size in sizes.items() if tuple(image_size) == size]
         if len(named) == 1:
             return named[0]
     top = np.full(2, -np.inf)
-    down = up = seen = 0
     for rows in frame_blocks(len(kp2d)):
-        block = np.asarray(kp2d[rows, :, :2], np.float64)
-        xy = block.reshape(-1, 2)
+        xy = np.asarray(kp2d[rows, :, :2], np.float64).reshape(-1, 2)
         xy = xy[np.isfinite(xy).all(axis=1)]
         if len(xy):
             top = np.maximum(top, xy.max(axis=0))
-        trunk = block[:, THORAX] - block[:, PELVIS]  # pixels, y down
+    fits = [frame for frame, size in sizes.items() if np.all(top <= np.asarray(size) * (1.0 + EDGE_MARGIN))]
+    return fits[0] if len(fits) == 1 else "unknown"
+
+
+def _half_turn_frame(kp2d) -> str:
+    """:func:`keypoint_frame` for a half turn: the body's 2D trunk (pelvis -> thorax, y down)
+    pointing down (on its head) or up in at least :data:`INVERTED_SHARE` of the frames."""
+    down = up = seen = 0
+    for rows in frame_blocks(len(kp2d)):
+        trunk = np.asarray(kp2d[rows, THORAX, :2], np.float64) - np.asarray(kp2d[rows, PELVIS, :2], np.float64)
         length = np.linalg.norm(trunk, axis=1)
         ok = np.isfinite(length) & (length > 0)
         seen += int(ok.sum())
         down += int((trunk[ok, 1] > 0.5 * length[ok]).sum())
         up += int((trunk[ok, 1] < -0.5 * length[ok]).sum())
-    if video.rotation_deg == 180:
-        if seen and down >= INVERTED_SHARE * seen:
-            return "stored"
-        return "displayed" if seen and up >= INVERTED_SHARE * seen else "unknown"
-    fits = {frame: bool(np.all(top <= np.asarray(size) * (1.0 + EDGE_MARGIN)))
-            for frame, size in (("displayed", (video.width, video.height)), ("stored", video.stored_size))}
-    return next(iter(f for f, ok in fits.items() if ok)) if sum(fits.values()) == 1 else "unknown"
+    if seen and down >= INVERTED_SHARE * seen:
+        return "stored"
+    return "displayed" if seen and up >= INVERTED_SHARE * seen else "unknown"
 
 
 @dataclass(frozen=True)
