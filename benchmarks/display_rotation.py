@@ -41,7 +41,7 @@ from vanishing_gravity import LINES, RECORDINGS, truth
 from pcnet.adapters import iter_frames, probe_video
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
-from pcnet.pipeline.video_orientation import display_turn
+from pcnet.pipeline.video_orientation import display_turn, stored_pixels
 from pcnet.stages.core.perspective import focal_px_from_35mm
 
 HERE = Path(__file__).resolve().parent
@@ -66,14 +66,6 @@ POSE2SIM_CASES = (CASES[0], CASES[1], ("stored turned 90, keypoints in stored fr
                                        90, 90, True), CASES[-1])
 TABLE_HEAD = ("| case | tilt error (deg) | mode | reading | keypoint frame found | turned into the displayed frame | "
               "95 % intervals contain the truth |", "|---|---|---|---|---|---|---|")
-
-
-def stored_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int) -> np.ndarray:
-    """Pixel coordinates ``(..., 2)`` of a ``width x height`` displayed frame in the frame
-    stored turned counter-clockwise by ``rotation_deg`` (cv2.rotate's mapping)."""
-    x, y = xy[..., 0], xy[..., 1]
-    turned = {0: (x, y), 90: (y, width - 1 - x), 180: (width - 1 - x, height - 1 - y), 270: (height - 1 - y, x)}
-    return np.stack(turned[rotation_deg], -1)
 
 
 def tkhd_matrix(rotation_deg: int) -> bytes:

@@ -381,6 +381,12 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         if orientation.note:
             notes.append(orientation.note)
         cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store, orientation)
+        video_kp2d = None
+        if kp2d is not None and cfg.recording and orientation.recording_note:
+            video_kp2d = store.create("keypoints2d_video", kp2d.shape, np.float32)
+            for rows in frame_blocks(len(kp2d)):
+                video_kp2d[rows] = orientation.recording_pixels(kp2d[rows])
+            notes.append(orientation.recording_note)
         del joints
         if pelvis_filled:
             notes.append(f"pelvis missing in {pelvis_filled} frames: taken as the hip midpoint")
@@ -463,6 +469,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             fps=fps, units=units, method=cfg.method, report=report, flags=flags, notes=notes, joints_camera=cam,
             rotation=rotations, canonical=canonical, valid=valid, kinematics_frame=kin_frame, poses=rectified,
             world=world, world_rotation=world_rotation, keypoints2d=kp2d, track_segment=segment, video=cfg.video,
+            video_keypoints2d=video_kp2d,
             min_confidence=cfg.confidence_threshold, wrist_acceleration_camera=acc_cam)
         result.kinematics_blocks = kinematics_chunks(rectified, fps, cutoff, units)
         table = write_kinematics_table(result, tmp, allocate=store.create)

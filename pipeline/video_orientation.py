@@ -57,6 +57,20 @@ def displayed_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int)
     return np.stack(back[rotation_deg], -1)
 
 
+def stored_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int) -> np.ndarray:
+    """Pixel coordinates ``(..., 2)`` of a ``width x height`` displayed frame -> in the frame
+    stored turned counter-clockwise by ``rotation_deg`` (``cv2.rotate``'s mapping; the inverse
+    of :func:`displayed_pixels`; NaN stays NaN).
+
+    Raises:
+        ValueError: a rotation other than 0, 90, 180 or 270.
+    """
+    display_turn(rotation_deg)  # the check
+    x, y = xy[..., 0], xy[..., 1]
+    turned = {0: (x, y), 90: (y, width - 1 - x), 180: (width - 1 - x, height - 1 - y), 270: (height - 1 - y, x)}
+    return np.stack(turned[rotation_deg], -1)
+
+
 def keypoint_frame(video: VideoInfo, kp2d, image_size: tuple[int, int] | None = None) -> str:
     """Which frames of a video stored turned from how it is displayed the 2D keypoints are in
     (:data:`KEYPOINT_FRAMES`): for a quarter turn, the one whose size the keypoint file states
@@ -130,6 +144,28 @@ class DisplayOrientation:
         out = np.array(kp, copy=True)
         out[..., :2] = displayed_pixels(out[..., :2], self.rotation_deg, *self.displayed_size)
         return out
+
+    def recording_pixels(self, kp: np.ndarray) -> np.ndarray:
+        """2D keypoints ``(..., 3)`` of the displayed frame (what :meth:`pixels` returns) -> the
+        video's stored frames, where rerun's viewer draws them: it shows an MP4 as stored
+        (re_video's MP4 demuxer, ``crates/utils/re_video/src/demux/mp4.rs`` ``load_mp4``, reads
+        the samples and their coded size, not the track header's display matrix). As given
+        when the video has no display rotation or the keypoints' frame is unknown."""
+        if not self.rotation_deg or self.keypoint_frame == "unknown":
+            return kp
+        out = np.array(kp, copy=True)
+        out[..., :2] = stored_pixels(out[..., :2], self.rotation_deg, *self.displayed_size)
+        return out
+
+    @property
+    def recording_note(self) -> str:
+        """The summary's line about the recording's video view when :meth:`recording_pixels` moves
+        the keypoints (empty otherwise)."""
+        if not self.rotation_deg or self.keypoint_frame == "unknown":
+            return ""
+        return (f"recording.rrd: rerun's viewer shows the video as stored ({self.rotation_deg} deg from how a phone "
+                f"displays it), so the 2D keypoints over it are drawn in the stored frames; keypoints2d in "
+                f"canonical.npz are in the displayed frame")
 
     def report(self) -> dict:
         """JSON-ready ``report["display_rotation"]`` of the run (docs/outputs.md)."""

@@ -8,14 +8,17 @@ import json
 import sys
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
 from conftest import FIXTURES, ROOT
-from pcnet.adapters import VideoInfo, iter_frames, probe_video
+from pcnet.adapters import VideoInfo, get_2d_adapter, iter_frames, probe_video
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
-from pcnet.pipeline.video_orientation import DisplayOrientation, display_turn, displayed_pixels, keypoint_frame
+from pcnet.stages.remap import remap_to_h36m
+from pcnet.pipeline.video_orientation import (DisplayOrientation, display_turn, displayed_pixels, keypoint_frame,
+                                              stored_pixels)
 from pcnet.stages.core.rotations import angle_between
 
 sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
@@ -47,11 +50,15 @@ def test_display_turn_and_pixels_undo_the_storage(rotation):
     stored frame, points where the display turn puts the camera's up, and both mappings
     return to the displayed frame exactly."""
     top, bottom = np.array([400.0, 100.0]), np.array([400.0, 300.0])  # displayed: top above bottom
-    stored = display_rotation.stored_pixels(np.stack([top, bottom]), rotation, 854, 480)
+    stored = stored_pixels(np.stack([top, bottom]), rotation, 854, 480)
     up_px = (stored[0] - stored[1]) / np.linalg.norm(stored[0] - stored[1])
     Q = display_turn(rotation)
     np.testing.assert_allclose(up_px, (Q @ [0.0, -1.0, 0.0])[:2], atol=1e-12)
     np.testing.assert_allclose(displayed_pixels(stored, rotation, 854, 480), np.stack([top, bottom]), atol=1e-12)
+    image = np.zeros((480, 854), np.uint8)
+    image[100, 400] = 255  # the displayed frame's pixel (x 400, y 100), stored the way a phone stores it
+    row, col = np.argwhere(cv2.rotate(image, display_rotation.STORE[rotation]))[0]
+    np.testing.assert_array_equal(stored[0], [col, row])
     X = np.load(RUN["lifter_output"])[:5].astype(np.float64)
     turned = DisplayOrientation(rotation, "stored", Q)
     np.testing.assert_allclose(turned.joints(X @ Q.T), X, atol=1e-12)
@@ -91,10 +98,10 @@ def test_a_half_turn_is_told_by_the_body_standing_on_its_head():
     video = VideoInfo("phone.mp4", 60, 30.0, 854, 480, rotation_deg=180)
     assert keypoint_frame(video, kp2d) == "displayed"
     stored = kp2d.copy()
-    stored[..., :2] = display_rotation.stored_pixels(kp2d[..., :2], 180, 854, 480)
+    stored[..., :2] = stored_pixels(kp2d[..., :2], 180, 854, 480)
     assert keypoint_frame(video, stored) == "stored"
     lying = kp2d.copy()
-    lying[..., :2] = display_rotation.stored_pixels(kp2d[..., :2], 90, 854, 480)
+    lying[..., :2] = stored_pixels(kp2d[..., :2], 90, 854, 480)
     assert keypoint_frame(video, lying) == "unknown"
 
 
@@ -141,6 +148,33 @@ def test_pcnet_run_on_a_phone_video_whose_frames_the_detector_read_as_stored(tmp
     assert lost.report["gravity"]["reading"] == "lying"
     assert np.degrees(angle_between(lost.report["up"], display_turn(90) @ up)) > 45.0
 
+
+
+def test_the_recording_draws_the_keypoints_where_rerun_shows_the_video(tmp_path):
+    """rerun's viewer shows an MP4 as stored, without its display rotation, so the recording's
+    2D overlay is in the stored frames (the keypoint file's own pixels here), while
+    canonical.npz keeps them in the displayed frame; the summary says so."""
+    from conftest import rrd_summary
+
+    folder = tmp_path / "turned"
+    folder.mkdir()
+    video = folder / "video.mp4"
+    display_rotation.write_stored_video(CLIP, video, 90, 90)
+    run = display_rotation.write_stored_inputs(_clip_inputs(tmp_path), tmp_path, folder, 90, 854, 480)
+    result = run_pipeline(RunConfig(**dict(run, video=str(video)), out=str(folder / "out")), progress=False)
+    assert any("shows the video as stored" in n for n in result.notes), result.notes
+    _, _, chunks, _ = rrd_summary(folder / "out" / "recording.rrd")
+    stored = get_2d_adapter("alphapose").load(run["keypoints2d"])
+    stored_h36m = remap_to_h36m(stored.points, stored.layout, confidence_channel=True)
+    drawn = 0
+    for ch in chunks["/video/keypoints"]:
+        rb = ch.to_record_batch()
+        for t, ids, xy in zip(*(rb.column(c).to_pylist() for c in ("frame", "Points2D:keypoint_ids", "Points2D:positions"))):
+            np.testing.assert_allclose(np.array(xy), stored_h36m[t, ids, :2], atol=1e-3)
+            drawn += len(ids)
+    assert drawn > 100
+    displayed = np.load(result.outputs["canonical.npz"])["keypoints2d"][..., :2]
+    np.testing.assert_allclose(displayed, displayed_pixels(stored_h36m[:10, :, :2], 90, 854, 480), atol=1e-3)
 
 
 def test_without_keypoints_a_display_rotation_leaves_the_input_and_says_why(tmp_path):

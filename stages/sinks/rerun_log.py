@@ -14,7 +14,7 @@ Entity tree (all per-frame data is on the ``frame`` (sequence) and ``video_time`
 
     /                               AnnotationContext: H36M-17 keypoint names and colours
     /video                          AssetVideo (static) + VideoFrameReference per video frame
-    /video/keypoints                Points2D, 2D keypoints (px), keypoint_ids = H36M index
+    /video/keypoints                Points2D, 2D keypoints (px of the video as rerun shows it), keypoint_ids = H36M index
     /video/skeleton                 LineStrips2D, one strip per bone
     /camera                         ViewCoordinates RDF (OpenCV camera frame), static
     /camera/skeleton/joints         Points3D

@@ -55,7 +55,9 @@ class RecordingResult:
         world: ``(T, 17, 3)`` world-frame poses or ``None``; world_rotation ``(3, 3)``
             (NaN without a world frame).
         keypoints2d: ``(T, 17, 3)`` px + confidence or ``None``; track_segment ``(T,)`` int or
-            ``None``; video: the video path or ``None``; min_confidence: 2D threshold.
+            ``None``; video: the video path or ``None``; video_keypoints2d: the same keypoints in
+            the pixels the recording shows the video in (a phone video is shown as stored), or
+            ``None`` for ``keypoints2d``; min_confidence: 2D threshold.
         wrist_acceleration_camera: ``(T, 2, 3)`` filtered camera-frame wrist accelerations.
         kinematics_blocks: iterable of :class:`pcnet.stages.kinematics.Kinematics` blocks in
             frame order, consumed once by :func:`write_kinematics_table`.
@@ -80,6 +82,7 @@ class RecordingResult:
     keypoints2d: np.ndarray | None = None
     track_segment: np.ndarray | None = None
     video: str | None = None
+    video_keypoints2d: np.ndarray | None = None
     min_confidence: float = 0.0
     wrist_acceleration_camera: np.ndarray | None = None
     kinematics_blocks: Iterable = ()
@@ -205,8 +208,8 @@ def write_rerun(r: RecordingResult, folder: Path) -> dict[str, Path]:
     canonical and world views, wrist paths, kinematics series and flags."""
     path = write_recording(
         folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera, canonical=r.canonical,
-        rotations=r.rotation, up=column(r.rotation, slice(None), 1), valid=r.valid, keypoints2d=r.keypoints2d,
-        video_path=r.video, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
+        rotations=r.rotation, up=column(r.rotation, slice(None), 1), valid=r.valid,
+        keypoints2d=r.keypoints2d if r.video_keypoints2d is None else r.video_keypoints2d, video_path=r.video, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
         series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence, flags=r.flags, world=r.world,
         notes=r.notes,
     )
