@@ -26,9 +26,11 @@ Columns: `err` = tilt error (angle between estimated and true up, deg): frame mo
 trunk = mean over valid frames of the per-frame error (`max` = the worst frame); sequence modes
 = the one sequence up. `pitch`/`roll` of the estimate (frame modes: of the normalised mean of
 the per-frame ups). Sequence mode only: the report's 95 % moving-block-bootstrap cone
-(`up_uncertainty_deg`) and whether it contains the truth (`in`), and the pitch/roll half-widths
-(`camera_pitch/roll_uncertainty_deg`) and whether both intervals contain the true pitch and
-roll (`in`).
+(`up_uncertainty_deg`, the resampling spread alone) and whether it contains the truth (`in`),
+and the pitch/roll 95 % half-widths `pcnet run` prints (`camera_pitch/roll_interval_deg`:
+the bootstrap's with the lifter's systematic error calibrated on held-out mocap, scaled by
+the recording's evidence scale; stages/uncertainty.py) and whether both intervals contain the
+true pitch and roll (`in`).
 
 Orientation robustness: the same poses seen by the camera rolled about its optical axis by a
 further 90, 180 and -90 deg (a phone held the other way: X' = X @ Qz.T, true up' = Qz @ up).
@@ -117,7 +119,7 @@ def evaluate_view(joints: np.ndarray, up_true: np.ndarray, fps: float, delivered
             err = float(deg_between(mean_up, up_true))
             row.update(err=err, max=err)
             cone = rep.get("up_uncertainty_deg", np.nan)
-            dp, dr = rep.get("camera_pitch_uncertainty_deg", np.nan), rep.get("camera_roll_uncertainty_deg", np.nan)
+            dp, dr = rep.get("camera_pitch_interval_deg", np.nan), rep.get("camera_roll_interval_deg", np.nan)
             p, r = rep["camera_pitch_deg"], rep["camera_roll_deg"]
             droll = abs((r - true_roll + 180.0) % 360.0 - 180.0)
             row.update(cone=cone, in_cone=bool(err <= cone) if np.isfinite(cone) else None,
