@@ -524,13 +524,16 @@ def _lifter_inputs(clips, canon, R, idx_clip, idx_frame, camera, views, noise, r
 
 
 def sample_views(n: int, views: str, rng: np.random.Generator) -> np.ndarray:
-    """``n`` camera rotations from ``"paper"`` or ``"wide"`` (docs/CONVENTIONS.md), or
-    ``"paper+wide"``: each rotation drawn from either with probability 1/2 (a training mix
-    that keeps the common near-frontal views dense while covering people turning around)."""
-    if views == "paper+wide":
+    """``n`` camera rotations from one distribution of
+    :func:`pcnet.stages.core.rotations.sample_camera_rotations` (docs/CONVENTIONS.md), or a
+    mixture ``"A+B"`` (e.g. ``"paper+wide"``): each rotation drawn from either with probability
+    1/2 (a training mix that keeps the common near-frontal views dense while covering people
+    turning around)."""
+    if "+" in views:
+        first, second = views.split("+", 1)
         pick = rng.random(n) < 0.5
-        return np.where(pick[:, None, None], sample_camera_rotations(n, "paper", rng),
-                        sample_camera_rotations(n, "wide", rng))
+        return np.where(pick[:, None, None], sample_camera_rotations(n, first, rng),
+                        sample_camera_rotations(n, second, rng))
     return sample_camera_rotations(n, views, rng)
 
 

@@ -80,7 +80,7 @@ class TrainConfig:
 
 
 #: View distributions of :func:`pcnet.models.datasets.sample_views`.
-VIEWS = ("paper", "wide", "paper+wide")
+VIEWS = ("paper", "wide", "paper+wide", "handheld+wide")
 #: Noise models of :class:`TrainConfig` ``noise_model``.
 NOISE_MODELS = ("frame", "lifter")
 #: Devices a config may name (``cuda:<n>``: that GPU; ``auto``: cuda when present).

@@ -93,12 +93,14 @@ def test_torch_6d_matches_numpy():
 
 def test_camera_rotation_round_trip_and_ranges():
     rng = np.random.default_rng(3)
-    for dist, pitch_max, roll_max in (("paper", 25, 12), ("wide", 45, 25)):
+    for dist, pitch_max, roll_max in (("paper", 25, 12), ("wide", 45, 25), ("handheld", 25, 30)):
         R = rot.sample_camera_rotations(4000, dist, rng)
         h, p, r = rot.decompose_camera_rotation(R)
         np.testing.assert_allclose(rot.compose_camera_rotation(h, p, r), R, atol=1e-9)
         assert np.degrees(np.abs(p)).max() <= pitch_max + 1e-6
         assert np.degrees(np.abs(r)).max() <= roll_max + 1e-6
+        if dist == "handheld":  # roll N(0, 10) in every view: about 23 % beyond 12 deg
+            assert 0.18 < (np.degrees(np.abs(r)) > 12).mean() < 0.28
     # the frontal camera sees the subject's up as image-up and its right on image-left
     R = rot.compose_camera_rotation(0.0, 0.0, 0.0)
     np.testing.assert_allclose(R @ [0, 1, 0], [0, -1, 0])
@@ -391,3 +393,15 @@ def test_root_relative_fills_the_pelvis_from_the_hips_and_centres_on_it():
     np.testing.assert_allclose(rel[1, PELVIS + 1 :], joints[1, PELVIS + 1 :] - mid, atol=1e-6)
     assert (rel[1, PELVIS] == 0).all()
     assert np.isnan(rel[2]).all()
+
+
+def test_sample_views_mixes_two_distributions_half_and_half():
+    from pcnet.models.datasets import sample_views
+
+    R = sample_views(4000, "handheld+wide", np.random.default_rng(8))
+    _, pitch, roll = rot.decompose_camera_rotation(R)
+    wide_only = np.degrees(np.abs(pitch)) > 25  # only the wide views pitch beyond 25 deg (U(-45, 45): 4/9 of them)
+    assert 0.17 < wide_only.mean() < 0.27
+    assert np.degrees(np.abs(roll)).max() <= 30 + 1e-6
+    with pytest.raises(ValueError, match="view distribution"):
+        sample_views(3, "paper+fisheye", np.random.default_rng(8))

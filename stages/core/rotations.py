@@ -131,6 +131,9 @@ def sample_camera_rotations(n: int, distribution: str, rng: np.random.Generator)
       clip 6; 10% yaw 180 + N(0, 20), pitch and roll as the side views; then
       |pitch| <= 25, |roll| <= 12 (degrees).
     * ``"wide"``: yaw U(-180, 180), pitch U(-45, 45), roll N(0, 10) clip 25.
+    * ``"handheld"``: the paper's yaw and pitch, roll N(0, 10) clip 30 in every view (phones
+      held or propped without a level: an assumption, within the sequence camera prior's
+      20 deg, :data:`pcnet.stages.gravity_prior.LEVEL_CAMERA_SIGMA_DEG`).
 
     Yaw is the camera's azimuth around the subject, so the subject's heading relative to
     the camera is ``-yaw``; pitch is the camera's elevation, roll its tilt about its optical
@@ -139,7 +142,7 @@ def sample_camera_rotations(n: int, distribution: str, rng: np.random.Generator)
     Raises:
         ValueError: for an unknown distribution name.
     """
-    if distribution == "paper":
+    if distribution in ("paper", "handheld"):
         kind = rng.choice(3, size=n, p=[0.75, 0.15, 0.10])
         yaw = rng.uniform(-70, 70, n)
         pitch = _truncnormal(rng, 12, 20, n)
@@ -151,12 +154,14 @@ def sample_camera_rotations(n: int, distribution: str, rng: np.random.Generator)
         yaw = np.where(kind == 1, side_yaw, np.where(kind == 2, back_yaw, yaw))
         pitch = np.clip(np.where(kind > 0, side_pitch, pitch), -25, 25)
         roll = np.clip(np.where(kind > 0, side_roll, roll), -12, 12)
+        if distribution == "handheld":
+            roll = _truncnormal(rng, 10, 30, n)
     elif distribution == "wide":
         yaw = rng.uniform(-180, 180, n)
         pitch = rng.uniform(-45, 45, n)
         roll = _truncnormal(rng, 10, 25, n)
     else:
-        raise InputError(f"unknown view distribution {distribution!r}; expected 'paper' or 'wide'")
+        raise InputError(f"unknown view distribution {distribution!r}; expected 'paper', 'wide' or 'handheld'")
     return compose_camera_rotation(np.radians(-yaw), np.radians(pitch), np.radians(roll))
 
 
