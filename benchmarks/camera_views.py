@@ -3,7 +3,7 @@ shipped body-frame network, per camera roll: does a camera-frame network that tr
 rolled cameras stay the more accurate one further from level?
 
     python benchmarks/camera_views.py CANDIDATE.onnx --data ../shared/data --split val \
-        [--ramps 10,20 20,30] [--level-ramps 3,8] [--stride 3]
+        [--ramps 10,20 20,30] [--level-ramps 3,8] [--level-reading body] [--stride 3]
 
 Protocol of benchmarks/view_gate.py and view_gate_rule.py: each clip one recording, the
 paper's camera distribution (a new camera every frame, docs/CONVENTIONS.md) rolled about the
@@ -13,8 +13,9 @@ each camera-frame network alone, and each gated with the shipped body-frame netw
 :func:`pcnet.models.view_gate.camera_frame_weight` with each roll ramp of ``--ramps`` (the
 shipped ramp is 10-20 deg). ``--level-ramps a,b`` adds three-network rows: the shipped gate
 decides between the camera-frame side and the body-frame network, and on the camera-frame
-side the shipped network answers while the body-frame network reads under ``a`` deg of roll
-(its running median, as the gate's), the candidate from ``b`` deg, blended between. ``--split val`` is where a ramp may be chosen (the training mix's
+side the shipped network answers while the body-frame network (``--level-reading camera``: the
+shipped camera-frame network) reads under ``a`` deg of roll (its running median, as the gate's),
+the candidate from ``b`` deg, blended between. ``--split val`` is where a ramp may be chosen (the training mix's
 motion-style validation split); ``test`` (the training mix's test split), ``cmu-test`` and
 ``deepmimic`` are held out.
 """
@@ -49,11 +50,12 @@ def load_clips(data: Path, split: str):
 
 
 def tilt_by_estimator(clips, lifter: bool, stride: int, cameras: dict, body: PCNetSession,
-                      ramps: list[tuple[float, float]], level_ramps: list[tuple[float, float]] = ()) -> dict:
+                      ramps: list[tuple[float, float]], level_ramps: list[tuple[float, float]] = (),
+                      level_reading: str = "body") -> dict:
     """``{(row, roll): (sum of tilt errors deg, frames)}``: each camera-frame network alone
     (row = its label) and gated with ``body`` under each ramp (row = ``label, ramp a-b``);
     with ``level_ramps`` the three-network rows of the module docstring (``cameras`` holds the
-    shipped network first, the candidate second)."""
+    shipped network first, the candidate second), on ``level_reading``'s roll reading."""
     sums: dict = {}
 
     def add(row, roll, R, up, valid):
@@ -78,10 +80,11 @@ def tilt_by_estimator(clips, lifter: bool, stride: int, cameras: dict, body: PCN
         both = ok_ship & ok_cand
         if level_ramps and both.any():
             w_cam = camera_frame_weight(R_body, both, fps, R_ship)
-            roll_b = np.full(len(both), np.nan)
-            roll_b[both] = camera_reading(R_body[both], max(1, int(round(WINDOW_S * fps)) | 1))[0]
+            reading = np.full(len(both), np.nan)
+            R_read = R_body if level_reading == "body" else R_ship
+            reading[both] = camera_reading(R_read[both], max(1, int(round(WINDOW_S * fps)) | 1))[0]
             for ramp in level_ramps:
-                w_level = np.clip((ramp[1] - roll_b) / (ramp[1] - ramp[0]), 0.0, 1.0)  # 1 = the shipped network
+                w_level = np.clip((ramp[1] - reading) / (ramp[1] - ramp[0]), 0.0, 1.0)  # 1 = the shipped network
                 R_side = blend_rotations(R_cand, R_ship, w_level)
                 add(f"three networks, level ramp {ramp[0]:g}-{ramp[1]:g}", roll, blend_rotations(R_body, R_side, w_cam), up, both)
     return sums
@@ -95,6 +98,8 @@ def main() -> None:
     ap.add_argument("--ramps", nargs="+", default=[f"{ROLL_RAMP_DEG[0]:g},{ROLL_RAMP_DEG[1]:g}"],
                     help="roll ramps a,b (deg) of the gate")
     ap.add_argument("--level-ramps", nargs="*", default=[], help="three-network rows: roll ramps a,b (deg)")
+    ap.add_argument("--level-reading", choices=("body", "camera"), default="body",
+                    help="whose roll reading the three-network rows' ramp reads")
     ap.add_argument("--stride", type=int, default=3)
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
@@ -105,11 +110,12 @@ def main() -> None:
     body = PCNetSession(BODY_WEIGHTS)
     command = (f"    python benchmarks/camera_views.py {args.candidate} --data {args.data} --split {args.split} "
                f"--ramps {' '.join(args.ramps)} "
-               + (f"--level-ramps {' '.join(args.level_ramps)} " if args.level_ramps else "") + f"--stride {args.stride}")
+               + (f"--level-ramps {' '.join(args.level_ramps)} --level-reading {args.level_reading} "
+                  if args.level_ramps else "") + f"--stride {args.stride}")
     lines = [command, "", f"candidate: {args.candidate}; mean per-frame tilt error (deg) per camera roll, "
                           f"{len(clips)} clips, every {args.stride}th frame", ""]
     for lifter in (False, True):
-        sums = tilt_by_estimator(clips, lifter, args.stride, cameras, body, ramps, level_ramps)
+        sums = tilt_by_estimator(clips, lifter, args.stride, cameras, body, ramps, level_ramps, args.level_reading)
         rows = sorted({row for row, _ in sums}, key=lambda r: (not r.startswith("body"), r))
         width = max(len(r) for r in rows) + 2
         lines.append(f"{'noise ' + ('lifter' if lifter else 'clean'):<{width}}" + "".join(f"{r:>8}" for r in ROLLS_DEG))
