@@ -32,7 +32,8 @@ from view_gate import rolled_views
 
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, normalized_in_chunks
-from pcnet.models.view_gate import ROLL_RAMP_DEG, WINDOW_S, blend_rotations, camera_frame_weight, camera_reading
+from pcnet.models.view_gate import (ROLL_RAMP_DEG, blend_rotations, camera_frame_weight, camera_reading,
+                                    window_frames)
 from pcnet.stages.core.rotations import angle_between
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -82,7 +83,7 @@ def tilt_by_estimator(clips, lifter: bool, stride: int, cameras: dict, body: PCN
             w_cam = camera_frame_weight(R_body, both, fps, R_ship)
             reading = np.full(len(both), np.nan)
             R_read = R_body if level_reading == "body" else R_ship
-            reading[both] = camera_reading(R_read[both], max(1, int(round(WINDOW_S * fps)) | 1))[0]
+            reading[both] = camera_reading(R_read[both], window_frames(fps))[0]
             for ramp in level_ramps:
                 w_level = np.clip((ramp[1] - reading) / (ramp[1] - ramp[0]), 0.0, 1.0)  # 1 = the shipped network
                 R_side = blend_rotations(R_cand, R_ship, w_level)

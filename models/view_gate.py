@@ -59,6 +59,11 @@ def _ramp(x: np.ndarray, full: float, none: float) -> np.ndarray:
     return np.clip((none - x) / (none - full), 0.0, 1.0)
 
 
+def window_frames(fps: float) -> int:
+    """Frames of the camera reading's running median: :data:`WINDOW_S` at ``fps``, odd, at least 1."""
+    return max(1, int(round(WINDOW_S * fps)) | 1)
+
+
 def camera_reading(R: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     """The camera's ``|roll|`` and ``|pitch|`` (degrees, each ``(T,)`` float64) that ``(T, 3, 3)``
     canonical->camera rotations (finite, one recording in frame order) imply, as running
@@ -99,7 +104,7 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
     idx = np.flatnonzero(valid)
     if len(idx) == 0:
         return weight
-    size = max(1, int(round(WINDOW_S * fps)) | 1)
+    size = window_frames(fps)
     roll_b, pitch_b = camera_reading(R_body_net[idx], size)
     weight[idx] = _ramp(roll_b, *roll_ramp_deg) * _ramp(pitch_b, *PITCH_RAMP_DEG)
     if R_camera_net is not None:

@@ -151,7 +151,7 @@ class DisplayOrientation:
         (re_video's MP4 demuxer, ``crates/utils/re_video/src/demux/mp4.rs`` ``load_mp4``, reads
         the samples and their coded size, not the track header's display matrix). As given
         when the video has no display rotation or the keypoints' frame is unknown."""
-        if not self.rotation_deg or self.keypoint_frame == "unknown":
+        if not self.recording_note:
             return kp
         out = np.array(kp, copy=True)
         out[..., :2] = stored_pixels(out[..., :2], self.rotation_deg, *self.displayed_size)
