@@ -1,13 +1,13 @@
-"""Per-frame tilt bound of the shipped networks, widened where the camera-frame and body-frame answers disagree: calibration on the motion-style val split, coverage on held-out data.
+"""Per-frame tilt bound of the shipped pair, widened where its two networks disagree: calibration on the motion-style val split, coverage on held-out data.
 
     python benchmarks/calibrate_frame_bound.py [--data ../shared/data]
 
 Frames: every frame of a clip seen by a new "paper" camera with lifter-like noise
 (make_pairs(clips, views="paper", camera="per-frame", noise=LifterNoise(), seed=0)), each clip
-one recording for the view gate; the shipped networks (make_estimator("pcnet")) per frame; tilt
+one recording for the view gate; the shipped pair (make_estimator("pcnet")) per frame; tilt
 error e = angle between the predicted and the true up (frame mode: no sequence step, and the
-heading step never moves the up). Per frame also d, the angle between the camera-frame side's and the body-frame network's ups,
-and w, the camera-frame side's weight (models/view_gate.py).
+heading step never moves the up). Per frame also d, the angle between the two networks' ups,
+and w, the camera-frame network's weight (models/view_gate.py).
 
 Bound (pcnet.stages.uncertainty.frame_tilt_bound): w sqrt(B^2 + (k d)^2) + (1 - w) B_body.
 Calibration on the motion-style *validation* split (Bandai validation groups, CMU subjects 12

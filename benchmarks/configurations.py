@@ -3,7 +3,7 @@
 - ``geo``: the paper's geometric baseline (section 2.3), frame and sequence mode;
 - ``cam-net``: the shipped camera-frame 3DPCNet alone (the paper's input, configs/pcnet_camera_posture.toml),
   frame mode; ``body-net``: the shipped body-frame 3DPCNet alone (configs/pcnet_body_posture.toml);
-- ``pcnet``: the shipped networks gated by camera orientation (models/view_gate.py), frame mode,
+- ``pcnet``: the shipped pair gated by camera orientation (models/view_gate.py), frame mode,
   sequence mode from the poses alone (``-prior``) and with the camera prior and lying reading
   (the default of ``pcnet run``, stages/gravity_prior.py).
 """

@@ -1,4 +1,4 @@
-"""Where the shipped camera-frame and body-frame 3DPCNet answers disagree on real lifter output: which recordings the
+"""Where the shipped pair's two 3DPCNets disagree on real lifter output: which recordings the
 disagreement warning (stages/flags.py: disagreement_flag) names.
 
     python benchmarks/disagreement_real.py --data ../shared/data

@@ -3,7 +3,7 @@
     python benchmarks/sequence_frame_weights.py [--data ../shared/data]
 
 Sequence mode's up is the robust spherical mean of the per-frame ups
-(pcnet.stages.temporal.sequence_rectify). The shipped networks also give each frame a calibrated
+(pcnet.stages.temporal.sequence_rectify). The shipped pair also gives each frame a calibrated
 tilt bound that widens where its two networks disagree (pcnet.stages.uncertainty.frame_tilt_bound),
 and the shipped chain weighs each frame's up by (FRAME_TILT_95_DEG / bound)^2, inverse variance
 (pcnet.stages.rectify.frame_bound_and_weights), so frames on poses unlike the training data

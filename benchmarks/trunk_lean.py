@@ -10,7 +10,7 @@ clip, on held-out mocap:
 - trunk lean: the forward (sagittal) angle of pelvis -> thorax from the true up, in the
   canonical frame of docs/CONVENTIONS.md (x anterior, y up), degrees, median over the clip's
   frames (positive = leaning forward);
-- up error, sagittal part: the shipped networks' per-frame up (``rectify(..., "pcnet",
+- up error, sagittal part: the shipped pair's per-frame up (``rectify(..., "pcnet",
   mode="frame")``, one call per clip so the view gate sees the clip as a recording) written
   in the true canonical frame, ``atan2(u_x, u_y)``, degrees, median over the clip's frames
   (positive = the estimated up leans forward of the truth); the lateral part
@@ -93,7 +93,7 @@ def main() -> None:
             ("DeepMimic (never trained on)", load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"))]
     lines = [COMMAND, "",
              "Per clip: trunk lean = median forward angle of pelvis->thorax from the true up; up error = median",
-             "sagittal (+ = estimate leans forward of the truth) and lateral part of the shipped networks' per-frame",
+             "sagittal (+ = estimate leans forward of the truth) and lateral part of the shipped pair's per-frame",
              "up (frame mode, clean, one static paper camera per clip, seed 0); r and slope: clips' sagittal",
              "error against their trunk lean. Degrees.", "",
              "| set | clips | trunk lean, median [p10, p90] | sagittal up error, median | lateral, median | r | slope |",

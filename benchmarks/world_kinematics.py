@@ -5,7 +5,7 @@
 Held-out mocap (Bandai motion-style test clips, CMU validation subjects 12 and 60; metres,
 their own fps) seen by one static camera per clip ("paper" views,
 `make_pairs(camera="static")`) with lifter-like noise (models/lifter_noise.py), rectified as
-`pcnet run` does for a static camera (the shipped networks, sequence mode, camera prior, heading
+`pcnet run` does for a static camera (the shipped pair, sequence mode, camera prior, heading
 auto; no bootstrap). Then the same kinematics code (stages/kinematics.py, Butterworth 6 Hz)
 on:
 - world (what pcnet writes now): the noisy poses in the recording's world frame

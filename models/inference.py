@@ -1,4 +1,4 @@
-"""Run-time inference with onnxruntime (no torch): 3DPCNet, and the shipped three of them
+"""Run-time inference with onnxruntime (no torch): 3DPCNet, and the shipped pair of them
 gated by camera orientation (:mod:`pcnet.models.view_gate`)."""
 
 from __future__ import annotations
@@ -17,16 +17,13 @@ from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.core.rotations import angle_between
 
 from .preprocess import normalize_input
-from .view_gate import blend_rotations, camera_frame_weight, level_view_weight
+from .view_gate import blend_rotations, camera_frame_weight
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
-#: The shipped camera-frame 3DPCNet (configs/pcnet_camera_posture.toml), body-frame 3DPCNet
-#: (configs/pcnet_body_posture.toml) and camera-frame 3DPCNet trained on handheld views
-#: (configs/pcnet_camera_handheld.toml); without ``weights`` pcnet runs them gated
-#: (:class:`ViewGatedPCNet`).
+#: The shipped camera-frame 3DPCNet (configs/pcnet_camera_posture.toml) and body-frame 3DPCNet
+#: (configs/pcnet_body_posture.toml); without ``weights`` pcnet runs both (:class:`ViewGatedPCNet`).
 CAMERA_WEIGHTS = WEIGHTS_DIR / "pcnet_camera.onnx"
 BODY_WEIGHTS = WEIGHTS_DIR / "pcnet_body.onnx"
-HANDHELD_WEIGHTS = WEIGHTS_DIR / "pcnet_camera_handheld.onnx"
 DEFAULT_WEIGHTS = CAMERA_WEIGHTS
 
 
@@ -101,36 +98,29 @@ class PCNetSession:
 
 
 class ViewGatedPCNet:
-    """The shipped three: the camera-frame 3DPCNet trained on the paper's views, the one
-    trained on handheld views and the body-frame 3DPCNet. The two camera-frame networks are
-    blended by :func:`pcnet.models.view_gate.level_view_weight` (the first for a level camera,
-    the second for one rolled about 5-20 deg), the result and the body-frame network by
+    """The shipped pair: the camera-frame and the body-frame 3DPCNet, blended per frame by
     :func:`pcnet.models.view_gate.camera_frame_weight` (camera-frame inside its training
     views, body-frame beyond them).
 
     ``predict(joints_cam, fps)`` as :meth:`PCNetSession.predict` (one recording per call:
-    the gate's running medians run over the frames in order); ``predict_gated`` also returns
-    the camera-frame weight ``(N,)``, the handheld-view network's share of the camera-frame
-    side ``(N,)`` (``1 - level_view_weight``) and the angle between the camera-frame side's and
-    the body-frame network's up directions ``(N,)`` in degrees (each NaN where not valid), a
-    per-frame sign of poses unlike the training data
-    (:func:`pcnet.stages.uncertainty.frame_tilt_bound`). ``info`` is the first camera-frame
-    weights' ``.json`` (all three were trained on the same split).
+    the gate's running median runs over the frames in order); ``predict_gated`` also returns
+    the camera-frame weight ``(N,)`` (NaN where not valid) and the angle between the two
+    networks' up directions ``(N,)`` in degrees (NaN where not valid), a per-frame sign of poses
+    unlike the training data (:func:`pcnet.stages.uncertainty.frame_tilt_bound`). ``info`` is the camera-frame
+    weights' ``.json`` (both were trained on the same split).
     """
 
     def __init__(self, threads: int = 0):
         self.camera = PCNetSession(CAMERA_WEIGHTS, threads)
-        self.handheld = PCNetSession(HANDHELD_WEIGHTS, threads)
         self.body = PCNetSession(BODY_WEIGHTS, threads)
         self.path, self.info = self.camera.path, self.camera.info
 
     def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0, allocate=None):
-        """``(R, residual, valid, camera-frame weight, handheld share, disagreement in deg)``;
-        ``joints_cam`` in memory or on disk, read :data:`CHUNK_FRAMES` frames at a time.
-        ``allocate(name, shape, dtype)`` makes the two ``(N, 17, 3)`` float64 residual arrays
-        (NaN-filled; default in memory; the pipeline's are on disk, so only the ``(N, 3, 3)``
-        rotations and per-frame values of a long recording are in memory). The handheld-view
-        network runs only on frames where it has weight."""
+        """``(R, residual, valid, camera-frame weight, disagreement in deg)``; ``joints_cam``
+        in memory or on disk, read :data:`CHUNK_FRAMES` frames at a time. ``allocate(name,
+        shape, dtype)`` makes the two ``(N, 17, 3)`` float64 residual arrays (NaN-filled;
+        default in memory; the pipeline's are on disk, so only the ``(N, 3, 3)`` rotations and
+        per-frame values of a long recording are in memory)."""
         n = len(check_poses(joints_cam, "joints_cam"))
         res_cam, res_body = ((allocate or in_memory)(name, (n, 17, 3), np.float64)
                              for name in ("residual", "residual_body"))
@@ -140,24 +130,13 @@ class ViewGatedPCNet:
             R_cam[rows], res_cam[rows], valid[rows] = self.camera.predict_normalized(*normalized)
             R_body[rows], res_body[rows], _ = self.body.predict_normalized(*normalized)
         weight = camera_frame_weight(R_body, valid, fps, R_cam)
-        handheld = 1.0 - level_view_weight(R_cam, valid, fps)
-        # Blended a block at a time into the camera-frame network's arrays (no further copy).
-        for rows in frame_blocks(n, CHUNK_FRAMES):
-            h = handheld[rows]
-            needed = valid[rows] & (h > 0) & (weight[rows] > 0)
-            if needed.any():
-                x, scale, _ = normalize_input(check_poses(joints_cam[rows], "joints_cam"))
-                R_hand, res_hand, _ = self.handheld.predict_normalized(x, scale, needed)
-                side = np.where(needed, h, 0.0)
-                R_cam[rows] = blend_rotations(R_cam[rows], np.where(needed[:, None, None], R_hand, R_cam[rows]), side)
-                res_cam[rows] = np.where(needed[:, None, None], (1 - side[:, None, None]) * res_cam[rows]
-                                         + side[:, None, None] * res_hand, res_cam[rows])
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
+        # Blended a block at a time into the camera-frame network's arrays (no third copy).
         for rows in frame_blocks(n, CHUNK_FRAMES):
             w = weight[rows, None, None]
             res_cam[rows] = w * res_cam[rows] + (1 - w) * res_body[rows]
             R_cam[rows] = blend_rotations(R_body[rows], R_cam[rows], weight[rows])
-        return R_cam, res_cam, valid, weight, handheld, disagreement
+        return R_cam, res_cam, valid, weight, disagreement
 
     def predict(self, joints_cam: np.ndarray, fps: float = 30.0):
         return self.predict_gated(joints_cam, fps)[:3]

@@ -31,16 +31,6 @@ rolled camera to both: the body-frame network answers, and in sequence mode the 
 weighs the lying reading (:mod:`pcnet.stages.gravity_prior`). Measured on motion capture:
 benchmarks/results/view_gate.txt (benchmarks/view_gate.py) and, against the two earlier
 releases' rules, benchmarks/results/view_gate_rule_*.txt (benchmarks/view_gate_rule.py).
-
-Between a level camera and the body-frame network's range (roughly 5-20 deg of roll, where
-handheld phones are) the camera-frame network's level-camera prior costs accuracy. A third
-3DPCNet, the camera-frame one trained by the same recipe on "handheld" views (roll N(0, 10)
-clip 30, configs/pcnet_camera_handheld.toml), takes the camera-frame side there: full weight
-from 6 deg of the shipped camera-frame network's own roll reading, none up to 3 deg
-(:func:`level_view_weight`). That network's reading, unlike the body-frame one's, does not
-take a leaning or bent body for a rolled camera, so level cameras keep the shipped network
-(held-out cost at a level camera at most 0.10 deg, gain 0.4-0.9 deg at 10-20 deg of roll:
-benchmarks/results/camera_views_*camera*.txt, benchmarks/camera_views.py).
 """
 
 from __future__ import annotations
@@ -61,10 +51,6 @@ PITCH_RAMP_DEG = (40.0, 50.0)
 #: own reading no longer vouches for it.
 BODY_READING_LIMIT_ROLL_DEG = (45.0, 60.0)
 BODY_READING_LIMIT_PITCH_DEG = (60.0, 75.0)
-#: Handheld-view network ramp on the shipped camera-frame network's roll reading (degrees):
-#: the shipped network alone up to the first value, the handheld-view network alone from the
-#: second; chosen on the motion-style validation split among 2-4, 3-6 and 4-8.
-LEVEL_RAMP_DEG = (3.0, 6.0)
 #: Running-median window of the camera reading, seconds.
 WINDOW_S = 2.0
 
@@ -126,29 +112,6 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
         vouched = (_ramp(roll_c, *roll_ramp_deg) * _ramp(pitch_c, *PITCH_RAMP_DEG)
                    * _ramp(roll_b, *BODY_READING_LIMIT_ROLL_DEG) * _ramp(pitch_b, *BODY_READING_LIMIT_PITCH_DEG))
         weight[idx] = np.maximum(weight[idx], vouched)
-    return weight
-
-
-def level_view_weight(R_camera_net: np.ndarray, valid: np.ndarray, fps: float = 30.0,
-                      level_ramp_deg: tuple[float, float] = LEVEL_RAMP_DEG) -> np.ndarray:
-    """Weight of the shipped (level-view) camera-frame network against the handheld-view one,
-    per frame, from the shipped network's own roll reading: a linear ramp over
-    ``level_ramp_deg`` of its running-median ``|roll|`` (:func:`camera_reading`; module docstring).
-
-    Args:
-        R_camera_net: ``(T, 3, 3)`` canonical->camera rotations of the shipped camera-frame
-            3DPCNet (docs/CONVENTIONS.md), NaN where not valid.
-        valid: ``(T,)`` bool, the frames with a rotation.
-        fps: frame rate (Hz) that sets the running-median window (:data:`WINDOW_S`).
-        level_ramp_deg: ``(full, none)`` roll reading in degrees (default :data:`LEVEL_RAMP_DEG`).
-
-    Returns:
-        ``(T,)`` float64 in [0, 1], 1 = the shipped network; NaN where not valid.
-    """
-    weight = np.full(len(valid), np.nan)
-    idx = np.flatnonzero(valid)
-    if len(idx):
-        weight[idx] = _ramp(camera_reading(R_camera_net[idx], window_frames(fps))[0], *level_ramp_deg)
     return weight
 
 

@@ -25,7 +25,7 @@ from pcnet.stages.uncertainty import FRAME_TILT_95_DEG
 
 @dataclass(frozen=True)
 class NetworkEstimator:
-    """3DPCNet as step 1 (:class:`pcnet.stages.rectify.FrameEstimator`): the shipped three gated
+    """3DPCNet as step 1 (:class:`pcnet.stages.rectify.FrameEstimator`): the shipped pair gated
     by camera orientation (:class:`pcnet.models.inference.ViewGatedPCNet`, ``weights=None``;
     ``fps`` sets the gate's window, one recording per call) or one network's ``weights``
     (``.onnx``). ``rigid`` drops the residual (method ``pcnet-rigid``: a rigid rotation of the
@@ -46,14 +46,14 @@ class NetworkEstimator:
         X = check_poses(joints_cam, "joints_cam")
         session = get_session(None if self.weights is None else str(self.weights))
         if self.weights is None:
-            R, residual, valid, gate, handheld, disagreement = session.predict_gated(X, fps, allocate)
+            R, residual, valid, gate, disagreement = session.predict_gated(X, fps, allocate)
         else:
             residual = (allocate or in_memory)("residual", X.shape, np.float64)
-            (R, residual, valid), gate, handheld, disagreement = session.predict(X, residual=residual), None, None, None
+            (R, residual, valid), gate, disagreement = session.predict(X, residual=residual), None, None
         if self.rigid:
             for rows in frame_blocks(len(valid)):
                 residual[rows] = np.where(valid[rows, None, None], 0.0, np.nan)
-        return FrameEstimate(R, residual, valid, gate, disagreement, handheld)
+        return FrameEstimate(R, residual, valid, gate, disagreement)
 
 
 def make_estimator(method: str = "pcnet", weights: str | None = None) -> FrameEstimator:

@@ -105,8 +105,8 @@ class RunResult:
         bound = np.asarray(self.report.get("frame_tilt_bound_deg", [base]), np.float64)
         bound = bound[np.isfinite(bound)]
         here = f"; this recording median {np.median(bound):.1f}, max {bound.max():.1f} deg" if len(bound) else ""
-        return [f"per-frame up      within {base:.1f} deg of the true up in 95 % of frames where the camera-frame "
-                f"and body-frame answers agree, {FRAME_TILT_95_BODY_DEG:.1f} where the body-frame network answers alone, more where they "
+        return [f"per-frame up      within {base:.1f} deg of the true up in 95 % of frames where the two networks "
+                f"agree, {FRAME_TILT_95_BODY_DEG:.1f} where the body-frame network answers alone, more where they "
                 f"disagree{here} (frame_tilt_bound_deg in canonical.npz; calibrated on held-out mocap with "
                 f"lifter-like noise; poses far from the training data excepted)"]
 

@@ -180,7 +180,7 @@ DISAGREEMENT_SHARE = 0.05
 
 
 def disagreement_flag(bound_deg: np.ndarray | None, base_deg: float) -> list[str]:
-    """A flag when the shipped networks' camera-frame and body-frame answers disagree so much on more than
+    """A flag when the shipped pair's two 3DPCNets disagree so much on more than
     :data:`DISAGREEMENT_SHARE` of the valid frames that their per-frame tilt bound
     (:func:`pcnet.stages.uncertainty.frame_tilt_bound`) is at least twice ``base_deg``: poses
     unlike the training data, where the per-frame up is least reliable (on DeepMimic the
@@ -200,7 +200,7 @@ def disagreement_flag(bound_deg: np.ndarray | None, base_deg: float) -> list[str
     wide = b >= 2.0 * base_deg
     if wide.mean() <= DISAGREEMENT_SHARE:
         return []
-    return [f"the camera-frame and body-frame 3DPCNets disagree on {int(wide.sum())} of {len(b)} frames ({100 * wide.mean():.0f} %) so much "
+    return [f"the two 3DPCNets disagree on {int(wide.sum())} of {len(b)} frames ({100 * wide.mean():.0f} %) so much "
             f"that their per-frame up bound is {2 * base_deg:.0f}-{b.max():.0f} deg (else {base_deg:.1f}): poses "
             f"unlike the training data, whose per-frame up is uncertain (frame_tilt_bound_deg in canonical.npz)"]
 

@@ -74,23 +74,16 @@ def check_method_weights(method: str, weights: str | None, source: str = "weight
                          f"which uses no weights")
 
 
-def gate_report(gate: np.ndarray | None, valid: np.ndarray, handheld: np.ndarray | None = None) -> dict | None:
-    """Summary of the camera-frame side's weights over the valid frames: its mean share, the
-    frames where the body-frame network alone (weight 0) or a blend ran, and (with
-    ``handheld``, the handheld-view network's share of the camera-frame side per frame) that
-    network's mean share of the answer and the frames where it answered at all; ``None`` when
-    one estimator ran."""
+def gate_report(gate: np.ndarray | None, valid: np.ndarray) -> dict | None:
+    """Summary of the camera-frame network's weights over the valid frames: its mean share
+    and the frames where the body-frame network alone (weight 0) or a blend ran; ``None``
+    when one estimator ran."""
     if gate is None:
         return None
     w = gate[valid]
-    report = {"camera_frame_share": float(np.mean(w)) if len(w) else float("nan"),
-              "body_frame_frames": int(np.sum(w == 0.0)), "blended_frames": int(np.sum((w > 0.0) & (w < 1.0))),
-              "frames": int(len(w))}
-    if handheld is not None:
-        h = w * handheld[valid]
-        report["handheld_share"] = float(np.mean(h)) if len(h) else float("nan")
-        report["handheld_frames"] = int(np.sum(h > 0.0))
-    return report
+    return {"camera_frame_share": float(np.mean(w)) if len(w) else float("nan"),
+            "body_frame_frames": int(np.sum(w == 0.0)), "blended_frames": int(np.sum((w > 0.0) & (w < 1.0))),
+            "frames": int(len(w))}
 
 
 def resolve_heading_source(method: str, heading: str | None) -> str:
@@ -114,18 +107,16 @@ class FrameEstimate:
     """Step 1's output for ``T`` frames: ``rotation`` ``(T, 3, 3)`` float64 canonical->camera,
     ``residual`` ``(T, 17, 3)`` the non-rigid correction in the canonical frame and the
     input's units (the paper's Delta; zeros for estimators without one), ``valid`` ``(T,)``
-    bool (NaN rotations where False), ``camera_frame_weight`` ``(T,)`` the shipped networks'
-    trust in their camera-frame side per frame (:mod:`pcnet.models.view_gate`) and
-    ``disagreement_deg`` ``(T,)`` the angle between its camera-frame side's and body-frame
-    network's ups, ``handheld_share`` ``(T,)`` the handheld-view network's share of the
-    camera-frame side (each ``None`` when one estimator ran)."""
+    bool (NaN rotations where False), ``camera_frame_weight`` ``(T,)`` the shipped pair's
+    trust in its camera-frame network per frame (:mod:`pcnet.models.view_gate`) and
+    ``disagreement_deg`` ``(T,)`` the angle between its two networks' ups (both ``None`` when
+    one estimator ran)."""
 
     rotation: np.ndarray
     residual: np.ndarray
     valid: np.ndarray
     camera_frame_weight: np.ndarray | None = None
     disagreement_deg: np.ndarray | None = None
-    handheld_share: np.ndarray | None = None
 
 
 class FrameEstimator(Protocol):
@@ -262,9 +253,9 @@ class SequenceEvidence:
 
 def frame_bound_and_weights(estimate: FrameEstimate, base_deg: float) -> tuple[np.ndarray, np.ndarray | None]:
     """Per-frame tilt bound ``(T,)`` (deg; :func:`pcnet.stages.uncertainty.frame_tilt_bound`, widened
-    where the shipped networks' camera-frame and body-frame answers disagree; ``base_deg`` throughout for one estimator) and
+    where the shipped pair's networks disagree; ``base_deg`` throughout for one estimator) and
     the frames' weights in sequence mode's up: inverse variance from that bound
-    (:func:`pcnet.stages.uncertainty.bound_weights`), so frames those answers disagree on
+    (:func:`pcnet.stages.uncertainty.bound_weights`), so frames the two networks disagree on
     count less; ``None`` (equal weights) without a calibrated bound or a second network."""
     if estimate.disagreement_deg is None:
         return np.full(len(estimate.valid), base_deg), None
@@ -295,10 +286,10 @@ class Rectification:
 
     Calling it with ``joints_cam`` ``(T, 17, 3)`` (camera frame, any unit, NaN = missing) and
     ``fps`` returns :class:`Rectified`; its report holds the sequence and heading reports,
-    ``view_gate`` (:func:`gate_report`), ``camera_frame_weight`` ``(T,)`` (the shipped networks
+    ``view_gate`` (:func:`gate_report`), ``camera_frame_weight`` ``(T,)`` (the shipped pair
     only), ``frame_tilt_95_deg`` (the estimator's calibrated per-frame bound where nothing
     widens it, NaN when uncalibrated) and ``frame_tilt_bound_deg`` ``(T,)`` (per frame, widened
-    where the camera-frame and body-frame answers disagree, :func:`pcnet.stages.uncertainty.frame_tilt_bound`;
+    where the pair's networks disagree, :func:`pcnet.stages.uncertainty.frame_tilt_bound`;
     NaN where not valid or uncalibrated). Input rules (dtype, the pelvis from the hips) are the
     caller's: :func:`pcnet.pipeline.rectification.rectify`.
 
@@ -323,7 +314,7 @@ class Rectification:
         report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)
-        report["view_gate"] = gate_report(gate, valid, estimate.handheld_share)
+        report["view_gate"] = gate_report(gate, valid)
         if gate is not None:
             report["camera_frame_weight"] = np.where(valid, gate, np.nan)
         report["frame_tilt_95_deg"] = base

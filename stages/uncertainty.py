@@ -16,8 +16,7 @@ with the shipped view-gate rule on 2026-11-23: the same constants; re-run with t
 weighted by the per-frame bound, :func:`bound_weights`, on 2026-11-23: pitch 3.46 -> 3.44, roll
 1.15 -> 1.12; re-run with errors divided by each clip-view's :func:`evidence_scale` on
 2026-11-24: pitch 3.18, roll 1.02; re-run for the posture-augmented release's weights on
-2026-11-24: pitch 3.24, roll 1.34; re-run for release 5's three networks on 2026-11-25:
-pitch 3.26, roll 1.37): the
+2026-11-24: pitch 3.24, roll 1.34): the
 motion-style *validation* split (Bandai validation groups and CMU validation subjects 12, 60,
 206 clips; the shipped weights trained on the train split only) x seeds 0, 1, 2 = 618
 clip-views, each a static "paper" camera with lifter-like noise
@@ -29,16 +28,15 @@ Per axis, ``s_i = sqrt(max(e_i^2 - b_i^2, 0)) / (Z r_i)`` (signed error ``e``, b
 half-width ``b``, ``r`` the clip-view's :func:`evidence_scale`: 1.05 median, 1.33 at most on
 these clips), and ``SIGMA_SYS_DEG`` is the conformal 95 % quantile of ``s_i``: the interval
 ``sqrt(b^2 + (Z SIGMA_SYS_DEG r)^2)`` then covers 95 % of those clip-views per axis, and is
-wider where the camera-frame and body-frame answers disagree over the whole recording (a pose unlike the training
+wider where the two networks disagree over the whole recording (a pose unlike the training
 data; a seated lotus reaches ``r`` = 3-4).
 
-Per frame (:func:`frame_tilt_bound`): the shipped networks answer from two input frames (the
-camera-frame side, the body-frame network; :mod:`pcnet.models.view_gate`), and where they
+Per frame (:func:`frame_tilt_bound`): the shipped pair runs two 3DPCNets, and where they
 disagree the pose is unlike what they learnt (on DeepMimic the tenth of frames with the largest
 disagreement hold most of the large errors). The bound is
 ``w sqrt(FRAME_TILT_95_DEG^2 + (FRAME_DISAGREEMENT_FACTOR d)^2) + (1 - w) FRAME_TILT_95_BODY_DEG``,
 ``d`` the angle between
-the camera-frame side's and the body-frame network's ups and ``w`` the camera-frame side's weight (a rolled camera, ``w = 0``,
+the two networks' ups and ``w`` the camera-frame network's weight (a rolled camera, ``w = 0``,
 puts the camera-frame network outside its views, so its disagreement says nothing about the
 pose; there the body-frame network answers and its own bound ``FRAME_TILT_95_BODY_DEG``
 applies, the conformal 95 % quantile of its per-frame tilt errors on the same clips, valid
@@ -68,13 +66,13 @@ import numpy as np
 Z = 1.96
 
 #: Per-axis systematic (per-clip) error of the sequence up, degrees; see the module docstring.
-SIGMA_SYS_DEG = {"pitch": 3.26, "roll": 1.37}
+SIGMA_SYS_DEG = {"pitch": 3.24, "roll": 1.34}
 
-#: Per-frame tilt bound (deg) where the camera-frame and body-frame answers agree: the base of :func:`frame_tilt_bound`
+#: Per-frame tilt bound (deg) where the two networks agree: the base of :func:`frame_tilt_bound`
 #: (module docstring; ``python benchmarks/calibrate_frame_bound.py --data ../shared/data``,
 #: ``benchmarks/results/frame_bound.txt``).
-FRAME_TILT_95_DEG = 7.54
-#: How much of the camera-frame and body-frame answers' disagreement (deg) is added to the per-frame bound.
+FRAME_TILT_95_DEG = 7.40
+#: How much of the two networks' disagreement (deg) is added to the per-frame bound.
 FRAME_DISAGREEMENT_FACTOR = 1.50
 #: Per-frame tilt bound (deg) of the body-frame network alone, which answers where the view gate
 #: sets the camera-frame network aside (``w = 0``: a rolled camera, a body across the image).
@@ -123,7 +121,7 @@ def evidence_scale(bound_deg, base_deg: float = FRAME_TILT_95_DEG) -> float:
     ``r = sum_t w_t (b_t / base) / sum_t w_t`` with the sequence mode's frame weights
     ``w_t = (base / b_t)^2`` (:func:`bound_weights`), i.e. the mean per-frame bound
     :func:`frame_tilt_bound` ``b_t`` relative to ``base``, over the frames as the up weighs
-    them. Where the camera-frame and body-frame answers agree ``r`` is 1; a recording of poses unlike the training
+    them. Where the two networks agree ``r`` is 1; a recording of poses unlike the training
     data (the networks disagree on every frame) gets ``r`` > 1, and since one static pose
     errs the same way in every frame, its sequence error grows with the per-frame one rather
     than averaging out. ``SIGMA_SYS_DEG`` is calibrated on errors divided by ``r``
@@ -147,15 +145,15 @@ def evidence_scale(bound_deg, base_deg: float = FRAME_TILT_95_DEG) -> float:
 
 def frame_tilt_bound(disagreement_deg, camera_frame_weight, base_deg: float = FRAME_TILT_95_DEG,
                      factor: float = FRAME_DISAGREEMENT_FACTOR, body_deg: float = FRAME_TILT_95_BODY_DEG) -> np.ndarray:
-    """Per-frame 95 % bound on the tilt error of the shipped networks' up, degrees:
+    """Per-frame 95 % bound on the tilt error of the shipped pair's up, degrees:
     ``w sqrt(base^2 + (factor d)^2) + (1 - w) body`` (module docstring for the calibration): the
-    camera-frame side's bound, widened by its disagreement ``d`` with the body-frame network, where the gate
+    camera-frame network's bound, widened by the two networks' disagreement ``d``, where the gate
     trusts it (``w = 1``), the body-frame network's own bound where it answers alone
     (``w = 0``), in between for blended frames.
 
     Args:
-        disagreement_deg: ``(T,)`` angle between the camera-frame side's and the body-frame
-            network's up directions, degrees (NaN = invalid frame, bound NaN).
+        disagreement_deg: ``(T,)`` angle between the camera-frame and body-frame networks' up
+            directions, degrees (NaN = invalid frame, bound NaN).
         camera_frame_weight: ``(T,)`` the view gate's weight ``w`` in [0, 1]
             (:func:`pcnet.models.view_gate.camera_frame_weight`).
         base_deg, factor, body_deg: overrides of :data:`FRAME_TILT_95_DEG`,
@@ -172,7 +170,7 @@ def frame_tilt_bound(disagreement_deg, camera_frame_weight, base_deg: float = FR
 def bound_weights(bound_deg, base_deg: float = FRAME_TILT_95_DEG) -> np.ndarray:
     """Per-frame weights of sequence mode's up from the per-frame tilt bound:
     ``(base_deg / bound)^2``, inverse variance when the bound is proportional to each frame's
-    error std, so frames where the camera-frame and body-frame answers disagree (poses unlike the training data)
+    error std, so frames where the two networks disagree (poses unlike the training data)
     count less; 0 where the bound is not finite (invalid frames).
 
     Args:

@@ -100,7 +100,7 @@ def test_frame_mode_summary_prints_the_calibrated_per_frame_bound(tmp_path):
     args = ["run", "--lifter", "videopose3d", "--lifter-output", src, "--fps", "30", "--no-recording"]
     res = CliRunner().invoke(main, [*args, "--mode", "frame", "--out", str(tmp_path / "f")])
     assert res.exit_code == 0, res.output
-    assert f"within {FRAME_TILT_95_DEG:.1f} deg of the true up in 95 % of frames where the camera-frame and body-frame answers agree" in res.output
+    assert f"within {FRAME_TILT_95_DEG:.1f} deg of the true up in 95 % of frames where the two networks agree" in res.output
     with np.load(tmp_path / "f" / "canonical.npz") as npz:
         bound, valid = npz["frame_tilt_bound_deg"], npz["valid"]
     assert bound.shape == valid.shape and np.isfinite(bound[valid]).all() and np.isnan(bound[~valid]).all()

@@ -1,4 +1,4 @@
-"""The view gate between the shipped camera-frame, handheld-view and body-frame 3DPCNets (models/view_gate.py)."""
+"""The view gate between the shipped camera-frame and body-frame 3DPCNets (models/view_gate.py)."""
 
 from __future__ import annotations
 
@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 from conftest import FIXTURES
 
-from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, HANDHELD_WEIGHTS, PCNetSession, ViewGatedPCNet
-from pcnet.models.view_gate import (BODY_READING_LIMIT_PITCH_DEG, BODY_READING_LIMIT_ROLL_DEG, LEVEL_RAMP_DEG,
-                                    PITCH_RAMP_DEG, ROLL_RAMP_DEG, blend_rotations, camera_frame_weight,
-                                    level_view_weight)
+from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
+from pcnet.models.view_gate import (BODY_READING_LIMIT_PITCH_DEG, BODY_READING_LIMIT_ROLL_DEG, PITCH_RAMP_DEG,
+                                    ROLL_RAMP_DEG, blend_rotations, camera_frame_weight)
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.flags import view_gate_flag
 from pcnet.pipeline.rectification import rectify
@@ -37,20 +36,6 @@ def test_weight_follows_the_camera_reading_through_the_ramps():
     assert camera_frame_weight(_cameras(0.0, [180.0]), ones)[0] == 0.0
     assert camera_frame_weight(_cameras([-np.mean(PITCH_RAMP_DEG)], 0.0), ones)[0] == pytest.approx(0.5)
     assert camera_frame_weight(_cameras([PITCH_RAMP_DEG[1] + 1], 0.0), ones)[0] == 0.0
-
-
-def test_the_level_view_weight_ramps_down_with_the_camera_frame_networks_roll_reading():
-    ones = np.ones(1, bool)
-    assert level_view_weight(_cameras(20.0, [0.0]), ones)[0] == 1.0  # pitch does not matter
-    assert level_view_weight(_cameras(0.0, [-LEVEL_RAMP_DEG[0]]), ones)[0] == pytest.approx(1.0)
-    assert level_view_weight(_cameras(0.0, [np.mean(LEVEL_RAMP_DEG)]), ones)[0] == pytest.approx(0.5)
-    assert level_view_weight(_cameras(0.0, [-LEVEL_RAMP_DEG[1]]), ones)[0] == pytest.approx(0.0)
-    assert level_view_weight(_cameras(0.0, [90.0]), ones)[0] == 0.0
-    # A running median: one frame read as rolled among level ones changes nothing.
-    readings = _cameras(0.0, [0.0, 0.0, 15.0, 0.0, 0.0])
-    np.testing.assert_array_equal(level_view_weight(readings, np.ones(5, bool), fps=2.0), 1.0)
-    gaps = level_view_weight(readings, np.array([True, False, True, True, True]))
-    assert np.isnan(gaps[1]) and np.isfinite(gaps[[0, 2, 3, 4]]).all()
 
 
 def test_a_level_camera_reading_vouches_for_the_camera_frame_network_unless_the_body_reading_is_far_out():
@@ -113,39 +98,18 @@ def test_shipped_pair_uses_the_camera_network_for_a_level_camera_and_the_body_ne
     X = _real_standing()
     gated = ViewGatedPCNet()
     assert gated.camera.path == CAMERA_WEIGHTS and gated.body.path == BODY_WEIGHTS
-    R0, _, valid0, w0, h0, d0 = gated.predict_gated(X)
-    assert valid0.all() and (w0 == 1.0).all() and (h0 == 0.0).all()
+    R0, _, valid0, w0, d0 = gated.predict_gated(X)
+    assert valid0.all() and (w0 == 1.0).all()
     np.testing.assert_allclose(R0, PCNetSession(CAMERA_WEIGHTS).predict(X)[0], atol=1e-6)
     body0 = PCNetSession(BODY_WEIGHTS).predict(X)[0]
     # The disagreement is the angle between the two networks' ups (the per-frame bound's input).
     np.testing.assert_allclose(d0, np.degrees(angle_between(R0[:, :, 1], body0[:, :, 1])), atol=1e-4)
     for roll in (90.0, 180.0):
         Q = axis_rotation("z", np.radians(roll))
-        R, residual, valid, w, _, _ = gated.predict_gated(X @ Q.T)
+        R, residual, valid, w, _ = gated.predict_gated(X @ Q.T)
         assert (w == 0.0).all()
         np.testing.assert_allclose(R, Q @ body0, atol=1e-4)  # equivariant: the up turns with the camera
         assert np.isfinite(residual).all()
-
-
-def test_a_handheld_roll_hands_the_camera_frame_side_to_the_handheld_view_network():
-    """The same real standing poses seen by a camera rolled 12 deg (a phone held by hand):
-    the shipped camera-frame network reads the roll, so the handheld-view network takes the
-    camera-frame side, blended with the body-frame network by the unchanged gate weight."""
-    Q = axis_rotation("z", np.radians(12.0))
-    X = _real_standing() @ Q.T
-    gated = ViewGatedPCNet()
-    assert gated.handheld.path == HANDHELD_WEIGHTS
-    R, residual, valid, w, h, d = gated.predict_gated(X)
-    R_cam, R_body = PCNetSession(CAMERA_WEIGHTS).predict(X)[0], PCNetSession(BODY_WEIGHTS).predict(X)[0]
-    R_hand, res_hand, _ = PCNetSession(HANDHELD_WEIGHTS).predict(X)
-    assert valid.all() and (h == 1.0).all() and (w > 0).all()
-    np.testing.assert_allclose(w, camera_frame_weight(R_body, valid, 30.0, R_cam))
-    np.testing.assert_allclose(R, blend_rotations(R_body, R_hand, w), atol=1e-6)
-    np.testing.assert_allclose(d, np.degrees(angle_between(R_hand[:, :, 1], R_body[:, :, 1])), atol=1e-4)
-    res_body = PCNetSession(BODY_WEIGHTS).predict(X)[1]
-    np.testing.assert_allclose(residual, w[:, None, None] * res_hand + (1 - w[:, None, None]) * res_body, atol=1e-6)
-    report = rectify(X, "pcnet").report["view_gate"]
-    assert report["handheld_frames"] == 100 and report["handheld_share"] == pytest.approx(np.mean(w))
 
 
 def test_lying_body_goes_to_the_body_network_and_is_flagged():
