@@ -3,7 +3,7 @@ shipped body-frame network, per camera roll: does a camera-frame network that tr
 rolled cameras stay the more accurate one further from level?
 
     python benchmarks/camera_views.py CANDIDATE.onnx --data ../shared/data --split val \
-        [--ramps 10,20 20,30] [--level-ramps 3,8] [--level-reading body] [--stride 3]
+        [--ramps 10,20 20,30] [--level-ramps 3,8] [--level-reading body] [--ensemble] [--stride 3]
 
 Protocol of benchmarks/view_gate.py and view_gate_rule.py: each clip one recording, the
 paper's camera distribution (a new camera every frame, docs/CONVENTIONS.md) rolled about the
@@ -15,7 +15,9 @@ shipped ramp is 10-20 deg). ``--level-ramps a,b`` adds three-network rows: the s
 decides between the camera-frame side and the body-frame network, and on the camera-frame
 side the shipped network answers while the body-frame network (``--level-reading camera``: the
 shipped camera-frame network) reads under ``a`` deg of roll (its running median, as the gate's),
-the candidate from ``b`` deg, blended between. ``--split val`` is where a ramp may be chosen (the training mix's
+the candidate from ``b`` deg, blended between. ``--ensemble`` adds the two camera-frame
+networks' mean (the geodesic midpoint of their rotations, :func:`blend_rotations` at 0.5; for a
+candidate that is another seed of the shipped recipe), alone and gated. ``--split val`` is where a ramp may be chosen (the training mix's
 motion-style validation split); ``test`` (the training mix's test split), ``cmu-test`` and
 ``deepmimic`` are held out.
 """
@@ -52,11 +54,12 @@ def load_clips(data: Path, split: str):
 
 def tilt_by_estimator(clips, lifter: bool, stride: int, cameras: dict, body: PCNetSession,
                       ramps: list[tuple[float, float]], level_ramps: list[tuple[float, float]] = (),
-                      level_reading: str = "body") -> dict:
+                      level_reading: str = "body", ensemble: bool = False) -> dict:
     """``{(row, roll): (sum of tilt errors deg, frames)}``: each camera-frame network alone
     (row = its label) and gated with ``body`` under each ramp (row = ``label, ramp a-b``);
     with ``level_ramps`` the three-network rows of the module docstring (``cameras`` holds the
-    shipped network first, the candidate second), on ``level_reading``'s roll reading."""
+    shipped network first, the candidate second), on ``level_reading``'s roll reading; with
+    ``ensemble`` the two camera-frame networks' mean alone and gated."""
     sums: dict = {}
 
     def add(row, roll, R, up, valid):
@@ -79,6 +82,12 @@ def tilt_by_estimator(clips, lifter: bool, stride: int, cameras: dict, body: PCN
                 add(f"{label} + body, ramp {ramp[0]:g}-{ramp[1]:g}", roll, blend_rotations(R_body, R_cam, w), up, both)
         (R_ship, ok_ship), (R_cand, ok_cand) = answers.values()
         both = ok_ship & ok_cand
+        if ensemble and both.any():
+            R_mean = blend_rotations(R_ship, R_cand, np.full(len(both), 0.5))
+            add("mean of the two alone", roll, R_mean, up, both)
+            for ramp in ramps:
+                w = camera_frame_weight(R_body, both, fps, R_mean, roll_ramp_deg=ramp)
+                add(f"mean of the two + body, ramp {ramp[0]:g}-{ramp[1]:g}", roll, blend_rotations(R_body, R_mean, w), up, both)
         if level_ramps and both.any():
             w_cam = camera_frame_weight(R_body, both, fps, R_ship)
             reading = np.full(len(both), np.nan)
@@ -101,6 +110,7 @@ def main() -> None:
     ap.add_argument("--level-ramps", nargs="*", default=[], help="three-network rows: roll ramps a,b (deg)")
     ap.add_argument("--level-reading", choices=("body", "camera"), default="body",
                     help="whose roll reading the three-network rows' ramp reads")
+    ap.add_argument("--ensemble", action="store_true", help="rows of the two camera-frame networks' mean")
     ap.add_argument("--stride", type=int, default=3)
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
@@ -112,11 +122,12 @@ def main() -> None:
     command = (f"    python benchmarks/camera_views.py {args.candidate} --data {args.data} --split {args.split} "
                f"--ramps {' '.join(args.ramps)} "
                + (f"--level-ramps {' '.join(args.level_ramps)} --level-reading {args.level_reading} "
-                  if args.level_ramps else "") + f"--stride {args.stride}")
+                  if args.level_ramps else "") + ("--ensemble " if args.ensemble else "") + f"--stride {args.stride}")
     lines = [command, "", f"candidate: {args.candidate}; mean per-frame tilt error (deg) per camera roll, "
                           f"{len(clips)} clips, every {args.stride}th frame", ""]
     for lifter in (False, True):
-        sums = tilt_by_estimator(clips, lifter, args.stride, cameras, body, ramps, level_ramps, args.level_reading)
+        sums = tilt_by_estimator(clips, lifter, args.stride, cameras, body, ramps, level_ramps, args.level_reading,
+                                 args.ensemble)
         rows = sorted({row for row, _ in sums}, key=lambda r: (not r.startswith("body"), r))
         width = max(len(r) for r in rows) + 2
         lines.append(f"{'noise ' + ('lifter' if lifter else 'clean'):<{width}}" + "".join(f"{r:>8}" for r in ROLLS_DEG))
