@@ -137,7 +137,9 @@ def truth(spec: dict, default_focal: float | None, rng: np.random.Generator) -> 
     """Point estimate, bootstrap intervals and (without orthogonal pairs) focal sensitivity."""
     centre = np.array([spec["width"], spec["height"]], np.float64) / 2
     used = set([spec["up_from"]] if spec["up_from"] == "vertical" else spec["horizon"]) | set(spec["focal_from"] or ())
-    groups = {g: np.array(spec["groups"][g]["segments"], np.float64) for g in used}
+    # Sorted: a set's order follows Python's per-process string hashing, and the bootstrap
+    # draws from the groups in this order.
+    groups = {g: np.array(spec["groups"][g]["segments"], np.float64) for g in sorted(used)}
     focal = None if spec["focal_from"] else default_focal
     up, f = true_up(spec, groups, centre, focal)
     boot = []

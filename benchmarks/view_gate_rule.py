@@ -8,8 +8,10 @@ from 30 / 50, linear between):
 - release 1, body reading: w = in(body-frame reading);
 - release 2, both readings: w = max(in(body), in(camera-frame reading) * near(body)), near =
   1 below 45 deg roll / 60 deg pitch of the body-frame reading, 0 from 60 / 75;
-- shipped: models/view_gate.py: camera_frame_weight, release 2 with both readings' roll
-  ramp at 10-20 deg (in(x) = 1 up to 10 deg roll, 0 from 20).
+- release 4, roll 10-20: models/view_gate.py: camera_frame_weight, release 2 with both
+  readings' roll ramp at 10-20 deg (in(x) = 1 up to 10 deg roll, 0 from 20);
+- shipped: that rule in the camera frame turned back by the quarter turns the body-frame
+  network reads (models/view_gate.py: quarter_turns; ViewGatedPCNet.predict_gated).
 
 `--split val` (default) is the motion-style validation split of the training mix (Bandai
 validation groups, CMU subjects 12 and 60), on which the rules and their limits were chosen;
@@ -36,7 +38,7 @@ from pcnet.stages.core.rotations import angle_between
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 ROLLS_DEG = (0, 15, 30, 45, 60, 90, 180)
 RULES = ("camera-frame alone", "body-frame alone", "release 1: body reading", "release 2: both readings",
-         "shipped")
+         "release 4: roll 10-20", "shipped: quarter turns")
 
 
 #: The roll ramp (deg) of releases 1 and 2.
@@ -53,7 +55,8 @@ def tilt_by_rule(clips, lifter: bool, stride: int, pair: ViewGatedPCNet) -> dict
         w1 = camera_frame_weight(R_body, valid, fps, roll_ramp_deg=EARLIER_ROLL_RAMP_DEG)
         w2 = camera_frame_weight(R_body, valid, fps, R_cam, roll_ramp_deg=EARLIER_ROLL_RAMP_DEG)
         estimates = (R_cam, R_body, blend_rotations(R_body, R_cam, w1), blend_rotations(R_body, R_cam, w2),
-                     blend_rotations(R_body, R_cam, camera_frame_weight(R_body, valid, fps, R_cam)))
+                     blend_rotations(R_body, R_cam, camera_frame_weight(R_body, valid, fps, R_cam)),
+                     pair.predict_gated(X, fps)[0])
         for rule, R in zip(RULES, estimates):
             e = np.degrees(angle_between(R[valid][:, :, 1], up[valid]))
             s, n = sums.get((rule, roll), (0.0, 0))

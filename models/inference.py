@@ -17,7 +17,7 @@ from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.core.rotations import angle_between
 
 from .preprocess import normalize_input
-from .view_gate import blend_rotations, camera_frame_weight
+from .view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices, quarter_turns
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
 #: The shipped camera-frame 3DPCNet (configs/pcnet_camera_posture.toml) and body-frame 3DPCNet
@@ -100,7 +100,9 @@ class PCNetSession:
 class ViewGatedPCNet:
     """The shipped pair: the camera-frame and the body-frame 3DPCNet, blended per frame by
     :func:`pcnet.models.view_gate.camera_frame_weight` (camera-frame inside its training
-    views, body-frame beyond them).
+    views, body-frame beyond them), in the camera frame turned back by the quarter turns the
+    body-frame network reads (:func:`pcnet.models.view_gate.quarter_turns`: a portrait camera
+    is a level one for the camera-frame network).
 
     ``predict(joints_cam, fps)`` as :meth:`PCNetSession.predict` (one recording per call:
     the gate's running median runs over the frames in order); ``predict_gated`` also returns
@@ -116,27 +118,41 @@ class ViewGatedPCNet:
         self.path, self.info = self.camera.path, self.camera.info
 
     def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0, allocate=None):
-        """``(R, residual, valid, camera-frame weight, disagreement in deg)``; ``joints_cam``
-        in memory or on disk, read :data:`CHUNK_FRAMES` frames at a time. ``allocate(name,
-        shape, dtype)`` makes the two ``(N, 17, 3)`` float64 residual arrays (NaN-filled;
-        default in memory; the pipeline's are on disk, so only the ``(N, 3, 3)`` rotations and
-        per-frame values of a long recording are in memory)."""
+        """``(R, residual, valid, camera-frame weight, disagreement in deg, quarter turns)``;
+        ``joints_cam`` in memory or on disk, read :data:`CHUNK_FRAMES` frames at a time.
+        ``allocate(name, shape, dtype)`` makes the two ``(N, 17, 3)`` float64 residual arrays
+        (NaN-filled; default in memory; the pipeline's are on disk, so only the ``(N, 3, 3)``
+        rotations and per-frame values of a long recording are in memory). Quarter turns
+        ``(N,)`` int (0, 1 or 3, :func:`pcnet.models.view_gate.quarter_turns`): the camera-frame
+        network reads the poses turned back by that many quarter turns about the optical axis,
+        the gate reads both networks in that frame, and the answer is turned forward again."""
         n = len(check_poses(joints_cam, "joints_cam"))
         res_cam, res_body = ((allocate or in_memory)(name, (n, 17, 3), np.float64)
                              for name in ("residual", "residual_body"))
         R_cam, R_body, valid = np.full((n, 3, 3), np.nan), np.full((n, 3, 3), np.nan), np.zeros(n, bool)
-        for rows in frame_blocks(n, CHUNK_FRAMES):
-            normalized = normalize_input(check_poses(joints_cam[rows], "joints_cam"))  # both networks read it
-            R_cam[rows], res_cam[rows], valid[rows] = self.camera.predict_normalized(*normalized)
-            R_body[rows], res_body[rows], _ = self.body.predict_normalized(*normalized)
-        weight = camera_frame_weight(R_body, valid, fps, R_cam)
+        blocks = list(frame_blocks(n, CHUNK_FRAMES))
+        normalized = {}  # a short recording's one block is normalised once for both networks
+        for rows in blocks:
+            normalized[rows.start] = normalize_input(check_poses(joints_cam[rows], "joints_cam"))
+            R_body[rows], res_body[rows], valid[rows] = self.body.predict_normalized(*normalized[rows.start])
+            if len(blocks) > 1:
+                normalized.clear()
+        turns = quarter_turns(R_body, valid, fps)
+        Q = quarter_turn_matrices(turns)
+        for rows in blocks:
+            x, scale, ok = normalized.get(rows.start) or normalize_input(check_poses(joints_cam[rows], "joints_cam"))
+            x_turned = (x @ np.swapaxes(Q[rows], 1, 2)).astype(np.float32)  # normalisation is rotation-invariant
+            R_turned, res_cam[rows], _ = self.camera.predict_normalized(x_turned, scale, ok)
+            R_cam[rows] = np.swapaxes(Q[rows], 1, 2) @ R_turned
+        weight = camera_frame_weight(Q @ R_body, valid, fps, Q @ R_cam)
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
-        # Blended a block at a time into the camera-frame network's arrays (no third copy).
-        for rows in frame_blocks(n, CHUNK_FRAMES):
+        # Blended a block at a time into the camera-frame network's arrays (no third copy); the
+        # geodesic blend commutes with the turn, so it runs in the camera's own frame.
+        for rows in blocks:
             w = weight[rows, None, None]
             res_cam[rows] = w * res_cam[rows] + (1 - w) * res_body[rows]
             R_cam[rows] = blend_rotations(R_body[rows], R_cam[rows], weight[rows])
-        return R_cam, res_cam, valid, weight, disagreement
+        return R_cam, res_cam, valid, weight, disagreement, turns
 
     def predict(self, joints_cam: np.ndarray, fps: float = 30.0):
         return self.predict_gated(joints_cam, fps)[:3]

@@ -27,10 +27,24 @@ towards the level cameras it trained on), and from about 15 deg of roll it is le
 than the body-frame network (motion-style validation split, clean: 2.81 vs 2.20 deg at 15
 deg roll). With the earlier 20-30 deg range its own reading vouched for it at 30 deg of roll,
 where it is the worse network (benchmarks/results/view_gate_rule_*.txt). A body lying across the image reads as a
-rolled camera to both: the body-frame network answers, and in sequence mode the camera prior
-weighs the lying reading (:mod:`pcnet.stages.gravity_prior`). Measured on motion capture:
+camera rolled about a quarter turn to both: the camera-frame network answers for the poses
+turned back (below), reading the trunk as up as the body-frame network does, and in sequence
+mode the camera prior weighs the lying reading (:mod:`pcnet.stages.gravity_prior`). Measured on motion capture:
 benchmarks/results/view_gate.txt (benchmarks/view_gate.py) and, against the two earlier
 releases' rules, benchmarks/results/view_gate_rule_*.txt (benchmarks/view_gate_rule.py).
+
+A camera turned a quarter turn about its optical axis (a phone in portrait) is exactly a
+level camera whose image was turned: turning the poses back by 90 deg (:func:`quarter_turns`,
+from the body-frame network's signed roll reading) gives the camera-frame network the view it
+was trained on, and its answer turned forward again is the same as for the level camera,
+frame for frame. So the gate runs in that turned frame
+(:class:`pcnet.models.inference.ViewGatedPCNet`). Half turns are not taken: cameras are
+level or in portrait (the camera prior, :mod:`pcnet.stages.gravity_prior`), while a body that
+reads as upside down is far more often a body upside down or getting up from the floor, for
+which the camera-frame network's level-camera prior in the turned frame would make a wrong
+answer firmer (first built with half turns, DeepMimic's get-up-from-lying clip erred 164 deg
+median on those frames against the body-frame network's 145, and 64 of its frames lost their
+heading in sequence mode); the body-frame network answers a reading near 180 deg.
 """
 
 from __future__ import annotations
@@ -39,7 +53,7 @@ import numpy as np
 from scipy.ndimage import median_filter
 from scipy.spatial.transform import Rotation
 
-from pcnet.stages.core.rotations import decompose_camera_rotation
+from pcnet.stages.core.rotations import axis_rotation, decompose_camera_rotation
 
 #: Camera-frame network weight ramps (degrees): full weight up to the first value, none from
 #: the second on. Pitch: centred on the edge of the training views (|pitch| 45). Roll: where
@@ -113,6 +127,45 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
                    * _ramp(roll_b, *BODY_READING_LIMIT_ROLL_DEG) * _ramp(pitch_b, *BODY_READING_LIMIT_PITCH_DEG))
         weight[idx] = np.maximum(weight[idx], vouched)
     return weight
+
+
+def quarter_turns(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0) -> np.ndarray:
+    """Quarter turns ``k`` (0, 1 or 3) of the camera about its optical axis per frame: the
+    multiple of 90 deg nearest the body-frame network's signed roll reading, 0 where that is
+    180 deg (module docstring: no half turns; roll of
+    :func:`pcnet.stages.core.rotations.decompose_camera_rotation`; its cosine and sine each
+    median-filtered over :func:`window_frames` valid frames in order, so a few hard poses do not
+    turn the frame while a phone turned during the recording does).
+
+    Args:
+        R_body_net: ``(T, 3, 3)`` canonical->camera rotations of the body-frame 3DPCNet
+            (docs/CONVENTIONS.md), NaN where not valid.
+        valid: ``(T,)`` bool.
+        fps: frame rate (Hz) of the window.
+
+    Returns:
+        ``(T,)`` int64 in {0, 1, 3}, 0 where not valid. :func:`quarter_turn_matrices` of ``k``
+        turns the camera back: ``X' = X @ Q_k.T`` is level within 45 deg of roll, or (no half
+        turn) upside down within 45 deg.
+    """
+    k = np.zeros(len(valid), np.int64)
+    idx = np.flatnonzero(valid)
+    if len(idx):
+        roll = decompose_camera_rotation(R_body_net[idx])[2]
+        size = window_frames(fps)
+        c = median_filter(np.cos(roll), size=size, mode="nearest")
+        s = median_filter(np.sin(roll), size=size, mode="nearest")
+        k[idx] = np.round(np.arctan2(s, c) / (np.pi / 2)).astype(np.int64) % 4
+    k[k == 2] = 0
+    return k
+
+
+def quarter_turn_matrices(k: np.ndarray) -> np.ndarray:
+    """``(T, 3, 3)`` rotations about the camera's optical axis (+z) by ``-90 k`` deg: applied to a
+    camera frame turned by ``k`` quarter turns (``X' = X @ Q.T``, ``R' = Q R``), they turn it back."""
+    # Rounded so that the turn is exact: a quarter-turned camera then gives bit-for-bit the
+    # level camera's input.
+    return np.rint(axis_rotation("z", -np.pi / 2 * np.asarray(k, np.float64)))
 
 
 def blend_rotations(R_body: np.ndarray, R_camera: np.ndarray, weight: np.ndarray) -> np.ndarray:

@@ -158,18 +158,27 @@ OUTSIDE_VIEWS_SHARE = 0.05
 
 
 def view_gate_flag(view_gate: dict | None) -> list[str]:
-    """A flag when the shipped camera-frame 3DPCNet was (partly) set aside for the
-    body-frame one (:func:`pcnet.stages.rectify.gate_report`) on more than
-    :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the camera read as rolled beyond
-    25 deg or pitched beyond 45 deg, or a body whose trunk is far from the image's vertical.
-    ``None`` (one estimator ran) gives none."""
+    """Flags from the view gate's report (:func:`pcnet.stages.rectify.gate_report`), each
+    when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the camera
+    read as turned by 90 or 270 deg about its optical axis (the camera-frame network read
+    the poses turned back), and the camera-frame 3DPCNet (partly) set aside for the body-frame
+    one (the remaining roll beyond 10-20 deg or pitch beyond 45 deg, or a body whose trunk is
+    far from the image's vertical). ``None`` (one estimator ran) gives none."""
     if not view_gate or not view_gate["frames"]:
         return []
+    flags = []
+    turned = view_gate.get("turned_frames", {})
+    if sum(turned.values()) > OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
+        counts = ", ".join(f"{deg} deg: {n}" for deg, n in turned.items() if n)
+        flags.append(f"camera read as turned a quarter turn about its optical axis (a phone in portrait, or a body "
+                     f"lying across the image) in {sum(turned.values())} of {view_gate['frames']} frames "
+                     f"({counts}): the camera-frame network read those poses turned back (models/view_gate.py: "
+                     f"quarter_turns)")
     outside = view_gate["body_frame_frames"] + view_gate["blended_frames"]
     if outside <= OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
-        return []
-    return [f"camera outside the views the camera-frame network was trained on (roll beyond 25 deg or pitch beyond "
-            f"45 deg, or a body lying across the image) in {outside} of {view_gate['frames']} frames: the "
+        return flags
+    return flags + [f"camera outside the views the camera-frame network was trained on (roll beyond 25 deg or pitch beyond "
+            f"45 deg after any quarter turn, a camera or body upside down, or a body across the image) in {outside} of {view_gate['frames']} frames: the "
             f"rotation-equivariant body-frame network was used there ({view_gate['body_frame_frames']} frames alone, "
             f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)"]
 

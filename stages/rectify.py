@@ -74,16 +74,20 @@ def check_method_weights(method: str, weights: str | None, source: str = "weight
                          f"which uses no weights")
 
 
-def gate_report(gate: np.ndarray | None, valid: np.ndarray) -> dict | None:
-    """Summary of the camera-frame network's weights over the valid frames: its mean share
-    and the frames where the body-frame network alone (weight 0) or a blend ran; ``None``
-    when one estimator ran."""
+def gate_report(gate: np.ndarray | None, valid: np.ndarray, turns: np.ndarray | None = None) -> dict | None:
+    """Summary of the camera-frame network's weights over the valid frames: its mean share,
+    the frames where the body-frame network alone (weight 0) or a blend ran, and (with
+    ``turns``) the frames whose input the camera-frame network read turned back by 90 or 270
+    deg (``turned_frames``); ``None`` when one estimator ran."""
     if gate is None:
         return None
     w = gate[valid]
-    return {"camera_frame_share": float(np.mean(w)) if len(w) else float("nan"),
-            "body_frame_frames": int(np.sum(w == 0.0)), "blended_frames": int(np.sum((w > 0.0) & (w < 1.0))),
-            "frames": int(len(w))}
+    report = {"camera_frame_share": float(np.mean(w)) if len(w) else float("nan"),
+              "body_frame_frames": int(np.sum(w == 0.0)), "blended_frames": int(np.sum((w > 0.0) & (w < 1.0))),
+              "frames": int(len(w))}
+    if turns is not None:
+        report["turned_frames"] = {str(90 * k): int(np.sum(turns[valid] == k)) for k in (1, 3)}
+    return report
 
 
 def resolve_heading_source(method: str, heading: str | None) -> str:
@@ -109,14 +113,16 @@ class FrameEstimate:
     input's units (the paper's Delta; zeros for estimators without one), ``valid`` ``(T,)``
     bool (NaN rotations where False), ``camera_frame_weight`` ``(T,)`` the shipped pair's
     trust in its camera-frame network per frame (:mod:`pcnet.models.view_gate`) and
-    ``disagreement_deg`` ``(T,)`` the angle between its two networks' ups (both ``None`` when
-    one estimator ran)."""
+    ``disagreement_deg`` ``(T,)`` the angle between its two networks' ups and
+    ``quarter_turns`` ``(T,)`` int, the quarter turns about the optical axis the camera-frame
+    network's input was turned back by, 0, 1 or 3 (each ``None`` when one estimator ran)."""
 
     rotation: np.ndarray
     residual: np.ndarray
     valid: np.ndarray
     camera_frame_weight: np.ndarray | None = None
     disagreement_deg: np.ndarray | None = None
+    quarter_turns: np.ndarray | None = None
 
 
 class FrameEstimator(Protocol):
@@ -314,7 +320,7 @@ class Rectification:
         report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)
-        report["view_gate"] = gate_report(gate, valid)
+        report["view_gate"] = gate_report(gate, valid, estimate.quarter_turns)
         if gate is not None:
             report["camera_frame_weight"] = np.where(valid, gate, np.nan)
         report["frame_tilt_95_deg"] = base

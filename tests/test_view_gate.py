@@ -8,11 +8,13 @@ from conftest import FIXTURES
 
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
 from pcnet.models.view_gate import (BODY_READING_LIMIT_PITCH_DEG, BODY_READING_LIMIT_ROLL_DEG, PITCH_RAMP_DEG,
-                                    ROLL_RAMP_DEG, blend_rotations, camera_frame_weight)
+                                    ROLL_RAMP_DEG, blend_rotations, camera_frame_weight, quarter_turn_matrices,
+                                    quarter_turns)
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.flags import view_gate_flag
 from pcnet.pipeline.rectification import rectify
-from pcnet.stages.core.rotations import angle_between, axis_rotation, compose_camera_rotation, geodesic_angle
+from pcnet.stages.core.rotations import (angle_between, axis_rotation, compose_camera_rotation,
+                                        decompose_camera_rotation, geodesic_angle)
 
 
 def _cameras(pitch_deg, roll_deg) -> np.ndarray:
@@ -91,38 +93,64 @@ def test_blend_is_the_geodesic_between_the_two_rotations():
     assert np.isnan(blend_rotations(A, B, w)[2]).all() and np.isfinite(blend_rotations(A, B, w)[3]).all()
 
 
-def test_shipped_pair_uses_the_camera_network_for_a_level_camera_and_the_body_network_in_portrait():
+def test_shipped_pair_answers_a_portrait_camera_exactly_as_the_level_one_and_other_rolls_by_the_body_network():
     """Real VideoPose3D standing poses: under the lifter's own (near level) camera the gate
-    trusts the camera-frame network; rolled 90 deg (portrait) or 180 deg it hands over to
-    the body-frame network, whose answer turns exactly with the camera."""
+    trusts the camera-frame network; rolled 90 or 270 deg (portrait), the poses are turned
+    back for the camera-frame network, so the answer turns exactly with the camera; rolled 45
+    or 180 deg (no half turns) the body-frame network answers, which turns with the camera too."""
     X = _real_standing()
     gated = ViewGatedPCNet()
     assert gated.camera.path == CAMERA_WEIGHTS and gated.body.path == BODY_WEIGHTS
-    R0, _, valid0, w0, d0 = gated.predict_gated(X)
-    assert valid0.all() and (w0 == 1.0).all()
+    R0, res0, valid0, w0, d0, k0 = gated.predict_gated(X)
+    assert valid0.all() and (w0 == 1.0).all() and (k0 == 0).all()
     np.testing.assert_allclose(R0, PCNetSession(CAMERA_WEIGHTS).predict(X)[0], atol=1e-6)
     body0 = PCNetSession(BODY_WEIGHTS).predict(X)[0]
     # The disagreement is the angle between the two networks' ups (the per-frame bound's input).
     np.testing.assert_allclose(d0, np.degrees(angle_between(R0[:, :, 1], body0[:, :, 1])), atol=1e-4)
-    for roll in (90.0, 180.0):
+    for quarter in (1, 3):
+        Q = axis_rotation("z", np.radians(90.0 * quarter))
+        R, residual, valid, w, d, k = gated.predict_gated(X @ Q.T)
+        assert (k == quarter).all() and (w == 1.0).all()
+        np.testing.assert_allclose(R, Q @ R0, atol=1e-6)  # the level camera's answer, turned
+        np.testing.assert_allclose(residual, res0, atol=1e-6)  # canonical frame: unchanged
+        np.testing.assert_allclose(d, d0, atol=1e-3)
+    for roll in (45.0, 180.0):
         Q = axis_rotation("z", np.radians(roll))
-        R, residual, valid, w, _ = gated.predict_gated(X @ Q.T)
-        assert (w == 0.0).all()
+        R, residual, valid, w, _, k = gated.predict_gated(X @ Q.T)
+        assert (w == 0.0).all() and (k != 2).all()
         np.testing.assert_allclose(R, Q @ body0, atol=1e-4)  # equivariant: the up turns with the camera
         assert np.isfinite(residual).all()
 
 
-def test_lying_body_goes_to_the_body_network_and_is_flagged():
-    """Real VideoPose3D Shavasana (lying supine) under a level camera: the body-frame network
-    reads the trunk as up, the gate hands over to it, and the report says so; sequence mode
-    then reads the body as lying (stages/gravity_prior.py)."""
+def test_quarter_turns_follow_the_signed_roll_reading_and_turn_it_back():
+    ones = np.ones(1, bool)
+    for roll, k in ((0.0, 0), (40.0, 0), (50.0, 1), (-90.0, 3), (260.0, 3), (170.0, 0), (-170.0, 0)):
+        (got,) = quarter_turns(_cameras(10.0, [roll]), ones)
+        assert got == k, (roll, got)
+        turned_back = np.degrees(decompose_camera_rotation(quarter_turn_matrices(np.array([k])) @ _cameras(10.0, [roll]))[2][0])
+        assert min(abs(turned_back), 180.0 - abs(turned_back)) <= 45.0  # level, or upside down: no half turns
+    assert set(np.unique(quarter_turn_matrices(np.arange(4)))) <= {-1.0, 0.0, 1.0}  # exact turns
+    # A running median: one frame read as portrait among level ones does not turn the frame.
+    readings = _cameras(0.0, [0.0, 0.0, 90.0, 0.0, 0.0])
+    np.testing.assert_array_equal(quarter_turns(readings, np.ones(5, bool), fps=2.0), 0)
+    assert quarter_turns(readings, np.zeros(5, bool)).tolist() == [0] * 5
+
+
+def test_lying_body_reads_as_a_quarter_turned_camera_and_is_flagged():
+    """Real VideoPose3D Shavasana (lying supine) under a level camera: both networks read the
+    trunk as up, so the camera reads as turned a quarter turn, the report and a flag say so,
+    and sequence mode then reads the body as lying (stages/gravity_prior.py). A camera rolled
+    35 deg, nearer level than a quarter turn, goes to the body-frame network, flagged too."""
     X = np.load(FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy")
     res = rectify(X, "pcnet", mode="sequence")
     gate = res.report["view_gate"]
-    assert gate["camera_frame_share"] < 0.05 and gate["frames"] == 100
+    assert gate["frames"] == 100 and sum(gate["turned_frames"].values()) == 100
     assert res.report["gravity"]["reading"] == "lying"
     assert res.report["camera_frame_weight"].shape == (100,)
     (line,) = view_gate_flag(gate)
-    assert "body-frame network was used" in line and f"of {gate['frames']} frames" in line
+    assert "turned a quarter turn about its optical axis" in line and "in 100 of 100 frames" in line
     assert view_gate_flag(rectify(_real_standing(), "pcnet").report["view_gate"]) == []
+    rolled = rectify(_real_standing() @ axis_rotation("z", np.radians(35.0)).T, "pcnet").report["view_gate"]
+    (line,) = view_gate_flag(rolled)
+    assert "body-frame network was used" in line and f"in {rolled['frames']} of {rolled['frames']} frames" in line
     assert rectify(_real_standing(), "pcnet", weights=str(BODY_WEIGHTS)).report["view_gate"] is None
