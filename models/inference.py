@@ -131,20 +131,23 @@ class ViewGatedPCNet:
                              for name in ("residual", "residual_body"))
         R_cam, R_body, valid = np.full((n, 3, 3), np.nan), np.full((n, 3, 3), np.nan), np.zeros(n, bool)
         blocks = list(frame_blocks(n, CHUNK_FRAMES))
-        normalized = {}  # a short recording's one block is normalised once for both networks
         for rows in blocks:
-            normalized[rows.start] = normalize_input(check_poses(joints_cam[rows], "joints_cam"))
-            R_body[rows], res_body[rows], valid[rows] = self.body.predict_normalized(*normalized[rows.start])
-            if len(blocks) > 1:
-                normalized.clear()
+            normalized = normalize_input(check_poses(joints_cam[rows], "joints_cam"))
+            R_body[rows], res_body[rows], valid[rows] = self.body.predict_normalized(*normalized)
         turns = quarter_turns(R_body, valid, fps)
-        Q = quarter_turn_matrices(turns)
+        # Only a recording with turned frames pays for the turns (Q is exactly I elsewhere).
+        Q = quarter_turn_matrices(turns) if turns.any() else None
         for rows in blocks:
-            x, scale, ok = normalized.get(rows.start) or normalize_input(check_poses(joints_cam[rows], "joints_cam"))
-            x_turned = (x @ np.swapaxes(Q[rows], 1, 2)).astype(np.float32)  # normalisation is rotation-invariant
-            R_turned, res_cam[rows], _ = self.camera.predict_normalized(x_turned, scale, ok)
-            R_cam[rows] = np.swapaxes(Q[rows], 1, 2) @ R_turned
-        weight = camera_frame_weight(Q @ R_body, valid, fps, Q @ R_cam)
+            if len(blocks) > 1:  # a short recording's one block is normalised once for both networks
+                normalized = normalize_input(check_poses(joints_cam[rows], "joints_cam"))
+            x, scale, ok = normalized
+            if Q is not None:  # normalisation is rotation-invariant, so the normalised poses are turned
+                x = (x @ np.swapaxes(Q[rows], 1, 2)).astype(np.float32)
+            R_cam[rows], res_cam[rows], _ = self.camera.predict_normalized(x, scale, ok)
+            if Q is not None:
+                R_cam[rows] = np.swapaxes(Q[rows], 1, 2) @ R_cam[rows]
+        weight = (camera_frame_weight(R_body, valid, fps, R_cam) if Q is None
+                  else camera_frame_weight(Q @ R_body, valid, fps, Q @ R_cam))
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
         # Blended a block at a time into the camera-frame network's arrays (no third copy); the
         # geodesic blend commutes with the turn, so it runs in the camera's own frame.
