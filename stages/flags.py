@@ -162,7 +162,7 @@ def view_gate_flag(view_gate: dict | None) -> list[str]:
     when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the camera
     read as turned by 90 or 270 deg about its optical axis (the camera-frame network read
     the poses turned back), and the camera-frame 3DPCNet (partly) set aside for the body-frame
-    one (the remaining roll beyond 10-20 deg or pitch beyond 45 deg, or a body whose trunk is
+    one (the remaining roll beyond 10-20 deg or pitch beyond 40-50 deg, or a body whose trunk is
     far from the image's vertical). ``None`` (one estimator ran) gives none."""
     if not view_gate or not view_gate["frames"]:
         return []
@@ -177,8 +177,9 @@ def view_gate_flag(view_gate: dict | None) -> list[str]:
     outside = view_gate["body_frame_frames"] + view_gate["blended_frames"]
     if outside <= OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
         return flags
-    return flags + [f"camera outside the views the camera-frame network was trained on (roll beyond 25 deg or pitch beyond "
-            f"45 deg after any quarter turn, a camera or body upside down, or a body across the image) in {outside} of {view_gate['frames']} frames: the "
+    return flags + [f"camera-frame network set aside in {outside} of {view_gate['frames']} frames: the body-frame network read the "
+            f"camera as rolled beyond 10-20 deg or pitched beyond 40-50 deg after any quarter turn (a rolled or steep camera, "
+            f"or a body leaning sideways, upside down or across the image; the poses alone cannot tell which): the "
             f"rotation-equivariant body-frame network was used there ({view_gate['body_frame_frames']} frames alone, "
             f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)"]
 

@@ -4,8 +4,8 @@ and a per-frame tilt bound.
 The moving-block bootstrap of :func:`pcnet.stages.temporal.sequence_rectify` measures only how
 much the frames of one recording disagree. A monocular lifter's error persists over a whole
 clip (:mod:`pcnet.models.lifter_noise`) and moves every frame's up the same way, so the
-bootstrap alone is far too narrow (on held-out clips it contained the true pitch and roll in
-about 30 % of clips, on the real Pose2Sim cameras in none). The interval here adds a
+bootstrap alone is far too narrow (on the held-out motion-style test clips it contained
+the true pitch in 26 % of clips and the roll in 39 %, on the real Pose2Sim cameras in none). The interval here adds a
 per-axis systematic error measured on data the shipped weights never trained on:
 
     half = sqrt(bootstrap_half^2 + (Z * SIGMA_SYS_DEG[axis])^2)
@@ -29,7 +29,7 @@ half-width ``b``, ``r`` the clip-view's :func:`evidence_scale`: 1.05 median, 1.3
 these clips), and ``SIGMA_SYS_DEG`` is the conformal 95 % quantile of ``s_i``: the interval
 ``sqrt(b^2 + (Z SIGMA_SYS_DEG r)^2)`` then covers 95 % of those clip-views per axis, and is
 wider where the two networks disagree over the whole recording (a pose unlike the training
-data; a seated lotus reaches ``r`` = 3-4).
+data; the real seated lotus files of ``benchmarks/yoga_physics.py`` reach ``r`` = 1.3-3.1).
 
 Per frame (:func:`frame_tilt_bound`): the shipped pair runs two 3DPCNets, and where they
 disagree the pose is unlike what they learnt (on DeepMimic the tenth of frames with the largest
