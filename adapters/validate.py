@@ -402,7 +402,9 @@ def load_array_file(path: str | Path, key: str | None = None) -> np.ndarray:
         keys = list(data.files)
         if key is None:
             if len(keys) != 1:
-                raise AdapterError(p, "key", "key= naming one of the archive's arrays", describe_keys(keys))
+                hint = ("; MediaPipe's landmarks: read them with --lifter mediapipe"
+                        if {"world_3d", "keypoints_2d"} <= set(keys) else "")
+                raise AdapterError(p, "key", "key= naming one of the archive's arrays", describe_keys(keys) + hint)
             key = keys[0]
         if key not in keys:
             raise AdapterError(p, "key", f"an array named {key!r} in the archive", describe_keys(keys))

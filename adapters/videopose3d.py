@@ -4,9 +4,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from .registry import register_3d
-from .types import Poses3D
+from .types import AdapterError, Poses3D
 from .validate import checked_poses, finite_max_abs, load_npy
+
+#: The farthest a VideoPose3D export's pelvis lies from the origin, median over frames (m):
+#: the real exports' is about 1e-4 m (root-relative training target, not zeroed at inference);
+#: MotionBERT's infer_wild output keeps the root's image position (0.1-1 normalised units).
+MAX_ROOT_M = 0.01
 
 
 def load_videopose3d(path: str | Path) -> Poses3D:
@@ -23,7 +30,8 @@ def load_videopose3d(path: str | Path) -> Poses3D:
 
     Raises:
         AdapterError: missing/unreadable file, not ``(N, 17, 3)`` real numbers, all NaN, a
-            coordinate beyond 100 m (naming frame and joint).
+            coordinate beyond 100 m (naming frame and joint), a pelvis farther than
+            :data:`MAX_ROOT_M` from the origin (median over frames: not a VideoPose3D export).
 
     Source of the format facts: facebookresearch/VideoPose3D (commit 1afb1ca)
     ``INFERENCE.md`` step 5, ``data/prepare_data_h36m.py`` L73 "Meters instead of
@@ -31,6 +39,13 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     """
     p = Path(path)
     arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
+    root_distance = np.linalg.norm(arr[:, 0], axis=-1)
+    if np.isfinite(root_distance).any() and np.nanmedian(root_distance) > MAX_ROOT_M:
+        raise AdapterError(p, "poses", f"a VideoPose3D export, its pelvis within {MAX_ROOT_M:g} m of the origin "
+                           "(run.py predicts root-relative poses)",
+                           f"the pelvis {np.nanmedian(root_distance):.3g} from it (median over frames): MotionBERT's "
+                           "infer_wild output (--lifter motionbert) or camera-frame metres with the root "
+                           "(--lifter generic)?")
     root = finite_max_abs(arr[:, 0])
     notes = ("VideoPose3D export (VideoPose3D INFERENCE.md), H36M-17, metres, camera frame x right / y down / z forward, "
              f"no axis changed; root as delivered (max |root| {root:.2g} m)")

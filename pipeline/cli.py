@@ -267,6 +267,9 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
         lifter_options["hypothesis"] = parse_hypothesis(hypothesis)
     if no_recording:
         options["recording"] = False
+    if mass is not None and not with_opensim:
+        raise InputError(f"--mass: expected together with --opensim (it sets the OpenSim model's mass), got --mass "
+                         f"{mass:g} without it")
     if config_path:
         cfg = load_run_config(config_path, **options)
         cfg.lifter_options.update(lifter_options)
@@ -361,7 +364,7 @@ def opensim(out_dir, height, mass, overwrite):
     RMS / max error and the IK speed (stages/opensim_ik.py).
     """
     from pcnet.pipeline.outdir import is_owned, register_files
-    from pcnet.stages.opensim_ik import OUTPUTS, import_opensim, scale_and_ik
+    from pcnet.stages.opensim_ik import ik_fit_flags, import_opensim, OUTPUTS, scale_and_ik
 
     folder = Path(out_dir)
     if not folder.is_dir():
@@ -390,6 +393,8 @@ def opensim(out_dir, height, mass, overwrite):
                f"(max {100 * result['marker_max_m']:.2f} cm)")
     click.echo(f"IK speed          {result['frames_per_s']:.1f} frames/s ({result['seconds']:.1f} s; "
                f"scaling {result['scale_seconds']:.1f} s)")
+    for line in ik_fit_flags(result):
+        click.echo(f"WARNING           {line}")
 
 
 if __name__ == "__main__":

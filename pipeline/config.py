@@ -18,6 +18,11 @@ ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
 MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0
 
+#: Defaults of the fields whose value only matters with another one (validate() refuses them
+#: changed without it: an option that would be silently ignored is a mistake).
+DEFAULT_CONFIDENCE = 0.3
+DEFAULT_CUTOFF_HZ = 6.0
+
 
 @dataclass
 class RunConfig:
@@ -49,8 +54,8 @@ class RunConfig:
     fps: float | None = None
     fps_override: bool = False
     person: int | None = None
-    confidence_threshold: float = 0.3
-    cutoff_hz: float = 6.0
+    confidence_threshold: float = DEFAULT_CONFIDENCE
+    cutoff_hz: float = DEFAULT_CUTOFF_HZ
     align: str = "none"
     overwrite: bool = False
     recording: bool = True
@@ -116,6 +121,12 @@ class RunConfig:
         check_method_weights(self.method, self.weights, f"{source}: field 'weights'")
         if self.fps_override and self.fps is None:
             raise InputError(f"{source}: field 'fps_override': expected together with fps, got no fps")
+        if self.confidence_threshold != DEFAULT_CONFIDENCE and self.keypoints2d is None:
+            raise InputError(f"{source}: field 'confidence_threshold': expected together with 2D keypoints "
+                             f"(it masks their low-confidence joints), got {self.confidence_threshold:g} without keypoints2d")
+        if self.residual_cutoff and self.cutoff_hz != DEFAULT_CUTOFF_HZ:
+            raise InputError(f"{source}: fields 'cutoff_hz' and 'residual_cutoff': expected one of the two (the "
+                             f"residual analysis chooses the cutoff), got cutoff_hz {self.cutoff_hz:g} and residual_cutoff")
         return self
 
 

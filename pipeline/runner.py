@@ -141,6 +141,9 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
     the video's or a file's own rate is an error unless ``fps_override``."""
     recorded = [(cfg.video, video.fps)] if video is not None else []
     recorded += [(source, fps) for source, fps in carried if fps is not None]
+    if cfg.fps_override and not recorded:
+        raise InputError("--fps-override: expected a rate to override (a video's, or one an input file records), "
+                         "got none: --fps alone sets the rate")
     if cfg.fps is not None:
         for source, fps in recorded:
             if abs(cfg.fps - fps) > FPS_TOLERANCE * fps and not cfg.fps_override:
@@ -154,6 +157,16 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
                      "(pass --fps)")
 
 
+#: Adapter options that `pcnet run` has a flag for (the others only in a config's [lifter_options]).
+COMMAND_LINE_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "focal_px")
+
+
+def _flag(option: str) -> str:
+    """How a user gives an adapter option: ``focal_px`` -> ``--focal-px``; one without a flag
+    by its config key (``clip_len``)."""
+    return "--" + option.replace("_", "-") if option in COMMAND_LINE_OPTIONS else option
+
+
 def _checked_options(kind: str, name: str, adapter, options: dict) -> dict:
     """``options`` if the adapter's ``load`` takes them all, else one line naming them
     (rather than a TypeError from deep inside the adapter)."""
@@ -163,7 +176,9 @@ def _checked_options(kind: str, name: str, adapter, options: dict) -> dict:
     taken = [n for n, p in params.items() if p.kind is p.KEYWORD_ONLY]
     unknown = sorted(set(options) - set(taken))
     if unknown:
-        raise InputError(f"{kind}_options: expected some of {taken} for the {name} adapter, got {unknown}")
+        flags = ", ".join(_flag(n) for n in unknown)
+        takes = ", ".join(_flag(n) for n in taken) or "none"
+        raise InputError(f"{flags}: expected only the options --{kind} {name} takes ({takes}), got {flags}")
     hints = typing.get_type_hints(adapter.load)
     for option, value in options.items():
         if option in hints and not value_matches(value, hints[option]):

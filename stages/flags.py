@@ -62,11 +62,11 @@ def orientation_flags(tilt_deg: float) -> list[str]:
         return []
     if tilt_deg > UPSIDE_DOWN_TILT_DEG:
         return [f"up points {tilt_deg:.0f} deg away from image-up: the input is probably upside down or its "
-                f"axes are wrong (check --axes / the lifter's axis convention)"]
+                f"axes are wrong (check the lifter's axis convention; --axes with --lifter generic)"]
     if tilt_deg > UNUSUAL_TILT_DEG:
         return [f"camera tilt {tilt_deg:.0f} deg: beyond the {UNUSUAL_TILT_DEG:.0f} deg of most real cameras; either "
                 f"the camera was tilted that much or the subject is not upright (lying, seated, bent), which the poses "
-                f"alone cannot tell apart: check the result, and --axes"]
+                f"alone cannot tell apart: check the result (and --axes, with --lifter generic)"]
     return []
 
 
@@ -177,7 +177,7 @@ def view_gate_flag(view_gate: dict | None) -> list[str]:
     outside = view_gate["body_frame_frames"] + view_gate["blended_frames"]
     if outside <= OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
         return flags
-    return flags + [f"camera-frame network set aside in {outside} of {view_gate['frames']} frames: the body-frame network read the "
+    return flags + [f"camera-frame network set aside, wholly or in part, in {outside} of {view_gate['frames']} frames: the body-frame network read the "
             f"camera as rolled beyond 10-20 deg or pitched beyond 40-50 deg after any quarter turn (a rolled or steep camera, "
             f"or a body leaning sideways, upside down or across the image; the poses alone cannot tell which): the "
             f"rotation-equivariant body-frame network was used there ({view_gate['body_frame_frames']} frames alone, "

@@ -61,6 +61,24 @@ MARKER_FILE = "Markers_H36M17.xml"
 SCALE_SETUP = "Scaling_Setup_H36M17.xml"
 IK_SETUP = "IK_Setup_H36M17.xml"
 OUTPUTS = ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto")
+#: Inverse kinematics fits worse than this RMS marker error (m) get a warning: OpenSim's
+#: "Simulation with OpenSim - Best Practices" checklist asks of IK an RMS error under about
+#: 2 cm (and a maximum under 4 cm; the maximum over a whole recording is noisy: 4-6 cm on
+#: mocap truth here, benchmarks/results/opensim_ik.txt, so only the RMS is checked).
+MAX_GOOD_MARKER_RMS_M = 0.02
+
+
+def ik_fit_flags(result: dict) -> list[str]:
+    """A warning when :func:`scale_and_ik`'s ``result`` has an RMS marker error above
+    :data:`MAX_GOOD_MARKER_RMS_M` (the joint angles then describe a model that does not
+    follow the poses); else none."""
+    rms, worst = result["marker_rms_m"], result["marker_max_m"]
+    if not rms > MAX_GOOD_MARKER_RMS_M:
+        return []
+    return [f"marker RMS {100 * rms:.1f} cm (max {100 * worst:.1f} cm): above the ~{100 * MAX_GOOD_MARKER_RMS_M:.0f} cm "
+            f"OpenSim's best-practice checklist asks of inverse kinematics; the model does not follow these poses "
+            f"(a skeleton unlike a human body, or a recording with a different person or missing joints): check the "
+            f"joint angles before using them"]
 
 
 def import_opensim():

@@ -42,7 +42,7 @@ def short_run(tmp_path_factory) -> Path:
 
 def test_scale_and_ik_on_a_short_real_clip(short_run, tmp_path):
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
-    from pcnet.stages.opensim_ik import scale_and_ik
+    from pcnet.stages.opensim_ik import ik_fit_flags, scale_and_ik
 
     out = tmp_path / "ik"
     out.mkdir()
@@ -55,6 +55,7 @@ def test_scale_and_ik_on_a_short_real_clip(short_run, tmp_path):
     # issue's target is < 2 cm RMS.
     assert r["marker_rms_m"] < 0.02, r
     assert r["marker_max_m"] < 0.06, r
+    assert ik_fit_flags(r) == []  # a good fit: no warning
     assert np.isfinite(r["frames_per_s"]) and r["frames_per_s"] > 0
     # ik.mot: one row per frame and the model's coordinates.
     lines = (out / "ik.mot").read_text().splitlines()
@@ -121,3 +122,15 @@ def test_pcnet_run_with_opensim_writes_the_ik_beside_the_run(tmp_path):
     assert res.exit_code == 0, res.output
     assert "marker RMS" in res.output
     assert {"world.trc", "scaled_model.osim", "ik.mot", "ik_marker_errors.sto"} <= {p.name for p in out.iterdir()}
+
+
+def test_a_poor_ik_fit_is_flagged():
+    """OpenSim's best-practice checklist asks of IK an RMS marker error under ~2 cm; a fit as
+    poor as a real cycling MotionBERT file's (17.1 cm RMS, 87.4 cm max, `pcnet run --opensim`)
+    is warned about, the demo's (1.74 / 6.44 cm, benchmarks/results/opensim_ik.txt) is not."""
+    from pcnet.stages.opensim_ik import ik_fit_flags, MAX_GOOD_MARKER_RMS_M
+
+    assert ik_fit_flags({"marker_rms_m": 0.0174, "marker_max_m": 0.0644}) == []
+    (line,) = ik_fit_flags({"marker_rms_m": 0.171, "marker_max_m": 0.874})
+    assert "marker RMS 17.1 cm (max 87.4 cm)" in line and "check the joint angles" in line
+    assert ik_fit_flags({"marker_rms_m": MAX_GOOD_MARKER_RMS_M, "marker_max_m": 0.05}) == []

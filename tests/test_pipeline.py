@@ -205,12 +205,26 @@ def test_mismatched_frame_counts_need_align(tmp_path):
         (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--video", "nope.mp4"], "nope.mp4"),
         (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--keypoints2d", str(BOX_3D),
           "--keypoints2d-format", "alphapose"], BOX_3D.name),
+        # the wrong lifter for a real file: MotionBERT's normalised output read as VideoPose3D metres
+        (["--lifter", "videopose3d", "--lifter-output", str(BOX_3D), "--fps", "30"], "--lifter motionbert"),
+        (["--lifter", "motionbert", "--lifter-output", str(MEDIAPIPE), "--fps", "30"], "--lifter mediapipe"),
+        # options that would be silently ignored
+        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--focal-px", "1000"],
+         "--focal-px: expected only the options --lifter motionbert takes (--pixel, clip_len)"),
+        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--mass", "70"], "--opensim"),
+        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--confidence-threshold", "0.5"],
+         "confidence_threshold"),
+        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--cutoff-hz", "4",
+          "--residual-cutoff"], "residual_cutoff"),
+        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--fps-override"],
+         "--fps-override: expected a rate to override"),
     ],
 )
 def test_bad_input_gives_one_line_errors(tmp_path, args, message):
     res = _invoke("run", *args, "--out", tmp_path / "o")
     assert res.exit_code != 0
     assert message in res.output and "Traceback" not in res.output
+    assert res.output.strip().splitlines()[-1].startswith("Error: ")
     assert not (tmp_path / "o").exists()
 
 
