@@ -143,7 +143,7 @@ def gravity_reading_flag(gravity: dict | None) -> list[str]:
     p = gravity["p_lying"]
     if gravity["reading"] == "lying":
         return [f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is taken "
-                f"from the camera prior (near level, +-{gravity['interval_deg']:.0f} deg) across the trunk; a body "
+                f"from the camera prior (near level; the true up within a {gravity['interval_deg']:.0f} deg cone, 95 %) across the trunk; a body "
                 f"standing straight under a camera rolled 90 deg looks the same (pass --no-camera-prior if so; a "
                 f"phone video's display rotation tells when --video is given with the 2D keypoints)"]
     if p >= AMBIGUOUS_READING_P:
