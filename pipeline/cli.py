@@ -257,7 +257,7 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
     """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
     poses, kinematics in the recording's world frame, CSV/TRC/NPZ/PNG exports and a rerun
     recording (with --opensim also OpenSim scaling and inverse kinematics)."""
-    from pcnet.pipeline.config import RunConfig, load_run_config, parse_hypothesis
+    from pcnet.pipeline.config import COMMAND_LINE, load_run_config, parse_hypothesis, RunConfig
 
     lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
                                         ("key", key)) if v}
@@ -275,7 +275,7 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
         cfg.lifter_options.update(lifter_options)
     else:
         given = {k: v for k, v in options.items() if v is not None}
-        cfg = RunConfig.from_values("command line (or give --config FILE)", {**given, "lifter_options": lifter_options})
+        cfg = RunConfig.from_values(COMMAND_LINE, {**given, "lifter_options": lifter_options})
     if with_opensim:
         from pcnet.stages.opensim_ik import import_opensim
 

@@ -23,6 +23,19 @@ MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0
 DEFAULT_CONFIDENCE = 0.3
 DEFAULT_CUTOFF_HZ = 6.0
 
+#: The ``source`` of a config built from `pcnet run`'s options: errors then name the option.
+COMMAND_LINE = "command line"
+
+
+def field_name(source: str, *names: str) -> str:
+    """How an error names config field(s): ``--cutoff-hz`` for the command line, else
+    ``"<source>: field 'cutoff_hz'"`` (``fields 'a' and 'b'``)."""
+    if source == COMMAND_LINE:
+        return " and ".join("--" + n.replace("_", "-") for n in names)
+    if len(names) == 1:
+        return f"{source}: field {names[0]!r}"
+    return f"{source}: fields " + " and ".join(repr(n) for n in names)
+
 
 @dataclass
 class RunConfig:
@@ -76,7 +89,7 @@ class RunConfig:
         """
         for needed in ("lifter", "lifter_output"):
             if values.get(needed) is None:
-                raise InputError(f"{source}: field {needed!r} (--{needed.replace('_', '-')}): expected a value, "
+                raise InputError(f"{field_name(source, needed)}: expected a value, "
                                  f"got none")
         return cls(**values).validate(source)
 
@@ -99,9 +112,9 @@ class RunConfig:
             ("keypoints2d_format", self.keypoints2d_format, KEYPOINT_FORMATS, True),
         ):
             if not (optional and value is None) and value not in choices:
-                raise InputError(f"{source}: field {name!r}: expected one of {choices}, got {value!r}")
+                raise InputError(f"{field_name(source, name)}: expected one of {choices}, got {value!r}")
         if (self.keypoints2d is None) != (self.keypoints2d_format is None):
-            raise InputError(f"{source}: fields 'keypoints2d' and 'keypoints2d_format': expected both or neither, "
+            raise InputError(f"{field_name(source, 'keypoints2d', 'keypoints2d_format')}: expected both or neither, "
                              f"got {self.keypoints2d!r} and {self.keypoints2d_format!r}")
         # (field, value, low, high, unit): ranges that a real recording can have
         for name, value, low, high, unit in (
@@ -111,21 +124,21 @@ class RunConfig:
             ("confidence_threshold", self.confidence_threshold, 0.0, 1.0, "(2D confidence)"),
         ):
             if value is not None and not (math.isfinite(value) and low <= value <= high):
-                raise InputError(f"{source}: field {name!r}: expected a value in [{low:g}, {high:g}] {unit}, got {value!r}")
+                raise InputError(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got {value!r}")
         if self.person is not None and self.person < 0:
-            raise InputError(f"{source}: field 'person': expected a track id >= 0, got {self.person}")
+            raise InputError(f"{field_name(source, 'person')}: expected a track id >= 0, got {self.person}")
         # Options that would be silently ignored are mistakes the user should hear about.
         if self.person is not None and self.keypoints2d_format not in ("alphapose", "mmpose"):
-            raise InputError(f"{source}: field 'person': expected 2D keypoints with several tracks (alphapose or "
+            raise InputError(f"{field_name(source, 'person')}: expected 2D keypoints with several tracks (alphapose or "
                              f"mmpose), got keypoints2d_format {self.keypoints2d_format!r}")
-        check_method_weights(self.method, self.weights, f"{source}: field 'weights'")
+        check_method_weights(self.method, self.weights, field_name(source, "weights"))
         if self.fps_override and self.fps is None:
-            raise InputError(f"{source}: field 'fps_override': expected together with fps, got no fps")
+            raise InputError(f"{field_name(source, 'fps_override')}: expected together with fps, got no fps")
         if self.confidence_threshold != DEFAULT_CONFIDENCE and self.keypoints2d is None:
-            raise InputError(f"{source}: field 'confidence_threshold': expected together with 2D keypoints "
+            raise InputError(f"{field_name(source, 'confidence_threshold')}: expected together with 2D keypoints "
                              f"(it masks their low-confidence joints), got {self.confidence_threshold:g} without keypoints2d")
         if self.residual_cutoff and self.cutoff_hz != DEFAULT_CUTOFF_HZ:
-            raise InputError(f"{source}: fields 'cutoff_hz' and 'residual_cutoff': expected one of the two (the "
+            raise InputError(f"{field_name(source, 'cutoff_hz', 'residual_cutoff')}: expected one of the two (the "
                              f"residual analysis chooses the cutoff), got cutoff_hz {self.cutoff_hz:g} and residual_cutoff")
         return self
 
