@@ -78,7 +78,9 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
     if not target.exists() and not target.is_symlink():
         return target
     if not overwrite:
-        raise FileExistsError(f"{given}: output folder exists; choose another --out or pass --overwrite")
+        empty = target.is_dir() and not target.is_symlink() and not any(target.iterdir())
+        raise FileExistsError(f"{given}: output folder exists{' (empty)' if empty else ''}; choose another --out or "
+                              f"pass --overwrite")
     foreign = foreign_entries(target)
     if foreign:
         shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
