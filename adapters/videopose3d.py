@@ -10,10 +10,14 @@ from .registry import register_3d
 from .types import AdapterError, Poses3D
 from .validate import checked_poses, finite_max_abs, load_npy
 
-#: The farthest a VideoPose3D export's pelvis lies from the origin, median over frames (m):
-#: the real exports' is about 1e-4 m (root-relative training target, not zeroed at inference);
-#: MotionBERT's infer_wild output keeps the root's image position (0.1-1 normalised units).
+#: The farthest a root-relative VideoPose3D export's pelvis lies from the origin, median over
+#: frames (m): the real exports' is about 1e-4 m (root-relative training target, not zeroed at
+#: inference, run.py). MotionBERT's infer_wild output keeps the root's image position (0.1-1
+#: normalised units) at a depth near 0.
 MAX_ROOT_M = 0.01
+#: With VideoPose3D's trajectory model, run.py adds the predicted root trajectory before
+#: exporting: the pelvis then lies in front of the camera, at this depth (m) or more (median).
+MIN_TRAJECTORY_DEPTH_M = 0.5
 
 
 def load_videopose3d(path: str | Path) -> Poses3D:
@@ -24,14 +28,17 @@ def load_videopose3d(path: str | Path) -> Poses3D:
         z forward: VideoPose3D ``common/camera.py`` projects ``f*X[:2]/X[2] + c`` to pixels),
         no axis changed. VideoPose3D is trained with a zero root target but does not zero
         the root in ``evaluate`` (``run.py`` L682-688), so the root is near, not exactly at,
-        the origin (about 1e-4 m in the yoga exports); the caller centres it.
+        the origin (about 1e-4 m in the yoga exports); the caller centres it. A checkpoint with
+        the trajectory model (``model_traj``) exports the root trajectory added: the pelvis
+        then lies in front of the camera, also accepted.
 
         ``inf`` is missing data (NaN).
 
     Raises:
         AdapterError: missing/unreadable file, not ``(N, 17, 3)`` real numbers, all NaN, a
             coordinate beyond 100 m (naming frame and joint), a pelvis farther than
-            :data:`MAX_ROOT_M` from the origin (median over frames: not a VideoPose3D export).
+            :data:`MAX_ROOT_M` from the origin yet not :data:`MIN_TRAJECTORY_DEPTH_M` in front of
+            the camera (medians over frames: not a VideoPose3D export).
 
     Source of the format facts: facebookresearch/VideoPose3D (commit 1afb1ca)
     ``INFERENCE.md`` step 5, ``data/prepare_data_h36m.py`` L73 "Meters instead of
@@ -39,13 +46,16 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     """
     p = Path(path)
     arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
-    root_distance = np.linalg.norm(arr[:, 0], axis=-1)
-    if np.isfinite(root_distance).any() and np.nanmedian(root_distance) > MAX_ROOT_M:
-        raise AdapterError(p, "poses", f"a VideoPose3D export, its pelvis within {MAX_ROOT_M:g} m of the origin "
-                           "(run.py predicts root-relative poses)",
-                           f"the pelvis {np.nanmedian(root_distance):.3g} from it (median over frames): MotionBERT's "
-                           "infer_wild output (--lifter motionbert) or camera-frame metres with the root "
-                           "(--lifter generic)?")
+    root = arr[:, 0].astype(np.float64)
+    if np.isfinite(root).all(axis=1).any():
+        off_origin = float(np.nanmedian(np.linalg.norm(root, axis=1)))
+        depth = float(np.nanmedian(root[:, 2]))
+        if off_origin > MAX_ROOT_M and not depth >= MIN_TRAJECTORY_DEPTH_M:
+            raise AdapterError(p, "poses", f"a VideoPose3D export: its pelvis within {MAX_ROOT_M:g} m of the origin "
+                               f"(root-relative) or, with the trajectory model, at least {MIN_TRAJECTORY_DEPTH_M:g} m "
+                               "in front of the camera",
+                               f"the pelvis {off_origin:.3g} m from the origin at depth {depth:.3g} m (medians over "
+                               "frames): MotionBERT's infer_wild output? (--lifter motionbert)")
     root = finite_max_abs(arr[:, 0])
     notes = ("VideoPose3D export (VideoPose3D INFERENCE.md), H36M-17, metres, camera frame x right / y down / z forward, "
              f"no axis changed; root as delivered (max |root| {root:.2g} m)")

@@ -25,7 +25,7 @@ from pcnet.stages.core.errors import InputError
 
 from .batch_marker import completed_record, input_files, pcnet_version, read_batch_marker
 from .batch_worker import cpu_cores
-from .config import RunConfig, parse_hypothesis
+from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, RunConfig
 from .entry import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale
 
@@ -41,7 +41,7 @@ SUMMARY_EVERY_S = 2.0
 SUMMARY_EVERY_RESULT_ROWS = 200
 _NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold": float, "cutoff_hz": float,
             "focal_px": float}
-_LIFTER_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "focal_px")
+_LIFTER_OPTIONS = COMMAND_LINE_OPTIONS  # the lifter options a row gives as columns of their own
 _BOOLEAN = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}
 
 
@@ -243,7 +243,8 @@ def _parse_rows(manifest: Path, rows: list[dict], overwrite: bool) -> tuple[list
             cfg = row_to_config(row, base, overwrite)
         except InputError as err:
             # RunConfig names its source "manifest row"; here the row is the line already.
-            problems[index + 1] = f"{where}: {str(err).replace(ROW_SOURCE + ': field ', 'column ')}"
+            message = str(err).replace(ROW_SOURCE + ": field ", "column ").replace(ROW_SOURCE + ": fields ", "columns ")
+            problems[index + 1] = f"{where}: {message}"
             continue
         config = asdict(cfg)
         found = _input_problems(where, row, config) or [p for p in [_out_problem(where, row, config)] if p]

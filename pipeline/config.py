@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import inspect
 import math
 import re
+import typing
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from pcnet.models.toml_config import check_config_keys, check_config_types, read_toml
+from pcnet.models.toml_config import check_config_keys, check_config_types, read_toml, type_name, value_matches
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
 from pcnet.stages.core.errors import InputError
 
@@ -18,8 +20,8 @@ ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
 MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0
 
-#: Defaults of the fields whose value only matters with another one (validate() refuses them
-#: changed without it: an option that would be silently ignored is a mistake).
+#: What ``confidence_threshold`` and ``cutoff_hz`` mean when not given (None): they are
+#: optional so that validate() can refuse them given where they would be ignored.
 DEFAULT_CONFIDENCE = 0.3
 DEFAULT_CUTOFF_HZ = 6.0
 
@@ -35,6 +37,50 @@ def field_name(source: str, *names: str) -> str:
     if len(names) == 1:
         return f"{source}: field {names[0]!r}"
     return f"{source}: fields " + " and ".join(repr(n) for n in names)
+
+
+#: Adapter options that `pcnet run` has a flag for and a manifest a column for (the others only in a
+#: config's [lifter_options]).
+COMMAND_LINE_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "focal_px")
+
+
+def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
+    """``options`` if the ``lifter``'s adapter takes them all with values of the types it
+    declares, else one line (rather than a TypeError from deep inside the adapter): naming the
+    flags for the command line (``--focal-px: expected only the options --lifter motionbert
+    takes ...``), the field otherwise.
+
+    Raises:
+        InputError: an option the adapter does not take, or a value of the wrong type.
+    """
+    from pcnet.adapters import get_3d_adapter
+
+    load = get_3d_adapter(lifter).load
+    params = inspect.signature(load).parameters
+    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        return options
+    taken = [n for n, p in params.items() if p.kind is p.KEYWORD_ONLY]
+    unknown = sorted(set(options) - set(taken))
+    if unknown:
+        if source == COMMAND_LINE:
+            flags = ", ".join(_option_flag(n) for n in unknown)
+            raise InputError(f"{flags}: expected only the options --lifter {lifter} takes "
+                             f"({', '.join(_option_flag(n) for n in taken) or 'none'}), got {flags}")
+        raise InputError(f"{field_name(source, *unknown)}: expected only options --lifter {lifter} takes "
+                         f"({', '.join(taken) or 'none'}), got {', '.join(unknown)}")
+    hints = typing.get_type_hints(load)
+    for option, value in options.items():
+        if option in hints and not value_matches(value, hints[option]):
+            where = _option_flag(option) if source == COMMAND_LINE else field_name(source, option)
+            raise InputError(f"{where}: expected {type_name(hints[option])} for --lifter {lifter}, got {value!r} "
+                             f"({type(value).__name__})")
+    return options
+
+
+def _option_flag(option: str) -> str:
+    """How a user gives an adapter option on the command line: ``focal_px`` -> ``--focal-px``;
+    one without a flag by its config key (``clip_len``)."""
+    return "--" + option.replace("_", "-") if option in COMMAND_LINE_OPTIONS else option
 
 
 @dataclass
@@ -67,8 +113,8 @@ class RunConfig:
     fps: float | None = None
     fps_override: bool = False
     person: int | None = None
-    confidence_threshold: float = DEFAULT_CONFIDENCE
-    cutoff_hz: float = DEFAULT_CUTOFF_HZ
+    confidence_threshold: float | None = None
+    cutoff_hz: float | None = None
     align: str = "none"
     overwrite: bool = False
     recording: bool = True
@@ -77,6 +123,18 @@ class RunConfig:
     c3d: bool = False
     residual_cutoff: bool = False
     lifter_options: dict = field(default_factory=dict)
+
+    @property
+    def min_confidence(self) -> float:
+        """2D confidence below which a 3D joint becomes NaN: ``confidence_threshold`` or
+        :data:`DEFAULT_CONFIDENCE`."""
+        return DEFAULT_CONFIDENCE if self.confidence_threshold is None else self.confidence_threshold
+
+    @property
+    def lowpass_hz(self) -> float:
+        """The kinematics' low-pass cutoff unless ``residual_cutoff``: ``cutoff_hz`` or
+        :data:`DEFAULT_CUTOFF_HZ`."""
+        return DEFAULT_CUTOFF_HZ if self.cutoff_hz is None else self.cutoff_hz
 
     @classmethod
     def from_values(cls, source: str, values: dict) -> "RunConfig":
@@ -132,12 +190,13 @@ class RunConfig:
             raise InputError(f"{field_name(source, 'person')}: expected 2D keypoints with several tracks (alphapose or "
                              f"mmpose), got keypoints2d_format {self.keypoints2d_format!r}")
         check_method_weights(self.method, self.weights, field_name(source, "weights"))
+        check_lifter_options(source, self.lifter, self.lifter_options)
         if self.fps_override and self.fps is None:
             raise InputError(f"{field_name(source, 'fps_override')}: expected together with fps, got no fps")
-        if self.confidence_threshold != DEFAULT_CONFIDENCE and self.keypoints2d is None:
+        if self.confidence_threshold is not None and self.keypoints2d is None:
             raise InputError(f"{field_name(source, 'confidence_threshold')}: expected together with 2D keypoints "
                              f"(it masks their low-confidence joints), got {self.confidence_threshold:g} without keypoints2d")
-        if self.residual_cutoff and self.cutoff_hz != DEFAULT_CUTOFF_HZ:
+        if self.residual_cutoff and self.cutoff_hz is not None:
             raise InputError(f"{field_name(source, 'cutoff_hz', 'residual_cutoff')}: expected one of the two (the "
                              f"residual analysis chooses the cutoff), got cutoff_hz {self.cutoff_hz:g} and residual_cutoff")
         return self

@@ -78,7 +78,10 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
     if not target.exists() and not target.is_symlink():
         return target
     if not overwrite:
-        empty = target.is_dir() and not target.is_symlink() and not any(target.iterdir())
+        try:
+            empty = target.is_dir() and not target.is_symlink() and not any(target.iterdir())
+        except OSError:  # unreadable: say only that it exists
+            empty = False
         raise FileExistsError(f"{given}: output folder exists{' (empty)' if empty else ''}; choose another --out or "
                               f"pass --overwrite")
     foreign = foreign_entries(target)

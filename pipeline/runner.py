@@ -14,7 +14,6 @@ import gc
 import inspect
 import sys
 import time
-import typing
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -23,7 +22,6 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
-from pcnet.models.toml_config import type_name, value_matches
 from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
@@ -40,7 +38,7 @@ from pcnet.stages.scale import height_factor
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL, UNFAMILIAR_EVIDENCE_SCALE
 from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
-from .config import RunConfig
+from .config import check_lifter_options, RunConfig
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation
 from .outdir import check_out_folder, staged_output
@@ -142,8 +140,8 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
     recorded = [(cfg.video, video.fps)] if video is not None else []
     recorded += [(source, fps) for source, fps in carried if fps is not None]
     if cfg.fps_override and not recorded:
-        raise InputError("--fps-override: expected a rate to override (a video's, or one an input file records), "
-                         "got none: --fps alone sets the rate")
+        raise InputError("fps_override (--fps-override): expected a rate to override (a video's, or one an input "
+                         "file records), got none: fps alone sets the rate")
     if cfg.fps is not None:
         for source, fps in recorded:
             if abs(cfg.fps - fps) > FPS_TOLERANCE * fps and not cfg.fps_override:
@@ -155,36 +153,6 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
         return validate_fps(fps, f"{source}: frame rate")
     raise InputError("fps: needed when no video is given and the input files do not carry their frame rate "
                      "(pass --fps)")
-
-
-#: Adapter options that `pcnet run` has a flag for (the others only in a config's [lifter_options]).
-COMMAND_LINE_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "focal_px")
-
-
-def _flag(option: str) -> str:
-    """How a user gives an adapter option: ``focal_px`` -> ``--focal-px``; one without a flag
-    by its config key (``clip_len``)."""
-    return "--" + option.replace("_", "-") if option in COMMAND_LINE_OPTIONS else option
-
-
-def _checked_options(kind: str, name: str, adapter, options: dict) -> dict:
-    """``options`` if the adapter's ``load`` takes them all, else one line naming them
-    (rather than a TypeError from deep inside the adapter)."""
-    params = inspect.signature(adapter.load).parameters
-    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
-        return options
-    taken = [n for n, p in params.items() if p.kind is p.KEYWORD_ONLY]
-    unknown = sorted(set(options) - set(taken))
-    if unknown:
-        flags = ", ".join(_flag(n) for n in unknown)
-        takes = ", ".join(_flag(n) for n in taken) or "none"
-        raise InputError(f"{flags}: expected only the options --{kind} {name} takes ({takes}), got {flags}")
-    hints = typing.get_type_hints(adapter.load)
-    for option, value in options.items():
-        if option in hints and not value_matches(value, hints[option]):
-            raise InputError(f"{kind}_options: field {option!r}: expected {type_name(hints[option])} for the {name} "
-                             f"adapter, got {value!r} ({type(value).__name__})")
-    return options
 
 
 def _load_inputs(cfg: RunConfig):
@@ -200,7 +168,7 @@ def _load_inputs(cfg: RunConfig):
         kp_size = getattr(kp, "image_size", None)
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)
-    poses = adapter.load(cfg.lifter_output, **_checked_options("lifter", cfg.lifter, adapter, cfg.lifter_options))
+    poses = adapter.load(cfg.lifter_output, **check_lifter_options("config", cfg.lifter, cfg.lifter_options))
     fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output))
     return (video, fps, kp2d, kp_size, joints, poses.units, poses.root_translation, poses.summary_note,
@@ -334,12 +302,12 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
         J = J - J[:, PELVIS : PELVIS + 1]  # root-relative camera frame
         if kp is not None:
             kp[rows] = orientation.pixels(kp2d[rows])
-            J = mask_low_confidence(J, kp2d[rows, :, 2], cfg.confidence_threshold)
+            J = mask_low_confidence(J, kp2d[rows, :, 2], cfg.min_confidence)
         finite |= bool(np.isfinite(J).any())
         cam[rows] = J
     if not finite:
         raise InputError(f"{cfg.lifter_output}: every joint of every frame is missing (NaN) after masking the joints "
-                         f"whose 2D confidence in {cfg.keypoints2d} is below {cfg.confidence_threshold:g}")
+                         f"whose 2D confidence in {cfg.keypoints2d} is below {cfg.min_confidence:g}")
     return cam, kp, root_cam, filled
 
 
@@ -461,7 +429,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
                          f"--mode sequence if the camera was static")
         report["kinematics_frame"] = kin_frame = "world" if world is not None else "canonical"
         rectified = world if world is not None else canonical
-        cutoff = cfg.cutoff_hz
+        cutoff = cfg.lowpass_hz
         if cfg.residual_cutoff:
             try:
                 # Winter's residual analysis filters every coordinate whole: the one step
@@ -485,7 +453,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             rotation=rotations, canonical=canonical, valid=valid, kinematics_frame=kin_frame, poses=rectified,
             world=world, world_rotation=world_rotation, keypoints2d=kp2d, track_segment=segment, video=cfg.video,
             video_keypoints2d=video_kp2d,
-            min_confidence=cfg.confidence_threshold, wrist_acceleration_camera=acc_cam)
+            min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam)
         result.kinematics_blocks = kinematics_chunks(rectified, fps, cutoff, units)
         table = write_kinematics_table(result, tmp, allocate=store.create)
         flags += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)

@@ -178,7 +178,8 @@ def view_gate_flag(view_gate: dict | None) -> list[str]:
     if outside <= OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
         return flags
     return flags + [f"camera-frame network set aside, wholly or in part, in {outside} of {view_gate['frames']} frames: the body-frame network read the "
-            f"camera as rolled beyond 10-20 deg or pitched beyond 40-50 deg after any quarter turn (a rolled or steep camera, "
+            f"camera as rolled beyond 10-20 deg or pitched beyond 40-50 deg after any quarter turn, and the camera-frame network's "
+            f"own reading did not vouch for it (a rolled or steep camera, "
             f"or a body leaning sideways, upside down or across the image; the poses alone cannot tell which): the "
             f"rotation-equivariant body-frame network was used there ({view_gate['body_frame_frames']} frames alone, "
             f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)"]

@@ -73,7 +73,7 @@ def ik_fit_flags(result: dict) -> list[str]:
     :data:`MAX_GOOD_MARKER_RMS_M` (the joint angles then describe a model that does not
     follow the poses); else none."""
     rms, worst = result["marker_rms_m"], result["marker_max_m"]
-    if not rms > MAX_GOOD_MARKER_RMS_M:
+    if rms <= MAX_GOOD_MARKER_RMS_M:  # NaN (no IK frame) is warned about too
         return []
     return [f"marker RMS {100 * rms:.1f} cm (max {100 * worst:.1f} cm): above the ~{100 * MAX_GOOD_MARKER_RMS_M:.0f} cm "
             f"OpenSim's best-practice checklist asks of inverse kinematics; the model does not follow these poses "

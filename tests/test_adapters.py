@@ -556,6 +556,20 @@ def test_ddhpose_bad_options_and_files(tmp_path):
 # --------------------------------------------------------------------------- VideoPose3D
 
 
+def test_videopose3d_root_relative_or_with_its_trajectory_but_not_motionbert(tmp_path):
+    """A VideoPose3D export is root-relative (pelvis about 1e-4 m from the origin), or with the
+    trajectory model carries the root in front of the camera; MotionBERT's normalised output
+    (pelvis at its image position, depth near 0) given as VideoPose3D is refused."""
+    poses = np.load(YOGA["Tadasana"]).astype(np.float32)
+    assert np.median(np.linalg.norm(poses[:, PELVIS], axis=-1)) < 1e-3
+    moved = tmp_path / "with_trajectory.npy"
+    np.save(moved, poses + np.float32([0.3, -0.2, 4.0]))
+    assert load_videopose3d(moved).joints.shape == poses.shape
+    with pytest.raises(AdapterError, match=r"MotionBERT's infer_wild output\? \(--lifter motionbert\)") as err:
+        load_videopose3d(BOXING_X3D)
+    assert_names_file(err, BOXING_X3D)
+
+
 def test_videopose3d_standing_and_lying_poses():
     stand = load_videopose3d(YOGA["Tadasana"])
     assert stand.joints.shape == (100, 17, 3) and stand.units == "m" and stand.layout == "h36m17"

@@ -155,6 +155,25 @@ def test_the_whole_manifest_is_checked_before_any_work(tmp_path):
     assert (tmp_path / "theirs" / "notes.txt").read_text() == "mine"
 
 
+def test_settings_a_row_would_ignore_are_refused_before_any_work(tmp_path):
+    """A 2D confidence threshold without 2D keypoints, a fixed cutoff beside the residual
+    analysis, a lifter option the lifter does not take: one line each, naming the columns."""
+    manifest = tmp_path / "m.csv"
+    manifest.write_text("lifter,lifter_output,fps,out,confidence_threshold,cutoff_hz,residual_cutoff,focal_px\n"
+                        f"motionbert,{BOX_3D},30,a,0.5,,false,\n"
+                        f"motionbert,{BOX_3D},30,b,,4,true,\n"
+                        f"motionbert,{BOX_3D},30,c,,,false,1000\n")
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and "Traceback" not in res.output, res.output
+    errors = [ln for ln in res.output.splitlines() if ln.startswith("Error: ")]
+    expected = [("line 2", "column 'confidence_threshold'", "expected together with 2D keypoints"),
+                ("line 3", "columns 'cutoff_hz' and 'residual_cutoff'", "expected one of the two"),
+                ("line 4", "column 'focal_px'", "expected only options --lifter motionbert takes (pixel, clip_len)")]
+    for needles in expected:
+        assert any(all(n in e for n in needles) for e in errors), (needles, errors)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
+
+
 def test_shared_out_is_refused_even_with_several_workers(tmp_path):
     """Issue 16: two rows with one `out` both reported ok with --workers 2."""
     manifest = _manifest(tmp_path, _row("a"), _row("a"))

@@ -217,7 +217,7 @@ def test_mismatched_frame_counts_need_align(tmp_path):
         (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--cutoff-hz", "4",
           "--residual-cutoff"], "--cutoff-hz and --residual-cutoff: expected one of the two"),
         (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--fps-override"],
-         "--fps-override: expected a rate to override"),
+         "fps_override (--fps-override): expected a rate to override"),
     ],
 )
 def test_bad_input_gives_one_line_errors(tmp_path, args, message):
@@ -225,6 +225,21 @@ def test_bad_input_gives_one_line_errors(tmp_path, args, message):
     assert res.exit_code != 0
     assert message in res.output and "Traceback" not in res.output
     assert res.output.strip().splitlines()[-1].startswith("Error: ")
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_config_file_names_its_fields_in_errors(tmp_path):
+    """Command-line errors name the option; a TOML config's name the file and the field."""
+    cfg = tmp_path / "run.toml"
+    cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\nconfidence_threshold = 0.5\n')
+    res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
+    assert res.exit_code == 1
+    assert f"Error: {cfg}: field 'confidence_threshold': expected together with 2D keypoints" in res.output
+    cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\n[lifter_options]\nfocal_px = 900.0\n')
+    res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
+    assert res.exit_code == 1
+    assert (f"Error: {cfg}: field 'focal_px': expected only options --lifter motionbert takes (pixel, clip_len), "
+            f"got focal_px") in res.output
     assert not (tmp_path / "o").exists()
 
 
