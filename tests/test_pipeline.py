@@ -211,7 +211,8 @@ def test_mismatched_frame_counts_need_align(tmp_path):
         # options that would be silently ignored
         (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--focal-px", "1000"],
          "--focal-px: expected only the options --lifter motionbert takes (--pixel, clip_len)"),
-        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--mass", "70"], "--opensim"),
+        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--mass", "70"],
+         "--mass: expected together with --opensim"),
         (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--confidence-threshold", "0.5"],
          "--confidence-threshold: expected together with 2D keypoints"),
         (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--cutoff-hz", "4",
