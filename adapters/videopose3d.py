@@ -46,10 +46,10 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     """
     p = Path(path)
     arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
-    root = arr[:, 0].astype(np.float64)
-    if np.isfinite(root).all(axis=1).any():
-        off_origin = float(np.nanmedian(np.linalg.norm(root, axis=1)))
-        depth = float(np.nanmedian(root[:, 2]))
+    pelvis = arr[:, 0].astype(np.float64)
+    if np.isfinite(pelvis).all(axis=1).any():
+        off_origin = float(np.nanmedian(np.linalg.norm(pelvis, axis=1)))
+        depth = float(np.nanmedian(pelvis[:, 2]))
         if off_origin > MAX_ROOT_M and not depth >= MIN_TRAJECTORY_DEPTH_M:
             raise AdapterError(p, "poses", f"a VideoPose3D export: its pelvis within {MAX_ROOT_M:g} m of the origin "
                                f"(root-relative) or, with the trajectory model, at least {MIN_TRAJECTORY_DEPTH_M:g} m "

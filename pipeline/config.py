@@ -33,7 +33,7 @@ def field_name(source: str, *names: str) -> str:
     """How an error names config field(s): ``--cutoff-hz`` for the command line, else
     ``"<source>: field 'cutoff_hz'"`` (``fields 'a' and 'b'``)."""
     if source == COMMAND_LINE:
-        return " and ".join("--" + n.replace("_", "-") for n in names)
+        return " and ".join(_flag(n) for n in names)
     if len(names) == 1:
         return f"{source}: field {names[0]!r}"
     return f"{source}: fields " + " and ".join(repr(n) for n in names)
@@ -77,10 +77,15 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
     return options
 
 
+def _flag(name: str) -> str:
+    """The command-line spelling of a config field: ``cutoff_hz`` -> ``--cutoff-hz``."""
+    return "--" + name.replace("_", "-")
+
+
 def _option_flag(option: str) -> str:
     """How a user gives an adapter option on the command line: ``focal_px`` -> ``--focal-px``;
     one without a flag by its config key (``clip_len``)."""
-    return "--" + option.replace("_", "-") if option in COMMAND_LINE_OPTIONS else option
+    return _flag(option) if option in COMMAND_LINE_OPTIONS else option
 
 
 @dataclass

@@ -38,7 +38,7 @@ from pcnet.stages.scale import height_factor
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL, UNFAMILIAR_EVIDENCE_SCALE
 from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
-from .config import check_lifter_options, RunConfig
+from .config import RunConfig
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation
 from .outdir import check_out_folder, staged_output
@@ -168,7 +168,7 @@ def _load_inputs(cfg: RunConfig):
         kp_size = getattr(kp, "image_size", None)
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)
-    poses = adapter.load(cfg.lifter_output, **check_lifter_options("config", cfg.lifter, cfg.lifter_options))
+    poses = adapter.load(cfg.lifter_output, **cfg.lifter_options)  # checked by cfg.validate() in run_pipeline
     fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output))
     return (video, fps, kp2d, kp_size, joints, poses.units, poses.root_translation, poses.summary_note,
