@@ -116,12 +116,13 @@ def rectify(
 
 def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = None, mode: str = "frame",
                     fps: float = 30.0, heading: str | None = None, camera_prior: bool = True,
-                    allocate: Allocate | None = None) -> Rectified:
+                    allocate: Allocate | None = None, decide_on: np.ndarray | None = None) -> Rectified:
     """:func:`rectify` of poses that already passed its input rules (``pcnet run`` applies
     them a block at a time), in memory or a
     :class:`~pcnet.stages.core.framestore.FrameArray`; ``allocate`` makes the residual and
-    canonical arrays (:data:`pcnet.stages.rectify.Allocate`; default in memory). No
-    ``pelvis_from_hips_frames`` in the report.
+    canonical arrays (:data:`pcnet.stages.rectify.Allocate`; default in memory); ``decide_on``
+    ``(T,)`` bool: the frames mode ``auto`` decides on (:class:`pcnet.stages.rectify.SequenceEvidence`).
+    No ``pelvis_from_hips_frames`` in the report.
 
     Raises:
         InputError: as :func:`rectify`, but for the input rules.
@@ -129,4 +130,4 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
     heading_step = HeadingStep(resolve_heading_source(method, heading))
     chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior), heading_step,
                           allocate)
-    return chain(joints_cam, validate_fps(fps))
+    return chain(joints_cam, validate_fps(fps), decide_on)

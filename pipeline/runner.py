@@ -26,7 +26,7 @@ from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS, fill_pelvis_from_
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (body_size_flag, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
+from pcnet.stages.flags import (body_size_flag, one_person_frames, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, track_segments,
                                track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
@@ -78,6 +78,8 @@ class RunResult:
             f"frames            {self.frames} ({self.frames - self.valid_frames} dropped: no valid pose)",
             f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}"
             + (f"; spread of per-frame up {self.report['spread_deg']:.1f} deg" if "spread_deg" in self.report else "")
+            + (f" over the {self.report['mode_decided_on_frames']} valid frames of the 2D track's longest stretch"
+               if "mode_decided_on_frames" in self.report else "")
             + ")",
             f"heading           from {self.report.get('heading_source')} (requested "
             f"{self.report.get('requested_heading_source')}; hip width varies "
@@ -376,9 +378,14 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         bar.update()
 
         step("rectify")
+        segment, events = track_segments(kp2d, fps) if kp2d is not None else (None, [])
+        # A static camera does not move when the tracker jumps to another person, but the
+        # jump and the other body's poses read as camera motion: decide the mode on one
+        # person's frames.
+        decide_on = one_person_frames(segment) if events else None
         try:
             res = rectify_checked(_located(cam, root_cam, store), cfg.method, cfg.weights, cfg.mode, fps, cfg.heading,
-                                  camera_prior=cfg.camera_prior, allocate=store.create)
+                                  camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on)
         except ValueError as err:
             raise InputError(f"{cfg.lifter_output}: {err}") from err
         if not res.valid.any():
@@ -394,10 +401,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         flags += view_gate_flag(report.get("view_gate"))
         flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
         flags += lifter_frame_flag(lifter_turn, _tilt_tolerance(report))
-        segment = None
-        if kp2d is not None:
-            segment, events = track_segments(kp2d, fps)
-            flags += track_switch_flag(segment, events)
+        flags += track_switch_flag(segment, events) if segment is not None else []
         bar.update()
 
         step("scale")

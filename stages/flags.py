@@ -306,13 +306,23 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float) -> list[str]:
             f"person near the image centre"]
 
 
+def one_person_frames(segment: np.ndarray) -> np.ndarray:
+    """``(T,)`` bool: the frames of the longest stretch of :func:`track_segments`'s
+    ``segment`` ``(T,)`` int (all True for a track without jumps; the first of equally long
+    stretches)."""
+    segment = np.asarray(segment)
+    if not len(segment):
+        return np.zeros(0, bool)
+    return segment == int(np.argmax(np.bincount(segment)))
+
+
 def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]]) -> list[str]:
     """A one-line flag naming the jumps and the frames outside the longest stretch."""
     if not events:
         return []
-    counts = np.bincount(segment)
-    main = int(np.argmax(counts))
-    suspect = np.flatnonzero(segment != main)
+    main_frames = one_person_frames(segment)
+    main = int(segment[np.argmax(main_frames)])
+    suspect = np.flatnonzero(~main_frames)
     jumps = ", ".join(f"frame {f} ({j:.1f} torso lengths)" for f, j in events[:5])
     more = f" and {len(events) - 5} more" if len(events) > 5 else ""
     return [f"2D track probably switches person: jumps at {jumps}{more}; {len(suspect)} frames lie outside the "

@@ -183,7 +183,7 @@ class SequenceEvidence:
 
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
                  fps: float, frame_weights: np.ndarray | None = None,
-                 evidence_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, dict]:
+                 evidence_scale: float = 1.0, decide_on: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
         """Apply the mode to one recording.
 
         Args:
@@ -194,12 +194,16 @@ class SequenceEvidence:
                 of the frames in sequence mode's up (:func:`pcnet.stages.temporal.sequence_rectify`).
                 evidence_scale: :func:`pcnet.stages.uncertainty.evidence_scale` of the
                 recording: widens the pose evidence's std in the camera prior and the
-                calibrated intervals (1 = a pose like the calibration set's).
+                calibrated intervals (1 = a pose like the calibration set's). decide_on:
+                optional ``(T,)`` bool, the frames ``"auto"`` decides on (one person's
+                stretch of a 2D track that switches people, :func:`pcnet.stages.flags.one_person_frames`);
+                every valid frame when ``None`` or when none of them is valid.
 
         Returns:
             ``(R (T, 3, 3) float64, NaN where not valid (frame mode: as given); valid (T,)
             bool; report)``. The report has ``requested_mode`` and ``mode`` (the mode run),
-            and outside frame mode ``spread_deg`` (:func:`pcnet.stages.temporal.up_spread_deg`),
+            with ``decide_on`` in auto mode ``mode_decided_on_frames`` (valid frames it decided on),
+            and outside frame mode ``spread_deg`` (over those frames in auto mode) (:func:`pcnet.stages.temporal.up_spread_deg`),
             ``evidence`` (``"per-frame"``, ``"poses"``, ``"poses+ground_plane"``, with
             ``"+camera_prior"``), ``valid``; in smooth mode ``time_constant_s``; in sequence mode
             ``up``, ``up_uncertainty_deg``, ``camera_pitch_deg``, ``camera_roll_deg`` and their
@@ -223,7 +227,11 @@ class SequenceEvidence:
         if not fps > 0:
             raise InputError(f"fps must be positive, got {fps}")
         if self.mode == "auto":
-            run, spread = choose_mode(R, ok, MODE_THRESHOLD_DEG, fps)
+            subset = decide_on is not None and bool((ok & decide_on).any())
+            decide = ok & decide_on if subset else ok
+            run, spread = choose_mode(R, decide, MODE_THRESHOLD_DEG, fps)
+            if subset:
+                report["mode_decided_on_frames"] = int(decide.sum())
         else:
             run, spread = self.mode, up_spread_deg(R, ok, fps)
         report.update(mode=run, spread_deg=spread)
@@ -290,8 +298,8 @@ class Rectification:
     """Steps 1-3 for one recording: ``estimator`` -> ``sequence`` -> ``heading``, then the
     canonical poses ``(X - pelvis) @ R + residual`` (:func:`pcnet.stages.core.canonical.to_canonical`).
 
-    Calling it with ``joints_cam`` ``(T, 17, 3)`` (camera frame, any unit, NaN = missing) and
-    ``fps`` returns :class:`Rectified`; its report holds the sequence and heading reports,
+    Calling it with ``joints_cam`` ``(T, 17, 3)`` (camera frame, any unit, NaN = missing),
+    ``fps`` and optionally ``decide_on`` (:class:`SequenceEvidence`) returns :class:`Rectified`; its report holds the sequence and heading reports,
     ``view_gate`` (:func:`gate_report`), ``camera_frame_weight`` ``(T,)`` (the shipped pair
     only), ``frame_tilt_95_deg`` (the estimator's calibrated per-frame bound where nothing
     widens it, NaN when uncalibrated) and ``frame_tilt_bound_deg`` ``(T,)`` (per frame, widened
@@ -308,7 +316,7 @@ class Rectification:
     heading: HeadingStep = HeadingStep("predicted")
     allocate: Allocate | None = None
 
-    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0) -> Rectified:
+    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0, decide_on: np.ndarray | None = None) -> Rectified:
         # An estimator written without ``allocate`` still runs (in memory).
         estimate = self.estimator(joints_cam, fps) if self.allocate is None else \
             self.estimator(joints_cam, fps, self.allocate)
@@ -316,7 +324,7 @@ class Rectification:
         base = self.estimator.frame_tilt_95_deg
         bound, weights = frame_bound_and_weights(estimate, base)
         R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, weights,
-                                         evidence_scale(bound, base))
+                                         evidence_scale(bound, base), decide_on)
         report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)
