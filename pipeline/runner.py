@@ -78,6 +78,7 @@ class RunResult:
             f"frames            {self.frames} ({self.frames - self.valid_frames} dropped: no valid pose)",
             f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}"
             + (f"; spread of per-frame up {self.report['spread_deg']:.1f} deg" if "spread_deg" in self.report else "")
+            + (f"; {self.report['mode_reason']}" if "mode_reason" in self.report else "")
             + (f" over the {self.report['mode_decided_on_frames']} valid frames of the 2D track's longest stretch"
                if "mode_decided_on_frames" in self.report else "")
             + ")",
@@ -100,7 +101,9 @@ class RunResult:
 
     def _frame_bound(self) -> list[str]:
         base = self.report.get("frame_tilt_95_deg", float("nan"))
-        if self.mode == "sequence" or not np.isfinite(base):
+        interval = self.report.get("camera_pitch_interval_deg", float("nan"))
+        # A sequence up whose interval is known says its uncertainty on the tilt line instead.
+        if (self.mode == "sequence" and np.isfinite(interval)) or not np.isfinite(base):
             return []
         bound = np.asarray(self.report.get("frame_tilt_bound_deg", [base]), np.float64)
         bound = bound[np.isfinite(bound)]
@@ -426,6 +429,9 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
             world_rotation = frame.rotation
             flags += floor_flag(feet_visible(cam), _present(cam))
             report["root_path"] = "measured" if root_cam is not None else "not observable"
+        elif report.get("mode_reason") == "one valid frame":
+            notes.append("one valid frame: the pose is given in the canonical frame (frame mode); --mode sequence "
+                         "places it in a world frame with the camera prior")
         else:
             flags.append(f"no fixed world frame: mode {report['mode']} (a moving camera, or one the up estimates "
                          f"disagree on) has no fixed heading, so positions, velocities and accelerations are in the "

@@ -166,7 +166,8 @@ class SequenceEvidence:
     floor contacts when the root is measured, the camera prior if ``camera_prior``),
     ``"smooth"`` (moving camera: :func:`pcnet.stages.temporal.smooth_rotations`, kernel
     :data:`pcnet.stages.temporal.SMOOTH_TIME_CONSTANT_S`) or ``"auto"`` (one of the last two by
-    :func:`pcnet.stages.temporal.choose_mode`). ``n_bootstrap``: replicates of the
+    :func:`pcnet.stages.temporal.choose_mode`; ``"frame"`` for a recording with one valid
+    frame, ``mode_reason`` in the report). ``n_bootstrap``: replicates of the
     sequence-mode uncertainty (0 = none, NaN; the rotations do not depend on it).
 
     Raises:
@@ -226,6 +227,11 @@ class SequenceEvidence:
             raise InputError(NO_VALID_FRAME)
         if not fps > 0:
             raise InputError(f"fps must be positive, got {fps}")
+        if self.mode == "auto" and ok.sum() < 2:
+            # One pose shows neither a static nor a moving camera, and pools nothing: its
+            # per-frame answer, with the per-frame bound as its uncertainty.
+            report["mode_reason"] = "one valid frame"
+            return R, ok, report
         if self.mode == "auto":
             subset = decide_on is not None and bool((ok & decide_on).any())
             decide = ok & decide_on if subset else ok

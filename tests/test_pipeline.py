@@ -453,3 +453,19 @@ def test_lifter_joints_is_what_pcnet_run_reads_from_a_lifter():
     h36m.joints[0, 0, 0] = 1e9
     with pytest.raises(InputError, match="mediapipe_blazepose33"):
         lifter_joints(h36m, str(path))
+
+
+@pytest.mark.parametrize("mode", ["auto", "sequence"])
+def test_a_one_frame_recording_states_its_per_frame_uncertainty(tmp_path, mode):
+    """One real pose: auto runs it per frame (nothing to pool, no camera motion to see) and
+    says why; an explicit sequence mode runs, and with no bootstrap interval the summary
+    gives the calibrated per-frame bound instead of a tilt without any uncertainty."""
+    one = tmp_path / "one.npy"
+    np.save(one, np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:1])
+    res = CliRunner().invoke(main, ["run", "--lifter", "generic", "--lifter-output", str(one), "--fps", "30",
+                                    "--mode", mode, "--no-recording", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    expected = "mode frame (requested auto; one valid frame)" if mode == "auto" else "mode sequence (requested sequence"
+    assert expected in res.output
+    assert re.search(r"per-frame up\s+within 7\.4 deg .* this recording median [\d.]+", res.output), res.output
+    assert "no fixed world frame" not in res.output
