@@ -469,3 +469,34 @@ def test_a_one_frame_recording_states_its_per_frame_uncertainty(tmp_path, mode):
     assert expected in res.output
     assert re.search(r"per-frame up\s+within 7\.4 deg .* this recording median [\d.]+", res.output), res.output
     assert "no fixed world frame" not in res.output
+
+
+def test_run_pipeline_leaves_the_callers_garbage_collector_as_it_found_it(tmp_path, monkeypatch):
+    """The run exempts older objects from the cyclic collector while it runs (gc.freeze) and
+    gives them back after, also when a stage fails: a caller's cycles are collected again."""
+    import gc
+    import weakref
+
+    from pcnet.pipeline import runner
+
+    class Node:
+        pass
+
+    frozen_during = []
+    real_trim = runner._trim_heap
+    monkeypatch.setattr(runner, "_trim_heap", lambda: (frozen_during.append(gc.get_freeze_count()), real_trim()))
+    cfg = RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30, out=str(tmp_path / "a"), recording=False)
+    run_pipeline(cfg, progress=False)
+    assert min(frozen_during) > 0 and gc.get_freeze_count() == 0
+
+    monkeypatch.setattr(runner, "write_arrays", lambda *a, **k: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        run_pipeline(RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30, out=str(tmp_path / "b"),
+                               recording=False), progress=False)
+    assert gc.get_freeze_count() == 0
+    cycle = Node()
+    cycle.self = cycle
+    alive = weakref.ref(cycle)
+    del cycle
+    gc.collect()
+    assert alive() is None
