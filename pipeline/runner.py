@@ -287,8 +287,9 @@ def _collector_skips_older_objects():
     alive when it starts (``gc.freeze``, Python docs "gc"; ``gc.unfreeze`` after, so a caller's
     own objects are collected again as before). :func:`_trim_heap`'s full collection between
     stages otherwise re-traverses every imported module's objects each time: 10 collections
-    over about 160,000 objects cost 0.74 s of a 4.3 s row of the bundled example in a batch
-    worker (cProfile). Objects made during the run are collected as before."""
+    over about 160,000 objects cost 0.74 s of a 4.3 s row of the bundled example (cProfile of a
+    second row in one process, as in a batch worker). Objects made during the run are
+    collected as before."""
     gc.collect()
     gc.freeze()
     try:
