@@ -97,6 +97,47 @@ def load_mocap(path: str | Path) -> list[Clip]:
     return clips
 
 
+#: A mocap file whose clips' mean trunk direction is at least this long (1 = every trunk
+#: parallel) and this far from +Y is probably not in a +Y-up world frame (see
+#: :func:`world_up_warning`).
+UP_CHECK_MIN_LENGTH = 0.5
+UP_CHECK_MAX_DEG = 45.0
+
+
+def world_up_warning(clips: list[Clip], source: str | Path) -> str | None:
+    """A one-line warning when ``clips`` are probably not in pcnet's +Y-up world frame
+    (docs/CONVENTIONS.md), else ``None``.
+
+    The mean over every frame of the unit trunk vector (pelvis -> thorax, world frame) is
+    about +Y for upright people (Bandai 1.0 deg from +Y, length 0.99; CMU 1.7, 0.98;
+    DeepMimic with its crawls and rolls 1.6, 0.96). A Z-up lab frame or a Y-down camera-like
+    frame moves it to +Z or -Y, and every score computed from such a file is wrong. Subjects
+    lying in one direction throughout give the same reading and cannot be told apart from the
+    poses alone (only gravity's dynamics could), so this warns instead of refusing; lying
+    subjects facing various ways average to a short vector and do not warn (the DeepMimic
+    floor-motion fixture: length 0.45).
+    """
+    trunks = []
+    for clip in clips:
+        t = clip.joints[:, THORAX] - clip.joints[:, PELVIS]
+        n = np.linalg.norm(t, axis=1)
+        ok = np.isfinite(n) & (n > 0)
+        trunks.append(t[ok] / n[ok, None])
+    if not trunks or not sum(len(t) for t in trunks):
+        return None
+    mean = np.concatenate(trunks).mean(axis=0)
+    length = float(np.linalg.norm(mean))
+    angle = float(np.degrees(np.arccos(np.clip(mean[1] / length, -1.0, 1.0)))) if length > 0 else 0.0
+    if length < UP_CHECK_MIN_LENGTH or angle <= UP_CHECK_MAX_DEG:
+        return None
+    axis = int(np.argmax(np.abs(mean)))
+    along = ("+" if mean[axis] > 0 else "-") + "XYZ"[axis]
+    return (f"{source}: expected a world frame with +Y up (docs/CONVENTIONS.md), but the subjects' trunks "
+            f"(pelvis -> thorax) point along {along} on average, {angle:.0f} deg from +Y: a Z-up or Y-down file "
+            f"gives wrong scores and targets (convert it to +Y up first); subjects lying one way throughout "
+            f"read the same")
+
+
 def _read_sidecar(path: Path) -> dict:
     """The optional ``.json`` beside a mocap npz (clip name -> frames, fps, subject, ...);
     ``{}`` when there is none.

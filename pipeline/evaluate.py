@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split, load_mocap,
-                                   make_pairs, select_split)
+                                   make_pairs, select_split, world_up_warning)
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.core.errors import InputError
@@ -138,7 +138,8 @@ def evaluate(
 
     Returns:
         ``{"method", "views", "split", "split_scheme", "unseen_by", "data", "seed", "camera",
-        "noise", "mode", "heading", "camera_prior", "clips", "groups", "frames" (scored frames),
+        "noise", "mode", "heading", "camera_prior", "warnings" (lines, e.g.
+        :func:`pcnet.models.datasets.world_up_warning`), "clips", "groups", "frames" (scored frames),
         "total_frames" (frames rectified), "invalid_frames" (of the scored ones),
         "valid_frames", "frame_set", "clip_heading_sources" (clips per source used),
         "clip_modes" (sequence modes only), "camera_prior", "training_overlap" (evaluated
@@ -161,6 +162,7 @@ def evaluate(
     if unseen_by is not None and unseen_by not in SPLIT_SCHEMES:
         raise InputError(f"unseen_by {unseen_by!r}: expected one of {SPLIT_SCHEMES} or none")
     all_clips = load_mocap(data)
+    up_warning = world_up_warning(all_clips, data)
     clips = select_split(all_clips, split, split_scheme)
     if unseen_by is not None:
         seen = groups_in_split(all_clips, "train", unseen_by)
@@ -196,7 +198,7 @@ def evaluate(
     result = {
         "method": method, "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
         "data": str(data), "seed": seed, "camera": camera, "noise": kind, "mode": mode, "heading": heading,
-        "camera_prior": camera_prior,
+        "camera_prior": camera_prior, "warnings": [up_warning] if up_warning else [],
         "clips": len(clips), "groups": len({group_key(c) or c.name for c in clips}),
         "frames": len(keep), "total_frames": len(valid),
         "invalid_frames": int((~valid_k).sum()), "valid_frames": int(valid_k.sum()),
@@ -232,7 +234,8 @@ def format_table(result: dict) -> str:
         head += (f"\nthe weights trained on {overlap['clips_trained_on']} of these {overlap['clips']} clips "
                  f"and on takes of {overlap['groups_with_a_trained_take']} of their {overlap['groups']} "
                  f"motion-style groups or subjects ({overlap['scheme']}-scheme train split)")
-    lines = [head, f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}"]
+    lines = [head, *(f"WARNING {w}" for w in result.get("warnings", [])),
+             f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}"]
     for name in METRICS:
         s = result[name]
         lines.append(f"{name:<14}{s['mean']:>10.2f}{s['median']:>10.2f}{s['p95']:>10.2f}")

@@ -391,3 +391,26 @@ def test_unseen_by_keeps_groups_the_weights_never_saw():
     assert _training_overlap(data, clips, chosen, {"data": ["cmu_train_h36m17.npz"]}) is None
     assert unseen_names  # clips outside the clip-scheme train split exist
     assert Counter(test["clip_heading_sources"]) == Counter({"predicted": 910})
+
+
+def test_a_mocap_file_that_is_not_y_up_gets_a_warning(tmp_path):
+    """Real walking, running and arm-raising clips pass as +Y up; the same clips stored Z-up
+    (a lab frame) or Y-down warn on `pcnet evaluate`; floor motions (crawl, roll, get-up)
+    facing various ways do not."""
+    from pcnet.models.datasets import world_up_warning
+    from pcnet.pipeline.cli import main
+
+    mocap = FIXTURES / "mocap_small.npz"
+    clips = load_mocap(mocap)
+    assert world_up_warning(clips, mocap) is None
+    assert world_up_warning(load_mocap(FIXTURES / "deepmimic_small.npz"), "deepmimic") is None
+    z_up = {c.name: c.joints[:, :, [0, 2, 1]] * [1.0, -1.0, 1.0] for c in clips}  # (x, y, z) -> (x, -z, y)
+    y_down = {c.name: c.joints * [1.0, -1.0, -1.0] for c in clips}
+    for name, arrays, along in (("z_up", z_up, "+Z"), ("y_down", y_down, "-Y")):
+        np.savez(tmp_path / f"{name}.npz", **arrays)
+        warning = world_up_warning(load_mocap(tmp_path / f"{name}.npz"), tmp_path / f"{name}.npz")
+        assert warning and f"point along {along} on average" in warning, warning
+    res = CliRunner().invoke(main, ["evaluate", "--method", "geometric", "--data", str(tmp_path / "z_up.npz"),
+                                    "--split", "all", "--max-frames", "30"])
+    assert res.exit_code == 0, res.output
+    assert f"WARNING {tmp_path / 'z_up.npz'}: expected a world frame with +Y up" in res.output
