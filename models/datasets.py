@@ -21,7 +21,8 @@ import numpy as np
 from pcnet.models.lifter_noise import LifterNoise, apply_lifter_noise
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
 from pcnet.stages.core.conventions import (
-    H36M_MIRROR_ORDER, H36M_PARENTS, HEAD, NECK_NOSE, PELVIS, SPINE, THORAX, validate_fps, validate_poses)
+    H36M_MIRROR_ORDER, H36M_PARENTS, HEAD, NECK_NOSE, PELVIS, SPINE, THIGH_RANGE_M, THORAX, median_thigh_length,
+    validate_fps, validate_poses)
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import axis_rotation, sample_camera_rotations
 
@@ -71,8 +72,9 @@ def load_mocap(path: str | Path) -> list[Clip]:
 
     Raises:
         FileNotFoundError: missing file.
-        ValueError: not a readable npz, no arrays, or an array that is not ``(T, 17, 3)``
-            (the message names the file and the key).
+        ValueError: not a readable npz, no arrays, an array that is not ``(T, 17, 3)``, or a
+            clip whose median thigh is outside :data:`~pcnet.stages.core.conventions.THIGH_RANGE_M`
+            (not metres; the message names the file and the key).
     """
     path = Path(path)
     data = load_numpy_file(path, "mocap .npz")
@@ -87,6 +89,11 @@ def load_mocap(path: str | Path) -> list[Clip]:
             arr = validate_poses(data[name], f"{path} [clip {name}]", units="m")
             if not np.isfinite(arr).all(axis=(1, 2)).any():
                 raise InputError(f"{path} [clip {name}]: expected at least one frame with all 17 joints, got none")
+            thigh = median_thigh_length(arr)
+            if not THIGH_RANGE_M[0] <= thigh <= THIGH_RANGE_M[1]:
+                raise InputError(f"{path} [clip {name}]: expected metres (a median thigh of {THIGH_RANGE_M[0]}-"
+                                 f"{THIGH_RANGE_M[1]} m), got a median hip -> knee length of {thigh:.3g}: "
+                                 f"centimetres or millimetres? scale the file to metres")
             info = meta.get(name, {})
             if not isinstance(info, dict):
                 raise InputError(f"{path.with_suffix('.json')}: field {name!r}: expected an object, got {info!r}")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .core.canonical import trunk_lean_deg
-from .core.conventions import L_HIP, L_KNEE, PELVIS, R_HIP, R_KNEE, THORAX
+from .core.conventions import PELVIS, THIGH_RANGE_M, THORAX, median_thigh_length
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
 #: probably upside down or its axes are wrong: a real camera films a standing scene with
@@ -70,9 +70,6 @@ def orientation_flags(tilt_deg: float) -> list[str]:
     return []
 
 
-#: Thigh (hip -> knee) lengths, metres, that a person can have: a small child's 0.2 m to
-#: 0.7 m (adult thighs are about 0.4-0.5 m, Winter's anthropometric table: 0.245 x height).
-THIGH_RANGE_M = (0.2, 0.7)
 
 
 def body_size_flag(joints: np.ndarray, units: str) -> list[str]:
@@ -86,14 +83,9 @@ def body_size_flag(joints: np.ndarray, units: str) -> list[str]:
     """
     if units != "m":
         return []
-    thighs = np.concatenate([np.linalg.norm(joints[:, k] - joints[:, h], axis=1)
-                             for h, k in ((L_HIP, L_KNEE), (R_HIP, R_KNEE))])
-    thighs = thighs[np.isfinite(thighs)]
-    if not thighs.size:
-        return []
-    median = float(np.median(thighs))
+    median = median_thigh_length(joints)
     low, high = THIGH_RANGE_M
-    if low <= median <= high:
+    if not np.isfinite(median) or low <= median <= high:
         return []
     return [f"median thigh length {median:.3g} m is outside the {low}-{high} m a person has: the lifter output is "
             f"probably not in metres (check --units, or give --height to scale it)"]

@@ -127,7 +127,8 @@ def test_cmu_split_on_the_shared_file():
 
 
 def test_load_mocap_reads_subject(tmp_path):
-    np.savez(tmp_path / "m.npz", a=np.zeros((3, 17, 3), np.float32))
+    with np.load(TEST_CLIPS) as real:
+        np.savez(tmp_path / "m.npz", a=real[real.files[0]][:3])
     (tmp_path / "m.json").write_text(json.dumps({"a": {"fps": 25.0, "subject": 12}}))
     (clip,) = load_mocap(tmp_path / "m.npz")
     assert clip.subject == 12 and clip.fps == 25.0
@@ -414,3 +415,13 @@ def test_a_mocap_file_that_is_not_y_up_gets_a_warning(tmp_path):
                                     "--split", "all", "--max-frames", "30"])
     assert res.exit_code == 0, res.output
     assert f"WARNING {tmp_path / 'z_up.npz'}: expected a world frame with +Y up" in res.output
+
+
+@pytest.mark.parametrize("scale", [100.0, 0.1])
+def test_a_mocap_file_not_in_metres_is_refused(tmp_path, scale):
+    """Real clips in centimetres (pelvis-centred, so every coordinate stays under the 100 m
+    range check) or in decimetres-as-metres: one line naming the file, the clip and the thigh."""
+    clips = load_mocap(FIXTURES / "mocap_small.npz")
+    np.savez(tmp_path / "cm.npz", **{c.name: (c.joints - c.joints[:, :1]) * scale for c in clips})
+    with pytest.raises(InputError, match=r"cm\.npz \[clip .*\]: expected metres .* got a median hip -> knee length of"):
+        load_mocap(tmp_path / "cm.npz")

@@ -301,6 +301,22 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
     return out
 
 
+#: Thigh (hip -> knee) lengths, metres, that a person can have: a small child's 0.2 m to
+#: 0.7 m (adult thighs are about 0.4-0.5 m, Winter's anthropometric table: 0.245 x height).
+THIGH_RANGE_M = (0.2, 0.7)
+
+
+def median_thigh_length(joints) -> float:
+    """Median hip -> knee length over both legs and every frame of H36M-17 poses
+    ``(T, 17, 3)`` (any units, NaN = missing; read as given, so an on-disk array is read
+    whole); NaN when no thigh is finite. Compared with :data:`THIGH_RANGE_M` it tells metres
+    from centimetres, millimetres or a lifter's normalised scale."""
+    thighs = np.concatenate([np.linalg.norm(joints[:, knee] - joints[:, hip], axis=1)
+                             for hip, knee in ((L_HIP, L_KNEE), (R_HIP, R_KNEE))])
+    thighs = thighs[np.isfinite(thighs)]
+    return float(np.median(thighs)) if thighs.size else float("nan")
+
+
 def fill_pelvis_from_hips(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """H36M-17 pelvis rule: a missing (NaN) pelvis is the midpoint of the hips when both are
     present (H36M's pelvis is the hip-joint midpoint, VideoPose3D ``common/h36m_dataset.py``
