@@ -137,24 +137,9 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     the user's declaration, not an upstream fact.
     """
     p = Path(path)
-    try:
-        if not isinstance(layout, str):
-            raise ValueError(layout)
-        lay = get_layout(layout)
-    except ValueError as exc:
-        raise AdapterError(p, "layout", "a known layout name (h36m17, coco17, halpe26, body25, blazepose33)", repr(layout)) from exc
-    try:
-        if not isinstance(axes, str):
-            raise ValueError(axes)
-        m = axes_to_camera(axes)
-    except ValueError:
-        raise AdapterError(p, "axes", "3 letters from R/L, U/D, F/B, each pair once (e.g. 'RDF', 'RUB')", repr(axes)) from None
-    if not isinstance(units, str) or units not in _UNITS:
-        raise AdapterError(p, "units", f"one of {sorted(_UNITS)}", repr(units))
-    if key is not None and not isinstance(key, str):
-        raise AdapterError(p, "key", "the name of an array in the .npz, or None", repr(key))
-    if not isinstance(delimiter, str) or len(delimiter) != 1:
-        raise AdapterError(p, "delimiter", "a single character", repr(delimiter))
+    for option, expected, got in generic_option_problems(layout, axes, units, key, delimiter)[:1]:
+        raise AdapterError(p, option, expected, got)
+    lay, m = get_layout(layout), axes_to_camera(axes)
 
     suffix = p.suffix.lower()
     if suffix in (".csv", ".txt"):
@@ -189,10 +174,38 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     return Poses3D(joints, lay.name, units=unit_tag, source=str(p), notes="; ".join(notes))
 
 
+def generic_option_problems(layout: object = "h36m17", axes: object = "RDF", units: object = "m",
+                            key: object = None, delimiter: object = ",") -> list[tuple[str, str, str]]:
+    """``(option, expected, found)`` for each option value :func:`load_generic` refuses (no
+    file needed, so a batch manifest's rows are checked before any row runs)."""
+    problems = []
+    try:
+        if not isinstance(layout, str):
+            raise ValueError(layout)
+        get_layout(layout)
+    except ValueError:
+        problems.append(("layout", "a known layout name (h36m17, coco17, halpe26, body25, blazepose33)", repr(layout)))
+    try:
+        if not isinstance(axes, str):
+            raise ValueError(axes)
+        axes_to_camera(axes)
+    except ValueError:
+        problems.append(("axes", "3 letters from R/L, U/D, F/B, each pair once (e.g. 'RDF', 'RUB')", repr(axes)))
+    if not isinstance(units, str) or units not in _UNITS:
+        problems.append(("units", f"one of {sorted(_UNITS)}", repr(units)))
+    if key is not None and not isinstance(key, str):
+        problems.append(("key", "the name of an array in the .npz, or None", repr(key)))
+    if not isinstance(delimiter, str) or len(delimiter) != 1:
+        problems.append(("delimiter", "a single character", repr(delimiter)))
+    return problems
+
+
 @register_3d("generic")
 class GenericAdapter:
     """Registry entry for :func:`load_generic` (options: ``layout``, ``axes``, ``units``,
     ``key``, ``delimiter``)."""
+
+    option_problems = staticmethod(generic_option_problems)
 
     def load(self, path: str | Path, *, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
              key: str | None = None, delimiter: str = ",") -> Poses3D:

@@ -195,14 +195,23 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
                    summary_note=summary_note, frame_turn_deg=turn_median)
 
 
+def focal_problems(focal_px: object = None) -> list[tuple[str, str, str]]:
+    """``[(option, expected, found)]`` when ``focal_px`` is given but not a positive finite
+    number of pixels (no file needed: a batch manifest's rows are checked before any runs)."""
+    if focal_px is None or (not isinstance(focal_px, bool) and isinstance(focal_px, (int, float))
+                            and math.isfinite(focal_px) and focal_px > 0):
+        return []
+    return [("focal_px", "a positive finite focal length in pixels", repr(focal_px))]
+
+
 def _intrinsics(p: Path, scalars: dict, focal_px: float | None, K: np.ndarray | None) -> tuple[np.ndarray | None, str]:
     """``(K (3, 3), where its focal length came from)``: ``focal_px`` with the image centre,
     else the file's ``K`` (``None`` when it has none), else the default smartphone focal
     length with the image centre; ``(None, why)`` without ``K`` and without the image size."""
     width, height = scalars["width"], scalars["height"]
     if focal_px is not None:
-        if isinstance(focal_px, bool) or not (isinstance(focal_px, (int, float)) and math.isfinite(focal_px) and focal_px > 0):
-            raise AdapterError(p, "focal_px", "a positive finite focal length in pixels", repr(focal_px))
+        for option, expected, got in focal_problems(focal_px):
+            raise AdapterError(p, option, expected, got)
         if width is None or height is None:
             raise AdapterError(p, "width/height", "the image size, to place the principal point for --focal-px",
                                "no such field")
@@ -254,6 +263,8 @@ class MediaPipe2DAdapter:
 @register_3d("mediapipe")
 class MediaPipe3DAdapter:
     """Registry entry for :func:`load_mediapipe_3d` (option ``focal_px``)."""
+
+    option_problems = staticmethod(focal_problems)
 
     def load(self, path: str | Path, *, focal_px: float | None = None) -> Poses3D:
         return load_mediapipe_3d(path, focal_px=focal_px)

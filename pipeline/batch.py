@@ -12,9 +12,11 @@ records every row: see :data:`SUMMARY_FIELDS`.
 from __future__ import annotations
 
 import csv
+import difflib
 import io
 import json
 import os
+import re
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
@@ -60,11 +62,9 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
         InputError: an unknown column, or a value the column does not take (naming it).
     """
     # lifter_options is a table in TOML; in a manifest its entries are columns of their own.
-    known = ({f.name for f in fields(RunConfig)} - {"lifter_options"}) | set(_LIFTER_OPTIONS)
-    unknown = {k for k in row if k not in known}
+    unknown = sorted(set(row) - set(manifest_columns()))
     if unknown:
-        raise InputError(f"unknown columns {sorted(unknown)[:5]}; expected columns named like the fields of `pcnet run`"
-                         f" (lifter, lifter_output, keypoints2d, keypoints2d_format, video, out, ...)")
+        raise InputError(f"unknown columns {unknown}; expected some of {', '.join(manifest_columns())}")
     values, options = {}, {}
     for key, raw in row.items():
         if raw is None or str(raw).strip() == "":
@@ -93,12 +93,46 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
     return RunConfig.from_values(ROW_SOURCE, {**values, "lifter_options": options})
 
 
-def read_manifest(manifest: Path) -> list[dict]:
-    """The rows of a CSV manifest (a header line, then one recording per line).
+def manifest_columns() -> list[str]:
+    """Every column a manifest may have: the fields of ``pcnet run``'s configuration and the
+    lifter options that have a flag of their own."""
+    return sorted(({f.name for f in fields(RunConfig)} - {"lifter_options"}) | set(_LIFTER_OPTIONS))
+
+
+def _header_problem(manifest: Path, header: list[str]) -> str | None:
+    """What is wrong with the header line, as one line (the header is line 1), or None."""
+    where = f"{manifest}: line 1"
+    first = header[0].strip() if header else ""
+    if first.startswith("["):
+        return f"{where}: expected a CSV header of column names, got {first!r} (a TOML file? a manifest is CSV)"
+    if first.startswith("#"):
+        return f"{where}: expected a CSV header of column names, got the comment {first!r} (comments are not allowed)"
+    names = [h.strip() for h in header]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        return f"{where}: expected each column once, got {', '.join(twice)} more than once"
+    unknown = [n for n in names if n not in manifest_columns()]
+    if unknown:
+        close = {n: difflib.get_close_matches(n.lower().replace("-", "_"), manifest_columns(), n=1)
+                 for n in unknown if n != "lifter_options"}
+        hint = "".join(f" ({n}: {m[0]}?)" for n, m in close.items() if m)
+        if "lifter_options" in unknown:
+            hint += f" (lifter_options: a manifest gives each as a column of its own, {', '.join(_LIFTER_OPTIONS)})"
+        if any(";" in n for n in unknown):
+            hint += " (columns separated by ';'? a manifest separates them by commas)"
+        return (f"{where}: unknown columns {unknown}{hint}; expected columns named like the fields of `pcnet run`: "
+                f"{', '.join(manifest_columns())}")
+    return None
+
+
+def read_manifest(manifest: Path) -> list[tuple[int, dict]]:
+    """The rows of a CSV manifest (a header line, then one recording per line) with the
+    line each starts on (blank lines are skipped; a quoted cell may span lines).
 
     Raises:
-        InputError: the file is empty, not UTF-8 text, not CSV, has no header or no rows,
-            or a row has more cells than the header (naming the manifest and the line).
+        InputError: the file is empty, not UTF-8 text, not CSV, has no header or no rows, a
+            header with a column given twice or not a column of :func:`manifest_columns`, or a
+            row with more or fewer cells than the header (naming the manifest and the line).
     """
     try:
         text = manifest.read_bytes().decode("utf-8-sig")
@@ -107,18 +141,29 @@ def read_manifest(manifest: Path) -> list[dict]:
     if "\x00" in text:
         raise InputError(f"{manifest}: expected a UTF-8 CSV manifest, got binary data (NUL bytes)")
     if not text.strip():
-        raise InputError(f"{manifest}: expected a CSV manifest with a header and rows, got an empty file")
+        what = "an empty file" if not text else "only blank lines"
+        raise InputError(f"{manifest}: expected a CSV manifest with a header and rows, got {what}")
+    reader = csv.reader(io.StringIO(text, newline=""))  # quoted cells may hold newlines
+    header, rows, start = None, [], 1
     try:
-        reader = csv.DictReader(io.StringIO(text, newline=""))  # quoted cells may hold newlines
-        rows = list(reader)
+        for cells in reader:
+            line, start = start, reader.line_num + 1
+            if not any(c.strip() for c in cells):
+                continue
+            if header is None:
+                header = cells
+                problem = _header_problem(manifest, header)
+                if problem:
+                    raise InputError(problem)
+                continue
+            if len(cells) != len(header):
+                raise InputError(f"{manifest}: line {line}: expected {len(header)} cells (the header's), got "
+                                 f"{len(cells)}")
+            rows.append((line, {name.strip(): cell for name, cell in zip(header, cells)}))
     except csv.Error as err:
-        raise InputError(f"{manifest}: expected CSV, got {err}") from None
-    for line, row in enumerate(rows, start=2):
-        if None in row:
-            raise InputError(f"{manifest}: line {line}: expected at most {len(reader.fieldnames)} cells "
-                             f"(the header's), got {len(reader.fieldnames) + len(row[None])}")
+        raise InputError(f"{manifest}: line {reader.line_num}: expected CSV, got {err}") from None
     if not rows:
-        raise InputError(f"{manifest}: expected at least one row below the header {reader.fieldnames}, got none")
+        raise InputError(f"{manifest}: expected at least one row below the header {header}, got none")
     return rows
 
 
@@ -216,41 +261,59 @@ def _out_problem(where: str, row: dict, config: dict) -> str | None:
 
 
 def _shared_out_problems(manifest: Path, planned: list[PlannedRow]) -> dict[int, str]:
-    """``{line: problem}`` of rows writing an output folder an earlier row writes: they
-    would silently replace each other (rows without ``out`` share ``pcnet_out`` beside the
-    manifest)."""
-    seen: dict[Path, int] = {}
+    """``{line: problem}`` of rows writing an output folder an earlier row writes, or one
+    inside or around it: they would silently replace each other (rows without ``out`` share
+    ``pcnet_out`` beside the manifest), or one row's output would hold the other's, which no
+    later ``--overwrite`` could replace."""
+    outs: dict[Path, int] = {}  # each output folder -> the first line writing it
+    holders: dict[Path, int] = {}  # each folder holding an output folder -> a line writing inside it
     problems = {}
     for item in planned:
         target = item.out.resolve()
-        if target in seen:
-            given = (item.cells.get("out") or "").strip() or "pcnet_out"
-            problems[item.line] = (f"{manifest}: line {item.line}: column out: expected a folder of its own, got "
-                                   f"{given!r}, which line {seen[target]} also writes")
+        inside = next((p for p in target.parents if p in outs), None)
+        if target in outs:
+            relation = f"which line {outs[target]} also writes"
+        elif inside is not None:
+            relation = f"inside line {outs[inside]}'s output folder"
+        elif target in holders:
+            relation = f"which holds line {holders[target]}'s output folder"
         else:
-            seen[target] = item.line
+            outs[target] = item.line
+            for parent in target.parents:
+                holders.setdefault(parent, item.line)
+            continue
+        given = (item.cells.get("out") or "").strip() or "pcnet_out"
+        problems[item.line] = (f"{manifest}: line {item.line}: column out: expected a folder of its own, got "
+                               f"{given!r}, {relation}")
     return problems
 
 
-def _parse_rows(manifest: Path, rows: list[dict], overwrite: bool) -> tuple[list[PlannedRow], dict[int, str]]:
+def _as_columns(message: str) -> str:
+    """RunConfig names its source "manifest row" and its fields quoted; here the row is the
+    line already, and the fields are the manifest's columns."""
+    return re.sub(re.escape(ROW_SOURCE) + r": (fields?) ((?:'\w+'(?: and )?)+)",
+                  lambda m: ("columns " if m.group(1) == "fields" else "column ") + m.group(2).replace("'", ""),
+                  message)
+
+
+def _parse_rows(manifest: Path, rows: list[tuple[int, dict]],
+                overwrite: bool) -> tuple[list[PlannedRow], dict[int, str]]:
     """Every row's config (absolute paths), and ``{line: problem}`` for the rows whose
     settings, input files or ``out`` (against the inputs) are wrong."""
     base = manifest.resolve().parent
     planned, problems = [], {}
-    for index, row in enumerate(rows, start=1):
-        where = f"{manifest}: line {index + 1}"
+    for index, (line, row) in enumerate(rows, start=1):
+        where = f"{manifest}: line {line}"
         try:
             cfg = row_to_config(row, base, overwrite)
         except InputError as err:
-            # RunConfig names its source "manifest row"; here the row is the line already.
-            message = str(err).replace(ROW_SOURCE + ": field ", "column ").replace(ROW_SOURCE + ": fields ", "columns ")
-            problems[index + 1] = f"{where}: {message}"
+            problems[line] = f"{where}: {_as_columns(str(err))}"
             continue
         config = asdict(cfg)
         found = _input_problems(where, row, config) or [p for p in [_out_problem(where, row, config)] if p]
         if found:
-            problems[index + 1] = "\n".join(found)
-        planned.append(PlannedRow(index, index + 1, config, row))
+            problems[line] = "\n".join(found)
+        planned.append(PlannedRow(index, line, config, row))
     return planned, problems
 
 
@@ -322,6 +385,11 @@ def _check_summary_path(path: Path, manifest: Path, planned: list[PlannedRow]) -
     inputs = {Path(p).resolve() for item in planned for p in input_files(item.config).values()}
     if resolved == manifest.resolve() or resolved in inputs:
         raise InputError(f"--summary-json {path}: expected a file of its own, got the manifest or an input")
+    outs = {item.out.resolve(): item.line for item in planned}
+    holder = next((p for p in [resolved, *resolved.parents] if p in outs), None)
+    if holder is not None:
+        raise InputError(f"--summary-json {path}: expected a place outside the rows' output folders, got one in "
+                         f"line {outs[holder]}'s ({holder}), which a row's output replaces")
     if not resolved.parent.is_dir() or not os.access(resolved.parent, os.W_OK):
         raise InputError(f"--summary-json {path}: expected a writable folder for the batch summary, got "
                          f"{resolved.parent}; name another place with --summary-json")
@@ -340,7 +408,9 @@ def plan_batch(manifest: str | os.PathLike, options: BatchOptions) -> tuple[list
     the summary path. Nothing is written.
 
     Raises:
-        InputError: an unreadable manifest (:func:`read_manifest`), a missing or foreign
+        InputError: a Ray cluster address that accepts no connection
+            (:func:`pcnet.pipeline.batch_ray.check_reachable`), an unreadable manifest
+            (:func:`read_manifest`), a missing or foreign
             ``--retry-failed`` summary, an unusable ``--summary-json`` path.
         ManifestError: one line per problem of any row: unknown columns or bad values, an
             input file that does not exist, an ``out`` that is (or contains) an input's
@@ -349,11 +419,15 @@ def plan_batch(manifest: str | os.PathLike, options: BatchOptions) -> tuple[list
             not write, the current folder).
     """
     manifest = Path(manifest)
+    if options.engine == "ray" and options.address:
+        from .batch_ray import check_reachable
+
+        check_reachable(options.address)
     planned, problems = _parse_rows(manifest, read_manifest(manifest), options.overwrite)
     for line, problem in _shared_out_problems(manifest, planned).items():
         problems.setdefault(line, problem)
     summary = Path(options.summary_json) if options.summary_json else default_summary_path(manifest)
-    _check_summary_path(summary, manifest, planned)
+    _check_summary_path(summary, manifest, [item for item in planned if item.line not in problems])
     previous = read_previous_summary(summary) if options.retry_failed else None
     for item in planned:
         if item.line in problems:
@@ -380,11 +454,13 @@ def _engine(options: BatchOptions, on_result):
 def _row_summary(item: PlannedRow, result: dict | None, status: str | None = None) -> dict:
     """A row of the summary: the engine's result, or a skipped / cancelled / pending row."""
     base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": 0, "valid": 0,
-            "mode": "", "seconds": None, "error": "", "host": "", "pid": None, "attempts": 0, "threads": None}
+            "mode": "", "seconds": None, "error": "", "warnings": [], "host": "", "pid": None, "attempts": 0,
+            "threads": None}
     if item.action == "skip":
         base.update(status="skipped", **{k: v for k, v in item.known.items() if v is not None})
     elif result is not None:
         base.update(result, row=item.row)
+        base["status"] = result.get("status", status)
     return base
 
 
@@ -429,7 +505,9 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
     writer = _SummaryWriter(summary_path, header)
 
     def rows(unfinished: str) -> list[dict]:
-        return [_row_summary(item, results.get(item.row), unfinished) for item in planned]
+        # A row stopped while running reports the attempt it was in (engines that know it).
+        started = getattr(engine, "started", {}) if engine is not None else {}
+        return [_row_summary(item, results.get(item.row) or started.get(item.row), unfinished) for item in planned]
 
     def on_result(result: dict) -> None:
         results[result["row"]] = result
@@ -437,6 +515,7 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
             progress(_progress_line(len(results), len(jobs), by_row[result["row"]], result))
         writer.write(rows("pending"))
 
+    engine = None
     writer.write(rows("pending"), force=True)
     engine = _engine(options, on_result)
     try:
@@ -475,7 +554,9 @@ def _clean_cancelled(planned: list[PlannedRow], results: dict[int, dict]) -> Non
 def _progress_line(done: int, total: int, item: PlannedRow, result: dict) -> str:
     detail = str(item.out) if result["status"] == "ok" else result["error"]
     took = f" {result['seconds']:.1f} s" if result.get("seconds") is not None else ""
-    return f"[{done}/{total}] line {item.line} {result['status']}{took}: {detail}"
+    line = f"[{done}/{total}] line {item.line} {result['status']}{took}: {detail}"
+    # the row's WARNING lines, as `pcnet run` prints them: what pcnet could not tell
+    return "\n".join([line, *(f"    WARNING {w}" for w in result.get("warnings") or [])])
 
 
 #: What each per-row field of the JSON summary (and the table) means.
@@ -492,6 +573,8 @@ SUMMARY_FIELDS = {
     "mode": "rectification mode used (frame, sequence, smooth)",
     "seconds": "run time of the last attempt in its worker (null: not run, or its worker died)",
     "error": "one-line reason of a failed row",
+    "warnings": "the WARNING lines `pcnet run` prints for the recording (what pcnet could not tell: a track "
+                "switch, poses unlike the training data, no fixed world frame, ...); also on stderr as the row ends",
     "host": "host name of the worker that ran the last attempt",
     "pid": "process id of that worker",
     "attempts": "times the row was started (more than 1 when a worker died and --retries allowed another)",

@@ -80,6 +80,9 @@ class LocalEngine:
     on_result: Callable[[dict], None] = lambda result: None
     _pool: list[_Worker] = field(default_factory=list)
     _threads: int = 1
+    #: row -> the last attempt's ``attempts``, ``host``, ``pid`` and ``threads``, as it started
+    #: (what a row cancelled while running reports).
+    started: dict[int, dict] = field(default_factory=dict)
 
     def run(self, jobs: list[dict]) -> tuple[list[dict], bool]:
         if not jobs:
@@ -115,6 +118,8 @@ class LocalEngine:
         for worker in self._pool:
             if worker.job is None and pending:
                 worker.job = pending.popleft()
+                self.started[worker.job["row"]] = {"attempts": worker.job["attempt"], "host": socket.gethostname(),
+                                                   "pid": worker.process.pid, "threads": self._threads}
                 try:
                     worker.conn.send(worker.job)
                 except OSError:  # the child died before its first job: seen by _collect

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
 
-from .outdir import read_marker, register_files
+from .outdir import listed_files_intact, read_marker, register_files
 
 BATCH_MARKER = ".pcnet_batch.json"
 #: RunConfig fields that name input files (hashed into the marker).
@@ -95,9 +95,10 @@ def read_batch_marker(out: Path) -> dict:
 
 def completed_record(out: Path, config: dict) -> dict | None:
     """The batch marker of ``out`` when the folder holds a complete output of exactly this
-    row (same settings, same pcnet version, same input paths and sha256), else ``None``.
-    Inputs are hashed only when everything cheaper already matches."""
-    if read_marker(out).get("state") != "complete":
+    row (every file pcnet wrote there still present and unchanged; same settings, same pcnet
+    version, same input paths and sha256), else ``None``. Inputs are hashed only when
+    everything cheaper already matches."""
+    if read_marker(out).get("state") != "complete" or not listed_files_intact(out):
         return None
     record = read_batch_marker(out)
     if not record or record.get("pcnet_version") != pcnet_version() or record.get("settings") != settings_of(config):

@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from pcnet.stages.core.errors import import_extra
+from pcnet.stages.core.errors import InputError, import_extra
 
 from .batch_local import environment, sigint_ignored
 from .batch_worker import TEST_HOOK, cpu_cores, execute_row, set_opencv_threads, thread_env, threads_per_worker
@@ -51,6 +51,28 @@ class _Attempts:
 
     def last(self, row: int) -> dict:
         return self.seen.get(row, {"attempts": 0})
+
+
+#: Seconds a cluster address gets to accept a connection before the batch gives up on it.
+CONNECT_TIMEOUT_S = 5.0
+
+
+def check_reachable(address: str) -> None:
+    """Refuse a ``HOST:PORT`` cluster address that accepts no connection within
+    :data:`CONNECT_TIMEOUT_S` (``ray.init`` would retry it for minutes, printing only Ray's
+    own log lines). ``auto`` and other forms Ray resolves itself are left to Ray.
+
+    Raises:
+        InputError: naming ``--address``, what was expected and what was found.
+    """
+    host, sep, port = address.rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as err:
+        raise InputError(f"--address {address}: expected a running Ray cluster's head (`ray start --head` prints its "
+                         f"address), got no connection within {CONNECT_TIMEOUT_S:g} s ({err.strerror or err})") from None
 
 
 def ray_row(job: dict, attempts, threads: int) -> dict:

@@ -96,7 +96,7 @@ def execute_row(job: dict) -> dict:
     worker) propagates after ``run_pipeline`` has removed its half-written folder.
     """
     result = {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
-              "error": "", "host": socket.gethostname(), "pid": os.getpid(), "attempts": job.get("attempt", 1),
+              "error": "", "warnings": [], "host": socket.gethostname(), "pid": os.getpid(), "attempts": job.get("attempt", 1),
               "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS"))}
     _test_hook(job["row"])
     from pcnet.stages.core.errors import InputError
@@ -112,7 +112,7 @@ def execute_row(job: dict) -> dict:
         config = job["config"]
         inputs = input_hashes(config)  # before the run: the marker must describe what was read
         run = run_pipeline(RunConfig(**config), progress=False)
-        result.update(status="ok", frames=run.frames, valid=run.valid_frames, mode=run.mode)
+        result.update(status="ok", frames=run.frames, valid=run.valid_frames, mode=run.mode, warnings=list(run.flags))
         write_batch_marker(Path(config["out"]), config, inputs, result)
     except Exception as err:  # one row's failure is its result; the batch goes on
         result.update(status="failed", error=error_line(err))

@@ -51,7 +51,8 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
     takes ...``), the field otherwise.
 
     Raises:
-        InputError: an option the adapter does not take, or a value of the wrong type.
+        InputError: an option the adapter does not take, a value of the wrong type, or one
+            its ``option_problems`` (if it has them) refuses.
     """
     from pcnet.adapters import get_3d_adapter
 
@@ -74,6 +75,10 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
             where = _option_flag(option) if source == COMMAND_LINE else field_name(source, option)
             raise InputError(f"{where}: expected {type_name(hints[option])} for --lifter {lifter}, got {value!r} "
                              f"({type(value).__name__})")
+    # Values the adapter would refuse only once it reads the file (an adapter may say which).
+    for option, expected, got in getattr(get_3d_adapter(lifter), "option_problems", lambda **_: [])(**options)[:1]:
+        where = _option_flag(option) if source == COMMAND_LINE else field_name(source, option)
+        raise InputError(f"{where}: expected {expected} for --lifter {lifter}, got {got}")
     return options
 
 
@@ -177,8 +182,11 @@ class RunConfig:
             if not (optional and value is None) and value not in choices:
                 raise InputError(f"{field_name(source, name)}: expected one of {choices}, got {value!r}")
         if (self.keypoints2d is None) != (self.keypoints2d_format is None):
+            given = "keypoints2d" if self.keypoints2d is not None else "keypoints2d_format"
+            missing = "keypoints2d_format" if given == "keypoints2d" else "keypoints2d"
             raise InputError(f"{field_name(source, 'keypoints2d', 'keypoints2d_format')}: expected both or neither, "
-                             f"got {self.keypoints2d!r} and {self.keypoints2d_format!r}")
+                             f"got {_flag(given) if source == COMMAND_LINE else given} "
+                             f"{getattr(self, given)!r} without {_flag(missing) if source == COMMAND_LINE else missing}")
         # (field, value, low, high, unit): ranges that a real recording can have
         for name, value, low, high, unit in (
             ("height", self.height, MIN_HEIGHT_M, MAX_HEIGHT_M, "m (the subject's height)"),
@@ -192,8 +200,10 @@ class RunConfig:
             raise InputError(f"{field_name(source, 'person')}: expected a track id >= 0, got {self.person}")
         # Options that would be silently ignored are mistakes the user should hear about.
         if self.person is not None and self.keypoints2d_format not in ("alphapose", "mmpose"):
+            got = (f"keypoints2d_format {self.keypoints2d_format!r}" if self.keypoints2d_format is not None
+                   else "no 2D keypoints")
             raise InputError(f"{field_name(source, 'person')}: expected 2D keypoints with several tracks (alphapose or "
-                             f"mmpose), got keypoints2d_format {self.keypoints2d_format!r}")
+                             f"mmpose), got {got}")
         check_method_weights(self.method, self.weights, field_name(source, "weights"))
         check_lifter_options(source, self.lifter, self.lifter_options)
         if self.fps_override and self.fps is None:

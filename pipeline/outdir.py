@@ -125,6 +125,14 @@ def owned_files(folder: Path) -> dict:
     return files if isinstance(files, dict) else {}
 
 
+def listed_files_intact(folder: Path) -> bool:
+    """Whether every file the folder's pcnet marker lists is still there, unchanged (size and
+    modification time): an output nobody deleted from or edited. Files added beside them do
+    not count."""
+    listed = owned_files(folder)
+    return bool(listed) and all(_listed_unchanged(folder / name, listed) for name in listed)
+
+
 def is_owned(folder: Path, name: str) -> bool:
     """Whether ``folder/name`` is a file pcnet wrote there, unchanged since (size and
     modification time as the marker records them)."""

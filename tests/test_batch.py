@@ -147,7 +147,7 @@ def test_the_whole_manifest_is_checked_before_any_work(tmp_path):
                 ("line 5", "column out", "'.', which contains the folder of"),
                 ("line 7", "column out", "expected a folder of its own", "'same', which line 6 also writes"),
                 ("line 8", "column out", "'theirs', an existing folder", "--overwrite"),
-                ("line 9", "column 'method'", "expected one of", "'bogus'")]
+                ("line 9", "column method", "expected one of", "'bogus'")]
     for needles in expected:
         assert any(all(n in e for n in needles) for e in errors), (needles, errors)
     assert all(str(manifest) in e for e in errors)
@@ -166,9 +166,9 @@ def test_settings_a_row_would_ignore_are_refused_before_any_work(tmp_path):
     res = _invoke(manifest)
     assert res.exit_code == 1 and "Traceback" not in res.output, res.output
     errors = [ln for ln in res.output.splitlines() if ln.startswith("Error: ")]
-    expected = [("line 2", "column 'confidence_threshold'", "expected together with 2D keypoints"),
-                ("line 3", "columns 'cutoff_hz' and 'residual_cutoff'", "expected one of the two"),
-                ("line 4", "column 'focal_px'", "expected only options --lifter motionbert takes (pixel, clip_len)")]
+    expected = [("line 2", "column confidence_threshold", "expected together with 2D keypoints"),
+                ("line 3", "columns cutoff_hz and residual_cutoff", "expected one of the two"),
+                ("line 4", "column focal_px", "expected only options --lifter motionbert takes (pixel, clip_len)")]
     for needles in expected:
         assert any(all(n in e for n in needles) for e in errors), (needles, errors)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
@@ -283,6 +283,10 @@ def test_ctrl_c_stops_at_once_and_prints_what_finished(tmp_path, hook):
     assert "interrupted" in out and "1 of 4 recordings processed (1 ok, 0 skipped, 0 failed, 3 cancelled)" in out
     summary = _summary(manifest)
     assert summary["interrupted"] is True and _statuses(manifest) == ["ok", "cancelled", "cancelled", "cancelled"]
+    # the rows stopped while running say which attempt and worker they were in; row 4 never started
+    assert [(r["attempts"], r["pid"]) for r in summary["rows"][1:3]] == [(1, _started(hook, 2)[0]),
+                                                                          (1, _started(hook, 3)[0])]
+    assert (summary["rows"][3]["attempts"], summary["rows"][3]["pid"]) == (0, None)
     assert (tmp_path / "c1" / MARKER).is_file()
     assert not any((tmp_path / f"c{i}").exists() for i in (2, 3, 4))
     assert not list(tmp_path.glob(f".*{TMP_TAG}*"))
@@ -394,3 +398,82 @@ def test_staged_folders_of_rows_on_other_hosts_and_unmarked_files_are_left_alone
     (unmarked / "data.bin").write_bytes(b"x")
     removed = clean_stale(tmp_path / "out")
     assert sorted(removed) == [dead, empty] and remote.is_dir() and unmarked.is_dir() and starting.is_dir()
+
+
+def test_a_complete_output_missing_a_file_runs_again(tmp_path):
+    """A re-run skips a row only while every file pcnet wrote for it is there unchanged; a
+    file of the user's beside them does not stop the skip (nothing would be replaced)."""
+    manifest = _manifest(tmp_path, _row("r1"), _row("r2"))
+    assert _invoke(manifest, "--workers", "1").exit_code == 0
+    (tmp_path / "r1" / "kinematics.csv").unlink()
+    (tmp_path / "r2" / "notes.txt").write_text("mine")
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 0 and _statuses(manifest) == ["ok", "skipped"], res.output
+    assert (tmp_path / "r1" / "kinematics.csv").is_file() and (tmp_path / "r2" / "notes.txt").read_text() == "mine"
+
+
+def test_manifest_layout_mistakes_are_named_by_their_file_line(tmp_path):
+    """Blank lines do not shift the line numbers; the header's problems are line 1's, once;
+    a row with fewer cells than the header is refused (its missing out went to pcnet_out)."""
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f"{HEADER}\n\n{_row('a')}\n\n{_row('b', method='bogus')}\n")
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and f"{manifest}: line 5: column method: expected one of" in res.output, res.output
+    manifest.write_text(f"{HEADER},lifter\n{_row('a')},generic\n{_row('b')},generic\n")
+    res = _invoke(manifest)
+    assert res.output.count("Error: ") == 1 and f"{manifest}: line 1: expected each column once, got lifter more than " \
+        "once" in res.output, res.output
+    manifest.write_text(HEADER.replace("fps", "FPS") + f"\n{_row('a')}\n{_row('b')}\n")
+    res = _invoke(manifest)
+    assert res.output.count("Error: ") == 1 and "line 1: unknown columns ['FPS'] (FPS: fps?)" in res.output, res.output
+    manifest.write_text(f"{HEADER}\n{_row('a').rsplit(',', 3)[0]}\n")
+    res = _invoke(manifest)
+    assert f"{manifest}: line 2: expected 8 cells (the header's), got 5" in res.output, res.output
+    manifest.write_text("[[row]]\nlifter = 'motionbert'\n")
+    assert "(a TOML file? a manifest is CSV)" in _invoke(manifest).output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
+
+
+def test_nested_outs_a_summary_inside_an_out_and_bad_option_values_are_refused_before_any_work(tmp_path):
+    manifest = _manifest(tmp_path, _row("o/a"), _row("o/a/b"), _row("p/c/d"), _row("p/c"))
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and "line 3: column out: expected a folder of its own, got 'o/a/b', inside line 2's " \
+        "output folder" in res.output and "line 5: column out: expected a folder of its own, got 'p/c', which holds " \
+        "line 4's output folder" in res.output, res.output
+    manifest = _manifest(tmp_path, _row("o/a"))
+    res = _invoke(manifest, "--summary-json", tmp_path / "o" / "a" / "s.json")
+    assert res.exit_code == 1 and "expected a place outside the rows' output folders" in res.output, res.output
+    manifest = tmp_path / "g.csv"
+    manifest.write_text(f"lifter,lifter_output,fps,units,out\ngeneric,{BOX_3D},30,m,g1\ngeneric,{BOX_3D},30,feet,g2\n")
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and "line 3: column units: expected one of ['cm', 'm', 'mm', 'normalised', 'px'] for " \
+        "--lifter generic, got 'feet'" in res.output, res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.csv", "m.csv"]
+
+
+def test_an_unreachable_cluster_address_is_refused_at_once(tmp_path):
+    import socket
+
+    with socket.socket() as s:  # a port nothing listens on: bound, never listening
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+        manifest = _manifest(tmp_path, _row("a"))
+        res = _invoke(manifest, "--engine", "ray", "--address", f"127.0.0.1:{port}")
+    assert res.exit_code == 1 and f"--address 127.0.0.1:{port}: expected a running Ray cluster's head" in res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
+
+
+def test_a_rows_warnings_reach_the_summary(tmp_path):
+    """What `pcnet run` prints as WARNING lines for a recording is in the row's summary
+    (and on stderr as the row ends): a batch user reads no per-row terminal output."""
+    lying = FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy"  # real VideoPose3D output of a lying body
+    manifest = tmp_path / "w.csv"
+    manifest.write_text(f"lifter,lifter_output,fps,out,recording\ngeneric,{lying},30,w1,false\n")
+    res = _invoke(manifest)
+    assert res.exit_code == 0, res.output
+    (row,) = _summary(manifest)["rows"]
+    expected = [ln.removeprefix("WARNING").strip() for ln in CliRunner().invoke(main, [
+        "run", "--lifter", "generic", "--lifter-output", str(lying), "--fps", "30", "--no-recording",
+        "--out", str(tmp_path / "single")]).output.splitlines() if ln.startswith("WARNING")]
+    assert expected and row["warnings"] == expected
+    assert all(f"    WARNING {w}" in res.output for w in expected)

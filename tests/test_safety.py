@@ -300,7 +300,8 @@ def test_lifter_options_are_type_checked_against_the_adapter(user_folder):
                                           '\nfps = 30\nout = "o"\n[lifter_options]\npixel = "yes"\n')
     _one_line_error(_invoke("run", "--config", "run.toml"), "pixel", "expected bool", "'yes'")
     (user_folder / "m.csv").write_text("lifter,lifter_output,fps,lifter_options\ngeneric,poses.npy,30,x\n")
-    _one_line_error(_invoke("batch", "m.csv"), "m.csv", "line 2", "unknown columns ['lifter_options']")
+    _one_line_error(_invoke("batch", "m.csv"), "m.csv", "line 1", "unknown columns ['lifter_options']",
+                    "a manifest gives each as a column of its own")
 
 
 def test_unknown_lifter_options_in_toml_end_in_one_line(user_folder):
