@@ -16,7 +16,7 @@ import numpy as np
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import checked_poses, load_npy, require_some_finite
+from .validate import ROOT_RELATIVE_MAX, checked_poses, load_npy, pelvis_offset, require_some_finite
 
 
 def _pick(p: Path, name: str, value: object, size: int, also: str = "") -> int:
@@ -47,7 +47,9 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         AdapterError: missing/unreadable file, a ``.mat`` (DDHPose's 3DHP output is in the
             MPI-INF-3DHP-17 layout), a ``_postprocess`` file (world z-up frame for display),
             wrong rank, dtype or joint count, a bad ``step``/``hypothesis``, all NaN, a
-            coordinate beyond 100 m (naming frame and joint). ``inf`` is missing data (NaN).
+            coordinate beyond 100 m (naming frame and joint), a pelvis farther than
+            :data:`~pcnet.adapters.validate.ROOT_RELATIVE_MAX` from the origin (median over
+            frames: not root-relative, so not D3DP's output). ``inf`` is missing data (NaN).
 
     Source of the format facts: paTRICK-swk/D3DP (commit afcdd05)
     ``in_the_wild/videopose_diffusion.py``, ``in_the_wild/utils.py`` L286
@@ -78,6 +80,12 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
     elif not (isinstance(hypothesis, str) and hypothesis == "mean"):
         raise AdapterError(p, "hypothesis", "'mean' for a (N, 17, 3) file without a hypothesis axis", repr(hypothesis))
     require_some_finite(p, "predictions", arr)
+    off_origin, _ = pelvis_offset(arr)
+    if off_origin > ROOT_RELATIVE_MAX:
+        raise AdapterError(p, "predictions", f"D3DP/DDHPose predictions, root-relative (evaluate_diffusion zeroes the "
+                           f"root: the pelvis within {ROOT_RELATIVE_MAX:g} m of the origin)",
+                           f"the pelvis {off_origin:.3g} from the origin (median over frames): MotionBERT's infer_wild "
+                           "output? (--lifter motionbert)")
     notes.append("root as delivered (D3DP zeroes it)")
     joints = checked_poses(p, "predictions", arr, "h36m17", "m")
     return Poses3D(np.ascontiguousarray(joints), "h36m17", units="m", source=str(p), notes="; ".join(notes))

@@ -8,7 +8,7 @@ import numpy as np
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import checked_poses, finite_max_abs, load_npy, require_option_int
+from .validate import ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, pelvis_offset, require_option_int
 
 # Default-mode x, y come from 2D input clipped to [-1, 1] (MotionBERT
 # lib/utils/utils_data.py:crop_scale, called from lib/data/dataset_wild.py); the network's
@@ -47,7 +47,9 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
         AdapterError: missing/unreadable file, not ``(T, 17, 3)`` real numbers, all NaN, x/y
             magnitudes that contradict ``pixel`` (normalised values above 4, or pixel values
             all within 4), a coordinate beyond the bound of its units (1e3 normalised, 1e5
-            px; naming frame and joint), or ``clip_len`` not a positive integer.
+            px; naming frame and joint), ``clip_len`` not a positive integer, or a pelvis
+            within :data:`~pcnet.adapters.validate.ROOT_RELATIVE_MAX` of the origin (median over
+            frames: a root-relative export, not MotionBERT's).
 
     Source of the format facts: Walter0807/MotionBERT (commit dccfe7b) ``infer_wild.py``
     L65-97 and ``lib/utils/utils_data.py`` ``crop_scale``; maintainer answers in
@@ -65,6 +67,12 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
     if not pixel and xy_max > _NORMALISED_BOUND:
         raise AdapterError(p, "X3D x/y values", f"normalised coordinates within about [-1, 1] (|x|,|y| <= {_NORMALISED_BOUND})",
                            f"max {xy_max:.1f}, which looks like pixels; use pixel=True")
+    off_origin, _ = pelvis_offset(arr)
+    if off_origin <= ROOT_RELATIVE_MAX:
+        raise AdapterError(p, "X3D", f"MotionBERT's infer_wild output, whose root keeps its image position (pelvis "
+                           f"farther than {ROOT_RELATIVE_MAX:g} from the origin, median over frames)",
+                           f"the pelvis {off_origin:.2g} from the origin: a root-relative export (VideoPose3D, "
+                           "DDHPose)? (--lifter videopose3d, --lifter ddhpose)")
     clip_starts = list(range(0, arr.shape[0], clip_len))
     shown = ", ".join(map(str, clip_starts[:6])) + (", ..." if len(clip_starts) > 6 else "")
     units = "px" if pixel else "normalised"

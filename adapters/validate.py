@@ -482,6 +482,25 @@ def finite_max_abs(arr: np.ndarray) -> float:
     return best
 
 
+#: The farthest a root-relative export's pelvis lies from the origin, median over frames (in
+#: its units): VideoPose3D's real exports about 1e-4 m, D3DP zeroes it; MotionBERT's
+#: infer_wild output keeps the root's image position, 0.23-0.52 normalised units (median) in
+#: the real files of shared/data/real (boxing, cycling).
+ROOT_RELATIVE_MAX = 0.01
+
+
+def pelvis_offset(joints: np.ndarray) -> tuple[float, float]:
+    """``(distance, depth)``: medians over the frames with a finite pelvis (joint 0 of
+    H36M-17 poses ``(T, 17, 3)``) of its distance from the origin and of its z; NaN, NaN
+    without such a frame. Tells a root-relative export (distance under
+    :data:`ROOT_RELATIVE_MAX`) from one that keeps the root where the person is."""
+    pelvis = np.asarray(joints[:, 0], np.float64)
+    pelvis = pelvis[np.isfinite(pelvis).all(axis=1)]
+    if not len(pelvis):
+        return float("nan"), float("nan")
+    return float(np.median(np.linalg.norm(pelvis, axis=1))), float(np.median(pelvis[:, 2]))
+
+
 def layout_from_count(p: str | Path, field: str, count: int, table: Mapping[int, str]) -> str:
     """Name of the layout for a keypoint ``count`` according to ``table``.
 

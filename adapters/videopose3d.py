@@ -8,13 +8,13 @@ import numpy as np
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import checked_poses, finite_max_abs, load_npy
+from .validate import ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, pelvis_offset
 
 #: The farthest a root-relative VideoPose3D export's pelvis lies from the origin, median over
 #: frames (m): the real exports' is about 1e-4 m (root-relative training target, not zeroed at
 #: inference, run.py). MotionBERT's infer_wild output keeps the root's image position (0.1-1
 #: normalised units) at a depth near 0.
-MAX_ROOT_M = 0.01
+MAX_ROOT_M = ROOT_RELATIVE_MAX
 #: With VideoPose3D's trajectory model, run.py adds the predicted root trajectory before
 #: exporting: the pelvis then lies in front of the camera, at this depth (m) or more (median).
 MIN_TRAJECTORY_DEPTH_M = 0.5
@@ -46,10 +46,8 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     """
     p = Path(path)
     arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
-    pelvis = arr[:, 0].astype(np.float64)
-    if np.isfinite(pelvis).all(axis=1).any():
-        off_origin = float(np.nanmedian(np.linalg.norm(pelvis, axis=1)))
-        depth = float(np.nanmedian(pelvis[:, 2]))
+    off_origin, depth = pelvis_offset(arr)
+    if np.isfinite(off_origin):
         if off_origin > MAX_ROOT_M and not depth >= MIN_TRAJECTORY_DEPTH_M:
             raise AdapterError(p, "poses", f"a VideoPose3D export: its pelvis within {MAX_ROOT_M:g} m of the origin "
                                f"(root-relative) or, with the trajectory model, at least {MIN_TRAJECTORY_DEPTH_M:g} m "

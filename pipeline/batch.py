@@ -365,10 +365,10 @@ def _out_folder_problem(manifest: Path, item: PlannedRow) -> str | None:
         check_out_folder(item.config["out"], input_files(item.config).values(), item.config["overwrite"])
     except (InputError, OSError) as err:
         text = " ".join(str(err).split()).removeprefix(f"--out {item.config['out']}: ")
+        text = text.replace("choose another --out", "choose another out")
         if isinstance(err, FileExistsError):
             given = (item.cells.get("out") or "").strip() or "pcnet_out"
-            kind = "folder" if item.out.is_dir() else "file"
-            text = (f"expected a new folder, got {given!r}, an existing {kind} without a pcnet batch marker "
+            text = (f"expected a new folder, got {given!r}, an existing folder without a pcnet batch marker "
                     f"({item.config['out']}); pass --overwrite to replace a previous pcnet output")
         return f"{manifest}: line {item.line}: column out: {text}"
     return None

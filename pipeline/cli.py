@@ -46,6 +46,24 @@ class _ErrorBoundary(click.Group):
         except KeyboardInterrupt:
             click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
             raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+        except Exception as err:
+            # A Ctrl-C or SIGTERM inside a C extension's import comes out as that module's
+            # error (onnxruntime: "ImportError: initialization failed", caused by it).
+            if not _caused_by_interrupt(err):
+                raise
+            click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
+            raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+
+
+def _caused_by_interrupt(err: BaseException) -> bool:
+    """Whether ``err`` was raised while handling (or because of) a ``KeyboardInterrupt``."""
+    seen = set()
+    while err is not None and id(err) not in seen:
+        seen.add(id(err))
+        if isinstance(err, KeyboardInterrupt):
+            return True
+        err = err.__cause__ or err.__context__
+    return False
 
 
 @click.group(cls=_ErrorBoundary, context_settings={"help_option_names": ["-h", "--help"]})

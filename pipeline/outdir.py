@@ -77,18 +77,23 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
                              f" the input {item}")
     if not target.exists() and not target.is_symlink():
         return target
-    if not overwrite:
-        try:
-            empty = target.is_dir() and not target.is_symlink() and not any(target.iterdir())
-        except OSError:  # unreadable: say only that it exists
-            empty = False
-        raise FileExistsError(f"{given}: output folder exists{' (empty)' if empty else ''}; choose another --out or "
-                              f"pass --overwrite")
-    foreign = foreign_entries(target)
+    if target.is_symlink() or not target.is_dir():
+        raise InputError(f"--out {given}: expected a folder for pcnet's outputs, got an existing "
+                         f"{'link' if target.is_symlink() else 'file'}; choose another --out")
+    try:
+        foreign = foreign_entries(target)
+    except OSError:  # unreadable: say only that it exists
+        foreign = [target.name]
     if foreign:
         shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
-        raise InputError(f"--out {given}: --overwrite replaces only a previous pcnet output, got a folder holding "
-                         f"files pcnet did not write or that changed since ({shown}); choose another --out")
+        rule = ("--overwrite replaces only a previous pcnet output" if overwrite else
+                "expected a new folder (or, with --overwrite, a previous pcnet output)")
+        raise InputError(f"--out {given}: {rule}, got a folder holding files pcnet did not write or that changed "
+                         f"since ({shown}); choose another --out")
+    if not overwrite:
+        empty = not any(target.iterdir())
+        raise FileExistsError(f"{given}: output folder exists{' (empty)' if empty else ''}; choose another --out or "
+                              f"pass --overwrite")
     return target
 
 

@@ -475,6 +475,14 @@ def test_motionbert_fixture_units_and_notes():
     assert np.abs(p3.joints).max() < 1.5
 
 
+def test_motionbert_refuses_a_root_relative_export():
+    """A real VideoPose3D export (pelvis at the origin in every frame) read as MotionBERT would
+    pass as 'normalised' and be rescaled by --height: refused, naming the likely lifters."""
+    with pytest.raises(AdapterError, match=r"a root-relative export \(VideoPose3D, DDHPose\)\?") as err:
+        load_motionbert(YOGA["Tadasana"])
+    assert_names_file(err, YOGA["Tadasana"])
+
+
 def test_motionbert_axes_on_the_boxer():
     h = load_motionbert(BOXING_X3D).joints
     assert frac(h[:, HEAD, 1] < h[:, PELVIS, 1]) == 1.0  # y down
@@ -512,11 +520,15 @@ def test_motionbert_full_file_clip_boundary():
 # --------------------------------------------------------------------------- DDHPose / D3DP
 
 
+_NOT_ROOT = (np.arange(17) > 0).astype(np.float32)[:, None]
+
+
 def _hypotheses(tmp_path: Path) -> tuple[np.ndarray, Path, Path]:
     base = np.load(YOGA["Tadasana"])
     k, hyp = 2, 3
     offset = np.array([[k_ * 0.1 + (h_ - 1) * 0.01 for h_ in range(hyp)] for k_ in range(k)], np.float32)
-    arr5 = base[None, None] + offset[:, :, None, None, None]  # (K, H, N, 17, 3)
+    # every joint but the root, which D3DP's evaluate_diffusion zeroes in each hypothesis
+    arr5 = base[None, None] + offset[:, :, None, None, None] * _NOT_ROOT  # (K, H, N, 17, 3)
     p5, p4 = tmp_path / "test_3d_yoga_output.npy", tmp_path / "four.npy"
     np.save(p5, arr5)
     np.save(p4, arr5[0])
@@ -527,10 +539,12 @@ def test_ddhpose_steps_and_hypotheses(tmp_path):
     base, p5, p4 = _hypotheses(tmp_path)
     mean = load_ddhpose(p5)  # last step, mean over hypotheses
     assert mean.joints.shape == (100, 17, 3) and mean.units == "m" and mean.layout == "h36m17"
-    np.testing.assert_allclose(mean.joints, base + 0.1, atol=1e-6)
+    np.testing.assert_allclose(mean.joints, base + 0.1 * _NOT_ROOT, atol=1e-6)
     np.testing.assert_allclose(load_ddhpose(p5, step=0).joints, base, atol=1e-6)
-    np.testing.assert_allclose(load_ddhpose(p5, hypothesis=2).joints, base + 0.11, atol=1e-6)
-    np.testing.assert_allclose(load_ddhpose(p4, hypothesis=0).joints, base - 0.01, atol=1e-6)
+    np.testing.assert_allclose(load_ddhpose(p5, hypothesis=2).joints, base + 0.11 * _NOT_ROOT, atol=1e-6)
+    np.testing.assert_allclose(load_ddhpose(p4, hypothesis=0).joints, base - 0.01 * _NOT_ROOT, atol=1e-6)
+    with pytest.raises(AdapterError, match="MotionBERT's infer_wild output"):  # a root kept in the image
+        load_ddhpose(BOXING_X3D)
     np.testing.assert_allclose(load_ddhpose(YOGA["Tadasana"]).joints, base)
     assert "hypothesis 2" in load_ddhpose(p5, hypothesis=2).notes
 

@@ -146,7 +146,7 @@ def test_the_whole_manifest_is_checked_before_any_work(tmp_path):
                 ("line 4", "column out", "expected a folder apart from the inputs", "'in', which is the folder of"),
                 ("line 5", "column out", "'.', which contains the folder of"),
                 ("line 7", "column out", "expected a folder of its own", "'same', which line 6 also writes"),
-                ("line 8", "column out", "'theirs', an existing folder", "--overwrite"),
+                ("line 8", "column out", "a folder holding files pcnet did not write", "notes.txt", "choose another out"),
                 ("line 9", "column method", "expected one of", "'bogus'")]
     for needles in expected:
         assert any(all(n in e for n in needles) for e in errors), (needles, errors)

@@ -174,6 +174,24 @@ def test_sigterm_is_handled_like_ctrl_c(user_folder):
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]
 
 
+def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt(user_folder, monkeypatch):
+    """SIGTERM during onnxruntime's import came out as its "ImportError: initialization
+    failed" (caused by the KeyboardInterrupt): exit 130 and one line, like any interrupt."""
+    from pcnet.pipeline import runner
+
+    def interrupted_import(cfg):
+        try:
+            raise KeyboardInterrupt("signal 15")
+        except KeyboardInterrupt as stop:
+            raise ImportError("initialization failed") from stop
+
+    monkeypatch.setattr(runner, "run_pipeline", interrupted_import)
+    res = _invoke(*RUN, "--out", "o")
+    assert res.exit_code == 130 and "interrupted" in res.output and "Traceback" not in res.output, res.output
+    monkeypatch.setattr(runner, "run_pipeline", lambda cfg: (_ for _ in ()).throw(ImportError("a real import bug")))
+    assert isinstance(_invoke(*RUN, "--out", "o").exception, ImportError)  # a bug keeps its traceback
+
+
 def test_stale_temp_folders_of_killed_runs_are_removed_but_nothing_else(user_folder):
     stale = user_folder / f".o{TMP_TAG}dead"
     stale.mkdir()
