@@ -323,7 +323,7 @@ def load_azure_kinect(path: str | Path, key: str | None = None, fps: float | Non
 class KinectV1Adapter:
     """Registry entry for :func:`load_kinect_v1` (options ``layout``, ``key``, ``fps``)."""
 
-    def load(self, path: str | Path, layout: str = "utd", key: str | None = None, fps: float | None = None) -> Poses3D:
+    def load(self, path: str | Path, *, layout: str = "utd", key: str | None = None, fps: float | None = None) -> Poses3D:
         return load_kinect_v1(path, layout=layout, key=key, fps=fps)
 
 
@@ -331,5 +331,5 @@ class KinectV1Adapter:
 class AzureKinectAdapter:
     """Registry entry for :func:`load_azure_kinect` (options ``key``, ``fps``)."""
 
-    def load(self, path: str | Path, key: str | None = None, fps: float | None = None) -> Poses3D:
+    def load(self, path: str | Path, *, key: str | None = None, fps: float | None = None) -> Poses3D:
         return load_azure_kinect(path, key=key, fps=fps)

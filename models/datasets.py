@@ -458,6 +458,9 @@ class PairSet:
     clip: np.ndarray
     frame: np.ndarray
     clip_names: tuple[str, ...]
+    #: Frames of the clips (after stride and ``max_frames``) without a defined canonical
+    #: target: a missing joint of the pelvis and hips, or a hip line along gravity.
+    dropped_frames: int = 0
 
 
 CAMERAS = ("per-frame", "per-clip", "static")
@@ -548,7 +551,7 @@ def make_pairs(
             inputs = apply_noise(inputs, noise, rng, idx_clip)
     return PairSet(
         inputs.astype(np.float32), canon.astype(np.float32), R, idx_clip, idx_frame,
-        tuple(c.name for c in clips),
+        tuple(c.name for c in clips), dropped_frames=int((~valid).sum()),
     )
 
 

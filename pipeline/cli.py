@@ -107,19 +107,23 @@ _heading_option = click.option(
 
 
 @main.command()
-@click.option("--method", type=click.Choice(METHODS), required=True)
-@click.option("--data", type=click.Path(dir_okay=False), required=True, help="Mocap .npz (shared mocap format).")
-@click.option("--split", type=click.Choice(["train", "val", "test", "all"]), default="test", show_default=True)
+@click.option("--method", type=click.Choice(METHODS), required=True, help="pcnet: the shipped 3DPCNet pair (gated by camera view); pcnet-rigid: the same without the residual; geometric: the paper's baseline (section 2.3).")
+@click.option("--data", type=click.Path(dir_okay=False), required=True,
+              help="Mocap .npz: one (T, 17, 3) H36M-17 array per clip, metres, world frame +Y up (README, Commands).")
+@click.option("--split", type=click.Choice(["train", "val", "test", "all"]), default="test", show_default=True,
+              help="Which clips of --data under --split-scheme; all: every clip (data never trained on).")
 @click.option("--split-scheme", type=click.Choice(["motion-style", "clip"]), default="motion-style", show_default=True,
               help="motion-style: whole Bandai motion-style groups and some whole styles held out of train (CMU: "
-                   "whole subjects); clip: the old per-take hash the shipped weights were trained with, which puts "
-                   "sibling takes of most test clips in train.")
+                   "whole subjects); clip: the old per-take hash earlier releases were trained with (the shipped weights: "
+                   "motion-style), which puts sibling takes of most test clips in train.")
 @click.option("--unseen-by", type=click.Choice(["motion-style", "clip"]), default=None,
               help="Keep only clips whose motion-style group (CMU: subject) has no take in this scheme's train "
-                   "split; with the shipped weights (trained on the clip split) --unseen-by clip scores data they never saw.")
-@click.option("--views", type=click.Choice(["paper", "wide"]), default="paper", show_default=True)
+                   "split; --unseen-by clip scores the groups that weights trained on the clip split never saw.")
+@click.option("--views", type=click.Choice(["paper", "wide"]), default="paper", show_default=True,
+              help="Synthetic camera views (docs/CONVENTIONS.md): paper (3DPCNet's) or wide (any yaw, pitch +-45).")
 @click.option("--camera", type=click.Choice(CAMERAS), default="per-frame", show_default=True,
-              help="per-frame: a new camera each frame (paper); per-clip: one camera per clip, panning with the subject's turns; static: one camera fixed in the world.")
+              help="per-frame: a new camera each frame (paper); per-clip: one camera per clip, panning with the subject's turns; static: one camera fixed in the world "
+                   "(sequence and auto modes need per-clip or static).")
 @click.option("--noise", type=click.Choice(["none", "frame", "lifter"]), default="none", is_flag=False,
               flag_value="frame", show_default=True,
               help="Input noise: frame (each frame's error drawn anew; --noise alone), lifter (errors that persist "
@@ -158,15 +162,19 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
 
 @main.command()
 @click.argument("input_path", type=click.Path(dir_okay=False))
-@click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True)
-@click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True)
+@click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True,
+              help="The .npz archive to write (rotation, canonical, up, valid, ...: README, Commands).")
+@click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True, help="pcnet: the shipped 3DPCNet pair (gated by camera view); pcnet-rigid: the same without the residual; geometric: the paper's baseline (section 2.3).")
 @click.option("--key", default=None, help="Array name inside an .npz input.")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="frame: each frame alone (paper); sequence: one up for a static camera; smooth: moving camera.")
-@click.option("--fps", type=float, default=30.0, show_default=True, help="Frame rate (for --mode smooth/auto).")
+@click.option("--fps", type=float, default=30.0, show_default=True,
+              help="Frame rate: the pcnet pair's view gate reads the camera over 2 s windows in every mode; the "
+                   "sequence modes' smoothing and bootstrap blocks too.")
 @_heading_option
 @_camera_prior_option
-@click.option("--weights", type=click.Path(dir_okay=False), default=None)
+@click.option("--weights", type=click.Path(dir_okay=False), default=None,
+              help="ONNX weights of one 3DPCNet instead of the shipped pair (pcnet export).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
 def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior, weights, overwrite):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
@@ -178,6 +186,9 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     from pcnet.pipeline.rectification import rectify as run_rectify
 
     _new_output_file(out_path, "--out", overwrite, inputs=(input_path, weights))
+    if Path(out_path).suffix.lower() != ".npz":
+        raise InputError(f"--out {out_path}: expected a file name ending in .npz (an npz archive is written), got "
+                         f"{Path(out_path).suffix or 'no suffix'}")
     validate_fps(fps, "--fps")
     check_method_weights(method, weights, "--weights")
     joints = load_pose_array(input_path, key)
@@ -189,7 +200,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
               frame_tilt_bound_deg=res.report["frame_tilt_bound_deg"])
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}, "
-               f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)")
+               f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)"
+               .replace("(hip width CV nan %)", "(hip width CV needs two frames)"))
 
 
 @main.command()
@@ -209,8 +221,10 @@ def train(config_path, no_resume, seed, out_dir):
 
 
 @main.command()
-@click.option("--checkpoint", type=click.Path(dir_okay=False), required=True)
-@click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True)
+@click.option("--checkpoint", type=click.Path(dir_okay=False), required=True,
+              help="A pcnet train checkpoint (best.pt or last.pt), read with torch.load(weights_only=True).")
+@click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True,
+              help="The .onnx file to write; its metadata goes beside it as .json.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file (and its .json).")
 def export(checkpoint, out_path, overwrite):
     """Export a 3DPCNet checkpoint to ONNX (dynamic batch) with its .json metadata beside
@@ -235,9 +249,11 @@ def _run_and_report(cfg) -> None:
               help="TOML file with the same fields; command-line options override it.")
 @click.option("--video", type=click.Path(dir_okay=False), default=None, help="The recorded video (optional).")
 @click.option("--keypoints2d", type=click.Path(), default=None, help="2D keypoint file (or OpenPose folder).")
-@click.option("--keypoints2d-format", type=click.Choice(KEYPOINT_FORMATS), default=None)
+@click.option("--keypoints2d-format", type=click.Choice(KEYPOINT_FORMATS), default=None,
+              help="Which 2D detector wrote --keypoints2d (needed with it).")
 @click.option("--lifter", type=click.Choice(LIFTERS), default=None, help="Which 3D lifter wrote --lifter-output.")
-@click.option("--lifter-output", type=click.Path(dir_okay=False), default=None)
+@click.option("--lifter-output", type=click.Path(dir_okay=False), default=None,
+              help="The 3D lifter's output file (camera-frame poses).")
 @click.option("--method", type=click.Choice(METHODS), default=None, help="Rectification method [pcnet].")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights [shipped].")
 @click.option("--mode", type=click.Choice(MODES), default=None,
@@ -305,8 +321,8 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
 
 @main.command()
 @click.option("--out", type=click.Path(file_okay=False), default="pcnet_demo", show_default=True)
-@click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True)
-@click.option("--overwrite", is_flag=True)
+@click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True, help="pcnet: the shipped 3DPCNet pair (gated by camera view); pcnet-rigid: the same without the residual; geometric: the paper's baseline (section 2.3).")
+@click.option("--overwrite", is_flag=True, help="Replace an existing --out folder written by pcnet.")
 def demo(out, method, overwrite):
     """The whole pipeline on the bundled real example (boxing video, AlphaPose Halpe-26,
     MotionBERT); scaled to an assumed 1.75 m subject."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import re
 import typing
 from dataclasses import asdict, dataclass, field
@@ -133,6 +134,14 @@ class RunConfig:
     c3d: bool = False
     residual_cutoff: bool = False
     lifter_options: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        # Python callers hold paths as pathlib.Path; the config keeps the str a TOML file,
+        # a manifest and the command line give.
+        for name in ("video", "keypoints2d", "lifter_output", "out", "weights"):
+            value = getattr(self, name)
+            if isinstance(value, os.PathLike):
+                setattr(self, name, os.fspath(value))
 
     @property
     def min_confidence(self) -> float:

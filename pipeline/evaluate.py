@@ -140,7 +140,8 @@ def evaluate(
         ``{"method", "views", "split", "split_scheme", "unseen_by", "data", "seed", "camera",
         "noise", "mode", "heading", "camera_prior", "warnings" (lines, e.g.
         :func:`pcnet.models.datasets.world_up_warning`), "clips", "groups", "frames" (scored frames),
-        "total_frames" (frames rectified), "invalid_frames" (of the scored ones),
+        "total_frames" (frames rectified), "target_undefined_frames" (frames of the data left
+        out before rectifying: no defined canonical target), "invalid_frames" (of the scored ones),
         "valid_frames", "frame_set", "clip_heading_sources" (clips per source used),
         "clip_modes" (sequence modes only), "camera_prior", "training_overlap" (evaluated
         clips and groups the evaluated weights' train split contains, by their
@@ -152,11 +153,14 @@ def evaluate(
 
     Raises:
         InputError: empty split (after ``unseen_by``), unknown method, heading source, noise
-            or split scheme, a clip the scheme cannot place, ``max_frames < 1`` (before any
-            inference).
+            or split scheme, a clip the scheme cannot place, ``max_frames < 1``, a sequence
+            mode (``sequence``, ``auto``) with ``camera="per-frame"`` (before any inference).
     """
     heading = resolve_heading_source(method, heading)
     kind = noise_kind(noise)
+    if mode in ("sequence", "auto") and camera == "per-frame":
+        raise InputError(f"--mode {mode}: expected --camera per-clip or static (one camera per clip, which sequence "
+                         f"mode assumes), got --camera per-frame (a new camera every frame)")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"max_frames: expected a count >= 1, got {max_frames}")
     if unseen_by is not None and unseen_by not in SPLIT_SCHEMES:
@@ -199,6 +203,7 @@ def evaluate(
         "method": method, "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
         "data": str(data), "seed": seed, "camera": camera, "noise": kind, "mode": mode, "heading": heading,
         "camera_prior": camera_prior, "warnings": [up_warning] if up_warning else [],
+        "target_undefined_frames": pairs.dropped_frames,
         "clips": len(clips), "groups": len({group_key(c) or c.name for c in clips}),
         "frames": len(keep), "total_frames": len(valid),
         "invalid_frames": int((~valid_k).sum()), "valid_frames": int(valid_k.sum()),
@@ -229,6 +234,9 @@ def format_table(result: dict) -> str:
             f"clips={result.get('clips', '?')} groups={result.get('groups', '?')} frames={result['frames']} "
             f"(of {result.get('total_frames', result['frames'])} rectified) invalid={result['invalid_frames']} "
             f"(excluded) frame_set={result.get('frame_set', '?')}")
+    if result.get("target_undefined_frames"):
+        head += (f"\n{result['target_undefined_frames']} frames of the data had no defined target (a missing pelvis "
+                 f"or hip, or a hip line along gravity) and were left out before rectifying")
     overlap = result.get("training_overlap")
     if overlap:
         head += (f"\nthe weights trained on {overlap['clips_trained_on']} of these {overlap['clips']} clips "

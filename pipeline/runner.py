@@ -84,8 +84,7 @@ class RunResult:
                if "mode_decided_on_frames" in self.report else "")
             + ")",
             f"heading           from {self.report.get('heading_source')} (requested "
-            f"{self.report.get('requested_heading_source')}; hip width varies "
-            f"{self.report.get('hip_width_cv_percent', float('nan')):.1f} %)",
+            f"{self.report.get('requested_heading_source')}; " + self._hip_width() + ")",
             f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(),
             *self._frame_bound(),
             "kinematics frame  " + (WORLD_SUMMARY[self.report["root_path"]] if self.report.get("kinematics_frame") == "world"
@@ -99,6 +98,10 @@ class RunResult:
             lines.append(f"open the recording with:  rerun {self.outputs['recording']}")
         return "\n".join(lines)
 
+
+    def _hip_width(self) -> str:
+        cv = self.report.get("hip_width_cv_percent", float("nan"))
+        return f"hip width varies {cv:.1f} %" if np.isfinite(cv) else "hip width variation needs two frames with hips"
 
     def _frame_bound(self) -> list[str]:
         base = self.report.get("frame_tilt_95_deg", float("nan"))

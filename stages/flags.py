@@ -204,7 +204,7 @@ def disagreement_flag(bound_deg: np.ndarray | None, base_deg: float) -> list[str
     if wide.mean() <= DISAGREEMENT_SHARE:
         return []
     return [f"the two 3DPCNets disagree on {int(wide.sum())} of {len(b)} frames ({100 * wide.mean():.0f} %) so much "
-            f"that their per-frame up bound is {2 * base_deg:.0f}-{b.max():.0f} deg (else {base_deg:.1f}): poses "
+            f"that their per-frame up bound is {_deg_range(2 * base_deg, b.max())} (else {base_deg:.1f}): poses "
             f"unlike the training data, whose per-frame up is uncertain (frame_tilt_bound_deg in canonical.npz)"]
 
 
@@ -274,6 +274,11 @@ def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, lis
             events.append((int(b), float(jump)))
             segment[b:] += 1
     return segment, events
+
+
+def _deg_range(low: float, high: float) -> str:
+    """``"15-56 deg"``, or ``"15 deg"`` when both round alike."""
+    return f"{low:.0f} deg" if f"{low:.0f}" == f"{high:.0f}" else f"{low:.0f}-{high:.0f} deg"
 
 
 def lifter_frame_flag(turn_deg: float, tolerance_deg: float) -> list[str]:

@@ -425,3 +425,18 @@ def test_a_mocap_file_not_in_metres_is_refused(tmp_path, scale):
     np.savez(tmp_path / "cm.npz", **{c.name: (c.joints - c.joints[:, :1]) * scale for c in clips})
     with pytest.raises(InputError, match=r"cm\.npz \[clip .*\]: expected metres .* got a median hip -> knee length of"):
         load_mocap(tmp_path / "cm.npz")
+
+
+def test_frames_without_a_target_are_counted_and_sequence_modes_need_one_camera_per_clip(tmp_path):
+    """Every other frame of real clips made missing: evaluate says how many frames had no
+    target; a sequence mode with a new camera every frame is refused, not scored."""
+    from pcnet.pipeline.evaluate import evaluate, format_table
+
+    clips = load_mocap(FIXTURES / "mocap_small.npz")
+    holes = {c.name: np.where((np.arange(len(c.joints)) % 2 == 1)[:, None, None], np.nan, c.joints) for c in clips}
+    np.savez(tmp_path / "holes.npz", **holes)
+    result = evaluate("geometric", tmp_path / "holes.npz", "all", max_frames=50)
+    assert result["target_undefined_frames"] == sum(len(c.joints) // 2 for c in clips) == 165
+    assert "165 frames of the data had no defined target" in format_table(result)
+    with pytest.raises(InputError, match=r"--mode sequence: expected --camera per-clip or static"):
+        evaluate("geometric", FIXTURES / "mocap_small.npz", "all", mode="sequence", camera="per-frame")

@@ -500,3 +500,10 @@ def test_run_pipeline_leaves_the_callers_garbage_collector_as_it_found_it(tmp_pa
     del cycle
     gc.collect()
     assert alive() is None
+
+
+def test_run_config_takes_pathlib_paths(tmp_path):
+    """Python callers hold paths as pathlib.Path: the config keeps them as str."""
+    cfg = RunConfig(lifter="motionbert", lifter_output=BOX_3D, fps=30, out=tmp_path / "o", recording=False)
+    assert isinstance(cfg.lifter_output, str) and isinstance(cfg.out, str)
+    assert run_pipeline(cfg.validate(), progress=False).frames == 60

@@ -281,6 +281,7 @@ def test_fps_must_match_the_video_unless_overridden(user_folder):
     (("rectify", "poses.npy", "--out", "nodir/x.npz"), ["nodir"]),
     (("rectify", "poses.npy", "--out", "notes.txt/x.npz"), ["notes.txt"]),
     (("rectify", "poses.npy", "--out", "poses.npy"), ["the input poses.npy itself"]),
+    (("rectify", "poses.npy", "--out", "r.npy"), ["--out r.npy", "ending in .npz", "got .npy"]),
     (("rectify", "poses.npy", "--out", "r.npz", "--key", "joints"), ["--key", "single-array"]),
     (("rectify", "nohips.npy", "--out", "r.npz"), ["nohips.npy", "hips"]),
     (("rectify", ".", "--out", "r.npz"), ["."]),

@@ -297,7 +297,7 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
         t, j, value = first
         name = H36M_JOINTS[j] if joint_names is None else joint_names[j]
         raise InputError(f"{source}: frame {t}, joint {name}: expected |coordinate| <= {bound:g} "
-                         f"{units or '(any unit)'}, got {value:.4g} ({count} joint values beyond it)")
+                         f"{units or '(any unit)'}, got {value:.4g} ({count} joint value{'s' if count != 1 else ''} beyond it)")
     return out
 
 
