@@ -179,18 +179,15 @@ def generic_option_problems(layout: object = "h36m17", axes: object = "RDF", uni
     """``(option, expected, found)`` for each option value :func:`load_generic` refuses (no
     file needed, so a batch manifest's rows are checked before any row runs)."""
     problems = []
-    try:
-        if not isinstance(layout, str):
-            raise ValueError(layout)
-        get_layout(layout)
-    except ValueError:
-        problems.append(("layout", "a known layout name (h36m17, coco17, halpe26, body25, blazepose33)", repr(layout)))
-    try:
-        if not isinstance(axes, str):
-            raise ValueError(axes)
-        axes_to_camera(axes)
-    except ValueError:
-        problems.append(("axes", "3 letters from R/L, U/D, F/B, each pair once (e.g. 'RDF', 'RUB')", repr(axes)))
+    for option, value, parse, expected in (
+            ("layout", layout, get_layout, "a known layout name (h36m17, coco17, halpe26, body25, blazepose33)"),
+            ("axes", axes, axes_to_camera, "3 letters from R/L, U/D, F/B, each pair once (e.g. 'RDF', 'RUB')")):
+        try:
+            if not isinstance(value, str):
+                raise ValueError(value)
+            parse(value)
+        except ValueError:
+            problems.append((option, expected, repr(value)))
     if not isinstance(units, str) or units not in _UNITS:
         problems.append(("units", f"one of {sorted(_UNITS)}", repr(units)))
     if key is not None and not isinstance(key, str):
