@@ -441,14 +441,14 @@ def plan_batch(manifest: str | os.PathLike, options: BatchOptions) -> tuple[list
     return planned, summary
 
 
-def _engine(options: BatchOptions, on_result):
+def _engine(options: BatchOptions, on_result, on_retry):
     if options.engine == "ray":
         from .batch_ray import RayEngine
 
         return RayEngine(options.workers, options.retries, options.address, on_result)
     from .batch_local import LocalEngine
 
-    return LocalEngine(options.workers or cpu_cores(), options.retries, on_result)
+    return LocalEngine(options.workers or cpu_cores(), options.retries, on_result, on_retry)
 
 
 def _row_summary(item: PlannedRow, result: dict | None, status: str | None = None) -> dict:
@@ -517,7 +517,11 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
 
     engine = None
     writer.write(rows("pending"), force=True)
-    engine = _engine(options, on_result)
+    def on_retry(row: int, line: str) -> None:
+        if progress is not None:
+            progress(f"line {by_row[row].line}: {line}")
+
+    engine = _engine(options, on_result, on_retry)
     try:
         _, interrupted = engine.run(jobs)
     except KeyboardInterrupt:  # arrived outside the engine's loop (e.g. while Ray started)

@@ -78,6 +78,8 @@ class LocalEngine:
     workers: int
     retries: int = 0
     on_result: Callable[[dict], None] = lambda result: None
+    #: Told, in one line, when a worker died and its row starts again.
+    on_retry: Callable[[int, str], None] = lambda row, line: None
     _pool: list[_Worker] = field(default_factory=list)
     _threads: int = 1
     #: row -> the last attempt's ``attempts``, ``host``, ``pid`` and ``threads``, as it started
@@ -152,6 +154,8 @@ class LocalEngine:
             return
         if job["attempt"] <= self.retries:
             pending.appendleft(dict(job, attempt=job["attempt"] + 1))
+            self.on_retry(job["row"], f"{death_line(worker.process.pid, worker.process.exitcode)}; starting it again "
+                                      f"(attempt {job['attempt'] + 1} of {self.retries + 1})")
             return
         self._finish({"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
                       "error": death_line(worker.process.pid, worker.process.exitcode),

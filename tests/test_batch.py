@@ -237,6 +237,7 @@ def test_a_killed_worker_fails_or_retries_only_its_row(tmp_path, hook, retries):
         assert proc.returncode == 0, out + err
         assert [r["status"] for r in rows] == ["ok"] * 4
         assert rows[1]["attempts"] == 2 and rows[1]["pid"] != victim and len(_started(hook, 2)) == 2
+        assert f"line 3: worker process {victim} was killed by SIGKILL" in err and "(attempt 2 of 2)" in err, err
         return
     assert proc.returncode == 1, out + err
     assert [r["status"] for r in rows] == ["ok", "failed", "ok", "ok"]
