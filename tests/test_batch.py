@@ -455,6 +455,8 @@ def test_nested_outs_a_summary_inside_an_out_and_bad_option_values_are_refused_b
 def test_an_unreachable_cluster_address_is_refused_at_once(tmp_path):
     import socket
 
+    _needs_ray()  # without Ray the batch stops earlier, saying how to install it
+
     with socket.socket() as s:  # a port nothing listens on: bound, never listening
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
