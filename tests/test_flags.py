@@ -169,3 +169,16 @@ def test_a_large_mediapipe_turn_is_flagged_and_a_negligible_one_is_not(tmp_path)
         assert ("turned by a median" in res.output) is flagged, res.output
         with np.load(out / "canonical.npz") as npz:
             assert any("turned by a median" in str(f) for f in npz["flags"]) is flagged
+
+
+def test_a_lifters_asymmetric_legs_are_flagged():
+    """MotionBERT's boxing output has a right leg about a fifth shorter than the left (its
+    skeleton, not the boxer's); real VideoPose3D standing poses have near-equal legs."""
+    from pcnet.stages.flags import leg_asymmetry_flag
+
+    boxing = np.load(FIXTURES / "boxing_X3D_f000-059.npy")
+    (flag,) = leg_asymmetry_flag(boxing)
+    assert "legs differ by" in flag and "the right one shorter" in flag
+    assert leg_asymmetry_flag(np.load(TADASANA)) == []
+    mirrored = boxing[:, [0, 4, 5, 6, 1, 2, 3, *range(7, 17)]]  # legs swapped: the left one shorter
+    assert "the left one shorter" in leg_asymmetry_flag(mirrored)[0]

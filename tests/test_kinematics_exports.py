@@ -800,6 +800,9 @@ def test_c3d_export_round_trips_real_world_frame_markers(tmp_path):
     points = np.transpose(c3d["data"]["points"][:3], (2, 1, 0))
     np.testing.assert_allclose(points, world, atol=1e-5)
     assert np.isnan(points[5, 16]).all()
+    # C3D's own mark of an invalid sample, for tools that read the residual, not NaN
+    residuals = c3d["data"]["meta_points"]["residuals"][0].T  # (frames, markers)
+    np.testing.assert_array_equal(residuals < 0, ~np.isfinite(world).all(axis=2))
 
 
 def test_c3d_without_ezc3d_is_one_line_before_any_work(monkeypatch, tmp_path):

@@ -304,8 +304,8 @@ def write_c3d(
     with ezc3d (https://github.com/pyomeca/ezc3d), atomically.
 
     POINT:RATE = ``fps``, POINT:LABELS = ``joint_names``, POINT:UNITS = ``units``; the
-    coordinates are written unchanged (X forward, Y up, Z right); a missing marker (NaN) is
-    written as NaN, which ezc3d stores as an invalid sample (residual -1).
+    coordinates are written unchanged (X forward, Y up, Z right); a missing marker is
+    written as NaN with residual -1 (C3D's invalid sample), a present one with residual 0.
 
     Args:
         path: destination ``.c3d``; poses: ``(T, J, 3)`` float; fps: Hz; joint_names: ``J``
@@ -329,6 +329,11 @@ def write_c3d(
     for rows in frame_blocks(len(X)):
         points[:3, :, rows] = np.transpose(np.asarray(X[rows], np.float64), (2, 1, 0))
     c3d["data"]["points"] = points
+    # C3D marks an invalid sample by a negative residual (c3d.org, "The C3D File Format User
+    # Guide", 3D point data); ezc3d writes 0 (valid) unless told, NaN coordinates or not.
+    missing = ~np.isfinite(points[:3]).all(axis=0)
+    c3d["data"]["meta_points"] = {"residuals": np.where(missing, -1.0, 0.0)[None],
+                                  "camera_masks": np.zeros((7, *missing.shape), bool)}
     with atomic_path(path, suffix=".c3d") as tmp:
         c3d.write(str(tmp))
     return Path(path)
