@@ -288,6 +288,28 @@ def _shared_out_problems(manifest: Path, planned: list[PlannedRow]) -> dict[int,
     return problems
 
 
+_BOOLEAN_COLUMNS = ("overwrite", "recording", "fps_override", "c3d", "camera_prior", "residual_cutoff")
+
+
+def in_manifest_terms(message: str) -> str:
+    """A row's error as a manifest user reads it: the ``pcnet run`` flags that the pipeline
+    names (``--fps``, ``pass --fps-override``) as the row's columns (``column fps``, ``set
+    column fps_override to true``); the batch's own ``--overwrite`` stays a flag."""
+    def flag(match: re.Match) -> str:
+        asked, name, value = match.group(1), match.group(2).replace("-", "_"), match.group(3)
+        if name not in manifest_columns() or name == "overwrite":
+            return match.group(0)
+        rest = f" {value}" if value else ""
+        if value in ("to", "or", "and", "anyway"):  # the sentence goes on: not the flag's value
+            value = None
+        if asked and name in _BOOLEAN_COLUMNS:
+            return f"set column {name} to true{rest}"
+        if asked and value:
+            return f"set column {name} to {value}"
+        return f"{asked or ''}{'out' if name == 'out' else 'column ' + name}{rest}"
+    return re.sub(r"(pass )?--([a-z][a-z0-9-]*)(?: ([a-z0-9.]+))?", flag, message)
+
+
 def _as_columns(message: str) -> str:
     """RunConfig names its source "manifest row" and its fields quoted; here the row is the
     line already, and the fields are the manifest's columns."""
@@ -510,6 +532,8 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
         return [_row_summary(item, results.get(item.row) or started.get(item.row), unfinished) for item in planned]
 
     def on_result(result: dict) -> None:
+        if result.get("error"):
+            result = dict(result, error=in_manifest_terms(result["error"]))
         results[result["row"]] = result
         if progress is not None:
             progress(_progress_line(len(results), len(jobs), by_row[result["row"]], result))

@@ -480,3 +480,17 @@ def test_a_rows_warnings_reach_the_summary(tmp_path):
         "--out", str(tmp_path / "single")]).output.splitlines() if ln.startswith("WARNING")]
     assert expected and row["warnings"] == expected
     assert all(f"    WARNING {w}" in res.output for w in expected)
+
+
+def test_a_rows_runtime_error_names_the_manifest_columns(tmp_path):
+    """The pipeline's own wording (`--fps 25 ...; pass --fps-override`) reaches a manifest user
+    as columns: the real example video records 30 fps, the row says 25."""
+    example = Path(__file__).resolve().parent.parent / "pipeline" / "example_data"
+    manifest = tmp_path / "f.csv"
+    manifest.write_text(f"lifter,lifter_output,video,fps,out,recording\n"
+                        f"motionbert,{example / 'X3D.npy'},{example / 'boxing2.mp4'},25,f1,false\n")
+    res = _invoke(manifest)
+    assert res.exit_code == 1, res.output
+    (row,) = _summary(manifest)["rows"]
+    assert row["error"].startswith("column fps 25: expected the rate") and \
+        "set column fps_override to true to use column fps anyway" in row["error"], row["error"]
