@@ -47,9 +47,10 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
         AdapterError: missing/unreadable file, not ``(T, 17, 3)`` real numbers, all NaN, x/y
             magnitudes that contradict ``pixel`` (normalised values above 4, or pixel values
             all within 4), a coordinate beyond the bound of its units (1e3 normalised, 1e5
-            px; naming frame and joint), ``clip_len`` not a positive integer, or a pelvis
-            within :data:`~pcnet.adapters.validate.ROOT_RELATIVE_MAX` of the origin (median over
-            frames: a root-relative export, not MotionBERT's).
+            px; naming frame and joint), or ``clip_len`` not a positive integer. A pelvis within
+            :data:`~pcnet.adapters.validate.ROOT_RELATIVE_MAX` of the origin (median over frames)
+            is noted, not refused: ``infer_wild.py --rootrel`` writes one, and so do lifters
+            whose output is in metres.
 
     Source of the format facts: Walter0807/MotionBERT (commit dccfe7b) ``infer_wild.py``
     L65-97 and ``lib/utils/utils_data.py`` ``crop_scale``; maintainer answers in
@@ -68,11 +69,10 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
         raise AdapterError(p, "X3D x/y values", f"normalised coordinates within about [-1, 1] (|x|,|y| <= {_NORMALISED_BOUND})",
                            f"max {xy_max:.1f}, which looks like pixels; use pixel=True")
     off_origin, _ = pelvis_offset(arr)
-    if off_origin <= ROOT_RELATIVE_MAX:
-        raise AdapterError(p, "X3D", f"MotionBERT's infer_wild output, whose root keeps its image position (pelvis "
-                           f"farther than {ROOT_RELATIVE_MAX:g} from the origin, median over frames)",
-                           f"the pelvis {off_origin:.2g} from the origin: a root-relative export (VideoPose3D, "
-                           "DDHPose)? (--lifter videopose3d, --lifter ddhpose)")
+    # infer_wild.py --rootrel zeroes the root, so a root at the origin may be MotionBERT's;
+    # it is also what VideoPose3D and D3DP export, in metres, not image-normalised units.
+    rootrel = (f"; pelvis at the origin (median {off_origin:.2g}): infer_wild --rootrel output, or another lifter's "
+               f"root-relative export in metres (--lifter videopose3d / ddhpose)") if off_origin <= ROOT_RELATIVE_MAX else ""
     clip_starts = list(range(0, arr.shape[0], clip_len))
     shown = ", ".join(map(str, clip_starts[:6])) + (", ..." if len(clip_starts) > 6 else "")
     units = "px" if pixel else "normalised"
@@ -81,8 +81,8 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
              + (" (x, y image pixels, z pixels)" if pixel else " (image-normalised, about [-1, 1])")
              + "; axes x right, y down, z away from the camera (z sign derived); no axis changed"
              + f"; root not centred: MotionBERT zeroed the root z of the first frame of each {clip_len}-frame clip "
-             + f"(frames {shown}), so z may jump there")
-    return Poses3D(arr, "h36m17", units=units, source=str(p), notes=notes)
+             + f"(frames {shown}), so z may jump there" + rootrel)
+    return Poses3D(arr, "h36m17", units=units, source=str(p), notes=notes, summary_note=rootrel.removeprefix("; "))
 
 
 @register_3d("motionbert")

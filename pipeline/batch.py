@@ -29,7 +29,7 @@ from .batch_marker import completed_record, input_files, pcnet_version, read_bat
 from .batch_worker import cpu_cores
 from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, RunConfig
 from .entry import EXIT_INTERRUPTED
-from .outdir import check_out_folder, clean_stale
+from .outdir import check_out_folder, clean_stale, foreign_entries, listed_files_missing
 
 ENGINES = ("local", "ray")
 STATUSES = ("ok", "skipped", "failed", "cancelled")
@@ -200,6 +200,8 @@ class PlannedRow:
     cells: dict = field(default_factory=dict)
     action: str = "run"
     known: dict = field(default_factory=dict)
+    #: Why a row runs again over its own earlier output (no --overwrite), for its messages.
+    rerun: str = ""
 
     @property
     def out(self) -> Path:
@@ -365,7 +367,7 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
         before = previous.get(str(item.out.resolve()))
         if before is not None and before.get("status") in DONE:
             item.action = "skip"
-            item.known = {k: before.get(k) for k in ("frames", "valid", "mode")}
+            item.known = {k: before.get(k) for k in ("frames", "valid", "mode", "warnings")}
             return
     if options.overwrite:
         item.config["overwrite"] = True
@@ -378,6 +380,9 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
         item.known = dict(record.get("result") or {})
     elif read_batch_marker(item.out):
         item.config["overwrite"] = True  # our own earlier output of changed inputs or settings
+        missing = listed_files_missing(item.out)
+        item.rerun = (f"its earlier output lacks {', '.join(missing[:3])}" if missing else
+                      "its inputs, settings or pcnet version changed since its earlier output")
 
 
 def _out_folder_problem(manifest: Path, item: PlannedRow) -> str | None:
@@ -388,6 +393,11 @@ def _out_folder_problem(manifest: Path, item: PlannedRow) -> str | None:
     except (InputError, OSError) as err:
         text = " ".join(str(err).split()).removeprefix(f"--out {item.config['out']}: ")
         text = text.replace("choose another --out", "choose another out")
+        foreign = foreign_entries(item.out) if item.rerun and item.out.is_dir() else []
+        if foreign:
+            shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+            text = (f"expected to run this row again ({item.rerun}), got its folder also holding files pcnet did not "
+                    f"write or that changed since ({shown}); move them away to run it again, or choose another out")
         if isinstance(err, FileExistsError):
             given = (item.cells.get("out") or "").strip() or "pcnet_out"
             text = (f"expected a new folder, got {given!r}, an existing folder without a pcnet batch marker "

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
 
-from .outdir import listed_files_intact, read_marker, register_files
+from .outdir import listed_files_missing, read_marker, register_files
 
 BATCH_MARKER = ".pcnet_batch.json"
 #: RunConfig fields that name input files (hashed into the marker).
@@ -72,11 +72,11 @@ def write_batch_marker(out: Path, config: dict, inputs: dict[str, dict], result:
     so that ``--overwrite`` still sees a folder holding only pcnet's files.
 
     ``inputs`` are the hashes taken before the row ran (what the run read), ``result`` the
-    row's frames, valid frames and mode (shown again when a re-run skips the row).
+    row's frames, valid frames, mode and warnings (shown again when a re-run skips the row).
     """
     record = {
         "writer": "pcnet batch", "pcnet_version": pcnet_version(), "settings": settings_of(config),
-        "inputs": inputs, "result": {k: result.get(k) for k in ("frames", "valid", "mode")},
+        "inputs": inputs, "result": {k: result.get(k) for k in ("frames", "valid", "mode", "warnings")},
         "host": socket.gethostname(), "pid": os.getpid(), "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
     }
     path = write_text(out / BATCH_MARKER, json.dumps(record, indent=1) + "\n")
@@ -95,10 +95,10 @@ def read_batch_marker(out: Path) -> dict:
 
 def completed_record(out: Path, config: dict) -> dict | None:
     """The batch marker of ``out`` when the folder holds a complete output of exactly this
-    row (every file pcnet wrote there still present and unchanged; same settings, same pcnet
-    version, same input paths and sha256), else ``None``. Inputs are hashed only when
-    everything cheaper already matches."""
-    if read_marker(out).get("state") != "complete" or not listed_files_intact(out):
+    row (every file pcnet wrote there still present; same settings, same pcnet version, same
+    input paths and sha256), else ``None``. Inputs are hashed only when everything cheaper
+    already matches."""
+    if read_marker(out).get("state") != "complete" or listed_files_missing(out):
         return None
     record = read_batch_marker(out)
     if not record or record.get("pcnet_version") != pcnet_version() or record.get("settings") != settings_of(config):

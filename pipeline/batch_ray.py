@@ -60,19 +60,23 @@ CONNECT_TIMEOUT_S = 5.0
 def check_reachable(address: str) -> None:
     """Refuse a ``HOST:PORT`` cluster address that accepts no connection within
     :data:`CONNECT_TIMEOUT_S` (``ray.init`` would retry it for minutes, printing only Ray's
-    own log lines). ``auto`` and other forms Ray resolves itself are left to Ray.
+    own log lines). ``auto``, ``ray://...`` (Ray Client) and other forms Ray resolves itself
+    are left to Ray.
 
     Raises:
         InputError: naming ``--address``, what was expected and what was found.
     """
     host, sep, port = address.rpartition(":")
-    if not sep or not port.isdigit() or not host:
+    if "://" in address or not sep or not port.isdigit() or not host:  # ray://... (Ray Client) and the like
         return
     try:
         socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT_S).close()
+    except TimeoutError:
+        raise InputError(f"--address {address}: expected a running Ray cluster's head (`ray start --head` prints its "
+                         f"address), got no answer within {CONNECT_TIMEOUT_S:g} s") from None
     except OSError as err:
         raise InputError(f"--address {address}: expected a running Ray cluster's head (`ray start --head` prints its "
-                         f"address), got no connection within {CONNECT_TIMEOUT_S:g} s ({err.strerror or err})") from None
+                         f"address), got no connection ({err.strerror or err})") from None
 
 
 def ray_row(job: dict, attempts, threads: int) -> dict:

@@ -77,13 +77,14 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
                              f" the input {item}")
     if not target.exists() and not target.is_symlink():
         return target
-    if target.is_symlink() or not target.is_dir():
-        raise InputError(f"--out {given}: expected a folder for pcnet's outputs, got an existing "
-                         f"{'link' if target.is_symlink() else 'file'}; choose another --out")
+    if not target.is_dir():
+        raise InputError(f"--out {given}: expected a folder for pcnet's outputs, got an existing file; choose "
+                         f"another --out")
     try:
         foreign = foreign_entries(target)
-    except OSError:  # unreadable: say only that it exists
-        foreign = [target.name]
+    except OSError as err:
+        raise InputError(f"--out {given}: expected a folder pcnet can read, got {err.strerror or err}; choose another "
+                         f"--out") from None
     if foreign:
         shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
         rule = ("--overwrite replaces only a previous pcnet output" if overwrite else
@@ -130,12 +131,10 @@ def owned_files(folder: Path) -> dict:
     return files if isinstance(files, dict) else {}
 
 
-def listed_files_intact(folder: Path) -> bool:
-    """Whether every file the folder's pcnet marker lists is still there, unchanged (size and
-    modification time): an output nobody deleted from or edited. Files added beside them do
-    not count."""
-    listed = owned_files(folder)
-    return bool(listed) and all(_listed_unchanged(folder / name, listed) for name in listed)
+def listed_files_missing(folder: Path) -> list[str]:
+    """The files the folder's pcnet marker lists that are no longer there (deleted); an
+    edited file is still there (it is the user's now, and never replaced)."""
+    return [name for name in owned_files(folder) if not (folder / name).is_file()]
 
 
 def is_owned(folder: Path, name: str) -> bool:

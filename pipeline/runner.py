@@ -13,6 +13,7 @@ import ctypes
 import gc
 import inspect
 import sys
+import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -284,21 +285,37 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
         return _run_stages(cfg, out, bar)
 
 
+_FREEZE_LOCK = threading.Lock()
+_freeze_depth = 0
+
+
 @contextmanager
 def _collector_skips_older_objects():
     """Exempt from the cyclic garbage collector, for the length of one recording, every object
-    alive when it starts (``gc.freeze``, Python docs "gc"; ``gc.unfreeze`` after, so a caller's
-    own objects are collected again as before). :func:`_trim_heap`'s full collection between
-    stages otherwise re-traverses every imported module's objects each time: 10 collections
-    over about 160,000 objects cost 0.74 s of a 4.3 s row of the bundled example (cProfile of a
-    second row in one process, as in a batch worker). Objects made during the run are
-    collected as before."""
-    gc.collect()
-    gc.freeze()
+    alive when it starts (``gc.freeze``, Python docs "gc"; ``gc.unfreeze`` after).
+    :func:`_trim_heap`'s full collection between stages otherwise re-traverses every imported
+    module's objects each time: 10 collections over about 160,000 objects cost 0.74 s of a
+    4.3 s row of the bundled example (cProfile of a second row in one process, as in a batch
+    worker). Objects made during the run are collected as before. The freeze is the
+    process's: a caller that froze objects itself keeps its freeze (nothing is frozen or
+    unfrozen here), and runs overlapping in threads freeze once, the first to start, and
+    unfreeze once, the last to end."""
+    global _freeze_depth
+    with _FREEZE_LOCK:
+        ours = _freeze_depth > 0 or gc.get_freeze_count() == 0
+        if ours:
+            if _freeze_depth == 0:
+                gc.collect()
+                gc.freeze()
+            _freeze_depth += 1
     try:
         yield
     finally:
-        gc.unfreeze()
+        if ours:
+            with _FREEZE_LOCK:
+                _freeze_depth -= 1
+                if _freeze_depth == 0:
+                    gc.unfreeze()
 
 
 def _present(poses) -> np.ndarray:

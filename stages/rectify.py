@@ -157,6 +157,10 @@ class GeometricEstimator:
         return FrameEstimate(R, residual, valid)
 
 
+#: Shortest one-person stretch (seconds of valid frames) that ``auto`` decides on alone.
+MIN_DECISION_STRETCH_S = 5.0
+
+
 @dataclass(frozen=True)
 class SequenceEvidence:
     """Step 2: what the whole recording says beyond each frame.
@@ -198,7 +202,8 @@ class SequenceEvidence:
                 calibrated intervals (1 = a pose like the calibration set's). decide_on:
                 optional ``(T,)`` bool, the frames ``"auto"`` decides on (one person's
                 stretch of a 2D track that switches people, :func:`pcnet.stages.flags.one_person_frames`);
-                every valid frame when ``None`` or when none of them is valid.
+                every valid frame when ``None`` or when fewer than
+                :data:`MIN_DECISION_STRETCH_S` seconds of them are valid.
 
         Returns:
             ``(R (T, 3, 3) float64, NaN where not valid (frame mode: as given); valid (T,)
@@ -233,7 +238,9 @@ class SequenceEvidence:
             report["mode_reason"] = "one valid frame"
             return R, ok, report
         if self.mode == "auto":
-            subset = decide_on is not None and bool((ok & decide_on).any())
+            # A short stretch can read as static under a moving camera (choose_mode's caveat
+            # for clips under about 5 s): then every valid frame decides.
+            subset = decide_on is not None and (ok & decide_on).sum() >= max(2, MIN_DECISION_STRETCH_S * fps)
             decide = ok & decide_on if subset else ok
             run, spread = choose_mode(R, decide, MODE_THRESHOLD_DEG, fps)
             if subset:

@@ -475,12 +475,15 @@ def test_motionbert_fixture_units_and_notes():
     assert np.abs(p3.joints).max() < 1.5
 
 
-def test_motionbert_refuses_a_root_relative_export():
-    """A real VideoPose3D export (pelvis at the origin in every frame) read as MotionBERT would
-    pass as 'normalised' and be rescaled by --height: refused, naming the likely lifters."""
-    with pytest.raises(AdapterError, match=r"a root-relative export \(VideoPose3D, DDHPose\)\?") as err:
-        load_motionbert(YOGA["Tadasana"])
-    assert_names_file(err, YOGA["Tadasana"])
+def test_motionbert_notes_a_root_at_the_origin():
+    """A real VideoPose3D export (pelvis at the origin in every frame) read as MotionBERT passes
+    as 'normalised': MotionBERT's --rootrel output looks the same, so it is noted, naming both;
+    MotionBERT's default output (root at its image position) is not."""
+    poses = load_motionbert(YOGA["Tadasana"])
+    assert poses.summary_note in poses.notes  # shown as a note line of the run summary
+    assert poses.summary_note.startswith("pelvis at the origin") and "infer_wild --rootrel" in poses.summary_note \
+        and "--lifter videopose3d" in poses.summary_note
+    assert load_motionbert(BOXING_X3D).summary_note == ""
 
 
 def test_motionbert_axes_on_the_boxer():

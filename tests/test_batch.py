@@ -411,6 +411,18 @@ def test_a_complete_output_missing_a_file_runs_again(tmp_path):
     res = _invoke(manifest, "--workers", "1")
     assert res.exit_code == 0 and _statuses(manifest) == ["ok", "skipped"], res.output
     assert (tmp_path / "r1" / "kinematics.csv").is_file() and (tmp_path / "r2" / "notes.txt").read_text() == "mine"
+    # an output the user edited is theirs: still complete, skipped, never replaced
+    edited = tmp_path / "r1" / "kinematics.csv"
+    edited.write_text(edited.read_text() + "\n")
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 0 and _statuses(manifest) == ["skipped", "skipped"], res.output
+    # incomplete and holding the user's file: that row is refused, naming both, without --overwrite advice
+    (tmp_path / "r2" / "kinematics.csv").unlink()
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 1 and "line 3: column out: expected to run this row again (its earlier output lacks " \
+        "kinematics.csv), got its folder also holding files pcnet did not write or that changed since (notes.txt)" \
+        in res.output and "--overwrite" not in res.output, res.output
+    assert (tmp_path / "r2" / "notes.txt").read_text() == "mine"
 
 
 def test_manifest_layout_mistakes_are_named_by_their_file_line(tmp_path):
@@ -463,6 +475,10 @@ def test_an_unreachable_cluster_address_is_refused_at_once(tmp_path):
         manifest = _manifest(tmp_path, _row("a"))
         res = _invoke(manifest, "--engine", "ray", "--address", f"127.0.0.1:{port}")
     assert res.exit_code == 1 and f"--address 127.0.0.1:{port}: expected a running Ray cluster's head" in res.output
+    from pcnet.pipeline.batch_ray import check_reachable
+
+    check_reachable(f"ray://127.0.0.1:{port}")  # Ray Client and `auto`: left to Ray
+    check_reachable("auto")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
 
 
@@ -480,6 +496,9 @@ def test_a_rows_warnings_reach_the_summary(tmp_path):
         "--out", str(tmp_path / "single")]).output.splitlines() if ln.startswith("WARNING")]
     assert expected and row["warnings"] == expected
     assert all(f"    WARNING {w}" in res.output for w in expected)
+    assert _invoke(manifest).exit_code == 0  # skipped on a re-run: its warnings stay in the summary
+    (row,) = _summary(manifest)["rows"]
+    assert row["status"] == "skipped" and row["warnings"] == expected
 
 
 def test_a_rows_runtime_error_names_the_manifest_columns(tmp_path):

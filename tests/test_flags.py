@@ -97,7 +97,7 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
 def test_auto_mode_decides_on_one_persons_frames():
     """Real standing poses whose up readings drift by up to 40 deg after frame 40 (as the
     frames after a track switch can read): auto mode sees a moving camera, unless it decides
-    on the first stretch."""
+    on the first stretch, when that stretch is long enough to tell."""
     from pcnet.stages.rectify import SequenceEvidence
 
     res = rectify(np.load(TADASANA), "pcnet", mode="frame")
@@ -107,12 +107,14 @@ def test_auto_mode_decides_on_one_persons_frames():
     drift[:, 0, 0], drift[:, 1, 1], drift[:, 1, 2], drift[:, 2, 1], drift[:, 2, 2] = 1.0, c, -s, s, c
     R = drift @ res.rotation
     auto = SequenceEvidence("auto", n_bootstrap=0)
-    assert auto(None, R, res.valid, 30.0)[2]["mode"] == "smooth"
+    fps = 8.0  # the first 40 frames are 5 s, the shortest stretch auto decides on alone
+    assert auto(None, R, res.valid, fps)[2]["mode"] == "smooth"
     first = np.arange(len(R)) < 40
-    _, _, report = auto(None, R, res.valid, 30.0, decide_on=first)
-    assert report["mode"] == "sequence" and report["spread_deg"] < 5.0
-    # a stretch without a valid frame falls back to every valid frame
-    assert auto(None, R, res.valid, 30.0, decide_on=~res.valid)[2]["mode"] == "smooth"
+    _, _, report = auto(None, R, res.valid, fps, decide_on=first)
+    assert report["mode"] == "sequence" and report["spread_deg"] < 5.0 and report["mode_decided_on_frames"] == 40
+    # a shorter stretch (1.3 s at 30 fps), or one without a valid frame: every valid frame decides
+    assert auto(None, R, res.valid, 30.0, decide_on=first)[2]["mode"] == "smooth"
+    assert auto(None, R, res.valid, fps, decide_on=~res.valid)[2]["mode"] == "smooth"
 
 
 def test_the_sports2d_static_camera_is_found_despite_the_track_switch(tmp_path):

@@ -500,6 +500,17 @@ def test_run_pipeline_leaves_the_callers_garbage_collector_as_it_found_it(tmp_pa
     del cycle
     gc.collect()
     assert alive() is None
+    # a caller that froze its own objects keeps its freeze
+    gc.freeze()
+    try:
+        frozen = gc.get_freeze_count()
+        monkeypatch.undo()
+        run_pipeline(RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30, out=str(tmp_path / "c"),
+                               recording=False), progress=False)
+        # still frozen (a few frozen objects may be freed by reference counting meanwhile)
+        assert gc.get_freeze_count() > 0.9 * frozen
+    finally:
+        gc.unfreeze()
 
 
 def test_run_config_takes_pathlib_paths(tmp_path):

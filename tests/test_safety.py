@@ -424,3 +424,23 @@ def test_ctrl_c_while_starting_is_one_line(user_folder, delay):
     assert proc.returncode in (130, 0), (proc.returncode, err)  # 0: it finished before the signal
     if proc.returncode == 130:
         assert "interrupted" in err and not (user_folder / "o").exists()
+
+
+def test_an_interrupted_import_of_an_optional_extra_is_an_interrupt_not_a_missing_extra(monkeypatch):
+    """A Ctrl-C inside ezc3d's (or Ray's, OpenSim's) import is not 'pip install pcnet[c3d]'."""
+    import importlib
+
+    from pcnet.stages.core.errors import InputError, import_extra
+
+    def interrupted(name):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as stop:
+            raise ImportError("initialization failed") from stop
+
+    monkeypatch.setattr(importlib, "import_module", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        import_extra("ezc3d", "C3D export needs ezc3d")
+    monkeypatch.setattr(importlib, "import_module", lambda name: (_ for _ in ()).throw(ImportError(name)))
+    with pytest.raises(InputError, match="C3D export needs ezc3d"):
+        import_extra("ezc3d", "C3D export needs ezc3d")

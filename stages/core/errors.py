@@ -29,8 +29,12 @@ def import_extra(module: str, missing: str):
 
     Raises:
         InputError: ``missing`` (one line naming the extra) when it is not installed.
+        KeyboardInterrupt: the import was interrupted (its ImportError caused by one).
     """
     try:
         return importlib.import_module(module)
-    except ImportError:
+    except ImportError as err:
+        if isinstance(err.__cause__ or err.__context__, KeyboardInterrupt):
+            # a Ctrl-C or SIGTERM inside the module's own import: an interrupt, not a missing extra
+            raise KeyboardInterrupt(str(err)) from err
         raise InputError(missing) from None
