@@ -60,7 +60,11 @@ def main() -> None:
     ap.add_argument("--stride", type=int, default=2)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args()
+    if args.stride < 1:
+        sys.exit("lying_roll: --stride must be >= 1")
     files = sorted(p for p in args.data.joinpath(*FOLDER).glob("export_*_Shavasana.npy") if _plain_export(p))
+    if not files:
+        sys.exit(f"lying_roll: no export_*_Shavasana.npy under {args.data.joinpath(*FOLDER)}; pass --data <data root>")
     labels = ["input", *(c.label for c in SEQUENCE)]
     lines = [COMMAND, "", f"{len(files)} real VideoPose3D Shavasana (supine) files, {FPS / args.stride:g} fps.",
              "Per file, median over valid frames: trunk from vertical / hip line from horizontal / shoulder line from",

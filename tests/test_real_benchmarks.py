@@ -175,7 +175,7 @@ def test_shipped_body_frame_network_is_exactly_equivariant_on_real_poses():
         assert valid == 1.0
 
 
-@pytest.mark.parametrize("script", ["gravity_benchmark.py", "yoga_physics.py", "equivariance.py"])
+@pytest.mark.parametrize("script", ["gravity_benchmark.py", "yoga_physics.py", "equivariance.py", "lying_roll.py"])
 def test_scripts_exit_with_one_line_without_data(script, tmp_path):
     out = tmp_path / "table.txt"
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), "--data", str(tmp_path / "absent"),
