@@ -18,7 +18,6 @@ left-right symmetric under a level camera. Here, for the shipped camera-frame ne
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -28,7 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gravity_benchmark import load_camera, pitch_roll_deg  # noqa: E402
-from report import print_and_save  # noqa: E402
+from report import data_arguments, print_and_save  # noqa: E402
 from yoga_physics import ASANA_ORDER, FOLDER, FPS, _plain_export, parse_name  # noqa: E402
 
 from pcnet.adapters import load_videopose3d  # noqa: E402
@@ -50,11 +49,7 @@ def median_roll_reading(session: PCNetSession, joints: np.ndarray, fps: float) -
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--stride", type=int, default=2)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args()
+    args = data_arguments(__doc__, DEFAULT, RESULT, stride=2)
     session = PCNetSession(CAMERA_WEIGHTS)
     lines = [__doc__.splitlines()[0], "",
              f"    python benchmarks/camera_roll_reading.py --data ../shared/data --stride {args.stride}", "",

@@ -15,7 +15,6 @@ of benchmarks/configurations.py. No ground truth: the asana is the reference.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -23,7 +22,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from configurations import CONFIGURATIONS  # noqa: E402
-from report import print_and_save  # noqa: E402
+from report import data_arguments, print_and_save  # noqa: E402
 from yoga_physics import CANONICAL_UP, FOLDER, FPS, IMAGE_UP, _plain_export, parse_name, trunk_angles_deg  # noqa: E402
 
 from pcnet.adapters import load_videopose3d  # noqa: E402
@@ -55,13 +54,7 @@ def medians(joints: np.ndarray, valid: np.ndarray, up: np.ndarray) -> tuple[floa
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--stride", type=int, default=2)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args()
-    if args.stride < 1:
-        sys.exit("lying_roll: --stride must be >= 1")
+    args = data_arguments(__doc__, DEFAULT, RESULT, stride=2)
     files = sorted(p for p in args.data.joinpath(*FOLDER).glob("export_*_Shavasana.npy") if _plain_export(p))
     if not files:
         sys.exit(f"lying_roll: no export_*_Shavasana.npy under {args.data.joinpath(*FOLDER)}; pass --data <data root>")

@@ -1,8 +1,23 @@
-"""What the text benchmarks do with their report: print it and write it under results/."""
+"""What the text benchmarks share: their command line over a data root, and what they do with
+their report (print it and write it under results/)."""
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
+
+
+def data_arguments(doc: str, data: Path, out: Path, stride: int) -> argparse.Namespace:
+    """``--data`` (the data root), ``--stride`` (every k-th frame, >= 1) and ``--out`` (the
+    results file), parsed from the command line; the description is ``doc``'s first line."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=data)
+    ap.add_argument("--stride", type=int, default=stride)
+    ap.add_argument("--out", type=Path, default=out)
+    args = ap.parse_args()
+    if args.stride < 1:
+        ap.error("--stride must be >= 1")
+    return args
 
 
 def print_and_save(lines: list[str], out: Path) -> None:

@@ -14,11 +14,12 @@ motion-style test split, CMU test subjects. `--stride` keeps every k-th frame of
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
 import numpy as np
+
+from report import data_arguments
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
@@ -62,11 +63,7 @@ def tilt_by_roll(path: Path, split: str, lifter: bool, stride: int, gated: ViewG
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--stride", type=int, default=3)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args()
+    args = data_arguments(__doc__, DEFAULT, RESULT, stride=3)
     gated = ViewGatedPCNet()
     assert gated.camera.path == CAMERA_WEIGHTS and gated.body.path == BODY_WEIGHTS
     t0 = time.perf_counter()
