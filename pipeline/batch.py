@@ -290,6 +290,10 @@ def _shared_out_problems(manifest: Path, planned: list[PlannedRow]) -> dict[int,
     return problems
 
 
+#: Lifters and 2D formats whose files never record a frame rate: without a video such a row
+#: needs its fps column (MediaPipe archives and Kinect skeletons may carry theirs).
+_NO_FRAME_RATE = ("motionbert", "videopose3d", "ddhpose", "generic")
+_NO_FRAME_RATE_2D = ("alphapose", "mmpose", "openpose")
 _BOOLEAN_COLUMNS = ("overwrite", "recording", "fps_override", "c3d", "camera_prior", "residual_cutoff")
 
 
@@ -306,8 +310,8 @@ def in_manifest_terms(message: str) -> str:
             value = None
         if asked and name in _BOOLEAN_COLUMNS:
             return f"set column {name} to true{rest}"
-        if asked and value:
-            return f"set column {name} to {value}"
+        if asked:
+            return f"set column {name}" + (f" to {value}" if value else rest)
         return f"{asked or ''}{'out' if name == 'out' else 'column ' + name}{rest}"
     return re.sub(r"(pass )?--([a-z][a-z0-9-]*)(?: ([a-z0-9.]+))?", flag, message)
 
@@ -335,6 +339,10 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]],
             continue
         config = asdict(cfg)
         found = _input_problems(where, row, config) or [p for p in [_out_problem(where, row, config)] if p]
+        if cfg.video is None and cfg.fps is None and cfg.lifter in _NO_FRAME_RATE and \
+                cfg.keypoints2d_format in (None, *_NO_FRAME_RATE_2D):
+            found.append(f"{where}: column fps: expected the frame rate (no video is given and {cfg.lifter} "
+                         f"files do not record one), got none")
         if found:
             problems[line] = "\n".join(found)
         planned.append(PlannedRow(index, line, config, row))

@@ -513,3 +513,15 @@ def test_a_rows_runtime_error_names_the_manifest_columns(tmp_path):
     (row,) = _summary(manifest)["rows"]
     assert row["error"].startswith("column fps 25: expected the rate") and \
         "set column fps_override to true to use column fps anyway" in row["error"], row["error"]
+
+
+def test_a_row_without_any_frame_rate_is_refused_before_any_work(tmp_path):
+    """No video, no fps column and a lifter whose files record no rate: refused with the
+    other rows' problems, not failed after the others ran."""
+    manifest = tmp_path / "r.csv"
+    manifest.write_text(f"lifter,lifter_output,fps,out\nmotionbert,{BOX_3D},30,a\nmotionbert,{BOX_3D},,b\n"
+                        f"mediapipe,{MEDIAPIPE},,c\n")
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and res.output.count("Error: ") == 1 and "line 3: column fps: expected the frame rate " \
+        "(no video is given and motionbert files do not record one), got none" in res.output, res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv"]

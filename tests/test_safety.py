@@ -331,7 +331,7 @@ def test_unknown_lifter_options_in_toml_end_in_one_line(user_folder):
 
 
 @pytest.mark.parametrize("content, needle", [(b"", "empty"), (b"\x00\xff\xfe\x89PNG\x00" * 20, "binary"),
-                                             (b"lifter,lifter_output,out\ngeneric,poses.npy,a\ngeneric,poses.npy,a\n",
+                                             (b"lifter,lifter_output,fps,out\ngeneric,poses.npy,30,a\ngeneric,poses.npy,30,a\n",
                                               "line 3"),
                                              (b"lifter,out\ngeneric,o\n", "lifter_output"),
                                              (b"lifter,lifter_output,out\n", "at least one row"),
