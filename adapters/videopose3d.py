@@ -10,11 +10,6 @@ from .registry import register_3d
 from .types import AdapterError, Poses3D
 from .validate import ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, pelvis_offset
 
-#: The farthest a root-relative VideoPose3D export's pelvis lies from the origin, median over
-#: frames (m): the real exports' is about 1e-4 m (root-relative training target, not zeroed at
-#: inference, run.py). MotionBERT's infer_wild output keeps the root's image position (0.1-1
-#: normalised units) at a depth near 0.
-MAX_ROOT_M = ROOT_RELATIVE_MAX
 #: With VideoPose3D's trajectory model, run.py adds the predicted root trajectory before
 #: exporting: the pelvis then lies in front of the camera, at this depth (m) or more (median).
 MIN_TRAJECTORY_DEPTH_M = 0.5
@@ -37,8 +32,8 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     Raises:
         AdapterError: missing/unreadable file, not ``(N, 17, 3)`` real numbers, all NaN, a
             coordinate beyond 100 m (naming frame and joint), a pelvis farther than
-            :data:`MAX_ROOT_M` from the origin yet not :data:`MIN_TRAJECTORY_DEPTH_M` in front of
-            the camera (medians over frames: not a VideoPose3D export).
+            :data:`~pcnet.adapters.validate.ROOT_RELATIVE_MAX` from the origin yet not
+            :data:`MIN_TRAJECTORY_DEPTH_M` in front of the camera (medians over frames: not a VideoPose3D export).
 
     Source of the format facts: facebookresearch/VideoPose3D (commit 1afb1ca)
     ``INFERENCE.md`` step 5, ``data/prepare_data_h36m.py`` L73 "Meters instead of
@@ -47,13 +42,12 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     p = Path(path)
     arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
     off_origin, depth = pelvis_offset(arr)
-    if np.isfinite(off_origin):
-        if off_origin > MAX_ROOT_M and not depth >= MIN_TRAJECTORY_DEPTH_M:
-            raise AdapterError(p, "poses", f"a VideoPose3D export: its pelvis within {MAX_ROOT_M:g} m of the origin "
-                               f"(root-relative) or, with the trajectory model, at least {MIN_TRAJECTORY_DEPTH_M:g} m "
-                               "in front of the camera",
-                               f"the pelvis {off_origin:.3g} m from the origin at depth {depth:.3g} m (medians over "
-                               "frames): MotionBERT's infer_wild output? (--lifter motionbert)")
+    if off_origin > ROOT_RELATIVE_MAX and not depth >= MIN_TRAJECTORY_DEPTH_M:  # NaN (no pelvis): no verdict
+        raise AdapterError(p, "poses", f"a VideoPose3D export: its pelvis within {ROOT_RELATIVE_MAX:g} m of the origin "
+                           f"(root-relative) or, with the trajectory model, at least {MIN_TRAJECTORY_DEPTH_M:g} m in "
+                           "front of the camera",
+                           f"the pelvis {off_origin:.3g} m from the origin at depth {depth:.3g} m (medians over "
+                           "frames): MotionBERT's infer_wild output? (--lifter motionbert)")
     root = finite_max_abs(arr[:, 0])
     notes = ("VideoPose3D export (VideoPose3D INFERENCE.md), H36M-17, metres, camera frame x right / y down / z forward, "
              f"no axis changed; root as delivered (max |root| {root:.2g} m)")

@@ -20,6 +20,7 @@ import re
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
+from functools import lru_cache
 from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
@@ -45,6 +46,7 @@ _NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold"
             "focal_px": float}
 _LIFTER_OPTIONS = COMMAND_LINE_OPTIONS  # the lifter options a row gives as columns of their own
 _BOOLEAN = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}
+_BOOLEAN_COLUMNS = ("overwrite", "recording", "fps_override", "c3d", "camera_prior", "residual_cutoff")
 
 
 def _boolean(key: str, raw: str) -> bool:
@@ -84,7 +86,7 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
             options[key] = parse_hypothesis(raw)
         elif key in _LIFTER_OPTIONS:
             options[key] = raw
-        elif key in ("overwrite", "recording", "fps_override", "c3d", "camera_prior", "residual_cutoff"):
+        elif key in _BOOLEAN_COLUMNS:
             values[key] = _boolean(key, raw)
         else:
             values[key] = raw
@@ -93,10 +95,11 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
     return RunConfig.from_values(ROW_SOURCE, {**values, "lifter_options": options})
 
 
-def manifest_columns() -> list[str]:
+@lru_cache(maxsize=1)
+def manifest_columns() -> tuple[str, ...]:
     """Every column a manifest may have: the fields of ``pcnet run``'s configuration and the
     lifter options that have a flag of their own."""
-    return sorted(({f.name for f in fields(RunConfig)} - {"lifter_options"}) | set(_LIFTER_OPTIONS))
+    return tuple(sorted(({f.name for f in fields(RunConfig)} - {"lifter_options"}) | set(_LIFTER_OPTIONS)))
 
 
 def _header_problem(manifest: Path, header: list[str]) -> str | None:
@@ -294,7 +297,6 @@ def _shared_out_problems(manifest: Path, planned: list[PlannedRow]) -> dict[int,
 #: needs its fps column (MediaPipe archives and Kinect skeletons may carry theirs).
 _NO_FRAME_RATE = ("motionbert", "videopose3d", "ddhpose", "generic")
 _NO_FRAME_RATE_2D = ("alphapose", "mmpose", "openpose")
-_BOOLEAN_COLUMNS = ("overwrite", "recording", "fps_override", "c3d", "camera_prior", "residual_cutoff")
 
 
 def in_manifest_terms(message: str) -> str:
@@ -312,7 +314,7 @@ def in_manifest_terms(message: str) -> str:
             return f"set column {name} to true{rest}"
         if asked:
             return f"set column {name}" + (f" to {value}" if value else rest)
-        return f"{asked or ''}{'out' if name == 'out' else 'column ' + name}{rest}"
+        return f"{'out' if name == 'out' else 'column ' + name}{rest}"
     return re.sub(r"(pass )?--([a-z][a-z0-9-]*)(?: ([a-z0-9.]+))?", flag, message)
 
 
@@ -546,7 +548,7 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
 
     def rows(unfinished: str) -> list[dict]:
         # A row stopped while running reports the attempt it was in (engines that know it).
-        started = getattr(engine, "started", {}) if engine is not None else {}
+        started = getattr(engine, "started", {})
         return [_row_summary(item, results.get(item.row) or started.get(item.row), unfinished) for item in planned]
 
     def on_result(result: dict) -> None:
@@ -557,12 +559,12 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
             progress(_progress_line(len(results), len(jobs), by_row[result["row"]], result))
         writer.write(rows("pending"))
 
-    engine = None
-    writer.write(rows("pending"), force=True)
     def on_retry(row: int, line: str) -> None:
         if progress is not None:
             progress(f"line {by_row[row].line}: {line}")
 
+    engine = None
+    writer.write(rows("pending"), force=True)
     engine = _engine(options, on_result, on_retry)
     try:
         _, interrupted = engine.run(jobs)

@@ -96,8 +96,8 @@ def execute_row(job: dict) -> dict:
     worker) propagates after ``run_pipeline`` has removed its half-written folder.
     """
     result = {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
-              "error": "", "warnings": [], "host": socket.gethostname(), "pid": os.getpid(), "attempts": job.get("attempt", 1),
-              "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS"))}
+              "error": "", "warnings": [], "host": socket.gethostname(), "pid": os.getpid(),
+              "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS"))}
     _test_hook(job["row"])
     from pcnet.stages.core.errors import InputError
 

@@ -100,6 +100,9 @@ _camera_prior_option = click.option(
     help="Sequence modes: up from the poses (and floor contacts) alone, without the camera prior and the "
          "lying reading (with --mode frame --heading predicted: the paper's model alone).")
 
+_METHOD_HELP = ("pcnet: the shipped 3DPCNet pair (gated by camera view); pcnet-rigid: the same without the residual; "
+                "geometric: the paper's baseline (section 2.3).")
+
 _heading_option = click.option(
     "--heading", type=click.Choice(HEADING_SOURCES), default=None,
     help="Heading about the up axis from: predicted (the method's rotation), hips (the input's hip line, "
@@ -107,23 +110,24 @@ _heading_option = click.option(
 
 
 @main.command()
-@click.option("--method", type=click.Choice(METHODS), required=True, help="pcnet: the shipped 3DPCNet pair (gated by camera view); pcnet-rigid: the same without the residual; geometric: the paper's baseline (section 2.3).")
+@click.option("--method", type=click.Choice(METHODS), required=True, help=_METHOD_HELP)
 @click.option("--data", type=click.Path(dir_okay=False), required=True,
               help="Mocap .npz: one (T, 17, 3) H36M-17 array per clip, metres, world frame +Y up (README, Commands).")
 @click.option("--split", type=click.Choice(["train", "val", "test", "all"]), default="test", show_default=True,
               help="Which clips of --data under --split-scheme; all: every clip (data never trained on).")
 @click.option("--split-scheme", type=click.Choice(["motion-style", "clip"]), default="motion-style", show_default=True,
               help="motion-style: whole Bandai motion-style groups and some whole styles held out of train (CMU: "
-                   "whole subjects); clip: the old per-take hash earlier releases were trained with (the shipped weights: "
-                   "motion-style), which puts sibling takes of most test clips in train.")
+                   "whole subjects); clip: the old per-take hash earlier releases were trained with (the shipped "
+                   "weights: motion-style), which puts sibling takes of most test clips in train.")
 @click.option("--unseen-by", type=click.Choice(["motion-style", "clip"]), default=None,
               help="Keep only clips whose motion-style group (CMU: subject) has no take in this scheme's train "
                    "split; --unseen-by clip scores the groups that weights trained on the clip split never saw.")
 @click.option("--views", type=click.Choice(["paper", "wide"]), default="paper", show_default=True,
               help="Synthetic camera views (docs/CONVENTIONS.md): paper (3DPCNet's) or wide (any yaw, pitch +-45).")
 @click.option("--camera", type=click.Choice(CAMERAS), default="per-frame", show_default=True,
-              help="per-frame: a new camera each frame (paper); per-clip: one camera per clip, panning with the subject's turns; static: one camera fixed in the world "
-                   "(sequence and auto modes need per-clip or static).")
+              help="per-frame: a new camera each frame (paper); per-clip: one camera per clip, panning with the "
+                   "subject's turns; static: one camera fixed in the world (sequence and auto modes need per-clip or "
+                   "static).")
 @click.option("--noise", type=click.Choice(["none", "frame", "lifter"]), default="none", is_flag=False,
               flag_value="frame", show_default=True,
               help="Input noise: frame (each frame's error drawn anew; --noise alone), lifter (errors that persist "
@@ -164,7 +168,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
 @click.argument("input_path", type=click.Path(dir_okay=False))
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True,
               help="The .npz archive to write (rotation, canonical, up, valid, ...: README, Commands).")
-@click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True, help="pcnet: the shipped 3DPCNet pair (gated by camera view); pcnet-rigid: the same without the residual; geometric: the paper's baseline (section 2.3).")
+@click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True, help=_METHOD_HELP)
 @click.option("--key", default=None, help="Array name inside an .npz input.")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="frame: each frame alone (paper); sequence: one up for a static camera; smooth: moving camera.")
@@ -199,9 +203,10 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
               frame_tilt_bound_deg=res.report["frame_tilt_bound_deg"])
+    cv = res.report["hip_width_cv_percent"]
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}, "
-               f"heading from {res.heading_source} (hip width CV {res.report['hip_width_cv_percent']:.2f} %)"
-               .replace("(hip width CV nan %)", "(hip width CV needs two frames)"))
+               f"heading from {res.heading_source} (hip width CV "
+               + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
 
 
 @main.command()
@@ -321,7 +326,7 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
 
 @main.command()
 @click.option("--out", type=click.Path(file_okay=False), default="pcnet_demo", show_default=True)
-@click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True, help="pcnet: the shipped 3DPCNet pair (gated by camera view); pcnet-rigid: the same without the residual; geometric: the paper's baseline (section 2.3).")
+@click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True, help=_METHOD_HELP)
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out folder written by pcnet.")
 def demo(out, method, overwrite):
     """The whole pipeline on the bundled real example (boxing video, AlphaPose Halpe-26,

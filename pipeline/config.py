@@ -57,7 +57,8 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
     """
     from pcnet.adapters import get_3d_adapter
 
-    load = get_3d_adapter(lifter).load
+    adapter = get_3d_adapter(lifter)
+    load = adapter.load
     params = inspect.signature(load).parameters
     if any(p.kind is p.VAR_KEYWORD for p in params.values()):
         return options
@@ -70,16 +71,17 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
                              f"({', '.join(_option_flag(n) for n in taken) or 'none'}), got {flags}")
         raise InputError(f"{field_name(source, *unknown)}: expected only options --lifter {lifter} takes "
                          f"({', '.join(taken) or 'none'}), got {', '.join(unknown)}")
+    def where(option: str) -> str:
+        return _option_flag(option) if source == COMMAND_LINE else field_name(source, option)
+
     hints = typing.get_type_hints(load)
     for option, value in options.items():
         if option in hints and not value_matches(value, hints[option]):
-            where = _option_flag(option) if source == COMMAND_LINE else field_name(source, option)
-            raise InputError(f"{where}: expected {type_name(hints[option])} for --lifter {lifter}, got {value!r} "
-                             f"({type(value).__name__})")
+            raise InputError(f"{where(option)}: expected {type_name(hints[option])} for --lifter {lifter}, got "
+                             f"{value!r} ({type(value).__name__})")
     # Values the adapter would refuse only once it reads the file (an adapter may say which).
-    for option, expected, got in getattr(get_3d_adapter(lifter), "option_problems", lambda **_: [])(**options)[:1]:
-        where = _option_flag(option) if source == COMMAND_LINE else field_name(source, option)
-        raise InputError(f"{where}: expected {expected} for --lifter {lifter}, got {got}")
+    for option, expected, got in getattr(adapter, "option_problems", lambda **_: [])(**options)[:1]:
+        raise InputError(f"{where(option)}: expected {expected} for --lifter {lifter}, got {got}")
     return options
 
 

@@ -99,7 +99,6 @@ class RunResult:
             lines.append(f"open the recording with:  rerun {self.outputs['recording']}")
         return "\n".join(lines)
 
-
     def _hip_width(self) -> str:
         cv = self.report.get("hip_width_cv_percent", float("nan"))
         return f"hip width varies {cv:.1f} %" if np.isfinite(cv) else "hip width variation needs two frames with hips"

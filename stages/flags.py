@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from .core.canonical import trunk_lean_deg
-from .core.conventions import (L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE, THIGH_RANGE_M, THORAX,
-                               median_thigh_length)
+from .core.conventions import PELVIS, THIGH_RANGE_M, THORAX, median_thigh_length
+from .scale import leg_lengths
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
 #: probably upside down or its axes are wrong: a real camera films a standing scene with
@@ -104,13 +104,9 @@ def leg_asymmetry_flag(joints: np.ndarray) -> list[str]:
     in length by more than :data:`LEG_ASYMMETRY` (medians over frames of hip -> knee plus
     knee -> ankle): heights above the floor and left/right comparisons then carry the
     lifter's error."""
-    lengths = []
-    for hip, knee, ankle in ((L_HIP, L_KNEE, L_ANKLE), (R_HIP, R_KNEE, R_ANKLE)):
-        leg = (np.linalg.norm(np.asarray(joints[:, knee], np.float64) - np.asarray(joints[:, hip], np.float64), axis=1)
-               + np.linalg.norm(np.asarray(joints[:, ankle], np.float64) - np.asarray(joints[:, knee], np.float64), axis=1))
-        leg = leg[np.isfinite(leg)]
-        lengths.append(float(np.median(leg)) if leg.size else float("nan"))
-    left, right = lengths
+    legs = leg_lengths(joints)
+    right, left = (float(np.median(leg[np.isfinite(leg)])) if np.isfinite(leg).any() else float("nan")
+                   for leg in legs.T)
     if not (np.isfinite(left) and np.isfinite(right)) or max(left, right) <= 0:
         return []
     difference = abs(left - right) / max(left, right)

@@ -188,7 +188,8 @@ class SequenceEvidence:
 
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
                  fps: float, frame_weights: np.ndarray | None = None,
-                 evidence_scale: float = 1.0, decide_on: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+                 evidence_scale: float = 1.0,
+                 decide_on: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
         """Apply the mode to one recording.
 
         Args:
@@ -208,8 +209,9 @@ class SequenceEvidence:
         Returns:
             ``(R (T, 3, 3) float64, NaN where not valid (frame mode: as given); valid (T,)
             bool; report)``. The report has ``requested_mode`` and ``mode`` (the mode run),
-            with ``decide_on`` in auto mode ``mode_decided_on_frames`` (valid frames it decided on),
-            and outside frame mode ``spread_deg`` (over those frames in auto mode) (:func:`pcnet.stages.temporal.up_spread_deg`),
+            with ``decide_on`` in auto mode ``mode_decided_on_frames`` (valid frames it decided
+            on), and outside frame mode ``spread_deg`` (over those frames in auto mode;
+            :func:`pcnet.stages.temporal.up_spread_deg`),
             ``evidence`` (``"per-frame"``, ``"poses"``, ``"poses+ground_plane"``, with
             ``"+camera_prior"``), ``valid``; in smooth mode ``time_constant_s``; in sequence mode
             ``up``, ``up_uncertainty_deg``, ``camera_pitch_deg``, ``camera_roll_deg`` and their
@@ -312,7 +314,8 @@ class Rectification:
     canonical poses ``(X - pelvis) @ R + residual`` (:func:`pcnet.stages.core.canonical.to_canonical`).
 
     Calling it with ``joints_cam`` ``(T, 17, 3)`` (camera frame, any unit, NaN = missing),
-    ``fps`` and optionally ``decide_on`` (:class:`SequenceEvidence`) returns :class:`Rectified`; its report holds the sequence and heading reports,
+    ``fps`` and optionally ``decide_on`` (:class:`SequenceEvidence`) returns
+    :class:`Rectified`; its report holds the sequence and heading reports,
     ``view_gate`` (:func:`gate_report`), ``camera_frame_weight`` ``(T,)`` (the shipped pair
     only), ``frame_tilt_95_deg`` (the estimator's calibrated per-frame bound where nothing
     widens it, NaN when uncalibrated) and ``frame_tilt_bound_deg`` ``(T,)`` (per frame, widened

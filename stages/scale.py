@@ -68,6 +68,13 @@ def _bone_length(X: np.ndarray, a: int, b: int) -> np.ndarray:
     return np.linalg.norm(np.asarray(X[:, b], np.float64) - np.asarray(X[:, a], np.float64), axis=-1)
 
 
+def leg_lengths(joints: np.ndarray) -> np.ndarray:
+    """Per-frame leg lengths, shank plus thigh, of H36M-17 poses ``(T, 17, 3)`` (any frame
+    and units, in memory or on disk): ``(T, 2)`` float64, right then left; NaN where a
+    joint of that leg is missing."""
+    return np.stack([sum(_bone_length(joints, a, b) for a, b in side) for side in _LEG_BONES], -1)
+
+
 def height_chain_length(joints: np.ndarray) -> np.ndarray:
     """Per-frame standing-height proxy: the head-to-ankle chain of bone lengths.
 
@@ -84,7 +91,7 @@ def height_chain_length(joints: np.ndarray) -> np.ndarray:
         ValueError: wrong shape.
     """
     X = check_poses(joints, "joints")  # joint columns read as float64 (in memory or on disk)
-    legs = np.stack([sum(_bone_length(X, a, b) for a, b in side) for side in _LEG_BONES], -1)
+    legs = leg_lengths(X)
     # One visible leg is enough: left and right legs have the same length.
     n = np.isfinite(legs).sum(-1)
     with np.errstate(invalid="ignore", divide="ignore"):
