@@ -265,7 +265,7 @@ def _run_and_report(cfg) -> None:
               help="frame | sequence (static camera) | smooth (moving camera) | auto [auto].")
 @_heading_option
 @_camera_prior_option
-@click.option("--height", type=float, default=None, help="Subject height in metres, to scale non-metric output.")
+@click.option("--height", type=float, default=None, help="Subject height in metres: every lifter's output is scaled to it (normalised output gets metres; metric output is rescaled to this subject), by one factor from the median ankle-to-head chain.")
 @click.option("--fps", type=float, default=None,
               help="Frame rate when neither the video nor the input files give it.")
 @click.option("--fps-override", is_flag=True, default=None,

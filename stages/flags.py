@@ -10,7 +10,7 @@ import numpy as np
 
 from .core.canonical import trunk_lean_deg
 from .core.conventions import PELVIS, THIGH_RANGE_M, THORAX, median_thigh_length
-from .scale import leg_lengths
+from .scale import height_chain_length, leg_lengths
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
 #: probably upside down or its axes are wrong: a real camera films a standing scene with
@@ -57,20 +57,47 @@ def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, fl
     return float(tilt), float(pitch), float(roll)
 
 
-def orientation_flags(tilt_deg: float) -> list[str]:
-    """Flags for a camera tilt (degrees from image-up) that real recordings rarely have."""
+def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None, *,
+                      turn_reported: bool = False) -> list[str]:
+    """Flags for a camera orientation that real recordings rarely have.
+
+    The tilt is judged against the image axis nearest the up direction, as the view gate
+    judges a camera (``models/view_gate.py: quarter_turns``): a phone held in portrait, whose
+    image-up is turned a quarter turn (roll near +-90 deg), is a level camera whose image was
+    turned; it is said once (a body lying across the image under a level camera reads the
+    same), and the unusual-tilt flag concerns only its tilt beyond that turn. A roll beyond
+    +-135 deg, or a tilt beyond :data:`UPSIDE_DOWN_TILT_DEG` with no quarter turn, is read as
+    upside-down or axis-swapped input.
+
+    Args:
+        tilt_deg, pitch_deg, roll_deg: degrees, from :func:`camera_tilt` (one recording's
+            mean up; ``cos(tilt) = cos(pitch) cos(roll)``). Without ``pitch_deg`` and
+            ``roll_deg`` only the tilt from image-up is judged.
+        turn_reported: the quarter turn is already in the summary (the view gate's flag,
+            :func:`view_gate_flag`), so it is not said again.
+
+    Returns:
+        zero or one line.
+    """
     if not np.isfinite(tilt_deg):
         return []
-    if tilt_deg > UPSIDE_DOWN_TILT_DEG:
+    oriented = pitch_deg is not None and roll_deg is not None and np.isfinite(pitch_deg) and np.isfinite(roll_deg)
+    quarter = int(np.round(roll_deg / 90.0)) if oriented else 0
+    if abs(quarter) == 2 or (quarter == 0 and tilt_deg > UPSIDE_DOWN_TILT_DEG):
         return [f"up points {tilt_deg:.0f} deg away from image-up: the input is probably upside down or its "
                 f"axes are wrong (check the lifter's axis convention; --axes with --lifter generic)"]
-    if tilt_deg > UNUSUAL_TILT_DEG:
-        return [f"camera tilt {tilt_deg:.0f} deg: beyond the {UNUSUAL_TILT_DEG:.0f} deg of most real cameras; either "
-                f"the camera was tilted that much or the subject is not upright (lying, seated, bent), which the poses "
-                f"alone cannot tell apart: check the result (and --axes, with --lifter generic)"]
+    beyond_turn = tilt_deg if quarter == 0 else float(np.degrees(np.arccos(np.clip(
+        np.cos(np.radians(pitch_deg)) * np.cos(np.radians(roll_deg - 90.0 * quarter)), -1.0, 1.0))))
+    turned = "" if quarter == 0 else f" beyond a quarter turn (roll {roll_deg:+.0f} deg: a camera held in portrait)"
+    if beyond_turn > UNUSUAL_TILT_DEG:
+        return [f"camera tilt {beyond_turn:.0f} deg{turned}: beyond the {UNUSUAL_TILT_DEG:.0f} deg of most real cameras; "
+                f"either the camera was tilted that much or the subject is not upright (lying, seated, bent), which the "
+                f"poses alone cannot tell apart: check the result (and --axes, with --lifter generic)"]
+    if quarter and not turn_reported:
+        return [f"camera read as turned a quarter turn about its optical axis (roll {roll_deg:+.0f} deg: a phone in "
+                f"portrait, or a body lying across the image under a level camera, which the poses alone cannot tell "
+                f"apart): check the result"]
     return []
-
-
 
 
 def body_size_flag(joints: np.ndarray, units: str) -> list[str]:
@@ -116,6 +143,39 @@ def leg_asymmetry_flag(joints: np.ndarray) -> list[str]:
     return [f"the lifter's left and right legs differ by {100 * difference:.0f} % in length (median over frames; the "
             f"{shorter} one shorter), more than a person's: heights above the floor (set by the lowest joint) and "
             f"left/right comparisons carry the lifter's error"]
+
+
+#: Ratio of the 95th to the 5th percentile of the per-frame ankle-to-head chain
+#: (:func:`pcnet.stages.scale.height_chain_length`) beyond which the skeleton's size, not
+#: the lifter's bone-length noise, changes over the recording: one scale factor then leaves
+#: a tenth of the frames off by more than about 20 %. The real lifter files of the shared
+#: data, seated and lying yoga included, stay at or below 1.44 (VideoPose3D, a lying pose);
+#: a MotionBERT cycling clip whose rider grows in the image reaches 3.0.
+SIZE_CHANGE_RATIO = 1.5
+
+
+def size_change_flag(joints: np.ndarray) -> list[str]:
+    """A flag when the body of H36M-17 poses ``(T, 17, 3)`` (any units) changes size over
+    the recording by more than :data:`SIZE_CHANGE_RATIO` (5th to 95th percentile of the
+    ankle-to-head chain): a subject moving towards or away from the camera in a lifter's
+    output that scales with the image (MotionBERT's default, normalised pixel coordinates;
+    its maintainer, Walter0807/MotionBERT issue #21), a zoom, or a failing lifter. A real
+    body keeps its size, and pcnet scales a recording by one factor
+    (:func:`pcnet.stages.scale.height_factor`, the median), so metric positions, speeds and
+    bone lengths are off by the ratio's deviation from the median."""
+    chain = height_chain_length(joints)
+    chain = chain[np.isfinite(chain) & (chain > 0)]
+    if len(chain) < 2:
+        return []
+    p5, p50, p95 = np.percentile(chain, [5, 50, 95])
+    if p95 / p5 <= SIZE_CHANGE_RATIO:
+        return []
+    off = 100 * max(p95 / p50 - 1, 1 - p5 / p50)
+    return [f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of the "
+            f"ankle-to-head chain; a body keeps its size): the subject moving towards or away from the camera in a "
+            f"lifter output that scales with the image (MotionBERT's normalised or --pixel output), a zoom, or a failing lifter. "
+            f"One scale factor (the median) leaves a tenth of the frames' positions, speeds and bone lengths off by "
+            f"more than {off:.0f} % in the metric exports"]
 
 
 def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:
@@ -176,6 +236,14 @@ def gravity_reading_flag(gravity: dict | None) -> list[str]:
 OUTSIDE_VIEWS_SHARE = 0.05
 
 
+def quarter_turn_reported(view_gate: dict | None) -> bool:
+    """Whether :func:`view_gate_flag` says the camera was read as turned a quarter turn (in
+    more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames)."""
+    if not view_gate or not view_gate["frames"]:
+        return False
+    return sum(view_gate.get("turned_frames", {}).values()) > OUTSIDE_VIEWS_SHARE * view_gate["frames"]
+
+
 def view_gate_flag(view_gate: dict | None) -> list[str]:
     """Flags from the view gate's report (:func:`pcnet.stages.rectify.gate_report`), each
     when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the camera
@@ -187,7 +255,7 @@ def view_gate_flag(view_gate: dict | None) -> list[str]:
         return []
     flags = []
     turned = view_gate.get("turned_frames", {})
-    if sum(turned.values()) > OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
+    if quarter_turn_reported(view_gate):
         counts = ", ".join(f"{deg} deg: {n}" for deg, n in turned.items() if n)
         flags.append(f"camera read as turned a quarter turn about its optical axis (a phone in portrait, or a body "
                      f"lying across the image) in {sum(turned.values())} of {view_gate['frames']} frames "

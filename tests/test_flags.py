@@ -11,7 +11,8 @@ from click.testing import CliRunner
 from conftest import FIXTURES, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
-from pcnet.stages.flags import camera_tilt, lifter_frame_flag, non_upright_fraction, orientation_flags, track_segments
+from pcnet.stages.flags import (camera_tilt, lifter_frame_flag, non_upright_fraction, orientation_flags, size_change_flag,
+                                track_segments)
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.remap import remap_to_h36m
 
@@ -52,6 +53,26 @@ def test_rolled_or_upside_down_real_input_is_flagged(method, degrees):
     tilt = camera_tilt(res.up, res.valid)[0]
     warnings = orientation_flags(tilt) + (["non-upright"] if non_upright_fraction(res.canonical, res.valid) > 0.5 else [])
     assert warnings, (method, degrees, tilt)
+
+
+@pytest.mark.parametrize("degrees", [90, -90])
+def test_a_portrait_camera_is_not_called_upside_down(degrees):
+    """Real standing poses through a camera turned a quarter turn either way: one line saying
+    so, never the upside-down or axes-wrong flag (which a tilt of 89.6 or 90.4 deg decided)."""
+    res = rectify(_roll(np.load(TADASANA), degrees), "geometric", mode="frame")  # no camera prior
+    tilt, pitch, roll = camera_tilt(res.up, res.valid)
+    assert abs(abs(roll) - 90) < 20 and abs(tilt - 90) < 20
+    flags = orientation_flags(tilt, pitch, roll)
+    assert len(flags) == 1 and "quarter turn" in flags[0] and "upside down" not in flags[0], flags
+    assert orientation_flags(tilt, pitch, roll, turn_reported=True) == []
+
+
+def test_orientation_flags_judge_the_tilt_beyond_the_nearest_image_axis():
+    assert "upside down" in orientation_flags(179.0, 0.0, 179.0)[0]
+    assert "upside down" in orientation_flags(100.0, -80.0, 0.0)[0]
+    assert "camera tilt 40 deg beyond a quarter turn" in orientation_flags(90.0, 40.0, 90.0)[0]
+    assert "camera tilt 40 deg:" in orientation_flags(40.0, 40.0, 0.0)[0]
+    assert orientation_flags(12.0, 10.0, 6.6) == []
 
 
 def test_upright_real_input_with_a_level_camera_is_not_flagged():
@@ -184,3 +205,19 @@ def test_a_lifters_asymmetric_legs_are_flagged():
     assert leg_asymmetry_flag(np.load(TADASANA)) == []
     mirrored = boxing[:, [0, 4, 5, 6, 1, 2, 3, *range(7, 17)]]  # legs swapped: the left one shorter
     assert "the left one shorter" in leg_asymmetry_flag(mirrored)[0]
+
+
+def test_a_skeleton_that_changes_size_is_flagged():
+    """A body keeps its size: real poses whose skeleton grows 3-fold over the recording (a
+    rider coming towards a camera in MotionBERT's image-scaled output) are flagged, the real
+    recording as it is is not."""
+    X = np.load(TADASANA)
+    assert size_change_flag(X) == []
+    grown = X * np.linspace(1.0, 3.0, len(X), dtype=np.float32)[:, None, None]
+    (flag,) = size_change_flag(grown)
+    assert "changes 2.7-fold" in flag and "metric exports" in flag
+
+
+def test_the_real_cycling_clip_whose_rider_grows_in_the_image_is_flagged():
+    clip_b = np.load(shared("real", "cycling_motionbert", "clip_b_X3D.npy"))
+    assert size_change_flag(clip_b) and not size_change_flag(np.load(shared("real", "cycling_motionbert", "clip_a_X3D.npy")))
