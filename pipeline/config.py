@@ -15,6 +15,8 @@ from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
 from pcnet.stages.core.errors import InputError
 
 KEYPOINT_FORMATS = ("alphapose", "mmpose", "openpose", "mediapipe")
+#: 2D formats holding several people's tracks, one of which ``person`` chooses.
+MULTI_TRACK_FORMATS = ("alphapose", "mmpose")
 LIFTERS = ("motionbert", "ddhpose", "videopose3d", "mediapipe", "generic", "kinect_v1", "azure_kinect")
 MODES = ("auto", "frame", "sequence", "smooth")
 ALIGN = ("none", "truncate")
@@ -210,7 +212,7 @@ class RunConfig:
         if self.person is not None and self.person < 0:
             raise InputError(f"{field_name(source, 'person')}: expected a track id >= 0, got {self.person}")
         # Options that would be silently ignored are mistakes the user should hear about.
-        if self.person is not None and self.keypoints2d_format not in ("alphapose", "mmpose"):
+        if self.person is not None and self.keypoints2d_format not in MULTI_TRACK_FORMATS:
             got = (f"keypoints2d_format {self.keypoints2d_format!r}" if self.keypoints2d_format is not None
                    else "no 2D keypoints")
             raise InputError(f"{field_name(source, 'person')}: expected 2D keypoints with several tracks (alphapose or "

@@ -40,7 +40,7 @@ from pcnet.stages.scale import height_factor
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL, UNFAMILIAR_EVIDENCE_SCALE
 from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
-from .config import RunConfig
+from .config import MULTI_TRACK_FORMATS, RunConfig
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation
 from .outdir import check_out_folder, staged_output
@@ -444,7 +444,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
         flags += view_gate_flag(report.get("view_gate"))
         flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
         flags += lifter_frame_flag(lifter_turn, _tilt_tolerance(report))
-        flags += track_switch_flag(segment, events) if segment is not None else []
+        flags += (track_switch_flag(segment, events, person_option=cfg.keypoints2d_format in MULTI_TRACK_FORMATS)
+                  if segment is not None else [])
         bar.update()
 
         step("scale")

@@ -408,8 +408,15 @@ def one_person_frames(segment: np.ndarray) -> np.ndarray:
     return segment == int(np.argmax(np.bincount(segment)))
 
 
-def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]]) -> list[str]:
-    """A one-line flag naming the jumps and the frames outside the longest stretch."""
+def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *, person_option: bool = True) -> list[str]:
+    """A one-line flag naming the jumps and the frames outside the longest stretch.
+
+    Args:
+        segment: ``(T,)`` int, :func:`track_segments`'s stretch of each frame.
+        events: :func:`track_segments`'s ``(frame, jump in torso lengths)`` pairs.
+        person_option: the 2D format has several tracks to choose from (``--person``);
+            otherwise the advice is to re-run the tracker or leave those frames out.
+    """
     if not events:
         return []
     main_frames = one_person_frames(segment)
@@ -417,5 +424,7 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]]) -> l
     suspect = np.flatnonzero(~main_frames)
     jumps = ", ".join(f"frame {f} ({j:.1f} torso lengths)" for f, j in events[:5])
     more = f" and {len(events) - 5} more" if len(events) > 5 else ""
+    advice = ("check --person" if person_option else
+              "this 2D format has one track: re-run the tracker on one person, or leave those frames out")
     return [f"2D track probably switches person: jumps at {jumps}{more}; {len(suspect)} frames lie outside the "
-            f"longest stretch (track_segment != {main} in canonical.npz); check --person"]
+            f"longest stretch (track_segment != {main} in canonical.npz and kinematics.csv); {advice}"]

@@ -3,6 +3,7 @@ non-upright poses, 2D track switches; a camera tilt consistent with its pitch an
 
 from __future__ import annotations
 
+import csv
 import re
 
 import numpy as np
@@ -12,7 +13,7 @@ from conftest import FIXTURES, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
 from pcnet.stages.flags import (camera_tilt, lifter_frame_flag, non_upright_fraction, orientation_flags, size_change_flag,
-                                track_segments)
+                                track_segments, track_switch_flag)
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.remap import remap_to_h36m
 
@@ -93,6 +94,8 @@ def test_a_track_that_jumps_to_another_place_is_split():
     jumped[30:, :, 0] += 600.0  # the tracker picks someone 600 px to the right
     segment, events = track_segments(jumped, fps)
     assert [f for f, _ in events] == [30] and (segment[:30] == 0).all() and (segment[30:] == 1).all()
+    assert "check --person" in track_switch_flag(segment, events)[0]
+    assert "re-run the tracker" in track_switch_flag(segment, events, person_option=False)[0]
 
 
 def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
@@ -108,9 +111,13 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
                                     "--out", str(out)])
     assert res.exit_code == 0, res.output
     assert "WARNING           2D track probably switches person" in res.output
+    assert "--person" not in res.output  # MediaPipe has one track: nothing to choose
     with np.load(out / "canonical.npz") as npz:
         assert any("switches person" in str(f) for f in npz["flags"])
         assert np.bincount(npz["track_segment"]).tolist() == [170, 32, 28]
+    with open(out / "kinematics.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert np.bincount([int(r["track_segment"]) for r in rows]).tolist() == [170, 32, 28]
     _, static, _, _ = rrd_summary(out / "recording.rrd")
     assert "/flags" in static
 

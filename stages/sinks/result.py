@@ -121,7 +121,7 @@ def jsonable(report: dict) -> dict:
 
 def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> dict[str, Path]:
     """``kinematics.csv`` (:func:`.exports.write_kinematics_csv`, with the ``valid`` and
-    ``heading_deg`` columns) from ``r.kinematics_blocks``, consumed once; fills
+    ``heading_deg`` columns, and ``track_segment`` with 2D input) from ``r.kinematics_blocks``, consumed once; fills
     ``r.kinematics`` (:data:`KEPT_JOINTS` only, float32: what a long recording keeps for the
     plots and the recording; in arrays from ``allocate``, :class:`~pcnet.stages.kinematics.FrameGatherer`),
     ``r.missing``, ``r.unfiltered`` and ``r.flag_counts``."""
@@ -138,8 +138,10 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
 
     frames = np.arange(T)
     path = folder / "kinematics.csv"
-    write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks),
-                         extra_columns={"valid": r.valid.astype(int), "heading_deg": r.heading_deg})
+    extra = {"valid": r.valid.astype(int), "heading_deg": r.heading_deg}
+    if r.track_segment is not None:  # which person the 2D track followed, as the track-switch flag names it
+        extra["track_segment"] = np.asarray(r.track_segment, int)
+    write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra)
     r.kinematics = kept.result()
     r.missing, r.unfiltered = missing, unfiltered
     r.flag_counts = count_flags(r.missing, r.unfiltered)
