@@ -90,6 +90,20 @@ MIN_AXIS_ANGLE_DEG = 10.0
 #: ~16 deg at a 5 deg bend.
 MIN_BEND_DEG = 5.0
 
+#: A knee is read as hyperextended only where reading it as flexed would need the hip
+#: turned more than this about the thigh (degrees; internal rotation beyond +-this). Hip
+#: rotation stays within about +-45 deg in life (Roaas & Andersson 1982, Acta Orthop Scand
+#: 53: 205-208); between 90 -+ 20 deg the sign of the knee follows the noise of a lifter's
+#: hip line (a seated cyclist's knee flexion flipped from +45 to -47 deg), and flexion is
+#: taken.
+HYPEREXTENSION_HIP_ROTATION_DEG = 110.0
+
+#: The most a knee hyperextends (degrees): genu recurvatum beyond 5 deg is already a
+#: clinical finding and rarely reaches 20 (Loudon et al. 1998, J Orthop Sports Phys Ther 27:
+#: 361-367); a bend beyond this is read as flexion whatever the hip reading (a lifter's
+#: hip line had made a cyclist's knee read as hyperextended by 101 deg).
+MAX_KNEE_HYPEREXTENSION_DEG = 25.0
+
 #: Gimbal lock: within this many degrees of the singular middle angle (Z-X-Y: +-90 deg;
 #: Y-X-Y: 0 or 180 deg elevation) the first and third angles of the sequence are not
 #: separately defined and are NaN; the middle angle stays.
@@ -280,10 +294,15 @@ def _right_side(X: np.ndarray) -> dict[str, np.ndarray]:
     b = np.arcsin(np.clip(y_loc[:, 2], -1.0, 1.0))
     z_ref_loc = np.stack([np.sin(a) * np.sin(b), -np.cos(a) * np.sin(b), np.cos(b)], axis=-1)
     z_ref = np.einsum("tij,tj->ti", pelvis, z_ref_loc)
-    # The plane normal's sign: the one that keeps the hip's internal rotation in (-90, 90)
-    # (a thigh cannot rotate 90 deg or more about its axis), which also signs the knee:
-    # flexed when the normal agrees with the reference, hyperextended when it opposes it.
-    knee_sign = np.where(_dot(n_knee, z_ref) < 0.0, -1.0, 1.0)
+    # The plane normal's sign, which also signs the knee: flexed when the normal agrees with
+    # the reference (hip internal rotation within +-90), hyperextended only where flexion
+    # would need the thigh turned beyond HYPEREXTENSION_HIP_ROTATION_DEG: near +-90 the
+    # choice follows the noise of a lifter's hip line, and a flexed knee is far more
+    # common than a hyperextended one.
+    flexed_rotation_cos = _dot(_unit(n_knee), z_ref)
+    hyperextended = ((flexed_rotation_cos < np.cos(np.radians(HYPEREXTENSION_HIP_ROTATION_DEG)))
+                     & (knee_bend <= MAX_KNEE_HYPEREXTENSION_DEG))
+    knee_sign = np.where(hyperextended, -1.0, 1.0)
     knee_sign = np.where(np.isfinite(z_ref).all(-1), knee_sign, np.nan)
     plane_ok = knee_bend >= MIN_BEND_DEG
     z_th = np.where(plane_ok[:, None], knee_sign[:, None] * _unit(n_knee), z_ref)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import FIXTURES
+from conftest import FIXTURES, shared
 from pcnet.models.datasets import load_mocap
 from pcnet.stages.core.conventions import (
     L_ANKLE,
@@ -26,6 +26,7 @@ from pcnet.stages.core.conventions import (
 )
 from pcnet.stages.isb_angles import (
     DEFINITIONS,
+    MAX_KNEE_HYPEREXTENSION_DEG,
     MIN_BEND_DEG,
     NAMES,
     POSITIVE_SIGN,
@@ -157,6 +158,25 @@ def test_knee_flexion_and_hyperextension():
         # the knee plane now fixes the thigh's axial rotation: neutral
         assert a["right_hip_internal_rotation_deg"] == pytest.approx(0, abs=1e-6)
         assert a["left_hip_internal_rotation_deg"] == pytest.approx(0, abs=1e-6)
+
+
+def test_a_knee_is_read_as_hyperextended_only_where_flexion_needs_an_impossible_hip():
+    """The same bent leg turned about the thigh: hyperextension needs flexion to imply the
+    hip turned beyond 110 deg, and never beyond 25 deg of bend (knees do not bend backwards
+    that far: a lifter's hip line had read a cyclist's knee as -101 deg)."""
+    for turn, bend, expected in ((80.0, 40.0, 40.0), (100.0, 40.0, 40.0), (150.0, 15.0, -15.0), (150.0, 60.0, 60.0)):
+        pose = rotate(neutral(), [R_ANKLE], R_KNEE, Z_AXIS, -bend)
+        pose = rotate(pose, R_LEG, R_HIP, Y_AXIS, turn)
+        assert angles(pose)["right_knee_flexion_deg"] == pytest.approx(expected, abs=1e-6), (turn, bend)
+
+
+def test_a_real_cyclists_knees_never_read_as_impossibly_hyperextended():
+    for clip in ("clip_a_X3D.npy", "clip_b_X3D.npy"):
+        # camera frame: a rotation of the world frame, so the between-segment angles are the same
+        a = isb_joint_angles(np.load(shared("real", "cycling_motionbert", clip)).astype(np.float64))
+        knees = np.concatenate([a["left_knee_flexion_deg"], a["right_knee_flexion_deg"]])
+        assert np.nanmin(knees) >= -MAX_KNEE_HYPEREXTENSION_DEG, clip
+        assert np.nanmax(knees) > 70, clip  # pedalling
 
 
 def test_hip_internal_rotation_mirrored():
