@@ -60,7 +60,7 @@ an error: the centred MAE and r measure whether both follow the same motion.
 Why hip flexion and trunk flexion to the pelvis are not separately comparable (not a sign
 issue): pcnet's pelvis Y is pelvis -> spine, and the H36M ``spine`` joint sits on OpenSim's
 torso (lumbar region), not on its pelvis. On the model itself (model check) pcnet's hip flexion
-is ~ hip_flexion - 0.47 * L5_S1_Flex_Ext and its trunk flexion ~ -0.53 * L5_S1_Flex_Ext; and
+is ~ hip_flexion - 0.47 * L5_S1_Flex_Ext and its trunk flexion ~ -0.54 * L5_S1_Flex_Ext; and
 in the IK, OpenSim's pelvis tilt is weakly determined, because its only markers (pelvis, both
 hips) lie on the hip axis: rotation about that axis is set only through the lumbar joint's
 position. So the sagittal motion between thigh and thorax is split differently between "hip"

@@ -280,8 +280,8 @@ def clip_split_of(clip: Clip, scheme: str = "clip") -> str:
 def select_split(clips: list[Clip], split: str, scheme: str = "clip") -> list[Clip]:
     """Clips of ``split`` (``train``/``val``/``test``/``all``) under ``scheme``.
 
-    Schemes: ``"clip"`` (the default, what every training config and the shipped weights
-    used: :func:`clip_split`, each take hashed alone, so most test clips have a sibling take
+    Schemes: ``"clip"`` (the default of this function, what releases 1-2 trained on; every
+    config in ``configs/`` and the shipped weights use ``"motion-style"``: :func:`clip_split`, each take hashed alone, so most test clips have a sibling take
     of the same motion and style in train) and ``"motion-style"``
     (:func:`motion_style_split`: whole Bandai motion-style groups and whole styles held out,
     CMU split by subject). ``"all"`` returns every clip under either scheme.

@@ -81,7 +81,18 @@ class PCNetSession:
     def predict_normalized(self, x: np.ndarray, scale: np.ndarray, valid: np.ndarray,
                            batch_size: int = 256) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`predict` from :func:`normalized_in_chunks`'s ``(x, scale, valid)``, so that
-        several networks can share one normalisation of a recording."""
+        several networks can share one normalisation of a recording.
+
+        Args:
+            x: ``(N, 17, 3)`` float32 normalised camera-frame poses (:mod:`.preprocess`).
+            scale: ``(N,)`` the normalisation's scale per pose (input units).
+            valid: ``(N,)`` bool; other poses are not run.
+            batch_size: poses per onnxruntime call.
+
+        Returns:
+            ``(R, residual, valid)``: ``(N, 3, 3)`` float64 canonical->camera rotations and
+            ``(N, 17, 3)`` float64 residuals in the input's units, NaN where not valid.
+        """
         # onnxruntime's arena keeps the largest batch's activations for the session's life:
         # peak RSS 1,060 MB at 4,096 poses, 181 MB at 256, which is faster on 2 cores
         # (9,859 vs 6,798 poses/s, `python benchmarks/ort_batch_memory.py`).

@@ -43,7 +43,15 @@ def _bone_vectors(X: torch.Tensor) -> torch.Tensor:
 
 
 def perceptual_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    """Bone-length MSE plus MSE of the cosines between adjacent bones (joint angles)."""
+    """The paper's perceptual loss L_perc (3DPCNet paper, "Training and Optimization"): bone-length MSE plus MSE
+    of the cosines between adjacent bones (joint angles).
+
+    Args:
+        pred, target: ``(B, 17, 3)`` H36M-17 poses (canonical frame, normalised units).
+
+    Returns:
+        a scalar tensor.
+    """
     bp, bt = _bone_vectors(pred), _bone_vectors(target)
     lengths = (bp.norm(dim=-1) - bt.norm(dim=-1)).pow(2).mean()
     up = torch.nn.functional.normalize(bp, dim=-1, eps=1e-6)

@@ -212,6 +212,10 @@ def _epoch_tensors(clips, cfg: TrainConfig, seed: int, views: str, noise: bool, 
 
 @torch.no_grad()
 def validate(model: PCNet, x, R, device, batch: int = 4096) -> dict:
+    """Mean validation errors in degrees, ``{"val_rotation_deg", "val_tilt_deg"}``, of
+    ``model`` on ``x`` ``(N, 17, 3)`` normalised camera-frame poses (:mod:`.preprocess`)
+    against ``R`` ``(N, 3, 3)`` true canonical->camera rotations (float tensors, CPU),
+    run in batches of ``batch`` on ``device``."""
     model.eval()
     preds = [model(x[i : i + batch].to(device))[0].cpu() for i in range(0, len(x), batch)]
     R_hat = torch.cat(preds).double().numpy()

@@ -130,7 +130,28 @@ def fit_plane_map(P: np.ndarray, foot: np.ndarray, u_pose: np.ndarray, prior_rad
 
 
 def ground_plane_up(J, ok, u_pose, fps, prior_deg, gate_deg):
-    """Ground-plane refinement of the up direction; returns ``(up, info)``."""
+    """Ground-plane refinement of the up direction from quasi-static foot contacts.
+
+    The contacts (ankles at rest, :func:`_detect_contacts`) are fitted by a plane whose normal
+    has a Gaussian prior of std ``prior_deg`` around the pose-based up (:func:`fit_plane_map`),
+    refitted once on the contacts re-detected along the refined up.
+
+    Args:
+        J: ``(T, 17, 3)`` float H36M-17 poses in the camera frame with an absolute root
+            trajectory (any length unit); a root-relative or depth-pinned pelvis is refused.
+        ok: ``(T,)`` bool, the frames to use.
+        u_pose: ``(3,)`` unit pose-based up, camera frame.
+        fps: frame rate, Hz.
+        prior_deg: std of the prior on the normal around ``u_pose``, degrees.
+        gate_deg: the most the plane normal may differ from ``u_pose``, degrees.
+
+    Returns:
+        ``(up, info)``: ``(3,)`` unit up in the camera frame (``u_pose`` itself when the
+        plane is not used) and a dict with ``used`` (bool), ``reason`` (why not, or ``ok``),
+        ``n_contacts``, ``n_footfalls``, ``residual_over_leg``, ``plane_best_std_deg``,
+        ``correction_deg`` (angle between the plane normal and ``u_pose``) when a plane was
+        fitted, and ``_contacts`` ``(points, frames, foot)`` when it is used.
+    """
     info: dict = {"used": False}
     fin = ok & np.isfinite(J[:, [PELVIS, R_ANKLE, L_ANKLE, R_HIP, L_HIP, R_KNEE, L_KNEE]]).all((1, 2))
     if fin.sum() < _MIN_CONTACTS:

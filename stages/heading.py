@@ -42,7 +42,20 @@ AUTO_MIN_FRAMES = 10
 def precise_hips(joints_cam: np.ndarray, valid: np.ndarray, max_cv_percent: float = AUTO_MAX_HIP_WIDTH_CV_PERCENT):
     """``(precise, cv)``: whether a recording's hips are mocap-precise, i.e. it has at least
     :data:`AUTO_MIN_FRAMES` valid frames and a :func:`hip_width_cv_percent` of at most
-    ``max_cv_percent`` (the pelvis is rigid, so its width should not change), and that CV."""
+    ``max_cv_percent`` (the pelvis is rigid, so its width should not change), and that CV.
+
+    Args:
+        joints_cam: ``(T, 17, 3)`` H36M-17 poses, any frame and length unit.
+        valid: ``(T,)`` bool.
+        max_cv_percent: the largest hip-width coefficient of variation, percent.
+
+    Returns:
+        ``(bool, float)``: precise or not, and the CV in percent (NaN with fewer than 2
+        frames having both hips).
+
+    Raises:
+        ValueError: wrong joint shape.
+    """
     cv = hip_width_cv_percent(joints_cam, valid)
     return bool(np.asarray(valid, bool).sum() >= AUTO_MIN_FRAMES and cv <= max_cv_percent), cv
 

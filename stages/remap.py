@@ -19,7 +19,7 @@ def remap_to_h36m(points: np.ndarray, layout: Layout | str, confidence_channel: 
     in ``lib/data/dataset_action.py`` average the confidence like the coordinates).
 
     Raises:
-        ValueError: when ``J`` does not match the layout's joint count.
+        InputError (a ValueError): when ``J`` does not match the layout's joint count.
     """
     lay = get_layout(layout) if isinstance(layout, str) else layout
     pts = np.asarray(points, np.float32)
@@ -38,7 +38,11 @@ def remap_to_h36m(points: np.ndarray, layout: Layout | str, confidence_channel: 
 
 def mask_low_confidence(joints3d: np.ndarray, confidence: np.ndarray, threshold: float) -> np.ndarray:
     """Set 3D joints ``(T, 17, 3)`` to NaN where the 2D ``confidence`` ``(T, 17)`` is below
-    ``threshold`` or NaN. Returns a new float32 array."""
+    ``threshold`` or NaN. Returns a new float32 array.
+
+    Raises:
+        InputError: ``confidence`` not ``(T, 17)`` for ``(T, 17, 3)`` joints.
+    """
     out = np.array(joints3d, np.float32, copy=True)
     conf = np.asarray(confidence, np.float32)
     if conf.shape != out.shape[:2]:

@@ -88,7 +88,7 @@ def height_chain_length(joints: np.ndarray) -> np.ndarray:
         ``(T,)`` float64 in the units of ``joints``; NaN where the chain is incomplete.
 
     Raises:
-        ValueError: wrong shape.
+        InputError (a ValueError): wrong shape.
     """
     X = check_poses(joints, "joints")  # joint columns read as float64 (in memory or on disk)
     legs = leg_lengths(X)
@@ -119,7 +119,7 @@ def scale_to_height(joints: np.ndarray, height_m: float) -> tuple[np.ndarray, fl
         metres (NaN stays NaN), and ``factor`` (float, metres per input unit).
 
     Raises:
-        ValueError: ``height_m`` not a finite number > 0, wrong shape, or no frame with a
+        InputError (a ValueError): ``height_m`` not a finite number > 0, wrong shape, or no frame with a
             complete head-to-ankle chain.
     """
     X = check_poses(joints, "joints")
@@ -133,7 +133,7 @@ def height_factor(joints: np.ndarray, height_m: float) -> float:
     time by the caller).
 
     Raises:
-        ValueError: as :func:`scale_to_height`.
+        InputError (a ValueError): as :func:`scale_to_height`.
     """
     if not np.isfinite(height_m) or height_m <= 0:
         raise InputError(f"height_m must be a finite height in metres > 0, got {height_m!r}")

@@ -116,6 +116,9 @@ def robust_mean_direction(
     Returns:
         ``(m, sigma)``: ``m`` ``(3,)`` / ``(B, 3)`` unit mean direction (NaN if no usable
         vector), ``sigma`` ``()`` / ``(B,)`` the residual scale in radians.
+
+    Raises:
+        InputError: ``u`` not ``(N, 3)`` or ``(B, N, 3)``.
     """
     single = np.ndim(u) == 2
     u = np.asarray(u, np.float64)

@@ -464,6 +464,15 @@ def up_spread_deg(
     single-up assumption is slow (drift, sweeps), while estimator noise and quick pose
     changes (punches, steps) are fast; smoothing removes the latter so the statistic
     measures the former. Without ``fps`` the raw ups are used.
+
+    Args:
+        R: ``(T, 3, 3)`` canonical->camera rotations (column 1 = up in the camera frame).
+        valid: ``(T,)`` bool or ``None`` (every finite rotation).
+        fps: frame rate in Hz, or ``None`` (no smoothing).
+        smoothing_s: the smoothing kernel's std, seconds.
+
+    Returns:
+        the spread in degrees; NaN without a valid frame.
     """
     R, ok = check_rotations(R, valid)
     if fps is not None and smoothing_s > 0:

@@ -57,7 +57,18 @@ def evaluate_rotations(
     R_hat: np.ndarray, R: np.ndarray, canon_hat: np.ndarray, canon: np.ndarray
 ) -> dict[str, np.ndarray]:
     """Per-frame errors of every metric in :data:`METRICS`; frames with a NaN prediction get
-    NaN errors (they are counted as invalid by the caller)."""
+    NaN errors (they are counted as invalid by the caller).
+
+    Args:
+        R_hat, R: ``(T, 3, 3)`` predicted and true canonical->camera rotations.
+        canon_hat, canon: ``(T, 17, 3)`` predicted and true canonical poses in metres
+            (canonical frame, docs/CONVENTIONS.md).
+
+    Returns:
+        ``name -> (T,)`` float64: ``rotation_deg`` (geodesic), ``tilt_deg``, ``heading_deg``
+        in degrees, ``mpjpe_mm`` and ``pa_mpjpe_mm`` in millimetres (docs/CONVENTIONS.md,
+        "Metrics").
+    """
     return {
         "rotation_deg": rotation_error_deg(R_hat, R),
         "tilt_deg": tilt_error_deg(R_hat, R),
