@@ -15,6 +15,7 @@ from pcnet.pipeline.cli import main
 from pcnet.stages.flags import (camera_tilt, lifter_frame_flag, non_upright_fraction, orientation_flags, size_change_flag,
                                 track_segments, track_switch_flag)
 from pcnet.pipeline.rectification import rectify
+from pcnet.stages.scale import height_chain_length
 from pcnet.stages.remap import remap_to_h36m
 
 TADASANA = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"  # real VideoPose3D, standing, camera frame
@@ -228,3 +229,17 @@ def test_a_skeleton_that_changes_size_is_flagged():
 def test_the_real_cycling_clip_whose_rider_grows_in_the_image_is_flagged():
     clip_b = np.load(shared("real", "cycling_motionbert", "clip_b_X3D.npy"))
     assert size_change_flag(clip_b) and not size_change_flag(np.load(shared("real", "cycling_motionbert", "clip_a_X3D.npy")))
+
+
+def test_no_other_real_lifter_file_changes_size_enough_to_be_flagged():
+    """The shared data's real lifter files (boxing, cycling clip_a, every yoga file, seated
+    and lying included) stay at or below 1.44-fold, under the 1.5 of the flag."""
+    real = shared("real")
+    files = [real / "boxing_motionbert" / "X3D.npy", real / "cycling_motionbert" / "clip_a_X3D.npy",
+             *sorted((real / "yoga_videopose3d").glob("*.npy"))]
+    ratios = []
+    for path in files:
+        chain = height_chain_length(np.load(path))
+        chain = chain[np.isfinite(chain)]
+        ratios.append(np.percentile(chain, 95) / np.percentile(chain, 5))
+    assert len(files) > 50 and max(ratios) <= 1.445 and not any(size_change_flag(np.load(f)) for f in files[:2])
