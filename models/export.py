@@ -9,6 +9,7 @@ import numpy as np
 import torch
 
 from pcnet.stages.core.atomic import atomic_path, write_text
+from pcnet.stages.core.errors import InputError
 
 from .network import PCNet
 
@@ -38,6 +39,9 @@ def export_onnx(model: PCNet, path: str | Path, metadata: dict | None = None) ->
     ``torch.backends.mha``).
     """
     path = Path(path)
+    if path.suffix.lower() == ".json":
+        raise InputError(f"--out {path}: expected an ONNX file name (.onnx), got .json: the model's description is "
+                         f"written beside it as <name>.json")
     model = model.eval()
     x = torch.randn(4, 17, 3)
     fast = torch.backends.mha.get_fastpath_enabled()

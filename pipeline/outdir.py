@@ -249,6 +249,13 @@ def staged_output(out: str | os.PathLike) -> Iterator[Path]:
         yield tmp
         check_interrupted()  # an interrupt swallowed on the way must still stop the swap
         _write_marker(tmp, "complete")
+        # The user may have put files into the old output while this run worked: they are
+        # theirs, and swapping would delete them with the old folder.
+        appeared = foreign_entries(target) if target.exists() else []
+        if appeared:
+            raise InputError(f"--out {given}: expected only pcnet's files in the output folder to replace, got "
+                             f"{', '.join(appeared[:5])}{' ...' if len(appeared) > 5 else ''} added or changed during "
+                             f"the run; left as they are, and this run's output not written: move them and run again")
         trash = _swap_in(tmp, target)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -349,8 +349,11 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
         finite |= bool(np.isfinite(J).any())
         cam[rows] = J
     if not finite:
-        raise InputError(f"{cfg.lifter_output}: every joint of every frame is missing (NaN) after masking the joints "
-                         f"whose 2D confidence in {cfg.keypoints2d} is below {cfg.min_confidence:g}")
+        masked = ("" if cfg.keypoints2d is None else
+                  f", or every joint masked for 2D confidence in {cfg.keypoints2d} below {cfg.min_confidence:g}")
+        raise InputError(f"{cfg.lifter_output}: expected frames with a pelvis or both hips (the poses are centred on "
+                         f"them), got every joint of every frame missing (NaN) once centred: no pelvis and no hip pair"
+                         f"{masked}")
     return cam, kp, root_cam, filled
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from conftest import FIXTURES, ROOT
 
+from pcnet.stages.core.errors import InputError
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.models.inference import DEFAULT_WEIGHTS
 from pcnet.models.preprocess import normalize_input
@@ -77,6 +78,10 @@ def test_onnx_export_matches_torch_on_real_poses(tmp_path):
     for n in (1, 3, 37):  # other batch sizes than the traced one
         x, _, _, _ = _pairs(n, 2)
         assert max_difference(model, path, x.numpy()) <= 1e-4
+    # <name>.json is the model's description: an ONNX path ending .json would be overwritten by it
+    with pytest.raises(InputError, match="expected an ONNX file name"):
+        export_onnx(model, tmp_path / "model.json")
+    assert not (tmp_path / "model.json").exists()
 
 
 def test_body_frame_input_is_exactly_equivariant(tmp_path):

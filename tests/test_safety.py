@@ -102,6 +102,34 @@ def test_overwrite_replaces_a_previous_output_and_refuses_once_the_user_added_a_
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp folder left
 
 
+def test_a_file_the_user_adds_to_the_old_output_during_an_overwrite_is_kept(user_folder):
+    """--overwrite replaces the old output only if it still holds pcnet's files alone when the
+    new one is ready: a file added while the run worked is the user's."""
+    from pcnet.pipeline.outdir import register_files, staged_output
+    from pcnet.stages.core.errors import InputError
+
+    with staged_output("o") as tmp:
+        (tmp / "canonical.npz").write_bytes(b"old")
+        register_files(tmp, ["canonical.npz"])
+    with pytest.raises(InputError, match="my_notes.txt added or changed during the run"):
+        with staged_output("o") as tmp:
+            (tmp / "canonical.npz").write_bytes(b"new")
+            register_files(tmp, ["canonical.npz"])
+            (user_folder / "o" / "my_notes.txt").write_text("mine")
+    assert (user_folder / "o" / "my_notes.txt").read_text() == "mine"
+    assert (user_folder / "o" / "canonical.npz").read_bytes() == b"old"
+    assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp folder left
+
+
+def test_poses_without_pelvis_or_hips_are_refused_naming_them(user_folder):
+    X = np.load(POSES)
+    X[:, [PELVIS, L_HIP, 1]] = np.nan
+    np.save(user_folder / "nohips.npy", X)
+    res = _invoke("run", "--lifter", "videopose3d", "--lifter-output", "nohips.npy", "--fps", "30", "--out", "o")
+    _one_line_error(res, "nohips.npy", "pelvis or both hips")
+    assert "None" not in res.output and not (user_folder / "o").exists()
+
+
 def test_output_folders_follow_the_umask(user_folder):
     old = os.umask(0o022)
     try:
