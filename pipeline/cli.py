@@ -243,10 +243,10 @@ def export(checkpoint, out_path, overwrite):
 EXAMPLE_DIR = Path(__file__).parent / "example_data"
 
 
-def _run_and_report(cfg) -> None:
+def _run_and_report(cfg, metric_for: str | None = None) -> None:
     from pcnet.pipeline.runner import run_pipeline
 
-    click.echo(run_pipeline(cfg).summary())
+    click.echo(run_pipeline(cfg, metric_for=metric_for).summary())
 
 
 @main.command()
@@ -319,7 +319,7 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
         from pcnet.stages.opensim_ik import import_opensim
 
         import_opensim()  # before any work: without OpenSim, one line saying how to get it
-    _run_and_report(cfg)
+    _run_and_report(cfg, "--opensim" if with_opensim else None)
     if with_opensim:
         click.get_current_context().invoke(opensim, out_dir=cfg.out, height=cfg.height, mass=mass, overwrite=False)
 

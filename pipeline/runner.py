@@ -266,8 +266,12 @@ def _glibc():
     return libc if hasattr(libc, "mallopt") and hasattr(libc, "malloc_trim") else None  # musl has neither
 
 
-def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
+def run_pipeline(cfg: RunConfig, progress: bool = True, *, metric_for: str | None = None) -> RunResult:
     """Run every stage for one recording and write its outputs into ``cfg.out``.
+
+    ``metric_for`` names what the caller will do next with the metric outputs (``"--opensim"``):
+    like ``cfg.c3d``, it refuses poses that stay unscaled (no ``cfg.height``, a lifter whose
+    output is not in metres) once the lifter output is read, before anything is written.
 
     Raises:
         FileExistsError: ``cfg.out`` exists and ``cfg.overwrite`` is False.
@@ -281,7 +285,7 @@ def run_pipeline(cfg: RunConfig, progress: bool = True) -> RunResult:
     out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights), cfg.overwrite)
     with _collector_skips_older_objects(), \
             tqdm(total=len(STEPS), desc="pcnet", disable=not progress, unit="stage") as bar:
-        return _run_stages(cfg, out, bar)
+        return _run_stages(cfg, out, bar, metric_for)
 
 
 _FREEZE_LOCK = threading.Lock()
@@ -383,7 +387,7 @@ def _scaled_in_place(arr, factor: float, precision=np.float64) -> None:
         arr[rows] = (arr[rows].astype(precision) * factor).astype(np.float32)
 
 
-def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
+def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None) -> RunResult:
     seconds: dict[str, float] = {}
     clock = [time.perf_counter(), None]
 
@@ -401,6 +405,10 @@ def _run_stages(cfg: RunConfig, out: Path, bar) -> RunResult:
     with staged_output(out) as tmp, FrameStore(tmp) as store:
         step("inputs")
         video, fps, kp2d, kp_size, joints, units, measured_root, lifter_note, lifter_turn = _load_inputs(cfg)
+        needing_metres = [name for name in ("--c3d" if cfg.c3d else None, metric_for) if name]
+        if needing_metres and units != "m" and cfg.height is None:
+            raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
+                             f"writing metres, or --height), got {units} poses from --lifter {cfg.lifter}")
         kp2d, joints = _align(cfg, video, kp2d, joints)
         orientation = display_orientation(video, kp2d, kp_size)
         bar.update()

@@ -130,6 +130,17 @@ def test_poses_without_pelvis_or_hips_are_refused_naming_them(user_folder):
     assert "None" not in res.output and not (user_folder / "o").exists()
 
 
+@pytest.mark.parametrize("option", ["--c3d", "--opensim"])
+def test_metric_exports_of_unscaled_poses_are_refused_before_anything_is_written(user_folder, option):
+    """MotionBERT's normalised output without --height has no metric poses: the C3D file was
+    silently left out, and --opensim failed after a complete output had been written."""
+    pytest.importorskip("ezc3d" if option == "--c3d" else "opensim", reason="the extra is not installed")
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", FIXTURES / "boxing_X3D_f000-059.npy", "--fps",
+                  "30", "--no-recording", option, "--out", "o")
+    _one_line_error(res, option, "expected metric poses", "normalised")
+    assert not (user_folder / "o").exists()
+
+
 def test_output_folders_follow_the_umask(user_folder):
     old = os.umask(0o022)
     try:
