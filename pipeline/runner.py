@@ -169,11 +169,17 @@ def _load_inputs(cfg: RunConfig):
     kp2d, kp_fps, kp_size = None, None, None
     if cfg.keypoints2d:
         adapter = get_2d_adapter(cfg.keypoints2d_format)
-        options = {"person": cfg.person} if cfg.keypoints2d_format in ("alphapose", "mmpose") else {}
-        if video is not None and "frame_count" in inspect.signature(adapter.load).parameters:
+        options = {"person": cfg.person} if cfg.keypoints2d_format in MULTI_TRACK_FORMATS else {}
+        # With --align truncate a 2D file may run past the video: _align cuts it.
+        if (video is not None and cfg.align != "truncate"
+                and "frame_count" in inspect.signature(adapter.load).parameters):
             options["frame_count"] = video.frame_count
         kp = adapter.load(cfg.keypoints2d, **options)
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
+        if video is not None and len(kp2d) < video.frame_count and "frame_count" not in options:
+            # the frames after the 2D file's last detection: nobody detected, as frame_count gives
+            kp2d = np.concatenate([kp2d, np.full((video.frame_count - len(kp2d), *kp2d.shape[1:]), np.nan,
+                                                 kp2d.dtype)])
         kp_size = getattr(kp, "image_size", None)
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)

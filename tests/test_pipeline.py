@@ -193,7 +193,28 @@ def test_mismatched_frame_counts_need_align(tmp_path):
     assert "frame counts differ" in res.output and "short.npy: 50 frames" in res.output and "--align" in res.output
     assert not (tmp_path / "o").exists()
     res = _invoke(*args, "--align", "truncate")
-    assert res.exit_code == 0, res.output and "frames            50" in res.output
+    assert res.exit_code == 0 and "frames            50" in res.output, res.output
+
+
+def test_align_truncate_cuts_a_2d_file_longer_than_the_video(tmp_path):
+    """60 frames of 2D keypoints and 3D poses, a 10-frame cut of the video: --align truncate
+    uses the first 10 (the 2D file's later frames had been refused as past the video's end)."""
+    args = ["run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--lifter", "motionbert",
+            "--lifter-output", BOX_3D, "--video", FIXTURES / "boxing2_f000-009.mp4", "--out", tmp_path / "o",
+            "--no-recording"]
+    assert "frame_count" in _invoke(*args).output
+    res = _invoke(*args, "--align", "truncate")
+    assert res.exit_code == 0 and "frames            10" in res.output, res.output
+
+
+def test_a_damaged_video_is_refused_naming_it(tmp_path):
+    data = (FIXTURES / "boxing2_f000-009.mp4").read_bytes()
+    cut, hole = len(data) // 2, int(0.15 * len(data))
+    (tmp_path / "damaged.mp4").write_bytes(data[:cut] + b"\0" * hole + data[cut + hole:])
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", BOX_3D, "--video", tmp_path / "damaged.mp4",
+                  "--out", tmp_path / "o", "--no-recording", "--align", "truncate")
+    assert res.exit_code == 1 and "damaged.mp4" in res.output and "damaged or truncated" in res.output, res.output
+    assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize(
