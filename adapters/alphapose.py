@@ -246,7 +246,8 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     if missing:
         notes.append(f"{missing} of {num_frames} frames without a detection -> NaN")
     notes.append(f"confidence clipped to [0, 1] (raw max {raw_max:.3f})")
-    return Keypoints2D(points, layout, str(p), track_id=track, notes="; ".join(notes))
+    choice = how if len(best) > 1 or person is not None else ""
+    return Keypoints2D(points, layout, str(p), track_id=track, notes="; ".join(notes), choice=choice)
 
 
 @register_2d("alphapose")

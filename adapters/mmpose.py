@@ -170,7 +170,9 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
     if empty:
         notes.append(f"{empty} of {num_frames} frames without an instance -> NaN")
     notes.append(f"confidence clipped to [0, 1] (raw max {raw_max:.3f})")
-    return Keypoints2D(points, layout, str(p), track_id=None, notes="; ".join(notes))
+    crowded = sum(len(parsed) > 1 for parsed in chosen.values())
+    choice = f"{notes[1]} ({crowded} of {num_frames} frames have several instances)" if crowded or person is not None else ""
+    return Keypoints2D(points, layout, str(p), track_id=None, notes="; ".join(notes), choice=choice)
 
 
 @register_2d("mmpose")

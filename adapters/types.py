@@ -82,6 +82,8 @@ class Keypoints2D:
         source: path of the file or folder read.
         track_id: the tracker id of the chosen person when the file has one, else ``None``.
         notes: what the adapter did (selection, clipping, fills), for provenance.
+        choice: which person was kept, when the file holds several (empty otherwise): the
+            run summary shows it, since another choice gives another subject.
         fps: frames per second when the file states it (MediaPipe npz), else ``None``: the
             caller then needs the video or ``--fps``.
         image_size: ``(width, height)`` in pixels of the frames the keypoints were detected
@@ -96,6 +98,7 @@ class Keypoints2D:
     source: str
     track_id: int | None = None
     notes: str = ""
+    choice: str = ""
     fps: float | None = None
     image_size: tuple[int, int] | None = None
 

@@ -166,7 +166,7 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
 
 def _load_inputs(cfg: RunConfig):
     video = probe_video(cfg.video) if cfg.video else None
-    kp2d, kp_fps, kp_size = None, None, None
+    kp2d, kp_fps, kp_size, kp_choice = None, None, None, ""
     if cfg.keypoints2d:
         adapter = get_2d_adapter(cfg.keypoints2d_format)
         options = {"person": cfg.person} if cfg.keypoints2d_format in MULTI_TRACK_FORMATS else {}
@@ -181,12 +181,14 @@ def _load_inputs(cfg: RunConfig):
             kp2d = np.concatenate([kp2d, np.full((video.frame_count - len(kp2d), *kp2d.shape[1:]), np.nan,
                                                  kp2d.dtype)])
         kp_size = getattr(kp, "image_size", None)
+        kp_choice = getattr(kp, "choice", "")
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)
     poses = adapter.load(cfg.lifter_output, **cfg.lifter_options)  # checked by cfg.validate() in run_pipeline
     fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output))
-    return (video, fps, kp2d, kp_size, joints, poses.units, poses.root_translation, poses.summary_note,
+    return (video, fps, kp2d, kp_size, joints, poses.units, poses.root_translation,
+            [n for n in (poses.summary_note, kp_choice and f"2D keypoints: {kp_choice} (--person chooses another)") if n],
             poses.frame_turn_deg)
 
 
@@ -410,7 +412,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None) -
     # store is removed before the folder is swapped in.
     with staged_output(out) as tmp, FrameStore(tmp) as store:
         step("inputs")
-        video, fps, kp2d, kp_size, joints, units, measured_root, lifter_note, lifter_turn = _load_inputs(cfg)
+        video, fps, kp2d, kp_size, joints, units, measured_root, input_notes, lifter_turn = _load_inputs(cfg)
         needing_metres = [name for name in ("--c3d" if cfg.c3d else None, metric_for) if name]
         if needing_metres and units != "m" and cfg.height is None:
             raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
@@ -420,7 +422,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None) -
         bar.update()
 
         step("remap")
-        notes: list[str] = [lifter_note] if lifter_note else []
+        notes: list[str] = input_notes
         if orientation.note:
             notes.append(orientation.note)
         cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store, orientation)

@@ -207,6 +207,24 @@ def test_align_truncate_cuts_a_2d_file_longer_than_the_video(tmp_path):
     assert res.exit_code == 0 and "frames            10" in res.output, res.output
 
 
+def test_which_person_of_several_in_the_2d_file_was_used_is_said(tmp_path):
+    """A second, higher-scored person in the AlphaPose file: the run takes that track, and
+    the summary names the choice (it had been silent: another choice is another subject)."""
+    items = json.loads(BOX_2D.read_text())
+    other = [{**it, "idx": 2, "score": it["score"] + 1.0,
+              "keypoints": [v + 300 if i % 3 == 0 else v for i, v in enumerate(it["keypoints"])]} for it in items]
+    (tmp_path / "two.json").write_text(json.dumps(items + other))
+    args = ["run", "--keypoints2d", tmp_path / "two.json", "--keypoints2d-format", "alphapose", "--lifter",
+            "motionbert", "--lifter-output", BOX_3D, "--fps", "30", "--no-recording"]
+    res = _invoke(*args, "--out", tmp_path / "o")
+    assert res.exit_code == 0 and "2D keypoints: track 2 chosen" in res.output and "--person" in res.output, res.output
+    res = _invoke(*args, "--person", "1", "--out", tmp_path / "o1")
+    assert res.exit_code == 0 and "2D keypoints: track 1 chosen by person=" in res.output, res.output
+    assert "2D keypoints:" not in _invoke("run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose",
+                                          "--lifter", "motionbert", "--lifter-output", BOX_3D, "--fps", "30",
+                                          "--no-recording", "--out", tmp_path / "o2").output
+
+
 def test_a_damaged_video_is_refused_naming_it(tmp_path):
     data = (FIXTURES / "boxing2_f000-009.mp4").read_bytes()
     cut, hole = len(data) // 2, int(0.15 * len(data))
