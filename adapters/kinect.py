@@ -238,7 +238,27 @@ def _read_array(p: Path, key: str | None, default_key: str) -> tuple[np.ndarray,
     return load_array_file(p, key), key
 
 
-def load_kinect_v1(path: str | Path, layout: str = "utd", key: str | None = None, fps: float | None = None) -> Poses3D:
+def _declared_v1_layout(p: Path, layout: str | None) -> str:
+    """The joint order an archive's ``joint_names`` declares, checked against ``layout``
+    (``None``: the declared one, else ``"utd"``)."""
+    try:
+        names = np.asarray(load_array_file(p, "joint_names"))
+    except AdapterError:
+        return layout or "utd"
+    names = tuple(str(n) for n in names.ravel()) if names.dtype.kind in "US" else None
+    declared = next((name for name, order in KINECT_V1_LAYOUTS.items() if order == names), None)
+    if declared is None:
+        got = f"{list(names[:5])} ..." if names else "a non-text array"
+        raise AdapterError(p, "joint_names", f"one of the Kinect v1 joint orders {sorted(KINECT_V1_LAYOUTS)} "
+                                             f"(UTD-MHAD: {list(KINECT_V1_JOINTS_UTD[:4])} ...)", got)
+    if layout is not None and layout != declared:
+        raise AdapterError(p, "joint_names", f"the {layout!r} joint order that layout= asks for",
+                           f"the {declared!r} order ({list(names[:4])} ...)")
+    return declared
+
+
+def load_kinect_v1(path: str | Path, layout: str | None = None, key: str | None = None,
+                   fps: float | None = None) -> Poses3D:
     """Read Kinect v1 skeletons (20 joints) into ``Poses3D`` (H36M-17, camera frame, metres).
 
     Files: ``.npy`` ``(T, 20, 3)``; ``.npz`` (array ``key``, default ``skeleton`` when present,
@@ -248,7 +268,8 @@ def load_kinect_v1(path: str | Path, layout: str = "utd", key: str | None = None
     Args:
         path: the file.
         layout: joint order, ``"utd"`` (UTD-MHAD) or ``"sdk"`` (Kinect SDK enum), see
-            :func:`kinect_v1_to_h36m`.
+            :func:`kinect_v1_to_h36m`; ``None``: the order the archive's ``joint_names``
+            declares, else ``"utd"``.
         key: array name inside an ``.npz``.
         fps: frame rate, overriding the file's ``skeleton_fps``; ``None`` and no
             ``skeleton_fps`` leaves it unknown (Kinect v1 nominally runs at 30 fps but
@@ -260,7 +281,8 @@ def load_kinect_v1(path: str | Path, layout: str = "utd", key: str | None = None
 
     Raises:
         AdapterError: missing/unreadable/non-numpy file, missing ``key``, wrong shape or joint
-            count (naming file, field, expected and found), unknown ``layout``, a coordinate
+            count (naming file, field, expected and found), unknown ``layout``, a
+            ``joint_names`` that is no Kinect v1 order or contradicts ``layout``, a coordinate
             beyond 100 m, or no finite value.
 
     Source of the format facts: Kinect for Windows SDK 1.8 ``NUI_SKELETON_DATA`` /
@@ -269,6 +291,9 @@ def load_kinect_v1(path: str | Path, layout: str = "utd", key: str | None = None
     """
     p = require_file(path, "a Kinect v1 skeleton file (.npy, .npz or UTD-MHAD .mat)")
     arr, field = _read_array(p, key, "skeleton")
+    if layout is not None and layout not in KINECT_V1_LAYOUTS:
+        raise AdapterError(p, "layout", f"one of {sorted(KINECT_V1_LAYOUTS)}", repr(layout))
+    layout = _declared_v1_layout(p, layout) if field != "d_skel" and p.suffix.lower() == ".npz" else layout or "utd"
     joints = checked_poses(p, field, kinect_v1_to_h36m(arr, layout, p, field), "h36m17", "m")
     if fps is None and field == "skeleton":
         fps = _archive_scalar(p, "skeleton_fps")
@@ -323,7 +348,8 @@ def load_azure_kinect(path: str | Path, key: str | None = None, fps: float | Non
 class KinectV1Adapter:
     """Registry entry for :func:`load_kinect_v1` (options ``layout``, ``key``, ``fps``)."""
 
-    def load(self, path: str | Path, *, layout: str = "utd", key: str | None = None, fps: float | None = None) -> Poses3D:
+    def load(self, path: str | Path, *, layout: str | None = None, key: str | None = None,
+             fps: float | None = None) -> Poses3D:
         return load_kinect_v1(path, layout=layout, key=key, fps=fps)
 
 

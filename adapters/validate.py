@@ -20,6 +20,8 @@ allocates one row per frame.
 
 from __future__ import annotations
 
+import re
+
 import contextlib
 import json
 import math
@@ -669,4 +671,9 @@ def checked_poses(p: str | Path, field: str, joints: np.ndarray, layout: str, un
     except InputError as exc:
         msg = str(exc)
         msg = msg[len(str(p)) + 2:] if msg.startswith(f"{p}: ") else msg
+        said = re.fullmatch(r"(?:([\w\[\]., ]+): )?expected (.+?), got (.+)", msg)
+        if said:  # already "expected ..., got ...": keep it one statement, not one nested in another
+            where, expected, got = said.groups()
+            raise AdapterError(p, field, f"{expected} ({layout} joints, units {units!r})",
+                               f"{got} at {where}" if where else got) from None
         raise AdapterError(p, field, f"valid {layout} joints in units {units!r}", msg) from None

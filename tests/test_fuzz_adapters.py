@@ -612,7 +612,7 @@ def test_values_beyond_the_bound_name_frame_and_joint(tmp_path):
     poses[4, 13, 1] = 250.0  # 250 m
     np.save(path, poses)
     for loader in (load_videopose3d, load_ddhpose, load_generic):
-        with pytest.raises(AdapterError, match=r"frame 4, joint left_wrist.*100 m") as err:
+        with pytest.raises(AdapterError, match=r"100 m.*at frame 4, joint left_wrist") as err:
             loader(path)
         assert "\n" not in str(err.value)
     entries = json.loads(BOXING_AP.read_text())

@@ -125,6 +125,21 @@ def test_kinect_v1_files_npy_npz_mat_and_registry(tmp_path):
     assert {"kinect_v1", "azure_kinect"} <= set(available_3d())
 
 
+def test_kinect_v1_archive_joint_names_set_the_order(tmp_path):
+    """An archive that declares its joint order in ``joint_names`` is read in that order (the
+    SDK order had been read as UTD-MHAD's, head and pelvis swapped); a layout= that
+    contradicts it, or names that are no Kinect v1 order, are refused."""
+    expected = kinect_v1_to_h36m(_v1())
+    np.savez(tmp_path / "sdk.npz", skeleton=_v1(KINECT_V1_JOINTS_SDK), joint_names=np.array(KINECT_V1_JOINTS_SDK))
+    np.testing.assert_allclose(load_kinect_v1(tmp_path / "sdk.npz").joints, expected, atol=1e-6)
+    np.testing.assert_allclose(load_kinect_v1(tmp_path / "sdk.npz", layout="sdk").joints, expected, atol=1e-6)
+    with pytest.raises(AdapterError, match="joint_names.*'utd' joint order"):
+        load_kinect_v1(tmp_path / "sdk.npz", layout="utd")
+    np.savez(tmp_path / "odd.npz", skeleton=_v1(), joint_names=np.array(["a"] * 20))
+    with pytest.raises(AdapterError, match="joint_names"):
+        load_kinect_v1(tmp_path / "odd.npz")
+
+
 @pytest.mark.parametrize("shape", [(5, 25, 3), (5, 20, 2), (20, 3)])
 def test_kinect_v1_wrong_shape_is_one_clear_error(tmp_path, shape):
     path = tmp_path / "bad.npy"

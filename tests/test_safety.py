@@ -218,7 +218,7 @@ def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt(user_fold
     failed" (caused by the KeyboardInterrupt): exit 130 and one line, like any interrupt."""
     from pcnet.pipeline import runner
 
-    def interrupted_import(cfg):
+    def interrupted_import(cfg, **options):
         try:
             raise KeyboardInterrupt("signal 15")
         except KeyboardInterrupt as stop:
@@ -227,7 +227,7 @@ def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt(user_fold
     monkeypatch.setattr(runner, "run_pipeline", interrupted_import)
     res = _invoke(*RUN, "--out", "o")
     assert res.exit_code == 130 and "interrupted" in res.output and "Traceback" not in res.output, res.output
-    monkeypatch.setattr(runner, "run_pipeline", lambda cfg: (_ for _ in ()).throw(ImportError("a real import bug")))
+    monkeypatch.setattr(runner, "run_pipeline", lambda cfg, **options: (_ for _ in ()).throw(ImportError("a real import bug")))
     assert isinstance(_invoke(*RUN, "--out", "o").exception, ImportError)  # a bug keeps its traceback
 
 
