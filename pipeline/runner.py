@@ -447,6 +447,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None) -
             res = rectify_checked(_located(cam, root_cam, store), cfg.method, cfg.weights, cfg.mode, fps, cfg.heading,
                                   camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on)
         except ValueError as err:
+            if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
+                raise  # the weights file's own error, already naming it
             raise InputError(f"{cfg.lifter_output}: {err}") from err
         if not res.valid.any():
             raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")

@@ -323,6 +323,8 @@ def test_fps_must_match_the_video_unless_overridden(user_folder):
     (("rectify", "poses.npy", "--out", "r.npy"), ["--out r.npy", "ending in .npz", "got .npy"]),
     (("rectify", "poses.npy", "--out", "r.npz", "--key", "joints"), ["--key", "single-array"]),
     (("rectify", "nohips.npy", "--out", "r.npz"), ["nohips.npy", "hips"]),
+    (("run", "--lifter", "videopose3d", "--lifter-output", "poses.npy", "--fps", "30", "--weights", "notes.txt",
+      "--out", "o"), ["Error: notes.txt: not an ONNX model"]),
     (("rectify", ".", "--out", "r.npz"), ["."]),
     (("evaluate", "--method", "geometric", "--data", str(FIXTURES / "mocap_small.npz"), "--weights", "notes.txt"),
      ["--weights", "geometric"]),
