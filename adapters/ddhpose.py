@@ -10,6 +10,7 @@ metres, root zeroed) or an export of it with fewer axes.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +35,8 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         step: sampling step to keep for 5-D input; default the last (the final denoised
             sample). Ignored for fewer axes.
         hypothesis: ``"mean"`` (default: the mean over hypotheses, pcnet's own choice,
-            not an upstream convention; a NaN in any hypothesis gives NaN) or an integer
-            index.
+            not an upstream convention; per joint over the hypotheses where it is finite,
+            NaN where none is) or an integer index.
             Must be ``"mean"`` for ``(N, 17, 3)`` input.
 
     Returns:
@@ -70,9 +71,16 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         arr = arr[k]
     if arr.ndim == 4:
         if isinstance(hypothesis, str) and hypothesis == "mean":
-            notes.append(f"mean over {arr.shape[0]} hypotheses")
+            # Non-finite is missing: a hypothesis without a joint leaves the others' mean.
             # float64: a float32 sum of huge values would overflow to inf and pass as missing.
-            arr = arr.mean(0, dtype=np.float64)
+            arr = np.where(np.isfinite(arr), arr, np.nan).astype(np.float64)
+            present = np.isfinite(arr).all(-1).sum(0)
+            partial = int(((present > 0) & (present < arr.shape[0])).sum())
+            notes.append(f"mean over {arr.shape[0]} hypotheses" + (
+                f" ({partial} joint positions from the hypotheses that have them)" if partial else ""))
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN joints stay NaN
+                arr = np.nanmean(arr, axis=0)
         else:
             h = _pick(p, "hypothesis", hypothesis, arr.shape[0], "'mean' or ")
             notes.append(f"hypothesis {h} of 0..{arr.shape[0] - 1}")

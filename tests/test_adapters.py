@@ -552,6 +552,21 @@ def test_ddhpose_steps_and_hypotheses(tmp_path):
     assert "hypothesis 2" in load_ddhpose(p5, hypothesis=2).notes
 
 
+def test_ddhpose_mean_skips_hypotheses_without_a_joint(tmp_path):
+    """Non-finite is missing data: a hypothesis that lacks a joint (or all of them) leaves the
+    mean of the others, not a missing joint or a refused file."""
+    base, _, p4 = _hypotheses(tmp_path)
+    arr = np.load(p4)  # (3, N, 17, 3): hypotheses at -0.01, 0, +0.01
+    arr[0] = np.inf
+    arr[1, 5, 12] = np.nan
+    np.save(tmp_path / "gaps.npy", arr)
+    poses = load_ddhpose(tmp_path / "gaps.npy")
+    expected = base + 0.005 * _NOT_ROOT
+    expected[5, 12] = base[5, 12] + 0.01
+    np.testing.assert_allclose(poses.joints, expected, atol=1e-6)
+    assert "from the hypotheses that have them" in poses.notes
+
+
 def test_ddhpose_bad_options_and_files(tmp_path):
     _, p5, _ = _hypotheses(tmp_path)
     for kwargs in ({"hypothesis": 3}, {"hypothesis": "median"}, {"step": 2}):
