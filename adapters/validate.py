@@ -493,10 +493,14 @@ ROOT_RELATIVE_MAX = 0.01
 
 def pelvis_offset(joints: np.ndarray) -> tuple[float, float]:
     """``(distance, depth)``: medians over the frames with a finite pelvis (joint 0 of
-    H36M-17 poses ``(T, 17, 3)``) of its distance from the origin and of its z; NaN, NaN
-    without such a frame. Tells a root-relative export (distance under
-    :data:`ROOT_RELATIVE_MAX`) from one that keeps the root where the person is."""
+    H36M-17 poses ``(T, 17, 3)``; where it is missing, the hip midpoint, which root-relative
+    exports put within 0.1 mm of it: VideoPose3D's yoga files) of its distance from the
+    origin and of its z; NaN, NaN without such a frame. Tells a root-relative export
+    (distance under :data:`ROOT_RELATIVE_MAX`) from one that keeps the root where the
+    person is."""
     pelvis = np.asarray(joints[:, 0], np.float64)
+    hips = 0.5 * (np.asarray(joints[:, 1], np.float64) + np.asarray(joints[:, 4], np.float64))
+    pelvis = np.where(np.isfinite(pelvis).all(axis=1, keepdims=True), pelvis, hips)
     pelvis = pelvis[np.isfinite(pelvis).all(axis=1)]
     if not len(pelvis):
         return float("nan"), float("nan")

@@ -600,6 +600,15 @@ def test_videopose3d_root_relative_or_with_its_trajectory_but_not_motionbert(tmp
     with pytest.raises(AdapterError, match=r"MotionBERT's infer_wild output\? \(--lifter motionbert\)") as err:
         load_videopose3d(BOXING_X3D)
     assert_names_file(err, BOXING_X3D)
+    # without its pelvis the hip midpoint tells the same (the check had been skipped)
+    no_pelvis = np.load(BOXING_X3D)
+    no_pelvis[:, PELVIS] = np.inf
+    np.save(tmp_path / "no_pelvis.npy", no_pelvis)
+    with pytest.raises(AdapterError, match=r"MotionBERT's infer_wild output"):
+        load_videopose3d(tmp_path / "no_pelvis.npy")
+    poses[:, PELVIS] = np.nan
+    np.save(tmp_path / "vp3d_no_pelvis.npy", poses)
+    assert load_videopose3d(tmp_path / "vp3d_no_pelvis.npy").joints.shape == poses.shape
 
 
 def test_videopose3d_standing_and_lying_poses():
