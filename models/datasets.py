@@ -85,6 +85,10 @@ def load_mocap(path: str | Path) -> list[Clip]:
     with data:
         if not data.files:
             raise InputError(f"{path}: the npz holds no clips")
+        unknown = sorted(set(meta) - set(data.files))
+        if unknown:  # a misspelt clip name would silently fall back to 30 fps
+            raise InputError(f"{path.with_suffix('.json')}: expected clip names of {path.name}, got {len(unknown)} "
+                             f"it does not hold: {', '.join(unknown[:3])}{' ...' if len(unknown) > 3 else ''}")
         for name in sorted(data.files):
             arr = validate_poses(data[name], f"{path} [clip {name}]", units="m")
             if not np.isfinite(arr).all(axis=(1, 2)).any():

@@ -133,6 +133,10 @@ def test_load_mocap_reads_subject(tmp_path):
     (clip,) = load_mocap(tmp_path / "m.npz")
     assert clip.subject == 12 and clip.fps == 25.0
     assert clip_split_of(clip, "motion-style") == "val"
+    # a clip name the npz does not hold (a typo) would silently leave its clip at 30 fps
+    (tmp_path / "m.json").write_text(json.dumps({"a": {"fps": 25.0}, "b_typo": {"fps": 120.0}}))
+    with pytest.raises(InputError, match="m.json: expected clip names of m.npz, got 1 it does not hold: b_typo"):
+        load_mocap(tmp_path / "m.npz")
 
 
 def test_motion_style_refuses_clips_it_cannot_place():
