@@ -7,6 +7,7 @@ Frames are BGR ``uint8`` ``(H, W, 3)`` arrays, OpenCV's native order (convert wi
 from __future__ import annotations
 
 import math
+import os
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
@@ -16,6 +17,11 @@ import numpy as np
 
 from .types import AdapterError, VideoInfo
 from .validate import require_file
+
+# FFmpeg's decoder messages (thousands of lines for one damaged file) would bury the one-line
+# error pcnet gives for a video it cannot decode. OpenCV reads the level when its FFmpeg
+# backend opens the first video; a level the user set is kept.
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
 
 
 @contextmanager
