@@ -155,14 +155,14 @@ SIZE_CHANGE_RATIO = 1.5
 
 
 def size_change_flag(joints: np.ndarray) -> list[str]:
-    """A flag when the body of H36M-17 poses ``(T, 17, 3)`` (any units) changes size over
-    the recording by more than :data:`SIZE_CHANGE_RATIO` (5th to 95th percentile of the
-    ankle-to-head chain): a subject moving towards or away from the camera in a lifter's
-    output that scales with the image (MotionBERT's default, normalised pixel coordinates;
-    its maintainer, Walter0807/MotionBERT issue #21), a zoom, or a failing lifter. A real
-    body keeps its size, and pcnet scales a recording by one factor
-    (:func:`pcnet.stages.scale.height_factor`, the median), so metric positions, speeds and
-    bone lengths are off by the ratio's deviation from the median."""
+    """A flag when the body of metric H36M-17 poses ``(T, 17, 3)`` changes size over the
+    recording by more than :data:`SIZE_CHANGE_RATIO` (5th to 95th percentile of the
+    ankle-to-head chain): a real body keeps its size, so the lifter fails, or its output
+    follows the image after all. Output in image units, whose size follows the person's
+    distance by design, is made constant per frame instead
+    (:func:`pcnet.stages.scale.size_normalising_factors`); metric output is scaled by one
+    factor (:func:`pcnet.stages.scale.height_factor`, the median), so its positions, speeds
+    and bone lengths are off by the ratio's deviation from the median."""
     chain = height_chain_length(joints)
     chain = chain[np.isfinite(chain) & (chain > 0)]
     if len(chain) < 2:
@@ -172,10 +172,10 @@ def size_change_flag(joints: np.ndarray) -> list[str]:
         return []
     off = 100 * max(p95 / p50 - 1, 1 - p5 / p50)
     return [f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of the "
-            f"ankle-to-head chain; a body keeps its size): the subject moving towards or away from the camera in a "
-            f"lifter output that scales with the image (MotionBERT's normalised or --pixel output), a zoom, or a failing lifter. "
-            f"One scale factor (the median) leaves a tenth of the frames' positions, speeds and bone lengths off by "
-            f"more than {off:.0f} % in the metric exports"]
+            f"ankle-to-head chain; a body keeps its size): the lifter fails, or its output is in image units "
+            f"(declare them: --units normalised or px with --lifter generic, and pcnet makes the size constant "
+            f"per frame). One scale factor (the median) leaves a tenth of the frames' positions, speeds and bone "
+            f"lengths off by more than {off:.0f} % in the metric exports"]
 
 
 def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:

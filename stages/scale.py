@@ -39,6 +39,7 @@ scale to be off by several per cent (up to about 8 %) for an individual.
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import median_filter
 
 from .core.conventions import (
     HEAD,
@@ -59,6 +60,14 @@ from .core.errors import InputError
 #: Head-to-ankle bone chain divided by stature (module docstring: H36M reference
 #: skeleton + Drillis & Contini ankle height 0.039 H).
 CHAIN_TO_STATURE = 1.0 - 0.039
+
+#: Units of lifter output that follow the person's size in the image (normalised pixel
+#: coordinates, pixels): a subject walking towards the camera grows in them.
+IMAGE_SCALED_UNITS = ("normalised", "px")
+#: Window of the running median that smooths the per-frame size (seconds): long enough to
+#: average a lifter's frame-to-frame bone-length noise, short against a walk towards the
+#: camera (1.5 m/s from 6 m to 2 m triples the size in under 3 s).
+SIZE_WINDOW_S = 1.0
 
 _LEG_BONES = (((R_ANKLE, R_KNEE), (R_KNEE, R_HIP)), ((L_ANKLE, L_KNEE), (L_KNEE, L_HIP)))
 _AXIAL_BONES = ((PELVIS, SPINE), (SPINE, THORAX), (THORAX, NECK_NOSE), (NECK_NOSE, HEAD))
@@ -146,4 +155,42 @@ def height_factor(joints: np.ndarray, height_m: float) -> float:
         )
     stature = float(np.median(chain[good])) / CHAIN_TO_STATURE
     return float(height_m) / stature
+
+
+def size_normalising_factors(joints: np.ndarray, fps: float, window_s: float = SIZE_WINDOW_S) -> np.ndarray:
+    """Per-frame factors that give every frame the recording's median body size, for lifter
+    output in image units (:data:`IMAGE_SCALED_UNITS`).
+
+    Such output is the 2D keypoints lifted in the image's scale (MotionBERT's
+    ``infer_wild.py``: keypoints normalised by one crop scale per clip, 3D in the same
+    units; Walter0807/MotionBERT issues #9, #21), so the skeleton's size is proportional to
+    the person's size in the image, which changes as they move in depth. The ankle-to-head
+    bone chain (:func:`height_chain_length`) does not depend on the pose, so its running
+    median over ``window_s`` is the frame's size: ``factor_t = median_all(chain) /
+    running_median_t(chain)``. Frames without a complete chain take the size interpolated
+    between their neighbours (the nearest one at the ends).
+
+    Args:
+        joints: ``(T, 17, 3)`` H36M-17 poses in image units (any frame).
+        fps: frame rate, Hz (> 0).
+        window_s: running-median window, seconds (at least one frame).
+
+    Returns:
+        ``(T,)`` float64 factors (1 where the size is the median).
+
+    Raises:
+        InputError (a ValueError): wrong shape, ``fps`` not > 0, or no frame with a complete
+            chain.
+    """
+    if not (np.isfinite(fps) and fps > 0):
+        raise InputError(f"size_normalising_factors: fps must be > 0, got {fps!r}")
+    chain = height_chain_length(check_poses(joints, "joints"))
+    good = np.isfinite(chain) & (chain > 0)
+    if not good.any():
+        raise InputError("size_normalising_factors: no frame has a complete ankle-knee-hip / pelvis-spine-thorax-"
+                         "neck_nose-head chain, so the skeleton size cannot be estimated")
+    frames = np.arange(len(chain))
+    filled = np.interp(frames, frames[good], chain[good])
+    size = median_filter(filled, size=max(1, int(round(window_s * fps))) | 1, mode="nearest")
+    return float(np.median(chain[good])) / size
 

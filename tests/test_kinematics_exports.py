@@ -53,7 +53,7 @@ from pcnet.stages.kinematics import (
 )
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import axis_rotation
-from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length, scale_to_height
+from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length, scale_to_height, size_normalising_factors
 
 FPS_YOGA = 30.0  # the yoga exports state no rate; 30 fps assumed (fixtures/README.md)
 
@@ -159,6 +159,25 @@ def test_scale_errors(yoga_cam):
         scale_to_height(yoga_cam, -1.7)
     with pytest.raises(ValueError, match="no frame"):
         scale_to_height(np.full((5, 17, 3), np.nan), 1.7)
+
+
+def test_image_scaled_sizes_are_made_constant_per_frame(yoga_cam):
+    """A real body seen growing 3-fold (a walk towards the camera in a lifter's image units)
+    gets its median size back in every frame, through missing frames; a body whose size does
+    not change keeps factors of 1."""
+    X = yoga_cam[:300].astype(np.float64)
+    grown = X * np.linspace(1.0, 3.0, len(X))[:, None, None]
+    grown[100:120] = np.nan
+    f = size_normalising_factors(grown, 30.0)
+    chain = height_chain_length(grown * f[:, None, None])
+    ok = np.isfinite(chain)
+    assert f.shape == (300,) and np.isfinite(f).all() and not ok[100:120].any()
+    assert np.percentile(chain[ok], 95) / np.percentile(chain[ok], 5) < 1.1  # 2.7 before
+    np.testing.assert_allclose(np.median(chain[ok]), np.median(height_chain_length(grown)[ok]), rtol=0.05)
+    steady = size_normalising_factors(X, 30.0)
+    assert np.abs(steady - 1).max() < 0.1
+    with pytest.raises(ValueError, match="no frame"):
+        size_normalising_factors(np.full((5, 17, 3), np.nan), 30.0)
 
 
 # --- Butterworth ---------------------------------------------------------------------
