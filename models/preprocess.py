@@ -7,10 +7,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from pcnet.stages.core.conventions import H36M_PARENTS, L_HIP, PELVIS, R_HIP, check_poses
+from pcnet.stages.core.conventions import H36M_PARENTS, L_HIP, PELVIS, R_HIP, THORAX, check_poses
 
 # Joints needed to define the body frame at all; a frame missing any is invalid.
-_REQUIRED = (R_HIP, L_HIP, 8, 11, 14)
+_REQUIRED = (R_HIP, L_HIP, THORAX, 11, 14)
+
+
+#: A hip line or spine shorter than this fraction of the pose's scale, or a hip line whose
+#: part across the spine is, is degenerate (two joints on one point: a file's wrong layout
+#: or a lifter's collapse); real hips are about 0.6 of the scale apart.
+MIN_AXIS_FRACTION = 1e-3
 
 
 def normalize_input(joints_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -30,7 +36,9 @@ def normalize_input(joints_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
     Returns:
         ``x`` ``(N, 17, 3)`` float32 normalised input (zeros for invalid frames),
         ``scale`` ``(N,)`` float64 in input units, ``valid`` ``(N,)`` bool: False where a
-        hip, the thorax or a shoulder is NaN or the pose has zero size.
+        hip, the thorax or a shoulder is NaN, the pose has zero size, or the hip line or
+        the spine (pelvis -> thorax) is degenerate (:data:`MIN_AXIS_FRACTION`): the body
+        frame is built from them (``models/network.py: body_frame``).
 
     Raises:
         ValueError: wrong shape.
@@ -48,6 +56,11 @@ def normalize_input(joints_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
             X[miss, child] = X[miss, parent]
     scale = np.linalg.norm(X[:, 1:], axis=-1).mean(-1)
     valid &= np.isfinite(scale) & (scale > 1e-9)
+    hips, spine = X[:, R_HIP] - X[:, L_HIP], X[:, THORAX]
+    with np.errstate(invalid="ignore"):
+        across = np.linalg.norm(np.cross(hips, spine), axis=-1) / np.maximum(np.linalg.norm(spine, axis=-1), 1e-12)
+        valid &= (np.linalg.norm(hips, axis=-1) > MIN_AXIS_FRACTION * scale) & (
+            np.linalg.norm(spine, axis=-1) > MIN_AXIS_FRACTION * scale) & (across > MIN_AXIS_FRACTION * scale)
     x = np.zeros_like(X, dtype=np.float32)
     x[valid] = (X[valid] / scale[valid, None, None]).astype(np.float32)
     return x, scale, valid

@@ -141,6 +141,19 @@ def test_metric_exports_of_unscaled_poses_are_refused_before_anything_is_written
     assert not (user_folder / "o").exists()
 
 
+@pytest.mark.parametrize("mode", ["frame", "sequence"])
+def test_a_frame_whose_hips_coincide_is_invalid_not_an_error(mode):
+    """Two hip columns on one point (a wrong --layout, a lifter's collapse) leave no body
+    frame: that frame is invalid; it had stopped the whole run with scipy's 'non-positive
+    determinant', or in frame mode given a rank-1 'rotation' marked valid."""
+    X = np.load(POSES)
+    X[10, L_HIP] = X[10, 1]
+    res = rectify(X, "pcnet", mode=mode)
+    assert not res.valid[10] and res.valid.sum() == len(X) - 1
+    ok = res.rotation[res.valid]
+    np.testing.assert_allclose(np.linalg.det(ok), 1.0, atol=1e-6)
+
+
 def test_output_folders_follow_the_umask(user_folder):
     old = os.umask(0o022)
     try:
