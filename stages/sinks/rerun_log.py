@@ -206,9 +206,11 @@ def _series_views(series_groups: Sequence[str]):
     return views
 
 
-def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float, has_world: bool = False):
+def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float, has_world: bool = False,
+                    warnings: int = 0):
     """The default layout: top row video + 2D overlay | camera 3D | canonical 3D (| world
-    3D); bottom row the time series, one ``TimeSeriesView`` per series group.
+    3D); bottom row the run's warnings (the ``flags`` document, the first tab, named with
+    their count, open when there are any) and the time series, one ``TimeSeriesView`` per series group.
 
     Groups are gathered by their first path component (``angles_deg/hip``,
     ``angles_deg/knee``, ... -> ``angles_deg``): a component with several groups becomes one
@@ -232,7 +234,7 @@ def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float, ha
     for g in views:
         by_head.setdefault(g.split("/", 1)[0], []).append(g)
     singles = [views[gs[0]] for gs in by_head.values() if len(gs) == 1]
-    tabs = []
+    tabs = [rrb.TextDocumentView(origin="flags", name=f"warnings ({warnings})" if warnings else "no warnings")]
     if singles:
         tabs.append(singles[0] if len(singles) == 1 else rrb.Grid(*singles, name="time series"))
     for head, gs in by_head.items():
@@ -240,7 +242,8 @@ def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float, ha
             tabs.append(rrb.Grid(*(views[g] for g in gs), name=head.replace("_", " ")))
     rows = [rrb.Horizontal(*top)]
     if tabs:
-        rows.append(tabs[0] if len(tabs) == 1 else rrb.Tabs(*tabs))
+        # the warnings open first when there are any (a run never keeps them to itself)
+        rows.append(tabs[0] if len(tabs) == 1 else rrb.Tabs(*tabs, active_tab=0 if warnings else 1))
     layout = rrb.Vertical(*rows, row_shares=[3, 2][: len(rows)])
     return rrb.Blueprint(layout, rrb.TimePanel(timeline="frame", fps=float(fps)))
 
@@ -350,7 +353,9 @@ def write_recording(
     if video_path is not None:
         try:
             asset = rr.AssetVideo(path=video_path)
-            video_ns = asset.read_frame_timestamps_nanos()
+            # One video frame per pose frame: a container can list frames that do not decode
+            # (boxing2.mp4: 360 listed, 301 decoded) or that the poses do not cover.
+            video_ns = asset.read_frame_timestamps_nanos()[:T]
         except RuntimeError as err:  # rerun's own video reader: an unsupported codec or container
             asset, video_ns = None, None
             if notes is not None:
@@ -365,7 +370,8 @@ def write_recording(
 
     groups = list(dict.fromkeys([g for _, g in series_arrays] + ["status"]))
     has_image = asset is not None or kp is not None
-    blueprint = build_blueprint(has_image=has_image, series_groups=groups, fps=fps, has_world=wld is not None)
+    blueprint = build_blueprint(has_image=has_image, series_groups=groups, fps=fps, has_world=wld is not None,
+                                warnings=len(flags))
 
     # Arrow length: 60 % of the median pelvis-thorax distance, in the data's own units.
     torso = _median_torso(cam)
