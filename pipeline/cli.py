@@ -161,7 +161,9 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
                       camera_prior=camera_prior is not False)
     click.echo(format_table(result))
     if json_out:
-        write_text(json_out, json.dumps(result, indent=2) + "\n")
+        from pcnet.stages.sinks.exports import finite_or_null
+
+        write_text(json_out, json.dumps(finite_or_null(result), indent=2, allow_nan=False) + "\n")
 
 
 @main.command()

@@ -35,8 +35,9 @@ def _npz_value(key: str, value: object) -> np.ndarray | FrameArray:
     if isinstance(value, FrameArray):
         return value
     if isinstance(value, Mapping):
-        # Metadata dicts become JSON text so the file loads with allow_pickle=False.
-        return np.asarray(json.dumps(value, sort_keys=True, default=_json_default))
+        # Metadata dicts become JSON text so the file loads with allow_pickle=False; strict
+        # JSON (RFC 8259 has no NaN), so every JSON reader takes it: a missing number is null.
+        return np.asarray(json.dumps(finite_or_null(value), sort_keys=True, allow_nan=False))
     try:
         arr = np.asarray(value)
     except ValueError:  # numpy 2 refuses ragged nested sequences outright
@@ -49,13 +50,26 @@ def _npz_value(key: str, value: object) -> np.ndarray | FrameArray:
     return arr
 
 
-def _json_default(o: object) -> object:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
+def finite_or_null(o: object) -> object:
+    """``o`` (nested dicts, lists, tuples, numpy arrays and scalars, paths, text, numbers)
+    with numpy values as Python ones, paths as text and NaN / inf as ``None``: what strict
+    JSON (RFC 8259, no NaN) can hold.
+
+    Raises:
+        TypeError: a value of another type.
+    """
+    if isinstance(o, Mapping):
+        return {k: finite_or_null(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple, np.ndarray)):
+        return [finite_or_null(v) for v in (o.tolist() if isinstance(o, np.ndarray) else o)]
     if isinstance(o, np.generic):
-        return o.item()
+        o = o.item()
+    if isinstance(o, float) and not np.isfinite(o):
+        return None
     if isinstance(o, Path):
         return str(o)
+    if o is None or isinstance(o, (str, int, float, bool)):
+        return o
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
