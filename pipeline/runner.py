@@ -121,6 +121,13 @@ class RunResult:
         pitch_unc = self.report.get("camera_pitch_interval_deg", float("nan"))
         roll_unc = self.report.get("camera_roll_interval_deg", float("nan"))
         if not (np.isfinite(pitch_unc) and np.isfinite(roll_unc)):
+            boot = (self.report.get("camera_pitch_uncertainty_deg", float("nan")),
+                    self.report.get("camera_roll_uncertainty_deg", float("nan")))
+            if np.isfinite(boot).all():
+                return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; bootstrap alone "
+                        f"+- {boot[0]:.1f}/{boot[1]:.1f}, no 95 % interval: the lifter's systematic error is "
+                        f"calibrated for the shipped 3DPCNet pair only, not for method {self.method}"
+                        f"{' with --weights' if self.method != 'geometric' else ''})")
             return f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)"
         lying = (self.report.get("gravity") or {}).get("reading") == "lying"
         label = "95 % posterior interval of the lying reading (camera prior)" if lying else UNCERTAINTY_LABEL

@@ -342,6 +342,11 @@ class Rectification:
         R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, weights,
                                          evidence_scale(bound, base), decide_on)
         report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
+        lying = (report.get("gravity") or {}).get("reading") == "lying"
+        if not np.isfinite(base) and "camera_pitch_interval_deg" in report and not lying:
+            # The lifter's systematic error was calibrated for the shipped pair only: another
+            # method's sequence up has its bootstrap, not a 95 % interval.
+            report["camera_pitch_interval_deg"] = report["camera_roll_interval_deg"] = float("nan")
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)
         report["view_gate"] = gate_report(gate, valid, estimate.quarter_turns)

@@ -225,6 +225,19 @@ def test_which_person_of_several_in_the_2d_file_was_used_is_said(tmp_path):
                                           "--no-recording", "--out", tmp_path / "o2").output
 
 
+def test_a_method_without_calibration_prints_no_95_percent_interval(tmp_path):
+    """The lifter's systematic error is calibrated for the shipped pair: the geometric
+    baseline's sequence up gets its bootstrap, not the pair's "95 %" interval (which on the
+    boxing video did not overlap the pair's)."""
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", BOX_3D, "--fps", "30", "--method", "geometric",
+                  "--no-recording", "--out", tmp_path / "o")
+    assert res.exit_code == 0, res.output
+    assert "95 % interval incl." not in res.output and "not for method geometric" in res.output
+    with np.load(tmp_path / "o" / "canonical.npz") as npz:
+        report = json.loads(str(npz["report"]))
+    assert report["camera_pitch_interval_deg"] is None and report["camera_pitch_uncertainty_deg"] > 0
+
+
 def test_a_damaged_video_is_refused_naming_it(tmp_path):
     data = (FIXTURES / "boxing2_f000-009.mp4").read_bytes()
     cut, hole = len(data) // 2, int(0.15 * len(data))
