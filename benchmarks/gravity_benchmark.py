@@ -152,7 +152,8 @@ def format_rows(camera: str, roll: int, up_true: np.ndarray, rows: list[dict]) -
     for row in rows:
         seq = "cone" in row
         cone = f"{row['cone']:6.2f} {_yn(row['in_cone']):>3}" if seq else f"{'-':>6} {'':>3}"
-        pr = (f"+-{row['pr_halfwidth'][0]:.2f}/{row['pr_halfwidth'][1]:.2f} {_yn(row['in_pr']):>3}" if seq
+        calibrated = seq and np.isfinite(row["pr_halfwidth"]).all()  # the geometric baseline has none
+        pr = (f"+-{row['pr_halfwidth'][0]:.2f}/{row['pr_halfwidth'][1]:.2f} {_yn(row['in_pr']):>3}" if calibrated
               else f"{'-':>13} {'':>3}")
         lines.append(f"  {row['method']:<{LABEL_WIDTH}}{row['valid']:>3}/{row['frames']:<3}{row['err']:>7.1f}{row['max']:>7.1f}"
                      f"{row['pitch']:>7.1f}{row['roll']:>8.1f}   {cone}  {pr:>17}")

@@ -77,7 +77,9 @@ class RunResult:
     def summary(self) -> str:
         """A one-screen text summary."""
         lines = [
-            f"frames            {self.frames} ({self.frames - self.valid_frames} dropped: no valid pose)",
+            f"frames            {self.frames} ("
+            + (f"{self.frames - self.valid_frames} without a valid pose: kept as NaN rows, valid = 0)"
+               if self.valid_frames < self.frames else "every one with a valid pose)"),
             f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}"
             + (f"; spread of per-frame up {self.report['spread_deg']:.1f} deg" if "spread_deg" in self.report else "")
             + (f"; {self.report['mode_reason']}" if "mode_reason" in self.report else "")
@@ -473,6 +475,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None) -
             report["display_rotation"] = orientation.report()
         del res
         tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
+        # what the summary's tilt line prints, in every mode (sequence mode: its one up)
+        report.update(camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg)
         flags = orientation_flags(tilt, pitch_deg, roll_deg, turn_reported=quarter_turn_reported(report.get("view_gate")))
         flags += body_size_flag(cam, units) if cfg.height is None else []
         # image-scaled sizes are made constant per frame below; a metric body should keep its own

@@ -298,9 +298,13 @@ def disagreement_flag(bound_deg: np.ndarray | None, base_deg: float) -> list[str
     wide = b >= 2.0 * base_deg
     if wide.mean() <= DISAGREEMENT_SHARE:
         return []
+    rest = b[~wide]
+    others = (f"; the other frames' {_deg_range(rest.min(), rest.max())}, median {np.median(rest):.1f}" if len(rest)
+              else "")
     return [f"the two 3DPCNets disagree on {int(wide.sum())} of {len(b)} frames ({100 * wide.mean():.0f} %) so much "
-            f"that their per-frame up bound is {_deg_range(2 * base_deg, b.max())} (else {base_deg:.1f}): poses "
-            f"unlike the training data, whose per-frame up is uncertain (frame_tilt_bound_deg in canonical.npz)"]
+            f"that their per-frame up bound is {_deg_range(b[wide].min(), b.max())} ({base_deg:.1f} where they agree"
+            f"{others}): poses unlike the training data, whose per-frame up is uncertain (frame_tilt_bound_deg in "
+            f"canonical.npz)"]
 
 
 def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float, cutoff_hz: float | None) -> list[str]:

@@ -189,5 +189,7 @@ def test_disagreement_flag():
     wide[: int(DISAGREEMENT_SHARE * 100)] = 3 * base  # exactly the share: not yet
     assert disagreement_flag(wide, base) == []
     wide[: int(DISAGREEMENT_SHARE * 100) + 2] = 3 * base
+    wide[50:60] = 1.5 * base  # the other frames' bounds are said as they are, not as the base
     (text,) = disagreement_flag(wide, base)
     assert "7 of 100 frames" in text and "frame_tilt_bound_deg" in text
+    assert "bound is 22 deg (7.4 where they agree; the other frames' 7-11 deg, median 7.4)" in text

@@ -188,7 +188,7 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
     out[bvh] = write_bvh(folder / bvh, r.poses, r.fps, allocate=allocate)
     if incomplete.any():
         r.notes.append(f"{bvh}: {int(incomplete.sum())} of {len(incomplete)} frames had missing joints, "
-                       f"filled by linear interpolation in time (BVH cannot hold NaN; the CSV, TRC and "
+                       f"filled by linear interpolation in time, held at the ends (BVH cannot hold NaN; the CSV, TRC and "
                        f"npz keep them missing)")
     return out
 
