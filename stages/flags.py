@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from .core.canonical import trunk_lean_deg
-from .core.conventions import PELVIS, THIGH_RANGE_M, THORAX, median_thigh_length
+from .core.conventions import (L_HIP, L_SHOULDER, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
+                               median_thigh_length)
 from .scale import height_chain_length, leg_lengths
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
@@ -176,6 +177,53 @@ def size_change_flag(joints: np.ndarray) -> list[str]:
             f"(declare them: --units normalised or px with --lifter generic, and pcnet makes the size constant "
             f"per frame). One scale factor (the median) leaves a tenth of the frames' positions, speeds and bone "
             f"lengths off by more than {off:.0f} % in the metric exports"]
+
+
+#: A hip or shoulder pair counts towards the side check where its left-right extent along
+#: the image's x axis is at least this fraction of the trunk's length, in 2D and in 3D: a
+#: body turned exactly side-on says nothing about its sides. On the boxing demo, whose boxer
+#: stands nearly side-on (hips 0.10-0.12 of the trunk apart along x, median), 277 pairs count
+#: and none contradicts; with the 3D sides swapped, all 277 do.
+SIDE_MIN_EXTENT = 0.1
+#: Share of the counted pairs whose 3D sides contradict the 2D ones beyond which the flag
+#: is raised, and the fewest counted pairs it needs.
+SIDE_SWAP_SHARE = 0.5
+SIDE_MIN_PAIRS = 10
+
+
+def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> list[str]:
+    """A flag when the 3D lifter's left and right contradict the 2D keypoints'.
+
+    Both are in the camera's view: the 2D keypoints in pixels (x right) and the 3D poses in
+    the camera frame (OpenCV axes, x right), so a body's right hip lies on the same image
+    side in both. For the hips and the shoulders of every frame where the pair spans at least
+    :data:`SIDE_MIN_EXTENT` of the trunk along x in both, the signs of right - left are
+    compared; when more than :data:`SIDE_SWAP_SHARE` of at least :data:`SIDE_MIN_PAIRS` such
+    pairs disagree, the 3D output's sides are probably swapped (a wrong joint order or
+    --layout, or a mirrored lifter input), which no pose-only check can see: the rotation
+    then faces the body the wrong way, with its knees bent backwards.
+
+    Args:
+        keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence (NaN = missing).
+        joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any units.
+    """
+    kp = np.asarray(keypoints2d[:, :, :2], np.float64)
+    X = np.asarray(joints_cam[:], np.float64)
+    counted = contradicted = 0
+    for right, left in ((R_HIP, L_HIP), (R_SHOULDER, L_SHOULDER)):
+        extents = []
+        for P, trunk in ((kp, kp[:, THORAX] - kp[:, PELVIS]), (X[:, :, :2], X[:, THORAX, :2] - X[:, PELVIS, :2])):
+            extents.append((P[:, right, 0] - P[:, left, 0]) / np.linalg.norm(trunk, axis=-1))
+        d2, d3 = extents
+        with np.errstate(invalid="ignore"):
+            sure = (np.abs(d2) >= SIDE_MIN_EXTENT) & (np.abs(d3) >= SIDE_MIN_EXTENT)
+        counted += int(sure.sum())
+        contradicted += int((np.sign(d2[sure]) != np.sign(d3[sure])).sum())
+    if counted < SIDE_MIN_PAIRS or contradicted <= SIDE_SWAP_SHARE * counted:
+        return []
+    return [f"the 3D poses' left and right contradict the 2D keypoints' in {contradicted} of {counted} hip and "
+            f"shoulder pairs seen across the image: the 3D output's sides are probably swapped (its joint order or "
+            f"--layout), so the body faces the wrong way and its knees bend backwards"]
 
 
 def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:

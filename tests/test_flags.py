@@ -12,7 +12,8 @@ from click.testing import CliRunner
 from conftest import FIXTURES, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
-from pcnet.stages.flags import (camera_tilt, lifter_frame_flag, non_upright_fraction, orientation_flags, size_change_flag,
+from pcnet.stages.flags import (camera_tilt, lifter_frame_flag, non_upright_fraction, orientation_flags, side_swap_flag,
+                                size_change_flag,
                                 track_segments, track_switch_flag)
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.scale import height_chain_length
@@ -254,3 +255,21 @@ def test_no_other_real_lifter_file_changes_size_enough_to_be_flagged():
         chain = chain[np.isfinite(chain)]
         ratios.append(np.percentile(chain, 95) / np.percentile(chain, 5))
     assert len(files) > 50 and max(ratios) <= 1.445 and not any(size_change_flag(np.load(f)) for f in files[:2])
+
+
+def test_3d_sides_that_contradict_the_2d_keypoints_are_flagged():
+    """Real boxing frames (MotionBERT 3D, AlphaPose 2D; the boxer stands nearly side-on):
+    the sides agree; with the 3D columns' left and right swapped (a wrong joint order) every
+    counted hip and shoulder pair contradicts the 2D keypoints, which the poses alone could
+    not show."""
+    from pcnet.adapters.registry import get_2d_adapter
+
+    kp = get_2d_adapter("alphapose").load(FIXTURES / "boxing_alphapose_f000-059.json")
+    kp2d = remap_to_h36m(kp.points, kp.layout, confidence_channel=True)
+    X = np.load(FIXTURES / "boxing_X3D_f000-059.npy")
+    X = X - X[:, :1]
+    assert side_swap_flag(kp2d, X) == []
+    swapped = X[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]]
+    (flag,) = side_swap_flag(kp2d, swapped)
+    counted = int(re.search(r"in (\d+) of (\d+) hip", flag).group(2))
+    assert counted >= 10 and f"in {counted} of {counted}" in flag
