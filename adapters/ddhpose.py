@@ -17,7 +17,8 @@ import numpy as np
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import ROOT_RELATIVE_MAX, checked_poses, load_npy, pelvis_offset, require_some_finite
+from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, load_npy, pelvis_offset, rebased_world_frame,
+                       require_some_finite)
 
 
 def _pick(p: Path, name: str, value: object, size: int, also: str = "") -> int:
@@ -89,6 +90,9 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         raise AdapterError(p, "hypothesis", "'mean' for a (N, 17, 3) file without a hypothesis axis", repr(hypothesis))
     require_some_finite(p, "predictions", arr)
     off_origin, _ = pelvis_offset(arr)
+    if rebased_world_frame(arr):
+        raise AdapterError(p, "predictions", "D3DP/DDHPose predictions in the camera frame (the "
+                           "test_3d_<video>_output.npy)", REBASED_WORLD_FRAME)
     if off_origin > ROOT_RELATIVE_MAX:
         raise AdapterError(p, "predictions", f"D3DP/DDHPose predictions, root-relative (evaluate_diffusion zeroes the "
                            f"root: the pelvis within {ROOT_RELATIVE_MAX:g} m of the origin)",

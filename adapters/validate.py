@@ -507,6 +507,25 @@ def pelvis_offset(joints: np.ndarray) -> tuple[float, float]:
     return float(np.median(np.linalg.norm(pelvis, axis=1))), float(np.median(pelvis[:, 2]))
 
 
+def rebased_world_frame(joints: np.ndarray) -> bool:
+    """Whether H36M-17 poses ``(T, 17, 3)`` look like a display world frame rather than a
+    camera frame: the pelvis away from the origin and the lowest z of every joint and frame
+    exactly 0 (within 1 mm). D3DP's in-the-wild script (paTRICK-swk/D3DP
+    ``in_the_wild/videopose_diffusion.py``, the ``test_3d_output_<video>_postprocess.npy``
+    file) turns predictions into a z-up world frame for display with VideoPose3D's
+    ``camera_to_world`` and rebases the height so that the lowest point is 0, also when the
+    file is renamed or reduced to ``(N, 17, 3)``; a camera frame has every joint in front of
+    the camera or, root-relative, joints on both sides of the pelvis."""
+    z = np.asarray(joints[..., 2], np.float64)
+    finite = z[np.isfinite(z)]
+    off_origin, _ = pelvis_offset(joints)
+    return bool(len(finite) and off_origin > ROOT_RELATIVE_MAX and abs(float(finite.min())) < 1e-3)
+
+
+REBASED_WORLD_FRAME = ("a world frame with z up and the lowest point rebased to z = 0 (a rendering step's "
+                       "camera_to_world output, display only)")
+
+
 def layout_from_count(p: str | Path, field: str, count: int, table: Mapping[int, str]) -> str:
     """Name of the layout for a keypoint ``count`` according to ``table``.
 

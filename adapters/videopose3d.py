@@ -8,7 +8,8 @@ import numpy as np
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, pelvis_offset
+from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, pelvis_offset,
+                       rebased_world_frame)
 
 #: With VideoPose3D's trajectory model, run.py adds the predicted root trajectory before
 #: exporting: the pelvis then lies in front of the camera, at this depth (m) or more (median).
@@ -42,6 +43,9 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     p = Path(path)
     arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
     off_origin, depth = pelvis_offset(arr)
+    if rebased_world_frame(arr):
+        raise AdapterError(p, "poses", "a VideoPose3D export in the camera frame (x right, y down, z forward)",
+                           REBASED_WORLD_FRAME)
     if off_origin > ROOT_RELATIVE_MAX and not depth >= MIN_TRAJECTORY_DEPTH_M:  # NaN (no pelvis): no verdict
         raise AdapterError(p, "poses", f"a VideoPose3D export: its pelvis within {ROOT_RELATIVE_MAX:g} m of the origin "
                            f"(root-relative) or, with the trajectory model, at least {MIN_TRAJECTORY_DEPTH_M:g} m in "

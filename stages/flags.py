@@ -117,7 +117,8 @@ def body_size_flag(joints: np.ndarray, units: str) -> list[str]:
     if not np.isfinite(median) or low <= median <= high:
         return []
     return [f"median thigh length {median:.3g} m is outside the {low}-{high} m a person has: the lifter output is "
-            f"probably not in metres (check --units, or give --height to scale it)"]
+            f"probably not in metres (check --units, or give --height to scale it; with --lifter generic also "
+            f"--layout: joints in another order give other bone lengths)"]
 
 
 #: Relative difference of the left and right legs' lengths (hip -> knee -> ankle, medians over
@@ -272,7 +273,8 @@ def gravity_reading_flag(gravity: dict | None) -> list[str]:
         return [f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is taken "
                 f"from the camera prior (near level; the true up within a {gravity['interval_deg']:.0f} deg cone, 95 %) across the trunk; a body "
                 f"standing straight under a camera rolled 90 deg looks the same (pass --no-camera-prior if so; a "
-                f"phone video's display rotation tells when --video is given with the 2D keypoints)"]
+                f"phone video's display rotation tells when --video is given with the 2D keypoints), and so does a "
+                f"file whose up axis is declared wrongly (check --axes with --lifter generic)"]
     if p >= AMBIGUOUS_READING_P:
         return [f"ambiguous body orientation: read as upright, but a lying body under a level camera keeps "
                 f"{100 * p:.0f} % posterior probability (pose-based up {gravity['pose_camera_angle_deg']:.0f} deg "

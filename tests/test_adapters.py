@@ -611,6 +611,23 @@ def test_videopose3d_root_relative_or_with_its_trajectory_but_not_motionbert(tmp
     assert load_videopose3d(tmp_path / "vp3d_no_pelvis.npy").joints.shape == poses.shape
 
 
+def test_a_rebased_z_up_world_frame_is_refused_by_both_camera_frame_adapters(tmp_path):
+    """D3DP's display file (camera_to_world with the H36M camera quaternion, then z -= min z),
+    renamed and reduced to (N, 17, 3), is no camera frame: VideoPose3D had read it as a
+    trajectory-model export (a body 'lying'), DDHPose blamed MotionBERT."""
+    from scipy.spatial.transform import Rotation
+
+    X = np.load(YOGA["Tadasana"]).astype(np.float64)
+    w, x, y, z = 0.1407, -0.1501, -0.7552, 0.6223  # formats: camera_to_world's quaternion
+    world = Rotation.from_quat([x, y, z, w]).apply(X.reshape(-1, 3)).reshape(X.shape)
+    world[..., 2] -= world[..., 2].min()
+    np.save(tmp_path / "renamed.npy", world.astype(np.float32))
+    for load in (load_videopose3d, load_ddhpose):
+        with pytest.raises(AdapterError, match="world frame with z up and the lowest point rebased"):
+            load(tmp_path / "renamed.npy")
+    assert load_videopose3d(YOGA["Tadasana"]).joints.shape == X.shape
+
+
 def test_videopose3d_standing_and_lying_poses():
     stand = load_videopose3d(YOGA["Tadasana"])
     assert stand.joints.shape == (100, 17, 3) and stand.units == "m" and stand.layout == "h36m17"
