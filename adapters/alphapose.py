@@ -247,6 +247,9 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
         notes.append(f"{missing} of {num_frames} frames without a detection -> NaN")
     notes.append(f"confidence clipped to [0, 1] (raw max {raw_max:.3f})")
     choice = how if len(best) > 1 or person is not None else ""
+    if dup:  # several people under one id (no tracker): the highest score per frame
+        choice = "; ".join(c for c in (choice, f"{len(dup)} frame{'s' * (len(dup) != 1)} with several detections of "
+                                                 f"track {track}: the highest-scored one kept") if c)
     return Keypoints2D(points, layout, str(p), track_id=track, notes="; ".join(notes), choice=choice)
 
 

@@ -10,7 +10,6 @@ metres, root zeroed) or an export of it with fewer axes.
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -72,16 +71,10 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         arr = arr[k]
     if arr.ndim == 4:
         if isinstance(hypothesis, str) and hypothesis == "mean":
-            # Non-finite is missing: a hypothesis without a joint leaves the others' mean.
-            # float64: a float32 sum of huge values would overflow to inf and pass as missing.
-            arr = np.where(np.isfinite(arr), arr, np.nan).astype(np.float64)
-            present = np.isfinite(arr).all(-1).sum(0)
-            partial = int(((present > 0) & (present < arr.shape[0])).sum())
-            notes.append(f"mean over {arr.shape[0]} hypotheses" + (
+            hypotheses = arr.shape[0]
+            arr, partial = _mean_over_hypotheses(arr)
+            notes.append(f"mean over {hypotheses} hypotheses" + (
                 f" ({partial} joint positions from the hypotheses that have them)" if partial else ""))
-            with np.errstate(invalid="ignore"), warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN joints stay NaN
-                arr = np.nanmean(arr, axis=0)
         else:
             h = _pick(p, "hypothesis", hypothesis, arr.shape[0], "'mean' or ")
             notes.append(f"hypothesis {h} of 0..{arr.shape[0] - 1}")
@@ -101,6 +94,24 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
     notes.append("root as delivered (D3DP zeroes it)")
     joints = checked_poses(p, "predictions", arr, "h36m17", "m")
     return Poses3D(np.ascontiguousarray(joints), "h36m17", units="m", source=str(p), notes="; ".join(notes))
+
+
+def _mean_over_hypotheses(arr: np.ndarray) -> tuple[np.ndarray, int]:
+    """``(H, N, 17, 3)`` -> ``(N, 17, 3)`` float64: per joint the mean over the hypotheses
+    where it is finite (non-finite is missing data), NaN where none is; and the count of
+    joint positions that some but not all hypotheses have. A block of frames at a time, so
+    memory stays near the output's size."""
+    out = np.full(arr.shape[1:], np.nan)
+    partial = 0
+    for start in range(0, arr.shape[1], 4096):
+        block = np.asarray(arr[:, start:start + 4096], np.float64)  # float64: huge values must not overflow
+        present = np.isfinite(block).all(-1, keepdims=True)
+        count = present.sum(0)
+        total = np.where(present, block, 0.0).sum(0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[start:start + 4096] = np.where(count > 0, total / count, np.nan)
+        partial += int(((count > 0) & (count < len(arr))).sum())
+    return out, partial
 
 
 @register_3d("ddhpose")

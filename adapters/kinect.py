@@ -238,6 +238,11 @@ def _read_array(p: Path, key: str | None, default_key: str) -> tuple[np.ndarray,
     return load_array_file(p, key), key
 
 
+def _name_key(name: str) -> str:
+    """A joint name without case or separators: ``HipCenter``, ``hip_center``, ``hip-center``."""
+    return "".join(c for c in name.lower() if c.isalnum())
+
+
 def _declared_v1_layout(p: Path, layout: str | None) -> str:
     """The joint order an archive's ``joint_names`` declares, checked against ``layout``
     (``None``: the declared one, else ``"utd"``)."""
@@ -245,15 +250,21 @@ def _declared_v1_layout(p: Path, layout: str | None) -> str:
         names = np.asarray(load_array_file(p, "joint_names"))
     except AdapterError:
         return layout or "utd"
-    names = tuple(str(n) for n in names.ravel()) if names.dtype.kind in "US" else None
-    declared = next((name for name, order in KINECT_V1_LAYOUTS.items() if order == names), None)
+    text = [n.decode("utf-8", "replace") if isinstance(n, bytes) else str(n) for n in names.ravel().tolist()] \
+        if names.dtype.kind in "US" else None
+    declared = None if text is None else next(
+        (name for name, order in KINECT_V1_LAYOUTS.items() if tuple(map(_name_key, order)) == tuple(map(_name_key, text))),
+        None)
     if declared is None:
-        got = f"{list(names[:5])} ..." if names else "a non-text array"
+        if layout is not None:  # names in another spelling: the order the user states
+            return layout
+        got = f"{text[:5]} ..." if text else "a non-text array"
         raise AdapterError(p, "joint_names", f"one of the Kinect v1 joint orders {sorted(KINECT_V1_LAYOUTS)} "
-                                             f"(UTD-MHAD: {list(KINECT_V1_JOINTS_UTD[:4])} ...)", got)
+                                             f"(UTD-MHAD: {list(KINECT_V1_JOINTS_UTD[:4])} ...), or layout= to state "
+                                             f"it", got)
     if layout is not None and layout != declared:
         raise AdapterError(p, "joint_names", f"the {layout!r} joint order that layout= asks for",
-                           f"the {declared!r} order ({list(names[:4])} ...)")
+                           f"the {declared!r} order ({text[:4]} ...)")
     return declared
 
 

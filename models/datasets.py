@@ -284,11 +284,11 @@ def clip_split_of(clip: Clip, scheme: str = "clip") -> str:
 def select_split(clips: list[Clip], split: str, scheme: str = "clip") -> list[Clip]:
     """Clips of ``split`` (``train``/``val``/``test``/``all``) under ``scheme``.
 
-    Schemes: ``"clip"`` (the default of this function, what releases 1-2 trained on; every
-    config in ``configs/`` and the shipped weights use ``"motion-style"``: :func:`clip_split`, each take hashed alone, so most test clips have a sibling take
-    of the same motion and style in train) and ``"motion-style"``
-    (:func:`motion_style_split`: whole Bandai motion-style groups and whole styles held out,
-    CMU split by subject). ``"all"`` returns every clip under either scheme.
+    Schemes: ``"clip"`` (the default of this function, what releases 1-2 trained on:
+    :func:`clip_split`, each take hashed alone, so most test clips have a sibling take of the
+    same motion and style in train) and ``"motion-style"`` (what every config in
+    ``configs/`` and the shipped weights use: :func:`motion_style_split`, whole Bandai
+    motion-style groups and whole styles held out, CMU split by subject). ``"all"`` returns every clip under either scheme.
 
     On ``bandai_h36m17.npz`` (3076 clips, 226 groups): ``"clip"`` gives train / val / test
     2475 / 293 / 308 clips (333,044 / 39,986 / 43,815 frames), and 75 of the 89 test groups

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from pcnet.adapters import get_2d_adapter, get_3d_adapter, probe_video
+from pcnet.adapters import AdapterError, get_2d_adapter, get_3d_adapter, probe_video
 from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
@@ -179,16 +179,17 @@ def _load_inputs(cfg: RunConfig):
     if cfg.keypoints2d:
         adapter = get_2d_adapter(cfg.keypoints2d_format)
         options = {"person": cfg.person} if cfg.keypoints2d_format in MULTI_TRACK_FORMATS else {}
-        # With --align truncate a 2D file may run past the video: _align cuts it.
-        if (video is not None and cfg.align != "truncate"
-                and "frame_count" in inspect.signature(adapter.load).parameters):
+        if video is not None and "frame_count" in inspect.signature(adapter.load).parameters:
             options["frame_count"] = video.frame_count
-        kp = adapter.load(cfg.keypoints2d, **options)
+        try:
+            kp = adapter.load(cfg.keypoints2d, **options)
+        except AdapterError as err:
+            # With --align truncate a 2D file may run past the video: read it whole, _align cuts it.
+            if not (cfg.align == "truncate" and "frame_count" in options and "frame_count=" in err.expected):
+                raise
+            del options["frame_count"]
+            kp = adapter.load(cfg.keypoints2d, **options)
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
-        if video is not None and len(kp2d) < video.frame_count and "frame_count" not in options:
-            # the frames after the 2D file's last detection: nobody detected, as frame_count gives
-            kp2d = np.concatenate([kp2d, np.full((video.frame_count - len(kp2d), *kp2d.shape[1:]), np.nan,
-                                                 kp2d.dtype)])
         kp_size = getattr(kp, "image_size", None)
         kp_choice = getattr(kp, "choice", "")
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
@@ -203,9 +204,15 @@ def _load_inputs(cfg: RunConfig):
 
 def _tilt_tolerance(report: dict) -> float:
     """The camera tilt uncertainty the summary states (deg): the larger 95 % pitch/roll
-    half-width in sequence mode, else the per-frame bound where the two networks agree."""
-    halves = [report.get("camera_pitch_interval_deg", np.nan), report.get("camera_roll_interval_deg", np.nan)]
-    return float(max(halves)) if np.isfinite(halves).all() else float(report.get("frame_tilt_95_deg", np.nan))
+    half-width in sequence mode (the bootstrap's for a method without a calibrated
+    interval), else the per-frame bound where the two networks agree."""
+    for keys in (("camera_pitch_interval_deg", "camera_roll_interval_deg"),
+                 # a method without a calibrated interval states its bootstrap
+                 ("camera_pitch_uncertainty_deg", "camera_roll_uncertainty_deg")):
+        halves = [report.get(key, np.nan) for key in keys]
+        if np.isfinite(halves).all():
+            return float(max(halves))
+    return float(report.get("frame_tilt_95_deg", np.nan))
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):

@@ -172,7 +172,7 @@ def size_change_flag(joints: np.ndarray) -> list[str]:
     p5, p50, p95 = np.percentile(chain, [5, 50, 95])
     if p95 / p5 <= SIZE_CHANGE_RATIO:
         return []
-    off = 100 * max(p95 / p50 - 1, 1 - p5 / p50)
+    off = 100 * min(p95 / p50 - 1, 1 - p5 / p50)  # both tails, so a tenth of the frames
     return [f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of the "
             f"ankle-to-head chain; a body keeps its size): the lifter fails, or its output is in image units "
             f"(declare them: --units normalised or px with --lifter generic, and pcnet makes the size constant "
@@ -208,14 +208,13 @@ def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> list[str]
         keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence (NaN = missing).
         joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any units.
     """
-    kp = np.asarray(keypoints2d[:, :, :2], np.float64)
-    X = np.asarray(joints_cam[:], np.float64)
+    # only the six joints it compares, x and y: a long recording's arrays stay on disk
+    joints = [R_HIP, L_HIP, R_SHOULDER, L_SHOULDER, THORAX, PELVIS]
+    kp = np.stack([np.asarray(keypoints2d[:, j, :2], np.float64) for j in joints], axis=1)
+    X = np.stack([np.asarray(joints_cam[:, j, :2], np.float64) for j in joints], axis=1)
     counted = contradicted = 0
-    for right, left in ((R_HIP, L_HIP), (R_SHOULDER, L_SHOULDER)):
-        extents = []
-        for P, trunk in ((kp, kp[:, THORAX] - kp[:, PELVIS]), (X[:, :, :2], X[:, THORAX, :2] - X[:, PELVIS, :2])):
-            extents.append((P[:, right, 0] - P[:, left, 0]) / np.linalg.norm(trunk, axis=-1))
-        d2, d3 = extents
+    for right, left in ((0, 1), (2, 3)):
+        d2, d3 = ((P[:, right, 0] - P[:, left, 0]) / np.linalg.norm(P[:, 4] - P[:, 5], axis=-1) for P in (kp, X))
         with np.errstate(invalid="ignore"):
             sure = (np.abs(d2) >= SIDE_MIN_EXTENT) & (np.abs(d3) >= SIDE_MIN_EXTENT)
         counted += int(sure.sum())

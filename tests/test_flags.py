@@ -72,7 +72,7 @@ def test_a_portrait_camera_is_not_called_upside_down(degrees):
 
 def test_orientation_flags_judge_the_tilt_beyond_the_nearest_image_axis():
     assert "upside down" in orientation_flags(179.0, 0.0, 179.0)[0]
-    assert "upside down" in orientation_flags(100.0, -80.0, 0.0)[0]
+    assert "upside down" in orientation_flags(100.0)[0]  # the tilt alone: beyond 90 deg from image-up
     assert "camera tilt 40 deg beyond a quarter turn" in orientation_flags(90.0, 40.0, 90.0)[0]
     assert "camera tilt 40 deg:" in orientation_flags(40.0, 40.0, 0.0)[0]
     assert orientation_flags(12.0, 10.0, 6.6) == []
@@ -201,6 +201,10 @@ def test_a_large_mediapipe_turn_is_flagged_and_a_negligible_one_is_not(tmp_path)
         assert ("turned by a median" in res.output) is flagged, res.output
         with np.load(out / "canonical.npz") as npz:
             assert any("turned by a median" in str(f) for f in npz["flags"]) is flagged
+    # a method without a calibrated interval measures the turn against its bootstrap
+    res = CliRunner().invoke(main, ["run", "--lifter", "mediapipe", "--lifter-output", str(MEDIAPIPE), "--method",
+                                    "geometric", "--mode", "sequence", "--no-recording", "--out", str(tmp_path / "g")])
+    assert res.exit_code == 0 and "turned by a median" in res.output, res.output
 
 
 def test_a_lifters_asymmetric_legs_are_flagged():

@@ -138,6 +138,11 @@ def test_kinect_v1_archive_joint_names_set_the_order(tmp_path):
     np.savez(tmp_path / "odd.npz", skeleton=_v1(), joint_names=np.array(["a"] * 20))
     with pytest.raises(AdapterError, match="joint_names"):
         load_kinect_v1(tmp_path / "odd.npz")
+    np.testing.assert_allclose(load_kinect_v1(tmp_path / "odd.npz", layout="utd").joints, expected, atol=1e-6)
+    # the same names as bytes, or in another spelling, are the same order
+    for names in (np.array(KINECT_V1_JOINTS_SDK, dtype="S"), np.array([n.replace("_", " ").title() for n in KINECT_V1_JOINTS_SDK])):
+        np.savez(tmp_path / "spelt.npz", skeleton=_v1(KINECT_V1_JOINTS_SDK), joint_names=names)
+        np.testing.assert_allclose(load_kinect_v1(tmp_path / "spelt.npz").joints, expected, atol=1e-6)
 
 
 @pytest.mark.parametrize("shape", [(5, 25, 3), (5, 20, 2), (20, 3)])

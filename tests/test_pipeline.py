@@ -238,6 +238,18 @@ def test_a_method_without_calibration_prints_no_95_percent_interval(tmp_path):
     assert report["camera_pitch_interval_deg"] is None and report["camera_pitch_uncertainty_deg"] > 0
 
 
+def test_a_2d_file_shorter_than_the_video_needs_align(tmp_path):
+    """A 5-frame MediaPipe 2D file with a 10-frame video and 10 frames of 3D: the counts
+    differ (a wrong file or another rate); it is not padded with missing frames."""
+    with np.load(MEDIAPIPE) as d:
+        np.savez(tmp_path / "short2d.npz", **{k: (d[k][:5] if d[k].ndim == 3 else d[k]) for k in d.files})
+    np.save(tmp_path / "x3d.npy", np.load(BOX_3D)[:10])
+    res = _invoke("run", "--keypoints2d", tmp_path / "short2d.npz", "--keypoints2d-format", "mediapipe", "--lifter",
+                  "motionbert", "--lifter-output", tmp_path / "x3d.npy", "--video", FIXTURES / "boxing2_f000-009.mp4",
+                  "--fps-override", "--fps", "30", "--out", tmp_path / "o", "--no-recording")
+    assert res.exit_code == 1 and "frame counts differ" in res.output and "short2d.npz: 5 frames" in res.output, res.output
+
+
 def test_a_damaged_video_is_refused_naming_it(tmp_path):
     data = (FIXTURES / "boxing2_f000-009.mp4").read_bytes()
     cut, hole = len(data) // 2, int(0.15 * len(data))
