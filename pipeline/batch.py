@@ -487,7 +487,7 @@ def _engine(options: BatchOptions, on_result, on_retry):
     if options.engine == "ray":
         from .batch_ray import RayEngine
 
-        return RayEngine(options.workers, options.retries, options.address, on_result)
+        return RayEngine(options.workers, options.retries, options.address, on_result, on_retry)
     from .batch_local import LocalEngine
 
     return LocalEngine(options.workers or cpu_cores(), options.retries, on_result, on_retry)

@@ -52,6 +52,10 @@ class _Attempts:
     def last(self, row: int) -> dict:
         return self.seen.get(row, {"attempts": 0})
 
+    def retried(self) -> dict[int, dict]:
+        """The rows started more than once, with their last attempt."""
+        return {row: dict(entry) for row, entry in self.seen.items() if entry["attempts"] > 1}
+
 
 #: Seconds a cluster address gets to accept a connection before the batch gives up on it.
 CONNECT_TIMEOUT_S = 5.0
@@ -109,6 +113,8 @@ class RayEngine:
     retries: int = 0
     address: str | None = None
     on_result: Callable[[dict], None] = lambda result: None
+    #: Told, in one line, when a row starts again after its worker died (as the local engine's).
+    on_retry: Callable[[int, str], None] = lambda row, line: None
     start_seconds: float = 0.0
 
     def run(self, jobs: list[dict]) -> tuple[list[dict], bool]:
@@ -155,13 +161,15 @@ class RayEngine:
         if runtime_env:
             task = task.options(runtime_env=runtime_env)
         cap = self.workers if self.address and self.workers else len(jobs)
-        queue, in_flight, results = list(jobs), {}, []
+        queue, in_flight, results, announced = list(jobs), {}, [], {}
         try:
             while queue or in_flight:
                 while queue and len(in_flight) < cap:
                     job = queue.pop(0)
                     in_flight[task.remote(job, attempts, threads)] = job
                 done, _ = ray.wait(list(in_flight), num_returns=1, timeout=_POLL_S)
+                if self.retries:
+                    self._announce_retries(ray, attempts, announced)
                 for ref in done:
                     result = self._result(ray, ref, in_flight.pop(ref), attempts)
                     results.append(result)
@@ -172,6 +180,14 @@ class RayEngine:
                 _cancel_all(ray, list(in_flight))
             return results, True
         return results, False
+
+    def _announce_retries(self, ray, attempts, announced: dict[int, int]) -> None:
+        """Say each new attempt at a row whose worker died (Ray re-runs the task itself)."""
+        for row, last in ray.get(attempts.retried.remote()).items():
+            if announced.get(row, 1) < last["attempts"]:
+                announced[row] = last["attempts"]
+                self.on_retry(row, f"its Ray worker died; starting it again on {last.get('host', '?')} (pid "
+                                   f"{last.get('pid')}, attempt {last['attempts']} of {self.retries + 1})")
 
     def _drain(self, ray, in_flight: dict, attempts, results: list[dict]) -> None:
         """File the results of tasks that finished before the interrupt was seen."""

@@ -333,6 +333,7 @@ def test_ray_engine_retries_a_killed_worker_and_the_batch_succeeds(tmp_path, hoo
     finally:
         proc.kill()
     assert proc.returncode == 0, out + err
+    assert "line 3: its Ray worker died; starting it again" in err and "attempt 2 of 2" in err, err
     summary = _summary(manifest)
     rows = summary["rows"]
     assert summary["engine"] == "ray" and [r["status"] for r in rows] == ["ok"] * 4
