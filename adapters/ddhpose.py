@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pcnet.stages.core.framestore import frame_blocks
+
 from .registry import register_3d
 from .types import AdapterError, Poses3D
 from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, load_npy, pelvis_offset, rebased_world_frame,
@@ -83,7 +85,7 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         raise AdapterError(p, "hypothesis", "'mean' for a (N, 17, 3) file without a hypothesis axis", repr(hypothesis))
     require_some_finite(p, "predictions", arr)
     off_origin, _ = pelvis_offset(arr)
-    if rebased_world_frame(arr):
+    if rebased_world_frame(arr, off_origin):
         raise AdapterError(p, "predictions", "D3DP/DDHPose predictions in the camera frame (the "
                            "test_3d_<video>_output.npy)", REBASED_WORLD_FRAME)
     if off_origin > ROOT_RELATIVE_MAX:
@@ -103,13 +105,13 @@ def _mean_over_hypotheses(arr: np.ndarray) -> tuple[np.ndarray, int]:
     memory stays near the output's size."""
     out = np.full(arr.shape[1:], np.nan)
     partial = 0
-    for start in range(0, arr.shape[1], 4096):
-        block = np.asarray(arr[:, start:start + 4096], np.float64)  # float64: huge values must not overflow
+    for rows in frame_blocks(arr.shape[1]):
+        block = np.asarray(arr[:, rows], np.float64)  # float64: huge values must not overflow
         present = np.isfinite(block).all(-1, keepdims=True)
         count = present.sum(0)
         total = np.where(present, block, 0.0).sum(0)
         with np.errstate(invalid="ignore", divide="ignore"):
-            out[start:start + 4096] = np.where(count > 0, total / count, np.nan)
+            out[rows] = np.where(count > 0, total / count, np.nan)
         partial += int(((count > 0) & (count < len(arr))).sum())
     return out, partial
 

@@ -20,11 +20,10 @@ allocates one row per frame.
 
 from __future__ import annotations
 
-import re
-
 import contextlib
 import json
 import math
+import re
 import struct
 import tokenize
 import zipfile
@@ -507,9 +506,10 @@ def pelvis_offset(joints: np.ndarray) -> tuple[float, float]:
     return float(np.median(np.linalg.norm(pelvis, axis=1))), float(np.median(pelvis[:, 2]))
 
 
-def rebased_world_frame(joints: np.ndarray) -> bool:
-    """Whether H36M-17 poses ``(T, 17, 3)`` look like a display world frame rather than a
-    camera frame: the pelvis away from the origin and the lowest z of every joint and frame
+def rebased_world_frame(joints: np.ndarray, pelvis_distance: float) -> bool:
+    """Whether H36M-17 poses ``(T, 17, 3)`` whose pelvis lies ``pelvis_distance`` from the
+    origin (:func:`pelvis_offset`) look like a display world frame rather than a camera
+    frame: the pelvis away from the origin and the lowest z of every joint and frame
     exactly 0 (within 1 mm). D3DP's in-the-wild script (paTRICK-swk/D3DP
     ``in_the_wild/videopose_diffusion.py``, the ``test_3d_output_<video>_postprocess.npy``
     file) turns predictions into a z-up world frame for display with VideoPose3D's
@@ -518,8 +518,7 @@ def rebased_world_frame(joints: np.ndarray) -> bool:
     the camera or, root-relative, joints on both sides of the pelvis."""
     z = np.asarray(joints[..., 2], np.float64)
     finite = z[np.isfinite(z)]
-    off_origin, _ = pelvis_offset(joints)
-    return bool(len(finite) and off_origin > ROOT_RELATIVE_MAX and abs(float(finite.min())) < 1e-3)
+    return bool(len(finite) and pelvis_distance > ROOT_RELATIVE_MAX and abs(float(finite.min())) < 1e-3)
 
 
 REBASED_WORLD_FRAME = ("a world frame with z up and the lowest point rebased to z = 0 (a rendering step's "

@@ -43,7 +43,7 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     p = Path(path)
     arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
     off_origin, depth = pelvis_offset(arr)
-    if rebased_world_frame(arr):
+    if rebased_world_frame(arr, off_origin):
         raise AdapterError(p, "poses", "a VideoPose3D export in the camera frame (x right, y down, z forward)",
                            REBASED_WORLD_FRAME)
     if off_origin > ROOT_RELATIVE_MAX and not depth >= MIN_TRAJECTORY_DEPTH_M:  # NaN (no pelvis): no verdict

@@ -189,7 +189,7 @@ class SequenceEvidence:
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
                  fps: float, frame_weights: np.ndarray | None = None,
                  evidence_scale: float = 1.0,
-                 decide_on: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+                 decide_on: np.ndarray | None = None, calibrated: bool = True) -> tuple[np.ndarray, np.ndarray, dict]:
         """Apply the mode to one recording.
 
         Args:
@@ -204,7 +204,9 @@ class SequenceEvidence:
                 optional ``(T,)`` bool, the frames ``"auto"`` decides on (one person's
                 stretch of a 2D track that switches people, :func:`pcnet.stages.flags.one_person_frames`);
                 every valid frame when ``None`` or when fewer than
-                :data:`MIN_DECISION_STRETCH_S` seconds of them are valid.
+                :data:`MIN_DECISION_STRETCH_S` seconds of them are valid. calibrated: the
+                lifter's systematic error is calibrated for the estimator (the shipped pair
+                only); otherwise the sequence up has its bootstrap and NaN intervals.
 
         Returns:
             ``(R (T, 3, 3) float64, NaN where not valid (frame mode: as given); valid (T,)
@@ -219,7 +221,7 @@ class SequenceEvidence:
             ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
             adding the lifter's systematic per-clip error calibrated on held-out mocap and
             scaled by ``evidence_scale``, :func:`pcnet.stages.uncertainty.calibrated_interval`;
-            for a ``lying`` reading the posterior's), ``evidence_scale``, ``up_spread_deg``,
+            for a ``lying`` reading the posterior's; NaN when not ``calibrated``), ``evidence_scale``, ``up_spread_deg``,
             ``up_spread_p95_deg``, ``ground_plane`` and
             ``gravity`` (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report` or ``None``).
 
@@ -263,9 +265,11 @@ class SequenceEvidence:
                 # The up comes from the camera prior, not from resampled poses: its interval
                 # is the posterior's (tens of degrees), not the bootstrap's.
                 pitch_half, roll_half = g.pitch_half_deg, g.roll_half_deg
-            else:
+            elif calibrated:
                 pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch", scale=evidence_scale)
                 roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll", scale=evidence_scale)
+            else:  # another method's sequence up: its bootstrap, not a 95 % interval
+                pitch_half = roll_half = float("nan")
             report.update(
                 evidence=res.evidence, valid=res.valid, up=res.up, up_uncertainty_deg=res.up_uncertainty_deg,
                 camera_pitch_deg=res.camera_pitch_deg, camera_roll_deg=res.camera_roll_deg,
@@ -340,13 +344,8 @@ class Rectification:
         base = self.estimator.frame_tilt_95_deg
         bound, weights = frame_bound_and_weights(estimate, base)
         R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, weights,
-                                         evidence_scale(bound, base), decide_on)
+                                         evidence_scale(bound, base), decide_on, calibrated=bool(np.isfinite(base)))
         report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
-        lying = (report.get("gravity") or {}).get("reading") == "lying"
-        if not np.isfinite(base) and "camera_pitch_interval_deg" in report and not lying:
-            # The lifter's systematic error was calibrated for the shipped pair only: another
-            # method's sequence up has its bootstrap, not a 95 % interval.
-            report["camera_pitch_interval_deg"] = report["camera_roll_interval_deg"] = float("nan")
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)
         report["view_gate"] = gate_report(gate, valid, estimate.quarter_turns)

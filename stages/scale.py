@@ -136,6 +136,17 @@ def scale_to_height(joints: np.ndarray, height_m: float) -> tuple[np.ndarray, fl
     return (X.astype(np.float64) * factor).astype(np.float32), factor
 
 
+def _measurable_chain(joints: np.ndarray, who: str) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`height_chain_length` ``(T,)`` and ``(T,)`` bool, the frames where it is finite
+    and positive; an :class:`InputError` naming ``who`` when there is none."""
+    chain = height_chain_length(joints)
+    good = np.isfinite(chain) & (chain > 0)
+    if not good.any():
+        raise InputError(f"{who}: no frame has a complete ankle-knee-hip / pelvis-spine-thorax-neck_nose-head chain, "
+                         f"so the skeleton size cannot be estimated")
+    return chain, good
+
+
 def height_factor(joints: np.ndarray, height_m: float) -> float:
     """:func:`scale_to_height`'s ``factor`` (metres per input unit) alone, for poses in
     memory or on disk (:class:`~pcnet.stages.core.framestore.FrameArray`, scaled a block at a
@@ -146,13 +157,7 @@ def height_factor(joints: np.ndarray, height_m: float) -> float:
     """
     if not np.isfinite(height_m) or height_m <= 0:
         raise InputError(f"height_m must be a finite height in metres > 0, got {height_m!r}")
-    chain = height_chain_length(check_poses(joints, "joints"))
-    good = np.isfinite(chain) & (chain > 0)
-    if not good.any():
-        raise InputError(
-            "scale_to_height: no frame has a complete ankle-knee-hip / pelvis-spine-thorax-"
-            "neck_nose-head chain, so the skeleton size cannot be estimated"
-        )
+    chain, good = _measurable_chain(joints, "scale_to_height")
     stature = float(np.median(chain[good])) / CHAIN_TO_STATURE
     return float(height_m) / stature
 
@@ -184,11 +189,7 @@ def size_normalising_factors(joints: np.ndarray, fps: float, window_s: float = S
     """
     if not (np.isfinite(fps) and fps > 0):
         raise InputError(f"size_normalising_factors: fps must be > 0, got {fps!r}")
-    chain = height_chain_length(check_poses(joints, "joints"))
-    good = np.isfinite(chain) & (chain > 0)
-    if not good.any():
-        raise InputError("size_normalising_factors: no frame has a complete ankle-knee-hip / pelvis-spine-thorax-"
-                         "neck_nose-head chain, so the skeleton size cannot be estimated")
+    chain, good = _measurable_chain(joints, "size_normalising_factors")
     frames = np.arange(len(chain))
     filled = np.interp(frames, frames[good], chain[good])
     size = median_filter(filled, size=max(1, int(round(window_s * fps))) | 1, mode="nearest")

@@ -240,11 +240,9 @@ def build_blueprint(*, has_image: bool, series_groups: list[str], fps: float, ha
     for head, gs in by_head.items():
         if len(gs) > 1:
             tabs.append(rrb.Grid(*(views[g] for g in gs), name=head.replace("_", " ")))
-    rows = [rrb.Horizontal(*top)]
-    if tabs:
-        # the warnings open first when there are any (a run never keeps them to itself)
-        rows.append(tabs[0] if len(tabs) == 1 else rrb.Tabs(*tabs, active_tab=0 if warnings else 1))
-    layout = rrb.Vertical(*rows, row_shares=[3, 2][: len(rows)])
+    # the warnings open first when there are any (a run never keeps them to itself)
+    bottom = tabs[0] if len(tabs) == 1 else rrb.Tabs(*tabs, active_tab=0 if warnings else 1)
+    layout = rrb.Vertical(rrb.Horizontal(*top), bottom, row_shares=[3, 2])
     return rrb.Blueprint(layout, rrb.TimePanel(timeline="frame", fps=float(fps)))
 
 
