@@ -26,7 +26,7 @@ x right, y down, z forward, so a level camera sees up = -y):
 (Mardia & Jupp, "Directional Statistics", 2000, section 9.3.2; angular std ~ 1/sqrt(k)).
 The reading with the larger posterior mass is reported (``p_lying``), and its up is the
 mode of the posterior within that reading. The masses are integrated on a Fibonacci grid
-of :data:`GRID_POINTS` directions (1.1 deg spacing); the upright mode is found by the
+of :data:`GRID_POINTS` directions (about 1 deg apart); the upright mode is found by the
 fixed-point iteration of the product of a vMF with a vMF mixture (exact for the model), the
 lying mode on the grid (its interval is tens of degrees wide anyway).
 

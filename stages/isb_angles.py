@@ -29,8 +29,10 @@ and what they cannot capture are in ``docs/joint_angles.md``:
   Z = left_shoulder -> right_shoulder made perpendicular to Y (stands in for the normal of
   the IJ-C7-mid(PX,T8) plane); X = Y x Z.
 * **thigh**: Y = knee -> hip; Z = the normal of the hip-knee-ankle plane (the knee's flexion
-  axis; stands in for the epicondyle line), its sign chosen so that the hip's internal
-  rotation lies in (-90, 90) deg; X = Y x Z.
+  axis; stands in for the epicondyle line), signed by the knee-sign rule: flexion unless
+  that would turn the hip beyond :data:`HYPEREXTENSION_HIP_ROTATION_DEG` about the thigh,
+  so hip internal rotation can read beyond +-90 deg where the pelvis or thigh is off;
+  X = Y x Z.
 * **shank**: Y = ankle -> knee; Z = the thigh's Z (a hinge knee); X = Y x Z.
 * **upper arm**: Y = elbow -> shoulder; Z = the normal of the shoulder-elbow-wrist plane,
   ``Y_humerus x Y_forearm`` (Wu et al. 2005's second humerus frame, which uses the forearm

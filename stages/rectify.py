@@ -47,8 +47,9 @@ Allocate = Callable[[str, tuple, type], np.ndarray]
 class Rectified:
     """Output of :class:`Rectification` for ``T`` frames.
 
-    rotation ``(T, 3, 3)`` canonical->camera; canonical ``(T, 17, 3)`` pelvis-centred
-    canonical poses in the input's units; up ``(T, 3)`` unit up direction in the camera
+    rotation ``(T, 3, 3)`` canonical->camera; canonical ``(T, 17, 3)`` canonical poses in the
+    input's units, pelvis-centred before the network's residual (with it the pelvis moves a
+    few mm off the origin; docs/outputs.md); up ``(T, 3)`` unit up direction in the camera
     frame (``rotation[:, :, 1]``); valid ``(T,)``; method name. Invalid frames are NaN.
     """
 

@@ -22,7 +22,8 @@ def tilt_error_deg(R_hat: np.ndarray, R: np.ndarray) -> np.ndarray:
 
 def heading_error_deg(R_hat: np.ndarray, R: np.ndarray) -> np.ndarray:
     """Absolute angle of the residual rotation ``R^T R_hat`` (canonical frame) about the true
-    up axis (canonical +Y), by swing-twist decomposition; degrees ``(N,)`` in [0, 180]."""
+    up axis (canonical +Y), by swing-twist decomposition; degrees ``(N,)`` in [0, 180]. Meaningful only where the up
+    is close: with a tilt error near 180 deg the twist about the true up is arbitrary."""
     E = np.swapaxes(R, -1, -2) @ R_hat
     out = np.full(E.shape[:-2], np.nan)
     ok = np.isfinite(E).all((-1, -2))

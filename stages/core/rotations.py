@@ -30,7 +30,9 @@ def rotation_6d_to_matrix(d6: np.ndarray) -> np.ndarray:
     The 6D vector holds the first two columns of the matrix, ``[a1, a2]`` (Zhou et al. 2019,
     "On the continuity of rotation representations", eq. 15-16):
     ``b1 = a1/|a1|, b2 = normalize(a2 - (b1.a2) b1), b3 = b1 x b2``, ``R = [b1 b2 b3]``.
-    Degenerate inputs (``a1 = 0`` or ``a2 || a1``) give NaN.
+    Degenerate inputs give NaN columns: all three where ``|a1|`` is below 1e-8, the second
+    and third where ``a2`` is parallel to ``a1`` (absolute threshold, so scale a tiny
+    6D vector up first).
     """
     d6 = np.asarray(d6, dtype=np.float64)
     a1, a2 = d6[..., 0:3], d6[..., 3:6]
@@ -60,7 +62,7 @@ def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def twist_angle(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
-    """Swing-twist decomposition: signed angle (radians, in (-pi, pi]) of the twist of ``R``
+    """Swing-twist decomposition: signed angle (radians, in [-pi, pi)) of the twist of ``R``
     ``(..., 3, 3)`` about the unit ``axis`` ``(3,)`` or ``(..., 3)``.
 
     With quaternion ``q = (v, w)``, the twist is ``normalize(w, (v.a) a)``, so the angle is
