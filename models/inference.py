@@ -46,6 +46,11 @@ def normalized_in_chunks(joints_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return x, scale, valid
 
 
+#: |det R - 1| above which a network's rotation output is not a rotation (float32 output
+#: of a proper rotation is within 1e-5).
+ROTATION_DET_TOLERANCE = 1e-3
+
+
 class PCNetSession:
     """An onnxruntime session of an exported 3DPCNet.
 
@@ -91,7 +96,8 @@ class PCNetSession:
 
         Returns:
             ``(R, residual, valid)``: ``(N, 3, 3)`` float64 canonical->camera rotations and
-            ``(N, 17, 3)`` float64 residuals in the input's units, NaN where not valid.
+            ``(N, 17, 3)`` float64 residuals in the input's units, NaN where not valid;
+            ``valid`` is also False where the network's output is not a rotation.
         """
         # onnxruntime's arena keeps the largest batch's activations for the session's life:
         # peak RSS 1,060 MB at 4,096 poses, 181 MB at 256, which is faster on 2 cores
@@ -105,6 +111,13 @@ class PCNetSession:
             r, d = self.session.run(["rotation", "residual"], {"x": x[sel]})
             R[sel] = r
             residual[sel] = d * scale[sel, None, None]
+        # A degenerate 6D output (first two columns parallel or zero) leaves the exported
+        # Gram-Schmidt finite but singular: such a frame has no rotation, so it is invalid.
+        proper = np.abs(np.linalg.det(R[idx]) - 1.0) < ROTATION_DET_TOLERANCE
+        if not proper.all():
+            bad = idx[~proper]
+            valid = valid.copy()
+            valid[bad], R[bad], residual[bad] = False, np.nan, np.nan
         return R, residual, valid
 
 
@@ -154,7 +167,8 @@ class ViewGatedPCNet:
             x, scale, ok = normalized
             if Q is not None:  # normalisation is rotation-invariant, so the normalised poses are turned
                 x = (x @ np.swapaxes(Q[rows], 1, 2)).astype(np.float32)
-            R_cam[rows], res_cam[rows], _ = self.camera.predict_normalized(x, scale, ok)
+            R_cam[rows], res_cam[rows], camera_ok = self.camera.predict_normalized(x, scale, ok)
+            valid[rows] &= camera_ok
             if Q is not None:
                 R_cam[rows] = np.swapaxes(Q[rows], 1, 2) @ R_cam[rows]
         weight = (camera_frame_weight(R_body, valid, fps, R_cam) if Q is None

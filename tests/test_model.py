@@ -137,6 +137,29 @@ def test_shipped_weights_match_their_checkpoint_free_session_on_real_poses():
     assert np.median(rotation_error_deg(R_hat, pairs.R)) < 10.0
 
 
+def test_a_network_output_that_is_not_a_rotation_makes_its_frame_invalid():
+    """A degenerate 6D output leaves the exported Gram-Schmidt finite but singular (zero
+    columns); that frame has no rotation, so it is invalid and NaN rather than a valid
+    singular 'rotation' passed on to rectification."""
+    from pcnet.models.inference import PCNetSession
+
+    _, _, _, pairs = _pairs(8, 3)
+    sess = PCNetSession()
+    real = sess.session
+
+    class Degenerate:  # the real graph's outputs, with the first pose's rotation collapsed
+        def run(self, names, feeds):
+            r, d = real.run(names, feeds)
+            r[0, :, 1:] = 0.0
+            return r, d
+
+    sess.session = Degenerate()
+    R_hat, residual, valid = sess.predict(pairs.inputs)
+    assert not valid[0] and np.isnan(R_hat[0]).all() and np.isnan(residual[0]).all()
+    assert valid[1:].all()
+    np.testing.assert_allclose(np.linalg.det(R_hat[1:]), 1.0, atol=1e-4)
+
+
 @pytest.mark.skipif(not DEFAULT_WEIGHTS.is_file(), reason="shipped weights not built yet")
 def test_inference_runs_with_torch_blocked():
     """Run-time inference must not need torch: block its import in a fresh interpreter."""
