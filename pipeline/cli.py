@@ -298,7 +298,7 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
     """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
     poses, kinematics in the recording's world frame, CSV/TRC/NPZ/PNG exports and a rerun
     recording (with --opensim also OpenSim scaling and inverse kinematics)."""
-    from pcnet.pipeline.config import COMMAND_LINE, load_run_config, parse_hypothesis, RunConfig
+    from pcnet.pipeline.config import COMMAND_LINE, check_lifter_options, load_run_config, parse_hypothesis, RunConfig
 
     lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
                                         ("key", key)) if v}
@@ -313,7 +313,9 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
                          f"{mass:g} without it")
     if config_path:
         cfg = load_run_config(config_path, **options)
-        cfg.lifter_options.update(lifter_options)
+        if lifter_options:  # named as the flags they came from, then together with the file's
+            cfg.lifter_options.update(check_lifter_options(COMMAND_LINE, cfg.lifter, lifter_options))
+            cfg.validate(f"{config_path} with the command line's options")
     else:
         given = {k: v for k, v in options.items() if v is not None}
         cfg = RunConfig.from_values(COMMAND_LINE, {**given, "lifter_options": lifter_options})

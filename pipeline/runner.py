@@ -411,8 +411,7 @@ def _moved_to_disk(arr: np.ndarray, name: str, store: FrameStore):
 
 def _scaled_in_place(arr, factor, precision=np.float64) -> None:
     """Multiply a float32 pose array (on disk) by ``factor`` (a number, or ``(T,)`` one per
-    frame) in ``precision``, a block at a time (float64:
-    :func:`pcnet.stages.scale.scale_to_height`'s arithmetic)."""
+    frame) in ``precision``, a block at a time."""
     per_frame = np.ndim(factor) == 1
     for rows in frame_blocks(len(arr)):
         f = np.asarray(factor)[rows, None, None] if per_frame else factor
@@ -516,7 +515,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None) -
                              f"{change:.2f}-fold (the person's size in the image; running median over "
                              f"{SIZE_WINDOW_S:g} s, stages/scale.py: size_normalising_factors)")
         if cfg.height is not None:
-            factor = height_factor(cam, cfg.height)
+            factor = height_factor(cam, cfg.height, who=f"{cfg.lifter_output}: --height")
             _scaled_in_place(cam, factor)
             _scaled_in_place(canonical, factor, np.float32)
             root_cam = None if root_cam is None else root_cam * factor

@@ -109,33 +109,6 @@ def height_chain_length(joints: np.ndarray) -> np.ndarray:
     return leg + axial
 
 
-def scale_to_height(joints: np.ndarray, height_m: float) -> tuple[np.ndarray, float]:
-    """Scale a pose sequence to metres from the subject's standing height.
-
-    ``factor = height_m / (median_t chain_t / CHAIN_TO_STATURE)``, where ``chain_t`` is
-    :func:`height_chain_length` and the median runs over the frames where the chain is
-    finite and positive (robust to frames with a mis-estimated limb). See the module
-    docstring for the derivation of ``CHAIN_TO_STATURE = 0.961`` (H36M reference skeleton,
-    Drillis & Contini / Winter 2009 ankle height) and its uncertainty (several per cent).
-
-    Args:
-        joints: ``(T, 17, 3)`` (or ``(17, 3)``) H36M-17 poses in any frame and any
-            consistent units (normalised, pixels, metres); NaN for missing joints.
-        height_m: the subject's standing height in metres.
-
-    Returns:
-        ``(scaled, factor)``: ``scaled`` float32 ``(T, 17, 3)`` = ``joints * factor`` in
-        metres (NaN stays NaN), and ``factor`` (float, metres per input unit).
-
-    Raises:
-        InputError (a ValueError): ``height_m`` not a finite number > 0, wrong shape, or no frame with a
-            complete head-to-ankle chain.
-    """
-    X = check_poses(joints, "joints")
-    factor = height_factor(X, height_m)
-    return (X.astype(np.float64) * factor).astype(np.float32), factor
-
-
 def _measurable_chain(joints: np.ndarray, who: str) -> tuple[np.ndarray, np.ndarray]:
     """:func:`height_chain_length` ``(T,)`` and ``(T,)`` bool, the frames where it is finite
     and positive; an :class:`InputError` naming ``who`` when there is none."""
@@ -147,17 +120,30 @@ def _measurable_chain(joints: np.ndarray, who: str) -> tuple[np.ndarray, np.ndar
     return chain, good
 
 
-def height_factor(joints: np.ndarray, height_m: float) -> float:
-    """:func:`scale_to_height`'s ``factor`` (metres per input unit) alone, for poses in
-    memory or on disk (:class:`~pcnet.stages.core.framestore.FrameArray`, scaled a block at a
-    time by the caller).
+def height_factor(joints: np.ndarray, height_m: float, who: str = "joints") -> float:
+    """Metres per input unit of a pose sequence, from the subject's standing height.
+
+    ``factor = height_m / (median_t chain_t / CHAIN_TO_STATURE)``, where ``chain_t`` is
+    :func:`height_chain_length` and the median runs over the frames where the chain is
+    finite and positive (robust to frames with a mis-estimated limb). See the module
+    docstring for the derivation of ``CHAIN_TO_STATURE = 0.961`` (H36M reference skeleton,
+    Drillis & Contini / Winter 2009 ankle height) and its uncertainty (several per cent).
+    The caller multiplies the poses by it (a block at a time for poses on disk).
+
+    Args:
+        joints: ``(T, 17, 3)`` (or ``(17, 3)``) H36M-17 poses in any frame and any
+            consistent units (normalised, pixels, metres), in memory or a
+            :class:`~pcnet.stages.core.framestore.FrameArray`; NaN for missing joints.
+        height_m: the subject's standing height in metres.
+        who: what the error names (the input file and option).
 
     Raises:
-        InputError (a ValueError): as :func:`scale_to_height`.
+        InputError (a ValueError): ``height_m`` not a finite number > 0, wrong shape, or no
+            frame with a complete head-to-ankle chain.
     """
     if not np.isfinite(height_m) or height_m <= 0:
         raise InputError(f"height_m must be a finite height in metres > 0, got {height_m!r}")
-    chain, good = _measurable_chain(joints, "scale_to_height")
+    chain, good = _measurable_chain(joints, who)
     stature = float(np.median(chain[good])) / CHAIN_TO_STATURE
     return float(height_m) / stature
 

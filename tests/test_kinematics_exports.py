@@ -53,7 +53,7 @@ from pcnet.stages.kinematics import (
 )
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import axis_rotation
-from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length, scale_to_height, size_normalising_factors
+from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length, height_factor, size_normalising_factors
 
 FPS_YOGA = 30.0  # the yoga exports state no rate; 30 fps assumed (fixtures/README.md)
 
@@ -122,9 +122,7 @@ def test_scale_ratio_reproduces_h36m_reference_stature():
     chain = height_chain_length(X)[0]
     assert chain == pytest.approx(1623.79, abs=0.01)
     stature_m = chain / CHAIN_TO_STATURE / 1000.0
-    scaled, factor = scale_to_height(X, stature_m)
-    assert factor == pytest.approx(1e-3, rel=1e-9)
-    assert np.allclose(scaled, X / 1000.0, atol=1e-6)
+    assert height_factor(X, stature_m) == pytest.approx(1e-3, rel=1e-9)
 
 
 def test_scale_uses_bone_lengths_so_any_pose_scales_alike(yoga_cam):
@@ -133,9 +131,9 @@ def test_scale_uses_bone_lengths_so_any_pose_scales_alike(yoga_cam):
     unit = 0.37
     crouched = np.stack([rotate_chain(p, R_KNEE, R_ANKLE, "z", -80.0) for p in X])
     lying = crouched @ axis_rotation("x", np.radians(90.0)).T
-    _, f_ref = scale_to_height(X, 1.70)
-    _, f_unit = scale_to_height(X * unit, 1.70)
-    _, f_lying = scale_to_height(lying, 1.70)
+    f_ref = height_factor(X, 1.70)
+    f_unit = height_factor(X * unit, 1.70)
+    f_lying = height_factor(lying, 1.70)
     assert f_unit == pytest.approx(f_ref / unit, rel=1e-6)
     assert f_lying == pytest.approx(f_ref, rel=1e-6)
 
@@ -144,21 +142,19 @@ def test_scale_real_metric_output_is_plausible_and_nan_safe(yoga_cam):
     X = yoga_cam.copy()
     X[10:50] = np.nan  # missing frames
     X[60:70, L_KNEE] = np.nan  # one leg missing: the other leg is used
-    scaled, factor = scale_to_height(X, 1.70)
+    factor = height_factor(X, 1.70)
     # VideoPose3D is already metric: the factor stays near 1 for an adult.
     assert 0.8 < factor < 1.3
-    assert np.isnan(scaled[10:50]).all() and np.isfinite(scaled[60:70, R_KNEE]).all()
     assert np.isfinite(height_chain_length(X)[60:70]).all()
-    assert scaled.dtype == np.float32
 
 
 def test_scale_errors(yoga_cam):
     with pytest.raises(ValueError, match="height_m"):
-        scale_to_height(yoga_cam, 0.0)
+        height_factor(yoga_cam, 0.0)
     with pytest.raises(ValueError, match="height_m"):
-        scale_to_height(yoga_cam, -1.7)
-    with pytest.raises(ValueError, match="no frame"):
-        scale_to_height(np.full((5, 17, 3), np.nan), 1.7)
+        height_factor(yoga_cam, -1.7)
+    with pytest.raises(ValueError, match="clip.npy: --height: no frame"):
+        height_factor(np.full((5, 17, 3), np.nan), 1.7, who="clip.npy: --height")
 
 
 def test_image_scaled_sizes_are_made_constant_per_frame(yoga_cam):

@@ -476,6 +476,10 @@ def test_short_recordings_and_hidden_feet_are_flagged(tmp_path):
     assert "WARNING           no ankle visible in any frame: no floor" in res.output
     with np.load(tmp_path / "b" / "canonical.npz") as npz:
         np.testing.assert_allclose(npz["joints_world"][:, PELVIS, 1], 0.0, atol=1e-9)
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "no_feet.npy", "--fps", "30",
+                  "--height", "1.75", "--no-recording", "--out", tmp_path / "c")
+    assert res.exit_code == 1 and not (tmp_path / "c").exists()
+    assert f"{tmp_path / 'no_feet.npy'}: --height: no frame has a complete ankle" in res.output
 
 
 def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):

@@ -377,6 +377,14 @@ def test_lifter_options_are_type_checked_against_the_adapter(user_folder):
                     "a manifest gives each as a column of its own")
 
 
+def test_a_flag_given_with_a_config_is_named_as_the_flag(user_folder):
+    (user_folder / "run.toml").write_text(f'lifter = "motionbert"\nlifter_output = "{FIXTURES / "boxing_X3D_f000-059.npy"}"'
+                                          '\nfps = 30\nout = "o"\n')
+    _one_line_error(_invoke("run", "--config", "run.toml", "--focal-px", "1000"),
+                    "--focal-px: expected only the options --lifter motionbert takes")
+    assert not (user_folder / "o").exists()
+
+
 def test_unknown_lifter_options_in_toml_end_in_one_line(user_folder):
     (user_folder / "run.toml").write_text('lifter = "generic"\nlifter_output = "poses.npy"\nfps = 30\n'
                                           'out = "o"\n[lifter_options]\nfoo = 1\n')
