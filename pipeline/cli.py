@@ -75,10 +75,12 @@ def main() -> None:
 
 
 def _new_output_file(path: str | os.PathLike, option: str, overwrite: bool = False, inputs=(),
-                     companions: tuple[str, ...] = ()) -> None:
+                     companions: tuple[str, ...] = (), written_by_pcnet=None) -> None:
     """Refuse, before any work, an output file that pcnet must not write: its folder is
     missing or read-only, it is one of the ``inputs``, or it (or a ``companions`` file written
-    beside it, e.g. ``.json`` metadata) exists and ``overwrite`` is not set."""
+    beside it, e.g. ``.json`` metadata) exists and ``overwrite`` is not set, or is set but
+    ``written_by_pcnet(file)`` (``(Path) -> bool``, the command's own output's signature) does
+    not recognise the file: pcnet replaces only files it wrote."""
     target = Path(path).resolve()
     folder = target.parent
     if not folder.is_dir():
@@ -93,6 +95,39 @@ def _new_output_file(path: str | os.PathLike, option: str, overwrite: bool = Fal
         if file.exists() and not overwrite:
             raise InputError(f"{option} {path}: expected a new file, got an existing {file.name}; "
                              f"pass --overwrite to replace it")
+        if file.exists() and written_by_pcnet is not None and not written_by_pcnet(file):
+            raise InputError(f"{option} {path}: expected a new file or one this command wrote, got an existing "
+                             f"{file.name} that it did not write; --overwrite replaces only pcnet's own files")
+
+
+def _json_object_with(file: Path, keys: set[str]) -> bool:
+    """Whether ``file`` is a JSON object holding every key in ``keys``."""
+    try:
+        data = json.loads(file.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False
+    return isinstance(data, dict) and keys <= data.keys()
+
+
+#: What identifies each single-file output of pcnet when --overwrite is asked to replace it.
+_EVALUATE_JSON_KEYS = {"method", "views", "split", "split_scheme", "data"}
+_EXPORT_JSON_KEYS = {"model_config", "opset"}
+_RECTIFY_MEMBERS = {"rotation.npy", "canonical.npy", "up.npy", "valid.npy", "method.npy", "mode.npy"}
+
+
+def _rectify_output(file: Path) -> bool:
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(file) as archive:
+            return _RECTIFY_MEMBERS <= set(archive.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
+
+
+def _exported_model(file: Path) -> bool:
+    """An ``.onnx`` counts as pcnet's where its ``.json`` description beside it does."""
+    return _json_object_with(file.with_suffix(".json"), _EXPORT_JSON_KEYS)
 
 
 _camera_prior_option = click.option(
@@ -152,7 +187,8 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
     from pcnet.stages.core.atomic import write_text
 
     if json_out:
-        _new_output_file(json_out, "--json", overwrite, inputs=(data, weights))
+        _new_output_file(json_out, "--json", overwrite, inputs=(data, weights),
+                         written_by_pcnet=lambda f: _json_object_with(f, _EVALUATE_JSON_KEYS))
     check_method_weights(method, weights, "--weights")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
@@ -191,7 +227,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     from pcnet.stages.sinks.exports import write_npz
     from pcnet.pipeline.rectification import rectify as run_rectify
 
-    _new_output_file(out_path, "--out", overwrite, inputs=(input_path, weights))
+    _new_output_file(out_path, "--out", overwrite, inputs=(input_path, weights), written_by_pcnet=_rectify_output)
     if Path(out_path).suffix.lower() != ".npz":
         raise InputError(f"--out {out_path}: expected a file name ending in .npz (an npz archive is written), got "
                          f"{Path(out_path).suffix or 'no suffix'}")
@@ -238,7 +274,8 @@ def export(checkpoint, out_path, overwrite):
     it."""
     from pcnet.models.export import export_checkpoint
 
-    _new_output_file(out_path, "--out", overwrite, inputs=(checkpoint,), companions=(".json",))
+    _new_output_file(out_path, "--out", overwrite, inputs=(checkpoint,), companions=(".json",),
+                     written_by_pcnet=_exported_model)
     click.echo(f"wrote {export_checkpoint(checkpoint, out_path)}")
 
 

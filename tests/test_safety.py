@@ -102,6 +102,31 @@ def test_overwrite_replaces_a_previous_output_and_refuses_once_the_user_added_a_
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp folder left
 
 
+def test_overwrite_of_a_single_output_file_replaces_only_what_pcnet_wrote(user_folder):
+    """rectify, evaluate --json and export write one file (export two): --overwrite replaces
+    their own earlier output and refuses a user's file of the same name, untouched."""
+    import numpy as np
+
+    np.savez(user_folder / "theirs.npz", rotation=np.eye(3))
+    (user_folder / "theirs.json").write_text('{"results": [1, 2]}')
+    before = _contents(user_folder)
+    rectify = ("rectify", "poses.npy", "--method", "geometric", "--overwrite", "--out")
+    _one_line_error(_invoke(*rectify, "theirs.npz"), "theirs.npz", "did not write")
+    evaluate = ("evaluate", "--method", "geometric", "--data", str(FIXTURES / "mocap_small.npz"), "--max-frames", "20",
+                "--overwrite", "--json")
+    _one_line_error(_invoke(*evaluate, "theirs.json"), "theirs.json", "did not write")
+    (user_folder / "model.onnx").write_bytes(b"not ours")
+    _one_line_error(_invoke("export", "--checkpoint", "notes.txt", "--out", "theirs.onnx", "--overwrite"),
+                    "theirs.json", "did not write")
+    _one_line_error(_invoke("export", "--checkpoint", "notes.txt", "--out", "model.onnx", "--overwrite"),
+                    "model.onnx", "did not write")
+    assert _contents(user_folder) == {**before, "model.onnx": b"not ours"}
+    for args, out in ((rectify, "r.npz"), (evaluate, "e.json")):
+        assert _invoke(*args, out).exit_code == 0
+        res = _invoke(*args, out)  # its own output is recognised and replaced
+        assert res.exit_code == 0, res.output
+
+
 def test_a_file_the_user_adds_to_the_old_output_during_an_overwrite_is_kept(user_folder):
     """--overwrite replaces the old output only if it still holds pcnet's files alone when the
     new one is ready: a file added while the run worked is the user's."""
