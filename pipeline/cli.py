@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import shutil
 import signal
 import sys
 from pathlib import Path
@@ -443,7 +444,7 @@ def opensim(out_dir, height, mass, overwrite):
     Writes OUT_DIR/scaled_model.osim, ik.mot and ik_marker_errors.sto and prints the marker
     RMS / max error and the IK speed (stages/opensim_ik.py).
     """
-    from pcnet.pipeline.outdir import is_owned, register_files
+    from pcnet.pipeline.outdir import is_owned, register_files, stale_staging
     from pcnet.stages.opensim_ik import ik_fit_flags, import_opensim, OUTPUTS, scale_and_ik
 
     folder = Path(out_dir)
@@ -458,6 +459,8 @@ def opensim(out_dir, height, mass, overwrite):
                          f"a metric lifter or --height), got none")
     import_opensim()  # before any work: without OpenSim, one line saying how to get it
 
+    for leftover in stale_staging(folder):  # of a killed `pcnet opensim` here
+        shutil.rmtree(leftover, ignore_errors=True)
     # scale_and_ik refuses earlier outputs without --overwrite; with it, only pcnet's own go
     foreign = [name for name in OUTPUTS if overwrite and (folder / name).exists() and not is_owned(folder, name)]
     if foreign:

@@ -108,8 +108,24 @@ def foreign_entries(folder: Path) -> list[str]:
     listed = read_marker(folder).get("files")
     if not isinstance(listed, dict):
         listed = {}
+    stale = {entry.name for entry in stale_staging(folder)}
     return [entry.name for entry in sorted(folder.iterdir(), key=lambda p: p.name)
-            if entry.name != MARKER and not _listed_unchanged(entry, listed)]
+            if entry.name != MARKER and entry.name not in stale and not _listed_unchanged(entry, listed)]
+
+
+def stale_staging(folder: Path) -> list[Path]:
+    """Staging folders that a killed `pcnet opensim` left inside ``folder`` (pcnet's own,
+    their process gone): the next `pcnet opensim` removes them, and `pcnet run --overwrite`
+    does not count them as the user's."""
+    from pcnet.stages.opensim_ik import staging_owner
+
+    stale = []
+    for entry in sorted(folder.iterdir()):
+        owner = staging_owner(entry.name)
+        if owner and entry.is_dir() and not entry.is_symlink() and not _process_alive(
+                {"pid": owner[0], "host": owner[1]}):
+            stale.append(entry)
+    return stale
 
 
 def _listed_unchanged(path: Path, listed: dict) -> bool:

@@ -45,6 +45,7 @@ import contextlib
 import math
 import os
 import shutil
+import socket
 import time
 import uuid
 from pathlib import Path
@@ -207,6 +208,21 @@ def _parse_sto(path: Path) -> tuple[list[str], np.ndarray]:
     return [c.strip() for c in cols], np.asarray(rows, dtype=float).reshape(-1, len(cols))
 
 
+#: Start of the hidden folder :func:`scale_and_ik` works in inside the output folder; the rest
+#: of its name is ``<pid>@<host>-<random>``, so that a killed run's leftover can be told from
+#: a live run's (:func:`staging_owner`).
+STAGING_PREFIX = ".pcnet-opensim-tmp-"
+
+
+def staging_owner(name: str) -> tuple[int, str] | None:
+    """``(pid, host)`` of the process that made a :func:`scale_and_ik` staging folder called
+    ``name``, or None when ``name`` is not one."""
+    if not name.startswith(STAGING_PREFIX):
+        return None
+    pid, at, host = name[len(STAGING_PREFIX):].rpartition("-")[0].partition("@")
+    return (int(pid), host) if pid.isdigit() and at and host else None
+
+
 def scale_and_ik(
     trc_path: str | os.PathLike,
     out_dir: str | os.PathLike,
@@ -284,7 +300,7 @@ def scale_and_ik(
     if not complete.any():
         raise InputError(f"{trc}: expected at least one frame with all 17 joint markers for scaling, got none")
     fps = 1.0 / float(np.median(np.diff(times)))
-    tmp = out / f".pcnet-opensim-tmp-{uuid.uuid4().hex[:12]}"
+    tmp = out / f"{STAGING_PREFIX}{os.getpid()}@{socket.gethostname()}-{uuid.uuid4().hex[:12]}"
     tmp.mkdir()
     try:
         # The ScaleTool averages marker-pair distances (and the placer marker positions) over

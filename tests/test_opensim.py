@@ -73,10 +73,15 @@ def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
     import shutil
 
+    import socket
+
     out = tmp_path / "run"
     shutil.copytree(short_run, out)
+    killed = out / f".pcnet-opensim-tmp-999999999@{socket.gethostname()}-0123456789ab"  # a killed run's
+    killed.mkdir()
     res = _cli("opensim", out, "--height", 1.75)
     assert res.exit_code == 0, res.output
+    assert not killed.exists() and not list(out.glob(".pcnet-opensim-tmp-*"))
     assert "marker RMS" in res.output and "frames/s" in res.output
     listed = json.loads((out / ".pcnet-output").read_text())["files"]
     assert {"scaled_model.osim", "ik.mot", "ik_marker_errors.sto"} <= set(listed)

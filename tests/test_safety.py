@@ -127,6 +127,26 @@ def test_overwrite_of_a_single_output_file_replaces_only_what_pcnet_wrote(user_f
         assert res.exit_code == 0, res.output
 
 
+def test_a_killed_opensim_runs_staging_folder_does_not_make_the_output_the_users(user_folder):
+    """`pcnet opensim` works in a hidden folder inside the output; one left by a killed run
+    (its process gone) is pcnet's, so --overwrite still replaces the output, while one of a
+    live process (or of another host sharing the folder) still counts."""
+    import socket
+
+    assert _invoke(*RUN, "--out", "o").exit_code == 0
+    for live in (f"1@{socket.gethostname()}", "999999999@another-host"):
+        staging = user_folder / "o" / f".pcnet-opensim-tmp-{live}-0123456789ab"
+        staging.mkdir()
+        _one_line_error(_invoke(*RUN, "--out", "o", "--overwrite"), staging.name)
+        staging.rmdir()
+    killed = user_folder / "o" / f".pcnet-opensim-tmp-999999999@{socket.gethostname()}-0123456789ab"
+    killed.mkdir()
+    (killed / "scale_frames.trc").write_text("half")
+    res = _invoke(*RUN, "--out", "o", "--overwrite")
+    assert res.exit_code == 0, res.output
+    assert not killed.exists()
+
+
 def test_a_file_the_user_adds_to_the_old_output_during_an_overwrite_is_kept(user_folder):
     """--overwrite replaces the old output only if it still holds pcnet's files alone when the
     new one is ready: a file added while the run worked is the user's."""
