@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from .registry import register_3d
 from .types import AdapterError, Poses3D
 from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, pelvis_offset,

@@ -6,7 +6,7 @@ pipeline into its own output folder (written beside it and renamed in, so a fail
 stopped row leaves no half-written folder); a row that succeeded gets a resume marker
 (:mod:`pcnet.pipeline.batch_marker`) so that a re-run skips it while its inputs, settings
 and the pcnet version are unchanged. The JSON summary (default ``MANIFEST.pcnet_batch.json``)
-records every row: see :data:`SUMMARY_FIELDS`.
+records every row: its fields are in docs/cluster.md, "Results".
 """
 
 from __future__ import annotations
@@ -528,7 +528,7 @@ class _SummaryWriter:
 def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
               progress: Callable[[str], None] | None = None) -> BatchReport:
     """Validate ``manifest``, then run its rows that need running with ``options.engine``
-    and write the JSON summary (:data:`SUMMARY_FIELDS`).
+    and write the JSON summary (fields: docs/cluster.md, "Results").
 
     ``progress`` gets one line per row as it finishes. Ctrl-C (or SIGTERM) stops the batch:
     no further row starts, running rows are stopped without leaving half-written folders,
@@ -605,30 +605,6 @@ def _progress_line(done: int, total: int, item: PlannedRow, result: dict) -> str
     line = f"[{done}/{total}] line {item.line} {result['status']}{took}: {detail}"
     # the row's WARNING lines, as `pcnet run` prints them: what pcnet could not tell
     return "\n".join([line, *(f"    WARNING {w}" for w in result.get("warnings") or [])])
-
-
-#: What each per-row field of the JSON summary (and the table) means.
-SUMMARY_FIELDS = {
-    "row": "1-based row number in the manifest (below the header)",
-    "line": "line of the manifest the row is on",
-    "out": "the row's output folder (absolute)",
-    "status": "ok: ran and wrote its output; skipped: not run, its output is complete and current (or, with "
-              "--retry-failed, it succeeded last time); failed: ran and failed (see error), its out left as it was; "
-              "cancelled: unfinished when the batch was interrupted, its out left as it was; pending: still running "
-              "(only in a summary written while the batch runs)",
-    "frames": "frames of the recording (0 when it did not run through)",
-    "valid": "frames with a rectified pose",
-    "mode": "rectification mode used (frame, sequence, smooth)",
-    "seconds": "run time of the last attempt in its worker (null: not run, or its worker died)",
-    "error": "one-line reason of a failed row",
-    "warnings": "the WARNING lines `pcnet run` prints for the recording (what pcnet could not tell: a track "
-                "switch, poses unlike the training data, no fixed world frame, ...); also on stderr as the row ends",
-    "host": "host name of the worker that ran the last attempt",
-    "pid": "process id of that worker",
-    "attempts": "times the row was started (more than 1 when a worker died and --retries allowed another)",
-    "threads": "threads per library the worker was given (OMP/OpenBLAS/MKL_NUM_THREADS, PCNET_ORT_THREADS)",
-    "traceback": "only for a failure that is a bug of pcnet (not bad input): its Python traceback",
-}
 
 
 def format_summary(report: BatchReport) -> str:

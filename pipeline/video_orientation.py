@@ -10,6 +10,7 @@ roll all refer to the displayed image.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -21,7 +22,7 @@ from pcnet.stages.core.framestore import frame_blocks
 #: taken as in that frame (detectors extrapolate joints of a body cut by the edge).
 EDGE_MARGIN = 0.05
 #: Which frames of a video stored turned from how it is displayed the 2D keypoints are in.
-KEYPOINT_FRAMES = ("stored", "displayed", "unknown")
+KeypointFrame = Literal["stored", "displayed", "unknown"]
 #: A video displayed upside down from how it is stored keeps its frame size; then the body
 #: tells: the share of frames whose 2D thorax lies more than half a torso length below the
 #: pelvis (head-down in the stored frames: upright as displayed), or above it, needed to call it.
@@ -71,9 +72,9 @@ def stored_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int) ->
     return np.stack(turned[rotation_deg], -1)
 
 
-def keypoint_frame(video: VideoInfo, kp2d, image_size: tuple[int, int] | None = None) -> str:
+def keypoint_frame(video: VideoInfo, kp2d, image_size: tuple[int, int] | None = None) -> KeypointFrame:
     """Which frames of a video stored turned from how it is displayed the 2D keypoints are in
-    (:data:`KEYPOINT_FRAMES`): for a quarter turn, the one whose size the keypoint file states
+    (:data:`KeypointFrame`): for a quarter turn, the one whose size the keypoint file states
     (``image_size``, ``(width, height)``), else the one whose size holds every present
     keypoint (within :data:`EDGE_MARGIN`), ``"unknown"`` when both or neither do; for a half
     turn (same size), ``"stored"`` when the body stands on its head in at least
@@ -120,14 +121,14 @@ class DisplayOrientation:
     """What :func:`display_orientation` decided for a recording.
 
     rotation_deg: the video's display rotation (0 without a video); keypoint_frame: one of
-    :data:`KEYPOINT_FRAMES`; turn: :func:`display_turn` when the keypoints and lifter output
+    :data:`KeypointFrame`; turn: :func:`display_turn` when the keypoints and lifter output
     are in the stored frames and are to be turned into the displayed one, else ``None``;
     note: a line for the run summary (empty without a display rotation); displayed_size:
     the video's ``(width, height)`` as displayed.
     """
 
     rotation_deg: int = 0
-    keypoint_frame: str = "unknown"
+    keypoint_frame: KeypointFrame = "unknown"
     turn: np.ndarray | None = None
     note: str = ""
     displayed_size: tuple[int, int] = (0, 0)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -20,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import FIXTURES
+from conftest import FIXTURES, ROOT
 
 from pcnet.pipeline.batch import BatchOptions, run_batch
 from pcnet.pipeline.batch_marker import BATCH_MARKER
@@ -115,6 +116,11 @@ def test_rows_run_in_workers_and_one_failing_row_does_not_stop_the_others(tmp_pa
     assert not (tmp_path / "b2").exists()
     marker = json.loads((tmp_path / "b1" / BATCH_MARKER).read_text())
     assert marker["settings"]["method"] == "pcnet" and len(marker["inputs"]["lifter_output"]["sha256"]) == 64
+    # every field of a row is documented in docs/cluster.md's table, and nothing else is listed
+    table = (ROOT / "docs" / "cluster.md").read_text().split("## Results")[1].split("\n## ")[0]
+    documented = set(re.findall(r"`(\w+)`", "".join(ln.split(" | ")[0] for ln in table.splitlines()
+                                                      if ln.startswith("| `"))))
+    assert set(b1) | {"traceback"} == documented
 
 
 def test_the_whole_manifest_is_checked_before_any_work(tmp_path):
