@@ -29,7 +29,7 @@ from pcnet.stages.core.errors import InputError
 from .batch_marker import completed_record, input_files, pcnet_version, read_batch_marker
 from .batch_worker import cpu_cores
 from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, RunConfig
-from .entry import EXIT_INTERRUPTED
+from .interrupt import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale, foreign_entries, listed_files_missing
 
 ENGINES = ("local", "ray")

@@ -38,7 +38,7 @@ def _worker_main(conn, threads: int) -> None:
     unwinds as ``KeyboardInterrupt`` like ``pcnet run``'s, so the row's staged output folder
     is removed before the process exits.
     """
-    from .entry import raise_interrupt
+    from .interrupt import raise_interrupt
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, raise_interrupt)

@@ -15,7 +15,7 @@ import click
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
-from pcnet.pipeline.entry import EXIT_INTERRUPTED, raise_interrupt
+from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, raise_interrupt
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, check_method_weights

@@ -6,24 +6,8 @@ from __future__ import annotations
 
 import signal
 import sys
-import threading
 
-EXIT_INTERRUPTED = 130
-_interrupted = threading.Event()
-
-
-def raise_interrupt(signum, frame) -> None:
-    """Signal handler: remember the interrupt, then unwind like Ctrl-C."""
-    _interrupted.set()
-    raise KeyboardInterrupt(f"signal {signum}")
-
-
-def check_interrupted() -> None:
-    """Raise ``KeyboardInterrupt`` if an interrupt arrived that something swallowed (Python
-    ignores exceptions raised in weakref callbacks and destructors), so that no output is
-    published after the user asked to stop."""
-    if _interrupted.is_set():
-        raise KeyboardInterrupt("interrupted earlier")
+from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, raise_interrupt, was_interrupted
 
 
 def main() -> None:
@@ -48,7 +32,7 @@ def main() -> None:
         err.show()
         raise SystemExit(err.exit_code) from None
     except (click.Abort, KeyboardInterrupt):
-        if not _interrupted.is_set():  # click's Abort for an end of input at a prompt
+        if not was_interrupted():  # click's Abort for an end of input at a prompt
             _stop("Aborted!", status=1)
         _stop("pcnet: interrupted; nothing half-written was left behind")
     raise SystemExit(code if isinstance(code, int) else 0)

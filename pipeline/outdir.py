@@ -31,7 +31,7 @@ from pathlib import Path
 from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError
 
-from .entry import check_interrupted
+from .interrupt import check_interrupted
 
 MARKER = ".pcnet-output"
 TMP_TAG = ".pcnet-tmp-"

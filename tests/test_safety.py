@@ -474,7 +474,7 @@ def test_ctrl_c_while_click_parses_the_arguments_is_exit_130(user_folder, monkey
     """An interrupt that lands while click parses the command line (outside any command's
     body, where click itself would print "Aborted!" and exit 1) still ends in one line and
     exit 130. Deterministic counterpart of the timed subprocess test below."""
-    from pcnet.pipeline import entry
+    from pcnet.pipeline import entry, interrupt
 
     def interrupted_parse(*args, **kwargs):
         entry.raise_interrupt(signal.SIGINT, None)
@@ -488,7 +488,7 @@ def test_ctrl_c_while_click_parses_the_arguments_is_exit_130(user_folder, monkey
     finally:
         for sig, handler in handlers.items():
             signal.signal(sig, handler)
-        entry._interrupted.clear()
+        interrupt._interrupted.clear()
     err = capsys.readouterr().err
     assert stop.value.code == 130
     assert err.strip() == "pcnet: interrupted; nothing half-written was left behind"

@@ -1,0 +1,29 @@
+"""How pcnet remembers and reports an interrupt (Ctrl-C, SIGTERM): the handler the console
+entry point, the CLI and batch workers install, and the check that output-publishing code
+makes before it publishes."""
+
+from __future__ import annotations
+
+import threading
+
+EXIT_INTERRUPTED = 130
+_interrupted = threading.Event()
+
+
+def raise_interrupt(signum, frame) -> None:
+    """Signal handler: remember the interrupt, then unwind like Ctrl-C."""
+    _interrupted.set()
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def was_interrupted() -> bool:
+    """Whether an interrupt arrived in this process."""
+    return _interrupted.is_set()
+
+
+def check_interrupted() -> None:
+    """Raise ``KeyboardInterrupt`` if an interrupt arrived that something swallowed (Python
+    ignores exceptions raised in weakref callbacks and destructors), so that no output is
+    published after the user asked to stop."""
+    if was_interrupted():
+        raise KeyboardInterrupt("interrupted earlier")
