@@ -130,7 +130,7 @@ def _json_errors(p: Path) -> Iterator[None]:
     except _FloatOverflow as exc:
         raise AdapterError(p, "content", "JSON numbers within float64 range", _short(exc, 40)) from None
     except json.JSONDecodeError as exc:
-        raise AdapterError(p, "content", "valid JSON", f"{exc.msg} at line {exc.lineno} column {exc.colno}") from exc
+        raise AdapterError(p, "content", "valid JSON", f"{exc.msg.removesuffix(' at')} at line {exc.lineno} column {exc.colno}") from exc
     except ValueError as exc:  # int digit limit (CVE-2020-10735 guard)
         raise AdapterError(p, "content", "JSON numbers of at most 4300 digits", _short(exc)) from exc
     except RecursionError as exc:

@@ -15,7 +15,7 @@ from pcnet.pipeline.rectification import rectify
 from pcnet.stages.core.rotations import decompose_camera_rotation
 
 path = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(pcnet.pipeline.__file__).parent / "example_data" / "X3D.npy"
-joints = np.load(path)  # (T, 17, 3), camera frame: x right, y down, z forward
+joints = np.load(path, allow_pickle=False)  # (T, 17, 3), camera frame: x right, y down, z forward
 res = rectify(joints, method="pcnet")  # or "pcnet-rigid", "geometric"
 heading, pitch, roll = decompose_camera_rotation(res.rotation)
 print(f"{path.name}: {len(joints)} frames, {int(res.valid.sum())} valid")

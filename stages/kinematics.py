@@ -714,8 +714,9 @@ class FrameGatherer:
     ``add(block)`` appends a block; ``result()`` returns the gathered :class:`Kinematics`.
 
     Raises:
-        InputError: blocks that differ in joints, angles, units, rate or cutoff, more frames
-            than ``num_frames``, or ``result()`` before exactly ``num_frames`` frames came.
+        RuntimeError: blocks that differ in joints, angles, units, rate or cutoff, more frames
+            than ``num_frames``, or ``result()`` before exactly ``num_frames`` frames came (a
+            caller's bug, not bad input).
     """
 
     def __init__(self, num_frames: int, joints: Iterable[str] | None = None, dtype: type | None = None,
@@ -740,10 +741,10 @@ class FrameGatherer:
         elif (k.joint_names, tuple(k.angles), k.units, k.fps, k.cutoff_hz) != (
                 self._first.joint_names, tuple(self._first.angles), self._first.units, self._first.fps,
                 self._first.cutoff_hz):
-            raise InputError("FrameGatherer: blocks differ in joints, angles, units, rate or cutoff")
+            raise RuntimeError("FrameGatherer: blocks differ in joints, angles, units, rate or cutoff")
         stop = self.filled + k.num_frames
         if stop > self.num_frames:
-            raise InputError(f"FrameGatherer: more than the {self.num_frames} frames announced")
+            raise RuntimeError(f"FrameGatherer: more than the {self.num_frames} frames announced")
         rows = slice(self.filled, stop)
         for n in _FRAME_ARRAYS:
             self._arrays[n][rows] = getattr(k, n)
@@ -753,7 +754,7 @@ class FrameGatherer:
 
     def result(self) -> Kinematics:
         if self._first is None or self.filled != self.num_frames:
-            raise InputError(f"FrameGatherer: {self.filled} of {self.num_frames} frames gathered")
+            raise RuntimeError(f"FrameGatherer: {self.filled} of {self.num_frames} frames gathered")
         return replace(self._first, **self._arrays, angles=MappingProxyType(self._angles))
 
 

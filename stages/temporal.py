@@ -44,8 +44,9 @@ POSE_EVIDENCE_SIGMA_DEG = float(np.sqrt(np.mean(np.square(list(SIGMA_SYS_DEG.val
 
 
 def mean_trunk(joints_cam: np.ndarray, ok: np.ndarray) -> np.ndarray | None:
-    """Mean unit trunk direction (pelvis -> thorax) over the frames ``ok`` of ``(T, 17, 3)``
-    camera-frame joints, ``(3,)``; ``None`` if no frame has both joints."""
+    """Mean of the unit trunk directions (pelvis -> thorax) over the frames ``ok`` of
+    ``(T, 17, 3)`` camera-frame joints, ``(3,)`` (not itself unit length: shorter the more
+    the trunk turns over the recording); ``None`` if no frame has both joints."""
     t = np.asarray(joints_cam[:, THORAX], np.float64) - np.asarray(joints_cam[:, PELVIS], np.float64)
     n = np.linalg.norm(t, axis=-1)
     use = ok & np.isfinite(t).all(-1) & (n > 0)
