@@ -169,7 +169,6 @@ _heading_option = click.option(
               help="Input noise: frame (each frame's error drawn anew; --noise alone), lifter (errors that persist "
                    "over a clip like a monocular lifter's, pcnet.models.lifter_noise; use a per-clip or static "
                    "camera for sequence modes) or none.")
-@click.option("--no-noise", "no_noise", is_flag=True, hidden=True, help="Same as --noise none (older spelling).")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="Per-frame (paper) or sequence-aware rectification of each clip.")
 @_heading_option
@@ -179,7 +178,7 @@ _heading_option = click.option(
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --json file.")
-def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise, no_noise, mode, heading, camera_prior,
+def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise, mode, heading, camera_prior,
              seed, max_frames, weights, json_out, overwrite):
     """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras.
     --max-frames scores N evenly spaced frames of whole rectified clips (same method, same
@@ -193,7 +192,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
     check_method_weights(method, weights, "--weights")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
-    result = run_eval(method, data, split, views, seed, max_frames, weights, camera, "none" if no_noise else noise,
+    result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise,
                       mode, heading, split_scheme=split_scheme, unseen_by=unseen_by,
                       camera_prior=camera_prior is not False)
     click.echo(format_table(result))

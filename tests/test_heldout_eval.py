@@ -358,7 +358,7 @@ def test_evaluate_cli_noise_and_scheme_options(tmp_path):
     base = ["evaluate", "--method", "geometric", "--data", str(TEST_CLIPS), "--split", "all"]
     seen = {}
     for extra, kind in (([], "none"), (["--noise"], "frame"), (["--noise", "lifter"], "lifter"),
-                        (["--noise", "--no-noise"], "none"), (["--noise", "frame", "--mode", "frame"], "frame")):
+                        (["--noise", "none"], "none"), (["--noise", "frame", "--mode", "frame"], "frame")):
         out = tmp_path / "r.json"
         res = CliRunner().invoke(main, base + extra + ["--json", str(out), "--overwrite"])
         assert res.exit_code == 0, res.output
