@@ -126,6 +126,9 @@ class AdaptiveGCN(nn.Module):
         return g * self.A0 + (1 - g) * self.learned_adjacency()
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """Per-joint features ``(B, 17, hidden)`` float32 of normalised poses ``x``
+        ``(B, 17, 3)`` (as :meth:`PCNet.forward` takes them): residual GCN layers
+        ``h + Dropout(GELU(LayerNorm(A W h)))`` on the adaptive graph (paper 2.1.1)."""
         A = self.adjacency()
         h = self.embed(x)
         for lin, norm in zip(self.layers, self.norms):
@@ -166,6 +169,12 @@ class PCNet(nn.Module):
             nn.init.zeros_(self.res_head[-1].bias)
 
     def forward(self, x: torch.Tensor, return_aux: bool = False):
+        """``x`` ``(B, 17, 3)`` float32: H36M-17 camera-frame poses (OpenCV axes),
+        pelvis-centred and scale-normalised by :func:`pcnet.models.preprocess.normalize_input`.
+        Returns ``R_hat`` ``(B, 3, 3)`` canonical->camera (Gram-Schmidt of the 6D head, paper
+        2.1.2) and the residual ``delta`` ``(B, 17, 3)`` in the normalised units (zeros without
+        a residual head); with ``return_aux`` also ``{"attention": (B, heads, 17, 17) or None,
+        "gate": (B, 2)}``."""
         B = body_frame(x) if self.cfg.input_frame == "body" else None
         if B is not None:
             x = x @ B

@@ -10,13 +10,15 @@ METRICS = ("rotation_deg", "tilt_deg", "heading_deg", "mpjpe_mm", "pa_mpjpe_mm")
 
 
 def rotation_error_deg(R_hat: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """Geodesic angle between ``R_hat`` and ``R`` ``(N, 3, 3)``, degrees ``(N,)``."""
+    """Geodesic angle between ``R_hat`` and ``R`` ``(N, 3, 3)``, degrees ``(N,)`` in [0, 180];
+    NaN where either has a NaN (an invalid frame)."""
     return np.degrees(geodesic_angle(R_hat, R))
 
 
 def tilt_error_deg(R_hat: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """Angle between predicted and true up vectors ``R_hat[:, :, 1]`` vs ``R[:, :, 1]``,
-    degrees ``(N,)``."""
+    """Angle between predicted and true up vectors ``R_hat[:, :, 1]`` vs ``R[:, :, 1]`` (the
+    canonical +Y in the camera frame), degrees ``(N,)`` in [0, 180]; NaN where either has a
+    NaN."""
     return np.degrees(angle_between(R_hat[..., :, 1], R[..., :, 1]))
 
 

@@ -49,14 +49,17 @@ def matrix_to_rotation_6d(R: np.ndarray) -> np.ndarray:
 
 
 def geodesic_angle(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
-    """Geodesic distance on SO(3), radians, ``(...)``: ``arccos((tr(R1 R2^T) - 1) / 2)``
-    with the argument clamped to [-1, 1] (3DPCNet paper eq. 1)."""
+    """Geodesic distance on SO(3), radians in [0, pi], ``(...)`` for rotation matrices ``R1``,
+    ``R2`` ``(..., 3, 3)`` (broadcast): ``arccos((tr(R1 R2^T) - 1) / 2)`` with the argument
+    clamped to [-1, 1] (3DPCNet paper eq. 1). NaN where either matrix has a NaN."""
     tr = np.einsum("...ij,...ij->...", R1, R2)  # tr(R1 R2^T)
     return np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0))
 
 
 def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Angle in radians between vectors ``(..., 3)``, robust near 0 and pi (atan2 form)."""
+    """Angle in radians, [0, pi], between vectors ``u`` and ``v`` ``(..., 3)`` (broadcast; any
+    length, unit not needed), ``(...)``; robust near 0 and pi (atan2 form). NaN where either
+    has a NaN; 0 where either is zero-length."""
     cross = np.linalg.norm(np.cross(u, v), axis=-1)
     return np.arctan2(cross, np.sum(u * v, axis=-1))
 
@@ -78,7 +81,11 @@ def twist_angle(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
 
 def axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
     """Right-handed rotation matrices ``(..., 3, 3)`` about ``"x"``, ``"y"`` or ``"z"`` by
-    ``angle`` radians ``(...)`` (counter-clockwise looking down the axis)."""
+    ``angle`` radians ``(...)`` (counter-clockwise looking down the axis).
+
+    Raises:
+        KeyError: ``axis`` not one of ``"x"``, ``"y"``, ``"z"``.
+    """
     angle = np.asarray(angle, dtype=np.float64)
     c, s = np.cos(angle), np.sin(angle)
     o, z = np.ones_like(angle), np.zeros_like(angle)
