@@ -1,10 +1,13 @@
-"""The resume marker of ``pcnet batch``: ``OUT/.pcnet_batch.json``, written after a row
-succeeded, says which inputs (sha256), settings and pcnet version produced that output.
+"""The resume marker of ``pcnet batch``: ``OUT/.pcnet_batch.json``, written into a row's
+staged output before it is swapped in (so the output never appears without it), says which
+inputs (sha256), settings and pcnet version produced that output.
 
 A re-run skips a row whose output folder is complete (pcnet's own output marker says
-``complete``) and whose batch marker matches the row's inputs, settings and the installed
-pcnet version. The marker is listed in the output folder's ``.pcnet-output`` file list, so a
-later ``--overwrite`` (or a re-run after an input changed) may replace the folder.
+``complete``) and whose batch marker matches the row's input bytes, settings and the
+installed pcnet version. Input files are compared by content, not by path, so a study folder
+moved or mounted elsewhere (a manifest with relative paths) is still complete. The marker is
+listed in the output folder's ``.pcnet-output`` file list, so a later ``--overwrite`` (or a
+re-run after an input changed) may replace the folder.
 
 Only the standard library is imported here: batch workers import this module before they
 set their thread counts, which must happen before numpy is imported.
@@ -22,13 +25,14 @@ from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
 
-from .outdir import listed_files_missing, read_marker, register_files
+from .outdir import listed_files_missing, read_marker
 
 BATCH_MARKER = ".pcnet_batch.json"
 #: RunConfig fields that name input files (hashed into the marker).
 INPUT_FIELDS = ("lifter_output", "keypoints2d", "video", "weights")
-#: RunConfig fields that do not change what a row writes (``out`` is where the marker lives).
-_NOT_SETTINGS = ("out", "overwrite")
+#: RunConfig fields that do not change what a row writes (``out`` is where the marker lives;
+#: the input files count by their bytes, not their paths).
+_NOT_SETTINGS = ("out", "overwrite", *INPUT_FIELDS)
 _CHUNK = 1 << 20
 
 
@@ -66,10 +70,11 @@ def input_hashes(config: dict) -> dict[str, dict]:
     return {name: {"path": path, "sha256": sha256_file(path)} for name, path in input_files(config).items()}
 
 
-def write_batch_marker(out: Path, config: dict, inputs: dict[str, dict], result: dict) -> Path:
-    """Write ``out/.pcnet_batch.json`` (atomically) and list it in pcnet's output marker,
-    with the same size and modification-time stamp :mod:`pcnet.pipeline.outdir` records,
-    so that ``--overwrite`` still sees a folder holding only pcnet's files.
+def write_batch_marker(folder: Path, config: dict, inputs: dict[str, dict], result: dict) -> Path:
+    """Write ``folder/.pcnet_batch.json`` (atomically), ``folder`` being the row's staged
+    output (``run_pipeline``'s ``before_publish``): its ``.pcnet-output`` marker then lists it
+    when the folder is completed, so that ``--overwrite`` sees a folder holding only pcnet's
+    files.
 
     ``inputs`` are the hashes taken before the row ran (what the run read), ``result`` the
     row's frames, valid frames, mode and warnings (shown again when a re-run skips the row).
@@ -79,9 +84,7 @@ def write_batch_marker(out: Path, config: dict, inputs: dict[str, dict], result:
         "inputs": inputs, "result": {k: result.get(k) for k in ("frames", "valid", "mode", "warnings")},
         "host": socket.gethostname(), "pid": os.getpid(), "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
     }
-    path = write_text(out / BATCH_MARKER, json.dumps(record, indent=1) + "\n")
-    register_files(out, [BATCH_MARKER])
-    return path
+    return write_text(folder / BATCH_MARKER, json.dumps(record, indent=1) + "\n")
 
 
 def read_batch_marker(out: Path) -> dict:
@@ -95,9 +98,9 @@ def read_batch_marker(out: Path) -> dict:
 
 def completed_record(out: Path, config: dict) -> dict | None:
     """The batch marker of ``out`` when the folder holds a complete output of exactly this
-    row (every file pcnet wrote there still present; same settings, same pcnet version, same
-    input paths and sha256), else ``None``. Inputs are hashed only when everything cheaper
-    already matches."""
+    row (every file pcnet wrote there still present; same settings, same pcnet version, the
+    same input files by sha256, wherever they are now), else ``None``. Inputs are hashed only
+    when everything cheaper already matches."""
     if read_marker(out).get("state") != "complete" or listed_files_missing(out):
         return None
     record = read_batch_marker(out)
@@ -107,7 +110,7 @@ def completed_record(out: Path, config: dict) -> dict | None:
     files = input_files(config)
     if not isinstance(recorded, dict) or not all(isinstance(v, dict) for v in recorded.values()):
         return None
-    if {name: entry.get("path") for name, entry in recorded.items()} != files:
+    if set(recorded) != set(files):
         return None
     try:
         same = all(sha256_file(path) == recorded[name].get("sha256") for name, path in files.items())

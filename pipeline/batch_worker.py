@@ -111,9 +111,13 @@ def execute_row(job: dict) -> dict:
         started = time.perf_counter()  # after the imports: a fresh worker's first row is not slower
         config = job["config"]
         inputs = input_hashes(config)  # before the run: the marker must describe what was read
-        run = run_pipeline(RunConfig(**config), progress=False)
-        result.update(status="ok", frames=run.frames, valid=run.valid_frames, mode=run.mode, warnings=list(run.flags))
-        write_batch_marker(Path(config["out"]), config, inputs, result)
+
+        def with_marker(staged: Path, run) -> None:  # published together with the output or not at all
+            result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, warnings=list(run.flags))
+            write_batch_marker(staged, config, inputs, result)
+
+        run_pipeline(RunConfig(**config), progress=False, before_publish=with_marker)
+        result["status"] = "ok"
     except Exception as err:  # one row's failure is its result; the batch goes on
         result.update(status="failed", error=error_line(err))
         if not isinstance(err, (InputError, OSError)):

@@ -15,6 +15,7 @@ import inspect
 import sys
 import threading
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -295,12 +296,16 @@ def _glibc():
     return libc if hasattr(libc, "mallopt") and hasattr(libc, "malloc_trim") else None  # musl has neither
 
 
-def run_pipeline(cfg: RunConfig, progress: bool = True, *, metric_for: str | None = None) -> RunResult:
+def run_pipeline(cfg: RunConfig, progress: bool = True, *, metric_for: str | None = None,
+                 before_publish: Callable[[Path, RunResult], None] | None = None) -> RunResult:
     """Run every stage for one recording and write its outputs into ``cfg.out``.
 
     ``metric_for`` names what the caller will do next with the metric outputs (``"--opensim"``):
     like ``cfg.c3d``, it refuses poses that stay unscaled (no ``cfg.height``, a lifter whose
     output is not in metres) once the lifter output is read, before anything is written.
+    ``before_publish(staged_folder, result)`` may add files of its own (``pcnet batch``'s resume
+    marker) to the staged output before it is swapped in as ``cfg.out``, so that they appear
+    together with it or not at all.
 
     Raises:
         FileExistsError: ``cfg.out`` exists and ``cfg.overwrite`` is False.
@@ -314,7 +319,7 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *, metric_for: str | Non
     out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights), cfg.overwrite)
     with _collector_skips_older_objects(), \
             tqdm(total=len(STEPS), desc="pcnet", disable=not progress, unit="stage") as bar:
-        return _run_stages(cfg, out, bar, metric_for)
+        return _run_stages(cfg, out, bar, metric_for, before_publish)
 
 
 _FREEZE_LOCK = threading.Lock()
@@ -418,7 +423,7 @@ def _scaled_in_place(arr, factor, precision=np.float64) -> None:
         arr[rows] = (arr[rows].astype(precision) * f).astype(np.float32)
 
 
-def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None) -> RunResult:
+def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None, before_publish=None) -> RunResult:
     seconds: dict[str, float] = {}
     clock = [time.perf_counter(), None]
 
@@ -591,11 +596,12 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None) -
             outputs.update(write_rerun(result, tmp))
         bar.update()
         step("done")
-        frames = len(cam)
-
-    return RunResult(
-        frames=frames, valid_frames=int(valid.sum()), units=units, method=cfg.method, mode=report["mode"],
-        camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg, flags=flags,
-        report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
-    )
+        run = RunResult(
+            frames=len(cam), valid_frames=int(valid.sum()), units=units, method=cfg.method, mode=report["mode"],
+            camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg, flags=flags,
+            report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
+        )
+        if before_publish is not None:
+            before_publish(tmp, run)
+    return run
 

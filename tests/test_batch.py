@@ -9,9 +9,11 @@ Rows that must be killed or interrupted at a known moment use the worker's test 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -220,6 +222,50 @@ def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     res = _invoke(manifest, "--workers", "1")
     assert res.exit_code == 1 and "line 3: column out" in res.output and "notes.txt" in res.output, res.output
     assert (tmp_path / "r2" / "notes.txt").read_text() == "mine"
+
+
+def test_a_moved_study_folder_is_still_complete(tmp_path):
+    """Inputs count by their bytes: a study folder with a relative manifest, moved (or
+    mounted elsewhere), skips its finished rows."""
+    study = tmp_path / "study"
+    (study / "in").mkdir(parents=True)
+    shutil.copy(BOX_3D, study / "in" / "x.npy")
+    shutil.copy(BOX_2D, study / "in" / "kp.json")
+    manifest = study / "m.csv"
+    manifest.write_text(f"{HEADER}\nmotionbert,in/x.npy,in/kp.json,alphapose,30,out/a,geometric,false\n")
+    assert _invoke(manifest, "--workers", "1").exit_code == 0
+    moved = tmp_path / "moved"
+    shutil.copytree(study, moved, copy_function=shutil.copy2)
+    res = _invoke(moved / "m.csv", "--workers", "1")
+    assert res.exit_code == 0 and _statuses(moved / "m.csv") == ["skipped"], res.output
+    np.save(moved / "in" / "x.npy", np.load(BOX_3D) * 1.01)  # new bytes under the same name: runs again
+    res = _invoke(moved / "m.csv", "--workers", "1")
+    assert res.exit_code == 0 and _statuses(moved / "m.csv") == ["ok"], res.output
+
+
+def test_the_resume_marker_is_published_with_the_output(tmp_path, monkeypatch):
+    """The worker writes its marker into the staged output before the swap, so an interrupt
+    or a kill between the two can never leave a complete output without one (which would make
+    the next run refuse the row's folder as not pcnet batch's)."""
+    import pcnet.pipeline.outdir as outdir
+    from pcnet.pipeline.batch_worker import execute_row
+    from pcnet.pipeline.config import RunConfig
+
+    seen = {}
+    swap = outdir._swap_in
+
+    def checking_swap(tmp, target):
+        seen["marker"] = (tmp / BATCH_MARKER).is_file()
+        seen["listed"] = BATCH_MARKER in read_marker(tmp)["files"]
+        return swap(tmp, target)
+
+    monkeypatch.setattr(outdir, "_swap_in", checking_swap)
+    config = RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30.0, out=str(tmp_path / "o"),
+                       method="geometric", recording=False)
+    result = execute_row({"row": 1, "config": dataclasses.asdict(config), "attempt": 1})
+    assert result["status"] == "ok", result
+    assert seen == {"marker": True, "listed": True}
+    assert json.loads((tmp_path / "o" / BATCH_MARKER).read_text())["result"]["frames"] == 60
 
 
 @pytest.mark.parametrize("retries", [0, 1])
