@@ -26,7 +26,7 @@ from pathlib import Path
 from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError
 
-from .batch_marker import completed_record, input_files, pcnet_version, read_batch_marker
+from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker
 from .batch_worker import cpu_cores
 from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, RunConfig
 from .interrupt import EXIT_INTERRUPTED
@@ -538,7 +538,7 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
         InputError, ManifestError: see :func:`plan_batch`; nothing has run then.
     """
     options = options or BatchOptions()
-    started = time.perf_counter()
+    started, wall_start = time.perf_counter(), time.time()
     planned, summary_path = plan_batch(manifest, options)
     by_row = {item.row: item for item in planned}
     results: dict[int, dict] = {}
@@ -570,6 +570,8 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
         _, interrupted = engine.run(jobs)
     except KeyboardInterrupt:  # arrived outside the engine's loop (e.g. while Ray started)
         interrupted = True
+    if interrupted:
+        results.update(_published_before_the_stop(planned, results, since=wall_start))
     final = rows("cancelled")
     if interrupted and not (options.engine == "ray" and options.address):
         _clean_cancelled(planned, results)
@@ -586,6 +588,25 @@ def _summary_header(manifest, options: BatchOptions, jobs: int) -> dict:
             "engine": options.engine, "address": options.address, "workers": workers, "rows_to_run": jobs,
             "retries": options.retries, "overwrite": options.overwrite, "retry_failed": options.retry_failed,
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "interrupted": False}
+
+
+def _published_before_the_stop(planned: list[PlannedRow], results: dict[int, dict], since: float) -> dict[int, dict]:
+    """Rows the interrupt caught after their worker had published the output but before its
+    result came back: their output and this run's resume marker are complete, so they are
+    ``ok``, not ``cancelled`` (which says the output was left as it was)."""
+    found = {}
+    for item in planned:
+        if item.action != "run" or item.row in results:
+            continue
+        try:
+            fresh = (item.out / BATCH_MARKER).stat().st_mtime >= since
+        except OSError:
+            continue
+        record = completed_record(item.out, item.config) if fresh else None
+        if record is not None:
+            found[item.row] = {**dict(record.get("result") or {}), "row": item.row, "status": "ok",
+                               "host": record.get("host", ""), "pid": record.get("pid")}
+    return found
 
 
 def _clean_cancelled(planned: list[PlannedRow], results: dict[int, dict]) -> None:

@@ -268,6 +268,25 @@ def test_the_resume_marker_is_published_with_the_output(tmp_path, monkeypatch):
     assert json.loads((tmp_path / "o" / BATCH_MARKER).read_text())["result"]["frames"] == 60
 
 
+def test_a_row_published_just_before_ctrl_c_is_ok_not_cancelled(tmp_path):
+    """Ctrl-C between a worker publishing a row's output and its result reaching the batch:
+    the output and this run's marker are complete, so the row is ok, not cancelled ("left as
+    it was"); an output from before this batch started does not count."""
+    from pcnet.pipeline.batch import PlannedRow, _published_before_the_stop
+    from pcnet.pipeline.batch_worker import execute_row
+    from pcnet.pipeline.config import RunConfig
+
+    config = dataclasses.asdict(RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30.0,
+                                          out=str(tmp_path / "o"), method="geometric", recording=False))
+    planned = [PlannedRow(row=1, line=2, config=config)]
+    started = time.time()
+    assert execute_row({"row": 1, "config": config, "attempt": 1})["status"] == "ok"
+    found = _published_before_the_stop(planned, {}, since=started)
+    assert found[1]["status"] == "ok" and found[1]["frames"] == 60 and found[1]["pid"] == os.getpid()
+    assert _published_before_the_stop(planned, {}, since=time.time() + 1) == {}
+    assert _published_before_the_stop(planned, {1: {"status": "failed"}}, since=started) == {}
+
+
 @pytest.mark.parametrize("retries", [0, 1])
 def test_a_killed_worker_fails_or_retries_only_its_row(tmp_path, hook, retries):
     """A worker killed by the OS (SIGKILL, as an out-of-memory kill) while running row 2:
