@@ -144,10 +144,17 @@ class RayEngine:
         whose worker processes inherit ``env`` (Ray's own processes copy it at start)."""
         options = {"log_to_driver": False, "logging_level": logging.ERROR}
         if self.address:
-            ray.init(address=self.address, **options)
+            try:
+                ray.init(address=self.address, **options)
+            except ConnectionError as err:
+                raise InputError(f"--address {self.address}: expected a Ray cluster this machine may join, got "
+                                 f"'{err}'; a cluster with token authentication (Ray's default from 2.61) needs "
+                                 f"RAY_AUTH_MODE=token and its token here too (docs/cluster.md, Ray)") from None
             return
+        # "local": a new instance even where a cluster runs on this machine (`ray start
+        # --head`), which ray.init would otherwise join, refusing num_cpus.
         with environment(env):
-            ray.init(num_cpus=self.workers or cpu_cores(), include_dashboard=False, **options)
+            ray.init(address="local", num_cpus=self.workers or cpu_cores(), include_dashboard=False, **options)
 
     def _run(self, ray, jobs: list[dict], threads: int, runtime_env: dict | None) -> tuple[list[dict], bool]:
         # Each task reserves one CPU, so a node runs one task per CPU (one thread each on a

@@ -386,6 +386,22 @@ def _needs_ray():
                                       'where it is (.ci/run installs it)')
 
 
+def test_ray_engine_starts_its_own_instance_beside_a_running_cluster(tmp_path):
+    """Without --address, --engine ray starts its own local instance even where `ray start
+    --head` runs on this machine (ray.init would join that cluster and refuse num_cpus)."""
+    _needs_ray()
+    ray_cli = Path(sys.executable).with_name("ray")
+    started = subprocess.run([str(ray_cli), "start", "--head", "--port=6391", "--num-cpus=1",
+                              "--include-dashboard=false"], capture_output=True, text=True, timeout=120)
+    assert started.returncode == 0, started.stdout + started.stderr
+    try:
+        manifest = _manifest(tmp_path, _row("a"))
+        res = _invoke(manifest, "--engine", "ray", "--workers", "1")
+        assert res.exit_code == 0 and _statuses(manifest) == ["ok"], res.output
+    finally:
+        subprocess.run([str(ray_cli), "stop"], capture_output=True, timeout=120)
+
+
 def test_ray_engine_retries_a_killed_worker_and_the_batch_succeeds(tmp_path, hook):
     """Issue 16's measurement, on a local Ray instance (`ray.init(num_cpus=2)`): a Ray worker
     process killed by PID while running row 2; Ray runs the task again (max_retries), the
