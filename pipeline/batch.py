@@ -27,7 +27,7 @@ from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError
 
 from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker
-from .batch_worker import cpu_cores
+from .batch_worker import cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale, foreign_entries, listed_files_missing
@@ -570,6 +570,9 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
         _, interrupted = engine.run(jobs)
     except KeyboardInterrupt:  # arrived outside the engine's loop (e.g. while Ray started)
         interrupted = True
+    except Exception as err:  # the engine itself failed (Ray refused to start): no row stays "pending"
+        writer.write(rows("cancelled"), force=True, error=error_line(err))
+        raise
     if interrupted:
         results.update(_published_before_the_stop(planned, results, since=wall_start))
     final = rows("cancelled")

@@ -570,6 +570,23 @@ def test_an_unreachable_cluster_address_is_refused_at_once(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
 
 
+def test_an_engine_that_fails_to_start_leaves_no_pending_rows(tmp_path, monkeypatch):
+    """The summary is written as pending when the batch starts; if the engine itself fails
+    (Ray refusing to start, say), its rows end cancelled with the error, not pending."""
+    from pcnet.pipeline import batch_local
+    from pcnet.stages.core.errors import InputError
+
+    def refuse(self, jobs):
+        raise InputError("--address x: expected a Ray cluster this machine may join, got none")
+
+    monkeypatch.setattr(batch_local.LocalEngine, "run", refuse)
+    manifest = _manifest(tmp_path, _row("a"), _row("b"))
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 1 and "expected a Ray cluster" in res.output
+    summary = _summary(manifest)
+    assert _statuses(manifest) == ["cancelled", "cancelled"] and "expected a Ray cluster" in summary["error"]
+
+
 def test_a_rows_warnings_reach_the_summary(tmp_path):
     """What `pcnet run` prints as WARNING lines for a recording is in the row's summary
     (and on stderr as the row ends): a batch user reads no per-row terminal output."""
