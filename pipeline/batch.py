@@ -375,7 +375,7 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
     batch output (``overwrite``, which still refuses files pcnet did not write)."""
     if previous is not None:
         before = previous.get(str(item.out.resolve()))
-        if before is not None and before.get("status") in DONE:
+        if before is not None and before.get("status") in DONE and item.out.is_dir():
             item.action = "skip"
             item.known = {k: before.get(k) for k in ("frames", "valid", "mode", "warnings")}
             return
@@ -480,6 +480,10 @@ def plan_batch(manifest: str | os.PathLike, options: BatchOptions) -> tuple[list
             problems[item.line] = problem
     if problems:
         raise ManifestError([line for _, text in sorted(problems.items()) for line in text.split("\n")])
+    if any(item.action == "run" and item.config.get("c3d") for item in planned):
+        from pcnet.stages.sinks.exports import require_ezc3d
+
+        require_ezc3d()  # before any work, as `pcnet run --c3d`: not once per row at its end
     return planned, summary
 
 

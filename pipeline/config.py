@@ -224,6 +224,9 @@ class RunConfig:
         if self.confidence_threshold is not None and self.keypoints2d is None:
             raise InputError(f"{field_name(source, 'confidence_threshold')}: expected together with 2D keypoints "
                              f"(it masks their low-confidence joints), got {self.confidence_threshold:g} without keypoints2d")
+        if self.cutoff_hz is not None and self.fps is not None and self.cutoff_hz >= self.fps / 2:
+            raise InputError(f"{field_name(source, 'cutoff_hz')}: expected a cutoff below half the frame rate "
+                             f"(Nyquist: {self.fps / 2:g} Hz at fps {self.fps:g}), got {self.cutoff_hz:g}")
         if self.residual_cutoff and self.cutoff_hz is not None:
             raise InputError(f"{field_name(source, 'cutoff_hz', 'residual_cutoff')}: expected one of the two (the "
                              f"residual analysis chooses the cutoff), got cutoff_hz {self.cutoff_hz:g} and residual_cutoff")
