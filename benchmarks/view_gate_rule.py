@@ -14,7 +14,8 @@ from 30 / 50, linear between):
   network reads (models/view_gate.py: quarter_turns; ViewGatedPCNet.predict_gated).
 
 `--split val` (default) is the motion-style validation split of the training mix (Bandai
-validation groups, CMU subjects 12 and 60), on which the rules and their limits were chosen;
+validation groups, CMU subjects 12 and 60), on which the rules and their limits were chosen
+(the 10-20 deg roll ramp with exploratory runs on `test` and `deepmimic` in view too: README);
 `test` the motion-style test split, `deepmimic` every DeepMimic clip. Same protocol as
 benchmarks/view_gate.py (the paper's camera distribution, a new camera every frame, clean
 poses and lifter-like noise, every `--stride`-th frame).

@@ -195,8 +195,10 @@ CMU_NAME = re.compile(r"(\d{2,3})_(\d{2,3})")
 #: with the lowest ``crc32("<dataset>/<style>")`` (a fixed rule, not a choice by results), 2 of
 #: dataset-1's 15 styles and 1 of dataset-2's 7 (about 13 % and 14 % of each dataset's styles).
 #: Style names recur across the two datasets ("feminine", "active", "normal"): a held-out
-#: style is unseen in its own dataset only; the other dataset's takes under that name (other
-#: motions, recorded separately) remain in train. A dataset not listed here holds no style out.
+#: style is unseen in its own dataset only; the other dataset's takes under that name
+#: (recorded separately, by other actors, some of the same motions: dataset-1's run_active and
+#: walk_active, dataset-2's run_feminine) remain in train. A dataset not listed here holds no
+#: style out.
 HELDOUT_TEST_STYLES: dict[str, tuple[str, ...]] = {
     "dataset-1": ("feminine", "chimpira"),
     "dataset-2": ("active",),

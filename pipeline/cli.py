@@ -150,7 +150,7 @@ _heading_option = click.option(
 @click.option("--data", type=click.Path(dir_okay=False), required=True,
               help="Mocap .npz: one (T, 17, 3) H36M-17 array per clip, metres, world frame +Y up (README, Commands).")
 @click.option("--split", type=click.Choice(["train", "val", "test", "all"]), default="test", show_default=True,
-              help="Which clips of --data under --split-scheme; all: every clip (data never trained on).")
+              help="Which clips of --data under --split-scheme; all: every clip (the training split's too: the summary says how much the weights trained on).")
 @click.option("--split-scheme", type=click.Choice(["motion-style", "clip"]), default="motion-style", show_default=True,
               help="motion-style: whole Bandai motion-style groups and some whole styles held out of train (CMU: "
                    "whole subjects); clip: the old per-take hash earlier releases were trained with (the shipped "

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split, load_mocap,
-                                   make_pairs, select_split, world_up_warning)
+from pcnet.models.datasets import (CMU_NAME, SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split,
+                                   load_mocap, make_pairs, parse_bandai_name, select_split, world_up_warning)
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.core.errors import InputError
@@ -75,19 +75,30 @@ def _training_config(weights: str | None) -> dict:
 def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict | None:
     """How much of the evaluated data the weights trained on, by their ``training_config``
     (the ``.json`` beside the ONNX file, which ``pcnet export`` fills from the run folder):
-    ``None`` when the weights' training data is unknown or does not include this file (by
-    name: a cross-dataset test), else the clips of their train split among ``chosen`` and
-    the motion-style groups (CMU: subjects) of ``chosen`` with a take in that split."""
+    ``None`` when the weights' training data is unknown, or when neither this file's name is
+    among it nor every chosen clip carries the clip names of one of its sets (Bandai's
+    ``dataset-N_motion_style_take`` where a ``bandai*`` file was trained on, CMU's
+    ``subject_trial`` where a ``cmu*`` file was: a renamed copy still counts; a
+    cross-dataset test such as DeepMimic does not); else the clips of their train split among
+    ``chosen`` and the motion-style groups (CMU: subjects) of ``chosen`` with a take in that
+    split, and ``matched_by`` (``"file name"`` or ``"clip names"``)."""
     names = {Path(str(d)).name for d in record.get("data", [])}
     scheme = record.get("split_scheme", "clip")
-    if Path(data).name not in names or scheme not in SPLIT_SCHEMES:
+    if not names or scheme not in SPLIT_SCHEMES:
+        return None
+    if Path(data).name in names:
+        matched_by = "file name"
+    elif chosen and (all(parse_bandai_name(c.name) for c in chosen) and any("bandai" in n.lower() for n in names)
+                     or all(CMU_NAME.fullmatch(c.name) for c in chosen) and any("cmu" in n.lower() for n in names)):
+        matched_by = "clip names"
+    else:
         return None
     seen_groups = groups_in_split(all_clips, "train", scheme)
     groups = {group_key(c) or c.name for c in chosen}
     return {
         "scheme": scheme, "clips": len(chosen),
         "clips_trained_on": sum(clip_split_of(c, scheme) == "train" for c in chosen),
-        "groups": len(groups), "groups_with_a_trained_take": len(groups & seen_groups),
+        "groups": len(groups), "groups_with_a_trained_take": len(groups & seen_groups), "matched_by": matched_by,
     }
 
 
@@ -112,10 +123,12 @@ def evaluate(
 
     Clips: :func:`pcnet.models.datasets.select_split` under ``split_scheme`` (``"motion-style"``:
     whole Bandai motion-style groups and styles held out, CMU by subject; ``"clip"``: the old
-    per-take hash the shipped weights were trained with). ``unseen_by`` (a scheme) then keeps
-    only clips whose group (:func:`pcnet.models.datasets.group_key`; a clip without one: the
-    clip itself) has no take in that scheme's train split of the same file: with the shipped
-    weights, ``unseen_by="clip"`` scores only motion-style groups they never trained on.
+    per-take hash of the releases before release 3, kept for continuity). ``unseen_by`` (a
+    scheme) then keeps only clips whose group (:func:`pcnet.models.datasets.group_key`; a clip
+    without one: the clip itself) has no take in that scheme's train split of the same file:
+    ``unseen_by="clip"`` scores the groups the old clip split never trained on, most of which
+    the shipped weights (motion-style split) did train on (the result's ``training_overlap``
+    says how many).
 
     Pairs come from :func:`pcnet.models.datasets.make_pairs` over whole clips, with ``noise``
     (:data:`NOISE_KINDS`; ``True``/``False`` mean ``"frame"``/``"none"``). ``mode`` other than
@@ -241,7 +254,9 @@ def format_table(result: dict) -> str:
     if overlap:
         head += (f"\nthe weights trained on {overlap['clips_trained_on']} of these {overlap['clips']} clips "
                  f"and on takes of {overlap['groups_with_a_trained_take']} of their {overlap['groups']} "
-                 f"motion-style groups or subjects ({overlap['scheme']}-scheme train split)")
+                 f"motion-style groups or subjects ({overlap['scheme']}-scheme train split"
+                 + ("; this file recognised as training data by its clip names)"
+                    if overlap.get("matched_by") == "clip names" else ")"))
     lines = [head, *(f"WARNING {w}" for w in result.get("warnings", [])),
              f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}"]
     for name in METRICS:

@@ -506,7 +506,8 @@ def choose_mode(
     ``MODE_SMOOTHING_S``), measured with the geometric baseline's per-frame rotations on
     camera-frame joints with 15 mm jitter + 40 mm depth noise:
 
-    * 120 random Bandai mocap clips >= 150 frames (5-9 s), fixed "paper" camera: median
+    * 120 random Bandai mocap clips >= 150 frames (5-9 s; drawn from the whole file, before
+      the motion-style split existed, so some are test clips), fixed "paper" camera: median
       1.5, p95 3.5, max 6.5 deg (2 of 120 above 5: a bow and a tired wave, trunk motion);
       the same clips with the camera pitch sweeping linearly through 30 deg over the clip:
       median 8.1, p5 5.3, min 3.8 (97.5% detected); a 20 deg sweep: median 5.6 (63%

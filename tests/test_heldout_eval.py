@@ -394,6 +394,9 @@ def test_unseen_by_keeps_groups_the_weights_never_saw():
     overlap = _training_overlap(data, clips, chosen, style_record)
     assert overlap["clips_trained_on"] == overlap["groups_with_a_trained_take"] == 0
     assert _training_overlap(data, clips, chosen, {"data": ["cmu_train_h36m17.npz"]}) is None
+    # a renamed copy of a training file is still recognised, by its clip names
+    renamed = _training_overlap("my_copy.npz", clips, chosen, clip_record)
+    assert renamed["groups_with_a_trained_take"] == 47 and renamed["matched_by"] == "clip names"
     assert unseen_names  # clips outside the clip-scheme train split exist
     assert Counter(test["clip_heading_sources"]) == Counter({"predicted": 910})
 
