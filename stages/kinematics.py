@@ -450,21 +450,44 @@ def joint_angles(canonical: np.ndarray) -> dict[str, np.ndarray]:
     trunk = X[:, THORAX] - X[:, PELVIS]
     trunk_len = np.linalg.norm(trunk, axis=-1)
     out = {
-        "trunk_inclination": np.degrees(angle_between(trunk, np.array([0.0, 1.0, 0.0]))),
+        **heading_free_angles(X),
         "trunk_sagittal_inclination": _plane_angle(trunk[:, _X], trunk[:, _Y], trunk_len, None),
         "trunk_frontal_inclination": _plane_angle(trunk[:, _Z], trunk[:, _Y], trunk_len, None),
     }
-    for side, s, hip, knee, ankle, sho, elb, wri in (
-        ("left", _LEFT, L_HIP, L_KNEE, L_ANKLE, L_SHOULDER, L_ELBOW, L_WRIST),
-        ("right", _RIGHT, R_HIP, R_KNEE, R_ANKLE, R_SHOULDER, R_ELBOW, R_WRIST),
+    for side, s, hip, knee, sho, elb in (
+        ("left", _LEFT, L_HIP, L_KNEE, L_SHOULDER, L_ELBOW),
+        ("right", _RIGHT, R_HIP, R_KNEE, R_SHOULDER, R_ELBOW),
     ):
         out[f"{side}_thigh_sagittal_inclination"] = _limb_angle(X, hip, knee, _X, 1.0)
         out[f"{side}_thigh_frontal_inclination"] = _limb_angle(X, hip, knee, _Z, s)
-        out[f"{side}_knee_flexion_unsigned"] = _inter_segment(X, hip, knee, ankle)
         out[f"{side}_upper_arm_sagittal_inclination"] = _limb_angle(X, sho, elb, _X, 1.0)
         out[f"{side}_upper_arm_frontal_inclination"] = _limb_angle(X, sho, elb, _Z, s)
-        out[f"{side}_elbow_flexion_unsigned"] = _inter_segment(X, sho, elb, wri)
     return {name: out[name] for name in ANGLE_NAMES}
+
+
+def heading_free_angles(poses: np.ndarray) -> dict[str, np.ndarray]:
+    """The angles of :func:`joint_angles` that do not depend on the heading about +Y:
+    ``trunk_inclination`` (from +Y) and the unsigned knee and elbow flexion, in degrees.
+
+    They need no hip line, so they stay defined for a body lying on its side, whose hip
+    line is vertical and leaves the pelvis-heading frame (and every plane inclination)
+    undefined.
+
+    Args:
+        poses: ``(T, 17, 3)`` H36M-17 poses with +Y up (world or canonical frame), any units.
+
+    Returns:
+        dict ``name -> (T,)`` float64 degrees; NaN where a joint is missing.
+    """
+    X = np.asarray(poses, np.float64)
+    out = {"trunk_inclination": np.degrees(angle_between(X[:, THORAX] - X[:, PELVIS], np.array([0.0, 1.0, 0.0])))}
+    for side, hip, knee, ankle, sho, elb, wri in (
+        ("left", L_HIP, L_KNEE, L_ANKLE, L_SHOULDER, L_ELBOW, L_WRIST),
+        ("right", R_HIP, R_KNEE, R_ANKLE, R_SHOULDER, R_ELBOW, R_WRIST),
+    ):
+        out[f"{side}_knee_flexion_unsigned"] = _inter_segment(X, hip, knee, ankle)
+        out[f"{side}_elbow_flexion_unsigned"] = _inter_segment(X, sho, elb, wri)
+    return out
 
 
 # ---------------------------------------------------------------------------------------
@@ -618,7 +641,8 @@ def compute_kinematics(
         velocity=vel,
         acceleration=acc,
         speed=np.linalg.norm(vel, axis=-1),
-        angles=MappingProxyType({**joint_angles(pelvis_heading_frame(pos)),
+        # the heading-free angles from the poses themselves: a body on its side has none
+        angles=MappingProxyType({**joint_angles(pelvis_heading_frame(pos)), **heading_free_angles(pos),
                                  **{k.removesuffix("_deg"): v for k, v in isb_joint_angles(pos).items()}}),
         unfiltered=raw.any(axis=-1) & ~missing,
         missing=missing,

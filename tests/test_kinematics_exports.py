@@ -877,6 +877,27 @@ def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff,
         short.result()
 
 
+def test_a_body_lying_on_its_side_keeps_its_heading_free_angles(yoga_cam):
+    """A real standing pose laid on its side (hip line vertical): the pelvis-heading frame
+    and the plane inclinations are undefined, but the trunk's inclination (about 90 deg) and
+    the unsigned knee and elbow flexion, which need no heading, are not."""
+    from pcnet.stages.core.canonical import canonical_rotation
+    from pcnet.stages.core.conventions import PELVIS
+
+    X = yoga_cam[:200].astype(np.float64) - yoga_cam[:200, PELVIS : PELVIS + 1]
+    R, ok = canonical_rotation(X, np.median(X[:, 8] - X[:, 0], axis=0))  # camera -> a Y-up canonical frame
+    upright = X @ R
+    side = upright @ axis_rotation("x", np.radians(90.0)).T  # about the forward axis: hip line vertical
+    k_up = compute_kinematics(upright, 30.0)
+    k_side = compute_kinematics(side, 30.0)
+    assert np.isnan(k_side.angles["trunk_sagittal_inclination"]).all()
+    assert np.nanmedian(k_up.angles["trunk_inclination"]) < 10.0
+    assert abs(np.nanmedian(k_side.angles["trunk_inclination"]) - 90.0) < 10.0
+    for name in ("left_knee_flexion_unsigned", "right_elbow_flexion_unsigned"):
+        np.testing.assert_allclose(k_side.angles[name], k_up.angles[name], atol=1e-9, equal_nan=True)
+        assert np.isfinite(k_side.angles[name]).mean() > 0.9
+
+
 def test_settle_frames_follow_the_filter():
     """Context grows as the filter's poles approach the unit circle (lower cutoff / higher
     rate) and always exceeds the filter's pad length."""
