@@ -29,7 +29,7 @@ from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS, fill_pelvis_from_
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (body_size_flag, leg_asymmetry_flag, side_swap_flag, size_change_flag, one_person_frames, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
+from pcnet.stages.flags import (body_size_flag, leg_asymmetry_flag, mirrored_skeleton_flag, side_swap_flag, size_change_flag, one_person_frames, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
                                track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
@@ -492,7 +492,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None, b
         flags += body_size_flag(cam, units) if cfg.height is None else []
         # image-scaled sizes are made constant per frame below; a metric body should keep its own
         flags += leg_asymmetry_flag(cam) + (size_change_flag(cam) if units not in IMAGE_SCALED_UNITS else [])
-        flags += side_swap_flag(kp2d, cam) if kp2d is not None else []
+        swapped = side_swap_flag(kp2d, cam) if kp2d is not None else []
+        flags += swapped or mirrored_skeleton_flag(cam)  # a side swap is a mirror image too: said once
         flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
         flags += view_gate_flag(report.get("view_gate"))
         flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])

@@ -12,7 +12,8 @@ from click.testing import CliRunner
 from conftest import FIXTURES, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
-from pcnet.stages.flags import (camera_tilt, lifter_frame_flag, non_upright_fraction, orientation_flags, side_swap_flag,
+from pcnet.stages.flags import (camera_tilt, lifter_frame_flag, mirrored_skeleton_flag, non_upright_fraction,
+                                orientation_flags, side_swap_flag,
                                 size_change_flag,
                                 track_segments, track_switch_flag)
 from pcnet.pipeline.rectification import rectify
@@ -277,3 +278,28 @@ def test_3d_sides_that_contradict_the_2d_keypoints_are_flagged():
     (flag,) = side_swap_flag(kp2d, swapped)
     counted = int(re.search(r"in (\d+) of (\d+) hip", flag).group(2))
     assert counted >= 10 and f"in {counted} of {counted}" in flag
+
+
+def test_a_mirrored_3d_skeleton_is_flagged_from_the_pose_alone():
+    """A depth axis of the wrong sign mirrors the body (every sagittal angle changes sign)
+    and no rotation undoes it. The committed real files (standing, seated, lying, prone, a
+    boxer) have the nose in front of the thorax; mirrored in depth, or with left and right
+    exchanged, they are flagged."""
+    swap = [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]
+    for name in ("yoga_Abhay_Tadasana_f000-099.npy", "yoga_Abhay_Padmasana_f200-299.npy",
+                 "yoga_Abhay_Shavasana_f200-299.npy", "yoga_Abhay_Bhujangasana_f150-249.npy", "boxing_X3D_f000-059.npy"):
+        X = np.load(FIXTURES / name).astype(np.float64)
+        assert mirrored_skeleton_flag(X) == [], name
+        (flag,) = mirrored_skeleton_flag(X * np.array([1.0, 1.0, -1.0]))
+        assert "mirror image" in flag and "--axes" in flag, name
+        assert mirrored_skeleton_flag(X[:, swap]), name
+    assert mirrored_skeleton_flag(np.full((50, 17, 3), np.nan)) == []
+
+
+def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):
+    res = CliRunner().invoke(main, ["run", "--lifter", "generic", "--lifter-output", str(TADASANA), "--axes", "RDB",
+                                    "--fps", "30", "--method", "geometric", "--no-recording", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert "WARNING           the 3D skeleton is a mirror image of a body" in res.output
+    with np.load(tmp_path / "o" / "canonical.npz") as npz:
+        assert any(f.startswith("the 3D skeleton is a mirror image") for f in npz["flags"])
