@@ -280,6 +280,8 @@ def export(checkpoint, out_path, overwrite):
 
 
 EXAMPLE_DIR = Path(__file__).parent / "example_data"
+#: What `pcnet opensim` writes beside OpenSim's outputs: the fit's marker errors and warning.
+OPENSIM_FIT = "opensim_fit.json"
 
 
 def _run_and_report(cfg, metric_for: str | None = None) -> None:
@@ -440,11 +442,14 @@ def opensim(out_dir, height, mass, overwrite):
     """Scale an OpenSim model to the subject and solve inverse kinematics on OUT_DIR/world.trc
     (a `pcnet run` output with a static camera; pip install "pcnet[opensim]").
 
-    Writes OUT_DIR/scaled_model.osim, ik.mot and ik_marker_errors.sto and prints the marker
-    RMS / max error and the IK speed (stages/opensim_ik.py).
+    Writes OUT_DIR/scaled_model.osim, ik.mot, ik_marker_errors.sto and opensim_fit.json (the
+    marker errors and the fit's warning, if any) and prints the marker RMS / max error and the
+    IK speed (stages/opensim_ik.py).
     """
     from pcnet.pipeline.outdir import is_owned, register_files, stale_staging
+    from pcnet.stages.core.atomic import write_text
     from pcnet.stages.opensim_ik import ik_fit_flags, import_opensim, OUTPUTS, scale_and_ik
+    from pcnet.stages.sinks.exports import finite_or_null
 
     folder = Path(out_dir)
     if not folder.is_dir():
@@ -460,14 +465,22 @@ def opensim(out_dir, height, mass, overwrite):
 
     for leftover in stale_staging(folder):  # of a killed `pcnet opensim` here
         shutil.rmtree(leftover, ignore_errors=True)
+    written = (*OUTPUTS, OPENSIM_FIT)
+    if not overwrite and (folder / OPENSIM_FIT).exists():
+        raise InputError(f"{out_dir}: expected no earlier OpenSim outputs, got {OPENSIM_FIT}; pass --overwrite to "
+                         f"replace them")
     # scale_and_ik refuses earlier outputs without --overwrite; with it, only pcnet's own go
-    foreign = [name for name in OUTPUTS if overwrite and (folder / name).exists() and not is_owned(folder, name)]
+    foreign = [name for name in written if overwrite and (folder / name).exists() and not is_owned(folder, name)]
     if foreign:
         raise InputError(f"{out_dir}: --overwrite replaces only OpenSim outputs pcnet wrote, got "
                          f"{', '.join(foreign)} written or changed by someone else; move them away")
     result = scale_and_ik(trc, folder, height, mass, overwrite=overwrite)
+    warnings = ik_fit_flags(result)
+    fit = {key: result[key] for key in ("marker_rms_m", "marker_max_m", "marker_rms_median_frame_m", "frames",
+                                        "static_window_s")}
+    write_text(folder / OPENSIM_FIT, json.dumps(finite_or_null({**fit, "warnings": warnings}), indent=1) + "\n")
     # so that `pcnet run --overwrite` still recognises the whole folder as pcnet's output
-    register_files(folder, OUTPUTS)
+    register_files(folder, written)
     click.echo(f"model             {result['outputs']['scaled_model.osim']}")
     click.echo(f"ik                {result['outputs']['ik.mot']}")
     click.echo(f"marker errors     {result['outputs']['ik_marker_errors.sto']}")
@@ -475,7 +488,7 @@ def opensim(out_dir, height, mass, overwrite):
                f"(max {100 * result['marker_max_m']:.2f} cm)")
     click.echo(f"IK speed          {result['frames_per_s']:.1f} frames/s ({result['seconds']:.1f} s; "
                f"scaling {result['scale_seconds']:.1f} s)")
-    for line in ik_fit_flags(result):
+    for line in warnings:
         click.echo(f"WARNING           {line}")
 
 

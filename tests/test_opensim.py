@@ -84,7 +84,11 @@ def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_
     assert not killed.exists() and not list(out.glob(".pcnet-opensim-tmp-*"))
     assert "marker RMS" in res.output and "frames/s" in res.output
     listed = json.loads((out / ".pcnet-output").read_text())["files"]
-    assert {"scaled_model.osim", "ik.mot", "ik_marker_errors.sto"} <= set(listed)
+    assert {"scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "opensim_fit.json"} <= set(listed)
+    fit = json.loads((out / "opensim_fit.json").read_text())  # the fit and its warning, kept with the outputs
+    assert f"marker RMS        {100 * fit['marker_rms_m']:.2f} cm over {fit['frames']} frames" in res.output
+    assert fit["warnings"] == [ln.removeprefix("WARNING           ") for ln in res.output.splitlines()
+                               if ln.startswith("WARNING")]
     again = _cli("opensim", out)
     assert again.exit_code == 1 and "--overwrite" in again.output
     # A file of the same name that pcnet did not write is never replaced.
