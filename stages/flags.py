@@ -311,8 +311,9 @@ def gravity_reading_flag(gravity: dict | None) -> list[str]:
     p = gravity["p_lying"]
     if gravity["reading"] == "lying":
         return [f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is taken "
-                f"from the camera prior (near level; the true up within a {gravity['interval_deg']:.0f} deg cone, 95 %) across the trunk; a body "
-                f"standing straight under a camera rolled 90 deg looks the same (pass --no-camera-prior if so; a "
+                f"from the camera prior (near level; the true up within a {gravity['interval_deg']:.0f} deg cone, 95 %, if the "
+                f"camera is not upside down: a supine body under an upside-down camera reads as prone) across the trunk; "
+                f"a body standing straight under a camera rolled 90 deg looks the same (pass --no-camera-prior if so; a "
                 f"phone video's display rotation tells when --video is given with the 2D keypoints), and so does a "
                 f"file whose up axis is declared wrongly (check --axes with --lifter generic)"]
     if p >= AMBIGUOUS_READING_P:
