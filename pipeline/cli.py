@@ -477,7 +477,7 @@ def opensim(out_dir, height, mass, overwrite):
     result = scale_and_ik(trc, folder, height, mass, overwrite=overwrite)
     warnings = ik_fit_flags(result)
     fit = {key: result[key] for key in ("marker_rms_m", "marker_max_m", "marker_rms_median_frame_m", "frames",
-                                        "static_window_s")}
+                                        "frames_without_markers", "static_window_s")}
     write_text(folder / OPENSIM_FIT, json.dumps(finite_or_null({**fit, "warnings": warnings}), indent=1) + "\n")
     # so that `pcnet run --overwrite` still recognises the whole folder as pcnet's output
     register_files(folder, written)
@@ -485,7 +485,9 @@ def opensim(out_dir, height, mass, overwrite):
     click.echo(f"ik                {result['outputs']['ik.mot']}")
     click.echo(f"marker errors     {result['outputs']['ik_marker_errors.sto']}")
     click.echo(f"marker RMS        {100 * result['marker_rms_m']:.2f} cm over {result['frames']} frames "
-               f"(max {100 * result['marker_max_m']:.2f} cm)")
+               f"(max {100 * result['marker_max_m']:.2f} cm)"
+               + (f"; {result['frames_without_markers']} frames without any marker left out of ik.mot"
+                  if result["frames_without_markers"] else ""))
     click.echo(f"IK speed          {result['frames_per_s']:.1f} frames/s ({result['seconds']:.1f} s; "
                f"scaling {result['scale_seconds']:.1f} s)")
     for line in warnings:

@@ -241,8 +241,9 @@ def scale_and_ik(
        generic model's mass distribution; without it the segment masses scale with the
        segments. ``height_m`` is recorded in the model (ScaleTool's ``height``, informational;
        pcnet's TRC is already scaled to it by ``pcnet run --height``).
-    2. InverseKinematicsTool over every frame of the TRC (weights in ``IK_Setup_H36M17.xml``;
-       missing markers are skipped in their frames).
+    2. InverseKinematicsTool over every frame of the TRC with at least one marker (weights in
+       ``IK_Setup_H36M17.xml``; missing markers are skipped in their frames; a frame with
+       none, a lost track, has no row in ``ik.mot``: OpenSim's solver cannot assemble it).
 
     Writes into ``out_dir`` (which must exist): ``scaled_model.osim``, ``ik.mot`` (generalised
     coordinates per frame; rotations in degrees, pelvis translations in metres, ground frame =
@@ -293,13 +294,16 @@ def scale_and_ik(
                          f"pass --overwrite to replace them")
 
     data = DATA_DIR
-    start_s, end_s = float(times[0]), float(times[-1])
+    start_s = float(times[0])
     order = [names.index(j) for j in H36M_JOINTS]
     joints = markers[:, order]  # (T, 17, 3)
     complete = np.isfinite(joints).all(axis=(1, 2))
     if not complete.any():
         raise InputError(f"{trc}: expected at least one frame with all 17 joint markers for scaling, got none")
     fps = 1.0 / float(np.median(np.diff(times)))
+    # OpenSim's IK cannot assemble a frame without a single marker (non-finite marker values
+    # make its solver throw): such frames (a lost track) are left out of its marker file.
+    marked = np.isfinite(joints).any(axis=(1, 2))
     tmp = out / f"{STAGING_PREFIX}{os.getpid()}@{socket.gethostname()}-{uuid.uuid4().hex[:12]}"
     tmp.mkdir()
     try:
@@ -336,25 +340,35 @@ def scale_and_ik(
         placer.setOutputMotionFileName(str(tmp / "static_pose.mot"))
         placer.setMaxMarkerMovement(-1.0)
         with _stdout_to(tmp / "opensim_scale.log") as log:
-            ok = tool.run()
+            try:
+                ok = tool.run()
+            except RuntimeError:
+                ok = False
         unused = [line.strip() for line in log.read_text().splitlines() if "not used to scale" in line]
         if not ok or not (tmp / "scaled_model.osim").is_file() or unused:
             raise InputError(f"{trc}: OpenSim scaling failed ({_last_message(log)})")
         scale_seconds = time.perf_counter() - t_scale
 
         # --- inverse kinematics ----------------------------------------------------------
+        ik_markers = trc
+        if not marked.all():
+            ik_markers = write_trc(tmp / "ik_frames.trc", joints[marked], fps, H36M_JOINTS, units,
+                                   frames=np.flatnonzero(marked) + int(round(start_s * fps)))
         ik = osim.InverseKinematicsTool(str(data / IK_SETUP))
         model = osim.Model(str(tmp / "scaled_model.osim"))
         ik.setModel(model)
-        ik.set_marker_file(str(trc))
-        ik.setStartTime(start_s)
-        ik.setEndTime(end_s)
+        ik.set_marker_file(str(ik_markers))
+        ik.setStartTime(float(times[marked][0]))
+        ik.setEndTime(float(times[marked][-1]))
         ik.setResultsDir(str(tmp))
         ik.setOutputMotionFileName(str(tmp / "ik.mot"))
         ik.set_report_errors(True)
         t_ik = time.perf_counter()
         with _stdout_to(tmp / "opensim_ik.log") as log:
-            ok = ik.run()
+            try:
+                ok = ik.run()
+            except RuntimeError:  # the binding raises where the C++ tool would return false
+                ok = False
         ik_seconds = time.perf_counter() - t_ik
         errors = sorted(tmp.glob("*_ik_marker_errors.sto"))
         if not ok or not (tmp / "ik.mot").is_file() or not errors:
@@ -374,6 +388,7 @@ def scale_and_ik(
         "marker_max_m": float(np.max(mx)),
         "marker_rms_median_frame_m": float(np.median(rms)),
         "frames": frames,
+        "frames_without_markers": int((~marked).sum()),
         "seconds": float(ik_seconds),
         "frames_per_s": float(frames / ik_seconds) if ik_seconds > 0 else math.inf,
         "scale_seconds": float(scale_seconds),

@@ -817,6 +817,8 @@ def test_c3d_export_round_trips_real_world_frame_markers(tmp_path):
     assert list(c3d["parameters"]["POINT"]["LABELS"]["value"]) == list(H36M_JOINTS)
     assert c3d["parameters"]["POINT"]["RATE"]["value"][0] == 30.0
     assert c3d["parameters"]["POINT"]["UNITS"]["value"] == ["m"]
+    # viewers told that +Y is up (a Z-up default would show the body lying down)
+    assert [c3d["parameters"]["POINT"][k]["value"] for k in ("X_SCREEN", "Y_SCREEN")] == [["+X"], ["+Y"]]
     with np.load(out / "canonical.npz") as npz:
         world = npz["joints_world"]
     points = np.transpose(c3d["data"]["points"][:3], (2, 1, 0))

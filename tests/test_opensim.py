@@ -69,6 +69,27 @@ def test_scale_and_ik_on_a_short_real_clip(short_run, tmp_path):
     scale_and_ik(short_run / "world.trc", out, 1.75, 70.0, overwrite=True)
 
 
+def test_frames_without_any_marker_are_left_out_of_ik(short_run, tmp_path):
+    """A frame with no marker at all (a lost track: the Sports2D demo has 8) made OpenSim's
+    IK throw, a traceback; such frames now have no row in ik.mot, whose other rows keep the
+    TRC's times."""
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    from pcnet.stages.opensim_ik import _parse_sto, read_trc, scale_and_ik
+    from pcnet.stages.sinks.exports import write_trc
+
+    times, markers, names, units = read_trc(short_run / "world.trc")
+    markers[[10, 11, 40]] = np.nan
+    trc = write_trc(tmp_path / "world.trc", markers, 30.0, names, units)
+    out = tmp_path / "ik"
+    out.mkdir()
+    r = scale_and_ik(trc, out, 1.75)
+    assert r["frames"] == FRAMES - 3 and r["frames_without_markers"] == 3
+    cols, rows = _parse_sto(out / "ik.mot")
+    kept = np.delete(times, [10, 11, 40])
+    np.testing.assert_allclose(rows[:, cols.index("time")], kept, atol=1e-4)  # ik.mot prints 6 decimals
+    assert r["marker_rms_m"] < 0.02, r
+
+
 def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_path):
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
     import shutil

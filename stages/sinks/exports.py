@@ -243,6 +243,7 @@ def write_trc(
     fps: float,
     joint_names: Sequence[str] = H36M_JOINTS,
     units: str = "m",
+    frames: np.ndarray | None = None,
 ) -> Path:
     """Write Y-up poses (the recording's world frame, :mod:`pcnet.stages.world_frame`, or the
     canonical frame) as an OpenSim ``.trc`` marker file, atomically.
@@ -273,16 +274,22 @@ def write_trc(
         fps: frame rate in Hz (DataRate, CameraRate, OrigDataRate).
         joint_names: ``J`` marker names (no tabs or line breaks); default H36M-17.
         units: ``"m"`` (OpenSim's default) or ``"mm"``.
+        frames: ``(T,)`` 0-based frame numbers of the rows in the recording they come from
+            (increasing), for a file that leaves some frames out: ``Frame#`` is ``frames + 1``
+            and the time ``frames / fps``; default ``0 .. T-1``.
 
     Returns:
         the destination path.
 
     Raises:
         ValueError: shape/name mismatch, a name with a tab/newline, duplicate names,
-            ``fps <= 0`` or unknown units.
+            ``fps <= 0``, unknown units, or ``frames`` not ``T`` increasing integers.
     """
     X, names = _checked_markers("write_trc", poses, joint_names, fps, units)
     T, J = X.shape[:2]
+    numbers = np.arange(T) if frames is None else np.asarray(frames)
+    if numbers.shape != (T,) or not np.issubdtype(numbers.dtype, np.integer) or (np.diff(numbers) <= 0).any():
+        raise ValueError(f"write_trc: frames must be {T} increasing integers, got shape {numbers.shape}")
     rate = f"{fps:.6g}"
     lines = [
         f"PathFileType\t4\t(X/Y/Z)\t{Path(path).name}",
@@ -296,7 +303,7 @@ def write_trc(
         fh.write("\n".join(lines) + "\n")
         for lo in range(0, T, TEXT_BLOCK_ROWS):
             block = np.asarray(X[lo : lo + TEXT_BLOCK_ROWS], np.float64).reshape(-1, J * 3)
-            for t, row in enumerate(block.tolist(), start=lo):
+            for t, row in zip(numbers[lo : lo + TEXT_BLOCK_ROWS].tolist(), block.tolist()):
                 fields = "\t".join(_fmt_trc(v) for v in row)
                 fh.write(f"{t + 1}\t{t / fps:.6f}\t{fields}\t\n")
     return Path(path)
@@ -318,8 +325,9 @@ def write_c3d(
     with ezc3d (https://github.com/pyomeca/ezc3d), atomically.
 
     POINT:RATE = ``fps``, POINT:LABELS = ``joint_names``, POINT:UNITS = ``units``; the
-    coordinates are written unchanged (X forward, Y up, Z right); a missing marker is
-    written as NaN with residual -1 (C3D's invalid sample), a present one with residual 0.
+    coordinates are written unchanged (X forward, Y up, Z right; POINT:X_SCREEN ``+X`` and
+    POINT:Y_SCREEN ``+Y`` say so to viewers); a missing marker is passed to ezc3d as NaN,
+    which stores it with residual -1 (C3D's invalid sample), a present one with residual 0.
 
     Args:
         path: destination ``.c3d``; poses: ``(T, J, 3)`` float; fps: Hz; joint_names: ``J``
@@ -338,6 +346,10 @@ def write_c3d(
     c3d["parameters"]["POINT"]["RATE"]["value"] = [float(fps)]
     c3d["parameters"]["POINT"]["LABELS"]["value"] = tuple(names)
     c3d["parameters"]["POINT"]["UNITS"]["value"] = [units]
+    # Which axes point right and up on screen (C3D User Guide, POINT:X_SCREEN/Y_SCREEN):
+    # viewers that assume a Z-up lab would otherwise show this Y-up body lying down.
+    c3d.add_parameter("POINT", "X_SCREEN", ["+X"])
+    c3d.add_parameter("POINT", "Y_SCREEN", ["+Y"])
     points = np.ones((4, X.shape[1], X.shape[0]))
     # ezc3d takes the whole point array: the C3D export (opt-in, --c3d) holds the recording.
     for rows in frame_blocks(len(X)):
