@@ -33,7 +33,7 @@ from .ddhpose import load_ddhpose
 from .videopose3d import load_videopose3d
 from .generic import axes_to_camera, load_generic
 from .kinect import load_azure_kinect, load_kinect_v1
-from .video import iter_frames, probe_video, read_frame
+from .video import first_shown_frame, iter_frames, probe_video, read_frame
 
 __all__ = [
     "POSE_UNITS", "AdapterError", "Keypoints2D", "Poses3D", "VideoInfo",
@@ -41,5 +41,5 @@ __all__ = [
     "load_alphapose", "load_mmpose", "load_openpose", "load_mediapipe_2d", "load_mediapipe_3d",
     "load_motionbert", "load_ddhpose", "load_videopose3d", "load_generic", "axes_to_camera",
     "load_kinect_v1", "load_azure_kinect",
-    "probe_video", "read_frame", "iter_frames",
+    "probe_video", "read_frame", "iter_frames", "first_shown_frame",
 ]

@@ -108,6 +108,69 @@ def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
     return VideoInfo(str(p), count, fps, width, height, rotation)
 
 
+#: Raw frames searched for the first frame a player shows, and how many consecutive frames
+#: must match (a still intro can repeat one picture).
+EDIT_LIST_SEARCH_FRAMES = 600
+EDIT_LIST_MATCH_FRAMES = 5
+#: Mean absolute difference (8-bit levels) under which two decodings of a frame are the same.
+SAME_FRAME_LEVELS = 0.5
+
+
+def first_shown_frame(path: str | Path) -> int:
+    """Index, among the frames stored in the container (in presentation order), of the first
+    frame a player shows: 0 unless an MP4 edit list (ISO/IEC 14496-12 section 8.6.6,
+    ``elst``) starts playback later.
+
+    FFmpeg (and so OpenCV, and the 2D detectors that decode through them) honours the edit
+    list; a reader that lists the stored samples does not (rerun's ``AssetVideo`` frame table:
+    the bundled ``boxing2.mp4`` stores 360 frames and plays 301 from stored frame 59). The
+    frames are decoded once with FFmpeg's ``ignore_editlist`` and matched to the first
+    :data:`EDIT_LIST_MATCH_FRAMES` frames as played (mean difference below
+    :data:`SAME_FRAME_LEVELS`), over the first :data:`EDIT_LIST_SEARCH_FRAMES` stored frames;
+    without a match (or a still intro longer than the search) it is 0.
+
+    Raises:
+        AdapterError: as :func:`probe_video` for a file that does not open.
+    """
+    p = require_file(path, "a video file")
+    with _capture(p) as cap:
+        shown = [frame for _, frame in zip(range(EDIT_LIST_MATCH_FRAMES), _frames(cap))]
+    if not shown:
+        return 0
+    key = "OPENCV_FFMPEG_CAPTURE_OPTIONS"
+    before = os.environ.get(key)
+    os.environ[key] = "ignore_editlist;1"  # read when the capture opens
+    try:
+        with _capture(p) as cap:
+            window: list[np.ndarray] = []  # the stored frames from the candidate k on
+            for index, frame in zip(range(EDIT_LIST_SEARCH_FRAMES + len(shown)), _frames(cap)):
+                window.append(frame)
+                while window and not _same(window[-1], shown[len(window) - 1]):
+                    window.pop(0)  # the candidate fails: try the next stored frame as the start
+                    while window and not all(_same(a, b) for a, b in zip(window, shown)):
+                        window.pop(0)
+                if len(window) == len(shown):
+                    return index - len(shown) + 1
+    finally:
+        if before is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = before
+    return 0
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and np.abs(a.astype(np.int16) - b).mean() < SAME_FRAME_LEVELS
+
+
+def _frames(cap: cv2.VideoCapture) -> Iterator[np.ndarray]:
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            return
+        yield frame
+
+
 def read_frame(path: str | Path, index: int) -> np.ndarray:
     """Frame ``index`` (0-based) of a video as BGR ``uint8`` ``(H, W, 3)``.
 

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from pcnet.adapters import AdapterError, get_2d_adapter, get_3d_adapter, probe_video
+from pcnet.adapters import AdapterError, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
 from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
@@ -574,6 +574,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None, b
             fps=fps, units=units, method=cfg.method, report=report, flags=flags, notes=notes, joints_camera=cam,
             rotation=rotations, canonical=canonical, valid=valid, kinematics_frame=kin_frame, poses=rectified,
             world=world, world_rotation=world_rotation, keypoints2d=kp2d, track_segment=segment, video=cfg.video,
+            video_first_frame=first_shown_frame(cfg.video) if cfg.video and cfg.recording else 0,
             video_keypoints2d=video_kp2d,
             min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam)
         result.kinematics_blocks = kinematics_chunks(rectified, fps, cutoff, units)

@@ -731,27 +731,34 @@ def test_rerun_recording_entities_rows_and_blueprint(tmp_path, yoga_cam):
 
 
 def test_rerun_video_lines_up_with_frames(tmp_path):
-    from pcnet.stages.sinks.rerun_log import write_recording
-
-    video = shared("real", "boxing_motionbert", "boxing2.mp4")
-    X = np.load(shared("real", "boxing_motionbert", "X3D.npy"))  # (301, 17, 3) normalised
-    X = X - X[:, :1]
-    R, valid, can = _inputs(X)
-    path = write_recording(tmp_path / "box.rrd", fps=30.0, joints_cam=X, canonical=can, rotations=R,
-                           up=R[:, :, 1], valid=valid, keypoints2d=None, video_path=video,
-                           series={"trunk": joint_angles(can)["trunk_inclination"]})
-    rows, static, chunks, origins = rrd_summary(path)
+    """The bundled boxing2.mp4 stores 360 frames and an MP4 edit list that starts playback at
+    stored frame 59: FFmpeg, OpenCV and the 2D detector saw the 301 frames from there, while
+    rerun's frame table lists the stored ones. Pose frame t must show stored frame t + 59."""
     import rerun as rr
 
+    from pcnet.adapters import first_shown_frame, iter_frames
+    from pcnet.stages.sinks.rerun_log import write_recording
+
+    example = Path(__file__).resolve().parent.parent / "pipeline" / "example_data"
+    video = example / "boxing2.mp4"
+    X = np.load(example / "X3D.npy")  # (301, 17, 3) normalised
+    X = X - X[:, :1]
     ts = rr.AssetVideo(path=video).read_frame_timestamps_nanos()
-    # one video frame per pose: the container lists 360 frames, 301 decode and have poses
-    assert "/video" in static and len(ts) > len(X) and rows["/video"] == len(X)
-    assert rows["/camera/skeleton/joints"] == len(X)
+    played = sum(1 for _ in iter_frames(video))
+    assert (len(ts), played, len(X)) == (360, 301, 301)
+    first = first_shown_frame(video)
+    assert first == len(ts) - played == 59  # the edit list cuts the start only
+    assert first_shown_frame(FIXTURES / "boxing2_f000-009.mp4") == 0  # re-encoded without an edit list
+    R, valid, can = _inputs(X)
+    path = write_recording(tmp_path / "box.rrd", fps=30.0, joints_cam=X, canonical=can, rotations=R,
+                           up=R[:, :, 1], valid=valid, keypoints2d=None, video_path=video, video_first_frame=first,
+                           series={"trunk": joint_angles(can)["trunk_inclination"]})
+    rows, static, chunks, origins = rrd_summary(path)
+    assert "/video" in static and rows["/video"] == len(X) and rows["/camera/skeleton/joints"] == len(X)
     assert "video" in origins
-    # Pose frame t carries the video's own timestamp of frame t.
     rb = chunks["/camera/skeleton/joints"][0].to_record_batch()
     vt = rb.column("video_time").cast("int64").to_numpy()
-    assert np.array_equal(vt, ts[: len(X)])
+    assert np.array_equal(vt, ts[first : first + len(X)])
 
 
 def test_rerun_write_is_atomic(tmp_path, monkeypatch, yoga_cam):

@@ -57,11 +57,14 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     assert int(header["NumFrames"]) == frames and int(header["NumMarkers"]) == 17 and header["Units"] == "m"
     assert data.shape == (frames, 2 + 17 * 3)
     assert "kinematics frame  world, fixed for the recording" in res.output
-    rows_per_entity, static, _, origins = rrd_summary(out / "recording.rrd")
+    rows_per_entity, static, chunks, origins = rrd_summary(out / "recording.rrd")
     assert "/video" in static and "/flags" in static and "flags" in origins  # the warnings have a view
     for entity in ("/camera/skeleton/joints", "/canonical/skeleton/joints", "/world/skeleton/joints",
                    "/video/keypoints", "/video"):  # the container lists 360 video frames, 301 decode
         assert rows_per_entity[entity] == frames, entity
+    # pose frame 0 shows the first frame played, stored frame 59 (the MP4's edit list)
+    video_time = chunks["/camera/skeleton/joints"][0].to_record_batch().column("video_time").cast("int64")
+    assert video_time.to_numpy()[0] == round(59 / 30 * 1e9)
     assert any(e.startswith("/series/") for e in rows_per_entity)
     with np.load(out / "canonical.npz") as npz:
         assert npz["canonical"].shape == (frames, 17, 3) and npz["rotation"].shape == (frames, 3, 3)

@@ -257,6 +257,7 @@ def write_recording(
     valid: np.ndarray,
     keypoints2d: np.ndarray | None = None,
     video_path: str | os.PathLike | None = None,
+    video_first_frame: int = 0,
     wrist_paths: Mapping[str, np.ndarray] | None = None,
     series: Mapping[str, np.ndarray] | None = None,
     application_id: str = "pcnet",
@@ -289,6 +290,9 @@ def write_recording(
             recording. A video whose codec rerun cannot play (e.g. MPEG-4 Part 2, ``mp4v``;
             rerun 0.x plays H.264, H.265, AV1 and VP9) is left out, the rest recorded, and a
             line saying so appended to ``notes``.
+        video_first_frame: index of pose frame 0's picture among the frames the container
+            stores (:func:`pcnet.adapters.video.first_shown_frame`: 0 unless an MP4 edit list
+            starts playback later).
         wrist_paths: optional ``name -> (T, 3)`` paths to draw (e.g. filtered wrists), in
             the world frame when ``world`` is given, else in the canonical frame; default:
             the wrists of ``world`` or ``canonical``. The camera view always gets the
@@ -351,9 +355,10 @@ def write_recording(
     if video_path is not None:
         try:
             asset = rr.AssetVideo(path=video_path)
-            # One video frame per pose frame: a container can list frames that do not decode
-            # (boxing2.mp4: 360 listed, 301 decoded) or that the poses do not cover.
-            video_ns = asset.read_frame_timestamps_nanos()[:T]
+            # One video frame per pose frame, from the first frame a player shows: rerun lists
+            # the stored frames, before an MP4 edit list (boxing2.mp4: 360 stored, 301 played
+            # from stored frame 59), and the poses may not cover them all.
+            video_ns = asset.read_frame_timestamps_nanos()[video_first_frame : video_first_frame + T]
         except RuntimeError as err:  # rerun's own video reader: an unsupported codec or container
             asset, video_ns = None, None
             if notes is not None:

@@ -57,7 +57,8 @@ class RecordingResult:
         keypoints2d: ``(T, 17, 3)`` px + confidence or ``None``; track_segment ``(T,)`` int or
             ``None``; video: the video path or ``None``; video_keypoints2d: the same keypoints in
             the pixels the recording shows the video in (a phone video is shown as stored), or
-            ``None`` for ``keypoints2d``; min_confidence: 2D threshold.
+            ``None`` for ``keypoints2d``; video_first_frame: the stored frame that pose frame 0
+            shows (0 unless an MP4 edit list starts playback later); min_confidence: 2D threshold.
         wrist_acceleration_camera: ``(T, 2, 3)`` filtered camera-frame wrist accelerations.
         kinematics_blocks: iterable of :class:`pcnet.stages.kinematics.Kinematics` blocks in
             frame order, consumed once by :func:`write_kinematics_table`.
@@ -83,6 +84,7 @@ class RecordingResult:
     track_segment: np.ndarray | None = None
     video: str | None = None
     video_keypoints2d: np.ndarray | None = None
+    video_first_frame: int = 0
     min_confidence: float = 0.0
     wrist_acceleration_camera: np.ndarray | None = None
     kinematics_blocks: Iterable = ()
@@ -211,7 +213,7 @@ def write_rerun(r: RecordingResult, folder: Path) -> dict[str, Path]:
     path = write_recording(
         folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera, canonical=r.canonical,
         rotations=r.rotation, up=column(r.rotation, slice(None), 1), valid=r.valid,
-        keypoints2d=r.keypoints2d if r.video_keypoints2d is None else r.video_keypoints2d, video_path=r.video, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
+        keypoints2d=r.keypoints2d if r.video_keypoints2d is None else r.video_keypoints2d, video_path=r.video, video_first_frame=r.video_first_frame, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
         series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence, flags=r.flags, world=r.world,
         notes=r.notes,
     )
