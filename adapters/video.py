@@ -43,7 +43,7 @@ def _prop(cap: cv2.VideoCapture, prop: int) -> float:
 
 
 #: Share of the container's frame count below which a video whose decoding stops early is
-#: refused as damaged rather than taken as overstated (``boxing2.mp4``: 301 of 360, 0.84).
+#: refused as damaged rather than taken as cut by an edit list (``boxing2.mp4``: 301 of 360, 0.84).
 DECODABLE_SHARE = 0.5
 
 
@@ -67,9 +67,10 @@ def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
     Args:
         path: the video file.
         verify: check that the container's frame count is real by decoding its last
-            frame; if that fails, count the frames by decoding them all. Containers can
-            overstate: the real ``boxing2.mp4`` reports 360 frames and decodes 301, the
-            count AlphaPose and MotionBERT saw. ``False`` trusts the container (no decoding
+            frame; if that fails, count the frames by decoding them all. The container's
+            count can exceed what plays: the real ``boxing2.mp4`` stores 360 frames and its
+            MP4 edit list plays 301 (:func:`first_shown_frame`), the count AlphaPose and
+            MotionBERT saw. ``False`` trusts the container (no decoding
             beyond the first frame).
 
     Returns:
