@@ -262,15 +262,16 @@ class SequenceEvidence:
                                    camera_prior=self.camera_prior, frame_weights=frame_weights,
                                    evidence_scale=evidence_scale)
             out, g = res.rotations, res.gravity
-            if g is not None and g.reading == "lying":
+            if not calibrated:  # another method's sequence up: its bootstrap, not a 95 % interval
+                pitch_half = roll_half = float("nan")
+            elif g is not None and g.reading == "lying":
                 # The up comes from the camera prior, not from resampled poses: its interval
-                # is the posterior's (tens of degrees), not the bootstrap's.
+                # is the posterior's (tens of degrees; its pose term is the pair's calibrated
+                # error), not the bootstrap's.
                 pitch_half, roll_half = g.pitch_half_deg, g.roll_half_deg
-            elif calibrated:
+            else:
                 pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch", scale=evidence_scale)
                 roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll", scale=evidence_scale)
-            else:  # another method's sequence up: its bootstrap, not a 95 % interval
-                pitch_half = roll_half = float("nan")
             report.update(
                 evidence=res.evidence, valid=res.valid, up=res.up, up_uncertainty_deg=res.up_uncertainty_deg,
                 camera_pitch_deg=res.camera_pitch_deg, camera_roll_deg=res.camera_roll_deg,

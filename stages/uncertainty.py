@@ -56,7 +56,11 @@ A lying reading of the camera-prior posterior (:mod:`pcnet.stages.gravity_prior`
 the posterior's own interval instead.
 
 Scope: the constants were calibrated for the ``pcnet`` method with the shipped weights on
-lifter-like inputs; other methods get the same widening without their own calibration.
+held-out mocap with simulated lifter-like noise (:mod:`pcnet.models.lifter_noise`, the noise
+model the networks trained with); other methods get no calibrated interval (their sequence up
+reports its bootstrap). The intervals are per axis (pitch, roll): both hold together in about
+90 % of recordings. Real lifters' per-recording errors can be larger: on the four real
+Pose2Sim cameras the roll interval missed two (README, "Targets").
 """
 from __future__ import annotations
 
@@ -83,7 +87,8 @@ FRAME_TILT_95_BODY_DEG = 9.03
 UNFAMILIAR_EVIDENCE_SCALE = 1.5
 
 #: What the interval is, for printed summaries.
-LABEL = "95 % interval incl. the lifter's systematic error, calibrated on held-out mocap"
+LABEL = ("95 % interval per axis incl. the lifter's systematic error, calibrated on held-out mocap with simulated "
+         "lifter noise")
 
 
 def calibrated_interval(boot_half_deg, axis: str, sigma_sys_deg: float | None = None, scale=1.0):

@@ -47,8 +47,9 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     # a static camera: one tilt for the whole video, with its calibrated 95 % interval
     # (bootstrap + the lifter's systematic error, stages/uncertainty.py) and the bootstrap alone
     assert "mode sequence (requested auto" in res.output
-    assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval incl\. "
-                     r"the lifter's systematic error, calibrated on held-out mocap; bootstrap alone \+- \d+\.\d/\d+\.\d", res.output)
+    assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval per axis incl\. "
+                     r"the lifter's systematic error, calibrated on held-out mocap with simulated lifter noise; "
+                     r"bootstrap alone \+- \d+\.\d/\d+\.\d", res.output)
     with open(out / "kinematics.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == frames
@@ -235,7 +236,12 @@ def test_a_method_without_calibration_prints_no_95_percent_interval(tmp_path):
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", BOX_3D, "--fps", "30", "--method", "geometric",
                   "--no-recording", "--out", tmp_path / "o")
     assert res.exit_code == 0, res.output
-    assert "95 % interval incl." not in res.output and "not for method geometric" in res.output
+    assert "95 % interval per axis" not in res.output and "not for method geometric" in res.output
+    # nor when its sequence up is read as lying: the posterior's pose term is the pair's calibration
+    res = _invoke("run", "--lifter", "videopose3d", "--lifter-output", FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy",
+                  "--fps", "30", "--method", "geometric", "--mode", "sequence", "--no-recording", "--out", tmp_path / "l")
+    assert res.exit_code == 0 and "body read as lying" in res.output, res.output
+    assert "posterior interval" not in res.output and "not for method geometric" in res.output
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         report = json.loads(str(npz["report"]))
     assert report["camera_pitch_interval_deg"] is None and report["camera_pitch_uncertainty_deg"] > 0
