@@ -74,8 +74,8 @@ def frames_of(estimator, views) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.concatenate(errors), np.concatenate(d), np.concatenate(w)
 
 
-def mocap_views(clips, roll_deg: float = 0.0):
-    pairs = make_pairs(clips, views="paper", seed=0, camera="per-frame", noise=LifterNoise())
+def mocap_views(clips, roll_deg: float = 0.0, camera: str = "per-frame"):
+    pairs = make_pairs(clips, views="paper", seed=0, camera=camera, noise=LifterNoise())
     Q = axis_rotation("z", np.radians(roll_deg))
     for i, clip in enumerate(clips):
         sel = np.flatnonzero(pairs.clip == i)

@@ -43,10 +43,10 @@ SUMMARY_EVERY_S = 2.0
 #: Up to this many rows the summary is rewritten at every result (a rewrite costs little).
 SUMMARY_EVERY_RESULT_ROWS = 200
 _NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold": float, "cutoff_hz": float,
-            "focal_px": float}
+            "focal_px": float, "mass": float}
 _LIFTER_OPTIONS = COMMAND_LINE_OPTIONS  # the lifter options a row gives as columns of their own
 _BOOLEAN = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}
-_BOOLEAN_COLUMNS = ("overwrite", "recording", "fps_override", "c3d", "camera_prior", "residual_cutoff")
+_BOOLEAN_COLUMNS = ("overwrite", "recording", "fps_override", "c3d", "camera_prior", "residual_cutoff", "opensim")
 
 
 def _boolean(key: str, raw: str) -> bool:
@@ -484,6 +484,10 @@ def plan_batch(manifest: str | os.PathLike, options: BatchOptions) -> tuple[list
         from pcnet.stages.sinks.exports import require_ezc3d
 
         require_ezc3d()  # before any work, as `pcnet run --c3d`: not once per row at its end
+    if any(item.action == "run" and item.config.get("opensim") for item in planned):
+        from pcnet.stages.opensim_ik import import_opensim
+
+        import_opensim()
     return planned, summary
 
 

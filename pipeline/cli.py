@@ -280,14 +280,12 @@ def export(checkpoint, out_path, overwrite):
 
 
 EXAMPLE_DIR = Path(__file__).parent / "example_data"
-#: What `pcnet opensim` writes beside OpenSim's outputs: the fit's marker errors and warning.
-OPENSIM_FIT = "opensim_fit.json"
 
 
-def _run_and_report(cfg, metric_for: str | None = None) -> None:
+def _run_and_report(cfg) -> None:
     from pcnet.pipeline.runner import run_pipeline
 
-    click.echo(run_pipeline(cfg, metric_for=metric_for).summary())
+    click.echo(run_pipeline(cfg).summary())
 
 
 @main.command()
@@ -331,7 +329,8 @@ def _run_and_report(cfg, metric_for: str | None = None) -> None:
 @click.option("--c3d", is_flag=True, default=None,
               help="Also write the markers as C3D (world.c3d or canonical.c3d; metric poses; pip install \"pcnet[c3d]\").")
 @click.option("--opensim", "with_opensim", is_flag=True, default=False,
-              help="Then scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`).")
+              help="Also scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`), "
+                   "published with the run's output.")
 @click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")
 def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_recording, with_opensim, mass, **options):
     """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
@@ -347,9 +346,9 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
         lifter_options["hypothesis"] = parse_hypothesis(hypothesis)
     if no_recording:
         options["recording"] = False
-    if mass is not None and not with_opensim:
-        raise InputError(f"--mass: expected together with --opensim (it sets the OpenSim model's mass), got --mass "
-                         f"{mass:g} without it")
+    if with_opensim:
+        options["opensim"] = True
+    options["mass"] = mass
     if config_path:
         cfg = load_run_config(config_path, **options)
         if lifter_options:  # named as the flags they came from, then together with the file's
@@ -358,13 +357,7 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_r
     else:
         given = {k: v for k, v in options.items() if v is not None}
         cfg = RunConfig.from_values(COMMAND_LINE, {**given, "lifter_options": lifter_options})
-    if with_opensim:
-        from pcnet.stages.opensim_ik import import_opensim
-
-        import_opensim()  # before any work: without OpenSim, one line saying how to get it
-    _run_and_report(cfg, "--opensim" if with_opensim else None)
-    if with_opensim:
-        click.get_current_context().invoke(opensim, out_dir=cfg.out, height=cfg.height, mass=mass, overwrite=False)
+    _run_and_report(cfg)
 
 
 @main.command()
@@ -447,9 +440,7 @@ def opensim(out_dir, height, mass, overwrite):
     IK speed (stages/opensim_ik.py).
     """
     from pcnet.pipeline.outdir import is_owned, register_files, stale_staging
-    from pcnet.stages.core.atomic import write_text
-    from pcnet.stages.opensim_ik import ik_fit_flags, import_opensim, OUTPUTS, scale_and_ik
-    from pcnet.stages.sinks.exports import finite_or_null
+    from pcnet.stages.opensim_ik import import_opensim, opensim_fit_line, OUTPUTS, scale_and_ik
 
     folder = Path(out_dir)
     if not folder.is_dir():
@@ -465,32 +456,20 @@ def opensim(out_dir, height, mass, overwrite):
 
     for leftover in stale_staging(folder):  # of a killed `pcnet opensim` here
         shutil.rmtree(leftover, ignore_errors=True)
-    written = (*OUTPUTS, OPENSIM_FIT)
-    if not overwrite and (folder / OPENSIM_FIT).exists():
-        raise InputError(f"{out_dir}: expected no earlier OpenSim outputs, got {OPENSIM_FIT}; pass --overwrite to "
-                         f"replace them")
     # scale_and_ik refuses earlier outputs without --overwrite; with it, only pcnet's own go
-    foreign = [name for name in written if overwrite and (folder / name).exists() and not is_owned(folder, name)]
+    foreign = [name for name in OUTPUTS if overwrite and (folder / name).exists() and not is_owned(folder, name)]
     if foreign:
         raise InputError(f"{out_dir}: --overwrite replaces only OpenSim outputs pcnet wrote, got "
                          f"{', '.join(foreign)} written or changed by someone else; move them away")
     result = scale_and_ik(trc, folder, height, mass, overwrite=overwrite)
-    warnings = ik_fit_flags(result)
-    fit = {key: result[key] for key in ("marker_rms_m", "marker_max_m", "marker_rms_median_frame_m", "frames",
-                                        "frames_without_markers", "static_window_s")}
-    write_text(folder / OPENSIM_FIT, json.dumps(finite_or_null({**fit, "warnings": warnings}), indent=1) + "\n")
     # so that `pcnet run --overwrite` still recognises the whole folder as pcnet's output
-    register_files(folder, written)
+    register_files(folder, OUTPUTS)
     click.echo(f"model             {result['outputs']['scaled_model.osim']}")
     click.echo(f"ik                {result['outputs']['ik.mot']}")
     click.echo(f"marker errors     {result['outputs']['ik_marker_errors.sto']}")
-    click.echo(f"marker RMS        {100 * result['marker_rms_m']:.2f} cm over {result['frames']} frames "
-               f"(max {100 * result['marker_max_m']:.2f} cm)"
-               + (f"; {result['frames_without_markers']} frames without any marker left out of ik.mot"
-                  if result["frames_without_markers"] else ""))
-    click.echo(f"IK speed          {result['frames_per_s']:.1f} frames/s ({result['seconds']:.1f} s; "
-               f"scaling {result['scale_seconds']:.1f} s)")
-    for line in warnings:
+    click.echo(f"fit report        {result['outputs']['opensim_fit.json']}")
+    click.echo(f"fit               {opensim_fit_line(result)}")
+    for line in result["warnings"]:
         click.echo(f"WARNING           {line}")
 
 

@@ -22,6 +22,8 @@ MODES = ("auto", "frame", "sequence", "smooth")
 ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
 MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0
+#: Subject mass (kg) an OpenSim model may be scaled to (stages/opensim_ik.py checks the same).
+MIN_MASS_KG, MAX_MASS_KG = 10.0, 300.0
 
 #: What ``confidence_threshold`` and ``cutoff_hz`` mean when not given (None): they are
 #: optional so that validate() can refuse them given where they would be ignored.
@@ -112,7 +114,10 @@ class RunConfig:
     (:mod:`pcnet.stages.gravity_prior`). ``c3d``: also write the markers as a C3D file
     (needs the ``c3d`` extra, ezc3d). ``residual_cutoff``: choose the low-pass cutoff by
     Winter's residual analysis of the recording (:func:`pcnet.stages.kinematics.residual_analysis`)
-    instead of ``cutoff_hz``.
+    instead of ``cutoff_hz``. ``opensim``: also scale an OpenSim model and solve inverse
+    kinematics on the world-frame markers before the output is published
+    (:func:`pcnet.stages.opensim_ik.scale_and_ik`; needs the ``opensim`` extra and metric poses),
+    ``mass`` (kg) setting the model's mass.
     """
 
     lifter: str
@@ -137,6 +142,8 @@ class RunConfig:
     camera_prior: bool = True
     c3d: bool = False
     residual_cutoff: bool = False
+    opensim: bool = False
+    mass: float | None = None
     lifter_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -206,6 +213,7 @@ class RunConfig:
             ("fps", self.fps, MIN_FPS, MAX_FPS, "frames per second"),
             ("cutoff_hz", self.cutoff_hz, 0.1, MAX_FPS / 2, "Hz"),
             ("confidence_threshold", self.confidence_threshold, 0.0, 1.0, "(2D confidence)"),
+            ("mass", self.mass, MIN_MASS_KG, MAX_MASS_KG, "kg (the subject's mass)"),
         ):
             if value is not None and not (math.isfinite(value) and low <= value <= high):
                 raise InputError(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got {value!r}")
@@ -227,6 +235,11 @@ class RunConfig:
         if self.cutoff_hz is not None and self.fps is not None and self.cutoff_hz >= self.fps / 2:
             raise InputError(f"{field_name(source, 'cutoff_hz')}: expected a cutoff below half the frame rate "
                              f"(Nyquist: {self.fps / 2:g} Hz at fps {self.fps:g}), got {self.cutoff_hz:g}")
+        if self.mass is not None and not self.opensim:
+            cli = source == COMMAND_LINE
+            raise InputError(f"{field_name(source, 'mass')}: expected together with {_flag('opensim') if cli else 'opensim'} "
+                             f"(it sets the OpenSim model's mass), got {_flag('mass') if cli else 'mass'} {self.mass:g} "
+                             f"without it")
         if self.residual_cutoff and self.cutoff_hz is not None:
             raise InputError(f"{field_name(source, 'cutoff_hz', 'residual_cutoff')}: expected one of the two (the "
                              f"residual analysis chooses the cutoff), got cutoff_hz {self.cutoff_hz:g} and residual_cutoff")

@@ -28,6 +28,7 @@ from pcnet.adapters import AdapterError, first_shown_frame, get_2d_adapter, get_
 from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
+from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
 from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (body_size_flag, leg_asymmetry_flag, mirrored_skeleton_flag, side_swap_flag, size_change_flag, one_person_frames, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
                                track_switch_flag, unfiltered_flag)
@@ -296,13 +297,15 @@ def _glibc():
     return libc if hasattr(libc, "mallopt") and hasattr(libc, "malloc_trim") else None  # musl has neither
 
 
-def run_pipeline(cfg: RunConfig, progress: bool = True, *, metric_for: str | None = None,
+def run_pipeline(cfg: RunConfig, progress: bool = True, *,
                  before_publish: Callable[[Path, RunResult], None] | None = None) -> RunResult:
     """Run every stage for one recording and write its outputs into ``cfg.out``.
 
-    ``metric_for`` names what the caller will do next with the metric outputs (``"--opensim"``):
-    like ``cfg.c3d``, it refuses poses that stay unscaled (no ``cfg.height``, a lifter whose
-    output is not in metres) once the lifter output is read, before anything is written.
+    ``cfg.c3d`` and ``cfg.opensim`` need metric outputs: poses that stay unscaled (no
+    ``cfg.height``, a lifter whose output is not in metres) are refused once the lifter output
+    is read, before anything is written. ``cfg.opensim`` scales an OpenSim model and solves
+    inverse kinematics on the world-frame markers in the staged output, so its files (and its
+    fit's warning, in the summary, npz and recording) are published with the rest.
     ``before_publish(staged_folder, result)`` may add files of its own (``pcnet batch``'s resume
     marker) to the staged output before it is swapped in as ``cfg.out``, so that they appear
     together with it or not at all.
@@ -315,11 +318,13 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *, metric_for: str | Non
     _freed_arrays_back_to_the_os()
     if cfg.c3d:
         require_ezc3d()  # before any work: without ezc3d, one line saying how to get it
+    if cfg.opensim:
+        import_opensim()  # the same for OpenSim
     cfg.validate()
     out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights), cfg.overwrite)
     with _collector_skips_older_objects(), \
             tqdm(total=len(STEPS), desc="pcnet", disable=not progress, unit="stage") as bar:
-        return _run_stages(cfg, out, bar, metric_for, before_publish)
+        return _run_stages(cfg, out, bar, before_publish)
 
 
 _FREEZE_LOCK = threading.Lock()
@@ -414,6 +419,21 @@ def _moved_to_disk(arr: np.ndarray, name: str, store: FrameStore):
     return stored
 
 
+def _opensim(cfg: RunConfig, staged: Path, flags: list[str], notes: list[str]) -> dict[str, Path]:
+    """OpenSim scaling and inverse kinematics on the staged ``world.trc`` (into ``staged``):
+    the fit's line goes to ``notes``, its warning to ``flags``; without a world frame (a
+    moving camera) a flag says why there is none. Returns the files written."""
+    trc = staged / "world.trc"
+    if not trc.is_file():
+        flags.append("no OpenSim inverse kinematics (--opensim): a moving camera (mode frame or smooth) has no fixed "
+                     "world frame and no world.trc; use --mode sequence if the camera was static")
+        return {}
+    fit = scale_and_ik(trc, staged, cfg.height, cfg.mass)
+    notes.append(opensim_fit_line(fit))
+    flags += fit["warnings"]
+    return {name: staged / name for name in OPENSIM_OUTPUTS}
+
+
 def _scaled_in_place(arr, factor, precision=np.float64) -> None:
     """Multiply a float32 pose array (on disk) by ``factor`` (a number, or ``(T,)`` one per
     frame) in ``precision``, a block at a time."""
@@ -423,7 +443,7 @@ def _scaled_in_place(arr, factor, precision=np.float64) -> None:
         arr[rows] = (arr[rows].astype(precision) * f).astype(np.float32)
 
 
-def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None, before_publish=None) -> RunResult:
+def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResult:
     seconds: dict[str, float] = {}
     clock = [time.perf_counter(), None]
 
@@ -441,7 +461,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None, b
     with staged_output(out) as tmp, FrameStore(tmp) as store:
         step("inputs")
         video, fps, kp2d, kp_size, joints, units, measured_root, input_notes, lifter_turn = _load_inputs(cfg)
-        needing_metres = [name for name in ("--c3d" if cfg.c3d else None, metric_for) if name]
+        needing_metres = [name for name, asked in (("--c3d", cfg.c3d), ("--opensim", cfg.opensim)) if asked]
         if needing_metres and units != "m" and cfg.height is None:
             raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
                              f"writing metres, or --height), got {units} poses from --lifter {cfg.lifter}")
@@ -586,9 +606,11 @@ def _run_stages(cfg: RunConfig, out: Path, bar, metric_for: str | None = None, b
         bar.update()
 
         step("exports")
-        outputs = {**write_arrays(result, tmp), **table}
+        outputs = {**table, **write_motion_files(result, tmp, c3d=cfg.c3d, allocate=store.create)}
         _trim_heap()
-        outputs.update(write_motion_files(result, tmp, c3d=cfg.c3d, allocate=store.create))
+        if cfg.opensim:  # before the npz and the recording, which carry its fit's warning
+            outputs.update(_opensim(cfg, tmp, flags, notes))
+        outputs.update(write_arrays(result, tmp))
         _trim_heap()
         outputs.update(write_figures(result, tmp))
         bar.update()

@@ -42,6 +42,7 @@ runs, so pcnet works without it.
 from __future__ import annotations
 
 import contextlib
+import json
 import math
 import os
 import shutil
@@ -53,6 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from .core.conventions import H36M_JOINTS
+from .core.atomic import write_text
 from .core.errors import InputError, import_extra
 
 MISSING_OPENSIM = 'pcnet opensim needs OpenSim: pip install "pcnet[opensim]"'
@@ -61,7 +63,8 @@ MODEL_FILE = "Model_H36M17.osim"
 MARKER_FILE = "Markers_H36M17.xml"
 SCALE_SETUP = "Scaling_Setup_H36M17.xml"
 IK_SETUP = "IK_Setup_H36M17.xml"
-OUTPUTS = ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto")
+#: What :func:`scale_and_ik` writes; the last is its fit (marker errors and the fit's warning).
+OUTPUTS = ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "opensim_fit.json")
 #: Inverse kinematics fits worse than this RMS marker error (m) get a warning: OpenSim's
 #: "Simulation with OpenSim - Best Practices" checklist asks of IK an RMS error under about
 #: 2 cm (and a maximum under 4 cm; the maximum over a whole recording is noisy: 4-6 cm on
@@ -80,6 +83,15 @@ def ik_fit_flags(result: dict) -> list[str]:
             f"OpenSim's best-practice checklist asks of inverse kinematics; the model does not follow these poses "
             f"(a skeleton unlike a human body, or a recording with a different person or missing joints): check the "
             f"joint angles before using them"]
+
+
+def opensim_fit_line(result: dict) -> str:
+    """One summary line of :func:`scale_and_ik`'s fit: marker RMS and maximum over the IK
+    frames, the frames left out, IK speed."""
+    left_out = result["frames_without_markers"]
+    return (f"OpenSim IK: marker RMS {100 * result['marker_rms_m']:.2f} cm over {result['frames']} frames (max "
+            f"{100 * result['marker_max_m']:.2f} cm)" + (f"; {left_out} frames without any marker left out" if left_out else "")
+            + f"; {result['frames_per_s']:.1f} frames/s (scaling {result['scale_seconds']:.1f} s)")
 
 
 def import_opensim():
@@ -247,10 +259,12 @@ def scale_and_ik(
 
     Writes into ``out_dir`` (which must exist): ``scaled_model.osim``, ``ik.mot`` (generalised
     coordinates per frame; rotations in degrees, pelvis translations in metres, ground frame =
-    the TRC's frame) and ``ik_marker_errors.sto`` (OpenSim's per-frame
-    ``total_squared_error``, ``marker_error_RMS``, ``marker_error_max`` in metres). The tools run
-    in a hidden temporary folder inside ``out_dir``; the three files are renamed into place
-    only when both tools succeeded, and only that temporary folder is ever deleted.
+    the TRC's frame), ``ik_marker_errors.sto`` (OpenSim's per-frame
+    ``total_squared_error``, ``marker_error_RMS``, ``marker_error_max`` in metres) and
+    ``opensim_fit.json`` (the returned fit: marker errors, frames, static window and
+    :func:`ik_fit_flags`' ``warnings``). The tools run in a hidden temporary folder inside
+    ``out_dir``; the files are renamed into place only when both tools succeeded, and only that
+    temporary folder is ever deleted.
 
     Args:
         trc_path: an OpenSim marker file with the H36M-17 joint centres (pcnet's
@@ -263,9 +277,10 @@ def scale_and_ik(
 
     Returns:
         ``{"marker_rms_m"`` (RMS over all frames and markers), ``"marker_max_m"`` (largest
-        single marker error), ``"marker_rms_median_frame_m"``, ``"frames"``, ``"seconds"`` (IK
-        wall time), ``"frames_per_s"``, ``"scale_seconds"``, ``"static_window_s"``,
-        ``"outputs"`` (paths)``}``.
+        single marker error), ``"marker_rms_median_frame_m"``, ``"frames"`` (IK rows),
+        ``"frames_without_markers"`` (left out), ``"static_window_s"``, ``"warnings"``,
+        ``"seconds"`` (IK wall time), ``"frames_per_s"``, ``"scale_seconds"``, ``"outputs"``
+        (paths)``}``.
 
     Raises:
         InputError: opensim is missing, the TRC is unreadable or lacks H36M-17 markers, the
@@ -310,7 +325,7 @@ def scale_and_ik(
         # The ScaleTool averages marker-pair distances (and the placer marker positions) over
         # its time range and a single missing marker spoils a measurement: scale on the
         # complete frames only (their own copy, times renumbered).
-        from .sinks.exports import write_trc
+        from .sinks.exports import finite_or_null, write_trc
 
         scale_trc = write_trc(tmp / "scale_frames.trc", joints[complete], fps, H36M_JOINTS, units)
         c_times = np.arange(int(complete.sum())) / fps
@@ -378,20 +393,24 @@ def scale_and_ik(
         cols, err = _parse_sto(tmp / "ik_marker_errors.sto")
         rms = err[:, cols.index("marker_error_RMS")]
         mx = err[:, cols.index("marker_error_max")]
-        frames = len(rms)
+        result = {
+            "marker_rms_m": float(np.sqrt(np.mean(rms ** 2))),
+            "marker_max_m": float(np.max(mx)),
+            "marker_rms_median_frame_m": float(np.median(rms)),
+            "frames": len(rms),
+            "frames_without_markers": int((~marked).sum()),
+            "static_window_s": (w0, w1),
+        }
+        result["warnings"] = ik_fit_flags(result)
+        write_text(tmp / OUTPUTS[-1], json.dumps(finite_or_null(result), indent=1) + "\n")
         for name in OUTPUTS:
             os.replace(tmp / name, out / name)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return {
-        "marker_rms_m": float(np.sqrt(np.mean(rms ** 2))),
-        "marker_max_m": float(np.max(mx)),
-        "marker_rms_median_frame_m": float(np.median(rms)),
-        "frames": frames,
-        "frames_without_markers": int((~marked).sum()),
+        **result,
         "seconds": float(ik_seconds),
-        "frames_per_s": float(frames / ik_seconds) if ik_seconds > 0 else math.inf,
+        "frames_per_s": float(result["frames"] / ik_seconds) if ik_seconds > 0 else math.inf,
         "scale_seconds": float(scale_seconds),
-        "static_window_s": (w0, w1),
         "outputs": {name: str(out / name) for name in OUTPUTS},
     }
