@@ -36,6 +36,7 @@ Entity tree (all per-frame data is on the ``frame`` (sequence) and ``video_time`
                                     where the value is finite; ``group`` may be nested
                                     (``angles_deg/hip``): one plot per group
     /series/status/valid            Scalars: 1 where the rotation is valid, else 0
+    /flags                          TextDocument (static, markdown): the run's warnings
 
 Readability: joint labels are off by default (``show_labels=False`` on the 2D and 3D
 joints: the H36M names from the annotation context would cover the person; hovering a
