@@ -608,16 +608,15 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         step("exports")
         outputs = {**table, **write_motion_files(result, tmp, c3d=cfg.c3d, allocate=store.create)}
         _trim_heap()
-        if cfg.opensim:  # before the npz and the recording, which carry its fit's warning
+        if cfg.opensim:  # before the recording and the npz, which carry its fit's warning
             outputs.update(_opensim(cfg, tmp, flags, notes))
-        outputs.update(write_arrays(result, tmp))
-        _trim_heap()
         outputs.update(write_figures(result, tmp))
         bar.update()
 
         step("recording")
         if cfg.recording:
             outputs.update(write_rerun(result, tmp))
+        outputs.update(write_arrays(result, tmp))  # last: the notes every sink added are in it
         bar.update()
         step("done")
         run = RunResult(

@@ -70,6 +70,9 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     with np.load(out / "canonical.npz") as npz:
         assert npz["canonical"].shape == (frames, 17, 3) and npz["rotation"].shape == (frames, 3, 3)
         assert str(npz["method"]) == "pcnet" and npz["valid"].all()
+        # the summary's notes are kept with the outputs, every sink's included
+        assert list(npz["notes"]) == [ln.removeprefix("note              ") for ln in res.output.splitlines()
+                                      if ln.startswith("note ")] and len(npz["notes"])
         # canonical Y is up: the head is above the pelvis while boxing upright
         assert np.median(npz["canonical"][:, HEAD, 1] - npz["canonical"][:, PELVIS, 1]) > 0.4
         world, W = npz["joints_world"], npz["world_rotation"]

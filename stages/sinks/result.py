@@ -161,7 +161,7 @@ def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
         joint_names=np.array(H36M_JOINTS),
         keypoints2d=r.keypoints2d if r.keypoints2d is not None else np.zeros((0, 17, 3), np.float32),
         missing=r.missing, unfiltered=r.unfiltered, flag_counts=r.flag_counts,
-        flags=np.array(r.flags, dtype=str), track_segment=r.track_segment if r.track_segment is not None else np.zeros(0, int),
+        flags=np.array(r.flags, dtype=str), notes=np.array(r.notes, dtype=str), track_segment=r.track_segment if r.track_segment is not None else np.zeros(0, int),
         report=jsonable(r.report), camera_frame_weight=r.report.get("camera_frame_weight", empty),
         frame_tilt_bound_deg=r.report.get("frame_tilt_bound_deg", empty),
         joints_world=r.world if r.world is not None else np.zeros((0, 17, 3)), world_rotation=r.world_rotation,
