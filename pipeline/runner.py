@@ -419,6 +419,23 @@ def _moved_to_disk(arr: np.ndarray, name: str, store: FrameStore):
     return stored
 
 
+#: Share of the frames with a trunk above which the summary says how many have no pelvis heading.
+HEADINGLESS_NOTE_SHARE = 0.1
+
+
+def _headingless_note(angles) -> list[str]:
+    """A note when many frames have a trunk but no pelvis-heading frame (a hip line within a
+    few degrees of vertical: a body lying on its side), whose plane inclinations and ISB
+    angles to gravity are then empty while the heading-free angles remain."""
+    trunk = np.isfinite(np.asarray(angles["trunk_inclination"]))
+    headingless = int((trunk & ~np.isfinite(np.asarray(angles["trunk_sagittal_inclination"]))).sum())
+    if headingless <= HEADINGLESS_NOTE_SHARE * max(int(trunk.sum()), 1):
+        return []
+    return [f"no pelvis heading in {headingless} of {int(trunk.sum())} frames (the hip line near vertical: a body lying "
+            f"on its side): their sagittal and frontal inclinations are empty (and the ISB angles to gravity where "
+            f"the shoulder line is vertical too); trunk inclination and the unsigned knee and elbow flexion are kept"]
+
+
 def _opensim(cfg: RunConfig, staged: Path, flags: list[str], notes: list[str]) -> dict[str, Path]:
     """OpenSim scaling and inverse kinematics on the staged ``world.trc`` (into ``staged``):
     the fit's line goes to ``notes``, its warning to ``flags``; without a world frame (a
@@ -603,6 +620,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         missing_note = format_flag_counts(result.flag_counts)
         if missing_note:
             notes.append(missing_note)
+        notes += _headingless_note(result.kinematics.angles)
         bar.update()
 
         step("exports")

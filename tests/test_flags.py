@@ -303,3 +303,19 @@ def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):
     assert "WARNING           the 3D skeleton is a mirror image of a body" in res.output
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         assert any(f.startswith("the 3D skeleton is a mirror image") for f in npz["flags"])
+
+
+def test_a_body_lying_on_its_side_is_noted_and_keeps_its_heading_free_angles(tmp_path):
+    """A real standing pose laid on its side in front of a level camera (turned 90 deg about
+    the optical axis), read as lying: its hip line is vertical, so the plane inclinations are
+    empty; the summary says so and the CSV keeps trunk inclination and knee flexion."""
+    X = np.load(TADASANA).astype(np.float64)
+    np.save(tmp_path / "side.npy", _roll(X, 90.0).astype(np.float32))
+    res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output", str(tmp_path / "side.npy"),
+                                    "--fps", "30", "--mode", "sequence", "--no-recording", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert "body read as lying" in res.output and "note              no pelvis heading in" in res.output
+    with open(tmp_path / "o" / "kinematics.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert sum(r["trunk_sagittal_inclination_deg"] == "" for r in rows) > 0.5 * len(rows)
+    assert all(r["trunk_inclination_deg"] and r["left_knee_flexion_unsigned_deg"] for r in rows)
