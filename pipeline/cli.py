@@ -16,7 +16,7 @@ from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
 from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, raise_interrupt
-from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.errors import InputError, import_extra
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, check_method_weights
 
@@ -256,6 +256,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
               help="Write the run here instead of the config's out_dir.")
 def train(config_path, no_resume, seed, out_dir):
     """Train 3DPCNet (needs the [train] extra: torch)."""
+    import_extra("torch", 'pcnet train needs torch: pip install "pcnet[train]"')
     from pcnet.models.train import load_config, train as run_train
 
     overrides = {k: v for k, v in (("seed", seed), ("out_dir", out_dir)) if v is not None}
@@ -272,6 +273,7 @@ def train(config_path, no_resume, seed, out_dir):
 def export(checkpoint, out_path, overwrite):
     """Export a 3DPCNet checkpoint to ONNX (dynamic batch) with its .json metadata beside
     it."""
+    import_extra("torch", 'pcnet export needs torch: pip install "pcnet[train]"')
     from pcnet.models.export import export_checkpoint
 
     _new_output_file(out_path, "--out", overwrite, inputs=(checkpoint,), companions=(".json",),

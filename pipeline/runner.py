@@ -200,8 +200,26 @@ def _load_inputs(cfg: RunConfig):
     fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output))
     return (video, fps, kp2d, kp_size, joints, poses.units, poses.root_translation,
-            [n for n in (poses.summary_note, kp_choice and f"2D keypoints: {kp_choice} (--person chooses another)") if n],
+            [n for n in (poses.summary_note, kp_choice and f"2D keypoints: {kp_choice} (--person chooses another)",
+                         *_assumed_inputs(cfg)) if n],
             poses.frame_turn_deg)
+
+
+def _assumed_inputs(cfg: RunConfig) -> list[str]:
+    """Notes on what the run assumed about its inputs because nothing said otherwise: the
+    generic lifter's default layout, axes and units, a MediaPipe archive whose own 2D
+    keypoints were not given."""
+    notes = []
+    if cfg.lifter == "generic":
+        defaults = {name: param.default for name, param in inspect.signature(get_3d_adapter("generic").load).parameters.items()
+                    if name in ("layout", "axes", "units") and name not in cfg.lifter_options}
+        if defaults:
+            notes.append("generic lifter read with the default " + ", ".join(f"--{k} {v}" for k, v in defaults.items())
+                         + " (nothing given for them)")
+    if cfg.lifter == "mediapipe" and cfg.keypoints2d is None:
+        notes.append("the MediaPipe archive's own 2D keypoints were not used: give it as --keypoints2d F "
+                     "--keypoints2d-format mediapipe too for the left/right and track-switch checks")
+    return notes
 
 
 def _tilt_tolerance(report: dict) -> float:
@@ -555,8 +573,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             change = float(np.max(sizes) / np.min(sizes))
             if change > SIZE_NOTE_RATIO:
                 notes.append(f"body size made constant per frame: in the lifter's {units} output it changes "
-                             f"{change:.2f}-fold (the person's size in the image; running median over "
-                             f"{SIZE_WINDOW_S:g} s, stages/scale.py: size_normalising_factors)")
+                             f"{change:.2f}-fold (the person's size in the image; largest to smallest of its "
+                             f"running median over {SIZE_WINDOW_S:g} s, stages/scale.py: size_normalising_factors)")
         if cfg.height is not None:
             factor = height_factor(cam, cfg.height, who=f"{cfg.lifter_output}: --height")
             _scaled_in_place(cam, factor)

@@ -57,7 +57,7 @@ from .core.conventions import H36M_JOINTS
 from .core.atomic import write_text
 from .core.errors import InputError, import_extra
 
-MISSING_OPENSIM = 'pcnet opensim needs OpenSim: pip install "pcnet[opensim]"'
+MISSING_OPENSIM = 'OpenSim scaling and inverse kinematics (--opensim, pcnet opensim) need OpenSim: pip install "pcnet[opensim]"'
 DATA_DIR = Path(__file__).resolve().parent / "opensim_data"
 MODEL_FILE = "Model_H36M17.osim"
 MARKER_FILE = "Markers_H36M17.xml"

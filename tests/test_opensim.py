@@ -142,7 +142,8 @@ def test_missing_opensim_is_one_line(short_run, monkeypatch):
     monkeypatch.setitem(sys.modules, "opensim", None)  # `import opensim` raises ImportError
     res = _cli("opensim", short_run)
     assert res.exit_code == 1
-    assert res.output.strip() == 'Error: pcnet opensim needs OpenSim: pip install "pcnet[opensim]"'
+    assert res.output.strip() == ('Error: OpenSim scaling and inverse kinematics (--opensim, pcnet opensim) need '
+                                  'OpenSim: pip install "pcnet[opensim]"')
 
 
 def test_pcnet_run_with_opensim_writes_the_ik_beside_the_run(tmp_path):

@@ -598,3 +598,16 @@ def test_run_config_takes_pathlib_paths(tmp_path):
     cfg = RunConfig(lifter="motionbert", lifter_output=BOX_3D, fps=30, out=tmp_path / "o", recording=False)
     assert isinstance(cfg.lifter_output, str) and isinstance(cfg.out, str)
     assert run_pipeline(cfg.validate(), progress=False).frames == 60
+
+
+def test_what_the_run_assumed_about_its_inputs_is_noted(tmp_path):
+    """A generic file read with default layout/axes, and a MediaPipe archive given only as
+    the lifter output (its own 2D keypoints unused), are said in the summary's notes."""
+    res = _invoke("run", "--lifter", "generic", "--lifter-output", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy",
+                  "--fps", "30", "--units", "m", "--no-recording", "--method", "geometric", "--out", tmp_path / "g")
+    assert res.exit_code == 0, res.output
+    assert "note              generic lifter read with the default --layout h36m17, --axes RDF" in res.output
+    res = _invoke("run", "--lifter", "mediapipe", "--lifter-output", FIXTURES / "mediapipe_blazepose33_f000-059.npz",
+                  "--no-recording", "--method", "geometric", "--out", tmp_path / "m")
+    assert res.exit_code == 0, res.output
+    assert "the MediaPipe archive's own 2D keypoints were not used" in res.output

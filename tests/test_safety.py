@@ -551,3 +551,13 @@ def test_an_interrupted_import_of_an_optional_extra_is_an_interrupt_not_a_missin
     monkeypatch.setattr(importlib, "import_module", lambda name: (_ for _ in ()).throw(ImportError(name)))
     with pytest.raises(InputError, match="C3D export needs ezc3d"):
         import_extra("ezc3d", "C3D export needs ezc3d")
+
+
+def test_training_and_export_without_torch_end_in_one_line(user_folder, monkeypatch):
+    """A plain install (`pip install .`, inference only) has no torch: `train` and `export`
+    say which extra they need, as the other extras do, instead of a traceback."""
+    monkeypatch.setitem(sys.modules, "torch", None)  # `import torch` raises ImportError
+    _one_line_error(_invoke("export", "--checkpoint", "notes.txt", "--out", "m.onnx"),
+                    'pcnet export needs torch: pip install "pcnet[train]"')
+    (user_folder / "t.toml").write_text("")
+    _one_line_error(_invoke("train", "--config", "t.toml"), 'pcnet train needs torch: pip install "pcnet[train]"')
