@@ -68,6 +68,7 @@ def _caused_by_interrupt(err: BaseException) -> bool:
 
 
 @click.group(cls=_ErrorBoundary, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="pcnet", prog_name="pcnet")
 def main() -> None:
     """pcnet: rectify monocular 3D human poses into a gravity-aligned, body-centred frame."""
     # SIGTERM (a scheduler's or `kill`'s stop) unwinds like Ctrl-C, so the same clean-up runs.
@@ -242,7 +243,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
               frame_tilt_bound_deg=res.report["frame_tilt_bound_deg"])
     cv = res.report["hip_width_cv_percent"]
-    click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}, "
+    requested = f" (requested {mode})" if mode != res.mode else ""
+    click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}{requested}, "
                f"heading from {res.heading_source} (hip width CV "
                + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
 

@@ -611,3 +611,13 @@ def test_what_the_run_assumed_about_its_inputs_is_noted(tmp_path):
                   "--no-recording", "--method", "geometric", "--out", tmp_path / "m")
     assert res.exit_code == 0, res.output
     assert "the MediaPipe archive's own 2D keypoints were not used" in res.output
+
+
+def test_version_and_rectifys_requested_mode(tmp_path):
+    from importlib import metadata
+
+    res = _invoke("--version")
+    assert res.exit_code == 0 and res.output.strip() == f"pcnet, version {metadata.version('pcnet')}"
+    res = _invoke("rectify", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy", "--out", tmp_path / "r.npz", "--mode", "auto",
+                  "--method", "geometric")
+    assert res.exit_code == 0 and "mode sequence (requested auto)" in res.output, res.output
