@@ -398,7 +398,7 @@ ANGLE_NAMES: tuple[str, ...] = (
 )
 
 
-def joint_angles(canonical: np.ndarray) -> dict[str, np.ndarray]:
+def joint_angles(canonical: np.ndarray, heading_free: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Segment inclinations (plane projections of a segment against gravity) and the
     unsigned knee and elbow flexion of canonical poses, in degrees. Named for what they
     are, not as clinical joint angles: those, with ISB conventions, are
@@ -439,6 +439,9 @@ def joint_angles(canonical: np.ndarray) -> dict[str, np.ndarray]:
 
     Args:
         canonical: ``(T, 17, 3)`` or ``(17, 3)`` H36M-17 canonical poses, any units.
+        heading_free: :func:`heading_free_angles` already taken from the same poses in another
+            Y-up frame (they do not depend on the heading, and need no hip line), used
+            instead of computing them from ``canonical``.
 
     Returns:
         dict ``name -> (T,)`` float64 degrees, keys in :data:`ANGLE_NAMES` order.
@@ -450,7 +453,7 @@ def joint_angles(canonical: np.ndarray) -> dict[str, np.ndarray]:
     trunk = X[:, THORAX] - X[:, PELVIS]
     trunk_len = np.linalg.norm(trunk, axis=-1)
     out = {
-        **heading_free_angles(X),
+        **(heading_free_angles(X) if heading_free is None else heading_free),
         "trunk_sagittal_inclination": _plane_angle(trunk[:, _X], trunk[:, _Y], trunk_len, None),
         "trunk_frontal_inclination": _plane_angle(trunk[:, _Z], trunk[:, _Y], trunk_len, None),
     }
@@ -641,8 +644,8 @@ def compute_kinematics(
         velocity=vel,
         acceleration=acc,
         speed=np.linalg.norm(vel, axis=-1),
-        # the heading-free angles from the poses themselves: a body on its side has none
-        angles=MappingProxyType({**joint_angles(pelvis_heading_frame(pos)), **heading_free_angles(pos),
+        # the heading-free angles from the poses themselves: a body on its side has no heading
+        angles=MappingProxyType({**joint_angles(pelvis_heading_frame(pos), heading_free_angles(pos)),
                                  **{k.removesuffix("_deg"): v for k, v in isb_joint_angles(pos).items()}}),
         unfiltered=raw.any(axis=-1) & ~missing,
         missing=missing,
