@@ -22,8 +22,6 @@ MODES = ("auto", "frame", "sequence", "smooth")
 ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
 MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0
-#: Subject mass (kg) an OpenSim model may be scaled to (stages/opensim_ik.py checks the same).
-MIN_MASS_KG, MAX_MASS_KG = 10.0, 300.0
 
 #: What ``confidence_threshold`` and ``cutoff_hz`` mean when not given (None): they are
 #: optional so that validate() can refuse them given where they would be ignored.
@@ -189,6 +187,7 @@ class RunConfig:
             InputError: naming ``source``, the field, what was expected and what was given.
         """
         from pcnet.stages.heading import HEADING_SOURCES
+        from pcnet.stages.opensim_ik import HEIGHT_RANGE_M, MASS_RANGE_KG
         from pcnet.stages.rectify import METHODS, check_method_weights
 
         check_config_types(source, "", asdict(self), RunConfig)
@@ -213,7 +212,10 @@ class RunConfig:
             ("fps", self.fps, MIN_FPS, MAX_FPS, "frames per second"),
             ("cutoff_hz", self.cutoff_hz, 0.1, MAX_FPS / 2, "Hz"),
             ("confidence_threshold", self.confidence_threshold, 0.0, 1.0, "(2D confidence)"),
-            ("mass", self.mass, MIN_MASS_KG, MAX_MASS_KG, "kg (the subject's mass)"),
+            ("mass", self.mass, *MASS_RANGE_KG, "kg (the subject's mass)"),
+            # the OpenSim model's own range, before any work rather than after the run
+            ("height", self.height if self.opensim else None, *HEIGHT_RANGE_M,
+             "m (the subject's height, as the OpenSim model is scaled)"),
         ):
             if value is not None and not (math.isfinite(value) and low <= value <= high):
                 raise InputError(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got {value!r}")

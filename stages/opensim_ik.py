@@ -65,6 +65,9 @@ SCALE_SETUP = "Scaling_Setup_H36M17.xml"
 IK_SETUP = "IK_Setup_H36M17.xml"
 #: What :func:`scale_and_ik` writes; the last is its fit (marker errors and the fit's warning).
 OUTPUTS = ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "opensim_fit.json")
+#: Subject heights (m) and masses (kg) the shipped model is scaled to.
+HEIGHT_RANGE_M = (0.5, 2.5)
+MASS_RANGE_KG = (10.0, 300.0)
 #: Inverse kinematics fits worse than this RMS marker error (m) get a warning: OpenSim's
 #: "Simulation with OpenSim - Best Practices" checklist asks of IK an RMS error under about
 #: 2 cm (and a maximum under 4 cm; the maximum over a whole recording is noisy: 4-6 cm on
@@ -291,10 +294,12 @@ def scale_and_ik(
     out = Path(out_dir).resolve()
     if not out.is_dir():
         raise InputError(f"{out_dir}: expected an existing output folder, got none")
-    if height_m is not None and not (0.5 <= float(height_m) <= 2.5):
-        raise InputError(f"--height: expected the subject's height in metres (0.5 to 2.5), got {height_m}")
-    if mass_kg is not None and not (10.0 <= float(mass_kg) <= 300.0):
-        raise InputError(f"--mass: expected the subject's mass in kg (10 to 300), got {mass_kg}")
+    if height_m is not None and not (HEIGHT_RANGE_M[0] <= float(height_m) <= HEIGHT_RANGE_M[1]):
+        raise InputError(f"--height: expected the subject's height in metres ({HEIGHT_RANGE_M[0]:g} to "
+                         f"{HEIGHT_RANGE_M[1]:g}), got {height_m}")
+    if mass_kg is not None and not (MASS_RANGE_KG[0] <= float(mass_kg) <= MASS_RANGE_KG[1]):
+        raise InputError(f"--mass: expected the subject's mass in kg ({MASS_RANGE_KG[0]:g} to {MASS_RANGE_KG[1]:g}), "
+                         f"got {mass_kg}")
     times, markers, names, units = read_trc(trc)
     missing = [j for j in H36M_JOINTS if j not in names]
     if missing:

@@ -398,6 +398,8 @@ def test_fps_must_match_the_video_unless_overridden(user_folder):
     (("run", "--lifter", "mediapipe", "--lifter-output", str(FIXTURES / "mediapipe_blazepose33_f000-059.npz"),
       "--fps", "60", "--out", "o"), ["--fps 60", "30 fps", "--fps-override"]),
     (("rectify", "poses.npy", "--out", "notes.txt"), ["notes.txt", "--overwrite"]),
+    (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30", "--height", "2.8", "--opensim",
+      "--out", "o"), ["--height", "[0.5, 2.5]", "OpenSim"]),
     (("run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30", "--hypothesis", "²", "--out", "o"),
      ["hypothesis"]),
     (("rectify", "poses.npy", "--out", "r.npz", "--fps", "1e12", "--mode", "smooth"), ["fps", "1e+12"]),
