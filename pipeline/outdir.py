@@ -100,9 +100,10 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
 
 def foreign_entries(folder: Path) -> list[str]:
     """Names in ``folder`` that pcnet did not write, or that changed since (all of them when
-    there is no valid marker; ``[folder name]`` when ``folder`` is not a folder). The marker
-    records each file's size and modification time, so an output the user edited (a CSV
-    opened and saved) counts as theirs and is never deleted."""
+    there is no valid marker; ``[folder name]`` when ``folder`` is not a folder), leaving out
+    a killed `pcnet opensim`'s staging folder (:func:`stale_staging`). The marker records each
+    file's size and modification time, so an output the user edited (a CSV opened and saved)
+    counts as theirs and is never deleted."""
     if folder.is_symlink() or not folder.is_dir():
         return [folder.name]
     listed = read_marker(folder).get("files")
