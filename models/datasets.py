@@ -27,6 +27,8 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import axis_rotation, sample_camera_rotations
 
 SPLITS = ("train", "val", "test", "all")
+#: Frame rate (Hz) of a clip whose metadata json gives none (the shared sets' json do).
+DEFAULT_MOCAP_FPS = 30.0
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,8 @@ class Clip:
     fps: float
     # Performer id from the metadata json (CMU: "subject"); None where the source has none.
     subject: int | None = None
+    # False where the metadata json gives no fps and DEFAULT_MOCAP_FPS was assumed.
+    fps_stated: bool = True
 
 
 def load_numpy_file(path: Path, what: str):
@@ -70,6 +74,10 @@ def load_numpy_file(path: Path, what: str):
 def load_mocap(path: str | Path) -> list[Clip]:
     """Load every clip of a mocap ``.npz`` (sorted by name).
 
+    A clip's frame rate is the ``fps`` of its entry in the ``.json`` beside the file, else
+    :data:`DEFAULT_MOCAP_FPS` with ``Clip.fps_stated`` False (it matters to the lifter-like
+    noise's correlation time and to sequence modes' time windows, not to per-frame scores).
+
     Raises:
         FileNotFoundError: missing file.
         ValueError: not a readable npz, no arrays, an array that is not ``(T, 17, 3)``, or a
@@ -102,9 +110,11 @@ def load_mocap(path: str | Path) -> list[Clip]:
             if not isinstance(info, dict):
                 raise InputError(f"{path.with_suffix('.json')}: field {name!r}: expected an object, got {info!r}")
             subject = info.get("subject")
-            fps = validate_fps(info.get("fps", 30.0), f"{path.with_suffix('.json')}: clip {name}: field 'fps'")
+            fps = validate_fps(info.get("fps", DEFAULT_MOCAP_FPS),
+                               f"{path.with_suffix('.json')}: clip {name}: field 'fps'")
             clips.append(Clip(name, arr, fps,
-                              subject if isinstance(subject, int) and not isinstance(subject, bool) else None))
+                              subject if isinstance(subject, int) and not isinstance(subject, bool) else None,
+                              fps_stated="fps" in info))
     return clips
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.models.datasets import (CMU_NAME, SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split,
+from pcnet.models.datasets import (CMU_NAME, DEFAULT_MOCAP_FPS, SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split,
                                    load_mocap, make_pairs, parse_bandai_name, select_split, world_up_warning)
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
@@ -179,7 +179,7 @@ def evaluate(
     if unseen_by is not None and unseen_by not in SPLIT_SCHEMES:
         raise InputError(f"unseen_by {unseen_by!r}: expected one of {SPLIT_SCHEMES} or none")
     all_clips = load_mocap(data)
-    up_warning = world_up_warning(all_clips, data)
+    warnings = [w for w in [world_up_warning(all_clips, data)] if w]
     clips = select_split(all_clips, split, split_scheme)
     if unseen_by is not None:
         seen = groups_in_split(all_clips, "train", unseen_by)
@@ -187,6 +187,11 @@ def evaluate(
     if not clips:
         extra = f" with no group in the {unseen_by!r} train split" if unseen_by else ""
         raise InputError(f"{data}: split {split!r} (scheme {split_scheme!r}) has no clips{extra}")
+    assumed = sum(not c.fps_stated for c in clips)
+    if assumed and (kind == "lifter" or mode != "frame"):
+        warnings.append(f"{Path(data).with_suffix('.json')}: expected each clip's 'fps' (the lifter-like noise's "
+                        f"correlation time and sequence modes' windows are in seconds), found none for {assumed} "
+                        f"of {len(clips)} clips: read at {DEFAULT_MOCAP_FPS:g} fps")
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=_noise_model(kind))
     # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
     chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior, n_bootstrap=0),
@@ -215,7 +220,7 @@ def evaluate(
     result = {
         "method": method, "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
         "data": str(data), "seed": seed, "camera": camera, "noise": kind, "mode": mode, "heading": heading,
-        "camera_prior": camera_prior, "warnings": [up_warning] if up_warning else [],
+        "camera_prior": camera_prior, "warnings": warnings,
         "target_undefined_frames": pairs.dropped_frames,
         "clips": len(clips), "groups": len({group_key(c) or c.name for c in clips}),
         "frames": len(keep), "total_frames": len(valid),

@@ -447,3 +447,23 @@ def test_frames_without_a_target_are_counted_and_sequence_modes_need_one_camera_
     assert "165 frames of the data had no defined target" in format_table(result)
     with pytest.raises(InputError, match=r"--mode sequence: expected --camera per-clip or static"):
         evaluate("geometric", FIXTURES / "mocap_small.npz", "all", mode="sequence", camera="per-frame")
+
+
+def test_a_mocap_file_without_frame_rates_is_read_at_30_fps_with_a_warning(tmp_path):
+    """Real clips with their json (30 and 60 fps) keep it; the same clips without a json are
+    read at 30 fps, and evaluate warns where seconds matter (lifter noise, sequence modes)
+    and not for clean per-frame scores, which do not depend on time."""
+    from pcnet.models.datasets import DEFAULT_MOCAP_FPS
+    from pcnet.pipeline.evaluate import evaluate
+
+    stated = load_mocap(FIXTURES / "deepmimic_small.npz")
+    assert all(c.fps_stated for c in stated)
+    np.savez(tmp_path / "bare.npz", **{c.name: c.joints for c in stated})
+    bare = load_mocap(tmp_path / "bare.npz")
+    assert all(not c.fps_stated and c.fps == DEFAULT_MOCAP_FPS for c in bare)
+    assert {c.fps for c in stated} != {DEFAULT_MOCAP_FPS}  # the fixture states another rate
+    common = dict(method="geometric", data=tmp_path / "bare.npz", split="all", max_frames=20)
+    assert evaluate(**common)["warnings"] == []
+    noisy = evaluate(**common, noise="lifter", camera="per-clip")["warnings"]
+    assert len(noisy) == 1 and f"found none for {len(bare)} of {len(bare)} clips: read at 30 fps" in noisy[0]
+    assert noisy[0].startswith(f"{tmp_path / 'bare.json'}: expected each clip's 'fps'")
