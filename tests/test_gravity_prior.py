@@ -78,6 +78,18 @@ def test_standing_body_camera_rolled_90_is_ambiguous_and_read_as_lying():
     assert g.reading == "lying" and 0.5 < g.p_lying < 0.9
 
 
+def test_lying_body_camera_on_its_side_is_read_as_standing():
+    """The converse limit (README, "Camera prior and lying bodies"): real Shavasana under a
+    camera rolled so that the head points up the image is the skeleton of a standing body
+    under a level camera; the posterior reads it upright, with no lying mass left to warn."""
+    trunk = _trunk("yoga_Abhay_Shavasana_f200-299.npy")
+    turned = [Rotation.from_euler("z", a, degrees=True).as_matrix() @ trunk for a in (90.0, -90.0)]
+    head_up = min(turned, key=lambda t: _deg(t, LEVEL_UP))
+    assert _deg(head_up, LEVEL_UP) < 20.0
+    g = gravity_posterior(head_up / np.linalg.norm(head_up), 4.0, head_up)
+    assert g.reading == "upright" and g.p_lying < 0.1 and _deg(g.up, head_up) < 5.0
+
+
 def test_no_trunk_means_no_lying_reading():
     g = gravity_posterior(np.array([1.0, 0.0, 0.0]), 4.0, None)
     assert g.reading == "upright" and g.p_lying == 0.0
