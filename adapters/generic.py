@@ -85,7 +85,7 @@ def _read_csv(p: Path, delimiter: str) -> np.ndarray:
                 raise AdapterError(p, f"line {reader.line_num}", "a CSV table of numbers", str(exc)[:120]) from exc
             line_no = reader.line_num
             cells = [c.strip() for c in row]
-            if not any(cells):
+            if len(cells) <= 1 and not any(cells):  # a blank line; a row of empty cells is a frame
                 continue
             try:
                 rows.append([_cell(c) for c in cells])

@@ -681,6 +681,20 @@ def test_generic_csv_rub_millimetres_with_header_and_gaps(tmp_path):
     assert np.isfinite(p3.joints[3, L_HIP, :2]).all()  # the gap does not spread to x, y
 
 
+def test_generic_csv_row_of_empty_cells_is_a_missing_frame_not_a_blank_line(tmp_path):
+    """pandas' ``to_csv`` writes a frame with every joint NaN as a row of commas: it stays a
+    frame (all NaN), so later frames keep their times; blank lines are still skipped."""
+    base = np.load(YOGA["Tadasana"])[:10]
+    rows = [",".join(f"{v:.6f}" for v in r) for r in base.reshape(10, -1)]
+    rows[4] = "," * (17 * 3 - 1)
+    path = tmp_path / "poses.csv"
+    path.write_text("\n".join(rows[:7]) + "\n\n" + "\n".join(rows[7:]) + "\n\n")
+    joints = load_generic(path).joints
+    assert joints.shape == (10, 17, 3) and np.isnan(joints[4]).all()
+    keep = np.arange(10) != 4
+    np.testing.assert_allclose(joints[keep], base[keep], atol=1e-6)
+
+
 def test_generic_npz_key_and_axis_permutation(tmp_path):
     base = np.load(YOGA["Tadasana"])
     z_up = np.stack([base[..., 0], base[..., 2], -base[..., 1]], -1)  # x right, y forward, z up
