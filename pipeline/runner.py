@@ -35,7 +35,7 @@ from pcnet.stages.flags import (body_size_flag, leg_asymmetry_flag, mirrored_ske
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
 from pcnet.stages.rectify import NO_VALID_FRAME
-from pcnet.stages.remap import mask_low_confidence, remap_to_h36m
+from pcnet.stages.remap import built_joints, mask_low_confidence, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
                                       write_motion_files, write_rerun)
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
@@ -199,9 +199,12 @@ def _load_inputs(cfg: RunConfig):
     poses = adapter.load(cfg.lifter_output, **cfg.lifter_options)  # checked by cfg.validate() in run_pipeline
     fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output))
+    built = built_joints(poses.layout)
+    remapped = built and (f"3D joints remapped from {poses.layout} to H36M-17 with {', '.join(built)} built as means "
+                          f"of other joints (stages/remap.py): trunk and shoulder angles rest on them")
     return (video, fps, kp2d, kp_size, joints, poses.units, poses.root_translation,
             [n for n in (poses.summary_note, kp_choice and f"2D keypoints: {kp_choice} (--person chooses another)",
-                         *_assumed_inputs(cfg)) if n],
+                         remapped, *_assumed_inputs(cfg)) if n],
             poses.frame_turn_deg)
 
 
@@ -215,11 +218,19 @@ def _assumed_inputs(cfg: RunConfig) -> list[str]:
                     if name in ("layout", "axes", "units") and name not in cfg.lifter_options}
         if defaults:
             notes.append("generic lifter read with the default " + ", ".join(f"--{k} {v}" for k, v in defaults.items())
-                         + " (nothing given for them)")
+                         + " (not given)")
     if cfg.lifter == "mediapipe" and cfg.keypoints2d is None:
         notes.append("the MediaPipe archive's own 2D keypoints were not used: give it as --keypoints2d F "
                      "--keypoints2d-format mediapipe too for the left/right and track-switch checks")
     return notes
+
+
+def _layout_hint(cfg: RunConfig, error: str) -> str:
+    """What to add to a "no frame can be rectified" error when a generic file was read with the
+    default joint layout, the likeliest cause."""
+    if error.startswith(NO_VALID_FRAME) and cfg.lifter == "generic" and "layout" not in cfg.lifter_options:
+        return " (read with the default --layout h36m17: is the file in another joint layout?)"
+    return ""
 
 
 def _tilt_tolerance(report: dict) -> float:
@@ -236,6 +247,12 @@ def _tilt_tolerance(report: dict) -> float:
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):
+    """``(kp2d, joints, note)``: the inputs cut to their common length under ``--align
+    truncate`` (the note says what was cut; ``None`` when nothing was), else unchanged.
+
+    Raises:
+        InputError: the frame counts differ without ``--align truncate``.
+    """
     counts = {"3D lifter output": (cfg.lifter_output, len(joints))}
     if kp2d is not None:
         counts["2D keypoints"] = (cfg.keypoints2d, len(kp2d))
@@ -248,7 +265,9 @@ def _align(cfg: RunConfig, video, kp2d, joints):
             raise InputError(f"frame counts differ ({detail}); pass --align truncate to use the first {n} frames")
         joints = joints[:n]
         kp2d = None if kp2d is None else kp2d[:n]
-    return kp2d, joints
+        cut = ", ".join(f"{k} {c - n}" for k, (_, c) in counts.items() if c > n)
+        return kp2d, joints, f"--align truncate: the first {n} frames of every input used, the last frames cut ({cut})"
+    return kp2d, joints, None
 
 
 #: Change of an image-scaled body's size over a recording (largest / smallest per-frame
@@ -500,7 +519,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         if needing_metres and units != "m" and cfg.height is None:
             raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
                              f"writing metres, or --height), got {units} poses from --lifter {cfg.lifter}")
-        kp2d, joints = _align(cfg, video, kp2d, joints)
+        kp2d, joints, aligned = _align(cfg, video, kp2d, joints)
+        input_notes += [aligned] if aligned else []
         orientation = display_orientation(video, kp2d, kp_size)
         bar.update()
 
@@ -517,7 +537,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             notes.append(orientation.recording_note)
         del joints
         if pelvis_filled:
-            notes.append(f"pelvis missing in {pelvis_filled} frames: taken as the hip midpoint")
+            notes.append(f"pelvis missing in {pelvis_filled} frame{'s' * (pelvis_filled != 1)}: taken as the hip midpoint")
         bar.update()
 
         step("rectify")
@@ -532,9 +552,9 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         except ValueError as err:
             if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
                 raise  # the weights file's own error, already naming it
-            raise InputError(f"{cfg.lifter_output}: {err}") from err
+            raise InputError(f"{cfg.lifter_output}: {err}{_layout_hint(cfg, str(err))}") from err
         if not res.valid.any():
-            raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}")
+            raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}{_layout_hint(cfg, NO_VALID_FRAME)}")
         rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
         report["pelvis_from_hips_frames"] = pelvis_filled
         if orientation.note:

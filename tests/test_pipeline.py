@@ -201,6 +201,8 @@ def test_mismatched_frame_counts_need_align(tmp_path):
     assert not (tmp_path / "o").exists()
     res = _invoke(*args, "--align", "truncate")
     assert res.exit_code == 0 and "frames            50" in res.output, res.output
+    assert "--align truncate: the first 50 frames of every input used, the last frames cut (2D keypoints 10)" \
+        in res.output  # the 60-frame fixture
 
 
 def test_align_truncate_cuts_a_2d_file_longer_than_the_video(tmp_path):
@@ -611,6 +613,27 @@ def test_what_the_run_assumed_about_its_inputs_is_noted(tmp_path):
                   "--no-recording", "--method", "geometric", "--out", tmp_path / "m")
     assert res.exit_code == 0, res.output
     assert "the MediaPipe archive's own 2D keypoints were not used" in res.output
+    assert "3D joints remapped from blazepose33 to H36M-17 with pelvis, spine, thorax, head built" in res.output
+
+
+def test_a_coco_layout_3d_file_is_noted_and_its_misreading_names_layout(tmp_path):
+    """Real poses stored in COCO-17 order: read with --layout coco17 the summary says which
+    joints were built; read with the default layout the error points at --layout."""
+    from pcnet.stages.core.conventions import get_layout
+
+    h36 = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
+    names = get_layout("h36m17").joints
+    eyes_ears = {"left_eye": "head", "right_eye": "head", "left_ear": "head", "right_ear": "head", "nose": "neck_nose"}
+    coco = np.stack([h36[:, names.index(eyes_ears.get(j, j))] for j in get_layout("coco17").joints], 1)
+    np.save(tmp_path / "coco.npy", coco)
+    args = ["run", "--lifter", "generic", "--lifter-output", tmp_path / "coco.npy", "--fps", "30", "--units", "m",
+            "--axes", "RDF", "--no-recording", "--method", "geometric"]
+    res = _invoke(*args, "--layout", "coco17", "--out", tmp_path / "c")
+    assert res.exit_code == 0, res.output
+    assert "3D joints remapped from coco17 to H36M-17 with pelvis, spine, thorax, head built" in res.output
+    res = _invoke(*args, "--out", tmp_path / "d")
+    assert res.exit_code == 1 and "is the file in another joint layout?" in res.output, res.output
+    assert not (tmp_path / "d").exists()
 
 
 def test_version_and_rectifys_requested_mode(tmp_path):
