@@ -9,7 +9,7 @@ effective) with a synchronised right-wrist accelerometer (50 Hz, +-8 g), 671 seq
 
 Per sequence:
 1. the skeleton through the ``kinect_v1`` adapter (``adapters/kinect.py``) to H36M-17 in the
-   OpenCV camera frame, pelvis subtracted (``pcnet run``'s remap step);
+   OpenCV camera frame, pelvis subtracted for the up estimates (what the networks read);
 2. the up direction in the camera frame per method:
    (a) ``level``: a level camera, up = -y_cv (what one assumes without rectification);
    (b) ``geometric``: ``rectify(method="geometric", mode="frame")`` (paper 2.3, per frame);
@@ -31,8 +31,9 @@ Per sequence:
    are excluded; then Pearson r and RMS difference (g).
 
 Per action: the median over its sequences; overall: the median over all sequences. Also
-``pcnet run``'s own world path for (d): ``world_frame`` + ``to_world`` (floor at y = 0 per
-frame, which adds the lowest joint's vertical jitter) + ``compute_kinematics``, reported in
+``pcnet run``'s own world path for (d): ``world_frame`` + ``to_world`` with the sensor's
+measured pelvis (``pcnet run --lifter kinect_v1`` keeps it: one floor for the recording) +
+``compute_kinematics``, reported in
 the JSON as ``pcnet sequence (to_world)``. And the angle between each method's up and
 Kinect's approximate up (-y_cv; the sensor's tilt was not recorded, so this is a sanity
 check, not an error).
@@ -75,15 +76,17 @@ KINECT_UP = np.array([0.0, -1.0, 0.0])
 
 def load_sequence(path: Path) -> dict:
     """One UTD-MHAD file: H36M-17 root-relative camera-frame joints ``(T, 17, 3)`` float64
-    (metres, via :func:`pcnet.adapters.kinect.load_kinect_v1`), ``fps`` (the effective skeleton
-    rate), ``acc_g`` ``(N, 3)`` (g), ``imu_fps``, ``saturated`` ``(N,)`` bool, and ids."""
+    (metres, via :func:`pcnet.adapters.kinect.load_kinect_v1`), the sensor's measured pelvis
+    ``root`` ``(T, 3)`` (camera frame, metres), ``fps`` (the effective skeleton rate), ``acc_g``
+    ``(N, 3)`` (g), ``imu_fps``, ``saturated`` ``(N,)`` bool, and ids."""
     from pcnet.adapters.kinect import load_kinect_v1
-    from pcnet.stages.core.conventions import root_relative
+    from pcnet.stages.core.conventions import PELVIS, fill_pelvis_from_hips, root_relative
 
     poses = load_kinect_v1(path)
     joints, _ = root_relative(poses.joints)
+    root = fill_pelvis_from_hips(np.asarray(poses.joints, np.float64))[0][:, PELVIS]
     with np.load(path) as d:
-        return {"name": path.stem, "joints": joints, "fps": float(poses.fps), "acc_g": d["acc_g"].astype(np.float64),
+        return {"name": path.stem, "joints": joints, "root": root, "fps": float(poses.fps), "acc_g": d["acc_g"].astype(np.float64),
                 "imu_fps": float(d["imu_fps"]), "saturated": d["acc_saturated"].astype(bool),
                 "action": int(d["action"]), "action_name": str(d["action_name"])}
 
@@ -115,16 +118,16 @@ def wrist_specific_force(joints: np.ndarray, up: np.ndarray, fps: float, cutoff_
     return np.linalg.norm(a + G * np.asarray(up, np.float64), axis=-1) / G
 
 
-def wrist_specific_force_world(joints: np.ndarray, R: np.ndarray, valid: np.ndarray, fps: float,
+def wrist_specific_force_world(joints: np.ndarray, root: np.ndarray, R: np.ndarray, valid: np.ndarray, fps: float,
                                cutoff_hz: float) -> np.ndarray:
     """The same through ``pcnet run``'s world path: :func:`pcnet.stages.world_frame.world_frame`
-    and :func:`~pcnet.stages.world_frame.to_world` (+Y up, floor at y = 0), then
-    ``compute_kinematics``; ``|a - (0, -9.81, 0)| / 9.81`` ``(T,)``."""
+    and :func:`~pcnet.stages.world_frame.to_world` with the measured pelvis ``root`` ``(T, 3)``
+    (+Y up, one floor at y = 0), then ``compute_kinematics``; ``|a - (0, -9.81, 0)| / 9.81`` ``(T,)``."""
     from pcnet.stages.core.conventions import R_WRIST
     from pcnet.stages.kinematics import compute_kinematics
     from pcnet.stages.world_frame import to_world, world_frame
 
-    world = to_world(joints, world_frame(R, valid, fps))
+    world = to_world(joints, world_frame(R, valid, fps), root_cam=root)
     a = compute_kinematics(world, fps, cutoff_hz).acceleration[:, R_WRIST]
     return np.linalg.norm(a - np.array([0.0, -G, 0.0]), axis=-1) / G
 
@@ -189,7 +192,7 @@ def evaluate_sequence(seq: dict, cutoff_hz: float) -> dict:
         out[name] = row
     seq_est = ups["pcnet sequence"]
     if seq_est["valid"].any():
-        f = wrist_specific_force_world(seq["joints"], seq_est["R"], seq_est["valid"], seq["fps"], cutoff_hz)
+        f = wrist_specific_force_world(seq["joints"], seq["root"], seq_est["R"], seq_est["valid"], seq["fps"], cutoff_hz)
         out["pcnet sequence (to_world)"] = compare(f, seq["fps"], imu, seq["imu_fps"], seq["saturated"])
     return out
 
@@ -329,7 +332,7 @@ def main(argv=None) -> None:
              "", table, "",
              "Best lag (s, median; + = skeleton later): " + ", ".join(
                  f"{LABELS[m]} {ov[m]['lag_s']:+.2f}" for m in all_methods),
-             "pcnet run's own world path for (d) (to_world, floor at y = 0): "
+             "pcnet run's own world path for (d) (to_world with the measured pelvis, one floor): "
              f"r {ov['pcnet sequence (to_world)']['r']:.2f}, RMS {ov['pcnet sequence (to_world)']['rms_g']:.3f} g",
              "Up vs Kinect's approximate up (-y_cv), deg, median [p95] over sequences: " + ", ".join(
                  f"{LABELS[m]} {ov[m]['up_vs_kinect_deg_median']:.1f} [{ov[m]['up_vs_kinect_deg_p95']:.1f}]"
