@@ -105,7 +105,7 @@ def _read_csv(p: Path, delimiter: str) -> np.ndarray:
 
 
 def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
-                 key: str | None = None, delimiter: str = ",") -> Poses3D:
+                 key: str | None = None, delimiter: str = ",", measured_root: bool = False) -> Poses3D:
     """Read a plain 3D joint array and declare what it is.
 
     Args:
@@ -119,6 +119,10 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
         units: ``"m"``, ``"cm"``/``"mm"`` (converted to metres), ``"normalised"`` or ``"px"``.
         key: array name inside an ``.npz``.
         delimiter: CSV separator.
+        measured_root: the file's pelvis positions are a measured camera-frame path (a
+            multi-camera or depth system, a lifter that estimates the global trajectory), not
+            a root-relative pose's: the run then keeps the pelvis's path and one floor for the
+            recording (``Poses3D.root_translation``). Metric units only.
 
     Returns:
         ``Poses3D``: float32 ``(T, J, 3)`` in the camera frame (x right, y down, z forward),
@@ -128,7 +132,7 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
 
     Raises:
         AdapterError: missing/unreadable file, unknown extension, bad ``layout``, ``axes``,
-            ``units``, ``key`` or ``delimiter``, wrong column count or shape for the layout,
+            ``units``, ``key`` or ``delimiter``, ``measured_root`` with non-metric units, wrong column count or shape for the layout,
             non-numeric content (bool, complex, text, pickled objects), all NaN, a coordinate
             beyond the bound of its units after scaling (100 m, 1e5 px, 1e3 normalised;
             naming frame and joint).
@@ -137,7 +141,7 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     the user's declaration, not an upstream fact.
     """
     p = Path(path)
-    for option, expected, got in generic_option_problems(layout, axes, units, key, delimiter)[:1]:
+    for option, expected, got in generic_option_problems(layout, axes, units, key, delimiter, measured_root)[:1]:
         raise AdapterError(p, option, expected, got)
     lay, m = get_layout(layout), axes_to_camera(axes)
 
@@ -169,13 +173,15 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     if axes.upper() != "RDF":
         notes.append(f"X_cam = X_src @ {m.astype(int).tolist()}")
     notes.append(f"units {units}" + (f" x {scale:g} -> m" if scale != 1.0 else ""))
-    notes.append("root as delivered")
+    notes.append("root as delivered" + (": a measured path (measured_root)" if measured_root else ""))
     joints = checked_poses(p, field, joints, lay.name, unit_tag)
-    return Poses3D(joints, lay.name, units=unit_tag, source=str(p), notes="; ".join(notes))
+    return Poses3D(joints, lay.name, units=unit_tag, source=str(p), notes="; ".join(notes),
+                   root_translation=bool(measured_root))
 
 
 def generic_option_problems(layout: object = "h36m17", axes: object = "RDF", units: object = "m",
-                            key: object = None, delimiter: object = ",") -> list[tuple[str, str, str]]:
+                            key: object = None, delimiter: object = ",",
+                            measured_root: object = False) -> list[tuple[str, str, str]]:
     """``(option, expected, found)`` for each option value :func:`load_generic` refuses (no
     file needed, so a batch manifest's rows are checked before any row runs)."""
     problems = []
@@ -194,16 +200,21 @@ def generic_option_problems(layout: object = "h36m17", axes: object = "RDF", uni
         problems.append(("key", "the name of an array in the .npz, or None", repr(key)))
     if not isinstance(delimiter, str) or len(delimiter) != 1:
         problems.append(("delimiter", "a single character", repr(delimiter)))
+    if not isinstance(measured_root, bool):
+        problems.append(("measured_root", "true or false", repr(measured_root)))
+    elif measured_root and units in ("normalised", "px"):
+        problems.append(("measured_root", "metric --units (m, cm, mm) for a measured pelvis path", f"--units {units}"))
     return problems
 
 
 @register_3d("generic")
 class GenericAdapter:
     """Registry entry for :func:`load_generic` (options: ``layout``, ``axes``, ``units``,
-    ``key``, ``delimiter``)."""
+    ``key``, ``delimiter``, ``measured_root``)."""
 
     option_problems = staticmethod(generic_option_problems)
 
     def load(self, path: str | Path, *, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
-             key: str | None = None, delimiter: str = ",") -> Poses3D:
-        return load_generic(path, layout=layout, axes=axes, units=units, key=key, delimiter=delimiter)
+             key: str | None = None, delimiter: str = ",", measured_root: bool = False) -> Poses3D:
+        return load_generic(path, layout=layout, axes=axes, units=units, key=key, delimiter=delimiter,
+                            measured_root=measured_root)

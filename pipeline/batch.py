@@ -80,8 +80,8 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
             except ValueError:
                 raise InputError(f"column {key}: expected a number, got {raw!r}") from None
             (options if key in _LIFTER_OPTIONS else values)[key] = number
-        elif key == "pixel":
-            options["pixel"] = _boolean(key, raw)
+        elif key in ("pixel", "measured_root"):
+            options[key] = _boolean(key, raw)
         elif key == "hypothesis":
             options[key] = parse_hypothesis(raw)
         elif key in _LIFTER_OPTIONS:

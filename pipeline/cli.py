@@ -325,6 +325,9 @@ def _run_and_report(cfg) -> None:
 @click.option("--axes", default=None, help="generic lifter: axis letters of the file, e.g. RDF (OpenCV), RUB.")
 @click.option("--units", default=None, help="generic lifter: m, cm, mm, normalised or px.")
 @click.option("--key", default=None, help="generic lifter: array name inside an npz.")
+@click.option("--measured-root", is_flag=True, default=None,
+              help="generic lifter: the file's pelvis positions are a measured camera-frame path (metric units): "
+                   "keep it and one floor for the recording.")
 @click.option("--focal-px", type=float, default=None,
               help="mediapipe lifter: the video's focal length in pixels [the file's K, else a phone's 26 mm equivalent].")
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
@@ -336,14 +339,15 @@ def _run_and_report(cfg) -> None:
               help="Also scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`), "
                    "published with the run's output.")
 @click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")
-def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, no_recording, with_opensim, mass, **options):
+def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, measured_root, no_recording, with_opensim,
+        mass, **options):
     """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
     poses, kinematics in the recording's world frame, CSV/TRC/NPZ/PNG exports and a rerun
     recording (with --opensim also OpenSim scaling and inverse kinematics)."""
     from pcnet.pipeline.config import COMMAND_LINE, check_lifter_options, load_run_config, parse_hypothesis, RunConfig
 
     lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
-                                        ("key", key)) if v}
+                                        ("key", key), ("measured_root", measured_root)) if v}
     if focal_px is not None:
         lifter_options["focal_px"] = focal_px
     if hypothesis is not None:

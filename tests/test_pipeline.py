@@ -436,6 +436,35 @@ def _kinect_walk(path: Path, pitch_deg: float = 0.0) -> np.ndarray:
     return J
 
 
+def test_a_generic_file_with_a_measured_pelvis_path_keeps_it(tmp_path):
+    """A real mocap walk written as camera-frame metres with its absolute pelvis (as a
+    multi-camera system or a global-trajectory estimator gives): `--measured-root` keeps the
+    walk's path in the world frame; without it the file is read as root-relative (x = z = 0);
+    with image units the option is refused before any work."""
+    J = _kinect_walk(tmp_path / "unused.npy")  # the mocap walk (metres, +Y up)
+    cam = (J * [1.0, -1.0, -1.0] + [0.0, 0.0, 4.0]).astype(np.float32)  # level camera 4 m behind, OpenCV axes
+    np.save(tmp_path / "walk.npy", cam)
+    args = ["run", "--lifter", "generic", "--lifter-output", tmp_path / "walk.npy", "--fps", "30", "--units", "m",
+            "--axes", "RDF", "--layout", "h36m17", "--mode", "sequence", "--no-recording"]
+    res = _invoke(*args, "--measured-root", "--out", tmp_path / "m")
+    assert res.exit_code == 0, res.output
+    assert "the pelvis follows the measured path" in res.output
+    with np.load(tmp_path / "m" / "canonical.npz") as npz:
+        world, report = npz["joints_world"], json.loads(str(npz["report"]))
+    assert report["root_path"] == "measured"
+    true_path = np.linalg.norm(J[-1, 0, [0, 2]] - J[0, 0, [0, 2]])
+    path = np.linalg.norm(world[-1, PELVIS, [0, 2]] - world[0, PELVIS, [0, 2]])
+    assert true_path > 2.0 and abs(path - true_path) < 0.05 * true_path
+    res = _invoke(*args, "--out", tmp_path / "r")
+    assert res.exit_code == 0, res.output
+    with np.load(tmp_path / "r" / "canonical.npz") as npz:
+        assert np.abs(npz["joints_world"][:, PELVIS][:, [0, 2]]).max() < 1e-6
+    normalised = [a if a != "m" else "normalised" for a in args]
+    res = _invoke(*normalised, "--measured-root", "--out", tmp_path / "n")
+    assert res.exit_code == 1 and "--measured-root: expected metric --units" in res.output, res.output
+    assert not (tmp_path / "n").exists()
+
+
 def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
     """`pcnet run --lifter kinect_v1`: a depth sensor's skeleton measures where the pelvis is,
     so world.trc and the CSV carry the walk's path (root-relative lifters cannot). The
@@ -446,7 +475,7 @@ def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
     res = _invoke("run", "--lifter", "kinect_v1", "--lifter-output", tmp_path / "walk_kinect.npy", "--fps", "30",
                   "--mode", "sequence", "--no-recording", "--out", tmp_path / "o")
     assert res.exit_code == 0, res.output
-    assert "the pelvis follows the path the depth sensor measured" in res.output
+    assert "the pelvis follows the measured path" in res.output
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         world, report = npz["joints_world"], json.loads(str(npz["report"]))
     assert report["root_path"] == "measured"
