@@ -208,7 +208,8 @@ def _process_alive(info: dict) -> bool:
 def clean_stale(target: Path) -> list[Path]:
     """Remove pcnet's own leftovers beside ``target`` from killed runs: hidden temp and trash
     folders whose marker names a process no longer running. A trash folder left between the
-    two renames of a replacement is renamed back to ``target`` when ``target`` is missing.
+    two renames of a replacement is renamed back to the output it was (``target`` or any
+    other output in the same folder) when that output is missing: it is the only copy left.
     Folders without a pcnet marker are never touched. Returns what was removed."""
     removed: list[Path] = []
     if not target.parent.is_dir():
@@ -227,9 +228,11 @@ def clean_stale(target: Path) -> list[Path]:
             continue
         if info.get("writer") != "pcnet" or _process_alive(info):
             continue
-        if TRASH_TAG in name and name.startswith(f".{target.name}{TRASH_TAG}") and not target.exists():
-            os.rename(entry, target)
-            continue
+        if TRASH_TAG in name:
+            owner = target.parent / name[1:name.index(TRASH_TAG)]
+            if owner.name and not owner.exists() and not owner.is_symlink():
+                os.rename(entry, owner)
+                continue
         shutil.rmtree(entry, ignore_errors=True)
         removed.append(entry)
     return removed

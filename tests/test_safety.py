@@ -303,6 +303,19 @@ def test_stale_temp_folders_of_killed_runs_are_removed_but_nothing_else(user_fol
     assert (lookalike / "thesis.tex").read_text() == "mine"
 
 
+def test_a_replacement_killed_between_its_renames_is_restored_by_a_run_to_another_folder(user_folder):
+    """`--overwrite` into X killed after X became trash and before the new output took its
+    name: a later run into Y in the same folder renames X's only copy back, never deletes it."""
+    assert _invoke(*RUN, "--out", "X").exit_code == 0
+    old = sorted(p.name for p in (user_folder / "X").iterdir())
+    trash = user_folder / f".X{TRASH_TAG}0123456789ab"
+    (user_folder / "X").rename(trash)
+    marker = json.loads((trash / MARKER).read_text())
+    (trash / MARKER).write_text(json.dumps({**marker, "pid": 2**22 + 7}))  # its run is dead
+    assert _invoke(*RUN, "--out", "Y").exit_code == 0
+    assert sorted(p.name for p in (user_folder / "X").iterdir()) == old and not trash.exists()
+
+
 def _poses_with_gaps(folder: Path) -> Path:
     X = np.load(POSES).astype(np.float32)
     X[5:10, PELVIS] = np.nan  # pelvis missing, hips present: pelvis = hip midpoint
