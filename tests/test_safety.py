@@ -316,6 +316,17 @@ def test_a_replacement_killed_between_its_renames_is_restored_by_a_run_to_anothe
     assert sorted(p.name for p in (user_folder / "X").iterdir()) == old and not trash.exists()
 
 
+def test_a_symlink_loop_as_input_or_output_is_one_line(user_folder):
+    (user_folder / "loopA").symlink_to("loopB")
+    (user_folder / "loopB").symlink_to("loopA")
+    for args in (("run", "--lifter", "generic", "--lifter-output", "loopA", "--fps", "30", "--no-recording", "--out", "o"),
+                 (*RUN, "--out", "loopA"), ("rectify", "poses.npy", "--out", "loopA")):
+        res = _invoke(*args)
+        assert res.exit_code == 1 and "Traceback" not in res.output, res.output
+        assert "loopA: expected a file or folder, got a symlink loop" in res.output, res.output
+    assert not (user_folder / "o").exists()
+
+
 def _poses_with_gaps(folder: Path) -> Path:
     X = np.load(POSES).astype(np.float32)
     X[5:10, PELVIS] = np.nan  # pelvis missing, hips present: pelvis = hip midpoint
