@@ -56,6 +56,8 @@ def _cell(c: str) -> float:
     inf and so, silently, into a missing value."""
     if not c:
         return float("nan")
+    if "_" in c:  # float() reads "1_0" as 10: a digit separator no pose table writes
+        raise ValueError(c)
     v = float(c)
     if math.isinf(v) and "inf" not in c.lower():
         raise ValueError(c)
@@ -72,10 +74,10 @@ def _is_number(c: str) -> bool:
 
 def _read_csv(p: Path, delimiter: str) -> np.ndarray:
     rows: list[list[float]] = []
-    with p.open(newline="", encoding="utf-8", errors="replace") as fh:
+    with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
         reader = csv.reader(fh, delimiter=delimiter)
         line_no = 0
-        header_seen = False
+        header_seen, header_width = False, None
         while True:
             try:
                 row = next(reader)
@@ -87,6 +89,9 @@ def _read_csv(p: Path, delimiter: str) -> np.ndarray:
             cells = [c.strip() for c in row]
             if len(cells) <= 1 and not any(cells):  # a blank line; a row of empty cells is a frame
                 continue
+            if not rows and not header_seen and cells == [str(i) for i in range(len(cells))]:
+                header_seen, header_width = True, len(cells)  # pandas' default column names 0, 1, ...
+                continue
             try:
                 rows.append([_cell(c) for c in cells])
             except ValueError:
@@ -95,12 +100,15 @@ def _read_csv(p: Path, delimiter: str) -> np.ndarray:
                 if rows or header_seen or any(_is_number(c) for c in cells):
                     raise AdapterError(p, f"line {line_no}", "numbers only after the optional header line of names",
                                        repr(row[:4])[:120]) from None
-                header_seen = True
+                header_seen, header_width = True, len(cells)
     if not rows:
         raise AdapterError(p, "rows", "at least one data row", "none")
     widths = {len(r) for r in rows}
     if len(widths) != 1:
         raise AdapterError(p, "columns", "the same number of columns on every row", f"widths {sorted(widths)[:10]}")
+    if header_width is not None and {header_width} != widths:
+        raise AdapterError(p, "header", f"one name per column ({widths.pop()} columns of numbers)",
+                           f"{header_width} names")
     return np.asarray(rows, np.float64)
 
 

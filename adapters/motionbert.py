@@ -64,10 +64,10 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
         raise AdapterError(p, "X3D x/y values", "some finite x, y coordinates", "only NaN/inf")
     if pixel and xy_max <= _NORMALISED_BOUND:
         raise AdapterError(p, "X3D x/y values", "image pixels for pixel=True (infer_wild --pixel)",
-                           f"max |x|,|y| {xy_max:.2f}, which looks normalised; use pixel=False")
+                           f"max |x|,|y| {xy_max:.2f}, which looks normalised; drop --pixel (pixel=False)")
     if not pixel and xy_max > _NORMALISED_BOUND:
         raise AdapterError(p, "X3D x/y values", f"normalised coordinates within about [-1, 1] (|x|,|y| <= {_NORMALISED_BOUND})",
-                           f"max {xy_max:.1f}, which looks like pixels; use pixel=True")
+                           f"max {xy_max:.1f}, which looks like pixels; use --pixel (pixel=True)")
     off_origin, _ = pelvis_offset(arr)
     # infer_wild.py --rootrel zeroes the root, so a root at the origin may be MotionBERT's;
     # it is also what VideoPose3D and D3DP export, in metres, not image-normalised units.

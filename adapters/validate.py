@@ -115,7 +115,7 @@ def read_json(path: str | Path) -> Any:
             parser's recursion limit).
     """
     p = require_file(path, "a JSON file")
-    text = p.read_text(encoding="utf-8", errors="replace")
+    text = p.read_text(encoding="utf-8-sig", errors="replace")  # -sig: a BOM some Windows tools write
     if not text.strip():
         raise AdapterError(p, "content", "JSON", "an empty file")
     with _json_errors(p):
@@ -173,7 +173,7 @@ def iter_json_array(path: str | Path, expected: str) -> Iterator[Any]:
 def _stream_array(p: Path, expected: str) -> Iterator[Any]:
     decoder = json.JSONDecoder(parse_float=_json_float)
     ws = json.decoder.WHITESPACE.match
-    with open(p, encoding="utf-8", errors="replace") as fh:
+    with open(p, encoding="utf-8-sig", errors="replace") as fh:
         buf, eof = "", False
 
         def more(keep_from: int) -> int:
@@ -405,7 +405,7 @@ def load_array_file(path: str | Path, key: str | None = None) -> np.ndarray:
             if len(keys) != 1:
                 hint = ("; MediaPipe's landmarks: read them with --lifter mediapipe"
                         if {"world_3d", "keypoints_2d"} <= set(keys) else "")
-                raise AdapterError(p, "key", "key= naming one of the archive's arrays", describe_keys(keys) + hint)
+                raise AdapterError(p, "key", "--key (key=) naming one of the archive's arrays", describe_keys(keys) + hint)
             key = keys[0]
         if key not in keys:
             raise AdapterError(p, "key", f"an array named {key!r} in the archive", describe_keys(keys))
@@ -589,7 +589,7 @@ def frame_count_for(p: str | Path, field: str, max_index: int, records: int,
     else:
         limit = FRAMES_PER_RECORD * records + FRAMES_SLACK + 1
         why = (f"<= {limit - 1}, plausible for a file of {records} records "
-               f"(100 x records + 10000); pass frame_count (the video's frame count) for sparser files")
+               f"(100 x records + 10000); give --video (frame_count=, the video's frame count) for sparser files")
     if max_index >= limit:
         raise AdapterError(p, field, f"0-based frame indices {why}", f"frame index {max_index}")
     if num_frames is None:

@@ -695,6 +695,36 @@ def test_generic_csv_row_of_empty_cells_is_a_missing_frame_not_a_blank_line(tmp_
     np.testing.assert_allclose(joints[keep], base[keep], atol=1e-6)
 
 
+def test_generic_csv_headers_pandas_numbers_and_widths(tmp_path):
+    """pandas' ``to_csv(index=False)`` names the columns 0, 1, ..., 50: a header, not a frame
+    (it had shifted every frame by one); a header naming another number of columns, a digit
+    separator and a UTF-8 byte-order mark are handled in one line each."""
+    base = np.load(YOGA["Tadasana"])[:6]
+    body = "\n".join(",".join(f"{v:.6f}" for v in r) for r in base.reshape(6, -1)) + "\n"
+    numbered = tmp_path / "pandas.csv"
+    numbered.write_text(",".join(str(i) for i in range(51)) + "\n" + body)
+    np.testing.assert_allclose(load_generic(numbered).joints, base, atol=1e-6)
+    short = tmp_path / "short_header.csv"
+    short.write_text("x,y,z\n" + body)
+    with pytest.raises(AdapterError, match=r"header.*one name per column \(51 columns of numbers\), got 3 names"):
+        load_generic(short)
+    bom = tmp_path / "bom.csv"
+    bom.write_text("\ufeff" + body, encoding="utf-8")
+    np.testing.assert_allclose(load_generic(bom).joints, base, atol=1e-6)
+    underscore = tmp_path / "underscore.csv"
+    underscore.write_text(body.replace(body.split(",")[1], "1_0", 1))
+    with pytest.raises(AdapterError, match="line 1"):
+        load_generic(underscore)
+
+
+def test_json_with_a_byte_order_mark_reads_as_without(tmp_path):
+    """Some Windows tools start UTF-8 JSON with a byte-order mark; the real AlphaPose file so
+    stored reads the same (it was refused as invalid JSON)."""
+    bom = tmp_path / "bom.json"
+    bom.write_bytes(b"\xef\xbb\xbf" + BOXING_AP.read_bytes())
+    np.testing.assert_array_equal(load_alphapose(bom).points, load_alphapose(BOXING_AP).points)
+
+
 def test_generic_npz_key_and_axis_permutation(tmp_path):
     base = np.load(YOGA["Tadasana"])
     z_up = np.stack([base[..., 0], base[..., 2], -base[..., 1]], -1)  # x right, y forward, z up
