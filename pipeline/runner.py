@@ -25,7 +25,7 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import AdapterError, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
-from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS, fill_pelvis_from_hips, validate_fps
+from pcnet.stages.core.conventions import H36M_JOINTS, L_HIP, PELVIS, R_HIP, fill_pelvis_from_hips, validate_fps
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
@@ -460,11 +460,18 @@ def _moved_to_disk(arr: np.ndarray, name: str, store: FrameStore):
 HEADINGLESS_NOTE_SHARE = 0.1
 
 
-def _headingless_note(angles) -> list[str]:
-    """A note when many frames have a trunk but no pelvis-heading frame (a hip line within a
-    few degrees of vertical: a body lying on its side), whose plane inclinations and ISB
-    angles to gravity are then empty while the heading-free angles remain."""
-    trunk = np.isfinite(np.asarray(angles["trunk_inclination"]))
+def _headingless_note(angles, positions) -> list[str]:
+    """A note when many frames have a trunk and both hips but no pelvis-heading frame (a hip
+    line within a few degrees of vertical: a body lying on its side), whose plane inclinations
+    and ISB angles to gravity are then empty while the heading-free angles remain. Frames
+    without a hip are missing data, counted elsewhere, not a body on its side.
+
+    Args:
+        angles: the run's ``Kinematics.angles`` (name -> ``(T,)`` degrees).
+        positions: its ``(T, 17, 3)`` positions (NaN = missing)."""
+    hips = np.concatenate([np.isfinite(positions[rows][:, [R_HIP, L_HIP]]).all(axis=(1, 2))
+                           for rows in frame_blocks(len(positions))])
+    trunk = np.isfinite(np.asarray(angles["trunk_inclination"])) & hips
     headingless = int((trunk & ~np.isfinite(np.asarray(angles["trunk_sagittal_inclination"]))).sum())
     if headingless <= HEADINGLESS_NOTE_SHARE * max(int(trunk.sum()), 1):
         return []
@@ -658,7 +665,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         missing_note = format_flag_counts(result.flag_counts)
         if missing_note:
             notes.append(missing_note)
-        notes += _headingless_note(result.kinematics.angles)
+        notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)
         bar.update()
 
         step("exports")

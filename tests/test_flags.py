@@ -305,6 +305,28 @@ def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):
         assert any(f.startswith("the 3D skeleton is a mirror image") for f in npz["flags"])
 
 
+def test_frames_without_hips_are_not_called_a_body_on_its_side():
+    """Real standing poses with both hips missing in every 5th frame (a 2D detector's zero
+    rows): those frames lack a pelvis heading because the hips are missing, which the note on
+    bodies lying on their side must not count; laid on its side, the same clip is noted."""
+    from pcnet.pipeline.runner import _headingless_note
+    from pcnet.stages.core.conventions import L_HIP, R_HIP
+    from pcnet.stages.kinematics import heading_free_angles, joint_angles, pelvis_heading_frame
+
+    def angles(poses):  # as the run computes them (stages/kinematics.py: compute_kinematics)
+        return joint_angles(pelvis_heading_frame(poses), heading_free_angles(poses))
+
+    upright = np.load(TADASANA).astype(np.float64) * [1.0, -1.0, -1.0]  # camera frame -> +Y up
+    gaps = upright.copy()
+    gaps[::5, [R_HIP, L_HIP]] = np.nan  # the pelvis kept (a lifter's), so the trunk stays defined
+    with_gaps = angles(gaps)
+    assert np.isfinite(with_gaps["trunk_inclination"][::5]).all()
+    assert not np.isfinite(with_gaps["trunk_sagittal_inclination"][::5]).any()
+    assert _headingless_note(with_gaps, gaps) == []
+    side = upright @ np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]).T  # laid on its side
+    assert _headingless_note(angles(side), side)
+
+
 def test_a_body_lying_on_its_side_is_noted_and_keeps_its_heading_free_angles(tmp_path):
     """A real standing pose laid on its side in front of a level camera (turned 90 deg about
     the optical axis), read as lying: its hip line is vertical, so the plane inclinations are
