@@ -30,7 +30,7 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (body_size_flag, leg_asymmetry_flag, mirrored_skeleton_flag, side_swap_flag, size_change_flag, one_person_frames, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
+from pcnet.stages.flags import (body_size_flag, keypoints_outside_image_flag, leg_asymmetry_flag, mirrored_skeleton_flag, side_swap_flag, size_change_flag, one_person_frames, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
                                track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
@@ -44,7 +44,7 @@ from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
 from .config import MULTI_TRACK_FORMATS, RunConfig
 from .io import lifter_joints
-from .video_orientation import DisplayOrientation, display_orientation
+from .video_orientation import EDGE_MARGIN, DisplayOrientation, display_orientation
 from .outdir import check_out_folder, staged_output
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
@@ -574,6 +574,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         flags += body_size_flag(cam, units) if cfg.height is None else []
         # image-scaled sizes are made constant per frame below; a metric body should keep its own
         flags += leg_asymmetry_flag(cam) + (size_change_flag(cam) if units not in IMAGE_SCALED_UNITS else [])
+        if kp2d is not None and video is not None and not video.rotation_deg:  # turned videos: keypoint_frame
+            flags += keypoints_outside_image_flag(kp2d, (video.width, video.height), EDGE_MARGIN)
         swapped = side_swap_flag(kp2d, cam) if kp2d is not None else []
         flags += swapped or mirrored_skeleton_flag(cam)  # a side swap is a mirror image too: said once
         flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))

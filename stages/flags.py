@@ -236,6 +236,41 @@ MIRRORED_NOSE_SHARE = 0.3
 MIRRORED_MIN_FRAMES = 10
 
 
+#: Share of the present 2D keypoints outside the video's frame (beyond ``margin``) from which
+#: the keypoints are taken to belong to another video, resolution or crop: a detector places
+#: a few joints of a body cut by the edge beyond it, not a fifth of them.
+OUTSIDE_IMAGE_SHARE = 0.2
+
+
+def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], margin: float) -> list[str]:
+    """A WARNING when more than :data:`OUTSIDE_IMAGE_SHARE` of the present 2D keypoints lie
+    outside the video's frame, widened by ``margin`` (a share of its width and height) on
+    every side.
+
+    Args:
+        keypoints2d: ``(T, 17, >=2)`` H36M-17 pixel coordinates in the displayed frame (x right,
+            y down), NaN = missing; an array or a frame store read a block at a time.
+        image_size: the displayed frame's ``(width, height)`` in pixels; ``(0, 0)`` = unknown.
+        margin: e.g. 0.05.
+    """
+    w, h = image_size
+    if w <= 0 or h <= 0:
+        return []
+    present = outside = 0
+    for rows in frame_blocks(len(keypoints2d)):
+        xy = np.asarray(keypoints2d[rows][..., :2], np.float64).reshape(-1, 2)
+        xy = xy[np.isfinite(xy).all(axis=1)]
+        present += len(xy)
+        out_x = (xy[:, 0] < -margin * w) | (xy[:, 0] > (1 + margin) * w)
+        out_y = (xy[:, 1] < -margin * h) | (xy[:, 1] > (1 + margin) * h)
+        outside += int((out_x | out_y).sum())
+    if not present or outside <= OUTSIDE_IMAGE_SHARE * present:
+        return []
+    return [f"{100 * outside / present:.0f} % of the 2D keypoints lie outside the video's {w}x{h} frame: keypoints "
+            f"of another video, resolution or crop? the left/right and track-switch checks and the recording's "
+            f"overlay rest on them"]
+
+
 def mirrored_skeleton_flag(joints_cam: np.ndarray) -> list[str]:
     """A flag when the 3D poses are a mirror image of a body: the nose sits behind the
     thorax in most frames.

@@ -4,6 +4,7 @@ non-upright poses, 2D track switches; a camera tilt consistent with its pitch an
 from __future__ import annotations
 
 import csv
+import json
 import re
 
 import numpy as np
@@ -22,6 +23,8 @@ from pcnet.stages.remap import remap_to_h36m
 
 TADASANA = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"  # real VideoPose3D, standing, camera frame
 MEDIAPIPE = FIXTURES / "mediapipe_blazepose33_f000-059.npz"
+BOX_AP = FIXTURES / "boxing_alphapose_f000-059.json"  # real AlphaPose of the boxing video
+BOX_X3D = FIXTURES / "boxing_X3D_f000-059.npy"  # its real MotionBERT output
 
 
 def _roll(X: np.ndarray, degrees: float) -> np.ndarray:
@@ -303,6 +306,25 @@ def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):
     assert "WARNING           the 3D skeleton is a mirror image of a body" in res.output
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         assert any(f.startswith("the 3D skeleton is a mirror image") for f in npz["flags"])
+
+
+def test_2d_keypoints_outside_the_video_are_warned(tmp_path):
+    """The real boxing AlphaPose keypoints with the 10-frame cut of their video pass; the same
+    keypoints scaled x3 (another resolution's) lie outside the 854x480 frame and are warned."""
+    from pcnet.stages.flags import keypoints_outside_image_flag
+
+    items = json.loads(BOX_AP.read_text())
+    args = ["run", "--lifter", "motionbert", "--lifter-output", str(BOX_X3D), "--keypoints2d-format", "alphapose",
+            "--video", str(FIXTURES / "boxing2_f000-009.mp4"), "--align", "truncate", "--method", "geometric",
+            "--no-recording"]
+    res = CliRunner().invoke(main, [*args, "--keypoints2d", str(BOX_AP), "--out", str(tmp_path / "a")])
+    assert res.exit_code == 0 and "outside the video's" not in res.output, res.output
+    scaled = [{**it, "keypoints": [v * 3 if i % 3 != 2 else v for i, v in enumerate(it["keypoints"])]} for it in items]
+    (tmp_path / "x3.json").write_text(json.dumps(scaled))
+    res = CliRunner().invoke(main, [*args, "--keypoints2d", str(tmp_path / "x3.json"), "--out", str(tmp_path / "b")])
+    assert res.exit_code == 0, res.output
+    assert "of the 2D keypoints lie outside the video's 854x480 frame" in res.output
+    assert keypoints_outside_image_flag(np.full((3, 17, 3), np.nan), (854, 480), 0.05) == []
 
 
 def test_frames_without_hips_are_not_called_a_body_on_its_side():
