@@ -89,6 +89,10 @@ def _read_csv(p: Path, delimiter: str) -> np.ndarray:
             cells = [c.strip() for c in row]
             if len(cells) <= 1 and not any(cells):  # a blank line; a row of empty cells is a frame
                 continue
+            if len(cells) == 1 and delimiter not in ";\t" and (";" in cells[0] or "\t" in cells[0]):
+                found = "';'" if ";" in cells[0] else "tabs"
+                raise AdapterError(p, "delimiter", f"{delimiter!r}-separated columns (another separator: delimiter = "
+                                   f"\"...\" in a --config file's [lifter_options])", f"line {line_no} separated by {found}")
             if not rows and not header_seen and cells == [str(i) for i in range(len(cells))]:
                 header_seen, header_width = True, len(cells)  # pandas' default column names 0, 1, ...
                 continue

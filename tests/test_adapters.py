@@ -711,6 +711,11 @@ def test_generic_csv_headers_pandas_numbers_and_widths(tmp_path):
     bom = tmp_path / "bom.csv"
     bom.write_text("\ufeff" + body, encoding="utf-8")
     np.testing.assert_allclose(load_generic(bom).joints, base, atol=1e-6)
+    semicolons = tmp_path / "semicolons.csv"  # a spreadsheet in a comma-decimal locale
+    semicolons.write_text(body.replace(",", ";"))
+    with pytest.raises(AdapterError, match=r"delimiter.*got line 1 separated by ';'"):
+        load_generic(semicolons)
+    np.testing.assert_allclose(load_generic(semicolons, delimiter=";").joints, base, atol=1e-6)
     underscore = tmp_path / "underscore.csv"
     underscore.write_text(body.replace(body.split(",")[1], "1_0", 1))
     with pytest.raises(AdapterError, match="line 1"):
