@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import os
 import shutil
@@ -28,7 +29,12 @@ def one_line(err: BaseException) -> str:
     if isinstance(err, OSError) and err.filename is not None:
         names = " -> ".join(str(f) for f in (err.filename, err.filename2) if f is not None)
         return f"{names}: {err.strerror or err}"
+    if isinstance(err, OSError) and err.errno in _NO_ROOM:  # numpy and zipfile write without naming the file
+        return f"{err.strerror}: writing the outputs failed (a full disk, a quota or a file size limit?)"
     return " ".join(str(err).split())
+
+
+_NO_ROOM = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
 
 
 class _ErrorBoundary(click.Group):

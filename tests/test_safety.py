@@ -327,6 +327,27 @@ def test_a_symlink_loop_as_input_or_output_is_one_line(user_folder):
     assert not (user_folder / "o").exists()
 
 
+def test_a_full_disk_is_one_line_and_leaves_no_output(user_folder):
+    """A real run that fails writing an export the way numpy does on a full disk (OSError
+    without a file name, ``ulimit -f`` gives EFBIG alike): one line saying why, exit 1, and the
+    output folder not published."""
+    import errno
+
+    from pcnet.stages.sinks import result
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(result, "write_trc", full)
+        res = _invoke(*RUN, "--out", "o")
+    assert res.exit_code == 1 and "Traceback" not in res.output, res.output
+    assert "No space left on device: writing the outputs failed (a full disk, a quota or a file size limit?)" \
+        in res.output
+    assert not (user_folder / "o").exists()
+    assert not [p for p in user_folder.iterdir() if TMP_TAG in p.name]
+
+
 def _poses_with_gaps(folder: Path) -> Path:
     X = np.load(POSES).astype(np.float32)
     X[5:10, PELVIS] = np.nan  # pelvis missing, hips present: pelvis = hip midpoint
