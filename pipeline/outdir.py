@@ -258,7 +258,9 @@ def staged_output(out: str | os.PathLike) -> Iterator[Path]:
         target.parent.mkdir(parents=True, exist_ok=True)
         clean_stale(target)
     except OSError as err:
-        raise InputError(f"--out {given}: cannot create the output folder there ({err.strerror or err})") from err
+        blocker = next((p for p in (target.parent, *target.parent.parents) if p.exists() and not p.is_dir()), None)
+        why = f"{blocker} is a file, not a folder" if blocker else (err.strerror or err)
+        raise InputError(f"--out {given}: cannot create the output folder there ({why})") from err
     try:
         # Inside the clean-up block: an interrupt arriving as mkdir returns must not leave it.
         try:

@@ -348,6 +348,15 @@ def test_a_full_disk_is_one_line_and_leaves_no_output(user_folder):
     assert not [p for p in user_folder.iterdir() if TMP_TAG in p.name]
 
 
+def test_an_output_under_a_file_names_that_file(user_folder):
+    (user_folder / "notes.txt").write_text("mine")
+    res = _invoke(*RUN, "--out", "notes.txt/run1")
+    assert res.exit_code == 1 and "Traceback" not in res.output, res.output
+    assert f"run1: cannot create the output folder there ({user_folder / 'notes.txt'} is a file, not a folder)" \
+        in res.output
+    assert (user_folder / "notes.txt").read_text() == "mine"
+
+
 def _poses_with_gaps(folder: Path) -> Path:
     X = np.load(POSES).astype(np.float32)
     X[5:10, PELVIS] = np.nan  # pelvis missing, hips present: pelvis = hip midpoint
