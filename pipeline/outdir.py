@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import socket
 import time
@@ -205,34 +206,47 @@ def _process_alive(info: dict) -> bool:
     return info["pid"] != os.getpid()
 
 
+def _leftover_owner(name: str) -> tuple[str, str] | None:
+    """``(kind, output name)`` of a hidden staging (``"tmp"``) or trash (``"trash"``) folder
+    name pcnet makes for an output (``.NAME.pcnet-tmp-<12 hex>``, ``.NAME.pcnet-trash-<12 hex>``),
+    else ``None``: the whole name must match, so an output whose own name contains a tag is
+    not mistaken for one."""
+    for kind, tag in (("tmp", TMP_TAG), ("trash", TRASH_TAG)):
+        m = re.fullmatch(rf"\.(.+){re.escape(tag)}[0-9a-f]{{12}}", name)
+        if m:
+            return kind, m.group(1)
+    return None
+
+
 def clean_stale(target: Path) -> list[Path]:
-    """Remove pcnet's own leftovers beside ``target`` from killed runs: hidden temp and trash
-    folders whose marker names a process no longer running. A trash folder left between the
-    two renames of a replacement is renamed back to the output it was (``target`` or any
-    other output in the same folder) when that output is missing: it is the only copy left.
-    Folders without a pcnet marker are never touched. Returns what was removed."""
+    """Remove pcnet's own leftovers beside ``target`` from killed runs: hidden temp folders
+    whose marker names a process no longer running, and ``target``'s own trash folders. A trash
+    folder left between the two renames of a replacement of ``target`` is renamed back to
+    ``target`` when ``target`` is missing (the old output, complete). Another output's trash is
+    left for that output's next run: it may be the only copy of that output, and it may belong
+    to a live replacement (:func:`_swap_in` marks it with its own process). Folders without a
+    pcnet marker are never touched. Returns what was removed."""
     removed: list[Path] = []
     if not target.parent.is_dir():
         return removed
     for entry in sorted(target.parent.iterdir()):
-        name = entry.name
-        if not name.startswith(".") or not (TMP_TAG in name or TRASH_TAG in name):
+        leftover = _leftover_owner(entry.name)
+        if leftover is None or entry.is_symlink() or not entry.is_dir():
             continue
-        if entry.is_symlink() or not entry.is_dir():
+        kind, owner = leftover
+        if kind == "trash" and owner != target.name:
             continue
         info = read_marker(entry)
-        if (not info and TMP_TAG in name and not any(entry.iterdir())
+        if (not info and kind == "tmp" and not any(entry.iterdir())
                 and time.time() - entry.stat().st_mtime > EMPTY_STAGED_GRACE_S):
             entry.rmdir()  # killed between creating its staged folder and writing the marker
             removed.append(entry)
             continue
         if info.get("writer") != "pcnet" or _process_alive(info):
             continue
-        if TRASH_TAG in name:
-            owner = target.parent / name[1:name.index(TRASH_TAG)]
-            if owner.name and not owner.exists() and not owner.is_symlink():
-                os.rename(entry, owner)
-                continue
+        if kind == "trash" and not target.exists() and not target.is_symlink():
+            os.rename(entry, target)
+            continue
         shutil.rmtree(entry, ignore_errors=True)
         removed.append(entry)
     return removed
@@ -292,6 +306,10 @@ def _swap_in(tmp: Path, target: Path) -> Path | None:
     trash = None
     if target.exists():
         trash = target.parent / f".{target.name}{TRASH_TAG}{uuid.uuid4().hex[:12]}"
+        info = read_marker(target)
+        if info.get("writer") == "pcnet":  # the trash is this live run's until it is removed
+            write_text(target / MARKER, json.dumps({**info, "pid": os.getpid(), "host": socket.gethostname()},
+                                                   indent=1) + "\n")
         os.rename(target, trash)
     try:
         os.rename(tmp, target)

@@ -290,7 +290,7 @@ def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt(user_fold
 
 
 def test_stale_temp_folders_of_killed_runs_are_removed_but_nothing_else(user_folder):
-    stale = user_folder / f".o{TMP_TAG}dead"
+    stale = user_folder / f".o{TMP_TAG}0123456789ab"
     stale.mkdir()
     (stale / MARKER).write_text(json.dumps({"writer": "pcnet", "state": "writing", "pid": 2**22 + 7,
                                             "host": os.uname().nodename, "files": []}))
@@ -303,16 +303,22 @@ def test_stale_temp_folders_of_killed_runs_are_removed_but_nothing_else(user_fol
     assert (lookalike / "thesis.tex").read_text() == "mine"
 
 
-def test_a_replacement_killed_between_its_renames_is_restored_by_a_run_to_another_folder(user_folder):
+def test_a_replacement_killed_between_its_renames_is_kept_by_other_runs_and_restored_by_its_own(user_folder):
     """`--overwrite` into X killed after X became trash and before the new output took its
-    name: a later run into Y in the same folder renames X's only copy back, never deletes it."""
+    name: a later run into Y in the same folder leaves X's only copy alone (it had deleted it);
+    the next run into X renames it back; a name that only contains the tag is not a leftover."""
     assert _invoke(*RUN, "--out", "X").exit_code == 0
     old = sorted(p.name for p in (user_folder / "X").iterdir())
     trash = user_folder / f".X{TRASH_TAG}0123456789ab"
     (user_folder / "X").rename(trash)
     marker = json.loads((trash / MARKER).read_text())
     (trash / MARKER).write_text(json.dumps({**marker, "pid": 2**22 + 7}))  # its run is dead
+    lookalike = user_folder / f".Y{TRASH_TAG}0123456789ab-copy"  # not a name pcnet makes
+    lookalike.mkdir()
+    (lookalike / MARKER).write_text(json.dumps({**marker, "pid": 2**22 + 7}))
     assert _invoke(*RUN, "--out", "Y").exit_code == 0
+    assert trash.is_dir() and lookalike.is_dir() and not (user_folder / "X").exists()
+    assert _invoke(*RUN, "--out", "X", "--overwrite").exit_code == 0
     assert sorted(p.name for p in (user_folder / "X").iterdir()) == old and not trash.exists()
 
 
