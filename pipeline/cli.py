@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import dataclasses
 import errno
 import json
@@ -51,8 +52,8 @@ class _ErrorBoundary(click.Group):
             # Path.resolve() on a symlink loop (Python < 3.13 raises RuntimeError, not OSError)
             if not str(err).startswith("Symlink loop from "):
                 raise
-            raise click.ClickException(f"{str(err)[len('Symlink loop from '):].strip(chr(39))}: expected a file or "
-                                       f"folder, got a symlink loop") from err
+            path = ast.literal_eval(str(err)[len("Symlink loop from "):])  # the path's repr, as pathlib wrote it
+            raise click.ClickException(f"{path}: expected a file or folder, got a symlink loop") from err
         except click.UsageError as err:  # a bad option value: one line and exit 1 like any bad input
             hint = f" (see pcnet {err.ctx.info_name} --help)" if err.ctx is not None and err.ctx.parent else ""
             raise click.ClickException(one_line(err.format_message()) + hint) from err

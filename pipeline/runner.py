@@ -53,8 +53,8 @@ WORLD_SUMMARY = {
                       "at y = 0 under the lowest joint; the pelvis's horizontal path is not observable from a "
                       "root-relative lifter (x = z = 0)",
     "measured": "world, fixed for the recording: +Y up, +X the subject's forward over the first second, one floor "
-                "at y = 0 (median height of the lowest joint); the pelvis follows the measured path (depth sensor, "
-                "--measured-root) (x = z = 0 at the start)",
+                "at y = 0 (median height of the lowest joint); the pelvis follows the path the input measured "
+                "(x = z = 0 at the start)",
 }
 
 

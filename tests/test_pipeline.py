@@ -448,7 +448,7 @@ def test_a_generic_file_with_a_measured_pelvis_path_keeps_it(tmp_path):
             "--axes", "RDF", "--layout", "h36m17", "--mode", "sequence", "--no-recording"]
     res = _invoke(*args, "--measured-root", "--out", tmp_path / "m")
     assert res.exit_code == 0, res.output
-    assert "the pelvis follows the measured path" in res.output
+    assert "the pelvis follows the path the input measured" in res.output
     with np.load(tmp_path / "m" / "canonical.npz") as npz:
         world, report = npz["joints_world"], json.loads(str(npz["report"]))
     assert report["root_path"] == "measured"
@@ -475,7 +475,7 @@ def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
     res = _invoke("run", "--lifter", "kinect_v1", "--lifter-output", tmp_path / "walk_kinect.npy", "--fps", "30",
                   "--mode", "sequence", "--no-recording", "--out", tmp_path / "o")
     assert res.exit_code == 0, res.output
-    assert "the pelvis follows the measured path" in res.output
+    assert "the pelvis follows the path the input measured" in res.output
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         world, report = npz["joints_world"], json.loads(str(npz["report"]))
     assert report["root_path"] == "measured"

@@ -323,13 +323,15 @@ def test_a_replacement_killed_between_its_renames_is_kept_by_other_runs_and_rest
 
 
 def test_a_symlink_loop_as_input_or_output_is_one_line(user_folder):
-    (user_folder / "loopA").symlink_to("loopB")
-    (user_folder / "loopB").symlink_to("loopA")
-    for args in (("run", "--lifter", "generic", "--lifter-output", "loopA", "--fps", "30", "--no-recording", "--out", "o"),
-                 (*RUN, "--out", "loopA"), ("rectify", "poses.npy", "--out", "loopA")):
+    odd = user_folder / "it's"  # a quote in the path: named as it is, not as Python quotes it
+    odd.mkdir()
+    (odd / "loopA").symlink_to("loopB")
+    (odd / "loopB").symlink_to("loopA")
+    for args in (("run", "--lifter", "generic", "--lifter-output", "it's/loopA", "--fps", "30", "--no-recording",
+                  "--out", "o"), (*RUN, "--out", "it's/loopA"), ("rectify", "poses.npy", "--out", "it's/loopA")):
         res = _invoke(*args)
         assert res.exit_code == 1 and "Traceback" not in res.output, res.output
-        assert "loopA: expected a file or folder, got a symlink loop" in res.output, res.output
+        assert f"Error: {odd / 'loopA'}: expected a file or folder, got a symlink loop" in res.output, res.output
     assert not (user_folder / "o").exists()
 
 
