@@ -72,12 +72,26 @@ def _is_number(c: str) -> bool:
     return True
 
 
-def _read_csv(p: Path, delimiter: str) -> np.ndarray:
+def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str]:
+    """``(rows, note)``: the data rows of a pose CSV as float64 ``(T, columns)`` (an empty cell
+    is NaN) and a note on how its header was read (empty for none or names).
+
+    Rules: blank lines are skipped; a row of empty cells is a frame with every joint missing;
+    an optional first line of names is the header, and must name every column; pandas' header
+    (``to_csv``: numbered names 0, 1, ... when the columns had none, and an empty first name
+    for its index column, which is then dropped from every row) is recognised as such.
+
+    Raises:
+        AdapterError: naming the line: a cell that is not a number after the header, a line
+            separated by another delimiter than ``delimiter``, rows of different widths, a
+            header naming another number of columns, no data row.
+    """
     rows: list[list[float]] = []
+    note = ""
     with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
         reader = csv.reader(fh, delimiter=delimiter)
         line_no = 0
-        header_seen, header_width = False, None
+        header_seen, header_width, index_column = False, None, False
         while True:
             try:
                 row = next(reader)
@@ -89,16 +103,25 @@ def _read_csv(p: Path, delimiter: str) -> np.ndarray:
             cells = [c.strip() for c in row]
             if len(cells) <= 1 and not any(cells):  # a blank line; a row of empty cells is a frame
                 continue
-            if len(cells) == 1 and delimiter not in ";\t" and (";" in cells[0] or "\t" in cells[0]):
-                found = "';'" if ";" in cells[0] else "tabs"
-                raise AdapterError(p, "delimiter", f"{delimiter!r}-separated columns (another separator: delimiter = "
-                                   f"\"...\" in a --config file's [lifter_options])", f"line {line_no} separated by {found}")
-            if not rows and not header_seen and cells == [str(i) for i in range(len(cells))]:
-                header_seen, header_width = True, len(cells)  # pandas' default column names 0, 1, ...
+            if not rows and not header_seen and cells[0] == "" and len(cells) > 1 and all(cells[1:]):
+                header_seen, header_width, index_column = True, len(cells) - 1, True  # pandas' index column
+                note = f"line {line_no}: pandas' header with an index column, dropped"
                 continue
+            if not rows and not header_seen and cells == [str(i) for i in range(len(cells))]:
+                header_seen, header_width = True, len(cells)
+                note = f"line {line_no}: 0, 1, ..., {len(cells) - 1} read as pandas' column names, not a frame"
+                continue
+            if index_column:
+                cells = cells[1:]
             try:
                 rows.append([_cell(c) for c in cells])
             except ValueError:
+                others = [d for d in (",", ";", "\t") if d != delimiter and any(d in c for c in cells)]
+                if others:
+                    found = {",": "','", ";": "';'", "\t": "tabs"}[others[0]]
+                    raise AdapterError(p, "delimiter", f"{delimiter!r}-separated columns of numbers with a decimal "
+                                       f"point (another separator: delimiter = \"...\" in a --config file's "
+                                       f"[lifter_options])", f"line {line_no} separated by {found}") from None
                 # A header is a first line without a single number; a first line with some
                 # numbers is a damaged data row, which must not vanish as a "header".
                 if rows or header_seen or any(_is_number(c) for c in cells):
@@ -113,7 +136,7 @@ def _read_csv(p: Path, delimiter: str) -> np.ndarray:
     if header_width is not None and {header_width} != widths:
         raise AdapterError(p, "header", f"one name per column ({widths.pop()} columns of numbers)",
                            f"{header_width} names")
-    return np.asarray(rows, np.float64)
+    return np.asarray(rows, np.float64), note
 
 
 def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
@@ -123,7 +146,8 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     Args:
         path: ``.npy``; ``.npz`` (``key=`` names the array unless there is only one);
             ``.csv``/``.txt``: one row per frame, ``J*3`` columns ``x, y, z`` per joint in
-            layout order, an optional header line, empty cells = missing.
+            layout order, an optional header line (pandas' ``to_csv`` header and index column
+            are recognised), empty cells = missing.
             Arrays may be ``(T, J, 3)`` or ``(T, J*3)``.
         layout: joint layout name (``h36m17``, ``coco17``, ``halpe26``, ``body25``, ``blazepose33``).
         axes: where the source's x, y, z point in the camera frame, see :func:`axes_to_camera`
@@ -158,9 +182,11 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     lay, m = get_layout(layout), axes_to_camera(axes)
 
     suffix = p.suffix.lower()
+    header_note = ""
     if suffix in (".csv", ".txt"):
         field = "columns"
-        arr = require_numeric(p, field, _read_csv(require_file(p, "a CSV file"), delimiter))
+        table, header_note = _read_csv(require_file(p, "a CSV file"), delimiter)
+        arr = require_numeric(p, field, table)
     elif suffix in (".npy", ".npz"):
         arr = require_numeric(p, key or "array", load_array_file(p, key))
         field = key or "array"
@@ -187,8 +213,8 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     notes.append(f"units {units}" + (f" x {scale:g} -> m" if scale != 1.0 else ""))
     notes.append("root as delivered" + (": a measured path (measured_root)" if measured_root else ""))
     joints = checked_poses(p, field, joints, lay.name, unit_tag)
-    return Poses3D(joints, lay.name, units=unit_tag, source=str(p), notes="; ".join(notes),
-                   root_translation=bool(measured_root))
+    return Poses3D(joints, lay.name, units=unit_tag, source=str(p), notes="; ".join(notes + [header_note] * bool(header_note)),
+                   root_translation=bool(measured_root), summary_note=header_note and f"{p}: {header_note}")
 
 
 def generic_option_problems(layout: object = "h36m17", axes: object = "RDF", units: object = "m",

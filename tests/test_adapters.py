@@ -697,13 +697,23 @@ def test_generic_csv_row_of_empty_cells_is_a_missing_frame_not_a_blank_line(tmp_
 
 def test_generic_csv_headers_pandas_numbers_and_widths(tmp_path):
     """pandas' ``to_csv(index=False)`` names the columns 0, 1, ..., 50: a header, not a frame
-    (it had shifted every frame by one); a header naming another number of columns, a digit
-    separator and a UTF-8 byte-order mark are handled in one line each."""
+    (it had shifted every frame by one), and with its default index column an empty first
+    name whose column is dropped; a header naming another number of columns, a digit
+    separator, another delimiter (also with decimal commas) and a UTF-8 byte-order mark are
+    handled in one line each."""
     base = np.load(YOGA["Tadasana"])[:6]
     body = "\n".join(",".join(f"{v:.6f}" for v in r) for r in base.reshape(6, -1)) + "\n"
     numbered = tmp_path / "pandas.csv"
     numbered.write_text(",".join(str(i) for i in range(51)) + "\n" + body)
-    np.testing.assert_allclose(load_generic(numbered).joints, base, atol=1e-6)
+    read = load_generic(numbered)
+    np.testing.assert_allclose(read.joints, base, atol=1e-6)
+    assert "line 1: 0, 1, ..., 50 read as pandas' column names" in read.summary_note
+    indexed = tmp_path / "pandas_index.csv"  # to_csv() with its default index=True
+    indexed.write_text("," + ",".join(str(i) for i in range(51)) + "\n"
+                       + "".join(f"{t}," + line + "\n" for t, line in enumerate(body.splitlines())))
+    read = load_generic(indexed)
+    np.testing.assert_allclose(read.joints, base, atol=1e-6)
+    assert "index column, dropped" in read.summary_note
     short = tmp_path / "short_header.csv"
     short.write_text("x,y,z\n" + body)
     with pytest.raises(AdapterError, match=r"header.*one name per column \(51 columns of numbers\), got 3 names"):
@@ -711,11 +721,17 @@ def test_generic_csv_headers_pandas_numbers_and_widths(tmp_path):
     bom = tmp_path / "bom.csv"
     bom.write_text("\ufeff" + body, encoding="utf-8")
     np.testing.assert_allclose(load_generic(bom).joints, base, atol=1e-6)
-    semicolons = tmp_path / "semicolons.csv"  # a spreadsheet in a comma-decimal locale
+    semicolons = tmp_path / "semicolons.csv"  # a spreadsheet export with semicolons
     semicolons.write_text(body.replace(",", ";"))
     with pytest.raises(AdapterError, match=r"delimiter.*got line 1 separated by ';'"):
         load_generic(semicolons)
     np.testing.assert_allclose(load_generic(semicolons, delimiter=";").joints, base, atol=1e-6)
+    decimal_commas = tmp_path / "decimal_commas.csv"
+    decimal_commas.write_text(body.replace(",", ";").replace(".", ","))
+    with pytest.raises(AdapterError, match=r"delimiter.*decimal point.*got line 1 separated by ';'"):
+        load_generic(decimal_commas)
+    with pytest.raises(AdapterError, match=r"delimiter.*got line 1 separated by ','"):
+        load_generic(bom, delimiter="\t")
     underscore = tmp_path / "underscore.csv"
     underscore.write_text(body.replace(body.split(",")[1], "1_0", 1))
     with pytest.raises(AdapterError, match="line 1"):
