@@ -159,6 +159,18 @@ def world_up_warning(clips: list[Clip], source: str | Path) -> str | None:
             f"read the same")
 
 
+def assumed_fps_warning(clips: list[Clip], source: str | Path) -> str | None:
+    """A one-line warning when some ``clips`` have no ``fps`` in the ``.json`` beside
+    ``source`` and were read at :data:`DEFAULT_MOCAP_FPS`, else ``None``. Callers warn only
+    where time matters (lifter-like noise, sequence modes); per-frame scores do not use it."""
+    assumed = sum(not c.fps_stated for c in clips)
+    if not assumed:
+        return None
+    return (f"{Path(source).with_suffix('.json')}: expected each clip's 'fps' (the lifter-like noise's correlation "
+            f"time and sequence modes' windows are in seconds), found none for {assumed} of {len(clips)} clips: "
+            f"read at {DEFAULT_MOCAP_FPS:g} fps")
+
+
 def _read_sidecar(path: Path) -> dict:
     """The optional ``.json`` beside a mocap npz (clip name -> frames, fps, subject, ...);
     ``{}`` when there is none.

@@ -24,8 +24,8 @@ from pcnet.stages.core.metrics import rotation_error_deg, summarize, tilt_error_
 
 from .checkpoint import (check_run_folder, config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint,
                          resume_point, save_checkpoint)
-from .datasets import (SPLIT_SCHEMES, Augmentation, Noise, lean_balance_weights, load_mocap, make_pairs, select_split,
-                       world_up_warning)
+from .datasets import (SPLIT_SCHEMES, Augmentation, Noise, assumed_fps_warning, lean_balance_weights, load_mocap,
+                       make_pairs, select_split, world_up_warning)
 from .lifter_noise import LifterNoise
 from .losses import LossWeights, composite_loss
 from .network import PCNet, PCNetConfig
@@ -251,6 +251,8 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     loaded = [load_mocap(path) for path in cfg.data]
     for path, clips in zip(cfg.data, loaded):
         if warning := world_up_warning(clips, path):
+            tqdm.write(f"WARNING {warning}")
+        if cfg.noise_model == "lifter" and (warning := assumed_fps_warning(clips, path)):
             tqdm.write(f"WARNING {warning}")
     train_clips = [c for clips, k in zip(loaded, repeats) for c in select_split(clips, "train", cfg.split_scheme) * k]
     val_clips = [c for clips in loaded for c in select_split(clips, "val", cfg.split_scheme)]

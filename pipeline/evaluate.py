@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.models.datasets import (CMU_NAME, DEFAULT_MOCAP_FPS, SPLIT_SCHEMES, Noise, clip_split_of, group_key, groups_in_split,
+from pcnet.models.datasets import (CMU_NAME, SPLIT_SCHEMES, Noise, assumed_fps_warning, clip_split_of, group_key, groups_in_split,
                                    load_mocap, make_pairs, parse_bandai_name, select_split, world_up_warning)
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
@@ -187,11 +187,8 @@ def evaluate(
     if not clips:
         extra = f" with no group in the {unseen_by!r} train split" if unseen_by else ""
         raise InputError(f"{data}: split {split!r} (scheme {split_scheme!r}) has no clips{extra}")
-    assumed = sum(not c.fps_stated for c in clips)
-    if assumed and (kind == "lifter" or mode != "frame"):
-        warnings.append(f"{Path(data).with_suffix('.json')}: expected each clip's 'fps' (the lifter-like noise's "
-                        f"correlation time and sequence modes' windows are in seconds), found none for {assumed} "
-                        f"of {len(clips)} clips: read at {DEFAULT_MOCAP_FPS:g} fps")
+    if kind == "lifter" or mode != "frame":
+        warnings += [w for w in [assumed_fps_warning(clips, data)] if w]
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=_noise_model(kind))
     # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
     chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior, n_bootstrap=0),
