@@ -213,9 +213,11 @@ class RayEngine:
             return ray.get(ref)
         except ray.exceptions.RayError as err:
             last = ray.get(attempts.last.remote(job["row"]))
+            error = (f"its Ray worker process (pid {last.get('pid')}) died while running the row (killed, as an "
+                     f"out-of-memory kill does), after {last['attempts']} attempt(s)"
+                     if isinstance(err, ray.exceptions.WorkerCrashedError) else f"Ray: {_first_line(err)}")
             return {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
-                    "error": f"Ray: {_first_line(err)}", "host": last.get("host", ""), "pid": last.get("pid"),
-                    "attempts": last["attempts"]}
+                    "error": error, "host": last.get("host", ""), "pid": last.get("pid"), "attempts": last["attempts"]}
 
 def _cancel_all(ray, refs: list) -> None:
     """Force-cancel (kill the workers of) every unfinished task, waiting a moment so that

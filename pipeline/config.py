@@ -18,6 +18,15 @@ KEYPOINT_FORMATS = ("alphapose", "mmpose", "openpose", "mediapipe")
 #: 2D formats holding several people's tracks, one of which ``person`` chooses.
 MULTI_TRACK_FORMATS = ("alphapose", "mmpose")
 LIFTERS = ("motionbert", "ddhpose", "videopose3d", "mediapipe", "generic", "kinect_v1", "azure_kinect")
+
+
+def lifter_names() -> tuple[str, ...]:
+    """The built-in :data:`LIFTERS` (what ``pcnet run --lifter`` offers), then any other 3D
+    adapter registered in this process (``@register_3d``, :mod:`pcnet.adapters.registry`),
+    which the Python API's :class:`RunConfig` takes too."""
+    from pcnet.adapters import available_3d
+
+    return LIFTERS + tuple(n for n in available_3d() if n not in LIFTERS)
 MODES = ("auto", "frame", "sequence", "smooth")
 ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
@@ -193,7 +202,7 @@ class RunConfig:
         check_config_types(source, "", asdict(self), RunConfig)
         # (field, value, choices, None allowed)
         for name, value, choices, optional in (
-            ("lifter", self.lifter, LIFTERS, False), ("method", self.method, METHODS, False),
+            ("lifter", self.lifter, lifter_names(), False), ("method", self.method, METHODS, False),
             ("mode", self.mode, MODES, False), ("align", self.align, ALIGN, False),
             ("heading", self.heading, HEADING_SOURCES, True),
             ("keypoints2d_format", self.keypoints2d_format, KEYPOINT_FORMATS, True),

@@ -122,6 +122,13 @@ def test_registering_a_user_adapter(tmp_path):
         np.save(tmp_path / "p.npy", base * np.array([1000, -1000, -1000], np.float32))
         out = get_3d_adapter("test_rub_mm").load(tmp_path / "p.npy")
         np.testing.assert_allclose(out.joints, base, atol=1e-6)
+        from pcnet.pipeline.config import RunConfig
+        from pcnet.pipeline.runner import run_pipeline
+
+        result = run_pipeline(RunConfig(lifter="test_rub_mm", lifter_output=str(tmp_path / "p.npy"), fps=30.0,
+                                        method="geometric", recording=False, out=str(tmp_path / "o")).validate(),
+                              progress=False)
+        assert result.frames == len(base) and (tmp_path / "o" / "canonical.npz").is_file()
         with pytest.raises(ValueError, match="already used"):
             register_3d("test_rub_mm")(type("Other", (), {"load": lambda self, p: None}))
         with pytest.raises(TypeError, match="load"):
@@ -129,6 +136,10 @@ def test_registering_a_user_adapter(tmp_path):
     finally:
         unregister("test_rub_mm", "3d")
     assert "test_rub_mm" not in available_3d()
+    from pcnet.stages.core.errors import InputError
+
+    with pytest.raises(InputError, match="field 'lifter': expected one of"):
+        RunConfig(lifter="test_rub_mm", lifter_output=str(tmp_path / "p.npy"), fps=30.0).validate()
 
 
 # --------------------------------------------------------------------------- AlphaPose
