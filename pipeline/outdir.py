@@ -24,6 +24,7 @@ import os
 import re
 import shutil
 import socket
+import threading
 import time
 import uuid
 from collections.abc import Iterable, Iterator
@@ -190,6 +191,18 @@ def _write_marker(folder: Path, state: str) -> None:
     write_text(folder / MARKER, json.dumps(info, indent=1) + "\n")
 
 
+#: Staging folders this process is writing now (resolved paths): a folder marked with this
+#: process's id is another thread's live run if listed here, a leftover otherwise (a
+#: container's pcnet often runs under the same small pid as a killed one before it).
+_LIVE_STAGING: set[str] = set()
+_LIVE_STAGING_LOCK = threading.Lock()
+
+
+def _staging_live_here(folder: Path) -> bool:
+    with _LIVE_STAGING_LOCK:
+        return str(folder.resolve()) in _LIVE_STAGING
+
+
 def _process_alive(info: dict) -> bool:
     # A process on another host (a cluster node sharing this filesystem) cannot be checked
     # from here: its folder is left alone rather than deleted under a running row.
@@ -242,7 +255,7 @@ def clean_stale(target: Path) -> list[Path]:
             entry.rmdir()  # killed between creating its staged folder and writing the marker
             removed.append(entry)
             continue
-        if info.get("writer") != "pcnet" or _process_alive(info):
+        if info.get("writer") != "pcnet" or _process_alive(info) or _staging_live_here(entry):
             continue
         if kind == "trash" and not target.exists() and not target.is_symlink():
             os.rename(entry, target)
@@ -277,6 +290,8 @@ def staged_output(out: str | os.PathLike) -> Iterator[Path]:
         raise InputError(f"--out {given}: cannot create the output folder there ({why})") from err
     try:
         # Inside the clean-up block: an interrupt arriving as mkdir returns must not leave it.
+        with _LIVE_STAGING_LOCK:
+            _LIVE_STAGING.add(str(tmp))
         try:
             tmp.mkdir()
         except OSError as err:
@@ -296,6 +311,9 @@ def staged_output(out: str | os.PathLike) -> Iterator[Path]:
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+    finally:
+        with _LIVE_STAGING_LOCK:
+            _LIVE_STAGING.discard(str(tmp))
     if trash is not None:
         shutil.rmtree(trash, ignore_errors=True)
 

@@ -365,6 +365,30 @@ def test_an_output_under_a_file_names_that_file(user_folder):
     assert (user_folder / "notes.txt").read_text() == "mine"
 
 
+def test_two_runs_in_threads_of_one_process_keep_each_others_staging(user_folder):
+    """The Python API from two threads, outputs side by side: a run's clean-up of killed runs'
+    leftovers must not take the other thread's live staging folder for one (it carries the
+    same process id); both finish with the same results as alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pcnet.pipeline.config import RunConfig
+    from pcnet.pipeline.outdir import staged_output
+    from pcnet.pipeline.runner import run_pipeline
+
+    def run(out):
+        cfg = RunConfig(lifter="generic", lifter_output=str(user_folder / "poses.npy"), fps=30.0, method="geometric",
+                        recording=False, out=str(user_folder / out))
+        return run_pipeline(cfg.validate(), progress=False).frames
+
+    with staged_output(user_folder / "held") as live:  # a live staging folder of this process
+        assert run("alone") > 0 and live.is_dir()
+        with ThreadPoolExecutor(2) as pool:
+            assert len(set(pool.map(run, ["a", "b", "c", "d"]))) == 1
+        assert live.is_dir()
+    for out in ("a", "b", "c", "d"):
+        assert (user_folder / out / "canonical.npz").is_file()
+
+
 def _poses_with_gaps(folder: Path) -> Path:
     X = np.load(POSES).astype(np.float32)
     X[5:10, PELVIS] = np.nan  # pelvis missing, hips present: pelvis = hip midpoint
