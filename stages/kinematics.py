@@ -42,6 +42,7 @@ from .core.conventions import (
     R_WRIST,
     THORAX,
     check_poses,
+    validate_fps,
 )
 from .core.canonical import canonical_rotation
 from .isb_angles import isb_joint_angles
@@ -447,9 +448,15 @@ def joint_angles(canonical: np.ndarray, heading_free: dict[str, np.ndarray] | No
         dict ``name -> (T,)`` float64 degrees, keys in :data:`ANGLE_NAMES` order.
 
     Raises:
-        ValueError: wrong shape.
+        ValueError: wrong shape, or ``heading_free`` arrays not ``(T,)`` like the poses.
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
+    if heading_free is not None:
+        wrong = {k: np.shape(v) for k, v in heading_free.items() if np.shape(v) != (len(X),)}
+        if wrong:
+            name, shape = next(iter(wrong.items()))
+            raise InputError(f"heading_free: expected ({len(X)},) arrays like canonical's frames, got {name} of "
+                             f"shape {shape}")
     trunk = X[:, THORAX] - X[:, PELVIS]
     trunk_len = np.linalg.norm(trunk, axis=-1)
     out = {
@@ -481,8 +488,13 @@ def heading_free_angles(poses: np.ndarray) -> dict[str, np.ndarray]:
 
     Returns:
         dict ``name -> (T,)`` float64 degrees; NaN where a joint is missing.
+
+    Raises:
+        InputError (a ValueError): poses not ``(T, 17, 3)`` or ``(17, 3)``.
     """
+    check_poses(poses, "poses")  # the shape; the values keep their precision
     X = np.asarray(poses, np.float64)
+    X = X[None] if X.ndim == 2 else X
     out = {"trunk_inclination": np.degrees(angle_between(X[:, THORAX] - X[:, PELVIS], np.array([0.0, 1.0, 0.0])))}
     for side, hip, knee, ankle, sho, elb, wri in (
         ("left", L_HIP, L_KNEE, L_ANKLE, L_SHOULDER, L_ELBOW, L_WRIST),
@@ -634,9 +646,11 @@ def compute_kinematics(
         summarise its flags.
 
     Raises:
-        ValueError: wrong shape, ``fps <= 0``, or an invalid cutoff/order.
+        ValueError: wrong shape, ``fps`` not a number in [1, 10000] Hz
+            (:func:`~pcnet.stages.core.conventions.validate_fps`), or an invalid cutoff/order.
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
+    fps = validate_fps(fps, "fps")
     missing = ~np.isfinite(X).all(axis=-1)
     pos, raw, vel, acc = filtered_derivatives(X, fps, cutoff_hz, order)
     return Kinematics(

@@ -50,11 +50,16 @@ def mask_low_confidence(joints3d: np.ndarray, confidence: np.ndarray, threshold:
     ``threshold`` or NaN. Returns a new float32 array.
 
     Raises:
-        InputError: ``confidence`` not ``(T, 17)`` for ``(T, 17, 3)`` joints.
+        InputError: ``joints3d`` not ``(T, 17, 3)``, ``confidence`` not ``(T, 17)`` like it, or
+            ``threshold`` not a number in [0, 1] (confidences are probabilities, not percent).
     """
     out = np.array(joints3d, np.float32, copy=True)
+    if out.ndim != 3 or out.shape[1:] != (17, 3):
+        raise InputError(f"joints3d: expected shape (T, 17, 3), got {out.shape}")
     conf = np.asarray(confidence, np.float32)
     if conf.shape != out.shape[:2]:
         raise InputError(f"confidence: expected shape {out.shape[:2]}, got {conf.shape}")
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float, np.number)) or not 0 <= threshold <= 1:
+        raise InputError(f"threshold: expected a confidence in [0, 1], got {threshold!r}")
     out[~(conf >= threshold)] = np.nan
     return out

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .core.conventions import L_ANKLE, PELVIS, R_ANKLE
+from .core.conventions import L_ANKLE, PELVIS, R_ANKLE, validate_fps
 from .core.errors import InputError
 from .core.framestore import frame_blocks
 
@@ -57,12 +57,24 @@ def world_frame(R: np.ndarray, valid: np.ndarray, fps: float) -> WorldFrame:
         :class:`WorldFrame`.
 
     Raises:
-        InputError: no valid frame, or the forward direction over the first second is
+        InputError: ``R`` not ``(T, 3, 3)``, ``valid`` not ``(T,)``, ``fps`` not a frame rate
+            (:func:`~pcnet.stages.core.conventions.validate_fps`), a valid frame whose rotation
+            is not finite, no valid frame, or the forward direction over the first second is
             vertical or cancels out (no heading).
     """
+    R = R if hasattr(R, "shape") else np.asarray(R, np.float64)
+    if len(R.shape) != 3 or R.shape[1:] != (3, 3):
+        raise InputError(f"world frame: R must have shape (T, 3, 3), got {tuple(R.shape)}")
+    valid = valid if hasattr(valid, "shape") else np.asarray(valid)
+    if tuple(valid.shape) != (R.shape[0],) or valid.dtype != bool:
+        raise InputError(f"world frame: valid must be a ({R.shape[0]},) bool array like R's frames, got "
+                         f"{valid.dtype} {valid.shape}")
+    fps = validate_fps(fps, "world frame: fps")
     idx = np.flatnonzero(valid)
     if len(idx) == 0:
         raise InputError("world frame: no valid frame to take the up and heading from")
+    if not np.isfinite(R[idx]).all():
+        raise InputError("world frame: R must be finite in every frame valid marks, got NaN or inf there")
     up = np.mean(R[idx, :, 1], axis=0)
     up /= np.linalg.norm(up)
     first = idx[idx < idx[0] + max(1, int(round(HEADING_WINDOW_S * fps)))]
@@ -100,8 +112,12 @@ def to_world(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | N
         both are read and written a block of frames at a time.
 
     Raises:
-        InputError: ``root_cam`` of the wrong shape or without a finite frame.
+        InputError: ``joints_cam`` not ``(T, 17, 3)``, ``root_cam`` of the wrong shape or
+            without a finite frame.
     """
+    shape = tuple(getattr(joints_cam, "shape", np.shape(joints_cam)))
+    if len(shape) != 3 or shape[1:] != (17, 3):
+        raise InputError(f"world frame: joints_cam must have shape (T, 17, 3), got {shape}")
     T = len(joints_cam)
     root = None
     if root_cam is not None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import FIXTURES
@@ -139,3 +141,32 @@ def test_frames_without_visible_feet_keep_the_floor_they_last_saw():
     no_feet = cam.copy()
     no_feet[:, [L_ANKLE, R_ANKLE]] = np.nan
     np.testing.assert_allclose(to_world(no_feet, frame)[:, PELVIS, 1], 0.0, atol=1e-12)
+
+
+def test_public_kinematics_functions_refuse_mismatched_arguments_in_one_line():
+    """Real rectified poses (the bundled MotionBERT clip) given to the public functions with
+    the mistakes an API user makes: each gets an InputError naming the argument, never a
+    numpy error or an answer computed from the wrong frames."""
+    from pcnet.pipeline.rectification import rectify
+    from pcnet.stages.core.errors import InputError
+    from pcnet.stages.kinematics import compute_kinematics, heading_free_angles, joint_angles
+    from pcnet.stages.remap import mask_low_confidence
+
+    X = np.load(Path(__file__).parents[1] / "pipeline" / "example_data" / "X3D.npy")
+    res = rectify(X)
+    for args, name in (((res.rotation, res.valid[:10], 30.0), "valid"), ((res.rotation, res.valid, 0.0), "fps"),
+                       ((res.rotation[:, :2], res.valid, 30.0), "R"), ((res.rotation, res.valid, np.nan), "fps")):
+        with pytest.raises(InputError, match=f"world frame: {name}"):
+            world_frame(*args)
+    frame = world_frame(res.rotation.tolist(), res.valid, 30.0)  # a list works as the array
+    with pytest.raises(InputError, match=r"joints_cam must have shape \(T, 17, 3\), got \(17, 3\)"):
+        to_world(X[0], frame)
+    W = to_world(X - X[:, :1], frame)
+    with pytest.raises(InputError, match=r"heading_free: expected \(301,\)"):
+        joint_angles(W, heading_free_angles(W[:5]))
+    with pytest.raises(InputError, match="poses: expected shape"):
+        heading_free_angles(W[:, :16])
+    with pytest.raises(InputError, match="fps: expected a frame rate"):
+        compute_kinematics(W, float("inf"))
+    with pytest.raises(InputError, match=r"threshold: expected a confidence in \[0, 1\], got 50"):
+        mask_low_confidence(X, np.ones(X.shape[:2]), 50)
