@@ -490,20 +490,20 @@ def test_staged_folders_of_rows_on_other_hosts_and_unmarked_files_are_left_alone
     from pcnet.pipeline.outdir import EMPTY_STAGED_GRACE_S, MARKER, TMP_TAG, clean_stale
 
     def staged(name: str, host: str, pid: int):
-        folder = tmp_path / f".out{TMP_TAG}{name}"
+        folder = tmp_path / f".out{TMP_TAG}{name * 12}"  # the 12 hex digits pcnet names it with
         folder.mkdir()
         (folder / MARKER).write_text(_json.dumps({"writer": "pcnet", "host": host, "pid": pid}))
         return folder
 
     remote = staged("a", "another-node", 12345)
     dead = staged("b", socket.gethostname(), 2**22 + 7)  # above any pid this kernel hands out
-    empty = tmp_path / f".out{TMP_TAG}c"  # killed between mkdir and its marker
+    empty = tmp_path / f".out{TMP_TAG}cccccccccccc"  # killed between mkdir and its marker
     empty.mkdir()
     long_ago = time.time() - EMPTY_STAGED_GRACE_S - 1
     os.utime(empty, (long_ago, long_ago))
-    starting = tmp_path / f".out{TMP_TAG}e"  # another row's, created just now: marker on its way
+    starting = tmp_path / f".out{TMP_TAG}eeeeeeeeeeee"  # another row's, created just now: marker on its way
     starting.mkdir()
-    unmarked = tmp_path / f".out{TMP_TAG}d"  # not provably pcnet's: never touched
+    unmarked = tmp_path / f".out{TMP_TAG}dddddddddddd"  # not provably pcnet's: never touched
     unmarked.mkdir()
     (unmarked / "data.bin").write_bytes(b"x")
     removed = clean_stale(tmp_path / "out")
