@@ -191,9 +191,9 @@ def _write_marker(folder: Path, state: str) -> None:
     write_text(folder / MARKER, json.dumps(info, indent=1) + "\n")
 
 
-#: Staging folders this process is writing now (resolved paths): a folder marked with this
-#: process's id is another thread's live run if listed here, a leftover otherwise (a
-#: container's pcnet often runs under the same small pid as a killed one before it).
+#: Staging and trash folders of this process's runs in progress (resolved paths): a folder
+#: marked with this process's id is another thread's live run if listed here, a leftover
+#: otherwise (a container's pcnet often runs under the same small pid as a killed one before it).
 _LIVE_STAGING: set[str] = set()
 _LIVE_STAGING_LOCK = threading.Lock()
 
@@ -225,7 +225,7 @@ def _leftover_owner(name: str) -> tuple[str, str] | None:
     else ``None``: the whole name must match, so an output whose own name contains a tag is
     not mistaken for one."""
     for kind, tag in (("tmp", TMP_TAG), ("trash", TRASH_TAG)):
-        m = re.fullmatch(rf"\.(.+){re.escape(tag)}[0-9a-f]{{12}}", name)
+        m = re.fullmatch(rf"\.(.+){re.escape(tag)}[0-9a-f]{{12}}", name, re.DOTALL)  # a name may hold a newline
         if m:
             return kind, m.group(1)
     return None
@@ -266,28 +266,36 @@ def clean_stale(target: Path) -> list[Path]:
 
 
 @contextlib.contextmanager
-def staged_output(out: str | os.PathLike) -> Iterator[Path]:
+def staged_output(out: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
     """Yield a fresh hidden folder beside ``out`` to write into; on success swap it in as
     ``out`` (see the module docstring), on any exception (``KeyboardInterrupt`` and the
     CLI's SIGTERM included) delete it and leave ``out`` as it was.
 
     Folders are created with the process umask (as ``mkdir`` does), not ``0700``. Call
-    :func:`check_out_folder` first; this function does not re-check the rules.
+    :func:`check_out_folder` first; this function does not re-check its rules, except for
+    an output that :func:`clean_stale` renames back from a killed replacement's trash after
+    that check: without ``overwrite`` it is kept and the run refused, as an existing output
+    would have been.
 
     Raises:
-        InputError: the output folder (or its parent) cannot be created or written,
-            naming ``out``, not the hidden temporary.
+        InputError: the output folder (or its parent) cannot be created or written, or a
+            killed run's output came back there and ``overwrite`` is false, naming ``out``,
+            not the hidden temporary.
     """
     target = Path(out).resolve()
     given = str(out)
     tmp = target.parent / f".{target.name}{TMP_TAG}{uuid.uuid4().hex[:12]}"
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
+        was_there = target.exists() or target.is_symlink()
         clean_stale(target)
     except OSError as err:
         blocker = next((p for p in (target.parent, *target.parent.parents) if p.exists() and not p.is_dir()), None)
         why = f"{blocker} is a file, not a folder" if blocker else (err.strerror or err)
         raise InputError(f"--out {given}: cannot create the output folder there ({why})") from err
+    if not was_there and target.exists() and not overwrite:
+        raise InputError(f"--out {given}: expected a new folder, got the output of an earlier pcnet run that was "
+                         f"killed while replacing it, now put back there; pass --overwrite to replace it")
     try:
         # Inside the clean-up block: an interrupt arriving as mkdir returns must not leave it.
         with _LIVE_STAGING_LOCK:
@@ -316,6 +324,8 @@ def staged_output(out: str | os.PathLike) -> Iterator[Path]:
             _LIVE_STAGING.discard(str(tmp))
     if trash is not None:
         shutil.rmtree(trash, ignore_errors=True)
+        with _LIVE_STAGING_LOCK:
+            _LIVE_STAGING.discard(str(trash))
 
 
 def _swap_in(tmp: Path, target: Path) -> Path | None:
@@ -324,6 +334,8 @@ def _swap_in(tmp: Path, target: Path) -> Path | None:
     trash = None
     if target.exists():
         trash = target.parent / f".{target.name}{TRASH_TAG}{uuid.uuid4().hex[:12]}"
+        with _LIVE_STAGING_LOCK:  # another thread's clean_stale must not take it for a leftover
+            _LIVE_STAGING.add(str(trash))
         info = read_marker(target)
         if info.get("writer") == "pcnet":  # the trash is this live run's until it is removed
             write_text(target / MARKER, json.dumps({**info, "pid": os.getpid(), "host": socket.gethostname()},
@@ -334,5 +346,8 @@ def _swap_in(tmp: Path, target: Path) -> Path | None:
     except BaseException:
         if trash is not None and not target.exists():
             os.rename(trash, target)
+        if trash is not None:
+            with _LIVE_STAGING_LOCK:
+                _LIVE_STAGING.discard(str(trash))
         raise
     return trash

@@ -519,7 +519,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
     # Whole-recording pose arrays live in a store in the staged output folder and are read a
     # block of frames at a time, so memory does not grow with the recording's length; the
     # store is removed before the folder is swapped in.
-    with staged_output(out) as tmp, FrameStore(tmp) as store:
+    with staged_output(out, cfg.overwrite) as tmp, FrameStore(tmp) as store:
         step("inputs")
         video, fps, kp2d, kp_size, joints, units, measured_root, input_notes, lifter_turn = _load_inputs(cfg)
         needing_metres = [name for name, asked in (("--c3d", cfg.c3d), ("--opensim", cfg.opensim)) if asked]

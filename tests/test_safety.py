@@ -318,8 +318,25 @@ def test_a_replacement_killed_between_its_renames_is_kept_by_other_runs_and_rest
     (lookalike / MARKER).write_text(json.dumps({**marker, "pid": 2**22 + 7}))
     assert _invoke(*RUN, "--out", "Y").exit_code == 0
     assert trash.is_dir() and lookalike.is_dir() and not (user_folder / "X").exists()
+    before = (trash / "canonical.npz").read_bytes()
+    res = _invoke(*RUN, "--out", "X")  # no --overwrite: the old output comes back and is kept
+    assert res.exit_code == 1 and "killed while replacing it, now put back there; pass --overwrite" in res.output
+    assert (user_folder / "X" / "canonical.npz").read_bytes() == before and not trash.exists()
+    (user_folder / "X").rename(trash)
     assert _invoke(*RUN, "--out", "X", "--overwrite").exit_code == 0
     assert sorted(p.name for p in (user_folder / "X").iterdir()) == old and not trash.exists()
+
+
+def test_a_killed_replacement_of_an_output_named_with_a_newline_is_restored(user_folder):
+    """Leftover names are matched whole, a newline in the output's name included."""
+    from pcnet.pipeline.outdir import clean_stale
+
+    target = user_folder / "a\nb"
+    trash = user_folder / f".a\nb{TRASH_TAG}0123456789ab"
+    trash.mkdir()
+    (trash / MARKER).write_text(json.dumps({"writer": "pcnet", "state": "complete", "pid": 2**22 + 7,
+                                            "host": os.uname().nodename, "files": []}))
+    assert clean_stale(target) == [] and target.is_dir() and not trash.exists()
 
 
 def test_a_symlink_loop_as_input_or_output_is_one_line(user_folder):
@@ -387,6 +404,32 @@ def test_two_runs_in_threads_of_one_process_keep_each_others_staging(user_folder
         assert live.is_dir()
     for out in ("a", "b", "c", "d"):
         assert (user_folder / out / "canonical.npz").is_file()
+
+
+def test_a_live_replacement_in_another_thread_keeps_its_trash(user_folder, monkeypatch):
+    """Between the two renames of a replacement, the old output is a trash folder marked with
+    this process's id: another thread's clean-up of the same output must leave it (taken back,
+    the replacement's second rename would fail and its new output be lost)."""
+    from pcnet.pipeline import outdir
+
+    out = user_folder / "X"
+    with outdir.staged_output(out) as tmp:
+        (tmp / "first.txt").write_text("1")
+    seen = []
+    real_rename = os.rename
+
+    def rename(src, dst):
+        if TRASH_TAG in Path(dst).name:  # the old output has just become trash
+            real_rename(src, dst)
+            seen.append(outdir.clean_stale(out))  # as another thread's run into X would, now
+            return
+        real_rename(src, dst)
+
+    monkeypatch.setattr(outdir.os, "rename", rename)
+    with outdir.staged_output(out, overwrite=True) as tmp:
+        (tmp / "second.txt").write_text("2")
+    assert seen == [[]] and (out / "second.txt").is_file() and not (out / "first.txt").exists()
+    assert not [p for p in user_folder.iterdir() if TRASH_TAG in p.name]
 
 
 def _poses_with_gaps(folder: Path) -> Path:
