@@ -76,10 +76,12 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str]:
     """``(rows, note)``: the data rows of a pose CSV as float64 ``(T, columns)`` (an empty cell
     is NaN) and a note on how its header was read (empty for none or names).
 
-    Rules: blank lines are skipped; a row of empty cells is a frame with every joint missing;
-    an optional first line of names is the header, and must name every column; pandas' header
-    (``to_csv``: numbered names 0, 1, ... when the columns had none, and an empty first name
-    for its index column, which is then dropped from every row) is recognised as such.
+    Rules: blank lines and lines starting with ``#`` (``numpy.savetxt``'s header and footer,
+    comments as ``numpy.loadtxt`` reads them) are skipped; a row of empty cells is a frame with
+    every joint missing; an optional first line of names is the header, and must name every
+    column; pandas' header (``to_csv``: numbered names 0, 1, ... when the columns had none,
+    and an empty first name for its index column, which is then dropped from every row) is
+    recognised as such, but a first frame whose first coordinate is missing is not a header.
 
     Raises:
         AdapterError: naming the line: a cell that is not a number after the header, a line
@@ -103,7 +105,11 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str]:
             cells = [c.strip() for c in row]
             if len(cells) <= 1 and not any(cells):  # a blank line; a row of empty cells is a frame
                 continue
-            if not rows and not header_seen and cells[0] == "" and len(cells) > 1 and all(cells[1:]):
+            if cells[0].startswith("#"):
+                continue
+            names = cells[1:]
+            if (not rows and not header_seen and cells[0] == "" and len(cells) > 1 and all(names)
+                    and (names == [str(i) for i in range(len(names))] or not any(map(_is_number, names)))):
                 header_seen, header_width, index_column = True, len(cells) - 1, True  # pandas' index column
                 note = f"line {line_no}: pandas' header with an index column, dropped"
                 continue
@@ -116,9 +122,14 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str]:
             try:
                 rows.append([_cell(c) for c in cells])
             except ValueError:
-                others = [d for d in (",", ";", "\t") if d != delimiter and any(d in c for c in cells)]
+                if delimiter != "," and any("," in c for c in cells) and all(
+                        c == "" or _is_number(c.replace(",", ".")) for c in cells):
+                    raise AdapterError(p, f"line {line_no}", "numbers with a decimal point",
+                                       f"decimal commas ({next(c for c in cells if ',' in c)!r}); save the file "
+                                       f"with a decimal point (pandas: decimal='.')") from None
+                others = [d for d in (",", ";", "\t", " ") if d != delimiter and any(d in c for c in cells)]
                 if others:
-                    found = {",": "','", ";": "';'", "\t": "tabs"}[others[0]]
+                    found = {",": "','", ";": "';'", "\t": "tabs", " ": "spaces"}[others[0]]
                     raise AdapterError(p, "delimiter", f"{delimiter!r}-separated columns of numbers with a decimal "
                                        f"point (another separator: delimiter = \"...\" in a --config file's "
                                        f"[lifter_options])", f"line {line_no} separated by {found}") from None

@@ -385,9 +385,11 @@ def open_numpy(path: str | Path) -> np.ndarray | NumpyArchive:
     raise AdapterError(p, "content", "a numpy .npy/.npz file", got)
 
 
-def load_array_file(path: str | Path, key: str | None = None) -> np.ndarray:
+def load_array_file(path: str | Path, key: str | None = None, key_option: bool = True) -> np.ndarray:
     """Load one array from ``.npy`` or from ``.npz`` (``key``; optional when the archive
     holds a single array). Pickled objects are refused; see :func:`open_numpy`.
+    ``key_option``: the caller's lifter takes ``--key``; the message for an archive of several
+    arrays names it only then.
 
     Raises:
         AdapterError: field ``path``, ``content`` (not a numpy file, damaged, pickled) or
@@ -405,7 +407,9 @@ def load_array_file(path: str | Path, key: str | None = None) -> np.ndarray:
             if len(keys) != 1:
                 hint = ("; MediaPipe's landmarks: read them with --lifter mediapipe"
                         if {"world_3d", "keypoints_2d"} <= set(keys) else "")
-                raise AdapterError(p, "key", "--key (key=) naming one of the archive's arrays", describe_keys(keys) + hint)
+                wanted = ("--key (key=) naming one of the archive's arrays" if key_option else
+                          "an .npz holding one array (this lifter takes no --key; save the poses alone)")
+                raise AdapterError(p, "key", wanted, describe_keys(keys) + hint)
             key = keys[0]
         if key not in keys:
             raise AdapterError(p, "key", f"an array named {key!r} in the archive", describe_keys(keys))
@@ -442,7 +446,7 @@ def require_numeric(p: str | Path, field: str, arr: Any) -> np.ndarray:
 
 
 def load_npy(path: str | Path, ndim: int | tuple[int, ...] = 3, num_joints: int | None = None,
-             key: str | None = None, field: str = "array") -> np.ndarray:
+             field: str = "array") -> np.ndarray:
     """Load a numeric array with ``ndim`` dimensions whose last two axes are
     ``(num_joints, 3)``; return it as float32 with ``inf`` as NaN. It must hold at least
     one finite value.
@@ -452,7 +456,7 @@ def load_npy(path: str | Path, ndim: int | tuple[int, ...] = 3, num_joints: int 
             dtype, rank, joint count or an all-NaN array.
     """
     p = Path(path)
-    arr = require_numeric(p, field, load_array_file(p, key))
+    arr = require_numeric(p, field, load_array_file(p, key_option=False))  # its lifters take no --key
     ndims = (ndim,) if isinstance(ndim, int) else tuple(ndim)
     tail = f"(..., {num_joints if num_joints else 'J'}, 3)"
     if arr.ndim not in ndims or arr.shape[-1] != 3 or (num_joints is not None and arr.shape[-2] != num_joints):

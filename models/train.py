@@ -252,7 +252,7 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     for path, clips in zip(cfg.data, loaded):
         if warning := world_up_warning(clips, path):
             tqdm.write(f"WARNING {warning}")
-        if cfg.noise_model == "lifter" and (warning := assumed_fps_warning(clips, path)):
+        if cfg.noise and cfg.noise_model == "lifter" and (warning := assumed_fps_warning(clips, path)):
             tqdm.write(f"WARNING {warning}")
     train_clips = [c for clips, k in zip(loaded, repeats) for c in select_split(clips, "train", cfg.split_scheme) * k]
     val_clips = [c for clips in loaded for c in select_split(clips, "val", cfg.split_scheme)]

@@ -213,11 +213,22 @@ class RayEngine:
             return ray.get(ref)
         except ray.exceptions.RayError as err:
             last = ray.get(attempts.last.remote(job["row"]))
-            error = (f"its Ray worker process (pid {last.get('pid')}) died while running the row (killed, as an "
-                     f"out-of-memory kill does), after {last['attempts']} attempt(s)"
-                     if isinstance(err, ray.exceptions.WorkerCrashedError) else f"Ray: {_first_line(err)}")
             return {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
-                    "error": error, "host": last.get("host", ""), "pid": last.get("pid"), "attempts": last["attempts"]}
+                    "error": _death_line(ray, err, last), "host": last.get("host", ""), "pid": last.get("pid"),
+                    "attempts": last["attempts"]}
+
+
+def _death_line(ray, err, last: dict) -> str:
+    """A failed task's one-line error: how its worker (or node) died, when Ray says so."""
+    ended = f"while running the row, after {last['attempts']} attempt(s)"
+    if isinstance(err, ray.exceptions.OutOfMemoryError):
+        return f"its Ray worker process (pid {last.get('pid')}) was killed by Ray's memory monitor (the node ran low " \
+               f"on memory) {ended}"
+    if isinstance(err, ray.exceptions.NodeDiedError):
+        return f"the Ray node running it ({last.get('host') or '?'}) died {ended}"
+    if isinstance(err, ray.exceptions.WorkerCrashedError):
+        return f"its Ray worker process (pid {last.get('pid')}) died (killed, as an out-of-memory kill does) {ended}"
+    return f"Ray: {_first_line(err)}"
 
 def _cancel_all(ray, refs: list) -> None:
     """Force-cancel (kill the workers of) every unfinished task, waiting a moment so that

@@ -69,12 +69,9 @@ def _test_hook(row: int) -> None:
 def error_line(err: BaseException) -> str:
     """A failed row's one-line error: an expected error's own text (bad input, a file
     problem), any other exception with its type so that a bug is recognisable."""
-    from pcnet.stages.core.errors import InputError
+    from pcnet.stages.core.errors import InputError, one_line
 
-    if isinstance(err, OSError) and err.filename is not None:
-        names = " -> ".join(str(f) for f in (err.filename, err.filename2) if f is not None)
-        return f"{names}: {err.strerror or err}"
-    text = " ".join(str(err).split())
+    text = one_line(err)
     return text if isinstance(err, (InputError, OSError)) else f"{type(err).__name__}: {text}"
 
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import ast
 import dataclasses
-import errno
 import json
 import os
 import shutil
@@ -18,24 +17,9 @@ from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
 from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, raise_interrupt
-from pcnet.stages.core.errors import InputError, import_extra
+from pcnet.stages.core.errors import InputError, import_extra, one_line
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, check_method_weights
-
-
-
-def one_line(err: BaseException) -> str:
-    """The one-line message of an expected error: an :class:`InputError`'s own text, or an
-    ``OSError``'s file and reason (``FileExistsError`` of pcnet itself carries its text)."""
-    if isinstance(err, OSError) and err.filename is not None:
-        names = " -> ".join(str(f) for f in (err.filename, err.filename2) if f is not None)
-        return f"{names}: {err.strerror or err}"
-    if isinstance(err, OSError) and err.errno in _NO_ROOM:  # numpy and zipfile write without naming the file
-        return f"{err.strerror}: writing the outputs failed (a full disk, a quota or a file size limit?)"
-    return " ".join(str(err).split())
-
-
-_NO_ROOM = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
 
 
 class _ErrorBoundary(click.Group):

@@ -39,7 +39,7 @@ def remap_to_h36m(points: np.ndarray, layout: Layout | str, confidence_channel: 
 def built_joints(layout: Layout | str) -> list[str]:
     """The H36M-17 joint names that :func:`remap_to_h36m` builds from ``layout`` as a mean of
     several source joints rather than copies (COCO-17: pelvis, spine, thorax, head; none for
-    H36M-17). Raises ``KeyError`` for an unknown layout name."""
+    H36M-17). Raises :class:`~pcnet.stages.core.errors.InputError` for an unknown layout name."""
     lay = get_layout(layout) if isinstance(layout, str) else layout
     names = get_layout("h36m17").joints
     return [names[k] for k, src in enumerate(lay.to_h36m) if len(src) > 1]

@@ -50,7 +50,7 @@ def world_frame(R: np.ndarray, valid: np.ndarray, fps: float) -> WorldFrame:
             valid; the up ``R[:, :, 1]`` is averaged over the valid frames (one direction in
             sequence mode), the forward ``R[:, :, 0]`` over the valid frames of the first
             :data:`HEADING_WINDOW_S` seconds after the first valid frame.
-        valid: ``(T,)`` bool.
+        valid: ``(T,)`` bool, or 0/1 integers (as ``kinematics.csv``'s ``valid`` column).
         fps: frame rate (Hz).
 
     Returns:
@@ -65,9 +65,11 @@ def world_frame(R: np.ndarray, valid: np.ndarray, fps: float) -> WorldFrame:
     R = R if hasattr(R, "shape") else np.asarray(R, np.float64)
     if len(R.shape) != 3 or R.shape[1:] != (3, 3):
         raise InputError(f"world frame: R must have shape (T, 3, 3), got {tuple(R.shape)}")
-    valid = valid if hasattr(valid, "shape") else np.asarray(valid)
+    valid = np.asarray(valid)
+    if valid.dtype != bool and np.issubdtype(valid.dtype, np.integer) and np.isin(valid, (0, 1)).all():
+        valid = valid.astype(bool)  # a 0/1 column, as kinematics.csv's valid
     if tuple(valid.shape) != (R.shape[0],) or valid.dtype != bool:
-        raise InputError(f"world frame: valid must be a ({R.shape[0]},) bool array like R's frames, got "
+        raise InputError(f"world frame: valid must be a ({R.shape[0]},) bool (or 0/1) array like R's frames, got "
                          f"{valid.dtype} {valid.shape}")
     fps = validate_fps(fps, "world frame: fps")
     idx = np.flatnonzero(valid)

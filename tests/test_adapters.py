@@ -749,6 +749,44 @@ def test_generic_csv_headers_pandas_numbers_and_widths(tmp_path):
         load_generic(underscore)
 
 
+def test_generic_csv_as_numpy_and_spreadsheets_write_it(tmp_path):
+    """What other writers produce: ``numpy.savetxt`` with a ``#`` header (skipped, as
+    ``numpy.loadtxt`` does) or its default space separator (named), a first frame whose first
+    coordinate is missing (a frame, not pandas' index header), and decimal commas read with
+    ``;`` as the delimiter (named as decimal commas, not as another separator)."""
+    base = np.load(YOGA["Tadasana"])[:6]
+    flat = base.reshape(6, -1).astype(np.float64)
+    commented = tmp_path / "savetxt.csv"
+    np.savetxt(commented, flat, delimiter=",", header="tadasana poses in metres", footer="end")
+    np.testing.assert_allclose(load_generic(commented).joints, base, atol=1e-6)
+    spaces = tmp_path / "savetxt.txt"
+    np.savetxt(spaces, flat)
+    with pytest.raises(AdapterError, match=r"delimiter.*got line 1 separated by spaces"):
+        load_generic(spaces)
+    np.testing.assert_allclose(load_generic(spaces, delimiter=" ").joints, base, atol=1e-6)
+    gap = flat.copy()
+    gap[0, 0] = np.nan
+    first_missing = tmp_path / "first_missing.csv"
+    first_missing.write_text("\n".join(",".join("" if np.isnan(v) else f"{v:.6f}" for v in r) for r in gap) + "\n")
+    joints = load_generic(first_missing).joints
+    assert joints.shape == (6, 17, 3) and np.isnan(joints[0, 0, 0])
+    np.testing.assert_allclose(joints[1:], base[1:], atol=1e-6)
+    decimal_commas = tmp_path / "decimal_commas.csv"
+    decimal_commas.write_text("\n".join(";".join(f"{v:.6f}".replace(".", ",") for v in r) for r in flat) + "\n")
+    with pytest.raises(AdapterError, match=r"line 1.*numbers with a decimal point, got decimal commas"):
+        load_generic(decimal_commas, delimiter=";")
+
+
+def test_an_archive_of_several_arrays_for_a_lifter_without_key_says_so(tmp_path):
+    """VideoPose3D, MotionBERT and DDHPose take no --key: naming it would send the user to an
+    option that is then refused."""
+    path = tmp_path / "two.npz"
+    np.savez(path, poses=np.load(YOGA["Tadasana"]), other=np.zeros(3))
+    with pytest.raises(AdapterError, match=r"an \.npz holding one array \(this lifter takes no --key") as err:
+        load_videopose3d(path)
+    assert "--key (key=)" not in str(err.value)
+
+
 def test_json_with_a_byte_order_mark_reads_as_without(tmp_path):
     """Some Windows tools start UTF-8 JSON with a byte-order mark; the real AlphaPose file so
     stored reads the same (it was refused as invalid JSON)."""

@@ -651,3 +651,31 @@ def test_a_row_without_any_frame_rate_is_refused_before_any_work(tmp_path):
     assert res.exit_code == 1 and res.output.count("Error: ") == 1 and "line 3: column fps: expected the frame rate " \
         "(no video is given and motionbert files do not record one), got none" in res.output, res.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv"]
+
+
+def test_a_row_that_runs_out_of_disk_says_so_as_pcnet_run_does():
+    """numpy writes without naming the file: a row's error is the same one line `pcnet run`
+    prints, and a bug keeps its type."""
+    import errno
+
+    from pcnet.pipeline.batch_worker import error_line
+
+    assert error_line(OSError(errno.EFBIG, "File too large")) == \
+        "File too large: writing the outputs failed (a full disk, a quota or a file size limit?)"
+    assert error_line(ZeroDivisionError("division by zero")) == "ZeroDivisionError: division by zero"
+
+
+def test_a_ray_task_lost_to_the_memory_monitor_or_a_dead_node_is_named_so():
+    """Ray's memory monitor and a node's death fail a task with their own errors, not a
+    worker crash: each row says which, with its attempts."""
+    ray = pytest.importorskip("ray")
+    from pcnet.pipeline.batch_ray import _death_line
+
+    last = {"attempts": 2, "pid": 4242, "host": "node-7"}
+    assert _death_line(ray, ray.exceptions.OutOfMemoryError("low memory"), last) == (
+        "its Ray worker process (pid 4242) was killed by Ray's memory monitor (the node ran low on memory) while "
+        "running the row, after 2 attempt(s)")
+    assert _death_line(ray, ray.exceptions.NodeDiedError("gone"), last) == \
+        "the Ray node running it (node-7) died while running the row, after 2 attempt(s)"
+    assert _death_line(ray, ray.exceptions.WorkerCrashedError(), last).startswith(
+        "its Ray worker process (pid 4242) died (killed, as an out-of-memory kill does) while running the row")

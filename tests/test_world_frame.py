@@ -159,6 +159,10 @@ def test_public_kinematics_functions_refuse_mismatched_arguments_in_one_line():
         with pytest.raises(InputError, match=f"world frame: {name}"):
             world_frame(*args)
     frame = world_frame(res.rotation.tolist(), res.valid, 30.0)  # a list works as the array
+    as_column = world_frame(res.rotation, res.valid.astype(np.uint8), 30.0)  # kinematics.csv's 0/1 valid
+    np.testing.assert_array_equal(as_column.rotation, frame.rotation)
+    with pytest.raises(InputError, match=r"world frame: valid must be a \(301,\) bool \(or 0/1\) array"):
+        world_frame(res.rotation, res.valid * 2, 30.0)
     with pytest.raises(InputError, match=r"joints_cam must have shape \(T, 17, 3\), got \(17, 3\)"):
         to_world(X[0], frame)
     W = to_world(X - X[:, :1], frame)

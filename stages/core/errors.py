@@ -8,6 +8,7 @@ into one line and exit status 1. Any other exception is a bug in pcnet.
 
 from __future__ import annotations
 
+import errno
 import importlib
 
 
@@ -22,6 +23,22 @@ class InputError(ValueError):
     def __init__(self, message: str):
         super().__init__(" ".join(str(message).split()))
 
+
+#: What a write that runs out of room fails with: a full disk, a file size limit, a quota.
+_NO_ROOM = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
+
+
+def one_line(err: BaseException) -> str:
+    """The one-line message of an expected error (what ``pcnet`` prints after ``Error:`` and
+    a batch row reports): an :class:`InputError`'s own text, an ``OSError``'s file and
+    reason, and for an ``OSError`` without a file name from a write that ran out of room
+    (numpy and zipfile write without naming the file) that reason with what failed."""
+    if isinstance(err, OSError) and err.filename is not None:
+        names = " -> ".join(str(f) for f in (err.filename, err.filename2) if f is not None)
+        return f"{names}: {err.strerror or err}"
+    if isinstance(err, OSError) and err.errno in _NO_ROOM:
+        return f"{err.strerror}: writing the outputs failed (a full disk, a quota or a file size limit?)"
+    return " ".join(str(err).split())
 
 
 def import_extra(module: str, missing: str):
