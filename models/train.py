@@ -43,6 +43,10 @@ class TrainConfig:
     # How many times each ``data`` file's clips enter an epoch (each copy with its own
     # cameras, proportions and noise): weights a small set of rare pose types; [] = once each.
     data_repeats: list[int] = field(default_factory=list)
+    # Per ``data`` file, true: every clip of it trains and none validates, whatever the split
+    # scheme (a documented subset of a cross-dataset set moved into training, such as
+    # configs/pcnet_body_floor.toml's DeepMimic floor motions); [] = none.
+    train_whole: list[bool] = field(default_factory=list)
     # Train/val clips (:data:`pcnet.models.datasets.SPLIT_SCHEMES`): "motion-style" keeps
     # every take of a held-out motion+style (Bandai) or subject (CMU) out of training.
     split_scheme: str = "clip"
@@ -121,7 +125,7 @@ MODEL_RANGES = {
 LOSS_RANGES = {f.name: Range(0, 100) for f in dataclasses.fields(LossWeights)}
 #: Lists and paths: at least one data file, a non-empty out_dir.
 TRAIN_LENGTHS = {"data": (1, 10_000), "out_dir": (1, 4096), "init_checkpoint": (1, 4096),
-                 "data_repeats": (0, 10_000)}
+                 "data_repeats": (0, 10_000), "train_whole": (0, 10_000)}
 
 
 def load_config(path: str | Path) -> TrainConfig:
@@ -147,6 +151,9 @@ def load_config(path: str | Path) -> TrainConfig:
     repeats = raw.get("data_repeats", [])
     if repeats and (len(repeats) != len(raw.get("data", TrainConfig().data)) or min(repeats) < 1 or max(repeats) > 100):
         raise InputError(f"{path}: data_repeats: expected one integer in [1, 100] per data file, got {repeats!r}")
+    whole = raw.get("train_whole", [])
+    if whole and (len(whole) != len(raw.get("data", TrainConfig().data)) or not all(isinstance(w, bool) for w in whole)):
+        raise InputError(f"{path}: train_whole: expected one true/false per data file, got {whole!r}")
     cap = raw.get("lean_balance_cap", 0)
     if 0 < cap < 1:
         raise InputError(f"{path}: field 'lean_balance_cap': expected 0 (off) or a weight cap >= 1, got {cap}")
@@ -162,6 +169,23 @@ def load_config(path: str | Path) -> TrainConfig:
         except InputError as err:  # PCNetConfig's own checks (hidden a multiple of heads)
             raise InputError(f"{path}: {err}") from err
     return TrainConfig(**raw, **tables)
+
+
+def training_clips(loaded: list[list], repeats: list[int], train_whole: list[bool],
+                   scheme: str) -> tuple[list, list]:
+    """``(train, val)`` clips of a run: per data file (``loaded``, its clips), the ``train``
+    split of ``scheme`` (:func:`pcnet.models.datasets.select_split`) ``repeats`` times and
+    its ``val`` split, or, where ``train_whole`` is true, every clip ``repeats`` times and none
+    for validation (``[]`` = false for every file).
+
+    Raises:
+        InputError: a clip the scheme cannot place (:func:`pcnet.models.datasets.select_split`).
+    """
+    whole = train_whole or [False] * len(loaded)
+    train = [c for clips, k, w in zip(loaded, repeats, whole)
+             for c in (clips if w else select_split(clips, "train", scheme)) * k]
+    val = [c for clips, w in zip(loaded, whole) if not w for c in select_split(clips, "val", scheme)]
+    return train, val
 
 
 def _device(name: str) -> torch.device:
@@ -254,8 +278,7 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
             tqdm.write(f"WARNING {warning}")
         if cfg.noise and cfg.noise_model == "lifter" and (warning := assumed_fps_warning(clips, path)):
             tqdm.write(f"WARNING {warning}")
-    train_clips = [c for clips, k in zip(loaded, repeats) for c in select_split(clips, "train", cfg.split_scheme) * k]
-    val_clips = [c for clips in loaded for c in select_split(clips, "val", cfg.split_scheme)]
+    train_clips, val_clips = training_clips(loaded, repeats, cfg.train_whole, cfg.split_scheme)
     for split, chosen in (("train", train_clips), ("val", val_clips)):
         if not chosen:
             raise InputError(f"data {cfg.data}: no clips in the {split} split of scheme {cfg.split_scheme!r} "

@@ -37,6 +37,8 @@ def test_config_errors_name_the_file_and_the_key(tmp_path):
     ('data = ["a.npz", "b.npz"]\ndata_repeats = [1]\n', "data_repeats"),
     ('data_repeats = [0]\n', "data_repeats"),
     ('data_repeats = ["2"]\n', "data_repeats"),
+    ('data = ["a.npz"]\ntrain_whole = [true, false]\n', "train_whole"),
+    ('train_whole = [1]\n', "train_whole"),
     ('split_scheme = "hash"\n', "split_scheme"),
     ('noise_model = "gaussian"\n', "noise_model"),
     ('[model]\ninput_frame = "world"\n', "input_frame"),
@@ -66,3 +68,21 @@ def test_shipped_weights_were_trained_with_the_config_that_says_so(name):
     cfg = asdict(load_config(ROOT / "configs" / SHIPPED[name]))
     assert recorded["training_config"] and {k: cfg[k] for k in recorded["training_config"]} == recorded["training_config"]
     assert {k: cfg["model"][k] for k in recorded["model_config"]} == recorded["model_config"]
+
+
+def test_a_file_trained_whole_trains_every_clip_and_validates_none():
+    """configs/pcnet_body_floor.toml's DeepMimic subset: its clips are not Bandai or CMU (the
+    motion-style scheme cannot place them) and all of them train, repeated, none validates."""
+    import numpy as np
+
+    from pcnet.models.datasets import Clip
+    from pcnet.models.train import training_clips
+
+    pose = np.zeros((4, 17, 3), np.float32)
+    cmu = [Clip(f"{s:03d}_01", pose, 30.0) for s in (8, 12, 10)]  # train, val, test subjects
+    floor = [Clip("humanoid3d_crawl.txt", pose, 60.0), Clip("humanoid3d_getup_faceup.txt", pose, 60.0)]
+    train, val = training_clips([cmu, floor], [2, 3], [False, True], "motion-style")
+    assert [c.name for c in train] == ["008_01"] * 2 + ["humanoid3d_crawl.txt", "humanoid3d_getup_faceup.txt"] * 3
+    assert [c.name for c in val] == ["012_01"]
+    with pytest.raises(ValueError, match="motion-style"):
+        training_clips([cmu, floor], [1, 1], [], "motion-style")

@@ -1,0 +1,160 @@
+"""Floor motions in training: the shipped pair against the same pair with a candidate body-frame network.
+
+    python benchmarks/floor_experiment.py --body runs/pcnet_body_floor.onnx [--data ../shared/data] [--stride 2]
+
+The candidate (configs/pcnet_body_floor.toml) is the shipped body-frame recipe with three of
+DeepMimic's four floor motions in training (benchmarks/deepmimic_floor_subset.py). Both pairs
+keep the shipped camera-frame network and view gate (models/inference.py: ViewGatedPCNet);
+only the body-frame network differs, and the body-frame network alone is scored too. Rows,
+per frame, clean, "paper" views, a new camera every frame (pcnet evaluate's protocol, seed 0):
+
+- DeepMimic, by group: the three floor clips trained on (a check that training reached them,
+  not a held-out number), the floor roll held out, the acrobatics (cartwheel, backflip,
+  sideflip: bodies upside down, never trained on), and every other clip (walks, runs, kicks,
+  dances): the cross-dataset test that stays one.
+- Bandai motion-style test and the CMU test subjects: the held-out motions and people of the
+  README's held-out table, which the candidate must not lose.
+- Real VideoPose3D yoga files (no ground truth; physics): per file the median angle of the
+  rectified trunk (pelvis -> thorax) from vertical, per frame (frame mode) and in the default
+  sequence mode; lying Shavasana should read >= 80 deg, prone Bhujangasana's lower trunk
+  near horizontal, standing Tadasana <= 6 deg (benchmarks/yoga_physics.py's targets).
+
+Writes benchmarks/results/floor_experiment.txt (``--out``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from deepmimic_floor_subset import FLOOR_HELD_OUT, FLOOR_TRAIN  # noqa: E402
+from report import print_and_save  # noqa: E402
+from yoga_physics import _plain_export, median_trunk_deg, parse_name  # noqa: E402
+
+import pcnet.models.inference as inference  # noqa: E402
+from pcnet.adapters import load_videopose3d  # noqa: E402
+from pcnet.pipeline.evaluate import evaluate  # noqa: E402
+from pcnet.pipeline.rectification import rectify  # noqa: E402
+from pcnet.stages.core.conventions import root_relative  # noqa: E402
+
+DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+RESULT = Path(__file__).resolve().parent / "results" / "floor_experiment.txt"
+ACROBATICS = ("humanoid3d_cartwheel.txt", "humanoid3d_backflip.txt", "humanoid3d_sideflip.txt")
+ASANAS = ("Tadasana", "Padmasana", "Bhujangasana", "Shavasana")
+
+
+def use_body_network(path: Path) -> None:
+    """Make the pair (and ``--method pcnet`` without weights) use ``path`` as its body-frame network."""
+    inference.BODY_WEIGHTS = Path(path)
+    inference.get_session.cache_clear()
+
+
+def deepmimic_groups(result: dict) -> dict[str, dict[str, float]]:
+    """Mean rotation and tilt error (deg) per DeepMimic group from ``evaluate(..., details=True)``."""
+    names = np.array([c["name"] for c in result["per_clip"]])
+    frames = result["per_frame"]
+    clip_names = names[frames["clip"]]
+    groups = {"floor, trained": np.isin(clip_names, FLOOR_TRAIN), "floor roll, held out": np.isin(clip_names, FLOOR_HELD_OUT),
+              "acrobatics": np.isin(clip_names, ACROBATICS)}
+    groups["all other clips"] = ~np.any(list(groups.values()), axis=0)
+    groups["all but the trained clips"] = ~groups["floor, trained"]
+    out = {}
+    for name, sel in groups.items():
+        ok = sel & frames["valid"]
+        out[name] = {"frames": int(sel.sum()), "rotation": float(np.nanmean(frames["rotation_deg"][ok])),
+                     "tilt": float(np.nanmean(frames["tilt_deg"][ok]))}
+    return out
+
+
+def held_out_rows(data: Path, weights: str | None) -> list[tuple[str, dict]]:
+    mocap = data / "mocap"
+    rows = []
+    dm = evaluate("pcnet", mocap / "deepmimic_h36m17.npz", split="all", weights=weights, details=True)
+    rows += [(f"DeepMimic, {name}", value) for name, value in deepmimic_groups(dm).items()]
+    for label, file in (("Bandai motion-style test", "bandai_h36m17.npz"), ("CMU test subjects", "cmu_train_h36m17.npz")):
+        res = evaluate("pcnet", mocap / file, split="test", weights=weights)
+        rows.append((label, {"frames": res["valid_frames"], "rotation": res["rotation_deg"]["mean"],
+                             "tilt": res["tilt_deg"]["mean"]}))
+    return rows
+
+
+def yoga_rows(data: Path, stride: int) -> dict[str, list[tuple[float, float, float]]]:
+    """asana -> per file (frame-mode trunk, frame-mode lower trunk, sequence-mode trunk), deg."""
+    out: dict[str, list] = {a: [] for a in ASANAS}
+    for path in sorted((data / "real" / "yoga_videopose3d").glob("export_*.npy")):
+        person, asana = parse_name(path)
+        if asana not in out or not _plain_export(path):
+            continue
+        joints, _ = root_relative(load_videopose3d(path).joints[::stride])
+        fps = 30.0 / stride
+        frame = rectify(joints, "pcnet", fps=fps, mode="frame")
+        seq = rectify(joints, "pcnet", fps=fps, mode="sequence")
+        out[asana].append((median_trunk_deg(frame.canonical, frame.valid),
+                           median_trunk_deg(frame.canonical, frame.valid, lower=True),
+                           median_trunk_deg(seq.canonical, seq.valid)))
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--body", type=Path, required=True, help="the candidate body-frame network (.onnx)")
+    ap.add_argument("--data", type=Path, default=DEFAULT)
+    ap.add_argument("--stride", type=int, default=2, help="yoga files: every k-th frame (default 2)")
+    ap.add_argument("--out", type=Path, default=RESULT)
+    args = ap.parse_args()
+    for needed, what in ((args.data / "mocap" / "deepmimic_h36m17.npz", "--data"), (args.body, "--body")):
+        if not needed.is_file():
+            sys.exit(f"{what}: expected {needed} (--data: the shared data root, ../shared/data/README.md; --body: "
+                     f"an exported body-frame network), got no such file")
+    started = time.time()
+    variants = {"shipped": inference.BODY_WEIGHTS, "candidate": args.body}
+    mocap, yoga = {}, {}
+    for name, body in variants.items():
+        use_body_network(body)
+        mocap[(name, "pair")] = held_out_rows(args.data, None)
+        mocap[(name, "body-net")] = held_out_rows(args.data, str(body))
+        yoga[name] = yoga_rows(args.data, args.stride)
+    lines = [__doc__.splitlines()[0], "", f"    python benchmarks/floor_experiment.py --body {args.body} --data ../shared/data "
+             f"--stride {args.stride}", "",
+             "Held-out mocap, per frame, clean: mean rotation / tilt error (deg)", "",
+             "| rows | frames | shipped pair | candidate pair | shipped body-net | candidate body-net |",
+             "|---|---:|---:|---:|---:|---:|"]
+    for i, (label, first) in enumerate(mocap[("shipped", "pair")]):
+        cells = [f"{mocap[key][i][1]['rotation']:.2f} / {mocap[key][i][1]['tilt']:.2f}"
+                 for key in (("shipped", "pair"), ("candidate", "pair"), ("shipped", "body-net"), ("candidate", "body-net"))]
+        lines.append(f"| {label} | {first['frames']} | " + " | ".join(cells) + " |")
+    lines += ["", f"Real yoga (VideoPose3D, every {args.stride}. frame): per file median trunk angle from vertical (deg), "
+              "median over files [min, max]; pass = files meeting the target", "",
+              "| asana (files), target | shipped frame | candidate frame | shipped sequence | candidate sequence |",
+              "|---|---|---|---|---|"]
+    targets = {"Tadasana": ("<=", 6.0), "Padmasana": ("<=", 15.0), "Shavasana": (">=", 80.0)}
+    for asana in ASANAS:
+        cells = []
+        for column in (0, 2):
+            for name in variants:
+                values = np.array([row[column] for row in yoga[name][asana]])
+                passed = ""
+                if asana in targets:
+                    op, threshold = targets[asana]
+                    count = int(np.sum(values >= threshold if op == ">=" else values <= threshold))
+                    passed = f", pass {count}/{len(values)}"
+                cells.append(f"{np.median(values):.1f} [{values.min():.0f}, {values.max():.0f}]{passed}")
+        target = f"{targets[asana][0]} {targets[asana][1]:g}" if asana in targets else "no target"
+        label = f"{asana} ({len(yoga['shipped'][asana])}), {target}"
+        lines.append(f"| {label} | " + " | ".join(cells[i] for i in (0, 2, 1, 3)) + " |")
+    lower = {name: np.array([row[1] for row in yoga[name]["Bhujangasana"]]) for name in variants}
+    lines += ["", "Bhujangasana (prone cobra), frame mode, lower trunk (pelvis -> spine) from vertical, median over "
+              f"files [min, max]: shipped {np.median(lower['shipped']):.1f} [{lower['shipped'].min():.0f}, "
+              f"{lower['shipped'].max():.0f}], candidate {np.median(lower['candidate']):.1f} "
+              f"[{lower['candidate'].min():.0f}, {lower['candidate'].max():.0f}] (a prone lower trunk lies near 90)",
+              "", f"run time {time.time() - started:.0f} s"]
+    print_and_save(lines, args.out)
+
+
+if __name__ == "__main__":
+    main()
