@@ -135,7 +135,7 @@ def main() -> None:
     targets = {"Tadasana": ("<=", 6.0), "Padmasana": ("<=", 15.0), "Shavasana": (">=", 80.0)}
     for asana in ASANAS:
         cells = []
-        for column in (0, 2):
+        for column in (0, 2):  # frame mode, then sequence mode, as the header
             for name in variants:
                 values = np.array([row[column] for row in yoga[name][asana]])
                 passed = ""
@@ -146,7 +146,7 @@ def main() -> None:
                 cells.append(f"{np.median(values):.1f} [{values.min():.0f}, {values.max():.0f}]{passed}")
         target = f"{targets[asana][0]} {targets[asana][1]:g}" if asana in targets else "no target"
         label = f"{asana} ({len(yoga['shipped'][asana])}), {target}"
-        lines.append(f"| {label} | " + " | ".join(cells[i] for i in (0, 2, 1, 3)) + " |")
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lower = {name: np.array([row[1] for row in yoga[name]["Bhujangasana"]]) for name in variants}
     lines += ["", "Bhujangasana (prone cobra), frame mode, lower trunk (pelvis -> spine) from vertical, median over "
               f"files [min, max]: shipped {np.median(lower['shipped']):.1f} [{lower['shipped'].min():.0f}, "
