@@ -1,11 +1,13 @@
-"""Floor motions in training: the shipped pair against the same pair with a candidate body-frame network.
+"""Floor motions in training: the shipped pair against the same pair with one candidate network.
 
     python benchmarks/floor_experiment.py --body runs/pcnet_body_floor.onnx [--data ../shared/data] [--stride 2]
+    python benchmarks/floor_experiment.py --camera runs/pcnet_camera_floor.onnx --out benchmarks/results/floor_experiment_camera.txt
 
-The candidate (configs/pcnet_body_floor.toml) is the shipped body-frame recipe with three of
-DeepMimic's four floor motions in training (benchmarks/deepmimic_floor_subset.py). Both pairs
-keep the shipped camera-frame network and view gate (models/inference.py: ViewGatedPCNet);
-only the body-frame network differs, and the body-frame network alone is scored too. Rows,
+The candidate (configs/pcnet_body_floor.toml, configs/pcnet_camera_floor.toml) is a shipped
+recipe with three of DeepMimic's four floor motions in training
+(benchmarks/deepmimic_floor_subset.py). Both pairs keep the other shipped network and the view
+gate (models/inference.py: ViewGatedPCNet); only the candidate's network differs, and that
+network alone is scored too. Rows,
 per frame, clean, "paper" views, a new camera every frame (pcnet evaluate's protocol, seed 0):
 
 - DeepMimic, by group: the three floor clips trained on (a check that training reached them,
@@ -48,9 +50,10 @@ ACROBATICS = ("humanoid3d_cartwheel.txt", "humanoid3d_backflip.txt", "humanoid3d
 ASANAS = ("Tadasana", "Padmasana", "Bhujangasana", "Shavasana")
 
 
-def use_body_network(path: Path) -> None:
-    """Make the pair (and ``--method pcnet`` without weights) use ``path`` as its body-frame network."""
-    inference.BODY_WEIGHTS = Path(path)
+def use_network(kind: str, path: Path) -> None:
+    """Make the pair (``--method pcnet`` without weights) use ``path`` as its ``kind``
+    (``"body"`` or ``"camera"``) network."""
+    setattr(inference, f"{kind.upper()}_WEIGHTS", Path(path))
     inference.get_session.cache_clear()
 
 
@@ -102,31 +105,36 @@ def yoga_rows(data: Path, stride: int) -> dict[str, list[tuple[float, float, flo
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--body", type=Path, required=True, help="the candidate body-frame network (.onnx)")
+    which = ap.add_mutually_exclusive_group(required=True)
+    which.add_argument("--body", type=Path, help="a candidate body-frame network (.onnx)")
+    which.add_argument("--camera", type=Path, help="a candidate camera-frame network (.onnx)")
     ap.add_argument("--data", type=Path, default=DEFAULT)
     ap.add_argument("--stride", type=int, default=2, help="yoga files: every k-th frame (default 2)")
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args()
-    for needed, what in ((args.data / "mocap" / "deepmimic_h36m17.npz", "--data"), (args.body, "--body")):
+    kind = "body" if args.body else "camera"
+    candidate = args.body or args.camera
+    for needed, what in ((args.data / "mocap" / "deepmimic_h36m17.npz", "--data"), (candidate, f"--{kind}")):
         if not needed.is_file():
-            sys.exit(f"{what}: expected {needed} (--data: the shared data root, ../shared/data/README.md; --body: "
-                     f"an exported body-frame network), got no such file")
+            sys.exit(f"{what}: expected {needed} (--data: the shared data root, ../shared/data/README.md; --{kind}: "
+                     f"an exported {kind}-frame network), got no such file")
     started = time.time()
-    variants = {"shipped": inference.BODY_WEIGHTS, "candidate": args.body}
+    variants = {"shipped": getattr(inference, f"{kind.upper()}_WEIGHTS"), "candidate": candidate}
     mocap, yoga = {}, {}
-    for name, body in variants.items():
-        use_body_network(body)
+    for name, weights in variants.items():
+        use_network(kind, weights)
         mocap[(name, "pair")] = held_out_rows(args.data, None)
-        mocap[(name, "body-net")] = held_out_rows(args.data, str(body))
+        mocap[(name, "alone")] = held_out_rows(args.data, str(weights))
         yoga[name] = yoga_rows(args.data, args.stride)
-    lines = [__doc__.splitlines()[0], "", f"    python benchmarks/floor_experiment.py --body {args.body} --data ../shared/data "
-             f"--stride {args.stride}", "",
+    out = "" if args.out == RESULT else f" --out {args.out}"
+    lines = [__doc__.splitlines()[0], "", f"    python benchmarks/floor_experiment.py --{kind} {candidate} --data "
+             f"../shared/data --stride {args.stride}{out}", "",
              "Held-out mocap, per frame, clean: mean rotation / tilt error (deg)", "",
-             "| rows | frames | shipped pair | candidate pair | shipped body-net | candidate body-net |",
+             f"| rows | frames | shipped pair | candidate pair | shipped {kind}-net | candidate {kind}-net |",
              "|---|---:|---:|---:|---:|---:|"]
     for i, (label, first) in enumerate(mocap[("shipped", "pair")]):
         cells = [f"{mocap[key][i][1]['rotation']:.2f} / {mocap[key][i][1]['tilt']:.2f}"
-                 for key in (("shipped", "pair"), ("candidate", "pair"), ("shipped", "body-net"), ("candidate", "body-net"))]
+                 for key in (("shipped", "pair"), ("candidate", "pair"), ("shipped", "alone"), ("candidate", "alone"))]
         lines.append(f"| {label} | {first['frames']} | " + " | ".join(cells) + " |")
     lines += ["", f"Real yoga (VideoPose3D, every {args.stride}. frame): per file median trunk angle from vertical (deg), "
               "median over files [min, max]; pass = files meeting the target", "",
