@@ -230,6 +230,7 @@ def _death_line(ray, err, last: dict) -> str:
         return f"its Ray worker process (pid {last.get('pid')}) died (killed, as an out-of-memory kill does) {ended}"
     return f"Ray: {_first_line(err)}"
 
+
 def _cancel_all(ray, refs: list) -> None:
     """Force-cancel (kill the workers of) every unfinished task, waiting a moment so that
     the caller can clean their staged folders once their processes are gone."""

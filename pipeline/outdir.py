@@ -194,13 +194,19 @@ def _write_marker(folder: Path, state: str) -> None:
 #: Staging and trash folders of this process's runs in progress (resolved paths): a folder
 #: marked with this process's id is another thread's live run if listed here, a leftover
 #: otherwise (a container's pcnet often runs under the same small pid as a killed one before it).
-_LIVE_STAGING: set[str] = set()
-_LIVE_STAGING_LOCK = threading.Lock()
+_LIVE_FOLDERS: set[str] = set()
+_LIVE_FOLDERS_LOCK = threading.Lock()
 
 
 def _staging_live_here(folder: Path) -> bool:
-    with _LIVE_STAGING_LOCK:
-        return str(folder.resolve()) in _LIVE_STAGING
+    with _LIVE_FOLDERS_LOCK:
+        return str(folder.resolve()) in _LIVE_FOLDERS
+
+
+def _set_live(folder: Path, live: bool) -> None:
+    """List (or unlist) ``folder``, a resolved path, in :data:`_LIVE_FOLDERS`."""
+    with _LIVE_FOLDERS_LOCK:
+        (_LIVE_FOLDERS.add if live else _LIVE_FOLDERS.discard)(str(folder))
 
 
 def _process_alive(info: dict) -> bool:
@@ -298,8 +304,7 @@ def staged_output(out: str | os.PathLike, overwrite: bool = False) -> Iterator[P
                          f"killed while replacing it, now put back there; pass --overwrite to replace it")
     try:
         # Inside the clean-up block: an interrupt arriving as mkdir returns must not leave it.
-        with _LIVE_STAGING_LOCK:
-            _LIVE_STAGING.add(str(tmp))
+        _set_live(tmp, True)
         try:
             tmp.mkdir()
         except OSError as err:
@@ -320,34 +325,30 @@ def staged_output(out: str | os.PathLike, overwrite: bool = False) -> Iterator[P
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     finally:
-        with _LIVE_STAGING_LOCK:
-            _LIVE_STAGING.discard(str(tmp))
+        _set_live(tmp, False)
     if trash is not None:
         shutil.rmtree(trash, ignore_errors=True)
-        with _LIVE_STAGING_LOCK:
-            _LIVE_STAGING.discard(str(trash))
+        _set_live(trash, False)
 
 
 def _swap_in(tmp: Path, target: Path) -> Path | None:
     """Rename ``target`` (if any) to a trash name, then ``tmp`` to ``target``; if the second
     rename fails or is interrupted, the old output goes back. Returns the trash path."""
     trash = None
-    if target.exists():
-        trash = target.parent / f".{target.name}{TRASH_TAG}{uuid.uuid4().hex[:12]}"
-        with _LIVE_STAGING_LOCK:  # another thread's clean_stale must not take it for a leftover
-            _LIVE_STAGING.add(str(trash))
-        info = read_marker(target)
-        if info.get("writer") == "pcnet":  # the trash is this live run's until it is removed
-            write_text(target / MARKER, json.dumps({**info, "pid": os.getpid(), "host": socket.gethostname()},
-                                                   indent=1) + "\n")
-        os.rename(target, trash)
     try:
+        if target.exists():
+            trash = target.parent / f".{target.name}{TRASH_TAG}{uuid.uuid4().hex[:12]}"
+            _set_live(trash, True)  # another thread's clean_stale must not take it for a leftover
+            info = read_marker(target)
+            if info.get("writer") == "pcnet":  # the trash is this live run's until it is removed
+                write_text(target / MARKER, json.dumps({**info, "pid": os.getpid(), "host": socket.gethostname()},
+                                                       indent=1) + "\n")
+            os.rename(target, trash)
         os.rename(tmp, target)
     except BaseException:
-        if trash is not None and not target.exists():
-            os.rename(trash, target)
         if trash is not None:
-            with _LIVE_STAGING_LOCK:
-                _LIVE_STAGING.discard(str(trash))
+            if not target.exists():  # only after the first rename: the old output goes back
+                os.rename(trash, target)
+            _set_live(trash, False)
         raise
     return trash
