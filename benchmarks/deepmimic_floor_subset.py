@@ -32,7 +32,13 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"), help="data root (default ../shared/data)")
     ap.add_argument("--out", type=Path, default=Path("runs/deepmimic_floor_train.npz"))
+    ap.add_argument("--overwrite", action="store_true", help="replace an existing --out and its .json")
     args = ap.parse_args()
+    taken = [p for p in (args.out, args.out.with_suffix(".json")) if p.exists()]
+    if taken and not args.overwrite:
+        print(f"--out {args.out}: expected a new file, got existing {', '.join(map(str, taken))}; pass --overwrite to "
+              f"replace them", file=sys.stderr)
+        return 1
     source = args.data / "mocap" / "deepmimic_h36m17.npz"
     if not source.is_file():
         print(f"{source}: expected DeepMimic's mocap file (../shared/data/README.md), got no such file", file=sys.stderr)
