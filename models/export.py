@@ -82,7 +82,7 @@ def export_checkpoint(checkpoint: str | Path, path: str | Path) -> Path:
 
 #: Fields of a run's ``config.json`` copied beside exported weights (what they trained on).
 TRAINING_FIELDS = ("data", "data_repeats", "train_whole", "split_scheme", "noise", "noise_model", "noise_fraction",
-                   "views", "frame_stride", "epochs", "augment", "seed")
+                   "views", "frame_stride", "epochs", "augment", "seed", "whole_clips")
 
 
 def training_record(checkpoint: str | Path) -> dict:

@@ -76,28 +76,38 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
     """How much of the evaluated data the weights trained on, by their ``training_config``
     (the ``.json`` beside the ONNX file, which ``pcnet export`` fills from the run folder):
     ``None`` when the weights' training data is unknown, or when neither this file's name is
-    among it nor every chosen clip carries the clip names of one of its sets (Bandai's
+    among it, nor every chosen clip carries the clip names of one of its sets (Bandai's
     ``dataset-N_motion_style_take`` where a ``bandai*`` file was trained on, CMU's
-    ``subject_trial`` where a ``cmu*`` file was: a renamed copy still counts; a
-    cross-dataset test such as DeepMimic does not); else the clips of their train split among
-    ``chosen`` and the motion-style groups (CMU: subjects) of ``chosen`` with a take in that
-    split, and ``matched_by`` (``"file name"`` or ``"clip names"``)."""
+    ``subject_trial`` where a ``cmu*`` file was: a renamed copy still counts), nor a chosen clip
+    is among the clips of a file trained on whole (``whole_clips``, e.g. DeepMimic's floor
+    motions moved into training, which leaves the rest of DeepMimic a cross-dataset test);
+    else the clips of their train split (or trained on whole) among ``chosen`` and the
+    motion-style groups (CMU: subjects; a clip without a group: itself) of ``chosen`` with a
+    take trained on, ``clips_trained_whole`` (how many of the trained clips came from a file
+    trained on whole) and ``matched_by`` (``"file name"`` or ``"clip names"``)."""
     names = {Path(str(d)).name for d in record.get("data", [])}
     scheme = record.get("split_scheme", "clip")
+    whole = set(record.get("whole_clips") or [])
     if not names or scheme not in SPLIT_SCHEMES:
         return None
+    split_trained = True  # the evaluated file is one the weights took a train split of
     if Path(data).name in names:
         matched_by = "file name"
     elif chosen and (all(parse_bandai_name(c.name) for c in chosen) and any("bandai" in n.lower() for n in names)
                      or all(CMU_NAME.fullmatch(c.name) for c in chosen) and any("cmu" in n.lower() for n in names)):
         matched_by = "clip names"
+    elif any(c.name in whole for c in chosen):
+        matched_by, split_trained = "clip names", False
     else:
         return None
-    seen_groups = groups_in_split(all_clips, "train", scheme)
+    trained = [c for c in chosen if c.name in whole or split_trained and clip_split_of(c, scheme) == "train"]
+    seen_groups = {group_key(c) or c.name for c in trained}
+    if split_trained:
+        seen_groups |= groups_in_split(all_clips, "train", scheme)
     groups = {group_key(c) or c.name for c in chosen}
     return {
-        "scheme": scheme, "clips": len(chosen),
-        "clips_trained_on": sum(clip_split_of(c, scheme) == "train" for c in chosen),
+        "scheme": scheme, "clips": len(chosen), "clips_trained_on": len(trained),
+        "clips_trained_whole": sum(c.name in whole for c in chosen),
         "groups": len(groups), "groups_with_a_trained_take": len(groups & seen_groups), "matched_by": matched_by,
     }
 
@@ -239,7 +249,7 @@ def evaluate(
 def format_table(result: dict) -> str:
     """The result as a plain-text table (one row per metric: mean, median, p95), headed by
     the protocol, the clip and frame counts (invalid frames are excluded from the metrics)
-    and, for Bandai data, how much of it the shipped weights trained on."""
+    and how much of the data the evaluated weights trained on, where their record says."""
     sources = ",".join(f"{k}:{v}" for k, v in result.get("clip_heading_sources", {}).items())
     unseen = f" unseen-by={result['unseen_by']}" if result.get("unseen_by") else ""
     head = (f"method={result['method']} views={result['views']} split={result['split']} "
@@ -254,11 +264,14 @@ def format_table(result: dict) -> str:
                  f"or hip, or a hip line along gravity) and were left out before rectifying")
     overlap = result.get("training_overlap")
     if overlap:
+        how = [f"{overlap['scheme']}-scheme train split"]
+        if overlap.get("clips_trained_whole"):
+            how.append(f"{overlap['clips_trained_whole']} clips of a file trained on whole")
+        if overlap.get("matched_by") == "clip names":
+            how.append("this file recognised as training data by its clip names")
         head += (f"\nthe weights trained on {overlap['clips_trained_on']} of these {overlap['clips']} clips "
                  f"and on takes of {overlap['groups_with_a_trained_take']} of their {overlap['groups']} "
-                 f"motion-style groups or subjects ({overlap['scheme']}-scheme train split"
-                 + ("; this file recognised as training data by its clip names)"
-                    if overlap.get("matched_by") == "clip names" else ")"))
+                 f"motion-style groups or subjects ({'; '.join(how)})")
     lines = [head, *(f"WARNING {w}" for w in result.get("warnings", [])),
              f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}"]
     for name in METRICS:

@@ -224,6 +224,19 @@ def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, 
     assert not (tmp_path / "other").exists()
 
 
+def test_exported_weights_name_the_clips_of_a_file_trained_on_whole(tmp_path, mocap):
+    """A file trained on whole (train_whole) has no split that evaluation could recompute, so
+    its clip names travel with the weights (evaluation counts them where they are tested)."""
+    whole = FIXTURES / "deepmimic_small.npz"
+    cfg = load_config(_train_config(tmp_path, mocap, data=[str(mocap), str(whole)], train_whole=[False, True]))
+    best = train(cfg, progress=False)
+    out = tmp_path / "tiny.onnx"
+    assert _cli("export", "--checkpoint", best, "--out", out).exit_code == 0
+    record = json.loads(out.with_suffix(".json").read_text())["training_config"]
+    assert record["train_whole"] == [False, True]
+    assert record["whole_clips"] == sorted(np.load(whole).files)
+
+
 def test_weights_that_are_not_3dpcnet_onnx_fail_in_one_line(tmp_path):
     text = tmp_path / "weights.onnx"
     text.write_text("these are not weights\n")

@@ -401,6 +401,30 @@ def test_unseen_by_keeps_groups_the_weights_never_saw():
     assert Counter(test["clip_heading_sources"]) == Counter({"predicted": 910})
 
 
+def test_clips_of_a_file_trained_on_whole_are_counted_where_they_are_tested():
+    """A DeepMimic subset moved into training (train_whole) leaves the rest of DeepMimic a
+    cross-dataset test: evaluation on DeepMimic names the trained clips, and says nothing for
+    weights that trained on no DeepMimic clip."""
+    from pcnet.models.datasets import load_mocap
+    from pcnet.pipeline.evaluate import _training_overlap, format_table
+    from pcnet.stages.core.metrics import METRICS
+
+    data = FIXTURES / "deepmimic_small.npz"
+    clips = load_mocap(data)
+    record = {"data": ["bandai_h36m17.npz", "runs/deepmimic_floor_train.npz"], "split_scheme": "motion-style",
+              "train_whole": [False, True], "whole_clips": ["humanoid3d_crawl.txt", "humanoid3d_roll_not_here.txt"]}
+    overlap = _training_overlap(data, clips, clips, record)
+    assert (overlap["clips"], overlap["clips_trained_on"], overlap["clips_trained_whole"]) == (3, 1, 1)
+    assert overlap["groups_with_a_trained_take"] == 1 and overlap["matched_by"] == "clip names"
+    assert _training_overlap(data, clips, [c for c in clips if "crawl" not in c.name], record) is None
+    assert _training_overlap(data, clips, clips, {**record, "whole_clips": []}) is None
+    result = {"method": "pcnet", "views": "paper", "split": "all", "camera": "per-frame", "noise": "none",
+              "mode": "frame", "seed": 0, "clips": 3, "groups": 3, "frames": 1, "invalid_frames": 0,
+              "training_overlap": overlap, **{m: {"mean": 0, "median": 0, "p95": 0} for m in METRICS}}
+    line = format_table(result)
+    assert "trained on 1 of these 3 clips" in line and "1 clips of a file trained on whole" in line
+
+
 def test_a_mocap_file_that_is_not_y_up_gets_a_warning(tmp_path):
     """Real walking, running and arm-raising clips pass as +Y up; the same clips stored Z-up
     (a lab frame) or Y-down warn on `pcnet evaluate`; floor motions (crawl, roll, get-up)
