@@ -1,0 +1,72 @@
+"""Where networks differ, clip by clip: per clip mean rotation error on one split of a mocap file.
+
+Each ``--weights`` is scored, and the clips are sorted by how far the candidates' mean departs
+from the first network's (the reference), with each clip's description from the file's ``.json``.
+
+    python benchmarks/per_clip_difference.py --data ../shared/data/mocap/cmu_train_h36m17.npz \\
+        --weights models/weights/pcnet_camera.onnx runs/pcnet_camera_floor_seed11.onnx ... \\
+        [--split test] [--top 12] [--out benchmarks/results/per_clip_difference.txt]
+
+Each network is scored alone (``pcnet evaluate --method pcnet --weights W``'s protocol: clean,
+"paper" views, a new camera every frame, seed 0), so every network sees the same frames.
+A mean over a split hides where a change of training data costs; this says which motions pay.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from report import print_and_save  # noqa: E402
+
+from pcnet.models.datasets import load_mocap, select_split  # noqa: E402
+from pcnet.pipeline.evaluate import evaluate  # noqa: E402
+
+
+def per_clip_rotation(data: Path, split: str, weights: str) -> tuple[float, np.ndarray]:
+    """``(mean over frames, (C,) per clip mean)`` of the rotation error (deg) of the network
+    ``weights`` on the ``split`` clips of ``data`` (motion-style scheme), in clip order."""
+    r = evaluate("pcnet", data, split, weights=weights, details=True)
+    clip, err = r["per_frame"]["clip"], r["per_frame"]["rotation_deg"]
+    n = int(clip.max()) + 1
+    return r["rotation_deg"]["mean"], np.array([np.nanmean(err[clip == i]) for i in range(n)])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, required=True)
+    ap.add_argument("--weights", nargs="+", required=True, help="the reference first, then the candidates")
+    ap.add_argument("--split", default="test")
+    ap.add_argument("--top", type=int, default=12)
+    ap.add_argument("--out", type=Path, default=Path("benchmarks/results/per_clip_difference.txt"))
+    args = ap.parse_args()
+    if len(args.weights) < 2:
+        ap.error("--weights: give the reference and at least one candidate")
+    clips = select_split(load_mocap(args.data), args.split, "motion-style")
+    meta_path = args.data.with_suffix(".json")
+    meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+    scored = [per_clip_rotation(args.data, args.split, w) for w in args.weights]
+    ref = scored[0][1]
+    delta = np.mean([s[1] for s in scored[1:]], axis=0) - ref
+    lines = [__doc__.splitlines()[0], "", "    python benchmarks/per_clip_difference.py " + " ".join(sys.argv[1:]), "",
+             f"{args.data.name}, split {args.split} (motion-style), {len(clips)} clips; per frame, clean, mean rotation "
+             f"error (deg); networks: " + ", ".join(f"[{i}] {w}" for i, w in enumerate(args.weights)), "",
+             "all clips: " + " / ".join(f"[{i}] {m:.2f}" for i, (m, _) in enumerate(scored)), "",
+             f"clips whose candidates' mean departs most from [0] (top {args.top}):", ""]
+    lines.append(f"{'clip':<14}{'frames':>7}  " + "".join(f"{f'[{i}]':>8}" for i in range(len(scored)))
+                 + f"{'mean-[0]':>10}  description")
+    for i in np.argsort(-np.abs(delta))[: args.top]:
+        c = clips[i]
+        desc = meta.get(c.name, {}).get("description", "") if isinstance(meta.get(c.name), dict) else ""
+        lines.append(f"{c.name:<14}{len(c.joints):>7}  " + "".join(f"{s[1][i]:>8.2f}" for s in scored)
+                     + f"{delta[i]:>+10.2f}  {desc}")
+    print_and_save(lines, args.out)
+
+
+if __name__ == "__main__":
+    main()
