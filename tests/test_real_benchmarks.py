@@ -18,6 +18,7 @@ from pcnet.stages.core.rotations import axis_rotation, compose_camera_rotation
 sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
 import equivariance  # noqa: E402
 import gravity_benchmark  # noqa: E402
+import per_clip_difference  # noqa: E402
 import vanishing_gravity  # noqa: E402
 import yoga_physics  # noqa: E402
 
@@ -214,3 +215,22 @@ def test_vanishing_points_recover_a_known_camera_up_and_focal_length():
     assert np.degrees(np.arccos(min(1.0, got @ up))) < 1e-4
     assert vanishing_gravity.edge_residual_deg(groups["vertical"], up, f, centre) < 1e-4
     assert vanishing_gravity.edge_residual_deg(groups["vertical"], np.array([0.0, -1.0, 0.0]), f, centre) > 0.5
+
+
+def test_per_clip_difference_splits_the_split_mean_by_clip(tmp_path):
+    """Per clip means, weighted by each clip's scored frames, give back the split's mean; the
+    report names each clip with its description from the data's .json."""
+    data = FIXTURES / "deepmimic_small.npz"
+    mean, per_clip = per_clip_difference.per_clip_rotation(data, "all", str(ROOT / "models/weights/pcnet_camera.onnx"))
+    from pcnet.models.datasets import load_mocap
+    frames = np.array([len(c.joints) for c in load_mocap(data)])
+    assert per_clip.shape == (3,) and np.all(np.isfinite(per_clip))
+    assert np.isclose(np.sum(per_clip * frames) / frames.sum(), mean, atol=1e-6)
+    out = tmp_path / "r.txt"
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "per_clip_difference.py"), "--data", str(data),
+                           "--split", "all", "--weights", str(ROOT / "models/weights/pcnet_camera.onnx"),
+                           str(ROOT / "models/weights/pcnet_body.onnx"), "--out", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "humanoid3d_crawl.txt" in out.read_text() and f"[0] {mean:.2f}" in out.read_text()
+
