@@ -30,11 +30,15 @@ from pcnet.pipeline.evaluate import evaluate  # noqa: E402
 
 def per_clip_rotation(data: Path, split: str, weights: str) -> tuple[float, np.ndarray]:
     """``(mean over frames, (C,) per clip mean)`` of the rotation error (deg) of the network
-    ``weights`` on the ``split`` clips of ``data`` (motion-style scheme), in clip order."""
+    ``weights`` on the ``split`` clips of ``data`` (motion-style scheme), in clip order; NaN
+    for a clip with no valid scored frame (no defined target, or no prediction)."""
     r = evaluate("pcnet", data, split, weights=weights, details=True)
-    clip, err = r["per_frame"]["clip"], r["per_frame"]["rotation_deg"]
-    n = int(clip.max()) + 1
-    return r["rotation_deg"]["mean"], np.array([np.nanmean(err[clip == i]) for i in range(n)])
+    frame = r["per_frame"]
+    clip = frame["clip"][frame["valid"]]
+    err = frame["rotation_deg"][frame["valid"]]
+    total = np.bincount(clip, weights=err, minlength=r["clips"])
+    count = np.bincount(clip, minlength=r["clips"])
+    return r["rotation_deg"]["mean"], np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
 def main() -> None:

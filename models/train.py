@@ -309,7 +309,8 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     # Clips trained on whole are named so that evaluation can say when a test set holds them
     # (a cross-dataset file whose subset was moved into training: pcnet.pipeline.evaluate).
     whole_clips = sorted({c.name for clips, w in zip(loaded, cfg.train_whole or []) if w for c in clips})
-    (out / "config.json").write_text(json.dumps({**asdict(cfg), "whole_clips": whole_clips}, indent=2))
+    record = {**asdict(cfg), **({"whole_clips": whole_clips} if whole_clips else {})}
+    (out / "config.json").write_text(json.dumps(record, indent=2))
 
     for epoch in range(start, cfg.epochs):
         t0 = time.time()

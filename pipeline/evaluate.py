@@ -84,17 +84,24 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
     else the clips of their train split (or trained on whole) among ``chosen`` and the
     motion-style groups (CMU: subjects; a clip without a group: itself) of ``chosen`` with a
     take trained on, ``clips_trained_whole`` (how many of the trained clips came from a file
-    trained on whole) and ``matched_by`` (``"file name"`` or ``"clip names"``)."""
-    names = {Path(str(d)).name for d in record.get("data", [])}
+    trained on whole, the evaluated file itself included), ``split_trained`` (whether the
+    weights took a train split of this file) and ``matched_by`` (``"file name"`` or ``"clip
+    names"``). Records from before ``whole_clips`` existed count no clip trained on whole
+    unless the evaluated file is the one trained on whole."""
+    listed = [Path(str(d)).name for d in record.get("data", [])]
+    flags = record.get("train_whole") or [False] * len(listed)
     scheme = record.get("split_scheme", "clip")
     whole = set(record.get("whole_clips") or [])
-    if not names or scheme not in SPLIT_SCHEMES:
+    if not listed or scheme not in SPLIT_SCHEMES:
         return None
     split_trained = True  # the evaluated file is one the weights took a train split of
-    if Path(data).name in names:
+    if Path(data).name in listed:
         matched_by = "file name"
-    elif chosen and (all(parse_bandai_name(c.name) for c in chosen) and any("bandai" in n.lower() for n in names)
-                     or all(CMU_NAME.fullmatch(c.name) for c in chosen) and any("cmu" in n.lower() for n in names)):
+        split_trained = any(n == Path(data).name and not w for n, w in zip(listed, flags))
+        if not split_trained:  # the file itself was trained on whole
+            whole |= {c.name for c in chosen}
+    elif chosen and (all(parse_bandai_name(c.name) for c in chosen) and any("bandai" in n.lower() for n in listed)
+                     or all(CMU_NAME.fullmatch(c.name) for c in chosen) and any("cmu" in n.lower() for n in listed)):
         matched_by = "clip names"
     elif any(c.name in whole for c in chosen):
         matched_by, split_trained = "clip names", False
@@ -106,7 +113,7 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
         seen_groups |= groups_in_split(all_clips, "train", scheme)
     groups = {group_key(c) or c.name for c in chosen}
     return {
-        "scheme": scheme, "clips": len(chosen), "clips_trained_on": len(trained),
+        "scheme": scheme, "split_trained": split_trained, "clips": len(chosen), "clips_trained_on": len(trained),
         "clips_trained_whole": sum(c.name in whole for c in chosen),
         "groups": len(groups), "groups_with_a_trained_take": len(groups & seen_groups), "matched_by": matched_by,
     }
@@ -167,7 +174,7 @@ def evaluate(
         out before rectifying: no defined canonical target), "invalid_frames" (of the scored ones),
         "valid_frames", "frame_set", "clip_heading_sources" (clips per source used),
         "clip_modes" (sequence modes only), "camera_prior", "training_overlap" (evaluated
-        clips and groups the evaluated weights' train split contains, by their
+        clips and groups the evaluated weights trained on, by split or whole file, by their
         ``training_config``, :func:`_training_overlap`; ``None`` for other data), "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
         :data:`pcnet.stages.core.metrics.METRICS` (degrees, millimetres), over the valid scored
         frames. With ``details``: also ``"per_clip"`` (name, heading_source and mode per clip)
@@ -264,11 +271,11 @@ def format_table(result: dict) -> str:
                  f"or hip, or a hip line along gravity) and were left out before rectifying")
     overlap = result.get("training_overlap")
     if overlap:
-        how = [f"{overlap['scheme']}-scheme train split"]
+        how = [f"{overlap['scheme']}-scheme train split"] if overlap.get("split_trained", True) else []
         if overlap.get("clips_trained_whole"):
-            how.append(f"{overlap['clips_trained_whole']} clips of a file trained on whole")
+            how.append(f"{overlap['clips_trained_whole']} of these clips from a file trained on whole")
         if overlap.get("matched_by") == "clip names":
-            how.append("this file recognised as training data by its clip names")
+            how.append("recognised by their clip names")
         head += (f"\nthe weights trained on {overlap['clips_trained_on']} of these {overlap['clips']} clips "
                  f"and on takes of {overlap['groups_with_a_trained_take']} of their {overlap['groups']} "
                  f"motion-style groups or subjects ({'; '.join(how)})")

@@ -416,13 +416,21 @@ def test_clips_of_a_file_trained_on_whole_are_counted_where_they_are_tested():
     overlap = _training_overlap(data, clips, clips, record)
     assert (overlap["clips"], overlap["clips_trained_on"], overlap["clips_trained_whole"]) == (3, 1, 1)
     assert overlap["groups_with_a_trained_take"] == 1 and overlap["matched_by"] == "clip names"
+    assert not overlap["split_trained"]
     assert _training_overlap(data, clips, [c for c in clips if "crawl" not in c.name], record) is None
     assert _training_overlap(data, clips, clips, {**record, "whole_clips": []}) is None
+    # the file trained on whole, evaluated itself (also from a record without whole_clips)
+    own = {**record, "data": ["bandai_h36m17.npz", str(data)]}
+    for rec in (own, {k: v for k, v in own.items() if k != "whole_clips"}):
+        itself = _training_overlap(data, clips, clips, rec)
+        assert (itself["clips_trained_on"], itself["clips_trained_whole"], itself["matched_by"]) == (3, 3, "file name")
+        assert itself["groups_with_a_trained_take"] == 3 and not itself["split_trained"]
     result = {"method": "pcnet", "views": "paper", "split": "all", "camera": "per-frame", "noise": "none",
               "mode": "frame", "seed": 0, "clips": 3, "groups": 3, "frames": 1, "invalid_frames": 0,
               "training_overlap": overlap, **{m: {"mean": 0, "median": 0, "p95": 0} for m in METRICS}}
     line = format_table(result)
-    assert "trained on 1 of these 3 clips" in line and "1 clips of a file trained on whole" in line
+    assert "trained on 1 of these 3 clips" in line and "(1 of these clips from a file trained on whole;" in line
+    assert "train split" not in line
 
 
 def test_a_mocap_file_that_is_not_y_up_gets_a_warning(tmp_path):

@@ -218,19 +218,22 @@ def test_vanishing_points_recover_a_known_camera_up_and_focal_length():
 
 
 def test_per_clip_difference_splits_the_split_mean_by_clip(tmp_path):
-    """Per clip means, weighted by each clip's scored frames, give back the split's mean; the
-    report names each clip with its description from the data's .json."""
-    data = FIXTURES / "deepmimic_small.npz"
-    mean, per_clip = per_clip_difference.per_clip_rotation(data, "all", str(ROOT / "models/weights/pcnet_camera.onnx"))
-    from pcnet.models.datasets import load_mocap
-    frames = np.array([len(c.joints) for c in load_mocap(data)])
-    assert per_clip.shape == (3,) and np.all(np.isfinite(per_clip))
-    assert np.isclose(np.sum(per_clip * frames) / frames.sum(), mean, atol=1e-6)
+    """Per clip means, weighted by each clip's valid scored frames, give back the split's mean;
+    the report names each clip with its description from the data's .json."""
+    data = tmp_path / "deepmimic_small.npz"
+    data.write_bytes((FIXTURES / "deepmimic_small.npz").read_bytes())
+    data.with_suffix(".json").write_text(json.dumps({"humanoid3d_crawl.txt": {"description": "crawl on all fours"}}))
+    camera = str(ROOT / "models/weights/pcnet_camera.onnx")
+    mean, per_clip = per_clip_difference.per_clip_rotation(data, "all", camera)
+    from pcnet.pipeline.evaluate import evaluate
+    frame = evaluate("pcnet", data, "all", weights=camera, details=True)["per_frame"]
+    counts = np.bincount(frame["clip"][frame["valid"]], minlength=3)
+    assert per_clip.shape == (3,) and np.all(np.isfinite(per_clip)) and counts.all()
+    assert np.isclose(np.sum(per_clip * counts) / counts.sum(), mean, atol=1e-6)
     out = tmp_path / "r.txt"
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "per_clip_difference.py"), "--data", str(data),
-                           "--split", "all", "--weights", str(ROOT / "models/weights/pcnet_camera.onnx"),
-                           str(ROOT / "models/weights/pcnet_body.onnx"), "--out", str(out)],
-                          capture_output=True, text=True, timeout=300)
+                           "--split", "all", "--weights", camera, str(ROOT / "models/weights/pcnet_body.onnx"),
+                           "--top", "3", "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
-    assert "humanoid3d_crawl.txt" in out.read_text() and f"[0] {mean:.2f}" in out.read_text()
-
+    crawl = next(line for line in out.read_text().splitlines() if line.startswith("humanoid3d_crawl.txt"))
+    assert crawl.endswith("crawl on all fours") and f"[0] {mean:.2f}" in out.read_text()
