@@ -119,6 +119,17 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
     }
 
 
+def _unlisted_whole_warning(record: dict) -> str | None:
+    """A warning when the weights trained on a whole file (``train_whole``) but their record
+    predates ``whole_clips``: clips of the evaluated data may be among that file's, and
+    :func:`_training_overlap` cannot tell; ``None`` otherwise."""
+    whole = [d for d, w in zip(record.get("data", []), record.get("train_whole") or []) if w]
+    if not whole or record.get("whole_clips"):
+        return None
+    return (f"the weights trained on every clip of {', '.join(map(str, whole))}, whose clip names their record does "
+            f"not list (exported before pcnet recorded them): clips of this data may be among them")
+
+
 def evaluate(
     method: str,
     data: str | Path,
@@ -244,8 +255,12 @@ def evaluate(
     if modes_run:
         result["clip_modes"] = modes_run
     result["clip_heading_sources"] = headings_run
-    result["training_overlap"] = (None if method == "geometric"
-                                  else _training_overlap(data, all_clips, clips, _training_config(weights)))
+    if method != "geometric":
+        record = _training_config(weights)
+        result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
+        warnings += [w for w in [_unlisted_whole_warning(record)] if w]
+    else:
+        result["training_overlap"] = None
     result.update({name: summarize(errors[name]) for name in METRICS})
     if details:
         result["per_clip"] = per_clip

@@ -10,7 +10,7 @@ from collections import Counter
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import FIXTURES, shared
+from conftest import FIXTURES, ROOT, shared
 
 from pcnet.models import lifter_noise as ln
 from pcnet.models.datasets import (CMU_HOLDOUT_SUBJECTS, HELDOUT_STYLE_COUNT, HELDOUT_TEST_STYLES, SPLIT_SCHEMES,
@@ -431,6 +431,21 @@ def test_clips_of_a_file_trained_on_whole_are_counted_where_they_are_tested():
     line = format_table(result)
     assert "trained on 1 of these 3 clips" in line and "(1 of these clips from a file trained on whole;" in line
     assert "train split" not in line
+
+
+def test_weights_trained_on_a_whole_file_without_its_clip_names_warn():
+    """Weights exported before whole_clips was recorded (benchmarks/candidates' seed-13 floor
+    network) cannot say which clips they trained on: the evaluation warns instead of implying
+    none; the shipped weights, which trained on no whole file, do not warn."""
+    from pcnet.pipeline.evaluate import _unlisted_whole_warning, evaluate
+
+    data = FIXTURES / "deepmimic_small.npz"
+    old = evaluate("pcnet", data, "all", weights=str(ROOT / "benchmarks/candidates/pcnet_camera_floor.onnx"),
+                   max_frames=20)
+    assert any("deepmimic_floor_train.npz, whose clip names their record does not list" in w for w in old["warnings"])
+    assert old["training_overlap"] is None
+    assert evaluate("pcnet", data, "all", max_frames=20)["warnings"] == []
+    assert _unlisted_whole_warning({"data": ["a.npz"], "train_whole": [True], "whole_clips": ["x"]}) is None
 
 
 def test_a_mocap_file_that_is_not_y_up_gets_a_warning(tmp_path):
