@@ -8,7 +8,9 @@ from the first network's (the reference), with each clip's description from the 
         [--split test] [--top 12] [--out benchmarks/results/per_clip_difference.txt]
 
 Each network is scored alone (``pcnet evaluate --method pcnet --weights W``'s protocol: clean,
-"paper" views, a new camera every frame, seed 0), so every network sees the same frames.
+"paper" views, a new camera every frame, seed 0), so every network sees the same frames;
+``pair`` in place of a file scores the shipped default (both networks and the view gate).
+Then, per clip description (motion), the frame-weighted mean of every network.
 A mean over a split hides where a change of training data costs; this says which motions pay.
 """
 
@@ -28,17 +30,17 @@ from pcnet.models.datasets import load_mocap, select_split  # noqa: E402
 from pcnet.pipeline.evaluate import evaluate  # noqa: E402
 
 
-def per_clip_rotation(data: Path, split: str, weights: str) -> tuple[float, np.ndarray]:
-    """``(mean over frames, (C,) per clip mean)`` of the rotation error (deg) of the network
-    ``weights`` on the ``split`` clips of ``data`` (motion-style scheme), in clip order; NaN
+def per_clip_rotation(data: Path, split: str, weights: str) -> tuple[float, np.ndarray, np.ndarray]:
+    """``(mean over frames, (C,) per clip mean, (C,) valid frames per clip)`` of the rotation error (deg) of the network
+    ``weights`` (``"pair"``: the shipped default) on the ``split`` clips of ``data`` (motion-style scheme), in clip order; NaN
     for a clip with no valid scored frame (no defined target, or no prediction)."""
-    r = evaluate("pcnet", data, split, weights=weights, details=True)
+    r = evaluate("pcnet", data, split, weights=None if weights == "pair" else weights, details=True)
     frame = r["per_frame"]
     clip = frame["clip"][frame["valid"]]
     err = frame["rotation_deg"][frame["valid"]]
     total = np.bincount(clip, weights=err, minlength=r["clips"])
     count = np.bincount(clip, minlength=r["clips"])
-    return r["rotation_deg"]["mean"], np.where(count > 0, total / np.maximum(count, 1), np.nan)
+    return r["rotation_deg"]["mean"], np.where(count > 0, total / np.maximum(count, 1), np.nan), count
 
 
 def main() -> None:
@@ -54,21 +56,31 @@ def main() -> None:
     clips = select_split(load_mocap(args.data), args.split, "motion-style")
     meta_path = args.data.with_suffix(".json")
     meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+    descriptions = [meta.get(c.name, {}).get("description", "") if isinstance(meta.get(c.name), dict) else ""
+                    for c in clips]
     scored = [per_clip_rotation(args.data, args.split, w) for w in args.weights]
     ref = scored[0][1]
     delta = np.mean([s[1] for s in scored[1:]], axis=0) - ref
     lines = [__doc__.splitlines()[0], "", "    python benchmarks/per_clip_difference.py " + " ".join(sys.argv[1:]), "",
              f"{args.data.name}, split {args.split} (motion-style), {len(clips)} clips; per frame, clean, mean rotation "
              f"error (deg); networks: " + ", ".join(f"[{i}] {w}" for i, w in enumerate(args.weights)), "",
-             "all clips: " + " / ".join(f"[{i}] {m:.2f}" for i, (m, _) in enumerate(scored)), "",
+             "all clips: " + " / ".join(f"[{i}] {m:.2f}" for i, (m, *_) in enumerate(scored)), "",
              f"clips whose candidates' mean departs most from [0] (top {args.top}):", ""]
     lines.append(f"{'clip':<14}{'frames':>7}  " + "".join(f"{f'[{i}]':>8}" for i in range(len(scored)))
                  + f"{'mean-[0]':>10}  description")
     for i in np.argsort(-np.abs(delta))[: args.top]:
         c = clips[i]
-        desc = meta.get(c.name, {}).get("description", "") if isinstance(meta.get(c.name), dict) else ""
+        desc = descriptions[i]
         lines.append(f"{c.name:<14}{len(c.joints):>7}  " + "".join(f"{s[1][i]:>8.2f}" for s in scored)
                      + f"{delta[i]:>+10.2f}  {desc}")
+    if any(descriptions):
+        lines += ["", "per motion (clip description), frame-weighted mean:", "",
+                  f"{'clips':>5}{'frames':>8}  " + "".join(f"{f'[{i}]':>8}" for i in range(len(scored))) + "  description"]
+        for desc in sorted(set(descriptions), key=lambda d: -sum(n for n, e in zip(scored[0][2], descriptions) if e == d)):
+            rows = np.array([e == desc for e in descriptions])
+            means = [np.nansum(s[1][rows] * s[2][rows]) / max(s[2][rows].sum(), 1) for s in scored]
+            lines.append(f"{rows.sum():>5}{int(scored[0][2][rows].sum()):>8}  " + "".join(f"{m:>8.2f}" for m in means)
+                         + f"  {desc or '(none)'}")
     print_and_save(lines, args.out)
 
 

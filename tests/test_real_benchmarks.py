@@ -224,16 +224,23 @@ def test_per_clip_difference_splits_the_split_mean_by_clip(tmp_path):
     data.write_bytes((FIXTURES / "deepmimic_small.npz").read_bytes())
     data.with_suffix(".json").write_text(json.dumps({"humanoid3d_crawl.txt": {"description": "crawl on all fours"}}))
     camera = str(ROOT / "models/weights/pcnet_camera.onnx")
-    mean, per_clip = per_clip_difference.per_clip_rotation(data, "all", camera)
+    mean, per_clip, valid_frames = per_clip_difference.per_clip_rotation(data, "all", camera)
     from pcnet.pipeline.evaluate import evaluate
     frame = evaluate("pcnet", data, "all", weights=camera, details=True)["per_frame"]
     counts = np.bincount(frame["clip"][frame["valid"]], minlength=3)
     assert per_clip.shape == (3,) and np.all(np.isfinite(per_clip)) and counts.all()
+    assert np.array_equal(valid_frames, counts)
     assert np.isclose(np.sum(per_clip * counts) / counts.sum(), mean, atol=1e-6)
     out = tmp_path / "r.txt"
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "per_clip_difference.py"), "--data", str(data),
-                           "--split", "all", "--weights", camera, str(ROOT / "models/weights/pcnet_body.onnx"),
+                           "--split", "all", "--weights", camera, "pair",
                            "--top", "3", "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
-    crawl = next(line for line in out.read_text().splitlines() if line.startswith("humanoid3d_crawl.txt"))
-    assert crawl.endswith("crawl on all fours") and f"[0] {mean:.2f}" in out.read_text()
+    text = out.read_text()
+    crawl = next(line for line in text.splitlines() if line.startswith("humanoid3d_crawl.txt"))
+    assert crawl.endswith("crawl on all fours") and f"[0] {mean:.2f}" in text
+    pair_mean = evaluate("pcnet", data, "all")["rotation_deg"]["mean"]
+    assert f"[1] {pair_mean:.2f}" in text  # "pair" is the shipped default
+    motion = text.split("per motion")[1].splitlines()
+    assert any(line.endswith("  crawl on all fours") and line.split()[:2] == ["1", str(counts[1])] for line in motion)
+    assert any(line.endswith("  (none)") and line.split()[0] == "2" for line in motion)
