@@ -7,8 +7,9 @@ from the first network's (the reference), with each clip's description from the 
         --weights models/weights/pcnet_camera.onnx runs/pcnet_camera_floor_seed11.onnx ... \\
         [--split test] [--top 12] [--out benchmarks/results/per_clip_difference.txt]
 
-Each network is scored alone (``pcnet evaluate --method pcnet --weights W``'s protocol: clean,
-"paper" views, a new camera every frame, seed 0), so every network sees the same frames;
+Each network is scored alone (``pcnet evaluate --method pcnet --weights W``'s protocol: by
+default clean, "paper" views, a new camera every frame, frame mode, seed 0; ``--camera``,
+``--noise`` and ``--mode`` as in ``pcnet evaluate``), so every network sees the same frames;
 ``pair`` in place of a file scores the shipped default (both networks and the view gate).
 Then, per clip description (motion), the frame-weighted mean of every network.
 A mean over a split hides where a change of training data costs; this says which motions pay.
@@ -27,14 +28,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from report import print_and_save  # noqa: E402
 
 from pcnet.models.datasets import load_mocap, select_split  # noqa: E402
-from pcnet.pipeline.evaluate import evaluate  # noqa: E402
+from pcnet.pipeline.evaluate import NOISE_KINDS, evaluate  # noqa: E402
 
 
-def per_clip_rotation(data: Path, split: str, weights: str) -> tuple[float, np.ndarray, np.ndarray]:
+def per_clip_rotation(data: Path, split: str, weights: str, **protocol) -> tuple[float, np.ndarray, np.ndarray]:
     """``(mean over frames, (C,) per clip mean, (C,) valid frames per clip)`` of the rotation error (deg) of the network
     ``weights`` (``"pair"``: the shipped default) on the ``split`` clips of ``data`` (motion-style scheme), in clip order; NaN
-    for a clip with no valid scored frame (no defined target, or no prediction)."""
-    r = evaluate("pcnet", data, split, weights=None if weights == "pair" else weights, details=True)
+    for a clip with no valid scored frame (no defined target, or no prediction); ``protocol``:
+    :func:`pcnet.pipeline.evaluate.evaluate`'s ``camera``, ``noise``, ``mode``."""
+    r = evaluate("pcnet", data, split, weights=None if weights == "pair" else weights, details=True, **protocol)
     frame = r["per_frame"]
     clip = frame["clip"][frame["valid"]]
     err = frame["rotation_deg"][frame["valid"]]
@@ -49,6 +51,9 @@ def main() -> None:
     ap.add_argument("--weights", nargs="+", required=True, help="the reference first, then the candidates")
     ap.add_argument("--split", default="test")
     ap.add_argument("--top", type=int, default=12)
+    ap.add_argument("--camera", default="per-frame", choices=["per-frame", "per-clip", "static"])
+    ap.add_argument("--noise", default="none", choices=list(NOISE_KINDS))
+    ap.add_argument("--mode", default="frame", choices=["frame", "smooth", "sequence", "auto"])
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results/per_clip_difference.txt"))
     args = ap.parse_args()
     if len(args.weights) < 2:
@@ -58,11 +63,13 @@ def main() -> None:
     meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
     descriptions = [meta.get(c.name, {}).get("description", "") if isinstance(meta.get(c.name), dict) else ""
                     for c in clips]
-    scored = [per_clip_rotation(args.data, args.split, w) for w in args.weights]
+    protocol = {"camera": args.camera, "noise": args.noise, "mode": args.mode}
+    scored = [per_clip_rotation(args.data, args.split, w, **protocol) for w in args.weights]
     ref = scored[0][1]
     delta = np.mean([s[1] for s in scored[1:]], axis=0) - ref
     lines = [__doc__.splitlines()[0], "", "    python benchmarks/per_clip_difference.py " + " ".join(sys.argv[1:]), "",
-             f"{args.data.name}, split {args.split} (motion-style), {len(clips)} clips; per frame, clean, mean rotation "
+             f"{args.data.name}, split {args.split} (motion-style), {len(clips)} clips; camera {args.camera}, noise "
+             f"{args.noise}, mode {args.mode}; mean rotation "
              f"error (deg); networks: " + ", ".join(f"[{i}] {w}" for i, w in enumerate(args.weights)), "",
              "all clips: " + " / ".join(f"[{i}] {m:.2f}" for i, (m, *_) in enumerate(scored)), "",
              f"clips whose candidates' mean departs most from [0] (top {args.top}):", ""]
