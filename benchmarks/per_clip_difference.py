@@ -18,7 +18,6 @@ A mean over a split hides where a change of training data costs; this says which
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -27,8 +26,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from report import print_and_save  # noqa: E402
 
-from pcnet.models.datasets import load_mocap, select_split  # noqa: E402
+from pcnet.models.datasets import CAMERAS, load_mocap, read_sidecar, select_split  # noqa: E402
 from pcnet.pipeline.evaluate import NOISE_KINDS, evaluate  # noqa: E402
+from pcnet.stages.temporal import MODES  # noqa: E402
 
 
 def per_clip_rotation(data: Path, split: str, weights: str, **protocol) -> tuple[float, np.ndarray, np.ndarray]:
@@ -51,18 +51,16 @@ def main() -> None:
     ap.add_argument("--weights", nargs="+", required=True, help="the reference first, then the candidates")
     ap.add_argument("--split", default="test")
     ap.add_argument("--top", type=int, default=12)
-    ap.add_argument("--camera", default="per-frame", choices=["per-frame", "per-clip", "static"])
+    ap.add_argument("--camera", default="per-frame", choices=list(CAMERAS))
     ap.add_argument("--noise", default="none", choices=list(NOISE_KINDS))
-    ap.add_argument("--mode", default="frame", choices=["frame", "smooth", "sequence", "auto"])
+    ap.add_argument("--mode", default="frame", choices=list(MODES))
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results/per_clip_difference.txt"))
     args = ap.parse_args()
     if len(args.weights) < 2:
         ap.error("--weights: give the reference and at least one candidate")
     clips = select_split(load_mocap(args.data), args.split, "motion-style")
-    meta_path = args.data.with_suffix(".json")
-    meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
-    descriptions = [meta.get(c.name, {}).get("description", "") if isinstance(meta.get(c.name), dict) else ""
-                    for c in clips]
+    meta = read_sidecar(args.data.with_suffix(".json"))  # load_mocap has checked each entry is an object
+    descriptions = [meta.get(c.name, {}).get("description", "") for c in clips]
     protocol = {"camera": args.camera, "noise": args.noise, "mode": args.mode}
     scored = [per_clip_rotation(args.data, args.split, w, **protocol) for w in args.weights]
     ref = scored[0][1]
@@ -76,15 +74,13 @@ def main() -> None:
     lines.append(f"{'clip':<14}{'frames':>7}  " + "".join(f"{f'[{i}]':>8}" for i in range(len(scored)))
                  + f"{'mean-[0]':>10}  description")
     for i in np.argsort(-np.abs(delta))[: args.top]:
-        c = clips[i]
-        desc = descriptions[i]
-        lines.append(f"{c.name:<14}{len(c.joints):>7}  " + "".join(f"{s[1][i]:>8.2f}" for s in scored)
-                     + f"{delta[i]:>+10.2f}  {desc}")
+        lines.append(f"{clips[i].name:<14}{len(clips[i].joints):>7}  " + "".join(f"{s[1][i]:>8.2f}" for s in scored)
+                     + f"{delta[i]:>+10.2f}  {descriptions[i]}")
     if any(descriptions):
         lines += ["", "per motion (clip description), frame-weighted mean:", "",
                   f"{'clips':>5}{'frames':>8}  " + "".join(f"{f'[{i}]':>8}" for i in range(len(scored))) + "  description"]
-        for desc in sorted(set(descriptions), key=lambda d: -sum(n for n, e in zip(scored[0][2], descriptions) if e == d)):
-            rows = np.array([e == desc for e in descriptions])
+        motions = {d: np.array([e == d for e in descriptions]) for d in set(descriptions)}
+        for desc, rows in sorted(motions.items(), key=lambda item: -scored[0][2][item[1]].sum()):
             means = [np.nansum(s[1][rows] * s[2][rows]) / max(s[2][rows].sum(), 1) for s in scored]
             lines.append(f"{rows.sum():>5}{int(scored[0][2][rows].sum()):>8}  " + "".join(f"{m:>8.2f}" for m in means)
                          + f"  {desc or '(none)'}")

@@ -88,7 +88,7 @@ def load_mocap(path: str | Path) -> list[Clip]:
     data = load_numpy_file(path, "mocap .npz")
     if not isinstance(data, np.lib.npyio.NpzFile):
         raise InputError(f"{path}: expected an .npz with one (T, 17, 3) array per clip, got a single array")
-    meta = _read_sidecar(path.with_suffix(".json"))
+    meta = read_sidecar(path.with_suffix(".json"))
     clips = []
     with data:
         if not data.files:
@@ -171,7 +171,7 @@ def assumed_fps_warning(clips: list[Clip], source: str | Path) -> str | None:
             f"read at {DEFAULT_MOCAP_FPS:g} fps")
 
 
-def _read_sidecar(path: Path) -> dict:
+def read_sidecar(path: Path) -> dict:
     """The optional ``.json`` beside a mocap npz (clip name -> frames, fps, subject, ...);
     ``{}`` when there is none.
 
