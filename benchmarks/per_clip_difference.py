@@ -28,6 +28,7 @@ from report import print_and_save  # noqa: E402
 
 from pcnet.models.datasets import CAMERAS, load_mocap, read_sidecar, select_split  # noqa: E402
 from pcnet.pipeline.evaluate import NOISE_KINDS, evaluate  # noqa: E402
+from pcnet.stages.core.errors import InputError  # noqa: E402
 from pcnet.stages.temporal import MODES  # noqa: E402
 
 
@@ -58,11 +59,18 @@ def main() -> None:
     args = ap.parse_args()
     if len(args.weights) < 2:
         ap.error("--weights: give the reference and at least one candidate")
-    clips = select_split(load_mocap(args.data), args.split, "motion-style")
-    meta = read_sidecar(args.data.with_suffix(".json"))  # load_mocap has checked each entry is an object
+    for path in [args.data] + [Path(w) for w in args.weights if w != "pair"]:
+        if not path.is_file():
+            sys.exit(f"{path}: expected {'a mocap .npz (--data)' if path == args.data else 'an exported network (--weights)'}"
+                     f", got no such file")
+    try:
+        clips = select_split(load_mocap(args.data), args.split, "motion-style")
+        meta = read_sidecar(args.data.with_suffix(".json"))  # load_mocap has checked each entry is an object
+        scored = [per_clip_rotation(args.data, args.split, w, camera=args.camera, noise=args.noise, mode=args.mode)
+                  for w in args.weights]
+    except InputError as err:
+        sys.exit(str(err))
     descriptions = [meta.get(c.name, {}).get("description", "") for c in clips]
-    protocol = {"camera": args.camera, "noise": args.noise, "mode": args.mode}
-    scored = [per_clip_rotation(args.data, args.split, w, **protocol) for w in args.weights]
     ref = scored[0][1]
     delta = np.mean([s[1] for s in scored[1:]], axis=0) - ref
     lines = [__doc__.splitlines()[0], "", "    python benchmarks/per_clip_difference.py " + " ".join(sys.argv[1:]), "",

@@ -187,6 +187,22 @@ def test_scripts_exit_with_one_line_without_data(script, tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.parametrize("data, weights, expected", [
+    ("absent.npz", "pair", "absent.npz: expected a mocap .npz (--data), got no such file"),
+    (str(FIXTURES / "deepmimic_small.npz"), "absent.onnx", "absent.onnx: expected an exported network (--weights)"),
+    ("bad.npz", "pair", "bad.npz: not a readable mocap .npz file"),
+])
+def test_per_clip_difference_exits_with_one_line_on_bad_input(tmp_path, data, weights, expected):
+    (tmp_path / "bad.npz").write_text("not numpy\n")
+    out = tmp_path / "table.txt"
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "per_clip_difference.py"), "--data", data,
+                           "--split", "all", "--weights", "pair", weights, "--out", str(out)],
+                          cwd=tmp_path, check=False, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1 and proc.stdout == ""
+    assert len(proc.stderr.strip().splitlines()) == 1 and expected in proc.stderr
+    assert not out.exists()
+
+
 def test_vanishing_points_recover_a_known_camera_up_and_focal_length():
     """Edges of a synthetic room seen by a known camera (pitch 9 deg down, roll -2, f 600 px):
     the vertical vanishing point with the focal length from an orthogonal pair, and the
