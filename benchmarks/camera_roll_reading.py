@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gravity_benchmark import load_camera, pitch_roll_deg  # noqa: E402
 from report import data_arguments, print_and_save  # noqa: E402
-from yoga_physics import ASANA_ORDER, FOLDER, FPS, _plain_export, parse_name  # noqa: E402
+from yoga_physics import ASANA_ORDER, FOLDER, FPS, plain_export, parse_name  # noqa: E402
 
 from pcnet.adapters import load_videopose3d  # noqa: E402
 from pcnet.models.inference import CAMERA_WEIGHTS, PCNetSession  # noqa: E402
@@ -60,7 +60,7 @@ def main() -> None:
                      f"{median_roll_reading(session, joints, fps):5.1f}")
     by_asana = defaultdict(list)
     for path in sorted(args.data.joinpath(*FOLDER).glob("export_*.npy")):
-        if not _plain_export(path):
+        if not plain_export(path):
             continue
         joints, _ = root_relative(load_videopose3d(path).joints[:: args.stride])
         by_asana[parse_name(path)[1]].append(median_roll_reading(session, joints, FPS / args.stride))

@@ -36,7 +36,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from deepmimic_floor_subset import FLOOR_HELD_OUT, FLOOR_TRAIN  # noqa: E402
 from report import print_and_save  # noqa: E402
-from yoga_physics import _plain_export, median_trunk_deg, parse_name  # noqa: E402
+from yoga_physics import plain_export, median_trunk_deg, parse_name  # noqa: E402
 
 import pcnet.models.inference as inference  # noqa: E402
 from pcnet.adapters import load_videopose3d  # noqa: E402
@@ -91,7 +91,7 @@ def yoga_rows(data: Path, stride: int) -> dict[str, list[tuple[float, float, flo
     out: dict[str, list] = {a: [] for a in ASANAS}
     for path in sorted((data / "real" / "yoga_videopose3d").glob("export_*.npy")):
         person, asana = parse_name(path)
-        if asana not in out or not _plain_export(path):
+        if asana not in out or not plain_export(path):
             continue
         joints, _ = root_relative(load_videopose3d(path).joints[::stride])
         fps = 30.0 / stride

@@ -23,7 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from configurations import CONFIGURATIONS  # noqa: E402
 from report import data_arguments, print_and_save  # noqa: E402
-from yoga_physics import CANONICAL_UP, FOLDER, FPS, IMAGE_UP, _plain_export, parse_name, trunk_angles_deg  # noqa: E402
+from yoga_physics import CANONICAL_UP, FOLDER, FPS, IMAGE_UP, plain_export, parse_name, trunk_angles_deg  # noqa: E402
 
 from pcnet.adapters import load_videopose3d  # noqa: E402
 from pcnet.stages.core.conventions import L_HIP, L_SHOULDER, R_HIP, R_SHOULDER, root_relative  # noqa: E402
@@ -55,7 +55,7 @@ def medians(joints: np.ndarray, valid: np.ndarray, up: np.ndarray) -> tuple[floa
 
 def main() -> None:
     args = data_arguments(__doc__, DEFAULT, RESULT, stride=2)
-    files = sorted(p for p in args.data.joinpath(*FOLDER).glob("export_*_Shavasana.npy") if _plain_export(p))
+    files = sorted(p for p in args.data.joinpath(*FOLDER).glob("export_*_Shavasana.npy") if plain_export(p))
     if not files:
         sys.exit(f"lying_roll: no export_*_Shavasana.npy under {args.data.joinpath(*FOLDER)}; pass --data <data root>")
     labels = ["input", *(c.label for c in SEQUENCE)]

@@ -88,7 +88,7 @@ def parse_name(path: Path) -> tuple[str, str]:
     return "-", stem
 
 
-def _plain_export(path: Path) -> bool:
+def plain_export(path: Path) -> bool:
     """Whether ``path`` is named exactly ``export_<person>_<asana>.npy``."""
     return path.name.count(".") == 1 and parse_name(path)[0] != "-"
 
@@ -138,7 +138,7 @@ def _summary(lines: list[str], title: str, results: list[tuple[str, str, int, di
 
 def run(data: Path, stride: int = 2) -> list[str]:
     # Named exports first, so that a duplicate is dropped under its less informative name.
-    paths = sorted(data.joinpath(*FOLDER).glob("*.npy"), key=lambda p: (not _plain_export(p), p.name))
+    paths = sorted(data.joinpath(*FOLDER).glob("*.npy"), key=lambda p: (not plain_export(p), p.name))
     labels = ["input" if c is None else c.label for c in CONFIGS]
     cmd = f"python benchmarks/yoga_physics.py --data ../shared/data --stride {stride}"
     lines = [__doc__.splitlines()[0], "", f"    {cmd}", "",
