@@ -16,6 +16,7 @@ from pcnet.stages.core.conventions import PELVIS, R_FRONTAL, THORAX
 from pcnet.stages.core.rotations import axis_rotation, compose_camera_rotation
 
 sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
+import apparent_vertical  # noqa: E402
 import equivariance  # noqa: E402
 import gravity_benchmark  # noqa: E402
 import per_clip_difference  # noqa: E402
@@ -176,7 +177,8 @@ def test_shipped_body_frame_network_is_exactly_equivariant_on_real_poses():
         assert valid == 1.0
 
 
-@pytest.mark.parametrize("script", ["gravity_benchmark.py", "yoga_physics.py", "equivariance.py", "lying_roll.py"])
+@pytest.mark.parametrize("script", ["gravity_benchmark.py", "yoga_physics.py", "equivariance.py", "lying_roll.py",
+                                    "apparent_vertical.py"])
 def test_scripts_exit_with_one_line_without_data(script, tmp_path):
     out = tmp_path / "table.txt"
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), "--data", str(tmp_path / "absent"),
@@ -260,3 +262,43 @@ def test_per_clip_difference_splits_the_split_mean_by_clip(tmp_path):
     motion = text.split("per motion")[1].splitlines()
     assert any(line.endswith("  crawl on all fours") and line.split()[:2] == ["1", str(counts[1])] for line in motion)
     assert any(line.endswith("  (none)") and line.split()[0] == "2" for line in motion)
+
+
+def test_apparent_vertical_leans_into_a_known_acceleration():
+    """A real pose (DeepMimic walk fixture, first frame) carried along a parabola: the centre of
+    mass's acceleration is the parabola's, and the apparent vertical leans forward by
+    atan(a / g) where the body speeds up along its facing direction."""
+    from pcnet.models.datasets import load_mocap
+    from pcnet.stages.core.canonical import canonical_rotation
+
+    walk = next(c for c in load_mocap(FIXTURES / "deepmimic_small.npz") if "walk" in c.name)
+    fps, T = 30.0, 61
+    t = np.arange(T) / fps
+    R, _ = canonical_rotation(walk.joints[:1].astype(np.float64), (0.0, 1.0, 0.0))
+    forward = R[0][:, 0]  # canonical +X (anterior) in the world frame
+    accel = 2.0 * forward + np.array([0.0, 0.5, 0.0])  # m/s^2: speeding up, and rising
+    path = 0.5 * t[:, None] ** 2 * accel + 0.3 * t[:, None] * forward
+    world = walk.joints[0][None].astype(np.float64) + path[:, None, :]
+    a = apparent_vertical.com_acceleration(world, fps, 0.5)
+    np.testing.assert_allclose(a, np.broadcast_to(accel, a.shape), atol=1e-8)
+    standing = np.repeat(walk.joints[:1].astype(np.float64), T, 0)
+    assert np.abs(apparent_vertical.com_acceleration(standing, fps, 1.0)).max() < 1e-9
+    up = np.einsum("ji,tj->ti", R[0], a + np.array([0.0, apparent_vertical.G, 0.0]))
+    pitch, roll = apparent_vertical.pitch_roll(up)
+    np.testing.assert_allclose(pitch, np.degrees(np.arctan2(2.0, apparent_vertical.G + 0.5)), atol=1e-6)
+    np.testing.assert_allclose(roll, 0.0, atol=1e-6)
+    assert apparent_vertical.com_acceleration(world[:4], fps, 0.5).max() == 0.0  # too short to differentiate
+
+
+def test_apparent_vertical_slope_recovers_a_known_share():
+    rng = np.random.default_rng(0)
+    a = rng.normal(0.0, 5.0, (400, 2))
+    e = np.array([0.6, 0.3]) * a + rng.normal(0.0, 0.5, (400, 2))
+    beta = apparent_vertical.slope(e, a)
+    np.testing.assert_allclose(beta, [0.6, 0.3], atol=0.02)
+    r2, before, after = apparent_vertical.explained(e, a, beta)
+    assert (r2 > 0.9).all() and after < 0.3 * before
+    assert apparent_vertical.group_of("sie__sie_humanoid3d_run_left03.txt") == "running on curves (SIE)"
+    assert apparent_vertical.group_of("sie__sie_humanoid3d_run_forward10.txt") == "running straight (SIE)"
+    assert apparent_vertical.group_of("humanoid3d_crawl.txt") == "crawl and roll"
+    assert apparent_vertical.group_of("humanoid3d_walk.txt") == "other"
