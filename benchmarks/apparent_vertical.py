@@ -28,7 +28,11 @@ is fitted once on the motion-style *validation* split (never trained on; what a 
 learnt from training-like motion would remove) and once within each row (how much of that
 row's error follows the lean: a description, not a method, since no lifter's root-relative
 output gives the centre of mass's path). Rows: the validation split, the motion-style test
-split, DeepMimic (never trained on) by motion group. Writes
+split, DeepMimic (never trained on) by motion group. Then, for a static camera, DeepMimic's
+groups in sequence mode (one "paper" camera fixed in the world per clip, ``make_pairs(...,
+camera="static")``, ``rectify(joints, "pcnet", mode="sequence")`` as ``pcnet run`` does with a
+static camera): the mean over clips of the sequence up's tilt error, where the lean averages
+over the recording (the mean acceleration is the change of velocity over the duration). Writes
 benchmarks/results/apparent_vertical.txt.
 """
 
@@ -48,7 +52,7 @@ from mocap_sets import training_mix_splits  # noqa: E402
 from report import data_arguments, print_and_save  # noqa: E402
 
 from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
-from pcnet.pipeline.rectification import make_estimator  # noqa: E402
+from pcnet.pipeline.rectification import make_estimator, rectify  # noqa: E402
 from pcnet.stages.core.canonical import canonical_rotation  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -108,6 +112,22 @@ def clip_frames(estimator, clips, stride: int) -> list[dict]:
     return out
 
 
+def sequence_tilts(clips) -> dict[str, list[float]]:
+    """Per DeepMimic group, each clip's mean tilt error (deg) of sequence mode's up, clean, with
+    one static camera per clip."""
+    pairs = make_pairs(clips, views="paper", seed=0, camera="static")
+    out: dict[str, list[float]] = {}
+    for i, clip in enumerate(clips):
+        sel = np.flatnonzero(pairs.clip == i)
+        if not len(sel):
+            continue
+        rect = rectify(pairs.inputs[sel], "pcnet", mode="sequence", fps=clip.fps)
+        ok = rect.valid
+        cos = np.sum(rect.up[ok] * pairs.R[sel][ok][:, :, 1], -1)
+        out.setdefault(group_of(clip.name), []).append(float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).mean()))
+    return out
+
+
 def signed(rows: list[dict], window: float) -> tuple[np.ndarray, np.ndarray]:
     """``(N, 2)`` signed pitch and roll (deg) of the error and of the apparent vertical."""
     e = np.concatenate([np.stack(pitch_roll(r["u"]), 1) for r in rows])
@@ -133,7 +153,8 @@ def main() -> int:
         sys.exit(f"apparent_vertical: no mocap/ folder under {args.data}; pass --data <data root>")
     estimator = make_estimator("pcnet")
     val, test = training_mix_splits(args.data, "val", "test")
-    deepmimic = clip_frames(estimator, load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"), args.stride)
+    deepmimic_clips = load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz")
+    deepmimic = clip_frames(estimator, deepmimic_clips, args.stride)
     table = {"motion-style val (where beta is fitted)": clip_frames(estimator, val, args.stride),
              "motion-style test (Bandai, CMU 10, 14)": clip_frames(estimator, test, args.stride),
              "DeepMimic all (never trained on)": deepmimic}
@@ -158,6 +179,12 @@ def main() -> int:
             r2_own, _, after_own = explained(e, a, own)
             lines.append(f"  {name:<46}{len(e):>7}{app:>9.2f}{tilt:>7.2f}{r2_val[0]:>8.2f}{r2_val[1]:>8.2f}{after_val:>7.2f}"
                          f"{own[0]:>8.2f}{own[1]:>8.2f}{r2_own[0]:>8.2f}{r2_own[1]:>8.2f}{after_own:>7.2f}")
+    lines += ["", "Sequence mode, DeepMimic, one static camera per clip, clean: mean over clips of the sequence up's tilt "
+              "error (deg)", f"  {'group':<44}{'clips':>6}{'tilt':>7}"]
+    tilts = sequence_tilts(deepmimic_clips)
+    for g in [g for g, _ in GROUPS] + ["other"]:
+        if g in tilts:
+            lines.append(f"  {g:<44}{len(tilts[g]):>6}{np.mean(tilts[g]):>7.2f}")
     print_and_save(lines, args.out)
     return 0
 
