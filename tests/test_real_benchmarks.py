@@ -20,6 +20,7 @@ import apparent_vertical  # noqa: E402
 import equivariance  # noqa: E402
 import gravity_benchmark  # noqa: E402
 import per_clip_difference  # noqa: E402
+import recipe_means  # noqa: E402
 import vanishing_gravity  # noqa: E402
 import yoga_physics  # noqa: E402
 
@@ -302,3 +303,24 @@ def test_apparent_vertical_slope_recovers_a_known_share():
     assert apparent_vertical.group_of("sie__sie_humanoid3d_run_forward10.txt") == "running straight (SIE)"
     assert apparent_vertical.group_of("humanoid3d_crawl.txt") == "crawl and roll"
     assert apparent_vertical.group_of("humanoid3d_walk.txt") == "other"
+
+
+def test_recipe_means_reads_floor_experiment_results_and_applies_the_rule(tmp_path):
+    results = ROOT / "benchmarks" / "results"
+    x4 = [results / f"floor_experiment_camera4_seed{s}.txt" for s in (11, 12)]
+    seed11 = recipe_means.read_result(x4[0])
+    assert seed11["candidate"]["DeepMimic, floor roll, held out"] == 15.19
+    assert seed11["candidate"]["Padmasana"] == 2 and seed11["shipped"]["Tadasana"] == 9
+    shipped_only = recipe_means.seeds(x4[:1], shipped=True)[-1:]
+    lines, ok = recipe_means.compare(shipped_only, recipe_means.seeds(x4, shipped=False))
+    assert not ok  # x4's DeepMimic other clips: 4.835 against 4.78 + 0.05
+    assert any("all other clips" in line and "FAIL" in line for line in lines)
+    assert any("CMU test subjects" in line and "5.025" in line and "pass" in line for line in lines)
+    same = recipe_means.seeds(x4, shipped=False)
+    assert recipe_means.compare(same, same)[1] is False  # no roll gain against itself
+    broken = tmp_path / "broken.txt"
+    broken.write_text(x4[0].read_text().replace("CMU test subjects", "CMU"))
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "recipe_means.py"), "--a", str(broken),
+                           "--b", str(x4[1])], check=False, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1 and proc.stdout == ""
+    assert proc.stderr.strip() == f"recipe_means: {broken}: expected floor_experiment.py's row 'CMU test subjects' (shipped), found none"
