@@ -47,46 +47,39 @@ from scipy.signal import savgol_filter
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from balance_evidence import centre_of_mass  # noqa: E402
-from calibrate_frame_bound import DEEPMIMIC_GROUPS  # noqa: E402
+from calibrate_frame_bound import DEEPMIMIC_GROUPS, canonical_pitch_roll, deepmimic_group  # noqa: E402
 from mocap_sets import training_mix_splits  # noqa: E402
 from report import data_arguments, print_and_save  # noqa: E402
 
 from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
 from pcnet.pipeline.rectification import make_estimator, rectify  # noqa: E402
 from pcnet.stages.core.canonical import canonical_rotation  # noqa: E402
+from pcnet.stages.core.rotations import angle_between  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "apparent_vertical.txt"
 COMMAND = "python benchmarks/apparent_vertical.py --data ../shared/data"
 G = 9.81
+UP = np.array([0.0, 1.0, 0.0])
 #: Savitzky-Golay windows (s) for the centre of mass's acceleration.
 WINDOWS_S = (0.5, 1.0, 2.0)
 
 #: DeepMimic groups of this table: the running captures split by path, then those of
 #: calibrate_frame_bound.py; the rest "other".
-GROUPS = (("running straight (SIE)", ("sie_humanoid3d_run_forward",)),
+GROUPS = (("running straight (SIE)", "sie_humanoid3d_run_forward"),
           ("running on curves (SIE)", ("sie_humanoid3d_run_left", "sie_humanoid3d_run_right")),
-          *((name, (p,) if isinstance(p, str) else p) for name, p in DEEPMIMIC_GROUPS[1:]))
+          *DEEPMIMIC_GROUPS[1:])
 
 
-def group_of(name: str) -> str:
-    return next((g for g, patterns in GROUPS if any(p in name for p in patterns)), "other")
-
-
-def com_acceleration(world: np.ndarray, fps: float, window_s: float) -> np.ndarray:
-    """``(T, 3)`` centre-of-mass acceleration (m/s^2, the mocap's world frame) of world-frame
-    joints ``(T, 17, 3)`` in metres; the window is shortened to the clip where it is longer,
-    zeros for a clip under 5 frames."""
-    T = len(world)
+def com_acceleration(com: np.ndarray, fps: float, window_s: float) -> np.ndarray:
+    """``(T, 3)`` acceleration (m/s^2) of a centre-of-mass path ``(T, 3)`` in metres (the
+    mocap's world frame; ``balance_evidence.centre_of_mass``); the window is shortened to the
+    clip where it is longer, zeros for a clip under 5 frames."""
+    T = len(com)
     n = min(int(round(window_s * fps)) | 1, T if T % 2 else T - 1)
     if n < 5:
         return np.zeros((T, 3))
-    return savgol_filter(centre_of_mass(world), n, 2, deriv=2, axis=0) * fps ** 2
-
-
-def pitch_roll(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Signed pitch and roll (deg) of canonical-frame ups ``(N, 3)`` from +Y."""
-    return np.degrees(np.arctan2(u[:, 0], u[:, 1])), np.degrees(np.arctan2(u[:, 2], u[:, 1]))
+    return savgol_filter(com, n, 2, deriv=2, axis=0) * fps ** 2
 
 
 def clip_frames(estimator, clips, stride: int) -> list[dict]:
@@ -104,11 +97,12 @@ def clip_frames(estimator, clips, stride: int) -> list[dict]:
         u = np.einsum("tji,tj->ti", pairs.R[sel][ok], est.rotation[ok][:, :, 1])
         world = np.asarray(clip.joints, np.float64)
         R_world, _ = canonical_rotation(world[frames], (0.0, 1.0, 0.0))  # canonical -> world
+        com = centre_of_mass(world)
         app = {}
         for w in WINDOWS_S:
-            f = com_acceleration(world, clip.fps, w)[frames] + np.array([0.0, G, 0.0])
+            f = com_acceleration(com, clip.fps, w)[frames] + np.array([0.0, G, 0.0])
             app[w] = np.einsum("tji,tj->ti", R_world, f)
-        out.append({"u": u, "app": app, "group": group_of(clip.name)})
+        out.append({"u": u, "app": app, "group": deepmimic_group(clip.name, GROUPS)})
     return out
 
 
@@ -123,15 +117,15 @@ def sequence_tilts(clips) -> dict[str, list[float]]:
             continue
         rect = rectify(pairs.inputs[sel], "pcnet", mode="sequence", fps=clip.fps)
         ok = rect.valid
-        cos = np.sum(rect.up[ok] * pairs.R[sel][ok][:, :, 1], -1)
-        out.setdefault(group_of(clip.name), []).append(float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).mean()))
+        tilt = np.degrees(angle_between(rect.up[ok], pairs.R[sel][ok][:, :, 1]))
+        out.setdefault(deepmimic_group(clip.name, GROUPS), []).append(float(tilt.mean()))
     return out
 
 
 def signed(rows: list[dict], window: float) -> tuple[np.ndarray, np.ndarray]:
     """``(N, 2)`` signed pitch and roll (deg) of the error and of the apparent vertical."""
-    e = np.concatenate([np.stack(pitch_roll(r["u"]), 1) for r in rows])
-    a = np.concatenate([np.stack(pitch_roll(r["app"][window]), 1) for r in rows])
+    e = np.concatenate([np.stack(canonical_pitch_roll(r["u"]), 1) for r in rows])
+    a = np.concatenate([np.stack(canonical_pitch_roll(r["app"][window]), 1) for r in rows])
     return e, a
 
 
@@ -173,7 +167,7 @@ def main() -> int:
             if not rows:
                 continue
             e, a = signed(rows, window)
-            app = float(np.degrees(np.arctan(np.hypot(*np.tan(np.radians(a)).T))).mean())
+            app = float(np.degrees(angle_between(np.concatenate([r["app"][window] for r in rows]), UP)).mean())
             r2_val, tilt, after_val = explained(e, a, beta_val)
             own = slope(e, a)
             r2_own, _, after_own = explained(e, a, own)

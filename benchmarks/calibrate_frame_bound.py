@@ -88,11 +88,18 @@ DEEPMIMIC_GROUPS = (("running (SIE captures)", "sie_humanoid3d_run"), ("zombie w
                     ("get-ups from the floor", "getup"), ("crawl and roll", ("crawl", "roll")))
 
 
-def deepmimic_group(name: str) -> str:
-    for group, patterns in DEEPMIMIC_GROUPS:
+def deepmimic_group(name: str, groups=DEEPMIMIC_GROUPS) -> str:
+    """The first of ``groups`` ((label, pattern or patterns), ...) with a pattern in ``name``; else "other"."""
+    for group, patterns in groups:
         if any(p in name for p in ((patterns,) if isinstance(patterns, str) else patterns)):
             return group
     return "other"
+
+
+def canonical_pitch_roll(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signed pitch and roll (deg) from +Y of ups ``(N, 3)`` in a canonical frame: + = anterior
+    of (+X), to the subject's right of (+Z) the vertical."""
+    return np.degrees(np.arctan2(up[:, 0], up[:, 1])), np.degrees(np.arctan2(up[:, 2], up[:, 1]))
 
 
 def deepmimic_frames(estimator, clips) -> dict[str, np.ndarray]:
@@ -113,8 +120,9 @@ def deepmimic_frames(estimator, clips) -> dict[str, np.ndarray]:
         columns["e"].append(np.degrees(angle_between(est.rotation[ok][:, :, 1], truth[:, :, 1])))
         columns["d"].append(est.disagreement_deg[ok])
         columns["w"].append(est.camera_frame_weight[ok])
-        columns["pitch"].append(np.degrees(np.arctan2(up[:, 0], up[:, 1])))
-        columns["roll"].append(np.degrees(np.arctan2(up[:, 2], up[:, 1])))
+        pitch, roll = canonical_pitch_roll(up)
+        columns["pitch"].append(pitch)
+        columns["roll"].append(roll)
         columns["group"].append(np.full(int(ok.sum()), deepmimic_group(clip.name)))
     return {k: np.concatenate(v) for k, v in columns.items()}
 

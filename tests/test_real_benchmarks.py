@@ -280,15 +280,15 @@ def test_apparent_vertical_leans_into_a_known_acceleration():
     accel = 2.0 * forward + np.array([0.0, 0.5, 0.0])  # m/s^2: speeding up, and rising
     path = 0.5 * t[:, None] ** 2 * accel + 0.3 * t[:, None] * forward
     world = walk.joints[0][None].astype(np.float64) + path[:, None, :]
-    a = apparent_vertical.com_acceleration(world, fps, 0.5)
+    a = apparent_vertical.com_acceleration(apparent_vertical.centre_of_mass(world), fps, 0.5)
     np.testing.assert_allclose(a, np.broadcast_to(accel, a.shape), atol=1e-8)
     standing = np.repeat(walk.joints[:1].astype(np.float64), T, 0)
-    assert np.abs(apparent_vertical.com_acceleration(standing, fps, 1.0)).max() < 1e-9
+    assert np.abs(apparent_vertical.com_acceleration(apparent_vertical.centre_of_mass(standing), fps, 1.0)).max() < 1e-9
     up = np.einsum("ji,tj->ti", R[0], a + np.array([0.0, apparent_vertical.G, 0.0]))
-    pitch, roll = apparent_vertical.pitch_roll(up)
+    pitch, roll = apparent_vertical.canonical_pitch_roll(up)
     np.testing.assert_allclose(pitch, np.degrees(np.arctan2(2.0, apparent_vertical.G + 0.5)), atol=1e-6)
     np.testing.assert_allclose(roll, 0.0, atol=1e-6)
-    assert apparent_vertical.com_acceleration(world[:4], fps, 0.5).max() == 0.0  # too short to differentiate
+    assert apparent_vertical.com_acceleration(apparent_vertical.centre_of_mass(world[:4]), fps, 0.5).max() == 0.0  # too short
 
 
 def test_apparent_vertical_slope_recovers_a_known_share():
@@ -299,10 +299,10 @@ def test_apparent_vertical_slope_recovers_a_known_share():
     np.testing.assert_allclose(beta, [0.6, 0.3], atol=0.02)
     r2, before, after = apparent_vertical.explained(e, a, beta)
     assert (r2 > 0.9).all() and after < 0.3 * before
-    assert apparent_vertical.group_of("sie__sie_humanoid3d_run_left03.txt") == "running on curves (SIE)"
-    assert apparent_vertical.group_of("sie__sie_humanoid3d_run_forward10.txt") == "running straight (SIE)"
-    assert apparent_vertical.group_of("humanoid3d_crawl.txt") == "crawl and roll"
-    assert apparent_vertical.group_of("humanoid3d_walk.txt") == "other"
+    assert apparent_vertical.deepmimic_group("sie__sie_humanoid3d_run_left03.txt", apparent_vertical.GROUPS) == "running on curves (SIE)"
+    assert apparent_vertical.deepmimic_group("sie__sie_humanoid3d_run_forward10.txt", apparent_vertical.GROUPS) == "running straight (SIE)"
+    assert apparent_vertical.deepmimic_group("humanoid3d_crawl.txt", apparent_vertical.GROUPS) == "crawl and roll"
+    assert apparent_vertical.deepmimic_group("humanoid3d_walk.txt", apparent_vertical.GROUPS) == "other"
 
 
 def test_recipe_means_reads_floor_experiment_results_and_applies_the_rule(tmp_path):
