@@ -291,6 +291,38 @@ def test_apparent_vertical_leans_into_a_known_acceleration():
     assert apparent_vertical.com_acceleration(apparent_vertical.centre_of_mass(world[:4]), fps, 0.5).max() == 0.0  # too short
 
 
+def test_apparent_vertical_clip_frames_lean_towards_a_sideways_push():
+    """clip_frames end to end on a real pose pushed sideways at a known rate towards the
+    subject's right: with an estimator that returns the true camera rotation, the predicted up
+    in the canonical frame is +Y, and the apparent vertical rolls to the right by atan(a / g)
+    (+ in canonical_pitch_roll's convention) with no pitch, in every window."""
+    from types import SimpleNamespace
+
+    from pcnet.models.datasets import Clip, load_mocap, make_pairs
+    from pcnet.stages.core.canonical import canonical_rotation
+
+    walk = next(c for c in load_mocap(FIXTURES / "deepmimic_small.npz") if "walk" in c.name)
+    fps, T, push = 30.0, 121, 3.0  # 4 s; m/s^2
+    R, _ = canonical_rotation(walk.joints[:1].astype(np.float64), (0.0, 1.0, 0.0))
+    right = R[0][:, 2]  # canonical +Z in the world frame
+    t = np.arange(T) / fps
+    world = walk.joints[0][None].astype(np.float64) + (0.5 * push * t[:, None] ** 2 * right)[:, None, :]
+    clip = Clip(name="sie__sie_humanoid3d_run_right01.txt", joints=world, fps=fps)
+    truth = make_pairs([clip], views="paper", seed=0, camera="per-frame", frame_stride=2)
+
+    def perfect(inputs, clip_fps):
+        assert len(inputs) == len(truth.R) and clip_fps == fps / 2
+        return SimpleNamespace(valid=np.ones(len(inputs), bool), rotation=truth.R)
+
+    (row,) = apparent_vertical.clip_frames(perfect, [clip], stride=2)
+    assert row["group"] == "running on curves (SIE)"
+    np.testing.assert_allclose(row["u"], np.broadcast_to([0.0, 1.0, 0.0], row["u"].shape), atol=1e-5)
+    for w in apparent_vertical.WINDOWS_S:
+        pitch, roll = apparent_vertical.canonical_pitch_roll(row["app"][w])
+        np.testing.assert_allclose(roll, np.degrees(np.arctan2(push, apparent_vertical.G)), atol=1e-4)
+        np.testing.assert_allclose(pitch, 0.0, atol=1e-4)
+
+
 def test_apparent_vertical_slope_recovers_a_known_share():
     rng = np.random.default_rng(0)
     a = rng.normal(0.0, 5.0, (400, 2))
