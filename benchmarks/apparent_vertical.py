@@ -28,7 +28,8 @@ is fitted once on the motion-style *validation* split (never trained on; what a 
 learnt from training-like motion would remove) and once within each row (how much of that
 row's error follows the lean: a description, not a method, since no lifter's root-relative
 output gives the centre of mass's path). Rows: the validation split, the motion-style test
-split, DeepMimic (never trained on) by motion group. Then, for a static camera, DeepMimic's
+split, DeepMimic (another dataset; the camera-frame network trained on three of its floor
+clips) by motion group. Then, for a static camera, DeepMimic's
 groups in sequence mode (one "paper" camera fixed in the world per clip, ``make_pairs(...,
 camera="static")``, ``rectify(joints, "pcnet", mode="sequence")`` as ``pcnet run`` does with a
 static camera): the mean over clips of the sequence up's tilt error, where the lean averages
@@ -151,7 +152,7 @@ def main() -> int:
     deepmimic = clip_frames(estimator, deepmimic_clips, args.stride)
     table = {"motion-style val (where beta is fitted)": clip_frames(estimator, val, args.stride),
              "motion-style test (Bandai, CMU 10, 14)": clip_frames(estimator, test, args.stride),
-             "DeepMimic all (never trained on)": deepmimic}
+             "DeepMimic all (another dataset)": deepmimic}
     for g in [g for g, _ in GROUPS] + ["other"]:
         table[f"  DeepMimic {g}"] = [r for r in deepmimic if r["group"] == g]
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}" + (f" --stride {args.stride}" if args.stride > 1 else ""), "",

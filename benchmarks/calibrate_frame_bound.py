@@ -186,7 +186,7 @@ def main(argv=None) -> int:
     held_out = {
         "motion-style test (Bandai test groups, CMU 10, 14)": frames_of(estimator, mocap_views(test)),
         "motion-style test, camera rolled 90 deg (portrait)": frames_of(estimator, mocap_views(test, 90.0)),
-        "DeepMimic all (other motions, never trained on)": (deepmimic["e"], deepmimic["d"], deepmimic["w"]),
+        "DeepMimic all (other motions, another dataset)": (deepmimic["e"], deepmimic["d"], deepmimic["w"]),
         "Pose2Sim real cameras (4 x 11 frames)": frames_of(estimator, pose2sim_views(args.data)),
     }
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",

@@ -20,7 +20,7 @@ bootstrap (200 replicates). Errors are signed, estimate - truth, pitch =
 asin(-u_z), roll = atan2(u_x, -u_y) (decompose_camera_rotation), degrees.
 
 Calibration (never used for coverage): the motion-style *validation* split, which the shipped
-weights never trained on (configs/pcnet_camera_posture.toml and configs/pcnet_body_posture.toml
+weights never trained on (configs/pcnet_camera_floor4.toml and configs/pcnet_body_posture.toml
 train on the motion-style train split):
 Bandai validation groups and CMU validation subjects (pcnet.models.datasets.select_split(...,
 "val", "motion-style")), seeds 0, 1, 2 (3 views x lifter-noise draws per clip). Per axis and

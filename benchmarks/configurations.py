@@ -1,7 +1,7 @@
 """The rectification configurations the real-data benchmarks compare (one table column each).
 
 - ``geo``: the paper's geometric baseline (section 2.3), frame and sequence mode;
-- ``cam-net``: the shipped camera-frame 3DPCNet alone (the paper's input, configs/pcnet_camera_posture.toml),
+- ``cam-net``: the shipped camera-frame 3DPCNet alone (the paper's input, configs/pcnet_camera_floor4.toml),
   frame mode; ``body-net``: the shipped body-frame 3DPCNet alone (configs/pcnet_body_posture.toml);
 - ``pcnet``: the shipped pair gated by camera orientation (models/view_gate.py), frame mode,
   sequence mode from the poses alone (``-prior``) and with the camera prior and lying reading

@@ -88,7 +88,7 @@ def main(argv=None) -> int:
         "calibration split (motion-style val), all frames": cal,
         "motion-style test (Bandai test groups, CMU 10, 14)": lean_frames(pair, mocap_views(test)),
         "motion-style test, camera rolled 90 deg (portrait)": lean_frames(pair, mocap_views(test, 90.0)),
-        "DeepMimic all (other motions, never trained on)": lean_frames(
+        "DeepMimic all (other motions, another dataset)": lean_frames(
             pair, mocap_views(load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"))),
         "Pose2Sim real cameras (4 x 11 frames)": lean_frames(pair, pose2sim_views(args.data)),
     }

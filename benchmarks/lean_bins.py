@@ -17,7 +17,7 @@ seen where it acts and where it costs.
   every frame (``make_pairs(clips, views="paper", seed=0)``: the held-out table's protocol).
 
 Sets: the training mix's motion-style test split, Bandai and CMU (test subjects 10, 14)
-apart, and DeepMimic (never trained on). The first rows give, for reference, the training
+apart, and DeepMimic (another dataset). The first rows give, for reference, the training
 mix's train split's lean distribution (every 4th frame, what the configs train on) and the
 share a lean-balanced epoch draws from each band (every frame, with the proportion
 augmentation, the CMU clips twice as the configs' ``data_repeats``, weighted by
@@ -79,7 +79,7 @@ def main() -> None:
     sets = {
         "Bandai motion-style test": [c for c in test if clip_subject(c) is None],
         "CMU test subjects": [c for c in test if clip_subject(c) is not None],
-        "DeepMimic (never trained on)": load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"),
+        "DeepMimic (another dataset)": load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"),
     }
     sessions = {Path(w).name: PCNetSession(w) for w in args.weights}
     head = " | ".join(f"lean {a}-{b}" for a, b in zip(BANDS_DEG, BANDS_DEG[1:]))

@@ -24,7 +24,7 @@ Views: one static "paper" camera per clip (``make_pairs(clips, views="paper", se
 camera="static")``), clean poses. Sets: the training mix's motion-style *train* split
 (the lean the networks learned; Bandai + CMU train, what configs/pcnet_*.toml train on, every
 8th clip to keep the run short), its *test* split (held out by motion and style) and
-DeepMimic (another dataset, never trained on). Nothing is fitted: it is a diagnosis.
+DeepMimic (another dataset; the camera-frame network trained on three of its floor clips). Nothing is fitted: it is a diagnosis.
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ def main() -> None:
     train, test = training_mix_splits(args.data, "train", "test")
     sets = [("training mix, motion-style train (every 8th clip)", train[::TRAIN_EVERY]),
             ("training mix, motion-style test", test),
-            ("DeepMimic (never trained on)", load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"))]
+            ("DeepMimic (another dataset)", load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"))]
     lines = [COMMAND, "",
              "Per clip: trunk lean = median forward angle of pelvis->thorax from the true up; up error = median",
              "sagittal (+ = estimate leans forward of the truth) and lateral part of the shipped pair's per-frame",

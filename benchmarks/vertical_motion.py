@@ -10,7 +10,7 @@ height over the clip (one shift per recording, no vertical pelvis motion at all)
 two gives vertical velocities and accelerations closer to the truth?
 
 Held-out mocap (Bandai motion-style test clips, CMU validation subjects 12 and 60, DeepMimic,
-never trained on; evenly spaced clips, at most ``--max-clips`` per set, clips of at least 30
+another dataset; evenly spaced clips, at most ``--max-clips`` per set, clips of at least 30
 frames), one static "paper" camera per clip (``make_pairs(camera="static")``), clean and with
 lifter-like noise (models/lifter_noise.py), rectified as ``pcnet run`` does for a static camera
 (the shipped pair, sequence mode, camera prior, heading auto; no bootstrap); world frame from
@@ -43,7 +43,7 @@ DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "vertical_motion.txt"
 SETS = (("Bandai motion-style test", "bandai_h36m17.npz", "test"),
         ("CMU validation subjects", "cmu_train_h36m17.npz", "val"),
-        ("DeepMimic (never trained on)", "deepmimic_h36m17.npz", "all"))
+        ("DeepMimic (another dataset)", "deepmimic_h36m17.npz", "all"))
 FLOORS = ("per-frame floor (now)", "pelvis at one height")
 QUANTITIES = ("pelvis v_y (m/s)", "all v_y (m/s)", "pelvis a_y (m/s^2)", "all a_y (m/s^2)", "all height (m)")
 

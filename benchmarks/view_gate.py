@@ -7,7 +7,8 @@ optical axis (portrait = 90 deg).
 Each clip is one recording (the gate's running median runs over its frames in order), seen
 by the paper's camera distribution (a new camera every frame, docs/CONVENTIONS.md) and then
 by that camera rolled by 0..180 deg: X' = X @ Q.T, true up u' = Q u. Clean poses and
-lifter-like noise (models/lifter_noise.py). Clips: DeepMimic (all; never trained on), Bandai
+lifter-like noise (models/lifter_noise.py). Clips: DeepMimic (all; another dataset, of which the camera-frame network trained on
+three floor clips), Bandai
 motion-style test split, CMU test subjects. `--stride` keeps every k-th frame of each clip
 (fps divided by k) to bound the run time.
 """

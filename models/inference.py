@@ -20,7 +20,7 @@ from .preprocess import normalize_input
 from .view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices, quarter_turns
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
-#: The shipped camera-frame 3DPCNet (configs/pcnet_camera_posture.toml) and body-frame 3DPCNet
+#: The shipped camera-frame 3DPCNet (configs/pcnet_camera_floor4.toml) and body-frame 3DPCNet
 #: (configs/pcnet_body_posture.toml); without ``weights`` pcnet runs both (:class:`ViewGatedPCNet`).
 CAMERA_WEIGHTS = WEIGHTS_DIR / "pcnet_camera.onnx"
 BODY_WEIGHTS = WEIGHTS_DIR / "pcnet_body.onnx"

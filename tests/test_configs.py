@@ -50,7 +50,7 @@ def test_generalisation_fields_are_checked(tmp_path, text, field):
         load_config(bad)
 
 
-SHIPPED = {"pcnet_camera": "pcnet_camera_posture.toml", "pcnet_body": "pcnet_body_posture.toml"}
+SHIPPED = {"pcnet_camera": "pcnet_camera_floor4.toml", "pcnet_body": "pcnet_body_posture.toml"}
 
 
 def test_shipped_default_trains_on_the_motion_style_split_with_cmu():
