@@ -70,6 +70,7 @@ WINDOWS_S = (0.5, 1.0, 2.0)
 GROUPS = (("running straight (SIE)", "sie_humanoid3d_run_forward"),
           ("running on curves (SIE)", ("sie_humanoid3d_run_left", "sie_humanoid3d_run_right")),
           *DEEPMIMIC_GROUPS[1:])
+GROUP_NAMES = (*(g for g, _ in GROUPS), "other")
 
 
 def com_acceleration(com: np.ndarray, fps: float, window_s: float) -> np.ndarray:
@@ -97,11 +98,11 @@ def clip_frames(estimator, clips, stride: int) -> list[dict]:
         frames = pairs.frame[sel][ok]
         u = np.einsum("tji,tj->ti", pairs.R[sel][ok], est.rotation[ok][:, :, 1])
         world = np.asarray(clip.joints, np.float64)
-        R_world, _ = canonical_rotation(world[frames], (0.0, 1.0, 0.0))  # canonical -> world
+        R_world, _ = canonical_rotation(world[frames], UP)  # canonical -> world
         com = centre_of_mass(world)
         app = {}
         for w in WINDOWS_S:
-            f = com_acceleration(com, clip.fps, w)[frames] + np.array([0.0, G, 0.0])
+            f = com_acceleration(com, clip.fps, w)[frames] + G * UP
             app[w] = np.einsum("tji,tj->ti", R_world, f)
         out.append({"u": u, "app": app, "group": deepmimic_group(clip.name, GROUPS)})
     return out
@@ -153,7 +154,7 @@ def main() -> int:
     table = {"motion-style val (where beta is fitted)": clip_frames(estimator, val, args.stride),
              "motion-style test (Bandai, CMU 10, 14)": clip_frames(estimator, test, args.stride),
              "DeepMimic all (another dataset)": deepmimic}
-    for g in [g for g, _ in GROUPS] + ["other"]:
+    for g in GROUP_NAMES:
         table[f"  DeepMimic {g}"] = [r for r in deepmimic if r["group"] == g]
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}" + (f" --stride {args.stride}" if args.stride > 1 else ""), "",
              "Per-frame tilt, clean, deg (mean over frames; tilt here = sqrt(pitch^2 + roll^2) of the error in the true "
@@ -177,7 +178,7 @@ def main() -> int:
     lines += ["", "Sequence mode, DeepMimic, one static camera per clip, clean: mean over clips of the sequence up's tilt "
               "error (deg)", f"  {'group':<44}{'clips':>6}{'tilt':>7}"]
     tilts = sequence_tilts(deepmimic_clips)
-    for g in [g for g, _ in GROUPS] + ["other"]:
+    for g in GROUP_NAMES:
         if g in tilts:
             lines.append(f"  {g:<44}{len(tilts[g]):>6}{np.mean(tilts[g]):>7.2f}")
     print_and_save(lines, args.out)
