@@ -49,7 +49,7 @@ def main() -> None:
         X = X - X[:, :1]
         est = estimator(X, 30.0)
         ok = est.valid
-        bound = frame_tilt_bound(est.disagreement_deg, est.camera_frame_weight)[ok]
+        bound = frame_tilt_bound(est.disagreement_deg, est.camera_frame_weight, alternative_deg=est.level_view_deg)[ok]
         groups[group_of(path)].append((np.mean(bound >= 2 * FRAME_TILT_95_DEG), np.median(est.disagreement_deg[ok]),
                                        np.mean(est.camera_frame_weight[ok])))
     lines = ["python benchmarks/disagreement_real.py --data ../shared/data",

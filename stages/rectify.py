@@ -31,7 +31,7 @@ from .core.geometric import geometric_rotation
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
-from .uncertainty import bound_weights, calibrated_interval, evidence_scale, frame_tilt_bound
+from .uncertainty import bound_weights, calibrated_interval, evidence_scale, frame_tilt_bound, reach_alternative
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -75,11 +75,14 @@ def check_method_weights(method: str, weights: str | None, source: str = "weight
                          f"which uses no weights")
 
 
-def gate_report(gate: np.ndarray | None, valid: np.ndarray, turns: np.ndarray | None = None) -> dict | None:
+def gate_report(gate: np.ndarray | None, valid: np.ndarray, turns: np.ndarray | None = None,
+                level_view: np.ndarray | None = None) -> dict | None:
     """Summary of the camera-frame network's weights over the valid frames: its mean share,
-    the frames where the body-frame network alone (weight 0) or a blend ran, and (with
+    the frames where the body-frame network alone (weight 0) or a blend ran, (with
     ``turns``) the frames whose input the camera-frame network read turned back by 90 or 270
-    deg (``turned_frames``); ``None`` when one estimator ran."""
+    deg (``turned_frames``), and (with ``level_view``, :class:`FrameEstimate`'s
+    ``level_view_deg``) those of them it read unturned as a level camera's
+    (``level_view_frames``); ``None`` when one estimator ran."""
     if gate is None:
         return None
     w = gate[valid]
@@ -88,6 +91,8 @@ def gate_report(gate: np.ndarray | None, valid: np.ndarray, turns: np.ndarray | 
               "frames": int(len(w))}
     if turns is not None:
         report["turned_frames"] = {str(90 * k): int(np.sum(turns[valid] == k)) for k in (1, 3)}
+    if level_view is not None:
+        report["level_view_frames"] = int(np.sum(np.isfinite(level_view[valid])))
     return report
 
 
@@ -116,7 +121,10 @@ class FrameEstimate:
     trust in its camera-frame network per frame (:mod:`pcnet.models.view_gate`) and
     ``disagreement_deg`` ``(T,)`` the angle between its two networks' ups and
     ``quarter_turns`` ``(T,)`` int, the quarter turns about the optical axis the camera-frame
-    network's input was turned back by, 0, 1 or 3 (each ``None`` when one estimator ran)."""
+    network's input was turned back by, 0, 1 or 3, and ``level_view_deg`` ``(T,)`` where that
+    network read the unturned poses as a level camera's (a body on the floor rather than a phone
+    in portrait, :func:`pcnet.models.view_gate.level_view_preferred`) the angle between its up
+    there and the answer's, NaN elsewhere (each ``None`` when one estimator ran)."""
 
     rotation: np.ndarray
     residual: np.ndarray
@@ -124,6 +132,7 @@ class FrameEstimate:
     camera_frame_weight: np.ndarray | None = None
     disagreement_deg: np.ndarray | None = None
     quarter_turns: np.ndarray | None = None
+    level_view_deg: np.ndarray | None = None
 
 
 class FrameEstimator(Protocol):
@@ -350,10 +359,15 @@ class Rectification:
         report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)
-        report["view_gate"] = gate_report(gate, valid, estimate.quarter_turns)
+        report["view_gate"] = gate_report(gate, valid, estimate.quarter_turns, estimate.level_view_deg)
         if gate is not None:
             report["camera_frame_weight"] = np.where(valid, gate, np.nan)
         report["frame_tilt_95_deg"] = base
+        # The level view's reading widens the reported bound only: in sequence mode's weights and
+        # evidence scale it would weaken the pose evidence of a lying body in the camera prior's
+        # posterior (5 of 15 real Shavasana files lost their lying reading; docs/experiments.md).
+        if estimate.level_view_deg is not None:
+            bound = reach_alternative(bound, estimate.level_view_deg)
         report["frame_tilt_bound_deg"] = np.where(valid, bound, np.nan)
         canonical = to_canonical(joints_cam, R, estimate.residual,
                                  out=(self.allocate or in_memory)("canonical", joints_cam.shape, np.float32))
