@@ -334,7 +334,8 @@ class Rectification:
     ``view_gate`` (:func:`gate_report`), ``camera_frame_weight`` ``(T,)`` (the shipped pair
     only), ``frame_tilt_95_deg`` (the estimator's calibrated per-frame bound where nothing
     widens it, NaN when uncalibrated) and ``frame_tilt_bound_deg`` ``(T,)`` (per frame, widened
-    where the pair's networks disagree, :func:`pcnet.stages.uncertainty.frame_tilt_bound`;
+    where the pair's networks disagree and, on frames read as a quarter-turned camera, to the
+    camera-frame network's level view, :func:`pcnet.stages.uncertainty.frame_tilt_bound`;
     NaN where not valid or uncalibrated). Input rules (dtype, the pelvis from the hips) are the
     caller's: :func:`pcnet.pipeline.rectification.rectify`.
 
