@@ -52,7 +52,7 @@ def tilt_by_roll(path: Path, split: str, lifter: bool, stride: int, gated: ViewG
     clips = select_split(load_mocap(path), split, "motion-style")
     sums: dict = {}
     for fps, roll, X, up in rolled_views(clips, lifter, stride):
-        R, _, valid, weight, _, _ = gated.predict_gated(X, fps)
+        R, _, valid, weight, *_ = gated.predict_gated(X, fps)
         R_cam, R_body = gated.camera.predict(X)[0], gated.body.predict(X)[0]
         for name, est in (("camera-frame", R_cam), ("body-frame", R_body), ("gated", R)):
             e = np.degrees(angle_between(est[valid][:, :, 1], up[valid]))
