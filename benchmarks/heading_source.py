@@ -2,6 +2,8 @@
 
     python benchmarks/heading_source.py [--data ../shared/data]
 
+Writes benchmarks/results/heading_source.txt.
+
 Real files (no ground truth): boxing_motionbert/X3D.npy, cycling_motionbert/*.npy
 (MotionBERT) and every yoga_videopose3d/*.npy (VideoPose3D). Mocap: every clip of the Bandai
 test split and of DeepMimic, clean and with `pcnet evaluate --noise`'s upstream-like noise.
@@ -12,9 +14,14 @@ Columns: hip-width coefficient of variation (percent; what `auto` decides on, th
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from report import print_and_save  # noqa: E402
 
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
@@ -22,6 +29,8 @@ from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, apply_heading
 from pcnet.pipeline.rectification import make_estimator
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+RESULT = Path(__file__).resolve().parent / "results" / "heading_source.txt"
+COMMAND = "python benchmarks/heading_source.py --data ../shared/data"
 
 
 def decide(joints: np.ndarray) -> dict:
@@ -33,8 +42,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=str(DEFAULT))
     data = Path(ap.parse_args().data)
-    print(f"auto uses the hips when the hip width varies by <= {AUTO_MAX_HIP_WIDTH_CV_PERCENT} % (CV)\n")
-    print(f"{'real file':<40}{'frames':>7}{'hip CV %':>9}{'|dh| med':>9}  heading from")
+    lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
+             f"auto uses the hips when the hip width varies by <= {AUTO_MAX_HIP_WIDTH_CV_PERCENT} % (CV)", ""]
+    lines.append(f"{'real file':<40}{'frames':>7}{'hip CV %':>9}{'|dh| med':>9}  heading from")
     real = [(load_motionbert, p) for p in sorted((data / "real").glob("*_motionbert/*X3D*.npy"))]
     real += [(load_videopose3d, p) for p in sorted((data / "real" / "yoga_videopose3d").glob("*.npy"))]
     chosen: dict[str, int] = {}
@@ -43,10 +53,10 @@ def main() -> None:
         joints = poses.joints - poses.joints[:, :1]
         rep = decide(joints)
         chosen[rep["heading_source"]] = chosen.get(rep["heading_source"], 0) + 1
-        print(f"{path.parent.name[:8] + '/' + path.stem[:31]:<40}{len(joints):>7}{rep['hip_width_cv_percent']:>9.2f}"
+        lines.append(f"{path.parent.name[:8] + '/' + path.stem[:31]:<40}{len(joints):>7}{rep['hip_width_cv_percent']:>9.2f}"
               f"{rep['heading_difference_median_deg']:>9.1f}  {rep['heading_source']}")
-    print("real files, heading from:", chosen)
-    print(f"\n{'mocap clips':<34}{'hip CV % min / median / max':>30}  heading from")
+    lines.append(f"real files, heading from: {chosen}")
+    lines.append(f"\n{'mocap clips':<34}{'hip CV % min / median / max':>30}  heading from")
     for name, split in (("bandai_h36m17.npz", "test"), ("deepmimic_h36m17.npz", "all")):
         clips = select_split(load_mocap(data / "mocap" / name), split)
         for noise in (None, Noise()):
@@ -61,7 +71,8 @@ def main() -> None:
                 srcs[rep["heading_source"]] = srcs.get(rep["heading_source"], 0) + 1
             lo, med, hi = np.nanpercentile(cvs, [0, 50, 100])
             label = f"{name.split('_')[0]} {split}, {'noise' if noise else 'clean'}"
-            print(f"{label:<34}{lo:>10.2f} / {med:>6.2f} / {hi:>6.2f}  {srcs}")
+            lines.append(f"{label:<34}{lo:>10.2f} / {med:>6.2f} / {hi:>6.2f}  {srcs}")
+    print_and_save(lines, RESULT)
 
 
 if __name__ == "__main__":

@@ -24,9 +24,9 @@ Model and setup files (``pcnet/stages/opensim_data/``, see ``ATTRIBUTION.md`` th
   elbow-wrist -> forearm and hand; each side on its own), then the marker placer on a static
   window.
 * ``IK_Setup_H36M17.xml``: the marker weights (1; 0.5 for spine, neck_nose, head) and the
-  solver accuracy 1e-4 (OpenSim's default 1e-5 is 3x slower for < 1 mm less RMS on the demo and
-  mocap clips, and on a Bandai kick it kept the right arm in a wrong local solution for 60+ frames;
-  benchmarks/opensim_ik.py).
+  solver accuracy 1e-4 (in an exploratory run when it was chosen, OpenSim's default 1e-5 was
+  about 3x slower for < 1 mm less RMS on the demo and mocap clips, and on a Bandai kick kept the
+  right arm in a wrong local solution for 60+ frames).
 
 Sources: opensim-core ``ScaleTool`` / ``ModelScaler`` / ``MarkerPlacer`` and
 ``InverseKinematicsTool`` (https://opensimconfluence.atlassian.net/wiki/spaces/OpenSim/pages/

@@ -262,6 +262,7 @@ def test_no_other_real_lifter_file_changes_size_enough_to_be_flagged():
         chain = height_chain_length(np.load(path))
         chain = chain[np.isfinite(chain)]
         ratios.append(np.percentile(chain, 95) / np.percentile(chain, 5))
+    print(f"largest size change of {len(files)} real lifter files: {max(ratios):.2f}-fold")
     assert len(files) > 50 and max(ratios) <= 1.445 and not any(size_change_flag(np.load(f)) for f in files[:2])
 
 
