@@ -79,6 +79,34 @@ def twist_angle(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
     return (ang + np.pi) % (2 * np.pi) - np.pi
 
 
+def with_up(R: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """``R`` ``(..., 3, 3)`` turned by the shortest arc that takes its up column (canonical +Y,
+    ``R[..., :, 1]``) onto the unit vector ``up`` ``(..., 3)`` (camera frame; broadcast):
+    ``A R`` with ``A`` the Rodrigues rotation about ``R_y x up`` by the angle between them
+    (``A = I + K + K^2 (1 - c) / s^2``, ``K`` the cross-product matrix of ``R_y x up``, ``c``
+    and ``s`` the angle's cosine and sine). The result has ``up`` as its up and keeps ``R``'s
+    heading about it: of all rotations with that up, the one nearest ``R``. Where the two are
+    opposite (the arc is not unique) ``R`` is turned by pi about its own +X. ``(..., 3, 3)``
+    float64; NaN where either input has a NaN.
+    """
+    R = np.asarray(R, np.float64)
+    a = R[..., :, 1]
+    b = np.broadcast_to(np.asarray(up, np.float64), a.shape)
+    v = np.cross(a, b)
+    c = np.sum(a * b, axis=-1)
+    s2 = np.sum(v * v, axis=-1)
+    K = np.zeros(v.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f = np.where(s2 > _EPS ** 2, (1.0 - c) / s2, 0.5)[..., None, None]
+    A = np.eye(3) + K + (K @ K) * f
+    x = R[..., :, 0]
+    half_turn = 2.0 * x[..., :, None] * x[..., None, :] - np.eye(3)  # pi about R's own +X
+    opposite = ((s2 <= _EPS ** 2) & (c < 0))[..., None, None]
+    return np.where(opposite, half_turn, A) @ R
+
+
 def axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
     """Right-handed rotation matrices ``(..., 3, 3)`` about ``"x"``, ``"y"`` or ``"z"`` by
     ``angle`` radians ``(...)`` (counter-clockwise looking down the axis).

@@ -1,0 +1,96 @@
+"""Which network's heading? Per-frame heading and rotation error of the shipped pair, each of its networks, and the pair's up with the body-frame network's heading.
+
+    python benchmarks/network_heading.py --data ../shared/data [--sets val] [--out FILE]
+
+Frames: every frame of each clip seen by a new "paper" camera (make_pairs(clips,
+views="paper", camera="per-frame", seed=0)), clean and with lifter-like noise
+(models/lifter_noise.py), frame mode, the networks' own headings (no `--heading` step: on
+clean mocap `pcnet evaluate`'s default takes the hip line instead, on noisy input the
+network's). Rows: the pair (ViewGatedPCNet.predict_gated), the camera-frame and the
+body-frame network alone, and "pair up + body heading": the body-frame network's rotation
+turned by the shortest arc that takes its up onto the pair's (stages/core/rotations.py:
+with_up), so its tilt is the pair's exactly. Sets: `val` (the motion-style validation split,
+Bandai validation groups and CMU subjects 12 and 60, never trained on), `test` (the
+motion-style test split), `deepmimic` (all 81 clips). Writes benchmarks/results/network_heading.txt
+by default.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from mocap_sets import training_mix_splits  # noqa: E402
+from report import print_and_save  # noqa: E402
+
+from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
+from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
+from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
+from pcnet.stages.core.metrics import heading_error_deg, rotation_error_deg, tilt_error_deg  # noqa: E402
+from pcnet.stages.core.rotations import with_up  # noqa: E402
+
+DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+RESULT = Path(__file__).resolve().parent / "results" / "network_heading.txt"
+ROWS = ("pair (shipped)", "camera-frame alone", "body-frame alone", "pair up + body heading")
+
+
+def clips_of(data: Path, name: str):
+    if name == "deepmimic":
+        return load_mocap(data / "mocap" / "deepmimic_h36m17.npz")
+    if name in ("val", "test"):
+        return training_mix_splits(data, name)[0]
+    raise SystemExit(f"--sets: unknown set {name!r}; expected val, test or deepmimic")
+
+
+def errors(pair: ViewGatedPCNet, clips, noise) -> dict[str, dict[str, np.ndarray]]:
+    """Per row, ``rotation`` / ``tilt`` / ``heading`` errors (deg) over the frames every row
+    has valid."""
+    views = make_pairs(clips, views="paper", seed=0, camera="per-frame", noise=noise)
+    out = {row: {m: [] for m in ("rotation", "tilt", "heading")} for row in ROWS}
+    for i, clip in enumerate(clips):
+        sel = np.flatnonzero(views.clip == i)
+        if not len(sel):
+            continue
+        x, truth = views.inputs[sel], views.R[sel]
+        R_pair, _, ok, *_ = pair.predict_gated(x, clip.fps)
+        R_cam, R_body = pair.camera.predict(x)[0], pair.body.predict(x)[0]
+        estimates = dict(zip(ROWS, (R_pair, R_cam, R_body, with_up(R_body, R_pair[:, :, 1]))))
+        ok = ok & np.all([np.isfinite(R).all(axis=(1, 2)) for R in estimates.values()], axis=0)
+        for row, R in estimates.items():
+            out[row]["rotation"].append(rotation_error_deg(R[ok], truth[ok]))
+            out[row]["tilt"].append(tilt_error_deg(R[ok], truth[ok]))
+            out[row]["heading"].append(heading_error_deg(R[ok], truth[ok]))
+    return {row: {m: np.concatenate(v) for m, v in ms.items()} for row, ms in out.items()}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=DEFAULT)
+    ap.add_argument("--sets", nargs="+", default=["val"])
+    ap.add_argument("--out", type=Path, default=RESULT)
+    args = ap.parse_args(argv)
+    pair = ViewGatedPCNet()
+    command = "python benchmarks/network_heading.py --data ../shared/data" + (
+        "" if args.sets == ["val"] else " --sets " + " ".join(args.sets))
+    lines = [__doc__.splitlines()[0], "", f"    {command}", "",
+             "Per-frame error (deg), mean / p95, frame mode, the networks' own headings", "",
+             f"  {'set':<22}{'row':<26}{'frames':>8}{'rotation':>16}{'tilt':>16}{'heading':>16}"]
+    for name in args.sets:
+        clips = clips_of(args.data, name)
+        for noise, label in ((None, "clean"), (LifterNoise(), "lifter noise")):
+            for row, e in errors(pair, clips, noise).items():
+                cells = "".join(f"{e[m].mean():>9.2f} / {np.percentile(e[m], 95):>4.1f}"
+                                for m in ("rotation", "tilt", "heading"))
+                lines.append(f"  {name + ', ' + label:<22}{row:<26}{len(e['rotation']):>8}{cells}")
+            lines.append("")
+    print_and_save(lines, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
