@@ -150,6 +150,10 @@ def test_lying_body_reads_as_a_quarter_turned_camera_and_is_flagged():
     assert res.report["camera_frame_weight"].shape == (100,)
     (line,) = view_gate_flag(gate)
     assert "turned a quarter turn about its optical axis" in line and "in 100 of 100 frames" in line
+    assert "read the body as lying" not in line
+    # the run's flags: the lying reading, not the turned one, is the answer, and the turn's line says so
+    (line,) = view_gate_flag(gate, lying=True)
+    assert "the camera prior then read the body as lying under a level camera instead" in line
     assert view_gate_flag(rectify(_real_standing(), "pcnet").report["view_gate"]) == []
     rolled = rectify(_real_standing() @ axis_rotation("z", np.radians(35.0)).T, "pcnet").report["view_gate"]
     (line,) = view_gate_flag(rolled)
