@@ -126,7 +126,11 @@ class ViewGatedPCNet:
     :func:`pcnet.models.view_gate.camera_frame_weight` (camera-frame inside its training
     views, body-frame beyond them), in the camera frame turned back by the quarter turns the
     body-frame network reads (:func:`pcnet.models.view_gate.quarter_turns`: a portrait camera
-    is a level one for the camera-frame network).
+    is a level one for the camera-frame network). The blend sets the answer's up; its heading
+    (the turn about that up) is the body-frame network's on every frame, its rotation turned by
+    the shortest arc onto the blend's up (:func:`pcnet.stages.core.rotations.with_up`): that
+    network's input frame is built from the hip line, and its heading is the more accurate on
+    held-out mocap (docs/experiments.md, "The body-frame network's heading"; release 5.2).
 
     ``predict(joints_cam, fps)`` as :meth:`PCNetSession.predict` (one recording per call:
     the gate's running median runs over the frames in order); ``predict_gated`` also returns
