@@ -385,6 +385,12 @@ def open_numpy(path: str | Path) -> np.ndarray | NumpyArchive:
     raise AdapterError(p, "content", "a numpy .npy/.npz file", got)
 
 
+#: Archives another adapter reads, told by their array names: what a single-array lifter's
+#: refusal suggests instead (the files of ``../shared/data``'s MediaPipe and UTD-MHAD sets).
+_ARCHIVE_HINTS = (({"world_3d", "keypoints_2d"}, "MediaPipe's landmarks: read them with --lifter mediapipe"),
+                  ({"skeleton", "skeleton_fps"}, "Kinect v1 skeletons: read them with --lifter kinect_v1"))
+
+
 def load_array_file(path: str | Path, key: str | None = None, key_option: bool = True) -> np.ndarray:
     """Load one array from ``.npy`` or from ``.npz`` (``key``; optional when the archive
     holds a single array). Pickled objects are refused; see :func:`open_numpy`.
@@ -405,8 +411,7 @@ def load_array_file(path: str | Path, key: str | None = None, key_option: bool =
         keys = list(data.files)
         if key is None:
             if len(keys) != 1:
-                hint = ("; MediaPipe's landmarks: read them with --lifter mediapipe"
-                        if {"world_3d", "keypoints_2d"} <= set(keys) else "")
+                hint = next((f"; {what}" for names, what in _ARCHIVE_HINTS if names <= set(keys)), "")
                 wanted = ("--key (key=) naming one of the archive's arrays" if key_option else
                           "an .npz holding one array (this lifter takes no --key; save the poses alone)")
                 raise AdapterError(p, "key", wanted, describe_keys(keys) + hint)

@@ -21,7 +21,6 @@ a ground truth. Writes benchmarks/results/heading_facing.txt.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -29,6 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from headings import circular_mean_deg, heading_arguments  # noqa: E402
 from report import print_and_save  # noqa: E402
 
 from pcnet.adapters import load_kinect_v1  # noqa: E402
@@ -37,7 +37,6 @@ from pcnet.pipeline.io import lifter_joints  # noqa: E402
 from pcnet.stages.core.conventions import PELVIS  # noqa: E402
 from pcnet.stages.core.rotations import normalize, with_up  # noqa: E402
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "heading_facing.txt"
 COMMAND = "python benchmarks/heading_facing.py --data ../shared/data"
 ROWS = ("camera-frame heading", "body-frame heading")
@@ -51,16 +50,8 @@ def signed_heading_error_deg(forward: np.ndarray, target: np.ndarray, up: np.nda
     return np.degrees(np.arctan2(np.sum(np.cross(t, f) * up, -1), np.sum(t * f, -1)))
 
 
-def circular_mean_deg(a: np.ndarray) -> float:
-    r = np.radians(a[np.isfinite(a)])
-    return float(np.degrees(np.arctan2(np.sin(r).mean(), np.cos(r).mean()))) if len(r) else float("nan")
-
-
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
+    args = heading_arguments(__doc__, RESULT, argv)
     pair = ViewGatedPCNet()
     per_sequence: dict[str, list[float]] = {row: [] for row in ROWS}
     per_frame: dict[str, list[np.ndarray]] = {row: [] for row in ROWS}

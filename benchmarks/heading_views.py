@@ -17,7 +17,6 @@ tuning set. Writes benchmarks/results/heading_views.txt.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from itertools import combinations
 from pathlib import Path
@@ -27,12 +26,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gravity_benchmark import load_camera  # noqa: E402
+from headings import circular_mean_deg, heading_arguments, wrapped_deg  # noqa: E402
 from report import print_and_save  # noqa: E402
 
 from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
 from pcnet.stages.core.rotations import with_up  # noqa: E402
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "heading_views.txt"
 COMMAND = "python benchmarks/heading_views.py --data ../shared/data"
 ROWS = ("camera-frame heading", "body-frame heading")
@@ -45,20 +44,8 @@ def lab_headings(R: np.ndarray, R_world_to_cam: np.ndarray) -> np.ndarray:
     return np.degrees(np.arctan2(forward[:, 1], forward[:, 0]))
 
 
-def circular_mean_deg(a: np.ndarray) -> float:
-    r = np.radians(a[np.isfinite(a)])
-    return float(np.degrees(np.arctan2(np.sin(r).mean(), np.cos(r).mean())))
-
-
-def wrapped(d: float) -> float:
-    return float((d + 180.0) % 360.0 - 180.0)
-
-
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
+    args = heading_arguments(__doc__, RESULT, argv)
     pair = ViewGatedPCNet()
     means: dict[str, dict[str, float]] = {row: {} for row in ROWS}
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
@@ -73,12 +60,12 @@ def main(argv=None) -> int:
         for row, R in zip(ROWS, (pair.camera.predict(joints)[0], pair.body.predict(joints)[0])):
             h = lab_headings(with_up(R, up)[ok], R_wc)
             mean = means[row][path.stem] = circular_mean_deg(h)
-            spread = [wrapped(x - mean) for x in h]
-            lines.append(f"  {path.stem:<20}{row:<22}{mean:>8.1f}  [{min(spread):+.1f}, {max(spread):+.1f}]")
+            spread = wrapped_deg(h - mean)
+            lines.append(f"  {path.stem:<20}{row:<22}{mean:>8.1f}  [{spread.min():+.1f}, {spread.max():+.1f}]")
     lines += ["", "Spread across the cameras (largest difference between two cameras' means, deg):"]
     for row in ROWS:
         values = list(means[row].values())
-        spread = max(abs(wrapped(a - b)) for a, b in combinations(values, 2))
+        spread = max(abs(float(wrapped_deg(a - b))) for a, b in combinations(values, 2))
         lines.append(f"  {row:<22}{spread:>8.1f}")
     print_and_save(lines, args.out)
     return 0

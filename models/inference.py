@@ -14,7 +14,7 @@ import numpy as np
 from pcnet.stages.core.conventions import check_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import frame_blocks, in_memory
-from pcnet.stages.core.rotations import angle_between
+from pcnet.stages.core.rotations import angle_between, with_up
 
 from .preprocess import normalize_input
 from .view_gate import blend_rotations, camera_frame_weight, level_view_preferred, quarter_turn_matrices, quarter_turns
@@ -126,7 +126,11 @@ class ViewGatedPCNet:
     :func:`pcnet.models.view_gate.camera_frame_weight` (camera-frame inside its training
     views, body-frame beyond them), in the camera frame turned back by the quarter turns the
     body-frame network reads (:func:`pcnet.models.view_gate.quarter_turns`: a portrait camera
-    is a level one for the camera-frame network).
+    is a level one for the camera-frame network). The blend sets the answer's up; its heading
+    (the turn about that up) is the body-frame network's on every frame, its rotation turned by
+    the shortest arc onto the blend's up (:func:`pcnet.stages.core.rotations.with_up`): that
+    network's input frame is built from the hip line, and its heading is the more accurate on
+    held-out mocap (docs/experiments.md, "The body-frame network's heading"; release 5.2).
 
     ``predict(joints_cam, fps)`` as :meth:`PCNetSession.predict` (one recording per call:
     the gate's running median runs over the frames in order); ``predict_gated`` also returns
@@ -194,7 +198,10 @@ class ViewGatedPCNet:
         for rows in blocks:
             w = weight[rows, None, None]
             res_cam[rows] = w * res_cam[rows] + (1 - w) * res_body[rows]
-            R_cam[rows] = blend_rotations(R_body[rows], R_cam[rows], weight[rows])
+            # The gate chooses the up; the heading is the body-frame network's, whose input
+            # frame is built from the hip line (docs/experiments.md, "The body-frame network's
+            # heading on the pair's up").
+            R_cam[rows] = with_up(R_body[rows], blend_rotations(R_body[rows], R_cam[rows], weight[rows])[:, :, 1])
         level_view = np.full(n, np.nan)
         if len(preferred):
             level_view[preferred] = np.degrees(angle_between(R_level[preferred, :, 1], R_cam[preferred, :, 1]))

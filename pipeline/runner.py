@@ -30,7 +30,7 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (body_size_flag, keypoints_outside_image_flag, leg_asymmetry_flag, mirrored_skeleton_flag, side_swap_flag, size_change_flag, one_person_frames, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
+from pcnet.stages.flags import (body_size_flag, per_frame_tilt_summary, keypoints_outside_image_flag, leg_asymmetry_flag, mirrored_skeleton_flag, side_swap_flag, size_change_flag, one_person_frames, disagreement_flag, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
                                track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
@@ -75,11 +75,13 @@ class RunResult:
     notes: list[str] = field(default_factory=list)
     seconds: dict[str, float] = field(default_factory=dict)
     flags: list[str] = field(default_factory=list)
+    fps: float = float("nan")
+    fps_source: str = ""
 
     def summary(self) -> str:
         """A one-screen text summary."""
         lines = [
-            f"frames            {self.frames} ("
+            f"frames            {self.frames} at {self.fps:.4g} fps ({self.fps_source}; "
             + (f"{self.frames - self.valid_frames} without a valid pose: kept as NaN rows, valid = 0)"
                if self.valid_frames < self.frames else "every one with a valid pose)"),
             f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}"
@@ -90,7 +92,7 @@ class RunResult:
             + ")",
             f"heading           from {self.report.get('heading_source')} (requested "
             f"{self.report.get('requested_heading_source')}; " + self._hip_width() + ")",
-            f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(),
+            f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll() + self._per_frame_tilt(),
             *self._frame_bound(),
             "kinematics frame  " + (WORLD_SUMMARY[self.report["root_path"]] if self.report.get("kinematics_frame") == "world"
                                      else "canonical (turns with the pelvis; no fixed frame without a static camera)"),
@@ -102,6 +104,15 @@ class RunResult:
         if "recording" in self.outputs:
             lines.append(f"open the recording with:  rerun {self.outputs['recording']}")
         return "\n".join(lines)
+
+    def _per_frame_tilt(self) -> str:
+        """Where the up may change from frame to frame, the tilt line's one number is that of the
+        recording's mean up; the per-frame tilts' median and 5-95 % range say how they spread."""
+        stats = self.report.get("camera_tilt_per_frame_deg")
+        if self.mode == "sequence" or not stats or not np.isfinite(stats[0]):
+            return ""
+        median, low, high = stats
+        return f"; of the recording's mean up; per frame median {median:.1f}, 5-95 % {low:.1f}-{high:.1f} deg"
 
     def _hip_width(self) -> str:
         cv = self.report.get("hip_width_cv_percent", float("nan"))
@@ -153,10 +164,11 @@ class RunResult:
 FPS_TOLERANCE = 0.01
 
 
-def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]) -> float:
-    """The recording's frame rate: ``--fps``, else the video's, else the one an input file
-    carries (MediaPipe npz), given as ``(file, fps or None)`` pairs. ``--fps`` contradicting
-    the video's or a file's own rate is an error unless ``fps_override``."""
+def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]) -> tuple[float, str]:
+    """The recording's frame rate and where it came from (for the summary): ``--fps``, else the
+    video's, else the one an input file carries (MediaPipe npz, a Kinect archive), given as
+    ``(file, fps or None)`` pairs. ``--fps`` contradicting the video's or a file's own rate is an
+    error unless ``fps_override``."""
     recorded = [(cfg.video, video.fps)] if video is not None else []
     recorded += [(source, fps) for source, fps in carried if fps is not None]
     if cfg.fps_override and not recorded:
@@ -167,10 +179,10 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
             if abs(cfg.fps - fps) > FPS_TOLERANCE * fps and not cfg.fps_override:
                 raise InputError(f"--fps {cfg.fps:g}: expected the rate {source} records ({fps:g} fps), got a "
                                  f"mismatch; pass --fps-override to use --fps anyway")
-        return float(cfg.fps)
+        return float(cfg.fps), "--fps"
     if recorded:
         source, fps = recorded[0]
-        return validate_fps(fps, f"{source}: frame rate")
+        return validate_fps(fps, f"{source}: frame rate"), f"recorded in {Path(source).name}"
     raise InputError("fps: needed when no video is given and the input files do not carry their frame rate "
                      "(pass --fps)")
 
@@ -197,12 +209,12 @@ def _load_inputs(cfg: RunConfig):
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)
     poses = adapter.load(cfg.lifter_output, **cfg.lifter_options)  # checked by cfg.validate() in run_pipeline
-    fps = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
+    fps, fps_source = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output))
     built = built_joints(poses.layout)
     remapped = built and (f"3D joints remapped from {poses.layout} to H36M-17 with {', '.join(built)} built as means "
                           f"of other joints (stages/remap.py): trunk and shoulder angles rest on them")
-    return (video, fps, kp2d, kp_size, joints, poses.units, poses.root_translation,
+    return (video, (fps, fps_source), kp2d, kp_size, joints, poses.units, poses.root_translation,
             [n for n in (poses.summary_note, kp_choice and f"2D keypoints: {kp_choice} (--person chooses another)",
                          remapped, *_assumed_inputs(cfg)) if n],
             poses.frame_turn_deg)
@@ -521,7 +533,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
     # store is removed before the folder is swapped in.
     with staged_output(out, cfg.overwrite) as tmp, FrameStore(tmp) as store:
         step("inputs")
-        video, fps, kp2d, kp_size, joints, units, measured_root, input_notes, lifter_turn = _load_inputs(cfg)
+        video, (fps, fps_source), kp2d, kp_size, joints, units, measured_root, input_notes, lifter_turn = _load_inputs(cfg)
         needing_metres = [name for name, asked in (("--c3d", cfg.c3d), ("--opensim", cfg.opensim)) if asked]
         if needing_metres and units != "m" and cfg.height is None:
             raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
@@ -569,7 +581,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         del res
         tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
         # what the summary's tilt line prints, in every mode (sequence mode: its one up)
-        report.update(camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg)
+        report.update(camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg,
+                      camera_tilt_per_frame_deg=per_frame_tilt_summary(rotations[:, :, 1], valid))
         flags = orientation_flags(tilt, pitch_deg, roll_deg, turn_reported=quarter_turn_reported(report.get("view_gate")))
         flags += body_size_flag(cam, units) if cfg.height is None else []
         # image-scaled sizes are made constant per frame below; a metric body should keep its own
@@ -579,7 +592,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         swapped = side_swap_flag(kp2d, cam) if kp2d is not None else []
         flags += swapped or mirrored_skeleton_flag(cam)  # a side swap is a mirror image too: said once
         flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
-        flags += view_gate_flag(report.get("view_gate"))
+        flags += view_gate_flag(report.get("view_gate"), lying=(report.get("gravity") or {}).get("reading") == "lying")
         flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
         flags += lifter_frame_flag(lifter_turn, _tilt_tolerance(report))
         flags += (track_switch_flag(segment, events, person_option=cfg.keypoints2d_format in MULTI_TRACK_FORMATS)
@@ -686,7 +699,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         step("done")
         run = RunResult(
             frames=len(cam), valid_frames=int(valid.sum()), units=units, method=cfg.method, mode=report["mode"],
-            camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg, flags=flags,
+            camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg, flags=flags, fps=fps,
+            fps_source=fps_source,
             report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
         )
         if before_publish is not None:

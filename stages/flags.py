@@ -59,6 +59,26 @@ def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, fl
     return float(tilt), float(pitch), float(roll)
 
 
+def per_frame_tilt_summary(up_cam: np.ndarray, valid: np.ndarray) -> list[float]:
+    """Median, 5th and 95th percentile (degrees) of the per-frame camera tilt
+    ``arccos(-u_y)`` over the valid frames, for the summary of a recording whose up may
+    change from frame to frame (frame and smooth modes), where :func:`camera_tilt`'s one
+    number is that of the mean up.
+
+    Args:
+        up_cam: ``(T, 3)`` unit up directions in the camera frame (OpenCV axes).
+        valid: ``(T,)`` bool.
+
+    Returns:
+        ``[median, p5, p95]`` floats, NaN when no frame is valid.
+    """
+    ok = np.asarray(valid, bool) & np.isfinite(up_cam).all(axis=1)
+    if not ok.any():
+        return [float("nan")] * 3
+    tilt = np.degrees(np.arccos(np.clip(-up_cam[ok, 1], -1.0, 1.0)))
+    return [float(v) for v in np.percentile(tilt, [50, 5, 95])]
+
+
 def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None, *,
                       turn_reported: bool = False) -> list[str]:
     """Flags for a camera orientation that real recordings rarely have.
@@ -90,7 +110,8 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
                 f"axes are wrong (check the lifter's axis convention; --axes with --lifter generic)"]
     beyond_turn = tilt_deg if quarter == 0 else float(np.degrees(np.arccos(np.clip(
         np.cos(np.radians(pitch_deg)) * np.cos(np.radians(roll_deg - 90.0 * quarter)), -1.0, 1.0))))
-    turned = "" if quarter == 0 else f" beyond a quarter turn (roll {roll_deg:+.0f} deg: a camera held in portrait)"
+    turned = "" if quarter == 0 else (f" beyond a quarter turn (roll {roll_deg:+.0f} deg, nearer a camera held in "
+                                      f"portrait than a level one)")
     if beyond_turn > UNUSUAL_TILT_DEG:
         return [f"camera tilt {beyond_turn:.0f} deg{turned}: beyond the {UNUSUAL_TILT_DEG:.0f} deg of most real cameras; "
                 f"either the camera was tilted that much or the subject is not upright (lying, seated, bent), which the "
@@ -370,14 +391,16 @@ def quarter_turn_reported(view_gate: dict | None) -> bool:
     return sum(view_gate.get("turned_frames", {}).values()) > OUTSIDE_VIEWS_SHARE * view_gate["frames"]
 
 
-def view_gate_flag(view_gate: dict | None) -> list[str]:
+def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[str]:
     """Flags from the view gate's report (:func:`pcnet.stages.rectify.gate_report`), each
     when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the camera
     read as turned by 90 or 270 deg about its optical axis (the camera-frame network read
     the poses turned back), of those the frames whose unturned poses that network reads as a
     body on the floor under a level camera (``level_view_frames``), and the camera-frame 3DPCNet (partly) set aside for the body-frame
     one (the remaining roll beyond 10-20 deg or pitch beyond 40-50 deg, or a body whose trunk is
-    far from the image's vertical). ``None`` (one estimator ran) gives none."""
+    far from the image's vertical). ``None`` (one estimator ran) gives none. ``lying``: sequence
+    mode's camera prior read the body as lying (:func:`gravity_reading_flag`), which then sets
+    the answer instead of the turned reading; the quarter-turn flag says so."""
     if not view_gate or not view_gate["frames"]:
         return []
     flags = []
@@ -387,7 +410,9 @@ def view_gate_flag(view_gate: dict | None) -> list[str]:
         flags.append(f"camera read as turned a quarter turn about its optical axis (a phone in portrait, or a body "
                      f"lying across the image) in {sum(turned.values())} of {view_gate['frames']} frames "
                      f"({counts}): the camera-frame network read those poses turned back (models/view_gate.py: "
-                     f"quarter_turns)")
+                     f"quarter_turns)" + ("; the camera prior then read the body as lying under a level camera "
+                                          "instead, and that reading is the answer (the 'body read as lying' "
+                                          "warning)" if lying else ""))
     level = view_gate.get("level_view_frames", 0)
     if level > OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
         flags.append(f"in {level} of those frames the camera-frame network, shown the poses as the camera saw them, reads "

@@ -787,6 +787,16 @@ def test_an_archive_of_several_arrays_for_a_lifter_without_key_says_so(tmp_path)
     assert "--key (key=)" not in str(err.value)
 
 
+def test_a_kinect_archive_given_to_a_single_array_lifter_names_the_kinect_adapter(tmp_path):
+    """A UTD-MHAD-style archive (``skeleton`` + ``skeleton_fps``, as ../shared/data keeps them)
+    read with --lifter videopose3d: the refusal names --lifter kinect_v1, as a MediaPipe
+    archive's names --lifter mediapipe."""
+    path = tmp_path / "a05_s3_t2.npz"
+    np.savez(path, skeleton=np.load(YOGA["Tadasana"]), skeleton_fps=np.float64(20.1))
+    with pytest.raises(AdapterError, match=r"read them with --lifter kinect_v1"):
+        load_videopose3d(path)
+
+
 def test_json_with_a_byte_order_mark_reads_as_without(tmp_path):
     """Some Windows tools start UTF-8 JSON with a byte-order mark; the real AlphaPose file so
     stored reads the same (it was refused as invalid JSON)."""

@@ -91,6 +91,30 @@ def test_torch_6d_matches_numpy():
     np.testing.assert_allclose(np.linalg.det(Rt), 1.0, atol=1e-6)
 
 
+def test_with_up_takes_the_up_and_keeps_the_nearest_heading():
+    """The result is a rotation whose up is the given one, nearest the input among all such
+    rotations (no turn about the new up beats it), the input itself when the ups agree, and a
+    half turn about the input's +X when they are opposite."""
+    R = Rotation.random(200, random_state=3).as_matrix()
+    up = rot.normalize(np.random.default_rng(4).normal(size=(200, 3)))
+    out = rot.with_up(R, up)
+    np.testing.assert_allclose(out[:, :, 1], up, atol=1e-12)
+    np.testing.assert_allclose(np.swapaxes(out, 1, 2) @ out, np.broadcast_to(np.eye(3), out.shape), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(out), 1.0, atol=1e-12)
+    nearest = rot.geodesic_angle(out, R)
+    for angle in (-0.2, -0.01, 0.01, 0.2):  # turning about the new up only moves away from R
+        K = np.zeros_like(out)
+        K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -up[:, 2], up[:, 1], -up[:, 0]
+        K -= np.swapaxes(K, 1, 2)
+        turned = (np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K) @ out
+        assert np.all(rot.geodesic_angle(turned, R) > nearest)
+    np.testing.assert_allclose(rot.with_up(R, R[:, :, 1]), R, atol=1e-12)
+    flipped = rot.with_up(R[:5], -R[:5, :, 1])
+    np.testing.assert_allclose(flipped[:, :, 0], R[:5, :, 0], atol=1e-12)
+    np.testing.assert_allclose(flipped[:, :, 1], -R[:5, :, 1], atol=1e-12)
+    assert np.isnan(rot.with_up(R[:1], np.full(3, np.nan))).all()
+
+
 def test_camera_rotation_round_trip_and_ranges():
     rng = np.random.default_rng(3)
     for dist, pitch_max, roll_max in (("paper", 25, 12), ("wide", 45, 25), ("handheld", 25, 30)):

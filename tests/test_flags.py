@@ -50,6 +50,13 @@ def test_smooth_mode_summary_prints_a_consistent_tilt(tmp_path):
     tilt, pitch, roll = map(float, re.search(r"camera tilt\s+([\d.]+) deg from level \(pitch ([+-][\d.]+), roll "
                                              r"([+-][\d.]+)", res.output).groups())
     assert np.cos(np.radians(tilt)) == pytest.approx(np.cos(np.radians(pitch)) * np.cos(np.radians(roll)), abs=2e-3)
+    # the up moves from frame to frame: the line says its number is the mean up's, and how the frames spread
+    median, low, high = map(float, re.search(r"of the recording's mean up; per frame median ([\d.]+), 5-95 % "
+                                             r"([\d.]+)-([\d.]+) deg", res.output).groups())
+    with np.load(tmp_path / "o" / "canonical.npz") as out:
+        per_frame = np.degrees(np.arccos(-out["up"][out["valid"].astype(bool), 1]))
+    assert median == pytest.approx(np.median(per_frame), abs=0.05) and low <= median <= high
+    assert "at 30 fps (--fps;" in res.output
 
 
 @pytest.mark.parametrize("method", ["pcnet", "geometric"])

@@ -43,7 +43,7 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     assert res.exit_code == 0, res.output
     assert f"rerun {out / 'recording.rrd'}" in res.output
     frames = len(np.load(EXAMPLE_DIR / "X3D.npy"))
-    assert f"frames            {frames}" in res.output
+    assert f"frames            {frames} at 30 fps (recorded in boxing2.mp4;" in res.output  # the video's rate
     # a static camera: one tilt for the whole video, with its calibrated 95 % interval
     # (bootstrap + the lifter's systematic error, stages/uncertainty.py) and the bootstrap alone
     assert "mode sequence (requested auto" in res.output

@@ -86,8 +86,10 @@ def with_up(R: np.ndarray, up: np.ndarray) -> np.ndarray:
     (``A = I + K + K^2 (1 - c) / s^2``, ``K`` the cross-product matrix of ``R_y x up``, ``c``
     and ``s`` the angle's cosine and sine). The result has ``up`` as its up and keeps ``R``'s
     heading about it: of all rotations with that up, the one nearest ``R``. Where the two are
-    opposite (the arc is not unique) ``R`` is turned by pi about its own +X. ``(..., 3, 3)``
-    float64; NaN where either input has a NaN.
+    opposite (the arc is not unique) ``R`` is turned by pi about its own +X. The result is then
+    made orthonormal with its up kept (Gram-Schmidt from +Y: an ``R`` from float32 network
+    output is orthonormal to about 1e-6 only). ``(..., 3, 3)`` float64; NaN where either input
+    has a NaN.
     """
     R = np.asarray(R, np.float64)
     a = R[..., :, 1]
@@ -104,7 +106,10 @@ def with_up(R: np.ndarray, up: np.ndarray) -> np.ndarray:
     x = R[..., :, 0]
     half_turn = 2.0 * x[..., :, None] * x[..., None, :] - np.eye(3)  # pi about R's own +X
     opposite = ((s2 <= _EPS ** 2) & (c < 0))[..., None, None]
-    return np.where(opposite, half_turn, A) @ R
+    turned = np.where(opposite, half_turn, A) @ R
+    y = normalize(b)
+    x = normalize(turned[..., :, 0] - np.sum(turned[..., :, 0] * y, axis=-1, keepdims=True) * y)
+    return np.stack([x, y, np.cross(x, y)], axis=-1)
 
 
 def axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
