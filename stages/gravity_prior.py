@@ -59,6 +59,12 @@ LEVEL_UP = np.array([0.0, -1.0, 0.0])
 
 _FOUR_PI = 4.0 * np.pi
 
+#: Posterior probability of the reading not reported from which the printed 95 % interval
+#: reaches it (a region holding 95 % of the posterior must hold some of a reading with more
+#: than 5 %): :attr:`GravityPosterior.pitch_half_both_deg` (docs/experiments.md, "A 95 %
+#: interval that reaches the other reading").
+OTHER_READING_P = 0.05
+
 
 @dataclass(frozen=True)
 class GravityPosterior:
@@ -69,7 +75,10 @@ class GravityPosterior:
     cone half-angle of the posterior within the chosen reading (deg); pitch_half_deg,
     roll_half_deg: 95 % half-widths of camera pitch / roll within the chosen reading (deg,
     :func:`pcnet.stages.core.rotations.decompose_camera_rotation`'s angles);
-    pose_camera_angle_deg: angle between the pose-based up and a level camera's up.
+    pose_camera_angle_deg: angle between the pose-based up and a level camera's up;
+    pitch_half_both_deg, roll_half_both_deg: the same half-widths around the chosen up over the
+    whole posterior, both readings (what a 95 % interval must reach when the other reading
+    keeps more than 5 %: :data:`OTHER_READING_P`).
     """
 
     up: np.ndarray
@@ -79,6 +88,13 @@ class GravityPosterior:
     pitch_half_deg: float
     roll_half_deg: float
     pose_camera_angle_deg: float
+    pitch_half_both_deg: float = float("nan")
+    roll_half_both_deg: float = float("nan")
+
+    @property
+    def other_reading_p(self) -> float:
+        """Posterior probability of the reading not reported."""
+        return min(self.p_lying, 1.0 - self.p_lying)
 
     def report(self) -> dict:
         """JSON-ready summary with the priors used."""
@@ -196,4 +212,6 @@ def gravity_posterior(pose_up: np.ndarray, pose_sigma_deg: float, trunk: np.ndar
         up = _upright_mode(m, k_pose, k_cam, np.log(LEVEL_CAMERA_PRIOR), np.log(1.0 - LEVEL_CAMERA_PRIOR))
         reading = "upright"
     cone, pitch_half, roll_half = _half_widths(grid, weights, up)
-    return GravityPosterior(up, reading, p_lying, cone, pitch_half, roll_half, angle)
+    both = np.logaddexp(log_upright, log_lying)
+    _, pitch_both, roll_both = _half_widths(grid, np.exp(both - both.max()), up)
+    return GravityPosterior(up, reading, p_lying, cone, pitch_half, roll_half, angle, pitch_both, roll_both)

@@ -28,6 +28,7 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
+from .gravity_prior import OTHER_READING_P
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
@@ -281,6 +282,9 @@ class SequenceEvidence:
             else:
                 pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch", scale=evidence_scale)
                 roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll", scale=evidence_scale)
+            if calibrated and g is not None and g.other_reading_p >= OTHER_READING_P:
+                # a 95 % interval must reach a reading that keeps more than 5 % of the posterior
+                pitch_half, roll_half = max(pitch_half, g.pitch_half_both_deg), max(roll_half, g.roll_half_both_deg)
             report.update(
                 evidence=res.evidence, valid=res.valid, up=res.up, up_uncertainty_deg=res.up_uncertainty_deg,
                 camera_pitch_deg=res.camera_pitch_deg, camera_roll_deg=res.camera_roll_deg,

@@ -66,7 +66,11 @@ bound without it (docs/experiments.md, "The level view as an alternative in the 
 bound").
 
 A lying reading of the camera-prior posterior (:mod:`pcnet.stages.gravity_prior`) reports
-the posterior's own interval instead.
+the posterior's own interval instead. Where the reading not reported keeps at least
+:data:`pcnet.stages.gravity_prior.OTHER_READING_P` (5 %) of that posterior, each half-width is
+at least the posterior's 95 % half-width over both readings: a region holding 95 % must hold
+some of it (stages/rectify.py; docs/experiments.md, "A 95 % interval that reaches the other
+reading").
 
 Scope: the constants were calibrated for the ``pcnet`` method with the shipped weights on
 held-out mocap with simulated lifter-like noise (:mod:`pcnet.models.lifter_noise`, the noise

@@ -125,6 +125,29 @@ def test_sequence_mode_reads_a_real_lying_body_as_lying():
     assert alone.report["gravity"] is None and _trunk_from_vertical_deg(alone.canonical) < 30.0
 
 
+def test_a_95_percent_interval_reaches_the_other_reading_where_it_keeps_more_than_5_percent():
+    """Real prone cobra (VideoPose3D Bhujangasana): both networks read the raised chest as an
+    upright trunk under a camera rolled about 65 deg, and the lying reading (a level camera)
+    keeps 13 % of the posterior; the printed 95 % intervals then reach a level camera, which
+    the calibrated ones alone (a few degrees) missed. A standing body, whose lying reading keeps
+    well under 5 %, keeps the calibrated interval."""
+    from pcnet.pipeline.rectification import rectify
+    from pcnet.stages.gravity_prior import OTHER_READING_P
+    from pcnet.stages.uncertainty import calibrated_interval
+
+    cobra = rectify(np.load(FIX / "yoga_Abhay_Bhujangasana_f150-249.npy"), "pcnet", mode="sequence", fps=30.0).report
+    assert cobra["gravity"]["reading"] == "upright" and cobra["gravity"]["p_lying"] >= OTHER_READING_P
+    assert abs(cobra["camera_roll_deg"]) > 45.0  # read as a strongly rolled camera
+    assert abs(cobra["camera_roll_deg"]) <= cobra["camera_roll_interval_deg"]  # a level camera is inside
+    assert abs(cobra["camera_pitch_deg"]) <= cobra["camera_pitch_interval_deg"]
+    assert cobra["camera_roll_interval_deg"] > 5 * calibrated_interval(cobra["camera_roll_uncertainty_deg"], "roll",
+                                                                       scale=cobra["evidence_scale"])
+    standing = rectify(np.load(FIX / "yoga_Abhay_Tadasana_f000-099.npy"), "pcnet", mode="sequence", fps=30.0).report
+    assert standing["gravity"]["p_lying"] < OTHER_READING_P
+    assert standing["camera_pitch_interval_deg"] == pytest.approx(calibrated_interval(
+        standing["camera_pitch_uncertainty_deg"], "pitch", scale=standing["evidence_scale"]))
+
+
 def test_reading_flags_name_the_reading():
     from pcnet.stages.flags import gravity_reading_flag
 
