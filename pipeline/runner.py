@@ -39,7 +39,6 @@ from pcnet.stages.remap import built_joints, mask_low_confidence, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
                                       write_motion_files, write_rerun)
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
-from pcnet.stages.gravity_prior import OTHER_READING_P
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL, UNFAMILIAR_EVIDENCE_SCALE
 from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
@@ -148,8 +147,8 @@ class RunResult:
         gravity = self.report.get("gravity") or {}
         lying = gravity.get("reading") == "lying"
         label = "95 % posterior interval of the lying reading (camera prior)" if lying else UNCERTAINTY_LABEL
-        other = min(gravity.get("p_lying", 0.0), 1.0 - gravity.get("p_lying", 0.0))
-        if other >= OTHER_READING_P:
+        other = self.report.get("interval_reaches_other_reading_p")
+        if other is not None:
             label += (f"; widened to reach the {'upright' if lying else 'lying'} reading, which keeps "
                       f"{100 * other:.0f} % of the posterior")
         return (f"(pitch {self.camera_pitch_deg:+.1f} +- {pitch_unc:.1f}, roll {self.camera_roll_deg:+.1f} "

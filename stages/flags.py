@@ -48,12 +48,12 @@ def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, fl
     Returns:
         ``(tilt, pitch, roll)`` in degrees, NaN when no frame is valid.
     """
-    ok = np.asarray(valid, bool) & np.isfinite(up_cam).all(axis=1)
+    ok = _valid_ups(up_cam, valid)
     if not ok.any():
         return float("nan"), float("nan"), float("nan")
     u = up_cam[ok].mean(axis=0)
     u = u / np.linalg.norm(u)
-    tilt = np.degrees(np.arccos(np.clip(-u[1], -1.0, 1.0)))
+    tilt = _tilt_deg(u)
     pitch = np.degrees(np.arcsin(np.clip(-u[2], -1.0, 1.0)))
     roll = np.degrees(np.arctan2(u[0], -u[1]))
     return float(tilt), float(pitch), float(roll)
@@ -72,11 +72,19 @@ def per_frame_tilt_summary(up_cam: np.ndarray, valid: np.ndarray) -> list[float]
     Returns:
         ``[median, p5, p95]`` floats, NaN when no frame is valid.
     """
-    ok = np.asarray(valid, bool) & np.isfinite(up_cam).all(axis=1)
+    ok = _valid_ups(up_cam, valid)
     if not ok.any():
         return [float("nan")] * 3
-    tilt = np.degrees(np.arccos(np.clip(-up_cam[ok, 1], -1.0, 1.0)))
-    return [float(v) for v in np.percentile(tilt, [50, 5, 95])]
+    return [float(v) for v in np.percentile(_tilt_deg(up_cam[ok]), [50, 5, 95])]
+
+
+def _valid_ups(up_cam: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    return np.asarray(valid, bool) & np.isfinite(up_cam).all(axis=1)
+
+
+def _tilt_deg(up_cam: np.ndarray) -> np.ndarray:
+    """Camera tilt (deg): the angle between unit up(s) ``(..., 3)`` and image up, -y."""
+    return np.degrees(np.arccos(np.clip(-up_cam[..., 1], -1.0, 1.0)))
 
 
 def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None, *,

@@ -232,7 +232,10 @@ class SequenceEvidence:
             ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
             adding the lifter's systematic per-clip error calibrated on held-out mocap and
             scaled by ``evidence_scale``, :func:`pcnet.stages.uncertainty.calibrated_interval`;
-            for a ``lying`` reading the posterior's; NaN when not ``calibrated``), ``evidence_scale``, ``up_spread_deg``,
+            for a ``lying`` reading the posterior's; NaN when not ``calibrated``; widened to reach
+            the reading not reported where it keeps at least
+            :data:`pcnet.stages.gravity_prior.OTHER_READING_P`, whose posterior probability is then
+            ``interval_reaches_other_reading_p``, else ``None``), ``evidence_scale``, ``up_spread_deg``,
             ``up_spread_p95_deg``, ``ground_plane`` and
             ``gravity`` (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report` or ``None``).
 
@@ -282,7 +285,8 @@ class SequenceEvidence:
             else:
                 pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch", scale=evidence_scale)
                 roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll", scale=evidence_scale)
-            if calibrated and g is not None and g.other_reading_p >= OTHER_READING_P:
+            reaches_other = calibrated and g is not None and g.other_reading_p >= OTHER_READING_P
+            if reaches_other:
                 # a 95 % interval must reach a reading that keeps more than 5 % of the posterior
                 pitch_half, roll_half = max(pitch_half, g.pitch_half_both_deg), max(roll_half, g.roll_half_both_deg)
             report.update(
@@ -291,6 +295,7 @@ class SequenceEvidence:
                 camera_pitch_uncertainty_deg=res.camera_pitch_uncertainty_deg,
                 camera_roll_uncertainty_deg=res.camera_roll_uncertainty_deg,
                 camera_pitch_interval_deg=pitch_half, camera_roll_interval_deg=roll_half,
+                interval_reaches_other_reading_p=round(g.other_reading_p, 4) if reaches_other else None,
                 evidence_scale=evidence_scale,
                 gravity=None if g is None else g.report(), up_spread_deg=res.up_spread_deg,
                 up_spread_p95_deg=res.up_spread_p95_deg, ground_plane=res.ground_plane,

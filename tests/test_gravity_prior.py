@@ -140,10 +140,11 @@ def test_a_95_percent_interval_reaches_the_other_reading_where_it_keeps_more_tha
     assert abs(cobra["camera_roll_deg"]) > 45.0  # read as a strongly rolled camera
     assert abs(cobra["camera_roll_deg"]) <= cobra["camera_roll_interval_deg"]  # a level camera is inside
     assert abs(cobra["camera_pitch_deg"]) <= cobra["camera_pitch_interval_deg"]
+    assert cobra["interval_reaches_other_reading_p"] == pytest.approx(cobra["gravity"]["p_lying"], abs=1e-4)
     assert cobra["camera_roll_interval_deg"] > 5 * calibrated_interval(cobra["camera_roll_uncertainty_deg"], "roll",
                                                                        scale=cobra["evidence_scale"])
     standing = rectify(np.load(FIX / "yoga_Abhay_Tadasana_f000-099.npy"), "pcnet", mode="sequence", fps=30.0).report
-    assert standing["gravity"]["p_lying"] < OTHER_READING_P
+    assert standing["gravity"]["p_lying"] < OTHER_READING_P and standing["interval_reaches_other_reading_p"] is None
     assert standing["camera_pitch_interval_deg"] == pytest.approx(calibrated_interval(
         standing["camera_pitch_uncertainty_deg"], "pitch", scale=standing["evidence_scale"]))
 
