@@ -28,14 +28,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from headings import circular_mean_deg, heading_arguments  # noqa: E402
+from headings import circular_mean_deg, heading_arguments, pair_headings  # noqa: E402
 from report import print_and_save  # noqa: E402
 
 from pcnet.adapters import load_kinect_v1  # noqa: E402
 from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
 from pcnet.pipeline.io import lifter_joints  # noqa: E402
 from pcnet.stages.core.conventions import PELVIS  # noqa: E402
-from pcnet.stages.core.rotations import normalize, with_up  # noqa: E402
+from pcnet.stages.core.rotations import normalize  # noqa: E402
 
 RESULT = Path(__file__).resolve().parent / "results" / "heading_facing.txt"
 COMMAND = "python benchmarks/heading_facing.py --data ../shared/data"
@@ -61,10 +61,9 @@ def main(argv=None) -> int:
         poses = load_kinect_v1(path)
         joints = lifter_joints(poses, str(path)).astype(np.float64)
         to_sensor = -joints[:, PELVIS]
-        R_pair, _, ok, *_ = pair.predict_gated(joints, poses.fps or 30.0)
-        up = R_pair[:, :, 1]
-        for row, R in zip(ROWS, (pair.camera.predict(joints)[0], pair.body.predict(joints)[0])):
-            err = signed_heading_error_deg(with_up(R, up)[:, :, 0], to_sensor, up)[ok]
+        ok, _, _, on_pair_up = pair_headings(pair, joints, poses.fps or 30.0)
+        for row, R in zip(ROWS, on_pair_up):
+            err = signed_heading_error_deg(R[:, :, 0], to_sensor, R[:, :, 1])[ok]
             per_frame[row].append(np.abs(err[np.isfinite(err)]))
             per_sequence[row].append(circular_mean_deg(err))
         with np.load(path) as f:

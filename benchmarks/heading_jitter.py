@@ -23,14 +23,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from headings import heading_arguments, wrapped_deg  # noqa: E402
+from headings import heading_arguments, pair_headings, wrapped_deg  # noqa: E402
 from report import print_and_save  # noqa: E402
 
 from pcnet.adapters import load_motionbert, load_videopose3d  # noqa: E402
 from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
 from pcnet.pipeline.io import lifter_joints  # noqa: E402
 from pcnet.stages.core.conventions import root_relative  # noqa: E402
-from pcnet.stages.core.rotations import normalize, with_up  # noqa: E402
+from pcnet.stages.core.rotations import normalize  # noqa: E402
 
 RESULT = Path(__file__).resolve().parent / "results" / "heading_jitter.txt"
 COMMAND = "python benchmarks/heading_jitter.py --data ../shared/data"
@@ -64,11 +64,10 @@ def main(argv=None) -> int:
     for loader, path in files:
         poses = loader(path)
         joints, _ = root_relative(lifter_joints(poses, str(path)))
-        R_pair, _, ok, *_ = pair.predict_gated(joints, 30.0)
-        up = R_pair[:, :, 1]
+        ok, _, _, on_pair_up = pair_headings(pair, joints, 30.0)
         group = path.stem.split("_")[-1] if path.parent.name == "yoga_videopose3d" else path.parent.name
-        for row, R in zip(ROWS, (pair.camera.predict(joints)[0], pair.body.predict(joints)[0])):
-            groups.setdefault(group, {r: [] for r in ROWS})[row].append(jitter(heading_about_up_deg(with_up(R, up)[ok])))
+        for row, R in zip(ROWS, on_pair_up):
+            groups.setdefault(group, {r: [] for r in ROWS})[row].append(jitter(heading_about_up_deg(R[ok])))
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              "Per group of files: median over files of the median |frame-to-frame heading change| (deg/frame) "
              "and of the circular std over the file (deg)", "",

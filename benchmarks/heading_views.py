@@ -26,11 +26,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gravity_benchmark import load_camera  # noqa: E402
-from headings import circular_mean_deg, heading_arguments, wrapped_deg  # noqa: E402
+from headings import circular_mean_deg, heading_arguments, pair_headings, wrapped_deg  # noqa: E402
 from report import print_and_save  # noqa: E402
 
 from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
-from pcnet.stages.core.rotations import with_up  # noqa: E402
 
 RESULT = Path(__file__).resolve().parent / "results" / "heading_views.txt"
 COMMAND = "python benchmarks/heading_views.py --data ../shared/data"
@@ -55,10 +54,9 @@ def main(argv=None) -> int:
         joints, _, fps = load_camera(path)
         with np.load(path) as f:
             R_wc = np.asarray(f["R_world_to_cam"], np.float64)
-        R_pair, _, ok, *_ = pair.predict_gated(joints, fps)
-        up = R_pair[:, :, 1]
-        for row, R in zip(ROWS, (pair.camera.predict(joints)[0], pair.body.predict(joints)[0])):
-            h = lab_headings(with_up(R, up)[ok], R_wc)
+        ok, _, _, on_pair_up = pair_headings(pair, joints, fps)
+        for row, R in zip(ROWS, on_pair_up):
+            h = lab_headings(R[ok], R_wc)
             mean = means[row][path.stem] = circular_mean_deg(h)
             spread = wrapped_deg(h - mean)
             lines.append(f"  {path.stem:<20}{row:<22}{mean:>8.1f}  [{spread.min():+.1f}, {spread.max():+.1f}]")

@@ -1,4 +1,5 @@
-"""What the heading benchmarks share: their command line, and angles on a circle in degrees."""
+"""What the heading benchmarks share: their command line, each network's heading on the shipped
+pair's up, and angles on a circle in degrees."""
 
 from __future__ import annotations
 
@@ -6,6 +7,9 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+
+from pcnet.models.inference import ViewGatedPCNet
+from pcnet.stages.core.rotations import with_up
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
@@ -29,3 +33,15 @@ def circular_mean_deg(a: np.ndarray) -> float:
     r = np.radians(np.asarray(a, np.float64))
     r = r[np.isfinite(r)]
     return float(np.degrees(np.arctan2(np.sin(r).mean(), np.cos(r).mean()))) if len(r) else float("nan")
+
+
+def pair_headings(pair: ViewGatedPCNet, joints: np.ndarray, fps: float):
+    """The shipped pair on one recording's camera-frame poses ``(T, 17, 3)``: ``(valid (T,),
+    disagreement (T,) deg, (camera-frame, body-frame) rotations alone, (camera-frame,
+    body-frame) rotations on the pair's up)``; "on the pair's up": each network's rotation
+    turned by the shortest arc onto the pair's up (stages/core/rotations.py: with_up), so the
+    two differ only in their heading and both have the pair's tilt."""
+    R_pair, _, ok, _, disagreement, *_ = pair.predict_gated(joints, fps)
+    alone = pair.camera.predict(joints)[0], pair.body.predict(joints)[0]
+    up = R_pair[:, :, 1]
+    return ok, disagreement, alone, tuple(with_up(R, up) for R in alone)

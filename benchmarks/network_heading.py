@@ -28,6 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from headings import pair_headings  # noqa: E402
 from mocap_sets import training_mix_splits  # noqa: E402
 from report import print_and_save  # noqa: E402
 
@@ -35,7 +36,6 @@ from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
 from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
 from pcnet.stages.core.metrics import heading_error_deg, rotation_error_deg, tilt_error_deg  # noqa: E402
-from pcnet.stages.core.rotations import with_up  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "network_heading.txt"
@@ -63,10 +63,8 @@ def errors(pair: ViewGatedPCNet, clips, noise) -> tuple[dict[str, dict[str, np.n
         if not len(sel):
             continue
         x, truth = views.inputs[sel], views.R[sel]
-        R_pair, _, ok, _, d, *_ = pair.predict_gated(x, clip.fps)
-        R_cam, R_body = pair.camera.predict(x)[0], pair.body.predict(x)[0]
-        up = R_pair[:, :, 1]
-        estimates = dict(zip(ROWS, (R_cam, R_body, with_up(R_cam, up), with_up(R_body, up))))
+        ok, d, alone, on_pair_up = pair_headings(pair, x, clip.fps)
+        estimates = dict(zip(ROWS, (*alone, *on_pair_up)))
         ok = ok & np.all([np.isfinite(R).all(axis=(1, 2)) for R in estimates.values()], axis=0)
         for row, R in estimates.items():
             out[row]["rotation"].append(rotation_error_deg(R[ok], truth[ok]))
