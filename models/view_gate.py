@@ -53,7 +53,7 @@ import numpy as np
 from scipy.ndimage import median_filter
 from scipy.spatial.transform import Rotation
 
-from pcnet.stages.core.rotations import axis_rotation, decompose_camera_rotation
+from pcnet.stages.core.rotations import axis_rotation, camera_tilt_deg, decompose_camera_rotation
 
 #: Camera-frame network weight ramps (degrees): full weight up to the first value, none from
 #: the second on. Pitch: centred on the edge of the training views (|pitch| 45). Roll: where
@@ -162,7 +162,7 @@ def level_view_preferred(R_turned_view: np.ndarray, R_level_view: np.ndarray, fp
     size = window_frames(fps)
 
     def tilt(R):
-        return median_filter(np.degrees(np.arccos(np.clip(-R[:, 1, 1], -1.0, 1.0))), size=size, mode="nearest")
+        return median_filter(camera_tilt_deg(R[:, :, 1]), size=size, mode="nearest")
 
     return tilt(R_level_view) < tilt(R_turned_view)
 

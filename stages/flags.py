@@ -12,6 +12,7 @@ from .core.canonical import trunk_lean_deg
 from .core.conventions import (L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
                                median_thigh_length)
 from .core.framestore import frame_blocks
+from .core.rotations import camera_tilt_deg
 from .scale import height_chain_length, leg_lengths
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
@@ -53,7 +54,7 @@ def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, fl
         return float("nan"), float("nan"), float("nan")
     u = up_cam[ok].mean(axis=0)
     u = u / np.linalg.norm(u)
-    tilt = _tilt_deg(u)
+    tilt = camera_tilt_deg(u)
     pitch = np.degrees(np.arcsin(np.clip(-u[2], -1.0, 1.0)))
     roll = np.degrees(np.arctan2(u[0], -u[1]))
     return float(tilt), float(pitch), float(roll)
@@ -75,16 +76,12 @@ def per_frame_tilt_summary(up_cam: np.ndarray, valid: np.ndarray) -> list[float]
     ok = _valid_ups(up_cam, valid)
     if not ok.any():
         return [float("nan")] * 3
-    return [float(v) for v in np.percentile(_tilt_deg(up_cam[ok]), [50, 5, 95])]
+    return [float(v) for v in np.percentile(camera_tilt_deg(up_cam[ok]), [50, 5, 95])]
 
 
 def _valid_ups(up_cam: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return np.asarray(valid, bool) & np.isfinite(up_cam).all(axis=1)
 
-
-def _tilt_deg(up_cam: np.ndarray) -> np.ndarray:
-    """Camera tilt (deg): the angle between unit up(s) ``(..., 3)`` and image up, -y."""
-    return np.degrees(np.arccos(np.clip(-up_cam[..., 1], -1.0, 1.0)))
 
 
 def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None, *,

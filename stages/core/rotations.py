@@ -79,6 +79,13 @@ def twist_angle(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
     return (ang + np.pi) % (2 * np.pi) - np.pi
 
 
+def camera_tilt_deg(up_cam: np.ndarray) -> np.ndarray:
+    """Camera tilt in degrees, ``(...)``: the angle between unit up direction(s) ``up_cam``
+    ``(..., 3)`` in the camera frame (OpenCV axes) and the image's up, -y: ``arccos(-u_y)``,
+    0 for a level camera, 180 upside down. NaN stays NaN."""
+    return np.degrees(np.arccos(np.clip(-np.asarray(up_cam)[..., 1], -1.0, 1.0)))
+
+
 def with_up(R: np.ndarray, up: np.ndarray) -> np.ndarray:
     """``R`` ``(..., 3, 3)`` turned by the shortest arc that takes its up column (canonical +Y,
     ``R[..., :, 1]``) onto the unit vector ``up`` ``(..., 3)`` (camera frame; broadcast):
