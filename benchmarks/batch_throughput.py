@@ -121,6 +121,26 @@ def table(results: list[dict]) -> list[str]:
     return lines
 
 
+def perfect_scaling_bounds(results: list[dict]) -> list[str]:
+    """Per engine, the speed-up N workers would reach against the one-worker baseline if
+    they scaled perfectly: N single-threaded workers take T(1 worker, 1 thread) / N, and the
+    baseline, which gets every core's threads, T(1 worker, cores threads); so the bound is
+    N * T(1 worker, cores threads) / T(1 worker, 1 thread). The baseline's own use of the
+    other cores (onnxruntime's intra-op threads) lowers it below N."""
+    lines = []
+    for engine in dict.fromkeys(r["engine"] for r in results):
+        same = [r for r in results if r["engine"] == engine and r["workers"] == 1]
+        base = next((r for r in same if not r["one_thread"]), None)
+        single = next((r for r in same if r["one_thread"]), None)
+        if base is None or single is None:
+            continue
+        for n in sorted({r["workers"] for r in results if r["engine"] == engine and r["workers"] > 1}):
+            lines.append(f"{engine}: {n} workers scaling perfectly would give {n * base['wall'] / single['wall']:.2f}x "
+                         f"(one worker is {single['wall'] / base['wall']:.2f}x faster with {base['threads']} threads "
+                         f"than with 1)")
+    return lines
+
+
 def measure(folder: Path, rows: int, tile: int, engines: list[str], counts: list[int], repeat: int) -> list[str]:
     """Run every configuration on one manifest (``repeat`` rounds, configurations
     interleaved, the fastest run of each kept: other jobs on a shared machine only ever
@@ -140,7 +160,8 @@ def measure(folder: Path, rows: int, tile: int, engines: list[str], counts: list
     results = [best[config] for config in configs]
     frames = results[0]["frames"] // rows
     what = "the bundled example with its video" if tile == 1 else f"the example tiled x{tile}, without the video"
-    return [f"{rows} rows of {what} ({frames} frames each; 3DPCNet, every export, rerun recording)", *table(results)]
+    return [f"{rows} rows of {what} ({frames} frames each; 3DPCNet, every export, rerun recording)", *table(results),
+            *perfect_scaling_bounds(results)]
 
 
 def main() -> None:
