@@ -250,17 +250,18 @@ def _layout_hint(cfg: RunConfig, error: str) -> str:
     return ""
 
 
-def _tilt_tolerance(report: dict) -> float:
-    """The camera tilt uncertainty the summary states (deg): the larger 95 % pitch/roll
-    half-width in sequence mode (the bootstrap's for a method without a calibrated
+def _tilt_tolerance(report: dict) -> tuple[float, str]:
+    """The camera tilt uncertainty the summary states (deg) and what it is: the larger 95 %
+    pitch/roll half-width in sequence mode (the bootstrap's for a method without a calibrated
     interval), else the per-frame bound where the two networks agree."""
-    for keys in (("camera_pitch_interval_deg", "camera_roll_interval_deg"),
-                 # a method without a calibrated interval states its bootstrap
-                 ("camera_pitch_uncertainty_deg", "camera_roll_uncertainty_deg")):
+    for keys, what in ((("camera_pitch_interval_deg", "camera_roll_interval_deg"), "95 % interval"),
+                       # a method without a calibrated interval states its bootstrap
+                       (("camera_pitch_uncertainty_deg", "camera_roll_uncertainty_deg"),
+                        "bootstrap-only uncertainty, no calibrated interval for this method")):
         halves = [report.get(key, np.nan) for key in keys]
         if np.isfinite(halves).all():
-            return float(max(halves))
-    return float(report.get("frame_tilt_95_deg", np.nan))
+            return float(max(halves)), what
+    return float(report.get("frame_tilt_95_deg", np.nan)), "per-frame 95 % bound"
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):
@@ -362,7 +363,8 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *,
     fit's warning, in the summary, npz and recording) are published with the rest.
     ``before_publish(staged_folder, result)`` may add files of its own (``pcnet batch``'s resume
     marker) to the staged output before it is swapped in as ``cfg.out``, so that they appear
-    together with it or not at all.
+    together with it or not at all. ``progress``: a bar of the stages on stderr where stderr
+    is a terminal.
 
     Raises:
         FileExistsError: ``cfg.out`` exists and ``cfg.overwrite`` is False.
@@ -376,8 +378,10 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *,
         import_opensim()  # the same for OpenSim
     cfg.validate()
     out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights), cfg.overwrite)
+    # disable=None: no bar where stderr is not a terminal (a log file, a pipe), whose
+    # carriage-return redraws would fill it.
     with _collector_skips_older_objects(), \
-            tqdm(total=len(STEPS), desc="pcnet", disable=not progress, unit="stage") as bar:
+            tqdm(total=len(STEPS), desc="pcnet", disable=None if progress else True, unit="stage") as bar:
         return _run_stages(cfg, out, bar, before_publish)
 
 
@@ -599,7 +603,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
         flags += view_gate_flag(report.get("view_gate"), lying=(report.get("gravity") or {}).get("reading") == "lying")
         flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
-        flags += lifter_frame_flag(lifter_turn, _tilt_tolerance(report))
+        flags += lifter_frame_flag(lifter_turn, *_tilt_tolerance(report))
         flags += (track_switch_flag(segment, events, person_option=cfg.keypoints2d_format in MULTI_TRACK_FORMATS)
                   if segment is not None else [])
         bar.update()

@@ -420,11 +420,12 @@ def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[str]:
                                           "warning)" if lying else ""))
     level = view_gate.get("level_view_frames", 0)
     if level > OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
+        reading = ("so does the camera prior's lying reading, which is the answer (" if lying else
+                   "the answer keeps the turned reading, which may be wrong by up to 90 deg there; the per-frame "
+                   "bound reaches the other reading (frame_tilt_bound_deg in canonical.npz; ")
         flags.append(f"in {level} of those frames the camera-frame network, shown the poses as the camera saw them, reads "
                      f"a level camera and a body on the floor (crawling, lying, getting up) rather than an upright body "
-                     f"under a camera turned a quarter turn: the answer keeps the turned reading, which may be wrong by "
-                     f"up to 90 deg there; the per-frame bound reaches the other reading (frame_tilt_bound_deg in "
-                     f"canonical.npz; models/view_gate.py: level_view_preferred)")
+                     f"under a camera turned a quarter turn: {reading}models/view_gate.py: level_view_preferred)")
     outside = view_gate["body_frame_frames"] + view_gate["blended_frames"]
     if outside <= OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
         return flags
@@ -546,10 +547,11 @@ def _deg_range(low: float, high: float) -> str:
     return f"{low:.0f} deg" if f"{low:.0f}" == f"{high:.0f}" else f"{low:.0f}-{high:.0f} deg"
 
 
-def lifter_frame_flag(turn_deg: float, tolerance_deg: float) -> list[str]:
+def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str = "95 % interval") -> list[str]:
     """A flag when an adapter turned the lifter's output into the camera frame by more than
     the run's own tilt uncertainty (``tolerance_deg``: the larger of the camera pitch and
-    roll 95 % half-widths, or the per-frame bound where no interval is printed).
+    roll 95 % half-widths, or the per-frame bound where no interval is printed;
+    ``tolerance_is`` names which, as the summary states it).
 
     The turn rests on an assumption the file cannot confirm (MediaPipe's world landmarks
     answer in a virtual camera aimed at the person: adapters/mediapipe.py). On real videos
@@ -563,7 +565,7 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float) -> list[str]:
         return []
     return [f"the lifter's output was turned by a median {turn_deg:.1f} deg into the real camera (MediaPipe's "
             f"landmarks taken as seen from a virtual camera aimed at the person, an assumption the file cannot "
-            f"confirm), more than the tilt's stated uncertainty ({tolerance_deg:.1f} deg): the camera tilt may be off "
+            f"confirm), more than the tilt's stated uncertainty ({tolerance_deg:.1f} deg, {tolerance_is}): the camera tilt may be off "
             f"by up to about the turn; give the video's true focal length (--focal-px), or compare a run with the "
             f"person near the image centre"]
 

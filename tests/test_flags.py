@@ -200,6 +200,18 @@ def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
     assert lifter_frame_flag(0.0, 1.0) == [] and lifter_frame_flag(15.0, float("nan")) == []
 
 
+def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
+    """--method geometric prints 'bootstrap alone +- 0.4, no 95 % interval': the flag must
+    not call that figure the tilt's interval."""
+    from pcnet.pipeline.runner import _tilt_tolerance
+
+    tolerance = _tilt_tolerance({"camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})
+    assert tolerance == (0.4, "bootstrap-only uncertainty, no calibrated interval for this method")
+    assert "(0.4 deg, bootstrap-only uncertainty" in lifter_frame_flag(2.8, *tolerance)[0]
+    assert _tilt_tolerance({"camera_pitch_interval_deg": 6.4, "camera_roll_interval_deg": 2.8,
+                            "camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})[1] == "95 % interval"
+
+
 def test_a_large_mediapipe_turn_is_flagged_and_a_negligible_one_is_not(tmp_path):
     """Real MediaPipe (Sports2D demo, the man on the box, above the image centre): with the
     assumed phone focal length his landmarks are turned by about 15 deg into the real camera,

@@ -196,6 +196,11 @@ def test_a_crawl_under_a_level_camera_keeps_its_answer_but_its_bound_reaches_the
     report = rectify(X, "pcnet", fps=fps).report["view_gate"]
     (line,) = [f for f in view_gate_flag(report) if "body on the floor" in f]
     assert f"in {report['level_view_frames']} of those frames" in line and report["level_view_frames"] > 0.9 * len(X)
+    assert "the answer keeps the turned reading" in line
+    # where sequence mode's camera prior read the body as lying, that reading is the answer
+    # (the quarter-turn line says so): this line must not say the turned one is
+    (lying_line,) = [f for f in view_gate_flag(report, lying=True) if "body on the floor" in f]
+    assert "turned reading" not in lying_line and "lying reading, which is the answer" in lying_line
     sequence = rectify(X, "pcnet", mode="sequence", fps=fps)
     monkeypatch.setattr(inference, "level_view_preferred", lambda turned, level, fps: np.zeros(len(turned), bool))
     R_, residual_, valid_, w_, d_, k_, a_ = gated.predict_gated(X, fps)
