@@ -246,6 +246,13 @@ class RunConfig:
         if self.cutoff_hz is not None and self.fps is not None and self.cutoff_hz >= self.fps / 2:
             raise InputError(f"{field_name(source, 'cutoff_hz')}: expected a cutoff below half the frame rate "
                              f"(Nyquist: {self.fps / 2:g} Hz at fps {self.fps:g}), got {self.cutoff_hz:g}")
+        if self.cutoff_hz is None and not self.residual_cutoff and self.fps is not None \
+                and DEFAULT_CUTOFF_HZ >= self.fps / 2:
+            cutoff, residual = (("--cutoff-hz", "--residual-cutoff") if source == COMMAND_LINE
+                                else ("cutoff_hz", "residual_cutoff"))
+            raise InputError(f"{field_name(source, 'fps')}: expected a frame rate above {2 * DEFAULT_CUTOFF_HZ:g} fps "
+                             f"for the default low-pass cutoff {DEFAULT_CUTOFF_HZ:g} Hz (Nyquist), got {self.fps:g}; "
+                             f"give {cutoff} below {self.fps / 2:g} or {residual}")
         if self.mass is not None and not self.opensim:
             cli = source == COMMAND_LINE
             raise InputError(f"{field_name(source, 'mass')}: expected together with {_flag('opensim') if cli else 'opensim'} "

@@ -547,6 +547,11 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         if needing_metres and units != "m" and cfg.height is None:
             raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
                              f"writing metres, or --height), got {units} poses from --lifter {cfg.lifter}")
+        if not cfg.residual_cutoff and cfg.lowpass_hz >= fps / 2:
+            default = " (the default)" if cfg.cutoff_hz is None else ""
+            raise InputError(f"frame rate {fps:g} fps ({fps_source}): expected a Nyquist frequency above the "
+                             f"low-pass cutoff {cfg.lowpass_hz:g} Hz{default}, got {fps / 2:g} Hz; give --cutoff-hz "
+                             f"below {fps / 2:g} or --residual-cutoff")
         kp2d, joints, aligned = _align(cfg, video, kp2d, joints)
         input_notes += [aligned] if aligned else []
         orientation = display_orientation(video, kp2d, kp_size)

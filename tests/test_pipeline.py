@@ -274,6 +274,24 @@ def test_a_damaged_video_is_refused_naming_it(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_a_frame_rate_below_twice_the_low_pass_cutoff_is_refused_naming_the_fix(tmp_path):
+    """The default 6 Hz cutoff needs more than 12 fps: a lower --fps, or a lower rate recorded
+    in the lifter's file, is one line naming the rate's source and --cutoff-hz /
+    --residual-cutoff, before any output; --residual-cutoff then runs."""
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", BOX_3D, "--fps", "10", "--out", tmp_path / "a")
+    assert res.exit_code == 1 and "--fps: expected a frame rate above 12 fps" in res.output, res.output
+    assert "--cutoff-hz below 5" in res.output and not (tmp_path / "a").exists()
+    with np.load(MEDIAPIPE) as d:
+        slow = {k: d[k] for k in d.files} | {"fps": np.float64(8.0)}
+    np.savez(tmp_path / "slow.npz", **slow)
+    res = _invoke("run", "--lifter", "mediapipe", "--lifter-output", tmp_path / "slow.npz", "--out", tmp_path / "b")
+    assert res.exit_code == 1 and "frame rate 8 fps (recorded in slow.npz)" in res.output, res.output
+    assert "--cutoff-hz below 4 or --residual-cutoff" in res.output and not (tmp_path / "b").exists()
+    res = _invoke("run", "--lifter", "mediapipe", "--lifter-output", tmp_path / "slow.npz", "--residual-cutoff",
+                  "--no-recording", "--out", tmp_path / "c")
+    assert res.exit_code == 0, res.output
+
+
 @pytest.mark.parametrize(
     "args, message",
     [
