@@ -57,6 +57,7 @@ from .registry import register_2d, register_3d
 from .types import AdapterError, Keypoints2D, Poses3D
 from .validate import (
     NumpyArchive,
+    archive_hint,
     checked_keypoints,
     checked_poses,
     describe_keys,
@@ -89,7 +90,8 @@ def _read(path: str | Path, key: str) -> tuple[Path, np.ndarray, str, dict]:
         raise AdapterError(p, "content", "a .npz archive with keypoints_2d and world_3d", "a single .npy array")
     with archive:
         if key not in archive.files:
-            raise AdapterError(p, key, f"an array named {key!r} (MediaPipe npz)", describe_keys(archive.files))
+            raise AdapterError(p, key, f"an array named {key!r} (MediaPipe npz)",
+                               describe_keys(archive.files) + archive_hint(archive.files))
         if "layout" in archive.files:
             layout = archive["layout"]
             if layout.dtype.kind not in "US" or layout.size != 1 or str(layout.reshape(())) != "blazepose33":

@@ -391,6 +391,13 @@ _ARCHIVE_HINTS = (({"world_3d", "keypoints_2d"}, "MediaPipe's landmarks: read th
                   ({"skeleton", "skeleton_fps"}, "Kinect v1 skeletons: read them with --lifter kinect_v1"))
 
 
+def archive_hint(keys) -> str:
+    """``"; Kinect v1 skeletons: read them with --lifter kinect_v1"`` when the archive's
+    array names ``keys`` are another lifter's known archive (:data:`_ARCHIVE_HINTS`), else
+    ``""``: what a refusal of that archive adds."""
+    return next((f"; {what}" for names, what in _ARCHIVE_HINTS if names <= set(keys)), "")
+
+
 def load_array_file(path: str | Path, key: str | None = None, key_option: bool = True) -> np.ndarray:
     """Load one array from ``.npy`` or from ``.npz`` (``key``; optional when the archive
     holds a single array). Pickled objects are refused; see :func:`open_numpy`.
@@ -411,13 +418,13 @@ def load_array_file(path: str | Path, key: str | None = None, key_option: bool =
         keys = list(data.files)
         if key is None:
             if len(keys) != 1:
-                hint = next((f"; {what}" for names, what in _ARCHIVE_HINTS if names <= set(keys)), "")
+                hint = archive_hint(keys)
                 wanted = ("--key (key=) naming one of the archive's arrays" if key_option else
                           "an .npz holding one array (this lifter takes no --key; save the poses alone)")
                 raise AdapterError(p, "key", wanted, describe_keys(keys) + hint)
             key = keys[0]
         if key not in keys:
-            raise AdapterError(p, "key", f"an array named {key!r} in the archive", describe_keys(keys))
+            raise AdapterError(p, "key", f"an array named {key!r} in the archive", describe_keys(keys) + archive_hint(keys))
         return data[key]
 
 

@@ -12,7 +12,7 @@ import typing
 from collections.abc import Mapping
 from pathlib import Path
 
-from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.errors import InputError, close_names
 
 
 def read_toml(path: str | Path) -> dict:
@@ -86,7 +86,8 @@ def check_config_keys(path: str | Path, where: str, given: dict, cls) -> None:
     allowed = {f.name for f in dataclasses.fields(cls)}
     unknown = set(given) - allowed
     if unknown:
-        raise InputError(f"{path}: {where}unknown keys {sorted(unknown)}; expected some of {sorted(allowed)}")
+        raise InputError(f"{path}: {where}unknown keys {sorted(unknown)}{close_names(sorted(unknown), sorted(allowed))}; "
+                         f"expected some of {sorted(allowed)}")
     check_config_types(path, where, given, cls)
 
 

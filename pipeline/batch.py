@@ -12,7 +12,6 @@ records every row: its fields are in docs/cluster.md, "Results".
 from __future__ import annotations
 
 import csv
-import difflib
 import io
 import json
 import os
@@ -24,7 +23,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
-from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker
 from .batch_worker import cpu_cores, error_line
@@ -116,9 +115,7 @@ def _header_problem(manifest: Path, header: list[str]) -> str | None:
         return f"{where}: expected each column once, got {', '.join(twice)} more than once"
     unknown = [n for n in names if n not in manifest_columns()]
     if unknown:
-        close = {n: difflib.get_close_matches(n.lower().replace("-", "_"), manifest_columns(), n=1)
-                 for n in unknown if n != "lifter_options"}
-        hint = "".join(f" ({n}: {m[0]}?)" for n, m in close.items() if m)
+        hint = close_names([n for n in unknown if n != "lifter_options"], manifest_columns())
         if "lifter_options" in unknown:
             hint += f" (lifter_options: a manifest gives each as a column of its own, {', '.join(_LIFTER_OPTIONS)})"
         if any(";" in n for n in unknown):

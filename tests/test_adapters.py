@@ -795,6 +795,8 @@ def test_a_kinect_archive_given_to_a_single_array_lifter_names_the_kinect_adapte
     np.savez(path, skeleton=np.load(YOGA["Tadasana"]), skeleton_fps=np.float64(20.1))
     with pytest.raises(AdapterError, match=r"read them with --lifter kinect_v1"):
         load_videopose3d(path)
+    with pytest.raises(AdapterError, match=r"'world_3d'.*read them with --lifter kinect_v1"):
+        load_mediapipe_3d(path)  # the other lifter that reads an archive
 
 
 def test_json_with_a_byte_order_mark_reads_as_without(tmp_path):

@@ -338,6 +338,9 @@ def test_a_config_file_names_its_fields_in_errors(tmp_path):
     assert (f"Error: {cfg}: field 'focal_px': expected only options --lifter motionbert takes (pixel, clip_len), "
             f"got focal_px") in res.output
     assert not (tmp_path / "o").exists()
+    cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\nheigth = 1.7\n')
+    res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
+    assert res.exit_code == 1 and f"Error: {cfg}: unknown keys ['heigth'] (heigth: height?); expected" in res.output
 
 
 def test_nan_only_sequence_is_a_clear_error(tmp_path):

@@ -8,6 +8,7 @@ into one line and exit status 1. Any other exception is a bug in pcnet.
 
 from __future__ import annotations
 
+import difflib
 import errno
 import importlib
 
@@ -22,6 +23,19 @@ class InputError(ValueError):
 
     def __init__(self, message: str):
         super().__init__(" ".join(str(message).split()))
+
+
+def close_names(unknown, known) -> str:
+    """``" (heigth: height?)"`` for each unknown name with a close known one (difflib's
+    ratio >= 0.6, case and ``-``/``_`` ignored), ``""`` when none is close: the hint a
+    refused key, column or option gives."""
+    known = list(known)
+    hints = []
+    for name in unknown:
+        match = difflib.get_close_matches(str(name).lower().replace("-", "_"), known, n=1)
+        if match:
+            hints.append(f" ({name}: {match[0]}?)")
+    return "".join(hints)
 
 
 #: What a write that runs out of room fails with: a full disk, a file size limit, a quota.
