@@ -125,14 +125,15 @@ def _header_problem(manifest: Path, header: list[str]) -> str | None:
     return None
 
 
-def read_manifest(manifest: Path) -> list[tuple[int, dict]]:
+def read_manifest(manifest: Path) -> tuple[list[tuple[int, dict]], dict[int, str]]:
     """The rows of a CSV manifest (a header line, then one recording per line) with the
-    line each starts on (blank lines are skipped; a quoted cell may span lines).
+    line each starts on (blank lines are skipped; a quoted cell may span lines), and a
+    problem line per row with more or fewer cells than the header (by line; those rows are
+    not among the rows), so that the other rows are still checked.
 
     Raises:
-        InputError: the file is empty, not UTF-8 text, not CSV, has no header or no rows, a
-            header with a column given twice or not a column of :func:`manifest_columns`, or a
-            row with more or fewer cells than the header (naming the manifest and the line).
+        InputError: the file is empty, not UTF-8 text, not CSV, has no header or no rows, or
+            a header with a column given twice or not a column of :func:`manifest_columns`.
     """
     try:
         text = manifest.read_bytes().decode("utf-8-sig")
@@ -144,7 +145,7 @@ def read_manifest(manifest: Path) -> list[tuple[int, dict]]:
         what = "an empty file" if not text else "only blank lines"
         raise InputError(f"{manifest}: expected a CSV manifest with a header and rows, got {what}")
     reader = csv.reader(io.StringIO(text, newline=""))  # quoted cells may hold newlines
-    header, rows, start = None, [], 1
+    header, rows, start, miscounted = None, [], 1, {}
     try:
         for cells in reader:
             line, start = start, reader.line_num + 1
@@ -157,14 +158,14 @@ def read_manifest(manifest: Path) -> list[tuple[int, dict]]:
                     raise InputError(problem)
                 continue
             if len(cells) != len(header):
-                raise InputError(f"{manifest}: line {line}: expected {len(header)} cells (the header's), got "
-                                 f"{len(cells)}")
+                miscounted[line] = f"{manifest}: line {line}: expected {len(header)} cells (the header's), got {len(cells)}"
+                continue
             rows.append((line, {name.strip(): cell for name, cell in zip(header, cells)}))
     except csv.Error as err:
         raise InputError(f"{manifest}: line {reader.line_num}: expected CSV, got {err}") from None
-    if not rows:
+    if not rows and not miscounted:
         raise InputError(f"{manifest}: expected at least one row below the header {header}, got none")
-    return rows
+    return rows, miscounted
 
 
 class ManifestError(InputError):
@@ -462,7 +463,9 @@ def plan_batch(manifest: str | os.PathLike, options: BatchOptions) -> tuple[list
         from .batch_ray import check_reachable
 
         check_reachable(options.address)
-    planned, problems = _parse_rows(manifest, read_manifest(manifest), options.overwrite)
+    rows, miscounted = read_manifest(manifest)
+    planned, problems = _parse_rows(manifest, rows, options.overwrite)
+    problems.update(miscounted)
     for line, problem in _shared_out_problems(manifest, planned).items():
         problems.setdefault(line, problem)
     summary = Path(options.summary_json) if options.summary_json else default_summary_path(manifest)

@@ -400,7 +400,7 @@ def demo(out, method, overwrite):
 @click.option("--retry-failed", is_flag=True,
               help="run only the rows that did not succeed in the previous run (read from its JSON summary)")
 @click.option("--summary-json", type=click.Path(dir_okay=False), default=None,
-              help="the JSON summary to write (and, with --retry-failed, to read)  [default: MANIFEST.pcnet_batch.json]")
+              help="the JSON summary to write (and, with --retry-failed, to read)  [default: MANIFEST + .pcnet_batch.json, e.g. runs.csv.pcnet_batch.json]")
 def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, summary_json):
     """Process many recordings: one CSV row each, columns named like the fields of
     `pcnet run` (lifter, lifter_output, keypoints2d, keypoints2d_format, video, out, ...).

@@ -538,7 +538,8 @@ def test_a_complete_output_missing_a_file_runs_again(tmp_path):
 
 def test_manifest_layout_mistakes_are_named_by_their_file_line(tmp_path):
     """Blank lines do not shift the line numbers; the header's problems are line 1's, once;
-    a row with fewer cells than the header is refused (its missing out went to pcnet_out)."""
+    a row with fewer cells than the header is refused (its missing out went to pcnet_out),
+    and the other rows are still checked."""
     manifest = tmp_path / "m.csv"
     manifest.write_text(f"{HEADER}\n\n{_row('a')}\n\n{_row('b', method='bogus')}\n")
     res = _invoke(manifest)
@@ -553,6 +554,11 @@ def test_manifest_layout_mistakes_are_named_by_their_file_line(tmp_path):
     manifest.write_text(f"{HEADER}\n{_row('a').rsplit(',', 3)[0]}\n")
     res = _invoke(manifest)
     assert f"{manifest}: line 2: expected 8 cells (the header's), got 5" in res.output, res.output
+    # a row of the wrong length does not hide the other rows' problems
+    manifest.write_text(f"{HEADER}\n{_row('a').rsplit(',', 3)[0]}\n{_row('b', method='bogus')}\n{_row('c')},extra\n")
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and res.output.count("Error: ") == 3, res.output
+    assert "line 3: column method: expected one of" in res.output and "line 4: expected 8 cells" in res.output
     manifest.write_text("[[row]]\nlifter = 'motionbert'\n")
     assert "(a TOML file? a manifest is CSV)" in _invoke(manifest).output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
