@@ -35,6 +35,7 @@ from pcnet.stages.flags import (body_size_flag, per_frame_tilt_summary, keypoint
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
 from pcnet.stages.rectify import NO_VALID_FRAME
+from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
                                       write_motion_files, write_rerun)
@@ -89,6 +90,7 @@ class RunResult:
             + (f"; {self.report['mode_reason']}" if "mode_reason" in self.report else "")
             + (f" over the {self.report['mode_decided_on_frames']} valid frames of the 2D track's longest stretch"
                if "mode_decided_on_frames" in self.report else "")
+            + self._auto_smooth_hint()
             + ")",
             f"heading           from {self.report.get('heading_source')} (requested "
             f"{self.report.get('requested_heading_source')}; " + self._hip_width() + ")",
@@ -131,6 +133,14 @@ class RunResult:
                 f"agree, {FRAME_TILT_95_BODY_DEG:.1f} where the body-frame network answers alone, more where they "
                 f"disagree{here} (frame_tilt_bound_deg in canonical.npz; calibrated on held-out mocap with "
                 f"lifter-like noise; poses far from the training data excepted)"]
+
+    def _auto_smooth_hint(self) -> str:
+        """Where auto mode chose smooth: what the spread can mean, and the option for a
+        static camera (lying, seated or cycling bodies spread the per-frame up too)."""
+        if self.mode != "smooth" or self.report.get("requested_mode") != "auto" or "spread_deg" not in self.report:
+            return ""
+        return (f", above the {MODE_THRESHOLD_DEG:g} deg of a static camera: a moving camera, or poses whose "
+                f"up the networks read less steadily; --mode sequence for a static camera")
 
     def _pitch_roll(self) -> str:
         pitch_unc = self.report.get("camera_pitch_interval_deg", float("nan"))
