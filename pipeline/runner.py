@@ -25,7 +25,8 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import AdapterError, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
-from pcnet.stages.core.conventions import H36M_JOINTS, L_HIP, PELVIS, R_HIP, fill_pelvis_from_hips, validate_fps
+from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, THIGH_RANGE_M, fill_pelvis_from_hips,
+                                          median_thigh_length, validate_fps)
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
@@ -272,6 +273,30 @@ def _tilt_tolerance(report: dict) -> tuple[float, str]:
         if np.isfinite(halves).all():
             return float(max(halves)), what
     return float(report.get("frame_tilt_95_deg", np.nan)), "per-frame 95 % bound"
+
+
+#: Median thigh length (m) beyond which poses said to be in metres are refused: 3 times the
+#: top of :data:`THIGH_RANGE_M`, more than any bone of a person even under a wrong
+#: ``--layout``; centimetres given as metres read about 40 m.
+REFUSED_THIGH_M = 3 * THIGH_RANGE_M[1]
+
+
+def _check_metric_body(cfg: RunConfig, cam) -> None:
+    """Refuse H36M-17 camera-frame poses ``cam`` ``(T, 17, 3)`` said to be in metres whose
+    median thigh is longer than :data:`REFUSED_THIGH_M`: their metric outputs (TRC, speeds)
+    would be wrong by a factor of 100 or so. Smaller misfits stay a warning
+    (:func:`pcnet.stages.flags.body_size_flag`).
+
+    Raises:
+        InputError: naming the lifter output, the thigh length and the options that fix it.
+    """
+    thigh = median_thigh_length(cam)
+    if not thigh > REFUSED_THIGH_M:
+        return
+    fix = "--units cm (or mm)" if cfg.lifter == "generic" else f"a lifter other than --lifter {cfg.lifter}"
+    raise InputError(f"{cfg.lifter_output}: expected poses in metres (a median thigh length of "
+                     f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: centimetres? give {fix}, "
+                     f"or --height to scale the poses")
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):
@@ -581,6 +606,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         del joints
         if pelvis_filled:
             notes.append(f"pelvis missing in {pelvis_filled} frame{'s' * (pelvis_filled != 1)}: taken as the hip midpoint")
+        if units == "m" and cfg.height is None:
+            _check_metric_body(cfg, cam)
         bar.update()
 
         step("rectify")

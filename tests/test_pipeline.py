@@ -711,3 +711,18 @@ def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line(
     assert "6.2 deg, above the 5 deg of a static camera" in line("smooth", "auto")
     assert "--mode sequence for a static camera" in line("smooth", "auto")
     assert "static camera" not in line("smooth", "smooth") and "static camera" not in line("sequence", "auto")
+
+
+def test_centimetres_given_as_metres_are_refused_before_any_output(tmp_path):
+    """A real VideoPose3D standing pose x100 read as metres (--lifter generic, --units not
+    given) has 38 m thighs: its TRC and speeds would be 100 times too large, so the run is
+    refused naming the fixes; with --units cm, or with --height, it runs."""
+    pose = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy") * 100.0
+    np.save(tmp_path / "cm.npy", pose)
+    args = ["run", "--lifter", "generic", "--lifter-output", tmp_path / "cm.npy", "--fps", "30", "--no-recording"]
+    res = _invoke(*args, "--out", tmp_path / "a")
+    assert res.exit_code == 1 and "cm.npy: expected poses in metres (a median thigh length of 0.2-0.7 m), got 3" \
+        in res.output and "give --units cm (or mm), or --height" in res.output, res.output
+    assert not (tmp_path / "a").exists()
+    assert _invoke(*args, "--units", "cm", "--out", tmp_path / "b").exit_code == 0
+    assert _invoke(*args, "--height", "1.7", "--out", tmp_path / "c").exit_code == 0
