@@ -319,6 +319,29 @@ def test_a_mirrored_3d_skeleton_is_flagged_from_the_pose_alone():
     assert mirrored_skeleton_flag(np.full((50, 17, 3), np.nan)) == []
 
 
+def test_the_mirror_flag_keeps_every_real_lifter_file_apart_from_its_mirror_image_and_spares_a_noseless_kick():
+    """Every real lifter file of the shared data (90 VideoPose3D yoga files, the MotionBERT
+    boxing and cycling files) is read unmirrored and, mirrored in depth, mirrored: their
+    noses sit at least MIRRORED_NOSE_MARGIN torso lengths in front of the thorax. A Bandai
+    kick (a mocap skeleton without a nose, leaning back) is not called mirrored."""
+    import glob
+
+    from pcnet.stages.flags import MIRRORED_NOSE_MARGIN
+
+    real = shared("real")
+    files = sorted(glob.glob(str(real / "yoga_videopose3d" / "*.npy")))
+    files += sorted(glob.glob(str(real / "*motionbert" / "*.npy")))
+    assert len(files) >= 94
+    for path in files:
+        X = np.load(path).astype(np.float64)
+        assert mirrored_skeleton_flag(X) == [], path
+        assert mirrored_skeleton_flag(X * np.array([1.0, 1.0, -1.0])), path
+    assert MIRRORED_NOSE_MARGIN < 0.037
+    with np.load(shared("mocap", "bandai_h36m17.npz")) as mocap:
+        kick = mocap["dataset-1_kick_normal_001"]
+    assert mirrored_skeleton_flag(kick) == []
+
+
 def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):
     res = CliRunner().invoke(main, ["run", "--lifter", "generic", "--lifter-output", str(TADASANA), "--axes", "RDB",
                                     "--fps", "30", "--method", "geometric", "--no-recording", "--out", str(tmp_path / "o")])
