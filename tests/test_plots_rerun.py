@@ -151,6 +151,31 @@ def test_joint_speeds_png_is_in_units_per_second(tmp_path, walk):
     assert path.stat().st_size > 30_000 and _png_pixels(path)[..., :3].std() > 0.05
 
 
+def test_another_persons_frames_are_shaded_and_named_in_both_figures(walk):
+    """Where the 2D track switched person (the Sports2D demo), the frames outside the main
+    person's stretch are grey spans over every panel, and the title says what grey means."""
+    from matplotlib.patches import Rectangle
+
+    from pcnet.stages.sinks.plots import OTHER_PERSON_NOTE
+
+    _, kin = walk
+    other = np.zeros(len(kin.speed), bool)
+    other[20:30] = other[40:45] = True
+    for figure in (joint_angles_figure, joint_speeds_figure):
+        fig = figure(kin, FPS, other_person=other)
+        assert OTHER_PERSON_NOTE in fig._suptitle.get_text()
+        for ax in (a for a in fig.axes if a.get_visible()):
+            spans = [p for p in ax.patches if isinstance(p, Rectangle)]
+            assert len(spans) == 2
+            x0 = sorted(round(p.get_x() * FPS + 0.5) for p in spans)
+            assert x0 == [20, 40]
+        plain = figure(kin, FPS)
+        assert OTHER_PERSON_NOTE not in plain._suptitle.get_text()
+        assert not any(a.patches for a in plain.axes if a.get_visible())
+        with pytest.raises(ValueError, match="other_person"):
+            figure(kin, FPS, other_person=other[:-1])
+
+
 def test_plots_refuse_a_wrong_frame_rate_and_leave_nothing(tmp_path, walk):
     _, kin = walk
     with pytest.raises(ValueError, match="fps"):

@@ -208,19 +208,45 @@ def new_figure(rows: int, cols: int, height_per_row: float):
     return fig, axes
 
 
+#: What the grey spans of the angle and speed figures mark.
+OTHER_PERSON_NOTE = "grey: another person's frames (the 2D track switched)"
+
+
+def _shade(ax, t: np.ndarray, marked: np.ndarray | None) -> None:
+    """Grey spans over the runs of ``marked`` ``(T,)`` bool frames at times ``t`` ``(T,)``
+    (each frame spans half a frame either side)."""
+    if marked is None or not np.any(marked):
+        return
+    half = 0.5 * (t[1] - t[0]) if len(t) > 1 else 0.5
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(marked, np.int8), [0]])))
+    for start, stop in zip(edges[::2], edges[1::2]):
+        ax.axvspan(t[start] - half, t[stop - 1] + half, color="0.85", lw=0, zorder=0)
+
+
+def _other_person(marked, t: np.ndarray, name: str) -> np.ndarray | None:
+    if marked is None:
+        return None
+    marked = np.asarray(marked, bool)
+    if marked.shape != t.shape:
+        raise InputError(f"{name}: other_person has shape {marked.shape}, expected {t.shape}")
+    return marked if marked.any() else None
+
+
 def _no_data(ax) -> None:
     ax.text(0.5, 0.5, "no finite values", transform=ax.transAxes, ha="center", va="center",
             color="0.4", fontsize=9)
 
 
-def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame"):
+def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", other_person=None):
     """The figure of :func:`plot_joint_angles` (a :class:`matplotlib.figure.Figure` on an
     Agg canvas), for callers that want to inspect or restyle it.
 
     Raises:
-        InputError: ``fps <= 0``, ``fps`` not the kinematics' rate, or no angles.
+        InputError: ``fps <= 0``, ``fps`` not the kinematics' rate, no angles, or
+            ``other_person`` not ``(T,)``.
     """
     t = _time_axis(kin, fps, "plot_joint_angles")
+    other_person = _other_person(other_person, t, "plot_joint_angles")
     groups = group_angles(kin.angles)
     if not groups:
         raise InputError("plot_joint_angles: the kinematics have no angles")
@@ -239,6 +265,7 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame"):
             finite |= bool(np.isfinite(y).any())
             style = "--" if side_of(n) == "left" else "-"
             ax.plot(*display_samples(t, y), style, color=_rgb(colours[n]), lw=1.0, label=_angle_label(n, group))
+        _shade(ax, t, other_person)
         if not finite:
             _no_data(ax)
         ax.set_title(ANGLE_GROUPS[group], fontsize=10)
@@ -253,20 +280,24 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame"):
         axes[-2, -1].set_xlabel("time (s)")
         axes[-2, -1].tick_params(labelbottom=True)
     fig.suptitle(
-        f"Joint angles (deg; left dashed, right solid; gaps = undefined or missing), from {frame_label} positions",
+        f"Joint angles (deg; left dashed, right solid; gaps = undefined or missing), from {frame_label} positions"
+        + (f"\n{OTHER_PERSON_NOTE}" if other_person is not None else ""),
         fontsize=11,
     )
     return fig
 
 
-def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_label: str = "world frame"):
+def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_label: str = "world frame",
+                        other_person=None):
     """The figure of :func:`plot_joint_speeds` (a :class:`matplotlib.figure.Figure` on an
     Agg canvas), for callers that want to inspect or restyle it.
 
     Raises:
-        InputError: ``fps <= 0`` or not the kinematics' rate, or ``kin.speed`` not ``(T, J)``.
+        InputError: ``fps <= 0`` or not the kinematics' rate, ``kin.speed`` not ``(T, J)``,
+            or ``other_person`` not ``(T,)``.
     """
     t = _time_axis(kin, fps, "plot_joint_speeds")
+    other_person = _other_person(other_person, t, "plot_joint_speeds")
     speed = kin.speed  # read a joint at a time (a long recording's is on disk)
     names = list(kin.joint_names)
     if tuple(np.shape(speed)) != (len(t), len(names)):
@@ -283,6 +314,7 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
             finite |= bool(np.isfinite(y).any())
             style = "--" if side_of(j) == "left" else "-"
             ax.plot(*display_samples(t, y), style, color=_rgb(colours[j]), lw=1.0, label=j.replace("_", " "))
+        _shade(ax, t, other_person)
         if not finite:
             _no_data(ax)
         ax.set_title(title, fontsize=10)
@@ -291,8 +323,8 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8, ncol=2, loc="upper right")
     axes[-1, 0].set_xlabel("time (s)")
-    fig.suptitle(f"Joint speeds |v| ({unit}) in the {frame_label}; gaps = missing, unfiltered or run edges",
-                 fontsize=11)
+    fig.suptitle(f"Joint speeds |v| ({unit}) in the {frame_label}; gaps = missing, unfiltered or run edges"
+                 + (f"\n{OTHER_PERSON_NOTE}" if other_person is not None else ""), fontsize=11)
     return fig
 
 
@@ -305,7 +337,8 @@ def save_png(fig, path_png: str | os.PathLike) -> Path:
     return Path(path_png)
 
 
-def plot_joint_angles(path_png: str | os.PathLike, kin, fps: float, *, frame_label: str = "world frame") -> Path:
+def plot_joint_angles(path_png: str | os.PathLike, kin, fps: float, *, frame_label: str = "world frame",
+                      other_person=None) -> Path:
     """PNG of every joint angle of ``kin`` over time, one panel per joint or segment.
 
     Panels (:data:`ANGLE_GROUPS`, two columns): the ISB joint angles of
@@ -327,19 +360,22 @@ def plot_joint_angles(path_png: str | os.PathLike, kin, fps: float, *, frame_lab
         fps: frame rate in Hz; must equal ``kin.fps``.
         frame_label: the frame the positions were in (e.g. the runner's ``FRAME_LABELS``);
             between-segment angles do not depend on it, the angles to gravity use its +Y.
+        other_person: ``(T,)`` bool, frames of another person than the recording's main one
+            (the 2D track switched: :func:`pcnet.stages.flags.one_person_frames`), shaded grey.
 
     Returns:
         the destination path.
 
     Raises:
-        InputError: ``fps <= 0`` or not ``kin.fps``, no angles, an angle not ``(T,)``, or the
-            destination folder missing / not writable.
+        InputError: ``fps <= 0`` or not ``kin.fps``, no angles, an angle or ``other_person``
+            not ``(T,)``, or the destination folder missing / not writable.
     """
-    return save_png(joint_angles_figure(kin, fps, frame_label=frame_label), path_png)
+    return save_png(joint_angles_figure(kin, fps, frame_label=frame_label, other_person=other_person), path_png)
 
 
 def plot_joint_speeds(
-    path_png: str | os.PathLike, kin, fps: float, units: str | None = None, *, frame_label: str = "world frame"
+    path_png: str | os.PathLike, kin, fps: float, units: str | None = None, *, frame_label: str = "world frame",
+    other_person=None,
 ) -> Path:
     """PNG of the speed ``|v|`` of key joints over time: wrists and elbows, ankles and
     knees, pelvis, thorax and head (:data:`SPEED_GROUPS`), one panel each.
@@ -357,12 +393,15 @@ def plot_joint_speeds(
         units: length unit of the positions (``"m"``, ``"normalised"``); the y axis is in
             ``units/s``. Default: ``kin.units``.
         frame_label: the frame of the positions, shown in the title.
+        other_person: ``(T,)`` bool, frames of another person, shaded grey (as
+            :func:`plot_joint_angles`).
 
     Returns:
         the destination path.
 
     Raises:
-        InputError: ``fps <= 0`` or not ``kin.fps``, ``speed`` not ``(T, J)``, or the
-            destination folder missing / not writable.
+        InputError: ``fps <= 0`` or not ``kin.fps``, ``speed`` or ``other_person`` of the
+            wrong shape, or the destination folder missing / not writable.
     """
-    return save_png(joint_speeds_figure(kin, fps, units, frame_label=frame_label), path_png)
+    return save_png(joint_speeds_figure(kin, fps, units, frame_label=frame_label, other_person=other_person),
+                    path_png)

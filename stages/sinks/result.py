@@ -23,6 +23,7 @@ import numpy as np
 from ..core.conventions import H36M_JOINTS
 from ..core.rotations import decompose_camera_rotation
 from ..core.framestore import column, per_frame
+from ..flags import one_person_frames
 from ..kinematics import FrameGatherer, count_flags
 from .bvh import write_bvh
 from .exports import plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
@@ -197,13 +198,15 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
 
 def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
     """``wrists.png`` (camera frame against ``r.kinematics_frame``), ``angles.png`` and
-    ``speeds.png`` (:mod:`.plots`)."""
+    ``speeds.png`` (:mod:`.plots`; frames outside the 2D track's longest one-person stretch
+    shaded grey)."""
     kin = r.kinematics
     wrist_acc = kin.acceleration[:, [KEPT_JOINTS.index(n) for n in WRISTS]]
     out = {"wrists.png": plot_wrists(folder / "wrists.png", r.joints_camera, r.poses, r.fps,
                                      r.wrist_acceleration_camera, wrist_acc, r.units, frame_label=r.frame_label)}
+    other = None if r.track_segment is None else ~one_person_frames(r.track_segment)
     for name, plot in (("angles.png", plot_joint_angles), ("speeds.png", plot_joint_speeds)):
-        out[name] = plot(folder / name, kin, r.fps, frame_label=r.frame_label)
+        out[name] = plot(folder / name, kin, r.fps, frame_label=r.frame_label, other_person=other)
     return out
 
 
