@@ -304,8 +304,13 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
         load_state(last, model, ck["model"], "model")
         load_state(last, opt, ck["optimizer"], "optimizer")
         load_state(last, sched, ck["scheduler"], "scheduler")
+        _check_same_run(last, ck.get("config"), cfg)
         start, best = resume_point(last, ck)
+        if start >= cfg.epochs and progress:
+            tqdm.write(f"{last}: all {cfg.epochs} epochs of this run already ran")
     out.mkdir(parents=True, exist_ok=True)
+    if start == 0:  # a new run (--no-resume, or a folder without last.pt): not after an old run's epochs
+        (out / "metrics.jsonl").unlink(missing_ok=True)
     # Clips trained on whole are named so that evaluation can say when a test set holds them
     # (a cross-dataset file whose subset was moved into training: pcnet.pipeline.evaluate).
     whole_clips = sorted({c.name for clips, w in zip(loaded, cfg.train_whole or []) if w for c in clips})
@@ -355,6 +360,32 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
             save_checkpoint({"kind": "pcnet", "model": model.state_dict(), "model_config": cfg.model.to_dict(),
                              "epoch": epoch + 1, "val": metrics}, out / "best.pt")
     return out / "best.pt"
+
+
+#: Config fields a resumed run may change: where and how fast it runs, not what it learns.
+RESUME_MAY_CHANGE = ("out_dir", "threads", "device")
+
+
+def _check_same_run(last: Path, saved, cfg: TrainConfig) -> None:
+    """Refuse to resume ``last`` (a ``last.pt``) under a config that differs from the one it
+    was trained with (``saved``, its ``config`` entry; older checkpoints without one are not
+    checked) in anything but :data:`RESUME_MAY_CHANGE`: the run's ``config.json`` and the
+    exported weights' ``.json`` would describe neither run, and a longer ``epochs`` would
+    restart the cosine learning-rate schedule's decay midway.
+
+    Raises:
+        InputError: naming ``last`` and the changed fields (old -> new).
+    """
+    if not isinstance(saved, dict):
+        return
+    now = json.loads(json.dumps(asdict(cfg), default=str))
+    saved = json.loads(json.dumps(saved, default=str))
+    changed = [k for k in sorted(set(now) | set(saved)) if k not in RESUME_MAY_CHANGE and now.get(k) != saved.get(k)]
+    if changed:
+        shown = "; ".join(f"{k} {saved.get(k)!r} -> {now.get(k)!r}" for k in changed[:4])
+        more = f"; and {len(changed) - 4} more" if len(changed) > 4 else ""
+        raise InputError(f"{last}: expected to resume the run of the same config, got changes ({shown}{more}); give "
+                         f"a new out_dir (--out-dir), or --no-resume to train this config from the start")
 
 
 def load_checkpoint(path: str | Path) -> PCNet:

@@ -194,7 +194,7 @@ def test_train_seed_and_out_dir_override_the_config(tmp_path, mocap):
     assert not (tmp_path / "bad").exists()
 
 
-def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, mocap):
+def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, mocap, monkeypatch):
     cfg = load_config(_train_config(tmp_path, mocap))
     best = train(cfg, progress=False)
     for name in ("best.pt", "last.pt"):
@@ -207,11 +207,33 @@ def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, 
     R, _, valid = PCNetSession(out).predict(np.load(POSES)[:8])
     assert valid.all() and np.allclose(R @ np.swapaxes(R, 1, 2), np.eye(3), atol=1e-5)
 
-    # resuming from last.pt runs only the epoch that is new
-    train(dataclasses.replace(cfg, epochs=2), progress=False)
-    epochs = [json.loads(line)["epoch"] for line in (best.parent / "metrics.jsonl").read_text().splitlines()]
-    assert epochs == [1, 2]
-    assert torch.load(best.parent / "last.pt", weights_only=True)["epoch"] == 1
+    # a run interrupted after its first epoch resumes from last.pt and runs only the epoch left
+    from pcnet.models import train as training
+
+    two = dataclasses.replace(cfg, epochs=2, out_dir=str(tmp_path / "interrupted"))
+    validate, calls = training.validate, []
+
+    def interrupt_the_second_epoch(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return validate(*args, **kwargs)
+
+    monkeypatch.setattr(training, "validate", interrupt_the_second_epoch)
+    with pytest.raises(KeyboardInterrupt):
+        train(two, progress=False)
+    monkeypatch.undo()
+    train(two, progress=False)
+    folder = tmp_path / "interrupted"
+    assert [json.loads(line)["epoch"] for line in (folder / "metrics.jsonl").read_text().splitlines()] == [1, 2]
+    assert torch.load(folder / "last.pt", weights_only=True)["epoch"] == 1
+    # resuming under another config would mix two runs (and restart the cosine schedule's
+    # decay midway): refused; --no-resume starts the new config afresh, its metrics alone
+    with pytest.raises(InputError, match=r"last\.pt: expected to resume the run of the same config, got changes "
+                                         r"\(epochs 2 -> 3; seed 0 -> 4\)"):
+        train(dataclasses.replace(two, epochs=3, seed=4), progress=False)
+    train(dataclasses.replace(two, epochs=1, seed=4), resume=False, progress=False)
+    assert [json.loads(line)["epoch"] for line in (folder / "metrics.jsonl").read_text().splitlines()] == [1]
 
     # fine-tuning from best.pt; a checkpoint of another architecture is one line
     tuned = train(dataclasses.replace(cfg, out_dir=str(tmp_path / "tuned"), init_checkpoint=str(best)),
