@@ -130,6 +130,17 @@ def _unlisted_whole_warning(record: dict) -> str | None:
             f"not list (exported before pcnet recorded them): clips of this data may be among them")
 
 
+def _unknown_training_warning(weights, record: dict) -> str | None:
+    """A warning when the weights carry no training record (no ``.json`` beside them with a
+    ``training_config``, as ``pcnet export`` writes): whether they trained on the evaluated
+    clips cannot be told; ``None`` otherwise."""
+    if record:
+        return None
+    beside = Path(str(weights)).with_suffix(".json") if weights else "the shipped weights"
+    return (f"the weights' training data is unknown (no training_config in {beside}): these scores may include "
+            f"clips they trained on; keep the .json that pcnet export writes beside the weights")
+
+
 def evaluate(
     method: str,
     data: str | Path,
@@ -258,7 +269,7 @@ def evaluate(
     if method != "geometric":
         record = _training_config(weights)
         result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
-        warnings += [w for w in [_unlisted_whole_warning(record)] if w]
+        warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record)] if w]
     else:
         result["training_overlap"] = None
     result.update({name: summarize(errors[name]) for name in METRICS})

@@ -448,6 +448,26 @@ def test_weights_trained_on_a_whole_file_without_its_clip_names_warn():
     assert _unlisted_whole_warning({"data": ["a.npz"], "train_whole": [True], "whole_clips": ["x"]}) is None
 
 
+def test_weights_without_their_training_record_warn_that_overlap_is_unknown(tmp_path):
+    """The shipped camera-frame weights copied without the .json beside them score the same,
+    but cannot say which clips they trained on: the evaluation warns instead of implying
+    none; with the .json there is no such warning."""
+    import shutil
+
+    from pcnet.models.inference import CAMERA_WEIGHTS
+    from pcnet.pipeline.evaluate import evaluate
+
+    data = FIXTURES / "deepmimic_small.npz"
+    bare = tmp_path / "bare.onnx"
+    shutil.copyfile(CAMERA_WEIGHTS, bare)
+    result = evaluate("pcnet", data, "all", weights=str(bare), max_frames=20)
+    assert any(w.startswith("the weights' training data is unknown (no training_config in "
+                            f"{tmp_path / 'bare.json'})") for w in result["warnings"]), result["warnings"]
+    with_record = evaluate("pcnet", data, "all", weights=str(CAMERA_WEIGHTS), max_frames=20)
+    assert not any("training data is unknown" in w for w in with_record["warnings"])
+    assert with_record["tilt_deg"] == result["tilt_deg"]
+
+
 def test_a_mocap_file_that_is_not_y_up_gets_a_warning(tmp_path):
     """Real walking, running and arm-raising clips pass as +Y up; the same clips stored Z-up
     (a lab frame) or Y-down warn on `pcnet evaluate`; floor motions (crawl, roll, get-up)
