@@ -79,7 +79,7 @@ def _short_reason(err: Exception) -> str:
         return "no such file"
     if isinstance(err, OSError):
         return (err.strerror or type(err).__name__).lower()
-    if isinstance(err, pickle.UnpicklingError):
+    if isinstance(err, (pickle.UnpicklingError, KeyError)):  # KeyError: a byte that is no pickle opcode
         found = re.search(r"GLOBAL (\S+)", text)
         if found:
             return f"it holds a Python object ({found.group(1)}), refused without running it"

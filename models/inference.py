@@ -238,7 +238,9 @@ def _open(weights, default: Path, threads: int):
     try:
         session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
     except Exception as err:  # onnxruntime's InvalidProtobuf, Fail, InvalidGraph, ... share no base class
-        raise InputError(f"{path}: not an ONNX model ({_ort_reason(err)})") from err
+        hint = (f"; a training checkpoint? export it first: pcnet export --checkpoint {path} --out "
+                f"{path.with_suffix('.onnx')}") if _is_zip(path) else ""
+        raise InputError(f"{path}: not an ONNX model ({_ort_reason(err)}){hint}") from err
     meta = path.with_suffix(".json")
     info = {}
     if meta.is_file():
@@ -249,6 +251,15 @@ def _open(weights, default: Path, threads: int):
         if not isinstance(info, dict):
             raise InputError(f"{meta}: expected a JSON object beside the weights, got {type(info).__name__}")
     return path, session, info
+
+
+def _is_zip(path: Path) -> bool:
+    """Whether ``path`` starts as a zip archive does (torch.save's format: a ``.pt``)."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(4) == b"PK\x03\x04"
+    except OSError:
+        return False
 
 
 def _ort_reason(err: Exception) -> str:

@@ -103,7 +103,7 @@ class RunResult:
         ]
         lines += [f"WARNING           {f}" for f in self.flags]
         lines += [f"note              {n}" for n in self.notes]
-        lines += [f"{name:<18}{path}" for name, path in self.outputs.items()]
+        lines += [f"{name:<17} {path}" for name, path in self.outputs.items()]
         if "recording" in self.outputs:
             lines.append(f"open the recording with:  rerun {self.outputs['recording']}")
         return "\n".join(lines)

@@ -109,6 +109,8 @@ def _write_junk(kind, path):
         path.write_bytes(np.random.default_rng(0).bytes(512))
     elif kind == "text":
         path.write_text("not a checkpoint\n")
+    elif kind == "hello":  # a text starting with a byte that is no pickle opcode (KeyError in torch)
+        path.write_text("hello\n")
     elif kind == "empty":
         path.write_bytes(b"")
     elif kind == "foreign zip":
@@ -131,7 +133,7 @@ def _write_junk(kind, path):
     return path
 
 
-JUNK = ["random bytes", "text", "empty", "foreign zip", "a list", "no model", "model not tensors", "unknown kind",
+JUNK = ["random bytes", "text", "hello", "empty", "foreign zip", "a list", "no model", "model not tensors", "unknown kind",
         "bad config", "weights of another net", "missing"]
 
 
@@ -146,6 +148,7 @@ def test_anything_but_a_checkpoint_is_one_input_error(tmp_path, kind):
     message = str(info.value)
     assert message.startswith(f"{junk}: not a pcnet checkpoint (") and message.endswith(")")
     assert "\n" not in message and len(message) < 400, message
+    assert "KeyError" not in message and "Error:" not in message, message  # words, not an exception's name
     assert not out.exists()
 
 
@@ -266,6 +269,12 @@ def test_weights_that_are_not_3dpcnet_onnx_fail_in_one_line(tmp_path):
     _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", text), "weights.onnx: not an ONNX model (")
     _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", tmp_path / "gone.onnx"),
                       "gone.onnx: no such file")
+    # a training checkpoint given as weights names the export that turns it into ONNX
+    checkpoint = tmp_path / "best.pt"
+    torch.save({"kind": "pcnet", "model": {"w": torch.zeros(2)}}, checkpoint)
+    _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", checkpoint),
+                      "best.pt: not an ONNX model (", f"a training checkpoint? export it first: pcnet export "
+                      f"--checkpoint {checkpoint} --out {tmp_path / 'best.onnx'}")
     # a real ONNX model of another network (input 'features')
     other = tmp_path / "other.onnx"
     torch.onnx.export(torch.nn.Linear(51, 2), (torch.zeros(4, 51),), str(other), input_names=["features"],
