@@ -7,7 +7,8 @@ Rules (README "Safety"):
   input file (an input's own folder or any folder above it), and may not be an input.
 * ``--overwrite`` replaces only a previous pcnet output: a folder holding the marker file
   :data:`MARKER` and nothing that marker does not list, each file unchanged since (size and
-  modification time). Anything else is refused, whatever the flag says.
+  modification time, or size and content where a copy gave the file a new time). Anything
+  else is refused, whatever the flag says.
 * A run writes into a hidden sibling ``.<out>.pcnet-tmp-<id>`` (with the marker), then
   renames the old output to ``.<out>.pcnet-trash-<id>``, the new one to ``out``, and only
   then deletes the trash. A kill at any instant leaves either the whole old or the whole new
@@ -19,6 +20,7 @@ Rules (README "Safety"):
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
 import re
@@ -104,8 +106,9 @@ def foreign_entries(folder: Path) -> list[str]:
     """Names in ``folder`` that pcnet did not write, or that changed since (all of them when
     there is no valid marker; ``[folder name]`` when ``folder`` is not a folder), leaving out
     a killed `pcnet opensim`'s staging folder (:func:`stale_staging`). The marker records each
-    file's size and modification time, so an output the user edited (a CSV opened and saved)
-    counts as theirs and is never deleted."""
+    file's size, modification time and content digest, so an output the user edited (a CSV
+    opened and saved) counts as theirs and is never deleted, while a copied output folder
+    (``cp -r``, scp, a sync tool: new times, same bytes) stays pcnet's."""
     if folder.is_symlink() or not folder.is_dir():
         return [folder.name]
     listed = read_marker(folder).get("files")
@@ -133,13 +136,30 @@ def stale_staging(folder: Path) -> list[Path]:
 
 def _listed_unchanged(path: Path, listed: dict) -> bool:
     """Whether ``path`` is a plain file that ``listed`` (a marker's ``files``) records with
-    its current size and modification time."""
-    return path.name in listed and not path.is_symlink() and path.is_file() and listed[path.name] == _stamp(path)
+    its current size and either its modification time or, where the time changed (a copy),
+    its content digest (markers written before digests were recorded: the time only)."""
+    if path.name not in listed or path.is_symlink() or not path.is_file():
+        return False
+    stamp, st = listed[path.name], path.stat()
+    if not isinstance(stamp, dict) or stamp.get("size") != st.st_size:
+        return False
+    if stamp.get("mtime_ns") == st.st_mtime_ns:
+        return True
+    return "blake2b" in stamp and stamp["blake2b"] == _digest(path)
+
+
+def _digest(path: Path) -> str:
+    """BLAKE2b (16 bytes, hex) of the file's content, read a MiB at a time."""
+    h = hashlib.blake2b(digest_size=16)
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def _stamp(path: Path) -> dict:
     st = path.stat()
-    return {"size": st.st_size, "mtime_ns": st.st_mtime_ns}
+    return {"size": st.st_size, "mtime_ns": st.st_mtime_ns, "blake2b": _digest(path)}
 
 
 def owned_files(folder: Path) -> dict:
@@ -157,8 +177,8 @@ def listed_files_missing(folder: Path) -> list[str]:
 
 
 def is_owned(folder: Path, name: str) -> bool:
-    """Whether ``folder/name`` is a file pcnet wrote there, unchanged since (size and
-    modification time as the marker records them)."""
+    """Whether ``folder/name`` is a file pcnet wrote there, unchanged since (as
+    :func:`foreign_entries` judges it)."""
     return _listed_unchanged(folder / name, owned_files(folder))
 
 

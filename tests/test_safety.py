@@ -102,6 +102,24 @@ def test_overwrite_replaces_a_previous_output_and_refuses_once_the_user_added_a_
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp folder left
 
 
+def test_a_copied_output_folder_stays_pcnets_while_an_edit_of_the_same_size_does_not(user_folder):
+    """`cp -r`, scp and sync tools give every file a new modification time: the copy is still
+    pcnet's output (same bytes), so --overwrite replaces it; an edit that keeps a file's size
+    makes it the user's."""
+    import shutil
+
+    assert _invoke(*RUN, "--out", "o").exit_code == 0
+    shutil.copytree(user_folder / "o", user_folder / "copy")  # copy2: new times for the folder's files
+    for path in (user_folder / "copy").iterdir():
+        os.utime(path, ns=(path.stat().st_atime_ns, path.stat().st_mtime_ns + 10**9))
+    res = _invoke(*RUN, "--out", "copy", "--overwrite")
+    assert res.exit_code == 0, res.output
+    csv = user_folder / "copy" / "kinematics.csv"
+    text = csv.read_text()
+    csv.write_text(text[:-2] + ("0" if text[-2] != "0" else "1") + text[-1])  # same size, another byte
+    _one_line_error(_invoke(*RUN, "--out", "copy", "--overwrite"), "kinematics.csv", "changed since")
+
+
 def test_overwrite_of_a_single_output_file_replaces_only_what_pcnet_wrote(user_folder):
     """rectify, evaluate --json and export write one file (export two): --overwrite replaces
     their own earlier output and refuses a user's file of the same name, untouched."""
