@@ -652,7 +652,9 @@ def format_summary(report: BatchReport) -> str:
                      f"{worker:<22}{detail}")
     counts = report.counts()
     done = counts["ok"] + counts["skipped"]
-    lines.append(f"{done} of {len(report.rows)} recordings processed ({', '.join(f'{v} {k}' for k, v in counts.items())})"
+    # skipped rows ran in an earlier batch: their outputs are complete, but not processed now
+    lines.append(f"{done} of {len(report.rows)} recordings have complete outputs "
+                 f"({', '.join(f'{v} {k}' for k, v in counts.items())})"
                  f" in {report.seconds:.1f} s; summary {report.summary_path}")
     if report.interrupted:
         lines.append("interrupted: no further row started; cancelled rows left their output folders as they were")

@@ -103,7 +103,7 @@ def test_rows_run_in_workers_and_one_failing_row_does_not_stop_the_others(tmp_pa
                         f"mediapipe,{MEDIAPIPE},{MEDIAPIPE},mediapipe,30,b3,geometric,false\n")
     res = _invoke(manifest, "--workers", "2")
     assert res.exit_code == 1, res.output  # one row failed
-    assert "2 of 3 recordings processed (2 ok, 0 skipped, 1 failed, 0 cancelled)" in res.output
+    assert "2 of 3 recordings have complete outputs (2 ok, 0 skipped, 1 failed, 0 cancelled)" in res.output
     summary = _summary(manifest)
     assert [r["status"] for r in summary["rows"]] == ["ok", "failed", "ok"]
     b1, b2, b3 = summary["rows"]
@@ -336,7 +336,7 @@ def test_a_killed_worker_fails_or_retries_only_its_row(tmp_path, hook, retries):
     assert proc.returncode == 1, out + err
     assert [r["status"] for r in rows] == ["ok", "failed", "ok", "ok"]
     assert f"worker process {victim} was killed by SIGKILL" in rows[1]["error"] and rows[1]["pid"] == victim
-    assert "3 of 4 recordings processed" in out and not (tmp_path / "k2").exists()
+    assert "3 of 4 recordings have complete outputs" in out and not (tmp_path / "k2").exists()
     assert not list(tmp_path.glob(f".k2{TMP_TAG}*"))
 
     res = _invoke(manifest, "--retry-failed")
@@ -375,7 +375,7 @@ def test_ctrl_c_stops_at_once_and_prints_what_finished(tmp_path, hook):
         proc.kill()
     assert proc.returncode == 130, out + err
     assert took < 3.0, took
-    assert "interrupted" in out and "1 of 4 recordings processed (1 ok, 0 skipped, 0 failed, 3 cancelled)" in out
+    assert "interrupted" in out and "1 of 4 recordings have complete outputs (1 ok, 0 skipped, 0 failed, 3 cancelled)" in out
     summary = _summary(manifest)
     assert summary["interrupted"] is True and _statuses(manifest) == ["ok", "cancelled", "cancelled", "cancelled"]
     # the rows stopped while running say which attempt and worker they were in; row 4 never started
