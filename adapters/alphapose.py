@@ -248,8 +248,11 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     notes.append(f"confidence clipped to [0, 1] (raw max {raw_max:.3f})")
     choice = how if len(best) > 1 or person is not None else ""
     if dup:  # several people under one id (no tracker): the highest score per frame
+        untracked = ("; AlphaPose ran without a tracker (list-form idx, one id for everyone), so --person cannot "
+                     "choose another: its --pose_track option (AlphaPose trackers/README.md) follows each person"
+                     if scan.list_idx else "")
         choice = "; ".join(c for c in (choice, f"{len(dup)} frame{'s' * (len(dup) != 1)} with several detections of "
-                                                 f"track {track}: the highest-scored one kept") if c)
+                                                 f"track {track}: the highest-scored one kept{untracked}") if c)
     return Keypoints2D(points, layout, str(p), track_id=track, notes="; ".join(notes), choice=choice)
 
 

@@ -97,12 +97,14 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
     files = _frame_files(folder)
     count = None
     chosen: dict[int, np.ndarray] = {}
+    crowded = 0  # frames holding more than one body
     for frame, f in files:
         data = read_json(f)
         if not isinstance(data, dict) or not isinstance(data.get("people"), list):
             got = f"keys {sorted(data)[:6]}" if isinstance(data, dict) else type(data).__name__
             raise AdapterError(f, "people", "an OpenPose frame object with a 'people' list", got)
         best, best_sum = None, -np.inf
+        crowded += sum(isinstance(q, dict) and bool(q.get("pose_keypoints_2d")) for q in data["people"]) > 1
         for i, person in enumerate(data["people"]):
             kp = person.get("pose_keypoints_2d") if isinstance(person, dict) else None
             if not isinstance(kp, list):
@@ -151,7 +153,10 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
     if empty:
         notes.append(f"{empty} of {num_frames} frames without a file or person -> NaN")
     notes.append(f"confidence clipped to [0, 1] (raw max {raw_max:.3f})")
-    return Keypoints2D(points, layout, str(folder), track_id=None, notes="; ".join(notes))
+    # OpenPose has no track ids: the kept person may change from frame to frame
+    choice = (f"per frame the person with the highest summed confidence, in {crowded} frame{'s' * (crowded != 1)} "
+              f"holding several people (OpenPose has no track ids: --person cannot follow one)") if crowded else ""
+    return Keypoints2D(points, layout, str(folder), track_id=None, notes="; ".join(notes), choice=choice)
 
 
 @register_2d("openpose")

@@ -231,7 +231,7 @@ def _load_inputs(cfg: RunConfig):
     remapped = built and (f"3D joints remapped from {poses.layout} to H36M-17 with {', '.join(built)} built as means "
                           f"of other joints (stages/remap.py): trunk and shoulder angles rest on them")
     return (video, (fps, fps_source), kp2d, kp_size, joints, poses.units, poses.root_translation,
-            [n for n in (poses.summary_note, kp_choice and f"2D keypoints: {kp_choice} (--person chooses another)",
+            [n for n in (poses.summary_note, kp_choice and f"2D keypoints: {kp_choice}" + (" (--person chooses another)" * ("--person" not in kp_choice)),
                          remapped, *_assumed_inputs(cfg)) if n],
             poses.frame_turn_deg)
 

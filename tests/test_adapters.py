@@ -181,6 +181,8 @@ def test_alphapose_809_two_people_frame_is_deterministic(tmp_path):
     best = np.array(in_144[0]["keypoints"], np.float32).reshape(26, 3)
     np.testing.assert_array_equal(kp.points[144, :, :2], best[:, :2])
     assert "[144]" in kp.notes and "list-form" in kp.notes
+    # the summary's choice line says --person cannot pick the other person (one id for all)
+    assert "without a tracker" in kp.choice and "--person cannot choose another" in kp.choice
     # File order does not matter.
     rev = tmp_path / "reversed.json"
     rev.write_text(json.dumps(entries[::-1]))
@@ -338,6 +340,8 @@ def test_openpose_folder_selection_and_missing(tmp_path):
     assert np.isnan(kp.points[131, 11]).all() and np.isfinite(kp.points[131, 12]).all()
     keep = [f for f in range(130, 160) if f not in (131, 135, 140)]
     np.testing.assert_array_equal(kp.points[keep], ref[keep])  # incl. frame 144's stronger person
+    assert kp.choice.startswith("per frame the person with the highest summed confidence, in 1 frame holding several")
+    assert "--person cannot follow one" in kp.choice
 
 
 def test_openpose_body25_from_real_detections(tmp_path):
