@@ -3,9 +3,10 @@ rectification they agree.
 
     python examples/compare_two_views.py [--data MOCAP.npz] [--clip NAME] [--method pcnet]
 
-Takes a real mocap clip (default: a Bandai walk from the test fixtures), films it with two
-fixed synthetic cameras (front-left and side-right, pitched differently), and compares the
-right-wrist trajectory seen by the two cameras before and after rectification.
+Takes a real mocap clip (default: the first clip of the test fixture mocap_small.npz, a Bandai
+arm raise), films it with two fixed synthetic cameras (front-left and side-right, pitched
+differently), and compares the right-wrist trajectory seen by the two cameras before and after
+rectification.
 """
 
 import argparse

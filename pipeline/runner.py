@@ -46,7 +46,7 @@ from pcnet.stages.world_frame import feet_visible, to_world, world_frame
 
 from .config import MULTI_TRACK_FORMATS, RunConfig
 from .io import lifter_joints
-from .video_orientation import EDGE_MARGIN, DisplayOrientation, display_orientation
+from .video_orientation import EDGE_MARGIN, DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
@@ -205,7 +205,7 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
 
 def _load_inputs(cfg: RunConfig):
     video = probe_video(cfg.video) if cfg.video else None
-    kp2d, kp_fps, kp_size, kp_choice = None, None, None, ""
+    kp2d, kp_fps, kp_size, kp_choice, kp_extent = None, None, None, "", None
     if cfg.keypoints2d:
         adapter = get_2d_adapter(cfg.keypoints2d_format)
         options = {"person": cfg.person} if cfg.keypoints2d_format in MULTI_TRACK_FORMATS else {}
@@ -222,6 +222,7 @@ def _load_inputs(cfg: RunConfig):
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
         kp_size = getattr(kp, "image_size", None)
         kp_choice = getattr(kp, "choice", "")
+        kp_extent = keypoints_extent(kp.points)  # feet and hands too: which frame they fit
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)
     poses = adapter.load(cfg.lifter_output, **cfg.lifter_options)  # checked by cfg.validate() in run_pipeline
@@ -230,7 +231,7 @@ def _load_inputs(cfg: RunConfig):
     built = built_joints(poses.layout)
     remapped = built and (f"3D joints remapped from {poses.layout} to H36M-17 with {', '.join(built)} built as means "
                           f"of other joints (stages/remap.py): trunk and shoulder angles rest on them")
-    return (video, (fps, fps_source), kp2d, kp_size, joints, poses.units, poses.root_translation,
+    return (video, (fps, fps_source), kp2d, (kp_size, kp_extent), joints, poses.units, poses.root_translation,
             [n for n in (poses.summary_note, kp_choice and f"2D keypoints: {kp_choice}" + (" (--person chooses another)" * ("--person" not in kp_choice)),
                          remapped, *_assumed_inputs(cfg)) if n],
             poses.frame_turn_deg)
@@ -577,7 +578,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
     # store is removed before the folder is swapped in.
     with staged_output(out, cfg.overwrite) as tmp, FrameStore(tmp) as store:
         step("inputs")
-        video, (fps, fps_source), kp2d, kp_size, joints, units, measured_root, input_notes, lifter_turn = _load_inputs(cfg)
+        video, (fps, fps_source), kp2d, (kp_size, kp_extent), joints, units, measured_root, input_notes, lifter_turn = \
+            _load_inputs(cfg)
         needing_metres = [name for name, asked in (("--c3d", cfg.c3d), ("--opensim", cfg.opensim)) if asked]
         if needing_metres and units != "m" and cfg.height is None:
             raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
@@ -589,7 +591,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
                              f"below {fps / 2:g} or --residual-cutoff")
         kp2d, joints, aligned = _align(cfg, video, kp2d, joints)
         input_notes += [aligned] if aligned else []
-        orientation = display_orientation(video, kp2d, kp_size)
+        orientation = display_orientation(video, kp2d, kp_size, kp_extent)
         bar.update()
 
         step("remap")

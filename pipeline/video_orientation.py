@@ -72,11 +72,26 @@ def stored_pixels(xy: np.ndarray, rotation_deg: int, width: int, height: int) ->
     return np.stack(turned[rotation_deg], -1)
 
 
-def keypoint_frame(video: VideoInfo, kp2d, image_size: tuple[int, int] | None = None) -> KeypointFrame:
+def keypoints_extent(points) -> np.ndarray:
+    """``(2,)`` the largest x and y (px) of the present keypoints of ``points`` ``(T, J, >=2)``
+    (any layout; NaN = missing; read a block of frames at a time); ``-inf`` where none is."""
+    top = np.full(2, -np.inf)
+    for rows in frame_blocks(len(points)):
+        xy = np.asarray(points[rows, :, :2], np.float64).reshape(-1, 2)
+        xy = xy[np.isfinite(xy).all(axis=1)]
+        if len(xy):
+            top = np.maximum(top, xy.max(axis=0))
+    return top
+
+
+def keypoint_frame(video: VideoInfo, kp2d, image_size: tuple[int, int] | None = None,
+                   extent: np.ndarray | None = None) -> KeypointFrame:
     """Which frames of a video stored turned from how it is displayed the 2D keypoints are in
     (:data:`KeypointFrame`): for a quarter turn, the one whose size the keypoint file states
     (``image_size``, ``(width, height)``), else the one whose size holds every present
-    keypoint (within :data:`EDGE_MARGIN`), ``"unknown"`` when both or neither do; for a half
+    keypoint (within :data:`EDGE_MARGIN`; ``extent``, :func:`keypoints_extent` of every joint
+    the file holds, feet and hands included, else that of ``kp2d``'s H36M-17 joints),
+    ``"unknown"`` when both or neither do; for a half
     turn (same size), ``"stored"`` when the body stands on its head in at least
     :data:`INVERTED_SHARE` of the frames with a pelvis and thorax, ``"displayed"`` when it
     stands upright in as many (a body lying across the image, or inverted in the room, is
@@ -90,12 +105,7 @@ def keypoint_frame(video: VideoInfo, kp2d, image_size: tuple[int, int] | None = 
         named = [frame for frame, size in sizes.items() if tuple(image_size) == size]
         if len(named) == 1:
             return named[0]
-    top = np.full(2, -np.inf)
-    for rows in frame_blocks(len(kp2d)):
-        xy = np.asarray(kp2d[rows, :, :2], np.float64).reshape(-1, 2)
-        xy = xy[np.isfinite(xy).all(axis=1)]
-        if len(xy):
-            top = np.maximum(top, xy.max(axis=0))
+    top = keypoints_extent(kp2d) if extent is None else np.asarray(extent, np.float64)
     fits = [frame for frame, size in sizes.items() if np.all(top <= np.asarray(size) * (1.0 + EDGE_MARGIN))]
     return fits[0] if len(fits) == 1 else "unknown"
 
@@ -174,7 +184,8 @@ class DisplayOrientation:
                 "turned_into_displayed_frame": self.turn is not None}
 
 
-def display_orientation(video: VideoInfo | None, kp2d, image_size: tuple[int, int] | None = None) -> DisplayOrientation:
+def display_orientation(video: VideoInfo | None, kp2d, image_size: tuple[int, int] | None = None,
+                        extent: np.ndarray | None = None) -> DisplayOrientation:
     """Whether to turn a recording's keypoints and lifter output into the displayed frame.
 
     Args:
@@ -183,6 +194,8 @@ def display_orientation(video: VideoInfo | None, kp2d, image_size: tuple[int, in
             memory or on disk) or ``None``.
         image_size: ``(width, height)`` the keypoint file states for its frames, or ``None``
             (:attr:`pcnet.adapters.Keypoints2D.image_size`).
+        extent: :func:`keypoints_extent` of all the file's joints in its own layout (a
+            foot beyond the displayed frame tells the stored one), or ``None``: ``kp2d``'s.
 
     Returns:
         :class:`DisplayOrientation`: nothing to do unless the video states a display
@@ -193,9 +206,10 @@ def display_orientation(video: VideoInfo | None, kp2d, image_size: tuple[int, in
     """
     if video is None or not video.rotation_deg:
         return DisplayOrientation()
-    frame = keypoint_frame(video, kp2d, image_size)
+    frame = keypoint_frame(video, kp2d, image_size, extent)
+    kind = "upside down" if video.rotation_deg % 360 == 180 else "portrait"
     head = (f"{video.path}: displayed turned {video.rotation_deg} deg clockwise from how it is stored (its "
-            f"container's display rotation; a phone's portrait video); ")
+            f"container's display rotation; a phone's {kind} video); ")
     if frame == "stored":
         return DisplayOrientation(video.rotation_deg, frame, display_turn(video.rotation_deg),
                                   head + "the 2D keypoints are in its stored frames, so they and the lifter's output "

@@ -18,7 +18,7 @@ from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
 from pcnet.stages.remap import remap_to_h36m
 from pcnet.pipeline.video_orientation import (DisplayOrientation, display_turn, displayed_pixels, keypoint_frame,
-                                              stored_pixels)
+                                              keypoints_extent, stored_pixels)
 from pcnet.stages.core.rotations import angle_between
 
 sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
@@ -83,6 +83,14 @@ def test_keypoint_frame_is_the_one_whose_size_holds_the_keypoints():
     kp[0, :3, :2] = [[100, 200], [3000, 3000], [900, 1000]]  # fits neither: not this video's pixels
     assert keypoint_frame(video, kp) == "unknown"
     assert keypoint_frame(VideoInfo("landscape.mp4", 10, 30.0, 854, 480), kp) == "unknown"
+    # the H36M-17 joints fit both frames, but the file's own feet (beyond the remap) reach
+    # past the displayed width: the stored frame (Pose2Sim cam02, whose MediaPipe heels do)
+    kp[0, :3, :2] = [[100, 200], [1000, 1100], [900, 1000]]
+    feet = np.full((2, 33, 3), np.nan)
+    feet[0, :3, :2], feet[0, 30, :2] = kp[0, :3, :2], [1167, 1050]
+    assert keypoint_frame(video, kp) == "unknown"
+    assert keypoints_extent(feet).tolist() == [1167.0, 1100.0]
+    assert keypoint_frame(video, kp, extent=keypoints_extent(feet)) == "stored"
 
 
 
