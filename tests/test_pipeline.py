@@ -726,3 +726,6 @@ def test_centimetres_given_as_metres_are_refused_before_any_output(tmp_path):
     assert not (tmp_path / "a").exists()
     assert _invoke(*args, "--units", "cm", "--out", tmp_path / "b").exit_code == 0
     assert _invoke(*args, "--height", "1.7", "--out", tmp_path / "c").exit_code == 0
+    np.save(tmp_path / "mm.npy", pose * 10.0)  # millimetres: beyond the 100 m coordinate bound already
+    res = _invoke(*[a if a != tmp_path / "cm.npy" else tmp_path / "mm.npy" for a in args], "--out", tmp_path / "d")
+    assert res.exit_code == 1 and "millimetres or centimetres given as metres?" in res.output, res.output
