@@ -300,6 +300,16 @@ def _check_metric_body(cfg: RunConfig, cam) -> None:
                      f"or --height to scale the poses")
 
 
+def _unused_floor_note(measured_root: bool, ground_plane: dict | None) -> list[str]:
+    """A note when the input measured the pelvis path (a depth camera, ``--measured-root``)
+    but sequence mode's ground-plane step did not fit the floor from the foot contacts: the
+    user may expect it, and ``ground_plane["reason"]`` says why not."""
+    if not measured_root or not ground_plane or ground_plane.get("used"):
+        return []
+    return [f"floor not fitted from the foot contacts ({ground_plane.get('reason', 'no reason given')}): the up comes "
+            f"from the poses alone (stages/ground_plane.py)"]
+
+
 def _align(cfg: RunConfig, video, kp2d, joints):
     """``(kp2d, joints, note)``: the inputs cut to their common length under ``--align
     truncate`` (the note says what was cut; ``None`` when nothing was), else unchanged.
@@ -631,6 +641,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         report["pelvis_from_hips_frames"] = pelvis_filled
         if orientation.note:
             report["display_rotation"] = orientation.report()
+        notes += _unused_floor_note(measured_root, report.get("ground_plane"))
         del res
         tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
         # what the summary's tilt line prints, in every mode (sequence mode: its one up)

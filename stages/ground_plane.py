@@ -168,8 +168,9 @@ def ground_plane_up(J, ok, u_pose, fps, prior_deg, gate_deg):
     pel_std = np.std(_joint(J, PELVIS, fin), axis=0)
     if np.any(pel_std < _MIN_PELVIS_STD_FRAC * leg):
         info["reason"] = (
-            "pelvis (nearly) fixed on a camera axis: root-relative or depth-pinned joints, "
-            "or a subject in place; foot contacts cannot span the floor"
+            "pelvis (nearly) fixed on a camera axis: root-relative or depth-pinned joints, a subject "
+            "in place, or a walk across the view with little vertical or depth motion; foot contacts "
+            "cannot span the floor"
         )
         return u_pose, info
     P, frames, foot = _detect_contacts(J, fin, u_pose, fps, leg)

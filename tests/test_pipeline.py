@@ -729,3 +729,17 @@ def test_centimetres_given_as_metres_are_refused_before_any_output(tmp_path):
     np.save(tmp_path / "mm.npy", pose * 10.0)  # millimetres: beyond the 100 m coordinate bound already
     res = _invoke(*[a if a != tmp_path / "cm.npy" else tmp_path / "mm.npy" for a in args], "--out", tmp_path / "d")
     assert res.exit_code == 1 and "millimetres or centimetres given as metres?" in res.output, res.output
+
+
+def test_a_measured_pelvis_path_without_a_fitted_floor_is_noted():
+    """A depth camera or --measured-root gives a real pelvis path, so a user expects the
+    floor to be fitted from the foot contacts; where the ground-plane step declined (a subject
+    in place, a walk across the view), the summary says so and why."""
+    from pcnet.pipeline.runner import _unused_floor_note
+
+    declined = {"used": False, "reason": "pelvis (nearly) fixed on a camera axis: ..."}
+    (note,) = _unused_floor_note(True, declined)
+    assert note.startswith("floor not fitted from the foot contacts (pelvis (nearly) fixed on a camera axis")
+    assert _unused_floor_note(False, declined) == []  # a root-relative lifter: nothing expected
+    assert _unused_floor_note(True, {"used": True, "reason": "ok"}) == []
+    assert _unused_floor_note(True, None) == []  # frame or smooth mode: no ground-plane step
