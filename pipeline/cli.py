@@ -131,8 +131,9 @@ def _exported_model(file: Path) -> bool:
 
 _camera_prior_option = click.option(
     "--no-camera-prior", "camera_prior", flag_value=False, default=None,
-    help="Sequence modes: up from the poses (and floor contacts) alone, without the camera prior and the "
-         "lying reading (with --mode frame --heading predicted: the paper's model alone).")
+    help="Sequence mode: up from the poses (and floor contacts) alone, without the camera prior and the "
+         "lying reading (frame and smooth modes have no camera prior; for the paper's single network, give "
+         "one 3DPCNet's ONNX as --weights).")
 
 _METHOD_HELP = ("pcnet: the shipped 3DPCNet pair (gated by camera view); pcnet-rigid: the same without the residual; "
                 "geometric: the paper's baseline (section 2.3).")

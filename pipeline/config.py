@@ -238,6 +238,15 @@ class RunConfig:
                              f"mmpose), got {got}")
         check_method_weights(self.method, self.weights, field_name(source, "weights"))
         check_lifter_options(source, self.lifter, self.lifter_options)
+        if self.mode in ("frame", "smooth"):
+            # both act only on sequence mode's fixed world frame for the recording
+            if not self.camera_prior:
+                name = "--no-camera-prior" if source == COMMAND_LINE else field_name(source, "camera_prior")
+                raise InputError(f"{name}: expected with mode sequence or auto (the camera prior weighs only sequence "
+                                 f"mode's one up for the recording), got mode {self.mode}")
+            if self.lifter_options.get("measured_root"):
+                raise InputError(f"{field_name(source, 'measured_root')}: expected with mode sequence or auto (only "
+                                 f"a fixed world frame keeps the measured pelvis path), got mode {self.mode}")
         if self.fps_override and self.fps is None:
             raise InputError(f"{field_name(source, 'fps_override')}: expected together with fps, got no fps")
         if self.confidence_threshold is not None and self.keypoints2d is None:

@@ -93,8 +93,8 @@ def rectify(
     precise, :func:`pcnet.stages.heading.apply_heading`); ``None`` =
     :func:`resolve_heading_source`. ``camera_prior``: in the sequence modes, weigh the
     pose evidence against a camera prior and a lying reading
-    (:mod:`pcnet.stages.gravity_prior`; ``False`` with ``mode="frame"`` and
-    ``heading="predicted"`` is the paper's model alone). ``report`` says what ran.
+    (:mod:`pcnet.stages.gravity_prior`; frame mode has none, and with ``heading="predicted"``
+    and ``weights`` one 3DPCNet's ONNX it is the paper's model alone). ``report`` says what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
     :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least

@@ -743,3 +743,17 @@ def test_a_measured_pelvis_path_without_a_fitted_floor_is_noted():
     assert _unused_floor_note(False, declined) == []  # a root-relative lifter: nothing expected
     assert _unused_floor_note(True, {"used": True, "reason": "ok"}) == []
     assert _unused_floor_note(True, None) == []  # frame or smooth mode: no ground-plane step
+
+
+@pytest.mark.parametrize("mode", ["frame", "smooth"])
+def test_sequence_only_options_outside_sequence_mode_are_refused(tmp_path, mode):
+    """--no-camera-prior and --measured-root act only on sequence mode's fixed world frame:
+    with --mode frame or smooth they were silently ignored (identical outputs, the pelvis
+    path dropped); now one line each, before any output."""
+    args = ["run", "--lifter", "generic", "--lifter-output", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy",
+            "--fps", "30", "--mode", mode, "--out", tmp_path / "o"]
+    res = _invoke(*args, "--no-camera-prior")
+    assert res.exit_code == 1 and "--no-camera-prior: expected with mode sequence or auto" in res.output, res.output
+    res = _invoke(*args, "--measured-root")
+    assert res.exit_code == 1 and "--measured-root: expected with mode sequence or auto" in res.output, res.output
+    assert not (tmp_path / "o").exists()
