@@ -25,6 +25,7 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import AdapterError, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
+from pcnet.adapters.validate import ROOT_RELATIVE_MAX
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, THIGH_RANGE_M, fill_pelvis_from_hips,
                                           median_thigh_length, validate_fps)
 from pcnet.stages.core.errors import InputError
@@ -298,6 +299,23 @@ def _check_metric_body(cfg: RunConfig, cam) -> None:
     raise InputError(f"{cfg.lifter_output}: expected poses in metres (a median thigh length of "
                      f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: centimetres? give {fix}, "
                      f"or --height to scale the poses")
+
+
+def _check_measured_root(cfg: RunConfig, root_cam: np.ndarray) -> None:
+    """Refuse ``--measured-root`` over a pelvis ``root_cam`` ``(T, 3)`` (m, camera frame)
+    that stays at the camera's origin (median distance within
+    :data:`pcnet.adapters.validate.ROOT_RELATIVE_MAX`): a root-relative export has no path to
+    keep, and the floor fit would take the pelvis as standing at the lens.
+
+    Raises:
+        InputError: naming the lifter output and the pelvis's median distance.
+    """
+    distance = np.linalg.norm(root_cam, axis=1)
+    distance = distance[np.isfinite(distance)]
+    if len(distance) and np.median(distance) <= ROOT_RELATIVE_MAX:
+        raise InputError(f"{cfg.lifter_output}: --measured-root expected a measured pelvis path (the pelvis where "
+                         f"the person is), got a pelvis at the camera's origin (median {np.median(distance):.2g} m): "
+                         f"a root-relative export; drop --measured-root")
 
 
 def _unused_floor_note(measured_root: bool, ground_plane: dict | None) -> list[str]:
@@ -620,6 +638,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             notes.append(f"pelvis missing in {pelvis_filled} frame{'s' * (pelvis_filled != 1)}: taken as the hip midpoint")
         if units == "m" and cfg.height is None:
             _check_metric_body(cfg, cam)
+        if root_cam is not None and cfg.lifter_options.get("measured_root"):
+            _check_measured_root(cfg, root_cam)
         bar.update()
 
         step("rectify")

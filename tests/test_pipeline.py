@@ -484,6 +484,12 @@ def test_a_generic_file_with_a_measured_pelvis_path_keeps_it(tmp_path):
     res = _invoke(*normalised, "--measured-root", "--out", tmp_path / "n")
     assert res.exit_code == 1 and "--measured-root: expected metric --units" in res.output, res.output
     assert not (tmp_path / "n").exists()
+    # a root-relative export (pelvis at the lens) has no path to keep: refused, naming the fix
+    np.save(tmp_path / "rootrel.npy", cam - cam[:, :1])
+    rootrel = [a if a != tmp_path / "walk.npy" else tmp_path / "rootrel.npy" for a in args]
+    res = _invoke(*rootrel, "--measured-root", "--out", tmp_path / "z")
+    assert res.exit_code == 1 and "got a pelvis at the camera's origin" in res.output, res.output
+    assert "drop --measured-root" in res.output and not (tmp_path / "z").exists()
 
 
 def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
