@@ -103,14 +103,14 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
         if not isinstance(data, dict) or not isinstance(data.get("people"), list):
             got = f"keys {sorted(data)[:6]}" if isinstance(data, dict) else type(data).__name__
             raise AdapterError(f, "people", "an OpenPose frame object with a 'people' list", got)
-        best, best_sum = None, -np.inf
-        crowded += sum(isinstance(q, dict) and bool(q.get("pose_keypoints_2d")) for q in data["people"]) > 1
+        best, best_sum, bodies = None, -np.inf, 0
         for i, person in enumerate(data["people"]):
             kp = person.get("pose_keypoints_2d") if isinstance(person, dict) else None
             if not isinstance(kp, list):
                 raise AdapterError(f, f"people[{i}].pose_keypoints_2d", "a list of numbers", type(kp).__name__)
             if not kp:
                 continue  # people entries with only face/hand keypoints carry no body
+            bodies += 1
             if len(kp) % 3:
                 raise AdapterError(f, f"people[{i}].pose_keypoints_2d", "a multiple of 3 values", f"{len(kp)} values")
             n = len(kp) // 3
@@ -129,6 +129,7 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
                 total = float(conf.sum())
             if total > best_sum:
                 best, best_sum = arr, total
+        crowded += bodies > 1
         if best is not None:
             chosen[frame] = best
     if count is None:
