@@ -223,7 +223,8 @@ def _load_inputs(cfg: RunConfig):
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
         kp_size = getattr(kp, "image_size", None)
         kp_choice = getattr(kp, "choice", "")
-        kp_extent = keypoints_extent(kp.points)  # feet and hands too: which frame they fit
+        if video is not None and video.rotation_deg:  # which frame the keypoints are in: feet and hands too
+            kp_extent = keypoints_extent(kp.points)
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)
     poses = adapter.load(cfg.lifter_output, **cfg.lifter_options)  # checked by cfg.validate() in run_pipeline
@@ -232,10 +233,11 @@ def _load_inputs(cfg: RunConfig):
     built = built_joints(poses.layout)
     remapped = built and (f"3D joints remapped from {poses.layout} to H36M-17 with {', '.join(built)} built as means "
                           f"of other joints (stages/remap.py): trunk and shoulder angles rest on them")
+    # an adapter whose file has no tracks says itself that --person cannot choose
+    person_hint = "" if "--person" in kp_choice else " (--person chooses another)"
+    choice = kp_choice and f"2D keypoints: {kp_choice}{person_hint}"
     return (video, (fps, fps_source), kp2d, (kp_size, kp_extent), joints, poses.units, poses.root_translation,
-            [n for n in (poses.summary_note, kp_choice and f"2D keypoints: {kp_choice}" + (" (--person chooses another)" * ("--person" not in kp_choice)),
-                         remapped, *_assumed_inputs(cfg)) if n],
-            poses.frame_turn_deg)
+            [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n], poses.frame_turn_deg)
 
 
 def _assumed_inputs(cfg: RunConfig) -> list[str]:
