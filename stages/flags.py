@@ -83,7 +83,6 @@ def _valid_ups(up_cam: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return np.asarray(valid, bool) & np.isfinite(up_cam).all(axis=1)
 
 
-
 def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None, *,
                       turn_reported: bool = False) -> list[str]:
     """Flags for a camera orientation that real recordings rarely have.
