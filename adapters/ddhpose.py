@@ -14,12 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
+from pcnet.stages.core.conventions import H36M_JOINTS
 from pcnet.stages.core.framestore import frame_blocks
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, load_npy, pelvis_offset, rebased_world_frame,
-                       require_some_finite)
+from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, load_npy, nonfinite_frames, pelvis_offset,
+                       rebased_world_frame, require_some_finite)
 
 
 def _pick(p: Path, name: str, value: object, size: int, also: str = "") -> int:
@@ -83,6 +84,8 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
             arr = arr[h]
     elif not (isinstance(hypothesis, str) and hypothesis == "mean"):
         raise AdapterError(p, "hypothesis", "'mean' for a (N, 17, 3) file without a hypothesis axis", repr(hypothesis))
+    # the file's inf/NaN in the poses kept (the chosen hypothesis; for the mean, in every one)
+    nonfinite = nonfinite_frames(arr, H36M_JOINTS)
     require_some_finite(p, "predictions", arr)
     off_origin, _ = pelvis_offset(arr)
     if rebased_world_frame(arr, off_origin):
@@ -95,7 +98,8 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
                            "output? (--lifter motionbert)")
     notes.append("root as delivered (D3DP zeroes it)")
     joints = checked_poses(p, "predictions", arr, "h36m17", "m")
-    return Poses3D(np.ascontiguousarray(joints), "h36m17", units="m", source=str(p), notes="; ".join(notes))
+    return Poses3D(np.ascontiguousarray(joints), "h36m17", units="m", source=str(p), notes="; ".join(notes),
+                   nonfinite=nonfinite)
 
 
 def _mean_over_hypotheses(arr: np.ndarray) -> tuple[np.ndarray, int]:

@@ -16,7 +16,8 @@ from pcnet.stages.core.conventions import get_layout
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import checked_poses, load_array_file, require_file, require_numeric, require_some_finite
+from .validate import (checked_poses, load_array_file, nonfinite_frames, require_file, require_numeric,
+                       require_some_finite)
 
 # Letter -> (camera axis, sign) in the OpenCV camera frame: x Right, y Down, z Forward.
 _AXIS_LETTERS = {"R": (0, 1.0), "L": (0, -1.0), "D": (1, 1.0), "U": (1, -1.0), "F": (2, 1.0), "B": (2, -1.0)}
@@ -72,9 +73,11 @@ def _is_number(c: str) -> bool:
     return True
 
 
-def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str]:
-    """``(rows, note)``: the data rows of a pose CSV as float64 ``(T, columns)`` (an empty cell
-    is NaN) and a note on how its header was read (empty for none or names).
+def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
+    """``(rows, note, empty)``: the data rows of a pose CSV as float64 ``(T, columns)`` (an
+    empty cell is NaN), a note on how its header was read (empty for none or names), and
+    bool ``(T, columns)``, True for the empty cells (the format's "missing", unlike a
+    ``nan``/``inf`` cell).
 
     Rules: blank lines and lines starting with ``#`` (``numpy.savetxt``'s header and footer,
     comments as ``numpy.loadtxt`` reads them) are skipped; a row of empty cells is a frame with
@@ -89,6 +92,7 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str]:
             header naming another number of columns, no data row.
     """
     rows: list[list[float]] = []
+    empty: list[list[bool]] = []
     note = ""
     with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
         reader = csv.reader(fh, delimiter=delimiter)
@@ -121,6 +125,7 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str]:
                 cells = cells[1:]
             try:
                 rows.append([_cell(c) for c in cells])
+                empty.append([not c for c in cells])
             except ValueError:
                 if delimiter != "," and any("," in c for c in cells) and all(
                         c == "" or _is_number(c.replace(",", ".")) for c in cells):
@@ -147,7 +152,7 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str]:
     if header_width is not None and {header_width} != widths:
         raise AdapterError(p, "header", f"one name per column ({widths.pop()} columns of numbers)",
                            f"{header_width} names")
-    return np.asarray(rows, np.float64), note
+    return np.asarray(rows, np.float64), note, np.asarray(empty, bool)
 
 
 def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
@@ -196,10 +201,11 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     header_note = ""
     if suffix in (".csv", ".txt"):
         field = "columns"
-        table, header_note = _read_csv(require_file(p, "a CSV file"), delimiter)
+        table, header_note, empty = _read_csv(require_file(p, "a CSV file"), delimiter)
         arr = require_numeric(p, field, table)
+        table[empty] = 0.0  # an empty cell is the format's "missing", not a non-finite value
     elif suffix in (".npy", ".npz"):
-        arr = require_numeric(p, key or "array", load_array_file(p, key))
+        table = arr = require_numeric(p, key or "array", load_array_file(p, key))
         field = key or "array"
     else:
         require_file(p)
@@ -211,6 +217,7 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     if arr.ndim != 3 or arr.shape[1:] != (j, 3):
         raise AdapterError(p, field, f"(T, {j}, 3) or (T, {3 * j}) values for layout {lay.name}", f"shape {arr.shape}")
     require_some_finite(p, field, arr)
+    nonfinite = nonfinite_frames(table.reshape(arr.shape), lay.joints)  # the file's inf/NaN
 
     scale, unit_tag = _UNITS[units]
     # Index-and-sign instead of ``arr @ m``: NaN * 0 would spread one missing coordinate
@@ -225,7 +232,8 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     notes.append("root as delivered" + (": a measured path (measured_root)" if measured_root else ""))
     joints = checked_poses(p, field, joints, lay.name, unit_tag)
     return Poses3D(joints, lay.name, units=unit_tag, source=str(p), notes="; ".join(notes + [header_note] * bool(header_note)),
-                   root_translation=bool(measured_root), summary_note=header_note and f"{p}: {header_note}")
+                   root_translation=bool(measured_root), summary_note=header_note and f"{p}: {header_note}",
+                   nonfinite=nonfinite)
 
 
 def generic_option_problems(layout: object = "h36m17", axes: object = "RDF", units: object = "m",

@@ -78,6 +78,7 @@ from .types import AdapterError, Poses3D
 from .validate import (
     checked_poses,
     load_array_file,
+    nonfinite_frames,
     require_file,
     require_numeric,
     require_some_finite,
@@ -306,12 +307,14 @@ def load_kinect_v1(path: str | Path, layout: str | None = None, key: str | None 
         raise AdapterError(p, "layout", f"one of {sorted(KINECT_V1_LAYOUTS)}", repr(layout))
     layout = _declared_v1_layout(p, layout) if field != "d_skel" and p.suffix.lower() == ".npz" else layout or "utd"
     joints = checked_poses(p, field, kinect_v1_to_h36m(arr, layout, p, field), "h36m17", "m")
+    nonfinite = nonfinite_frames(arr, KINECT_V1_LAYOUTS[layout])  # the file's inf/NaN, not z <= 0
     if fps is None and field == "skeleton":
         fps = _archive_scalar(p, "skeleton_fps")
     notes = (f"Kinect v1 skeleton ({layout} joint order) -> H36M-17: (x, y, z)_cv = (-x, -y, z)_kinect, metres; "
              "pelvis = hip midpoint, spine = mean(pelvis, thorax), thorax = shoulder_center, head = head centre, "
              "neck_nose NaN (no nose); not root-centred; gravity only approximately -y (sensor tilt unknown)")
-    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, fps=fps, root_translation=True)
+    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, fps=fps, root_translation=True,
+                   nonfinite=nonfinite)
 
 
 def _archive_scalar(p: Path, name: str) -> float | None:
@@ -349,10 +352,12 @@ def load_azure_kinect(path: str | Path, key: str | None = None, fps: float | Non
     p = require_file(path, "an Azure Kinect joints file (.npy or .npz)")
     arr, field = _read_array(p, key, "joints")
     joints = checked_poses(p, field, azure_kinect_to_h36m(arr, p, field), "h36m17", "m")
+    nonfinite = nonfinite_frames(arr, AZURE_KINECT_JOINTS)  # the file's inf/NaN, not z <= 0
     notes = ("Azure Kinect Body Tracking (32 joints, k4abt order) -> H36M-17: mm -> m, depth-camera axes are "
              "already x right / y down / z forward; pelvis = hip midpoint, spine = mean(pelvis, thorax), "
              "thorax = shoulder midpoint, neck_nose = NOSE, head = HEAD; not root-centred")
-    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, fps=fps, root_translation=True)
+    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, fps=fps, root_translation=True,
+                   nonfinite=nonfinite)
 
 
 @register_3d("kinect_v1")

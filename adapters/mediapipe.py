@@ -61,6 +61,7 @@ from .validate import (
     checked_keypoints,
     checked_poses,
     describe_keys,
+    nonfinite_frames,
     open_numpy,
     require_file,
     require_numeric,
@@ -166,6 +167,8 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
             and ``summary_note`` says so.
     """
     p, arr, meta, scalars = _read(path, "world_3d")
+    # the file's inf/NaN; frames without any value are its "no person", said in the notes
+    nonfinite = nonfinite_frames(arr, BLAZEPOSE33.joints, skip_empty_frames=True)
     arr = checked_poses(p, "world_3d", arr, "blazepose33", "m")
     empty = int(np.isnan(arr).all(axis=(1, 2)).sum())
     notes = (f"MediaPipe BlazePose-33 world landmarks ({meta}); metres, origin mid-hip; axes already "
@@ -194,7 +197,7 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
                             + ")")
         notes += "; " + summary_note
     return Poses3D(arr, "blazepose33", units="m", source=str(p), notes=notes, fps=scalars["fps"],
-                   summary_note=summary_note, frame_turn_deg=turn_median)
+                   summary_note=summary_note, frame_turn_deg=turn_median, nonfinite=nonfinite)
 
 
 def focal_problems(focal_px: object = None) -> list[tuple[str, str, str]]:

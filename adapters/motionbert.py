@@ -6,9 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
+from pcnet.stages.core.conventions import H36M_JOINTS
+
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, pelvis_offset, require_option_int
+from .validate import (ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, nonfinite_frames, pelvis_offset,
+                       require_option_int)
 
 # Default-mode x, y come from 2D input clipped to [-1, 1] (MotionBERT
 # lib/utils/utils_data.py:crop_scale, called from lib/data/dataset_wild.py); the network's
@@ -59,6 +62,7 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
     p = Path(path)
     clip_len = require_option_int(p, "clip_len", clip_len, 1, allow_none=False)
     arr = load_npy(p, ndim=3, num_joints=17, field="X3D")
+    nonfinite = nonfinite_frames(arr, H36M_JOINTS)  # the file's inf/NaN, before any check
     xy_max = finite_max_abs(arr[..., :2])
     if not np.isfinite(xy_max):
         raise AdapterError(p, "X3D x/y values", "some finite x, y coordinates", "only NaN/inf")
@@ -82,7 +86,8 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
              + "; axes x right, y down, z away from the camera (z sign derived); no axis changed"
              + f"; root not centred: MotionBERT zeroed the root z of the first frame of each {clip_len}-frame clip "
              + f"(frames {shown}), so z may jump there" + rootrel)
-    return Poses3D(arr, "h36m17", units=units, source=str(p), notes=notes, summary_note=rootrel.removeprefix("; "))
+    return Poses3D(arr, "h36m17", units=units, source=str(p), notes=notes, summary_note=rootrel.removeprefix("; "),
+                   nonfinite=nonfinite)
 
 
 @register_3d("motionbert")

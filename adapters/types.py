@@ -9,7 +9,7 @@ are NaN, never 0; 2D confidence lies in [0, 1]; 3D poses are in the OpenCV camer
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -142,6 +142,13 @@ class Poses3D:
             virtual camera aimed at the person -> the real camera); 0 for none. The
             assumption cannot be checked from the file, so the pipeline flags a turn larger
             than its stated tilt uncertainty (:func:`pcnet.stages.flags.lifter_frame_flag`).
+        nonfinite: joint name (of the file's layout, which may differ from ``layout``: a
+            Kinect skeleton's) -> number of frames in which the file held a non-finite value
+            (``inf``, NaN) for that joint, read as missing (NaN in ``joints``); only joints
+            with one. Counted by the adapter where it reads the file
+            (:func:`pcnet.adapters.validate.nonfinite_frames`), so joints missing for other
+            reasons (not in the format, untracked, no person in the frame) are not in it.
+            The run summary shows it (:func:`pcnet.adapters.validate.nonfinite_line`).
     """
 
     joints: np.ndarray
@@ -154,10 +161,15 @@ class Poses3D:
     root_translation: bool = False
     summary_note: str = ""
     frame_turn_deg: float = 0.0
+    nonfinite: dict[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         _check_array(self.joints, "joints", self.source, self.layout)
         _check_fps(self.fps, self.source)
+        if not all(isinstance(k, str) and isinstance(v, int) and not isinstance(v, bool) and 0 < v <= self.num_frames
+                   for k, v in self.nonfinite.items()):
+            raise ValueError(f"{self.source}: nonfinite must map joint names to frame counts in 1..{self.num_frames}, "
+                             f"got {self.nonfinite!r}"[:300])
         if self.frame != "camera":
             raise ValueError(f"{self.source}: frame must be 'camera', got {self.frame!r}")
         if self.units not in POSE_UNITS:

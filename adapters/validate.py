@@ -6,8 +6,10 @@ Two mechanisms every adapter goes through:
 * **reading**: :func:`read_json` and :func:`open_numpy` (with :func:`load_array_file`,
   :func:`load_npy` and :func:`json_numbers` on top) parse untrusted bytes. They check the
   file's own claims before acting on them (a ``.npy`` header's shape against the bytes
-  present, so a damaged header never allocates gigabytes), refuse pickled object arrays,
-  and turn every parser failure into an ``AdapterError``.
+  present and the memory available, so a damaged header never allocates gigabytes; an
+  ``.npz``'s declared sizes against the file's, so a zip bomb is refused before it is
+  decompressed), refuse pickled object arrays, and turn every parser failure into an
+  ``AdapterError``.
 * **finishing**: :func:`checked_keypoints` (2D) and :func:`checked_poses` (3D) are the
   last step before an adapter builds its result. Non-finite values become NaN (missing
   data), coordinates beyond :data:`pcnet.stages.core.conventions.MAX_ABS_COORDINATE` for their
@@ -23,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
 import re
 import struct
 import tokenize
@@ -272,12 +275,116 @@ def json_numbers(p: str | Path, field: str, value: Any, depth: int = 1) -> np.nd
 
 # --------------------------------------------------------------------------- numpy files
 
+#: How many times its compressed size an ``.npz`` member, and a whole ``.npz`` its size on
+#: disk, may expand to once it is larger than :data:`NPZ_EXPANSION_FREE_BYTES`; checked from
+#: the zip's central directory before anything is decompressed. Pose, mocap and landmark
+#: arrays are measured floats: in the 679 ``.npz`` of ``../shared/data`` (mocap, MediaPipe,
+#: Kinect, Pose2Sim; 15,402 members) no member over 10 kB expands more than 1.2 fold, small
+#: text members up to 6 fold, and float data in general less than 10. Only long constant runs
+#: expand further (deflate's limit is 1032 fold, reached by zeros): a large member that
+#: expands more than 100 fold is all but one constant, which is what a zip bomb is (1 MB that
+#: decompresses to 1 GB) and what no recording is. Such a file saved with ``np.savez``
+#: (stored, not compressed) still loads.
+NPZ_MAX_EXPANSION = 100
+#: Below this (decompressed, bytes) an ``.npz`` member or archive may expand any amount: it
+#: decompresses in a fraction of a second and fits any machine, and small arrays padded with
+#: zeros or NaN (an untracked joint, a short clip) legitimately expand far more than floats.
+NPZ_EXPANSION_FREE_BYTES = 100_000_000
+#: Part of :func:`available_memory` one array read from a file may take: the reader holds
+#: the array, and its callers' first step (the float32 conversion of :func:`require_numeric`,
+#: :func:`~pcnet.stages.core.conventions.validate_poses`) one more copy of about its size.
+ARRAY_MEMORY_FRACTION = 0.5
+#: Arrays smaller than this (bytes) skip the memory check: no such allocation is what
+#: exhausts memory, and reading /proc/meminfo for each of a mocap file's 3,000 clips would
+#: cost a quarter of their loading time.
+_MEMORY_CHECK_BYTES = 1 << 24
+#: Bytes read at a time into an array's memory (no second copy of the whole file).
+_READ_CHUNK = 1 << 24
+
+
+def _bytes(n: int) -> str:
+    """``n`` bytes for a message: ``"972 kB"``, ``"1.02 GB"``."""
+    for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= 0.9995 * size:  # 999.96 MB reads "1 GB", not "1e+03 MB"
+            return f"{n / size:.3g} {unit}"
+    return f"{n} bytes"
+
+
+def available_memory() -> int | None:
+    """Bytes of memory this process may still take, ``None`` where the system does not say.
+
+    Linux's ``MemAvailable`` (free memory plus the page cache the kernel can drop), lowered to
+    the process's cgroup v2 ``memory.max`` where a container sets one (its current use is
+    mostly reclaimable page cache, so it is not subtracted); elsewhere the free pages of
+    ``os.sysconf``, which leave out the page cache and so err on the small side.
+    """
+    found = []
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            found += [int(line.split()[1]) * 1024 for line in fh if line.startswith("MemAvailable:")]
+    except (OSError, ValueError, IndexError):
+        pass
+    if not found:
+        try:
+            found.append(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        except (OSError, ValueError, AttributeError):  # not every system names these
+            pass
+    try:
+        own = next(line[3:] for line in Path("/proc/self/cgroup").read_text().splitlines() if line.startswith("0::"))
+        limit = (Path("/sys/fs/cgroup") / own.strip().lstrip("/") / "memory.max").read_text().strip()
+        if limit != "max":
+            found.append(int(limit))
+    except (OSError, ValueError, StopIteration):
+        pass
+    return max(min(found), 0) if found else None
+
+
+def _check_expansion(p: Path, field: str, of: str, packed: int, unpacked: int) -> None:
+    """Refuse ``unpacked`` decompressed bytes declared from ``packed`` stored ones (``of``:
+    ``"its compressed size"``) beyond :data:`NPZ_MAX_EXPANSION` times, above
+    :data:`NPZ_EXPANSION_FREE_BYTES`.
+
+    Raises:
+        AdapterError: ``field``, naming both sizes and the bound.
+    """
+    if unpacked > max(NPZ_EXPANSION_FREE_BYTES, NPZ_MAX_EXPANSION * packed):
+        raise AdapterError(p, field, f"at most {NPZ_MAX_EXPANSION} times {of} once decompressed, above "
+                                     f"{_bytes(NPZ_EXPANSION_FREE_BYTES)} (measured arrays expand under 10 times)",
+                           f"{_bytes(unpacked)} from {_bytes(packed)}, {unpacked // max(packed, 1)} times: a zip bomb? "
+                           f"(real data saved uncompressed, with np.savez, loads)")
+
+
+def _check_archive(p: Path, archive: zipfile.ZipFile, size: int) -> None:
+    """Check an ``.npz``'s declared member sizes (its central directory) before any member is
+    decompressed: each member's compressed bytes lie within the file's ``size``, and neither a
+    member nor the whole archive expands beyond :data:`NPZ_MAX_EXPANSION` (the whole against
+    the file's size, so that members sharing the same compressed bytes count each time).
+
+    Raises:
+        AdapterError: the member's key (or ``content`` for the whole archive), naming sizes.
+    """
+    for info in archive.infolist():
+        key = info.filename.removesuffix(".npy")
+        if info.compress_size > size:
+            raise AdapterError(p, key, f"a member's compressed bytes within the file's {_bytes(size)}",
+                               f"{_bytes(info.compress_size)} declared: a damaged zip directory")
+        _check_expansion(p, key, "its compressed size", info.compress_size, info.file_size)
+    total = sum(info.file_size for info in archive.infolist())
+    _check_expansion(p, "content", "the file's size (all members)", size, total)
+
 
 def _read_npy(p: Path, field: str, fp: IO[bytes], size: int) -> np.ndarray:
     """One array from an open ``.npy`` stream of ``size`` bytes in all.
 
-    The header's shape and dtype are checked against the bytes present before anything is
-    allocated: a damaged header claiming 10**12 elements is refused, not a MemoryError.
+    The header's shape and dtype are checked before anything is allocated: against the
+    bytes present (a damaged header claiming 10**12 elements is refused, not a MemoryError)
+    and, from 16 MiB, against :data:`ARRAY_MEMORY_FRACTION` of :func:`available_memory`. The
+    data is read into the array a chunk at a time: memory holds the array once.
+
+    Raises:
+        AdapterError: ``field``: an unknown format version, a damaged header, a pickled
+            object array or another non-plain dtype, a shape the bytes do not hold or memory
+            cannot, truncated data.
     """
     try:
         version = np.lib.format.read_magic(fp)
@@ -304,16 +411,27 @@ def _read_npy(p: Path, field: str, fp: IO[bytes], size: int) -> np.ndarray:
     if nbytes > size - start:
         raise AdapterError(p, field, f"{nbytes} bytes of data for shape {shape} {dtype} (the .npy header)",
                            f"{max(size - start, 0)} bytes: the file is truncated or its header damaged")
+    memory = available_memory() if nbytes >= _MEMORY_CHECK_BYTES else None
+    if memory is not None and nbytes > ARRAY_MEMORY_FRACTION * memory:
+        raise AdapterError(p, field, f"an array of at most {_bytes(int(ARRAY_MEMORY_FRACTION * memory))} (half the "
+                                     f"{_bytes(memory)} of memory available: it and one working copy)",
+                           f"shape {shape} {dtype}, {_bytes(nbytes)}")
+    arr = np.empty(count, dtype)
+    data, done = arr.view(np.uint8), 0
     try:
-        data = fp.read(nbytes)
+        while done < nbytes:
+            got = fp.readinto(data[done:done + _READ_CHUNK])
+            if not got:
+                break
+            done += got
     except _PARSE_ERRORS as exc:
         raise AdapterError(p, field, "readable array data", _short(f"{type(exc).__name__}: {exc}", 120)) from exc
-    if len(data) != nbytes:
+    if done != nbytes:
         raise AdapterError(p, field, f"{nbytes} bytes of data for shape {shape} {dtype}",
-                           f"{len(data)} bytes: the file is truncated")
-    arr = np.frombuffer(data, dtype=dtype, count=count)
-    arr = arr.reshape(shape[::-1]).T if fortran else arr.reshape(shape)
-    return arr.copy()  # frombuffer's array is read-only and pins the bytes
+                           f"{done} bytes: the file is truncated")
+    if fortran:  # C order, as numpy's own copy of a Fortran-order file would be
+        return np.ascontiguousarray(arr.reshape(shape[::-1]).T)
+    return arr.reshape(shape)
 
 
 class NumpyArchive(np.lib.npyio.NpzFile):
@@ -330,6 +448,7 @@ class NumpyArchive(np.lib.npyio.NpzFile):
         fid = self.path.open("rb")
         try:
             super().__init__(fid, own_fid=True, allow_pickle=False)
+            _check_archive(self.path, self.zip, self.path.stat().st_size)
         except BaseException:
             fid.close()
             raise
@@ -363,8 +482,10 @@ def open_numpy(path: str | Path) -> np.ndarray | NumpyArchive:
     Raises:
         AdapterError: field ``path`` (missing/unreadable); ``content`` when the file is not
             numpy at all (e.g. a CSV: the message says so, not "pickled data"), a damaged
-            zip, or a ``.npy`` whose header is damaged, disagrees with the file's size, or
-            holds a pickled object array.
+            zip, an ``.npz`` that would expand beyond :data:`NPZ_MAX_EXPANSION` times its
+            size, or a ``.npy`` whose header is damaged, disagrees with the file's size, asks
+            for more than half the available memory, or holds a pickled object array; an
+            ``.npz`` member's key when its declared sizes do (a zip bomb, a damaged directory).
     """
     p = require_file(path, "a .npy or .npz file")
     try:
@@ -378,6 +499,8 @@ def open_numpy(path: str | Path) -> np.ndarray | NumpyArchive:
     if head[:4] in _ZIP_MAGICS:
         try:
             return NumpyArchive(p)
+        except AdapterError:  # the archive's declared sizes, already one line
+            raise
         except _PARSE_ERRORS as exc:
             raise AdapterError(p, "content", "a numpy .npz archive",
                                _short(f"a damaged zip ({type(exc).__name__}: {exc})", 160)) from exc
@@ -497,6 +620,50 @@ def finite_max_abs(arr: np.ndarray) -> float:
         if finite.size:
             best = float(np.fmax(best, np.abs(finite).max()))
     return best
+
+
+def nonfinite_frames(arr: np.ndarray, joint_names: Sequence[str], skip_empty_frames: bool = False) -> dict[str, int]:
+    """What a file held that is read as missing: per joint, the number of frames in which
+    ``(T, J, 3)`` ``arr`` has a non-finite coordinate (``inf``, ``-inf``, NaN) for it.
+
+    Count on the array **as read from the file**, before an adapter adds NaN of its own (a
+    depth sensor's untracked joints, joints a layout lacks), so that the count tells the
+    file's non-finite values from joints missing for other reasons.
+
+    Args:
+        arr: ``(T, J, 3)`` real numbers (any float or int dtype).
+        joint_names: the ``J`` names of the file's layout.
+        skip_empty_frames: frames without a single finite value are the format's own "no
+            person" (MediaPipe) and are not counted.
+
+    Returns:
+        joint name -> frames, in layout order, only joints with at least one such frame.
+    """
+    counts = np.zeros(len(joint_names), np.int64)
+    for rows in frame_blocks(len(arr)):  # a block at a time: no whole-recording copies
+        bad = ~np.isfinite(np.asarray(arr[rows])).all(axis=2)
+        if skip_empty_frames:
+            bad &= ~bad.all(axis=1, keepdims=True)
+        counts += bad.sum(axis=0)
+    return {name: int(n) for name, n in zip(joint_names, counts) if n}
+
+
+def nonfinite_line(counts: Mapping[str, int], limit: int = 6) -> str:
+    """One summary line for :func:`nonfinite_frames`' counts, ``''`` for none; the ``limit``
+    joints with the most frames are named, the others counted.
+
+    Example: ``"input: non-finite values (inf/NaN) read as missing: right_ankle 10 frames,
+    left_wrist 2 frames"``.
+    """
+    if not counts:
+        return ""
+    ranked = sorted(counts.items(), key=lambda item: -item[1])  # stable: layout order among equals
+    shown = ", ".join(f"{name} {n} frame{'s' * (n != 1)}" for name, n in ranked[:limit])
+    rest = ranked[limit:]
+    if rest:
+        more = sum(n for _, n in rest)
+        shown += f", {len(rest)} more joint{'s' * (len(rest) != 1)} ({more} frame{'s' * (more != 1)})"
+    return f"input: non-finite values (inf/NaN) read as missing: {shown}"
 
 
 #: The farthest a root-relative export's pelvis lies from the origin, median over frames (in

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from pcnet.stages.core.conventions import H36M_JOINTS
+
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, pelvis_offset,
-                       rebased_world_frame)
+from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy,
+                       nonfinite_frames, pelvis_offset, rebased_world_frame)
 
 #: With VideoPose3D's trajectory model, run.py adds the predicted root trajectory before
 #: exporting: the pelvis then lies in front of the camera, at this depth (m) or more (median).
@@ -39,7 +41,9 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     millimeters", ``common/camera.py`` ``project_to_2d`` (x right, y down, z forward).
     """
     p = Path(path)
-    arr = checked_poses(p, "poses", load_npy(p, ndim=3, num_joints=17, field="poses"), "h36m17", "m")
+    arr = load_npy(p, ndim=3, num_joints=17, field="poses")
+    nonfinite = nonfinite_frames(arr, H36M_JOINTS)  # the file's inf/NaN, before any check
+    arr = checked_poses(p, "poses", arr, "h36m17", "m")
     off_origin, depth = pelvis_offset(arr)
     if rebased_world_frame(arr, off_origin):
         raise AdapterError(p, "poses", "a VideoPose3D export in the camera frame (x right, y down, z forward)",
@@ -53,7 +57,7 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     root = finite_max_abs(arr[:, 0])
     notes = ("VideoPose3D export (VideoPose3D INFERENCE.md), H36M-17, metres, camera frame x right / y down / z forward, "
              f"no axis changed; root as delivered (max |root| {root:.2g} m)")
-    return Poses3D(arr, "h36m17", units="m", source=str(p), notes=notes)
+    return Poses3D(arr, "h36m17", units="m", source=str(p), notes=notes, nonfinite=nonfinite)
 
 
 @register_3d("videopose3d")

@@ -52,9 +52,11 @@ def load_numpy_file(path: Path, what: str):
 
     Raises:
         FileNotFoundError: missing file (naming ``path`` and ``what``).
-        InputError: ``"PATH: not a readable WHAT file (REASON)"``: not numpy at all (a CSV
-            is called that, not "pickled data"), a damaged file or header, or a pickled
-            object array.
+        InputError: ``"PATH: not a readable WHAT file ([member 'KEY': ]expected ..., got
+            ...)"``: not numpy at all (a CSV is called that, not "pickled data"), a damaged
+            file or header, a pickled object array, an array larger than half the available
+            memory, or an ``.npz`` whose declared sizes are a zip bomb's
+            (:func:`pcnet.adapters.validate.open_numpy`).
     """
     # Imported here: the adapters package loads OpenCV, which datasets users rarely need.
     from pcnet.adapters.types import AdapterError
@@ -68,7 +70,10 @@ def load_numpy_file(path: Path, what: str):
     try:
         return open_numpy(path)
     except AdapterError as err:
-        raise InputError(f"{path}: not a readable {what} file ({err.got})") from err
+        # An .npz refused for a member's declared sizes names the member; the expectation
+        # says which bound (a zip bomb's expansion, the memory available).
+        where = "" if err.field in ("path", "content") else f"member {err.field!r}: "
+        raise InputError(f"{path}: not a readable {what} file ({where}expected {err.expected}, got {err.got})") from err
 
 
 def load_mocap(path: str | Path) -> list[Clip]:
@@ -182,7 +187,7 @@ def read_sidecar(path: Path) -> dict:
         return {}
     try:
         meta = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as err:
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as err:  # RecursionError: nested too deeply
         raise InputError(f"{path}: expected the mocap's JSON metadata, got unreadable content ({err})") from None
     if not isinstance(meta, dict):
         raise InputError(f"{path}: expected a JSON object (clip name -> metadata), got {type(meta).__name__}")

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pcnet.stages.core.atomic import atomic_path, write_text
+from pcnet.stages.core.atomic import atomic_path
 from pcnet.stages.core.errors import InputError
 
 from .network import PCNet
@@ -28,9 +28,11 @@ class _Exported(torch.nn.Module):
         return self.model(x)
 
 
-def export_onnx(model: PCNet, path: str | Path, metadata: dict | None = None) -> Path:
+def export_onnx(model: PCNet, path: str | Path, metadata: dict | None = None, replace: bool = True) -> Path:
     """Write ``model`` as ONNX (opset 18) to ``path`` atomically, plus ``<path>.json`` with
-    the architecture and ``metadata``. The batch axis is dynamic; the graph is traced with
+    the architecture and ``metadata``: both appear, or neither where the user did not ask to
+    replace them (``replace`` false: a file that appeared there meanwhile, another run's, is
+    kept and the call refused, :func:`pcnet.stages.core.atomic.atomic_path`). The batch axis is dynamic; the graph is traced with
     a batch of 4 because exporters specialise example dimensions of size 0 or 1
     (pytorch/pytorch issues #144242 and #157621), and the fused MHA fast path (no ONNX
     symbolic for ``aten::_transformer_encoder_layer_fwd`` /
@@ -46,24 +48,32 @@ def export_onnx(model: PCNet, path: str | Path, metadata: dict | None = None) ->
     x = torch.randn(4, 17, 3)
     fast = torch.backends.mha.get_fastpath_enabled()
     torch.backends.mha.set_fastpath_enabled(False)
+    info = {"model_config": model.cfg.to_dict(), "opset": OPSET, **(metadata or {})}
+    published = False
     try:
-        with atomic_path(path) as tmp, torch.no_grad():
-            torch.onnx.export(
-                _Exported(model), (x,), str(tmp), input_names=["x"], output_names=["rotation", "residual"],
-                dynamic_axes={"x": {0: "batch"}, "rotation": {0: "batch"}, "residual": {0: "batch"}},
-                opset_version=OPSET, dynamo=False,
-            )
+        # The description is published last: an .onnx without it is not recognisably pcnet's.
+        with atomic_path(path.with_suffix(".json"), replace=replace) as tmp_json:
+            with atomic_path(path, replace=replace) as tmp, torch.no_grad():
+                torch.onnx.export(
+                    _Exported(model), (x,), str(tmp), input_names=["x"], output_names=["rotation", "residual"],
+                    dynamic_axes={"x": {0: "batch"}, "rotation": {0: "batch"}, "residual": {0: "batch"}},
+                    opset_version=OPSET, dynamo=False,
+                )
+            published = True
+            tmp_json.write_text(json.dumps(info, indent=2))
+    except BaseException:
+        if published and not replace:  # this call made that file new: take it back with its description
+            path.unlink(missing_ok=True)
+        raise
     finally:
         torch.backends.mha.set_fastpath_enabled(fast)
-    info = {"model_config": model.cfg.to_dict(), "opset": OPSET, **(metadata or {})}
-    write_text(path.with_suffix(".json"), json.dumps(info, indent=2))
     return path
 
 
-def export_checkpoint(checkpoint: str | Path, path: str | Path) -> Path:
+def export_checkpoint(checkpoint: str | Path, path: str | Path, replace: bool = True) -> Path:
     """Export a 3DPCNet checkpoint (``best.pt``) to ONNX at ``path``, plus ``<path>.json``
     naming the checkpoint. The checkpoint is read with ``weights_only=True`` and fully
-    checked before anything is written.
+    checked before anything is written; ``replace`` as in :func:`export_onnx`.
 
     Returns:
         ``path``.
@@ -77,7 +87,7 @@ def export_checkpoint(checkpoint: str | Path, path: str | Path) -> Path:
     from .train import load_checkpoint
 
     model = load_checkpoint(checkpoint)
-    return export_onnx(model, path, {"checkpoint": str(checkpoint), **training_record(checkpoint)})
+    return export_onnx(model, path, {"checkpoint": str(checkpoint), **training_record(checkpoint)}, replace)
 
 
 #: Fields of a run's ``config.json`` copied beside exported weights (what they trained on).
@@ -91,7 +101,7 @@ def training_record(checkpoint: str | Path) -> dict:
     object: evaluation reads it to say how much of a dataset the weights trained on."""
     try:
         config = json.loads((Path(checkpoint).parent / "config.json").read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):  # RecursionError: nested too deeply
         return {}
     if not isinstance(config, dict):
         return {}

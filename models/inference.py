@@ -246,7 +246,7 @@ def _open(weights, default: Path, threads: int):
     if meta.is_file():
         try:
             info = json.loads(meta.read_text())
-        except (OSError, UnicodeDecodeError, ValueError) as err:
+        except (OSError, UnicodeDecodeError, ValueError, RecursionError) as err:  # RecursionError: nested too deeply
             raise InputError(f"{meta}: not readable JSON beside the weights ({err})") from err
         if not isinstance(info, dict):
             raise InputError(f"{meta}: expected a JSON object beside the weights, got {type(info).__name__}")

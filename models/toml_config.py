@@ -4,6 +4,7 @@ run-time pipeline uses it too)."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import re
 import tomllib
@@ -15,15 +16,53 @@ from pathlib import Path
 from pcnet.stages.core.errors import InputError, close_names
 
 
+#: Deepest nesting a config may have: arrays and inline tables inside one another, and the
+#: parts of one dotted key (``a.b.c``, a table header's too). pcnet's configs nest two levels.
+#: tomllib parses arrays and inline tables by recursion (about four Python frames a level),
+#: so ``height = [[[...]]]`` 100,000 levels deep would end in a RecursionError, and it holds
+#: every prefix of a dotted key, so a 600 kB key of 100,000 parts takes gigabytes; a bound
+#: checked before parsing does not depend on the interpreter's recursion limit.
+MAX_TOML_NESTING = 100
+# The nesting scan's tokens: strings (their brackets and dots are text) and comments, read
+# past; brackets and braces; the dots of a dotted key, whose run a "=", a ",", a bracket or
+# the end of the line ends (a float or a date in a value holds one dot: two parts, far below).
+_TOML_NESTING_TOKENS = re.compile(r"""
+      "{3}(?:\\.|[^\\])*?"{3} | '{3}.*?'{3} | "(?:\\.|[^"\\\n])*" | '[^'\n]*' | \#[^\n]*
+    | (?P<open>[\[{]) | (?P<close>[\]}]) | (?P<dot>\.) | (?P<end>[=,\n])
+""", re.X | re.S)
+
+
+def toml_nesting(text: str, limit: int = MAX_TOML_NESTING) -> int:
+    """How deep TOML ``text`` nests: the larger of the depth of its arrays and inline tables
+    and the parts of its longest dotted key (a float's dot counts: ``1.5`` is two). One
+    linear scan before parsing, which stops once past ``limit``."""
+    depth = deepest = dots = 0
+    for token in _TOML_NESTING_TOKENS.finditer(text):
+        kind = token.lastgroup  # None: a string or a comment
+        if kind == "dot":
+            dots += 1
+        elif kind is not None:
+            dots = 0
+            depth += 1 if kind == "open" else -1 if kind == "close" and depth else 0
+        deepest = max(deepest, depth, dots + 1)
+        if deepest > limit:
+            break
+    return deepest
+
+
 def read_toml(path: str | Path) -> dict:
     """The TOML file's top-level table.
 
     Raises:
-        InputError: the file is missing, unreadable or not TOML (named in the message).
+        InputError: the file is missing, unreadable, not TOML, or nested deeper than
+            :data:`MAX_TOML_NESTING` levels (named in the message).
     """
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text())
+        text = path.read_text()
+        if toml_nesting(text) > MAX_TOML_NESTING:
+            raise InputError(f"{path}: not a readable TOML config (nesting deeper than {MAX_TOML_NESTING} levels)")
+        return tomllib.loads(text)
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
         reason = err.strerror if isinstance(err, OSError) and err.strerror else err
         raise InputError(f"{path}: not a readable TOML config ({reason})") from err
@@ -68,13 +107,49 @@ def value_matches(value: object, tp: object) -> bool:
     return isinstance(tp, type) and isinstance(value, tp)
 
 
+def type_hints(obj) -> Mapping:
+    """``typing.get_type_hints(obj)`` (a class or a function), read-only, computed once per
+    object: evaluating the string annotations (``from __future__ import annotations``) costs
+    about 0.3 ms a class, which a manifest of 100,000 rows, each one config, would pay each row."""
+    try:
+        return _type_hints(obj)
+    except TypeError:  # unhashable (a callable instance defining __eq__ only)
+        return types.MappingProxyType(typing.get_type_hints(obj))
+
+
+@functools.lru_cache(maxsize=256)
+def _type_hints(obj) -> Mapping:
+    return types.MappingProxyType(typing.get_type_hints(obj))
+
+
+#: Types whose every value fits an annotation naming them (:func:`value_matches`): an ``int``
+#: fits ``float`` too, a ``bool`` only ``bool``.
+_PLAIN = {str: (str,), bool: (bool,), int: (int,), float: (float, int), type(None): (type(None),), dict: (dict,)}
+
+
+def _plain_types(tp: object) -> frozenset:
+    """The exact value types that surely fit the annotation ``tp`` (a plain type or a union of
+    them): a shortcut past :func:`value_matches` for the common values of a config, which a
+    manifest checks on every row; other values (subclasses included) take the full check."""
+    try:
+        return _plain_types_of(tp)
+    except TypeError:  # an unhashable annotation
+        return frozenset()
+
+
+@functools.lru_cache(maxsize=512)
+def _plain_types_of(tp: object) -> frozenset:
+    args = typing.get_args(tp) if typing.get_origin(tp) in (typing.Union, types.UnionType) else (tp,)
+    return frozenset(t for a in args for t in _PLAIN.get(typing.get_origin(a) or a, ()))
+
+
 def check_config_types(source: str | Path, where: str, given: dict, cls) -> None:
     """Raise :class:`InputError` naming ``source``, the field, its expected type and the value
     when a value of ``given`` does not fit its field of the dataclass ``cls``
     (:func:`value_matches`). Unknown keys are left to :func:`check_config_keys`."""
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     for key, value in given.items():
-        if key in hints and not value_matches(value, hints[key]):
+        if key in hints and type(value) not in _plain_types(hints[key]) and not value_matches(value, hints[key]):
             raise InputError(f"{source}: {where}field {key!r}: expected {type_name(hints[key])}, "
                              f"got {value!r} ({type(value).__name__})")
 
@@ -128,7 +203,7 @@ def _field_values(cfg: object) -> Mapping:
 def _is_int_field(cls, name: str) -> bool:
     if cls is None:
         return False
-    tp = typing.get_type_hints(cls).get(name)
+    tp = type_hints(cls).get(name)
     args = typing.get_args(tp)
     return tp is int or (typing.get_origin(tp) in (list, tuple) and args[:1] == (int,))
 

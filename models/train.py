@@ -18,6 +18,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from pcnet.stages.core.atomic import make_parents, remove_created, write_text
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.canonical import trunk_lean_deg
 from pcnet.stages.core.metrics import rotation_error_deg, summarize, tilt_error_deg
@@ -257,7 +258,9 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     (:mod:`pcnet.models.checkpoint`).
 
     Everything is read and checked (data, ``init_checkpoint``, ``last.pt`` when resuming)
-    before ``cfg.out_dir`` is created, so a bad input leaves no run folder behind.
+    before ``cfg.out_dir`` is created, so a bad input leaves no run folder behind; a run that
+    fails or is interrupted before its first epoch is saved removes the folder and the parents
+    it created (a later failure keeps ``last.pt`` to resume from).
 
     Raises:
         InputError: empty training or validation split, an unknown device, or an
@@ -308,57 +311,67 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
         start, best = resume_point(last, ck)
         if start >= cfg.epochs and progress:
             tqdm.write(f"{last}: all {cfg.epochs} epochs of this run already ran")
-    out.mkdir(parents=True, exist_ok=True)
-    if start == 0:  # a new run (--no-resume, or a folder without last.pt): not after an old run's epochs
-        (out / "metrics.jsonl").unlink(missing_ok=True)
-    # Clips trained on whole are named so that evaluation can say when a test set holds them
-    # (a cross-dataset file whose subset was moved into training: pcnet.pipeline.evaluate).
-    whole_clips = sorted({c.name for clips, w in zip(loaded, cfg.train_whole or []) if w for c in clips})
-    record = {**asdict(cfg), **({"whole_clips": whole_clips} if whole_clips else {})}
-    (out / "config.json").write_text(json.dumps(record, indent=2))
+    created: list[Path] = []  # out and the parents this run made
+    make_parents(out, created)
+    try:
+        if start == 0:  # a new run (--no-resume, or a folder without last.pt): not after an old run's epochs
+            (out / "metrics.jsonl").unlink(missing_ok=True)
+        # Clips trained on whole are named so that evaluation can say when a test set holds them
+        # (a cross-dataset file whose subset was moved into training: pcnet.pipeline.evaluate).
+        whole_clips = sorted({c.name for clips, w in zip(loaded, cfg.train_whole or []) if w for c in clips})
+        record = {**asdict(cfg), **({"whole_clips": whole_clips} if whole_clips else {})}
+        write_text(out / "config.json", json.dumps(record, indent=2))
 
-    for epoch in range(start, cfg.epochs):
-        t0 = time.time()
-        gen = torch.Generator().manual_seed(cfg.seed + epoch)
-        balanced = cfg.lean_balance_cap > 0
-        x, R, canon = _epoch_tensors(train_clips, cfg, cfg.seed + epoch, cfg.views, cfg.noise, cfg.augment,
-                                  noise_fraction=cfg.noise_fraction, frame_stride=1 if balanced else cfg.frame_stride)
-        if balanced:
-            weights = torch.from_numpy(lean_balance_weights(trunk_lean_deg(canon.numpy()), cfg.lean_balance_cap))
-            order = torch.multinomial(weights, min(n_train, len(x)), replacement=True, generator=gen)
-        else:
-            order = torch.randperm(len(x), generator=gen)
-        model.train()
-        running: dict[str, float] = {}
-        bar = tqdm(range(0, len(order), cfg.batch_size), desc=f"epoch {epoch + 1}/{cfg.epochs}", disable=not progress)
-        for n, i in enumerate(bar, 1):
-            idx = order[i : i + cfg.batch_size]
-            xb, Rb, cb = x[idx].to(device), R[idx].to(device), canon[idx].to(device)
-            R_hat, delta, aux = model(xb, return_aux=True)
-            loss, parts = composite_loss(model, xb, R_hat, delta, aux, Rb, cb, cfg.loss)
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
-            opt.step()
-            sched.step()
-            for k, v in parts.items():
-                running[k] = running.get(k, 0.0) + (float(v) - running.get(k, 0.0)) / n
-            bar.set_postfix({k: f"{v:.4f}" for k, v in running.items() if k in ("total", "rot", "pose")})
-        metrics = {k: float(v) for k, v in validate(model, x_val, R_val, device).items()}
-        record = {"epoch": epoch + 1, "seconds": round(time.time() - t0, 1), "lr": float(sched.get_last_lr()[0]),
-                  **{f"train_{k}": v for k, v in running.items()}, **metrics}
-        with open(out / "metrics.jsonl", "a") as fh:
-            fh.write(json.dumps(record) + "\n")
-        if progress:
-            tqdm.write(json.dumps(record))
-        save_checkpoint({"kind": "pcnet", "model": model.state_dict(), "optimizer": opt.state_dict(),
-                         "scheduler": sched.state_dict(), "epoch": epoch,
-                         "best": min(best, metrics["val_rotation_deg"]), "model_config": cfg.model.to_dict(),
-                         "config": asdict(cfg)}, last)
-        if metrics["val_rotation_deg"] < best:
-            best = metrics["val_rotation_deg"]
-            save_checkpoint({"kind": "pcnet", "model": model.state_dict(), "model_config": cfg.model.to_dict(),
-                             "epoch": epoch + 1, "val": metrics}, out / "best.pt")
+        for epoch in range(start, cfg.epochs):
+            t0 = time.time()
+            gen = torch.Generator().manual_seed(cfg.seed + epoch)
+            balanced = cfg.lean_balance_cap > 0
+            x, R, canon = _epoch_tensors(train_clips, cfg, cfg.seed + epoch, cfg.views, cfg.noise, cfg.augment,
+                                      noise_fraction=cfg.noise_fraction, frame_stride=1 if balanced else cfg.frame_stride)
+            if balanced:
+                weights = torch.from_numpy(lean_balance_weights(trunk_lean_deg(canon.numpy()), cfg.lean_balance_cap))
+                order = torch.multinomial(weights, min(n_train, len(x)), replacement=True, generator=gen)
+            else:
+                order = torch.randperm(len(x), generator=gen)
+            model.train()
+            running: dict[str, float] = {}
+            bar = tqdm(range(0, len(order), cfg.batch_size), desc=f"epoch {epoch + 1}/{cfg.epochs}", disable=not progress)
+            for n, i in enumerate(bar, 1):
+                idx = order[i : i + cfg.batch_size]
+                xb, Rb, cb = x[idx].to(device), R[idx].to(device), canon[idx].to(device)
+                R_hat, delta, aux = model(xb, return_aux=True)
+                loss, parts = composite_loss(model, xb, R_hat, delta, aux, Rb, cb, cfg.loss)
+                opt.zero_grad(set_to_none=True)
+                loss.backward()
+                torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+                opt.step()
+                sched.step()
+                for k, v in parts.items():
+                    running[k] = running.get(k, 0.0) + (float(v) - running.get(k, 0.0)) / n
+                bar.set_postfix({k: f"{v:.4f}" for k, v in running.items() if k in ("total", "rot", "pose")})
+            metrics = {k: float(v) for k, v in validate(model, x_val, R_val, device).items()}
+            record = {"epoch": epoch + 1, "seconds": round(time.time() - t0, 1), "lr": float(sched.get_last_lr()[0]),
+                      **{f"train_{k}": v for k, v in running.items()}, **metrics}
+            with open(out / "metrics.jsonl", "a") as fh:
+                fh.write(json.dumps(record) + "\n")
+            if progress:
+                tqdm.write(json.dumps(record))
+            save_checkpoint({"kind": "pcnet", "model": model.state_dict(), "optimizer": opt.state_dict(),
+                             "scheduler": sched.state_dict(), "epoch": epoch,
+                             "best": min(best, metrics["val_rotation_deg"]), "model_config": cfg.model.to_dict(),
+                             "config": asdict(cfg)}, last)
+            if metrics["val_rotation_deg"] < best:
+                best = metrics["val_rotation_deg"]
+                save_checkpoint({"kind": "pcnet", "model": model.state_dict(), "model_config": cfg.model.to_dict(),
+                                 "epoch": epoch + 1, "val": metrics}, out / "best.pt")
+    except BaseException:
+        # A new run folder without one finished epoch holds nothing to resume from: it goes,
+        # with the parents made for it; a run with a last.pt keeps it (--no-resume starts over).
+        if created and not last.is_file():
+            for name in ("config.json", "metrics.jsonl"):
+                (out / name).unlink(missing_ok=True)
+            remove_created(created)
+        raise
     return out / "best.pt"
 
 

@@ -91,7 +91,7 @@ def read_batch_marker(out: Path) -> dict:
     """The batch marker of ``out``, ``{}`` when missing, unreadable or not pcnet batch's."""
     try:
         data = json.loads((out / BATCH_MARKER).read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):  # RecursionError: nested too deeply
         return {}
     return data if isinstance(data, dict) and data.get("writer") == "pcnet batch" else {}
 

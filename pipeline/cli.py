@@ -24,14 +24,20 @@ from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, check_method_weights
 
 class _ErrorBoundary(click.Group):
     """Every command's body runs here: bad input (:class:`InputError`, an ``OSError`` from
-    the user's files or folders, a bad option value) ends in one line and exit 1, Ctrl-C and
-    SIGTERM in one line and exit 130. Any other exception is a bug of pcnet and keeps its traceback."""
+    the user's files or folders or their environment, a bad option value, input too deep or
+    too large for the interpreter: ``RecursionError``, ``MemoryError``) ends in one line and
+    exit 1, Ctrl-C and SIGTERM in one line and exit 130. Any other exception is a bug of pcnet
+    and keeps its traceback."""
 
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
         except (InputError, OSError) as err:
             raise click.ClickException(one_line(err)) from err
+        except (RecursionError, MemoryError) as err:
+            # The readers bound what they parse and name the file; this is the last resort
+            # for whatever slips past them, still one line and no output (the writers clean up).
+            raise click.ClickException(f"pcnet {ctx.invoked_subcommand or ''}: {one_line(err)}") from None
         except RuntimeError as err:
             # Path.resolve() on a symlink loop (Python < 3.13 raises RuntimeError, not OSError)
             if not str(err).startswith("Symlink loop from "):
@@ -103,7 +109,7 @@ def _json_object_with(file: Path, keys: set[str]) -> bool:
     """Whether ``file`` is a JSON object holding every key in ``keys``."""
     try:
         data = json.loads(file.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):  # RecursionError: nested too deeply
         return False
     return isinstance(data, dict) and keys <= data.keys()
 
@@ -198,7 +204,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
     if json_out:
         from pcnet.stages.sinks.exports import finite_or_null
 
-        write_text(json_out, json.dumps(finite_or_null(result), indent=2, allow_nan=False) + "\n")
+        write_text(json_out, json.dumps(finite_or_null(result), indent=2, allow_nan=False) + "\n", replace=overwrite)
 
 
 @main.command()
@@ -221,7 +227,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
-    from pcnet.pipeline.io import load_pose_array
+    from pcnet.adapters.validate import nonfinite_line
+    from pcnet.pipeline.io import read_pose_array
     from pcnet.stages.core.conventions import validate_fps
     from pcnet.stages.sinks.exports import write_npz
     from pcnet.pipeline.rectification import rectify as run_rectify
@@ -232,12 +239,12 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
                          f"{Path(out_path).suffix or 'no suffix'}")
     validate_fps(fps, "--fps")
     check_method_weights(method, weights, "--weights")
-    joints = load_pose_array(input_path, key)
+    joints, nonfinite = read_pose_array(input_path, key)
     res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading,
                       camera_prior=camera_prior is not False)
     if not res.valid.any():  # the same rule as pcnet run: nothing is written
         raise InputError(f"{input_path}: {NO_VALID_FRAME}")
-    write_npz(out_path, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
+    write_npz(out_path, replace=overwrite, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
               frame_tilt_bound_deg=res.report["frame_tilt_bound_deg"])
     cv = res.report["hip_width_cv_percent"]
@@ -245,6 +252,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}{requested}, "
                f"heading from {res.heading_source} (hip width CV "
                + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
+    if nonfinite:  # the file's inf/NaN, which the counts above take as missing joints
+        click.echo(nonfinite_line(nonfinite))
 
 
 @main.command()
@@ -278,7 +287,7 @@ def export(checkpoint, out_path, overwrite):
 
     _new_output_file(out_path, "--out", overwrite, inputs=(checkpoint,), companions=(".json",),
                      written_by_pcnet=_exported_model)
-    click.echo(f"wrote {export_checkpoint(checkpoint, out_path)}")
+    click.echo(f"wrote {export_checkpoint(checkpoint, out_path, replace=overwrite)}")
 
 
 EXAMPLE_DIR = Path(__file__).parent / "example_data"

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 import os
 import re
-import typing
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-from pcnet.models.toml_config import check_config_keys, check_config_types, read_toml, type_name, value_matches
+from pcnet.models.toml_config import (check_config_keys, check_config_types, read_toml, type_hints, type_name,
+                                      value_matches)
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
 from pcnet.stages.core.errors import InputError
 
@@ -70,10 +71,9 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
 
     adapter = get_3d_adapter(lifter)
     load = adapter.load
-    params = inspect.signature(load).parameters
-    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+    var_keyword, taken = _keyword_options(load)
+    if var_keyword:
         return options
-    taken = [n for n, p in params.items() if p.kind is p.KEYWORD_ONLY]
     unknown = sorted(set(options) - set(taken))
     if unknown:
         if source == COMMAND_LINE:
@@ -85,7 +85,7 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
     def where(option: str) -> str:
         return _option_flag(option) if source == COMMAND_LINE else field_name(source, option)
 
-    hints = typing.get_type_hints(load)
+    hints = type_hints(getattr(load, "__func__", load))
     for option, value in options.items():
         if option in hints and not value_matches(value, hints[option]):
             raise InputError(f"{where(option)}: expected {type_name(hints[option])} for --lifter {lifter}, got "
@@ -94,6 +94,24 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
     for option, expected, got in getattr(adapter, "option_problems", lambda **_: [])(**options)[:1]:
         raise InputError(f"{where(option)}: expected {expected} for --lifter {lifter}, got {got}")
     return options
+
+
+def _keyword_options(load) -> tuple[bool, list[str]]:
+    """Whether an adapter's ``load`` takes any keyword (``**kwargs``), and the keyword-only
+    options it names, read once per function (a manifest checks one config per row)."""
+    func = getattr(load, "__func__", load)  # each adapter instance has its own bound method
+    try:
+        var_keyword, taken = _signature_options(func)
+    except TypeError:  # unhashable
+        var_keyword, taken = _signature_options.__wrapped__(func)
+    return var_keyword, list(taken)
+
+
+@functools.lru_cache(maxsize=64)
+def _signature_options(func) -> tuple[bool, tuple[str, ...]]:
+    params = inspect.signature(func).parameters
+    return (any(p.kind is p.VAR_KEYWORD for p in params.values()),
+            tuple(n for n, p in params.items() if p.kind is p.KEYWORD_ONLY))
 
 
 def _flag(name: str) -> str:
@@ -190,7 +208,11 @@ class RunConfig:
 
     def validate(self, source: str = "config") -> "RunConfig":
         """Check every field's type (against the annotations), choices, ranges and
-        combinations.
+        combinations. The path fields (``video``, ``keypoints2d``, ``lifter_output``, ``out``,
+        ``weights``) are checked for their type and whether they are given, never by their
+        value: their files are the caller's to check, and ``pcnet batch`` validates the rows of
+        a manifest that differ only in their paths once (a rule about a path's value belongs
+        with the checks of the files, in :mod:`pcnet.pipeline.batch` and ``runner``).
 
         Raises:
             InputError: naming ``source``, the field, what was expected and what was given.
@@ -199,7 +221,7 @@ class RunConfig:
         from pcnet.stages.opensim_ik import HEIGHT_RANGE_M, MASS_RANGE_KG
         from pcnet.stages.rectify import METHODS, check_method_weights
 
-        check_config_types(source, "", asdict(self), RunConfig)
+        check_config_types(source, "", {f.name: getattr(self, f.name) for f in fields(self)}, RunConfig)
         # (field, value, choices, None allowed)
         for name, value, choices, optional in (
             ("lifter", self.lifter, lifter_names(), False), ("method", self.method, METHODS, False),

@@ -4,27 +4,46 @@ as ``pcnet run`` takes it."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from pcnet.adapters.types import Poses3D
-from pcnet.adapters.validate import NumpyArchive, describe_keys
+from pcnet.adapters.validate import NumpyArchive, describe_keys, nonfinite_frames
 from pcnet.models.datasets import load_numpy_file
-from pcnet.stages.core.conventions import validate_poses
+from pcnet.stages.core.conventions import H36M_JOINTS, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.remap import remap_to_h36m
 
 
+class PoseArray(NamedTuple):
+    """What :func:`read_pose_array` read: the poses, and per H36M-17 joint the number of
+    frames in which the file held a non-finite value (``inf``, NaN) for it, read as
+    missing (only joints with one; :func:`pcnet.adapters.validate.nonfinite_line` words it)."""
+
+    joints: np.ndarray
+    nonfinite: dict[str, int]
+
+
 def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
     """Read ``(T, 17, 3)`` H36M-17 camera-frame poses from ``.npy`` or ``.npz`` (``key``
-    names the array; optional when the npz holds exactly one).
+    names the array; optional when the npz holds exactly one): :func:`read_pose_array`'s
+    ``joints``."""
+    return read_pose_array(path, key).joints
+
+
+def read_pose_array(path: str | Path, key: str | None = None) -> PoseArray:
+    """Read ``(T, 17, 3)`` H36M-17 camera-frame poses from ``.npy`` or ``.npz`` (``key``
+    names the array; optional when the npz holds exactly one), with the count of the
+    file's non-finite values per joint.
 
     The array goes through :func:`pcnet.stages.core.conventions.validate_poses`, the check the
     API applies too: real numbers only, ``inf`` becomes NaN (missing), no unit is assumed
     so coordinates beyond 1e5 are refused.
 
     Returns:
-        float32 ``(T, 17, 3)``.
+        :class:`PoseArray`: float32 ``(T, 17, 3)`` joints; per joint, the frames in which
+        the file held ``inf``/NaN (every NaN of ``joints`` is one: nothing else is missing yet).
 
     Raises:
         FileNotFoundError: missing file.
@@ -48,7 +67,8 @@ def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
         if key is not None:  # a key that would be silently ignored is a mistake
             raise InputError(f"{path}: --key {key!r}: expected no key for a single-array .npy file, got one")
         arr = data
-    return validate_poses(arr, source=f"{path}{f' [{key}]' if key else ''}", units=None)
+    joints = validate_poses(arr, source=f"{path}{f' [{key}]' if key else ''}", units=None)
+    return PoseArray(joints, nonfinite_frames(joints, H36M_JOINTS))  # NaN here is the file's inf/NaN only
 
 
 def lifter_joints(poses: Poses3D, source: str) -> np.ndarray:

@@ -14,12 +14,20 @@ Rules (README "Safety"):
   then deletes the trash. A kill at any instant leaves either the whole old or the whole new
   output at ``out`` (or, between the two renames, the whole old one in the trash, which the
   next run renames back); the next run removes leftovers whose marker names a process that
-  is no longer running.
+  is no longer running. Hidden names stay within the file system's name limit however long
+  ``out``'s name is (:func:`pcnet.stages.core.atomic.hidden_name`).
+* Without ``--overwrite`` the new output is published only if ``out`` is still free: the run
+  claims the name with ``mkdir`` (which fails if it exists) and renames its staged folder
+  onto that empty claim, so of two runs racing to one new ``out`` the later one refuses and
+  the earlier one's output stays whole.
+* A run that fails or is interrupted removes what it created: its staged folder and the
+  missing parent folders of ``out`` it made.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import json
 import os
@@ -29,11 +37,11 @@ import socket
 import threading
 import time
 import uuid
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
-from pcnet.stages.core.atomic import write_text
-from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.atomic import NAME_MAX, hidden_name, make_parents, remove_created, write_text, writing_failed
+from pcnet.stages.core.errors import InputError, reason, short_path
 
 from .interrupt import check_interrupted
 
@@ -44,20 +52,33 @@ TRASH_TAG = ".pcnet-trash-"
 #: that has just created its folder writes its marker within microseconds, and another row's
 #: clean-up running in that window must not remove it (as Ray rows starting together did).
 EMPTY_STAGED_GRACE_S = 60.0
+#: Bytes pcnet's paths inside an output folder add to the folder's own path: the longest
+#: hidden temporary of an output file (``.<name>.<32 hex>.tmp`` for names up to 64 bytes),
+#: or of `pcnet opensim`'s staging folder and the files in it.
+INSIDE_OUT_BYTES = 200
+#: The longest path the kernel accepts in one call where ``pathconf`` cannot tell (Linux's PATH_MAX).
+DEFAULT_PATH_MAX = 4096
 
 
-def _is_within(path: Path, folder: Path) -> bool:
-    return path == folder or folder in path.parents
+def is_within(path: Path, folder: Path) -> bool:
+    """``path == folder or folder in path.parents`` for absolute resolved paths, compared as
+    text (a manifest's 100,000 rows check this several times each; building every parent
+    Path cost most of it)."""
+    p, f = os.path.normcase(str(path)), os.path.normcase(str(folder))
+    return p == f or p.startswith(f if f.endswith(os.sep) else f + os.sep)
 
 
 def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike | None] = (),
-                     overwrite: bool = False) -> Path:
+                     overwrite: bool = False, *,
+                     resolve: Callable[[str | os.PathLike], Path] | None = None) -> Path:
     """Check that ``out`` may be written (and, with ``overwrite``, replaced) before any work.
 
     Args:
         out: the output folder as the user gave it (``.``, ``x/..`` and symlinks resolved).
         inputs: the run's input files or folders (``None`` entries ignored).
         overwrite: the user asked to replace an existing output.
+        resolve: ``Path(p).resolve()`` or a cache of it (``pcnet batch`` checks many rows
+            sharing folders and inputs).
 
     Returns:
         the resolved absolute output path.
@@ -65,19 +86,21 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
     Raises:
         InputError: one line naming ``out`` and the rule it breaks.
     """
-    given = str(out)
-    target = Path(out).resolve()
-    cwd = Path.cwd().resolve()
-    if _is_within(cwd, target):
+    resolve = resolve or (lambda p: Path(p).resolve())
+    given = short_path(out)
+    target = resolve(out)
+    _check_path_length(target, given)
+    cwd = resolve(os.getcwd())
+    if is_within(cwd, target):
         raise InputError(f"--out {given}: expected a new folder for pcnet's outputs, got the current folder "
                          f"or one above it ({target})")
     for item in inputs:
         if item is None:
             continue
-        source = Path(item).resolve()
-        if _is_within(source, target) or _is_within(target, source):
+        source = resolve(item)
+        if is_within(source, target) or is_within(target, source):
             raise InputError(f"--out {given}: expected a folder apart from the inputs, got one that "
-                             f"{'is' if source == target else 'contains' if _is_within(source, target) else 'lies inside'}"
+                             f"{'is' if source == target else 'contains' if is_within(source, target) else 'lies inside'}"
                              f" the input {item}")
     if not target.exists() and not target.is_symlink():
         return target
@@ -100,6 +123,40 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
         raise FileExistsError(f"{given}: output folder exists{' (empty)' if empty else ''}; choose another --out or "
                               f"pass --overwrite")
     return target
+
+
+@functools.lru_cache(maxsize=256)
+def _path_limits(folder: Path) -> tuple[int, int]:
+    """``(NAME_MAX, PATH_MAX)`` of the file system holding ``folder`` or, where it does not
+    exist yet, its nearest existing parent (``pathconf``; Linux's 255 and 4096 where it cannot
+    tell)."""
+    existing = Path("/")
+    for parent in (folder, *folder.parents):
+        with contextlib.suppress(OSError):  # a name beyond the limit: ENAMETOOLONG from stat
+            if parent.is_dir():
+                existing = parent
+                break
+    try:
+        return os.pathconf(existing, "PC_NAME_MAX"), os.pathconf(existing, "PC_PATH_MAX")
+    except (OSError, ValueError):
+        return NAME_MAX, DEFAULT_PATH_MAX
+
+
+def _check_path_length(target: Path, given: str) -> None:
+    """Refuse, before any work, an output path the file system cannot hold with pcnet's files
+    inside it: a name in it beyond the file system's name limit, or a whole path within
+    :data:`INSIDE_OUT_BYTES` of the longest path a call may name (:func:`_path_limits`)."""
+    name_max, path_max = _path_limits(target.parent)
+    too_long = next((part for part in target.parts if len(os.fsencode(part)) > name_max), None)
+    if too_long is not None:
+        raise InputError(f"--out {given}: expected folder names of at most {name_max} bytes (this file system's "
+                         f"limit), got one of {len(os.fsencode(too_long))} bytes; choose a shorter --out")
+    # the longest path a run names: a file inside the trash folder, the longer of the two hidden names
+    longest = len(os.fsencode(str(_trash_name(target, "0" * 12)))) + 1 + INSIDE_OUT_BYTES
+    if longest >= path_max:
+        raise InputError(f"--out {given}: expected a path short enough for pcnet's files inside it (this system "
+                         f"names at most {path_max - 1} bytes in one path), got {len(os.fsencode(str(target)))} bytes "
+                         f"for the folder; choose a shorter --out")
 
 
 def foreign_entries(folder: Path) -> list[str]:
@@ -197,7 +254,7 @@ def read_marker(folder: Path) -> dict:
     """The marker's JSON content, ``{}`` when it is missing or unreadable."""
     try:
         data = json.loads((folder / MARKER).read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return {}
     return data if isinstance(data, dict) else {}
 
@@ -257,6 +314,15 @@ def _leftover_owner(name: str) -> tuple[str, str] | None:
     return None
 
 
+def _hidden_staging_beside(target: Path) -> list[Path]:
+    """The entries beside ``target`` whose names could be pcnet's staging or trash folders,
+    sorted: a study's folder may hold 100,000 outputs side by side, and each run's clean-up
+    looks only at the few hidden names among them (a Path for each entry cost 1.8 s a run)."""
+    with os.scandir(target.parent) as entries:
+        names = [e.name for e in entries if e.name.startswith(".") and (TMP_TAG in e.name or TRASH_TAG in e.name)]
+    return [target.parent / name for name in sorted(names)]
+
+
 def clean_stale(target: Path) -> list[Path]:
     """Remove pcnet's own leftovers beside ``target`` from killed runs: hidden temp folders
     whose marker names a process no longer running, and ``target``'s own trash folders. A trash
@@ -268,12 +334,12 @@ def clean_stale(target: Path) -> list[Path]:
     removed: list[Path] = []
     if not target.parent.is_dir():
         return removed
-    for entry in sorted(target.parent.iterdir()):
+    for entry in _hidden_staging_beside(target):
         leftover = _leftover_owner(entry.name)
         if leftover is None or entry.is_symlink() or not entry.is_dir():
             continue
-        kind, owner = leftover
-        if kind == "trash" and owner != target.name:
+        kind, _ = leftover
+        if kind == "trash" and entry.name != _trash_name(target, entry.name[-12:]).name:
             continue
         info = read_marker(entry)
         if (not info and kind == "tmp" and not any(entry.iterdir())
@@ -291,73 +357,108 @@ def clean_stale(target: Path) -> list[Path]:
     return removed
 
 
+def _staged_name(target: Path, tag: str, uid: str) -> Path:
+    return target.parent / hidden_name(target.name, f"{tag}{uid}")
+
+
+def _trash_name(target: Path, uid: str) -> Path:
+    """``.<out>.pcnet-trash-<uid>`` beside ``target`` (its name shortened where needed)."""
+    return _staged_name(target, TRASH_TAG, uid)
+
+
 @contextlib.contextmanager
 def staged_output(out: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
     """Yield a fresh hidden folder beside ``out`` to write into; on success swap it in as
     ``out`` (see the module docstring), on any exception (``KeyboardInterrupt`` and the
-    CLI's SIGTERM included) delete it and leave ``out`` as it was.
+    CLI's SIGTERM included) delete it and the parent folders of ``out`` this call created, and
+    leave ``out`` as it was.
 
     Folders are created with the process umask (as ``mkdir`` does), not ``0700``. Call
-    :func:`check_out_folder` first; this function does not re-check its rules, except for
-    an output that :func:`clean_stale` renames back from a killed replacement's trash after
-    that check: without ``overwrite`` it is kept and the run refused, as an existing output
-    would have been.
+    :func:`check_out_folder` first; this function does not re-check its rules, except that
+    without ``overwrite`` the output is published only where ``out`` is still free when the
+    run ends (another run may have finished there meanwhile), and an output that
+    :func:`clean_stale` renames back from a killed replacement's trash after that check is
+    kept and the run refused, as an existing output would have been.
 
     Raises:
-        InputError: the output folder (or its parent) cannot be created or written, or a
-            killed run's output came back there and ``overwrite`` is false, naming ``out``,
-            not the hidden temporary.
+        InputError: the output folder (or its parent) cannot be created or written (naming
+            ``out`` and what to do, never the hidden temporary), another run published ``out``
+            first and ``overwrite`` is false, or a killed run's output came back there and
+            ``overwrite`` is false.
     """
     target = Path(out).resolve()
-    given = str(out)
-    tmp = target.parent / f".{target.name}{TMP_TAG}{uuid.uuid4().hex[:12]}"
+    given = short_path(out)
+    tmp = _staged_name(target, TMP_TAG, uuid.uuid4().hex[:12])
+    created: list[Path] = []
     try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        was_there = target.exists() or target.is_symlink()
-        clean_stale(target)
-    except OSError as err:
-        blocker = next((p for p in (target.parent, *target.parent.parents) if p.exists() and not p.is_dir()), None)
-        why = f"{blocker} is a file, not a folder" if blocker else (err.strerror or err)
-        raise InputError(f"--out {given}: cannot create the output folder there ({why})") from err
-    if not was_there and target.exists() and not overwrite:
-        raise InputError(f"--out {given}: expected a new folder, got the output of an earlier pcnet run that was "
-                         f"killed while replacing it, now put back there; pass --overwrite to replace it")
-    try:
-        # Inside the clean-up block: an interrupt arriving as mkdir returns must not leave it.
-        _set_live(tmp, True)
         try:
-            tmp.mkdir()
+            make_parents(target.parent, created)
+            was_there = target.exists() or target.is_symlink()
+            clean_stale(target)
         except OSError as err:
-            raise InputError(f"--out {given}: cannot create the output folder there ({err.strerror or err})") from err
-        _write_marker(tmp, "writing")
-        yield tmp
-        check_interrupted()  # an interrupt swallowed on the way must still stop the swap
-        _write_marker(tmp, "complete")
-        # The user may have put files into the old output while this run worked: they are
-        # theirs, and swapping would delete them with the old folder.
-        appeared = foreign_entries(target) if target.exists() else []
-        if appeared:
-            raise InputError(f"--out {given}: expected only pcnet's files in the output folder to replace, got "
-                             f"{', '.join(appeared[:5])}{' ...' if len(appeared) > 5 else ''} added or changed during "
-                             f"the run; left as they are, and this run's output not written: move them and run again")
-        trash = _swap_in(tmp, target)
+            blocker = next((p for p in (target.parent, *target.parent.parents) if p.exists() and not p.is_dir()),
+                           None)
+            why = f"{blocker} is a file, not a folder" if blocker else reason(err)
+            raise InputError(f"--out {given}: cannot create the output folder there ({why})") from err
+        if not was_there and target.exists() and not overwrite:
+            raise InputError(f"--out {given}: expected a new folder, got the output of an earlier pcnet run that was "
+                             f"killed while replacing it, now put back there; pass --overwrite to replace it")
+        try:
+            # Inside the clean-up block: an interrupt arriving as mkdir returns must not leave it.
+            _set_live(tmp, True)
+            tmp.mkdir()
+            _write_marker(tmp, "writing")
+            yield tmp
+            check_interrupted()  # an interrupt swallowed on the way must still stop the swap
+            _write_marker(tmp, "complete")
+            # The user may have put files into the old output while this run worked: they are
+            # theirs, and swapping would delete them with the old folder.
+            appeared = foreign_entries(target) if target.exists() else []
+            if appeared:
+                raise InputError(f"--out {given}: expected only pcnet's files in the output folder to replace, got "
+                                 f"{', '.join(appeared[:5])}{' ...' if len(appeared) > 5 else ''} added or changed "
+                                 f"during the run; left as they are, and this run's output not written: move them and "
+                                 f"run again")
+            trash = _swap_in(tmp, target, overwrite, given)
+        except (OSError, InputError) as err:
+            refusal = writing_failed(err, tmp, f"--out {given}")
+            if refusal is None:
+                raise
+            raise refusal from err
+        finally:
+            _set_live(tmp, False)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
+        remove_created(created)
         raise
-    finally:
-        _set_live(tmp, False)
     if trash is not None:
         shutil.rmtree(trash, ignore_errors=True)
         _set_live(trash, False)
 
 
-def _swap_in(tmp: Path, target: Path) -> Path | None:
-    """Rename ``target`` (if any) to a trash name, then ``tmp`` to ``target``; if the second
-    rename fails or is interrupted, the old output goes back. Returns the trash path."""
+def _swap_in(tmp: Path, target: Path, overwrite: bool, given: str) -> Path | None:
+    """Publish ``tmp`` as ``target``. With ``overwrite``: rename ``target`` (if any) to a
+    trash name, then ``tmp`` to ``target``; if the second rename fails or is interrupted, the
+    old output goes back. Without: claim ``target`` with ``mkdir`` (atomic: it fails where
+    anything exists there) and rename ``tmp`` onto that empty claim. Returns the trash path."""
+    if not overwrite:
+        try:
+            target.mkdir()
+        except FileExistsError:
+            raise InputError(f"--out {given}: expected a new folder, got one that another run (or someone) made "
+                             f"there while this run worked; left as it is, and this run's output not written: pass "
+                             f"--overwrite to replace a pcnet output, or choose another --out") from None
+        try:
+            os.rename(tmp, target)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                target.rmdir()
+            raise
+        return None
     trash = None
     try:
         if target.exists():
-            trash = target.parent / f".{target.name}{TRASH_TAG}{uuid.uuid4().hex[:12]}"
+            trash = _trash_name(target, uuid.uuid4().hex[:12])
             _set_live(trash, True)  # another thread's clean_stale must not take it for a leftover
             info = read_marker(target)
             if info.get("writer") == "pcnet":  # the trash is this live run's until it is removed

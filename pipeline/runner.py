@@ -25,7 +25,7 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import AdapterError, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
-from pcnet.adapters.validate import ROOT_RELATIVE_MAX
+from pcnet.adapters.validate import ROOT_RELATIVE_MAX, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, THIGH_RANGE_M, fill_pelvis_from_hips,
                                           median_thigh_length, validate_fps)
 from pcnet.stages.core.errors import InputError
@@ -237,7 +237,8 @@ def _load_inputs(cfg: RunConfig):
     person_hint = "" if "--person" in kp_choice else " (--person chooses another)"
     choice = kp_choice and f"2D keypoints: {kp_choice}{person_hint}"
     return (video, (fps, fps_source), kp2d, (kp_size, kp_extent), joints, poses.units, poses.root_translation,
-            [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n], poses.frame_turn_deg)
+            [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n], poses.frame_turn_deg,
+            poses.nonfinite)
 
 
 def _assumed_inputs(cfg: RunConfig) -> list[str]:
@@ -608,8 +609,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
     # store is removed before the folder is swapped in.
     with staged_output(out, cfg.overwrite) as tmp, FrameStore(tmp) as store:
         step("inputs")
-        video, (fps, fps_source), kp2d, (kp_size, kp_extent), joints, units, measured_root, input_notes, lifter_turn = \
-            _load_inputs(cfg)
+        video, (fps, fps_source), kp2d, (kp_size, kp_extent), joints, units, measured_root, input_notes, lifter_turn, \
+            nonfinite = _load_inputs(cfg)
         needing_metres = [name for name, asked in (("--c3d", cfg.c3d), ("--opensim", cfg.opensim)) if asked]
         if needing_metres and units != "m" and cfg.height is None:
             raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
@@ -763,7 +764,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         result.kinematics_blocks = kinematics_chunks(rectified, fps, cutoff, units)
         table = write_kinematics_table(result, tmp, allocate=store.create)
         flags += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
-        missing_note = format_flag_counts(result.flag_counts)
+        # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)
+        missing_note = format_flag_counts(result.flag_counts, nonfinite_line(nonfinite))
         if missing_note:
             notes.append(missing_note)
         notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)

@@ -900,7 +900,7 @@ def _frames(n: int) -> str:
     return f"{n} frame" if n == 1 else f"{n} frames"
 
 
-def format_flag_counts(counts: Kinematics | Mapping) -> str:
+def format_flag_counts(counts: Kinematics | Mapping, input_note: str = "") -> str:
     """One line for a run summary, ``''`` when nothing is flagged.
 
     Example: ``"missing: right_wrist 1 frame; no pose: 3 frames; unfiltered: right_wrist
@@ -909,6 +909,8 @@ def format_flag_counts(counts: Kinematics | Mapping) -> str:
 
     Args:
         counts: the dict of :func:`flag_counts`, or a :class:`Kinematics` (counted here).
+        input_note: the caller's words on what the input held as missing (the lifter file's
+            ``inf``/NaN per joint), put after ``missing``/``no pose``; ``''`` for none.
 
     Returns:
         the line, without a trailing newline.
@@ -919,6 +921,8 @@ def format_flag_counts(counts: Kinematics | Mapping) -> str:
         parts.append("missing: " + ", ".join(f"{j} {_frames(n)}" for j, n in c["missing_with_pose"].items()))
     if c["frames_without_pose"]:
         parts.append(f"no pose: {_frames(c['frames_without_pose'])}")
+    if input_note:
+        parts.append(input_note)
     if c["unfiltered"]:
         parts.append(
             "unfiltered: " + ", ".join(f"{j} {_frames(n)}" for j, n in c["unfiltered"].items())

@@ -54,7 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from .core.conventions import H36M_JOINTS
-from .core.atomic import write_text
+from .core.atomic import write_text, writing_failed
 from .core.errors import InputError, import_extra
 
 MISSING_OPENSIM = 'OpenSim scaling and inverse kinematics (--opensim, pcnet opensim) need OpenSim: pip install "pcnet[opensim]"'
@@ -325,8 +325,8 @@ def scale_and_ik(
     # make its solver throw): such frames (a lost track) are left out of its marker file.
     marked = np.isfinite(joints).any(axis=(1, 2))
     tmp = out / f"{STAGING_PREFIX}{os.getpid()}@{socket.gethostname()}-{uuid.uuid4().hex[:12]}"
-    tmp.mkdir()
     try:
+        tmp.mkdir()
         # The ScaleTool averages marker-pair distances (and the placer marker positions) over
         # its time range and a single missing marker spoils a measurement: scale on the
         # complete frames only (their own copy, times renumbered).
@@ -410,6 +410,11 @@ def scale_and_ik(
         write_text(tmp / OUTPUTS[-1], json.dumps(finite_or_null(result), indent=1) + "\n")
         for name in OUTPUTS:
             os.replace(tmp / name, out / name)
+    except (OSError, InputError) as err:
+        refusal = writing_failed(err, tmp, str(out_dir))
+        if refusal is None:
+            raise
+        raise refusal from err
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return {

@@ -277,10 +277,10 @@ def test_the_resume_marker_is_published_with_the_output(tmp_path, monkeypatch):
     seen = {}
     swap = outdir._swap_in
 
-    def checking_swap(tmp, target):
+    def checking_swap(tmp, *rest):
         seen["marker"] = (tmp / BATCH_MARKER).is_file()
         seen["listed"] = BATCH_MARKER in read_marker(tmp)["files"]
-        return swap(tmp, target)
+        return swap(tmp, *rest)
 
     monkeypatch.setattr(outdir, "_swap_in", checking_swap)
     config = RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30.0, out=str(tmp_path / "o"),
@@ -669,7 +669,8 @@ def test_a_row_that_runs_out_of_disk_says_so_as_pcnet_run_does():
     from pcnet.pipeline.batch_worker import error_line
 
     assert error_line(OSError(errno.EFBIG, "File too large")) == \
-        "File too large: writing the outputs failed (a full disk, a quota or a file size limit?)"
+        "writing the outputs failed (File too large; the disk, its inodes or your quota are full: free space there " \
+        "or write elsewhere)"
     assert error_line(ZeroDivisionError("division by zero")) == "ZeroDivisionError: division by zero"
 
 
@@ -687,3 +688,76 @@ def test_a_ray_task_lost_to_the_memory_monitor_or_a_dead_node_is_named_so():
         "the Ray node running it (node-7) died while running the row, after 2 attempt(s)"
     assert _death_line(ray, ray.exceptions.WorkerCrashedError(), last).startswith(
         "its Ray worker process (pid 4242) died (killed, as an out-of-memory kill does) while running the row")
+
+
+def test_rows_sharing_their_settings_and_folders_are_each_still_checked(tmp_path):
+    """The check validates the rows that differ only in their paths once and resolves each
+    folder once (issue 53): every row's own problems are still found, an ``out`` spelled
+    otherwise or reached through a link included."""
+    from pcnet.pipeline.batch import ManifestError, plan_batch
+
+    (tmp_path / "rec").mkdir()
+    shutil.copyfile(BOX_3D, tmp_path / "rec" / "x.npy")
+    shutil.copyfile(BOX_2D, tmp_path / "rec" / "k.json")
+    (tmp_path / "outputs").mkdir()
+    (tmp_path / "outputs" / "link").symlink_to(tmp_path / "outputs" / "s2")
+
+    def row(out, x="rec/x.npy", k="rec/k.json", fps="30"):
+        return f"motionbert,{x},{k},alphapose,{fps},{out},geometric,false"
+
+    manifest = _manifest(tmp_path,
+                         row("outputs/s1"),                       # line 2: fine
+                         row("outputs/s2"),                       # line 3: fine
+                         row("outputs/s3", k=""),                 # line 4: a format without its keypoints
+                         row("outputs/s4", x="rec/nothere.npy"),  # line 5: a missing input
+                         row("outputs/s1"),                       # line 6: line 2's out
+                         row("outputs/link"),                     # line 7: line 3's out, through a link
+                         row("outputs/s7", fps="0.5"),            # line 8: a bad value
+                         row("rec"),                              # line 9: the inputs' folder
+                         row("outputs/./s9/../s1"),               # line 10: line 2's out, spelled otherwise
+                         row("outputs/s10"))                      # line 11: fine
+    with pytest.raises(ManifestError) as refused:
+        plan_batch(manifest, BatchOptions())
+    problems = {int(re.search(r": line (\d+): ", ln).group(1)): ln for ln in refused.value.lines}
+    assert sorted(problems) == [4, 5, 6, 7, 8, 9, 10], refused.value.lines
+    for line, needles in {4: ("columns keypoints2d and keypoints2d_format", "expected both or neither"),
+                          5: ("column lifter_output: expected an existing file", "nothere.npy"),
+                          6: ("expected a folder of its own", "which line 2 also writes"),
+                          7: ("'outputs/link', which line 3 also writes",),
+                          8: ("column fps: expected a value in",),
+                          9: ("expected a folder apart from the inputs", "'rec', which is the folder of"),
+                          10: ("which line 2 also writes",)}.items():
+        assert all(n in problems[line] for n in needles), (needles, problems[line])
+
+
+def _study(folder: Path, rows: int) -> Path:
+    """A manifest of ``rows`` rows over one recording (relative paths), each row writing its
+    own ``out`` in one folder, as a big study has them."""
+    (folder / "rec").mkdir(parents=True)
+    shutil.copyfile(BOX_3D, folder / "rec" / "x.npy")
+    shutil.copyfile(BOX_2D, folder / "rec" / "k.json")
+    (folder / "outputs").mkdir()
+    return _manifest(folder, *(f"motionbert,rec/x.npy,rec/k.json,alphapose,{24 + i % 7},outputs/s{i:06d},"
+                               f"geometric,false" for i in range(rows)))
+
+
+def _check_cpu_seconds(manifest: Path, rows: int) -> float:
+    from pcnet.pipeline.batch import plan_batch
+
+    started = time.process_time()
+    planned, _ = plan_batch(manifest, BatchOptions())
+    seconds = time.process_time() - started
+    assert len(planned) == rows and all(item.action == "run" for item in planned)
+    return seconds
+
+
+def test_checking_a_large_manifest_takes_time_linear_in_its_rows(tmp_path):
+    """Issue 53: 100,000 rows are checked in under 10 s (benchmarks/manifest_check.py times
+    them). Here 10,000 and 20,000 rows: twice the rows take less than three times as long
+    (nothing quadratic, such as each row listing or comparing with all the others) and at
+    most 150 us a row. CPU time, so that other jobs on a loaded machine do not count."""
+    _check_cpu_seconds(_study(tmp_path / "warm", 1), 1)  # the validation's imports, out of the timing
+    small = _check_cpu_seconds(_study(tmp_path / "small", 10_000), 10_000)
+    large = _check_cpu_seconds(_study(tmp_path / "large", 20_000), 20_000)
+    assert large < 3 * small, f"10,000 rows: {small:.2f} s, 20,000 rows: {large:.2f} s"
+    assert large < 20_000 * 150e-6, f"20,000 rows: {large:.2f} s, {large / 20_000 * 1e6:.0f} us a row"

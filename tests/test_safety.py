@@ -385,8 +385,9 @@ def test_a_full_disk_is_one_line_and_leaves_no_output(user_folder):
         mp.setattr(result, "write_trc", full)
         res = _invoke(*RUN, "--out", "o")
     assert res.exit_code == 1 and "Traceback" not in res.output, res.output
-    assert "No space left on device: writing the outputs failed (a full disk, a quota or a file size limit?)" \
-        in res.output
+    assert f"--out {user_folder / 'o'}: cannot write the outputs there (No space left on device; the disk, its " \
+           f"inodes or your quota are full: free space there or write elsewhere); left as it was" in res.output, \
+        res.output
     assert not (user_folder / "o").exists()
     assert not [p for p in user_folder.iterdir() if TMP_TAG in p.name]
 

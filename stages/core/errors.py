@@ -11,6 +11,7 @@ from __future__ import annotations
 import difflib
 import errno
 import importlib
+import re
 
 
 class InputError(ValueError):
@@ -38,20 +39,79 @@ def close_names(unknown, known) -> str:
     return "".join(hints)
 
 
-#: What a write that runs out of room fails with: a full disk, a file size limit, a quota.
+#: What a write that runs out of room fails with: a full disk (or its inodes), a file size
+#: limit, a quota.
 _NO_ROOM = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
+#: What to do about a failure of the environment rather than of the input, by errno.
+_ADVICE = {
+    **dict.fromkeys(_NO_ROOM, "the disk, its inodes or your quota are full: free space there or write elsewhere"),
+    errno.EROFS: "write elsewhere",
+    errno.EACCES: "check the permissions of that path, or use another",
+    errno.EPERM: "an immutable or append-only file or folder? use another path",
+    errno.EMFILE: "raise the open-file limit (ulimit -n) and run again",
+    errno.ENFILE: "close programs or raise the system's open-file limit, and run again",
+    errno.ENAMETOOLONG: "use a shorter path",
+    errno.ELOOP: "a symbolic-link loop? use the real path",
+}
+#: Paths longer than this are shown by their start and end: a 4,000-character path is not a
+#: message anyone reads.
+_SHOWN_PATH_CHARS = 160
+
+
+#: numpy's ``tofile``/``write_array`` on a full disk: an ``OSError`` without errno.
+_SHORT_WRITE = re.compile(r"\d+ requested and \d+ written")
+
+
+def environment_errno(err: OSError) -> int | None:
+    """``err``'s errno, or ``ENOSPC`` for a write that stopped short without one (numpy's
+    ``"N requested and M written"``: what a full disk, quota or file size limit gives)."""
+    if err.errno is None and _SHORT_WRITE.search(str(err)):
+        return errno.ENOSPC
+    return err.errno
+
+
+def reason(err: OSError) -> str:
+    """What failed and what to do, for an ``OSError``: its ``strerror`` (or text) followed by
+    :func:`environment_advice` of :func:`environment_errno`."""
+    code = environment_errno(err)
+    what = f"a write stopped short: {err}" if code != err.errno else err.strerror or err
+    return f"{what}{environment_advice(code)}"
+
+
+def environment_advice(code: int | None) -> str:
+    """``"; <what to do>"`` for an ``OSError``'s errno that is a failure of the environment
+    (full disk or quota, read-only file system, permissions, too many open files, a name too
+    long, a link loop), ``""`` for any other."""
+    return f"; {_ADVICE[code]}" if code in _ADVICE else ""
+
+
+def short_path(path: object) -> str:
+    """``path`` as text, at most about :data:`_SHOWN_PATH_CHARS` characters: a longer one is
+    shown as its first and last parts around ``...``."""
+    text = str(path)
+    if len(text) <= _SHOWN_PATH_CHARS:
+        return text
+    half = _SHOWN_PATH_CHARS // 2 - 2
+    return f"{text[:half]}...{text[-half:]} ({len(text)} characters)"
 
 
 def one_line(err: BaseException) -> str:
     """The one-line message of an expected error (what ``pcnet`` prints after ``Error:`` and
-    a batch row reports): an :class:`InputError`'s own text, an ``OSError``'s file and
-    reason, and for an ``OSError`` without a file name from a write that ran out of room
-    (numpy and zipfile write without naming the file) that reason with what failed."""
+    a batch row reports): an :class:`InputError`'s own text; an ``OSError``'s file (long paths
+    shortened, :func:`short_path`), reason and what to do (:func:`environment_advice`); for an
+    ``OSError`` without a file name from a write that ran out of room (numpy and zipfile write
+    without naming the file) that reason with what failed; ``RecursionError`` and
+    ``MemoryError`` as what they mean for an input."""
     if isinstance(err, OSError) and err.filename is not None:
-        names = " -> ".join(str(f) for f in (err.filename, err.filename2) if f is not None)
-        return f"{names}: {err.strerror or err}"
-    if isinstance(err, OSError) and err.errno in _NO_ROOM:
-        return f"{err.strerror}: writing the outputs failed (a full disk, a quota or a file size limit?)"
+        names = " -> ".join(short_path(f) for f in (err.filename, err.filename2) if f is not None)
+        return f"{names}: {reason(err)}"
+    if isinstance(err, OSError) and environment_errno(err) in _NO_ROOM:
+        return f"writing the outputs failed ({reason(err)})"
+    if isinstance(err, RecursionError):
+        return "an input nested too deeply to read (RecursionError): check the input and config files"
+    if isinstance(err, MemoryError):
+        return ("out of memory (MemoryError): the input is too large for this machine's free memory; split the "
+                "recording or run on a machine with more memory")
     return " ".join(str(err).split())
 
 

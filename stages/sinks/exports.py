@@ -73,7 +73,7 @@ def finite_or_null(o: object) -> object:
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
-def write_npz(path: str | os.PathLike, **arrays_and_metadata: object) -> Path:
+def write_npz(path: str | os.PathLike, *, replace: bool = True, **arrays_and_metadata: object) -> Path:
     """Write arrays and metadata to an uncompressed ``.npz``, atomically.
 
     Arrays, numbers, strings and bools are stored as numpy arrays under their keyword;
@@ -85,6 +85,8 @@ def write_npz(path: str | os.PathLike, **arrays_and_metadata: object) -> Path:
 
     Args:
         path: destination file (the name is used as given; no ``.npz`` is appended).
+        replace: whether an existing ``path`` may be replaced
+            (:func:`~pcnet.stages.core.atomic.atomic_path`).
         **arrays_and_metadata: ``name=value`` pairs.
 
     Returns:
@@ -93,11 +95,14 @@ def write_npz(path: str | os.PathLike, **arrays_and_metadata: object) -> Path:
     Raises:
         TypeError: a value that would need pickling (ragged lists, arbitrary objects).
         ValueError: no keyword given.
+        pcnet.stages.core.errors.InputError: the file cannot be written, or ``replace`` is
+            false and it appeared while this wrote.
     """
     if not arrays_and_metadata:
         raise ValueError("write_npz: nothing to write")
     payload = {k: _npz_value(k, v) for k, v in arrays_and_metadata.items()}
-    with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+    with atomic_path(path, replace=replace) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED,
+                                                                  allowZip64=True) as zf:
         for key, value in payload.items():
             if isinstance(value, FrameArray):
                 value.flush()

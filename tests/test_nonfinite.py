@@ -1,0 +1,125 @@
+"""Non-finite values (inf, NaN) in a lifter's file are missing data, and `pcnet run` and
+`pcnet rectify` say so: per joint, the frames in which the file held one, counted where the
+file is read (not recomputed from the NaNs later, which would mix in joints missing for
+other reasons: untracked, not in the format, no person in the frame)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import FIXTURES
+
+from pcnet.adapters import get_3d_adapter
+from pcnet.adapters.validate import nonfinite_line
+from pcnet.pipeline.cli import EXAMPLE_DIR, main
+from pcnet.pipeline.io import read_pose_array
+from pcnet.stages.core.conventions import BLAZEPOSE33, H36M_JOINTS, L_ANKLE, L_WRIST, R_ANKLE, R_WRIST
+
+BOX_3D = FIXTURES / "boxing_X3D_f000-059.npy"
+MEDIAPIPE = FIXTURES / "mediapipe_blazepose33_f000-059.npz"
+YOGA = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"
+LINE = "input: non-finite values (inf/NaN) read as missing: right_ankle 10 frames, left_wrist 2 frames"
+
+
+def _damaged(src: Path, dst: Path) -> Path:
+    """The real poses of ``src`` with right_ankle inf (one coordinate, or all three) in
+    frames 5-14 and left_wrist NaN in frames 20-21."""
+    poses = np.load(src)
+    poses[5:10, R_ANKLE, 2] = np.inf
+    poses[10:15, R_ANKLE] = -np.inf
+    poses[20:22, L_WRIST, 1] = np.nan
+    np.save(dst, poses)
+    return dst
+
+
+def _invoke(*args: object):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def test_rectify_names_the_joints_and_frames_the_file_held_as_inf_or_nan(tmp_path):
+    assert H36M_JOINTS[R_ANKLE] == "right_ankle" and H36M_JOINTS[L_WRIST] == "left_wrist"
+    src = _damaged(EXAMPLE_DIR / "X3D.npy", tmp_path / "x.npy")
+    res = _invoke("rectify", src, "--out", tmp_path / "r.npz")
+    assert res.exit_code == 0, res.output
+    lines = res.output.splitlines()
+    assert lines[-1] == LINE, res.output
+    assert len(lines) == 2  # the rectification's line, and this one
+    assert np.load(tmp_path / "r.npz")["valid"].all()  # one missing ankle does not cost the frame
+
+    # a file without inf/NaN: no such line
+    clean = _invoke("rectify", EXAMPLE_DIR / "X3D.npy", "--out", tmp_path / "c.npz")
+    assert clean.exit_code == 0, clean.output
+    assert "non-finite" not in clean.output and len(clean.output.splitlines()) == 1
+
+
+def test_read_pose_array_counts_per_joint_from_an_npz_key(tmp_path):
+    poses = np.load(BOX_3D)
+    poses[3, 0, 0] = np.inf  # the pelvis, one frame
+    np.savez(tmp_path / "p.npz", poses=poses, other=np.zeros(3))
+    joints, counts = read_pose_array(tmp_path / "p.npz", key="poses")
+    assert counts == {"pelvis": 1} and np.isnan(joints[3, 0, 0])
+    assert nonfinite_line(counts) == "input: non-finite values (inf/NaN) read as missing: pelvis 1 frame"
+
+
+def test_run_summary_extends_its_missing_line_with_the_files_nonfinite_values(tmp_path):
+    src = _damaged(BOX_3D, tmp_path / "X3D.npy")
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", src, "--fps", "30", "--no-recording",
+                  "--out", tmp_path / "out")
+    assert res.exit_code == 0, res.output
+    missing = [ln for ln in res.output.splitlines() if "missing:" in ln]
+    assert len(missing) == 1, res.output  # one line: what is missing, and which of it was inf/NaN in the file
+    assert missing[0].startswith("note              missing: right_ankle 10 frames, left_wrist 2 frames; " + LINE)
+    assert "non-finite" not in res.output.replace(missing[0], "")
+
+
+def test_mediapipe_frames_without_a_person_are_not_counted_but_inf_is(tmp_path):
+    """The real MediaPipe file: frames 0-2 are NaN (no person found: the format's own
+    "absent"), not non-finite values read as missing; an inf in a frame with a person is."""
+    with np.load(MEDIAPIPE) as data:
+        arrays = {k: data[k] for k in data.files}
+    assert np.isnan(arrays["world_3d"][:3]).all()
+    adapter = get_3d_adapter("mediapipe")
+    assert adapter.load(MEDIAPIPE).nonfinite == {}
+    ankle = BLAZEPOSE33.joints.index("left_ankle")
+    arrays["world_3d"][10:14, ankle, 0] = np.inf  # 4 frames
+    np.savez(tmp_path / "mp.npz", **arrays)
+    poses = adapter.load(tmp_path / "mp.npz")
+    assert poses.nonfinite == {"left_ankle": 4}
+    assert np.isnan(poses.joints[10:14, ankle]).all()
+
+
+def test_generic_csv_empty_cells_are_missing_but_not_nonfinite(tmp_path):
+    """An empty CSV cell is the format's "missing"; an ``inf`` or ``nan`` cell is a
+    non-finite value the file held."""
+    rows = np.load(YOGA).reshape(100, 51).astype(np.float64)
+    text = [[repr(float(v)) for v in row] for row in rows]
+    for t in range(5):
+        text[t][3 * R_WRIST:3 * R_WRIST + 3] = ["", "", ""]  # right_wrist empty in frames 0-4
+    for t in range(7, 10):
+        text[t][3 * L_ANKLE] = "inf"  # left_ankle's x: inf in frames 7-9
+    text[50][3 * R_ANKLE + 1] = "nan"  # right_ankle's y: nan in frame 50
+    path = tmp_path / "poses.csv"
+    path.write_text("\n".join(",".join(r) for r in text) + "\n")
+    poses = get_3d_adapter("generic").load(path)
+    assert poses.nonfinite == {"right_ankle": 1, "left_ankle": 3}
+    assert np.isnan(poses.joints[:5, R_WRIST]).all() and np.isnan(poses.joints[7:10, L_ANKLE, 0]).all()
+
+
+def test_nonfinite_line_is_short_for_many_joints():
+    counts = {name: i + 1 for i, name in enumerate(H36M_JOINTS)}
+    line = nonfinite_line(counts)
+    assert line == ("input: non-finite values (inf/NaN) read as missing: right_wrist 17 frames, right_elbow 16 frames, "
+                    "right_shoulder 15 frames, left_wrist 14 frames, left_elbow 13 frames, left_shoulder 12 frames, "
+                    "11 more joints (66 frames)")
+    assert nonfinite_line({}) == ""
+
+
+@pytest.mark.parametrize("counts", [{"right_ankle": 0}, {"right_ankle": 61}, {"right_ankle": 1.0}])
+def test_poses3d_refuses_a_count_that_is_no_frame_count(counts):
+    from pcnet.adapters import Poses3D
+
+    with pytest.raises(ValueError, match="nonfinite"):
+        Poses3D(np.load(BOX_3D), "h36m17", units="normalised", nonfinite=counts)
