@@ -302,7 +302,9 @@ def _run_and_report(cfg) -> None:
 @main.command()
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), default=None,
               help="TOML file with the same fields; command-line options override it.")
-@click.option("--video", type=click.Path(dir_okay=False), default=None, help="The recorded video (optional).")
+@click.option("--video", type=click.Path(dir_okay=False), default=None,
+              help="The recorded video; alone (no --lifter-output), the embedded MediaPipe estimator makes the poses "
+                   '(pip install "pcnet[video]").')
 @click.option("--keypoints2d", type=click.Path(), default=None, help="2D keypoint file (or OpenPose folder).")
 @click.option("--keypoints2d-format", type=click.Choice(KEYPOINT_FORMATS), default=None,
               help="Which 2D detector wrote --keypoints2d (needed with it).")
@@ -348,10 +350,12 @@ def _run_and_report(cfg) -> None:
 @click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")
 def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, measured_root, no_recording, with_opensim,
         mass, **options):
-    """Run the pipeline on one recording: 2D keypoints + a lifter's 3D output -> canonical
-    poses, kinematics in the recording's world frame, CSV/TRC/NPZ/PNG exports and a rerun
-    recording (with --opensim also OpenSim scaling and inverse kinematics)."""
-    from pcnet.pipeline.config import COMMAND_LINE, check_lifter_options, load_run_config, parse_hypothesis, RunConfig
+    """Run the pipeline on one recording: a video alone (the embedded MediaPipe estimator), or
+    2D keypoints + a lifter's 3D output -> canonical poses, kinematics in the recording's world
+    frame, CSV/TRC/NPZ/PNG exports and a rerun recording (with --opensim also OpenSim scaling
+    and inverse kinematics)."""
+    from pcnet.pipeline.config import (COMMAND_LINE, ESTIMATOR_LIFTER, check_lifter_options, load_run_config,
+                                       parse_hypothesis, RunConfig)
 
     lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
                                         ("key", key), ("measured_root", measured_root)) if v}
@@ -367,7 +371,8 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, meas
     if config_path:
         cfg = load_run_config(config_path, **options)
         if lifter_options:  # named as the flags they came from, then together with the file's
-            cfg.lifter_options.update(check_lifter_options(COMMAND_LINE, cfg.lifter, lifter_options))
+            cfg.lifter_options.update(check_lifter_options(COMMAND_LINE, cfg.lifter or ESTIMATOR_LIFTER,
+                                                           lifter_options))
             cfg.validate(f"{config_path} with the command line's options")
     else:
         given = {k: v for k, v in options.items() if v is not None}

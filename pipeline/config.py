@@ -114,6 +114,11 @@ def _signature_options(func) -> tuple[bool, tuple[str, ...]]:
             tuple(n for n, p in params.items() if p.kind is p.KEYWORD_ONLY))
 
 
+#: The lifter format the embedded estimator of `pcnet run --video` writes
+#: (:mod:`pcnet.pipeline.video_estimate`); its options (``focal_px``) apply to a video alone.
+ESTIMATOR_LIFTER = "mediapipe"
+
+
 def _flag(name: str) -> str:
     """The command-line spelling of a config field: ``cutoff_hz`` -> ``--cutoff-hz``."""
     return "--" + name.replace("_", "-")
@@ -142,11 +147,13 @@ class RunConfig:
     instead of ``cutoff_hz``. ``opensim``: also scale an OpenSim model and solve inverse
     kinematics on the world-frame markers before the output is published
     (:func:`pcnet.stages.opensim_ik.scale_and_ik`; needs the ``opensim`` extra and metric poses),
-    ``mass`` (kg) setting the model's mass.
+    ``mass`` (kg) setting the model's mass. A ``video`` without ``lifter`` and
+    ``lifter_output`` (and without 2D keypoints) is estimated by the embedded MediaPipe
+    estimator (:mod:`pcnet.pipeline.video_estimate`, the ``video`` extra).
     """
 
-    lifter: str
-    lifter_output: str
+    lifter: str | None = None
+    lifter_output: str | None = None
     keypoints2d: str | None = None
     keypoints2d_format: str | None = None
     video: str | None = None
@@ -194,17 +201,37 @@ class RunConfig:
     @classmethod
     def from_values(cls, source: str, values: dict) -> "RunConfig":
         """Build and :meth:`validate` a config from parsed values (a TOML table, a manifest
-        row, command-line options), naming ``source`` in errors; the fields without a default
-        (``lifter``, ``lifter_output``) missing is one line too, not a ``TypeError``.
+        row, command-line options), naming ``source`` in errors.
 
         Raises:
-            InputError: a required field is missing, or :meth:`validate` refuses a value.
+            InputError: :meth:`validate` refuses a value (or the inputs are missing).
         """
-        for needed in ("lifter", "lifter_output"):
-            if values.get(needed) is None:
-                raise InputError(f"{field_name(source, needed)}: expected a value, "
-                                 f"got none")
         return cls(**values).validate(source)
+
+    def _check_inputs_given(self, source: str) -> None:
+        """A lifter with its output, or a video alone (the embedded estimator gives both the 3D
+        poses and the 2D keypoints).
+
+        Raises:
+            InputError: naming the missing or the surplus fields.
+        """
+        cli = source == COMMAND_LINE
+        name = _flag if cli else (lambda n: n)
+        if self.lifter_output is None and self.lifter is None:
+            if self.video is None:
+                raise InputError(f"{field_name(source, 'lifter', 'lifter_output')}: expected {name('lifter')} and "
+                                 f"{name('lifter_output')} (a 3D lifter's file), or {name('video')} alone (the embedded "
+                                 f"estimator, pip install \"pcnet[video]\"), got none of them")
+            if self.keypoints2d is not None:
+                raise InputError(f"{field_name(source, 'keypoints2d')}: expected none with {name('video')} alone (the "
+                                 f"embedded estimator makes its own 2D keypoints and 3D poses), got "
+                                 f"{name('keypoints2d')}; give {name('lifter')} and {name('lifter_output')} too, or "
+                                 f"leave it out")
+            check_lifter_options(source, ESTIMATOR_LIFTER, self.lifter_options)  # --focal-px: the camera's
+        for given, missing in (("lifter", "lifter_output"), ("lifter_output", "lifter")):
+            if getattr(self, given) is not None and getattr(self, missing) is None:
+                raise InputError(f"{field_name(source, missing)}: expected a value with {name(given)} "
+                                 f"{getattr(self, given)!r}, got none")
 
     def validate(self, source: str = "config") -> "RunConfig":
         """Check every field's type (against the annotations), choices, ranges and
@@ -222,9 +249,10 @@ class RunConfig:
         from pcnet.stages.rectify import METHODS, check_method_weights
 
         check_config_types(source, "", {f.name: getattr(self, f.name) for f in fields(self)}, RunConfig)
+        self._check_inputs_given(source)
         # (field, value, choices, None allowed)
         for name, value, choices, optional in (
-            ("lifter", self.lifter, lifter_names(), False), ("method", self.method, METHODS, False),
+            ("lifter", self.lifter, lifter_names(), self.lifter_output is None), ("method", self.method, METHODS, False),
             ("mode", self.mode, MODES, False), ("align", self.align, ALIGN, False),
             ("heading", self.heading, HEADING_SOURCES, True),
             ("keypoints2d_format", self.keypoints2d_format, KEYPOINT_FORMATS, True),
@@ -259,7 +287,8 @@ class RunConfig:
             raise InputError(f"{field_name(source, 'person')}: expected 2D keypoints with several tracks (alphapose or "
                              f"mmpose), got {got}")
         check_method_weights(self.method, self.weights, field_name(source, "weights"))
-        check_lifter_options(source, self.lifter, self.lifter_options)
+        if self.lifter is not None:
+            check_lifter_options(source, self.lifter, self.lifter_options)
         if self.mode in ("frame", "smooth"):
             # both act only on sequence mode's fixed world frame for the recording
             if not self.camera_prior:

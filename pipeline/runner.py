@@ -49,6 +49,7 @@ from .config import MULTI_TRACK_FORMATS, RunConfig
 from .io import lifter_joints
 from .video_orientation import EDGE_MARGIN, DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
+from .video_estimate import estimated_inputs
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
 WORLD_SUMMARY = {
@@ -448,7 +449,8 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *,
     # disable=None: no bar where stderr is not a terminal (a log file, a pipe), whose
     # carriage-return redraws would fill it.
     with _collector_skips_older_objects(), \
-            tqdm(total=len(STEPS), desc="pcnet", disable=None if progress else True, unit="stage") as bar:
+            tqdm(total=len(STEPS) + (cfg.lifter_output is None), desc="pcnet", disable=None if progress else True,
+                 unit="stage") as bar:
         return _run_stages(cfg, out, bar, before_publish)
 
 
@@ -608,6 +610,12 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
     # block of frames at a time, so memory does not grow with the recording's length; the
     # store is removed before the folder is swapped in.
     with staged_output(out, cfg.overwrite) as tmp, FrameStore(tmp) as store:
+        estimate_note = []
+        if cfg.lifter_output is None:  # the video alone: the embedded estimator's poses, kept with the outputs
+            step("estimate")
+            cfg, note = estimated_inputs(cfg, tmp, progress=not bar.disable)
+            estimate_note.append(note)
+            bar.update()
         step("inputs")
         video, (fps, fps_source), kp2d, (kp_size, kp_extent), joints, units, measured_root, input_notes, lifter_turn, \
             nonfinite = _load_inputs(cfg)
@@ -621,7 +629,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
                              f"low-pass cutoff {cfg.lowpass_hz:g} Hz{default}, got {fps / 2:g} Hz; give --cutoff-hz "
                              f"below {fps / 2:g} or --residual-cutoff")
         kp2d, joints, aligned = _align(cfg, video, kp2d, joints)
-        input_notes += [aligned] if aligned else []
+        input_notes = estimate_note + input_notes + ([aligned] if aligned else [])
         orientation = display_orientation(video, kp2d, kp_size, kp_extent)
         bar.update()
 
@@ -783,6 +791,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         if cfg.recording:
             outputs.update(write_rerun(result, tmp))
         outputs.update(write_arrays(result, tmp))  # last: the notes every sink added are in it
+        if estimate_note:
+            outputs[Path(cfg.lifter_output).name] = Path(cfg.lifter_output)  # the estimator's, for a re-run
         bar.update()
         step("done")
         run = RunResult(

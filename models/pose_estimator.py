@@ -1,0 +1,166 @@
+"""The embedded pose estimator of `pcnet run --video`: MediaPipe's BlazePose GHUM 3D (full)
+over every frame of a video, on the CPU, offline.
+
+MediaPipe's Tasks ``PoseLandmarker`` (google-ai-edge/mediapipe
+``mediapipe/tasks/python/vision/pose_landmarker.py``, release 1.2.3) runs in ``VIDEO`` mode:
+the detector finds the person once, then the landmark model tracks them from frame to frame
+(re-running the detector where the track is lost), with MediaPipe's landmark smoothing
+between frames. The model bundle ships with pcnet (:data:`POSE_TASK`, built by
+``benchmarks/build_pose_task.py`` from the Apache-2.0 models of MediaPipe 0.10.21), so
+nothing is downloaded at run time.
+
+Per frame it gives what the legacy ``solutions.pose`` gave (the shared reference files'
+``mediapipe_extract.py``): 33 image landmarks (normalised x, y; visibility) and 33 world
+landmarks (metres, origin between the hips, the axes of the camera the model sees:
+:mod:`pcnet.adapters.mediapipe`). MediaPipe follows one person (``num_poses=1``): where
+several people are in view, it may switch between them, which pcnet's 2D track check flags
+(:func:`pcnet.stages.flags.track_switch_flag`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import sys
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+from tqdm import tqdm
+
+from pcnet.stages.core.errors import InputError, import_extra
+
+#: The model bundle: pose_detector.tflite + pose_landmarks_detector.tflite (BlazePose GHUM
+#: 3D full; Apache-2.0, models/weights/LICENSE-mediapipe.txt).
+POSE_TASK = Path(__file__).parent / "weights" / "pose_landmarker_full.task"
+#: What a missing extra says.
+MISSING_EXTRA = ('pcnet run --video without a lifter output needs the embedded estimator: pip install '
+                 '"pcnet[video]" (MediaPipe 1.2.3: wheels for Linux x86_64 and aarch64 with glibc 2.28+, macOS on '
+                 'Apple silicon, Windows x86_64; not Intel Macs)')
+BLAZEPOSE_JOINTS = 33
+
+
+@dataclass(frozen=True)
+class BlazePoseTrack:
+    """BlazePose-33 landmarks of one person over a video.
+
+    Attributes:
+        keypoints_2d: ``(T, 33, 3)`` float32: x, y in pixels of the decoded frame (OpenCV's
+            decoding, which applies the container's display rotation), visibility in [0, 1];
+            NaN rows where nobody was found.
+        world_3d: ``(T, 33, 3)`` float32: MediaPipe's world landmarks in metres (origin
+            between the hips, x right, y down, z away from the camera the model sees); NaN
+            rows where nobody was found.
+        fps: the container's frame rate.
+        width, height: the decoded frame's size in pixels.
+    """
+
+    keypoints_2d: np.ndarray
+    world_3d: np.ndarray
+    fps: float
+    width: int
+    height: int
+
+    @property
+    def found(self) -> np.ndarray:
+        """``(T,)`` bool: frames with a person."""
+        return np.isfinite(self.keypoints_2d[:, 0, 0])
+
+
+@contextlib.contextmanager
+def _native_logs_silenced() -> Iterator[object]:
+    """Send what native code writes to stderr (MediaPipe's and LiteRT's start-up logs: some
+    50 INFO and WARNING lines per run that concern the model file, not the user's video) to
+    the null device, and yield a text stream on the real stderr for the progress bar."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        with os.fdopen(os.dup(saved), "w") as real_stderr:
+            yield real_stderr
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _open(video: Path) -> tuple[cv2.VideoCapture, float, int]:
+    """The opened video, its frame rate and its frame count (0 where the container does not say).
+
+    Raises:
+        InputError: the file is missing or no decoder opens it, or it states no frame rate.
+    """
+    if not video.is_file():
+        raise InputError(f"{video}: expected a video file, got {'a folder' if video.is_dir() else 'no such file'}")
+    capture = cv2.VideoCapture(str(video))
+    if not capture.isOpened():
+        raise InputError(f"{video}: expected a video OpenCV can decode (mp4, mov, avi, ...), got a file it cannot open")
+    fps = capture.get(cv2.CAP_PROP_FPS)
+    if not (math.isfinite(fps) and fps > 0):
+        capture.release()
+        raise InputError(f"{video}: expected a frame rate in the container, got {fps!r}; re-encode the video "
+                         f"(ffmpeg -i IN -r 30 OUT.mp4)")
+    return capture, float(fps), max(int(capture.get(cv2.CAP_PROP_FRAME_COUNT)), 0)
+
+
+def estimate_video(video: str | Path, progress: bool = False) -> BlazePoseTrack:
+    """Run BlazePose GHUM 3D (full) over every decodable frame of ``video``.
+
+    Args:
+        video: a video file OpenCV decodes.
+        progress: a frame progress bar on stderr (where stderr is a terminal).
+
+    Returns:
+        :class:`BlazePoseTrack`.
+
+    Raises:
+        InputError: the extra is missing (:data:`MISSING_EXTRA`), the video cannot be
+            decoded or has no frame, or nobody was found in any frame.
+        KeyboardInterrupt: Ctrl-C or SIGTERM (the caller removes what it staged).
+    """
+    import_extra("mediapipe", MISSING_EXTRA)
+    from mediapipe.tasks.python.core.base_options import BaseOptions
+    from mediapipe.tasks.python.vision import pose_landmarker
+    from mediapipe.tasks.python.vision.core import image as mp_image
+    from mediapipe.tasks.python.vision.core.vision_task_running_mode import VisionTaskRunningMode
+
+    video = Path(video)
+    capture, fps, count = _open(video)
+    options = pose_landmarker.PoseLandmarkerOptions(
+        base_options=BaseOptions(model_asset_path=str(POSE_TASK)), running_mode=VisionTaskRunningMode.VIDEO,
+        num_poses=1, output_segmentation_masks=False)
+    keypoints, world = [], []
+    width = height = 0
+    try:
+        with _native_logs_silenced() as stderr, pose_landmarker.PoseLandmarker.create_from_options(options) as landmarker, \
+                tqdm(total=count or None, desc="MediaPipe", unit="frame", file=stderr,
+                     disable=None if progress else True) as bar:
+            while True:
+                ok, frame = capture.read()
+                if not ok:
+                    break
+                height, width = frame.shape[:2]
+                image = mp_image.Image(image_format=mp_image.ImageFormat.SRGB,
+                                       data=np.ascontiguousarray(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB)))
+                # VIDEO mode needs strictly increasing timestamps (ms): the frame's nominal time
+                result = landmarker.detect_for_video(image, round(len(keypoints) * 1000.0 / fps))
+                if result.pose_landmarks:
+                    keypoints.append(np.array([[p.x * width, p.y * height, p.visibility]
+                                               for p in result.pose_landmarks[0]], np.float32))
+                    world.append(np.array([[p.x, p.y, p.z] for p in result.pose_world_landmarks[0]], np.float32))
+                else:
+                    keypoints.append(np.full((BLAZEPOSE_JOINTS, 3), np.nan, np.float32))
+                    world.append(np.full((BLAZEPOSE_JOINTS, 3), np.nan, np.float32))
+                bar.update()
+    finally:
+        capture.release()
+    if not keypoints:
+        raise InputError(f"{video}: expected decodable frames, got none (a damaged file or a codec OpenCV lacks?)")
+    track = BlazePoseTrack(np.stack(keypoints), np.stack(world), fps, width, height)
+    if not track.found.any():
+        raise InputError(f"{video}: expected a person in view, got none in any of {len(keypoints)} frames "
+                         f"(MediaPipe BlazePose)")
+    return track

@@ -1,0 +1,130 @@
+"""`pcnet run --video V` alone: the embedded MediaPipe estimator (the ``video`` extra) makes
+the poses, saves them with the outputs, and the rest of the run is the normal pipeline.
+Tests that run the estimator skip where the extra is not installed; CI installs it."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import FIXTURES, shared
+
+from pcnet.pipeline.cli import main
+from pcnet.pipeline.video_estimate import ESTIMATE_FILE
+
+CLIP = FIXTURES / "boxing2_f000-009.mp4"  # 10 real frames, 854x480, 30 fps (tests/fixtures/README.md)
+
+
+def _invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def _one_error_line(res) -> str:
+    assert res.exit_code == 1 and isinstance(res.exception, SystemExit), (res.exit_code, res.output, res.exception)
+    lines = [ln for ln in res.output.splitlines() if ln.startswith("Error: ")]
+    assert len(lines) == 1 and "Traceback" not in res.output, res.output
+    return lines[0]
+
+
+@pytest.fixture
+def video_extra():
+    pytest.importorskip("mediapipe", reason='the video extra is not installed (pip install "pcnet[video]")')
+
+
+def test_a_video_alone_gives_every_output_and_its_poses_for_a_re_run(tmp_path, video_extra):
+    res = _invoke("run", "--video", CLIP, "--out", tmp_path / "a")
+    assert res.exit_code == 0, res.output
+    made = {p.name for p in (tmp_path / "a").iterdir()}
+    assert {"canonical.npz", "kinematics.csv", "world.trc", "recording.rrd", "angles.png", ESTIMATE_FILE} <= made
+    assert "poses: MediaPipe BlazePose GHUM 3D (full) on the video, a person in 10 of 10 frames" in res.output
+    estimate = tmp_path / "a" / ESTIMATE_FILE
+    with np.load(estimate, allow_pickle=False) as f:
+        assert f["keypoints_2d"].shape == f["world_3d"].shape == (10, 33, 3)
+        assert float(f["fps"]) == 30.0 and int(f["width"]) == 854 and int(f["height"]) == 480
+    # the saved poses are a lifter output and 2D keypoints as they stand: the same run again
+    again = _invoke("run", "--video", CLIP, "--lifter", "mediapipe", "--lifter-output", estimate, "--keypoints2d",
+                    estimate, "--keypoints2d-format", "mediapipe", "--out", tmp_path / "b")
+    assert again.exit_code == 0, again.output
+    assert (tmp_path / "a" / "kinematics.csv").read_bytes() == (tmp_path / "b" / "kinematics.csv").read_bytes()
+
+
+def test_a_video_without_anyone_is_one_line(tmp_path, video_extra):
+    blank = tmp_path / "empty_room.mp4"
+    writer = cv2.VideoWriter(str(blank), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (320, 240))
+    for _ in range(5):
+        writer.write(np.full((240, 320, 3), 90, np.uint8))
+    writer.release()
+    line = _one_error_line(_invoke("run", "--video", blank, "--out", tmp_path / "o"))
+    assert "empty_room.mp4: expected a person in view, got none in any of 5 frames" in line
+    assert not (tmp_path / "o").exists() and sorted(p.name for p in tmp_path.iterdir()) == ["empty_room.mp4"]
+
+
+def test_a_file_that_is_no_video_is_one_line(tmp_path, video_extra):
+    fake = tmp_path / "notes.mp4"
+    fake.write_text("not a video")
+    line = _one_error_line(_invoke("run", "--video", fake, "--out", tmp_path / "o"))
+    assert "notes.mp4: expected a video OpenCV can decode" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_without_the_extra_the_line_names_it(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "mediapipe", None)  # as if not installed: import raises ImportError
+    line = _one_error_line(_invoke("run", "--video", CLIP, "--out", tmp_path / "o"))
+    assert 'pip install "pcnet[video]"' in line
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("args, needle", [
+    ((), "expected --lifter and --lifter-output (a 3D lifter's file), or --video alone"),
+    (("--video", CLIP, "--keypoints2d", CLIP, "--keypoints2d-format", "mediapipe"),
+     "--keypoints2d: expected none with --video alone"),
+    (("--video", CLIP, "--lifter", "mediapipe"), "--lifter-output: expected a value with --lifter 'mediapipe'"),
+    (("--video", CLIP, "--pixel"), "--pixel"),  # a MotionBERT option: not the estimator's
+])
+def test_inputs_that_do_not_make_a_run_are_refused(tmp_path, args, needle):
+    line = _one_error_line(_invoke("run", *args, "--out", tmp_path / "o"))
+    assert needle in line, line
+
+
+def test_a_batch_row_may_name_only_a_video(tmp_path, video_extra):
+    (tmp_path / "clip.mp4").write_bytes(CLIP.read_bytes())
+    (tmp_path / "m.csv").write_text("video,out,recording\nclip.mp4,o1,false\n")
+    res = _invoke("batch", tmp_path / "m.csv", "--workers", "1")
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "o1" / ESTIMATE_FILE).is_file() and (tmp_path / "o1" / "kinematics.csv").is_file()
+
+
+def test_calibrated_videos_agree_with_the_stored_files_and_the_lab(tmp_path, video_extra):
+    """The four real calibrated cameras from the .mp4 against the stored MediaPipe 0.10.21
+    files (same model, MediaPipe 1.2.3's Tasks graph). Measured (docs/video.md): the sequence
+    ups 0.4 / 0.3 / 0.5 / 1.4 deg apart; against the lab's gravity the video's error is at most
+    the stored file's + 0.1 deg (3.6 / 5.1 / 4.1 / 5.9 vs 4.0 / 5.3 / 4.0 / 6.8). Held here: three
+    cameras within the issue's 1 deg, none worse than the stored file against the lab by more
+    than 0.5 deg."""
+    from pcnet.pipeline.config import RunConfig
+    from pcnet.pipeline.runner import run_pipeline
+    from pcnet.stages.core.rotations import angle_between
+
+    def degrees(a, b):
+        return float(np.degrees(angle_between(a, b)))
+
+    folder = shared("real", "pose2sim_gravity")  # skips without ../shared/data
+    apart = []
+    for cam in ("cam01", "cam02", "cam03", "cam04"):
+        stored = folder / f"statictrial_{cam}.npz"
+        with np.load(stored) as f:
+            focal, truth = float(f["K"][0, 0]), np.asarray(f["up_camera"], np.float64)
+        ups = []
+        for extra in ({"lifter_options": {"focal_px": focal}},
+                      {"lifter": "mediapipe", "lifter_output": str(stored), "keypoints2d": str(stored),
+                       "keypoints2d_format": "mediapipe"}):
+            cfg = RunConfig(video=str(stored.with_suffix(".mp4")), mode="sequence", recording=False,
+                            out=str(tmp_path / f"{cam}{len(ups)}"), **extra)
+            ups.append(np.asarray(run_pipeline(cfg).report["up"], np.float64))
+        apart.append(degrees(*ups))
+        assert degrees(ups[0], truth) <= degrees(ups[1], truth) + 0.5, (cam, ups, truth)
+    assert sum(a <= 1.0 for a in apart) >= 3 and max(apart) < 2.0, apart
