@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.models.datasets import (CMU_NAME, SPLIT_SCHEMES, Noise, assumed_fps_warning, clip_split_of, group_key, groups_in_split,
-                                   load_mocap, make_pairs, parse_bandai_name, select_split, world_up_warning)
+from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, assumed_fps_warning, clip_split_of, group_key, groups_in_split,
+                                   load_mocap, make_pairs, select_split, world_up_warning)
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.core.errors import InputError
@@ -76,11 +76,10 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
     """How much of the evaluated data the weights trained on, by their ``training_config``
     (the ``.json`` beside the ONNX file, which ``pcnet export`` fills from the run folder):
     ``None`` when the weights' training data is unknown, or when neither this file's name is
-    among it, nor every chosen clip carries the clip names of one of its sets (Bandai's
-    ``dataset-N_motion_style_take`` where a ``bandai*`` file was trained on, CMU's
-    ``subject_trial`` where a ``cmu*`` file was: a renamed copy still counts), nor a chosen clip
-    is among the clips of a file trained on whole (``whole_clips``, e.g. DeepMimic's floor
-    motions moved into training, which leaves the rest of DeepMimic a cross-dataset test);
+    among it nor a chosen clip among the clips of a file trained on whole (``whole_clips``, e.g.
+    DeepMimic's floor motions moved into training, which leaves the rest of DeepMimic a
+    cross-dataset test): clip names alike in form say nothing (new CMU subjects carry the
+    ``subject_trial`` names of the training file; :func:`_unknown_file_warning` says so);
     else the clips of their train split (or trained on whole) among ``chosen`` and the
     motion-style groups (CMU: subjects; a clip without a group: itself) of ``chosen`` with a
     take trained on, ``clips_trained_whole`` (how many of the trained clips came from a file
@@ -100,9 +99,6 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
         split_trained = any(n == Path(data).name and not w for n, w in zip(listed, flags))
         if not split_trained:  # the file itself was trained on whole
             whole |= {c.name for c in chosen}
-    elif chosen and (all(parse_bandai_name(c.name) for c in chosen) and any("bandai" in n.lower() for n in listed)
-                     or all(CMU_NAME.fullmatch(c.name) for c in chosen) and any("cmu" in n.lower() for n in listed)):
-        matched_by = "clip names"
     elif any(c.name in whole for c in chosen):
         matched_by, split_trained = "clip names", False
     else:
@@ -128,6 +124,18 @@ def _unlisted_whole_warning(record: dict) -> str | None:
         return None
     return (f"the weights trained on every clip of {', '.join(map(str, whole))}, whose clip names their record does "
             f"not list (exported before pcnet recorded them): clips of this data may be among them")
+
+
+def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None) -> str | None:
+    """A warning when the weights' record names their training files but the evaluated file
+    is not one of them (nor holds a clip they trained on whole): whether its clips overlap the
+    training data cannot be told from names, so the scores are not called held out; ``None``
+    otherwise."""
+    listed = [Path(str(d)).name for d in record.get("data", [])]
+    if not listed or overlap is not None:
+        return None
+    return (f"{Path(data).name} is not among the files the weights trained on ({', '.join(listed)}): whether its "
+            f"clips overlap their training data is unknown (a renamed copy of a training file would look new)")
 
 
 def _unknown_training_warning(weights, record: dict) -> str | None:
@@ -269,7 +277,8 @@ def evaluate(
     if method != "geometric":
         record = _training_config(weights)
         result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
-        warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record)] if w]
+        warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record),
+                                 _unknown_file_warning(data, record, result["training_overlap"])] if w]
     else:
         result["training_overlap"] = None
     result.update({name: summarize(errors[name]) for name in METRICS})

@@ -377,7 +377,7 @@ def test_evaluate_cli_noise_and_scheme_options(tmp_path):
 
 def test_unseen_by_keeps_groups_the_weights_never_saw():
     from pcnet.models.datasets import load_mocap, select_split
-    from pcnet.pipeline.evaluate import _training_overlap, evaluate
+    from pcnet.pipeline.evaluate import _training_overlap, _unknown_file_warning, evaluate
 
     data = shared("mocap", "bandai_h36m17.npz")
     res = evaluate("geometric", data, "all", split_scheme="clip", unseen_by="clip", max_frames=200)
@@ -394,9 +394,13 @@ def test_unseen_by_keeps_groups_the_weights_never_saw():
     overlap = _training_overlap(data, clips, chosen, style_record)
     assert overlap["clips_trained_on"] == overlap["groups_with_a_trained_take"] == 0
     assert _training_overlap(data, clips, chosen, {"data": ["cmu_train_h36m17.npz"]}) is None
-    # a renamed copy of a training file is still recognised, by its clip names
-    renamed = _training_overlap("my_copy.npz", clips, chosen, clip_record)
-    assert renamed["groups_with_a_trained_take"] == 47 and renamed["matched_by"] == "clip names"
+    # a file the record does not name: clip names of the same form say nothing (new CMU subjects
+    # have them too), so the overlap is unknown and said so, not claimed from the split
+    assert _training_overlap("my_copy.npz", clips, chosen, clip_record) is None
+    assert "my_copy.npz is not among the files the weights trained on (bandai_h36m17.npz): whether its clips " \
+           "overlap their training data is unknown" in _unknown_file_warning("my_copy.npz", clip_record, None)
+    assert _unknown_file_warning(data, clip_record, {"clips": 1}) is None and _unknown_file_warning(data, {}, None) \
+        is None
     assert unseen_names  # clips outside the clip-scheme train split exist
     assert Counter(test["clip_heading_sources"]) == Counter({"predicted": 910})
 
