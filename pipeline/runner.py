@@ -17,16 +17,17 @@ import threading
 import time
 from collections.abc import Callable
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import AdapterError, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
 from pcnet.adapters.validate import ROOT_RELATIVE_MAX, nonfinite_line
-from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, THIGH_RANGE_M, fill_pelvis_from_hips,
+from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, SPINE, THORAX, THIGH_RANGE_M, fill_pelvis_from_hips,
                                           median_thigh_length, validate_fps)
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
@@ -55,7 +56,7 @@ STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "record
 WORLD_SUMMARY = {
     "not observable": "world, fixed for the recording: +Y up, +X the subject's forward over the first second, floor "
                       "at y = 0 under the lowest joint; the pelvis's horizontal path is not observable from a "
-                      "root-relative lifter (x = z = 0)",
+                      "root-relative lifter (x = z = 0; its horizontal columns in kinematics.csv are empty)",
     "measured": "world, fixed for the recording: +Y up, +X the subject's forward over the first second, one floor "
                 "at y = 0 (median height of the lowest joint); the pelvis follows the path the input measured "
                 "(x = z = 0 at the start)",
@@ -570,6 +571,39 @@ def _headingless_note(angles, positions) -> list[str]:
             f"the shoulder line is vertical too); trunk inclination and the unsigned knee and elbow flexion are kept"]
 
 
+#: A spine joint within this fraction of the trunk's length (pelvis -> thorax) of that line in
+#: every frame is not a measured joint but built on the line (Kinect's and MediaPipe's
+#: conversions put it at the midpoint): float32 rounding is ~1e-6 of it, a lifter's own spine
+#: joint is centimetres off the line.
+SPINE_ON_LINE_FRACTION = 1e-4
+
+#: Angles that need a spine joint off the pelvis-thorax line: with the spine on the line the
+#: pelvis Y and thorax Y share the plane of the trunk and the hip line, so the thorax's flexion
+#: relative to the pelvis is 0 by construction, not measured.
+NEEDS_SPINE_JOINT = ("trunk_flexion_to_pelvis",)
+
+
+def _spine_built_on_trunk_line(cam) -> bool:
+    """True when every frame with a pelvis, spine and thorax has the spine on the pelvis-thorax
+    line (:data:`SPINE_ON_LINE_FRACTION`), and at least one frame has them."""
+    def off_line(J: np.ndarray) -> np.ndarray:
+        J = np.asarray(J, np.float64)
+        trunk, spine = J[:, THORAX] - J[:, PELVIS], J[:, SPINE] - J[:, PELVIS]
+        length = np.linalg.norm(trunk, axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.linalg.norm(np.cross(spine, trunk), axis=-1) / length ** 2  # distance / length
+    ratio = per_frame(off_line, cam)
+    finite = np.isfinite(ratio)
+    return bool(finite.any() and (ratio[finite] <= SPINE_ON_LINE_FRACTION).all())
+
+
+def _without(blocks, names: tuple[str, ...]):
+    """The kinematics blocks with the angles ``names`` empty (NaN)."""
+    for k in blocks:
+        yield replace(k, angles=MappingProxyType(
+            {n: np.full_like(v, np.nan) if n in names else v for n, v in k.angles.items()}))
+
+
 def _opensim(cfg: RunConfig, staged: Path, flags: list[str], notes: list[str]) -> dict[str, Path]:
     """OpenSim scaling and inverse kinematics on the staged ``world.trc`` (into ``staged``):
     the fit's line goes to ``notes``, its warning to ``flags``; without a world frame (a
@@ -770,6 +804,10 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             video_keypoints2d=video_kp2d,
             min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam)
         result.kinematics_blocks = kinematics_chunks(rectified, fps, cutoff, units)
+        if _spine_built_on_trunk_line(cam):  # an angle the layout cannot measure is empty, not 0
+            result.kinematics_blocks = _without(result.kinematics_blocks, NEEDS_SPINE_JOINT)
+            notes.append("trunk_flexion_to_pelvis_deg left empty: the input's spine joint lies on the pelvis-thorax "
+                         "line (built there, no spine of its own), so that angle is 0 by construction")
         table = write_kinematics_table(result, tmp, allocate=store.create)
         flags += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
         # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)

@@ -45,7 +45,7 @@ from .core.conventions import (
     validate_fps,
 )
 from .core.canonical import canonical_rotation
-from .isb_angles import isb_joint_angles
+from .isb_angles import MAX_KNEE_HYPEREXTENSION_DEG, isb_joint_angles
 from .core.rotations import angle_between
 from .core.errors import InputError
 
@@ -506,6 +506,136 @@ def heading_free_angles(poses: np.ndarray) -> dict[str, np.ndarray]:
 
 
 # ---------------------------------------------------------------------------------------
+# continuity in time
+
+
+#: Angles that are periodic (an ``atan2`` or the first/third angle of an Euler/Cardan
+#: sequence, so they wrap by 360 deg) -> the lower end of the 360-deg range each run's median
+#: is brought into: ``-180`` = (-180, 180]; ``-90`` = (-90, 270] for the upper-arm
+#: inclinations, whose 180 (arm overhead) is common and must not read as -180. Names without
+#: the ``_deg`` suffix, ``{side}`` = left / right. The unsigned angles (``*_unsigned``,
+#: ``trunk_inclination``, ``shoulder_elevation``, elbow flexion) and the middle Cardan angles
+#: (in [-90, 90]: adduction, lateral bending / tilt) cannot wrap and are left as they are.
+PERIODIC_ANGLES: Mapping[str, float] = MappingProxyType({
+    **{name: -180.0 for name in (
+        "trunk_sagittal_inclination", "trunk_frontal_inclination",
+        "trunk_flexion_to_pelvis", "trunk_axial_rotation_to_pelvis", "trunk_flexion_to_gravity")},
+    **{f"{side}_{name}": level for side in ("left", "right") for name, level in (
+        ("thigh_sagittal_inclination", -180.0), ("thigh_frontal_inclination", -180.0),
+        ("upper_arm_sagittal_inclination", -90.0), ("upper_arm_frontal_inclination", -90.0),
+        ("hip_flexion", -180.0), ("hip_internal_rotation", -180.0),
+        ("shoulder_plane_of_elevation", -180.0), ("shoulder_axial_rotation", -180.0))},
+})
+
+
+def _wrap180(deg: np.ndarray) -> np.ndarray:
+    return (deg + 180.0) % 360.0 - 180.0
+
+
+def _knee_reading(rot: np.ndarray, knee: np.ndarray, previous: tuple[float, float] | None) -> tuple[np.ndarray, np.ndarray]:
+    """Hip internal rotation and signed knee flexion of one side, with the knee's sign
+    chosen continuously in time (:func:`continuous_angles`)."""
+    rot, knee = rot.copy(), knee.copy()
+    ok = np.isfinite(rot) & np.isfinite(knee)
+    for a, b in _runs(ok):
+        # A step of more than 90 deg reads as the other, 180-deg-turned reading (the thigh
+        # Z flipped): continuity keeps the reading, so the parity flips there.
+        step = np.abs(_wrap180(np.diff(rot[a:b])))
+        parity = np.concatenate([[0], np.cumsum(step > 90.0) % 2])
+        if a > 0 or previous is None or not np.isfinite(previous).all():
+            # Per run, the reading that agrees with isb_angles' per-frame choice in more
+            # frames; a knee hyperextended beyond MAX_KNEE_HYPEREXTENSION_DEG rules a
+            # reading out (its frames count 1000 against it).
+            too_far = knee[a:b] > MAX_KNEE_HYPEREXTENSION_DEG  # flipped, these would be hyperextended that far
+            score_keep = np.sum(parity == 0) - 1000 * np.sum(too_far & (parity == 1))
+            score_flip = np.sum(parity == 1) - 1000 * np.sum(too_far & (parity == 0))
+            flip0 = score_flip > score_keep
+        else:  # continues the previous chunk's last frame
+            flip0 = abs(_wrap180(rot[a] - previous[0])) > 90.0
+        flip = (parity == 1) != flip0
+        rot[a:b] = np.where(flip, rot[a:b] + 180.0, rot[a:b])
+        knee[a:b] = np.where(flip, -knee[a:b], knee[a:b])
+    return rot, knee
+
+
+def _unwrap_runs(x: np.ndarray, lower: float, previous: float | None) -> np.ndarray:
+    """``x`` unwrapped (360-deg period) per run of finite samples, each run shifted by the
+    multiple of 360 that puts its median in ``(lower, lower + 360]``, or, for a run at index
+    0 when ``previous`` (the sample just before ``x``) is finite, that continues it."""
+    out = x.copy()
+    for a, b in _runs(np.isfinite(x)):
+        run = np.unwrap(x[a:b], period=360.0)
+        if a == 0 and previous is not None and np.isfinite(previous):
+            ref = previous - run[0]
+        else:
+            ref = (lower + 180.0) - float(np.median(run))  # the shift to the range's centre
+        out[a:b] = run + 360.0 * np.round(ref / 360.0)
+    return out
+
+
+def continuous_angles(angles: Mapping[str, np.ndarray],
+                      previous: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
+    """Angles made continuous in time: no wrap by 360 deg, and no 180-deg switch of the
+    knee's reading, between two consecutive present frames.
+
+    Per-frame decompositions wrap: ``atan2`` and the first and third angles of an
+    Euler/Cardan sequence (:mod:`pcnet.stages.isb_angles`) live on a circle and are reported
+    in one 360-deg window, so motion through the window's edge (an arm through overhead in a
+    plane inclination, a noisy axial rotation near +-180, a lying body's thigh) jumps by up
+    to 360 deg in one frame. No single window avoids it: ISB's own sequences (Wu et al.
+    2002, J Biomech 35:543; 2005, J Biomech 38:981) and Grood & Suntay's (1983) joint
+    coordinate system put the wrap outside the joint's range of motion only for the segment
+    frames their anatomical landmarks define; from joint centres (axial rotations from a
+    limb's own plane, segment directions against gravity) nothing bounds the angles, so they
+    are made continuous over time instead, as motion-capture software does with Euler
+    angles:
+
+    * every column of :data:`PERIODIC_ANGLES` is unwrapped (``np.unwrap``, period 360 deg)
+      over each run of consecutive finite frames; a NaN frame ends a run and stays NaN (no
+      gap is bridged), and each run is shifted by the multiple of 360 deg that puts its
+      median in the column's range ((-180, 180], or (-90, 270] for the upper-arm
+      inclinations), so its values keep their usual reading;
+    * hip internal rotation and signed knee flexion have two readings in every frame
+      (:mod:`pcnet.stages.isb_angles`: a flexed knee, or a hyperextended one with the thigh
+      turned 180 deg about its axis, ``(rotation, knee) ~ (rotation + 180, -knee)``), which
+      ``isb_joint_angles`` chooses per frame by plausibility; here the reading is kept over
+      each run (it switches only where the rotation would otherwise step by more than
+      90 deg between two frames, i.e. where the limb plane's normal flipped), and each run
+      takes the reading ``isb_joint_angles`` chose in the majority of its frames, never one
+      with a knee hyperextended beyond ``MAX_KNEE_HYPEREXTENSION_DEG``.
+
+    What is left: a per-frame step of up to 90 deg in hip rotation (from noise where the
+    knee is nearly straight) and up to 180 deg in the first/third angle of a sequence near
+    its gimbal lock (the shoulder's plane of elevation with the arm just above
+    ``GIMBAL_MARGIN_DEG`` of elevation), where the angle is ill-defined rather than wrapped.
+    A run that winds a whole turn (an arm circled through overhead and down behind) ends
+    360 deg from where it started, as its motion did.
+
+    Args:
+        angles: ``name -> (T,)`` degrees, names as :attr:`Kinematics.angles` (or with the
+            ``_deg`` suffix); names not periodic are returned unchanged.
+        previous: ``name -> degrees`` of the frame just before these (the previous chunk of
+            :func:`kinematics_chunks`): a run that starts at frame 0 continues it instead of
+            being levelled on its own median.
+
+    Returns:
+        a new dict, same keys and order, float64 arrays.
+    """
+    out = {name: np.asarray(v, np.float64) for name, v in angles.items()}
+    previous = previous or {}
+    base = {name.removesuffix("_deg"): name for name in out}
+    for side in ("left", "right"):
+        rot, knee = base.get(f"{side}_hip_internal_rotation"), base.get(f"{side}_knee_flexion")
+        if rot is not None and knee is not None:
+            prev = (previous.get(rot, np.nan), previous.get(knee, np.nan))
+            out[rot], out[knee] = _knee_reading(out[rot], out[knee], prev)
+    for short, name in base.items():
+        if short in PERIODIC_ANGLES:
+            out[name] = _unwrap_runs(out[name], PERIODIC_ANGLES[short], previous.get(name))
+    return out
+
+
+# ---------------------------------------------------------------------------------------
 # bundle
 
 
@@ -601,12 +731,21 @@ def filtered_derivatives(
     return pos, raw, vel, acc
 
 
+def _angles(pos: np.ndarray, continuous: bool = True) -> dict[str, np.ndarray]:
+    """Every angle of :attr:`Kinematics.angles` from filtered Y-up positions."""
+    # the heading-free angles from the poses themselves: a body on its side has no heading
+    out = {**joint_angles(pelvis_heading_frame(pos), heading_free_angles(pos)),
+           **{k.removesuffix("_deg"): v for k, v in isb_joint_angles(pos).items()}}
+    return continuous_angles(out) if continuous else out
+
+
 def compute_kinematics(
     canonical: np.ndarray,
     fps: float,
     cutoff_hz: float | None = 6.0,
     units: str = "m",
     order: int = 4,
+    continuous: bool = True,
 ) -> Kinematics:
     """Filter Y-up poses, then differentiate and compute angles.
 
@@ -640,6 +779,9 @@ def compute_kinematics(
         units: length unit of ``canonical``: ``"m"`` when metric, else e.g.
             ``"normalised"``; velocity units are then ``"<units>/s"``.
         order: order of the zero-phase filter (see :func:`butterworth_lowpass`).
+        continuous: make the angles continuous in time (:func:`continuous_angles`: unwrapped
+            per run of present frames, the knee's reading kept); False leaves each frame's
+            own decomposition (what :func:`kinematics_chunks` stitches itself).
 
     Returns:
         a frozen :class:`Kinematics`; :func:`flag_counts` / :func:`format_flag_counts`
@@ -659,8 +801,7 @@ def compute_kinematics(
         acceleration=acc,
         speed=np.linalg.norm(vel, axis=-1),
         # the heading-free angles from the poses themselves: a body on its side has no heading
-        angles=MappingProxyType({**joint_angles(pelvis_heading_frame(pos), heading_free_angles(pos)),
-                                 **{k.removesuffix("_deg"): v for k, v in isb_joint_angles(pos).items()}}),
+        angles=MappingProxyType(_angles(pos, continuous)),
         unfiltered=raw.any(axis=-1) & ~missing,
         missing=missing,
         fps=float(fps),
@@ -813,7 +954,10 @@ def kinematics_chunks(
     Each chunk is computed on itself plus :func:`settle_frames` of context on both sides and
     cut back, so the concatenated chunks equal ``compute_kinematics(poses, ...)`` to about
     1e-12 relative (filter transients; tested in ``tests/test_kinematics_exports.py``), with
-    identical NaN and flag patterns.
+    identical NaN and flag patterns. Angles are made continuous (:func:`continuous_angles`) across
+    chunks: a run of present frames that crosses a chunk's start continues the previous
+    chunk's last frame, so only a run's level (its median's range, its knee reading) is
+    chosen from the chunk where the run starts rather than from the whole run.
 
     Args:
         poses: ``(T, 17, 3)`` Y-up poses, as :func:`compute_kinematics`; in memory or a
@@ -833,11 +977,15 @@ def kinematics_chunks(
         raise InputError(f"chunk_frames must be >= 1, got {chunk_frames!r}")
     pad = settle_frames(fps, cutoff_hz, order)
     T = len(X)
+    previous: dict[str, float] | None = None  # the last frame's angles, continued by the next chunk
     for start in range(0, T, chunk_frames):
         stop = min(T, start + chunk_frames)
         lo, hi = max(0, start - pad), min(T, stop + pad)
-        k = compute_kinematics(check_poses(X[lo:hi], "poses"), fps, cutoff_hz, units, order)
-        yield select_frames(k, start - lo, stop - lo)
+        k = select_frames(compute_kinematics(check_poses(X[lo:hi], "poses"), fps, cutoff_hz, units, order,
+                                             continuous=False), start - lo, stop - lo)
+        angles = continuous_angles(k.angles, previous)
+        previous = {name: float(v[-1]) for name, v in angles.items()}
+        yield replace(k, angles=MappingProxyType(angles))
 
 
 # ---------------------------------------------------------------------------------------

@@ -78,11 +78,15 @@ MAX_GOOD_MARKER_RMS_M = 0.02
 def ik_fit_flags(result: dict) -> list[str]:
     """A warning when :func:`scale_and_ik`'s ``result`` has an RMS marker error above
     :data:`MAX_GOOD_MARKER_RMS_M` (the joint angles then describe a model that does not
-    follow the poses); else none."""
+    follow the poses), and one when a segment was not scaled (the markers of its every
+    measurement were in no frame); else none."""
     rms, worst = result["marker_rms_m"], result["marker_max_m"]
+    unscaled = [f"segments {', '.join(result['segments_not_scaled'])} keep the generic model's size: no frame has "
+                f"the markers that measure them ({', '.join(result['markers_left_out'])} left out)"] \
+        if result.get("segments_not_scaled") else []
     if rms <= MAX_GOOD_MARKER_RMS_M:  # NaN (no IK frame) is warned about too
-        return []
-    return [f"marker RMS {100 * rms:.1f} cm (max {100 * worst:.1f} cm): above the ~{100 * MAX_GOOD_MARKER_RMS_M:.0f} cm "
+        return unscaled
+    return unscaled + [f"marker RMS {100 * rms:.1f} cm (max {100 * worst:.1f} cm): above the ~{100 * MAX_GOOD_MARKER_RMS_M:.0f} cm "
             f"OpenSim's best-practice checklist asks of inverse kinematics; the model does not follow these poses "
             f"(a skeleton unlike a human body, or a recording with a different person or missing joints): check the "
             f"joint angles before using them"]
@@ -90,10 +94,13 @@ def ik_fit_flags(result: dict) -> list[str]:
 
 def opensim_fit_line(result: dict) -> str:
     """One summary line of :func:`scale_and_ik`'s fit: marker RMS and maximum over the IK
-    frames, the frames left out, IK speed."""
+    frames, the frames and the markers left out, IK speed."""
     left_out = result["frames_without_markers"]
+    markers = result.get("markers_left_out") or []
     return (f"OpenSim IK: marker RMS {100 * result['marker_rms_m']:.2f} cm over {result['frames']} frames (max "
             f"{100 * result['marker_max_m']:.2f} cm)" + (f"; {left_out} frames without any marker left out" if left_out else "")
+            + (f"; marker{'s' if len(markers) > 1 else ''} {', '.join(markers)} left out (empty in every frame: the "
+               f"input skeleton has no such joint)" if markers else "")
             + f"; {result['frames_per_s']:.1f} frames/s (scaling {result['scale_seconds']:.1f} s)")
 
 
@@ -223,6 +230,36 @@ def _parse_sto(path: Path) -> tuple[list[str], np.ndarray]:
     return [c.strip() for c in cols], np.asarray(rows, dtype=float).reshape(-1, len(cols))
 
 
+def _tasks_off(tasks, markers: list[str]) -> None:
+    """Turn off the IK marker tasks of ``markers`` in an ``IKTaskSet`` (OpenSim's ``apply``)."""
+    for name in markers:
+        if tasks.contains(name):
+            tasks.get(name).setApply(False)
+
+
+def _leave_markers_out(tool, markers: list[str]) -> list[str]:
+    """Leave ``markers`` out of a ScaleTool: their marker placer tasks off, the measurements'
+    marker pairs that use them removed, a measurement left without a pair not applied.
+
+    Returns:
+        the names of the measurements not applied (their segments keep the generic model's size).
+    """
+    _tasks_off(tool.getMarkerPlacer().getIKTaskSet(), markers)
+    gone = set(markers)
+    unscaled = []
+    measurements = tool.getModelScaler().getMeasurementSet()
+    for m in range(measurements.getSize()):
+        measurement = measurements.get(m)
+        pairs = measurement.getMarkerPairSet()
+        for i in reversed(range(pairs.getSize())):
+            if {pairs.get(i).getMarkerName(0), pairs.get(i).getMarkerName(1)} & gone:
+                pairs.remove(i)
+        if pairs.getSize() == 0 and measurement.getApply():
+            measurement.setApply(False)
+            unscaled.append(measurement.getName())
+    return unscaled
+
+
 #: Start of the hidden folder :func:`scale_and_ik` works in inside the output folder; the rest
 #: of its name is ``<pid>@<host>-<random>``, so that a killed run's leftover can be told from
 #: a live run's (:func:`staging_owner`).
@@ -317,9 +354,16 @@ def scale_and_ik(
     start_s = float(times[0])
     order = [names.index(j) for j in H36M_JOINTS]
     joints = markers[:, order]  # (T, 17, 3)
+    # A marker missing in every frame (a Kinect v1 has no nose: neck_nose is empty throughout)
+    # is left out of the run: out of the marker files, its IK tasks off, its marker pairs gone.
+    seen = np.isfinite(joints).all(axis=2).any(axis=0)  # (17,)
+    left_out = [j for j, ok in zip(H36M_JOINTS, seen) if not ok]
+    used = [j for j, ok in zip(H36M_JOINTS, seen) if ok]
+    joints = joints[:, seen]  # (T, M, 3)
     complete = np.isfinite(joints).all(axis=(1, 2))
     if not complete.any():
-        raise InputError(f"{trc}: expected at least one frame with all 17 joint markers for scaling, got none")
+        raise InputError(f"{trc}: expected at least one frame with all {len(used)} joint markers the recording has "
+                         f"for scaling, got none" + (f" ({', '.join(left_out)} in no frame, left out)" if left_out else ""))
     fps = 1.0 / float(np.median(np.diff(times)))
     # OpenSim's IK cannot assemble a frame without a single marker (non-finite marker values
     # make its solver throw): such frames (a lost track) are left out of its marker file.
@@ -332,7 +376,7 @@ def scale_and_ik(
         # complete frames only (their own copy, times renumbered).
         from .sinks.exports import finite_or_null, write_trc
 
-        scale_trc = write_trc(tmp / "scale_frames.trc", joints[complete], fps, H36M_JOINTS, units)
+        scale_trc = write_trc(tmp / "scale_frames.trc", joints[complete], fps, used, units)
         c_times = np.arange(int(complete.sum())) / fps
         c0, c1 = static_window(c_times, joints[complete], static_seconds)
         kept = np.flatnonzero(complete)
@@ -359,6 +403,7 @@ def scale_and_ik(
         placer.setOutputModelFileName(str(tmp / "scaled_model.osim"))
         placer.setOutputMotionFileName(str(tmp / "static_pose.mot"))
         placer.setMaxMarkerMovement(-1.0)
+        unscaled = _leave_markers_out(tool, left_out)
         with _stdout_to(tmp / "opensim_scale.log") as log:
             try:
                 ok = tool.run()
@@ -371,10 +416,11 @@ def scale_and_ik(
 
         # --- inverse kinematics ----------------------------------------------------------
         ik_markers = trc
-        if not marked.all():
-            ik_markers = write_trc(tmp / "ik_frames.trc", joints[marked], fps, H36M_JOINTS, units,
+        if not marked.all() or left_out:
+            ik_markers = write_trc(tmp / "ik_frames.trc", joints[marked], fps, used, units,
                                    frames=np.flatnonzero(marked) + int(round(start_s * fps)))
         ik = osim.InverseKinematicsTool(str(data / IK_SETUP))
+        _tasks_off(ik.getIKTaskSet(), left_out)
         model = osim.Model(str(tmp / "scaled_model.osim"))
         ik.setModel(model)
         ik.set_marker_file(str(ik_markers))
@@ -404,6 +450,8 @@ def scale_and_ik(
             "marker_rms_median_frame_m": float(np.median(rms)),
             "frames": len(rms),
             "frames_without_markers": int((~marked).sum()),
+            "markers_left_out": left_out,
+            "segments_not_scaled": unscaled,
             "static_window_s": (w0, w1),
         }
         result["warnings"] = ik_fit_flags(result)

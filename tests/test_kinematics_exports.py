@@ -39,6 +39,7 @@ from pcnet.stages.core.conventions import (
 from pcnet.stages.sinks.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
 from pcnet.stages.core.geometric import geometric_rotation
 from pcnet.stages.kinematics import (
+    PERIODIC_ANGLES,
     butterworth_lowpass,
     compute_kinematics,
     FrameGatherer,
@@ -876,7 +877,10 @@ def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff,
     np.testing.assert_array_equal(whole.unfiltered, joined.unfiltered)
     assert whole.missing.any() and (whole.unfiltered.any() or cutoff is None)
     for name, angle in whole.angles.items():
-        np.testing.assert_allclose(angle, joined.angles[name], rtol=1e-9, atol=1e-9, equal_nan=True, err_msg=name)
+        other = joined.angles[name]
+        if name in PERIODIC_ANGLES:  # a run's 360-deg level is chosen in the chunk where it starts
+            other = np.where(np.isfinite(other), angle + (other - angle + 180.0) % 360.0 - 180.0, other)
+        np.testing.assert_allclose(angle, other, rtol=1e-9, atol=1e-9, equal_nan=True, err_msg=name)
     assert count_flags(joined.missing, joined.unfiltered) == flag_counts(whole)
     with pytest.raises(RuntimeError, match="more than the"):
         gather.add(parts[0])  # more frames than announced
@@ -935,3 +939,103 @@ def test_residual_analysis_finds_the_noise_and_lowers_the_cutoff_for_noisier_dat
     assert np.isfinite(residual_analysis(gappy, 30.0).cutoff_hz)
     with pytest.raises(InputError, match="long enough to filter"):
         residual_analysis(X[:5], 30.0)
+
+
+def _run_boxing(out: Path, *more: str):
+    """`pcnet run` on the real 60-frame boxing fixture (MotionBERT, root-relative, with its
+    AlphaPose 2D keypoints: a `track_segment` column), no recording."""
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+
+    res = CliRunner().invoke(main, ["run", "--lifter", "motionbert", "--lifter-output",
+                                    str(FIXTURES / "boxing_X3D_f000-059.npy"), "--keypoints2d",
+                                    str(FIXTURES / "boxing_alphapose_f000-059.json"), "--keypoints2d-format",
+                                    "alphapose", "--fps", "30", "--height", "1.75", "--out", str(out),
+                                    "--no-recording", *more])
+    assert res.exit_code == 0, res.output
+    return res
+
+
+def _dictionary(out: Path) -> tuple[list[str], dict[str, list[str]], list[str], list[list[str]]]:
+    """``(dictionary header, column -> row, kinematics.csv header, its rows)``; asserts one
+    dictionary row per CSV column and one CSV column per dictionary row."""
+    header, body = read_csv(out / "kinematics.csv")
+    d_header, d_rows = read_csv(out / "kinematics_columns.csv")
+    described = [row[0] for row in d_rows]
+    assert described == header  # every column once, in the CSV's order, and nothing else
+    assert len(set(described)) == len(described)
+    return d_header, {row[0]: row for row in d_rows}, header, body
+
+
+def test_kinematics_columns_csv_describes_every_column_of_a_real_run(tmp_path):
+    """`kinematics_columns.csv` beside `kinematics.csv`: one row (column, unit, frame,
+    definition) per column of the run's CSV, built from the same column list as its header;
+    listed in the `.pcnet-output` marker and the summary."""
+    import json
+
+    from pcnet.stages.sinks.exports import COLUMN_FRAMES, DICTIONARY_HEADER, UNDESCRIBED_ANGLE
+
+    out = tmp_path / "out"
+    res = _run_boxing(out)
+    assert f"kinematics_columns.csv {out / 'kinematics_columns.csv'}" in res.output
+    assert "kinematics_columns.csv" in json.loads((out / ".pcnet-output").read_text())["files"]
+    d_header, rows, header, _ = _dictionary(out)
+    assert tuple(d_header) == DICTIONARY_HEADER == ("column", "unit", "frame", "definition")
+    assert "track_segment" in rows and "right_hip_flexion_deg" in rows and "trunk_inclination_deg" in rows
+    for name, (_, unit, frame, definition) in rows.items():
+        assert unit and frame in COLUMN_FRAMES, name
+        assert definition.endswith(".") and definition != UNDESCRIBED_ANGLE, (name, definition)
+    assert rows["right_wrist_vx_m_per_s"][1:3] == ["m/s", "world"]
+    assert rows["right_wrist_az_m_per_s2"][1] == "m/s^2" and rows["right_wrist_missing"][1:3] == ["0/1", "none"]
+    assert rows["heading_deg"][1:3] == ["deg", "camera"] and rows["time_s"][1] == "s"
+    assert "positive = thigh flexed" in rows["right_hip_flexion_deg"][3]
+
+
+def test_an_unobservable_pelvis_path_is_empty_not_zero(tmp_path):
+    """A root-relative lifter gives no horizontal pelvis path: the world frame holds the pelvis
+    at x = z = 0, so its x/z positions, velocities, accelerations and its speed were ~0 in the
+    CSV; they are empty now, with the reason in the dictionary, while its height and the
+    other joints keep their values. In the (pelvis-centred) canonical frame of a moving camera
+    all three pelvis axes are empty."""
+    out = tmp_path / "world"
+    _run_boxing(out)
+    _, rows, header, body = _dictionary(out)
+    blank = [f"pelvis_{c}_m" for c in "xz"] + [f"pelvis_{d}{c}_m_per_s{s}" for d, s in (("v", ""), ("a", "2"))
+                                               for c in "xz"] + ["pelvis_speed_m_per_s"]
+    for name in blank:
+        i = header.index(name)
+        assert all(r[i] == "" for r in body), name
+        assert "not observable from a root-relative lifter" in rows[name][3], name
+    for name in ("pelvis_y_m", "pelvis_vy_m_per_s", "right_wrist_x_m", "right_wrist_speed_m_per_s"):
+        i = header.index(name)
+        assert sum(r[i] != "" for r in body) > len(body) // 2, name
+        assert "empty in this run" not in rows[name][3], name
+    assert all(r[header.index("pelvis_missing")] == "0" for r in body)  # its height is there
+    assert "relative to the pelvis" in rows["right_wrist_x_m"][3]
+    out = tmp_path / "canonical"
+    _run_boxing(out, "--mode", "smooth")
+    _, rows, header, body = _dictionary(out)
+    assert rows["pelvis_y_m"][2] == "canonical"
+    for name in ("pelvis_x_m", "pelvis_y_m", "pelvis_z_m", "pelvis_vy_m_per_s", "pelvis_speed_m_per_s"):
+        i = header.index(name)
+        assert all(r[i] == "" for r in body), name
+        assert "centred on the pelvis" in rows[name][3], name
+
+
+def test_a_measured_pelvis_path_keeps_its_columns_and_an_undescribed_column_is_refused(tmp_path, kin):
+    """With no unobservable axis (a depth sensor's measured root) the pelvis columns are the
+    kinematics' values; an extra column without a definition cannot enter the dictionary."""
+    T = kin.num_frames
+    path = write_kinematics_csv(tmp_path / "k.csv", np.arange(T), np.arange(T) / FPS_YOGA, kin,
+                                {"valid": np.ones(T, int)}, dictionary=tmp_path / "d.csv",
+                                extra_definitions={"valid": ("0/1", "none", "Valid.")})
+    header, body = read_csv(path)
+    c = header.index("pelvis_vx_m_per_s")
+    got = np.array([float(r[c]) if r[c] else np.nan for r in body])
+    np.testing.assert_allclose(got, kin.velocity[:, PELVIS, 0], rtol=1e-6, atol=1e-9, equal_nan=True)
+    assert [r[0] for r in read_csv(tmp_path / "d.csv")[1]] == header
+    with pytest.raises(ValueError, match=r"expected a definition for every column, got none for \['tilt_deg'\]"):
+        write_kinematics_csv(tmp_path / "k2.csv", np.arange(T), np.arange(T) / FPS_YOGA, kin,
+                             {"tilt_deg": np.zeros(T)}, dictionary=tmp_path / "d2.csv")
+    assert not (tmp_path / "k2.csv").exists() and not (tmp_path / "d2.csv").exists()

@@ -211,3 +211,49 @@ def test_a_poor_ik_fit_is_flagged():
     (line,) = ik_fit_flags({"marker_rms_m": 0.171, "marker_max_m": 0.874})
     assert "marker RMS 17.1 cm (max 87.4 cm)" in line and "check the joint angles" in line
     assert ik_fit_flags({"marker_rms_m": MAX_GOOD_MARKER_RMS_M, "marker_max_m": 0.05}) == []
+
+
+def test_a_marker_in_no_frame_is_left_out_of_scaling_and_ik(short_run, tmp_path):
+    """A skeleton without a joint (Kinect v1 has no nose: neck_nose is empty in every frame)
+    was refused ("expected at least one frame with all 17 joint markers"); that marker is now
+    left out of scaling and IK, and the fit says so. A marker whose every measurement pair is
+    gone leaves that segment at the generic size, with a warning."""
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    from pcnet.stages.opensim_ik import opensim_fit_line, read_trc, scale_and_ik
+    from pcnet.stages.sinks.exports import write_trc
+
+    times, markers, names, units = read_trc(short_run / "world.trc")
+    nose = markers.copy()
+    nose[:, names.index("neck_nose")] = np.nan
+    out = tmp_path / "nose"
+    out.mkdir()
+    r = scale_and_ik(write_trc(tmp_path / "nose.trc", nose, 30.0, names, units), out, 1.75)
+    assert r["markers_left_out"] == ["neck_nose"] and r["segments_not_scaled"] == [] and r["warnings"] == []
+    assert r["frames"] == FRAMES and r["marker_rms_m"] < 0.02, r
+    fit = json.loads((out / "opensim_fit.json").read_text())
+    assert fit["markers_left_out"] == ["neck_nose"]
+    assert "; marker neck_nose left out (empty in every frame: the input skeleton has no such joint)" in \
+        opensim_fit_line(r)
+    wrist = markers.copy()
+    wrist[:, names.index("right_wrist")] = np.nan  # the one pair of forearm_r's measurement
+    out = tmp_path / "wrist"
+    out.mkdir()
+    r = scale_and_ik(write_trc(tmp_path / "wrist.trc", wrist, 30.0, names, units), out, 1.75)
+    assert r["markers_left_out"] == ["right_wrist"] and r["segments_not_scaled"] == ["forearm_r"]
+    assert r["warnings"][0].startswith("segments forearm_r keep the generic model's size"), r["warnings"]
+
+
+def test_pcnet_run_opensim_on_a_real_kinect_v1_recording(tmp_path):
+    """`pcnet run --lifter kinect_v1 ... --opensim` on a real UTD-MHAD Kinect v1 sequence (no
+    nose joint), read in place from ../shared/data (research licence, never copied here)."""
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    from conftest import shared
+
+    path = shared("real", "utd_mhad_imu", "a01_s1_t1.npz")
+    out = tmp_path / "out"
+    res = _cli("run", "--lifter", "kinect_v1", "--lifter-output", path, "--out", out, "--no-recording", "--opensim")
+    assert res.exit_code == 0, res.output
+    assert "marker neck_nose left out (empty in every frame: the input skeleton has no such joint)" in res.output
+    fit = json.loads((out / "opensim_fit.json").read_text())
+    assert fit["markers_left_out"] == ["neck_nose"] and fit["segments_not_scaled"] == []
+    assert fit["frames"] == 48 and fit["marker_rms_m"] < 0.03, fit  # measured 2.10 cm RMS

@@ -15,6 +15,7 @@ import json
 import os
 import zipfile
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -126,6 +127,187 @@ def unit_token(unit: str) -> str:
     return unit.replace("/", "_per_").replace("^", "").replace(" ", "_")
 
 
+# ---------------------------------------------------------------------------------------
+# kinematics.csv's columns and their data dictionary
+
+#: The ``frame`` field of a dictionary row: the frame a column's value is expressed in.
+COLUMN_FRAMES = ("world", "canonical", "camera", "none")
+#: Header of ``kinematics_columns.csv``.
+DICTIONARY_HEADER = ("column", "unit", "frame", "definition")
+_AXES = {
+    "world": {"x": "+X (horizontal: the subject's forward over the first second)", "y": "+Y (up)",
+              "z": "+Z (horizontal: X x Y, the subject's right at the start)"},
+    "canonical": {"x": "+X (horizontal: the subject's anterior, pelvis heading)", "y": "+Y (up)",
+                  "z": "+Z (horizontal: the subject's right along the hip line)"},
+}
+_HEIGHT = {"world": ", the height above the floor (y = 0)", "canonical": ", from the pelvis"}
+
+#: Segment inclinations and unsigned flexions (:func:`pcnet.stages.kinematics.joint_angles`),
+#: by name without side and ``_deg``: ``(frame, definition)``; ``{side}`` is the column's side.
+_INCLINATIONS = {
+    "trunk_inclination": ("canonical", "Angle between the pelvis->thorax segment and +Y (up): 0 = upright, 90 = "
+                                       "lying, unsigned in [0, 180]."),
+    "trunk_sagittal_inclination": ("canonical", "Pelvis->thorax segment against +Y in the sagittal (X-Y) plane of the "
+                                                "pelvis heading frame: + leaning forward, - back."),
+    "trunk_frontal_inclination": ("canonical", "Pelvis->thorax segment against +Y in the frontal (Z-Y) plane of the "
+                                               "pelvis heading frame: + leaning towards the subject's right."),
+    "thigh_sagittal_inclination": ("canonical", "The {side} thigh (hip->knee) against hanging straight down, in the "
+                                                "sagittal plane of the pelvis heading frame: + knee in front of the hip "
+                                                "(flexion), 90 = horizontal forward."),
+    "thigh_frontal_inclination": ("canonical", "The {side} thigh (hip->knee) against hanging straight down, in the "
+                                               "frontal plane of the pelvis heading frame: + knee away from the "
+                                               "midline (abduction)."),
+    "upper_arm_sagittal_inclination": ("canonical", "The {side} upper arm (shoulder->elbow) against hanging straight "
+                                                    "down, in the sagittal plane of the pelvis heading frame: 90 = "
+                                                    "horizontal forward, 180 = overhead."),
+    "upper_arm_frontal_inclination": ("canonical", "The {side} upper arm (shoulder->elbow) against hanging straight "
+                                                   "down, in the frontal plane of the pelvis heading frame: + away from "
+                                                   "the midline, 90 = horizontal sideways."),
+    "knee_flexion_unsigned": ("none", "180 minus the {side} hip-knee-ankle angle: 0 = straight, unsigned."),
+    "elbow_flexion_unsigned": ("none", "180 minus the {side} shoulder-elbow-wrist angle: 0 = straight, unsigned."),
+}
+#: Definition of an angle column no table above describes (a test keeps it unused).
+UNDESCRIBED_ANGLE = "An angle in degrees; no definition recorded for it (docs/joint_angles.md)."
+
+
+def _angle_row(name: str) -> tuple[str, str]:
+    """``(frame, definition)`` of the angle column ``name`` (with ``_deg``)."""
+    from ..isb_angles import DEFINITIONS, POSITIVE_SIGN
+
+    if name in DEFINITIONS:
+        frame = "canonical" if "to_gravity" in name else "none"
+        return frame, (f"ISB joint angle: {DEFINITIONS[name]}; positive = {POSITIVE_SIGN.get(name, 'see docs/joint_angles.md')} "
+                       f"(docs/joint_angles.md).")
+    bare = name.removesuffix("_deg")
+    side, _, rest = bare.partition("_")
+    if side in ("left", "right") and rest in _INCLINATIONS:
+        frame, text = _INCLINATIONS[rest]
+        return frame, text.format(side=side)
+    if bare in _INCLINATIONS:
+        return _INCLINATIONS[bare]
+    return "none", UNDESCRIBED_ANGLE
+
+
+def kinematics_columns(
+    joints: Sequence[str],
+    units: str,
+    angles: Iterable[str],
+    extra: Mapping[str, tuple[str, str, str] | None],
+    frame: str = "world",
+    unobservable: Mapping[str, tuple[str, str]] | None = None,
+) -> list[tuple[str, str, str, str]]:
+    """The columns of ``kinematics.csv``, in order, each ``(column, unit, frame, definition)``:
+    the one source of its header (:func:`write_kinematics_csv`) and of its data dictionary
+    (``kinematics_columns.csv``, :func:`write_column_dictionary`).
+
+    Args:
+        joints: joint names, in column order.
+        units: the length unit (``"m"``, ``"normalised"``, ...); velocities are ``units/s``,
+            accelerations ``units/s^2``.
+        angles: the angle names (``Kinematics.angles``' keys, without ``_deg``).
+        extra: extra column name -> ``(unit, frame, definition)``, or ``None`` when not
+            described (the dictionary then refuses it).
+        frame: the frame of positions, velocities and accelerations, ``"world"`` or
+            ``"canonical"``.
+        unobservable: joint -> ``(axes, reason)``: the axes (``"xz"``, ``"xyz"``) of that joint
+            the input does not observe; their positions, velocities and accelerations and the
+            joint's speed are written empty (:func:`blank_unobservable`) and ``reason`` (one
+            clause) is said in their definitions.
+
+    Returns:
+        a list of ``(column, unit, frame, definition)``; ``definition`` is ``None`` for an
+        undescribed extra column.
+    """
+    if frame not in _AXES:
+        raise ValueError(f"kinematics_columns: frame must be one of {sorted(_AXES)}, got {frame!r}")
+    u, v, a = unit_token(units), unit_token(f"{units}/s"), unit_token(f"{units}/s^2")
+    unobservable = dict(unobservable or {})
+    hidden = {j: axes for j, (axes, _) in unobservable.items()}
+    # root-relative horizontal positions: the other joints' are relative to the unobserved pelvis path
+    relative = hidden.get("pelvis", "")
+    cols = [("frame", "-", "none", "Frame index from 0, in the input's frame order."),
+            ("time_s", "s", "none", "Time of the frame from the start of the recording, frame / fps.")]
+    for j in joints:
+        joint = j.replace("_", " ")
+        gone = hidden.get(j, "")
+        why = f"; empty in this run: {unobservable[j][1]}" if j in unobservable else ""
+
+        def note(axis: str, j=j, gone=gone, why=why) -> str:
+            if axis in gone:
+                return why + "."
+            if j != "pelvis" and axis in relative:
+                return "; relative to the pelvis, whose own path along this axis is not observable in this run."
+            return "."
+
+        for c in "xyz":
+            cols.append((f"{j}_{c}_{u}", units, frame, f"Position of the {joint} joint centre along {_AXES[frame][c]}"
+                         f"{_HEIGHT[frame] if c == 'y' else ''}, low-pass filtered (raw where {j}_unfiltered = 1, "
+                         f"empty where {j}_missing = 1)" + note(c)))
+        for c in "xyz":
+            cols.append((f"{j}_v{c}_{v}", f"{units}/s", frame, f"Velocity of the {joint} along {_AXES[frame][c]}, "
+                         f"the central difference of the filtered positions (empty at a run's first and last frame "
+                         f"and where missing or unfiltered)" + note(c)))
+        for c in "xyz":
+            cols.append((f"{j}_a{c}_{a}", f"{units}/s^2", frame, f"Acceleration of the {joint} along "
+                         f"{_AXES[frame][c]}, the second central difference of the filtered positions (empty where "
+                         f"the velocity is)" + note(c)))
+        speed_note = why if gone else ("; it includes the rotating frame's terms (the canonical frame turns with "
+                                       "the pelvis)" if frame == "canonical" else "")
+        cols.append((f"{j}_speed_{v}", f"{units}/s", frame, f"Speed of the {joint}, the norm of its velocity (empty "
+                     f"where the velocity is){speed_note}."))
+        cols.append((f"{j}_missing", "0/1", "none", f"1 where the {joint} position is missing in this frame (NaN "
+                     f"input, or masked by low 2D confidence), else 0."))
+        cols.append((f"{j}_unfiltered", "0/1", "none", f"1 where the {joint} position is finite but raw (its run of "
+                     f"frames too short for the low-pass filter, so no velocity or acceleration), else 0."))
+    for name in angles:
+        column = f"{name}_deg"
+        cols.append((column, "deg", *_angle_row(column)))
+    for name, described in extra.items():
+        cols.append((name, *described) if described is not None else (name, "", "", None))
+    return cols
+
+
+def blank_unobservable(k: Kinematics, unobservable: Mapping[str, tuple[str, str]] | None) -> Kinematics:
+    """``k`` with the unobservable axes' positions, velocities and accelerations and those
+    joints' speeds set to NaN (``unobservable`` as :func:`kinematics_columns`'); ``k`` itself
+    when there are none."""
+    if not unobservable:
+        return k
+    names = list(k.joint_names)
+    pos, vel, acc, speed = (np.array(x, dtype=np.float64) for x in (k.positions, k.velocity, k.acceleration, k.speed))
+    for j, (axes, _) in unobservable.items():
+        if j not in names:
+            continue
+        i, c = names.index(j), ["xyz".index(ax) for ax in axes]
+        pos[:, i, c] = vel[:, i, c] = acc[:, i, c] = np.nan
+        speed[:, i] = np.nan
+    return replace(k, positions=pos, velocity=vel, acceleration=acc, speed=speed)
+
+
+def _check_dictionary(columns: Sequence[tuple[str, str, str, str]]) -> None:
+    bare = [c[0] for c in columns if not c[3]]
+    if bare:
+        raise ValueError(f"write_column_dictionary: expected a definition for every column, got none for {bare}")
+    odd = [c[0] for c in columns if c[2] not in COLUMN_FRAMES]
+    if odd:
+        raise ValueError(f"write_column_dictionary: expected frames in {COLUMN_FRAMES}, got others for {odd}")
+
+
+def write_column_dictionary(path: str | os.PathLike, columns: Sequence[tuple[str, str, str, str]]) -> Path:
+    """Write ``kinematics_columns.csv``: one row per column of ``kinematics.csv``
+    (:func:`kinematics_columns`), with :data:`DICTIONARY_HEADER`, atomically.
+
+    Raises:
+        ValueError: a column without a definition or with a frame not in :data:`COLUMN_FRAMES`.
+    """
+    _check_dictionary(columns)
+    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(DICTIONARY_HEADER)
+        writer.writerows(columns)
+    return Path(path)
+
+
 def _fmt(v: float) -> str:
     # Empty field for missing values, as the TRC writer does; 7 significant digits keep
     # micrometre resolution on metre-scale data.
@@ -139,6 +321,11 @@ def write_kinematics_csv(
     kinematics: Kinematics | Iterable[Kinematics],
     extra_columns: Mapping[str, np.ndarray] | None = None,
     joints: Sequence[str] | None = None,
+    *,
+    dictionary: str | os.PathLike | None = None,
+    extra_definitions: Mapping[str, tuple[str, str, str]] | None = None,
+    frame: str = "world",
+    unobservable: Mapping[str, tuple[str, str]] | None = None,
 ) -> Path:
     """Write one CSV row per frame with positions, velocities, accelerations, speeds,
     per-joint missing/unfiltered flags and angles of the kinematics (world or canonical frame), atomically.
@@ -172,6 +359,15 @@ def write_kinematics_csv(
             written as they come so a long recording never needs all its rows in memory.
         extra_columns: optional ``name -> (T,)`` numeric or bool columns.
         joints: joint names to include (default: all 17 H36M-17 joints).
+        dictionary: also write the data dictionary of these columns there
+            (``kinematics_columns.csv``, :func:`write_column_dictionary`), from the same
+            :func:`kinematics_columns` list as the header.
+        extra_definitions: ``name -> (unit, frame, definition)`` of the ``extra_columns``
+            (needed for each of them with ``dictionary``).
+        frame: ``"world"`` or ``"canonical"``: the frame of the positions (for the dictionary).
+        unobservable: joint -> ``(axes, reason)``: axes the input does not observe (the
+            pelvis's horizontal path from a root-relative lifter), written empty, with
+            ``reason`` in the dictionary (:func:`kinematics_columns`).
 
     Returns:
         the destination path.
@@ -200,23 +396,21 @@ def write_kinematics_csv(
         raise ValueError(f"write_kinematics_csv: unknown joints {unknown}; known: {names}")
     columns = [names.index(j) for j in chosen]
 
-    u, v, a = unit_token(first.units), unit_token(first.velocity_units), unit_token(first.acceleration_units)
-    header = ["frame", "time_s"]
-    for j in chosen:
-        header += [f"{j}_{c}_{u}" for c in "xyz"]
-        header += [f"{j}_v{c}_{v}" for c in "xyz"]
-        header += [f"{j}_a{c}_{a}" for c in "xyz"]
-        header += [f"{j}_speed_{v}", f"{j}_missing", f"{j}_unfiltered"]
-    header += [f"{name}_deg" for name in first.angles] + list(extra)
+    described = {name: (extra_definitions or {}).get(name) for name in extra}
+    listed = kinematics_columns(chosen, first.units, first.angles, described, frame, unobservable)
+    header = [c[0] for c in listed]
     dup = {h for h in header if header.count(h) > 1}
     if dup:
         raise ValueError(f"write_kinematics_csv: duplicate column names {sorted(dup)}")
+    if dictionary is not None:
+        _check_dictionary(listed)  # before any work; written once the table is
 
     with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(header)
         done = 0
         for k in itertools.chain([first], chunks):
+            k = blank_unobservable(k, unobservable)
             # Rows formatted a block at a time: .tolist() of a whole 2-hour table is GBs of floats.
             for lo in range(0, k.num_frames, TEXT_BLOCK_ROWS):
                 hi = min(k.num_frames, lo + TEXT_BLOCK_ROWS)
@@ -235,6 +429,8 @@ def write_kinematics_csv(
             done += k.num_frames
         if done != T:
             raise ValueError(f"write_kinematics_csv: the kinematics chunks have {done} frames, frame_index has {T}")
+    if dictionary is not None:
+        write_column_dictionary(dictionary, listed)
     return Path(path)
 
 

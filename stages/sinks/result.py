@@ -26,7 +26,7 @@ from ..core.framestore import column, per_frame
 from ..flags import one_person_frames
 from ..kinematics import FrameGatherer, count_flags
 from .bvh import write_bvh
-from .exports import plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
+from .exports import blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
 from .plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
 from .rerun_log import series_from_kinematics, write_recording
 
@@ -122,33 +122,62 @@ def jsonable(report: dict) -> dict:
     return clean
 
 
+#: ``kinematics.csv``'s columns beyond the kinematics: ``(unit, frame, definition)`` for its data dictionary.
+EXTRA_COLUMNS = {
+    "valid": ("0/1", "none", "1 where the frame was rectified (hips, thorax and shoulders present), else 0."),
+    "heading_deg": ("deg", "camera", "The subject's heading in the camera's view from the frame's rotation: 0 = facing "
+                                     "the camera, + counter-clockwise seen from above (empty where not valid)."),
+    "track_segment": ("-", "none", "The stretch of the 2D track between jumps to another place (stages/flags.py: "
+                                   "track_segments); frames outside the longest stretch are probably another person."),
+}
+
+
+def unobservable_paths(r: RecordingResult) -> dict[str, tuple[str, str]]:
+    """The pelvis axes the run's input does not observe, with why (``kinematics.csv`` leaves
+    them empty, :func:`.exports.kinematics_columns`): the horizontal path in a world frame from
+    a root-relative lifter; all three in the canonical frame, whose origin it is."""
+    if r.kinematics_frame == "canonical":
+        return {"pelvis": ("xyz", "the canonical frame is centred on the pelvis, whose position and motion in it "
+                                  "are 0 by construction, not measured")}
+    if r.report.get("root_path") == "not observable":
+        return {"pelvis": ("xz", "the pelvis's horizontal path is not observable from a root-relative lifter (the "
+                                 "world frame holds it at x = z = 0), so neither is its horizontal motion or speed")}
+    return {}
+
+
 def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> dict[str, Path]:
     """``kinematics.csv`` (:func:`.exports.write_kinematics_csv`, with the ``valid`` and
-    ``heading_deg`` columns, and ``track_segment`` with 2D input) from ``r.kinematics_blocks``, consumed once; fills
+    ``heading_deg`` columns, and ``track_segment`` with 2D input) from ``r.kinematics_blocks``, consumed once,
+    and its data dictionary ``kinematics_columns.csv`` (from the same column list; the
+    :func:`unobservable_paths` empty in both); fills
     ``r.kinematics`` (:data:`KEPT_JOINTS` only, float32: what a long recording keeps for the
     plots and the recording; in arrays from ``allocate``, :class:`~pcnet.stages.kinematics.FrameGatherer`),
     ``r.missing``, ``r.unfiltered`` and ``r.flag_counts``."""
     T = len(r.joints_camera)
     kept = FrameGatherer(T, KEPT_JOINTS, np.float32, allocate)
     missing, unfiltered = np.zeros((T, 17), bool), np.zeros((T, 17), bool)
+    unobservable = unobservable_paths(r)
 
     def keeping(blocks):
         for k in blocks:
+            k = blank_unobservable(k, unobservable)  # the plots and the recording show what the CSV has
             rows = slice(kept.filled, kept.filled + k.num_frames)
             kept.add(k)
             missing[rows], unfiltered[rows] = k.missing, k.unfiltered
             yield k
 
     frames = np.arange(T)
-    path = folder / "kinematics.csv"
+    path, dictionary = folder / "kinematics.csv", folder / "kinematics_columns.csv"
     extra = {"valid": r.valid.astype(int), "heading_deg": r.heading_deg}
     if r.track_segment is not None:  # which person the 2D track followed, as the track-switch flag names it
         extra["track_segment"] = np.asarray(r.track_segment, int)
-    write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra)
+    write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra,
+                         dictionary=dictionary, extra_definitions=EXTRA_COLUMNS, frame=r.kinematics_frame,
+                         unobservable=unobservable)
     r.kinematics = kept.result()
     r.missing, r.unfiltered = missing, unfiltered
     r.flag_counts = count_flags(r.missing, r.unfiltered)
-    return {"kinematics.csv": path}
+    return {"kinematics.csv": path, "kinematics_columns.csv": dictionary}
 
 
 def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:

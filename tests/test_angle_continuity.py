@@ -1,0 +1,161 @@
+"""Angles continuous in time (issue 51): no 360-deg wraps and no 180-deg knee-reading switches
+between consecutive present frames; NaN stays NaN; an angle the input layout cannot measure
+(trunk flexion to the pelvis without a spine joint of its own) is empty with a summary note."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from pcnet.pipeline.config import RunConfig
+from pcnet.pipeline.runner import run_pipeline
+from pcnet.stages.kinematics import (PERIODIC_ANGLES, compute_kinematics, continuous_angles, kinematics_chunks)
+
+from conftest import FIXTURES, shared
+
+FPS = 30.0
+MAX_STEP_DEG = 90.0
+
+
+def _somersault(frames: int = 100, turn_deg: float = 300.0) -> np.ndarray:
+    """The real standing yoga poses (VideoPose3D, Tadasana) turned forward about the
+    subject's left-right axis by an angle growing linearly to ``turn_deg``: through lying
+    prone, head down and lying supine, as a roll would take them (Y up, metres)."""
+    X = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:frames].astype(np.float64)
+    X = X * np.array([1.0, -1.0, -1.0])  # camera (x right, y down, z forward) -> y up
+    X = X - X[:, :1]
+    hip = np.median(X[:, 1] - X[:, 4], axis=0)  # right hip - left hip: the roll axis
+    axis = hip / np.linalg.norm(hip)
+    angles = np.radians(np.linspace(0.0, turn_deg, frames))
+    R = Rotation.from_rotvec(angles[:, None] * axis).as_matrix()
+    return np.einsum("tij,tkj->tki", R, X)
+
+
+def _max_step(angles) -> dict[str, float]:
+    out = {}
+    for name, v in angles.items():
+        d = np.abs(np.diff(np.asarray(v, np.float64)))
+        d = d[np.isfinite(d)]
+        if d.size:
+            out[name] = float(d.max())
+    return out
+
+
+def test_somersault_wraps_without_and_is_continuous_with_unwrapping():
+    poses = _somersault()
+    raw = compute_kinematics(poses, FPS, continuous=False).angles
+    cont = compute_kinematics(poses, FPS).angles
+    before, after = _max_step(raw), _max_step(cont)
+    assert max(before.values()) > 300.0, before  # the per-frame decomposition wraps (the bug)
+    assert max(after.values()) < MAX_STEP_DEG, {k: v for k, v in after.items() if v >= MAX_STEP_DEG}
+    for name in raw:  # the same angles, only moved by whole turns (or the knee's other reading)
+        a, b = np.asarray(raw[name]), np.asarray(cont[name])
+        assert np.array_equal(np.isnan(a), np.isnan(b)), name
+        ok = np.isfinite(a)
+        if name.endswith(("hip_internal_rotation", "knee_flexion")):
+            continue
+        assert np.allclose(np.cos(np.radians(a[ok] - b[ok])), 1.0, atol=1e-9), name
+
+
+def test_nan_gaps_stay_gaps_and_each_run_is_levelled():
+    poses = _somersault()
+    poses[40:43] = np.nan  # a gap: runs on either side are unwrapped and levelled separately
+    poses[70, 2] = np.nan  # a missing right knee
+    raw = compute_kinematics(poses, FPS, continuous=False).angles
+    cont = compute_kinematics(poses, FPS).angles
+    for name in raw:
+        assert np.array_equal(np.isnan(raw[name]), np.isnan(cont[name])), name
+        assert np.isnan(cont[name][40:43]).all(), name
+    assert max(_max_step(cont).values()) < MAX_STEP_DEG
+    for name, lower in PERIODIC_ANGLES.items():
+        v = np.asarray(cont[name])
+        for run in (v[:40], v[43:]):
+            run = run[np.isfinite(run)]
+            if run.size:
+                assert lower < np.median(run) <= lower + 360.0, name
+
+
+def test_chunks_continue_across_their_edges():
+    poses = _somersault()
+    whole = compute_kinematics(poses, FPS).angles
+    chunks = list(kinematics_chunks(poses, FPS, chunk_frames=17))
+    for name, v in whole.items():
+        stitched = np.concatenate([np.asarray(k.angles[name]) for k in chunks])
+        assert np.array_equal(np.isnan(stitched), np.isnan(v)), name
+        assert max(_max_step({name: stitched}).values(), default=0.0) < MAX_STEP_DEG, name
+
+
+def test_knee_reading_kept_over_a_run():
+    # A real Kinect case (UTD-MHAD a01_s1_t1, right leg, frames 43-46): the per-frame rule
+    # switched from a hyperextended knee with 70 deg hip rotation to a flexed knee with -110.
+    rot = np.array([69.1, 69.8, -109.7, -109.3, np.nan, -109.0])
+    knee = np.array([-6.7, -6.7, 6.7, 6.7, np.nan, 6.7])
+    out = continuous_angles({"right_hip_internal_rotation": rot, "right_knee_flexion": knee})
+    r, k = out["right_hip_internal_rotation"], out["right_knee_flexion"]
+    assert np.isnan(r[4]) and np.isnan(k[4])
+    assert np.abs(np.diff(r[:4])).max() < 5.0 and np.abs(np.diff(k[:4])).max() < 1e-9
+    assert np.allclose(np.abs(k[np.isfinite(k)]), 6.7)
+    # a knee bent beyond MAX_KNEE_HYPEREXTENSION_DEG is never read as hyperextended
+    out = continuous_angles({"left_hip_internal_rotation": np.array([10.0, 20.0, -150.0]),
+                             "left_knee_flexion_deg": np.array([40.0, 40.0, -40.0])})
+    assert np.allclose(out["left_knee_flexion_deg"], 40.0)
+    assert np.allclose(out["left_hip_internal_rotation"], [10.0, 20.0, 30.0])
+
+
+def test_angles_figure_draws_no_wrap():
+    from pcnet.stages.sinks.plots import joint_angles_figure
+
+    poses = _somersault()
+    poses[40:43] = np.nan
+    kin = compute_kinematics(poses, FPS)
+    fig = joint_angles_figure(kin, FPS)
+    drawn = 0
+    for ax in fig.axes:
+        for line in ax.get_lines():
+            y = np.asarray(line.get_ydata(), np.float64)
+            if y.size < 2 or not np.isfinite(y).any():
+                continue
+            drawn += 1
+            d = np.abs(np.diff(y))
+            assert np.nanmax(d) < MAX_STEP_DEG, line.get_label()
+            assert np.isnan(y[40:43]).all(), line.get_label()  # the gap stays a gap
+    assert drawn > 10
+
+
+def _csv_angles(path) -> dict[str, np.ndarray]:
+    rows = list(csv.reader(open(path)))
+    cols = {h: np.array([float(r[j]) if r[j] not in ("", "nan") else np.nan for r in rows[1:]])
+            for j, h in enumerate(rows[0]) if h.endswith("_deg") and h != "heading_deg"}
+    return cols
+
+
+def test_layout_without_spine_leaves_trunk_flexion_to_pelvis_empty(tmp_path):
+    run = run_pipeline(RunConfig(lifter="mediapipe", lifter_output=str(FIXTURES / "mediapipe_blazepose33_f000-059.npz"),
+                                 out=str(tmp_path / "mp"), recording=False), progress=False)
+    angles = _csv_angles(tmp_path / "mp" / "kinematics.csv")
+    assert np.isnan(angles["trunk_flexion_to_pelvis_deg"]).all()
+    assert np.isfinite(angles["trunk_axial_rotation_to_pelvis_deg"]).any()
+    notes = [n for n in run.notes if n.startswith("trunk_flexion_to_pelvis_deg left empty")]
+    assert len(notes) == 1
+
+
+def test_lifter_with_spine_keeps_trunk_flexion_to_pelvis(tmp_path):
+    run = run_pipeline(RunConfig(lifter="videopose3d", lifter_output=str(FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy"),
+                                 fps=30, out=str(tmp_path / "vp"), recording=False), progress=False)
+    angles = _csv_angles(tmp_path / "vp" / "kinematics.csv")
+    assert np.isfinite(angles["trunk_flexion_to_pelvis_deg"]).any()
+    assert not any("trunk_flexion_to_pelvis_deg left empty" in n for n in run.notes)
+
+
+def test_kinect_recording_has_no_wrap(tmp_path):
+    path = shared("real", "utd_mhad_imu", "a01_s1_t1.npz")
+    run_pipeline(RunConfig(lifter="kinect_v1", lifter_output=str(path), out=str(tmp_path / "k"), recording=False),
+                 progress=False)
+    angles = _csv_angles(tmp_path / "k" / "kinematics.csv")
+    steps = _max_step(angles)
+    # before issue 51: right_upper_arm_frontal_inclination 357 deg, right_hip_internal_rotation 180 deg
+    assert max(steps.values()) < MAX_STEP_DEG, steps
+    assert np.isnan(angles["trunk_flexion_to_pelvis_deg"]).all()
