@@ -1,6 +1,8 @@
 """BVH export (:mod:`pcnet.stages.sinks.bvh`): written files read back with bvhio
 (https://github.com/Wasserwecken/bvhio), an independent BVH reader and forward-kinematics
-implementation, must reproduce real poses rigidified to their median bone lengths within 1 mm.
+implementation, must reproduce real poses rigidified to their median bone lengths (and set on
+the input's floor: each frame's lowest joint at the input's lowest joint height) within 1 mm;
+a real ``pcnet run``'s BVH must stand on the floor of its TRC.
 
 Real data: ``tests/fixtures/mocap_small.npz`` (Bandai Namco motion capture converted to
 H36M-17, world frame +Y up, metres, 30 fps) and ``tests/fixtures/yoga_vp3d_Bhumi_Tadasana.npy``
@@ -47,7 +49,10 @@ def yoga_world() -> np.ndarray:
 
 def rigidify(X: np.ndarray) -> np.ndarray:
     """Each bone scaled to its median length over the complete frames, its direction kept,
-    from the pelvis outwards (written here independently of the module)."""
+    from the pelvis outwards, then each frame moved vertically so that its lowest joint is at
+    the height of the input's lowest joint (the BVH's floor; written here independently of
+    the module). A frame with a missing joint is not moved (its minimum is taken over the
+    gap-filled pose, which the callers compare separately)."""
     complete = np.isfinite(X).all(axis=(1, 2))
     out = X.copy()
     for p, c in H36M_BONES:  # parents come before children in H36M-17 order
@@ -55,6 +60,7 @@ def rigidify(X: np.ndarray) -> np.ndarray:
         length = np.median(np.linalg.norm(v[complete], axis=-1))
         with np.errstate(invalid="ignore"):  # NaN stays NaN
             out[:, c] = out[:, p] + length * v / np.linalg.norm(v, axis=-1, keepdims=True)
+    out[complete, :, 1] += (X[complete, :, 1].min(axis=1) - out[complete, :, 1].min(axis=1))[:, None]
     return out
 
 
@@ -262,3 +268,53 @@ def test_written_in_blocks_equals_the_whole_recording(tmp_path, mocap, monkeypat
         assert write_bvh(tmp_path / "disk.bvh", on_disk, FPS).read_text() == path.read_text()
         # ... and with the skeleton's per-frame samples on disk too (what pcnet run does)
         assert write_bvh(tmp_path / "disk2.bvh", on_disk, FPS, allocate=store.create).read_text() == path.read_text()
+
+
+@pytest.mark.parametrize("lifter", ["mediapipe", "videopose3d"])
+def test_run_bvh_stands_on_the_trc_floor(tmp_path, lifter):
+    """Issue 51: a real `pcnet run`'s world.bvh (read back by bvhio's forward kinematics)
+    stands on the floor of its world.trc: in every frame the TRC has markers, the BVH's
+    lowest joint (over those markers' joints) is at the TRC's lowest marker height within
+    1 cm, so no BVH joint sinks below the floor (y = 0, the world frame's lowest joint). The
+    BVH's bones have one (median) length, so the higher foot may differ from its marker by
+    the legs' length variation; the lower foot's height agrees. Before the fix (root at the
+    measured pelvis), MediaPipe's run put the feet up to 19 cm below the floor in 32 of 60
+    frames, VideoPose3D's up to 10 cm."""
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+    from pcnet.stages.opensim_ik import read_trc
+
+    if lifter == "mediapipe":  # MediaPipe BlazePose world landmarks: bones vary by 20 cm and more
+        given = FIXTURES / "mediapipe_blazepose33_f000-059.npz"
+        more = []
+    else:  # VideoPose3D's standing pose (Tadasana), the first 300 frames
+        given = tmp_path / "vp3d.npy"
+        np.save(given, np.load(FIXTURES / "yoga_vp3d_Bhumi_Tadasana.npy")[:300])
+        more = ["--fps", "30"]
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", "--lifter", lifter, "--lifter-output", str(given), "--out", str(out),
+                                    "--no-recording", *more])
+    assert res.exit_code == 0, res.output
+    _, trc, labels, units = read_trc(out / "world.trc")
+    assert list(labels) == list(H36M_JOINTS) and units == "m"
+    bvh = read_positions(out / "world.bvh")
+    assert bvh.shape == trc.shape
+    present = np.isfinite(trc).all(axis=-1)
+    rows = present.any(axis=1)
+    assert rows.sum() >= 0.9 * len(trc)
+    assert np.nanmin(trc[..., 1]) == pytest.approx(0.0, abs=1e-6)  # the world frame's floor
+    low_trc = np.where(present, trc[..., 1], np.inf).min(axis=1)[rows]
+    low_bvh = np.where(present, bvh[..., 1], np.inf).min(axis=1)[rows]
+    gap = low_bvh - low_trc
+    ankles = [H36M_JOINTS.index("right_ankle"), H36M_JOINTS.index("left_ankle")]
+    both = present[:, ankles].all(axis=1)
+    ankle_gap = bvh[both][:, ankles, 1] - trc[both][:, ankles, 1]
+    foot_gap = bvh[both][:, ankles, 1].min(axis=1) - trc[both][:, ankles, 1].min(axis=1)
+    print(f"{lifter}: lowest joint BVH - TRC max {np.abs(gap).max() * 1e3:.3f} mm; lower foot "
+          f"{np.abs(foot_gap).max() * 1e3:.3f} mm; each ankle max {np.abs(ankle_gap).max() * 1e2:.1f} cm")
+    worst = gap[np.abs(gap).argmax()]
+    assert np.abs(gap).max() < 0.01, f"{int((np.abs(gap) >= 0.01).sum())} frames off the floor, worst {worst:+.3f} m"
+    assert bvh[..., 1].min() > -0.01  # no foot (no joint) below the floor, gap-filled frames included
+    # the feet's floor contact: the lower ankle's height (the higher ankle carries the legs' length error)
+    assert np.abs(foot_gap).max() < 0.01

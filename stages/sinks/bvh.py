@@ -23,7 +23,11 @@ Conventions chosen here (see :func:`write_bvh` for the full list):
   to those lengths (each bone keeps its per-frame direction);
 * five zero-offset link joints (as the CMU BVH files' ``LHipJoint``) let the two hips,
   the nose and the two shoulders move relative to the pelvis/thorax, so positions are
-  reproduced exactly, not as a best fit.
+  reproduced exactly, not as a best fit;
+* root position: the pelvis's horizontal position (X, Z), and a height (Y) that puts the
+  rigidified skeleton's lowest joint at the height of the input's lowest joint in each frame
+  (:func:`floor_shift`), so the BVH stands on the same floor as the TRC/CSV of the same poses
+  (the median bone lengths alone would sink or lift the feet by the legs' length variation).
 """
 
 from __future__ import annotations
@@ -108,14 +112,16 @@ class BvhMotion:
         joint_index: ``(N,)`` H36M-17 index of each node, ``-1`` for a link joint.
         offsets: ``(N, 3)`` float64 rest offsets from the parent node (root: zeros), input units.
         end_sites: ``{node: (3,) offset}`` for the leaves (display stubs, see module doc).
-        root_position: ``(T, 3)`` float64 pelvis position per frame (the root's position channels).
+        root_position: ``(T, 3)`` float64 the root's position channels per frame: the
+            pelvis position raised by :func:`floor_shift` (the lowest joint on the input's floor).
         orders: ``(N,)`` rotation orders (``"ZXY"``: channels ``Zrotation Xrotation
             Yrotation``; scipy's intrinsic sequences).
         euler_deg: ``(T, N, 3)`` float64 local rotations in degrees, in each node's order,
             unwrapped in time (no 360-degree jumps).
         bone_lengths: ``(16,)`` float64 median bone lengths (``H36M_BONES`` order), input units.
         positions: ``(T, 17, 3)`` float64 joint positions the file encodes (forward
-            kinematics of the above): the filled poses with each bone scaled to its median length.
+            kinematics of the above): the filled poses with each bone scaled to its median
+            length, moved up or down by :func:`floor_shift` in each frame.
         filled: ``(T, 17)`` bool, True where a joint was missing (NaN) and filled in.
         deviation: ``(T, 17)`` float64 distance between ``positions`` and the input poses,
             NaN where the input was missing.
@@ -468,6 +474,53 @@ def _euler(W: np.ndarray, sk: _Skeleton, previous: np.ndarray | None = None) -> 
     return np.unwrap(np.concatenate([previous[None], euler]), period=360.0, axis=0)[1:]
 
 
+def _forward(W: np.ndarray, sk: _Skeleton, root: np.ndarray) -> np.ndarray:
+    """``(T, 17, 3)`` H36M-17 joint positions by forward kinematics of world rotations ``W``
+    ``(T, N, 3, 3)`` and the skeleton's offsets from root positions ``root`` ``(T, 3)``."""
+    T, N = W.shape[:2]
+    pos = np.zeros((T, N, 3))
+    pos[:, 0] = root
+    for n in range(1, N):
+        pos[:, n] = pos[:, sk.parent[n]] + np.einsum("tij,j->ti", W[:, sk.parent[n]], sk.offsets[n])
+    node_of = {j: n for n, j in enumerate(sk.joint) if j >= 0}
+    return pos[:, [node_of[j] for j in range(17)]]
+
+
+def floor_shift(measured: np.ndarray, rigid: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """``(T,)`` vertical (Y) shift that puts the lowest joint of ``rigid`` at the height of the
+    lowest joint of ``measured`` in each frame (both ``(T, 17, 3)``, Y up), the minima taken
+    over the joints ``known`` ``(T, 17)`` (present in the input: the TRC's markers), or over
+    all 17 (gap-filled) where a frame has none.
+
+    Why the lowest joint: the BVH's bones have one (median) length for the recording, so its
+    joints differ from the input's by the per-frame bone-length variation accumulated from the
+    pelvis (a lifter's legs vary by several cm, MediaPipe's by 20 cm and more); placing the
+    root at the measured pelvis carries that error to the feet, which then sink below the
+    floor the world frame defines (its lowest joint at y = 0) or float above it. Matching the
+    lowest joint instead keeps the floor contact exact: no BVH joint goes below the lowest
+    TRC marker of its frame, and the lowest one is at its height (to the written 6 decimals).
+    A least-squares fit of both ankles' heights would leave the lower foot below the floor
+    whenever the two legs' rigidified lengths err differently; the price of the lowest joint
+    is that the others (the pelvis included) carry the whole length error, not half of it.
+    """
+    known = known & np.isfinite(measured).all(axis=-1)
+    none = ~known.any(axis=1)
+    known = known | none[:, None]  # no joint present: the gap-filled pose (measured) decides
+    with np.errstate(invalid="ignore"):
+        low_measured = np.where(known, measured[..., 1], np.inf).min(axis=1)
+        low_rigid = np.where(known, rigid[..., 1], np.inf).min(axis=1)
+        shift = low_measured - low_rigid
+    return np.where(np.isfinite(shift), shift, 0.0)
+
+
+def _root_position(P: np.ndarray, known: np.ndarray, W: np.ndarray, sk: _Skeleton) -> np.ndarray:
+    """``(T, 3)`` root position channels of gap-filled poses ``P``: the pelvis, raised by
+    :func:`floor_shift` (``known``: the joints present in the input)."""
+    root = P[:, PELVIS].copy()
+    root[:, 1] += floor_shift(P, _forward(W, sk, P[:, PELVIS]), known)
+    return root
+
+
 def bvh_motion(poses: np.ndarray, joint_names: Sequence[str] = H36M_JOINTS) -> BvhMotion:
     """The BVH skeleton (rest offsets) and per-frame channel values of H36M-17 poses.
 
@@ -492,20 +545,17 @@ def bvh_motion(poses: np.ndarray, joint_names: Sequence[str] = H36M_JOINTS) -> B
     W = _world_rotations(P, sk)
     euler = _euler(W, sk)
 
-    # Forward kinematics of what the file holds (what a reader reconstructs).
-    T, N = W.shape[:2]
-    node_of = {j: n for n, j in enumerate(sk.joint) if j >= 0}
-    pos = np.zeros((T, N, 3))
-    pos[:, 0] = P[:, PELVIS]
-    for n in range(1, N):
-        pos[:, n] = pos[:, sk.parent[n]] + np.einsum("tij,j->ti", W[:, sk.parent[n]], sk.offsets[n])
-    positions = pos[:, [node_of[j] for j in range(17)]]
+    # Forward kinematics of what the file holds (what a reader reconstructs), the root raised
+    # so that the lowest joint stands where the input's does.
+    N = W.shape[1]
+    root = _root_position(P, ~missing, W, sk)
+    positions = _forward(W, sk, root)
     deviation = np.linalg.norm(positions - X, axis=-1)
 
     end_sites = {n: END_SITE_FRACTION * sk.offsets[n] for n in range(N) if not sk.children[n]}
     return BvhMotion(
         names=tuple(sk.names), parents=np.array(sk.parent), joint_index=np.array(sk.joint),
-        offsets=sk.offsets, end_sites=end_sites, root_position=P[:, PELVIS].copy(),
+        offsets=sk.offsets, end_sites=end_sites, root_position=root,
         orders=sk.orders, euler_deg=euler,
         bone_lengths=sk.lengths, positions=positions, filled=missing, deviation=deviation,
     )
@@ -543,8 +593,19 @@ def write_bvh(
     thorax->nose and thorax->shoulder offsets point along the subject's median direction in
     the pelvis/thorax frame (the two hips, and the two shoulders, share one forward
     component, their mean, so that the rest pose has exactly zero rotations). Offset
-    lengths are the subject's median bone lengths over the frames with all joints finite. The root offset is zero; its position channels hold the
-    pelvis position.
+    lengths are the subject's median bone lengths over the frames with all joints finite. The root offset is zero.
+
+    **Root position** (the floor): the position channels hold the pelvis's horizontal
+    position (X, Z) and, in each frame, the height (Y) that puts the rigidified skeleton's
+    lowest joint at the height of the input's lowest joint (over the joints present in that
+    frame: the TRC's markers; all 17 gap-filled ones where none is), :func:`floor_shift`.
+    The BVH thus stands on the same floor as the TRC, CSV and npz of the same poses (in the
+    world frame no BVH joint goes below y = 0 where the TRC has none, and its lowest joint is
+    at the TRC's lowest marker height); the pelvis height then differs from the measured one
+    by the legs' bone-length variation. Placing the root at the measured pelvis instead would
+    carry that variation to the feet (on a MediaPipe run, feet 20 cm below the floor); a
+    least-squares fit of the two ankles' heights would still sink the lower foot whenever
+    the two legs err differently.
 
     **Rotations**: local (parent-relative), degrees, unwrapped in time so that no channel
     jumps by 360 degrees. Each joint declares its own order (BVH allows it; readers such as
@@ -576,10 +637,10 @@ def write_bvh(
       axis is undefined and the channels of that joint can jump (positions stay exact).
 
     The file therefore reproduces the poses **rigidified** to the median bone lengths (each
-    bone keeps its per-frame direction, its length is the median) to the written precision
-    (well below 0.01 mm in metres); the distance to the raw poses is the bone-length
-    variation accumulated along each chain (:attr:`BvhMotion.deviation` from
-    :func:`bvh_motion`).
+    bone keeps its per-frame direction, its length is the median), moved vertically onto the
+    input's floor as above, to the written precision (well below 0.01 mm in metres); the
+    distance to the raw poses is the bone-length variation accumulated along each chain
+    from the lowest joint (:attr:`BvhMotion.deviation` from :func:`bvh_motion`).
 
     **Units**: ``units`` names the unit of ``poses``, written unchanged; BVH has no unit
     field, so a reader must be told (Blender's importer takes the values as scene units
@@ -648,11 +709,13 @@ def write_bvh(
         # Channels a block of frames at a time (each frame's rotations are its own; only the
         # unwrapping carries over), so a 2-hour recording never holds all its rotations.
         for lo in range(0, T, TEXT_BLOCK_ROWS):
-            block_P = _filled_rows(X, known, lo, min(T, lo + TEXT_BLOCK_ROWS))
+            hi = min(T, lo + TEXT_BLOCK_ROWS)
+            block_P = _filled_rows(X, known, lo, hi)
             W = _world_rotations(block_P, sk, last_W)
             euler = _euler(W, sk, previous)
             previous, last_W = euler[-1], W[-1]
-            values = np.concatenate([block_P[:, PELVIS], euler.reshape(len(euler), -1)], axis=1)
+            root = _root_position(block_P, known[lo:hi], W, sk)
+            values = np.concatenate([root, euler.reshape(len(euler), -1)], axis=1)
             if not np.isfinite(values).all():  # never a NaN in a BVH; a bug if reached
                 raise AssertionError("write_bvh: non-finite channel value")
             fh.writelines(" ".join(f"{v:.6f}" for v in row) + "\n" for row in values.tolist())
