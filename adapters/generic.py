@@ -203,7 +203,7 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
         field = "columns"
         table, header_note, empty = _read_csv(require_file(p, "a CSV file"), delimiter)
         arr = require_numeric(p, field, table)
-        table[empty] = 0.0  # an empty cell is the format's "missing", not a non-finite value
+        table = np.where(empty, 0.0, table)  # for the count below: an empty cell is the format's "missing"
     elif suffix in (".npy", ".npz"):
         table = arr = require_numeric(p, key or "array", load_array_file(p, key))
         field = key or "array"

@@ -302,15 +302,14 @@ def _process_alive(info: dict) -> bool:
     return info["pid"] != os.getpid()
 
 
-def _leftover_owner(name: str) -> tuple[str, str] | None:
-    """``(kind, output name)`` of a hidden staging (``"tmp"``) or trash (``"trash"``) folder
-    name pcnet makes for an output (``.NAME.pcnet-tmp-<12 hex>``, ``.NAME.pcnet-trash-<12 hex>``),
-    else ``None``: the whole name must match, so an output whose own name contains a tag is
-    not mistaken for one."""
+def _leftover_kind(name: str) -> str | None:
+    """``"tmp"`` or ``"trash"`` for a hidden staging or trash folder name pcnet makes for an
+    output (``.NAME.pcnet-tmp-<12 hex>``, ``.NAME.pcnet-trash-<12 hex>``, NAME perhaps shortened
+    by :func:`~pcnet.stages.core.atomic.hidden_name`), else ``None``: the whole name must match,
+    so an output whose own name contains a tag is not mistaken for one."""
     for kind, tag in (("tmp", TMP_TAG), ("trash", TRASH_TAG)):
-        m = re.fullmatch(rf"\.(.+){re.escape(tag)}[0-9a-f]{{12}}", name, re.DOTALL)  # a name may hold a newline
-        if m:
-            return kind, m.group(1)
+        if re.fullmatch(rf"\.(.+){re.escape(tag)}[0-9a-f]{{12}}", name, re.DOTALL):  # a name may hold a newline
+            return kind
     return None
 
 
@@ -335,10 +334,9 @@ def clean_stale(target: Path) -> list[Path]:
     if not target.parent.is_dir():
         return removed
     for entry in _hidden_staging_beside(target):
-        leftover = _leftover_owner(entry.name)
-        if leftover is None or entry.is_symlink() or not entry.is_dir():
+        kind = _leftover_kind(entry.name)
+        if kind is None or entry.is_symlink() or not entry.is_dir():
             continue
-        kind, _ = leftover
         if kind == "trash" and entry.name != _trash_name(target, entry.name[-12:]).name:
             continue
         info = read_marker(entry)
@@ -395,10 +393,8 @@ def staged_output(out: str | os.PathLike, overwrite: bool = False) -> Iterator[P
             make_parents(target.parent, created)
             was_there = target.exists() or target.is_symlink()
             clean_stale(target)
-        except OSError as err:
-            blocker = next((p for p in (target.parent, *target.parent.parents) if p.exists() and not p.is_dir()),
-                           None)
-            why = f"{blocker} is a file, not a folder" if blocker else reason(err)
+        except OSError as err:  # make_parents names a file in the way as the ENOTDIR's file name
+            why = f"{err.filename} is a file, not a folder" if isinstance(err, NotADirectoryError) else reason(err)
             raise InputError(f"--out {given}: cannot create the output folder there ({why})") from err
         if not was_there and target.exists() and not overwrite:
             raise InputError(f"--out {given}: expected a new folder, got the output of an earlier pcnet run that was "

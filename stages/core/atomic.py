@@ -82,17 +82,17 @@ def remove_created(created: list[Path]) -> None:
 def _publish_new(tmp_path: Path, target: Path) -> None:
     """Give ``tmp_path`` the name ``target`` only if ``target`` does not exist, atomically
     (``link(2)`` fails with ``EEXIST``), then drop the temporary name."""
+    taken = InputError(f"{short_path(target)}: expected a new file, got one written there while pcnet worked (another "
+                       f"run?); left as it is: pass --overwrite to replace it, or choose another name")
     try:
         os.link(tmp_path, target)
     except FileExistsError:
-        raise InputError(f"{short_path(target)}: expected a new file, got one written there while pcnet worked "
-                         f"(another run?); left as it is: pass --overwrite to replace it, or choose another name") from None
+        raise taken from None
     except OSError as err:
         if err.errno not in _NO_HARD_LINKS:
             raise
         if target.exists() or target.is_symlink():  # no atomic check here: the nearest one
-            raise InputError(f"{short_path(target)}: expected a new file, got one written there while pcnet worked "
-                             f"(another run?); left as it is: pass --overwrite to replace it") from None
+            raise taken from None
         os.replace(tmp_path, target)
         return
     tmp_path.unlink()
