@@ -543,12 +543,12 @@ def _knee_reading(rot: np.ndarray, knee: np.ndarray, previous: tuple[float, floa
         step = np.abs(_wrap180(np.diff(rot[a:b])))
         parity = np.concatenate([[0], np.cumsum(step > 90.0) % 2])
         if a > 0 or previous is None or not np.isfinite(previous).all():
-            # Per run, the reading that agrees with isb_angles' per-frame choice in more
-            # frames; a knee hyperextended beyond MAX_KNEE_HYPEREXTENSION_DEG rules a
-            # reading out (its frames count 1000 against it).
+            # Per run, the reading with fewer frames of a knee hyperextended beyond
+            # MAX_KNEE_HYPEREXTENSION_DEG, and among equals the one that agrees with
+            # isb_angles' per-frame choice in more frames.
             too_far = knee[a:b] > MAX_KNEE_HYPEREXTENSION_DEG  # flipped, these would be hyperextended that far
-            score_keep = np.sum(parity == 0) - 1000 * np.sum(too_far & (parity == 1))
-            score_flip = np.sum(parity == 1) - 1000 * np.sum(too_far & (parity == 0))
+            score_keep = (-np.sum(too_far & (parity == 1)), np.sum(parity == 0))
+            score_flip = (-np.sum(too_far & (parity == 0)), np.sum(parity == 1))
             flip0 = score_flip > score_keep
         else:  # continues the previous chunk's last frame
             flip0 = abs(_wrap180(rot[a] - previous[0])) > 90.0
