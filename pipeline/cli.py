@@ -338,7 +338,8 @@ def _run_and_report(cfg) -> None:
               help="generic lifter: the file's pelvis positions are a measured camera-frame path (metric units): "
                    "keep it and one floor for the recording.")
 @click.option("--focal-px", type=float, default=None,
-              help="mediapipe lifter: the video's focal length in pixels [the file's K, else a phone's 26 mm equivalent].")
+              help="The camera's focal length in pixels: places the pelvis path from the 2D keypoints and turns "
+                   "MediaPipe landmarks into the camera [a MediaPipe file's K, else a phone's 26 mm equivalent].")
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 @click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")
@@ -348,7 +349,7 @@ def _run_and_report(cfg) -> None:
               help="Also scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`), "
                    "published with the run's output.")
 @click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")
-def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, measured_root, no_recording, with_opensim,
+def run(config_path, pixel, hypothesis, layout, axes, units, key, measured_root, no_recording, with_opensim,
         mass, **options):
     """Run the pipeline on one recording: a video alone (the embedded MediaPipe estimator), or
     2D keypoints + a lifter's 3D output -> canonical poses, kinematics in the recording's world
@@ -359,8 +360,6 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, focal_px, meas
 
     lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
                                         ("key", key), ("measured_root", measured_root)) if v}
-    if focal_px is not None:
-        lifter_options["focal_px"] = focal_px
     if hypothesis is not None:
         lifter_options["hypothesis"] = parse_hypothesis(hypothesis)
     if no_recording:

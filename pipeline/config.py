@@ -54,7 +54,7 @@ def field_name(source: str, *names: str) -> str:
 
 #: Adapter options that `pcnet run` has a flag for and a manifest a column for (the others only in a
 #: config's [lifter_options]).
-COMMAND_LINE_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "focal_px", "measured_root")
+COMMAND_LINE_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "measured_root")
 
 
 def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
@@ -149,7 +149,12 @@ class RunConfig:
     (:func:`pcnet.stages.opensim_ik.scale_and_ik`; needs the ``opensim`` extra and metric poses),
     ``mass`` (kg) setting the model's mass. A ``video`` without ``lifter`` and
     ``lifter_output`` (and without 2D keypoints) is estimated by the embedded MediaPipe
-    estimator (:mod:`pcnet.pipeline.video_estimate`, the ``video`` extra).
+    estimator (:mod:`pcnet.pipeline.video_estimate`, the ``video`` extra). ``focal_px``: the
+    camera's focal length in pixels (principal point at the image centre), for every lifter:
+    it places the pelvis path recovered from the 2D keypoints
+    (:func:`pcnet.stages.root_path.root_from_keypoints`) and turns MediaPipe's landmarks into
+    the real camera; ``None`` = a MediaPipe file's own ``K``, else a phone's 26 mm equivalent
+    (:data:`pcnet.stages.core.perspective.DEFAULT_FOCAL_35MM`).
     """
 
     lifter: str | None = None
@@ -176,6 +181,7 @@ class RunConfig:
     residual_cutoff: bool = False
     opensim: bool = False
     mass: float | None = None
+    focal_px: float | None = None
     lifter_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -278,6 +284,12 @@ class RunConfig:
         ):
             if value is not None and not (math.isfinite(value) and low <= value <= high):
                 raise InputError(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got {value!r}")
+        if self.focal_px is not None and not (math.isfinite(self.focal_px) and self.focal_px > 0):
+            raise InputError(f"{field_name(source, 'focal_px')}: expected a positive finite focal length in pixels, "
+                             f"got {self.focal_px!r}")
+        if "focal_px" in self.lifter_options:  # one source: the camera's, whatever the lifter
+            raise InputError(f"{field_name(source, 'focal_px')}: expected focal_px as a run option (the camera's focal "
+                             f"length, for every lifter), got it in lifter_options; move it to the top level")
         if self.person is not None and self.person < 0:
             raise InputError(f"{field_name(source, 'person')}: expected a track id >= 0, got {self.person}")
         # Options that would be silently ignored are mistakes the user should hear about.

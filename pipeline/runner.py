@@ -229,7 +229,10 @@ def _load_inputs(cfg: RunConfig):
             kp_extent = keypoints_extent(kp.points)
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
     adapter = get_3d_adapter(cfg.lifter)
-    poses = adapter.load(cfg.lifter_output, **cfg.lifter_options)  # checked by cfg.validate() in run_pipeline
+    options = dict(cfg.lifter_options)  # checked by cfg.validate() in run_pipeline
+    if cfg.focal_px is not None and "focal_px" in inspect.signature(adapter.load).parameters:
+        options["focal_px"] = cfg.focal_px  # the camera's: a crop-based lifter turns into it (MediaPipe)
+    poses = adapter.load(cfg.lifter_output, **options)
     fps, fps_source = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output))
     built = built_joints(poses.layout)

@@ -168,10 +168,10 @@ def test_settings_a_row_would_ignore_are_refused_before_any_work(tmp_path):
     analysis, a lifter option the lifter does not take, a cutoff at or above Nyquist, a rate
     too low for the default cutoff: one line each, naming the columns."""
     manifest = tmp_path / "m.csv"
-    manifest.write_text("lifter,lifter_output,fps,out,confidence_threshold,cutoff_hz,residual_cutoff,focal_px\n"
+    manifest.write_text("lifter,lifter_output,fps,out,confidence_threshold,cutoff_hz,residual_cutoff,layout\n"
                         f"motionbert,{BOX_3D},30,a,0.5,,false,\n"
                         f"motionbert,{BOX_3D},30,b,,4,true,\n"
-                        f"motionbert,{BOX_3D},30,c,,,false,1000\n"
+                        f"motionbert,{BOX_3D},30,c,,,false,coco17\n"
                         f"motionbert,{BOX_3D},30,d,,15,false,\n"
                         f"motionbert,{BOX_3D},10,e,,,false,\n")
     res = _invoke(manifest)
@@ -179,7 +179,7 @@ def test_settings_a_row_would_ignore_are_refused_before_any_work(tmp_path):
     errors = [ln for ln in res.output.splitlines() if ln.startswith("Error: ")]
     expected = [("line 2", "column confidence_threshold", "expected together with 2D keypoints"),
                 ("line 3", "columns cutoff_hz and residual_cutoff", "expected one of the two"),
-                ("line 4", "column focal_px", "expected only options --lifter motionbert takes (pixel, clip_len)"),
+                ("line 4", "column layout", "expected only options --lifter motionbert takes (pixel, clip_len)"),
                 ("line 5", "column cutoff_hz", "below half the frame rate (Nyquist: 15 Hz at fps 30), got 15"),
                 ("line 6", "column fps", "above 12 fps for the default low-pass cutoff 6 Hz", "cutoff_hz below 5")]
     for needles in expected:

@@ -185,7 +185,7 @@ def test_focal_length_reaches_the_mediapipe_adapter_from_the_cli_and_a_manifest(
     assert res.exit_code == 0, res.output
     assert "focal length 1500 px, given" in res.output
     cfg = row_to_config({"lifter": "mediapipe", "lifter_output": str(MEDIAPIPE), "focal_px": "1500"}, tmp_path, False)
-    assert cfg.lifter_options == {"focal_px": 1500.0}
+    assert cfg.focal_px == 1500.0 and cfg.lifter_options == {}  # the camera's, for every lifter
     with pytest.raises(InputError, match="focal_px: expected a number"):
         row_to_config({"lifter": "mediapipe", "lifter_output": str(MEDIAPIPE), "focal_px": "wide"}, tmp_path, False)
 
@@ -305,8 +305,10 @@ def test_a_frame_rate_below_twice_the_low_pass_cutoff_is_refused_naming_the_fix(
         (["--lifter", "videopose3d", "--lifter-output", str(BOX_3D), "--fps", "30"], "--lifter motionbert"),
         (["--lifter", "motionbert", "--lifter-output", str(MEDIAPIPE), "--fps", "30"], "--lifter mediapipe"),
         # options that would be silently ignored
-        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--focal-px", "1000"],
-         "--focal-px: expected only the options --lifter motionbert takes (--pixel, clip_len)"),
+        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--layout", "coco17"],
+         "--layout: expected only the options --lifter motionbert takes (--pixel, clip_len)"),
+        (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--focal-px", "-5"],
+         "--focal-px: expected a positive finite focal length in pixels, got -5.0"),
         (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--mass", "70"],
          "--mass: expected together with --opensim"),
         (["--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--fps", "30", "--confidence-threshold", "0.5"],
@@ -332,11 +334,16 @@ def test_a_config_file_names_its_fields_in_errors(tmp_path):
     res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
     assert res.exit_code == 1
     assert f"Error: {cfg}: field 'confidence_threshold': expected together with 2D keypoints" in res.output
-    cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\n[lifter_options]\nfocal_px = 900.0\n')
+    cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\n[lifter_options]\nunits = "m"\n')
     res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
     assert res.exit_code == 1
-    assert (f"Error: {cfg}: field 'focal_px': expected only options --lifter motionbert takes (pixel, clip_len), "
-            f"got focal_px") in res.output
+    assert (f"Error: {cfg}: field 'units': expected only options --lifter motionbert takes (pixel, clip_len), "
+            f"got units") in res.output
+    # the focal length is the camera's, a run option for every lifter: one place for it
+    cfg.write_text(f'lifter = "mediapipe"\nlifter_output = "{MEDIAPIPE}"\nfps = 30\n[lifter_options]\nfocal_px = 900.0\n')
+    res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
+    assert res.exit_code == 1
+    assert f"Error: {cfg}: field 'focal_px': expected focal_px as a run option" in res.output
     assert not (tmp_path / "o").exists()
     cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\nheigth = 1.7\n')
     res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
