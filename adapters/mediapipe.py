@@ -174,12 +174,13 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
     notes = (f"MediaPipe BlazePose-33 world landmarks ({meta}); metres, origin mid-hip; axes already "
              "x right / y down / z away from the camera (checked on real data); "
              f"camera-aligned, not gravity-aligned; {empty} frames without a person -> NaN")
-    summary_note, turn_median = "", 0.0
+    summary_note, turn_median, file_K = "", 0.0, None
     if real_camera:
         with open_numpy(p) as archive:  # _read checked that it is an npz
             K = archive["K"] if "K" in archive.files else None
             keypoints = archive["keypoints_2d"] if "keypoints_2d" in archive.files else None
         K, focal_source = _intrinsics(p, scalars, focal_px, K)
+        file_K = K if focal_source == FILE_K else None
         hip_px, filled = _mid_hip_pixels(p, arr, keypoints)
         if K is None or hip_px is None:
             summary_note = ("MediaPipe world landmarks left in MediaPipe's virtual camera at the mid-hip, not turned "
@@ -197,7 +198,11 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
                             + ")")
         notes += "; " + summary_note
     return Poses3D(arr, "blazepose33", units="m", source=str(p), notes=notes, fps=scalars["fps"],
-                   summary_note=summary_note, frame_turn_deg=turn_median, nonfinite=nonfinite)
+                   summary_note=summary_note, frame_turn_deg=turn_median, nonfinite=nonfinite, camera_matrix=file_K)
+
+
+#: Where the focal length came from when the file's own ``K`` is used.
+FILE_K = "the file's K"
 
 
 def focal_problems(focal_px: object = None) -> list[tuple[str, str, str]]:
@@ -226,7 +231,7 @@ def _intrinsics(p: Path, scalars: dict, focal_px: float | None, K: np.ndarray | 
         if K.shape != (3, 3) or not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
             found = f"shape {K.shape}" + (f", diagonal {np.diag(K).tolist()}" if K.shape == (3, 3) else "")
             raise AdapterError(p, "K", "a (3, 3) finite camera matrix with positive focal lengths", found)
-        return K, "the file's K"
+        return K, FILE_K
     if width is None or height is None:
         return None, "the file has neither K nor width/height"
     focal = focal_px_from_35mm(width, height)

@@ -149,6 +149,10 @@ class Poses3D:
             (:func:`pcnet.adapters.validate.nonfinite_frames`), so joints missing for other
             reasons (not in the format, untracked, no person in the frame) are not in it.
             The run summary shows it (:func:`pcnet.adapters.validate.nonfinite_line`).
+        camera_matrix: ``(3, 3)`` float64 intrinsics ``K`` of the camera the poses are in
+            (pixels; OpenCV convention) when the file states them (a MediaPipe archive of a
+            calibrated camera), else ``None``; the pipeline places the pelvis path from the
+            2D keypoints with it.
     """
 
     joints: np.ndarray
@@ -162,9 +166,12 @@ class Poses3D:
     summary_note: str = ""
     frame_turn_deg: float = 0.0
     nonfinite: dict[str, int] = field(default_factory=dict)
+    camera_matrix: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         _check_array(self.joints, "joints", self.source, self.layout)
+        if self.camera_matrix is not None and np.shape(self.camera_matrix) != (3, 3):
+            raise ValueError(f"{self.source}: camera_matrix must be (3, 3), got {np.shape(self.camera_matrix)}")
         _check_fps(self.fps, self.source)
         if not all(isinstance(k, str) and isinstance(v, int) and not isinstance(v, bool) and 0 < v <= self.num_frames
                    for k, v in self.nonfinite.items()):

@@ -17,7 +17,7 @@ import threading
 import time
 from collections.abc import Callable
 from contextlib import contextmanager
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 from types import MappingProxyType
@@ -25,7 +25,7 @@ from types import MappingProxyType
 import numpy as np
 from tqdm import tqdm
 
-from pcnet.adapters import AdapterError, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
+from pcnet.adapters import AdapterError, VideoInfo, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
 from pcnet.adapters.validate import ROOT_RELATIVE_MAX, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, SPINE, THORAX, THIGH_RANGE_M, fill_pelvis_from_hips,
                                           median_thigh_length, validate_fps)
@@ -44,22 +44,24 @@ from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, wr
                                       write_motion_files, write_rerun)
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL, UNFAMILIAR_EVIDENCE_SCALE
-from pcnet.stages.world_frame import feet_visible, to_world, world_frame
+from pcnet.stages.plausibility import implausible_frames, implausible_motion, implausible_motion_flags, motion_check_note
+from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .config import MULTI_TRACK_FORMATS, RunConfig
 from .io import lifter_joints
 from .video_orientation import EDGE_MARGIN, DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
+from .pelvis_path import camera_intrinsics, pelvis_path
 from .video_estimate import estimated_inputs
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
+_WORLD = "world, fixed for the recording: +Y up, +X the subject's forward over the first second, y = 0 the ground; "
 WORLD_SUMMARY = {
-    "not observable": "world, fixed for the recording: +Y up, +X the subject's forward over the first second, floor "
-                      "at y = 0 under the lowest joint; the pelvis's horizontal path is not observable from a "
-                      "root-relative lifter (x = z = 0; its horizontal columns in kinematics.csv are empty)",
-    "measured": "world, fixed for the recording: +Y up, +X the subject's forward over the first second, one floor "
-                "at y = 0 (median height of the lowest joint); the pelvis follows the path the input measured "
-                "(x = z = 0 at the start)",
+    "not observable": _WORLD + "the pelvis's horizontal path is not observable (x = z = 0; its horizontal columns in "
+                               "kinematics.csv are empty)",
+    "measured": _WORLD + "the pelvis follows the path the input measured (x = z = 0 at the start)",
+    "from 2D keypoints": _WORLD + "the pelvis follows the path fitted to the 2D keypoints (x = z = 0 at the start; "
+                                  "depth is its weak axis: pelvis_path_std_world in canonical.npz)",
 }
 
 
@@ -206,7 +208,37 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
                      "(pass --fps)")
 
 
-def _load_inputs(cfg: RunConfig):
+@dataclass(frozen=True)
+class RecordingInputs:
+    """What :func:`_load_inputs` read for one recording.
+
+    video: the probed video or ``None``; fps, fps_source: the frame rate (Hz) and where it came
+    from; keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence or ``None``;
+    keypoint_image_size: ``(width, height)`` the 2D file states, or ``None``; keypoint_extent:
+    :func:`keypoints_extent` of a turned video's keypoints, or ``None``; joints: ``(T, 17, 3)``
+    H36M-17 camera-frame lifter poses in ``units``; measured_root: the lifter's root is a
+    measured path (:attr:`pcnet.adapters.Poses3D.root_translation`); notes: summary lines about
+    the inputs; lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; nonfinite:
+    :attr:`pcnet.adapters.Poses3D.nonfinite`; camera_matrix: the lifter file's ``(3, 3)`` ``K``
+    or ``None`` (:attr:`pcnet.adapters.Poses3D.camera_matrix`).
+    """
+
+    video: VideoInfo | None
+    fps: float
+    fps_source: str
+    keypoints2d: np.ndarray | None
+    keypoint_image_size: tuple[int, int] | None
+    keypoint_extent: np.ndarray | None
+    joints: np.ndarray | None
+    units: str
+    measured_root: bool
+    notes: list
+    lifter_turn_deg: float
+    nonfinite: dict
+    camera_matrix: np.ndarray | None
+
+
+def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     video = probe_video(cfg.video) if cfg.video else None
     kp2d, kp_fps, kp_size, kp_choice, kp_extent = None, None, None, "", None
     if cfg.keypoints2d:
@@ -241,9 +273,9 @@ def _load_inputs(cfg: RunConfig):
     # an adapter whose file has no tracks says itself that --person cannot choose
     person_hint = "" if "--person" in kp_choice else " (--person chooses another)"
     choice = kp_choice and f"2D keypoints: {kp_choice}{person_hint}"
-    return (video, (fps, fps_source), kp2d, (kp_size, kp_extent), joints, poses.units, poses.root_translation,
-            [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n], poses.frame_turn_deg,
-            poses.nonfinite)
+    return RecordingInputs(video, fps, fps_source, kp2d, kp_size, kp_extent, joints, poses.units, poses.root_translation,
+                           [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n],
+                           poses.frame_turn_deg, poses.nonfinite, poses.camera_matrix)
 
 
 def _assumed_inputs(cfg: RunConfig) -> list[str]:
@@ -654,8 +686,9 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             estimate_note.append(note)
             bar.update()
         step("inputs")
-        video, (fps, fps_source), kp2d, (kp_size, kp_extent), joints, units, measured_root, input_notes, lifter_turn, \
-            nonfinite = _load_inputs(cfg)
+        inputs = _load_inputs(cfg)
+        video, fps, fps_source, kp2d, joints, units = (inputs.video, inputs.fps, inputs.fps_source, inputs.keypoints2d,
+                                                        inputs.joints, inputs.units)
         needing_metres = [name for name, asked in (("--c3d", cfg.c3d), ("--opensim", cfg.opensim)) if asked]
         if needing_metres and units != "m" and cfg.height is None:
             raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
@@ -666,15 +699,16 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
                              f"low-pass cutoff {cfg.lowpass_hz:g} Hz{default}, got {fps / 2:g} Hz; give --cutoff-hz "
                              f"below {fps / 2:g} or --residual-cutoff")
         kp2d, joints, aligned = _align(cfg, video, kp2d, joints)
-        input_notes = estimate_note + input_notes + ([aligned] if aligned else [])
-        orientation = display_orientation(video, kp2d, kp_size, kp_extent)
+        inputs = replace(inputs, joints=None, keypoints2d=None)  # the long arrays: only the aligned ones live on
+        input_notes = estimate_note + inputs.notes + ([aligned] if aligned else [])
+        orientation = display_orientation(video, kp2d, inputs.keypoint_image_size, inputs.keypoint_extent)
         bar.update()
 
         step("remap")
         notes: list[str] = input_notes
         if orientation.note:
             notes.append(orientation.note)
-        cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, measured_root, store, orientation)
+        cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, inputs.measured_root, store, orientation)
         video_kp2d = None
         if kp2d is not None and cfg.recording and orientation.recording_note:
             video_kp2d = store.create("keypoints2d_video", kp2d.shape, np.float32)
@@ -709,7 +743,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         report["pelvis_from_hips_frames"] = pelvis_filled
         if orientation.note:
             report["display_rotation"] = orientation.report()
-        notes += _unused_floor_note(measured_root, report.get("ground_plane"))
+        notes += _unused_floor_note(inputs.measured_root, report.get("ground_plane"))
         del res
         tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
         # what the summary's tilt line prints, in every mode (sequence mode: its one up)
@@ -726,7 +760,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
         flags += view_gate_flag(report.get("view_gate"), lying=(report.get("gravity") or {}).get("reading") == "lying")
         flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
-        flags += lifter_frame_flag(lifter_turn, *_tilt_tolerance(report))
+        flags += lifter_frame_flag(inputs.lifter_turn_deg, *_tilt_tolerance(report))
         flags += (track_switch_flag(segment, events, person_option=cfg.keypoints2d_format in MULTI_TRACK_FORMATS)
                   if segment is not None else [])
         bar.update()
@@ -763,13 +797,19 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         step("kinematics")
         # Anything differentiated in time lives in one fixed frame per recording; only a static
         # camera (sequence mode) gives one.
-        world, world_rotation = None, np.full((3, 3), np.nan)
+        world, world_rotation, pelvis_path_std = None, np.full((3, 3), np.nan), None
         if report["mode"] == "sequence":
             frame = world_frame(rotations, valid, fps)
-            world = to_world(cam, frame, root_cam, out=store.create("joints_world", cam.shape, np.float64))
+            image_size = (video.width, video.height) if video is not None else inputs.keypoint_image_size
+            path = pelvis_path(root_cam, cam, kp2d, camera_intrinsics(cfg.focal_px, inputs.camera_matrix, image_size),
+                               units, fps, cfg.min_confidence)
+            world, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64))
             world_rotation = frame.rotation
+            pelvis_path_std = path.world_std(frame.rotation)
             flags += floor_flag(feet_visible(cam), _present(cam))
-            report["root_path"] = "measured" if root_cam is not None else "not observable"
+            report["root_path"] = path.kind
+            report["floor"] = asdict(floor)
+            notes += [n for n in (path.note, floor.note() if floor.kind != "plane" else "") if n]
         elif report.get("mode_reason") == "one valid frame":
             notes.append("one valid frame: the pose is given in the canonical frame (frame mode); --mode sequence "
                          "places it in a world frame with the camera prior")
@@ -805,7 +845,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             world=world, world_rotation=world_rotation, keypoints2d=kp2d, track_segment=segment, video=cfg.video,
             video_first_frame=first_shown_frame(cfg.video) if cfg.video and cfg.recording else 0,
             video_keypoints2d=video_kp2d,
-            min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam)
+            min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=pelvis_path_std)
         result.kinematics_blocks = kinematics_chunks(rectified, fps, cutoff, units)
         if _spine_built_on_trunk_line(cam):  # an angle the layout cannot measure is empty, not 0
             result.kinematics_blocks = _without(result.kinematics_blocks, NEEDS_SPINE_JOINT)
@@ -813,8 +853,17 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
                          "line (built there, no spine of its own), so that angle is 0 by construction")
         table = write_kinematics_table(result, tmp, allocate=store.create)
         flags += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
+        # motion no person makes (joint speeds and accelerations beyond the fitted limits)
+        unchecked = motion_check_note(units, fps)
+        if unchecked:
+            notes.append(unchecked)
+        else:
+            implausible = implausible_motion(rectified, fps, units=units)
+            result.implausible_frames = implausible_frames(implausible, len(cam))
+            flags += implausible_motion_flags(implausible)
+            report["implausible_frames"] = int(result.implausible_frames.sum())
         # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)
-        missing_note = format_flag_counts(result.flag_counts, nonfinite_line(nonfinite))
+        missing_note = format_flag_counts(result.flag_counts, nonfinite_line(inputs.nonfinite))
         if missing_note:
             notes.append(missing_note)
         notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)

@@ -2,8 +2,8 @@
 
 ``pcnet run`` writes ``world.trc`` for a static camera: the 17 H36M-17 joint centres as
 markers named as :data:`pcnet.stages.core.conventions.H36M_JOINTS`, in metres, in the recording's
-world frame, which has OpenSim's ground-frame axis roles (+X forward, +Y up, +Z right; floor
-at y = 0 at the ankle-centre height; [CONVENTIONS.md](../docs/CONVENTIONS.md) "World frame").
+world frame, which has OpenSim's ground-frame axis roles (+X forward, +Y up, +Z right; the ground
+at y = 0, ankle centres at rest the fitted clearance above it; [CONVENTIONS.md](../docs/CONVENTIONS.md) "World frame").
 :func:`scale_and_ik` scales a full-body model to the subject from those markers and solves
 inverse kinematics over the whole recording.
 

@@ -4,17 +4,18 @@ The canonical frame turns with the pelvis every frame, so anything differentiate
 it carries rotating-frame terms and the network's heading jitter. For a static camera
 (sequence mode: one up for the whole recording) this module gives the recording one frame:
 +Y up, +X the horizontal part of the subject's forward direction averaged over the first
-valid second, +Z = X x Y (the subject's right then), and poses in it with the floor at
-y = 0.
+valid second, +Z = X x Y (the subject's right then), and poses in it with the ground at
+y = 0 (:mod:`pcnet.stages.floor`).
 
-A depth sensor's skeleton (Kinect v1, Azure Kinect: ``Poses3D.root_translation``) measures
-the pelvis's camera-frame position: the pelvis then follows its path (x = z = 0 at the start)
-above one floor for the whole recording. What a root-relative lifter (VideoPose3D, MediaPipe
-world landmarks, MotionBERT in camera-normalised mode) cannot give: the pelvis's horizontal path. It stays at x = z = 0;
-the vertical is measured from the floor, taken as the plane of the lowest joint centre in
-each frame (a stance ankle when standing, H36M-17 has no sole or toe joint; the body's
-lowest joint when lying), so the pelvis rises and falls with the legs but a flight phase
-(both feet off the floor) reads as standing.
+With a pelvis path (a depth sensor's measured pelvis, ``Poses3D.root_translation``, or one
+recovered from 2D keypoints) the pelvis follows it (x = z = 0 at the start) above ONE ground
+plane for the whole recording, fitted to the stance contacts; H36M-17 has no sole or toe
+joint, so ankle centres at rest stand the fitted clearance above it. What a root-relative
+lifter (VideoPose3D, MediaPipe world landmarks, MotionBERT in camera-normalised mode) cannot
+give: the pelvis's path. It stays at x = z = 0; the ground is then taken per frame, the
+clearance below the lowest joint centre (a stance ankle when standing; the body's lowest
+joint when lying), so the pelvis rises and falls with the legs but a flight phase (both feet
+off the floor) reads as standing. :func:`to_world_floor` says which (:class:`Floor`).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 from .core.conventions import L_ANKLE, PELVIS, R_ANKLE, validate_fps
 from .core.errors import InputError
 from .core.framestore import frame_blocks
+from .floor import ANKLE_CLEARANCE_LEG, Floor, fit_ground, leg_lengths  # noqa: F401 (Floor: re-exported)
 
 #: Seconds at the start of the recording whose forward direction sets the world heading.
 HEADING_WINDOW_S = 1.0
@@ -92,26 +94,50 @@ def world_frame(R: np.ndarray, valid: np.ndarray, fps: float) -> WorldFrame:
 
 def to_world(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | None = None,
              out: np.ndarray | None = None) -> np.ndarray:
-    """Pelvis-centred camera-frame poses in the recording's world frame, floor at y = 0.
+    """Pelvis-centred camera-frame poses in the recording's world frame, ground at y = 0:
+    :func:`to_world_floor` without the :class:`~pcnet.stages.floor.Floor` (same arguments,
+    result and errors)."""
+    return to_world_floor(joints_cam, frame, root_cam, out)[0]
+
+
+def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | None = None,
+                   out: np.ndarray | None = None) -> tuple[np.ndarray, Floor]:
+    """Pelvis-centred camera-frame poses in the recording's world frame, ground at y = 0,
+    and how that ground was found.
 
     Args:
         joints_cam: ``(T, 17, 3)`` H36M-17 root-relative camera-frame poses (pelvis at the
             origin), any units; NaN = missing.
         frame: from :func:`world_frame`.
-        root_cam: optional ``(T, 3)`` measured camera-frame pelvis positions in the same
-            units (a depth sensor's skeleton, ``Poses3D.root_translation``); NaN = unknown.
+        root_cam: optional ``(T, 3)`` camera-frame pelvis path in the same units (measured by
+            a depth sensor, ``Poses3D.root_translation``, or recovered from 2D keypoints);
+            NaN = unknown.
+        out: optional float64 ``(T, 17, 3)`` array taking slice assignment to write into (a
+            long recording's :class:`~pcnet.stages.core.framestore.FrameArray`);
+            ``joints_cam`` may be one too: both are read and written a block of frames at a
+            time.
 
     Returns:
-        ``(T, 17, 3)`` float64, ``x_w = W x_cam``. Without ``root_cam``: each frame lifted so
-        that its lowest joint centre lies at y = 0 and the pelvis at x = z = 0 (module
-        docstring). With ``root_cam``: the pelvis follows its measured path, x = z = 0 at the
-        first frame with a root, and one floor for the recording at the median over frames of
-        the lowest joint centre (the subject is on the floor most of the time, so a jump
-        lifts the whole body); a frame without a root is NaN. Frames without any finite joint
-        stay NaN. Written into ``out`` when given (any float64 ``(T, 17, 3)`` array taking
-        slice assignment: a long recording's is a
-        :class:`~pcnet.stages.core.framestore.FrameArray`); ``joints_cam`` may be one too:
-        both are read and written a block of frames at a time.
+        ``(poses, floor)``: ``(T, 17, 3)`` float64 ``x_w = W x_cam`` (+ the path) with the
+        ground at ``y = 0``, and a :class:`~pcnet.stages.floor.Floor`.
+
+        With ``root_cam``: the pelvis follows its path, x = z = 0 at the first frame with a
+        root, above ONE horizontal ground plane for the recording fitted to the stance
+        contacts (:mod:`pcnet.stages.floor`: robust to flight phases and false contacts), so
+        ankle centres at rest stand ``floor.clearance`` above y = 0 and a jump lifts the whole
+        body; a frame without a root is NaN. Fewer than
+        :data:`~pcnet.stages.floor.MIN_CONTACTS` contacts: the per-frame floor below
+        (``floor.kind == "per frame"``, with the reason); no ankle in any frame: the pelvis's
+        median height is y = 0 (``"pelvis"``).
+
+        Without ``root_cam`` (a root-relative lifter: the pelvis height above the ground is
+        not observable from translation): ``floor.kind == "per frame"``, each frame lifted so
+        that its lowest joint centre stands ``floor.clearance`` above y = 0 (a stance ankle's
+        height above the ground) and the pelvis at x = z = 0; a flight phase reads as
+        standing. Frames without a visible ankle take the pelvis's height above the floor
+        interpolated from the frames that saw one (:func:`floor_heights`); with no ankle in
+        any frame the pelvis is at y = 0 (``"pelvis"``). Frames without any finite joint stay
+        NaN.
 
     Raises:
         InputError: ``joints_cam`` not ``(T, 17, 3)``, ``root_cam`` of the wrong shape or
@@ -138,34 +164,54 @@ def to_world(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | N
             P += root[rows, None]
         return P
 
-    # Two passes over the frames: the floor under each frame needs its neighbours' (a gap
-    # is interpolated), then every frame is shifted onto it.
-    summaries = [_floor_evidence(rotated(rows)) for rows in frame_blocks(T)]
-    lowest, feet = _floor_from(*(np.concatenate(s) for s in zip(*summaries)))
-    if root is None:
-        shift = lowest
-    else:
-        pelvis_y = np.concatenate([s[3] for s in summaries])
-        shift = np.full(T, np.median(lowest[feet]) if feet.any() else np.nanmedian(pelvis_y))
+    # Two passes over the frames: the floor needs the whole recording's evidence (the plane,
+    # or a gap's neighbours), then every frame is shifted onto it.
+    present, lowest, feet, pelvis_y, step, legs = (np.concatenate(s) for s in zip(
+        *(_floor_evidence(rotated(slice(max(0, r.start - 1), min(T, r.stop + 1))), r.start - max(0, r.start - 1),
+                          r.stop - r.start) for r in frame_blocks(T))))
+    leg = float(np.nanmedian(legs)) if np.isfinite(legs).any() else float("nan")
+    clearance = ANKLE_CLEARANCE_LEG * leg if np.isfinite(leg) else 0.0
+    floor = None
+    if not feet.any():
+        floor = Floor("pelvis", 0.0, leg, reason="no ankle visible in any frame")
+        shift = np.full(T, np.nanmedian(pelvis_y)) if root is not None else np.where(present, pelvis_y, np.nan)
+    elif root is not None:
+        ground, floor = fit_ground(lowest, step, feet & np.isfinite(pelvis_y), leg)
+        shift = np.full(T, ground)
+    if floor is None or floor.kind == "per frame":
+        floor = floor or Floor("per frame", clearance, leg, reason="no pelvis path")
+        shift = _floor_from(present, lowest, feet, pelvis_y)[0] - clearance
     out = np.empty((T, 17, 3)) if out is None else out
     for rows in frame_blocks(T):
         P = rotated(rows)
         P[..., 1] -= shift[rows, None]
         out[rows] = P
-    return out
+    return out, floor
 
 
-def _floor_evidence(P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per frame of Y-up poses ``(T, 17, 3)``: ``(present, lowest joint height (NaN when
-    absent), feet visible, pelvis height)``, what :func:`floor_heights` needs."""
-    present = np.isfinite(P[..., 1]).any(axis=1)
-    lowest = np.full(len(P), np.nan)
-    lowest[present] = np.nanmin(P[present, :, 1], axis=1)
-    return present, lowest, feet_visible(P), P[:, PELVIS, 1].copy()  # a view would keep the block
+def _floor_evidence(P: np.ndarray, lo: int = 0, n: int | None = None) -> tuple[np.ndarray, ...]:
+    """Per frame ``lo .. lo + n`` of Y-up poses ``P`` ``(T', 17, 3)`` (the frames before and
+    after them, where given, only for the step): ``(present, lowest joint height (NaN when
+    absent), feet visible, pelvis height, that lowest joint's displacement between the
+    neighbouring frames (NaN at the ends or where it is missing), leg length)``."""
+    n = len(P) - lo if n is None else n
+    rows = np.arange(lo, lo + n)
+    Y = P[rows, :, 1]
+    present = np.isfinite(Y).any(axis=1)
+    lowest = np.full(n, np.nan)
+    low_j = np.zeros(n, np.int64)
+    low_j[present] = np.nanargmin(Y[present], axis=1)
+    lowest[present] = Y[present, low_j[present]]
+    step = np.full(n, np.nan)
+    inner = present & (rows > 0) & (rows < len(P) - 1)
+    t = rows[inner]
+    step[inner] = np.linalg.norm(P[t + 1, low_j[inner]] - P[t - 1, low_j[inner]], axis=-1)
+    return (present, lowest, feet_visible(P[rows]), P[rows, PELVIS, 1].copy(), step,  # a view would keep the block
+            leg_lengths(P[rows]))
 
 
 def _floor_from(present: np.ndarray, lowest: np.ndarray, feet: np.ndarray,
-                pelvis_y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                pelvis_y: np.ndarray, *_unused) -> tuple[np.ndarray, np.ndarray]:
     seen = np.flatnonzero(feet & np.isfinite(pelvis_y))
     above = pelvis_y - lowest  # the pelvis's height above the floor where the feet show it
     if len(seen):
@@ -177,10 +223,12 @@ def _floor_from(present: np.ndarray, lowest: np.ndarray, feet: np.ndarray,
 
 
 def floor_heights(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per frame, the floor's height under poses ``P`` ``(T, 17, 3)`` (+Y up) and whether it
-    was seen.
+    """Per frame, the height of the contact (ankle-centre) plane under poses ``P``
+    ``(T, 17, 3)`` (+Y up) and whether it was seen: the per-frame floor of
+    :func:`to_world_floor` without a pelvis path, which puts the ground
+    :data:`~pcnet.stages.floor.ANKLE_CLEARANCE_LEG` leg lengths below it.
 
-    The floor is the lowest joint centre of a frame in which an ankle is visible (finite):
+    The contact plane is the lowest joint centre of a frame in which an ankle is visible (finite):
     the stance foot, or the lowest body part when lying. Without a visible ankle the lowest
     joint is not on the floor (a knee, a hip: the feet are out of the picture or masked), so
     those frames take the pelvis's height above the floor interpolated in time from the

@@ -13,6 +13,7 @@ import pytest
 from click.testing import CliRunner
 from conftest import FIXTURES, rrd_summary, shared
 
+from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, leg_lengths
 from pcnet.pipeline.cli import EXAMPLE_DIR, main
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
@@ -78,11 +79,19 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
         world, W = npz["joints_world"], npz["world_rotation"]
         assert json.loads(str(npz["report"]))["kinematics_frame"] == "world"
         np.testing.assert_allclose(W @ W.T, np.eye(3), atol=1e-9)
-        # one fixed frame: the world pose is the camera pose turned by one rotation, lowest joint on y = 0
+        # one fixed frame: the world pose is the camera pose turned by one rotation, in every frame
+        # with a pose (the pelvis path is held at the ends where the 2D keypoints have no fit)
         lifted = npz["joints_camera"] @ W.T
         np.testing.assert_allclose(world - world[:, :1], lifted - lifted[:, :1], atol=1e-6)
-        np.testing.assert_allclose(np.nanmin(world[..., 1], axis=1), 0.0, atol=1e-9)
-        np.testing.assert_allclose(world[:, PELVIS, [0, 2]], 0.0, atol=1e-9)
+        # the pelvis path from the 2D keypoints: a boxer stays within half a metre of where he starts
+        report = json.loads(str(npz["report"]))
+        assert report["root_path"] == "from 2D keypoints" and report["floor"]["kind"] == "plane"
+        np.testing.assert_allclose(world[0, PELVIS, [0, 2]], 0.0, atol=1e-9)
+        assert np.nanmax(np.abs(world[:, PELVIS, [0, 2]])) < 0.5
+        assert npz["pelvis_path_std_world"].shape == (frames, 3)
+        # one ground plane: the stance ankles (the lower ankle, typically) stand the clearance above it
+        clearance = ANKLE_CLEARANCE_LEG * np.nanmedian(leg_lengths(world))
+        assert abs(np.nanmedian(np.nanmin(world[..., 1], axis=1)) - clearance) < 0.03
         # its up is the sequence's up
         np.testing.assert_allclose(W[1], npz["up"][0], atol=1e-9)
     for png in ("wrists.png", "angles.png", "speeds.png"):

@@ -496,7 +496,8 @@ def floor_shift(measured: np.ndarray, rigid: np.ndarray, known: np.ndarray) -> n
     joints differ from the input's by the per-frame bone-length variation accumulated from the
     pelvis (a lifter's legs vary by several cm, MediaPipe's by 20 cm and more); placing the
     root at the measured pelvis carries that error to the feet, which then sink below the
-    floor the world frame defines (its lowest joint at y = 0) or float above it. Matching the
+    floor the world frame defines (its ground at y = 0, stance ankle centres the fitted clearance above it,
+    stages/floor.py) or float above it. Matching the
     lowest joint instead keeps the floor contact exact: no BVH joint goes below the lowest
     TRC marker of its frame, and the lowest one is at its height (to the written 6 decimals).
     A least-squares fit of both ankles' heights would leave the lower foot below the floor

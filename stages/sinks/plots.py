@@ -210,26 +210,36 @@ def new_figure(rows: int, cols: int, height_per_row: float):
 
 #: What the grey spans of the angle and speed figures mark.
 OTHER_PERSON_NOTE = "grey: another person's frames (the 2D track switched)"
+#: Colour (RGB 0-1) of the spans marking motion beyond human limits, and what they mark.
+IMPLAUSIBLE_COLOUR = (1.0, 0.8, 0.8)
+IMPLAUSIBLE_NOTE = "red: motion beyond human limits (canonical.npz implausible_frames)"
 
 
-def _shade(ax, t: np.ndarray, marked: np.ndarray | None) -> None:
-    """Grey spans over the runs of ``marked`` ``(T,)`` bool frames at times ``t`` ``(T,)``
-    (each frame spans half a frame either side)."""
+def _shade(ax, t: np.ndarray, marked: np.ndarray | None, color=0.85) -> None:
+    """Spans (grey by default) over the runs of ``marked`` ``(T,)`` bool frames at times ``t``
+    ``(T,)`` (each frame spans half a frame either side)."""
     if marked is None or not np.any(marked):
         return
     half = 0.5 * (t[1] - t[0]) if len(t) > 1 else 0.5
     edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(marked, np.int8), [0]])))
+    color = str(color) if isinstance(color, float) else color
     for start, stop in zip(edges[::2], edges[1::2]):
-        ax.axvspan(t[start] - half, t[stop - 1] + half, color="0.85", lw=0, zorder=0)
+        ax.axvspan(t[start] - half, t[stop - 1] + half, color=color, lw=0, zorder=0)
 
 
-def _other_person(marked, t: np.ndarray, name: str) -> np.ndarray | None:
+def _other_person(marked, t: np.ndarray, name: str, what: str = "other_person") -> np.ndarray | None:
     if marked is None:
         return None
     marked = np.asarray(marked, bool)
     if marked.shape != t.shape:
-        raise InputError(f"{name}: other_person has shape {marked.shape}, expected {t.shape}")
+        raise InputError(f"{name}: {what} has shape {marked.shape}, expected {t.shape}")
     return marked if marked.any() else None
+
+
+def _marks_note(other_person, implausible) -> str:
+    """The title's second line: what the shaded spans mark (empty when none is drawn)."""
+    notes = [n for n, m in ((OTHER_PERSON_NOTE, other_person), (IMPLAUSIBLE_NOTE, implausible)) if m is not None]
+    return f"\n{'; '.join(notes)}" if notes else ""
 
 
 def _no_data(ax) -> None:
@@ -237,16 +247,17 @@ def _no_data(ax) -> None:
             color="0.4", fontsize=9)
 
 
-def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", other_person=None):
+def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", other_person=None, implausible=None):
     """The figure of :func:`plot_joint_angles` (a :class:`matplotlib.figure.Figure` on an
     Agg canvas), for callers that want to inspect or restyle it.
 
     Raises:
         InputError: ``fps <= 0``, ``fps`` not the kinematics' rate, no angles, or
-            ``other_person`` not ``(T,)``.
+            ``other_person`` or ``implausible`` not ``(T,)``.
     """
     t = _time_axis(kin, fps, "plot_joint_angles")
     other_person = _other_person(other_person, t, "plot_joint_angles")
+    implausible = _other_person(implausible, t, "plot_joint_angles", "implausible")
     groups = group_angles(kin.angles)
     if not groups:
         raise InputError("plot_joint_angles: the kinematics have no angles")
@@ -266,6 +277,7 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", ot
             style = "--" if side_of(n) == "left" else "-"
             ax.plot(*display_samples(t, y), style, color=_rgb(colours[n]), lw=1.0, label=_angle_label(n, group))
         _shade(ax, t, other_person)
+        _shade(ax, t, implausible, IMPLAUSIBLE_COLOUR)
         if not finite:
             _no_data(ax)
         ax.set_title(ANGLE_GROUPS[group], fontsize=10)
@@ -281,23 +293,24 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", ot
         axes[-2, -1].tick_params(labelbottom=True)
     fig.suptitle(
         f"Joint angles (deg; left dashed, right solid; gaps = undefined or missing), from {frame_label} positions"
-        + (f"\n{OTHER_PERSON_NOTE}" if other_person is not None else ""),
+        + _marks_note(other_person, implausible),
         fontsize=11,
     )
     return fig
 
 
 def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_label: str = "world frame",
-                        other_person=None):
+                        other_person=None, implausible=None):
     """The figure of :func:`plot_joint_speeds` (a :class:`matplotlib.figure.Figure` on an
     Agg canvas), for callers that want to inspect or restyle it.
 
     Raises:
         InputError: ``fps <= 0`` or not the kinematics' rate, ``kin.speed`` not ``(T, J)``,
-            or ``other_person`` not ``(T,)``.
+            or ``other_person`` or ``implausible`` not ``(T,)``.
     """
     t = _time_axis(kin, fps, "plot_joint_speeds")
     other_person = _other_person(other_person, t, "plot_joint_speeds")
+    implausible = _other_person(implausible, t, "plot_joint_speeds", "implausible")
     speed = kin.speed  # read a joint at a time (a long recording's is on disk)
     names = list(kin.joint_names)
     if tuple(np.shape(speed)) != (len(t), len(names)):
@@ -315,6 +328,7 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
             style = "--" if side_of(j) == "left" else "-"
             ax.plot(*display_samples(t, y), style, color=_rgb(colours[j]), lw=1.0, label=j.replace("_", " "))
         _shade(ax, t, other_person)
+        _shade(ax, t, implausible, IMPLAUSIBLE_COLOUR)
         if not finite:
             _no_data(ax)
         ax.set_title(title, fontsize=10)
@@ -324,7 +338,7 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
         ax.legend(fontsize=8, ncol=2, loc="upper right")
     axes[-1, 0].set_xlabel("time (s)")
     fig.suptitle(f"Joint speeds |v| ({unit}) in the {frame_label}; gaps = missing, unfiltered or run edges"
-                 + (f"\n{OTHER_PERSON_NOTE}" if other_person is not None else ""), fontsize=11)
+                 + _marks_note(other_person, implausible), fontsize=11)
     return fig
 
 
@@ -338,7 +352,7 @@ def save_png(fig, path_png: str | os.PathLike) -> Path:
 
 
 def plot_joint_angles(path_png: str | os.PathLike, kin, fps: float, *, frame_label: str = "world frame",
-                      other_person=None) -> Path:
+                      other_person=None, implausible=None) -> Path:
     """PNG of every joint angle of ``kin`` over time, one panel per joint or segment.
 
     Panels (:data:`ANGLE_GROUPS`, two columns): the ISB joint angles of
@@ -362,20 +376,24 @@ def plot_joint_angles(path_png: str | os.PathLike, kin, fps: float, *, frame_lab
             between-segment angles do not depend on it, the angles to gravity use its +Y.
         other_person: ``(T,)`` bool, frames of another person than the recording's main one
             (the 2D track switched: :func:`pcnet.stages.flags.one_person_frames`), shaded grey.
+        implausible: ``(T,)`` bool, frames whose motion exceeds the fitted human limits
+            (:func:`pcnet.stages.plausibility.implausible_frames`), shaded red
+            (:data:`IMPLAUSIBLE_COLOUR`).
 
     Returns:
         the destination path.
 
     Raises:
-        InputError: ``fps <= 0`` or not ``kin.fps``, no angles, an angle or ``other_person``
-            not ``(T,)``, or the destination folder missing / not writable.
+        InputError: ``fps <= 0`` or not ``kin.fps``, no angles, an angle, ``other_person`` or
+            ``implausible`` not ``(T,)``, or the destination folder missing / not writable.
     """
-    return save_png(joint_angles_figure(kin, fps, frame_label=frame_label, other_person=other_person), path_png)
+    return save_png(joint_angles_figure(kin, fps, frame_label=frame_label, other_person=other_person,
+                                        implausible=implausible), path_png)
 
 
 def plot_joint_speeds(
     path_png: str | os.PathLike, kin, fps: float, units: str | None = None, *, frame_label: str = "world frame",
-    other_person=None,
+    other_person=None, implausible=None,
 ) -> Path:
     """PNG of the speed ``|v|`` of key joints over time: wrists and elbows, ankles and
     knees, pelvis, thorax and head (:data:`SPEED_GROUPS`), one panel each.
@@ -395,13 +413,15 @@ def plot_joint_speeds(
         frame_label: the frame of the positions, shown in the title.
         other_person: ``(T,)`` bool, frames of another person, shaded grey (as
             :func:`plot_joint_angles`).
+        implausible: ``(T,)`` bool, frames of motion beyond human limits, shaded red (as
+            :func:`plot_joint_angles`).
 
     Returns:
         the destination path.
 
     Raises:
-        InputError: ``fps <= 0`` or not ``kin.fps``, ``speed`` or ``other_person`` of the
-            wrong shape, or the destination folder missing / not writable.
+        InputError: ``fps <= 0`` or not ``kin.fps``, ``speed``, ``other_person`` or
+            ``implausible`` of the wrong shape, or the destination folder missing / not writable.
     """
-    return save_png(joint_speeds_figure(kin, fps, units, frame_label=frame_label, other_person=other_person),
-                    path_png)
+    return save_png(joint_speeds_figure(kin, fps, units, frame_label=frame_label, other_person=other_person,
+                                        implausible=implausible), path_png)

@@ -36,6 +36,8 @@ Entity tree (all per-frame data is on the ``frame`` (sequence) and ``video_time`
                                     where the value is finite; ``group`` may be nested
                                     (``angles_deg/hip``): one plot per group
     /series/status/valid            Scalars: 1 where the rotation is valid, else 0
+    /series/status/implausible_motion  Scalars: 1 in frames of motion beyond human limits
+                                    (stages/plausibility.py), else 0 (only when checked)
     /flags                          TextDocument (static, markdown): the run's warnings
 
 Readability: joint labels are off by default (``show_labels=False`` on the 2D and 3D
@@ -268,6 +270,7 @@ def write_recording(
     show_labels: bool = False,
     floor: bool = True,
     notes: list[str] | None = None,
+    implausible_frames: np.ndarray | None = None,
 ) -> Path:
     """Write a ``.rrd`` recording of one sequence with a default blueprint, atomically.
 
@@ -311,6 +314,10 @@ def write_recording(
             cover the person; the viewer still names a hovered joint and can switch them on).
         floor: draw the floor grid ``/world/floor`` at y = 0 (only with ``world``).
         notes: where a line about a video left out is appended (the run summary's notes).
+        implausible_frames: optional ``(T,)`` bool, frames whose joint speeds or accelerations
+            exceed the fitted human limits (:func:`pcnet.stages.plausibility.implausible_frames`),
+            logged as the series ``status/implausible_motion`` (1 there, 0 elsewhere) beside
+            ``status/valid``; ``None`` (not checked) logs nothing.
 
     Returns:
         the destination path.
@@ -333,10 +340,15 @@ def write_recording(
     if valid.shape != (T,):
         raise InputError(f"write_recording: valid must have shape ({T},), got {valid.shape}")
     kp = None if keypoints2d is None else _check("keypoints2d", keypoints2d, (T, 17, 3))
+    implausible = None
+    if implausible_frames is not None:
+        implausible = np.asarray(implausible_frames, dtype=bool)
+        if implausible.shape != (T,):
+            raise InputError(f"write_recording: implausible_frames must have shape ({T},), got {implausible.shape}")
     series_arrays = {}
     for name, values in dict(series or {}).items():
         key = _series_path(name)
-        if key in series_arrays or key[0] == "series/status/valid":
+        if key in series_arrays or key[0] in ("series/status/valid", "series/status/implausible_motion"):
             raise InputError(f"write_recording: series {name!r} collides with another series")
         series_arrays[key] = _check(f"series[{name!r}]", values, (T,))
     wld = None if world is None else _check("world", world, (T, 17, 3))
@@ -391,7 +403,7 @@ def write_recording(
             _log_all(
                 rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset,
                 video_ns, canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space,
-                show_labels=bool(show_labels), floor=bool(floor),
+                show_labels=bool(show_labels), floor=bool(floor), implausible=implausible,
             )
             text = "\n".join(f"- {f}" for f in flags) if flags else "no warnings"
             rec.log("flags", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True, strict=True)
@@ -409,7 +421,7 @@ def write_recording(
 def _log_all(
     rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset, video_ns,
     canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space, *,
-    show_labels: bool = False, floor: bool = True,
+    show_labels: bool = False, floor: bool = True, implausible: np.ndarray | None = None,
 ) -> None:
     # strict=True everywhere: rerun's default turns API misuse into a warning and drops
     # the data, which would yield a silently incomplete recording.
@@ -518,6 +530,8 @@ def _log_all(
 
     # --- time series
     status = {("series/status/valid", "status"): valid.astype(np.float64)}
+    if implausible is not None:
+        status[("series/status/implausible_motion", "status")] = implausible.astype(np.float64)
     everything = {**series_arrays, **status}
     colours: dict[str, tuple[int, int, int]] = {}
     for group in dict.fromkeys(g for _, g in everything):

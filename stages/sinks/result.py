@@ -65,6 +65,14 @@ class RecordingResult:
             frame order, consumed once by :func:`write_kinematics_table`.
         kinematics: :data:`KEPT_JOINTS`' kinematics, float32 (after the table); missing, unfiltered
             ``(T, 17)`` bool; flag_counts: :func:`pcnet.stages.kinematics.count_flags`.
+        implausible_frames: ``(T,)`` bool, frames where a joint's pelvis-relative speed or
+            acceleration exceeds the fitted human limits
+            (:func:`pcnet.stages.plausibility.implausible_frames`), or ``None`` when the motion
+            was not checked (non-metric poses); written to the npz, shaded in the angle and
+            speed plots, logged in the recording.
+        pelvis_path_std: ``(T, 3)`` float64 1-sigma (the poses' units) of a pelvis path
+            recovered from the 2D keypoints along the world axes X, Y, Z (depth is the weak
+            axis), or ``None`` for a measured or unobservable path; written to the npz.
     """
 
     fps: float
@@ -93,6 +101,8 @@ class RecordingResult:
     missing: np.ndarray | None = None
     unfiltered: np.ndarray | None = None
     flag_counts: dict = field(default_factory=dict)
+    implausible_frames: np.ndarray | None = None
+    pelvis_path_std: np.ndarray | None = None
 
     @cached_property
     def heading_deg(self) -> np.ndarray:
@@ -139,7 +149,7 @@ def unobservable_paths(r: RecordingResult) -> dict[str, tuple[str, str]]:
     if r.kinematics_frame == "canonical":
         return {"pelvis": ("xyz", "the canonical frame is centred on the pelvis, whose position and motion in it "
                                   "are 0 by construction, not measured")}
-    if r.report.get("root_path") == "not observable":
+    if r.report.get("root_path", "not observable") == "not observable":
         return {"pelvis": ("xz", "the pelvis's horizontal path is not observable from a root-relative lifter (the "
                                  "world frame holds it at x = z = 0), so neither is its horizontal motion or speed")}
     return {}
@@ -181,7 +191,9 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
 
 
 def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
-    """``canonical.npz`` (:func:`.exports.write_npz`; keys in docs/outputs.md)."""
+    """``canonical.npz`` (:func:`.exports.write_npz`; keys in docs/outputs.md); ``implausible_frames``
+    ``(T,)`` bool (empty when the motion was not checked: non-metric poses);
+    ``pelvis_path_std_world`` ``(T, 3)`` (empty unless the path was recovered from 2D keypoints)."""
     path = folder / "canonical.npz"
     empty = np.zeros(0)
     write_npz(
@@ -195,8 +207,18 @@ def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
         report=jsonable(r.report), camera_frame_weight=r.report.get("camera_frame_weight", empty),
         frame_tilt_bound_deg=r.report.get("frame_tilt_bound_deg", empty),
         joints_world=r.world if r.world is not None else np.zeros((0, 17, 3)), world_rotation=r.world_rotation,
+        implausible_frames=_implausible(r) if r.implausible_frames is not None else np.zeros(0, bool),
+        pelvis_path_std_world=r.pelvis_path_std if r.pelvis_path_std is not None else np.zeros((0, 3)),
     )
     return {"canonical.npz": path}
+
+
+def _implausible(r: RecordingResult) -> np.ndarray:
+    """``r.implausible_frames`` as ``(T,)`` bool, checked against the recording's length."""
+    marked = np.asarray(r.implausible_frames, bool)
+    if marked.shape != (len(r.joints_camera),):
+        raise ValueError(f"implausible_frames: expected shape ({len(r.joints_camera)},), got {marked.shape}")
+    return marked
 
 
 def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allocate=None) -> dict[str, Path]:
@@ -228,25 +250,28 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
 def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
     """``wrists.png`` (camera frame against ``r.kinematics_frame``), ``angles.png`` and
     ``speeds.png`` (:mod:`.plots`; frames outside the 2D track's longest one-person stretch
-    shaded grey)."""
+    shaded grey, frames of motion beyond human limits, ``r.implausible_frames``, shaded red)."""
     kin = r.kinematics
     wrist_acc = kin.acceleration[:, [KEPT_JOINTS.index(n) for n in WRISTS]]
     out = {"wrists.png": plot_wrists(folder / "wrists.png", r.joints_camera, r.poses, r.fps,
                                      r.wrist_acceleration_camera, wrist_acc, r.units, frame_label=r.frame_label)}
     other = None if r.track_segment is None else ~one_person_frames(r.track_segment)
+    implausible = None if r.implausible_frames is None else _implausible(r)
     for name, plot in (("angles.png", plot_joint_angles), ("speeds.png", plot_joint_speeds)):
-        out[name] = plot(folder / name, kin, r.fps, frame_label=r.frame_label, other_person=other)
+        out[name] = plot(folder / name, kin, r.fps, frame_label=r.frame_label, other_person=other,
+                         implausible=implausible)
     return out
 
 
 def write_rerun(r: RecordingResult, folder: Path) -> dict[str, Path]:
     """``recording.rrd`` (:func:`.rerun_log.write_recording`): video, 2D keypoints, camera,
-    canonical and world views, wrist paths, kinematics series and flags."""
+    canonical and world views, wrist paths, kinematics series, flags and the frames of motion
+    beyond human limits (``r.implausible_frames``)."""
     path = write_recording(
         folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera, canonical=r.canonical,
         rotations=r.rotation, up=column(r.rotation, slice(None), 1), valid=r.valid,
         keypoints2d=r.keypoints2d if r.video_keypoints2d is None else r.video_keypoints2d, video_path=r.video, video_first_frame=r.video_first_frame, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
         series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence, flags=r.flags, world=r.world,
-        notes=r.notes,
+        notes=r.notes, implausible_frames=None if r.implausible_frames is None else _implausible(r),
     )
     return {"recording": path}

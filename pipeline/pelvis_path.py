@@ -1,0 +1,140 @@
+"""Where a run's pelvis path comes from: measured by the input (a depth sensor,
+``--measured-root``), recovered from the 2D keypoints by a perspective fit
+(:func:`pcnet.stages.root_path.root_from_keypoints`), or not observable; and the camera
+intrinsics that fit needs.
+
+The camera's focal length is ``--focal-px`` when given, else the ``K`` a lifter file states
+(MediaPipe archives of calibrated cameras), else a phone's 26 mm equivalent
+(:data:`pcnet.stages.core.perspective.DEFAULT_FOCAL_35MM`) on the image size of the video or
+of the keypoint file; the principal point is the image centre.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pcnet.models.lifter_noise import BONE_SCALE_SIGMA
+from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.framestore import per_frame
+from pcnet.stages.core.perspective import focal_px_from_35mm, intrinsics
+from pcnet.stages.root_path import root_from_keypoints
+
+#: ``report["root_path"]``: where the pelvis path of a world-frame run came from.
+PATH_KINDS = ("measured", "from 2D keypoints", "not observable")
+
+
+@dataclass(frozen=True)
+class Intrinsics:
+    """``matrix``: ``(3, 3)`` float64 ``K`` (pixels), or ``None`` when the image size is not
+    known; ``source``: where its focal length came from, or why there is none."""
+
+    matrix: np.ndarray | None
+    source: str
+
+
+def camera_intrinsics(focal_px: float | None, file_matrix: np.ndarray | None,
+                      image_size: tuple[int, int] | None) -> Intrinsics:
+    """The camera's ``K`` for the 2D keypoints (module docstring for the order of sources).
+
+    Args:
+        focal_px: ``--focal-px`` (pixels) or ``None``.
+        file_matrix: the lifter file's ``(3, 3)`` ``K`` or ``None``
+            (:attr:`pcnet.adapters.Poses3D.camera_matrix`).
+        image_size: ``(width, height)`` in pixels of the frames the keypoints are in, or ``None``.
+    """
+    if focal_px is not None and image_size is not None:
+        return Intrinsics(intrinsics(*image_size, focal_px), f"focal length {focal_px:g} px, given")
+    if file_matrix is not None:
+        return Intrinsics(np.asarray(file_matrix, np.float64), f"the lifter file's K (focal length "
+                                                                f"{file_matrix[0][0]:.0f} px)")
+    if image_size is None:
+        return Intrinsics(None, "the image size is unknown (give --video)")
+    focal = focal_px_from_35mm(*image_size)
+    return Intrinsics(intrinsics(*image_size, focal), f"focal length {focal:.0f} px assumed (a phone's 26 mm "
+                                                      f"equivalent; give --focal-px)")
+
+
+@dataclass(frozen=True)
+class PelvisPath:
+    """``kind``: one of :data:`PATH_KINDS`; ``camera``: ``(T, 3)`` float64 camera-frame pelvis
+    positions (m for a recovered path, the input's units for a measured one; NaN where
+    unknown) or ``None``; ``covariance``: ``(T, 3, 3)`` camera-frame covariance of a recovered
+    path (NaN where unknown) or ``None``; ``note``: one summary line (empty for a measured
+    path)."""
+
+    kind: str
+    camera: np.ndarray | None = None
+    covariance: np.ndarray | None = None
+    note: str = ""
+
+    def world_std(self, rotation: np.ndarray) -> np.ndarray | None:
+        """``(T, 3)`` 1-sigma of the path along the world axes of ``rotation`` (``(3, 3)``
+        camera->world, :class:`pcnet.stages.world_frame.WorldFrame`), or ``None`` when the
+        path has no covariance: ``sqrt(diag(W C W^T))``."""
+        if self.covariance is None:
+            return None
+        W = np.asarray(rotation, np.float64)
+        return np.sqrt(np.einsum("ij,tjk,ik->ti", W, self.covariance, W))
+
+
+def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: Intrinsics, units: str, fps: float,
+                min_confidence: float) -> PelvisPath:
+    """The run's pelvis path.
+
+    Args:
+        measured: ``(T, 3)`` the input's measured camera-frame pelvis path, or ``None``.
+        joints_cam: ``(T, 17, 3)`` root-relative camera-frame poses in ``units``.
+        keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence in the frames ``camera``
+            describes, or ``None``.
+        camera: :func:`camera_intrinsics`.
+        units: the poses' units; a path is recovered only from metric poses.
+        fps: frame rate (Hz).
+        min_confidence: the run's 2D confidence threshold.
+
+    The recovered path's covariance includes a body-size spread of
+    :data:`pcnet.models.lifter_noise.BONE_SCALE_SIGMA` (a lifter's limbs are a few percent
+    off any one subject's: that model's assumption, not fitted), which scales the whole path
+    (depth most); other lifter errors that persist over time are not in it, so on real lifter
+    output it is a lower bound (:mod:`pcnet.stages.root_path`).
+    """
+    if measured is not None:
+        return PelvisPath("measured", measured)
+    if keypoints2d is None:
+        return PelvisPath("not observable", note="pelvis path not observable: no 2D keypoints to place the "
+                                                 "root-relative poses in the image (give --keypoints2d)")
+    if units != "m":
+        return PelvisPath("not observable", note=f"pelvis path not observable: the poses are in {units}, not metres "
+                                                 f"(give --height)")
+    if camera.matrix is None:
+        return PelvisPath("not observable", note=f"pelvis path not observable: {camera.source}")
+    try:
+        path = root_from_keypoints(joints_cam, keypoints2d, camera.matrix, fps, min_confidence=min_confidence,
+                                   size_std_fraction=BONE_SCALE_SIGMA)
+    except InputError as err:  # too few joints seen in 2D and 3D alike: the run goes on without a path
+        return PelvisPath("not observable", note=f"pelvis path not observable: {err}")
+    position, held = _held_at_the_ends(path.position, per_frame(lambda P: np.isfinite(P).any(axis=(1, 2)), joints_cam))
+    found = np.isfinite(path.position).all(axis=1)
+    return PelvisPath("from 2D keypoints", position, path.cov,
+                      f"pelvis path from the 2D keypoints ({camera.source}): {int(found.sum())} of {len(found)} "
+                      f"frames, depth 1-sigma median {path.depth_std_median:.2f} m with a "
+                      f"{100 * BONE_SCALE_SIGMA:g} % body-size spread (a lower bound on real lifter output)"
+                      + (f"; {path.frames_rejected} frames rejected as outliers" if path.frames_rejected else "")
+                      + (f"; held at its first/last fitted position in {held} frames with a pose but no fit at the "
+                         f"ends (no velocity there)" if held else ""))
+
+
+def _held_at_the_ends(position: np.ndarray, posed: np.ndarray) -> tuple[np.ndarray, int]:
+    """``position`` ``(T, 3)`` with the frames before the first and after the last known one
+    that have a pose (``posed`` ``(T,)`` bool) holding that known position, so their joints
+    stay in the world frame; and how many were held. The smoother bridges gaps inside the
+    fitted span itself (:mod:`pcnet.stages.root_path`)."""
+    known = np.flatnonzero(np.isfinite(position).all(axis=1))
+    if not len(known):
+        return position, 0
+    out = position.copy()
+    head = np.flatnonzero(posed[: known[0]])
+    tail = known[-1] + 1 + np.flatnonzero(posed[known[-1] + 1 :])
+    out[head], out[tail] = position[known[0]], position[known[-1]]
+    return out, len(head) + len(tail)

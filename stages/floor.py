@@ -1,0 +1,173 @@
+"""The ground under a recording: one horizontal plane fitted to stance contacts, or a
+per-frame fallback (docs/CONVENTIONS.md, "World frame"; used by
+:func:`pcnet.stages.world_frame.to_world`).
+
+Model (world frame, +Y up, any one length unit). In frame ``t`` let ``m_t`` be the height of
+the lowest joint centre (a stance ankle when upright, the lowest resting body part when
+lying) and ``s_t = |p_{t+1} - p_{t-1}|`` the displacement of that same joint over the two
+neighbouring frames. A joint resting on the ground ``y = g`` has
+
+    m_t = g + c L + e_t,   s_t ~ 0,
+
+with ``L`` the subject's leg length (median over frames of hip->knee + knee->ankle, both
+legs, in the input's own skeleton), ``c`` = :data:`ANKLE_CLEARANCE_LEG` the height of the
+ankle joint centre above the ground at stance as a fraction of the leg (H36M-17 has no sole
+or toe joint), and ``e_t`` the contact's noise; in a swing or flight frame ``m_t`` is higher
+and ``s_t`` large. The contacts are the frames whose lowest joint moves no more than the
+median ``s_t`` of the recording (the slower half: scale-free, no speed threshold in m/s, and
+a body that is supported at least half the time - walking, running, standing, lying - has
+its rests there), and
+
+    g + c L = argmin_a  sum_{t in contacts} rho((m_t - a) / sigma),
+
+``rho`` Tukey's biweight with the standard ``c = 4.685`` (:data:`~pcnet.stages.spherical.TUKEY_C`,
+95 % efficiency under Gaussian noise), ``sigma = 1.4826 MAD`` of the contact heights about
+their median (fixed), solved by iteratively reweighted least squares from the median
+(Huber & Ronchetti, *Robust Statistics*, 2nd ed., 2009, ch. 3 and 6). A jump's apex (slow
+at the top) and a heel rising before toe-off are high outliers the biweight rejects.
+
+Why a horizontal plane (only its height fitted), not a tilted one: the world frame's +Y is the
+recording's gravity estimate, and with a pelvis path sequence mode already fits the floor's
+tilt from these same contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`, with its
+fitted prior) or refuses to for a stated reason; a second tilt here would either repeat that
+fit or contradict the gravity the accelerations use. A depth scale error of a recovered path
+scales it along the camera rays about the camera centre, which moves every stance contact by
+the same ``k (h_pelvis - h_camera)``: an offset the height absorbs, no slope. Measured by
+``benchmarks/fit_floor.py`` (``benchmarks/results/fit_floor.txt``): a 5 % path scale error
+moves the fitted floor under the pelvis by the amounts listed there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .core.conventions import L_ANKLE, L_HIP, L_KNEE, R_ANKLE, R_HIP, R_KNEE
+from .spherical import TUKEY_C
+
+#: Height of the ankle joint centre above the ground at stance, as a fraction of the leg
+#: length (hip->knee + knee->ankle). Fitted by
+#: ``python benchmarks/fit_floor.py --data ../shared/data`` (benchmarks/results/fit_floor.txt)
+#: on ../shared/data/mocap/cmu_train_h36m17.npz, training subjects of the motion-style split
+#: (models/datasets.py: select_split(..., "train", "motion-style"): CMU subjects 8, 9, 11, 13,
+#: 61; world floor y = 0): the median over subjects of each subject's median over clips of
+#: this module's contact fit of the ankle-centre plane (true path), over the leg length.
+#: Leg rather than shank (knee->ankle): every CMU subject there has the same retargeted
+#: skeleton, so the choice was made across the two training rigs (CMU train, Bandai train:
+#: the fraction of the leg differs by less between them than the fraction of the shank; see
+#: the result file).
+ANKLE_CLEARANCE_LEG = 0.1302
+#: The fewest contacts for a plane: the robust scale (MAD) of fewer points is zero or undefined.
+MIN_CONTACTS = 3
+
+KINDS = ("plane", "per frame", "pelvis")
+
+
+@dataclass(frozen=True)
+class Floor:
+    """How the world frame's floor (``y = 0``) was placed.
+
+    kind: ``"plane"`` (one horizontal ground plane for the recording, fitted to stance
+        contacts along a pelvis path), ``"per frame"`` (no pelvis path, or too few contacts:
+        the ground under each frame's lowest joint centre), or ``"pelvis"`` (no ankle in any
+        frame: no ground was seen; heights are relative to the pelvis, ``y = 0`` at the pelvis
+        without a path, at its median height with one).
+    clearance: height of the ankle-centre (contact) plane above the ground, in the poses'
+        units (``ANKLE_CLEARANCE_LEG`` x ``leg_length``; 0 for ``"pelvis"``).
+    leg_length: the subject's median leg length, poses' units (NaN when no leg was measured).
+    n_contacts: contact frames the plane was fitted to (0 unless ``"plane"``).
+    residual: robust scale (1.4826 MAD) of the contact heights about the plane, poses' units
+        (NaN unless ``"plane"``).
+    reason: why the floor is not a fitted plane (``""`` for ``"plane"``).
+    """
+
+    kind: str
+    clearance: float
+    leg_length: float
+    n_contacts: int = 0
+    residual: float = float("nan")
+    reason: str = ""
+
+    def note(self) -> str:
+        """One line for a run's notes: what ``y = 0`` is."""
+        if self.kind == "plane":
+            return (f"floor: one ground plane for the recording, fitted to {self.n_contacts} stance contacts "
+                    f"(residual {self.residual:.3g}); ankle centres stand {self.clearance:.3g} above it")
+        if self.kind == "per frame":
+            return (f"floor per frame ({self.reason}): the ground under each frame's lowest joint centre, "
+                    f"which stands {self.clearance:.3g} above it")
+        return f"no floor ({self.reason}): heights are relative to the pelvis"
+
+
+def leg_lengths(P: np.ndarray) -> np.ndarray:
+    """``(T,)`` per frame, the mean over the legs present of hip->knee + knee->ankle of
+    ``(T, 17, 3)`` H36M-17 poses (any frame, any unit); NaN where neither leg is whole."""
+    P = np.asarray(P, np.float64)
+    legs = [np.linalg.norm(P[:, h] - P[:, k], axis=-1) + np.linalg.norm(P[:, k] - P[:, a], axis=-1)
+            for h, k, a in ((R_HIP, R_KNEE, R_ANKLE), (L_HIP, L_KNEE, L_ANKLE))]
+    both = np.stack(legs, -1)
+    out = np.full(len(P), np.nan)
+    some = np.isfinite(both).any(axis=1)
+    out[some] = np.nanmean(both[some], axis=1)
+    return out
+
+
+def tukey_location(x: np.ndarray, max_iter: int = 100) -> tuple[float, float]:
+    """Tukey-biweight M-estimate of location of the finite values of ``x`` (``(N,)``, N >= 1)
+    and the scale used (1.4826 MAD about the median, fixed; floored at 1e-12 so that equal
+    values give that value). IRLS from the median, ``c =`` :data:`TUKEY_C`."""
+    x = np.asarray(x, np.float64)
+    x = x[np.isfinite(x)]
+    mu = float(np.median(x))
+    scale = float(1.4826 * np.median(np.abs(x - mu)))
+    s = max(scale, 1e-12)
+    for _ in range(max_iter):
+        u = (x - mu) / (TUKEY_C * s)
+        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+        if not w.sum() > 0:
+            break
+        new = float(np.sum(w * x) / np.sum(w))
+        if abs(new - mu) <= 1e-12 * max(1.0, abs(mu)):
+            mu = new
+            break
+        mu = new
+    return mu, scale
+
+
+def contacts(lowest: np.ndarray, step: np.ndarray, usable: np.ndarray) -> np.ndarray:
+    """``(T,)`` bool: the contact frames of the module's model, the usable frames (finite
+    ``lowest`` and ``step``) whose lowest joint moved at most the median ``step`` over them.
+
+    Args:
+        lowest: ``(T,)`` height of each frame's lowest joint centre.
+        step: ``(T,)`` that joint's displacement between the neighbouring frames (NaN at the
+            ends and where it is missing there).
+        usable: ``(T,)`` bool, frames allowed to hold a contact (an ankle visible, a path).
+    """
+    ok = usable & np.isfinite(lowest) & np.isfinite(step)
+    if not ok.any():
+        return ok
+    return ok & (step <= np.median(step[ok]))
+
+
+def fit_ground(lowest: np.ndarray, step: np.ndarray, usable: np.ndarray, leg_length: float) -> tuple[float, Floor]:
+    """The recording's ground plane from per-frame evidence along a pelvis path.
+
+    Args:
+        lowest, step, usable: ``(T,)`` as :func:`contacts` (heights along world +Y).
+        leg_length: the subject's median leg length (same unit; NaN: clearance 0).
+
+    Returns:
+        ``(ground_y, Floor)``: the height of the ground (``g`` of the module docstring) and
+        a :class:`Floor` of kind ``"plane"``; or NaN and a ``"per frame"`` :class:`Floor`
+        saying why no plane was fitted (fewer than :data:`MIN_CONTACTS` contacts).
+    """
+    clearance = ANKLE_CLEARANCE_LEG * leg_length if np.isfinite(leg_length) else 0.0
+    c = contacts(lowest, step, usable)
+    n = int(c.sum())
+    if n < MIN_CONTACTS:
+        return float("nan"), Floor("per frame", clearance, leg_length,
+                                   reason=f"{n} stance contacts along the pelvis path, fewer than {MIN_CONTACTS}")
+    level, scale = tukey_location(lowest[c])
+    return level - clearance, Floor("plane", clearance, leg_length, n, scale)
