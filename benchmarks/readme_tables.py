@@ -2,6 +2,9 @@
 ``bash benchmarks/evaluate_all.sh`` wrote to benchmarks/results/heldout/.
 
     python benchmarks/readme_tables.py
+
+``python benchmarks/docs_tables.py`` writes this table, and the other generated tables, into
+the benchmark pages of the docs site (docs/benchmarks/).
 """
 
 from __future__ import annotations
@@ -36,13 +39,13 @@ HELDOUT_ROWS = (  # (file stem without the model, data/split label, protocol lab
 HELDOUT_METHODS = ("geometric", "pcnet-camnet", "pcnet-bodynet", "pcnet")
 
 
-def heldout() -> None:
+def heldout_table() -> str:
     """The held-out table: each row with its clips, groups, scored and invalid frames (left out
     of the metrics) and, for Bandai, the clips the shipped weights trained on. Rows of one
     data/protocol must have scored the same frames (``frame_set``): checked."""
     folder = RESULTS / "heldout"
-    print("| data, split | protocol | method | clips / groups | frames (invalid) | trained on | rotation | tilt "
-          "| heading | MPJPE | PA-MPJPE |\n|---|---|---|---|---|---|---|---|---|---|---|")
+    lines = ["| data, split | protocol | method | clips / groups | frames (invalid) | trained on | rotation | tilt "
+             "| heading | MPJPE | PA-MPJPE |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for stem, data, protocol in HELDOUT_ROWS:
         sets = set()
         for method in HELDOUT_METHODS:
@@ -53,10 +56,16 @@ def heldout() -> None:
             sets.add(r["frame_set"])
             o = r.get("training_overlap", r.get("shipped_training_overlap"))
             trained = f"{o['clips_trained_on']} clips, {o['groups_with_a_trained_take']} groups" if o else "none"
-            print(f"| {data} | {protocol} | {method} | {r['clips']} / {r['groups']} | {r['frames']} "
-                  f"({r['invalid_frames']}) | {trained} | " + " | ".join(cell(r, m) for m in ALL_METRICS) + " |")
+            lines.append(f"| {data} | {protocol} | {method} | {r['clips']} / {r['groups']} | {r['frames']} "
+                         f"({r['invalid_frames']}) | {trained} | " + " | ".join(cell(r, m) for m in ALL_METRICS) + " |")
         if len(sets) > 1:
             raise SystemExit(f"{stem}: methods scored different frames {sorted(sets)}")
+    return "\n".join(lines)
+
+
+def heldout() -> None:
+    """Print the held-out table (``heldout_table``)."""
+    print(heldout_table())
 
 
 if __name__ == "__main__":
