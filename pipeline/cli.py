@@ -340,6 +340,9 @@ def _run_and_report(cfg) -> None:
 @click.option("--focal-px", type=float, default=None,
               help="The camera's focal length in pixels: places the pelvis path from the 2D keypoints and turns "
                    "MediaPipe landmarks into the camera [a MediaPipe file's K, else a phone's 26 mm equivalent].")
+@click.option("--image-size", default=None,
+              help="WIDTHxHEIGHT of the frames the 2D keypoints came from, without --video when the keypoint file "
+                   "does not state it (AlphaPose, OpenPose): needed for the pelvis path from the 2D keypoints.")
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 @click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")

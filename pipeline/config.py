@@ -154,7 +154,9 @@ class RunConfig:
     it places the pelvis path recovered from the 2D keypoints
     (:func:`pcnet.stages.root_path.root_from_keypoints`) and turns MediaPipe's landmarks into
     the real camera; ``None`` = a MediaPipe file's own ``K``, else a phone's 26 mm equivalent
-    (:data:`pcnet.stages.core.perspective.DEFAULT_FOCAL_35MM`).
+    (:data:`pcnet.stages.core.perspective.DEFAULT_FOCAL_35MM`). ``image_size``: ``"WIDTHxHEIGHT"``
+    in pixels of the frames the 2D keypoints were detected in, for a run without a video whose
+    keypoint file does not state it (AlphaPose, OpenPose): the principal point of that fit.
     """
 
     lifter: str | None = None
@@ -182,6 +184,7 @@ class RunConfig:
     opensim: bool = False
     mass: float | None = None
     focal_px: float | None = None
+    image_size: str | None = None
     lifter_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -191,6 +194,14 @@ class RunConfig:
             value = getattr(self, name)
             if isinstance(value, os.PathLike):
                 setattr(self, name, os.fspath(value))
+
+    @property
+    def image_size_px(self) -> tuple[int, int] | None:
+        """``image_size`` as ``(width, height)`` pixels, or ``None`` (checked by :meth:`validate`)."""
+        if self.image_size is None:
+            return None
+        width, height = self.image_size.lower().split("x")
+        return int(width), int(height)
 
     @property
     def min_confidence(self) -> float:
@@ -287,6 +298,9 @@ class RunConfig:
         if self.focal_px is not None and not (math.isfinite(self.focal_px) and self.focal_px > 0):
             raise InputError(f"{field_name(source, 'focal_px')}: expected a positive finite focal length in pixels, "
                              f"got {self.focal_px!r}")
+        if self.image_size is not None and not re.fullmatch(r"[1-9][0-9]{0,5}[xX][1-9][0-9]{0,5}", self.image_size):
+            raise InputError(f"{field_name(source, 'image_size')}: expected WIDTHxHEIGHT in pixels (e.g. 1920x1080), "
+                             f"got {self.image_size!r}")
         if "focal_px" in self.lifter_options:  # one source: the camera's, whatever the lifter
             raise InputError(f"{field_name(source, 'focal_px')}: expected focal_px as a run option (the camera's focal "
                              f"length, for every lifter), got it in lifter_options; move it to the top level")

@@ -50,7 +50,7 @@ def camera_intrinsics(focal_px: float | None, file_matrix: np.ndarray | None,
         return Intrinsics(np.asarray(file_matrix, np.float64), f"the lifter file's K (focal length "
                                                                 f"{file_matrix[0][0]:.0f} px)")
     if image_size is None:
-        return Intrinsics(None, "the image size is unknown (give --video)")
+        return Intrinsics(None, "the image size is unknown (give --video or --image-size)")
     focal = focal_px_from_35mm(*image_size)
     return Intrinsics(intrinsics(*image_size, focal), f"focal length {focal:.0f} px assumed (a phone's 26 mm "
                                                       f"equivalent; give --focal-px)")

@@ -523,6 +523,22 @@ def _collector_skips_older_objects():
                     gc.unfreeze()
 
 
+def _image_size(cfg: RunConfig, video: VideoInfo | None, keypoint_size: tuple[int, int] | None) -> tuple[int, int] | None:
+    """``(width, height)`` of the frames the 2D keypoints are in (as displayed): the video's,
+    else ``--image-size``, else the keypoint file's, else ``None``.
+
+    Raises:
+        InputError: ``--image-size`` contradicting the video's size.
+    """
+    given = cfg.image_size_px
+    if video is not None:
+        if given is not None and given != (video.width, video.height):
+            raise InputError(f"--image-size {cfg.image_size}: expected the size of {cfg.video} as displayed "
+                             f"({video.width}x{video.height}), got a mismatch; leave it out with a video")
+        return video.width, video.height
+    return given or keypoint_size
+
+
 def _present(poses) -> np.ndarray:
     """``(T,)`` bool: frames with any finite joint, read a block at a time."""
     return per_frame(lambda P: np.isfinite(P).any(axis=(1, 2)), poses)
@@ -687,6 +703,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             bar.update()
         step("inputs")
         inputs = _load_inputs(cfg)
+        image_size = _image_size(cfg, inputs.video, inputs.keypoint_image_size)
         video, fps, fps_source, kp2d, joints, units = (inputs.video, inputs.fps, inputs.fps_source, inputs.keypoints2d,
                                                         inputs.joints, inputs.units)
         needing_metres = [name for name, asked in (("--c3d", cfg.c3d), ("--opensim", cfg.opensim)) if asked]
@@ -800,7 +817,6 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         world, world_rotation, pelvis_path_std = None, np.full((3, 3), np.nan), None
         if report["mode"] == "sequence":
             frame = world_frame(rotations, valid, fps)
-            image_size = (video.width, video.height) if video is not None else inputs.keypoint_image_size
             path = pelvis_path(root_cam, cam, kp2d, camera_intrinsics(cfg.focal_px, inputs.camera_matrix, image_size),
                                units, fps, cfg.min_confidence)
             world, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64))
