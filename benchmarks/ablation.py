@@ -1,0 +1,664 @@
+"""Ablation of the decision machinery around the two networks: each evidence source and rule switched off in turn.
+
+    python benchmarks/ablation.py --data ../shared/data [--max-clips 200] [--cache /tmp/pcnet_ablation_cache] \
+        [--out benchmarks/results/ablation.txt]
+
+Issue 49, "Ablation, not accretion": a piece that does not help on held-out data goes. This
+script measures every piece on held-out data only, one row each.
+
+Evidence is extracted ONCE per clip and cached (``--cache``, pickle per data set): each
+recording runs through the shipped estimator exactly as ``pcnet run`` builds it
+(:class:`pcnet.pipeline.rectification.NetworkEstimator` -> :class:`pcnet.models.inference.ViewGatedPCNet`
+``predict_gated``), with recorders on the two onnxruntime sessions' ``predict_normalized``
+that keep each network's raw per-frame rotations: the body-frame network, the camera-frame
+network on the quarter-turned input (turned back into the camera frame), and the camera-frame
+network on the unturned input of the turned frames (the level view); with the quarter turns,
+the gate's weights, the disagreement and the level-view angle the estimator returns. The same
+estimate then goes through the real chain (:class:`pcnet.stages.rectify.Rectification`,
+``SequenceEvidence("auto", camera_prior=True)``, heading ``auto``: the defaults of
+``pcnet run``; no bootstrap, which does not move the up) and its up is cached too. Every
+variant below is then numpy on the cache, built from the package's own functions
+(:func:`pcnet.models.view_gate.camera_frame_weight`, ``blend_rotations``, ``quarter_turn_matrices``,
+:func:`pcnet.stages.uncertainty.frame_tilt_bound`, ``bound_weights``, ``evidence_scale``,
+:func:`pcnet.stages.temporal.choose_mode`, ``sequence_rectify``, ``smooth_rotations``); the
+switches are arguments or monkeypatches here, never edits of the package. Row ``default`` is
+rebuilt from the cache the same way and checked against the real chain's cached up (the
+"reproduction check" line: the largest angle between the two over every recording).
+
+Data, held out from the shipped weights (their training mix is the Bandai + CMU motion-style
+train split; models/MODEL_CARD.md):
+- mocap: the Bandai motion-style test split, the CMU test subjects (motion-style test split of
+  cmu_train_h36m17.npz) and DeepMimic (all clips), at most ``--max-clips`` clips per set (a
+  seeded random subset, sorted), each clip one static camera from the "paper" distribution
+  (``make_pairs(..., views="paper", seed=0, camera="static", noise=LifterNoise())``, the
+  protocol of benchmarks/calibrate_uncertainty.py and auto_mode_threshold.py); the truth's up
+  is constant over a clip;
+- real calibrated: real/pose2sim_gravity/statictrial_cam01-04 (4 real cameras, MediaPipe, the
+  lab's calibrated up; read as benchmarks/gravity_benchmark.py reads them), each as filmed and
+  rolled by 90, 180 and -90 deg about the optical axis (16 views);
+- yoga physics (benchmarks/yoga_physics.py): the 88 distinct real VideoPose3D yoga files at
+  stride 2 (15 fps), no ground truth: median trunk angle from each method's up per file,
+  targets Shavasana >= 80, Padmasana <= 15, Tadasana <= 6 deg (the trunk angle here is taken
+  against the up in the camera frame, without the network's small residual, so it can differ
+  from yoga_physics.txt by a few tenths of a degree);
+- roll equivariance (benchmarks/equivariance.py): its 6 real clips (middle 300 frames), the
+  camera rolled by 30 and 90 deg about its optical axis; extra error = mean angle between the
+  up of the rolled view and the unrolled view's up turned with the camera (0 for an
+  equivariant method);
+- a moving camera (what mode ``auto`` and its threshold are for; every set above is a static
+  camera): the cached inputs of the Bandai test and DeepMimic clips with at least 150 frames
+  (at most 60 per set), the camera's pitch sweeping linearly through 30 deg over each clip
+  (the protocol of benchmarks/auto_mode_threshold.py); the truth's up moves with the camera.
+
+Metrics. Mocap: per clip the tilt error of the output (mean over its valid frames of the
+angle between the output up and the true up; in sequence mode the one up's error), then mean
+/ median / p95 over clips; ``frame`` = the per-frame estimate's tilt error (before any
+sequence step), mean over all frames; ``>20`` = clips erring more than 20 deg; ``lying`` =
+clips whose camera-prior reading (upright / lying) is not the truth (lying = median true
+trunk angle from up > 60 deg; without the prior every clip reads upright). Verdict: paired
+bootstrap over clips (2,000 replicates) of the mean difference row - default, 95 % interval;
+for a row that switches a piece off, "helps" when switching it off makes the error larger
+(interval above 0), "hurts" when smaller (below 0), else "no effect", and "no effect" too
+whenever the mean difference is under 0.05 deg (negligible) or exactly 0 for every clip
+("identical"); in brackets after it the clips whose error moved by more than 0.5 deg
+(worse, better; for yoga: files that newly fail / newly pass); for an alternative
+(the plain robust mean, the balance cue) "better" / "worse" / "same". The real cameras, the
+yoga fails and the equivariance use the same bootstrap over their views / files / rolled
+clips (few of them: read those intervals as rough).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import hashlib
+import pickle
+import sys
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import pcnet.stages.temporal as temporal  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
+from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, get_session  # noqa: E402
+from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
+from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices  # noqa: E402
+from pcnet.pipeline.rectification import NetworkEstimator  # noqa: E402
+from pcnet.stages.core.conventions import PELVIS, THORAX  # noqa: E402
+from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize, with_up  # noqa: E402
+from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence  # noqa: E402
+from pcnet.stages.spherical import robust_mean_direction  # noqa: E402
+from pcnet.stages.uncertainty import (FRAME_TILT_95_DEG, bound_weights, evidence_scale,  # noqa: E402
+                                      frame_tilt_bound, reach_alternative)
+
+DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+RESULT = Path(__file__).resolve().parent / "results" / "ablation.txt"
+CACHE = Path("/tmp/pcnet_ablation_cache")
+MOCAP_SETS = (("Bandai motion-style test", "bandai_h36m17.npz", "test"),
+              ("CMU test subjects", "cmu_train_h36m17.npz", "test"),
+              ("DeepMimic", "deepmimic_h36m17.npz", "all"))
+REAL_ROLLS_DEG = (0, 90, 180, -90)
+EQUIVARIANCE_ROLLS_DEG = (30, 90)
+YOGA_STRIDE = 2
+GROSS_DEG = 20.0
+LYING_TRUNK_DEG = 60.0
+BOOTSTRAP = 2000
+BALANCE_WEIGHT = 0.2  # the smallest mix benchmarks/balance_evidence.py tried
+#: A mean difference smaller than this (deg) is "no effect" whatever its interval.
+NEGLIGIBLE_DEG = 0.05
+#: A clip "changed" when its error moved by more than this (deg).
+CHANGED_DEG = 0.5
+SWEEP_DEG = 30.0
+SWEEP_MIN_FRAMES = 150
+SWEEP_MAX_CLIPS = 60
+CACHE_VERSION = 1
+
+
+# ============================================================================ extraction
+
+
+@dataclass(frozen=True)
+class _Fixed:
+    """A FrameEstimator that returns an estimate already made (so the real chain runs on it)."""
+
+    estimate: object
+    name: str = "pcnet"
+    frame_tilt_95_deg: float = FRAME_TILT_95_DEG
+
+    def __call__(self, joints_cam, fps=30.0, allocate=None):
+        return self.estimate
+
+
+@contextlib.contextmanager
+def recording(session):
+    """Record every ``predict_normalized`` call of the pair's two sessions: ``[(net, R)]``."""
+    calls = []
+    originals = {}
+    for net in ("body", "camera"):
+        sess = getattr(session, net)
+        orig = sess.predict_normalized
+        originals[net] = orig
+
+        def wrapped(*a, _orig=orig, _net=net, **k):
+            out = _orig(*a, **k)
+            calls.append((_net, out[0].copy()))
+            return out
+
+        sess.predict_normalized = wrapped
+    try:
+        yield calls
+    finally:
+        for net, orig in originals.items():
+            del getattr(session, net).predict_normalized  # back to the class's method
+
+
+def extract(X: np.ndarray, fps: float) -> dict:
+    """The cached evidence of one recording ``X`` ``(T, 17, 3)`` (module docstring)."""
+    X = np.asarray(X, np.float32)
+    session = get_session(None)
+    with recording(session) as calls:
+        est = NetworkEstimator()(X, fps)
+    n = len(X)
+    if n > 8192:
+        raise ValueError("recordings over one block (8192 frames) are not supported by the recorder")
+    turns = est.quarter_turns
+    body = [R for net, R in calls if net == "body"]
+    cam = [R for net, R in calls if net == "camera"]
+    assert len(body) == 1 and len(cam) == (2 if turns.any() else 1), (len(body), len(cam))
+    R_body = body[0]
+    Q = quarter_turn_matrices(turns)
+    R_camT = np.swapaxes(Q, 1, 2) @ cam[-1]  # the camera-frame network's answer on the turned input, turned back
+    R_camP = R_camT.copy()  # the camera-frame network on the input as filmed
+    if turns.any():
+        idx = np.flatnonzero(turns)
+        R_camP[idx] = cam[0]
+    real = Rectification(_Fixed(est), SequenceEvidence("auto", True, n_bootstrap=0), HeadingStep("auto"))(X, fps)
+    rep = real.report
+    grav = rep.get("gravity")
+    return {
+        "fps": float(fps), "J": X, "R_body": R_body, "R_camT": R_camT, "R_camP": R_camP, "valid": est.valid.copy(),
+        "turns": turns.copy(), "weight": est.camera_frame_weight.copy(), "level_view": est.level_view_deg.copy(),
+        "frame_up": est.rotation[:, :, 1].copy(), "real_up": real.up.copy(), "real_valid": real.valid.copy(),
+        "real_mode": rep["mode"], "real_reading": None if grav is None else grav["reading"],
+        "ground_plane_used": bool((rep.get("ground_plane") or {}).get("used", False)),
+    }
+
+
+#: The package sources that make the cached evidence (inputs and network outputs); the chain
+#: after them runs live, and the reproduction check compares it with the chain run at extraction.
+EVIDENCE_SOURCES = ("inference.py", "view_gate.py", "preprocess.py", "datasets.py", "lifter_noise.py")
+
+
+def _weights_key() -> str:
+    """Digest of the shipped weights and :data:`EVIDENCE_SOURCES` (a change re-extracts)."""
+    h = hashlib.sha256()
+    models = CAMERA_WEIGHTS.parents[1]
+    for p in (CAMERA_WEIGHTS, BODY_WEIGHTS, *(models / name for name in EVIDENCE_SOURCES)):
+        h.update(p.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def cached(cache: Path, name: str, build):
+    """``build()`` once, pickled under ``cache`` (keyed on the shipped weights too)."""
+    path = cache / f"v{CACHE_VERSION}_{_weights_key()}_{name}.pkl"
+    if path.is_file():
+        with open(path, "rb") as f:
+            return pickle.load(f)
+    t0 = time.time()
+    out = build()
+    cache.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    with open(tmp, "wb") as f:
+        pickle.dump(out, f, protocol=pickle.HIGHEST_PROTOCOL)
+    tmp.replace(path)
+    print(f"  extracted {name} in {time.time() - t0:.0f} s", flush=True)
+    return out
+
+
+def mocap_evidence(data: Path, file: str, split: str, max_clips: int) -> list[dict]:
+    clips = select_split(load_mocap(data / "mocap" / file), split, "motion-style")
+    if len(clips) > max_clips:
+        rng = np.random.default_rng(0)
+        clips = [clips[i] for i in sorted(rng.choice(len(clips), max_clips, replace=False))]
+    pairs = make_pairs(clips, views="paper", seed=0, camera="static", noise=LifterNoise())
+    out = []
+    for i, clip in enumerate(clips):
+        sel = np.flatnonzero(pairs.clip == i)
+        if len(sel) < 2:
+            continue
+        ev = extract(pairs.inputs[sel], clip.fps)
+        ev["name"] = clip.name
+        ev["true_up"] = pairs.R[sel][:, :, 1].copy()
+        out.append(ev)
+    return out
+
+
+def sweep_evidence(sets: list[list[dict]]) -> list[dict]:
+    """A moving camera: the cached static-camera inputs of clips with at least
+    :data:`SWEEP_MIN_FRAMES` frames (at most :data:`SWEEP_MAX_CLIPS` per set), the camera's
+    pitch sweeping linearly through :data:`SWEEP_DEG` over the clip (benchmarks/auto_mode_threshold.py):
+    ``X'_t = X_t @ S_t.T``, true up ``S_t u``."""
+    out = []
+    for evs in sets:
+        for ev in [e for e in evs if len(e["J"]) >= SWEEP_MIN_FRAMES][:SWEEP_MAX_CLIPS]:
+            T = len(ev["J"])
+            S = np.stack([axis_rotation("x", a) for a in np.radians(np.linspace(-1, 1, T) * SWEEP_DEG / 2)])
+            X = np.einsum("tij,tkj->tki", S, ev["J"].astype(np.float64)).astype(np.float32)
+            new = extract(X, ev["fps"])
+            new.update(name=ev["name"], true_up=np.einsum("tij,tj->ti", S, ev["true_up"]))
+            out.append(new)
+    return out
+
+
+def real_camera_evidence(data: Path) -> list[dict]:
+    from gravity_benchmark import load_camera, roll_view
+
+    out = []
+    for path in sorted((data / "real" / "pose2sim_gravity").glob("statictrial_cam*.npz")):
+        joints, up, fps = load_camera(path)
+        for roll in REAL_ROLLS_DEG:
+            J, u = roll_view(joints, up, roll)
+            ev = extract(J, fps)
+            ev.update(name=f"{path.stem.replace('statictrial_', '')} roll {roll:+d}", true_up=np.tile(u, (len(J), 1)),
+                      camera=path.stem.replace("statictrial_", ""), roll=roll)
+            out.append(ev)
+    return out
+
+
+def yoga_evidence(data: Path) -> list[dict]:
+    from yoga_physics import FPS, parse_name, plain_export
+
+    from pcnet.adapters import load_videopose3d
+    from pcnet.stages.core.conventions import root_relative
+
+    paths = sorted((data / "real" / "yoga_videopose3d").glob("*.npy"), key=lambda p: (not plain_export(p), p.name))
+    out, seen = [], set()
+    for path in paths:
+        poses = load_videopose3d(path)
+        digest = hashlib.sha1(np.ascontiguousarray(poses.joints).tobytes()).hexdigest()
+        if digest in seen:
+            continue
+        seen.add(digest)
+        joints, _ = root_relative(poses.joints[::YOGA_STRIDE])
+        ev = extract(joints, FPS / YOGA_STRIDE)
+        ev.update(name=path.name, asana=parse_name(path)[1])
+        out.append(ev)
+    return out
+
+
+def equivariance_evidence(data: Path) -> list[dict]:
+    from equivariance import load_clips
+
+    out = []
+    for name, joints, fps in load_clips(data, 300):
+        for roll in (0, *EQUIVARIANCE_ROLLS_DEG):
+            Q = axis_rotation("z", np.radians(roll))
+            ev = extract(joints @ Q.T, fps)
+            ev.update(name=name, roll=roll, Q=Q)
+            out.append(ev)
+    return out
+
+
+# ============================================================================ variants
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One row: the default chain with switches (module docstring)."""
+
+    label: str
+    kind: str = "removal"  # "default", "removal" or "alternative"
+    gate: str = "shipped"  # shipped | body-reading | half | body | camera
+    turns: bool = True
+    frame_weights: bool = True
+    scale: bool = True
+    prior: bool = True
+    lying: bool = True
+    auto: bool = True
+    level_view: bool = True  # widens the reported per-frame bound only
+    balance: float = 0.0
+    plain_mean: bool = False  # equal-weight Tukey mean of both networks' per-frame ups
+
+
+VARIANTS = (
+    Variant("default (pcnet run)", "default"),
+    Variant("plain Tukey mean of both nets' ups", "alternative", plain_mean=True, prior=False, auto=False),
+    Variant("plain Tukey mean + camera prior", "alternative", plain_mean=True, auto=False),
+    Variant("gate off: fixed 50/50", gate="half"),
+    Variant("gate off: body-frame net only", gate="body"),
+    Variant("gate off: camera-frame net only", gate="camera"),
+    Variant("gate: no camera-net vouching", gate="body-reading"),
+    Variant("quarter turns off", turns=False),
+    Variant("level-view widening off", level_view=False),
+    Variant("frame-bound weighting off", frame_weights=False),
+    Variant("evidence scale off", scale=False),
+    Variant("camera prior off", prior=False),
+    Variant("lying reading off", lying=False),
+    Variant("auto threshold off (always sequence)", auto=False),
+    Variant("+ balance cue (mix 0.2)", "alternative", balance=BALANCE_WEIGHT),
+)
+
+
+_GRAVITY = temporal.gravity_posterior
+_GROUND = temporal.ground_plane_up
+_TRUNK = temporal.mean_trunk
+_MEMO: dict = {}
+
+
+def _memo_gravity(up, sigma, trunk):
+    key = (tuple(np.round(up, 12)), round(float(sigma), 12), None if trunk is None else tuple(np.round(trunk, 12)))
+    if key not in _MEMO:
+        _MEMO[key] = _GRAVITY(up, sigma, trunk)
+    return _MEMO[key]
+
+
+@contextlib.contextmanager
+def switched(v: Variant, J: np.ndarray):
+    """Patches of :mod:`pcnet.stages.temporal` for ``v``: the lying reading off (no trunk), the
+    balance cue mixed into the pose-based up where the ground plane would refine it."""
+    from balance_evidence import balance_up
+
+    def ground(J_, ok, u_pose, fps, prior, gate):
+        up, info = _GROUND(J_, ok, u_pose, fps, prior, gate)
+        if v.balance > 0:
+            u_bal = balance_up(np.asarray(J, np.float64), up, 0.06)
+            if u_bal is not None:
+                up = normalize((1 - v.balance) * up + v.balance * u_bal)
+        return up, info
+
+    temporal.gravity_posterior = _memo_gravity
+    temporal.ground_plane_up = ground
+    temporal.mean_trunk = _TRUNK if v.lying else (lambda *a: None)
+    try:
+        yield
+    finally:
+        temporal.gravity_posterior, temporal.ground_plane_up, temporal.mean_trunk = _GRAVITY, _GROUND, _TRUNK
+
+
+def per_frame(ev: dict, v: Variant):
+    """``(R (T,3,3), valid, weight, disagreement)``: the pair's per-frame estimate under ``v``
+    (ViewGatedPCNet.predict_gated's arithmetic on the cached network outputs)."""
+    Rb, fps = ev["R_body"], ev["fps"]
+    if v.turns:
+        Rc, k, valid = ev["R_camT"], ev["turns"], ev["valid"]
+    else:
+        Rc, k = ev["R_camP"], np.zeros(len(Rb), np.int64)
+        valid = ev["valid"] & np.isfinite(Rc).all((1, 2))
+    Q = quarter_turn_matrices(k) if k.any() else None
+    Qb, Qc = (Rb, Rc) if Q is None else (Q @ Rb, Q @ Rc)
+    if v.gate == "shipped":
+        w = camera_frame_weight(Qb, valid, fps, Qc)
+    elif v.gate == "body-reading":
+        w = camera_frame_weight(Qb, valid, fps)
+    else:
+        w = np.where(valid, {"half": 0.5, "body": 0.0, "camera": 1.0}[v.gate], np.nan)
+    R = with_up(Rb, blend_rotations(Rb, Rc, w)[:, :, 1])
+    R[~valid] = np.nan
+    d = np.degrees(angle_between(Rc[:, :, 1], Rb[:, :, 1]))
+    return R, valid, w, d
+
+
+def run_variant(ev: dict, v: Variant) -> dict:
+    """Output ups ``(T, 3)`` (NaN where not valid), the per-frame ups, the mode and the reading."""
+    J, fps = ev["J"], ev["fps"]
+    if v.plain_mean:
+        ok = ev["valid"] & np.isfinite(ev["R_camP"]).all((1, 2))
+        ub, uc = ev["R_body"][ok, :, 1], ev["R_camP"][ok, :, 1]
+        up, _ = robust_mean_direction(np.concatenate([ub, uc]))
+        reading = None
+        if v.prior:
+            with switched(v, J):
+                g = temporal.gravity_posterior(up, temporal.POSE_EVIDENCE_SIGMA_DEG, temporal.mean_trunk(J, ok))
+            up, reading = g.up, g.reading
+        frame = np.full((len(J), 3), np.nan)
+        frame[ok] = normalize(ub + uc)
+        out = np.where(ok[:, None], up[None], np.nan)
+        return {"up": out, "frame_up": frame, "mode": "sequence", "reading": reading, "bound": None}
+    R, valid, w, d = per_frame(ev, v)
+    base = FRAME_TILT_95_DEG
+    bound = frame_tilt_bound(d, w, base)
+    fw = bound_weights(bound, base) if v.frame_weights else None
+    scale = evidence_scale(bound, base) if v.scale else 1.0
+    R, ok = temporal.check_rotations(R, valid)
+    reported = reach_alternative(bound, ev["level_view"]) if v.level_view and v.turns else bound
+    res = {"frame_up": np.where(ok[:, None], R[:, :, 1], np.nan), "bound": np.where(ok, reported, np.nan)}
+    if v.auto and ok.sum() < 2:
+        return {**res, "up": res["frame_up"], "mode": "frame", "reading": None}
+    mode = temporal.choose_mode(R, ok, temporal.MODE_THRESHOLD_DEG, fps)[0] if v.auto else "sequence"
+    if mode == "smooth":
+        out = temporal.smooth_rotations(R, ok, fps, temporal.SMOOTH_TIME_CONSTANT_S)[:, :, 1]
+        return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "reading": None}
+    with switched(v, J):
+        s = temporal.sequence_rectify(R, ok, J, fps=fps, n_bootstrap=0, camera_prior=v.prior, frame_weights=fw,
+                                      evidence_scale=scale)
+    up = np.where(s.valid[:, None], s.up[None], np.nan)
+    return {**res, "up": up, "mode": mode, "reading": None if s.gravity is None else s.gravity.reading}
+
+
+# ============================================================================ metrics
+
+
+def deg(u, v) -> np.ndarray:
+    return np.degrees(angle_between(np.asarray(u, np.float64), np.asarray(v, np.float64)))
+
+
+def clip_error(up: np.ndarray, truth: np.ndarray) -> float:
+    e = deg(up, truth)
+    return float(np.nanmean(e)) if np.isfinite(e).any() else float("nan")
+
+
+def paired_interval(diff: np.ndarray, rng_seed: int = 0) -> tuple[float, float, float]:
+    """Mean of ``diff`` and the 95 % percentile interval of a paired bootstrap over its items."""
+    d = diff[np.isfinite(diff)]
+    if len(d) == 0:
+        return float("nan"), float("nan"), float("nan")
+    rng = np.random.default_rng(rng_seed)
+    means = d[rng.integers(0, len(d), (BOOTSTRAP, len(d)))].mean(1)
+    return float(d.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+
+def verdict(kind: str, diff: np.ndarray, tol: float = 1e-9, negligible: float = NEGLIGIBLE_DEG) -> str:
+    """The row's word and interval (module docstring)."""
+    if kind == "default":
+        return "-"
+    m, lo, hi = paired_interval(diff)
+    if not np.isfinite(m):
+        return "n/a"
+    if abs(m) < tol and abs(lo) < tol and abs(hi) < tol:
+        word = "no effect" if kind == "removal" else "same"
+        return f"{word} (identical)"
+    if abs(m) < negligible:
+        word = "no effect" if kind == "removal" else "same"
+    elif lo > 0:
+        word = "helps" if kind == "removal" else "worse"
+    elif hi < 0:
+        word = "hurts" if kind == "removal" else "better"
+    else:
+        word = "no effect" if kind == "removal" else "same"
+    d = diff[np.isfinite(diff)]
+    moved = f" ({int(np.sum(d > CHANGED_DEG))} worse, {int(np.sum(d < -CHANGED_DEG))} better)"
+    return f"{word} {m:+.2f} [{lo:+.2f}, {hi:+.2f}]{moved}"
+
+
+def yoga_verdict(kind: str, diff: np.ndarray) -> str:
+    """:func:`verdict` on a difference in fail indicators (no degree threshold)."""
+    return verdict(kind, diff, negligible=0.0)
+
+
+def true_lying(ev: dict) -> bool:
+    J = ev["J"].astype(np.float64)
+    a = deg(J[:, THORAX] - J[:, PELVIS], ev["true_up"])
+    return bool(np.nanmedian(a) > LYING_TRUNK_DEG)
+
+
+def mocap_table(title: str, evs: list[dict], runs: dict) -> list[str]:
+    lying = np.array([true_lying(ev) for ev in evs])
+    frames = sum(len(ev["J"]) for ev in evs)
+    lines = [f"## {title}: {len(evs)} clips, {frames} frames ({int(lying.sum())} clips truly lying)",
+             f"{'variant':<40}{'seq mean':>9}{'median':>8}{'p95':>8}{'frame':>8}{'>20':>5}{'lying':>6}"
+             f"{'smooth':>7}  verdict: mean diff vs default [95 % CI], deg", ]
+    base = None
+    for v in VARIANTS:
+        out = runs[v.label]
+        err = np.array([clip_error(o["up"], ev["true_up"]) for o, ev in zip(out, evs)])
+        fe = np.concatenate([deg(o["frame_up"], ev["true_up"]) for o, ev in zip(out, evs)])
+        wrong = sum((o["reading"] == "lying") != t for o, t in zip(out, lying))
+        smooth = sum(o["mode"] == "smooth" for o in out)
+        if v.kind == "default":
+            base = err
+        lines.append(f"{v.label:<40}{np.nanmean(err):>9.2f}{np.nanmedian(err):>8.2f}{np.nanpercentile(err, 95):>8.2f}"
+                     f"{np.nanmean(fe):>8.2f}{int(np.sum(err > GROSS_DEG)):>5}{wrong:>6}{smooth:>7}  "
+                     f"{verdict(v.kind, err - base)}")
+    cover = []
+    for label in ("default (pcnet run)", "level-view widening off"):
+        hits = np.concatenate([deg(o["frame_up"], ev["true_up"]) <= o["bound"] for o, ev in zip(runs[label], evs)
+                               if o["bound"] is not None])
+        cover.append(f"{label}: {100 * np.mean(hits):.2f} %")
+    lines.append("per-frame 95 % bound coverage (frames whose per-frame tilt error is within the reported bound): "
+                 + "; ".join(cover))
+    return lines
+
+
+def real_table(evs: list[dict], runs: dict) -> list[str]:
+    cams = sorted({ev["camera"] for ev in evs})
+    lines = ["## Real calibrated 4 cameras (pose2sim_gravity): sequence tilt error (deg) per camera as filmed, "
+             "mean over cameras per extra roll; verdict over the 16 views",
+             f"{'variant':<40}" + "".join(f"{c:>7}" for c in cams) + "".join(f"{'r' + format(r, '+d'):>7}"
+                                                                            for r in REAL_ROLLS_DEG)
+             + "  verdict: mean diff vs default [95 % CI]"]
+    base = None
+    for v in VARIANTS:
+        err = np.array([clip_error(o["up"], ev["true_up"]) for o, ev in zip(runs[v.label], evs)])
+        if v.kind == "default":
+            base = err
+        per_cam = [err[[i for i, ev in enumerate(evs) if ev["camera"] == c and ev["roll"] == 0][0]] for c in cams]
+        per_roll = [np.mean(err[[i for i, ev in enumerate(evs) if ev["roll"] == r]]) for r in REAL_ROLLS_DEG]
+        lines.append(f"{v.label:<40}" + "".join(f"{e:>7.1f}" for e in per_cam) + "".join(f"{e:>7.1f}" for e in per_roll)
+                     + f"  {verdict(v.kind, err - base)}")
+    return lines
+
+
+def yoga_table(evs: list[dict], runs: dict) -> list[str]:
+    from yoga_physics import TARGETS
+
+    targeted = [i for i, ev in enumerate(evs) if ev["asana"] in TARGETS]
+    counts = {a: sum(evs[i]["asana"] == a for i in targeted) for a in TARGETS}
+    lines = [f"## Yoga physics ({len(evs)} real VideoPose3D files, stride {YOGA_STRIDE}): files FAILING the trunk "
+             "target per asana (" + ", ".join(f"{a} {op} {t:g}: {counts[a]} files" for a, (op, t) in TARGETS.items())
+             + "); median trunk angle (deg) over files per asana; verdict on the fail count over the targeted files",
+             f"{'variant':<40}" + "".join(f"{'fail ' + a[:5]:>11}" for a in TARGETS)
+             + "".join(f"{'med ' + a[:5]:>11}" for a in TARGETS) + "  verdict: fails diff vs default [95 % CI]"]
+    base = None
+    for v in VARIANTS:
+        trunk = []
+        for o, ev in zip(runs[v.label], evs):
+            J = ev["J"].astype(np.float64)
+            a = deg(J[:, THORAX] - J[:, PELVIS], o["up"])
+            trunk.append(float(np.nanmedian(a)) if np.isfinite(a).any() else np.nan)
+        fails = np.array([float(not (trunk[i] >= TARGETS[evs[i]["asana"]][1] if TARGETS[evs[i]["asana"]][0] == ">="
+                                     else trunk[i] <= TARGETS[evs[i]["asana"]][1])) for i in targeted])
+        if v.kind == "default":
+            base = fails
+        per = [int(sum(f for f, i in zip(fails, targeted) if evs[i]["asana"] == a)) for a in TARGETS]
+        med = [np.nanmedian([trunk[i] for i in targeted if evs[i]["asana"] == a]) for a in TARGETS]
+        lines.append(f"{v.label:<40}" + "".join(f"{p:>11d}" for p in per) + "".join(f"{m:>11.1f}" for m in med)
+                     + f"  {yoga_verdict(v.kind, fails - base)}")
+    return lines
+
+
+def equivariance_table(evs: list[dict], runs: dict) -> list[str]:
+    names = list(dict.fromkeys(ev["name"] for ev in evs))
+    lines = [f"## Roll equivariance ({len(names)} real clips of benchmarks/equivariance.py, middle 300 frames): extra "
+             "error (deg) of the up when the camera rolls, mean over clips [worst clip]; verdict over the "
+             f"{len(names) * len(EQUIVARIANCE_ROLLS_DEG)} rolled clips",
+             f"{'variant':<40}" + "".join(f"{'roll ' + str(r):>16}" for r in EQUIVARIANCE_ROLLS_DEG)
+             + "  verdict: mean diff vs default [95 % CI]"]
+    base = None
+    for v in VARIANTS:
+        out = runs[v.label]
+        extra = {}
+        for name in names:
+            i0 = next(i for i, ev in enumerate(evs) if ev["name"] == name and ev["roll"] == 0)
+            for r in EQUIVARIANCE_ROLLS_DEG:
+                i = next(i for i, ev in enumerate(evs) if ev["name"] == name and ev["roll"] == r)
+                e = deg(out[i]["up"], out[i0]["up"] @ evs[i]["Q"].T)
+                extra[(name, r)] = float(np.nanmean(e)) if np.isfinite(e).any() else np.nan
+        vals = np.array([extra[(n, r)] for n in names for r in EQUIVARIANCE_ROLLS_DEG])
+        if v.kind == "default":
+            base = vals
+        cells = "".join(f"{np.nanmean([extra[(n, r)] for n in names]):>9.1f} [{np.nanmax([extra[(n, r)] for n in names]):>4.0f}]"
+                        for r in EQUIVARIANCE_ROLLS_DEG)
+        lines.append(f"{v.label:<40}{cells}  {verdict(v.kind, vals - base)}")
+    return lines
+
+
+def reproduction_check(evs: list[dict], runs: dict) -> str:
+    worst, mism = 0.0, 0
+    for o, ev in zip(runs[VARIANTS[0].label], evs):
+        both = np.isfinite(o["up"]).all(1) & np.isfinite(ev["real_up"]).all(1)
+        mism += int(np.sum(np.isfinite(o["up"]).all(1) != ev["real_valid"]))
+        if both.any():
+            worst = max(worst, float(np.max(deg(o["up"][both], ev["real_up"][both]))))
+    gp = sum(ev["ground_plane_used"] for ev in evs)
+    return (f"reproduction check: default rebuilt from the cache vs the real chain (run at extraction; a difference "
+            f"means the chain's code changed since): largest angle {worst:.2e} deg, "
+            f"{mism} frames whose validity differs; ground plane used in {gp} of {len(evs)} recordings")
+
+
+def evaluate(evs: list[dict]) -> dict:
+    return {v.label: [run_variant(ev, v) for ev in evs] for v in VARIANTS}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=DEFAULT)
+    ap.add_argument("--max-clips", type=int, default=200, help="clips per mocap set (seeded random subset)")
+    ap.add_argument("--cache", type=Path, default=CACHE)
+    ap.add_argument("--out", type=Path, default=RESULT)
+    ap.add_argument("--skip", nargs="*", default=[], choices=("mocap", "real", "yoga", "equivariance"))
+    args = ap.parse_args(argv)
+    t0 = time.time()
+    lines = [__doc__.splitlines()[0], "",
+             f"    python benchmarks/ablation.py --data ../shared/data --max-clips {args.max_clips}", "",
+             "Rows: the default chain of `pcnet run` (mode auto, camera prior, view gate), then one piece switched off "
+             "(or an alternative) at a time; see the script's docstring for the protocol and every column.", ""]
+    sections = []
+    if "mocap" not in args.skip:
+        static = []
+        for title, file, split in MOCAP_SETS:
+            key = f"{file.split('_')[0]}_{split}_{args.max_clips}"
+            evs = cached(args.cache, key, lambda: mocap_evidence(args.data, file, split, args.max_clips))
+            sections.append(("mocap", title, evs))
+            static.append(evs)
+        moving = cached(args.cache, f"sweep_{args.max_clips}", lambda: sweep_evidence([static[0], static[2]]))
+        sections.append(("mocap", f"Moving camera (pitch sweeping {SWEEP_DEG:g} deg over each clip; Bandai test and "
+                                  f"DeepMimic clips of >= {SWEEP_MIN_FRAMES} frames, at most {SWEEP_MAX_CLIPS} each)",
+                         moving))
+    if "real" not in args.skip:
+        sections.append(("real", "real", cached(args.cache, "real_cameras", lambda: real_camera_evidence(args.data))))
+    if "yoga" not in args.skip:
+        sections.append(("yoga", "yoga", cached(args.cache, f"yoga_stride{YOGA_STRIDE}", lambda: yoga_evidence(args.data))))
+    if "equivariance" not in args.skip:
+        sections.append(("equivariance", "equivariance",
+                         cached(args.cache, "equivariance", lambda: equivariance_evidence(args.data))))
+    for kind, title, evs in sections:
+        t1 = time.time()
+        runs = evaluate(evs)
+        table = {"mocap": lambda: mocap_table(title, evs, runs), "real": lambda: real_table(evs, runs),
+                 "yoga": lambda: yoga_table(evs, runs), "equivariance": lambda: equivariance_table(evs, runs)}[kind]()
+        block = table + [reproduction_check(evs, runs) + f" ({time.time() - t1:.0f} s)", ""]
+        print("\n".join(block), flush=True)
+        lines += block
+    lines.append(f"(wall time {time.time() - t0:.0f} s including cache reads; 2 shared CPU cores)")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text("\n".join(line.rstrip() for line in lines) + "\n")
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
