@@ -256,7 +256,7 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     return Keypoints2D(points, layout, str(p), track_id=track, notes="; ".join(notes), choice=choice)
 
 
-@register_2d("alphapose")
+@register_2d("alphapose", records_fps=False, multi_track="AlphaPose idx")
 class AlphaPoseAdapter:
     """Registry entry for :func:`load_alphapose` (options: ``person``, ``num_frames``,
     ``frame_count``)."""

@@ -120,7 +120,7 @@ def _mean_over_hypotheses(arr: np.ndarray) -> tuple[np.ndarray, int]:
     return out, partial
 
 
-@register_3d("ddhpose")
+@register_3d("ddhpose", records_fps=False)
 class DDHPoseAdapter:
     """Registry entry for :func:`load_ddhpose` (options: ``step``, ``hypothesis``)."""
 

@@ -264,7 +264,7 @@ def generic_option_problems(layout: object = "h36m17", axes: object = "RDF", uni
     return problems
 
 
-@register_3d("generic")
+@register_3d("generic", records_fps=False)
 class GenericAdapter:
     """Registry entry for :func:`load_generic` (options: ``layout``, ``axes``, ``units``,
     ``key``, ``delimiter``, ``measured_root``)."""

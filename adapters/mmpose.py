@@ -175,7 +175,7 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
     return Keypoints2D(points, layout, str(p), track_id=None, notes="; ".join(notes), choice=choice)
 
 
-@register_2d("mmpose")
+@register_2d("mmpose", records_fps=False, multi_track="MMPose instance")
 class MMPoseAdapter:
     """Registry entry for :func:`load_mmpose` (options: ``person``, ``num_frames``,
     ``frame_count``)."""

@@ -90,7 +90,7 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
                    nonfinite=nonfinite)
 
 
-@register_3d("motionbert")
+@register_3d("motionbert", records_fps=False)
 class MotionBERTAdapter:
     """Registry entry for :func:`load_motionbert` (options: ``pixel``, ``clip_len``)."""
 

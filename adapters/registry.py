@@ -8,7 +8,7 @@ An adapter is a small class with a ``load(path, **options)`` method returning
     from pcnet.adapters import Poses3D, register_3d
     from pcnet.adapters.validate import load_npy
 
-    @register_3d("my_lifter")
+    @register_3d("my_lifter", records_fps=False)   # its files hold no frame rate
     class MyLifter:
         \"\"\"(T, 17, 3) H36M-17, millimetres, x right / y up / z towards the camera.\"\"\"
 
@@ -22,59 +22,94 @@ An adapter is a small class with a ``load(path, **options)`` method returning
     poses = get_3d_adapter("my_lifter").load("out.npy")
 
 The module defining the class must be imported once for the decorator to run; the
-built-in adapters are imported by ``pcnet.adapters``.
+built-in adapters are imported by ``pcnet.adapters``, one line each: a new built-in adapter
+is its module plus that import line. The registry is the one list of adapter names and of
+what pcnet needs to know about their formats (:class:`Registered`): ``pcnet run``'s
+``--lifter`` and ``--keypoints2d-format`` choices and ``--person`` help,
+:meth:`pcnet.pipeline.config.RunConfig.validate` and ``pcnet batch``'s frame-rate check read
+it. A lifter registered in a Python process is taken by ``run_pipeline(RunConfig(lifter=...))``
+there; the ``pcnet`` command offers those registered when it starts (the built-ins).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable, TypeVar
 
 from pcnet.stages.core.errors import InputError
 
-_ADAPTERS_2D: dict[str, type] = {}
-_ADAPTERS_3D: dict[str, type] = {}
+
+@dataclass(frozen=True)
+class Registered:
+    """One registry entry: the adapter class and the facts about its format that the rest of
+    pcnet reads from here rather than keeping lists of names (``pcnet run``'s choices and
+    help, :class:`pcnet.pipeline.config.RunConfig`'s checks, ``pcnet batch``'s row checks).
+
+    Attributes:
+        cls: the adapter class (a ``load(path, **options)`` method).
+        records_fps: whether the format's files can carry their frame rate (the loaded
+            ``fps``); ``False``: a run without a video needs ``fps`` given (``pcnet batch``
+            refuses such a row before it runs).
+        multi_track: 2D only: what a track id is in a format that holds several people's
+            tracks, one of which ``person`` picks (``"AlphaPose idx"``), as ``pcnet run
+            --person``'s help says it; ``None`` for a single-track format.
+    """
+
+    cls: type
+    records_fps: bool = True
+    multi_track: str | None = None
+
+
+# Name -> entry, in registration order (the order `pcnet run --help` offers them in).
+_ADAPTERS_2D: dict[str, Registered] = {}
+_ADAPTERS_3D: dict[str, Registered] = {}
 
 T = TypeVar("T", bound=type)
 
 
-def _register(table: dict[str, type], kind: str, name: str) -> Callable[[T], T]:
+def _register(table: dict[str, Registered], kind: str, name: str, **facts) -> Callable[[T], T]:
     def deco(cls: T) -> T:
         if not callable(getattr(cls, "load", None)):
             raise TypeError(f"{kind} adapter {name!r}: class {cls.__name__} has no load(path, **options)")
         old = table.get(name)
         # Re-registering the same class (a module reload) is harmless; two different
         # classes under one name would silently shadow each other.
-        if old is not None and (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
-            raise ValueError(f"{kind} adapter name {name!r} is already used by {old.__module__}.{old.__qualname__}")
-        table[name] = cls
+        if old is not None and (old.cls.__module__, old.cls.__qualname__) != (cls.__module__, cls.__qualname__):
+            raise ValueError(f"{kind} adapter name {name!r} is already used by "
+                             f"{old.cls.__module__}.{old.cls.__qualname__}")
+        table[name] = Registered(cls, **facts)
         return cls
 
     return deco
 
 
-def register_2d(name: str) -> Callable[[T], T]:
-    """Class decorator: register a 2D adapter (``load`` returns ``Keypoints2D``) under ``name``.
+def register_2d(name: str, *, records_fps: bool = True, multi_track: str | None = None) -> Callable[[T], T]:
+    """Class decorator: register a 2D adapter (``load`` returns ``Keypoints2D``) under ``name``,
+    with its format's facts (:class:`Registered`): ``records_fps=False`` for files that never
+    record a frame rate, ``multi_track="<what a track id is>"`` for files holding several
+    people's tracks (then ``load`` takes ``person``).
 
     Raises:
         TypeError: the class has no ``load`` method.
         ValueError: ``name`` is taken by a different class.
     """
-    return _register(_ADAPTERS_2D, "2D", name)
+    return _register(_ADAPTERS_2D, "2D", name, records_fps=records_fps, multi_track=multi_track)
 
 
-def register_3d(name: str) -> Callable[[T], T]:
-    """Class decorator: register a 3D adapter (``load`` returns ``Poses3D``) under ``name``.
+def register_3d(name: str, *, records_fps: bool = True) -> Callable[[T], T]:
+    """Class decorator: register a 3D adapter (``load`` returns ``Poses3D``) under ``name``;
+    ``records_fps=False`` for files that never record a frame rate (:class:`Registered`).
 
     Raises:
         TypeError: the class has no ``load`` method.
         ValueError: ``name`` is taken by a different class.
     """
-    return _register(_ADAPTERS_3D, "3D", name)
+    return _register(_ADAPTERS_3D, "3D", name, records_fps=records_fps)
 
 
-def _get(table: dict[str, type], kind: str, name: str):
+def _get(table: dict[str, Registered], kind: str, name: str):
     try:
-        return table[name]()
+        return table[name].cls()
     except KeyError:
         raise InputError(f"unknown {kind} adapter {name!r}; available: {sorted(table)}") from None
 
@@ -107,8 +142,22 @@ def available_3d() -> list[str]:
     return sorted(_ADAPTERS_3D)
 
 
+def _table(kind: str) -> dict[str, Registered]:
+    return {"2d": _ADAPTERS_2D, "3d": _ADAPTERS_3D}[kind.lower()]
+
+
+def registered(kind: str) -> dict[str, Registered]:
+    """``{name: Registered}`` of the 2D (``kind="2d"``) or 3D (``kind="3d"``) adapters in
+    registration order (the built-ins in ``pcnet.adapters``' import order, then any
+    registered later); a copy.
+
+    Raises:
+        KeyError: ``kind`` not ``"2d"`` or ``"3d"``.
+    """
+    return dict(_table(kind))
+
+
 def unregister(name: str, kind: str) -> None:
     """Remove ``name`` from the 2D (``kind="2d"``) or 3D (``kind="3d"``) table; for tests
     and plugins that replace a built-in adapter. Unknown names are ignored."""
-    table = {"2d": _ADAPTERS_2D, "3d": _ADAPTERS_3D}[kind.lower()]
-    table.pop(name, None)
+    _table(kind).pop(name, None)

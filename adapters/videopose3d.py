@@ -60,7 +60,7 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     return Poses3D(arr, "h36m17", units="m", source=str(p), notes=notes, nonfinite=nonfinite)
 
 
-@register_3d("videopose3d")
+@register_3d("videopose3d", records_fps=False)
 class VideoPose3DAdapter:
     """Registry entry for :func:`load_videopose3d` (no options)."""
 

@@ -50,7 +50,7 @@ from pcnet.adapters import load_mediapipe_3d
 from pcnet.pipeline.io import lifter_joints
 from pcnet.stages.core.conventions import PELVIS, THORAX, root_relative
 from pcnet.stages.core.perspective import focal_px_from_35mm
-from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize
+from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "gravity_benchmark.txt"
@@ -80,10 +80,10 @@ def deg_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def pitch_roll_deg(up: np.ndarray) -> tuple[float, float]:
-    """decompose_camera_rotation's camera tilt from an up vector: pitch = asin(-u_z),
-    roll = atan2(u_x, -u_y), degrees."""
-    up = normalize(np.asarray(up, np.float64))
-    return float(np.degrees(np.arcsin(np.clip(-up[2], -1, 1)))), float(np.degrees(np.arctan2(up[0], -up[1])))
+    """Camera pitch and roll (degrees) of an up vector of any length:
+    :func:`pcnet.stages.core.rotations.camera_pitch_roll` of its unit vector."""
+    pitch, roll = np.degrees(camera_pitch_roll(normalize(np.asarray(up, np.float64))))
+    return float(pitch), float(roll)
 
 
 def trunk_directions(joints: np.ndarray) -> np.ndarray:

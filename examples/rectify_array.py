@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 import pcnet.pipeline
-from pcnet.pipeline.rectification import rectify
+from pcnet.pipeline import rectify
 from pcnet.stages.core.rotations import decompose_camera_rotation
 
 path = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(pcnet.pipeline.__file__).parent / "example_data" / "X3D.npy"

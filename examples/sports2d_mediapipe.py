@@ -12,8 +12,7 @@ says so); ``lifter_options={"focal_px": F}`` gives the real one (``pcnet run --f
 import argparse
 from pathlib import Path
 
-from pcnet.pipeline.config import RunConfig
-from pcnet.pipeline.runner import run_pipeline
+from pcnet.pipeline import RunConfig, run_pipeline
 
 DEFAULT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 

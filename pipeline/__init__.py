@@ -1,1 +1,71 @@
-"""pcnet.pipeline"""
+"""pcnet from Python: the three names a script needs.
+
+``pcnet`` itself is an implicit namespace package (its folders install as ``pcnet.pipeline``,
+``pcnet.stages``, ...; ``pyproject.toml``), so the public API lives here::
+
+    from pcnet.pipeline import rectify, run_pipeline, RunConfig
+
+They are imported when first used, so ``import pcnet.pipeline`` stays cheap (no onnxruntime,
+OpenCV or adapters until then).
+
+:func:`rectify` (:func:`pcnet.pipeline.rectification.rectify`, what ``pcnet rectify`` runs):
+camera-frame H36M-17 poses ``(T, 17, 3)`` (OpenCV axes: x right, y down, z forward; any
+length unit; NaN = missing) in, a :class:`~pcnet.stages.rectify.Rectified` out: ``rotation``
+``(T, 3, 3)`` canonical -> camera, ``canonical`` ``(T, 17, 3)`` pelvis-centred poses in the
+canonical frame (x anterior, y up, z right; ``docs/CONVENTIONS.md``), ``up`` ``(T, 3)`` the
+camera-frame up, ``valid`` ``(T,)``::
+
+    import numpy as np
+    from pcnet.pipeline import rectify
+
+    joints = np.load("tests/fixtures/yoga_Abhay_Tadasana_f000-099.npy")  # (100, 17, 3), metres
+    res = rectify(joints, mode="sequence", fps=30.0)  # 3DPCNet; method="geometric": the paper's baseline
+    print(res.canonical.shape, res.valid.sum(), res.up[0])  # sequence: one up for a static camera
+
+:func:`run_pipeline` (:func:`pcnet.pipeline.runner.run_pipeline`) with a :class:`RunConfig`
+(:class:`pcnet.pipeline.config.RunConfig`, the fields of ``pcnet run``'s options) runs what
+``pcnet run`` runs on one recording and writes its output folder (``docs/outputs.md``); it
+returns a :class:`~pcnet.pipeline.runner.RunResult`::
+
+    from pcnet.pipeline import RunConfig, run_pipeline
+
+    cfg = RunConfig(lifter="videopose3d", lifter_output="tests/fixtures/yoga_Abhay_Tadasana_f000-099.npy",
+                    fps=30.0, height=1.7, recording=False, out="yoga_out")
+    result = run_pipeline(cfg.validate(), progress=False)  # validate(): every field checked first
+    print(result.summary())
+
+:class:`RunConfig` can also be read from a TOML file with the same keys
+(:func:`pcnet.pipeline.config.load_run_config`), or built from a dict of values checked in one
+go::
+
+    from pcnet.pipeline import RunConfig
+
+    cfg = RunConfig.from_values("my script", {"lifter": "motionbert", "lifter_output": "X3D.npy", "fps": 25.0})
+    cfg.mode, cfg.lowpass_hz  # ('auto', 6.0): the defaults ``pcnet run`` uses
+"""
+
+from __future__ import annotations
+
+import importlib
+
+#: Public name -> the module that defines it.
+_PUBLIC = {
+    "rectify": "pcnet.pipeline.rectification",
+    "run_pipeline": "pcnet.pipeline.runner",
+    "RunConfig": "pcnet.pipeline.config",
+}
+
+__all__ = ["rectify", "run_pipeline", "RunConfig"]
+
+
+def __getattr__(name: str):
+    """The public names, imported from their modules on first use (PEP 562)."""
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(_PUBLIC[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

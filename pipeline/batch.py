@@ -33,7 +33,7 @@ from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker
 from .batch_worker import cpu_cores, error_line
-from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, RunConfig
+from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, records_frame_rate, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within, listed_files_missing
 
@@ -492,10 +492,13 @@ def _shared_out_problems(manifest: Path, planned: list[PlannedRow], paths: _Path
     return problems
 
 
-#: Lifters and 2D formats whose files never record a frame rate: without a video such a row
-#: needs its fps column (MediaPipe archives and Kinect skeletons may carry theirs).
-_NO_FRAME_RATE = ("motionbert", "videopose3d", "ddhpose", "generic")
-_NO_FRAME_RATE_2D = ("alphapose", "mmpose", "openpose")
+def _needs_fps_column(config: dict) -> bool:
+    """Whether a row needs its fps column: no video, no fps, and neither its lifter's files nor
+    its 2D format's (if any) can record a frame rate (``register_3d/2d(records_fps=False)``,
+    :mod:`pcnet.adapters.registry`; MediaPipe archives and Kinect skeletons may carry theirs)."""
+    return (config["video"] is None and config["fps"] is None and config["lifter"] is not None
+            and not records_frame_rate("3d", config["lifter"])
+            and (config["keypoints2d_format"] is None or not records_frame_rate("2d", config["keypoints2d_format"])))
 
 
 def in_manifest_terms(message: str) -> str:
@@ -541,8 +544,7 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
         inputs = input_files(config)
         found = (_input_problems(where, row, inputs, paths) or
                  [p for p in [_out_problem(where, row, config["out"], inputs, paths)] if p])
-        if config["video"] is None and config["fps"] is None and config["lifter"] in _NO_FRAME_RATE and \
-                config["keypoints2d_format"] in (None, *_NO_FRAME_RATE_2D):
+        if _needs_fps_column(config):
             found.append(f"{where}: column fps: expected the frame rate (no video is given and {config['lifter']} "
                          f"files do not record one), got none")
         if found:

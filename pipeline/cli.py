@@ -15,7 +15,7 @@ import click
 
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
-from pcnet.pipeline.config import ALIGN, KEYPOINT_FORMATS, LIFTERS, MODES
+from pcnet.pipeline.config import ALIGN, MODES, keypoint_formats, lifter_names, multi_track_formats
 from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, raise_interrupt
 from pcnet.stages.core.errors import InputError, import_extra, one_line
 from pcnet.stages.heading import HEADING_SOURCES
@@ -133,6 +133,28 @@ def _rectify_output(file: Path) -> bool:
 def _exported_model(file: Path) -> bool:
     """An ``.onnx`` counts as pcnet's where its ``.json`` description beside it does."""
     return _json_object_with(file.with_suffix(".json"), _EXPORT_JSON_KEYS)
+
+
+class _RegisteredChoice(click.Choice):
+    """``click.Choice`` over the names ``names()`` returns (the adapter registry's, through
+    :mod:`pcnet.pipeline.config`), read when click first needs them: the registry is the one
+    list, and a command that takes no adapter never imports the adapters (OpenCV)."""
+
+    def __init__(self, names) -> None:  # no super().__init__(): ``choices`` is computed
+        self._names = names
+        self.case_sensitive = True
+
+    @property
+    def choices(self) -> tuple[str, ...]:
+        return tuple(self._names())
+
+
+class _PersonOption(click.Option):
+    """``--person``, whose help names the registered multi-track 2D formats' track ids."""
+
+    def get_help_record(self, ctx: click.Context):
+        self.help = f"2D track id to follow ({' / '.join(multi_track_formats().values())})."
+        return super().get_help_record(ctx)
 
 
 _camera_prior_option = click.option(
@@ -306,9 +328,10 @@ def _run_and_report(cfg) -> None:
               help="The recorded video; alone (no --lifter-output), the embedded MediaPipe estimator makes the poses "
                    '(pip install "pcnet[video]").')
 @click.option("--keypoints2d", type=click.Path(), default=None, help="2D keypoint file (or OpenPose folder).")
-@click.option("--keypoints2d-format", type=click.Choice(KEYPOINT_FORMATS), default=None,
+@click.option("--keypoints2d-format", type=_RegisteredChoice(keypoint_formats), default=None,
               help="Which 2D detector wrote --keypoints2d (needed with it).")
-@click.option("--lifter", type=click.Choice(LIFTERS), default=None, help="Which 3D lifter wrote --lifter-output.")
+@click.option("--lifter", type=_RegisteredChoice(lifter_names), default=None,
+              help="Which 3D lifter wrote --lifter-output.")
 @click.option("--lifter-output", type=click.Path(dir_okay=False), default=None,
               help="The 3D lifter's output file (camera-frame poses).")
 @click.option("--method", type=click.Choice(METHODS), default=None, help="Rectification method [pcnet].")
@@ -322,7 +345,7 @@ def _run_and_report(cfg) -> None:
               help="Frame rate when neither the video nor the input files give it.")
 @click.option("--fps-override", is_flag=True, default=None,
               help="Use --fps even though it differs from the video's own rate.")
-@click.option("--person", type=int, default=None, help="2D track id to follow (AlphaPose idx / MMPose instance).")
+@click.option("--person", cls=_PersonOption, type=int, default=None)
 @click.option("--confidence-threshold", type=float, default=None, help="2D confidence below which 3D joints become NaN [0.3].")
 @click.option("--cutoff-hz", type=float, default=None, help="Butterworth low-pass cutoff [6 Hz].")
 @click.option("--residual-cutoff", is_flag=True, default=None,

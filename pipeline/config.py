@@ -15,19 +15,42 @@ from pcnet.models.toml_config import (check_config_keys, check_config_types, rea
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
 from pcnet.stages.core.errors import InputError
 
-KEYPOINT_FORMATS = ("alphapose", "mmpose", "openpose", "mediapipe")
-#: 2D formats holding several people's tracks, one of which ``person`` chooses.
-MULTI_TRACK_FORMATS = ("alphapose", "mmpose")
-LIFTERS = ("motionbert", "ddhpose", "videopose3d", "mediapipe", "generic", "kinect_v1", "azure_kinect")
+def _registered(kind: str) -> dict:
+    from pcnet.adapters.registry import registered
+
+    return registered(kind)
 
 
 def lifter_names() -> tuple[str, ...]:
-    """The built-in :data:`LIFTERS` (what ``pcnet run --lifter`` offers), then any other 3D
-    adapter registered in this process (``@register_3d``, :mod:`pcnet.adapters.registry`),
-    which the Python API's :class:`RunConfig` takes too."""
-    from pcnet.adapters import available_3d
+    """The 3D adapters registered in this process (:mod:`pcnet.adapters.registry`), in
+    registration order: the built-in lifters (what ``pcnet run --lifter`` offers), then any
+    registered later with ``@register_3d``, which the Python API's :class:`RunConfig` takes too."""
+    return tuple(_registered("3d"))
 
-    return LIFTERS + tuple(n for n in available_3d() if n not in LIFTERS)
+
+def keypoint_formats() -> tuple[str, ...]:
+    """The registered 2D adapters (``keypoints2d_format``'s choices), in registration order."""
+    return tuple(_registered("2d"))
+
+
+def multi_track_formats() -> dict[str, str]:
+    """``{2D format: what a track id is in it}`` for the registered 2D formats whose files hold
+    several people's tracks, one of which ``person`` chooses (``register_2d(multi_track=...)``)."""
+    return {name: entry.multi_track for name, entry in _registered("2d").items() if entry.multi_track}
+
+
+def records_frame_rate(kind: str, name: str) -> bool:
+    """Whether files of the registered ``kind`` (``"2d"``/``"3d"``) adapter ``name`` can carry
+    their frame rate (``register_2d/3d(records_fps=...)``); ``True`` for an unknown name (the
+    choice checks refuse it).
+
+    Raises:
+        KeyError: ``kind`` not ``"2d"`` or ``"3d"``.
+    """
+    entry = _registered(kind).get(name)
+    return entry is None or entry.records_fps
+
+
 MODES = ("auto", "frame", "sequence", "smooth")
 ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
@@ -272,7 +295,7 @@ class RunConfig:
             ("lifter", self.lifter, lifter_names(), self.lifter_output is None), ("method", self.method, METHODS, False),
             ("mode", self.mode, MODES, False), ("align", self.align, ALIGN, False),
             ("heading", self.heading, HEADING_SOURCES, True),
-            ("keypoints2d_format", self.keypoints2d_format, KEYPOINT_FORMATS, True),
+            ("keypoints2d_format", self.keypoints2d_format, keypoint_formats(), True),
         ):
             if not (optional and value is None) and value not in choices:
                 raise InputError(f"{field_name(source, name)}: expected one of {choices}, got {value!r}")
@@ -307,11 +330,12 @@ class RunConfig:
         if self.person is not None and self.person < 0:
             raise InputError(f"{field_name(source, 'person')}: expected a track id >= 0, got {self.person}")
         # Options that would be silently ignored are mistakes the user should hear about.
-        if self.person is not None and self.keypoints2d_format not in MULTI_TRACK_FORMATS:
+        multi_track = multi_track_formats()
+        if self.person is not None and self.keypoints2d_format not in multi_track:
             got = (f"keypoints2d_format {self.keypoints2d_format!r}" if self.keypoints2d_format is not None
                    else "no 2D keypoints")
-            raise InputError(f"{field_name(source, 'person')}: expected 2D keypoints with several tracks (alphapose or "
-                             f"mmpose), got {got}")
+            raise InputError(f"{field_name(source, 'person')}: expected 2D keypoints with several tracks "
+                             f"({' or '.join(multi_track)}), got {got}")
         check_method_weights(self.method, self.weights, field_name(source, "weights"))
         if self.lifter is not None:
             check_lifter_options(source, self.lifter, self.lifter_options)

@@ -47,7 +47,7 @@ from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINT
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, implausible_motion_flags, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
-from .config import MULTI_TRACK_FORMATS, RunConfig
+from .config import RunConfig, multi_track_formats
 from .io import lifter_joints
 from .video_orientation import EDGE_MARGIN, DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -243,7 +243,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     kp2d, kp_fps, kp_size, kp_choice, kp_extent = None, None, None, "", None
     if cfg.keypoints2d:
         adapter = get_2d_adapter(cfg.keypoints2d_format)
-        options = {"person": cfg.person} if cfg.keypoints2d_format in MULTI_TRACK_FORMATS else {}
+        options = {"person": cfg.person} if cfg.keypoints2d_format in multi_track_formats() else {}
         if video is not None and "frame_count" in inspect.signature(adapter.load).parameters:
             options["frame_count"] = video.frame_count
         try:
@@ -778,7 +778,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         flags += view_gate_flag(report.get("view_gate"), lying=(report.get("gravity") or {}).get("reading") == "lying")
         flags += disagreement_flag(report.get("frame_tilt_bound_deg"), report["frame_tilt_95_deg"])
         flags += lifter_frame_flag(inputs.lifter_turn_deg, *_tilt_tolerance(report))
-        flags += (track_switch_flag(segment, events, person_option=cfg.keypoints2d_format in MULTI_TRACK_FORMATS)
+        flags += (track_switch_flag(segment, events, person_option=cfg.keypoints2d_format in multi_track_formats())
                   if segment is not None else [])
         bar.update()
 

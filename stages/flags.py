@@ -12,7 +12,7 @@ from .core.canonical import trunk_lean_deg
 from .core.conventions import (L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
                                median_thigh_length)
 from .core.framestore import frame_blocks
-from .core.rotations import camera_tilt_deg
+from .core.rotations import camera_pitch_roll, camera_tilt_deg
 from .scale import height_chain_length, leg_lengths
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
@@ -40,7 +40,7 @@ def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, fl
     One up vector for the whole recording (the normalised mean of the valid frames' ups), so
     the three numbers are consistent: ``cos(tilt) = cos(pitch) cos(roll)`` with
     ``pitch = asin(-u_z)``, ``roll = atan2(u_x, -u_y)``
-    (:func:`pcnet.stages.core.rotations.decompose_camera_rotation`'s convention).
+    (:func:`pcnet.stages.core.rotations.camera_pitch_roll`).
 
     Args:
         up_cam: ``(T, 3)`` unit up directions in the camera frame (OpenCV axes).
@@ -55,8 +55,7 @@ def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, fl
     u = up_cam[ok].mean(axis=0)
     u = u / np.linalg.norm(u)
     tilt = camera_tilt_deg(u)
-    pitch = np.degrees(np.arcsin(np.clip(-u[2], -1.0, 1.0)))
-    roll = np.degrees(np.arctan2(u[0], -u[1]))
+    pitch, roll = np.degrees(camera_pitch_roll(u))
     return float(tilt), float(pitch), float(roll)
 
 

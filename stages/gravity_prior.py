@@ -44,6 +44,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .core.rotations import camera_pitch_roll, normalize
+
 #: Prior probability that the body lies (trunk near horizontal) in a recording.
 LYING_PRIOR = 0.1
 #: Angular std (deg) of a lying trunk about the horizontal plane (pillows, bridges, cobra).
@@ -130,10 +132,6 @@ def _log_girdle(cos: np.ndarray, kappa: float) -> np.ndarray:
     return -kappa * cos ** 2 - log_z
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)
-
-
 def _upright_mode(m: np.ndarray, k_pose: float, k_cam: float, log_w_level: float, log_w_uniform: float) -> np.ndarray:
     """Mode of ``vMF(m, k_pose) x [w vMF(c, k_cam) + (1 - w) / 4pi]``: the stationarity
     condition is ``u ~ k_pose m + k_cam r(u) c`` with ``r`` the level component's
@@ -142,7 +140,7 @@ def _upright_mode(m: np.ndarray, k_pose: float, k_cam: float, log_w_level: float
     for _ in range(50):
         a = log_w_level + _log_vmf(np.dot(u, LEVEL_UP), k_cam)
         r = 1.0 / (1.0 + np.exp(log_w_uniform - np.log(_FOUR_PI) - a))
-        new = _unit(k_pose * m + k_cam * r * LEVEL_UP)
+        new = normalize(k_pose * m + k_cam * r * LEVEL_UP)
         if np.dot(new, u) > 1.0 - 1e-15:
             return new
         u = new
@@ -157,10 +155,8 @@ def _half_widths(grid: np.ndarray, p: np.ndarray, up: np.ndarray) -> tuple[float
         return float(x[order][min(np.searchsorted(c, 0.95 * c[-1]), len(x) - 1)])
 
     cone = np.degrees(np.arccos(np.clip(grid @ up, -1.0, 1.0)))
-    pitch = np.degrees(np.arcsin(np.clip(-grid[:, 2], -1, 1)))
-    roll = np.degrees(np.arctan2(grid[:, 0], -grid[:, 1]))
-    p0 = np.degrees(np.arcsin(np.clip(-up[2], -1, 1)))
-    r0 = np.degrees(np.arctan2(up[0], -up[1]))
+    pitch, roll = np.degrees(camera_pitch_roll(grid))
+    p0, r0 = np.degrees(camera_pitch_roll(up))
     dr = (roll - r0 + 180.0) % 360.0 - 180.0
     return q95(cone), q95(np.abs(pitch - p0)), q95(np.abs(dr))
 
@@ -185,7 +181,7 @@ def gravity_posterior(pose_up: np.ndarray, pose_sigma_deg: float, trunk: np.ndar
         raise ValueError(f"pose_up: expected a finite non-zero 3-vector, got {pose_up!r}")
     if not pose_sigma_deg > 0:
         raise ValueError(f"pose_sigma_deg: expected > 0, got {pose_sigma_deg!r}")
-    m = _unit(m)
+    m = normalize(m, eps=0.0)  # the check above is the length threshold
     k_pose = 1.0 / np.radians(pose_sigma_deg) ** 2
     k_cam = 1.0 / np.radians(LEVEL_CAMERA_SIGMA_DEG) ** 2
     k_girdle = 1.0 / (2.0 * np.radians(GIRDLE_SIGMA_DEG) ** 2)
@@ -195,7 +191,7 @@ def gravity_posterior(pose_up: np.ndarray, pose_sigma_deg: float, trunk: np.ndar
     log_upright = np.log(1.0 - LYING_PRIOR) + _log_vmf(grid @ m, k_pose) + log_cam
     have_trunk = trunk is not None and np.isfinite(trunk).all() and np.linalg.norm(trunk) > 1e-9
     if have_trunk:
-        t = _unit(np.asarray(trunk, np.float64))
+        t = normalize(np.asarray(trunk, np.float64), eps=0.0)
         log_lying = np.log(LYING_PRIOR) + _log_girdle(grid @ t, k_girdle) + log_cam
     else:
         log_lying = np.full(len(grid), -np.inf)

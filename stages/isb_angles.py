@@ -78,6 +78,7 @@ from .core.conventions import (
     THORAX,
 )
 from .core.errors import InputError
+from .core.rotations import normalize
 
 #: Two directions that define a pelvis, thorax or heading frame (pelvis->spine vs the hip
 #: line; spine->thorax vs the shoulder line; thorax Z vs vertical) must be at least this far
@@ -180,6 +181,7 @@ DEFINITIONS: Mapping[str, str] = MappingProxyType({
 _MIRROR = np.array([1.0, 1.0, -1.0])
 _SWAP_LR = np.array([0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13])
 _UP = np.array([0.0, 1.0, 0.0])
+#: Length (input units) at or below which a direction is undefined: NaN (``normalize``'s ``eps``).
 _TINY = 1e-12
 
 
@@ -200,17 +202,10 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sum(a * b, axis=-1)
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    """Unit vectors ``(T, 3)``; zero-length or NaN vectors -> NaN."""
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(n > _TINY, v / n, np.nan)
-
-
 def _perp_unit(v: np.ndarray, axis: np.ndarray, min_angle_deg: float) -> np.ndarray:
     """Unit part of ``v`` perpendicular to the unit ``axis``; NaN where ``v`` is within
     ``min_angle_deg`` of parallel to ``axis`` (or NaN)."""
-    vu = _unit(v)
+    vu = normalize(v, eps=_TINY)
     p = vu - _dot(vu, axis)[:, None] * axis
     n = np.linalg.norm(p, axis=-1)  # = sin(angle(v, axis))
     ok = n >= np.sin(np.radians(min_angle_deg))
@@ -262,7 +257,7 @@ def _any_perp(y: np.ndarray) -> np.ndarray:
     """Some unit vector perpendicular to each unit ``y`` ``(T, 3)`` (for frames whose axial
     rotation is masked anyway)."""
     e = np.where((np.abs(y[:, :1]) < 0.9), np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]))
-    return _unit(np.cross(y, e))
+    return normalize(np.cross(y, e), eps=_TINY)
 
 
 def _right_side(X: np.ndarray) -> dict[str, np.ndarray]:
@@ -274,20 +269,20 @@ def _right_side(X: np.ndarray) -> dict[str, np.ndarray]:
     """
     # Pelvis (Wu 2002 pelvis: Z along the ASIS line, Y normal to the ASIS/PSIS plane):
     # Z = left_hip -> right_hip, Y = pelvis -> spine made perpendicular to Z.
-    zp = _unit(X[:, R_HIP] - X[:, L_HIP])
+    zp = normalize(X[:, R_HIP] - X[:, L_HIP], eps=_TINY)
     yp = _perp_unit(X[:, SPINE] - X[:, PELVIS], zp, MIN_AXIS_ANGLE_DEG)
     pelvis = _frame(np.cross(yp, zp), yp, zp)
 
     # Thorax (Wu 2005: Y = mid(PX,T8) -> mid(IJ,C7), Z normal to the IJ-C7-mid(PX,T8)
     # plane): Y = spine -> thorax, Z = left -> right shoulder made perpendicular to Y.
-    yt = _unit(X[:, THORAX] - X[:, SPINE])
+    yt = normalize(X[:, THORAX] - X[:, SPINE], eps=_TINY)
     zt = _perp_unit(X[:, R_SHOULDER] - X[:, L_SHOULDER], yt, MIN_AXIS_ANGLE_DEG)
     thorax = _frame(np.cross(yt, zt), yt, zt)
 
     # Thigh / shank (Wu 2002 femur: Y = mid-epicondyles -> hip centre, Z along the
     # epicondyle line; Grood & Suntay: the knee flexes about the femur's Z).
-    y_th = _unit(X[:, R_HIP] - X[:, R_KNEE])
-    y_sh = _unit(X[:, R_KNEE] - X[:, R_ANKLE])
+    y_th = normalize(X[:, R_HIP] - X[:, R_KNEE], eps=_TINY)
+    y_sh = normalize(X[:, R_KNEE] - X[:, R_ANKLE], eps=_TINY)
     knee_bend, n_knee = _bend(y_th, y_sh)  # n_knee = y_sh x y_th: points right when flexed
     # The zero-internal-rotation thigh Z: Z-X-Y with the third angle 0, i.e.
     # Rz(a) Rx(b) e_z in pelvis coordinates, from the thigh's Y alone.
@@ -301,13 +296,13 @@ def _right_side(X: np.ndarray) -> dict[str, np.ndarray]:
     # would need the thigh turned beyond HYPEREXTENSION_HIP_ROTATION_DEG: near +-90 the
     # choice follows the noise of a lifter's hip line, and a flexed knee is far more
     # common than a hyperextended one.
-    flexed_rotation_cos = _dot(_unit(n_knee), z_ref)
+    flexed_rotation_cos = _dot(normalize(n_knee, eps=_TINY), z_ref)
     hyperextended = ((flexed_rotation_cos < np.cos(np.radians(HYPEREXTENSION_HIP_ROTATION_DEG)))
                      & (knee_bend <= MAX_KNEE_HYPEREXTENSION_DEG))
     knee_sign = np.where(hyperextended, -1.0, 1.0)
     knee_sign = np.where(np.isfinite(z_ref).all(-1), knee_sign, np.nan)
     plane_ok = knee_bend >= MIN_BEND_DEG
-    z_th = np.where(plane_ok[:, None], knee_sign[:, None] * _unit(n_knee), z_ref)
+    z_th = np.where(plane_ok[:, None], knee_sign[:, None] * normalize(n_knee, eps=_TINY), z_ref)
     thigh = _frame(np.cross(y_th, z_th), y_th, z_th)
     z_sh = _perp_unit(z_th, y_sh, 1.0)
     shank = _frame(np.cross(y_sh, z_sh), y_sh, z_sh)
@@ -318,11 +313,11 @@ def _right_side(X: np.ndarray) -> dict[str, np.ndarray]:
     # Upper arm / forearm (Wu 2005 humerus, second definition: Z normal to the plane of
     # the humerus' and forearm's long axes, pointing right; forearm Y = ulnar styloid ->
     # elbow, here wrist -> elbow).
-    y_ua = _unit(X[:, R_SHOULDER] - X[:, R_ELBOW])
-    y_fa = _unit(X[:, R_ELBOW] - X[:, R_WRIST])
+    y_ua = normalize(X[:, R_SHOULDER] - X[:, R_ELBOW], eps=_TINY)
+    y_fa = normalize(X[:, R_ELBOW] - X[:, R_WRIST], eps=_TINY)
     elbow_bend, n_elbow = _bend(y_ua, y_fa)  # n_elbow = y_fa x y_ua
     elbow_ok = elbow_bend >= MIN_BEND_DEG
-    z_ua = np.where(elbow_ok[:, None], _unit(-n_elbow), _any_perp(y_ua))  # y_ua x y_fa
+    z_ua = np.where(elbow_ok[:, None], normalize(-n_elbow, eps=_TINY), _any_perp(y_ua))  # y_ua x y_fa
     upper_arm = _frame(np.cross(y_ua, z_ua), y_ua, z_ua)
     z_fa = _perp_unit(z_ua, y_fa, 1.0)
     forearm = _frame(np.cross(y_fa, z_fa), y_fa, z_fa)

@@ -32,7 +32,7 @@ from scipy.spatial.transform import Rotation
 
 from .core.conventions import PELVIS, THORAX, check_poses
 from .core.errors import InputError
-from .core.rotations import angle_between, decompose_camera_rotation, normalize
+from .core.rotations import angle_between, camera_pitch_roll, decompose_camera_rotation, normalize
 from .gravity_prior import GravityPosterior, gravity_posterior
 from .ground_plane import GROUND_GATE_DEG, POSE_PRIOR_DEG, fit_plane_map, ground_plane_up
 from .spherical import robust_mean_direction, weighted_quantile
@@ -146,13 +146,6 @@ def check_rotations(R: np.ndarray, valid: np.ndarray | None) -> tuple[np.ndarray
 def frame_ups(R: np.ndarray) -> np.ndarray:
     """Per-frame up directions ``R[:, :, 1]`` ``(T, 3)``, renormalised (NaN stays NaN)."""
     return normalize(np.asarray(R, np.float64)[:, :, 1])
-
-
-def _pitch_roll_deg(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """decompose_camera_rotation's tilt from up vectors ``(..., 3)``, degrees."""
-    pitch = np.degrees(np.arcsin(np.clip(-up[..., 2], -1.0, 1.0)))
-    roll = np.degrees(np.arctan2(up[..., 0], -up[..., 1]))
-    return pitch, roll
 
 
 # ============================================================================ heading
@@ -326,7 +319,7 @@ def sequence_rectify(
     dev = angle_between(ups, up[None])
     spread = float(np.degrees(weighted_quantile(np.where(ok, dev, 0.0)[None], w[None], 0.5)[0]))
     spread95 = float(np.degrees(weighted_quantile(np.where(ok, dev, 0.0)[None], w[None], 0.95)[0]))
-    pitch, roll = _pitch_roll_deg(up)
+    pitch, roll = np.degrees(camera_pitch_roll(up))
 
     unc = dict(up=np.nan, pitch=np.nan, roll=np.nan)
     if n_bootstrap > 0 and T >= 2:
@@ -361,8 +354,8 @@ def sequence_rectify(
             # pull is not sampling error).
             ub = ub[good]
             unc["up"] = float(np.percentile(np.degrees(angle_between(ub, up_evidence[None])), 95))
-            pb, rb = _pitch_roll_deg(ub)
-            pe, re_ = _pitch_roll_deg(up_evidence)
+            pb, rb = np.degrees(camera_pitch_roll(ub))
+            pe, re_ = np.degrees(camera_pitch_roll(up_evidence))
             dp = pb - pe
             dr = (rb - re_ + 180.0) % 360.0 - 180.0
             unc["pitch"] = float(np.percentile(np.abs(dp), 95))

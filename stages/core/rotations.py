@@ -17,11 +17,13 @@ from .errors import InputError
 _EPS = 1e-8
 
 
-def normalize(v: np.ndarray, axis: int = -1) -> np.ndarray:
-    """Unit vectors along ``axis``; zero-length vectors become NaN (never a silent zero)."""
+def normalize(v: np.ndarray, axis: int = -1, eps: float = _EPS) -> np.ndarray:
+    """Unit vectors along ``axis`` (``v / |v|``, same shape as ``v``); vectors of length
+    ``<= eps`` (default 1e-8, absolute, in ``v``'s units) and vectors with a NaN become NaN,
+    never a silent zero. ``eps=0.0`` refuses only exactly-zero vectors."""
     n = np.linalg.norm(v, axis=axis, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(n > _EPS, v / n, np.nan)
+        return np.where(n > eps, v / n, np.nan)
 
 
 def rotation_6d_to_matrix(d6: np.ndarray) -> np.ndarray:
@@ -77,6 +79,23 @@ def twist_angle(R: np.ndarray, axis: np.ndarray) -> np.ndarray:
     along = np.sum(q[..., :3] * axis, axis=-1)
     ang = 2.0 * np.arctan2(along, q[..., 3])
     return (ang + np.pi) % (2 * np.pi) - np.pi
+
+
+def camera_pitch_roll(up_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Camera pitch and roll in radians, each ``(...)``, from unit up direction(s) ``up_cam``
+    ``(..., 3)`` in the camera frame (OpenCV axes: x right, y down, z forward):
+    ``pitch = asin(-u_z)`` (argument clipped to [-1, 1]; positive = the camera looks down
+    at the subject), ``roll = atan2(u_x, -u_y)`` (in [-pi, pi]; positive turns the camera
+    about its optical axis as :func:`compose_camera_rotation`'s ``Rz(roll)``). They are
+    :func:`decompose_camera_rotation`'s pitch and roll, which depend only on the up column
+    ``R[..., :, 1]``; with :func:`camera_tilt_deg`, ``cos(tilt) = cos(pitch) cos(roll)``.
+    NaN stays NaN. The one place pcnet turns an up vector into pitch and roll: degrees are
+    ``np.degrees`` of these.
+    """
+    up_cam = np.asarray(up_cam)
+    pitch = np.arcsin(np.clip(-up_cam[..., 2], -1.0, 1.0))
+    roll = np.arctan2(up_cam[..., 0], -up_cam[..., 1])
+    return pitch, roll
 
 
 def camera_tilt_deg(up_cam: np.ndarray) -> np.ndarray:
@@ -156,11 +175,10 @@ def decompose_camera_rotation(R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     Returns ``(heading, pitch, roll)`` in radians with :func:`compose_camera_rotation`'s
     meaning. Pitch and roll (the camera's tilt relative to gravity) depend only on the up
     vector ``u = R[:, 1]`` in the camera frame: ``pitch = asin(-u_z)``,
-    ``roll = atan2(u_x, -u_y)``; heading is what is left about the up axis.
+    ``roll = atan2(u_x, -u_y)`` (:func:`camera_pitch_roll`); heading is what is left about
+    the up axis.
     """
-    up = R[..., :, 1]
-    pitch = np.arcsin(np.clip(-up[..., 2], -1.0, 1.0))
-    roll = np.arctan2(up[..., 0], -up[..., 1])
+    pitch, roll = camera_pitch_roll(R[..., :, 1])
     M = np.swapaxes(R_FRONTAL, -1, -2) @ axis_rotation("x", -pitch) @ axis_rotation("z", -roll) @ R
     heading = np.arctan2(M[..., 0, 2], M[..., 0, 0])
     return heading, pitch, roll

@@ -67,6 +67,7 @@ from ..core.conventions import (
 )
 from ..core.errors import InputError
 from ..core.framestore import FrameArray, column, in_memory
+from ..core.rotations import normalize
 from .exports import TEXT_BLOCK_ROWS
 
 #: Rotation order (scipy intrinsic sequence = BVH channel order) of the pelvis and thorax,
@@ -170,13 +171,6 @@ def _nodes(names: Sequence[str]) -> tuple[list[str], list[int], list[int]]:
     return out_names, out_parents, out_joint
 
 
-def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(unit vectors, lengths) of ``(..., 3)`` vectors; zero vectors give NaN."""
-    n = np.linalg.norm(v, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return v / n[..., None], n
-
-
 def _hold(W: np.ndarray, before: np.ndarray | None = None) -> np.ndarray:
     """Replace frames with NaN rotations (degenerate geometry) by the nearest earlier, then
     later, valid frame; identity if none. ``before`` ``(3, 3)``: the valid rotation that
@@ -198,9 +192,9 @@ def _hold(W: np.ndarray, before: np.ndarray | None = None) -> np.ndarray:
 def _frame(y: np.ndarray, z_hint: np.ndarray, before: np.ndarray | None = None) -> np.ndarray:
     """``(T, 3, 3)`` rotations whose columns are (x, y, z): y along ``y``, z the part of
     ``z_hint`` perpendicular to it, x = y cross z (right-handed)."""
-    yu, _ = _unit(y)
+    yu = normalize(y, eps=0.0)
     z = z_hint - np.sum(z_hint * yu, axis=-1, keepdims=True) * yu
-    zu, zn = _unit(z)
+    zu, zn = normalize(z, eps=0.0), np.linalg.norm(z, axis=-1)
     zu[zn < 1e-9 * np.maximum(np.linalg.norm(z_hint, axis=-1), 1e-30)] = np.nan
     xu = np.cross(yu, zu)
     return _hold(np.stack([xu, yu, zu], axis=-1), before)
@@ -219,7 +213,7 @@ def _swing(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     tiny = ~(s > 1e-12)
     if tiny.any():  # parallel or opposite: any axis perpendicular to a
         e = np.eye(3)[np.argmin(np.abs(a[tiny]), axis=-1)]
-        axis[tiny] = _unit(np.cross(a[tiny], e))[0]
+        axis[tiny] = normalize(np.cross(a[tiny], e), eps=0.0)
     rotvec = axis * angle[:, None]
     rotvec[~np.isfinite(rotvec).all(axis=-1)] = 0.0
     return Rotation.from_rotvec(rotvec).as_matrix()
@@ -379,7 +373,7 @@ def _skeleton_samples(Xc: np.ndarray, before: dict[int, np.ndarray] | None = Non
     block of frames at a time are the whole recording's."""
     lengths = np.stack([np.linalg.norm(Xc[:, c] - Xc[:, p], axis=-1) for p, c in H36M_BONES], axis=-1)
     frames = _body_frames(Xc, before)
-    directions = {c: _unit(np.einsum("tji,tj->ti", frames[H36M_PARENTS[c]], Xc[:, c] - Xc[:, H36M_PARENTS[c]]))[0]
+    directions = {c: normalize(np.einsum("tji,tj->ti", frames[H36M_PARENTS[c]], Xc[:, c] - Xc[:, H36M_PARENTS[c]]), eps=0.0)
                   for c in _LINKED}
     return lengths, directions, ({j: f[-1] for j, f in frames.items()} if len(Xc) else before)
 
@@ -407,7 +401,7 @@ def _skeleton_from(bone_lengths, link_directions: dict, names: list[str], count:
     # The link children's rest directions are their median directions in the pelvis/thorax frames.
     rest_dir = dict(_REST_DIR)
     for c in _LINKED:
-        rest_dir[c] = _unit(_column_medians(link_directions[c], count))[0]
+        rest_dir[c] = normalize(_column_medians(link_directions[c], count), eps=0.0)
     for _, (zl, zr) in _FRAMES.values():
         # One forward (x) component for the pair, their heights and lengths kept, so that the
         # rest pose's pelvis/thorax frame is exactly the identity (zero channels = rest pose).
@@ -415,7 +409,7 @@ def _skeleton_from(bone_lengths, link_directions: dict, names: list[str], count:
         x = (a[0] + b[0]) / 2
         for v, j in ((a, zr), (b, zl)):
             side = np.sqrt(max(length[j] ** 2 - x**2 - v[1] ** 2, 0.0))
-            rest_dir[j] = _unit(np.array([x, v[1], np.copysign(side, v[2])]))[0]
+            rest_dir[j] = normalize(np.array([x, v[1], np.copysign(side, v[2])]), eps=0.0)
     offsets = np.zeros((N, 3))
     for n, j in enumerate(node_joint):
         if j > 0:
@@ -452,7 +446,7 @@ def _world_rotations(P: np.ndarray, sk: _Skeleton, before: np.ndarray | None = N
             target = sk.joint[k]
             here = H36M_PARENTS[target] if j < 0 else j  # a link sits at its parent joint
             carried = np.einsum("tij,j->ti", Wp, sk.rest_dir[target])
-            d, _ = _unit(P[:, target] - P[:, here])
+            d = normalize(P[:, target] - P[:, here], eps=0.0)
             W[:, n] = _swing(carried, d) @ Wp
     return W
 

@@ -1,0 +1,28 @@
+"""``camera_pitch_roll``: the one function turning a camera-frame up vector into pitch and roll
+(issue 52), checked against the composition it inverts."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pcnet.stages.core.rotations import camera_pitch_roll, camera_tilt_deg, compose_camera_rotation
+
+
+def test_pitch_and_roll_of_the_up_column_are_those_composed():
+    rng = np.random.default_rng(52)
+    heading, pitch, roll = rng.uniform(-np.pi, np.pi, 200), rng.uniform(-1.5, 1.5, 200), rng.uniform(-3.1, 3.1, 200)
+    up = compose_camera_rotation(heading, pitch, roll)[:, :, 1]
+    got_pitch, got_roll = camera_pitch_roll(up)
+    np.testing.assert_allclose(got_pitch, pitch, atol=1e-9)
+    np.testing.assert_allclose(got_roll, roll, atol=1e-9)
+    # the tilt from level of the same up: cos(tilt) = cos(pitch) cos(roll)
+    np.testing.assert_allclose(np.cos(np.radians(camera_tilt_deg(up))), np.cos(pitch) * np.cos(roll), atol=1e-9)
+
+
+def test_a_level_camera_a_downward_look_and_nan():
+    pitch, roll = camera_pitch_roll(np.array([[0.0, -1.0, 0.0], [0.0, -np.sqrt(0.5), -np.sqrt(0.5)],
+                                              [np.nan, np.nan, np.nan]]))
+    np.testing.assert_allclose(np.degrees(pitch[:2]), [0.0, 45.0], atol=1e-12)
+    np.testing.assert_allclose(roll[:2], [0.0, 0.0], atol=1e-12)
+    assert np.isnan(pitch[2]) and np.isnan(roll[2])
+    assert np.shape(camera_pitch_roll(np.array([0.0, -1.0, 0.0]))[0]) == ()
