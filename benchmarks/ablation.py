@@ -10,16 +10,17 @@ Evidence is extracted ONCE per clip and cached (``--cache``, pickle per data set
 recording runs through the shipped estimator exactly as ``pcnet run`` builds it
 (:class:`pcnet.pipeline.rectification.NetworkEstimator` -> :class:`pcnet.models.inference.ViewGatedPCNet`
 ``predict_gated``), with recorders on the two onnxruntime sessions' ``predict_normalized``
-that keep each network's raw per-frame rotations: the body-frame network, the camera-frame
-network on the quarter-turned input (turned back into the camera frame), and the camera-frame
-network on the unturned input of the turned frames (the level view); with the quarter turns,
-the gate's weights, the disagreement and the level-view angle the estimator returns. The same
+that keep each network's raw per-frame rotations: the body-frame network and the camera-frame
+network on the quarter-turned input (turned back into the camera frame); with the quarter turns,
+the gate's weights and the disagreement the estimator returns; and, run here, the camera-frame
+network on the unturned input of the turned frames (for "quarter turns off" and the plain
+means). The same
 estimate then goes through the real chain (:class:`pcnet.stages.rectify.Rectification`,
 ``SequenceEvidence("auto", camera_prior=True)``, heading ``auto``: the defaults of
 ``pcnet run``; no bootstrap, which does not move the up) and its up is cached too. Every
 variant below is then numpy on the cache, built from the package's own functions
 (:func:`pcnet.models.view_gate.camera_frame_weight`, ``blend_rotations``, ``quarter_turn_matrices``,
-:func:`pcnet.stages.uncertainty.frame_tilt_bound`, ``bound_weights``, ``evidence_scale``,
+:func:`pcnet.stages.uncertainty.frame_tilt_bound`, ``evidence_scale``,
 :func:`pcnet.stages.temporal.choose_mode`, ``sequence_rectify``, ``smooth_rotations``); the
 switches are arguments or monkeypatches here, never edits of the package. Row ``default`` is
 rebuilt from the cache the same way and checked against the real chain's cached up (the
@@ -86,14 +87,14 @@ import pcnet.stages.temporal as temporal  # noqa: E402
 from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, get_session  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
+from pcnet.models.preprocess import normalize_input  # noqa: E402
 from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices  # noqa: E402
 from pcnet.pipeline.rectification import NetworkEstimator  # noqa: E402
-from pcnet.stages.core.conventions import PELVIS, THORAX  # noqa: E402
+from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses  # noqa: E402
 from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize, with_up  # noqa: E402
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence  # noqa: E402
 from pcnet.stages.spherical import robust_mean_direction  # noqa: E402
-from pcnet.stages.uncertainty import (FRAME_TILT_95_DEG, bound_weights, evidence_scale,  # noqa: E402
-                                      frame_tilt_bound, reach_alternative)
+from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, evidence_scale, frame_tilt_bound  # noqa: E402
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "ablation.txt"
@@ -115,7 +116,7 @@ CHANGED_DEG = 0.5
 SWEEP_DEG = 30.0
 SWEEP_MIN_FRAMES = 150
 SWEEP_MAX_CLIPS = 60
-CACHE_VERSION = 1
+CACHE_VERSION = 2
 
 
 # ============================================================================ extraction
@@ -168,20 +169,21 @@ def extract(X: np.ndarray, fps: float) -> dict:
     turns = est.quarter_turns
     body = [R for net, R in calls if net == "body"]
     cam = [R for net, R in calls if net == "camera"]
-    assert len(body) == 1 and len(cam) == (2 if turns.any() else 1), (len(body), len(cam))
+    assert len(body) == 1 and len(cam) == 1, (len(body), len(cam))
     R_body = body[0]
     Q = quarter_turn_matrices(turns)
-    R_camT = np.swapaxes(Q, 1, 2) @ cam[-1]  # the camera-frame network's answer on the turned input, turned back
+    R_camT = np.swapaxes(Q, 1, 2) @ cam[0]  # the camera-frame network's answer on the turned input, turned back
     R_camP = R_camT.copy()  # the camera-frame network on the input as filmed
     if turns.any():
         idx = np.flatnonzero(turns)
-        R_camP[idx] = cam[0]
+        x, scale, ok = normalize_input(check_poses(X, "joints_cam"))
+        R_camP[idx] = session.camera.predict_normalized(x[idx], scale[idx], ok[idx])[0]
     real = Rectification(_Fixed(est), SequenceEvidence("auto", True, n_bootstrap=0), HeadingStep("auto"))(X, fps)
     rep = real.report
     grav = rep.get("gravity")
     return {
         "fps": float(fps), "J": X, "R_body": R_body, "R_camT": R_camT, "R_camP": R_camP, "valid": est.valid.copy(),
-        "turns": turns.copy(), "weight": est.camera_frame_weight.copy(), "level_view": est.level_view_deg.copy(),
+        "turns": turns.copy(), "weight": est.camera_frame_weight.copy(),
         "frame_up": est.rotation[:, :, 1].copy(), "real_up": real.up.copy(), "real_valid": real.valid.copy(),
         "real_mode": rep["mode"], "real_reading": None if grav is None else grav["reading"],
         "ground_plane_used": bool((rep.get("ground_plane") or {}).get("used", False)),
@@ -314,12 +316,10 @@ class Variant:
     kind: str = "removal"  # "default", "removal" or "alternative"
     gate: str = "shipped"  # shipped | body-reading | half | body | camera
     turns: bool = True
-    frame_weights: bool = True
     scale: bool = True
     prior: bool = True
     lying: bool = True
     auto: bool = True
-    level_view: bool = True  # widens the reported per-frame bound only
     balance: float = 0.0
     plain_mean: bool = False  # equal-weight Tukey mean of both networks' per-frame ups
 
@@ -333,8 +333,6 @@ VARIANTS = (
     Variant("gate off: camera-frame net only", gate="camera"),
     Variant("gate: no camera-net vouching", gate="body-reading"),
     Variant("quarter turns off", turns=False),
-    Variant("level-view widening off", level_view=False),
-    Variant("frame-bound weighting off", frame_weights=False),
     Variant("evidence scale off", scale=False),
     Variant("camera prior off", prior=False),
     Variant("lying reading off", lying=False),
@@ -421,11 +419,9 @@ def run_variant(ev: dict, v: Variant) -> dict:
     R, valid, w, d = per_frame(ev, v)
     base = FRAME_TILT_95_DEG
     bound = frame_tilt_bound(d, w, base)
-    fw = bound_weights(bound, base) if v.frame_weights else None
     scale = evidence_scale(bound, base) if v.scale else 1.0
     R, ok = temporal.check_rotations(R, valid)
-    reported = reach_alternative(bound, ev["level_view"]) if v.level_view and v.turns else bound
-    res = {"frame_up": np.where(ok[:, None], R[:, :, 1], np.nan), "bound": np.where(ok, reported, np.nan)}
+    res = {"frame_up": np.where(ok[:, None], R[:, :, 1], np.nan), "bound": np.where(ok, bound, np.nan)}
     if v.auto and ok.sum() < 2:
         return {**res, "up": res["frame_up"], "mode": "frame", "reading": None}
     mode = temporal.choose_mode(R, ok, temporal.MODE_THRESHOLD_DEG, fps)[0] if v.auto else "sequence"
@@ -433,7 +429,7 @@ def run_variant(ev: dict, v: Variant) -> dict:
         out = temporal.smooth_rotations(R, ok, fps, temporal.SMOOTH_TIME_CONSTANT_S)[:, :, 1]
         return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "reading": None}
     with switched(v, J):
-        s = temporal.sequence_rectify(R, ok, J, fps=fps, n_bootstrap=0, camera_prior=v.prior, frame_weights=fw,
+        s = temporal.sequence_rectify(R, ok, J, fps=fps, n_bootstrap=0, camera_prior=v.prior,
                                       evidence_scale=scale)
     up = np.where(s.valid[:, None], s.up[None], np.nan)
     return {**res, "up": up, "mode": mode, "reading": None if s.gravity is None else s.gravity.reading}
@@ -513,13 +509,11 @@ def mocap_table(title: str, evs: list[dict], runs: dict) -> list[str]:
         lines.append(f"{v.label:<40}{np.nanmean(err):>9.2f}{np.nanmedian(err):>8.2f}{np.nanpercentile(err, 95):>8.2f}"
                      f"{np.nanmean(fe):>8.2f}{int(np.sum(err > GROSS_DEG)):>5}{wrong:>6}{smooth:>7}  "
                      f"{verdict(v.kind, err - base)}")
-    cover = []
-    for label in ("default (pcnet run)", "level-view widening off"):
-        hits = np.concatenate([deg(o["frame_up"], ev["true_up"]) <= o["bound"] for o, ev in zip(runs[label], evs)
-                               if o["bound"] is not None])
-        cover.append(f"{label}: {100 * np.mean(hits):.2f} %")
+    label = VARIANTS[0].label
+    hits = np.concatenate([deg(o["frame_up"], ev["true_up"]) <= o["bound"] for o, ev in zip(runs[label], evs)
+                           if o["bound"] is not None])
     lines.append("per-frame 95 % bound coverage (frames whose per-frame tilt error is within the reported bound): "
-                 + "; ".join(cover))
+                 f"{label}: {100 * np.mean(hits):.2f} %")
     return lines
 
 

@@ -30,7 +30,7 @@ from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
 from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
 from pcnet.pipeline.rectification import make_estimator  # noqa: E402
 from pcnet.stages.core.rotations import axis_rotation  # noqa: E402
-from pcnet.stages.rectify import frame_bound_and_weights  # noqa: E402
+from pcnet.stages.rectify import frame_bound  # noqa: E402
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG, up_spread_deg  # noqa: E402
 from pcnet.stages.uncertainty import evidence_scale  # noqa: E402
 
@@ -45,7 +45,7 @@ MIN_FRAMES = 150
 def static_reads(estimator, joints: np.ndarray, fps: float) -> tuple[bool, bool]:
     """``(shipped, candidate)``: whether each threshold reads the camera as static."""
     est = estimator(joints, fps)
-    bound, _ = frame_bound_and_weights(est, estimator.frame_tilt_95_deg)
+    bound = frame_bound(est, estimator.frame_tilt_95_deg)
     spread = up_spread_deg(est.rotation, est.valid, fps)
     return spread <= MODE_THRESHOLD_DEG, spread <= MODE_THRESHOLD_DEG * evidence_scale(bound, estimator.frame_tilt_95_deg)
 

@@ -60,11 +60,10 @@ FACTORS = np.arange(0.0, 4.01, 0.25)
 TOP = 0.9  # the tenth of frames with the largest disagreement
 
 
-def frames_of(estimator, views) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(e, d, w, a)`` over the valid frames of ``views``: an iterable of (joints (T, 17, 3),
-    true ups (T, 3), fps); ``d``, ``w`` and ``a`` (the level view's angle, the bound's
-    ``alternative_deg``) NaN for a single network."""
-    errors, d, w, a = [], [], [], []
+def frames_of(estimator, views) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(e, d, w)`` over the valid frames of ``views``: an iterable of (joints (T, 17, 3),
+    true ups (T, 3), fps); ``d`` and ``w`` NaN for a single network."""
+    errors, d, w = [], [], []
     for joints, up, fps in views:
         est = estimator(joints, fps)
         ok = est.valid
@@ -72,8 +71,7 @@ def frames_of(estimator, views) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
         nan = np.full(len(ok), np.nan)
         d.append((nan if est.disagreement_deg is None else est.disagreement_deg)[ok])
         w.append((nan if est.camera_frame_weight is None else est.camera_frame_weight)[ok])
-        a.append((nan if est.level_view_deg is None else est.level_view_deg)[ok])
-    return np.concatenate(errors), np.concatenate(d), np.concatenate(w), np.concatenate(a)
+    return np.concatenate(errors), np.concatenate(d), np.concatenate(w)
 
 
 def mocap_views(clips, roll_deg: float = 0.0, camera: str = "per-frame"):
@@ -106,11 +104,11 @@ def canonical_pitch_roll(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def deepmimic_frames(estimator, clips) -> dict[str, np.ndarray]:
     """Over the valid frames of DeepMimic's views (those of :func:`mocap_views`, clip by clip,
-    so ``e``, ``d``, ``w``, ``a`` equal :func:`frames_of`'s): the tilt error ``e``, ``d``, ``w``, ``a``, the
+    so ``e``, ``d``, ``w`` equal :func:`frames_of`'s): the tilt error ``e``, ``d``, ``w``, the
     error split into signed ``pitch`` (+ = the predicted up leans anterior of the true one)
     and ``roll`` in the true canonical frame, and each frame's motion ``group``."""
     pairs = make_pairs(clips, views="paper", seed=0, camera="per-frame", noise=LifterNoise())
-    columns: dict[str, list] = {k: [] for k in ("e", "d", "w", "a", "pitch", "roll", "group")}
+    columns: dict[str, list] = {k: [] for k in ("e", "d", "w", "pitch", "roll", "group")}
     for i, clip in enumerate(clips):
         sel = np.flatnonzero(pairs.clip == i)
         if not len(sel):
@@ -122,7 +120,6 @@ def deepmimic_frames(estimator, clips) -> dict[str, np.ndarray]:
         columns["e"].append(np.degrees(angle_between(est.rotation[ok][:, :, 1], truth[:, :, 1])))
         columns["d"].append(est.disagreement_deg[ok])
         columns["w"].append(est.camera_frame_weight[ok])
-        columns["a"].append(est.level_view_deg[ok])
         pitch, roll = canonical_pitch_roll(up)
         columns["pitch"].append(pitch)
         columns["roll"].append(roll)
@@ -141,8 +138,8 @@ def deepmimic_breakdown(frames: dict[str, np.ndarray], base: float, k: float, bo
         here = frames["group"] == group
         if not here.any():
             continue
-        e, d, w, a, pitch, roll = (frames[n][here] for n in ("e", "d", "w", "a", "pitch", "roll"))
-        cov = np.mean(e <= uncertainty.frame_tilt_bound(d, w, base, k, body, alternative_deg=a))
+        e, d, w, pitch, roll = (frames[n][here] for n in ("e", "d", "w", "pitch", "roll"))
+        cov = np.mean(e <= uncertainty.frame_tilt_bound(d, w, base, k, body))
         lines.append(f"  {group:<36}{len(e):>8}{cov:>10.1%}{w.mean():>8.2f}{np.median(d):>10.1f}{pitch.mean():>+12.2f}"
                      f"{np.abs(pitch).mean():>14.2f}{np.abs(roll).mean():>13.2f}{np.median(e):>10.1f}")
     return lines
@@ -163,10 +160,9 @@ def fit(e: np.ndarray, d: np.ndarray, k: float) -> float:
     return conformal(np.sqrt(np.maximum(e ** 2 - (k * d) ** 2, 0.0)))
 
 
-def covers(e, d, w, a, base, k, body) -> tuple[float, float, float]:
-    """(coverage, median bound, coverage in the top tenth of w d); ``k = 0`` (the constant
-    bound) leaves the level view's angle ``a`` out too."""
-    bound = uncertainty.frame_tilt_bound(d, w, base, k, body, alternative_deg=a)
+def covers(e, d, w, base, k, body) -> tuple[float, float, float]:
+    """(coverage, median bound, coverage in the top tenth of w d)."""
+    bound = uncertainty.frame_tilt_bound(d, w, base, k, body)
     wd = w * d
     top = wd > np.quantile(wd, TOP)
     top_cov = float(np.mean(e[top] <= bound[top])) if top.any() else float("nan")  # w d = 0: no ranking
@@ -190,7 +186,7 @@ def main(argv=None) -> int:
     held_out = {
         "motion-style test (Bandai test groups, CMU 10, 14)": frames_of(estimator, mocap_views(test)),
         "motion-style test, camera rolled 90 deg (portrait)": frames_of(estimator, mocap_views(test, 90.0)),
-        "DeepMimic all (other motions, another dataset)": (deepmimic["e"], deepmimic["d"], deepmimic["w"], deepmimic["a"]),
+        "DeepMimic all (other motions, another dataset)": (deepmimic["e"], deepmimic["d"], deepmimic["w"]),
         "Pose2Sim real cameras (4 x 11 frames)": frames_of(estimator, pose2sim_views(args.data)),
     }
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
@@ -215,9 +211,9 @@ def main(argv=None) -> int:
               "Coverage (share of frames within their bound; median bound, deg; coverage in the top tenth of w d, "
               "nan where w d = 0 throughout):",
               f"  {'data':<52}{'frames':>8}  {'constant bound':>28}  {'with disagreement':>28}"]
-    for name, (e, d, w, a) in {"calibration split, w = 1 (in-sample fit)": cal, "calibration split, all frames": cal_all, **held_out}.items():
-        c0, m0, t0 = covers(e, d, w, a, constant, 0.0, constant)
-        c1, m1, t1 = covers(e, d, w, a, base, chosen, body)
+    for name, (e, d, w) in {"calibration split, w = 1 (in-sample fit)": cal, "calibration split, all frames": cal_all, **held_out}.items():
+        c0, m0, t0 = covers(e, d, w, constant, 0.0, constant)
+        c1, m1, t1 = covers(e, d, w, base, chosen, body)
         lines.append(f"  {name:<52}{len(e):>8}  {c0:>8.1%} {m0:>6.2f} top {t0:>6.1%}  "
                      f"{c1:>8.1%} {m1:>6.2f} top {t1:>6.1%}")
     lines += deepmimic_breakdown(deepmimic, base, chosen, body)

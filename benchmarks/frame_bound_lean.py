@@ -47,7 +47,7 @@ def lean_frames(estimator, views) -> dict[str, np.ndarray]:
     """Per valid frame: tilt error ``e``, the networks' disagreement ``d``, the camera-frame
     weight ``w`` (NaN for one network) and ``lam``, the answered up's angle to the input trunk
     (deg)."""
-    cols: dict[str, list] = {k: [] for k in ("e", "d", "w", "a", "lam")}
+    cols: dict[str, list] = {k: [] for k in ("e", "d", "w", "lam")}
     for joints, up, fps in views:
         est = estimator(joints, fps)
         ok = est.valid
@@ -56,7 +56,6 @@ def lean_frames(estimator, views) -> dict[str, np.ndarray]:
         cols["e"].append(np.degrees(angle_between(answered, up[ok])))
         cols["d"].append(nan if est.disagreement_deg is None else est.disagreement_deg[ok])
         cols["w"].append(nan if est.camera_frame_weight is None else est.camera_frame_weight[ok])
-        cols["a"].append(nan if est.level_view_deg is None else est.level_view_deg[ok])
         cols["lam"].append(np.degrees(angle_between(answered, joints[ok][:, 8] - joints[ok][:, 0])))
     return {k: np.concatenate(v) for k, v in cols.items()}
 
@@ -99,7 +98,7 @@ def main(argv=None) -> int:
              f"(shipped bound: B = {uncertainty.FRAME_TILT_95_DEG:.2f}, B_body = {uncertainty.FRAME_TILT_95_BODY_DEG:.2f})",
              "", f"  {'data':<54}{'frames':>8}   shipped: coverage  median bound   candidate: coverage  median bound"]
     for name, f in sets.items():
-        shipped = uncertainty.frame_tilt_bound(f["d"], f["w"], alternative_deg=f["a"])
+        shipped = uncertainty.frame_tilt_bound(f["d"], f["w"])
         w = f["w"]
         candidate = (w * np.sqrt(base ** 2 + (k * f["d"]) ** 2 + (m * f["lam"]) ** 2)
                      + (1 - w) * np.sqrt(base_body ** 2 + (m_body * f["lam"]) ** 2))

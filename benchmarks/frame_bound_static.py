@@ -40,9 +40,9 @@ def clip_coverage(estimator, clips, camera: str) -> list[np.ndarray]:
     """Per clip, a bool array: each valid frame's tilt error within its shipped bound."""
     covered = []
     for view in mocap_views(clips, camera=camera):
-        e, d, w, a = frames_of(estimator, [view])
+        e, d, w = frames_of(estimator, [view])
         if len(e):
-            covered.append(e <= uncertainty.frame_tilt_bound(d, w, alternative_deg=a))
+            covered.append(e <= uncertainty.frame_tilt_bound(d, w))
     return covered
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.core.rotations import angle_between
-from pcnet.stages.rectify import SequenceEvidence, frame_bound_and_weights
+from pcnet.stages.rectify import SequenceEvidence
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 
@@ -38,9 +38,8 @@ def main() -> None:
         estimator = make_estimator(args.method)
         estimate = estimator(joints, 30.0)
         R, valid = estimate.rotation, estimate.valid
-        weights = frame_bound_and_weights(estimate, estimator.frame_tilt_95_deg)[1]  # as `pcnet run` weighs them
-        seq = SequenceEvidence("sequence")(joints, R, valid, 30.0, weights)[2]
-        auto = SequenceEvidence("auto")(joints, R, valid, 30.0, weights)[2]
+        seq = SequenceEvidence("sequence")(joints, R, valid, 30.0)[2]
+        auto = SequenceEvidence("auto")(joints, R, valid, 30.0)[2]
         dev = np.degrees(angle_between(R[valid][:, :, 1], seq["up"][None]))
         choices[auto["mode"]] = choices.get(auto["mode"], 0) + 1
         print(f"{path.parent.name[:6] + '/' + path.stem[:27]:<34}{len(joints):>7}{np.median(dev):>11.1f}"

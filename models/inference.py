@@ -17,7 +17,7 @@ from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.core.rotations import angle_between, with_up
 
 from .preprocess import normalize_input
-from .view_gate import blend_rotations, camera_frame_weight, level_view_preferred, quarter_turn_matrices, quarter_turns
+from .view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices, quarter_turns
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
 #: The shipped camera-frame 3DPCNet (configs/pcnet_camera_floor4.toml) and body-frame 3DPCNet
@@ -146,19 +146,14 @@ class ViewGatedPCNet:
         self.path, self.info = self.camera.path, self.camera.info
 
     def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0, allocate=None):
-        """``(R, residual, valid, camera-frame weight, disagreement in deg, quarter turns,
-        level-view angle in deg)``;
+        """``(R, residual, valid, camera-frame weight, disagreement in deg, quarter turns)``;
         ``joints_cam`` in memory or on disk, read :data:`CHUNK_FRAMES` frames at a time.
         ``allocate(name, shape, dtype)`` makes the two ``(N, 17, 3)`` float64 residual arrays
         (NaN-filled; default in memory; the pipeline's are on disk, so only the ``(N, 3, 3)``
         rotations and per-frame values of a long recording are in memory). Quarter turns
         ``(N,)`` int (0, 1 or 3, :func:`pcnet.models.view_gate.quarter_turns`): the camera-frame
         network reads the poses turned back by that many quarter turns about the optical axis,
-        the gate reads both networks in that frame, and the answer is turned forward again.
-        Level-view angle ``(N,)`` float64: on the turned frames where the camera-frame network
-        shown the poses unturned reads a camera nearer level
-        (:func:`pcnet.models.view_gate.level_view_preferred`: a body on the floor, not a phone in
-        portrait), the angle between its up there and the answer's up; NaN elsewhere."""
+        the gate reads both networks in that frame, and the answer is turned forward again."""
         n = len(check_poses(joints_cam, "joints_cam"))
         res_cam, res_body = ((allocate or in_memory)(name, (n, 17, 3), np.float64)
                              for name in ("residual", "residual_body"))
@@ -168,18 +163,13 @@ class ViewGatedPCNet:
             normalized = normalize_input(check_poses(joints_cam[rows], "joints_cam"))
             R_body[rows], res_body[rows], valid[rows] = self.body.predict_normalized(*normalized)
         turns = quarter_turns(R_body, valid, fps)
-        # Only a recording with turned frames pays for the turns (Q is exactly I elsewhere) and
-        # for the camera-frame network's second reading of those frames, in the level view.
+        # Only a recording with turned frames pays for the turns (Q is exactly I elsewhere).
         Q = quarter_turn_matrices(turns) if turns.any() else None
-        R_level = None if Q is None else np.full((n, 3, 3), np.nan)
         for rows in blocks:
             if len(blocks) > 1:  # a short recording's one block is normalised once for both networks
                 normalized = normalize_input(check_poses(joints_cam[rows], "joints_cam"))
             x, scale, ok = normalized
             if Q is not None:  # normalisation is rotation-invariant, so the normalised poses are turned
-                turned = np.flatnonzero(turns[rows])
-                if len(turned):
-                    R_level[rows][turned] = self.camera.predict_normalized(x[turned], scale[turned], ok[turned])[0]
                 x = (x @ np.swapaxes(Q[rows], 1, 2)).astype(np.float32)
             R_cam[rows], res_cam[rows], camera_ok = self.camera.predict_normalized(x, scale, ok)
             valid[rows] &= camera_ok
@@ -188,11 +178,6 @@ class ViewGatedPCNet:
         weight = (camera_frame_weight(R_body, valid, fps, R_cam) if Q is None
                   else camera_frame_weight(Q @ R_body, valid, fps, Q @ R_cam))
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
-        preferred = np.zeros(0, np.int64)
-        if Q is not None:
-            idx = np.flatnonzero(valid & (turns != 0))
-            if len(idx):
-                preferred = idx[level_view_preferred(Q[idx] @ R_cam[idx], R_level[idx], fps)]
         # Blended a block at a time into the camera-frame network's arrays (no third copy); the
         # geodesic blend commutes with the turn, so it runs in the camera's own frame.
         for rows in blocks:
@@ -202,10 +187,7 @@ class ViewGatedPCNet:
             # frame is built from the hip line (docs/experiments.md, "The body-frame network's
             # heading on the pair's up").
             R_cam[rows] = with_up(R_body[rows], blend_rotations(R_body[rows], R_cam[rows], weight[rows])[:, :, 1])
-        level_view = np.full(n, np.nan)
-        if len(preferred):
-            level_view[preferred] = np.degrees(angle_between(R_level[preferred, :, 1], R_cam[preferred, :, 1]))
-        return R_cam, res_cam, valid, weight, disagreement, turns, level_view
+        return R_cam, res_cam, valid, weight, disagreement, turns
 
     def predict(self, joints_cam: np.ndarray, fps: float = 30.0):
         return self.predict_gated(joints_cam, fps)[:3]

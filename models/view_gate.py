@@ -53,7 +53,7 @@ import numpy as np
 from scipy.ndimage import median_filter
 from scipy.spatial.transform import Rotation
 
-from pcnet.stages.core.rotations import axis_rotation, camera_tilt_deg, decompose_camera_rotation
+from pcnet.stages.core.rotations import axis_rotation, decompose_camera_rotation
 
 #: Camera-frame network weight ramps (degrees): full weight up to the first value, none from
 #: the second on. Pitch: centred on the edge of the training views (|pitch| 45). Roll: where
@@ -128,43 +128,6 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
                    * _ramp(roll_b, *BODY_READING_LIMIT_ROLL_DEG) * _ramp(pitch_b, *BODY_READING_LIMIT_PITCH_DEG))
         weight[idx] = np.maximum(weight[idx], vouched)
     return weight
-
-
-def level_view_preferred(R_turned_view: np.ndarray, R_level_view: np.ndarray, fps: float = 30.0) -> np.ndarray:
-    """For frames the body-frame reading quarter-turns: where the camera-frame network, shown
-    the poses as the camera saw them (the level view), reads a camera nearer level than it
-    reads in the turned view.
-
-    A quarter-turned upright body (a phone in portrait) and a body on the floor under a level
-    camera (crawling, lying, getting up) both read to the body-frame network as a camera rolled
-    about a quarter turn. The camera-frame network, trained on level cameras (and on a few floor
-    motions, models/MODEL_CARD.md), reads a camera inside its training views in the view that
-    matches: on DeepMimic, floor clips under level cameras read 4-8 deg from level unturned and
-    about 45 turned; walks and runs under a camera rolled 90 deg about 45 unturned and about 10
-    turned (docs/experiments.md, "The level view in the view gate"). The gate still answers
-    from the turned view: trusting the level view instead makes the answer depend on the
-    camera's roll (the same lying body filmed by a camera rolled 90 deg is not turned, so it
-    reads as standing), which failed the equivariance benchmark. The per-frame bound
-    (:func:`pcnet.stages.uncertainty.frame_tilt_bound`) takes the level view's reading as the
-    alternative it must reach.
-
-    Args:
-        R_turned_view, R_level_view: ``(M, 3, 3)`` canonical->camera rotations of the
-            camera-frame 3DPCNet on the same ``M`` finite frames of one recording (in order),
-            each in the frame the network was shown (turned view: ``Q_k R``).
-        fps: frame rate (Hz) of the running medians (:func:`window_frames`).
-
-    Returns:
-        ``(M,)`` bool. The camera tilt read in each view is the angle between the network's up
-        and the view's image up, ``arccos(-u_y)``, median-filtered like :func:`camera_reading`;
-        a tie is False.
-    """
-    size = window_frames(fps)
-
-    def tilt(R):
-        return median_filter(camera_tilt_deg(R[:, :, 1]), size=size, mode="nearest")
-
-    return tilt(R_level_view) < tilt(R_turned_view)
 
 
 def quarter_turns(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0) -> np.ndarray:

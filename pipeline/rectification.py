@@ -46,15 +46,14 @@ class NetworkEstimator:
         X = check_poses(joints_cam, "joints_cam")
         session = get_session(None if self.weights is None else str(self.weights))
         if self.weights is None:
-            R, residual, valid, gate, disagreement, turns, level_view = session.predict_gated(X, fps, allocate)
+            R, residual, valid, gate, disagreement, turns = session.predict_gated(X, fps, allocate)
         else:
             residual = (allocate or in_memory)("residual", X.shape, np.float64)
-            (R, residual, valid), gate, disagreement, turns, level_view = (session.predict(X, residual=residual), None,
-                                                                            None, None, None)
+            (R, residual, valid), gate, disagreement, turns = session.predict(X, residual=residual), None, None, None
         if self.rigid:
             for rows in frame_blocks(len(valid)):
                 residual[rows] = np.where(valid[rows, None, None], 0.0, np.nan)
-        return FrameEstimate(R, residual, valid, gate, disagreement, turns, level_view)
+        return FrameEstimate(R, residual, valid, gate, disagreement, turns)
 
 
 def make_estimator(method: str = "pcnet", weights: str | None = None) -> FrameEstimator:

@@ -410,8 +410,7 @@ def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[str]:
     """Flags from the view gate's report (:func:`pcnet.stages.rectify.gate_report`), each
     when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the camera
     read as turned by 90 or 270 deg about its optical axis (the camera-frame network read
-    the poses turned back), of those the frames whose unturned poses that network reads as a
-    body on the floor under a level camera (``level_view_frames``), and the camera-frame 3DPCNet (partly) set aside for the body-frame
+    the poses turned back), and the camera-frame 3DPCNet (partly) set aside for the body-frame
     one (the remaining roll beyond 10-20 deg or pitch beyond 40-50 deg, or a body whose trunk is
     far from the image's vertical). ``None`` (one estimator ran) gives none. ``lying``: sequence
     mode's camera prior read the body as lying (:func:`gravity_reading_flag`), which then sets
@@ -428,14 +427,6 @@ def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[str]:
                      f"quarter_turns)" + ("; the camera prior then read the body as lying under a level camera "
                                           "instead, and that reading is the answer (the 'body read as lying' "
                                           "warning)" if lying else ""))
-    level = view_gate.get("level_view_frames", 0)
-    if level > OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
-        reading = ("so does the camera prior's lying reading, which is the answer (" if lying else
-                   "the answer keeps the turned reading, which may be wrong by up to 90 deg there; the per-frame "
-                   "bound reaches the other reading (frame_tilt_bound_deg in canonical.npz; ")
-        flags.append(f"in {level} of those frames the camera-frame network, shown the poses as the camera saw them, reads "
-                     f"a level camera and a body on the floor (crawling, lying, getting up) rather than an upright body "
-                     f"under a camera turned a quarter turn: {reading}models/view_gate.py: level_view_preferred)")
     outside = view_gate["body_frame_frames"] + view_gate["blended_frames"]
     if outside <= OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
         return flags
@@ -445,43 +436,6 @@ def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[str]:
             f"or a body leaning sideways, upside down or across the image; the poses alone cannot tell which): the "
             f"rotation-equivariant body-frame network was used there ({view_gate['body_frame_frames']} frames alone, "
             f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)"]
-
-
-#: Share of valid frames whose per-frame bound the networks' disagreement at least doubles
-#: from which :func:`disagreement_flag` warns.
-DISAGREEMENT_SHARE = 0.05
-
-
-def disagreement_flag(bound_deg: np.ndarray | None, base_deg: float) -> list[str]:
-    """A flag when the shipped pair's two 3DPCNets (or, on frames read as a quarter-turned
-    camera, the camera-frame network's turned and level views) disagree so much on more than
-    :data:`DISAGREEMENT_SHARE` of the valid frames that their per-frame tilt bound
-    (:func:`pcnet.stages.uncertainty.frame_tilt_bound`) is at least twice ``base_deg``: poses
-    unlike the training data, where the per-frame up is least reliable (on DeepMimic the
-    tenth of frames with the largest disagreement hold most of its large errors).
-
-    Args:
-        bound_deg: ``(T,)`` per-frame bound, degrees, NaN where not valid; ``None`` or all
-            NaN (one estimator ran, uncalibrated weights) gives none.
-        base_deg: the bound where the networks agree (:data:`pcnet.stages.uncertainty.FRAME_TILT_95_DEG`).
-    """
-    if bound_deg is None:
-        return []
-    b = np.asarray(bound_deg, np.float64)
-    b = b[np.isfinite(b)]
-    if not len(b) or not np.isfinite(base_deg):
-        return []
-    wide = b >= 2.0 * base_deg
-    if wide.mean() <= DISAGREEMENT_SHARE:
-        return []
-    rest = b[~wide]
-    others = (f"; the other frames' {_deg_range(rest.min(), rest.max())}, median {np.median(rest):.1f}" if len(rest)
-              else "")
-    return [f"the two 3DPCNets (or the camera-frame network's two views of a quarter-turned camera) disagree on "
-            f"{int(wide.sum())} of {len(b)} frames ({100 * wide.mean():.0f} %) so much "
-            f"that their per-frame up bound is {_deg_range(b[wide].min(), b.max())} ({base_deg:.1f} where they agree"
-            f"{others}): poses unlike the training data, whose per-frame up is uncertain (frame_tilt_bound_deg in "
-            f"canonical.npz)"]
 
 
 def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float, cutoff_hz: float | None) -> list[str]:

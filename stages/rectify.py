@@ -32,7 +32,7 @@ from .gravity_prior import OTHER_READING_P
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
-from .uncertainty import bound_weights, calibrated_interval, evidence_scale, frame_tilt_bound, reach_alternative
+from .uncertainty import calibrated_interval, evidence_scale, frame_tilt_bound
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -76,14 +76,11 @@ def check_method_weights(method: str, weights: str | None, source: str = "weight
                          f"which uses no weights")
 
 
-def gate_report(gate: np.ndarray | None, valid: np.ndarray, turns: np.ndarray | None = None,
-                level_view: np.ndarray | None = None) -> dict | None:
+def gate_report(gate: np.ndarray | None, valid: np.ndarray, turns: np.ndarray | None = None) -> dict | None:
     """Summary of the camera-frame network's weights over the valid frames: its mean share,
-    the frames where the body-frame network alone (weight 0) or a blend ran, (with
+    the frames where the body-frame network alone (weight 0) or a blend ran, and (with
     ``turns``) the frames whose input the camera-frame network read turned back by 90 or 270
-    deg (``turned_frames``), and (with ``level_view``, :class:`FrameEstimate`'s
-    ``level_view_deg``) those of them it read unturned as a level camera's
-    (``level_view_frames``); ``None`` when one estimator ran."""
+    deg (``turned_frames``); ``None`` when one estimator ran."""
     if gate is None:
         return None
     w = gate[valid]
@@ -92,8 +89,6 @@ def gate_report(gate: np.ndarray | None, valid: np.ndarray, turns: np.ndarray | 
               "frames": int(len(w))}
     if turns is not None:
         report["turned_frames"] = {str(90 * k): int(np.sum(turns[valid] == k)) for k in (1, 3)}
-    if level_view is not None:
-        report["level_view_frames"] = int(np.sum(np.isfinite(level_view[valid])))
     return report
 
 
@@ -122,10 +117,7 @@ class FrameEstimate:
     trust in its camera-frame network per frame (:mod:`pcnet.models.view_gate`) and
     ``disagreement_deg`` ``(T,)`` the angle between its two networks' ups and
     ``quarter_turns`` ``(T,)`` int, the quarter turns about the optical axis the camera-frame
-    network's input was turned back by, 0, 1 or 3, and ``level_view_deg`` ``(T,)`` where that
-    network read the unturned poses as a level camera's (a body on the floor rather than a phone
-    in portrait, :func:`pcnet.models.view_gate.level_view_preferred`) the angle between its up
-    there and the answer's, NaN elsewhere (each ``None`` when one estimator ran)."""
+    network's input was turned back by, 0, 1 or 3 (each ``None`` when one estimator ran)."""
 
     rotation: np.ndarray
     residual: np.ndarray
@@ -133,7 +125,6 @@ class FrameEstimate:
     camera_frame_weight: np.ndarray | None = None
     disagreement_deg: np.ndarray | None = None
     quarter_turns: np.ndarray | None = None
-    level_view_deg: np.ndarray | None = None
 
 
 class FrameEstimator(Protocol):
@@ -198,8 +189,7 @@ class SequenceEvidence:
             raise InputError(f"unknown mode {self.mode!r}; expected one of {MODES}")
 
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
-                 fps: float, frame_weights: np.ndarray | None = None,
-                 evidence_scale: float = 1.0,
+                 fps: float, evidence_scale: float = 1.0,
                  decide_on: np.ndarray | None = None, calibrated: bool = True) -> tuple[np.ndarray, np.ndarray, dict]:
         """Apply the mode to one recording.
 
@@ -207,9 +197,7 @@ class SequenceEvidence:
             joints_cam: ``(T, 17, 3)`` camera-frame joints (floor contacts and the lying
                 reading in sequence mode) or ``None``.
             R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool or
-                ``None`` (all). fps: frame rate, > 0. frame_weights: optional ``(T,)`` weights
-                of the frames in sequence mode's up (:func:`pcnet.stages.temporal.sequence_rectify`).
-                evidence_scale: :func:`pcnet.stages.uncertainty.evidence_scale` of the
+                ``None`` (all). fps: frame rate, > 0. evidence_scale: :func:`pcnet.stages.uncertainty.evidence_scale` of the
                 recording: widens the pose evidence's std in the camera prior and the
                 calibrated intervals (1 = a pose like the calibration set's). decide_on:
                 optional ``(T,)`` bool, the frames ``"auto"`` decides on (one person's
@@ -272,8 +260,7 @@ class SequenceEvidence:
                           time_constant_s=SMOOTH_TIME_CONSTANT_S)
         else:
             res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=self.n_bootstrap,
-                                   camera_prior=self.camera_prior, frame_weights=frame_weights,
-                                   evidence_scale=evidence_scale)
+                                   camera_prior=self.camera_prior, evidence_scale=evidence_scale)
             out, g = res.rotations, res.gravity
             if not calibrated:  # another method's sequence up: its bootstrap, not a 95 % interval
                 pitch_half = roll_half = float("nan")
@@ -304,16 +291,12 @@ class SequenceEvidence:
         return np.where(valid[:, None, None], out, np.nan), valid, report
 
 
-def frame_bound_and_weights(estimate: FrameEstimate, base_deg: float) -> tuple[np.ndarray, np.ndarray | None]:
+def frame_bound(estimate: FrameEstimate, base_deg: float) -> np.ndarray:
     """Per-frame tilt bound ``(T,)`` (deg; :func:`pcnet.stages.uncertainty.frame_tilt_bound`, widened
-    where the shipped pair's networks disagree; ``base_deg`` throughout for one estimator) and
-    the frames' weights in sequence mode's up: inverse variance from that bound
-    (:func:`pcnet.stages.uncertainty.bound_weights`), so frames the two networks disagree on
-    count less; ``None`` (equal weights) without a calibrated bound or a second network."""
+    where the shipped pair's networks disagree; ``base_deg`` throughout for one estimator)."""
     if estimate.disagreement_deg is None:
-        return np.full(len(estimate.valid), base_deg), None
-    bound = frame_tilt_bound(estimate.disagreement_deg, estimate.camera_frame_weight, base_deg)
-    return bound, (bound_weights(bound, base_deg) if np.isfinite(base_deg) else None)
+        return np.full(len(estimate.valid), base_deg)
+    return frame_tilt_bound(estimate.disagreement_deg, estimate.camera_frame_weight, base_deg)
 
 
 @dataclass(frozen=True)
@@ -343,8 +326,7 @@ class Rectification:
     ``view_gate`` (:func:`gate_report`), ``camera_frame_weight`` ``(T,)`` (the shipped pair
     only), ``frame_tilt_95_deg`` (the estimator's calibrated per-frame bound where nothing
     widens it, NaN when uncalibrated) and ``frame_tilt_bound_deg`` ``(T,)`` (per frame, widened
-    where the pair's networks disagree and, on frames read as a quarter-turned camera, to the
-    camera-frame network's level view, :func:`pcnet.stages.uncertainty.frame_tilt_bound`;
+    where the pair's networks disagree, :func:`pcnet.stages.uncertainty.frame_tilt_bound`;
     NaN where not valid or uncalibrated). Input rules (dtype, the pelvis from the hips) are the
     caller's: :func:`pcnet.pipeline.rectification.rectify`.
 
@@ -363,21 +345,15 @@ class Rectification:
             self.estimator(joints_cam, fps, self.allocate)
         gate = estimate.camera_frame_weight
         base = self.estimator.frame_tilt_95_deg
-        bound, weights = frame_bound_and_weights(estimate, base)
-        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, weights,
+        bound = frame_bound(estimate, base)
+        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps,
                                          evidence_scale(bound, base), decide_on, calibrated=bool(np.isfinite(base)))
-        report["sequence_frame_weights"] = "per-frame bound" if weights is not None else "equal"
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)
-        report["view_gate"] = gate_report(gate, valid, estimate.quarter_turns, estimate.level_view_deg)
+        report["view_gate"] = gate_report(gate, valid, estimate.quarter_turns)
         if gate is not None:
             report["camera_frame_weight"] = np.where(valid, gate, np.nan)
         report["frame_tilt_95_deg"] = base
-        # The level view's reading widens the reported bound only: in sequence mode's weights and
-        # evidence scale it would weaken the pose evidence of a lying body in the camera prior's
-        # posterior (5 of 15 real Shavasana files lost their lying reading; docs/experiments.md).
-        if estimate.level_view_deg is not None:
-            bound = reach_alternative(bound, estimate.level_view_deg)
         report["frame_tilt_bound_deg"] = np.where(valid, bound, np.nan)
         canonical = to_canonical(joints_cam, R, estimate.residual,
                                  out=(self.allocate or in_memory)("canonical", joints_cam.shape, np.float32))

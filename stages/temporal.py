@@ -206,7 +206,6 @@ def sequence_rectify(
     fps: float = 30.0,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
     camera_prior: bool = True,
-    frame_weights: np.ndarray | None = None,
     evidence_scale: float = 1.0,
 ) -> SequenceResult:
     """One up direction for a static-camera sequence, per-frame heading about it.
@@ -256,9 +255,6 @@ def sequence_rectify(
         fps: frame rate (bootstrap block length, contact speeds).
         n_bootstrap: bootstrap replicates (0 = no uncertainty, NaN).
         camera_prior: step 2b.
-        frame_weights: optional ``(T,)`` weights of the frames in steps 1 and 4 and in the
-            spread (e.g. :func:`pcnet.stages.uncertainty.bound_weights`); non-finite or
-            negative = 0; ``None``, or no valid frame with a positive weight, = equal weights.
         evidence_scale: factor on the pose evidence's std in step 2b
             (:func:`pcnet.stages.uncertainty.evidence_scale`: > 1 where the poses are unlike
             the training data, so the camera prior counts more); positive.
@@ -279,13 +275,6 @@ def sequence_rectify(
     if not ok.any():
         raise InputError("sequence_rectify: no valid frame (all invalid or NaN)")
     w = ok.astype(np.float64)
-    if frame_weights is not None:
-        fw = np.asarray(frame_weights, np.float64)
-        if fw.shape != (T,):
-            raise InputError(f"frame_weights: expected shape ({T},), got {fw.shape}")
-        fw = np.where(np.isfinite(fw) & (fw > 0), fw, 0.0) * w
-        if fw.sum() > 0:
-            w = fw
 
     u_pose, _ = robust_mean_direction(ups, w)
     up, gp = u_pose, {"used": False, "reason": "no joints_cam"}

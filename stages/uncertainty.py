@@ -13,8 +13,9 @@ per-axis systematic error measured on data the shipped weights never trained on:
 Provenance of the constants (``benchmarks/results/uncertainty.txt``, made by
 ``python benchmarks/calibrate_uncertainty.py --data ../shared/data``, 2026-11-22; re-run
 with the shipped view-gate rule on 2026-11-23: the same constants; re-run with the sequence up
-weighted by the per-frame bound, :func:`bound_weights`, on 2026-11-23: pitch 3.46 -> 3.44, roll
-1.15 -> 1.12; re-run with errors divided by each clip-view's :func:`evidence_scale` on
+weighted by the per-frame bound on 2026-11-23: pitch 3.46 -> 3.44, roll
+1.15 -> 1.12 (that weighting was deleted on 2026-11-26, docs/decisions/0035-ablation-deletions.md:
+no effect on held-out data); re-run with errors divided by each clip-view's :func:`evidence_scale` on
 2026-11-24: pitch 3.18, roll 1.02; re-run for the posture-augmented release's weights on
 2026-11-24: pitch 3.24, roll 1.34; re-run for release 5's camera-frame network on 2026-11-26:
 pitch 3.15, roll 1.41, but with the earlier ``FRAME_DISAGREEMENT_FACTOR`` 1.50 in force, which
@@ -56,14 +57,10 @@ in ``benchmarks/results/frame_bound.txt`` (``python benchmarks/calibrate_frame_b
 
 A body on the floor under a level camera (crawling, lying, getting up) reads to the body-frame
 network as a camera turned a quarter turn, and both networks then answer for an upright body
-under a rolled camera, agreeing with each other, so ``d`` cannot widen the bound. On those
-frames the camera-frame network also reads the poses unturned, and where that view reads the
-more level camera (:func:`pcnet.models.view_gate.level_view_preferred`) the reported bound is
-at least ``FRAME_DISAGREEMENT_FACTOR`` times the angle between the answer's up and that view's:
-the other reading lies inside the bound. The answer is not changed (that would make it depend
-on the camera's roll), nor are sequence mode's frame weights and evidence scale, which use the
-bound without it (docs/experiments.md, "The level view as an alternative in the per-frame
-bound").
+under a rolled camera, agreeing with each other, so ``d`` cannot widen the bound there (release
+5.1 widened the reported bound on those frames with the camera-frame network's reading of the
+unturned poses; deleted on 2026-11-26, docs/decisions/0035-ablation-deletions.md: the bound's
+coverage barely moved on held-out data).
 
 A lying reading of the camera-prior posterior (:mod:`pcnet.stages.gravity_prior`) reports
 the posterior's own interval instead. Where the reading not reported keeps at least
@@ -140,10 +137,10 @@ def calibrated_interval(boot_half_deg, axis: str, sigma_sys_deg: float | None = 
 def evidence_scale(bound_deg, base_deg: float = FRAME_TILT_95_DEG) -> float:
     """How much less certain a recording's pose evidence is than on the poses the
     calibration saw, as a factor on the systematic error of its sequence up:
-    ``r = sum_t w_t (b_t / base) / sum_t w_t`` with the sequence mode's frame weights
+    ``r = sum_t w_t (b_t / base) / sum_t w_t`` with inverse-variance weights
     ``w_t = (base / b_t)^2`` (:func:`bound_weights`), i.e. the mean per-frame bound
-    :func:`frame_tilt_bound` ``b_t`` relative to ``base``, over the frames as the up weighs
-    them. Where the two networks agree ``r`` is 1; a recording of poses unlike the training
+    :func:`frame_tilt_bound` ``b_t`` relative to ``base``, each frame weighed by its precision
+    (sequence mode's up weighs its frames equally). Where the two networks agree ``r`` is 1; a recording of poses unlike the training
     data (the networks disagree on every frame) gets ``r`` > 1, and since one static pose
     errs the same way in every frame, its sequence error grows with the per-frame one rather
     than averaging out. ``SIGMA_SYS_DEG`` is calibrated on errors divided by ``r``
@@ -166,8 +163,7 @@ def evidence_scale(bound_deg, base_deg: float = FRAME_TILT_95_DEG) -> float:
 
 
 def frame_tilt_bound(disagreement_deg, camera_frame_weight, base_deg: float = FRAME_TILT_95_DEG,
-                     factor: float = FRAME_DISAGREEMENT_FACTOR, body_deg: float = FRAME_TILT_95_BODY_DEG,
-                     alternative_deg=None) -> np.ndarray:
+                     factor: float = FRAME_DISAGREEMENT_FACTOR, body_deg: float = FRAME_TILT_95_BODY_DEG) -> np.ndarray:
     """Per-frame 95 % bound on the tilt error of the shipped pair's up, degrees:
     ``w sqrt(base^2 + (factor d)^2) + (1 - w) body`` (module docstring for the calibration): the
     camera-frame network's bound, widened by the two networks' disagreement ``d``, where the gate
@@ -181,30 +177,17 @@ def frame_tilt_bound(disagreement_deg, camera_frame_weight, base_deg: float = FR
             (:func:`pcnet.models.view_gate.camera_frame_weight`).
         base_deg, factor, body_deg: overrides of :data:`FRAME_TILT_95_DEG`,
             :data:`FRAME_DISAGREEMENT_FACTOR` and :data:`FRAME_TILT_95_BODY_DEG` (calibration scripts).
-        alternative_deg: ``(T,)`` or ``None``: where finite, the angle (deg) between the answer's
-            up and another reading the poses allow (the camera-frame network's level view of a
-            quarter-turned camera, :func:`pcnet.models.view_gate.level_view_preferred`): the
-            bound is then at least ``factor`` times it, so that the other reading lies inside.
 
     Returns:
         ``(T,)`` float64 degrees, ``>= min(base_deg, body_deg)`` where finite.
     """
     w = np.asarray(camera_frame_weight, np.float64)
     d = np.asarray(disagreement_deg, np.float64)
-    bound = w * np.sqrt(base_deg ** 2 + (factor * d) ** 2) + (1.0 - w) * body_deg
-    return bound if alternative_deg is None else reach_alternative(bound, alternative_deg, factor)
-
-
-def reach_alternative(bound_deg, alternative_deg, factor: float = FRAME_DISAGREEMENT_FACTOR) -> np.ndarray:
-    """``max(bound, factor * alternative)`` per frame where ``alternative_deg`` is finite, else
-    ``bound`` (degrees, ``(T,)`` float64): the per-frame bound widened so that another reading
-    the poses allow, ``alternative_deg`` from the answer, lies inside it
-    (:func:`frame_tilt_bound`'s ``alternative_deg``)."""
-    return np.fmax(np.asarray(bound_deg, np.float64), factor * np.asarray(alternative_deg, np.float64))
+    return w * np.sqrt(base_deg ** 2 + (factor * d) ** 2) + (1.0 - w) * body_deg
 
 
 def bound_weights(bound_deg, base_deg: float = FRAME_TILT_95_DEG) -> np.ndarray:
-    """Per-frame weights of sequence mode's up from the per-frame tilt bound:
+    """Per-frame weights of :func:`evidence_scale`'s mean from the per-frame tilt bound:
     ``(base_deg / bound)^2``, inverse variance when the bound is proportional to each frame's
     error std, so frames where the two networks disagree (poses unlike the training data)
     count less; 0 where the bound is not finite (invalid frames).

@@ -93,6 +93,7 @@ def hook(tmp_path):
     return folder
 
 
+@pytest.mark.slow
 def test_rows_run_in_workers_and_one_failing_row_does_not_stop_the_others(tmp_path):
     """Same outputs as `pcnet run` per row, a marker in each, the table and the summary;
     a row that fails while it runs (all joints NaN) fails alone, its `out` never created."""
@@ -196,6 +197,7 @@ def test_c3d_rows_without_ezc3d_are_refused_before_any_work(tmp_path, monkeypatc
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
 
 
+@pytest.mark.slow
 def test_retry_failed_runs_a_row_whose_output_was_deleted_since(tmp_path):
     manifest = _manifest(tmp_path, _row("a"), _row("b"))
     assert _invoke(manifest, "--workers", "1").exit_code == 0
@@ -213,6 +215,7 @@ def test_shared_out_is_refused_even_with_several_workers(tmp_path):
     assert not (tmp_path / "a").exists()
 
 
+@pytest.mark.slow
 def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     x3d = tmp_path / "x.npy"
     x3d.write_bytes(BOX_3D.read_bytes())
@@ -247,6 +250,7 @@ def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     assert (tmp_path / "r2" / "notes.txt").read_text() == "mine"
 
 
+@pytest.mark.slow
 def test_a_moved_study_folder_is_still_complete(tmp_path):
     """Inputs count by their bytes: a study folder with a relative manifest, moved (or
     mounted elsewhere), skips its finished rows."""
@@ -311,6 +315,7 @@ def test_a_row_published_just_before_ctrl_c_is_ok_not_cancelled(tmp_path):
 
 
 @pytest.mark.parametrize("retries", [0, 1])
+@pytest.mark.slow
 def test_a_killed_worker_fails_or_retries_only_its_row(tmp_path, hook, retries):
     """A worker killed by the OS (SIGKILL, as an out-of-memory kill) while running row 2:
     the batch completes; without retries row 2 fails alone and --retry-failed then runs
@@ -361,6 +366,7 @@ def test_retry_failed_needs_a_previous_summary(tmp_path):
     assert not (tmp_path / "a").exists()
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_at_once_and_prints_what_finished(tmp_path, hook):
     """SIGINT while rows 2 and 3 run (row 1 done, row 4 waiting): exit 130 within ~2 s,
     the table printed, rows 2-4 cancelled, no output or staged folder left for them."""
@@ -409,6 +415,7 @@ def _needs_ray():
                                       'where it is (.ci/run installs it)')
 
 
+@pytest.mark.slow
 def test_ray_engine_starts_its_own_instance_beside_a_running_cluster(tmp_path):
     """Without --address, --engine ray starts its own local instance even where `ray start
     --head` runs on this machine (ray.init would join that cluster and refuse num_cpus)."""
@@ -425,6 +432,7 @@ def test_ray_engine_starts_its_own_instance_beside_a_running_cluster(tmp_path):
         subprocess.run([str(ray_cli), "stop"], capture_output=True, timeout=120)
 
 
+@pytest.mark.slow
 def test_ray_engine_retries_a_killed_worker_and_the_batch_succeeds(tmp_path, hook):
     """Issue 16's measurement, on a local Ray instance (`ray.init(num_cpus=2)`): a Ray worker
     process killed by PID while running row 2; Ray runs the task again (max_retries), the
@@ -457,6 +465,7 @@ def test_ray_engine_retries_a_killed_worker_and_the_batch_succeeds(tmp_path, hoo
     assert [r["status"] for r in again.rows] == ["skipped"] * 4
 
 
+@pytest.mark.slow
 def test_ray_engine_reports_a_failing_row_and_stops_on_ctrl_c(tmp_path, hook):
     """A row's own error is its result (not retried, even with --retries); Ctrl-C cancels the
     running tasks (ray.cancel(force=True)), prints the table and exits 130."""
@@ -512,6 +521,7 @@ def test_staged_folders_of_rows_on_other_hosts_and_unmarked_files_are_left_alone
     assert sorted(removed) == [dead, empty] and remote.is_dir() and unmarked.is_dir() and starting.is_dir()
 
 
+@pytest.mark.slow
 def test_a_complete_output_missing_a_file_runs_again(tmp_path):
     """A re-run skips a row only while every file pcnet wrote for it is there unchanged; a
     file of the user's beside them does not stop the skip (nothing would be replaced)."""
@@ -616,6 +626,7 @@ def test_an_engine_that_fails_to_start_leaves_no_pending_rows(tmp_path, monkeypa
     assert _statuses(manifest) == ["cancelled", "cancelled"] and "expected a Ray cluster" in summary["error"]
 
 
+@pytest.mark.slow
 def test_a_rows_warnings_reach_the_summary(tmp_path):
     """What `pcnet run` prints as WARNING lines for a recording is in the row's summary
     (and on stderr as the row ends): a batch user reads no per-row terminal output."""

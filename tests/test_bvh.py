@@ -272,6 +272,7 @@ def test_written_in_blocks_equals_the_whole_recording(tmp_path, mocap, monkeypat
 
 
 @pytest.mark.parametrize("lifter", ["mediapipe", "videopose3d"])
+@pytest.mark.slow
 def test_run_bvh_stands_on_the_trc_floor(tmp_path, lifter):
     """Issue 51: a real `pcnet run`'s world.bvh (read back by bvhio's forward kinematics)
     stands on the floor of its world.trc: in every frame the TRC has markers, the BVH's

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("torch")
+pytest.importorskip("torch", reason="the training configs load with pcnet.models.train, which needs torch (the [train] extra)")
 from pcnet.models.train import load_config  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

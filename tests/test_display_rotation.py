@@ -132,6 +132,7 @@ def _run(tmp_path, name: str, rotation: int, tag: int, stored: bool):
     return run_pipeline(cfg, progress=False)
 
 
+@pytest.mark.slow
 def test_pcnet_run_on_a_phone_video_whose_frames_the_detector_read_as_stored(tmp_path):
     """Real MotionBERT poses of the boxing fixture, re-stored turned 90 deg with the rotation in
     the container and the keypoints in the stored frames: pcnet turns them back into the
@@ -158,6 +159,7 @@ def test_pcnet_run_on_a_phone_video_whose_frames_the_detector_read_as_stored(tmp
 
 
 
+@pytest.mark.slow
 def test_the_recording_draws_the_keypoints_where_rerun_shows_the_video(tmp_path):
     """rerun's viewer shows an MP4 as stored, without its display rotation, so the recording's
     2D overlay is in the stored frames (the keypoint file's own pixels here), while
@@ -199,6 +201,7 @@ def test_without_keypoints_a_display_rotation_leaves_the_input_and_says_why(tmp_
     assert any("no 2D keypoints tell which frames" in n for n in result.notes), result.notes
 
 
+@pytest.mark.slow
 def test_a_video_rerun_cannot_play_is_left_out_of_the_recording_with_a_note(tmp_path):
     """The video fixture is MPEG-4 Part 2 (``mp4v``, what OpenCV's own writer makes), which
     rerun does not decode: the run still writes everything, the recording without the

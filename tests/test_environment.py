@@ -139,6 +139,7 @@ def test_too_many_open_files_is_one_line(user_folder):
 
 # --- paths -------------------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_a_name_of_240_characters_is_a_legal_out(user_folder):
     """The hidden staging and trash names of a long --out are shortened to fit 255 bytes, and
     a replacement still finds its own leftovers by them."""
@@ -217,6 +218,7 @@ def test_of_two_runs_into_one_new_out_the_later_refuses(user_folder):
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]
 
 
+@pytest.mark.slow
 def test_two_real_runs_racing_to_one_out_leave_one_whole_output(user_folder):
     procs = [subprocess.Popen([sys.executable, "-m", "pcnet.pipeline.cli", *RUN, "--lifter-output", "poses.npy",
                                "--out", "o"], cwd=user_folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE,

@@ -43,6 +43,7 @@ def test_camera_tilt_is_consistent_with_its_pitch_and_roll():
         assert np.cos(np.radians(tilt)) == pytest.approx(np.cos(np.radians(pitch)) * np.cos(np.radians(roll)), abs=1e-9)
 
 
+@pytest.mark.slow
 def test_smooth_mode_summary_prints_a_consistent_tilt(tmp_path):
     res = CliRunner().invoke(main, ["run", "--lifter", "generic", "--lifter-output", str(TADASANA), "--fps", "30",
                                     "--mode", "smooth", "--no-recording", "--out", str(tmp_path / "o")])
@@ -111,6 +112,7 @@ def test_a_track_that_jumps_to_another_place_is_split():
     assert "re-run the tracker" in track_switch_flag(segment, events, person_option=False)[0]
 
 
+@pytest.mark.slow
 def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
     """Sports2D demo: MediaPipe's track leaves the walking person around frame 169 and
     jumps again around frame 201 (two people in the video)."""
@@ -158,6 +160,7 @@ def test_auto_mode_decides_on_one_persons_frames():
     assert auto(None, R, res.valid, fps, decide_on=~res.valid)[2]["mode"] == "smooth"
 
 
+@pytest.mark.slow
 def test_the_sports2d_static_camera_is_found_despite_the_track_switch(tmp_path):
     """The Sports2D demo's camera does not move (its vanishing points give one gravity), but
     the jump to the second person read as camera motion (spread 5.5 deg over all frames):
@@ -212,6 +215,7 @@ def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
                             "camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})[1] == "95 % interval"
 
 
+@pytest.mark.slow
 def test_a_large_mediapipe_turn_is_flagged_and_a_negligible_one_is_not(tmp_path):
     """Real MediaPipe (Sports2D demo, the man on the box, above the image centre): with the
     assumed phone focal length his landmarks are turned by about 15 deg into the real camera,
@@ -253,6 +257,7 @@ def test_a_skeleton_that_changes_size_is_flagged():
     assert "changes 2.7-fold" in flag and "metric exports" in flag
 
 
+@pytest.mark.slow
 def test_a_rider_growing_in_the_image_gets_a_constant_size(tmp_path):
     """The real MotionBERT cycling clip whose rider grows 3-fold in the image (normalised
     output follows the person's size in the image): the run makes the size constant per
@@ -351,6 +356,7 @@ def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):
         assert any(f.startswith("the 3D skeleton is a mirror image") for f in npz["flags"])
 
 
+@pytest.mark.slow
 def test_2d_keypoints_outside_the_video_are_warned(tmp_path):
     """The real boxing AlphaPose keypoints with the 10-frame cut of their video pass; the same
     keypoints scaled x3 (another resolution's) lie outside the 854x480 frame and are warned."""

@@ -181,6 +181,7 @@ def test_cli_no_camera_prior_switch(tmp_path):
     assert trunk["prior"] > 75.0 > 30.0 > trunk["alone"]
 
 
+@pytest.mark.slow
 def test_pcnet_run_says_when_it_reads_a_lying_body(tmp_path):
     """`pcnet run` on real Shavasana (VideoPose3D): the summary names the lying reading and
     prints the posterior's interval, not the upright calibration's."""

@@ -852,7 +852,9 @@ def test_c3d_without_ezc3d_is_one_line_before_any_work(monkeypatch, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("fps, cutoff, chunk", [(30.0, 6.0, 97), (30.0, 6.0, 1), (60.0, 2.0, 250), (30.0, None, 13)])
+# chunk = 1 (a block per frame, about 14 s) is the slow tier's; 13 and 97 cross the same edges in the fast tier
+@pytest.mark.parametrize("fps, cutoff, chunk", [(30.0, 6.0, 97), pytest.param(30.0, 6.0, 1, marks=pytest.mark.slow),
+                                                (60.0, 2.0, 250), (30.0, None, 13)])
 def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff, chunk):
     """kinematics_chunks (bounded memory for long recordings) == compute_kinematics of the
     whole recording: values to ~1e-12 relative, identical NaN, missing and unfiltered flags,
@@ -992,6 +994,7 @@ def test_kinematics_columns_csv_describes_every_column_of_a_real_run(tmp_path):
     assert "positive = thigh flexed" in rows["right_hip_flexion_deg"][3]
 
 
+@pytest.mark.slow
 def test_an_unobservable_pelvis_path_is_empty_not_zero(tmp_path):
     """A root-relative lifter gives no horizontal pelvis path: the world frame holds the pelvis
     at x = z = 0, so its x/z positions, velocities, accelerations and its speed were ~0 in the

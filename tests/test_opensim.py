@@ -146,6 +146,7 @@ def test_missing_opensim_is_one_line(short_run, monkeypatch):
                                   'OpenSim: pip install "pcnet[opensim]"')
 
 
+@pytest.mark.slow
 def test_pcnet_run_with_opensim_writes_the_ik_beside_the_run(tmp_path):
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
     x3d = tmp_path / "X3D_60.npy"
@@ -161,6 +162,7 @@ def test_pcnet_run_with_opensim_writes_the_ik_beside_the_run(tmp_path):
     assert written <= set(json.loads((out / ".pcnet-output").read_text())["files"])
 
 
+@pytest.mark.slow
 def test_the_fits_warning_reaches_the_npz_and_a_moving_camera_is_said(tmp_path, monkeypatch):
     """With --opensim the fit runs before the npz and the recording are written, so its
     warning is in them (not only on the terminal); a moving camera has no world.trc, said by
@@ -184,6 +186,7 @@ def test_the_fits_warning_reaches_the_npz_and_a_moving_camera_is_said(tmp_path, 
     assert not (tmp_path / "b" / "ik.mot").exists()
 
 
+@pytest.mark.slow
 def test_a_batch_row_can_ask_for_opensim(tmp_path):
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
     x3d = tmp_path / "X3D_60.npy"
@@ -243,6 +246,7 @@ def test_a_marker_in_no_frame_is_left_out_of_scaling_and_ik(short_run, tmp_path)
     assert r["warnings"][0].startswith("segments forearm_r keep the generic model's size"), r["warnings"]
 
 
+@pytest.mark.slow
 def test_pcnet_run_opensim_on_a_real_kinect_v1_recording(tmp_path):
     """`pcnet run --lifter kinect_v1 ... --opensim` on a real UTD-MHAD Kinect v1 sequence (no
     nose joint), read in place from ../shared/data (research licence, never copied here)."""

@@ -36,6 +36,7 @@ def _trc(path: Path) -> tuple[dict, np.ndarray]:
     return header, np.array([[float(v) if v else np.nan for v in r] for r in rows])
 
 
+@pytest.mark.slow
 def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     """The README's first command: every output, one recording row per frame, CSV rows =
     frames, a TRC that parses, and the user told how to open the recording."""
@@ -107,6 +108,7 @@ def _csv_numbers(path: Path) -> tuple[list[str], np.ndarray]:
     return rows[0], np.array([[float(v) if v else np.nan for v in r] for r in rows[1:]])
 
 
+@pytest.mark.slow
 def test_long_recordings_in_chunks_give_the_outputs_of_one_piece(tmp_path, monkeypatch):
     """Network input normalisation, the pair's blend, canonical poses, kinematics, CSV/TRC/BVH
     text, rerun columns and the whole-recording arrays on disk (stages/core/framestore.py) go
@@ -153,6 +155,7 @@ def test_long_recordings_in_chunks_give_the_outputs_of_one_piece(tmp_path, monke
     assert rrd_summary(a / "recording.rrd")[0] == rrd_summary(b / "recording.rrd")[0]
 
 
+@pytest.mark.slow
 def test_run_refuses_an_existing_folder_and_leaves_no_partial_output(tmp_path, monkeypatch):
     out = tmp_path / "out"
     args = ["run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--lifter", "motionbert",
@@ -225,6 +228,7 @@ def test_align_truncate_cuts_a_2d_file_longer_than_the_video(tmp_path):
     assert res.exit_code == 0 and "frames            10" in res.output, res.output
 
 
+@pytest.mark.slow
 def test_which_person_of_several_in_the_2d_file_was_used_is_said(tmp_path):
     """A second, higher-scored person in the AlphaPose file: the run takes that track, and
     the summary names the choice (it had been silent: another choice is another subject)."""
@@ -243,6 +247,7 @@ def test_which_person_of_several_in_the_2d_file_was_used_is_said(tmp_path):
                                           "--no-recording", "--out", tmp_path / "o2").output
 
 
+@pytest.mark.slow
 def test_a_method_without_calibration_prints_no_95_percent_interval(tmp_path):
     """The lifter's systematic error is calibrated for the shipped pair: the geometric
     baseline's sequence up gets its bootstrap, not the pair's "95 %" interval (which on the
@@ -366,6 +371,7 @@ def test_nan_only_sequence_is_a_clear_error(tmp_path):
     assert res.exit_code != 0 and "nan.npy" in res.output
 
 
+@pytest.mark.slow
 def test_toml_config(tmp_path):
     # The batch half of this test (a manifest with one failing row) is in tests/test_batch.py:
     # a missing input is now refused before any row runs, so its failing row fails at run time.
@@ -379,6 +385,58 @@ def test_toml_config(tmp_path):
     assert (tmp_path / "from_toml" / "kinematics.csv").is_file()
 
 
+def test_toml_config_keys_parse_into_the_run_config(tmp_path):
+    """The fast tier's half of test_toml_config (whose run is the slow tier's): every key of a
+    run's TOML reaches its RunConfig field with its type, and a relative `out` is taken from the
+    TOML's folder, not the working directory."""
+    from pcnet.pipeline.config import load_run_config
+
+    cfg = tmp_path / "run.toml"
+    cfg.write_text(
+        f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nkeypoints2d = "{BOX_2D}"\n'
+        f'keypoints2d_format = "alphapose"\nfps = 30\nmethod = "geometric"\nrecording = false\nout = "from_toml"\n'
+    )
+    run = load_run_config(cfg)
+    assert (run.lifter, run.lifter_output, run.keypoints2d, run.keypoints2d_format) == (
+        "motionbert", str(BOX_3D), str(BOX_2D), "alphapose")
+    assert run.fps == 30 and run.method == "geometric" and run.recording is False
+    assert run.out == str(tmp_path / "from_toml") and run.lifter_options == {}
+    assert load_run_config(cfg, method="pcnet").method == "pcnet"  # a command-line option wins
+
+
+def test_centimetres_given_as_metres_are_refused_by_the_body_check():
+    """The check behind test_centimetres_given_as_metres_are_refused_before_any_output (slow
+    tier): a real standing pose x100 said to be metres is refused naming the lifter output,
+    the thigh length and the fix for that lifter; the pose itself passes."""
+    from pcnet.pipeline.runner import _check_metric_body
+    from pcnet.stages.core.errors import InputError
+
+    pose = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
+    generic = RunConfig(lifter="generic", lifter_output="cm.npy")
+    _check_metric_body(generic, pose)
+    with pytest.raises(InputError, match=r"cm\.npy: expected poses in metres \(a median thigh length of 0\.2-0\.7 m\), "
+                                         r"got \d\d\.\d m: centimetres\? give --units cm \(or mm\), or --height"):
+        _check_metric_body(generic, pose * 100.0)
+    with pytest.raises(InputError, match="give a lifter other than --lifter videopose3d, or --height"):
+        _check_metric_body(RunConfig(lifter="videopose3d", lifter_output="cm.npy"), pose * 100.0)
+
+
+def test_what_the_run_assumed_about_its_inputs_is_listed():
+    """The notes behind test_what_the_run_assumed_about_its_inputs_is_noted (slow tier): the
+    generic lifter's defaults not given, and a MediaPipe archive given only as the lifter."""
+    from pcnet.pipeline.runner import _assumed_inputs
+
+    assert _assumed_inputs(RunConfig(lifter="generic", lifter_output="g.npy", lifter_options={"units": "m"})) == [
+        "generic lifter read with the default --layout h36m17, --axes RDF (not given)"]
+    assert _assumed_inputs(RunConfig(lifter="generic", lifter_output="g.npy", lifter_options={
+        "units": "m", "layout": "coco17", "axes": "RDF"})) == []
+    (note,) = _assumed_inputs(RunConfig(lifter="mediapipe", lifter_output=str(MEDIAPIPE)))
+    assert note.startswith("the MediaPipe archive's own 2D keypoints were not used")
+    assert _assumed_inputs(RunConfig(lifter="mediapipe", lifter_output=str(MEDIAPIPE), keypoints2d=str(MEDIAPIPE),
+                                     keypoints2d_format="mediapipe")) == []
+
+
+@pytest.mark.slow
 def test_every_yoga_file_rectifies_and_standing_trunks_are_vertical():
     """Physics, no ground truth: a person standing still has a near vertical trunk.
     Tolerance on the median over frames of the trunk's angle from canonical +Y
@@ -473,6 +531,7 @@ def _kinect_walk(path: Path, pitch_deg: float = 0.0) -> np.ndarray:
     return J
 
 
+@pytest.mark.slow
 def test_a_generic_file_with_a_measured_pelvis_path_keeps_it(tmp_path):
     """A real mocap walk written as camera-frame metres with its absolute pelvis (as a
     multi-camera system or a global-trajectory estimator gives): `--measured-root` keeps the
@@ -508,6 +567,7 @@ def test_a_generic_file_with_a_measured_pelvis_path_keeps_it(tmp_path):
     assert "drop --measured-root" in res.output and not (tmp_path / "z").exists()
 
 
+@pytest.mark.slow
 def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
     """`pcnet run --lifter kinect_v1`: a depth sensor's skeleton measures where the pelvis is,
     so world.trc and the CSV carry the walk's path (root-relative lifters cannot). The
@@ -530,6 +590,7 @@ def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
     np.testing.assert_allclose(world[0, PELVIS, [0, 2]], 0.0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_residual_cutoff_option_chooses_and_reports_the_cutoff(tmp_path):
     res = _invoke("run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--lifter", "motionbert",
                   "--lifter-output", BOX_3D, "--fps", "30", "--height", "1.75", "--residual-cutoff", "--no-recording",
@@ -542,6 +603,7 @@ def test_residual_cutoff_option_chooses_and_reports_the_cutoff(tmp_path):
     assert report["cutoff_hz"] != 6.0
 
 
+@pytest.mark.slow
 def test_short_recordings_and_hidden_feet_are_flagged(tmp_path):
     """Bad input the biomechanics outputs must not hide: a recording too short to filter (raw
     positions, no derivatives) and one with the feet out of the picture (no floor)."""
@@ -610,6 +672,7 @@ def test_lifter_joints_is_what_pcnet_run_reads_from_a_lifter():
 
 
 @pytest.mark.parametrize("mode", ["auto", "sequence"])
+@pytest.mark.slow
 def test_a_one_frame_recording_states_its_per_frame_uncertainty(tmp_path, mode):
     """One real pose: auto runs it per frame (nothing to pool, no camera motion to see) and
     says why; an explicit sequence mode runs, and with no bootstrap interval the summary
@@ -625,6 +688,7 @@ def test_a_one_frame_recording_states_its_per_frame_uncertainty(tmp_path, mode):
     assert "no fixed world frame" not in res.output
 
 
+@pytest.mark.slow
 def test_run_pipeline_leaves_the_callers_garbage_collector_as_it_found_it(tmp_path, monkeypatch):
     """The run exempts older objects from the cyclic collector while it runs (gc.freeze) and
     gives them back after, also when a stage fails: a caller's cycles are collected again."""
@@ -674,6 +738,7 @@ def test_run_config_takes_pathlib_paths(tmp_path):
     assert run_pipeline(cfg.validate(), progress=False).frames == 60
 
 
+@pytest.mark.slow
 def test_what_the_run_assumed_about_its_inputs_is_noted(tmp_path):
     """A generic file read with default layout/axes, and a MediaPipe archive given only as
     the lifter output (its own 2D keypoints unused), are said in the summary's notes."""
@@ -735,6 +800,7 @@ def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line(
     assert "static camera" not in line("smooth", "smooth") and "static camera" not in line("sequence", "auto")
 
 
+@pytest.mark.slow
 def test_centimetres_given_as_metres_are_refused_before_any_output(tmp_path):
     """A real VideoPose3D standing pose x100 read as metres (--lifter generic, --units not
     given) has 38 m thighs: its TRC and speeds would be 100 times too large, so the run is
@@ -761,7 +827,7 @@ def test_a_measured_pelvis_path_without_a_fitted_floor_is_noted():
 
     declined = {"used": False, "reason": "pelvis (nearly) fixed on a camera axis: ..."}
     (note,) = _unused_floor_note(True, declined)
-    assert note.startswith("floor not fitted from the foot contacts (pelvis (nearly) fixed on a camera axis")
+    assert note.startswith("up not refined by the floor's tilt from the foot contacts (pelvis (nearly) fixed on a camera axis")
     assert _unused_floor_note(False, declined) == []  # a root-relative lifter: nothing expected
     assert _unused_floor_note(True, {"used": True, "reason": "ok"}) == []
     assert _unused_floor_note(True, None) == []  # frame or smooth mode: no ground-plane step

@@ -437,28 +437,6 @@ def test_sequence_evidence_modes_and_report():
     assert np.isnan(rep["up_uncertainty_deg"]) and np.isnan(rep["camera_pitch_uncertainty_deg"])
 
 
-def test_sequence_up_weighs_frames_by_the_given_weights():
-    """Frames with weight 0 do not move the sequence up (the up of the others alone), and
-    weights that are all 0 fall back to equal weights."""
-    rng = np.random.default_rng(1)
-    R0 = _static_camera(5)
-    _, X_rel, _ = _view(CLIPS[RAISE], R0)
-    Rg, vg = geometric_rotation(_noisy(X_rel, rng))
-    n = len(Rg) // 4
-    tilted = Rg.copy()
-    tilted[:n] = Rotation.from_euler("z", 12.0, degrees=True).as_matrix() @ Rg[:n]
-    w = np.ones(len(Rg))
-    w[:n] = 0.0
-    run = SequenceEvidence("sequence", camera_prior=False, n_bootstrap=0)
-    weighted = run(None, tilted, vg, FPS, w)[2]["up"]
-    rest = run(None, Rg[n:], vg[n:], FPS)[2]["up"]
-    assert _deg(angle_between(weighted, rest)) < 1e-6
-    assert _deg(angle_between(run(None, tilted, vg, FPS)[2]["up"], rest)) > 0.5  # the tilted frames count without weights
-    np.testing.assert_allclose(run(None, tilted, vg, FPS, np.zeros(len(Rg)))[2]["up"], run(None, tilted, vg, FPS)[2]["up"])
-    with pytest.raises(ValueError, match="frame_weights"):
-        run(None, tilted, vg, FPS, np.ones(3))
-
-
 # ------------------------------------------------------------------------------ shared data
 
 

@@ -88,6 +88,7 @@ def test_coverage_on_heldout_deepmimic_clips():
     assert np.mean(inside_cal) >= np.mean(inside_boot)
 
 
+@pytest.mark.slow
 def test_frame_mode_summary_prints_the_calibrated_per_frame_bound(tmp_path):
     """Frame mode has no sequence interval; the summary prints the per-frame tilt bound
     calibrated on held-out mocap (FRAME_TILT_95_DEG), sequence mode does not."""
@@ -100,7 +101,9 @@ def test_frame_mode_summary_prints_the_calibrated_per_frame_bound(tmp_path):
     args = ["run", "--lifter", "videopose3d", "--lifter-output", src, "--fps", "30", "--no-recording"]
     res = CliRunner().invoke(main, [*args, "--mode", "frame", "--out", str(tmp_path / "f")])
     assert res.exit_code == 0, res.output
-    assert f"within {FRAME_TILT_95_DEG:.1f} deg of the true up in 95 % of frames where the two networks agree" in res.output
+    # said as what it is: a bound that held in 81-92 % of held-out mocap frames, not a 95 % interval
+    assert f"bound {FRAME_TILT_95_DEG:.1f} deg where the two networks agree" in res.output
+    assert "not a 95 % interval" in res.output and "in 95 % of frames" not in res.output
     with np.load(tmp_path / "f" / "canonical.npz") as npz:
         bound, valid = npz["frame_tilt_bound_deg"], npz["valid"]
     assert bound.shape == valid.shape and np.isfinite(bound[valid]).all() and np.isnan(bound[~valid]).all()
@@ -108,8 +111,8 @@ def test_frame_mode_summary_prints_the_calibrated_per_frame_bound(tmp_path):
     res = CliRunner().invoke(main, [*args, "--mode", "sequence", "--out", str(tmp_path / "s")])
     assert res.exit_code == 0, res.output
     assert "of the true up in 95 % of frames" not in res.output
-    with np.load(tmp_path / "s" / "canonical.npz") as npz:  # the sequence up weighs frames by that bound
-        assert json.loads(str(npz["report"]))["sequence_frame_weights"] == "per-frame bound"
+    with np.load(tmp_path / "s" / "canonical.npz") as npz:  # the sequence up weighs frames equally (decision 0035)
+        assert "sequence_frame_weights" not in json.loads(str(npz["report"]))
 
 
 def test_frame_bound_widens_with_disagreement_and_hands_over_with_the_gate():
@@ -161,6 +164,7 @@ def test_unfamiliar_real_poses_get_wider_intervals_than_standing():
     assert lotus["camera_pitch_interval_deg"] > stand["camera_pitch_interval_deg"]
 
 
+@pytest.mark.slow
 def test_summary_names_an_unfamiliar_recording(tmp_path):
     """The run summary's camera tilt line says when the evidence scale is beyond the
     calibration clips' (the seated lotus), and stays quiet for a standing pose."""
@@ -178,18 +182,3 @@ def test_summary_names_an_unfamiliar_recording(tmp_path):
     assert said == {"yoga_vp3d_Bhumi_Tadasana.npy": False, "yoga_Abhay_Padmasana_f200-299.npy": True}
 
 
-def test_disagreement_flag():
-    from pcnet.stages.flags import DISAGREEMENT_SHARE, disagreement_flag
-
-    base = FRAME_TILT_95_DEG
-    calm = np.full(100, base)
-    assert disagreement_flag(calm, base) == [] and disagreement_flag(None, base) == []
-    assert disagreement_flag(np.full(5, np.nan), base) == []
-    wide = calm.copy()
-    wide[: int(DISAGREEMENT_SHARE * 100)] = 3 * base  # exactly the share: not yet
-    assert disagreement_flag(wide, base) == []
-    wide[: int(DISAGREEMENT_SHARE * 100) + 2] = 3 * base
-    wide[50:60] = 1.5 * base  # the other frames' bounds are said as they are, not as the base
-    (text,) = disagreement_flag(wide, base)
-    assert "7 of 100 frames" in text and "frame_tilt_bound_deg" in text
-    assert "bound is 22 deg (7.4 where they agree; the other frames' 7-11 deg, median 7.4)" in text

@@ -35,6 +35,7 @@ def video_extra():
     pytest.importorskip("mediapipe", reason='the video extra is not installed (pip install "pcnet[video]")')
 
 
+@pytest.mark.slow
 def test_a_video_alone_gives_every_output_and_its_poses_for_a_re_run(tmp_path, video_extra):
     res = _invoke("run", "--video", CLIP, "--out", tmp_path / "a")
     assert res.exit_code == 0, res.output
@@ -90,6 +91,7 @@ def test_inputs_that_do_not_make_a_run_are_refused(tmp_path, args, needle):
     assert needle in line, line
 
 
+@pytest.mark.slow
 def test_a_batch_row_may_name_only_a_video(tmp_path, video_extra):
     (tmp_path / "clip.mp4").write_bytes(CLIP.read_bytes())
     (tmp_path / "m.csv").write_text("video,out,recording\nclip.mp4,o1,false\n")
@@ -98,6 +100,7 @@ def test_a_batch_row_may_name_only_a_video(tmp_path, video_extra):
     assert (tmp_path / "o1" / ESTIMATE_FILE).is_file() and (tmp_path / "o1" / "kinematics.csv").is_file()
 
 
+@pytest.mark.slow
 def test_calibrated_videos_agree_with_the_stored_files_and_the_lab(tmp_path, video_extra):
     """The four real calibrated cameras from the .mp4 against the stored MediaPipe 0.10.21
     files (same model, MediaPipe 1.2.3's Tasks graph). Measured (docs/video.md): the sequence
@@ -119,7 +122,7 @@ def test_calibrated_videos_agree_with_the_stored_files_and_the_lab(tmp_path, vid
         with np.load(stored) as f:
             focal, truth = float(f["K"][0, 0]), np.asarray(f["up_camera"], np.float64)
         ups = []
-        for extra in ({"lifter_options": {"focal_px": focal}},
+        for extra in ({"focal_px": focal},  # the camera's focal length, a run option
                       {"lifter": "mediapipe", "lifter_output": str(stored), "keypoints2d": str(stored),
                        "keypoints2d_format": "mediapipe"}):
             cfg = RunConfig(video=str(stored.with_suffix(".mp4")), mode="sequence", recording=False,

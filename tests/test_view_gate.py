@@ -103,8 +103,8 @@ def test_shipped_pair_answers_a_portrait_camera_exactly_as_the_level_one_and_oth
     X = _real_standing()
     gated = ViewGatedPCNet()
     assert gated.camera.path == CAMERA_WEIGHTS and gated.body.path == BODY_WEIGHTS
-    R0, res0, valid0, w0, d0, k0, a0 = gated.predict_gated(X)
-    assert valid0.all() and (w0 == 1.0).all() and (k0 == 0).all() and np.isnan(a0).all()
+    R0, res0, valid0, w0, d0, k0 = gated.predict_gated(X)
+    assert valid0.all() and (w0 == 1.0).all() and (k0 == 0).all()
     body0 = PCNetSession(BODY_WEIGHTS).predict(X)[0]
     camera_up = PCNetSession(CAMERA_WEIGHTS).predict(X)[0][:, :, 1]
     np.testing.assert_allclose(R0[:, :, 1], camera_up, atol=1e-6)  # the camera-frame network's up
@@ -113,15 +113,14 @@ def test_shipped_pair_answers_a_portrait_camera_exactly_as_the_level_one_and_oth
     np.testing.assert_allclose(d0, np.degrees(angle_between(R0[:, :, 1], body0[:, :, 1])), atol=1e-4)
     for quarter in (1, 3):
         Q = axis_rotation("z", np.radians(90.0 * quarter))
-        R, residual, valid, w, d, k, a = gated.predict_gated(X @ Q.T)
+        R, residual, valid, w, d, k = gated.predict_gated(X @ Q.T)
         assert (k == quarter).all() and (w == 1.0).all()
-        assert np.isnan(a).all()  # a standing body in portrait: the turned view reads the more level camera
         np.testing.assert_allclose(R, Q @ R0, atol=1e-4)  # the level camera's answer, turned
         np.testing.assert_allclose(residual, res0, atol=1e-6)  # canonical frame: unchanged
         np.testing.assert_allclose(d, d0, atol=1e-3)
     for roll in (45.0, 180.0):
         Q = axis_rotation("z", np.radians(roll))
-        R, residual, valid, w, _, k, a = gated.predict_gated(X @ Q.T)
+        R, residual, valid, w, _, k = gated.predict_gated(X @ Q.T)
         assert (w == 0.0).all() and (k != 2).all()
         np.testing.assert_allclose(R, Q @ body0, atol=1e-4)  # equivariant: the up turns with the camera
         assert np.isfinite(residual).all()
@@ -175,39 +174,19 @@ def _level_camera_crawl():
     return pairs.inputs.astype(np.float64), pairs.R[:, :, 1], clip.fps
 
 
-def test_a_crawl_under_a_level_camera_keeps_its_answer_but_its_bound_reaches_the_level_view(monkeypatch):
+def test_a_crawl_under_a_level_camera_reads_as_a_quarter_turned_camera():
     """The body-frame network reads a crawling body as a camera turned a quarter turn, and the
-    gate answers from the turned view (far from the truth); the camera-frame network's level
-    view reads the level camera, so the per-frame bound widens to reach it and then holds the
-    truth. The answer itself, and sequence mode's, are the same as with the level view never
-    preferred."""
-    from pcnet.models import inference
-    from pcnet.stages.uncertainty import FRAME_DISAGREEMENT_FACTOR, frame_tilt_bound
+    gate answers from the turned view (far from the truth), where the two networks agree, so
+    the per-frame bound does not reach the truth either (a known limit: release 5.1's level-view
+    widening of the bound was deleted, docs/decisions/0035-ablation-deletions.md)."""
+    from pcnet.stages.uncertainty import frame_tilt_bound
 
     X, up, fps = _level_camera_crawl()
-    gated = ViewGatedPCNet()
-    R, residual, valid, w, d, k, a = gated.predict_gated(X, fps)
+    R, residual, valid, w, d, k = ViewGatedPCNet().predict_gated(X, fps)
     error = np.degrees(angle_between(R[:, :, 1], up))
-    assert (k != 0).mean() > 0.9 and np.isfinite(a).mean() > 0.9
+    assert (k != 0).mean() > 0.9
     assert np.median(error) > 45.0  # the turned reading: an upright body under a rolled camera
-    bound = frame_tilt_bound(d, w, alternative_deg=a)
-    assert np.all(bound[np.isfinite(a)] >= FRAME_DISAGREEMENT_FACTOR * a[np.isfinite(a)])
-    assert np.mean(error <= bound) > 0.9 and np.mean(error <= frame_tilt_bound(d, w)) < 0.1
-    report = rectify(X, "pcnet", fps=fps).report["view_gate"]
-    (line,) = [f for f in view_gate_flag(report) if "body on the floor" in f]
-    assert f"in {report['level_view_frames']} of those frames" in line and report["level_view_frames"] > 0.9 * len(X)
-    assert "the answer keeps the turned reading" in line
-    # where sequence mode's camera prior read the body as lying, that reading is the answer
-    # (the quarter-turn line says so): this line must not say the turned one is
-    (lying_line,) = [f for f in view_gate_flag(report, lying=True) if "body on the floor" in f]
-    assert "turned reading" not in lying_line and "lying reading, which is the answer" in lying_line
-    sequence = rectify(X, "pcnet", mode="sequence", fps=fps)
-    monkeypatch.setattr(inference, "level_view_preferred", lambda turned, level, fps: np.zeros(len(turned), bool))
-    R_, residual_, valid_, w_, d_, k_, a_ = gated.predict_gated(X, fps)
-    np.testing.assert_array_equal(R_, R)
-    np.testing.assert_array_equal(residual_, residual)
-    np.testing.assert_array_equal(w_, w)
-    np.testing.assert_array_equal(k_, k)
-    assert np.isnan(a_).all()
-    # Sequence mode weighs frames by the bound without the level view: its answer is unchanged.
-    np.testing.assert_array_equal(rectify(X, "pcnet", mode="sequence", fps=fps).rotation, sequence.rotation)
+    assert np.mean(error <= frame_tilt_bound(d, w)) < 0.1
+    report = rectify(X, "pcnet", fps=fps).report
+    assert "level_view_frames" not in report["view_gate"]
+    np.testing.assert_array_equal(report["frame_tilt_bound_deg"][valid], frame_tilt_bound(d, w)[valid])
