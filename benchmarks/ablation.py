@@ -63,7 +63,8 @@ for a row that switches a piece off, "helps" when switching it off makes the err
 whenever the mean difference is under 0.05 deg (negligible) or exactly 0 for every clip
 ("identical"); in brackets after it the clips whose error moved by more than 0.5 deg
 (worse, better; for yoga: files that newly fail / newly pass); for an alternative
-(the plain robust mean, the balance cue) "better" / "worse" / "same". The real cameras, the
+(the plain robust mean, the balance cue, auto's static/moving decision by the Bayes factor of
+benchmarks/camera_motion_model.py instead of the spread threshold) "better" / "worse" / "same". The real cameras, the
 yoga fails and the equivariance use the same bootstrap over their views / files / rolled
 clips (few of them: read those intervals as rough).
 """
@@ -90,6 +91,7 @@ from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
 from pcnet.models.preprocess import normalize_input  # noqa: E402
 from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices  # noqa: E402
 from pcnet.pipeline.rectification import NetworkEstimator  # noqa: E402
+from camera_motion_model import decide_camera_motion  # noqa: E402
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses  # noqa: E402
 from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize, with_up  # noqa: E402
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence  # noqa: E402
@@ -322,6 +324,7 @@ class Variant:
     auto: bool = True
     balance: float = 0.0
     plain_mean: bool = False  # equal-weight Tukey mean of both networks' per-frame ups
+    mode_rule: str = "spread"  # auto's static/moving rule: "spread" (choose_mode) | "bayes" (benchmarks/camera_motion_model.py)
 
 
 VARIANTS = (
@@ -338,6 +341,7 @@ VARIANTS = (
     Variant("lying reading off", lying=False),
     Variant("auto threshold off (always sequence)", auto=False),
     Variant("+ balance cue (mix 0.2)", "alternative", balance=BALANCE_WEIGHT),
+    Variant("auto by Bayes factor", "alternative", mode_rule="bayes"),
 )
 
 
@@ -424,7 +428,12 @@ def run_variant(ev: dict, v: Variant) -> dict:
     res = {"frame_up": np.where(ok[:, None], R[:, :, 1], np.nan), "bound": np.where(ok, bound, np.nan)}
     if v.auto and ok.sum() < 2:
         return {**res, "up": res["frame_up"], "mode": "frame", "reading": None}
-    mode = temporal.choose_mode(R, ok, temporal.MODE_THRESHOLD_DEG, fps)[0] if v.auto else "sequence"
+    if not v.auto:
+        mode = "sequence"
+    elif v.mode_rule == "bayes":
+        mode = "smooth" if decide_camera_motion(R[:, :, 1], ok, fps).moving else "sequence"
+    else:
+        mode = temporal.choose_mode(R, ok, temporal.MODE_THRESHOLD_DEG, fps)[0]
     if mode == "smooth":
         out = temporal.smooth_rotations(R, ok, fps, temporal.SMOOTH_TIME_CONSTANT_S)[:, :, 1]
         return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "reading": None}
