@@ -49,7 +49,8 @@ import ablation as A  # noqa: E402
 
 import pcnet.stages.temporal as temporal  # noqa: E402
 from camera_motion_model import (LOG_PRIOR_ODDS, MotionParams, decide_camera_motion,  # noqa: E402
-                                        profile_scale, tangent_coordinates)
+                                        hierarchical_log_marginal, pack_series, profile_scale, scale_grid,
+                                        tangent_coordinates)
 
 DEFAULT = A.DEFAULT
 FIT_RESULT = Path(__file__).resolve().parent / "results" / "fit_camera_motion.txt"
@@ -116,6 +117,52 @@ def fit_walk(data: list, p: MotionParams) -> tuple[MotionParams, float]:
     return replace(p, walk_rate_deg=float(np.exp(res.x))), float(-res.fun)
 
 
+SLOW_TAUS_S = (3.0, 10.0, 30.0)  # time constants of the second (slow) error component tried
+
+
+def fit_alternatives(data: list, p0: MotionParams) -> list[str]:
+    """Validation log-likelihoods of the alternative error models (report lines):
+    - two Ornstein-Uhlenbeck components, each slow time constant of SLOW_TAUS_S: maximum
+      likelihood over (slow fraction, fast tau, white ratio, Huber k), each clip's scale profiled;
+    - hierarchical scales: each clip's log scale integrated over a normal prior across clips,
+      whose (mu, sigma) are fitted by maximum marginal likelihood (the other parameters at p0's)."""
+    fps = {f for _, _, _, f in data}
+    assert len(fps) == 1, fps
+    fps = fps.pop()
+    Y, OK = pack_series([(y, ok) for _, y, ok, _ in data if ok.sum() >= 2])
+    base = (0.0, p0.persistent_tau_s, 1.0, p0.white_ratio, p0.huber_k, 0.0)
+    prof0, _, grid, ll = scale_grid(Y, OK, fps, base, False)
+    n = len(Y)
+    out = [f"  one OU component, scales profiled (the model): log L = {prof0.sum():.1f} with {n} + 3 parameters "
+           f"(AIC-penalised {prof0.sum() - n - 3:.1f})"]
+    for tau2 in SLOW_TAUS_S:
+        def nll(th, tau2=tau2):
+            pars = (1.0 / (1.0 + np.exp(-th[0])), float(np.exp(th[1])), tau2, float(np.exp(th[2])), float(np.exp(th[3])), 0.0)
+            return -scale_grid(Y, OK, fps, pars, False)[0].sum()
+        res = minimize(nll, [-1.0, np.log(0.7), np.log(1e-3), np.log(p0.huber_k)], method="Nelder-Mead",
+                       options={"xatol": 1e-2, "fatol": 0.02, "maxfev": 250})
+        f, t1, w, k = 1.0 / (1.0 + np.exp(-res.x[0])), *np.exp(res.x[1:])
+        out.append(f"  two OU components, slow tau {tau2:g} s: log L = {-res.fun:.1f} with {n} + 4 parameters "
+                   f"(slow fraction {f:.3f}, fast tau {t1:.3f} s, white ratio {w:.2g}, Huber k {k:.3f})")
+    res = minimize(lambda h: -hierarchical_log_marginal(grid, ll, h[0], float(np.exp(h[1]))).sum(),
+                   [float(np.mean(grid)), np.log(0.5)], method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-4})
+    out.append(f"  one OU component, hierarchical scales: marginal log L = {-res.fun:.1f} with 2 + 3 parameters "
+               f"(AIC-penalised {-res.fun - 5:.1f}; prior of the log scale: median {np.exp(res.x[0]):.2f} deg, "
+               f"sigma {np.exp(res.x[1]):.3f})")
+    return out
+
+
+def fit_prior_odds(lbf_static: np.ndarray, lbf_moving: np.ndarray) -> tuple[float, float, float, int]:
+    """``(log prior odds, lo, hi, misreads)``: minus the midpoint of the widest interval ``[lo, hi)``
+    of thresholds on the log Bayes factor that minimise static-read-moving + moving-read-static."""
+    c = np.unique(np.r_[lbf_static, lbf_moving])
+    miss = np.array([(lbf_static > t).sum() + (lbf_moving <= t).sum() for t in c])
+    best = miss.min()
+    cand = [(c[i + 1] - c[i], c[i], c[i + 1]) for i in range(len(c) - 1) if miss[i] == best]
+    _, lo, hi = max(cand)
+    return -0.5 * (lo + hi), float(lo), float(hi), int(best)
+
+
 def decisions(data: list, p: MotionParams) -> np.ndarray:
     return np.array([decide_camera_motion(u, ok, fps, p).moving for u, _, ok, fps in data])
 
@@ -152,11 +199,18 @@ def fit(args) -> int:
              f"Moving camera (model M1), the validation clips of >= {A.SWEEP_MIN_FRAMES} frames with the pitch sweeping "
              f"{A.SWEEP_DEG:g} deg over each: {len(sweep)} clips; maximum log-likelihood {ll1:.1f}",
              f"  WALK_RATE_DEG        = {p1.walk_rate_deg:.4f}   (random-walk rate of the tilt, deg/sqrt(s))",
-             f"  LOG_PRIOR_ODDS       = {LOG_PRIOR_ODDS:g}   (declared: equal odds; not fitted)",
-             "",
-             "In-sample check (the fitting clips themselves; the held-out numbers are in camera_motion.txt):"]
-    dm_static = decisions(static, p1)
-    dm_sweep = decisions(sweep, p1)
+             ]
+    lb_static = np.array([decide_camera_motion(u, ok, fps, p1).log_bayes_factor for u, _, ok, fps in static])
+    lb_sweep = np.array([decide_camera_motion(u, ok, fps, p1).log_bayes_factor for u, _, ok, fps in sweep])
+    odds, lo, hi, miss = fit_prior_odds(lb_static, lb_sweep)
+    lines += [f"  LOG_PRIOR_ODDS       = {odds:.3f}   (fitted: minus the midpoint of [{lo:.2f}, {hi:.2f}), the widest interval of "
+              f"log-BF thresholds with the fewest validation misreads, {miss} of {len(static) + len(sweep)}; "
+              f"equal odds would misread {int((lb_static > 0).sum() + (lb_sweep <= 0).sum())})",
+              "", "Alternative error models, static model M0 on the same validation clips (validation log-likelihoods):"]
+    lines += fit_alternatives(static, p0)
+    lines += ["", "In-sample check (the fitting clips themselves; the held-out numbers are in camera_motion.txt):"]
+    dm_static = lb_static + odds > 0
+    dm_sweep = lb_sweep + odds > 0
     sp_static = np.array([spread_moving(ev) for evs in static_sets for ev in evs])
     sp_sweep = np.array([spread_moving(ev) for ev in moving])
     lines += [f"  Bayes factor:     static clips read moving {int(dm_static.sum())} of {len(static)}, "
@@ -202,7 +256,9 @@ def evaluate(args) -> int:
             lines.append(f"{label:<30}{mv:>12}{len(evs) - mv:>12}{np.nanmean(err):>8.2f}{np.nanmedian(err):>8.2f}"
                          f"{np.nanpercentile(err, 95):>8.2f}  {ver}")
         lbf = np.array([log_bf(ev) for ev in evs])
-        lines.append(f"log Bayes factor over clips: min {lbf.min():.1f}, median {np.median(lbf):.1f}, max {lbf.max():.1f}")
+        lines.append(f"log Bayes factor over clips: min {lbf.min():.1f}, median {np.median(lbf):.1f}, max {lbf.max():.1f}; "
+                     f"read moving at the fitted odds (log BF > {-LOG_PRIOR_ODDS:.2f}) {int((lbf + LOG_PRIOR_ODDS > 0).sum())}, "
+                     f"at equal odds (log BF > 0, first attempt; information only) {int((lbf > 0).sum())}")
         lines.append("")
         print("\n".join(lines[-7:]), flush=True)
     lines.append(f"(wall time {time.time() - t0:.0f} s including cache reads; 2 shared CPU cores)")
