@@ -279,6 +279,8 @@ def test_toml_nesting_reads_past_strings_and_comments():
 
 @pytest.mark.parametrize("command", ["run", "train"])
 def test_cli_refuses_a_deep_toml_config_in_one_line(tmp_path, command, monkeypatch):
+    if command == "train":  # pcnet train checks its torch first (tests/test_safety.py: ..._without_torch_...)
+        pytest.importorskip("torch", reason='pcnet train needs torch (pip install "pcnet[train]")')
     monkeypatch.chdir(tmp_path)
     Path("deep.toml").write_text(_deep_toml("arrays", 100_000))
     res = CliRunner().invoke(main, [command, "--config", "deep.toml"])
@@ -318,13 +320,22 @@ def test_deep_json_beside_weights_is_one_line_naming_it(tmp_path, monkeypatch):
 
 
 def test_deep_json_markers_read_as_not_pcnets(tmp_path):
-    """Files pcnet only looks at to tell its own outputs: a deep one is not pcnet's, no error."""
-    from pcnet.models.export import training_record
+    """Files pcnet only looks at to tell its own outputs: a deep one is not pcnet's, no error
+    (the training record beside a checkpoint: the next test, which needs torch)."""
     from pcnet.pipeline.batch_marker import BATCH_MARKER, read_batch_marker
     from pcnet.pipeline.cli import _json_object_with
 
     (tmp_path / "config.json").write_text(DEEP_JSON)
     (tmp_path / BATCH_MARKER).write_text(DEEP_JSON)
-    assert training_record(tmp_path / "best.pt") == {}
     assert read_batch_marker(tmp_path) == {}
     assert _json_object_with(tmp_path / "config.json", {"method"}) is False
+
+
+def test_a_deep_training_record_beside_a_checkpoint_reads_as_none(tmp_path):
+    """models/export.py reads config.json beside a checkpoint to name what the weights were
+    trained on: a deep one reads as no record, no error (export needs torch)."""
+    pytest.importorskip("torch", reason='pcnet export needs torch (pip install "pcnet[train]")')
+    from pcnet.models.export import training_record
+
+    (tmp_path / "config.json").write_text(DEEP_JSON)
+    assert training_record(tmp_path / "best.pt") == {}

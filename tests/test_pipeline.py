@@ -684,7 +684,7 @@ def test_a_one_frame_recording_states_its_per_frame_uncertainty(tmp_path, mode):
     assert res.exit_code == 0, res.output
     expected = "mode frame (requested auto; one valid frame)" if mode == "auto" else "mode sequence (requested sequence"
     assert expected in res.output
-    assert re.search(r"per-frame up\s+within 7\.4 deg .* this recording median [\d.]+", res.output), res.output
+    assert re.search(r"per-frame up\s+bound 7\.4 deg where the two networks agree.* this recording median [\d.]+", res.output), res.output
     assert "no fixed world frame" not in res.output
 
 
