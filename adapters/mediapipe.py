@@ -35,7 +35,7 @@ virtual camera into the real one (``x = R_ray @ x_world``). Measured on the four
 lab cameras of ``pose2sim_gravity`` (true intrinsics ``K`` in the file): MediaPipe's trunk
 direction is 13.1 / 13.1 / 13.2 / 5.7 deg from gravity as delivered and 9.0 / 8.0 / 10.7 / 4.4
 after the turn, each camera gaining nearly its whole ray angle (4.4 / 5.2 / 2.6 / 2.8 deg), as
-a virtual camera predicts (``python benchmarks/gravity_benchmark.py``, "trunk" rows).
+a virtual camera predicts (``python -m benchmarks.gravity_benchmark``, "trunk" rows).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Ablation of the decision machinery around the two networks: each evidence source and rule switched off in turn.
 
-    python benchmarks/ablation.py --data ../shared/data [--max-clips 200] [--cache /tmp/pcnet_ablation_cache] \
+    python -m benchmarks.ablation --data ../shared/data [--max-clips 200] [--cache /tmp/pcnet_ablation_cache] \
         [--out benchmarks/results/ablation.txt]
 
 Issue 49, "Ablation, not accretion": a piece that does not help on held-out data goes. This
@@ -75,28 +75,25 @@ import argparse
 import contextlib
 import hashlib
 import pickle
-import sys
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import pcnet.stages.temporal as temporal  # noqa: E402
-from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
-from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, get_session  # noqa: E402
-from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
-from pcnet.models.preprocess import normalize_input  # noqa: E402
-from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices  # noqa: E402
-from pcnet.pipeline.rectification import NetworkEstimator  # noqa: E402
-from camera_motion_model import decide_camera_motion  # noqa: E402
-from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses  # noqa: E402
-from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize, with_up  # noqa: E402
-from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence  # noqa: E402
-from pcnet.stages.spherical import robust_mean_direction  # noqa: E402
-from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, evidence_scale, frame_tilt_bound  # noqa: E402
+import pcnet.stages.temporal as temporal
+from pcnet.models.datasets import load_mocap, make_pairs, select_split
+from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, get_session
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.models.preprocess import normalize_input
+from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices
+from pcnet.pipeline.rectification import NetworkEstimator
+from benchmarks.camera_motion_model import decide_camera_motion
+from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
+from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize, with_up
+from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence
+from pcnet.stages.spherical import robust_mean_direction
+from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, evidence_scale, frame_tilt_bound
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "ablation.txt"
@@ -259,7 +256,7 @@ def sweep_evidence(sets: list[list[dict]]) -> list[dict]:
 
 
 def real_camera_evidence(data: Path) -> list[dict]:
-    from gravity_benchmark import load_camera, roll_view
+    from benchmarks.gravity_benchmark import load_camera, roll_view
 
     out = []
     for path in sorted((data / "real" / "pose2sim_gravity").glob("statictrial_cam*.npz")):
@@ -274,7 +271,7 @@ def real_camera_evidence(data: Path) -> list[dict]:
 
 
 def yoga_evidence(data: Path) -> list[dict]:
-    from yoga_physics import FPS, parse_name, plain_export
+    from benchmarks.yoga_physics import FPS, parse_name, plain_export
 
     from pcnet.adapters import load_videopose3d
     from pcnet.stages.core.conventions import root_relative
@@ -295,7 +292,7 @@ def yoga_evidence(data: Path) -> list[dict]:
 
 
 def equivariance_evidence(data: Path) -> list[dict]:
-    from equivariance import load_clips
+    from benchmarks.equivariance import load_clips
 
     out = []
     for name, joints, fps in load_clips(data, 300):
@@ -362,7 +359,7 @@ def _memo_gravity(up, sigma, trunk):
 def switched(v: Variant, J: np.ndarray):
     """Patches of :mod:`pcnet.stages.temporal` for ``v``: the lying reading off (no trunk), the
     balance cue mixed into the pose-based up where the ground plane would refine it."""
-    from balance_evidence import balance_up
+    from benchmarks.balance_evidence import balance_up
 
     def ground(J_, ok, u_pose, fps, prior, gate):
         up, info = _GROUND(J_, ok, u_pose, fps, prior, gate)
@@ -546,7 +543,7 @@ def real_table(evs: list[dict], runs: dict) -> list[str]:
 
 
 def yoga_table(evs: list[dict], runs: dict) -> list[str]:
-    from yoga_physics import TARGETS
+    from benchmarks.yoga_physics import TARGETS
 
     targeted = [i for i, ev in enumerate(evs) if ev["asana"] in TARGETS]
     counts = {a: sum(evs[i]["asana"] == a for i in targeted) for a in TARGETS}
@@ -626,7 +623,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     t0 = time.time()
     lines = [__doc__.splitlines()[0], "",
-             f"    python benchmarks/ablation.py --data ../shared/data --max-clips {args.max_clips}", "",
+             f"    python -m benchmarks.ablation --data ../shared/data --max-clips {args.max_clips}", "",
              "Rows: the default chain of `pcnet run` (mode auto, camera prior, view gate), then one piece switched off "
              "(or an alternative) at a time; see the script's docstring for the protocol and every column.", ""]
     sections = []

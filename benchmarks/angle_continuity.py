@@ -1,7 +1,7 @@
 """The largest per-frame step of every joint-angle column of `kinematics.csv` on real
 recordings (issue 51, "Continuous joint angles"; docs/joint_angles.md).
 
-    python benchmarks/angle_continuity.py --data ../shared/data
+    python -m benchmarks.angle_continuity --data ../shared/data
 
 Runs `pcnet run ... --no-recording` as a user would on a UTD-MHAD Kinect v1 sequence (a01, a
 right-arm swipe), the Sports2D demo's MediaPipe file (230 frames), the MediaPipe and the yoga

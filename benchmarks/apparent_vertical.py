@@ -1,6 +1,6 @@
 """How much of the shipped pair's per-frame error on held-out mocap follows the body's acceleration (the apparent vertical)?
 
-    python benchmarks/apparent_vertical.py --data ../shared/data [--stride 1]
+    python -m benchmarks.apparent_vertical --data ../shared/data [--stride 1]
 
 A body that accelerates leans into the acceleration: the ground's reaction that carries it
 points along the specific force ``f = a - g`` of its centre of mass (Newton's second law,
@@ -45,21 +45,19 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import savgol_filter
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.balance_evidence import centre_of_mass
+from benchmarks.calibrate_frame_bound import DEEPMIMIC_GROUPS, canonical_pitch_roll, deepmimic_group
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import data_arguments, print_and_save
 
-from balance_evidence import centre_of_mass  # noqa: E402
-from calibrate_frame_bound import DEEPMIMIC_GROUPS, canonical_pitch_roll, deepmimic_group  # noqa: E402
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import data_arguments, print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
-from pcnet.pipeline.rectification import make_estimator, rectify  # noqa: E402
-from pcnet.stages.core.canonical import canonical_rotation  # noqa: E402
-from pcnet.stages.core.rotations import angle_between  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs
+from pcnet.pipeline.rectification import make_estimator, rectify
+from pcnet.stages.core.canonical import canonical_rotation
+from pcnet.stages.core.rotations import angle_between
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "apparent_vertical.txt"
-COMMAND = "python benchmarks/apparent_vertical.py --data ../shared/data"
+COMMAND = "python -m benchmarks.apparent_vertical --data ../shared/data"
 G = 9.81
 UP = np.array([0.0, 1.0, 0.0])
 #: Savitzky-Golay windows (s) for the centre of mass's acceleration.

@@ -1,6 +1,6 @@
 """Auto mode's static/moving decision with its threshold scaled by the recording's evidence scale (tried, not shipped).
 
-    python benchmarks/auto_mode_threshold.py [--data ../shared/data]
+    python -m benchmarks.auto_mode_threshold [--data ../shared/data]
 
 `auto` reads a static camera when the spread of the smoothed per-frame ups is at most 5 deg
 (stages/temporal.py: choose_mode). Unfamiliar poses (the two networks disagreeing) scatter
@@ -16,27 +16,24 @@ Writes benchmarks/results/auto_mode_threshold.txt.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import data_arguments, print_and_save
 
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import data_arguments, print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
-from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
-from pcnet.pipeline.rectification import make_estimator  # noqa: E402
-from pcnet.stages.core.rotations import axis_rotation  # noqa: E402
-from pcnet.stages.rectify import frame_bound  # noqa: E402
-from pcnet.stages.temporal import MODE_THRESHOLD_DEG, up_spread_deg  # noqa: E402
-from pcnet.stages.uncertainty import evidence_scale  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.pipeline.rectification import make_estimator
+from pcnet.stages.core.rotations import axis_rotation
+from pcnet.stages.rectify import frame_bound
+from pcnet.stages.temporal import MODE_THRESHOLD_DEG, up_spread_deg
+from pcnet.stages.uncertainty import evidence_scale
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "auto_mode_threshold.txt"
-COMMAND = "python benchmarks/auto_mode_threshold.py --data ../shared/data"
+COMMAND = "python -m benchmarks.auto_mode_threshold --data ../shared/data"
 SWEEP_DEG = 30.0
 MAX_CLIPS = 60
 MIN_FRAMES = 150

@@ -1,6 +1,6 @@
 """Is balance evidence worth adding to sequence mode? A measured experiment, not shipped code.
 
-    python benchmarks/balance_evidence.py --data ../shared/data [--max-clips 200]
+    python -m benchmarks.balance_evidence --data ../shared/data [--max-clips 200]
 
 The idea (issue "Generalise honestly", section 2): over a recording on the floor, the body's
 centre of mass lies above its support on average, so the direction from the supporting
@@ -86,7 +86,7 @@ def main() -> None:
     args = ap.parse_args()
     t0 = time.time()
     head = f"| set | clips | pcnet sequence | balance | " + " | ".join(f"mix {w}" for w in WEIGHTS) + " |"
-    lines = [f"python benchmarks/balance_evidence.py --max-clips {args.max_clips} --cop-offset {args.cop_offset}",
+    lines = [f"python -m benchmarks.balance_evidence --max-clips {args.max_clips} --cop-offset {args.cop_offset}",
              "sequence-up tilt error, deg, mean / median over clips (static camera per clip, lifter-like noise)",
              head, "|" + "---|" * (head.count("|") - 1)]
     for label, file, split in SETS:

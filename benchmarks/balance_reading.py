@@ -1,7 +1,7 @@
 """Could balance tell a lying body under a level camera from a standing body under a camera
 rolled 90 deg? A measured experiment, not shipped code.
 
-    python benchmarks/balance_reading.py [--data ../shared/data] [--out benchmarks/results/balance_reading.txt]
+    python -m benchmarks.balance_reading [--data ../shared/data] [--out benchmarks/results/balance_reading.txt]
 
 Sequence mode's camera prior (stages/gravity_prior.py) reads a straight body lying across
 the image as lying, whether it lies under a level camera or stands under a rolled one: the
@@ -36,20 +36,20 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import Delaunay, QhullError
 
-from balance_evidence import centre_of_mass
-from gravity_benchmark import load_camera
-from yoga_physics import FOLDER, parse_name
+from benchmarks.balance_evidence import centre_of_mass
+from benchmarks.gravity_benchmark import load_camera
+from benchmarks.yoga_physics import FOLDER, parse_name
 from pcnet.adapters import load_videopose3d
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, THORAX, root_relative
 from pcnet.stages.core.rotations import axis_rotation, normalize
 from pcnet.stages.temporal import mean_trunk
-from mocap_sets import training_mix_splits
+from benchmarks.mocap_sets import training_mix_splits
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "balance_reading.txt"
-COMMAND = "python benchmarks/balance_reading.py --data ../shared/data"
+COMMAND = "python -m benchmarks.balance_reading --data ../shared/data"
 LEVEL = np.array([0.0, -1.0, 0.0])
 #: Joints this close to the lowest along the up (leg lengths) are the support.
 SUPPORT_TOLERANCE = 0.1

@@ -1,6 +1,6 @@
 """Throughput of `pcnet batch` against the number of workers, local engine and Ray.
 
-    python benchmarks/batch_throughput.py [--rows 8] [--tiles 1,20] [--engines local,ray] [--workers 1,2] [--repeat 1]
+    python -m benchmarks.batch_throughput [--rows 8] [--tiles 1,20] [--engines local,ray] [--workers 1,2] [--repeat 1]
 
 Manifests of ``--rows`` copies of the bundled real example (boxing video, AlphaPose
 Halpe-26, MotionBERT; the demo's settings: 3DPCNet, every export, the rerun recording
@@ -182,7 +182,7 @@ def main() -> None:
             print('ray is not installed (pip install "pcnet[ray]"): local engine only', file=sys.stderr)
             engines.remove("ray")
     counts = [int(w) for w in args.workers.split(",")]
-    lines = [f"    python benchmarks/batch_throughput.py --rows {args.rows} --tiles {args.tiles} "
+    lines = [f"    python -m benchmarks.batch_throughput --rows {args.rows} --tiles {args.tiles} "
              f"--engines {','.join(engines)} --workers {args.workers} --repeat {args.repeat}", "",
              f"{os.cpu_count()} CPU cores ({platform.machine()}), Python {platform.python_version()}; wall time of "
              f"the whole `pcnet batch` process, fastest of {args.repeat} run(s); speed-up against 1 worker of the "

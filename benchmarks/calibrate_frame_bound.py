@@ -1,6 +1,6 @@
 """Per-frame tilt bound of the shipped pair, widened where its two networks disagree: calibration on the motion-style val split, coverage on held-out data.
 
-    python benchmarks/calibrate_frame_bound.py [--data ../shared/data]
+    python -m benchmarks.calibrate_frame_bound [--data ../shared/data]
 
 Frames: every frame of a clip seen by a new "paper" camera with lifter-like noise
 (make_pairs(clips, views="paper", camera="per-frame", noise=LifterNoise(), seed=0)), each clip
@@ -34,27 +34,24 @@ signed pitch and roll. Writes benchmarks/results/frame_bound.txt.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.gravity_benchmark import load_camera
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 
-from gravity_benchmark import load_camera  # noqa: E402
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
-from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
-from pcnet.models.inference import BODY_WEIGHTS  # noqa: E402
-from pcnet.pipeline.rectification import make_estimator  # noqa: E402
-from pcnet.stages import uncertainty  # noqa: E402
-from pcnet.stages.core.rotations import angle_between, axis_rotation  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.models.inference import BODY_WEIGHTS
+from pcnet.pipeline.rectification import make_estimator
+from pcnet.stages import uncertainty
+from pcnet.stages.core.rotations import angle_between, axis_rotation
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "frame_bound.txt"
-COMMAND = "python benchmarks/calibrate_frame_bound.py --data ../shared/data"
+COMMAND = "python -m benchmarks.calibrate_frame_bound --data ../shared/data"
 LEVEL = 0.95
 FACTORS = np.arange(0.0, 4.01, 0.25)
 TOP = 0.9  # the tenth of frames with the largest disagreement

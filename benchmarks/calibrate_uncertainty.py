@@ -1,6 +1,6 @@
 """Calibrated up uncertainty of sequence mode: systematic-error model on the motion-style val split, coverage on held-out data.
 
-    python benchmarks/calibrate_uncertainty.py [--data ../shared/data] [--out benchmarks/results/uncertainty.txt]
+    python -m benchmarks.calibrate_uncertainty [--data ../shared/data] [--out benchmarks/results/uncertainty.txt]
 
 Sequence mode's moving-block bootstrap over frames (stages/temporal.py) only measures how
 much the frames disagree; a lifter's error that persists over a whole clip moves every frame
@@ -46,25 +46,22 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.gravity_benchmark import ROLLS_DEG, load_camera, pitch_roll_deg, roll_view
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 
-from gravity_benchmark import ROLLS_DEG, load_camera, pitch_roll_deg, roll_view  # noqa: E402
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
-from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
-from pcnet.stages import uncertainty  # noqa: E402
-from pcnet.pipeline.rectification import rectify  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.stages import uncertainty
+from pcnet.pipeline.rectification import rectify
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "uncertainty.txt"
-COMMAND = "python benchmarks/calibrate_uncertainty.py --data ../shared/data"
+COMMAND = "python -m benchmarks.calibrate_uncertainty --data ../shared/data"
 Z = 1.96
 LEVEL = 0.95
 CAL_SEEDS = (0, 1, 2)

@@ -99,7 +99,7 @@ the one-component model's), and the hierarchical marginal likelihood, even penal
 2 instead of one parameter per clip (AIC), is below the profiled one (the scales are
 well determined per clip). So the error model stays one OU component with profiled scales.
 
-Held-out result (``python benchmarks/fit_camera_motion.py --data ../shared/data --evaluate``,
+Held-out result (``python -m benchmarks.fit_camera_motion --data ../shared/data --evaluate``,
 benchmarks/results/camera_motion.txt). First attempt (equal odds): 119 of 120 swept clips
 caught (the spread threshold 97), but 64 of 200 static Bandai test clips, 16 of 28 CMU test
 clips and 64 of 81 DeepMimic clips read as moving (the threshold 0, 3, 24). Second attempt
@@ -128,7 +128,7 @@ from pcnet.stages.core.rotations import normalize
 from pcnet.stages.spherical import robust_mean_direction
 
 # --- fitted parameters ---------------------------------------------------------------------
-# Fitted by `python benchmarks/fit_camera_motion.py --data ../shared/data`
+# Fitted by `python -m benchmarks.fit_camera_motion --data ../shared/data`
 # (benchmarks/results/fit_camera_motion.txt): maximum likelihood of the static model M0, each
 # clip's error scale profiled, on the per-frame ups of the shipped estimator (`pcnet run`'s
 # per-frame chain: the view-gated pair of networks) on VALIDATION clips only - the Bandai

@@ -1,6 +1,6 @@
 """What the shipped camera-frame 3DPCNet reads as camera roll on real recordings: rolled cameras against asymmetric poses.
 
-    python benchmarks/camera_roll_reading.py [--data ../shared/data] [--stride 2]
+    python -m benchmarks.camera_roll_reading [--data ../shared/data] [--stride 2]
 
 The view gate (models/view_gate.py: camera_reading) reads the camera's |roll| from a network's
 per-frame up as a 2 s running median. A gate that hands rolled cameras to a network trained on
@@ -18,22 +18,19 @@ left-right symmetric under a level camera. Here, for the shipped camera-frame ne
 
 from __future__ import annotations
 
-import sys
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.gravity_benchmark import load_camera, pitch_roll_deg
+from benchmarks.report import data_arguments, print_and_save
+from benchmarks.yoga_physics import ASANA_ORDER, FOLDER, FPS, plain_export, parse_name
 
-from gravity_benchmark import load_camera, pitch_roll_deg  # noqa: E402
-from report import data_arguments, print_and_save  # noqa: E402
-from yoga_physics import ASANA_ORDER, FOLDER, FPS, plain_export, parse_name  # noqa: E402
-
-from pcnet.adapters import load_videopose3d  # noqa: E402
-from pcnet.models.inference import CAMERA_WEIGHTS, PCNetSession  # noqa: E402
-from pcnet.models.view_gate import camera_reading, window_frames  # noqa: E402
-from pcnet.stages.core.conventions import root_relative  # noqa: E402
+from pcnet.adapters import load_videopose3d
+from pcnet.models.inference import CAMERA_WEIGHTS, PCNetSession
+from pcnet.models.view_gate import camera_reading, window_frames
+from pcnet.stages.core.conventions import root_relative
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "camera_roll_reading.txt"
@@ -52,7 +49,7 @@ def main() -> None:
     args = data_arguments(__doc__, DEFAULT, RESULT, stride=2)
     session = PCNetSession(CAMERA_WEIGHTS)
     lines = [__doc__.splitlines()[0], "",
-             f"    python benchmarks/camera_roll_reading.py --data ../shared/data --stride {args.stride}", "",
+             f"    python -m benchmarks.camera_roll_reading --data ../shared/data --stride {args.stride}", "",
              "Pose2Sim real cameras: true |roll| from the calibration, the camera-frame network's median |roll| reading (deg)"]
     for path in sorted(args.data.glob("real/pose2sim_gravity/statictrial_cam*.npz")):
         joints, up, fps = load_camera(path, real_camera=True)

@@ -2,7 +2,7 @@
 shipped body-frame network, per camera roll: does a camera-frame network that trained on
 rolled cameras stay the more accurate one further from level?
 
-    python benchmarks/camera_views.py CANDIDATE.onnx --data ../shared/data --split val \
+    python -m benchmarks.camera_views CANDIDATE.onnx --data ../shared/data --split val \
         [--ramps 10,20 20,30] [--level-ramps 3,8] [--level-reading body] [--ensemble] [--stride 3]
 
 Protocol of benchmarks/view_gate.py and view_gate_rule.py: each clip one recording, the
@@ -28,9 +28,9 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from mocap_sets import training_mix_splits
-from report import print_and_save
-from view_gate import rolled_views
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
+from benchmarks.view_gate import rolled_views
 
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, normalized_in_chunks
@@ -119,7 +119,7 @@ def main() -> None:
     clips = load_clips(args.data, args.split)
     cameras = {"shipped camera-frame": PCNetSession(CAMERA_WEIGHTS), "candidate": PCNetSession(args.candidate)}
     body = PCNetSession(BODY_WEIGHTS)
-    command = (f"    python benchmarks/camera_views.py {args.candidate} --data {args.data} --split {args.split} "
+    command = (f"    python -m benchmarks.camera_views {args.candidate} --data {args.data} --split {args.split} "
                f"--ramps {' '.join(args.ramps)} "
                + (f"--level-ramps {' '.join(args.level_ramps)} --level-reading {args.level_reading} "
                   if args.level_ramps else "") + ("--ensemble " if args.ensemble else "") + f"--stride {args.stride}")

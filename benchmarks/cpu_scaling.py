@@ -1,7 +1,7 @@
 """How much faster this machine runs two CPU-bound processes than one: the ceiling for any
 process pool's speed-up, `pcnet batch` included (benchmarks/batch_throughput.py).
 
-    python benchmarks/cpu_scaling.py [--repeat 7]
+    python -m benchmarks.cpu_scaling [--repeat 7]
 
 Three single-threaded workloads (thread counts pinned to 1), each timed alone and as two
 copies started together; ratio = 2 x (one alone) / (two together), 2.0 on two independent
@@ -44,7 +44,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=7)
     args = ap.parse_args()
-    lines = [f"python benchmarks/cpu_scaling.py --repeat {args.repeat}",
+    lines = [f"python -m benchmarks.cpu_scaling --repeat {args.repeat}",
              f"{os.cpu_count()} CPUs ({platform.machine()}), Python {platform.python_version()}",
              "| workload | one alone, s (median) | two together, s (median) | throughput ratio median [min, max] |",
              "|---|---|---|---|"]

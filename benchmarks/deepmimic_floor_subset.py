@@ -1,6 +1,6 @@
 """Write the DeepMimic floor motions that configs/pcnet_body_floor.toml trains on.
 
-    python benchmarks/deepmimic_floor_subset.py --data ../shared/data [--out runs/deepmimic_floor_train.npz]
+    python -m benchmarks.deepmimic_floor_subset --data ../shared/data [--out runs/deepmimic_floor_train.npz]
 
 No training set of the shipped weights holds a body on the floor; DeepMimic, the
 cross-dataset test, holds four floor motions. Issue "Generalise honestly" allows moving a

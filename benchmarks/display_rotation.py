@@ -1,7 +1,7 @@
 """Phone videos stored turned: does `pcnet run` find gravity when the 2D detector read the frames
 as stored rather than as displayed?
 
-    python benchmarks/display_rotation.py [--data ../shared/data] [--out benchmarks/results/display_rotation.txt]
+    python -m benchmarks.display_rotation [--data ../shared/data] [--out benchmarks/results/display_rotation.txt]
 
 A phone films portrait video as landscape frames plus a display rotation in the MP4 track
 header (ISO/IEC 14496-12 section 8.3.2, the ``tkhd`` matrix); players and OpenCV >= 4.5 turn
@@ -36,8 +36,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from gravity_benchmark import deg_between, pitch_roll_deg
-from vanishing_gravity import LINES, RECORDINGS, truth
+from benchmarks.gravity_benchmark import deg_between, pitch_roll_deg
+from benchmarks.vanishing_gravity import LINES, RECORDINGS, truth
 from pcnet.adapters import iter_frames, probe_video
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
@@ -47,7 +47,7 @@ from pcnet.stages.core.perspective import focal_px_from_35mm
 HERE = Path(__file__).resolve().parent
 DEFAULT = HERE.parents[1] / "shared" / "data"
 RESULT = HERE / "results" / "display_rotation.txt"
-COMMAND = "python benchmarks/display_rotation.py --data ../shared/data"
+COMMAND = "python -m benchmarks.display_rotation --data ../shared/data"
 #: cv2.rotate code that stores a displayed frame for each clockwise display rotation.
 STORE = {90: cv2.ROTATE_90_COUNTERCLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_CLOCKWISE}
 #: (label, display rotation, rotation written in the container, keypoints and 3D in the stored frames)

@@ -1,7 +1,7 @@
 """Write the benchmark pages' generated tables (docs/benchmarks/*.md) from the results files.
 
-    python benchmarks/docs_tables.py            # rewrite every generated table in place
-    python benchmarks/docs_tables.py --check    # exit 1 if a page's table differs from its file
+    python -m benchmarks.docs_tables            # rewrite every generated table in place
+    python -m benchmarks.docs_tables --check    # exit 1 if a page's table differs from its file
 
 A generated table sits in a page between two markers; everything outside them is left alone::
 
@@ -10,9 +10,10 @@ A generated table sits in a page between two markers; everything outside them is
     <!-- /generated -->
 
 The marker names the generator: ``heldout`` (benchmarks/results/heldout/*.json, what
-``bash benchmarks/evaluate_all.sh`` wrote; the same table ``python benchmarks/readme_tables.py``
+``bash benchmarks/evaluate_all.sh`` wrote; the same table ``python -m benchmarks.readme_tables``
 prints), ``view_gate`` (results/view_gate.txt), ``speed`` (results/speed_release5.txt,
 speed_quarter_turns.txt, speed.txt), ``pipeline_throughput`` (results/pipeline_throughput.txt),
+``scripts`` (the index table of benchmarks/README.md, for docs/benchmarks/scripts.md),
 or ``md FILE N``: the N-th markdown table (1-based) of results/FILE as the command printed it.
 Nothing here runs a benchmark: the numbers are the results files' own.
 """
@@ -21,11 +22,9 @@ from __future__ import annotations
 
 import argparse
 import re
-import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).parent))
-from readme_tables import heldout_table  # noqa: E402
+from benchmarks.readme_tables import heldout_table
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
@@ -33,8 +32,9 @@ PAGES = ROOT / "docs" / "benchmarks"
 MARK = re.compile(r"(<!-- generated: (?P<spec>[^>]*?) -->\n)(?P<body>.*?)(<!-- /generated -->)", re.S)
 
 
-def markdown_table(name: str, n: int) -> str:
-    """The ``n``-th markdown table (consecutive lines starting with ``|``) of a results file."""
+def markdown_table(name: str | Path, n: int) -> str:
+    """The ``n``-th markdown table (consecutive lines starting with ``|``) of a results file
+    (``name`` under results/, or a path)."""
     tables, current = [], []
     for line in (RESULTS / name).read_text().splitlines():
         if line.startswith("|"):
@@ -116,12 +116,17 @@ def pipeline_throughput() -> str:
     return "\n".join(out)
 
 
+def scripts() -> str:
+    """The index of the benchmark scripts: the first table of benchmarks/README.md."""
+    return markdown_table(ROOT / "benchmarks" / "README.md", 1)
+
+
 def generate(spec: str) -> str:
     parts = spec.split()
     if parts[0] == "md" and len(parts) == 3:
         return markdown_table(parts[1], int(parts[2]))
     generators = {"heldout": heldout_table, "view_gate": view_gate, "speed": speed,
-                  "pipeline_throughput": pipeline_throughput}
+                  "pipeline_throughput": pipeline_throughput, "scripts": scripts}
     if len(parts) != 1 or parts[0] not in generators:
         raise SystemExit(f"unknown generated table {spec!r}")
     return generators[parts[0]]()

@@ -1,6 +1,6 @@
 """Rotation equivariance on real poses: does the estimated up turn with the camera?
 
-    python benchmarks/equivariance.py [--data ../shared/data] [--frames 300] [--out benchmarks/results/equivariance.txt]
+    python -m benchmarks.equivariance [--data ../shared/data] [--frames 300] [--out benchmarks/results/equivariance.txt]
 
 A camera turned by Q about its centre sees the camera-frame poses X' = X @ Q.T, and the true up
 turns with it (u' = Q u). An ideal estimator is equivariant: u'(X @ Q.T) = Q u(X). For every
@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from configurations import CONFIGURATIONS, LABEL_WIDTH, Configuration
-from gravity_benchmark import load_camera
+from benchmarks.configurations import CONFIGURATIONS, LABEL_WIDTH, Configuration
+from benchmarks.gravity_benchmark import load_camera
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.stages.core.conventions import root_relative
 from pcnet.stages.core.rotations import angle_between, axis_rotation
@@ -104,7 +104,7 @@ def run(data: Path, frames: int = 300) -> list[str]:
     results = {(c.label, name): equivariance(J, fps, c) for name, J, fps in clips for c in CONFIGS}
     seconds = time.perf_counter() - t0
     lines = [__doc__.splitlines()[0], "",
-             f"    python benchmarks/equivariance.py --data ../shared/data --frames {frames}", "",
+             f"    python -m benchmarks.equivariance --data ../shared/data --frames {frames}", "",
              "Clips: " + "; ".join(f"{n} ({len(J)} frames, {fps:g} fps)" for n, J, fps in clips), ""]
     head = f"{'method':<{LABEL_WIDTH}}{'axis':<7}" + "".join(f"{a:>8}" for a in ANGLES_DEG)
 

@@ -1,7 +1,7 @@
 """Fit the static/moving camera models of benchmarks/camera_motion_model.py on validation clips, and compare the Bayes-factor rule with the spread threshold on held-out data.
 
-    python benchmarks/fit_camera_motion.py --data ../shared/data            # fit
-    python benchmarks/fit_camera_motion.py --data ../shared/data --evaluate # held-out comparison
+    python -m benchmarks.fit_camera_motion --data ../shared/data            # fit
+    python -m benchmarks.fit_camera_motion --data ../shared/data --evaluate # held-out comparison
 
 Issue 49, "Static or moving". Per-frame ups: the shipped estimator's per-frame chain of
 ``pcnet run`` (view-gated pair of networks, quarter turns), rebuilt from the cached network
@@ -35,7 +35,6 @@ paired bootstrap of ablation.py on the difference.
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -43,12 +42,10 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks import ablation as A
 
-import ablation as A  # noqa: E402
-
-import pcnet.stages.temporal as temporal  # noqa: E402
-from camera_motion_model import (LOG_PRIOR_ODDS, MotionParams, decide_camera_motion,  # noqa: E402
+import pcnet.stages.temporal as temporal
+from benchmarks.camera_motion_model import (LOG_PRIOR_ODDS, MotionParams, decide_camera_motion,
                                         hierarchical_log_marginal, pack_series, profile_scale, scale_grid,
                                         tangent_coordinates)
 
@@ -187,7 +184,7 @@ def fit(args) -> int:
     p0, ll0 = fit_static(static)
     p1, ll1 = fit_walk(sweep, p0)
     lines = [__doc__.splitlines()[0], "",
-             f"    python benchmarks/fit_camera_motion.py --data ../shared/data --fit-clips {args.fit_clips}", "",
+             f"    python -m benchmarks.fit_camera_motion --data ../shared/data --fit-clips {args.fit_clips}", "",
              "Static camera (model M0), validation clips: "
              + ", ".join(f"{title} {len(evs)} clips" for (title, _, _), evs in zip(VAL_SETS, static_sets))
              + f"; {nf} valid frames; maximum log-likelihood {ll0:.1f}",
@@ -232,7 +229,7 @@ def evaluate(args) -> int:
              ("always static (sequence)", next(v for v in A.VARIANTS if not v.auto and not v.plain_mean)))
     lines = ["Static or moving camera on held-out data: the Bayes factor of benchmarks/camera_motion_model.py vs the spread "
              "threshold of choose_mode (issue 49).", "",
-             "    python benchmarks/fit_camera_motion.py --data ../shared/data --evaluate", "",
+             "    python -m benchmarks.fit_camera_motion --data ../shared/data --evaluate", "",
              f"Parameters: {MotionParams()}; log prior odds {LOG_PRIOR_ODDS:g} (benchmarks/camera_motion_model.py, fitted on "
              "validation clips: fit_camera_motion.txt).",
              "Columns: clips read moving (smooth mode) / static (sequence mode); sequence tilt error (deg) over clips; "

@@ -1,7 +1,7 @@
 """Fit the ankle clearance of the world frame's ground plane (stages/floor.py) and check the
 floor on held-out mocap.
 
-    python benchmarks/fit_floor.py --data ../shared/data
+    python -m benchmarks.fit_floor --data ../shared/data
 
 Fit (training data only): on ../shared/data/mocap/cmu_train_h36m17.npz, the motion-style
 training subjects (models/datasets.py: ``select_split(clips, "train", "motion-style")``; the
@@ -32,23 +32,21 @@ Writes benchmarks/results/fit_floor.txt.
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from report import print_and_save  # noqa: E402
+from benchmarks.report import print_and_save
 
-from pcnet.models.datasets import group_key, load_mocap, select_split  # noqa: E402
-from pcnet.models.lifter_noise import apply_lifter_errors, sample_lifter_errors  # noqa: E402
-from pcnet.stages.core.canonical import canonical_rotation  # noqa: E402
-from pcnet.stages.core.conventions import L_ANKLE, L_KNEE, PELVIS, R_ANKLE, R_KNEE  # noqa: E402
-from pcnet.stages.core.rotations import axis_rotation  # noqa: E402
-from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, TUKEY_C, contacts, tukey_location  # noqa: E402
-from pcnet.stages.world_frame import _floor_evidence, to_world_floor, world_frame  # noqa: E402
+from pcnet.models.datasets import group_key, load_mocap, select_split
+from pcnet.models.lifter_noise import apply_lifter_errors, sample_lifter_errors
+from pcnet.stages.core.canonical import canonical_rotation
+from pcnet.stages.core.conventions import L_ANKLE, L_KNEE, PELVIS, R_ANKLE, R_KNEE
+from pcnet.stages.core.rotations import axis_rotation
+from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, TUKEY_C, contacts, tukey_location
+from pcnet.stages.world_frame import _floor_evidence, to_world_floor, world_frame
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "fit_floor.txt"
@@ -141,7 +139,7 @@ def main() -> None:
     t0 = time.perf_counter()
     mocap = args.data / "mocap"
     cmu = load_mocap(mocap / "cmu_train_h36m17.npz")
-    lines = [" ".join(__doc__.splitlines()[:2]), "", f"    python benchmarks/fit_floor.py --data {args.data}", "",
+    lines = [" ".join(__doc__.splitlines()[:2]), "", f"    python -m benchmarks.fit_floor --data {args.data}", "",
              "## Fit: contact plane a over the leg L (and the shank), per training subject", "",
              "| subject | clips | median a (m) | median a/L | median a/shank |", "|---|---:|---:|---:|---:|"]
     per_subject = defaultdict(list)

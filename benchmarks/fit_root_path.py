@@ -1,7 +1,7 @@
 """Fit the pelvis-path smoother's constants (stages/root_path.py) on CMU training subjects, and
 measure the recovered path on CMU validation subjects.
 
-    python benchmarks/fit_root_path.py --data ../shared/data
+    python -m benchmarks.fit_root_path --data ../shared/data
 
 Fit (training subjects only: ``select_split(load_mocap(cmu_train_h36m17.npz), "train",
 "motion-style")``, CMU subjects 8, 9, 11, 13, 61; validation subjects 12, 60 and test
@@ -159,7 +159,7 @@ def main() -> None:
     val = select_split(clips, "val", "motion-style")
     subjects = sorted({c.subject for c in train})
     lines = ["Pelvis-path smoother constants (stages/root_path.py) and path accuracy.", "",
-             "    python benchmarks/fit_root_path.py --data ../shared/data", "",
+             "    python -m benchmarks.fit_root_path --data ../shared/data", "",
              f"Fit: cmu_train_h36m17.npz, split 'train' (scheme motion-style): subjects {subjects}, "
              f"{len(train)} clips, {sum(len(c.joints) for c in train)} frames, fps {sorted({c.fps for c in train})}."]
     for step in (1, 2, 3):

@@ -3,7 +3,7 @@
 The limits: the fastest pelvis-relative joint speed and acceleration per joint group in the
 training motion capture.
 
-    python benchmarks/fit_speed_limits.py --data ../shared/data [--no-demo]
+    python -m benchmarks.fit_speed_limits --data ../shared/data [--no-demo]
 
 Fit (GitHub issue 51): the clips of the shipped weights' training mix in its training split
 (benchmarks/mocap_sets.py: Bandai motion-style train, CMU training subjects 8, 9, 11, 13, 61;
@@ -38,29 +38,26 @@ import dataclasses
 import datetime
 import json
 import math
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
+from benchmarks.report import print_and_save
 
-from mocap_sets import TRAINING_MIX, training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
-from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
-from pcnet.pipeline.config import DEFAULT_CUTOFF_HZ  # noqa: E402
-from pcnet.stages.core.conventions import H36M_JOINTS  # noqa: E402
-from pcnet.stages.plausibility import (  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs, select_split
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.pipeline.config import DEFAULT_CUTOFF_HZ
+from pcnet.stages.core.conventions import H36M_JOINTS
+from pcnet.stages.plausibility import (
     LIMITS_PATH, implausible_frames, implausible_motion, implausible_motion_flags, load_motion_limits,
     pelvis_relative_motion)
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "fit_speed_limits.txt"
-COMMAND = "python benchmarks/fit_speed_limits.py --data ../shared/data"
+COMMAND = "python -m benchmarks.fit_speed_limits --data ../shared/data"
 #: The filter order of pcnet's kinematics (stages/kinematics.py compute_kinematics default).
 ORDER = 4
 #: Joint groups: left and right together (a body's sides move alike over a training set), the

@@ -1,7 +1,7 @@
 """Floor motions in training: the shipped pair against the same pair with one candidate network.
 
-    python benchmarks/floor_experiment.py --body runs/pcnet_body_floor.onnx [--data ../shared/data] [--stride 2]
-    python benchmarks/floor_experiment.py --camera runs/pcnet_camera_floor.onnx --out benchmarks/results/floor_experiment_camera.txt
+    python -m benchmarks.floor_experiment --body runs/pcnet_body_floor.onnx [--data ../shared/data] [--stride 2]
+    python -m benchmarks.floor_experiment --camera runs/pcnet_camera_floor.onnx --out benchmarks/results/floor_experiment_camera.txt
 
 The candidate (configs/pcnet_body_floor.toml, configs/pcnet_camera_floor.toml) is a shipped
 recipe with three of DeepMimic's four floor motions in training
@@ -33,16 +33,15 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from deepmimic_floor_subset import FLOOR_HELD_OUT, FLOOR_TRAIN  # noqa: E402
-from report import print_and_save  # noqa: E402
-from yoga_physics import plain_export, median_trunk_deg, parse_name  # noqa: E402
+from benchmarks.deepmimic_floor_subset import FLOOR_HELD_OUT, FLOOR_TRAIN
+from benchmarks.report import print_and_save
+from benchmarks.yoga_physics import plain_export, median_trunk_deg, parse_name
 
-import pcnet.models.inference as inference  # noqa: E402
-from pcnet.adapters import load_videopose3d  # noqa: E402
-from pcnet.pipeline.evaluate import evaluate  # noqa: E402
-from pcnet.pipeline.rectification import rectify  # noqa: E402
-from pcnet.stages.core.conventions import root_relative  # noqa: E402
+import pcnet.models.inference as inference
+from pcnet.adapters import load_videopose3d
+from pcnet.pipeline.evaluate import evaluate
+from pcnet.pipeline.rectification import rectify
+from pcnet.stages.core.conventions import root_relative
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "floor_experiment.txt"
@@ -127,7 +126,7 @@ def main() -> None:
         mocap[(name, "alone")] = held_out_rows(args.data, str(weights))
         yoga[name] = yoga_rows(args.data, args.stride)
     out = "" if args.out == RESULT else f" --out {args.out}"
-    lines = [__doc__.splitlines()[0], "", f"    python benchmarks/floor_experiment.py --{kind} {candidate} --data "
+    lines = [__doc__.splitlines()[0], "", f"    python -m benchmarks.floor_experiment --{kind} {candidate} --data "
              f"../shared/data --stride {args.stride}{out}", "",
              "Held-out mocap, per frame, clean: mean rotation / tilt error (deg)", "",
              f"| rows | frames | shipped pair | candidate pair | shipped {kind}-net | candidate {kind}-net |",

@@ -1,6 +1,6 @@
 """A candidate per-frame tilt bound that also widens with the trunk lean the answer implies (not shipped).
 
-    python benchmarks/frame_bound_lean.py [--data ../shared/data]
+    python -m benchmarks.frame_bound_lean [--data ../shared/data]
 
 Why: on held-out mocap the shipped bound (pcnet.stages.uncertainty.frame_tilt_bound) covers
 fewer frames of leaning bodies (DeepMimic's runs and zombie walks) than of upright ones, and
@@ -21,25 +21,22 @@ own errors. The rule to ship it was written before any held-out number (models/M
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.calibrate_frame_bound import conformal, DEFAULT, mocap_views, pose2sim_views
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 
-from calibrate_frame_bound import conformal, DEFAULT, mocap_views, pose2sim_views  # noqa: E402
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap  # noqa: E402
-from pcnet.models.inference import BODY_WEIGHTS  # noqa: E402
-from pcnet.pipeline.rectification import make_estimator  # noqa: E402
-from pcnet.stages import uncertainty  # noqa: E402
-from pcnet.stages.core.rotations import angle_between  # noqa: E402
+from pcnet.models.datasets import load_mocap
+from pcnet.models.inference import BODY_WEIGHTS
+from pcnet.pipeline.rectification import make_estimator
+from pcnet.stages import uncertainty
+from pcnet.stages.core.rotations import angle_between
 
 RESULT = Path(__file__).resolve().parent / "results" / "frame_bound_lean.txt"
-COMMAND = "python benchmarks/frame_bound_lean.py --data ../shared/data"
+COMMAND = "python -m benchmarks.frame_bound_lean --data ../shared/data"
 GRID = np.arange(0.0, 1.001, 0.05)
 
 

@@ -1,7 +1,7 @@
 """The shipped per-frame tilt bound under one static camera per clip, as users film, against
 the calibration protocol's new camera every frame; coverage per frame and per clip.
 
-    python benchmarks/frame_bound_static.py --data ../shared/data
+    python -m benchmarks.frame_bound_static --data ../shared/data
 
 The bound (pcnet.stages.uncertainty.frame_tilt_bound, shipped constants) was calibrated by
 benchmarks/calibrate_frame_bound.py with a new "paper" camera every frame
@@ -16,24 +16,21 @@ own coverage: median, 10th percentile, and the share of clips covered in fewer t
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.calibrate_frame_bound import frames_of, mocap_views
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 
-from calibrate_frame_bound import frames_of, mocap_views  # noqa: E402
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap  # noqa: E402
-from pcnet.pipeline.rectification import make_estimator  # noqa: E402
-from pcnet.stages import uncertainty  # noqa: E402
+from pcnet.models.datasets import load_mocap
+from pcnet.pipeline.rectification import make_estimator
+from pcnet.stages import uncertainty
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "frame_bound_static.txt"
-COMMAND = "python benchmarks/frame_bound_static.py --data ../shared/data"
+COMMAND = "python -m benchmarks.frame_bound_static --data ../shared/data"
 
 
 def clip_coverage(estimator, clips, camera: str) -> list[np.ndarray]:

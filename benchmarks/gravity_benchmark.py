@@ -1,6 +1,6 @@
 """Tilt error against a lab-calibrated gravity direction: real MediaPipe poses, 4 real cameras.
 
-    python benchmarks/gravity_benchmark.py [--data ../shared/data] [--out benchmarks/results/gravity_benchmark.txt]
+    python -m benchmarks.gravity_benchmark [--data ../shared/data] [--out benchmarks/results/gravity_benchmark.txt]
 
 Data: real/pose2sim_gravity/statictrial_camXX.npz (Pose2Sim demo lab, 4 calibrated static
 portrait cameras looking down 18-25 deg, 60 fps, one man standing still in a T-pose, 11 frames;
@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from configurations import CONFIGURATIONS, LABEL_WIDTH
+from benchmarks.configurations import CONFIGURATIONS, LABEL_WIDTH
 from pcnet.adapters import load_mediapipe_3d
 from pcnet.pipeline.io import lifter_joints
 from pcnet.stages.core.conventions import PELVIS, THORAX, root_relative
@@ -54,7 +54,7 @@ from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pit
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "gravity_benchmark.txt"
-COMMAND = "python benchmarks/gravity_benchmark.py --data ../shared/data"
+COMMAND = "python -m benchmarks.gravity_benchmark --data ../shared/data"
 FOLDER = ("real", "pose2sim_gravity")
 ROLLS_DEG = (0, 90, 180, -90)
 # (label, method, mode)

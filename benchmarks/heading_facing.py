@@ -1,6 +1,6 @@
 """Real skeletons of people facing the sensor: each network's heading on the pair's up against the direction to the sensor.
 
-    python benchmarks/heading_facing.py --data ../shared/data
+    python -m benchmarks.heading_facing --data ../shared/data
 
 Data: real/utd_mhad_imu/*.npz, 671 real Kinect v1 skeleton sequences (UTD-MHAD, Chen, Jafari
 and Kehtarnavaz, ICIP 2015; research use, evaluation only), read as `pcnet run --lifter
@@ -21,24 +21,21 @@ a ground truth. Writes benchmarks/results/heading_facing.txt.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.headings import circular_mean_deg, heading_arguments, pair_headings
+from benchmarks.report import print_and_save
 
-from headings import circular_mean_deg, heading_arguments, pair_headings  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.adapters import load_kinect_v1  # noqa: E402
-from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
-from pcnet.pipeline.io import lifter_joints  # noqa: E402
-from pcnet.stages.core.conventions import PELVIS  # noqa: E402
-from pcnet.stages.core.rotations import normalize  # noqa: E402
+from pcnet.adapters import load_kinect_v1
+from pcnet.models.inference import ViewGatedPCNet
+from pcnet.pipeline.io import lifter_joints
+from pcnet.stages.core.conventions import PELVIS
+from pcnet.stages.core.rotations import normalize
 
 RESULT = Path(__file__).resolve().parent / "results" / "heading_facing.txt"
-COMMAND = "python benchmarks/heading_facing.py --data ../shared/data"
+COMMAND = "python -m benchmarks.heading_facing --data ../shared/data"
 ROWS = ("camera-frame heading", "body-frame heading")
 
 

@@ -1,6 +1,6 @@
 """How much does the heading jitter from frame to frame on real lifter output? Each network's heading on the pair's up, on the real yoga, boxing and cycling files.
 
-    python benchmarks/heading_jitter.py --data ../shared/data
+    python -m benchmarks.heading_jitter --data ../shared/data
 
 Data: every real/yoga_videopose3d/*.npy (VideoPose3D; held poses: the body's heading barely
 changes within a file) and the MotionBERT boxing and cycling files (real/*_motionbert/*X3D*.npy),
@@ -16,24 +16,21 @@ change is steadier, not necessarily more accurate. Writes benchmarks/results/hea
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.headings import heading_arguments, pair_headings, wrapped_deg
+from benchmarks.report import print_and_save
 
-from headings import heading_arguments, pair_headings, wrapped_deg  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.adapters import load_motionbert, load_videopose3d  # noqa: E402
-from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
-from pcnet.pipeline.io import lifter_joints  # noqa: E402
-from pcnet.stages.core.conventions import root_relative  # noqa: E402
-from pcnet.stages.core.rotations import normalize  # noqa: E402
+from pcnet.adapters import load_motionbert, load_videopose3d
+from pcnet.models.inference import ViewGatedPCNet
+from pcnet.pipeline.io import lifter_joints
+from pcnet.stages.core.conventions import root_relative
+from pcnet.stages.core.rotations import normalize
 
 RESULT = Path(__file__).resolve().parent / "results" / "heading_jitter.txt"
-COMMAND = "python benchmarks/heading_jitter.py --data ../shared/data"
+COMMAND = "python -m benchmarks.heading_jitter --data ../shared/data"
 ROWS = ("camera-frame", "body-frame")
 
 

@@ -1,6 +1,6 @@
 """Where would `--heading auto` take the heading from, on real lifter output and on mocap?
 
-    python benchmarks/heading_source.py [--data ../shared/data]
+    python -m benchmarks.heading_source [--data ../shared/data]
 
 Writes benchmarks/results/heading_source.txt.
 
@@ -14,14 +14,11 @@ Columns: hip-width coefficient of variation (percent; what `auto` decides on, th
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from report import print_and_save  # noqa: E402
+from benchmarks.report import print_and_save
 
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
@@ -30,7 +27,7 @@ from pcnet.pipeline.rectification import make_estimator
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "heading_source.txt"
-COMMAND = "python benchmarks/heading_source.py --data ../shared/data"
+COMMAND = "python -m benchmarks.heading_source --data ../shared/data"
 
 
 def decide(joints: np.ndarray) -> dict:

@@ -1,6 +1,6 @@
 """Does the body's heading agree across calibrated cameras? One real person, four lab cameras: the body's facing direction in the lab frame, per camera, from each network's heading on the pair's up.
 
-    python benchmarks/heading_views.py --data ../shared/data
+    python -m benchmarks.heading_views --data ../shared/data
 
 Data: real/pose2sim_gravity/statictrial_cam01-04.npz (a man standing still in a T-pose, filmed
 by four calibrated cameras; MediaPipe per camera, read as `pcnet run --lifter mediapipe` reads
@@ -17,22 +17,19 @@ tuning set. Writes benchmarks/results/heading_views.txt.
 
 from __future__ import annotations
 
-import sys
 from itertools import combinations
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.gravity_benchmark import load_camera
+from benchmarks.headings import circular_mean_deg, heading_arguments, pair_headings, wrapped_deg
+from benchmarks.report import print_and_save
 
-from gravity_benchmark import load_camera  # noqa: E402
-from headings import circular_mean_deg, heading_arguments, pair_headings, wrapped_deg  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
+from pcnet.models.inference import ViewGatedPCNet
 
 RESULT = Path(__file__).resolve().parent / "results" / "heading_views.txt"
-COMMAND = "python benchmarks/heading_views.py --data ../shared/data"
+COMMAND = "python -m benchmarks.heading_views --data ../shared/data"
 ROWS = ("camera-frame heading", "body-frame heading")
 
 

@@ -1,6 +1,6 @@
 """Skeleton vs wrist IMU: does the gravity estimate give the right wrist's specific force?
 
-    python benchmarks/imu_check.py --data ../shared/data [--max-seqs N] [--cutoff 3]
+    python -m benchmarks.imu_check --data ../shared/data [--max-seqs N] [--cutoff 3]
 
 Data: ``real/utd_mhad_imu/`` (UTD-MHAD, research licence, evaluation only: nothing of it is
 copied into the repository; see ../shared/data/README.md): Kinect v1 skeletons (about 19 fps
@@ -322,7 +322,7 @@ def main(argv=None) -> None:
     all_methods = METHODS + ("pcnet sequence (to_world)",)
     summary = summarise(rows, all_methods)
     wall = time.perf_counter() - t0
-    command = "python benchmarks/imu_check.py --data ../shared/data" + (
+    command = "python -m benchmarks.imu_check --data ../shared/data" + (
         f" --max-seqs {args.max_seqs}" if args.max_seqs else "") + (f" --cutoff {args.cutoff:g}" if args.cutoff != 3.0 else "")
     table = markdown_table(summary)
     ov = summary["overall"]

@@ -1,6 +1,6 @@
 """pcnet's ISB joint angles against OpenSim inverse kinematics on the same poses.
 
-    python benchmarks/isb_opensim_agreement.py [--data ../shared/data] [--clips 8] [--max-frames 300]
+    python -m benchmarks.isb_opensim_agreement [--data ../shared/data] [--clips 8] [--max-frames 300]
 
 What is compared. The same H36M-17 joint centres go two ways:
 - pcnet: :func:`pcnet.stages.isb_angles.isb_joint_angles` (ISB: Wu et al. 2002/2005, knee per
@@ -441,7 +441,7 @@ def main() -> None:
 
     t0 = time.perf_counter()
     osim = import_opensim()
-    command = "python benchmarks/isb_opensim_agreement.py" + "".join(f" {a}" for a in sys.argv[1:])
+    command = "python -m benchmarks.isb_opensim_agreement" + "".join(f" {a}" for a in sys.argv[1:])
     machine = (f"{os.cpu_count()} CPU cores ({platform.machine()}), Python {platform.python_version()}, "
                f"OpenSim {osim.__version__}; model stages/opensim_data/Model_H36M17.osim")
     doc = __doc__.split("Pairs and the sign mapping applied", 1)[1]

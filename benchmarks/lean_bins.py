@@ -1,6 +1,6 @@
 """Per-frame up error by the subject's true trunk lean, for one or more 3DPCNet weights.
 
-    python benchmarks/lean_bins.py --weights A.onnx [B.onnx ...] [--data ../shared/data] [--out benchmarks/results/lean_bins.txt]
+    python -m benchmarks.lean_bins --weights A.onnx [B.onnx ...] [--data ../shared/data] [--out benchmarks/results/lean_bins.txt]
 
 The training mix (Bandai + CMU train subjects) is mostly upright: 89 % of its frames lean
 under 10 deg. Held-out motions lean more, and a network that learned the upright prior reads
@@ -27,21 +27,18 @@ augmentation, the CMU clips twice as the configs' ``data_repeats``, weighted by
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import (  # noqa: E402
+from pcnet.models.datasets import (
     Augmentation, clip_subject, lean_balance_weights, load_mocap, make_pairs)
-from pcnet.models.inference import PCNetSession  # noqa: E402
-from pcnet.stages.core.canonical import trunk_lean_deg  # noqa: E402
-from pcnet.stages.core.metrics import tilt_error_deg  # noqa: E402
+from pcnet.models.inference import PCNetSession
+from pcnet.stages.core.canonical import trunk_lean_deg
+from pcnet.stages.core.metrics import tilt_error_deg
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 BANDS_DEG = (0, 5, 10, 15, 20, 30, 45, 90, 180)
@@ -84,7 +81,7 @@ def main() -> None:
     sessions = {Path(w).name: PCNetSession(w) for w in args.weights}
     head = " | ".join(f"lean {a}-{b}" for a, b in zip(BANDS_DEG, BANDS_DEG[1:]))
     lines = [
-        "python benchmarks/lean_bins.py --weights " + " ".join(args.weights),
+        "python -m benchmarks.lean_bins --weights " + " ".join(args.weights),
         "",
         "Mean per-frame tilt error (deg) by true trunk lean band; in brackets the set's share of frames",
         "in the band. One network alone, clean poses, a new paper camera every frame, seed 0.",

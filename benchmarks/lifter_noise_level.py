@@ -1,6 +1,6 @@
 """How large the lifter-like noise is: MPJPE of the noisy camera-frame input against the clean one.
 
-    python benchmarks/lifter_noise_level.py [--data ../shared/data]
+    python -m benchmarks.lifter_noise_level [--data ../shared/data]
 
 Input pairs as `pcnet evaluate --noise lifter` builds them (make_pairs(clips, seed=0,
 camera=..., noise=LifterNoise()) against the same call without noise): root-relative MPJPE per
@@ -13,22 +13,19 @@ Writes benchmarks/results/lifter_noise_level.txt.
 from __future__ import annotations
 
 import dataclasses
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.report import data_arguments, print_and_save
 
-from report import data_arguments, print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap, make_pairs, select_split  # noqa: E402
-from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
-from pcnet.stages.core.metrics import mpjpe_mm  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs, select_split
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.stages.core.metrics import mpjpe_mm
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "lifter_noise_level.txt"
-COMMAND = "python benchmarks/lifter_noise_level.py --data ../shared/data"
+COMMAND = "python -m benchmarks.lifter_noise_level --data ../shared/data"
 OFF = {"offset_sigma_xy_m": 0.0, "offset_sigma_z_m": 0.0, "bone_scale_sigma": 0.0, "lean_sigma_deg": 0.0,
        "depth_scale_sigma": 0.0, "jitter_m": 0.0, "burst_jitter_m": 0.0, "swap_rate_hz": 0.0}
 #: Each component alone: the fields it keeps at their defaults (everything else in OFF is 0).

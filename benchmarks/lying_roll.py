@@ -1,6 +1,6 @@
 """Physics check on real lying poses: does a supine body come out lying on its back?
 
-    python benchmarks/lying_roll.py [--data ../shared/data] [--stride 2] [--out benchmarks/results/lying_roll.txt]
+    python -m benchmarks.lying_roll [--data ../shared/data] [--stride 2] [--out benchmarks/results/lying_roll.txt]
 
 benchmarks/yoga_physics.py checks that a lying Shavasana trunk comes out horizontal (>= 80 deg
 from vertical). A body lying on its back also has its hips and shoulders level: the hip line
@@ -20,18 +20,17 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from configurations import CONFIGURATIONS  # noqa: E402
-from report import data_arguments, print_and_save  # noqa: E402
-from yoga_physics import CANONICAL_UP, FOLDER, FPS, IMAGE_UP, plain_export, parse_name, trunk_angles_deg  # noqa: E402
+from benchmarks.configurations import CONFIGURATIONS
+from benchmarks.report import data_arguments, print_and_save
+from benchmarks.yoga_physics import CANONICAL_UP, FOLDER, FPS, IMAGE_UP, plain_export, parse_name, trunk_angles_deg
 
-from pcnet.adapters import load_videopose3d  # noqa: E402
-from pcnet.stages.core.conventions import L_HIP, L_SHOULDER, R_HIP, R_SHOULDER, root_relative  # noqa: E402
+from pcnet.adapters import load_videopose3d
+from pcnet.stages.core.conventions import L_HIP, L_SHOULDER, R_HIP, R_SHOULDER, root_relative
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "lying_roll.txt"
 SEQUENCE = [c for c in CONFIGURATIONS if c.mode == "sequence"]
-COMMAND = "    python benchmarks/lying_roll.py --data ../shared/data --stride 2"
+COMMAND = "    python -m benchmarks.lying_roll --data ../shared/data --stride 2"
 
 
 def line_tilt_deg(joints: np.ndarray, a: int, b: int, up: np.ndarray) -> np.ndarray:

@@ -1,7 +1,7 @@
 """Time `pcnet batch`'s check of a whole manifest before any work, and a row's output
 staging beside as many finished outputs (issue 53).
 
-    python benchmarks/manifest_check.py [--rows 100000] [--folder /tmp/pcnet_manifest_check] [--profile]
+    python -m benchmarks.manifest_check [--rows 100000] [--folder /tmp/pcnet_manifest_check] [--profile]
 
 Builds a study folder as a big study has it: a few real recordings (the bundled boxing
 example: video, AlphaPose JSON, MotionBERT X3D.npy, copied into ``recordings/r0`` ...

@@ -1,6 +1,6 @@
 """Left-right mirror test-time averaging: each network's up averaged with its answer for the mirrored pose.
 
-    python benchmarks/mirror_tta.py [--data ../shared/data] [--out benchmarks/results/mirror_tta.txt]
+    python -m benchmarks.mirror_tta [--data ../shared/data] [--out benchmarks/results/mirror_tta.txt]
 
 The mirror image of a pose seen by a camera is a pose a person could make, seen by the same
 camera: x_cam -> -x_cam with every left joint swapped for its right one
@@ -20,25 +20,22 @@ most 40,000 frames per set (evenly spaced, ``make_pairs(max_frames=...)``).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
-from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession  # noqa: E402
-from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
-from pcnet.stages.core.conventions import H36M_MIRROR_ORDER  # noqa: E402
-from pcnet.stages.core.rotations import angle_between  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs
+from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.stages.core.conventions import H36M_MIRROR_ORDER
+from pcnet.stages.core.rotations import angle_between
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "mirror_tta.txt"
-COMMAND = "python benchmarks/mirror_tta.py --data ../shared/data"
+COMMAND = "python -m benchmarks.mirror_tta --data ../shared/data"
 MIRROR_X = np.array([-1.0, 1.0, 1.0])
 MAX_FRAMES = 40_000
 

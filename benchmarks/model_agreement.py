@@ -2,7 +2,7 @@
 on the same frames: each one's mean tilt error, the correlation of their per-frame tilt
 errors, and the tilt error of their averaged up vector (a two-model ensemble).
 
-    python benchmarks/model_agreement.py A.onnx B.onnx [--split val] [--views paper] [--noise]
+    python -m benchmarks.model_agreement A.onnx B.onnx [--split val] [--views paper] [--noise]
 
 Errors that two differently trained networks share (correlation near 1, no ensemble gain)
 belong to the poses: the same body configuration occurs with different true leans, and one

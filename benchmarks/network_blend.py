@@ -1,6 +1,6 @@
 """Blending the body-frame network's up into the camera-frame network's where the gate trusts the latter (not shipped).
 
-    python benchmarks/network_blend.py [--data ../shared/data]
+    python -m benchmarks.network_blend [--data ../shared/data]
 
 Both 3DPCNets run on every frame anyway, so averaging them costs nothing at run time. On the
 motion-style *validation* split (a new "paper" camera per frame, clean and with lifter-like
@@ -14,25 +14,22 @@ benchmarks/results/network_blend.txt.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.calibrate_frame_bound import DEFAULT
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 
-from calibrate_frame_bound import DEFAULT  # noqa: E402
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import make_pairs  # noqa: E402
-from pcnet.models.inference import BODY_WEIGHTS  # noqa: E402
-from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
-from pcnet.pipeline.rectification import make_estimator  # noqa: E402
-from pcnet.stages.core.rotations import angle_between  # noqa: E402
+from pcnet.models.datasets import make_pairs
+from pcnet.models.inference import BODY_WEIGHTS
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.pipeline.rectification import make_estimator
+from pcnet.stages.core.rotations import angle_between
 
 RESULT = Path(__file__).resolve().parent / "results" / "network_blend.txt"
-COMMAND = "python benchmarks/network_blend.py --data ../shared/data"
+COMMAND = "python -m benchmarks.network_blend --data ../shared/data"
 ALPHAS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
 
 

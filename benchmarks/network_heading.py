@@ -1,6 +1,6 @@
 """Which network's heading? Per-frame heading and rotation error of each network alone and of the pair's up with either network's heading.
 
-    python benchmarks/network_heading.py --data ../shared/data [--sets val] [--out FILE]
+    python -m benchmarks.network_heading --data ../shared/data [--sets val] [--out FILE]
 
 Frames: every frame of each clip seen by a new "paper" camera (make_pairs(clips,
 views="paper", camera="per-frame", seed=0)), clean and with lifter-like noise
@@ -21,21 +21,18 @@ by default.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.headings import pair_headings
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 
-from headings import pair_headings  # noqa: E402
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
-from pcnet.models.inference import ViewGatedPCNet  # noqa: E402
-from pcnet.models.lifter_noise import LifterNoise  # noqa: E402
-from pcnet.stages.core.metrics import heading_error_deg, rotation_error_deg, tilt_error_deg  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs
+from pcnet.models.inference import ViewGatedPCNet
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.stages.core.metrics import heading_error_deg, rotation_error_deg, tilt_error_deg
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "network_heading.txt"
@@ -82,7 +79,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
     pair = ViewGatedPCNet()
-    command = "python benchmarks/network_heading.py --data ../shared/data" + (
+    command = "python -m benchmarks.network_heading --data ../shared/data" + (
         "" if args.sets == ["val"] else " --sets " + " ".join(args.sets))
     lines = [__doc__.splitlines()[0], "", f"    {command}", "",
              "Per-frame error (deg), mean / p95, frame mode, the networks' own headings", "",

@@ -1,6 +1,6 @@
 """OpenSim scaling + inverse kinematics of H36M-17 joint-centre markers: marker error and speed.
 
-    python benchmarks/opensim_ik.py [--data ../shared/data] [--max-frames 300]
+    python -m benchmarks.opensim_ik [--data ../shared/data] [--max-frames 300]
 
 Rows (stages/opensim_ik.py: scale_and_ik, the shipped Model_H36M17.osim, one process, one
 IK thread):
@@ -88,7 +88,7 @@ def main() -> None:
     from pcnet.stages.opensim_ik import import_opensim, scale_and_ik
 
     osim = import_opensim()
-    command = "python benchmarks/opensim_ik.py" + "".join(f" {a}" for a in sys.argv[1:])
+    command = "python -m benchmarks.opensim_ik" + "".join(f" {a}" for a in sys.argv[1:])
     machine = (f"{os.cpu_count()} CPU cores ({platform.machine()}), Python {platform.python_version()}, "
                f"OpenSim {osim.__version__}; IK single-threaded; model stages/opensim_data/Model_H36M17.osim")
     header = (f"{'recording':<42} {'frames':>6} {'RMS cm':>7} {'max cm':>7} {'median frame RMS cm':>20} "

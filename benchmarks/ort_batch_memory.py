@@ -1,7 +1,7 @@
 """Speed and memory of one shipped 3DPCNet in onnxruntime by batch size, each size in a fresh
 process (onnxruntime's CPU arena keeps the largest batch's buffers for the session's life).
 
-    python benchmarks/ort_batch_memory.py [--poses 20000] [--batches 128 256 512 1024 4096]
+    python -m benchmarks.ort_batch_memory [--poses 20000] [--batches 128 256 512 1024 4096]
 
 Inputs are real Bandai poses from the committed test fixture, tiled to ``--poses``. Prints
 poses/s of ``PCNetSession.predict`` (models/inference.py) and the process's peak RSS; why

@@ -3,7 +3,7 @@
 Each ``--weights`` is scored, and the clips are sorted by how far the candidates' mean departs
 from the first network's (the reference), with each clip's description from the file's ``.json``.
 
-    python benchmarks/per_clip_difference.py --data ../shared/data/mocap/cmu_train_h36m17.npz \\
+    python -m benchmarks.per_clip_difference --data ../shared/data/mocap/cmu_train_h36m17.npz \\
         --weights models/weights/pcnet_camera.onnx runs/pcnet_camera_floor_seed11.onnx ... \\
         [--split test] [--top 12] [--out benchmarks/results/per_clip_difference.txt]
 
@@ -23,13 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from report import print_and_save  # noqa: E402
+from benchmarks.report import print_and_save
 
-from pcnet.models.datasets import CAMERAS, load_mocap, read_sidecar, select_split  # noqa: E402
-from pcnet.pipeline.evaluate import NOISE_KINDS, evaluate  # noqa: E402
-from pcnet.stages.core.errors import InputError  # noqa: E402
-from pcnet.stages.temporal import MODES  # noqa: E402
+from pcnet.models.datasets import CAMERAS, load_mocap, read_sidecar, select_split
+from pcnet.pipeline.evaluate import NOISE_KINDS, evaluate
+from pcnet.stages.core.errors import InputError
+from pcnet.stages.temporal import MODES
 
 
 def per_clip_rotation(data: Path, split: str, weights: str, **protocol) -> tuple[float, np.ndarray, np.ndarray]:
@@ -73,7 +72,7 @@ def main() -> None:
     descriptions = [meta.get(c.name, {}).get("description", "") for c in clips]
     ref = scored[0][1]
     delta = np.mean([s[1] for s in scored[1:]], axis=0) - ref
-    lines = [__doc__.splitlines()[0], "", "    python benchmarks/per_clip_difference.py " + " ".join(sys.argv[1:]), "",
+    lines = [__doc__.splitlines()[0], "", "    python -m benchmarks.per_clip_difference " + " ".join(sys.argv[1:]), "",
              f"{args.data.name}, split {args.split} (motion-style), {len(clips)} clips; camera {args.camera}, noise "
              f"{args.noise}, mode {args.mode}; mean rotation "
              f"error (deg); networks: " + ", ".join(f"[{i}] {w}" for i, w in enumerate(args.weights)), "",

@@ -1,6 +1,6 @@
 """Keypoints-to-exports throughput and peak memory of `pcnet run` on long recordings.
 
-    python benchmarks/pipeline_throughput.py [--minutes 20 60 120] [--fps 30] [--method pcnet] [--mode auto]
+    python -m benchmarks.pipeline_throughput [--minutes 20 60 120] [--fps 30] [--method pcnet] [--mode auto]
                                              [--stage-memory]
 
 Tiles the bundled real boxing example (AlphaPose Halpe-26 JSON + MotionBERT X3D.npy) to each

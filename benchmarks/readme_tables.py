@@ -1,9 +1,9 @@
 """Print the README's held-out result table (markdown) from the JSON that
 ``bash benchmarks/evaluate_all.sh`` wrote to benchmarks/results/heldout/.
 
-    python benchmarks/readme_tables.py
+    python -m benchmarks.readme_tables
 
-``python benchmarks/docs_tables.py`` writes this table, and the other generated tables, into
+``python -m benchmarks.docs_tables`` writes this table, and the other generated tables, into
 the benchmark pages of the docs site (docs/benchmarks/).
 """
 

@@ -1,7 +1,7 @@
 """Static-camera real data, no ground truth: how much do per-frame up estimates scatter
 (frame mode) compared with the single sequence estimate, and what does `auto` choose?
 
-    python benchmarks/real_up_spread.py [--method pcnet] [--data ../shared/data/real]
+    python -m benchmarks.real_up_spread [--method pcnet] [--data ../shared/data/real]
 
 Files: boxing_motionbert/X3D.npy (MotionBERT) and every yoga_videopose3d/*.npy
 (VideoPose3D), all filmed by static cameras, 30 fps assumed for the yoga exports.

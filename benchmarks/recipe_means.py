@@ -1,6 +1,6 @@
 """Two training recipes compared by their seed means, from benchmarks/floor_experiment.py's results files.
 
-    python benchmarks/recipe_means.py --a FILE [FILE ...] [--a-shipped] --b FILE [FILE ...]
+    python -m benchmarks.recipe_means --a FILE [FILE ...] [--a-shipped] --b FILE [FILE ...]
 
 Each FILE is one candidate camera-frame network scored by ``floor_experiment.py`` (its
 "candidate pair" cells: the candidate with the shipped body-frame network, per frame, clean);

@@ -1,7 +1,7 @@
 """Sequence mode's up estimator: the robust spherical mean (Weiszfeld + Tukey biweight,
 stages/spherical.py) against the simpler normalised coordinate-wise median of the per-frame ups.
 
-    python benchmarks/sequence_up_estimator.py --data ../shared/data
+    python -m benchmarks.sequence_up_estimator --data ../shared/data
 
 The same runs as the README's held-out sequence rows (`pcnet evaluate --method M --data D
 --split S --camera per-clip --noise lifter --mode sequence`), once as shipped and once with the
@@ -42,7 +42,7 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=DEFAULT)
     args = ap.parse_args()
     shipped = temporal.robust_mean_direction
-    lines = ["python benchmarks/sequence_up_estimator.py",
+    lines = ["python -m benchmarks.sequence_up_estimator",
              "| data | method | robust mean (shipped): tilt mean / median / p95 (invalid) | coordinate-wise median |",
              "|---|---|---|---|"]
     for label, file, split in SETS:

@@ -4,7 +4,7 @@ width and the paper's width (randomly initialised: speed does not depend on the 
 and the shipped pair as `pcnet run` calls it (both networks, the view gate, the blend;
 models/inference.py: ViewGatedPCNet).
 
-    python benchmarks/speed.py [--seconds 3] [--threads 0]
+    python -m benchmarks.speed [--seconds 3] [--threads 0]
 
 Last, the training rows: poses/s of one AdamW step (forward, the paper's loss, backward) at
 batch 1024, what an epoch of `pcnet train` costs per pose on this machine.

@@ -1,6 +1,6 @@
 """How much of the up error follows the subject's own trunk lean (the lean-vs-tilt ambiguity).
 
-    python benchmarks/trunk_lean.py [--data ../shared/data] [--out benchmarks/results/trunk_lean.txt]
+    python -m benchmarks.trunk_lean [--data ../shared/data] [--out benchmarks/results/trunk_lean.txt]
 
 A single pose cannot tell a body leaning forward under a level camera from an upright body
 under a camera pitched down; a network that learned the trunk postures of its training data
@@ -30,23 +30,20 @@ DeepMimic (another dataset; the camera-frame network trained on three of its flo
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 
-from mocap_sets import training_mix_splits  # noqa: E402
-from report import print_and_save  # noqa: E402
-
-from pcnet.models.datasets import load_mocap, make_pairs  # noqa: E402
-from pcnet.pipeline.rectification import rectify  # noqa: E402
-from pcnet.stages.core.conventions import PELVIS, THORAX  # noqa: E402
+from pcnet.models.datasets import load_mocap, make_pairs
+from pcnet.pipeline.rectification import rectify
+from pcnet.stages.core.conventions import PELVIS, THORAX
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "trunk_lean.txt"
-COMMAND = "python benchmarks/trunk_lean.py --data ../shared/data"
+COMMAND = "python -m benchmarks.trunk_lean --data ../shared/data"
 TRAIN_EVERY = 8
 #: Bands of the clips' median forward trunk lean, degrees.
 LEAN_BANDS_DEG = (-90, 0, 5, 10, 20, 45, 90)

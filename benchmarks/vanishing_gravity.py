@@ -1,6 +1,6 @@
 """Tilt error against gravity read from the scene: two real videos, two real lifters, truth from vanishing points.
 
-    python benchmarks/vanishing_gravity.py --data ../shared/data [--overlay DIR]
+    python -m benchmarks.vanishing_gravity --data ../shared/data [--overlay DIR]
 
 Why: pose2sim_gravity (benchmarks/gravity_benchmark.py) is the only recording with calibrated
 gravity, one lab and one lifter. Man-made scenes carry their own gravity: vertical edges meet
@@ -51,8 +51,8 @@ from pathlib import Path
 
 import numpy as np
 
-from configurations import CONFIGURATIONS, LABEL_WIDTH
-from gravity_benchmark import deg_between, pitch_roll_deg
+from benchmarks.configurations import CONFIGURATIONS, LABEL_WIDTH
+from benchmarks.gravity_benchmark import deg_between, pitch_roll_deg
 from pcnet.adapters import load_mediapipe_3d
 from pcnet.adapters.registry import get_3d_adapter
 from pcnet.pipeline.config import RunConfig
@@ -66,7 +66,7 @@ HERE = Path(__file__).resolve().parent
 DEFAULT = HERE.parents[1] / "shared" / "data"
 LINES = HERE / "vanishing_lines.json"
 RESULT = HERE / "results" / "vanishing_gravity.txt"
-COMMAND = "python benchmarks/vanishing_gravity.py --data ../shared/data"
+COMMAND = "python -m benchmarks.vanishing_gravity --data ../shared/data"
 BOOTSTRAP = 2000
 FOCAL_SENSITIVITY = (0.7, 1.4)
 

@@ -1,7 +1,7 @@
 """Vertical motion from a root-relative lifter: the world frame's per-frame floor against a pelvis
 held at one height, against mocap truth.
 
-    python benchmarks/vertical_motion.py --data ../shared/data [--max-clips 60]
+    python -m benchmarks.vertical_motion --data ../shared/data [--max-clips 60]
 
 A root-relative lifter (every one but a depth sensor) gives no pelvis height. ``pcnet run``
 puts the floor under each frame's lowest joint centre (``stages/world_frame.py: to_world``), so
@@ -37,7 +37,7 @@ from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.kinematics import compute_kinematics
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence
 from pcnet.stages.world_frame import to_world, world_frame
-from world_kinematics import true_world
+from benchmarks.world_kinematics import true_world
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "vertical_motion.txt"
@@ -79,7 +79,7 @@ def main() -> None:
     args = ap.parse_args()
     t0 = time.perf_counter()
     lines = [__doc__.splitlines()[0] + " " + __doc__.splitlines()[1], "",
-             f"    python benchmarks/vertical_motion.py --data {args.data} --max-clips {args.max_clips}", "",
+             f"    python -m benchmarks.vertical_motion --data {args.data} --max-clips {args.max_clips}", "",
              "Mean absolute error over valid frames (truth: mean |true value|, the error of reporting no motion).", "",
              "| data | input | clips | frames | quantity | truth | " + " | ".join(FLOORS) + " |",
              "|---|---|---:|---:|---|---:|" + "---:|" * len(FLOORS)]

@@ -1,7 +1,7 @@
 """`pcnet run --video` with the embedded estimator: accuracy on real calibrated cameras and
 speed on this machine (issue 50; needs the ``video`` extra).
 
-    python benchmarks/video_estimator.py --data ../shared/data [--out benchmarks/results/video_estimator.txt]
+    python -m benchmarks.video_estimator --data ../shared/data [--out benchmarks/results/video_estimator.txt]
 
 Accuracy: the four calibrated cameras of ``real/pose2sim_gravity`` (one man standing in a lab,
 11 frames at 60 fps each; truth ``up_camera`` from the lab's calibration). Each camera's
@@ -38,7 +38,7 @@ from pcnet.stages.core.rotations import angle_between
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "video_estimator.txt"
-COMMAND = "python benchmarks/video_estimator.py --data ../shared/data"
+COMMAND = "python -m benchmarks.video_estimator --data ../shared/data"
 EXAMPLE = Path(pcnet.pipeline.__file__).parent / "example_data" / "boxing2.mp4"
 SIZES = ((1280, 720), (1920, 1080))
 

@@ -2,7 +2,7 @@
 3DPCNet, the body-frame 3DPCNet and the shipped gated pair, with the camera rolled about its
 optical axis (portrait = 90 deg).
 
-    python benchmarks/view_gate.py --data ../shared/data [--stride 3]
+    python -m benchmarks.view_gate --data ../shared/data [--stride 3]
 
 Each clip is one recording (the gate's running median runs over its frames in order), seen
 by the paper's camera distribution (a new camera every frame, docs/CONVENTIONS.md) and then
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from report import data_arguments
+from benchmarks.report import data_arguments
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
@@ -69,7 +69,7 @@ def main() -> None:
     assert gated.camera.path == CAMERA_WEIGHTS and gated.body.path == BODY_WEIGHTS
     t0 = time.perf_counter()
     lines = [__doc__.splitlines()[0], __doc__.splitlines()[1], "",
-             f"    python benchmarks/view_gate.py --data {args.data} --stride {args.stride}", "",
+             f"    python -m benchmarks.view_gate --data {args.data} --stride {args.stride}", "",
              "Mean tilt error (deg) per roll of the camera; 'cam share' = mean camera-frame weight of the gate", "",
              f"{'data':<22}{'estimator':<14}" + "".join(f"{r:>8}" for r in ROLLS_DEG)]
     for label, file, split, lifter in SETS:

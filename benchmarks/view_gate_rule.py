@@ -1,7 +1,7 @@
 """The view gate's rule, measured where it was chosen: the shipped rule (models/view_gate.py)
 against the two earlier releases' rules, per-frame tilt error with the camera rolled 0-180 deg.
 
-    python benchmarks/view_gate_rule.py --data ../shared/data [--split val] [--stride 3]
+    python -m benchmarks.view_gate_rule --data ../shared/data [--split val] [--stride 3]
 
 Rules (w = the camera-frame network's weight; in(x) = 1 up to 20 deg roll / 40 deg pitch, 0
 from 30 / 50, linear between):
@@ -27,9 +27,9 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from mocap_sets import training_mix_splits
-from report import print_and_save
-from view_gate import rolled_views
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
+from benchmarks.view_gate import rolled_views
 
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.inference import ViewGatedPCNet, normalized_in_chunks
@@ -76,7 +76,7 @@ def main() -> None:
     else:
         clips = training_mix_splits(args.data, args.split)[0]
     pair = ViewGatedPCNet()
-    lines = [f"    python benchmarks/view_gate_rule.py --data {args.data} --split {args.split} --stride {args.stride}", "",
+    lines = [f"    python -m benchmarks.view_gate_rule --data {args.data} --split {args.split} --stride {args.stride}", "",
              f"Mean tilt error (deg) per camera roll, {len(clips)} clips", ""]
     for lifter in (False, True):
         sums = tilt_by_rule(clips, lifter, args.stride, pair)

@@ -1,6 +1,6 @@
 """Kinematics in one fixed world frame vs the per-frame canonical frame, against mocap truth.
 
-    python benchmarks/world_kinematics.py --data ../shared/data [--max-clips 120]
+    python -m benchmarks.world_kinematics --data ../shared/data [--max-clips 120]
 
 Held-out mocap (Bandai motion-style test clips, CMU validation subjects 12 and 60; metres,
 their own fps) seen by one static camera per clip ("paper" views,
@@ -191,7 +191,7 @@ def main() -> None:
     args = ap.parse_args()
     t0 = time.perf_counter()
     lines = [__doc__.splitlines()[0], "",
-             f"    python benchmarks/world_kinematics.py --data {args.data} --max-clips {args.max_clips}", ""]
+             f"    python -m benchmarks.world_kinematics --data {args.data} --max-clips {args.max_clips}", ""]
     angle_lines = ["Angles in one fixed world frame vs the per-frame canonical frame, against the same angles of mocap truth.",
                    "", lines[2], "",
                    "Setup as results/world_kinematics.txt (module docstring of benchmarks/world_kinematics.py).", ""]

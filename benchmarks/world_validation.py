@@ -1,6 +1,6 @@
 """Validation against truth (issue 51): held-out mocap filmed by a static camera, run through `pcnet run`.
 
-    python benchmarks/world_validation.py --data ../shared/data [--max-clips 6] [--opensim-clips 2]
+    python -m benchmarks.world_validation --data ../shared/data [--max-clips 6] [--opensim-clips 2]
         [--mode auto|sequence] [--cmu-split test|val|val+test] [--max-seconds 20] [--seed 0]
         [--no-video] [--keep DIR] [--out benchmarks/results/world_validation.txt]
 
@@ -556,7 +556,7 @@ def main() -> None:
         except Exception as err:  # noqa: BLE001 - say why and go on without IK
             print(f"OpenSim unavailable ({err}); no IK", flush=True)
             args.opensim_clips = 0
-    command = "python benchmarks/world_validation.py" + "".join(f" {a}" for a in sys.argv[1:])
+    command = "python -m benchmarks.world_validation" + "".join(f" {a}" for a in sys.argv[1:])
     head = [__doc__.splitlines()[0], "", f"    {command}", "",
             f"camera {WIDTH}x{HEIGHT} px, f = {FOCAL_PX:.1f} px (26 mm equivalent), principal point at the centre, "
             f"'paper' views, distance U{DISTANCE_RANGE_M} m moved back to keep the clip in view (<= {MAX_DISTANCE_M:g} m); "

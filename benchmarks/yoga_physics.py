@@ -1,6 +1,6 @@
 """Physics checks on real VideoPose3D yoga output: is the canonical trunk where the asana puts it?
 
-    python benchmarks/yoga_physics.py [--data ../shared/data] [--stride 2] [--out benchmarks/results/yoga_physics.txt]
+    python -m benchmarks.yoga_physics [--data ../shared/data] [--stride 2] [--out benchmarks/results/yoga_physics.txt]
 
 Data: real/yoga_videopose3d/*.npy (90 real VideoPose3D exports, 18 people, camera frame x right /
 y down / z forward, metres, root-relative; `export_<person>_<asana>.npy`, plus `demo.npy` whose
@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from configurations import CONFIGURATIONS, LABEL_WIDTH
+from benchmarks.configurations import CONFIGURATIONS, LABEL_WIDTH
 from pcnet.adapters import load_videopose3d
 from pcnet.stages.core.conventions import PELVIS, SPINE, THORAX, root_relative
 from pcnet.stages.core.rotations import angle_between
@@ -140,7 +140,7 @@ def run(data: Path, stride: int = 2) -> list[str]:
     # Named exports first, so that a duplicate is dropped under its less informative name.
     paths = sorted(data.joinpath(*FOLDER).glob("*.npy"), key=lambda p: (not plain_export(p), p.name))
     labels = ["input" if c is None else c.label for c in CONFIGS]
-    cmd = f"python benchmarks/yoga_physics.py --data ../shared/data --stride {stride}"
+    cmd = f"python -m benchmarks.yoga_physics --data ../shared/data --stride {stride}"
     lines = [__doc__.splitlines()[0], "", f"    {cmd}", "",
              (f"{len(paths)} files (repeats skipped, see below), {FPS:g} fps / stride {stride}. Median trunk angle "
               "from vertical (deg) per file; `*` = under half of the frames valid for that method."),

@@ -101,7 +101,7 @@ class PCNetSession:
         """
         # onnxruntime's arena keeps the largest batch's activations for the session's life:
         # peak RSS 1,060 MB at 4,096 poses, 181 MB at 256, which is faster on 2 cores
-        # (9,859 vs 6,798 poses/s, `python benchmarks/ort_batch_memory.py`).
+        # (9,859 vs 6,798 poses/s, `python -m benchmarks.ort_batch_memory`).
         n = len(x)
         R = np.full((n, 3, 3), np.nan)
         residual = np.full((n, 17, 3), np.nan)

@@ -36,7 +36,7 @@ CPN detections, 243 frames) and MotionBERT 39.2 mm (Zhu et al., "MotionBERT: A U
 Perspective on Learning Human Motion Representations", ICCV 2023, fine-tuned). The
 constants below give a mean root-relative MPJPE of noisy vs clean input of about 42 mm
 (:data:`EXPECTED_MPJPE_MM`), inside that range. Measured with ``make_pairs(..., seed=0,
-noise=LifterNoise())`` (``python benchmarks/lifter_noise_level.py``, but the fixture row): Bandai motion-style test split 41.5 mm mean (median 39.2, p95 58.8)
+noise=LifterNoise())`` (``python -m benchmarks.lifter_noise_level``, but the fixture row): Bandai motion-style test split 41.5 mm mean (median 39.2, p95 58.8)
 with per-clip paper views, 41.6 with per-frame views; DeepMimic (all) 43.3; the twelve
 fixture clips 41.8 (mean of seeds 0-9, ``tests/test_heldout_eval.py``). Each component
 alone on the Bandai split: slow offsets 32.4 mm, lean 15.0, bone lengths 11.1, jitter and

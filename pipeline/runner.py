@@ -33,7 +33,7 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (body_size_flag, per_frame_tilt_summary, keypoints_outside_image_flag, leg_asymmetry_flag, mirrored_skeleton_flag, side_swap_flag, size_change_flag, one_person_frames, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
+from pcnet.stages.flags import (Finding, finding, ranked, body_size_flag, per_frame_tilt_summary, keypoints_outside_image_flag, leg_asymmetry_flag, mirrored_skeleton_flag, side_swap_flag, size_change_flag, one_person_frames, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
                                track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
@@ -42,6 +42,7 @@ from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
                                       write_motion_files, write_rerun)
+from pcnet.stages.sinks.report import REPORT_NAME, report_markdown, write_report
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL, UNFAMILIAR_EVIDENCE_SCALE
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, implausible_motion_flags, motion_check_note
@@ -62,6 +63,13 @@ WORLD_SUMMARY = {
     "measured": _WORLD + "the pelvis follows the path the input measured (x = z = 0 at the start)",
     "from 2D keypoints": _WORLD + "the pelvis follows the path fitted to the 2D keypoints (x = z = 0 at the start; "
                                   "depth is its weak axis: pelvis_path_std_world in canonical.npz)",
+}
+_WORLD_SHORT = "world, fixed for the recording (+Y up, y = 0 ground); "
+#: The kinematics frame line of the terminal summary (:data:`WORLD_SUMMARY` in report.md).
+WORLD_SHORT = {
+    "not observable": _WORLD_SHORT + "pelvis path not observable (x = z = 0)",
+    "measured": _WORLD_SHORT + "the pelvis follows the path the input measured",
+    "from 2D keypoints": _WORLD_SHORT + "pelvis path fitted to the 2D keypoints (depth weak)",
 }
 
 
@@ -85,33 +93,60 @@ class RunResult:
     fps: float = float("nan")
     fps_source: str = ""
 
+    @property
+    def findings(self) -> list[Finding]:
+        """The flags as one-line findings, most severe first (:func:`pcnet.stages.flags.ranked`)."""
+        return ranked(finding(f) for f in self.flags)
+
+    @property
+    def note_findings(self) -> list[Finding]:
+        """The notes as one-line findings (:data:`Severity.INFO`), in the order they were made."""
+        return [finding(n, note=True) for n in self.notes]
+
+    def key_facts(self, long: bool = False) -> list[tuple[str, str]]:
+        """``(label, text)`` of the few facts every summary states: frames, rectification,
+        heading, camera tilt, the per-frame bound, the kinematics frame, units. ``long``: with
+        every qualification (report.md), else one short line each (the terminal)."""
+        frames = f"{self.frames} at {self.fps:.4g} fps ({self.fps_source}; " + (
+            f"{self.frames - self.valid_frames} without a valid pose" + (": kept as NaN rows, valid = 0" * long) + ")"
+            if self.valid_frames < self.frames else "every one with a valid pose)")
+        report = self.report
+        spread = (f"; spread of per-frame up {report['spread_deg']:.1f} deg" if "spread_deg" in report else "")
+        decided = ((f" over the {report['mode_decided_on_frames']} valid frames of the 2D track's longest stretch"
+                    if long else f" over the {report['mode_decided_on_frames']} frames of one person")
+                   if "mode_decided_on_frames" in report else "")
+        rectification = (f"{self.method}, mode {self.mode} (requested {report.get('requested_mode')}" + spread
+                         + (f"; {report['mode_reason']}" if "mode_reason" in report else "") + decided
+                         + self._auto_smooth_hint(long) + ")")
+        heading = (f"from {report.get('heading_source')} (requested {report.get('requested_heading_source')}; "
+                   + self._hip_width() + ")")
+        tilt = f"{self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(long) + self._per_frame_tilt()
+        kinematics = (WORLD_SUMMARY if long else WORLD_SHORT)[report["root_path"]] \
+            if report.get("kinematics_frame") == "world" \
+            else "canonical (turns with the pelvis; no fixed frame without a static camera)"
+        return [("frames", frames), ("rectification", rectification), ("heading", heading), ("camera tilt", tilt),
+                *self._frame_bound(long), ("kinematics frame", kinematics), ("units", self.units)]
+
     def summary(self) -> str:
-        """A one-screen text summary."""
-        lines = [
-            f"frames            {self.frames} at {self.fps:.4g} fps ({self.fps_source}; "
-            + (f"{self.frames - self.valid_frames} without a valid pose: kept as NaN rows, valid = 0)"
-               if self.valid_frames < self.frames else "every one with a valid pose)"),
-            f"rectification     {self.method}, mode {self.mode} (requested {self.report.get('requested_mode')}"
-            + (f"; spread of per-frame up {self.report['spread_deg']:.1f} deg" if "spread_deg" in self.report else "")
-            + (f"; {self.report['mode_reason']}" if "mode_reason" in self.report else "")
-            + (f" over the {self.report['mode_decided_on_frames']} valid frames of the 2D track's longest stretch"
-               if "mode_decided_on_frames" in self.report else "")
-            + self._auto_smooth_hint()
-            + ")",
-            f"heading           from {self.report.get('heading_source')} (requested "
-            f"{self.report.get('requested_heading_source')}; " + self._hip_width() + ")",
-            f"camera tilt       {self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll() + self._per_frame_tilt(),
-            *self._frame_bound(),
-            "kinematics frame  " + (WORLD_SUMMARY[self.report["root_path"]] if self.report.get("kinematics_frame") == "world"
-                                     else "canonical (turns with the pelvis; no fixed frame without a static camera)"),
-            f"units             {self.units}",
-        ]
-        lines += [f"WARNING           {f}" for f in self.flags]
-        lines += [f"note              {n}" for n in self.notes]
-        lines += [f"{name:<17} {path}" for name, path in self.outputs.items()]
+        """A summary that reads in seconds: the key facts, then one line per finding, most
+        severe first, each with the one action it asks (``WARNING <headline> -> <action>``),
+        the notes one line each, the outputs, and where report.md keeps the full text."""
+        lines = [f"{label:<17} {text}" for label, text in self.key_facts()]
+        lines += [f"WARNING  {f.headline} -> {f.action}" for f in self.findings]
+        lines += [f"note     {n.headline}" for n in self.note_findings]
+        lines += [f"{name:<17} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
         if "recording" in self.outputs:
             lines.append(f"open the recording with:  rerun {self.outputs['recording']}")
+        if REPORT_NAME in self.outputs:
+            lines.append(f"details: {self.outputs[REPORT_NAME]}")
         return "\n".join(lines)
+
+    def report_text(self, title: str = "pcnet run") -> str:
+        """report.md's text (:func:`pcnet.stages.sinks.report.report_markdown`): the key facts
+        in full, every finding's full text in the summary's order, every note in full, the
+        rectification report's numbers and the outputs."""
+        return report_markdown(title, self.key_facts(long=True), self.findings, self.note_findings, self.report,
+                               [name for name in self.outputs if name != REPORT_NAME])
 
     def _per_frame_tilt(self) -> str:
         """Where the up may change from frame to frame, the tilt line's one number is that of the
@@ -126,7 +161,7 @@ class RunResult:
         cv = self.report.get("hip_width_cv_percent", float("nan"))
         return f"hip width varies {cv:.1f} %" if np.isfinite(cv) else "hip width variation needs two frames with hips"
 
-    def _frame_bound(self) -> list[str]:
+    def _frame_bound(self, long: bool = True) -> list[tuple[str, str]]:
         base = self.report.get("frame_tilt_95_deg", float("nan"))
         interval = self.report.get("camera_pitch_interval_deg", float("nan"))
         # A sequence up whose interval is known says its uncertainty on the tilt line instead.
@@ -137,48 +172,63 @@ class RunResult:
         here = f"; this recording median {np.median(bound):.1f}, max {bound.max():.1f} deg" if len(bound) else ""
         # Calibrated as a 95 % bound, it held in 81-92 % of held-out mocap frames (benchmarks/ablation.py)
         # and is not measured on real lifter output, so the summary says what it is, not "95 %".
-        return [f"per-frame up      bound {base:.1f} deg where the two networks agree, {FRAME_TILT_95_BODY_DEG:.1f} "
+        if not long:
+            return [("per-frame up", f"bound {base:.1f} deg where the two networks agree, {FRAME_TILT_95_BODY_DEG:.1f} "
+                                     f"where the body-frame network answers alone{here}; not a 95 % interval")]
+        return [("per-frame up", f"bound {base:.1f} deg where the two networks agree, {FRAME_TILT_95_BODY_DEG:.1f} "
                 f"where the body-frame network answers alone, more where they disagree{here} "
                 f"(frame_tilt_bound_deg in canonical.npz): not a 95 % interval, it held in 81-92 % of frames on "
-                f"held-out mocap with simulated lifter noise and is not calibrated on real lifter output"]
+                f"held-out mocap with simulated lifter noise and is not calibrated on real lifter output")]
 
-    def _auto_smooth_hint(self) -> str:
+    def _auto_smooth_hint(self, long: bool = True) -> str:
         """Where auto mode chose smooth: what the spread can mean, and the option for a
         static camera (lying, seated or cycling bodies spread the per-frame up too)."""
         if self.mode != "smooth" or self.report.get("requested_mode") != "auto" or "spread_deg" not in self.report:
             return ""
-        return (f", above the {MODE_THRESHOLD_DEG:g} deg of a static camera: a moving camera, or poses whose "
-                f"up the networks read less steadily; --mode sequence for a static camera")
+        return (f", above the {MODE_THRESHOLD_DEG:g} deg of a static camera"
+                + (": a moving camera, or poses whose up the networks read less steadily" * long)
+                + "; --mode sequence for a static camera")
 
-    def _pitch_roll(self) -> str:
+    def _pitch_roll(self, long: bool = True) -> str:
         pitch_unc = self.report.get("camera_pitch_interval_deg", float("nan"))
         roll_unc = self.report.get("camera_roll_interval_deg", float("nan"))
         if not (np.isfinite(pitch_unc) and np.isfinite(roll_unc)):
             boot = (self.report.get("camera_pitch_uncertainty_deg", float("nan")),
                     self.report.get("camera_roll_uncertainty_deg", float("nan")))
+            weights = f"{' with --weights' if self.method != 'geometric' else ''}"
+            if np.isfinite(boot).all() and not long:
+                return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; bootstrap alone "
+                        f"+- {boot[0]:.1f}/{boot[1]:.1f}; a 95 % interval is not for method {self.method}{weights})")
             if np.isfinite(boot).all():
                 return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; bootstrap alone "
                         f"+- {boot[0]:.1f}/{boot[1]:.1f}, no 95 % interval: the lifter's systematic error is "
-                        f"calibrated for the shipped 3DPCNet pair only, not for method {self.method}"
-                        f"{' with --weights' if self.method != 'geometric' else ''})")
+                        f"calibrated for the shipped 3DPCNet pair only, not for method {self.method}{weights})")
             return f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)"
         gravity = self.report.get("gravity") or {}
         lying = gravity.get("reading") == "lying"
-        label = "95 % posterior interval of the lying reading (camera prior)" if lying else UNCERTAINTY_LABEL
         other = self.report.get("interval_reaches_other_reading_p")
+        interval = (f"(pitch {self.camera_pitch_deg:+.1f} +- {pitch_unc:.1f}, roll {self.camera_roll_deg:+.1f} "
+                    f"+- {roll_unc:.1f} deg; ")
+        if not long:
+            label = "95 % posterior interval of the lying reading" if lying else "95 % interval"
+            if other is not None:
+                label += f", widened to the {'upright' if lying else 'lying'} reading ({100 * other:.0f} %)"
+            return interval + label + self._evidence_scale(long) + ")"
+        label = "95 % posterior interval of the lying reading (camera prior)" if lying else UNCERTAINTY_LABEL
         if other is not None:
             label += (f"; widened to reach the {'upright' if lying else 'lying'} reading, which keeps "
                       f"{100 * other:.0f} % of the posterior")
-        return (f"(pitch {self.camera_pitch_deg:+.1f} +- {pitch_unc:.1f}, roll {self.camera_roll_deg:+.1f} "
-                f"+- {roll_unc:.1f} deg; {label}; bootstrap alone +- "
+        return (interval + f"{label}; bootstrap alone +- "
                 f"{self.report.get('camera_pitch_uncertainty_deg', float('nan')):.1f}/"
                 f"{self.report.get('camera_roll_uncertainty_deg', float('nan')):.1f}; "
                 f"evidence: {self.report.get('evidence')}{self._evidence_scale()})")
 
-    def _evidence_scale(self) -> str:
+    def _evidence_scale(self, long: bool = True) -> str:
         scale = self.report.get("evidence_scale", 1.0)
         if not scale > UNFAMILIAR_EVIDENCE_SCALE:
             return ""
+        if not long:
+            return f"; poses unlike the training data: widened {scale:.1f}x"
         return (f"; poses unlike the training data: the pose evidence's systematic error taken {scale:.1f}x "
                 f"the calibration set's")
 
@@ -436,7 +486,7 @@ def _trim_heap() -> None:
     :data:`MMAP_THRESHOLD_BYTES`) and an input parser's many small objects leave the heap
     fragmented, so their pages stayed resident under the next stage's whole-recording
     arrays (with the block-wise rectification, the 2-hour peak of
-    ``python benchmarks/pipeline_throughput.py`` went from 1,008 to 977 MB). First the cyclic
+    ``python -m benchmarks.pipeline_throughput`` went from 1,008 to 977 MB). First the cyclic
     garbage is collected: a drawn matplotlib figure is a cycle of objects that Python's
     collector frees only when container allocations trigger it, which the next stage's
     numpy work does not (20 MB left of a 60-minute recording's figures)."""
@@ -908,6 +958,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             fps_source=fps_source,
             report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
         )
+        # the long form of the summary, published with the rest
+        run.outputs[REPORT_NAME] = out / next(iter(write_report(tmp, run.report_text(f"pcnet run: {out}")).values())).name
         if before_publish is not None:
             before_publish(tmp, run)
     return run

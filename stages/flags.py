@@ -6,6 +6,11 @@ summary and stores them in the outputs.
 
 from __future__ import annotations
 
+import re
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from enum import IntEnum
+
 import numpy as np
 
 from .core.canonical import trunk_lean_deg
@@ -564,3 +569,250 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *, p
               "this 2D format has one track: re-run the tracker on one person, or leave those frames out")
     return [f"2D track probably switches person: jumps at {jumps}{more}; {len(suspect)} frames lie outside the "
             f"longest stretch (track_segment != {main} in canonical.npz and kinematics.csv); {advice}"]
+
+
+# --- the run summary's findings -------------------------------------------------------------
+# Every flag above is a paragraph: what was seen, why it matters, what to do. The summary
+# prints one line per finding (a headline with its numbers and the one action it asks) and
+# report.md keeps the paragraph. The flag functions (and those of stages/plausibility.py,
+# stages/opensim_ik.py and the runner) return their paragraphs as before; the table below,
+# keyed by how each kind of paragraph begins, turns them into findings.
+
+
+class Severity(IntEnum):
+    """How much a finding asks of the reader, most first (see :func:`ranked`)."""
+
+    INFO = 1  #: what was assumed or done; nothing to do unless the assumption is wrong
+    CHECK = 2  #: the result stands, but some numbers carry an error worth checking
+    PROBLEM = 3  #: the result is wrong in part (another person, swapped sides, wrong units) until acted on
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One line of the run summary and one section of report.md.
+
+    severity: :class:`Severity`. headline: what was found, with its numbers, one short line.
+    action: the one thing it asks of the user (``""`` for a note). detail: the full text
+    (the flag or note as the stage wrote it; ``canonical.npz``'s ``flags``/``notes``).
+    """
+
+    severity: Severity
+    headline: str
+    action: str
+    detail: str
+
+
+@dataclass(frozen=True)
+class _Kind:
+    """A kind of flag or note: ``pattern`` matches its text from the start (``re.match``,
+    DOTALL); ``headline`` builds the short line from the match; ``action`` is the one thing
+    it asks (a string, or a function of the match)."""
+
+    pattern: str
+    severity: Severity
+    headline: Callable[[re.Match], str]
+    action: str | Callable[[re.Match], str] = ""
+
+
+def _frames_of(jumps: str, more: str | None) -> str:
+    frames = re.findall(r"frame (\d+)", jumps)
+    return f"frame{'s' * (len(frames) > 1 or bool(more))} {', '.join(frames)}{more or ''}"
+
+
+def _few_ranges(text: str, shown: int = 3) -> str:
+    """``"frames 4-5, 66-73, 116, 136-138 and 2 more ranges"`` -> the first ``shown`` ranges
+    and how many more."""
+    head, _, rest = text.partition(" ")
+    listed, _, more = rest.partition(" and ")
+    ranges = listed.split(", ")
+    extra = len(ranges) - shown + (int(more.split()[0]) if more else 0)
+    if extra <= 0:
+        return text
+    return f"{head} {', '.join(ranges[:shown])} +{extra} more"
+
+
+#: The kinds of flags and notes, in the order :func:`ranked` keeps within one severity.
+#: Texts no kind matches get :func:`shortened` and a pointer to report.md.
+KINDS: tuple[_Kind, ...] = (
+    # PROBLEM: another person's poses, mirrored or swapped sides, wrong units, no output asked for
+    _Kind(r"2D track probably switches person: jumps at (?P<jumps>[^;]*?)(?P<more> and \d+ more)?; "
+          r"(?P<outside>\d+) frames lie outside the longest stretch \(track_segment != (?P<main>\d+)",
+          Severity.PROBLEM,
+          lambda m: f"2D track switches person at {_frames_of(m['jumps'], m['more'])}; {m['outside']} frames "
+                    f"probably someone else",
+          lambda m: ("check --person" if m.string.endswith("check --person") else
+                     f"track one person, or drop track_segment != {m['main']}")),
+    _Kind(r"up points (?P<deg>\d+) deg away from image-up", Severity.PROBLEM,
+          lambda m: f"up points {m['deg']} deg from image-up: input upside down or its axes wrong",
+          "check the lifter's axes (--axes with --lifter generic)"),
+    _Kind(r"the 3D poses' left and right contradict the 2D keypoints' in (?P<n>\d+) of (?P<of>\d+)", Severity.PROBLEM,
+          lambda m: f"3D left/right contradict the 2D keypoints in {m['n']} of {m['of']} pairs: sides swapped",
+          "check the joint order (--layout)"),
+    _Kind(r"the 3D skeleton is a mirror image of a body \(its nose behind the thorax in (?P<n>\d+) of (?P<of>\d+)",
+          Severity.PROBLEM,
+          lambda m: f"3D skeleton mirrored (nose behind the thorax in {m['n']} of {m['of']} frames): angles flip sign",
+          "check --axes and --layout"),
+    _Kind(r"median thigh length (?P<m>\S+) m is outside", Severity.PROBLEM,
+          lambda m: f"median thigh {m['m']} m, no person's: the poses are probably not in metres",
+          "check --units, or give --height"),
+    _Kind(r"(?P<pct>\d+) % of the 2D keypoints lie outside the video's (?P<size>\S+) frame", Severity.PROBLEM,
+          lambda m: f"{m['pct']} % of the 2D keypoints lie outside the {m['size']} video: another video or crop?",
+          "check the 2D file belongs to this video"),
+    _Kind(r"the skeleton's size changes (?P<fold>\S+)-fold.*off by more than (?P<off>\d+) %", Severity.PROBLEM,
+          lambda m: f"skeleton size changes {m['fold']}-fold; a tenth of the frames off by > {m['off']} %",
+          "declare image units (--units) or check the lifter"),
+    _Kind(r"too short to filter: .*\((?P<frames>\d+) frames\)", Severity.PROBLEM,
+          lambda m: f"too short to filter ({m['frames']} frames): raw positions, no velocity or acceleration",
+          "use a longer recording"),
+    _Kind(r"no OpenSim inverse kinematics", Severity.PROBLEM,
+          lambda m: "no OpenSim IK: a moving camera (mode frame/smooth) has no world.trc",
+          "--mode sequence if the camera was static"),
+    _Kind(r"no ankle visible in any frame", Severity.PROBLEM,
+          lambda m: "no ankle in any frame: heights are relative to the pelvis, not the ground",
+          "read heights as pelvis-relative"),
+    # CHECK: the result stands; some numbers carry an error worth checking
+    _Kind(r"joint (?P<q>speed|acceleration) beyond human limits in (?P<frames>frames? [^:]*): "
+          r"(?P<joint>[a-z ]+?) (?P<peak>\S+) (?P<unit>\S+) at frame \d+ \(limit (?P<limit>\S+)\)", Severity.CHECK,
+          lambda m: f"implausible {m['q']} in {_few_ranges(m['frames'], 2)}: {m['joint']} {m['peak']} {m['unit']} "
+                    f"(limit {m['limit']})",
+          "leave implausible_frames out"),
+    _Kind(r"the lifter's output was turned by a median (?P<turn>\S+) deg .*uncertainty \((?P<tol>\S+) deg",
+          Severity.CHECK,
+          lambda m: f"lifter output turned {m['turn']} deg into the camera, beyond the tilt's {m['tol']} deg "
+                    f"uncertainty",
+          "give --focal-px"),
+    _Kind(r"camera tilt (?P<deg>\d+) deg(?P<turned> beyond a quarter turn)?", Severity.CHECK,
+          lambda m: f"camera tilt {m['deg']} deg{m['turned'] or ''}: a steep camera or a subject not upright",
+          "check the result"),
+    _Kind(r"body read as lying \(posterior (?P<p>\d+) %\)", Severity.CHECK,
+          lambda m: f"body read as lying (posterior {m['p']} %): up taken from the camera prior",
+          "--no-camera-prior if standing under a rolled camera"),
+    _Kind(r"ambiguous body orientation: .*keeps (?P<p>\d+) % posterior", Severity.CHECK,
+          lambda m: f"ambiguous orientation: read upright, but lying keeps {m['p']} % posterior",
+          "check the result"),
+    _Kind(r"camera read as turned a quarter turn about its optical axis \(roll (?P<roll>\S+) deg", Severity.CHECK,
+          lambda m: f"camera read as turned a quarter turn (roll {m['roll']} deg): portrait phone or lying body?",
+          "check the result"),
+    _Kind(r"camera read as turned a quarter turn .* in (?P<n>\d+) of (?P<of>\d+) frames", Severity.CHECK,
+          lambda m: f"camera read as turned a quarter turn in {m['n']} of {m['of']} frames: portrait phone or "
+                    f"lying body?",
+          "check the result"),
+    _Kind(r"the trunk is more than (?P<deg>\d+) deg from vertical in (?P<pct>\d+) % of frames", Severity.CHECK,
+          lambda m: f"trunk beyond {m['deg']} deg from vertical in {m['pct']} % of frames: up direction uncertain",
+          "check the result"),
+    _Kind(r"no fixed world frame: mode (?P<mode>\w+)", Severity.CHECK,
+          lambda m: f"no fixed world frame (mode {m['mode']}): kinematics in the canonical frame, which turns",
+          "--mode sequence if the camera was static"),
+    _Kind(r"the lifter's left and right legs differ by (?P<pct>\d+) % .*the (?P<side>\w+) one shorter",
+          Severity.CHECK,
+          lambda m: f"lifter's legs differ {m['pct']} % in length ({m['side']} shorter): floor heights carry it",
+          "compare left and right with care"),
+    _Kind(r"camera-frame network set aside, wholly or in part, in (?P<n>\d+) of (?P<of>\d+) frames", Severity.CHECK,
+          lambda m: f"camera-frame network set aside in {m['n']} of {m['of']} frames: less accurate up there",
+          "see camera_frame_weight"),
+    _Kind(r"no ankle visible in (?P<n>\d+) of (?P<of>\d+) frames", Severity.CHECK,
+          lambda m: f"no ankle in {m['n']} of {m['of']} frames: the floor height is interpolated there",
+          "read heights there as estimates"),
+    _Kind(r"marker RMS (?P<rms>\S+) cm \(max (?P<max>\S+) cm\)", Severity.CHECK,
+          lambda m: f"OpenSim marker RMS {m['rms']} cm (max {m['max']} cm): the model does not follow the poses",
+          "check the joint angles before use"),
+    _Kind(r"segments (?P<segs>.*?) keep the generic model's size", Severity.CHECK,
+          lambda m: _clipped(f"OpenSim segments {m['segs']} not scaled: no frame has their markers"),
+          "read those segments' angles with care"),
+    # INFO: notes the summary shortens in its own way
+    _Kind(r"MediaPipe world landmarks turned from the virtual camera .*\(focal length (?P<f>\d+) px, "
+          r"(?P<how>[^:;]*).*turn median (?P<med>\S+),", Severity.INFO,
+          lambda m: f"MediaPipe poses turned from the virtual camera by a median {m['med']} deg "
+                    f"(focal length {m['f']} px, {m['how']})"),
+    _Kind(r"poses: (?P<est>.*?) on the video, a person in (?P<n>\d+) of (?P<of>\d+) frames; saved as (?P<file>\S+)",
+          Severity.INFO, lambda m: f"poses: {m['est']} on the video, a person in {m['n']} of {m['of']} frames"),
+    _Kind(r"low-pass cutoff (?P<hz>\S+) Hz by residual analysis \(Winter; noise (?P<noise>[^;]*);", Severity.INFO,
+          lambda m: f"low-pass cutoff {m['hz']} Hz by residual analysis (Winter; noise {m['noise']})"),
+    _Kind(r"3D joints remapped from (?P<layout>\S+) to H36M-17 with (?P<built>.*?) built as means", Severity.INFO,
+          lambda m: f"3D joints remapped from {m['layout']} to H36M-17 with {m['built']} built from others"),
+    _Kind(r"(missing|no pose|input: non-finite|unfiltered): ", Severity.INFO, lambda m: _counts_line(m.string)),
+)
+
+#: Characters a headline (or a shortened note) keeps at most.
+HEADLINE_WIDTH = 100
+
+
+def _clipped(text: str, width: int = HEADLINE_WIDTH) -> str:
+    """``text`` cut at a word boundary to ``width`` characters, ending in ``...``."""
+    if len(text) <= width:
+        return text
+    return text[:width - 3].rsplit(" ", 1)[0].rstrip(",;:") + "..."
+
+
+def _counts_line(text: str) -> str:
+    """The missing-data note (:func:`pcnet.stages.kinematics.format_flag_counts`) with each
+    per-joint list as a joint count and the joint most affected: ``"missing: right_knee 3
+    frames, left_elbow 74 frames; no pose: 8 frames"`` -> ``"missing: 2 joints (most:
+    left_elbow 74 frames); no pose: 8 frames"``."""
+    parts = []
+    for part in re.sub(r" \([^()]*\)", "", text).split("; "):
+        what, _, listed = part.rpartition(": ")
+        counts = [(int(n), name) for name, n in re.findall(r"(\w+) (\d+) frames?", listed)]
+        if what.startswith("input: non-finite") and len(counts) > 1:
+            parts.append(f"inf/NaN in the input: {len(counts)} joints")
+            continue
+        if what == "no pose" or len(counts) < 2:
+            parts.append(f"{what}: {listed}")
+            continue
+        n, worst = max(counts)
+        parts.append(f"{what}: {len(counts)} joints (most: {worst} {n} frame{'s' * (n != 1)})")
+    return _clipped("; ".join(parts))
+
+
+def shortened(text: str, width: int = HEADLINE_WIDTH) -> str:
+    """A flag or note of no known kind as one line of at most ``width`` characters: the
+    parenthesised asides dropped, then the longest run of whole clauses (ending before a
+    ``"; "``, else a ``": "``) that fits and keeps half the width, else cut at a word boundary."""
+    if len(text) <= width:
+        return text
+    depth, kept = 0, []
+    for ch in text:
+        depth += ch == "("
+        if depth == 0:
+            kept.append(ch)
+        depth -= ch == ")" and depth > 0
+    short = re.sub(r"\s+([,;:.])", r"\1", re.sub(r" {2,}", " ", "".join(kept))).strip()
+    if len(short) <= width:
+        return short
+    for sep in ("; ", ": "):
+        ends = [m.start() for m in re.finditer(re.escape(sep), short) if width // 2 <= m.start() <= width]
+        if ends:
+            return short[:ends[-1]]
+    return _clipped(short, width)
+
+
+def finding(text: str, note: bool = False) -> Finding:
+    """The :class:`Finding` of one flag (``note`` False) or note, by :data:`KINDS`; one of no
+    known kind is :data:`Severity.CHECK` (a flag: the full text in report.md is the action) or
+    :data:`Severity.INFO` (a note), :func:`shortened`. A note never outranks a flag: a note's
+    kind keeps its own severity only when it is INFO."""
+    for kind in KINDS:
+        m = re.match(kind.pattern, text, re.DOTALL)
+        if m and note == (kind.severity == Severity.INFO):
+            action = kind.action(m) if callable(kind.action) else kind.action
+            return Finding(kind.severity, _clipped(kind.headline(m)), action, text)
+    if note:
+        return Finding(Severity.INFO, shortened(text), "", text)
+    return Finding(Severity.CHECK, shortened(text), "see report.md", text)
+
+
+def ranked(findings: Iterable[Finding]) -> list[Finding]:
+    """``findings`` most severe first; within one severity in :data:`KINDS`' order, unknown
+    kinds last, then as given.
+
+    Why: a reader gives a summary a few seconds, so what makes part of the result wrong
+    (:data:`Severity.PROBLEM`: a 2D track that switched person, swapped or mirrored sides, wrong
+    units, data missing for the whole recording) comes before what makes some numbers less
+    certain (:data:`Severity.CHECK`: a tilt that may be off, implausible speeds, frames whose
+    floor was not seen), and both before what was merely assumed or done (notes,
+    :data:`Severity.INFO`). Within a severity the table's order puts causes before their
+    symptoms (a track switch before the implausible speeds it causes)."""
+    def order(f: Finding) -> tuple[int, int]:
+        rank = next((i for i, kind in enumerate(KINDS) if re.match(kind.pattern, f.detail, re.DOTALL)), len(KINDS))
+        return -int(f.severity), rank
+    return sorted(findings, key=order)

@@ -48,7 +48,7 @@ from .spherical import TUKEY_C
 
 #: Height of the ankle joint centre above the ground at stance, as a fraction of the leg
 #: length (hip->knee + knee->ankle). Fitted by
-#: ``python benchmarks/fit_floor.py --data ../shared/data`` (benchmarks/results/fit_floor.txt)
+#: ``python -m benchmarks.fit_floor --data ../shared/data`` (benchmarks/results/fit_floor.txt)
 #: on ../shared/data/mocap/cmu_train_h36m17.npz, training subjects of the motion-style split
 #: (models/datasets.py: select_split(..., "train", "motion-style"): CMU subjects 8, 9, 11, 13,
 #: 61; world floor y = 0): the median over subjects of each subject's median over clips of

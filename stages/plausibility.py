@@ -21,7 +21,7 @@ The limits (``stages/data/motion_limits.json``, shipped with the package) are fi
 chosen: per joint group the largest pelvis-relative speed and acceleration in the training
 motion capture of the shipped weights (CMU training subjects and Bandai's motion-style
 training split: walking, running, dashes, jumps, kicks, punches, dances), by
-``python benchmarks/fit_speed_limits.py --data ../shared/data``, which records the command,
+``python -m benchmarks.fit_speed_limits --data ../shared/data``, which records the command,
 files, split, filter, date and where each maximum occurred in the file, and reports the
 held-out false-alarm rate in ``benchmarks/results/fit_speed_limits.txt``. Motion faster than
 any of it (ballistic throws, racket sports, flips; a baseball pitcher's wrist exceeds 20 m/s)

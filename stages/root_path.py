@@ -72,7 +72,7 @@ from .spherical import TUKEY_C
 #: trajectories of the CMU training subjects (8, 9, 11, 13, 61: ``select_split(...,
 #: "train", "motion-style")``; 62 clips, 18,261 frames at 30 fps) of
 #: ``shared/data/mocap/cmu_train_h36m17.npz``, pooled over the three world axes, by
-#: ``python benchmarks/fit_root_path.py --data ../shared/data`` (benchmarks/results/fit_root_path.txt;
+#: ``python -m benchmarks.fit_root_path --data ../shared/data`` (benchmarks/results/fit_root_path.txt;
 #: per axis 1.31 / 1.71 / 1.14 with y vertical; 1.63 when the clips are subsampled to 15 fps).
 PROCESS_NOISE_Q = 1.384
 #: Prior standard deviation (m/s, per axis) of the pelvis velocity at the first fitted frame:

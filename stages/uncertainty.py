@@ -11,7 +11,7 @@ per-axis systematic error measured on data the shipped weights never trained on:
     half = sqrt(bootstrap_half^2 + (Z * SIGMA_SYS_DEG[axis])^2)
 
 Provenance of the constants (``benchmarks/results/uncertainty.txt``, made by
-``python benchmarks/calibrate_uncertainty.py --data ../shared/data``, 2026-11-22; re-run
+``python -m benchmarks.calibrate_uncertainty --data ../shared/data``, 2026-11-22; re-run
 with the shipped view-gate rule on 2026-11-23: the same constants; re-run with the sequence up
 weighted by the per-frame bound on 2026-11-23: pitch 3.46 -> 3.44, roll
 1.15 -> 1.12 (that weighting was deleted on 2026-11-26, docs/decisions/0035-ablation-deletions.md:
@@ -52,7 +52,7 @@ disagree), and ``FRAME_TILT_95_DEG`` then the conformal 95 % quantile of
 network answers alone (``w = 1``: 34,962 of 34,967 with the shipped gate), so the bound
 covers 95 % of them.
 Coverage on held-out data (the motion-style test split, DeepMimic, real Pose2Sim cameras) is
-in ``benchmarks/results/frame_bound.txt`` (``python benchmarks/calibrate_frame_bound.py --data
+in ``benchmarks/results/frame_bound.txt`` (``python -m benchmarks.calibrate_frame_bound --data
 ../shared/data``) and ``benchmarks/results/uncertainty.txt`` (sequence intervals).
 
 A body on the floor under a level camera (crawling, lying, getting up) reads to the body-frame
@@ -87,7 +87,7 @@ Z = 1.96
 SIGMA_SYS_DEG = {"pitch": 3.23, "roll": 1.44}
 
 #: Per-frame tilt bound (deg) where the two networks agree: the base of :func:`frame_tilt_bound`
-#: (module docstring; ``python benchmarks/calibrate_frame_bound.py --data ../shared/data``,
+#: (module docstring; ``python -m benchmarks.calibrate_frame_bound --data ../shared/data``,
 #: ``benchmarks/results/frame_bound.txt``).
 FRAME_TILT_95_DEG = 7.40
 #: How much of the two networks' disagreement (deg) is added to the per-frame bound.

@@ -628,17 +628,20 @@ def test_an_engine_that_fails_to_start_leaves_no_pending_rows(tmp_path, monkeypa
 
 @pytest.mark.slow
 def test_a_rows_warnings_reach_the_summary(tmp_path):
-    """What `pcnet run` prints as WARNING lines for a recording is in the row's summary
-    (and on stderr as the row ends): a batch user reads no per-row terminal output."""
+    """What `pcnet run` warns of for a recording (its WARNING lines, in full in its npz and
+    report.md) is in the row's summary (and on stderr as the row ends): a batch user reads no
+    per-row terminal output."""
     lying = FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy"  # real VideoPose3D output of a lying body
     manifest = tmp_path / "w.csv"
     manifest.write_text(f"lifter,lifter_output,fps,out,recording\ngeneric,{lying},30,w1,false\n")
     res = _invoke(manifest)
     assert res.exit_code == 0, res.output
     (row,) = _summary(manifest)["rows"]
-    expected = [ln.removeprefix("WARNING").strip() for ln in CliRunner().invoke(main, [
-        "run", "--lifter", "generic", "--lifter-output", str(lying), "--fps", "30", "--no-recording",
-        "--out", str(tmp_path / "single")]).output.splitlines() if ln.startswith("WARNING")]
+    single = CliRunner().invoke(main, ["run", "--lifter", "generic", "--lifter-output", str(lying), "--fps", "30",
+                                       "--no-recording", "--out", str(tmp_path / "single")])
+    with np.load(tmp_path / "single" / "canonical.npz") as npz:
+        expected = [str(f) for f in npz["flags"]]
+    assert sum(ln.startswith("WARNING") for ln in single.output.splitlines()) == len(expected)
     assert expected and row["warnings"] == expected
     assert all(f"    WARNING {w}" in res.output for w in expected)
     assert _invoke(manifest).exit_code == 0  # skipped on a re-run: its warnings stay in the summary

@@ -21,8 +21,9 @@ from pcnet.pipeline.video_orientation import (DisplayOrientation, display_turn, 
                                               keypoints_extent, stored_pixels)
 from pcnet.stages.core.rotations import angle_between
 
-sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
-import display_rotation  # noqa: E402
+if str(ROOT) not in sys.path:  # benchmarks/ is a package of the repository, not of the installed pcnet
+    sys.path.append(str(ROOT))
+from benchmarks import display_rotation  # noqa: E402
 
 CLIP = FIXTURES / "boxing2_f000-009.mp4"
 RUN = dict(keypoints2d=str(FIXTURES / "boxing_alphapose_f000-059.json"), keypoints2d_format="alphapose",

@@ -125,7 +125,7 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
                                     str(path), "--keypoints2d-format", "mediapipe", "--method", "geometric",
                                     "--out", str(out)])
     assert res.exit_code == 0, res.output
-    assert "WARNING           2D track probably switches person" in res.output
+    assert "WARNING  2D track switches person at frames 170, 202; 60 frames probably someone else" in res.output
     assert "--person" not in res.output  # MediaPipe has one track: nothing to choose
     with np.load(out / "canonical.npz") as npz:
         assert any("switches person" in str(f) for f in npz["flags"])
@@ -170,8 +170,8 @@ def test_the_sports2d_static_camera_is_found_despite_the_track_switch(tmp_path):
                                     str(path), "--keypoints2d-format", "mediapipe", "--no-recording",
                                     "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
-    assert re.search(r"mode sequence \(requested auto; spread of per-frame up [\d.]+ deg over the 166 valid frames of the 2D "
-                     r"track's longest stretch\)", res.output), res.output
+    assert re.search(r"mode sequence \(requested auto; spread of per-frame up [\d.]+ deg over the 166 frames of one "
+                     r"person\)", res.output), res.output
     assert "kinematics frame  world" in res.output
 
 
@@ -225,13 +225,13 @@ def test_a_large_mediapipe_turn_is_flagged_and_a_negligible_one_is_not(tmp_path)
         args = ["run", "--lifter", "mediapipe", "--lifter-output", str(MEDIAPIPE), "--no-recording", "--out", str(out)]
         res = CliRunner().invoke(main, args + ([] if focal is None else ["--focal-px", str(focal)]))
         assert res.exit_code == 0, res.output
-        assert ("turned by a median" in res.output) is flagged, res.output
+        assert ("lifter output turned" in res.output) is flagged, res.output
         with np.load(out / "canonical.npz") as npz:
             assert any("turned by a median" in str(f) for f in npz["flags"]) is flagged
     # a method without a calibrated interval measures the turn against its bootstrap
     res = CliRunner().invoke(main, ["run", "--lifter", "mediapipe", "--lifter-output", str(MEDIAPIPE), "--method",
                                     "geometric", "--mode", "sequence", "--no-recording", "--out", str(tmp_path / "g")])
-    assert res.exit_code == 0 and "turned by a median" in res.output, res.output
+    assert res.exit_code == 0 and "lifter output turned" in res.output, res.output
 
 
 def test_a_lifters_asymmetric_legs_are_flagged():
@@ -351,7 +351,7 @@ def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):
     res = CliRunner().invoke(main, ["run", "--lifter", "generic", "--lifter-output", str(TADASANA), "--axes", "RDB",
                                     "--fps", "30", "--method", "geometric", "--no-recording", "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
-    assert "WARNING           the 3D skeleton is a mirror image of a body" in res.output
+    assert "WARNING  3D skeleton mirrored" in res.output
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         assert any(f.startswith("the 3D skeleton is a mirror image") for f in npz["flags"])
 
@@ -372,7 +372,7 @@ def test_2d_keypoints_outside_the_video_are_warned(tmp_path):
     (tmp_path / "x3.json").write_text(json.dumps(scaled))
     res = CliRunner().invoke(main, [*args, "--keypoints2d", str(tmp_path / "x3.json"), "--out", str(tmp_path / "b")])
     assert res.exit_code == 0, res.output
-    assert "of the 2D keypoints lie outside the video's 854x480 frame" in res.output
+    assert "of the 2D keypoints lie outside the 854x480 video" in res.output
     assert keypoints_outside_image_flag(np.full((3, 17, 3), np.nan), (854, 480), 0.05) == []
 
 
@@ -407,7 +407,7 @@ def test_a_body_lying_on_its_side_is_noted_and_keeps_its_heading_free_angles(tmp
     res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output", str(tmp_path / "side.npy"),
                                     "--fps", "30", "--mode", "sequence", "--no-recording", "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
-    assert "body read as lying" in res.output and "note              no pelvis heading in" in res.output
+    assert "body read as lying" in res.output and "note     no pelvis heading in" in res.output
     with open(tmp_path / "o" / "kinematics.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert sum(r["trunk_sagittal_inclination_deg"] == "" for r in rows) > 0.5 * len(rows)

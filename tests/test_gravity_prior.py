@@ -193,7 +193,7 @@ def test_pcnet_run_says_when_it_reads_a_lying_body(tmp_path):
                                     str(FIX / "yoga_Abhay_Shavasana_f200-299.npy"), "--fps", "30",
                                     "--out", str(tmp_path / "out"), "--no-recording"])
     assert res.exit_code == 0, res.output
-    assert "WARNING           body read as lying" in res.output
+    assert "WARNING  body read as lying" in res.output
     assert "posterior interval of the lying reading" in res.output
     with np.load(tmp_path / "out" / "canonical.npz", allow_pickle=False) as z:
         assert any("read as lying" in f for f in z["flags"])

@@ -437,15 +437,25 @@ def test_clips_of_a_file_trained_on_whole_are_counted_where_they_are_tested():
     assert "train split" not in line
 
 
-def test_weights_trained_on_a_whole_file_without_its_clip_names_warn():
-    """Weights exported before whole_clips was recorded (benchmarks/candidates' seed-13 floor
-    network) cannot say which clips they trained on: the evaluation warns instead of implying
-    none; the shipped weights, which trained on no whole file, do not warn."""
+def test_weights_trained_on_a_whole_file_without_its_clip_names_warn(tmp_path):
+    """Weights exported before whole_clips was recorded (as the seed-13 floor candidate was,
+    removed from the tree; in git history before the 2026-11-26 clean-up) cannot say which
+    clips they trained on: the evaluation warns instead of implying none; the shipped weights,
+    whose record lists the clips of the file they trained on whole, do not warn. The old
+    record is the shipped camera-frame network's with ``whole_clips`` taken out."""
+    import shutil
+    from pathlib import Path
+
+    from pcnet.models.inference import CAMERA_WEIGHTS
     from pcnet.pipeline.evaluate import _unlisted_whole_warning, evaluate
 
     data = FIXTURES / "deepmimic_small.npz"
-    old = evaluate("pcnet", data, "all", weights=str(ROOT / "benchmarks/candidates/pcnet_camera_floor.onnx"),
-                   max_frames=20)
+    weights = tmp_path / "pcnet_camera_floor.onnx"
+    shutil.copyfile(CAMERA_WEIGHTS, weights)
+    record = json.loads(Path(CAMERA_WEIGHTS).with_suffix(".json").read_text())
+    assert any(record["training_config"]["train_whole"]) and record["training_config"].pop("whole_clips")
+    weights.with_suffix(".json").write_text(json.dumps(record))
+    old = evaluate("pcnet", data, "all", weights=str(weights), max_frames=20)
     assert any("deepmimic_floor_train.npz, whose clip names their record does not list" in w for w in old["warnings"])
     assert old["training_overlap"] is None
     assert evaluate("pcnet", data, "all", max_frames=20)["warnings"] == []

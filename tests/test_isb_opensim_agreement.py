@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 from conftest import FIXTURES, ROOT
 
-sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
-import isb_opensim_agreement as agreement
+if str(ROOT) not in sys.path:  # benchmarks/ is a package of the repository, not of the installed pcnet
+    sys.path.append(str(ROOT))
+from benchmarks import isb_opensim_agreement as agreement  # noqa: E402
 
 SKIP = 'OpenSim not installed (pip install "pcnet[opensim]")'
 

@@ -39,8 +39,9 @@ from pcnet.stages.core.conventions import (
     THORAX,
 )
 
-sys.path.append(str(ROOT / "benchmarks"))
-import imu_check  # noqa: E402
+if str(ROOT) not in sys.path:  # benchmarks/ is a package of the repository, not of the installed pcnet
+    sys.path.append(str(ROOT))
+from benchmarks import imu_check  # noqa: E402
 
 UTD = ("real", "utd_mhad_imu")
 

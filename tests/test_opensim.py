@@ -155,7 +155,7 @@ def test_pcnet_run_with_opensim_writes_the_ik_beside_the_run(tmp_path):
     res = _cli("run", "--lifter", "motionbert", "--lifter-output", x3d, "--fps", 30, "--height", 1.75,
                "--out", out, "--no-recording", "--opensim", "--mass", 70)
     assert res.exit_code == 0, res.output
-    assert "note              OpenSim IK: marker RMS" in res.output
+    assert "note     OpenSim IK: marker RMS" in res.output
     written = {"world.trc", "scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "opensim_fit.json"}
     assert written <= {p.name for p in out.iterdir()}
     # published with the run: pcnet's marker lists the OpenSim files, so --overwrite may replace them
@@ -179,10 +179,10 @@ def test_the_fits_warning_reaches_the_npz_and_a_moving_camera_is_said(tmp_path, 
     assert res.exit_code == 0, res.output
     with np.load(tmp_path / "a" / "canonical.npz") as npz:
         assert any(f.startswith("marker RMS") for f in npz["flags"])
-    assert "WARNING           marker RMS" in res.output
+    assert "WARNING  OpenSim marker RMS" in res.output
     res = _cli(*args, "--mode", "smooth", "--out", tmp_path / "b")
     assert res.exit_code == 0, res.output
-    assert "no OpenSim inverse kinematics (--opensim): a moving camera" in res.output
+    assert "WARNING  no OpenSim IK: a moving camera" in res.output
     assert not (tmp_path / "b" / "ik.mot").exists()
 
 
@@ -257,7 +257,8 @@ def test_pcnet_run_opensim_on_a_real_kinect_v1_recording(tmp_path):
     out = tmp_path / "out"
     res = _cli("run", "--lifter", "kinect_v1", "--lifter-output", path, "--out", out, "--no-recording", "--opensim")
     assert res.exit_code == 0, res.output
-    assert "marker neck_nose left out (empty in every frame: the input skeleton has no such joint)" in res.output
+    assert "marker neck_nose left out (empty in every frame: the input skeleton has no such joint)" \
+        in (out / "report.md").read_text()
     fit = json.loads((out / "opensim_fit.json").read_text())
     assert fit["markers_left_out"] == ["neck_nose"] and fit["segments_not_scaled"] == []
     assert fit["frames"] == 48 and fit["marker_rms_m"] < 0.03, fit  # measured 2.10 cm RMS

@@ -17,6 +17,7 @@ from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, leg_lengths
 from pcnet.pipeline.cli import EXAMPLE_DIR, main
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
+from pcnet.stages.flags import finding
 from pcnet.stages.core.conventions import HEAD, PELVIS, THORAX
 
 BOX_2D = FIXTURES / "boxing_alphapose_f000-059.json"
@@ -49,9 +50,10 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     # a static camera: one tilt for the whole video, with its calibrated 95 % interval
     # (bootstrap + the lifter's systematic error, stages/uncertainty.py) and the bootstrap alone
     assert "mode sequence (requested auto" in res.output
+    assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval\)", res.output)
     assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval per axis incl\. "
                      r"the lifter's systematic error, calibrated on held-out mocap with simulated lifter noise; "
-                     r"bootstrap alone \+- \d+\.\d/\d+\.\d", res.output)
+                     r"bootstrap alone \+- \d+\.\d/\d+\.\d", (out / "report.md").read_text())  # in full
     with open(out / "kinematics.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == frames
@@ -72,9 +74,10 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     with np.load(out / "canonical.npz") as npz:
         assert npz["canonical"].shape == (frames, 17, 3) and npz["rotation"].shape == (frames, 3, 3)
         assert str(npz["method"]) == "pcnet" and npz["valid"].all()
-        # the summary's notes are kept with the outputs, every sink's included
-        assert list(npz["notes"]) == [ln.removeprefix("note              ") for ln in res.output.splitlines()
-                                      if ln.startswith("note ")] and len(npz["notes"])
+        # the summary's notes are kept with the outputs in full, every sink's included
+        assert [finding(n, note=True).headline for n in npz["notes"]] == [
+            ln.removeprefix("note     ") for ln in res.output.splitlines() if ln.startswith("note ")] and len(npz["notes"])
+        assert all(f"- {n}\n" in (out / "report.md").read_text() for n in npz["notes"])
         # canonical Y is up: the head is above the pelvis while boxing upright
         assert np.median(npz["canonical"][:, HEAD, 1] - npz["canonical"][:, PELVIS, 1]) > 0.4
         world, W = npz["joints_world"], npz["world_rotation"]
@@ -612,7 +615,7 @@ def test_short_recordings_and_hidden_feet_are_flagged(tmp_path):
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "short.npy", "--fps", "30",
                   "--height", "1.75", "--no-recording", "--out", tmp_path / "a")
     assert res.exit_code == 0, res.output
-    assert "WARNING           too short to filter" in res.output
+    assert "WARNING  too short to filter" in res.output
     with np.load(tmp_path / "a" / "canonical.npz") as npz:
         assert any(f.startswith("too short to filter") for f in npz["flags"])
     no_feet = x3d.copy()
@@ -621,7 +624,7 @@ def test_short_recordings_and_hidden_feet_are_flagged(tmp_path):
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "no_feet.npy", "--fps", "30",
                   "--mode", "sequence", "--no-recording", "--out", tmp_path / "b")  # no --height: that needs the legs
     assert res.exit_code == 0, res.output
-    assert "WARNING           no ankle visible in any frame: no floor" in res.output
+    assert "WARNING  no ankle in any frame" in res.output
     with np.load(tmp_path / "b" / "canonical.npz") as npz:
         np.testing.assert_allclose(npz["joints_world"][:, PELVIS, 1], 0.0, atol=1e-9)
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "no_feet.npy", "--fps", "30",
@@ -745,7 +748,7 @@ def test_what_the_run_assumed_about_its_inputs_is_noted(tmp_path):
     res = _invoke("run", "--lifter", "generic", "--lifter-output", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy",
                   "--fps", "30", "--units", "m", "--no-recording", "--method", "geometric", "--out", tmp_path / "g")
     assert res.exit_code == 0, res.output
-    assert "note              generic lifter read with the default --layout h36m17, --axes RDF" in res.output
+    assert "note     generic lifter read with the default --layout h36m17, --axes RDF" in res.output
     res = _invoke("run", "--lifter", "mediapipe", "--lifter-output", FIXTURES / "mediapipe_blazepose33_f000-059.npz",
                   "--no-recording", "--method", "geometric", "--out", tmp_path / "m")
     assert res.exit_code == 0, res.output

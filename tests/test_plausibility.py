@@ -50,7 +50,8 @@ def test_shipped_limits_load_with_provenance_and_cover_every_joint_but_the_pelvi
 
     limits = load_motion_limits()
     prov = limits.provenance
-    assert prov["command"].startswith("python benchmarks/fit_speed_limits.py")
+    # the command that wrote them: `python -m benchmarks.fit_speed_limits` since benchmarks/ became a package
+    assert prov["command"].startswith("python -m benchmarks.fit_speed_limits")
     assert sorted(prov["data"]) == ["mocap/bandai_h36m17.npz", "mocap/cmu_train_h36m17.npz"]
     assert "train" in prov["split"] and prov["frames"] > 100_000 and prov["date"][:2] == "20"
     assert "DeepMimic" in prov["not_used"]

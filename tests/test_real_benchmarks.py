@@ -1,9 +1,11 @@
-"""The real-data benchmarks (benchmarks/gravity_benchmark.py, yoga_physics.py, equivariance.py):
+"""The real-data benchmarks (benchmarks/gravity_benchmark.py, yoga_physics.py, equivariance.py; run as
+``python -m benchmarks.NAME``):
 their metrics, sign conventions and baselines, on fixtures and (when present) ../shared/data."""
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -15,16 +17,19 @@ from conftest import FIXTURES, ROOT, shared
 from pcnet.stages.core.conventions import PELVIS, R_FRONTAL, THORAX
 from pcnet.stages.core.rotations import axis_rotation, compose_camera_rotation
 
-sys.path.append(str(ROOT / "benchmarks"))  # the benchmark scripts are plain modules there
-import apparent_vertical  # noqa: E402
-import equivariance  # noqa: E402
-import gravity_benchmark  # noqa: E402
-import per_clip_difference  # noqa: E402
-import recipe_means  # noqa: E402
-import vanishing_gravity  # noqa: E402
-import yoga_physics  # noqa: E402
+if str(ROOT) not in sys.path:  # benchmarks/ is a package of the repository, not of the installed pcnet
+    sys.path.append(str(ROOT))
+from benchmarks import (apparent_vertical, equivariance, gravity_benchmark, per_clip_difference,  # noqa: E402
+                        recipe_means, vanishing_gravity, yoga_physics)
 
 CAMS = ("cam01", "cam02", "cam03", "cam04")
+
+
+def _run_benchmark(name: str, *args: str, **kwargs) -> subprocess.CompletedProcess:
+    """``python -m benchmarks.NAME ARGS`` with the repository on the path, from any folder."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, (str(ROOT), os.environ.get("PYTHONPATH"))))}
+    return subprocess.run([sys.executable, "-m", f"benchmarks.{name}", *args], env=env, check=False,
+                          capture_output=True, text=True, **kwargs)
 
 
 def _stats():
@@ -178,12 +183,11 @@ def test_shipped_body_frame_network_is_exactly_equivariant_on_real_poses():
         assert valid == 1.0
 
 
-@pytest.mark.parametrize("script", ["gravity_benchmark.py", "yoga_physics.py", "equivariance.py", "lying_roll.py",
-                                    "apparent_vertical.py"])
+@pytest.mark.parametrize("script", ["gravity_benchmark", "yoga_physics", "equivariance", "lying_roll",
+                                    "apparent_vertical"])
 def test_scripts_exit_with_one_line_without_data(script, tmp_path):
     out = tmp_path / "table.txt"
-    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), "--data", str(tmp_path / "absent"),
-                           "--out", str(out)], check=False, capture_output=True, text=True, timeout=120)
+    proc = _run_benchmark(script, "--data", str(tmp_path / "absent"), "--out", str(out), timeout=120)
     assert proc.returncode == 1
     assert proc.stdout == ""
     assert len(proc.stderr.strip().splitlines()) == 1 and "--data" in proc.stderr
@@ -198,9 +202,8 @@ def test_scripts_exit_with_one_line_without_data(script, tmp_path):
 def test_per_clip_difference_exits_with_one_line_on_bad_input(tmp_path, data, weights, expected):
     (tmp_path / "bad.npz").write_text("not numpy\n")
     out = tmp_path / "table.txt"
-    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "per_clip_difference.py"), "--data", data,
-                           "--split", "all", "--weights", "pair", weights, "--out", str(out)],
-                          cwd=tmp_path, check=False, capture_output=True, text=True, timeout=120)
+    proc = _run_benchmark("per_clip_difference", "--data", data, "--split", "all", "--weights", "pair", weights,
+                          "--out", str(out), cwd=tmp_path, timeout=120)
     assert proc.returncode == 1 and proc.stdout == ""
     assert len(proc.stderr.strip().splitlines()) == 1 and expected in proc.stderr
     assert not out.exists()
@@ -251,9 +254,8 @@ def test_per_clip_difference_splits_the_split_mean_by_clip(tmp_path):
     assert np.array_equal(valid_frames, counts)
     assert np.isclose(np.sum(per_clip * counts) / counts.sum(), mean, atol=1e-6)
     out = tmp_path / "r.txt"
-    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "per_clip_difference.py"), "--data", str(data),
-                           "--split", "all", "--weights", camera, "pair",
-                           "--top", "3", "--out", str(out)], capture_output=True, text=True, timeout=300)
+    proc = _run_benchmark("per_clip_difference", "--data", str(data), "--split", "all", "--weights", camera, "pair",
+                          "--top", "3", "--out", str(out), timeout=300)
     assert proc.returncode == 0, proc.stderr
     text = out.read_text()
     crawl = next(line for line in text.splitlines() if line.startswith("humanoid3d_crawl.txt"))
@@ -352,7 +354,6 @@ def test_recipe_means_reads_floor_experiment_results_and_applies_the_rule(tmp_pa
     assert recipe_means.compare(same, same)[1] is False  # no roll gain against itself
     broken = tmp_path / "broken.txt"
     broken.write_text(x4[0].read_text().replace("CMU test subjects", "CMU"))
-    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "recipe_means.py"), "--a", str(broken),
-                           "--b", str(x4[1])], check=False, capture_output=True, text=True, timeout=60)
+    proc = _run_benchmark("recipe_means", "--a", str(broken), "--b", str(x4[1]), timeout=60)
     assert proc.returncode == 1 and proc.stdout == ""
     assert proc.stderr.strip() == f"recipe_means: {broken}: expected floor_experiment.py's row 'CMU test subjects' (shipped), found none"

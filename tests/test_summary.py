@@ -1,0 +1,140 @@
+"""The run summary reads in seconds (issue 52): one line per finding, most severe first, each
+with its one action; the full text in the output folder's report.md."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+from conftest import FIXTURES
+
+from pcnet.pipeline.config import RunConfig
+from pcnet.pipeline.runner import RunResult, run_pipeline
+from pcnet.stages.flags import (HEADLINE_WIDTH, KINDS, Finding, Severity, body_size_flag, finding, floor_flag,
+                                gravity_reading_flag, leg_asymmetry_flag, lifter_frame_flag, orientation_flags,
+                                ranked, shortened, track_segments, track_switch_flag, unfiltered_flag, view_gate_flag)
+from pcnet.stages.plausibility import implausible_motion_flags, ImplausibleMotion
+from pcnet.stages.remap import remap_to_h36m
+from pcnet.stages.sinks.report import REPORT_NAME
+
+MEDIAPIPE = FIXTURES / "mediapipe_blazepose33_f000-059.npz"  # real Sports2D MediaPipe, 60 frames
+BOX_X3D = FIXTURES / "boxing_X3D_f000-059.npy"  # real MotionBERT output of the boxing demo
+#: A summary line of a finding or note fits a terminal this wide.
+LINE_WIDTH = 135
+
+
+def _switched_track() -> tuple[np.ndarray, np.ndarray]:
+    """The real MediaPipe fixture's 2D keypoints with the tracker jumping 600 px right at frame 30."""
+    with np.load(MEDIAPIPE) as d:
+        kp = remap_to_h36m(d["keypoints_2d"].astype(np.float32), "blazepose33", confidence_channel=True)
+    kp[30:, :, 0] += 600.0
+    return kp, float(30)
+
+
+def _flags() -> list[str]:
+    """Real flag texts of several kinds and severities, the track switch not first."""
+    kp, fps = _switched_track()
+    segment, events = track_segments(kp, fps)
+    present = np.ones(60, bool)
+    feet = present.copy()
+    feet[:3] = False
+    return (lifter_frame_flag(15.5, 8.6) + floor_flag(feet, present) + leg_asymmetry_flag(np.load(BOX_X3D))
+            + track_switch_flag(segment, events, person_option=False))
+
+
+def test_every_flag_function_gives_a_known_kind_with_numbers_in_its_headline():
+    """Each kind of flag gets its own headline and action, not the fallback: a new or
+    reworded flag text must be added to stages/flags.py: KINDS."""
+    texts = (_flags() + orientation_flags(120.0) + orientation_flags(40.0, 40.0, 0.0)
+             + orientation_flags(90.0, 0.0, 90.0) + body_size_flag(np.load(BOX_X3D) * 100, "m")
+             + gravity_reading_flag({"p_lying": 0.9, "reading": "lying", "interval_deg": 12.0})
+             + gravity_reading_flag({"p_lying": 0.2, "reading": "upright", "pose_camera_angle_deg": 70.0})
+             + view_gate_flag({"frames": 100, "turned_frames": {90: 30, 270: 0}, "body_frame_frames": 5,
+                               "blended_frames": 10})
+             + unfiltered_flag(np.zeros((5, 17), bool), np.ones((5, 17), bool), 30.0, 6.0)
+             + floor_flag(np.zeros(5, bool), np.ones(5, bool))
+             + implausible_motion_flags([ImplausibleMotion("speed", "right_wrist", 60, 70, 14.9, 68, 8.18, "m/s")]))
+    assert len(texts) == 14
+    for text in texts:
+        f = finding(text)
+        assert f.action != "see report.md", text  # matched a kind
+        assert len(f.headline) <= HEADLINE_WIDTH and f.detail == text
+        numbers = re.findall(r"\d+", f.headline)
+        assert all(n in text for n in numbers), (f.headline, text)  # its numbers are the flag's own
+
+
+def test_findings_are_ranked_by_severity_track_switch_first():
+    findings = ranked(finding(f) for f in _flags())
+    assert [f.severity for f in findings] == sorted((f.severity for f in findings), reverse=True)
+    assert findings[0].headline.startswith("2D track switches person at frame 30")
+    assert findings[0].severity == Severity.PROBLEM and "track one person" in findings[0].action
+    # within a severity, KINDS' order: the lifter turn before the partial floor, though given after
+    check = [f.headline.split()[0] for f in findings if f.severity == Severity.CHECK]
+    assert check == ["lifter", "lifter's", "no"]
+    assert ranked([Finding(Severity.INFO, "a", "", "a"), Finding(Severity.PROBLEM, "b", "x", "b")])[0].headline == "b"
+
+
+def test_unknown_texts_are_shortened_to_one_line_keeping_the_first_clauses():
+    text = ("pelvis path from the 2D keypoints (focal length 1219 px assumed (a phone's 26 mm equivalent)): 219 of "
+            "230 frames, depth 1-sigma median 0.21 m; 47 frames rejected as outliers; held at its first position")
+    short = shortened(text)
+    assert short.startswith("pelvis path from the 2D keypoints: 219 of 230 frames") and len(short) <= HEADLINE_WIDTH
+    assert "(" not in short
+    assert finding("something new happened: " + "x " * 80).action == "see report.md"
+    assert finding("a short note", note=True) == Finding(Severity.INFO, "a short note", "", "a short note")
+
+
+def test_summary_prints_one_line_per_finding_and_points_to_the_report():
+    flags = _flags()
+    notes = ["missing: right_knee 3 frames, left_elbow 74 frames, left_wrist 36 frames; no pose: 8 frames",
+             "world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time, held at the "
+             "ends (BVH cannot hold NaN; the CSV, TRC and npz keep them missing)"]
+    result = RunResult(frames=60, valid_frames=57, units="m", method="pcnet", mode="sequence", camera_tilt_deg=8.8,
+                       camera_pitch_deg=8.6, camera_roll_deg=2.0, fps=30.0, fps_source="--fps", flags=flags,
+                       notes=notes, report={"requested_mode": "auto", "camera_pitch_interval_deg": 8.6,
+                                            "camera_roll_interval_deg": 3.5, "heading_source": "predicted"},
+                       outputs={"canonical.npz": FIXTURES / "o" / "canonical.npz", REPORT_NAME: FIXTURES / "o" / REPORT_NAME})
+    lines = result.summary().splitlines()
+    warnings = [ln for ln in lines if ln.startswith("WARNING")]
+    assert len(warnings) == len(flags) and warnings[0].startswith("WARNING  2D track switches person")
+    assert all(" -> " in ln for ln in warnings)
+    assert [ln for ln in lines if ln.startswith("note")] == [
+        "note     missing: 3 joints (most: left_elbow 74 frames); no pose: 8 frames",
+        "note     world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time, held "
+        "at..."]
+    assert all(len(ln) <= LINE_WIDTH for ln in warnings + lines[:6]), max(lines, key=len)
+    assert lines[-1] == f"details: {FIXTURES / 'o' / REPORT_NAME}" and "report.md  " not in result.summary()
+    assert "camera tilt       8.8 deg from level (pitch +8.6 +- 8.6, roll +2.0 +- 3.5 deg; 95 % interval)" in lines
+    report = result.report_text()
+    assert all(text in report for text in flags + notes)
+    assert report.index("2D track probably switches") < report.index("the lifter's output was turned")
+    assert "95 % interval per axis incl. the lifter's systematic error" in report  # the long tilt line
+
+
+def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
+    """The real 60-frame Sports2D fixture with its 2D track made to jump at frame 30: the
+    summary's first warning is the switch, and report.md (published with the outputs, so a
+    re-run with --overwrite still owns the folder) holds every flag and note in full."""
+    with np.load(MEDIAPIPE) as d:
+        arrays = dict(d)
+    arrays["keypoints_2d"][30:, :, 0] += 600.0
+    src = tmp_path / "switched.npz"
+    np.savez(src, **arrays)
+    cfg = RunConfig(lifter="mediapipe", lifter_output=str(src), keypoints2d=str(src), keypoints2d_format="mediapipe",
+                    method="geometric", recording=False, out=str(tmp_path / "out"), overwrite=True)
+    result = run_pipeline(cfg, progress=False)
+    lines = result.summary().splitlines()
+    warnings = [ln for ln in lines if ln.startswith("WARNING")]
+    assert warnings[0].startswith("WARNING  2D track switches person at frame 30;"), warnings
+    assert all(len(ln) <= LINE_WIDTH for ln in lines if ln.startswith(("WARNING", "note"))), lines
+    assert lines[-1] == f"details: {tmp_path / 'out' / 'report.md'}"
+    report = (tmp_path / "out" / "report.md").read_text()
+    with np.load(tmp_path / "out" / "canonical.npz") as npz:
+        flags, notes = list(npz["flags"]), list(npz["notes"])
+    assert flags and notes and all(text in report for text in flags + notes)
+    assert len(flags) == len(warnings) and report.count("\n### ") == len(flags)
+    run_pipeline(cfg, progress=False)  # the folder, report.md included, is pcnet's own: --overwrite replaces it
+
+
+def test_kinds_have_an_action_unless_they_are_notes():
+    assert all(bool(kind.action) == (kind.severity > Severity.INFO) for kind in KINDS)
