@@ -731,6 +731,12 @@ KINDS: tuple[_Kind, ...] = (
     _Kind(r"3D joints remapped from (?P<layout>\S+) to H36M-17 with (?P<built>.*?) built as means", Severity.INFO,
           lambda m: f"3D joints remapped from {m['layout']} to H36M-17 with {m['built']} built from others"),
     _Kind(r"(missing|no pose|input: non-finite|unfiltered): ", Severity.INFO, lambda m: _counts_line(m.string)),
+    # which person of several: another choice is another subject, so the way to choose stays
+    _Kind(r"2D keypoints: track (?P<track>\S+) chosen (?P<how>as the highest summed per-frame score|by person=)"
+          r"(?P<rest>.*)", Severity.INFO,
+          lambda m: shortened(m.string) if m['how'] == "by person=" else
+          f"2D keypoints: track {m['track']} chosen {m['how']}"
+          + ("; --person chooses another" if "--person chooses another" in m['rest'] else "")),
 )
 
 #: Characters a headline (or a shortened note) keeps at most.
