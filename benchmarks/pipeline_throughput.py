@@ -50,7 +50,7 @@ def write_inputs(folder: Path, frames: int) -> tuple[Path, Path]:
 
 
 #: The runner's steps whose resident memory ``--stage-memory`` reports (pipeline/runner.py).
-STEPS = ("_load_inputs", "_camera_frame", "rectify_checked", "to_world", "write_kinematics_table", "write_arrays", "write_motion_files",
+STEPS = ("_load_inputs", "_camera_frame", "rectify_checked", "to_world_floor", "write_kinematics_table", "write_arrays", "write_motion_files",
          "write_figures", "write_rerun")
 
 

@@ -33,8 +33,8 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
 from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (Finding, finding, ranked, body_size_flag, per_frame_tilt_summary, keypoints_outside_image_flag, leg_asymmetry_flag, mirrored_skeleton_flag, side_swap_flag, size_change_flag, one_person_frames, lifter_frame_flag, camera_tilt, floor_flag, gravity_reading_flag, view_gate_flag, non_upright_flag, orientation_flags, quarter_turn_reported, track_segments,
-                               track_switch_flag, unfiltered_flag)
+from pcnet.stages.flags import (Finding, finding, floor_flag, one_person_frames, per_frame_tilt_summary, ranked,
+                               track_segments, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
 from pcnet.stages.rectify import NO_VALID_FRAME
@@ -48,9 +48,10 @@ from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINT
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, implausible_motion_flags, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
+from .checks import CameraTilt, CheckInputs, checks
 from .config import RunConfig, multi_track_formats
 from .io import lifter_joints
-from .video_orientation import EDGE_MARGIN, DisplayOrientation, display_orientation, keypoints_extent
+from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
 from .pelvis_path import camera_intrinsics, pelvis_path
 from .video_estimate import estimated_inputs
@@ -353,20 +354,6 @@ def _layout_hint(cfg: RunConfig, error: str) -> str:
     if error.startswith(NO_VALID_FRAME) and cfg.lifter == "generic" and "layout" not in cfg.lifter_options:
         return " (read with the default --layout h36m17: is the file in another joint layout?)"
     return ""
-
-
-def _tilt_tolerance(report: dict) -> tuple[float, str]:
-    """The camera tilt uncertainty the summary states (deg) and what it is: the larger 95 %
-    pitch/roll half-width in sequence mode (the bootstrap's for a method without a calibrated
-    interval), else the per-frame bound where the two networks agree."""
-    for keys, what in ((("camera_pitch_interval_deg", "camera_roll_interval_deg"), "95 % interval"),
-                       # a method without a calibrated interval states its bootstrap
-                       (("camera_pitch_uncertainty_deg", "camera_roll_uncertainty_deg"),
-                        "bootstrap-only uncertainty, no calibrated interval for this method")):
-        halves = [report.get(key, np.nan) for key in keys]
-        if np.isfinite(halves).all():
-            return float(max(halves)), what
-    return float(report.get("frame_tilt_95_deg", np.nan)), "per-frame bound, not calibrated on real lifter output"
 
 
 #: Median thigh length (m) beyond which poses said to be in metres are refused: 3 times the
@@ -731,6 +718,343 @@ def _scaled_in_place(arr, factor, precision=np.float64) -> None:
         arr[rows] = (arr[rows].astype(precision) * f).astype(np.float32)
 
 
+# The steps of one recording, each reading and returning frozen records of what the next step
+# needs; _run_stages lists them. Whole-recording pose arrays live in the run's FrameStore (on
+# disk, read a block of frames at a time) and a step's long in-memory arrays are dropped as
+# soon as the next step has what it needs of them.
+
+
+@dataclass(frozen=True)
+class AlignedInputs:
+    """Step "inputs": what was read for the recording, cut to a common length.
+
+    recording: :class:`RecordingInputs` whose ``joints`` and ``keypoints2d`` are cut by
+    :func:`_align` (``None`` once :meth:`without_poses`); image_size: :func:`_image_size`;
+    orientation: how the video is shown (:func:`display_orientation`); notes: the estimator's,
+    the inputs' and the ``--align`` note, in that order.
+    """
+
+    recording: RecordingInputs
+    image_size: tuple[int, int] | None
+    orientation: DisplayOrientation
+    notes: tuple[str, ...]
+
+    def without_poses(self) -> AlignedInputs:
+        """The same without the lifter's and the 2D file's long arrays (the camera frame has them)."""
+        return replace(self, recording=replace(self.recording, joints=None, keypoints2d=None))
+
+
+@dataclass(frozen=True)
+class CameraFrame:
+    """Step "remap": the poses in the camera frame (:func:`_camera_frame`).
+
+    joints: ``(T, 17, 3)`` float32 root-relative camera-frame poses in the store (in the
+    lifter's units until the scale step scales them in place); keypoints2d: ``(T, 17, 3)``
+    pixels and confidence in the displayed frame, or ``None``; video_keypoints2d: the same in
+    the video's stored frame for the recording, or ``None``; root: ``(T, 3)`` float64 measured
+    pelvis path, or ``None``; pelvis_filled: frames whose pelvis is the hip midpoint; notes.
+    """
+
+    joints: np.ndarray
+    keypoints2d: np.ndarray | None
+    video_keypoints2d: np.ndarray | None
+    root: np.ndarray | None
+    pelvis_filled: int
+    notes: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Rectified:
+    """Step "rectify": the rectification result and its evidence.
+
+    rotation: ``(T, 3, 3)`` camera-to-canonical rotations; canonical: ``(T, 17, 3)`` poses in
+    the store; valid: ``(T,)`` bool; report: the rectification report (the JSON written to
+    canonical.npz; later steps add their keys to it); tilt: the camera's tilt from level;
+    track_segment, track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track
+    (``None``, ``[]`` without one); notes.
+    """
+
+    rotation: np.ndarray
+    canonical: np.ndarray
+    valid: np.ndarray
+    report: dict
+    tilt: CameraTilt
+    track_segment: np.ndarray | None
+    track_events: list
+    notes: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Scaled:
+    """Step "scale": camera: the camera frame, its joints (and the rectified canonical poses)
+    scaled in place, its root scaled; units: the poses' units after scaling; notes."""
+
+    camera: CameraFrame
+    units: str
+    notes: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class World:
+    """The world frame a static camera gives (part of the kinematics step).
+
+    joints: ``(T, 17, 3)`` float64 world-frame poses in the store, or ``None`` without a fixed
+    world frame; rotation: ``(3, 3)`` camera-to-world (NaN without); pelvis_path_std: the
+    pelvis path's spread in the world frame or ``None``; flags; notes.
+    """
+
+    joints: np.ndarray | None
+    rotation: np.ndarray
+    pelvis_path_std: np.ndarray | None
+    flags: tuple[str, ...]
+    notes: tuple[str, ...]
+
+    @property
+    def frame(self) -> str:
+        """The kinematics frame: "world" or "canonical"."""
+        return "world" if self.joints is not None else "canonical"
+
+
+@dataclass(frozen=True)
+class Measured:
+    """Step "kinematics": result: what the sinks write (its kinematics are computed a block
+    at a time as they read them); outputs: the kinematics tables written."""
+
+    result: RecordingResult
+    outputs: dict[str, Path]
+
+
+def _inputs(cfg: RunConfig, estimate_notes: list[str]) -> AlignedInputs:
+    """Read the inputs, refuse a frame rate or units the run cannot use, cut them to a common
+    length and read how the video is shown."""
+    inputs = _load_inputs(cfg)
+    image_size = _image_size(cfg, inputs.video, inputs.keypoint_image_size)
+    units, fps, fps_source = inputs.units, inputs.fps, inputs.fps_source
+    needing_metres = [name for name, asked in (("--c3d", cfg.c3d), ("--opensim", cfg.opensim)) if asked]
+    if needing_metres and units != "m" and cfg.height is None:
+        raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
+                         f"writing metres, or --height), got {units} poses from --lifter {cfg.lifter}")
+    if not cfg.residual_cutoff and cfg.lowpass_hz >= fps / 2:
+        default = " (the default)" if cfg.cutoff_hz is None else ""
+        raise InputError(f"frame rate {fps:g} fps ({fps_source}): expected a Nyquist frequency above the "
+                         f"low-pass cutoff {cfg.lowpass_hz:g} Hz{default}, got {fps / 2:g} Hz; give --cutoff-hz "
+                         f"below {fps / 2:g} or --residual-cutoff")
+    kp2d, joints, aligned = _align(cfg, inputs.video, inputs.keypoints2d, inputs.joints)
+    orientation = display_orientation(inputs.video, kp2d, inputs.keypoint_image_size, inputs.keypoint_extent)
+    return AlignedInputs(replace(inputs, joints=joints, keypoints2d=kp2d), image_size, orientation,
+                         (*estimate_notes, *inputs.notes, *([aligned] if aligned else [])))
+
+
+def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFrame:
+    """The poses into the camera frame (:func:`_camera_frame`), and the 2D keypoints into the
+    video's stored frame where the recording shows them over it."""
+    recording, orientation = inputs.recording, inputs.orientation
+    notes = [orientation.note] if orientation.note else []
+    cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, recording.joints, recording.keypoints2d,
+                                                       recording.measured_root, store, orientation)
+    video_kp2d = None
+    if kp2d is not None and cfg.recording and orientation.recording_note:
+        video_kp2d = store.create("keypoints2d_video", kp2d.shape, np.float32)
+        for rows in frame_blocks(len(kp2d)):
+            video_kp2d[rows] = orientation.recording_pixels(kp2d[rows])
+        notes.append(orientation.recording_note)
+    if pelvis_filled:
+        notes.append(f"pelvis missing in {pelvis_filled} frame{'s' * (pelvis_filled != 1)}: taken as the hip midpoint")
+    return CameraFrame(cam, kp2d, video_kp2d, root_cam, pelvis_filled, tuple(notes))
+
+
+def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
+    """Refuse a body said to be in metres that is far too large, and ``--measured-root``
+    over a root at the camera (:func:`_check_metric_body`, :func:`_check_measured_root`)."""
+    if units == "m" and cfg.height is None:
+        _check_metric_body(cfg, camera.joints)
+    if camera.root is not None and cfg.lifter_options.get("measured_root"):
+        _check_measured_root(cfg, camera.root)
+
+
+def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: FrameStore) -> Rectified:
+    """Rectify the camera-frame poses (:func:`pcnet.pipeline.rectification.rectify_checked`)
+    and read the camera's tilt; the report gets the pelvis fill, the display rotation and the
+    tilt the summary prints."""
+    fps, kp2d = inputs.recording.fps, camera.keypoints2d
+    segment, events = track_segments(kp2d, fps) if kp2d is not None else (None, [])
+    # A static camera does not move when the tracker jumps to another person, but the
+    # jump and the other body's poses read as camera motion: decide the mode on one
+    # person's frames.
+    decide_on = one_person_frames(segment) if events else None
+    try:
+        res = rectify_checked(_located(camera.joints, camera.root, store), cfg.method, cfg.weights, cfg.mode, fps,
+                              cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on)
+    except ValueError as err:
+        if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
+            raise  # the weights file's own error, already naming it
+        raise InputError(f"{cfg.lifter_output}: {err}{_layout_hint(cfg, str(err))}") from err
+    if not res.valid.any():
+        raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}{_layout_hint(cfg, NO_VALID_FRAME)}")
+    report = res.report
+    report["pelvis_from_hips_frames"] = camera.pelvis_filled
+    if inputs.orientation.note:
+        report["display_rotation"] = inputs.orientation.report()
+    notes = _unused_floor_note(inputs.recording.measured_root, report.get("ground_plane"))
+    tilt = CameraTilt.of(res.rotation, res.valid)
+    # what the summary's tilt line prints, in every mode (sequence mode: its one up)
+    report.update(camera_tilt_deg=tilt.tilt_deg, camera_pitch_deg=tilt.pitch_deg, camera_roll_deg=tilt.roll_deg,
+                  camera_tilt_per_frame_deg=per_frame_tilt_summary(res.rotation[:, :, 1], res.valid))
+    return Rectified(res.rotation, res.canonical, res.valid, report, tilt, segment, events, tuple(notes))
+
+
+def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, rectified: Rectified) -> CheckInputs:
+    """What :func:`pcnet.pipeline.checks.checks` reads of the steps so far (before scaling)."""
+    recording = inputs.recording
+    return CheckInputs(
+        joints_camera=camera.joints, units=recording.units, keypoints2d=camera.keypoints2d, video=recording.video,
+        canonical=rectified.canonical, valid=rectified.valid, report=rectified.report, tilt=rectified.tilt,
+        lifter_turn_deg=recording.lifter_turn_deg, track_segment=rectified.track_segment,
+        track_events=rectified.track_events, height_given=cfg.height is not None,
+        person_option=cfg.keypoints2d_format in multi_track_formats())
+
+
+def _scale(cfg: RunConfig, camera: CameraFrame, canonical, units: str, fps: float) -> Scaled:
+    """A body keeps its size: image-scaled poses are made constant per frame, then scaled to
+    ``--height``; the camera-frame and canonical poses are scaled in place."""
+    cam, root_cam, notes = camera.joints, camera.root, []
+    # A body keeps its size; in image units it grows as the person comes closer.
+    sizes = None
+    if units in IMAGE_SCALED_UNITS:
+        try:
+            sizes = size_normalising_factors(cam, fps)
+        except InputError:  # no frame with legs and head: the size cannot be followed
+            notes.append(f"body size left as the lifter's ({units}): no frame has the ankle-to-head chain that "
+                         f"measures it")
+    if sizes is not None:
+        for arr, precision in ((cam, np.float64), (canonical, np.float32)):
+            _scaled_in_place(arr, sizes, precision)
+        root_cam = None if root_cam is None else root_cam * sizes[:, None]
+        change = float(np.max(sizes) / np.min(sizes))
+        if change > SIZE_NOTE_RATIO:
+            notes.append(f"body size made constant per frame: in the lifter's {units} output it changes "
+                         f"{change:.2f}-fold (the person's size in the image; largest to smallest of its "
+                         f"running median over {SIZE_WINDOW_S:g} s, stages/scale.py: size_normalising_factors)")
+    if cfg.height is not None:
+        factor = height_factor(cam, cfg.height, who=f"{cfg.lifter_output}: --height")
+        _scaled_in_place(cam, factor)
+        _scaled_in_place(canonical, factor, np.float32)
+        root_cam = None if root_cam is None else root_cam * factor
+        notes.append(f"scaled by {factor:.4g} to a {cfg.height} m subject (from {units})")
+        units = "m"
+    elif units != "m":
+        notes.append(f"lifter output is {units}, not metres: give --height for metric kinematics and a TRC file")
+    return Scaled(replace(camera, root=root_cam), units, tuple(notes))
+
+
+def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, store: FrameStore) -> World:
+    """The fixed world frame of a static camera (sequence mode): the pelvis path, the floor and
+    the world-frame poses; other modes have none, and say why. Anything differentiated in time
+    lives in one fixed frame per recording; only a static camera gives one. The report gets the
+    root path, the floor and the kinematics frame."""
+    report, cam, fps = rectified.report, scaled.camera.joints, inputs.recording.fps
+    if report["mode"] == "sequence":
+        frame = world_frame(rectified.rotation, rectified.valid, fps)
+        path = pelvis_path(scaled.camera.root, cam, scaled.camera.keypoints2d,
+                           camera_intrinsics(cfg.focal_px, inputs.recording.camera_matrix, inputs.image_size),
+                           scaled.units, fps, cfg.min_confidence)
+        joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64))
+        world = World(joints, frame.rotation, path.world_std(frame.rotation),
+                      tuple(floor_flag(feet_visible(cam), _present(cam))),
+                      tuple(n for n in (path.note, floor.note() if floor.kind != "plane" else "") if n))
+        report["root_path"] = path.kind
+        report["floor"] = asdict(floor)
+    elif report.get("mode_reason") == "one valid frame":
+        world = World(None, np.full((3, 3), np.nan), None, (), (
+            "one valid frame: the pose is given in the canonical frame (frame mode); --mode sequence places it in a "
+            "world frame with the camera prior",))
+    else:
+        world = World(None, np.full((3, 3), np.nan), None, (
+            f"no fixed world frame: mode {report['mode']} (a moving camera, or one the up estimates disagree on) has "
+            f"no fixed heading, so positions, velocities and accelerations are in the per-frame canonical frame, "
+            f"which turns with the pelvis (rotating-frame terms); use --mode sequence if the camera was static",), ())
+    report["kinematics_frame"] = world.frame
+    return world
+
+
+def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, world: World,
+                flags: list[str], notes: list[str], store: FrameStore, tmp: Path) -> Measured:
+    """The low-pass cutoff, the result the sinks write (kinematics computed a block at a time)
+    and its kinematics tables, then the checks of the filtered motion. ``flags``, ``notes``: the
+    run's lists, which the result carries and this step and the sinks add to."""
+    fps, units, cam, report = inputs.recording.fps, scaled.units, scaled.camera.joints, rectified.report
+    rectified_poses = world.joints if world.joints is not None else rectified.canonical
+    cutoff = cfg.lowpass_hz
+    if cfg.residual_cutoff:
+        try:
+            # Winter's residual analysis filters every coordinate whole: the one step
+            # that reads the poses into memory (opt-in).
+            analysis = residual_analysis(rectified_poses[:], fps)
+        except InputError as err:
+            raise InputError(f"{cfg.lifter_output}: {err}") from err
+        cutoff = analysis.cutoff_hz
+        notes.append(f"low-pass cutoff {cutoff:.2f} Hz by residual analysis (Winter; noise {analysis.noise:.3g} "
+                     f"{units}; per-coordinate cutoffs {np.nanpercentile(analysis.per_signal_hz, 10):.1f}-"
+                     f"{np.nanpercentile(analysis.per_signal_hz, 90):.1f} Hz, 10th-90th percentile)")
+    report["cutoff_hz"] = cutoff
+    report["cutoff_source"] = "residual analysis" if cfg.residual_cutoff else "cutoff_hz"
+    # Camera-frame wrist accelerations only feed the before/after wrist plot: two joints,
+    # small enough to filter whole, and no angles to compute.
+    acc_cam = filtered_derivatives(cam[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
+    result = RecordingResult(
+        fps=fps, units=units, method=cfg.method, report=report, flags=flags, notes=notes, joints_camera=cam,
+        rotation=rectified.rotation, canonical=rectified.canonical, valid=rectified.valid,
+        kinematics_frame=world.frame, poses=rectified_poses, world=world.joints, world_rotation=world.rotation,
+        keypoints2d=scaled.camera.keypoints2d, track_segment=rectified.track_segment, video=cfg.video,
+        video_first_frame=first_shown_frame(cfg.video) if cfg.video and cfg.recording else 0,
+        video_keypoints2d=scaled.camera.video_keypoints2d,
+        min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=world.pelvis_path_std)
+    result.kinematics_blocks = kinematics_chunks(rectified_poses, fps, cutoff, units)
+    if _spine_built_on_trunk_line(cam):  # an angle the layout cannot measure is empty, not 0
+        result.kinematics_blocks = _without(result.kinematics_blocks, NEEDS_SPINE_JOINT)
+        notes.append("trunk_flexion_to_pelvis_deg left empty: the input's spine joint lies on the pelvis-thorax "
+                     "line (built there, no spine of its own), so that angle is 0 by construction")
+    table = write_kinematics_table(result, tmp, allocate=store.create)
+    flags += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
+    # motion no person makes (joint speeds and accelerations beyond the fitted limits)
+    unchecked = motion_check_note(units, fps)
+    if unchecked:
+        notes.append(unchecked)
+    else:
+        implausible = implausible_motion(rectified_poses, fps, units=units)
+        result.implausible_frames = implausible_frames(implausible, len(cam))
+        flags += implausible_motion_flags(implausible)
+        report["implausible_frames"] = int(result.implausible_frames.sum())
+    # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)
+    missing_note = format_flag_counts(result.flag_counts, nonfinite_line(inputs.recording.nonfinite))
+    if missing_note:
+        notes.append(missing_note)
+    notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)
+    return Measured(result, table)
+
+
+def _exports(cfg: RunConfig, measured: Measured, tmp: Path, store: FrameStore) -> dict[str, Path]:
+    """The motion files, OpenSim's fit where asked (before the recording and the npz, which
+    carry its warning) and the figures; with the kinematics tables, the files written."""
+    result = measured.result
+    outputs = {**measured.outputs, **write_motion_files(result, tmp, c3d=cfg.c3d, allocate=store.create)}
+    _trim_heap()
+    if cfg.opensim:
+        outputs.update(_opensim(cfg, tmp, result.flags, result.notes))
+    outputs.update(write_figures(result, tmp))
+    return outputs
+
+
+def _recording(cfg: RunConfig, result: RecordingResult, tmp: Path, estimated: bool) -> dict[str, Path]:
+    """The rerun recording where asked, then canonical.npz (last: the notes every sink added are
+    in it), and the estimator's poses when the run made them (for a re-run)."""
+    outputs = write_rerun(result, tmp) if cfg.recording else {}
+    outputs.update(write_arrays(result, tmp))
+    if estimated:
+        outputs[Path(cfg.lifter_output).name] = Path(cfg.lifter_output)
+    return outputs
+
+
 def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResult:
     seconds: dict[str, float] = {}
     clock = [time.perf_counter(), None]
@@ -747,220 +1071,59 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
     # block of frames at a time, so memory does not grow with the recording's length; the
     # store is removed before the folder is swapped in.
     with staged_output(out, cfg.overwrite) as tmp, FrameStore(tmp) as store:
-        estimate_note = []
+        estimate_notes = []
         if cfg.lifter_output is None:  # the video alone: the embedded estimator's poses, kept with the outputs
             step("estimate")
             cfg, note = estimated_inputs(cfg, tmp, progress=not bar.disable)
-            estimate_note.append(note)
+            estimate_notes.append(note)
             bar.update()
         step("inputs")
-        inputs = _load_inputs(cfg)
-        image_size = _image_size(cfg, inputs.video, inputs.keypoint_image_size)
-        video, fps, fps_source, kp2d, joints, units = (inputs.video, inputs.fps, inputs.fps_source, inputs.keypoints2d,
-                                                        inputs.joints, inputs.units)
-        needing_metres = [name for name, asked in (("--c3d", cfg.c3d), ("--opensim", cfg.opensim)) if asked]
-        if needing_metres and units != "m" and cfg.height is None:
-            raise InputError(f"{cfg.lifter_output}: {' and '.join(needing_metres)} expected metric poses (a lifter "
-                             f"writing metres, or --height), got {units} poses from --lifter {cfg.lifter}")
-        if not cfg.residual_cutoff and cfg.lowpass_hz >= fps / 2:
-            default = " (the default)" if cfg.cutoff_hz is None else ""
-            raise InputError(f"frame rate {fps:g} fps ({fps_source}): expected a Nyquist frequency above the "
-                             f"low-pass cutoff {cfg.lowpass_hz:g} Hz{default}, got {fps / 2:g} Hz; give --cutoff-hz "
-                             f"below {fps / 2:g} or --residual-cutoff")
-        kp2d, joints, aligned = _align(cfg, video, kp2d, joints)
-        inputs = replace(inputs, joints=None, keypoints2d=None)  # the long arrays: only the aligned ones live on
-        input_notes = estimate_note + inputs.notes + ([aligned] if aligned else [])
-        orientation = display_orientation(video, kp2d, inputs.keypoint_image_size, inputs.keypoint_extent)
+        inputs = _inputs(cfg, estimate_notes)
         bar.update()
 
         step("remap")
-        notes: list[str] = input_notes
-        if orientation.note:
-            notes.append(orientation.note)
-        cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, joints, kp2d, inputs.measured_root, store, orientation)
-        video_kp2d = None
-        if kp2d is not None and cfg.recording and orientation.recording_note:
-            video_kp2d = store.create("keypoints2d_video", kp2d.shape, np.float32)
-            for rows in frame_blocks(len(kp2d)):
-                video_kp2d[rows] = orientation.recording_pixels(kp2d[rows])
-            notes.append(orientation.recording_note)
-        del joints
-        if pelvis_filled:
-            notes.append(f"pelvis missing in {pelvis_filled} frame{'s' * (pelvis_filled != 1)}: taken as the hip midpoint")
-        if units == "m" and cfg.height is None:
-            _check_metric_body(cfg, cam)
-        if root_cam is not None and cfg.lifter_options.get("measured_root"):
-            _check_measured_root(cfg, root_cam)
+        camera = _remap(cfg, inputs, store)
+        inputs = inputs.without_poses()  # the long input arrays: only the camera frame's live on
+        _refuse_unusable(cfg, camera, inputs.recording.units)
         bar.update()
 
         step("rectify")
-        segment, events = track_segments(kp2d, fps) if kp2d is not None else (None, [])
-        # A static camera does not move when the tracker jumps to another person, but the
-        # jump and the other body's poses read as camera motion: decide the mode on one
-        # person's frames.
-        decide_on = one_person_frames(segment) if events else None
-        try:
-            res = rectify_checked(_located(cam, root_cam, store), cfg.method, cfg.weights, cfg.mode, fps, cfg.heading,
-                                  camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on)
-        except ValueError as err:
-            if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
-                raise  # the weights file's own error, already naming it
-            raise InputError(f"{cfg.lifter_output}: {err}{_layout_hint(cfg, str(err))}") from err
-        if not res.valid.any():
-            raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}{_layout_hint(cfg, NO_VALID_FRAME)}")
-        rotations, canonical, valid, report = res.rotation, res.canonical, res.valid, res.report
-        report["pelvis_from_hips_frames"] = pelvis_filled
-        if orientation.note:
-            report["display_rotation"] = orientation.report()
-        notes += _unused_floor_note(inputs.measured_root, report.get("ground_plane"))
-        del res
-        tilt, pitch_deg, roll_deg = camera_tilt(rotations[:, :, 1], valid)
-        # what the summary's tilt line prints, in every mode (sequence mode: its one up)
-        report.update(camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg,
-                      camera_tilt_per_frame_deg=per_frame_tilt_summary(rotations[:, :, 1], valid))
-        flags = orientation_flags(tilt, pitch_deg, roll_deg, turn_reported=quarter_turn_reported(report.get("view_gate")))
-        flags += body_size_flag(cam, units) if cfg.height is None else []
-        # image-scaled sizes are made constant per frame below; a metric body should keep its own
-        flags += leg_asymmetry_flag(cam) + (size_change_flag(cam) if units not in IMAGE_SCALED_UNITS else [])
-        if kp2d is not None and video is not None and not video.rotation_deg:  # turned videos: keypoint_frame
-            flags += keypoints_outside_image_flag(kp2d, (video.width, video.height), EDGE_MARGIN)
-        swapped = side_swap_flag(kp2d, cam) if kp2d is not None else []
-        flags += swapped or mirrored_skeleton_flag(cam)  # a side swap is a mirror image too: said once
-        flags += non_upright_flag(canonical, valid) + gravity_reading_flag(report.get("gravity"))
-        flags += view_gate_flag(report.get("view_gate"), lying=(report.get("gravity") or {}).get("reading") == "lying")
-        flags += lifter_frame_flag(inputs.lifter_turn_deg, *_tilt_tolerance(report))
-        flags += (track_switch_flag(segment, events, person_option=cfg.keypoints2d_format in multi_track_formats())
-                  if segment is not None else [])
+        rectified = _rectify(cfg, inputs, camera, store)
+        flags = checks(_check_inputs(cfg, inputs, camera, rectified))
         bar.update()
 
         step("scale")
-        # A body keeps its size; in image units it grows as the person comes closer.
-        sizes = None
-        if units in IMAGE_SCALED_UNITS:
-            try:
-                sizes = size_normalising_factors(cam, fps)
-            except InputError:  # no frame with legs and head: the size cannot be followed
-                notes.append(f"body size left as the lifter's ({units}): no frame has the ankle-to-head chain that "
-                             f"measures it")
-        if sizes is not None:
-            for arr, precision in ((cam, np.float64), (canonical, np.float32)):
-                _scaled_in_place(arr, sizes, precision)
-            root_cam = None if root_cam is None else root_cam * sizes[:, None]
-            change = float(np.max(sizes) / np.min(sizes))
-            if change > SIZE_NOTE_RATIO:
-                notes.append(f"body size made constant per frame: in the lifter's {units} output it changes "
-                             f"{change:.2f}-fold (the person's size in the image; largest to smallest of its "
-                             f"running median over {SIZE_WINDOW_S:g} s, stages/scale.py: size_normalising_factors)")
-        if cfg.height is not None:
-            factor = height_factor(cam, cfg.height, who=f"{cfg.lifter_output}: --height")
-            _scaled_in_place(cam, factor)
-            _scaled_in_place(canonical, factor, np.float32)
-            root_cam = None if root_cam is None else root_cam * factor
-            notes.append(f"scaled by {factor:.4g} to a {cfg.height} m subject (from {units})")
-            units = "m"
-        elif units != "m":
-            notes.append(f"lifter output is {units}, not metres: give --height for metric kinematics and a TRC file")
+        scaled = _scale(cfg, camera, rectified.canonical, inputs.recording.units, inputs.recording.fps)
+        del camera  # its root is scaled in scaled.camera
         bar.update()
 
         step("kinematics")
-        # Anything differentiated in time lives in one fixed frame per recording; only a static
-        # camera (sequence mode) gives one.
-        world, world_rotation, pelvis_path_std = None, np.full((3, 3), np.nan), None
-        if report["mode"] == "sequence":
-            frame = world_frame(rotations, valid, fps)
-            path = pelvis_path(root_cam, cam, kp2d, camera_intrinsics(cfg.focal_px, inputs.camera_matrix, image_size),
-                               units, fps, cfg.min_confidence)
-            world, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64))
-            world_rotation = frame.rotation
-            pelvis_path_std = path.world_std(frame.rotation)
-            flags += floor_flag(feet_visible(cam), _present(cam))
-            report["root_path"] = path.kind
-            report["floor"] = asdict(floor)
-            notes += [n for n in (path.note, floor.note() if floor.kind != "plane" else "") if n]
-        elif report.get("mode_reason") == "one valid frame":
-            notes.append("one valid frame: the pose is given in the canonical frame (frame mode); --mode sequence "
-                         "places it in a world frame with the camera prior")
-        else:
-            flags.append(f"no fixed world frame: mode {report['mode']} (a moving camera, or one the up estimates "
-                         f"disagree on) has no fixed heading, so positions, velocities and accelerations are in the "
-                         f"per-frame canonical frame, which turns with the pelvis (rotating-frame terms); use "
-                         f"--mode sequence if the camera was static")
-        report["kinematics_frame"] = kin_frame = "world" if world is not None else "canonical"
-        rectified = world if world is not None else canonical
-        cutoff = cfg.lowpass_hz
-        if cfg.residual_cutoff:
-            try:
-                # Winter's residual analysis filters every coordinate whole: the one step
-                # that reads the poses into memory (opt-in).
-                analysis = residual_analysis(rectified[:], fps)
-            except InputError as err:
-                raise InputError(f"{cfg.lifter_output}: {err}") from err
-            cutoff = analysis.cutoff_hz
-            notes.append(f"low-pass cutoff {cutoff:.2f} Hz by residual analysis (Winter; noise {analysis.noise:.3g} "
-                         f"{units}; per-coordinate cutoffs {np.nanpercentile(analysis.per_signal_hz, 10):.1f}-"
-                         f"{np.nanpercentile(analysis.per_signal_hz, 90):.1f} Hz, 10th-90th percentile)")
-        report["cutoff_hz"] = cutoff
-        report["cutoff_source"] = "residual analysis" if cfg.residual_cutoff else "cutoff_hz"
-        # Camera-frame wrist accelerations only feed the before/after wrist plot: two joints,
-        # small enough to filter whole, and no angles to compute.
-        acc_cam = filtered_derivatives(cam[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
-
-        rotations = _moved_to_disk(rotations, "rotation", store)  # only the sinks read them from here on
-        result = RecordingResult(
-            fps=fps, units=units, method=cfg.method, report=report, flags=flags, notes=notes, joints_camera=cam,
-            rotation=rotations, canonical=canonical, valid=valid, kinematics_frame=kin_frame, poses=rectified,
-            world=world, world_rotation=world_rotation, keypoints2d=kp2d, track_segment=segment, video=cfg.video,
-            video_first_frame=first_shown_frame(cfg.video) if cfg.video and cfg.recording else 0,
-            video_keypoints2d=video_kp2d,
-            min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=pelvis_path_std)
-        result.kinematics_blocks = kinematics_chunks(rectified, fps, cutoff, units)
-        if _spine_built_on_trunk_line(cam):  # an angle the layout cannot measure is empty, not 0
-            result.kinematics_blocks = _without(result.kinematics_blocks, NEEDS_SPINE_JOINT)
-            notes.append("trunk_flexion_to_pelvis_deg left empty: the input's spine joint lies on the pelvis-thorax "
-                         "line (built there, no spine of its own), so that angle is 0 by construction")
-        table = write_kinematics_table(result, tmp, allocate=store.create)
-        flags += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
-        # motion no person makes (joint speeds and accelerations beyond the fitted limits)
-        unchecked = motion_check_note(units, fps)
-        if unchecked:
-            notes.append(unchecked)
-        else:
-            implausible = implausible_motion(rectified, fps, units=units)
-            result.implausible_frames = implausible_frames(implausible, len(cam))
-            flags += implausible_motion_flags(implausible)
-            report["implausible_frames"] = int(result.implausible_frames.sum())
-        # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)
-        missing_note = format_flag_counts(result.flag_counts, nonfinite_line(inputs.nonfinite))
-        if missing_note:
-            notes.append(missing_note)
-        notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)
+        world = _world(cfg, inputs, scaled, rectified, store)
+        flags += world.flags
+        # the rotations on disk: only the sinks read them from here on
+        rectified = replace(rectified, rotation=_moved_to_disk(rectified.rotation, "rotation", store))
+        notes = [*inputs.notes, *scaled.camera.notes, *rectified.notes, *scaled.notes, *world.notes]
+        measured = _kinematics(cfg, inputs, scaled, rectified, world, flags, notes, store, tmp)
         bar.update()
 
         step("exports")
-        outputs = {**table, **write_motion_files(result, tmp, c3d=cfg.c3d, allocate=store.create)}
-        _trim_heap()
-        if cfg.opensim:  # before the recording and the npz, which carry its fit's warning
-            outputs.update(_opensim(cfg, tmp, flags, notes))
-        outputs.update(write_figures(result, tmp))
+        outputs = _exports(cfg, measured, tmp, store)
         bar.update()
 
         step("recording")
-        if cfg.recording:
-            outputs.update(write_rerun(result, tmp))
-        outputs.update(write_arrays(result, tmp))  # last: the notes every sink added are in it
-        if estimate_note:
-            outputs[Path(cfg.lifter_output).name] = Path(cfg.lifter_output)  # the estimator's, for a re-run
+        outputs.update(_recording(cfg, measured.result, tmp, estimated=bool(estimate_notes)))
         bar.update()
         step("done")
+        tilt = rectified.tilt
         run = RunResult(
-            frames=len(cam), valid_frames=int(valid.sum()), units=units, method=cfg.method, mode=report["mode"],
-            camera_tilt_deg=tilt, camera_pitch_deg=pitch_deg, camera_roll_deg=roll_deg, flags=flags, fps=fps,
-            fps_source=fps_source,
-            report=report, outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
+            frames=len(scaled.camera.joints), valid_frames=int(rectified.valid.sum()), units=scaled.units,
+            method=cfg.method, mode=rectified.report["mode"], camera_tilt_deg=tilt.tilt_deg,
+            camera_pitch_deg=tilt.pitch_deg, camera_roll_deg=tilt.roll_deg, flags=flags, fps=inputs.recording.fps,
+            fps_source=inputs.recording.fps_source, report=rectified.report,
+            outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
         )
         # the long form of the summary, published with the rest
         run.outputs[REPORT_NAME] = out / next(iter(write_report(tmp, run.report_text(f"pcnet run: {out}")).values())).name
         if before_publish is not None:
             before_publish(tmp, run)
     return run
-

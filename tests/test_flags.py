@@ -206,12 +206,12 @@ def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
 def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
     """--method geometric prints 'bootstrap alone +- 0.4, no 95 % interval': the flag must
     not call that figure the tilt's interval."""
-    from pcnet.pipeline.runner import _tilt_tolerance
+    from pcnet.pipeline.checks import tilt_tolerance
 
-    tolerance = _tilt_tolerance({"camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})
+    tolerance = tilt_tolerance({"camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})
     assert tolerance == (0.4, "bootstrap-only uncertainty, no calibrated interval for this method")
     assert "(0.4 deg, bootstrap-only uncertainty" in lifter_frame_flag(2.8, *tolerance)[0]
-    assert _tilt_tolerance({"camera_pitch_interval_deg": 6.4, "camera_roll_interval_deg": 2.8,
+    assert tilt_tolerance({"camera_pitch_interval_deg": 6.4, "camera_roll_interval_deg": 2.8,
                             "camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})[1] == "95 % interval"
 
 
