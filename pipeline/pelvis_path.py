@@ -17,7 +17,7 @@ import numpy as np
 
 from pcnet.models.lifter_noise import BONE_SCALE_SIGMA
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.framestore import per_frame
+from pcnet.stages.core.framestore import present_frames
 from pcnet.stages.core.perspective import focal_px_from_35mm, intrinsics
 from pcnet.stages.root_path import root_from_keypoints
 
@@ -114,7 +114,7 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
                                    size_std_fraction=BONE_SCALE_SIGMA)
     except InputError as err:  # too few joints seen in 2D and 3D alike: the run goes on without a path
         return PelvisPath("not observable", note=f"pelvis path not observable: {err}")
-    position, held = _held_at_the_ends(path.position, per_frame(lambda P: np.isfinite(P).any(axis=(1, 2)), joints_cam))
+    position, held = _held_at_the_ends(path.position, present_frames(joints_cam))
     found = np.isfinite(path.position).all(axis=1)
     return PelvisPath("from 2D keypoints", position, path.cov,
                       f"pelvis path from the 2D keypoints ({camera.source}): {int(found.sum())} of {len(found)} "

@@ -30,7 +30,7 @@ from pcnet.adapters.validate import ROOT_RELATIVE_MAX, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, SPINE, THORAX, THIGH_RANGE_M, fill_pelvis_from_hips,
                                           median_thigh_length, validate_fps)
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame
+from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
 from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (Finding, finding, floor_flag, one_person_frames, per_frame_tilt_summary, ranked,
@@ -578,11 +578,6 @@ def _image_size(cfg: RunConfig, video: VideoInfo | None, keypoint_size: tuple[in
     return given or keypoint_size
 
 
-def _present(poses) -> np.ndarray:
-    """``(T,)`` bool: frames with any finite joint, read a block at a time."""
-    return per_frame(lambda P: np.isfinite(P).any(axis=(1, 2)), poses)
-
-
 def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: FrameStore,
                   orientation: DisplayOrientation):
     """The remap step a block of frames at a time into ``store``: the pelvis rule, the turn
@@ -960,7 +955,7 @@ def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rec
                            scaled.units, fps, cfg.min_confidence)
         joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64))
         world = World(joints, frame.rotation, path.world_std(frame.rotation),
-                      tuple(floor_flag(feet_visible(cam), _present(cam))),
+                      tuple(floor_flag(feet_visible(cam), present_frames(cam))),
                       tuple(n for n in (path.note, floor.note() if floor.kind != "plane" else "") if n))
         report["root_path"] = path.kind
         report["floor"] = asdict(floor)

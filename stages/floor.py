@@ -43,7 +43,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .core.conventions import L_ANKLE, L_HIP, L_KNEE, R_ANKLE, R_HIP, R_KNEE
 from .spherical import TUKEY_C
 
 #: Height of the ankle joint centre above the ground at stance, as a fraction of the leg
@@ -98,19 +97,6 @@ class Floor:
             return (f"floor per frame ({self.reason}): the ground under each frame's lowest joint centre, "
                     f"which stands {self.clearance:.3g} above it")
         return f"no floor ({self.reason}): heights are relative to the pelvis"
-
-
-def leg_lengths(P: np.ndarray) -> np.ndarray:
-    """``(T,)`` per frame, the mean over the legs present of hip->knee + knee->ankle of
-    ``(T, 17, 3)`` H36M-17 poses (any frame, any unit); NaN where neither leg is whole."""
-    P = np.asarray(P, np.float64)
-    legs = [np.linalg.norm(P[:, h] - P[:, k], axis=-1) + np.linalg.norm(P[:, k] - P[:, a], axis=-1)
-            for h, k, a in ((R_HIP, R_KNEE, R_ANKLE), (L_HIP, L_KNEE, L_ANKLE))]
-    both = np.stack(legs, -1)
-    out = np.full(len(P), np.nan)
-    some = np.isfinite(both).any(axis=1)
-    out[some] = np.nanmean(both[some], axis=1)
-    return out
 
 
 def tukey_location(x: np.ndarray, max_iter: int = 100) -> tuple[float, float]:

@@ -48,16 +48,10 @@ from .core.canonical import canonical_rotation
 from .isb_angles import MAX_KNEE_HYPEREXTENSION_DEG, isb_joint_angles
 from .core.rotations import angle_between
 from .core.errors import InputError
+from .core.framestore import true_runs
 
 # ---------------------------------------------------------------------------------------
 # contiguous finite runs
-
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """``[start, stop)`` of each run of True in a 1-D bool array."""
-    padded = np.concatenate([[False], mask, [False]])
-    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
-    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
 
 
 def _by_mask(x2: np.ndarray):
@@ -74,7 +68,7 @@ def _by_mask(x2: np.ndarray):
     for c in range(x2.shape[1]):
         groups.setdefault(packed[:, c].tobytes(), []).append(c)
     for cols in groups.values():
-        yield np.asarray(cols), _runs(finite[:, cols[0]])
+        yield np.asarray(cols), true_runs(finite[:, cols[0]])
 
 
 def _as_2d(x: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
@@ -537,7 +531,7 @@ def _knee_reading(rot: np.ndarray, knee: np.ndarray, previous: tuple[float, floa
     chosen continuously in time (:func:`continuous_angles`)."""
     rot, knee = rot.copy(), knee.copy()
     ok = np.isfinite(rot) & np.isfinite(knee)
-    for a, b in _runs(ok):
+    for a, b in true_runs(ok):
         # A step of more than 90 deg reads as the other, 180-deg-turned reading (the thigh
         # Z flipped): continuity keeps the reading, so the parity flips there.
         step = np.abs(_wrap180(np.diff(rot[a:b])))
@@ -563,7 +557,7 @@ def _unwrap_runs(x: np.ndarray, lower: float, previous: float | None) -> np.ndar
     multiple of 360 that puts its median in ``(lower, lower + 360]``, or, for a run at index
     0 when ``previous`` (the sample just before ``x``) is finite, that continues it."""
     out = x.copy()
-    for a, b in _runs(np.isfinite(x)):
+    for a, b in true_runs(np.isfinite(x)):
         run = np.unwrap(x[a:b], period=360.0)
         if a == 0 and previous is not None and np.isfinite(previous):
             ref = previous - run[0]

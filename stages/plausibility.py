@@ -46,6 +46,7 @@ import numpy as np
 
 from .core.conventions import H36M_JOINTS, PELVIS
 from .core.errors import InputError
+from .core.framestore import true_runs
 from .kinematics import filtered_derivatives
 
 #: The shipped limits (``pcnet/stages/data/motion_limits.json``).
@@ -237,18 +238,12 @@ def merge_gap_frames(fps: float, cutoff_hz: float) -> int:
 def _ranges(over: np.ndarray, gap: int) -> list[tuple[int, int]]:
     """Inclusive ``(first, last)`` runs of True in ``over`` ``(T,)``, runs at most ``gap``
     frames apart merged."""
-    idx = np.flatnonzero(over)
-    if not len(idx):
-        return []
-    out = []
-    first = last = int(idx[0])
-    for i in idx[1:].tolist():
-        if i - last - 1 <= gap:
-            last = i
+    out: list[tuple[int, int]] = []
+    for start, stop in true_runs(over):
+        if out and start - out[-1][1] - 1 <= gap:
+            out[-1] = (out[-1][0], stop - 1)
         else:
-            out.append((first, last))
-            first = last = i
-    out.append((first, last))
+            out.append((start, stop - 1))
     return out
 
 

@@ -84,6 +84,16 @@ def leg_lengths(joints: np.ndarray) -> np.ndarray:
     return np.stack([sum(_bone_length(joints, a, b) for a, b in side) for side in _LEG_BONES], -1)
 
 
+def mean_leg_length(joints: np.ndarray) -> np.ndarray:
+    """Per-frame leg length of H36M-17 poses ``(T, 17, 3)`` (any frame and units, in memory or
+    on disk): ``(T,)`` float64, the mean of :func:`leg_lengths` over the legs present (one
+    visible leg is enough: left and right legs have the same length); NaN where neither is."""
+    legs = leg_lengths(joints)
+    n = np.isfinite(legs).sum(-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, np.nansum(legs, axis=-1) / n, np.nan)
+
+
 def height_chain_length(joints: np.ndarray) -> np.ndarray:
     """Per-frame standing-height proxy: the head-to-ankle chain of bone lengths.
 
@@ -100,11 +110,7 @@ def height_chain_length(joints: np.ndarray) -> np.ndarray:
         InputError (a ValueError): wrong shape.
     """
     X = check_poses(joints, "joints")  # joint columns read as float64 (in memory or on disk)
-    legs = leg_lengths(X)
-    # One visible leg is enough: left and right legs have the same length.
-    n = np.isfinite(legs).sum(-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        leg = np.where(n > 0, np.nansum(legs, axis=-1) / n, np.nan)
+    leg = mean_leg_length(X)
     axial = sum(_bone_length(X, a, b) for a, b in _AXIAL_BONES)
     return leg + axial
 

@@ -27,7 +27,8 @@ import numpy as np
 from .core.conventions import L_ANKLE, PELVIS, R_ANKLE, validate_fps
 from .core.errors import InputError
 from .core.framestore import frame_blocks
-from .floor import ANKLE_CLEARANCE_LEG, Floor, fit_ground, leg_lengths  # noqa: F401 (Floor: re-exported)
+from .floor import ANKLE_CLEARANCE_LEG, Floor, fit_ground  # noqa: F401 (Floor: re-exported)
+from .scale import mean_leg_length
 
 #: Seconds at the start of the recording whose forward direction sets the world heading.
 HEADING_WINDOW_S = 1.0
@@ -207,11 +208,11 @@ def _floor_evidence(P: np.ndarray, lo: int = 0, n: int | None = None) -> tuple[n
     t = rows[inner]
     step[inner] = np.linalg.norm(P[t + 1, low_j[inner]] - P[t - 1, low_j[inner]], axis=-1)
     return (present, lowest, feet_visible(P[rows]), P[rows, PELVIS, 1].copy(), step,  # a view would keep the block
-            leg_lengths(P[rows]))
+            mean_leg_length(P[rows]))
 
 
 def _floor_from(present: np.ndarray, lowest: np.ndarray, feet: np.ndarray,
-                pelvis_y: np.ndarray, *_unused) -> tuple[np.ndarray, np.ndarray]:
+                pelvis_y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     seen = np.flatnonzero(feet & np.isfinite(pelvis_y))
     above = pelvis_y - lowest  # the pelvis's height above the floor where the feet show it
     if len(seen):
@@ -239,7 +240,7 @@ def floor_heights(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Returns:
         ``(floor_y (T,), feet_visible (T,) bool)``.
     """
-    return _floor_from(*_floor_evidence(np.asarray(P, np.float64)))
+    return _floor_from(*_floor_evidence(np.asarray(P, np.float64))[:4])
 
 
 def feet_visible(poses: np.ndarray) -> np.ndarray:

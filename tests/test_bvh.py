@@ -17,7 +17,8 @@ import warnings
 import numpy as np
 import pytest
 from conftest import FIXTURES
-from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, leg_lengths
+from pcnet.stages.floor import ANKLE_CLEARANCE_LEG
+from pcnet.stages.scale import mean_leg_length
 from pcnet.stages.sinks.bvh import bvh_motion, write_bvh
 from pcnet.stages.core.conventions import H36M_BONES, H36M_JOINTS
 from pcnet.stages.core.errors import InputError
@@ -307,7 +308,7 @@ def test_run_bvh_stands_on_the_trc_floor(tmp_path, lifter):
     assert rows.sum() >= 0.9 * len(trc)
     # the world frame's ground (no pelvis path: per frame): the lowest joint centre stands the
     # fitted ankle clearance above y = 0 (stages/floor.py)
-    clearance = ANKLE_CLEARANCE_LEG * np.nanmedian(leg_lengths(trc))
+    clearance = ANKLE_CLEARANCE_LEG * np.nanmedian(mean_leg_length(trc))
     assert np.nanmin(trc[..., 1]) == pytest.approx(clearance, abs=1e-5) and clearance > 0.05
     low_trc = np.where(present, trc[..., 1], np.inf).min(axis=1)[rows]
     low_bvh = np.where(present, bvh[..., 1], np.inf).min(axis=1)[rows]

@@ -13,7 +13,8 @@ import pytest
 from click.testing import CliRunner
 from conftest import FIXTURES, rrd_summary, shared
 
-from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, leg_lengths
+from pcnet.stages.floor import ANKLE_CLEARANCE_LEG
+from pcnet.stages.scale import mean_leg_length
 from pcnet.pipeline.cli import EXAMPLE_DIR, main
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
@@ -94,7 +95,7 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
         assert np.nanmax(np.abs(world[:, PELVIS, [0, 2]])) < 0.5
         assert npz["pelvis_path_std_world"].shape == (frames, 3)
         # one ground plane: the stance ankles (the lower ankle, typically) stand the clearance above it
-        clearance = ANKLE_CLEARANCE_LEG * np.nanmedian(leg_lengths(world))
+        clearance = ANKLE_CLEARANCE_LEG * np.nanmedian(mean_leg_length(world))
         assert abs(np.nanmedian(np.nanmin(world[..., 1], axis=1)) - clearance) < 0.03
         # its up is the sequence's up
         np.testing.assert_allclose(W[1], npz["up"][0], atol=1e-9)

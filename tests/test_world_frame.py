@@ -14,7 +14,8 @@ from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.kinematics import compute_kinematics
 from pcnet.stages.core.rotations import axis_rotation
-from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, leg_lengths
+from pcnet.stages.floor import ANKLE_CLEARANCE_LEG
+from pcnet.stages.scale import mean_leg_length
 from pcnet.stages.world_frame import to_world, to_world_floor, world_frame
 
 FPS = 30.0
@@ -47,7 +48,7 @@ def test_world_frame_is_the_mocap_frame_turned_about_up_with_the_feet_on_the_flo
     rel = J - J[:, PELVIS : PELVIS + 1]
     # heights above the lowest joint centre are the mocap's, which stands the ankle clearance
     # above the ground; the pelvis has no horizontal path
-    clearance = ANKLE_CLEARANCE_LEG * np.median(leg_lengths(J))
+    clearance = ANKLE_CLEARANCE_LEG * np.median(mean_leg_length(J))
     assert floor.clearance == pytest.approx(clearance, rel=1e-9) and 0.09 < clearance < 0.12
     expected_y = rel[..., 1] - rel[..., 1].min(axis=1, keepdims=True) + clearance
     np.testing.assert_allclose(to_world(cam, frame), world, atol=0)  # the same poses without the Floor

@@ -183,6 +183,19 @@ def per_frame(f, arr) -> np.ndarray:
     return np.concatenate([f(arr[rows]) for rows in frame_blocks(len(arr))])
 
 
+def true_runs(mask) -> list[tuple[int, int]]:
+    """``[start, stop)`` of each run of True in a ``(T,)`` bool array (runs of frames)."""
+    padded = np.concatenate([[False], np.asarray(mask, bool), [False]])
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
+
+
+def present_frames(poses) -> np.ndarray:
+    """``(T,)`` bool: frames of ``(T, J, 3)`` poses (in memory or a :class:`FrameArray`)
+    with any finite joint, read a block of frames at a time."""
+    return per_frame(lambda P: np.isfinite(P).any(axis=(1, 2)), poses)
+
+
 class FrameStore:
     """A folder of :class:`FrameArray` files for one recording; ``close()`` deletes the folder,
     which the store created (``tempfile.mkdtemp``) and nothing else writes into.

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..core.atomic import atomic_path
 from ..core.errors import InputError
+from ..core.framestore import true_runs
 
 #: Samples per plotted line above which a line is drawn from per-bin extremes.
 MAX_PLOT_SAMPLES = 4000
@@ -221,9 +222,8 @@ def _shade(ax, t: np.ndarray, marked: np.ndarray | None, color=0.85) -> None:
     if marked is None or not np.any(marked):
         return
     half = 0.5 * (t[1] - t[0]) if len(t) > 1 else 0.5
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(marked, np.int8), [0]])))
     color = str(color) if isinstance(color, float) else color
-    for start, stop in zip(edges[::2], edges[1::2]):
+    for start, stop in true_runs(marked):
         ax.axvspan(t[start] - half, t[stop - 1] + half, color=color, lw=0, zorder=0)
 
 

@@ -63,7 +63,7 @@ import numpy as np
 from ..core.atomic import atomic_path
 from ..core.conventions import H36M_BONES, H36M_JOINTS, L_WRIST, PELVIS, R_WRIST, THORAX
 from ..core.errors import InputError
-from ..core.framestore import FrameArray, FrameColumn, column, frame_blocks, per_frame
+from ..core.framestore import FrameArray, FrameColumn, column, frame_blocks, per_frame, true_runs
 from .plots import LEFT_COLOURS, RIGHT_COLOURS, angle_group, series_colours
 
 _BONE_A = np.array([a for a, _ in H36M_BONES])
@@ -144,9 +144,7 @@ def _bones_columns(rr, X: np.ndarray, joint_ok: np.ndarray | None = None, dims: 
 
 def _finite_strips(path: np.ndarray) -> list[np.ndarray]:
     """Split a ``(T, 3)`` path at NaN gaps; runs of one point cannot make a line."""
-    ok = np.isfinite(path).all(-1)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
-    return [path[a:b] for a, b in zip(edges[::2], edges[1::2]) if b - a >= 2]
+    return [path[a:b] for a, b in true_runs(np.isfinite(path).all(-1)) if b - a >= 2]
 
 
 def _series_path(name: str) -> tuple[str, str]:
