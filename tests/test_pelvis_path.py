@@ -80,3 +80,14 @@ def test_an_image_size_contradicting_the_video_is_refused(tmp_path):
                                     str(video), "--image-size", "800x480", "--out", str(tmp_path / "o")])
     assert res.exit_code == 1 and "--image-size 800x480: expected the size of" in res.output and "(854x480)" in res.output
     assert not (tmp_path / "o").exists()
+
+
+def test_the_path_std_is_turned_into_the_world_by_the_camera_to_world_rotation():
+    """``W C W^T``, not ``W^T C W``: with W taking camera z (depth, the weak axis) to world X
+    and camera x to world Y, the world X std is the depth std."""
+    from pcnet.pipeline.pelvis_path import PelvisPath
+
+    cov = np.diag([1.0, 4.0, 100.0])[None]  # camera x, y, z variances
+    W = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # rows: world X, Y, Z in camera coordinates
+    std = PelvisPath("from 2D keypoints", np.zeros((1, 3)), cov).world_std(W)
+    np.testing.assert_allclose(std, [[10.0, 1.0, 2.0]])
