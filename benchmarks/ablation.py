@@ -76,7 +76,7 @@ import contextlib
 import hashlib
 import pickle
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -91,9 +91,10 @@ from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize, with_up
-from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence
+from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, up_model_sequence
 from pcnet.stages.spherical import robust_mean_direction
-from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, evidence_scale, frame_tilt_bound
+from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, frame_tilt_bound
+from pcnet.stages.up_model import UpEvidence, default_parameters, static_posterior, summarise_recording
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "ablation.txt"
@@ -107,7 +108,6 @@ YOGA_STRIDE = 2
 GROSS_DEG = 20.0
 LYING_TRUNK_DEG = 60.0
 BOOTSTRAP = 2000
-BALANCE_WEIGHT = 0.2  # the smallest mix benchmarks/balance_evidence.py tried
 #: A mean difference smaller than this (deg) is "no effect" whatever its interval.
 NEGLIGIBLE_DEG = 0.05
 #: A clip "changed" when its error moved by more than this (deg).
@@ -115,7 +115,7 @@ CHANGED_DEG = 0.5
 SWEEP_DEG = 30.0
 SWEEP_MIN_FRAMES = 150
 SWEEP_MAX_CLIPS = 60
-CACHE_VERSION = 2
+CACHE_VERSION = 3
 
 
 # ============================================================================ extraction
@@ -304,6 +304,16 @@ def equivariance_evidence(data: Path) -> list[dict]:
     return out
 
 
+def evidence_of(ev: dict, turns: bool = True) -> UpEvidence:
+    """The up model's evidence of one cached recording: each network's own up (the camera-frame
+    network's on the quarter-turned input, turned back) and the turns; ``turns`` False: the
+    camera-frame network on the input as filmed."""
+    Q = quarter_turn_matrices(ev["turns"]) if turns and ev["turns"].any() else None
+    c = np.where(ev["valid"][:, None], ev["R_camT" if turns else "R_camP"][:, :, 1], np.nan)
+    b = np.where(ev["valid"][:, None], ev["R_body"][:, :, 1], np.nan)
+    return UpEvidence.of(c, b, Q)
+
+
 # ============================================================================ variants
 
 
@@ -315,67 +325,26 @@ class Variant:
     kind: str = "removal"  # "default", "removal" or "alternative"
     gate: str = "shipped"  # shipped | body-reading | half | body | camera
     turns: bool = True
-    scale: bool = True
     prior: bool = True
     lying: bool = True
     auto: bool = True
-    balance: float = 0.0
     plain_mean: bool = False  # equal-weight Tukey mean of both networks' per-frame ups
     mode_rule: str = "spread"  # auto's static/moving rule: "spread" (choose_mode) | "bayes" (benchmarks/camera_motion_model.py)
 
 
 VARIANTS = (
     Variant("default (pcnet run)", "default"),
+    Variant("up model: lying posture off", lying=False),
+    Variant("up model: camera prior and lying posture off", prior=False),
     Variant("plain Tukey mean of both nets' ups", "alternative", plain_mean=True, prior=False, auto=False),
-    Variant("plain Tukey mean + camera prior", "alternative", plain_mean=True, auto=False),
     Variant("gate off: fixed 50/50", gate="half"),
     Variant("gate off: body-frame net only", gate="body"),
     Variant("gate off: camera-frame net only", gate="camera"),
     Variant("gate: no camera-net vouching", gate="body-reading"),
     Variant("quarter turns off", turns=False),
-    Variant("evidence scale off", scale=False),
-    Variant("camera prior off", prior=False),
-    Variant("lying reading off", lying=False),
     Variant("auto threshold off (always sequence)", auto=False),
-    Variant("+ balance cue (mix 0.2)", "alternative", balance=BALANCE_WEIGHT),
     Variant("auto by Bayes factor", "alternative", mode_rule="bayes"),
 )
-
-
-_GRAVITY = temporal.gravity_posterior
-_GROUND = temporal.ground_plane_up
-_TRUNK = temporal.mean_trunk
-_MEMO: dict = {}
-
-
-def _memo_gravity(up, sigma, trunk):
-    key = (tuple(np.round(up, 12)), round(float(sigma), 12), None if trunk is None else tuple(np.round(trunk, 12)))
-    if key not in _MEMO:
-        _MEMO[key] = _GRAVITY(up, sigma, trunk)
-    return _MEMO[key]
-
-
-@contextlib.contextmanager
-def switched(v: Variant, J: np.ndarray):
-    """Patches of :mod:`pcnet.stages.temporal` for ``v``: the lying reading off (no trunk), the
-    balance cue mixed into the pose-based up where the ground plane would refine it."""
-    from benchmarks.balance_evidence import balance_up
-
-    def ground(J_, ok, u_pose, fps, prior, gate):
-        up, info = _GROUND(J_, ok, u_pose, fps, prior, gate)
-        if v.balance > 0:
-            u_bal = balance_up(np.asarray(J, np.float64), up, 0.06)
-            if u_bal is not None:
-                up = normalize((1 - v.balance) * up + v.balance * u_bal)
-        return up, info
-
-    temporal.gravity_posterior = _memo_gravity
-    temporal.ground_plane_up = ground
-    temporal.mean_trunk = _TRUNK if v.lying else (lambda *a: None)
-    try:
-        yield
-    finally:
-        temporal.gravity_posterior, temporal.ground_plane_up, temporal.mean_trunk = _GRAVITY, _GROUND, _TRUNK
 
 
 def per_frame(ev: dict, v: Variant):
@@ -408,23 +377,17 @@ def run_variant(ev: dict, v: Variant) -> dict:
         ok = ev["valid"] & np.isfinite(ev["R_camP"]).all((1, 2))
         ub, uc = ev["R_body"][ok, :, 1], ev["R_camP"][ok, :, 1]
         up, _ = robust_mean_direction(np.concatenate([ub, uc]))
-        reading = None
-        if v.prior:
-            with switched(v, J):
-                g = temporal.gravity_posterior(up, temporal.POSE_EVIDENCE_SIGMA_DEG, temporal.mean_trunk(J, ok))
-            up, reading = g.up, g.reading
         frame = np.full((len(J), 3), np.nan)
         frame[ok] = normalize(ub + uc)
         out = np.where(ok[:, None], up[None], np.nan)
-        return {"up": out, "frame_up": frame, "mode": "sequence", "reading": reading, "bound": None}
+        return {"up": out, "frame_up": frame, "mode": "sequence", "reading": None, "bound": None}
     R, valid, w, d = per_frame(ev, v)
-    base = FRAME_TILT_95_DEG
-    bound = frame_tilt_bound(d, w, base)
-    scale = evidence_scale(bound, base) if v.scale else 1.0
+    bound = frame_tilt_bound(d, w, FRAME_TILT_95_DEG)
     R, ok = temporal.check_rotations(R, valid)
     res = {"frame_up": np.where(ok[:, None], R[:, :, 1], np.nan), "bound": np.where(ok, bound, np.nan)}
     if v.auto and ok.sum() < 2:
         return {**res, "up": res["frame_up"], "mode": "frame", "reading": None}
+    evidence = evidence_of(ev, v.turns)
     if not v.auto:
         mode = "sequence"
     elif v.mode_rule == "bayes":
@@ -434,11 +397,13 @@ def run_variant(ev: dict, v: Variant) -> dict:
     if mode == "smooth":
         out = temporal.smooth_rotations(R, ok, fps, temporal.SMOOTH_TIME_CONSTANT_S)[:, :, 1]
         return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "reading": None}
-    with switched(v, J):
-        s = temporal.sequence_rectify(R, ok, J, fps=fps, n_bootstrap=0, camera_prior=v.prior,
-                                      evidence_scale=scale)
-    up = np.where(s.valid[:, None], s.up[None], np.nan)
-    return {**res, "up": up, "mode": mode, "reading": None if s.gravity is None else s.gravity.reading}
+    if v.lying:  # the chain's own sequence step
+        _, fields = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior)
+        return {**res, "up": np.where(ok[:, None], fields["up"], np.nan), "mode": mode,
+                "reading": fields["gravity"]["reading"]}
+    p = default_parameters()
+    post = static_posterior(summarise_recording(evidence.frames(ok), fps, p), p, lying=False)
+    return {**res, "up": np.where(ok[:, None], post.up, np.nan), "mode": mode, "reading": post.reading}
 
 
 # ============================================================================ metrics

@@ -115,7 +115,6 @@ def evaluate_file(joints: np.ndarray, fps: float) -> dict[str, dict]:
         out[config.label] = {"trunk": median_trunk_deg(res.canonical, res.valid),
                              "lower": median_trunk_deg(res.canonical, res.valid, lower=True),
                              "valid_frac": float(np.mean(res.valid)),
-                             "scale": res.report.get("evidence_scale", float("nan")),
                              "pitch_half": res.report.get("camera_pitch_interval_deg", float("nan"))}
     return out
 
@@ -170,13 +169,12 @@ def run(data: Path, stride: int = 2) -> list[str]:
     _summary(lines, "Per asana, lower trunk (pelvis -> spine) from vertical: median [min, max] over files (deg)",
              results, "lower")
     default = CONFIGURATIONS[-1].label
-    lines += ["", f"Per asana, {default} (the default): evidence scale r (stages/uncertainty.py: evidence_scale; "
-              "1 = poses like the calibration clips) and the printed 95 % camera pitch half-width (deg), "
-              "median [min, max] over files"]
+    lines += ["", f"Per asana, {default} (the default): the printed 95 % camera pitch half-width (deg; the up "
+              "model's posterior), median [min, max] over files"]
     for asana in [a for a in ASANA_ORDER if any(r[1] == a for r in results)]:
         rows = [r[3][default] for r in results if r[1] == asana]
         cells = []
-        for key, fmt in (("scale", ".2f"), ("pitch_half", ".1f")):
+        for key, fmt in (("pitch_half", ".1f"),):
             v = np.array([row[key] for row in rows], np.float64)
             v = v[np.isfinite(v)]
             cells.append(f"{np.median(v):{fmt}} [{v.min():{fmt}}, {v.max():{fmt}}]" if len(v) else "n/a")

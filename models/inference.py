@@ -146,7 +146,9 @@ class ViewGatedPCNet:
         self.path, self.info = self.camera.path, self.camera.info
 
     def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0, allocate=None):
-        """``(R, residual, valid, camera-frame weight, disagreement in deg, quarter turns)``;
+        """``(R, residual, valid, camera-frame weight, disagreement in deg, quarter turns, ups)``
+        (``ups``: the camera-frame and body-frame networks' own ups, each ``(N, 3)`` in the camera
+        frame, the former turned forward again; the evidence of :mod:`pcnet.stages.up_model`);
         ``joints_cam`` in memory or on disk, read :data:`CHUNK_FRAMES` frames at a time.
         ``allocate(name, shape, dtype)`` makes the two ``(N, 17, 3)`` float64 residual arrays
         (NaN-filled; default in memory; the pipeline's are on disk, so only the ``(N, 3, 3)``
@@ -178,6 +180,7 @@ class ViewGatedPCNet:
         weight = (camera_frame_weight(R_body, valid, fps, R_cam) if Q is None
                   else camera_frame_weight(Q @ R_body, valid, fps, Q @ R_cam))
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
+        ups = (R_cam[:, :, 1].copy(), R_body[:, :, 1].copy())  # each network's own up, before the blend
         # Blended a block at a time into the camera-frame network's arrays (no third copy); the
         # geodesic blend commutes with the turn, so it runs in the camera's own frame.
         for rows in blocks:
@@ -187,7 +190,7 @@ class ViewGatedPCNet:
             # frame is built from the hip line (docs/experiments.md, "The body-frame network's
             # heading on the pair's up").
             R_cam[rows] = with_up(R_body[rows], blend_rotations(R_body[rows], R_cam[rows], weight[rows])[:, :, 1])
-        return R_cam, res_cam, valid, weight, disagreement, turns
+        return R_cam, res_cam, valid, weight, disagreement, turns, ups
 
     def predict(self, joints_cam: np.ndarray, fps: float = 30.0):
         return self.predict_gated(joints_cam, fps)[:3]

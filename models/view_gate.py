@@ -29,7 +29,8 @@ deg roll). With the earlier 20-30 deg range its own reading vouched for it at 30
 where it is the worse network (benchmarks/results/view_gate_rule_*.txt). A body lying across the image reads as a
 camera rolled about a quarter turn to both: the camera-frame network answers for the poses
 turned back (below), reading the trunk as up as the body-frame network does, and in sequence
-mode the camera prior weighs the lying reading (:mod:`pcnet.stages.gravity_prior`). Measured on motion capture:
+mode the up model weighs that reading against a lying body under a level camera
+(:mod:`pcnet.stages.up_model`, docs/up_model.md). Measured on motion capture:
 benchmarks/results/view_gate.txt (benchmarks/view_gate.py) and, against the two earlier
 releases' rules, benchmarks/results/view_gate_rule_*.txt (benchmarks/view_gate_rule.py).
 
@@ -39,7 +40,7 @@ from the body-frame network's signed roll reading) gives the camera-frame networ
 was trained on, and its answer turned forward again is the same as for the level camera,
 frame for frame. So the gate runs in that turned frame
 (:class:`pcnet.models.inference.ViewGatedPCNet`). Half turns are not taken: cameras are
-level or in portrait (the camera prior, :mod:`pcnet.stages.gravity_prior`), while a body that
+level or in portrait (the up model's camera prior, :mod:`pcnet.stages.up_model`), while a body that
 reads as upside down is far more often a body upside down or getting up from the floor, for
 which the camera-frame network's level-camera prior in the turned frame would make a wrong
 answer firmer (first built with half turns, DeepMimic's get-up-from-lying clip erred 164 deg

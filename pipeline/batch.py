@@ -6,7 +6,10 @@ pipeline into its own output folder (written beside it and renamed in, so a fail
 stopped row leaves no half-written folder); a row that succeeded gets a resume marker
 (:mod:`pcnet.pipeline.batch_marker`) so that a re-run skips it while its inputs, settings
 and the pcnet version are unchanged. The JSON summary (default ``MANIFEST.pcnet_batch.json``)
-records every row: its fields are in docs/cluster.md, "Results".
+records every row: its fields are in docs/cluster.md, "Results". The terminal gets one short
+line per row and per finding, then a short summary (:func:`format_summary`); the long form
+(every row, its error or warnings in full, restarts) goes to the Markdown report beside the
+JSON summary (:func:`report_path`, :func:`batch_markdown`).
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker
-from .batch_worker import cpu_cores, error_line
+from .batch_worker import FINDINGS, cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, records_frame_rate, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within, listed_files_missing
@@ -42,6 +45,11 @@ STATUSES = ("ok", "skipped", "failed", "cancelled")
 #: Previous statuses that --retry-failed does not run again.
 DONE = ("ok", "skipped")
 SUMMARY_SUFFIX = ".pcnet_batch.json"
+#: How the batch report (:func:`batch_markdown`) begins: how a report pcnet may replace is known.
+REPORT_TITLE = "# pcnet batch"
+#: Lines the terminal summary gives each of the failed rows and the warnings at most; the
+#: rest are counted and left to the report.
+SUMMARY_LINES = 10
 ROW_SOURCE = "manifest row"
 #: Seconds between rewrites of the JSON summary while a batch runs.
 SUMMARY_EVERY_S = 2.0
@@ -298,13 +306,21 @@ class PlannedRow:
 @dataclass
 class BatchReport:
     """What a batch did: ``rows`` (per-row summary dicts, manifest order), whether it was
-    interrupted, where the JSON summary went, wall time and the engine's start-up time."""
+    interrupted, where the JSON summary went, wall time and the engine's start-up time, the
+    summary's header (``settings``: manifest, engine, workers, ...), the restarts of rows whose
+    worker died, where the Markdown report went, and ``findings``: by row number, the rows'
+    warnings as :func:`pcnet.pipeline.batch_worker.finding_records` (a row without them, one
+    skipped by ``--retry-failed``, gets :func:`row_findings`' reading of its texts)."""
 
     rows: list[dict]
     interrupted: bool
     summary_path: Path
     seconds: float
     engine_start_seconds: float = 0.0
+    settings: dict = field(default_factory=dict)
+    restarts: list[str] = field(default_factory=list)
+    report_path: Path | None = None
+    findings: dict[int, list[dict]] = field(default_factory=dict)
 
     def counts(self) -> dict[str, int]:
         return {status: sum(r["status"] == status for r in self.rows) for status in STATUSES}
@@ -321,6 +337,15 @@ def default_summary_path(manifest: str | os.PathLike) -> Path:
     """``<manifest>.pcnet_batch.json`` beside the manifest."""
     manifest = Path(manifest)
     return manifest.with_name(manifest.name + SUMMARY_SUFFIX)
+
+
+def report_path(summary: str | os.PathLike) -> Path:
+    """The Markdown report beside the JSON summary: its name with ``.md`` for its suffix
+    (``runs.csv.pcnet_batch.json`` -> ``runs.csv.pcnet_batch.md``; ``NAME.md`` itself ->
+    ``NAME.md.md``)."""
+    summary = Path(summary)
+    report = summary.with_suffix(".md")
+    return report if report != summary else summary.with_name(summary.name + ".md")
 
 
 class _PathFacts:
@@ -621,32 +646,42 @@ def _out_folder_problem(manifest: Path, item: PlannedRow, paths: _PathFacts) -> 
 
 
 def _check_summary_path(path: Path, manifest: Path, planned: list[PlannedRow], paths: _PathFacts) -> None:
-    """The summary may replace only an earlier pcnet batch summary, in a writable folder,
-    and may not be the manifest or an input.
+    """The summary and the report beside it (:func:`report_path`) may replace only an
+    earlier pcnet batch summary and report, in a writable folder, and may not be the manifest
+    or an input.
 
     Raises:
-        InputError: naming ``--summary-json``, the path and the rule.
+        InputError: naming ``--summary-json``, the path (and the report's name) and the rule.
     """
     resolved = path.resolve()
     inputs = {paths.resolve(p) for item in planned for p in input_files(item.config).values()}
-    if resolved == manifest.resolve() or resolved in inputs:
-        raise InputError(f"--summary-json {path}: expected a file of its own, got the manifest or an input")
     outs = {paths.resolve(item.config["out"]): item.line for item in planned}
-    holder = next((p for p in [resolved, *resolved.parents] if p in outs), None)
-    if holder is not None:
-        raise InputError(f"--summary-json {path}: expected a place outside the rows' output folders, got one in "
-                         f"line {outs[holder]}'s ({holder}), which a row's output replaces")
+    files = ((resolved, ""), (report_path(resolved), f" (its report beside it, {report_path(path).name})"))
+    for file, what in files:
+        if file == manifest.resolve() or file in inputs:
+            raise InputError(f"--summary-json {path}{what}: expected a file of its own, got the manifest or an input")
+        holder = next((p for p in [file, *file.parents] if p in outs), None)
+        if holder is not None:
+            raise InputError(f"--summary-json {path}{what}: expected a place outside the rows' output folders, got "
+                             f"one in line {outs[holder]}'s ({holder}), which a row's output replaces")
     if not resolved.parent.is_dir() or not os.access(resolved.parent, os.W_OK):
         raise InputError(f"--summary-json {path}: expected a writable folder for the batch summary, got "
                          f"{resolved.parent}; name another place with --summary-json")
-    if resolved.exists():
-        try:
-            ours = json.loads(resolved.read_text()).get("writer") == "pcnet batch"
-        except (OSError, ValueError, AttributeError, RecursionError):
-            ours = False
-        if not ours:
-            raise InputError(f"--summary-json {path}: expected a new file or an earlier pcnet batch summary, got a "
-                             f"file pcnet did not write; name another place with --summary-json")
+    for file, what in files:
+        if file.exists() and not _written_by_batch(file):
+            raise InputError(f"--summary-json {path}{what}: expected a new file or an earlier pcnet batch "
+                             f"{'report' if what else 'summary'}, got a file pcnet did not write; name another place "
+                             f"with --summary-json")
+
+
+def _written_by_batch(file: Path) -> bool:
+    """Whether ``file`` is an earlier pcnet batch summary (JSON) or report (Markdown)."""
+    try:
+        text = file.read_text()
+        return (text.startswith(REPORT_TITLE) if file.suffix == ".md"
+                else json.loads(text).get("writer") == "pcnet batch")
+    except (OSError, ValueError, AttributeError, RecursionError):  # ValueError: not UTF-8 or not JSON
+        return False
 
 
 def plan_batch(manifest: str | os.PathLike, options: BatchOptions) -> tuple[list[PlannedRow], Path]:
@@ -738,6 +773,7 @@ def _row_summary(item: PlannedRow, result: dict | None, status: str | None = Non
     elif result is not None:
         base.update(result, row=item.row)
         base["status"] = result.get("status", status)
+    base.pop(FINDINGS, None)  # the terminal's and the report's: the warnings' texts are the summary's
     return base
 
 
@@ -763,11 +799,13 @@ class _SummaryWriter:
 def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
               progress: Callable[[str], None] | None = None) -> BatchReport:
     """Validate ``manifest``, then run its rows that need running with ``options.engine``
-    and write the JSON summary (fields: docs/cluster.md, "Results").
+    and write the JSON summary (fields: docs/cluster.md, "Results") and, at the end, the
+    Markdown report beside it (:func:`report_path`, :func:`batch_markdown`).
 
-    ``progress`` gets one line per row as it finishes. Ctrl-C (or SIGTERM) stops the batch:
-    no further row starts, running rows are stopped without leaving half-written folders,
-    and the report marks them ``cancelled`` (``exit_code`` 130).
+    ``progress`` gets a few lines per row as it finishes (:func:`progress_lines`: one for
+    the row, one per warning), and one per restart of a row whose worker died. Ctrl-C (or
+    SIGTERM) stops the batch: no further row starts, running rows are stopped without leaving
+    half-written folders, and the report marks them ``cancelled`` (``exit_code`` 130).
 
     Raises:
         InputError, ManifestError: see :func:`plan_batch`; nothing has run then.
@@ -780,6 +818,7 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
     jobs = [{"row": item.row, "config": item.config} for item in planned if item.action == "run"]
     header = _summary_header(manifest, options, len(jobs))
     writer = _SummaryWriter(summary_path, header)
+    restarts: list[str] = []
 
     def rows(unfinished: str) -> list[dict]:
         # A row stopped while running reports the attempt it was in (engines that know it).
@@ -791,12 +830,13 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
             result = dict(result, error=in_manifest_terms(result["error"]))
         results[result["row"]] = result
         if progress is not None:
-            progress(_progress_line(len(results), len(jobs), by_row[result["row"]], result))
+            progress(progress_lines(len(results), len(jobs), by_row[result["row"]], result))
         writer.write(rows("pending"))
 
     def on_retry(row: int, line: str) -> None:
+        restarts.append(f"line {by_row[row].line}: {line}")
         if progress is not None:
-            progress(f"line {by_row[row].line}: {line}")
+            progress(restarts[-1])
 
     engine = None
     writer.write(rows("pending"), force=True)
@@ -817,7 +857,12 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
     start_s = getattr(engine, "start_seconds", 0.0)
     writer.write(final, force=True, interrupted=interrupted, seconds=round(seconds, 3),
                  engine_start_seconds=round(start_s, 3))
-    return BatchReport(final, interrupted, summary_path, seconds, start_s)
+    findings = {item.row: (item.known if item.action == "skip" else results.get(item.row) or {}).get(FINDINGS)
+                for item in planned}
+    report = BatchReport(final, interrupted, summary_path, seconds, start_s, header, restarts,
+                         report_path(summary_path), {row: found for row, found in findings.items() if found})
+    write_text(report.report_path, batch_markdown(report))
+    return report
 
 
 def _summary_header(manifest, options: BatchOptions, jobs: int) -> dict:
@@ -858,31 +903,137 @@ def _clean_cancelled(planned: list[PlannedRow], results: dict[int, dict]) -> Non
                 pass
 
 
-def _progress_line(done: int, total: int, item: PlannedRow, result: dict) -> str:
+def row_findings(records: list[dict] | None, warnings: list[str]) -> list:
+    """A row's warnings as :class:`pcnet.stages.flags.Finding` s, most severe first: from
+    their ``records`` (:func:`pcnet.pipeline.batch_worker.finding_records`), else (a row known
+    only by its summary's texts) each text shortened, of severity CHECK, its action
+    ``see report.md`` (the row's), as :mod:`pcnet.stages.flags` keeps a text of no kind."""
+    from pcnet.stages.flags import Finding, Kind, Severity, ranked, shortened
+
+    try:
+        if records is not None:
+            return ranked(Finding(Severity[r["severity"]], r["headline"], r["action"], r["detail"],
+                                  None if r["kind"] is None else Kind[r["kind"]]) for r in records)
+    except (KeyError, TypeError):  # a record of another pcnet's kinds: read as texts
+        pass
+    return [Finding(Severity.CHECK, shortened(text), "see report.md", text) for text in warnings]
+
+
+def _finding_lines(records: list[dict] | None, warnings: list[str]) -> list[tuple]:
+    """:func:`row_findings` with each one's terminal line (``WARNING headline -> action``,
+    the ``pcnet run`` flags it names as the manifest's columns)."""
+    return [(f, in_manifest_terms(f"WARNING  {f.headline} -> {f.action}")) for f in row_findings(records, warnings)]
+
+
+def progress_lines(done: int, total: int, item: PlannedRow, result: dict) -> str:
+    """What the terminal gets as a row ends: one line (its status, time, and its output
+    folder or its one-line error), then one short line per warning, most severe first, with
+    the action it asks; the warnings' full text is in the row's report.md and the batch
+    report."""
     detail = str(item.out) if result["status"] == "ok" else result["error"]
     took = f" {result['seconds']:.1f} s" if result.get("seconds") is not None else ""
-    line = f"[{done}/{total}] line {item.line} {result['status']}{took}: {detail}"
-    # the row's WARNING lines, as `pcnet run` prints them: what pcnet could not tell
-    return "\n".join([line, *(f"    WARNING {w}" for w in result.get("warnings") or [])])
+    head = f"[{done}/{total}] line {item.line} {result['status']}{took}: {detail}"
+    found = _finding_lines(result.get(FINDINGS), result.get("warnings") or [])
+    return "\n".join([head, *(f"    {text}" for _, text in found)])
 
 
-def format_summary(report: BatchReport) -> str:
-    """The results table: one line per row (status, attempts, frames, valid, seconds,
-    worker host:pid, output folder or error), then the counts and the summary path."""
-    lines = [f"{'row':>4}  {'status':<10}{'tries':>5}{'frames':>8}{'valid':>7}{'seconds':>9}  {'worker':<22}"
-             f"output / error"]
-    for r in report.rows:
-        seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else "-"
-        worker = f"{r['host']}:{r['pid']}" if r.get("pid") else "-"
-        detail = r["error"] if r["status"] == "failed" else r["out"]
-        lines.append(f"{r['row']:>4}  {r['status']:<10}{r['attempts']:>5}{r['frames']:>8}{r['valid']:>7}{seconds:>9}  "
-                     f"{worker:<22}{detail}")
+def _counts_line(report: BatchReport) -> str:
     counts = report.counts()
     done = counts["ok"] + counts["skipped"]
     # skipped rows ran in an earlier batch: their outputs are complete, but not processed now
-    lines.append(f"{done} of {len(report.rows)} recordings have complete outputs "
-                 f"({', '.join(f'{v} {k}' for k, v in counts.items())})"
-                 f" in {report.seconds:.1f} s; summary {report.summary_path}")
-    if report.interrupted:
-        lines.append("interrupted: no further row started; cancelled rows left their output folders as they were")
+    return (f"{done} of {len(report.rows)} recordings have complete outputs "
+            f"({', '.join(f'{v} {k}' for k, v in counts.items())}) in {report.seconds:.1f} s")
+
+
+_INTERRUPTED = "interrupted: no further row started; cancelled rows left their output folders as they were"
+
+
+def _lines(items: list[str], what: str, details: str) -> list[str]:
+    """At most :data:`SUMMARY_LINES` of ``items``, then how many more the report has."""
+    more = len(items) - SUMMARY_LINES
+    return items[:SUMMARY_LINES] + ([f"         ... and {more} more {what}: {details}"] if more > 0 else [])
+
+
+def _grouped_findings(report: BatchReport) -> list[str]:
+    """The warnings of the rows with complete outputs, one line per distinct finding line
+    (with the manifest lines that have it), most severe first."""
+    from pcnet.stages.flags import ranked
+
+    seen: dict[str, tuple] = {}  # terminal line -> (its first finding, the manifest lines)
+    for r in report.rows:
+        if r["status"] in DONE:
+            for f, text in _finding_lines(report.findings.get(r["row"]), r.get("warnings") or []):
+                seen.setdefault(text, (f, []))[1].append(r["line"])
+    text_of = {id(f): text for text, (f, _) in seen.items()}
+    return [f"{text} (line{'s' * (len(at) > 1)} {', '.join(map(str, at))})"
+            for text, at in ((text_of[id(f)], seen[text_of[id(f)]][1]) for f in ranked(f for f, _ in seen.values()))]
+
+
+def _outputs_line(rows: list[dict]) -> str | None:
+    """Where the complete outputs are: the one folder, or the folder holding them all."""
+    outs = [r["out"] for r in rows if r["status"] in DONE]
+    if len(outs) < 2:
+        return outs[0] if outs else None
+    return f"{os.path.commonpath(outs)} ({len(outs)} folders)"
+
+
+def format_summary(report: BatchReport) -> str:
+    """The summary that reads in seconds: the counts, one line per failed row (its error),
+    one line per distinct warning of the complete outputs (most severe first, with its
+    action and the manifest lines), each list cut at :data:`SUMMARY_LINES`; where the
+    outputs, the JSON summary and the report are. Every row in full: the report."""
+    details = str(report.report_path or report.summary_path)
+    lines = [_counts_line(report)] + ([_INTERRUPTED] if report.interrupted else [])
+    lines += _lines([f"FAILED   line {r['line']}: {r['error']}" for r in report.rows if r["status"] == "failed"],
+                    "failed rows", details)
+    lines += _lines(_grouped_findings(report), "warnings", details)
+    outputs = _outputs_line(report.rows)
+    lines += [f"{'outputs':<17} {outputs}"] * bool(outputs) + [f"{'summary':<17} {report.summary_path}"]
+    if report.report_path is not None:
+        lines.append(f"details: {report.report_path}")
     return "\n".join(lines)
+
+
+def _cell(value) -> str:
+    return "-" if value is None or value == "" else str(value).replace("|", "/").replace("\n", " ")
+
+
+def batch_markdown(report: BatchReport) -> str:
+    """The batch report: what the terminal summary leaves out. The counts and the batch's
+    settings; a table of every row (status, attempts, frames, valid frames, mode, seconds,
+    worker, threads, output folder); every failed row's error in full (and its traceback
+    where the failure is a bug of pcnet); every warning of every row in full, most severe
+    first, with its action; the restarts of rows whose worker died."""
+    s = report.settings
+    workers = s.get("workers") or "the cluster's CPUs"
+    out = [f"{REPORT_TITLE}: {s.get('manifest', '')}", "", _counts_line(report) + "."]
+    out += ["", _INTERRUPTED + "."] if report.interrupted else []
+    out += ["", f"- **engine**: {s.get('engine')}" + (f" at {s['address']}" if s.get("address") else "")
+            + f", {workers} workers, retries {s.get('retries')}; started {s.get('started')}, engine start "
+              f"{report.engine_start_seconds:.1f} s",
+            f"- **options**: overwrite {s.get('overwrite')}, retry_failed {s.get('retry_failed')}",
+            f"- **summary**: {report.summary_path} (every row's fields, docs/cluster.md \"Results\")",
+            "", "## Rows", "",
+            "| row | line | status | tries | frames | valid | mode | seconds | worker | threads | output |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in report.rows:
+        seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else None
+        worker = f"{r['host']}:{r['pid']}" if r.get("pid") else None
+        out.append("| " + " | ".join(_cell(v) for v in (r["row"], r["line"], r["status"], r["attempts"], r["frames"],
+                                                          r["valid"], r.get("mode"), seconds, worker, r.get("threads"),
+                                                          r["out"])) + " |")
+    failed = [r for r in report.rows if r["status"] == "failed"]
+    out += ["", "## Failed rows", ""] + ([] if failed else ["None."])
+    for r in failed:
+        out += [f"### line {r['line']} (row {r['row']})", "", r["error"], ""]
+        if r.get("traceback"):
+            out += ["```", r["traceback"].rstrip(), "```", ""]
+    warned = [r for r in report.rows if r.get("warnings")]
+    out += ["", "## Warnings", "", "Each row's in full (also in its report.md), most severe first." if warned else "None."]
+    for r in warned:
+        out += ["", f"### line {r['line']} (row {r['row']}, {r['status']}): {r['out']}", ""]
+        for i, f in enumerate(row_findings(report.findings.get(r["row"]), r["warnings"]), 1):  # as report.md's
+            out += [f"#### {i}. {f.headline}", "", f"Severity: {f.severity.name.lower()}. Action: "
+                    f"{in_manifest_terms(f.action)}.", "", f.detail, ""]
+    out += ["", "## Restarts", ""] + ([f"- {line}" for line in report.restarts] or ["None."])
+    return re.sub(r"\n{3,}", "\n\n", "\n".join(out)).rstrip() + "\n"

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
 
+from .batch_worker import FINDINGS
 from .outdir import listed_files_missing, read_marker
 
 BATCH_MARKER = ".pcnet_batch.json"
@@ -77,11 +78,12 @@ def write_batch_marker(folder: Path, config: dict, inputs: dict[str, dict], resu
     files.
 
     ``inputs`` are the hashes taken before the row ran (what the run read), ``result`` the
-    row's frames, valid frames, mode and warnings (shown again when a re-run skips the row).
+    row's frames, valid frames, mode, warnings and their findings (shown again when a re-run
+    skips the row).
     """
     record = {
         "writer": "pcnet batch", "pcnet_version": pcnet_version(), "settings": settings_of(config),
-        "inputs": inputs, "result": {k: result.get(k) for k in ("frames", "valid", "mode", "warnings")},
+        "inputs": inputs, "result": {k: result.get(k) for k in ("frames", "valid", "mode", "warnings", FINDINGS)},
         "host": socket.gethostname(), "pid": os.getpid(), "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
     }
     return write_text(folder / BATCH_MARKER, json.dumps(record, indent=1) + "\n")

@@ -16,6 +16,9 @@ from pathlib import Path
 #: Thread-count variables set in every worker: numpy's BLAS (OpenMP, OpenBLAS, MKL) and
 #: onnxruntime's intra-op pool (``PCNET_ORT_THREADS``, read by pcnet's ONNX session).
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "PCNET_ORT_THREADS")
+#: The key of a row's result holding its warnings as findings (:func:`finding_records`): kept
+#: in the resume marker for the terminal's lines, left out of the JSON summary's rows.
+FINDINGS = "findings"
 #: Test hook, see :func:`_test_hook`.
 TEST_HOOK = "PCNET_BATCH_TEST_HOOK"
 _HOLD_LIMIT_S = 120.0
@@ -75,6 +78,14 @@ def error_line(err: BaseException) -> str:
     return text if isinstance(err, (InputError, OSError)) else f"{type(err).__name__}: {text}"
 
 
+def finding_records(findings) -> list[dict]:
+    """:class:`pcnet.stages.flags.Finding` s as plain values (a row's result crosses a
+    process or Ray boundary and is kept in the resume marker): severity and kind by name,
+    headline, action, full text."""
+    return [{"severity": f.severity.name, "kind": None if f.kind is None else f.kind.name, "headline": f.headline,
+             "action": f.action, "detail": f.detail} for f in findings]
+
+
 def _int_or_none(text: str | None) -> int | None:
     try:
         return int(text)
@@ -83,7 +94,8 @@ def _int_or_none(text: str | None) -> int | None:
 
 
 def execute_row(job: dict) -> dict:
-    """Run one row and return its result (the per-row fields of the batch summary).
+    """Run one row and return its result (the per-row fields of the batch summary, and
+    :data:`FINDINGS`, its warnings' short lines).
 
     ``job``: ``row`` (1-based), ``config`` (``dataclasses.asdict`` of the row's
     :class:`~pcnet.pipeline.config.RunConfig`, absolute paths), ``attempt``.
@@ -110,7 +122,8 @@ def execute_row(job: dict) -> dict:
         inputs = input_hashes(config)  # before the run: the marker must describe what was read
 
         def with_marker(staged: Path, run) -> None:  # published together with the output or not at all
-            result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, warnings=list(run.flags))
+            result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, warnings=list(run.flags),
+                          **{FINDINGS: finding_records(run.findings)})
             write_batch_marker(staged, config, inputs, result)
 
         run_pipeline(RunConfig(**config), progress=False, before_publish=with_marker)

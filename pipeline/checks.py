@@ -1,6 +1,7 @@
 """The checks of a rectified recording: one step that reads what the inputs, the camera frame
-and the rectification gave (:class:`CheckInputs`) and returns its flags (``WARNING`` texts),
-in the order the summary has always listed them (:func:`checks`).
+and the rectification gave (:class:`CheckInputs`) and returns its flags
+(:class:`pcnet.stages.flags.Finding` objects) in the order they are raised (:func:`checks`;
+the summary ranks them, :func:`pcnet.stages.flags.ranked`).
 
 The flags later steps raise on their own products (the floor, the filter, the motion check,
 OpenSim's fit) are added where those are made (pipeline/runner.py).
@@ -13,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from pcnet.adapters import VideoInfo
-from pcnet.stages.flags import (body_size_flag, camera_tilt, gravity_reading_flag, keypoints_outside_image_flag,
-                               leg_asymmetry_flag, lifter_frame_flag, mirrored_skeleton_flag, non_upright_flag,
-                               orientation_flags, quarter_turn_reported, side_swap_flag, size_change_flag,
-                               track_switch_flag, view_gate_flag)
+from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, gravity_reading_flag,
+                               keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
+                               mirrored_skeleton_flag, non_upright_flag, orientation_flags, quarter_turn_reported,
+                               side_swap_flag, size_change_flag, track_switch_flag, view_gate_flag)
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
 
 from .video_orientation import EDGE_MARGIN
@@ -66,11 +67,11 @@ class CheckInputs:
     person_option: bool
 
 
-def checks(c: CheckInputs) -> list[str]:
-    """The flags of a rectified recording, in the summary's order: the camera's orientation,
-    the body's size, legs and size change, keypoints outside the image, a side swap (or else a
-    mirrored skeleton), a body not upright, the gravity reading, the view gate, the lifter's
-    frame and a switch of the 2D track."""
+def checks(c: CheckInputs) -> list[Finding]:
+    """The findings of a rectified recording, in the order canonical.npz keeps their texts: the
+    camera's orientation, the body's size, legs and size change, keypoints outside the image, a
+    side swap (or else a mirrored skeleton), a body not upright, the gravity reading, the view
+    gate, the lifter's frame and a switch of the 2D track."""
     report, cam, kp2d, video = c.report, c.joints_camera, c.keypoints2d, c.video
     gravity = report.get("gravity")
     return [

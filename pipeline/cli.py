@@ -440,16 +440,19 @@ def demo(out, method, overwrite):
 @click.option("--retry-failed", is_flag=True,
               help="run only the rows that did not succeed in the previous run (read from its JSON summary)")
 @click.option("--summary-json", type=click.Path(dir_okay=False), default=None,
-              help="the JSON summary to write (and, with --retry-failed, to read)  [default: MANIFEST + .pcnet_batch.json, e.g. runs.csv.pcnet_batch.json]")
+              help="the JSON summary to write (and, with --retry-failed, to read); the Markdown report goes beside it, "
+                   "its suffix .md  [default: MANIFEST + .pcnet_batch.json, e.g. runs.csv.pcnet_batch.json]")
 def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, summary_json):
     """Process many recordings: one CSV row each, columns named like the fields of
     `pcnet run` (lifter, lifter_output, keypoints2d, keypoints2d_format, video, out, ...).
 
     The whole manifest is checked before any row runs (one line per problem, exit 1). A
     failing row is reported and does not stop the others; a row whose output is complete
-    and whose inputs, settings and pcnet version are unchanged is skipped. Prints a results
-    table and writes a JSON summary. Exit 0 when every row succeeded or was skipped, 1 when
-    a row failed, 130 on Ctrl-C (running rows are stopped, nothing half-written is left).
+    and whose inputs, settings and pcnet version are unchanged is skipped. Prints a line per
+    row and per warning as rows end, then the counts, the failed rows and the warnings one line
+    each; writes a JSON summary and, beside it, a Markdown report with every row in full
+    (runs.csv.pcnet_batch.md). Exit 0 when every row succeeded or was skipped, 1 when a row
+    failed, 130 on Ctrl-C (running rows are stopped, nothing half-written is left).
     """
     from pcnet.pipeline.batch import BatchOptions, ManifestError, format_summary, run_batch
     from pcnet.pipeline.batch_ray import import_ray
@@ -482,9 +485,11 @@ def opensim(out_dir, height, mass, overwrite):
 
     Writes OUT_DIR/scaled_model.osim, ik.mot, ik_marker_errors.sto and opensim_fit.json (the
     marker errors and the fit's warning, if any) and prints the marker RMS / max error and the
-    IK speed (stages/opensim_ik.py).
+    IK speed, one line per warning and the outputs (stages/opensim_ik.py); the fit and its
+    warnings in full go into the run's report.md.
     """
     from pcnet.pipeline.outdir import is_owned, register_files, stale_staging
+    from pcnet.stages.flags import opensim_fit_findings, ranked
     from pcnet.stages.opensim_ik import import_opensim, opensim_fit_line, OUTPUTS, scale_and_ik
 
     folder = Path(out_dir)
@@ -507,15 +512,32 @@ def opensim(out_dir, height, mass, overwrite):
         raise InputError(f"{out_dir}: --overwrite replaces only OpenSim outputs pcnet wrote, got "
                          f"{', '.join(foreign)} written or changed by someone else; move them away")
     result = scale_and_ik(trc, folder, height, mass, overwrite=overwrite)
+    details = _opensim_into_report(folder, result)
     # so that `pcnet run --overwrite` still recognises the whole folder as pcnet's output
-    register_files(folder, OUTPUTS)
-    click.echo(f"model             {result['outputs']['scaled_model.osim']}")
-    click.echo(f"ik                {result['outputs']['ik.mot']}")
-    click.echo(f"marker errors     {result['outputs']['ik_marker_errors.sto']}")
-    click.echo(f"fit report        {result['outputs']['opensim_fit.json']}")
-    click.echo(f"fit               {opensim_fit_line(result)}")
-    for line in result["warnings"]:
-        click.echo(f"WARNING           {line}")
+    register_files(folder, (*OUTPUTS, details.name))
+    click.echo(f"{'fit':<17} {opensim_fit_line(result, short=True)}")
+    for f in ranked(opensim_fit_findings(result)):
+        click.echo(f"WARNING  {f.headline} -> {f.action}")
+    for name in OUTPUTS:
+        click.echo(f"{name:<17} {result['outputs'][name]}")
+    click.echo(f"details: {details}")
+
+
+def _opensim_into_report(folder: Path, result: dict) -> Path:
+    """The fit and its warnings in full (:func:`pcnet.stages.opensim_ik.opensim_markdown`)
+    as the last section of the run's report.md, replacing an earlier one; where that file
+    is missing or not pcnet's (edited since), opensim_fit.json, which holds the fit and its
+    warnings, is the details' place. Returns the file holding the details."""
+    from pcnet.pipeline.outdir import is_owned
+    from pcnet.stages.core.atomic import write_text
+    from pcnet.stages.opensim_ik import opensim_markdown, REPORT_SECTION
+    from pcnet.stages.sinks.report import REPORT_NAME
+
+    report = folder.resolve() / REPORT_NAME
+    if not is_owned(folder, REPORT_NAME):
+        return Path(result["outputs"]["opensim_fit.json"])
+    text = report.read_text(encoding="utf-8").partition(f"\n{REPORT_SECTION}\n")[0]
+    return write_text(report, text.rstrip() + "\n\n" + opensim_markdown(result))
 
 
 if __name__ == "__main__":

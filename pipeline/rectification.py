@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pcnet.models.inference import get_session
+from pcnet.models.view_gate import quarter_turn_matrices
 from pcnet.stages.core.conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import frame_blocks, in_memory
@@ -21,6 +22,7 @@ from pcnet.stages.rectify import (METHODS, Allocate, FrameEstimate, FrameEstimat
                                   Rectification, Rectified, SequenceEvidence, check_method_weights,
                                   resolve_heading_source)
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG
+from pcnet.stages.up_model import UpEvidence
 
 
 @dataclass(frozen=True)
@@ -46,14 +48,17 @@ class NetworkEstimator:
         X = check_poses(joints_cam, "joints_cam")
         session = get_session(None if self.weights is None else str(self.weights))
         if self.weights is None:
-            R, residual, valid, gate, disagreement, turns = session.predict_gated(X, fps, allocate)
+            R, residual, valid, gate, disagreement, turns, (camera_up, body_up) = session.predict_gated(X, fps, allocate)
+            evidence = UpEvidence.of(np.where(valid[:, None], camera_up, np.nan), np.where(valid[:, None], body_up, np.nan),
+                                     quarter_turn_matrices(turns) if turns.any() else None)
         else:
             residual = (allocate or in_memory)("residual", X.shape, np.float64)
             (R, residual, valid), gate, disagreement, turns = session.predict(X, residual=residual), None, None, None
+            evidence = None
         if self.rigid:
             for rows in frame_blocks(len(valid)):
                 residual[rows] = np.where(valid[rows, None, None], 0.0, np.nan)
-        return FrameEstimate(R, residual, valid, gate, disagreement, turns)
+        return FrameEstimate(R, residual, valid, gate, disagreement, turns, evidence)
 
 
 def make_estimator(method: str = "pcnet", weights: str | None = None) -> FrameEstimator:
@@ -90,10 +95,12 @@ def rectify(
     heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
     input's hip line, the canonical frame's definition) or ``auto`` (hips when they are
     precise, :func:`pcnet.stages.heading.apply_heading`); ``None`` =
-    :func:`resolve_heading_source`. ``camera_prior``: in the sequence modes, weigh the
-    pose evidence against a camera prior and a lying reading
-    (:mod:`pcnet.stages.gravity_prior`; frame mode has none, and with ``heading="predicted"``
-    and ``weights`` one 3DPCNet's ONNX it is the paper's model alone). ``report`` says what ran.
+    :func:`resolve_heading_source`. ``camera_prior``: sequence mode of the shipped pair is the
+    up model's posterior (:mod:`pcnet.stages.up_model`) with its declared camera prior and lying
+    reading; False = the poses alone (a uniform prior, upright). Other methods' sequence mode
+    is the robust mean of their per-frame ups with its bootstrap, no prior (with
+    ``heading="predicted"`` and ``weights`` one 3DPCNet's ONNX, the paper's model alone).
+    ``report`` says what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
     :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least

@@ -33,7 +33,8 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (Finding, finding, floor_flag, one_person_frames, per_frame_tilt_summary, ranked,
+from pcnet.stages.flags import (Finding, floor_flag, implausible_motion_findings, no_opensim_flag, no_world_frame_flag,
+                               note_finding, one_person_frames, opensim_fit_findings, per_frame_tilt_summary, ranked,
                                track_segments, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
@@ -44,8 +45,8 @@ from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, wr
                                       write_motion_files, write_rerun)
 from pcnet.stages.sinks.report import REPORT_NAME, report_markdown, write_report
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
-from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG, LABEL as UNCERTAINTY_LABEL, UNFAMILIAR_EVIDENCE_SCALE
-from pcnet.stages.plausibility import implausible_frames, implausible_motion, implausible_motion_flags, motion_check_note
+from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG
+from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import CameraTilt, CheckInputs, checks
@@ -76,7 +77,8 @@ WORLD_SHORT = {
 
 @dataclass
 class RunResult:
-    """What a run produced: counts, the rectification report and output paths."""
+    """What a run produced: counts, the rectification report and output paths; findings: the
+    flags as raised (:class:`pcnet.stages.flags.Finding`), notes: the notes' texts."""
 
     frames: int
     valid_frames: int
@@ -90,19 +92,24 @@ class RunResult:
     outputs: dict[str, Path] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     seconds: dict[str, float] = field(default_factory=dict)
-    flags: list[str] = field(default_factory=list)
+    findings: list[Finding] = field(default_factory=list)
     fps: float = float("nan")
     fps_source: str = ""
 
     @property
-    def findings(self) -> list[Finding]:
-        """The flags as one-line findings, most severe first (:func:`pcnet.stages.flags.ranked`)."""
-        return ranked(finding(f) for f in self.flags)
+    def flags(self) -> list[str]:
+        """The flags' full texts, as raised (``canonical.npz``'s ``flags``)."""
+        return [f.detail for f in self.findings]
+
+    @property
+    def ranked_findings(self) -> list[Finding]:
+        """The flags' findings, most severe first (:func:`pcnet.stages.flags.ranked`)."""
+        return ranked(self.findings)
 
     @property
     def note_findings(self) -> list[Finding]:
         """The notes as one-line findings (:data:`Severity.INFO`), in the order they were made."""
-        return [finding(n, note=True) for n in self.notes]
+        return [note_finding(n) for n in self.notes]
 
     def key_facts(self, long: bool = False) -> list[tuple[str, str]]:
         """``(label, text)`` of the few facts every summary states: frames, rectification,
@@ -133,7 +140,7 @@ class RunResult:
         severe first, each with the one action it asks (``WARNING <headline> -> <action>``),
         the notes one line each, the outputs, and where report.md keeps the full text."""
         lines = [f"{label:<17} {text}" for label, text in self.key_facts()]
-        lines += [f"WARNING  {f.headline} -> {f.action}" for f in self.findings]
+        lines += [f"WARNING  {f.headline} -> {f.action}" for f in self.ranked_findings]
         lines += [f"note     {n.headline}" for n in self.note_findings]
         lines += [f"{name:<17} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
         if "recording" in self.outputs:
@@ -146,7 +153,7 @@ class RunResult:
         """report.md's text (:func:`pcnet.stages.sinks.report.report_markdown`): the key facts
         in full, every finding's full text in the summary's order, every note in full, the
         rectification report's numbers and the outputs."""
-        return report_markdown(title, self.key_facts(long=True), self.findings, self.note_findings, self.report,
+        return report_markdown(title, self.key_facts(long=True), self.ranked_findings, self.note_findings, self.report,
                                [name for name in self.outputs if name != REPORT_NAME])
 
     def _per_frame_tilt(self) -> str:
@@ -214,24 +221,16 @@ class RunResult:
             label = "95 % posterior interval of the lying reading" if lying else "95 % interval"
             if other is not None:
                 label += f", widened to the {'upright' if lying else 'lying'} reading ({100 * other:.0f} %)"
-            return interval + label + self._evidence_scale(long) + ")"
-        label = "95 % posterior interval of the lying reading (camera prior)" if lying else UNCERTAINTY_LABEL
+            return interval + label + ")"
+        label = ("95 % posterior interval of the lying reading" if lying else "95 % posterior interval per axis") + \
+            " (up model, docs/up_model.md)"
         if other is not None:
             label += (f"; widened to reach the {'upright' if lying else 'lying'} reading, which keeps "
                       f"{100 * other:.0f} % of the posterior")
-        return (interval + f"{label}; bootstrap alone +- "
+        return (interval + f"{label}; the poses alone +- "
                 f"{self.report.get('camera_pitch_uncertainty_deg', float('nan')):.1f}/"
                 f"{self.report.get('camera_roll_uncertainty_deg', float('nan')):.1f}; "
-                f"evidence: {self.report.get('evidence')}{self._evidence_scale()})")
-
-    def _evidence_scale(self, long: bool = True) -> str:
-        scale = self.report.get("evidence_scale", 1.0)
-        if not scale > UNFAMILIAR_EVIDENCE_SCALE:
-            return ""
-        if not long:
-            return f"; poses unlike the training data: widened {scale:.1f}x"
-        return (f"; poses unlike the training data: the pose evidence's systematic error taken {scale:.1f}x "
-                f"the calibration set's")
+                f"evidence: {self.report.get('evidence')})")
 
 
 #: Relative difference between ``--fps`` and the video's own rate accepted as the same rate.
@@ -689,18 +688,17 @@ def _without(blocks, names: tuple[str, ...]):
             {n: np.full_like(v, np.nan) if n in names else v for n, v in k.angles.items()}))
 
 
-def _opensim(cfg: RunConfig, staged: Path, flags: list[str], notes: list[str]) -> dict[str, Path]:
+def _opensim(cfg: RunConfig, staged: Path, findings: list[Finding], notes: list[str]) -> dict[str, Path]:
     """OpenSim scaling and inverse kinematics on the staged ``world.trc`` (into ``staged``):
-    the fit's line goes to ``notes``, its warning to ``flags``; without a world frame (a
+    the fit's line goes to ``notes``, its warnings to ``findings``; without a world frame (a
     moving camera) a flag says why there is none. Returns the files written."""
     trc = staged / "world.trc"
     if not trc.is_file():
-        flags.append("no OpenSim inverse kinematics (--opensim): a moving camera (mode frame or smooth) has no fixed "
-                     "world frame and no world.trc; use --mode sequence if the camera was static")
+        findings += no_opensim_flag()
         return {}
     fit = scale_and_ik(trc, staged, cfg.height, cfg.mass)
     notes.append(opensim_fit_line(fit))
-    flags += fit["warnings"]
+    findings += opensim_fit_findings(fit)
     return {name: staged / name for name in OPENSIM_OUTPUTS}
 
 
@@ -795,13 +793,13 @@ class World:
 
     joints: ``(T, 17, 3)`` float64 world-frame poses in the store, or ``None`` without a fixed
     world frame; rotation: ``(3, 3)`` camera-to-world (NaN without); pelvis_path_std: the
-    pelvis path's spread in the world frame or ``None``; flags; notes.
+    pelvis path's spread in the world frame or ``None``; findings (flags); notes.
     """
 
     joints: np.ndarray | None
     rotation: np.ndarray
     pelvis_path_std: np.ndarray | None
-    flags: tuple[str, ...]
+    findings: tuple[Finding, ...]
     notes: tuple[str, ...]
 
     @property
@@ -964,19 +962,17 @@ def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rec
             "one valid frame: the pose is given in the canonical frame (frame mode); --mode sequence places it in a "
             "world frame with the camera prior",))
     else:
-        world = World(None, np.full((3, 3), np.nan), None, (
-            f"no fixed world frame: mode {report['mode']} (a moving camera, or one the up estimates disagree on) has "
-            f"no fixed heading, so positions, velocities and accelerations are in the per-frame canonical frame, "
-            f"which turns with the pelvis (rotating-frame terms); use --mode sequence if the camera was static",), ())
+        world = World(None, np.full((3, 3), np.nan), None, tuple(no_world_frame_flag(report["mode"])), ())
     report["kinematics_frame"] = world.frame
     return world
 
 
 def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, world: World,
-                flags: list[str], notes: list[str], store: FrameStore, tmp: Path) -> Measured:
+                findings: list[Finding], notes: list[str], store: FrameStore, tmp: Path) -> Measured:
     """The low-pass cutoff, the result the sinks write (kinematics computed a block at a time)
-    and its kinematics tables, then the checks of the filtered motion. ``flags``, ``notes``: the
-    run's lists, which the result carries and this step and the sinks add to."""
+    and its kinematics tables, then the checks of the filtered motion. ``findings``, ``notes``:
+    the run's lists, which this step adds to (the sinks add notes; the result carries the
+    findings' texts from :func:`_recording` on)."""
     fps, units, cam, report = inputs.recording.fps, scaled.units, scaled.camera.joints, rectified.report
     rectified_poses = world.joints if world.joints is not None else rectified.canonical
     cutoff = cfg.lowpass_hz
@@ -997,7 +993,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     # small enough to filter whole, and no angles to compute.
     acc_cam = filtered_derivatives(cam[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
     result = RecordingResult(
-        fps=fps, units=units, method=cfg.method, report=report, flags=flags, notes=notes, joints_camera=cam,
+        fps=fps, units=units, method=cfg.method, report=report, flags=[], notes=notes, joints_camera=cam,
         rotation=rectified.rotation, canonical=rectified.canonical, valid=rectified.valid,
         kinematics_frame=world.frame, poses=rectified_poses, world=world.joints, world_rotation=world.rotation,
         keypoints2d=scaled.camera.keypoints2d, track_segment=rectified.track_segment, video=cfg.video,
@@ -1010,7 +1006,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         notes.append("trunk_flexion_to_pelvis_deg left empty: the input's spine joint lies on the pelvis-thorax "
                      "line (built there, no spine of its own), so that angle is 0 by construction")
     table = write_kinematics_table(result, tmp, allocate=store.create)
-    flags += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
+    findings += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
     # motion no person makes (joint speeds and accelerations beyond the fitted limits)
     unchecked = motion_check_note(units, fps)
     if unchecked:
@@ -1018,7 +1014,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     else:
         implausible = implausible_motion(rectified_poses, fps, units=units)
         result.implausible_frames = implausible_frames(implausible, len(cam))
-        flags += implausible_motion_flags(implausible)
+        findings += implausible_motion_findings(implausible)
         report["implausible_frames"] = int(result.implausible_frames.sum())
     # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)
     missing_note = format_flag_counts(result.flag_counts, nonfinite_line(inputs.recording.nonfinite))
@@ -1028,21 +1024,26 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     return Measured(result, table)
 
 
-def _exports(cfg: RunConfig, measured: Measured, tmp: Path, store: FrameStore) -> dict[str, Path]:
+def _exports(cfg: RunConfig, measured: Measured, findings: list[Finding], tmp: Path,
+             store: FrameStore) -> dict[str, Path]:
     """The motion files, OpenSim's fit where asked (before the recording and the npz, which
-    carry its warning) and the figures; with the kinematics tables, the files written."""
+    carry its warning; added to ``findings``) and the figures; with the kinematics tables, the
+    files written."""
     result = measured.result
     outputs = {**measured.outputs, **write_motion_files(result, tmp, c3d=cfg.c3d, allocate=store.create)}
     _trim_heap()
     if cfg.opensim:
-        outputs.update(_opensim(cfg, tmp, result.flags, result.notes))
+        outputs.update(_opensim(cfg, tmp, findings, result.notes))
     outputs.update(write_figures(result, tmp))
     return outputs
 
 
-def _recording(cfg: RunConfig, result: RecordingResult, tmp: Path, estimated: bool) -> dict[str, Path]:
+def _recording(cfg: RunConfig, result: RecordingResult, findings: list[Finding], tmp: Path,
+               estimated: bool) -> dict[str, Path]:
     """The rerun recording where asked, then canonical.npz (last: the notes every sink added are
-    in it), and the estimator's poses when the run made them (for a re-run)."""
+    in it), and the estimator's poses when the run made them (for a re-run). Both keep the
+    ``findings``' full texts, as raised."""
+    result.flags = [f.detail for f in findings]
     outputs = write_rerun(result, tmp) if cfg.recording else {}
     outputs.update(write_arrays(result, tmp))
     if estimated:
@@ -1084,7 +1085,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
 
         step("rectify")
         rectified = _rectify(cfg, inputs, camera, store)
-        flags = checks(_check_inputs(cfg, inputs, camera, rectified))
+        findings = checks(_check_inputs(cfg, inputs, camera, rectified))
         bar.update()
 
         step("scale")
@@ -1094,26 +1095,26 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
 
         step("kinematics")
         world = _world(cfg, inputs, scaled, rectified, store)
-        flags += world.flags
+        findings += world.findings
         # the rotations on disk: only the sinks read them from here on
         rectified = replace(rectified, rotation=_moved_to_disk(rectified.rotation, "rotation", store))
         notes = [*inputs.notes, *scaled.camera.notes, *rectified.notes, *scaled.notes, *world.notes]
-        measured = _kinematics(cfg, inputs, scaled, rectified, world, flags, notes, store, tmp)
+        measured = _kinematics(cfg, inputs, scaled, rectified, world, findings, notes, store, tmp)
         bar.update()
 
         step("exports")
-        outputs = _exports(cfg, measured, tmp, store)
+        outputs = _exports(cfg, measured, findings, tmp, store)
         bar.update()
 
         step("recording")
-        outputs.update(_recording(cfg, measured.result, tmp, estimated=bool(estimate_notes)))
+        outputs.update(_recording(cfg, measured.result, findings, tmp, estimated=bool(estimate_notes)))
         bar.update()
         step("done")
         tilt = rectified.tilt
         run = RunResult(
             frames=len(scaled.camera.joints), valid_frames=int(rectified.valid.sum()), units=scaled.units,
             method=cfg.method, mode=rectified.report["mode"], camera_tilt_deg=tilt.tilt_deg,
-            camera_pitch_deg=tilt.pitch_deg, camera_roll_deg=tilt.roll_deg, flags=flags, fps=inputs.recording.fps,
+            camera_pitch_deg=tilt.pitch_deg, camera_roll_deg=tilt.roll_deg, findings=findings, fps=inputs.recording.fps,
             fps_source=inputs.recording.fps_source, report=rectified.report,
             outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
         )

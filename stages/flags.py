@@ -1,23 +1,26 @@
 """Warnings a run must not keep to itself: an input that is probably upside down or has its
 axes wrong, poses far from upright everyday movement, and a 2D track that jumps to another
-person. Each check is arrays in, plain values out; the pipeline prints them in the run
-summary and stores them in the outputs.
+person. Each check is arrays in, :class:`Finding` objects out (its kind, severity, one-line
+headline, action, full text and, where it concerns some frames only, those frames); the
+pipeline prints them in the run summary and stores their texts in the outputs.
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from enum import IntEnum
+from enum import IntEnum, auto
 
 import numpy as np
 
 from .core.canonical import trunk_lean_deg
 from .core.conventions import (L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
                                median_thigh_length)
-from .core.framestore import frame_blocks
+from .core.framestore import frame_blocks, true_runs
 from .core.rotations import camera_pitch_roll, camera_tilt_deg
+from .opensim_ik import MAX_GOOD_MARKER_RMS_M
+from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
 from .scale import height_chain_length, leg_lengths
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
@@ -37,6 +40,93 @@ NON_UPRIGHT_TRUNK_DEG = 60.0
 #: allows 0.7 torso lengths more (a 10 m/s sprint).
 SWITCH_JUMP_TORSOS = 2.0
 SWITCH_JUMP_PER_EXTRA_FRAME = 0.7
+
+
+# --- findings --------------------------------------------------------------------------------
+# Every flag is a paragraph: what was seen, why it matters, what to do. The summary prints one
+# line per finding (a headline with its numbers and the one action it asks) and report.md keeps
+# the paragraph. Each flag function below builds its own findings: it says what it found (its
+# Kind and Severity), the headline, the action and, where it concerns some frames, which.
+
+
+class Severity(IntEnum):
+    """How much a finding asks of the reader, most first (see :func:`ranked`)."""
+
+    INFO = 1  #: what was assumed or done; nothing to do unless the assumption is wrong
+    CHECK = 2  #: the result stands, but some numbers carry an error worth checking
+    PROBLEM = 3  #: the result is wrong in part (another person, swapped sides, wrong units) until acted on
+
+
+class Kind(IntEnum):
+    """What a flag is about. The declaration order is the order :func:`ranked` keeps within
+    one severity: causes before their symptoms (a track switch before the implausible speeds
+    it causes)."""
+
+    # PROBLEM: another person's poses, mirrored or swapped sides, wrong units, no output asked for
+    TRACK_SWITCH = auto()  #: :func:`track_switch_flag`
+    UPSIDE_DOWN = auto()  #: :func:`orientation_flags`
+    SIDE_SWAP = auto()  #: :func:`side_swap_flag`
+    MIRRORED = auto()  #: :func:`mirrored_skeleton_flag`
+    BODY_SIZE = auto()  #: :func:`body_size_flag`
+    OUTSIDE_IMAGE = auto()  #: :func:`keypoints_outside_image_flag`
+    SIZE_CHANGE = auto()  #: :func:`size_change_flag`
+    TOO_SHORT = auto()  #: :func:`unfiltered_flag`
+    NO_OPENSIM = auto()  #: :func:`no_opensim_flag`
+    NO_FLOOR = auto()  #: :func:`floor_flag`, no ankle anywhere
+    # CHECK: the result stands; some numbers carry an error worth checking
+    IMPLAUSIBLE_MOTION = auto()  #: :func:`implausible_motion_findings`
+    LIFTER_TURN = auto()  #: :func:`lifter_frame_flag`
+    CAMERA_TILT = auto()  #: :func:`orientation_flags`
+    LYING = auto()  #: :func:`gravity_reading_flag`
+    AMBIGUOUS_ORIENTATION = auto()  #: :func:`gravity_reading_flag`
+    QUARTER_TURN = auto()  #: :func:`orientation_flags`, :func:`view_gate_flag`
+    NON_UPRIGHT = auto()  #: :func:`non_upright_flag`
+    NO_WORLD_FRAME = auto()  #: :func:`no_world_frame_flag`
+    LEG_ASYMMETRY = auto()  #: :func:`leg_asymmetry_flag`
+    VIEWS_SET_ASIDE = auto()  #: :func:`view_gate_flag`
+    FLOOR_PARTIAL = auto()  #: :func:`floor_flag`, some frames
+    MARKER_RMS = auto()  #: :func:`opensim_fit_findings`
+    SEGMENTS_UNSCALED = auto()  #: :func:`opensim_fit_findings`
+
+
+#: Frame ranges ``(start, stop)``, stop exclusive (as :func:`pcnet.stages.core.framestore.true_runs`).
+FrameRanges = tuple[tuple[int, int], ...]
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One line of the run summary and one section of report.md.
+
+    severity: :class:`Severity`. headline: what was found, with its numbers, one short line.
+    action: the one thing it asks of the user (``""`` for a note). detail: the full text
+    (``canonical.npz``'s ``flags``/``notes``). kind: :class:`Kind` (``None``: a note, or a flag
+    of no declared kind). frames: the frames it concerns as :data:`FrameRanges`, or ``None``
+    where it concerns the recording as a whole.
+    """
+
+    severity: Severity
+    headline: str
+    action: str
+    detail: str
+    kind: Kind | None = None
+    frames: FrameRanges | None = None
+
+
+#: Characters a headline (or a shortened note) keeps at most.
+HEADLINE_WIDTH = 100
+
+
+def _clipped(text: str, width: int = HEADLINE_WIDTH) -> str:
+    """``text`` cut at a word boundary to ``width`` characters, ending in ``...``."""
+    if len(text) <= width:
+        return text
+    return text[:width - 3].rsplit(" ", 1)[0].rstrip(",;:") + "..."
+
+
+def _found(kind: Kind, severity: Severity, headline: str, action: str, detail: str,
+           frames: Iterable[tuple[int, int]] | None = None) -> Finding:
+    """A flag's :class:`Finding`, its headline cut to :data:`HEADLINE_WIDTH`."""
+    return Finding(severity, _clipped(headline), action, detail, kind, None if frames is None else tuple(frames))
 
 
 def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, float]:
@@ -88,7 +178,7 @@ def _valid_ups(up_cam: np.ndarray, valid: np.ndarray) -> np.ndarray:
 
 
 def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None, *,
-                      turn_reported: bool = False) -> list[str]:
+                      turn_reported: bool = False) -> list[Finding]:
     """Flags for a camera orientation that real recordings rarely have.
 
     The tilt is judged against the image axis nearest the up direction, as the view gate
@@ -107,31 +197,41 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
             :func:`view_gate_flag`), so it is not said again.
 
     Returns:
-        zero or one line.
+        zero or one finding.
     """
     if not np.isfinite(tilt_deg):
         return []
     oriented = pitch_deg is not None and roll_deg is not None and np.isfinite(pitch_deg) and np.isfinite(roll_deg)
     quarter = int(np.round(roll_deg / 90.0)) if oriented else 0
     if abs(quarter) == 2 or (quarter == 0 and tilt_deg > UPSIDE_DOWN_TILT_DEG):
-        return [f"up points {tilt_deg:.0f} deg away from image-up: the input is probably upside down or its "
-                f"axes are wrong (check the lifter's axis convention; --axes with --lifter generic)"]
+        return [_found(Kind.UPSIDE_DOWN, Severity.PROBLEM,
+                       f"up points {tilt_deg:.0f} deg from image-up: input upside down or its axes wrong",
+                       "check the lifter's axes (--axes with --lifter generic)",
+                       f"up points {tilt_deg:.0f} deg away from image-up: the input is probably upside down or its "
+                       f"axes are wrong (check the lifter's axis convention; --axes with --lifter generic)")]
     beyond_turn = tilt_deg if quarter == 0 else float(np.degrees(np.arccos(np.clip(
         np.cos(np.radians(pitch_deg)) * np.cos(np.radians(roll_deg - 90.0 * quarter)), -1.0, 1.0))))
     turned = "" if quarter == 0 else (f" beyond a quarter turn (roll {roll_deg:+.0f} deg, nearer a camera held in "
                                       f"portrait than a level one)")
     if beyond_turn > UNUSUAL_TILT_DEG:
-        return [f"camera tilt {beyond_turn:.0f} deg{turned}: beyond the {UNUSUAL_TILT_DEG:.0f} deg of most real cameras; "
-                f"either the camera was tilted that much or the subject is not upright (lying, seated, bent), which the "
-                f"poses alone cannot tell apart: check the result (and --axes, with --lifter generic)"]
+        return [_found(Kind.CAMERA_TILT, Severity.CHECK,
+                       f"camera tilt {beyond_turn:.0f} deg{' beyond a quarter turn' if quarter else ''}: a steep "
+                       f"camera or a subject not upright", "check the result",
+                       f"camera tilt {beyond_turn:.0f} deg{turned}: beyond the {UNUSUAL_TILT_DEG:.0f} deg of most real "
+                       f"cameras; either the camera was tilted that much or the subject is not upright (lying, seated, "
+                       f"bent), which the poses alone cannot tell apart: check the result (and --axes, with --lifter "
+                       f"generic)")]
     if quarter and not turn_reported:
-        return [f"camera read as turned a quarter turn about its optical axis (roll {roll_deg:+.0f} deg: a phone in "
-                f"portrait, or a body lying across the image under a level camera, which the poses alone cannot tell "
-                f"apart): check the result"]
+        return [_found(Kind.QUARTER_TURN, Severity.CHECK,
+                       f"camera read as turned a quarter turn (roll {roll_deg:+.0f} deg): portrait phone or lying "
+                       f"body?", "check the result",
+                       f"camera read as turned a quarter turn about its optical axis (roll {roll_deg:+.0f} deg: a "
+                       f"phone in portrait, or a body lying across the image under a level camera, which the poses "
+                       f"alone cannot tell apart): check the result")]
     return []
 
 
-def body_size_flag(joints: np.ndarray, units: str) -> list[str]:
+def body_size_flag(joints: np.ndarray, units: str) -> list[Finding]:
     """A flag when poses said to be in metres have a body no person has (median thigh
     length outside :data:`THIGH_RANGE_M`): usually millimetres or centimetres given as
     metres, or a lifter's normalised output.
@@ -146,9 +246,12 @@ def body_size_flag(joints: np.ndarray, units: str) -> list[str]:
     low, high = THIGH_RANGE_M
     if not np.isfinite(median) or low <= median <= high:
         return []
-    return [f"median thigh length {median:.3g} m is outside the {low}-{high} m a person has: the lifter output is "
-            f"probably not in metres (check --units, or give --height to scale it; with --lifter generic also "
-            f"--layout: joints in another order give other bone lengths)"]
+    return [_found(Kind.BODY_SIZE, Severity.PROBLEM,
+                   f"median thigh {median:.3g} m, no person's: the poses are probably not in metres",
+                   "check --units, or give --height",
+                   f"median thigh length {median:.3g} m is outside the {low}-{high} m a person has: the lifter output "
+                   f"is probably not in metres (check --units, or give --height to scale it; with --lifter generic "
+                   f"also --layout: joints in another order give other bone lengths)")]
 
 
 #: Relative difference of the left and right legs' lengths (hip -> knee -> ankle, medians over
@@ -158,7 +261,7 @@ def body_size_flag(joints: np.ndarray, units: str) -> list[str]:
 LEG_ASYMMETRY = 0.10
 
 
-def leg_asymmetry_flag(joints: np.ndarray) -> list[str]:
+def leg_asymmetry_flag(joints: np.ndarray) -> list[Finding]:
     """A flag when the left and right legs of H36M-17 poses ``(T, 17, 3)`` (any units) differ
     in length by more than :data:`LEG_ASYMMETRY` (medians over frames of hip -> knee plus
     knee -> ankle): heights above the floor and left/right comparisons then carry the
@@ -172,9 +275,13 @@ def leg_asymmetry_flag(joints: np.ndarray) -> list[str]:
     if difference <= LEG_ASYMMETRY:
         return []
     shorter = "right" if right < left else "left"
-    return [f"the lifter's left and right legs differ by {100 * difference:.0f} % in length (median over frames; the "
-            f"{shorter} one shorter), more than a person's: heights above the floor (set by the lowest joint) and "
-            f"left/right comparisons carry the lifter's error"]
+    return [_found(Kind.LEG_ASYMMETRY, Severity.CHECK,
+                   f"lifter's legs differ {100 * difference:.0f} % in length ({shorter} shorter): floor heights "
+                   f"carry it",
+                   "compare left and right with care",
+                   f"the lifter's left and right legs differ by {100 * difference:.0f} % in length (median over "
+                   f"frames; the {shorter} one shorter), more than a person's: heights above the floor (set by the "
+                   f"lowest joint) and left/right comparisons carry the lifter's error")]
 
 
 #: Ratio of the 95th to the 5th percentile of the per-frame ankle-to-head chain
@@ -186,7 +293,7 @@ def leg_asymmetry_flag(joints: np.ndarray) -> list[str]:
 SIZE_CHANGE_RATIO = 1.5
 
 
-def size_change_flag(joints: np.ndarray) -> list[str]:
+def size_change_flag(joints: np.ndarray) -> list[Finding]:
     """A flag when the body of metric H36M-17 poses ``(T, 17, 3)`` changes size over the
     recording by more than :data:`SIZE_CHANGE_RATIO` (5th to 95th percentile of the
     ankle-to-head chain): a real body keeps its size, so the lifter fails, or its output
@@ -203,11 +310,14 @@ def size_change_flag(joints: np.ndarray) -> list[str]:
     if p95 / p5 <= SIZE_CHANGE_RATIO:
         return []
     off = 100 * min(p95 / p50 - 1, 1 - p5 / p50)  # both tails, so a tenth of the frames
-    return [f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of the "
-            f"ankle-to-head chain; a body keeps its size): the lifter fails, or its output is in image units "
-            f"(declare them: --units normalised or px with --lifter generic, and pcnet makes the size constant "
-            f"per frame). One scale factor (the median) leaves a tenth of the frames' positions, speeds and bone "
-            f"lengths off by more than {off:.0f} % in the metric exports"]
+    return [_found(Kind.SIZE_CHANGE, Severity.PROBLEM,
+                   f"skeleton size changes {p95 / p5:.1f}-fold; a tenth of the frames off by > {off:.0f} %",
+                   "declare image units (--units) or check the lifter",
+                   f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of "
+                   f"the ankle-to-head chain; a body keeps its size): the lifter fails, or its output is in image "
+                   f"units (declare them: --units normalised or px with --lifter generic, and pcnet makes the size "
+                   f"constant per frame). One scale factor (the median) leaves a tenth of the frames' positions, "
+                   f"speeds and bone lengths off by more than {off:.0f} % in the metric exports")]
 
 
 #: A hip or shoulder pair counts towards the side check where its left-right extent along
@@ -222,7 +332,7 @@ SIDE_SWAP_SHARE = 0.5
 SIDE_MIN_PAIRS = 10
 
 
-def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> list[str]:
+def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> list[Finding]:
     """A flag when the 3D lifter's left and right contradict the 2D keypoints'.
 
     Both are in the camera's view: the 2D keypoints in pixels (x right) and the 3D poses in
@@ -251,9 +361,12 @@ def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> list[str]
         contradicted += int((np.sign(d2[sure]) != np.sign(d3[sure])).sum())
     if counted < SIDE_MIN_PAIRS or contradicted <= SIDE_SWAP_SHARE * counted:
         return []
-    return [f"the 3D poses' left and right contradict the 2D keypoints' in {contradicted} of {counted} hip and "
-            f"shoulder pairs seen across the image: the 3D output's sides are probably swapped (its joint order or "
-            f"--layout), so the body faces the wrong way and its knees bend backwards"]
+    return [_found(Kind.SIDE_SWAP, Severity.PROBLEM,
+                   f"3D left/right contradict the 2D keypoints in {contradicted} of {counted} pairs: sides swapped",
+                   "check the joint order (--layout)",
+                   f"the 3D poses' left and right contradict the 2D keypoints' in {contradicted} of {counted} hip "
+                   f"and shoulder pairs seen across the image: the 3D output's sides are probably swapped (its joint "
+                   f"order or --layout), so the body faces the wrong way and its knees bend backwards")]
 
 
 #: Share of frames with the nose in front of the thorax (along the trunk's forward normal,
@@ -278,7 +391,7 @@ MIRRORED_NOSE_MARGIN = 0.03
 OUTSIDE_IMAGE_SHARE = 0.2
 
 
-def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], margin: float) -> list[str]:
+def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], margin: float) -> list[Finding]:
     """A WARNING when more than :data:`OUTSIDE_IMAGE_SHARE` of the present 2D keypoints lie
     outside the video's frame, widened by ``margin`` (a share of its width and height) on
     every side.
@@ -302,12 +415,16 @@ def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], margi
         outside += int((out_x | out_y).sum())
     if not present or outside <= OUTSIDE_IMAGE_SHARE * present:
         return []
-    return [f"{100 * outside / present:.0f} % of the 2D keypoints lie outside the video's {w}x{h} frame: keypoints "
-            f"of another video, resolution or crop? the left/right and track-switch checks and the recording's "
-            f"overlay rest on them"]
+    share = 100 * outside / present
+    return [_found(Kind.OUTSIDE_IMAGE, Severity.PROBLEM,
+                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} video: another video or crop?",
+                   "check the 2D file belongs to this video",
+                   f"{share:.0f} % of the 2D keypoints lie outside the video's {w}x{h} frame: keypoints of another "
+                   f"video, resolution or crop? the left/right and track-switch checks and the recording's overlay "
+                   f"rest on them")]
 
 
-def mirrored_skeleton_flag(joints_cam: np.ndarray) -> list[str]:
+def mirrored_skeleton_flag(joints_cam: np.ndarray) -> list[Finding]:
     """A flag when the 3D poses are a mirror image of a body: the nose sits behind the
     thorax in most frames.
 
@@ -338,9 +455,13 @@ def mirrored_skeleton_flag(joints_cam: np.ndarray) -> list[str]:
     if counted < MIRRORED_MIN_FRAMES or ahead >= MIRRORED_NOSE_SHARE * counted \
             or np.median(depth) >= -MIRRORED_NOSE_MARGIN:
         return []
-    return [f"the 3D skeleton is a mirror image of a body (its nose behind the thorax in {counted - ahead} of "
-            f"{counted} frames): its depth axis has the wrong sign (--axes) or its left and right are exchanged "
-            f"(--layout), so every sagittal angle has the wrong sign"]
+    behind = counted - ahead
+    return [_found(Kind.MIRRORED, Severity.PROBLEM,
+                   f"3D skeleton mirrored (nose behind the thorax in {behind} of {counted} frames): angles flip sign",
+                   "check --axes and --layout",
+                   f"the 3D skeleton is a mirror image of a body (its nose behind the thorax in {behind} of "
+                   f"{counted} frames): its depth axis has the wrong sign (--axes) or its left and right are "
+                   f"exchanged (--layout), so every sagittal angle has the wrong sign")]
 
 
 def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:
@@ -362,23 +483,26 @@ def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:
     return float(np.mean(lean[ok] > NON_UPRIGHT_TRUNK_DEG))
 
 
-def non_upright_flag(canonical: np.ndarray, valid: np.ndarray) -> list[str]:
+def non_upright_flag(canonical: np.ndarray, valid: np.ndarray) -> list[Finding]:
     """A flag when most valid frames are not upright (:func:`non_upright_fraction` > 0.5)."""
     share = non_upright_fraction(canonical, valid)
     if not share > 0.5:
         return []
-    return [f"the trunk is more than {NON_UPRIGHT_TRUNK_DEG:.0f} deg from vertical in {100 * share:.0f} % of frames "
-            f"(lying, crawling or inverted?): such poses are far from the networks' upright training data, so the up "
-            f"direction is uncertain"]
+    return [_found(Kind.NON_UPRIGHT, Severity.CHECK,
+                   f"trunk beyond {NON_UPRIGHT_TRUNK_DEG:.0f} deg from vertical in {100 * share:.0f} % of frames: up "
+                   f"direction uncertain", "check the result",
+                   f"the trunk is more than {NON_UPRIGHT_TRUNK_DEG:.0f} deg from vertical in {100 * share:.0f} % of "
+                   f"frames (lying, crawling or inverted?): such poses are far from the networks' upright training "
+                   f"data, so the up direction is uncertain")]
 
 
 #: Posterior probability of the lying reading from which the other reading is also named.
 AMBIGUOUS_READING_P = 0.1
 
 
-def gravity_reading_flag(gravity: dict | None) -> list[str]:
-    """A flag for sequence mode's camera-prior posterior
-    (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report`): the body was read as
+def gravity_reading_flag(gravity: dict | None) -> list[Finding]:
+    """A flag for sequence mode's reading of the up model's posterior (the report's
+    ``gravity``, :func:`pcnet.stages.rectify.up_model_sequence`): the body was read as
     lying (up from the camera prior, not from the pose), or the other reading kept a
     posterior probability of at least :data:`AMBIGUOUS_READING_P`. ``None`` (frame or
     smooth mode, or no camera prior) gives none."""
@@ -386,16 +510,23 @@ def gravity_reading_flag(gravity: dict | None) -> list[str]:
         return []
     p = gravity["p_lying"]
     if gravity["reading"] == "lying":
-        return [f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is taken "
-                f"from the camera prior (near level; the true up within a {gravity['interval_deg']:.0f} deg cone, 95 %, if the "
-                f"camera is not upside down: a supine body under an upside-down camera reads as prone) across the trunk; "
-                f"a body standing straight under a camera rolled 90 deg looks the same (pass --no-camera-prior if so; a "
-                f"phone video's display rotation tells when --video is given with the 2D keypoints), and so does a "
-                f"file whose up axis is declared wrongly (check --axes with --lifter generic)"]
+        return [_found(Kind.LYING, Severity.CHECK,
+                       f"body read as lying (posterior {100 * p:.0f} %): up taken from the priors",
+                       "--no-camera-prior if standing under a rolled camera",
+                       f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is "
+                       f"taken from the camera prior (near level; the true up within a "
+                       f"{gravity['interval_deg']:.0f} deg cone, 95 %, if the camera is not upside down: a supine "
+                       f"body under an upside-down camera reads as prone) across the trunk; a body standing straight "
+                       f"under a camera rolled 90 deg looks the same (pass --no-camera-prior if so; a phone video's "
+                       f"display rotation tells when --video is given with the 2D keypoints), and so does a file "
+                       f"whose up axis is declared wrongly (check --axes with --lifter generic)")]
     if p >= AMBIGUOUS_READING_P:
-        return [f"ambiguous body orientation: read as upright, but a lying body under a level camera keeps "
-                f"{100 * p:.0f} % posterior probability (pose-based up {gravity['pose_camera_angle_deg']:.0f} deg "
-                f"from a level camera's)"]
+        return [_found(Kind.AMBIGUOUS_ORIENTATION, Severity.CHECK,
+                       f"ambiguous orientation: read upright, but lying keeps {100 * p:.0f} % posterior",
+                       "check the result",
+                       f"ambiguous body orientation: read as upright, but a lying body under a level camera keeps "
+                       f"{100 * p:.0f} % posterior probability (pose-based up "
+                       f"{gravity['pose_camera_angle_deg']:.0f} deg from a level camera's)")]
     return []
 
 
@@ -411,7 +542,7 @@ def quarter_turn_reported(view_gate: dict | None) -> bool:
     return sum(view_gate.get("turned_frames", {}).values()) > OUTSIDE_VIEWS_SHARE * view_gate["frames"]
 
 
-def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[str]:
+def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[Finding]:
     """Flags from the view gate's report (:func:`pcnet.stages.rectify.gate_report`), each
     when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the camera
     read as turned by 90 or 270 deg about its optical axis (the camera-frame network read
@@ -423,27 +554,35 @@ def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[str]:
     if not view_gate or not view_gate["frames"]:
         return []
     flags = []
-    turned = view_gate.get("turned_frames", {})
+    turned, frames = view_gate.get("turned_frames", {}), view_gate["frames"]
     if quarter_turn_reported(view_gate):
         counts = ", ".join(f"{deg} deg: {n}" for deg, n in turned.items() if n)
-        flags.append(f"camera read as turned a quarter turn about its optical axis (a phone in portrait, or a body "
-                     f"lying across the image) in {sum(turned.values())} of {view_gate['frames']} frames "
-                     f"({counts}): the camera-frame network read those poses turned back (models/view_gate.py: "
-                     f"quarter_turns)" + ("; the camera prior then read the body as lying under a level camera "
-                                          "instead, and that reading is the answer (the 'body read as lying' "
-                                          "warning)" if lying else ""))
+        flags.append(_found(
+            Kind.QUARTER_TURN, Severity.CHECK,
+            f"camera read as turned a quarter turn in {sum(turned.values())} of {frames} frames: portrait phone or "
+            f"lying body?", "check the result",
+            f"camera read as turned a quarter turn about its optical axis (a phone in portrait, or a body lying "
+            f"across the image) in {sum(turned.values())} of {frames} frames ({counts}): the camera-frame network "
+            f"read those poses turned back (models/view_gate.py: quarter_turns)"
+            + ("; the camera prior then read the body as lying under a level camera instead, and that reading is "
+               "the answer (the 'body read as lying' warning)" if lying else "")))
     outside = view_gate["body_frame_frames"] + view_gate["blended_frames"]
-    if outside <= OUTSIDE_VIEWS_SHARE * view_gate["frames"]:
+    if outside <= OUTSIDE_VIEWS_SHARE * frames:
         return flags
-    return flags + [f"camera-frame network set aside, wholly or in part, in {outside} of {view_gate['frames']} frames: the body-frame network read the "
-            f"camera as rolled beyond 10-20 deg or pitched beyond 40-50 deg after any quarter turn, and the camera-frame network's "
-            f"own reading did not vouch for it (a rolled or steep camera, "
-            f"or a body leaning sideways, upside down or across the image; the poses alone cannot tell which): the "
-            f"rotation-equivariant body-frame network was used there ({view_gate['body_frame_frames']} frames alone, "
-            f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)"]
+    return flags + [_found(
+        Kind.VIEWS_SET_ASIDE, Severity.CHECK,
+        f"camera-frame network set aside in {outside} of {frames} frames: less accurate up there",
+        "see camera_frame_weight",
+        f"camera-frame network set aside, wholly or in part, in {outside} of {frames} frames: the body-frame network "
+        f"read the camera as rolled beyond 10-20 deg or pitched beyond 40-50 deg after any quarter turn, and the "
+        f"camera-frame network's own reading did not vouch for it (a rolled or steep camera, or a body leaning "
+        f"sideways, upside down or across the image; the poses alone cannot tell which): the rotation-equivariant "
+        f"body-frame network was used there ({view_gate['body_frame_frames']} frames alone, "
+        f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)")]
 
 
-def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float, cutoff_hz: float | None) -> list[str]:
+def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,
+                    cutoff_hz: float | None) -> list[Finding]:
     """A flag when no joint position could be low-pass filtered: every run of present frames
     is shorter than the filter needs (:func:`pcnet.stages.kinematics.butterworth_lowpass`), so
     positions are raw and there are no velocities or accelerations.
@@ -454,28 +593,38 @@ def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float, cut
     present = ~np.asarray(missing, bool)
     if cutoff_hz is None or not present.any() or not np.asarray(unfiltered, bool)[present].all():
         return []
-    return [f"too short to filter: no run of present frames is longer than the {cutoff_hz:g} Hz low-pass filter "
-            f"needs at {fps:g} fps ({len(present)} frames), so positions are raw and no velocity or acceleration "
-            f"is given"]
+    return [_found(Kind.TOO_SHORT, Severity.PROBLEM,
+                   f"too short to filter ({len(present)} frames): raw positions, no velocity or acceleration",
+                   "use a longer recording",
+                   f"too short to filter: no run of present frames is longer than the {cutoff_hz:g} Hz low-pass "
+                   f"filter needs at {fps:g} fps ({len(present)} frames), so positions are raw and no velocity or "
+                   f"acceleration is given")]
 
 
-def floor_flag(feet_visible: np.ndarray, present: np.ndarray) -> list[str]:
+def floor_flag(feet_visible: np.ndarray, present: np.ndarray) -> list[Finding]:
     """A flag when frames with a pose show no ankle, so the world frame's floor was not seen
     there (:func:`pcnet.stages.world_frame.floor_heights`): heights interpolated from the
-    frames that saw it, or, with no ankle anywhere, relative to the pelvis.
+    frames that saw it (the finding's frames), or, with no ankle anywhere, relative to the
+    pelvis.
 
     Args:
         feet_visible, present: ``(T,)`` bool: an ankle is finite; any joint is finite.
     """
-    missing = int((present & ~feet_visible).sum())
-    total = int(present.sum())
+    unseen = present & ~feet_visible
+    missing, total = int(unseen.sum()), int(present.sum())
     if not missing:
         return []
     if missing == total:
-        return ["no ankle visible in any frame: no floor, so world-frame heights are relative to the pelvis "
-                "(y = 0 at the pelvis), not to the ground"]
-    return [f"no ankle visible in {missing} of {total} frames: the floor was not seen there, so the pelvis's height "
-            f"above it is interpolated from the nearest frames that saw it"]
+        return [_found(Kind.NO_FLOOR, Severity.PROBLEM,
+                       "no ankle in any frame: heights are relative to the pelvis, not the ground",
+                       "read heights as pelvis-relative",
+                       "no ankle visible in any frame: no floor, so world-frame heights are relative to the pelvis "
+                       "(y = 0 at the pelvis), not to the ground")]
+    return [_found(Kind.FLOOR_PARTIAL, Severity.CHECK,
+                   f"no ankle in {missing} of {total} frames: the floor height is interpolated there",
+                   "read heights there as estimates",
+                   f"no ankle visible in {missing} of {total} frames: the floor was not seen there, so the pelvis's "
+                   f"height above it is interpolated from the nearest frames that saw it", true_runs(unseen))]
 
 
 def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, list[tuple[int, float]]]:
@@ -516,7 +665,7 @@ def _deg_range(low: float, high: float) -> str:
     return f"{low:.0f} deg" if f"{low:.0f}" == f"{high:.0f}" else f"{low:.0f}-{high:.0f} deg"
 
 
-def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str = "95 % interval") -> list[str]:
+def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str = "95 % interval") -> list[Finding]:
     """A flag when an adapter turned the lifter's output into the camera frame by more than
     the run's own tilt uncertainty (``tolerance_deg``: the larger of the camera pitch and
     roll 95 % half-widths, or the per-frame bound where no interval is printed;
@@ -532,11 +681,14 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str =
     """
     if not (turn_deg > 0 and np.isfinite(tolerance_deg)) or turn_deg <= tolerance_deg:
         return []
-    return [f"the lifter's output was turned by a median {turn_deg:.1f} deg into the real camera (MediaPipe's "
-            f"landmarks taken as seen from a virtual camera aimed at the person, an assumption the file cannot "
-            f"confirm), more than the tilt's stated uncertainty ({tolerance_deg:.1f} deg, {tolerance_is}): the camera tilt may be off "
-            f"by up to about the turn; give the video's true focal length (--focal-px), or compare a run with the "
-            f"person near the image centre"]
+    return [_found(Kind.LIFTER_TURN, Severity.CHECK,
+                   f"lifter output turned {turn_deg:.1f} deg into the camera, beyond the tilt's {tolerance_deg:.1f} "
+                   f"deg uncertainty", "give --focal-px",
+                   f"the lifter's output was turned by a median {turn_deg:.1f} deg into the real camera (MediaPipe's "
+                   f"landmarks taken as seen from a virtual camera aimed at the person, an assumption the file cannot "
+                   f"confirm), more than the tilt's stated uncertainty ({tolerance_deg:.1f} deg, {tolerance_is}): the "
+                   f"camera tilt may be off by up to about the turn; give the video's true focal length "
+                   f"(--focal-px), or compare a run with the person near the image centre")]
 
 
 def one_person_frames(segment: np.ndarray) -> np.ndarray:
@@ -549,8 +701,10 @@ def one_person_frames(segment: np.ndarray) -> np.ndarray:
     return segment == int(np.argmax(np.bincount(segment)))
 
 
-def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *, person_option: bool = True) -> list[str]:
-    """A one-line flag naming the jumps and the frames outside the longest stretch.
+def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
+                      person_option: bool = True) -> list[Finding]:
+    """A flag naming the jumps and the frames outside the longest stretch (the finding's
+    frames: probably another person).
 
     Args:
         segment: ``(T,)`` int, :func:`track_segments`'s stretch of each frame.
@@ -562,192 +716,103 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *, p
         return []
     main_frames = one_person_frames(segment)
     main = int(segment[np.argmax(main_frames)])
-    suspect = np.flatnonzero(~main_frames)
+    suspect = int((~main_frames).sum())
     jumps = ", ".join(f"frame {f} ({j:.1f} torso lengths)" for f, j in events[:5])
     more = f" and {len(events) - 5} more" if len(events) > 5 else ""
     advice = ("check --person" if person_option else
               "this 2D format has one track: re-run the tracker on one person, or leave those frames out")
-    return [f"2D track probably switches person: jumps at {jumps}{more}; {len(suspect)} frames lie outside the "
-            f"longest stretch (track_segment != {main} in canonical.npz and kinematics.csv); {advice}"]
+    at = f"frame{'s' * (len(events) > 1)} {', '.join(str(f) for f, _ in events[:5])}{more}"
+    return [_found(Kind.TRACK_SWITCH, Severity.PROBLEM,
+                   f"2D track switches person at {at}; {suspect} frames probably someone else",
+                   "check --person" if person_option else f"track one person, or drop track_segment != {main}",
+                   f"2D track probably switches person: jumps at {jumps}{more}; {suspect} frames lie outside the "
+                   f"longest stretch (track_segment != {main} in canonical.npz and kinematics.csv); {advice}",
+                   true_runs(~main_frames))]
 
 
-# --- the run summary's findings -------------------------------------------------------------
-# Every flag above is a paragraph: what was seen, why it matters, what to do. The summary
-# prints one line per finding (a headline with its numbers and the one action it asks) and
-# report.md keeps the paragraph. The flag functions (and those of stages/plausibility.py,
-# stages/opensim_ik.py and the runner) return their paragraphs as before; the table below,
-# keyed by how each kind of paragraph begins, turns them into findings.
+def no_world_frame_flag(mode: str) -> list[Finding]:
+    """The flag of a run without a fixed world frame (mode ``frame`` or ``smooth``): its
+    kinematics are in the per-frame canonical frame."""
+    return [_found(Kind.NO_WORLD_FRAME, Severity.CHECK,
+                   f"no fixed world frame (mode {mode}): kinematics in the canonical frame, which turns",
+                   "--mode sequence if the camera was static",
+                   f"no fixed world frame: mode {mode} (a moving camera, or one the up estimates disagree on) has no "
+                   f"fixed heading, so positions, velocities and accelerations are in the per-frame canonical frame, "
+                   f"which turns with the pelvis (rotating-frame terms); use --mode sequence if the camera was static")]
 
 
-class Severity(IntEnum):
-    """How much a finding asks of the reader, most first (see :func:`ranked`)."""
-
-    INFO = 1  #: what was assumed or done; nothing to do unless the assumption is wrong
-    CHECK = 2  #: the result stands, but some numbers carry an error worth checking
-    PROBLEM = 3  #: the result is wrong in part (another person, swapped sides, wrong units) until acted on
-
-
-@dataclass(frozen=True)
-class Finding:
-    """One line of the run summary and one section of report.md.
-
-    severity: :class:`Severity`. headline: what was found, with its numbers, one short line.
-    action: the one thing it asks of the user (``""`` for a note). detail: the full text
-    (the flag or note as the stage wrote it; ``canonical.npz``'s ``flags``/``notes``).
-    """
-
-    severity: Severity
-    headline: str
-    action: str
-    detail: str
+def no_opensim_flag() -> list[Finding]:
+    """The flag of ``--opensim`` without a world frame: no ``world.trc``, so no inverse kinematics."""
+    return [_found(Kind.NO_OPENSIM, Severity.PROBLEM,
+                   "no OpenSim IK: a moving camera (mode frame/smooth) has no world.trc",
+                   "--mode sequence if the camera was static",
+                   "no OpenSim inverse kinematics (--opensim): a moving camera (mode frame or smooth) has no fixed "
+                   "world frame and no world.trc; use --mode sequence if the camera was static")]
 
 
-@dataclass(frozen=True)
-class _Kind:
-    """A kind of flag or note: ``pattern`` matches its text from the start (``re.match``,
-    DOTALL); ``headline`` builds the short line from the match; ``action`` is the one thing
-    it asks (a string, or a function of the match)."""
-
-    pattern: str
-    severity: Severity
-    headline: Callable[[re.Match], str]
-    action: str | Callable[[re.Match], str] = ""
-
-
-def _frames_of(jumps: str, more: str | None) -> str:
-    frames = re.findall(r"frame (\d+)", jumps)
-    return f"frame{'s' * (len(frames) > 1 or bool(more))} {', '.join(frames)}{more or ''}"
-
-
-def _few_ranges(text: str, shown: int = 3) -> str:
-    """``"frames 4-5, 66-73, 116, 136-138 and 2 more ranges"`` -> the first ``shown`` ranges
-    and how many more."""
-    head, _, rest = text.partition(" ")
-    listed, _, more = rest.partition(" and ")
-    ranges = listed.split(", ")
-    extra = len(ranges) - shown + (int(more.split()[0]) if more else 0)
-    if extra <= 0:
-        return text
-    return f"{head} {', '.join(ranges[:shown])} +{extra} more"
+def implausible_motion_findings(found: Sequence[ImplausibleMotion],
+                                limits: MotionLimits | None = None) -> list[Finding]:
+    """One finding per quantity (speed, acceleration) of
+    :func:`pcnet.stages.plausibility.implausible_motion`'s runs: the full text of
+    :func:`pcnet.stages.plausibility.implausible_motion_flags`, a headline with the first two
+    frame ranges and the joint furthest beyond its limit, and all the runs' frames merged."""
+    details = implausible_motion_flags(found, limits)  # one per quantity found, in QUANTITIES' order
+    out = []
+    for quantity, detail in zip([q for q in QUANTITIES if any(f.quantity == q for f in found)], details):
+        mine = [f for f in found if f.quantity == quantity]
+        over = np.zeros(max(f.last_frame for f in mine) + 1, bool)
+        for f in mine:
+            over[f.first_frame:f.last_frame + 1] = True
+        runs = true_runs(over)
+        where = ", ".join(f"{a}" if b == a + 1 else f"{a}-{b - 1}" for a, b in runs[:2])
+        where = (f"frame{'s' * (len(runs) > 1 or runs[0][1] > runs[0][0] + 1)} {where}"
+                 + (f" +{len(runs) - 2} more" if len(runs) > 2 else ""))
+        worst = max(mine, key=lambda f: f.peak / f.limit)
+        digits = 1 if quantity == "speed" else 0
+        out.append(_found(Kind.IMPLAUSIBLE_MOTION, Severity.CHECK,
+                          f"implausible {quantity} in {where}: {worst.joint.replace('_', ' ')} "
+                          f"{worst.peak:.{digits}f} {worst.unit} (limit {worst.limit:.{digits + 1}f})",
+                          "leave implausible_frames out", detail, runs))
+    return out
 
 
-#: The kinds of flags and notes, in the order :func:`ranked` keeps within one severity.
-#: Texts no kind matches get :func:`shortened` and a pointer to report.md.
-KINDS: tuple[_Kind, ...] = (
-    # PROBLEM: another person's poses, mirrored or swapped sides, wrong units, no output asked for
-    _Kind(r"2D track probably switches person: jumps at (?P<jumps>[^;]*?)(?P<more> and \d+ more)?; "
-          r"(?P<outside>\d+) frames lie outside the longest stretch \(track_segment != (?P<main>\d+)",
-          Severity.PROBLEM,
-          lambda m: f"2D track switches person at {_frames_of(m['jumps'], m['more'])}; {m['outside']} frames "
-                    f"probably someone else",
-          lambda m: ("check --person" if m.string.endswith("check --person") else
-                     f"track one person, or drop track_segment != {m['main']}")),
-    _Kind(r"up points (?P<deg>\d+) deg away from image-up", Severity.PROBLEM,
-          lambda m: f"up points {m['deg']} deg from image-up: input upside down or its axes wrong",
-          "check the lifter's axes (--axes with --lifter generic)"),
-    _Kind(r"the 3D poses' left and right contradict the 2D keypoints' in (?P<n>\d+) of (?P<of>\d+)", Severity.PROBLEM,
-          lambda m: f"3D left/right contradict the 2D keypoints in {m['n']} of {m['of']} pairs: sides swapped",
-          "check the joint order (--layout)"),
-    _Kind(r"the 3D skeleton is a mirror image of a body \(its nose behind the thorax in (?P<n>\d+) of (?P<of>\d+)",
-          Severity.PROBLEM,
-          lambda m: f"3D skeleton mirrored (nose behind the thorax in {m['n']} of {m['of']} frames): angles flip sign",
-          "check --axes and --layout"),
-    _Kind(r"median thigh length (?P<m>\S+) m is outside", Severity.PROBLEM,
-          lambda m: f"median thigh {m['m']} m, no person's: the poses are probably not in metres",
-          "check --units, or give --height"),
-    _Kind(r"(?P<pct>\d+) % of the 2D keypoints lie outside the video's (?P<size>\S+) frame", Severity.PROBLEM,
-          lambda m: f"{m['pct']} % of the 2D keypoints lie outside the {m['size']} video: another video or crop?",
-          "check the 2D file belongs to this video"),
-    _Kind(r"the skeleton's size changes (?P<fold>\S+)-fold.*off by more than (?P<off>\d+) %", Severity.PROBLEM,
-          lambda m: f"skeleton size changes {m['fold']}-fold; a tenth of the frames off by > {m['off']} %",
-          "declare image units (--units) or check the lifter"),
-    _Kind(r"too short to filter: .*\((?P<frames>\d+) frames\)", Severity.PROBLEM,
-          lambda m: f"too short to filter ({m['frames']} frames): raw positions, no velocity or acceleration",
-          "use a longer recording"),
-    _Kind(r"no OpenSim inverse kinematics", Severity.PROBLEM,
-          lambda m: "no OpenSim IK: a moving camera (mode frame/smooth) has no world.trc",
-          "--mode sequence if the camera was static"),
-    _Kind(r"no ankle visible in any frame", Severity.PROBLEM,
-          lambda m: "no ankle in any frame: heights are relative to the pelvis, not the ground",
-          "read heights as pelvis-relative"),
-    # CHECK: the result stands; some numbers carry an error worth checking
-    _Kind(r"joint (?P<q>speed|acceleration) beyond human limits in (?P<frames>frames? [^:]*): "
-          r"(?P<joint>[a-z ]+?) (?P<peak>\S+) (?P<unit>\S+) at frame \d+ \(limit (?P<limit>\S+)\)", Severity.CHECK,
-          lambda m: f"implausible {m['q']} in {_few_ranges(m['frames'], 2)}: {m['joint']} {m['peak']} {m['unit']} "
-                    f"(limit {m['limit']})",
-          "leave implausible_frames out"),
-    _Kind(r"the lifter's output was turned by a median (?P<turn>\S+) deg .*uncertainty \((?P<tol>\S+) deg",
-          Severity.CHECK,
-          lambda m: f"lifter output turned {m['turn']} deg into the camera, beyond the tilt's {m['tol']} deg "
-                    f"uncertainty",
-          "give --focal-px"),
-    _Kind(r"camera tilt (?P<deg>\d+) deg(?P<turned> beyond a quarter turn)?", Severity.CHECK,
-          lambda m: f"camera tilt {m['deg']} deg{m['turned'] or ''}: a steep camera or a subject not upright",
-          "check the result"),
-    _Kind(r"body read as lying \(posterior (?P<p>\d+) %\)", Severity.CHECK,
-          lambda m: f"body read as lying (posterior {m['p']} %): up taken from the camera prior",
-          "--no-camera-prior if standing under a rolled camera"),
-    _Kind(r"ambiguous body orientation: .*keeps (?P<p>\d+) % posterior", Severity.CHECK,
-          lambda m: f"ambiguous orientation: read upright, but lying keeps {m['p']} % posterior",
-          "check the result"),
-    _Kind(r"camera read as turned a quarter turn about its optical axis \(roll (?P<roll>\S+) deg", Severity.CHECK,
-          lambda m: f"camera read as turned a quarter turn (roll {m['roll']} deg): portrait phone or lying body?",
-          "check the result"),
-    _Kind(r"camera read as turned a quarter turn .* in (?P<n>\d+) of (?P<of>\d+) frames", Severity.CHECK,
-          lambda m: f"camera read as turned a quarter turn in {m['n']} of {m['of']} frames: portrait phone or "
-                    f"lying body?",
-          "check the result"),
-    _Kind(r"the trunk is more than (?P<deg>\d+) deg from vertical in (?P<pct>\d+) % of frames", Severity.CHECK,
-          lambda m: f"trunk beyond {m['deg']} deg from vertical in {m['pct']} % of frames: up direction uncertain",
-          "check the result"),
-    _Kind(r"no fixed world frame: mode (?P<mode>\w+)", Severity.CHECK,
-          lambda m: f"no fixed world frame (mode {m['mode']}): kinematics in the canonical frame, which turns",
-          "--mode sequence if the camera was static"),
-    _Kind(r"the lifter's left and right legs differ by (?P<pct>\d+) % .*the (?P<side>\w+) one shorter",
-          Severity.CHECK,
-          lambda m: f"lifter's legs differ {m['pct']} % in length ({m['side']} shorter): floor heights carry it",
-          "compare left and right with care"),
-    _Kind(r"camera-frame network set aside, wholly or in part, in (?P<n>\d+) of (?P<of>\d+) frames", Severity.CHECK,
-          lambda m: f"camera-frame network set aside in {m['n']} of {m['of']} frames: less accurate up there",
-          "see camera_frame_weight"),
-    _Kind(r"no ankle visible in (?P<n>\d+) of (?P<of>\d+) frames", Severity.CHECK,
-          lambda m: f"no ankle in {m['n']} of {m['of']} frames: the floor height is interpolated there",
-          "read heights there as estimates"),
-    _Kind(r"marker RMS (?P<rms>\S+) cm \(max (?P<max>\S+) cm\)", Severity.CHECK,
-          lambda m: f"OpenSim marker RMS {m['rms']} cm (max {m['max']} cm): the model does not follow the poses",
-          "check the joint angles before use"),
-    _Kind(r"segments (?P<segs>.*?) keep the generic model's size", Severity.CHECK,
-          lambda m: _clipped(f"OpenSim segments {m['segs']} not scaled: no frame has their markers"),
-          "read those segments' angles with care"),
-    # INFO: notes the summary shortens in its own way
-    _Kind(r"MediaPipe world landmarks turned from the virtual camera .*\(focal length (?P<f>\d+) px, "
-          r"(?P<how>[^:;]*).*turn median (?P<med>\S+),", Severity.INFO,
-          lambda m: f"MediaPipe poses turned from the virtual camera by a median {m['med']} deg "
-                    f"(focal length {m['f']} px, {m['how']})"),
-    _Kind(r"poses: (?P<est>.*?) on the video, a person in (?P<n>\d+) of (?P<of>\d+) frames; saved as (?P<file>\S+)",
-          Severity.INFO, lambda m: f"poses: {m['est']} on the video, a person in {m['n']} of {m['of']} frames"),
-    _Kind(r"low-pass cutoff (?P<hz>\S+) Hz by residual analysis \(Winter; noise (?P<noise>[^;]*);", Severity.INFO,
-          lambda m: f"low-pass cutoff {m['hz']} Hz by residual analysis (Winter; noise {m['noise']})"),
-    _Kind(r"3D joints remapped from (?P<layout>\S+) to H36M-17 with (?P<built>.*?) built as means", Severity.INFO,
-          lambda m: f"3D joints remapped from {m['layout']} to H36M-17 with {m['built']} built from others"),
-    _Kind(r"(missing|no pose|input: non-finite|unfiltered): ", Severity.INFO, lambda m: _counts_line(m.string)),
-    # which person of several: another choice is another subject, so the way to choose stays
-    _Kind(r"2D keypoints: track (?P<track>\S+) chosen (?P<how>as the highest summed per-frame score|by person=)"
-          r"(?P<rest>.*)", Severity.INFO,
-          lambda m: shortened(m.string) if m['how'] == "by person=" else
-          f"2D keypoints: track {m['track']} chosen {m['how']}"
-          + ("; --person chooses another" if "--person chooses another" in m['rest'] else "")),
-)
-
-#: Characters a headline (or a shortened note) keeps at most.
-HEADLINE_WIDTH = 100
+def opensim_fit_findings(fit: dict) -> list[Finding]:
+    """The findings of OpenSim's fit (:func:`pcnet.stages.opensim_ik.scale_and_ik`'s result),
+    whose ``warnings`` hold :func:`pcnet.stages.opensim_ik.ik_fit_flags`' texts in its order:
+    segments left unscaled, then a marker RMS above the best-practice bound. A text beyond
+    those is kept as a :data:`Severity.CHECK` finding of no kind (:func:`shortened`)."""
+    texts = list(fit["warnings"])
+    out = []
+    if fit.get("segments_not_scaled") and texts:
+        out.append(_found(Kind.SEGMENTS_UNSCALED, Severity.CHECK,
+                          f"OpenSim segments {', '.join(fit['segments_not_scaled'])} not scaled: no frame has their "
+                          f"markers", "read those segments' angles with care", texts.pop(0)))
+    if texts and not fit["marker_rms_m"] <= MAX_GOOD_MARKER_RMS_M:
+        out.append(_found(Kind.MARKER_RMS, Severity.CHECK,
+                          f"OpenSim marker RMS {100 * fit['marker_rms_m']:.1f} cm (max {100 * fit['marker_max_m']:.1f} "
+                          f"cm): the model does not follow the poses", "check the joint angles before use",
+                          texts.pop(0)))
+    return out + [Finding(Severity.CHECK, shortened(text), "see report.md", text) for text in texts]
 
 
-def _clipped(text: str, width: int = HEADLINE_WIDTH) -> str:
-    """``text`` cut at a word boundary to ``width`` characters, ending in ``...``."""
-    if len(text) <= width:
-        return text
-    return text[:width - 3].rsplit(" ", 1)[0].rstrip(",;:") + "..."
+def ranked(findings: Iterable[Finding]) -> list[Finding]:
+    """``findings`` most severe first; within one severity in :class:`Kind`'s declared order,
+    findings of no kind last, then as given.
+
+    Why: a reader gives a summary a few seconds, so what makes part of the result wrong
+    (:data:`Severity.PROBLEM`: a 2D track that switched person, swapped or mirrored sides, wrong
+    units, data missing for the whole recording) comes before what makes some numbers less
+    certain (:data:`Severity.CHECK`: a tilt that may be off, implausible speeds, frames whose
+    floor was not seen), and both before what was merely assumed or done (notes,
+    :data:`Severity.INFO`). Within a severity the declared order puts causes before their
+    symptoms (a track switch before the implausible speeds it causes)."""
+    return sorted(findings, key=lambda f: (-int(f.severity), len(Kind) + 1 if f.kind is None else int(f.kind)))
+
+
+# --- notes -----------------------------------------------------------------------------------
+# Notes (what was assumed or done) are text made across the pipeline: the adapters, the
+# estimator, the kinematics and the sinks. Each is one INFO line in the summary: the few kinds
+# below, keyed by how their text begins, get their own short line; any other is shortened.
 
 
 def _counts_line(text: str) -> str:
@@ -770,8 +835,30 @@ def _counts_line(text: str) -> str:
     return _clipped("; ".join(parts))
 
 
+#: ``(pattern, line)``: a note whose text the pattern matches from its start (``re.match``,
+#: DOTALL) is summarised by ``line(match)``.
+NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
+    (r"MediaPipe world landmarks turned from the virtual camera .*\(focal length (?P<f>\d+) px, "
+     r"(?P<how>[^:;]*).*turn median (?P<med>\S+),",
+     lambda m: f"MediaPipe poses turned from the virtual camera by a median {m['med']} deg "
+               f"(focal length {m['f']} px, {m['how']})"),
+    (r"poses: (?P<est>.*?) on the video, a person in (?P<n>\d+) of (?P<of>\d+) frames; saved as (?P<file>\S+)",
+     lambda m: f"poses: {m['est']} on the video, a person in {m['n']} of {m['of']} frames"),
+    (r"low-pass cutoff (?P<hz>\S+) Hz by residual analysis \(Winter; noise (?P<noise>[^;]*);",
+     lambda m: f"low-pass cutoff {m['hz']} Hz by residual analysis (Winter; noise {m['noise']})"),
+    (r"3D joints remapped from (?P<layout>\S+) to H36M-17 with (?P<built>.*?) built as means",
+     lambda m: f"3D joints remapped from {m['layout']} to H36M-17 with {m['built']} built from others"),
+    (r"(missing|no pose|input: non-finite|unfiltered): ", lambda m: _counts_line(m.string)),
+    # which person of several: another choice is another subject, so the way to choose stays
+    (r"2D keypoints: track (?P<track>\S+) chosen (?P<how>as the highest summed per-frame score|by person=)(?P<rest>.*)",
+     lambda m: shortened(m.string) if m['how'] == "by person=" else
+     f"2D keypoints: track {m['track']} chosen {m['how']}"
+     + ("; --person chooses another" if "--person chooses another" in m['rest'] else "")),
+)
+
+
 def shortened(text: str, width: int = HEADLINE_WIDTH) -> str:
-    """A flag or note of no known kind as one line of at most ``width`` characters: the
+    """A note (or a flag of no kind) as one line of at most ``width`` characters: the
     parenthesised asides dropped, then the longest run of whole clauses (ending before a
     ``"; "``, else a ``": "``) that fits and keeps half the width, else cut at a word boundary."""
     if len(text) <= width:
@@ -792,33 +879,11 @@ def shortened(text: str, width: int = HEADLINE_WIDTH) -> str:
     return _clipped(short, width)
 
 
-def finding(text: str, note: bool = False) -> Finding:
-    """The :class:`Finding` of one flag (``note`` False) or note, by :data:`KINDS`; one of no
-    known kind is :data:`Severity.CHECK` (a flag: the full text in report.md is the action) or
-    :data:`Severity.INFO` (a note), :func:`shortened`. A note never outranks a flag: a note's
-    kind keeps its own severity only when it is INFO."""
-    for kind in KINDS:
-        m = re.match(kind.pattern, text, re.DOTALL)
-        if m and note == (kind.severity == Severity.INFO):
-            action = kind.action(m) if callable(kind.action) else kind.action
-            return Finding(kind.severity, _clipped(kind.headline(m)), action, text)
-    if note:
-        return Finding(Severity.INFO, shortened(text), "", text)
-    return Finding(Severity.CHECK, shortened(text), "see report.md", text)
-
-
-def ranked(findings: Iterable[Finding]) -> list[Finding]:
-    """``findings`` most severe first; within one severity in :data:`KINDS`' order, unknown
-    kinds last, then as given.
-
-    Why: a reader gives a summary a few seconds, so what makes part of the result wrong
-    (:data:`Severity.PROBLEM`: a 2D track that switched person, swapped or mirrored sides, wrong
-    units, data missing for the whole recording) comes before what makes some numbers less
-    certain (:data:`Severity.CHECK`: a tilt that may be off, implausible speeds, frames whose
-    floor was not seen), and both before what was merely assumed or done (notes,
-    :data:`Severity.INFO`). Within a severity the table's order puts causes before their
-    symptoms (a track switch before the implausible speeds it causes)."""
-    def order(f: Finding) -> tuple[int, int]:
-        rank = next((i for i, kind in enumerate(KINDS) if re.match(kind.pattern, f.detail, re.DOTALL)), len(KINDS))
-        return -int(f.severity), rank
-    return sorted(findings, key=order)
+def note_finding(text: str) -> Finding:
+    """The :data:`Severity.INFO` :class:`Finding` of one note: its line by :data:`NOTE_LINES`,
+    else :func:`shortened`."""
+    for pattern, line in NOTE_LINES:
+        m = re.match(pattern, text, re.DOTALL)
+        if m:
+            return Finding(Severity.INFO, _clipped(line(m)), "", text)
+    return Finding(Severity.INFO, shortened(text), "", text)

@@ -92,16 +92,39 @@ def ik_fit_flags(result: dict) -> list[str]:
             f"joint angles before using them"]
 
 
-def opensim_fit_line(result: dict) -> str:
+def opensim_fit_line(result: dict, short: bool = False) -> str:
     """One summary line of :func:`scale_and_ik`'s fit: marker RMS and maximum over the IK
-    frames, the frames and the markers left out, IK speed."""
+    frames, the frames and the markers left out (``short``: without why), IK speed."""
     left_out = result["frames_without_markers"]
     markers = result.get("markers_left_out") or []
+    why = "" if short else " (empty in every frame: the input skeleton has no such joint)"
     return (f"OpenSim IK: marker RMS {100 * result['marker_rms_m']:.2f} cm over {result['frames']} frames (max "
             f"{100 * result['marker_max_m']:.2f} cm)" + (f"; {left_out} frames without any marker left out" if left_out else "")
-            + (f"; marker{'s' if len(markers) > 1 else ''} {', '.join(markers)} left out (empty in every frame: the "
-               f"input skeleton has no such joint)" if markers else "")
+            + (f"; marker{'s' if len(markers) > 1 else ''} {', '.join(markers)} left out{why}" if markers else "")
             + f"; {result['frames_per_s']:.1f} frames/s (scaling {result['scale_seconds']:.1f} s)")
+
+
+#: The heading of the section ``pcnet opensim`` adds to the run's report.md (:func:`opensim_markdown`).
+REPORT_SECTION = "## OpenSim inverse kinematics (pcnet opensim)"
+
+
+def opensim_markdown(result: dict) -> str:
+    """The long form of ``pcnet opensim``'s terminal lines, a section of the run's report.md:
+    the fit in full, the marker placer's static window, every warning in full (most severe
+    first, with its severity and action) and the outputs."""
+    from .flags import opensim_fit_findings, ranked
+
+    w0, w1 = result["static_window_s"]
+    lines = [REPORT_SECTION, "", "(Where the notes above hold an OpenSim IK line of `pcnet run --opensim`, this fit "
+             "replaced it.)", "", f"- **fit**: {opensim_fit_line(result)}",
+             f"- **static window** (marker placer): {w0:.3f}-{w1:.3f} s", "", "### OpenSim warnings", ""]
+    findings = ranked(opensim_fit_findings(result))
+    for i, f in enumerate(findings, 1):
+        lines += [f"#### {i}. {f.headline}", "", f"Severity: {f.severity.name.lower()}. Action: {f.action}.", "",
+                  f.detail, ""]
+    lines += [] if findings else ["None.", ""]
+    lines += ["### OpenSim outputs", ""] + [f"- {name}" for name in OUTPUTS]
+    return "\n".join(lines) + "\n"
 
 
 def import_opensim():

@@ -18,7 +18,7 @@ rotations ``(T, 3, 3)`` canonical->camera (docs/CONVENTIONS.md); invalid frames 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -28,11 +28,13 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
-from .gravity_prior import OTHER_READING_P
+from .ground_plane import GROUND_GATE_DEG, ground_plane_up
+from .core.rotations import camera_pitch_roll, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
-from .uncertainty import calibrated_interval, evidence_scale, frame_tilt_bound
+from .uncertainty import frame_tilt_bound
+from .up_model import Z95, UpEvidence, default_parameters, static_posterior, summarise_recording
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -117,7 +119,8 @@ class FrameEstimate:
     trust in its camera-frame network per frame (:mod:`pcnet.models.view_gate`) and
     ``disagreement_deg`` ``(T,)`` the angle between its two networks' ups and
     ``quarter_turns`` ``(T,)`` int, the quarter turns about the optical axis the camera-frame
-    network's input was turned back by, 0, 1 or 3 (each ``None`` when one estimator ran)."""
+    network's input was turned back by, 0, 1 or 3 and ``evidence`` the two networks' own ups
+    (:class:`pcnet.stages.up_model.UpEvidence`; each ``None`` when one estimator ran)."""
 
     rotation: np.ndarray
     residual: np.ndarray
@@ -125,6 +128,7 @@ class FrameEstimate:
     camera_frame_weight: np.ndarray | None = None
     disagreement_deg: np.ndarray | None = None
     quarter_turns: np.ndarray | None = None
+    evidence: UpEvidence | None = None
 
 
 class FrameEstimator(Protocol):
@@ -189,17 +193,17 @@ class SequenceEvidence:
             raise InputError(f"unknown mode {self.mode!r}; expected one of {MODES}")
 
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
-                 fps: float, evidence_scale: float = 1.0,
-                 decide_on: np.ndarray | None = None, calibrated: bool = True) -> tuple[np.ndarray, np.ndarray, dict]:
+                 fps: float, decide_on: np.ndarray | None = None, calibrated: bool = True,
+                 evidence: UpEvidence | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
         """Apply the mode to one recording.
 
         Args:
             joints_cam: ``(T, 17, 3)`` camera-frame joints (floor contacts and the lying
-                reading in sequence mode) or ``None``.
+                reading in sequence mode) or ``None``. evidence: the two networks' own ups
+                (the shipped pair): with the camera prior, sequence mode is the up model's
+                static posterior (:func:`up_model_sequence`).
             R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool or
-                ``None`` (all). fps: frame rate, > 0. evidence_scale: :func:`pcnet.stages.uncertainty.evidence_scale` of the
-                recording: widens the pose evidence's std in the camera prior and the
-                calibrated intervals (1 = a pose like the calibration set's). decide_on:
+                ``None`` (all). fps: frame rate, > 0. decide_on:
                 optional ``(T,)`` bool, the frames ``"auto"`` decides on (one person's
                 stretch of a 2D track that switches people, :func:`pcnet.stages.flags.one_person_frames`);
                 every valid frame when ``None`` or when fewer than
@@ -213,19 +217,17 @@ class SequenceEvidence:
             with ``decide_on`` in auto mode ``mode_decided_on_frames`` (valid frames it decided
             on), and outside frame mode ``spread_deg`` (over those frames in auto mode;
             :func:`pcnet.stages.temporal.up_spread_deg`),
-            ``evidence`` (``"per-frame"``, ``"poses"``, ``"poses+ground_plane"``, with
-            ``"+camera_prior"``), ``valid``; in smooth mode ``time_constant_s``; in sequence mode
-            ``up``, ``up_uncertainty_deg``, ``camera_pitch_deg``, ``camera_roll_deg`` and their
-            ``*_uncertainty_deg`` (the bootstrap's 95 % half-widths alone),
-            ``camera_pitch_interval_deg`` and ``camera_roll_interval_deg`` (95 % half-widths
-            adding the lifter's systematic per-clip error calibrated on held-out mocap and
-            scaled by ``evidence_scale``, :func:`pcnet.stages.uncertainty.calibrated_interval`;
-            for a ``lying`` reading the posterior's; NaN when not ``calibrated``; widened to reach
-            the reading not reported where it keeps at least
-            :data:`pcnet.stages.gravity_prior.OTHER_READING_P`, whose posterior probability is then
-            ``interval_reaches_other_reading_p``, else ``None``), ``evidence_scale``, ``up_spread_deg``,
-            ``up_spread_p95_deg``, ``ground_plane`` and
-            ``gravity`` (:meth:`pcnet.stages.gravity_prior.GravityPosterior.report` or ``None``).
+            ``evidence`` (``"per-frame"``, ``"up model"``, ``"poses"``, ``"poses+ground_plane"``),
+            ``valid``; in smooth mode ``time_constant_s``; in sequence mode ``up``,
+            ``up_uncertainty_deg``, ``camera_pitch_deg``, ``camera_roll_deg``, their
+            ``*_uncertainty_deg`` (the poses' part alone: the up model's Laplace half-widths, or
+            another method's bootstrap) and ``camera_pitch_interval_deg`` /
+            ``camera_roll_interval_deg`` (the up model's 95 % posterior half-widths,
+            :func:`up_model_sequence`; NaN when not ``calibrated``),
+            ``interval_reaches_other_reading_p`` (the other reading's posterior probability
+            where it keeps at least 5 %, so the interval reaches it; else ``None``),
+            ``up_spread_deg``, ``up_spread_p95_deg``, ``ground_plane`` and ``gravity`` (the
+            reading, ``None`` for another method).
 
         Raises:
             InputError: bad shapes, non-positive fps, or (not frame mode) no valid frame.
@@ -258,37 +260,69 @@ class SequenceEvidence:
             out = smooth_rotations(R, ok, fps, SMOOTH_TIME_CONSTANT_S)
             report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)),
                           time_constant_s=SMOOTH_TIME_CONSTANT_S)
-        else:
-            res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=self.n_bootstrap,
-                                   camera_prior=self.camera_prior, evidence_scale=evidence_scale)
-            out, g = res.rotations, res.gravity
-            if not calibrated:  # another method's sequence up: its bootstrap, not a 95 % interval
-                pitch_half = roll_half = float("nan")
-            elif g is not None and g.reading == "lying":
-                # The up comes from the camera prior, not from resampled poses: its interval
-                # is the posterior's (tens of degrees; its pose term is the pair's calibrated
-                # error), not the bootstrap's.
-                pitch_half, roll_half = g.pitch_half_deg, g.roll_half_deg
-            else:
-                pitch_half = calibrated_interval(res.camera_pitch_uncertainty_deg, "pitch", scale=evidence_scale)
-                roll_half = calibrated_interval(res.camera_roll_uncertainty_deg, "roll", scale=evidence_scale)
-            reaches_other = calibrated and g is not None and g.other_reading_p >= OTHER_READING_P
-            if reaches_other:
-                # a 95 % interval must reach a reading that keeps more than 5 % of the posterior
-                pitch_half, roll_half = max(pitch_half, g.pitch_half_both_deg), max(roll_half, g.roll_half_both_deg)
+        elif evidence is not None and calibrated:
+            out, fields = up_model_sequence(R, ok, evidence, fps, self.camera_prior, joints_cam)
+            report.update(fields)
+        else:  # another method's sequence up: its bootstrap, no calibrated interval
+            res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=self.n_bootstrap)
+            out = res.rotations
             report.update(
                 evidence=res.evidence, valid=res.valid, up=res.up, up_uncertainty_deg=res.up_uncertainty_deg,
                 camera_pitch_deg=res.camera_pitch_deg, camera_roll_deg=res.camera_roll_deg,
                 camera_pitch_uncertainty_deg=res.camera_pitch_uncertainty_deg,
                 camera_roll_uncertainty_deg=res.camera_roll_uncertainty_deg,
-                camera_pitch_interval_deg=pitch_half, camera_roll_interval_deg=roll_half,
-                interval_reaches_other_reading_p=round(g.other_reading_p, 4) if reaches_other else None,
-                evidence_scale=evidence_scale,
-                gravity=None if g is None else g.report(), up_spread_deg=res.up_spread_deg,
+                camera_pitch_interval_deg=float("nan"), camera_roll_interval_deg=float("nan"),
+                interval_reaches_other_reading_p=None, gravity=None, up_spread_deg=res.up_spread_deg,
                 up_spread_p95_deg=res.up_spread_p95_deg, ground_plane=res.ground_plane,
             )
         valid = ok & np.asarray(report["valid"], bool)
         return np.where(valid[:, None, None], out, np.nan), valid, report
+
+
+def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: float,
+                      camera_prior: bool = True, joints_cam: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+    """Sequence mode by the up model (:mod:`pcnet.stages.up_model`): the static posterior's up
+    for every valid frame, each frame's heading about it
+    (:func:`pcnet.stages.temporal.rotations_about_up` of the per-frame rotations ``R``
+    ``(T, 3, 3)``), and the report fields :class:`SequenceEvidence` documents: the intervals
+    are the posterior's 95 % half-widths, ``*_uncertainty_deg`` the poses' part alone
+    (Laplace, no systematic error), ``gravity`` the reading and its posterior probability.
+    ``camera_prior`` False: a uniform prior over the up and no lying reading (the poses alone).
+    ``joints_cam`` ``(T, 17, 3)`` with a measured root (a depth sensor): an upright reading is
+    refined by the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`), the
+    posterior's RMS axis std as the prior std of the plane's normal; the report's ``evidence``
+    then ends in ``+ground_plane`` and ``ground_plane`` says whether and why (not) it ran."""
+    from .temporal import rotations_about_up
+
+    params = default_parameters()
+    if not camera_prior:
+        params = replace(params, camera_prior_outside=1.0)
+    post = static_posterior(summarise_recording(evidence.frames(ok), fps, params), params, lying=camera_prior)
+    up, ground, kind = post.up, {"used": False, "reason": "no joints_cam"}, "up model"
+    if joints_cam is not None and post.reading == "upright":
+        sd = float(np.hypot(post.pitch_half_deg, post.roll_half_deg) / (Z95 * np.sqrt(2.0)))
+        up, ground = ground_plane_up(check_poses(joints_cam, "joints_cam"), ok, post.up, fps, sd, GROUND_GATE_DEG)
+        ground.pop("_contacts", None)
+        kind += "+ground_plane" if ground["used"] else ""
+    rotations, heading_ok = rotations_about_up(R, up)
+    valid = ok & heading_ok
+    pitch, roll = camera_pitch_roll(up)
+    pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))
+    frame_ups = normalize(R[ok, :, 1])
+    spread = np.degrees(np.arccos(np.clip(frame_ups @ up, -1.0, 1.0)))
+    other = min(post.p_lying, 1.0 - post.p_lying)
+    cone = float(np.hypot(post.pitch_half_deg, post.roll_half_deg))
+    return rotations, dict(
+        evidence=kind, valid=valid, up=up, up_uncertainty_deg=cone,
+        camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
+        camera_pitch_uncertainty_deg=float(Z95 * pose_sd[0]), camera_roll_uncertainty_deg=float(Z95 * pose_sd[1]),
+        camera_pitch_interval_deg=post.pitch_half_deg, camera_roll_interval_deg=post.roll_half_deg,
+        interval_reaches_other_reading_p=round(other, 4) if other >= 0.05 else None,
+        gravity={"reading": post.reading, "p_lying": round(post.p_lying, 4), "model": "up model",
+                 "interval_deg": round(cone, 2),
+                 "pose_camera_angle_deg": round(float(np.degrees(np.arccos(np.clip(-post.summary.up[1], -1, 1)))), 2)},
+        up_spread_deg=float(np.median(spread)), up_spread_p95_deg=float(np.percentile(spread, 95)),
+        ground_plane=ground)
 
 
 def frame_bound(estimate: FrameEstimate, base_deg: float) -> np.ndarray:
@@ -346,8 +380,8 @@ class Rectification:
         gate = estimate.camera_frame_weight
         base = self.estimator.frame_tilt_95_deg
         bound = frame_bound(estimate, base)
-        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps,
-                                         evidence_scale(bound, base), decide_on, calibrated=bool(np.isfinite(base)))
+        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, decide_on,
+                                         calibrated=bool(np.isfinite(base)), evidence=estimate.evidence)
         R, heading_report = self.heading(joints_cam, R, valid)
         report.update(heading_report)
         report["view_gate"] = gate_report(gate, valid, estimate.quarter_turns)

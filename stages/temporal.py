@@ -30,29 +30,11 @@ import numpy as np
 from scipy.ndimage import convolve1d
 from scipy.spatial.transform import Rotation
 
-from .core.conventions import PELVIS, THORAX, check_poses
+from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.rotations import angle_between, camera_pitch_roll, decompose_camera_rotation, normalize
-from .gravity_prior import GravityPosterior, gravity_posterior
 from .ground_plane import GROUND_GATE_DEG, POSE_PRIOR_DEG, fit_plane_map, ground_plane_up
 from .spherical import robust_mean_direction, weighted_quantile
-from .uncertainty import SIGMA_SYS_DEG
-
-#: Angular std (deg) of the pose-based sequence up for the camera-prior posterior: the RMS
-#: of the calibrated per-axis systematic errors (:data:`pcnet.stages.uncertainty.SIGMA_SYS_DEG`).
-POSE_EVIDENCE_SIGMA_DEG = float(np.sqrt(np.mean(np.square(list(SIGMA_SYS_DEG.values())))))
-
-
-def mean_trunk(joints_cam: np.ndarray, ok: np.ndarray) -> np.ndarray | None:
-    """Mean of the unit trunk directions (pelvis -> thorax) over the frames ``ok`` of
-    ``(T, 17, 3)`` camera-frame joints, ``(3,)`` (not itself unit length: shorter the more
-    the trunk turns over the recording); ``None`` if no frame has both joints."""
-    t = np.asarray(joints_cam[:, THORAX], np.float64) - np.asarray(joints_cam[:, PELVIS], np.float64)
-    n = np.linalg.norm(t, axis=-1)
-    use = ok & np.isfinite(t).all(-1) & (n > 0)
-    if not use.any():
-        return None
-    return (t[use] / n[use, None]).mean(0)
 
 MODES = ("frame", "sequence", "smooth", "auto")
 
@@ -98,10 +80,7 @@ class SequenceResult:
         up_spread_deg: (weighted) median angle between the per-frame ups ``R[:, :, 1]`` and
             ``up``, degrees: how much the per-frame estimator disagrees with the pooled up.
         up_spread_p95_deg: the 95th percentile of the same angles.
-        evidence: ``"poses"`` or ``"poses+ground_plane"``, with ``"+camera_prior"`` when
-            the camera prior was used.
-        gravity: the :class:`pcnet.stages.gravity_prior.GravityPosterior` (``None`` without
-            the camera prior).
+        evidence: ``"poses"`` or ``"poses+ground_plane"``.
         valid: ``(T,)`` bool, frames with a rotation.
         ground_plane: diagnostics of the ground-plane step (``{"used": bool, "reason": str,
             ...}``); the reason says why it was skipped when it was.
@@ -120,7 +99,6 @@ class SequenceResult:
     evidence: str
     valid: np.ndarray
     ground_plane: dict = field(default_factory=dict)
-    gravity: GravityPosterior | None = None
 
 
 # ============================================================================ input checks
@@ -205,8 +183,6 @@ def sequence_rectify(
     *,
     fps: float = 30.0,
     n_bootstrap: int = BOOTSTRAP_REPLICATES,
-    camera_prior: bool = True,
-    evidence_scale: float = 1.0,
 ) -> SequenceResult:
     """One up direction for a static-camera sequence, per-frame heading about it.
 
@@ -226,14 +202,6 @@ def sequence_rectify(
        the contacts alone constrain some tilt direction better than the prior, and the
        result is within :data:`pcnet.stages.ground_plane.GROUND_GATE_DEG` of the pose-based up. Otherwise skipped, with
        the reason in ``ground_plane["reason"]``.
-    2b. **Camera prior** (``camera_prior``): the up of steps 1-2 (std
-       :data:`POSE_EVIDENCE_SIGMA_DEG` times ``evidence_scale``) and a lying reading (up
-       perpendicular to the mean trunk, :func:`mean_trunk`) are weighed against a prior over
-       the camera's orientation (:func:`pcnet.stages.gravity_prior.gravity_posterior`); the
-       posterior's reading and mode replace the up. An upright reading moves towards a level
-       camera by a few percent of its angle to it where the poses are familiar, more with a
-       larger ``evidence_scale``; a lying one takes the level camera's up in the plane across
-       the trunk.
     3. **Heading**: :func:`rotations_about_up`, the rotation with the sequence up closest to
        each frame's prediction.
     4. **Uncertainty**: moving-block bootstrap (Kunsch 1989, "The jackknife and the bootstrap
@@ -254,17 +222,12 @@ def sequence_rectify(
             ground plane.
         fps: frame rate (bootstrap block length, contact speeds).
         n_bootstrap: bootstrap replicates (0 = no uncertainty, NaN).
-        camera_prior: step 2b.
-        evidence_scale: factor on the pose evidence's std in step 2b
-            (:func:`pcnet.stages.uncertainty.evidence_scale`: > 1 where the poses are unlike
-            the training data, so the camera prior counts more); positive.
 
     Returns:
         :class:`SequenceResult`.
 
     Raises:
-        ValueError: wrong shapes, non-positive fps, no valid frame, or (with the camera
-            prior) a non-positive ``evidence_scale``.
+        ValueError: wrong shapes, non-positive fps or no valid frame.
     """
     R, ok = check_rotations(R, valid)
     T = len(R)
@@ -289,15 +252,6 @@ def sequence_rectify(
         up, gp = ground_plane_up(J, ok, u_pose, fps, POSE_PRIOR_DEG, GROUND_GATE_DEG)
     contacts = gp.pop("_contacts", None)
     evidence = "poses+ground_plane" if gp["used"] else "poses"
-    up_evidence, gravity = up, None
-    if camera_prior:
-        if not (np.isfinite(evidence_scale) and evidence_scale > 0):
-            raise InputError(f"evidence_scale: expected a positive number, got {evidence_scale}")
-        gravity = gravity_posterior(up, POSE_EVIDENCE_SIGMA_DEG * evidence_scale,
-                                    None if J is None else mean_trunk(J, ok))
-        up = gravity.up
-        evidence += "+camera_prior"
-
     rotations, hok = rotations_about_up(R, up)
     out_valid = ok & hok
     rotations[~out_valid] = np.nan
@@ -339,12 +293,10 @@ def sequence_rectify(
                 ub[b] = fit_plane_map(Pb, fb, ub[b], np.radians(POSE_PRIOR_DEG))[0]
         good = np.isfinite(ub).all(-1)
         if good.any():
-            # Spread of the replicates about the evidence they resample (the camera prior's
-            # pull is not sampling error).
             ub = ub[good]
-            unc["up"] = float(np.percentile(np.degrees(angle_between(ub, up_evidence[None])), 95))
+            unc["up"] = float(np.percentile(np.degrees(angle_between(ub, up[None])), 95))
             pb, rb = np.degrees(camera_pitch_roll(ub))
-            pe, re_ = np.degrees(camera_pitch_roll(up_evidence))
+            pe, re_ = np.degrees(camera_pitch_roll(up))
             dp = pb - pe
             dr = (rb - re_ + 180.0) % 360.0 - 180.0
             unc["pitch"] = float(np.percentile(np.abs(dp), 95))
@@ -364,7 +316,6 @@ def sequence_rectify(
         evidence=evidence,
         valid=out_valid,
         ground_plane=gp,
-        gravity=gravity,
     )
 
 

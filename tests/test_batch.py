@@ -55,6 +55,11 @@ def _summary(manifest: Path) -> dict:
     return json.loads(manifest.with_name(manifest.name + ".pcnet_batch.json").read_text())
 
 
+def _report(manifest: Path) -> str:
+    """The batch's Markdown report beside its JSON summary."""
+    return manifest.with_name(manifest.name + ".pcnet_batch.md").read_text()
+
+
 def _statuses(manifest: Path) -> list[str]:
     return [r["status"] for r in _summary(manifest)["rows"]]
 
@@ -359,6 +364,72 @@ def test_the_summary_replaces_only_an_earlier_summary(tmp_path):
     assert theirs.read_text() == "my notes" and not (tmp_path / "a").exists()
 
 
+def test_the_report_replaces_only_an_earlier_report(tmp_path):
+    """The Markdown report beside the summary is refused before any work where a file pcnet
+    did not write has its name, and replaced where it is an earlier batch's."""
+    manifest = _manifest(tmp_path, _row("a"))
+    theirs = tmp_path / "m.csv.pcnet_batch.md"
+    theirs.write_text("# my notes\n")
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and f"--summary-json {tmp_path / 'm.csv.pcnet_batch.json'} (its report beside it, " \
+        "m.csv.pcnet_batch.md): expected a new file or an earlier pcnet batch report" in res.output, res.output
+    assert theirs.read_text() == "# my notes\n" and not (tmp_path / "a").exists()
+    res = _invoke(manifest, "--summary-json", tmp_path / "r.json")  # its report: r.md
+    assert res.exit_code == 0 and _report(manifest).startswith("# my notes"), res.output
+    assert (tmp_path / "r.md").read_text().startswith(f"# pcnet batch: {manifest}")
+    assert _invoke(manifest, "--summary-json", tmp_path / "r.json").exit_code == 0  # its own report: replaced
+
+
+def test_the_terminal_summary_is_short_and_the_report_has_every_row():
+    """The summary: counts, a line per failed row and per distinct warning (most severe first,
+    with its action and lines), each list cut at SUMMARY_LINES; the report: every row, every
+    error (a bug's traceback too), every warning in full, the restarts."""
+    from pcnet.pipeline.batch import SUMMARY_LINES, BatchReport, batch_markdown, format_summary
+    from pcnet.pipeline.batch_worker import finding_records
+    from pcnet.stages.flags import leg_asymmetry_flag, track_switch_flag
+
+    joints = np.zeros((10, 17, 3))
+    joints[:, 1:4, 1] = [-0.3, -0.7, -1.1]  # hip, knee, ankle: a right leg of 0.8, a left of 0.6
+    joints[:, 4:7, 1] = [-0.3, -0.6, -0.9]
+    (legs_found,) = leg_asymmetry_flag(joints)
+    (switch_found,) = track_switch_flag(np.repeat([0, 1], [20, 40]), [(20, 3.1)], person_option=True)
+    legs, switch = legs_found.detail, switch_found.detail
+
+    def row(i, status, warnings=(), error="", **extra):
+        return {"row": i, "line": i + 1, "out": f"/study/out/r{i}", "status": status, "frames": 60, "valid": 60,
+                "mode": "sequence", "seconds": 1.0, "error": error, "warnings": list(warnings), "host": "h",
+                "pid": 100 + i, "attempts": 1, "threads": 2, **extra}
+
+    rows = [row(1, "ok", [legs, switch]), row(2, "skipped", [legs]), row(3, "skipped", [legs]),
+            row(4, "failed", error="ValueError: boom", traceback="Traceback (most recent call last):\n  boom"),
+            *(row(i, "failed", error=f"file 'x{i}.npy': no such file") for i in range(5, 7 + SUMMARY_LINES))]
+    # row 3 was skipped by --retry-failed: its previous summary has its warnings' texts only
+    findings = {1: finding_records([legs_found, switch_found]), 2: finding_records([legs_found])}
+    report = BatchReport(rows, False, Path("/study/m.csv.pcnet_batch.json"), 3.0, settings={"manifest": "/study/m.csv"},
+                         restarts=["line 5: worker process 7 was killed by SIGKILL; starting it again (attempt 2 of 2)"],
+                         report_path=Path("/study/m.csv.pcnet_batch.md"), findings=findings)
+    text = format_summary(report)
+    failed = len(rows) - 3
+    assert text.splitlines()[:2] == [
+        f"3 of {len(rows)} recordings have complete outputs (1 ok, 2 skipped, {failed} failed, 0 cancelled) in 3.0 s",
+        "FAILED   line 5: ValueError: boom"]
+    assert f"... and {failed - SUMMARY_LINES} more failed rows: /study/m.csv.pcnet_batch.md" in text
+    legs_line = f"WARNING  {legs_found.headline} -> {legs_found.action}"
+    assert (f"\nWARNING  {switch_found.headline} -> check column person (line 2)\n{legs_line} (lines 2, 3)\n"
+            f"WARNING  the lifter's left and right legs differ by 25 % in length, more than") in text
+    assert "-> see report.md (line 4)\n" in text  # row 3's text, shortened: a line of its own
+    assert "\noutputs           /study/out (3 folders)\n" in text
+    assert text.endswith("summary           /study/m.csv.pcnet_batch.json\ndetails: /study/m.csv.pcnet_batch.md")
+    assert len(text.splitlines()) == 1 + SUMMARY_LINES + 1 + 3 + 3
+    md = batch_markdown(report)
+    assert md.startswith("# pcnet batch: /study/m.csv\n")
+    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | 1.0 | h:{r['pid']} | 2 | "
+               f"{r['out']} |" in md for r in rows)
+    assert all(r["error"] in md for r in rows[3:]) and "Traceback (most recent call last):\n  boom" in md
+    assert md.count(legs) == 3 and md.count(switch) == 1 and md.index(switch) < md.index(legs)
+    assert "- line 5: worker process 7 was killed by SIGKILL" in md
+
+
 def test_retry_failed_needs_a_previous_summary(tmp_path):
     manifest = _manifest(tmp_path, _row("a"))
     res = _invoke(manifest, "--retry-failed")
@@ -643,10 +714,20 @@ def test_a_rows_warnings_reach_the_summary(tmp_path):
         expected = [str(f) for f in npz["flags"]]
     assert sum(ln.startswith("WARNING") for ln in single.output.splitlines()) == len(expected)
     assert expected and row["warnings"] == expected
-    assert all(f"    WARNING {w}" in res.output for w in expected)
-    assert _invoke(manifest).exit_code == 0  # skipped on a re-run: its warnings stay in the summary
+    # the terminal: one short line per warning (headline -> action) as `pcnet run` prints it,
+    # its flags named as columns, under the row's line; the batch report keeps them in full
+    from pcnet.pipeline.batch import in_manifest_terms
+
+    short = [f"    {in_manifest_terms(ln)}" for ln in single.output.splitlines() if ln.startswith("WARNING")]
+    lines = res.output.splitlines()
+    at = next(i for i, ln in enumerate(lines) if ln.startswith("[1/1] line 2 ok"))
+    assert lines[at + 1:at + 1 + len(short)] == short, res.output
+    assert all(w not in res.output for w in expected if len(w) > 100)
+    assert all(w in _report(manifest) for w in expected)
+    res = _invoke(manifest)  # skipped on a re-run: its warnings stay in the summary, their lines in the terminal's
     (row,) = _summary(manifest)["rows"]
-    assert row["status"] == "skipped" and row["warnings"] == expected
+    assert res.exit_code == 0 and row["status"] == "skipped" and row["warnings"] == expected
+    assert all(f"{ln.strip()} (line 2)" in res.output for ln in short) and all(w in _report(manifest) for w in expected)
 
 
 def test_a_rows_runtime_error_names_the_manifest_columns(tmp_path):
@@ -661,6 +742,11 @@ def test_a_rows_runtime_error_names_the_manifest_columns(tmp_path):
     (row,) = _summary(manifest)["rows"]
     assert row["error"].startswith("column fps 25: expected the rate") and \
         "set column fps_override to true to use column fps anyway" in row["error"], row["error"]
+    # the terminal's summary: the counts, the failed row's one line, where the details are
+    assert f"FAILED   line 2: {row['error']}" in res.output
+    assert "0 of 1 recordings have complete outputs (0 ok, 0 skipped, 1 failed, 0 cancelled)" in res.output
+    assert f"details: {manifest}.pcnet_batch.md" in res.output and "| 1 | 2 | failed |" in _report(manifest)
+    assert f"### line 2 (row 1)\n\n{row['error']}\n" in _report(manifest)
 
 
 def test_a_row_without_any_frame_rate_is_refused_before_any_work(tmp_path):

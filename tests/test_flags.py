@@ -78,15 +78,15 @@ def test_a_portrait_camera_is_not_called_upside_down(degrees):
     tilt, pitch, roll = camera_tilt(res.up, res.valid)
     assert abs(abs(roll) - 90) < 20 and abs(tilt - 90) < 20
     flags = orientation_flags(tilt, pitch, roll)
-    assert len(flags) == 1 and "quarter turn" in flags[0] and "upside down" not in flags[0], flags
+    assert len(flags) == 1 and "quarter turn" in flags[0].detail and "upside down" not in flags[0].detail, flags
     assert orientation_flags(tilt, pitch, roll, turn_reported=True) == []
 
 
 def test_orientation_flags_judge_the_tilt_beyond_the_nearest_image_axis():
-    assert "upside down" in orientation_flags(179.0, 0.0, 179.0)[0]
-    assert "upside down" in orientation_flags(100.0)[0]  # the tilt alone: beyond 90 deg from image-up
-    assert "camera tilt 40 deg beyond a quarter turn" in orientation_flags(90.0, 40.0, 90.0)[0]
-    assert "camera tilt 40 deg:" in orientation_flags(40.0, 40.0, 0.0)[0]
+    assert "upside down" in orientation_flags(179.0, 0.0, 179.0)[0].detail
+    assert "upside down" in orientation_flags(100.0)[0].detail  # the tilt alone: beyond 90 deg from image-up
+    assert "camera tilt 40 deg beyond a quarter turn" in orientation_flags(90.0, 40.0, 90.0)[0].detail
+    assert "camera tilt 40 deg:" in orientation_flags(40.0, 40.0, 0.0)[0].detail
     assert orientation_flags(12.0, 10.0, 6.6) == []
 
 
@@ -108,8 +108,9 @@ def test_a_track_that_jumps_to_another_place_is_split():
     jumped[30:, :, 0] += 600.0  # the tracker picks someone 600 px to the right
     segment, events = track_segments(jumped, fps)
     assert [f for f, _ in events] == [30] and (segment[:30] == 0).all() and (segment[30:] == 1).all()
-    assert "check --person" in track_switch_flag(segment, events)[0]
-    assert "re-run the tracker" in track_switch_flag(segment, events, person_option=False)[0]
+    (flag,) = track_switch_flag(segment, events)
+    assert "check --person" in flag.detail and flag.frames == ((30, len(kp)),)  # the frames of another person
+    assert "re-run the tracker" in track_switch_flag(segment, events, person_option=False)[0].detail
 
 
 @pytest.mark.slow
@@ -198,7 +199,7 @@ def test_camera_tilt_matches_the_rotation_decomposition_on_real_poses():
 
 
 def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
-    assert lifter_frame_flag(15.5, 7.4) and "15.5 deg" in lifter_frame_flag(15.5, 7.4)[0]
+    assert lifter_frame_flag(15.5, 7.4) and "15.5 deg" in lifter_frame_flag(15.5, 7.4)[0].detail
     assert lifter_frame_flag(4.4, 7.2) == []  # Pose2Sim cam01: calibrated K, person near the centre
     assert lifter_frame_flag(0.0, 1.0) == [] and lifter_frame_flag(15.0, float("nan")) == []
 
@@ -210,7 +211,7 @@ def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
 
     tolerance = tilt_tolerance({"camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})
     assert tolerance == (0.4, "bootstrap-only uncertainty, no calibrated interval for this method")
-    assert "(0.4 deg, bootstrap-only uncertainty" in lifter_frame_flag(2.8, *tolerance)[0]
+    assert "(0.4 deg, bootstrap-only uncertainty" in lifter_frame_flag(2.8, *tolerance)[0].detail
     assert tilt_tolerance({"camera_pitch_interval_deg": 6.4, "camera_roll_interval_deg": 2.8,
                             "camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})[1] == "95 % interval"
 
@@ -241,10 +242,10 @@ def test_a_lifters_asymmetric_legs_are_flagged():
 
     boxing = np.load(FIXTURES / "boxing_X3D_f000-059.npy")
     (flag,) = leg_asymmetry_flag(boxing)
-    assert "legs differ by" in flag and "the right one shorter" in flag
+    assert "legs differ by" in flag.detail and "the right one shorter" in flag.detail
     assert leg_asymmetry_flag(np.load(TADASANA)) == []
     mirrored = boxing[:, [0, 4, 5, 6, 1, 2, 3, *range(7, 17)]]  # legs swapped: the left one shorter
-    assert "the left one shorter" in leg_asymmetry_flag(mirrored)[0]
+    assert "the left one shorter" in leg_asymmetry_flag(mirrored)[0].detail
 
 
 def test_a_skeleton_that_changes_size_is_flagged():
@@ -254,7 +255,7 @@ def test_a_skeleton_that_changes_size_is_flagged():
     assert size_change_flag(X) == []
     grown = X * np.linspace(1.0, 3.0, len(X), dtype=np.float32)[:, None, None]
     (flag,) = size_change_flag(grown)
-    assert "changes 2.7-fold" in flag and "metric exports" in flag
+    assert "changes 2.7-fold" in flag.detail and "metric exports" in flag.detail
 
 
 @pytest.mark.slow
@@ -304,8 +305,8 @@ def test_3d_sides_that_contradict_the_2d_keypoints_are_flagged():
     assert side_swap_flag(kp2d, X) == []
     swapped = X[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]]
     (flag,) = side_swap_flag(kp2d, swapped)
-    counted = int(re.search(r"in (\d+) of (\d+) hip", flag).group(2))
-    assert counted >= 10 and f"in {counted} of {counted}" in flag
+    counted = int(re.search(r"in (\d+) of (\d+) hip", flag.detail).group(2))
+    assert counted >= 10 and f"in {counted} of {counted}" in flag.detail
 
 
 def test_a_mirrored_3d_skeleton_is_flagged_from_the_pose_alone():
@@ -319,7 +320,7 @@ def test_a_mirrored_3d_skeleton_is_flagged_from_the_pose_alone():
         X = np.load(FIXTURES / name).astype(np.float64)
         assert mirrored_skeleton_flag(X) == [], name
         (flag,) = mirrored_skeleton_flag(X * np.array([1.0, 1.0, -1.0]))
-        assert "mirror image" in flag and "--axes" in flag, name
+        assert "mirror image" in flag.detail and "--axes" in flag.detail, name
         assert mirrored_skeleton_flag(X[:, swap]), name
     assert mirrored_skeleton_flag(np.full((50, 17, 3), np.nan)) == []
 

@@ -40,6 +40,16 @@ def short_run(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.fixture
+def poor_fit(monkeypatch):
+    """Every OpenSim fit is "poor", to both its warning (opensim_ik) and its finding (flags)."""
+    import pcnet.stages.flags as flags
+    import pcnet.stages.opensim_ik as opensim_ik
+
+    for module in (opensim_ik, flags):
+        monkeypatch.setattr(module, "MAX_GOOD_MARKER_RMS_M", 0.001)
+
+
 def test_scale_and_ik_on_a_short_real_clip(short_run, tmp_path):
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
     from pcnet.stages.opensim_ik import ik_fit_flags, scale_and_ik
@@ -111,8 +121,12 @@ def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_
     assert {"scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "opensim_fit.json"} <= set(listed)
     fit = json.loads((out / "opensim_fit.json").read_text())  # the fit and its warning, kept with the outputs
     assert f"OpenSim IK: marker RMS {100 * fit['marker_rms_m']:.2f} cm over {fit['frames']} frames" in res.output
-    assert fit["warnings"] == [ln.removeprefix("WARNING           ") for ln in res.output.splitlines()
-                               if ln.startswith("WARNING")]
+    assert len(fit["warnings"]) == sum(ln.startswith("WARNING  ") for ln in res.output.splitlines())
+    # the long form: the run's report.md gets the fit and its warnings in full, still pcnet's own file
+    report = (out / "report.md").read_text()
+    assert report.count("## OpenSim inverse kinematics (pcnet opensim)") == 1 and f"details: {out / 'report.md'}" \
+        in res.output
+    assert all(w in report for w in fit["warnings"]) and "report.md" in listed
     again = _cli("opensim", out)
     assert again.exit_code == 1 and "--overwrite" in again.output
     # A file of the same name that pcnet did not write is never replaced.
@@ -120,6 +134,30 @@ def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_
     res = _cli("opensim", out, "--overwrite")
     assert res.exit_code == 1 and "ik.mot" in res.output
     assert (out / "ik.mot").read_text() == "mine\n"
+
+
+def test_cli_opensim_prints_a_line_per_warning_and_writes_it_in_full(short_run, tmp_path, poor_fit):
+    """A poor fit: the terminal gets the warning's headline and its action, report.md its full
+    text (a rerun replaces the section); a report.md pcnet did not write is left alone, the
+    details then being opensim_fit.json's."""
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    import shutil
+
+    out = tmp_path / "run"
+    shutil.copytree(short_run, out)
+    res = _cli("opensim", out)
+    assert res.exit_code == 0, res.output
+    (warning,) = json.loads((out / "opensim_fit.json").read_text())["warnings"]
+    assert [ln for ln in res.output.splitlines() if ln.startswith("WARNING")] == [
+        "WARNING  OpenSim marker RMS " + warning.split("marker RMS ")[1].split(":")[0]
+        + ": the model does not follow the poses -> check the joint angles before use"]
+    assert warning not in res.output and warning in (out / "report.md").read_text()
+    assert _cli("opensim", out, "--overwrite").exit_code == 0
+    assert (out / "report.md").read_text().count("pcnet opensim)") == 1
+    (out / "report.md").write_text("mine\n")
+    res = _cli("opensim", out, "--overwrite")
+    assert res.exit_code == 0 and f"details: {out / 'opensim_fit.json'}" in res.output, res.output
+    assert (out / "report.md").read_text() == "mine\n"
 
 
 def test_cli_opensim_without_world_trc(tmp_path):
@@ -163,14 +201,11 @@ def test_pcnet_run_with_opensim_writes_the_ik_beside_the_run(tmp_path):
 
 
 @pytest.mark.slow
-def test_the_fits_warning_reaches_the_npz_and_a_moving_camera_is_said(tmp_path, monkeypatch):
+def test_the_fits_warning_reaches_the_npz_and_a_moving_camera_is_said(tmp_path, poor_fit):
     """With --opensim the fit runs before the npz and the recording are written, so its
     warning is in them (not only on the terminal); a moving camera has no world.trc, said by
     a flag rather than a failure after the run."""
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
-    import pcnet.stages.opensim_ik as opensim_ik
-
-    monkeypatch.setattr(opensim_ik, "MAX_GOOD_MARKER_RMS_M", 0.001)  # every fit is "poor"
     x3d = tmp_path / "X3D_60.npy"
     np.save(x3d, np.load(EXAMPLE / "X3D.npy")[:FRAMES])
     args = ("run", "--lifter", "motionbert", "--lifter-output", x3d, "--fps", 30, "--height", 1.75, "--no-recording",

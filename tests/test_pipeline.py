@@ -18,7 +18,7 @@ from pcnet.stages.scale import mean_leg_length
 from pcnet.pipeline.cli import EXAMPLE_DIR, main
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
-from pcnet.stages.flags import finding
+from pcnet.stages.flags import note_finding
 from pcnet.stages.core.conventions import HEAD, PELVIS, THORAX
 
 BOX_2D = FIXTURES / "boxing_alphapose_f000-059.json"
@@ -76,7 +76,7 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
         assert npz["canonical"].shape == (frames, 17, 3) and npz["rotation"].shape == (frames, 3, 3)
         assert str(npz["method"]) == "pcnet" and npz["valid"].all()
         # the summary's notes are kept with the outputs in full, every sink's included
-        assert [finding(n, note=True).headline for n in npz["notes"]] == [
+        assert [note_finding(n).headline for n in npz["notes"]] == [
             ln.removeprefix("note     ") for ln in res.output.splitlines() if ln.startswith("note ")] and len(npz["notes"])
         assert all(f"- {n}\n" in (out / "report.md").read_text() for n in npz["notes"])
         # canonical Y is up: the head is above the pelvis while boxing upright
@@ -587,7 +587,7 @@ def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
         world, report = npz["joints_world"], json.loads(str(npz["report"]))
     assert report["root_path"] == "measured"
     # the measured root makes the foot contacts a floor sequence mode can fit (stages/ground_plane.py)
-    assert report["evidence"].startswith("poses+ground_plane") and report["ground_plane"]["used"]
+    assert report["evidence"] == "up model+ground_plane" and report["ground_plane"]["used"]
     true_path = np.linalg.norm(J[-1, 0, [0, 2]] - J[0, 0, [0, 2]])
     path = np.linalg.norm(world[-1, PELVIS, [0, 2]] - world[0, PELVIS, [0, 2]])
     assert true_path > 2.0 and abs(path - true_path) < 0.05 * true_path

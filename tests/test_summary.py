@@ -10,10 +10,14 @@ from conftest import FIXTURES
 
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import RunResult, run_pipeline
-from pcnet.stages.flags import (HEADLINE_WIDTH, KINDS, Finding, Severity, body_size_flag, finding, floor_flag,
-                                gravity_reading_flag, leg_asymmetry_flag, lifter_frame_flag, orientation_flags,
-                                ranked, shortened, track_segments, track_switch_flag, unfiltered_flag, view_gate_flag)
-from pcnet.stages.plausibility import implausible_motion_flags, ImplausibleMotion
+from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, body_size_flag, floor_flag,
+                                gravity_reading_flag, implausible_motion_findings, keypoints_outside_image_flag,
+                                leg_asymmetry_flag, lifter_frame_flag, mirrored_skeleton_flag, no_opensim_flag,
+                                no_world_frame_flag, non_upright_flag, note_finding, opensim_fit_findings,
+                                orientation_flags, ranked, shortened, side_swap_flag, size_change_flag, track_segments,
+                                track_switch_flag, unfiltered_flag, view_gate_flag)
+from pcnet.stages.opensim_ik import ik_fit_flags
+from pcnet.stages.plausibility import ImplausibleMotion
 from pcnet.stages.remap import remap_to_h36m
 from pcnet.stages.sinks.report import REPORT_NAME
 
@@ -31,8 +35,8 @@ def _switched_track() -> tuple[np.ndarray, np.ndarray]:
     return kp, float(30)
 
 
-def _flags() -> list[str]:
-    """Real flag texts of several kinds and severities, the track switch not first."""
+def _flags() -> list[Finding]:
+    """Real flags of several kinds and severities, the track switch not first."""
     kp, fps = _switched_track()
     segment, events = track_segments(kp, fps)
     present = np.ones(60, bool)
@@ -42,36 +46,68 @@ def _flags() -> list[str]:
             + track_switch_flag(segment, events, person_option=False))
 
 
-def test_every_flag_function_gives_a_known_kind_with_numbers_in_its_headline():
-    """Each kind of flag gets its own headline and action, not the fallback: a new or
-    reworded flag text must be added to stages/flags.py: KINDS."""
-    texts = (_flags() + orientation_flags(120.0) + orientation_flags(40.0, 40.0, 0.0)
-             + orientation_flags(90.0, 0.0, 90.0) + body_size_flag(np.load(BOX_X3D) * 100, "m")
-             + gravity_reading_flag({"p_lying": 0.9, "reading": "lying", "interval_deg": 12.0})
-             + gravity_reading_flag({"p_lying": 0.2, "reading": "upright", "pose_camera_angle_deg": 70.0})
-             + view_gate_flag({"frames": 100, "turned_frames": {90: 30, 270: 0}, "body_frame_frames": 5,
-                               "blended_frames": 10})
-             + unfiltered_flag(np.zeros((5, 17), bool), np.ones((5, 17), bool), 30.0, 6.0)
-             + floor_flag(np.zeros(5, bool), np.ones(5, bool))
-             + implausible_motion_flags([ImplausibleMotion("speed", "right_wrist", 60, 70, 14.9, 68, 8.18, "m/s")]))
-    assert len(texts) == 14
-    for text in texts:
-        f = finding(text)
-        assert f.action != "see report.md", text  # matched a kind
-        assert len(f.headline) <= HEADLINE_WIDTH and f.detail == text
+def _every_kind() -> list[Finding]:
+    """One finding of every :class:`Kind`, each from the function that raises it."""
+    box = np.load(BOX_X3D)
+    fit = {"marker_rms_m": 0.049, "marker_max_m": 0.172, "segments_not_scaled": ["head"], "markers_left_out": ["NOSE"]}
+    kp, _ = _switched_track()
+    return (_flags() + orientation_flags(120.0) + orientation_flags(40.0, 40.0, 0.0)
+            + orientation_flags(90.0, 0.0, 90.0) + body_size_flag(box * 100, "m")
+            + gravity_reading_flag({"p_lying": 0.9, "reading": "lying", "interval_deg": 12.0})
+            + gravity_reading_flag({"p_lying": 0.2, "reading": "upright", "pose_camera_angle_deg": 70.0})
+            + view_gate_flag({"frames": 100, "turned_frames": {90: 30, 270: 0}, "body_frame_frames": 5,
+                              "blended_frames": 10})
+            + unfiltered_flag(np.zeros((5, 17), bool), np.ones((5, 17), bool), 30.0, 6.0)
+            + floor_flag(np.zeros(5, bool), np.ones(5, bool))
+            + implausible_motion_findings([ImplausibleMotion("right_wrist", "speed", 60, 70, 14.9, 68, 8.18, "m/s")])
+            + size_change_flag(box * np.linspace(1.0, 3.0, len(box))[:, None, None])
+            + mirrored_skeleton_flag(box * np.array([1.0, 1.0, -1.0]))
+            + side_swap_flag(kp, kp[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]])
+            + keypoints_outside_image_flag(kp, (100, 100), 0.05)
+            + non_upright_flag(box[..., [1, 0, 2]], np.ones(len(box), bool))  # the trunk along x: lying
+            + no_world_frame_flag("smooth") + no_opensim_flag()
+            + opensim_fit_findings({**fit, "warnings": ik_fit_flags(fit)}))
+
+
+def test_every_flag_function_says_its_kind_with_numbers_in_its_headline():
+    """Each flag function builds its own findings: a declared kind, a severity above a note's,
+    a headline whose numbers are the full text's own, and the one action it asks."""
+    findings = _every_kind()
+    assert {f.kind for f in findings} == set(Kind)  # every declared kind is raised somewhere
+    for f in findings:
+        assert f.severity > Severity.INFO and f.action and f.action != "see report.md", f
+        assert len(f.headline) <= HEADLINE_WIDTH and f.detail
         numbers = re.findall(r"\d+", f.headline)
-        assert all(n in text for n in numbers), (f.headline, text)  # its numbers are the flag's own
+        assert all(n in f.detail for n in numbers), (f.headline, f.detail)  # its numbers are the flag's own
+
+
+def test_findings_about_some_frames_name_them():
+    """The flags about some frames carry them as [start, stop) ranges; the others None."""
+    kp, fps = _switched_track()
+    (switch,) = track_switch_flag(*track_segments(kp, fps))
+    assert switch.kind == Kind.TRACK_SWITCH and switch.frames == ((30, 60),)  # probably someone else
+    feet = np.ones(60, bool)
+    feet[:3] = feet[40:45] = False
+    assert floor_flag(feet, np.ones(60, bool))[0].frames == ((0, 3), (40, 45))
+    (speed,) = implausible_motion_findings([ImplausibleMotion("right_wrist", "speed", 60, 70, 14.9, 68, 8.18, "m/s"),
+                                            ImplausibleMotion("left_wrist", "speed", 71, 72, 9.0, 71, 8.18, "m/s")])
+    assert speed.frames == ((60, 73),) and speed.headline.startswith("implausible speed in frames 60-72: right wrist")
+    assert floor_flag(np.zeros(5, bool), np.ones(5, bool))[0].frames is None  # the whole recording
+    assert lifter_frame_flag(15.5, 8.6)[0].frames is None
 
 
 def test_findings_are_ranked_by_severity_track_switch_first():
-    findings = ranked(finding(f) for f in _flags())
+    findings = ranked(_flags())
     assert [f.severity for f in findings] == sorted((f.severity for f in findings), reverse=True)
     assert findings[0].headline.startswith("2D track switches person at frame 30")
     assert findings[0].severity == Severity.PROBLEM and "track one person" in findings[0].action
-    # within a severity, KINDS' order: the lifter turn before the partial floor, though given after
+    # within a severity, Kind's declared order: the lifter turn before the partial floor, though given after
     check = [f.headline.split()[0] for f in findings if f.severity == Severity.CHECK]
     assert check == ["lifter", "lifter's", "no"]
     assert ranked([Finding(Severity.INFO, "a", "", "a"), Finding(Severity.PROBLEM, "b", "x", "b")])[0].headline == "b"
+    # the declared kind orders, not the text: a finding of no kind comes last within its severity
+    unknown = Finding(Severity.CHECK, "2D track probably switches person", "x", "2D track probably switches person")
+    assert ranked([unknown, *findings])[-1] is unknown
 
 
 def test_unknown_texts_are_shortened_to_one_line_keeping_the_first_clauses():
@@ -80,8 +116,11 @@ def test_unknown_texts_are_shortened_to_one_line_keeping_the_first_clauses():
     short = shortened(text)
     assert short.startswith("pelvis path from the 2D keypoints: 219 of 230 frames") and len(short) <= HEADLINE_WIDTH
     assert "(" not in short
-    assert finding("something new happened: " + "x " * 80).action == "see report.md"
-    assert finding("a short note", note=True) == Finding(Severity.INFO, "a short note", "", "a short note")
+    assert note_finding(text).headline == short
+    assert note_finding("a short note") == Finding(Severity.INFO, "a short note", "", "a short note")
+    fit = {"marker_rms_m": 0.01, "marker_max_m": 0.02, "warnings": ["something new happened: " + "x " * 80]}
+    (new,) = opensim_fit_findings(fit)  # a text of no known kind stays a warning, shortened
+    assert new.kind is None and new.action == "see report.md" and len(new.headline) <= HEADLINE_WIDTH
 
 
 def test_summary_prints_one_line_per_finding_and_points_to_the_report():
@@ -90,7 +129,7 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
              "world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time, held at the "
              "ends (BVH cannot hold NaN; the CSV, TRC and npz keep them missing)"]
     result = RunResult(frames=60, valid_frames=57, units="m", method="pcnet", mode="sequence", camera_tilt_deg=8.8,
-                       camera_pitch_deg=8.6, camera_roll_deg=2.0, fps=30.0, fps_source="--fps", flags=flags,
+                       camera_pitch_deg=8.6, camera_roll_deg=2.0, fps=30.0, fps_source="--fps", findings=flags,
                        notes=notes, report={"requested_mode": "auto", "camera_pitch_interval_deg": 8.6,
                                             "camera_roll_interval_deg": 3.5, "heading_source": "predicted"},
                        outputs={"canonical.npz": FIXTURES / "o" / "canonical.npz", REPORT_NAME: FIXTURES / "o" / REPORT_NAME})
@@ -106,9 +145,9 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     assert lines[-1] == f"details: {FIXTURES / 'o' / REPORT_NAME}" and "report.md  " not in result.summary()
     assert "camera tilt       8.8 deg from level (pitch +8.6 +- 8.6, roll +2.0 +- 3.5 deg; 95 % interval)" in lines
     report = result.report_text()
-    assert all(text in report for text in flags + notes)
+    assert result.flags == [f.detail for f in flags] and all(text in report for text in result.flags + notes)
     assert report.index("2D track probably switches") < report.index("the lifter's output was turned")
-    assert "95 % interval per axis incl. the lifter's systematic error" in report  # the long tilt line
+    assert "95 % posterior interval per axis (up model, docs/up_model.md)" in report  # the long tilt line
 
 
 def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
@@ -135,6 +174,3 @@ def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
     assert len(flags) == len(warnings) and report.count("\n### ") == len(flags)
     run_pipeline(cfg, progress=False)  # the folder, report.md included, is pcnet's own: --overwrite replaces it
 
-
-def test_kinds_have_an_action_unless_they_are_notes():
-    assert all(bool(kind.action) == (kind.severity > Severity.INFO) for kind in KINDS)

@@ -51,8 +51,8 @@ WALK, RUN, RAISE = (
 
 def _pose_only(*args, **kwargs):
     """sequence_rectify from the poses (and floor contacts) alone: these tests check that
-    estimator; the camera prior on top is tested in test_gravity_prior.py and below."""
-    return tm.sequence_rectify(*args, camera_prior=False, **kwargs)
+    estimator (another method's sequence mode; the shipped pair's is the up model, test_up_model.py)."""
+    return tm.sequence_rectify(*args, **kwargs)
 
 
 def _clips() -> dict[str, np.ndarray]:

@@ -103,7 +103,7 @@ def test_shipped_pair_answers_a_portrait_camera_exactly_as_the_level_one_and_oth
     X = _real_standing()
     gated = ViewGatedPCNet()
     assert gated.camera.path == CAMERA_WEIGHTS and gated.body.path == BODY_WEIGHTS
-    R0, res0, valid0, w0, d0, k0 = gated.predict_gated(X)
+    R0, res0, valid0, w0, d0, k0, _ = gated.predict_gated(X)
     assert valid0.all() and (w0 == 1.0).all() and (k0 == 0).all()
     body0 = PCNetSession(BODY_WEIGHTS).predict(X)[0]
     camera_up = PCNetSession(CAMERA_WEIGHTS).predict(X)[0][:, :, 1]
@@ -113,14 +113,14 @@ def test_shipped_pair_answers_a_portrait_camera_exactly_as_the_level_one_and_oth
     np.testing.assert_allclose(d0, np.degrees(angle_between(R0[:, :, 1], body0[:, :, 1])), atol=1e-4)
     for quarter in (1, 3):
         Q = axis_rotation("z", np.radians(90.0 * quarter))
-        R, residual, valid, w, d, k = gated.predict_gated(X @ Q.T)
+        R, residual, valid, w, d, k, _ = gated.predict_gated(X @ Q.T)
         assert (k == quarter).all() and (w == 1.0).all()
         np.testing.assert_allclose(R, Q @ R0, atol=1e-4)  # the level camera's answer, turned
         np.testing.assert_allclose(residual, res0, atol=1e-6)  # canonical frame: unchanged
         np.testing.assert_allclose(d, d0, atol=1e-3)
     for roll in (45.0, 180.0):
         Q = axis_rotation("z", np.radians(roll))
-        R, residual, valid, w, _, k = gated.predict_gated(X @ Q.T)
+        R, residual, valid, w, _, k, _ = gated.predict_gated(X @ Q.T)
         assert (w == 0.0).all() and (k != 2).all()
         np.testing.assert_allclose(R, Q @ body0, atol=1e-4)  # equivariant: the up turns with the camera
         assert np.isfinite(residual).all()
@@ -151,15 +151,15 @@ def test_lying_body_reads_as_a_quarter_turned_camera_and_is_flagged():
     assert gate["frames"] == 100 and sum(gate["turned_frames"].values()) == 100
     assert res.report["gravity"]["reading"] == "lying"
     assert res.report["camera_frame_weight"].shape == (100,)
-    (line,) = view_gate_flag(gate)
+    (line,) = (f.detail for f in view_gate_flag(gate))
     assert "turned a quarter turn about its optical axis" in line and "in 100 of 100 frames" in line
     assert "read the body as lying" not in line
     # the run's flags: the lying reading, not the turned one, is the answer, and the turn's line says so
-    (line,) = view_gate_flag(gate, lying=True)
+    (line,) = (f.detail for f in view_gate_flag(gate, lying=True))
     assert "the camera prior then read the body as lying under a level camera instead" in line
     assert view_gate_flag(rectify(_real_standing(), "pcnet").report["view_gate"]) == []
     rolled = rectify(_real_standing() @ axis_rotation("z", np.radians(35.0)).T, "pcnet").report["view_gate"]
-    (line,) = view_gate_flag(rolled)
+    (line,) = (f.detail for f in view_gate_flag(rolled))
     assert "body-frame network was used" in line and f"in {rolled['frames']} of {rolled['frames']} frames" in line
     assert rectify(_real_standing(), "pcnet", weights=str(BODY_WEIGHTS)).report["view_gate"] is None
 
@@ -182,7 +182,7 @@ def test_a_crawl_under_a_level_camera_reads_as_a_quarter_turned_camera():
     from pcnet.stages.uncertainty import frame_tilt_bound
 
     X, up, fps = _level_camera_crawl()
-    R, residual, valid, w, d, k = ViewGatedPCNet().predict_gated(X, fps)
+    R, residual, valid, w, d, k, _ = ViewGatedPCNet().predict_gated(X, fps)
     error = np.degrees(angle_between(R[:, :, 1], up))
     assert (k != 0).mean() > 0.9
     assert np.median(error) > 45.0  # the turned reading: an upright body under a rolled camera

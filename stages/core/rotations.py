@@ -199,8 +199,8 @@ def sample_camera_rotations(n: int, distribution: str, rng: np.random.Generator)
       |pitch| <= 25, |roll| <= 12 (degrees).
     * ``"wide"``: yaw U(-180, 180), pitch U(-45, 45), roll N(0, 10) clip 25.
     * ``"handheld"``: the paper's yaw and pitch, roll N(0, 10) clip 30 in every view (phones
-      held or propped without a level: an assumption, within the sequence camera prior's
-      20 deg, :data:`pcnet.stages.gravity_prior.LEVEL_CAMERA_SIGMA_DEG`).
+      held or propped without a level: an assumption, and the declared camera prior of the
+      up model, pitch N(0, 12), roll N(0, 10), :mod:`pcnet.stages.up_model`).
 
     Yaw is the camera's azimuth around the subject, so the subject's heading relative to
     the camera is ``-yaw``; pitch is the camera's elevation, roll its tilt about its optical
