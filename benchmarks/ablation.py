@@ -20,9 +20,10 @@ estimate then goes through the real chain (:class:`pcnet.stages.rectify.Rectific
 ``pcnet run``; no bootstrap, which does not move the up) and its up is cached too. Every
 variant below is then numpy on the cache, built from the package's own functions
 (:func:`pcnet.models.view_gate.camera_frame_weight`, ``blend_rotations``, ``quarter_turn_matrices``,
-:func:`pcnet.stages.uncertainty.frame_tilt_bound`, ``evidence_scale``,
-:func:`pcnet.stages.temporal.choose_mode`, ``sequence_rectify``, ``smooth_rotations``); the
-switches are arguments or monkeypatches here, never edits of the package. Row ``default`` is
+:func:`pcnet.stages.uncertainty.frame_tilt_bound`, :func:`pcnet.stages.temporal.choose_mode`,
+``smooth_rotations``, and for a static camera the up model,
+:func:`pcnet.stages.rectify.up_model_sequence`); the switches are arguments here, never edits
+of the package. Row ``default`` is
 rebuilt from the cache the same way and checked against the real chain's cached up (the
 "reproduction check" line: the largest angle between the two over every recording).
 
@@ -55,15 +56,17 @@ Metrics. Mocap: per clip the tilt error of the output (mean over its valid frame
 angle between the output up and the true up; in sequence mode the one up's error), then mean
 / median / p95 over clips; ``frame`` = the per-frame estimate's tilt error (before any
 sequence step), mean over all frames; ``>20`` = clips erring more than 20 deg; ``lying`` =
-clips whose camera-prior reading (upright / lying) is not the truth (lying = median true
-trunk angle from up > 60 deg; without the prior every clip reads upright). Verdict: paired
+clips whose up-model reading (upright / lying) is not the truth (lying = median true
+trunk angle from up > 60 deg; without the priors every clip reads upright); the coverage
+line: recordings read static whose true camera pitch / roll lie inside the printed 95 %
+intervals. Verdict: paired
 bootstrap over clips (2,000 replicates) of the mean difference row - default, 95 % interval;
 for a row that switches a piece off, "helps" when switching it off makes the error larger
 (interval above 0), "hurts" when smaller (below 0), else "no effect", and "no effect" too
 whenever the mean difference is under 0.05 deg (negligible) or exactly 0 for every clip
 ("identical"); in brackets after it the clips whose error moved by more than 0.5 deg
 (worse, better; for yoga: files that newly fail / newly pass); for an alternative
-(the plain robust mean, the balance cue, auto's static/moving decision by the Bayes factor of
+(the plain robust mean, auto's static/moving decision by the Bayes factor of
 benchmarks/camera_motion_model.py instead of the spread threshold) "better" / "worse" / "same". The real cameras, the
 yoga fails and the equivariance use the same bootstrap over their views / files / rolled
 clips (few of them: read those intervals as rough).
@@ -90,7 +93,7 @@ from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter
 from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
-from pcnet.stages.core.rotations import angle_between, axis_rotation, normalize, with_up
+from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, up_model_sequence
 from pcnet.stages.spherical import robust_mean_direction
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, frame_tilt_bound
@@ -399,8 +402,11 @@ def run_variant(ev: dict, v: Variant) -> dict:
         return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "reading": None}
     if v.lying:  # the chain's own sequence step
         _, fields = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior)
+        pitch, roll = camera_pitch_roll(fields["up"])
         return {**res, "up": np.where(ok[:, None], fields["up"], np.nan), "mode": mode,
-                "reading": fields["gravity"]["reading"]}
+                "reading": fields["gravity"]["reading"],
+                "interval": (np.degrees(pitch), np.degrees(roll), fields["camera_pitch_interval_deg"],
+                             fields["camera_roll_interval_deg"])}
     p = default_parameters()
     post = static_posterior(summarise_recording(evidence.frames(ok), fps, p), p, lying=False)
     return {**res, "up": np.where(ok[:, None], post.up, np.nan), "mode": mode, "reading": post.reading}
@@ -485,7 +491,25 @@ def mocap_table(title: str, evs: list[dict], runs: dict) -> list[str]:
                            if o["bound"] is not None])
     lines.append("per-frame 95 % bound coverage (frames whose per-frame tilt error is within the reported bound): "
                  f"{label}: {100 * np.mean(hits):.2f} %")
+    lines.append(interval_coverage(runs[label], evs))
     return lines
+
+
+def interval_coverage(out: list[dict], evs: list[dict]) -> str:
+    """Share of the recordings run in sequence mode whose true camera pitch / roll lie inside the
+    printed 95 % intervals (the up model's posterior half-widths)."""
+    hit = []
+    for o, ev in zip(out, evs):
+        if o.get("interval") is None:
+            continue
+        p, r, hp, hr = o["interval"]
+        tp, tr = np.degrees(camera_pitch_roll(ev["true_up"][np.flatnonzero(np.isfinite(o["up"]).all(-1))[0]]))
+        hit.append((abs(tp - p) <= hp, abs((tr - r + 180.0) % 360.0 - 180.0) <= hr))
+    if not hit:
+        return "sequence 95 % interval coverage: no recording read static"
+    h = np.array(hit)
+    return (f"sequence 95 % interval coverage ({len(h)} recordings read static): pitch {100 * h[:, 0].mean():.1f} %, "
+            f"roll {100 * h[:, 1].mean():.1f} %, both {100 * h.all(1).mean():.1f} %")
 
 
 def real_table(evs: list[dict], runs: dict) -> list[str]:
@@ -504,6 +528,7 @@ def real_table(evs: list[dict], runs: dict) -> list[str]:
         per_roll = [np.mean(err[[i for i, ev in enumerate(evs) if ev["roll"] == r]]) for r in REAL_ROLLS_DEG]
         lines.append(f"{v.label:<40}" + "".join(f"{e:>7.1f}" for e in per_cam) + "".join(f"{e:>7.1f}" for e in per_roll)
                      + f"  {verdict(v.kind, err - base)}")
+    lines.append(interval_coverage(runs[VARIANTS[0].label], evs))
     return lines
 
 

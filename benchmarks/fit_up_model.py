@@ -52,6 +52,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from benchmarks import ablation as A
+from benchmarks.report import print_and_save
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.conventions import PELVIS, THORAX
@@ -289,8 +290,7 @@ def main(argv=None) -> int:
     lines += [f"{k:<{width}}  {v:10.4f}   {prov[k]}" for k, v in values.items()]
     lines += ["", f"systematic covariance S (deg^2 diagonal): {np.degrees(np.sqrt(np.diag(systematic_cov(params))))}",
               f"({time.time() - t0:.0f} s)"]
-    args.out.write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    print_and_save(lines, args.out)
     return 0
 
 

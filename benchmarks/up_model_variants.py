@@ -28,6 +28,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from benchmarks import ablation as A
+from benchmarks.report import print_and_save
 from benchmarks import fit_up_model as F
 from pcnet.stages.up_model import (PoseSummary, UpEvidence, UpModelParameters, _maximise, _pd_inverse, _starts,
                                    default_parameters, exp_map, frame_log_likelihood, frames_per_error, log_camera_prior,
@@ -220,8 +221,7 @@ def main(argv=None) -> int:
               "frames whose error is within the per-frame posterior's 95 % radius; read moving: clips whose Bayes "
               "factor favours the moving camera; walk err: the random walk's tilt error (deg), mean over clips.",
               f"({time.time() - t0:.0f} s)"]
-    args.out.write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    print_and_save(lines, args.out)
     return 0
 
 
