@@ -118,7 +118,7 @@ CHANGED_DEG = 0.5
 SWEEP_DEG = 30.0
 SWEEP_MIN_FRAMES = 150
 SWEEP_MAX_CLIPS = 60
-CACHE_VERSION = 3
+CACHE_VERSION = 5
 
 
 # ============================================================================ extraction
@@ -333,6 +333,8 @@ class Variant:
     auto: bool = True
     plain_mean: bool = False  # equal-weight Tukey mean of both networks' per-frame ups
     mode_rule: str = "spread"  # auto's static/moving rule: "spread" (choose_mode) | "bayes" (benchmarks/camera_motion_model.py)
+    #: auto's threshold (deg), its low-pass (s) and smooth mode's time constant (s); None = the package's
+    mode_constants: tuple[float, float, float] | None = None
 
 
 VARIANTS = (
@@ -346,6 +348,7 @@ VARIANTS = (
     Variant("gate: no camera-net vouching", gate="body-reading"),
     Variant("quarter turns off", turns=False),
     Variant("auto threshold off (always sequence)", auto=False),
+    Variant("hand-set mode constants (5 deg, 0.5 s, 0.2 s)", "alternative", mode_constants=(5.0, 0.5, 0.2)),
     Variant("auto by Bayes factor", "alternative", mode_rule="bayes"),
 )
 
@@ -396,9 +399,11 @@ def run_variant(ev: dict, v: Variant) -> dict:
     elif v.mode_rule == "bayes":
         mode = "smooth" if decide_camera_motion(R[:, :, 1], ok, fps).moving else "sequence"
     else:
-        mode = temporal.choose_mode(R, ok, temporal.MODE_THRESHOLD_DEG, fps)[0]
+        threshold, lowpass, _ = v.mode_constants or (temporal.MODE_THRESHOLD_DEG, temporal.MODE_SMOOTHING_S, None)
+        mode = "sequence" if temporal.up_spread_deg(R, ok, fps, lowpass) <= threshold else "smooth"
     if mode == "smooth":
-        out = temporal.smooth_rotations(R, ok, fps, temporal.SMOOTH_TIME_CONSTANT_S)[:, :, 1]
+        tau = temporal.SMOOTH_TIME_CONSTANT_S if v.mode_constants is None else v.mode_constants[2]
+        out = temporal.smooth_rotations(R, ok, fps, tau)[:, :, 1]
         return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "reading": None}
     if v.lying:  # the chain's own sequence step
         _, fields = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior)

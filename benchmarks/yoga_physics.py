@@ -173,12 +173,10 @@ def run(data: Path, stride: int = 2) -> list[str]:
               "model's posterior), median [min, max] over files"]
     for asana in [a for a in ASANA_ORDER if any(r[1] == a for r in results)]:
         rows = [r[3][default] for r in results if r[1] == asana]
-        cells = []
-        for key, fmt in (("pitch_half", ".1f"),):
-            v = np.array([row[key] for row in rows], np.float64)
-            v = v[np.isfinite(v)]
-            cells.append(f"{np.median(v):{fmt}} [{v.min():{fmt}}, {v.max():{fmt}}]" if len(v) else "n/a")
-        lines.append(f"{asana:<13}{len(rows):>3}  r {cells[0]:<22} pitch +- {cells[1]}")
+        v = np.array([row["pitch_half"] for row in rows], np.float64)
+        v = v[np.isfinite(v)]
+        cell = f"{np.median(v):.1f} [{v.min():.1f}, {v.max():.1f}]" if len(v) else "n/a"
+        lines.append(f"{asana:<13}{len(rows):>3}  pitch +- {cell}")
     lines += ["", "Physics targets, files PASS / FAIL (n/a = no valid frame)",
               f"{'asana':<13}{'target':>9}  " + "".join(f"{lab:>{LABEL_WIDTH}}" for lab in labels)]
     for asana, (op, thr) in TARGETS.items():

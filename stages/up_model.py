@@ -306,7 +306,7 @@ def _maximise(objective, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
             norm = np.linalg.norm(step, axis=-1, keepdims=True)
             step = np.where(norm > 0.3, step * 0.3 / np.maximum(norm, 1e-12), step)  # trust region, rad
             best = g.copy(), f0.copy()
-            for frac in (1.0, 0.5, 0.25, 0.1):
+            for frac in (1.0, 0.5, 0.25, 0.1):  # the best of these fractions of the step
                 cand = exp_map(g, frac * step)
                 val = objective(cand)
                 better = val > best[1]
@@ -370,7 +370,12 @@ def summarise_recording(ev: UpEvidence, fps: float, p: UpModelParameters) -> Pos
     m = frames_per_error(fps, p)
     starts = _starts(e)
     from .spherical import robust_mean_direction  # local: spherical imports nothing of this module
-    seeds = np.stack([robust_mean_direction(s)[0] for s in starts])[:, None]
+    seeds = []
+    for start in starts:  # starts within 0.5 deg of an earlier one lead to the same maximum
+        seed = robust_mean_direction(start)[0]
+        if all(np.dot(seed, other) < np.cos(np.radians(0.5)) for other in seeds):
+            seeds.append(seed)
+    seeds = np.stack(seeds)[:, None]
     g, _, H = _maximise(lambda G: np.array([frame_log_likelihood(G[0], e, p).sum() / m]), seeds)
     return PoseSummary(g[0], _pd_inverse(H[0]))
 
