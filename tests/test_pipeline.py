@@ -793,7 +793,7 @@ def test_version_and_rectifys_requested_mode(tmp_path):
 
 def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line():
     """Lying, seated and cycling bodies under a static camera spread the per-frame up past
-    auto mode's 5 deg (the real cycling clip: 6.2 deg): the rectification line says what the
+    auto mode's threshold (the real cycling clip: 6.2 deg): the rectification line says what the
     spread can mean and how to keep a world frame, not only the last warning."""
     from pcnet.pipeline.runner import RunResult
 
@@ -803,7 +803,9 @@ def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line(
                            report={"requested_mode": requested, "spread_deg": 6.2}, fps=30.0, fps_source="--fps")
         return next(ln for ln in result.summary().splitlines() if ln.startswith("rectification"))
 
-    assert "6.2 deg, above the 5 deg of a static camera" in line("smooth", "auto")
+    from pcnet.stages.temporal import MODE_THRESHOLD_DEG
+
+    assert f"6.2 deg, above the {MODE_THRESHOLD_DEG:g} deg of a static camera" in line("smooth", "auto")
     assert "--mode sequence for a static camera" in line("smooth", "auto")
     assert "static camera" not in line("smooth", "smooth") and "static camera" not in line("sequence", "auto")
 
