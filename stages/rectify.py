@@ -29,12 +29,13 @@ from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
 from .ground_plane import GROUND_GATE_DEG, ground_plane_up
-from .core.rotations import camera_pitch_roll, normalize
+from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
-                       choose_mode, sequence_rectify, smooth_rotations, up_spread_deg)
+                       choose_mode, rotations_about_up, sequence_rectify, smooth_rotations, up_spread_deg)
 from .uncertainty import frame_tilt_bound
-from .up_model import Z95, UpEvidence, default_parameters, static_posterior, summarise_recording
+from .up_model import (OTHER_READING_P, Z95, UpEvidence, default_parameters, static_posterior,
+                       summarise_recording)
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
@@ -292,8 +293,6 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     refined by the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`), the
     posterior's RMS axis std as the prior std of the plane's normal; the report's ``evidence``
     then ends in ``+ground_plane`` and ``ground_plane`` says whether and why (not) it ran."""
-    from .temporal import rotations_about_up
-
     params = default_parameters()
     if not camera_prior:
         params = replace(params, camera_prior_outside=1.0)
@@ -308,8 +307,7 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     valid = ok & heading_ok
     pitch, roll = camera_pitch_roll(up)
     pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))
-    frame_ups = normalize(R[ok, :, 1])
-    spread = np.degrees(np.arccos(np.clip(frame_ups @ up, -1.0, 1.0)))
+    spread = np.degrees(angle_between(normalize(R[ok, :, 1]), up[None]))
     other = min(post.p_lying, 1.0 - post.p_lying)
     cone = float(np.hypot(post.pitch_half_deg, post.roll_half_deg))
     return rotations, dict(
@@ -317,10 +315,10 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
         camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
         camera_pitch_uncertainty_deg=float(Z95 * pose_sd[0]), camera_roll_uncertainty_deg=float(Z95 * pose_sd[1]),
         camera_pitch_interval_deg=post.pitch_half_deg, camera_roll_interval_deg=post.roll_half_deg,
-        interval_reaches_other_reading_p=round(other, 4) if other >= 0.05 else None,
+        interval_reaches_other_reading_p=round(other, 4) if other >= OTHER_READING_P else None,
         gravity={"reading": post.reading, "p_lying": round(post.p_lying, 4), "model": "up model",
                  "interval_deg": round(cone, 2),
-                 "pose_camera_angle_deg": round(float(np.degrees(np.arccos(np.clip(-post.summary.up[1], -1, 1)))), 2)},
+                 "pose_camera_angle_deg": round(float(camera_tilt_deg(post.summary.up)), 2)},
         up_spread_deg=float(np.median(spread)), up_spread_p95_deg=float(np.percentile(spread, 95)),
         ground_plane=ground)
 

@@ -61,6 +61,7 @@ import numpy as np
 
 from .core.errors import InputError
 from .core.rotations import camera_pitch_roll, normalize
+from .spherical import robust_mean_direction, weighted_quantile
 
 LEVEL_UP = np.array([0.0, -1.0, 0.0])
 #: Normal quantile of a two-sided 95 % interval.
@@ -68,6 +69,9 @@ Z95 = 1.959964
 _FD_STEP = 1e-4  # rad, finite differences of the Laplace step
 _NEWTON_STEPS = 25
 _GRID_POINTS = 40_000  # about 1 deg between neighbours
+#: A reading not reported that keeps at least this posterior probability is reached by the 95 %
+#: intervals (a region holding 95 % must hold some of it; decision 0024).
+OTHER_READING_P = 0.05
 
 
 # ============================================================================ parameters
@@ -281,6 +285,20 @@ def frame_log_likelihood(g: np.ndarray, ev: UpEvidence, p: UpModelParameters) ->
     return np.where(np.isfinite(cos_c), lc, 0.0) + np.where(np.isfinite(cos_b), lb, 0.0)
 
 
+def _derivatives(objective, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(value (B,), gradient (B, 2), negative Hessian (B, 2, 2))`` of ``objective`` at ``g``
+    ``(B, 3)`` in the (pitch, roll) tangent coordinates, by central differences."""
+    h = _FD_STEP
+    offsets = np.array([[0, 0], [h, 0], [-h, 0], [0, h], [0, -h], [h, h], [-h, -h]])
+    vals = np.stack([objective(exp_map(g, np.broadcast_to(o, (len(g), 2)))) for o in offsets])
+    f0 = vals[0]
+    grad = np.stack([(vals[1] - vals[2]), (vals[3] - vals[4])], -1) / (2 * h)
+    hpp = (vals[1] - 2 * f0 + vals[2]) / h ** 2
+    hrr = (vals[3] - 2 * f0 + vals[4]) / h ** 2
+    hpr = (vals[5] - vals[1] - vals[3] + 2 * f0 - vals[2] - vals[4] + vals[6]) / (2 * h ** 2)
+    return f0, grad, -np.stack([np.stack([hpp, hpr], -1), np.stack([hpr, hrr], -1)], -2)
+
+
 def _maximise(objective, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Damped Newton ascent on S^2 for ``B`` independent 2-parameter problems.
 
@@ -288,18 +306,10 @@ def _maximise(objective, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     result per problem is kept). Derivatives by central differences in the tangent plane.
     Returns ``(g (B, 3), value (B,), negative Hessian (B, 2, 2))`` at the maximiser."""
     best_g = best_v = best_h = None
-    h = _FD_STEP
-    offsets = np.array([[0, 0], [h, 0], [-h, 0], [0, h], [0, -h], [h, h], [-h, -h]])
     for g in starts:
         g = normalize(g)
         for _ in range(_NEWTON_STEPS):
-            vals = np.stack([objective(exp_map(g, np.broadcast_to(o, (len(g), 2)))) for o in offsets])
-            f0 = vals[0]
-            grad = np.stack([(vals[1] - vals[2]), (vals[3] - vals[4])], -1) / (2 * h)
-            hpp = (vals[1] - 2 * f0 + vals[2]) / h ** 2
-            hrr = (vals[3] - 2 * f0 + vals[4]) / h ** 2
-            hpr = (vals[5] - vals[1] - vals[3] + 2 * f0 - vals[2] - vals[4] + vals[6]) / (2 * h ** 2)
-            H = -np.stack([np.stack([hpp, hpr], -1), np.stack([hpr, hrr], -1)], -2)
+            f0, grad, H = _derivatives(objective, g)
             # Levenberg: a positive definite step matrix even away from the maximum.
             lam = np.maximum(0.0, -np.linalg.eigvalsh(H)[:, 0]) + 1e-3 * np.abs(np.trace(H, axis1=1, axis2=2)) + 1e-9
             step = np.linalg.solve(H + lam[:, None, None] * np.eye(2), grad[..., None])[..., 0]
@@ -315,12 +325,7 @@ def _maximise(objective, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
             g = best[0]
             if np.all(moved < 1e-4):
                 break
-        vals = np.stack([objective(exp_map(g, np.broadcast_to(o, (len(g), 2)))) for o in offsets])
-        f0 = vals[0]
-        hpp = (vals[1] - 2 * f0 + vals[2]) / h ** 2
-        hrr = (vals[3] - 2 * f0 + vals[4]) / h ** 2
-        hpr = (vals[5] - vals[1] - vals[3] + 2 * f0 - vals[2] - vals[4] + vals[6]) / (2 * h ** 2)
-        H = -np.stack([np.stack([hpp, hpr], -1), np.stack([hpr, hrr], -1)], -2)
+        f0, _, H = _derivatives(objective, g)
         if best_g is None:
             best_g, best_v, best_h = g, f0, H
         else:
@@ -369,7 +374,6 @@ def summarise_recording(ev: UpEvidence, fps: float, p: UpModelParameters) -> Pos
         raise InputError("no frame has an up from either network")
     m = frames_per_error(fps, p)
     starts = _starts(e)
-    from .spherical import robust_mean_direction  # local: spherical imports nothing of this module
     seeds = []
     for start in starts:  # starts within 0.5 deg of an earlier one lead to the same maximum
         seed = robust_mean_direction(start)[0]
@@ -431,7 +435,7 @@ class StaticPosterior:
     p_lying: posterior probability of the lying reading; pitch_half_deg, roll_half_deg: 95 %
     half-widths of the camera pitch and roll (the reading's posterior, widened to the whole
     posterior where the other reading keeps at least 5 %); summary: the poses'
-    :class:`PoseSummary`; log_evidence: ``log p(g_hat)`` (both readings, nats)."""
+    :class:`PoseSummary`."""
 
     up: np.ndarray
     reading: str
@@ -439,7 +443,6 @@ class StaticPosterior:
     pitch_half_deg: float
     roll_half_deg: float
     summary: PoseSummary
-    log_evidence: float
 
 
 _GRID: np.ndarray | None = None
@@ -454,8 +457,6 @@ def _grid() -> np.ndarray:
 
 def _half_widths(points: np.ndarray, weights: np.ndarray, mode: np.ndarray) -> tuple[float, float]:
     """95 % half-widths (deg) of pitch and roll about ``mode`` over weighted ``points``."""
-    from .spherical import weighted_quantile
-
     pitch, roll = camera_pitch_roll(points)
     p0, r0 = camera_pitch_roll(mode)
     dp = np.abs(pitch - p0)
@@ -473,23 +474,20 @@ def static_posterior(s: PoseSummary, p: UpModelParameters, lying: bool = True) -
     prior = log_camera_prior(grid, p)
     lu = np.log1p(-p.lying_prior) + log_upright(grid, s, p) + prior
     ll = np.log(p.lying_prior) + log_lying(grid, s, p) + prior if lying else np.full(len(grid), -np.inf)
-    cell = 4 * np.pi / len(grid)
     top = max(lu.max(), ll.max())
-    mass_u, mass_l = np.exp(lu - top).sum(), np.exp(ll - top).sum()
-    p_lying = float(mass_l / (mass_u + mass_l))
-    log_evidence = float(top + np.log((mass_u + mass_l) * cell))
+    w_upright, w_lying = np.exp(lu - top), np.exp(ll - top)
+    p_lying = float(w_lying.sum() / (w_upright.sum() + w_lying.sum()))
+    both = min(p_lying, 1 - p_lying) >= OTHER_READING_P
     if p_lying > 0.5:
-        up, reading, w = grid[int(np.argmax(ll))], "lying", np.exp(ll - top)
+        up, reading = grid[int(np.argmax(ll))], "lying"
+        pitch_half, roll_half = _half_widths(grid, w_upright + w_lying if both else w_lying, up)
     else:
         objective = lambda G: log_upright(G, s, p) + log_camera_prior(G, p)  # noqa: E731
         up = _maximise(objective, np.stack([s.up, grid[int(np.argmax(lu))]])[:, None])[0][0]
-        reading, w = "upright", np.exp(lu - top)
-    if min(p_lying, 1 - p_lying) >= 0.05:
-        w = np.exp(lu - top) + np.exp(ll - top)
-    pitch_half, roll_half = _half_widths(grid, w, up)
-    if reading == "upright" and min(p_lying, 1 - p_lying) < 0.05:
-        pitch_half, roll_half = _local_half_widths(s, p, up)
-    return StaticPosterior(up, reading, p_lying, pitch_half, roll_half, s, log_evidence)
+        reading = "upright"
+        pitch_half, roll_half = (_half_widths(grid, w_upright + w_lying, up) if both
+                                 else _local_half_widths(s, p, up))
+    return StaticPosterior(up, reading, p_lying, pitch_half, roll_half, s)
 
 
 def _local_half_widths(s: PoseSummary, p: UpModelParameters, mode: np.ndarray, n: int = 121) -> tuple[float, float]:
