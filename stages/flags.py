@@ -19,7 +19,7 @@ from .core.conventions import (L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SH
                                median_thigh_length)
 from .core.framestore import frame_blocks, true_runs
 from .core.rotations import camera_pitch_roll, camera_tilt_deg
-from .opensim_ik import MAX_GOOD_MARKER_RMS_M
+from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
 from .scale import height_chain_length, leg_lengths
 
@@ -777,22 +777,23 @@ def implausible_motion_findings(found: Sequence[ImplausibleMotion],
 
 
 def opensim_fit_findings(fit: dict) -> list[Finding]:
-    """The findings of OpenSim's fit (:func:`pcnet.stages.opensim_ik.scale_and_ik`'s result),
-    whose ``warnings`` hold :func:`pcnet.stages.opensim_ik.ik_fit_flags`' texts in its order:
-    segments left unscaled, then a marker RMS above the best-practice bound. A text beyond
-    those is kept as a :data:`Severity.CHECK` finding of no kind (:func:`shortened`)."""
-    texts = list(fit["warnings"])
+    """The findings of OpenSim's fit (:func:`pcnet.stages.opensim_ik.scale_and_ik`'s result):
+    segments left unscaled (:func:`pcnet.stages.opensim_ik.unscaled_segments_flag`) and a marker
+    RMS above the best-practice bound (:func:`pcnet.stages.opensim_ik.marker_rms_flag`), each
+    with that function's text as its detail. Any other text of the fit's ``warnings`` is kept as
+    a :data:`Severity.CHECK` finding of no kind (:func:`shortened`)."""
     out = []
-    if fit.get("segments_not_scaled") and texts:
+    if unscaled := unscaled_segments_flag(fit):
         out.append(_found(Kind.SEGMENTS_UNSCALED, Severity.CHECK,
                           f"OpenSim segments {', '.join(fit['segments_not_scaled'])} not scaled: no frame has their "
-                          f"markers", "read those segments' angles with care", texts.pop(0)))
-    if texts and not fit["marker_rms_m"] <= MAX_GOOD_MARKER_RMS_M:
+                          f"markers", "read those segments' angles with care", unscaled))
+    if rms := marker_rms_flag(fit):
         out.append(_found(Kind.MARKER_RMS, Severity.CHECK,
                           f"OpenSim marker RMS {100 * fit['marker_rms_m']:.1f} cm (max {100 * fit['marker_max_m']:.1f} "
-                          f"cm): the model does not follow the poses", "check the joint angles before use",
-                          texts.pop(0)))
-    return out + [Finding(Severity.CHECK, shortened(text), "see report.md", text) for text in texts]
+                          f"cm): the model does not follow the poses", "check the joint angles before use", rms))
+    known = {f.detail for f in out}
+    return out + [Finding(Severity.CHECK, shortened(text), "see report.md", text) for text in fit["warnings"]
+                  if text not in known]
 
 
 def ranked(findings: Iterable[Finding]) -> list[Finding]:

@@ -75,21 +75,32 @@ MASS_RANGE_KG = (10.0, 300.0)
 MAX_GOOD_MARKER_RMS_M = 0.02
 
 
-def ik_fit_flags(result: dict) -> list[str]:
-    """A warning when :func:`scale_and_ik`'s ``result`` has an RMS marker error above
-    :data:`MAX_GOOD_MARKER_RMS_M` (the joint angles then describe a model that does not
-    follow the poses), and one when a segment was not scaled (the markers of its every
-    measurement were in no frame); else none."""
+def unscaled_segments_flag(result: dict) -> str | None:
+    """The warning when :func:`scale_and_ik`'s ``result`` left a segment unscaled (the markers
+    of its every measurement were in no frame), else ``None``."""
+    if not result.get("segments_not_scaled"):
+        return None
+    return (f"segments {', '.join(result['segments_not_scaled'])} keep the generic model's size: no frame has "
+            f"the markers that measure them ({', '.join(result['markers_left_out'])} left out)")
+
+
+def marker_rms_flag(result: dict) -> str | None:
+    """The warning when :func:`scale_and_ik`'s ``result`` has an RMS marker error above
+    :data:`MAX_GOOD_MARKER_RMS_M` (the joint angles then describe a model that does not follow
+    the poses), else ``None``."""
     rms, worst = result["marker_rms_m"], result["marker_max_m"]
-    unscaled = [f"segments {', '.join(result['segments_not_scaled'])} keep the generic model's size: no frame has "
-                f"the markers that measure them ({', '.join(result['markers_left_out'])} left out)"] \
-        if result.get("segments_not_scaled") else []
     if rms <= MAX_GOOD_MARKER_RMS_M:  # NaN (no IK frame) is warned about too
-        return unscaled
-    return unscaled + [f"marker RMS {100 * rms:.1f} cm (max {100 * worst:.1f} cm): above the ~{100 * MAX_GOOD_MARKER_RMS_M:.0f} cm "
+        return None
+    return (f"marker RMS {100 * rms:.1f} cm (max {100 * worst:.1f} cm): above the ~{100 * MAX_GOOD_MARKER_RMS_M:.0f} cm "
             f"OpenSim's best-practice checklist asks of inverse kinematics; the model does not follow these poses "
             f"(a skeleton unlike a human body, or a recording with a different person or missing joints): check the "
-            f"joint angles before using them"]
+            f"joint angles before using them")
+
+
+def ik_fit_flags(result: dict) -> list[str]:
+    """:func:`scale_and_ik`'s warnings: :func:`unscaled_segments_flag`, then
+    :func:`marker_rms_flag`, those that apply."""
+    return [text for text in (unscaled_segments_flag(result), marker_rms_flag(result)) if text]
 
 
 def opensim_fit_line(result: dict, short: bool = False) -> str:

@@ -42,12 +42,11 @@ def short_run(tmp_path_factory) -> Path:
 
 @pytest.fixture
 def poor_fit(monkeypatch):
-    """Every OpenSim fit is "poor", to both its warning (opensim_ik) and its finding (flags)."""
-    import pcnet.stages.flags as flags
+    """Every OpenSim fit is "poor": its warning and its finding both come from
+    opensim_ik.marker_rms_flag."""
     import pcnet.stages.opensim_ik as opensim_ik
 
-    for module in (opensim_ik, flags):
-        monkeypatch.setattr(module, "MAX_GOOD_MARKER_RMS_M", 0.001)
+    monkeypatch.setattr(opensim_ik, "MAX_GOOD_MARKER_RMS_M", 0.001)
 
 
 def test_scale_and_ik_on_a_short_real_clip(short_run, tmp_path):
