@@ -176,3 +176,23 @@ def test_pcnet_run_says_when_it_reads_a_lying_body(tmp_path):
     with np.load(tmp_path / "out" / "canonical.npz", allow_pickle=False) as z:
         assert any("read as lying" in f for f in z["flags"])
         assert _trunk_from_vertical_deg(z["canonical"]) > 75.0
+
+
+@pytest.mark.parametrize("roll_deg", [90.0, -90.0])
+def test_the_camera_networks_level_up_is_the_true_up_of_a_quarter_turned_camera(roll_deg):
+    """The camera-frame network reads a quarter-turned camera's poses turned back
+    (models/view_gate.py: quarter_turns, X' = X @ Q.T); the level up of that input frame,
+    expressed in the camera frame (UpEvidence.level_up, Q^T L), must be the true up. Catches
+    Q against Q^T (they differ for a quarter turn) and a sign slip in the roll."""
+    from pcnet.models.view_gate import quarter_turn_matrices, quarter_turns
+    from pcnet.stages.core.rotations import compose_camera_rotation
+
+    T = 60
+    R = compose_camera_rotation(np.linspace(-1.0, 1.0, T), np.full(T, np.radians(5.0)), np.full(T, np.radians(roll_deg)))
+    truth = R[:, :, 1]
+    k = quarter_turns(R, np.ones(T, bool))
+    assert (k == (1 if roll_deg > 0 else 3)).all()  # turned back by -90 k deg
+    ev = UpEvidence.of(truth, truth, quarter_turn_matrices(k))
+    # the level up differs from the truth by the camera pitch alone (with Q for Q^T: 175 deg)
+    np.testing.assert_allclose(np.degrees(np.arccos(np.clip(np.sum(ev.level_up() * truth, -1), -1, 1))), 5.0,
+                               atol=1e-6)
