@@ -92,6 +92,7 @@ from pcnet.models.preprocess import normalize_input
 from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices
 from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
+from benchmarks.report import require_mocap
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, up_model_sequence
@@ -616,6 +617,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=RESULT)
     ap.add_argument("--skip", nargs="*", default=[], choices=("mocap", "real", "yoga", "equivariance"))
     args = ap.parse_args(argv)
+    require_mocap(args.data, "ablation")
     t0 = time.time()
     lines = [__doc__.splitlines()[0], "",
              f"    python -m benchmarks.ablation --data ../shared/data --max-clips {args.max_clips}", "",

@@ -39,7 +39,6 @@ benchmarks/results/apparent_vertical.txt.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -48,7 +47,7 @@ from scipy.signal import savgol_filter
 from benchmarks.balance_evidence import centre_of_mass
 from benchmarks.calibrate_frame_bound import DEEPMIMIC_GROUPS, canonical_pitch_roll, deepmimic_group
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import data_arguments, print_and_save
+from benchmarks.report import data_arguments, print_and_save, require_mocap
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.pipeline.rectification import make_estimator, rectify
@@ -143,8 +142,7 @@ def explained(e: np.ndarray, a: np.ndarray, beta: np.ndarray) -> tuple[np.ndarra
 
 def main() -> int:
     args = data_arguments(__doc__, DEFAULT, RESULT, stride=1)
-    if not (args.data / "mocap").is_dir():
-        sys.exit(f"apparent_vertical: no mocap/ folder under {args.data}; pass --data <data root>")
+    require_mocap(args.data, "apparent_vertical")
     estimator = make_estimator("pcnet")
     val, test = training_mix_splits(args.data, "val", "test")
     deepmimic_clips = load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz")

@@ -37,7 +37,7 @@ import numpy as np
 import pcnet.stages.temporal as temporal
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save
+from benchmarks.report import print_and_save, require_mocap
 
 RESULT = Path(__file__).resolve().parent / "results" / "fit_camera_mode.txt"
 SMOOTH_GRID_S = (0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0)
@@ -70,6 +70,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cache", type=Path, default=A.CACHE)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
+    require_mocap(args.data, "fit_camera_mode")
     t0 = time.time()
     val = {}
     for tag, file in F.VAL_SETS:

@@ -52,7 +52,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from benchmarks import ablation as A
-from benchmarks.report import print_and_save
+from benchmarks.report import print_and_save, require_mocap
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.conventions import PELVIS, THORAX
@@ -244,6 +244,7 @@ def main(argv=None) -> int:
     ap.add_argument("--json", type=Path, default=JSON_OUT)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
+    require_mocap(args.data, "fit_up_model")
     t0 = time.time()
     evs = {}
     for tag, file in VAL_SETS:

@@ -4,6 +4,7 @@ their report (print it and write it under results/)."""
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 
@@ -26,3 +27,9 @@ def print_and_save(lines: list[str], out: Path) -> None:
     print(text)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text)
+
+
+def require_mocap(data: Path, script: str) -> None:
+    """Exit with one line when ``data`` (the data root) has no ``mocap/`` folder."""
+    if not (Path(data) / "mocap").is_dir():
+        sys.exit(f"{script}: no mocap/ folder under {data}; pass --data <data root>")

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from benchmarks import ablation as A
-from benchmarks.report import print_and_save
+from benchmarks.report import print_and_save, require_mocap
 from benchmarks import fit_up_model as F
 from pcnet.stages.up_model import (PoseSummary, UpEvidence, UpModelParameters, _maximise, _pd_inverse, _starts,
                                    default_parameters, exp_map, frame_log_likelihood, frames_per_error, log_camera_prior,
@@ -180,6 +180,7 @@ def main(argv=None) -> int:
     ap.add_argument("--max-clips", type=int, default=200)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
+    require_mocap(args.data, "up_model_variants")
     t0 = time.time()
     p = default_parameters()
     val = {}

@@ -184,7 +184,8 @@ def test_shipped_body_frame_network_is_exactly_equivariant_on_real_poses():
 
 
 @pytest.mark.parametrize("script", ["gravity_benchmark", "yoga_physics", "equivariance", "lying_roll",
-                                    "apparent_vertical"])
+                                    "apparent_vertical", "fit_up_model", "fit_camera_mode", "up_model_variants",
+                                    "ablation"])
 def test_scripts_exit_with_one_line_without_data(script, tmp_path):
     out = tmp_path / "table.txt"
     proc = _run_benchmark(script, "--data", str(tmp_path / "absent"), "--out", str(out), timeout=120)
