@@ -6,7 +6,8 @@
 Issue 49, "Ablation, not accretion": a piece that does not help on held-out data goes. This
 script measures every piece on held-out data only, one row each.
 
-Evidence is extracted ONCE per clip and cached (``--cache``, pickle per data set): each
+Evidence is extracted ONCE per clip and cached (``--cache``, one ``.npz`` per data set, read
+with ``allow_pickle=False``: :func:`save_records` / :func:`load_records`): each
 recording runs through the shipped estimator exactly as ``pcnet run`` builds it
 (:class:`pcnet.pipeline.rectification.NetworkEstimator` -> :class:`pcnet.models.inference.ViewGatedPCNet`
 ``predict_gated``), with recorders on the two onnxruntime sessions' ``predict_normalized``
@@ -56,7 +57,7 @@ Metrics. Mocap: per clip the tilt error of the output (mean over its valid frame
 angle between the output up and the true up; in sequence mode the one up's error), then mean
 / median / p95 over clips; ``frame`` = the per-frame estimate's tilt error (before any
 sequence step), mean over all frames; ``>20`` = clips erring more than 20 deg; ``lying`` =
-clips whose up-model reading (upright / lying) is not the truth (lying = median true
+clips whose up model's posture (upright / lying) is not the truth (lying = median true
 trunk angle from up > 60 deg; without the priors every clip reads upright); the coverage
 line: recordings read static whose true camera pitch / roll lie inside the printed 95 %
 intervals. Verdict: paired
@@ -77,7 +78,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import hashlib
-import pickle
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -119,7 +120,7 @@ CHANGED_DEG = 0.5
 SWEEP_DEG = 30.0
 SWEEP_MIN_FRAMES = 150
 SWEEP_MAX_CLIPS = 60
-CACHE_VERSION = 5
+CACHE_VERSION = 6
 
 
 # ============================================================================ extraction
@@ -183,13 +184,12 @@ def extract(X: np.ndarray, fps: float) -> dict:
         R_camP[idx] = session.camera.predict_normalized(x[idx], scale[idx], ok[idx])[0]
     real = Rectification(_Fixed(est), SequenceEvidence("auto", True, n_bootstrap=0), HeadingStep("auto"))(X, fps)
     rep = real.report
-    grav = rep.get("gravity")
     return {
         "fps": float(fps), "J": X, "R_body": R_body, "R_camT": R_camT, "R_camP": R_camP, "valid": est.valid.copy(),
         "turns": turns.copy(), "weight": est.camera_frame_weight.copy(),
         "frame_up": est.rotation[:, :, 1].copy(), "real_up": real.up.copy(), "real_valid": real.valid.copy(),
-        "real_mode": rep["mode"], "real_reading": None if grav is None else grav["reading"],
-        "ground_plane_used": bool((rep.get("ground_plane") or {}).get("used", False)),
+        "real_mode": real.mode, "real_posture": None if rep.posture is None else rep.posture.most_probable,
+        "ground_plane_used": bool(rep.sequence is not None and rep.sequence.ground_plane.get("used", False)),
     }
 
 
@@ -207,19 +207,114 @@ def _weights_key() -> str:
     return h.hexdigest()[:12]
 
 
+#: Separator of the npz keys of :func:`save_records`: ``"{i}/{field}[/{subfield}...]"``.
+_SEP = "/"
+#: The npz key of the record count and of the manifest (one ``(key, kind)`` row per value).
+_COUNT, _MANIFEST = "__count__", "__manifest__"
+
+
+def _flatten(prefix: str, d: dict, arrays: dict, manifest: list) -> None:
+    """Add dict ``d``'s values under ``prefix`` to ``arrays`` (npz key -> array) and ``manifest``."""
+    if not d:
+        manifest.append((prefix, "dict"))  # an empty dict, so it comes back
+    for field, v in d.items():
+        if not isinstance(field, str) or _SEP in field:
+            raise ValueError(f"field name {field!r} at {prefix!r}: not a str without {_SEP!r}")
+        key = f"{prefix}{_SEP}{field}"
+        if isinstance(v, dict):
+            _flatten(key, v, arrays, manifest)
+            continue
+        if v is None:
+            kind = "none"
+        elif isinstance(v, np.ndarray):
+            kind = "array"
+        elif isinstance(v, np.generic):  # before bool / int / float / str: np.float64 and np.str_ are subclasses
+            kind = "scalar"
+        elif isinstance(v, bool):
+            kind = "bool"
+        elif isinstance(v, int):
+            kind = "int"
+        elif isinstance(v, float):
+            kind = "float"
+        elif isinstance(v, str):
+            kind = "str"
+        else:
+            raise TypeError(f"{key}: cannot store a {type(v).__name__} without pickle")
+        if kind != "none":
+            a = np.asarray(v)
+            if a.dtype.hasobject:
+                raise TypeError(f"{key}: an object array needs pickle")
+            arrays[key] = a
+        manifest.append((key, kind))
+
+
+def save_records(path: Path, records: list[dict]) -> None:
+    """Write ``records`` (a list of dicts, one per recording) to ``path`` as an ``.npz`` that
+    :func:`load_records` reads with ``allow_pickle=False``: every value under the key
+    ``"{i}/{field}"`` (nested dicts ``"{i}/{field}/{subfield}"``): numpy arrays as they are
+    (any dtype without Python objects), numpy scalars, Python ``bool`` / ``int`` / ``float`` /
+    ``str`` as 0-d arrays; ``None`` stored in the manifest only. The manifest (``(key, kind)``
+    rows in insertion order) restores the types and the field order. Written atomically
+    (a temporary file, then ``replace``).
+
+    Raises:
+        TypeError: a value of another type (a list, an object array, ...).
+        ValueError: a field name that is not a str or holds ``/``."""
+    if not isinstance(records, list) or not all(isinstance(r, dict) for r in records):
+        raise TypeError("records must be a list of dicts")
+    arrays, manifest = {}, []
+    for i, rec in enumerate(records):
+        _flatten(str(i), rec, arrays, manifest)
+    arrays[_COUNT] = np.asarray(len(records), np.int64)
+    arrays[_MANIFEST] = np.asarray(manifest, dtype=np.str_).reshape(-1, 2)
+    path = Path(path)
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as f:
+            np.savez(f, **arrays)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def load_records(path: Path) -> list[dict]:
+    """The list of dicts :func:`save_records` wrote to ``path``: the same fields in the same
+    order, arrays with their dtypes and shapes, numpy scalars as numpy scalars, Python
+    ``bool`` / ``int`` / ``float`` / ``str`` / ``None`` and nested dicts as they were. Read with
+    ``allow_pickle=False`` (a file holding pickled objects raises ``ValueError``)."""
+    with np.load(path, allow_pickle=False) as z:
+        records = [{} for _ in range(int(z[_COUNT]))]
+        for key, kind in z[_MANIFEST].tolist():
+            i, *fields = key.split(_SEP)
+            d = records[int(i)]
+            for field in fields[:-1]:
+                d = d.setdefault(field, {})
+            if kind == "dict":  # an empty dict (a whole record: already there)
+                if fields:
+                    d.setdefault(fields[-1], {})
+                continue
+            if kind == "none":
+                value = None
+            elif kind == "array":
+                value = z[key]
+            elif kind == "scalar":
+                value = z[key][()]
+            else:
+                value = {"bool": bool, "int": int, "float": float, "str": str}[kind](z[key].item())
+            d[fields[-1]] = value
+    return records
+
+
 def cached(cache: Path, name: str, build):
-    """``build()`` once, pickled under ``cache`` (keyed on the shipped weights too)."""
-    path = cache / f"v{CACHE_VERSION}_{_weights_key()}_{name}.pkl"
+    """``build()`` (a list of dicts) once, saved under ``cache`` by :func:`save_records` (keyed
+    on the shipped weights too) and read back by :func:`load_records`."""
+    path = cache / f"v{CACHE_VERSION}_{_weights_key()}_{name}.npz"
     if path.is_file():
-        with open(path, "rb") as f:
-            return pickle.load(f)
+        return load_records(path)
     t0 = time.time()
     out = build()
     cache.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    with open(tmp, "wb") as f:
-        pickle.dump(out, f, protocol=pickle.HIGHEST_PROTOCOL)
-    tmp.replace(path)
+    save_records(path, out)
     print(f"  extracted {name} in {time.time() - t0:.0f} s", flush=True)
     return out
 
@@ -327,7 +422,7 @@ class Variant:
 
     label: str
     kind: str = "removal"  # "default", "removal" or "alternative"
-    gate: str = "shipped"  # shipped | body-reading | half | body | camera
+    gate: str = "shipped"  # shipped | body-estimate | half | body | camera
     turns: bool = True
     prior: bool = True
     lying: bool = True
@@ -346,7 +441,7 @@ VARIANTS = (
     Variant("gate off: fixed 50/50", gate="half"),
     Variant("gate off: body-frame net only", gate="body"),
     Variant("gate off: camera-frame net only", gate="camera"),
-    Variant("gate: no camera-net vouching", gate="body-reading"),
+    Variant("gate: body-frame estimate alone", gate="body-estimate"),
     Variant("quarter turns off", turns=False),
     Variant("auto threshold off (always sequence)", auto=False),
     Variant("hand-set mode constants (5 deg, 0.5 s, 0.2 s)", "alternative", mode_constants=(5.0, 0.5, 0.2)),
@@ -367,7 +462,7 @@ def per_frame(ev: dict, v: Variant):
     Qb, Qc = (Rb, Rc) if Q is None else (Q @ Rb, Q @ Rc)
     if v.gate == "shipped":
         w = camera_frame_weight(Qb, valid, fps, Qc)
-    elif v.gate == "body-reading":
+    elif v.gate == "body-estimate":
         w = camera_frame_weight(Qb, valid, fps)
     else:
         w = np.where(valid, {"half": 0.5, "body": 0.0, "camera": 1.0}[v.gate], np.nan)
@@ -378,7 +473,7 @@ def per_frame(ev: dict, v: Variant):
 
 
 def run_variant(ev: dict, v: Variant) -> dict:
-    """Output ups ``(T, 3)`` (NaN where not valid), the per-frame ups, the mode and the reading."""
+    """Output ups ``(T, 3)`` (NaN where not valid), the per-frame ups, the mode and the posture."""
     J, fps = ev["J"], ev["fps"]
     if v.plain_mean:
         ok = ev["valid"] & np.isfinite(ev["R_camP"]).all((1, 2))
@@ -387,13 +482,13 @@ def run_variant(ev: dict, v: Variant) -> dict:
         frame = np.full((len(J), 3), np.nan)
         frame[ok] = normalize(ub + uc)
         out = np.where(ok[:, None], up[None], np.nan)
-        return {"up": out, "frame_up": frame, "mode": "sequence", "reading": None, "bound": None}
+        return {"up": out, "frame_up": frame, "mode": "sequence", "posture": None, "bound": None}
     R, valid, w, d = per_frame(ev, v)
     bound = frame_tilt_bound(d, w, FRAME_TILT_95_DEG)
     R, ok = temporal.check_rotations(R, valid)
     res = {"frame_up": np.where(ok[:, None], R[:, :, 1], np.nan), "bound": np.where(ok, bound, np.nan)}
     if v.auto and ok.sum() < 2:
-        return {**res, "up": res["frame_up"], "mode": "frame", "reading": None}
+        return {**res, "up": res["frame_up"], "mode": "frame", "posture": None}
     evidence = evidence_of(ev, v.turns)
     if not v.auto:
         mode = "sequence"
@@ -405,17 +500,17 @@ def run_variant(ev: dict, v: Variant) -> dict:
     if mode == "smooth":
         tau = temporal.SMOOTH_TIME_CONSTANT_S if v.mode_constants is None else v.mode_constants[2]
         out = temporal.smooth_rotations(R, ok, fps, tau)[:, :, 1]
-        return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "reading": None}
+        return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "posture": None}
     if v.lying:  # the chain's own sequence step
-        _, fields = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior)
-        pitch, roll = camera_pitch_roll(fields["up"])
-        return {**res, "up": np.where(ok[:, None], fields["up"], np.nan), "mode": mode,
-                "reading": fields["gravity"]["reading"],
-                "interval": (np.degrees(pitch), np.degrees(roll), fields["camera_pitch_interval_deg"],
-                             fields["camera_roll_interval_deg"])}
+        _, _, seq = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior)
+        pitch, roll = camera_pitch_roll(seq.up)
+        return {**res, "up": np.where(ok[:, None], seq.up, np.nan), "mode": mode,
+                "posture": "upright" if seq.posture is None else seq.posture.most_probable,
+                "interval": (np.degrees(pitch), np.degrees(roll), seq.camera_pitch_interval_deg,
+                             seq.camera_roll_interval_deg)}
     p = default_parameters()
     post = static_posterior(summarise_recording(evidence.frames(ok), fps, p), p, lying=False)
-    return {**res, "up": np.where(ok[:, None], post.up, np.nan), "mode": mode, "reading": post.reading}
+    return {**res, "up": np.where(ok[:, None], post.up, np.nan), "mode": mode, "posture": post.posture}
 
 
 # ============================================================================ metrics
@@ -485,7 +580,7 @@ def mocap_table(title: str, evs: list[dict], runs: dict) -> list[str]:
         out = runs[v.label]
         err = np.array([clip_error(o["up"], ev["true_up"]) for o, ev in zip(out, evs)])
         fe = np.concatenate([deg(o["frame_up"], ev["true_up"]) for o, ev in zip(out, evs)])
-        wrong = sum((o["reading"] == "lying") != t for o, t in zip(out, lying))
+        wrong = sum((o["posture"] == "lying") != t for o, t in zip(out, lying))
         smooth = sum(o["mode"] == "smooth" for o in out)
         if v.kind == "default":
             base = err

@@ -2,7 +2,7 @@
 
     python -m benchmarks.camera_roll_reading [--data ../shared/data] [--stride 2]
 
-The view gate (models/view_gate.py: camera_reading) reads the camera's |roll| from a network's
+The view gate (models/view_gate.py: camera_view_estimate) reads the camera's |roll| from a network's
 per-frame up as a 2 s running median. A gate that hands rolled cameras to a network trained on
 rolled views needs that reading to separate a rolled camera from a body that is not
 left-right symmetric under a level camera. Here, for the shipped camera-frame network
@@ -29,7 +29,7 @@ from benchmarks.yoga_physics import ASANA_ORDER, FOLDER, FPS, plain_export, pars
 
 from pcnet.adapters import load_videopose3d
 from pcnet.models.inference import CAMERA_WEIGHTS, PCNetSession
-from pcnet.models.view_gate import camera_reading, window_frames
+from pcnet.models.view_gate import camera_view_estimate, window_frames
 from pcnet.stages.core.conventions import root_relative
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -42,7 +42,7 @@ def median_roll_reading(session: PCNetSession, joints: np.ndarray, fps: float) -
     R, _, valid = session.predict(joints)
     if not valid.any():
         return float("nan")
-    return float(np.median(camera_reading(R[valid], window_frames(fps))[0]))
+    return float(np.median(camera_view_estimate(R[valid], window_frames(fps))[0]))
 
 
 def main() -> None:

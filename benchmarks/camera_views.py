@@ -34,7 +34,7 @@ from benchmarks.view_gate import rolled_views
 
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, normalized_in_chunks
-from pcnet.models.view_gate import (ROLL_RAMP_DEG, blend_rotations, camera_frame_weight, camera_reading,
+from pcnet.models.view_gate import (ROLL_RAMP_DEG, blend_rotations, camera_frame_weight, camera_view_estimate,
                                     window_frames)
 from pcnet.stages.core.rotations import angle_between
 
@@ -92,7 +92,7 @@ def tilt_by_estimator(clips, lifter: bool, stride: int, cameras: dict, body: PCN
             w_cam = camera_frame_weight(R_body, both, fps, R_ship)
             reading = np.full(len(both), np.nan)
             R_read = R_body if level_reading == "body" else R_ship
-            reading[both] = camera_reading(R_read[both], window_frames(fps))[0]
+            reading[both] = camera_view_estimate(R_read[both], window_frames(fps))[0]
             for ramp in level_ramps:
                 w_level = np.clip((ramp[1] - reading) / (ramp[1] - ramp[0]), 0.0, 1.0)  # 1 = the shipped network
                 R_side = blend_rotations(R_cand, R_ship, w_level)

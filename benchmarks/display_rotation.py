@@ -150,7 +150,7 @@ def run_case(label: str, video_src: Path, inputs: dict, tmp: Path, case: tuple, 
     write_stored_video(video_src, video, rotation, tag)
     result = run_pipeline(RunConfig(**dict(inputs, video=str(video)), out=str(tmp / "out"), recording=False),
                           progress=False)
-    rep = result.report
+    rep = result.report.as_record()
     # pcnet's camera frame: the displayed one where it turned the inputs, else the lifter's
     turned = (rep.get("display_rotation") or {}).get("turned_into_displayed_frame", False)
     truth_here = up_true if turned else display_turn(rotation if stored else 0) @ up_true
@@ -158,10 +158,10 @@ def run_case(label: str, video_src: Path, inputs: dict, tmp: Path, case: tuple, 
     dp, dr = rep.get("camera_pitch_interval_deg", np.nan), rep.get("camera_roll_interval_deg", np.nan)
     droll = (result.camera_roll_deg - tr + 180.0) % 360.0 - 180.0
     inside = "-" if not np.isfinite(dp + dr) else ("yes" if abs(result.camera_pitch_deg - tp) <= dp and abs(droll) <= dr else "NO")
-    gravity = rep.get("gravity") or {}
+    posture = rep.get("posture") or {}
     frame = (rep.get("display_rotation") or {}).get("keypoint_frame", "-")
-    return (f"| {label} | {deg_between(rep['up'], truth_here):.1f} | {result.mode} | {gravity.get('reading', '-')} "
-            f"(p lying {gravity.get('p_lying', float('nan')):.2f}) | {frame} | {'yes' if turned else 'no'} | {inside} |")
+    return (f"| {label} | {deg_between(rep['up'], truth_here):.1f} | {result.mode} | {posture.get('most_probable', '-')} "
+            f"(p lying {posture.get('p_lying', float('nan')):.2f}) | {frame} | {'yes' if turned else 'no'} | {inside} |")
 
 
 def main() -> None:

@@ -57,7 +57,7 @@ from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.rotations import axis_rotation
-from pcnet.stages.up_model import UpModelParameters, camera_reading, log_map, summarise_recording, systematic_cov
+from pcnet.stages.up_model import UpModelParameters, camera_view_estimate, log_map, summarise_recording, systematic_cov
 
 ROOT = Path(__file__).resolve().parents[1]
 JSON_OUT = ROOT / "stages" / "data" / "up_model.json"
@@ -113,7 +113,7 @@ def _tangent_errors(evs, p: UpModelParameters):
         if ok.sum() < 10:
             continue
         level = e.level_up()[ok]
-        psi, _, _ = camera_reading(g[ok], level, p)
+        psi, _, _ = camera_view_estimate(g[ok], level, p)
         c = e.camera_up[ok]
         reads_level = np.sum(c * level, -1) > np.sum(c * g[ok], -1)
         out.append((psi, log_map(g[ok], c), log_map(g[ok], e.body_up[ok]), ev["fps"], reads_level))

@@ -106,7 +106,7 @@ def evaluate_view(joints: np.ndarray, up_true: np.ndarray, fps: float, delivered
     true_pitch, true_roll = pitch_roll_deg(up_true)
     for config in CONFIGS:
         out = config.rectify(joints, fps)
-        rep = out.report or {}
+        rep = out.report.as_record()
         mode = config.mode
         row = {"method": config.label, "valid": int(out.valid.sum()), "frames": T}
         if mode == "frame":

@@ -23,6 +23,7 @@ from benchmarks.report import print_and_save
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, apply_heading
+from pcnet.stages.rectification_report import HeadingChoice
 from pcnet.pipeline.rectification import make_estimator
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -30,7 +31,7 @@ RESULT = Path(__file__).resolve().parent / "results" / "heading_source.txt"
 COMMAND = "python -m benchmarks.heading_source --data ../shared/data"
 
 
-def decide(joints: np.ndarray) -> dict:
+def decide(joints: np.ndarray) -> HeadingChoice:
     estimate = make_estimator("pcnet")(joints, 30.0)
     return apply_heading(joints, estimate.rotation, estimate.valid, "auto")[1]
 
@@ -49,9 +50,9 @@ def main() -> None:
         poses = loader(path)
         joints = poses.joints - poses.joints[:, :1]
         rep = decide(joints)
-        chosen[rep["heading_source"]] = chosen.get(rep["heading_source"], 0) + 1
-        lines.append(f"{path.parent.name[:8] + '/' + path.stem[:31]:<40}{len(joints):>7}{rep['hip_width_cv_percent']:>9.2f}"
-              f"{rep['heading_difference_median_deg']:>9.1f}  {rep['heading_source']}")
+        chosen[rep.source] = chosen.get(rep.source, 0) + 1
+        lines.append(f"{path.parent.name[:8] + '/' + path.stem[:31]:<40}{len(joints):>7}{rep.hip_width_cv_percent:>9.2f}"
+              f"{rep.difference_median_deg:>9.1f}  {rep.source}")
     lines.append(f"real files, heading from: {chosen}")
     lines.append(f"\n{'mocap clips':<34}{'hip CV % min / median / max':>30}  heading from")
     for name, split in (("bandai_h36m17.npz", "test"), ("deepmimic_h36m17.npz", "all")):
@@ -64,8 +65,8 @@ def main() -> None:
                 if sel.sum() == 0:
                     continue
                 rep = decide(pairs.inputs[sel])
-                cvs.append(rep["hip_width_cv_percent"])
-                srcs[rep["heading_source"]] = srcs.get(rep["heading_source"], 0) + 1
+                cvs.append(rep.hip_width_cv_percent)
+                srcs[rep.source] = srcs.get(rep.source, 0) + 1
             lo, med, hi = np.nanpercentile(cvs, [0, 50, 100])
             label = f"{name.split('_')[0]} {split}, {'noise' if noise else 'clean'}"
             lines.append(f"{label:<34}{lo:>10.2f} / {med:>6.2f} / {hi:>6.2f}  {srcs}")

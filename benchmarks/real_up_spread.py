@@ -38,13 +38,13 @@ def main() -> None:
         estimator = make_estimator(args.method)
         estimate = estimator(joints, 30.0)
         R, valid = estimate.rotation, estimate.valid
-        seq = SequenceEvidence("sequence")(joints, R, valid, 30.0)[2]
-        auto = SequenceEvidence("auto")(joints, R, valid, 30.0)[2]
-        dev = np.degrees(angle_between(R[valid][:, :, 1], seq["up"][None]))
-        choices[auto["mode"]] = choices.get(auto["mode"], 0) + 1
+        seq = SequenceEvidence("sequence")(joints, R, valid, 30.0).up
+        auto = SequenceEvidence("auto")(joints, R, valid, 30.0).mode
+        dev = np.degrees(angle_between(R[valid][:, :, 1], seq.up[None]))
+        choices[auto.run] = choices.get(auto.run, 0) + 1
         print(f"{path.parent.name[:6] + '/' + path.stem[:27]:<34}{len(joints):>7}{np.median(dev):>11.1f}"
-              f"{np.percentile(dev, 95):>7.1f}{seq['up_uncertainty_deg']:>9.2f}{seq['camera_pitch_deg']:>7.1f}"
-              f"{seq['camera_roll_deg']:>7.1f}  {auto['mode']} ({auto['spread_deg']:.1f})")
+              f"{np.percentile(dev, 95):>7.1f}{seq.up_uncertainty_deg:>9.2f}{seq.camera_pitch_deg:>7.1f}"
+              f"{seq.camera_roll_deg:>7.1f}  {auto.run} ({auto.spread_deg:.1f})")
     print("auto chose:", choices)
 
 

@@ -30,9 +30,9 @@ from scipy.optimize import minimize_scalar
 from benchmarks import ablation as A
 from benchmarks.report import print_and_save, require_mocap
 from benchmarks import fit_up_model as F
-from pcnet.stages.up_model import (PoseSummary, UpEvidence, UpModelParameters, _maximise, _pd_inverse, _starts,
-                                   default_parameters, exp_map, frame_log_likelihood, frames_per_error, log_camera_prior,
-                                   log_map, log_upright, systematic_cov)
+from pcnet.stages.up_model import (PoseSummary, UpEvidence, UpModelParameters, default_parameters, exp_map,
+                                   frame_log_likelihood, frame_starts, frames_per_error, log_camera_prior, log_map,
+                                   log_upright, maximise_on_sphere, pd_inverse, systematic_cov)
 
 RESULT = Path(__file__).resolve().parent / "results" / "up_model_variants.txt"
 #: Radius of a 95 % disc of a 2D standard normal (sqrt of the chi-square(2) 95 % quantile).
@@ -54,8 +54,8 @@ def summarise_frames(ev: UpEvidence, p: UpModelParameters) -> PoseSummary:
     up, cov = np.full((T, 3), np.nan), np.full((T, 2, 2), np.nan)
     if ev.valid.any():
         e = ev.frames(ev.valid)
-        g, _, H = _maximise(lambda G: frame_log_likelihood(G, e, p), _starts(e))
-        up[ev.valid], cov[ev.valid] = g, _pd_inverse(H)
+        g, _, H = maximise_on_sphere(lambda G: frame_log_likelihood(G, e, p), frame_starts(e))
+        up[ev.valid], cov[ev.valid] = g, pd_inverse(H)
     return PoseSummary(up, cov)
 
 
@@ -71,8 +71,8 @@ def frame_posterior(s: PoseSummary, p: UpModelParameters) -> tuple[np.ndarray, n
     if ok.any():
         sub = PoseSummary(s.up[ok], s.cov[ok])
         objective = lambda G: log_upright(G, sub, p) + log_camera_prior(G, p)  # noqa: E731
-        g, _, H = _maximise(objective, s.up[ok][None])
-        cov = _pd_inverse(H)
+        g, _, H = maximise_on_sphere(objective, s.up[ok][None])
+        cov = pd_inverse(H)
         up[ok] = g
         radius[ok] = np.degrees(R95 * np.sqrt(0.5 * np.trace(cov, axis1=1, axis2=2)))
     return up, radius

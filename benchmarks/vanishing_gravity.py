@@ -195,7 +195,7 @@ def config_rows(joints: np.ndarray, fps: float, up_true: np.ndarray) -> list[str
             up = normalize(ups.mean(0))
             cell = f"{err.mean():7.1f}{np.percentile(err, 95):7.1f}"
         else:
-            up = np.asarray(out.report["up"], np.float64)
+            up = np.asarray(out.report.sequence.up, np.float64)
             cell = f"{deg_between(up, up_true):7.1f}{'-':>7}"
         p, r = pitch_roll_deg(up)
         lines.append(f"  {config.label:<{LABEL_WIDTH}}{int(out.valid.sum()):>4}/{len(joints):<4}{cell}{p:>7.1f}{r:>7.1f}")
@@ -209,7 +209,7 @@ def pcnet_run_row(data: Path, run: dict, up_true: np.ndarray) -> tuple[str, np.n
         cfg = RunConfig(**{k: str(data / v) if k in ("video", "keypoints2d", "lifter_output") else v for k, v in run.items()},
                         out=str(Path(tmp) / "out"), recording=False)
         result = run_pipeline(cfg)
-    rep = result.report
+    rep = result.report.as_record()
     p, r = result.camera_pitch_deg, result.camera_roll_deg
     tp, tr = pitch_roll_deg(up_true)
     dp, dr = rep.get("camera_pitch_interval_deg", np.nan), rep.get("camera_roll_interval_deg", np.nan)

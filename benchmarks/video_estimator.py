@@ -47,7 +47,7 @@ def sequence_up(cfg: RunConfig) -> np.ndarray:
     """The sequence up (camera frame) of one run, written to a throwaway folder."""
     with tempfile.TemporaryDirectory() as tmp:
         result = run_pipeline(RunConfig(**{**cfg.__dict__, "out": str(Path(tmp) / "o"), "recording": False}))
-    return np.asarray(result.report["up"], np.float64)
+    return np.asarray(result.report.rectification.sequence.up, np.float64)
 
 
 def accuracy_rows(data: Path) -> list[str]:

@@ -23,7 +23,7 @@ import numpy as np
 from benchmarks.report import data_arguments
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
-from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
+from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, ViewGatedPCNet
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.rotations import angle_between, axis_rotation
 

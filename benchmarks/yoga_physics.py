@@ -115,7 +115,8 @@ def evaluate_file(joints: np.ndarray, fps: float) -> dict[str, dict]:
         out[config.label] = {"trunk": median_trunk_deg(res.canonical, res.valid),
                              "lower": median_trunk_deg(res.canonical, res.valid, lower=True),
                              "valid_frac": float(np.mean(res.valid)),
-                             "pitch_half": res.report.get("camera_pitch_interval_deg", float("nan"))}
+                             "pitch_half": (res.report.sequence.camera_pitch_interval_deg
+                                            if res.report.sequence is not None else float("nan"))}
     return out
 
 

@@ -37,8 +37,8 @@ wrist = {}
 for name, R in cameras.items():
     cam = canon @ R.T  # what a lifter would report in this camera's frame (noise-free here)
     estimate = make_estimator(args.method)(cam, clip.fps)
-    R_seq, _, report = SequenceEvidence("auto")(cam, estimate.rotation, estimate.valid, clip.fps)
-    wrist[name] = (cam[:, R_WRIST], to_canonical(cam, R_seq)[:, R_WRIST], report["mode"])
+    seq = SequenceEvidence("auto")(cam, estimate.rotation, estimate.valid, clip.fps)
+    wrist[name] = (cam[:, R_WRIST], to_canonical(cam, seq.rotation)[:, R_WRIST], seq.mode.run)
 
 (a_cam, a_can, mode_a), (b_cam, b_can, mode_b) = wrist.values()
 rms = lambda d: 100 * float(np.sqrt(np.nanmean(np.sum(d**2, -1))))  # noqa: E731

@@ -1,4 +1,4 @@
-"""Run-time inference with onnxruntime (no torch): 3DPCNet, and the shipped pair of them
+"""Run-time inference with onnxruntime (no torch): 3DPCNet, and the shipped ensemble of two of them
 gated by camera orientation (:mod:`pcnet.models.view_gate`)."""
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ class PCNetSession:
 
 
 class ViewGatedPCNet:
-    """The shipped pair: the camera-frame and the body-frame 3DPCNet, blended per frame by
+    """The shipped ensemble: the camera-frame and the body-frame 3DPCNet, blended per frame by
     :func:`pcnet.models.view_gate.camera_frame_weight` (camera-frame inside its training
     views, body-frame beyond them), in the camera frame turned back by the quarter turns the
     body-frame network reads (:func:`pcnet.models.view_gate.quarter_turns`: a portrait camera
@@ -188,7 +188,7 @@ class ViewGatedPCNet:
             res_cam[rows] = w * res_cam[rows] + (1 - w) * res_body[rows]
             # The gate chooses the up; the heading is the body-frame network's, whose input
             # frame is built from the hip line (docs/experiments.md, "The body-frame network's
-            # heading on the pair's up").
+            # heading on the ensemble's up").
             R_cam[rows] = with_up(R_body[rows], blend_rotations(R_body[rows], R_cam[rows], weight[rows])[:, :, 1])
         return R_cam, res_cam, valid, weight, disagreement, turns, ups
 

@@ -12,31 +12,31 @@ answer is pulled back towards a level camera (at 90 deg roll its tilt error is ~
 The gate reads the camera pitch and roll from both networks' ups, each as a running median
 over about two seconds (so a few hard poses do not switch networks, while a phone turned
 during the recording does). The body-frame network has no preference for level cameras, so
-its reading is not pulled into the range it tests; but it reads every body as upright, so a
+its estimate is not pulled into the range it tests; but it reads every body as upright, so a
 seated, squatting or bent-over body under a level camera also reads as a steep camera. The
-camera-frame network's own reading tells these apart: for such bodies it reads a level
+camera-frame network's own estimate tells these apart: for such bodies it reads a level
 camera, while for a camera really rolled 45 deg or more it reads one outside its training
 views (its answer is pulled back towards level, but not inside the range). The camera-frame
-network therefore gets full weight when the body-frame reading is inside the range, and
-also when its own reading is inside that range while the body-frame reading is not far
+network therefore gets full weight when the body-frame estimate is inside the range, and
+also when its own estimate is inside that range while the body-frame estimate is not far
 beyond it (roll below 45-60 deg, pitch below 60-75 deg: beyond those even the camera-frame
 network sometimes reads a 90 deg roll as inside, on the validation split); linear ramps in
 between. The range in roll is 10-20 deg, well inside the training views' 25 deg: the
 camera-frame network reads a camera rolled 30 deg as rolled only about 15 deg (pulled
 towards the level cameras it trained on), and from about 15 deg of roll it is less accurate
 than the body-frame network (motion-style validation split, clean: 2.81 vs 2.20 deg at 15
-deg roll). With the earlier 20-30 deg range its own reading vouched for it at 30 deg of roll,
+deg roll). With the earlier 20-30 deg range its own estimate kept it in at 30 deg of roll,
 where it is the worse network (benchmarks/results/view_gate_rule_*.txt). A body lying across the image reads as a
 camera rolled about a quarter turn to both: the camera-frame network answers for the poses
 turned back (below), reading the trunk as up as the body-frame network does, and in sequence
-mode the up model weighs that reading against a lying body under a level camera
+mode the up model weighs that hypothesis against a lying body under a level camera
 (:mod:`pcnet.stages.up_model`, docs/up_model.md). Measured on motion capture:
 benchmarks/results/view_gate.txt (benchmarks/view_gate.py) and, against the two earlier
 releases' rules, benchmarks/results/view_gate_rule_*.txt (benchmarks/view_gate_rule.py).
 
 A camera turned a quarter turn about its optical axis (a phone in portrait) is exactly a
 level camera whose image was turned: turning the poses back by 90 deg (:func:`quarter_turns`,
-from the body-frame network's signed roll reading) gives the camera-frame network the view it
+from the body-frame network's signed roll estimate) gives the camera-frame network the view it
 was trained on, and its answer turned forward again is the same as for the level camera,
 frame for frame. So the gate runs in that turned frame
 (:class:`pcnet.models.inference.ViewGatedPCNet`). Half turns are not taken: cameras are
@@ -45,7 +45,7 @@ reads as upside down is far more often a body upside down or getting up from the
 which the camera-frame network's level-camera prior in the turned frame would make a wrong
 answer firmer (first built with half turns, DeepMimic's get-up-from-lying clip erred 164 deg
 median on those frames against the body-frame network's 145, and 64 of its frames lost their
-heading in sequence mode); the body-frame network answers a reading near 180 deg.
+heading in sequence mode); the body-frame network answers an estimate near 180 deg.
 """
 
 from __future__ import annotations
@@ -63,11 +63,11 @@ from pcnet.stages.core.rotations import axis_rotation, decompose_camera_rotation
 #: DeepMimic in view as well as the validation split (README, view-gate section).
 ROLL_RAMP_DEG = (10.0, 20.0)
 PITCH_RAMP_DEG = (40.0, 50.0)
-#: Beyond these body-frame readings (roll, pitch ramps, degrees) the camera-frame network's
-#: own reading no longer vouches for it.
-BODY_READING_LIMIT_ROLL_DEG = (45.0, 60.0)
-BODY_READING_LIMIT_PITCH_DEG = (60.0, 75.0)
-#: Running-median window of the camera reading, seconds.
+#: Beyond these body-frame estimates (roll, pitch ramps, degrees) the camera-frame network's
+#: own estimate no longer keeps it in.
+BODY_ESTIMATE_LIMIT_ROLL_DEG = (45.0, 60.0)
+BODY_ESTIMATE_LIMIT_PITCH_DEG = (60.0, 75.0)
+#: Running-median window of the camera view estimate, seconds.
 WINDOW_S = 2.0
 
 
@@ -76,11 +76,11 @@ def _ramp(x: np.ndarray, full: float, none: float) -> np.ndarray:
 
 
 def window_frames(fps: float) -> int:
-    """Frames of the camera reading's running median: :data:`WINDOW_S` at ``fps``, odd, at least 1."""
+    """Frames of the camera view estimate's running median: :data:`WINDOW_S` at ``fps``, odd, at least 1."""
     return max(1, int(round(WINDOW_S * fps)) | 1)
 
 
-def camera_reading(R: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+def camera_view_estimate(R: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     """The camera's ``|roll|`` and ``|pitch|`` (degrees, each ``(T,)`` float64) that ``(T, 3, 3)``
     canonical->camera rotations (finite, one recording in frame order) imply, as running
     medians over ``size`` frames (scipy ``median_filter``, edges repeated);
@@ -93,12 +93,12 @@ def camera_reading(R: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
 def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0,
                         R_camera_net: np.ndarray | None = None,
                         roll_ramp_deg: tuple[float, float] = ROLL_RAMP_DEG) -> np.ndarray:
-    """Weight of the camera-frame network per frame, from both networks' camera readings.
+    """Weight of the camera-frame network per frame, from both networks' camera view estimates.
 
     ``w = max(in(body), in(camera) * near(body))``: ``in`` is 1 inside the training views
     less a margin (:data:`ROLL_RAMP_DEG`, :data:`PITCH_RAMP_DEG`), ``near`` 1 while the
-    body-frame reading is not far beyond them (:data:`BODY_READING_LIMIT_ROLL_DEG`,
-    :data:`BODY_READING_LIMIT_PITCH_DEG`), each a product of linear ramps in roll and pitch.
+    body-frame estimate is not far beyond them (:data:`BODY_ESTIMATE_LIMIT_ROLL_DEG`,
+    :data:`BODY_ESTIMATE_LIMIT_PITCH_DEG`), each a product of linear ramps in roll and pitch.
 
     Args:
         R_body_net: ``(T, 3, 3)`` canonical->camera rotations of the body-frame 3DPCNet
@@ -107,7 +107,7 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
         fps: frame rate (Hz) that sets the running-median window (:data:`WINDOW_S`); one
             recording per call.
         R_camera_net: ``(T, 3, 3)`` the camera-frame 3DPCNet's rotations; ``None`` uses the
-            body-frame reading alone (``w = in(body)``).
+            body-frame estimate alone (``w = in(body)``).
         roll_ramp_deg: the roll ramp of ``in`` (default :data:`ROLL_RAMP_DEG`; earlier
             releases used ``(20, 30)``, benchmarks/view_gate_rule.py).
 
@@ -121,19 +121,19 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
     if len(idx) == 0:
         return weight
     size = window_frames(fps)
-    roll_b, pitch_b = camera_reading(R_body_net[idx], size)
+    roll_b, pitch_b = camera_view_estimate(R_body_net[idx], size)
     weight[idx] = _ramp(roll_b, *roll_ramp_deg) * _ramp(pitch_b, *PITCH_RAMP_DEG)
     if R_camera_net is not None:
-        roll_c, pitch_c = camera_reading(R_camera_net[idx], size)
-        vouched = (_ramp(roll_c, *roll_ramp_deg) * _ramp(pitch_c, *PITCH_RAMP_DEG)
-                   * _ramp(roll_b, *BODY_READING_LIMIT_ROLL_DEG) * _ramp(pitch_b, *BODY_READING_LIMIT_PITCH_DEG))
-        weight[idx] = np.maximum(weight[idx], vouched)
+        roll_c, pitch_c = camera_view_estimate(R_camera_net[idx], size)
+        kept_in = (_ramp(roll_c, *roll_ramp_deg) * _ramp(pitch_c, *PITCH_RAMP_DEG)
+                   * _ramp(roll_b, *BODY_ESTIMATE_LIMIT_ROLL_DEG) * _ramp(pitch_b, *BODY_ESTIMATE_LIMIT_PITCH_DEG))
+        weight[idx] = np.maximum(weight[idx], kept_in)
     return weight
 
 
 def quarter_turns(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0) -> np.ndarray:
     """Quarter turns ``k`` (0, 1 or 3) of the camera about its optical axis per frame: the
-    multiple of 90 deg nearest the body-frame network's signed roll reading, 0 where that is
+    multiple of 90 deg nearest the body-frame network's signed roll estimate, 0 where that is
     180 deg (module docstring: no half turns; roll of
     :func:`pcnet.stages.core.rotations.decompose_camera_rotation`; its cosine and sine each
     median-filtered over :func:`window_frames` valid frames in order, so a few hard poses do not

@@ -14,10 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from pcnet.adapters import VideoInfo
-from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, gravity_reading_flag,
+from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
-                               mirrored_skeleton_flag, non_upright_flag, orientation_flags, quarter_turn_reported,
-                               side_swap_flag, size_change_flag, track_switch_flag, view_gate_flag)
+                               mirrored_skeleton_flag, non_upright_flag, orientation_flags, posture_flag,
+                               quarter_turn_reported, side_swap_flag, size_change_flag, track_switch_flag)
+from pcnet.stages.rectification_report import RectificationReport
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
 
 from .video_orientation import EDGE_MARGIN
@@ -45,7 +46,7 @@ class CheckInputs:
     joints_camera: ``(T, 17, 3)`` root-relative camera-frame poses in ``units`` (before any
     scaling); keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence in the displayed frame,
     or ``None``; video: the probed video or ``None``; canonical, valid: the rectified poses and
-    their valid frames; report: the rectification report (read only); tilt: the camera's tilt;
+    their valid frames; report: what rectification decided; tilt: the camera's tilt;
     lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; track_segment,
     track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track (``None`` and
     ``[]`` without one); height_given: ``--height`` was given (the body is scaled to it);
@@ -58,7 +59,7 @@ class CheckInputs:
     video: VideoInfo | None
     canonical: np.ndarray
     valid: np.ndarray
-    report: dict
+    report: RectificationReport
     tilt: CameraTilt
     lifter_turn_deg: float
     track_segment: np.ndarray | None
@@ -70,13 +71,12 @@ class CheckInputs:
 def checks(c: CheckInputs) -> list[Finding]:
     """The findings of a rectified recording, in the order canonical.npz keeps their texts: the
     camera's orientation, the body's size, legs and size change, keypoints outside the image, a
-    side swap (or else a mirrored skeleton), a body not upright, the gravity reading, the view
-    gate, the lifter's frame and a switch of the 2D track."""
+    side swap (or else a mirrored skeleton), a body not upright, the posture hypotheses, the
+    ensemble's weights, the lifter's frame and a switch of the 2D track."""
     report, cam, kp2d, video = c.report, c.joints_camera, c.keypoints2d, c.video
-    gravity = report.get("gravity")
     return [
         *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg,
-                           turn_reported=quarter_turn_reported(report.get("view_gate"))),
+                           turn_reported=quarter_turn_reported(report.weights)),
         *(body_size_flag(cam, c.units) if not c.height_given else []),
         *leg_asymmetry_flag(cam),
         # image-scaled sizes are made constant per frame (the scale step); a metric body should keep its own
@@ -87,23 +87,24 @@ def checks(c: CheckInputs) -> list[Finding]:
         # a side swap is a mirror image too: said once
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
         *non_upright_flag(c.canonical, c.valid),
-        *gravity_reading_flag(gravity),
-        *view_gate_flag(report.get("view_gate"), lying=(gravity or {}).get("reading") == "lying"),
+        *posture_flag(report.sequence),
+        *ensemble_weights_flag(report.weights, lying=report.lying),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report)),
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option)
           if c.track_segment is not None else []),
     ]
 
 
-def tilt_tolerance(report: dict) -> tuple[float, str]:
+def tilt_tolerance(report: RectificationReport) -> tuple[float, str]:
     """The camera tilt uncertainty the summary states (deg) and what it is: the larger 95 %
     pitch/roll half-width in sequence mode (the bootstrap's for a method without a calibrated
     interval), else the per-frame bound where the two networks agree."""
-    for keys, what in ((("camera_pitch_interval_deg", "camera_roll_interval_deg"), "95 % interval"),
-                       # a method without a calibrated interval states its bootstrap
-                       (("camera_pitch_uncertainty_deg", "camera_roll_uncertainty_deg"),
-                        "bootstrap-only uncertainty, no calibrated interval for this method")):
-        halves = [report.get(key, np.nan) for key in keys]
-        if np.isfinite(halves).all():
-            return float(max(halves)), what
-    return float(report.get("frame_tilt_95_deg", np.nan)), "per-frame bound, not calibrated on real lifter output"
+    seq = report.sequence
+    if seq is not None:
+        for halves, what in (((seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg), "95 % interval"),
+                             # a method without a calibrated interval states its bootstrap
+                             ((seq.camera_pitch_uncertainty_deg, seq.camera_roll_uncertainty_deg),
+                              "bootstrap-only uncertainty, no calibrated interval for this method")):
+            if np.isfinite(halves).all():
+                return float(max(halves)), what
+    return float(report.frame_tilt_95_deg), "per-frame bound, not calibrated on real lifter output"

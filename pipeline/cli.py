@@ -160,10 +160,10 @@ class _PersonOption(click.Option):
 _camera_prior_option = click.option(
     "--no-camera-prior", "camera_prior", flag_value=False, default=None,
     help="Sequence mode: up from the poses (and floor contacts) alone, without the camera prior and the "
-         "lying reading (frame and smooth modes have no camera prior; for the paper's single network, give "
+         "lying hypothesis (frame and smooth modes have no camera prior; for the paper's single network, give "
          "one 3DPCNet's ONNX as --weights).")
 
-_METHOD_HELP = ("pcnet: the shipped 3DPCNet pair (gated by camera view); pcnet-rigid: the same without the residual; "
+_METHOD_HELP = ("pcnet: the shipped ensemble of two 3DPCNets (gated by camera view); pcnet-rigid: the same without the residual; "
                 "geometric: the paper's baseline (section 2.3).")
 
 _heading_option = click.option(
@@ -238,12 +238,12 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="frame: each frame alone (paper); sequence: one up for a static camera; smooth: moving camera.")
 @click.option("--fps", type=float, default=30.0, show_default=True,
-              help="Frame rate: the pcnet pair's view gate reads the camera over 2 s windows in every mode; the "
+              help="Frame rate: the pcnet ensemble's view gate reads the camera over 2 s windows in every mode; the "
                    "sequence modes' smoothing and bootstrap blocks too.")
 @_heading_option
 @_camera_prior_option
 @click.option("--weights", type=click.Path(dir_okay=False), default=None,
-              help="ONNX weights of one 3DPCNet instead of the shipped pair (pcnet export).")
+              help="ONNX weights of one 3DPCNet instead of the shipped ensemble (pcnet export).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
 def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior, weights, overwrite):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
@@ -268,8 +268,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
         raise InputError(f"{input_path}: {NO_VALID_FRAME}")
     write_npz(out_path, replace=overwrite, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
-              frame_tilt_bound_deg=res.report["frame_tilt_bound_deg"])
-    cv = res.report["hip_width_cv_percent"]
+              frame_tilt_bound_deg=res.report.frame_tilt_bound_deg)
+    cv = res.report.heading.hip_width_cv_percent
     requested = f" (requested {mode})" if mode != res.mode else ""
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}{requested}, "
                f"heading from {res.heading_source} (hip width CV "

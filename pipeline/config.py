@@ -163,7 +163,7 @@ class RunConfig:
     is the heading source of :func:`pcnet.pipeline.rectification.rectify` (``None`` = its default).
     ``fps`` is needed only when neither a video nor an input file gives the frame rate; with
     a video it must match the video's rate unless ``fps_override``. ``camera_prior``:
-    sequence mode's up model (the shipped pair) uses its declared camera prior and its lying
+    sequence mode's up model (the shipped ensemble) uses its declared camera prior and its lying
     reading (:mod:`pcnet.stages.up_model`); False = the poses alone. ``c3d``: also write the markers as a C3D file
     (needs the ``c3d`` extra, ezc3d). ``residual_cutoff``: choose the low-pass cutoff by
     Winter's residual analysis of the recording (:func:`pcnet.stages.kinematics.residual_analysis`)

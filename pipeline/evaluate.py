@@ -251,11 +251,11 @@ def evaluate(
             continue
         # One clip is one recording for every per-recording step, the estimator's too.
         res = chain(pairs.inputs[sel], clip.fps)
-        R_hat[sel], canon_hat[sel], valid[sel], report = res.rotation, res.canonical, res.valid, res.report
+        R_hat[sel], canon_hat[sel], valid[sel] = res.rotation, res.canonical, res.valid
         if mode != "frame":
-            modes_run[report["mode"]] = modes_run.get(report["mode"], 0) + 1
-        headings_run[report["heading_source"]] = headings_run.get(report["heading_source"], 0) + 1
-        per_clip.append({"name": clip.name, "heading_source": report["heading_source"], "mode": report["mode"]})
+            modes_run[res.mode] = modes_run.get(res.mode, 0) + 1
+        headings_run[res.heading_source] = headings_run.get(res.heading_source, 0) + 1
+        per_clip.append({"name": clip.name, "heading_source": res.heading_source, "mode": res.mode})
     keep = scored_indices(len(valid), max_frames)
     valid_k = valid[keep]
     errors = evaluate_rotations(R_hat[keep], pairs.R[keep], canon_hat[keep], pairs.canonical[keep])

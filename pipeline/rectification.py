@@ -9,7 +9,7 @@ It lives in the pipeline because it is the one room allowed to use both ``models
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from pcnet.stages.up_model import UpEvidence
 
 @dataclass(frozen=True)
 class NetworkEstimator:
-    """3DPCNet as step 1 (:class:`pcnet.stages.rectify.FrameEstimator`): the shipped pair gated
+    """3DPCNet as step 1 (:class:`pcnet.stages.rectify.FrameEstimator`): the shipped ensemble gated
     by camera orientation (:class:`pcnet.models.inference.ViewGatedPCNet`, ``weights=None``;
     ``fps`` sets the gate's window, one recording per call) or one network's ``weights``
     (``.onnx``). ``rigid`` drops the residual (method ``pcnet-rigid``: a rigid rotation of the
@@ -95,7 +95,7 @@ def rectify(
     heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
     input's hip line, the canonical frame's definition) or ``auto`` (hips when they are
     precise, :func:`pcnet.stages.heading.apply_heading`); ``None`` =
-    :func:`resolve_heading_source`. ``camera_prior``: sequence mode of the shipped pair is the
+    :func:`resolve_heading_source`. ``camera_prior``: sequence mode of the shipped ensemble is the
     up model's posterior (:mod:`pcnet.stages.up_model`) with its declared camera prior and lying
     reading; False = the poses alone (a uniform prior, upright). Other methods' sequence mode
     is the robust mean of their per-frame ups with its bootstrap, no prior (with
@@ -107,9 +107,9 @@ def rectify(
     one frame and one finite value, non-finite = missing) and the pelvis rule
     :func:`pcnet.stages.core.conventions.fill_pelvis_from_hips` (a missing pelvis is the hip
     midpoint; a frame still without a pelvis is invalid). The report's
-    ``pelvis_from_hips_frames`` counts the filled frames; ``view_gate``
-    (:func:`pcnet.stages.rectify.gate_report`) and ``camera_frame_weight`` ``(T,)`` say how far the shipped
-    camera-frame network was trusted (3DPCNet methods without ``weights``).
+    ``pelvis_from_hips_frames`` counts the filled frames; its ``weights`` and
+    ``camera_frame_weight`` ``(T,)`` say how far the shipped camera-frame network was trusted
+    (3DPCNet methods without ``weights``).
 
     Raises:
         InputError (a ValueError): bad input array (see above), unknown method, mode or
@@ -117,8 +117,7 @@ def rectify(
     """
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
     result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior)
-    result.report["pelvis_from_hips_frames"] = int(pelvis_filled.sum())
-    return result
+    return replace(result, report=replace(result.report, pelvis_from_hips_frames=int(pelvis_filled.sum())))
 
 
 def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = None, mode: str = "frame",

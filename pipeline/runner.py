@@ -38,6 +38,7 @@ from pcnet.stages.flags import (Finding, floor_flag, implausible_motion_findings
                                track_segments, unfiltered_flag)
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
+from pcnet.stages.rectification_report import RectificationReport
 from pcnet.stages.rectify import NO_VALID_FRAME
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, remap_to_h36m
@@ -55,6 +56,7 @@ from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
 from .pelvis_path import camera_intrinsics, pelvis_path
+from .run_report import RunReport
 from .video_estimate import estimated_inputs
 
 STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
@@ -77,8 +79,9 @@ WORLD_SHORT = {
 
 @dataclass
 class RunResult:
-    """What a run produced: counts, the rectification report and output paths; findings: the
-    flags as raised (:class:`pcnet.stages.flags.Finding`), notes: the notes' texts."""
+    """What a run produced: counts, the run's report (:class:`~pcnet.pipeline.run_report.RunReport`)
+    and output paths; findings: the flags as raised (:class:`pcnet.stages.flags.Finding`),
+    notes: the notes' texts."""
 
     frames: int
     valid_frames: int
@@ -88,7 +91,7 @@ class RunResult:
     camera_tilt_deg: float
     camera_pitch_deg: float
     camera_roll_deg: float
-    report: dict
+    report: RunReport
     outputs: dict[str, Path] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     seconds: dict[str, float] = field(default_factory=dict)
@@ -118,19 +121,18 @@ class RunResult:
         frames = f"{self.frames} at {self.fps:.4g} fps ({self.fps_source}; " + (
             f"{self.frames - self.valid_frames} without a valid pose" + (": kept as NaN rows, valid = 0" * long) + ")"
             if self.valid_frames < self.frames else "every one with a valid pose)")
-        report = self.report
-        spread = (f"; spread of per-frame up {report['spread_deg']:.1f} deg" if "spread_deg" in report else "")
-        decided = ((f" over the {report['mode_decided_on_frames']} valid frames of the 2D track's longest stretch"
-                    if long else f" over the {report['mode_decided_on_frames']} frames of one person")
-                   if "mode_decided_on_frames" in report else "")
-        rectification = (f"{self.method}, mode {self.mode} (requested {report.get('requested_mode')}" + spread
-                         + (f"; {report['mode_reason']}" if "mode_reason" in report else "") + decided
+        mode, heading = self.report.rectification.mode, self.report.rectification.heading
+        spread = f"; spread of per-frame up {mode.spread_deg:.1f} deg" if mode.spread_deg is not None else ""
+        decided = ((f" over the {mode.decided_on_frames} valid frames of the 2D track's longest stretch"
+                    if long else f" over the {mode.decided_on_frames} frames of one person")
+                   if mode.decided_on_frames is not None else "")
+        rectification = (f"{self.method}, mode {self.mode} (requested {mode.requested}" + spread
+                         + (f"; {mode.reason}" if mode.reason else "") + decided
                          + self._auto_smooth_hint(long) + ")")
-        heading = (f"from {report.get('heading_source')} (requested {report.get('requested_heading_source')}; "
-                   + self._hip_width() + ")")
+        heading = f"from {heading.source} (requested {heading.requested}; " + self._hip_width() + ")"
         tilt = f"{self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(long) + self._per_frame_tilt()
-        kinematics = (WORLD_SUMMARY if long else WORLD_SHORT)[report["root_path"]] \
-            if report.get("kinematics_frame") == "world" \
+        kinematics = (WORLD_SUMMARY if long else WORLD_SHORT)[self.report.root_path] \
+            if self.report.kinematics_frame == "world" \
             else "canonical (turns with the pelvis; no fixed frame without a static camera)"
         return [("frames", frames), ("rectification", rectification), ("heading", heading), ("camera tilt", tilt),
                 *self._frame_bound(long), ("kinematics frame", kinematics), ("units", self.units)]
@@ -153,29 +155,30 @@ class RunResult:
         """report.md's text (:func:`pcnet.stages.sinks.report.report_markdown`): the key facts
         in full, every finding's full text in the summary's order, every note in full, the
         rectification report's numbers and the outputs."""
-        return report_markdown(title, self.key_facts(long=True), self.ranked_findings, self.note_findings, self.report,
-                               [name for name in self.outputs if name != REPORT_NAME])
+        return report_markdown(title, self.key_facts(long=True), self.ranked_findings, self.note_findings,
+                               self.report.as_record(), [name for name in self.outputs if name != REPORT_NAME])
 
     def _per_frame_tilt(self) -> str:
         """Where the up may change from frame to frame, the tilt line's one number is that of the
         recording's mean up; the per-frame tilts' median and 5-95 % range say how they spread."""
-        stats = self.report.get("camera_tilt_per_frame_deg")
+        stats = self.report.tilt_per_frame_deg
         if self.mode == "sequence" or not stats or not np.isfinite(stats[0]):
             return ""
         median, low, high = stats
         return f"; of the recording's mean up; per frame median {median:.1f}, 5-95 % {low:.1f}-{high:.1f} deg"
 
     def _hip_width(self) -> str:
-        cv = self.report.get("hip_width_cv_percent", float("nan"))
+        cv = self.report.rectification.heading.hip_width_cv_percent
         return f"hip width varies {cv:.1f} %" if np.isfinite(cv) else "hip width variation needs two frames with hips"
 
     def _frame_bound(self, long: bool = True) -> list[tuple[str, str]]:
-        base = self.report.get("frame_tilt_95_deg", float("nan"))
-        interval = self.report.get("camera_pitch_interval_deg", float("nan"))
+        rect = self.report.rectification
+        base = rect.frame_tilt_95_deg
         # A sequence up whose interval is known says its uncertainty on the tilt line instead.
-        if (self.mode == "sequence" and np.isfinite(interval)) or not np.isfinite(base):
+        if (rect.sequence is not None and np.isfinite(rect.sequence.camera_pitch_interval_deg)) \
+                or not np.isfinite(base):
             return []
-        bound = np.asarray(self.report.get("frame_tilt_bound_deg", [base]), np.float64)
+        bound = np.asarray(rect.frame_tilt_bound_deg, np.float64)
         bound = bound[np.isfinite(bound)]
         here = f"; this recording median {np.median(bound):.1f}, max {bound.max():.1f} deg" if len(bound) else ""
         # Calibrated as a 95 % bound, it held in 81-92 % of held-out mocap frames (benchmarks/ablation.py)
@@ -191,18 +194,19 @@ class RunResult:
     def _auto_smooth_hint(self, long: bool = True) -> str:
         """Where auto mode chose smooth: what the spread can mean, and the option for a
         static camera (lying, seated or cycling bodies spread the per-frame up too)."""
-        if self.mode != "smooth" or self.report.get("requested_mode") != "auto" or "spread_deg" not in self.report:
+        mode = self.report.rectification.mode
+        if self.mode != "smooth" or mode.requested != "auto" or mode.spread_deg is None:
             return ""
         return (f", above the {MODE_THRESHOLD_DEG:g} deg of a static camera"
                 + (": a moving camera, or poses whose up the networks read less steadily" * long)
                 + "; --mode sequence for a static camera")
 
     def _pitch_roll(self, long: bool = True) -> str:
-        pitch_unc = self.report.get("camera_pitch_interval_deg", float("nan"))
-        roll_unc = self.report.get("camera_roll_interval_deg", float("nan"))
+        seq = self.report.rectification.sequence
+        nan = float("nan")
+        pitch_unc, roll_unc = (seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg) if seq else (nan, nan)
         if not (np.isfinite(pitch_unc) and np.isfinite(roll_unc)):
-            boot = (self.report.get("camera_pitch_uncertainty_deg", float("nan")),
-                    self.report.get("camera_roll_uncertainty_deg", float("nan")))
+            boot = (seq.camera_pitch_uncertainty_deg, seq.camera_roll_uncertainty_deg) if seq else (nan, nan)
             weights = f"{' with --weights' if self.method != 'geometric' else ''}"
             if np.isfinite(boot).all() and not long:
                 return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; bootstrap alone "
@@ -210,27 +214,25 @@ class RunResult:
             if np.isfinite(boot).all():
                 return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; bootstrap alone "
                         f"+- {boot[0]:.1f}/{boot[1]:.1f}, no 95 % interval: the lifter's systematic error is "
-                        f"calibrated for the shipped 3DPCNet pair only, not for method {self.method}{weights})")
+                        f"calibrated for the shipped 3DPCNet ensemble only, not for method {self.method}{weights})")
             return f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)"
-        gravity = self.report.get("gravity") or {}
-        lying = gravity.get("reading") == "lying"
-        other = self.report.get("interval_reaches_other_reading_p")
+        lying = self.report.rectification.lying
+        other = seq.interval_reaches_other_posture_p
         interval = (f"(pitch {self.camera_pitch_deg:+.1f} +- {pitch_unc:.1f}, roll {self.camera_roll_deg:+.1f} "
                     f"+- {roll_unc:.1f} deg; ")
         if not long:
-            label = "95 % posterior interval of the lying reading" if lying else "95 % interval"
+            label = "95 % posterior interval of the lying posture" if lying else "95 % interval"
             if other is not None:
-                label += f", widened to the {'upright' if lying else 'lying'} reading ({100 * other:.0f} %)"
+                label += f", widened to the {'upright' if lying else 'lying'} posture ({100 * other:.0f} %)"
             return interval + label + ")"
-        label = ("95 % posterior interval of the lying reading" if lying else "95 % posterior interval per axis") + \
+        label = ("95 % posterior interval of the lying posture" if lying else "95 % posterior interval per axis") + \
             " (up model, docs/up_model.md)"
         if other is not None:
-            label += (f"; widened to reach the {'upright' if lying else 'lying'} reading, which keeps "
+            label += (f"; widened to reach the {'upright' if lying else 'lying'} posture, which keeps "
                       f"{100 * other:.0f} % of the posterior")
         return (interval + f"{label}; the poses alone +- "
-                f"{self.report.get('camera_pitch_uncertainty_deg', float('nan')):.1f}/"
-                f"{self.report.get('camera_roll_uncertainty_deg', float('nan')):.1f}; "
-                f"evidence: {self.report.get('evidence')})")
+                f"{seq.camera_pitch_uncertainty_deg:.1f}/{seq.camera_roll_uncertainty_deg:.1f}; "
+                f"evidence: {seq.evidence})")
 
 
 #: Relative difference between ``--fps`` and the video's own rate accepted as the same rate.
@@ -761,8 +763,9 @@ class Rectified:
     """Step "rectify": the rectification result and its evidence.
 
     rotation: ``(T, 3, 3)`` camera-to-canonical rotations; canonical: ``(T, 17, 3)`` poses in
-    the store; valid: ``(T,)`` bool; report: the rectification report (the JSON written to
-    canonical.npz; later steps add their keys to it); tilt: the camera's tilt from level;
+    the store; valid: ``(T,)`` bool; report: what rectification decided (with the frames whose
+    pelvis was filled from the hips); tilt: the camera's tilt from level; tilt_per_frame_deg:
+    the per-frame tilts' median and 5-95 % range (:func:`pcnet.stages.flags.per_frame_tilt_summary`);
     track_segment, track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track
     (``None``, ``[]`` without one); notes.
     """
@@ -770,8 +773,9 @@ class Rectified:
     rotation: np.ndarray
     canonical: np.ndarray
     valid: np.ndarray
-    report: dict
+    report: RectificationReport
     tilt: CameraTilt
+    tilt_per_frame_deg: list[float]
     track_segment: np.ndarray | None
     track_events: list
     notes: tuple[str, ...]
@@ -793,7 +797,9 @@ class World:
 
     joints: ``(T, 17, 3)`` float64 world-frame poses in the store, or ``None`` without a fixed
     world frame; rotation: ``(3, 3)`` camera-to-world (NaN without); pelvis_path_std: the
-    pelvis path's spread in the world frame or ``None``; findings (flags); notes.
+    pelvis path's spread in the world frame or ``None``; findings (flags); notes; root_path:
+    where the pelvis path came from (:class:`pcnet.pipeline.pelvis_path.PelvisPath` ``kind``)
+    and floor: the floor fitted (:class:`pcnet.stages.floor.Floor` as a dict), ``None`` without.
     """
 
     joints: np.ndarray | None
@@ -801,6 +807,8 @@ class World:
     pelvis_path_std: np.ndarray | None
     findings: tuple[Finding, ...]
     notes: tuple[str, ...]
+    root_path: str | None = None
+    floor: dict | None = None
 
     @property
     def frame(self) -> str:
@@ -811,10 +819,14 @@ class World:
 @dataclass(frozen=True)
 class Measured:
     """Step "kinematics": result: what the sinks write (its kinematics are computed a block
-    at a time as they read them); outputs: the kinematics tables written."""
+    at a time as they read them); outputs: the kinematics tables written; cutoff_hz,
+    cutoff_source: the low-pass cutoff (Hz) and where it came from (``"cutoff_hz"`` or
+    ``"residual analysis"``)."""
 
     result: RecordingResult
     outputs: dict[str, Path]
+    cutoff_hz: float
+    cutoff_source: str
 
 
 def _inputs(cfg: RunConfig, estimate_notes: list[str]) -> AlignedInputs:
@@ -867,8 +879,7 @@ def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
 
 def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: FrameStore) -> Rectified:
     """Rectify the camera-frame poses (:func:`pcnet.pipeline.rectification.rectify_checked`)
-    and read the camera's tilt; the report gets the pelvis fill, the display rotation and the
-    tilt the summary prints."""
+    and read the camera's tilt; the report gets the pelvis fill."""
     fps, kp2d = inputs.recording.fps, camera.keypoints2d
     segment, events = track_segments(kp2d, fps) if kp2d is not None else (None, [])
     # A static camera does not move when the tracker jumps to another person, but the
@@ -884,16 +895,11 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
         raise InputError(f"{cfg.lifter_output}: {err}{_layout_hint(cfg, str(err))}") from err
     if not res.valid.any():
         raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}{_layout_hint(cfg, NO_VALID_FRAME)}")
-    report = res.report
-    report["pelvis_from_hips_frames"] = camera.pelvis_filled
-    if inputs.orientation.note:
-        report["display_rotation"] = inputs.orientation.report()
-    notes = _unused_floor_note(inputs.recording.measured_root, report.get("ground_plane"))
-    tilt = CameraTilt.of(res.rotation, res.valid)
-    # what the summary's tilt line prints, in every mode (sequence mode: its one up)
-    report.update(camera_tilt_deg=tilt.tilt_deg, camera_pitch_deg=tilt.pitch_deg, camera_roll_deg=tilt.roll_deg,
-                  camera_tilt_per_frame_deg=per_frame_tilt_summary(res.rotation[:, :, 1], res.valid))
-    return Rectified(res.rotation, res.canonical, res.valid, report, tilt, segment, events, tuple(notes))
+    report = replace(res.report, pelvis_from_hips_frames=camera.pelvis_filled)
+    notes = _unused_floor_note(inputs.recording.measured_root,
+                               report.sequence.ground_plane if report.sequence is not None else None)
+    return Rectified(res.rotation, res.canonical, res.valid, report, CameraTilt.of(res.rotation, res.valid),
+                     per_frame_tilt_summary(res.rotation[:, :, 1], res.valid), segment, events, tuple(notes))
 
 
 def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, rectified: Rectified) -> CheckInputs:
@@ -943,28 +949,24 @@ def _scale(cfg: RunConfig, camera: CameraFrame, canonical, units: str, fps: floa
 def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, store: FrameStore) -> World:
     """The fixed world frame of a static camera (sequence mode): the pelvis path, the floor and
     the world-frame poses; other modes have none, and say why. Anything differentiated in time
-    lives in one fixed frame per recording; only a static camera gives one. The report gets the
-    root path, the floor and the kinematics frame."""
-    report, cam, fps = rectified.report, scaled.camera.joints, inputs.recording.fps
-    if report["mode"] == "sequence":
+    lives in one fixed frame per recording; only a static camera gives one."""
+    cam, fps = scaled.camera.joints, inputs.recording.fps
+    mode = rectified.report.mode
+    if mode.run == "sequence":
         frame = world_frame(rectified.rotation, rectified.valid, fps)
         path = pelvis_path(scaled.camera.root, cam, scaled.camera.keypoints2d,
                            camera_intrinsics(cfg.focal_px, inputs.recording.camera_matrix, inputs.image_size),
                            scaled.units, fps, cfg.min_confidence)
         joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64))
-        world = World(joints, frame.rotation, path.world_std(frame.rotation),
-                      tuple(floor_flag(feet_visible(cam), present_frames(cam))),
-                      tuple(n for n in (path.note, floor.note() if floor.kind != "plane" else "") if n))
-        report["root_path"] = path.kind
-        report["floor"] = asdict(floor)
-    elif report.get("mode_reason") == "one valid frame":
-        world = World(None, np.full((3, 3), np.nan), None, (), (
+        return World(joints, frame.rotation, path.world_std(frame.rotation),
+                     tuple(floor_flag(feet_visible(cam), present_frames(cam))),
+                     tuple(n for n in (path.note, floor.note() if floor.kind != "plane" else "") if n),
+                     root_path=path.kind, floor=asdict(floor))
+    if mode.reason == "one valid frame":
+        return World(None, np.full((3, 3), np.nan), None, (), (
             "one valid frame: the pose is given in the canonical frame (frame mode); --mode sequence places it in a "
             "world frame with the camera prior",))
-    else:
-        world = World(None, np.full((3, 3), np.nan), None, tuple(no_world_frame_flag(report["mode"])), ())
-    report["kinematics_frame"] = world.frame
-    return world
+    return World(None, np.full((3, 3), np.nan), None, tuple(no_world_frame_flag(mode.run)), ())
 
 
 def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, world: World,
@@ -973,7 +975,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     and its kinematics tables, then the checks of the filtered motion. ``findings``, ``notes``:
     the run's lists, which this step adds to (the sinks add notes; the result carries the
     findings' texts from :func:`_recording` on)."""
-    fps, units, cam, report = inputs.recording.fps, scaled.units, scaled.camera.joints, rectified.report
+    fps, units, cam = inputs.recording.fps, scaled.units, scaled.camera.joints
     rectified_poses = world.joints if world.joints is not None else rectified.canonical
     cutoff = cfg.lowpass_hz
     if cfg.residual_cutoff:
@@ -987,13 +989,12 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         notes.append(f"low-pass cutoff {cutoff:.2f} Hz by residual analysis (Winter; noise {analysis.noise:.3g} "
                      f"{units}; per-coordinate cutoffs {np.nanpercentile(analysis.per_signal_hz, 10):.1f}-"
                      f"{np.nanpercentile(analysis.per_signal_hz, 90):.1f} Hz, 10th-90th percentile)")
-    report["cutoff_hz"] = cutoff
-    report["cutoff_source"] = "residual analysis" if cfg.residual_cutoff else "cutoff_hz"
     # Camera-frame wrist accelerations only feed the before/after wrist plot: two joints,
     # small enough to filter whole, and no angles to compute.
     acc_cam = filtered_derivatives(cam[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
     result = RecordingResult(
-        fps=fps, units=units, method=cfg.method, report=report, flags=[], notes=notes, joints_camera=cam,
+        fps=fps, units=units, method=cfg.method, rectification=rectified.report, flags=[], notes=notes,
+        joints_camera=cam, root_path=world.root_path,
         rotation=rectified.rotation, canonical=rectified.canonical, valid=rectified.valid,
         kinematics_frame=world.frame, poses=rectified_poses, world=world.joints, world_rotation=world.rotation,
         keypoints2d=scaled.camera.keypoints2d, track_segment=rectified.track_segment, video=cfg.video,
@@ -1015,13 +1016,22 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         implausible = implausible_motion(rectified_poses, fps, units=units)
         result.implausible_frames = implausible_frames(implausible, len(cam))
         findings += implausible_motion_findings(implausible)
-        report["implausible_frames"] = int(result.implausible_frames.sum())
     # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)
     missing_note = format_flag_counts(result.flag_counts, nonfinite_line(inputs.recording.nonfinite))
     if missing_note:
         notes.append(missing_note)
     notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)
-    return Measured(result, table)
+    return Measured(result, table, cutoff, "residual analysis" if cfg.residual_cutoff else "cutoff_hz")
+
+
+def _run_report(inputs: AlignedInputs, rectified: Rectified, world: World, measured: Measured) -> RunReport:
+    """The run's report from what the steps decided and measured."""
+    implausible = measured.result.implausible_frames
+    return RunReport(
+        rectification=rectified.report, tilt=rectified.tilt, tilt_per_frame_deg=rectified.tilt_per_frame_deg,
+        display_rotation=inputs.orientation.report() if inputs.orientation.note else None,
+        kinematics_frame=world.frame, root_path=world.root_path, floor=world.floor, cutoff_hz=measured.cutoff_hz,
+        cutoff_source=measured.cutoff_source, implausible_frames=None if implausible is None else int(implausible.sum()))
 
 
 def _exports(cfg: RunConfig, measured: Measured, findings: list[Finding], tmp: Path,
@@ -1100,6 +1110,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         rectified = replace(rectified, rotation=_moved_to_disk(rectified.rotation, "rotation", store))
         notes = [*inputs.notes, *scaled.camera.notes, *rectified.notes, *scaled.notes, *world.notes]
         measured = _kinematics(cfg, inputs, scaled, rectified, world, findings, notes, store, tmp)
+        report = _run_report(inputs, rectified, world, measured)
+        measured.result.report = report.as_record()
         bar.update()
 
         step("exports")
@@ -1113,9 +1125,9 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         tilt = rectified.tilt
         run = RunResult(
             frames=len(scaled.camera.joints), valid_frames=int(rectified.valid.sum()), units=scaled.units,
-            method=cfg.method, mode=rectified.report["mode"], camera_tilt_deg=tilt.tilt_deg,
+            method=cfg.method, mode=rectified.report.mode.run, camera_tilt_deg=tilt.tilt_deg,
             camera_pitch_deg=tilt.pitch_deg, camera_roll_deg=tilt.roll_deg, findings=findings, fps=inputs.recording.fps,
-            fps_source=inputs.recording.fps_source, report=rectified.report,
+            fps_source=inputs.recording.fps_source, report=report,
             outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
         )
         # the long form of the summary, published with the rest

@@ -21,6 +21,7 @@ from .core.framestore import frame_blocks, true_runs
 from .core.rotations import camera_pitch_roll, camera_tilt_deg
 from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
+from .rectification_report import EnsembleWeights, SequenceUp
 from .scale import height_chain_length, leg_lengths
 
 #: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
@@ -77,13 +78,13 @@ class Kind(IntEnum):
     IMPLAUSIBLE_MOTION = auto()  #: :func:`implausible_motion_findings`
     LIFTER_TURN = auto()  #: :func:`lifter_frame_flag`
     CAMERA_TILT = auto()  #: :func:`orientation_flags`
-    LYING = auto()  #: :func:`gravity_reading_flag`
-    AMBIGUOUS_ORIENTATION = auto()  #: :func:`gravity_reading_flag`
-    QUARTER_TURN = auto()  #: :func:`orientation_flags`, :func:`view_gate_flag`
+    LYING = auto()  #: :func:`posture_flag`
+    AMBIGUOUS_ORIENTATION = auto()  #: :func:`posture_flag`
+    QUARTER_TURN = auto()  #: :func:`orientation_flags`, :func:`ensemble_weights_flag`
     NON_UPRIGHT = auto()  #: :func:`non_upright_flag`
     NO_WORLD_FRAME = auto()  #: :func:`no_world_frame_flag`
     LEG_ASYMMETRY = auto()  #: :func:`leg_asymmetry_flag`
-    VIEWS_SET_ASIDE = auto()  #: :func:`view_gate_flag`
+    VIEWS_SET_ASIDE = auto()  #: :func:`ensemble_weights_flag`
     FLOOR_PARTIAL = auto()  #: :func:`floor_flag`, some frames
     MARKER_RMS = auto()  #: :func:`opensim_fit_findings`
     SEGMENTS_UNSCALED = auto()  #: :func:`opensim_fit_findings`
@@ -194,7 +195,7 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
             mean up; ``cos(tilt) = cos(pitch) cos(roll)``). Without ``pitch_deg`` and
             ``roll_deg`` only the tilt from image-up is judged.
         turn_reported: the quarter turn is already in the summary (the view gate's flag,
-            :func:`view_gate_flag`), so it is not said again.
+            :func:`ensemble_weights_flag`), so it is not said again.
 
     Returns:
         zero or one finding.
@@ -496,37 +497,37 @@ def non_upright_flag(canonical: np.ndarray, valid: np.ndarray) -> list[Finding]:
                    f"data, so the up direction is uncertain")]
 
 
-#: Posterior probability of the lying reading from which the other reading is also named.
-AMBIGUOUS_READING_P = 0.1
+#: Posterior probability of the lying posture from which the other posture is also named.
+AMBIGUOUS_POSTURE_P = 0.1
 
 
-def gravity_reading_flag(gravity: dict | None) -> list[Finding]:
-    """A flag for sequence mode's reading of the up model's posterior (the report's
-    ``gravity``, :func:`pcnet.stages.rectify.up_model_sequence`): the body was read as
-    lying (up from the camera prior, not from the pose), or the other reading kept a
-    posterior probability of at least :data:`AMBIGUOUS_READING_P`. ``None`` (frame or
-    smooth mode, or no camera prior) gives none."""
-    if not gravity:
+def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
+    """A flag for the up model's posture hypotheses in sequence mode
+    (:class:`~pcnet.stages.rectification_report.SequenceUp`, :func:`pcnet.stages.rectify.up_model_sequence`):
+    the body was read as lying (up from the camera prior, not from the pose), or the lying
+    hypothesis kept a posterior probability of at least :data:`AMBIGUOUS_POSTURE_P`. ``None``
+    or no posture (frame or smooth mode, another method, or no camera prior) gives none."""
+    if sequence is None or sequence.posture is None:
         return []
-    p = gravity["p_lying"]
-    if gravity["reading"] == "lying":
+    p = sequence.posture.p_lying
+    if sequence.posture.most_probable == "lying":
         return [_found(Kind.LYING, Severity.CHECK,
                        f"body read as lying (posterior {100 * p:.0f} %): up taken from the priors",
                        "--no-camera-prior if standing under a rolled camera",
                        f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is "
                        f"taken from the camera prior (near level; the true up within a "
-                       f"{gravity['interval_deg']:.0f} deg cone, 95 %, if the camera is not upside down: a supine "
+                       f"{sequence.up_uncertainty_deg:.0f} deg cone, 95 %, if the camera is not upside down: a supine "
                        f"body under an upside-down camera reads as prone) across the trunk; a body standing straight "
                        f"under a camera rolled 90 deg looks the same (pass --no-camera-prior if so; a phone video's "
                        f"display rotation tells when --video is given with the 2D keypoints), and so does a file "
                        f"whose up axis is declared wrongly (check --axes with --lifter generic)")]
-    if p >= AMBIGUOUS_READING_P:
+    if p >= AMBIGUOUS_POSTURE_P:
         return [_found(Kind.AMBIGUOUS_ORIENTATION, Severity.CHECK,
                        f"ambiguous orientation: read upright, but lying keeps {100 * p:.0f} % posterior",
                        "check the result",
                        f"ambiguous body orientation: read as upright, but a lying body under a level camera keeps "
                        f"{100 * p:.0f} % posterior probability (pose-based up "
-                       f"{gravity['pose_camera_angle_deg']:.0f} deg from a level camera's)")]
+                       f"{sequence.posture.pose_up_tilt_deg:.0f} deg from a level camera's)")]
     return []
 
 
@@ -534,28 +535,28 @@ def gravity_reading_flag(gravity: dict | None) -> list[Finding]:
 OUTSIDE_VIEWS_SHARE = 0.05
 
 
-def quarter_turn_reported(view_gate: dict | None) -> bool:
-    """Whether :func:`view_gate_flag` says the camera was read as turned a quarter turn (in
-    more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames)."""
-    if not view_gate or not view_gate["frames"]:
+def quarter_turn_reported(weights: EnsembleWeights | None) -> bool:
+    """Whether :func:`ensemble_weights_flag` says the camera was read as turned a quarter turn
+    (in more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames)."""
+    if not weights or not weights.frames:
         return False
-    return sum(view_gate.get("turned_frames", {}).values()) > OUTSIDE_VIEWS_SHARE * view_gate["frames"]
+    return sum(weights.turned_frames.values()) > OUTSIDE_VIEWS_SHARE * weights.frames
 
 
-def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[Finding]:
-    """Flags from the view gate's report (:func:`pcnet.stages.rectify.gate_report`), each
-    when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the camera
-    read as turned by 90 or 270 deg about its optical axis (the camera-frame network read
-    the poses turned back), and the camera-frame 3DPCNet (partly) set aside for the body-frame
-    one (the remaining roll beyond 10-20 deg or pitch beyond 40-50 deg, or a body whose trunk is
-    far from the image's vertical). ``None`` (one estimator ran) gives none. ``lying``: sequence
-    mode's camera prior read the body as lying (:func:`gravity_reading_flag`), which then sets
-    the answer instead of the turned reading; the quarter-turn flag says so."""
-    if not view_gate or not view_gate["frames"]:
+def ensemble_weights_flag(weights: EnsembleWeights | None, lying: bool = False) -> list[Finding]:
+    """Flags from the shipped ensemble's weights (:class:`~pcnet.stages.rectification_report.EnsembleWeights`),
+    each when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the
+    camera read as turned by 90 or 270 deg about its optical axis (the camera-frame network
+    read the poses turned back), and the camera-frame 3DPCNet (partly) set aside for the
+    body-frame one (the remaining roll beyond 10-20 deg or pitch beyond 40-50 deg, or a body
+    whose trunk is far from the image's vertical). ``None`` (one estimator ran) gives none.
+    ``lying``: the up model read the body as lying (:func:`posture_flag`), which then sets the
+    answer instead of the turned view; the quarter-turn flag says so."""
+    if not weights or not weights.frames:
         return []
     flags = []
-    turned, frames = view_gate.get("turned_frames", {}), view_gate["frames"]
-    if quarter_turn_reported(view_gate):
+    turned, frames = weights.turned_frames, weights.frames
+    if quarter_turn_reported(weights):
         counts = ", ".join(f"{deg} deg: {n}" for deg, n in turned.items() if n)
         flags.append(_found(
             Kind.QUARTER_TURN, Severity.CHECK,
@@ -564,9 +565,9 @@ def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[Finding]
             f"camera read as turned a quarter turn about its optical axis (a phone in portrait, or a body lying "
             f"across the image) in {sum(turned.values())} of {frames} frames ({counts}): the camera-frame network "
             f"read those poses turned back (models/view_gate.py: quarter_turns)"
-            + ("; the camera prior then read the body as lying under a level camera instead, and that reading is "
-               "the answer (the 'body read as lying' warning)" if lying else "")))
-    outside = view_gate["body_frame_frames"] + view_gate["blended_frames"]
+            + ("; the up model then read the body as lying under a level camera instead, and that posterior mode "
+               "is the answer (the 'body read as lying' warning)" if lying else "")))
+    outside = weights.set_aside_frames
     if outside <= OUTSIDE_VIEWS_SHARE * frames:
         return flags
     return flags + [_found(
@@ -575,10 +576,10 @@ def view_gate_flag(view_gate: dict | None, lying: bool = False) -> list[Finding]
         "see camera_frame_weight",
         f"camera-frame network set aside, wholly or in part, in {outside} of {frames} frames: the body-frame network "
         f"read the camera as rolled beyond 10-20 deg or pitched beyond 40-50 deg after any quarter turn, and the "
-        f"camera-frame network's own reading did not vouch for it (a rolled or steep camera, or a body leaning "
-        f"sideways, upside down or across the image; the poses alone cannot tell which): the rotation-equivariant "
-        f"body-frame network was used there ({view_gate['body_frame_frames']} frames alone, "
-        f"{view_gate['blended_frames']} blended), less accurate on held-out mocap (models/MODEL_CARD.md)")]
+        f"camera-frame network's own up did not place the camera inside its training views either (a rolled or "
+        f"steep camera, or a body leaning sideways, upside down or across the image; the poses alone cannot tell "
+        f"which): the rotation-equivariant body-frame network was used there ({weights.body_frame_frames} frames "
+        f"alone, {weights.blended_frames} blended), less accurate on held-out mocap (models/MODEL_CARD.md)")]
 
 
 def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,

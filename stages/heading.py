@@ -27,6 +27,7 @@ import numpy as np
 from .core.canonical import canonical_rotation
 from .core.conventions import L_HIP, R_HIP, check_poses
 from .core.errors import InputError
+from .rectification_report import HeadingChoice
 
 HEADING_SOURCES = ("auto", "predicted", "hips")
 
@@ -115,7 +116,7 @@ def apply_heading(
     valid: np.ndarray,
     source: str = "auto",
     max_cv_percent: float = AUTO_MAX_HIP_WIDTH_CV_PERCENT,
-) -> tuple[np.ndarray, dict]:
+) -> tuple[np.ndarray, HeadingChoice]:
     """Choose where a sequence's heading comes from; the up directions are never changed.
 
     ``"predicted"`` returns ``R``; ``"hips"`` takes the heading of the hip line in every
@@ -133,11 +134,9 @@ def apply_heading(
         max_cv_percent: the ``"auto"`` threshold (percent).
 
     Returns:
-        ``(rotations (T, 3, 3) float64, report)`` with ``heading_source`` (what was used:
-        ``"predicted"`` or ``"hips"``), ``requested_heading_source``,
-        ``hip_width_cv_percent``, ``heading_difference_median_deg`` (median absolute
-        hip-line vs predicted heading over the valid frames, NaN when no frame has both)
-        and ``hip_heading_undefined_frames`` (valid frames that kept the predicted heading).
+        ``(rotations (T, 3, 3) float64, choice)``: the
+        :class:`~pcnet.stages.rectification_report.HeadingChoice` (the source used,
+        ``"predicted"`` or ``"hips"``, and its statistics).
 
     Raises:
         ValueError: unknown ``source`` or mismatched shapes.
@@ -147,16 +146,11 @@ def apply_heading(
     R = np.asarray(R, np.float64)
     valid = np.asarray(valid, bool)
     precise, cv = precise_hips(joints_cam, valid, max_cv_percent)
-    report = {"requested_heading_source": source, "heading_source": "predicted", "hip_width_cv_percent": cv,
-              "heading_difference_median_deg": float("nan"), "hip_heading_undefined_frames": 0}
     R_hips, ok = hip_line_rotations(joints_cam, R)
     ok &= valid
-    if ok.any():
-        report["heading_difference_median_deg"] = float(np.median(np.abs(heading_difference_deg(R[ok], R_hips[ok]))))
-    if source == "auto":
-        source = "hips" if precise else "predicted"
-    if source == "predicted":
-        return R, report
-    report["heading_source"] = "hips"
-    report["hip_heading_undefined_frames"] = int((valid & ~ok).sum())
-    return np.where(ok[:, None, None], R_hips, R), report
+    difference = float(np.median(np.abs(heading_difference_deg(R[ok], R_hips[ok])))) if ok.any() else float("nan")
+    used = ("hips" if precise else "predicted") if source == "auto" else source
+    choice = HeadingChoice(used, source, cv, difference, int((valid & ~ok).sum()) if used == "hips" else 0)
+    if used == "predicted":
+        return R, choice
+    return np.where(ok[:, None, None], R_hips, R), choice

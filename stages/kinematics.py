@@ -589,7 +589,7 @@ def continuous_angles(angles: Mapping[str, np.ndarray],
       gap is bridged), and each run is shifted by the multiple of 360 deg that puts its
       median in the column's range ((-180, 180], or (-90, 270] for the upper-arm
       inclinations), so its values keep their usual reading;
-    * hip internal rotation and signed knee flexion have two readings in every frame
+    * hip internal rotation and signed knee flexion have two posture hypotheses in every frame
       (:mod:`pcnet.stages.isb_angles`: a flexed knee, or a hyperextended one with the thigh
       turned 180 deg about its axis, ``(rotation, knee) ~ (rotation + 180, -knee)``), which
       ``isb_joint_angles`` chooses per frame by plausibility; here the reading is kept over

@@ -31,10 +31,12 @@ from .core.geometric import geometric_rotation
 from .ground_plane import GROUND_GATE_DEG, ground_plane_up
 from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, normalize
 from .heading import HEADING_SOURCES, apply_heading
+from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
+                                   RectificationReport, SequenceUp)
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, rotations_about_up, sequence_rectify, smooth_rotations, up_spread_deg)
 from .uncertainty import frame_tilt_bound
-from .up_model import (OTHER_READING_P, Z95, UpEvidence, default_parameters, static_posterior,
+from .up_model import (OTHER_POSTURE_P, Z95, UpEvidence, default_parameters, static_posterior,
                        summarise_recording)
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
@@ -54,7 +56,8 @@ class Rectified:
     rotation ``(T, 3, 3)`` canonical->camera; canonical ``(T, 17, 3)`` canonical poses in the
     input's units, pelvis-centred before the network's residual (with it the pelvis moves a
     few mm off the origin; docs/outputs.md); up ``(T, 3)`` unit up direction in the camera
-    frame (``rotation[:, :, 1]``); valid ``(T,)``; method name. Invalid frames are NaN.
+    frame (``rotation[:, :, 1]``); valid ``(T,)``; method name; report: what was decided and
+    why (:class:`~pcnet.stages.rectification_report.RectificationReport`). Invalid frames are NaN.
     """
 
     rotation: np.ndarray
@@ -62,9 +65,17 @@ class Rectified:
     up: np.ndarray
     valid: np.ndarray
     method: str
-    mode: str = "frame"
-    report: dict | None = None
-    heading_source: str = "predicted"
+    report: RectificationReport
+
+    @property
+    def mode(self) -> str:
+        """The temporal mode that ran (``auto`` resolved)."""
+        return self.report.mode.run
+
+    @property
+    def heading_source(self) -> str:
+        """Where the heading came from: ``"predicted"`` or ``"hips"``."""
+        return self.report.heading.source
 
 
 def check_method_weights(method: str, weights: str | None, source: str = "weights") -> None:
@@ -77,22 +88,6 @@ def check_method_weights(method: str, weights: str | None, source: str = "weight
     if weights is not None and method == "geometric":
         raise InputError(f"{source}: expected a 3DPCNet method (pcnet, pcnet-rigid), got method 'geometric', "
                          f"which uses no weights")
-
-
-def gate_report(gate: np.ndarray | None, valid: np.ndarray, turns: np.ndarray | None = None) -> dict | None:
-    """Summary of the camera-frame network's weights over the valid frames: its mean share,
-    the frames where the body-frame network alone (weight 0) or a blend ran, and (with
-    ``turns``) the frames whose input the camera-frame network read turned back by 90 or 270
-    deg (``turned_frames``); ``None`` when one estimator ran."""
-    if gate is None:
-        return None
-    w = gate[valid]
-    report = {"camera_frame_share": float(np.mean(w)) if len(w) else float("nan"),
-              "body_frame_frames": int(np.sum(w == 0.0)), "blended_frames": int(np.sum((w > 0.0) & (w < 1.0))),
-              "frames": int(len(w))}
-    if turns is not None:
-        report["turned_frames"] = {str(90 * k): int(np.sum(turns[valid] == k)) for k in (1, 3)}
-    return report
 
 
 def resolve_heading_source(method: str, heading: str | None) -> str:
@@ -116,7 +111,7 @@ class FrameEstimate:
     """Step 1's output for ``T`` frames: ``rotation`` ``(T, 3, 3)`` float64 canonical->camera,
     ``residual`` ``(T, 17, 3)`` the non-rigid correction in the canonical frame and the
     input's units (the paper's Delta; zeros for estimators without one), ``valid`` ``(T,)``
-    bool (NaN rotations where False), ``camera_frame_weight`` ``(T,)`` the shipped pair's
+    bool (NaN rotations where False), ``camera_frame_weight`` ``(T,)`` the shipped ensemble's
     trust in its camera-frame network per frame (:mod:`pcnet.models.view_gate`) and
     ``disagreement_deg`` ``(T,)`` the angle between its two networks' ups and
     ``quarter_turns`` ``(T,)`` int, the quarter turns about the optical axis the camera-frame
@@ -169,17 +164,31 @@ MIN_DECISION_STRETCH_S = 5.0
 
 
 @dataclass(frozen=True)
+class SequenceOutcome:
+    """Step 2's output for ``T`` frames: ``rotation`` ``(T, 3, 3)`` canonical->camera (NaN
+    where not valid; frame mode: as given), ``valid`` ``(T,)`` bool, the ``mode`` choice and,
+    in sequence mode, the static camera's ``up`` (else ``None``)."""
+
+    rotation: np.ndarray
+    valid: np.ndarray
+    mode: ModeChoice
+    up: SequenceUp | None = None
+
+
+@dataclass(frozen=True)
 class SequenceEvidence:
     """Step 2: what the whole recording says beyond each frame.
 
     ``mode``: ``"frame"`` (nothing; the paper's per-frame rotations, returned as given),
-    ``"sequence"`` (static camera: :func:`pcnet.stages.temporal.sequence_rectify`, one up,
-    floor contacts when the root is measured, the camera prior if ``camera_prior``),
-    ``"smooth"`` (moving camera: :func:`pcnet.stages.temporal.smooth_rotations`, kernel
+    ``"sequence"`` (static camera: one up; the shipped ensemble's by the up model,
+    :func:`up_model_sequence`, another method's by :func:`pcnet.stages.temporal.sequence_rectify`;
+    floor contacts when the root is measured), ``"smooth"`` (moving camera:
+    :func:`pcnet.stages.temporal.smooth_rotations`, kernel
     :data:`pcnet.stages.temporal.SMOOTH_TIME_CONSTANT_S`) or ``"auto"`` (one of the last two by
     :func:`pcnet.stages.temporal.choose_mode`; ``"frame"`` for a recording with one valid
-    frame, ``mode_reason`` in the report). ``n_bootstrap``: replicates of the
-    sequence-mode uncertainty (0 = none, NaN; the rotations do not depend on it).
+    frame, with that reason). ``camera_prior``: the up model's declared priors (False: the
+    poses alone). ``n_bootstrap``: replicates of another method's sequence-mode uncertainty
+    (0 = none, NaN; the rotations do not depend on it).
 
     Raises:
         InputError: unknown ``mode``.
@@ -195,47 +204,27 @@ class SequenceEvidence:
 
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
                  fps: float, decide_on: np.ndarray | None = None, calibrated: bool = True,
-                 evidence: UpEvidence | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+                 evidence: UpEvidence | None = None) -> SequenceOutcome:
         """Apply the mode to one recording.
 
         Args:
-            joints_cam: ``(T, 17, 3)`` camera-frame joints (floor contacts and the lying
-                reading in sequence mode) or ``None``. evidence: the two networks' own ups
-                (the shipped pair): with the camera prior, sequence mode is the up model's
-                static posterior (:func:`up_model_sequence`).
+            joints_cam: ``(T, 17, 3)`` camera-frame joints (floor contacts in sequence mode)
+                or ``None``. evidence: the two networks' own ups (the shipped ensemble):
+                sequence mode is then the up model's static posterior (:func:`up_model_sequence`).
             R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool or
                 ``None`` (all). fps: frame rate, > 0. decide_on:
                 optional ``(T,)`` bool, the frames ``"auto"`` decides on (one person's
                 stretch of a 2D track that switches people, :func:`pcnet.stages.flags.one_person_frames`);
                 every valid frame when ``None`` or when fewer than
                 :data:`MIN_DECISION_STRETCH_S` seconds of them are valid. calibrated: the
-                lifter's systematic error is calibrated for the estimator (the shipped pair
+                lifter's systematic error is calibrated for the estimator (the shipped ensemble
                 only); otherwise the sequence up has its bootstrap and NaN intervals.
-
-        Returns:
-            ``(R (T, 3, 3) float64, NaN where not valid (frame mode: as given); valid (T,)
-            bool; report)``. The report has ``requested_mode`` and ``mode`` (the mode run),
-            with ``decide_on`` in auto mode ``mode_decided_on_frames`` (valid frames it decided
-            on), and outside frame mode ``spread_deg`` (over those frames in auto mode;
-            :func:`pcnet.stages.temporal.up_spread_deg`),
-            ``evidence`` (``"per-frame"``, ``"up model"``, ``"poses"``, ``"poses+ground_plane"``),
-            ``valid``; in smooth mode ``time_constant_s``; in sequence mode ``up``,
-            ``up_uncertainty_deg``, ``camera_pitch_deg``, ``camera_roll_deg``, their
-            ``*_uncertainty_deg`` (the poses' part alone: the up model's Laplace half-widths, or
-            another method's bootstrap) and ``camera_pitch_interval_deg`` /
-            ``camera_roll_interval_deg`` (the up model's 95 % posterior half-widths,
-            :func:`up_model_sequence`; NaN when not ``calibrated``),
-            ``interval_reaches_other_reading_p`` (the other reading's posterior probability
-            where it keeps at least 5 %, so the interval reaches it; else ``None``),
-            ``up_spread_deg``, ``up_spread_p95_deg``, ``ground_plane`` and ``gravity`` (the
-            reading, ``None`` for another method).
 
         Raises:
             InputError: bad shapes, non-positive fps, or (not frame mode) no valid frame.
         """
-        report: dict = {"requested_mode": self.mode, "mode": "frame"}
         if self.mode == "frame":
-            return R, valid, report
+            return SequenceOutcome(R, valid, ModeChoice(self.mode, "frame"))
         R, ok = check_rotations(R, valid)
         if not ok.any():
             raise InputError(NO_VALID_FRAME)
@@ -244,88 +233,88 @@ class SequenceEvidence:
         if self.mode == "auto" and ok.sum() < 2:
             # One pose shows neither a static nor a moving camera, and pools nothing: its
             # per-frame answer, with the per-frame bound as its uncertainty.
-            report["mode_reason"] = "one valid frame"
-            return R, ok, report
+            return SequenceOutcome(R, ok, ModeChoice(self.mode, "frame", reason="one valid frame"))
+        decided_on = None
         if self.mode == "auto":
             # A short stretch can read as static under a moving camera (choose_mode's caveat
             # for clips under about 5 s): then every valid frame decides.
             subset = decide_on is not None and (ok & decide_on).sum() >= max(2, MIN_DECISION_STRETCH_S * fps)
             decide = ok & decide_on if subset else ok
             run, spread = choose_mode(R, decide, MODE_THRESHOLD_DEG, fps)
-            if subset:
-                report["mode_decided_on_frames"] = int(decide.sum())
+            decided_on = int(decide.sum()) if subset else None
         else:
             run, spread = self.mode, up_spread_deg(R, ok, fps)
-        report.update(mode=run, spread_deg=spread)
         if run == "smooth":
             out = smooth_rotations(R, ok, fps, SMOOTH_TIME_CONSTANT_S)
-            report.update(evidence="per-frame", valid=np.isfinite(out).all((1, 2)),
-                          time_constant_s=SMOOTH_TIME_CONSTANT_S)
-        elif evidence is not None and calibrated:
-            out, fields = up_model_sequence(R, ok, evidence, fps, self.camera_prior, joints_cam)
-            report.update(fields)
+            mode = ModeChoice(self.mode, run, spread_deg=spread, decided_on_frames=decided_on,
+                              smooth_time_constant_s=SMOOTH_TIME_CONSTANT_S)
+            valid = ok & np.isfinite(out).all((1, 2))
+            return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode)
+        mode = ModeChoice(self.mode, run, spread_deg=spread, decided_on_frames=decided_on)
+        if evidence is not None and calibrated:
+            out, valid, up = up_model_sequence(R, ok, evidence, fps, self.camera_prior, joints_cam)
         else:  # another method's sequence up: its bootstrap, no calibrated interval
             res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=self.n_bootstrap)
-            out = res.rotations
-            report.update(
-                evidence=res.evidence, valid=res.valid, up=res.up, up_uncertainty_deg=res.up_uncertainty_deg,
-                camera_pitch_deg=res.camera_pitch_deg, camera_roll_deg=res.camera_roll_deg,
+            out, valid = res.rotations, res.valid
+            up = SequenceUp(
+                evidence=res.evidence, up=res.up, camera_pitch_deg=res.camera_pitch_deg,
+                camera_roll_deg=res.camera_roll_deg, camera_pitch_interval_deg=float("nan"),
+                camera_roll_interval_deg=float("nan"), up_uncertainty_deg=res.up_uncertainty_deg,
                 camera_pitch_uncertainty_deg=res.camera_pitch_uncertainty_deg,
-                camera_roll_uncertainty_deg=res.camera_roll_uncertainty_deg,
-                camera_pitch_interval_deg=float("nan"), camera_roll_interval_deg=float("nan"),
-                interval_reaches_other_reading_p=None, gravity=None, up_spread_deg=res.up_spread_deg,
-                up_spread_p95_deg=res.up_spread_p95_deg, ground_plane=res.ground_plane,
-            )
-        valid = ok & np.asarray(report["valid"], bool)
-        return np.where(valid[:, None, None], out, np.nan), valid, report
+                camera_roll_uncertainty_deg=res.camera_roll_uncertainty_deg, interval_reaches_other_posture_p=None,
+                posture=None, up_spread_deg=res.up_spread_deg, up_spread_p95_deg=res.up_spread_p95_deg,
+                ground_plane=res.ground_plane)
+        valid = ok & np.asarray(valid, bool)
+        return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode, up)
 
 
-def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: float,
-                      camera_prior: bool = True, joints_cam: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: float, camera_prior: bool = True,
+                      joints_cam: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
     """Sequence mode by the up model (:mod:`pcnet.stages.up_model`): the static posterior's up
-    for every valid frame, each frame's heading about it
+    for every valid frame and each frame's heading about it
     (:func:`pcnet.stages.temporal.rotations_about_up` of the per-frame rotations ``R``
-    ``(T, 3, 3)``), and the report fields :class:`SequenceEvidence` documents: the intervals
-    are the posterior's 95 % half-widths, ``*_uncertainty_deg`` the poses' part alone
-    (Laplace, no systematic error), ``gravity`` the reading and its posterior probability.
-    ``camera_prior`` False: a uniform prior over the up and no lying reading (the poses alone).
-    ``joints_cam`` ``(T, 17, 3)`` with a measured root (a depth sensor): an upright reading is
-    refined by the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`), the
-    posterior's RMS axis std as the prior std of the plane's normal; the report's ``evidence``
-    then ends in ``+ground_plane`` and ``ground_plane`` says whether and why (not) it ran."""
+    ``(T, 3, 3)``; ``ok`` ``(T,)`` bool their valid frames).
+
+    ``camera_prior`` False: a uniform prior over the up and no lying hypothesis (the poses
+    alone). ``joints_cam`` ``(T, 17, 3)`` with a measured root (a depth sensor): an upright
+    posture's up is refined by the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`),
+    the posterior's RMS axis std as the prior std of the plane's normal.
+
+    Returns:
+        ``(rotations (T, 3, 3), valid (T,) bool, up)``: the
+        :class:`~pcnet.stages.rectification_report.SequenceUp` with the posterior's 95 %
+        half-widths as intervals, the poses' part alone (Laplace, no systematic error) as the
+        uncertainties and the posture hypotheses.
+    """
     params = default_parameters()
     if not camera_prior:
         params = replace(params, camera_prior_outside=1.0)
     post = static_posterior(summarise_recording(evidence.frames(ok), fps, params), params, lying=camera_prior)
     up, ground, kind = post.up, {"used": False, "reason": "no joints_cam"}, "up model"
-    if joints_cam is not None and post.reading == "upright":
+    if joints_cam is not None and post.posture == "upright":
         sd = float(np.hypot(post.pitch_half_deg, post.roll_half_deg) / (Z95 * np.sqrt(2.0)))
         up, ground = ground_plane_up(check_poses(joints_cam, "joints_cam"), ok, post.up, fps, sd, GROUND_GATE_DEG)
         ground.pop("_contacts", None)
         kind += "+ground_plane" if ground["used"] else ""
     rotations, heading_ok = rotations_about_up(R, up)
-    valid = ok & heading_ok
     pitch, roll = camera_pitch_roll(up)
     pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))
     spread = np.degrees(angle_between(normalize(R[ok, :, 1]), up[None]))
-    other = min(post.p_lying, 1.0 - post.p_lying)
-    cone = float(np.hypot(post.pitch_half_deg, post.roll_half_deg))
-    return rotations, dict(
-        evidence=kind, valid=valid, up=up, up_uncertainty_deg=cone,
-        camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
-        camera_pitch_uncertainty_deg=float(Z95 * pose_sd[0]), camera_roll_uncertainty_deg=float(Z95 * pose_sd[1]),
+    posture = PostureHypotheses(post.posture, float(post.p_lying), float(camera_tilt_deg(post.summary.up)))
+    return rotations, ok & heading_ok, SequenceUp(
+        evidence=kind, up=up, camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
         camera_pitch_interval_deg=post.pitch_half_deg, camera_roll_interval_deg=post.roll_half_deg,
-        interval_reaches_other_reading_p=round(other, 4) if other >= OTHER_READING_P else None,
-        gravity={"reading": post.reading, "p_lying": round(post.p_lying, 4), "model": "up model",
-                 "interval_deg": round(cone, 2),
-                 "pose_camera_angle_deg": round(float(camera_tilt_deg(post.summary.up)), 2)},
-        up_spread_deg=float(np.median(spread)), up_spread_p95_deg=float(np.percentile(spread, 95)),
-        ground_plane=ground)
+        up_uncertainty_deg=float(np.hypot(post.pitch_half_deg, post.roll_half_deg)),
+        camera_pitch_uncertainty_deg=float(Z95 * pose_sd[0]), camera_roll_uncertainty_deg=float(Z95 * pose_sd[1]),
+        interval_reaches_other_posture_p=(round(posture.other_p, 4) if posture.other_p >= OTHER_POSTURE_P
+                                          else None),
+        posture=posture if camera_prior else None, up_spread_deg=float(np.median(spread)),
+        up_spread_p95_deg=float(np.percentile(spread, 95)), ground_plane=ground)
 
 
 def frame_bound(estimate: FrameEstimate, base_deg: float) -> np.ndarray:
     """Per-frame tilt bound ``(T,)`` (deg; :func:`pcnet.stages.uncertainty.frame_tilt_bound`, widened
-    where the shipped pair's networks disagree; ``base_deg`` throughout for one estimator)."""
+    where the shipped ensemble's networks disagree; ``base_deg`` throughout for one estimator)."""
     if estimate.disagreement_deg is None:
         return np.full(len(estimate.valid), base_deg)
     return frame_tilt_bound(estimate.disagreement_deg, estimate.camera_frame_weight, base_deg)
@@ -343,7 +332,7 @@ class HeadingStep:
         if self.source not in HEADING_SOURCES:
             raise InputError(f"unknown heading source {self.source!r}; expected one of {HEADING_SOURCES}")
 
-    def __call__(self, joints_cam: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, dict]:
+    def __call__(self, joints_cam: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, HeadingChoice]:
         return apply_heading(joints_cam, R, valid, self.source)
 
 
@@ -354,13 +343,9 @@ class Rectification:
 
     Calling it with ``joints_cam`` ``(T, 17, 3)`` (camera frame, any unit, NaN = missing),
     ``fps`` and optionally ``decide_on`` (:class:`SequenceEvidence`) returns
-    :class:`Rectified`; its report holds the sequence and heading reports,
-    ``view_gate`` (:func:`gate_report`), ``camera_frame_weight`` ``(T,)`` (the shipped pair
-    only), ``frame_tilt_95_deg`` (the estimator's calibrated per-frame bound where nothing
-    widens it, NaN when uncalibrated) and ``frame_tilt_bound_deg`` ``(T,)`` (per frame, widened
-    where the pair's networks disagree, :func:`pcnet.stages.uncertainty.frame_tilt_bound`;
-    NaN where not valid or uncalibrated). Input rules (dtype, the pelvis from the hips) are the
-    caller's: :func:`pcnet.pipeline.rectification.rectify`.
+    :class:`Rectified`, its report the
+    :class:`~pcnet.stages.rectification_report.RectificationReport`. Input rules (dtype, the
+    pelvis from the hips) are the caller's: :func:`pcnet.pipeline.rectification.rectify`.
 
     Raises:
         InputError: bad shapes, or (sequence modes) no valid frame.
@@ -377,17 +362,15 @@ class Rectification:
             self.estimator(joints_cam, fps, self.allocate)
         gate = estimate.camera_frame_weight
         base = self.estimator.frame_tilt_95_deg
-        bound = frame_bound(estimate, base)
-        R, valid, report = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, decide_on,
-                                         calibrated=bool(np.isfinite(base)), evidence=estimate.evidence)
-        R, heading_report = self.heading(joints_cam, R, valid)
-        report.update(heading_report)
-        report["view_gate"] = gate_report(gate, valid, estimate.quarter_turns)
-        if gate is not None:
-            report["camera_frame_weight"] = np.where(valid, gate, np.nan)
-        report["frame_tilt_95_deg"] = base
-        report["frame_tilt_bound_deg"] = np.where(valid, bound, np.nan)
+        seq = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, decide_on,
+                            calibrated=bool(np.isfinite(base)), evidence=estimate.evidence)
+        valid = np.ones(len(seq.rotation), bool) if seq.valid is None else seq.valid
+        R, heading = self.heading(joints_cam, seq.rotation, valid)
+        report = RectificationReport(
+            mode=seq.mode, sequence=seq.up, heading=heading,
+            weights=None if gate is None else EnsembleWeights.of(gate, valid, estimate.quarter_turns),
+            camera_frame_weight=None if gate is None else np.where(valid, gate, np.nan),
+            frame_tilt_95_deg=base, frame_tilt_bound_deg=np.where(valid, frame_bound(estimate, base), np.nan))
         canonical = to_canonical(joints_cam, R, estimate.residual,
                                  out=(self.allocate or in_memory)("canonical", joints_cam.shape, np.float32))
-        return Rectified(R, canonical, R[:, :, 1].copy(), valid, self.estimator.name, report["mode"], report,
-                         report["heading_source"])
+        return Rectified(R, canonical, R[:, :, 1].copy(), valid, self.estimator.name, report)

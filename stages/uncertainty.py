@@ -1,7 +1,7 @@
-"""The per-frame tilt bound of the shipped pair of 3DPCNets (frame mode and the per-frame
+"""The per-frame tilt bound of the shipped ensemble of two 3DPCNets (frame mode and the per-frame
 values of every mode).
 
-The shipped pair runs two 3DPCNets, and where they disagree the pose is unlike what they learnt
+The shipped ensemble runs two 3DPCNets, and where they disagree the pose is unlike what they learnt
 (on DeepMimic the tenth of frames with the largest disagreement hold most of the large errors).
 The bound is
 ``w sqrt(FRAME_TILT_95_DEG^2 + (FRAME_DISAGREEMENT_FACTOR d)^2) + (1 - w) FRAME_TILT_95_BODY_DEG``,
@@ -38,7 +38,7 @@ FRAME_TILT_95_BODY_DEG = 9.03
 
 def frame_tilt_bound(disagreement_deg, camera_frame_weight, base_deg: float = FRAME_TILT_95_DEG,
                      factor: float = FRAME_DISAGREEMENT_FACTOR, body_deg: float = FRAME_TILT_95_BODY_DEG) -> np.ndarray:
-    """Per-frame 95 % bound on the tilt error of the shipped pair's up, degrees:
+    """Per-frame 95 % bound on the tilt error of the shipped ensemble's up, degrees:
     ``w sqrt(base^2 + (factor d)^2) + (1 - w) body`` (module docstring for the calibration): the
     camera-frame network's bound, widened by the two networks' disagreement ``d``, where the gate
     trusts it (``w = 1``), the body-frame network's own bound where it answers alone

@@ -40,11 +40,11 @@ Camera prior (declared, docs/CONVENTIONS.md "handheld" views): camera pitch
 cameras outside them.
 
 Answers. Static camera (``sequence``): the posterior ``p(g, posture | g_hat)`` on a sphere grid
-gives the reading (the posture of larger mass) and its mode; the 95 % intervals are the
+gives the more probable posture and its mode; the 95 % intervals are the
 posterior's. Per-frame answers and a moving camera (a random walk of the up) are the same model
 with one frame's likelihood or a time-varying ``g``; both were measured and are not shipped
 (docs/up_model.md, ``benchmarks/up_model_variants.py``): frame mode and smooth mode keep the
-pair's per-frame estimate (:mod:`pcnet.models.view_gate`).
+ensemble's per-frame estimate (:mod:`pcnet.models.view_gate`).
 
 Every number above but the declared camera and posture priors is fitted on validation or training data by
 ``python -m benchmarks.fit_up_model --data ../shared/data`` into ``stages/data/up_model.json``,
@@ -69,9 +69,9 @@ Z95 = 1.959964
 _FD_STEP = 1e-4  # rad, finite differences of the Laplace step
 _NEWTON_STEPS = 25
 _GRID_POINTS = 40_000  # about 1 deg between neighbours
-#: A reading not reported that keeps at least this posterior probability is reached by the 95 %
+#: A posture not reported that keeps at least this posterior probability is reached by the 95 %
 #: intervals (a region holding 95 % must hold some of it; decision 0024).
-OTHER_READING_P = 0.05
+OTHER_POSTURE_P = 0.05
 
 
 # ============================================================================ parameters
@@ -258,7 +258,7 @@ def log_vmf_mixture(cos: np.ndarray, kappa: np.ndarray, eps: float) -> np.ndarra
     return a if eps == 0 else np.logaddexp(a, np.log(eps) - np.log(4 * np.pi))
 
 
-def camera_reading(g: np.ndarray, level: np.ndarray, p: UpModelParameters) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def camera_view_estimate(g: np.ndarray, level: np.ndarray, p: UpModelParameters) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For true ups ``g`` ``(T, 3)`` and the camera-frame network's input-frame level ups
     ``level`` ``(T, 3)``: the view tilt ``psi`` ``(T,)`` (rad), its concentration ``kappa_c``
     ``(T,)`` and fallback probability ``lambda`` ``(T,)`` (module docstring)."""
@@ -273,7 +273,7 @@ def frame_log_likelihood(g: np.ndarray, ev: UpEvidence, p: UpModelParameters) ->
     frame; broadcast a ``(3,)``); 0 where a network gave nothing, NaN-free."""
     g = np.broadcast_to(np.asarray(g, np.float64), ev.camera_up.shape)
     level = ev.level_up()
-    _, kappa_c, lam = camera_reading(g, level, p)
+    _, kappa_c, lam = camera_view_estimate(g, level, p)
     cos_c = np.sum(ev.camera_up * g, -1)
     cos_b = np.sum(ev.body_up * g, -1)
     kappa_b = 1.0 / np.radians(p.body_sigma_deg) ** 2
@@ -299,12 +299,15 @@ def _derivatives(objective, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     return f0, grad, -np.stack([np.stack([hpp, hpr], -1), np.stack([hpr, hrr], -1)], -2)
 
 
-def _maximise(objective, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def maximise_on_sphere(objective, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Damped Newton ascent on S^2 for ``B`` independent 2-parameter problems.
 
-    ``objective(G (B, 3)) -> (B,)``; ``starts`` ``(S, B, 3)`` candidate starts (the best
-    result per problem is kept). Derivatives by central differences in the tangent plane.
-    Returns ``(g (B, 3), value (B,), negative Hessian (B, 2, 2))`` at the maximiser."""
+    ``objective(G (B, 3)) -> (B,)`` takes ``B`` unit ups (camera frame, as everywhere in this
+    module) and returns one value per problem; ``starts`` ``(S, B, 3)`` candidate starts
+    (normalised here; the best result per problem is kept). Derivatives by central differences
+    (step ``1e-4`` rad) in the (pitch, roll) tangent plane of :func:`tangent_basis`.
+    Returns ``(g (B, 3), value (B,), negative Hessian (B, 2, 2))`` at the maximiser, the Hessian
+    in rad^-2 in that tangent basis at ``g``."""
     best_g = best_v = best_h = None
     for g in starts:
         g = normalize(g)
@@ -336,8 +339,10 @@ def _maximise(objective, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     return best_g, best_v, best_h
 
 
-def _starts(ev: UpEvidence) -> np.ndarray:
-    """``(3, T, 3)`` starts per frame: each network's up and their mean (a missing one replaced by the other)."""
+def frame_starts(ev: UpEvidence) -> np.ndarray:
+    """``(3, T, 3)`` starts per frame for :func:`maximise_on_sphere`: each network's up (camera
+    frame; the camera-frame network's, then the body-frame network's) and their normalised mean,
+    a missing one (NaN) replaced by the other; NaN where neither network answered."""
     c = np.where(np.isfinite(ev.camera_up), ev.camera_up, ev.body_up)
     b = np.where(np.isfinite(ev.body_up), ev.body_up, ev.camera_up)
     return np.stack([c, b, normalize(c + b)])
@@ -357,8 +362,10 @@ class PoseSummary:
     cov: np.ndarray
 
 
-def _pd_inverse(H: np.ndarray) -> np.ndarray:
-    """Inverse of symmetric ``H`` ``(..., 2, 2)`` with eigenvalues floored (a flat likelihood -> wide cov)."""
+def pd_inverse(H: np.ndarray) -> np.ndarray:
+    """Inverse ``(..., 2, 2)`` of symmetric ``H`` ``(..., 2, 2)`` with its eigenvalues floored at
+    ``1e-6`` (a flat likelihood -> wide cov): a negative Hessian (rad^-2, (pitch, roll) tangent
+    basis) of :func:`maximise_on_sphere` into a positive definite covariance (rad^2, same basis)."""
     w, V = np.linalg.eigh(H)
     w = np.maximum(w, 1e-6)
     return np.einsum("...ij,...j,...kj->...ik", V, 1.0 / w, V)
@@ -373,15 +380,15 @@ def summarise_recording(ev: UpEvidence, fps: float, p: UpModelParameters) -> Pos
     if not len(e.valid):
         raise InputError("no frame has an up from either network")
     m = frames_per_error(fps, p)
-    starts = _starts(e)
+    starts = frame_starts(e)
     seeds = []
     for start in starts:  # starts within 0.5 deg of an earlier one lead to the same maximum
         seed = robust_mean_direction(start)[0]
         if all(np.dot(seed, other) < np.cos(np.radians(0.5)) for other in seeds):
             seeds.append(seed)
     seeds = np.stack(seeds)[:, None]
-    g, _, H = _maximise(lambda G: np.array([frame_log_likelihood(G[0], e, p).sum() / m]), seeds)
-    return PoseSummary(g[0], _pd_inverse(H[0]))
+    g, _, H = maximise_on_sphere(lambda G: np.array([frame_log_likelihood(G[0], e, p).sum() / m]), seeds)
+    return PoseSummary(g[0], pd_inverse(H[0]))
 
 
 # ============================================================================ prior and posterior
@@ -431,14 +438,15 @@ def log_lying(g: np.ndarray, s: PoseSummary, p: UpModelParameters) -> np.ndarray
 class StaticPosterior:
     """The static-camera answer (module docstring).
 
-    up: ``(3,)`` the posterior mode of the reading; reading: ``"upright"`` or ``"lying"``;
-    p_lying: posterior probability of the lying reading; pitch_half_deg, roll_half_deg: 95 %
-    half-widths of the camera pitch and roll (the reading's posterior, widened to the whole
-    posterior where the other reading keeps at least 5 %); summary: the poses'
+    up: ``(3,)`` the posterior mode of the posture; posture: ``"upright"`` or ``"lying"``, the
+    more probable;
+    p_lying: posterior probability of the lying hypothesis; pitch_half_deg, roll_half_deg: 95 %
+    half-widths of the camera pitch and roll (that posture's posterior, widened to the whole
+    posterior where the other posture keeps at least 5 %); summary: the poses'
     :class:`PoseSummary`."""
 
     up: np.ndarray
-    reading: str
+    posture: str
     p_lying: float
     pitch_half_deg: float
     roll_half_deg: float
@@ -477,17 +485,17 @@ def static_posterior(s: PoseSummary, p: UpModelParameters, lying: bool = True) -
     top = max(lu.max(), ll.max())
     w_upright, w_lying = np.exp(lu - top), np.exp(ll - top)
     p_lying = float(w_lying.sum() / (w_upright.sum() + w_lying.sum()))
-    both = min(p_lying, 1 - p_lying) >= OTHER_READING_P
+    both = min(p_lying, 1 - p_lying) >= OTHER_POSTURE_P
     if p_lying > 0.5:
-        up, reading = grid[int(np.argmax(ll))], "lying"
+        up, posture = grid[int(np.argmax(ll))], "lying"
         pitch_half, roll_half = _half_widths(grid, w_upright + w_lying if both else w_lying, up)
     else:
         objective = lambda G: log_upright(G, s, p) + log_camera_prior(G, p)  # noqa: E731
-        up = _maximise(objective, np.stack([s.up, grid[int(np.argmax(lu))]])[:, None])[0][0]
-        reading = "upright"
+        up = maximise_on_sphere(objective, np.stack([s.up, grid[int(np.argmax(lu))]])[:, None])[0][0]
+        posture = "upright"
         pitch_half, roll_half = (_half_widths(grid, w_upright + w_lying, up) if both
                                  else _local_half_widths(s, p, up))
-    return StaticPosterior(up, reading, p_lying, pitch_half, roll_half, s)
+    return StaticPosterior(up, posture, p_lying, pitch_half, roll_half, s)
 
 
 def _local_half_widths(s: PoseSummary, p: UpModelParameters, mode: np.ndarray, n: int = 121) -> tuple[float, float]:

@@ -40,3 +40,27 @@ def rrd_summary(path: Path):
         if "ViewBlueprint:space_origin" in rb.schema.names:
             origins.update(v[0] for v in rb.column("ViewBlueprint:space_origin").to_pylist())
     return rows, static, chunks, origins
+
+
+def run_report(requested: str = "auto", run: str = "sequence", spread_deg: float | None = None,
+               intervals_deg: tuple[float, float] | None = None):
+    """A :class:`pcnet.pipeline.run_report.RunReport` for summary tests: mode ``run`` for the
+    ``requested`` one, and in sequence mode the up model's 95 % pitch / roll half-widths
+    ``intervals_deg`` (upright, no posture other than upright kept)."""
+    import numpy as np
+
+    from pcnet.pipeline.checks import CameraTilt
+    from pcnet.pipeline.run_report import RunReport
+    from pcnet.stages.rectification_report import (HeadingChoice, ModeChoice, PostureHypotheses,
+                                                   RectificationReport, SequenceUp)
+
+    sequence = None
+    if intervals_deg is not None:
+        sequence = SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 8.6, 2.0, *intervals_deg,
+                              float(np.hypot(*intervals_deg)), 3.0, 1.5, None, PostureHypotheses("upright", 0.0, 8.0),
+                              2.0, 5.0, {"used": False, "reason": "no joints_cam"})
+    rect = RectificationReport(ModeChoice(requested, run, spread_deg=spread_deg), sequence,
+                               HeadingChoice("predicted", "auto", 3.0, 4.0), None, None, 4.4, np.full(3, 4.4))
+    return RunReport(rect, CameraTilt(8.8, 8.6, 2.0), [8.0, 7.0, 9.0], None,
+                     "world" if run == "sequence" else "canonical", "not observable" if run == "sequence" else None,
+                     None, 6.0, "cutoff_hz", None)

@@ -7,7 +7,6 @@ from __future__ import annotations
 import csv
 
 import numpy as np
-import pytest
 from scipy.spatial.transform import Rotation
 
 from pcnet.pipeline.config import RunConfig

@@ -143,20 +143,20 @@ def test_pcnet_run_on_a_phone_video_whose_frames_the_detector_read_as_stored(tmp
     original = _run(tmp_path, "original", 0, 0, False)
     turned = _run(tmp_path, "turned", 90, 90, True)
     lost = _run(tmp_path, "lost", 90, 0, True)
-    up = original.report["up"]
-    assert original.report["gravity"]["reading"] == turned.report["gravity"]["reading"] == "upright"
-    assert np.degrees(angle_between(turned.report["up"], up)) < 0.01
+    up = original.report.rectification.sequence.up
+    assert original.report.rectification.posture.most_probable == "upright" and not turned.report.rectification.lying
+    assert np.degrees(angle_between(turned.report.rectification.sequence.up, up)) < 0.01
     assert abs(turned.camera_pitch_deg - original.camera_pitch_deg) < 0.01
     assert abs(turned.camera_roll_deg - original.camera_roll_deg) < 0.01
-    assert turned.report["display_rotation"] == {"rotation_deg": 90, "keypoint_frame": "stored",
+    assert turned.report.display_rotation == {"rotation_deg": 90, "keypoint_frame": "stored",
                                                  "turned_into_displayed_frame": True}
     assert any("turned into the displayed frame" in n for n in turned.notes), turned.notes
     a, b = (np.load(r.outputs["canonical.npz"]) for r in (original, turned))
     np.testing.assert_allclose(b["joints_camera"], a["joints_camera"], atol=1e-5)
     np.testing.assert_allclose(b["keypoints2d"], a["keypoints2d"], atol=1e-3)
-    assert "display_rotation" not in original.report and "display_rotation" not in lost.report
-    assert lost.report["gravity"]["reading"] == "lying"
-    assert np.degrees(angle_between(lost.report["up"], display_turn(90) @ up)) > 45.0
+    assert original.report.display_rotation is None and lost.report.display_rotation is None
+    assert lost.report.rectification.lying
+    assert np.degrees(angle_between(lost.report.rectification.sequence.up, display_turn(90) @ up)) > 45.0
 
 
 
@@ -197,7 +197,7 @@ def test_without_keypoints_a_display_rotation_leaves_the_input_and_says_why(tmp_
     cfg = RunConfig(video=str(video), lifter=run["lifter"], lifter_output=run["lifter_output"], out=str(tmp_path / "out"),
                     mode="sequence", recording=False)
     result = run_pipeline(cfg, progress=False)
-    assert result.report["display_rotation"] == {"rotation_deg": 90, "keypoint_frame": "unknown",
+    assert result.report.display_rotation == {"rotation_deg": 90, "keypoint_frame": "unknown",
                                                  "turned_into_displayed_frame": False}
     assert any("no 2D keypoints tell which frames" in n for n in result.notes), result.notes
 

@@ -152,13 +152,13 @@ def test_auto_mode_decides_on_one_persons_frames():
     R = drift @ res.rotation
     auto = SequenceEvidence("auto", n_bootstrap=0)
     fps = 8.0  # the first 40 frames are 5 s, the shortest stretch auto decides on alone
-    assert auto(None, R, res.valid, fps)[2]["mode"] == "smooth"
+    assert auto(None, R, res.valid, fps).mode.run == "smooth"
     first = np.arange(len(R)) < 40
-    _, _, report = auto(None, R, res.valid, fps, decide_on=first)
-    assert report["mode"] == "sequence" and report["spread_deg"] < 5.0 and report["mode_decided_on_frames"] == 40
+    mode = auto(None, R, res.valid, fps, decide_on=first).mode
+    assert mode.run == "sequence" and mode.spread_deg < 5.0 and mode.decided_on_frames == 40
     # a shorter stretch (1.3 s at 30 fps), or one without a valid frame: every valid frame decides
-    assert auto(None, R, res.valid, 30.0, decide_on=first)[2]["mode"] == "smooth"
-    assert auto(None, R, res.valid, fps, decide_on=~res.valid)[2]["mode"] == "smooth"
+    assert auto(None, R, res.valid, 30.0, decide_on=first).mode.run == "smooth"
+    assert auto(None, R, res.valid, fps, decide_on=~res.valid).mode.run == "smooth"
 
 
 @pytest.mark.slow
@@ -209,11 +209,15 @@ def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
     not call that figure the tilt's interval."""
     from pcnet.pipeline.checks import tilt_tolerance
 
-    tolerance = tilt_tolerance({"camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})
-    assert tolerance == (0.4, "bootstrap-only uncertainty, no calibrated interval for this method")
-    assert "(0.4 deg, bootstrap-only uncertainty" in lifter_frame_flag(2.8, *tolerance)[0].detail
-    assert tilt_tolerance({"camera_pitch_interval_deg": 6.4, "camera_roll_interval_deg": 2.8,
-                            "camera_pitch_uncertainty_deg": 0.4, "camera_roll_uncertainty_deg": 0.3})[1] == "95 % interval"
+    geometric = rectify(np.load(TADASANA), "geometric", mode="sequence").report
+    tolerance = tilt_tolerance(geometric)
+    boot = max(geometric.sequence.camera_pitch_uncertainty_deg, geometric.sequence.camera_roll_uncertainty_deg)
+    assert tolerance == (boot, "bootstrap-only uncertainty, no calibrated interval for this method")
+    assert f"({boot:.1f} deg, bootstrap-only uncertainty" in lifter_frame_flag(boot + 5.0, *tolerance)[0].detail
+    ensemble = rectify(np.load(TADASANA), "pcnet", mode="sequence").report
+    assert tilt_tolerance(ensemble) == (ensemble.sequence.camera_pitch_interval_deg, "95 % interval")
+    frame = rectify(np.load(TADASANA), "pcnet", mode="frame").report
+    assert tilt_tolerance(frame) == (frame.frame_tilt_95_deg, "per-frame bound, not calibrated on real lifter output")
 
 
 @pytest.mark.slow

@@ -65,15 +65,15 @@ def test_auto_uses_hips_on_mocap_and_prediction_on_noisy_hips():
     valid = np.ones(len(joints), bool)
     assert hip_width_cv_percent(joints) < 1e-4  # a rigid pelvis
     R, rep = apply_heading(joints, R_wrong, valid, "auto")
-    assert rep["heading_source"] == "hips" and rep["requested_heading_source"] == "auto"
+    assert rep.source == "hips" and rep.requested == "auto"
     assert np.abs(heading_error_deg(R, R_true)).max() < 1e-4
-    assert rep["heading_difference_median_deg"] == pytest.approx(5.0, abs=1e-4)
+    assert rep.difference_median_deg == pytest.approx(5.0, abs=1e-4)
 
     noisy = apply_noise(joints, Noise(), np.random.default_rng(0))
     cv = hip_width_cv_percent(noisy)
     assert cv > 10 * AUTO_MAX_HIP_WIDTH_CV_PERCENT
     R2, rep2 = apply_heading(noisy, R_wrong, valid, "auto")
-    assert rep2["heading_source"] == "predicted" and rep2["hip_width_cv_percent"] == pytest.approx(cv)
+    assert rep2.source == "predicted" and rep2.hip_width_cv_percent == pytest.approx(cv)
     np.testing.assert_array_equal(R2, R_wrong)
     # forcing the hips on noisy joints is what auto avoids: a much worse heading
     R3, _ = apply_heading(noisy, R_wrong, valid, "hips")
@@ -88,7 +88,7 @@ def test_undefined_hip_heading_keeps_the_prediction():
     valid[5] = False
     R_wrong[5] = np.nan
     R, rep = apply_heading(joints, R_wrong, valid, "hips")
-    assert rep["hip_heading_undefined_frames"] == 1
+    assert rep.hip_undefined_frames == 1
     np.testing.assert_array_equal(R[3], R_wrong[3])
     assert np.isnan(R[5]).all()
     others = np.setdiff1d(np.arange(len(R)), [3, 5])
@@ -98,7 +98,7 @@ def test_undefined_hip_heading_keeps_the_prediction():
 def test_too_few_frames_keep_the_prediction_and_errors():
     joints, R_true = _camera_view()
     _, rep = apply_heading(joints[:3], R_true[:3], np.ones(3, bool), "auto")
-    assert rep["heading_source"] == "predicted"
+    assert rep.source == "predicted"
     with pytest.raises(ValueError, match="heading source"):
         apply_heading(joints, R_true, np.ones(len(joints), bool), "shoulders")
     with pytest.raises(ValueError, match="R: expected shape"):
@@ -115,8 +115,8 @@ def test_real_lifter_hips_are_not_precise_enough_for_auto():
         joints = np.load(FIXTURES / name).astype(np.float64)
         joints -= joints[:, :1]
         res = rectify(joints, "pcnet")
-        print(name, f"hip width CV {res.report['hip_width_cv_percent']:.2f} %", res.heading_source)
-        assert res.report["hip_width_cv_percent"] > AUTO_MAX_HIP_WIDTH_CV_PERCENT
+        print(name, f"hip width CV {res.report.heading.hip_width_cv_percent:.2f} %", res.heading_source)
+        assert res.report.heading.hip_width_cv_percent > AUTO_MAX_HIP_WIDTH_CV_PERCENT
         assert res.heading_source == "predicted"
         assert np.allclose(res.rotation, rectify(joints, "pcnet", heading="predicted").rotation, equal_nan=True)
 
@@ -155,6 +155,6 @@ def test_cli_rectify_reports_the_heading_source(tmp_path):
     with np.load(out) as d:
         assert str(d["heading_source"]) == "hips"
         bound, valid = d["frame_tilt_bound_deg"], d["valid"]
-    assert bound.shape == valid.shape and (bound[valid] >= 7.0).all()  # the shipped pair's calibrated bound
+    assert bound.shape == valid.shape and (bound[valid] >= 7.0).all()  # the shipped ensemble's calibrated bound
     result = CliRunner().invoke(main, ["rectify", str(tmp_path / "poses.npy"), "--out", str(out), "--heading", "predicted", "--overwrite"])
     assert result.exit_code == 0 and "heading from predicted" in result.output

@@ -10,7 +10,7 @@ from collections import Counter
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import FIXTURES, ROOT, shared
+from conftest import FIXTURES, shared
 
 from pcnet.models import lifter_noise as ln
 from pcnet.models.datasets import (CMU_HOLDOUT_SUBJECTS, HELDOUT_STYLE_COUNT, HELDOUT_TEST_STYLES, SPLIT_SCHEMES,

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import FIXTURES, rrd_summary, shared
+from conftest import FIXTURES, rrd_summary, run_report, shared
 
 from pcnet.stages.floor import ANKLE_CLEARANCE_LEG
 from pcnet.stages.scale import mean_leg_length
@@ -114,7 +114,7 @@ def _csv_numbers(path: Path) -> tuple[list[str], np.ndarray]:
 
 @pytest.mark.slow
 def test_long_recordings_in_chunks_give_the_outputs_of_one_piece(tmp_path, monkeypatch):
-    """Network input normalisation, the pair's blend, canonical poses, kinematics, CSV/TRC/BVH
+    """Network input normalisation, the ensemble's blend, canonical poses, kinematics, CSV/TRC/BVH
     text, rerun columns and the whole-recording arrays on disk (stages/core/framestore.py) go
     a block of frames at a time so
     memory does not grow with a recording's length (issue: bounded memory); with blocks far
@@ -253,14 +253,14 @@ def test_which_person_of_several_in_the_2d_file_was_used_is_said(tmp_path):
 
 @pytest.mark.slow
 def test_a_method_without_calibration_prints_no_95_percent_interval(tmp_path):
-    """The lifter's systematic error is calibrated for the shipped pair: the geometric
-    baseline's sequence up gets its bootstrap, not the pair's "95 %" interval (which on the
-    boxing video did not overlap the pair's)."""
+    """The lifter's systematic error is calibrated for the shipped ensemble: the geometric
+    baseline's sequence up gets its bootstrap, not the ensemble's "95 %" interval (which on the
+    boxing video did not overlap the ensemble's)."""
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", BOX_3D, "--fps", "30", "--method", "geometric",
                   "--mode", "sequence", "--no-recording", "--out", tmp_path / "o")
     assert res.exit_code == 0, res.output
     assert "95 % interval per axis" not in res.output and "not for method geometric" in res.output
-    # nor a posture reading: the up model (priors, lying reading, posterior) is the pair's
+    # nor a posture hypothesis: the up model (priors, lying hypothesis, posterior) is the ensemble's
     res = _invoke("run", "--lifter", "videopose3d", "--lifter-output", FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy",
                   "--fps", "30", "--method", "geometric", "--mode", "sequence", "--no-recording", "--out", tmp_path / "l")
     assert res.exit_code == 0 and "body read as lying" not in res.output, res.output
@@ -649,7 +649,7 @@ def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):
         res = rectify(X, "pcnet", None, "sequence", 30.0)
         up = np.mean(res.up[res.valid], axis=0)
         errors[name] = np.degrees(np.arccos(np.clip(up @ true_up / np.linalg.norm(up), -1.0, 1.0)))
-        print(f"\n{name}: evidence {res.report['evidence']}, sequence up {errors[name]:.2f} deg from the truth")
+        print(f"\n{name}: evidence {res.report.sequence.evidence}, sequence up {errors[name]:.2f} deg from the truth")
     assert errors["measured root"] < 0.5 < errors["root-relative"]
 
 
@@ -800,7 +800,7 @@ def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line(
     def line(mode, requested):
         result = RunResult(frames=434, valid_frames=434, units="m", method="pcnet", mode=mode, camera_tilt_deg=8.7,
                            camera_pitch_deg=7.6, camera_roll_deg=4.2,
-                           report={"requested_mode": requested, "spread_deg": 6.2}, fps=30.0, fps_source="--fps")
+                           report=run_report(requested, mode, spread_deg=6.2), fps=30.0, fps_source="--fps")
         return next(ln for ln in result.summary().splitlines() if ln.startswith("rectification"))
 
     from pcnet.stages.temporal import MODE_THRESHOLD_DEG

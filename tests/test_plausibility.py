@@ -246,13 +246,16 @@ def test_flag_lines_merge_touching_ranges_and_cap_the_list():
 
 
 def _result(X: np.ndarray, implausible):
+    from pcnet.stages.rectification_report import HeadingChoice, ModeChoice, RectificationReport
     from pcnet.stages.sinks.result import RecordingResult
 
     R, valid = canonical_rotation(X, (0.0, 1.0, 0.0))
     can = to_canonical(X, R)
     missing = ~np.isfinite(X).all(-1)
+    report = RectificationReport(ModeChoice("sequence", "sequence"), None, HeadingChoice("hips", "auto", 1.0, 2.0),
+                                 None, None, float("nan"), np.full(len(X), np.nan))
     return RecordingResult(
-        fps=FPS, units="m", method="pcnet", report={"mode": "sequence", "heading_source": "hips"}, flags=[], notes=[],
+        fps=FPS, units="m", method="pcnet", rectification=report, flags=[], notes=[],
         joints_camera=X - X[:, :1], rotation=R, canonical=can, valid=valid, kinematics_frame="world", poses=X,
         world=X, world_rotation=np.eye(3), missing=missing, unfiltered=np.zeros_like(missing),
         flag_counts=count_flags(missing, np.zeros_like(missing)), implausible_frames=implausible)

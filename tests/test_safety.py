@@ -483,7 +483,7 @@ def test_api_and_command_line_agree_on_valid_frames(user_folder):
     api = rectify(np.load(path), "geometric")
     assert api.valid[5:10].all() and np.isfinite(api.canonical[5:10]).all()
     assert not api.valid[20:23].any()
-    assert api.report["pelvis_from_hips_frames"] == 5
+    assert api.report.pelvis_from_hips_frames == 5
     res = _invoke("run", "--lifter", "generic", "--lifter-output", path, "--fps", "30", "--method", "geometric",
                   "--no-recording", "--out", "o")
     assert res.exit_code == 0, res.output

@@ -6,18 +6,19 @@ from __future__ import annotations
 import re
 
 import numpy as np
-from conftest import FIXTURES
+from conftest import FIXTURES, run_report
 
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import RunResult, run_pipeline
-from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, body_size_flag, floor_flag,
-                                gravity_reading_flag, implausible_motion_findings, keypoints_outside_image_flag,
+from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, body_size_flag, ensemble_weights_flag,
+                                floor_flag, implausible_motion_findings, keypoints_outside_image_flag,
                                 leg_asymmetry_flag, lifter_frame_flag, mirrored_skeleton_flag, no_opensim_flag,
                                 no_world_frame_flag, non_upright_flag, note_finding, opensim_fit_findings,
-                                orientation_flags, ranked, shortened, side_swap_flag, size_change_flag, track_segments,
-                                track_switch_flag, unfiltered_flag, view_gate_flag)
+                                orientation_flags, posture_flag, ranked, shortened, side_swap_flag, size_change_flag,
+                                track_segments, track_switch_flag, unfiltered_flag)
 from pcnet.stages.opensim_ik import ik_fit_flags
 from pcnet.stages.plausibility import ImplausibleMotion
+from pcnet.stages.rectification_report import EnsembleWeights, PostureHypotheses, SequenceUp
 from pcnet.stages.remap import remap_to_h36m
 from pcnet.stages.sinks.report import REPORT_NAME
 
@@ -33,6 +34,12 @@ def _switched_track() -> tuple[np.ndarray, np.ndarray]:
         kp = remap_to_h36m(d["keypoints_2d"].astype(np.float32), "blazepose33", confidence_channel=True)
     kp[30:, :, 0] += 600.0
     return kp, float(30)
+
+
+def _sequence_up(posture: PostureHypotheses) -> SequenceUp:
+    """A sequence up with these posture hypotheses and a 12 deg cone."""
+    return SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 0.0, 0.0, 8.0, 9.0, 12.0, 3.0, 3.0, None, posture,
+                      3.0, 6.0, {"used": False})
 
 
 def _flags() -> list[Finding]:
@@ -53,10 +60,9 @@ def _every_kind() -> list[Finding]:
     kp, _ = _switched_track()
     return (_flags() + orientation_flags(120.0) + orientation_flags(40.0, 40.0, 0.0)
             + orientation_flags(90.0, 0.0, 90.0) + body_size_flag(box * 100, "m")
-            + gravity_reading_flag({"p_lying": 0.9, "reading": "lying", "interval_deg": 12.0})
-            + gravity_reading_flag({"p_lying": 0.2, "reading": "upright", "pose_camera_angle_deg": 70.0})
-            + view_gate_flag({"frames": 100, "turned_frames": {90: 30, 270: 0}, "body_frame_frames": 5,
-                              "blended_frames": 10})
+            + posture_flag(_sequence_up(PostureHypotheses("lying", 0.9, 80.0)))
+            + posture_flag(_sequence_up(PostureHypotheses("upright", 0.2, 70.0)))
+            + ensemble_weights_flag(EnsembleWeights(0.8, 5, 10, 100, {"90": 30, "270": 0}))
             + unfiltered_flag(np.zeros((5, 17), bool), np.ones((5, 17), bool), 30.0, 6.0)
             + floor_flag(np.zeros(5, bool), np.ones(5, bool))
             + implausible_motion_findings([ImplausibleMotion("right_wrist", "speed", 60, 70, 14.9, 68, 8.18, "m/s")])
@@ -130,8 +136,7 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
              "ends (BVH cannot hold NaN; the CSV, TRC and npz keep them missing)"]
     result = RunResult(frames=60, valid_frames=57, units="m", method="pcnet", mode="sequence", camera_tilt_deg=8.8,
                        camera_pitch_deg=8.6, camera_roll_deg=2.0, fps=30.0, fps_source="--fps", findings=flags,
-                       notes=notes, report={"requested_mode": "auto", "camera_pitch_interval_deg": 8.6,
-                                            "camera_roll_interval_deg": 3.5, "heading_source": "predicted"},
+                       notes=notes, report=run_report("auto", "sequence", intervals_deg=(8.6, 3.5)),
                        outputs={"canonical.npz": FIXTURES / "o" / "canonical.npz", REPORT_NAME: FIXTURES / "o" / REPORT_NAME})
     lines = result.summary().splitlines()
     warnings = [ln for ln in lines if ln.startswith("WARNING")]

@@ -22,6 +22,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pcnet.stages import temporal as tm
+from pcnet.stages.rectification_report import ModeChoice
 from pcnet.stages.rectify import SequenceEvidence
 from pcnet.stages.core.canonical import canonical_rotation, world_to_canonical
 from pcnet.stages.core.geometric import geometric_rotation
@@ -51,7 +52,7 @@ WALK, RUN, RAISE = (
 
 def _pose_only(*args, **kwargs):
     """sequence_rectify from the poses (and floor contacts) alone: these tests check that
-    estimator (another method's sequence mode; the shipped pair's is the up model, test_up_model.py)."""
+    estimator (another method's sequence mode; the shipped ensemble's is the up model, test_up_model.py)."""
     return tm.sequence_rectify(*args, **kwargs)
 
 
@@ -375,7 +376,7 @@ def test_smooth_rotations_invalid_frames():
 
 def test_choose_mode_static_vs_moving_camera():
     # Unbiased AR(1) per-frame noise isolates the decision from any estimator's pose bias; 3 deg
-    # per axis, about the shipped pair's, for which the threshold is fitted
+    # per axis, about the shipped ensemble's, for which the threshold is fitted
     # (benchmarks/fit_camera_mode.py: its static validation recordings spread at most 3.6 deg).
     for W in CLIPS.values():
         for seed in range(3):
@@ -411,32 +412,31 @@ def test_sequence_evidence_modes_and_report():
     Rg, vg = geometric_rotation(_noisy(X_rel, rng))
     vg[:3] = False
 
-    out, valid, rep = SequenceEvidence("frame")(X_rel, Rg, vg, FPS)
-    assert rep == {"requested_mode": "frame", "mode": "frame"}  # the paper's per-frame rotations, untouched
-    assert out is Rg and valid is vg
+    frame = SequenceEvidence("frame")(X_rel, Rg, vg, FPS)
+    assert frame.mode == ModeChoice("frame", "frame") and frame.up is None  # the paper's per-frame rotations, untouched
+    assert frame.rotation is Rg and frame.valid is vg
 
-    out, _, rep = SequenceEvidence("auto", camera_prior=False)(X_rel, Rg, vg, FPS)
-    assert rep["requested_mode"] == "auto" and rep["mode"] == "sequence"
-    for key in ("up", "up_uncertainty_deg", "camera_pitch_deg", "camera_roll_deg",
-                "camera_pitch_uncertainty_deg", "camera_roll_uncertainty_deg",
-                "up_spread_deg", "spread_deg", "evidence", "valid", "ground_plane"):
-        assert key in rep
-    assert np.allclose(out[rep["valid"]][:, :, 1], rep["up"])
-    assert np.isfinite(rep["up_uncertainty_deg"]) and rep["evidence"] == "poses"
-    assert _deg(angle_between(rep["up"], R0[:, 1])) < np.median(_deg(angle_between(Rg[vg][:, :, 1], R0[:, 1])))
+    auto = SequenceEvidence("auto", camera_prior=False)(X_rel, Rg, vg, FPS)
+    assert auto.mode.requested == "auto" and auto.mode.run == "sequence" and auto.mode.spread_deg > 0
+    up = auto.up
+    assert np.allclose(auto.rotation[auto.valid][:, :, 1], up.up)
+    assert np.isfinite(up.up_uncertainty_deg) and up.evidence == "poses" and up.posture is None
+    assert np.isfinite([up.camera_pitch_uncertainty_deg, up.camera_roll_uncertainty_deg, up.up_spread_deg]).all()
+    assert _deg(angle_between(up.up, R0[:, 1])) < np.median(_deg(angle_between(Rg[vg][:, :, 1], R0[:, 1])))
 
-    out, valid, rep = SequenceEvidence("smooth")(None, Rg, vg, FPS)
+    smoothed = SequenceEvidence("smooth")(None, Rg, vg, FPS)
     smooth = tm.smooth_rotations(Rg, vg, FPS, tm.SMOOTH_TIME_CONSTANT_S)
-    assert rep["mode"] == "smooth" and np.array_equal(valid, vg)
-    assert np.allclose(out[valid], smooth[valid]) and np.isnan(out[~valid]).all()
+    valid = smoothed.valid
+    assert smoothed.mode.run == "smooth" and np.array_equal(valid, vg) and smoothed.up is None
+    assert np.allclose(smoothed.rotation[valid], smooth[valid]) and np.isnan(smoothed.rotation[~valid]).all()
 
-    plain = SequenceEvidence("sequence")(None, Rg, vg, FPS)[0]
+    plain = SequenceEvidence("sequence")(None, Rg, vg, FPS).rotation
 
     # Without bootstrap (what `pcnet evaluate` uses) the rotations are the same and only the
     # uncertainties are missing.
-    quick, _, rep = SequenceEvidence("sequence", n_bootstrap=0)(None, Rg, vg, FPS)
-    np.testing.assert_array_equal(quick, plain)
-    assert np.isnan(rep["up_uncertainty_deg"]) and np.isnan(rep["camera_pitch_uncertainty_deg"])
+    quick = SequenceEvidence("sequence", n_bootstrap=0)(None, Rg, vg, FPS)
+    np.testing.assert_array_equal(quick.rotation, plain)
+    assert np.isnan(quick.up.up_uncertainty_deg) and np.isnan(quick.up.camera_pitch_uncertainty_deg)
 
 
 # ------------------------------------------------------------------------------ shared data
@@ -494,14 +494,15 @@ def test_real_static_camera_videos():
         mode, spread = tm.choose_mode(R, valid, fps=FPS)
         by_asana.setdefault(asana, []).append(spread)
         if asana in ("Tadasana", "boxing"):
-            rot, _, rep = SequenceEvidence("auto")(X, R, valid, FPS)
-            assert rep["mode"] == "sequence", (f.name, spread)
-            assert np.allclose(rot[rep["valid"]][:, :, 1], rep["up"])
+            out = SequenceEvidence("auto")(X, R, valid, FPS)
+            assert out.mode.run == "sequence", (f.name, spread)
+            rep = out.up
+            assert np.allclose(out.rotation[out.valid][:, :, 1], rep.up)
             print(f"{f.stem[7:] if f != BOXING else 'boxing_X3D':32s} {len(X):5d} "
-                  f"{rep['up_spread_deg']:9.2f} / {rep['up_spread_p95_deg']:6.2f}   {spread:11.2f} {mode:8s} "
-                  f"({rep['camera_pitch_deg']:5.1f} +- {rep['camera_pitch_uncertainty_deg']:.2f}, "
-                  f"{rep['camera_roll_deg']:5.1f} +- {rep['camera_roll_uncertainty_deg']:.2f}), "
-                  f"cone {rep['up_uncertainty_deg']:.2f}; {rep['evidence']}")
+                  f"{rep.up_spread_deg:9.2f} / {rep.up_spread_p95_deg:6.2f}   {spread:11.2f} {mode:8s} "
+                  f"({rep.camera_pitch_deg:5.1f} +- {rep.camera_pitch_uncertainty_deg:.2f}, "
+                  f"{rep.camera_roll_deg:5.1f} +- {rep.camera_roll_uncertainty_deg:.2f}), "
+                  f"cone {rep.up_uncertainty_deg:.2f}; {rep.evidence}")
     for asana, s in by_asana.items():
         s = np.array(s)
         print(f"{asana:14s} n={len(s):2d} auto spread {s.min():5.1f}-{s.max():5.1f} deg, "

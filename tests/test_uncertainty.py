@@ -31,10 +31,9 @@ def test_another_methods_sequence_up_has_its_bootstrap_and_no_95_percent_interva
     R0 *= np.sign(np.linalg.det(R0))
     noise = [np.linalg.qr(np.eye(3) + 0.05 * rng.normal(size=(3, 3)))[0] for _ in range(60)]
     R = np.stack([n * np.sign(np.linalg.det(n)) @ R0 for n in noise])
-    _, _, rep = SequenceEvidence("sequence")(None, R, None, 30.0)
-    for axis in ("pitch", "roll"):
-        assert np.isfinite(rep[f"camera_{axis}_uncertainty_deg"])
-        assert np.isnan(rep[f"camera_{axis}_interval_deg"])
+    rep = SequenceEvidence("sequence")(None, R, None, 30.0).up
+    assert np.isfinite([rep.camera_pitch_uncertainty_deg, rep.camera_roll_uncertainty_deg]).all()
+    assert np.isnan([rep.camera_pitch_interval_deg, rep.camera_roll_interval_deg]).all()
 
 
 def test_coverage_on_heldout_deepmimic_clips():
@@ -53,10 +52,10 @@ def test_coverage_on_heldout_deepmimic_clips():
         sel = np.flatnonzero(pairs.clip == i)
         up = pairs.R[sel[0]][:, 1]
         true_p, true_r = np.degrees(np.arcsin(-up[2])), np.degrees(np.arctan2(up[0], -up[1]))
-        rep = rectify(pairs.inputs[sel].astype(np.float64), "pcnet", mode="sequence", fps=clip.fps).report
-        e = np.abs([rep["camera_pitch_deg"] - true_p, (rep["camera_roll_deg"] - true_r + 180) % 360 - 180])
-        boot = np.array([rep["camera_pitch_uncertainty_deg"], rep["camera_roll_uncertainty_deg"]])
-        cal = np.array([rep["camera_pitch_interval_deg"], rep["camera_roll_interval_deg"]])
+        rep = rectify(pairs.inputs[sel].astype(np.float64), "pcnet", mode="sequence", fps=clip.fps).report.sequence
+        e = np.abs([rep.camera_pitch_deg - true_p, (rep.camera_roll_deg - true_r + 180) % 360 - 180])
+        boot = np.array([rep.camera_pitch_uncertainty_deg, rep.camera_roll_uncertainty_deg])
+        cal = np.array([rep.camera_pitch_interval_deg, rep.camera_roll_interval_deg])
         inside_boot.append(bool((e <= boot).all()))
         inside_cal.append(bool((e <= cal).all()))
     assert len(clips) >= 8

@@ -65,7 +65,7 @@ def test_static_posterior_recovers_a_tilted_camera_and_its_interval_holds_it():
     p = default_parameters()
     post = static_posterior(summarise_recording(ev, 30.0, p), p)
     err = np.degrees(np.arccos(np.clip(post.up @ truth, -1, 1)))
-    assert post.reading == "upright" and post.p_lying < 0.05
+    assert post.posture == "upright" and post.p_lying < 0.05
     assert err < 2.0
     assert 0 < post.roll_half_deg < post.pitch_half_deg  # depth (pitch) is the less certain axis
     assert err < np.hypot(post.pitch_half_deg, post.roll_half_deg)
@@ -104,43 +104,49 @@ def test_sequence_mode_reads_real_shavasana_as_lying_and_its_interval_reaches_up
     from pcnet.pipeline.rectification import rectify
 
     res = rectify(_yoga("yoga_Abhay_Shavasana_f200-299.npy"), "pcnet", mode="sequence", fps=30.0)
-    assert res.report["gravity"]["reading"] == "lying" and res.report["evidence"] == "up model"
+    seq = res.report.sequence
+    assert res.report.lying and seq.evidence == "up model"
     assert _trunk_from_vertical_deg(res.canonical) > 75.0
-    if res.report["interval_reaches_other_reading_p"] is not None:  # then it holds a quarter-turned camera
-        assert res.report["camera_roll_interval_deg"] > 45.0
+    if seq.interval_reaches_other_posture_p is not None:  # then it holds a quarter-turned camera
+        assert seq.camera_roll_interval_deg > 45.0
     alone = rectify(_yoga("yoga_Abhay_Shavasana_f200-299.npy"), "pcnet", mode="sequence", fps=30.0, camera_prior=False)
-    assert alone.report["gravity"]["reading"] == "upright" and _trunk_from_vertical_deg(alone.canonical) < 30.0
+    # the poses alone: no lying hypothesis
+    assert alone.report.posture is None and _trunk_from_vertical_deg(alone.canonical) < 30.0
 
 
 def test_standing_keeps_a_narrow_upright_interval():
     from pcnet.pipeline.rectification import rectify
 
-    rep = rectify(_yoga("yoga_Abhay_Tadasana_f000-099.npy"), "pcnet", mode="sequence", fps=30.0).report
-    assert rep["gravity"]["reading"] == "upright" and rep["gravity"]["p_lying"] < 0.05
-    assert rep["interval_reaches_other_reading_p"] is None
-    assert 0 < rep["camera_roll_interval_deg"] < rep["camera_pitch_interval_deg"] < 15.0
+    rep = rectify(_yoga("yoga_Abhay_Tadasana_f000-099.npy"), "pcnet", mode="sequence", fps=30.0).report.sequence
+    assert rep.posture.most_probable == "upright" and rep.posture.p_lying < 0.05
+    assert rep.interval_reaches_other_posture_p is None
+    assert 0 < rep.camera_roll_interval_deg < rep.camera_pitch_interval_deg < 15.0
     # the posterior's interval holds the poses' part and the lifter's systematic error
-    assert rep["camera_pitch_interval_deg"] > rep["camera_pitch_uncertainty_deg"]
+    assert rep.camera_pitch_interval_deg > rep.camera_pitch_uncertainty_deg
 
 
 def test_other_methods_get_no_camera_prior_and_no_calibrated_interval():
     from pcnet.pipeline.rectification import rectify
 
-    rep = rectify(_yoga("yoga_Abhay_Shavasana_f200-299.npy"), "geometric", mode="sequence", fps=30.0).report
-    assert rep["gravity"] is None and rep["evidence"] == "poses"
-    assert np.isnan(rep["camera_pitch_interval_deg"]) and np.isfinite(rep["camera_pitch_uncertainty_deg"])
+    rep = rectify(_yoga("yoga_Abhay_Shavasana_f200-299.npy"), "geometric", mode="sequence", fps=30.0).report.sequence
+    assert rep.posture is None and rep.evidence == "poses"
+    assert np.isnan(rep.camera_pitch_interval_deg) and np.isfinite(rep.camera_pitch_uncertainty_deg)
 
 
-def test_reading_flags_name_the_reading():
-    from pcnet.stages.flags import gravity_reading_flag
+def test_posture_flags_name_the_posture():
+    from pcnet.stages.flags import posture_flag
+    from pcnet.stages.rectification_report import PostureHypotheses, SequenceUp
 
-    def reading(name, p):
-        return {"reading": name, "p_lying": p, "interval_deg": 40.0, "pose_camera_angle_deg": 70.0}
+    def sequence(posture):
+        return SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 0.0, 0.0, 30.0, 30.0, 40.0, 5.0, 5.0, None,
+                          posture, 3.0, 6.0, {"used": False})
 
-    (flag,) = gravity_reading_flag(reading("lying", 0.9))
-    assert "read as lying" in flag.detail and "--no-camera-prior" in flag.detail
-    assert gravity_reading_flag(reading("upright", 0.001)) == [] and gravity_reading_flag(None) == []
-    assert "ambiguous" in gravity_reading_flag(reading("upright", 0.2))[0].detail
+    (flag,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, 70.0)))
+    assert "read as lying" in flag.detail and "--no-camera-prior" in flag.detail and "40 deg cone" in flag.detail
+    assert posture_flag(sequence(PostureHypotheses("upright", 0.001, 5.0))) == []
+    assert posture_flag(sequence(None)) == [] and posture_flag(None) == []
+    (flag,) = posture_flag(sequence(PostureHypotheses("upright", 0.2, 70.0)))
+    assert "ambiguous" in flag.detail and "70 deg" in flag.detail
 
 
 def test_cli_no_camera_prior_switch(tmp_path):
@@ -161,7 +167,7 @@ def test_cli_no_camera_prior_switch(tmp_path):
 
 @pytest.mark.slow
 def test_pcnet_run_says_when_it_reads_a_lying_body(tmp_path):
-    """`pcnet run` on real Shavasana (VideoPose3D): the summary names the lying reading and
+    """`pcnet run` on real Shavasana (VideoPose3D): the summary names the lying posture and
     prints the posterior's interval."""
     from click.testing import CliRunner
 
@@ -172,7 +178,7 @@ def test_pcnet_run_says_when_it_reads_a_lying_body(tmp_path):
                                     "--out", str(tmp_path / "out"), "--no-recording"])
     assert res.exit_code == 0, res.output
     assert "WARNING  body read as lying" in res.output
-    assert "posterior interval of the lying reading" in res.output
+    assert "posterior interval of the lying posture" in res.output
     with np.load(tmp_path / "out" / "canonical.npz", allow_pickle=False) as z:
         assert any("read as lying" in f for f in z["flags"])
         assert _trunk_from_vertical_deg(z["canonical"]) > 75.0

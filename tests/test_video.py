@@ -5,7 +5,6 @@ Tests that run the estimator skip where the extra is not installed; CI installs 
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -127,7 +126,7 @@ def test_calibrated_videos_agree_with_the_stored_files_and_the_lab(tmp_path, vid
                        "keypoints2d_format": "mediapipe"}):
             cfg = RunConfig(video=str(stored.with_suffix(".mp4")), mode="sequence", recording=False,
                             out=str(tmp_path / f"{cam}{len(ups)}"), **extra)
-            ups.append(np.asarray(run_pipeline(cfg).report["up"], np.float64))
+            ups.append(np.asarray(run_pipeline(cfg).report.rectification.sequence.up, np.float64))
         apart.append(degrees(*ups))
         assert degrees(ups[0], truth) <= degrees(ups[1], truth) + 0.5, (cam, ups, truth)
     assert sum(a <= 1.0 for a in apart) >= 3 and max(apart) < 2.0, apart

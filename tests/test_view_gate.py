@@ -7,11 +7,11 @@ import pytest
 from conftest import FIXTURES
 
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
-from pcnet.models.view_gate import (BODY_READING_LIMIT_PITCH_DEG, BODY_READING_LIMIT_ROLL_DEG, PITCH_RAMP_DEG,
+from pcnet.models.view_gate import (BODY_ESTIMATE_LIMIT_PITCH_DEG, BODY_ESTIMATE_LIMIT_ROLL_DEG, PITCH_RAMP_DEG,
                                     ROLL_RAMP_DEG, blend_rotations, camera_frame_weight, quarter_turn_matrices,
                                     quarter_turns)
 from pcnet.stages.core.conventions import PELVIS
-from pcnet.stages.flags import view_gate_flag
+from pcnet.stages.flags import ensemble_weights_flag
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.core.rotations import (angle_between, axis_rotation, compose_camera_rotation,
                                         decompose_camera_rotation, geodesic_angle, with_up)
@@ -27,7 +27,7 @@ def _real_standing() -> np.ndarray:
     return joints - joints[:, PELVIS : PELVIS + 1]
 
 
-def test_weight_follows_the_camera_reading_through_the_ramps():
+def test_weight_follows_the_camera_estimate_through_the_ramps():
     T = 1
     ones = np.ones(T, bool)
     mid_roll = np.mean(ROLL_RAMP_DEG)
@@ -40,7 +40,7 @@ def test_weight_follows_the_camera_reading_through_the_ramps():
     assert camera_frame_weight(_cameras([PITCH_RAMP_DEG[1] + 1], 0.0), ones)[0] == 0.0
 
 
-def test_a_level_camera_reading_vouches_for_the_camera_frame_network_unless_the_body_reading_is_far_out():
+def test_a_level_camera_estimate_keeps_the_camera_frame_network_in_unless_the_body_estimate_is_far_out():
     ones = np.ones(1, bool)
     level = _cameras(0.0, [0.0])
     # A seated or bent-over body under a level camera: the body-frame network reads a steep
@@ -48,20 +48,20 @@ def test_a_level_camera_reading_vouches_for_the_camera_frame_network_unless_the_
     bent = _cameras([-PITCH_RAMP_DEG[1] - 5.0], 0.0)
     assert camera_frame_weight(bent, ones)[0] == 0.0
     assert camera_frame_weight(bent, ones, R_camera_net=level)[0] == 1.0
-    # Half-way along the body-reading limit: half the weight.
-    mid = _cameras([-np.mean(BODY_READING_LIMIT_PITCH_DEG)], 0.0)
+    # Half-way along the body-estimate limit: half the weight.
+    mid = _cameras([-np.mean(BODY_ESTIMATE_LIMIT_PITCH_DEG)], 0.0)
     assert camera_frame_weight(mid, ones, R_camera_net=level)[0] == pytest.approx(0.5)
     # A camera rolled 90 deg: however level the camera-frame network reads it, it is out.
-    portrait = _cameras(0.0, [BODY_READING_LIMIT_ROLL_DEG[1] + 1.0])
+    portrait = _cameras(0.0, [BODY_ESTIMATE_LIMIT_ROLL_DEG[1] + 1.0])
     assert camera_frame_weight(portrait, ones, R_camera_net=level)[0] == 0.0
-    # Both readings outside the training views: the body-frame network answers.
+    # Both estimates outside the training views: the body-frame network answers.
     rolled = _cameras(0.0, [ROLL_RAMP_DEG[1] + 5.0])
     assert camera_frame_weight(rolled, ones, R_camera_net=rolled)[0] == 0.0
     # A camera rolled 30 deg that the camera-frame network reads as rolled only 15 deg (its
     # answer pulled towards the level cameras it trained on): at most half its weight.
     half_read = _cameras(0.0, [np.mean(ROLL_RAMP_DEG)])
     assert camera_frame_weight(_cameras(0.0, [30.0]), ones, R_camera_net=half_read)[0] == pytest.approx(0.5)
-    # Inside the views the camera-frame reading never lowers the weight.
+    # Inside the views the camera-frame estimate never lowers the weight.
     assert camera_frame_weight(level, ones, R_camera_net=rolled)[0] == 1.0
 
 
@@ -126,7 +126,7 @@ def test_shipped_pair_answers_a_portrait_camera_exactly_as_the_level_one_and_oth
         assert np.isfinite(residual).all()
 
 
-def test_quarter_turns_follow_the_signed_roll_reading_and_turn_it_back():
+def test_quarter_turns_follow_the_signed_roll_estimate_and_turn_it_back():
     ones = np.ones(1, bool)
     for roll, k in ((0.0, 0), (40.0, 0), (50.0, 1), (-90.0, 3), (260.0, 3), (170.0, 0), (-170.0, 0)):
         (got,) = quarter_turns(_cameras(10.0, [roll]), ones)
@@ -143,25 +143,25 @@ def test_quarter_turns_follow_the_signed_roll_reading_and_turn_it_back():
 def test_lying_body_reads_as_a_quarter_turned_camera_and_is_flagged():
     """Real VideoPose3D Shavasana (lying supine) under a level camera: both networks read the
     trunk as up, so the camera reads as turned a quarter turn, the report and a flag say so,
-    and sequence mode then reads the body as lying (stages/gravity_prior.py). A camera rolled
+    and sequence mode's up model then reads the body as lying (stages/up_model.py). A camera rolled
     35 deg, nearer level than a quarter turn, goes to the body-frame network, flagged too."""
     X = np.load(FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy")
     res = rectify(X, "pcnet", mode="sequence")
-    gate = res.report["view_gate"]
-    assert gate["frames"] == 100 and sum(gate["turned_frames"].values()) == 100
-    assert res.report["gravity"]["reading"] == "lying"
-    assert res.report["camera_frame_weight"].shape == (100,)
-    (line,) = (f.detail for f in view_gate_flag(gate))
+    weights = res.report.weights
+    assert weights.frames == 100 and sum(weights.turned_frames.values()) == 100
+    assert res.report.lying
+    assert res.report.camera_frame_weight.shape == (100,)
+    (line,) = (f.detail for f in ensemble_weights_flag(weights))
     assert "turned a quarter turn about its optical axis" in line and "in 100 of 100 frames" in line
     assert "read the body as lying" not in line
-    # the run's flags: the lying reading, not the turned one, is the answer, and the turn's line says so
-    (line,) = (f.detail for f in view_gate_flag(gate, lying=True))
-    assert "the camera prior then read the body as lying under a level camera instead" in line
-    assert view_gate_flag(rectify(_real_standing(), "pcnet").report["view_gate"]) == []
-    rolled = rectify(_real_standing() @ axis_rotation("z", np.radians(35.0)).T, "pcnet").report["view_gate"]
-    (line,) = (f.detail for f in view_gate_flag(rolled))
-    assert "body-frame network was used" in line and f"in {rolled['frames']} of {rolled['frames']} frames" in line
-    assert rectify(_real_standing(), "pcnet", weights=str(BODY_WEIGHTS)).report["view_gate"] is None
+    # the run's flags: the lying posture, not the turned view, is the answer, and the turn's line says so
+    (line,) = (f.detail for f in ensemble_weights_flag(weights, lying=True))
+    assert "the up model then read the body as lying under a level camera instead" in line
+    assert ensemble_weights_flag(rectify(_real_standing(), "pcnet").report.weights) == []
+    rolled = rectify(_real_standing() @ axis_rotation("z", np.radians(35.0)).T, "pcnet").report.weights
+    (line,) = (f.detail for f in ensemble_weights_flag(rolled))
+    assert "body-frame network was used" in line and f"in {rolled.frames} of {rolled.frames} frames" in line
+    assert rectify(_real_standing(), "pcnet", weights=str(BODY_WEIGHTS)).report.weights is None
 
 
 def _level_camera_crawl():
@@ -188,5 +188,4 @@ def test_a_crawl_under_a_level_camera_reads_as_a_quarter_turned_camera():
     assert np.median(error) > 45.0  # the turned reading: an upright body under a rolled camera
     assert np.mean(error <= frame_tilt_bound(d, w)) < 0.1
     report = rectify(X, "pcnet", fps=fps).report
-    assert "level_view_frames" not in report["view_gate"]
-    np.testing.assert_array_equal(report["frame_tilt_bound_deg"][valid], frame_tilt_bound(d, w)[valid])
+    np.testing.assert_array_equal(report.frame_tilt_bound_deg[valid], frame_tilt_bound(d, w)[valid])

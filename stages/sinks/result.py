@@ -25,6 +25,7 @@ from ..core.rotations import decompose_camera_rotation
 from ..core.framestore import column, per_frame
 from ..flags import one_person_frames
 from ..kinematics import FrameGatherer, count_flags
+from ..rectification_report import RectificationReport
 from .bvh import write_bvh
 from .exports import blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
 from .plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
@@ -47,8 +48,12 @@ class RecordingResult:
 
     Attributes:
         fps: frame rate, Hz. units: length unit of every position (``"m"`` for metric runs).
-        method: rectification method name. report: the rectification report (JSON-able
-            after :func:`jsonable`). flags: ``WARNING`` texts. notes: run notes; sinks
+        method: rectification method name. rectification: what rectification decided
+            (:class:`~pcnet.stages.rectification_report.RectificationReport`). root_path: where a
+            world frame's pelvis path came from (``"measured"``, ``"from 2D keypoints"``, ``"not
+            observable"``), ``None`` without a world frame. report: the run's report record
+            (docs/outputs.md; JSON-able after :func:`jsonable`), which the pipeline sets before
+            :func:`write_arrays`. flags: ``WARNING`` texts. notes: run notes; sinks
             append theirs (e.g. frames BVH interpolated).
         joints_camera: ``(T, 17, 3)`` float root-relative camera-frame poses.
         rotation: ``(T, 3, 3)`` canonical->camera; canonical ``(T, 17, 3)``; valid ``(T,)`` bool.
@@ -78,7 +83,7 @@ class RecordingResult:
     fps: float
     units: str
     method: str
-    report: dict
+    rectification: RectificationReport
     flags: list[str]
     notes: list[str]
     joints_camera: np.ndarray
@@ -103,6 +108,8 @@ class RecordingResult:
     flag_counts: dict = field(default_factory=dict)
     implausible_frames: np.ndarray | None = None
     pelvis_path_std: np.ndarray | None = None
+    root_path: str | None = None
+    report: dict = field(default_factory=dict)
 
     @cached_property
     def heading_deg(self) -> np.ndarray:
@@ -149,7 +156,7 @@ def unobservable_paths(r: RecordingResult) -> dict[str, tuple[str, str]]:
     if r.kinematics_frame == "canonical":
         return {"pelvis": ("xyz", "the canonical frame is centred on the pelvis, whose position and motion in it "
                                   "are 0 by construction, not measured")}
-    if r.report.get("root_path", "not observable") == "not observable":
+    if r.root_path in (None, "not observable"):
         return {"pelvis": ("xz", "the pelvis's horizontal path is not observable from a root-relative lifter (the "
                                  "world frame holds it at x = z = 0), so neither is its horizontal motion or speed")}
     return {}
@@ -199,13 +206,14 @@ def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
     write_npz(
         path, rotation=r.rotation, canonical=r.canonical, joints_camera=r.joints_camera,
         up=r.rotation[:, :, 1], valid=r.valid, heading_deg=r.heading_deg, fps=r.fps, units=r.units,
-        method=r.method, mode=r.report["mode"], heading_source=r.report["heading_source"],
+        method=r.method, mode=r.rectification.mode.run, heading_source=r.rectification.heading.source,
         joint_names=np.array(H36M_JOINTS),
         keypoints2d=r.keypoints2d if r.keypoints2d is not None else np.zeros((0, 17, 3), np.float32),
         missing=r.missing, unfiltered=r.unfiltered, flag_counts=r.flag_counts,
         flags=np.array(r.flags, dtype=str), notes=np.array(r.notes, dtype=str), track_segment=r.track_segment if r.track_segment is not None else np.zeros(0, int),
-        report=jsonable(r.report), camera_frame_weight=r.report.get("camera_frame_weight", empty),
-        frame_tilt_bound_deg=r.report.get("frame_tilt_bound_deg", empty),
+        report=jsonable(r.report),
+        camera_frame_weight=empty if r.rectification.camera_frame_weight is None else r.rectification.camera_frame_weight,
+        frame_tilt_bound_deg=r.rectification.frame_tilt_bound_deg,
         joints_world=r.world if r.world is not None else np.zeros((0, 17, 3)), world_rotation=r.world_rotation,
         implausible_frames=_implausible(r) if r.implausible_frames is not None else np.zeros(0, bool),
         pelvis_path_std_world=r.pelvis_path_std if r.pelvis_path_std is not None else np.zeros((0, 3)),

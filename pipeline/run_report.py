@@ -1,0 +1,59 @@
+"""What a ``pcnet run`` decided and measured for one recording, typed: the rectification's
+report and the facts the later steps add (the camera's tilt, the display rotation, the world
+frame, the low-pass cutoff, the motion check). :meth:`RunReport.as_record` is ``canonical.npz``'s
+``report`` (docs/outputs.md lists its keys) and report.md's "Report numbers"."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pcnet.stages.rectification_report import RectificationReport
+
+from .checks import CameraTilt
+
+
+@dataclass(frozen=True)
+class RunReport:
+    """One run's report.
+
+    rectification: what rectification decided; tilt: the camera's tilt, pitch and roll from
+    level of the recording's mean up (deg; sequence mode: its one up); tilt_per_frame_deg:
+    median, 5th and 95th percentile of the per-frame tilt (deg;
+    :func:`pcnet.stages.flags.per_frame_tilt_summary`); display_rotation: how a video stored
+    turned was read (:meth:`pcnet.pipeline.video_orientation.DisplayOrientation.report`), or
+    ``None``; kinematics_frame: ``"world"`` or ``"canonical"``; root_path: where a world
+    frame's pelvis path came from (:mod:`pcnet.pipeline.pelvis_path`), ``None`` without a world
+    frame; floor: the world frame's floor (:class:`pcnet.stages.floor.Floor` as a dict), or
+    ``None``; cutoff_hz, cutoff_source: the low-pass cutoff (Hz) and where it came from
+    (``"cutoff_hz"`` or ``"residual analysis"``); implausible_frames: frames the motion check
+    marked, ``None`` when it did not run (non-metric poses).
+    """
+
+    rectification: RectificationReport
+    tilt: CameraTilt
+    tilt_per_frame_deg: list[float]
+    display_rotation: dict | None
+    kinematics_frame: str
+    root_path: str | None
+    floor: dict | None
+    cutoff_hz: float
+    cutoff_source: str
+    implausible_frames: int | None
+
+    def as_record(self) -> dict:
+        """The flat record of docs/outputs.md (not yet JSON: :func:`pcnet.stages.sinks.result.jsonable`)."""
+        out = self.rectification.as_record()
+        if self.display_rotation is not None:
+            out["display_rotation"] = self.display_rotation
+        # what the summary's tilt line prints, in every mode (sequence mode: its one up)
+        out.update(camera_tilt_deg=self.tilt.tilt_deg, camera_pitch_deg=self.tilt.pitch_deg,
+                   camera_roll_deg=self.tilt.roll_deg, camera_tilt_per_frame_deg=self.tilt_per_frame_deg)
+        if self.root_path is not None:
+            out.update(root_path=self.root_path, floor=self.floor)
+        out.update(kinematics_frame=self.kinematics_frame, cutoff_hz=self.cutoff_hz, cutoff_source=self.cutoff_source)
+        if self.implausible_frames is not None:
+            out["implausible_frames"] = self.implausible_frames
+        return out
+
+
+__all__ = ["RunReport"]
