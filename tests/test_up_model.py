@@ -125,6 +125,27 @@ def test_standing_keeps_a_narrow_upright_interval():
     assert rep.camera_pitch_interval_deg > rep.camera_pitch_uncertainty_deg
 
 
+def test_the_report_record_names_the_posture_hypotheses():
+    """canonical.npz's report says `posture` (most_probable, p_lying, pose_up_tilt_deg) where
+    releases up to 5.3 said `gravity` (`reading`, ...): the field's term for the up model's two
+    hypotheses (issue 52); without the camera prior there is no lying hypothesis, so no posture."""
+    import json
+
+    from pcnet.pipeline.rectification import rectify
+    from pcnet.stages.sinks.result import jsonable
+
+    res = rectify(_yoga("yoga_Abhay_Shavasana_f200-299.npy"), "pcnet", mode="sequence", fps=30.0)
+    record = json.loads(json.dumps(jsonable(res.report.as_record())))
+    assert record["posture"]["most_probable"] == "lying" and record["posture"]["p_lying"] > 0.5
+    assert set(record["posture"]) == {"most_probable", "p_lying", "pose_up_tilt_deg"}
+    assert "gravity" not in record and "interval_reaches_other_reading_p" not in record
+    assert "interval_reaches_other_posture_p" in record and record["mode"] == "sequence"
+    assert record["up_uncertainty_deg"] == pytest.approx(np.hypot(record["camera_pitch_interval_deg"],
+                                                                   record["camera_roll_interval_deg"]))
+    alone = rectify(_yoga("yoga_Abhay_Shavasana_f200-299.npy"), "pcnet", mode="sequence", fps=30.0, camera_prior=False)
+    assert alone.report.as_record()["posture"] is None
+
+
 def test_other_methods_get_no_camera_prior_and_no_calibrated_interval():
     from pcnet.pipeline.rectification import rectify
 
