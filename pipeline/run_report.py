@@ -5,8 +5,9 @@ frame, the low-pass cutoff, the motion check). :meth:`RunReport.as_record` is ``
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
+from pcnet.stages.floor import Floor
 from pcnet.stages.rectification_report import RectificationReport
 
 from .checks import CameraTilt
@@ -23,8 +24,7 @@ class RunReport:
     turned was read (:meth:`pcnet.pipeline.video_orientation.DisplayOrientation.report`), or
     ``None``; kinematics_frame: ``"world"`` or ``"canonical"``; root_path: where a world
     frame's pelvis path came from (:mod:`pcnet.pipeline.pelvis_path`), ``None`` without a world
-    frame; floor: the world frame's floor (:class:`pcnet.stages.floor.Floor` as a dict), or
-    ``None``; cutoff_hz, cutoff_source: the low-pass cutoff (Hz) and where it came from
+    frame; floor: the world frame's floor (:class:`pcnet.stages.floor.Floor`), or ``None``; cutoff_hz, cutoff_source: the low-pass cutoff (Hz) and where it came from
     (``"cutoff_hz"`` or ``"residual analysis"``); implausible_frames: frames the motion check
     marked, ``None`` when it did not run (non-metric poses).
     """
@@ -35,7 +35,7 @@ class RunReport:
     display_rotation: dict | None
     kinematics_frame: str
     root_path: str | None
-    floor: dict | None
+    floor: Floor | None
     cutoff_hz: float
     cutoff_source: str
     implausible_frames: int | None
@@ -49,7 +49,7 @@ class RunReport:
         out.update(camera_tilt_deg=self.tilt.tilt_deg, camera_pitch_deg=self.tilt.pitch_deg,
                    camera_roll_deg=self.tilt.roll_deg, camera_tilt_per_frame_deg=self.tilt_per_frame_deg)
         if self.root_path is not None:
-            out.update(root_path=self.root_path, floor=self.floor)
+            out.update(root_path=self.root_path, floor=None if self.floor is None else asdict(self.floor))
         out.update(kinematics_frame=self.kinematics_frame, cutoff_hz=self.cutoff_hz, cutoff_source=self.cutoff_source)
         if self.implausible_frames is not None:
             out["implausible_frames"] = self.implausible_frames

@@ -17,7 +17,7 @@ import threading
 import time
 from collections.abc import Callable
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 from types import MappingProxyType
@@ -36,6 +36,7 @@ from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (Finding, floor_flag, implausible_motion_findings, no_opensim_flag, no_world_frame_flag,
                                note_finding, one_person_frames, opensim_fit_findings, per_frame_tilt_summary, ranked,
                                track_segments, unfiltered_flag)
+from pcnet.stages.floor import Floor
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
 from pcnet.stages.rectification_report import RectificationReport
@@ -799,7 +800,7 @@ class World:
     world frame; rotation: ``(3, 3)`` camera-to-world (NaN without); pelvis_path_std: the
     pelvis path's spread in the world frame or ``None``; findings (flags); notes; root_path:
     where the pelvis path came from (:class:`pcnet.pipeline.pelvis_path.PelvisPath` ``kind``)
-    and floor: the floor fitted (:class:`pcnet.stages.floor.Floor` as a dict), ``None`` without.
+    and floor: the floor fitted (:class:`pcnet.stages.floor.Floor`), ``None`` without.
     """
 
     joints: np.ndarray | None
@@ -808,7 +809,7 @@ class World:
     findings: tuple[Finding, ...]
     notes: tuple[str, ...]
     root_path: str | None = None
-    floor: dict | None = None
+    floor: Floor | None = None
 
     @property
     def frame(self) -> str:
@@ -961,7 +962,7 @@ def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rec
         return World(joints, frame.rotation, path.world_std(frame.rotation),
                      tuple(floor_flag(feet_visible(cam), present_frames(cam))),
                      tuple(n for n in (path.note, floor.note() if floor.kind != "plane" else "") if n),
-                     root_path=path.kind, floor=asdict(floor))
+                     root_path=path.kind, floor=floor)
     if mode.reason == "one valid frame":
         return World(None, np.full((3, 3), np.nan), None, (), (
             "one valid frame: the pose is given in the canonical frame (frame mode); --mode sequence places it in a "
