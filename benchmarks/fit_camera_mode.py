@@ -72,11 +72,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     require_mocap(args.data, "fit_camera_mode")
     t0 = time.time()
-    val = {}
-    for tag, file in F.VAL_SETS:
-        for views, seed in F.VAL_VIEWS:
-            val[tag, views] = A.cached(args.cache, f"val_{tag}_{views}_{seed}",
-                                       lambda f=file, v=views, s=seed: F.val_evidence(args.data, f, v, s))
+    val = F.validation_sets(args.data, args.cache)
     static = [e for evs in val.values() for e in evs]
     swept = A.cached(args.cache, "val_sweep", lambda: A.sweep_evidence([val["bandai", "paper"], val["cmu", "paper"]]))
     lines = [__doc__.split("\n")[0], "", "    python -m benchmarks.fit_camera_mode --data ../shared/data", "",

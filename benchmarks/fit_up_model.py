@@ -237,6 +237,14 @@ def params_from(values: dict, provenance: dict) -> UpModelParameters:
     return UpModelParameters(**values, provenance=provenance)
 
 
+def validation_sets(data: Path, cache: Path) -> dict[tuple[str, str], list[dict]]:
+    """Every validation set of :data:`VAL_SETS` x :data:`VAL_VIEWS` (:func:`val_evidence`),
+    cached (:func:`benchmarks.ablation.cached`), keyed ``(tag, views)``."""
+    return {(tag, views): A.cached(cache, f"val_{tag}_{views}_{seed}",
+                                   lambda f=file, v=views, s=seed: val_evidence(data, f, v, s))
+            for tag, file in VAL_SETS for views, seed in VAL_VIEWS}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, default=A.DEFAULT)
@@ -246,11 +254,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     require_mocap(args.data, "fit_up_model")
     t0 = time.time()
-    evs = {}
-    for tag, file in VAL_SETS:
-        for views, seed in VAL_VIEWS:
-            evs[tag, views] = A.cached(args.cache, f"val_{tag}_{views}_{seed}",
-                                       lambda f=file, v=views, s=seed: val_evidence(args.data, f, v, s))
+    evs = validation_sets(args.data, args.cache)
     all_evs = [e for v in evs.values() for e in v]
     n_frames = sum(len(e["J"]) for e in all_evs)
     split = (f"validation: Bandai motion-style val ({len(evs['bandai', 'paper'])} clips) + CMU val subjects "

@@ -183,11 +183,7 @@ def main(argv=None) -> int:
     require_mocap(args.data, "up_model_variants")
     t0 = time.time()
     p = default_parameters()
-    val = {}
-    for tag, file in F.VAL_SETS:
-        for views, seed in F.VAL_VIEWS:
-            val[tag, views] = A.cached(args.cache, f"val_{tag}_{views}_{seed}",
-                                       lambda f=file, v=views, s=seed: F.val_evidence(args.data, f, v, s))
+    val = F.validation_sets(args.data, args.cache)
     static = [e for (tag, views), evs in val.items() if views != "rolled" for e in evs]
     sweeps = A.cached(args.cache, "val_sweep", lambda: A.sweep_evidence([val["bandai", "paper"], val["cmu", "paper"]]))
     q0 = fit_rate(static, p, None)
