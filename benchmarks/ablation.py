@@ -17,15 +17,16 @@ the gate's weights and the disagreement the estimator returns; and, run here, th
 network on the unturned input of the turned frames (for "quarter turns off" and the plain
 means). The same
 estimate then goes through the real chain (:class:`pcnet.stages.rectify.Rectification`,
-``SequenceEvidence("auto", camera_prior=True)``, heading ``auto``: the defaults of
-``pcnet run``; no bootstrap, which does not move the up) and its up is cached too. Every
+``SequenceEvidence("auto", camera_prior=True)``, heading ``auto``: ``pcnet run``'s defaults
+before decision 0041 made sequence mode the default; no bootstrap, which does not move the up)
+and its up is cached too. Every
 variant below is then numpy on the cache, built from the package's own functions
 (:func:`pcnet.models.view_gate.camera_frame_weight`, ``blend_rotations``, ``quarter_turn_matrices``,
 :func:`pcnet.stages.uncertainty.frame_tilt_bound`, :func:`pcnet.stages.temporal.choose_mode`,
 ``smooth_rotations``, and for a static camera the up model,
 :func:`pcnet.stages.rectify.up_model_sequence`); the switches are arguments here, never edits
-of the package. Row ``default`` is
-rebuilt from the cache the same way and checked against the real chain's cached up (the
+of the package. Row ``default`` is ``pcnet run``'s default chain (sequence mode); the auto row
+is rebuilt from the cache the same way and checked against the real chain's cached up (the
 "reproduction check" line: the largest angle between the two over every recording).
 
 Data, held out from the shipped weights (their training mix is the Bandai + CMU motion-style
@@ -67,8 +68,9 @@ for a row that switches a piece off, "helps" when switching it off makes the err
 whenever the mean difference is under 0.05 deg (negligible) or exactly 0 for every clip
 ("identical"); in brackets after it the clips whose error moved by more than 0.5 deg
 (worse, better; for yoga: files that newly fail / newly pass); for an alternative
-(the plain robust mean, auto's static/moving decision by the Bayes factor of
-benchmarks/camera_motion_model.py instead of the spread threshold) "better" / "worse" / "same". The real cameras, the
+(the plain robust mean; auto mode, static or moving by the spread threshold, with the fitted
+or the hand-set constants, or by the Bayes factor of benchmarks/camera_motion_model.py) "better"
+/ "worse" / "same". The real cameras, the
 yoga fails and the equivariance use the same bootstrap over their views / files / rolled
 clips (few of them: read those intervals as rough).
 """
@@ -426,13 +428,15 @@ class Variant:
     turns: bool = True
     prior: bool = True
     lying: bool = True
-    auto: bool = True
+    auto: bool = False  # auto mode (static or moving by mode_rule); False = sequence, pcnet run's default
     plain_mean: bool = False  # equal-weight Tukey mean of both networks' per-frame ups
     mode_rule: str = "spread"  # auto's static/moving rule: "spread" (choose_mode) | "bayes" (benchmarks/camera_motion_model.py)
     #: auto's threshold (deg), its low-pass (s) and smooth mode's time constant (s); None = the package's
     mode_constants: tuple[float, float, float] | None = None
 
 
+#: The chain the extraction ran (benchmarks' real chain, mode auto), which the reproduction check rebuilds.
+AUTO = "auto: static or moving by the spread threshold"
 VARIANTS = (
     Variant("default (pcnet run)", "default"),
     Variant("up model: lying posture off", lying=False),
@@ -443,9 +447,10 @@ VARIANTS = (
     Variant("gate off: camera-frame net only", gate="camera"),
     Variant("gate: body-frame estimate alone", gate="body-estimate"),
     Variant("quarter turns off", turns=False),
-    Variant("auto threshold off (always sequence)", auto=False),
-    Variant("hand-set mode constants (5 deg, 0.5 s, 0.2 s)", "alternative", mode_constants=(5.0, 0.5, 0.2)),
-    Variant("auto by Bayes factor", "alternative", mode_rule="bayes"),
+    Variant(AUTO, "alternative", auto=True),
+    Variant("auto with hand-set constants (5 deg, 0.5 s, 0.2 s)", "alternative", auto=True,
+            mode_constants=(5.0, 0.5, 0.2)),
+    Variant("auto by Bayes factor", "alternative", auto=True, mode_rule="bayes"),
 )
 
 
@@ -689,13 +694,13 @@ def equivariance_table(evs: list[dict], runs: dict) -> list[str]:
 
 def reproduction_check(evs: list[dict], runs: dict) -> str:
     worst, mism = 0.0, 0
-    for o, ev in zip(runs[VARIANTS[0].label], evs):
+    for o, ev in zip(runs[AUTO], evs):
         both = np.isfinite(o["up"]).all(1) & np.isfinite(ev["real_up"]).all(1)
         mism += int(np.sum(np.isfinite(o["up"]).all(1) != ev["real_valid"]))
         if both.any():
             worst = max(worst, float(np.max(deg(o["up"][both], ev["real_up"][both]))))
     gp = sum(ev["ground_plane_used"] for ev in evs)
-    return (f"reproduction check: default rebuilt from the cache vs the real chain (run at extraction; a difference "
+    return (f"reproduction check: the auto row rebuilt from the cache vs the real chain in auto mode (run at extraction; a difference "
             f"means the chain's code changed since): largest angle {worst:.2e} deg, "
             f"{mism} frames whose validity differs; ground plane used in {gp} of {len(evs)} recordings")
 

@@ -14,7 +14,8 @@ The marker names the generator: ``heldout`` (benchmarks/results/heldout/*.json, 
 prints), ``view_gate`` (results/view_gate.txt), ``speed`` (results/speed_release5.txt,
 speed_quarter_turns.txt, speed.txt), ``pipeline_throughput`` (results/pipeline_throughput.txt),
 ``scripts`` (the index table of benchmarks/README.md, for docs/benchmarks/scripts.md),
-or ``md FILE N``: the N-th markdown table (1-based) of results/FILE as the command printed it.
+``md FILE N``: the N-th markdown table (1-based) of results/FILE as the command printed it,
+or ``text FILE``: all of results/FILE, as printed, in a fenced block (fixed-width tables).
 Nothing here runs a benchmark: the numbers are the results files' own.
 """
 
@@ -121,10 +122,17 @@ def scripts() -> str:
     return markdown_table(ROOT / "benchmarks" / "README.md", 1)
 
 
+def text_block(name: str) -> str:
+    """All of results/``name`` in a fenced block, as its command printed it."""
+    return "```text\n" + (RESULTS / name).read_text().rstrip("\n") + "\n```"
+
+
 def generate(spec: str) -> str:
     parts = spec.split()
     if parts[0] == "md" and len(parts) == 3:
         return markdown_table(parts[1], int(parts[2]))
+    if parts[0] == "text" and len(parts) == 2:
+        return text_block(parts[1])
     generators = {"heldout": heldout_table, "view_gate": view_gate, "speed": speed,
                   "pipeline_throughput": pipeline_throughput, "scripts": scripts}
     if len(parts) != 1 or parts[0] not in generators:

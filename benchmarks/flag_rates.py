@@ -25,8 +25,8 @@ Protocol: each clip goes through what a user runs. Its camera-frame joints ``(T,
 VideoPose3D-style .npy in a temporary folder and run through
 ``run_pipeline(RunConfig(lifter="videopose3d", lifter_output=..., fps=clip.fps, height=H,
 recording=False, out=...).validate(), progress=False)`` with every other option at the
-defaults of ``pcnet run`` (mode auto). ``H`` is the subject's height as a user would give it:
-the median head-to-ankle chain of the clean mocap skeleton
+defaults of ``pcnet run`` (mode sequence since decision 0041; auto before it). ``H`` is the
+subject's height as a user would give it: the median head-to-ankle chain of the clean mocap skeleton
 (:func:`pcnet.stages.scale.height_chain_length`) over ``CHAIN_TO_STATURE``.
 
 Counted per data set: the recordings carrying at least one finding of each

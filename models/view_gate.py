@@ -60,7 +60,9 @@ from pcnet.stages.core.rotations import axis_rotation, decompose_camera_rotation
 #: the second on. Pitch: centred on the edge of the training views (|pitch| 45). Roll: where
 #: the camera-frame network stops being the more accurate one (module docstring); chosen
 #: between 5-15 and 10-20 deg (benchmarks/view_gate_rule.py) with the CMU test subjects and
-#: DeepMimic in view as well as the validation split (README, view-gate section).
+#: DeepMimic in view as well as the validation split (README, view-gate section). These and the
+#: constants below are hand-set: fitted on the validation split they lose on held-out data
+#: (decision 0040, ``python -m benchmarks.fit_view_gate``).
 ROLL_RAMP_DEG = (10.0, 20.0)
 PITCH_RAMP_DEG = (40.0, 50.0)
 #: Beyond these body-frame estimates (roll, pitch ramps, degrees) the camera-frame network's

@@ -337,7 +337,8 @@ def _run_and_report(cfg) -> None:
 @click.option("--method", type=click.Choice(METHODS), default=None, help="Rectification method [pcnet].")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights [shipped].")
 @click.option("--mode", type=click.Choice(MODES), default=None,
-              help="frame | sequence (static camera) | smooth (moving camera) | auto [auto].")
+              help="frame | sequence (static camera) | smooth (moving camera) | auto (static or moving by the "
+                   "spread of the per-frame up) [sequence].")
 @_heading_option
 @_camera_prior_option
 @click.option("--height", type=float, default=None, help="Subject height in metres: every lifter's output is scaled to it (normalised output gets metres; metric output is rescaled to this subject), by one factor from the median ankle-to-head chain.")

@@ -189,7 +189,7 @@ class RunConfig:
     video: str | None = None
     out: str = "pcnet_out"
     method: str = "pcnet"
-    mode: str = "auto"
+    mode: str = "sequence"
     heading: str | None = None
     height: float | None = None
     fps: float | None = None

@@ -39,7 +39,7 @@ from pcnet.stages.flags import (Finding, floor_flag, implausible_motion_findings
 from pcnet.stages.floor import Floor
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
-from pcnet.stages.rectification_report import RectificationReport
+from pcnet.stages.rectification_report import ModeChoice, RectificationReport
 from pcnet.stages.rectify import NO_VALID_FRAME
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, remap_to_h36m
@@ -407,6 +407,17 @@ def _unused_floor_note(measured_root: bool, ground_plane: dict | None) -> list[s
         return []
     return [f"up not refined by the floor's tilt from the foot contacts ({ground_plane.get('reason', 'no reason given')}): "
             f"it comes from the poses alone (stages/ground_plane.py)"]
+
+
+def _moving_camera_note(mode: ModeChoice) -> list[str]:
+    """A note when sequence mode was asked for (the default) and the per-frame ups spread more
+    than auto mode's threshold (:data:`pcnet.stages.temporal.MODE_THRESHOLD_DEG`, the widest a
+    static camera showed on validation): a camera that moved gets one up that is wrong where it
+    turned; a body moving fast or far from upright spreads them too (decision 0041)."""
+    if mode.requested != "sequence" or mode.spread_deg is None or not mode.spread_deg > MODE_THRESHOLD_DEG:
+        return []
+    return [f"per-frame up spreads {mode.spread_deg:.1f} deg (static cameras: up to {MODE_THRESHOLD_DEG:g}): a moving "
+            f"camera, or fast or non-upright poses? If it moved: --mode smooth"]
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):
@@ -899,6 +910,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     report = replace(res.report, pelvis_from_hips_frames=camera.pelvis_filled)
     notes = _unused_floor_note(inputs.recording.measured_root,
                                report.sequence.ground_plane if report.sequence is not None else None)
+    notes += _moving_camera_note(report.mode)
     return Rectified(res.rotation, res.canonical, res.valid, report, CameraTilt.of(res.rotation, res.valid),
                      per_frame_tilt_summary(res.rotation[:, :, 1], res.valid), segment, events, tuple(notes))
 

@@ -165,15 +165,21 @@ def test_auto_mode_decides_on_one_persons_frames():
 def test_the_sports2d_static_camera_is_found_despite_the_track_switch(tmp_path):
     """The Sports2D demo's camera does not move (its vanishing points give one gravity), but
     the jump to the second person read as camera motion (spread 5.5 deg over all frames):
-    auto mode decides on the longest stretch and gives the recording its fixed world frame."""
+    auto mode decides on the longest stretch and gives the recording its fixed world frame;
+    the default sequence mode notes the spread over all frames."""
     path = shared("real", "sports2d_demo", "mediapipe_blazepose33.npz")
     res = CliRunner().invoke(main, ["run", "--lifter", "mediapipe", "--lifter-output", str(path), "--keypoints2d",
                                     str(path), "--keypoints2d-format", "mediapipe", "--no-recording",
-                                    "--out", str(tmp_path / "o")])
+                                    "--mode", "auto", "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
     assert re.search(r"mode sequence \(requested auto; spread of per-frame up [\d.]+ deg over the 166 frames of one "
                      r"person\)", res.output), res.output
     assert "kinematics frame  world" in res.output
+    default = CliRunner().invoke(main, ["run", "--lifter", "mediapipe", "--lifter-output", str(path), "--keypoints2d",
+                                        str(path), "--keypoints2d-format", "mediapipe", "--no-recording",
+                                        "--out", str(tmp_path / "d")])
+    assert default.exit_code == 0 and "kinematics frame  world" in default.output, default.output
+    assert re.search(r"note     per-frame up spreads [\d.]+ deg \(static cameras: up to", default.output), default.output
 
 
 @pytest.mark.parametrize("scale, flagged", [(1.0, False), (10.0, True), (0.01, True), (1000.0, True)])

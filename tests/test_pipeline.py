@@ -50,7 +50,7 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     assert f"frames            {frames} at 30 fps (recorded in boxing2.mp4;" in res.output  # the video's rate
     # a static camera: one tilt for the whole video, with its calibrated 95 % interval
     # (bootstrap + the lifter's systematic error, stages/uncertainty.py) and the bootstrap alone
-    assert "mode sequence (requested auto" in res.output
+    assert "mode sequence (requested sequence" in res.output  # the default (decision 0041)
     assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval\)", res.output)
     assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % posterior interval per "
                      r"axis \(up model, docs/up_model\.md\); the poses alone \+- \d+\.\d/\d+\.\d",
@@ -789,6 +789,24 @@ def test_version_and_rectifys_requested_mode(tmp_path):
     res = _invoke("rectify", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy", "--out", tmp_path / "r.npz", "--mode", "auto",
                   "--method", "geometric")
     assert res.exit_code == 0 and "mode sequence (requested auto)" in res.output, res.output
+
+
+def test_the_default_mode_is_sequence_and_a_wide_spread_of_the_ups_gets_a_note():
+    """pcnet run defaults to sequence mode (decision 0041: auto read 48 of 81 held-out static
+    DeepMimic clips as moving); where the per-frame ups spread beyond what a static camera
+    showed on validation, a note names --mode smooth, and a requested auto or smooth mode
+    gets none."""
+    from pcnet.pipeline.config import RunConfig
+    from pcnet.pipeline.runner import _moving_camera_note
+    from pcnet.stages.rectification_report import ModeChoice
+    from pcnet.stages.temporal import MODE_THRESHOLD_DEG
+
+    assert RunConfig().mode == "sequence"
+    (note,) = _moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=6.2))
+    assert "spreads 6.2 deg" in note and "--mode smooth" in note and len(note) <= 135
+    assert _moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=MODE_THRESHOLD_DEG)) == []
+    assert _moving_camera_note(ModeChoice("auto", "smooth", spread_deg=6.2)) == []
+    assert _moving_camera_note(ModeChoice("smooth", "smooth", spread_deg=6.2)) == []
 
 
 def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line():
