@@ -223,3 +223,19 @@ def test_the_camera_networks_level_up_is_the_true_up_of_a_quarter_turned_camera(
     # the level up differs from the truth by the camera pitch alone (with Q for Q^T: 175 deg)
     np.testing.assert_allclose(np.degrees(np.arccos(np.clip(np.sum(ev.level_up() * truth, -1), -1, 1))), 5.0,
                                atol=1e-6)
+
+
+def test_every_report_key_is_documented_in_the_outputs_page():
+    """canonical.npz's report keys (a real sequence-mode and frame-mode rectification, and the
+    run's own keys) each appear, in backticks, in docs/outputs.md's `report` row."""
+    from conftest import ROOT, run_report
+
+    from pcnet.pipeline.rectification import rectify
+
+    row = next(line for line in (ROOT / "docs" / "outputs.md").read_text().splitlines()
+               if line.startswith("| `report` |"))
+    keys = set(run_report().as_record())
+    for mode in ("sequence", "frame", "smooth"):
+        keys |= set(rectify(_yoga("yoga_Abhay_Tadasana_f000-099.npy"), "pcnet", mode=mode, fps=30.0).report.as_record())
+    missing = sorted(k for k in keys if f"`{k}`" not in row)
+    assert not missing, missing
