@@ -41,7 +41,7 @@ go::
     from pcnet.pipeline import RunConfig
 
     cfg = RunConfig.from_values("my script", {"lifter": "motionbert", "lifter_output": "X3D.npy", "fps": 25.0})
-    cfg.mode, cfg.lowpass_hz  # ('auto', 6.0): the defaults ``pcnet run`` uses
+    cfg.mode, cfg.lowpass_hz  # ('sequence', 6.0): the defaults ``pcnet run`` uses
 """
 
 from __future__ import annotations
