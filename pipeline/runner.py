@@ -416,8 +416,8 @@ def _moving_camera_note(mode: ModeChoice) -> list[str]:
     turned; a body moving fast or far from upright spreads them too (decision 0041)."""
     if mode.requested != "sequence" or mode.spread_deg is None or not mode.spread_deg > MODE_THRESHOLD_DEG:
         return []
-    return [f"per-frame up spreads {mode.spread_deg:.1f} deg (static cameras: up to {MODE_THRESHOLD_DEG:g}): a moving "
-            f"camera, or fast or non-upright poses? If it moved: --mode smooth"]
+    return [f"per-frame up spreads {mode.spread_deg:.1f} deg, beyond a static camera's {MODE_THRESHOLD_DEG:g}: if the "
+            f"camera moved, use --mode smooth (fast or non-upright poses spread it too)"]
 
 
 def _align(cfg: RunConfig, video, kp2d, joints):
