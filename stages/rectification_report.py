@@ -12,10 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: The two postures of the up model's posterior (:mod:`pcnet.stages.up_model`).
-POSTURES = ("upright", "lying")
-
-
 @dataclass(frozen=True)
 class ModeChoice:
     """The temporal mode (:data:`pcnet.stages.temporal.MODES`): ``requested`` (the option) and
@@ -37,7 +33,7 @@ class ModeChoice:
 @dataclass(frozen=True)
 class PostureHypotheses:
     """The up model's posterior over the body's posture (docs/up_model.md): ``most_probable``
-    the more probable hypothesis (one of :data:`POSTURES`), ``p_lying`` the lying hypothesis's
+    the more probable hypothesis (``"upright"`` or ``"lying"``), ``p_lying`` the lying hypothesis's
     posterior probability in [0, 1], ``pose_up_tilt_deg`` the tilt from a level camera of the
     up the poses alone give (the posterior's likelihood mode, without the priors)."""
 
@@ -202,5 +198,5 @@ class RectificationReport:
         return out
 
 
-__all__ = ["POSTURES", "ModeChoice", "PostureHypotheses", "SequenceUp", "HeadingChoice", "EnsembleWeights",
+__all__ = ["ModeChoice", "PostureHypotheses", "SequenceUp", "HeadingChoice", "EnsembleWeights",
            "RectificationReport"]
