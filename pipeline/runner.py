@@ -80,18 +80,14 @@ WORLD_SHORT = {
 
 @dataclass
 class RunResult:
-    """What a run produced: counts, the run's report (:class:`~pcnet.pipeline.run_report.RunReport`)
-    and output paths; findings: the flags as raised (:class:`pcnet.stages.flags.Finding`),
-    notes: the notes' texts."""
+    """What a run produced: counts, the run's report (:class:`~pcnet.pipeline.run_report.RunReport`;
+    the mode that ran and the camera's tilt, pitch and roll are read from it) and output paths;
+    findings: the flags as raised (:class:`pcnet.stages.flags.Finding`), notes: the notes' texts."""
 
     frames: int
     valid_frames: int
     units: str
     method: str
-    mode: str
-    camera_tilt_deg: float
-    camera_pitch_deg: float
-    camera_roll_deg: float
     report: RunReport
     outputs: dict[str, Path] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
@@ -99,6 +95,26 @@ class RunResult:
     findings: list[Finding] = field(default_factory=list)
     fps: float = float("nan")
     fps_source: str = ""
+
+    @property
+    def mode(self) -> str:
+        """The temporal mode that ran (``auto`` resolved)."""
+        return self.report.rectification.mode.run
+
+    @property
+    def camera_tilt_deg(self) -> float:
+        """The camera's tilt from level (deg) of the recording's mean up (sequence mode: its one up)."""
+        return self.report.tilt.tilt_deg
+
+    @property
+    def camera_pitch_deg(self) -> float:
+        """The camera's pitch (deg), as :attr:`camera_tilt_deg`."""
+        return self.report.tilt.pitch_deg
+
+    @property
+    def camera_roll_deg(self) -> float:
+        """The camera's roll (deg), as :attr:`camera_tilt_deg`."""
+        return self.report.tilt.roll_deg
 
     @property
     def flags(self) -> list[str]:
@@ -1135,11 +1151,9 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         outputs.update(_recording(cfg, measured.result, findings, tmp, estimated=bool(estimate_notes)))
         bar.update()
         step("done")
-        tilt = rectified.tilt
         run = RunResult(
             frames=len(scaled.camera.joints), valid_frames=int(rectified.valid.sum()), units=scaled.units,
-            method=cfg.method, mode=rectified.report.mode.run, camera_tilt_deg=tilt.tilt_deg,
-            camera_pitch_deg=tilt.pitch_deg, camera_roll_deg=tilt.roll_deg, findings=findings, fps=inputs.recording.fps,
+            method=cfg.method, findings=findings, fps=inputs.recording.fps,
             fps_source=inputs.recording.fps_source, report=report,
             outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
         )

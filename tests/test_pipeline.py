@@ -818,8 +818,7 @@ def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line(
     from pcnet.pipeline.runner import RunResult
 
     def line(mode, requested):
-        result = RunResult(frames=434, valid_frames=434, units="m", method="pcnet", mode=mode, camera_tilt_deg=8.7,
-                           camera_pitch_deg=7.6, camera_roll_deg=4.2,
+        result = RunResult(frames=434, valid_frames=434, units="m", method="pcnet",
                            report=run_report(requested, mode, spread_deg=6.2), fps=30.0, fps_source="--fps")
         return next(ln for ln in result.summary().splitlines() if ln.startswith("rectification"))
 

@@ -134,8 +134,7 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     notes = ["missing: right_knee 3 frames, left_elbow 74 frames, left_wrist 36 frames; no pose: 8 frames",
              "world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time, held at the "
              "ends (BVH cannot hold NaN; the CSV, TRC and npz keep them missing)"]
-    result = RunResult(frames=60, valid_frames=57, units="m", method="pcnet", mode="sequence", camera_tilt_deg=8.8,
-                       camera_pitch_deg=8.6, camera_roll_deg=2.0, fps=30.0, fps_source="--fps", findings=flags,
+    result = RunResult(frames=60, valid_frames=57, units="m", method="pcnet", fps=30.0, fps_source="--fps", findings=flags,
                        notes=notes, report=run_report("auto", "sequence", intervals_deg=(8.6, 3.5)),
                        outputs={"canonical.npz": FIXTURES / "o" / "canonical.npz", REPORT_NAME: FIXTURES / "o" / REPORT_NAME})
     lines = result.summary().splitlines()
