@@ -321,20 +321,29 @@ def cached(cache: Path, name: str, build):
     return out
 
 
-def mocap_evidence(data: Path, file: str, split: str, max_clips: int) -> list[dict]:
-    clips = select_split(load_mocap(data / "mocap" / file), split, "motion-style")
+def static_camera_clips(clips: list, max_clips: int):
+    """The held-out protocol's recordings: at most ``max_clips`` of ``clips`` (a seeded random
+    subset, in order), each seen by one static camera of the "paper" views with lifter noise
+    (``make_pairs(..., views="paper", seed=0, camera="static", noise=LifterNoise())``). Yields
+    ``(clip, inputs (T, 17, 3) camera-frame joints, R (T, 3, 3) true canonical->camera)`` for
+    the clips with at least two frames."""
     if len(clips) > max_clips:
         rng = np.random.default_rng(0)
         clips = [clips[i] for i in sorted(rng.choice(len(clips), max_clips, replace=False))]
     pairs = make_pairs(clips, views="paper", seed=0, camera="static", noise=LifterNoise())
-    out = []
     for i, clip in enumerate(clips):
         sel = np.flatnonzero(pairs.clip == i)
-        if len(sel) < 2:
-            continue
-        ev = extract(pairs.inputs[sel], clip.fps)
+        if len(sel) >= 2:
+            yield clip, pairs.inputs[sel], pairs.R[sel]
+
+
+def mocap_evidence(data: Path, file: str, split: str, max_clips: int) -> list[dict]:
+    out = []
+    for clip, X, R in static_camera_clips(select_split(load_mocap(data / "mocap" / file), split, "motion-style"),
+                                          max_clips):
+        ev = extract(X, clip.fps)
         ev["name"] = clip.name
-        ev["true_up"] = pairs.R[sel][:, :, 1].copy()
+        ev["true_up"] = R[:, :, 1].copy()
         out.append(ev)
     return out
 

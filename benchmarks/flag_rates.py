@@ -47,9 +47,9 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.ablation import static_camera_clips
 from benchmarks.report import print_and_save, require_mocap
-from pcnet.models.datasets import load_mocap, make_pairs, select_split
-from pcnet.models.lifter_noise import LifterNoise
+from pcnet.models.datasets import load_mocap, select_split
 from pcnet.pipeline import RunConfig, run_pipeline
 from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.rotations import camera_pitch_roll
@@ -79,19 +79,11 @@ def stature_m(joints: np.ndarray) -> float:
     return float(np.nanmedian(height_chain_length(joints)) / CHAIN_TO_STATURE)
 
 
-def _value(x):
-    """A RunResult attribute that is a property in some versions and a method in others."""
-    return x() if callable(x) else x
-
-
-def clips_of(data: Path, file: str, split: str, max_clips: int):
-    """The set's upright clips (seeded subset) and the number of lying clips skipped."""
+def upright_clips(data: Path, file: str, split: str) -> tuple[list, int]:
+    """The set's upright clips and the number of lying clips skipped."""
     clips = select_split(load_mocap(data / "mocap" / file), split, "motion-style")
     upright = [c for c in clips if trunk_angle_deg(c.joints) <= LYING_TRUNK_DEG]
-    if len(upright) > max_clips:
-        rng = np.random.default_rng(0)
-        upright = [upright[i] for i in sorted(rng.choice(len(upright), max_clips, replace=False))]
-    return upright, len(clips) - len([c for c in clips if trunk_angle_deg(c.joints) <= LYING_TRUNK_DEG])
+    return upright, len(clips) - len(upright)
 
 
 def run_clip(X: np.ndarray, fps: float, height: float, tmp: Path) -> dict:
@@ -102,24 +94,20 @@ def run_clip(X: np.ndarray, fps: float, height: float, tmp: Path) -> dict:
                     recording=False, out=str(tmp / "out"))
     t0 = time.time()
     result = run_pipeline(cfg.validate(), progress=False)
-    return {"findings": list(_value(result.ranked_findings)), "notes": list(_value(result.note_findings)),
-            "mode": result.mode, "seconds": time.time() - t0}
+    return {"findings": result.ranked_findings, "notes": result.note_findings, "mode": result.mode,
+            "seconds": time.time() - t0}
 
 
 def evaluate_set(data: Path, file: str, split: str, max_clips: int, log) -> tuple[list[dict], int]:
-    clips, lying = clips_of(data, file, split, max_clips)
-    pairs = make_pairs(clips, views="paper", seed=0, camera="static", noise=LifterNoise())
+    clips, lying = upright_clips(data, file, split)
     rows = []
-    for i, clip in enumerate(clips):
-        sel = np.flatnonzero(pairs.clip == i)
-        if len(sel) < 2:
-            continue
-        pitch, roll = (float(np.degrees(a)) for a in camera_pitch_roll(pairs.R[sel[0]][:, 1]))
-        row = {"name": clip.name, "frames": len(sel), "pitch": pitch, "roll": roll,
+    for clip, X, R in static_camera_clips(clips, max_clips):
+        pitch, roll = (float(np.degrees(a)) for a in camera_pitch_roll(R[0][:, 1]))
+        row = {"name": clip.name, "frames": len(X), "pitch": pitch, "roll": roll,
                "level": abs(pitch) <= LEVEL_DEG and abs(roll) <= LEVEL_DEG}
         with tempfile.TemporaryDirectory(prefix="pcnet_flag_rates_") as tmp:
             try:
-                row.update(run_clip(pairs.inputs[sel], clip.fps, stature_m(clip.joints), Path(tmp)))
+                row.update(run_clip(X, clip.fps, stature_m(clip.joints), Path(tmp)))
             except Exception as exc:  # a run that fails is reported, not counted as clean
                 row["error"] = f"{type(exc).__name__}: {exc}"
         rows.append(row)
