@@ -18,17 +18,12 @@ from .core.canonical import trunk_lean_deg
 from .core.conventions import (L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
                                median_thigh_length)
 from .core.framestore import frame_blocks, true_runs
-from .core.rotations import camera_pitch_roll, camera_tilt_deg
+from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg
 from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
 from .rectification_report import EnsembleWeights, SequenceUp
 from .scale import height_chain_length, leg_lengths
 
-#: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
-#: probably upside down or its axes are wrong: a real camera films a standing scene with
-#: the sky above, and even a phone held in portrait leaves up within 90 deg of some image
-#: axis but not beyond 90 deg from image-up unless it is upside down.
-UPSIDE_DOWN_TILT_DEG = 90.0
 #: Tilt beyond which the estimate disagrees with the camera prior: most real cameras are
 #: within about 30 deg of level. Either the camera was tilted that much, or the pose is not
 #: upright (lying, seated, bent over), which a pose alone cannot tell apart.
@@ -187,8 +182,8 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
     image-up is turned a quarter turn (roll near +-90 deg), is a level camera whose image was
     turned; it is said once (a body lying across the image under a level camera reads the
     same), and the unusual-tilt flag concerns only its tilt beyond that turn. A roll beyond
-    +-135 deg, or a tilt beyond :data:`UPSIDE_DOWN_TILT_DEG` with no quarter turn, is read as
-    upside-down or axis-swapped input.
+    +-135 deg, or a tilt beyond :data:`pcnet.stages.core.rotations.UPSIDE_DOWN_TILT_DEG` with
+    no quarter turn, is read as upside-down or axis-swapped input.
 
     Args:
         tilt_deg, pitch_deg, roll_deg: degrees, from :func:`camera_tilt` (one recording's

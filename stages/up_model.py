@@ -60,7 +60,7 @@ from importlib import resources
 import numpy as np
 
 from .core.errors import InputError
-from .core.rotations import camera_pitch_roll, camera_tilt_deg, normalize
+from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg, normalize
 from .spherical import robust_mean_direction, weighted_quantile
 
 LEVEL_UP = np.array([0.0, -1.0, 0.0])
@@ -73,6 +73,7 @@ _GRID_POINTS = 40_000  # about 1 deg between neighbours
 #: the most frames (evenly spaced) it is scored on: that start only has to land in the right basin.
 _START_GRID_POINTS = 2_000
 _START_GRID_FRAMES = 2_000
+_START_GRID_CHUNK = 100  # grid points scored at once: (100, 2000, 3) float64 arrays, about 5 MB
 #: A posture not reported that keeps at least this posterior probability is reached by the 95 %
 #: intervals (a region holding 95 % must hold some of it; decision 0024).
 OTHER_POSTURE_P = 0.05
@@ -273,9 +274,11 @@ def camera_view_estimate(g: np.ndarray, level: np.ndarray, p: UpModelParameters)
 
 
 def frame_log_likelihood(g: np.ndarray, ev: UpEvidence, p: UpModelParameters) -> np.ndarray:
-    """``l_t(g)`` ``(T,)`` of the module docstring for candidate ups ``g`` ``(T, 3)`` (one per
-    frame; broadcast a ``(3,)``); 0 where a network gave nothing, NaN-free."""
-    g = np.broadcast_to(np.asarray(g, np.float64), ev.camera_up.shape)
+    """``l_t(g)`` ``(..., T)`` of the module docstring for candidate ups ``g`` ``(..., T, 3)``
+    (one per frame; a ``(3,)`` or ``(N, 1, 3)`` broadcasts: one up for every frame, or ``N``
+    of them); 0 where a network gave nothing, NaN-free."""
+    g = np.asarray(g, np.float64)
+    g = np.broadcast_to(g, np.broadcast_shapes(g.shape, ev.camera_up.shape))
     level = ev.level_up()
     _, kappa_c, lam = camera_view_estimate(g, level, p)
     cos_c = np.sum(ev.camera_up * g, -1)
@@ -377,17 +380,19 @@ def pd_inverse(H: np.ndarray) -> np.ndarray:
 
 def likelihood_grid_start(ev: UpEvidence, p: UpModelParameters) -> np.ndarray:
     """``(3,)`` the point of a coarse sphere grid (:func:`fibonacci_sphere`, about 4.5 deg apart)
-    where ``F`` is largest among cameras that are not upside down (tilt from image-up below 90
-    deg, the assumption of :data:`pcnet.stages.flags.UPSIDE_DOWN_TILT_DEG`), scored on at most
-    ``_START_GRID_FRAMES`` evenly spaced frames of ``ev`` (valid frames only). The networks'
-    robust means can sit between two peaks of ``F`` when they disagree over part of a recording
-    (a CMU test clip: 11-19 deg from the truth, the ascent from each reaching a peak 24 deg off
-    while ``F``'s largest lies 5 deg from it); this start reaches the largest."""
+    where ``F`` is largest among cameras that are not upside down (tilt from image-up below
+    :data:`pcnet.stages.core.rotations.UPSIDE_DOWN_TILT_DEG`, as the upside-down warning
+    assumes), scored on at most ``_START_GRID_FRAMES`` evenly spaced frames of ``ev`` (valid
+    frames only). The networks' robust means can sit between two peaks of ``F`` when they
+    disagree over part of a recording (a CMU test clip: 11-19 deg from the truth, the ascent
+    from each stopping on a peak whose up was 17 deg off while ``F``'s largest lies 5 deg from
+    it); this start reaches the largest."""
     grid = fibonacci_sphere(_START_GRID_POINTS)
-    grid = grid[camera_tilt_deg(grid) < 90.0]
+    grid = grid[camera_tilt_deg(grid) < UPSIDE_DOWN_TILT_DEG]
     rows = np.unique(np.linspace(0, len(ev.valid) - 1, min(len(ev.valid), _START_GRID_FRAMES)).astype(int))
     frames = ev.frames(rows)
-    scores = np.array([frame_log_likelihood(g, frames, p).sum() for g in grid])
+    scores = np.concatenate([frame_log_likelihood(grid[i:i + _START_GRID_CHUNK, None], frames, p).sum(-1)
+                             for i in range(0, len(grid), _START_GRID_CHUNK)])
     return grid[int(np.argmax(scores))]
 
 

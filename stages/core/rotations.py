@@ -98,6 +98,13 @@ def camera_pitch_roll(up_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return pitch, roll
 
 
+#: Camera tilt (angle between the estimated up and image-up, -y) above which the input is
+#: probably upside down or its axes are wrong: a real camera films a standing scene with
+#: the sky above, and even a phone held in portrait leaves up within 90 deg of some image
+#: axis but not beyond 90 deg from image-up unless it is upside down.
+UPSIDE_DOWN_TILT_DEG = 90.0
+
+
 def camera_tilt_deg(up_cam: np.ndarray) -> np.ndarray:
     """Camera tilt in degrees, ``(...)``: the angle between unit up direction(s) ``up_cam``
     ``(..., 3)`` in the camera frame (OpenCV axes) and the image's up, -y: ``arccos(-u_y)``,
