@@ -49,6 +49,11 @@ train split; models/MODEL_CARD.md):
   camera rolled by 30 and 90 deg about its optical axis; extra error = mean angle between the
   up of the rolled view and the unrolled view's up turned with the camera (0 for an
   equivariant method);
+- a measured root (what a depth sensor, or a file whose pelvis is a measured path, gives; the
+  sets above are root-relative, as monocular lifters deliver): the three held-out mocap sets
+  with each clip's pelvis path kept in the camera frame (:func:`camera_root_path`); rows: the
+  default chain, whose up model is then fused with the floor contacts
+  (:mod:`pcnet.stages.ground_plane`), and the floor switched off;
 - a moving camera (what mode ``auto`` and its threshold are for; every set above is a static
   camera): the cached inputs of the Bandai test and DeepMimic clips with at least 150 frames
   (at most 60 per set), the camera's pitch sweeping linearly through 30 deg over each clip
@@ -96,6 +101,7 @@ from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter
 from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
 from benchmarks.report import require_mocap
+from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, up_model_sequence
@@ -321,26 +327,38 @@ def cached(cache: Path, name: str, build):
     return out
 
 
-def static_camera_clips(clips: list, max_clips: int):
+def static_camera_clips(clips: list, max_clips: int, views: str = "paper", seed: int = 0):
     """The held-out protocol's recordings: at most ``max_clips`` of ``clips`` (a seeded random
-    subset, in order), each seen by one static camera of the "paper" views with lifter noise
-    (``make_pairs(..., views="paper", seed=0, camera="static", noise=LifterNoise())``). Yields
-    ``(clip, inputs (T, 17, 3) camera-frame joints, R (T, 3, 3) true canonical->camera)`` for
-    the clips with at least two frames."""
+    subset, in order), each seen by one static camera of ``views`` with lifter noise
+    (``make_pairs(..., views=views, seed=seed, camera="static", noise=LifterNoise())``; the
+    held-out sets use the "paper" views, seed 0). Yields ``(clip, inputs (T, 17, 3)
+    camera-frame joints, R (T, 3, 3) true canonical->camera, frames (T,) the clip's frame
+    indices)`` for the clips with at least two frames."""
     if len(clips) > max_clips:
         rng = np.random.default_rng(0)
         clips = [clips[i] for i in sorted(rng.choice(len(clips), max_clips, replace=False))]
-    pairs = make_pairs(clips, views="paper", seed=0, camera="static", noise=LifterNoise())
+    pairs = make_pairs(clips, views=views, seed=seed, camera="static", noise=LifterNoise())
     for i, clip in enumerate(clips):
         sel = np.flatnonzero(pairs.clip == i)
         if len(sel) >= 2:
-            yield clip, pairs.inputs[sel], pairs.R[sel]
+            yield clip, pairs.inputs[sel], pairs.R[sel], pairs.frame[sel]
+
+
+def camera_root_path(clip, frames: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` float64 the clip's pelvis path in the camera frame of ``R`` ``(T, 3, 3)`` (true
+    canonical->camera of the clip's ``frames``), from its first frame's pelvis, metres: what a
+    depth sensor measures of the root (up to the camera's position). The world->camera turn of
+    each frame is ``R_t R_world,t^T`` (``R_world`` canonical->world, as make_pairs builds it)."""
+    W = clip.joints[frames].astype(np.float64)
+    R_world, _ = canonical_rotation(W, (0.0, 1.0, 0.0))
+    C = R @ np.swapaxes(R_world, 1, 2)
+    return np.einsum("tij,tj->ti", C, W[:, PELVIS] - W[:1, PELVIS])
 
 
 def mocap_evidence(data: Path, file: str, split: str, max_clips: int) -> list[dict]:
     out = []
-    for clip, X, R in static_camera_clips(select_split(load_mocap(data / "mocap" / file), split, "motion-style"),
-                                          max_clips):
+    for clip, X, R, _ in static_camera_clips(select_split(load_mocap(data / "mocap" / file), split, "motion-style"),
+                                             max_clips):
         ev = extract(X, clip.fps)
         ev["name"] = clip.name
         ev["true_up"] = R[:, :, 1].copy()
@@ -701,6 +719,54 @@ def equivariance_table(evs: list[dict], runs: dict) -> list[str]:
     return lines
 
 
+def measured_root_recordings(data: Path, file: str, split: str, max_clips: int, evs: list[dict]):
+    """The held-out recordings ``evs`` of ``file`` / ``split`` (:func:`mocap_evidence`) with their
+    pelvis path kept, as a depth sensor measures it: ``[(ev, joints (T, 17, 3) camera frame,
+    metres, root included)]`` (:func:`camera_root_path`)."""
+    by_name = {ev["name"]: ev for ev in evs}
+    out = []
+    for clip, X, R, frames in static_camera_clips(select_split(load_mocap(data / "mocap" / file), split, "motion-style"),
+                                                  max_clips):
+        ev = by_name[clip.name]
+        if not np.array_equal(X, ev["J"]):
+            raise SystemExit(f"{clip.name}: the cached inputs differ from make_pairs' (stale cache?)")
+        out.append((ev, X.astype(np.float64) + camera_root_path(clip, frames, R)[:, None]))
+    return out
+
+
+def floor_table(sets: list[tuple[str, list]]) -> list[str]:
+    """The floor contacts switched off, on held-out recordings with a measured root: per set the
+    sequence tilt error of the default chain (the up model fused with the floor,
+    :func:`pcnet.stages.rectify.up_model_sequence` with the located joints) and of the up model
+    alone, the recordings whose floor moved the up, and the 95 % interval coverage of each."""
+    lines = ["## Floor contacts with a measured root (the held-out mocap above with each clip's pelvis path kept, as "
+             "a depth sensor measures it): sequence tilt error (deg) over clips",
+             f"{'set':<28}{'variant':<34}{'mean':>7}{'median':>8}{'p95':>7}{'>20':>5}{'floor':>7}"
+             "  verdict: mean diff vs default [95 % CI], deg; interval coverage"]
+    for title, recs in sets:
+        rows = {}
+        for label, located in (("default (floor fused)", True), ("floor contacts off", False)):
+            err, used, out = [], 0, []
+            for ev, J in recs:
+                R, valid, _, _ = per_frame(ev, VARIANTS[0])
+                R, ok = temporal.check_rotations(R, valid)
+                _, _, seq = up_model_sequence(R, ok, evidence_of(ev), ev["fps"], joints_cam=J if located else None)
+                pitch, roll = camera_pitch_roll(seq.up)
+                up = np.where(ok[:, None], seq.up, np.nan)
+                err.append(clip_error(up, ev["true_up"]))
+                used += bool(seq.ground_plane.get("used"))
+                out.append({"up": up, "interval": (np.degrees(pitch), np.degrees(roll), seq.camera_pitch_interval_deg,
+                                                   seq.camera_roll_interval_deg)})
+            rows[label] = (np.array(err), used, out)
+        base = rows["default (floor fused)"][0]
+        for label, (err, used, out) in rows.items():
+            kind = "default" if label.startswith("default") else "removal"
+            cover = interval_coverage(out, [ev for ev, _ in recs]).split(": ", 1)[1]
+            lines.append(f"{title:<28}{label:<34}{err.mean():>7.2f}{np.median(err):>8.2f}{np.percentile(err, 95):>7.2f}"
+                         f"{int(np.sum(err > GROSS_DEG)):>5}{used:>7}  {verdict(kind, err - base)}; {cover}")
+    return lines
+
+
 def reproduction_check(evs: list[dict], runs: dict) -> str:
     worst, mism = 0.0, 0
     for o, ev in zip(runs[AUTO], evs):
@@ -724,22 +790,27 @@ def main(argv=None) -> int:
     ap.add_argument("--max-clips", type=int, default=200, help="clips per mocap set (seeded random subset)")
     ap.add_argument("--cache", type=Path, default=CACHE)
     ap.add_argument("--out", type=Path, default=RESULT)
-    ap.add_argument("--skip", nargs="*", default=[], choices=("mocap", "real", "yoga", "equivariance"))
+    ap.add_argument("--skip", nargs="*", default=[], choices=("mocap", "floor", "real", "yoga", "equivariance"))
     args = ap.parse_args(argv)
     require_mocap(args.data, "ablation")
     t0 = time.time()
     lines = [__doc__.splitlines()[0], "",
              f"    python -m benchmarks.ablation --data ../shared/data --max-clips {args.max_clips}", "",
-             "Rows: the default chain of `pcnet run` (mode auto, camera prior, view gate), then one piece switched off "
+             "Rows: the default chain of `pcnet run` (sequence mode, camera prior, lying posture), then one piece switched off "
              "(or an alternative) at a time; see the script's docstring for the protocol and every column.", ""]
     sections = []
-    if "mocap" not in args.skip:
+    floor_sets = []
+    if "mocap" not in args.skip or "floor" not in args.skip:
         static = []
         for title, file, split in MOCAP_SETS:
             key = f"{file.split('_')[0]}_{split}_{args.max_clips}"
             evs = cached(args.cache, key, lambda: mocap_evidence(args.data, file, split, args.max_clips))
-            sections.append(("mocap", title, evs))
+            if "mocap" not in args.skip:
+                sections.append(("mocap", title, evs))
+            if "floor" not in args.skip:
+                floor_sets.append((title, measured_root_recordings(args.data, file, split, args.max_clips, evs)))
             static.append(evs)
+    if "mocap" not in args.skip:
         moving = cached(args.cache, f"sweep_{args.max_clips}", lambda: sweep_evidence([static[0], static[2]]))
         sections.append(("mocap", f"Moving camera (pitch sweeping {SWEEP_DEG:g} deg over each clip; Bandai test and "
                                   f"DeepMimic clips of >= {SWEEP_MIN_FRAMES} frames, at most {SWEEP_MAX_CLIPS} each)",
@@ -757,6 +828,11 @@ def main(argv=None) -> int:
         table = {"mocap": lambda: mocap_table(title, evs, runs), "real": lambda: real_table(evs, runs),
                  "yoga": lambda: yoga_table(evs, runs), "equivariance": lambda: equivariance_table(evs, runs)}[kind]()
         block = table + [reproduction_check(evs, runs) + f" ({time.time() - t1:.0f} s)", ""]
+        print("\n".join(block), flush=True)
+        lines += block
+    if floor_sets:
+        t1 = time.time()
+        block = floor_table(floor_sets) + [f"({time.time() - t1:.0f} s)", ""]
         print("\n".join(block), flush=True)
         lines += block
     lines.append(f"(wall time {time.time() - t0:.0f} s including cache reads; 2 shared CPU cores)")

@@ -39,6 +39,8 @@ upright one under a camera rolled a quarter turn give the same camera-frame skel
 no likelihood separates them and these two priors decide; the training motion capture's
 lying share (about 0.04 % of frames, no clip lying throughout) samples mocap catalogues, not
 the recordings pcnet is used on.
+The floor-contact parameters (:data:`FLOOR_PARAMETERS`) are fitted on this model's posterior
+afterwards, by ``python -m benchmarks.fit_floor_contacts``; this script carries them over.
 """
 
 from __future__ import annotations
@@ -53,8 +55,7 @@ from scipy.optimize import minimize
 
 from benchmarks import ablation as A
 from benchmarks.report import print_and_save, require_mocap
-from pcnet.models.datasets import load_mocap, make_pairs, select_split
-from pcnet.models.lifter_noise import LifterNoise
+from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.rotations import axis_rotation
 from pcnet.stages.up_model import UpModelParameters, camera_view_estimate, log_map, summarise_recording, systematic_cov
@@ -65,6 +66,9 @@ RESULT = Path(__file__).resolve().parent / "results" / "fit_up_model.txt"
 VAL_SETS = (("bandai", "bandai_h36m17.npz"), ("cmu", "cmu_train_h36m17.npz"))
 VAL_VIEWS = (("paper", 0), ("wide", 1), ("rolled", 2))
 VAL_MAX_CLIPS = 120
+#: The up model's parameters fitted by benchmarks/fit_floor_contacts.py (after this script).
+FLOOR_PARAMETERS = ("contact_height_leg", "contact_speed_leg_s", "contact_speed_window_s", "footfall_height_sd_leg",
+                    "ankle_offset_leg")
 TRAIN_SETS = ("bandai_h36m17.npz", "cmu_train_h36m17.npz")
 LYING_TRUNK_DEG = 60.0
 CLIP_SIGMAS = 3.0
@@ -76,26 +80,27 @@ DECLARED_WHY = "declared: docs/CONVENTIONS.md 'handheld' views (pitch N(0, 12), 
 COMMAND = "python -m benchmarks.fit_up_model --data ../shared/data"
 
 
-def val_evidence(data: Path, file: str, views: str, seed: int) -> list[dict]:
-    """Validation clips seen by one static camera each; ``views="rolled"``: a "paper" view
-    turned about the optical axis by a uniform roll in [-180, 180) deg per clip (seeded)."""
+def val_clips(data: Path, file: str, views: str, seed: int):
+    """The validation recordings: the motion-style val clips of ``file`` (at most
+    :data:`VAL_MAX_CLIPS`, :func:`benchmarks.ablation.static_camera_clips`), one static camera
+    each; ``views="rolled"``: a "paper" view turned about the optical axis by a uniform roll in
+    [-180, 180) deg per clip (seeded). Yields ``(clip, inputs (T, 17, 3), true up (T, 3),
+    frames (T,), roll Q (3, 3), R (T, 3, 3) canonical->camera before the roll)``."""
     rolled = views == "rolled"
-    views = "paper" if rolled else views
     clips = select_split(load_mocap(data / "mocap" / file), "val", "motion-style")
-    if len(clips) > VAL_MAX_CLIPS:
-        rng = np.random.default_rng(0)
-        clips = [clips[i] for i in sorted(rng.choice(len(clips), VAL_MAX_CLIPS, replace=False))]
-    pairs = make_pairs(clips, views=views, seed=seed, camera="static", noise=LifterNoise())
     rng_roll = np.random.default_rng(seed)
-    out = []
-    for i, clip in enumerate(clips):
-        sel = np.flatnonzero(pairs.clip == i)
-        if len(sel) < 2:
-            continue
-        X, up = pairs.inputs[sel], pairs.R[sel][:, :, 1].copy()
+    for clip, X, R, frames in A.static_camera_clips(clips, VAL_MAX_CLIPS, "paper" if rolled else views, seed):
+        Q = axis_rotation("z", np.radians(rng_roll.uniform(-180.0, 180.0))) if rolled else np.eye(3)
+        up = R[:, :, 1] @ Q.T
         if rolled:
-            Q = axis_rotation("z", np.radians(rng_roll.uniform(-180.0, 180.0)))
-            X, up = (X.astype(np.float64) @ Q.T).astype(np.float32), up @ Q.T
+            X = (X.astype(np.float64) @ Q.T).astype(np.float32)
+        yield clip, X, up, frames, Q, R
+
+
+def val_evidence(data: Path, file: str, views: str, seed: int) -> list[dict]:
+    """Validation clips (:func:`val_clips`) through the networks (:func:`benchmarks.ablation.extract`)."""
+    out = []
+    for clip, X, up, _, _, _ in val_clips(data, file, views, seed):
         ev = A.extract(X, clip.fps)
         ev.update(name=clip.name, true_up=up)
         out.append(ev)
@@ -264,6 +269,11 @@ def main(argv=None) -> int:
               "lying_elevation_deg": 10.0, **DECLARED}
     prov = {k: DECLARED_WHY for k in DECLARED}
     prov["lying_prior"] = LYING_WHY
+    # The floor-contact parameters are fitted afterwards, on this model's posterior
+    # (benchmarks/fit_floor_contacts.py): carried over as they are.
+    shipped = json.loads(args.json.read_text())["parameters"] if args.json.is_file() else {}
+    for k in FLOOR_PARAMETERS:
+        values[k], prov[k] = shipped[k]["value"], shipped[k]["provenance"]
     lines = [__doc__.split("\n")[0], "", f"    {COMMAND}", "", f"Data: {split}.", ""]
 
     errs = _tangent_errors(all_evs, params_from(values, prov))

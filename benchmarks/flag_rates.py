@@ -101,7 +101,7 @@ def run_clip(X: np.ndarray, fps: float, height: float, tmp: Path) -> dict:
 def evaluate_set(data: Path, file: str, split: str, max_clips: int, log) -> tuple[list[dict], int]:
     clips, lying = upright_clips(data, file, split)
     rows = []
-    for clip, X, R in static_camera_clips(clips, max_clips):
+    for clip, X, R, _ in static_camera_clips(clips, max_clips):
         pitch, roll = (float(np.degrees(a)) for a in camera_pitch_roll(R[0][:, 1]))
         row = {"name": clip.name, "frames": len(X), "pitch": pitch, "roll": roll,
                "level": abs(pitch) <= LEVEL_DEG and abs(roll) <= LEVEL_DEG}

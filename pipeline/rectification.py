@@ -84,6 +84,7 @@ def rectify(
     fps: float = 30.0,
     heading: str | None = None,
     camera_prior: bool = True,
+    measured_root: bool = False,
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
     (``docs/CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
@@ -100,7 +101,9 @@ def rectify(
     reading; False = the poses alone (a uniform prior, upright). Other methods' sequence mode
     is the robust mean of their per-frame ups with its bootstrap, no prior (with
     ``heading="predicted"`` and ``weights`` one 3DPCNet's ONNX, the paper's model alone).
-    ``report`` says what ran.
+    ``measured_root``: the joints keep a measured root path (a depth sensor, metres), so
+    sequence mode also weighs the floor contacts (:mod:`pcnet.stages.ground_plane`); root-relative
+    joints (monocular lifters) carry no floor. ``report`` says what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
     :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least
@@ -116,13 +119,14 @@ def rectify(
             heading source, or (sequence modes) no valid frame.
     """
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
-    result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior)
+    result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, measured_root=measured_root)
     return replace(result, report=replace(result.report, pelvis_from_hips_frames=int(pelvis_filled.sum())))
 
 
 def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = None, mode: str = "frame",
                     fps: float = 30.0, heading: str | None = None, camera_prior: bool = True,
-                    allocate: Allocate | None = None, decide_on: np.ndarray | None = None) -> Rectified:
+                    allocate: Allocate | None = None, decide_on: np.ndarray | None = None,
+                    measured_root: bool = False) -> Rectified:
     """:func:`rectify` of poses that already passed its input rules (``pcnet run`` applies
     them a block at a time), in memory or a
     :class:`~pcnet.stages.core.framestore.FrameArray`; ``allocate`` makes the residual and
@@ -134,6 +138,6 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
         InputError: as :func:`rectify`, but for the input rules.
     """
     heading_step = HeadingStep(resolve_heading_source(method, heading))
-    chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior), heading_step,
-                          allocate)
+    chain = Rectification(make_estimator(method, weights),
+                          SequenceEvidence(mode, camera_prior, measured_root=measured_root), heading_step, allocate)
     return chain(joints_cam, validate_fps(fps), decide_on)

@@ -916,7 +916,8 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     decide_on = one_person_frames(segment) if events else None
     try:
         res = rectify_checked(_located(camera.joints, camera.root, store), cfg.method, cfg.weights, cfg.mode, fps,
-                              cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on)
+                              cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on,
+                              measured_root=camera.root is not None)
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
             raise  # the weights file's own error, already naming it

@@ -28,7 +28,7 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
-from .ground_plane import GROUND_GATE_DEG, ground_plane_up
+from .ground_plane import NO_MEASURED_ROOT, ground_plane_up
 from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
@@ -188,7 +188,9 @@ class SequenceEvidence:
     :func:`pcnet.stages.temporal.choose_mode`; ``"frame"`` for a recording with one valid
     frame, with that reason). ``camera_prior``: the up model's declared priors (False: the
     poses alone). ``n_bootstrap``: replicates of another method's sequence-mode uncertainty
-    (0 = none, NaN; the rotations do not depend on it).
+    (0 = none, NaN; the rotations do not depend on it). ``measured_root``: the joints carry a
+    measured root path (a depth sensor), so sequence mode fuses the floor contacts
+    (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor.
 
     Raises:
         InputError: unknown ``mode``.
@@ -197,6 +199,7 @@ class SequenceEvidence:
     mode: str = "frame"
     camera_prior: bool = True
     n_bootstrap: int = BOOTSTRAP_REPLICATES
+    measured_root: bool = False
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -208,8 +211,8 @@ class SequenceEvidence:
         """Apply the mode to one recording.
 
         Args:
-            joints_cam: ``(T, 17, 3)`` camera-frame joints (floor contacts in sequence mode)
-                or ``None``. evidence: the two networks' own ups (the shipped ensemble):
+            joints_cam: ``(T, 17, 3)`` camera-frame joints (floor contacts in sequence mode
+                where the root is measured) or ``None``. evidence: the two networks' own ups (the shipped ensemble):
                 sequence mode is then the up model's static posterior (:func:`up_model_sequence`).
             R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool or
                 ``None`` (all). fps: frame rate, > 0. decide_on:
@@ -251,10 +254,11 @@ class SequenceEvidence:
             valid = ok & np.isfinite(out).all((1, 2))
             return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode)
         mode = ModeChoice(self.mode, run, spread_deg=spread, decided_on_frames=decided_on)
+        located = joints_cam if self.measured_root else None
         if evidence is not None and calibrated:
-            out, valid, up = up_model_sequence(R, ok, evidence, fps, self.camera_prior, joints_cam)
+            out, valid, up = up_model_sequence(R, ok, evidence, fps, self.camera_prior, located)
         else:  # another method's sequence up: its bootstrap, no calibrated interval
-            res = sequence_rectify(R, ok, joints_cam, fps=fps, n_bootstrap=self.n_bootstrap)
+            res = sequence_rectify(R, ok, located, fps=fps, n_bootstrap=self.n_bootstrap)
             out, valid = res.rotations, res.valid
             up = SequenceUp(
                 evidence=res.evidence, up=res.up, camera_pitch_deg=res.camera_pitch_deg,
@@ -277,8 +281,10 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
 
     ``camera_prior`` False: a uniform prior over the up and no lying hypothesis (the poses
     alone). ``joints_cam`` ``(T, 17, 3)`` with a measured root (a depth sensor): an upright
-    posture's up is refined by the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`),
-    the posterior's RMS axis std as the prior std of the plane's normal.
+    posture's posterior is fused with the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`,
+    the upright hypothesis's own pitch and roll half-widths as its normal prior), and the
+    intervals are the fused posterior's (unless they reach the other posture, which the floor
+    does not weigh).
 
     Returns:
         ``(rotations (T, 3, 3), valid (T,) bool, up)``: the
@@ -290,12 +296,15 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     if not camera_prior:
         params = replace(params, camera_prior_outside=1.0)
     post = static_posterior(summarise_recording(evidence.frames(ok), fps, params), params, lying=camera_prior)
-    up, ground, kind = post.up, {"used": False, "reason": "no joints_cam"}, "up model"
+    up, ground, kind = post.up, {"used": False, "reason": NO_MEASURED_ROOT}, "up model"
+    pitch_half, roll_half = post.pitch_half_deg, post.roll_half_deg
     if joints_cam is not None and post.posture == "upright":
-        sd = float(np.hypot(post.pitch_half_deg, post.roll_half_deg) / (Z95 * np.sqrt(2.0)))
-        up, ground = ground_plane_up(check_poses(joints_cam, "joints_cam"), ok, post.up, fps, sd, GROUND_GATE_DEG)
-        ground.pop("_contacts", None)
-        kind += "+ground_plane" if ground["used"] else ""
+        floor = ground_plane_up(check_poses(joints_cam, "joints_cam"), ok, post.up, fps, post.upright_cov(), params)
+        up, ground = floor.up, floor.info
+        if ground["used"]:
+            kind += "+ground_plane"
+            if not post.reaches_other_posture:  # the floor does not weigh the postures: such intervals stay
+                pitch_half, roll_half = (float(h) for h in Z95 * np.degrees(np.sqrt(np.diag(floor.fit.cov))))
     rotations, heading_ok = rotations_about_up(R, up)
     pitch, roll = camera_pitch_roll(up)
     pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))
@@ -303,8 +312,8 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     posture = PostureHypotheses(post.posture, float(post.p_lying), float(camera_tilt_deg(post.summary.up)))
     return rotations, ok & heading_ok, SequenceUp(
         evidence=kind, up=up, camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
-        camera_pitch_interval_deg=post.pitch_half_deg, camera_roll_interval_deg=post.roll_half_deg,
-        up_uncertainty_deg=float(np.hypot(post.pitch_half_deg, post.roll_half_deg)),
+        camera_pitch_interval_deg=pitch_half, camera_roll_interval_deg=roll_half,
+        up_uncertainty_deg=float(np.hypot(pitch_half, roll_half)),
         camera_pitch_uncertainty_deg=float(Z95 * pose_sd[0]), camera_roll_uncertainty_deg=float(Z95 * pose_sd[1]),
         interval_reaches_other_posture_p=(round(posture.other_p, 4) if posture.other_p >= OTHER_POSTURE_P
                                           else None),

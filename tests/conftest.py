@@ -58,7 +58,7 @@ def run_report(requested: str = "auto", run: str = "sequence", spread_deg: float
     if intervals_deg is not None:
         sequence = SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 8.6, 2.0, *intervals_deg,
                               float(np.hypot(*intervals_deg)), 3.0, 1.5, None, PostureHypotheses("upright", 0.0, 8.0),
-                              2.0, 5.0, {"used": False, "reason": "no joints_cam"})
+                              2.0, 5.0, {"used": False, "reason": "no measured root: root-relative joints carry no floor"})
     rect = RectificationReport(ModeChoice(requested, run, spread_deg=spread_deg), sequence,
                                HeadingChoice("predicted", "auto", 3.0, 4.0), None, None, 4.4, np.full(3, 4.4))
     return RunReport(rect, CameraTilt(8.8, 8.6, 2.0), [8.0, 7.0, 9.0], None,
