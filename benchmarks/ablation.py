@@ -743,22 +743,23 @@ def floor_table(sets: list[tuple[str, list]]) -> list[str]:
              "a depth sensor measures it): sequence tilt error (deg) over clips",
              f"{'set':<28}{'variant':<34}{'mean':>7}{'median':>8}{'p95':>7}{'>20':>5}{'floor':>7}"
              "  verdict: mean diff vs default [95 % CI], deg; interval coverage"]
+    labels = ("default (floor fused)", "floor contacts off")
     for title, recs in sets:
-        rows = {}
-        for label, located in (("default (floor fused)", True), ("floor contacts off", False)):
-            err, used, out = [], 0, []
-            for ev, J in recs:
-                R, valid, _, _ = per_frame(ev, VARIANTS[0])
-                R, ok = temporal.check_rotations(R, valid)
-                _, _, seq = up_model_sequence(R, ok, evidence_of(ev), ev["fps"], joints_cam=J if located else None)
+        rows = {label: ([], 0, []) for label in labels}
+        for ev, J in recs:
+            R, valid, _, _ = per_frame(ev, VARIANTS[0])
+            R, ok = temporal.check_rotations(R, valid)
+            for label, joints in zip(labels, (J, None)):
+                _, _, seq = up_model_sequence(R, ok, evidence_of(ev), ev["fps"], joints_cam=joints)
                 pitch, roll = camera_pitch_roll(seq.up)
                 up = np.where(ok[:, None], seq.up, np.nan)
+                err, used, out = rows[label]
                 err.append(clip_error(up, ev["true_up"]))
-                used += bool(seq.ground_plane.get("used"))
                 out.append({"up": up, "interval": (np.degrees(pitch), np.degrees(roll), seq.camera_pitch_interval_deg,
                                                    seq.camera_roll_interval_deg)})
-            rows[label] = (np.array(err), used, out)
-        base = rows["default (floor fused)"][0]
+                rows[label] = (err, used + bool(seq.ground_plane.get("used")), out)
+        rows = {label: (np.array(err), used, out) for label, (err, used, out) in rows.items()}
+        base = rows[labels[0]][0]
         for label, (err, used, out) in rows.items():
             kind = "default" if label.startswith("default") else "removal"
             cover = interval_coverage(out, [ev for ev, _ in recs]).split(": ", 1)[1]

@@ -75,27 +75,20 @@ DECLARED_WHY = "declared: docs/CONVENTIONS.md 'handheld' views (pitch N(0, 12), 
 COMMAND = "python -m benchmarks.fit_up_model --data ../shared/data"
 
 
-def val_clips(data: Path, file: str, views: str, seed: int):
-    """The validation recordings: the motion-style val clips of ``file`` (at most
-    :data:`VAL_MAX_CLIPS`, :func:`benchmarks.ablation.static_camera_clips`), one static camera
-    each; ``views="rolled"``: a "paper" view turned about the optical axis by a uniform roll in
-    [-180, 180) deg per clip (seeded). Yields ``(clip, inputs (T, 17, 3), true up (T, 3),
-    frames (T,), roll Q (3, 3), R (T, 3, 3) canonical->camera before the roll)``."""
+def val_evidence(data: Path, file: str, views: str, seed: int) -> list[dict]:
+    """Validation clips seen by one static camera each (at most :data:`VAL_MAX_CLIPS`,
+    :func:`benchmarks.ablation.static_camera_clips`), through the networks
+    (:func:`benchmarks.ablation.extract`); ``views="rolled"``: a "paper" view turned about the
+    optical axis by a uniform roll in [-180, 180) deg per clip (seeded)."""
     rolled = views == "rolled"
     clips = select_split(load_mocap(data / "mocap" / file), "val", "motion-style")
     rng_roll = np.random.default_rng(seed)
-    for clip, X, R, frames in A.static_camera_clips(clips, VAL_MAX_CLIPS, "paper" if rolled else views, seed):
-        Q = axis_rotation("z", np.radians(rng_roll.uniform(-180.0, 180.0))) if rolled else np.eye(3)
-        up = R[:, :, 1] @ Q.T
-        if rolled:
-            X = (X.astype(np.float64) @ Q.T).astype(np.float32)
-        yield clip, X, up, frames, Q, R
-
-
-def val_evidence(data: Path, file: str, views: str, seed: int) -> list[dict]:
-    """Validation clips (:func:`val_clips`) through the networks (:func:`benchmarks.ablation.extract`)."""
     out = []
-    for clip, X, up, _, _, _ in val_clips(data, file, views, seed):
+    for clip, X, R, _ in A.static_camera_clips(clips, VAL_MAX_CLIPS, "paper" if rolled else views, seed):
+        up = R[:, :, 1].copy()
+        if rolled:
+            Q = axis_rotation("z", np.radians(rng_roll.uniform(-180.0, 180.0)))
+            X, up = (X.astype(np.float64) @ Q.T).astype(np.float32), up @ Q.T
         ev = A.extract(X, clip.fps)
         ev.update(name=clip.name, true_up=up)
         out.append(ev)
