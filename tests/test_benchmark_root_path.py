@@ -1,0 +1,36 @@
+"""The held-out measured-root protocol (benchmarks/ablation.py ``camera_root_path``): a static
+camera's view of a real mocap walk keeps the pelvis path in that camera's frame, turned by the
+world->camera rotation and not its transpose (tests/fixtures/mocap_small.npz, Bandai Namco
+Research Motiondataset, CC BY-NC 4.0)."""
+
+from __future__ import annotations
+
+import sys
+from types import SimpleNamespace
+
+import numpy as np
+
+from conftest import ROOT
+
+if str(ROOT) not in sys.path:  # benchmarks/ is a package of the repository, not of the installed pcnet
+    sys.path.append(str(ROOT))
+from benchmarks.ablation import camera_root_path  # noqa: E402
+from pcnet.stages.core.canonical import canonical_rotation  # noqa: E402
+from pcnet.stages.core.conventions import PELVIS  # noqa: E402
+from pcnet.stages.core.rotations import compose_camera_rotation  # noqa: E402
+
+WALK = "dataset-2_walk-turn-left_active_001"
+
+
+def test_the_pelvis_path_is_turned_into_the_static_camera_frame():
+    with np.load(ROOT / "tests" / "fixtures" / "mocap_small.npz") as d:
+        W = d[WALK].astype(np.float64)
+    frames = np.arange(0, len(W), 3)
+    # world -> camera: yaw 60, pitch 15, roll 5 deg; its transpose moves the path by 0.66 m
+    C = compose_camera_rotation(np.radians(60.0), np.radians(15.0), np.radians(5.0))
+    R_world, _ = canonical_rotation(W[frames], (0.0, 1.0, 0.0))
+    path = camera_root_path(SimpleNamespace(joints=W), frames, C @ R_world)  # R: canonical -> camera
+    expected = (W[frames, PELVIS] - W[0, PELVIS]) @ C.T
+    assert np.ptp(expected, axis=0).max() > 2.0  # the walk covers metres
+    np.testing.assert_allclose(path, expected, atol=1e-9)
+    assert np.abs(camera_root_path(SimpleNamespace(joints=W), frames, C.T @ R_world) - expected).max() > 0.3
