@@ -34,3 +34,16 @@ def test_the_pelvis_path_is_turned_into_the_static_camera_frame():
     assert np.ptp(expected, axis=0).max() > 2.0  # the walk covers metres
     np.testing.assert_allclose(path, expected, atol=1e-9)
     assert np.abs(camera_root_path(SimpleNamespace(joints=W), frames, C.T @ R_world) - expected).max() > 0.3
+
+
+def test_the_other_clips_are_the_rest_of_the_held_out_split():
+    # The ablation's untouched floor set: the clips outside the seeded subset, none of them in it.
+    from benchmarks.ablation import static_camera_clips
+    from pcnet.models.datasets import Clip
+
+    with np.load(ROOT / "tests" / "fixtures" / "mocap_small.npz") as d:
+        clips = [Clip(k, d[k].astype(np.float32), 30.0) for k in sorted(d.files)]
+    chosen = [c.name for c, *_ in static_camera_clips(clips, 2)]
+    rest = [c.name for c, *_ in static_camera_clips(clips, 2, rest=True)]
+    assert len(chosen) == 2 and len(rest) == len(clips) - 2 and not set(chosen) & set(rest)
+    assert [c.name for c, *_ in static_camera_clips(clips, len(clips), rest=True)] == []
