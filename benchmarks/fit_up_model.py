@@ -39,6 +39,8 @@ upright one under a camera rolled a quarter turn give the same camera-frame skel
 no likelihood separates them and these two priors decide; the training motion capture's
 lying share (about 0.04 % of frames, no clip lying throughout) samples mocap catalogues, not
 the recordings pcnet is used on.
+The floor-contact parameters (:data:`FLOOR_PARAMETERS`) are fitted on this model's posterior
+afterwards, by ``python -m benchmarks.fit_floor_contacts``; this script carries them over.
 """
 
 from __future__ import annotations
@@ -64,6 +66,9 @@ RESULT = Path(__file__).resolve().parent / "results" / "fit_up_model.txt"
 VAL_SETS = (("bandai", "bandai_h36m17.npz"), ("cmu", "cmu_train_h36m17.npz"))
 VAL_VIEWS = (("paper", 0), ("wide", 1), ("rolled", 2))
 VAL_MAX_CLIPS = 120
+#: The up model's parameters fitted by benchmarks/fit_floor_contacts.py (after this script).
+FLOOR_PARAMETERS = ("contact_height_leg", "contact_speed_leg_s", "contact_speed_window_s", "footfall_height_sd_leg",
+                    "ankle_offset_leg")
 TRAIN_SETS = ("bandai_h36m17.npz", "cmu_train_h36m17.npz")
 LYING_TRUNK_DEG = 60.0
 CLIP_SIGMAS = 3.0
@@ -257,6 +262,11 @@ def main(argv=None) -> int:
               "lying_elevation_deg": 10.0, **DECLARED}
     prov = {k: DECLARED_WHY for k in DECLARED}
     prov["lying_prior"] = LYING_WHY
+    # The floor-contact parameters are fitted afterwards, on this model's posterior
+    # (benchmarks/fit_floor_contacts.py): carried over as they are.
+    shipped = json.loads(args.json.read_text())["parameters"] if args.json.is_file() else {}
+    for k in FLOOR_PARAMETERS:
+        values[k], prov[k] = shipped[k]["value"], shipped[k]["provenance"]
     lines = [__doc__.split("\n")[0], "", f"    {COMMAND}", "", f"Data: {split}.", ""]
 
     errs = _tangent_errors(all_evs, params_from(values, prov))

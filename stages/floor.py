@@ -28,9 +28,9 @@ at the top) and a heel rising before toe-off are high outliers the biweight reje
 
 Why a horizontal plane (only its height fitted), not a tilted one: the world frame's +Y is the
 recording's gravity estimate, and with a measured pelvis path sequence mode already weighs
-the floor's tilt from the foot contacts in that estimate (:func:`pcnet.stages.ground_plane.ground_plane_up`
-refines the up model's upright answer); a second tilt here would either repeat that fit or
-contradict the gravity the accelerations use. A depth scale error of a recovered path
+the floor's tilt from the foot contacts in that estimate (:func:`pcnet.stages.ground_plane.ground_plane_up`,
+a term of the up model); a second tilt here would either repeat that fit or contradict the
+gravity the accelerations use. A depth scale error of a recovered path
 scales it along the camera rays about the camera centre, which moves every stance contact by
 the same ``k (h_pelvis - h_camera)``: an offset the height absorbs, no slope. Measured by
 ``benchmarks/fit_floor.py`` (``benchmarks/results/fit_floor.txt``): a 5 % path scale error

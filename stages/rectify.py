@@ -28,7 +28,7 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
-from .ground_plane import GROUND_GATE_DEG, NO_MEASURED_ROOT, ground_plane_up
+from .ground_plane import NO_MEASURED_ROOT, ground_plane_up
 from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
@@ -189,8 +189,8 @@ class SequenceEvidence:
     frame, with that reason). ``camera_prior``: the up model's declared priors (False: the
     poses alone). ``n_bootstrap``: replicates of another method's sequence-mode uncertainty
     (0 = none, NaN; the rotations do not depend on it). ``measured_root``: the joints carry a
-    measured root path (a depth sensor), so sequence mode refines its up with the floor
-    contacts (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor.
+    measured root path (a depth sensor), so sequence mode fuses the floor contacts
+    (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor.
 
     Raises:
         InputError: unknown ``mode``.
@@ -281,8 +281,10 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
 
     ``camera_prior`` False: a uniform prior over the up and no lying hypothesis (the poses
     alone). ``joints_cam`` ``(T, 17, 3)`` with a measured root (a depth sensor): an upright
-    posture's up is refined by the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`),
-    the upright hypothesis's own RMS axis std as the prior std of the plane's normal.
+    posture's posterior is fused with the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`,
+    the upright hypothesis's own pitch and roll half-widths as its normal prior). The intervals
+    stay the up model's: the fused ones are too narrow on validation
+    (``benchmarks/results/fit_floor_contacts.txt``).
 
     Returns:
         ``(rotations (T, 3, 3), valid (T,) bool, up)``: the
@@ -296,11 +298,8 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     post = static_posterior(summarise_recording(evidence.frames(ok), fps, params), params, lying=camera_prior)
     up, ground, kind = post.up, {"used": False, "reason": NO_MEASURED_ROOT}, "up model"
     if joints_cam is not None and post.posture == "upright":
-        # The upright hypothesis's own width: where the lying posture keeps some of the
-        # posterior, the printed half-widths reach it and would let any floor through.
-        sd = float(np.hypot(*post.upright_half_deg) / (Z95 * np.sqrt(2.0)))
-        up, ground = ground_plane_up(check_poses(joints_cam, "joints_cam"), ok, post.up, fps, sd, GROUND_GATE_DEG)
-        ground.pop("_contacts", None)
+        floor = ground_plane_up(check_poses(joints_cam, "joints_cam"), ok, post.up, fps, post.upright_cov(), params)
+        up, ground = floor.up, floor.info
         kind += "+ground_plane" if ground["used"] else ""
     rotations, heading_ok = rotations_about_up(R, up)
     pitch, roll = camera_pitch_roll(up)

@@ -33,8 +33,9 @@ from scipy.spatial.transform import Rotation
 from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.rotations import angle_between, camera_pitch_roll, decompose_camera_rotation, normalize
-from .ground_plane import GROUND_GATE_DEG, NO_MEASURED_ROOT, POSE_PRIOR_DEG, fit_plane_map, ground_plane_up
+from .ground_plane import NO_MEASURED_ROOT, fit_floor, ground_plane_up
 from .spherical import robust_mean_direction, weighted_quantile
+from .up_model import default_parameters
 
 MODES = ("frame", "sequence", "smooth", "auto")
 
@@ -50,6 +51,14 @@ _MIN_BLOCKS = 5
 # |a_perp + u x c| is 2 when a frame's up agrees with the sequence up and 0 when it is flipped
 # (180 deg): below this (frame up more than ~170 deg off) the heading is undefined.
 _MIN_HEADING_NORM = 0.2
+
+# --- ground plane (methods other than the shipped ensemble) -----------------------------------
+#: Prior std (deg) of a per-frame estimator's systematic tilt error about its robust mean up,
+#: the normal prior of the floor contacts for the methods the up model does not describe (the
+#: geometric baseline, one network given as weights): comparisons, hand-set (the geometric
+#: baseline's trunk-lean bias measured 3-5 deg on Bandai walking, ~14 deg running). The
+#: shipped ensemble uses the up model's fitted posterior instead.
+POSE_PRIOR_DEG = 5.0
 
 # --- mode choice ------------------------------------------------------------------------------
 # Fitted on validation data by ``python -m benchmarks.fit_camera_mode --data ../shared/data``
@@ -179,6 +188,11 @@ def _block_indices(starts: np.ndarray, block: int, T: int) -> np.ndarray:
     return (starts[:, :, None] + np.arange(block)).reshape(len(starts), -1)[:, :T]
 
 
+def _pose_prior_cov() -> np.ndarray:
+    """``(2, 2)`` rad^2: :data:`POSE_PRIOR_DEG` on each tangent axis."""
+    return np.eye(2) * np.radians(POSE_PRIOR_DEG) ** 2
+
+
 def sequence_rectify(
     R: np.ndarray,
     valid: np.ndarray | None = None,
@@ -191,20 +205,10 @@ def sequence_rectify(
 
     1. **Up**: :func:`robust_mean_direction` of the per-frame ups ``R[:, :, 1]`` (Weiszfeld
        geometric median on S^2, then Tukey-biweight IRLS).
-    2. **Ground plane** (``joints_cam`` given): ankles (3, 6) that
-       are the lowest in their frame along the current up (within 0.05 leg lengths) and
-       quasi-static (speed < 1 leg length/s over +-0.1 s) are floor contacts. The floor
-       tilt is fitted to them by MAP least squares with the pose-based up as a Gaussian prior
-       of std :data:`pcnet.stages.ground_plane.POSE_PRIOR_DEG` (the expected *systematic* tilt error of a per-frame
-       estimator, which no within-sequence statistic reveals; the geometric baseline's
-       trunk-lean bias measured 3-5 deg on Bandai walking, ~14 deg running), so the plane
-       only corrects the directions its contacts actually span (a straight walk fixes the
-       along-track tilt only). Used only if: the pelvis moves on all three axes (root-relative
-       or depth-pinned lifters give foot positions relative to the pelvis, not the floor),
-       >= 20 contacts from >= 4 footfalls, robust plane residual <= 0.05 leg lengths,
-       the contacts alone constrain some tilt direction better than the prior, and the
-       result is within :data:`pcnet.stages.ground_plane.GROUND_GATE_DEG` of the pose-based up. Otherwise skipped, with
-       the reason in ``ground_plane["reason"]``.
+    2. **Ground plane** (``joints_cam`` given, with a measured root): the floor contacts fused
+       with the robust mean up as a Gaussian prior of std :data:`POSE_PRIOR_DEG` per axis
+       (:func:`pcnet.stages.ground_plane.ground_plane_up`, with the up model's fitted contact
+       parameters), the reason in ``ground_plane["reason"]``.
     3. **Heading**: :func:`rotations_about_up`, the rotation with the sequence up closest to
        each frame's prediction.
     4. **Uncertainty**: moving-block bootstrap (Kunsch 1989, "The jackknife and the bootstrap
@@ -244,6 +248,7 @@ def sequence_rectify(
 
     u_pose, _ = robust_mean_direction(ups, w)
     up, gp = u_pose, {"used": False, "reason": NO_MEASURED_ROOT}
+    floor_contacts, leg = None, float("nan")
     J = None
     if joints_cam is not None:
         # Left as given (float32, or on disk for a long recording): the estimators read the
@@ -252,8 +257,11 @@ def sequence_rectify(
         if len(J) != T:
             raise InputError(f"joints_cam: expected {T} frames, got {len(J)}")
     if J is not None:
-        up, gp = ground_plane_up(J, ok, u_pose, fps, POSE_PRIOR_DEG, GROUND_GATE_DEG)
-    contacts = gp.pop("_contacts", None)
+        floor = ground_plane_up(J, ok, u_pose, fps, _pose_prior_cov())
+        up, gp = floor.up, floor.info
+        if gp["used"]:
+            floor_contacts, leg = floor.contacts, floor.leg
+    contacts = floor_contacts if gp["used"] else None
     evidence = "poses+ground_plane" if gp["used"] else "poses"
     rotations, hok = rotations_about_up(R, up)
     out_valid = ok & hok
@@ -286,14 +294,12 @@ def sequence_rectify(
             # Each replicate refits the plane to the contacts of its resampled frames; one
             # with too few contacts to fit a plane is dropped (falling back to the pose-based
             # up there would mix two estimators into one interval).
-            P, frames, foot = contacts
             for b in range(n_bootstrap):
-                rep = np.bincount(_block_indices(starts[b : b + 1], block, T)[0], minlength=T)[frames]
-                Pb, fb = np.repeat(P, rep, 0), np.repeat(foot, rep)
-                if not np.isfinite(ub[b]).all() or len(Pb) < 3 or len(np.unique(fb)) < 2:
+                rep = contacts.repeated(np.bincount(_block_indices(starts[b : b + 1], block, T)[0], minlength=T))
+                if not np.isfinite(ub[b]).all() or not len(rep.points):
                     ub[b] = np.nan
                     continue
-                ub[b] = fit_plane_map(Pb, fb, ub[b], np.radians(POSE_PRIOR_DEG))[0]
+                ub[b] = fit_floor(rep, ub[b], _pose_prior_cov(), leg, default_parameters()).up
         good = np.isfinite(ub).all(-1)
         if good.any():
             ub = ub[good]

@@ -40,8 +40,8 @@ Camera prior (declared, docs/CONVENTIONS.md "handheld" views): camera pitch
 cameras outside them.
 
 Floor contacts. Where the input's root is measured (a depth sensor), the resting ankles trace
-the floor, whose normal is ``g``; :mod:`pcnet.stages.ground_plane` refines an upright
-posterior's up with it (a step with hand-set gates, outside this model: docs/decisions/0042).
+the floor, whose normal is ``g``; :mod:`pcnet.stages.ground_plane` fuses that evidence with an
+upright posterior (its parameters are this model's too).
 
 Answers. Static camera (``sequence``): the posterior ``p(g, posture | g_hat)`` on a sphere grid
 gives the more probable posture and its mode; the 95 % intervals are the
@@ -98,6 +98,9 @@ class UpModelParameters:
         systematic_roll_deg: ``s_pitch``, ``s_roll``. lying_elevation_deg: ``sigma_lie``.
         lying_prior: ``rho``. camera_prior_pitch_deg,
         camera_prior_roll_deg, camera_prior_outside: the declared camera prior.
+        contact_height_leg, contact_speed_leg_s, contact_speed_window_s: the floor contacts'
+        ``h_c``, ``v_c`` (leg lengths, leg lengths per second) and ``w`` (s); footfall_height_sd_leg,
+        ankle_offset_leg: ``sigma_f``, ``s_o`` (leg lengths) (:mod:`pcnet.stages.ground_plane`).
         provenance: for each name, where its value comes from (split, command, or "declared").
     """
 
@@ -115,6 +118,11 @@ class UpModelParameters:
     camera_prior_pitch_deg: float
     camera_prior_roll_deg: float
     camera_prior_outside: float
+    contact_height_leg: float
+    contact_speed_leg_s: float
+    contact_speed_window_s: float
+    footfall_height_sd_leg: float
+    ankle_offset_leg: float
     provenance: dict
 
     @classmethod
@@ -139,7 +147,8 @@ class UpModelParameters:
         out = cls(**values, provenance=provenance)
         for name in ("body_sigma_deg", "camera_sigma_deg", "error_time_s", "systematic_pitch_deg",
                      "systematic_roll_deg", "lying_elevation_deg", "camera_prior_pitch_deg", "camera_prior_roll_deg",
-                     "camera_fallback_width_deg"):
+                     "camera_fallback_width_deg", "contact_height_leg", "contact_speed_leg_s",
+                     "contact_speed_window_s", "footfall_height_sd_leg", "ankle_offset_leg"):
             if not getattr(out, name) > 0:
                 raise InputError(f"up_model.json: parameters.{name}: expected > 0, got {getattr(out, name)}")
         for name in ("outlier_share", "lying_prior", "camera_prior_outside"):
@@ -483,6 +492,12 @@ class StaticPosterior:
     roll_half_deg: float
     summary: PoseSummary
     upright_half_deg: tuple[float, float] = (float("nan"), float("nan"))
+
+    def upright_cov(self) -> np.ndarray:
+        """``(2, 2)`` rad^2: the normal covariance in the (pitch, roll) basis at :attr:`up`
+        whose 95 % half-widths are the upright hypothesis's own (``upright_half_deg``, not
+        widened to the other posture): the prior the floor contacts are fused with."""
+        return np.diag(np.radians(self.upright_half_deg) ** 2) / Z95 ** 2
 
 
 _GRID: np.ndarray | None = None

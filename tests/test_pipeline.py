@@ -635,8 +635,8 @@ def test_short_recordings_and_hidden_feet_are_flagged(tmp_path):
 
 
 def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):
-    """With a depth sensor's measured root the foot contacts trace the floor, which refines
-    the sequence up (stages/ground_plane.py); root-relative, the same poses cannot."""
+    """With a depth sensor's measured root the foot contacts trace the floor, which the up model
+    fuses into the sequence up (stages/ground_plane.py); root-relative, the same poses cannot."""
     from pcnet.adapters.kinect import load_kinect_v1
     from pcnet.pipeline.rectification import rectify
 
@@ -650,7 +650,8 @@ def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):
         up = np.mean(res.up[res.valid], axis=0)
         errors[name] = np.degrees(np.arccos(np.clip(up @ true_up / np.linalg.norm(up), -1.0, 1.0)))
         print(f"\n{name}: evidence {res.report.sequence.evidence}, sequence up {errors[name]:.2f} deg from the truth")
-    assert errors["measured root"] < 0.5 < errors["root-relative"]
+    # the floor halves the poses' error on this clean walk (1.24 -> 0.62 deg when written)
+    assert errors["measured root"] < 0.6 * errors["root-relative"] and errors["measured root"] < 1.0
     # the root must be declared measured: located joints alone are not taken for a floor
     undeclared = rectify(J, "pcnet", None, "sequence", 30.0).report.sequence
     assert undeclared.evidence == "up model" and "no measured root" in undeclared.ground_plane["reason"]

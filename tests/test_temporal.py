@@ -25,6 +25,7 @@ from pcnet.stages import temporal as tm
 from pcnet.stages.rectification_report import ModeChoice
 from pcnet.stages.rectify import SequenceEvidence
 from pcnet.stages.core.canonical import canonical_rotation, world_to_canonical
+from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.core.geometric import geometric_rotation
 from pcnet.stages.core.metrics import heading_error_deg
 from pcnet.stages.core.rotations import (
@@ -269,13 +270,18 @@ def test_ground_plane_skipped_when_evidence_unusable():
     rng = np.random.default_rng(0)
     R, X_rel, X_abs = _view(CLIPS[WALK], R0)
     Rg, vg = geometric_rotation(_noisy(X_rel, rng))
-    # Root-relative joints (most lifters): feet relative to the pelvis, not to the floor.
-    res = _pose_only(Rg, vg, _noisy(X_rel, rng), n_bootstrap=0)
+    # Root-relative joints (most lifters: the pelvis at the origin): feet relative to the
+    # pelvis, not to the floor.
+    X = _noisy(X_rel, rng)
+    res = _pose_only(Rg, vg, X - X[:, PELVIS:PELVIS + 1], n_bootstrap=0)
     assert res.evidence == "poses" and "pelvis" in res.ground_plane["reason"]
-    # A subject in place: no floor area covered.
+    # A subject in place: the feet constrain little of the floor, and what they leave open
+    # the per-ankle height errors absorb, so the up barely moves.
     _, _, X_in_place = _view(CLIPS[RAISE], R0)
     Rr, vr = geometric_rotation(X_in_place)
-    assert _pose_only(Rr, vr, X_in_place, n_bootstrap=0).evidence == "poses"
+    moved = _deg(angle_between(_pose_only(Rr, vr, X_in_place, n_bootstrap=0).up,
+                               _pose_only(Rr, vr, None, n_bootstrap=0).up))
+    assert moved < 1.0
     # No joints given.
     res = _pose_only(Rg, vg, None, n_bootstrap=0)
     assert res.evidence == "poses" and res.ground_plane["reason"] == tm.NO_MEASURED_ROOT

@@ -1,0 +1,274 @@
+"""Fit the up model's floor-contact parameters (pcnet.stages.ground_plane) on validation data.
+
+    python -m benchmarks.fit_floor_contacts --data ../shared/data [--cache /tmp/pcnet_ablation_cache]
+
+Run after ``python -m benchmarks.fit_up_model`` (the floor is fused with that model's
+posterior). Updates the five floor parameters in ``stages/data/up_model.json`` (each with its
+provenance; the other parameters are left as they are) and writes
+``benchmarks/results/fit_floor_contacts.txt``. No held-out set is read.
+
+Data: the validation recordings of benchmarks/fit_up_model.py (Bandai motion-style val, CMU
+val subjects; "paper", "wide" and rolled static cameras; lifter noise; the shipped networks'
+cached ups), each with its pelvis path kept in the camera frame, as a depth sensor measures
+it (:func:`benchmarks.ablation.camera_root_path`).
+
+Fits:
+1. For each contact definition on a grid (``contact_height_leg`` h_c, ``contact_speed_leg_s``
+   v_c, ``contact_speed_window_s`` w), the error model of the footfalls' heights along the
+   TRUE up (contacts detected along it): per recording, ``h_f = d + o_k + e_f``;
+   ``footfall_height_sd_leg`` (sigma_f) is the pooled within-ankle standard deviation of the
+   footfall heights, ``ankle_offset_leg`` (s_o) from the between-ankle mean differences,
+   ``E[(mean_R - mean_L)^2] = 2 s_o^2 + sigma_f^2 (1 / n_R + 1 / n_L)`` (method of moments),
+   both in leg lengths.
+2. For each contact definition with its sigma_f and s_o: the mean tilt error over the
+   validation recordings of the up the shipped chain gives (the up model's upright posterior
+   fused with the floor, :func:`pcnet.stages.ground_plane.ground_plane_up`; recordings the up
+   model reads as lying keep their posterior's up). The contact definition with the smallest
+   mean is shipped.
+
+Checks under the shipped parameters (nothing is fitted on them):
+- two support levels: the CMU training subjects' clips whose footfalls (along the true up, on
+  the motion capture itself) lie on levels more than :data:`RAISED_M` apart (a stool, steps;
+  :func:`raised_recordings`), where a plane through every footfall would tilt;
+- interval coverage on validation: how often the fused posterior's 95 % pitch and roll
+  intervals, and the up model's own around the fused up, hold the truth (upright readings).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks import ablation as A
+from benchmarks import fit_up_model as F
+from benchmarks.report import print_and_save, require_mocap
+from pcnet.models.datasets import load_mocap, select_split
+from pcnet.stages import temporal
+from pcnet.stages.core.rotations import axis_rotation, camera_pitch_roll
+from pcnet.stages.ground_plane import detect_contacts, footfalls, ground_plane_up, leg_length
+from pcnet.stages.up_model import (Z95, StaticPosterior, UpModelParameters, default_parameters, static_posterior,
+                                   summarise_recording)
+
+RESULT = Path(__file__).resolve().parent / "results" / "fit_floor_contacts.txt"
+COMMAND = "python -m benchmarks.fit_floor_contacts --data ../shared/data"
+HEIGHTS_LEG = (0.02, 0.05, 0.1, 0.2)
+SPEEDS_LEG_S = (0.25, 0.5, 1.0, 2.0)
+WINDOWS_S = (0.05, 0.1, 0.2)
+#: Footfalls this far apart in height (metres, along the true up) are on two support levels.
+RAISED_M = 0.2
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One validation recording: its set (``"bandai paper"``, ...), the clip's name, joints ``(T, 17, 3)``
+    (camera frame, metres, the pelvis path kept), valid frames ``ok`` ``(T,)``, ``fps``, the
+    true up ``(3,)`` and the up model's posterior ``post``."""
+
+    set: str
+    name: str
+    joints: np.ndarray
+    ok: np.ndarray
+    fps: float
+    true_up: np.ndarray
+    post: StaticPosterior
+
+
+def _recording(tag: str, ev: dict, joints: np.ndarray, true_up: np.ndarray) -> Recording:
+    """One recording through the shipped chain's per-frame step and the up model; ``joints``
+    ``(T, 17, 3)`` with the pelvis path kept, ``true_up`` ``(T, 3)``."""
+    R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
+    R, ok = temporal.check_rotations(R, valid)
+    p = default_parameters()
+    post = static_posterior(summarise_recording(A.evidence_of(ev).frames(ok), ev["fps"], p), p)
+    return Recording(tag, ev["name"], joints, ok, ev["fps"], true_up[np.flatnonzero(ok)[0]], post)
+
+
+def recordings(data: Path, cache: Path) -> list[Recording]:
+    """Every validation recording of :func:`benchmarks.fit_up_model.val_evidence` (cached)
+    with its pelvis path kept (:class:`Recording`)."""
+    val = F.validation_sets(data, cache)
+    out = []
+    for tag, file in F.VAL_SETS:
+        clips = select_split(load_mocap(data / "mocap" / file), "val", "motion-style")
+        for views, seed in F.VAL_VIEWS:
+            rolled = views == "rolled"
+            rng_roll = np.random.default_rng(seed)  # the rolls of val_evidence, drawn in the same order
+            cached = {ev["name"]: ev for ev in val[tag, views]}
+            for clip, X, R, frames in A.static_camera_clips(clips, F.VAL_MAX_CLIPS, "paper" if rolled else views, seed):
+                root, up = A.camera_root_path(clip, frames, R), R[:, :, 1]
+                if rolled:
+                    Q = axis_rotation("z", np.radians(rng_roll.uniform(-180.0, 180.0)))
+                    X, up, root = (X.astype(np.float64) @ Q.T).astype(np.float32), up @ Q.T, root @ Q.T
+                ev = cached[clip.name]
+                if not np.array_equal(X, ev["J"]):
+                    raise SystemExit(f"{clip.name}: the cached validation inputs differ from make_pairs' (stale cache?)")
+                out.append(_recording(f"{tag} {views}", ev, X.astype(np.float64) + root[:, None], up))
+    return out
+
+
+def footfall_height_range(clip) -> float:
+    """Metres between the highest and the lowest footfall of a motion-capture clip (world
+    frame, +Y up; contacts under the shipped definition along the true up)."""
+    J = clip.joints.astype(np.float64)
+    ok = np.ones(len(J), bool)
+    c = detect_contacts(J, ok, np.array([0.0, 1.0, 0.0]), clip.fps, leg_length(J, ok), default_parameters())
+    return float(np.ptp(footfalls(c)[0][:, 1])) if len(c.points) else 0.0
+
+
+def raised_recordings(data: Path, cache: Path) -> list[Recording]:
+    """The check set (not fitted on): the CMU training subjects' clips in which the feet rest
+    on a raised surface for part of the take (:func:`footfall_height_range` over
+    :data:`RAISED_M`), one "paper" and one
+    "wide" static camera each, lifter noise, pelvis path kept. The networks trained on these
+    clips, so their ups are better than on new data; what this set checks is the floor's
+    geometry: two support levels."""
+    clips = [c for c in select_split(load_mocap(data / "mocap" / "cmu_train_h36m17.npz"), "train", "motion-style")
+             if footfall_height_range(c) > RAISED_M]
+    out = []
+    for views, seed in (("paper", 0), ("wide", 1)):
+        def build(v=views, s=seed):
+            evs = []
+            for clip, X, R, _ in A.static_camera_clips(clips, len(clips), v, s):
+                ev = A.extract(X, clip.fps)
+                ev.update(name=clip.name, true_up=R[:, :, 1].copy())
+                evs.append(ev)
+            return evs
+        cached = {ev["name"]: ev for ev in A.cached(cache, f"raised_cmu_train_{views}_{seed}", build)}
+        for clip, X, R, frames in A.static_camera_clips(clips, len(clips), views, seed):
+            ev = cached[clip.name]
+            if not np.array_equal(X, ev["J"]):
+                raise SystemExit(f"{clip.name}: the cached inputs differ from make_pairs' (stale cache?)")
+            root = A.camera_root_path(clip, frames, R)
+            out.append(_recording(f"raised {views}", ev, X.astype(np.float64) + root[:, None], R[:, :, 1]))
+    return out
+
+
+def error_model(recs: list[Recording], p: UpModelParameters) -> tuple[float, float, int]:
+    """``(sigma_f, s_o, footfalls)``: step 1 of the module docstring under ``p``'s contact definition."""
+    within, n_within, between = 0.0, 0, []
+    for r in recs:
+        leg = leg_length(r.joints, r.ok)
+        c = detect_contacts(r.joints, r.ok, r.true_up, r.fps, leg, p)
+        if not len(c.points):
+            continue
+        P, ankle = footfalls(c)
+        h = P @ r.true_up / leg
+        groups = [h[ankle == k] for k in (0, 1)]
+        for g in groups:
+            if len(g) > 1:
+                within += float(np.sum((g - g.mean()) ** 2))
+                n_within += len(g) - 1
+        if all(len(g) for g in groups):
+            between.append((groups[0].mean() - groups[1].mean(), 1 / len(groups[0]) + 1 / len(groups[1])))
+    sigma2 = within / max(n_within, 1)
+    d = np.array(between)
+    s_o2 = max(float(np.mean(d[:, 0] ** 2 - sigma2 * d[:, 1])) / 2, 0.0) if len(d) else 0.0
+    return float(np.sqrt(sigma2)), float(np.sqrt(max(s_o2, 1e-8))), n_within + 2 * len(d)
+
+
+def tilt_errors(recs: list[Recording], p: UpModelParameters) -> np.ndarray:
+    """Per recording, the tilt error (deg) of the chain's up under ``p`` (the floor fused with
+    an upright posterior)."""
+    err = []
+    for r in recs:
+        up = r.post.up
+        if r.post.posture == "upright":
+            up = ground_plane_up(r.joints, r.ok, up, r.fps, r.post.upright_cov(), p).up
+        err.append(float(A.deg(up, r.true_up)))
+    return np.array(err)
+
+
+def coverage_line(recs: list[Recording], p: UpModelParameters) -> str:
+    """How often the fused and the up model's 95 % pitch and roll intervals hold the truth
+    (both axes), over the recordings read upright whose floor moved the up."""
+    n, fused_hits, model_hits = 0, 0, 0
+    for r in recs:
+        if r.post.posture != "upright":
+            continue
+        out = ground_plane_up(r.joints, r.ok, r.post.up, r.fps, r.post.upright_cov(), p)
+        if not out.info["used"]:
+            continue
+        err = np.degrees(np.array(camera_pitch_roll(out.up)) - np.array(camera_pitch_roll(r.true_up)))
+        err[1] = (err[1] + 180.0) % 360.0 - 180.0
+        n += 1
+        fused_hits += bool(np.all(np.abs(err) <= Z95 * np.degrees(np.sqrt(np.diag(out.fit.cov)))))
+        model_hits += bool(np.all(np.abs(err) <= (r.post.pitch_half_deg, r.post.roll_half_deg)))
+    return (f"95 % interval coverage on validation, both axes, {n} upright recordings whose floor moved the up: "
+            f"fused posterior {100 * fused_hits / max(n, 1):.1f} %, the up model's intervals (shipped) "
+            f"{100 * model_hits / max(n, 1):.1f} %")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--data", type=Path, default=A.DEFAULT)
+    ap.add_argument("--cache", type=Path, default=A.CACHE)
+    ap.add_argument("--json", type=Path, default=F.JSON_OUT)
+    ap.add_argument("--out", type=Path, default=RESULT)
+    args = ap.parse_args(argv)
+    require_mocap(args.data, "fit_floor_contacts")
+    t0 = time.time()
+    recs = recordings(args.data, args.cache)
+    base = default_parameters()
+    no_floor = np.array([float(A.deg(r.post.up, r.true_up)) for r in recs])
+    sets = sorted({r.set for r in recs})
+    counts = ", ".join(f"{s} {sum(r.set == s for r in recs)}" for s in sets)
+    lines = [__doc__.split("\n")[0], "", f"    {COMMAND}", "",
+             f"Validation: {len(recs)} recordings ({counts}), "
+             "pelvis path kept (measured root), lifter noise.", "",
+             f"{'h_c':>5}{'v_c':>6}{'w':>6}{'sigma_f':>9}{'s_o':>8}{'mean tilt':>10}"]
+    results = []
+    for h_c, v_c, w in itertools.product(HEIGHTS_LEG, SPEEDS_LEG_S, WINDOWS_S):
+        p = replace(base, contact_height_leg=h_c, contact_speed_leg_s=v_c, contact_speed_window_s=w)
+        sigma_f, s_o, n = error_model(recs, p)
+        q = replace(p, footfall_height_sd_leg=sigma_f, ankle_offset_leg=s_o)
+        err = tilt_errors(recs, q)
+        results.append((float(err.mean()), q, err, n))
+        lines.append(f"{h_c:>5.2f}{v_c:>6.2f}{w:>6.2f}{sigma_f:>9.4f}{s_o:>8.4f}{err.mean():>10.3f}")
+        print(lines[-1], flush=True)
+    best_mean, best, err, n = min(results, key=lambda r: r[0])
+    split = (f"validation ({len(recs)} recordings: Bandai motion-style val + CMU val subjects, paper/wide/rolled static "
+             f"cameras, lifter noise, pelvis path kept)")
+    prov = {
+        "contact_height_leg": f"grid {HEIGHTS_LEG}, least mean tilt error, {split}",
+        "contact_speed_leg_s": f"grid {SPEEDS_LEG_S}, least mean tilt error, {split}",
+        "contact_speed_window_s": f"grid {WINDOWS_S}, least mean tilt error, {split}",
+        "footfall_height_sd_leg": f"pooled within-ankle std of {n} footfall heights along the true up, {split}",
+        "ankle_offset_leg": f"method of moments on the between-ankle mean height differences, {split}",
+    }
+    doc = json.loads(args.json.read_text())
+    for k in F.FLOOR_PARAMETERS:
+        doc["parameters"][k] = {"value": round(float(getattr(best, k)), 6), "provenance": f"{prov[k]}; {COMMAND}"}
+    args.json.write_text(json.dumps(doc, indent=2) + "\n")
+    UpModelParameters.load(args.json.read_text())  # the written file parses
+    lines += ["", "Shipped (least mean tilt error):"]
+    lines += [f"  {k} = {getattr(best, k):.4f}" for k in F.FLOOR_PARAMETERS]
+    lines += ["", f"{'validation set':<16}{'recordings':>11}{'up model alone':>16}{'with the floor':>16}"]
+    for s in sets:
+        m = np.array([r.set == s for r in recs])
+        lines.append(f"{s:<16}{m.sum():>11}{no_floor[m].mean():>16.2f}{err[m].mean():>16.2f}")
+    lines.append(f"{'all':<16}{len(recs):>11}{no_floor.mean():>16.2f}{best_mean:>16.2f}")
+    raised = raised_recordings(args.data, args.cache)
+    names = sorted({r.name for r in raised})
+    lines += ["", f"Check, two support levels (CMU training subjects, trained on by the networks; footfalls more than "
+              f"{RAISED_M} m apart in height): {len(names)} clips ({', '.join(names)}), paper + wide cameras",
+              f"{'set':<16}{'recordings':>11}{'up model alone':>16}{'with the floor':>16}{'  > 20 deg alone / floor':>26}"]
+    for views in ("paper", "wide"):
+        sub = [r for r in raised if r.set == f"raised {views}"]
+        alone = np.array([float(A.deg(r.post.up, r.true_up)) for r in sub])
+        fused = tilt_errors(sub, best)
+        lines.append(f"{'raised ' + views:<16}{len(sub):>11}{alone.mean():>16.2f}{fused.mean():>16.2f}"
+                     f"{int(np.sum(alone > 20)):>18} / {int(np.sum(fused > 20))}")
+    lines += ["", coverage_line(recs, best)]
+    lines.append(f"({time.time() - t0:.0f} s)")
+    print_and_save(lines, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
