@@ -54,7 +54,11 @@ train split; models/MODEL_CARD.md):
   with each clip's pelvis path kept in the camera frame (:func:`camera_root_path`), and the
   Bandai test split's other clips (those outside the seeded subset above: untouched by the
   floor work until decision 0043); rows: the default chain, whose up model is then fused with
-  the floor contacts (:mod:`pcnet.stages.ground_plane`), and the floor switched off;
+  the floor contacts (:mod:`pcnet.stages.ground_plane`), the floor switched off, and the
+  floor with the pelvis path a monocular run recovers from 2D keypoints instead
+  (:func:`keypoint_root_path`: the clean joints 3 m plus the pelvis's reach in front of the
+  camera, projected with 2 px noise and 5 % wrong detections, the lifter-noise 3D; its verdict
+  is against the floor switched off);
 - a moving camera (what mode ``auto`` and its threshold are for; every set above is a static
   camera): the cached inputs of the Bandai test and DeepMimic clips with at least 150 frames
   (at most 60 per set), the camera's pitch sweeping linearly through 30 deg over each clip
@@ -101,11 +105,14 @@ from pcnet.models.preprocess import normalize_input
 from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices
 from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
+from benchmarks.fit_root_path import K as K_VIEW
+from benchmarks.fit_root_path import detected_keypoints
 from benchmarks.report import require_mocap
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, up_model_sequence
+from pcnet.stages.root_path import root_from_keypoints
 from pcnet.stages.spherical import robust_mean_direction
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, frame_tilt_bound
 from pcnet.stages.up_model import UpEvidence, default_parameters, static_posterior, summarise_recording
@@ -349,15 +356,39 @@ def static_camera_clips(clips: list, max_clips: int, views: str = "paper", seed:
             yield clip, pairs.inputs[sel], pairs.R[sel], pairs.frame[sel]
 
 
-def camera_root_path(clip, frames: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """``(T, 3)`` float64 the clip's pelvis path in the camera frame of ``R`` ``(T, 3, 3)`` (true
-    canonical->camera of the clip's ``frames``), from its first frame's pelvis, metres: what a
-    depth sensor measures of the root (up to the camera's position). The world->camera turn of
-    each frame is ``R_t R_world,t^T`` (``R_world`` canonical->world, as make_pairs builds it)."""
+def camera_view_joints(clip, frames: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """``(T, 17, 3)`` float64 the clip's clean joints in the camera frame of ``R`` ``(T, 3, 3)``
+    (true canonical->camera of the clip's ``frames``), from its first frame's pelvis, metres.
+    The world->camera turn of each frame is ``R_t R_world,t^T`` (``R_world`` canonical->world,
+    as make_pairs builds it)."""
     W = clip.joints[frames].astype(np.float64)
     R_world, _ = canonical_rotation(W, (0.0, 1.0, 0.0))
     C = R @ np.swapaxes(R_world, 1, 2)
-    return np.einsum("tij,tj->ti", C, W[:, PELVIS] - W[:1, PELVIS])
+    return np.einsum("tij,tkj->tki", C, W - W[:1, PELVIS:PELVIS + 1])
+
+
+def camera_root_path(clip, frames: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` float64 the clip's pelvis path in the camera frame of ``R`` (:func:`camera_view_joints`),
+    from its first frame's pelvis, metres: what a depth sensor measures of the root (up to the
+    camera's position)."""
+    return camera_view_joints(clip, frames, R)[:, PELVIS]
+
+
+def keypoint_root_path(clip, frames: np.ndarray, R: np.ndarray, X: np.ndarray, fps: float,
+                       rng: np.random.Generator) -> np.ndarray:
+    """``(T, 3)`` float64 the pelvis path a monocular run recovers from 2D keypoints
+    (:func:`pcnet.stages.root_path.root_from_keypoints`, what ``pcnet run`` does with
+    ``--keypoints2d`` and metric poses). The clean joints (:func:`camera_view_joints`) stand
+    ``3 m`` plus the pelvis's largest excursion in front of the camera (as in
+    benchmarks/fit_root_path.py); a detector sees them with its pixel noise and wrong
+    detections (:func:`benchmarks.fit_root_path.detected_keypoints`); the 3D are the lifter-noise
+    inputs ``X`` ``(T, 17, 3)``, root-relative. NaN where no fit."""
+    P = camera_view_joints(clip, frames, R)
+    pelvis = P[:, PELVIS]
+    centre = pelvis.mean(0)
+    P = P - centre + np.array([0.0, 0.0, 3.0 + np.max(np.linalg.norm(pelvis - centre, axis=1))])
+    X = np.asarray(X, np.float64)
+    return root_from_keypoints(X - X[:, PELVIS:PELVIS + 1], detected_keypoints(P, rng), K_VIEW, fps).position
 
 
 def mocap_evidence(data: Path, file: str, split: str, max_clips: int, rest: bool = False) -> list[dict]:
@@ -725,36 +756,44 @@ def equivariance_table(evs: list[dict], runs: dict) -> list[str]:
 
 
 def measured_root_recordings(data: Path, file: str, split: str, max_clips: int, evs: list[dict], rest: bool = False):
-    """The held-out recordings ``evs`` of ``file`` / ``split`` (:func:`mocap_evidence`, ``rest`` as there) with their
-    pelvis path kept, as a depth sensor measures it: ``[(ev, joints (T, 17, 3) camera frame,
-    metres, root included)]`` (:func:`camera_root_path`)."""
+    """The held-out recordings ``evs`` of ``file`` / ``split`` (:func:`mocap_evidence`, ``rest``
+    as there) with a pelvis path: ``[(ev, joints with the path a depth sensor measures
+    (:func:`camera_root_path`), joints with the path recovered from 2D keypoints
+    (:func:`keypoint_root_path`, NaN frames where it has no fit))]``, each ``(T, 17, 3)``
+    camera frame, metres. The 2D noise is seeded per set (0), drawn clip after clip."""
     by_name = {ev["name"]: ev for ev in evs}
+    rng = np.random.default_rng(0)
     out = []
     for clip, X, R, frames in static_camera_clips(select_split(load_mocap(data / "mocap" / file), split, "motion-style"),
                                                   max_clips, rest=rest):
         ev = by_name[clip.name]
         if not np.array_equal(X, ev["J"]):
             raise SystemExit(f"{clip.name}: the cached inputs differ from make_pairs' (stale cache?)")
-        out.append((ev, X.astype(np.float64) + camera_root_path(clip, frames, R)[:, None]))
+        X = X.astype(np.float64)
+        from_2d = keypoint_root_path(clip, frames, R, X, ev["fps"], rng)
+        out.append((ev, X + camera_root_path(clip, frames, R)[:, None], X - X[:, PELVIS:PELVIS + 1] + from_2d[:, None]))
     return out
 
 
 def floor_table(sets: list[tuple[str, list]]) -> list[str]:
-    """The floor contacts switched off, on held-out recordings with a measured root: per set the
-    sequence tilt error of the default chain (the up model fused with the floor,
-    :func:`pcnet.stages.rectify.up_model_sequence` with the located joints) and of the up model
-    alone, the recordings whose floor moved the up, and the 95 % interval coverage of each."""
-    lines = ["## Floor contacts with a measured root (the held-out mocap above with each clip's pelvis path kept, as "
-             "a depth sensor measures it): sequence tilt error (deg) over clips",
+    """The floor contacts switched off, on held-out recordings with a pelvis path: per set the
+    sequence tilt error of the default chain with a measured root (the up model fused with the
+    floor, :func:`pcnet.stages.rectify.up_model_sequence` with the located joints), of the up
+    model alone, and of the floor with the path recovered from 2D keypoints (its verdict
+    against the up model alone), the recordings whose floor moved the up, and the 95 % interval
+    coverage of each."""
+    lines = ["## Floor contacts with a pelvis path (the held-out mocap above with each clip's pelvis path kept, as "
+             "a depth sensor measures it, or recovered from simulated 2D keypoints): sequence tilt error (deg) over "
+             "clips",
              f"{'set':<28}{'variant':<34}{'mean':>7}{'median':>8}{'p95':>7}{'>20':>5}{'floor':>7}"
-             "  verdict: mean diff vs default [95 % CI], deg; interval coverage"]
-    labels = ("default (floor fused)", "floor contacts off")
+             "  verdict: mean diff vs default (the 2D row: vs floor off) [95 % CI], deg; interval coverage"]
+    labels = ("default (floor fused)", "floor contacts off", "path from 2D keypoints")
     for title, recs in sets:
         rows = {label: ([], 0, []) for label in labels}
-        for ev, J in recs:
+        for ev, J, J2d in recs:
             R, valid, _, _ = per_frame(ev, VARIANTS[0])
             R, ok = temporal.check_rotations(R, valid)
-            for label, joints in zip(labels, (J, None)):
+            for label, joints in zip(labels, (J, None, J2d)):
                 _, _, seq = up_model_sequence(R, ok, evidence_of(ev), ev["fps"], joints_cam=joints)
                 pitch, roll = camera_pitch_roll(seq.up)
                 up = np.where(ok[:, None], seq.up, np.nan)
@@ -764,12 +803,13 @@ def floor_table(sets: list[tuple[str, list]]) -> list[str]:
                                                    seq.camera_roll_interval_deg)})
                 rows[label] = (err, used + bool(seq.ground_plane.get("used")), out)
         rows = {label: (np.array(err), used, out) for label, (err, used, out) in rows.items()}
-        base = rows[labels[0]][0]
+        base, off = rows[labels[0]][0], rows[labels[1]][0]
         for label, (err, used, out) in rows.items():
-            kind = "default" if label.startswith("default") else "removal"
-            cover = interval_coverage(out, [ev for ev, _ in recs]).split(": ", 1)[1]
+            kind, ref = {labels[0]: ("default", base), labels[1]: ("removal", base), labels[2]: ("removal", off)}[label]
+            word = verdict(kind, (off - err) if label == labels[2] else (err - ref))
+            cover = interval_coverage(out, [rec[0] for rec in recs]).split(": ", 1)[1]
             lines.append(f"{title:<28}{label:<34}{err.mean():>7.2f}{np.median(err):>8.2f}{np.percentile(err, 95):>7.2f}"
-                         f"{int(np.sum(err > GROSS_DEG)):>5}{used:>7}  {verdict(kind, err - base)}; {cover}")
+                         f"{int(np.sum(err > GROSS_DEG)):>5}{used:>7}  {word}; {cover}")
     return lines
 
 

@@ -103,6 +103,20 @@ def project(P: np.ndarray) -> np.ndarray:
     return q[..., :2] / q[..., 2:]
 
 
+def detected_keypoints(P: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``(T, 17, 3)`` x_px, y_px, confidence 1 of camera-frame joints ``P`` ``(T, 17, 3)``
+    (metres, in front of the camera) as a 2D detector gives them: projected by :data:`K`, with
+    N(0, :data:`PIXEL_SIGMA`) px per coordinate and :data:`OUTLIER_SHARE` of the joints moved
+    by U(:data:`OUTLIER_PX`) px in a random direction (wrong detections)."""
+    uv = project(P)
+    uv = uv + rng.normal(0.0, PIXEL_SIGMA, uv.shape)
+    bad = rng.random(uv.shape[:2]) < OUTLIER_SHARE
+    ang = rng.uniform(0, 2 * np.pi, uv.shape[:2])
+    r = rng.uniform(*OUTLIER_PX, uv.shape[:2])
+    uv = uv + bad[..., None] * r[..., None] * np.stack([np.cos(ang), np.sin(ang)], -1)
+    return np.concatenate([uv, np.ones(uv.shape[:2] + (1,))], -1)
+
+
 def evaluate(clips, condition: str, seed: int = 0, size_std: float = 0.0) -> dict:
     rng = np.random.default_rng(seed)
     errs, axis_errs, speed_errs, raw_errs, cover = [], [], [], [], []
@@ -111,17 +125,13 @@ def evaluate(clips, condition: str, seed: int = 0, size_std: float = 0.0) -> dic
     for i, c in enumerate(clips):
         P = camera_view(np.asarray(c.joints, np.float64))
         X = P - P[:, PELVIS:PELVIS + 1]
-        uv = project(P)
-        if condition != "clean":
-            uv = uv + rng.normal(0.0, PIXEL_SIGMA, uv.shape)
-            bad = rng.random(uv.shape[:2]) < OUTLIER_SHARE
-            ang = rng.uniform(0, 2 * np.pi, uv.shape[:2])
-            r = rng.uniform(*OUTLIER_PX, uv.shape[:2])
-            uv = uv + bad[..., None] * r[..., None] * np.stack([np.cos(ang), np.sin(ang)], -1)
+        if condition == "clean":
+            kp = np.concatenate([project(P), np.ones(P.shape[:2] + (1,))], -1)
+        else:
+            kp = detected_keypoints(P, rng)
         if condition == "lifter":
             errors = sample_lifter_errors(len(X), c.fps, np.random.default_rng(1000 + i))
             X = apply_lifter_errors(X, errors)
-        kp = np.concatenate([uv, np.ones(uv.shape[:2] + (1,))], -1)
         t0 = time.perf_counter()
         res = root_from_keypoints(X, kp, K, c.fps, size_std_fraction=size_std)
         elapsed += time.perf_counter() - t0

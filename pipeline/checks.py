@@ -72,11 +72,13 @@ def checks(c: CheckInputs) -> list[Finding]:
     """The findings of a rectified recording, in the order canonical.npz keeps their texts: the
     camera's orientation, the body's size, legs and size change, keypoints outside the image, a
     side swap (or else a mirrored skeleton), a body not upright, the posture hypotheses, the
-    ensemble's weights, the lifter's frame and a switch of the 2D track."""
+    ensemble's weights (outside sequence mode), the lifter's frame and a switch of the 2D track."""
     report, cam, kp2d, video = c.report, c.joints_camera, c.keypoints2d, c.video
+    # The view gate's weights shape the answer only where the per-frame up is the answer.
+    weights = report.weights if report.mode.run != "sequence" else None
     return [
         *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg,
-                           turn_reported=quarter_turn_reported(report.weights)),
+                           turn_reported=quarter_turn_reported(weights)),
         *(body_size_flag(cam, c.units) if not c.height_given else []),
         *leg_asymmetry_flag(cam),
         # image-scaled sizes are made constant per frame (the scale step); a metric body should keep its own
@@ -88,7 +90,7 @@ def checks(c: CheckInputs) -> list[Finding]:
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
         *non_upright_flag(c.canonical, c.valid),
         *posture_flag(report.sequence),
-        *ensemble_weights_flag(report.weights, lying=report.lying),
+        *ensemble_weights_flag(weights),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report)),
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option)
           if c.track_segment is not None else []),

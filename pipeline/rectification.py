@@ -101,9 +101,11 @@ def rectify(
     reading; False = the poses alone (a uniform prior, upright). Other methods' sequence mode
     is the robust mean of their per-frame ups with its bootstrap, no prior (with
     ``heading="predicted"`` and ``weights`` one 3DPCNet's ONNX, the paper's model alone).
-    ``measured_root``: the joints keep a measured root path (a depth sensor, metres), so
-    sequence mode also weighs the floor contacts (:mod:`pcnet.stages.ground_plane`); root-relative
-    joints (monocular lifters) carry no floor. ``report`` says what ran.
+    ``measured_root``: the joints keep a camera-frame root path (a depth sensor's, or one
+    recovered from 2D keypoints by :func:`pcnet.stages.root_path.root_from_keypoints`, as
+    ``pcnet run`` does), so sequence mode also weighs the floor contacts
+    (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor. ``report`` says
+    what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
     :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least

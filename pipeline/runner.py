@@ -56,7 +56,7 @@ from .config import RunConfig, multi_track_formats
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
-from .pelvis_path import camera_intrinsics, pelvis_path
+from .pelvis_path import PelvisPath, camera_intrinsics, pelvis_path
 from .run_report import RunReport
 from .video_estimate import estimated_inputs
 
@@ -905,19 +905,38 @@ def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
         _check_measured_root(cfg, camera.root)
 
 
-def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: FrameStore) -> Rectified:
-    """Rectify the camera-frame poses (:func:`pcnet.pipeline.rectification.rectify_checked`)
-    and read the camera's tilt; the report gets the pelvis fill."""
+def _keypoint_path(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame) -> PelvisPath | None:
+    """The pelvis path recovered from the 2D keypoints before rectification, for the up's floor
+    contacts (decision 0044): in sequence or auto mode, without a measured root, from metric
+    poses as the lifter gave them (a later ``--height`` scales poses and path alike, which
+    moves no floor's tilt); ``None`` where there is none (:func:`pcnet.pipeline.pelvis_path.pelvis_path`)."""
+    recording = inputs.recording
+    if (camera.root is not None or camera.keypoints2d is None or recording.units != "m"
+            or cfg.mode not in ("sequence", "auto")):
+        return None
+    path = pelvis_path(None, camera.joints, camera.keypoints2d,
+                       camera_intrinsics(cfg.focal_px, recording.camera_matrix, inputs.image_size),
+                       recording.units, recording.fps, cfg.min_confidence)
+    return path if path.kind == "from 2D keypoints" else None
+
+
+def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: FrameStore,
+             keypoint_path: PelvisPath | None = None) -> Rectified:
+    """Rectify the camera-frame poses (:func:`pcnet.pipeline.rectification.rectify_checked`),
+    located by the measured root or else by ``keypoint_path`` (:func:`_keypoint_path`) so that
+    sequence mode weighs the floor contacts, and read the camera's tilt; the report gets the
+    pelvis fill."""
     fps, kp2d = inputs.recording.fps, camera.keypoints2d
+    root = camera.root if camera.root is not None else (keypoint_path.camera if keypoint_path is not None else None)
     segment, events = track_segments(kp2d, fps) if kp2d is not None else (None, [])
     # A static camera does not move when the tracker jumps to another person, but the
     # jump and the other body's poses read as camera motion: decide the mode on one
     # person's frames.
     decide_on = one_person_frames(segment) if events else None
     try:
-        res = rectify_checked(_located(camera.joints, camera.root, store), cfg.method, cfg.weights, cfg.mode, fps,
+        res = rectify_checked(_located(camera.joints, root, store), cfg.method, cfg.weights, cfg.mode, fps,
                               cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on,
-                              measured_root=camera.root is not None)
+                              measured_root=root is not None)
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
             raise  # the weights file's own error, already naming it
@@ -976,17 +995,22 @@ def _scale(cfg: RunConfig, camera: CameraFrame, canonical, units: str, fps: floa
     return Scaled(replace(camera, root=root_cam), units, tuple(notes))
 
 
-def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, store: FrameStore) -> World:
-    """The fixed world frame of a static camera (sequence mode): the pelvis path, the floor and
-    the world-frame poses; other modes have none, and say why. Anything differentiated in time
+def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, store: FrameStore,
+           keypoint_path: PelvisPath | None = None) -> World:
+    """The fixed world frame of a static camera (sequence mode): the pelvis path (the one
+    rectification used where the poses were not rescaled since), the floor and the
+    world-frame poses; other modes have none, and say why. Anything differentiated in time
     lives in one fixed frame per recording; only a static camera gives one."""
     cam, fps = scaled.camera.joints, inputs.recording.fps
     mode = rectified.report.mode
     if mode.run == "sequence":
         frame = world_frame(rectified.rotation, rectified.valid, fps)
-        path = pelvis_path(scaled.camera.root, cam, scaled.camera.keypoints2d,
-                           camera_intrinsics(cfg.focal_px, inputs.recording.camera_matrix, inputs.image_size),
-                           scaled.units, fps, cfg.min_confidence)
+        if keypoint_path is not None and cfg.height is None:
+            path = keypoint_path
+        else:
+            path = pelvis_path(scaled.camera.root, cam, scaled.camera.keypoints2d,
+                               camera_intrinsics(cfg.focal_px, inputs.recording.camera_matrix, inputs.image_size),
+                               scaled.units, fps, cfg.min_confidence)
         joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64))
         return World(joints, frame.rotation, path.world_std(frame.rotation),
                      tuple(floor_flag(feet_visible(cam), present_frames(cam))),
@@ -1124,7 +1148,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         bar.update()
 
         step("rectify")
-        rectified = _rectify(cfg, inputs, camera, store)
+        keypoint_path = _keypoint_path(cfg, inputs, camera)
+        rectified = _rectify(cfg, inputs, camera, store, keypoint_path)
         findings = checks(_check_inputs(cfg, inputs, camera, rectified))
         bar.update()
 
@@ -1134,7 +1159,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         bar.update()
 
         step("kinematics")
-        world = _world(cfg, inputs, scaled, rectified, store)
+        world = _world(cfg, inputs, scaled, rectified, store, keypoint_path)
         findings += world.findings
         # the rotations on disk: only the sinks read them from here on
         rectified = replace(rectified, rotation=_moved_to_disk(rectified.rotation, "rotation", store))

@@ -538,15 +538,16 @@ def quarter_turn_reported(weights: EnsembleWeights | None) -> bool:
     return sum(weights.turned_frames.values()) > OUTSIDE_VIEWS_SHARE * weights.frames
 
 
-def ensemble_weights_flag(weights: EnsembleWeights | None, lying: bool = False) -> list[Finding]:
+def ensemble_weights_flag(weights: EnsembleWeights | None) -> list[Finding]:
     """Flags from the shipped ensemble's weights (:class:`~pcnet.stages.rectification_report.EnsembleWeights`),
     each when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the
     camera read as turned by 90 or 270 deg about its optical axis (the camera-frame network
     read the poses turned back), and the camera-frame 3DPCNet (partly) set aside for the
     body-frame one (the remaining roll beyond 10-20 deg or pitch beyond 40-50 deg, or a body
     whose trunk is far from the image's vertical). ``None`` (one estimator ran) gives none.
-    ``lying``: the up model read the body as lying (:func:`posture_flag`), which then sets the
-    answer instead of the turned view; the quarter-turn flag says so."""
+    They concern the per-frame up, so a run calls this only where that up is the answer (frame
+    and smooth modes): in sequence mode the up model weighs both networks itself, and the
+    posture and orientation flags say what it read."""
     if not weights or not weights.frames:
         return []
     flags = []
@@ -559,9 +560,7 @@ def ensemble_weights_flag(weights: EnsembleWeights | None, lying: bool = False) 
             f"lying body?", "check the result",
             f"camera read as turned a quarter turn about its optical axis (a phone in portrait, or a body lying "
             f"across the image) in {sum(turned.values())} of {frames} frames ({counts}): the camera-frame network "
-            f"read those poses turned back (models/view_gate.py: quarter_turns)"
-            + ("; the up model then read the body as lying under a level camera instead, and that posterior mode "
-               "is the answer (the 'body read as lying' warning)" if lying else "")))
+            f"read those poses turned back (models/view_gate.py: quarter_turns)"))
     outside = weights.set_aside_frames
     if outside <= OUTSIDE_VIEWS_SHARE * frames:
         return flags

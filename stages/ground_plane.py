@@ -61,8 +61,9 @@ _IRLS_STEPS = 20
 #: Grid points per tilt axis of the coarse search (a resolution of half a prior standard
 #: deviation; Newton-like IRLS refines from there).
 _COARSE_STEPS = 13
-#: The report's reason where the joints carry no measured root.
-NO_MEASURED_ROOT = "no measured root: root-relative joints carry no floor"
+#: The report's reason where the joints carry no pelvis path (measured, or recovered from 2D keypoints).
+NO_PELVIS_PATH = ("no pelvis path: root-relative joints carry no floor (a measured root, or 2D keypoints with "
+                    "metric poses, give one)")
 #: Eigen-directions of the floor's information below this share of the prior's are treated as
 #: unconstrained (numerical rank, not a tuning constant).
 _RANK_TOL = 1e-6
@@ -114,8 +115,9 @@ def detect_contacts(J, ok: np.ndarray, up: np.ndarray, fps: float, leg: float,
     speed = np.full((T, 2), np.nan)
     if T > 2 * k:
         speed[k:-k] = np.linalg.norm(ank[2 * k:] - ank[:-2 * k], axis=-1) / (2 * k / fps)
+    lowest = np.min(np.where(np.isfinite(h), h, np.inf), axis=1, keepdims=True)  # inf: no ankle in that frame
     with np.errstate(invalid="ignore"):
-        low = h <= np.nanmin(h, axis=1, keepdims=True) + p.contact_height_leg * leg
+        low = h <= lowest + p.contact_height_leg * leg
         slow = speed < p.contact_speed_leg_s * leg
     contact = low & slow & ok[:, None] & np.isfinite(h)
     pts, frames, ankle, footfall = [], [], [], []

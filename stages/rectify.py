@@ -28,7 +28,7 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
-from .ground_plane import NO_MEASURED_ROOT, ground_plane_up
+from .ground_plane import NO_PELVIS_PATH, ground_plane_up
 from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
@@ -189,7 +189,8 @@ class SequenceEvidence:
     frame, with that reason). ``camera_prior``: the up model's declared priors (False: the
     poses alone). ``n_bootstrap``: replicates of another method's sequence-mode uncertainty
     (0 = none, NaN; the rotations do not depend on it). ``measured_root``: the joints carry a
-    measured root path (a depth sensor), so sequence mode fuses the floor contacts
+    camera-frame pelvis path (a depth sensor's, or one recovered from 2D keypoints,
+    :mod:`pcnet.stages.root_path`), so sequence mode fuses the floor contacts
     (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor.
 
     Raises:
@@ -296,7 +297,7 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     if not camera_prior:
         params = replace(params, camera_prior_outside=1.0)
     post = static_posterior(summarise_recording(evidence.frames(ok), fps, params), params, lying=camera_prior)
-    up, ground, kind = post.up, {"used": False, "reason": NO_MEASURED_ROOT}, "up model"
+    up, ground, kind = post.up, {"used": False, "reason": NO_PELVIS_PATH}, "up model"
     if joints_cam is not None and post.posture == "upright":
         floor = ground_plane_up(check_poses(joints_cam, "joints_cam"), ok, post.up, fps, post.upright_cov(), params)
         up, ground = floor.up, floor.info

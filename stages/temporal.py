@@ -33,7 +33,7 @@ from scipy.spatial.transform import Rotation
 from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.rotations import angle_between, camera_pitch_roll, decompose_camera_rotation, normalize
-from .ground_plane import NO_MEASURED_ROOT, fit_floor, ground_plane_up
+from .ground_plane import NO_PELVIS_PATH, fit_floor, ground_plane_up
 from .spherical import robust_mean_direction, weighted_quantile
 from .up_model import default_parameters
 
@@ -247,7 +247,7 @@ def sequence_rectify(
     w = ok.astype(np.float64)
 
     u_pose, _ = robust_mean_direction(ups, w)
-    up, gp = u_pose, {"used": False, "reason": NO_MEASURED_ROOT}
+    up, gp = u_pose, {"used": False, "reason": NO_PELVIS_PATH}
     floor_contacts, leg = None, float("nan")
     J = None
     if joints_cam is not None:

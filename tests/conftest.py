@@ -51,6 +51,7 @@ def run_report(requested: str = "auto", run: str = "sequence", spread_deg: float
 
     from pcnet.pipeline.checks import CameraTilt
     from pcnet.pipeline.run_report import RunReport
+    from pcnet.stages.ground_plane import NO_PELVIS_PATH
     from pcnet.stages.rectification_report import (HeadingChoice, ModeChoice, PostureHypotheses,
                                                    RectificationReport, SequenceUp)
 
@@ -58,7 +59,7 @@ def run_report(requested: str = "auto", run: str = "sequence", spread_deg: float
     if intervals_deg is not None:
         sequence = SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 8.6, 2.0, *intervals_deg,
                               float(np.hypot(*intervals_deg)), 3.0, 1.5, None, PostureHypotheses("upright", 0.0, 8.0),
-                              2.0, 5.0, {"used": False, "reason": "no measured root: root-relative joints carry no floor"})
+                              2.0, 5.0, {"used": False, "reason": NO_PELVIS_PATH})
     rect = RectificationReport(ModeChoice(requested, run, spread_deg=spread_deg), sequence,
                                HeadingChoice("predicted", "auto", 3.0, 4.0), None, None, 4.4, np.full(3, 4.4))
     return RunReport(rect, CameraTilt(8.8, 8.6, 2.0), [8.0, 7.0, 9.0], None,

@@ -270,6 +270,19 @@ def test_a_method_without_calibration_prints_no_95_percent_interval(tmp_path):
     assert report["camera_pitch_interval_deg"] is None and report["camera_pitch_uncertainty_deg"] > 0
 
 
+def test_the_view_gates_warnings_come_only_where_its_up_is_the_answer(tmp_path):
+    """Real VideoPose3D Shavasana under a level camera: per frame, the view gate reads a camera
+    turned a quarter turn and says so; in sequence mode the up model weighs both networks
+    itself, so only its reading (a body lying) is said."""
+    args = ("run", "--lifter", "videopose3d", "--lifter-output", FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy",
+            "--fps", "30", "--no-recording")
+    seq = _invoke(*args, "--out", tmp_path / "s")
+    frame = _invoke(*args, "--mode", "frame", "--out", tmp_path / "f")
+    assert seq.exit_code == 0 and frame.exit_code == 0, seq.output + frame.output
+    assert "body read as lying" in seq.output and "quarter turn in" not in seq.output, seq.output
+    assert "camera read as turned a quarter turn in 100 of 100 frames" in frame.output, frame.output
+
+
 def test_a_2d_file_shorter_than_the_video_needs_align(tmp_path):
     """A 5-frame MediaPipe 2D file with a 10-frame video and 10 frames of 3D: the counts
     differ (a wrong file or another rate); it is not padded with missing frames."""
@@ -654,7 +667,50 @@ def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):
     assert errors["measured root"] < 0.6 * errors["root-relative"] and errors["measured root"] < 1.0
     # the root must be declared measured: located joints alone are not taken for a floor
     undeclared = rectify(J, "pcnet", None, "sequence", 30.0).report.sequence
-    assert undeclared.evidence == "up model" and "no measured root" in undeclared.ground_plane["reason"]
+    assert undeclared.evidence == "up model" and "no pelvis path" in undeclared.ground_plane["reason"]
+
+
+def test_a_pelvis_path_from_2d_keypoints_lets_sequence_mode_fit_the_floor(tmp_path):
+    """A monocular run: the same real walk, root-relative as a lifter gives it, and its 2D
+    keypoints (the camera's perspective projection, 2 px noise). The path recovered from them
+    (stages/root_path.py) places the feet, and the floor contacts then correct the up
+    (decision 0044); without the path they cannot."""
+    from pcnet.adapters.kinect import load_kinect_v1
+    from pcnet.pipeline.rectification import rectify
+    from pcnet.stages.root_path import root_from_keypoints
+
+    _kinect_walk(tmp_path / "walk.npy", pitch_deg=10.0)
+    J = load_kinect_v1(tmp_path / "walk.npy", fps=30.0).joints.astype(np.float64)  # camera frame, 3 m away
+    a = np.radians(10.0)
+    true_up = np.array([0.0, -np.cos(a), np.sin(a)])
+    K = np.array([[1400.0, 0.0, 960.0], [0.0, 1400.0, 540.0], [0.0, 0.0, 1.0]])
+    uv = J @ K.T
+    uv = uv[..., :2] / uv[..., 2:] + np.random.default_rng(0).normal(0.0, 2.0, J.shape[:2] + (2,))
+    relative = J - J[:, PELVIS : PELVIS + 1]
+    path = root_from_keypoints(relative, np.concatenate([uv, np.ones(J.shape[:2] + (1,))], -1), K, 30.0).position
+    errors = {}
+    for name, X, located in (("root-relative", relative, False), ("path from 2D", relative + path[:, None], True)):
+        seq = rectify(X, "pcnet", None, "sequence", 30.0, measured_root=located).report.sequence
+        errors[name] = np.degrees(np.arccos(np.clip(seq.up @ true_up, -1.0, 1.0)))
+        print(f"\n{name}: {seq.ground_plane['reason']}, sequence up {errors[name]:.2f} deg from the truth")
+    assert errors["path from 2D"] < 0.6 * errors["root-relative"] and errors["path from 2D"] < 1.0
+
+
+def test_pcnet_run_recovers_the_pelvis_path_before_rectifying(tmp_path):
+    """With 2D keypoints and metric poses, ``pcnet run``'s sequence mode hands the up's floor
+    contacts the path recovered from the 2D keypoints (real MediaPipe, the Sports2D demo's first
+    60 frames: one footfall, so the floor constrains no tilt there and says so); without 2D
+    keypoints there is no path."""
+    base = ("run", "--lifter", "mediapipe", "--lifter-output", MEDIAPIPE, "--no-recording")
+    reports = {}
+    for name, extra in (("2D", ("--keypoints2d", MEDIAPIPE, "--keypoints2d-format", "mediapipe")), ("3D only", ())):
+        res = _invoke(*base, *extra, "--out", tmp_path / name)
+        assert res.exit_code == 0, res.output
+        with np.load(tmp_path / name / "canonical.npz") as npz:
+            reports[name] = json.loads(str(npz["report"]))
+    assert reports["2D"]["root_path"] == "from 2D keypoints" and reports["2D"]["ground_plane"]["n_footfalls"] >= 1
+    assert reports["2D"]["ground_plane"]["reason"] == "the contacts constrain no floor tilt"
+    assert reports["3D only"]["ground_plane"]["reason"].startswith("no pelvis path")
 
 
 def test_lifter_joints_is_what_pcnet_run_reads_from_a_lifter():

@@ -284,7 +284,7 @@ def test_ground_plane_skipped_when_evidence_unusable():
     assert moved < 1.0
     # No joints given.
     res = _pose_only(Rg, vg, None, n_bootstrap=0)
-    assert res.evidence == "poses" and res.ground_plane["reason"] == tm.NO_MEASURED_ROOT
+    assert res.evidence == "poses" and res.ground_plane["reason"] == tm.NO_PELVIS_PATH
 
 
 def test_input_errors():
