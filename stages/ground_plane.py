@@ -63,7 +63,7 @@ _IRLS_STEPS = 20
 _COARSE_STEPS = 13
 #: The report's reason where the joints carry no pelvis path (measured, or recovered from 2D keypoints).
 NO_PELVIS_PATH = ("no pelvis path: root-relative joints carry no floor (a measured root, or 2D keypoints with "
-                    "metric poses, give one)")
+                  "poses in metres as the lifter gives them, give one)")
 #: Eigen-directions of the floor's information below this share of the prior's are treated as
 #: unconstrained (numerical rank, not a tuning constant).
 _RANK_TOL = 1e-6
