@@ -27,8 +27,8 @@ their median (fixed), solved by iteratively reweighted least squares from the me
 at the top) and a heel rising before toe-off are high outliers the biweight rejects.
 
 Why a horizontal plane (only its height fitted), not a tilted one: the world frame's +Y is the
-recording's gravity estimate, and with a measured pelvis path sequence mode already weighs
-the floor's tilt from the foot contacts in that estimate (:func:`pcnet.stages.ground_plane.ground_plane_up`,
+recording's gravity estimate, and with a pelvis path (measured, or recovered from the 2D
+keypoints) sequence mode already weighs the floor's tilt from the foot contacts in that estimate (:func:`pcnet.stages.ground_plane.ground_plane_up`,
 a term of the up model); a second tilt here would either repeat that fit or contradict the
 gravity the accelerations use. A depth scale error of a recovered path
 scales it along the camera rays about the camera centre, which moves every stance contact by

@@ -184,11 +184,12 @@ def levels_objective(heights: np.ndarray, scale: float) -> float:
     return float(np.sum(TUKEY_C ** 2 / 6 * (1 - (1 - x) ** 3)) + (n_levels - 1) * TUKEY_C ** 2 / 6)
 
 
-def _coarse_tilt(h: np.ndarray, q: np.ndarray, scale: float, prior_cov: np.ndarray) -> np.ndarray:
+def _coarse_tilt(h: np.ndarray, q: np.ndarray, scale: float, prior_cov: np.ndarray,
+                 prior_inv: np.ndarray) -> np.ndarray:
     """``(2,)`` rad: the best tilt on a grid over +-3 prior standard deviations (the posterior
     is multimodal in the tilt: along a wrong normal a long walk's footfalls spread over
-    several levels), by :func:`levels_objective` plus the prior's."""
-    prior_inv = np.linalg.inv(prior_cov)
+    several levels), by :func:`levels_objective` plus the prior's (``prior_inv`` the inverse of
+    ``prior_cov``)."""
     sd = np.sqrt(np.max(np.linalg.eigvalsh(prior_cov)))
     axis = np.linspace(-3.0 * sd, 3.0 * sd, _COARSE_STEPS)
     tilts = np.stack(np.meshgrid(axis, axis, indexing="ij"), -1).reshape(-1, 2)
@@ -209,7 +210,7 @@ def fit_floor(c: Contacts, u0: np.ndarray, prior_cov: np.ndarray, leg: float,
     h, q = P @ u0, np.column_stack([P @ e1, P @ e2])
     scale = p.footfall_height_sd_leg * leg
     prior_inv = np.linalg.inv(prior_cov)
-    tilt = _coarse_tilt(h, q, scale, prior_cov)
+    tilt = _coarse_tilt(h, q, scale, prior_cov, prior_inv)
     for _ in range(_IRLS_STEPS):
         level = support_levels(h + q @ tilt, scale)
         n_levels = int(level.max()) + 1
@@ -269,13 +270,14 @@ class FloorOutcome:
 
 def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, fps: float, prior_cov: np.ndarray,
                     p: UpModelParameters | None = None) -> FloorOutcome:
-    """The up refined by the floor contacts of a recording with a measured root.
+    """The up refined by the floor contacts of a recording with a pelvis path (measured, or
+    recovered from 2D keypoints).
 
     Contacts are detected along ``u0``, the floor fused (:func:`fit_floor`), and the contacts
     re-detected once along the fused up and fused again (the prior stays ``u0``'s).
 
     Args:
-        J: ``(T, 17, 3)`` float H36M-17 poses in the camera frame with the measured root kept
+        J: ``(T, 17, 3)`` float H36M-17 poses in the camera frame with the pelvis path added
             (any length unit); a pelvis exactly fixed on a camera axis (root-relative or
             depth-pinned joints) carries no floor and is refused with that reason.
         ok: ``(T,)`` bool, the frames to use.

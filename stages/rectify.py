@@ -213,7 +213,7 @@ class SequenceEvidence:
 
         Args:
             joints_cam: ``(T, 17, 3)`` camera-frame joints (floor contacts in sequence mode
-                where the root is measured) or ``None``. evidence: the two networks' own ups (the shipped ensemble):
+                where they carry a pelvis path, ``measured_root``) or ``None``. evidence: the two networks' own ups (the shipped ensemble):
                 sequence mode is then the up model's static posterior (:func:`up_model_sequence`).
             R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool or
                 ``None`` (all). fps: frame rate, > 0. decide_on:
@@ -281,7 +281,7 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     ``(T, 3, 3)``; ``ok`` ``(T,)`` bool their valid frames).
 
     ``camera_prior`` False: a uniform prior over the up and no lying hypothesis (the poses
-    alone). ``joints_cam`` ``(T, 17, 3)`` with a measured root (a depth sensor): an upright
+    alone). ``joints_cam`` ``(T, 17, 3)`` with a pelvis path (measured, or from 2D keypoints): an upright
     posture's posterior is fused with the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`,
     the upright hypothesis's own pitch and roll half-widths as its normal prior). The intervals
     stay the up model's: the fused ones are too narrow on validation

@@ -205,7 +205,7 @@ def sequence_rectify(
 
     1. **Up**: :func:`robust_mean_direction` of the per-frame ups ``R[:, :, 1]`` (Weiszfeld
        geometric median on S^2, then Tukey-biweight IRLS).
-    2. **Ground plane** (``joints_cam`` given, with a measured root): the floor contacts fused
+    2. **Ground plane** (``joints_cam`` given, with a pelvis path): the floor contacts fused
        with the robust mean up as a Gaussian prior of std :data:`POSE_PRIOR_DEG` per axis
        (:func:`pcnet.stages.ground_plane.ground_plane_up`, with the up model's fitted contact
        parameters), the reason in ``ground_plane["reason"]``.
@@ -248,7 +248,7 @@ def sequence_rectify(
 
     u_pose, _ = robust_mean_direction(ups, w)
     up, gp = u_pose, {"used": False, "reason": NO_PELVIS_PATH}
-    floor_contacts, leg = None, float("nan")
+    contacts, leg = None, float("nan")
     J = None
     if joints_cam is not None:
         # Left as given (float32, or on disk for a long recording): the estimators read the
@@ -260,8 +260,7 @@ def sequence_rectify(
         floor = ground_plane_up(J, ok, u_pose, fps, _pose_prior_cov())
         up, gp = floor.up, floor.info
         if gp["used"]:
-            floor_contacts, leg = floor.contacts, floor.leg
-    contacts = floor_contacts if gp["used"] else None
+            contacts, leg = floor.contacts, floor.leg
     evidence = "poses+ground_plane" if gp["used"] else "poses"
     rotations, hok = rotations_about_up(R, up)
     out_valid = ok & hok

@@ -39,8 +39,8 @@ Camera prior (declared, docs/CONVENTIONS.md "handheld" views): camera pitch
 ``N(0, prior_pitch^2)`` and roll ``N(0, prior_roll^2)`` with a uniform share ``eps_cam`` for
 cameras outside them.
 
-Floor contacts. Where the input's root is measured (a depth sensor), the resting ankles trace
-the floor, whose normal is ``g``; :mod:`pcnet.stages.ground_plane` fuses that evidence with an
+Floor contacts. Where the joints carry a pelvis path (a depth sensor's, or one recovered from
+2D keypoints), the resting ankles trace the floor, whose normal is ``g``; :mod:`pcnet.stages.ground_plane` fuses that evidence with an
 upright posterior (its parameters are this model's too).
 
 Answers. Static camera (``sequence``): the posterior ``p(g, posture | g_hat)`` on a sphere grid
