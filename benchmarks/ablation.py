@@ -62,7 +62,13 @@ train split; models/MODEL_CARD.md):
 - a moving camera (what mode ``auto`` and its threshold are for; every set above is a static
   camera): the cached inputs of the Bandai test and DeepMimic clips with at least 150 frames
   (at most 60 per set), the camera's pitch sweeping linearly through 30 deg over each clip
-  (the protocol of benchmarks/auto_mode_threshold.py); the truth's up moves with the camera.
+  (the protocol of benchmarks/auto_mode_threshold.py); the truth's up moves with the camera;
+- a rolled camera (issue 49's "camera rolled 30 deg, extra tilt <= +0.5", measured against
+  the truth): the cached inputs of the three held-out mocap sets with the camera rolled 30 deg
+  about its optical axis, clockwise for even clips and anticlockwise for odd ones (``X' = X
+  Q^T``, true up ``Q u``); per clip the extra sequence tilt error is its error rolled minus its
+  error unrolled (the mocap sections' recording), and the verdict is on that extra against the
+  default's.
 
 Metrics. Mocap: per clip the tilt error of the output (mean over its valid frames of the
 angle between the output up and the true up; in sequence mode the one up's error), then mean
@@ -134,6 +140,7 @@ NEGLIGIBLE_DEG = 0.05
 #: A clip "changed" when its error moved by more than this (deg).
 CHANGED_DEG = 0.5
 SWEEP_DEG = 30.0
+ROLL_DEG = 30.0
 SWEEP_MIN_FRAMES = 150
 SWEEP_MAX_CLIPS = 60
 CACHE_VERSION = 6
@@ -335,12 +342,13 @@ def cached(cache: Path, name: str, build):
     return out
 
 
-def static_camera_clips(clips: list, max_clips: int, views: str = "paper", seed: int = 0, rest: bool = False):
+def static_camera_clips(clips: list, max_clips: int, views: str = "paper", seed: int = 0, rest: bool = False,
+                        noise: LifterNoise | None = None):
     """The held-out protocol's recordings: at most ``max_clips`` of ``clips`` (a seeded random
     subset, in order; ``rest``: the clips outside that subset instead), each seen by one static
     camera of ``views`` with lifter noise
-    (``make_pairs(..., views=views, seed=seed, camera="static", noise=LifterNoise())``; the
-    held-out sets use the "paper" views, seed 0). Yields ``(clip, inputs (T, 17, 3)
+    (``make_pairs(..., views=views, seed=seed, camera="static", noise=noise or LifterNoise())``;
+    the held-out sets use the "paper" views, seed 0). Yields ``(clip, inputs (T, 17, 3)
     camera-frame joints, R (T, 3, 3) true canonical->camera, frames (T,) the clip's frame
     indices)`` for the clips with at least two frames."""
     if len(clips) > max_clips:
@@ -349,7 +357,7 @@ def static_camera_clips(clips: list, max_clips: int, views: str = "paper", seed:
         clips = [c for i, c in enumerate(clips) if (i in chosen) != rest]
     elif rest:
         return
-    pairs = make_pairs(clips, views=views, seed=seed, camera="static", noise=LifterNoise())
+    pairs = make_pairs(clips, views=views, seed=seed, camera="static", noise=noise or LifterNoise())
     for i, clip in enumerate(clips):
         sel = np.flatnonzero(pairs.clip == i)
         if len(sel) >= 2:
@@ -417,6 +425,46 @@ def sweep_evidence(sets: list[list[dict]]) -> list[dict]:
             new.update(name=ev["name"], true_up=np.einsum("tij,tj->ti", S, ev["true_up"]))
             out.append(new)
     return out
+
+
+def rolled_evidence(sets: list[list[dict]]) -> list[dict]:
+    """The cached static-camera recordings of ``sets`` with the camera rolled :data:`ROLL_DEG`
+    about its optical axis, clockwise for even clips of a set and anticlockwise for odd ones:
+    ``X' = X Q^T``, true up ``Q u``; ``set`` and ``index`` name the unrolled recording."""
+    out = []
+    for s, evs in enumerate(sets):
+        for i, ev in enumerate(evs):
+            Q = axis_rotation("z", np.radians(ROLL_DEG if i % 2 == 0 else -ROLL_DEG))
+            new = extract((ev["J"].astype(np.float64) @ Q.T).astype(np.float32), ev["fps"])
+            new.update(name=ev["name"], true_up=ev["true_up"] @ Q.T, set=s, index=i)
+            out.append(new)
+    return out
+
+
+def rolled_table(rolled: list[dict], runs: dict, static: list[tuple[str, list[dict], dict]]) -> list[str]:
+    """Per variant, the mean extra sequence tilt error (deg) of the rolled recordings over their
+    unrolled ones, per set and over all (module docstring); ``static``: the mocap sections'
+    ``(title, recordings, runs)`` in :func:`rolled_evidence`'s set order."""
+    titles = [t.split(":")[0] for t, _, _ in static]
+    lines = [f"## Camera rolled {ROLL_DEG:g} deg about its optical axis (the held-out mocap above, alternate clips "
+             f"clockwise and anticlockwise): extra sequence tilt error (deg) against the same clip unrolled, mean over "
+             f"clips [p95]; verdict on the extra over all {len(rolled)} clips",
+             f"{'variant':<40}" + "".join(f"{t[:22]:>24}" for t in titles) + f"{'all':>16}"
+             + "  verdict: mean diff vs default [95 % CI]"]
+    base = None
+    for v in VARIANTS:
+        out = runs[v.label]
+        extra = np.array([clip_error(o["up"], ev["true_up"])
+                          - clip_error(static[ev["set"]][2][v.label][ev["index"]]["up"],
+                                       static[ev["set"]][1][ev["index"]]["true_up"]) for o, ev in zip(out, rolled)])
+        sets = np.array([ev["set"] for ev in rolled])
+        if v.kind == "default":
+            base = extra
+        cells = "".join(f"{np.nanmean(extra[sets == s]):>+17.2f} [{np.nanpercentile(extra[sets == s], 95):>+4.1f}]"
+                        for s in range(len(static)))
+        lines.append(f"{v.label:<40}{cells}{np.nanmean(extra):>+9.2f} [{np.nanpercentile(extra, 95):>+4.1f}]  "
+                     f"{verdict(v.kind, extra - base)}")
+    return lines
 
 
 def real_camera_evidence(data: Path) -> list[dict]:
@@ -871,6 +919,8 @@ def main(argv=None) -> int:
         sections.append(("mocap", f"Moving camera (pitch sweeping {SWEEP_DEG:g} deg over each clip; Bandai test and "
                                   f"DeepMimic clips of >= {SWEEP_MIN_FRAMES} frames, at most {SWEEP_MAX_CLIPS} each)",
                          moving))
+        sections.append(("rolled", "rolled", cached(args.cache, f"rolled{ROLL_DEG:g}_{args.max_clips}",
+                                                    lambda: rolled_evidence(static))))
     if "real" not in args.skip:
         sections.append(("real", "real", cached(args.cache, "real_cameras", lambda: real_camera_evidence(args.data))))
     if "yoga" not in args.skip:
@@ -878,11 +928,15 @@ def main(argv=None) -> int:
     if "equivariance" not in args.skip:
         sections.append(("equivariance", "equivariance",
                          cached(args.cache, "equivariance", lambda: equivariance_evidence(args.data))))
+    static_runs = []  # the held-out mocap sections' (title, recordings, runs), for the rolled camera's extra
     for kind, title, evs in sections:
         t1 = time.time()
         runs = evaluate(evs)
+        if kind == "mocap" and len(static_runs) < len(MOCAP_SETS):
+            static_runs.append((title, evs, runs))
         table = {"mocap": lambda: mocap_table(title, evs, runs), "real": lambda: real_table(evs, runs),
-                 "yoga": lambda: yoga_table(evs, runs), "equivariance": lambda: equivariance_table(evs, runs)}[kind]()
+                 "yoga": lambda: yoga_table(evs, runs), "equivariance": lambda: equivariance_table(evs, runs),
+                 "rolled": lambda: rolled_table(evs, runs, static_runs)}[kind]()
         block = table + [reproduction_check(evs, runs) + f" ({time.time() - t1:.0f} s)", ""]
         print("\n".join(block), flush=True)
         lines += block

@@ -45,7 +45,8 @@ from pcnet.models.lifter_noise import apply_lifter_errors, sample_lifter_errors
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import L_ANKLE, L_KNEE, PELVIS, R_ANKLE, R_KNEE
 from pcnet.stages.core.rotations import axis_rotation
-from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, TUKEY_C, contacts, tukey_location
+from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, contacts, tukey_location
+from pcnet.stages.spherical import TUKEY_C
 from pcnet.stages.world_frame import _floor_evidence, to_world_floor, world_frame
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"

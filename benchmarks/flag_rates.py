@@ -1,6 +1,6 @@
 """How often each flag fires on upright recordings of new subjects filmed by a static camera.
 
-    python -m benchmarks.flag_rates --data ../shared/data [--max-clips 60] [--out benchmarks/results/flag_rates.txt]
+    python -m benchmarks.flag_rates --data ../shared/data [--max-clips 60] [--no-swaps] [--out FILE]
 
 The issue "Flags that carry information": a flag fires where its reading changes what the user
 should do; on upright recordings from a level camera of new subjects, at most 1 recording in 20
@@ -29,6 +29,12 @@ defaults of ``pcnet run`` (mode sequence since decision 0041; auto before it). `
 subject's height as a user would give it: the median head-to-ankle chain of the clean mocap skeleton
 (:func:`pcnet.stages.scale.height_chain_length`) over ``CHAIN_TO_STATURE``.
 
+``--no-swaps`` switches off the lifter-noise model's left/right swaps
+(``LifterNoise(swap_rate_hz=0)``; results in ``flag_rates_no_swaps.txt``): a swap moves the
+wrists or ankles across the body for a few frames, a lifter error the implausible-motion flag
+is for (decision 0034), so the difference between the two runs is how many of its findings
+point at an injected error rather than at nothing.
+
 Counted per data set: the recordings carrying at least one finding of each
 :class:`pcnet.stages.flags.Kind` at severity CHECK or PROBLEM (``RunResult.ranked_findings``),
 those carrying any CHECK/PROBLEM finding, flags of severity INFO, and notes
@@ -50,6 +56,7 @@ import numpy as np
 from benchmarks.ablation import static_camera_clips
 from benchmarks.report import print_and_save, require_mocap
 from pcnet.models.datasets import load_mocap, select_split
+from pcnet.models.lifter_noise import LifterNoise
 from pcnet.pipeline import RunConfig, run_pipeline
 from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.rotations import camera_pitch_roll
@@ -58,6 +65,7 @@ from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
 RESULT = Path(__file__).resolve().parent / "results" / "flag_rates.txt"
+RESULT_NO_SWAPS = RESULT.with_name("flag_rates_no_swaps.txt")
 COMMAND = "python -m benchmarks.flag_rates --data ../shared/data"
 SETS = (("CMU test", "cmu_train_h36m17.npz", "test"),
         ("Bandai test", "bandai_h36m17.npz", "test"),
@@ -98,10 +106,10 @@ def run_clip(X: np.ndarray, fps: float, height: float, tmp: Path) -> dict:
             "seconds": time.time() - t0}
 
 
-def evaluate_set(data: Path, file: str, split: str, max_clips: int, log) -> tuple[list[dict], int]:
+def evaluate_set(data: Path, file: str, split: str, max_clips: int, log, noise: LifterNoise) -> tuple[list[dict], int]:
     clips, lying = upright_clips(data, file, split)
     rows = []
-    for clip, X, R, _ in static_camera_clips(clips, max_clips):
+    for clip, X, R, _ in static_camera_clips(clips, max_clips, noise=noise):
         pitch, roll = (float(np.degrees(a)) for a in camera_pitch_roll(R[0][:, 1]))
         row = {"name": clip.name, "frames": len(X), "pitch": pitch, "roll": roll,
                "level": abs(pitch) <= LEVEL_DEG and abs(roll) <= LEVEL_DEG}
@@ -152,8 +160,11 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=DEFAULT)
     ap.add_argument("--max-clips", type=int, default=60)
-    ap.add_argument("--out", type=Path, default=RESULT)
+    ap.add_argument("--no-swaps", action="store_true", help="the lifter-noise model without its left/right swaps")
+    ap.add_argument("--out", type=Path, default=None, help=f"default {RESULT.name}, or {RESULT_NO_SWAPS.name} with --no-swaps")
     args = ap.parse_args(argv)
+    out = args.out or (RESULT_NO_SWAPS if args.no_swaps else RESULT)
+    noise = LifterNoise(swap_rate_hz=0.0) if args.no_swaps else LifterNoise()
     require_mocap(args.data, "flag_rates")
     t0 = time.time()
     per_clip: list[str] = []
@@ -165,11 +176,12 @@ def main(argv=None) -> int:
     results, skipped = {}, {}
     for name, file, split in SETS:
         log(f"{name} ({file}, {split}):")
-        results[name], skipped[name] = evaluate_set(args.data, file, split, args.max_clips, log)
+        results[name], skipped[name] = evaluate_set(args.data, file, split, args.max_clips, log, noise)
     rows = [r for rs in results.values() for r in rs]
     ok = [r for r in rows if "error" not in r]
     secs = np.array([r["seconds"] for r in ok])
-    lines = [__doc__.splitlines()[0], "", f"    {COMMAND} --max-clips {args.max_clips}", "",
+    lines = [__doc__.splitlines()[0] + (" Lifter noise without its left/right swaps." if args.no_swaps else ""), "",
+             f"    {COMMAND} --max-clips {args.max_clips}" + (" --no-swaps" if args.no_swaps else ""), "",
              "Recordings: " + ", ".join(f"{n} {len(results[n])} (lying skipped {skipped[n]})" for n in results)
              + f"; {sum(r['level'] for r in ok)} of {len(ok)} with a level camera (|pitch|, |roll| <= {LEVEL_DEG:g} deg)."
              + (f" Failed runs: {len(rows) - len(ok)}." if len(rows) > len(ok) else ""),
@@ -196,7 +208,7 @@ def main(argv=None) -> int:
     if failed:
         lines += ["", "## Failed runs", ""] + [f"{r['name']}: {r['error']}" for r in failed]
     lines += ["", "## Per recording (frames, true camera pitch / roll deg, mode, seconds, flags)", ""] + per_clip
-    print_and_save(lines, args.out)
+    print_and_save(lines, out)
     return 0
 
 

@@ -43,8 +43,9 @@ class CameraTilt:
 class CheckInputs:
     """What :func:`checks` reads.
 
-    joints_camera: ``(T, 17, 3)`` root-relative camera-frame poses in ``units`` (before any
-    scaling); keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence in the displayed frame,
+    joints_camera: ``(T, 17, 3)`` root-relative camera-frame poses after the scale step;
+    units: the lifter's own units (the checks read no size the scale step changes: a metric
+    body's size only without ``--height``, image-scaled sizes never); keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence in the displayed frame,
     or ``None``; video: the probed video or ``None``; canonical, valid: the rectified poses and
     their valid frames; report: what rectification decided; tilt: the camera's tilt;
     lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; track_segment,

@@ -60,7 +60,7 @@ from .pelvis_path import PelvisPath, camera_intrinsics, pelvis_path
 from .run_report import RunReport
 from .video_estimate import estimated_inputs
 
-STEPS = ("inputs", "remap", "rectify", "scale", "kinematics", "exports", "recording")
+STEPS = ("inputs", "remap", "scale", "rectify", "kinematics", "exports", "recording")
 _WORLD = "world, fixed for the recording: +Y up, +X the subject's forward over the first second, y = 0 the ground; "
 WORLD_SUMMARY = {
     "not observable": _WORLD + "the pelvis's horizontal path is not observable (x = z = 0; its horizontal columns in "
@@ -732,13 +732,13 @@ def _opensim(cfg: RunConfig, staged: Path, findings: list[Finding], notes: list[
     return {name: staged / name for name in OPENSIM_OUTPUTS}
 
 
-def _scaled_in_place(arr, factor, precision=np.float64) -> None:
-    """Multiply a float32 pose array (on disk) by ``factor`` (a number, or ``(T,)`` one per
-    frame) in ``precision``, a block at a time."""
+def _scaled_in_place(arr, factor) -> None:
+    """Multiply a pose array (on disk) by ``factor`` (a number, or ``(T,)`` one per frame) in
+    float64, a block at a time, storing float32 values."""
     per_frame = np.ndim(factor) == 1
     for rows in frame_blocks(len(arr)):
         f = np.asarray(factor)[rows, None, None] if per_frame else factor
-        arr[rows] = (arr[rows].astype(precision) * f).astype(np.float32)
+        arr[rows] = (arr[rows].astype(np.float64) * f).astype(np.float32)
 
 
 # The steps of one recording, each reading and returning frozen records of what the next step
@@ -811,8 +811,9 @@ class Rectified:
 
 @dataclass(frozen=True)
 class Scaled:
-    """Step "scale": camera: the camera frame, its joints (and the rectified canonical poses)
-    scaled in place, its root scaled; units: the poses' units after scaling; notes."""
+    """Step "scale" (before rectification, so that the up's floor contacts see metres where
+    ``--height`` gives them): camera: the camera frame, its joints scaled in place, its root
+    scaled; units: the poses' units after scaling; notes."""
 
     camera: CameraFrame
     units: str
@@ -905,18 +906,18 @@ def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
         _check_measured_root(cfg, camera.root)
 
 
-def _keypoint_path(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame) -> PelvisPath | None:
+def _keypoint_path(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled) -> PelvisPath | None:
     """The pelvis path recovered from the 2D keypoints before rectification, for the up's floor
-    contacts (decision 0044): in sequence or auto mode, without a measured root, from metric
-    poses as the lifter gave them (a later ``--height`` scales poses and path alike, which
-    moves no floor's tilt); ``None`` where there is none (:func:`pcnet.pipeline.pelvis_path.pelvis_path`)."""
-    recording = inputs.recording
-    if (camera.root is not None or camera.keypoints2d is None or recording.units != "m"
+    contacts (decision 0044) and the world frame: in sequence or auto mode, without a measured
+    root, from metric poses (the lifter's metres, or ``--height``'s scaling); ``None`` where
+    there is none (:func:`pcnet.pipeline.pelvis_path.pelvis_path`)."""
+    recording, camera = inputs.recording, scaled.camera
+    if (camera.root is not None or camera.keypoints2d is None or scaled.units != "m"
             or cfg.mode not in ("sequence", "auto")):
         return None
     path = pelvis_path(None, camera.joints, camera.keypoints2d,
                        camera_intrinsics(cfg.focal_px, recording.camera_matrix, inputs.image_size),
-                       recording.units, recording.fps, cfg.min_confidence)
+                       scaled.units, recording.fps, cfg.min_confidence)
     return path if path.kind == "from 2D keypoints" else None
 
 
@@ -952,7 +953,9 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
 
 
 def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, rectified: Rectified) -> CheckInputs:
-    """What :func:`pcnet.pipeline.checks.checks` reads of the steps so far (before scaling)."""
+    """What :func:`pcnet.pipeline.checks.checks` reads of the steps so far: the scaled camera
+    frame, with the lifter's own units (no check reads a size that the scale step changes:
+    :class:`pcnet.pipeline.checks.CheckInputs`)."""
     recording = inputs.recording
     return CheckInputs(
         joints_camera=camera.joints, units=recording.units, keypoints2d=camera.keypoints2d, video=recording.video,
@@ -962,9 +965,10 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         person_option=cfg.keypoints2d_format in multi_track_formats())
 
 
-def _scale(cfg: RunConfig, camera: CameraFrame, canonical, units: str, fps: float) -> Scaled:
+def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scaled:
     """A body keeps its size: image-scaled poses are made constant per frame, then scaled to
-    ``--height``; the camera-frame and canonical poses are scaled in place."""
+    ``--height``; the camera-frame poses are scaled in place. The networks are scale-free
+    (models/preprocess.py), so the rotations do not change."""
     cam, root_cam, notes = camera.joints, camera.root, []
     # A body keeps its size; in image units it grows as the person comes closer.
     sizes = None
@@ -975,8 +979,7 @@ def _scale(cfg: RunConfig, camera: CameraFrame, canonical, units: str, fps: floa
             notes.append(f"body size left as the lifter's ({units}): no frame has the ankle-to-head chain that "
                          f"measures it")
     if sizes is not None:
-        for arr, precision in ((cam, np.float64), (canonical, np.float32)):
-            _scaled_in_place(arr, sizes, precision)
+        _scaled_in_place(cam, sizes)
         root_cam = None if root_cam is None else root_cam * sizes[:, None]
         change = float(np.max(sizes) / np.min(sizes))
         if change > SIZE_NOTE_RATIO:
@@ -986,7 +989,6 @@ def _scale(cfg: RunConfig, camera: CameraFrame, canonical, units: str, fps: floa
     if cfg.height is not None:
         factor = height_factor(cam, cfg.height, who=f"{cfg.lifter_output}: --height")
         _scaled_in_place(cam, factor)
-        _scaled_in_place(canonical, factor, np.float32)
         root_cam = None if root_cam is None else root_cam * factor
         notes.append(f"scaled by {factor:.4g} to a {cfg.height} m subject (from {units})")
         units = "m"
@@ -998,14 +1000,13 @@ def _scale(cfg: RunConfig, camera: CameraFrame, canonical, units: str, fps: floa
 def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, store: FrameStore,
            keypoint_path: PelvisPath | None = None) -> World:
     """The fixed world frame of a static camera (sequence mode): the pelvis path (the one
-    rectification used where the poses were not rescaled since), the floor and the
-    world-frame poses; other modes have none, and say why. Anything differentiated in time
+    rectification used, where there was one), the floor and the world-frame poses; other modes have none, and say why. Anything differentiated in time
     lives in one fixed frame per recording; only a static camera gives one."""
     cam, fps = scaled.camera.joints, inputs.recording.fps
     mode = rectified.report.mode
     if mode.run == "sequence":
         frame = world_frame(rectified.rotation, rectified.valid, fps)
-        if keypoint_path is not None and cfg.height is None:
+        if keypoint_path is not None:
             path = keypoint_path
         else:
             path = pelvis_path(scaled.camera.root, cam, scaled.camera.keypoints2d,
@@ -1147,15 +1148,15 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         _refuse_unusable(cfg, camera, inputs.recording.units)
         bar.update()
 
-        step("rectify")
-        keypoint_path = _keypoint_path(cfg, inputs, camera)
-        rectified = _rectify(cfg, inputs, camera, store, keypoint_path)
-        findings = checks(_check_inputs(cfg, inputs, camera, rectified))
+        step("scale")
+        scaled = _scale(cfg, camera, inputs.recording.units, inputs.recording.fps)
+        del camera  # its root is scaled in scaled.camera
         bar.update()
 
-        step("scale")
-        scaled = _scale(cfg, camera, rectified.canonical, inputs.recording.units, inputs.recording.fps)
-        del camera  # its root is scaled in scaled.camera
+        step("rectify")
+        keypoint_path = _keypoint_path(cfg, inputs, scaled)
+        rectified = _rectify(cfg, inputs, scaled.camera, store, keypoint_path)
+        findings = checks(_check_inputs(cfg, inputs, scaled.camera, rectified))
         bar.update()
 
         step("kinematics")

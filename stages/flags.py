@@ -15,10 +15,11 @@ from enum import IntEnum, auto
 import numpy as np
 
 from .core.canonical import trunk_lean_deg
-from .core.conventions import (L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
+from .core.conventions import (L_HIP, L_SHOULDER, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
                                median_thigh_length)
 from .core.framestore import frame_blocks, true_runs
 from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg
+from .mirror import MIRROR_ODDS, MirrorModel, load_mirror_model, recording_cues
 from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
 from .rectification_report import EnsembleWeights, SequenceUp
@@ -365,22 +366,6 @@ def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> list[Find
                    f"order or --layout), so the body faces the wrong way and its knees bend backwards")]
 
 
-#: Share of frames with the nose in front of the thorax (along the trunk's forward normal,
-#: up x right) below which a 3D skeleton reads as mirrored. A face points forward in every
-#: posture: the real lifter files of the shared data (90 VideoPose3D yoga files standing,
-#: seated, lying and prone, MotionBERT boxing and cycling, MediaPipe Pose2Sim and Sports2D)
-#: have it in front in 72-100 % of their frames (a cyclist's 72 %); mirrored, 0-28 %.
-MIRRORED_NOSE_SHARE = 0.3
-MIRRORED_MIN_FRAMES = 10
-#: Torso lengths (pelvis -> thorax) by which the nose must sit behind the thorax (median
-#: over frames) for the flag: a real lifter's nose sits at least 0.037 in front (median per
-#: file over the 90 VideoPose3D yoga files and 4 MotionBERT files of the shared data,
-#: tests/test_flags.py), while mocap skeletons without a nose (Bandai's) put H36M's joint 9 on
-#: the neck, within a few hundredths of the thorax either way, so a kick leaning back read as
-#: mirrored without this margin.
-MIRRORED_NOSE_MARGIN = 0.03
-
-
 #: Share of the present 2D keypoints outside the video's frame (beyond ``margin``) from which
 #: the keypoints are taken to belong to another video, resolution or crop: a detector places
 #: a few joints of a body cut by the edge beyond it, not a fifth of them.
@@ -420,44 +405,29 @@ def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], margi
                    f"rest on them")]
 
 
-def mirrored_skeleton_flag(joints_cam: np.ndarray) -> list[Finding]:
-    """A flag when the 3D poses are a mirror image of a body: the nose sits behind the
-    thorax in most frames.
-
-    A mirror image (a depth axis of the wrong sign, an ``--axes`` mistake; or left and right
-    labels exchanged) is no rotation of a body, so the rectification still finds one, and
-    every sagittal angle comes out with its sign reversed (hip flexion as extension). The
-    body's forward direction is ``(thorax - pelvis) x (right_hip - left_hip)`` (the canonical
-    frame's ``X = Y x Z``, docs/CONVENTIONS.md); the flag is raised where the nose lies
-    behind the thorax along it in all but :data:`MIRRORED_NOSE_SHARE` of at least
-    :data:`MIRRORED_MIN_FRAMES` frames, by a median of more than :data:`MIRRORED_NOSE_MARGIN`
-    torso lengths.
+def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None) -> list[Finding]:
+    """A flag when the 3D poses are a mirror image of a body: their knees and elbows bend
+    the wrong way, with posterior odds of at least :data:`pcnet.stages.mirror.MIRROR_ODDS`
+    (the test of :mod:`pcnet.stages.mirror`).
 
     Args:
-        joints_cam: ``(T, 17, 3)`` H36M-17 poses in any frame and units (read a block of
-            frames at a time: may be on disk).
+        joints_cam: ``(T, 17, 3)`` H36M-17 poses in any frame and units, NaN = missing (read a
+            block of frames at a time: may be on disk).
+        model: the fitted cue distribution (default: the shipped one).
     """
-    depths = []
-    for rows in frame_blocks(len(joints_cam)):
-        J = np.asarray(joints_cam[rows], np.float64)
-        trunk = J[:, THORAX] - J[:, PELVIS]
-        forward = np.cross(trunk, J[:, R_HIP] - J[:, L_HIP])
-        with np.errstate(invalid="ignore", divide="ignore"):
-            forward /= np.linalg.norm(forward, axis=1, keepdims=True) * np.linalg.norm(trunk, axis=1, keepdims=True)
-        depth = np.einsum("ij,ij->i", J[:, NECK_NOSE] - J[:, THORAX], forward)  # torso lengths
-        depths.append(depth[np.isfinite(depth) & (depth != 0)])
-    depth = np.concatenate(depths) if depths else np.zeros(0)
-    counted, ahead = len(depth), int((depth > 0).sum())
-    if counted < MIRRORED_MIN_FRAMES or ahead >= MIRRORED_NOSE_SHARE * counted \
-            or np.median(depth) >= -MIRRORED_NOSE_MARGIN:
+    model = model or load_mirror_model()
+    m, counted = recording_cues(joints_cam)
+    if not counted or model.log_odds(m) < np.log(MIRROR_ODDS):
         return []
-    behind = counted - ahead
+    odds = float(np.exp(min(model.log_odds(m), 50.0)))
     return [_found(Kind.MIRRORED, Severity.PROBLEM,
-                   f"3D skeleton mirrored (nose behind the thorax in {behind} of {counted} frames): angles flip sign",
+                   f"3D skeleton mirrored (knees bend forward, elbows backward; odds {odds:.0f}:1): angles flip sign",
                    "check --axes and --layout",
-                   f"the 3D skeleton is a mirror image of a body (its nose behind the thorax in {behind} of "
-                   f"{counted} frames): its depth axis has the wrong sign (--axes) or its left and right are "
-                   f"exchanged (--layout), so every sagittal angle has the wrong sign")]
+                   f"the 3D skeleton is a mirror image of a body: over {counted} frames its knees bend forward and its "
+                   f"elbows backward (median bend sines {m[0]:+.2f}, {m[1]:+.2f}; a body's {model.mean[0]:+.2f}, "
+                   f"{model.mean[1]:+.2f}), {odds:.0f} times as likely for a mirror image as for a body; its depth "
+                   f"axis has the wrong sign (--axes) or its left and right are exchanged (--layout), so every "
+                   f"sagittal angle has the wrong sign")]
 
 
 def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:

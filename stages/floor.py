@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .spherical import TUKEY_C
+from .spherical import tukey_weights
 
 #: Height of the ankle joint centre above the ground at stance, as a fraction of the leg
 #: length (hip->knee + knee->ankle). Fitted by
@@ -102,15 +102,14 @@ class Floor:
 def tukey_location(x: np.ndarray, max_iter: int = 100) -> tuple[float, float]:
     """Tukey-biweight M-estimate of location of the finite values of ``x`` (``(N,)``, N >= 1)
     and the scale used (1.4826 MAD about the median, fixed; floored at 1e-12 so that equal
-    values give that value). IRLS from the median, ``c =`` :data:`TUKEY_C`."""
+    values give that value). IRLS from the median (:func:`~pcnet.stages.spherical.tukey_weights`)."""
     x = np.asarray(x, np.float64)
     x = x[np.isfinite(x)]
     mu = float(np.median(x))
     scale = float(1.4826 * np.median(np.abs(x - mu)))
     s = max(scale, 1e-12)
     for _ in range(max_iter):
-        u = (x - mu) / (TUKEY_C * s)
-        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+        w = tukey_weights((x - mu) / s)
         if not w.sum() > 0:
             break
         new = float(np.sum(w * x) / np.sum(w))

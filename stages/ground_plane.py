@@ -54,7 +54,7 @@ import numpy as np
 
 from .core.conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE
 from .core.rotations import angle_between, normalize
-from .spherical import TUKEY_C
+from .spherical import TUKEY_C, tukey_weights
 from .up_model import UpModelParameters, default_parameters, tangent_basis
 
 _IRLS_STEPS = 20
@@ -224,7 +224,7 @@ def fit_floor(c: Contacts, u0: np.ndarray, prior_cov: np.ndarray, leg: float,
         theta = np.r_[[np.median((h + q @ tilt)[level == k]) for k in range(n_levels)], 0.0, 0.0, tilt]
         for _ in range(_IRLS_STEPS):
             x = (h - A @ theta) / scale
-            wts = np.where(np.abs(x) < TUKEY_C, (1 - (x / TUKEY_C) ** 2) ** 2, 0.0)
+            wts = tukey_weights(x)
             new = np.linalg.lstsq((A.T * wts) @ A + ridge, (A.T * wts) @ h, rcond=None)[0]
             done = np.max(np.abs(new - theta)) < 1e-12
             theta = new

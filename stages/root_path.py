@@ -65,7 +65,7 @@ from scipy.stats import chi2
 
 from .core.errors import InputError
 from .core.framestore import per_frame
-from .spherical import TUKEY_C
+from .spherical import tukey_weights
 
 #: Process-noise spectral density (m^2/s^3, per axis, isotropic) of the constant-velocity
 #: model of the pelvis: maximum-likelihood fit of the Wiener velocity model to the exact pelvis
@@ -248,7 +248,7 @@ def _fit_block(X: np.ndarray, kp: np.ndarray, K: np.ndarray, min_conf: float) ->
         if it < _HUBER_ITERS:
             wr = np.minimum(1.0, HUBER_K / np.maximum(z, 1e-300))
         else:
-            wr = np.where(z < TUKEY_C, (1.0 - (z / TUKEY_C) ** 2) ** 2, 0.0)
+            wr = tukey_weights(z)
         w = np.where(front, ca * wr, 0.0)
         H, gr = _normal(w, Ju, Jv, ru, rv)
         step, good = _solve3(H, -gr, (w > 0).sum(1) >= MIN_JOINTS)
@@ -265,7 +265,8 @@ def _fit_block(X: np.ndarray, kp: np.ndarray, K: np.ndarray, min_conf: float) ->
     front, ru, rv, Ju, Jv = _residuals(X, np.nan_to_num(t), valid, uo, vo, K)
     with np.errstate(invalid="ignore"):
         z = np.sqrt(c * (ru * ru + rv * rv)) / sigma[:, None]
-        w = np.where(front & (z < TUKEY_C), c * (1.0 - (z / TUKEY_C) ** 2) ** 2, 0.0)
+        wt = tukey_weights(z)
+        w = np.where(front & (wt > 0), c * wt, 0.0)
     used = (w > 0).sum(1)
     ok = ok & (used >= MIN_JOINTS) & (np.nan_to_num(t[:, 2]) > 0)
     H, _ = _normal(w, Ju, Jv, ru, rv)

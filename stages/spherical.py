@@ -28,6 +28,21 @@ _TOL_WEISZFELD_RAD = 1e-6
 _TOL_RAD = 1e-9
 
 
+def tukey_weights(z: np.ndarray) -> np.ndarray:
+    """Tukey's biweight IRLS weights ``(1 - (z / c)^2)^2`` for ``|z| < c``, else 0, with
+    ``c =`` :data:`TUKEY_C` (Beaton & Tukey 1974).
+
+    Args:
+        z: residuals divided by their scale (any shape; NaN gives weight 0).
+
+    Returns:
+        float64 weights in [0, 1], ``z``'s shape.
+    """
+    r = np.asarray(z, np.float64) / TUKEY_C
+    with np.errstate(invalid="ignore"):
+        return np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0)
+
+
 
 
 def _angles(m: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -151,11 +166,10 @@ def robust_mean_direction(
     th = _angles(m, u)[0]
     sigma = np.maximum(weighted_quantile(th, w, 0.5) / _RAYLEIGH_MEDIAN, np.radians(MIN_SCALE_DEG))
     sigma = np.where(has, sigma, np.nan)
-    c = TUKEY_C * np.where(has, sigma, 1.0)
+    scale = np.where(has, sigma, 1.0)
 
     def tukey(th, ww, sel):
-        r = th / c[sel, None]
-        return ww * np.where(r < 1.0, (1.0 - r**2) ** 2, 0.0)
+        return ww * tukey_weights(th / scale[sel, None])
 
     m = _irls(m, u, w, tukey, _TOL_RAD)
     m = np.where(has[:, None], m, np.nan)

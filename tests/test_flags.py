@@ -323,27 +323,25 @@ def test_3d_sides_that_contradict_the_2d_keypoints_are_flagged():
 def test_a_mirrored_3d_skeleton_is_flagged_from_the_pose_alone():
     """A depth axis of the wrong sign mirrors the body (every sagittal angle changes sign)
     and no rotation undoes it. The committed real files (standing, seated, lying, prone, a
-    boxer) have the nose in front of the thorax; mirrored in depth, or with left and right
-    exchanged, they are flagged."""
+    boxer) are bodies; mirrored in depth, or with left and right exchanged, they are flagged: their knees and elbows bend the other way."""
     swap = [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]
     for name in ("yoga_Abhay_Tadasana_f000-099.npy", "yoga_Abhay_Padmasana_f200-299.npy",
                  "yoga_Abhay_Shavasana_f200-299.npy", "yoga_Abhay_Bhujangasana_f150-249.npy", "boxing_X3D_f000-059.npy"):
         X = np.load(FIXTURES / name).astype(np.float64)
         assert mirrored_skeleton_flag(X) == [], name
         (flag,) = mirrored_skeleton_flag(X * np.array([1.0, 1.0, -1.0]))
-        assert "mirror image" in flag.detail and "--axes" in flag.detail, name
+        assert "mirror image" in flag.detail and "--axes" in flag.detail and "knees bend forward" in flag.detail, name
         assert mirrored_skeleton_flag(X[:, swap]), name
     assert mirrored_skeleton_flag(np.full((50, 17, 3), np.nan)) == []
 
 
-def test_the_mirror_flag_keeps_every_real_lifter_file_apart_from_its_mirror_image_and_spares_a_noseless_kick():
+def test_the_mirror_flag_keeps_every_real_lifter_file_apart_from_its_mirror_image_and_spares_noseless_mocap():
     """Every real lifter file of the shared data (90 VideoPose3D yoga files, the MotionBERT
-    boxing and cycling files) is read unmirrored and, mirrored in depth, mirrored: their
-    noses sit at least MIRRORED_NOSE_MARGIN torso lengths in front of the thorax. A Bandai
-    kick (a mocap skeleton without a nose, leaning back) is not called mirrored."""
+    boxing and cycling files) is read unmirrored and, mirrored in depth, mirrored. Bandai's
+    skeletons put H36M's joint 9 on the neck (no nose): the nose rule this test replaced called
+    a kick leaning back, and 36 of the 206 validation recordings with lifter noise, mirrored;
+    the knee and elbow test calls the kick a body and its mirror image mirrored."""
     import glob
-
-    from pcnet.stages.flags import MIRRORED_NOSE_MARGIN
 
     real = shared("real")
     files = sorted(glob.glob(str(real / "yoga_videopose3d" / "*.npy")))
@@ -353,10 +351,10 @@ def test_the_mirror_flag_keeps_every_real_lifter_file_apart_from_its_mirror_imag
         X = np.load(path).astype(np.float64)
         assert mirrored_skeleton_flag(X) == [], path
         assert mirrored_skeleton_flag(X * np.array([1.0, 1.0, -1.0])), path
-    assert MIRRORED_NOSE_MARGIN < 0.037
     with np.load(shared("mocap", "bandai_h36m17.npz")) as mocap:
         kick = mocap["dataset-1_kick_normal_001"]
     assert mirrored_skeleton_flag(kick) == []
+    assert mirrored_skeleton_flag(kick * np.array([1.0, 1.0, -1.0]))
 
 
 def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):

@@ -934,3 +934,26 @@ def test_sequence_only_options_outside_sequence_mode_are_refused(tmp_path, mode)
     res = _invoke(*args, "--measured-root")
     assert res.exit_code == 1 and "--measured-root: expected with mode sequence or auto" in res.output, res.output
     assert not (tmp_path / "o").exists()
+
+
+def test_height_scaled_poses_get_the_pelvis_path_before_rectifying(tmp_path):
+    """MotionBERT's normalised units are not metres; with ``--height`` the scale step, which
+    runs before rectification (decision 0047), makes them metric, so the path recovered from
+    the 2D keypoints (real AlphaPose of the boxing video) reaches the up's floor contacts.
+    Without ``--height`` there is no metric path. Per frame the rotations are the same either
+    way: the networks are scale-free."""
+    base = ("run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--lifter", "motionbert",
+            "--lifter-output", BOX_3D, "--fps", "30", "--image-size", "854x480", "--no-recording")  # the video's
+    reports, rotations = {}, {}
+    for name, extra in (("height", ("--height", "1.75")), ("normalised", ()),
+                        ("height, frame", ("--height", "1.75", "--mode", "frame")),
+                        ("normalised, frame", ("--mode", "frame"))):
+        res = _invoke(*base, *extra, "--out", tmp_path / name.replace(", ", "_"))
+        assert res.exit_code == 0, res.output
+        with np.load(tmp_path / name.replace(", ", "_") / "canonical.npz") as npz:
+            reports[name] = json.loads(str(npz["report"]))
+            rotations[name] = npz["rotation"]
+    assert reports["height"]["root_path"] == "from 2D keypoints"
+    assert not reports["height"]["ground_plane"]["reason"].startswith("no pelvis path")
+    assert reports["normalised"]["ground_plane"]["reason"].startswith("no pelvis path")
+    np.testing.assert_allclose(rotations["height, frame"], rotations["normalised, frame"], atol=1e-5)
