@@ -464,6 +464,21 @@ def rolled_table(rolled: list[dict], runs: dict, static: list[tuple[str, list[di
                         for s in range(len(static)))
         lines.append(f"{v.label:<40}{cells}{np.nanmean(extra):>+9.2f} [{np.nanpercentile(extra, 95):>+4.1f}]  "
                      f"{verdict(v.kind, extra - base)}")
+    sets = np.array([ev["set"] for ev in rolled])
+    label = VARIANTS[0].label
+    lines.append(f"{label}, median extra per set: "
+                 + ", ".join(f"{t} {np.nanmedian(base[sets == s]):+.2f}" for s, t in enumerate(titles)))
+
+    def frame_error(out, evs) -> float:
+        return float(np.nanmean(np.concatenate([deg(o["frame_up"], ev["true_up"]) for o, ev in zip(out, evs)])))
+
+    lines.append(f"{label}, per-frame tilt error (deg) unrolled -> rolled per set: " + ", ".join(
+        f"{t} {frame_error(static[s][2][label], static[s][1]):.2f} -> "
+        f"{frame_error([o for o, ev in zip(runs[label], rolled) if ev['set'] == s], [ev for ev in rolled if ev['set'] == s]):.2f}"
+        for s, t in enumerate(titles)))
+    worst = np.argsort(-np.nan_to_num(base, nan=-np.inf))[:8]
+    lines.append(f"{VARIANTS[0].label}, the {len(worst)} largest extras: "
+                 + ", ".join(f"{rolled[i]['name'].removesuffix('.txt')} {base[i]:+.1f}" for i in worst))
     return lines
 
 

@@ -44,9 +44,12 @@ class CheckInputs:
     """What :func:`checks` reads.
 
     joints_camera: ``(T, 17, 3)`` root-relative camera-frame poses after the scale step;
-    units: the lifter's own units (the checks read no size the scale step changes: a metric
-    body's size only without ``--height``, image-scaled sizes never); keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence in the displayed frame,
-    or ``None``; video: the probed video or ``None``; canonical, valid: the rectified poses and
+    units: the lifter's own units (a metric body's size is checked only without ``--height``,
+    image-scaled sizes never; the leg and size-change checks compare lengths within the
+    recording, which a constant factor leaves alone and image units' per-frame size moves a
+    little: the boxing demo's leg asymmetry reads 18 %, 19 % on the unscaled poses);
+    keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence in the displayed frame, or
+    ``None``; video: the probed video or ``None``; canonical, valid: the rectified poses and
     their valid frames; report: what rectification decided; tilt: the camera's tilt;
     lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; track_segment,
     track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track (``None`` and

@@ -254,7 +254,7 @@ def body_size_flag(joints: np.ndarray, units: str) -> list[Finding]:
 #: Relative difference of the left and right legs' lengths (hip -> knee -> ankle, medians over
 #: frames) beyond which the lifter's skeleton, not the person, is asymmetric: an anatomical
 #: leg-length discrepancy of 2 cm (about 2 %) is already clinically notable, and 10 % of an
-#: adult's leg is about 8-9 cm (the boxing demo's MotionBERT output: 19 %, `pcnet demo`).
+#: adult's leg is about 8-9 cm (the boxing demo's MotionBERT output: 18 %, `pcnet demo`).
 LEG_ASYMMETRY = 0.10
 
 
