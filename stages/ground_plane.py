@@ -63,7 +63,10 @@ _IRLS_STEPS = 20
 _COARSE_STEPS = 13
 #: The report's reason where the joints carry no pelvis path (measured, or recovered from 2D keypoints).
 NO_PELVIS_PATH = ("no pelvis path: root-relative joints carry no floor (a measured root, or 2D keypoints with "
-                  "poses in metres as the lifter gives them, give one)")
+                  "metric poses, the lifter's metres or --height, give one)")
+#: Why a recording with a pelvis path gets no floor when the up model reads the body as lying.
+LYING_NO_FLOOR = ("body read as lying: the floor contacts are a term of the upright posture (feet at rest on a "
+                  "support), so they did not weigh in")
 #: Eigen-directions of the floor's information below this share of the prior's are treated as
 #: unconstrained (numerical rank, not a tuning constant).
 _RANK_TOL = 1e-6

@@ -28,7 +28,7 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
-from .ground_plane import NO_PELVIS_PATH, ground_plane_up
+from .ground_plane import LYING_NO_FLOOR, NO_PELVIS_PATH, ground_plane_up
 from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
@@ -297,7 +297,8 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     if not camera_prior:
         params = replace(params, camera_prior_outside=1.0)
     post = static_posterior(summarise_recording(evidence.frames(ok), fps, params), params, lying=camera_prior)
-    up, ground, kind = post.up, {"used": False, "reason": NO_PELVIS_PATH}, "up model"
+    reason = NO_PELVIS_PATH if joints_cam is None else LYING_NO_FLOOR
+    up, ground, kind = post.up, {"used": False, "reason": reason}, "up model"
     if joints_cam is not None and post.posture == "upright":
         floor = ground_plane_up(check_poses(joints_cam, "joints_cam"), ok, post.up, fps, post.upright_cov(), params)
         up, ground = floor.up, floor.info
