@@ -43,8 +43,6 @@ def tukey_weights(z: np.ndarray) -> np.ndarray:
         return np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0)
 
 
-
-
 def _angles(m: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Angles ``(B, N)`` (radians) between ``m`` ``(B, 3)`` and unit ``u`` ``(B, N, 3)``,
     with their cosines and sines."""
