@@ -451,20 +451,19 @@ def rolled_table(rolled: list[dict], runs: dict, static: list[tuple[str, list[di
              f"clips [p95]; verdict on the extra over all {len(rolled)} clips",
              f"{'variant':<40}" + "".join(f"{t[:22]:>24}" for t in titles) + f"{'all':>16}"
              + "  verdict: mean diff vs default [95 % CI]"]
+    sets = np.array([ev["set"] for ev in rolled])
     base = None
     for v in VARIANTS:
         out = runs[v.label]
         extra = np.array([clip_error(o["up"], ev["true_up"])
                           - clip_error(static[ev["set"]][2][v.label][ev["index"]]["up"],
                                        static[ev["set"]][1][ev["index"]]["true_up"]) for o, ev in zip(out, rolled)])
-        sets = np.array([ev["set"] for ev in rolled])
         if v.kind == "default":
             base = extra
         cells = "".join(f"{np.nanmean(extra[sets == s]):>+17.2f} [{np.nanpercentile(extra[sets == s], 95):>+4.1f}]"
                         for s in range(len(static)))
         lines.append(f"{v.label:<40}{cells}{np.nanmean(extra):>+9.2f} [{np.nanpercentile(extra, 95):>+4.1f}]  "
                      f"{verdict(v.kind, extra - base)}")
-    sets = np.array([ev["set"] for ev in rolled])
     label = VARIANTS[0].label
     lines.append(f"{label}, median extra per set: "
                  + ", ".join(f"{t} {np.nanmedian(base[sets == s]):+.2f}" for s, t in enumerate(titles)))
@@ -477,7 +476,7 @@ def rolled_table(rolled: list[dict], runs: dict, static: list[tuple[str, list[di
         f"{frame_error([o for o, ev in zip(runs[label], rolled) if ev['set'] == s], [ev for ev in rolled if ev['set'] == s]):.2f}"
         for s, t in enumerate(titles)))
     worst = np.argsort(-np.nan_to_num(base, nan=-np.inf))[:8]
-    lines.append(f"{VARIANTS[0].label}, the {len(worst)} largest extras: "
+    lines.append(f"{label}, the {len(worst)} largest extras: "
                  + ", ".join(f"{rolled[i]['name'].removesuffix('.txt')} {base[i]:+.1f}" for i in worst))
     return lines
 

@@ -907,28 +907,30 @@ def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
 
 
 def _keypoint_path(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled) -> PelvisPath | None:
-    """The pelvis path recovered from the 2D keypoints before rectification, for the up's floor
-    contacts (decision 0044) and the world frame: in sequence or auto mode, without a measured
-    root, from metric poses (the lifter's metres, or ``--height``'s scaling); ``None`` where
-    there is none (:func:`pcnet.pipeline.pelvis_path.pelvis_path`)."""
+    """The pelvis path fitted to the 2D keypoints before rectification, for the up's floor
+    contacts (decision 0044) and the world frame, which reuses it (also where the fit found no
+    path: its kind and note say why): in sequence or auto mode, without a measured root, from
+    metric poses (the lifter's metres, or ``--height``'s scaling); ``None`` where none was
+    fitted (:func:`pcnet.pipeline.pelvis_path.pelvis_path`)."""
     recording, camera = inputs.recording, scaled.camera
     if (camera.root is not None or camera.keypoints2d is None or scaled.units != "m"
             or cfg.mode not in ("sequence", "auto")):
         return None
-    path = pelvis_path(None, camera.joints, camera.keypoints2d,
+    return pelvis_path(None, camera.joints, camera.keypoints2d,
                        camera_intrinsics(cfg.focal_px, recording.camera_matrix, inputs.image_size),
                        scaled.units, recording.fps, cfg.min_confidence)
-    return path if path.kind == "from 2D keypoints" else None
 
 
 def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: FrameStore,
              keypoint_path: PelvisPath | None = None) -> Rectified:
     """Rectify the camera-frame poses (:func:`pcnet.pipeline.rectification.rectify_checked`),
-    located by the measured root or else by ``keypoint_path`` (:func:`_keypoint_path`) so that
-    sequence mode weighs the floor contacts, and read the camera's tilt; the report gets the
-    pelvis fill."""
+    located by the measured root or else by the path ``keypoint_path`` found (:func:`_keypoint_path`)
+    so that sequence mode weighs the floor contacts, and read the camera's tilt; the report gets
+    the pelvis fill."""
     fps, kp2d = inputs.recording.fps, camera.keypoints2d
-    root = camera.root if camera.root is not None else (keypoint_path.camera if keypoint_path is not None else None)
+    root = camera.root
+    if root is None and keypoint_path is not None and keypoint_path.kind == "from 2D keypoints":
+        root = keypoint_path.camera
     segment, events = track_segments(kp2d, fps) if kp2d is not None else (None, [])
     # A static camera does not move when the tracker jumps to another person, but the
     # jump and the other body's poses read as camera motion: decide the mode on one
@@ -954,7 +956,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
 
 def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, rectified: Rectified) -> CheckInputs:
     """What :func:`pcnet.pipeline.checks.checks` reads of the steps so far: the scaled camera
-    frame, with the lifter's own units (no check reads a size that the scale step changes:
+    frame, with the lifter's own units (what the scale step moves in the checks:
     :class:`pcnet.pipeline.checks.CheckInputs`)."""
     recording = inputs.recording
     return CheckInputs(
@@ -1000,7 +1002,8 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
 def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, store: FrameStore,
            keypoint_path: PelvisPath | None = None) -> World:
     """The fixed world frame of a static camera (sequence mode): the pelvis path (the one
-    rectification used, where there was one), the floor and the world-frame poses; other modes have none, and say why. Anything differentiated in time
+    :func:`_keypoint_path` fitted before rectification, where it ran), the floor and the
+    world-frame poses; other modes have none, and say why. Anything differentiated in time
     lives in one fixed frame per recording; only a static camera gives one."""
     cam, fps = scaled.camera.joints, inputs.recording.fps
     mode = rectified.report.mode

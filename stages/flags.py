@@ -417,9 +417,10 @@ def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None) -> list
     """
     model = model or load_mirror_model()
     m, counted = recording_cues(joints_cam)
-    if not counted or model.log_odds(m) < np.log(MIRROR_ODDS):
+    log_odds = model.log_odds(m) if counted else -np.inf
+    if log_odds < np.log(MIRROR_ODDS):
         return []
-    odds = float(np.exp(min(model.log_odds(m), 50.0)))
+    odds = float(np.exp(min(log_odds, 50.0)))
     return [_found(Kind.MIRRORED, Severity.PROBLEM,
                    f"3D skeleton mirrored (knees bend forward, elbows backward; odds {odds:.0f}:1): angles flip sign",
                    "check --axes and --layout",

@@ -1,5 +1,6 @@
-"""The floor from foot contacts: one more likelihood term of the up model for recordings whose
-root is measured (a depth sensor; a file whose pelvis is a measured camera-frame path).
+"""The floor from foot contacts: one more likelihood term of the up model for recordings with a
+camera-frame pelvis path (measured by a depth sensor or given in the file, or recovered from 2D
+keypoints by :mod:`pcnet.stages.root_path`).
 docs/up_model.md ("Floor contacts") writes the model down; issue 49.
 
 Contacts. In a frame, an ankle is on the floor when it is within ``h_c L`` of that frame's
@@ -42,7 +43,7 @@ Parameters ``h_c``, ``v_c``, ``w``, ``sigma_f`` and ``s_o`` are the up model's
 (:class:`pcnet.stages.up_model.UpModelParameters`), fitted on validation data with a measured
 root by ``python -m benchmarks.fit_floor_contacts --data ../shared/data``.
 
-Shapes: joints ``(T, 17, 3)`` H36M-17 in the camera frame with the measured root kept (any
+Shapes: joints ``(T, 17, 3)`` H36M-17 in the camera frame with the pelvis path added (any
 length unit), unit ups ``(3,)``, covariances ``(2, 2)`` rad^2 in the (pitch, roll) basis.
 """
 
