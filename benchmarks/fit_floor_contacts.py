@@ -253,12 +253,12 @@ def main(argv=None) -> int:
         "ankle_offset_leg": f"method of moments on the between-ankle mean height differences, {split}",
     }
     doc = json.loads(args.json.read_text())
-    for k in F.FLOOR_PARAMETERS:
+    for k in prov:
         doc["parameters"][k] = {"value": round(float(getattr(best, k)), 6), "provenance": f"{prov[k]}; {COMMAND}"}
     args.json.write_text(json.dumps(doc, indent=2) + "\n")
     UpModelParameters.load(args.json.read_text())  # the written file parses
     lines += ["", "Shipped (least mean tilt error):"]
-    lines += [f"  {k} = {getattr(best, k):.4f}" for k in F.FLOOR_PARAMETERS]
+    lines += [f"  {k} = {getattr(best, k):.4f}" for k in prov]
     err_2d = tilt_errors(recs, best, from_2d=True)
     lines += ["", f"{'validation set':<16}{'recordings':>11}{'up model alone':>16}{'with the floor':>16}"
                   f"{'path from 2D':>14}"]

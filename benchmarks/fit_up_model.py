@@ -39,8 +39,9 @@ upright one under a camera rolled a quarter turn give the same camera-frame skel
 no likelihood separates them and these two priors decide; the training motion capture's
 lying share (about 0.04 % of frames, no clip lying throughout) samples mocap catalogues, not
 the recordings pcnet is used on.
-The floor-contact parameters (:data:`FLOOR_PARAMETERS`) are fitted on this model's posterior
-afterwards, by ``python -m benchmarks.fit_floor_contacts``; this script carries them over.
+The floor parameters (:data:`FLOOR_PARAMETERS`) are fitted on this model's posterior
+afterwards, by ``python -m benchmarks.fit_floor_contacts`` and then ``python -m
+benchmarks.fit_floor_power``; this script carries them over.
 """
 
 from __future__ import annotations
@@ -66,9 +67,10 @@ RESULT = Path(__file__).resolve().parent / "results" / "fit_up_model.txt"
 VAL_SETS = (("bandai", "bandai_h36m17.npz"), ("cmu", "cmu_train_h36m17.npz"))
 VAL_VIEWS = (("paper", 0), ("wide", 1), ("rolled", 2))
 VAL_MAX_CLIPS = 120
-#: The up model's parameters fitted by benchmarks/fit_floor_contacts.py (after this script).
+#: The up model's floor parameters, fitted after this script on its posterior
+#: (benchmarks/fit_floor_contacts.py, then benchmarks/fit_floor_power.py).
 FLOOR_PARAMETERS = ("contact_height_leg", "contact_speed_leg_s", "contact_speed_window_s", "footfall_height_sd_leg",
-                    "ankle_offset_leg")
+                    "ankle_offset_leg", "footfall_posture_power")
 TRAIN_SETS = ("bandai_h36m17.npz", "cmu_train_h36m17.npz")
 LYING_TRUNK_DEG = 60.0
 CLIP_SIGMAS = 3.0

@@ -28,7 +28,16 @@ level below (:func:`support_levels`). One plane through footfalls on two levels 
 the higher one (measured: the CMU test subjects' stool and step takes, 7 of 28 clips beyond 20
 deg; docs/decisions/0042).
 
-Posterior. With the poses' posterior as the prior of the tilt, ``theta = (a, b) ~ N(0, C0)``,
+Posture. The footfalls, detected once along the poses' up, are scored along every candidate up
+of either posture (:class:`FloorEnergy`, :func:`pcnet.stages.up_model.posture_log_weights`):
+along a lying body's up a walk climbs a support level at every step. Comparing postures over the
+whole sphere, the footfalls' loss enters at a learning rate ``t_f`` (``footfall_posture_power``;
+a power likelihood, as for a misspecified model: footfalls err together, through a lifter's
+per-joint bias and a path's drift), fitted on validation by the log score of the true posture
+(``python -m benchmarks.fit_floor_power --data ../shared/data``; decision 0048). The cost of
+each level beyond the first is a prior over support levels and is not tempered.
+
+Upright fine fit. With the poses' posterior as the prior of the tilt, ``theta = (a, b) ~ N(0, C0)``,
 the floor's MAP minimises::
 
     sum_f rho(e_f / (sigma_f L)) + o^T o / (2 (s_o L)^2) + theta^T C0^-1 theta / 2
@@ -39,9 +48,10 @@ floor's information ``I`` and the up, ``theta* = (I + C0^-1)^-1 z``. The fused c
 ``(I + C0^-1)^-1`` is too narrow on validation
 (``benchmarks/results/fit_floor_contacts.txt``), so the report keeps the up model's intervals.
 
-Parameters ``h_c``, ``v_c``, ``w``, ``sigma_f`` and ``s_o`` are the up model's
-(:class:`pcnet.stages.up_model.UpModelParameters`), fitted on validation data with a measured
-root by ``python -m benchmarks.fit_floor_contacts --data ../shared/data``.
+Parameters ``h_c``, ``v_c``, ``w``, ``sigma_f``, ``s_o`` and ``t_f`` are the up model's
+(:class:`pcnet.stages.up_model.UpModelParameters`), fitted on validation data with a pelvis
+path by ``python -m benchmarks.fit_floor_contacts --data ../shared/data`` and then
+``python -m benchmarks.fit_floor_power --data ../shared/data``.
 
 Shapes: joints ``(T, 17, 3)`` H36M-17 in the camera frame with the pelvis path added (any
 length unit), unit ups ``(3,)``, covariances ``(2, 2)`` rad^2 in the (pitch, roll) basis.
@@ -66,8 +76,12 @@ _COARSE_STEPS = 13
 NO_PELVIS_PATH = ("no pelvis path: root-relative joints carry no floor (a measured root, or 2D keypoints with "
                   "metric poses, the lifter's metres or --height, give one)")
 #: Why a recording with a pelvis path gets no floor when the up model reads the body as lying.
-LYING_NO_FLOOR = ("body read as lying: the floor contacts are a term of the upright posture (feet at rest on a "
-                  "support), so they did not weigh in")
+LYING_NO_FLOOR = ("body read as lying: the footfalls weighed in the posture and its up on the posterior's grid "
+                  "(about 1 deg); the fine floor fit is the upright posture's")
+#: Why the joints of a recording with a pelvis path give no footfall.
+NO_CONTACTS = "no quasi-static foot contacts"
+#: Candidate ups scored at once by :class:`FloorEnergy` (bounds its (chunk, footfalls) arrays).
+_ENERGY_CHUNK = 2_000
 #: Eigen-directions of the floor's information below this share of the prior's are treated as
 #: unconstrained (numerical rank, not a tuning constant).
 _RANK_TOL = 1e-6
@@ -176,16 +190,31 @@ def support_levels(heights: np.ndarray, scale: float) -> np.ndarray:
     return level
 
 
-def levels_objective(heights: np.ndarray, scale: float) -> float:
-    """The floor's negative log-likelihood (module docstring) of footfall heights ``(F,)``
-    along a candidate normal, the levels' heights at their medians and the ankles' errors at 0:
-    Tukey's loss of each footfall about its level plus ``c^2 / 6`` (one unexplained footfall's
-    cost) for each level beyond the first."""
-    level = support_levels(heights, scale)
-    n_levels = int(level.max()) + 1
-    centre = np.array([np.median(heights[level == k]) for k in range(n_levels)])
-    x = np.minimum(((heights - centre[level]) / (TUKEY_C * scale)) ** 2, 1.0)
-    return float(np.sum(TUKEY_C ** 2 / 6 * (1 - (1 - x) ** 3)) + (n_levels - 1) * TUKEY_C ** 2 / 6)
+def levels_terms(heights: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(loss, level cost)`` each ``(...)`` of footfall heights ``(..., F)`` along candidate
+    normals: the sum of Tukey's loss of each footfall about its level (:func:`support_levels`;
+    the levels at their medians, the ankles' errors at 0), and ``c^2 / 6`` (one unexplained
+    footfall's cost) for each level beyond the first, the prior over support levels."""
+    S = np.sort(np.asarray(heights, np.float64), axis=-1)
+    F = S.shape[-1]
+    new = np.concatenate([np.ones(S.shape[:-1] + (1,), bool), np.diff(S, axis=-1) > TUKEY_C * scale], -1)
+    idx = np.broadcast_to(np.arange(F), S.shape)
+    # Each sorted height's level is a run [start, end) of the sorted heights: its median is the
+    # mean of the run's two middle elements (one element for an odd run).
+    start = np.maximum.accumulate(np.where(new, idx, 0), axis=-1)
+    last = np.concatenate([new[..., 1:], np.ones(S.shape[:-1] + (1,), bool)], -1)
+    end = np.flip(np.minimum.accumulate(np.flip(np.where(last, idx, F), -1), axis=-1), -1) + 1
+    centre = 0.5 * (np.take_along_axis(S, (start + end - 1) // 2, -1) + np.take_along_axis(S, (start + end) // 2, -1))
+    x = np.minimum(((S - centre) / (TUKEY_C * scale)) ** 2, 1.0)
+    return np.sum(TUKEY_C ** 2 / 6 * (1 - (1 - x) ** 3), -1), (new.sum(-1) - 1) * TUKEY_C ** 2 / 6
+
+
+def levels_objective(heights: np.ndarray, scale: float, power: float = 1.0) -> np.ndarray:
+    """The floor's negative log-posterior (module docstring) of footfall heights ``(..., F)``
+    along candidate normals, ``(...)``: ``power`` (``t_f``) times the footfalls' loss plus the
+    levels' cost (:func:`levels_terms`), which the power leaves as it is."""
+    loss, levels = levels_terms(heights, scale)
+    return power * loss + levels
 
 
 def _coarse_tilt(h: np.ndarray, q: np.ndarray, scale: float, prior_cov: np.ndarray,
@@ -197,7 +226,7 @@ def _coarse_tilt(h: np.ndarray, q: np.ndarray, scale: float, prior_cov: np.ndarr
     sd = np.sqrt(np.max(np.linalg.eigvalsh(prior_cov)))
     axis = np.linspace(-3.0 * sd, 3.0 * sd, _COARSE_STEPS)
     tilts = np.stack(np.meshgrid(axis, axis, indexing="ij"), -1).reshape(-1, 2)
-    cost = [levels_objective(h + q @ t, scale) + 0.5 * float(t @ prior_inv @ t) for t in tilts]
+    cost = levels_objective(h + tilts @ q.T, scale) + 0.5 * np.einsum("ni,ij,nj->n", tilts, prior_inv, tilts)
     return tilts[int(np.argmin(cost))]
 
 
@@ -272,6 +301,62 @@ class FloorOutcome:
     leg: float = float("nan")
 
 
+def _floor_frames(J, ok: np.ndarray) -> tuple[np.ndarray, float, str | None]:
+    """``(frames (T,) bool, leg length, why no floor or None)``: the ``ok`` frames of ``J``
+    ``(T, 17, 3)`` with a pelvis and both legs, their leg length (:func:`leg_length`)."""
+    fin = ok & np.isfinite(np.asarray(J[:, [PELVIS, R_ANKLE, L_ANKLE, R_HIP, L_HIP, R_KNEE, L_KNEE]])).all((1, 2))
+    leg = leg_length(J, fin) if fin.any() else float("nan")
+    if not np.isfinite(leg) or leg <= 0:
+        return fin, leg, "no frame with both legs"
+    if np.any(np.ptp(_joint(J, PELVIS, fin), axis=0) == 0):
+        return fin, leg, "pelvis fixed on a camera axis: root-relative or depth-pinned joints carry no floor"
+    return fin, leg, None
+
+
+@dataclass(frozen=True)
+class FloorEnergy:
+    """The floor's negative log-likelihood at any candidate up, for the posture's posterior.
+
+    The footfalls are detected once, along the poses' up (:func:`detect_contacts`), so every
+    candidate scores the same observations: ``points`` ``(F, 3)`` their mean positions (camera
+    frame, input unit), ``scale`` ``sigma_f L`` and ``power`` ``t_f``. Calling it with unit ups
+    ``(N, 3)`` gives :func:`levels_objective` at the power of the footfalls' heights along each,
+    ``(N,)``: support levels are horizontal whatever the posture, so a walk read along the wrong
+    up climbs a level at every step."""
+
+    points: np.ndarray
+    scale: float
+    power: float
+
+    def terms(self, ups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`levels_terms` ``(loss (N,), level cost (N,))`` along unit ups ``(N, 3)``."""
+        ups = np.asarray(ups, np.float64)
+        parts = [levels_terms(ups[i:i + _ENERGY_CHUNK] @ self.points.T, self.scale)
+                 for i in range(0, len(ups), _ENERGY_CHUNK)]
+        return (np.concatenate([a for a, _ in parts]), np.concatenate([b for _, b in parts])) if parts else \
+            (np.zeros(0), np.zeros(0))
+
+    def __call__(self, ups: np.ndarray) -> np.ndarray:
+        loss, levels = self.terms(ups)
+        return self.power * loss + levels
+
+
+def floor_energy(J, ok: np.ndarray, u0: np.ndarray, fps: float,
+                 p: UpModelParameters | None = None) -> tuple[FloorEnergy | None, str]:
+    """``(energy, why)``: the :class:`FloorEnergy` of a recording with a pelvis path (``J``,
+    ``ok``, ``fps`` as :func:`ground_plane_up`'s), its footfalls detected along the poses' unit
+    up ``u0`` ``(3,)`` (camera frame), and ``"ok"``; or ``None`` and why the joints carry no
+    floor or no footfall."""
+    p = default_parameters() if p is None else p
+    fin, leg, refused = _floor_frames(J, ok)
+    if refused:
+        return None, refused
+    contacts = detect_contacts(J, fin, u0, fps, leg, p)
+    if not len(contacts.points):
+        return None, NO_CONTACTS
+    return FloorEnergy(footfalls(contacts)[0], p.footfall_height_sd_leg * leg, p.footfall_posture_power), "ok"
+
+
 def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, fps: float, prior_cov: np.ndarray,
                     p: UpModelParameters | None = None) -> FloorOutcome:
     """The up refined by the floor contacts of a recording with a pelvis path (measured, or
@@ -294,13 +379,9 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, fps: float, prior_cov: np
         :class:`FloorOutcome`.
     """
     p = default_parameters() if p is None else p
-    fin = ok & np.isfinite(np.asarray(J[:, [PELVIS, R_ANKLE, L_ANKLE, R_HIP, L_HIP, R_KNEE, L_KNEE]])).all((1, 2))
-    leg = leg_length(J, fin) if fin.any() else float("nan")
-    if not np.isfinite(leg) or leg <= 0:
-        return FloorOutcome(u0, None, None, {"used": False, "reason": "no frame with both legs"})
-    if np.any(np.ptp(_joint(J, PELVIS, fin), axis=0) == 0):
-        return FloorOutcome(u0, None, None, {"used": False, "reason": (
-            "pelvis fixed on a camera axis: root-relative or depth-pinned joints carry no floor")}, leg)
+    fin, leg, refused = _floor_frames(J, ok)
+    if refused:
+        return FloorOutcome(u0, None, None, {"used": False, "reason": refused}, leg)
     contacts = detect_contacts(J, fin, u0, fps, leg, p)
     fit = fit_floor(contacts, u0, prior_cov, leg, p)
     if fit.informative:
@@ -312,7 +393,7 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, fps: float, prior_cov: np
             "residual_over_leg": float(fit.residual / leg),
             "correction_deg": float(np.degrees(angle_between(fit.up, u0)))}
     if not len(contacts.points):
-        info["reason"] = "no quasi-static foot contacts"
+        info["reason"] = NO_CONTACTS
     elif not fit.informative:
         info["reason"] = "the contacts constrain no floor tilt"
     else:

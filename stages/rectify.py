@@ -28,7 +28,7 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
-from .ground_plane import LYING_NO_FLOOR, NO_PELVIS_PATH, ground_plane_up
+from .ground_plane import LYING_NO_FLOOR, NO_PELVIS_PATH, floor_energy, ground_plane_up
 from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
@@ -281,8 +281,9 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     ``(T, 3, 3)``; ``ok`` ``(T,)`` bool their valid frames).
 
     ``camera_prior`` False: a uniform prior over the up and no lying hypothesis (the poses
-    alone). ``joints_cam`` ``(T, 17, 3)`` with a pelvis path (measured, or from 2D keypoints): an upright
-    posture's posterior is fused with the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`,
+    alone). ``joints_cam`` ``(T, 17, 3)`` with a pelvis path (measured, or from 2D keypoints): the
+    footfalls weigh in the posture's posterior (:func:`pcnet.stages.ground_plane.floor_energy`), and
+    an upright posture's is then fused with the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`,
     the upright hypothesis's own pitch and roll half-widths as its normal prior). The intervals
     stay the up model's: the fused ones are too narrow on validation
     (``benchmarks/results/fit_floor_contacts.txt``).
@@ -296,11 +297,14 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     params = default_parameters()
     if not camera_prior:
         params = replace(params, camera_prior_outside=1.0)
-    post = static_posterior(summarise_recording(evidence.frames(ok), fps, params), params, lying=camera_prior)
-    reason = NO_PELVIS_PATH if joints_cam is None else LYING_NO_FLOOR
+    summary = summarise_recording(evidence.frames(ok), fps, params)
+    J = None if joints_cam is None else check_poses(joints_cam, "joints_cam")
+    energy, why = (None, NO_PELVIS_PATH) if J is None else floor_energy(J, ok, summary.up, fps, params)
+    post = static_posterior(summary, params, lying=camera_prior, floor=energy)
+    reason = LYING_NO_FLOOR if energy is not None else why if J is None else f"body read as lying; no floor: {why}"
     up, ground, kind = post.up, {"used": False, "reason": reason}, "up model"
-    if joints_cam is not None and post.posture == "upright":
-        floor = ground_plane_up(check_poses(joints_cam, "joints_cam"), ok, post.up, fps, post.upright_cov(), params)
+    if J is not None and post.posture == "upright":
+        floor = ground_plane_up(J, ok, post.up, fps, post.upright_cov(), params)
         up, ground = floor.up, floor.info
         kind += "+ground_plane" if ground["used"] else ""
     rotations, heading_ok = rotations_about_up(R, up)

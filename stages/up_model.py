@@ -40,8 +40,10 @@ Camera prior (declared, docs/CONVENTIONS.md "handheld" views): camera pitch
 cameras outside them.
 
 Floor contacts. Where the joints carry a pelvis path (a depth sensor's, or one recovered from
-2D keypoints), the resting ankles trace the floor, whose normal is ``g``; :mod:`pcnet.stages.ground_plane` fuses that evidence with an
-upright posterior (its parameters are this model's too).
+2D keypoints), the resting ankles trace the floor, whose normal is ``g``. Their likelihood, at
+a learning rate ``t_f`` (footfalls err together), weighs in the posture's posterior on the
+sphere grid (:func:`posture_log_weights`), and :mod:`pcnet.stages.ground_plane` then fuses it
+with an upright posterior (its parameters are this model's too).
 
 Answers. Static camera (``sequence``): the posterior ``p(g, posture | g_hat)`` on a sphere grid
 gives the more probable posture and its mode; the 95 % intervals are the
@@ -58,6 +60,7 @@ which records each value's provenance (:class:`UpModelParameters`).
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from importlib import resources
 
@@ -81,6 +84,9 @@ _START_GRID_CHUNK = 100  # grid points scored at once: (100, 2000, 3) float64 ar
 #: A posture not reported that keeps at least this posterior probability is reached by the 95 %
 #: intervals (a region holding 95 % must hold some of it; decision 0024).
 OTHER_POSTURE_P = 0.05
+#: Grid points holding less than this share of the largest weight of the poses' posterior are
+#: left out once the floor weighs in (all of them together hold at most 4e-8 of its largest weight).
+_FLOOR_SUPPORT = 1e-12
 
 
 # ============================================================================ parameters
@@ -100,7 +106,8 @@ class UpModelParameters:
         camera_prior_roll_deg, camera_prior_outside: the declared camera prior.
         contact_height_leg, contact_speed_leg_s, contact_speed_window_s: the floor contacts'
         ``h_c``, ``v_c`` (leg lengths, leg lengths per second) and ``w`` (s); footfall_height_sd_leg,
-        ankle_offset_leg: ``sigma_f``, ``s_o`` (leg lengths) (:mod:`pcnet.stages.ground_plane`).
+        ankle_offset_leg: ``sigma_f``, ``s_o`` (leg lengths); footfall_posture_power: ``t_f``, the
+        footfalls' learning rate in the posture's posterior (:mod:`pcnet.stages.ground_plane`).
         provenance: for each name, where its value comes from (split, command, or "declared").
     """
 
@@ -123,6 +130,7 @@ class UpModelParameters:
     contact_speed_window_s: float
     footfall_height_sd_leg: float
     ankle_offset_leg: float
+    footfall_posture_power: float
     provenance: dict
 
     @classmethod
@@ -148,7 +156,7 @@ class UpModelParameters:
         for name in ("body_sigma_deg", "camera_sigma_deg", "error_time_s", "systematic_pitch_deg",
                      "systematic_roll_deg", "lying_elevation_deg", "camera_prior_pitch_deg", "camera_prior_roll_deg",
                      "camera_fallback_width_deg", "contact_height_leg", "contact_speed_leg_s",
-                     "contact_speed_window_s", "footfall_height_sd_leg", "ankle_offset_leg"):
+                     "contact_speed_window_s", "footfall_height_sd_leg", "ankle_offset_leg", "footfall_posture_power"):
             if not getattr(out, name) > 0:
                 raise InputError(f"up_model.json: parameters.{name}: expected > 0, got {getattr(out, name)}")
         for name in ("outlier_share", "lying_prior", "camera_prior_outside"):
@@ -521,14 +529,38 @@ def _half_widths(points: np.ndarray, weights: np.ndarray, mode: np.ndarray) -> t
             float(np.degrees(weighted_quantile(dr[None], w, 0.95)[0])))
 
 
-def static_posterior(s: PoseSummary, p: UpModelParameters, lying: bool = True) -> StaticPosterior:
-    """Posterior over ``g`` and posture given the recording's :class:`PoseSummary` (module
-    docstring), on a ~1 deg sphere grid; the upright mode refined by Newton's method.
-    ``lying=False`` gives the lying posture no prior mass (an ablation switch)."""
+def posture_log_weights(s: PoseSummary, p: UpModelParameters, lying: bool = True,
+                        floor: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(log upright, log lying)`` each ``(G,)``: the unnormalised log posterior of each
+    posture at the points of the ~1 deg sphere grid (:func:`fibonacci_sphere`, camera frame).
+
+    ``floor``: the floor's negative log-likelihood at unit ups ``(N, 3) -> (N,)``
+    (:class:`pcnet.stages.ground_plane.FloorEnergy`), the same for both postures; it is
+    evaluated where either posture holds more than :data:`_FLOOR_SUPPORT` of the largest
+    weight, and the rest of the grid is left out (-inf). ``lying=False`` gives the lying
+    posture no prior mass (an ablation switch)."""
     grid = _grid()
     prior = log_camera_prior(grid, p)
     lu = np.log1p(-p.lying_prior) + log_upright(grid, s, p) + prior
     ll = np.log(p.lying_prior) + log_lying(grid, s, p) + prior if lying else np.full(len(grid), -np.inf)
+    if floor is not None:
+        top = max(lu.max(), ll.max())
+        keep = np.maximum(lu, ll) > top + np.log(_FLOOR_SUPPORT)
+        energy = np.full(len(grid), np.inf)
+        energy[keep] = floor(grid[keep])
+        energy -= energy[keep].min()
+        lu, ll = lu - energy, ll - energy
+    return lu, ll
+
+
+def static_posterior(s: PoseSummary, p: UpModelParameters, lying: bool = True,
+                     floor: Callable[[np.ndarray], np.ndarray] | None = None) -> StaticPosterior:
+    """Posterior over ``g`` and posture given the recording's :class:`PoseSummary` (module
+    docstring), on a ~1 deg sphere grid (:func:`posture_log_weights`; ``lying`` and ``floor``
+    as there); the upright mode refined by Newton's method on the poses' terms (the floor's
+    fine fit is :func:`pcnet.stages.ground_plane.ground_plane_up`'s)."""
+    grid = _grid()
+    lu, ll = posture_log_weights(s, p, lying, floor)
     top = max(lu.max(), ll.max())
     w_upright, w_lying = np.exp(lu - top), np.exp(ll - top)
     p_lying = float(w_lying.sum() / (w_upright.sum() + w_lying.sum()))

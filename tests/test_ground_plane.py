@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from pcnet.stages.core.conventions import PELVIS
-from pcnet.stages.core.rotations import angle_between, sample_camera_rotations
-from pcnet.stages.ground_plane import detect_contacts, footfalls, ground_plane_up, leg_length
+from pcnet.stages.core.rotations import angle_between, axis_rotation, sample_camera_rotations
+from pcnet.stages.ground_plane import detect_contacts, footfalls, ground_plane_up, leg_length, levels_objective
+from pcnet.stages.spherical import TUKEY_C
 from pcnet.stages.up_model import default_parameters, exp_map
 
 FIXTURE = Path(__file__).resolve().parent / "fixtures" / "mocap_small.npz"
@@ -90,3 +91,40 @@ def test_root_relative_joints_are_refused():
     u0 = exp_map(truth, np.radians([5.0, 0.0]))
     out = ground_plane_up(rel, np.ones(len(X), bool), u0, FPS, _cov(5.0))
     assert not out.info["used"] and "pelvis" in out.info["reason"] and np.allclose(out.up, u0)
+
+
+def test_levels_objective_scores_many_candidate_normals_as_one_at_a_time():
+    p = default_parameters()
+    X, truth = _seen(WALK, 1, noise_m=0.015)
+    ok = np.ones(len(X), bool)
+    leg = leg_length(X, ok)
+    points, _ = footfalls(detect_contacts(X, ok, truth, FPS, leg, p))
+    scale = p.footfall_height_sd_leg * leg
+    ups = exp_map(np.broadcast_to(truth, (40, 3)), np.random.default_rng(0).normal(0.0, 0.3, (40, 2)))
+    together = levels_objective(ups @ points.T, scale)
+    one_by_one = [float(levels_objective(points @ u, scale)) for u in ups]
+    assert np.allclose(together, one_by_one, rtol=0, atol=1e-9)
+    # one level exactly: no cost; two levels far apart: one footfall's largest cost, c^2 / 6
+    assert levels_objective(np.zeros(5), scale) == 0.0
+    assert np.isclose(levels_objective(np.r_[np.zeros(5), np.ones(5)], scale), TUKEY_C ** 2 / 6)
+
+
+def test_a_walk_across_the_view_tells_an_upright_walker_from_a_lying_body():
+    """A camera rolled a quarter turn over a real walk with its pelvis path: the skeleton alone
+    fits an upright body and a body lying on the floor as well (the declared priors then say
+    lying), but along the lying body's up the footfalls climb a support level at every step.
+    With the footfalls in the posture's posterior (decision 0048) the walker reads upright;
+    root-relative, the prior still decides."""
+    from pcnet.pipeline.rectification import rectify
+
+    X, truth = _seen(WALK, 0, noise_m=0.015)
+    Q = axis_rotation("z", np.radians(90.0))
+    rolled, truth = X @ Q.T, Q @ truth
+    walk = rolled[-1, PELVIS] - rolled[0, PELVIS]
+    lying_up = np.array([0.0, -1.0, 0.0])  # the level camera's up, where the prior puts a lying body
+    assert abs(walk @ lying_up) > 1.0  # metres walked along the lying body's up: across the view
+    seq = rectify(rolled, "pcnet", mode="sequence", fps=FPS, measured_root=True).report.sequence
+    assert seq.posture.most_probable == "upright" and seq.posture.p_lying < 0.05, seq.posture
+    assert _deg(seq.up, truth) < 5.0, (_deg(seq.up, truth), seq.ground_plane)
+    alone = rectify(rolled - rolled[:, PELVIS:PELVIS + 1], "pcnet", mode="sequence", fps=FPS).report.sequence
+    assert alone.posture.most_probable == "lying"

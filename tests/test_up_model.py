@@ -115,17 +115,22 @@ def test_sequence_mode_reads_real_shavasana_as_lying_and_its_interval_reaches_up
 
 
 def test_a_body_read_as_lying_says_why_its_pelvis_path_gave_no_floor():
-    """The floor contacts are a term of the upright posture. Real Shavasana given a pelvis path
-    (3 m in front of the camera, drifting 10 cm) reads as lying, and the report says that the
-    lying reading, not a missing path, kept the floor out; root-relative, it says no path."""
+    """Real Shavasana given a pelvis path (3 m in front of the camera, drifting 10 cm): the
+    resting feet fit a lying body and an upright one alike, so it still reads as lying, and the
+    report says the footfalls weighed in the posture but the fine floor fit is the upright
+    posture's; root-relative, it says no path."""
     from pcnet.pipeline.rectification import rectify
     from pcnet.stages.ground_plane import LYING_NO_FLOOR, NO_PELVIS_PATH
 
     X = _yoga("yoga_Abhay_Shavasana_f200-299.npy")
-    path = np.c_[np.linspace(0.0, 0.1, len(X)), np.zeros(len(X)), np.full(len(X), 3.0)]
+    path = np.c_[np.linspace(0.0, 0.1, len(X)), np.linspace(0.0, 0.02, len(X)), np.linspace(3.0, 3.05, len(X))]
     located = X - X[:, PELVIS:PELVIS + 1] + path[:, None]
     seq = rectify(located, "pcnet", mode="sequence", fps=30.0, measured_root=True).report.sequence
     assert seq.posture.most_probable == "lying" and seq.ground_plane["reason"] == LYING_NO_FLOOR
+    pinned = located.copy()
+    pinned[..., 1] -= pinned[:, PELVIS:PELVIS + 1, 1]  # the pelvis fixed on the camera's x-z plane: no floor
+    seq = rectify(pinned, "pcnet", mode="sequence", fps=30.0, measured_root=True).report.sequence
+    assert seq.posture.most_probable == "lying" and "pelvis fixed on a camera axis" in seq.ground_plane["reason"]
     seq = rectify(X, "pcnet", mode="sequence", fps=30.0).report.sequence
     assert seq.ground_plane["reason"] == NO_PELVIS_PATH
 
