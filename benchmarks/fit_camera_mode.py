@@ -28,7 +28,6 @@ Writes benchmarks/results/fit_camera_mode.txt. The package's constants
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
@@ -37,7 +36,7 @@ import numpy as np
 import pcnet.stages.temporal as temporal
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save
 
 RESULT = Path(__file__).resolve().parent / "results" / "fit_camera_mode.txt"
 SMOOTH_GRID_S = (0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0)
@@ -65,12 +64,7 @@ def best_threshold(static: np.ndarray, moving: np.ndarray) -> tuple[float, int, 
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--data", type=Path, default=A.DEFAULT)
-    ap.add_argument("--cache", type=Path, default=A.CACHE)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "fit_camera_mode")
+    args = F.fit_arguments(argv, __doc__, "fit_camera_mode", RESULT, writes_json=False)
     t0 = time.time()
     val = F.validation_sets(args.data, args.cache)
     static = [e for evs in val.values() for e in evs]

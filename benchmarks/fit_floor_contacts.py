@@ -39,7 +39,6 @@ Checks under the shipped parameters (nothing is fitted on them):
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import json
 import time
@@ -50,7 +49,7 @@ import numpy as np
 
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages import temporal
 from pcnet.stages.core.conventions import PELVIS
@@ -216,13 +215,7 @@ def coverage_line(recs: list[Recording], p: UpModelParameters) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--data", type=Path, default=A.DEFAULT)
-    ap.add_argument("--cache", type=Path, default=A.CACHE)
-    ap.add_argument("--json", type=Path, default=F.JSON_OUT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "fit_floor_contacts")
+    args = F.fit_arguments(argv, __doc__, "fit_floor_contacts", RESULT)
     t0 = time.time()
     recs = recordings(args.data, args.cache)
     base = default_parameters()

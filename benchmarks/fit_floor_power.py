@@ -36,7 +36,6 @@ footfalls, then the upright fine fit), against the chain without the footfalls i
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from pathlib import Path
@@ -46,7 +45,7 @@ import numpy as np
 from benchmarks import ablation as A
 from benchmarks import fit_floor_contacts as FF
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save
 from pcnet.stages.ground_plane import floor_energy, ground_plane_up
 from pcnet.stages.up_model import UpModelParameters, default_parameters, posture_log_weights, static_posterior
 
@@ -98,13 +97,7 @@ def chain_errors(recs: list[FF.Recording], p: UpModelParameters, footfalls: bool
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--data", type=Path, default=A.DEFAULT)
-    ap.add_argument("--cache", type=Path, default=A.CACHE)
-    ap.add_argument("--json", type=Path, default=F.JSON_OUT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "fit_floor_power")
+    args = F.fit_arguments(argv, __doc__, "fit_floor_power", RESULT)
     t0 = time.time()
     recs = FF.recordings(args.data, args.cache)
     base = default_parameters()

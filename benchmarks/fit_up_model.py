@@ -245,14 +245,23 @@ def validation_sets(data: Path, cache: Path) -> dict[tuple[str, str], list[dict]
             for tag, file in VAL_SETS for views, seed in VAL_VIEWS}
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def fit_arguments(argv, doc: str, script: str, result: Path, writes_json: bool = True) -> argparse.Namespace:
+    """The command line of a fit on the validation sets (this script's and the up model's
+    later fits): ``--data``, ``--cache``, ``--json`` (the up model's parameters file, where the
+    fit writes into it) and ``--out``; exits with one line where ``--data`` lacks the mocap."""
+    ap = argparse.ArgumentParser(description=doc.split("\n")[0])
     ap.add_argument("--data", type=Path, default=A.DEFAULT)
     ap.add_argument("--cache", type=Path, default=A.CACHE)
-    ap.add_argument("--json", type=Path, default=JSON_OUT)
-    ap.add_argument("--out", type=Path, default=RESULT)
+    if writes_json:
+        ap.add_argument("--json", type=Path, default=JSON_OUT)
+    ap.add_argument("--out", type=Path, default=result)
     args = ap.parse_args(argv)
-    require_mocap(args.data, "fit_up_model")
+    require_mocap(args.data, script)
+    return args
+
+
+def main(argv=None) -> int:
+    args = fit_arguments(argv, __doc__, "fit_up_model", RESULT)
     t0 = time.time()
     evs = validation_sets(args.data, args.cache)
     all_evs = [e for v in evs.values() for e in v]
