@@ -299,9 +299,12 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
         params = replace(params, camera_prior_outside=1.0)
     summary = summarise_recording(evidence.frames(ok), fps, params)
     J = None if joints_cam is None else check_poses(joints_cam, "joints_cam")
-    energy, why = (None, NO_PELVIS_PATH) if J is None else floor_energy(J, ok, summary.up, fps, params)
+    if J is None:
+        energy, reason = None, NO_PELVIS_PATH
+    else:  # the reason stands only where the body reads as lying (an upright one gets the fine fit's)
+        energy, why = floor_energy(J, ok, summary.up, fps, params)
+        reason = LYING_NO_FLOOR if energy is not None else f"body read as lying; no floor: {why}"
     post = static_posterior(summary, params, lying=camera_prior, floor=energy)
-    reason = LYING_NO_FLOOR if energy is not None else why if J is None else f"body read as lying; no floor: {why}"
     up, ground, kind = post.up, {"used": False, "reason": reason}, "up model"
     if J is not None and post.posture == "upright":
         floor = ground_plane_up(J, ok, post.up, fps, post.upright_cov(), params)
