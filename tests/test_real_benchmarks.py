@@ -20,7 +20,7 @@ from pcnet.stages.core.rotations import axis_rotation, compose_camera_rotation
 if str(ROOT) not in sys.path:  # benchmarks/ is a package of the repository, not of the installed pcnet
     sys.path.append(str(ROOT))
 from benchmarks import (apparent_vertical, equivariance, gravity_benchmark, per_clip_difference,  # noqa: E402
-                        recipe_means, vanishing_gravity, yoga_physics)
+                        recipe_means, run_summary, vanishing_gravity, yoga_physics)
 
 CAMS = ("cam01", "cam02", "cam03", "cam04")
 
@@ -358,3 +358,17 @@ def test_recipe_means_reads_floor_experiment_results_and_applies_the_rule(tmp_pa
     proc = _run_benchmark("recipe_means", "--a", str(broken), "--b", str(x4[1]), timeout=60)
     assert proc.returncode == 1 and proc.stdout == ""
     assert proc.stderr.strip() == f"recipe_means: {broken}: expected floor_experiment.py's row 'CMU test subjects' (shipped), found none"
+
+
+def test_run_summary_reads_the_committed_gpu_runs_and_refuses_a_record_without_validation(tmp_path):
+    """The best epoch is the lowest validation rotation (what pcnet train keeps as best.pt), and
+    the printed seed means are those decision 0049 compares."""
+    runs = ROOT / "benchmarks" / "results" / "runs_0049"
+    best = run_summary.best_epoch(runs / "C13.metrics.jsonl")
+    assert best["epochs"] == 64 and best["epoch"] == 47 and abs(best["val_tilt_deg"] - 3.875) < 5e-4
+    proc = _run_benchmark("run_summary", str(runs / "B13.metrics.jsonl"), str(runs / "B14.metrics.jsonl"), timeout=60)
+    assert proc.returncode == 0 and "| mean of 2 | | | 6.319 | 3.892 | |" in proc.stdout
+    broken = tmp_path / "broken.metrics.jsonl"
+    broken.write_text('{"epoch": 1, "seconds": 3.0}\n')
+    proc = _run_benchmark("run_summary", str(broken), timeout=60)
+    assert proc.returncode == 1 and proc.stdout == "" and "val_rotation_deg" in proc.stderr
