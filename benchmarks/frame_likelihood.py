@@ -1,0 +1,91 @@
+"""Frame mode without the view gate: the up model's per-frame likelihood against the gate.
+
+    python -m benchmarks.frame_likelihood --data ../shared/data [--cache /tmp/pcnet_ablation_cache]
+
+Frame mode answers each frame alone. pcnet ships the view gate's blend of its two networks'
+rotations (``models/view_gate.py``: ramps with hand-set constants, decisions 0025 and 0040).
+The up model (``stages/up_model.py``, docs/up_model.md) already holds a fitted error model of
+each network's per-frame up: ``l_t(g)``, with the camera-frame network's precision falling
+with its view tilt and its fall-back to the level camera. Its per-frame maximiser ``g_hat_t``
+(each frame alone, no prior: ``benchmarks.up_model_variants.summarise_frames``) is a frame-mode
+answer with no constant of its own.
+
+Printed per set: the mean over clips of each clip's mean per-frame tilt error (deg) of the
+gate and of ``g_hat_t``, and the paired difference (``g_hat_t`` minus gate) with its 95 %
+bootstrap interval over clips (:func:`benchmarks.ablation.paired_interval`). Validation sets
+first (Bandai motion-style val + CMU val subjects, static "paper", "wide" and fully rolled
+views: the up model was fitted on them), then the held-out sets of
+``benchmarks/ablation.py`` from its cache (the same recordings: Bandai motion-style test, CMU
+test subjects, DeepMimic, the moving camera, the camera rolled 30 deg, the real calibrated
+cameras in their 16 views). The decision rule is docs/decisions/0050-frame-mode-likelihood.md's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks import ablation as A
+from benchmarks import fit_up_model as F
+from benchmarks.report import print_and_save
+from benchmarks.up_model_variants import summarise_frames
+from pcnet.stages.up_model import default_parameters
+
+RESULT = Path(__file__).resolve().parent / "results" / "frame_likelihood.txt"
+COMMAND = "python -m benchmarks.frame_likelihood --data ../shared/data"
+
+
+def clip_errors(evs: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+    """``(gate (N,), likelihood (N,))``: each recording's mean per-frame tilt error (deg)."""
+    p = default_parameters()
+    gate, lik = [], []
+    for ev in evs:
+        R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
+        gate.append(A.clip_error(np.where(valid[:, None], R[:, :, 1], np.nan), ev["true_up"]))
+        lik.append(A.clip_error(summarise_frames(A.evidence_of(ev), p).up, ev["true_up"]))
+    return np.array(gate), np.array(lik)
+
+
+def row(title: str, evs: list[dict]) -> str:
+    gate, lik = clip_errors(evs)
+    mean, lo, hi = A.paired_interval(lik - gate)
+    return f"{title:<44}{len(evs):>6}{np.nanmean(gate):>8.2f}{np.nanmean(lik):>8.2f}  {mean:+.2f} [{lo:+.2f}, {hi:+.2f}]"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=A.DEFAULT)
+    ap.add_argument("--max-clips", type=int, default=200, help="as benchmarks/ablation.py's (its cache keys)")
+    ap.add_argument("--cache", type=Path, default=A.CACHE)
+    ap.add_argument("--out", type=Path, default=RESULT)
+    args = ap.parse_args(argv)
+    t0 = time.time()
+    head = f"{'set':<44}{'clips':>6}{'gate':>8}{'g_hat_t':>8}  g_hat_t - gate [95 % CI], deg"
+    lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
+             "Mean over clips of each clip's mean per-frame tilt error (deg).", "", "## Validation", head]
+    for (tag, views), evs in F.validation_sets(args.data, args.cache).items():
+        lines.append(row(f"{tag} val, {views}", evs))
+    lines += ["", "## Held out (benchmarks/ablation.py's recordings)", head]
+    static = []
+    for title, file, split in A.MOCAP_SETS:
+        key = f"{file.split('_')[0]}_{split}_{args.max_clips}"
+        evs = A.cached(args.cache, key, lambda: A.mocap_evidence(args.data, file, split, args.max_clips))
+        static.append(evs)
+        lines.append(row(title, evs))
+    moving = A.cached(args.cache, f"sweep_{args.max_clips}", lambda: A.sweep_evidence([static[0], static[2]]))
+    lines.append(row(f"moving camera (pitch sweeping {A.SWEEP_DEG:g} deg)", moving))
+    rolled = A.cached(args.cache, f"rolled{A.ROLL_DEG:g}_{args.max_clips}", lambda: A.rolled_evidence(static))
+    lines.append(row(f"camera rolled {A.ROLL_DEG:g} deg (the three sets)", rolled))
+    real = A.cached(args.cache, "real_cameras", lambda: A.real_camera_evidence(args.data))
+    lines.append(row("real calibrated cameras, 16 views", real))
+    lines += ["", f"({time.time() - t0:.0f} s)"]
+    print_and_save(lines, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
