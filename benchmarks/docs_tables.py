@@ -1,4 +1,4 @@
-"""Write the benchmark pages' generated tables (docs/benchmarks/*.md) from the results files.
+"""Write the benchmark pages' generated tables (docs/benchmarks/*.md, docs/world_validation.md) from the results files.
 
     python -m benchmarks.docs_tables            # rewrite every generated table in place
     python -m benchmarks.docs_tables --check    # exit 1 if a page's table differs from its file
@@ -30,6 +30,8 @@ from benchmarks.readme_tables import heldout_table
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
 PAGES = ROOT / "docs" / "benchmarks"
+#: Pages outside docs/benchmarks/ that hold generated tables too.
+OTHER_PAGES = (ROOT / "docs" / "world_validation.md",)
 MARK = re.compile(r"(<!-- generated: (?P<spec>[^>]*?) -->\n)(?P<body>.*?)(<!-- /generated -->)", re.S)
 
 
@@ -145,7 +147,7 @@ def main() -> int:
     parser.add_argument("--check", action="store_true", help="only check that every page is up to date")
     args = parser.parse_args()
     stale = []
-    for page in sorted(PAGES.glob("*.md")):
+    for page in [*sorted(PAGES.glob("*.md")), *OTHER_PAGES]:
         text = page.read_text()
         new = MARK.sub(lambda m: m.group(1) + generate(m.group("spec")) + "\n" + m.group(4), text)
         if new != text:
