@@ -106,7 +106,7 @@ import contextlib
 import hashlib
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -125,7 +125,7 @@ from benchmarks.report import require_mocap
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
-from pcnet.stages.ground_plane import ground_plane_up
+from pcnet.stages.ground_plane import posture_and_floor_up
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, up_model_sequence
 from pcnet.stages.root_path import root_from_keypoints
 from pcnet.stages.spherical import robust_mean_direction
@@ -574,6 +574,12 @@ class Variant:
     mode_rule: str = "spread"  # auto's static/moving rule: "spread" (choose_mode) | "bayes" (benchmarks/camera_motion_model.py)
     #: auto's threshold (deg), its low-pass (s) and smooth mode's time constant (s); None = the package's
     mode_constants: tuple[float, float, float] | None = None
+    #: up model parameters overridden, ``((name, value), ...)``: a term of its likelihood switched off
+    params: tuple[tuple[str, float], ...] = ()
+
+    def up_parameters(self):
+        """The up model's parameters of this row: the shipped ones with :attr:`params` replaced."""
+        return replace(default_parameters(), **dict(self.params))
 
 
 #: The chain the extraction ran (benchmarks' real chain, mode auto), which the reproduction check rebuilds.
@@ -582,6 +588,9 @@ VARIANTS = (
     Variant("default (pcnet run)", "default"),
     Variant("up model: lying posture off", lying=False),
     Variant("up model: camera prior and lying posture off", prior=False),
+    Variant("up model: camera-frame net's level fall-back off", params=(("camera_fallback_deg", 1e4),)),
+    Variant("up model: camera-frame precision constant in view tilt", params=(("camera_view_growth", 0.0),)),
+    Variant("up model: no outlier share (von Mises-Fisher alone)", params=(("outlier_share", 0.0),)),
     Variant("plain Tukey mean of both nets' ups", "alternative", plain_mean=True, prior=False, auto=False),
     Variant("gate off: fixed 50/50", gate="half"),
     Variant("gate off: body-frame net only", gate="body"),
@@ -647,14 +656,14 @@ def run_variant(ev: dict, v: Variant) -> dict:
         tau = temporal.SMOOTH_TIME_CONSTANT_S if v.mode_constants is None else v.mode_constants[2]
         out = temporal.smooth_rotations(R, ok, fps, tau)[:, :, 1]
         return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "posture": None}
+    p = v.up_parameters()
     if v.lying:  # the chain's own sequence step
-        _, _, seq = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior)
+        _, _, seq = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior, params=p)
         pitch, roll = camera_pitch_roll(seq.up)
         return {**res, "up": np.where(ok[:, None], seq.up, np.nan), "mode": mode,
                 "posture": "upright" if seq.posture is None else seq.posture.most_probable,
                 "interval": (np.degrees(pitch), np.degrees(roll), seq.camera_pitch_interval_deg,
                              seq.camera_roll_interval_deg)}
-    p = default_parameters()
     post = static_posterior(summarise_recording(evidence.frames(ok), fps, p), p, lying=False)
     return {**res, "up": np.where(ok[:, None], post.up, np.nan), "mode": mode, "posture": post.posture}
 
@@ -891,21 +900,12 @@ def floor_table(sets: list[tuple[str, list]]) -> list[str]:
     return lines
 
 
-def _chain_before_0048(R: np.ndarray, ok: np.ndarray, ev: dict, joints: np.ndarray) -> tuple[np.ndarray, str]:
-    """``(up (3,), posture)`` of the chain before decision 0048: the up model's posture from
-    the poses alone, then an upright posture's fine floor fit."""
-    p = default_parameters()
-    post = static_posterior(summarise_recording(evidence_of(ev).frames(ok), ev["fps"], p), p)
-    if post.posture == "lying":
-        return post.up, "lying"
-    return ground_plane_up(joints, ok, post.up, ev["fps"], post.upright_cov(), p).up, "upright"
-
-
 def rolled_floor_table(rolled: list[dict], floor_sets: list[tuple[str, list]]) -> list[str]:
     """The footfalls switched off in the posture's posterior, on the held-out recordings with a
     pelvis path seen by a camera rolled :data:`QUARTER_DEG` (:func:`rolled_evidence`): per set
     and path, the sequence tilt error over clips and the clips read as lying, of the default
-    chain and of :func:`_chain_before_0048`."""
+    chain and of the chain before decision 0048 (the footfalls only in an upright posture's fine
+    fit: :func:`pcnet.stages.ground_plane.posture_and_floor_up` with ``footfalls=False``)."""
     lines = [f"## Camera rolled {QUARTER_DEG:g} deg over a pelvis path (the held-out mocap above, alternate clips "
              "clockwise and anticlockwise; the pelvis path measured, or recovered from 2D keypoints for the level "
              "camera, rolled with it): sequence tilt error (deg) over clips",
@@ -922,7 +922,10 @@ def rolled_floor_table(rolled: list[dict], floor_sets: list[tuple[str, list]]) -
                 R, valid, _, _ = per_frame(ev, VARIANTS[0])
                 R, ok = temporal.check_rotations(R, valid)
                 _, _, seq = up_model_sequence(R, ok, evidence_of(ev), ev["fps"], joints_cam=joints)
-                before = _chain_before_0048(R, ok, ev, joints)
+                p = default_parameters()
+                old = posture_and_floor_up(summarise_recording(evidence_of(ev).frames(ok), ev["fps"], p), joints, ok,
+                                           ev["fps"], p, footfalls=False)
+                before = (old.up, old.posterior.posture)
                 for default, (up, posture) in ((True, (seq.up, seq.posture.most_probable)), (False, before)):
                     errs[default].append(clip_error(np.where(ok[:, None], up, np.nan), ev["true_up"]))
                     lying[default] += posture == "lying"

@@ -46,8 +46,8 @@ from benchmarks import ablation as A
 from benchmarks import fit_floor_contacts as FF
 from benchmarks import fit_up_model as F
 from benchmarks.report import print_and_save
-from pcnet.stages.ground_plane import floor_energy, ground_plane_up
-from pcnet.stages.up_model import UpModelParameters, default_parameters, posture_log_weights, static_posterior
+from pcnet.stages.ground_plane import floor_energy, posture_and_floor_up
+from pcnet.stages.up_model import UpModelParameters, default_parameters, posture_log_weights
 
 RESULT = Path(__file__).resolve().parent / "results" / "fit_floor_power.txt"
 COMMAND = "python -m benchmarks.fit_floor_power --data ../shared/data"
@@ -81,18 +81,15 @@ def lying_probabilities(recs: list[FF.Recording], p: UpModelParameters) -> np.nd
 
 
 def chain_errors(recs: list[FF.Recording], p: UpModelParameters, footfalls: bool) -> tuple[np.ndarray, np.ndarray]:
-    """``((R, 2) tilt error deg, (R, 2) read lying)`` of the chain's up per recording and path:
-    the posture's posterior (with the footfalls where ``footfalls``), then the upright fine fit."""
+    """``((R, 2) tilt error deg, (R, 2) read lying)`` of the chain's up per recording and path
+    (:func:`pcnet.stages.ground_plane.posture_and_floor_up`, with the footfalls in the posture
+    where ``footfalls``)."""
     err, lying = np.zeros((len(recs), 2)), np.zeros((len(recs), 2), bool)
     for i, r in enumerate(recs):
         for j, J in enumerate((r.joints, r.joints_2d)):
             ok = r.ok & np.isfinite(J).all((1, 2))
-            energy = floor_energy(J, ok, r.post.summary.up, r.fps, p)[0] if footfalls else None
-            post = static_posterior(r.post.summary, p, floor=energy)
-            up = post.up
-            if post.posture == "upright":
-                up = ground_plane_up(J, ok, up, r.fps, post.upright_cov(), p).up
-            err[i, j], lying[i, j] = float(A.deg(up, r.true_up)), post.posture == "lying"
+            chain = posture_and_floor_up(r.post.summary, J, ok, r.fps, p, footfalls=footfalls)
+            err[i, j], lying[i, j] = float(A.deg(chain.up, r.true_up)), chain.posterior.posture == "lying"
     return err, lying
 
 

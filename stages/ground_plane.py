@@ -66,7 +66,7 @@ import numpy as np
 from .core.conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE
 from .core.rotations import angle_between, normalize
 from .spherical import TUKEY_C, tukey_weights
-from .up_model import UpModelParameters, default_parameters, tangent_basis
+from .up_model import PoseSummary, StaticPosterior, UpModelParameters, default_parameters, static_posterior, tangent_basis
 
 _IRLS_STEPS = 20
 #: Grid points per tilt axis of the coarse search (a resolution of half a prior standard
@@ -78,6 +78,8 @@ NO_PELVIS_PATH = ("no pelvis path: root-relative joints carry no floor (a measur
 #: Why a recording with a pelvis path gets no floor when the up model reads the body as lying.
 LYING_NO_FLOOR = ("body read as lying: the footfalls weighed in the posture and its up on the posterior's grid "
                   "(about 1 deg); the fine floor fit is the upright posture's")
+#: Why a body read as lying has no floor where the footfalls were left out of its posture (ablation).
+FOOTFALLS_LEFT_OUT = "body read as lying: the footfalls were left out of the posture"
 #: Why the joints of a recording with a pelvis path give no footfall.
 NO_CONTACTS = "no quasi-static foot contacts"
 #: Candidate ups scored at once by :class:`FloorEnergy` (bounds its (chunk, footfalls) arrays).
@@ -399,3 +401,47 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, fps: float, prior_cov: np
     else:
         info["reason"] = "ok"
     return FloorOutcome(fit.up, fit, contacts, info, leg)
+
+
+@dataclass(frozen=True)
+class PostureFloorUp:
+    """:func:`posture_and_floor_up`'s answer: the up model's ``posterior`` (posture and
+    intervals), the recording's unit ``up`` ``(3,)`` (camera frame: an upright posture's after
+    the fine floor fit, else the posterior's) and ``ground``, the report's ``ground_plane``
+    diagnostics (:class:`FloorOutcome`'s ``info``, or ``used`` False and why not)."""
+
+    posterior: StaticPosterior
+    up: np.ndarray
+    ground: dict
+
+
+def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, fps: float, p: UpModelParameters,
+                         lying: bool = True, footfalls: bool = True) -> PostureFloorUp:
+    """The up of a static camera from the poses and, where ``J`` carries a pelvis path, the
+    floor: the footfalls weigh in the posture's posterior (:func:`floor_energy` along the poses'
+    up, :func:`pcnet.stages.up_model.static_posterior`; decision 0048), then an upright
+    posture's up is fused with the floor contacts (:func:`ground_plane_up`, the upright
+    hypothesis's own covariance as its prior; decision 0043).
+
+    Args:
+        summary: the recording's :class:`~pcnet.stages.up_model.PoseSummary`.
+        J: ``(T, 17, 3)`` float camera-frame poses with the pelvis path added, as
+            :func:`ground_plane_up`'s; ``None`` for root-relative joints (no floor).
+        ok: ``(T,)`` bool, the frames to use; ``fps`` their rate, Hz.
+        p: the up model's parameters.
+        lying: whether the lying posture is a hypothesis (``False`` with ``--no-camera-prior``).
+        footfalls: ``False`` leaves the footfalls out of the posture (the chain before decision
+            0048, kept for the ablation).
+    """
+    if J is None:
+        energy, reason = None, NO_PELVIS_PATH
+    elif not footfalls:
+        energy, reason = None, FOOTFALLS_LEFT_OUT
+    else:  # the reason stands only where the body reads as lying (an upright one gets the fine fit's)
+        energy, why = floor_energy(J, ok, summary.up, fps, p)
+        reason = LYING_NO_FLOOR if energy is not None else f"body read as lying; no floor: {why}"
+    post = static_posterior(summary, p, lying=lying, floor=energy)
+    if J is not None and post.posture == "upright":
+        floor = ground_plane_up(J, ok, post.up, fps, post.upright_cov(), p)
+        return PostureFloorUp(post, floor.up, floor.info)
+    return PostureFloorUp(post, post.up, {"used": False, "reason": reason})

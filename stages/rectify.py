@@ -28,7 +28,7 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
-from .ground_plane import LYING_NO_FLOOR, NO_PELVIS_PATH, floor_energy, ground_plane_up
+from .ground_plane import posture_and_floor_up
 from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
@@ -36,7 +36,7 @@ from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, P
 from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
                        choose_mode, rotations_about_up, sequence_rectify, smooth_rotations, up_spread_deg)
 from .uncertainty import frame_tilt_bound
-from .up_model import (OTHER_POSTURE_P, Z95, UpEvidence, default_parameters, static_posterior,
+from .up_model import (OTHER_POSTURE_P, Z95, UpEvidence, UpModelParameters, default_parameters,
                        summarise_recording)
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
@@ -274,7 +274,8 @@ class SequenceEvidence:
 
 
 def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: float, camera_prior: bool = True,
-                      joints_cam: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
+                      joints_cam: np.ndarray | None = None,
+                      params: UpModelParameters | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
     """Sequence mode by the up model (:mod:`pcnet.stages.up_model`): the static posterior's up
     for every valid frame and each frame's heading about it
     (:func:`pcnet.stages.temporal.rotations_about_up` of the per-frame rotations ``R``
@@ -282,11 +283,11 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
 
     ``camera_prior`` False: a uniform prior over the up and no lying hypothesis (the poses
     alone). ``joints_cam`` ``(T, 17, 3)`` with a pelvis path (measured, or from 2D keypoints): the
-    footfalls weigh in the posture's posterior (:func:`pcnet.stages.ground_plane.floor_energy`), and
-    an upright posture's is then fused with the floor contacts (:func:`pcnet.stages.ground_plane.ground_plane_up`,
-    the upright hypothesis's own pitch and roll half-widths as its normal prior). The intervals
+    footfalls weigh in the posture's posterior, and an upright posture's up is then fused with the
+    floor contacts (:func:`pcnet.stages.ground_plane.posture_and_floor_up`). The intervals
     stay the up model's: the fused ones are too narrow on validation
-    (``benchmarks/results/fit_floor_contacts.txt``).
+    (``benchmarks/results/fit_floor_contacts.txt``). ``params``: the up model's parameters
+    (default: the shipped ones; the ablation switches terms off through them).
 
     Returns:
         ``(rotations (T, 3, 3), valid (T,) bool, up)``: the
@@ -294,22 +295,14 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
         half-widths as intervals, the poses' part alone (Laplace, no systematic error) as the
         uncertainties and the posture hypotheses.
     """
-    params = default_parameters()
+    params = default_parameters() if params is None else params
     if not camera_prior:
         params = replace(params, camera_prior_outside=1.0)
     summary = summarise_recording(evidence.frames(ok), fps, params)
     J = None if joints_cam is None else check_poses(joints_cam, "joints_cam")
-    if J is None:
-        energy, reason = None, NO_PELVIS_PATH
-    else:  # the reason stands only where the body reads as lying (an upright one gets the fine fit's)
-        energy, why = floor_energy(J, ok, summary.up, fps, params)
-        reason = LYING_NO_FLOOR if energy is not None else f"body read as lying; no floor: {why}"
-    post = static_posterior(summary, params, lying=camera_prior, floor=energy)
-    up, ground, kind = post.up, {"used": False, "reason": reason}, "up model"
-    if J is not None and post.posture == "upright":
-        floor = ground_plane_up(J, ok, post.up, fps, post.upright_cov(), params)
-        up, ground = floor.up, floor.info
-        kind += "+ground_plane" if ground["used"] else ""
+    chain = posture_and_floor_up(summary, J, ok, fps, params, lying=camera_prior)
+    post, up, ground = chain.posterior, chain.up, chain.ground
+    kind = "up model+ground_plane" if ground["used"] else "up model"
     rotations, heading_ok = rotations_about_up(R, up)
     pitch, roll = camera_pitch_roll(up)
     pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))

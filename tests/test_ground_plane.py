@@ -11,9 +11,10 @@ import numpy as np
 
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.core.rotations import angle_between, axis_rotation, sample_camera_rotations
-from pcnet.stages.ground_plane import detect_contacts, footfalls, ground_plane_up, leg_length, levels_objective
+from pcnet.stages.ground_plane import (FOOTFALLS_LEFT_OUT, NO_PELVIS_PATH, detect_contacts, footfalls, ground_plane_up,
+                                      leg_length, levels_objective, posture_and_floor_up)
 from pcnet.stages.spherical import TUKEY_C
-from pcnet.stages.up_model import default_parameters, exp_map
+from pcnet.stages.up_model import PoseSummary, default_parameters, exp_map
 
 FIXTURE = Path(__file__).resolve().parent / "fixtures" / "mocap_small.npz"
 WALK, RAISE = "dataset-2_walk-turn-left_active_001", "dataset-2_raise-up-both-hands_elderly_024"
@@ -128,3 +129,23 @@ def test_a_walk_across_the_view_tells_an_upright_walker_from_a_lying_body():
     assert _deg(seq.up, truth) < 5.0, (_deg(seq.up, truth), seq.ground_plane)
     alone = rectify(rolled - rolled[:, PELVIS:PELVIS + 1], "pcnet", mode="sequence", fps=FPS).report.sequence
     assert alone.posture.most_probable == "lying"
+
+
+def test_posture_and_floor_up_weighs_the_footfalls_in_the_posture_only_when_asked():
+    """The stage function the chain, the fit and the ablation share: a rolled walker whose poses
+    read their true up (1 deg) reads lying from the poses and priors alone (no path, or the
+    footfalls left out as before decision 0048), upright once the footfalls weigh in, and then
+    gets the upright fine floor fit."""
+    X, truth = _seen(WALK, 0, noise_m=0.015)
+    Q = axis_rotation("z", np.radians(90.0))
+    rolled, truth = X @ Q.T, Q @ truth
+    ok = np.ones(len(rolled), bool)
+    summary, p = PoseSummary(truth, _cov(1.0)), default_parameters()
+    none = posture_and_floor_up(summary, None, ok, FPS, p)
+    assert none.posterior.posture == "lying" and none.ground == {"used": False, "reason": NO_PELVIS_PATH}
+    before = posture_and_floor_up(summary, rolled, ok, FPS, p, footfalls=False)
+    assert before.posterior.posture == "lying" and before.ground["reason"] == FOOTFALLS_LEFT_OUT
+    assert np.array_equal(before.up, before.posterior.up)
+    chain = posture_and_floor_up(summary, rolled, ok, FPS, p)
+    assert chain.posterior.posture == "upright" and chain.ground["reason"] == "ok", chain.ground
+    assert _deg(chain.up, truth) < 3.0
