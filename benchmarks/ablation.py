@@ -420,6 +420,19 @@ def mocap_evidence(data: Path, file: str, split: str, max_clips: int, rest: bool
     return out
 
 
+def mocap_set(data: Path, cache: Path, file: str, split: str, max_clips: int, rest: bool = False) -> list[dict]:
+    """One mocap set's recordings through the networks (:func:`mocap_evidence`), :func:`cached`
+    under the key every benchmark shares: ``{dataset}_{split}[_rest]_{max_clips}``."""
+    key = f"{file.split('_')[0]}_{split}{'_rest' if rest else ''}_{max_clips}"
+    return cached(cache, key, lambda: mocap_evidence(data, file, split, max_clips, rest=rest))
+
+
+def heldout_sweep(cache: Path, static: list[list[dict]], max_clips: int) -> list[dict]:
+    """The held-out moving camera (:func:`sweep_evidence` of the Bandai test and DeepMimic sets,
+    ``static`` in :data:`MOCAP_SETS` order), :func:`cached` under ``sweep_{max_clips}``."""
+    return cached(cache, f"sweep_{max_clips}", lambda: sweep_evidence([static[0], static[2]]))
+
+
 def sweep_evidence(sets: list[list[dict]]) -> list[dict]:
     """A moving camera: the cached static-camera inputs of clips with at least
     :data:`SWEEP_MIN_FRAMES` frames (at most :data:`SWEEP_MAX_CLIPS` per set), the camera's
@@ -911,6 +924,7 @@ def rolled_floor_table(rolled: list[dict], floor_sets: list[tuple[str, list]]) -
              "camera, rolled with it): sequence tilt error (deg) over clips",
              f"{'set':<28}{'variant':<52}{'mean':>7}{'median':>8}{'p95':>7}{'>20':>5}{'lying':>7}"
              "  verdict: mean diff vs default [95 % CI], deg"]
+    p = default_parameters()
     for s, (title, recs) in enumerate(floor_sets):
         by_index = {ev["index"]: ev for ev in rolled if ev["set"] == s}
         for path in ("measured path", "path from 2D keypoints"):
@@ -921,9 +935,9 @@ def rolled_floor_table(rolled: list[dict], floor_sets: list[tuple[str, list]]) -
                 joints = (J if path == "measured path" else J2d) @ Q.T
                 R, valid, _, _ = per_frame(ev, VARIANTS[0])
                 R, ok = temporal.check_rotations(R, valid)
-                _, _, seq = up_model_sequence(R, ok, evidence_of(ev), ev["fps"], joints_cam=joints)
-                p = default_parameters()
-                old = posture_and_floor_up(summarise_recording(evidence_of(ev).frames(ok), ev["fps"], p), joints, ok,
+                evidence = evidence_of(ev)
+                _, _, seq = up_model_sequence(R, ok, evidence, ev["fps"], joints_cam=joints)
+                old = posture_and_floor_up(summarise_recording(evidence.frames(ok), ev["fps"], p), joints, ok,
                                            ev["fps"], p, footfalls=False)
                 before = (old.up, old.posterior.posture)
                 for default, (up, posture) in ((True, (seq.up, seq.posture.most_probable)), (False, before)):
@@ -979,8 +993,7 @@ def main(argv=None) -> int:
     if "mocap" not in args.skip or "floor" not in args.skip:
         static = []
         for title, file, split in MOCAP_SETS:
-            key = f"{file.split('_')[0]}_{split}_{args.max_clips}"
-            evs = cached(args.cache, key, lambda: mocap_evidence(args.data, file, split, args.max_clips))
+            evs = mocap_set(args.data, args.cache, file, split, args.max_clips)
             if "mocap" not in args.skip:
                 sections.append(("mocap", title, evs))
             if "floor" not in args.skip:
@@ -989,12 +1002,11 @@ def main(argv=None) -> int:
         if "floor" not in args.skip:
             # Untouched by the floor work until decision 0043 (the sets above were seen in 0042).
             file, split = MOCAP_SETS[0][1:]
-            key = f"{file.split('_')[0]}_{split}_rest_{args.max_clips}"
-            rest = cached(args.cache, key, lambda: mocap_evidence(args.data, file, split, args.max_clips, rest=True))
+            rest = mocap_set(args.data, args.cache, file, split, args.max_clips, rest=True)
             floor_sets.append(("Bandai test, other clips",
                                measured_root_recordings(args.data, file, split, args.max_clips, rest, rest=True)))
     if "mocap" not in args.skip:
-        moving = cached(args.cache, f"sweep_{args.max_clips}", lambda: sweep_evidence([static[0], static[2]]))
+        moving = heldout_sweep(args.cache, static, args.max_clips)
         sections.append(("mocap", f"Moving camera (pitch sweeping {SWEEP_DEG:g} deg over each clip; Bandai test and "
                                   f"DeepMimic clips of >= {SWEEP_MIN_FRAMES} frames, at most {SWEEP_MAX_CLIPS} each)",
                          moving))

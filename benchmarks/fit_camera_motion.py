@@ -62,8 +62,7 @@ def validation_evidence(data: Path, max_clips: int, cache: Path = A.CACHE) -> tu
     """``(static sets, moving)``: ablation.py's cached evidence of the validation clips."""
     static = []
     for _, file, split in VAL_SETS:
-        key = f"{file.split('_')[0]}_{split}_{max_clips}"
-        static.append(A.cached(cache, key, lambda: A.mocap_evidence(data, file, split, max_clips)))
+        static.append(A.mocap_set(data, cache, file, split, max_clips))
     moving = A.cached(cache, f"sweep_val_{max_clips}", lambda: A.sweep_evidence(static))
     return static, moving
 
@@ -72,11 +71,10 @@ def heldout_evidence(data: Path, cache: Path = A.CACHE) -> list[tuple[str, list[
     """The four held-out sets exactly as ablation.py's ``main`` builds (and caches) them."""
     sets, static = [], []
     for title, file, split in A.MOCAP_SETS:
-        key = f"{file.split('_')[0]}_{split}_{HELDOUT_MAX_CLIPS}"
-        evs = A.cached(cache, key, lambda: A.mocap_evidence(data, file, split, HELDOUT_MAX_CLIPS))
+        evs = A.mocap_set(data, cache, file, split, HELDOUT_MAX_CLIPS)
         sets.append((title, evs))
         static.append(evs)
-    moving = A.cached(cache, f"sweep_{HELDOUT_MAX_CLIPS}", lambda: A.sweep_evidence([static[0], static[2]]))
+    moving = A.heldout_sweep(cache, static, HELDOUT_MAX_CLIPS)
     sets.append((f"Moving camera ({A.SWEEP_DEG:g} deg pitch sweep)", moving))
     return sets
 

@@ -150,9 +150,7 @@ def main(argv=None) -> int:
            for (tag, views), evs in F.validation_sets(args.data, args.cache).items()}
     held = {}
     for title, file, split in A.MOCAP_SETS:
-        key = f"{file.split('_')[0]}_{split}_{args.max_clips}"
-        held[title] = prepared(A.cached(args.cache, key,
-                                        lambda f=file, s=split: A.mocap_evidence(args.data, f, s, args.max_clips)))
+        held[title] = prepared(A.mocap_set(args.data, args.cache, file, split, args.max_clips))
     gap = max(float(np.nanmax(np.abs(weight(c, SHIPPED) - c["shipped_w"]))) for s in (val, held)
               for clips in s.values() for c in clips)
     lines = [__doc__.splitlines()[0], "", "    python -m benchmarks.fit_view_gate --data ../shared/data", "",

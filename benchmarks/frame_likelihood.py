@@ -70,13 +70,9 @@ def main(argv: list[str] | None = None) -> int:
     for (tag, views), evs in F.validation_sets(args.data, args.cache).items():
         lines.append(row(f"{tag} val, {views}", evs))
     lines += ["", "## Held out (benchmarks/ablation.py's recordings)", head]
-    static = []
-    for title, file, split in A.MOCAP_SETS:
-        key = f"{file.split('_')[0]}_{split}_{args.max_clips}"
-        evs = A.cached(args.cache, key, lambda: A.mocap_evidence(args.data, file, split, args.max_clips))
-        static.append(evs)
-        lines.append(row(title, evs))
-    moving = A.cached(args.cache, f"sweep_{args.max_clips}", lambda: A.sweep_evidence([static[0], static[2]]))
+    static = [A.mocap_set(args.data, args.cache, file, split, args.max_clips) for _, file, split in A.MOCAP_SETS]
+    lines += [row(title, evs) for (title, _, _), evs in zip(A.MOCAP_SETS, static)]
+    moving = A.heldout_sweep(args.cache, static, args.max_clips)
     lines.append(row(f"moving camera (pitch sweeping {A.SWEEP_DEG:g} deg)", moving))
     rolled = A.cached(args.cache, f"rolled{A.ROLL_DEG:g}_{args.max_clips}", lambda: A.rolled_evidence(static))
     lines.append(row(f"camera rolled {A.ROLL_DEG:g} deg (the three sets)", rolled))

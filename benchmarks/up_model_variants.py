@@ -193,11 +193,9 @@ def main(argv=None) -> int:
              f"{len(static)} clips), q1 = {rates.camera:.3f} (camera pitch sweeping 30 deg, {len(sweeps)} clips)", "",
              f"{'held-out set':<28}{'clips':>6}{'frame err':>10}{'gate':>7}{'95% disc':>9}{'read moving':>12}"
              f"{'walk err':>9}"]
-    sets = [(label, A.cached(args.cache, f"{file.split('_')[0]}_{split}_{args.max_clips}",
-                             lambda f=file, s=split: A.mocap_evidence(args.data, f, s, args.max_clips)))
+    sets = [(label, A.mocap_set(args.data, args.cache, file, split, args.max_clips))
             for label, file, split in A.MOCAP_SETS]
-    sets.append(("Moving camera (30 deg sweep)", A.cached(args.cache, f"sweep_{args.max_clips}",
-                                                         lambda: A.sweep_evidence([e for _, e in sets[::2]]))))
+    sets.append(("Moving camera (30 deg sweep)", A.heldout_sweep(args.cache, [e for _, e in sets], args.max_clips)))
     for label, evs in sets:
         err, gate, inside, moving, walk = [], [], [], 0, []
         for ev in evs:
