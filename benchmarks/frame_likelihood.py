@@ -31,7 +31,7 @@ import numpy as np
 
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save
+from benchmarks.report import print_and_save, require_mocap
 from benchmarks.up_model_variants import summarise_frames
 from pcnet.stages.up_model import default_parameters
 
@@ -63,6 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", type=Path, default=A.CACHE)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
+    require_mocap(args.data, "frame_likelihood")
     t0 = time.time()
     head = f"{'set':<44}{'clips':>6}{'gate':>8}{'g_hat_t':>8}  g_hat_t - gate [95 % CI], deg"
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",

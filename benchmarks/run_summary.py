@@ -23,9 +23,20 @@ def best_epoch(path: Path) -> dict:
     with ``epochs`` (records in the file) and ``mean_seconds`` added.
 
     Raises:
-        ValueError: a file with no record, or a record without the validation fields.
+        ValueError: a file with no record, a line that is not a JSON object, or a record
+            without the validation fields.
     """
-    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    rows = []
+    for n, line in enumerate(path.read_text().splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError as err:
+            raise ValueError(f"{path}: line {n}: expected one JSON record per epoch, got invalid JSON ({err.msg})") from None
+        if not isinstance(row, dict):
+            raise ValueError(f"{path}: line {n}: expected a JSON object, got {type(row).__name__}")
+        rows.append(row)
     if not rows:
         raise ValueError(f"{path}: expected one JSON record per epoch, got none")
     for row in rows:

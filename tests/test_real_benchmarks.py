@@ -372,3 +372,6 @@ def test_run_summary_reads_the_committed_gpu_runs_and_refuses_a_record_without_v
     broken.write_text('{"epoch": 1, "seconds": 3.0}\n')
     proc = _run_benchmark("run_summary", str(broken), timeout=60)
     assert proc.returncode == 1 and proc.stdout == "" and "val_rotation_deg" in proc.stderr
+    broken.write_text('{"epoch": 1,\n')
+    proc = _run_benchmark("run_summary", str(broken), timeout=60)
+    assert proc.returncode == 1 and proc.stdout == "" and f"{broken}: line 1" in proc.stderr
