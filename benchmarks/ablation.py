@@ -83,9 +83,10 @@ angle between the output up and the true up; in sequence mode the one up's error
 / median / p95 over clips; ``frame`` = the per-frame estimate's tilt error (before any
 sequence step), mean over all frames; ``>20`` = clips erring more than 20 deg; ``lying`` =
 clips whose up model's posture (upright / lying) is not the truth (lying = median true
-trunk angle from up > 60 deg; without the priors every clip reads upright); the coverage
-line: recordings read static whose true camera pitch / roll lie inside the printed 95 %
-intervals. Verdict: paired
+trunk angle from up > 60 deg; without the priors every clip reads upright); ``cover`` (also
+for the real cameras) = per cent of the recordings with intervals whose true camera pitch and
+roll both lie inside the printed 95 % intervals (``nan``: the row prints none), and the
+coverage line gives the default's per axis. Verdict: paired
 bootstrap over clips (2,000 replicates) of the mean difference row - default, 95 % interval;
 for a row that switches a piece off, "helps" when switching it off makes the error larger
 (interval above 0), "hurts" when smaller (below 0), else "no effect", and "no effect" too
@@ -602,8 +603,9 @@ VARIANTS = (
     Variant("up model: lying posture off", lying=False),
     Variant("up model: camera prior and lying posture off", prior=False),
     Variant("up model: camera-frame net's level fall-back off", params=(("camera_fallback_deg", 1e4),)),
-    Variant("up model: camera-frame precision constant in view tilt", params=(("camera_view_growth", 0.0),)),
     Variant("up model: no outlier share (von Mises-Fisher alone)", params=(("outlier_share", 0.0),)),
+    Variant("up model: no systematic error (S = 0)", params=(("systematic_pitch_deg", 0.0), ("systematic_roll_deg", 0.0))),
+    Variant("up model: frames independent (tau = 0)", params=(("error_time_s", 0.0),)),
     Variant("plain Tukey mean of both nets' ups", "alternative", plain_mean=True, prior=False, auto=False),
     Variant("gate off: fixed 50/50", gate="half"),
     Variant("gate off: body-frame net only", gate="body"),
@@ -742,7 +744,7 @@ def mocap_table(title: str, evs: list[dict], runs: dict) -> list[str]:
     frames = sum(len(ev["J"]) for ev in evs)
     lines = [f"## {title}: {len(evs)} clips, {frames} frames ({int(lying.sum())} clips truly lying)",
              f"{'variant':<40}{'seq mean':>9}{'median':>8}{'p95':>8}{'frame':>8}{'>20':>5}{'lying':>6}"
-             f"{'smooth':>7}  verdict: mean diff vs default [95 % CI], deg", ]
+             f"{'smooth':>7}{'cover':>7}  verdict: mean diff vs default [95 % CI], deg", ]
     base = None
     for v in VARIANTS:
         out = runs[v.label]
@@ -753,8 +755,8 @@ def mocap_table(title: str, evs: list[dict], runs: dict) -> list[str]:
         if v.kind == "default":
             base = err
         lines.append(f"{v.label:<40}{np.nanmean(err):>9.2f}{np.nanmedian(err):>8.2f}{np.nanpercentile(err, 95):>8.2f}"
-                     f"{np.nanmean(fe):>8.2f}{int(np.sum(err > GROSS_DEG)):>5}{wrong:>6}{smooth:>7}  "
-                     f"{verdict(v.kind, err - base)}")
+                     f"{np.nanmean(fe):>8.2f}{int(np.sum(err > GROSS_DEG)):>5}{wrong:>6}{smooth:>7}"
+                     f"{both_axes_coverage(out, evs):>7.1f}  {verdict(v.kind, err - base)}")
     label = VARIANTS[0].label
     hits = np.concatenate([deg(o["frame_up"], ev["true_up"]) <= o["bound"] for o, ev in zip(runs[label], evs)
                            if o["bound"] is not None])
@@ -764,9 +766,10 @@ def mocap_table(title: str, evs: list[dict], runs: dict) -> list[str]:
     return lines
 
 
-def interval_coverage(out: list[dict], evs: list[dict]) -> str:
-    """Share of the recordings run in sequence mode whose true camera pitch / roll lie inside the
-    printed 95 % intervals (the up model's posterior half-widths)."""
+def interval_hits(out: list[dict], evs: list[dict]) -> np.ndarray:
+    """``(n, 2)`` bool: for each of the ``n`` recordings run in sequence mode with intervals,
+    whether its true camera pitch / roll lies inside the printed 95 % interval (the up model's
+    posterior half-widths)."""
     hit = []
     for o, ev in zip(out, evs):
         if o.get("interval") is None:
@@ -774,9 +777,21 @@ def interval_coverage(out: list[dict], evs: list[dict]) -> str:
         p, r, hp, hr = o["interval"]
         tp, tr = np.degrees(camera_pitch_roll(ev["true_up"][np.flatnonzero(np.isfinite(o["up"]).all(-1))[0]]))
         hit.append((abs(tp - p) <= hp, abs((tr - r + 180.0) % 360.0 - 180.0) <= hr))
-    if not hit:
+    return np.array(hit, bool).reshape(-1, 2)
+
+
+def both_axes_coverage(out: list[dict], evs: list[dict]) -> float:
+    """Per cent of the recordings with intervals (:func:`interval_hits`) whose pitch and roll
+    intervals both hold the truth; NaN where none has intervals."""
+    h = interval_hits(out, evs)
+    return 100.0 * float(h.all(1).mean()) if len(h) else float("nan")
+
+
+def interval_coverage(out: list[dict], evs: list[dict]) -> str:
+    """The coverage line of :func:`interval_hits`: pitch, roll and both, per cent."""
+    h = interval_hits(out, evs)
+    if not len(h):
         return "sequence 95 % interval coverage: no recording read static"
-    h = np.array(hit)
     return (f"sequence 95 % interval coverage ({len(h)} recordings read static): pitch {100 * h[:, 0].mean():.1f} %, "
             f"roll {100 * h[:, 1].mean():.1f} %, both {100 * h.all(1).mean():.1f} %")
 
@@ -787,7 +802,7 @@ def real_table(evs: list[dict], runs: dict) -> list[str]:
              "mean over cameras per extra roll; verdict over the 16 views",
              f"{'variant':<40}" + "".join(f"{c:>7}" for c in cams) + "".join(f"{'r' + format(r, '+d'):>7}"
                                                                             for r in REAL_ROLLS_DEG)
-             + "  verdict: mean diff vs default [95 % CI]"]
+             + f"{'cover':>7}  verdict: mean diff vs default [95 % CI]"]
     base = None
     for v in VARIANTS:
         err = np.array([clip_error(o["up"], ev["true_up"]) for o, ev in zip(runs[v.label], evs)])
@@ -796,7 +811,7 @@ def real_table(evs: list[dict], runs: dict) -> list[str]:
         per_cam = [err[[i for i, ev in enumerate(evs) if ev["camera"] == c and ev["roll"] == 0][0]] for c in cams]
         per_roll = [np.mean(err[[i for i, ev in enumerate(evs) if ev["roll"] == r]]) for r in REAL_ROLLS_DEG]
         lines.append(f"{v.label:<40}" + "".join(f"{e:>7.1f}" for e in per_cam) + "".join(f"{e:>7.1f}" for e in per_roll)
-                     + f"  {verdict(v.kind, err - base)}")
+                     + f"{both_axes_coverage(runs[v.label], evs):>7.1f}  {verdict(v.kind, err - base)}")
     lines.append(interval_coverage(runs[VARIANTS[0].label], evs))
     return lines
 
