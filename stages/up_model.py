@@ -14,10 +14,9 @@ a von Mises-Fisher (vMF) density mixed with a uniform outlier share ``eps``::
     p(u | h, kappa) = (1 - eps) vMF(u; h, kappa) + eps / (4 pi)
 
 The body-frame network reads ``h = g`` with ``kappa_b = 1 / sigma_b^2``. The camera-frame
-network learnt how cameras are held: for a camera tilted by ``psi`` from level in its input
-frame (``psi`` = angle between ``g`` and ``L_t = Q_t^T L``) it reads ``g`` less precisely,
-``kappa_c = 1 / (sigma_c^2 + (beta psi)^2)``, and far outside its training views it falls back
-to the level camera it knows: with probability ``lambda(psi) = 1 / (1 + exp(-(psi - psi0) / w))``
+network reads ``g`` with ``kappa_c = 1 / sigma_c^2``. It learnt how cameras are held: for a
+camera tilted by ``psi`` from level in its input frame (``psi`` = angle between ``g`` and
+``L_t = Q_t^T L``) far outside its training views, it falls back to the level camera it knows: with probability ``lambda(psi) = 1 / (1 + exp(-(psi - psi0) / w))``
 it reads ``L_t`` instead of ``g``. So ``l_t(g) = log[(1 - lambda) p(c_t | g, kappa_c) + lambda
 p(c_t | L_t, kappa_c)] + log p(b_t | g, kappa_b)``.
 
@@ -97,8 +96,7 @@ class UpModelParameters:
     """The model's parameters (module docstring); angles in degrees.
 
     Attributes:
-        body_sigma_deg: ``sigma_b``. camera_sigma_deg: ``sigma_c``. camera_view_growth:
-        ``beta`` (deg of error std per deg of view tilt). camera_fallback_deg,
+        body_sigma_deg: ``sigma_b``. camera_sigma_deg: ``sigma_c``. camera_fallback_deg,
         camera_fallback_width_deg: ``psi0``, ``w``.
         outlier_share: ``eps``. error_time_s: ``tau``. systematic_pitch_deg,
         systematic_roll_deg: ``s_pitch``, ``s_roll``. lying_elevation_deg: ``sigma_lie``.
@@ -113,7 +111,6 @@ class UpModelParameters:
 
     body_sigma_deg: float
     camera_sigma_deg: float
-    camera_view_growth: float
     camera_fallback_deg: float
     camera_fallback_width_deg: float
     outlier_share: float
@@ -289,7 +286,7 @@ def camera_view_estimate(g: np.ndarray, level: np.ndarray, p: UpModelParameters)
     ``level`` ``(T, 3)``: the view tilt ``psi`` ``(T,)`` (rad), its concentration ``kappa_c``
     ``(T,)`` and fallback probability ``lambda`` ``(T,)`` (module docstring)."""
     psi = np.arccos(np.clip(np.sum(g * level, -1), -1.0, 1.0))
-    kappa = 1.0 / (np.radians(p.camera_sigma_deg) ** 2 + (p.camera_view_growth * psi) ** 2)
+    kappa = np.full_like(psi, 1.0 / np.radians(p.camera_sigma_deg) ** 2)
     lam = 1.0 / (1.0 + np.exp(-(np.degrees(psi) - p.camera_fallback_deg) / p.camera_fallback_width_deg))
     return psi, kappa, lam
 
