@@ -846,7 +846,8 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
         any_finite |= bool(np.isfinite(pts).any())
         pts, block_max = clip_confidence(pts)
         raw_max = float(np.fmax(raw_max, block_max))
-        out[rows] = pts
+        if first is None:  # once a coordinate is beyond the bound the file is refused: its cast could overflow
+            out[rows] = pts
     _raise_beyond(p, field, first, count, bound, "px", layout)
     if not any_finite:
         raise AdapterError(p, field, "some finite keypoints", "only NaN/inf")

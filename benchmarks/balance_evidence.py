@@ -85,7 +85,7 @@ def main() -> None:
     ap.add_argument("--cop-offset", type=float, default=0.06, help="leg lengths (0.06 ~ 5 cm)")
     args = ap.parse_args()
     t0 = time.time()
-    head = f"| set | clips | pcnet sequence | balance | " + " | ".join(f"mix {w}" for w in WEIGHTS) + " |"
+    head = "| set | clips | pcnet sequence | balance | " + " | ".join(f"mix {w}" for w in WEIGHTS) + " |"
     lines = [f"python -m benchmarks.balance_evidence --max-clips {args.max_clips} --cop-offset {args.cop_offset}",
              "sequence-up tilt error, deg, mean / median over clips (static camera per clip, lifter-like noise)",
              head, "|" + "---|" * (head.count("|") - 1)]

@@ -19,7 +19,7 @@ from pcnet.pipeline.config import ALIGN, MODES, keypoint_formats, lifter_names, 
 from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, raise_interrupt
 from pcnet.stages.core.errors import InputError, import_extra, one_line
 from pcnet.stages.heading import HEADING_SOURCES
-from pcnet.stages.rectify import METHODS, NO_VALID_FRAME, check_method_weights
+from pcnet.stages.rectify import METHODS, check_method_weights, no_valid_frame_reason
 
 
 class _ErrorBoundary(click.Group):
@@ -265,7 +265,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading,
                       camera_prior=camera_prior is not False)
     if not res.valid.any():  # the same rule as pcnet run: nothing is written
-        raise InputError(f"{input_path}: {NO_VALID_FRAME}")
+        raise InputError(f"{input_path}: {no_valid_frame_reason(res.report)}")
     write_npz(out_path, replace=overwrite, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
               frame_tilt_bound_deg=res.report.frame_tilt_bound_deg)

@@ -40,7 +40,7 @@ from pcnet.stages.floor import Floor
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
 from pcnet.stages.rectification_report import ModeChoice, RectificationReport
-from pcnet.stages.rectify import NO_VALID_FRAME
+from pcnet.stages.rectify import NO_VALID_FRAME, no_valid_frame_reason
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
@@ -945,7 +945,8 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
             raise  # the weights file's own error, already naming it
         raise InputError(f"{cfg.lifter_output}: {err}{_layout_hint(cfg, str(err))}") from err
     if not res.valid.any():
-        raise InputError(f"{cfg.lifter_output}: {NO_VALID_FRAME}{_layout_hint(cfg, NO_VALID_FRAME)}")
+        reason = no_valid_frame_reason(res.report)
+        raise InputError(f"{cfg.lifter_output}: {reason}{_layout_hint(cfg, reason)}")
     report = replace(res.report, pelvis_from_hips_frames=camera.pelvis_filled)
     notes = _unused_floor_note(inputs.recording.measured_root,
                                report.sequence.ground_plane if report.sequence is not None else None)

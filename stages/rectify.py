@@ -33,14 +33,28 @@ from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, n
 from .heading import HEADING_SOURCES, apply_heading
 from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
                                    RectificationReport, SequenceUp)
-from .temporal import (BOOTSTRAP_REPLICATES, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S, check_rotations,
-                       choose_mode, rotations_about_up, sequence_rectify, smooth_rotations, up_spread_deg)
+from .temporal import (BOOTSTRAP_REPLICATES, HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S,
+                       check_rotations, choose_mode, rotations_about_up, sequence_rectify, smooth_rotations,
+                       up_spread_deg)
 from .uncertainty import frame_tilt_bound
 from .up_model import (OTHER_POSTURE_P, Z95, UpEvidence, UpModelParameters, default_parameters,
                        summarise_recording)
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
+
+
+def no_valid_frame_reason(report: RectificationReport) -> str:
+    """Why a rectified recording kept no frame: :data:`NO_VALID_FRAME`, or, where sequence mode
+    chose an up further than :data:`pcnet.stages.temporal.HEADING_LIMIT_DEG` from the frames'
+    own ups (median), that no frame has a heading about it
+    (:func:`pcnet.stages.temporal.rotations_about_up`), with the way out."""
+    seq = report.sequence
+    if seq is None or not seq.up_spread_deg > HEADING_LIMIT_DEG:
+        return NO_VALID_FRAME
+    return (f"every frame's own up is more than {HEADING_LIMIT_DEG:.0f} deg from the sequence up (median "
+            f"{seq.up_spread_deg:.0f} deg), so no frame has a heading about it: the camera may be upside down, which "
+            "sequence mode's camera prior reads as a level camera; --mode frame answers each frame alone")
 
 #: ``allocate(name, shape, dtype)``: a new NaN-filled ``(T, ...)`` array for a whole-recording
 #: result (the residual, the canonical poses):

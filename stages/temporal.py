@@ -48,9 +48,12 @@ BOOTSTRAP_BLOCK_S = 1.0
 _MIN_BLOCKS = 5
 
 # --- heading ----------------------------------------------------------------------------------
-# |a_perp + u x c| is 2 when a frame's up agrees with the sequence up and 0 when it is flipped
-# (180 deg): below this (frame up more than ~170 deg off) the heading is undefined.
+# |a_perp + u x c| = 1 + cos(theta) for a frame whose up is theta from the sequence up: 2 when
+# they agree, 0 when it is flipped: below this the heading is undefined.
 _MIN_HEADING_NORM = 0.2
+#: A frame whose own up is further than this from a prescribed up has no heading about it
+#: (:func:`rotations_about_up`): ``1 + cos(theta) = 0.2``, about 143 deg.
+HEADING_LIMIT_DEG = float(np.degrees(np.arccos(_MIN_HEADING_NORM - 1.0)))
 
 # --- ground plane (methods other than the shipped ensemble) -----------------------------------
 #: Prior std (deg) of a per-frame estimator's systematic tilt error about its robust mean up,

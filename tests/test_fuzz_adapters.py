@@ -47,7 +47,7 @@ from pcnet.adapters import (
     load_videopose3d,
     probe_video,
 )
-from pcnet.adapters.validate import describe_keys, frame_count_for
+from pcnet.adapters.validate import checked_keypoints, describe_keys, frame_count_for
 from pcnet.models.datasets import load_numpy_file
 from pcnet.pipeline.io import load_pose_array
 from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout
@@ -621,6 +621,11 @@ def test_values_beyond_the_bound_name_frame_and_joint(tmp_path):
     ap.write_text(json.dumps(entries))
     with pytest.raises(AdapterError, match=r"frame 2, joint left_wrist.*100000 px"):
         load_alphapose(ap)
+    points = np.zeros((3, 25, 3))
+    points[1, 22, 0] = 1e39  # beyond float32 (hypothesis's find): refused, not an overflow in the cast
+    with warnings.catch_warnings(), pytest.raises(AdapterError, match=r"frame 1, joint .*1e\+39"):
+        warnings.simplefilter("error")
+        checked_keypoints(ap, "keypoints", points, "body25")
 
 
 def test_coco_joint_names_in_bound_errors(tmp_path):

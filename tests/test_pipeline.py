@@ -388,6 +388,26 @@ def test_nan_only_sequence_is_a_clear_error(tmp_path):
     assert res.exit_code != 0 and "nan.npy" in res.output
 
 
+def test_a_sequence_up_opposite_to_every_frame_says_why_no_frame_is_kept(tmp_path):
+    """A real seated VideoPose3D clip (committed fixture) with the camera turned upside down: the
+    sequence up the up model chooses is a level camera's, about 150 deg from every frame's own
+    up, so no frame has a heading about it. The error says so (not "no frame has the hips"),
+    names the file and points to --mode frame, which keeps every frame."""
+    X = np.load(FIXTURES / "yoga_Abhay_Padmasana_f200-299.npy", allow_pickle=False)
+    turned = tmp_path / "padmasana_upside_down.npy"
+    np.save(turned, (X * np.array([-1.0, -1.0, 1.0])).astype(np.float32))
+    args = ("run", "--lifter", "videopose3d", "--lifter-output", turned, "--fps", "30")
+    res = _invoke(*args, "--out", tmp_path / "seq")
+    assert res.exit_code == 1
+    assert "padmasana_upside_down.npy: every frame's own up is more than 143 deg from the sequence up" in res.output
+    assert "--mode frame" in res.output and "hips" not in res.output
+    assert not (tmp_path / "seq").exists()
+    res = _invoke(*args, "--mode", "frame", "--out", tmp_path / "frame")
+    assert res.exit_code == 0, res.output
+    res = _invoke("rectify", turned, "--mode", "sequence", "--out", tmp_path / "r.npz")
+    assert res.exit_code == 1 and "deg from the sequence up" in res.output and not (tmp_path / "r.npz").exists()
+
+
 @pytest.mark.slow
 def test_toml_config(tmp_path):
     # The batch half of this test (a manifest with one failing row) is in tests/test_batch.py:
