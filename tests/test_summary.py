@@ -154,6 +154,25 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     assert "95 % posterior interval per axis (up model, docs/up_model.md)" in report  # the long tilt line
 
 
+def test_intervals_say_they_hold_for_a_static_camera_where_the_per_frame_ups_spread_beyond_one():
+    """Sequence mode's intervals are a static camera's: where the per-frame ups spread beyond
+    a static camera's (the moving-camera note fires), the tilt line says so, short and long."""
+    from pcnet.stages.temporal import MODE_THRESHOLD_DEG
+
+    def tilt_lines(spread):
+        result = RunResult(frames=60, valid_frames=60, units="m", method="pcnet", fps=30.0, fps_source="--fps",
+                           findings=[], notes=[], outputs={},
+                           report=run_report("sequence", "sequence", spread_deg=spread, intervals_deg=(8.6, 3.5)))
+        short = [ln for ln in result.summary().splitlines() if ln.startswith("camera tilt")]
+        return short[0], result.report_text()
+
+    short, report = tilt_lines(MODE_THRESHOLD_DEG + 1.0)
+    assert short.endswith("deg; 95 % interval if the camera is static)") and len(short) <= LINE_WIDTH
+    assert "95 % posterior interval per axis if the camera is static (up model" in report
+    short, report = tilt_lines(MODE_THRESHOLD_DEG - 1.0)
+    assert short.endswith("deg; 95 % interval)") and "if the camera is static" not in report
+
+
 def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
     """The real 60-frame Sports2D fixture with its 2D track made to jump at frame 30: the
     summary's first warning is the switch, and report.md (published with the outputs, so a
