@@ -588,14 +588,12 @@ class Variant:
     mode_rule: str = "spread"  # auto's static/moving rule: "spread" (choose_mode) | "bayes" (benchmarks/camera_motion_model.py)
     #: auto's threshold (deg), its low-pass (s) and smooth mode's time constant (s); None = the package's
     mode_constants: tuple[float, float, float] | None = None
-    #: up model parameters overridden, ``((name, value), ...)``: a term of its likelihood switched off;
-    #: a value that is a parameter's name takes that parameter's shipped value
-    params: tuple[tuple[str, float | str], ...] = ()
+    #: up model parameters overridden, ``((name, value), ...)``: a term of its likelihood switched off
+    params: tuple[tuple[str, float], ...] = ()
 
     def up_parameters(self):
         """The up model's parameters of this row: the shipped ones with :attr:`params` replaced."""
-        p = default_parameters()
-        return replace(p, **{k: getattr(p, v) if isinstance(v, str) else v for k, v in self.params})
+        return replace(default_parameters(), **dict(self.params))
 
 
 #: The chain the extraction ran (benchmarks' real chain, mode auto), which the reproduction check rebuilds.
@@ -605,7 +603,6 @@ VARIANTS = (
     Variant("up model: lying posture off", lying=False),
     Variant("up model: camera prior and lying posture off", prior=False),
     Variant("up model: camera-frame net's level fall-back off", params=(("camera_fallback_deg", 1e4),)),
-    Variant("up model: fall-back as precise as the net", params=(("camera_fallback_sigma_deg", "camera_sigma_deg"),)),
     Variant("up model: no outlier share (von Mises-Fisher alone)", params=(("outlier_share", 0.0),)),
     Variant("up model: no systematic error (S = 0)", params=(("systematic_pitch_deg", 0.0), ("systematic_roll_deg", 0.0))),
     Variant("up model: frames independent (tau = 0)", params=(("error_time_s", 0.0),)),

@@ -25,9 +25,7 @@ Fits, in order (each uses the ones before):
    camera-frame network reads as level left out) under ``(1 - eps) N2(0, sigma^2 I) + eps /
    (4 pi)`` (Nelder-Mead on logs/logits). A growth of the camera-frame network's sigma with
    the view tilt was fitted here until decision 0052 deleted it (decision 0051: it helped on
-   no held-out set). Then ``camera_fallback_sigma_deg`` (sigma_L): maximum likelihood of the
-   camera-frame network's readings about the level up in the clips it reads as level (its
-   fall-back), the same mixture with ``eps`` as fitted (decision 0054).
+   no held-out set).
 3. ``error_time_s`` (tau): integrated autocorrelation time of those residuals (both networks,
    both axes, residuals beyond 3 sigma clipped), Sokal's window (the smallest lag M with
    M >= 5 tau(M)), in seconds.
@@ -107,9 +105,8 @@ def val_evidence(data: Path, file: str, views: str, seed: int) -> list[dict]:
 
 
 def _tangent_errors(evs, p: UpModelParameters):
-    """Per clip: (psi (T,), camera error (T, 2), body error (T, 2), fps, camera reads level (T,) bool,
-    camera reading about the level up (T, 2)) over the frames where both networks answered; errors
-    are tangent coordinates at the truth, the last at the input frame's level up."""
+    """Per clip: (psi (T,), camera error (T, 2), body error (T, 2), fps, camera reads level (T,) bool)
+    over the frames where both networks answered; errors are tangent coordinates at the truth."""
     out = []
     for ev in evs:
         e = A.evidence_of(ev)
@@ -121,8 +118,7 @@ def _tangent_errors(evs, p: UpModelParameters):
         psi, _, _ = camera_view_estimate(g[ok], level, p)
         c = e.camera_up[ok]
         reads_level = np.sum(c * level, -1) > np.sum(c * g[ok], -1)
-        out.append((psi, log_map(g[ok], c), log_map(g[ok], e.body_up[ok]), ev["fps"], reads_level,
-                    log_map(level, c)))
+        out.append((psi, log_map(g[ok], c), log_map(g[ok], e.body_up[ok]), ev["fps"], reads_level))
     return out
 
 
@@ -142,7 +138,7 @@ def fit_fallback(errs) -> tuple[float, float]:
 
 def residuals(errs):
     rc, rb, rates = [], [], []
-    for psi, ec, eb, fps, level, _ in errs:
+    for psi, ec, eb, fps, level in errs:
         if np.median(level) >= 0.5:  # a clip the camera-frame network reads as level: its error is the fallback
             continue
         rc.append(ec - np.median(ec, 0))
@@ -170,22 +166,6 @@ def fit_scatter(rc, rb) -> tuple[float, float, float]:
                    options={"xatol": 1e-6, "fatol": 1e-3, "maxiter": 4000})
     sb, sc = np.degrees(np.exp(res.x[:2]))
     return float(sb), float(sc), float(1 / (1 + np.exp(-res.x[2])))
-
-
-def fit_fallback_sigma(errs, eps: float) -> tuple[float, int, int]:
-    """``(sigma_L deg, clips, frames)``: maximum likelihood of the camera-frame network's readings
-    about the level up, in the clips it reads as level (the fall-back), under ``(1 - eps)
-    N2(0, sigma_L^2 I) + eps / (4 pi)`` with the fitted outlier share."""
-    r = [e[5] for e in errs if np.median(e[4]) >= 0.5]
-    r2 = np.sum(np.concatenate(r) ** 2, -1)
-    u = np.log(eps / (4 * np.pi))
-
-    def nll(theta):
-        var = np.exp(2 * theta[0])
-        return -np.logaddexp(np.log1p(-eps) - np.log(2 * np.pi * var) - 0.5 * r2 / var, u).sum()
-
-    res = minimize(nll, [np.log(np.radians(10.0))], method="Nelder-Mead", options={"xatol": 1e-6, "fatol": 1e-4})
-    return float(np.degrees(np.exp(res.x[0]))), len(r), len(r2)
 
 
 def fit_time(rc, rb, rates, sigma_deg: float) -> float:
@@ -292,8 +272,7 @@ def main(argv=None) -> int:
     split = (f"validation: Bandai motion-style val ({len(evs['bandai', 'paper'])} clips) + CMU val subjects "
              f"({len(evs['cmu', 'paper'])} clips), 'paper', 'wide' and fully rolled static views, lifter noise, "
              f"{n_frames} frames")
-    values = {"camera_fallback_deg": 90.0, "camera_fallback_width_deg": 10.0, "camera_fallback_sigma_deg": 10.0,
-              "camera_sigma_deg": 3.0, "body_sigma_deg": 4.0,
+    values = {"camera_fallback_deg": 90.0, "camera_fallback_width_deg": 10.0, "camera_sigma_deg": 3.0, "body_sigma_deg": 4.0,
               "outlier_share": 0.01, "error_time_s": 1.0, "systematic_pitch_deg": 3.0, "systematic_roll_deg": 1.5,
               "lying_elevation_deg": 10.0, **DECLARED}
     prov = {k: DECLARED_WHY for k in DECLARED}
@@ -313,9 +292,6 @@ def main(argv=None) -> int:
     values.update(body_sigma_deg=sb, camera_sigma_deg=sc, outlier_share=eps)
     for k in ("body_sigma_deg", "camera_sigma_deg", "outlier_share"):
         prov[k] = f"maximum likelihood of per-frame residuals, {split}"
-    values["camera_fallback_sigma_deg"], n_clips, n_fb = fit_fallback_sigma(errs, eps)
-    prov["camera_fallback_sigma_deg"] = (f"maximum likelihood of the camera-frame network's readings about the level up "
-                                         f"in the {n_clips} clips ({n_fb} frames) it reads as level, {split}")
     values["error_time_s"] = fit_time(rc, rb, rates, max(sb, sc))
     prov["error_time_s"] = f"integrated autocorrelation time (Sokal window) of per-frame residuals, {split}"
     sp, sr = fit_systematic(all_evs, params_from(values, prov))

@@ -16,10 +16,9 @@ a von Mises-Fisher (vMF) density mixed with a uniform outlier share ``eps``::
 The body-frame network reads ``h = g`` with ``kappa_b = 1 / sigma_b^2``. The camera-frame
 network reads ``g`` with ``kappa_c = 1 / sigma_c^2``. It learnt how cameras are held: for a
 camera tilted by ``psi`` from level in its input frame (``psi`` = angle between ``g`` and
-``L_t = Q_t^T L``) far outside its training views, it falls back to the level camera it knows:
-with probability ``lambda(psi) = 1 / (1 + exp(-(psi - psi0) / w))`` it reads ``L_t`` instead of
-``g``, less precisely (``kappa_L = 1 / sigma_L^2``). So ``l_t(g) = log[(1 - lambda) p(c_t | g,
-kappa_c) + lambda p(c_t | L_t, kappa_L)] + log p(b_t | g, kappa_b)``.
+``L_t = Q_t^T L``) far outside its training views, it falls back to the level camera it knows: with probability ``lambda(psi) = 1 / (1 + exp(-(psi - psi0) / w))``
+it reads ``L_t`` instead of ``g``. So ``l_t(g) = log[(1 - lambda) p(c_t | g, kappa_c) + lambda
+p(c_t | L_t, kappa_c)] + log p(b_t | g, kappa_b)``.
 
 Frames are not independent (a held pose errs the same way for a while): the recording's
 log-likelihood is ``F(g) = sum_t l_t(g) / m`` with ``m = max(1, tau fps)`` frames per
@@ -98,7 +97,7 @@ class UpModelParameters:
 
     Attributes:
         body_sigma_deg: ``sigma_b``. camera_sigma_deg: ``sigma_c``. camera_fallback_deg,
-        camera_fallback_width_deg: ``psi0``, ``w``. camera_fallback_sigma_deg: ``sigma_L``.
+        camera_fallback_width_deg: ``psi0``, ``w``.
         outlier_share: ``eps``. error_time_s: ``tau``. systematic_pitch_deg,
         systematic_roll_deg: ``s_pitch``, ``s_roll``. lying_elevation_deg: ``sigma_lie``.
         lying_prior: ``rho``. camera_prior_pitch_deg,
@@ -114,7 +113,6 @@ class UpModelParameters:
     camera_sigma_deg: float
     camera_fallback_deg: float
     camera_fallback_width_deg: float
-    camera_fallback_sigma_deg: float
     outlier_share: float
     error_time_s: float
     systematic_pitch_deg: float
@@ -154,7 +152,7 @@ class UpModelParameters:
         out = cls(**values, provenance=provenance)
         for name in ("body_sigma_deg", "camera_sigma_deg", "error_time_s", "systematic_pitch_deg",
                      "systematic_roll_deg", "lying_elevation_deg", "camera_prior_pitch_deg", "camera_prior_roll_deg",
-                     "camera_fallback_width_deg", "camera_fallback_sigma_deg", "contact_height_leg", "contact_speed_leg_s",
+                     "camera_fallback_width_deg", "contact_height_leg", "contact_speed_leg_s",
                      "contact_speed_window_s", "footfall_height_sd_leg", "ankle_offset_leg", "footfall_posture_power"):
             if not getattr(out, name) > 0:
                 raise InputError(f"up_model.json: parameters.{name}: expected > 0, got {getattr(out, name)}")
@@ -306,8 +304,7 @@ def frame_log_likelihood(g: np.ndarray, ev: UpEvidence, p: UpModelParameters) ->
     kappa_b = 1.0 / np.radians(p.body_sigma_deg) ** 2
     with np.errstate(divide="ignore"):
         lc = np.logaddexp(np.log1p(-lam) + log_vmf_mixture(np.nan_to_num(cos_c), kappa_c, p.outlier_share),
-                          np.log(lam) + log_vmf_mixture(np.nan_to_num(np.sum(ev.camera_up * level, -1)),
-                                                        1.0 / np.radians(p.camera_fallback_sigma_deg) ** 2,
+                          np.log(lam) + log_vmf_mixture(np.nan_to_num(np.sum(ev.camera_up * level, -1)), kappa_c,
                                                         p.outlier_share))
     lb = log_vmf_mixture(np.nan_to_num(cos_b), kappa_b, p.outlier_share)
     return np.where(np.isfinite(cos_c), lc, 0.0) + np.where(np.isfinite(cos_b), lb, 0.0)

@@ -1,6 +1,6 @@
-"""The up model's scatter fits (benchmarks/fit_up_model.py ``fit_scatter``, ``fit_fallback_sigma``):
-maximum likelihood of per-frame tangent residuals under ``(1 - eps) N2(0, sigma^2 I) + eps /
-(4 pi)`` recovers the spreads and the outlier share they were drawn with."""
+"""The up model's scatter fit (benchmarks/fit_up_model.py ``fit_scatter``): maximum likelihood of
+per-frame tangent residuals under ``(1 - eps) N2(0, sigma^2 I) + eps / (4 pi)`` recovers the
+spreads and the outlier share it was drawn with."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from conftest import ROOT
 
 if str(ROOT) not in sys.path:  # benchmarks/ is a package of the repository, not of the installed pcnet
     sys.path.append(str(ROOT))
-from benchmarks.fit_up_model import fit_fallback_sigma, fit_scatter  # noqa: E402
+from benchmarks.fit_up_model import fit_scatter  # noqa: E402
 
 
 def _residuals(rng, n: int, sigma_deg: float, eps: float) -> np.ndarray:
@@ -35,18 +35,3 @@ def test_fit_scatter_recovers_both_spreads_and_the_outlier_share():
     assert abs(sigma_c - 2.0) < 0.05
     assert abs(sigma_b - 3.5) < 0.08
     assert 0.015 < eps < 0.025
-
-
-def test_fit_fallback_sigma_reads_only_the_clips_read_as_level():
-    """The fall-back's spread comes from the clips whose frames mostly read level; the others'
-    readings (drawn 20 times wider here) do not move it."""
-    rng = np.random.default_rng(4)
-
-    def clip(sigma_deg, reads_level):
-        n = 3000
-        return (None, None, None, 30.0, np.full(n, reads_level), _residuals(rng, n, sigma_deg, 0.01))
-
-    errs = [clip(12.0, True), clip(12.0, True), clip(240.0, False)]
-    sigma, clips, frames = fit_fallback_sigma(errs, 0.01)
-    assert clips == 2 and frames == 6000
-    assert abs(sigma - 12.0) < 0.5
