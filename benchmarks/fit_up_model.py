@@ -115,7 +115,7 @@ def _tangent_errors(evs, p: UpModelParameters):
         if ok.sum() < 10:
             continue
         level = e.level_up()[ok]
-        psi, _, _ = camera_view_estimate(g[ok], level, p)
+        psi, _ = camera_view_estimate(g[ok], level, p)
         c = e.camera_up[ok]
         reads_level = np.sum(c * level, -1) > np.sum(c * g[ok], -1)
         out.append((psi, log_map(g[ok], c), log_map(g[ok], e.body_up[ok]), ev["fps"], reads_level))
@@ -138,7 +138,7 @@ def fit_fallback(errs) -> tuple[float, float]:
 
 def residuals(errs):
     rc, rb, rates = [], [], []
-    for psi, ec, eb, fps, level in errs:
+    for _, ec, eb, fps, level in errs:
         if np.median(level) >= 0.5:  # a clip the camera-frame network reads as level: its error is the fallback
             continue
         rc.append(ec - np.median(ec, 0))

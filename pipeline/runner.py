@@ -239,8 +239,7 @@ class RunResult:
                     f"+- {roll_unc:.1f} deg; ")
         # The intervals are a static camera's: under a camera pitching 30 deg over a take they held
         # the truth in 14 % of held-out recordings (benchmarks/results/ablation.txt, "Moving camera").
-        spread = self.report.rectification.mode.spread_deg
-        static = " if the camera is static" if spread is not None and spread > MODE_THRESHOLD_DEG else ""
+        static = " if the camera is static" if _spreads_beyond_static(self.report.rectification.mode) else ""
         if not long:
             label = ("95 % posterior interval of the lying posture" if lying else "95 % interval") + static
             if other is not None:
@@ -429,12 +428,18 @@ def _unused_floor_note(measured_root: bool, ground_plane: dict | None) -> list[s
             f"it comes from the poses alone (stages/ground_plane.py)"]
 
 
+def _spreads_beyond_static(mode: ModeChoice) -> bool:
+    """Whether the per-frame ups spread more than auto mode's threshold
+    (:data:`pcnet.stages.temporal.MODE_THRESHOLD_DEG`, the widest a static camera showed on
+    validation)."""
+    return mode.spread_deg is not None and mode.spread_deg > MODE_THRESHOLD_DEG
+
+
 def _moving_camera_note(mode: ModeChoice) -> list[str]:
-    """A note when sequence mode was asked for (the default) and the per-frame ups spread more
-    than auto mode's threshold (:data:`pcnet.stages.temporal.MODE_THRESHOLD_DEG`, the widest a
-    static camera showed on validation): a camera that moved gets one up that is wrong where it
-    turned; a body moving fast or far from upright spreads them too (decision 0041)."""
-    if mode.requested != "sequence" or mode.spread_deg is None or not mode.spread_deg > MODE_THRESHOLD_DEG:
+    """A note when sequence mode was asked for (the default) and the per-frame ups spread beyond
+    a static camera's (:func:`_spreads_beyond_static`): a camera that moved gets one up that is
+    wrong where it turned; a body moving fast or far from upright spreads them too (decision 0041)."""
+    if mode.requested != "sequence" or not _spreads_beyond_static(mode):
         return []
     return [f"per-frame up spreads {mode.spread_deg:.1f} deg, beyond a static camera's {MODE_THRESHOLD_DEG:g}: if the "
             f"camera moved, use --mode smooth (fast or non-upright poses spread it too)"]

@@ -16,8 +16,9 @@ a von Mises-Fisher (vMF) density mixed with a uniform outlier share ``eps``::
 The body-frame network reads ``h = g`` with ``kappa_b = 1 / sigma_b^2``. The camera-frame
 network reads ``g`` with ``kappa_c = 1 / sigma_c^2``. It learnt how cameras are held: for a
 camera tilted by ``psi`` from level in its input frame (``psi`` = angle between ``g`` and
-``L_t = Q_t^T L``) far outside its training views, it falls back to the level camera it knows: with probability ``lambda(psi) = 1 / (1 + exp(-(psi - psi0) / w))``
-it reads ``L_t`` instead of ``g``. So ``l_t(g) = log[(1 - lambda) p(c_t | g, kappa_c) + lambda
+``L_t = Q_t^T L``) far outside its training views, it falls back to the level camera it knows:
+with probability ``lambda(psi) = 1 / (1 + exp(-(psi - psi0) / w))`` it reads ``L_t`` instead
+of ``g``. So ``l_t(g) = log[(1 - lambda) p(c_t | g, kappa_c) + lambda
 p(c_t | L_t, kappa_c)] + log p(b_t | g, kappa_b)``.
 
 Frames are not independent (a held pose errs the same way for a while): the recording's
@@ -281,14 +282,13 @@ def log_vmf_mixture(cos: np.ndarray, kappa: np.ndarray, eps: float) -> np.ndarra
     return a if eps == 0 else np.logaddexp(a, np.log(eps) - np.log(4 * np.pi))
 
 
-def camera_view_estimate(g: np.ndarray, level: np.ndarray, p: UpModelParameters) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def camera_view_estimate(g: np.ndarray, level: np.ndarray, p: UpModelParameters) -> tuple[np.ndarray, np.ndarray]:
     """For true ups ``g`` ``(T, 3)`` and the camera-frame network's input-frame level ups
-    ``level`` ``(T, 3)``: the view tilt ``psi`` ``(T,)`` (rad), its concentration ``kappa_c``
-    ``(T,)`` and fallback probability ``lambda`` ``(T,)`` (module docstring)."""
+    ``level`` ``(T, 3)``: the view tilt ``psi`` ``(T,)`` (rad) and the fallback probability
+    ``lambda`` ``(T,)`` (module docstring)."""
     psi = np.arccos(np.clip(np.sum(g * level, -1), -1.0, 1.0))
-    kappa = np.full_like(psi, 1.0 / np.radians(p.camera_sigma_deg) ** 2)
     lam = 1.0 / (1.0 + np.exp(-(np.degrees(psi) - p.camera_fallback_deg) / p.camera_fallback_width_deg))
-    return psi, kappa, lam
+    return psi, lam
 
 
 def frame_log_likelihood(g: np.ndarray, ev: UpEvidence, p: UpModelParameters) -> np.ndarray:
@@ -298,7 +298,8 @@ def frame_log_likelihood(g: np.ndarray, ev: UpEvidence, p: UpModelParameters) ->
     g = np.asarray(g, np.float64)
     g = np.broadcast_to(g, np.broadcast_shapes(g.shape, ev.camera_up.shape))
     level = ev.level_up()
-    _, kappa_c, lam = camera_view_estimate(g, level, p)
+    _, lam = camera_view_estimate(g, level, p)
+    kappa_c = 1.0 / np.radians(p.camera_sigma_deg) ** 2
     cos_c = np.sum(ev.camera_up * g, -1)
     cos_b = np.sum(ev.body_up * g, -1)
     kappa_b = 1.0 / np.radians(p.body_sigma_deg) ** 2
