@@ -603,7 +603,6 @@ VARIANTS = (
     Variant("up model: lying posture off", lying=False),
     Variant("up model: camera prior and lying posture off", prior=False),
     Variant("up model: camera-frame net's level fall-back off", params=(("camera_fallback_deg", 1e4),)),
-    Variant("up model: camera-frame net's pull towards level off", params=(("camera_pull", 0.0),)),
     Variant("up model: no outlier share (von Mises-Fisher alone)", params=(("outlier_share", 0.0),)),
     Variant("up model: no systematic error (S = 0)", params=(("systematic_pitch_deg", 0.0), ("systematic_roll_deg", 0.0))),
     Variant("up model: frames independent (tau = 0)", params=(("error_time_s", 0.0),)),

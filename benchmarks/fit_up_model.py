@@ -20,9 +20,6 @@ Fits, in order (each uses the ones before):
 1. ``camera_fallback_deg``, ``camera_fallback_width_deg`` (psi0, w): per clip, whether the
    camera-frame network's up is nearer the level up of its input frame than the truth (its
    median over frames), logistic regression on the clip's view tilt psi.
-   Then ``camera_pull`` (s): least squares through the origin of each clip's median
-   camera-frame error along the direction towards the level up on the clip's median view tilt
-   (clips the network reads as level left out; decision 0056).
 2. ``body_sigma_deg``, ``camera_sigma_deg``, ``outlier_share``: maximum likelihood of the
    per-frame tangent residuals (each network's error minus its clip's median error; clips the
    camera-frame network reads as level left out) under ``(1 - eps) N2(0, sigma^2 I) + eps /
@@ -108,9 +105,8 @@ def val_evidence(data: Path, file: str, views: str, seed: int) -> list[dict]:
 
 
 def _tangent_errors(evs, p: UpModelParameters):
-    """Per clip: (psi (T,), camera error (T, 2), body error (T, 2), fps, camera reads level (T,) bool,
-    the direction towards the level up (T, 2), unit) over the frames where both networks answered;
-    errors and direction are tangent coordinates at the truth."""
+    """Per clip: (psi (T,), camera error (T, 2), body error (T, 2), fps, camera reads level (T,) bool)
+    over the frames where both networks answered; errors are tangent coordinates at the truth."""
     out = []
     for ev in evs:
         e = A.evidence_of(ev)
@@ -122,9 +118,7 @@ def _tangent_errors(evs, p: UpModelParameters):
         psi, _ = camera_view_estimate(g[ok], level, p)
         c = e.camera_up[ok]
         reads_level = np.sum(c * level, -1) > np.sum(c * g[ok], -1)
-        toward = log_map(g[ok], level)
-        toward /= np.maximum(np.linalg.norm(toward, axis=-1, keepdims=True), 1e-12)
-        out.append((psi, log_map(g[ok], c), log_map(g[ok], e.body_up[ok]), ev["fps"], reads_level, toward))
+        out.append((psi, log_map(g[ok], c), log_map(g[ok], e.body_up[ok]), ev["fps"], reads_level))
     return out
 
 
@@ -142,19 +136,9 @@ def fit_fallback(errs) -> tuple[float, float]:
     return float(res.x[0]), float(np.exp(res.x[1]))
 
 
-def fit_pull(errs) -> tuple[float, int]:
-    """``(s, clips)``: least squares through the origin of each clip's median camera-frame error
-    along the direction towards the level up (rad) on its median view tilt (rad), over the clips
-    the network does not read as level."""
-    kept = [e for e in errs if np.median(e[4]) < 0.5]
-    psi = np.array([np.median(e[0]) for e in kept])
-    pull = np.array([np.median(np.sum(e[1] * e[5], -1)) for e in kept])
-    return float(np.sum(pull * psi) / np.sum(psi ** 2)), len(kept)
-
-
 def residuals(errs):
     rc, rb, rates = [], [], []
-    for _, ec, eb, fps, level, _ in errs:
+    for _, ec, eb, fps, level in errs:
         if np.median(level) >= 0.5:  # a clip the camera-frame network reads as level: its error is the fallback
             continue
         rc.append(ec - np.median(ec, 0))
@@ -288,8 +272,7 @@ def main(argv=None) -> int:
     split = (f"validation: Bandai motion-style val ({len(evs['bandai', 'paper'])} clips) + CMU val subjects "
              f"({len(evs['cmu', 'paper'])} clips), 'paper', 'wide' and fully rolled static views, lifter noise, "
              f"{n_frames} frames")
-    values = {"camera_fallback_deg": 90.0, "camera_fallback_width_deg": 10.0, "camera_pull": 0.0,
-              "camera_sigma_deg": 3.0, "body_sigma_deg": 4.0,
+    values = {"camera_fallback_deg": 90.0, "camera_fallback_width_deg": 10.0, "camera_sigma_deg": 3.0, "body_sigma_deg": 4.0,
               "outlier_share": 0.01, "error_time_s": 1.0, "systematic_pitch_deg": 3.0, "systematic_roll_deg": 1.5,
               "lying_elevation_deg": 10.0, **DECLARED}
     prov = {k: DECLARED_WHY for k in DECLARED}
@@ -304,9 +287,6 @@ def main(argv=None) -> int:
     errs = _tangent_errors(all_evs, params_from(values, prov))
     values["camera_fallback_deg"], values["camera_fallback_width_deg"] = fit_fallback(errs)
     prov["camera_fallback_deg"] = prov["camera_fallback_width_deg"] = f"per-clip logistic regression, {split}"
-    values["camera_pull"], n_pull = fit_pull(errs)
-    prov["camera_pull"] = (f"least squares through the origin of the clips' median camera-frame error towards the level "
-                           f"up on their median view tilt, the {n_pull} clips not read as level, {split}")
     rc, rb, rates = residuals(errs)
     sb, sc, eps = fit_scatter(rc, rb)
     values.update(body_sigma_deg=sb, camera_sigma_deg=sc, outlier_share=eps)

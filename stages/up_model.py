@@ -18,10 +18,8 @@ network reads ``g`` with ``kappa_c = 1 / sigma_c^2``. It learnt how cameras are 
 camera tilted by ``psi`` from level in its input frame (``psi`` = angle between ``g`` and
 ``L_t = Q_t^T L``) far outside its training views, it falls back to the level camera it knows:
 with probability ``lambda(psi) = 1 / (1 + exp(-(psi - psi0) / w))`` it reads ``L_t`` instead
-of ``g``. Nearer its training views it reads the view as nearer level than it is: it reads
-``m_s(g)``, the truth turned towards ``L_t`` by ``s psi`` on the great circle through both
-(:func:`camera_reading_mean`; decision 0056). So ``l_t(g) = log[(1 - lambda) p(c_t | m_s(g),
-kappa_c) + lambda p(c_t | L_t, kappa_c)] + log p(b_t | g, kappa_b)``.
+of ``g``. So ``l_t(g) = log[(1 - lambda) p(c_t | g, kappa_c) + lambda
+p(c_t | L_t, kappa_c)] + log p(b_t | g, kappa_b)``.
 
 Frames are not independent (a held pose errs the same way for a while): the recording's
 log-likelihood is ``F(g) = sum_t l_t(g) / m`` with ``m = max(1, tau fps)`` frames per
@@ -100,8 +98,7 @@ class UpModelParameters:
 
     Attributes:
         body_sigma_deg: ``sigma_b``. camera_sigma_deg: ``sigma_c``. camera_fallback_deg,
-        camera_fallback_width_deg: ``psi0``, ``w``. camera_pull: ``s`` (dimensionless), the
-        camera-frame network's pull towards the level up, as a share of the view tilt.
+        camera_fallback_width_deg: ``psi0``, ``w``.
         outlier_share: ``eps``. error_time_s: ``tau``. systematic_pitch_deg,
         systematic_roll_deg: ``s_pitch``, ``s_roll``. lying_elevation_deg: ``sigma_lie``.
         lying_prior: ``rho``. camera_prior_pitch_deg,
@@ -117,7 +114,6 @@ class UpModelParameters:
     camera_sigma_deg: float
     camera_fallback_deg: float
     camera_fallback_width_deg: float
-    camera_pull: float
     outlier_share: float
     error_time_s: float
     systematic_pitch_deg: float
@@ -161,7 +157,7 @@ class UpModelParameters:
                      "contact_speed_window_s", "footfall_height_sd_leg", "ankle_offset_leg", "footfall_posture_power"):
             if not getattr(out, name) > 0:
                 raise InputError(f"up_model.json: parameters.{name}: expected > 0, got {getattr(out, name)}")
-        for name in ("outlier_share", "lying_prior", "camera_prior_outside", "camera_pull"):
+        for name in ("outlier_share", "lying_prior", "camera_prior_outside"):
             if not 0 <= getattr(out, name) < 1:
                 raise InputError(f"up_model.json: parameters.{name}: expected in [0, 1), got {getattr(out, name)}")
         return out
@@ -295,19 +291,6 @@ def camera_view_estimate(g: np.ndarray, level: np.ndarray, p: UpModelParameters)
     return psi, lam
 
 
-def camera_reading_mean(g: np.ndarray, level: np.ndarray, psi: np.ndarray, pull: float) -> np.ndarray:
-    """``m_s(g)`` ``(..., 3)``: unit ups ``g`` ``(..., 3)`` turned towards the level ups ``level``
-    (broadcast) by ``pull * psi`` rad on the great circle through both, ``psi`` ``(...)`` the angle
-    between them (rad); ``g`` itself where it is parallel to ``level`` (decision 0056)."""
-    if pull == 0:
-        return g
-    t = level - np.sum(g * level, -1, keepdims=True) * g
-    n = np.linalg.norm(t, axis=-1, keepdims=True)
-    t = np.where(n > 1e-12, t / np.maximum(n, 1e-12), 0.0)
-    a = (pull * psi)[..., None]
-    return np.cos(a) * g + np.sin(a) * t
-
-
 def frame_log_likelihood(g: np.ndarray, ev: UpEvidence, p: UpModelParameters) -> np.ndarray:
     """``l_t(g)`` ``(..., T)`` of the module docstring for candidate ups ``g`` ``(..., T, 3)``
     (one per frame; a ``(3,)`` or ``(N, 1, 3)`` broadcasts: one up for every frame, or ``N``
@@ -315,9 +298,9 @@ def frame_log_likelihood(g: np.ndarray, ev: UpEvidence, p: UpModelParameters) ->
     g = np.asarray(g, np.float64)
     g = np.broadcast_to(g, np.broadcast_shapes(g.shape, ev.camera_up.shape))
     level = ev.level_up()
-    psi, lam = camera_view_estimate(g, level, p)
+    _, lam = camera_view_estimate(g, level, p)
     kappa_c = 1.0 / np.radians(p.camera_sigma_deg) ** 2
-    cos_c = np.sum(ev.camera_up * camera_reading_mean(g, level, psi, p.camera_pull), -1)
+    cos_c = np.sum(ev.camera_up * g, -1)
     cos_b = np.sum(ev.body_up * g, -1)
     kappa_b = 1.0 / np.radians(p.body_sigma_deg) ** 2
     with np.errstate(divide="ignore"):

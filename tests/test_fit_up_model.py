@@ -35,24 +35,3 @@ def test_fit_scatter_recovers_both_spreads_and_the_outlier_share():
     assert abs(sigma_c - 2.0) < 0.05
     assert abs(sigma_b - 3.5) < 0.08
     assert 0.015 < eps < 0.025
-
-
-def test_fit_pull_recovers_a_pull_towards_level_proportional_to_the_view_tilt():
-    """Clips whose camera-frame error points towards the level up by ``s psi`` (plus noise)
-    give back ``s``; a clip read as level is left out whatever its error."""
-    from benchmarks.fit_up_model import fit_pull
-
-    rng = np.random.default_rng(5)
-    s, errs = 0.07, []
-    for psi_deg in np.linspace(2.0, 60.0, 40):
-        T = 300
-        angle = rng.uniform(0, 2 * np.pi)
-        toward = np.broadcast_to([np.cos(angle), np.sin(angle)], (T, 2))
-        psi = np.full(T, np.radians(psi_deg))
-        ec = s * psi[:, None] * toward + rng.normal(scale=np.radians(2.0), size=(T, 2))
-        errs.append((psi, ec, np.zeros((T, 2)), 30.0, np.zeros(T, bool), toward))
-    errs.append((np.full(10, 1.5), np.full((10, 2), -3.0), np.zeros((10, 2)), 30.0, np.ones(10, bool),
-                 np.tile([1.0, 0.0], (10, 1))))
-    fitted, clips = fit_pull(errs)
-    assert clips == 40
-    assert abs(fitted - s) < 0.01

@@ -49,22 +49,6 @@ def test_log_map_inverts_exp_map():
     np.testing.assert_allclose(log_map(g, exp_map(g, x)), x, atol=1e-9)
 
 
-def test_the_camera_networks_reading_is_the_truth_turned_towards_level_by_a_share_of_the_view_tilt():
-    """``camera_reading_mean`` (decision 0056): unit length, ``s psi`` from the truth, on the great
-    circle to the level up (so ``psi - s psi`` from it), and the truth itself at a level camera."""
-    from pcnet.stages.up_model import camera_reading_mean
-
-    rng = np.random.default_rng(1)
-    g = normalize(rng.normal(size=(200, 3)))
-    level = np.broadcast_to(LEVEL_UP, g.shape)
-    psi = np.arccos(np.clip(g @ LEVEL_UP, -1, 1))
-    m = camera_reading_mean(g, level, psi, 0.1)
-    np.testing.assert_allclose(np.linalg.norm(m, axis=-1), 1.0, atol=1e-12)
-    np.testing.assert_allclose(np.arccos(np.clip(np.sum(m * g, -1), -1, 1)), 0.1 * psi, atol=1e-7)
-    np.testing.assert_allclose(np.arccos(np.clip(m @ LEVEL_UP, -1, 1)), 0.9 * psi, atol=1e-7)
-    np.testing.assert_allclose(camera_reading_mean(LEVEL_UP[None], LEVEL_UP[None], np.zeros(1), 0.1), LEVEL_UP[None])
-
-
 def _camera(pitch_deg: float, roll_deg: float) -> np.ndarray:
     """The up a camera pitched and rolled by these angles sees (camera frame)."""
     return axis_rotation("z", np.radians(roll_deg)) @ axis_rotation("x", np.radians(pitch_deg)) @ LEVEL_UP
