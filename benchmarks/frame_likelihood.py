@@ -1,4 +1,4 @@
-"""Frame mode without the view gate: the up model's per-frame likelihood against the gate.
+"""Frame mode without the view gate: the up model's per-frame likelihood and each network alone against the gate.
 
     python -m benchmarks.frame_likelihood --data ../shared/data [--cache /tmp/pcnet_ablation_cache]
 
@@ -12,12 +12,15 @@ answer with no constant of its own.
 
 Printed per set: the mean over clips of each clip's mean per-frame tilt error (deg) of the
 gate and of ``g_hat_t``, and the paired difference (``g_hat_t`` minus gate) with its 95 %
-bootstrap interval over clips (:func:`benchmarks.ablation.paired_interval`). Validation sets
-first (Bandai motion-style val + CMU val subjects, static "paper", "wide" and fully rolled
-views: the up model was fitted on them), then the held-out sets of
-``benchmarks/ablation.py`` from its cache (the same recordings: Bandai motion-style test, CMU
-test subjects, DeepMimic, the moving camera, the camera rolled 30 deg, the real calibrated
-cameras in their 16 views). The decision rule is docs/decisions/0050-frame-mode-likelihood.md's.
+bootstrap interval over clips (:func:`benchmarks.ablation.paired_interval`); then the same for
+each network alone (the camera-frame network in the quarter-turned frame, the body-frame
+network; benchmarks/ablation.py's "gate off" rows). Validation sets first (Bandai motion-style
+val + CMU val subjects, static "paper", "wide" and fully rolled views: the up model was fitted
+on them), then the held-out sets of ``benchmarks/ablation.py`` from its cache (the same
+recordings: Bandai motion-style test, CMU test subjects, DeepMimic, the moving camera, the
+camera rolled 30 and 90 deg, the real calibrated cameras in their 16 views). The decision
+rules are docs/decisions/0050-frame-mode-likelihood.md's (``g_hat_t``) and
+docs/decisions/0057-frame-mode-gate-against-one-network.md's (each network alone).
 """
 
 from __future__ import annotations
@@ -39,21 +42,31 @@ RESULT = Path(__file__).resolve().parent / "results" / "frame_likelihood.txt"
 COMMAND = "python -m benchmarks.frame_likelihood --data ../shared/data"
 
 
-def clip_errors(evs: list[dict]) -> tuple[np.ndarray, np.ndarray]:
-    """``(gate (N,), likelihood (N,))``: each recording's mean per-frame tilt error (deg)."""
+#: The networks alone: benchmarks/ablation.py's rows with the gate's weight fixed.
+ALONE = tuple(v for v in A.VARIANTS if v.gate in ("camera", "body"))
+
+
+def _gate_error(ev: dict, v) -> float:
+    R, valid, _, _ = A.per_frame(ev, v)
+    return A.clip_error(np.where(valid[:, None], R[:, :, 1], np.nan), ev["true_up"])
+
+
+def clip_errors(evs: list[dict]) -> np.ndarray:
+    """``(N, 4)``: each recording's mean per-frame tilt error (deg) of the gate, ``g_hat_t`` and
+    each network alone (:data:`ALONE` order)."""
     p = default_parameters()
-    gate, lik = [], []
-    for ev in evs:
-        R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
-        gate.append(A.clip_error(np.where(valid[:, None], R[:, :, 1], np.nan), ev["true_up"]))
-        lik.append(A.clip_error(summarise_frames(A.evidence_of(ev), p).up, ev["true_up"]))
-    return np.array(gate), np.array(lik)
+    return np.array([[_gate_error(ev, A.VARIANTS[0]),
+                      A.clip_error(summarise_frames(A.evidence_of(ev), p).up, ev["true_up"]),
+                      *(_gate_error(ev, v) for v in ALONE)] for ev in evs])
 
 
 def row(title: str, evs: list[dict]) -> str:
-    gate, lik = clip_errors(evs)
-    mean, lo, hi = A.paired_interval(lik - gate)
-    return f"{title:<44}{len(evs):>6}{np.nanmean(gate):>8.2f}{np.nanmean(lik):>8.2f}  {mean:+.2f} [{lo:+.2f}, {hi:+.2f}]"
+    e = clip_errors(evs)
+    out = f"{title:<44}{len(evs):>6}{np.nanmean(e[:, 0]):>8.2f}"
+    for k in range(1, e.shape[1]):
+        mean, lo, hi = A.paired_interval(e[:, k] - e[:, 0])
+        out += f"{np.nanmean(e[:, k]):>8.2f} {mean:+.2f} [{lo:+.2f}, {hi:+.2f}]"
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -65,9 +78,12 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     require_mocap(args.data, "frame_likelihood")
     t0 = time.time()
-    head = f"{'set':<44}{'clips':>6}{'gate':>8}{'g_hat_t':>8}  g_hat_t - gate [95 % CI], deg"
+    head = (f"{'set':<44}{'clips':>6}{'gate':>8}" + "".join(f"{name:>8} {'- gate [95 % CI]':<22}" for name in
+                                                             ("g_hat_t", "body net", "cam net")))
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
-             "Mean over clips of each clip's mean per-frame tilt error (deg).", "", "## Validation", head]
+             "Mean over clips of each clip's mean per-frame tilt error (deg), and each alternative's paired "
+             "difference from the gate. body net: the body-frame network alone; cam net: the camera-frame network "
+             "alone (quarter-turned frame).", "", "## Validation", head]
     for (tag, views), evs in F.validation_sets(args.data, args.cache).items():
         lines.append(row(f"{tag} val, {views}", evs))
     lines += ["", "## Held out (benchmarks/ablation.py's recordings)", head]
@@ -77,6 +93,9 @@ def main(argv: list[str] | None = None) -> int:
     lines.append(row(f"moving camera (pitch sweeping {A.SWEEP_DEG:g} deg)", moving))
     rolled = A.cached(args.cache, f"rolled{A.ROLL_DEG:g}_{args.max_clips}", lambda: A.rolled_evidence(static))
     lines.append(row(f"camera rolled {A.ROLL_DEG:g} deg (the three sets)", rolled))
+    quarter = A.cached(args.cache, f"rolled{A.QUARTER_DEG:g}_{args.max_clips}",
+                       lambda: A.rolled_evidence(static, A.QUARTER_DEG))
+    lines.append(row(f"camera rolled {A.QUARTER_DEG:g} deg (the three sets)", quarter))
     real = A.cached(args.cache, "real_cameras", lambda: A.real_camera_evidence(args.data))
     lines.append(row("real calibrated cameras, 16 views", real))
     lines += ["", f"({time.time() - t0:.0f} s)"]
