@@ -560,13 +560,14 @@ def equivariance_evidence(data: Path) -> list[dict]:
     return out
 
 
-def evidence_of(ev: dict, turns: bool = True) -> UpEvidence:
+def evidence_of(ev: dict, turns: bool = True, nets: str = "both") -> UpEvidence:
     """The up model's evidence of one cached recording: each network's own up (the camera-frame
     network's on the quarter-turned input, turned back) and the turns; ``turns`` False: the
-    camera-frame network on the input as filmed."""
+    camera-frame network on the input as filmed; ``nets`` ``"camera"`` or ``"body"``: only that
+    network's ups (the other's blanked, so its term of the likelihood is 0)."""
     Q = quarter_turn_matrices(ev["turns"]) if turns and ev["turns"].any() else None
-    c = np.where(ev["valid"][:, None], ev["R_camT" if turns else "R_camP"][:, :, 1], np.nan)
-    b = np.where(ev["valid"][:, None], ev["R_body"][:, :, 1], np.nan)
+    c = np.where(ev["valid"][:, None] & (nets != "body"), ev["R_camT" if turns else "R_camP"][:, :, 1], np.nan)
+    b = np.where(ev["valid"][:, None] & (nets != "camera"), ev["R_body"][:, :, 1], np.nan)
     return UpEvidence.of(c, b, Q)
 
 
@@ -585,6 +586,7 @@ class Variant:
     lying: bool = True
     auto: bool = False  # auto mode (static or moving by mode_rule); False = sequence, pcnet run's default
     plain_mean: bool = False  # equal-weight Tukey mean of both networks' per-frame ups
+    nets: str = "both"  # the up model's evidence: "both" networks' ups, or only the "camera" or "body" one's
     mode_rule: str = "spread"  # auto's static/moving rule: "spread" (choose_mode) | "bayes" (benchmarks/camera_motion_model.py)
     #: auto's threshold (deg), its low-pass (s) and smooth mode's time constant (s); None = the package's
     mode_constants: tuple[float, float, float] | None = None
@@ -606,6 +608,8 @@ VARIANTS = (
     Variant("up model: no outlier share (von Mises-Fisher alone)", params=(("outlier_share", 0.0),)),
     Variant("up model: no systematic error (S = 0)", params=(("systematic_pitch_deg", 0.0), ("systematic_roll_deg", 0.0))),
     Variant("up model: frames independent (tau = 0)", params=(("error_time_s", 0.0),)),
+    Variant("up model: body-frame net's term off", nets="camera"),
+    Variant("up model: camera-frame net's term off", nets="body"),
     Variant("plain Tukey mean of both nets' ups", "alternative", plain_mean=True, prior=False, auto=False),
     Variant("gate off: fixed 50/50", gate="half"),
     Variant("gate off: body-frame net only", gate="body"),
@@ -659,7 +663,7 @@ def run_variant(ev: dict, v: Variant) -> dict:
     res = {"frame_up": np.where(ok[:, None], R[:, :, 1], np.nan), "bound": np.where(ok, bound, np.nan)}
     if v.auto and ok.sum() < 2:
         return {**res, "up": res["frame_up"], "mode": "frame", "posture": None}
-    evidence = evidence_of(ev, v.turns)
+    evidence = evidence_of(ev, v.turns, v.nets)
     if not v.auto:
         mode = "sequence"
     elif v.mode_rule == "bayes":
