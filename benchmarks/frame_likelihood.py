@@ -25,7 +25,6 @@ docs/decisions/0057-frame-mode-gate-against-one-network.md's (each network alone
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -34,7 +33,7 @@ import numpy as np
 
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save
 from benchmarks.up_model_variants import summarise_frames
 from pcnet.stages.up_model import default_parameters
 
@@ -70,13 +69,7 @@ def row(title: str, evs: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=A.DEFAULT)
-    ap.add_argument("--max-clips", type=int, default=200, help="as benchmarks/ablation.py's (its cache keys)")
-    ap.add_argument("--cache", type=Path, default=A.CACHE)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "frame_likelihood")
+    args = A.heldout_arguments(argv, __doc__, "frame_likelihood", RESULT)
     t0 = time.time()
     head = (f"{'set':<44}{'clips':>6}{'gate':>8}" + "".join(f"{name:>8} {'- gate [95 % CI]':<22}" for name in
                                                              ("g_hat_t", "body net", "cam net")))
@@ -87,17 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     for (tag, views), evs in F.validation_sets(args.data, args.cache).items():
         lines.append(row(f"{tag} val, {views}", evs))
     lines += ["", "## Held out (benchmarks/ablation.py's recordings)", head]
-    static = [A.mocap_set(args.data, args.cache, file, split, args.max_clips) for _, file, split in A.MOCAP_SETS]
-    lines += [row(title, evs) for (title, _, _), evs in zip(A.MOCAP_SETS, static)]
-    moving = A.heldout_sweep(args.cache, static, args.max_clips)
-    lines.append(row(f"moving camera (pitch sweeping {A.SWEEP_DEG:g} deg)", moving))
-    rolled = A.cached(args.cache, f"rolled{A.ROLL_DEG:g}_{args.max_clips}", lambda: A.rolled_evidence(static))
-    lines.append(row(f"camera rolled {A.ROLL_DEG:g} deg (the three sets)", rolled))
-    quarter = A.cached(args.cache, f"rolled{A.QUARTER_DEG:g}_{args.max_clips}",
-                       lambda: A.rolled_evidence(static, A.QUARTER_DEG))
-    lines.append(row(f"camera rolled {A.QUARTER_DEG:g} deg (the three sets)", quarter))
-    real = A.cached(args.cache, "real_cameras", lambda: A.real_camera_evidence(args.data))
-    lines.append(row("real calibrated cameras, 16 views", real))
+    lines += [row(title, evs) for title, evs in A.heldout_recordings(args.data, args.cache, args.max_clips, quarter=True)]
     lines += ["", f"({time.time() - t0:.0f} s)"]
     print_and_save(lines, args.out)
     return 0

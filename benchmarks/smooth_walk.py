@@ -22,7 +22,6 @@ docs/decisions/0055-smooth-mode-random-walk.md's.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -31,7 +30,7 @@ import numpy as np
 
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save
 from benchmarks.up_model_variants import R95, fit_rate, random_walk, summarise_frames
 from pcnet.stages import temporal
 from pcnet.stages.up_model import default_parameters
@@ -67,13 +66,7 @@ def row(title: str, evs: list[dict], q: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=A.DEFAULT)
-    ap.add_argument("--max-clips", type=int, default=200, help="as benchmarks/ablation.py's (its cache keys)")
-    ap.add_argument("--cache", type=Path, default=A.CACHE)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "smooth_walk")
+    args = A.heldout_arguments(argv, __doc__, "smooth_walk", RESULT)
     t0 = time.time()
     val = F.validation_sets(args.data, args.cache)
     sweeps = A.cached(args.cache, "val_sweep", lambda: A.sweep_evidence([val["bandai", "paper"], val["cmu", "paper"]]))
@@ -88,14 +81,7 @@ def main(argv: list[str] | None = None) -> int:
              "95 % disc.", "", "## Validation (q fitted here)", head,
              row(f"validation sweep ({A.SWEEP_DEG:g} deg)", sweeps, q),
              "", "## Held out (benchmarks/ablation.py's recordings, every clip run as smooth mode)", head]
-    static = [A.mocap_set(args.data, args.cache, file, split, args.max_clips) for _, file, split in A.MOCAP_SETS]
-    lines += [row(title, evs, q) for (title, _, _), evs in zip(A.MOCAP_SETS, static)]
-    moving = A.heldout_sweep(args.cache, static, args.max_clips)
-    lines.append(row(f"moving camera (pitch sweeping {A.SWEEP_DEG:g} deg)", moving, q))
-    rolled = A.cached(args.cache, f"rolled{A.ROLL_DEG:g}_{args.max_clips}", lambda: A.rolled_evidence(static))
-    lines.append(row(f"camera rolled {A.ROLL_DEG:g} deg (the three sets)", rolled, q))
-    real = A.cached(args.cache, "real_cameras", lambda: A.real_camera_evidence(args.data))
-    lines.append(row("real calibrated cameras, 16 views", real, q))
+    lines += [row(title, evs, q) for title, evs in A.heldout_recordings(args.data, args.cache, args.max_clips)]
     lines += ["", f"({time.time() - t0:.0f} s)"]
     print_and_save(lines, args.out)
     return 0
