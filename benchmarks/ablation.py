@@ -511,6 +511,35 @@ def rolled_table(rolled: list[dict], runs: dict, static: list[tuple[str, list[di
     return lines
 
 
+def heldout_arguments(argv, doc: str, script: str, result: Path) -> argparse.Namespace:
+    """The command line of a script that scores this ablation's held-out recordings: ``--data``,
+    ``--max-clips`` (the cache's keys), ``--cache`` and ``--out``; exits with one line where
+    ``--data`` lacks the mocap."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=DEFAULT)
+    ap.add_argument("--max-clips", type=int, default=200, help="as benchmarks/ablation.py's (its cache keys)")
+    ap.add_argument("--cache", type=Path, default=CACHE)
+    ap.add_argument("--out", type=Path, default=result)
+    args = ap.parse_args(argv)
+    require_mocap(args.data, script)
+    return args
+
+
+def heldout_recordings(data: Path, cache: Path, max_clips: int, quarter: bool = False) -> list[tuple[str, list[dict]]]:
+    """``(title, recordings)`` of this ablation's held-out sets, from its cache: the
+    :data:`MOCAP_SETS`, the moving camera, the camera rolled :data:`ROLL_DEG` (and
+    :data:`QUARTER_DEG` with ``quarter``) and the real calibrated cameras in 16 views."""
+    static = [mocap_set(data, cache, file, split, max_clips) for _, file, split in MOCAP_SETS]
+    out = [(title, evs) for (title, _, _), evs in zip(MOCAP_SETS, static)]
+    out.append((f"moving camera (pitch sweeping {SWEEP_DEG:g} deg)", heldout_sweep(cache, static, max_clips)))
+    rolls = (ROLL_DEG, QUARTER_DEG) if quarter else (ROLL_DEG,)
+    for roll in rolls:
+        out.append((f"camera rolled {roll:g} deg (the three sets)",
+                    cached(cache, f"rolled{roll:g}_{max_clips}", lambda r=roll: rolled_evidence(static, r))))
+    out.append(("real calibrated cameras, 16 views", cached(cache, "real_cameras", lambda: real_camera_evidence(data))))
+    return out
+
+
 def real_camera_evidence(data: Path) -> list[dict]:
     from benchmarks.gravity_benchmark import load_camera, roll_view
 
