@@ -511,6 +511,17 @@ def rolled_table(rolled: list[dict], runs: dict, static: list[tuple[str, list[di
     return lines
 
 
+def rolled_recordings(cache: Path, static: list[list[dict]], max_clips: int, roll_deg: float = ROLL_DEG) -> list[dict]:
+    """:func:`rolled_evidence` of the held-out mocap ``static`` (:data:`MOCAP_SETS` order), cached
+    under ``rolled{roll_deg}_{max_clips}``."""
+    return cached(cache, f"rolled{roll_deg:g}_{max_clips}", lambda: rolled_evidence(static, roll_deg))
+
+
+def real_recordings(data: Path, cache: Path) -> list[dict]:
+    """:func:`real_camera_evidence`, cached under ``real_cameras``."""
+    return cached(cache, "real_cameras", lambda: real_camera_evidence(data))
+
+
 def heldout_arguments(argv, doc: str, script: str, result: Path) -> argparse.Namespace:
     """The command line of a script that scores this ablation's held-out recordings: ``--data``,
     ``--max-clips`` (the cache's keys), ``--cache`` and ``--out``; exits with one line where
@@ -533,10 +544,9 @@ def heldout_recordings(data: Path, cache: Path, max_clips: int, quarter: bool = 
     out = [(title, evs) for (title, _, _), evs in zip(MOCAP_SETS, static)]
     out.append((f"moving camera (pitch sweeping {SWEEP_DEG:g} deg)", heldout_sweep(cache, static, max_clips)))
     rolls = (ROLL_DEG, QUARTER_DEG) if quarter else (ROLL_DEG,)
-    for roll in rolls:
-        out.append((f"camera rolled {roll:g} deg (the three sets)",
-                    cached(cache, f"rolled{roll:g}_{max_clips}", lambda r=roll: rolled_evidence(static, r))))
-    out.append(("real calibrated cameras, 16 views", cached(cache, "real_cameras", lambda: real_camera_evidence(data))))
+    out += [(f"camera rolled {roll:g} deg (the three sets)", rolled_recordings(cache, static, max_clips, roll))
+            for roll in rolls]
+    out.append(("real calibrated cameras, 16 views", real_recordings(data, cache)))
     return out
 
 
@@ -1058,10 +1068,9 @@ def main(argv=None) -> int:
         sections.append(("mocap", f"Moving camera (pitch sweeping {SWEEP_DEG:g} deg over each clip; Bandai test and "
                                   f"DeepMimic clips of >= {SWEEP_MIN_FRAMES} frames, at most {SWEEP_MAX_CLIPS} each)",
                          moving))
-        sections.append(("rolled", "rolled", cached(args.cache, f"rolled{ROLL_DEG:g}_{args.max_clips}",
-                                                    lambda: rolled_evidence(static))))
+        sections.append(("rolled", "rolled", rolled_recordings(args.cache, static, args.max_clips)))
     if "real" not in args.skip:
-        sections.append(("real", "real", cached(args.cache, "real_cameras", lambda: real_camera_evidence(args.data))))
+        sections.append(("real", "real", real_recordings(args.data, args.cache)))
     if "yoga" not in args.skip:
         sections.append(("yoga", "yoga", cached(args.cache, f"yoga_stride{YOGA_STRIDE}", lambda: yoga_evidence(args.data))))
     if "equivariance" not in args.skip:
@@ -1085,7 +1094,7 @@ def main(argv=None) -> int:
         print("\n".join(block), flush=True)
         lines += block
         t1 = time.time()
-        quarter = cached(args.cache, f"rolled{QUARTER_DEG:g}_{args.max_clips}", lambda: rolled_evidence(static, QUARTER_DEG))
+        quarter = rolled_recordings(args.cache, static, args.max_clips, QUARTER_DEG)
         block = rolled_floor_table(quarter, floor_sets[:len(MOCAP_SETS)]) + [f"({time.time() - t1:.0f} s)", ""]
         print("\n".join(block), flush=True)
         lines += block

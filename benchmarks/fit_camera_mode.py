@@ -68,7 +68,7 @@ def main(argv=None) -> int:
     t0 = time.time()
     val = F.validation_sets(args.data, args.cache)
     static = [e for evs in val.values() for e in evs]
-    swept = A.cached(args.cache, "val_sweep", lambda: A.sweep_evidence([val["bandai", "paper"], val["cmu", "paper"]]))
+    swept = F.validation_sweeps(args.cache, val)
     lines = [__doc__.split("\n")[0], "", "    python -m benchmarks.fit_camera_mode --data ../shared/data", "",
              f"Validation: {len(static)} static recordings, {len(swept)} with the camera pitch sweeping 30 deg.", "",
              "smooth mode on the swept clips: time constant (s) -> mean tilt error (deg)"]

@@ -248,6 +248,12 @@ def validation_sets(data: Path, cache: Path) -> dict[tuple[str, str], list[dict]
             for tag, file in VAL_SETS for views, seed in VAL_VIEWS}
 
 
+def validation_sweeps(cache: Path, val: dict[tuple[str, str], list[dict]]) -> list[dict]:
+    """The validation recordings with the camera pitch sweeping (:func:`benchmarks.ablation.sweep_evidence`
+    of the "paper" views of :func:`validation_sets` ``val``), cached under ``val_sweep``."""
+    return A.cached(cache, "val_sweep", lambda: A.sweep_evidence([val["bandai", "paper"], val["cmu", "paper"]]))
+
+
 def fit_arguments(argv, doc: str, script: str, result: Path, writes_json: bool = True) -> argparse.Namespace:
     """The command line of a fit on the validation sets (this script's and the up model's
     later fits): ``--data``, ``--cache``, ``--json`` (the up model's parameters file, where the

@@ -41,8 +41,9 @@ RESULT = Path(__file__).resolve().parent / "results" / "frame_likelihood.txt"
 COMMAND = "python -m benchmarks.frame_likelihood --data ../shared/data"
 
 
-#: The networks alone: benchmarks/ablation.py's rows with the gate's weight fixed.
-ALONE = tuple(v for v in A.VARIANTS if v.gate in ("camera", "body"))
+#: The networks alone, with their column labels: benchmarks/ablation.py's rows with the gate's weight fixed.
+ALONE = tuple((label, next(v for v in A.VARIANTS if v.gate == gate)) for label, gate in (("body net", "body"),
+                                                                                          ("cam net", "camera")))
 
 
 def _gate_error(ev: dict, v) -> float:
@@ -56,7 +57,7 @@ def clip_errors(evs: list[dict]) -> np.ndarray:
     p = default_parameters()
     return np.array([[_gate_error(ev, A.VARIANTS[0]),
                       A.clip_error(summarise_frames(A.evidence_of(ev), p).up, ev["true_up"]),
-                      *(_gate_error(ev, v) for v in ALONE)] for ev in evs])
+                      *(_gate_error(ev, v) for _, v in ALONE)] for ev in evs])
 
 
 def row(title: str, evs: list[dict]) -> str:
@@ -72,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     args = A.heldout_arguments(argv, __doc__, "frame_likelihood", RESULT)
     t0 = time.time()
     head = (f"{'set':<44}{'clips':>6}{'gate':>8}" + "".join(f"{name:>8} {'- gate [95 % CI]':<22}" for name in
-                                                             ("g_hat_t", "body net", "cam net")))
+                                                             ("g_hat_t", *(label for label, _ in ALONE))))
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              "Mean over clips of each clip's mean per-frame tilt error (deg), and each alternative's paired "
              "difference from the gate. body net: the body-frame network alone; cam net: the camera-frame network "

@@ -69,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     args = A.heldout_arguments(argv, __doc__, "smooth_walk", RESULT)
     t0 = time.time()
     val = F.validation_sets(args.data, args.cache)
-    sweeps = A.cached(args.cache, "val_sweep", lambda: A.sweep_evidence([val["bandai", "paper"], val["cmu", "paper"]]))
+    sweeps = F.validation_sweeps(args.cache, val)
     q = fit_rate(sweeps, default_parameters(), None)
     head = (f"{'set':<44}{'clips':>6}{'kernel':>8}{'walk':>8}  walk - kernel [95 % CI], deg"
             f"{'walk 95%':>9}")

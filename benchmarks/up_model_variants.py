@@ -185,7 +185,7 @@ def main(argv=None) -> int:
     p = default_parameters()
     val = F.validation_sets(args.data, args.cache)
     static = [e for (tag, views), evs in val.items() if views != "rolled" for e in evs]
-    sweeps = A.cached(args.cache, "val_sweep", lambda: A.sweep_evidence([val["bandai", "paper"], val["cmu", "paper"]]))
+    sweeps = F.validation_sweeps(args.cache, val)
     q0 = fit_rate(static, p, None)
     rates = WalkRates(q0, fit_rate(sweeps, p, q0))
     lines = [__doc__.split("\n")[0], "", "    python -m benchmarks.up_model_variants --data ../shared/data", "",
