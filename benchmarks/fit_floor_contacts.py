@@ -159,9 +159,22 @@ def raised_recordings(data: Path, cache: Path) -> list[Recording]:
     return out
 
 
-def error_model(recs: list[Recording], p: UpModelParameters) -> tuple[float, float, int]:
-    """``(sigma_f, s_o, footfalls)``: step 1 of the module docstring under ``p``'s contact definition."""
-    within, n_within, between = 0.0, 0, []
+@dataclass(frozen=True)
+class FootfallHeights:
+    """One recording's footfall heights along the true up (leg lengths), as step 1 of the module
+    docstring uses them: ``within`` the sum of squares about each ankle's mean, ``within_df``
+    its degrees of freedom, ``between`` the two ankles' mean difference and ``between_factor``
+    ``1 / n_R + 1 / n_L`` (both NaN where an ankle has no footfall)."""
+
+    within: float
+    within_df: int
+    between: float
+    between_factor: float
+
+
+def footfall_heights(recs: list[Recording], p: UpModelParameters) -> list[FootfallHeights]:
+    """:class:`FootfallHeights` of each recording with a footfall under ``p``'s contact definition."""
+    out = []
     for r in recs:
         leg = leg_length(r.joints, r.ok)
         c = detect_contacts(r.joints, r.ok, r.true_up, r.fps, leg, p)
@@ -170,16 +183,29 @@ def error_model(recs: list[Recording], p: UpModelParameters) -> tuple[float, flo
         P, ankle = footfalls(c)
         h = P @ r.true_up / leg
         groups = [h[ankle == k] for k in (0, 1)]
-        for g in groups:
-            if len(g) > 1:
-                within += float(np.sum((g - g.mean()) ** 2))
-                n_within += len(g) - 1
-        if all(len(g) for g in groups):
-            between.append((groups[0].mean() - groups[1].mean(), 1 / len(groups[0]) + 1 / len(groups[1])))
-    sigma2 = within / max(n_within, 1)
-    d = np.array(between)
-    s_o2 = max(float(np.mean(d[:, 0] ** 2 - sigma2 * d[:, 1])) / 2, 0.0) if len(d) else 0.0
-    return float(np.sqrt(sigma2)), float(np.sqrt(max(s_o2, 1e-8))), n_within + 2 * len(d)
+        within = sum(float(np.sum((g - g.mean()) ** 2)) for g in groups if len(g) > 1)
+        df = sum(len(g) - 1 for g in groups if len(g) > 1)
+        both = all(len(g) for g in groups)
+        out.append(FootfallHeights(within, df, groups[0].mean() - groups[1].mean() if both else np.nan,
+                                   1 / len(groups[0]) + 1 / len(groups[1]) if both else np.nan))
+    return out
+
+
+def offset_moment(heights: list[FootfallHeights]) -> tuple[float, float]:
+    """``(sigma_f^2, 2 s_o^2)`` (leg lengths squared): the pooled within-ankle variance and the
+    method-of-moments estimate ``mean((mean_R - mean_L)^2 - sigma_f^2 (1 / n_R + 1 / n_L))``,
+    not clipped at zero (module docstring, step 1)."""
+    sigma2 = sum(h.within for h in heights) / max(sum(h.within_df for h in heights), 1)
+    d = np.array([(h.between, h.between_factor) for h in heights if np.isfinite(h.between)]).reshape(-1, 2)
+    return sigma2, float(np.mean(d[:, 0] ** 2 - sigma2 * d[:, 1])) if len(d) else 0.0
+
+
+def error_model(recs: list[Recording], p: UpModelParameters) -> tuple[float, float, int]:
+    """``(sigma_f, s_o, footfalls)``: step 1 of the module docstring under ``p``'s contact definition."""
+    heights = footfall_heights(recs, p)
+    sigma2, two_s_o2 = offset_moment(heights)
+    n = sum(h.within_df for h in heights) + 2 * sum(np.isfinite(h.between) for h in heights)
+    return float(np.sqrt(sigma2)), float(np.sqrt(max(two_s_o2 / 2, 1e-8))), int(n)
 
 
 def tilt_errors(recs: list[Recording], p: UpModelParameters, from_2d: bool = False) -> np.ndarray:

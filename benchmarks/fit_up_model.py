@@ -147,10 +147,14 @@ def residuals(errs):
     return rc, rb, rates
 
 
-def fit_scatter(rc, rb) -> tuple[float, float, float]:
-    """``(sigma_b, sigma_c, eps)`` (deg, deg, share): maximum likelihood of the residuals
-    ``rb``, ``rc`` (lists of ``(T, 2)`` tangent residuals, rad) under ``(1 - eps) N2(0, sigma^2 I)
-    + eps / (4 pi)``, one ``eps`` for both networks."""
+def fit_scatter(rc, rb, tied: bool = False, weights=None) -> tuple[float, float, float, float]:
+    """``(sigma_b, sigma_c, eps, log L)`` (deg, deg, share, nats): maximum likelihood of the
+    residuals ``rb``, ``rc`` (lists of ``(T, 2)`` tangent residuals, rad, one per clip) under
+    ``(1 - eps) N2(0, sigma^2 I) + eps / (4 pi)``, one ``eps`` for both networks; ``tied``: one
+    ``sigma`` for both (decision 0059); ``weights``: one per clip, each clip's log-likelihood
+    multiplied by it (default 1)."""
+    w = np.ones(len(rc)) if weights is None else np.asarray(weights, np.float64)
+    frame_w = np.concatenate([np.full(len(r), wi) for r, wi in zip(rc, w)])
     c2 = np.sum(np.concatenate(rc) ** 2, -1)
     b2 = np.sum(np.concatenate(rb) ** 2, -1)
     u = np.log(1 / (4 * np.pi))
@@ -158,14 +162,19 @@ def fit_scatter(rc, rb) -> tuple[float, float, float]:
     def mixture(r2, var, eps):
         return np.logaddexp(np.log1p(-eps) - np.log(2 * np.pi * var) - 0.5 * r2 / var, np.log(eps) + u)
 
-    def nll(theta):
-        sb, sc, eps = np.exp(theta[0]), np.exp(theta[1]), 1 / (1 + np.exp(-theta[2]))
-        return -(mixture(c2, sc ** 2, eps).sum() + mixture(b2, sb ** 2, eps).sum())
+    def unpack(theta):
+        sb = np.exp(theta[0])
+        sc = sb if tied else np.exp(theta[1])
+        return sb, sc, 1 / (1 + np.exp(-theta[-1]))
 
-    res = minimize(nll, np.log([0.08, 0.06, 0.02 / 0.98]), method="Nelder-Mead",
-                   options={"xatol": 1e-6, "fatol": 1e-3, "maxiter": 4000})
-    sb, sc = np.degrees(np.exp(res.x[:2]))
-    return float(sb), float(sc), float(1 / (1 + np.exp(-res.x[2])))
+    def nll(theta):
+        sb, sc, eps = unpack(theta)
+        return -float(frame_w @ (mixture(c2, sc ** 2, eps) + mixture(b2, sb ** 2, eps)))
+
+    start = np.log([0.07, 0.02 / 0.98]) if tied else np.log([0.08, 0.06, 0.02 / 0.98])
+    res = minimize(nll, start, method="Nelder-Mead", options={"xatol": 1e-6, "fatol": 1e-3, "maxiter": 4000})
+    sb, sc, eps = unpack(res.x)
+    return float(np.degrees(sb)), float(np.degrees(sc)), float(eps), -float(res.fun)
 
 
 def fit_time(rc, rb, rates, sigma_deg: float) -> float:
@@ -199,7 +208,9 @@ def fit_time(rc, rb, rates, sigma_deg: float) -> float:
     return float(np.average(taus, weights=weights))
 
 
-def fit_systematic(evs, p: UpModelParameters) -> tuple[float, float]:
+def summary_errors(evs, p: UpModelParameters) -> tuple[np.ndarray, np.ndarray]:
+    """Per recording of ``evs`` (two valid frames at least): the summary's error
+    ``log_map(g, g_hat)`` ``(N, 2)`` rad and its ``C_L`` ``(N, 2, 2)`` under ``p``."""
     es, covs = [], []
     for ev in evs:
         e = A.evidence_of(ev)
@@ -209,16 +220,25 @@ def fit_systematic(evs, p: UpModelParameters) -> tuple[float, float]:
         g = ev["true_up"][np.flatnonzero(e.valid)[0]]
         es.append(log_map(g, s.up))
         covs.append(s.cov)
-    es, covs = np.array(es), np.array(covs)
+    return np.array(es), np.array(covs)
+
+
+def fit_systematic(es: np.ndarray, covs: np.ndarray, isotropic: bool = False) -> tuple[float, float, float]:
+    """``(s_pitch, s_roll, log L)`` (deg, deg, nats): maximum likelihood of the summaries' errors
+    ``es`` under ``N(0, C_L + S)`` (:func:`summary_errors`), ``S`` diagonal, or ``s^2 I`` where
+    ``isotropic`` (decision 0059)."""
 
     def nll(theta):
-        S = np.diag(np.exp(2 * theta))
+        S = np.diag(np.exp(2 * (np.repeat(theta, 2) if isotropic else theta)))
         C = covs + S
         inv = np.linalg.inv(C)
-        return float(np.sum(0.5 * np.einsum("ni,nij,nj->n", es, inv, es) + 0.5 * np.log(np.linalg.det(C))))
+        return float(np.sum(0.5 * np.einsum("ni,nij,nj->n", es, inv, es) + 0.5 * np.log(np.linalg.det(C))
+                            + np.log(2 * np.pi)))
 
-    res = minimize(nll, np.log(np.radians([3.0, 1.5])), method="Nelder-Mead")
-    return tuple(float(v) for v in np.degrees(np.exp(res.x)))
+    start = np.log(np.radians([2.5])) if isotropic else np.log(np.radians([3.0, 1.5]))
+    res = minimize(nll, start, method="Nelder-Mead")
+    s = np.degrees(np.exp(np.repeat(res.x, 2) if isotropic else res.x))
+    return float(s[0]), float(s[1]), -float(res.fun)
 
 
 def fit_lying(data: Path) -> tuple[float, float, int, int]:
@@ -294,13 +314,13 @@ def main(argv=None) -> int:
     values["camera_fallback_deg"], values["camera_fallback_width_deg"] = fit_fallback(errs)
     prov["camera_fallback_deg"] = prov["camera_fallback_width_deg"] = f"per-clip logistic regression, {split}"
     rc, rb, rates = residuals(errs)
-    sb, sc, eps = fit_scatter(rc, rb)
+    sb, sc, eps, _ = fit_scatter(rc, rb)
     values.update(body_sigma_deg=sb, camera_sigma_deg=sc, outlier_share=eps)
     for k in ("body_sigma_deg", "camera_sigma_deg", "outlier_share"):
         prov[k] = f"maximum likelihood of per-frame residuals, {split}"
     values["error_time_s"] = fit_time(rc, rb, rates, max(sb, sc))
     prov["error_time_s"] = f"integrated autocorrelation time (Sokal window) of per-frame residuals, {split}"
-    sp, sr = fit_systematic(all_evs, params_from(values, prov))
+    sp, sr, _ = fit_systematic(*summary_errors(all_evs, params_from(values, prov)))
     values.update(systematic_pitch_deg=sp, systematic_roll_deg=sr)
     prov["systematic_pitch_deg"] = prov["systematic_roll_deg"] = f"maximum likelihood of recording summaries' errors, {split}"
     share, sig, k, n = fit_lying(args.data)

@@ -31,7 +31,7 @@ def test_fit_scatter_recovers_both_spreads_and_the_outlier_share():
     rng = np.random.default_rng(3)
     rc = [_residuals(rng, 20_000, 2.0, 0.02) for _ in range(2)]
     rb = [_residuals(rng, 20_000, 3.5, 0.02) for _ in range(2)]
-    sigma_b, sigma_c, eps = fit_scatter(rc, rb)
+    sigma_b, sigma_c, eps, _ = fit_scatter(rc, rb)
     assert abs(sigma_c - 2.0) < 0.05
     assert abs(sigma_b - 3.5) < 0.08
     assert 0.015 < eps < 0.025
