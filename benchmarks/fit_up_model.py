@@ -20,12 +20,14 @@ Fits, in order (each uses the ones before):
 1. ``camera_fallback_deg``, ``camera_fallback_width_deg`` (psi0, w): per clip, whether the
    camera-frame network's up is nearer the level up of its input frame than the truth (its
    median over frames), logistic regression on the clip's view tilt psi.
-2. ``body_sigma_deg``, ``camera_sigma_deg``, ``outlier_share``: maximum likelihood of the
-   per-frame tangent residuals (each network's error minus its clip's median error; clips the
-   camera-frame network reads as level left out) under ``(1 - eps) N2(0, sigma^2 I) + eps /
-   (4 pi)`` (Nelder-Mead on logs/logits). A growth of the camera-frame network's sigma with
-   the view tilt was fitted here until decision 0052 deleted it (decision 0051: it helped on
-   no held-out set).
+2. ``network_sigma_deg``, ``outlier_share``: maximum likelihood of the per-frame tangent
+   residuals (each network's error minus its clip's median error; clips the camera-frame
+   network reads as level left out) under ``(1 - eps) N2(0, sigma^2 I) + eps / (4 pi)``, one
+   ``sigma`` and one ``eps`` for both networks (Nelder-Mead on logs/logits). Each network had
+   its own ``sigma`` until decision 0059: the validation likelihood does not tell them apart
+   (``python -m benchmarks.parameter_selection``). A growth of the camera-frame network's sigma
+   with the view tilt was fitted here until decision 0052 deleted it (decision 0051: it helped
+   on no held-out set).
 3. ``error_time_s`` (tau): integrated autocorrelation time of those residuals (both networks,
    both axes, residuals beyond 3 sigma clipped), Sokal's window (the smallest lag M with
    M >= 5 tau(M)), in seconds.
@@ -298,7 +300,7 @@ def main(argv=None) -> int:
     split = (f"validation: Bandai motion-style val ({len(evs['bandai', 'paper'])} clips) + CMU val subjects "
              f"({len(evs['cmu', 'paper'])} clips), 'paper', 'wide' and fully rolled static views, lifter noise, "
              f"{n_frames} frames")
-    values = {"camera_fallback_deg": 90.0, "camera_fallback_width_deg": 10.0, "camera_sigma_deg": 3.0, "body_sigma_deg": 4.0,
+    values = {"camera_fallback_deg": 90.0, "camera_fallback_width_deg": 10.0, "network_sigma_deg": 3.0,
               "outlier_share": 0.01, "error_time_s": 1.0, "systematic_pitch_deg": 3.0, "systematic_roll_deg": 1.5,
               "lying_elevation_deg": 10.0, **DECLARED}
     prov = {k: DECLARED_WHY for k in DECLARED}
@@ -314,11 +316,11 @@ def main(argv=None) -> int:
     values["camera_fallback_deg"], values["camera_fallback_width_deg"] = fit_fallback(errs)
     prov["camera_fallback_deg"] = prov["camera_fallback_width_deg"] = f"per-clip logistic regression, {split}"
     rc, rb, rates = residuals(errs)
-    sb, sc, eps, _ = fit_scatter(rc, rb)
-    values.update(body_sigma_deg=sb, camera_sigma_deg=sc, outlier_share=eps)
-    for k in ("body_sigma_deg", "camera_sigma_deg", "outlier_share"):
-        prov[k] = f"maximum likelihood of per-frame residuals, {split}"
-    values["error_time_s"] = fit_time(rc, rb, rates, max(sb, sc))
+    sigma, _, eps, _ = fit_scatter(rc, rb, tied=True)
+    values.update(network_sigma_deg=sigma, outlier_share=eps)
+    for k in ("network_sigma_deg", "outlier_share"):
+        prov[k] = f"maximum likelihood of per-frame residuals, both networks, {split}"
+    values["error_time_s"] = fit_time(rc, rb, rates, sigma)
     prov["error_time_s"] = f"integrated autocorrelation time (Sokal window) of per-frame residuals, {split}"
     sp, sr, _ = fit_systematic(*summary_errors(all_evs, params_from(values, prov)))
     values.update(systematic_pitch_deg=sp, systematic_roll_deg=sr)

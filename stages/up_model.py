@@ -13,13 +13,14 @@ a von Mises-Fisher (vMF) density mixed with a uniform outlier share ``eps``::
 
     p(u | h, kappa) = (1 - eps) vMF(u; h, kappa) + eps / (4 pi)
 
-The body-frame network reads ``h = g`` with ``kappa_b = 1 / sigma_b^2``. The camera-frame
-network reads ``g`` with ``kappa_c = 1 / sigma_c^2``. It learnt how cameras are held: for a
+Both networks read with one precision ``kappa = 1 / sigma^2`` (one scatter for both: the
+validation likelihood cannot tell theirs apart, decision 0059). The body-frame network reads
+``h = g``. The camera-frame network reads ``g`` too, but it learnt how cameras are held: for a
 camera tilted by ``psi`` from level in its input frame (``psi`` = angle between ``g`` and
 ``L_t = Q_t^T L``) far outside its training views, it falls back to the level camera it knows:
 with probability ``lambda(psi) = 1 / (1 + exp(-(psi - psi0) / w))`` it reads ``L_t`` instead
-of ``g``. So ``l_t(g) = log[(1 - lambda) p(c_t | g, kappa_c) + lambda
-p(c_t | L_t, kappa_c)] + log p(b_t | g, kappa_b)``.
+of ``g``. So ``l_t(g) = log[(1 - lambda) p(c_t | g, kappa) + lambda
+p(c_t | L_t, kappa)] + log p(b_t | g, kappa)``.
 
 Frames are not independent (a held pose errs the same way for a while): the recording's
 log-likelihood is ``F(g) = sum_t l_t(g) / m`` with ``m = max(1, tau fps)`` frames per
@@ -97,7 +98,7 @@ class UpModelParameters:
     """The model's parameters (module docstring); angles in degrees.
 
     Attributes:
-        body_sigma_deg: ``sigma_b``. camera_sigma_deg: ``sigma_c``. camera_fallback_deg,
+        network_sigma_deg: ``sigma``, both networks' scatter. camera_fallback_deg,
         camera_fallback_width_deg: ``psi0``, ``w``.
         outlier_share: ``eps``. error_time_s: ``tau``. systematic_pitch_deg,
         systematic_roll_deg: ``s_pitch``, ``s_roll``. lying_elevation_deg: ``sigma_lie``.
@@ -110,8 +111,7 @@ class UpModelParameters:
         provenance: for each name, where its value comes from (split, command, or "declared").
     """
 
-    body_sigma_deg: float
-    camera_sigma_deg: float
+    network_sigma_deg: float
     camera_fallback_deg: float
     camera_fallback_width_deg: float
     outlier_share: float
@@ -151,7 +151,7 @@ class UpModelParameters:
                 raise InputError(f"up_model.json: parameters.{name}: expected a finite value, got {entry!r}")
             values[name], provenance[name] = float(entry["value"]), str(entry.get("provenance", ""))
         out = cls(**values, provenance=provenance)
-        for name in ("body_sigma_deg", "camera_sigma_deg", "error_time_s", "systematic_pitch_deg",
+        for name in ("network_sigma_deg", "error_time_s", "systematic_pitch_deg",
                      "systematic_roll_deg", "lying_elevation_deg", "camera_prior_pitch_deg", "camera_prior_roll_deg",
                      "camera_fallback_width_deg", "contact_height_leg", "contact_speed_leg_s",
                      "contact_speed_window_s", "footfall_height_sd_leg", "ankle_offset_leg", "footfall_posture_power"):
@@ -299,15 +299,14 @@ def frame_log_likelihood(g: np.ndarray, ev: UpEvidence, p: UpModelParameters) ->
     g = np.broadcast_to(g, np.broadcast_shapes(g.shape, ev.camera_up.shape))
     level = ev.level_up()
     _, lam = camera_view_estimate(g, level, p)
-    kappa_c = 1.0 / np.radians(p.camera_sigma_deg) ** 2
+    kappa = 1.0 / np.radians(p.network_sigma_deg) ** 2
     cos_c = np.sum(ev.camera_up * g, -1)
     cos_b = np.sum(ev.body_up * g, -1)
-    kappa_b = 1.0 / np.radians(p.body_sigma_deg) ** 2
     with np.errstate(divide="ignore"):
-        lc = np.logaddexp(np.log1p(-lam) + log_vmf_mixture(np.nan_to_num(cos_c), kappa_c, p.outlier_share),
-                          np.log(lam) + log_vmf_mixture(np.nan_to_num(np.sum(ev.camera_up * level, -1)), kappa_c,
+        lc = np.logaddexp(np.log1p(-lam) + log_vmf_mixture(np.nan_to_num(cos_c), kappa, p.outlier_share),
+                          np.log(lam) + log_vmf_mixture(np.nan_to_num(np.sum(ev.camera_up * level, -1)), kappa,
                                                         p.outlier_share))
-    lb = log_vmf_mixture(np.nan_to_num(cos_b), kappa_b, p.outlier_share)
+    lb = log_vmf_mixture(np.nan_to_num(cos_b), kappa, p.outlier_share)
     return np.where(np.isfinite(cos_c), lc, 0.0) + np.where(np.isfinite(cos_b), lb, 0.0)
 
 

@@ -1,6 +1,7 @@
-"""The up model's scatter fit (benchmarks/fit_up_model.py ``fit_scatter``): maximum likelihood of
-per-frame tangent residuals under ``(1 - eps) N2(0, sigma^2 I) + eps / (4 pi)`` recovers the
-spreads and the outlier share it was drawn with."""
+"""The up model's scatter and systematic-error fits (benchmarks/fit_up_model.py ``fit_scatter``,
+``fit_systematic``): maximum likelihood recovers the spreads and the outlier share the
+residuals were drawn with, and the tied forms of decision 0059 lose where the data tell the
+two apart."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from conftest import ROOT
 
 if str(ROOT) not in sys.path:  # benchmarks/ is a package of the repository, not of the installed pcnet
     sys.path.append(str(ROOT))
-from benchmarks.fit_up_model import fit_scatter  # noqa: E402
+from benchmarks.fit_up_model import fit_scatter, fit_systematic  # noqa: E402
 
 
 def _residuals(rng, n: int, sigma_deg: float, eps: float) -> np.ndarray:
@@ -35,3 +36,27 @@ def test_fit_scatter_recovers_both_spreads_and_the_outlier_share():
     assert abs(sigma_c - 2.0) < 0.05
     assert abs(sigma_b - 3.5) < 0.08
     assert 0.015 < eps < 0.025
+
+
+def test_one_scatter_for_both_networks_is_their_pooled_spread_and_never_more_likely():
+    rng = np.random.default_rng(4)
+    rc = [_residuals(rng, 20_000, 2.0, 0.02)]
+    rb = [_residuals(rng, 20_000, 3.0, 0.02)]
+    sigma_b, sigma_c, _, free = fit_scatter(rc, rb)
+    sigma, same, _, tied = fit_scatter(rc, rb, tied=True)
+    assert sigma == same and sigma_c < sigma < sigma_b
+    assert tied < free - 100  # spreads 2 and 3 deg over 40,000 frames: the tied model is far less likely
+    rb_alike = [_residuals(rng, 20_000, 2.0, 0.02)]
+    assert fit_scatter(rc, rb_alike, tied=True)[3] > fit_scatter(rc, rb_alike)[3] - 5  # alike: nearly as likely
+
+
+def test_the_systematic_error_fit_recovers_two_axes_and_its_isotropic_form_loses_on_them():
+    rng = np.random.default_rng(5)
+    n = 2000
+    covs = np.repeat(np.diag(np.radians([0.5, 0.5]) ** 2)[None], n, 0)
+    es = rng.normal(size=(n, 2)) * np.sqrt(np.radians([0.5, 0.5]) ** 2 + np.radians([3.0, 1.0]) ** 2)
+    s_pitch, s_roll, diagonal = fit_systematic(es, covs)
+    s, same, isotropic = fit_systematic(es, covs, isotropic=True)
+    assert abs(s_pitch - 3.0) < 0.15 and abs(s_roll - 1.0) < 0.1
+    assert s == same and s_roll < s < s_pitch
+    assert isotropic < diagonal - 100

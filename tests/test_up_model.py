@@ -33,8 +33,8 @@ def _shipped_json() -> dict:
 
 def test_a_missing_or_out_of_range_parameter_is_refused_naming_it():
     doc = _shipped_json()
-    del doc["parameters"]["body_sigma_deg"]
-    with pytest.raises(InputError, match="parameters.body_sigma_deg"):
+    del doc["parameters"]["network_sigma_deg"]
+    with pytest.raises(InputError, match="parameters.network_sigma_deg"):
         UpModelParameters.load(json.dumps(doc))
     doc = _shipped_json()
     doc["parameters"]["outlier_share"]["value"] = 1.5
