@@ -388,18 +388,25 @@ def test_nan_only_sequence_is_a_clear_error(tmp_path):
     assert res.exit_code != 0 and "nan.npy" in res.output
 
 
-def test_a_sequence_up_opposite_to_every_frame_says_why_no_frame_is_kept(tmp_path):
-    """A real seated VideoPose3D clip (committed fixture) with the camera turned upside down: the
-    sequence up the up model chooses is a level camera's, about 150 deg from every frame's own
-    up, so no frame has a heading about it. The error says so (not "no frame has the hips"),
-    names the file and points to --mode frame, which keeps every frame."""
-    X = np.load(FIXTURES / "yoga_Abhay_Padmasana_f200-299.npy", allow_pickle=False)
-    turned = tmp_path / "padmasana_upside_down.npy"
-    np.save(turned, (X * np.array([-1.0, -1.0, 1.0])).astype(np.float32))
+def test_a_sequence_up_opposite_to_every_frame_says_why_no_frame_is_kept(tmp_path, monkeypatch):
+    """Where the sequence up is more than 143 deg from every frame's own up, no frame has a
+    heading about it: the error says so (not "no frame has the hips"), names the file and
+    points to --mode frame, which keeps every frame. The up model chose such an up for a real
+    seated clip turned upside down until decision 0059 (it now reads that camera as upside
+    down), so the chosen up is turned over here: the real seated clip (committed fixture), the
+    up model's answer negated."""
+    from dataclasses import replace
+
+    from pcnet.stages import rectify
+
+    chosen = rectify.posture_and_floor_up
+    monkeypatch.setattr(rectify, "posture_and_floor_up", lambda *a, **k: replace(c := chosen(*a, **k), up=-c.up))
+    turned = tmp_path / "padmasana.npy"
+    np.save(turned, np.load(FIXTURES / "yoga_Abhay_Padmasana_f200-299.npy", allow_pickle=False).astype(np.float32))
     args = ("run", "--lifter", "videopose3d", "--lifter-output", turned, "--fps", "30")
     res = _invoke(*args, "--out", tmp_path / "seq")
     assert res.exit_code == 1
-    assert "padmasana_upside_down.npy: every frame's own up is more than 143 deg from the sequence up" in res.output
+    assert "padmasana.npy: every frame's own up is more than 143 deg from the sequence up" in res.output
     assert "--mode frame" in res.output and "hips" not in res.output
     assert not (tmp_path / "seq").exists()
     res = _invoke(*args, "--mode", "frame", "--out", tmp_path / "frame")
