@@ -463,16 +463,14 @@ def non_upright_flag(canonical: np.ndarray, valid: np.ndarray) -> list[Finding]:
                    f"data, so the up direction is uncertain")]
 
 
-#: Posterior probability of the lying posture from which the other posture is also named.
-AMBIGUOUS_POSTURE_P = 0.1
-
-
 def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
     """A flag for the up model's posture hypotheses in sequence mode
     (:class:`~pcnet.stages.rectification_report.SequenceUp`, :func:`pcnet.stages.rectify.up_model_sequence`):
     the body was read as lying (up from the camera prior, not from the pose), or the lying
-    hypothesis kept a posterior probability of at least :data:`AMBIGUOUS_POSTURE_P`. ``None``
-    or no posture (frame or smooth mode, another method, or no camera prior) gives none."""
+    hypothesis kept enough posterior probability that the 95 % intervals reach it
+    (``interval_reaches_other_posture_p``, :data:`pcnet.stages.up_model.OTHER_POSTURE_P`;
+    decision 0060). ``None`` or no posture (frame or smooth mode, another method, or no camera
+    prior) gives none."""
     if sequence is None or sequence.posture is None:
         return []
     p = sequence.posture.p_lying
@@ -487,12 +485,12 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
                        f"under a camera rolled 90 deg looks the same (pass --no-camera-prior if so; a phone video's "
                        f"display rotation tells when --video is given with the 2D keypoints), and so does a file "
                        f"whose up axis is declared wrongly (check --axes with --lifter generic)")]
-    if p >= AMBIGUOUS_POSTURE_P:
+    if sequence.interval_reaches_other_posture_p is not None:
         return [_found(Kind.AMBIGUOUS_ORIENTATION, Severity.CHECK,
                        f"ambiguous orientation: read upright, but lying keeps {100 * p:.0f} % posterior",
                        "check the result",
                        f"ambiguous body orientation: read as upright, but a lying body under a level camera keeps "
-                       f"{100 * p:.0f} % posterior probability (pose-based up "
+                       f"{100 * p:.0f} % posterior probability, so the 95 % intervals reach it (pose-based up "
                        f"{sequence.posture.pose_up_tilt_deg:.0f} deg from a level camera's)")]
     return []
 

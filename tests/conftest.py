@@ -42,6 +42,20 @@ def rrd_summary(path: Path):
     return rows, static, chunks, origins
 
 
+def sequence_up(posture, intervals_deg: tuple[float, float] = (8.0, 9.0), cone_deg: float = 12.0):
+    """A :class:`pcnet.stages.rectification_report.SequenceUp` for flag tests: these posture
+    hypotheses (``None``: no posture), pitch / roll 95 % half-widths and cone; its intervals
+    reach the other posture where that keeps at least ``OTHER_POSTURE_P``, as the up model's do."""
+    import numpy as np
+
+    from pcnet.stages.rectification_report import SequenceUp
+    from pcnet.stages.up_model import OTHER_POSTURE_P
+
+    reaches = None if posture is None or posture.other_p < OTHER_POSTURE_P else posture.other_p
+    return SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 0.0, 0.0, *intervals_deg, cone_deg, 3.0, 3.0, reaches,
+                      posture, 3.0, 6.0, {"used": False})
+
+
 def run_report(requested: str = "auto", run: str = "sequence", spread_deg: float | None = None,
                intervals_deg: tuple[float, float] | None = None):
     """A :class:`pcnet.pipeline.run_report.RunReport` for summary tests: mode ``run`` for the

@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 
 import numpy as np
-from conftest import FIXTURES, run_report
+from conftest import FIXTURES, run_report, sequence_up
 
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import RunResult, run_pipeline
@@ -18,7 +18,7 @@ from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, body_si
                                 track_segments, track_switch_flag, unfiltered_flag)
 from pcnet.stages.opensim_ik import ik_fit_flags
 from pcnet.stages.plausibility import ImplausibleMotion
-from pcnet.stages.rectification_report import EnsembleWeights, PostureHypotheses, SequenceUp
+from pcnet.stages.rectification_report import EnsembleWeights, PostureHypotheses
 from pcnet.stages.remap import remap_to_h36m
 from pcnet.stages.sinks.report import REPORT_NAME
 
@@ -34,12 +34,6 @@ def _switched_track() -> tuple[np.ndarray, np.ndarray]:
         kp = remap_to_h36m(d["keypoints_2d"].astype(np.float32), "blazepose33", confidence_channel=True)
     kp[30:, :, 0] += 600.0
     return kp, float(30)
-
-
-def _sequence_up(posture: PostureHypotheses) -> SequenceUp:
-    """A sequence up with these posture hypotheses and a 12 deg cone."""
-    return SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 0.0, 0.0, 8.0, 9.0, 12.0, 3.0, 3.0, None, posture,
-                      3.0, 6.0, {"used": False})
 
 
 def _flags() -> list[Finding]:
@@ -60,8 +54,8 @@ def _every_kind() -> list[Finding]:
     kp, _ = _switched_track()
     return (_flags() + orientation_flags(120.0) + orientation_flags(40.0, 40.0, 0.0)
             + orientation_flags(90.0, 0.0, 90.0) + body_size_flag(box * 100, "m")
-            + posture_flag(_sequence_up(PostureHypotheses("lying", 0.9, 80.0)))
-            + posture_flag(_sequence_up(PostureHypotheses("upright", 0.2, 70.0)))
+            + posture_flag(sequence_up(PostureHypotheses("lying", 0.9, 80.0)))
+            + posture_flag(sequence_up(PostureHypotheses("upright", 0.2, 70.0)))
             + ensemble_weights_flag(EnsembleWeights(0.8, 5, 10, 100, {"90": 30, "270": 0}))
             + unfiltered_flag(np.zeros((5, 17), bool), np.ones((5, 17), bool), 30.0, 6.0)
             + floor_flag(np.zeros(5, bool), np.ones(5, bool))

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import sequence_up
 from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import axis_rotation, normalize
@@ -177,18 +178,20 @@ def test_other_methods_get_no_camera_prior_and_no_calibrated_interval():
 
 def test_posture_flags_name_the_posture():
     from pcnet.stages.flags import posture_flag
-    from pcnet.stages.rectification_report import PostureHypotheses, SequenceUp
+    from pcnet.stages.rectification_report import PostureHypotheses
 
     def sequence(posture):
-        return SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 0.0, 0.0, 30.0, 30.0, 40.0, 5.0, 5.0, None,
-                          posture, 3.0, 6.0, {"used": False})
+        return sequence_up(posture, (30.0, 30.0), 40.0)
 
     (flag,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, 70.0)))
     assert "read as lying" in flag.detail and "--no-camera-prior" in flag.detail and "40 deg cone" in flag.detail
     assert posture_flag(sequence(PostureHypotheses("upright", 0.001, 5.0))) == []
+    assert posture_flag(sequence(PostureHypotheses("upright", 0.04, 5.0))) == []
     assert posture_flag(sequence(None)) == [] and posture_flag(None) == []
-    (flag,) = posture_flag(sequence(PostureHypotheses("upright", 0.2, 70.0)))
-    assert "ambiguous" in flag.detail and "70 deg" in flag.detail
+    # Decision 0060: the warning fires exactly where the 95 % intervals reach the other posture.
+    for p_lying in (0.06, 0.2):
+        (flag,) = posture_flag(sequence(PostureHypotheses("upright", p_lying, 70.0)))
+        assert "ambiguous" in flag.detail and "70 deg" in flag.detail and "intervals reach it" in flag.detail
 
 
 def test_cli_no_camera_prior_switch(tmp_path):
