@@ -126,6 +126,7 @@ from benchmarks.report import require_mocap
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
+from pcnet.stages.flags import NON_UPRIGHT_TRUNK_DEG
 from pcnet.stages.ground_plane import posture_and_floor_up
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, up_model_sequence
 from pcnet.stages.root_path import root_from_keypoints
@@ -143,7 +144,8 @@ REAL_ROLLS_DEG = (0, 90, 180, -90)
 EQUIVARIANCE_ROLLS_DEG = (30, 90)
 YOGA_STRIDE = 2
 GROSS_DEG = 20.0
-LYING_TRUNK_DEG = 60.0
+#: A clip is truly lying where its trunk is this far from vertical: the package's non-upright bound.
+LYING_TRUNK_DEG = NON_UPRIGHT_TRUNK_DEG
 BOOTSTRAP = 2000
 #: A mean difference smaller than this (deg) is "no effect" whatever its interval.
 NEGLIGIBLE_DEG = 0.05

@@ -76,7 +76,6 @@ VAL_MAX_CLIPS = 120
 FLOOR_PARAMETERS = ("contact_height_leg", "contact_speed_leg_s", "contact_speed_window_s", "footfall_height_sd_leg",
                     "ankle_offset_leg", "footfall_posture_power")
 TRAIN_SETS = ("bandai_h36m17.npz", "cmu_train_h36m17.npz")
-LYING_TRUNK_DEG = 60.0
 CLIP_SIGMAS = 3.0
 DECLARED = {"camera_prior_pitch_deg": 12.0, "camera_prior_roll_deg": 10.0, "camera_prior_outside": 0.05,
             "lying_prior": 0.05}
@@ -252,7 +251,7 @@ def fit_lying(data: Path) -> tuple[float, float, int, int]:
             ok = np.isfinite(n_t) & (n_t > 0)
             n += int(ok.sum())
             ang = np.degrees(np.arccos(np.clip(t[ok, 1] / n_t[ok], -1, 1)))
-            elev.append(90.0 - ang[ang > LYING_TRUNK_DEG])
+            elev.append(90.0 - ang[ang > A.LYING_TRUNK_DEG])
     elev = np.concatenate(elev)
     k = len(elev)
     return k / n, float(np.sqrt(np.mean(np.square(elev)))) if k else float("nan"), k, n

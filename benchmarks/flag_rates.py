@@ -53,7 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.ablation import static_camera_clips
+from benchmarks.ablation import LYING_TRUNK_DEG, static_camera_clips
 from benchmarks.report import print_and_save, require_mocap
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
@@ -70,7 +70,6 @@ COMMAND = "python -m benchmarks.flag_rates --data ../shared/data"
 SETS = (("CMU test", "cmu_train_h36m17.npz", "test"),
         ("Bandai test", "bandai_h36m17.npz", "test"),
         ("DeepMimic", "deepmimic_h36m17.npz", "all"))
-LYING_TRUNK_DEG = 60.0
 LEVEL_DEG = 10.0
 WORLD_UP = np.array([0.0, 1.0, 0.0])
 
