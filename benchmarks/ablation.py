@@ -122,7 +122,7 @@ from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
 from benchmarks.fit_root_path import K as K_VIEW
 from benchmarks.fit_root_path import detected_keypoints
-from benchmarks.report import require_mocap
+from benchmarks.report import BOOTSTRAP, SHARED_DATA, require_mocap
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
@@ -134,7 +134,7 @@ from pcnet.stages.spherical import robust_mean_direction
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, frame_tilt_bound
 from pcnet.stages.up_model import UpEvidence, default_parameters, static_posterior, summarise_recording
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "ablation.txt"
 CACHE = Path("/tmp/pcnet_ablation_cache")
 MOCAP_SETS = (("Bandai motion-style test", "bandai_h36m17.npz", "test"),
@@ -146,7 +146,6 @@ YOGA_STRIDE = 2
 GROSS_DEG = 20.0
 #: A clip is truly lying where its trunk is this far from vertical: the package's non-upright bound.
 LYING_TRUNK_DEG = NON_UPRIGHT_TRUNK_DEG
-BOOTSTRAP = 2000
 #: A mean difference smaller than this (deg) is "no effect" whatever its interval.
 NEGLIGIBLE_DEG = 0.05
 #: A clip "changed" when its error moved by more than this (deg).

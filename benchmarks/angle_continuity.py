@@ -19,10 +19,11 @@ import sys
 import tempfile
 from pathlib import Path
 
+from benchmarks.report import SHARED_DATA
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT = ROOT.parent / "shared" / "data"
+DEFAULT = SHARED_DATA
 FIXTURES = ROOT / "tests" / "fixtures"
 
 

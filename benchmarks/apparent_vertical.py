@@ -47,14 +47,14 @@ from scipy.signal import savgol_filter
 from benchmarks.balance_evidence import centre_of_mass
 from benchmarks.calibrate_frame_bound import DEEPMIMIC_GROUPS, canonical_pitch_roll, deepmimic_group
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import data_arguments, print_and_save, require_mocap
+from benchmarks.report import SHARED_DATA, data_arguments, print_and_save, require_mocap
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.pipeline.rectification import make_estimator, rectify
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.rotations import angle_between
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "apparent_vertical.txt"
 COMMAND = "python -m benchmarks.apparent_vertical --data ../shared/data"
 G = 9.81

@@ -28,13 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.report import SHARED_DATA
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.core.rotations import angle_between, normalize
 from pcnet.stages.spherical import robust_mean_direction
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "balance_evidence.txt"
 #: (mass fraction, proximal joint, distal joint, centre of mass as a fraction from proximal),
 #: H36M-17 indices; de Leva 1996 Table 4, male. Head+neck: vertex -> cervicale (H36M head ->

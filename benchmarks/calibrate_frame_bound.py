@@ -40,7 +40,7 @@ import numpy as np
 
 from benchmarks.gravity_benchmark import load_camera
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.models.lifter_noise import LifterNoise
@@ -49,7 +49,7 @@ from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages import uncertainty
 from pcnet.stages.core.rotations import angle_between, axis_rotation
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "frame_bound.txt"
 COMMAND = "python -m benchmarks.calibrate_frame_bound --data ../shared/data"
 LEVEL = 0.95

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.gravity_benchmark import load_camera, pitch_roll_deg
-from benchmarks.report import data_arguments, print_and_save
+from benchmarks.report import SHARED_DATA, data_arguments, print_and_save
 from benchmarks.yoga_physics import ASANA_ORDER, FOLDER, FPS, plain_export, parse_name
 
 from pcnet.adapters import load_videopose3d
@@ -32,7 +32,7 @@ from pcnet.models.inference import CAMERA_WEIGHTS, PCNetSession
 from pcnet.models.view_gate import camera_view_estimate, window_frames
 from pcnet.stages.core.conventions import root_relative
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "camera_roll_reading.txt"
 THRESHOLDS_DEG = (3.0, 6.0)
 

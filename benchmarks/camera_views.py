@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 from benchmarks.view_gate import rolled_views
 
 from pcnet.models.datasets import load_mocap, select_split
@@ -38,7 +38,7 @@ from pcnet.models.view_gate import (ROLL_RAMP_DEG, blend_rotations, camera_frame
                                     window_frames)
 from pcnet.stages.core.rotations import angle_between
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 ROLLS_DEG = (0, 10, 15, 20, 30, 45, 90)
 SPLITS = ("val", "test", "cmu-test", "deepmimic")
 

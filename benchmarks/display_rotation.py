@@ -38,6 +38,7 @@ import numpy as np
 
 from benchmarks.gravity_benchmark import deg_between, pitch_roll_deg
 from benchmarks.vanishing_gravity import LINES, RECORDINGS, truth
+from benchmarks.report import SHARED_DATA
 from pcnet.adapters import iter_frames, probe_video
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
@@ -45,7 +46,7 @@ from pcnet.pipeline.video_orientation import display_turn, stored_pixels
 from pcnet.stages.core.perspective import focal_px_from_35mm
 
 HERE = Path(__file__).resolve().parent
-DEFAULT = HERE.parents[1] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = HERE / "results" / "display_rotation.txt"
 COMMAND = "python -m benchmarks.display_rotation --data ../shared/data"
 #: cv2.rotate code that stores a displayed frame for each clockwise display rotation.

@@ -35,11 +35,12 @@ import numpy as np
 
 from benchmarks.configurations import CONFIGURATIONS, LABEL_WIDTH, Configuration
 from benchmarks.gravity_benchmark import load_camera
+from benchmarks.report import SHARED_DATA
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.stages.core.conventions import root_relative
 from pcnet.stages.core.rotations import angle_between, axis_rotation
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "equivariance.txt"
 AXES = ("x", "y", "z")
 AXIS_NAMES = {"x": "pitch", "y": "yaw", "z": "roll"}

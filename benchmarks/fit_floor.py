@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 
 from pcnet.models.datasets import group_key, load_mocap, select_split
 from pcnet.models.lifter_noise import apply_lifter_errors, sample_lifter_errors
@@ -49,7 +49,7 @@ from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, contacts, tukey_location
 from pcnet.stages.spherical import TUKEY_C
 from pcnet.stages.world_frame import _floor_evidence, to_world_floor, world_frame
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "fit_floor.txt"
 # world -> OpenCV camera: x right, y down, z forward, looking along world +Z, pitched 10 deg down
 CAMERA = axis_rotation("x", np.radians(-10.0)) @ np.diag([1.0, -1.0, -1.0]) @ axis_rotation("y", np.pi)

@@ -32,11 +32,11 @@ import numpy as np
 
 from benchmarks.fit_speed_limits import clip_series
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.mirror import CUES, MIRROR_ODDS, MIRROR_PATH, MirrorModel, recording_cues
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "fit_mirror_flag.txt"
 COMMAND = "python -m benchmarks.fit_mirror_flag --data ../shared/data"
 MIRROR_Z = np.array([1.0, 1.0, -1.0])

@@ -46,13 +46,14 @@ from pathlib import Path
 import numpy as np
 from scipy.linalg import solveh_banded
 
+from benchmarks.report import SHARED_DATA
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import BONE_SCALE_SIGMA, apply_lifter_errors, sample_lifter_errors
 from pcnet.stages import root_path
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.root_path import _fit_block, root_from_keypoints
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "fit_root_path.txt"
 K = np.array([[1400.0, 0.0, 960.0], [0.0, 1400.0, 540.0], [0.0, 0.0, 1.0]])
 PIXEL_SIGMA = 2.0

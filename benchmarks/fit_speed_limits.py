@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
@@ -55,7 +55,7 @@ from pcnet.stages.plausibility import (
     LIMITS_PATH, implausible_frames, implausible_motion, implausible_motion_flags, load_motion_limits,
     pelvis_relative_motion)
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "fit_speed_limits.txt"
 COMMAND = "python -m benchmarks.fit_speed_limits --data ../shared/data"
 #: The filter order of pcnet's kinematics (stages/kinematics.py compute_kinematics default).

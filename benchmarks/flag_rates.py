@@ -54,7 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.ablation import LYING_TRUNK_DEG, static_camera_clips
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.pipeline import RunConfig, run_pipeline
@@ -63,7 +63,7 @@ from pcnet.stages.core.rotations import camera_pitch_roll
 from pcnet.stages.flags import Kind, Severity
 from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "flag_rates.txt"
 RESULT_NO_SWAPS = RESULT.with_name("flag_rates_no_swaps.txt")
 COMMAND = "python -m benchmarks.flag_rates --data ../shared/data"

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.deepmimic_floor_subset import FLOOR_HELD_OUT, FLOOR_TRAIN
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 from benchmarks.yoga_physics import plain_export, median_trunk_deg, parse_name
 
 import pcnet.models.inference as inference
@@ -43,7 +43,7 @@ from pcnet.pipeline.evaluate import evaluate
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.core.conventions import root_relative
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "floor_experiment.txt"
 ACROBATICS = ("humanoid3d_cartwheel.txt", "humanoid3d_backflip.txt", "humanoid3d_sideflip.txt")
 ASANAS = ("Tadasana", "Padmasana", "Bhujangasana", "Shavasana")

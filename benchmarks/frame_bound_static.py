@@ -22,13 +22,13 @@ import numpy as np
 
 from benchmarks.calibrate_frame_bound import frames_of, mocap_views
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 
 from pcnet.models.datasets import load_mocap
 from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages import uncertainty
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "frame_bound_static.txt"
 COMMAND = "python -m benchmarks.frame_bound_static --data ../shared/data"
 

@@ -46,13 +46,14 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.configurations import CONFIGURATIONS, LABEL_WIDTH
+from benchmarks.report import SHARED_DATA
 from pcnet.adapters import load_mediapipe_3d
 from pcnet.pipeline.io import lifter_joints
 from pcnet.stages.core.conventions import PELVIS, THORAX, root_relative
 from pcnet.stages.core.perspective import focal_px_from_35mm
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "gravity_benchmark.txt"
 COMMAND = "python -m benchmarks.gravity_benchmark --data ../shared/data"
 FOLDER = ("real", "pose2sim_gravity")

@@ -8,10 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.report import SHARED_DATA
 from pcnet.models.inference import ViewGatedPCNet
 from pcnet.stages.core.rotations import with_up
 
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT_DATA = SHARED_DATA
 
 
 def heading_arguments(doc: str, out: Path, argv=None) -> argparse.Namespace:

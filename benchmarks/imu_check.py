@@ -55,10 +55,11 @@ import sys
 import time
 from pathlib import Path
 
+from benchmarks.report import SHARED_DATA
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT = ROOT.parent / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = ROOT / "benchmarks" / "results" / "imu_check.json"
 FIGURE = ROOT / "docs" / "figures" / "imu_check.png"
 

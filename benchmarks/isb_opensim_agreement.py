@@ -88,6 +88,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from benchmarks.report import SHARED_DATA
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -431,7 +432,7 @@ def demo_csv_check(csv: Path, pc: dict[str, np.ndarray]) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", default=str(ROOT.parent / "shared" / "data"))
+    ap.add_argument("--data", default=str(SHARED_DATA))
     ap.add_argument("--clips", type=int, default=8, help="clips per mocap data set, evenly spaced over its held-out split")
     ap.add_argument("--max-frames", type=int, default=300, help="first frames of each mocap clip")
     ap.add_argument("--no-demo", action="store_true")

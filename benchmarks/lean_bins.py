@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 
 from pcnet.models.datasets import (
     Augmentation, clip_subject, lean_balance_weights, load_mocap, make_pairs)
@@ -40,7 +40,7 @@ from pcnet.models.inference import PCNetSession
 from pcnet.stages.core.canonical import trunk_lean_deg
 from pcnet.stages.core.metrics import tilt_error_deg
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 BANDS_DEG = (0, 5, 10, 15, 20, 30, 45, 90, 180)
 
 

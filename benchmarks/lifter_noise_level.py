@@ -17,13 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.report import data_arguments, print_and_save
+from benchmarks.report import SHARED_DATA, data_arguments, print_and_save
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.metrics import mpjpe_mm
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "lifter_noise_level.txt"
 COMMAND = "python -m benchmarks.lifter_noise_level --data ../shared/data"
 OFF = {"offset_sigma_xy_m": 0.0, "offset_sigma_z_m": 0.0, "bone_scale_sigma": 0.0, "lean_sigma_deg": 0.0,

@@ -21,13 +21,13 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.configurations import CONFIGURATIONS
-from benchmarks.report import data_arguments, print_and_save
+from benchmarks.report import SHARED_DATA, data_arguments, print_and_save
 from benchmarks.yoga_physics import CANONICAL_UP, FOLDER, FPS, IMAGE_UP, plain_export, parse_name, trunk_angles_deg
 
 from pcnet.adapters import load_videopose3d
 from pcnet.stages.core.conventions import L_HIP, L_SHOULDER, R_HIP, R_SHOULDER, root_relative
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "lying_roll.txt"
 SEQUENCE = [c for c in CONFIGURATIONS if c.mode == "sequence"]
 COMMAND = "    python -m benchmarks.lying_roll --data ../shared/data --stride 2"

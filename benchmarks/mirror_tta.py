@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession
@@ -33,7 +33,7 @@ from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.conventions import H36M_MIRROR_ORDER
 from pcnet.stages.core.rotations import angle_between
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "mirror_tta.txt"
 COMMAND = "python -m benchmarks.mirror_tta --data ../shared/data"
 MIRROR_X = np.array([-1.0, 1.0, 1.0])

@@ -14,15 +14,15 @@ frame cannot tell a leaning body from a tilted camera. Uses the Bandai mocap, th
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
+from benchmarks.report import SHARED_DATA
 from pcnet.models.datasets import Noise, load_mocap, make_pairs, select_split
 from pcnet.models.inference import PCNetSession
 from pcnet.stages.core.rotations import angle_between, normalize
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "mocap" / "bandai_h36m17.npz"
+DEFAULT = SHARED_DATA / "mocap" / "bandai_h36m17.npz"
 
 
 def main() -> None:

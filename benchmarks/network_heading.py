@@ -27,14 +27,14 @@ import numpy as np
 
 from benchmarks.headings import pair_headings
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.models.inference import ViewGatedPCNet
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.metrics import heading_error_deg, rotation_error_deg, tilt_error_deg
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "network_heading.txt"
 ROWS = ("camera-frame alone", "body-frame alone", "pair up + camera heading", "pair up + body heading")
 #: Disagreement bands (deg) of the breakdown.

@@ -26,6 +26,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from benchmarks.report import SHARED_DATA
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -81,7 +82,7 @@ def to_floor_frame(joints: np.ndarray) -> np.ndarray:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", default=str(ROOT.parent / "shared" / "data"))
+    ap.add_argument("--data", default=str(SHARED_DATA))
     ap.add_argument("--max-frames", type=int, default=300)
     args = ap.parse_args()
     from pcnet.stages.sinks.exports import write_trc

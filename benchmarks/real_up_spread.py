@@ -16,11 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.report import SHARED_DATA
 from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.core.rotations import angle_between
 from pcnet.stages.rectify import SequenceEvidence
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+DEFAULT = SHARED_DATA / "real"
 
 
 def main() -> None:

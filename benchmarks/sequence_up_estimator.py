@@ -17,10 +17,11 @@ from pathlib import Path
 import numpy as np
 
 import pcnet.stages.temporal as temporal
+from benchmarks.report import SHARED_DATA
 from pcnet.pipeline.evaluate import evaluate
 from pcnet.stages.core.rotations import normalize
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "sequence_up_estimator.txt"
 SETS = (("Bandai motion-style test", "bandai_h36m17.npz", "test"), ("CMU test subjects", "cmu_train_h36m17.npz", "test"),
         ("DeepMimic all", "deepmimic_h36m17.npz", "all"))

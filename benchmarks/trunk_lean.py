@@ -35,13 +35,13 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.core.conventions import PELVIS, THORAX
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "trunk_lean.txt"
 COMMAND = "python -m benchmarks.trunk_lean --data ../shared/data"
 TRAIN_EVERY = 8

@@ -53,6 +53,7 @@ import numpy as np
 
 from benchmarks.configurations import CONFIGURATIONS, LABEL_WIDTH
 from benchmarks.gravity_benchmark import deg_between, pitch_roll_deg
+from benchmarks.report import BOOTSTRAP, SHARED_DATA
 from pcnet.adapters import load_mediapipe_3d
 from pcnet.adapters.registry import get_3d_adapter
 from pcnet.pipeline.config import RunConfig
@@ -63,11 +64,10 @@ from pcnet.stages.core.perspective import focal_px_from_35mm
 from pcnet.stages.core.rotations import compose_camera_rotation, normalize
 
 HERE = Path(__file__).resolve().parent
-DEFAULT = HERE.parents[1] / "shared" / "data"
+DEFAULT = SHARED_DATA
 LINES = HERE / "vanishing_lines.json"
 RESULT = HERE / "results" / "vanishing_gravity.txt"
 COMMAND = "python -m benchmarks.vanishing_gravity --data ../shared/data"
-BOOTSTRAP = 2000
 FOCAL_SENSITIVITY = (0.7, 1.4)
 
 #: How `pcnet run` is called on each recording (paths under the data root) and which frames

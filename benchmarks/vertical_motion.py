@@ -38,8 +38,9 @@ from pcnet.stages.kinematics import compute_kinematics
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence
 from pcnet.stages.world_frame import to_world, world_frame
 from benchmarks.world_kinematics import true_world
+from benchmarks.report import SHARED_DATA
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "vertical_motion.txt"
 SETS = (("Bandai motion-style test", "bandai_h36m17.npz", "test"),
         ("CMU validation subjects", "cmu_train_h36m17.npz", "val"),

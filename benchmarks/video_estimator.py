@@ -31,12 +31,13 @@ import cv2
 import numpy as np
 
 import pcnet.pipeline
+from benchmarks.report import SHARED_DATA
 from pcnet.models.pose_estimator import estimate_video
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
 from pcnet.stages.core.rotations import angle_between
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "video_estimator.txt"
 COMMAND = "python -m benchmarks.video_estimator --data ../shared/data"
 EXAMPLE = Path(pcnet.pipeline.__file__).parent / "example_data" / "boxing2.mp4"

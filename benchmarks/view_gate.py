@@ -20,14 +20,14 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.report import data_arguments
+from benchmarks.report import SHARED_DATA, data_arguments
 
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, ViewGatedPCNet
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.rotations import angle_between, axis_rotation
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "view_gate.txt"
 ROLLS_DEG = (0, 30, 45, 60, 90, 180)
 SETS = (("DeepMimic all", "deepmimic_h36m17.npz", "all", False), ("Bandai test", "bandai_h36m17.npz", "test", False),

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import SHARED_DATA, print_and_save
 from benchmarks.view_gate import rolled_views
 
 from pcnet.models.datasets import load_mocap, select_split
@@ -36,7 +36,7 @@ from pcnet.models.inference import ViewGatedPCNet, normalized_in_chunks
 from pcnet.models.view_gate import blend_rotations, camera_frame_weight
 from pcnet.stages.core.rotations import angle_between
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 ROLLS_DEG = (0, 15, 30, 45, 60, 90, 180)
 RULES = ("camera-frame alone", "body-frame alone", "release 1: body reading", "release 2: both readings",
          "release 4: roll 10-20", "shipped: quarter turns")

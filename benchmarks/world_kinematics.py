@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.report import SHARED_DATA
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
@@ -49,7 +50,7 @@ from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence
 from pcnet.stages.world_frame import to_world, world_frame
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "world_kinematics.txt"
 ANGLES_RESULT = RESULT.with_name("world_kinematics_angles.txt")
 GROUPS = {"wrists": ("left_wrist", "right_wrist"), "ankles": ("left_ankle", "right_ankle"),

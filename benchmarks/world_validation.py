@@ -106,6 +106,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.report import SHARED_DATA
 from pcnet.adapters import get_3d_adapter
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise, apply_lifter_errors, sample_lifter_errors
@@ -117,7 +118,7 @@ from pcnet.stages.core.rotations import sample_camera_rotations
 from pcnet.stages.kinematics import compute_kinematics
 
 ROOT = Path(__file__).resolve().parent.parent
-DEFAULT_DATA = ROOT.parent / "shared" / "data"
+DEFAULT_DATA = SHARED_DATA
 RESULT = ROOT / "benchmarks" / "results" / "world_validation.txt"
 
 WIDTH, HEIGHT = 1920, 1080

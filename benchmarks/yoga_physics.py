@@ -43,11 +43,12 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.configurations import CONFIGURATIONS, LABEL_WIDTH
+from benchmarks.report import SHARED_DATA
 from pcnet.adapters import load_videopose3d
 from pcnet.stages.core.conventions import PELVIS, SPINE, THORAX, root_relative
 from pcnet.stages.core.rotations import angle_between
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "yoga_physics.txt"
 FOLDER = ("real", "yoga_videopose3d")
 FPS = 30.0
