@@ -105,7 +105,7 @@ def val_evidence(data: Path, file: str, views: str, seed: int) -> list[dict]:
     return out
 
 
-def _tangent_errors(evs, p: UpModelParameters):
+def tangent_errors(evs, p: UpModelParameters):
     """Per clip: (psi (T,), camera error (T, 2), body error (T, 2), fps, camera reads level (T,) bool)
     over the frames where both networks answered; errors are tangent coordinates at the truth."""
     out = []
@@ -311,7 +311,7 @@ def main(argv=None) -> int:
         values[k], prov[k] = shipped[k]["value"], shipped[k]["provenance"]
     lines = [__doc__.split("\n")[0], "", f"    {COMMAND}", "", f"Data: {split}.", ""]
 
-    errs = _tangent_errors(all_evs, params_from(values, prov))
+    errs = tangent_errors(all_evs, params_from(values, prov))
     values["camera_fallback_deg"], values["camera_fallback_width_deg"] = fit_fallback(errs)
     prov["camera_fallback_deg"] = prov["camera_fallback_width_deg"] = f"per-clip logistic regression, {split}"
     rc, rb, rates = residuals(errs)

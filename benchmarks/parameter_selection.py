@@ -9,7 +9,8 @@ c9a0514; the decision records the same verdicts under the ones shipped since).
 
 1. The networks' scatters: ``sigma_b`` and ``sigma_c`` free against one ``sigma``
    (:func:`benchmarks.fit_up_model.fit_scatter`), each clip's log-likelihood divided by its
-   ``m = max(1, tau fps)`` as the up model divides it; ``BIC = -2 log L + k log n`` with
+   ``m = max(1, tau fps)`` as the up model divides it
+   (:func:`pcnet.stages.up_model.frames_per_error`); ``BIC = -2 log L + k log n`` with
    ``n = sum over clips of frames / m``.
 2. The systematic error: ``S`` diagonal against ``s^2 I``
    (:func:`benchmarks.fit_up_model.fit_systematic`); ``n`` = recordings.
@@ -29,7 +30,7 @@ import numpy as np
 from benchmarks import fit_floor_contacts as FC
 from benchmarks import fit_up_model as F
 from benchmarks.report import BOOTSTRAP, print_and_save
-from pcnet.stages.up_model import default_parameters
+from pcnet.stages.up_model import default_parameters, frames_per_error
 
 RESULT = Path(__file__).resolve().parent / "results" / "parameter_selection.txt"
 COMMAND = "python -m benchmarks.parameter_selection --data ../shared/data"
@@ -54,8 +55,8 @@ def main(argv=None) -> int:
              f"Validation: {len(all_evs)} recordings of benchmarks/fit_up_model.py; the shipped parameters "
              f"(stages/data/up_model.json).", ""]
 
-    rc, rb, rates = F.residuals(F._tangent_errors(all_evs, p))
-    m = np.maximum(1.0, p.error_time_s * np.asarray(rates))
+    rc, rb, rates = F.residuals(F.tangent_errors(all_evs, p))
+    m = np.array([frames_per_error(fps, p) for fps in rates])
     n = float(sum(len(r) / mi for r, mi in zip(rc, m)))
     free = F.fit_scatter(rc, rb, weights=1 / m)
     tied = F.fit_scatter(rc, rb, tied=True, weights=1 / m)

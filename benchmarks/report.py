@@ -7,11 +7,11 @@ import argparse
 import sys
 from pathlib import Path
 
-
 #: The project's shared data beside the repository (``--data``'s default; not shipped with pcnet).
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 #: Bootstrap resamples behind every 95 % interval the benchmarks print.
 BOOTSTRAP = 2000
+
 
 def data_arguments(doc: str, data: Path, out: Path, stride: int) -> argparse.Namespace:
     """``--data`` (the data root), ``--stride`` (every k-th frame, >= 1) and ``--out`` (the
