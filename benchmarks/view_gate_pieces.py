@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
                        **{field: all(getattr(g, field) for g in dropped) for field in ("pitch", "ramps", "median",
                                                                                      "camera_estimate")})
         rows, flags = table(heldout, (SHIPPED, reduced))
-        lines += ["", f"## The pieces that do not stay, switched off together", *rows, "",
+        lines += ["", "## The pieces that do not stay, switched off together", *rows, "",
                   "reduced gate: " + ("worse on " + ", ".join(t for (t, _), bad in zip(heldout, flags[:, 0]) if bad)
                                       if flags.any() else "not worse on any held-out set: ships")]
     lines += ["", f"({time.time() - t0:.0f} s)"]
