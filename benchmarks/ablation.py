@@ -126,7 +126,7 @@ from benchmarks.report import BOOTSTRAP, SHARED_DATA, require_mocap
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
-from pcnet.stages.flags import NON_UPRIGHT_TRUNK_DEG
+from pcnet.stages.flags import NON_UPRIGHT_TRUNK_DEG, posture_flag
 from pcnet.stages.ground_plane import posture_and_floor_up
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, up_model_sequence
 from pcnet.stages.root_path import root_from_keypoints
@@ -518,6 +518,26 @@ def rolled_recordings(cache: Path, static: list[list[dict]], max_clips: int, rol
     return cached(cache, f"rolled{roll_deg:g}_{max_clips}", lambda: rolled_evidence(static, roll_deg))
 
 
+def pitched_evidence(sets: list[list[dict]], pitch_deg: float) -> list[dict]:
+    """The cached static-camera recordings of ``sets`` with the camera pitched ``pitch_deg``
+    further down about its x axis: ``X' = X P^T``, true up ``P u`` (a camera on a ceiling rig or
+    a balcony; benchmarks/view_gate_pieces.py, benchmarks/steep_camera.py)."""
+    P = axis_rotation("x", np.radians(pitch_deg))
+    out = []
+    for evs in sets:
+        for ev in evs:
+            new = extract((ev["J"].astype(np.float64) @ P.T).astype(np.float32), ev["fps"])
+            new.update(name=ev["name"], true_up=ev["true_up"] @ P.T)
+            out.append(new)
+    return out
+
+
+def pitched_recordings(cache: Path, static: list[list[dict]], max_clips: int, pitch_deg: float) -> list[dict]:
+    """:func:`pitched_evidence` of the held-out mocap ``static`` (:data:`MOCAP_SETS` order), cached
+    under ``pitched{pitch_deg}_{max_clips}``."""
+    return cached(cache, f"pitched{pitch_deg:g}_{max_clips}", lambda: pitched_evidence(static, pitch_deg))
+
+
 def real_recordings(data: Path, cache: Path) -> list[dict]:
     """:func:`real_camera_evidence`, cached under ``real_cameras``."""
     return cached(cache, "real_cameras", lambda: real_camera_evidence(data))
@@ -721,6 +741,7 @@ def run_variant(ev: dict, v: Variant) -> dict:
         pitch, roll = camera_pitch_roll(seq.up)
         return {**res, "up": np.where(ok[:, None], seq.up, np.nan), "mode": mode,
                 "posture": "upright" if seq.posture is None else seq.posture.most_probable,
+                "posture_warned": bool(posture_flag(seq)),
                 "interval": (np.degrees(pitch), np.degrees(roll), seq.camera_pitch_interval_deg,
                              seq.camera_roll_interval_deg)}
     post = static_posterior(summarise_recording(evidence.frames(ok), fps, p), p, lying=False)

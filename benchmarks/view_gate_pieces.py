@@ -35,7 +35,7 @@ from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
 from benchmarks.report import print_and_save
 from pcnet.models import view_gate as G
-from pcnet.stages.core.rotations import axis_rotation, with_up
+from pcnet.stages.core.rotations import with_up
 
 RESULT = Path(__file__).resolve().parent / "results" / "view_gate_pieces.txt"
 COMMAND = "python -m benchmarks.view_gate_pieces --data ../shared/data"
@@ -100,18 +100,6 @@ def frame_error(ev: dict, gate: Gate) -> float:
     return A.clip_error(np.where(valid[:, None], up, np.nan), ev["true_up"])
 
 
-def pitched_evidence(sets: list[list[dict]], pitch_deg: float = PITCH_DEG) -> list[dict]:
-    """The cached static-camera recordings of ``sets`` with the camera pitched ``pitch_deg`` further down."""
-    P = axis_rotation("x", np.radians(pitch_deg))
-    out = []
-    for evs in sets:
-        for ev in evs:
-            new = A.extract((ev["J"].astype(np.float64) @ P.T).astype(np.float32), ev["fps"])
-            new.update(name=ev["name"], true_up=ev["true_up"] @ P.T)
-            out.append(new)
-    return out
-
-
 def errors(evs: list[dict], gates: tuple[Gate, ...]) -> np.ndarray:
     """``(N, len(gates))`` each recording's mean per-frame tilt error (deg) per gate."""
     return np.array([[frame_error(ev, g) for g in gates] for ev in evs])
@@ -152,7 +140,7 @@ def main(argv: list[str] | None = None) -> int:
     heldout = A.heldout_recordings(args.data, args.cache, args.max_clips, quarter=True)
     static = [evs for title, evs in heldout[:len(A.MOCAP_SETS)]]
     heldout.append((f"camera pitched {PITCH_DEG:g} deg down (the three sets)",
-                    A.cached(args.cache, f"pitched{PITCH_DEG:g}_{args.max_clips}", lambda: pitched_evidence(static))))
+                    A.pitched_recordings(args.cache, static, args.max_clips, PITCH_DEG)))
     rows, flags = table(heldout, gates)
     lines += ["", "## Held out", *rows, ""]
     stays = flags.any(axis=0)

@@ -477,12 +477,13 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
     if sequence.posture.most_probable == "lying":
         return [_found(Kind.LYING, Severity.CHECK,
                        f"body read as lying (posterior {100 * p:.0f} %): up taken from the priors",
-                       "--no-camera-prior if standing under a rolled camera",
+                       "--no-camera-prior if standing under a rolled or steep camera",
                        f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is "
                        f"taken from the camera prior (near level; the true up within a "
                        f"{sequence.up_uncertainty_deg:.0f} deg cone, 95 %, if the camera is not upside down: a supine "
                        f"body under an upside-down camera reads as prone) across the trunk; a body standing straight "
-                       f"under a camera rolled 90 deg looks the same (pass --no-camera-prior if so; a phone video's "
+                       f"under a camera rolled 90 deg, or filmed from above by a camera pitched steeply down, looks "
+                       f"the same (pass --no-camera-prior if so; a phone video's "
                        f"display rotation tells when --video is given with the 2D keypoints), and so does a file "
                        f"whose up axis is declared wrongly (check --axes with --lifter generic)")]
     if sequence.interval_reaches_other_posture_p is not None:
