@@ -1,4 +1,4 @@
-"""The view gate's pieces, each switched off on held-out data (decision 0061).
+"""The view gate's pieces and the quarter turns, each switched off on held-out data (decisions 0061, 0062).
 
     python -m benchmarks.view_gate_pieces --data ../shared/data [--cache /tmp/pcnet_ablation_cache]
 
@@ -10,7 +10,9 @@ rest as shipped (docs/decisions/0061-view-gate-pieces-ablated.md):
 - ``pitch off``: ``in`` and ``near`` in roll only (the two pitch ramps);
 - ``steps``: each ramp a step at its midpoint (one threshold per ramp instead of two);
 - ``no median``: each frame's own view estimate (the quarter turns keep their window);
-- ``no camera estimate``: ``w = in(body)`` (the camera-frame network's estimate and ``near``).
+- ``no camera estimate``: ``w = in(body)`` (the camera-frame network's estimate and ``near``);
+- ``quarter turns off`` (decision 0062): the camera-frame network on the input as filmed, the
+  gate in that frame (benchmarks/ablation.py's "quarter turns off" row in frame mode).
 
 Printed per set: the mean over clips of each clip's mean per-frame tilt error (deg) of the
 shipped gate and of each piece off, with the paired difference (piece off minus shipped) and
@@ -54,11 +56,14 @@ class Gate:
     ramps: bool = True
     median: bool = True
     camera_estimate: bool = True
+    turns: bool = True
 
 
 SHIPPED = Gate("shipped")
 PIECES = (Gate("pitch off", pitch=False), Gate("steps", ramps=False), Gate("no median", median=False),
           Gate("no camera estimate", camera_estimate=False))
+#: Decision 0062: the quarter turns off (the camera-frame network on the input as filmed, the gate in that frame).
+NO_TURNS = Gate("quarter turns off", turns=False)
 
 
 def _ramp(x: np.ndarray, full: float, none: float, ramps: bool) -> np.ndarray:
@@ -90,12 +95,17 @@ def gate_weight(gate: Gate, Rb: np.ndarray, Rc: np.ndarray, valid: np.ndarray, f
 
 def frame_error(ev: dict, gate: Gate) -> float:
     """One recording's mean per-frame tilt error (deg) under ``gate`` (ablation.per_frame's arithmetic)."""
-    Rb, Rc, k, valid = ev["R_body"], ev["R_camT"], ev["turns"], ev["valid"]
+    Rb, fps = ev["R_body"], ev["fps"]
+    if gate.turns:
+        Rc, k, valid = ev["R_camT"], ev["turns"], ev["valid"]
+    else:
+        Rc, k = ev["R_camP"], np.zeros(len(Rb), np.int64)
+        valid = ev["valid"] & np.isfinite(Rc).all((1, 2))
     Q = G.quarter_turn_matrices(k) if k.any() else None
     Qb, Qc = (Rb, Rc) if Q is None else (Q @ Rb, Q @ Rc)
-    w = gate_weight(gate, Qb, Qc, valid, ev["fps"])
+    w = gate_weight(gate, Qb, Qc, valid, fps)
     if gate == SHIPPED:  # the reimplementation is the package's gate
-        assert np.array_equal(w, G.camera_frame_weight(Qb, valid, ev["fps"], Qc), equal_nan=True)
+        assert np.array_equal(w, G.camera_frame_weight(Qb, valid, fps, Qc), equal_nan=True)
     up = with_up(Rb, G.blend_rotations(Rb, Rc, w)[:, :, 1])[:, :, 1]
     return A.clip_error(np.where(valid[:, None], up, np.nan), ev["true_up"])
 
@@ -131,7 +141,7 @@ def table(sets: list[tuple[str, list[dict]]], gates: tuple[Gate, ...]) -> tuple[
 def main(argv: list[str] | None = None) -> int:
     args = A.heldout_arguments(argv, __doc__, "view_gate_pieces", RESULT)
     t0 = time.time()
-    gates = (SHIPPED, *PIECES)
+    gates = (SHIPPED, *PIECES, NO_TURNS)
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              "Mean over clips of each clip's mean per-frame tilt error (deg), and each piece off minus the shipped gate.",
              "", "## Validation (information only)"]
@@ -144,15 +154,15 @@ def main(argv: list[str] | None = None) -> int:
     rows, flags = table(heldout, gates)
     lines += ["", "## Held out", *rows, ""]
     stays = flags.any(axis=0)
-    for g, keep in zip(PIECES, stays):
-        where = [title for (title, _), bad in zip(heldout, flags[:, PIECES.index(g)]) if bad]
+    for k, (g, keep) in enumerate(zip((*PIECES, NO_TURNS), stays)):
+        where = [title for (title, _), bad in zip(heldout, flags[:, k]) if bad]
         lines.append(f"{g.label}: " + (f"stays (switching it off is worse on {', '.join(where)})" if keep
                                        else "does not stay (switching it off is worse on no held-out set)"))
-    dropped = [g for g, keep in zip(PIECES, stays) if not keep]
+    dropped = [g for g, keep in zip(PIECES, stays) if not keep]  # 0061's pieces; 0062's turns decide alone
     if dropped:
         reduced = Gate("reduced: " + " + ".join(g.label for g in dropped),
                        **{field: all(getattr(g, field) for g in dropped) for field in ("pitch", "ramps", "median",
-                                                                                     "camera_estimate")})
+                                                                                     "camera_estimate", "turns")})
         rows, flags = table(heldout, (SHIPPED, reduced))
         lines += ["", "## The pieces that do not stay, switched off together", *rows, "",
                   "reduced gate: " + ("worse on " + ", ".join(t for (t, _), bad in zip(heldout, flags[:, 0]) if bad)
