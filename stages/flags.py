@@ -625,11 +625,6 @@ def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, lis
     return segment, events
 
 
-def _deg_range(low: float, high: float) -> str:
-    """``"15-56 deg"``, or ``"15 deg"`` when both round alike."""
-    return f"{low:.0f} deg" if f"{low:.0f}" == f"{high:.0f}" else f"{low:.0f}-{high:.0f} deg"
-
-
 def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str = "95 % interval") -> list[Finding]:
     """A flag when an adapter turned the lifter's output into the camera frame by more than
     the run's own tilt uncertainty (``tolerance_deg``: the larger of the camera pitch and
