@@ -518,14 +518,17 @@ def rolled_recordings(cache: Path, static: list[list[dict]], max_clips: int, rol
     return cached(cache, f"rolled{roll_deg:g}_{max_clips}", lambda: rolled_evidence(static, roll_deg))
 
 
-def pitched_evidence(sets: list[list[dict]], pitch_deg: float) -> list[dict]:
+def pitched_evidence(sets: list[list[dict]], pitch_deg) -> list[dict]:
     """The cached static-camera recordings of ``sets`` with the camera pitched ``pitch_deg``
     further down about its x axis: ``X' = X P^T``, true up ``P u`` (a camera on a ceiling rig or
-    a balcony; benchmarks/view_gate_pieces.py, benchmarks/steep_camera.py)."""
-    P = axis_rotation("x", np.radians(pitch_deg))
+    a balcony; benchmarks/view_gate_pieces.py, benchmarks/steep_camera.py). ``pitch_deg``: one
+    angle (deg) for every recording, or a sequence of one per recording in order."""
+    n = sum(len(evs) for evs in sets)
+    angles = iter(np.broadcast_to(np.asarray(pitch_deg, np.float64), (n,)))
     out = []
     for evs in sets:
         for ev in evs:
+            P = axis_rotation("x", np.radians(next(angles)))
             new = extract((ev["J"].astype(np.float64) @ P.T).astype(np.float32), ev["fps"])
             new.update(name=ev["name"], true_up=ev["true_up"] @ P.T)
             out.append(new)
