@@ -74,7 +74,7 @@ def prepared(evs: list[dict]) -> list[dict]:
             size = max(1, int(round(w * ev["fps"])) | 1)
             views[w] = (*G.camera_view_estimate(Q[idx] @ Rb, size), *G.camera_view_estimate(Q[idx] @ Rc, size))
         rel = Rotation.from_matrix(np.einsum("tji,tjk->tik", Rb, Rc)).as_rotvec()
-        out.append({"views": views, "Rb": Rb, "rel": rel, "true": ev["true_up"][idx],
+        out.append({"name": ev["name"], "views": views, "Rb": Rb, "rel": rel, "true": ev["true_up"][idx],
                     "shipped_w": G.camera_frame_weight(Q @ ev["R_body"], valid, ev["fps"], Q @ ev["R_camT"])[idx]})
     return out
 
@@ -101,16 +101,17 @@ def clip_errors(clips: list[dict], p) -> np.ndarray:
     return np.array(errors)
 
 
-def fit(sets: dict[str, list[dict]], grids: dict[int, tuple[float, ...]] | None = None) -> tuple[tuple, float, list[str]]:
-    """Coordinate descent from :data:`SHIPPED`: ``(constants, score, log)``; ``grids`` maps the
-    indices of :data:`NAMES` to fit to their grids (default: all nine, :data:`GRIDS`), the rest
-    stay as shipped."""
+def fit(sets: dict[str, list[dict]], grids: dict[int, tuple[float, ...]] | None = None,
+        start: tuple = SHIPPED) -> tuple[tuple, float, list[str]]:
+    """Coordinate descent from ``start`` (default :data:`SHIPPED`): ``(constants, score, log)``;
+    ``grids`` maps the indices of :data:`NAMES` to fit to their grids (default: all nine,
+    :data:`GRIDS`), the rest stay at ``start``."""
     def score(p):
         return float(np.mean([clip_errors(c, p).mean() for c in sets.values()]))
 
     grids = dict(enumerate(GRIDS)) if grids is None else grids
-    best, best_score = list(SHIPPED), score(SHIPPED)
-    log = [f"  shipped {tuple(SHIPPED)}: {best_score:.3f}"]
+    best, best_score = list(start), score(start)
+    log = [f"  start {tuple(start)}: {best_score:.3f}"]
     for i in range(PASSES):
         before = best_score
         for j, grid in grids.items():

@@ -19,9 +19,10 @@ camera, while for a camera really rolled 45 deg or more it reads one outside its
 views (its answer is pulled back towards level, but not inside the range). The camera-frame
 network therefore gets full weight when the body-frame estimate is inside the range, and
 also when its own estimate is inside that range while the body-frame estimate is not far
-beyond it (roll below 45-60 deg, pitch below 60-75 deg: beyond those even the camera-frame
-network sometimes reads a 90 deg roll as inside, on the validation split); linear ramps in
-between. The range in roll is 10-20 deg, well inside the training views' 25 deg: the
+beyond it (roll below 45-60 deg: beyond that even the camera-frame network sometimes reads a
+90 deg roll as inside, on the validation split; pitch below 45-60 deg: beyond that a camera
+pitched steeply down is read as inside by the camera-frame network, fitted on validation views
+that include such cameras, decision 0063); linear ramps in between. The range in roll is 10-20 deg, well inside the training views' 25 deg: the
 camera-frame network reads a camera rolled 30 deg as rolled only about 15 deg (pulled
 towards the level cameras it trained on), and from about 15 deg of roll it is less accurate
 than the body-frame network (motion-style validation split, clean: 2.81 vs 2.20 deg at 15
@@ -57,19 +58,22 @@ from scipy.spatial.transform import Rotation
 from pcnet.stages.core.rotations import axis_rotation, decompose_camera_rotation
 
 #: Camera-frame network weight ramps (degrees): full weight up to the first value, none from
-#: the second on. Pitch: centred on the edge of the training views (|pitch| 45). Roll: where
-#: the camera-frame network stops being the more accurate one (module docstring); chosen
-#: between 5-15 and 10-20 deg (benchmarks/view_gate_rule.py) with the CMU test subjects and
-#: DeepMimic in view as well as the validation split (README, view-gate section). These and the
-#: constants below are hand-set: fitted on the validation split they lose on held-out data
-#: (decision 0040, ``python -m benchmarks.fit_view_gate``).
+#: the second on. Roll: where the camera-frame network stops being the more accurate one
+#: (module docstring); chosen between 5-15 and 10-20 deg (benchmarks/view_gate_rule.py) with the
+#: CMU test subjects and DeepMimic in view as well as the validation split (README, view-gate
+#: section); hand-set: fitted on the validation split the roll constants and the window lose on
+#: held-out data (decision 0040, ``python -m benchmarks.fit_view_gate``).
 ROLL_RAMP_DEG = (10.0, 20.0)
-PITCH_RAMP_DEG = (40.0, 50.0)
+#: Pitch: fitted on the validation split's "paper", "wide", fully rolled and steep views (a
+#: further 30-80 deg down) by ``python -m benchmarks.fit_gate_pitch --data ../shared/data``
+#: (decision 0063, ``benchmarks/results/fit_gate_pitch.txt``; tests/test_view_gate.py checks
+#: these equal it), with :data:`BODY_ESTIMATE_LIMIT_PITCH_DEG`.
+PITCH_RAMP_DEG = (40.0, 55.0)
 #: Beyond these body-frame estimates (roll, pitch ramps, degrees) the camera-frame network's
-#: own estimate no longer keeps it in.
+#: own estimate no longer keeps it in. Roll hand-set (above); pitch fitted (above).
 BODY_ESTIMATE_LIMIT_ROLL_DEG = (45.0, 60.0)
-BODY_ESTIMATE_LIMIT_PITCH_DEG = (60.0, 75.0)
-#: Running-median window of the camera view estimate, seconds.
+BODY_ESTIMATE_LIMIT_PITCH_DEG = (45.0, 60.0)
+#: Running-median window of the camera view estimate, seconds; hand-set (above).
 WINDOW_S = 2.0
 
 

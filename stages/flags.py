@@ -513,7 +513,7 @@ def ensemble_weights_flag(weights: EnsembleWeights | None) -> list[Finding]:
     each when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the
     camera read as turned by 90 or 270 deg about its optical axis (the camera-frame network
     read the poses turned back), and the camera-frame 3DPCNet (partly) set aside for the
-    body-frame one (the remaining roll beyond 10-20 deg or pitch beyond 40-50 deg, or a body
+    body-frame one (the remaining roll or pitch beyond the view gate's ramps, or a body
     whose trunk is far from the image's vertical). ``None`` (one estimator ran) gives none.
     They concern the per-frame up, so a run calls this only where that up is the answer (frame
     and smooth modes): in sequence mode the up model weighs both networks itself, and the
@@ -539,7 +539,8 @@ def ensemble_weights_flag(weights: EnsembleWeights | None) -> list[Finding]:
         f"camera-frame network set aside in {outside} of {frames} frames: less accurate up there",
         "see camera_frame_weight",
         f"camera-frame network set aside, wholly or in part, in {outside} of {frames} frames: the body-frame network "
-        f"read the camera as rolled beyond 10-20 deg or pitched beyond 40-50 deg after any quarter turn, and the "
+        f"read the camera as rolled or pitched beyond the view gate's ramps (models/view_gate.py) after any quarter "
+        f"turn, and the "
         f"camera-frame network's own up did not place the camera inside its training views either (a rolled or "
         f"steep camera, or a body leaning sideways, upside down or across the image; the poses alone cannot tell "
         f"which): the rotation-equivariant body-frame network was used there ({weights.body_frame_frames} frames "

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import FIXTURES
@@ -45,9 +47,12 @@ def test_a_level_camera_estimate_keeps_the_camera_frame_network_in_unless_the_bo
     level = _cameras(0.0, [0.0])
     # A seated or bent-over body under a level camera: the body-frame network reads a steep
     # camera, the camera-frame network a level one.
-    bent = _cameras([-PITCH_RAMP_DEG[1] - 5.0], 0.0)
-    assert camera_frame_weight(bent, ones)[0] == 0.0
+    bent = _cameras([-BODY_ESTIMATE_LIMIT_PITCH_DEG[0]], 0.0)
+    assert camera_frame_weight(bent, ones)[0] < 1.0
     assert camera_frame_weight(bent, ones, R_camera_net=level)[0] == 1.0
+    bent_further = _cameras([-PITCH_RAMP_DEG[1] - 1.0], 0.0)
+    assert camera_frame_weight(bent_further, ones)[0] == 0.0
+    assert 0.0 < camera_frame_weight(bent_further, ones, R_camera_net=level)[0] < 1.0
     # Half-way along the body-estimate limit: half the weight.
     mid = _cameras([-np.mean(BODY_ESTIMATE_LIMIT_PITCH_DEG)], 0.0)
     assert camera_frame_weight(mid, ones, R_camera_net=level)[0] == pytest.approx(0.5)
@@ -185,3 +190,16 @@ def test_a_crawl_under_a_level_camera_reads_as_a_quarter_turned_camera():
     assert np.mean(error <= frame_tilt_bound(d, w)) < 0.1
     report = rectify(X, "pcnet", fps=fps).report
     np.testing.assert_array_equal(report.frame_tilt_bound_deg[valid], frame_tilt_bound(d, w)[valid])
+
+
+def test_pitch_constants_are_the_fitted_ones():
+    """The pitch ramp and the body-frame estimate's pitch limit are what ``python -m
+    benchmarks.fit_gate_pitch`` printed (benchmarks/results/fit_gate_pitch.txt, decision 0063)."""
+    import re
+
+    text = (Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "fit_gate_pitch.txt").read_text()
+    assert "python -m benchmarks.fit_gate_pitch" in text
+    m = re.search(r"^fitted: pitch ramp ([0-9.]+)-([0-9.]+) deg, body-frame estimate's pitch limit ([0-9.]+)-([0-9.]+) deg",
+                  text, re.M)
+    assert m
+    assert (PITCH_RAMP_DEG, BODY_ESTIMATE_LIMIT_PITCH_DEG) == ((float(m[1]), float(m[2])), (float(m[3]), float(m[4])))
