@@ -786,14 +786,17 @@ def _counts_line(text: str) -> str:
     for part in re.sub(r" \([^()]*\)", "", text).split("; "):
         what, _, listed = part.rpartition(": ")
         counts = [(int(n), name) for name, n in re.findall(r"(\w+) (\d+) frames?", listed)]
-        if what.startswith("input: non-finite") and len(counts) > 1:
-            parts.append(f"inf/NaN in the input: {len(counts)} joints")
+        # a long list ends "K more joints" (adapters/validate.py: nonfinite_line)
+        unnamed = re.search(r"(\d+) more joints?", listed)
+        joints = len(counts) + (int(unnamed[1]) if unnamed else 0)
+        if what.startswith("input: non-finite") and joints > 1:
+            parts.append(f"inf/NaN in the input: {joints} joints")
             continue
-        if what == "no pose" or len(counts) < 2:
+        if what == "no pose" or joints < 2:
             parts.append(f"{what}: {listed}")
             continue
         n, worst = max(counts)
-        parts.append(f"{what}: {len(counts)} joints (most: {worst} {n} frame{'s' * (n != 1)})")
+        parts.append(f"{what}: {joints} joints (most: {worst} {n} frame{'s' * (n != 1)})")
     return _clipped("; ".join(parts))
 
 

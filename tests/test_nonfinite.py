@@ -118,6 +118,16 @@ def test_nonfinite_line_is_short_for_many_joints():
     assert nonfinite_line({}) == ""
 
 
+def test_summary_counts_the_joints_a_long_nonfinite_list_leaves_unnamed():
+    """The summary's missing line counts every joint of the input note, also those its
+    "K more joints" tail only counts (found by feeding pcnet run ten joints of NaN)."""
+    from pcnet.stages.flags import note_finding
+
+    note = nonfinite_line({name: i + 1 for i, name in enumerate(H36M_JOINTS[:10])})
+    line = note_finding("missing: right_wrist 10 frames, left_knee 3 frames; " + note).headline
+    assert "missing: 2 joints" in line and "inf/NaN in the input: 10 joints" in line, line
+
+
 @pytest.mark.parametrize("counts", [{"right_ankle": 0}, {"right_ankle": 61}, {"right_ankle": 1.0}])
 def test_poses3d_refuses_a_count_that_is_no_frame_count(counts):
     from pcnet.adapters import Poses3D
