@@ -370,11 +370,18 @@ def _assumed_inputs(cfg: RunConfig) -> list[str]:
 
 
 def _layout_hint(cfg: RunConfig, error: str) -> str:
-    """What to add to a "no frame can be rectified" error when a generic file was read with the
-    default joint layout, the likeliest cause."""
-    if error.startswith(NO_VALID_FRAME) and cfg.lifter == "generic" and "layout" not in cfg.lifter_options:
-        return " (read with the default --layout h36m17: is the file in another joint layout?)"
-    return ""
+    """What to add to a "no frame can be rectified" error: the default joint layout of a generic
+    file, the likeliest cause there, and the 2D confidence threshold where 2D keypoints mask
+    joints (a threshold near 1 masks every joint)."""
+    if not error.startswith(NO_VALID_FRAME):
+        return ""
+    hint = ""
+    if cfg.lifter == "generic" and "layout" not in cfg.lifter_options:
+        hint += " (read with the default --layout h36m17: is the file in another joint layout?)"
+    if cfg.keypoints2d is not None:
+        hint += (f" (or those joints were masked for 2D confidence in {cfg.keypoints2d} below "
+                 f"{cfg.min_confidence:g}: is --confidence-threshold too high?)")
+    return hint
 
 
 #: Median thigh length (m) beyond which poses said to be in metres are refused: 3 times the

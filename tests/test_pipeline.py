@@ -848,6 +848,17 @@ def test_what_the_run_assumed_about_its_inputs_is_noted(tmp_path):
     assert "3D joints remapped from blazepose33 to H36M-17 with pelvis, spine, thorax, head built" in res.output
 
 
+def test_a_confidence_threshold_that_masks_every_needed_joint_is_named(tmp_path):
+    """--confidence-threshold 1 masks every joint with a 2D confidence below 1: the error names
+    the threshold and the 2D file, not only the lifter file (found by a CLI fuzz)."""
+    res = _invoke("run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--lifter", "motionbert",
+                  "--lifter-output", BOX_3D, "--fps", "30", "--no-recording", "--confidence-threshold", "1",
+                  "--out", tmp_path / "o")
+    assert res.exit_code == 1, res.output
+    assert "--confidence-threshold too high?" in res.output and str(BOX_2D) in res.output, res.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_coco_layout_3d_file_is_noted_and_its_misreading_names_layout(tmp_path):
     """Real poses stored in COCO-17 order: read with --layout coco17 the summary says which
     joints were built; read with the default layout the error points at --layout."""
