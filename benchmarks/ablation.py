@@ -686,17 +686,27 @@ VARIANTS = (
 )
 
 
-def per_frame(ev: dict, v: Variant):
-    """``(R (T,3,3), valid, weight, disagreement)``: the pair's per-frame estimate under ``v``
-    (ViewGatedPCNet.predict_gated's arithmetic on the cached network outputs)."""
-    Rb, fps = ev["R_body"], ev["fps"]
-    if v.turns:
+def gate_inputs(ev: dict, turns: bool = True):
+    """``(Rb, Rc, valid, Qb, Qc)``: one cached recording's body-frame and camera-frame rotations
+    ``(T, 3, 3)`` (the camera-frame network's on the quarter-turned input, turned back, or with
+    ``turns`` False on the input as filmed), their valid frames, and both rotations in the
+    quarter-turned frame the view gate reads."""
+    Rb = ev["R_body"]
+    if turns:
         Rc, k, valid = ev["R_camT"], ev["turns"], ev["valid"]
     else:
         Rc, k = ev["R_camP"], np.zeros(len(Rb), np.int64)
         valid = ev["valid"] & np.isfinite(Rc).all((1, 2))
     Q = quarter_turn_matrices(k) if k.any() else None
     Qb, Qc = (Rb, Rc) if Q is None else (Q @ Rb, Q @ Rc)
+    return Rb, Rc, valid, Qb, Qc
+
+
+def per_frame(ev: dict, v: Variant):
+    """``(R (T,3,3), valid, weight, disagreement)``: the pair's per-frame estimate under ``v``
+    (ViewGatedPCNet.predict_gated's arithmetic on the cached network outputs)."""
+    fps = ev["fps"]
+    Rb, Rc, valid, Qb, Qc = gate_inputs(ev, v.turns)
     if v.gate == "shipped":
         w = camera_frame_weight(Qb, valid, fps, Qc)
     elif v.gate == "body-estimate":

@@ -95,14 +95,8 @@ def gate_weight(gate: Gate, Rb: np.ndarray, Rc: np.ndarray, valid: np.ndarray, f
 
 def frame_error(ev: dict, gate: Gate) -> float:
     """One recording's mean per-frame tilt error (deg) under ``gate`` (ablation.per_frame's arithmetic)."""
-    Rb, fps = ev["R_body"], ev["fps"]
-    if gate.turns:
-        Rc, k, valid = ev["R_camT"], ev["turns"], ev["valid"]
-    else:
-        Rc, k = ev["R_camP"], np.zeros(len(Rb), np.int64)
-        valid = ev["valid"] & np.isfinite(Rc).all((1, 2))
-    Q = G.quarter_turn_matrices(k) if k.any() else None
-    Qb, Qc = (Rb, Rc) if Q is None else (Q @ Rb, Q @ Rc)
+    fps = ev["fps"]
+    Rb, Rc, valid, Qb, Qc = A.gate_inputs(ev, gate.turns)
     w = gate_weight(gate, Qb, Qc, valid, fps)
     if gate == SHIPPED:  # the reimplementation is the package's gate
         assert np.allclose(w, G.camera_frame_weight(Qb, valid, fps, Qc), rtol=0, atol=1e-12, equal_nan=True)
