@@ -20,11 +20,11 @@ views (its answer is pulled back towards level, but not inside the range). The c
 network therefore gets full weight when the body-frame estimate is inside the range, and
 also when its own estimate is inside that range while the body-frame estimate is not far
 beyond it (roll below 45-60 deg: beyond that even the camera-frame network sometimes reads a
-90 deg roll as inside, on the validation split; pitch below 45-60 deg: beyond that a camera
-pitched steeply down is read as inside by the camera-frame network, fitted on validation views
-that include such cameras, decision 0063); linear ramps in between. The range in roll is 10-20 deg, well inside the training views' 25 deg: the
-camera-frame network reads a camera rolled 30 deg as rolled only about 15 deg (pulled
-towards the level cameras it trained on), and from about 15 deg of roll it is less accurate
+90 deg roll as inside, on the validation split; pitch below 45-60 deg: beyond that it reads a
+camera pitched steeply down as inside, fitted on validation views that include such cameras,
+decision 0063); linear ramps in between. The range in roll is 10-20 deg, well inside the
+training views' 25 deg: the camera-frame network reads a camera rolled 30 deg as rolled only
+about 15 deg (pulled towards the level cameras it trained on), and from about 15 deg of roll it is less accurate
 than the body-frame network (motion-style validation split, clean: 2.81 vs 2.20 deg at 15
 deg roll). With the earlier 20-30 deg range its own estimate kept it in at 30 deg of roll,
 where it is the worse network (benchmarks/results/view_gate_rule_*.txt). A body lying across the image reads as a

@@ -369,7 +369,7 @@ def _assumed_inputs(cfg: RunConfig) -> list[str]:
     return notes
 
 
-def _layout_hint(cfg: RunConfig, error: str) -> str:
+def _no_frame_hint(cfg: RunConfig, error: str) -> str:
     """What to add to a "no frame can be rectified" error: the default joint layout of a generic
     file, the likeliest cause there, and the 2D confidence threshold where 2D keypoints mask
     joints (a threshold near 1 masks every joint)."""
@@ -959,10 +959,10 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
             raise  # the weights file's own error, already naming it
-        raise InputError(f"{cfg.lifter_output}: {err}{_layout_hint(cfg, str(err))}") from err
+        raise InputError(f"{cfg.lifter_output}: {err}{_no_frame_hint(cfg, str(err))}") from err
     if not res.valid.any():
         reason = no_valid_frame_reason(res.report)
-        raise InputError(f"{cfg.lifter_output}: {reason}{_layout_hint(cfg, reason)}")
+        raise InputError(f"{cfg.lifter_output}: {reason}{_no_frame_hint(cfg, reason)}")
     report = replace(res.report, pelvis_from_hips_frames=camera.pelvis_filled)
     notes = _unused_floor_note(inputs.recording.measured_root,
                                report.sequence.ground_plane if report.sequence is not None else None)

@@ -540,8 +540,7 @@ def ensemble_weights_flag(weights: EnsembleWeights | None) -> list[Finding]:
         "see camera_frame_weight",
         f"camera-frame network set aside, wholly or in part, in {outside} of {frames} frames: the body-frame network "
         f"read the camera as rolled or pitched beyond the view gate's ramps (models/view_gate.py) after any quarter "
-        f"turn, and the "
-        f"camera-frame network's own up did not place the camera inside its training views either (a rolled or "
+        f"turn, and the camera-frame network's own up did not place the camera inside its training views either (a rolled or "
         f"steep camera, or a body leaning sideways, upside down or across the image; the poses alone cannot tell "
         f"which): the rotation-equivariant body-frame network was used there ({weights.body_frame_frames} frames "
         f"alone, {weights.blended_frames} blended), less accurate on held-out mocap (models/MODEL_CARD.md)")]
