@@ -475,15 +475,17 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
         return []
     p = sequence.posture.p_lying
     if sequence.posture.most_probable == "lying":
+        pitch, roll = sequence.posture.pose_up_pitch_deg, sequence.posture.pose_up_roll_deg
+        camera = f"a camera looking {'down' if pitch >= 0 else 'up'} {abs(pitch):.0f} deg and rolled {roll:+.0f} deg"
         return [_found(Kind.LYING, Severity.CHECK,
                        f"body read as lying (posterior {100 * p:.0f} %): up taken from the priors",
-                       "--no-camera-prior if standing under a rolled or steep camera",
+                       f"--no-camera-prior if standing under {camera}",
                        f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is "
                        f"taken from the camera prior (near level; the true up within a "
                        f"{sequence.up_uncertainty_deg:.0f} deg cone, 95 %, if the camera is not upside down: a supine "
                        f"body under an upside-down camera reads as prone) across the trunk; a body standing straight "
-                       f"under a camera rolled 90 deg, or filmed from above by a camera pitched steeply down, looks "
-                       f"the same (pass --no-camera-prior if so; a phone video's "
+                       f"under {camera} (the poses' own reading, without the priors) looks the same (pass "
+                       f"--no-camera-prior if that is the camera; a phone video's "
                        f"display rotation tells when --video is given with the 2D keypoints), and so does a file "
                        f"whose up axis is declared wrongly (check --axes with --lifter generic)")]
     if sequence.interval_reaches_other_posture_p is not None:

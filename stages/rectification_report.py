@@ -34,12 +34,21 @@ class ModeChoice:
 class PostureHypotheses:
     """The up model's posterior over the body's posture (docs/up_model.md): ``most_probable``
     the more probable hypothesis (``"upright"`` or ``"lying"``), ``p_lying`` the lying hypothesis's
-    posterior probability in [0, 1], ``pose_up_tilt_deg`` the tilt from a level camera of the
-    up the poses alone give (the posterior's likelihood mode, without the priors)."""
+    posterior probability in [0, 1], ``pose_up_pitch_deg`` / ``pose_up_roll_deg`` the camera pitch
+    and roll (degrees, :func:`pcnet.stages.core.rotations.camera_pitch_roll`) of the up the
+    poses alone give (the posterior's likelihood mode, without the priors): the camera an
+    upright body implies."""
 
     most_probable: str
     p_lying: float
-    pose_up_tilt_deg: float
+    pose_up_pitch_deg: float
+    pose_up_roll_deg: float
+
+    @property
+    def pose_up_tilt_deg(self) -> float:
+        """Tilt (degrees) from a level camera of the poses' up: ``acos(cos(pitch) cos(roll))``."""
+        p, r = np.radians(self.pose_up_pitch_deg), np.radians(self.pose_up_roll_deg)
+        return float(np.degrees(np.arccos(np.clip(np.cos(p) * np.cos(r), -1.0, 1.0))))
 
     @property
     def other_p(self) -> float:
@@ -182,7 +191,9 @@ class RectificationReport:
                        interval_reaches_other_posture_p=s.interval_reaches_other_posture_p,
                        posture=None if s.posture is None else {
                            "most_probable": s.posture.most_probable, "p_lying": round(s.posture.p_lying, 4),
-                           "pose_up_tilt_deg": round(s.posture.pose_up_tilt_deg, 2)},
+                           "pose_up_tilt_deg": round(s.posture.pose_up_tilt_deg, 2),
+                           "pose_up_pitch_deg": round(s.posture.pose_up_pitch_deg, 2),
+                           "pose_up_roll_deg": round(s.posture.pose_up_roll_deg, 2)},
                        up_spread_deg=s.up_spread_deg, up_spread_p95_deg=s.up_spread_p95_deg,
                        ground_plane=dict(s.ground_plane))
         out.update(requested_heading_source=h.requested, heading_source=h.source,

@@ -29,7 +29,7 @@ from .core.errors import InputError
 from .core.framestore import frame_blocks, in_memory
 from .core.geometric import geometric_rotation
 from .ground_plane import posture_and_floor_up
-from .core.rotations import angle_between, camera_pitch_roll, camera_tilt_deg, normalize
+from .core.rotations import angle_between, camera_pitch_roll, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
                                    RectificationReport, SequenceUp)
@@ -321,7 +321,8 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     pitch, roll = camera_pitch_roll(up)
     pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))
     spread = np.degrees(angle_between(normalize(R[ok, :, 1]), up[None]))
-    posture = PostureHypotheses(post.posture, float(post.p_lying), float(camera_tilt_deg(post.summary.up)))
+    pose_pitch, pose_roll = np.degrees(camera_pitch_roll(post.summary.up))
+    posture = PostureHypotheses(post.posture, float(post.p_lying), float(pose_pitch), float(pose_roll))
     return rotations, ok & heading_ok, SequenceUp(
         evidence=kind, up=up, camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
         camera_pitch_interval_deg=post.pitch_half_deg, camera_roll_interval_deg=post.roll_half_deg,

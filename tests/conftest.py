@@ -72,7 +72,7 @@ def run_report(requested: str = "auto", run: str = "sequence", spread_deg: float
     sequence = None
     if intervals_deg is not None:
         sequence = SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 8.6, 2.0, *intervals_deg,
-                              float(np.hypot(*intervals_deg)), 3.0, 1.5, None, PostureHypotheses("upright", 0.0, 8.0),
+                              float(np.hypot(*intervals_deg)), 3.0, 1.5, None, PostureHypotheses("upright", 0.0, 8.0, 0.0),
                               2.0, 5.0, {"used": False, "reason": NO_PELVIS_PATH})
     rect = RectificationReport(ModeChoice(requested, run, spread_deg=spread_deg), sequence,
                                HeadingChoice("predicted", "auto", 3.0, 4.0), None, None, 4.4, np.full(3, 4.4))

@@ -148,7 +148,7 @@ def test_standing_keeps_a_narrow_upright_interval():
 
 
 def test_the_report_record_names_the_posture_hypotheses():
-    """canonical.npz's report says `posture` (most_probable, p_lying, pose_up_tilt_deg) where
+    """canonical.npz's report says `posture` (most_probable, p_lying, the poses' up) where
     releases up to 5.3 said `gravity` (`reading`, ...): the field's term for the up model's two
     hypotheses (issue 52); without the camera prior there is no lying hypothesis, so no posture."""
     import json
@@ -159,7 +159,11 @@ def test_the_report_record_names_the_posture_hypotheses():
     res = rectify(_yoga("yoga_Abhay_Shavasana_f200-299.npy"), "pcnet", mode="sequence", fps=30.0)
     record = json.loads(json.dumps(jsonable(res.report.as_record())))
     assert record["posture"]["most_probable"] == "lying" and record["posture"]["p_lying"] > 0.5
-    assert set(record["posture"]) == {"most_probable", "p_lying", "pose_up_tilt_deg"}
+    assert set(record["posture"]) == {"most_probable", "p_lying", "pose_up_tilt_deg", "pose_up_pitch_deg",
+                                      "pose_up_roll_deg"}
+    posture = record["posture"]
+    assert posture["pose_up_tilt_deg"] == pytest.approx(np.degrees(np.arccos(
+        np.cos(np.radians(posture["pose_up_pitch_deg"])) * np.cos(np.radians(posture["pose_up_roll_deg"])))), abs=0.02)
     assert "gravity" not in record and "interval_reaches_other_reading_p" not in record
     assert "interval_reaches_other_posture_p" in record and record["mode"] == "sequence"
     assert record["up_uncertainty_deg"] == pytest.approx(np.hypot(record["camera_pitch_interval_deg"],
@@ -183,14 +187,18 @@ def test_posture_flags_name_the_posture():
     def sequence(posture):
         return sequence_up(posture, (30.0, 30.0), 40.0)
 
-    (flag,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, 70.0)))
+    (flag,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, 2.0, 70.0)))
     assert "read as lying" in flag.detail and "--no-camera-prior" in flag.detail and "40 deg cone" in flag.detail
-    assert posture_flag(sequence(PostureHypotheses("upright", 0.001, 5.0))) == []
-    assert posture_flag(sequence(PostureHypotheses("upright", 0.04, 5.0))) == []
+    # The upright alternative's camera, as the poses read it: rolled here, pitched steeply below.
+    assert "a camera looking down 2 deg and rolled +70 deg" in flag.action
+    (steep,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, 62.0, -3.0)))
+    assert "a camera looking down 62 deg and rolled -3 deg" in steep.detail
+    assert posture_flag(sequence(PostureHypotheses("upright", 0.001, 5.0, 0.0))) == []
+    assert posture_flag(sequence(PostureHypotheses("upright", 0.04, 5.0, 0.0))) == []
     assert posture_flag(sequence(None)) == [] and posture_flag(None) == []
     # Decision 0060: the warning fires exactly where the 95 % intervals reach the other posture.
     for p_lying in (0.06, 0.2):
-        (flag,) = posture_flag(sequence(PostureHypotheses("upright", p_lying, 70.0)))
+        (flag,) = posture_flag(sequence(PostureHypotheses("upright", p_lying, 0.0, 70.0)))
         assert "ambiguous" in flag.detail and "70 deg" in flag.detail and "intervals reach it" in flag.detail
 
 
