@@ -12,6 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .core.rotations import camera_pitch_roll, camera_tilt_deg
+
+
 @dataclass(frozen=True)
 class ModeChoice:
     """The temporal mode (:data:`pcnet.stages.temporal.MODES`): ``requested`` (the option) and
@@ -34,21 +37,29 @@ class ModeChoice:
 class PostureHypotheses:
     """The up model's posterior over the body's posture (docs/up_model.md): ``most_probable``
     the more probable hypothesis (``"upright"`` or ``"lying"``), ``p_lying`` the lying hypothesis's
-    posterior probability in [0, 1], ``pose_up_pitch_deg`` / ``pose_up_roll_deg`` the camera pitch
-    and roll (degrees, :func:`pcnet.stages.core.rotations.camera_pitch_roll`) of the up the
-    poses alone give (the posterior's likelihood mode, without the priors): the camera an
-    upright body implies."""
+    posterior probability in [0, 1], ``pose_up`` ``(3,)`` the unit up the poses alone give
+    (camera frame; the posterior's likelihood mode, without the priors): the camera an upright
+    body implies, whose pitch, roll and tilt the properties give."""
 
     most_probable: str
     p_lying: float
-    pose_up_pitch_deg: float
-    pose_up_roll_deg: float
+    pose_up: np.ndarray
+
+    @property
+    def pose_up_pitch_deg(self) -> float:
+        """Camera pitch (degrees) of :attr:`pose_up` (:func:`pcnet.stages.core.rotations.camera_pitch_roll`)."""
+        return float(np.degrees(camera_pitch_roll(self.pose_up)[0]))
+
+    @property
+    def pose_up_roll_deg(self) -> float:
+        """Camera roll (degrees) of :attr:`pose_up` (:func:`pcnet.stages.core.rotations.camera_pitch_roll`)."""
+        return float(np.degrees(camera_pitch_roll(self.pose_up)[1]))
 
     @property
     def pose_up_tilt_deg(self) -> float:
-        """Tilt (degrees) from a level camera of the poses' up: ``acos(cos(pitch) cos(roll))``."""
-        p, r = np.radians(self.pose_up_pitch_deg), np.radians(self.pose_up_roll_deg)
-        return float(np.degrees(np.arccos(np.clip(np.cos(p) * np.cos(r), -1.0, 1.0))))
+        """Tilt (degrees) of :attr:`pose_up` from a level camera
+        (:func:`pcnet.stages.core.rotations.camera_tilt_deg`)."""
+        return float(camera_tilt_deg(self.pose_up))
 
     @property
     def other_p(self) -> float:

@@ -321,8 +321,7 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     pitch, roll = camera_pitch_roll(up)
     pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))
     spread = np.degrees(angle_between(normalize(R[ok, :, 1]), up[None]))
-    pose_pitch, pose_roll = np.degrees(camera_pitch_roll(post.summary.up))
-    posture = PostureHypotheses(post.posture, float(post.p_lying), float(pose_pitch), float(pose_roll))
+    posture = PostureHypotheses(post.posture, float(post.p_lying), post.summary.up)
     return rotations, ok & heading_ok, SequenceUp(
         evidence=kind, up=up, camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
         camera_pitch_interval_deg=post.pitch_half_deg, camera_roll_interval_deg=post.roll_half_deg,

@@ -42,6 +42,16 @@ def rrd_summary(path: Path):
     return rows, static, chunks, origins
 
 
+def camera_up(pitch_deg: float, roll_deg: float):
+    """``(3,)`` the unit up (camera frame) of a camera pitched and rolled by these angles
+    (degrees; :func:`pcnet.stages.core.rotations.compose_camera_rotation`'s convention)."""
+    import numpy as np
+
+    from pcnet.stages.core.rotations import compose_camera_rotation
+
+    return compose_camera_rotation(0.0, np.radians(pitch_deg), np.radians(roll_deg))[:, 1]
+
+
 def sequence_up(posture, intervals_deg: tuple[float, float] = (8.0, 9.0), cone_deg: float = 12.0):
     """A :class:`pcnet.stages.rectification_report.SequenceUp` for flag tests: these posture
     hypotheses (``None``: no posture), pitch / roll 95 % half-widths and cone; its intervals
@@ -72,8 +82,9 @@ def run_report(requested: str = "auto", run: str = "sequence", spread_deg: float
     sequence = None
     if intervals_deg is not None:
         sequence = SequenceUp("up model", np.array([0.0, -1.0, 0.0]), 8.6, 2.0, *intervals_deg,
-                              float(np.hypot(*intervals_deg)), 3.0, 1.5, None, PostureHypotheses("upright", 0.0, 8.0, 0.0),
-                              2.0, 5.0, {"used": False, "reason": NO_PELVIS_PATH})
+                              float(np.hypot(*intervals_deg)), 3.0, 1.5, None,
+                              PostureHypotheses("upright", 0.0, camera_up(8.0, 0.0)), 2.0, 5.0,
+                              {"used": False, "reason": NO_PELVIS_PATH})
     rect = RectificationReport(ModeChoice(requested, run, spread_deg=spread_deg), sequence,
                                HeadingChoice("predicted", "auto", 3.0, 4.0), None, None, 4.4, np.full(3, 4.4))
     return RunReport(rect, CameraTilt(8.8, 8.6, 2.0), [8.0, 7.0, 9.0], None,

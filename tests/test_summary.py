@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 
 import numpy as np
-from conftest import FIXTURES, run_report, sequence_up
+from conftest import FIXTURES, camera_up, run_report, sequence_up
 
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import RunResult, run_pipeline
@@ -54,8 +54,8 @@ def _every_kind() -> list[Finding]:
     kp, _ = _switched_track()
     return (_flags() + orientation_flags(120.0) + orientation_flags(40.0, 40.0, 0.0)
             + orientation_flags(90.0, 0.0, 90.0) + body_size_flag(box * 100, "m")
-            + posture_flag(sequence_up(PostureHypotheses("lying", 0.9, 0.0, 80.0)))
-            + posture_flag(sequence_up(PostureHypotheses("upright", 0.2, 0.0, 70.0)))
+            + posture_flag(sequence_up(PostureHypotheses("lying", 0.9, camera_up(0.0, 80.0))))
+            + posture_flag(sequence_up(PostureHypotheses("upright", 0.2, camera_up(0.0, 70.0))))
             + ensemble_weights_flag(EnsembleWeights(0.8, 5, 10, 100, {"90": 30, "270": 0}))
             + unfiltered_flag(np.zeros((5, 17), bool), np.ones((5, 17), bool), 30.0, 6.0)
             + floor_flag(np.zeros(5, bool), np.ones(5, bool))

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import sequence_up
+from conftest import camera_up, sequence_up
 from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import axis_rotation, normalize
@@ -187,18 +187,18 @@ def test_posture_flags_name_the_posture():
     def sequence(posture):
         return sequence_up(posture, (30.0, 30.0), 40.0)
 
-    (flag,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, 2.0, 70.0)))
+    (flag,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, camera_up(2.0, 70.0))))
     assert "read as lying" in flag.detail and "--no-camera-prior" in flag.detail and "40 deg cone" in flag.detail
     # The upright alternative's camera, as the poses read it: rolled here, pitched steeply below.
     assert "a camera looking down 2 deg and rolled +70 deg" in flag.action
-    (steep,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, 62.0, -3.0)))
+    (steep,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, camera_up(62.0, -3.0))))
     assert "a camera looking down 62 deg and rolled -3 deg" in steep.detail
-    assert posture_flag(sequence(PostureHypotheses("upright", 0.001, 5.0, 0.0))) == []
-    assert posture_flag(sequence(PostureHypotheses("upright", 0.04, 5.0, 0.0))) == []
+    assert posture_flag(sequence(PostureHypotheses("upright", 0.001, camera_up(5.0, 0.0)))) == []
+    assert posture_flag(sequence(PostureHypotheses("upright", 0.04, camera_up(5.0, 0.0)))) == []
     assert posture_flag(sequence(None)) == [] and posture_flag(None) == []
     # Decision 0060: the warning fires exactly where the 95 % intervals reach the other posture.
     for p_lying in (0.06, 0.2):
-        (flag,) = posture_flag(sequence(PostureHypotheses("upright", p_lying, 0.0, 70.0)))
+        (flag,) = posture_flag(sequence(PostureHypotheses("upright", p_lying, camera_up(0.0, 70.0))))
         assert "ambiguous" in flag.detail and "70 deg" in flag.detail and "intervals reach it" in flag.detail
 
 
