@@ -104,13 +104,25 @@ def frame_error(ev: dict, gate: Gate) -> float:
     return A.clip_error(np.where(valid[:, None], up, np.nan), ev["true_up"])
 
 
+def heldout_sets(args) -> list[tuple[str, list[dict]]]:
+    """``(title, recordings)`` of decision 0061's held-out sets: the ablation's, the camera rolled
+    30 and 90 deg included, and the camera pitched :data:`PITCH_DEG` deg down (``args``: the
+    command line of :func:`benchmarks.ablation.heldout_arguments`)."""
+    heldout = A.heldout_recordings(args.data, args.cache, args.max_clips, quarter=True)
+    static = [evs for _, evs in heldout[:len(A.MOCAP_SETS)]]
+    heldout.append((f"camera pitched {PITCH_DEG:g} deg down (the three sets)",
+                    A.pitched_recordings(args.cache, static, args.max_clips, PITCH_DEG)))
+    return heldout
+
+
 def errors(evs: list[dict], gates: tuple[Gate, ...]) -> np.ndarray:
     """``(N, len(gates))`` each recording's mean per-frame tilt error (deg) per gate."""
     return np.array([[frame_error(ev, g) for g in gates] for ev in evs])
 
 
 def worse(diff: np.ndarray) -> tuple[bool, str]:
-    """Whether ``diff`` (piece off minus shipped, per clip) is worse by the rule, and its cell."""
+    """Whether ``diff`` (an alternative minus the shipped gate, per clip) is worse by decision
+    0061's rule (mean above :data:`MARGIN_DEG`, interval above zero), and its cell."""
     mean, lo, hi = A.paired_interval(diff)
     return bool(mean > MARGIN_DEG and lo > 0), f"{mean:+.2f} [{lo:+.2f}, {hi:+.2f}]"
 
@@ -141,10 +153,7 @@ def main(argv: list[str] | None = None) -> int:
              "", "## Validation (information only)"]
     val = [(f"{tag} val, {views}", evs) for (tag, views), evs in F.validation_sets(args.data, args.cache).items()]
     lines += table(val, gates)[0]
-    heldout = A.heldout_recordings(args.data, args.cache, args.max_clips, quarter=True)
-    static = [evs for title, evs in heldout[:len(A.MOCAP_SETS)]]
-    heldout.append((f"camera pitched {PITCH_DEG:g} deg down (the three sets)",
-                    A.pitched_recordings(args.cache, static, args.max_clips, PITCH_DEG)))
+    heldout = heldout_sets(args)
     rows, flags = table(heldout, gates)
     lines += ["", "## Held out", *rows, ""]
     stays = flags.any(axis=0)
