@@ -1,6 +1,7 @@
 """How often each flag fires on upright recordings of new subjects filmed by a static camera.
 
     python -m benchmarks.flag_rates --data ../shared/data [--max-clips 60] [--no-swaps] [--out FILE]
+    python -m benchmarks.flag_rates --data ../shared/data --real-only
 
 The issue "Flags that carry information": a flag fires where its reading changes what the user
 should do; on upright recordings from a level camera of new subjects, at most 1 recording in 20
@@ -35,6 +36,15 @@ wrists or ankles across the body for a few frames, a lifter error the implausibl
 is for (decision 0034), so the difference between the two runs is how many of its findings
 point at an injected error rather than at nothing.
 
+Real lifter output (``--real-only``, ``flag_rates_real.txt``): every real 3D lifter file of the
+shared data, each run as ``pcnet run`` reads it with its defaults: the 90 VideoPose3D yoga
+exports (repeats named ``*.mp4.npy`` skipped, as benchmarks/yoga_physics.py; 30 fps), the
+boxing demo (MotionBERT with AlphaPose 2D and the video) and the Sports2D demo (MediaPipe), as
+benchmarks/vanishing_gravity.py runs them, Pose2Sim's four calibrated cameras (MediaPipe, 2D and
+3D from one file) and the two MotionBERT cycling clips (30 fps assumed; no video). These are not
+all upright (the yoga's lying and prone asanas), so the section lists each file's findings, and
+counts per kind, rather than judging a rate: what a user of real lifters would be told.
+
 Counted per data set: the recordings carrying at least one finding of each
 :class:`pcnet.stages.flags.Kind` at severity CHECK or PROBLEM (``RunResult.ranked_findings``),
 those carrying any CHECK/PROBLEM finding, flags of severity INFO, and notes
@@ -55,6 +65,10 @@ import numpy as np
 
 from benchmarks.ablation import LYING_TRUNK_DEG, static_camera_clips
 from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.vanishing_gravity import RECORDINGS
+from benchmarks.yoga_physics import FOLDER as YOGA_FOLDER
+from benchmarks.yoga_physics import FPS as YOGA_FPS
+from benchmarks.yoga_physics import plain_export
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.pipeline import RunConfig, run_pipeline
@@ -66,6 +80,7 @@ from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length
 DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "flag_rates.txt"
 RESULT_NO_SWAPS = RESULT.with_name("flag_rates_no_swaps.txt")
+RESULT_REAL = RESULT.with_name("flag_rates_real.txt")
 COMMAND = "python -m benchmarks.flag_rates --data ../shared/data"
 SETS = (("CMU test", "cmu_train_h36m17.npz", "test"),
         ("Bandai test", "bandai_h36m17.npz", "test"),
@@ -124,6 +139,43 @@ def evaluate_set(data: Path, file: str, split: str, max_clips: int, log, noise: 
     return rows, lying
 
 
+def real_runs(data: Path) -> list[tuple[str, dict]]:
+    """``(name, RunConfig fields)`` of every real lifter file of the shared data (module docstring)."""
+    real = data / "real"
+    runs = [(f"yoga {path.stem.removeprefix('export_')}", dict(lifter="videopose3d", lifter_output=str(path), fps=YOGA_FPS))
+            for path in sorted(data.joinpath(*YOGA_FOLDER).glob("*.npy")) if plain_export(path)]
+    runs += [(name, {k: str(data / v) if k in ("video", "keypoints2d", "lifter_output") else v
+                     for k, v in RECORDINGS[name]["run"].items()}) for name in ("boxing", "sports2d")]
+    for path in sorted((real / "pose2sim_gravity").glob("statictrial_cam*.npz")):
+        runs.append((f"pose2sim {path.stem.removeprefix('statictrial_')}",
+                     dict(keypoints2d=str(path), keypoints2d_format="mediapipe", lifter="mediapipe", lifter_output=str(path))))
+    runs += [(f"cycling {path.stem}", dict(lifter="motionbert", lifter_output=str(path), fps=30.0))
+             for path in sorted((real / "cycling_motionbert").glob("clip_?_X3D.npy"))]
+    return runs
+
+
+def real_section(data: Path, log) -> list[str]:
+    """Each real lifter file's CHECK/PROBLEM findings, and how many files carry each kind."""
+    lines, counts, n = [], Counter(), 0
+    for name, fields in real_runs(data):
+        with tempfile.TemporaryDirectory(prefix="pcnet_flag_rates_") as tmp:
+            try:
+                result = run_pipeline(RunConfig(**fields, recording=False, out=str(Path(tmp) / "out")).validate(),
+                                      progress=False)
+            except Exception as exc:  # reported, not counted as clean
+                lines.append(f"  {name:34s} failed: {type(exc).__name__}: {exc}")
+                continue
+        found = [f for f in result.ranked_findings if f.severity >= Severity.CHECK]
+        n += 1
+        counts.update({f.kind.name if f.kind else "(no kind)" for f in found})
+        lines.append(f"  {name:34s} {result.mode:8s} " + " | ".join(
+            f"{f.kind.name if f.kind else '-'}: {f.headline}" for f in found))
+        log(lines[-1])
+    tally = [f"{kind:24s} {c:3d}/{n}" for kind, c in counts.most_common()]
+    return ["## Real lifter files: files carrying each kind (CHECK/PROBLEM)", ""] + tally + [
+        "", "## Real lifter files: each file's mode and CHECK/PROBLEM headlines", ""] + lines
+
+
 def warned(row: dict) -> list:
     return [f for f in row.get("findings", []) if f.severity >= Severity.CHECK]
 
@@ -160,8 +212,16 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, default=DEFAULT)
     ap.add_argument("--max-clips", type=int, default=60)
     ap.add_argument("--no-swaps", action="store_true", help="the lifter-noise model without its left/right swaps")
+    ap.add_argument("--real-only", action="store_true", help="only the real lifter files' section (RESULT_REAL)")
     ap.add_argument("--out", type=Path, default=None, help=f"default {RESULT.name}, or {RESULT_NO_SWAPS.name} with --no-swaps")
     args = ap.parse_args(argv)
+    if args.real_only:
+        if not (args.data / "real").is_dir():
+            raise SystemExit(f"flag_rates: {args.data / 'real'}: expected the shared data's real lifter files, found no folder")
+        lines = [__doc__.splitlines()[0].replace("upright recordings of new subjects filmed by a static camera",
+                                                 "real lifter output"), "", f"    {COMMAND} --real-only", ""]
+        print_and_save(lines + real_section(args.data, print), args.out or RESULT_REAL)
+        return 0
     out = args.out or (RESULT_NO_SWAPS if args.no_swaps else RESULT)
     noise = LifterNoise(swap_rate_hz=0.0) if args.no_swaps else LifterNoise()
     require_mocap(args.data, "flag_rates")
