@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pcnet.adapters import VideoInfo
-from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
+from pcnet.stages.flags import (Finding, Kind, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
                                mirrored_skeleton_flag, non_upright_flag, orientation_flags, posture_flag,
                                quarter_turn_reported, side_swap_flag, size_change_flag, track_switch_flag)
@@ -75,11 +75,13 @@ class CheckInputs:
 def checks(c: CheckInputs) -> list[Finding]:
     """The findings of a rectified recording, in the order canonical.npz keeps their texts: the
     camera's orientation, the body's size, legs and size change, keypoints outside the image, a
-    side swap (or else a mirrored skeleton), a body not upright, the posture hypotheses, the
+    side swap (or else a mirrored skeleton), a body not upright (unless read as lying), the posture hypotheses, the
     ensemble's weights (outside sequence mode), the lifter's frame and a switch of the 2D track."""
     report, cam, kp2d, video = c.report, c.joints_camera, c.keypoints2d, c.video
     # The view gate's weights shape the answer only where the per-frame up is the answer.
     weights = report.weights if report.mode.run != "sequence" else None
+    posture = posture_flag(report.sequence)
+    lying = any(f.kind == Kind.LYING for f in posture)
     return [
         *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg,
                            turn_reported=quarter_turn_reported(weights)),
@@ -92,8 +94,9 @@ def checks(c: CheckInputs) -> list[Finding]:
           if kp2d is not None and video is not None and not video.rotation_deg else []),
         # a side swap is a mirror image too: said once
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
-        *non_upright_flag(c.canonical, c.valid),
-        *posture_flag(report.sequence),
+        # a lying reading already says the trunk lies across the image, and what to do (decision 0064)
+        *(non_upright_flag(c.canonical, c.valid) if not lying else []),
+        *posture,
         *ensemble_weights_flag(weights),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report)),
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option)

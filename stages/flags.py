@@ -23,12 +23,9 @@ from .mirror import MIRROR_ODDS, MirrorModel, load_mirror_model, recording_cues
 from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
 from .rectification_report import EnsembleWeights, SequenceUp
+from .up_model import camera_outside_probability, default_parameters
 from .scale import height_chain_length, leg_lengths
 
-#: Tilt beyond which the estimate disagrees with the camera prior: most real cameras are
-#: within about 30 deg of level. Either the camera was tilted that much, or the pose is not
-#: upright (lying, seated, bent over), which a pose alone cannot tell apart.
-UNUSUAL_TILT_DEG = 30.0
 #: Trunk (pelvis -> thorax) angle from the canonical vertical beyond which a pose is far from
 #: the upright poses the shipped networks learnt (lying, crawling, handstand).
 NON_UPRIGHT_TRUNK_DEG = 60.0
@@ -178,18 +175,23 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
                       turn_reported: bool = False) -> list[Finding]:
     """Flags for a camera orientation that real recordings rarely have.
 
-    The tilt is judged against the image axis nearest the up direction, as the view gate
+    The camera is judged against the image axis nearest the up direction, as the view gate
     judges a camera (``models/view_gate.py: quarter_turns``): a phone held in portrait, whose
     image-up is turned a quarter turn (roll near +-90 deg), is a level camera whose image was
     turned; it is said once (a body lying across the image under a level camera reads the
-    same), and the unusual-tilt flag concerns only its tilt beyond that turn. A roll beyond
-    +-135 deg, or a tilt beyond :data:`pcnet.stages.core.rotations.UPSIDE_DOWN_TILT_DEG` with
-    no quarter turn, is read as upside-down or axis-swapped input.
+    same). A roll beyond +-135 deg, or a tilt beyond
+    :data:`pcnet.stages.core.rotations.UPSIDE_DOWN_TILT_DEG` with no quarter turn, is read as
+    upside-down or axis-swapped input. The camera-tilt flag fires where the up model's declared
+    camera prior holds the camera (its pitch, and its roll beyond any quarter turn) more probably
+    one of the cameras outside its handheld views than a handheld one
+    (:func:`pcnet.stages.up_model.camera_outside_probability` above one half; decision 0064):
+    either the camera was tilted that much, or the body is not upright (lying, seated, bent
+    over), which the poses alone cannot tell apart.
 
     Args:
         tilt_deg, pitch_deg, roll_deg: degrees, from :func:`camera_tilt` (one recording's
             mean up; ``cos(tilt) = cos(pitch) cos(roll)``). Without ``pitch_deg`` and
-            ``roll_deg`` only the tilt from image-up is judged.
+            ``roll_deg`` only an upside-down tilt is judged.
         turn_reported: the quarter turn is already in the summary (the view gate's flag,
             :func:`ensemble_weights_flag`), so it is not said again.
 
@@ -206,16 +208,24 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
                        "check the lifter's axes (--axes with --lifter generic)",
                        f"up points {tilt_deg:.0f} deg away from image-up: the input is probably upside down or its "
                        f"axes are wrong (check the lifter's axis convention; --axes with --lifter generic)")]
-    beyond_turn = tilt_deg if quarter == 0 else float(np.degrees(np.arccos(np.clip(
-        np.cos(np.radians(pitch_deg)) * np.cos(np.radians(roll_deg - 90.0 * quarter)), -1.0, 1.0))))
-    turned = "" if quarter == 0 else (f" beyond a quarter turn (roll {roll_deg:+.0f} deg, nearer a camera held in "
-                                      f"portrait than a level one)")
-    if beyond_turn > UNUSUAL_TILT_DEG:
+    if not oriented:
+        return []
+    roll_beyond = roll_deg - 90.0 * quarter
+    outside = float(camera_outside_probability(pitch_deg, roll_beyond))
+    if outside > 0.5:
+        prior = default_parameters()
+        beyond_turn = tilt_deg if quarter == 0 else float(np.degrees(np.arccos(np.clip(
+            np.cos(np.radians(pitch_deg)) * np.cos(np.radians(roll_beyond)), -1.0, 1.0))))
+        turned = "" if quarter == 0 else (f" beyond a quarter turn (roll {roll_deg:+.0f} deg, nearer a camera held in "
+                                          f"portrait than a level one)")
         return [_found(Kind.CAMERA_TILT, Severity.CHECK,
                        f"camera tilt {beyond_turn:.0f} deg{' beyond a quarter turn' if quarter else ''}: a steep "
                        f"camera or a subject not upright", "check the result",
-                       f"camera tilt {beyond_turn:.0f} deg{turned}: beyond the {UNUSUAL_TILT_DEG:.0f} deg of most real "
-                       f"cameras; either the camera was tilted that much or the subject is not upright (lying, seated, "
+                       f"camera tilt {beyond_turn:.0f} deg{turned} (pitch {pitch_deg:+.0f}, roll {roll_beyond:+.0f} "
+                       f"deg): more probably ({100 * outside:.0f} %) one of the unusual cameras than a handheld one, by "
+                       f"the declared camera prior (pitch N(0, {prior.camera_prior_pitch_deg:g}), roll "
+                       f"N(0, {prior.camera_prior_roll_deg:g}) deg, {100 * prior.camera_prior_outside:g} % outside "
+                       f"them); either the camera was tilted that much or the subject is not upright (lying, seated, "
                        f"bent), which the poses alone cannot tell apart: check the result (and --axes, with --lifter "
                        f"generic)")]
     if quarter and not turn_reported:

@@ -438,19 +438,49 @@ def summarise_recording(ev: UpEvidence, fps: float, p: UpModelParameters) -> Pos
 # ============================================================================ prior and posterior
 
 
+def _log_handheld(pitch: np.ndarray, roll: np.ndarray, p: UpModelParameters) -> np.ndarray:
+    """``log[(1 - eps_cam) N(pitch; 0, prior_pitch) N(roll; 0, prior_roll)]`` (radians in, per
+    steradian: near level d(pitch) d(roll) is the area element)."""
+    sp, sr = np.radians(p.camera_prior_pitch_deg), np.radians(p.camera_prior_roll_deg)
+    return (-0.5 * (pitch / sp) ** 2 - 0.5 * (roll / sr) ** 2 - np.log(2 * np.pi * sp * sr)
+            + np.log1p(-p.camera_prior_outside))
+
+
 def log_camera_prior(g: np.ndarray, p: UpModelParameters) -> np.ndarray:
     """Declared camera prior density (per steradian) at ups ``g`` ``(..., 3)``: pitch and roll
     independent normals (near level, where d(pitch) d(roll) is the area element) mixed with
     a uniform share ``camera_prior_outside``."""
     if p.camera_prior_outside >= 1.0:  # uniform: no prior (the poses alone)
         return np.full(np.shape(g)[:-1], -np.log(4 * np.pi))
-    pitch, roll = camera_pitch_roll(g)
-    sp, sr = np.radians(p.camera_prior_pitch_deg), np.radians(p.camera_prior_roll_deg)
-    inside = (-0.5 * (pitch / sp) ** 2 - 0.5 * (roll / sr) ** 2 - np.log(2 * np.pi * sp * sr)
-              + np.log1p(-p.camera_prior_outside))
+    inside = _log_handheld(*camera_pitch_roll(g), p)
     if p.camera_prior_outside == 0:
         return inside
     return np.logaddexp(inside, np.log(p.camera_prior_outside) - np.log(4 * np.pi))
+
+
+def camera_outside_probability(pitch_deg, roll_deg, p: UpModelParameters | None = None) -> np.ndarray:
+    """How probably the declared camera prior takes a camera of this pitch and roll for one of
+    the cameras outside its handheld views: the uniform share's responsibility
+    ``eps_cam / (4 pi) / [eps_cam / (4 pi) + (1 - eps_cam) N(pitch) N(roll)]`` (module
+    docstring, "Camera prior"; :func:`log_camera_prior`'s two components).
+
+    Args:
+        pitch_deg, roll_deg: the camera's pitch and roll (degrees, any broadcastable shapes;
+            :func:`pcnet.stages.core.rotations.camera_pitch_roll`'s meaning).
+        p: the parameters (default :func:`default_parameters`: the declared prior).
+
+    Returns:
+        float64 in [0, 1], the broadcast shape; 1 where the prior is uniform
+        (``camera_prior_outside`` 1), 0 where it has no outside share.
+    """
+    p = p or default_parameters()
+    if p.camera_prior_outside >= 1.0:
+        return np.ones(np.broadcast(pitch_deg, roll_deg).shape)
+    if p.camera_prior_outside == 0:
+        return np.zeros(np.broadcast(pitch_deg, roll_deg).shape)
+    log_outside = np.log(p.camera_prior_outside) - np.log(4 * np.pi)
+    log_inside = _log_handheld(np.radians(pitch_deg), np.radians(roll_deg), p)
+    return 1.0 / (1.0 + np.exp(log_inside - log_outside))
 
 
 def systematic_cov(p: UpModelParameters) -> np.ndarray:

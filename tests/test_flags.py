@@ -10,16 +10,17 @@ import re
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import FIXTURES, rrd_summary, shared
+from conftest import FIXTURES, camera_up, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
-from pcnet.stages.flags import (camera_tilt, lifter_frame_flag, mirrored_skeleton_flag, non_upright_fraction,
+from pcnet.stages.flags import (Kind, camera_tilt, lifter_frame_flag, mirrored_skeleton_flag, non_upright_fraction,
                                 orientation_flags, side_swap_flag,
                                 size_change_flag,
                                 track_segments, track_switch_flag)
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.scale import height_chain_length
 from pcnet.stages.remap import remap_to_h36m
+from pcnet.stages.up_model import camera_outside_probability, default_parameters, log_camera_prior
 
 TADASANA = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"  # real VideoPose3D, standing, camera frame
 MEDIAPIPE = FIXTURES / "mediapipe_blazepose33_f000-059.npz"
@@ -65,8 +66,8 @@ def test_smooth_mode_summary_prints_a_consistent_tilt(tmp_path):
 def test_rolled_or_upside_down_real_input_is_flagged(method, degrees):
     """A portrait or upside-down camera that nothing corrected: some warning must say so."""
     res = rectify(_roll(np.load(TADASANA), degrees), method, mode="sequence")
-    tilt = camera_tilt(res.up, res.valid)[0]
-    warnings = orientation_flags(tilt) + (["non-upright"] if non_upright_fraction(res.canonical, res.valid) > 0.5 else [])
+    tilt, pitch, roll = camera_tilt(res.up, res.valid)
+    warnings = orientation_flags(tilt, pitch, roll) + (["non-upright"] if non_upright_fraction(res.canonical, res.valid) > 0.5 else [])
     assert warnings, (method, degrees, tilt)
 
 
@@ -85,14 +86,27 @@ def test_a_portrait_camera_is_not_called_upside_down(degrees):
 def test_orientation_flags_judge_the_tilt_beyond_the_nearest_image_axis():
     assert "upside down" in orientation_flags(179.0, 0.0, 179.0)[0].detail
     assert "upside down" in orientation_flags(100.0)[0].detail  # the tilt alone: beyond 90 deg from image-up
-    assert "camera tilt 40 deg beyond a quarter turn" in orientation_flags(90.0, 40.0, 90.0)[0].detail
-    assert "camera tilt 40 deg:" in orientation_flags(40.0, 40.0, 0.0)[0].detail
+    assert "camera tilt 50 deg beyond a quarter turn" in orientation_flags(90.0, 50.0, 90.0)[0].detail
+    assert "camera tilt 50 deg (" in orientation_flags(50.0, 50.0, 0.0)[0].detail
     assert orientation_flags(12.0, 10.0, 6.6) == []
+
+
+def test_the_camera_tilt_flag_fires_where_the_declared_prior_holds_the_camera_unusual():
+    """Decision 0064: one source for how cameras are held. The declared prior is narrower in
+    roll (10 deg) than in pitch (12), so 40 deg of pitch is still a handheld camera by its odds
+    and 40 deg of roll is not; the flag's probability is the prior's own outside share."""
+    assert orientation_flags(40.0, 40.0, 0.0) == []
+    assert orientation_flags(40.0, 0.0, 40.0)[0].kind == Kind.CAMERA_TILT
+    p = default_parameters()
+    for pitch, roll in ((0.0, 0.0), (30.0, -20.0), (-45.0, 10.0), (5.0, 38.0)):
+        density = np.exp(log_camera_prior(camera_up(pitch, roll), p))
+        outside = p.camera_prior_outside / (4 * np.pi) / density
+        assert camera_outside_probability(pitch, roll, p) == pytest.approx(outside, rel=1e-9)
 
 
 def test_upright_real_input_with_a_level_camera_is_not_flagged():
     res = rectify(np.load(TADASANA), "geometric", mode="sequence")
-    assert orientation_flags(camera_tilt(res.up, res.valid)[0]) == []
+    assert orientation_flags(*camera_tilt(res.up, res.valid)) == []
     assert non_upright_fraction(res.canonical, res.valid) == 0.0
 
 

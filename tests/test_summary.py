@@ -52,7 +52,7 @@ def _every_kind() -> list[Finding]:
     box = np.load(BOX_X3D)
     fit = {"marker_rms_m": 0.049, "marker_max_m": 0.172, "segments_not_scaled": ["head"], "markers_left_out": ["NOSE"]}
     kp, _ = _switched_track()
-    return (_flags() + orientation_flags(120.0) + orientation_flags(40.0, 40.0, 0.0)
+    return (_flags() + orientation_flags(120.0) + orientation_flags(50.0, 50.0, 0.0)
             + orientation_flags(90.0, 0.0, 90.0) + body_size_flag(box * 100, "m")
             + posture_flag(sequence_up(PostureHypotheses("lying", 0.9, camera_up(0.0, 80.0))))
             + posture_flag(sequence_up(PostureHypotheses("upright", 0.2, camera_up(0.0, 70.0))))
