@@ -33,9 +33,9 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, scale_and_ik
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (Finding, floor_flag, implausible_motion_findings, no_opensim_flag, no_world_frame_flag,
-                               note_finding, one_person_frames, opensim_fit_findings, per_frame_tilt_summary, ranked,
-                               track_segments, unfiltered_flag)
+from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motion_findings, missing_data_line,
+                               no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
+                               opensim_fit_findings, per_frame_tilt_summary, ranked, track_segments, unfiltered_flag)
 from pcnet.stages.floor import Floor
 from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
 from pcnet.pipeline.rectification import rectify_checked
@@ -82,7 +82,10 @@ WORLD_SHORT = {
 class RunResult:
     """What a run produced: counts, the run's report (:class:`~pcnet.pipeline.run_report.RunReport`;
     the mode that ran and the camera's tilt, pitch and roll are read from it) and output paths;
-    findings: the flags as raised (:class:`pcnet.stages.flags.Finding`), notes: the notes' texts."""
+    findings: the flags as raised (:class:`pcnet.stages.flags.Finding`), notes: the notes' texts;
+    note_lines: the summary line of a note made from the data it words rather than from its
+    text (the missing-data note's, :func:`pcnet.stages.flags.missing_data_line`), keyed by the
+    note's text."""
 
     frames: int
     valid_frames: int
@@ -95,6 +98,7 @@ class RunResult:
     findings: list[Finding] = field(default_factory=list)
     fps: float = float("nan")
     fps_source: str = ""
+    note_lines: dict[str, str] = field(default_factory=dict)
 
     @property
     def mode(self) -> str:
@@ -129,7 +133,8 @@ class RunResult:
     @property
     def note_findings(self) -> list[Finding]:
         """The notes as one-line findings (:data:`Severity.INFO`), in the order they were made."""
-        return [note_finding(n) for n in self.notes]
+        return [Finding(Severity.INFO, self.note_lines[n], "", n) if n in self.note_lines else note_finding(n)
+                for n in self.notes]
 
     def key_facts(self, long: bool = False) -> list[tuple[str, str]]:
         """``(label, text)`` of the few facts every summary states: frames, rectification,
@@ -866,12 +871,13 @@ class Measured:
     """Step "kinematics": result: what the sinks write (its kinematics are computed a block
     at a time as they read them); outputs: the kinematics tables written; cutoff_hz,
     cutoff_source: the low-pass cutoff (Hz) and where it came from (``"cutoff_hz"`` or
-    ``"residual analysis"``)."""
+    ``"residual analysis"``); note_lines: :attr:`RunResult.note_lines`."""
 
     result: RecordingResult
     outputs: dict[str, Path]
     cutoff_hz: float
     cutoff_source: str
+    note_lines: dict[str, str]
 
 
 def _inputs(cfg: RunConfig, estimate_notes: list[str]) -> AlignedInputs:
@@ -1092,11 +1098,14 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         result.implausible_frames = implausible_frames(implausible, len(cam))
         findings += implausible_motion_findings(implausible)
     # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)
-    missing_note = format_flag_counts(result.flag_counts, nonfinite_line(inputs.recording.nonfinite))
+    nonfinite = inputs.recording.nonfinite
+    missing_note = format_flag_counts(result.flag_counts, nonfinite_line(nonfinite))
+    note_lines = {}
     if missing_note:
         notes.append(missing_note)
+        note_lines[missing_note] = missing_data_line(result.flag_counts, nonfinite)
     notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)
-    return Measured(result, table, cutoff, "residual analysis" if cfg.residual_cutoff else "cutoff_hz")
+    return Measured(result, table, cutoff, "residual analysis" if cfg.residual_cutoff else "cutoff_hz", note_lines)
 
 
 def _run_report(inputs: AlignedInputs, rectified: Rectified, world: World, measured: Measured) -> RunReport:
@@ -1203,6 +1212,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             method=cfg.method, findings=findings, fps=inputs.recording.fps,
             fps_source=inputs.recording.fps_source, report=report,
             outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
+            note_lines=measured.note_lines,
         )
         # the long form of the summary, published with the rest
         run.outputs[REPORT_NAME] = out / next(iter(write_report(tmp, run.report_text(f"pcnet run: {out}")).values())).name

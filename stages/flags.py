@@ -8,7 +8,7 @@ pipeline prints them in the run summary and stores their texts in the outputs.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import IntEnum, auto
 
@@ -788,26 +788,38 @@ def ranked(findings: Iterable[Finding]) -> list[Finding]:
 # below, keyed by how their text begins, get their own short line; any other is shortened.
 
 
-def _counts_line(text: str) -> str:
-    """The missing-data note (:func:`pcnet.stages.kinematics.format_flag_counts`) with each
-    per-joint list as a joint count and the joint most affected: ``"missing: right_knee 3
-    frames, left_elbow 74 frames; no pose: 8 frames"`` -> ``"missing: 2 joints (most:
-    left_elbow 74 frames); no pose: 8 frames"``."""
+def missing_data_line(counts: Mapping, nonfinite: Mapping[str, int]) -> str:
+    """The run summary's line on missing data, from the counts the full note words
+    (:func:`pcnet.stages.kinematics.format_flag_counts` with
+    :func:`pcnet.adapters.validate.nonfinite_line`): a per-joint list of two or more joints
+    becomes a joint count and the joint most affected, ``"missing: 2 joints (most: left_elbow 74
+    frames); no pose: 8 frames"``; ``''`` when nothing is missing, unfiltered or non-finite.
+
+    Args:
+        counts: :func:`pcnet.stages.kinematics.flag_counts`' dict (``missing_with_pose``,
+            ``frames_without_pose``, ``unfiltered``).
+        nonfinite: joint name -> frames the lifter's file held as inf/NaN
+            (:attr:`pcnet.adapters.Poses3D.nonfinite`).
+    """
+    def per_joint(what: str, frames: Mapping[str, int]) -> str:
+        if len(frames) == 1:
+            ((joint, n),) = frames.items()
+            return f"{what}: {joint} {n} frame{'s' * (n != 1)}"
+        n, joint = max((n, joint) for joint, n in frames.items())
+        return f"{what}: {len(frames)} joints (most: {joint} {n} frame{'s' * (n != 1)})"
+
     parts = []
-    for part in re.sub(r" \([^()]*\)", "", text).split("; "):
-        what, _, listed = part.rpartition(": ")
-        counts = [(int(n), name) for name, n in re.findall(r"(\w+) (\d+) frames?", listed)]
-        # a long list ends "K more joints" (adapters/validate.py: nonfinite_line)
-        unnamed = re.search(r"(\d+) more joints?", listed)
-        joints = len(counts) + (int(unnamed[1]) if unnamed else 0)
-        if what.startswith("input: non-finite") and joints > 1:
-            parts.append(f"inf/NaN in the input: {joints} joints")
-            continue
-        if what == "no pose" or joints < 2:
-            parts.append(f"{what}: {listed}")
-            continue
-        n, worst = max(counts)
-        parts.append(f"{what}: {joints} joints (most: {worst} {n} frame{'s' * (n != 1)})")
+    if counts["missing_with_pose"]:
+        parts.append(per_joint("missing", counts["missing_with_pose"]))
+    if counts["frames_without_pose"]:
+        n = counts["frames_without_pose"]
+        parts.append(f"no pose: {n} frame{'s' * (n != 1)}")
+    if len(nonfinite) > 1:
+        parts.append(f"inf/NaN in the input: {len(nonfinite)} joints")
+    elif nonfinite:
+        parts.append(per_joint("input: non-finite values read as missing", nonfinite))
+    if counts["unfiltered"]:
+        parts.append(per_joint("unfiltered", counts["unfiltered"]))
     return _clipped("; ".join(parts))
 
 
@@ -824,7 +836,6 @@ NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
      lambda m: f"low-pass cutoff {m['hz']} Hz by residual analysis (Winter; noise {m['noise']})"),
     (r"3D joints remapped from (?P<layout>\S+) to H36M-17 with (?P<built>.*?) built as means",
      lambda m: f"3D joints remapped from {m['layout']} to H36M-17 with {m['built']} built from others"),
-    (r"(missing|no pose|input: non-finite|unfiltered): ", lambda m: _counts_line(m.string)),
     # which person of several: another choice is another subject, so the way to choose stays
     (r"2D keypoints: track (?P<track>\S+) chosen (?P<how>as the highest summed per-frame score|by person=)(?P<rest>.*)",
      lambda m: shortened(m.string) if m['how'] == "by person=" else

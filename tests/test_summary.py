@@ -11,11 +11,12 @@ from conftest import FIXTURES, camera_up, run_report, sequence_up
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import RunResult, run_pipeline
 from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, body_size_flag, ensemble_weights_flag,
-                                floor_flag, implausible_motion_findings, keypoints_outside_image_flag,
+                                floor_flag, implausible_motion_findings, keypoints_outside_image_flag, missing_data_line,
                                 leg_asymmetry_flag, lifter_frame_flag, mirrored_skeleton_flag, no_opensim_flag,
                                 no_world_frame_flag, non_upright_flag, note_finding, opensim_fit_findings,
                                 orientation_flags, posture_flag, ranked, shortened, side_swap_flag, size_change_flag,
                                 track_segments, track_switch_flag, unfiltered_flag)
+from pcnet.stages.kinematics import format_flag_counts
 from pcnet.stages.opensim_ik import ik_fit_flags
 from pcnet.stages.plausibility import ImplausibleMotion
 from pcnet.stages.rectification_report import EnsembleWeights, PostureHypotheses
@@ -125,11 +126,15 @@ def test_unknown_texts_are_shortened_to_one_line_keeping_the_first_clauses():
 
 def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     flags = _flags()
-    notes = ["missing: right_knee 3 frames, left_elbow 74 frames, left_wrist 36 frames; no pose: 8 frames",
+    counts = {"missing_with_pose": {"right_knee": 3, "left_elbow": 74, "left_wrist": 36}, "frames_without_pose": 8,
+              "unfiltered": {}}
+    missing = format_flag_counts(counts)
+    notes = [missing,
              "world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time, held at the "
              "ends (BVH cannot hold NaN; the CSV, TRC and npz keep them missing)"]
     result = RunResult(frames=60, valid_frames=57, units="m", method="pcnet", fps=30.0, fps_source="--fps", findings=flags,
-                       notes=notes, report=run_report("auto", "sequence", intervals_deg=(8.6, 3.5)),
+                       notes=notes, note_lines={missing: missing_data_line(counts, {})},
+                       report=run_report("auto", "sequence", intervals_deg=(8.6, 3.5)),
                        outputs={"canonical.npz": FIXTURES / "o" / "canonical.npz", REPORT_NAME: FIXTURES / "o" / REPORT_NAME})
     lines = result.summary().splitlines()
     warnings = [ln for ln in lines if ln.startswith("WARNING")]
