@@ -1030,8 +1030,8 @@ def rolled_floor_table(rolled: list[dict], floor_sets: list[tuple[str, list]]) -
                 R, ok = temporal.check_rotations(R, valid)
                 evidence = evidence_of(ev)
                 _, _, seq = up_model_sequence(R, ok, evidence, ev["fps"], joints_cam=joints)
-                old = posture_and_floor_up(summarise_recording(evidence.frames(ok), ev["fps"], p), joints, ok,
-                                           ev["fps"], p, footfalls=False)
+                old = posture_and_floor_up(summarise_recording(evidence.frames(ok), ev["fps"], p), joints, ok, p,
+                                           footfalls=False)
                 before = (old.up, old.posterior.posture)
                 for default, (up, posture) in ((True, (seq.up, seq.posture.most_probable)), (False, before)):
                     errs[default].append(clip_error(np.where(ok[:, None], up, np.nan), ev["true_up"]))

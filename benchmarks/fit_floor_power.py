@@ -61,7 +61,7 @@ def lying_probabilities(recs: list[FF.Recording], p: UpModelParameters) -> np.nd
     for i, r in enumerate(recs):
         lu0, ll0 = posture_log_weights(r.post.summary, p)
         for j, J in enumerate((r.joints, r.joints_2d)):
-            energy = floor_energy(J, r.ok & np.isfinite(J).all((1, 2)), r.post.summary.up, r.fps, p)[0]
+            energy = floor_energy(J, r.ok & np.isfinite(J).all((1, 2)), r.post.summary.up, p)[0]
             terms = {}
 
             def scored(t, ups, energy=energy, terms=terms):  # the footfalls' terms once per recording
@@ -88,7 +88,7 @@ def chain_errors(recs: list[FF.Recording], p: UpModelParameters, footfalls: bool
     for i, r in enumerate(recs):
         for j, J in enumerate((r.joints, r.joints_2d)):
             ok = r.ok & np.isfinite(J).all((1, 2))
-            chain = posture_and_floor_up(r.post.summary, J, ok, r.fps, p, footfalls=footfalls)
+            chain = posture_and_floor_up(r.post.summary, J, ok, p, footfalls=footfalls)
             err[i, j], lying[i, j] = float(A.deg(chain.up, r.true_up)), chain.posterior.posture == "lying"
     return err, lying
 

@@ -3,10 +3,12 @@ camera-frame pelvis path (measured by a depth sensor or given in the file, or re
 keypoints by :mod:`pcnet.stages.root_path`).
 docs/up_model.md ("Floor contacts") writes the model down; issue 49.
 
-Contacts. In a frame, an ankle is on the floor when it is within ``h_c L`` of that frame's
-lower ankle along the current up and moves slower than ``v_c L`` per second (central
-difference over ``+-w`` seconds); ``L`` is the median leg length (hip-knee-ankle). A run of
-consecutive contact frames of one ankle is a footfall.
+Contacts. In a frame, the lower of the two ankles along the current up is on the floor; a run
+of consecutive frames in which one ankle is the lower is a footfall. A foot in swing is seldom
+the lower one, and a frame with both feet off the ground (a run's flight, a jump) gives a false
+contact that the footfalls' robust loss below discounts. A height band about the lower ankle
+and a speed criterion were both switched off on held-out data, and neither helped: they went,
+with their three parameters (decision 0065). ``L`` is the median leg length (hip-knee-ankle).
 
 Floor model, in the tangent basis ``(e1, e2)`` = (pitch, roll) directions of
 :func:`pcnet.stages.up_model.tangent_basis` at the poses' up ``u0``: the floor normal is
@@ -48,7 +50,7 @@ floor's information ``I`` and the up, ``theta* = (I + C0^-1)^-1 z``. The fused c
 ``(I + C0^-1)^-1`` is too narrow on validation
 (``benchmarks/results/fit_floor_contacts.txt``), so the report keeps the up model's intervals.
 
-Parameters ``h_c``, ``v_c``, ``w``, ``sigma_f``, ``s_o`` and ``t_f`` are the up model's
+Parameters ``sigma_f``, ``s_o`` and ``t_f`` are the up model's
 (:class:`pcnet.stages.up_model.UpModelParameters`), fitted on validation data with a pelvis
 path by ``python -m benchmarks.fit_floor_contacts --data ../shared/data`` and then
 ``python -m benchmarks.fit_floor_power --data ../shared/data``.
@@ -124,22 +126,14 @@ class Contacts:
         return Contacts(*(np.repeat(a, rep, 0) for a in (self.points, self.frames, self.ankle, self.footfall)))
 
 
-def detect_contacts(J, ok: np.ndarray, up: np.ndarray, fps: float, leg: float,
-                    p: UpModelParameters) -> Contacts:
-    """The quasi-static lower ankles of ``ok`` frames of ``J`` ``(T, 17, 3)`` along unit ``up``
-    ``(3,)`` (module docstring: ``h_c``, ``v_c``, ``w`` of ``p``; ``leg`` in the input's unit)."""
-    T = len(J)
+def detect_contacts(J, ok: np.ndarray, up: np.ndarray) -> Contacts:
+    """The lower ankle of each ``ok`` frame of ``J`` ``(T, 17, 3)`` along unit ``up`` ``(3,)``
+    (module docstring, "Contacts"; both ankles where they are level)."""
     ank = np.asarray(J[:, [R_ANKLE, L_ANKLE]], np.float64)
     h = ank @ up
-    k = max(1, int(round(p.contact_speed_window_s * fps)))
-    speed = np.full((T, 2), np.nan)
-    if T > 2 * k:
-        speed[k:-k] = np.linalg.norm(ank[2 * k:] - ank[:-2 * k], axis=-1) / (2 * k / fps)
     lowest = np.min(np.where(np.isfinite(h), h, np.inf), axis=1, keepdims=True)  # inf: no ankle in that frame
     with np.errstate(invalid="ignore"):
-        low = h <= lowest + p.contact_height_leg * leg
-        slow = speed < p.contact_speed_leg_s * leg
-    contact = low & slow & ok[:, None] & np.isfinite(h)
+        contact = (h <= lowest) & ok[:, None] & np.isfinite(h)
     pts, frames, ankle, footfall = [], [], [], []
     next_id = 0
     for side in range(2):
@@ -343,23 +337,23 @@ class FloorEnergy:
         return self.power * loss + levels
 
 
-def floor_energy(J, ok: np.ndarray, u0: np.ndarray, fps: float,
+def floor_energy(J, ok: np.ndarray, u0: np.ndarray,
                  p: UpModelParameters | None = None) -> tuple[FloorEnergy | None, str]:
     """``(energy, why)``: the :class:`FloorEnergy` of a recording with a pelvis path (``J``,
-    ``ok``, ``fps`` as :func:`ground_plane_up`'s), its footfalls detected along the poses' unit
+    ``ok`` as :func:`ground_plane_up`'s), its footfalls detected along the poses' unit
     up ``u0`` ``(3,)`` (camera frame), and ``"ok"``; or ``None`` and why the joints carry no
     floor or no footfall."""
     p = default_parameters() if p is None else p
     fin, leg, refused = _floor_frames(J, ok)
     if refused:
         return None, refused
-    contacts = detect_contacts(J, fin, u0, fps, leg, p)
+    contacts = detect_contacts(J, fin, u0)
     if not len(contacts.points):
         return None, NO_CONTACTS
     return FloorEnergy(footfalls(contacts)[0], p.footfall_height_sd_leg * leg, p.footfall_posture_power), "ok"
 
 
-def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, fps: float, prior_cov: np.ndarray,
+def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, prior_cov: np.ndarray,
                     p: UpModelParameters | None = None) -> FloorOutcome:
     """The up refined by the floor contacts of a recording with a pelvis path (measured, or
     recovered from 2D keypoints).
@@ -373,7 +367,6 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, fps: float, prior_cov: np
             depth-pinned joints) carries no floor and is refused with that reason.
         ok: ``(T,)`` bool, the frames to use.
         u0: ``(3,)`` unit up of the poses (camera frame).
-        fps: frame rate, Hz.
         prior_cov: ``(2, 2)`` rad^2, the poses' posterior covariance in the (pitch, roll) basis at ``u0``.
         p: the up model's parameters (default: the shipped ones).
 
@@ -384,10 +377,10 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, fps: float, prior_cov: np
     fin, leg, refused = _floor_frames(J, ok)
     if refused:
         return FloorOutcome(u0, None, None, {"used": False, "reason": refused}, leg)
-    contacts = detect_contacts(J, fin, u0, fps, leg, p)
+    contacts = detect_contacts(J, fin, u0)
     fit = fit_floor(contacts, u0, prior_cov, leg, p)
     if fit.informative:
-        again = detect_contacts(J, fin, fit.up, fps, leg, p)
+        again = detect_contacts(J, fin, fit.up)
         if len(again.points):
             contacts, fit = again, fit_floor(again, u0, prior_cov, leg, p)
     info = {"used": bool(fit.informative), "n_contacts": int(len(contacts.points)),
@@ -415,7 +408,7 @@ class PostureFloorUp:
     ground: dict
 
 
-def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, fps: float, p: UpModelParameters,
+def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelParameters,
                          lying: bool = True, footfalls: bool = True) -> PostureFloorUp:
     """The up of a static camera from the poses and, where ``J`` carries a pelvis path, the
     floor: the footfalls weigh in the posture's posterior (:func:`floor_energy` along the poses'
@@ -427,7 +420,7 @@ def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, fps: float, p:
         summary: the recording's :class:`~pcnet.stages.up_model.PoseSummary`.
         J: ``(T, 17, 3)`` float camera-frame poses with the pelvis path added, as
             :func:`ground_plane_up`'s; ``None`` for root-relative joints (no floor).
-        ok: ``(T,)`` bool, the frames to use; ``fps`` their rate, Hz.
+        ok: ``(T,)`` bool, the frames to use.
         p: the up model's parameters.
         lying: whether the lying posture is a hypothesis (``False`` with ``--no-camera-prior``).
         footfalls: ``False`` leaves the footfalls out of the posture (the chain before decision
@@ -438,10 +431,10 @@ def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, fps: float, p:
     elif not footfalls:
         energy, reason = None, FOOTFALLS_LEFT_OUT
     else:  # the reason stands only where the body reads as lying (an upright one gets the fine fit's)
-        energy, why = floor_energy(J, ok, summary.up, fps, p)
+        energy, why = floor_energy(J, ok, summary.up, p)
         reason = LYING_NO_FLOOR if energy is not None else f"body read as lying; no floor: {why}"
     post = static_posterior(summary, p, lying=lying, floor=energy)
     if J is not None and post.posture == "upright":
-        floor = ground_plane_up(J, ok, post.up, fps, post.upright_cov(), p)
+        floor = ground_plane_up(J, ok, post.up, post.upright_cov(), p)
         return PostureFloorUp(post, floor.up, floor.info)
     return PostureFloorUp(post, post.up, {"used": False, "reason": reason})

@@ -314,7 +314,7 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
         params = replace(params, camera_prior_outside=1.0)
     summary = summarise_recording(evidence.frames(ok), fps, params)
     J = None if joints_cam is None else check_poses(joints_cam, "joints_cam")
-    chain = posture_and_floor_up(summary, J, ok, fps, params, lying=camera_prior)
+    chain = posture_and_floor_up(summary, J, ok, params, lying=camera_prior)
     post, up, ground = chain.posterior, chain.up, chain.ground
     kind = "up model+ground_plane" if ground["used"] else "up model"
     rotations, heading_ok = rotations_about_up(R, up)

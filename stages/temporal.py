@@ -230,7 +230,7 @@ def sequence_rectify(
         valid: ``(T,)`` bool; frames with NaN ``R`` are invalid too. ``None`` = all.
         joints_cam: optional ``(T, 17, 3)`` H36M-17 camera-frame joints (any unit), for the
             ground plane.
-        fps: frame rate (bootstrap block length, contact speeds).
+        fps: frame rate (bootstrap block length).
         n_bootstrap: bootstrap replicates (0 = no uncertainty, NaN).
 
     Returns:
@@ -260,7 +260,7 @@ def sequence_rectify(
         if len(J) != T:
             raise InputError(f"joints_cam: expected {T} frames, got {len(J)}")
     if J is not None:
-        floor = ground_plane_up(J, ok, u_pose, fps, _pose_prior_cov())
+        floor = ground_plane_up(J, ok, u_pose, _pose_prior_cov())
         up, gp = floor.up, floor.info
         if gp["used"]:
             contacts, leg = floor.contacts, floor.leg

@@ -45,7 +45,7 @@ def test_a_walk_floor_corrects_a_biased_posterior():
         X, truth = _seen(WALK, seed, noise_m=0.015)
         ok = np.ones(len(X), bool)
         u0 = exp_map(truth, np.radians([5.0, -3.0]))  # the poses' up, 5.8 deg off
-        out = ground_plane_up(X, ok, u0, FPS, _cov(6.0))
+        out = ground_plane_up(X, ok, u0, _cov(6.0))
         assert out.info["used"], out.info
         assert _deg(out.up, truth) < 1.5, (_deg(out.up, truth), out.info)
         # the fused covariance is narrower than the poses' prior along every axis
@@ -60,37 +60,42 @@ def test_feet_on_two_levels_do_not_tilt_the_floor():
     half = len(X) // 2
     X[half:] += 0.4 * truth
     ok = np.ones(len(X), bool)
+    ok[half - 1:half + 1] = False  # no footfall spans the cut, where the feet jump 40 cm in a frame
     p = default_parameters()
-    points, _ = footfalls(detect_contacts(X, ok, truth, FPS, leg_length(X, ok), p))
+    points, _ = footfalls(detect_contacts(X, ok, truth))
     heights = points @ truth
     assert np.ptp(heights) > 0.35  # both levels are among the footfalls
     centred = points - points.mean(0)
     one_plane = np.linalg.svd(centred)[2][-1]  # the least-squares plane through every footfall
     assert min(_deg(one_plane, truth), _deg(-one_plane, truth)) > 5.0
     u0 = exp_map(truth, np.radians([3.0, -2.0]))
-    out = ground_plane_up(X, ok, u0, FPS, _cov(4.0), p)
+    out = ground_plane_up(X, ok, u0, _cov(4.0), p)
     assert out.info["used"] and out.info["n_levels"] == 2 and _deg(out.up, truth) < 1.5, (_deg(out.up, truth), out.info)
 
 
 def test_feet_in_place_do_not_tilt_the_up():
-    # Both feet stay put: one footfall each. Contacts within a footfall share its error, so the
-    # millimetre jitter of a resting ankle must not read as a floor tilt (it gave 7.5 deg before
-    # footfalls were one observation each).
+    # Both feet stay put. Only the lower ankle is a contact (decision 0065), so resting feet
+    # give one footfall (it gave 7.5 deg before footfalls were one observation each), and a
+    # small per-frame jitter, which makes the two ankles take turns as the lower one, must not
+    # read as a floor tilt either: 2 mm, about twice what MediaPipe's landmarks jitter on
+    # Pose2Sim's still T-pose (1.5 cm tilts it up to 1.1 deg: docs/decisions/0065).
     X, truth = _seen(RAISE, 0)
     p = default_parameters()
     ok = np.ones(len(X), bool)
-    contacts = detect_contacts(X, ok, truth, FPS, leg_length(X, ok), p)
-    points, ankle = footfalls(contacts)
-    assert len(points) <= 4 and set(ankle) == {0, 1}
-    out = ground_plane_up(X, ok, truth, FPS, _cov(5.0), p)
-    assert _deg(out.up, truth) < 1.0, out.info
+    points, ankle = footfalls(detect_contacts(X, ok, truth))
+    assert len(points) == 1
+    assert _deg(ground_plane_up(X, ok, truth, _cov(5.0), p).up, truth) < 1.0
+    for seed in range(5):
+        X, truth = _seen(RAISE, seed, noise_m=0.002)
+        out = ground_plane_up(X, ok, truth, _cov(5.0), p)
+        assert out.info["n_footfalls"] > 2 and _deg(out.up, truth) < 0.5, (seed, out.info)
 
 
 def test_root_relative_joints_are_refused():
     X, truth = _seen(WALK, 0, noise_m=0.015)
     rel = X - X[:, PELVIS:PELVIS + 1]
     u0 = exp_map(truth, np.radians([5.0, 0.0]))
-    out = ground_plane_up(rel, np.ones(len(X), bool), u0, FPS, _cov(5.0))
+    out = ground_plane_up(rel, np.ones(len(X), bool), u0, _cov(5.0))
     assert not out.info["used"] and "pelvis" in out.info["reason"] and np.allclose(out.up, u0)
 
 
@@ -99,7 +104,7 @@ def test_levels_objective_scores_many_candidate_normals_as_one_at_a_time():
     X, truth = _seen(WALK, 1, noise_m=0.015)
     ok = np.ones(len(X), bool)
     leg = leg_length(X, ok)
-    points, _ = footfalls(detect_contacts(X, ok, truth, FPS, leg, p))
+    points, _ = footfalls(detect_contacts(X, ok, truth))
     scale = p.footfall_height_sd_leg * leg
     ups = exp_map(np.broadcast_to(truth, (40, 3)), np.random.default_rng(0).normal(0.0, 0.3, (40, 2)))
     together = levels_objective(ups @ points.T, scale)
@@ -141,11 +146,11 @@ def test_posture_and_floor_up_weighs_the_footfalls_in_the_posture_only_when_aske
     rolled, truth = X @ Q.T, Q @ truth
     ok = np.ones(len(rolled), bool)
     summary, p = PoseSummary(truth, _cov(1.0)), default_parameters()
-    none = posture_and_floor_up(summary, None, ok, FPS, p)
+    none = posture_and_floor_up(summary, None, ok, p)
     assert none.posterior.posture == "lying" and none.ground == {"used": False, "reason": NO_PELVIS_PATH}
-    before = posture_and_floor_up(summary, rolled, ok, FPS, p, footfalls=False)
+    before = posture_and_floor_up(summary, rolled, ok, p, footfalls=False)
     assert before.posterior.posture == "lying" and before.ground["reason"] == FOOTFALLS_LEFT_OUT
     assert np.array_equal(before.up, before.posterior.up)
-    chain = posture_and_floor_up(summary, rolled, ok, FPS, p)
+    chain = posture_and_floor_up(summary, rolled, ok, p)
     assert chain.posterior.posture == "upright" and chain.ground["reason"] == "ok", chain.ground
     assert _deg(chain.up, truth) < 3.0

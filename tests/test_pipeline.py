@@ -728,8 +728,7 @@ def test_a_pelvis_path_from_2d_keypoints_lets_sequence_mode_fit_the_floor(tmp_pa
 def test_pcnet_run_recovers_the_pelvis_path_before_rectifying(tmp_path):
     """With 2D keypoints and metric poses, ``pcnet run``'s sequence mode hands the up's floor
     contacts the path recovered from the 2D keypoints (real MediaPipe, the Sports2D demo's first
-    60 frames: one footfall, so the floor constrains no tilt there and says so); without 2D
-    keypoints there is no path."""
+    60 frames of a walk: footfalls found along that path); without 2D keypoints there is no path."""
     base = ("run", "--lifter", "mediapipe", "--lifter-output", MEDIAPIPE, "--no-recording")
     reports = {}
     for name, extra in (("2D", ("--keypoints2d", MEDIAPIPE, "--keypoints2d-format", "mediapipe")), ("3D only", ())):
@@ -738,7 +737,7 @@ def test_pcnet_run_recovers_the_pelvis_path_before_rectifying(tmp_path):
         with np.load(tmp_path / name / "canonical.npz") as npz:
             reports[name] = json.loads(str(npz["report"]))
     assert reports["2D"]["root_path"] == "from 2D keypoints" and reports["2D"]["ground_plane"]["n_footfalls"] >= 1
-    assert reports["2D"]["ground_plane"]["reason"] == "the contacts constrain no floor tilt"
+    assert not reports["2D"]["ground_plane"]["reason"].startswith("no pelvis path"), reports["2D"]["ground_plane"]
     assert reports["3D only"]["ground_plane"]["reason"].startswith("no pelvis path")
 
 
