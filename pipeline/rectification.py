@@ -133,7 +133,9 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
     them a block at a time), in memory or a
     :class:`~pcnet.stages.core.framestore.FrameArray`; ``allocate`` makes the residual and
     canonical arrays (:data:`pcnet.stages.rectify.Allocate`; default in memory); ``decide_on``
-    ``(T,)`` bool: the frames mode ``auto`` decides on (:class:`pcnet.stages.rectify.SequenceEvidence`).
+    ``(T,)`` bool, one person's stretch of a 2D track that switches people: the frames mode
+    ``auto`` decides on and the only ones whose feet the floor contacts read
+    (:class:`pcnet.stages.rectify.SequenceEvidence`).
     No ``pelvis_from_hips_frames`` in the report.
 
     Raises:

@@ -231,10 +231,11 @@ class SequenceEvidence:
                 sequence mode is then the up model's static posterior (:func:`up_model_sequence`).
             R: ``(T, 3, 3)`` per-frame canonical->camera rotations; valid: ``(T,)`` bool or
                 ``None`` (all). fps: frame rate, > 0. decide_on:
-                optional ``(T,)`` bool, the frames ``"auto"`` decides on (one person's
-                stretch of a 2D track that switches people, :func:`pcnet.stages.flags.one_person_frames`);
-                every valid frame when ``None`` or when fewer than
-                :data:`MIN_DECISION_STRETCH_S` seconds of them are valid. calibrated: the
+                optional ``(T,)`` bool, one person's stretch of a 2D track that switches
+                people (:func:`pcnet.stages.flags.one_person_frames`): the frames ``"auto"``
+                decides on (every valid frame when ``None`` or when fewer than
+                :data:`MIN_DECISION_STRETCH_S` seconds of them are valid), and the only frames
+                whose feet the shipped ensemble's floor contacts read (decision 0066). calibrated: the
                 lifter's systematic error is calibrated for the estimator (the shipped ensemble
                 only); otherwise the sequence up has its bootstrap and NaN intervals.
 
@@ -271,7 +272,8 @@ class SequenceEvidence:
         mode = ModeChoice(self.mode, run, spread_deg=spread, decided_on_frames=decided_on)
         located = joints_cam if self.measured_root else None
         if evidence is not None and calibrated:
-            out, valid, up = up_model_sequence(R, ok, evidence, fps, self.camera_prior, located)
+            # A path that jumps to another person is not one body's: the floor reads one person's feet (decision 0066).
+            out, valid, up = up_model_sequence(R, ok, evidence, fps, self.camera_prior, located, floor_frames=decide_on)
         else:  # another method's sequence up: its bootstrap, no calibrated interval
             res = sequence_rectify(R, ok, located, fps=fps, n_bootstrap=self.n_bootstrap)
             out, valid = res.rotations, res.valid
@@ -288,8 +290,8 @@ class SequenceEvidence:
 
 
 def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: float, camera_prior: bool = True,
-                      joints_cam: np.ndarray | None = None,
-                      params: UpModelParameters | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
+                      joints_cam: np.ndarray | None = None, params: UpModelParameters | None = None,
+                      floor_frames: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
     """Sequence mode by the up model (:mod:`pcnet.stages.up_model`): the static posterior's up
     for every valid frame and each frame's heading about it
     (:func:`pcnet.stages.temporal.rotations_about_up` of the per-frame rotations ``R``
@@ -301,7 +303,10 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     floor contacts (:func:`pcnet.stages.ground_plane.posture_and_floor_up`). The intervals
     stay the up model's: the fused ones are too narrow on validation
     (``benchmarks/results/fit_floor_contacts.txt``). ``params``: the up model's parameters
-    (default: the shipped ones; the ablation switches terms off through them).
+    (default: the shipped ones; the ablation switches terms off through them). ``floor_frames``:
+    ``(T,)`` bool, the only frames whose feet the floor contacts read (one person's stretch of
+    a 2D track that switches people, :func:`pcnet.stages.flags.one_person_frames`; decision
+    0066), or ``None`` (every valid frame); the poses' up reads every valid frame.
 
     Returns:
         ``(rotations (T, 3, 3), valid (T,) bool, up)``: the
@@ -314,7 +319,8 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
         params = replace(params, camera_prior_outside=1.0)
     summary = summarise_recording(evidence.frames(ok), fps, params)
     J = None if joints_cam is None else check_poses(joints_cam, "joints_cam")
-    chain = posture_and_floor_up(summary, J, ok, params, lying=camera_prior)
+    floor_ok = ok if floor_frames is None else ok & np.asarray(floor_frames, bool)
+    chain = posture_and_floor_up(summary, J, floor_ok, params, lying=camera_prior)
     post, up, ground = chain.posterior, chain.up, chain.ground
     kind = "up model+ground_plane" if ground["used"] else "up model"
     rotations, heading_ok = rotations_about_up(R, up)

@@ -154,3 +154,20 @@ def test_posture_and_floor_up_weighs_the_footfalls_in_the_posture_only_when_aske
     chain = posture_and_floor_up(summary, rolled, ok, p)
     assert chain.posterior.posture == "upright" and chain.ground["reason"] == "ok", chain.ground
     assert _deg(chain.up, truth) < 3.0
+
+
+def test_where_the_2d_track_switches_person_the_floor_reads_one_persons_feet():
+    """Decision 0066: a real walk, then the track jumps to another person standing half a metre
+    higher (a box) two metres away. Both people's feet give the floor two support levels; the
+    floor of the longest one-person stretch has the walker's alone."""
+    from pcnet.pipeline.rectification import rectify_checked
+
+    X, truth = _seen(WALK, 0, noise_m=0.015)
+    other = X[: len(X) // 2] + 0.5 * truth + np.array([2.0, 0.0, 0.0])
+    both = np.concatenate([X, other])
+    walker = np.r_[np.ones(len(X), bool), np.zeros(len(other), bool)]
+    mixed = rectify_checked(both, mode="sequence", fps=FPS, measured_root=True).report.sequence.ground_plane
+    one = rectify_checked(both, mode="sequence", fps=FPS, measured_root=True, decide_on=walker).report.sequence
+    assert mixed["n_levels"] >= 2 and mixed["n_contacts"] > len(X), mixed
+    assert one.ground_plane["n_levels"] == 1 and one.ground_plane["n_contacts"] <= len(X), one.ground_plane
+    assert _deg(one.up, truth) < 3.0, (_deg(one.up, truth), one.ground_plane)
