@@ -968,6 +968,19 @@ def measured_root_recordings(data: Path, file: str, split: str, max_clips: int, 
     return out
 
 
+def floor_recordings(data: Path, cache: Path, max_clips: int, static: list[list[dict]]) -> list[tuple[str, list]]:
+    """``[(title, recordings)]`` of the floor sections: each held-out mocap set ``static``
+    (:data:`MOCAP_SETS` order, :func:`mocap_set`) with its pelvis path
+    (:func:`measured_root_recordings`), then the Bandai test split's other clips, untouched by
+    the floor work until decision 0043 (the sets before were seen in 0042)."""
+    sets = [(title, measured_root_recordings(data, file, split, max_clips, evs))
+            for (title, file, split), evs in zip(MOCAP_SETS, static)]
+    file, split = MOCAP_SETS[0][1:]
+    rest = mocap_set(data, cache, file, split, max_clips, rest=True)
+    sets.append(("Bandai test, other clips", measured_root_recordings(data, file, split, max_clips, rest, rest=True)))
+    return sets
+
+
 def floor_table(sets: list[tuple[str, list]]) -> list[str]:
     """The floor contacts switched off, on held-out recordings with a pelvis path: per set the
     sequence tilt error of the default chain with a measured root (the up model fused with the
@@ -1089,15 +1102,9 @@ def main(argv=None) -> int:
             evs = mocap_set(args.data, args.cache, file, split, args.max_clips)
             if "mocap" not in args.skip:
                 sections.append(("mocap", title, evs))
-            if "floor" not in args.skip:
-                floor_sets.append((title, measured_root_recordings(args.data, file, split, args.max_clips, evs)))
             static.append(evs)
         if "floor" not in args.skip:
-            # Untouched by the floor work until decision 0043 (the sets above were seen in 0042).
-            file, split = MOCAP_SETS[0][1:]
-            rest = mocap_set(args.data, args.cache, file, split, args.max_clips, rest=True)
-            floor_sets.append(("Bandai test, other clips",
-                               measured_root_recordings(args.data, file, split, args.max_clips, rest, rest=True)))
+            floor_sets = floor_recordings(args.data, args.cache, args.max_clips, static)
     if "mocap" not in args.skip:
         moving = heldout_sweep(args.cache, static, args.max_clips)
         sections.append(("mocap", f"Moving camera (pitch sweeping {SWEEP_DEG:g} deg over each clip; Bandai test and "

@@ -63,7 +63,7 @@ RAISED_M = 0.2
 @dataclass(frozen=True)
 class Recording:
     """One validation recording: its set (``"bandai paper"``, ...), the clip's name, joints ``(T, 17, 3)``
-    (camera frame, metres, the pelvis path kept), valid frames ``ok`` ``(T,)``, ``fps``, the
+    (camera frame, metres, the pelvis path kept), valid frames ``ok`` ``(T,)``, the
     true up ``(3,)``, the up model's posterior ``post`` and ``joints_2d``, the joints with the
     path a monocular run recovers from 2D keypoints instead (:func:`benchmarks.ablation.keypoint_root_path`;
     ``None`` where not made)."""
@@ -72,7 +72,6 @@ class Recording:
     name: str
     joints: np.ndarray
     ok: np.ndarray
-    fps: float
     true_up: np.ndarray
     post: StaticPosterior
     joints_2d: np.ndarray | None = None
@@ -86,7 +85,7 @@ def _recording(tag: str, ev: dict, joints: np.ndarray, true_up: np.ndarray,
     R, ok = temporal.check_rotations(R, valid)
     p = default_parameters()
     post = static_posterior(summarise_recording(A.evidence_of(ev).frames(ok), ev["fps"], p), p)
-    return Recording(tag, ev["name"], joints, ok, ev["fps"], true_up[np.flatnonzero(ok)[0]], post, joints_2d)
+    return Recording(tag, ev["name"], joints, ok, true_up[np.flatnonzero(ok)[0]], post, joints_2d)
 
 
 def recordings(data: Path, cache: Path) -> list[Recording]:
@@ -244,8 +243,8 @@ def main(argv=None) -> int:
              f"Validation: {len(recs)} recordings ({counts}), "
              "pelvis path kept (measured root), lifter noise.", ""]
     sigma_f, s_o, n = error_model(recs)
-    best = replace(base, footfall_height_sd_leg=sigma_f, ankle_offset_leg=s_o)
-    err = tilt_errors(recs, best)
+    fitted = replace(base, footfall_height_sd_leg=sigma_f, ankle_offset_leg=s_o)
+    err = tilt_errors(recs, fitted)
     split = (f"validation ({len(recs)} recordings: Bandai motion-style val + CMU val subjects, paper/wide/rolled static "
              f"cameras, lifter noise, pelvis path kept)")
     prov = {
@@ -254,12 +253,12 @@ def main(argv=None) -> int:
     }
     doc = json.loads(args.json.read_text())
     for k in prov:
-        doc["parameters"][k] = {"value": round(float(getattr(best, k)), 6), "provenance": f"{prov[k]}; {COMMAND}"}
+        doc["parameters"][k] = {"value": round(float(getattr(fitted, k)), 6), "provenance": f"{prov[k]}; {COMMAND}"}
     args.json.write_text(json.dumps(doc, indent=2) + "\n")
     UpModelParameters.load(args.json.read_text())  # the written file parses
     lines += ["Shipped:"]
-    lines += [f"  {k} = {getattr(best, k):.4f}" for k in prov]
-    err_2d = tilt_errors(recs, best, from_2d=True)
+    lines += [f"  {k} = {getattr(fitted, k):.4f}" for k in prov]
+    err_2d = tilt_errors(recs, fitted, from_2d=True)
     lines += ["", f"{'validation set':<16}{'recordings':>11}{'up model alone':>16}{'with the floor':>16}"
                   f"{'path from 2D':>14}"]
     for s in sets:
@@ -276,10 +275,10 @@ def main(argv=None) -> int:
     for views in ("paper", "wide"):
         sub = [r for r in raised if r.set == f"raised {views}"]
         alone = np.array([float(A.deg(r.post.up, r.true_up)) for r in sub])
-        fused = tilt_errors(sub, best)
+        fused = tilt_errors(sub, fitted)
         lines.append(f"{'raised ' + views:<16}{len(sub):>11}{alone.mean():>16.2f}{fused.mean():>16.2f}"
                      f"{int(np.sum(alone > 20)):>18} / {int(np.sum(fused > 20))}")
-    lines += ["", coverage_line(recs, best)]
+    lines += ["", coverage_line(recs, fitted)]
     lines.append(f"({time.time() - t0:.0f} s)")
     print_and_save(lines, args.out)
     return 0

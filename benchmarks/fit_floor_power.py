@@ -2,8 +2,8 @@
 
     python -m benchmarks.fit_floor_power --data ../shared/data [--cache /tmp/pcnet_ablation_cache]
 
-Run after ``python -m benchmarks.fit_floor_contacts`` (it uses that fit's contact definition
-and footfall error model). Updates ``footfall_posture_power`` in ``stages/data/up_model.json``
+Run after ``python -m benchmarks.fit_floor_contacts`` (it uses that fit's footfall error
+model). Updates ``footfall_posture_power`` in ``stages/data/up_model.json``
 with its provenance and writes ``benchmarks/results/fit_floor_power.txt``. No held-out set is
 read.
 

@@ -3,7 +3,8 @@
     python -m benchmarks.floor_rows --data ../shared/data --save FILE.npz [--max-clips 200]
     python -m benchmarks.floor_rows --data ../shared/data --against FILE.npz
 
-Rows, as ``benchmarks/ablation.py``'s two floor sections build them from its cache: the Bandai
+Rows, as ``benchmarks/ablation.py``'s two floor sections build them from its cache
+(:func:`benchmarks.ablation.floor_recordings`): the Bandai
 motion-style test split, the CMU test subjects, DeepMimic and the Bandai test split's other clips
 with each clip's pelvis path measured, or recovered from simulated 2D keypoints
 (:func:`benchmarks.ablation.measured_root_recordings`); and the first three seen by a camera
@@ -49,14 +50,8 @@ def clip_error(ev: dict, joints: np.ndarray) -> float:
 
 def rows(data: Path, cache: Path, max_clips: int) -> dict[str, np.ndarray]:
     """``{row title: (clips,) errors}`` in the module docstring's order."""
-    floor_sets, static = [], []
-    for title, file, split in A.MOCAP_SETS:
-        evs = A.mocap_set(data, cache, file, split, max_clips)
-        static.append(evs)
-        floor_sets.append((title, A.measured_root_recordings(data, file, split, max_clips, evs)))
-    file, split = A.MOCAP_SETS[0][1:]
-    rest = A.mocap_set(data, cache, file, split, max_clips, rest=True)
-    floor_sets.append(("Bandai test, other clips", A.measured_root_recordings(data, file, split, max_clips, rest, rest=True)))
+    static = [A.mocap_set(data, cache, file, split, max_clips) for _, file, split in A.MOCAP_SETS]
+    floor_sets = A.floor_recordings(data, cache, max_clips, static)
     out = {}
     for title, recs in floor_sets:
         for k, path in enumerate(PATHS):
@@ -73,6 +68,17 @@ def rows(data: Path, cache: Path, max_clips: int) -> dict[str, np.ndarray]:
     return out
 
 
+def saved_rows(path: Path) -> dict[str, np.ndarray]:
+    """A ``--save`` file's ``{row title: (clips,) errors}``; exits with one line naming ``path``
+    where it is missing or not such a file (read with ``allow_pickle=False``)."""
+    try:
+        with np.load(path, allow_pickle=False) as saved:
+            return {str(name): saved[f"row{i}"] for i, name in enumerate(saved["names"])}
+    except (OSError, KeyError, ValueError) as exc:
+        raise SystemExit(f"floor_rows: {path}: expected a --save file of an earlier run (names, row0, row1, ...), "
+                         f"could not read it: {exc}") from None
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=A.DEFAULT)
@@ -83,16 +89,13 @@ def main(argv=None) -> int:
     what.add_argument("--against", type=Path, help="a --save file of an earlier run: compare clip by clip")
     args = ap.parse_args(argv)
     require_mocap(args.data, "floor_rows")
-    if args.against is not None and not args.against.is_file():
-        raise SystemExit(f"floor_rows: {args.against}: expected a --save file of an earlier run, found none")
+    before = None if args.against is None else saved_rows(args.against)  # read first: a bad file fails at once
     t0 = time.time()
     now = rows(args.data, args.cache, args.max_clips)
     if args.save is not None:
         np.savez(args.save, names=np.array(list(now)), **{f"row{i}": e for i, e in enumerate(now.values())})
         print(f"wrote {args.save}")
         return 0
-    with np.load(args.against, allow_pickle=False) as saved:
-        before = {str(name): saved[f"row{i}"] for i, name in enumerate(saved["names"])}
     if list(before) != list(now) or any(len(before[k]) != len(now[k]) for k in now):
         raise SystemExit(f"floor_rows: {args.against}: its rows or clip counts differ from this run's")
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND} --max-clips {args.max_clips} --against {args.against.name}", "",

@@ -441,6 +441,11 @@ def _log_handheld(pitch: np.ndarray, roll: np.ndarray, p: UpModelParameters) -> 
             + np.log1p(-p.camera_prior_outside))
 
 
+def _log_outside(p: UpModelParameters) -> float:
+    """``log[eps_cam / (4 pi)]``: the uniform share's density, per steradian."""
+    return float(np.log(p.camera_prior_outside) - np.log(4 * np.pi))
+
+
 def log_camera_prior(g: np.ndarray, p: UpModelParameters) -> np.ndarray:
     """Declared camera prior density (per steradian) at ups ``g`` ``(..., 3)``: pitch and roll
     independent normals (near level, where d(pitch) d(roll) is the area element) mixed with
@@ -450,7 +455,7 @@ def log_camera_prior(g: np.ndarray, p: UpModelParameters) -> np.ndarray:
     inside = _log_handheld(*camera_pitch_roll(g), p)
     if p.camera_prior_outside == 0:
         return inside
-    return np.logaddexp(inside, np.log(p.camera_prior_outside) - np.log(4 * np.pi))
+    return np.logaddexp(inside, _log_outside(p))
 
 
 def camera_outside_probability(pitch_deg, roll_deg, p: UpModelParameters | None = None) -> np.ndarray:
@@ -473,9 +478,8 @@ def camera_outside_probability(pitch_deg, roll_deg, p: UpModelParameters | None 
         return np.ones(np.broadcast(pitch_deg, roll_deg).shape)
     if p.camera_prior_outside == 0:
         return np.zeros(np.broadcast(pitch_deg, roll_deg).shape)
-    log_outside = np.log(p.camera_prior_outside) - np.log(4 * np.pi)
     log_inside = _log_handheld(np.radians(pitch_deg), np.radians(roll_deg), p)
-    return 1.0 / (1.0 + np.exp(log_inside - log_outside))
+    return 1.0 / (1.0 + np.exp(log_inside - _log_outside(p)))
 
 
 def systematic_cov(p: UpModelParameters) -> np.ndarray:
