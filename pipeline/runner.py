@@ -829,6 +829,11 @@ class Rectified:
     track_events: list
     notes: tuple[str, ...]
 
+    def one_person(self) -> np.ndarray | None:
+        """``(T,)`` bool, the longest one-person stretch where the 2D track switches person
+        (:func:`pcnet.stages.flags.one_person_frames`), else ``None`` (every frame is one person's)."""
+        return one_person_frames(self.track_segment) if self.track_events else None
+
 
 @dataclass(frozen=True)
 class Scaled:
@@ -1038,7 +1043,8 @@ def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rec
             path = pelvis_path(scaled.camera.root, cam, scaled.camera.keypoints2d,
                                camera_intrinsics(cfg.focal_px, inputs.recording.camera_matrix, inputs.image_size),
                                scaled.units, fps, cfg.min_confidence)
-        joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64))
+        joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64),
+                                       floor_frames=rectified.one_person())
         return World(joints, frame.rotation, path.world_std(frame.rotation),
                      tuple(floor_flag(feet_visible(cam), present_frames(cam))),
                      tuple(n for n in (path.note, floor.note() if floor.kind != "plane" else "") if n),

@@ -102,7 +102,7 @@ def to_world(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | N
 
 
 def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | None = None,
-                   out: np.ndarray | None = None) -> tuple[np.ndarray, Floor]:
+                   out: np.ndarray | None = None, floor_frames: np.ndarray | None = None) -> tuple[np.ndarray, Floor]:
     """Pelvis-centred camera-frame poses in the recording's world frame, ground at y = 0,
     and how that ground was found.
 
@@ -117,6 +117,10 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
             long recording's :class:`~pcnet.stages.core.framestore.FrameArray`);
             ``joints_cam`` may be one too: both are read and written a block of frames at a
             time.
+        floor_frames: optional ``(T,)`` bool, the frames whose contacts may place the ground
+            plane (default: every frame): where a 2D track switches person, its longest
+            one-person stretch (:func:`pcnet.stages.flags.one_person_frames`; decision 0068),
+            so that one person's feet define the ground under both.
 
     Returns:
         ``(poses, floor)``: ``(T, 17, 3)`` float64 ``x_w = W x_cam`` (+ the path) with the
@@ -141,13 +145,15 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
         NaN.
 
     Raises:
-        InputError: ``joints_cam`` not ``(T, 17, 3)``, ``root_cam`` of the wrong shape or
-            without a finite frame.
+        InputError: ``joints_cam`` not ``(T, 17, 3)``, ``root_cam`` or ``floor_frames`` of the
+            wrong shape, ``root_cam`` without a finite frame.
     """
     shape = tuple(getattr(joints_cam, "shape", np.shape(joints_cam)))
     if len(shape) != 3 or shape[1:] != (17, 3):
         raise InputError(f"world frame: joints_cam must have shape (T, 17, 3), got {shape}")
     T = len(joints_cam)
+    if floor_frames is not None and np.shape(floor_frames) != (T,):
+        raise InputError(f"world frame: floor_frames must have shape ({T},), got {np.shape(floor_frames)}")
     root = None
     if root_cam is not None:
         root = np.asarray(root_cam, np.float64)
@@ -177,7 +183,10 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
         floor = Floor("pelvis", 0.0, leg, reason="no ankle visible in any frame")
         shift = np.full(T, np.nanmedian(pelvis_y)) if root is not None else np.where(present, pelvis_y, np.nan)
     elif root is not None:
-        ground, floor = fit_ground(lowest, step, feet & np.isfinite(pelvis_y), leg)
+        usable = feet & np.isfinite(pelvis_y)
+        if floor_frames is not None:
+            usable &= np.asarray(floor_frames, bool)
+        ground, floor = fit_ground(lowest, step, usable, leg)
         shift = np.full(T, ground)
     if floor is None or floor.kind == "per frame":
         floor = floor or Floor("per frame", clearance, leg, reason="no pelvis path")
