@@ -19,6 +19,18 @@ chosen), Bandai and CMU test, DeepMimic, then the real calibrated cameras of pos
 (real MediaPipe output, a standing T-pose); columns: sequence-up tilt error of the shipped
 pair (robust mean of its per-frame ups), of the balance estimate, and of their normalised
 weighted mean with the balance weight given.
+
+    python -m benchmarks.balance_evidence --data ../shared/data --correlation
+
+Balance as a term of the up model (docs/up_model.md) would add information only where its
+error is not the networks' error. ``--correlation`` measures that on the up model's validation
+recordings (``benchmarks/fit_up_model.py``: 393 static recordings, lifter noise; no held-out
+set is read): per recording, the error of the up model's summary of the poses ``g_hat``
+(:func:`pcnet.stages.up_model.summarise_recording`) and of the balance estimate started from it,
+both as tangent coordinates (pitch, roll) at the true up; per axis their standard deviations, biases
+and correlation, and the weight of balance in the best linear unbiased combination of the two
+(``w = (s_n^2 - c) / (s_n^2 + s_b^2 - 2 c)``, ``c`` the covariance; Aitken 1935) with that
+combination's RMS error. Writes benchmarks/results/balance_correlation.txt.
 """
 
 from __future__ import annotations
@@ -38,6 +50,7 @@ from pcnet.stages.spherical import robust_mean_direction
 
 DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "balance_evidence.txt"
+CORRELATION_RESULT = RESULT.with_name("balance_correlation.txt")
 #: (mass fraction, proximal joint, distal joint, centre of mass as a fraction from proximal),
 #: H36M-17 indices; de Leva 1996 Table 4, male. Head+neck: vertex -> cervicale (H36M head ->
 #: thorax); trunk: cervicale -> mid-hip (thorax -> pelvis).
@@ -99,13 +112,61 @@ def real_camera_rows(data: Path, cop_offset: float) -> list[str]:
     return lines
 
 
+def correlation_lines(data: Path, cache: Path, cop_offset: float) -> list[str]:
+    """The ``--correlation`` table (module docstring) on the up model's validation recordings."""
+    from benchmarks import ablation as A
+    from benchmarks import fit_up_model as F
+    from pcnet.stages.up_model import default_parameters, log_map, summarise_recording
+
+    p = default_parameters()
+    e_net, e_bal, left_out = [], [], 0
+    for evs in F.validation_sets(data, cache).values():
+        for ev in evs:
+            e = A.evidence_of(ev)
+            if e.valid.sum() < 2:
+                continue
+            s = summarise_recording(e, ev["fps"], p)
+            g = ev["true_up"][np.flatnonzero(e.valid)[0]]
+            b = balance_up(ev["J"].astype(np.float64), s.up, cop_offset)
+            if b is None:
+                left_out += 1
+                continue
+            e_net.append(np.degrees(log_map(g, s.up)))
+            e_bal.append(np.degrees(log_map(g, b)))
+    en, eb = np.array(e_net), np.array(e_bal)
+    lines = [f"python -m benchmarks.balance_evidence --correlation --cop-offset {cop_offset}",
+             f"validation recordings of benchmarks/fit_up_model.py: {len(en)} ({left_out} without 10 standing frames "
+             "left out); errors at the true up, deg",
+             "| axis | up model's g_hat: sd, bias | balance: sd, bias | correlation | balance's BLUE weight | "
+             "RMS: g_hat, combined |", "|---|---|---|---|---|---|"]
+    for axis, name in enumerate(("pitch", "roll")):
+        C = np.cov(en[:, axis], eb[:, axis])
+        w = (C[0, 0] - C[0, 1]) / (C[0, 0] + C[1, 1] - 2 * C[0, 1])
+        combined = (1 - w) * en[:, axis] + w * eb[:, axis]
+        rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
+        lines.append(f"| {name} | {np.sqrt(C[0, 0]):.2f}, {en[:, axis].mean():+.2f} | {np.sqrt(C[1, 1]):.2f}, "
+                     f"{eb[:, axis].mean():+.2f} | {C[0, 1] / np.sqrt(C[0, 0] * C[1, 1]):+.2f} | {w:+.2f} | "
+                     f"{rms(en[:, axis]):.2f}, {rms(combined):.2f} |")
+    return lines
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=DEFAULT)
     ap.add_argument("--max-clips", type=int, default=200, help="first N clips of each set")
     ap.add_argument("--cop-offset", type=float, default=0.06, help="leg lengths (0.06 ~ 5 cm)")
+    ap.add_argument("--correlation", action="store_true",
+                    help="balance's error against the up model's on the validation recordings (module docstring)")
+    ap.add_argument("--cache", type=Path, default=None,
+                    help="the ablation's evidence cache (--correlation; default: the ablation's)")
     args = ap.parse_args()
     t0 = time.time()
+    if args.correlation:
+        from benchmarks.ablation import CACHE
+        lines = correlation_lines(args.data, args.cache or CACHE, args.cop_offset) + [f"wall time {time.time() - t0:.0f} s"]
+        print("\n".join(lines))
+        CORRELATION_RESULT.write_text("\n".join(lines) + "\n")
+        return
     head = "| set | clips | pcnet sequence | balance | " + " | ".join(f"mix {w}" for w in WEIGHTS) + " |"
     lines = [f"python -m benchmarks.balance_evidence --max-clips {args.max_clips} --cop-offset {args.cop_offset}",
              "sequence-up tilt error, deg, mean / median over clips (static camera per clip, lifter-like noise)",
