@@ -1,0 +1,144 @@
+"""Auto mode by the axis the body turns about (decision 0069): the threshold fitted on validation,
+then the held-out check against the spread rule.
+
+    python -m benchmarks.turning_axis --data ../shared/data             # fit (validation only)
+    python -m benchmarks.turning_axis --data ../shared/data --evaluate  # held-out check
+
+The statistic is :func:`pcnet.stages.turning.turn_tilt_deg` of each recording's joints, with the
+up model's summary of its poses (:func:`pcnet.stages.up_model.summarise_recording`, shipped
+parameters) as the up. The frames are those of the shipped chain's per-frame step
+(``benchmarks/ablation.py`` ``per_frame``, default variant).
+
+Fit: the data of ``benchmarks/fit_camera_mode.py`` (the 393 static validation recordings and the
+validation recordings with the camera pitch sweeping 30 deg); the threshold is
+``fit_camera_mode.best_threshold``'s (the midpoint of the widest interval with the fewest
+misreads). Writes benchmarks/results/turning_axis_fit.txt.
+
+``--evaluate`` (decision 0069's pass condition): on the ablation's held-out static sets (Bandai
+motion-style test, CMU test subjects, DeepMimic) and its moving camera, the recordings each
+rule reads as moving and the mean tilt error of auto mode under each rule (moving: smooth
+mode's up; static: the default chain's sequence up), against the spread rule as shipped
+(:func:`pcnet.stages.temporal.up_spread_deg`, ``MODE_THRESHOLD_DEG``, ``MODE_SMOOTHING_S``).
+Reported beside them: the real static recordings (the Pose2Sim calibrated cameras in 16 views,
+the yoga files) each rule reads as moving. Needs the fitted threshold in
+benchmarks/results/turning_axis_fit.txt. Writes benchmarks/results/turning_axis.txt.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+
+import pcnet.stages.temporal as temporal
+from benchmarks import ablation as A
+from benchmarks import fit_up_model as F
+from benchmarks.fit_camera_mode import best_threshold
+from benchmarks.report import print_and_save, require_mocap
+from pcnet.stages.turning import turn_tilt_deg
+from pcnet.stages.up_model import default_parameters, summarise_recording
+
+RESULTS = Path(__file__).resolve().parent / "results"
+FIT_RESULT = RESULTS / "turning_axis_fit.txt"
+RESULT = RESULTS / "turning_axis.txt"
+
+
+def frames(ev: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The shipped chain's per-frame rotations and valid frames of one cached recording."""
+    R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
+    return temporal.check_rotations(R, valid)
+
+
+def statistic(ev: dict) -> float:
+    """:func:`turn_tilt_deg` of one cached recording, the up model's summary of its poses as the up."""
+    _, ok = frames(ev)
+    if ok.sum() < 2:
+        return float("nan")
+    up = summarise_recording(A.evidence_of(ev).frames(ok), ev["fps"], default_parameters()).up
+    return turn_tilt_deg(ev["J"], ok, up)
+
+
+def spread(ev: dict) -> float:
+    """The shipped rule's statistic (:func:`pcnet.stages.temporal.up_spread_deg`)."""
+    R, ok = frames(ev)
+    return temporal.up_spread_deg(R, ok, ev["fps"], temporal.MODE_SMOOTHING_S)
+
+
+def fit(args) -> list[str]:
+    val = F.validation_sets(args.data, args.cache)
+    static = np.array([statistic(ev) for evs in val.values() for ev in evs])
+    swept = np.array([statistic(ev) for ev in F.validation_sweeps(args.cache, val)])
+    theta, wrong, lo, hi = best_threshold(static[np.isfinite(static)], swept[np.isfinite(swept)])
+    q = lambda x: " / ".join(f"{v:.2f}" for v in np.nanpercentile(x, [50, 90, 100]))  # noqa: E731
+    return [f"Validation: {len(static)} static recordings (median / p90 / max {q(static)} deg), {len(swept)} with "
+            f"the camera pitch sweeping 30 deg (min {np.nanmin(swept):.2f}, median {np.nanmedian(swept):.2f}); "
+            f"{int(np.sum(~np.isfinite(static)) + np.sum(~np.isfinite(swept)))} without a statistic",
+            f"misreads at the threshold: {wrong} (interval [{lo:.2f}, {hi:.2f}))",
+            f"TURN_TILT_THRESHOLD_DEG = {theta:.2f}"]
+
+
+def fitted_threshold() -> float:
+    """The threshold :func:`fit` wrote (benchmarks/results/turning_axis_fit.txt)."""
+    text = FIT_RESULT.read_text() if FIT_RESULT.is_file() else ""
+    m = re.search(r"^TURN_TILT_THRESHOLD_DEG = (\S+)$", text, re.M)
+    if m is None:
+        raise SystemExit(f"turning_axis: {FIT_RESULT}: expected a line 'TURN_TILT_THRESHOLD_DEG = ...', got none "
+                         "(run the fit first, without --evaluate)")
+    return float(m.group(1))
+
+
+def auto_error(ev: dict, moving: bool) -> float:
+    """Auto mode's mean tilt error (deg) on one recording under a static/moving reading."""
+    if moving:
+        R, ok = frames(ev)
+        up = temporal.smooth_rotations(R, ok, ev["fps"], temporal.SMOOTH_TIME_CONSTANT_S)[:, :, 1]
+        return A.clip_error(np.where(ok[:, None], up, np.nan), ev["true_up"])
+    return A.clip_error(A.run_variant(ev, A.VARIANTS[0])["up"], ev["true_up"])
+
+
+def evaluate(args, theta: float) -> list[str]:
+    sets = A.heldout_recordings(args.data, args.cache, args.max_clips)[:4]
+    real = [("real calibrated cameras, 16 views", A.real_recordings(args.data, args.cache)),
+            ("real yoga files", A.cached(args.cache, f"yoga_stride{A.YOGA_STRIDE}", lambda: A.yoga_evidence(args.data)))]
+    lines = [f"threshold {theta:.2f} deg (benchmarks/results/turning_axis_fit.txt); spread rule as shipped: "
+             f"{temporal.MODE_THRESHOLD_DEG} deg, low-pass {temporal.MODE_SMOOTHING_S} s", "",
+             "| set | recordings | read as moving: spread / turning axis | auto tilt error, mean deg: spread / turning axis |",
+             "|---|---:|---|---|"]
+    for title, evs in sets + real:
+        s = np.array([spread(ev) for ev in evs])
+        t = np.array([statistic(ev) for ev in evs])
+        by_spread, by_turn = s > temporal.MODE_THRESHOLD_DEG, t > theta
+        cells = f"{int(by_spread.sum())} / {int(by_turn.sum())}"
+        errors = "-"
+        if not title.startswith("real"):
+            e_s = np.nanmean([auto_error(ev, m) for ev, m in zip(evs, by_spread)])
+            e_t = np.nanmean([auto_error(ev, m) for ev, m in zip(evs, by_turn)])
+            errors = f"{e_s:.2f} / {e_t:.2f}"
+        lines.append(f"| {title} | {len(evs)} | {cells} | {errors} |")
+        print(lines[-1], flush=True)
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=A.DEFAULT)
+    ap.add_argument("--cache", type=Path, default=A.CACHE)
+    ap.add_argument("--max-clips", type=int, default=200, help="as benchmarks/ablation.py's (its cache keys)")
+    ap.add_argument("--evaluate", action="store_true", help="the held-out check (module docstring)")
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args(argv)
+    require_mocap(args.data, "turning_axis")
+    t0 = time.time()
+    command = "python -m benchmarks.turning_axis --data ../shared/data" + " --evaluate" * args.evaluate
+    head = [__doc__.split("\n")[0], "", f"    {command}", ""]
+    body = evaluate(args, fitted_threshold()) if args.evaluate else fit(args)
+    print_and_save(head + body + ["", f"({time.time() - t0:.0f} s)"],
+                   args.out or (RESULT if args.evaluate else FIT_RESULT))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
