@@ -158,10 +158,6 @@ def fit_prior_odds(lbf_static: np.ndarray, lbf_moving: np.ndarray) -> tuple[floa
     return -0.5 * (lo + hi), float(lo), float(hi), int(best)
 
 
-def decisions(data: list, p: MotionParams) -> np.ndarray:
-    return np.array([decide_camera_motion(u, ok, fps, p).moving for u, _, ok, fps in data])
-
-
 def log_bf(ev: dict) -> float:
     u, _, ok, fps = series(ev)
     return decide_camera_motion(u, ok, fps).log_bayes_factor

@@ -166,7 +166,7 @@ def main(argv=None) -> int:
     lines += ["1. Fitted on validation (equal weight per set):", *log, "", header,
               *check(held, fitted), ""]
     deepmimic = held["DeepMimic"]
-    fitted2, score2, log2 = fit({**val, "DeepMimic even clips": deepmimic[0::2]})
+    fitted2, _, log2 = fit({**val, "DeepMimic even clips": deepmimic[0::2]})
     lines += ["2. Fitted on validation + DeepMimic's even clips:", *log2, "", header,
               *check({k: v for k, v in held.items() if k != "DeepMimic"}, fitted2),
               *check({"DeepMimic odd clips": deepmimic[1::2]}, fitted2), "",

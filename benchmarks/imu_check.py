@@ -67,7 +67,6 @@ G = 9.81
 METHODS = ("level", "geometric", "pcnet frame", "pcnet sequence")
 LABELS = {"level": "(a) level camera", "geometric": "(b) geometric", "pcnet frame": "(c) pcnet frame",
           "pcnet sequence": "(d) pcnet sequence", "pcnet sequence (to_world)": "(d) via to_world"}
-IMU_FPS = 50.0
 LAG_WINDOW_S = 0.2
 LAG_STEP_S = 0.01
 TRIM_S = 0.2
