@@ -26,6 +26,14 @@ fitted minus shipped error, 2,000 replicates, 95 % interval):
 2. validation plus DeepMimic's even-numbered clips (another data set, as CMU and DeepMimic are
    to Bandai). Checked on the Bandai test split, the CMU test subjects and DeepMimic's
    odd-numbered clips.
+
+    python -m benchmarks.fit_view_gate --data ../shared/data --calibrate
+
+Decision 0070: one fit of all nine constants on the six validation sets, the two steep
+validation sets of benchmarks/fit_gate_pitch.py and DeepMimic's even-numbered clips (the
+calibration data), from the shipped constants; checked on decision 0061's held-out sets
+(:func:`benchmarks.view_gate_pieces.heldout_sets`) without those clips, by decision 0061's rule
+(:func:`benchmarks.view_gate_pieces.worse`). Writes benchmarks/results/fit_view_gate_calibrated.txt.
 """
 
 from __future__ import annotations
@@ -44,6 +52,7 @@ from pcnet.models import view_gate as G
 from pcnet.stages.core.rotations import angle_between
 
 RESULT = Path(__file__).resolve().parent / "results" / "fit_view_gate.txt"
+CALIBRATED_RESULT = RESULT.with_name("fit_view_gate_calibrated.txt")
 NAMES = ("roll_full", "roll_width", "pitch_full", "pitch_width", "body_roll_full", "body_roll_width",
          "body_pitch_full", "body_pitch_width", "window_s")
 SHIPPED = (G.ROLL_RAMP_DEG[0], G.ROLL_RAMP_DEG[1] - G.ROLL_RAMP_DEG[0], G.PITCH_RAMP_DEG[0],
@@ -141,15 +150,51 @@ def check(sets: dict[str, list[dict]], fitted) -> list[str]:
     return lines
 
 
+def calibrated(args) -> list[str]:
+    """Decision 0070's fit and check (module docstring)."""
+    from benchmarks.fit_gate_pitch import steep_validation
+    from benchmarks.view_gate_pieces import heldout_sets, worse
+
+    deepmimic = A.mocap_set(args.data, args.cache, *A.MOCAP_SETS[2][1:], args.max_clips)
+    calibration = {ev["name"] for ev in deepmimic[0::2]}
+    sets = {f"{tag} val, {views} views": prepared(evs)
+            for (tag, views), evs in F.validation_sets(args.data, args.cache).items()}
+    sets.update({name: prepared(evs) for name, evs in steep_validation(args.data, args.cache).items()})
+    sets["DeepMimic even clips"] = prepared(deepmimic[0::2])
+    fitted, _, log = fit(sets)
+    lines = [f"constants: {', '.join(NAMES)}", "", "Fit (equal weight per set), per set: mean per-frame tilt error (deg) "
+             "shipped -> fitted"]
+    lines += [f"  {name:<28}{len(clips):>5}{clip_errors(clips, SHIPPED).mean():>8.2f} ->"
+              f"{clip_errors(clips, fitted).mean():>6.2f}" for name, clips in sets.items()]
+    lines += ["", "Coordinate descent:", *log, "", f"shipped {SHIPPED}", f"fitted  {fitted}", "",
+              f"## Held out (decision 0061's sets without the {len(calibration)} calibration clips of DeepMimic)",
+              f"{'set':<46}{'clips':>6}{'shipped':>9}{'fitted':>8}  fitted - shipped [95 % CI]"]
+    worse_on = []
+    for title, evs in heldout_sets(args):
+        clips = prepared([ev for ev in evs if ev["name"] not in calibration])
+        shipped, new = clip_errors(clips, SHIPPED), clip_errors(clips, fitted)
+        bad, cell = worse(new - shipped)
+        worse_on += [title] * bad
+        lines.append(f"{title:<46}{len(clips):>6}{shipped.mean():>9.2f}{new.mean():>8.2f}  {cell}")
+    return lines + ["", "verdict: " + (f"worse on {', '.join(worse_on)}: not shipped" if worse_on else
+                                       "not worse on any held-out set: the fitted constants ship")]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, default=A.DEFAULT)
     ap.add_argument("--cache", type=Path, default=A.CACHE)
     ap.add_argument("--max-clips", type=int, default=200, help="held-out clips per set (ablation.py's)")
-    ap.add_argument("--out", type=Path, default=RESULT)
+    ap.add_argument("--calibrate", action="store_true", help="decision 0070's fit and check (module docstring)")
+    ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
     require_mocap(args.data, "fit_view_gate")
     t0 = time.time()
+    if args.calibrate:
+        lines = [__doc__.splitlines()[0], "", "    python -m benchmarks.fit_view_gate --data ../shared/data --calibrate", "",
+                 *calibrated(args), "", f"({time.time() - t0:.0f} s)"]
+        print_and_save(lines, args.out or CALIBRATED_RESULT)
+        return 0
     val = {f"{tag} val, {views} views": prepared(evs)
            for (tag, views), evs in F.validation_sets(args.data, args.cache).items()}
     held = {}
@@ -171,7 +216,7 @@ def main(argv=None) -> int:
               *check({k: v for k, v in held.items() if k != "DeepMimic"}, fitted2),
               *check({"DeepMimic odd clips": deepmimic[1::2]}, fitted2), "",
               f"({time.time() - t0:.0f} s)"]
-    print_and_save(lines, args.out)
+    print_and_save(lines, args.out or RESULT)
     return 0
 
 
