@@ -114,19 +114,12 @@ def real_camera_rows(data: Path, cop_offset: float) -> list[str]:
 
 def correlation_lines(data: Path, cache: Path, cop_offset: float) -> list[str]:
     """The ``--correlation`` table (module docstring) on the up model's validation recordings."""
-    from benchmarks import ablation as A
     from benchmarks import fit_up_model as F
-    from pcnet.stages.up_model import default_parameters, log_map, summarise_recording
+    from pcnet.stages.up_model import default_parameters, log_map
 
-    p = default_parameters()
     e_net, e_bal, left_out = [], [], 0
     for evs in F.validation_sets(data, cache).values():
-        for ev in evs:
-            e = A.evidence_of(ev)
-            if e.valid.sum() < 2:
-                continue
-            s = summarise_recording(e, ev["fps"], p)
-            g = ev["true_up"][np.flatnonzero(e.valid)[0]]
+        for ev, s, g in F.summaries(evs, default_parameters()):
             b = balance_up(ev["J"].astype(np.float64), s.up, cop_offset)
             if b is None:
                 left_out += 1

@@ -208,19 +208,21 @@ def fit_time(rc, rb, rates, sigma_deg: float) -> float:
     return float(np.average(taus, weights=weights))
 
 
-def summary_errors(evs, p: UpModelParameters) -> tuple[np.ndarray, np.ndarray]:
-    """Per recording of ``evs`` (two valid frames at least): the summary's error
-    ``log_map(g, g_hat)`` ``(N, 2)`` rad and its ``C_L`` ``(N, 2, 2)`` under ``p``."""
-    es, covs = [], []
+def summaries(evs, p: UpModelParameters):
+    """``(recording, summary, true up)`` for each recording of ``evs`` with two valid frames at
+    least: the up model's summary of its poses under ``p`` (:func:`summarise_recording`) and
+    its true up ``(3,)`` at the first valid frame."""
     for ev in evs:
         e = A.evidence_of(ev)
-        if e.valid.sum() < 2:
-            continue
-        s = summarise_recording(e, ev["fps"], p)
-        g = ev["true_up"][np.flatnonzero(e.valid)[0]]
-        es.append(log_map(g, s.up))
-        covs.append(s.cov)
-    return np.array(es), np.array(covs)
+        if e.valid.sum() >= 2:
+            yield ev, summarise_recording(e, ev["fps"], p), ev["true_up"][np.flatnonzero(e.valid)[0]]
+
+
+def summary_errors(evs, p: UpModelParameters) -> tuple[np.ndarray, np.ndarray]:
+    """Per recording of :func:`summaries`: the summary's error ``log_map(g, g_hat)`` ``(N, 2)``
+    rad and its ``C_L`` ``(N, 2, 2)`` under ``p``."""
+    out = [(log_map(g, s.up), s.cov) for _, s, g in summaries(evs, p)]
+    return np.array([e for e, _ in out]), np.array([c for _, c in out])
 
 
 def fit_systematic(es: np.ndarray, covs: np.ndarray, isotropic: bool = False) -> tuple[float, float, float]:

@@ -38,7 +38,6 @@ calibration data), from the shipped constants; checked on decision 0061's held-o
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
@@ -47,7 +46,7 @@ from scipy.spatial.transform import Rotation
 
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save
 from pcnet.models import view_gate as G
 from pcnet.stages.core.rotations import angle_between
 
@@ -181,14 +180,8 @@ def calibrated(args) -> list[str]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--data", type=Path, default=A.DEFAULT)
-    ap.add_argument("--cache", type=Path, default=A.CACHE)
-    ap.add_argument("--max-clips", type=int, default=200, help="held-out clips per set (ablation.py's)")
-    ap.add_argument("--calibrate", action="store_true", help="decision 0070's fit and check (module docstring)")
-    ap.add_argument("--out", type=Path, default=None)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "fit_view_gate")
+    args = A.heldout_arguments(argv, __doc__, "fit_view_gate", None,
+                               (("--calibrate", "decision 0070's fit and check (module docstring)"),))
     t0 = time.time()
     if args.calibrate:
         lines = [__doc__.splitlines()[0], "", "    python -m benchmarks.fit_view_gate --data ../shared/data --calibrate", "",

@@ -43,7 +43,6 @@ benchmarks/results/turning_axis_fit.txt. Writes benchmarks/results/turning_axis.
 
 from __future__ import annotations
 
-import argparse
 import re
 import time
 from pathlib import Path
@@ -54,7 +53,7 @@ import pcnet.stages.temporal as temporal
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
 from benchmarks.fit_camera_mode import best_threshold
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.up_model import default_parameters, summarise_recording
@@ -224,14 +223,8 @@ def evaluate(args, theta: float) -> list[str]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=A.DEFAULT)
-    ap.add_argument("--cache", type=Path, default=A.CACHE)
-    ap.add_argument("--max-clips", type=int, default=200, help="as benchmarks/ablation.py's (its cache keys)")
-    ap.add_argument("--evaluate", action="store_true", help="the held-out check (module docstring)")
-    ap.add_argument("--out", type=Path, default=None)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "turning_axis")
+    args = A.heldout_arguments(argv, __doc__, "turning_axis", None,
+                               (("--evaluate", "the held-out check (module docstring)"),))
     t0 = time.time()
     command = "python -m benchmarks.turning_axis --data ../shared/data" + " --evaluate" * args.evaluate
     head = [__doc__.split("\n")[0], "", f"    {command}", ""]
