@@ -44,7 +44,9 @@ train split; models/MODEL_CARD.md):
   stride 2 (15 fps), no ground truth: median trunk angle from each method's up per file,
   targets Shavasana >= 80, Padmasana <= 15, Tadasana <= 6 deg (the trunk angle here is taken
   against the up in the camera frame, without the network's small residual, so it can differ
-  from yoga_physics.txt by a few tenths of a degree);
+  from yoga_physics.txt by a few tenths of a degree); and the default chain's sequence intervals
+  on the 15 Tadasana files, standing straight, against the trunk's robust mean direction as the
+  true up (the person's own posture, a few degrees, is in that truth's error);
 - roll equivariance (benchmarks/equivariance.py): its 6 real clips (middle 300 frames), the
   camera rolled by 30 and 90 deg about its optical axis; extra error = mean angle between the
   up of the rolled view and the unrolled view's up turned with the camera (0 for an
@@ -546,15 +548,19 @@ def real_recordings(data: Path, cache: Path) -> list[dict]:
     return cached(cache, "real_cameras", lambda: real_camera_evidence(data))
 
 
-def heldout_arguments(argv, doc: str, script: str, result: Path) -> argparse.Namespace:
+def heldout_arguments(argv, doc: str, script: str, result: Path | None,
+                      flags: tuple[tuple[str, str], ...] = ()) -> argparse.Namespace:
     """The command line of a script that scores this ablation's held-out recordings: ``--data``,
-    ``--max-clips`` (the cache's keys), ``--cache`` and ``--out``; exits with one line where
-    ``--data`` lacks the mocap."""
+    ``--max-clips`` (the cache's keys), ``--cache``, ``--out`` (default ``result``) and the
+    script's own on/off ``flags`` (``(name, help)``); exits with one line where ``--data`` lacks
+    the mocap."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--data", type=Path, default=DEFAULT)
     ap.add_argument("--max-clips", type=int, default=200, help="as benchmarks/ablation.py's (its cache keys)")
     ap.add_argument("--cache", type=Path, default=CACHE)
     ap.add_argument("--out", type=Path, default=result)
+    for name, text in flags:
+        ap.add_argument(name, action="store_true", help=text)
     args = ap.parse_args(argv)
     require_mocap(args.data, script)
     return args
@@ -919,7 +925,19 @@ def yoga_table(evs: list[dict], runs: dict) -> list[str]:
         med = [np.nanmedian([trunk[i] for i in targeted if evs[i]["asana"] == a]) for a in TARGETS]
         lines.append(f"{v.label:<40}" + "".join(f"{p:>11d}" for p in per) + "".join(f"{m:>11.1f}" for m in med)
                      + f"  {yoga_verdict(v.kind, fails - base)}")
+    # Standing straight, the trunk is vertical up to the person's posture (a few degrees): a
+    # truth for the printed intervals on real lifter output, with that posture added to its error.
+    standing = [i for i, ev in enumerate(evs) if ev["asana"] == "Tadasana"]
+    proxies = [{"true_up": np.tile(trunk_up(evs[i]["J"]), (len(evs[i]["J"]), 1))} for i in standing]
+    cover = interval_coverage([runs[VARIANTS[0].label][i] for i in standing], proxies)
+    lines.append(f"default, Tadasana files, the trunk's robust mean direction taken as the true up: {cover}")
     return lines
+
+
+def trunk_up(J: np.ndarray) -> np.ndarray:
+    """``(3,)`` the robust (Tukey) mean direction of the pelvis -> thorax vectors of ``J`` ``(T, 17, 3)``."""
+    t = normalize(np.asarray(J, np.float64)[:, THORAX] - np.asarray(J, np.float64)[:, PELVIS])
+    return robust_mean_direction(t[np.isfinite(t).all(-1)])[0]
 
 
 def equivariance_table(evs: list[dict], runs: dict) -> list[str]:
