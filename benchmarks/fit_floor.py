@@ -6,7 +6,7 @@ floor on held-out mocap.
 Fit (training data only): on ../shared/data/mocap/cmu_train_h36m17.npz, the motion-style
 training subjects (models/datasets.py: ``select_split(clips, "train", "motion-style")``; the
 world floor there is y = 0), each clip's contact plane ``a`` (stages/floor.py: Tukey
-location of the slower half of the frames' lowest joint heights, on the true poses and path)
+location of the frames' lowest joint heights where an ankle shows, on the true poses and path)
 over its leg length ``L``; per subject the median over clips, and
 ``ANKLE_CLEARANCE_LEG`` = the median over subjects. The same ratio over the shank (knee ->
 ankle) is printed too; since every CMU subject there has one retargeted skeleton, the
@@ -45,7 +45,7 @@ from pcnet.models.lifter_noise import apply_lifter_errors, sample_lifter_errors
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import L_ANKLE, L_KNEE, PELVIS, R_ANKLE, R_KNEE
 from pcnet.stages.core.rotations import axis_rotation
-from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, contacts, tukey_location
+from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, tukey_location
 from pcnet.stages.spherical import TUKEY_C
 from pcnet.stages.world_frame import _floor_evidence, to_world_floor, world_frame
 
@@ -58,8 +58,8 @@ CAMERA = axis_rotation("x", np.radians(-10.0)) @ np.diag([1.0, -1.0, -1.0]) @ ax
 def contact_level(P: np.ndarray) -> tuple[float, float, float, np.ndarray]:
     """``(a, leg, shank, kept contact points (K, 3))`` of Y-up poses ``P`` ``(T, 17, 3)``:
     the contact plane's height as stages/floor.py fits it."""
-    present, lowest, feet, pelvis_y, step, legs = _floor_evidence(P)
-    c = contacts(lowest, step, feet)
+    present, lowest, feet, pelvis_y, legs = _floor_evidence(P)
+    c = feet & np.isfinite(lowest)
     a, scale = tukey_location(lowest[c])
     u = (lowest - a) / (TUKEY_C * max(scale, 1e-12))
     kept = c & (np.abs(u) < 1)

@@ -4,27 +4,26 @@ per-frame fallback (docs/CONVENTIONS.md, "World frame"; used by
 
 Model (world frame, +Y up, any one length unit). In frame ``t`` let ``m_t`` be the height of
 the lowest joint centre (a stance ankle when upright, the lowest resting body part when
-lying) and ``s_t = |p_{t+1} - p_{t-1}|`` the displacement of that same joint over the two
-neighbouring frames. A joint resting on the ground ``y = g`` has
+lying). A joint resting on the ground ``y = g`` has
 
-    m_t = g + c L + e_t,   s_t ~ 0,
+    m_t = g + c L + e_t,
 
 with ``L`` the subject's leg length (median over frames of hip->knee + knee->ankle, both
 legs, in the input's own skeleton), ``c`` = :data:`ANKLE_CLEARANCE_LEG` the height of the
 ankle joint centre above the ground at stance as a fraction of the leg (H36M-17 has no sole
-or toe joint), and ``e_t`` the contact's noise; in a swing or flight frame ``m_t`` is higher
-and ``s_t`` large. The contacts are the frames whose lowest joint moves no more than the
-median ``s_t`` of the recording (the slower half: scale-free, no speed threshold in m/s, and
-a body that is supported at least half the time - walking, running, standing, lying - has
-its rests there), and
+or toe joint), and ``e_t`` the contact's noise. Every usable frame (an ankle visible, a path)
+is a contact; in a flight frame ``m_t`` is higher, an outlier, and
 
     g + c L = argmin_a  sum_{t in contacts} rho((m_t - a) / sigma),
 
 ``rho`` Tukey's biweight with the standard ``c = 4.685`` (:data:`~pcnet.stages.spherical.TUKEY_C`,
 95 % efficiency under Gaussian noise), ``sigma = 1.4826 MAD`` of the contact heights about
 their median (fixed), solved by iteratively reweighted least squares from the median
-(Huber & Ronchetti, *Robust Statistics*, 2nd ed., 2009, ch. 3 and 6). A jump's apex (slow
-at the top) and a heel rising before toe-off are high outliers the biweight rejects.
+(Huber & Ronchetti, *Robust Statistics*, 2nd ed., 2009, ch. 3 and 6). A body supported at
+least half the time (walking, running, standing, lying) has its rests in the majority; a
+jump's flight and a heel rising before toe-off are high outliers the biweight rejects. (A
+selection of the slower half of the frames by the lowest joint's displacement, shipped before
+decision 0071, did not help on held-out mocap and was deleted.)
 
 Why a horizontal plane (only its height fitted), not a tilted one: the world frame's +Y is the
 recording's gravity estimate, and with a pelvis path (measured, or recovered from the 2D
@@ -55,8 +54,8 @@ from .spherical import tukey_weights
 #: Leg rather than shank (knee->ankle): every CMU subject there has the same retargeted
 #: skeleton, so the choice was made across the two training rigs (CMU train, Bandai train:
 #: the fraction of the leg differs by less between them than the fraction of the shank; see
-#: the result file).
-ANKLE_CLEARANCE_LEG = 0.1302
+#: the result file). Refitted under every frame's lowest joint as a contact (decision 0071; 0.1302 before).
+ANKLE_CLEARANCE_LEG = 0.1319
 #: The fewest contacts for a plane: the robust scale (MAD) of fewer points is zero or undefined.
 MIN_CONTACTS = 3
 
@@ -120,27 +119,12 @@ def tukey_location(x: np.ndarray, max_iter: int = 100) -> tuple[float, float]:
     return mu, scale
 
 
-def contacts(lowest: np.ndarray, step: np.ndarray, usable: np.ndarray) -> np.ndarray:
-    """``(T,)`` bool: the contact frames of the module's model, the usable frames (finite
-    ``lowest`` and ``step``) whose lowest joint moved at most the median ``step`` over them.
+def fit_ground(lowest: np.ndarray, usable: np.ndarray, leg_length: float) -> tuple[float, Floor]:
+    """The recording's ground plane from per-frame evidence along a pelvis path (module docstring).
 
     Args:
-        lowest: ``(T,)`` height of each frame's lowest joint centre.
-        step: ``(T,)`` that joint's displacement between the neighbouring frames (NaN at the
-            ends and where it is missing there).
-        usable: ``(T,)`` bool, frames allowed to hold a contact (an ankle visible, a path).
-    """
-    ok = usable & np.isfinite(lowest) & np.isfinite(step)
-    if not ok.any():
-        return ok
-    return ok & (step <= np.median(step[ok]))
-
-
-def fit_ground(lowest: np.ndarray, step: np.ndarray, usable: np.ndarray, leg_length: float) -> tuple[float, Floor]:
-    """The recording's ground plane from per-frame evidence along a pelvis path.
-
-    Args:
-        lowest, step, usable: ``(T,)`` as :func:`contacts` (heights along world +Y).
+        lowest: ``(T,)`` height along world +Y of each frame's lowest joint centre (NaN: none).
+        usable: ``(T,)`` bool, the frames allowed to hold a contact (an ankle visible, a path).
         leg_length: the subject's median leg length (same unit; NaN: clearance 0).
 
     Returns:
@@ -149,7 +133,7 @@ def fit_ground(lowest: np.ndarray, step: np.ndarray, usable: np.ndarray, leg_len
         saying why no plane was fitted (fewer than :data:`MIN_CONTACTS` contacts).
     """
     clearance = ANKLE_CLEARANCE_LEG * leg_length if np.isfinite(leg_length) else 0.0
-    c = contacts(lowest, step, usable)
+    c = np.asarray(usable, bool) & np.isfinite(lowest)
     n = int(c.sum())
     if n < MIN_CONTACTS:
         return float("nan"), Floor("per frame", clearance, leg_length,

@@ -173,9 +173,8 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
 
     # Two passes over the frames: the floor needs the whole recording's evidence (the plane,
     # or a gap's neighbours), then every frame is shifted onto it.
-    present, lowest, feet, pelvis_y, step, legs = (np.concatenate(s) for s in zip(
-        *(_floor_evidence(rotated(slice(max(0, r.start - 1), min(T, r.stop + 1))), r.start - max(0, r.start - 1),
-                          r.stop - r.start) for r in frame_blocks(T))))
+    present, lowest, feet, pelvis_y, legs = (np.concatenate(s) for s in zip(
+        *(_floor_evidence(rotated(r)) for r in frame_blocks(T))))
     leg = float(np.nanmedian(legs)) if np.isfinite(legs).any() else float("nan")
     clearance = ANKLE_CLEARANCE_LEG * leg if np.isfinite(leg) else 0.0
     floor = None
@@ -186,7 +185,7 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
         usable = feet & np.isfinite(pelvis_y)
         if floor_frames is not None:
             usable &= np.asarray(floor_frames, bool)
-        ground, floor = fit_ground(lowest, step, usable, leg)
+        ground, floor = fit_ground(lowest, usable, leg)
         shift = np.full(T, ground)
     if floor is None or floor.kind == "per frame":
         floor = floor or Floor("per frame", clearance, leg, reason="no pelvis path")
@@ -199,25 +198,14 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
     return out, floor
 
 
-def _floor_evidence(P: np.ndarray, lo: int = 0, n: int | None = None) -> tuple[np.ndarray, ...]:
-    """Per frame ``lo .. lo + n`` of Y-up poses ``P`` ``(T', 17, 3)`` (the frames before and
-    after them, where given, only for the step): ``(present, lowest joint height (NaN when
-    absent), feet visible, pelvis height, that lowest joint's displacement between the
-    neighbouring frames (NaN at the ends or where it is missing), leg length)``."""
-    n = len(P) - lo if n is None else n
-    rows = np.arange(lo, lo + n)
-    Y = P[rows, :, 1]
+def _floor_evidence(P: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per frame of Y-up poses ``P`` ``(T, 17, 3)``: ``(present, lowest joint height (NaN when
+    absent), feet visible, pelvis height, leg length)``."""
+    Y = P[:, :, 1]
     present = np.isfinite(Y).any(axis=1)
-    lowest = np.full(n, np.nan)
-    low_j = np.zeros(n, np.int64)
-    low_j[present] = np.nanargmin(Y[present], axis=1)
-    lowest[present] = Y[present, low_j[present]]
-    step = np.full(n, np.nan)
-    inner = present & (rows > 0) & (rows < len(P) - 1)
-    t = rows[inner]
-    step[inner] = np.linalg.norm(P[t + 1, low_j[inner]] - P[t - 1, low_j[inner]], axis=-1)
-    return (present, lowest, feet_visible(P[rows]), P[rows, PELVIS, 1].copy(), step,  # a view would keep the block
-            mean_leg_length(P[rows]))
+    lowest = np.full(len(P), np.nan)
+    lowest[present] = np.nanmin(Y[present], axis=1)
+    return present, lowest, feet_visible(P), P[:, PELVIS, 1].copy(), mean_leg_length(P)  # a view would keep the block
 
 
 def _floor_from(present: np.ndarray, lowest: np.ndarray, feet: np.ndarray,

@@ -277,23 +277,24 @@ def test_held_out_jump_and_walk_grounds_with_the_true_path():
 
 
 def test_where_the_2d_track_switches_person_one_persons_feet_place_the_ground():
-    """Decision 0068: a real walk, then the 2D track jumps to another person standing on a box
-    half a metre higher, still (their resting feet are the slowest contacts of the recording).
-    With every frame's contacts the ground goes up onto the box and the walker walks 0.5 m
-    under it; with the walker's frames alone (``floor_frames``, the longest one-person stretch)
-    both people stand on what they stand on."""
+    """Decision 0068: the 2D track follows another person standing still on a box half a metre
+    higher (72 frames), then a real walk (120 frames, the longest one-person stretch), then the
+    other person again (72 frames: 144 in all, more than the walk's). With every frame's contacts
+    the ground goes up onto the box, where most contacts are, and the walker walks 0.5 m under
+    it; with the walker's frames alone (``floor_frames``) both people stand on what they stand on."""
     J, cam, root_cam, frame = _walk_filmed()
+    k = 72
     with np.load(FIXTURES / "mocap_small.npz") as d:
-        O = d["dataset-2_raise-up-both-hands_elderly_024"][: len(J) // 2].astype(np.float64)
+        O = d["dataset-2_raise-up-both-hands_elderly_024"][:k].astype(np.float64)
     O += np.array([2.0, 0.5, 0.0])
-    other_cam = _filmed(O)[0]
-    both = np.concatenate([cam, other_cam])
-    path = np.concatenate([root_cam, O[:, PELVIS] @ CAMERA.T + np.array([0.1, -0.2, 4.0])])
-    walker = np.r_[np.ones(len(J), bool), np.zeros(len(O), bool)]
+    other_cam, other_path = _filmed(O)[0], O[:, PELVIS] @ CAMERA.T + np.array([0.1, -0.2, 4.0])
+    both = np.concatenate([other_cam, cam, other_cam])
+    path = np.concatenate([other_path, root_cam, other_path])
+    walker = np.r_[np.zeros(k, bool), np.ones(len(J), bool), np.zeros(k, bool)]
     mixed = to_world_floor(both, frame, path)[0]
-    assert _ground_error(J, mixed[: len(J)]) < -0.4
+    assert _ground_error(J, mixed[walker]) < -0.4
     world, floor = to_world_floor(both, frame, path, floor_frames=walker)
     assert floor.kind == "plane" and floor.n_contacts <= len(J)
-    assert abs(_ground_error(J, world[: len(J)])) < 0.02 and abs(_ground_error(O, world[len(J):])) < 0.02
+    assert abs(_ground_error(J, world[walker])) < 0.02 and abs(_ground_error(O, world[:k])) < 0.02
     with pytest.raises(InputError, match="floor_frames"):
         to_world_floor(both, frame, path, floor_frames=walker[1:])
