@@ -830,9 +830,14 @@ class Rectified:
     notes: tuple[str, ...]
 
     def one_person(self) -> np.ndarray | None:
-        """``(T,)`` bool, the longest one-person stretch where the 2D track switches person
-        (:func:`pcnet.stages.flags.one_person_frames`), else ``None`` (every frame is one person's)."""
-        return one_person_frames(self.track_segment) if self.track_events else None
+        """:func:`_one_person` of this recording's 2D track."""
+        return _one_person(self.track_segment, self.track_events)
+
+
+def _one_person(segment: np.ndarray | None, events: list) -> np.ndarray | None:
+    """``(T,)`` bool, the longest one-person stretch where the 2D track switches person
+    (:func:`pcnet.stages.flags.one_person_frames`), else ``None`` (every frame is one person's)."""
+    return one_person_frames(segment) if events else None
 
 
 @dataclass(frozen=True)
@@ -962,7 +967,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     # A static camera does not move when the tracker jumps to another person, but the
     # jump and the other body's poses read as camera motion: decide the mode on one
     # person's frames.
-    decide_on = one_person_frames(segment) if events else None
+    decide_on = _one_person(segment, events)
     try:
         res = rectify_checked(_located(camera.joints, root, store), cfg.method, cfg.weights, cfg.mode, fps,
                               cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on,
