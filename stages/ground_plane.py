@@ -83,7 +83,7 @@ LYING_NO_FLOOR = ("body read as lying: the footfalls weighed in the posture and 
 #: Why a body read as lying has no floor where the footfalls were left out of its posture (ablation).
 FOOTFALLS_LEFT_OUT = "body read as lying: the footfalls were left out of the posture"
 #: Why the joints of a recording with a pelvis path give no footfall.
-NO_CONTACTS = "no quasi-static foot contacts"
+NO_CONTACTS = "no foot contacts (no frame with an ankle)"
 #: Candidate ups scored at once by :class:`FloorEnergy` (bounds its (chunk, footfalls) arrays).
 _ENERGY_CHUNK = 2_000
 #: Eigen-directions of the floor's information below this share of the prior's are treated as
