@@ -209,7 +209,7 @@ def _ground_error(J: np.ndarray, world: np.ndarray) -> float:
 def test_one_ground_plane_from_a_real_walk_is_within_2_cm_and_a_flight_phase_does_not_lift_it():
     """A real walk with its true pelvis path: one plane for the recording, within 2 cm of the
     mocap's ground (y = 0; Bandai's stance ankle centres stand 0.117 m above it, the fitted
-    clearance of a CMU-trained 0.80 m leg is 0.104 m: 1.3 cm). A 0.3 m jump inserted for 0.4 s
+    clearance of a CMU-trained 0.80 m leg is 0.106 m: 1.1 cm). A 0.3 m jump inserted for 0.4 s
     (the whole body lifted along the path, a flight phase the ankles rest in at its top) does
     not move the ground: it is rejected, not averaged in; the old median-of-lowest-joint floor
     would also hold, but a per-frame floor would pull the body down to it."""
