@@ -158,6 +158,8 @@ QUARTER_DEG = 90.0
 SWEEP_MIN_FRAMES = 150
 SWEEP_MAX_CLIPS = 60
 CACHE_VERSION = 6
+#: Recordings whose missed intervals are named one by one (more are counted).
+MAX_LISTED = 20
 
 
 # ============================================================================ extraction
@@ -847,6 +849,7 @@ def mocap_table(title: str, evs: list[dict], runs: dict) -> list[str]:
     lines.append("per-frame 95 % bound coverage (frames whose per-frame tilt error is within the reported bound): "
                  f"{label}: {100 * np.mean(hits):.2f} %")
     lines.append(interval_coverage(runs[label], evs))
+    lines.append(f"recordings whose sequence intervals miss the truth: {interval_misses(runs[label], evs)}")
     return lines
 
 
@@ -862,6 +865,19 @@ def interval_hits(out: list[dict], evs: list[dict]) -> np.ndarray:
         tp, tr = np.degrees(camera_pitch_roll(ev["true_up"][np.flatnonzero(np.isfinite(o["up"]).all(-1))[0]]))
         hit.append((abs(tp - p) <= hp, abs((tr - r + 180.0) % 360.0 - 180.0) <= hr))
     return np.array(hit, bool).reshape(-1, 2)
+
+
+def interval_misses(out: list[dict], evs: list[dict]) -> str:
+    """The recordings whose printed intervals (:func:`interval_hits`) miss the truth on an axis,
+    ``name (pitch|roll|both)``, comma-separated; ``"none"`` without any; only their count
+    beyond :data:`MAX_LISTED`."""
+    run = [(o, ev) for o, ev in zip(out, evs) if o.get("interval") is not None]
+    hits = interval_hits([o for o, _ in run], [ev for _, ev in run])
+    missed = [f"{ev['name']} ({'both' if not h.any() else 'pitch' if not h[0] else 'roll'})"
+              for (_, ev), h in zip(run, hits) if not h.all()]
+    if len(missed) > MAX_LISTED:
+        return f"{len(missed)} of {len(run)}"
+    return ", ".join(missed) or "none"
 
 
 def both_axes_coverage(out: list[dict], evs: list[dict]) -> float:
