@@ -727,6 +727,14 @@ def per_frame(ev: dict, v: Variant):
     return R, valid, w, d
 
 
+def shipped_rotations(ev: dict) -> tuple[np.ndarray, np.ndarray]:
+    """``(R (T, 3, 3), ok (T,))``: the default chain's per-frame rotations of one cached
+    recording and its valid frames (:func:`per_frame` of the default variant, checked by
+    :func:`pcnet.stages.temporal.check_rotations`)."""
+    R, valid, _, _ = per_frame(ev, VARIANTS[0])
+    return temporal.check_rotations(R, valid)
+
+
 def run_variant(ev: dict, v: Variant) -> dict:
     """Output ups ``(T, 3)`` (NaN where not valid), the per-frame ups, the mode and the posture."""
     J, fps = ev["J"], ev["fps"]
@@ -952,7 +960,8 @@ def yoga_table(evs: list[dict], runs: dict) -> list[str]:
 
 def trunk_up(J: np.ndarray) -> np.ndarray:
     """``(3,)`` the robust (Tukey) mean direction of the pelvis -> thorax vectors of ``J`` ``(T, 17, 3)``."""
-    t = normalize(np.asarray(J, np.float64)[:, THORAX] - np.asarray(J, np.float64)[:, PELVIS])
+    J = np.asarray(J, np.float64)
+    t = normalize(J[:, THORAX] - J[:, PELVIS])
     return robust_mean_direction(t[np.isfinite(t).all(-1)])[0]
 
 
@@ -1031,8 +1040,7 @@ def floor_table(sets: list[tuple[str, list]]) -> list[str]:
     for title, recs in sets:
         rows = {label: ([], 0, []) for label in labels}
         for ev, J, J2d in recs:
-            R, valid, _, _ = per_frame(ev, VARIANTS[0])
-            R, ok = temporal.check_rotations(R, valid)
+            R, ok = shipped_rotations(ev)
             for label, joints in zip(labels, (J, None, J2d)):
                 _, _, seq = up_model_sequence(R, ok, evidence_of(ev), ev["fps"], joints_cam=joints)
                 pitch, roll = camera_pitch_roll(seq.up)
@@ -1073,8 +1081,7 @@ def rolled_floor_table(rolled: list[dict], floor_sets: list[tuple[str, list]]) -
             for i, (_, J, J2d) in enumerate(recs):
                 ev, Q = by_index[i], roll_matrix(i, QUARTER_DEG)
                 joints = (J if path == "measured path" else J2d) @ Q.T
-                R, valid, _, _ = per_frame(ev, VARIANTS[0])
-                R, ok = temporal.check_rotations(R, valid)
+                R, ok = shipped_rotations(ev)
                 evidence = evidence_of(ev)
                 _, _, seq = up_model_sequence(R, ok, evidence, ev["fps"], joints_cam=joints)
                 old = posture_and_floor_up(summarise_recording(evidence.frames(ok), ev["fps"], p), joints, ok, p,

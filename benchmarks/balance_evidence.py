@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.report import SHARED_DATA
+from benchmarks.report import SHARED_DATA, print_and_save
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.pipeline.rectification import make_estimator
@@ -156,9 +156,8 @@ def main() -> None:
     t0 = time.time()
     if args.correlation:
         from benchmarks.ablation import CACHE
-        lines = correlation_lines(args.data, args.cache or CACHE, args.cop_offset) + [f"wall time {time.time() - t0:.0f} s"]
-        print("\n".join(lines))
-        CORRELATION_RESULT.write_text("\n".join(lines) + "\n")
+        print_and_save(correlation_lines(args.data, args.cache or CACHE, args.cop_offset)
+                       + [f"wall time {time.time() - t0:.0f} s"], CORRELATION_RESULT)
         return
     head = "| set | clips | pcnet sequence | balance | " + " | ".join(f"mix {w}" for w in WEIGHTS) + " |"
     lines = [f"python -m benchmarks.balance_evidence --max-clips {args.max_clips} --cop-offset {args.cop_offset}",

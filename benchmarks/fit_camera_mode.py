@@ -43,11 +43,6 @@ SMOOTH_GRID_S = (0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0)
 LOWPASS_GRID_S = (0.25, 0.5, 1.0, 2.0)
 
 
-def rotations(ev: dict) -> tuple[np.ndarray, np.ndarray]:
-    R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
-    return temporal.check_rotations(R, valid)
-
-
 def best_threshold(static: np.ndarray, moving: np.ndarray) -> tuple[float, int, float, float]:
     """``(threshold, misreads, lo, hi)``: the midpoint of the widest interval ``[lo, hi)`` of
     thresholds with the fewest misreads (static above it, moving at or below it)."""
@@ -76,7 +71,7 @@ def main(argv=None) -> int:
     for tau in SMOOTH_GRID_S:
         errs = []
         for ev in swept:
-            R, ok = rotations(ev)
+            R, ok = A.shipped_rotations(ev)
             up = temporal.smooth_rotations(R, ok, ev["fps"], tau)[:, :, 1]
             errs.append(A.clip_error(np.where(ok[:, None], up, np.nan), ev["true_up"]))
         errors[tau] = float(np.nanmean(errs))
@@ -87,8 +82,8 @@ def main(argv=None) -> int:
               f"{len(static) + len(swept)} (static read moving + swept read static), interval"]
     fits = {}
     for lowpass in LOWPASS_GRID_S:
-        spread_static = np.array([temporal.up_spread_deg(*rotations(ev), ev["fps"], lowpass) for ev in static])
-        spread_swept = np.array([temporal.up_spread_deg(*rotations(ev), ev["fps"], lowpass) for ev in swept])
+        spread_static = np.array([temporal.up_spread_deg(*A.shipped_rotations(ev), ev["fps"], lowpass) for ev in static])
+        spread_swept = np.array([temporal.up_spread_deg(*A.shipped_rotations(ev), ev["fps"], lowpass) for ev in swept])
         thr, wrong, lo, hi = best_threshold(spread_static[np.isfinite(spread_static)],
                                             spread_swept[np.isfinite(spread_swept)])
         fits[lowpass] = (wrong, thr)

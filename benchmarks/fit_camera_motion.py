@@ -81,8 +81,7 @@ def heldout_evidence(data: Path, cache: Path = A.CACHE) -> list[tuple[str, list[
 
 def series(ev: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """``(ups (T, 3), y (T, 2), ok (T,), fps)``: the default chain's per-frame ups of one clip."""
-    R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
-    R, ok = temporal.check_rotations(R, valid)
+    R, ok = A.shipped_rotations(ev)
     ups = np.where(ok[:, None], R[:, :, 1], np.nan)
     y, ok, _ = tangent_coordinates(ups, ok)
     return ups, y, ok, ev["fps"]
@@ -164,8 +163,7 @@ def log_bf(ev: dict) -> float:
 
 
 def spread_moving(ev: dict) -> bool:
-    R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
-    R, ok = temporal.check_rotations(R, valid)
+    R, ok = A.shipped_rotations(ev)
     return temporal.choose_mode(R, ok, temporal.MODE_THRESHOLD_DEG, ev["fps"])[0] == "smooth"
 
 

@@ -47,7 +47,6 @@ from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
 from benchmarks.report import print_and_save
 from pcnet.models.datasets import load_mocap, select_split
-from pcnet.stages import temporal
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.core.rotations import axis_rotation, camera_pitch_roll
 from pcnet.stages.ground_plane import detect_contacts, footfalls, ground_plane_up, leg_length
@@ -81,8 +80,7 @@ def _recording(tag: str, ev: dict, joints: np.ndarray, true_up: np.ndarray,
                joints_2d: np.ndarray | None = None) -> Recording:
     """One recording through the shipped chain's per-frame step and the up model; ``joints``
     ``(T, 17, 3)`` with the pelvis path kept, ``true_up`` ``(T, 3)``."""
-    R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
-    R, ok = temporal.check_rotations(R, valid)
+    R, ok = A.shipped_rotations(ev)
     p = default_parameters()
     post = static_posterior(summarise_recording(A.evidence_of(ev).frames(ok), ev["fps"], p), p)
     return Recording(tag, ev["name"], joints, ok, true_up[np.flatnonzero(ok)[0]], post, joints_2d)

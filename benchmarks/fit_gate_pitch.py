@@ -68,7 +68,7 @@ def steep_validation(data: Path, cache: Path) -> dict[str, list[dict]]:
 def main(argv: list[str] | None = None) -> int:
     args = A.heldout_arguments(argv, __doc__, "fit_gate_pitch", RESULT)
     t0 = time.time()
-    val = {f"{tag} val, {views} views": V.prepared(evs) for (tag, views), evs in F.validation_sets(args.data, args.cache).items()}
+    val = V.validation_clips(args.data, args.cache)
     val.update({name: V.prepared(evs) for name, evs in steep_validation(args.data, args.cache).items()})
     fitted, score, log = V.fit(val, GRIDS, HAND_SET)
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",

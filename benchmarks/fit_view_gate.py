@@ -87,6 +87,12 @@ def prepared(evs: list[dict]) -> list[dict]:
     return out
 
 
+def validation_clips(data: Path, cache: Path) -> dict[str, list[dict]]:
+    """:func:`prepared` clips of each validation set of benchmarks/fit_up_model.py, keyed
+    ``"{tag} val, {views} views"``."""
+    return {f"{tag} val, {views} views": prepared(evs) for (tag, views), evs in F.validation_sets(data, cache).items()}
+
+
 def _ramp(x: np.ndarray, full: float, width: float) -> np.ndarray:
     return np.clip((full + width - x) / width, 0.0, 1.0)
 
@@ -156,8 +162,7 @@ def calibrated(args) -> list[str]:
 
     deepmimic = A.mocap_set(args.data, args.cache, *A.MOCAP_SETS[2][1:], args.max_clips)
     calibration = {ev["name"] for ev in deepmimic[0::2]}
-    sets = {f"{tag} val, {views} views": prepared(evs)
-            for (tag, views), evs in F.validation_sets(args.data, args.cache).items()}
+    sets = validation_clips(args.data, args.cache)
     sets.update({name: prepared(evs) for name, evs in steep_validation(args.data, args.cache).items()})
     sets["DeepMimic even clips"] = prepared(deepmimic[0::2])
     fitted, _, log = fit(sets)
@@ -188,8 +193,7 @@ def main(argv=None) -> int:
                  *calibrated(args), "", f"({time.time() - t0:.0f} s)"]
         print_and_save(lines, args.out or CALIBRATED_RESULT)
         return 0
-    val = {f"{tag} val, {views} views": prepared(evs)
-           for (tag, views), evs in F.validation_sets(args.data, args.cache).items()}
+    val = validation_clips(args.data, args.cache)
     held = {}
     for title, file, split in A.MOCAP_SETS:
         held[title] = prepared(A.mocap_set(args.data, args.cache, file, split, args.max_clips))

@@ -32,7 +32,6 @@ import numpy as np
 from benchmarks import ablation as A
 from benchmarks.report import print_and_save, require_mocap
 from benchmarks.view_gate_pieces import MARGIN_DEG, worse
-from pcnet.stages import temporal
 from pcnet.stages.rectify import up_model_sequence
 
 RESULT = Path(__file__).resolve().parent / "results" / "floor_rows.txt"
@@ -42,8 +41,7 @@ PATHS = ("measured path", "path from 2D keypoints")
 
 def clip_error(ev: dict, joints: np.ndarray) -> float:
     """One recording's sequence tilt error (deg) by the shipped chain, its joints carrying a pelvis path."""
-    R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
-    R, ok = temporal.check_rotations(R, valid)
+    R, ok = A.shipped_rotations(ev)
     _, _, seq = up_model_sequence(R, ok, A.evidence_of(ev), ev["fps"], joints_cam=joints)
     return A.clip_error(np.where(ok[:, None], seq.up, np.nan), ev["true_up"])
 

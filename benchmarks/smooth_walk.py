@@ -43,8 +43,7 @@ def clip_scores(ev: dict, q: float) -> tuple[float, float, np.ndarray]:
     """``(kernel error, walk error, walk inside its 95 % disc per frame)`` of one recording:
     mean per-frame tilt errors (deg) over the frames both answer."""
     p = default_parameters()
-    R, valid = A.per_frame(ev, A.VARIANTS[0])[:2]
-    R, ok = temporal.check_rotations(R, valid)
+    R, ok = A.shipped_rotations(ev)
     kernel = temporal.smooth_rotations(R, ok, ev["fps"], temporal.SMOOTH_TIME_CONSTANT_S)[:, :, 1]
     kernel[~ok] = np.nan
     walk = random_walk(summarise_frames(A.evidence_of(ev), p), ev["fps"], p, q)

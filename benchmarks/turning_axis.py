@@ -56,6 +56,7 @@ from benchmarks.fit_camera_mode import best_threshold
 from benchmarks.report import print_and_save
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.rotations import procrustes_rotation
 from pcnet.stages.up_model import default_parameters, summarise_recording
 
 #: At most this many frames of each third are matched (evenly spaced): the brute-force nearest
@@ -80,18 +81,6 @@ def nearest(a: np.ndarray, b: np.ndarray, chunk: int = 1000) -> np.ndarray:
         block = a[i:i + chunk]
         out[i:i + chunk] = np.argmin(bb[None] - 2.0 * block @ b.T, axis=1)
     return out
-
-
-def kabsch(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """``(N, 3, 3)`` the proper rotations ``R`` minimising ``sum_j |R p_j - q_j|^2`` for each of
-    the ``N`` pairs of point sets ``P``, ``Q`` ``(N, J, 3)`` (already centred; Kabsch 1976)."""
-    H = np.einsum("nji,njk->nik", P, Q)
-    U, _, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(np.swapaxes(Vt, 1, 2) @ np.swapaxes(U, 1, 2)))
-    D = np.zeros_like(H)
-    D[:, 0, 0] = D[:, 1, 1] = 1.0
-    D[:, 2, 2] = d
-    return np.swapaxes(Vt, 1, 2) @ D @ np.swapaxes(U, 1, 2)
 
 
 def turn_tilt_deg(joints_cam: np.ndarray, valid: np.ndarray, up: np.ndarray) -> float:
@@ -130,7 +119,8 @@ def turn_tilt_deg(joints_cam: np.ndarray, valid: np.ndarray, up: np.ndarray) -> 
     c_first, c_last = configuration(X[first]), configuration(X[last])
     sources = np.concatenate([first, last])
     targets = np.concatenate([last[nearest(c_first, c_last)], first[nearest(c_last, c_first)]])
-    R = kabsch(X[sources], X[targets])
+    # X[sources] R ~ X[targets] (row vectors): R turns g by as much as its transpose does.
+    R = procrustes_rotation(X[sources], X[targets])[0]
     cos = np.clip(np.einsum("i,nij,j->n", g, R, g), -1.0, 1.0)
     return float(np.degrees(np.median(np.arccos(cos))))
 
@@ -146,15 +136,9 @@ FIT_RESULT = RESULTS / "turning_axis_fit.txt"
 RESULT = RESULTS / "turning_axis.txt"
 
 
-def frames(ev: dict) -> tuple[np.ndarray, np.ndarray]:
-    """The shipped chain's per-frame rotations and valid frames of one cached recording."""
-    R, valid, _, _ = A.per_frame(ev, A.VARIANTS[0])
-    return temporal.check_rotations(R, valid)
-
-
 def statistic(ev: dict) -> float:
     """:func:`turn_tilt_deg` of one cached recording, the up model's summary of its poses as the up."""
-    _, ok = frames(ev)
+    _, ok = A.shipped_rotations(ev)
     if ok.sum() < 2:
         return float("nan")
     up = summarise_recording(A.evidence_of(ev).frames(ok), ev["fps"], default_parameters()).up
@@ -163,7 +147,7 @@ def statistic(ev: dict) -> float:
 
 def spread(ev: dict) -> float:
     """The shipped rule's statistic (:func:`pcnet.stages.temporal.up_spread_deg`)."""
-    R, ok = frames(ev)
+    R, ok = A.shipped_rotations(ev)
     return temporal.up_spread_deg(R, ok, ev["fps"], temporal.MODE_SMOOTHING_S)
 
 
@@ -193,7 +177,7 @@ def fitted_threshold() -> float:
 def auto_error(ev: dict, moving: bool) -> float:
     """Auto mode's mean tilt error (deg) on one recording under a static/moving reading."""
     if moving:
-        R, ok = frames(ev)
+        R, ok = A.shipped_rotations(ev)
         up = temporal.smooth_rotations(R, ok, ev["fps"], temporal.SMOOTH_TIME_CONSTANT_S)[:, :, 1]
         return A.clip_error(np.where(ok[:, None], up, np.nan), ev["true_up"])
     return A.clip_error(A.run_variant(ev, A.VARIANTS[0])["up"], ev["true_up"])

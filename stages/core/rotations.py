@@ -239,6 +239,21 @@ def sample_camera_rotations(n: int, distribution: str, rng: np.random.Generator)
     return compose_camera_rotation(np.radians(-yaw), np.radians(pitch), np.radians(roll))
 
 
+def procrustes_rotation(X0: np.ndarray, Y0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The proper rotation ``R`` ``(N, 3, 3)`` minimising ``sum_j |x_j R - y_j|^2`` per item
+    (row vectors; Kabsch 1976, Umeyama 1991), and ``tr(S D)`` ``(N,)``, the signed singular
+    values' sum that the similarity's scale needs.
+
+    Args:
+        X0, Y0: ``(N, J, 3)`` finite point sets, already centred (or about a common point).
+    """
+    H = np.swapaxes(X0, 1, 2) @ Y0  # (N, 3, 3)
+    U, S, Vt = np.linalg.svd(H)
+    D = np.ones_like(S)
+    D[:, -1] = np.sign(np.linalg.det(U @ Vt))
+    return (U * D[:, None, :]) @ Vt, (S * D).sum(-1)
+
+
 def similarity_procrustes(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """Align ``X`` to ``Y`` with the best similarity transform per item (Umeyama 1991):
     ``X_aligned = s X R + t`` minimising ``|X_aligned - Y|^2`` with ``R`` a proper rotation.
@@ -258,15 +273,10 @@ def similarity_procrustes(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     Xz, Yz = np.where(ok[..., None], X, 0.0), np.where(ok[..., None], Y, 0.0)
     mx, my = (Xz * w).sum(1, keepdims=True) / cnt, (Yz * w).sum(1, keepdims=True) / cnt
     X0, Y0 = (Xz - mx) * w, (Yz - my) * w
-    H = np.swapaxes(X0, 1, 2) @ Y0  # (N, 3, 3)
-    U, S, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(U @ Vt))
-    D = np.ones_like(S)
-    D[:, -1] = d
-    R = (U * D[:, None, :]) @ Vt
+    R, trace = procrustes_rotation(X0, Y0)
     varx = (X0**2).sum((1, 2))
     with np.errstate(invalid="ignore", divide="ignore"):
-        s = (S * D).sum(-1) / varx
+        s = trace / varx
     out = s[:, None, None] * ((X - mx) @ R) + my
     out[ok.sum(1) < 3] = np.nan
     return out
