@@ -402,17 +402,24 @@ def keypoint_root_path(clip, frames: np.ndarray, R: np.ndarray, X: np.ndarray, f
                        rng: np.random.Generator) -> np.ndarray:
     """``(T, 3)`` float64 the pelvis path a monocular run recovers from 2D keypoints
     (:func:`pcnet.stages.root_path.root_from_keypoints`, what ``pcnet run`` does with
-    ``--keypoints2d`` and metric poses). The clean joints (:func:`camera_view_joints`) stand
-    ``3 m`` plus the pelvis's largest excursion in front of the camera (as in
-    benchmarks/fit_root_path.py); a detector sees them with its pixel noise and wrong
-    detections (:func:`benchmarks.fit_root_path.detected_keypoints`); the 3D are the lifter-noise
-    inputs ``X`` ``(T, 17, 3)``, root-relative. NaN where no fit."""
+    ``--keypoints2d`` and metric poses) from :func:`detected_keypoints_2d`; the 3D are the
+    lifter-noise inputs ``X`` ``(T, 17, 3)``, root-relative. NaN where no fit."""
+    X = np.asarray(X, np.float64)
+    return root_from_keypoints(X - X[:, PELVIS:PELVIS + 1], detected_keypoints_2d(clip, frames, R, rng), K_VIEW,
+                               fps).position
+
+
+def detected_keypoints_2d(clip, frames: np.ndarray, R: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``(T, 17, 3)`` x_px, y_px, confidence: the 2D keypoints of a monocular run's detector.
+    The clip's clean joints in the camera of ``R`` (:func:`camera_view_joints`) stand ``3 m``
+    plus the pelvis's largest excursion in front of the camera (as in
+    benchmarks/fit_root_path.py) and are seen by :data:`K_VIEW` with its pixel noise and wrong
+    detections (:func:`benchmarks.fit_root_path.detected_keypoints`)."""
     P = camera_view_joints(clip, frames, R)
     pelvis = P[:, PELVIS]
     centre = pelvis.mean(0)
     P = P - centre + np.array([0.0, 0.0, 3.0 + np.max(np.linalg.norm(pelvis - centre, axis=1))])
-    X = np.asarray(X, np.float64)
-    return root_from_keypoints(X - X[:, PELVIS:PELVIS + 1], detected_keypoints(P, rng), K_VIEW, fps).position
+    return detected_keypoints(P, rng)
 
 
 def mocap_evidence(data: Path, file: str, split: str, max_clips: int, rest: bool = False) -> list[dict]:

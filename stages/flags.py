@@ -7,14 +7,19 @@ pipeline prints them in the run summary and stores their texts in the outputs.
 
 from __future__ import annotations
 
+import json
 import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import IntEnum, auto
+from functools import lru_cache
+from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
 from .core.canonical import trunk_lean_deg
+from .core.errors import InputError
 from .core.conventions import (L_HIP, L_SHOULDER, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
                                median_thigh_length)
 from .core.framestore import frame_blocks, true_runs
@@ -29,11 +34,8 @@ from .scale import height_chain_length, leg_lengths
 #: Trunk (pelvis -> thorax) angle from the canonical vertical beyond which a pose is far from
 #: the upright poses the shipped networks learnt (lying, crawling, handstand).
 NON_UPRIGHT_TRUNK_DEG = 60.0
-#: A 2D pelvis jump, in torso lengths, that one person cannot make between two frames at
-#: 30 fps (2 torso lengths = about 1 m in 1/30 s = 30 m/s); each further frame of a gap
-#: allows 0.7 torso lengths more (a 10 m/s sprint).
-SWITCH_JUMP_TORSOS = 2.0
-SWITCH_JUMP_PER_EXTRA_FRAME = 0.7
+#: The fitted person-switch limits of :func:`track_segments` (decision 0072).
+SWITCH_LIMITS_PATH = Path(__file__).resolve().parent / "data" / "track_switch.json"
 
 
 # --- findings --------------------------------------------------------------------------------
@@ -604,36 +606,111 @@ def floor_flag(feet_visible: np.ndarray, present: np.ndarray) -> list[Finding]:
                    f"height above it is interpolated from the nearest frames that saw it", true_runs(unseen))]
 
 
-def track_segments(keypoints2d: np.ndarray, fps: float) -> tuple[np.ndarray, list[tuple[int, float]]]:
+@dataclass(frozen=True)
+class SwitchLimits:
+    """How far one person's 2D pelvis can move: a jump between two present frames ``g``
+    frames apart at 30 fps (``(frame difference) * 30 / fps``) beyond
+    ``jump_torsos + per_extra_frame * max(g - 1, 0)`` torso lengths (pelvis -> thorax in
+    pixels, the larger of the two frames') is another person.
+
+    Attributes:
+        jump_torsos: the largest jump between consecutive frames at 30 fps, torso lengths.
+        per_extra_frame: the largest further jump per frame of a gap, torso lengths.
+        provenance: the fit's command, data, split and where each value was reached.
+    """
+
+    jump_torsos: float
+    per_extra_frame: float
+    provenance: Mapping = field(default_factory=dict)
+
+    def limit(self, gap_frames_30fps: np.ndarray | float) -> np.ndarray:
+        """The largest jump (torso lengths) one person makes over a gap of
+        ``gap_frames_30fps`` frames at 30 fps (any shape, float)."""
+        return self.jump_torsos + self.per_extra_frame * np.maximum(np.asarray(gap_frames_30fps, float) - 1.0, 0.0)
+
+
+@lru_cache(maxsize=4)
+def load_switch_limits(path: str | Path | None = None) -> SwitchLimits:
+    """Read :class:`SwitchLimits` from JSON (``jump_torsos``, ``per_extra_frame``,
+    ``provenance``; default: the shipped :data:`SWITCH_LIMITS_PATH`, written by
+    ``python -m benchmarks.fit_track_switch --data ../shared/data``).
+
+    Raises:
+        FileNotFoundError: no such file.
+        InputError: not JSON, or a field missing or not a positive finite number (named).
+    """
+    path = Path(SWITCH_LIMITS_PATH if path is None else path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise InputError(f"{path}: expected the JSON person-switch limits, got unreadable JSON ({err})") from err
+    values = {}
+    for name in ("jump_torsos", "per_extra_frame"):
+        value = data.get(name) if isinstance(data, dict) else None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+            raise InputError(f"{path}: field {name!r}: expected a positive number of torso lengths, got {value!r}")
+        values[name] = float(value)
+    return SwitchLimits(**values, provenance=MappingProxyType(dict(data.get("provenance", {}))))
+
+
+def pelvis_jumps(keypoints2d: np.ndarray, fps: float,
+                 max_gap_30fps: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The 2D pelvis's jumps in torso lengths (pelvis -> thorax in pixels, the larger of the
+    two frames'), as :func:`track_segments` measures them, between consecutive present frames
+    (those with a pelvis and a thorax; ``max_gap_30fps`` None) or between every pair of
+    present frames at most ``max_gap_30fps`` frames at 30 fps apart.
+
+    Args:
+        keypoints2d: ``(T, 17, >=2)`` H36M-17 pixels; NaN = missing.
+        fps: frame rate in Hz (> 0).
+        max_gap_30fps: the longest gap, frames at 30 fps; None: consecutive present frames.
+
+    Returns:
+        ``(first, second, gap, jump)``: ``(N,)`` int frame indices, ``(N,)`` float the gap in
+        frames at 30 fps, ``(N,)`` float the jump in torso lengths.
+    """
+    # Two columns read (a long recording's keypoints are on disk, read a block at a time).
+    pelvis, thorax = (np.asarray(keypoints2d[:, j, :2], np.float64) for j in (PELVIS, THORAX))
+    torso = np.linalg.norm(thorax - pelvis, axis=1)
+    present = np.flatnonzero(np.isfinite(pelvis).all(axis=1) & np.isfinite(torso) & (torso > 0))
+    pairs = [(present[:-1], present[1:])]
+    for step in range(2, len(present) if max_gap_30fps is not None else 0):
+        a, b = present[:-step], present[step:]
+        near = (b - a) * 30.0 / fps <= max_gap_30fps
+        if not near.any():
+            break
+        pairs.append((a[near], b[near]))
+    a, b = (np.concatenate(side).astype(int) for side in zip(*pairs))
+    jump = np.linalg.norm(pelvis[b] - pelvis[a], axis=1) / np.maximum(torso[a], torso[b])
+    return a, b, (b - a) * 30.0 / fps, jump
+
+
+def track_segments(keypoints2d: np.ndarray, fps: float,
+                   limits: SwitchLimits | None = None) -> tuple[np.ndarray, list[tuple[int, float]]]:
     """Split a 2D track where it jumps farther than one person can move: a tracker that
     switched to someone else.
 
-    The 2D pelvis may move at most :data:`SWITCH_JUMP_TORSOS` torso lengths (pelvis ->
-    thorax in pixels, the larger of the two frames') between consecutive present frames at
-    30 fps, plus :data:`SWITCH_JUMP_PER_EXTRA_FRAME` per further frame of a gap (scaled by
-    ``30 / fps``).
+    Between consecutive present frames (those with a pelvis and a thorax) the 2D pelvis may
+    move at most ``limits.limit(gap)`` torso lengths (:class:`SwitchLimits`; default the
+    shipped fit, :func:`load_switch_limits`, decision 0072).
 
     Args:
         keypoints2d: ``(T, 17, 3)`` H36M-17 x_px, y_px, confidence; NaN = missing.
         fps: frame rate in Hz (> 0).
+        limits: the person-switch limits (default: the shipped ones).
 
     Returns:
         ``(segment (T,) int, events)``: ``segment`` numbers the stretches between jumps from
         0 (frames without a pelvis or thorax keep the number of the stretch they lie in);
         ``events`` lists ``(first frame after the jump, jump in torso lengths)``.
     """
-    # Two columns read (a long recording's keypoints are on disk, read a block at a time).
-    pelvis, thorax = (np.asarray(keypoints2d[:, j, :2], np.float64) for j in (PELVIS, THORAX))
-    torso = np.linalg.norm(thorax - pelvis, axis=1)
-    present = np.flatnonzero(np.isfinite(pelvis).all(axis=1) & np.isfinite(torso) & (torso > 0))
+    limits = limits or load_switch_limits()
+    _, after, gap, jump = pelvis_jumps(keypoints2d, fps)
     segment = np.zeros(len(keypoints2d), int)
     events: list[tuple[int, float]] = []
-    for a, b in zip(present[:-1], present[1:]):
-        frames = (b - a) * 30.0 / fps
-        jump = np.linalg.norm(pelvis[b] - pelvis[a]) / max(torso[a], torso[b])
-        if jump > SWITCH_JUMP_TORSOS + SWITCH_JUMP_PER_EXTRA_FRAME * max(frames - 1.0, 0.0):
-            events.append((int(b), float(jump)))
-            segment[b:] += 1
+    for frame, j in zip(after[jump > limits.limit(gap)], jump[jump > limits.limit(gap)]):
+        events.append((int(frame), float(j)))
+        segment[frame:] += 1
     return segment, events
 
 

@@ -13,10 +13,10 @@ from click.testing import CliRunner
 from conftest import FIXTURES, camera_up, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
-from pcnet.stages.flags import (Kind, camera_tilt, lifter_frame_flag, mirrored_skeleton_flag, non_upright_fraction,
-                                orientation_flags, side_swap_flag,
-                                size_change_flag,
-                                track_segments, track_switch_flag)
+from pcnet.stages.core.errors import InputError
+from pcnet.stages.flags import (Kind, SwitchLimits, camera_tilt, lifter_frame_flag, load_switch_limits,
+                                mirrored_skeleton_flag, non_upright_fraction, orientation_flags, pelvis_jumps,
+                                side_swap_flag, size_change_flag, track_segments, track_switch_flag)
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.scale import height_chain_length
 from pcnet.stages.remap import remap_to_h36m
@@ -125,6 +125,49 @@ def test_a_track_that_jumps_to_another_place_is_split():
     (flag,) = track_switch_flag(segment, events)
     assert "check --person" in flag.detail and flag.frames == ((30, len(kp)),)  # the frames of another person
     assert "re-run the tracker" in track_switch_flag(segment, events, person_option=False)[0].detail
+
+
+def test_pelvis_jumps_measure_torso_lengths_over_gaps_at_30_fps():
+    kp = np.full((6, 17, 3), np.nan)
+    kp[:, 0, :2] = [[0, 0], [10, 0], [np.nan, np.nan], [30, 0], [40, 0], [50, 0]]  # pelvis, x px
+    kp[:, 8, :2] = kp[:, 0, :2] + [0, -100]  # thorax 100 px above: torso 100 px
+    first, second, gap, jump = pelvis_jumps(kp, fps=60.0)
+    assert first.tolist() == [0, 1, 3, 4] and second.tolist() == [1, 3, 4, 5]
+    np.testing.assert_allclose(gap, [0.5, 1.0, 0.5, 0.5])  # frame 2 missing: a two-frame gap at 60 fps
+    np.testing.assert_allclose(jump, [0.1, 0.2, 0.1, 0.1])
+    first, second, gap, jump = pelvis_jumps(kp, fps=60.0, max_gap_30fps=1.0)  # every pair within a 30 fps frame
+    assert sorted(zip(first.tolist(), second.tolist())) == [(0, 1), (1, 3), (3, 4), (3, 5), (4, 5)]
+
+
+def test_the_switch_limit_grows_with_the_gap_and_decides_a_jump():
+    limits = SwitchLimits(1.0, 0.5)
+    np.testing.assert_allclose(limits.limit([0.5, 1.0, 3.0]), [1.0, 1.0, 2.0])
+    kp = np.full((3, 17, 3), np.nan)
+    kp[:, 0, :2] = [[0, 0], [150, 0], [np.nan, np.nan]]
+    kp[:, 8, :2] = kp[:, 0, :2] + [0, -100]
+    assert track_segments(kp, 30.0, limits)[1] == [(1, 1.5)]
+    assert track_segments(kp, 15.0, limits)[1] == []  # the same jump over two frames at 30 fps: within 1.5
+
+
+def test_the_shipped_switch_limits_state_their_fit():
+    limits = load_switch_limits()
+    assert limits.provenance["command"] == "python -m benchmarks.fit_track_switch --data ../shared/data"
+    assert "train split" in limits.provenance["data"] and limits.jump_torsos > 0 and limits.per_extra_frame > 0
+
+
+@pytest.mark.parametrize("text, field", [
+    ('{"per_extra_frame": 0.5}', "'jump_torsos'"),
+    ('{"jump_torsos": -1, "per_extra_frame": 0.5}', "'jump_torsos'"),
+    ('{"jump_torsos": 1, "per_extra_frame": "x"}', "'per_extra_frame'"),
+    ("[1, 2]", "'jump_torsos'"),
+    ("{", "unreadable JSON"),
+])
+def test_bad_switch_limits_name_the_file_and_field(tmp_path, text, field):
+    path = tmp_path / "limits.json"
+    path.write_text(text)
+    with pytest.raises(InputError, match=re.escape(field)) as err:
+        load_switch_limits(path)
+    assert str(path) in str(err.value)
 
 
 @pytest.mark.slow
