@@ -13,9 +13,10 @@ recording runs through the shipped estimator exactly as ``pcnet run`` builds it
 ``predict_gated``), with recorders on the two onnxruntime sessions' ``predict_normalized``
 that keep each network's raw per-frame rotations: the body-frame network and the camera-frame
 network on the quarter-turned input (turned back into the camera frame); with the quarter turns,
-the gate's weights and the disagreement the estimator returns; and, run here, the camera-frame
-network on the unturned input of the turned frames (for "quarter turns off" and the plain
-means). The same
+the gate's weights and the disagreement the estimator returns; the up model's evidence of a
+static camera (the camera-frame network's ups at the recording's one quarter turn, decision
+0073, and that turn); and, run here, the camera-frame network on the unturned input of the
+turned frames (for "quarter turns off" and the plain means). The same
 estimate then goes through the real chain (:class:`pcnet.stages.rectify.Rectification`,
 ``SequenceEvidence("auto", camera_prior=True)``, heading ``auto``: ``pcnet run``'s defaults
 before decision 0041 made sequence mode the default; no bootstrap, which does not move the up)
@@ -119,7 +120,7 @@ from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, get_session
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.models.preprocess import normalize_input
-from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices
+from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices, recording_quarter_turn
 from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
 from benchmarks.fit_root_path import K as K_VIEW
@@ -157,7 +158,7 @@ ROLL_DEG = 30.0
 QUARTER_DEG = 90.0
 SWEEP_MIN_FRAMES = 150
 SWEEP_MAX_CLIPS = 60
-CACHE_VERSION = 6
+CACHE_VERSION = 7
 #: Recordings whose missed intervals are named one by one (more are counted).
 MAX_LISTED = 20
 
@@ -212,7 +213,8 @@ def extract(X: np.ndarray, fps: float) -> dict:
     turns = est.quarter_turns
     body = [R for net, R in calls if net == "body"]
     cam = [R for net, R in calls if net == "camera"]
-    assert len(body) == 1 and len(cam) == 1, (len(body), len(cam))
+    # a second camera-frame pass reads the frames whose running-window turn is not the recording's
+    assert len(body) == 1 and len(cam) in (1, 2), (len(body), len(cam))
     R_body = body[0]
     Q = quarter_turn_matrices(turns)
     R_camT = np.swapaxes(Q, 1, 2) @ cam[0]  # the camera-frame network's answer on the turned input, turned back
@@ -226,6 +228,7 @@ def extract(X: np.ndarray, fps: float) -> dict:
     return {
         "fps": float(fps), "J": X, "R_body": R_body, "R_camT": R_camT, "R_camP": R_camP, "valid": est.valid.copy(),
         "turns": turns.copy(), "weight": est.camera_frame_weight.copy(),
+        "up_camS": est.evidence.camera_up.copy(), "turn": recording_quarter_turn(R_body, est.valid),
         "frame_up": est.rotation[:, :, 1].copy(), "real_up": real.up.copy(), "real_valid": real.valid.copy(),
         "real_mode": real.mode, "real_posture": None if rep.posture is None else rep.posture.most_probable,
         "ground_plane_used": bool(rep.sequence is not None and rep.sequence.ground_plane.get("used", False)),
@@ -640,11 +643,12 @@ def equivariance_evidence(data: Path) -> list[dict]:
 
 def evidence_of(ev: dict, turns: bool = True, nets: str = "both") -> UpEvidence:
     """The up model's evidence of one cached recording: each network's own up (the camera-frame
-    network's on the quarter-turned input, turned back) and the turns; ``turns`` False: the
-    camera-frame network on the input as filmed; ``nets`` ``"camera"`` or ``"body"``: only that
-    network's ups (the other's blanked, so its term of the likelihood is 0)."""
-    Q = quarter_turn_matrices(ev["turns"]) if turns and ev["turns"].any() else None
-    c = np.where(ev["valid"][:, None] & (nets != "body"), ev["R_camT" if turns else "R_camP"][:, :, 1], np.nan)
+    network's on the input turned back by the recording's one quarter turn, turned forward
+    again: decision 0073) and that turn; ``turns`` False: the camera-frame network on the input
+    as filmed; ``nets`` ``"camera"`` or ``"body"``: only that network's ups (the other's blanked,
+    so its term of the likelihood is 0)."""
+    Q = quarter_turn_matrices(np.full(len(ev["valid"]), ev["turn"])) if turns and ev["turn"] else None
+    c = np.where(ev["valid"][:, None] & (nets != "body"), ev["up_camS"] if turns else ev["R_camP"][:, :, 1], np.nan)
     b = np.where(ev["valid"][:, None] & (nets != "camera"), ev["R_body"][:, :, 1], np.nan)
     return UpEvidence.of(c, b, Q)
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
@@ -17,7 +18,8 @@ from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.core.rotations import angle_between, with_up
 
 from .preprocess import normalize_input
-from .view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices, quarter_turns
+from .view_gate import (blend_rotations, camera_frame_weight, quarter_turn_matrices, quarter_turns,
+                        recording_quarter_turn)
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
 #: The shipped camera-frame 3DPCNet (configs/pcnet_camera_floor4.toml) and body-frame 3DPCNet
@@ -121,6 +123,22 @@ class PCNetSession:
         return R, residual, valid
 
 
+@dataclass(frozen=True)
+class StaticCameraUps:
+    """Each network's own up per frame for a static camera: the evidence of
+    :mod:`pcnet.stages.up_model`.
+
+    camera: ``(N, 3)`` float64 the camera-frame 3DPCNet's up on the input turned back by the
+    recording's one quarter turn (:func:`pcnet.models.view_gate.recording_quarter_turn`, decision
+    0073), turned forward again; body: ``(N, 3)`` float64 the body-frame 3DPCNet's up; both in
+    the camera frame (OpenCV axes), NaN where that network gave none. turn: the quarter turn
+    ``k`` (0, 1 or 3)."""
+
+    camera: np.ndarray
+    body: np.ndarray
+    turn: int
+
+
 class ViewGatedPCNet:
     """The shipped ensemble: the camera-frame and the body-frame 3DPCNet, blended per frame by
     :func:`pcnet.models.view_gate.camera_frame_weight` (camera-frame inside its training
@@ -147,8 +165,9 @@ class ViewGatedPCNet:
 
     def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0, allocate=None):
         """``(R, residual, valid, camera-frame weight, disagreement in deg, quarter turns, ups)``
-        (``ups``: the camera-frame and body-frame networks' own ups, each ``(N, 3)`` in the camera
-        frame, the former turned forward again; the evidence of :mod:`pcnet.stages.up_model`);
+        (``ups``: :class:`StaticCameraUps`, the evidence of :mod:`pcnet.stages.up_model`: the
+        camera-frame network on the recording's one quarter turn, run again on any frame whose
+        running-window turn differs);
         ``joints_cam`` in memory or on disk, read :data:`CHUNK_FRAMES` frames at a time.
         ``allocate(name, shape, dtype)`` makes the two ``(N, 17, 3)`` float64 residual arrays
         (NaN-filled; default in memory; the pipeline's are on disk, so only the ``(N, 3, 3)``
@@ -180,7 +199,7 @@ class ViewGatedPCNet:
         weight = (camera_frame_weight(R_body, valid, fps, R_cam) if Q is None
                   else camera_frame_weight(Q @ R_body, valid, fps, Q @ R_cam))
         disagreement = np.degrees(angle_between(R_cam[:, :, 1], R_body[:, :, 1]))
-        ups = (R_cam[:, :, 1].copy(), R_body[:, :, 1].copy())  # each network's own up, before the blend
+        ups = self._static_camera_ups(joints_cam, blocks, R_cam, R_body, valid, turns)  # before the blend
         # Blended a block at a time into the camera-frame network's arrays (no third copy); the
         # geodesic blend commutes with the turn, so it runs in the camera's own frame.
         for rows in blocks:
@@ -194,6 +213,23 @@ class ViewGatedPCNet:
 
     def predict(self, joints_cam: np.ndarray, fps: float = 30.0):
         return self.predict_gated(joints_cam, fps)[:3]
+
+    def _static_camera_ups(self, joints_cam, blocks, R_cam, R_body, valid, turns) -> StaticCameraUps:
+        """:class:`StaticCameraUps` from the per-frame pass: the camera-frame network's ups where
+        its running-window turn is the recording's, and a new pass on the other frames."""
+        turn = recording_quarter_turn(R_body, valid)
+        camera = R_cam[:, :, 1].copy()
+        changed = valid & (turns != turn)
+        if changed.any():
+            Q = quarter_turn_matrices(np.full(1, turn))[0]
+            for rows in blocks:
+                idx = np.flatnonzero(changed[rows])
+                if not len(idx):
+                    continue
+                x, scale, ok = (a[idx] for a in normalize_input(check_poses(joints_cam[rows], "joints_cam")))
+                R, _, ok = self.camera.predict_normalized((x @ Q.T).astype(np.float32), scale, ok)
+                camera[rows.start + idx] = np.where(ok[:, None], (Q.T @ R)[:, :, 1], np.nan)
+        return StaticCameraUps(camera, R_body[:, :, 1].copy(), turn)
 
 
 @lru_cache(maxsize=4)

@@ -73,7 +73,9 @@ PITCH_RAMP_DEG = (40.0, 55.0)
 #: own estimate no longer keeps it in. Roll hand-set (above); pitch fitted (above).
 BODY_ESTIMATE_LIMIT_ROLL_DEG = (45.0, 60.0)
 BODY_ESTIMATE_LIMIT_PITCH_DEG = (45.0, 60.0)
-#: Running-median window of the camera view estimate, seconds; hand-set (above).
+#: Running-median window of the camera view estimate, seconds; hand-set (above). Frame and smooth
+#: modes only (a moving camera may turn): a static camera's up model reads one quarter turn for
+#: the whole recording (:func:`recording_quarter_turn`, decision 0073).
 WINDOW_S = 2.0
 
 
@@ -161,11 +163,37 @@ def quarter_turns(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0) 
     if len(idx):
         roll = decompose_camera_rotation(R_body_net[idx])[2]
         size = window_frames(fps)
-        c = median_filter(np.cos(roll), size=size, mode="nearest")
-        s = median_filter(np.sin(roll), size=size, mode="nearest")
-        k[idx] = np.round(np.arctan2(s, c) / (np.pi / 2)).astype(np.int64) % 4
-    k[k == 2] = 0
+        k[idx] = _nearest_quarter(median_filter(np.cos(roll), size=size, mode="nearest"),
+                                  median_filter(np.sin(roll), size=size, mode="nearest"))
     return k
+
+
+def recording_quarter_turn(R_body_net: np.ndarray, valid: np.ndarray) -> int:
+    """The quarter turn ``k`` (0, 1 or 3) of a static camera: :func:`quarter_turns`'s rule with
+    the whole recording as its window (the medians of the roll's cosine and sine over every
+    valid frame). The up model's evidence of a static camera reads the camera-frame network on
+    the input turned back by it (decision 0073: no running window in sequence mode).
+
+    Args:
+        R_body_net: ``(T, 3, 3)`` canonical->camera rotations of the body-frame 3DPCNet, NaN
+            where not valid.
+        valid: ``(T,)`` bool.
+
+    Returns:
+        0, 1 or 3; 0 without a valid frame.
+    """
+    idx = np.flatnonzero(valid)
+    if not len(idx):
+        return 0
+    roll = decompose_camera_rotation(R_body_net[idx])[2]
+    return int(_nearest_quarter(np.median(np.cos(roll)), np.median(np.sin(roll))))
+
+
+def _nearest_quarter(cos_roll, sin_roll) -> np.ndarray:
+    """The multiple of 90 deg (``k`` in {0, 1, 3}, int64, the inputs' shape) nearest the roll
+    whose cosine and sine are given; a half turn (k = 2) is 0 (module docstring)."""
+    k = np.round(np.arctan2(sin_roll, cos_roll) / (np.pi / 2)).astype(np.int64) % 4
+    return np.where(k == 2, 0, k)
 
 
 def quarter_turn_matrices(k: np.ndarray) -> np.ndarray:

@@ -48,9 +48,10 @@ class NetworkEstimator:
         X = check_poses(joints_cam, "joints_cam")
         session = get_session(None if self.weights is None else str(self.weights))
         if self.weights is None:
-            R, residual, valid, gate, disagreement, turns, (camera_up, body_up) = session.predict_gated(X, fps, allocate)
-            evidence = UpEvidence.of(np.where(valid[:, None], camera_up, np.nan), np.where(valid[:, None], body_up, np.nan),
-                                     quarter_turn_matrices(turns) if turns.any() else None)
+            R, residual, valid, gate, disagreement, turns, ups = session.predict_gated(X, fps, allocate)
+            # A static camera has one quarter turn (decision 0073); the gate's running window is frame and smooth modes'.
+            evidence = UpEvidence.of(np.where(valid[:, None], ups.camera, np.nan), np.where(valid[:, None], ups.body, np.nan),
+                                     quarter_turn_matrices(np.full(len(valid), ups.turn)) if ups.turn else None)
         else:
             residual = (allocate or in_memory)("residual", X.shape, np.float64)
             (R, residual, valid), gate, disagreement, turns = session.predict(X, residual=residual), None, None, None

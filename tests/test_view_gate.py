@@ -11,7 +11,8 @@ from conftest import FIXTURES
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
 from pcnet.models.view_gate import (BODY_ESTIMATE_LIMIT_PITCH_DEG, BODY_ESTIMATE_LIMIT_ROLL_DEG, PITCH_RAMP_DEG,
                                     ROLL_RAMP_DEG, blend_rotations, camera_frame_weight, quarter_turn_matrices,
-                                    quarter_turns)
+                                    quarter_turns, recording_quarter_turn)
+from pcnet.models.preprocess import normalize_input
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.flags import ensemble_weights_flag
 from pcnet.pipeline.rectification import rectify
@@ -129,6 +130,29 @@ def test_shipped_pair_answers_a_portrait_camera_exactly_as_the_level_one_and_oth
         assert (w == 0.0).all() and (k != 2).all()
         np.testing.assert_allclose(R, Q @ body0, atol=1e-4)  # equivariant: the up turns with the camera
         assert np.isfinite(residual).all()
+
+
+def test_a_static_camera_has_one_quarter_turn_read_on_every_frame():
+    """Decision 0073: a phone held in portrait for the first 70 frames of the real standing poses
+    and level after: the gate's running window turns the first frames only, while the up model's
+    evidence reads every frame at the recording's one turn (the majority's), the level frames
+    run again turned by it."""
+    X = _real_standing()
+    Q = axis_rotation("z", np.radians(90.0))
+    Y = X.copy()
+    Y[:70] = X[:70] @ Q.T
+    gated = ViewGatedPCNet()
+    _, _, valid, _, _, k, ups = gated.predict_gated(Y)
+    assert (k[:60] == 1).all() and (k[-20:] == 0).all()  # the window follows the turn
+    assert ups.turn == recording_quarter_turn(gated.body.predict(Y)[0], valid) == 1
+    x, scale, ok = normalize_input(Y)
+    back = quarter_turn_matrices(np.array([1]))[0]  # turns the portrait camera back
+    Rc = gated.camera.predict_normalized((x @ back.T).astype(np.float32), scale, ok)[0]
+    np.testing.assert_allclose(ups.camera, (back.T @ Rc)[:, :, 1], atol=1e-6)  # every frame read at the one turn
+    as_filmed = gated.camera.predict(Y[-20:])[0][:, :, 1]  # the window's reading of the level frames
+    assert np.degrees(angle_between(ups.camera[-20:], as_filmed)).max() > 1.0
+    np.testing.assert_allclose(ups.body, gated.body.predict(Y)[0][:, :, 1], atol=1e-6)
+    assert recording_quarter_turn(np.full((3, 3, 3), np.nan), np.zeros(3, bool)) == 0
 
 
 def test_quarter_turns_follow_the_signed_roll_estimate_and_turn_it_back():
