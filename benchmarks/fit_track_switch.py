@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -78,8 +79,12 @@ def fit(clips: list, rng: np.random.Generator) -> tuple[SwitchLimits, list[str]]
         more.append((clip.name, frames[a[~first]], gap[~first], jump[~first]))
     top = max(one)
     a_fit = top[0]
-    slopes = [(float(np.max((j - a_fit) / (g - 1.0))), name, int(f[np.argmax((j - a_fit) / (g - 1.0))]),
-               float(g[np.argmax((j - a_fit) / (g - 1.0))])) for name, f, g, j in more if len(j)]
+    slopes = []  # (largest slope, clip name, frame, gap) per clip
+    for name, f, g, j in more:
+        if len(j):
+            slope = (j - a_fit) / (g - 1.0)
+            k = int(np.argmax(slope))
+            slopes.append((float(slope[k]), name, int(f[k]), float(g[k])))
     b_top = max(slopes)
     b_fit = max(b_top[0], 0.0)
     provenance = {
@@ -93,7 +98,8 @@ def fit(clips: list, rng: np.random.Generator) -> tuple[SwitchLimits, list[str]]
         "jump_torsos_at": f"{top[1]} frame {top[2]}",
         "per_extra_frame_at": f"{b_top[1]} frame {b_top[2]}, gap {b_top[3]:g} frames",
     }
-    limits = SwitchLimits(round(a_fit + 5e-4, 3), round(b_fit + 5e-4, 3), provenance)
+    # rounded up to 0.001, so that the envelope's own maximum stays within the limit
+    limits = SwitchLimits(math.ceil(a_fit * 1e3) / 1e3, math.ceil(b_fit * 1e3) / 1e3, provenance)
     q = np.percentile([o[0] for o in one], [50, 95, 99])
     lines = [f"Fit on {len(clips)} training clips: jump_torsos = {limits.jump_torsos:.3f} (largest one-frame jump; "
              f"at {top[1]} frame {top[2]}; per-clip largest one-frame jump median {q[0]:.3f}, p95 {q[1]:.3f}, "
