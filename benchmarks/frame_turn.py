@@ -30,7 +30,7 @@ from benchmarks.report import print_and_save
 from benchmarks.yoga_physics import TARGETS
 from pcnet.models.inference import get_session
 from pcnet.models.preprocess import normalize_input
-from pcnet.models.view_gate import quarter_turn_matrices
+from pcnet.models.view_gate import _nearest_quarter, quarter_turn_matrices
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import camera_pitch_roll, decompose_camera_rotation
 from pcnet.stages.rectify import up_model_sequence
@@ -48,8 +48,8 @@ def frame_turns(R_body: np.ndarray, valid: np.ndarray) -> np.ndarray:
     k = np.zeros(len(valid), np.int64)
     if valid.any():
         roll = decompose_camera_rotation(R_body[valid])[2]
-        k[valid] = np.round(np.arctan2(np.sin(roll), np.cos(roll)) / (np.pi / 2)).astype(np.int64) % 4
-    return np.where(k == 2, 0, k)
+        k[valid] = _nearest_quarter(np.cos(roll), np.sin(roll))  # quarter_turns' rule, one frame as the window
+    return k
 
 
 def candidate_evidence(ev: dict) -> tuple[UpEvidence, int]:

@@ -226,7 +226,8 @@ class ViewGatedPCNet:
                 idx = np.flatnonzero(changed[rows])
                 if not len(idx):
                     continue
-                x, scale, ok = (a[idx] for a in normalize_input(check_poses(joints_cam[rows], "joints_cam")))
+                # normalisation is per pose: only the frames read again are normalised
+                x, scale, ok = normalize_input(np.asarray(joints_cam[rows])[idx])
                 R, _, ok = self.camera.predict_normalized((x @ Q.T).astype(np.float32), scale, ok)
                 camera[rows.start + idx] = np.where(ok[:, None], (Q.T @ R)[:, :, 1], np.nan)
         return StaticCameraUps(camera, R_body[:, :, 1].copy(), turn)

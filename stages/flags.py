@@ -674,12 +674,13 @@ def pelvis_jumps(keypoints2d: np.ndarray, fps: float,
     torso = np.linalg.norm(thorax - pelvis, axis=1)
     present = np.flatnonzero(np.isfinite(pelvis).all(axis=1) & np.isfinite(torso) & (torso > 0))
     pairs = [(present[:-1], present[1:])]
-    for step in range(2, len(present) if max_gap_30fps is not None else 0):
-        a, b = present[:-step], present[step:]
-        near = (b - a) * 30.0 / fps <= max_gap_30fps
-        if not near.any():
-            break
-        pairs.append((a[near], b[near]))
+    if max_gap_30fps is not None:
+        for step in range(2, len(present)):
+            a, b = present[:-step], present[step:]
+            near = (b - a) * 30.0 / fps <= max_gap_30fps
+            if not near.any():  # present frames are sorted: a longer step only widens the gaps
+                break
+            pairs.append((a[near], b[near]))
     a, b = (np.concatenate(side).astype(int) for side in zip(*pairs))
     jump = np.linalg.norm(pelvis[b] - pelvis[a], axis=1) / np.maximum(torso[a], torso[b])
     return a, b, (b - a) * 30.0 / fps, jump
@@ -706,12 +707,11 @@ def track_segments(keypoints2d: np.ndarray, fps: float,
     """
     limits = limits or load_switch_limits()
     _, after, gap, jump = pelvis_jumps(keypoints2d, fps)
-    segment = np.zeros(len(keypoints2d), int)
-    events: list[tuple[int, float]] = []
-    for frame, j in zip(after[jump > limits.limit(gap)], jump[jump > limits.limit(gap)]):
-        events.append((int(frame), float(j)))
-        segment[frame:] += 1
-    return segment, events
+    switch = jump > limits.limit(gap)
+    starts = np.zeros(len(keypoints2d), int)
+    starts[after[switch]] = 1  # each frame after a jump opens a stretch
+    events = [(int(frame), float(j)) for frame, j in zip(after[switch], jump[switch])]
+    return np.cumsum(starts), events
 
 
 def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str = "95 % interval") -> list[Finding]:
