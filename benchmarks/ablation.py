@@ -14,8 +14,8 @@ recording runs through the shipped estimator exactly as ``pcnet run`` builds it
 that keep each network's raw per-frame rotations: the body-frame network and the camera-frame
 network on the quarter-turned input (turned back into the camera frame); with the quarter turns,
 the gate's weights and the disagreement the estimator returns; the up model's evidence of a
-static camera (the camera-frame network's ups at the recording's one quarter turn, decision
-0073, and that turn); and, run here, the camera-frame network on the unturned input of the
+static camera (the camera-frame network's ups at each frame's own quarter turn, decision
+0074, and those turns); and, run here, the camera-frame network on the unturned input of the
 turned frames (for "quarter turns off" and the plain means). The same
 estimate then goes through the real chain (:class:`pcnet.stages.rectify.Rectification`,
 ``SequenceEvidence("auto", camera_prior=True)``, heading ``auto``: ``pcnet run``'s defaults
@@ -120,7 +120,7 @@ from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, get_session
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.models.preprocess import normalize_input
-from pcnet.models.view_gate import blend_rotations, camera_frame_weight, quarter_turn_matrices, recording_quarter_turn
+from pcnet.models.view_gate import blend_rotations, camera_frame_weight, frame_quarter_turns, quarter_turn_matrices
 from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
 from benchmarks.fit_root_path import K as K_VIEW
@@ -158,7 +158,7 @@ ROLL_DEG = 30.0
 QUARTER_DEG = 90.0
 SWEEP_MIN_FRAMES = 150
 SWEEP_MAX_CLIPS = 60
-CACHE_VERSION = 7
+CACHE_VERSION = 8
 #: Recordings whose missed intervals are named one by one (more are counted).
 MAX_LISTED = 20
 
@@ -228,7 +228,7 @@ def extract(X: np.ndarray, fps: float) -> dict:
     return {
         "fps": float(fps), "J": X, "R_body": R_body, "R_camT": R_camT, "R_camP": R_camP, "valid": est.valid.copy(),
         "turns": turns.copy(), "weight": est.camera_frame_weight.copy(),
-        "up_camS": est.evidence.camera_up.copy(), "turn": recording_quarter_turn(R_body, est.valid),
+        "up_camS": est.evidence.camera_up.copy(), "turnS": frame_quarter_turns(R_body, est.valid),
         "frame_up": est.rotation[:, :, 1].copy(), "real_up": real.up.copy(), "real_valid": real.valid.copy(),
         "real_mode": real.mode, "real_posture": None if rep.posture is None else rep.posture.most_probable,
         "ground_plane_used": bool(rep.sequence is not None and rep.sequence.ground_plane.get("used", False)),
@@ -643,11 +643,11 @@ def equivariance_evidence(data: Path) -> list[dict]:
 
 def evidence_of(ev: dict, turns: bool = True, nets: str = "both") -> UpEvidence:
     """The up model's evidence of one cached recording: each network's own up (the camera-frame
-    network's on the input turned back by the recording's one quarter turn, turned forward
-    again: decision 0073) and that turn; ``turns`` False: the camera-frame network on the input
-    as filmed; ``nets`` ``"camera"`` or ``"body"``: only that network's ups (the other's blanked,
-    so its term of the likelihood is 0)."""
-    Q = quarter_turn_matrices(np.full(len(ev["valid"]), ev["turn"])) if turns and ev["turn"] else None
+    network's on each frame turned back by its own quarter turn, turned forward again: decision
+    0074) and those turns; ``turns`` False: the camera-frame network on the input as filmed;
+    ``nets`` ``"camera"`` or ``"body"``: only that network's ups (the other's blanked, so its
+    term of the likelihood is 0)."""
+    Q = quarter_turn_matrices(ev["turnS"]) if turns and ev["turnS"].any() else None
     c = np.where(ev["valid"][:, None] & (nets != "body"), ev["up_camS"] if turns else ev["R_camP"][:, :, 1], np.nan)
     b = np.where(ev["valid"][:, None] & (nets != "camera"), ev["R_body"][:, :, 1], np.nan)
     return UpEvidence.of(c, b, Q)

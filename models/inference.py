@@ -18,8 +18,7 @@ from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.core.rotations import angle_between, with_up
 
 from .preprocess import normalize_input
-from .view_gate import (blend_rotations, camera_frame_weight, quarter_turn_matrices, quarter_turns,
-                        recording_quarter_turn)
+from .view_gate import blend_rotations, camera_frame_weight, frame_quarter_turns, quarter_turn_matrices, quarter_turns
 
 WEIGHTS_DIR = Path(__file__).parent / "weights"
 #: The shipped camera-frame 3DPCNet (configs/pcnet_camera_floor4.toml) and body-frame 3DPCNet
@@ -128,15 +127,15 @@ class StaticCameraUps:
     """Each network's own up per frame for a static camera: the evidence of
     :mod:`pcnet.stages.up_model`.
 
-    camera: ``(N, 3)`` float64 the camera-frame 3DPCNet's up on the input turned back by the
-    recording's one quarter turn (:func:`pcnet.models.view_gate.recording_quarter_turn`, decision
-    0073), turned forward again; body: ``(N, 3)`` float64 the body-frame 3DPCNet's up; both in
-    the camera frame (OpenCV axes), NaN where that network gave none. turn: the quarter turn
-    ``k`` (0, 1 or 3)."""
+    camera: ``(N, 3)`` float64 the camera-frame 3DPCNet's up on each frame turned back by that
+    frame's own quarter turn (:func:`pcnet.models.view_gate.frame_quarter_turns`, decision
+    0074), turned forward again; body: ``(N, 3)`` float64 the body-frame 3DPCNet's up; both in
+    the camera frame (OpenCV axes), NaN where that network gave none. turns: ``(N,)`` int64
+    those quarter turns ``k`` (0, 1 or 3)."""
 
     camera: np.ndarray
     body: np.ndarray
-    turn: int
+    turns: np.ndarray
 
 
 class ViewGatedPCNet:
@@ -166,7 +165,7 @@ class ViewGatedPCNet:
     def predict_gated(self, joints_cam: np.ndarray, fps: float = 30.0, allocate=None):
         """``(R, residual, valid, camera-frame weight, disagreement in deg, quarter turns, ups)``
         (``ups``: :class:`StaticCameraUps`, the evidence of :mod:`pcnet.stages.up_model`: the
-        camera-frame network on the recording's one quarter turn, run again on any frame whose
+        camera-frame network on each frame's own quarter turn, run again on any frame whose
         running-window turn differs);
         ``joints_cam`` in memory or on disk, read :data:`CHUNK_FRAMES` frames at a time.
         ``allocate(name, shape, dtype)`` makes the two ``(N, 17, 3)`` float64 residual arrays
@@ -216,21 +215,20 @@ class ViewGatedPCNet:
 
     def _static_camera_ups(self, joints_cam, blocks, R_cam, R_body, valid, turns) -> StaticCameraUps:
         """:class:`StaticCameraUps` from the per-frame pass: the camera-frame network's ups where
-        its running-window turn is the recording's, and a new pass on the other frames."""
-        turn = recording_quarter_turn(R_body, valid)
+        its running-window turn is the frame's own, and a new pass on the other frames."""
+        own = frame_quarter_turns(R_body, valid)
         camera = R_cam[:, :, 1].copy()
-        changed = valid & (turns != turn)
-        if changed.any():
-            Q = quarter_turn_matrices(np.full(1, turn))[0]
-            for rows in blocks:
-                idx = np.flatnonzero(changed[rows])
-                if not len(idx):
-                    continue
-                # normalisation is per pose: only the frames read again are normalised
-                x, scale, ok = normalize_input(np.asarray(joints_cam[rows])[idx])
-                R, _, ok = self.camera.predict_normalized((x @ Q.T).astype(np.float32), scale, ok)
-                camera[rows.start + idx] = np.where(ok[:, None], (Q.T @ R)[:, :, 1], np.nan)
-        return StaticCameraUps(camera, R_body[:, :, 1].copy(), turn)
+        changed = valid & (turns != own)
+        for rows in blocks:
+            idx = np.flatnonzero(changed[rows])
+            if not len(idx):
+                continue
+            Q = quarter_turn_matrices(own[rows.start + idx])
+            # normalisation is per pose: only the frames read again are normalised
+            x, scale, ok = normalize_input(np.asarray(joints_cam[rows])[idx])
+            R, _, ok = self.camera.predict_normalized((x @ np.swapaxes(Q, 1, 2)).astype(np.float32), scale, ok)
+            camera[rows.start + idx] = np.where(ok[:, None], (np.swapaxes(Q, 1, 2) @ R)[:, :, 1], np.nan)
+        return StaticCameraUps(camera, R_body[:, :, 1].copy(), own)
 
 
 @lru_cache(maxsize=4)

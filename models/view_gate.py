@@ -74,8 +74,8 @@ PITCH_RAMP_DEG = (40.0, 55.0)
 BODY_ESTIMATE_LIMIT_ROLL_DEG = (45.0, 60.0)
 BODY_ESTIMATE_LIMIT_PITCH_DEG = (45.0, 60.0)
 #: Running-median window of the camera view estimate, seconds; hand-set (above). Frame and smooth
-#: modes only (a moving camera may turn): a static camera's up model reads one quarter turn for
-#: the whole recording (:func:`recording_quarter_turn`, decision 0073).
+#: modes only: the up model's evidence reads each frame at its own quarter turn
+#: (:func:`frame_quarter_turns`, decision 0074).
 WINDOW_S = 2.0
 
 
@@ -140,9 +140,9 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
 
 
 def quarter_turns(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0) -> np.ndarray:
-    """Quarter turns ``k`` (0, 1 or 3) of the camera about its optical axis per frame: the
-    multiple of 90 deg nearest the body-frame network's signed roll estimate, 0 where that is
-    180 deg (module docstring: no half turns; roll of
+    """Quarter turns ``k`` (0, 1 or 3) of the camera about its optical axis per frame, for the
+    gate of frame and smooth modes: the multiple of 90 deg nearest the body-frame network's
+    signed roll estimate, 0 where that is 180 deg (module docstring: no half turns; roll of
     :func:`pcnet.stages.core.rotations.decompose_camera_rotation`; its cosine and sine each
     median-filtered over :func:`window_frames` valid frames in order, so a few hard poses do not
     turn the frame while a phone turned during the recording does).
@@ -158,21 +158,14 @@ def quarter_turns(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0) 
         turns the camera back: ``X' = X @ Q_k.T`` is level within 45 deg of roll, or (no half
         turn) upside down within 45 deg.
     """
-    k = np.zeros(len(valid), np.int64)
-    idx = np.flatnonzero(valid)
-    if len(idx):
-        roll = decompose_camera_rotation(R_body_net[idx])[2]
-        size = window_frames(fps)
-        k[idx] = _nearest_quarter(median_filter(np.cos(roll), size=size, mode="nearest"),
-                                  median_filter(np.sin(roll), size=size, mode="nearest"))
-    return k
+    return _turns(R_body_net, valid, window_frames(fps))
 
 
-def recording_quarter_turn(R_body_net: np.ndarray, valid: np.ndarray) -> int:
-    """The quarter turn ``k`` (0, 1 or 3) of a static camera: :func:`quarter_turns`'s rule with
-    the whole recording as its window (the medians of the roll's cosine and sine over every
-    valid frame). The up model's evidence of a static camera reads the camera-frame network on
-    the input turned back by it (decision 0073: no running window in sequence mode).
+def frame_quarter_turns(R_body_net: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Each frame's own quarter turn ``k`` (0, 1 or 3): :func:`quarter_turns`' rule with one
+    frame as its window. The up model's evidence reads the camera-frame network on each frame
+    turned back by it (decision 0074): the up model scores each frame alone, so its evidence
+    needs no window, and a body lying in some frames does not turn its standing frames.
 
     Args:
         R_body_net: ``(T, 3, 3)`` canonical->camera rotations of the body-frame 3DPCNet, NaN
@@ -180,20 +173,24 @@ def recording_quarter_turn(R_body_net: np.ndarray, valid: np.ndarray) -> int:
         valid: ``(T,)`` bool.
 
     Returns:
-        0, 1 or 3; 0 without a valid frame.
+        ``(T,)`` int64 in {0, 1, 3}, 0 where not valid.
     """
+    return _turns(R_body_net, valid, 1)
+
+
+def _turns(R_body_net: np.ndarray, valid: np.ndarray, size: int) -> np.ndarray:
+    """The multiple of 90 deg (``k`` in {0, 1, 3}) nearest the body-frame network's roll, its
+    cosine and sine median-filtered over ``size`` valid frames; a half turn (k = 2) is 0 (module
+    docstring); 0 where not valid."""
+    k = np.zeros(len(valid), np.int64)
     idx = np.flatnonzero(valid)
-    if not len(idx):
-        return 0
-    roll = decompose_camera_rotation(R_body_net[idx])[2]
-    return int(_nearest_quarter(np.median(np.cos(roll)), np.median(np.sin(roll))))
-
-
-def _nearest_quarter(cos_roll, sin_roll) -> np.ndarray:
-    """The multiple of 90 deg (``k`` in {0, 1, 3}, int64, the inputs' shape) nearest the roll
-    whose cosine and sine are given; a half turn (k = 2) is 0 (module docstring)."""
-    k = np.round(np.arctan2(sin_roll, cos_roll) / (np.pi / 2)).astype(np.int64) % 4
-    return np.where(k == 2, 0, k)
+    if len(idx):
+        roll = decompose_camera_rotation(R_body_net[idx])[2]
+        cos_roll = median_filter(np.cos(roll), size=size, mode="nearest")  # size 1: the frame's own
+        sin_roll = median_filter(np.sin(roll), size=size, mode="nearest")
+        turn = np.round(np.arctan2(sin_roll, cos_roll) / (np.pi / 2)).astype(np.int64) % 4
+        k[idx] = np.where(turn == 2, 0, turn)
+    return k
 
 
 def quarter_turn_matrices(k: np.ndarray) -> np.ndarray:

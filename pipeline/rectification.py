@@ -49,9 +49,9 @@ class NetworkEstimator:
         session = get_session(None if self.weights is None else str(self.weights))
         if self.weights is None:
             R, residual, valid, gate, disagreement, turns, ups = session.predict_gated(X, fps, allocate)
-            # A static camera has one quarter turn (decision 0073); the gate's running window is frame and smooth modes'.
+            # Each frame at its own quarter turn (decision 0074); the gate's running window is frame and smooth modes'.
             evidence = UpEvidence.of(np.where(valid[:, None], ups.camera, np.nan), np.where(valid[:, None], ups.body, np.nan),
-                                     quarter_turn_matrices(np.full(len(valid), ups.turn)) if ups.turn else None)
+                                     quarter_turn_matrices(ups.turns) if ups.turns.any() else None)
         else:
             residual = (allocate or in_memory)("residual", X.shape, np.float64)
             (R, residual, valid), gate, disagreement, turns = session.predict(X, residual=residual), None, None, None

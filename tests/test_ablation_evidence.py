@@ -21,7 +21,7 @@ def _record(T: int = 6) -> dict:
     rng = np.random.default_rng(2)
     rot = lambda: Rotation.random(T, random_state=rng).as_matrix()  # noqa: E731
     return {"R_body": rot(), "R_camT": rot(), "R_camP": rot(), "valid": np.array([True] * (T - 1) + [False]),
-            "turns": np.zeros(T, np.int64), "up_camS": rot()[:, :, 1], "turn": 0}
+            "turns": np.zeros(T, np.int64), "up_camS": rot()[:, :, 1], "turnS": np.zeros(T, np.int64)}
 
 
 @pytest.mark.parametrize("kept, blanked", [("camera", "body_up"), ("body", "camera_up")])

@@ -11,7 +11,7 @@ from conftest import FIXTURES
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession, ViewGatedPCNet
 from pcnet.models.view_gate import (BODY_ESTIMATE_LIMIT_PITCH_DEG, BODY_ESTIMATE_LIMIT_ROLL_DEG, PITCH_RAMP_DEG,
                                     ROLL_RAMP_DEG, blend_rotations, camera_frame_weight, quarter_turn_matrices,
-                                    quarter_turns, recording_quarter_turn)
+                                    quarter_turns, frame_quarter_turns)
 from pcnet.models.preprocess import normalize_input
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.flags import ensemble_weights_flag
@@ -132,27 +132,28 @@ def test_shipped_pair_answers_a_portrait_camera_exactly_as_the_level_one_and_oth
         assert np.isfinite(residual).all()
 
 
-def test_a_static_camera_has_one_quarter_turn_read_on_every_frame():
-    """Decision 0073: a phone held in portrait for the first 70 frames of the real standing poses
-    and level after: the gate's running window turns the first frames only, while the up model's
-    evidence reads every frame at the recording's one turn (the majority's), the level frames
-    run again turned by it."""
+def test_the_up_models_evidence_reads_each_frame_at_its_own_quarter_turn():
+    """Decision 0074: the real standing poses with ten frames turned a quarter turn in the middle
+    (a reading the running window smooths away): the gate's turns stay 0, while the up model's
+    evidence reads each frame at its own turn, those ten frames run again turned back."""
     X = _real_standing()
     Q = axis_rotation("z", np.radians(90.0))
     Y = X.copy()
-    Y[:70] = X[:70] @ Q.T
+    Y[40:50] = X[40:50] @ Q.T
     gated = ViewGatedPCNet()
     _, _, valid, _, _, k, ups = gated.predict_gated(Y)
-    assert (k[:60] == 1).all() and (k[-20:] == 0).all()  # the window follows the turn
-    assert ups.turn == recording_quarter_turn(gated.body.predict(Y)[0], valid) == 1
+    assert valid.all() and not k.any()  # the window keeps the level camera
+    own = frame_quarter_turns(gated.body.predict(Y)[0], valid)
+    np.testing.assert_array_equal(ups.turns, own)
+    assert (own[40:50] == 1).all() and not own[:40].any() and not own[50:].any()
     x, scale, ok = normalize_input(Y)
-    back = quarter_turn_matrices(np.array([1]))[0]  # turns the portrait camera back
-    Rc = gated.camera.predict_normalized((x @ back.T).astype(np.float32), scale, ok)[0]
-    np.testing.assert_allclose(ups.camera, (back.T @ Rc)[:, :, 1], atol=1e-6)  # every frame read at the one turn
-    as_filmed = gated.camera.predict(Y[-20:])[0][:, :, 1]  # the window's reading of the level frames
-    assert np.degrees(angle_between(ups.camera[-20:], as_filmed)).max() > 1.0
+    back = quarter_turn_matrices(own)  # turns each frame's camera back
+    Rc = gated.camera.predict_normalized((x @ np.swapaxes(back, 1, 2)).astype(np.float32), scale, ok)[0]
+    np.testing.assert_allclose(ups.camera, (np.swapaxes(back, 1, 2) @ Rc)[:, :, 1], atol=1e-6)
+    as_filmed = gated.camera.predict(Y[40:50])[0][:, :, 1]  # the window's reading of the turned frames
+    assert np.degrees(angle_between(ups.camera[40:50], as_filmed)).max() > 1.0
     np.testing.assert_allclose(ups.body, gated.body.predict(Y)[0][:, :, 1], atol=1e-6)
-    assert recording_quarter_turn(np.full((3, 3, 3), np.nan), np.zeros(3, bool)) == 0
+    assert not frame_quarter_turns(np.full((3, 3, 3), np.nan), np.zeros(3, bool)).any()
 
 
 def test_quarter_turns_follow_the_signed_roll_estimate_and_turn_it_back():
