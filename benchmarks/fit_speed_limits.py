@@ -114,13 +114,13 @@ def fit(clips) -> tuple[dict, list[str]]:
     return groups, lines
 
 
-def clip_series(clips, noise: LifterNoise | None) -> list[tuple[str, float, np.ndarray]]:
+def clip_series(clips, noise: LifterNoise | None, seed: int = 0) -> list[tuple[str, float, np.ndarray]]:
     """``(name, fps, (T, 17, 3) poses)`` per clip: the mocap itself (``noise`` None, world
-    frame) or its camera-frame noisy version (static "paper" camera, frames make_pairs drops
-    as NaN)."""
+    frame) or its camera-frame noisy version (static "paper" camera, make_pairs ``seed``,
+    frames make_pairs drops as NaN)."""
     if noise is None:
         return [(c.name, c.fps, c.joints.astype(np.float64)) for c in clips]
-    pairs = make_pairs(clips, views="paper", seed=0, camera="static", noise=noise)
+    pairs = make_pairs(clips, views="paper", seed=seed, camera="static", noise=noise)
     out = []
     for i, c in enumerate(clips):
         X = np.full(c.joints.shape, np.nan)

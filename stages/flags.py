@@ -270,20 +270,26 @@ def body_size_flag(joints: np.ndarray, units: str) -> list[Finding]:
 LEG_ASYMMETRY = 0.10
 
 
+def leg_asymmetry(joints: np.ndarray) -> tuple[float, str]:
+    """The relative difference of the left and right legs' lengths of H36M-17 poses
+    ``(T, 17, 3)`` (any units): ``|left - right| / max(left, right)`` of the medians over frames
+    of hip -> knee plus knee -> ankle, and the shorter side (``"left"`` or ``"right"``); NaN
+    and ``""`` where a leg has no finite frame."""
+    right, left = (float(np.median(leg[np.isfinite(leg)])) if np.isfinite(leg).any() else float("nan")
+                   for leg in leg_lengths(joints).T)
+    if not (np.isfinite(left) and np.isfinite(right)) or max(left, right) <= 0:
+        return float("nan"), ""
+    return abs(left - right) / max(left, right), "right" if right < left else "left"
+
+
 def leg_asymmetry_flag(joints: np.ndarray) -> list[Finding]:
     """A flag when the left and right legs of H36M-17 poses ``(T, 17, 3)`` (any units) differ
     in length by more than :data:`LEG_ASYMMETRY` (medians over frames of hip -> knee plus
     knee -> ankle): heights above the floor and left/right comparisons then carry the
     lifter's error."""
-    legs = leg_lengths(joints)
-    right, left = (float(np.median(leg[np.isfinite(leg)])) if np.isfinite(leg).any() else float("nan")
-                   for leg in legs.T)
-    if not (np.isfinite(left) and np.isfinite(right)) or max(left, right) <= 0:
+    difference, shorter = leg_asymmetry(joints)
+    if not difference > LEG_ASYMMETRY:  # NaN: no leg measured
         return []
-    difference = abs(left - right) / max(left, right)
-    if difference <= LEG_ASYMMETRY:
-        return []
-    shorter = "right" if right < left else "left"
     return [_found(Kind.LEG_ASYMMETRY, Severity.CHECK,
                    f"lifter's legs differ {100 * difference:.0f} % in length ({shorter} shorter): floor heights "
                    f"carry it",
@@ -302,6 +308,15 @@ def leg_asymmetry_flag(joints: np.ndarray) -> list[Finding]:
 SIZE_CHANGE_RATIO = 1.5
 
 
+def size_percentiles(joints: np.ndarray) -> np.ndarray:
+    """``(3,)`` float64 the 5th, 50th and 95th percentiles of the per-frame ankle-to-head chain
+    (:func:`pcnet.stages.scale.height_chain_length`) of H36M-17 poses ``(T, 17, 3)``, over the
+    frames where it is finite and positive; NaN with fewer than two such frames."""
+    chain = height_chain_length(joints)
+    chain = chain[np.isfinite(chain) & (chain > 0)]
+    return np.percentile(chain, [5, 50, 95]) if len(chain) >= 2 else np.full(3, np.nan)
+
+
 def size_change_flag(joints: np.ndarray) -> list[Finding]:
     """A flag when the body of metric H36M-17 poses ``(T, 17, 3)`` changes size over the
     recording by more than :data:`SIZE_CHANGE_RATIO` (5th to 95th percentile of the
@@ -311,12 +326,8 @@ def size_change_flag(joints: np.ndarray) -> list[Finding]:
     (:func:`pcnet.stages.scale.size_normalising_factors`); metric output is scaled by one
     factor (:func:`pcnet.stages.scale.height_factor`, the median), so its positions, speeds
     and bone lengths are off by the ratio's deviation from the median."""
-    chain = height_chain_length(joints)
-    chain = chain[np.isfinite(chain) & (chain > 0)]
-    if len(chain) < 2:
-        return []
-    p5, p50, p95 = np.percentile(chain, [5, 50, 95])
-    if p95 / p5 <= SIZE_CHANGE_RATIO:
+    p5, p50, p95 = size_percentiles(joints)
+    if not p95 / p5 > SIZE_CHANGE_RATIO:  # NaN: fewer than two frames measured
         return []
     off = 100 * min(p95 / p50 - 1, 1 - p5 / p50)  # both tails, so a tenth of the frames
     return [_found(Kind.SIZE_CHANGE, Severity.PROBLEM,
