@@ -263,11 +263,58 @@ def body_size_flag(joints: np.ndarray, units: str) -> list[Finding]:
                    f"also --layout: joints in another order give other bone lengths)")]
 
 
-#: Relative difference of the left and right legs' lengths (hip -> knee -> ankle, medians over
-#: frames) beyond which the lifter's skeleton, not the person, is asymmetric: an anatomical
-#: leg-length discrepancy of 2 cm (about 2 %) is already clinically notable, and 10 % of an
-#: adult's leg is about 8-9 cm (the boxing demo's MotionBERT output: 18 %, `pcnet demo`).
-LEG_ASYMMETRY = 0.10
+#: The fitted limits of :func:`leg_asymmetry_flag` and :func:`size_change_flag` (decision 0075).
+SKELETON_LIMITS_PATH = Path(__file__).resolve().parent / "data" / "skeleton_limits.json"
+
+
+@dataclass(frozen=True)
+class SkeletonLimits:
+    """How far a lifter's skeleton strays from a person's through an ordinary lifter's error:
+    the largest values over the training mocap seen through the lifter-noise model (decision
+    0075, ``python -m benchmarks.fit_skeleton_limits --data ../shared/data``).
+
+    Attributes:
+        leg_asymmetry: the largest relative difference of the left and right legs' lengths
+            (:func:`leg_asymmetry`), a fraction of the longer leg.
+        size_change_ratio: the largest 95th over 5th percentile of the ankle-to-head chain
+            (:func:`size_percentiles`).
+        provenance: the fit's command, data, split and the clip that set each value.
+    """
+
+    leg_asymmetry: float
+    size_change_ratio: float
+    provenance: Mapping = field(default_factory=dict)
+
+
+@lru_cache(maxsize=4)
+def load_skeleton_limits(path: str | Path | None = None) -> SkeletonLimits:
+    """Read :class:`SkeletonLimits` from JSON (``leg_asymmetry``, ``size_change_ratio``,
+    ``provenance``; default: the shipped :data:`SKELETON_LIMITS_PATH`).
+
+    Raises:
+        FileNotFoundError: no such file.
+        InputError: not JSON, or a field missing or not a positive finite number (named).
+    """
+    path = Path(SKELETON_LIMITS_PATH if path is None else path)
+    data, values = _positive_fields(path, ("leg_asymmetry", "size_change_ratio"), "lifter-skeleton limits",
+                                    "a positive number")
+    return SkeletonLimits(**values, provenance=MappingProxyType(dict(data.get("provenance", {}))))
+
+
+def _positive_fields(path: Path, names: Sequence[str], what: str, expected: str) -> tuple[dict, dict[str, float]]:
+    """The JSON object of ``path`` and its fields ``names`` as floats, each a positive finite
+    number. Raises InputError naming the file and the field."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise InputError(f"{path}: expected the JSON {what}, got unreadable JSON ({err})") from err
+    values = {}
+    for name in names:
+        value = data.get(name) if isinstance(data, dict) else None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+            raise InputError(f"{path}: field {name!r}: expected {expected}, got {value!r}")
+        values[name] = float(value)
+    return data, values
 
 
 def leg_asymmetry(joints: np.ndarray) -> tuple[float, str]:
@@ -282,13 +329,13 @@ def leg_asymmetry(joints: np.ndarray) -> tuple[float, str]:
     return abs(left - right) / max(left, right), "right" if right < left else "left"
 
 
-def leg_asymmetry_flag(joints: np.ndarray) -> list[Finding]:
+def leg_asymmetry_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -> list[Finding]:
     """A flag when the left and right legs of H36M-17 poses ``(T, 17, 3)`` (any units) differ
-    in length by more than :data:`LEG_ASYMMETRY` (medians over frames of hip -> knee plus
-    knee -> ankle): heights above the floor and left/right comparisons then carry the
-    lifter's error."""
+    in length (:func:`leg_asymmetry`) by more than ``limits.leg_asymmetry`` (default: the
+    shipped :func:`load_skeleton_limits`): heights above the floor and left/right comparisons
+    then carry the lifter's error."""
     difference, shorter = leg_asymmetry(joints)
-    if not difference > LEG_ASYMMETRY:  # NaN: no leg measured
+    if not difference > (limits or load_skeleton_limits()).leg_asymmetry:  # NaN: no leg measured
         return []
     return [_found(Kind.LEG_ASYMMETRY, Severity.CHECK,
                    f"lifter's legs differ {100 * difference:.0f} % in length ({shorter} shorter): floor heights "
@@ -297,15 +344,6 @@ def leg_asymmetry_flag(joints: np.ndarray) -> list[Finding]:
                    f"the lifter's left and right legs differ by {100 * difference:.0f} % in length (median over "
                    f"frames; the {shorter} one shorter), more than a person's: heights above the floor (set by the "
                    f"lowest joint) and left/right comparisons carry the lifter's error")]
-
-
-#: Ratio of the 95th to the 5th percentile of the per-frame ankle-to-head chain
-#: (:func:`pcnet.stages.scale.height_chain_length`) beyond which the skeleton's size, not
-#: the lifter's bone-length noise, changes over the recording: one scale factor then leaves
-#: a tenth of the frames off by more than about 20 %. The real lifter files of the shared
-#: data, seated and lying yoga included, stay at or below 1.44 (VideoPose3D, a lying pose);
-#: a MotionBERT cycling clip whose rider grows in the image reaches 3.0.
-SIZE_CHANGE_RATIO = 1.5
 
 
 def size_percentiles(joints: np.ndarray) -> np.ndarray:
@@ -317,17 +355,18 @@ def size_percentiles(joints: np.ndarray) -> np.ndarray:
     return np.percentile(chain, [5, 50, 95]) if len(chain) >= 2 else np.full(3, np.nan)
 
 
-def size_change_flag(joints: np.ndarray) -> list[Finding]:
+def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -> list[Finding]:
     """A flag when the body of metric H36M-17 poses ``(T, 17, 3)`` changes size over the
-    recording by more than :data:`SIZE_CHANGE_RATIO` (5th to 95th percentile of the
-    ankle-to-head chain): a real body keeps its size, so the lifter fails, or its output
+    recording by more than ``limits.size_change_ratio`` (5th to 95th percentile of the
+    ankle-to-head chain, :func:`size_percentiles`; default: the shipped
+    :func:`load_skeleton_limits`): a real body keeps its size, so the lifter fails, or its output
     follows the image after all. Output in image units, whose size follows the person's
     distance by design, is made constant per frame instead
     (:func:`pcnet.stages.scale.size_normalising_factors`); metric output is scaled by one
     factor (:func:`pcnet.stages.scale.height_factor`, the median), so its positions, speeds
     and bone lengths are off by the ratio's deviation from the median."""
     p5, p50, p95 = size_percentiles(joints)
-    if not p95 / p5 > SIZE_CHANGE_RATIO:  # NaN: fewer than two frames measured
+    if not p95 / p5 > (limits or load_skeleton_limits()).size_change_ratio:  # NaN: fewer than two frames measured
         return []
     off = 100 * min(p95 / p50 - 1, 1 - p5 / p50)  # both tails, so a tenth of the frames
     return [_found(Kind.SIZE_CHANGE, Severity.PROBLEM,
@@ -651,16 +690,8 @@ def load_switch_limits(path: str | Path | None = None) -> SwitchLimits:
         InputError: not JSON, or a field missing or not a positive finite number (named).
     """
     path = Path(SWITCH_LIMITS_PATH if path is None else path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as err:
-        raise InputError(f"{path}: expected the JSON person-switch limits, got unreadable JSON ({err})") from err
-    values = {}
-    for name in ("jump_torsos", "per_extra_frame"):
-        value = data.get(name) if isinstance(data, dict) else None
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
-            raise InputError(f"{path}: field {name!r}: expected a positive number of torso lengths, got {value!r}")
-        values[name] = float(value)
+    data, values = _positive_fields(path, ("jump_torsos", "per_extra_frame"), "person-switch limits",
+                                    "a positive number of torso lengths")
     return SwitchLimits(**values, provenance=MappingProxyType(dict(data.get("provenance", {}))))
 
 
