@@ -295,15 +295,15 @@ def load_skeleton_limits(path: str | Path | None = None) -> SkeletonLimits:
         FileNotFoundError: no such file.
         InputError: not JSON, or a field missing or not a positive finite number (named).
     """
-    path = Path(SKELETON_LIMITS_PATH if path is None else path)
-    data, values = _positive_fields(path, ("leg_asymmetry", "size_change_ratio"), "lifter-skeleton limits",
-                                    "a positive number")
-    return SkeletonLimits(**values, provenance=MappingProxyType(dict(data.get("provenance", {}))))
+    return _read_limits(SkeletonLimits, SKELETON_LIMITS_PATH if path is None else path,
+                        ("leg_asymmetry", "size_change_ratio"), "lifter-skeleton limits", "a positive number")
 
 
-def _positive_fields(path: Path, names: Sequence[str], what: str, expected: str) -> tuple[dict, dict[str, float]]:
-    """The JSON object of ``path`` and its fields ``names`` as floats, each a positive finite
-    number. Raises InputError naming the file and the field."""
+def _read_limits(cls, path: str | Path, names: Sequence[str], what: str, expected: str):
+    """``cls(**fields, provenance=...)`` from the JSON object of ``path``: its fields ``names``,
+    each a positive finite number, and its ``provenance``. Raises InputError naming the file
+    and the field."""
+    path = Path(path)
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as err:
@@ -314,7 +314,7 @@ def _positive_fields(path: Path, names: Sequence[str], what: str, expected: str)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
             raise InputError(f"{path}: field {name!r}: expected {expected}, got {value!r}")
         values[name] = float(value)
-    return data, values
+    return cls(**values, provenance=MappingProxyType(dict(data.get("provenance", {}))))
 
 
 def leg_asymmetry(joints: np.ndarray) -> tuple[float, str]:
@@ -689,10 +689,8 @@ def load_switch_limits(path: str | Path | None = None) -> SwitchLimits:
         FileNotFoundError: no such file.
         InputError: not JSON, or a field missing or not a positive finite number (named).
     """
-    path = Path(SWITCH_LIMITS_PATH if path is None else path)
-    data, values = _positive_fields(path, ("jump_torsos", "per_extra_frame"), "person-switch limits",
-                                    "a positive number of torso lengths")
-    return SwitchLimits(**values, provenance=MappingProxyType(dict(data.get("provenance", {}))))
+    return _read_limits(SwitchLimits, SWITCH_LIMITS_PATH if path is None else path,
+                        ("jump_torsos", "per_extra_frame"), "person-switch limits", "a positive number of torso lengths")
 
 
 def pelvis_jumps(keypoints2d: np.ndarray, fps: float,
