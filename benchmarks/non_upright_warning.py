@@ -76,9 +76,9 @@ def main(argv=None) -> int:
                     n_fired[mode] += fired
                     if fired:
                         names[mode].append(f"{ev['name']} ({hit:.2f})")
-        counts.append(f"{title:<46}{len(evs):>6}{n_fired['sequence']:>10}{n_fired['frame']:>8}")
+        counts.append(f"{title:<46}{len(evs):>6}{n_fired['sequence']:>14}{n_fired['frame']:>8}")
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND} --max-clips {args.max_clips}", "",
-             f"{'set':<46}{'recs':>6}{'fires: seq':>10}{'frame':>8}", *counts, ""]
+             f"{'set':<46}{'recs':>6}{'fires: seq':>14}{'frame':>8}", *counts, ""]
     for mode in MODES:
         r = np.array(rows[mode], float).reshape(-1, 2)
         fired, quiet = r[r[:, 0] > 0, 1], r[r[:, 0] == 0, 1]
