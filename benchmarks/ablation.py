@@ -129,7 +129,7 @@ from benchmarks.report import BOOTSTRAP, SHARED_DATA, require_mocap
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
-from pcnet.stages.flags import NON_UPRIGHT_TRUNK_DEG, posture_flag
+from pcnet.stages.flags import posture_flag
 from pcnet.stages.ground_plane import posture_and_floor_up
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, up_model_sequence
 from pcnet.stages.root_path import root_from_keypoints
@@ -147,8 +147,10 @@ REAL_ROLLS_DEG = (0, 90, 180, -90)
 EQUIVARIANCE_ROLLS_DEG = (30, 90)
 YOGA_STRIDE = 2
 GROSS_DEG = 20.0
-#: A clip is truly lying where its trunk is this far from vertical: the package's non-upright bound.
-LYING_TRUNK_DEG = NON_UPRIGHT_TRUNK_DEG
+#: A clip is truly lying where its median trunk (pelvis -> thorax) is this far from the true
+#: vertical: the benchmarks' definition of the truth, not a constant of the package (its
+#: non-upright warning, which shared it, went with decision 0076).
+LYING_TRUNK_DEG = 60.0
 #: A mean difference smaller than this (deg) is "no effect" whatever its interval.
 NEGLIGIBLE_DEG = 0.05
 #: A clip "changed" when its error moved by more than this (deg).

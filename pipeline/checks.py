@@ -14,9 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from pcnet.adapters import VideoInfo
-from pcnet.stages.flags import (Finding, Kind, body_size_flag, camera_tilt, ensemble_weights_flag,
+from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
-                               mirrored_skeleton_flag, non_upright_flag, orientation_flags, posture_flag,
+                               mirrored_skeleton_flag, orientation_flags, posture_flag,
                                quarter_turn_reported, side_swap_flag, size_change_flag, track_switch_flag)
 from pcnet.stages.rectification_report import RectificationReport
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
@@ -49,8 +49,7 @@ class CheckInputs:
     recording, which a constant factor leaves alone and image units' per-frame size moves a
     little: the boxing demo's leg asymmetry reads 18 %, 19 % on the unscaled poses);
     keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence in the displayed frame, or
-    ``None``; video: the probed video or ``None``; canonical, valid: the rectified poses and
-    their valid frames; report: what rectification decided; tilt: the camera's tilt;
+    ``None``; video: the probed video or ``None``; report: what rectification decided; tilt: the camera's tilt;
     lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; track_segment,
     track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track (``None`` and
     ``[]`` without one); height_given: ``--height`` was given (the body is scaled to it);
@@ -61,8 +60,6 @@ class CheckInputs:
     units: str
     keypoints2d: np.ndarray | None
     video: VideoInfo | None
-    canonical: np.ndarray
-    valid: np.ndarray
     report: RectificationReport
     tilt: CameraTilt
     lifter_turn_deg: float
@@ -75,13 +72,11 @@ class CheckInputs:
 def checks(c: CheckInputs) -> list[Finding]:
     """The findings of a rectified recording, in the order canonical.npz keeps their texts: the
     camera's orientation, the body's size, legs and size change, keypoints outside the image, a
-    side swap (or else a mirrored skeleton), a body not upright (unless read as lying), the posture hypotheses, the
+    side swap (or else a mirrored skeleton), the posture hypotheses, the
     ensemble's weights (outside sequence mode), the lifter's frame and a switch of the 2D track."""
     report, cam, kp2d, video = c.report, c.joints_camera, c.keypoints2d, c.video
     # The view gate's weights shape the answer only where the per-frame up is the answer.
     weights = report.weights if report.mode.run != "sequence" else None
-    posture = posture_flag(report.sequence)
-    lying = any(f.kind == Kind.LYING for f in posture)
     return [
         *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg,
                            turn_reported=quarter_turn_reported(weights)),
@@ -94,9 +89,7 @@ def checks(c: CheckInputs) -> list[Finding]:
           if kp2d is not None and video is not None and not video.rotation_deg else []),
         # a side swap is a mirror image too: said once
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
-        # a lying reading already says the trunk lies across the image, and what to do (decision 0064)
-        *(non_upright_flag(c.canonical, c.valid) if not lying else []),
-        *posture,
+        *posture_flag(report.sequence),
         *ensemble_weights_flag(weights),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report)),
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option)

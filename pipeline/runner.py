@@ -994,7 +994,7 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
     recording = inputs.recording
     return CheckInputs(
         joints_camera=camera.joints, units=recording.units, keypoints2d=camera.keypoints2d, video=recording.video,
-        canonical=rectified.canonical, valid=rectified.valid, report=rectified.report, tilt=rectified.tilt,
+        report=rectified.report, tilt=rectified.tilt,
         lifter_turn_deg=recording.lifter_turn_deg, track_segment=rectified.track_segment,
         track_events=rectified.track_events, height_given=cfg.height is not None,
         person_option=cfg.keypoints2d_format in multi_track_formats())

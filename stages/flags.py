@@ -18,7 +18,6 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .core.canonical import trunk_lean_deg
 from .core.errors import InputError
 from .core.conventions import (L_HIP, L_SHOULDER, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
                                median_thigh_length)
@@ -31,9 +30,6 @@ from .rectification_report import EnsembleWeights, SequenceUp
 from .up_model import camera_outside_probability, default_parameters
 from .scale import height_chain_length, leg_lengths
 
-#: Trunk (pelvis -> thorax) angle from the canonical vertical beyond which a pose is far from
-#: the upright poses the shipped networks learnt (lying, crawling, handstand).
-NON_UPRIGHT_TRUNK_DEG = 60.0
 #: The fitted person-switch limits of :func:`track_segments` (decision 0072).
 SWITCH_LIMITS_PATH = Path(__file__).resolve().parent / "data" / "track_switch.json"
 
@@ -76,7 +72,6 @@ class Kind(IntEnum):
     LYING = auto()  #: :func:`posture_flag`
     AMBIGUOUS_ORIENTATION = auto()  #: :func:`posture_flag`
     QUARTER_TURN = auto()  #: :func:`orientation_flags`, :func:`ensemble_weights_flag`
-    NON_UPRIGHT = auto()  #: :func:`non_upright_flag`
     NO_WORLD_FRAME = auto()  #: :func:`no_world_frame_flag`
     LEG_ASYMMETRY = auto()  #: :func:`leg_asymmetry_flag`
     VIEWS_SET_ASIDE = auto()  #: :func:`ensemble_weights_flag`
@@ -491,38 +486,6 @@ def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None) -> list
                    f"{model.mean[1]:+.2f}), {odds:.0f} times as likely for a mirror image as for a body; its depth "
                    f"axis has the wrong sign (--axes) or its left and right are exchanged (--layout), so every "
                    f"sagittal angle has the wrong sign")]
-
-
-def non_upright_fraction(canonical: np.ndarray, valid: np.ndarray) -> float:
-    """Share of valid frames whose trunk (pelvis -> thorax) is more than
-    :data:`NON_UPRIGHT_TRUNK_DEG` from the canonical vertical (+Y).
-
-    Args:
-        canonical: ``(T, 17, 3)`` H36M-17 canonical poses (Y up), any units.
-        valid: ``(T,)`` bool.
-
-    Returns:
-        the fraction in [0, 1] (:func:`~.core.canonical.trunk_lean_deg`), NaN without a
-        usable frame (valid, with a trunk of non-zero length).
-    """
-    lean = trunk_lean_deg(canonical)
-    ok = np.asarray(valid, bool) & np.isfinite(lean)
-    if not ok.any():
-        return float("nan")
-    return float(np.mean(lean[ok] > NON_UPRIGHT_TRUNK_DEG))
-
-
-def non_upright_flag(canonical: np.ndarray, valid: np.ndarray) -> list[Finding]:
-    """A flag when most valid frames are not upright (:func:`non_upright_fraction` > 0.5)."""
-    share = non_upright_fraction(canonical, valid)
-    if not share > 0.5:
-        return []
-    return [_found(Kind.NON_UPRIGHT, Severity.CHECK,
-                   f"trunk beyond {NON_UPRIGHT_TRUNK_DEG:.0f} deg from vertical in {100 * share:.0f} % of frames: up "
-                   f"direction uncertain", "check the result",
-                   f"the trunk is more than {NON_UPRIGHT_TRUNK_DEG:.0f} deg from vertical in {100 * share:.0f} % of "
-                   f"frames (lying, crawling or inverted?): such poses are far from the networks' upright training "
-                   f"data, so the up direction is uncertain")]
 
 
 def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
