@@ -386,6 +386,42 @@ SIDE_SWAP_SHARE = 0.5
 SIDE_MIN_PAIRS = 10
 
 
+def side_extents(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The right-minus-left extents of the hips and the shoulders along the image's x axis, over
+    the trunk's length (pelvis -> thorax), in the 2D keypoints and in the 3D poses.
+
+    Both are in the camera's view: the 2D keypoints in pixels (x right) and the 3D poses in the
+    camera frame (OpenCV axes, x right), so a body's right hip lies on the same image side in
+    both, and exchanging the 3D sides negates the 3D extents.
+
+    Args:
+        keypoints2d: ``(T, 17, >=2)`` H36M-17 pixels (NaN = missing).
+        joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any units.
+
+    Returns:
+        ``(d2, d3)``: ``(T, 2)`` float64 each (columns: hips, shoulders), NaN where a joint is
+        missing.
+    """
+    # only the six joints it compares, x and y: a long recording's arrays stay on disk
+    joints = [R_HIP, L_HIP, R_SHOULDER, L_SHOULDER, THORAX, PELVIS]
+    kp = np.stack([np.asarray(keypoints2d[:, j, :2], np.float64) for j in joints], axis=1)
+    X = np.stack([np.asarray(joints_cam[:, j, :2], np.float64) for j in joints], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return tuple(np.stack([(P[:, right, 0] - P[:, left, 0]) / np.linalg.norm(P[:, 4] - P[:, 5], axis=-1)
+                               for right, left in ((0, 1), (2, 3))], axis=1) for P in (kp, X))
+
+
+def side_agreement(d2: np.ndarray, d3: np.ndarray) -> float:
+    """The cosine between the 2D and 3D left-right extents of :func:`side_extents` over every
+    entry where both are finite: ``sum(d2 d3) / sqrt(sum(d2^2) sum(d3^2))`` in [-1, 1];
+    exchanging the 3D sides negates it (decision 0077). NaN without such an entry or with all
+    extents zero."""
+    ok = np.isfinite(d2) & np.isfinite(d3)
+    a, b = d2[ok], d3[ok]
+    norm = float(np.sqrt(np.sum(a * a) * np.sum(b * b)))
+    return float(np.sum(a * b) / norm) if norm > 0 else float("nan")
+
+
 def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> list[Finding]:
     """A flag when the 3D lifter's left and right contradict the 2D keypoints'.
 
@@ -402,17 +438,11 @@ def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> list[Find
         keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence (NaN = missing).
         joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any units.
     """
-    # only the six joints it compares, x and y: a long recording's arrays stay on disk
-    joints = [R_HIP, L_HIP, R_SHOULDER, L_SHOULDER, THORAX, PELVIS]
-    kp = np.stack([np.asarray(keypoints2d[:, j, :2], np.float64) for j in joints], axis=1)
-    X = np.stack([np.asarray(joints_cam[:, j, :2], np.float64) for j in joints], axis=1)
-    counted = contradicted = 0
-    for right, left in ((0, 1), (2, 3)):
-        d2, d3 = ((P[:, right, 0] - P[:, left, 0]) / np.linalg.norm(P[:, 4] - P[:, 5], axis=-1) for P in (kp, X))
-        with np.errstate(invalid="ignore"):
-            sure = (np.abs(d2) >= SIDE_MIN_EXTENT) & (np.abs(d3) >= SIDE_MIN_EXTENT)
-        counted += int(sure.sum())
-        contradicted += int((np.sign(d2[sure]) != np.sign(d3[sure])).sum())
+    d2, d3 = side_extents(keypoints2d, joints_cam)
+    with np.errstate(invalid="ignore"):
+        sure = (np.abs(d2) >= SIDE_MIN_EXTENT) & (np.abs(d3) >= SIDE_MIN_EXTENT)
+    counted = int(sure.sum())
+    contradicted = int((np.sign(d2[sure]) != np.sign(d3[sure])).sum())
     if counted < SIDE_MIN_PAIRS or contradicted <= SIDE_SWAP_SHARE * counted:
         return []
     return [_found(Kind.SIDE_SWAP, Severity.PROBLEM,
