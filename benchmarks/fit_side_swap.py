@@ -13,7 +13,7 @@ left-right extents of the hips and shoulders); the limit is the smallest over th
 
 Checks (the rule): on the held-out mocap (Bandai motion-style test, the ablation's 200-clip
 subset; CMU test subjects; DeepMimic), seen as in the fit, the candidate (agreement below the
-limit) and the hand-set check (``stages/flags.side_swap_flag`` as shipped before the decision)
+limit) and the hand-set check (:func:`hand_set_flagged`, ``stages/flags.side_swap_flag`` before the decision)
 on each recording as it is (false alarms) and with its 3D sides exchanged (detections); on the
 real boxing pair (the committed AlphaPose 2D and MotionBERT 3D fixtures), as it is and
 exchanged. Writes stages/data/side_swap.json where the candidate passes.
@@ -34,7 +34,7 @@ from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
 from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
 from pcnet.adapters import get_2d_adapter
 from pcnet.models.datasets import load_mocap, select_split
-from pcnet.stages.flags import side_agreement, side_extents, side_swap_flag
+from pcnet.stages.flags import side_agreement, side_extents
 from pcnet.stages.remap import remap_to_h36m
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -51,6 +51,19 @@ def recordings(clips, max_clips: int, rng: np.random.Generator):
     """``(name, 2D keypoints (T, 17, 3), 3D camera-frame poses (T, 17, 3))`` per clip."""
     for clip, X, R, frames in static_camera_clips(clips, max_clips):
         yield clip.name, detected_keypoints_2d(clip, frames, R, rng), X
+
+
+#: The hand-set check before decision 0077: pairs spanning at least this share of the trunk in
+#: both count, and more than this share of at least this many counted pairs must disagree.
+HAND_SET_MIN_EXTENT, HAND_SET_SHARE, HAND_SET_MIN_PAIRS = 0.1, 0.5, 10
+
+
+def hand_set_flagged(kp: np.ndarray, X: np.ndarray) -> bool:
+    d2, d3 = side_extents(kp, X)
+    with np.errstate(invalid="ignore"):
+        sure = (np.abs(d2) >= HAND_SET_MIN_EXTENT) & (np.abs(d3) >= HAND_SET_MIN_EXTENT)
+    counted = int(sure.sum())
+    return counted >= HAND_SET_MIN_PAIRS and int((np.sign(d2[sure]) != np.sign(d3[sure])).sum()) > HAND_SET_SHARE * counted
 
 
 def agreement(kp: np.ndarray, X: np.ndarray) -> float:
@@ -85,8 +98,8 @@ def main() -> None:
             n += 1
             fa_fit += a < limit
             de_fit += -a < limit
-            fa_hand += bool(side_swap_flag(kp, X))
-            de_hand += bool(side_swap_flag(kp, X[:, EXCHANGED]))
+            fa_hand += hand_set_flagged(kp, X)
+            de_hand += hand_set_flagged(kp, X[:, EXCHANGED])
         false_ok &= fa_fit <= n / 20
         detected["fitted"] += de_fit
         detected["hand-set"] += de_hand
@@ -98,7 +111,7 @@ def main() -> None:
     real_ok = not a_box < limit and -a_box < limit
     lines += ["", f"Real boxing pair (AlphaPose 2D, MotionBERT 3D, 60 frames): agreement {a_box:+.3f}; flagged as it "
                   f"is: {'yes' if a_box < limit else 'no'}, exchanged: {'yes' if -a_box < limit else 'no'} (hand-set: "
-                  f"{'yes' if side_swap_flag(kp2d, X) else 'no'}, {'yes' if side_swap_flag(kp2d, X[:, EXCHANGED]) else 'no'})"]
+                  f"{'yes' if hand_set_flagged(kp2d, X) else 'no'}, {'yes' if hand_set_flagged(kp2d, X[:, EXCHANGED]) else 'no'})"]
     ships = false_ok and detected["fitted"] >= detected["hand-set"] and real_ok
     lines += ["", f"Decision 0077's rule: (1) false alarms within 1 in 20 per set: {'yes' if false_ok else 'no'}; "
                   f"(2) detections {detected['fitted']} >= hand-set {detected['hand-set']}: "

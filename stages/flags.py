@@ -294,10 +294,11 @@ def load_skeleton_limits(path: str | Path | None = None) -> SkeletonLimits:
                         ("leg_asymmetry", "size_change_ratio"), "lifter-skeleton limits", "a positive number")
 
 
-def _read_limits(cls, path: str | Path, names: Sequence[str], what: str, expected: str):
+def _read_limits(cls, path: str | Path, names: Sequence[str], what: str, expected: str,
+                 low: float = 0.0, high: float = np.inf):
     """``cls(**fields, provenance=...)`` from the JSON object of ``path``: its fields ``names``,
-    each a positive finite number, and its ``provenance``. Raises InputError naming the file
-    and the field."""
+    each a finite number in ``(low, high]``, and its ``provenance``. Raises InputError naming
+    the file and the field."""
     path = Path(path)
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
@@ -306,7 +307,7 @@ def _read_limits(cls, path: str | Path, names: Sequence[str], what: str, expecte
     values = {}
     for name in names:
         value = data.get(name) if isinstance(data, dict) else None
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or not low < value <= high:
             raise InputError(f"{path}: field {name!r}: expected {expected}, got {value!r}")
         values[name] = float(value)
     return cls(**values, provenance=MappingProxyType(dict(data.get("provenance", {}))))
@@ -374,16 +375,36 @@ def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -
                    f"speeds and bone lengths off by more than {off:.0f} % in the metric exports")]
 
 
-#: A hip or shoulder pair counts towards the side check where its left-right extent along
-#: the image's x axis is at least this fraction of the trunk's length, in 2D and in 3D: a
-#: body turned exactly side-on says nothing about its sides. On the boxing demo, whose boxer
-#: stands nearly side-on (hips 0.10-0.12 of the trunk apart along x, median), 277 pairs count
-#: and none contradicts; with the 3D sides swapped, all 277 do.
-SIDE_MIN_EXTENT = 0.1
-#: Share of the counted pairs whose 3D sides contradict the 2D ones beyond which the flag
-#: is raised, and the fewest counted pairs it needs.
-SIDE_SWAP_SHARE = 0.5
-SIDE_MIN_PAIRS = 10
+#: The fitted agreement limit of :func:`side_swap_flag` (decision 0077).
+SIDE_SWAP_PATH = Path(__file__).resolve().parent / "data" / "side_swap.json"
+
+
+@dataclass(frozen=True)
+class SideSwapLimit:
+    """The smallest :func:`side_agreement` of a recording whose sides are right: the smallest
+    over the training mocap seen by a simulated detector (2D) and through the lifter-noise
+    model (3D) (decision 0077, ``python -m benchmarks.fit_side_swap --data ../shared/data``).
+
+    Attributes:
+        agreement_limit: in [-1, 1]; below it the 3D sides are read as exchanged.
+        provenance: the fit's command, data, split and the clip that set it.
+    """
+
+    agreement_limit: float
+    provenance: Mapping = field(default_factory=dict)
+
+
+@lru_cache(maxsize=4)
+def load_side_swap_limit(path: str | Path | None = None) -> SideSwapLimit:
+    """Read :class:`SideSwapLimit` from JSON (``agreement_limit``, ``provenance``; default: the
+    shipped :data:`SIDE_SWAP_PATH`).
+
+    Raises:
+        FileNotFoundError: no such file.
+        InputError: not JSON, or ``agreement_limit`` missing or not a number in (-1, 1].
+    """
+    return _read_limits(SideSwapLimit, SIDE_SWAP_PATH if path is None else path, ("agreement_limit",),
+                        "side-swap limit", "a number in (-1, 1]", low=-1.0, high=1.0)
 
 
 def side_extents(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -422,35 +443,30 @@ def side_agreement(d2: np.ndarray, d3: np.ndarray) -> float:
     return float(np.sum(a * b) / norm) if norm > 0 else float("nan")
 
 
-def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray) -> list[Finding]:
-    """A flag when the 3D lifter's left and right contradict the 2D keypoints'.
-
-    Both are in the camera's view: the 2D keypoints in pixels (x right) and the 3D poses in
-    the camera frame (OpenCV axes, x right), so a body's right hip lies on the same image
-    side in both. For the hips and the shoulders of every frame where the pair spans at least
-    :data:`SIDE_MIN_EXTENT` of the trunk along x in both, the signs of right - left are
-    compared; when more than :data:`SIDE_SWAP_SHARE` of at least :data:`SIDE_MIN_PAIRS` such
-    pairs disagree, the 3D output's sides are probably swapped (a wrong joint order or
-    --layout, or a mirrored lifter input), which no pose-only check can see: the rotation
-    then faces the body the wrong way, with its knees bent backwards.
+def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray, limit: SideSwapLimit | None = None) -> list[Finding]:
+    """A flag when the 3D lifter's left and right contradict the 2D keypoints': the
+    :func:`side_agreement` of their :func:`side_extents` is below ``limit.agreement_limit``
+    (default: the shipped :func:`load_side_swap_limit`, decision 0077). The 3D output's sides
+    are then probably exchanged (a wrong joint order or --layout, or a mirrored lifter input),
+    which no pose-only check can always see: the rotation then faces the body the wrong way,
+    with its knees bent backwards.
 
     Args:
         keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence (NaN = missing).
         joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any units.
+        limit: the agreement limit; None: the shipped one.
     """
-    d2, d3 = side_extents(keypoints2d, joints_cam)
-    with np.errstate(invalid="ignore"):
-        sure = (np.abs(d2) >= SIDE_MIN_EXTENT) & (np.abs(d3) >= SIDE_MIN_EXTENT)
-    counted = int(sure.sum())
-    contradicted = int((np.sign(d2[sure]) != np.sign(d3[sure])).sum())
-    if counted < SIDE_MIN_PAIRS or contradicted <= SIDE_SWAP_SHARE * counted:
+    agreement = side_agreement(*side_extents(keypoints2d, joints_cam))
+    lowest = (limit or load_side_swap_limit()).agreement_limit
+    if not agreement < lowest:  # NaN: no hip or shoulder seen in both
         return []
     return [_found(Kind.SIDE_SWAP, Severity.PROBLEM,
-                   f"3D left/right contradict the 2D keypoints in {contradicted} of {counted} pairs: sides swapped",
+                   f"3D left/right contradict the 2D keypoints (agreement {agreement:+.2f}): sides swapped",
                    "check the joint order (--layout)",
-                   f"the 3D poses' left and right contradict the 2D keypoints' in {contradicted} of {counted} hip "
-                   f"and shoulder pairs seen across the image: the 3D output's sides are probably swapped (its joint "
-                   f"order or --layout), so the body faces the wrong way and its knees bend backwards")]
+                   f"the 3D poses' left and right contradict the 2D keypoints' (agreement of the hips' and "
+                   f"shoulders' left-right extents {agreement:+.2f}, below {lowest:+.2f}, the lowest of any training "
+                   f"recording whose sides are right): the 3D output's sides are probably swapped (its joint order "
+                   f"or --layout), so the body faces the wrong way and its knees bend backwards")]
 
 
 #: Share of the present 2D keypoints outside the video's frame (beyond ``margin``) from which

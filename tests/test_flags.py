@@ -14,10 +14,12 @@ from conftest import FIXTURES, ROOT, camera_up, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.flags import (Kind, SwitchLimits, camera_tilt, lifter_frame_flag, load_skeleton_limits,
+from pcnet.stages.flags import (Kind, SwitchLimits, camera_tilt, lifter_frame_flag, load_side_swap_limit,
+                                load_skeleton_limits,
                                 load_switch_limits,
                                 mirrored_skeleton_flag, orientation_flags, pelvis_jumps, posture_flag,
-                                side_swap_flag, size_change_flag, track_segments, track_switch_flag)
+                                side_agreement, side_extents, side_swap_flag, size_change_flag, track_segments,
+                                track_switch_flag)
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.scale import height_chain_length
 from pcnet.stages.remap import remap_to_h36m
@@ -150,7 +152,8 @@ def test_the_switch_limit_grows_with_the_gap_and_decides_a_jump():
 
 
 @pytest.mark.parametrize("load, command", [(load_switch_limits, "fit_track_switch"),
-                                           (load_skeleton_limits, "fit_skeleton_limits")])
+                                           (load_skeleton_limits, "fit_skeleton_limits"),
+                                           (load_side_swap_limit, "fit_side_swap")])
 def test_the_shipped_limits_state_their_fit(load, command):
     limits = load()
     assert limits.provenance["command"] == f"python -m benchmarks.{command} --data ../shared/data"
@@ -166,6 +169,13 @@ def test_the_shipped_skeleton_limits_are_the_fits_printed_values():
                        "size_change_ratio": round(limits.size_change_ratio, 3)}
 
 
+def test_the_shipped_side_swap_limit_is_the_fits_printed_value():
+    """Decision 0077: the JSON holds what ``fit_side_swap`` printed (its results file)."""
+    text = (ROOT / "benchmarks" / "results" / "fit_side_swap.txt").read_text()
+    printed = float(re.search(r"limit \(the smallest\): (-?[\d.]+)", text).group(1))
+    assert printed == round(load_side_swap_limit().agreement_limit, 4)
+
+
 @pytest.mark.parametrize("load, text, field", [
     (load_switch_limits, '{"per_extra_frame": 0.5}', "'jump_torsos'"),
     (load_switch_limits, '{"jump_torsos": -1, "per_extra_frame": 0.5}', "'jump_torsos'"),
@@ -174,6 +184,8 @@ def test_the_shipped_skeleton_limits_are_the_fits_printed_values():
     (load_switch_limits, "{", "unreadable JSON"),
     (load_skeleton_limits, '{"leg_asymmetry": 0.1}', "'size_change_ratio'"),
     (load_skeleton_limits, '{"leg_asymmetry": true, "size_change_ratio": 1.2}', "'leg_asymmetry'"),
+    (load_side_swap_limit, '{"agreement_limit": -1.5}', "'agreement_limit'"),
+    (load_side_swap_limit, '{"agreement_limit": NaN}', "'agreement_limit'"),
 ])
 def test_bad_limits_name_the_file_and_field(tmp_path, load, text, field):
     path = tmp_path / "limits.json"
@@ -371,9 +383,8 @@ def test_real_lifter_files_beyond_an_ordinary_lifters_size_change_are_flagged():
 
 def test_3d_sides_that_contradict_the_2d_keypoints_are_flagged():
     """Real boxing frames (MotionBERT 3D, AlphaPose 2D; the boxer stands nearly side-on):
-    the sides agree; with the 3D columns' left and right swapped (a wrong joint order) every
-    counted hip and shoulder pair contradicts the 2D keypoints, which the poses alone could
-    not show."""
+    the sides agree (agreement +0.90, decision 0077); with the 3D columns' left and right
+    swapped (a wrong joint order) the agreement is negated, below the fitted limit."""
     from pcnet.adapters.registry import get_2d_adapter
 
     kp = get_2d_adapter("alphapose").load(FIXTURES / "boxing_alphapose_f000-059.json")
@@ -383,8 +394,9 @@ def test_3d_sides_that_contradict_the_2d_keypoints_are_flagged():
     assert side_swap_flag(kp2d, X) == []
     swapped = X[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]]
     (flag,) = side_swap_flag(kp2d, swapped)
-    counted = int(re.search(r"in (\d+) of (\d+) hip", flag.detail).group(2))
-    assert counted >= 10 and f"in {counted} of {counted}" in flag.detail
+    assert "agreement -0.90" in flag.headline and "--layout" in flag.detail
+    assert side_agreement(*side_extents(kp2d, swapped)) == pytest.approx(-side_agreement(*side_extents(kp2d, X)))
+    assert side_swap_flag(kp2d, np.full_like(X, np.nan)) == []  # nothing seen: no reading
 
 
 def test_a_mirrored_3d_skeleton_is_flagged_from_the_pose_alone():
