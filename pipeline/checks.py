@@ -17,7 +17,7 @@ from pcnet.adapters import VideoInfo
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
                                mirrored_skeleton_flag, orientation_flags, posture_flag,
-                               quarter_turn_reported, side_swap_flag, size_change_flag, track_switch_flag)
+                               side_swap_flag, size_change_flag, track_switch_flag)
 from pcnet.stages.rectification_report import RectificationReport
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
 
@@ -78,8 +78,7 @@ def checks(c: CheckInputs) -> list[Finding]:
     # The view gate's weights shape the answer only where the per-frame up is the answer.
     weights = report.weights if report.mode.run != "sequence" else None
     return [
-        *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg,
-                           turn_reported=quarter_turn_reported(weights)),
+        *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg),
         *(body_size_flag(cam, c.units) if not c.height_given else []),
         *leg_asymmetry_flag(cam),
         # image-scaled sizes are made constant per frame (the scale step); a metric body should keep its own

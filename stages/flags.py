@@ -71,7 +71,7 @@ class Kind(IntEnum):
     CAMERA_TILT = auto()  #: :func:`orientation_flags`
     LYING = auto()  #: :func:`posture_flag`
     AMBIGUOUS_ORIENTATION = auto()  #: :func:`posture_flag`
-    QUARTER_TURN = auto()  #: :func:`orientation_flags`, :func:`ensemble_weights_flag`
+    QUARTER_TURN = auto()  #: :func:`orientation_flags`
     NO_WORLD_FRAME = auto()  #: :func:`no_world_frame_flag`
     LEG_ASYMMETRY = auto()  #: :func:`leg_asymmetry_flag`
     VIEWS_SET_ASIDE = auto()  #: :func:`ensemble_weights_flag`
@@ -168,8 +168,7 @@ def _valid_ups(up_cam: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return np.asarray(valid, bool) & np.isfinite(up_cam).all(axis=1)
 
 
-def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None, *,
-                      turn_reported: bool = False) -> list[Finding]:
+def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None) -> list[Finding]:
     """Flags for a camera orientation that real recordings rarely have.
 
     The camera is judged against the image axis nearest the up direction, as the view gate
@@ -189,8 +188,6 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
         tilt_deg, pitch_deg, roll_deg: degrees, from :func:`camera_tilt` (one recording's
             mean up; ``cos(tilt) = cos(pitch) cos(roll)``). Without ``pitch_deg`` and
             ``roll_deg`` only an upside-down tilt is judged.
-        turn_reported: the quarter turn is already in the summary (the view gate's flag,
-            :func:`ensemble_weights_flag`), so it is not said again.
 
     Returns:
         zero or one finding.
@@ -225,7 +222,7 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
                        f"them); either the camera was tilted that much or the subject is not upright (lying, seated, "
                        f"bent), which the poses alone cannot tell apart: check the result (and --axes, with --lifter "
                        f"generic)")]
-    if quarter and not turn_reported:
+    if quarter:
         return [_found(Kind.QUARTER_TURN, Severity.CHECK,
                        f"camera read as turned a quarter turn (roll {roll_deg:+.0f} deg): portrait phone or lying "
                        f"body?", "check the result",
@@ -569,45 +566,28 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
     return []
 
 
-#: Share of valid frames outside the camera-frame network's views above which it is flagged.
+#: Share of valid frames outside the camera-frame network's views above which it is flagged
+#: (hand-set; the warning itself kept by decision 0078: where it fires the per-frame bound holds
+#: the truth less often).
 OUTSIDE_VIEWS_SHARE = 0.05
 
 
-def quarter_turn_reported(weights: EnsembleWeights | None) -> bool:
-    """Whether :func:`ensemble_weights_flag` says the camera was read as turned a quarter turn
-    (in more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames)."""
-    if not weights or not weights.frames:
-        return False
-    return sum(weights.turned_frames.values()) > OUTSIDE_VIEWS_SHARE * weights.frames
-
-
 def ensemble_weights_flag(weights: EnsembleWeights | None) -> list[Finding]:
-    """Flags from the shipped ensemble's weights (:class:`~pcnet.stages.rectification_report.EnsembleWeights`),
-    each when it concerns more than :data:`OUTSIDE_VIEWS_SHARE` of the valid frames: the
-    camera read as turned by 90 or 270 deg about its optical axis (the camera-frame network
-    read the poses turned back), and the camera-frame 3DPCNet (partly) set aside for the
-    body-frame one (the remaining roll or pitch beyond the view gate's ramps, or a body
-    whose trunk is far from the image's vertical). ``None`` (one estimator ran) gives none.
-    They concern the per-frame up, so a run calls this only where that up is the answer (frame
+    """A flag from the shipped ensemble's weights (:class:`~pcnet.stages.rectification_report.EnsembleWeights`)
+    when the camera-frame 3DPCNet was (partly) set aside for the body-frame one in more than
+    :data:`OUTSIDE_VIEWS_SHARE` of the valid frames (the remaining roll or pitch beyond the view
+    gate's ramps, or a body whose trunk is far from the image's vertical): there the per-frame
+    bound holds the truth less often (decision 0078). ``None`` (one estimator ran) gives none.
+    It concerns the per-frame up, so a run calls this only where that up is the answer (frame
     and smooth modes): in sequence mode the up model weighs both networks itself, and the
-    posture and orientation flags say what it read."""
+    posture and orientation flags say what it read. A quarter turn is said by
+    :func:`orientation_flags` (the gate's own quarter-turn warning went with decision 0078)."""
     if not weights or not weights.frames:
         return []
-    flags = []
-    turned, frames = weights.turned_frames, weights.frames
-    if quarter_turn_reported(weights):
-        counts = ", ".join(f"{deg} deg: {n}" for deg, n in turned.items() if n)
-        flags.append(_found(
-            Kind.QUARTER_TURN, Severity.CHECK,
-            f"camera read as turned a quarter turn in {sum(turned.values())} of {frames} frames: portrait phone or "
-            f"lying body?", "check the result",
-            f"camera read as turned a quarter turn about its optical axis (a phone in portrait, or a body lying "
-            f"across the image) in {sum(turned.values())} of {frames} frames ({counts}): the camera-frame network "
-            f"read those poses turned back (models/view_gate.py: quarter_turns)"))
-    outside = weights.set_aside_frames
+    outside, frames = weights.set_aside_frames, weights.frames
     if outside <= OUTSIDE_VIEWS_SHARE * frames:
-        return flags
-    return flags + [_found(
+        return []
+    return [_found(
         Kind.VIEWS_SET_ASIDE, Severity.CHECK,
         f"camera-frame network set aside in {outside} of {frames} frames: less accurate up there",
         "see camera_frame_weight",
