@@ -21,7 +21,6 @@ mirrored (detections) on
 
 from __future__ import annotations
 
-import argparse
 import datetime
 import glob
 import json
@@ -32,11 +31,10 @@ import numpy as np
 
 from benchmarks.fit_speed_limits import clip_series
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import fit_arguments, print_and_save
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.mirror import CUES, MIRROR_ODDS, MIRROR_PATH, MirrorModel, recording_cues
 
-DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "fit_mirror_flag.txt"
 COMMAND = "python -m benchmarks.fit_mirror_flag --data ../shared/data"
 MIRROR_Z = np.array([1.0, 1.0, -1.0])
@@ -71,12 +69,7 @@ def noisy(clips) -> list[tuple[str, np.ndarray]]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    ap.add_argument("--fit", type=Path, default=MIRROR_PATH, help="where to write the fit's JSON")
-    args = ap.parse_args()
-    require_mocap(args.data, "fit_mirror_flag")
+    args = fit_arguments(__doc__, "fit_mirror_flag", RESULT, MIRROR_PATH, option="--fit")
     t0 = time.perf_counter()
     train, val = training_mix_splits(args.data, "train", "val")
     train_series = noisy(train)

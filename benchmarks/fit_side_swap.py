@@ -21,7 +21,6 @@ exchanged. Writes stages/data/side_swap.json where the candidate passes.
 
 from __future__ import annotations
 
-import argparse
 import datetime
 import json
 import time
@@ -31,7 +30,7 @@ import numpy as np
 
 from benchmarks.ablation import MOCAP_SETS, detected_keypoints_2d, static_camera_clips
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import fit_arguments, print_and_save
 from pcnet.adapters import get_2d_adapter
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.flags import side_agreement, side_extents
@@ -71,12 +70,7 @@ def agreement(kp: np.ndarray, X: np.ndarray) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    ap.add_argument("--json", type=Path, default=JSON, help="where the fit is written")
-    args = ap.parse_args()
-    require_mocap(args.data, "fit_side_swap")
+    args = fit_arguments(__doc__, "fit_side_swap", RESULT, JSON)
     t0 = time.perf_counter()
     (train,) = training_mix_splits(args.data, "train")
     fit = [(name, agreement(kp, X)) for name, kp, X in recordings(train, len(train), np.random.default_rng(0))]

@@ -23,7 +23,6 @@ file of the shared data. Writes stages/data/skeleton_limits.json with the limits
 
 from __future__ import annotations
 
-import argparse
 import datetime
 import json
 import time
@@ -34,7 +33,7 @@ import numpy as np
 from benchmarks.ablation import MOCAP_SETS
 from benchmarks.fit_speed_limits import clip_series
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import fit_arguments, print_and_save
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.flags import SKELETON_LIMITS_PATH, leg_asymmetry, size_percentiles
@@ -74,12 +73,7 @@ def fires(values: np.ndarray, limit: float) -> int:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    ap.add_argument("--json", type=Path, default=SKELETON_LIMITS_PATH, help="where the fit is written")
-    args = ap.parse_args()
-    require_mocap(args.data, "fit_skeleton_limits")
+    args = fit_arguments(__doc__, "fit_skeleton_limits", RESULT, SKELETON_LIMITS_PATH)
     t0 = time.perf_counter()
     (train,) = training_mix_splits(args.data, "train")
     series = clip_series(train, LifterNoise())

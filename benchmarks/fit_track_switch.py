@@ -31,7 +31,6 @@ stated, 30 fps assumed) are listed, not judged.
 
 from __future__ import annotations
 
-import argparse
 import datetime
 import json
 import math
@@ -41,7 +40,7 @@ import numpy as np
 
 from benchmarks.ablation import MOCAP_SETS, detected_keypoints_2d, static_camera_clips
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import fit_arguments, print_and_save
 from pcnet.adapters import get_2d_adapter
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.remap import remap_to_h36m
@@ -130,12 +129,7 @@ def real_track(data: Path, path: str, adapter: str, fps: float | None):
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    ap.add_argument("--json", type=Path, default=SWITCH_LIMITS_PATH, help="where the fit is written")
-    args = ap.parse_args()
-    require_mocap(args.data, "fit_track_switch")
+    args = fit_arguments(__doc__, "fit_track_switch", RESULT, SWITCH_LIMITS_PATH)
     rng = np.random.default_rng(0)
     (train,) = training_mix_splits(args.data, "train")
     limits, lines = fit(train, rng)

@@ -26,6 +26,20 @@ def data_arguments(doc: str, data: Path, out: Path, stride: int) -> argparse.Nam
     return args
 
 
+def fit_arguments(doc: str, script: str, out: Path, written: Path, option: str = "--json") -> argparse.Namespace:
+    """The command line of a script that fits shipped numbers on the mocap: ``--data`` (the
+    data root; exits with one line where it has no ``mocap/``), ``--out`` (the results file) and
+    ``option`` (where the fit's JSON is written, default ``written``); the description is
+    ``doc``'s first line."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=SHARED_DATA)
+    ap.add_argument("--out", type=Path, default=out)
+    ap.add_argument(option, type=Path, default=written, help="where the fit's JSON is written")
+    args = ap.parse_args()
+    require_mocap(args.data, script)
+    return args
+
+
 def print_and_save(lines: list[str], out: Path) -> None:
     """Print ``lines`` and write them (newline-terminated) to ``out``, creating its folder."""
     text = "\n".join(lines) + "\n"
