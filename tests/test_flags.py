@@ -445,6 +445,26 @@ def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):
 
 
 @pytest.mark.slow
+def test_exchanged_3d_sides_are_warned_about_in_a_run(tmp_path):
+    """The real boxing pair through ``pcnet run`` with its 2D keypoints: the MotionBERT output as
+    it is carries no side-swap warning; with its left and right columns exchanged (a wrong joint
+    order) the summary says so once, and the npz keeps the text (decision 0077)."""
+    exchanged = tmp_path / "exchanged.npy"
+    np.save(exchanged, np.load(BOX_X3D)[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]])
+    outputs = {}
+    for name, path in (("as_is", BOX_X3D), ("exchanged", exchanged)):
+        res = CliRunner().invoke(main, ["run", "--lifter", "motionbert", "--lifter-output", str(path), "--keypoints2d",
+                                        str(BOX_AP), "--keypoints2d-format", "alphapose", "--fps", "30",
+                                        "--method", "geometric", "--no-recording", "--out", str(tmp_path / name)])
+        assert res.exit_code == 0, res.output
+        outputs[name] = res.output
+    assert "sides swapped" not in outputs["as_is"]
+    assert outputs["exchanged"].count("sides swapped") == 1, outputs["exchanged"]
+    with np.load(tmp_path / "exchanged" / "canonical.npz") as npz:
+        assert any("sides are probably swapped" in f for f in npz["flags"])
+
+
+@pytest.mark.slow
 def test_2d_keypoints_outside_the_video_are_warned(tmp_path):
     """The real boxing AlphaPose keypoints with the 10-frame cut of their video pass; the same
     keypoints scaled x3 (another resolution's) lie outside the 854x480 frame and are warned."""
