@@ -168,6 +168,14 @@ def test_the_shipped_skeleton_limits_are_the_fits_printed_values():
                        "size_change_ratio": round(limits.size_change_ratio, 3)}
 
 
+def test_the_set_aside_share_is_the_fits_printed_value():
+    """Decision 0079: the view gate's set-aside warning share is what ``fit_set_aside_share`` printed."""
+    from pcnet.stages.flags import OUTSIDE_VIEWS_SHARE
+
+    text = (ROOT / "benchmarks" / "results" / "fit_set_aside_share.txt").read_text()
+    assert float(re.search(r"fitted share ([\d.]+) \(t = ", text).group(1)) == OUTSIDE_VIEWS_SHARE
+
+
 def test_the_shipped_side_swap_limit_is_the_fits_printed_value():
     """Decision 0077: the JSON holds what ``fit_side_swap`` printed (its results file)."""
     text = (ROOT / "benchmarks" / "results" / "fit_side_swap.txt").read_text()
