@@ -223,11 +223,11 @@ class ViewGatedPCNet:
             idx = np.flatnonzero(changed[rows])
             if not len(idx):
                 continue
-            Q = quarter_turn_matrices(own[rows.start + idx])
+            Qt = np.swapaxes(quarter_turn_matrices(own[rows.start + idx]), 1, 2)
             # normalisation is per pose: only the frames read again are normalised
             x, scale, ok = normalize_input(np.asarray(joints_cam[rows])[idx])
-            R, _, ok = self.camera.predict_normalized((x @ np.swapaxes(Q, 1, 2)).astype(np.float32), scale, ok)
-            camera[rows.start + idx] = np.where(ok[:, None], (np.swapaxes(Q, 1, 2) @ R)[:, :, 1], np.nan)
+            R, _, ok = self.camera.predict_normalized((x @ Qt).astype(np.float32), scale, ok)
+            camera[rows.start + idx] = np.where(ok[:, None], (Qt @ R)[:, :, 1], np.nan)
         return StaticCameraUps(camera, R_body[:, :, 1].copy(), own)
 
 
