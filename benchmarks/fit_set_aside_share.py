@@ -94,7 +94,8 @@ def main(argv=None) -> int:
             continue  # no static truth
         r = read_all(evs)
         held.append(r)
-        lines.append(f"{'':<40}{title:<44}{len(r):>6}{int(np.sum(r[:, 0] > share)):>15}{int(np.sum(r[:, 0] > HAND_SET)):>10}")
+        fired, fired_hand = int(np.sum(r[:, 0] > share)), int(np.sum(r[:, 0] > HAND_SET))
+        lines.append(f"{'':<40}{title:<44}{len(r):>6}{fired:>15}{fired_hand:>10}")
     held = np.concatenate(held)
     verdict = False
     for label, s in (("fitted", share), ("hand-set", HAND_SET)):

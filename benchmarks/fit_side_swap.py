@@ -105,7 +105,8 @@ def main() -> None:
     real_ok = not a_box < limit and -a_box < limit
     lines += ["", f"Real boxing pair (AlphaPose 2D, MotionBERT 3D, 60 frames): agreement {a_box:+.3f}; flagged as it "
                   f"is: {'yes' if a_box < limit else 'no'}, exchanged: {'yes' if -a_box < limit else 'no'} (hand-set: "
-                  f"{'yes' if hand_set_flagged(kp2d, X) else 'no'}, {'yes' if hand_set_flagged(kp2d, X[:, EXCHANGED]) else 'no'})"]
+                  f"{'yes' if hand_set_flagged(kp2d, X) else 'no'}, "
+                  f"{'yes' if hand_set_flagged(kp2d, X[:, EXCHANGED]) else 'no'})"]
     ships = false_ok and detected["fitted"] >= detected["hand-set"] and real_ok
     lines += ["", f"Decision 0077's rule: (1) false alarms within 1 in 20 per set: {'yes' if false_ok else 'no'}; "
                   f"(2) detections {detected['fitted']} >= hand-set {detected['hand-set']}: "

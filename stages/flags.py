@@ -304,7 +304,8 @@ def _read_limits(cls, path: str | Path, names: Sequence[str], what: str, expecte
     values = {}
     for name in names:
         value = data.get(name) if isinstance(data, dict) else None
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or not low < value <= high:
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if not number or not np.isfinite(value) or not low < value <= high:
             raise InputError(f"{path}: field {name!r}: expected {expected}, got {value!r}")
         values[name] = float(value)
     return cls(**values, provenance=MappingProxyType(dict(data.get("provenance", {}))))
@@ -440,7 +441,8 @@ def side_agreement(d2: np.ndarray, d3: np.ndarray) -> float:
     return float(np.sum(a * b) / norm) if norm > 0 else float("nan")
 
 
-def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray, limit: SideSwapLimit | None = None) -> list[Finding]:
+def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray,
+                   limit: SideSwapLimit | None = None) -> list[Finding]:
     """A flag when the 3D lifter's left and right contradict the 2D keypoints': the
     :func:`side_agreement` of their :func:`side_extents` is below ``limit.agreement_limit``
     (default: the shipped :func:`load_side_swap_limit`, decision 0077). The 3D output's sides
