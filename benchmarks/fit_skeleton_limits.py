@@ -33,7 +33,7 @@ import numpy as np
 from benchmarks.ablation import MOCAP_SETS
 from benchmarks.fit_speed_limits import clip_series
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
-from benchmarks.report import fit_arguments, print_and_save
+from benchmarks.report import fit_arguments, print_and_save, shipped_limit
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.flags import SKELETON_LIMITS_PATH, leg_asymmetry, size_percentiles
@@ -80,11 +80,12 @@ def main() -> None:
     stats = statistics(series)
     fitted, at = {}, {}
     for name, values in stats.items():
-        fitted[name], i = envelope(values)
-        at[name] = series[i][0]
+        top, i = envelope(values)
+        fitted[name], at[name] = shipped_limit(top, 4), series[i][0]
     spread = [statistics(clip_series(train, LifterNoise(), seed=s)) for s in SPREAD_SEEDS]
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
-             f"Fit: {len(train)} training clips, one static 'paper' camera each, lifter noise (seed 0).", "",
+             f"Fit: {len(train)} training clips, one static 'paper' camera each, lifter noise (seed 0); each "
+             f"limit the largest value, rounded up to 0.0001.", "",
              f"{'limit':20s} {'hand-set':>9s} {'fitted':>8s}  set by; seeds {', '.join(map(str, SPREAD_SEEDS))}"]
     for name, (_, hand, _) in STATISTICS.items():
         lines.append(f"{name:20s} {hand:9.3f} {fitted[name]:8.3f}  {at[name]}; "
@@ -123,7 +124,7 @@ def main() -> None:
                   "camera": "one static 'paper' view per clip, lifter-noise model defaults, make_pairs seed 0",
                   "rule": "the largest value over the training clips of the flag's own statistic (decision 0075)",
                   **{f"{name}_at": at[name] for name in STATISTICS}}
-    shipped = {name: round(fitted[name], 4) for name, ok in passes.items() if ok}
+    shipped = {name: fitted[name] for name, ok in passes.items() if ok}
     args.json.write_text(json.dumps({"description": "pcnet's lifter-skeleton warning limits (stages/flags.py "
                                      "SkeletonLimits, decision 0075)", **shipped, "provenance": provenance},
                                     indent=2) + "\n")

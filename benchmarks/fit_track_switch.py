@@ -33,14 +33,13 @@ from __future__ import annotations
 
 import datetime
 import json
-import math
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.ablation import MOCAP_SETS, detected_keypoints_2d, static_camera_clips
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import fit_arguments, print_and_save
+from benchmarks.report import fit_arguments, print_and_save, shipped_limit
 from pcnet.adapters import get_2d_adapter
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.remap import remap_to_h36m
@@ -97,8 +96,7 @@ def fit(clips: list, rng: np.random.Generator) -> tuple[SwitchLimits, list[str]]
         "jump_torsos_at": f"{top[1]} frame {top[2]}",
         "per_extra_frame_at": f"{b_top[1]} frame {b_top[2]}, gap {b_top[3]:g} frames",
     }
-    # rounded up to 0.001, so that the envelope's own maximum stays within the limit
-    limits = SwitchLimits(math.ceil(a_fit * 1e3) / 1e3, math.ceil(b_fit * 1e3) / 1e3, provenance)
+    limits = SwitchLimits(shipped_limit(a_fit, 3), shipped_limit(b_fit, 3), provenance)
     q = np.percentile([o[0] for o in one], [50, 95, 99])
     lines = [f"Fit on {len(clips)} training clips: jump_torsos = {limits.jump_torsos:.3f} (largest one-frame jump; "
              f"at {top[1]} frame {top[2]}; per-clip largest one-frame jump median {q[0]:.3f}, p95 {q[1]:.3f}, "

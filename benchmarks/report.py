@@ -4,6 +4,7 @@ their report (print it and write it under results/)."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -38,6 +39,14 @@ def fit_arguments(doc: str, script: str, out: Path, written: Path, option: str =
     args = ap.parse_args()
     require_mocap(args.data, script)
     return args
+
+
+def shipped_limit(value: float, digits: int, upper: bool = True) -> float:
+    """A fitted limit rounded to ``digits`` decimals away from the data it envelops: up for an
+    upper limit (a statistic above it fires), down for a lower one, so the fit's own extreme
+    never fires once rounded."""
+    step = 10.0 ** digits
+    return (math.ceil(value * step) if upper else math.floor(value * step)) / step
 
 
 def print_and_save(lines: list[str], out: Path) -> None:

@@ -49,8 +49,8 @@ class CheckInputs:
     recording, which a constant factor leaves alone and image units' per-frame size moves a
     little: the boxing demo's leg asymmetry reads 18 %, 19 % on the unscaled poses);
     keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence in the displayed frame, or
-    ``None``; video: the probed video or ``None``; report: what rectification decided; tilt: the camera's tilt;
-    lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; track_segment,
+    ``None``; video: the probed video or ``None``; report: what rectification decided; tilt:
+    the camera's tilt; lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; track_segment,
     track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track (``None`` and
     ``[]`` without one); height_given: ``--height`` was given (the body is scaled to it);
     person_option: ``--person`` can choose another track of the 2D file.
