@@ -1052,7 +1052,7 @@ def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rec
                                        floor_frames=rectified.one_person())
         return World(joints, frame.rotation, path.world_std(frame.rotation),
                      tuple(floor_flag(feet_visible(cam), present_frames(cam))),
-                     tuple(n for n in (path.note, floor.note() if floor.kind != "plane" else "") if n),
+                     tuple(n for n in (path.note, floor.note(scaled.units) if floor.kind != "plane" else "") if n),
                      root_path=path.kind, floor=floor)
     if mode.reason == "one valid frame":
         return World(None, np.full((3, 3), np.nan), None, (), (

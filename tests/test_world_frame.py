@@ -252,7 +252,9 @@ def test_too_few_contacts_fall_back_to_the_per_frame_floor_and_say_so():
     sparse = np.full_like(root_cam, np.nan)
     sparse[[10, 60]] = root_cam[[10, 60]]
     world, floor = to_world_floor(cam, frame, sparse)
-    assert floor.kind == "per frame" and "fewer than" in floor.reason and "per frame" in floor.note()
+    assert floor.kind == "per frame" and "fewer than" in floor.reason and "per frame" in floor.note("m")
+    assert f"{floor.clearance:.3g} m above" in floor.note("m")
+    assert f"{floor.clearance:.3g} (normalised units) above" in floor.note("normalised")
     ok = np.isfinite(world).all(axis=(1, 2))
     assert ok.sum() == 2
     np.testing.assert_allclose(world[ok].min(axis=1)[:, 1], floor.clearance, atol=1e-9)
