@@ -46,18 +46,17 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.configurations import CONFIGURATIONS, LABEL_WIDTH
 from benchmarks.gravity_benchmark import deg_between, pitch_roll_deg
+from benchmarks.real_intervals import check_run
 from benchmarks.report import BOOTSTRAP, SHARED_DATA
 from pcnet.adapters import load_mediapipe_3d
 from pcnet.adapters.registry import get_3d_adapter
 from pcnet.pipeline.config import RunConfig
-from pcnet.pipeline.runner import run_pipeline
 from pcnet.pipeline.io import lifter_joints
 from pcnet.stages.core.conventions import root_relative
 from pcnet.stages.core.perspective import focal_px_from_35mm
@@ -207,21 +206,15 @@ def config_rows(joints: np.ndarray, fps: float, up_true: np.ndarray) -> list[str
 def pcnet_run_row(data: Path, run: dict, up_true: np.ndarray, **options) -> tuple[str, np.ndarray]:
     """`pcnet run` with its defaults (and ``options``) on the whole recording: its camera up
     against the truth (the line, and the up its summary's pitch and roll describe)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        cfg = RunConfig(**{k: str(data / v) if k in ("video", "keypoints2d", "lifter_output") else v for k, v in run.items()},
-                        out=str(Path(tmp) / "out"), recording=False, **options)
-        result = run_pipeline(cfg)
-    rep = result.report.as_record()
-    p, r = result.camera_pitch_deg, result.camera_roll_deg
-    tp, tr = pitch_roll_deg(up_true)
-    dp, dr = rep.get("camera_pitch_interval_deg", np.nan), rep.get("camera_roll_interval_deg", np.nan)
-    inside = "-" if not np.isfinite(dp + dr) else ("yes" if abs(p - tp) <= dp and abs(r - tr) <= dr else "NO")
-    # the up its summary's pitch and roll describe (smooth mode has no single sequence up)
-    up = compose_camera_rotation(0.0, np.radians(p), np.radians(r))[:, 1]
-    err = deg_between(up, up_true)
+    cfg = RunConfig(**{k: str(data / v) if k in ("video", "keypoints2d", "lifter_output") else v for k, v in run.items()},
+                    **options)
+    c = check_run(cfg, up_true)
+    inside = "-" if not c.has_interval else ("yes" if c.holds else "NO")
+    up = compose_camera_rotation(0.0, np.radians(c.pitch), np.radians(c.roll))[:, 1]
     label = " ".join(["pcnet run", *(f"--{k} {v}" for k, v in options.items())])
-    return (f"  {label:<{max(LABEL_WIDTH, len(label) + 1)}}mode {result.mode}: tilt error {err:.1f}, pitch {p:+.1f} +- {dp:.1f}, "
-            f"roll {r:+.1f} +- {dr:.1f}; intervals contain the truth: {inside}"), up
+    return (f"  {label:<{max(LABEL_WIDTH, len(label) + 1)}}mode {c.mode}: tilt error {c.tilt_error:.1f}, pitch "
+            f"{c.pitch:+.1f} +- {c.pitch_half:.1f}, roll {c.roll:+.1f} +- {c.roll_half:.1f}; intervals contain the "
+            f"truth: {inside}"), up
 
 
 def overlay(data: Path, name: str, spec: dict, out_dir: Path) -> Path:
