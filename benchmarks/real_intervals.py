@@ -92,14 +92,14 @@ def check_run(cfg: RunConfig, up_true: np.ndarray) -> IntervalCheck:
 def vanishing_truths(data: Path) -> dict[str, np.ndarray]:
     """The true camera up ``(3,)`` of each recording of :mod:`benchmarks.vanishing_gravity`
     (its point estimate from the vanishing points)."""
-    from benchmarks.vanishing_gravity import LINES, truth
+    from benchmarks.vanishing_gravity import LINES, RECORDINGS, truth
 
     from pcnet.stages.core.perspective import focal_px_from_35mm
 
     specs = json.loads(LINES.read_text())
     rng = np.random.default_rng(0)
     return {name: truth(spec, focal_px_from_35mm(spec["width"], spec["height"]), rng)["up"]
-            for name, spec in specs.items()}
+            for name, spec in specs.items() if name in RECORDINGS}
 
 
 def recordings(data: Path) -> list[tuple[str, str, RunConfig, np.ndarray]]:
