@@ -36,7 +36,7 @@ from typing import IO, Any, Iterator, Mapping, Sequence
 
 import numpy as np
 
-from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout, validate_poses
+from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout, placeholder_joints, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import frame_blocks
 
@@ -814,7 +814,9 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
     the conventions.
 
     A joint with any non-finite channel (``inf``, NaN, JSON ``Infinity``) is missing: NaN in
-    all three channels. ``|x|`` or ``|y|`` beyond ``MAX_ABS_COORDINATE["px"]`` (1e5) is
+    all three channels; so is a placeholder for an undetected joint: one at exactly pixel
+    ``(0, 0)`` (OpenPose's ``0, 0, 0``), or every keypoint of a frame at one pixel
+    (:func:`pcnet.stages.core.conventions.placeholder_joints`). ``|x|`` or ``|y|`` beyond ``MAX_ABS_COORDINATE["px"]`` (1e5) is
     refused. Confidence is clipped to [0, 1].
 
     ``in_place``: write the result into ``points`` when it is a writable float32 array (a
@@ -839,6 +841,8 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
     for rows in frame_blocks(len(points)):
         pts = np.array(points[rows], dtype=np.float64)
         pts[~np.isfinite(pts).all(axis=2)] = np.nan  # a joint with any non-finite channel is missing
+        pts[np.all(pts[..., :2] == 0.0, axis=2)] = np.nan
+        pts[placeholder_joints(pts[..., :2], keep_root=False)] = np.nan
         block_first, block_count = _beyond(pts[..., :2], bound)
         if first is None and block_first is not None:
             first = (rows.start + block_first[0],) + block_first[1:]

@@ -200,6 +200,7 @@ def test_azure_kinect_mm_to_m_no_axis_flip_and_nose():
 
 def test_azure_kinect_file_and_wrong_count(tmp_path):
     joints = np.zeros((2, 32, 3), np.float32)
+    joints[..., 0] = np.linspace(-300.0, 300.0, 32)  # distinct joints: one point for all is a placeholder frame
     joints[..., 2] = 2000.0
     np.savez(tmp_path / "bt.npz", joints=joints)
     p = load_azure_kinect(tmp_path / "bt.npz")

@@ -140,3 +140,64 @@ def test_poses3d_refuses_a_count_that_is_no_frame_count(counts):
 
     with pytest.raises(ValueError, match="nonfinite"):
         Poses3D(np.load(BOX_3D), "h36m17", units="normalised", nonfinite=counts)
+
+
+def test_placeholder_joints_are_missing_and_the_root_of_root_relative_poses_is_kept():
+    """A writer's "not detected" (a frame of zeros, several joints at (0, 0, 0)) is missing
+    data like NaN; the real poses around them are untouched, and the pelvis of root-relative
+    H36M-17 poses (VideoPose3D: at the origin in every frame) stays."""
+    from pcnet.stages.core.conventions import PELVIS, validate_poses
+
+    real = np.load(YOGA)
+    real[:, PELVIS] = 0.0  # within 1e-4 m of it in VideoPose3D's export; exactly there in D3DP's
+    poses = real.copy()
+    poses[20:30] = 0.0  # frames written as zeros
+    poses[40:45] = poses[40:45, :1]  # frames collapsed onto the root
+    poses[:, [L_WRIST, R_WRIST]] = 0.0  # two joints never tracked
+    out = validate_poses(poses, "p.npy", "m")
+    missing = np.isnan(out).any(axis=2)
+    assert missing[20:30].all() and missing[40:45].all()
+    assert missing[:, [L_WRIST, R_WRIST]].all()
+    kept = np.ones_like(missing)
+    kept[20:30] = kept[40:45] = False
+    kept[:, [L_WRIST, R_WRIST]] = False
+    np.testing.assert_array_equal(out[kept], real[kept].astype(np.float32))  # the pelvis among them
+    assert np.isfinite(validate_poses(real, "p.npy", "m")).all()  # the file as written: nothing taken away
+
+
+def test_keypoints_at_pixel_zero_are_missing(tmp_path):
+    """OpenPose-style ``0, 0, 0`` for an undetected joint (and a frame whose keypoints all sit
+    on one pixel) in the real MediaPipe file: NaN in all three channels; the rest kept."""
+    from pcnet.adapters.validate import checked_keypoints
+
+    with np.load(MEDIAPIPE, allow_pickle=False) as f:
+        points = np.asarray(f["keypoints_2d"], np.float32)
+    damaged = points.copy()
+    damaged[10:12, :, :2] = 0.0
+    damaged[30:32, :, :2] = damaged[30:32, :1, :2]
+    damaged[:, 15, :2] = 0.0
+    out, _ = checked_keypoints(MEDIAPIPE, "keypoints_2d", damaged, "blazepose33")
+    blank = np.zeros(points.shape[:2], bool)
+    blank[10:12] = blank[30:32] = True
+    blank[:, 15] = True
+    assert np.isnan(out[blank]).all()
+    np.testing.assert_array_equal(out[~blank & np.isfinite(points).all(axis=2)],
+                                  points[~blank & np.isfinite(points).all(axis=2)])
+
+
+def test_run_reads_frames_of_zeros_as_missing_in_its_kinematics(tmp_path):
+    """A lifter file with frames written as zeros: those frames are missing in the kinematics
+    (flagged, no numbers), not a skeleton collapsed onto the ground."""
+    poses = np.load(BOX_3D)
+    poses[20:25] = 0.0
+    np.save(tmp_path / "X3D.npy", poses)
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "X3D.npy", "--fps", "30",
+                  "--no-recording", "--out", tmp_path / "out")
+    assert res.exit_code == 0, res.output
+    import csv
+
+    with open(tmp_path / "out" / "kinematics.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    for row in rows[20:25]:
+        assert row["valid"] == "0" and row["head_missing"] == "1" and row["head_y_normalised"] == "", row
+    assert all(row["head_missing"] == "0" and row["head_y_normalised"] != "" for row in rows[:20])

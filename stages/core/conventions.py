@@ -238,6 +238,35 @@ def validate_fps(fps: object, source: str = "fps") -> float:
     return value
 
 
+def placeholder_joints(values: np.ndarray, keep_root: bool = True) -> np.ndarray:
+    """Which joints of 3D poses are a writer's placeholder for "not detected", not a position.
+
+    Two exact coincidences that no measured pose has: every present joint of a frame (two or
+    more) at one point (a frame written as zeros, or collapsed onto the root), and two or more
+    joints of a frame at exactly ``(0, 0, 0)`` (trackers such as Kinect's write ``(0, 0, 0)``
+    for an untracked joint), each of which is then a placeholder. One joint alone at the
+    origin is kept: the root of root-relative poses (MotionBERT, VideoPose3D); with
+    ``keep_root`` (H36M-17, whose root is the pelvis, joint 0) the root is kept beside
+    placeholders at the origin too.
+
+    Args:
+        values: ``(T, J, D)`` float coordinates (3D poses; 2D keypoints' ``x, y``), NaN = missing.
+        keep_root: keep joint 0 at the origin unless its whole frame is collapsed.
+
+    Returns:
+        ``(T, J)`` bool, True where the joint is a placeholder.
+    """
+    present = np.isfinite(values).all(axis=2)
+    lo = np.min(values, axis=1, initial=np.inf, where=present[..., None])
+    hi = np.max(values, axis=1, initial=-np.inf, where=present[..., None])
+    collapsed = (present.sum(axis=1) >= 2) & np.all(hi == lo, axis=1)
+    at_origin = present & np.all(values == 0.0, axis=2)
+    placeholder = (at_origin & (at_origin.sum(axis=1) >= 2)[:, None]) | (present & collapsed[:, None])
+    if keep_root:
+        placeholder[:, 0] &= collapsed
+    return placeholder
+
+
 def validate_poses(joints: object, source: str = "poses", units: str | None = None,
                    num_joints: int = 17, joint_names: tuple[str, ...] | None = None,
                    in_place: bool = False) -> np.ndarray:
@@ -257,7 +286,8 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
             time either way.
 
     Returns:
-        float32 ``(T, J, 3)``; non-finite values (``inf``) become NaN: missing data.
+        float32 ``(T, J, 3)``; non-finite values (``inf``) and placeholders
+        (:func:`placeholder_joints`) become NaN: missing data.
 
     Raises:
         InputError: wrong dtype or shape, no frame, no finite value, or a coordinate beyond
@@ -275,7 +305,7 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
     bound = MAX_ABS_COORDINATE[units]
     in_place = in_place and arr.dtype == np.float32 and arr.flags.writeable and arr.ndim == np.ndim(joints)
     out = arr if in_place else np.empty(arr.shape, np.float32)
-    any_finite, first, count = False, None, 0
+    any_finite, seen_finite, first, count = False, False, None, 0
     # A block of frames at a time: float64 copies of a long recording would be hundreds of MB.
     for rows in frame_blocks(len(arr)):
         # The bound is checked on the values as given: a float64 beyond float32's range would
@@ -283,16 +313,22 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
         with np.errstate(invalid="ignore"):  # signalling NaNs in a file are missing data too
             values = arr[rows].astype(np.float64)
         finite = np.isfinite(values)
-        any_finite |= bool(finite.any())
+        seen_finite |= bool(finite.any())
         too_big = finite & (np.abs(np.where(finite, values, 0.0)) > bound)
         if too_big.any():
             if first is None:
                 t, j, axis = np.argwhere(too_big)[0]
                 first = (rows.start + int(t), int(j), float(values[t, j, axis]))
             count += int(too_big.any(axis=2).sum())
-        out[rows] = np.where(finite, values, np.nan)
-    if not any_finite:
+        values = np.where(finite, values, np.nan)
+        values[placeholder_joints(values, keep_root=joint_names is None or tuple(joint_names) == H36M_JOINTS)] = np.nan
+        out[rows] = values
+        any_finite |= bool(np.isfinite(values).any())
+    if not seen_finite:
         raise InputError(f"{source}: expected some finite joint coordinates, got only NaN/inf")
+    if not any_finite:
+        raise InputError(f"{source}: expected joint positions, got only placeholders for missing joints (in every "
+                         f"frame all joints at one point, e.g. all zeros, or several at (0, 0, 0))")
     if first is not None:
         t, j, value = first
         name = H36M_JOINTS[j] if joint_names is None else joint_names[j]
