@@ -65,6 +65,15 @@ def _cell(c: str) -> float:
     return v
 
 
+def _readable(c: str) -> bool:
+    """Whether :func:`_cell` reads ``c``."""
+    try:
+        _cell(c)
+    except ValueError:
+        return False
+    return True
+
+
 def _is_number(c: str) -> bool:
     try:
         float(c)
@@ -141,8 +150,9 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
                 # A header is a first line without a single number; a first line with some
                 # numbers is a damaged data row, which must not vanish as a "header".
                 if rows or header_seen or any(_is_number(c) for c in cells):
-                    raise AdapterError(p, f"line {line_no}", "numbers only after the optional header line of names",
-                                       repr(row[:4])[:120]) from None
+                    column, bad = next((k, c) for k, c in enumerate(cells, 1 + index_column) if not _readable(c))
+                    raise AdapterError(p, f"line {line_no}, column {column}",
+                                       "numbers only after the optional header line of names", repr(bad)[:80]) from None
                 header_seen, header_width = True, len(cells)
     if not rows:
         raise AdapterError(p, "rows", "at least one data row", "none")

@@ -142,8 +142,10 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
                 layout_from_count(p, f"{field}[{j}].keypoints", arr.shape[0], _LAYOUT_BY_COUNT)
                 count = arr.shape[0]
             parsed.append(arr)
-        # A repeated frame_id merges its instances: selection then sees them all.
-        chosen.setdefault(frame, []).extend(parsed)
+        if frame in chosen:  # MMPose's writers give each frame one record: a repeat is another file's or an edit's
+            raise AdapterError(p, f"{field.removesuffix('.instances')}.frame_id", "one record per frame",
+                               f"a frame_id an earlier record has (video frame {frame}, 0-based)")
+        chosen[frame] = parsed
     if count is None:
         raise AdapterError(p, "instances", "at least one instance in some frame", "no instances")
 

@@ -854,7 +854,7 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
             out[rows] = pts
     _raise_beyond(p, field, first, count, bound, "px", layout)
     if not any_finite:
-        raise AdapterError(p, field, "some finite keypoints", "only NaN/inf")
+        raise AdapterError(p, field, "some detected keypoints", "only NaN/inf or placeholders (pixel (0, 0), or a frame on one pixel)")
     return out, raw_max
 
 

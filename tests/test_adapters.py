@@ -300,6 +300,18 @@ def test_mmpose_and_alphapose_refuse_each_others_files(tmp_path):
     assert_names_file(err, demo_dict)
 
 
+def test_mmpose_refuses_a_repeated_frame_id(tmp_path):
+    """Each MMPose writer gives a frame one record; a repeat (an edit, two files joined) would
+    pool two frames' people and leave a frame empty, so it is refused in one line."""
+    frames = _mm_frames(raw_entries(BOXING_AP), 0)
+    frames[4]["frame_id"] = 3
+    bad = tmp_path / "repeat.json"
+    bad.write_text(json.dumps(frames))
+    with pytest.raises(AdapterError, match=r"\[4\]\.frame_id.*one record per frame.*video frame 3") as err:
+        load_mmpose(bad)
+    assert_names_file(err, bad)
+
+
 def test_mmpose_wrong_joint_count(tmp_path):
     bad = tmp_path / "twenty.json"
     bad.write_text(json.dumps(_mm_frames(raw_entries(BOXING_AP), 0, n=20)))
@@ -749,8 +761,16 @@ def test_generic_csv_headers_pandas_numbers_and_widths(tmp_path):
         load_generic(bom, delimiter="\t")
     underscore = tmp_path / "underscore.csv"
     underscore.write_text(body.replace(body.split(",")[1], "1_0", 1))
-    with pytest.raises(AdapterError, match="line 1"):
+    with pytest.raises(AdapterError, match=r"line 1, column 2.*got '1_0'"):
         load_generic(underscore)
+    lines = body.splitlines()
+    cells = lines[3].split(",")
+    cells[10] = "abc"  # a text cell in a data row: the message shows that cell, not the row's first
+    lines[3] = ",".join(cells)
+    text_cell = tmp_path / "text_cell.csv"
+    text_cell.write_text("\n".join(lines) + "\n")
+    with pytest.raises(AdapterError, match=r"line 4, column 11.*got 'abc'"):
+        load_generic(text_cell)
 
 
 def test_generic_csv_as_numpy_and_spreadsheets_write_it(tmp_path):
