@@ -59,7 +59,7 @@ def accuracy_rows(data: Path) -> list[str]:
         with np.load(stored) as f:
             truth = np.asarray(f["up_camera"], np.float64)
             focal = float(np.asarray(f["K"])[0, 0])
-        from_video = sequence_up(RunConfig(video=str(video), mode="sequence", lifter_options={"focal_px": focal}))
+        from_video = sequence_up(RunConfig(video=str(video), mode="sequence", focal_px=focal))
         from_file = sequence_up(RunConfig(video=str(video), lifter="mediapipe", lifter_output=str(stored),
                                           keypoints2d=str(stored), keypoints2d_format="mediapipe", mode="sequence"))
         err_video, err_file, between = (float(np.degrees(angle_between(a, b))) for a, b in

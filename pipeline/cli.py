@@ -477,7 +477,7 @@ def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, 
 
 @main.command()
 @click.argument("out_dir", type=click.Path(file_okay=False))
-@click.option("--height", type=float, default=None, help="Subject height in metres (recorded in the scaled model).")
+@click.option("--height", type=float, default=None, help="Subject height in metres, recorded in opensim_fit.json (the markers' scale is `pcnet run --height`'s).")
 @click.option("--mass", type=float, default=None, help="Subject mass in kg (sets the scaled model's total mass).")
 @click.option("--overwrite", is_flag=True, help="Replace earlier OpenSim outputs of pcnet in OUT_DIR.")
 def opensim(out_dir, height, mass, overwrite):
@@ -491,7 +491,7 @@ def opensim(out_dir, height, mass, overwrite):
     """
     from pcnet.pipeline.outdir import is_owned, register_files, stale_staging
     from pcnet.stages.flags import opensim_fit_findings, ranked
-    from pcnet.stages.opensim_ik import import_opensim, opensim_fit_line, OUTPUTS, scale_and_ik
+    from pcnet.stages.opensim_ik import import_opensim, opensim_fit_line, OUTPUTS, scale_and_ik, UNOBSERVED_NOTE
 
     folder = Path(out_dir)
     if not folder.is_dir():
@@ -519,6 +519,7 @@ def opensim(out_dir, height, mass, overwrite):
     click.echo(f"{'fit':<17} {opensim_fit_line(result, short=True)}")
     for f in ranked(opensim_fit_findings(result)):
         click.echo(f"WARNING  {f.headline} -> {f.action}")
+    click.echo(f"note     {UNOBSERVED_NOTE}")
     for name in OUTPUTS:
         click.echo(f"{name:<17} {result['outputs'][name]}")
     click.echo(f"details: {details}")

@@ -115,8 +115,21 @@ def opensim_fit_line(result: dict, short: bool = False) -> str:
             + f"; {result['frames_per_s']:.1f} frames/s (scaling {result['scale_seconds']:.1f} s)")
 
 
+#: What the fitted coordinates cannot say: the model's three pelvis markers lie on the hip axis and
+#: H36M-17 has no ASIS/PSIS, so the split of trunk-to-thigh flexion between ``pelvis_tilt``, the
+#: hips and ``L5_S1_Flex_Ext`` is the model's, not the subject's (docs/joint_angles.md,
+#: docs/benchmarks/kinematics.md: their sum agrees with pcnet's thigh-to-thorax angle within
+#: 0.9 deg on mocap).
+UNOBSERVED_NOTE = ("pelvis_tilt and L5_S1_Flex_Ext are not observable from joint centres: read hip_flexion "
+                   "- L5_S1_Flex_Ext (thigh to thorax) instead of either (docs/joint_angles.md)")
+
+
 #: The heading of the section ``pcnet opensim`` adds to the run's report.md (:func:`opensim_markdown`).
 REPORT_SECTION = "## OpenSim inverse kinematics (pcnet opensim)"
+
+
+def _or_none(value, unit: str) -> str:
+    return "not given" if value is None else f"{value:g} {unit}"
 
 
 def opensim_markdown(result: dict) -> str:
@@ -128,7 +141,10 @@ def opensim_markdown(result: dict) -> str:
     w0, w1 = result["static_window_s"]
     lines = [REPORT_SECTION, "", "(Where the notes above hold an OpenSim IK line of `pcnet run --opensim`, this fit "
              "replaced it.)", "", f"- **fit**: {opensim_fit_line(result)}",
-             f"- **static window** (marker placer): {w0:.3f}-{w1:.3f} s", "", "### OpenSim warnings", ""]
+             f"- **static window** (marker placer): {w0:.3f}-{w1:.3f} s",
+             f"- **subject**: height {_or_none(result.get('subject_height_m'), 'm')}, mass "
+             f"{_or_none(result.get('subject_mass_kg'), 'kg')} (given to `pcnet opensim`; the markers' scale is "
+             f"`pcnet run --height`'s)", f"- **not observable**: {UNOBSERVED_NOTE}", "", "### OpenSim warnings", ""]
     findings = ranked(opensim_fit_findings(result))
     for i, f in enumerate(findings, 1):
         lines += [f"#### {i}. {f.headline}", "", f"Severity: {f.severity.name.lower()}. Action: {f.action}.", "",
@@ -325,8 +341,8 @@ def scale_and_ik(
        placer on the :func:`static_window` (``static_seconds``) moves the four trunk/head
        markers that have no joint in the model. ``mass_kg`` sets the total mass with the
        generic model's mass distribution; without it the segment masses scale with the
-       segments. ``height_m`` is recorded in the model (ScaleTool's ``height``, informational;
-       pcnet's TRC is already scaled to it by ``pcnet run --height``).
+       segments. ``height_m`` is recorded in ``opensim_fit.json`` and given to the ScaleTool,
+       which does not scale by it: pcnet's TRC is already scaled by ``pcnet run --height``.
     2. InverseKinematicsTool over every frame of the TRC with at least one marker (weights in
        ``IK_Setup_H36M17.xml``; missing markers are skipped in their frames; a frame with
        none, a lost track, has no row in ``ik.mot``: OpenSim's solver cannot assemble it).
@@ -487,6 +503,8 @@ def scale_and_ik(
             "markers_left_out": left_out,
             "segments_not_scaled": unscaled,
             "static_window_s": (w0, w1),
+            "subject_height_m": None if height_m is None else float(height_m),
+            "subject_mass_kg": None if mass_kg is None else float(mass_kg),
         }
         result["warnings"] = ik_fit_flags(result)
         write_text(tmp / OUTPUTS[-1], json.dumps(finite_or_null(result), indent=1) + "\n")

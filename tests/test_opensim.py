@@ -121,6 +121,8 @@ def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_
     fit = json.loads((out / "opensim_fit.json").read_text())  # the fit and its warning, kept with the outputs
     assert f"OpenSim IK: marker RMS {100 * fit['marker_rms_m']:.2f} cm over {fit['frames']} frames" in res.output
     assert len(fit["warnings"]) == sum(ln.startswith("WARNING  ") for ln in res.output.splitlines())
+    assert fit["subject_height_m"] == 1.75 and fit["subject_mass_kg"] is None  # what was given is recorded
+    assert "pelvis_tilt and L5_S1_Flex_Ext are not observable" in res.output
     # the long form: the run's report.md gets the fit and its warnings in full, still pcnet's own file
     report = (out / "report.md").read_text()
     assert report.count("## OpenSim inverse kinematics (pcnet opensim)") == 1 and f"details: {out / 'report.md'}" \
