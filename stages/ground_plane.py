@@ -40,15 +40,16 @@ per-joint bias and a path's drift), fitted on validation by the log score of the
 each level beyond the first is a prior over support levels and is not tempered.
 
 Upright fine fit. With the poses' posterior as the prior of the tilt, ``theta = (a, b) ~ N(0, C0)``,
-the floor's MAP minimises::
+the floor's MAP minimises, at the same learning rate (one tempered posterior; decision 0081)::
 
-    sum_f rho(e_f / (sigma_f L)) + o^T o / (2 (s_o L)^2) + theta^T C0^-1 theta / 2
+    t_f sum_f rho(e_f / (sigma_f L)) + o^T o / (2 (s_o L)^2) + theta^T C0^-1 theta / 2
 
 by iteratively reweighted least squares, the levels re-assigned along each new normal until the
 tilt stops moving. Its Laplace approximation, the levels and ``o_k`` marginalised, gives the
 floor's information ``I`` and the up, ``theta* = (I + C0^-1)^-1 z``. The fused covariance
-``(I + C0^-1)^-1`` is too narrow on validation
-(``benchmarks/results/fit_floor_contacts.txt``), so the report keeps the up model's intervals.
+``(I + C0^-1)^-1`` holds the truth too rarely on held-out data (82-90 % on the CMU test subjects
+and DeepMimic, ``benchmarks/results/floor_fine_power.txt``), so the report keeps the up model's
+intervals.
 
 Parameters ``sigma_f``, ``s_o`` and ``t_f`` are the up model's
 (:class:`pcnet.stages.up_model.UpModelParameters`), fitted on validation data with a pelvis
@@ -68,8 +69,7 @@ import numpy as np
 from .core.conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE
 from .core.rotations import angle_between, normalize
 from .spherical import TUKEY_C, tukey_weights
-from .up_model import (OTHER_POSTURE_P, Z95, PoseSummary, StaticPosterior, UpModelParameters, default_parameters,
-                       static_posterior, tangent_basis)
+from .up_model import PoseSummary, StaticPosterior, UpModelParameters, default_parameters, static_posterior, tangent_basis
 
 _IRLS_STEPS = 20
 #: Grid points per tilt axis of the coarse search (a resolution of half a prior standard
@@ -228,20 +228,20 @@ def _coarse_tilt(h: np.ndarray, q: np.ndarray, scale: float, prior_cov: np.ndarr
 
 
 def fit_floor(c: Contacts, u0: np.ndarray, prior_cov: np.ndarray, leg: float,
-              p: UpModelParameters, power: float = 1.0) -> FloorFit:
+              p: UpModelParameters) -> FloorFit:
     """Fuse the floor contacts ``c`` with the poses' posterior ``N(u0, prior_cov)`` (module
     docstring). ``u0`` ``(3,)`` unit up, camera frame; ``prior_cov`` ``(2, 2)`` rad^2 in the
     (pitch, roll) basis of :func:`pcnet.stages.up_model.tangent_basis` at ``u0``; ``leg`` the
     leg length (input unit), which scales ``sigma_f`` and ``s_o``. The footfalls' loss enters
-    at the learning rate ``power`` (decision 0081 tries ``t_f``, the posture's), the ankles'
-    offsets and the prior at full weight."""
+    at the learning rate ``t_f`` (``p.footfall_posture_power``), as in the posture's posterior
+    (decision 0081); the ankles' offsets and the prior at full weight."""
     e1, e2 = (np.asarray(e, np.float64) for e in tangent_basis(u0))
     if len(c.points) == 0:
         return FloorFit(u0, prior_cov, 0, float("nan"), 0)
     P, ankle = footfalls(c)
     h, q = P @ u0, np.column_stack([P @ e1, P @ e2])
     scale = p.footfall_height_sd_leg * leg
-    rate = float(power)
+    rate = p.footfall_posture_power
     prior_inv = np.linalg.inv(prior_cov)
     tilt = _coarse_tilt(h, q, scale, prior_cov, prior_inv, rate)
     for _ in range(_IRLS_STEPS):
@@ -358,7 +358,7 @@ def floor_energy(J, ok: np.ndarray, u0: np.ndarray,
 
 
 def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, prior_cov: np.ndarray,
-                    p: UpModelParameters | None = None, power: float = 1.0) -> FloorOutcome:
+                    p: UpModelParameters | None = None) -> FloorOutcome:
     """The up refined by the floor contacts of a recording with a pelvis path (measured, or
     recovered from 2D keypoints).
 
@@ -373,7 +373,6 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, prior_cov: np.ndarray,
         u0: ``(3,)`` unit up of the poses (camera frame).
         prior_cov: ``(2, 2)`` rad^2, the poses' posterior covariance in the (pitch, roll) basis at ``u0``.
         p: the up model's parameters (default: the shipped ones).
-        power: the footfalls' learning rate in the fit (:func:`fit_floor`).
 
     Returns:
         :class:`FloorOutcome`.
@@ -383,11 +382,11 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, prior_cov: np.ndarray,
     if refused:
         return FloorOutcome(u0, None, None, {"used": False, "reason": refused}, leg)
     contacts = detect_contacts(J, fin, u0)
-    fit = fit_floor(contacts, u0, prior_cov, leg, p, power)
+    fit = fit_floor(contacts, u0, prior_cov, leg, p)
     if fit.informative:
         again = detect_contacts(J, fin, fit.up)
         if len(again.points):
-            contacts, fit = again, fit_floor(again, u0, prior_cov, leg, p, power)
+            contacts, fit = again, fit_floor(again, u0, prior_cov, leg, p)
     info = {"used": bool(fit.informative), "n_contacts": int(len(contacts.points)),
             "n_footfalls": int(len(np.unique(contacts.footfall))), "n_levels": fit.levels,
             "residual_over_leg": float(fit.residual / leg),
@@ -405,21 +404,16 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, prior_cov: np.ndarray,
 class PostureFloorUp:
     """:func:`posture_and_floor_up`'s answer: the up model's ``posterior`` (posture and
     intervals), the recording's unit ``up`` ``(3,)`` (camera frame: an upright posture's after
-    the fine floor fit, else the posterior's), ``ground``, the report's ``ground_plane``
-    diagnostics (:class:`FloorOutcome`'s ``info``, or ``used`` False and why not), and the 95 %
-    camera pitch and roll half-widths (deg) of ``up``: the fused posterior's where the floor
-    moved an upright reading whose other posture keeps under 5 %, else the posterior's."""
+    the fine floor fit, else the posterior's) and ``ground``, the report's ``ground_plane``
+    diagnostics (:class:`FloorOutcome`'s ``info``, or ``used`` False and why not)."""
 
     posterior: StaticPosterior
     up: np.ndarray
     ground: dict
-    pitch_half_deg: float = float("nan")
-    roll_half_deg: float = float("nan")
 
 
 def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelParameters,
-                         lying: bool = True, footfalls: bool = True, power: float = 1.0,
-                         fused_intervals: bool = False) -> PostureFloorUp:
+                         lying: bool = True, footfalls: bool = True) -> PostureFloorUp:
     """The up of a static camera from the poses and, where ``J`` carries a pelvis path, the
     floor: the footfalls weigh in the posture's posterior (:func:`floor_energy` along the poses'
     up, :func:`pcnet.stages.up_model.static_posterior`; decision 0048), then an upright
@@ -435,9 +429,6 @@ def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelPara
         lying: whether the lying posture is a hypothesis (``False`` with ``--no-camera-prior``).
         footfalls: ``False`` leaves the footfalls out of the posture (the chain before decision
             0048, kept for the ablation).
-        power: the footfalls' learning rate in the fine fit (:func:`fit_floor`).
-        fused_intervals: the fused posterior's half-widths where the floor moved the up (decision
-            0081's candidate, with ``power`` ``t_f``), else the posterior's.
     """
     if J is None:
         energy, reason = None, NO_PELVIS_PATH
@@ -447,10 +438,7 @@ def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelPara
         energy, why = floor_energy(J, ok, summary.up, p)
         reason = LYING_NO_FLOOR if energy is not None else f"body read as lying; no floor: {why}"
     post = static_posterior(summary, p, lying=lying, floor=energy)
-    halves = (post.pitch_half_deg, post.roll_half_deg)
     if J is not None and post.posture == "upright":
-        floor = ground_plane_up(J, ok, post.up, post.upright_cov(), p, power)
-        if fused_intervals and floor.info["used"] and post.p_lying < OTHER_POSTURE_P:
-            halves = tuple(float(h) for h in Z95 * np.degrees(np.sqrt(np.diag(floor.fit.cov))))
-        return PostureFloorUp(post, floor.up, floor.info, *halves)
-    return PostureFloorUp(post, post.up, {"used": False, "reason": reason}, *halves)
+        floor = ground_plane_up(J, ok, post.up, post.upright_cov(), p)
+        return PostureFloorUp(post, floor.up, floor.info)
+    return PostureFloorUp(post, post.up, {"used": False, "reason": reason})

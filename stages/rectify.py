@@ -330,8 +330,8 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     posture = PostureHypotheses(post.posture, float(post.p_lying), post.summary.up)
     return rotations, ok & heading_ok, SequenceUp(
         evidence=kind, up=up, camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
-        camera_pitch_interval_deg=chain.pitch_half_deg, camera_roll_interval_deg=chain.roll_half_deg,
-        up_uncertainty_deg=float(np.hypot(chain.pitch_half_deg, chain.roll_half_deg)),
+        camera_pitch_interval_deg=post.pitch_half_deg, camera_roll_interval_deg=post.roll_half_deg,
+        up_uncertainty_deg=float(np.hypot(post.pitch_half_deg, post.roll_half_deg)),
         camera_pitch_uncertainty_deg=float(Z95 * pose_sd[0]), camera_roll_uncertainty_deg=float(Z95 * pose_sd[1]),
         interval_reaches_other_posture_p=(round(posture.other_p, 4) if posture.other_p >= OTHER_POSTURE_P
                                           else None),
