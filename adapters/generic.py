@@ -65,18 +65,10 @@ def _cell(c: str) -> float:
     return v
 
 
-def _readable(c: str) -> bool:
-    """Whether :func:`_cell` reads ``c``."""
+def _is_number(c: str, read=float) -> bool:
+    """Whether ``read`` (``float``, or :func:`_cell`) takes ``c`` without a ValueError."""
     try:
-        _cell(c)
-    except ValueError:
-        return False
-    return True
-
-
-def _is_number(c: str) -> bool:
-    try:
-        float(c)
+        read(c)
     except ValueError:
         return False
     return True
@@ -150,7 +142,7 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
                 # A header is a first line without a single number; a first line with some
                 # numbers is a damaged data row, which must not vanish as a "header".
                 if rows or header_seen or any(_is_number(c) for c in cells):
-                    column, bad = next((k, c) for k, c in enumerate(cells, 1 + index_column) if not _readable(c))
+                    column, bad = next((k, c) for k, c in enumerate(cells, 1 + index_column) if not _is_number(c, _cell))
                     raise AdapterError(p, f"line {line_no}, column {column}",
                                        "numbers only after the optional header line of names", repr(bad)[:80]) from None
                 header_seen, header_width = True, len(cells)
