@@ -52,6 +52,27 @@ def test_a_walk_floor_corrects_a_biased_posterior():
         assert np.all(np.linalg.eigvalsh(out.fit.cov) < np.radians(6.0) ** 2)
 
 
+def test_the_fine_fit_weighs_the_footfalls_at_the_posture_learning_rate():
+    """Decision 0081: one tempered posterior. The floor's information in the fused covariance
+    (``cov^-1 - C0^-1``) scales with ``t_f``: at full weight it is about 1 / t_f times larger;
+    tempered, a walk's floor still corrects a posterior 5.8 deg off."""
+    from dataclasses import replace
+
+    X, truth = _seen(WALK, 0, noise_m=0.015)
+    ok = np.ones(len(X), bool)
+    u0 = exp_map(truth, np.radians([5.0, -3.0]))
+    p = default_parameters()
+    assert 0.0 < p.footfall_posture_power < 1.0
+    tempered = ground_plane_up(X, ok, u0, _cov(6.0), p)
+    full = ground_plane_up(X, ok, u0, _cov(6.0), replace(p, footfall_posture_power=1.0))
+    prior_inv = np.linalg.inv(_cov(6.0))
+    info_t = np.linalg.inv(tempered.fit.cov) - prior_inv
+    info_1 = np.linalg.inv(full.fit.cov) - prior_inv
+    ratio = np.trace(info_t) / np.trace(info_1)
+    assert abs(ratio - p.footfall_posture_power) < 0.3 * p.footfall_posture_power, ratio
+    assert _deg(tempered.up, truth) < 1.5 and _deg(full.up, truth) < 1.5
+
+
 def test_feet_on_two_levels_do_not_tilt_the_floor():
     # The second half of the walk on a platform 40 cm high (a stool, a step): every frame there
     # lifted along the true up. A plane through all footfalls tilts towards the platform; the
