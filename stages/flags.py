@@ -903,7 +903,7 @@ def missing_data_line(counts: Mapping, nonfinite: Mapping[str, int]) -> str:
     (:func:`pcnet.stages.kinematics.format_flag_counts` with
     :func:`pcnet.adapters.validate.nonfinite_line`): a per-joint list of two or more joints
     becomes a joint count and the joint most affected, ``"missing: 2 joints (most: left_elbow 74
-    frames); no pose: 8 frames"``; ``''`` when nothing is missing, unfiltered or non-finite.
+    of 120 frames); no pose: 8 frames"``; ``''`` when nothing is missing, unfiltered or non-finite.
 
     Args:
         counts: :func:`pcnet.stages.kinematics.flag_counts`' dict (``missing_with_pose``,
@@ -911,12 +911,17 @@ def missing_data_line(counts: Mapping, nonfinite: Mapping[str, int]) -> str:
         nonfinite: joint name -> frames the lifter's file held as inf/NaN
             (:attr:`pcnet.adapters.Poses3D.nonfinite`).
     """
+    total = counts.get("frames")
+
+    def of_frames(n: int) -> str:  # "283 of 301 frames": how much of the recording a joint lacks
+        return f"{n} of {total} frames" if total else f"{n} frame{'s' * (n != 1)}"
+
     def per_joint(what: str, frames: Mapping[str, int]) -> str:
         if len(frames) == 1:
             ((joint, n),) = frames.items()
-            return f"{what}: {joint} {n} frame{'s' * (n != 1)}"
+            return f"{what}: {joint} {of_frames(n)}"
         n, joint = max((n, joint) for joint, n in frames.items())
-        return f"{what}: {len(frames)} joints (most: {joint} {n} frame{'s' * (n != 1)})"
+        return f"{what}: {len(frames)} joints (most: {joint} {of_frames(n)})"
 
     parts = []
     if counts["missing_with_pose"]:

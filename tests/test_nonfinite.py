@@ -71,7 +71,7 @@ def test_run_summary_extends_its_missing_line_with_the_files_nonfinite_values(tm
     assert res.exit_code == 0, res.output
     missing = [ln for ln in res.output.splitlines() if "missing:" in ln]
     assert len(missing) == 1, res.output  # one line: what is missing, and which of it was inf/NaN in the file
-    assert missing[0].startswith("note     missing: 2 joints (most: right_ankle 10 frames); inf/NaN in the input: 2 joints")
+    assert missing[0].startswith("note     missing: 2 joints (most: right_ankle 10 of 60 frames); inf/NaN in the input: 2 joints")
     assert "missing: right_ankle 10 frames, left_wrist 2 frames; " + LINE in (tmp_path / "out" / "report.md").read_text()
     assert "non-finite" not in res.output.replace(missing[0], "")
 
@@ -130,7 +130,7 @@ def test_summary_counts_every_joint_of_a_long_nonfinite_list(tmp_path):
                   "--no-recording", "--out", tmp_path / "out")
     assert res.exit_code == 0, res.output
     (line,) = [ln for ln in res.output.splitlines() if ln.startswith("note     missing:")]
-    assert line == "note     missing: 10 joints (most: right_hip 2 frames); inf/NaN in the input: 10 joints", line
+    assert line == "note     missing: 10 joints (most: right_hip 2 of 60 frames); inf/NaN in the input: 10 joints", line
     assert "4 more joints (4 frames)" in (tmp_path / "out" / "report.md").read_text()
 
 

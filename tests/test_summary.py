@@ -128,6 +128,8 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     counts = {"missing_with_pose": {"right_knee": 3, "left_elbow": 74, "left_wrist": 36}, "frames_without_pose": 8,
               "unfiltered": {}}
     missing = format_flag_counts(counts)
+    # the summary's line says how much of the recording the worst joint lacks, where it knows the length
+    assert missing_data_line({**counts, "frames": 120}, {}).startswith("missing: 3 joints (most: left_elbow 74 of 120 frames)")
     notes = [missing,
              "world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time, held at the "
              "ends (BVH cannot hold NaN; the CSV, TRC and npz keep them missing)"]
