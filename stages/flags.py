@@ -28,6 +28,7 @@ from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
 from .rectification_report import EnsembleWeights, SequenceUp
 from .up_model import camera_outside_probability, default_parameters
+from .kinematics import frames_phrase
 from .scale import height_chain_length, leg_lengths
 
 #: The fitted person-switch limits of :func:`track_segments` (decision 0072).
@@ -911,17 +912,12 @@ def missing_data_line(counts: Mapping, nonfinite: Mapping[str, int]) -> str:
         nonfinite: joint name -> frames the lifter's file held as inf/NaN
             (:attr:`pcnet.adapters.Poses3D.nonfinite`).
     """
-    total = counts.get("frames")
-
-    def of_frames(n: int) -> str:  # "283 of 301 frames": how much of the recording a joint lacks
-        return f"{n} of {total} frames" if total else f"{n} frame{'s' * (n != 1)}"
-
     def per_joint(what: str, frames: Mapping[str, int]) -> str:
         if len(frames) == 1:
             ((joint, n),) = frames.items()
-            return f"{what}: {joint} {of_frames(n)}"
+            return f"{what}: {joint} {frames_phrase(n, counts.get('frames'))}"
         n, joint = max((n, joint) for joint, n in frames.items())
-        return f"{what}: {len(frames)} joints (most: {joint} {of_frames(n)})"
+        return f"{what}: {len(frames)} joints (most: {joint} {frames_phrase(n, counts.get('frames'))})"
 
     parts = []
     if counts["missing_with_pose"]:

@@ -1038,15 +1038,20 @@ def count_flags(missing: np.ndarray, unfiltered: np.ndarray, joint_names: Iterab
     }
 
 
-def _frames(n: int) -> str:
+def frames_phrase(n: int, total: int | None = None) -> str:
+    """``"1 frame"``, ``"4 frames"``, or with the recording's length ``"283 of 301 frames"``
+    (how much of the recording a flag covers)."""
+    if total:
+        return f"{n} of {total} frames"
     return f"{n} frame" if n == 1 else f"{n} frames"
 
 
 def format_flag_counts(counts: Kinematics | Mapping, input_note: str = "") -> str:
     """One line for a run summary, ``''`` when nothing is flagged.
 
-    Example: ``"missing: right_wrist 1 frame; no pose: 3 frames; unfiltered: right_wrist
-    4 frames (runs shorter than the filter needs; no velocity/acceleration there)"``.
+    Example: ``"missing: right_wrist 1 of 301 frames; no pose: 3 frames; unfiltered: right_wrist
+    4 of 301 frames (runs shorter than the filter needs; no velocity/acceleration there)"``
+    (``"1 frame"`` where the counts do not give the recording's length).
     Joints missing only in frames without any pose are reported once, as ``no pose``.
 
     Args:
@@ -1058,16 +1063,17 @@ def format_flag_counts(counts: Kinematics | Mapping, input_note: str = "") -> st
         the line, without a trailing newline.
     """
     c = flag_counts(counts) if isinstance(counts, Kinematics) else counts
+    total = c.get("frames")
     parts = []
     if c["missing_with_pose"]:
-        parts.append("missing: " + ", ".join(f"{j} {_frames(n)}" for j, n in c["missing_with_pose"].items()))
+        parts.append("missing: " + ", ".join(f"{j} {frames_phrase(n, total)}" for j, n in c["missing_with_pose"].items()))
     if c["frames_without_pose"]:
-        parts.append(f"no pose: {_frames(c['frames_without_pose'])}")
+        parts.append(f"no pose: {frames_phrase(c['frames_without_pose'])}")
     if input_note:
         parts.append(input_note)
     if c["unfiltered"]:
         parts.append(
-            "unfiltered: " + ", ".join(f"{j} {_frames(n)}" for j, n in c["unfiltered"].items())
+            "unfiltered: " + ", ".join(f"{j} {frames_phrase(n, total)}" for j, n in c["unfiltered"].items())
             + " (runs shorter than the filter needs; no velocity/acceleration there)"
         )
     return "; ".join(parts)

@@ -452,7 +452,7 @@ def test_wrist_masked_in_one_frame_is_flagged_in_the_csv(tmp_path, yoga_level):
     assert (counts["frames_with_missing"], counts["frames_with_unfiltered"]) == (1, 4)
     assert counts["frames_without_pose"] == 0 and counts["frames"] == T
     assert format_flag_counts(k) == format_flag_counts(counts) == (
-        "missing: right_wrist 1 frame; unfiltered: right_wrist 4 frames "
+        "missing: right_wrist 1 of 1234 frames; unfiltered: right_wrist 4 of 1234 frames "
         "(runs shorter than the filter needs; no velocity/acceleration there)")
 
 
@@ -499,7 +499,7 @@ def test_flag_counts_frames_without_pose_and_nothing_flagged(yoga_level):
     assert c["missing_with_pose"] == {"left_ankle": 3, "left_wrist": 1}
     assert c["frames_without_pose"] == 3 and c["frames_with_missing"] == 7
     assert c["missing_total"] == 17 * 3 + 1 + 3 and c["unfiltered_total"] == 0
-    assert format_flag_counts(c) == "missing: left_ankle 3 frames, left_wrist 1 frame; no pose: 3 frames"
+    assert format_flag_counts(c) == "missing: left_ankle 3 of 300 frames, left_wrist 1 of 300 frames; no pose: 3 frames"
     import json
 
     assert json.loads(json.dumps(c)) == c  # plain types: fits a JSON report

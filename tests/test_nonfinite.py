@@ -72,7 +72,7 @@ def test_run_summary_extends_its_missing_line_with_the_files_nonfinite_values(tm
     missing = [ln for ln in res.output.splitlines() if "missing:" in ln]
     assert len(missing) == 1, res.output  # one line: what is missing, and which of it was inf/NaN in the file
     assert missing[0].startswith("note     missing: 2 joints (most: right_ankle 10 of 60 frames); inf/NaN in the input: 2 joints")
-    assert "missing: right_ankle 10 frames, left_wrist 2 frames; " + LINE in (tmp_path / "out" / "report.md").read_text()
+    assert "missing: right_ankle 10 of 60 frames, left_wrist 2 of 60 frames; " + LINE in (tmp_path / "out" / "report.md").read_text()
     assert "non-finite" not in res.output.replace(missing[0], "")
 
 
