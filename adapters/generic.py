@@ -142,7 +142,8 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
                 # A header is a first line without a single number; a first line with some
                 # numbers is a damaged data row, which must not vanish as a "header".
                 if rows or header_seen or any(_is_number(c) for c in cells):
-                    column, bad = next((k, c) for k, c in enumerate(cells, 1 + index_column) if not _is_number(c, _cell))
+                    column, bad = next((k, c) for k, c in enumerate(cells, 1 + index_column)
+                                       if not _is_number(c, _cell))
                     raise AdapterError(p, f"line {line_no}, column {column}",
                                        "numbers only after the optional header line of names", repr(bad)[:80]) from None
                 header_seen, header_width = True, len(cells)

@@ -816,8 +816,8 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
     A joint with any non-finite channel (``inf``, NaN, JSON ``Infinity``) is missing: NaN in
     all three channels; so is a placeholder for an undetected joint: one at exactly pixel
     ``(0, 0)`` (OpenPose's ``0, 0, 0``), or every keypoint of a frame at one pixel
-    (:func:`pcnet.stages.core.conventions.placeholder_joints`). ``|x|`` or ``|y|`` beyond ``MAX_ABS_COORDINATE["px"]`` (1e5) is
-    refused. Confidence is clipped to [0, 1].
+    (:func:`pcnet.stages.core.conventions.placeholder_joints`). ``|x|`` or ``|y|`` beyond
+    ``MAX_ABS_COORDINATE["px"]`` (1e5) is refused. Confidence is clipped to [0, 1].
 
     ``in_place``: write the result into ``points`` when it is a writable float32 array (a
     long recording's keypoints are then not copied); checked a block of frames at a time in
@@ -854,7 +854,8 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
             out[rows] = pts
     _raise_beyond(p, field, first, count, bound, "px", layout)
     if not any_finite:
-        raise AdapterError(p, field, "some detected keypoints", "only NaN/inf or placeholders (pixel (0, 0), or a frame on one pixel)")
+        raise AdapterError(p, field, "some detected keypoints",
+                           "only NaN/inf or placeholders (pixel (0, 0), or a frame on one pixel)")
     return out, raw_max
 
 

@@ -27,7 +27,7 @@ import argparse
 import json
 import sys
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -47,7 +47,8 @@ CAMERAS = ("cam01", "cam02", "cam03", "cam04")
 @dataclass(frozen=True)
 class IntervalCheck:
     """One `pcnet run` against a true camera up: degrees; ``*_half`` the printed 95 %
-    half-widths (NaN where the run printed none)."""
+    half-widths (NaN where the run printed none); ``up`` ``(3,)`` the camera-frame up its
+    summary's pitch and roll describe."""
 
     mode: str
     pitch: float
@@ -57,6 +58,7 @@ class IntervalCheck:
     true_pitch: float
     true_roll: float
     tilt_error: float
+    up: np.ndarray = field(compare=False)
 
     @property
     def pitch_holds(self) -> bool:
@@ -75,18 +77,24 @@ class IntervalCheck:
         return self.pitch_holds and self.roll_holds
 
 
-def check_run(cfg: RunConfig, up_true: np.ndarray) -> IntervalCheck:
-    """Run ``cfg`` into a throwaway folder (no recording) and compare its summary's camera
-    pitch and roll, and their intervals, with ``up_true`` ``(3,)`` (camera frame)."""
+def scratch_run(cfg: RunConfig):
+    """:func:`pcnet.pipeline.runner.run_pipeline` of ``cfg`` into a throwaway folder, without
+    the rerun recording; its result."""
     with tempfile.TemporaryDirectory() as tmp:
-        result = run_pipeline(RunConfig(**{**cfg.__dict__, "out": str(Path(tmp) / "out"), "recording": False}))
+        return run_pipeline(RunConfig(**{**cfg.__dict__, "out": str(Path(tmp) / "out"), "recording": False}))
+
+
+def check_run(cfg: RunConfig, up_true: np.ndarray) -> IntervalCheck:
+    """Run ``cfg`` (:func:`scratch_run`) and compare its summary's camera pitch and roll, and
+    their intervals, with ``up_true`` ``(3,)`` (camera frame)."""
+    result = scratch_run(cfg)
     rep = result.report.as_record()
     p, r = result.camera_pitch_deg, result.camera_roll_deg
     tp, tr = pitch_roll_deg(up_true)
     # the up its summary's pitch and roll describe (smooth mode has no single sequence up)
     up = compose_camera_rotation(0.0, np.radians(p), np.radians(r))[:, 1]
     return IntervalCheck(result.mode, p, r, float(rep.get("camera_pitch_interval_deg", np.nan)),
-                         float(rep.get("camera_roll_interval_deg", np.nan)), tp, tr, float(deg_between(up, up_true)))
+                         float(rep.get("camera_roll_interval_deg", np.nan)), tp, tr, float(deg_between(up, up_true)), up)
 
 
 def vanishing_truths(data: Path) -> dict[str, np.ndarray]:

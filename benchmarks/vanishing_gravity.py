@@ -60,7 +60,7 @@ from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.io import lifter_joints
 from pcnet.stages.core.conventions import root_relative
 from pcnet.stages.core.perspective import focal_px_from_35mm
-from pcnet.stages.core.rotations import compose_camera_rotation, normalize
+from pcnet.stages.core.rotations import normalize
 
 HERE = Path(__file__).resolve().parent
 DEFAULT = SHARED_DATA
@@ -206,15 +206,14 @@ def config_rows(joints: np.ndarray, fps: float, up_true: np.ndarray) -> list[str
 def pcnet_run_row(data: Path, run: dict, up_true: np.ndarray, **options) -> tuple[str, np.ndarray]:
     """`pcnet run` with its defaults (and ``options``) on the whole recording: its camera up
     against the truth (the line, and the up its summary's pitch and roll describe)."""
-    cfg = RunConfig(**{k: str(data / v) if k in ("video", "keypoints2d", "lifter_output") else v for k, v in run.items()},
-                    **options)
+    cfg = RunConfig(**{k: str(data / v) if k in ("video", "keypoints2d", "lifter_output") else v
+                       for k, v in run.items()}, **options)
     c = check_run(cfg, up_true)
     inside = "-" if not c.has_interval else ("yes" if c.holds else "NO")
-    up = compose_camera_rotation(0.0, np.radians(c.pitch), np.radians(c.roll))[:, 1]
     label = " ".join(["pcnet run", *(f"--{k} {v}" for k, v in options.items())])
     return (f"  {label:<{max(LABEL_WIDTH, len(label) + 1)}}mode {c.mode}: tilt error {c.tilt_error:.1f}, pitch "
             f"{c.pitch:+.1f} +- {c.pitch_half:.1f}, roll {c.roll:+.1f} +- {c.roll_half:.1f}; intervals contain the "
-            f"truth: {inside}"), up
+            f"truth: {inside}"), c.up
 
 
 def overlay(data: Path, name: str, spec: dict, out_dir: Path) -> Path:

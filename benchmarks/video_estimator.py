@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 
 import pcnet.pipeline
+from benchmarks.real_intervals import scratch_run
 from benchmarks.report import SHARED_DATA
 from pcnet.models.pose_estimator import estimate_video
 from pcnet.pipeline.config import RunConfig
@@ -46,9 +47,7 @@ SIZES = ((1280, 720), (1920, 1080))
 
 def sequence_up(cfg: RunConfig) -> np.ndarray:
     """The sequence up (camera frame) of one run, written to a throwaway folder."""
-    with tempfile.TemporaryDirectory() as tmp:
-        result = run_pipeline(RunConfig(**{**cfg.__dict__, "out": str(Path(tmp) / "o"), "recording": False}))
-    return np.asarray(result.report.rectification.sequence.up, np.float64)
+    return np.asarray(scratch_run(cfg).report.rectification.sequence.up, np.float64)
 
 
 def accuracy_rows(data: Path) -> list[str]:

@@ -477,7 +477,8 @@ def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, 
 
 @main.command()
 @click.argument("out_dir", type=click.Path(file_okay=False))
-@click.option("--height", type=float, default=None, help="Subject height in metres, recorded in opensim_fit.json (the markers' scale is `pcnet run --height`'s).")
+@click.option("--height", type=float, default=None,
+              help="Subject height in metres, recorded in opensim_fit.json (the markers' scale is `pcnet run --height`'s).")
 @click.option("--mass", type=float, default=None, help="Subject mass in kg (sets the scaled model's total mass).")
 @click.option("--overwrite", is_flag=True, help="Replace earlier OpenSim outputs of pcnet in OUT_DIR.")
 def opensim(out_dir, height, mass, overwrite):

@@ -31,7 +31,8 @@ from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, SP
                                           median_thigh_length, validate_fps)
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
-from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS, UNOBSERVED_NOTE as OPENSIM_UNOBSERVED, import_opensim, opensim_fit_line, scale_and_ik
+from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, UNOBSERVED_NOTE as OPENSIM_UNOBSERVED, import_opensim,
+                                     opensim_fit_line, scale_and_ik)
 from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motion_findings, missing_data_line,
                                no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,

@@ -23,12 +23,12 @@ from .core.conventions import (L_HIP, L_SHOULDER, PELVIS, R_HIP, R_SHOULDER, THI
                                median_thigh_length)
 from .core.framestore import frame_blocks, true_runs
 from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg
+from .kinematics import frames_phrase
 from .mirror import MIRROR_ODDS, MirrorModel, load_mirror_model, recording_cues
 from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
 from .rectification_report import EnsembleWeights, SequenceUp
 from .up_model import camera_outside_probability, default_parameters
-from .kinematics import frames_phrase
 from .scale import height_chain_length, leg_lengths
 
 #: The fitted person-switch limits of :func:`track_segments` (decision 0072).
@@ -923,8 +923,7 @@ def missing_data_line(counts: Mapping, nonfinite: Mapping[str, int]) -> str:
     if counts["missing_with_pose"]:
         parts.append(per_joint("missing", counts["missing_with_pose"]))
     if counts["frames_without_pose"]:
-        n = counts["frames_without_pose"]
-        parts.append(f"no pose: {n} frame{'s' * (n != 1)}")
+        parts.append(f"no pose: {frames_phrase(counts['frames_without_pose'])}")
     if len(nonfinite) > 1:
         parts.append(f"inf/NaN in the input: {len(nonfinite)} joints")
     elif nonfinite:

@@ -1066,7 +1066,8 @@ def format_flag_counts(counts: Kinematics | Mapping, input_note: str = "") -> st
     total = c.get("frames")
     parts = []
     if c["missing_with_pose"]:
-        parts.append("missing: " + ", ".join(f"{j} {frames_phrase(n, total)}" for j, n in c["missing_with_pose"].items()))
+        parts.append("missing: " + ", ".join(f"{j} {frames_phrase(n, total)}"
+                                             for j, n in c["missing_with_pose"].items()))
     if c["frames_without_pose"]:
         parts.append(f"no pose: {frames_phrase(c['frames_without_pose'])}")
     if input_note:

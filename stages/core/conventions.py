@@ -306,6 +306,7 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
     in_place = in_place and arr.dtype == np.float32 and arr.flags.writeable and arr.ndim == np.ndim(joints)
     out = arr if in_place else np.empty(arr.shape, np.float32)
     any_finite, seen_finite, first, count = False, False, None, 0
+    keep_root = joint_names is None or tuple(joint_names) == H36M_JOINTS  # the pelvis of root-relative poses
     # A block of frames at a time: float64 copies of a long recording would be hundreds of MB.
     for rows in frame_blocks(len(arr)):
         # The bound is checked on the values as given: a float64 beyond float32's range would
@@ -321,7 +322,7 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
                 first = (rows.start + int(t), int(j), float(values[t, j, axis]))
             count += int(too_big.any(axis=2).sum())
         values = np.where(finite, values, np.nan)
-        values[placeholder_joints(values, keep_root=joint_names is None or tuple(joint_names) == H36M_JOINTS)] = np.nan
+        values[placeholder_joints(values, keep_root)] = np.nan
         out[rows] = values
         any_finite |= bool(np.isfinite(values).any())
     if not seen_finite:
