@@ -13,8 +13,9 @@ Data:
   and a "wide" view (seed 1: pitch up to 45 deg, roll up to 25). The per-frame network ups come
   from the shipped estimator exactly as ``pcnet run`` runs it (benchmarks/ablation.py's
   ``extract``, same cache);
-- training motion capture (Bandai motion-style train split, CMU training subjects; clean,
-  world frame, +Y up) for the lying posture.
+- training motion capture (Bandai motion-style train split, CMU training subjects, DeepMimic's
+  three floor motions in the camera-frame network's mix; clean, world frame, +Y up) for the
+  lying posture.
 
 Fits, in order (each uses the ones before):
 1. ``camera_fallback_deg``, ``camera_fallback_width_deg`` (psi0, w): per clip, whether the
@@ -33,8 +34,10 @@ Fits, in order (each uses the ones before):
    M >= 5 tau(M)), in seconds.
 4. ``systematic_pitch_deg``, ``systematic_roll_deg``: maximum likelihood of the recording
    summaries' errors ``log_map(g, g_hat)`` under ``N(0, C_L + S)``, S diagonal.
-5. ``lying_elevation_deg``: training frames whose trunk (pelvis -> thorax) is more than 60 deg
-   from vertical are lying; sigma_lie is the RMS of their trunk elevation from horizontal.
+5. ``lying_elevation_deg``: training frames of the shipped weights' mix (with DeepMimic's
+   three floor motions, the only bodies on the floor there; decision 0082) whose trunk (pelvis
+   -> thorax) is more than 60 deg from vertical are lying; sigma_lie is the RMS of their trunk
+   elevation from horizontal, printed too for cuts of 50-70 deg with the clips that pass.
    Their share of frames is printed, not used: ``lying_prior`` is declared (below).
 Declared, not fitted: the camera prior, docs/CONVENTIONS.md "handheld" views (pitch
 N(0, 12 deg), roll N(0, 10 deg)) and a 5 % share of cameras outside them; and the prior
@@ -59,6 +62,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from benchmarks import ablation as A
+from benchmarks.deepmimic_floor_subset import FLOOR_TRAIN
 from benchmarks.report import print_and_save, require_mocap
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.core.conventions import PELVIS, THORAX
@@ -243,19 +247,38 @@ def fit_systematic(es: np.ndarray, covs: np.ndarray, isotropic: bool = False) ->
     return float(s[0]), float(s[1]), -float(res.fun)
 
 
-def fit_lying(data: Path) -> tuple[float, float, int, int]:
-    elev, n = [], 0
-    for file in TRAIN_SETS:
-        for clip in select_split(load_mocap(data / "mocap" / file), "train", "motion-style"):
-            t = clip.joints[:, THORAX] - clip.joints[:, PELVIS]
-            n_t = np.linalg.norm(t, axis=-1)
-            ok = np.isfinite(n_t) & (n_t > 0)
-            n += int(ok.sum())
-            ang = np.degrees(np.arccos(np.clip(t[ok, 1] / n_t[ok], -1, 1)))
-            elev.append(90.0 - ang[ang > A.LYING_TRUNK_DEG])
-    elev = np.concatenate(elev)
+#: The training mix's floor motions (the camera-frame network's ``whole_clips``), the only
+#: training frames of a body on the floor (decision 0082).
+FLOOR_FILE = "deepmimic_h36m17.npz"
+#: Cuts (deg of trunk from vertical) whose ``sigma_lie`` is printed beside the definition's
+#: (:data:`benchmarks.ablation.LYING_TRUNK_DEG`, plus or minus 10 deg; decision 0082).
+LYING_CUTS_DEG = (50.0, 55.0, 60.0, 65.0, 70.0)
+
+
+def training_trunk_angles(data: Path) -> list[tuple[str, np.ndarray]]:
+    """Per training clip of the shipped weights' mix (Bandai motion-style train, CMU training
+    subjects, DeepMimic's floor motions :data:`FLOOR_TRAIN`), ``(name, angle)``: each frame's
+    trunk (pelvis -> thorax) angle from the world's +Y, degrees (frames without a trunk left
+    out)."""
+    clips = [c for file in TRAIN_SETS for c in select_split(load_mocap(data / "mocap" / file), "train", "motion-style")]
+    clips += [c for c in load_mocap(data / "mocap" / FLOOR_FILE) if c.name in FLOOR_TRAIN]
+    out = []
+    for clip in clips:
+        t = clip.joints[:, THORAX] - clip.joints[:, PELVIS]
+        n_t = np.linalg.norm(t, axis=-1)
+        ok = np.isfinite(n_t) & (n_t > 0)
+        out.append((clip.name, np.degrees(np.arccos(np.clip(t[ok, 1] / n_t[ok], -1, 1)))))
+    return out
+
+
+def fit_lying(angles: list[tuple[str, np.ndarray]], cut_deg: float = A.LYING_TRUNK_DEG) -> tuple[float, float, int, int]:
+    """``(share, sigma_lie, k, n)``: of the ``n`` training frames of :func:`training_trunk_angles`
+    ``angles``, the ``k`` whose trunk is more than ``cut_deg`` from vertical are lying; their
+    share, and the RMS of their trunk elevation from the horizontal (deg)."""
+    ang = np.concatenate([a for _, a in angles])
+    elev = 90.0 - ang[ang > cut_deg]
     k = len(elev)
-    return k / n, float(np.sqrt(np.mean(np.square(elev)))) if k else float("nan"), k, n
+    return k / len(ang), float(np.sqrt(np.mean(np.square(elev)))) if k else float("nan"), k, len(ang)
 
 
 def params_from(values: dict, provenance: dict) -> UpModelParameters:
@@ -325,12 +348,22 @@ def main(argv=None) -> int:
     sp, sr, _ = fit_systematic(*summary_errors(all_evs, params_from(values, prov)))
     values.update(systematic_pitch_deg=sp, systematic_roll_deg=sr)
     prov["systematic_pitch_deg"] = prov["systematic_roll_deg"] = f"maximum likelihood of recording summaries' errors, {split}"
-    share, sig, k, n = fit_lying(args.data)
+    angles = training_trunk_angles(args.data)
+    share, sig, k, n = fit_lying(angles)
     values.update(lying_elevation_deg=sig)
-    prov["lying_elevation_deg"] = (f"training mocap (Bandai motion-style train + CMU training subjects): RMS trunk "
-                                   f"elevation of the {k} of {n} frames lying (trunk > 60 deg from vertical)")
+    prov["lying_elevation_deg"] = (f"training mocap of the shipped weights' mix (Bandai motion-style train, CMU "
+                                   f"training subjects, DeepMimic's three floor motions): RMS trunk elevation of the "
+                                   f"{k} of {n} frames lying (trunk > {A.LYING_TRUNK_DEG:g} deg from vertical; "
+                                   f"decision 0082: 50-70 deg cuts give " + " / ".join(
+                                       f"{fit_lying(angles, c)[1]:.1f}" for c in LYING_CUTS_DEG) + " deg)")
     prov["lying_prior"] = (f"{LYING_WHY}; the training mocap's share of lying frames, {share:.5f}, does not sample "
                            f"users' recordings (no training clip lies throughout)")
+    lying_lines = [f"lying frames (trunk > {A.LYING_TRUNK_DEG:g} deg from vertical) per training clip: "
+                   + ", ".join(f"{name} {int(np.sum(a > A.LYING_TRUNK_DEG))}" for name, a in angles
+                               if np.any(a > A.LYING_TRUNK_DEG)),
+                   "sigma_lie by the cut (deg from vertical -> frames, sigma_lie deg): "
+                   + ", ".join(f"{c:g} -> {fit_lying(angles, c)[2]}, {fit_lying(angles, c)[1]:.2f}"
+                               for c in LYING_CUTS_DEG)]
     params = params_from(values, prov)
 
     doc = {"model": "pcnet.stages.up_model (docs/up_model.md)", "command": COMMAND,
@@ -339,7 +372,7 @@ def main(argv=None) -> int:
     UpModelParameters.load(args.json.read_text())  # the written file parses
     width = max(map(len, values))
     lines += [f"{k:<{width}}  {v:10.4f}   {prov[k]}" for k, v in values.items()]
-    lines += ["", f"systematic covariance S (deg^2 diagonal): {np.degrees(np.sqrt(np.diag(systematic_cov(params))))}",
+    lines += ["", *lying_lines, "", f"systematic covariance S (deg^2 diagonal): {np.degrees(np.sqrt(np.diag(systematic_cov(params))))}",
               f"({time.time() - t0:.0f} s)"]
     print_and_save(lines, args.out)
     return 0
