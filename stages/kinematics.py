@@ -17,8 +17,11 @@ flags :attr:`Kinematics.missing` / :attr:`Kinematics.unfiltered` and
 
 from __future__ import annotations
 
+import json
 import warnings
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
+from pathlib import Path
 from types import MappingProxyType
 from typing import Iterable, Iterator, Literal, Mapping
 
@@ -552,23 +555,62 @@ def _knee_reading(rot: np.ndarray, knee: np.ndarray, previous: tuple[float, floa
     return rot, knee
 
 
-def _unwrap_runs(x: np.ndarray, lower: float, previous: float | None) -> np.ndarray:
-    """``x`` unwrapped (360-deg period) per run of finite samples, each run shifted by the
+#: The fastest each periodic angle turns in the training motion capture (deg/s), fitted by
+#: ``python -m benchmarks.fit_angle_speeds --data ../shared/data``
+#: (``benchmarks/results/fit_angle_speeds.txt``): :func:`continuous_angles` splits a run where
+#: a step is faster.
+ANGLE_SPEED_LIMITS_PATH = Path(__file__).resolve().parent / "data" / "angle_speed_limits.json"
+
+
+def angle_kind(name: str) -> str:
+    """A periodic angle's name without its side (``left_`` / ``right_``) and ``_deg`` suffix:
+    the key of :data:`ANGLE_SPEED_LIMITS_PATH`'s limits."""
+    short = name.removesuffix("_deg")
+    for side in ("left_", "right_"):
+        short = short.removeprefix(side)
+    return short
+
+
+@lru_cache(maxsize=1)
+def angle_speed_limits() -> Mapping[str, float]:
+    """The shipped limits, angle kind -> deg/s (:data:`ANGLE_SPEED_LIMITS_PATH`).
+
+    Raises:
+        InputError: the file lacks a kind of :data:`PERIODIC_ANGLES` or holds a non-positive
+            limit.
+    """
+    limits = json.loads(ANGLE_SPEED_LIMITS_PATH.read_text())["limits"]
+    out = {}
+    for kind in sorted({angle_kind(n) for n in PERIODIC_ANGLES}):
+        value = limits.get(kind, {}).get("deg_per_s")
+        if not isinstance(value, (int, float)) or not value > 0:
+            raise InputError(f"{ANGLE_SPEED_LIMITS_PATH.name}: limits.{kind}.deg_per_s: expected > 0, got {value!r}")
+        out[kind] = float(value)
+    return MappingProxyType(out)
+
+
+def _unwrap_runs(x: np.ndarray, lower: float, previous: float | None, max_step: float = np.inf) -> np.ndarray:
+    """``x`` unwrapped (360-deg period) per run of finite samples, a run also ending at a
+    step larger than ``max_step`` (deg, wrapped into [-180, 180)); each run shifted by the
     multiple of 360 that puts its median in ``(lower, lower + 360]``, or, for a run at index
-    0 when ``previous`` (the sample just before ``x``) is finite, that continues it."""
+    0 when ``previous`` (the sample just before ``x``) is finite and within ``max_step`` of
+    it, that continues it."""
     out = x.copy()
+    jump = np.abs(_wrap180(np.diff(x))) > max_step  # NaN steps are False: the finite runs end there anyway
     for a, b in true_runs(np.isfinite(x)):
-        run = np.unwrap(x[a:b], period=360.0)
-        if a == 0 and previous is not None and np.isfinite(previous):
-            ref = previous - run[0]
-        else:
-            ref = (lower + 180.0) - float(np.median(run))  # the shift to the range's centre
-        out[a:b] = run + 360.0 * np.round(ref / 360.0)
+        cuts = [a, *(a + 1 + np.flatnonzero(jump[a:b - 1])), b]
+        for c, d in zip(cuts[:-1], cuts[1:]):
+            run = np.unwrap(x[c:d], period=360.0)
+            if c == 0 and previous is not None and np.isfinite(previous) and abs(_wrap180(x[0] - previous)) <= max_step:
+                ref = previous - run[0]
+            else:
+                ref = (lower + 180.0) - float(np.median(run))  # the shift to the range's centre
+            out[c:d] = run + 360.0 * np.round(ref / 360.0)
     return out
 
 
 def continuous_angles(angles: Mapping[str, np.ndarray],
-                      previous: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
+                      previous: Mapping[str, float] | None = None, fps: float | None = None) -> dict[str, np.ndarray]:
     """Angles made continuous in time: no wrap by 360 deg, and no 180-deg switch of the
     knee's reading, between two consecutive present frames.
 
@@ -588,7 +630,10 @@ def continuous_angles(angles: Mapping[str, np.ndarray],
       over each run of consecutive finite frames; a NaN frame ends a run and stays NaN (no
       gap is bridged), and each run is shifted by the multiple of 360 deg that puts its
       median in the column's range ((-180, 180], or (-90, 270] for the upper-arm
-      inclinations), so its values keep their usual reading;
+      inclinations), so its values keep their usual reading; with ``fps``, a step faster
+      than the angle ever turns in the training motion capture (:func:`angle_speed_limits`)
+      is a lifter's jump, not motion, and ends a run too (unwrapped through, it could leave
+      the rest of the run a whole turn from its reading);
     * hip internal rotation and signed knee flexion have two posture hypotheses in every frame
       (:mod:`pcnet.stages.isb_angles`: a flexed knee, or a hyperextended one with the thigh
       turned 180 deg about its axis, ``(rotation, knee) ~ (rotation + 180, -knee)``), which
@@ -611,6 +656,8 @@ def continuous_angles(angles: Mapping[str, np.ndarray],
         previous: ``name -> degrees`` of the frame just before these (the previous chunk of
             :func:`kinematics_chunks`): a run that starts at frame 0 continues it instead of
             being levelled on its own median.
+        fps: the frame rate (Hz) that turns :func:`angle_speed_limits` into steps; ``None``:
+            no run ends at a step.
 
     Returns:
         a new dict, same keys and order, float64 arrays.
@@ -623,9 +670,11 @@ def continuous_angles(angles: Mapping[str, np.ndarray],
         if rot is not None and knee is not None:
             prev = (previous.get(rot, np.nan), previous.get(knee, np.nan))
             out[rot], out[knee] = _knee_reading(out[rot], out[knee], prev)
+    limits = angle_speed_limits() if fps is not None else {}
     for short, name in base.items():
         if short in PERIODIC_ANGLES:
-            out[name] = _unwrap_runs(out[name], PERIODIC_ANGLES[short], previous.get(name))
+            max_step = limits[angle_kind(short)] / fps if fps is not None else np.inf
+            out[name] = _unwrap_runs(out[name], PERIODIC_ANGLES[short], previous.get(name), max_step)
     return out
 
 
@@ -725,12 +774,12 @@ def filtered_derivatives(
     return pos, raw, vel, acc
 
 
-def _angles(pos: np.ndarray, continuous: bool = True) -> dict[str, np.ndarray]:
-    """Every angle of :attr:`Kinematics.angles` from filtered Y-up positions."""
+def _angles(pos: np.ndarray, fps: float, continuous: bool = True) -> dict[str, np.ndarray]:
+    """Every angle of :attr:`Kinematics.angles` from filtered Y-up positions at ``fps``."""
     # the heading-free angles from the poses themselves: a body on its side has no heading
     out = {**joint_angles(pelvis_heading_frame(pos), heading_free_angles(pos)),
            **{k.removesuffix("_deg"): v for k, v in isb_joint_angles(pos).items()}}
-    return continuous_angles(out) if continuous else out
+    return continuous_angles(out, fps=fps) if continuous else out
 
 
 def compute_kinematics(
@@ -795,7 +844,7 @@ def compute_kinematics(
         acceleration=acc,
         speed=np.linalg.norm(vel, axis=-1),
         # the heading-free angles from the poses themselves: a body on its side has no heading
-        angles=MappingProxyType(_angles(pos, continuous)),
+        angles=MappingProxyType(_angles(pos, fps, continuous)),
         unfiltered=raw.any(axis=-1) & ~missing,
         missing=missing,
         fps=float(fps),
@@ -977,7 +1026,7 @@ def kinematics_chunks(
         lo, hi = max(0, start - pad), min(T, stop + pad)
         k = select_frames(compute_kinematics(check_poses(X[lo:hi], "poses"), fps, cutoff_hz, units, order,
                                              continuous=False), start - lo, stop - lo)
-        angles = continuous_angles(k.angles, previous)
+        angles = continuous_angles(k.angles, previous, fps)
         previous = {name: float(v[-1]) for name, v in angles.items()}
         yield replace(k, angles=MappingProxyType(angles))
 

@@ -158,3 +158,31 @@ def test_kinect_recording_has_no_wrap(tmp_path):
     # before issue 51: right_upper_arm_frontal_inclination 357 deg, right_hip_internal_rotation 180 deg
     assert max(steps.values()) < MAX_STEP_DEG, steps
     assert np.isnan(angles["trunk_flexion_to_pelvis_deg"]).all()
+
+
+def test_a_step_faster_than_any_training_motion_ends_the_run():
+    # A lifter's arm flipping between two readings (the pattern of a real MotionBERT cycling
+    # clip's occluded left arm): unwrapped through the flips, the run's median level put its
+    # first frames, the arm hanging at -16 deg, a whole turn away at -376.
+    x = np.concatenate([np.full(10, -16.0), np.full(10, 154.0), np.full(30, -40.0)])
+    name = "left_upper_arm_sagittal_inclination"
+    through = continuous_angles({name: x})[name]
+    assert np.allclose(through[:10], -376.0)  # without a frame rate no step ends a run
+    split = continuous_angles({name: x}, fps=FPS)[name]
+    assert np.allclose(split, x)  # 170 and 166 deg in a frame: far beyond the fitted 106 at 30 fps
+    # a chunk's first frame continues the previous chunk only within the limit
+    assert continuous_angles({name: x[10:]}, {name: -16.0 + 360.0}, fps=FPS)[name][0] == 154.0
+    assert continuous_angles({name: x[:10]}, {name: 344.0 - 10.0}, fps=FPS)[name][0] == 344.0
+
+
+def test_the_shipped_angle_speed_limits_are_the_printed_fit():
+    from pathlib import Path
+
+    from pcnet.stages.kinematics import angle_speed_limits
+
+    printed = {}
+    for line in (Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "fit_angle_speeds.txt").read_text().splitlines():
+        parts = line.split()
+        if len(parts) > 3 and parts[0] in angle_speed_limits():
+            printed[parts[0]] = float(parts[1])
+    assert printed == dict(angle_speed_limits())
