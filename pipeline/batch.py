@@ -665,8 +665,9 @@ def _check_summary_path(path: Path, manifest: Path, planned: list[PlannedRow], p
             raise InputError(f"--summary-json {path}{what}: expected a place outside the rows' output folders, got "
                              f"one in line {outs[holder]}'s ({holder}), which a row's output replaces")
     if not resolved.parent.is_dir() or not os.access(resolved.parent, os.W_OK):
+        state = "not writable" if resolved.parent.is_dir() else "which does not exist"
         raise InputError(f"--summary-json {path}: expected a writable folder for the batch summary, got "
-                         f"{resolved.parent}; name another place with --summary-json")
+                         f"{resolved.parent}, {state}; name another place with --summary-json")
     for file, what in files:
         if file.exists() and not _written_by_batch(file):
             raise InputError(f"--summary-json {path}{what}: expected a new file or an earlier pcnet batch "
@@ -955,18 +956,27 @@ def _lines(items: list[str], what: str, details: str) -> list[str]:
 
 
 def _grouped_findings(report: BatchReport) -> list[str]:
-    """The warnings of the rows with complete outputs, one line per distinct finding line
-    (with the manifest lines that have it), most severe first."""
+    """The warnings of the rows with complete outputs, one line per kind of finding (a finding
+    of no kind: per distinct line), with the manifest lines that have it (at most
+    :data:`SUMMARY_LINES` of them, the rest counted), most severe first. Where the rows'
+    numbers differ, the line is the first row's and says so."""
     from pcnet.stages.flags import ranked
 
-    seen: dict[str, tuple] = {}  # terminal line -> (its first finding, the manifest lines)
+    seen: dict = {}  # kind (or terminal line) -> (its first finding, its line, the manifest lines, the lines seen)
     for r in report.rows:
         if r["status"] in DONE:
             for f, text in _finding_lines(report.findings.get(r["row"]), r.get("warnings") or []):
-                seen.setdefault(text, (f, []))[1].append(r["line"])
-    text_of = {id(f): text for text, (f, _) in seen.items()}
-    return [f"{text} (line{'s' * (len(at) > 1)} {', '.join(map(str, at))})"
-            for text, at in ((text_of[id(f)], seen[text_of[id(f)]][1]) for f in ranked(f for f, _ in seen.values()))]
+                _, _, at, texts = seen.setdefault(f.kind or text, (f, text, [], set()))
+                at.append(r["line"])
+                texts.add(text)
+    key_of = {id(first): key for key, (first, _, _, _) in seen.items()}
+    out = []
+    for f in ranked(first for first, _, _, _ in seen.values()):
+        _, text, at, texts = seen[key_of[id(f)]]
+        where = ", ".join(map(str, at[:SUMMARY_LINES])) + (f" and {len(at) - SUMMARY_LINES} more" if len(at) > SUMMARY_LINES else "")
+        differ = f"; {len(at)} rows, the first's numbers shown" if len(texts) > 1 else ""
+        out.append(f"{text} (line{'s' * (len(at) > 1)} {where}{differ})")
+    return out
 
 
 def _outputs_line(rows: list[dict]) -> str | None:

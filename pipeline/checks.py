@@ -53,7 +53,8 @@ class CheckInputs:
     the camera's tilt; lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; track_segment,
     track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track (``None`` and
     ``[]`` without one); height_given: ``--height`` was given (the body is scaled to it);
-    person_option: ``--person`` can choose another track of the 2D file.
+    person_option: ``--person`` can choose another track of the 2D file; focal_known: the
+    camera's focal length was known (``--focal-px`` or the lifter file's camera matrix).
     """
 
     joints_camera: np.ndarray
@@ -67,6 +68,7 @@ class CheckInputs:
     track_events: list
     height_given: bool
     person_option: bool
+    focal_known: bool = False
 
 
 def checks(c: CheckInputs) -> list[Finding]:
@@ -90,7 +92,7 @@ def checks(c: CheckInputs) -> list[Finding]:
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
         *posture_flag(report.sequence),
         *ensemble_weights_flag(weights),
-        *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report)),
+        *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report), focal_known=c.focal_known),
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option)
           if c.track_segment is not None else []),
     ]

@@ -122,7 +122,8 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
                       f"{100 * BONE_SCALE_SIGMA:g} % body-size spread (a lower bound on real lifter output)"
                       + (f"; {path.frames_rejected} frames rejected as outliers" if path.frames_rejected else "")
                       + (f"; held at its first/last fitted position in {held} frames with a pose but no fit at the "
-                         f"ends (no velocity there)" if held else ""))
+                         f"ends (pelvis_path_std_world empty there): their world positions and velocities do not "
+                         f"follow the body's travel" if held else ""))
 
 
 def _held_at_the_ends(position: np.ndarray, posed: np.ndarray) -> tuple[np.ndarray, int]:

@@ -47,7 +47,9 @@ class RunReport:
             out["display_rotation"] = self.display_rotation
         # what the summary's tilt line prints, in every mode (sequence mode: its one up)
         out.update(camera_tilt_deg=self.tilt.tilt_deg, camera_pitch_deg=self.tilt.pitch_deg,
-                   camera_roll_deg=self.tilt.roll_deg, camera_tilt_per_frame_deg=self.tilt_per_frame_deg)
+                   camera_roll_deg=self.tilt.roll_deg)
+        if self.rectification.mode.run != "sequence":  # sequence mode's frames share its one up: no spread to give
+            out["camera_tilt_per_frame_deg"] = self.tilt_per_frame_deg
         if self.root_path is not None:
             out.update(root_path=self.root_path, floor=None if self.floor is None else asdict(self.floor))
         out.update(kinematics_frame=self.kinematics_frame, cutoff_hz=self.cutoff_hz, cutoff_source=self.cutoff_source)

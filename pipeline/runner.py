@@ -998,7 +998,8 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         report=rectified.report, tilt=rectified.tilt,
         lifter_turn_deg=recording.lifter_turn_deg, track_segment=rectified.track_segment,
         track_events=rectified.track_events, height_given=cfg.height is not None,
-        person_option=cfg.keypoints2d_format in multi_track_formats())
+        person_option=cfg.keypoints2d_format in multi_track_formats(),
+        focal_known=cfg.focal_px is not None or recording.camera_matrix is not None)
 
 
 def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scaled:

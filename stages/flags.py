@@ -366,7 +366,7 @@ def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -
     off = 100 * min(p95 / p50 - 1, 1 - p5 / p50)  # both tails, so a tenth of the frames
     return [_found(Kind.SIZE_CHANGE, Severity.PROBLEM,
                    f"skeleton size changes {p95 / p5:.1f}-fold; a tenth of the frames off by > {off:.0f} %",
-                   "declare image units (--units) or check the lifter",
+                   "check the lifter, or its units (--lifter generic --units)",
                    f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of "
                    f"the ankle-to-head chain; a body keeps its size): the lifter fails, or its output is in image "
                    f"units (declare them: --units normalised or px with --lifter generic, and pcnet makes the size "
@@ -748,11 +748,14 @@ def track_segments(keypoints2d: np.ndarray, fps: float,
     return np.cumsum(starts), events
 
 
-def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str = "95 % interval") -> list[Finding]:
+def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str = "95 % interval",
+                      focal_known: bool = False) -> list[Finding]:
     """A flag when an adapter turned the lifter's output into the camera frame by more than
     the run's own tilt uncertainty (``tolerance_deg``: the larger of the camera pitch and
     roll 95 % half-widths, or the per-frame bound where no interval is printed;
-    ``tolerance_is`` names which, as the summary states it).
+    ``tolerance_is`` names which, as the summary states it). ``focal_known``: the turn used the
+    camera's focal length (``--focal-px`` or the file's own camera matrix), so the flag does
+    not ask for it.
 
     The turn rests on an assumption the file cannot confirm (MediaPipe's world landmarks
     answer in a virtual camera aimed at the person: adapters/mediapipe.py). On real videos
@@ -764,14 +767,16 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str =
     """
     if not (turn_deg > 0 and np.isfinite(tolerance_deg)) or turn_deg <= tolerance_deg:
         return []
+    advice = ("compare a run with the person near the image centre" if focal_known else
+              "give the video's true focal length (--focal-px), or compare a run with the person near the image centre")
     return [_found(Kind.LIFTER_TURN, Severity.CHECK,
                    f"lifter output turned {turn_deg:.1f} deg into the camera, beyond the tilt's {tolerance_deg:.1f} "
-                   f"deg uncertainty", "give --focal-px",
-                   f"the lifter's output was turned by a median {turn_deg:.1f} deg into the real camera (MediaPipe's "
-                   f"landmarks taken as seen from a virtual camera aimed at the person, an assumption the file cannot "
-                   f"confirm), more than the tilt's stated uncertainty ({tolerance_deg:.1f} deg, {tolerance_is}): the "
-                   f"camera tilt may be off by up to about the turn; give the video's true focal length "
-                   f"(--focal-px), or compare a run with the person near the image centre")]
+                   f"deg uncertainty", "check the result" if focal_known else "give --focal-px",
+                   f"the lifter's output was turned by a median {turn_deg:.1f} deg into the real camera "
+                   f"({'with its known focal length; ' * focal_known}MediaPipe's landmarks taken as seen from a "
+                   f"virtual camera aimed at the person, an assumption the file cannot confirm), more than the tilt's "
+                   f"stated uncertainty ({tolerance_deg:.1f} deg, {tolerance_is}): the camera tilt may be off by up "
+                   f"to about the turn; {advice}")]
 
 
 def one_person_frames(segment: np.ndarray) -> np.ndarray:

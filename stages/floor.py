@@ -90,13 +90,13 @@ class Floor:
     def note(self, units: str) -> str:
         """One line for a run's notes: what ``y = 0`` is; lengths in the poses' ``units``
         (e.g. ``"m"``, ``"normalised"``), named after each number."""
-        unit = " m" if units == "m" else f" ({units} units)"
+        unit = " m" if units == "m" else f" {units} units"  # not in brackets: the summary line drops asides
         if self.kind == "plane":
             return (f"floor: one ground plane for the recording, fitted to {self.n_contacts} stance contacts "
                     f"(residual {self.residual:.3g}{unit}); ankle centres stand {self.clearance:.3g}{unit} above it")
         if self.kind == "per frame":
-            return (f"floor per frame ({self.reason}): the ground under each frame's lowest joint centre, "
-                    f"which stands {self.clearance:.3g}{unit} above it")
+            return (f"floor per frame ({self.reason}): y = 0 is {self.clearance:.3g}{unit} below each frame's "
+                    f"lowest joint centre")
         return f"no floor ({self.reason}): heights are relative to the pelvis"
 
 

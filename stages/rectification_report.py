@@ -21,8 +21,8 @@ class ModeChoice:
     ``run`` (what ran: ``auto`` resolves to ``sequence`` or ``smooth``, or to ``frame`` with
     ``reason`` ``"one valid frame"``); ``spread_deg`` the spread of the per-frame ups that
     ``auto`` decides on (:func:`pcnet.stages.temporal.up_spread_deg`; ``None`` in frame mode);
-    ``decided_on_frames`` the valid frames ``auto`` decided on when they were one person's
-    stretch of a 2D track that switches people (else ``None``); ``smooth_time_constant_s``
+    ``decided_on_frames`` the valid frames the spread was read over (what ``auto`` decides on)
+    when they were one person's stretch of a 2D track that switches people (else ``None``); ``smooth_time_constant_s``
     the smoothing kernel in smooth mode (else ``None``)."""
 
     requested: str

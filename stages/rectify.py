@@ -233,7 +233,8 @@ class SequenceEvidence:
                 ``None`` (all). fps: frame rate, > 0. decide_on:
                 optional ``(T,)`` bool, one person's stretch of a 2D track that switches
                 people (:func:`pcnet.stages.flags.one_person_frames`): the frames ``"auto"``
-                decides on (every valid frame when ``None`` or when fewer than
+                decides on and sequence and smooth modes' spread is read over (every valid
+                frame when ``None`` or when fewer than
                 :data:`MIN_DECISION_STRETCH_S` seconds of them are valid), and the only frames
                 whose feet the shipped ensemble's floor contacts read (decision 0066). calibrated: the
                 lifter's systematic error is calibrated for the estimator (the shipped ensemble
@@ -253,16 +254,16 @@ class SequenceEvidence:
             # One pose shows neither a static nor a moving camera, and pools nothing: its
             # per-frame answer, with the per-frame bound as its uncertainty.
             return SequenceOutcome(R, ok, ModeChoice(self.mode, "frame", reason="one valid frame"))
-        decided_on = None
+        # A short stretch can read as static under a moving camera (choose_mode's caveat for
+        # clips under about 5 s): then every valid frame decides. Sequence mode's spread (its
+        # moving-camera note) is read over the same frames: another person's poses are not this camera's.
+        subset = decide_on is not None and (ok & decide_on).sum() >= max(2, MIN_DECISION_STRETCH_S * fps)
+        decide = ok & decide_on if subset else ok
+        decided_on = int(decide.sum()) if subset else None
         if self.mode == "auto":
-            # A short stretch can read as static under a moving camera (choose_mode's caveat
-            # for clips under about 5 s): then every valid frame decides.
-            subset = decide_on is not None and (ok & decide_on).sum() >= max(2, MIN_DECISION_STRETCH_S * fps)
-            decide = ok & decide_on if subset else ok
             run, spread = choose_mode(R, decide, MODE_THRESHOLD_DEG, fps)
-            decided_on = int(decide.sum()) if subset else None
         else:
-            run, spread = self.mode, up_spread_deg(R, ok, fps)
+            run, spread = self.mode, up_spread_deg(R, decide, fps)
         if run == "smooth":
             out = smooth_rotations(R, ok, fps, SMOOTH_TIME_CONSTANT_S)
             mode = ModeChoice(self.mode, run, spread_deg=spread, decided_on_frames=decided_on,

@@ -430,6 +430,32 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
     assert "- line 5: worker process 7 was killed by SIGKILL" in md
 
 
+def test_the_summary_groups_one_kind_of_warning_whose_numbers_differ_by_row():
+    """Fifteen rows with the same warning but their own numbers make one summary line, not
+    fifteen that push every other warning out of the cut (a user trial: 15 Shavasana files)."""
+    from pcnet.pipeline.batch import SUMMARY_LINES, BatchReport, format_summary
+    from pcnet.pipeline.batch_worker import finding_records
+    from pcnet.stages.flags import leg_asymmetry_flag
+
+    def legs(right_ankle_y):
+        joints = np.zeros((10, 17, 3))
+        joints[:, 1:4, 1] = [-0.3, -0.7, right_ankle_y]
+        joints[:, 4:7, 1] = [-0.3, -0.6, -0.9]
+        return leg_asymmetry_flag(joints)[0]
+
+    found = {i: legs(-1.1 - 0.02 * i) for i in range(1, 16)}
+    rows = [{"row": i, "line": i + 1, "out": f"/study/out/r{i}", "status": "ok", "frames": 10, "valid": 10,
+             "mode": "sequence", "seconds": 1.0, "error": "", "warnings": [f.detail], "host": "h", "pid": 1,
+             "attempts": 1, "threads": 1} for i, f in found.items()]
+    assert len({f.headline for f in found.values()}) > 1
+    report = BatchReport(rows, False, Path("/study/m.json"), 1.0, settings={},
+                         findings={i: finding_records([f]) for i, f in found.items()})
+    (line,) = [t for t in format_summary(report).splitlines() if t.startswith("WARNING")]
+    assert line.startswith(f"WARNING  {found[1].headline}")
+    lines = ", ".join(str(i + 1) for i in range(1, 1 + SUMMARY_LINES))
+    assert line.endswith(f"(lines {lines} and {15 - SUMMARY_LINES} more; 15 rows, the first's numbers shown)")
+
+
 def test_retry_failed_needs_a_previous_summary(tmp_path):
     manifest = _manifest(tmp_path, _row("a"))
     res = _invoke(manifest, "--retry-failed")

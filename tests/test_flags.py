@@ -234,6 +234,7 @@ def test_auto_mode_decides_on_one_persons_frames():
     frames after a track switch can read): auto mode sees a moving camera, unless it decides
     on the first stretch, when that stretch is long enough to tell."""
     from pcnet.stages.rectify import SequenceEvidence
+    from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 
     res = rectify(np.load(TADASANA), "pcnet", mode="frame")
     angles = np.radians(np.clip((np.arange(len(res.rotation)) - 40) / 60, 0.0, 1.0) * 40.0)
@@ -250,6 +251,11 @@ def test_auto_mode_decides_on_one_persons_frames():
     # a shorter stretch (1.3 s at 30 fps), or one without a valid frame: every valid frame decides
     assert auto(None, R, res.valid, 30.0, decide_on=first).mode.run == "smooth"
     assert auto(None, R, res.valid, fps, decide_on=~res.valid).mode.run == "smooth"
+    # sequence mode's spread (its moving-camera note) is read over the same one person's frames
+    sequence = SequenceEvidence("sequence", n_bootstrap=0)
+    assert sequence(None, R, res.valid, fps).mode.spread_deg > MODE_THRESHOLD_DEG
+    mode = sequence(None, R, res.valid, fps, decide_on=first).mode
+    assert mode.spread_deg < MODE_THRESHOLD_DEG and mode.decided_on_frames == 40
 
 
 @pytest.mark.slow
@@ -300,6 +306,10 @@ def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
     assert lifter_frame_flag(15.5, 7.4) and "15.5 deg" in lifter_frame_flag(15.5, 7.4)[0].detail
     assert lifter_frame_flag(4.4, 7.2) == []  # Pose2Sim cam01: calibrated K, person near the centre
     assert lifter_frame_flag(0.0, 1.0) == [] and lifter_frame_flag(15.0, float("nan")) == []
+    # with the focal length known (--focal-px or the file's K) it no longer asks for it
+    assert lifter_frame_flag(15.5, 7.4)[0].action == "give --focal-px"
+    (known,) = lifter_frame_flag(15.5, 7.4, focal_known=True)
+    assert known.action == "check the result" and "--focal-px" not in known.detail
 
 
 def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():

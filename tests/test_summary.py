@@ -197,3 +197,9 @@ def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
     assert len(flags) == len(warnings) and report.count("\n### ") == len(flags)
     run_pipeline(cfg, progress=False)  # the folder, report.md included, is pcnet's own: --overwrite replaces it
 
+
+
+def test_the_per_frame_tilt_spread_is_recorded_only_where_frames_have_their_own_up():
+    # sequence mode's frames share its one up: three equal numbers would read as perfect agreement
+    assert "camera_tilt_per_frame_deg" not in run_report("sequence", "sequence").as_record()
+    assert run_report("smooth", "smooth").as_record()["camera_tilt_per_frame_deg"] == [8.0, 7.0, 9.0]

@@ -12,6 +12,7 @@ from pcnet.models.datasets import load_mocap
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
 from pcnet.stages.core.conventions import H36M_JOINTS, PELVIS
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.flags import shortened
 from pcnet.stages.kinematics import compute_kinematics
 from pcnet.stages.core.rotations import axis_rotation
 from pcnet.stages.floor import ANKLE_CLEARANCE_LEG
@@ -253,8 +254,9 @@ def test_too_few_contacts_fall_back_to_the_per_frame_floor_and_say_so():
     sparse[[10, 60]] = root_cam[[10, 60]]
     world, floor = to_world_floor(cam, frame, sparse)
     assert floor.kind == "per frame" and "fewer than" in floor.reason and "per frame" in floor.note("m")
-    assert f"{floor.clearance:.3g} m above" in floor.note("m")
-    assert f"{floor.clearance:.3g} (normalised units) above" in floor.note("normalised")
+    assert f"{floor.clearance:.3g} m below" in floor.note("m")
+    assert f"{floor.clearance:.3g} normalised units below" in floor.note("normalised")
+    assert "normalised units below" in shortened(floor.note("normalised"))  # the summary line keeps the unit
     ok = np.isfinite(world).all(axis=(1, 2))
     assert ok.sum() == 2
     np.testing.assert_allclose(world[ok].min(axis=1)[:, 1], floor.clearance, atol=1e-9)

@@ -157,8 +157,10 @@ def unobservable_paths(r: RecordingResult) -> dict[str, tuple[str, str]]:
         return {"pelvis": ("xyz", "the canonical frame is centred on the pelvis, whose position and motion in it "
                                   "are 0 by construction, not measured")}
     if r.root_path in (None, "not observable"):
-        return {"pelvis": ("xz", "the pelvis's horizontal path is not observable from a root-relative lifter (the "
-                                 "world frame holds it at x = z = 0), so neither is its horizontal motion or speed")}
+        why = ("from a root-relative lifter" if r.units == "m" else
+               f"from poses in {r.units}, not metres (a path is recovered from 2D keypoints for metric poses: --height)")
+        return {"pelvis": ("xz", f"the pelvis's horizontal path is not observable {why} (the world frame holds it at "
+                                 f"x = z = 0), so neither is its horizontal motion or speed")}
     return {}
 
 
