@@ -37,7 +37,7 @@ def _frame_index(p: Path, i: int, image_id: Any) -> int:
     # from Python's digit limit; frame_count_for bounds the value.
     m = _IMAGE_ID.fullmatch(image_id) if isinstance(image_id, str) else None
     if m is None:
-        raise AdapterError(p, f"[{i}].image_id", "'<k>.jpg' with a 0-based frame index k of at most 18 digits",
+        raise AdapterError(p, f"[{i}].image_id", "'<k>.jpg' or an integer k, a 0-based frame index of at most 18 digits",
                            repr(image_id)[:80])
     return int(m.group(1))
 
@@ -191,7 +191,8 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
 
     Raises:
         AdapterError: missing/empty/invalid JSON; not a list of detections (e.g. an MMPose
-            file); an ``image_id`` that is not ``<k>.jpg``; a keypoint count other than
+            file); an ``image_id`` that is neither ``<k>.<ext>`` nor a non-negative integer ``k``
+            (``k`` the 0-based frame index); a keypoint count other than
             17/26/133/136 joints; keypoints that are not numbers; an unknown ``person``; a
             frame index ``>= num_frames``, ``>= frame_count`` or implausible without it;
             ``|x|``/``|y|`` beyond 1e5 px (naming frame and joint); no finite keypoint.

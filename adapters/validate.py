@@ -817,7 +817,9 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
     all three channels; so is a placeholder for an undetected joint: one at exactly pixel
     ``(0, 0)`` (OpenPose's ``0, 0, 0``), or every keypoint of a frame at one pixel
     (:func:`pcnet.stages.core.conventions.placeholder_joints`). ``|x|`` or ``|y|`` beyond
-    ``MAX_ABS_COORDINATE["px"]`` (1e5) is refused. Confidence is clipped to [0, 1].
+    ``MAX_ABS_COORDINATE["px"]`` (1e5) is refused, and so are keypoints that all lie within
+    one pixel of the origin (a body smaller than a pixel: coordinates normalised by the image
+    size). Confidence is clipped to [0, 1].
 
     ``in_place``: write the result into ``points`` when it is a writable float32 array (a
     long recording's keypoints are then not copied); checked a block of frames at a time in
@@ -828,7 +830,7 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
 
     Raises:
         AdapterError: ``field`` naming frame and joint for a coordinate beyond the bound,
-            or when no finite keypoint is left.
+            when no finite keypoint is left, or when every keypoint is within [-1, 1].
     """
     points = np.asarray(points)
     n_joints = get_layout(layout).num_joints
@@ -838,11 +840,13 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
     out = points if in_place else np.empty(points.shape, np.float32)
     bound = MAX_ABS_COORDINATE["px"]
     any_finite, raw_max, first, count = False, float("nan"), None, 0
+    largest = -np.inf
     for rows in frame_blocks(len(points)):
         pts = np.array(points[rows], dtype=np.float64)
         pts[~np.isfinite(pts).all(axis=2)] = np.nan  # a joint with any non-finite channel is missing
         pts[np.all(pts[..., :2] == 0.0, axis=2)] = np.nan
         pts[placeholder_joints(pts[..., :2], keep_root=False)] = np.nan
+        largest = max(largest, float(np.nanmax(np.abs(pts[..., :2]), initial=-np.inf)))
         block_first, block_count = _beyond(pts[..., :2], bound)
         if first is None and block_first is not None:
             first = (rows.start + block_first[0],) + block_first[1:]
@@ -856,6 +860,10 @@ def checked_keypoints(p: str | Path, field: str, points: np.ndarray, layout: str
     if not any_finite:
         raise AdapterError(p, field, "some detected keypoints",
                            "only NaN/inf or placeholders (pixel (0, 0), or a frame on one pixel)")
+    if largest <= 1.0:  # a whole body inside one pixel is no detection: image-normalised coordinates
+        raise AdapterError(p, field, "pixel coordinates (x_px, y_px)",
+                           "every keypoint within [-1, 1]: coordinates normalised by the image size? multiply x by "
+                           "its width and y by its height")
     return out, raw_max
 
 

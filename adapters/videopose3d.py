@@ -53,7 +53,8 @@ def load_videopose3d(path: str | Path) -> Poses3D:
                            f"(root-relative) or, with the trajectory model, at least {MIN_TRAJECTORY_DEPTH_M:g} m in "
                            "front of the camera",
                            f"the pelvis {off_origin:.3g} m from the origin at depth {depth:.3g} m (medians over "
-                           "frames): MotionBERT's infer_wild output? (--lifter motionbert)")
+                           "frames): MotionBERT's infer_wild output? (--lifter motionbert), or joints in another "
+                           "order than H36M-17's, whose joint 0 is then not the pelvis (--lifter generic --layout)")
     root = finite_max_abs(arr[:, 0])
     notes = ("VideoPose3D export (VideoPose3D INFERENCE.md), H36M-17, metres, camera frame x right / y down / z forward, "
              f"no axis changed; root as delivered (max |root| {root:.2g} m)")

@@ -5,7 +5,7 @@ frame, the low-pass cutoff, the motion check). :meth:`RunReport.as_record` is ``
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 from pcnet.stages.floor import Floor
 from pcnet.stages.rectification_report import RectificationReport
@@ -26,7 +26,8 @@ class RunReport:
     frame's pelvis path came from (:mod:`pcnet.pipeline.pelvis_path`), ``None`` without a world
     frame; floor: the world frame's floor (:class:`pcnet.stages.floor.Floor`), or ``None``; cutoff_hz, cutoff_source: the low-pass cutoff (Hz) and where it came from
     (``"cutoff_hz"`` or ``"residual analysis"``); implausible_frames: frames the motion check
-    marked, ``None`` when it did not run (non-metric poses).
+    marked, ``None`` when it did not run (non-metric poses); inputs: what the run read (each
+    file, the format it was read as and the joint layout found in it; empty where unknown).
     """
 
     rectification: RectificationReport
@@ -39,10 +40,12 @@ class RunReport:
     cutoff_hz: float
     cutoff_source: str
     implausible_frames: int | None
+    inputs: dict = field(default_factory=dict)
 
     def as_record(self) -> dict:
         """The flat record of docs/outputs.md (not yet JSON: :func:`pcnet.stages.sinks.result.jsonable`)."""
-        out = self.rectification.as_record()
+        out = {"inputs": self.inputs} if self.inputs else {}
+        out.update(self.rectification.as_record())
         if self.display_rotation is not None:
             out["display_rotation"] = self.display_rotation
         # what the summary's tilt line prints, in every mode (sequence mode: its one up)

@@ -157,8 +157,9 @@ class RunResult:
         kinematics = (WORLD_SUMMARY if long else WORLD_SHORT)[self.report.root_path] \
             if self.report.kinematics_frame == "world" \
             else "canonical (turns with the pelvis; no fixed frame without a static camera)"
-        return [("frames", frames), ("rectification", rectification), ("heading", heading), ("camera tilt", tilt),
-                *self._frame_bound(long), ("kinematics frame", kinematics), ("units", self.units)]
+        read = [("inputs", _inputs_line(self.report.inputs))] if long and self.report.inputs else []
+        return [*read, ("frames", frames), ("rectification", rectification), ("heading", heading),
+                ("camera tilt", tilt), *self._frame_bound(long), ("kinematics frame", kinematics), ("units", self.units)]
 
     def summary(self) -> str:
         """A summary that reads in seconds: the key facts, then one line per finding, most
@@ -300,7 +301,8 @@ class RecordingInputs:
     measured path (:attr:`pcnet.adapters.Poses3D.root_translation`); notes: summary lines about
     the inputs; lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; nonfinite:
     :attr:`pcnet.adapters.Poses3D.nonfinite`; camera_matrix: the lifter file's ``(3, 3)`` ``K``
-    or ``None`` (:attr:`pcnet.adapters.Poses3D.camera_matrix`).
+    or ``None`` (:attr:`pcnet.adapters.Poses3D.camera_matrix`); read: what was read, as the
+    report's ``inputs`` (:func:`_inputs_read`).
     """
 
     video: VideoInfo | None
@@ -316,11 +318,12 @@ class RecordingInputs:
     lifter_turn_deg: float
     nonfinite: dict
     camera_matrix: np.ndarray | None
+    read: dict
 
 
 def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     video = probe_video(cfg.video) if cfg.video else None
-    kp2d, kp_fps, kp_size, kp_choice, kp_extent = None, None, None, "", None
+    kp2d, kp_fps, kp_size, kp_choice, kp_extent, kp_layout = None, None, None, "", None, None
     if cfg.keypoints2d:
         adapter = get_2d_adapter(cfg.keypoints2d_format)
         options = {"person": cfg.person} if cfg.keypoints2d_format in multi_track_formats() else {}
@@ -336,7 +339,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
             kp = adapter.load(cfg.keypoints2d, **options)
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
         kp_size = getattr(kp, "image_size", None)
-        kp_choice = getattr(kp, "choice", "")
+        kp_choice, kp_layout = getattr(kp, "choice", ""), kp.layout
         if video is not None and video.rotation_deg:  # which frame the keypoints are in: feet and hands too
             kp_extent = keypoints_extent(kp.points)
         del kp  # the file's own layout: only its H36M-17 remap is read from here on
@@ -355,7 +358,32 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     choice = kp_choice and f"2D keypoints: {kp_choice}{person_hint}"
     return RecordingInputs(video, fps, fps_source, kp2d, kp_size, kp_extent, joints, poses.units, poses.root_translation,
                            [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n],
-                           poses.frame_turn_deg, poses.nonfinite, poses.camera_matrix)
+                           poses.frame_turn_deg, poses.nonfinite, poses.camera_matrix,
+                           _inputs_read(cfg, poses.layout, poses.units, kp_layout, video))
+
+
+def _inputs_line(read: dict) -> str:
+    """report.md's line of :func:`_inputs_read`'s record."""
+    parts = [f"3D {read['lifter_output']} (--lifter {read['lifter']}: {read['lifter_layout']}, {read['lifter_units']})"]
+    if "keypoints2d" in read:
+        parts.append(f"2D {read['keypoints2d']} ({read['keypoints2d_format']}: {read['keypoints2d_layout']})")
+    if "video" in read:
+        width, height = read["video_size"]
+        parts.append(f"video {read['video']} ({width}x{height}, {read['video_frames']} frames)")
+    return "; ".join(parts)
+
+
+def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None, video: VideoInfo | None) -> dict:
+    """What a run read, for its report (``inputs``): each file with the format it was read as
+    and the joint layout found in it (an upstream estimator swapped for another shows here)."""
+    read = {"lifter": cfg.lifter, "lifter_output": str(cfg.lifter_output), "lifter_layout": layout,
+            "lifter_units": units}
+    if cfg.keypoints2d:
+        read.update(keypoints2d=str(cfg.keypoints2d), keypoints2d_format=cfg.keypoints2d_format,
+                    keypoints2d_layout=kp_layout)
+    if video is not None:
+        read.update(video=str(cfg.video), video_size=[video.width, video.height], video_frames=video.frame_count)
+    return read
 
 
 def _assumed_inputs(cfg: RunConfig) -> list[str]:
@@ -390,28 +418,35 @@ def _no_frame_hint(cfg: RunConfig, error: str) -> str:
     return hint
 
 
-#: Median thigh length (m) beyond which poses said to be in metres are refused: 3 times the
-#: top of :data:`THIGH_RANGE_M`, more than any bone of a person even under a wrong
-#: ``--layout``; centimetres given as metres read about 40 m.
-REFUSED_THIGH_M = 3 * THIGH_RANGE_M[1]
+#: Median thigh lengths (m) outside which poses said to be in metres are refused: a third of
+#: the bottom and 3 times the top of :data:`THIGH_RANGE_M`, beyond any bone of a person even
+#: under a wrong ``--layout``; centimetres given as metres read about 40 m, metres given as
+#: centimetres about 0.004.
+REFUSED_THIGH_M = (THIGH_RANGE_M[0] / 3, 3 * THIGH_RANGE_M[1])
 
 
 def _check_metric_body(cfg: RunConfig, cam) -> None:
-    """Refuse H36M-17 camera-frame poses ``cam`` ``(T, 17, 3)`` said to be in metres whose
-    median thigh is longer than :data:`REFUSED_THIGH_M`: their metric outputs (TRC, speeds)
-    would be wrong by a factor of 100 or so. Smaller misfits stay a warning
+    """Refuse H36M-17 camera-frame poses ``cam`` ``(T, 17, 3)`` said to be in metres (after any
+    ``--units``) whose median thigh is outside :data:`REFUSED_THIGH_M`: their metric outputs
+    (TRC, speeds) would be wrong by a factor of 100 or so. Smaller misfits stay a warning
     (:func:`pcnet.stages.flags.body_size_flag`).
 
     Raises:
         InputError: naming the lifter output, the thigh length and the options that fix it.
     """
     thigh = median_thigh_length(cam)
-    if not thigh > REFUSED_THIGH_M:
+    low, high = REFUSED_THIGH_M
+    if not (thigh > high or thigh < low):
         return
-    fix = "--units cm (or mm)" if cfg.lifter == "generic" else f"a lifter other than --lifter {cfg.lifter}"
+    if thigh > high:
+        guess = "centimetres? give " + ("--units cm (or mm)" if cfg.lifter == "generic" else
+                                        f"a lifter other than --lifter {cfg.lifter}")
+    else:
+        guess = (f"metres declared as --units {cfg.lifter_options.get('units')}? drop --units"
+                 if cfg.lifter_options.get("units") in ("cm", "mm") else "a joint order other than the lifter's?")
     raise InputError(f"{cfg.lifter_output}: expected poses in metres (a median thigh length of "
-                     f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: centimetres? give {fix}, "
-                     f"or --height to scale the poses")
+                     f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: {guess}, or --height to scale the "
+                     f"poses")
 
 
 def _check_measured_root(cfg: RunConfig, root_cam: np.ndarray) -> None:
@@ -458,13 +493,31 @@ def _moving_camera_note(mode: ModeChoice) -> list[str]:
             f"camera moved, use --mode smooth (fast or non-upright poses spread it too)"]
 
 
+#: 2D formats that write nothing for a frame without a detected person: AlphaPose's results
+#: JSON lists detections, each with its ``image_id`` (adapters/alphapose.py), so a file that ends
+#: before the video ends in undetected frames. Other formats write every frame (a MediaPipe file
+#: or an OpenPose folder that ends early is another recording or an incomplete one).
+DETECTIONS_ONLY_2D_FORMATS = ("alphapose",)
+
+
 def _align(cfg: RunConfig, video, kp2d, joints):
-    """``(kp2d, joints, note)``: the inputs cut to their common length under ``--align
-    truncate`` (the note says what was cut; ``None`` when nothing was), else unchanged.
+    """``(kp2d, joints, note)``: 2D keypoints of :data:`DETECTIONS_ONLY_2D_FORMATS` that end
+    before a video and a 3D output of one length padded with undetected (NaN) frames; else the inputs cut to their common length
+    under ``--align truncate`` (the note says what was padded or cut; ``None`` when nothing
+    was), else unchanged.
 
     Raises:
-        InputError: the frame counts differ without ``--align truncate``.
+        InputError: the frame counts differ otherwise without ``--align truncate`` (2D
+            keypoints one frame longer than the 3D with an empty frame 0: said to look counted
+            from 1).
     """
+    if (kp2d is not None and video is not None and cfg.keypoints2d_format in DETECTIONS_ONLY_2D_FORMATS
+            and len(kp2d) < len(joints) == video.frame_count):
+        n2 = len(kp2d)
+        pad = np.full((len(joints) - n2, *kp2d.shape[1:]), np.nan, np.float32)
+        return np.concatenate([np.asarray(kp2d, np.float32), pad]), joints, (
+            f"2D keypoints end at frame {n2} of the {len(joints)} of the video and the 3D output: the last "
+            f"{len(joints) - n2} read as undetected (NaN; {Path(cfg.keypoints2d).name} lists no person there)")
     counts = {"3D lifter output": (cfg.lifter_output, len(joints))}
     if kp2d is not None:
         counts["2D keypoints"] = (cfg.keypoints2d, len(kp2d))
@@ -474,6 +527,10 @@ def _align(cfg: RunConfig, video, kp2d, joints):
     if len({c for _, c in counts.values()}) > 1:
         if cfg.align != "truncate":
             detail = ", ".join(f"{k} {p}: {c} frames" for k, (p, c) in counts.items())
+            if kp2d is not None and len(kp2d) == len(joints) + 1 and not np.isfinite(kp2d[0]).any():
+                raise InputError(f"frame counts differ ({detail}), and the 2D keypoints' frame 0 is empty: frame "
+                                 f"indices counted from 1? pcnet counts them from 0 (the first frame is 0); "
+                                 f"--align truncate would pair each 2D frame with the 3D frame before it")
             raise InputError(f"frame counts differ ({detail}); pass --align truncate to use the first {n} frames")
         joints = joints[:n]
         kp2d = None if kp2d is None else kp2d[:n]
@@ -1128,7 +1185,8 @@ def _run_report(inputs: AlignedInputs, rectified: Rectified, world: World, measu
         rectification=rectified.report, tilt=rectified.tilt, tilt_per_frame_deg=rectified.tilt_per_frame_deg,
         display_rotation=inputs.orientation.report() if inputs.orientation.note else None,
         kinematics_frame=world.frame, root_path=world.root_path, floor=world.floor, cutoff_hz=measured.cutoff_hz,
-        cutoff_source=measured.cutoff_source, implausible_frames=None if implausible is None else int(implausible.sum()))
+        cutoff_source=measured.cutoff_source, implausible_frames=None if implausible is None else int(implausible.sum()),
+        inputs=inputs.recording.read)
 
 
 def _exports(cfg: RunConfig, measured: Measured, findings: list[Finding], tmp: Path,

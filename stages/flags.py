@@ -462,7 +462,7 @@ def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray,
         return []
     return [_found(Kind.SIDE_SWAP, Severity.PROBLEM,
                    f"3D left/right contradict the 2D keypoints (agreement {agreement:+.2f}): sides swapped",
-                   "check the joint order (--layout)",
+                   "check the joint order (--lifter generic --layout)",
                    f"the 3D poses' left and right contradict the 2D keypoints' (agreement of the hips' and "
                    f"shoulders' left-right extents {agreement:+.2f}, below {lowest:+.2f}, the lowest of any training "
                    f"recording whose sides are right): the 3D output's sides are probably swapped (its joint order "

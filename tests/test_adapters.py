@@ -1058,3 +1058,17 @@ def test_item_by_item_json_equals_the_whole_file(tmp_path, monkeypatch, chunk):
     (tmp_path / "spaced.json").write_text(f"\n {spaced} \n")
     items = list(iter_json_array(tmp_path / "spaced.json", "a list"))
     assert items[1:] == [[], {}] and items[0]["x"] != items[0]["x"]  # NaN literal = missing data
+
+
+def test_keypoints_normalised_by_the_image_size_are_refused(tmp_path):
+    """The real boxing AlphaPose file with x / 854 and y / 480 (a detector's normalised
+    output): a whole body inside one pixel is no detection; it had run, its pelvis path tens
+    of metres deep (a user trial)."""
+    items = json.loads(BOXING_AP.read_text())
+    for it in items:
+        it["keypoints"] = [v / (854.0 if i % 3 == 0 else 480.0) if i % 3 < 2 else v
+                           for i, v in enumerate(it["keypoints"])]
+    (tmp_path / "norm.json").write_text(json.dumps(items))
+    with pytest.raises(AdapterError, match=r"norm\.json.*pixel coordinates.*every keypoint within \[-1, 1\]"):
+        load_alphapose(tmp_path / "norm.json")
+    assert load_alphapose(BOXING_AP).num_frames == 60  # the pixels themselves pass

@@ -296,6 +296,51 @@ def test_a_2d_file_shorter_than_the_video_needs_align(tmp_path):
     assert res.exit_code == 1 and "frame counts differ" in res.output and "short2d.npz: 5 frames" in res.output, res.output
 
 
+def test_an_alphapose_file_that_ends_before_the_video_ends_in_undetected_frames(tmp_path):
+    """AlphaPose writes nothing for a frame without a person: its real boxing file cut after
+    frame 6, with the 10-frame video and 10 frames of 3D, runs with the last 4 frames
+    undetected (it was refused, and --align truncate would have dropped 4 good 3D frames)."""
+    items = [it for it in json.loads(BOX_2D.read_text()) if int(str(it["image_id"]).split(".")[0]) < 6]
+    (tmp_path / "ends.json").write_text(json.dumps(items))
+    np.save(tmp_path / "x3d.npy", np.load(BOX_3D)[:10])
+    res = _invoke("run", "--keypoints2d", tmp_path / "ends.json", "--keypoints2d-format", "alphapose", "--lifter",
+                  "motionbert", "--lifter-output", tmp_path / "x3d.npy", "--video", FIXTURES / "boxing2_f000-009.mp4",
+                  "--out", tmp_path / "o", "--no-recording")
+    assert res.exit_code == 0 and "end at frame 6 of the 10" in res.output, res.output
+    with np.load(tmp_path / "o" / "canonical.npz") as npz:
+        kp = npz["keypoints2d"]
+    assert len(kp) == 10 and np.isnan(kp[6:]).all() and np.isfinite(kp[:6]).any()
+
+
+def test_the_report_names_what_was_read(tmp_path):
+    """A developer swapping estimators sees which files were read, as which format and with
+    which joint layout (a user trial found none of it in the outputs)."""
+    res = _invoke("run", "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--lifter", "motionbert",
+                  "--lifter-output", BOX_3D, "--fps", "30", "--out", tmp_path / "o", "--no-recording")
+    assert res.exit_code == 0, res.output
+    with np.load(tmp_path / "o" / "canonical.npz") as npz:
+        read = json.loads(str(npz["report"]))["inputs"]
+    assert read == {"lifter": "motionbert", "lifter_output": str(BOX_3D), "lifter_layout": "h36m17",
+                    "lifter_units": "normalised", "keypoints2d": str(BOX_2D), "keypoints2d_format": "alphapose",
+                    "keypoints2d_layout": "halpe26"}
+    assert f"**inputs**: 3D {BOX_3D} (--lifter motionbert: h36m17, normalised); 2D {BOX_2D} (alphapose: halpe26)" \
+        in (tmp_path / "o" / "report.md").read_text()
+
+
+def test_2d_frame_indices_counted_from_1_are_named_not_truncated(tmp_path):
+    """Every AlphaPose image_id one higher: one frame more than the 3D, frame 0 empty. The
+    refusal says so instead of advising --align truncate, which would pair each 2D frame with
+    the 3D frame before it."""
+    items = json.loads(BOX_2D.read_text())
+    for it in items:
+        it["image_id"] = f"{int(str(it['image_id']).split('.')[0]) + 1}.jpg"
+    (tmp_path / "one.json").write_text(json.dumps(items))
+    res = _invoke("run", "--keypoints2d", tmp_path / "one.json", "--keypoints2d-format", "alphapose", "--lifter",
+                  "motionbert", "--lifter-output", BOX_3D, "--fps", "30", "--out", tmp_path / "o", "--no-recording")
+    assert res.exit_code == 1 and "counted from 1?" in res.output, res.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_damaged_video_is_refused_naming_it(tmp_path):
     data = (FIXTURES / "boxing2_f000-009.mp4").read_bytes()
     cut, hole = len(data) // 2, int(0.15 * len(data))
@@ -464,6 +509,10 @@ def test_centimetres_given_as_metres_are_refused_by_the_body_check():
         _check_metric_body(generic, pose * 100.0)
     with pytest.raises(InputError, match="give a lifter other than --lifter videopose3d, or --height"):
         _check_metric_body(RunConfig(lifter="videopose3d", lifter_output="cm.npy"), pose * 100.0)
+    # the reverse mistake too: metres declared as centimetres (a user trial: it had run to the end)
+    as_cm = RunConfig(lifter="generic", lifter_output="m.npy", lifter_options={"units": "cm"})
+    with pytest.raises(InputError, match=r"m\.npy: .*got 0\.00\d+ m: metres declared as --units cm\? drop --units"):
+        _check_metric_body(as_cm, pose / 100.0)
 
 
 def test_what_the_run_assumed_about_its_inputs_is_listed():
