@@ -38,11 +38,12 @@ from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motio
                                no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
                                opensim_fit_findings, per_frame_tilt_summary, ranked, track_segments, unfiltered_flag)
 from pcnet.stages.floor import Floor
-from pcnet.stages.kinematics import filtered_derivatives, format_flag_counts, kinematics_chunks, residual_analysis
+from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
+                                     residual_analysis)
 from pcnet.pipeline.rectification import rectify_checked
 from pcnet.stages.rectification_report import ModeChoice, RectificationReport
 from pcnet.stages.rectify import NO_VALID_FRAME, no_valid_frame_reason
-from pcnet.stages.temporal import MODE_THRESHOLD_DEG
+from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
                                       write_motion_files, write_rerun)
@@ -1041,8 +1042,24 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     notes = _unused_floor_note(inputs.recording.measured_root,
                                report.sequence.ground_plane if report.sequence is not None else None)
     notes += _moving_camera_note(report.mode)
+    notes += _headingless_frames_note(report, camera.joints, res.valid)
     return Rectified(res.rotation, res.canonical, res.valid, report, CameraTilt.of(res.rotation, res.valid),
                      per_frame_tilt_summary(res.rotation[:, :, 1], res.valid), segment, events, tuple(notes))
+
+
+def _headingless_frames_note(report: RectificationReport, joints, valid: np.ndarray) -> list[str]:
+    """A note on sequence mode's frames that had every joint but were left out: their own up
+    points more than :data:`pcnet.stages.temporal.HEADING_LIMIT_DEG` from the recording's one
+    up, so no heading about it exists (:func:`pcnet.stages.temporal.rotations_about_up`)."""
+    if report.mode.run != "sequence":
+        return []
+    dropped = sum(int((np.isfinite(np.asarray(joints[rows])).all(axis=(1, 2)) & ~valid[rows]).sum())
+                  for rows in frame_blocks(len(valid)))
+    if not dropped:
+        return []
+    return [f"{frames_phrase(dropped, len(valid))} with every joint left out (NaN rows, valid = 0): their own up points "
+            f"more than {HEADING_LIMIT_DEG:.0f} deg from the recording's, so no heading about it exists (a body upside "
+            f"down there, or joints in another order than the lifter's: --lifter generic --layout)"]
 
 
 def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, rectified: Rectified) -> CheckInputs:

@@ -203,3 +203,20 @@ def test_the_per_frame_tilt_spread_is_recorded_only_where_frames_have_their_own_
     # sequence mode's frames share its one up: three equal numbers would read as perfect agreement
     assert "camera_tilt_per_frame_deg" not in run_report("sequence", "sequence").as_record()
     assert run_report("smooth", "smooth").as_record()["camera_tilt_per_frame_deg"] == [8.0, 7.0, 9.0]
+
+
+def test_frames_left_out_with_every_joint_are_explained():
+    """Sequence mode leaves out a frame whose own up points more than 143 deg from the
+    recording's (no heading about it): a user trial saw "842 without a valid pose" and no
+    reason (joints in another order than the lifter's). Frames missing joints are the
+    missing-data note's, not this one's."""
+    from pcnet.pipeline.runner import _headingless_frames_note
+
+    joints = np.load(BOX_X3D)[:10].astype(np.float64)
+    joints[0, 3] = np.nan
+    valid = np.ones(10, bool)
+    valid[[0, 4, 5]] = False
+    (note,) = _headingless_frames_note(run_report("sequence", "sequence").rectification, joints, valid)
+    assert note.startswith("2 of 10 frames with every joint left out") and "--layout" in note
+    assert _headingless_frames_note(run_report("frame", "frame").rectification, joints, valid) == []
+    assert _headingless_frames_note(run_report("sequence", "sequence").rectification, joints, np.ones(10, bool)) == []
