@@ -42,6 +42,7 @@ def mixture_fit(elev: np.ndarray) -> list[tuple[float, float, float, float]]:
     """The cut-free attempt on elevations ``elev`` (rad): per start, ``(kappa, s_deg, w, -log L)``."""
     cos_e = np.maximum(np.cos(elev), 1e-300)
 
+    @np.errstate(divide="ignore", over="ignore")  # a start that runs kappa to 0 or s to infinity scores -inf / inf
     def nll(x):
         kappa, s, w = np.exp(x[0]), np.exp(x[1]), 1.0 / (1.0 + np.exp(-x[2]))
         upright = np.log(kappa) - kappa - np.log1p(-np.exp(-2.0 * kappa)) + kappa * np.sin(elev) + np.log(cos_e)
