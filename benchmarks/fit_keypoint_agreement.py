@@ -5,7 +5,7 @@
 Decision 0083. Fit: decision 0077's recordings (``benchmarks.fit_side_swap.recordings``: the
 training mix's training split, every clip seen by one static "paper" camera with the
 lifter-noise model for the 3D and the simulated detector for the 2D, generator seed 0). Per
-clip :func:`pcnet.stages.flags.keypoint_mismatch`; the limit is the largest over the clips
+clip :func:`keypoint_mismatch`; the limit is the largest over the clips
 (parameter-free), recorded with the clip that set it.
 
 Checks (the rule): on the held-out mocap (Bandai motion-style test, the ablation's 200-clip
@@ -14,7 +14,8 @@ alarms, at most 1 in 20 per set) and its 2D with the 3D of the recording :data:`
 places on in the same set, cut to the shorter (detections, more than half per set); the real
 boxing pair (``pipeline/example_data``: AlphaPose 2D, MotionBERT 3D) not flagged, and its
 MotionBERT 3D with ``real/alphapose_halpe26_809``'s keypoints (a user trial's case) flagged.
-Writes stages/data/keypoint_mismatch.json where the rule passes.
+It would have written stages/data/keypoint_mismatch.json for a warning in stages/flags.py
+where the rule passed; it did not (decision 0083), so the statistic lives here alone.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
 from benchmarks.report import fit_arguments, print_and_save, shipped_limit
 from pcnet.adapters import get_2d_adapter
 from pcnet.models.datasets import load_mocap, select_split
-from pcnet.stages.flags import KEYPOINT_MISMATCH_PATH, keypoint_mismatch
+from pcnet.stages.core.framestore import frame_blocks
 from pcnet.stages.remap import remap_to_h36m
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -43,6 +44,39 @@ PAIR_SHIFT = 7
 EXAMPLE = ROOT / "pipeline" / "example_data"
 
 
+def keypoint_mismatch(keypoints2d, joints_cam) -> float:
+    """How far 2D keypoints are from a scaled and shifted copy of the 3D poses' image-plane
+    coordinates (decision 0083): per frame with at least 3 joints present in both, the
+    least-squares ``s``, ``t`` of ``p_j ~ s q_j + t`` (``p`` the pixels, ``q`` the camera-frame
+    ``(x, y)``: OpenCV axes, x right and y down like pixels), and the residual's RMS over the 2D
+    pose's RMS spread about its centroid (0: an exact copy; 1: none, ``s = 0``); the median over
+    those frames, NaN without one.
+
+    Args:
+        keypoints2d: ``(T, 17, >=2)`` H36M-17 pixels (NaN = missing).
+        joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any units.
+    """
+    per_frame = []
+    for rows in frame_blocks(len(keypoints2d)):
+        p = np.asarray(keypoints2d[rows][..., :2], np.float64)
+        q = np.asarray(joints_cam[rows][..., :2], np.float64)
+        ok = np.isfinite(p).all(-1) & np.isfinite(q).all(-1)
+        n = ok.sum(axis=1)
+        use = n >= 3
+        if not use.any():
+            continue
+        w = ok[use][..., None]
+        p, q, n = np.where(w, p[use], 0.0), np.where(w, q[use], 0.0), n[use][:, None, None]
+        a = np.where(w, p - p.sum(axis=1, keepdims=True) / n, 0.0)
+        b = np.where(w, q - q.sum(axis=1, keepdims=True) / n, 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            scale = np.sum(a * b, axis=(1, 2)) / np.sum(b * b, axis=(1, 2))
+            ratio = np.sqrt(np.sum((a - scale[:, None, None] * b) ** 2, axis=(1, 2)) / np.sum(a * a, axis=(1, 2)))
+        per_frame.append(ratio[np.isfinite(ratio)])
+    values = np.concatenate(per_frame) if per_frame else np.zeros(0)
+    return float(np.median(values)) if len(values) else float("nan")
+
+
 def keypoints(path: Path) -> np.ndarray:
     """An AlphaPose file's keypoints as H36M-17 ``(T, 17, 3)``."""
     kp = get_2d_adapter("alphapose").load(path)
@@ -50,7 +84,7 @@ def keypoints(path: Path) -> np.ndarray:
 
 
 def main() -> None:
-    args = fit_arguments(__doc__, "fit_keypoint_agreement", RESULT, KEYPOINT_MISMATCH_PATH)
+    args = fit_arguments(__doc__, "fit_keypoint_agreement", RESULT, ROOT / "stages" / "data" / "keypoint_mismatch.json")
     t0 = time.perf_counter()
     (train,) = training_mix_splits(args.data, "train")
     fit = [(name, keypoint_mismatch(kp, X)) for name, kp, X in recordings(train, len(train), np.random.default_rng(0))]
@@ -79,6 +113,8 @@ def main() -> None:
         sets_ok &= false <= len(recs) / 20 and caught > len(recs) / 2
         lines.append(f"{label:30s} {len(recs):5d} {false:13d} {caught:9d} "
                      f"{np.nanmedian(own):>22.3f} / {np.nanmedian(paired):.3f}")
+        if false:
+            lines.append("    false alarms: " + ", ".join(f"{recs[i][0]} {own[i]:.3f}" for i in np.flatnonzero(own > limit)))
     X = np.load(EXAMPLE / "X3D.npy", allow_pickle=False).astype(np.float64)
     own = keypoint_mismatch(keypoints(EXAMPLE / "alphapose-results.json"), X)
     other = keypoints(args.data / "real" / "alphapose_halpe26_809" / "alphapose-results.json")

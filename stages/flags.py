@@ -57,7 +57,6 @@ class Kind(IntEnum):
 
     # PROBLEM: another person's poses, mirrored or swapped sides, wrong units, no output asked for
     TRACK_SWITCH = auto()  #: :func:`track_switch_flag`
-    KEYPOINTS_MISMATCH = auto()  #: :func:`keypoints_mismatch_flag`
     UPSIDE_DOWN = auto()  #: :func:`orientation_flags`
     SIDE_SWAP = auto()  #: :func:`side_swap_flag`
     MIRRORED = auto()  #: :func:`mirrored_skeleton_flag`
@@ -441,102 +440,6 @@ def side_agreement(d2: np.ndarray, d3: np.ndarray) -> float:
     a, b = d2[ok], d3[ok]
     norm = float(np.sqrt(np.sum(a * a) * np.sum(b * b)))
     return float(np.sum(a * b) / norm) if norm > 0 else float("nan")
-
-
-#: The fitted limit of :func:`keypoints_mismatch_flag` (decision 0083).
-KEYPOINT_MISMATCH_PATH = Path(__file__).resolve().parent / "data" / "keypoint_mismatch.json"
-
-
-@dataclass(frozen=True)
-class KeypointMismatchLimit:
-    """The largest :func:`keypoint_mismatch` of a recording whose 2D keypoints and 3D poses are
-    one person's: the largest over the training mocap seen by a simulated detector (2D) and
-    through the lifter-noise model (3D) (decision 0083, ``python -m
-    benchmarks.fit_keypoint_agreement --data ../shared/data``).
-
-    Attributes:
-        mismatch_limit: in (0, 1]; above it the 2D keypoints are read as not the 3D poses'.
-        provenance: the fit's command, data, split and the clip that set it.
-    """
-
-    mismatch_limit: float
-    provenance: Mapping = field(default_factory=dict)
-
-
-@lru_cache(maxsize=4)
-def load_keypoint_mismatch_limit(path: str | Path | None = None) -> KeypointMismatchLimit:
-    """Read :class:`KeypointMismatchLimit` from JSON (``mismatch_limit``, ``provenance``;
-    default: the shipped :data:`KEYPOINT_MISMATCH_PATH`).
-
-    Raises:
-        FileNotFoundError: no such file.
-        InputError: not JSON, or ``mismatch_limit`` missing or not a number in (0, 1].
-    """
-    return _read_limits(KeypointMismatchLimit, KEYPOINT_MISMATCH_PATH if path is None else path,
-                        ("mismatch_limit",), "keypoint mismatch limit", "a number in (0, 1]", high=1.0)
-
-
-def keypoint_mismatch(keypoints2d, joints_cam) -> float:
-    """How far 2D keypoints are from a scaled and shifted copy of the 3D poses' image-plane
-    coordinates (decision 0083): per frame with at least 3 joints present in both, the
-    least-squares ``s``, ``t`` of ``p_j ~ s q_j + t`` (``p`` the pixels, ``q`` the camera-frame
-    ``(x, y)``: OpenCV axes, x right and y down like pixels), and the residual's RMS over the 2D
-    pose's RMS spread about its centroid (0: an exact copy; 1: none, ``s = 0``); the median over
-    those frames. A lifter's output in the camera frame follows its 2D keypoints up to its error
-    and the perspective (an orthographic copy: depth differences within the body are small
-    against its distance).
-
-    Args:
-        keypoints2d: ``(T, 17, >=2)`` H36M-17 pixels (NaN = missing; read a block of frames at a
-            time).
-        joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any units.
-
-    Returns:
-        the median in [0, 1], NaN without a frame to compare.
-    """
-    per_frame = []
-    for rows in frame_blocks(len(keypoints2d)):
-        p = np.asarray(keypoints2d[rows][..., :2], np.float64)
-        q = np.asarray(joints_cam[rows][..., :2], np.float64)
-        ok = np.isfinite(p).all(-1) & np.isfinite(q).all(-1)
-        n = ok.sum(axis=1)
-        use = n >= 3
-        if not use.any():
-            continue
-        w = ok[use][..., None]
-        p, q, n = np.where(w, p[use], 0.0), np.where(w, q[use], 0.0), n[use][:, None, None]
-        a = np.where(w, p - p.sum(axis=1, keepdims=True) / n, 0.0)
-        b = np.where(w, q - q.sum(axis=1, keepdims=True) / n, 0.0)
-        spread = np.sum(a * a, axis=(1, 2))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            scale = np.sum(a * b, axis=(1, 2)) / np.sum(b * b, axis=(1, 2))
-            ratio = np.sqrt(np.sum((a - scale[:, None, None] * b) ** 2, axis=(1, 2)) / spread)
-        per_frame.append(ratio[np.isfinite(ratio)])
-    values = np.concatenate(per_frame) if per_frame else np.zeros(0)
-    return float(np.median(values)) if len(values) else float("nan")
-
-
-def keypoints_mismatch_flag(keypoints2d, joints_cam, limit: KeypointMismatchLimit | None = None) -> list[Finding]:
-    """A flag when the 2D keypoints are not the 3D poses' (:func:`keypoint_mismatch` above the
-    fitted :class:`KeypointMismatchLimit`): keypoints of another recording or person, or frames
-    out of step. NaN (no frame to compare) gives none.
-
-    Args:
-        keypoints2d: ``(T, 17, >=2)`` H36M-17 pixels; joints_cam: ``(T, 17, 3)`` camera frame.
-        limit: default :func:`load_keypoint_mismatch_limit`.
-    """
-    mismatch = keypoint_mismatch(keypoints2d, joints_cam)
-    largest = (limit or load_keypoint_mismatch_limit()).mismatch_limit
-    if not mismatch > largest:
-        return []
-    return [_found(Kind.KEYPOINTS_MISMATCH, Severity.PROBLEM,
-                   f"2D keypoints do not follow the 3D poses (mismatch {mismatch:.2f}): another recording?",
-                   "check the 2D file belongs to the 3D output",
-                   f"the 2D keypoints are not a scaled, shifted copy of the 3D poses as the camera sees them "
-                   f"(median residual {mismatch:.2f} of the 2D pose's spread, above {largest:.2f}, the largest of any "
-                   f"training recording through a simulated detector and lifter): keypoints of another recording or "
-                   f"person, or frames out of step (--align); the joints they mask, the left/right and track checks "
-                   f"and the pelvis path rest on them")]
 
 
 def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray,
