@@ -351,7 +351,8 @@ def _run_and_report(cfg) -> None:
 @click.option("--cutoff-hz", type=float, default=None, help="Butterworth low-pass cutoff [6 Hz].")
 @click.option("--residual-cutoff", is_flag=True, default=None,
               help="Choose the cutoff by Winter's residual analysis of the recording instead of --cutoff-hz.")
-@click.option("--align", type=click.Choice(ALIGN), default=None, help="How to match differing frame counts [none = error].")
+@click.option("--align", type=click.Choice(ALIGN), default=None, help="How to match differing frame counts [none = error; an AlphaPose file that "
+              "ends before the video and the 3D output is padded with undetected frames either way].")
 @click.option("--pixel", is_flag=True, default=None, help="MotionBERT output made with --pixel.")
 @click.option("--hypothesis", default=None, help="DDHPose: 'mean' or a hypothesis index.")
 @click.option("--layout", default=None, help="generic lifter: joint layout of the file (h36m17, coco17, ...).")
