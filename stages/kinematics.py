@@ -590,23 +590,34 @@ def angle_speed_limits() -> Mapping[str, float]:
 
 
 def _unwrap_runs(x: np.ndarray, lower: float, previous: float | None, max_step: float = np.inf) -> np.ndarray:
-    """``x`` unwrapped (360-deg period) per run of finite samples, a run also ending at a
-    step larger than ``max_step`` (deg, wrapped into [-180, 180)); each run shifted by the
+    """``x`` unwrapped (360-deg period) per run of finite samples, each run shifted by the
     multiple of 360 that puts its median in ``(lower, lower + 360]``, or, for a run at index
-    0 when ``previous`` (the sample just before ``x``) is finite and within ``max_step`` of
-    it, that continues it."""
+    0 when ``previous`` (the sample just before ``x``) is finite, that continues it. A run
+    that would then put a sample more than half a turn beyond that range (wound a whole turn
+    away from its own reading) is split at its steps larger than ``max_step`` (deg, wrapped
+    into [-180, 180)), each piece levelled so, the first continuing ``previous`` only within
+    ``max_step`` of it."""
     out = x.copy()
     jump = np.abs(_wrap180(np.diff(x))) > max_step  # NaN steps are False: the finite runs end there anyway
     for a, b in true_runs(np.isfinite(x)):
+        whole = _levelled(x[a:b], lower, previous if a == 0 else None, np.inf)
+        if np.all((whole > lower - 180.0) & (whole <= lower + 540.0)):
+            out[a:b] = whole
+            continue
         cuts = [a, *(a + 1 + np.flatnonzero(jump[a:b - 1])), b]
         for c, d in zip(cuts[:-1], cuts[1:]):
-            run = np.unwrap(x[c:d], period=360.0)
-            if c == 0 and previous is not None and np.isfinite(previous) and abs(_wrap180(x[0] - previous)) <= max_step:
-                ref = previous - run[0]
-            else:
-                ref = (lower + 180.0) - float(np.median(run))  # the shift to the range's centre
-            out[c:d] = run + 360.0 * np.round(ref / 360.0)
+            out[c:d] = _levelled(x[c:d], lower, previous if c == 0 else None, max_step)
     return out
+
+
+def _levelled(x: np.ndarray, lower: float, previous: float | None, max_step: float) -> np.ndarray:
+    """One run of finite samples unwrapped and shifted as :func:`_unwrap_runs` says."""
+    run = np.unwrap(x, period=360.0)
+    if previous is not None and np.isfinite(previous) and abs(_wrap180(x[0] - previous)) <= max_step:
+        ref = previous - run[0]
+    else:
+        ref = (lower + 180.0) - float(np.median(run))  # the shift to the range's centre
+    return run + 360.0 * np.round(ref / 360.0)
 
 
 def continuous_angles(angles: Mapping[str, np.ndarray],
@@ -630,10 +641,11 @@ def continuous_angles(angles: Mapping[str, np.ndarray],
       over each run of consecutive finite frames; a NaN frame ends a run and stays NaN (no
       gap is bridged), and each run is shifted by the multiple of 360 deg that puts its
       median in the column's range ((-180, 180], or (-90, 270] for the upper-arm
-      inclinations), so its values keep their usual reading; with ``fps``, a step faster
-      than the angle ever turns in the training motion capture (:func:`angle_speed_limits`)
-      is a lifter's jump, not motion, and ends a run too (unwrapped through, it could leave
-      the rest of the run a whole turn from its reading);
+      inclinations), so its values keep their usual reading; with ``fps``, a run that would
+      then hold a value more than half a turn beyond its range (unwound a whole turn from its
+      own reading) is split at its steps faster than the angle ever turns in the training
+      motion capture (:func:`angle_speed_limits`): there a lifter's jump, not motion, had
+      carried the unwrapping round;
     * hip internal rotation and signed knee flexion have two posture hypotheses in every frame
       (:mod:`pcnet.stages.isb_angles`: a flexed knee, or a hyperextended one with the thigh
       turned 180 deg about its axis, ``(rotation, knee) ~ (rotation + 180, -knee)``), which

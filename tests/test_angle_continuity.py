@@ -186,3 +186,12 @@ def test_the_shipped_angle_speed_limits_are_the_printed_fit():
         if len(parts) > 3 and parts[0] in angle_speed_limits():
             printed[parts[0]] = float(parts[1])
     assert printed == dict(angle_speed_limits())
+
+
+def test_a_fast_step_that_winds_nothing_keeps_the_run_continuous():
+    # A lying thigh's frontal inclination near +-180 stepping 33 deg in a frame (a real VideoPose3D
+    # Shavasana, faster than any training motion's 28 at 30 fps): no value winds half a turn
+    # beyond the range, so the run stays continuous (split there, it had jumped 327 deg).
+    x = np.concatenate([np.full(10, 151.8), np.full(10, -175.5)])
+    out = continuous_angles({"right_thigh_frontal_inclination": x}, fps=FPS)["right_thigh_frontal_inclination"]
+    assert np.allclose(out, np.concatenate([np.full(10, 151.8), np.full(10, 184.5)]))
