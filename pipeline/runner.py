@@ -1172,8 +1172,10 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     result.kinematics_blocks = kinematics_chunks(rectified_poses, fps, cutoff, units)
     if _spine_built_on_trunk_line(cam):  # an angle the layout cannot measure is empty, not 0
         result.kinematics_blocks = _without(result.kinematics_blocks, NEEDS_SPINE_JOINT)
-        notes.append("trunk_flexion_to_pelvis_deg left empty: the input's spine joint lies on the pelvis-thorax "
-                     "line (built there, no spine of its own), so that angle is 0 by construction")
+        why = ("the input's spine joint lies on the pelvis-thorax line (built there, no spine of its own), so that "
+               "angle is 0 by construction")
+        result.empty_angles = {name: why for name in NEEDS_SPINE_JOINT}
+        notes.append(f"trunk_flexion_to_pelvis_deg left empty: {why}")
     table = write_kinematics_table(result, tmp, allocate=store.create)
     findings += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
     # motion no person makes (joint speeds and accelerations beyond the fitted limits)

@@ -139,6 +139,11 @@ def test_layout_without_spine_leaves_trunk_flexion_to_pelvis_empty(tmp_path):
     assert np.isfinite(angles["trunk_axial_rotation_to_pelvis_deg"]).any()
     notes = [n for n in run.notes if n.startswith("trunk_flexion_to_pelvis_deg left empty")]
     assert len(notes) == 1
+    # and the data dictionary says so for this run (a user trial found only the generic definition)
+    rows = {r[0]: r for r in csv.reader(open(tmp_path / "mp" / "kinematics_columns.csv"))}
+    assert "empty in this run: the input's spine joint lies on the pelvis-thorax line" in \
+        rows["trunk_flexion_to_pelvis_deg"][3]
+    assert "empty in this run" not in rows["trunk_axial_rotation_to_pelvis_deg"][3]
 
 
 def test_lifter_with_spine_keeps_trunk_flexion_to_pelvis(tmp_path):

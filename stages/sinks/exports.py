@@ -195,6 +195,7 @@ def kinematics_columns(
     extra: Mapping[str, tuple[str, str, str] | None],
     frame: str = "world",
     unobservable: Mapping[str, tuple[str, str]] | None = None,
+    empty_angles: Mapping[str, str] | None = None,
 ) -> list[tuple[str, str, str, str]]:
     """The columns of ``kinematics.csv``, in order, each ``(column, unit, frame, definition)``:
     the one source of its header (:func:`write_kinematics_csv`) and of its data dictionary
@@ -213,6 +214,8 @@ def kinematics_columns(
             the input does not observe; their positions, velocities and accelerations and the
             joint's speed are written empty (:func:`blank_unobservable`) and ``reason`` (one
             clause) is said in their definitions.
+        empty_angles: angle name -> why the run leaves it empty (one clause), said in its
+            definition.
 
     Returns:
         a list of ``(column, unit, frame, definition)``; ``definition`` is ``None`` for an
@@ -259,9 +262,13 @@ def kinematics_columns(
                      f"input, or masked by low 2D confidence), else 0."))
         cols.append((f"{j}_unfiltered", "0/1", "none", f"1 where the {joint} position is finite but raw (its run of "
                      f"frames too short for the low-pass filter, so no velocity or acceleration), else 0."))
+    empty_angles = dict(empty_angles or {})
     for name in angles:
         column = f"{name}_deg"
-        cols.append((column, "deg", *_angle_row(column)))
+        frame_of, definition = _angle_row(column)
+        if name in empty_angles:
+            definition = f"{definition.rstrip('.')}; empty in this run: {empty_angles[name]}."
+        cols.append((column, "deg", frame_of, definition))
     for name, described in extra.items():
         cols.append((name, *described) if described is not None else (name, "", "", None))
     return cols
@@ -326,6 +333,7 @@ def write_kinematics_csv(
     extra_definitions: Mapping[str, tuple[str, str, str]] | None = None,
     frame: str = "world",
     unobservable: Mapping[str, tuple[str, str]] | None = None,
+    empty_angles: Mapping[str, str] | None = None,
 ) -> Path:
     """Write one CSV row per frame with positions, velocities, accelerations, speeds,
     per-joint missing/unfiltered flags and angles of the kinematics (world or canonical frame), atomically.
@@ -368,6 +376,7 @@ def write_kinematics_csv(
         unobservable: joint -> ``(axes, reason)``: axes the input does not observe (the
             pelvis's horizontal path from a root-relative lifter), written empty, with
             ``reason`` in the dictionary (:func:`kinematics_columns`).
+        empty_angles: angle name -> why the run leaves it empty, for the dictionary.
 
     Returns:
         the destination path.
@@ -397,7 +406,7 @@ def write_kinematics_csv(
     columns = [names.index(j) for j in chosen]
 
     described = {name: (extra_definitions or {}).get(name) for name in extra}
-    listed = kinematics_columns(chosen, first.units, first.angles, described, frame, unobservable)
+    listed = kinematics_columns(chosen, first.units, first.angles, described, frame, unobservable, empty_angles)
     header = [c[0] for c in listed]
     dup = {h for h in header if header.count(h) > 1}
     if dup:

@@ -78,6 +78,8 @@ class RecordingResult:
         pelvis_path_std: ``(T, 3)`` float64 1-sigma (the poses' units) of a pelvis path
             recovered from the 2D keypoints along the world axes X, Y, Z (depth is the weak
             axis), or ``None`` for a measured or unobservable path; written to the npz.
+        empty_angles: angle name -> why the run leaves that column empty (the data dictionary
+            says it).
     """
 
     fps: float
@@ -108,6 +110,7 @@ class RecordingResult:
     flag_counts: dict = field(default_factory=dict)
     implausible_frames: np.ndarray | None = None
     pelvis_path_std: np.ndarray | None = None
+    empty_angles: dict = field(default_factory=dict)
     root_path: str | None = None
     report: dict = field(default_factory=dict)
 
@@ -192,7 +195,7 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
         extra["track_segment"] = np.asarray(r.track_segment, int)
     write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra,
                          dictionary=dictionary, extra_definitions=EXTRA_COLUMNS, frame=r.kinematics_frame,
-                         unobservable=unobservable)
+                         unobservable=unobservable, empty_angles=r.empty_angles)
     r.kinematics = kept.result()
     r.missing, r.unfiltered = missing, unfiltered
     r.flag_counts = count_flags(r.missing, r.unfiltered)
