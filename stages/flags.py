@@ -878,7 +878,8 @@ def opensim_fit_findings(fit: dict) -> list[Finding]:
     if rms := marker_rms_flag(fit):
         out.append(_found(Kind.MARKER_RMS, Severity.CHECK,
                           f"OpenSim marker RMS {100 * fit['marker_rms_m']:.1f} cm (max {100 * fit['marker_max_m']:.1f} "
-                          f"cm): the model does not follow the poses", "check the joint angles before use", rms))
+                          f"cm): the model does not follow the poses",
+                          "check ik.mot's angles against kinematics.csv's (ik_marker_errors.sto: which markers)", rms))
     known = {f.detail for f in out}
     return out + [Finding(Severity.CHECK, shortened(text), "see report.md", text) for text in fit["warnings"]
                   if text not in known]

@@ -151,7 +151,8 @@ def test_cli_opensim_prints_a_line_per_warning_and_writes_it_in_full(short_run, 
     (warning,) = json.loads((out / "opensim_fit.json").read_text())["warnings"]
     assert [ln for ln in res.output.splitlines() if ln.startswith("WARNING")] == [
         "WARNING  OpenSim marker RMS " + warning.split("marker RMS ")[1].split(":")[0]
-        + ": the model does not follow the poses -> check the joint angles before use"]
+        + ": the model does not follow the poses -> check ik.mot's angles against kinematics.csv's (ik_marker_errors.sto: "
+        "which markers)"]
     assert warning not in res.output and warning in (out / "report.md").read_text()
     assert _cli("opensim", out, "--overwrite").exit_code == 0
     assert (out / "report.md").read_text().count("pcnet opensim)") == 1
