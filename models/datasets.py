@@ -64,7 +64,8 @@ def load_numpy_file(path: Path, what: str):
 
     path = Path(path)
     if not path.exists():
-        raise FileNotFoundError(f"{path}: {what} file not found")
+        where = "" if path.is_absolute() else f" (relative to the working directory {Path.cwd()})"
+        raise FileNotFoundError(f"{path}: {what} file not found{where}")
     if not path.is_file():
         raise InputError(f"{path}: expected a regular {what} file, got a folder, device or pipe")
     try:

@@ -258,8 +258,9 @@ def _open(weights, default: Path, threads: int):
     try:
         session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
     except Exception as err:  # onnxruntime's InvalidProtobuf, Fail, InvalidGraph, ... share no base class
-        hint = (f"; a training checkpoint? export it first: pcnet export --checkpoint {path} --out "
-                f"{path.with_suffix('.onnx')}") if _is_zip(path) else ""
+        out = path.with_suffix(".onnx") if path.suffix != ".onnx" else path.with_name(f"{path.stem}_exported.onnx")
+        hint = (f"; a training checkpoint? export it first: pcnet export --checkpoint {path} --out {out}"
+                if _is_zip(path) else "")
         raise InputError(f"{path}: not an ONNX model ({_ort_reason(err)}){hint}") from err
     meta = path.with_suffix(".json")
     info = {}

@@ -1,9 +1,13 @@
-"""pcnet from Python: the three names a script needs.
+"""pcnet from Python: the three names a script needs, and the error they raise.
 
 ``pcnet`` itself is an implicit namespace package (its folders install as ``pcnet.pipeline``,
 ``pcnet.stages``, ...; ``pyproject.toml``), so the public API lives here::
 
-    from pcnet.pipeline import rectify, run_pipeline, RunConfig
+    from pcnet.pipeline import rectify, run_pipeline, RunConfig, InputError
+
+Bad input (a file, an array, a config value) raises :class:`InputError`
+(:class:`pcnet.stages.core.errors.InputError`, a ``ValueError``) with one line naming the file
+or field, what was expected and what was found.
 
 They are imported when first used, so ``import pcnet.pipeline`` stays cheap (no onnxruntime,
 OpenCV or adapters until then).
@@ -53,9 +57,11 @@ _PUBLIC = {
     "rectify": "pcnet.pipeline.rectification",
     "run_pipeline": "pcnet.pipeline.runner",
     "RunConfig": "pcnet.pipeline.config",
+    # what they raise for bad input (a ValueError): one line naming the file or field
+    "InputError": "pcnet.stages.core.errors",
 }
 
-__all__ = ["rectify", "run_pipeline", "RunConfig"]
+__all__ = ["rectify", "run_pipeline", "RunConfig", "InputError"]
 
 
 def __getattr__(name: str):

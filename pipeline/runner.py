@@ -365,7 +365,8 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
 
 def _inputs_line(read: dict) -> str:
     """report.md's line of :func:`_inputs_read`'s record."""
-    parts = [f"3D {read['lifter_output']} (--lifter {read['lifter']}: {read['lifter_layout']}, {read['lifter_units']})"]
+    parts = [f"method {read['method']} ({read['weights']} weights)",
+             f"3D {read['lifter_output']} (--lifter {read['lifter']}: {read['lifter_layout']}, {read['lifter_units']})"]
     if "keypoints2d" in read:
         parts.append(f"2D {read['keypoints2d']} ({read['keypoints2d_format']}: {read['keypoints2d_layout']})")
     if "video" in read:
@@ -375,10 +376,11 @@ def _inputs_line(read: dict) -> str:
 
 
 def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None, video: VideoInfo | None) -> dict:
-    """What a run read, for its report (``inputs``): each file with the format it was read as
-    and the joint layout found in it (an upstream estimator swapped for another shows here)."""
-    read = {"lifter": cfg.lifter, "lifter_output": str(cfg.lifter_output), "lifter_layout": layout,
-            "lifter_units": units}
+    """What a run read, for its report (``inputs``): the method and its weights (``"shipped"``
+    or the ``--weights`` file), each file with the format it was read as and the joint layout
+    found in it (an upstream estimator or a model swapped for another shows here)."""
+    read = {"method": cfg.method, "weights": str(cfg.weights) if cfg.weights else "shipped", "lifter": cfg.lifter,
+            "lifter_output": str(cfg.lifter_output), "lifter_layout": layout, "lifter_units": units}
     if cfg.keypoints2d:
         read.update(keypoints2d=str(cfg.keypoints2d), keypoints2d_format=cfg.keypoints2d_format,
                     keypoints2d_layout=kp_layout)

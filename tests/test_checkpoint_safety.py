@@ -275,6 +275,11 @@ def test_weights_that_are_not_3dpcnet_onnx_fail_in_one_line(tmp_path):
     _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", checkpoint),
                       "best.pt: not an ONNX model (", f"a training checkpoint? export it first: pcnet export "
                       f"--checkpoint {checkpoint} --out {tmp_path / 'best.onnx'}")
+    # ... named .onnx already: the export it names writes another file (a user trial got its own path back)
+    named = tmp_path / "ckpt.onnx"
+    named.write_bytes(checkpoint.read_bytes())
+    _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", named),
+                      f"--checkpoint {named} --out {tmp_path / 'ckpt_exported.onnx'}")
     # a real ONNX model of another network (input 'features')
     other = tmp_path / "other.onnx"
     torch.onnx.export(torch.nn.Linear(51, 2), (torch.zeros(4, 51),), str(other), input_names=["features"],

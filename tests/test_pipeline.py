@@ -320,10 +320,10 @@ def test_the_report_names_what_was_read(tmp_path):
     assert res.exit_code == 0, res.output
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         read = json.loads(str(npz["report"]))["inputs"]
-    assert read == {"lifter": "motionbert", "lifter_output": str(BOX_3D), "lifter_layout": "h36m17",
+    assert read == {"method": "pcnet", "weights": "shipped", "lifter": "motionbert", "lifter_output": str(BOX_3D), "lifter_layout": "h36m17",
                     "lifter_units": "normalised", "keypoints2d": str(BOX_2D), "keypoints2d_format": "alphapose",
                     "keypoints2d_layout": "halpe26"}
-    assert f"**inputs**: 3D {BOX_3D} (--lifter motionbert: h36m17, normalised); 2D {BOX_2D} (alphapose: halpe26)" \
+    assert f"**inputs**: method pcnet (shipped weights); 3D {BOX_3D} (--lifter motionbert: h36m17, normalised); 2D {BOX_2D} (alphapose: halpe26)" \
         in (tmp_path / "o" / "report.md").read_text()
 
 

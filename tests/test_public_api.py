@@ -40,8 +40,12 @@ def test_the_three_names_are_the_documented_functions():
     from pcnet.pipeline.runner import run_pipeline as runner_run_pipeline
 
     assert (rectify, run_pipeline, RunConfig) == (rectification_rectify, runner_run_pipeline, config_RunConfig)
-    assert set(pcnet.pipeline.__all__) == {"rectify", "run_pipeline", "RunConfig"} <= set(dir(pcnet.pipeline))
-    assert EXAMPLES[0].strip() == "from pcnet.pipeline import rectify, run_pipeline, RunConfig"
+    assert set(pcnet.pipeline.__all__) == {"rectify", "run_pipeline", "RunConfig", "InputError"} \
+        <= set(dir(pcnet.pipeline))
+    from pcnet.pipeline import InputError
+
+    assert issubclass(InputError, ValueError)  # what the three raise for bad input, catchable as documented
+    assert EXAMPLES[0].strip() == "from pcnet.pipeline import rectify, run_pipeline, RunConfig, InputError"
     with pytest.raises(AttributeError, match="no_such_name"):
         pcnet.pipeline.no_such_name  # noqa: B018
 
