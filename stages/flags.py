@@ -23,8 +23,7 @@ from .core.conventions import (L_HIP, L_SHOULDER, PELVIS, R_HIP, R_SHOULDER, THI
                                median_thigh_length)
 from .core.framestore import frame_blocks, true_runs
 from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg
-from .isb_angles import NAMES as ISB_NAMES
-from .kinematics import angle_kind, frames_phrase
+from .kinematics import frames_phrase
 from .mirror import MIRROR_ODDS, MirrorModel, load_mirror_model, recording_cues
 from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
@@ -76,7 +75,6 @@ class Kind(IntEnum):
     QUARTER_TURN = auto()  #: :func:`orientation_flags`
     NO_WORLD_FRAME = auto()  #: :func:`no_world_frame_flag`
     LEG_ASYMMETRY = auto()  #: :func:`leg_asymmetry_flag`
-    ANGLE_RANGE = auto()  #: :func:`joint_angle_range_flag`
     VIEWS_SET_ASIDE = auto()  #: :func:`ensemble_weights_flag`
     FLOOR_PARTIAL = auto()  #: :func:`floor_flag`, some frames
     MARKER_RMS = auto()  #: :func:`opensim_fit_findings`
@@ -374,89 +372,6 @@ def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -
                    f"units (declare them: --units normalised or px with --lifter generic, and pcnet makes the size "
                    f"constant per frame). One scale factor (the median) leaves a tenth of the frames' positions, "
                    f"speeds and bone lengths off by more than {off:.0f} % in the metric exports")]
-
-
-#: The ISB angles between two segments (``stages/isb_angles.NAMES`` less the two against
-#: gravity, which the rectification sets), without ``_deg``: what :func:`joint_angle_range_flag`
-#: reads.
-SEGMENT_ANGLES: tuple[str, ...] = tuple(n.removesuffix("_deg") for n in ISB_NAMES if "to_gravity" not in n)
-#: The fitted limits of :func:`joint_angle_range_flag` (decision 0084).
-JOINT_ANGLE_LIMITS_PATH = Path(__file__).resolve().parent / "data" / "joint_angle_limits.json"
-
-
-@dataclass(frozen=True)
-class JointAngleLimits:
-    """Per angle kind (:func:`pcnet.stages.kinematics.angle_kind` of :data:`SEGMENT_ANGLES`),
-    ``(low, high)`` degrees: the smallest and largest value of any frame of the training mocap
-    (decision 0084, ``python -m benchmarks.fit_joint_angle_limits --data ../shared/data``).
-
-    Attributes:
-        limits: kind -> ``(low, high)``, deg. provenance: the fit's command, data and where each
-            extreme occurred.
-    """
-
-    limits: Mapping[str, tuple[float, float]]
-    provenance: Mapping = field(default_factory=dict)
-
-
-@lru_cache(maxsize=4)
-def load_joint_angle_limits(path: str | Path | None = None) -> JointAngleLimits:
-    """Read :class:`JointAngleLimits` from JSON (``limits``: kind -> ``[low, high]``,
-    ``provenance``; default: the shipped :data:`JOINT_ANGLE_LIMITS_PATH`).
-
-    Raises:
-        FileNotFoundError: no such file.
-        InputError: not JSON, a kind of :data:`SEGMENT_ANGLES` missing, or limits that are not
-            two finite numbers, low below high.
-    """
-    path = Path(JOINT_ANGLE_LIMITS_PATH if path is None else path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as err:
-        raise InputError(f"{path}: expected the JSON joint-angle limits, got unreadable JSON ({err})") from err
-    limits = {}
-    for kind in sorted({angle_kind(n) for n in SEGMENT_ANGLES}):
-        pair = (data.get("limits") or {}).get(kind) if isinstance(data, dict) else None
-        numbers = isinstance(pair, list) and len(pair) == 2 and all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in pair)
-        if not (numbers and pair[0] < pair[1]):
-            raise InputError(f"{path}: field 'limits.{kind}': expected [low, high] degrees, low below high, got {pair!r}")
-        limits[kind] = (float(pair[0]), float(pair[1]))
-    return JointAngleLimits(MappingProxyType(limits), MappingProxyType(dict(data.get("provenance", {}))))
-
-
-def joint_angle_range_flag(angles: Mapping[str, np.ndarray], limits: JointAngleLimits | None = None) -> list[Finding]:
-    """A flag naming the angles between two segments whose median over the recording's frames
-    lies outside the training mocap's range (:class:`JointAngleLimits`, decision 0084): a pose no
-    training motion reaches, read by a lifter that never saw it either.
-
-    Args:
-        angles: angle name (with or without ``_deg``) -> ``(T,)`` degrees, NaN = missing (e.g.
-            :attr:`pcnet.stages.kinematics.Kinematics.angles`); names outside
-            :data:`SEGMENT_ANGLES` are not read.
-        limits: default :func:`load_joint_angle_limits`.
-    """
-    table = (limits or load_joint_angle_limits()).limits
-    beyond = []
-    for name, values in angles.items():
-        short = name.removesuffix("_deg")
-        x = np.asarray(values, np.float64)
-        if short not in SEGMENT_ANGLES or not np.isfinite(x).any():
-            continue
-        median, (low, high) = float(np.nanmedian(x)), table[angle_kind(short)]
-        if not low <= median <= high:
-            beyond.append((short, median, low, high))
-    if not beyond:
-        return []
-    name, median, _, _ = max(beyond, key=lambda b: max(b[2] - b[1], b[1] - b[3]))
-    more = f" +{len(beyond) - 1} more" if len(beyond) > 1 else ""
-    listed = "; ".join(f"{n} {m:.0f} deg (training {lo:g} to {hi:g})" for n, m, lo, hi in beyond)
-    return [_found(Kind.ANGLE_RANGE, Severity.CHECK,
-                   f"{name.replace('_', ' ')} reads {median:.0f} deg, beyond any training motion's{more}",
-                   "read those angles with care",
-                   f"median over the recording beyond the range any frame of the training motion capture reaches: "
-                   f"{listed}: a pose the lifter never learnt (seated, lying, extreme), whose angles are its least "
-                   f"reliable, or the lifter's error")]
 
 
 #: The fitted agreement limit of :func:`side_swap_flag` (decision 0077).
