@@ -20,8 +20,6 @@ where the rule passed; it did not (decision 0083), so the statistic lives here a
 
 from __future__ import annotations
 
-import datetime
-import json
 import time
 from pathlib import Path
 
@@ -29,8 +27,8 @@ import numpy as np
 
 from benchmarks.ablation import MOCAP_SETS
 from benchmarks.fit_side_swap import MAX_CLIPS, recordings
-from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
-from benchmarks.report import fit_arguments, print_and_save, shipped_limit
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import fit_arguments, print_and_save, shipped_limit, write_detector_fit
 from pcnet.adapters import get_2d_adapter
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.core.framestore import frame_blocks
@@ -131,16 +129,8 @@ def main() -> None:
               "", f"({time.perf_counter() - t0:.0f} s)"]
     print_and_save(lines, args.out)
     if ships:
-        args.json.write_text(json.dumps({
-            "description": "pcnet's 2D-keypoint mismatch limit (stages/flags.py keypoints_mismatch_flag, decision 0083)",
-            "mismatch_limit": limit,
-            "provenance": {"command": COMMAND, "date": datetime.date.today().isoformat(),
-                           "data": " + ".join(TRAINING_MIX) + f", motion-style train split ({len(train)} clips)",
-                           "camera": "one static 'paper' view per clip (make_pairs seed 0): 3D with the lifter-noise "
-                                     "model, 2D from benchmarks/ablation.detected_keypoints_2d (generator seed 0)",
-                           "rule": "the largest mismatch over the training clips (decision 0083)",
-                           "mismatch_limit_at": at}}, indent=2) + "\n")
-        print(f"wrote {args.json}")
+        write_detector_fit(args.json, "pcnet's 2D-keypoint mismatch limit (decision 0083)", "mismatch_limit", limit,
+                           COMMAND, len(train), "the largest mismatch over the training clips (decision 0083)", at)
 
 
 if __name__ == "__main__":

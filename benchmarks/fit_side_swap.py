@@ -21,16 +21,14 @@ exchanged. Writes stages/data/side_swap.json where the candidate passes.
 
 from __future__ import annotations
 
-import datetime
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.ablation import MOCAP_SETS, detected_keypoints_2d, static_camera_clips
-from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
-from benchmarks.report import fit_arguments, print_and_save, shipped_limit
+from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import fit_arguments, print_and_save, shipped_limit, write_detector_fit
 from pcnet.adapters import get_2d_adapter
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.flags import side_agreement, side_extents
@@ -116,16 +114,9 @@ def main() -> None:
               "", f"({time.perf_counter() - t0:.0f} s)"]
     print_and_save(lines, args.out)
     if ships:
-        args.json.write_text(json.dumps({
-            "description": "pcnet's side-swap agreement limit (stages/flags.py side_swap_flag, decision 0077)",
-            "agreement_limit": limit,
-            "provenance": {"command": COMMAND, "date": datetime.date.today().isoformat(),
-                           "data": " + ".join(TRAINING_MIX) + f", motion-style train split ({len(train)} clips)",
-                           "camera": "one static 'paper' view per clip (make_pairs seed 0): 3D with the lifter-noise "
-                                     "model, 2D from benchmarks/ablation.detected_keypoints_2d (generator seed 0)",
-                           "rule": "the smallest agreement over the training clips (decision 0077)",
-                           "agreement_limit_at": at}}, indent=2) + "\n")
-        print(f"wrote {args.json}")
+        write_detector_fit(args.json, "pcnet's side-swap agreement limit (stages/flags.py side_swap_flag, decision 0077)",
+                           "agreement_limit", limit, COMMAND, len(train),
+                           "the smallest agreement over the training clips (decision 0077)", at)
 
 
 if __name__ == "__main__":

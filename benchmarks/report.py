@@ -61,3 +61,24 @@ def require_mocap(data: Path, script: str) -> None:
     """Exit with one line when ``data`` (the data root) has no ``mocap/`` folder."""
     if not (Path(data) / "mocap").is_dir():
         sys.exit(f"{script}: no mocap/ folder under {data}; pass --data <data root>")
+
+
+def write_detector_fit(path: Path, description: str, key: str, value: float, command: str, clips: int,
+                       rule: str, at: str) -> None:
+    """Write a limit fitted on decision 0077's recordings (``benchmarks.fit_side_swap.recordings``:
+    the training mix's training split through the lifter-noise 3D and the simulated detector's
+    2D) as ``{"description", key: value, "provenance"}`` JSON, ``at`` the clip that set it."""
+    import datetime
+    import json
+
+    from benchmarks.mocap_sets import TRAINING_MIX
+
+    path.write_text(json.dumps({
+        "description": description, key: value,
+        "provenance": {"command": command, "date": datetime.date.today().isoformat(),
+                       "data": " + ".join(TRAINING_MIX) + f", motion-style train split ({clips} clips)",
+                       "camera": "one static 'paper' view per clip (make_pairs seed 0): 3D with the lifter-noise "
+                                 "model, 2D from benchmarks/ablation.detected_keypoints_2d (generator seed 0)",
+                       "rule": rule, f"{key}_at": at}}, indent=2) + "\n")
+    print(f"wrote {path}")
+
