@@ -109,7 +109,8 @@ def rectify(
     what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
-    :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least
+    :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, a single
+    ``(17, 3)`` pose read as one frame, at least
     one frame and one finite value, non-finite = missing) and the pelvis rule
     :func:`pcnet.stages.core.conventions.fill_pelvis_from_hips` (a missing pelvis is the hip
     midpoint; a frame still without a pelvis is invalid). The report's
@@ -119,8 +120,15 @@ def rectify(
 
     Raises:
         InputError (a ValueError): bad input array (see above), unknown method, mode or
-            heading source, or (sequence modes) no valid frame.
+            heading source, an option of another type (``camera_prior``, ``measured_root``
+            not a bool; ``fps`` not a number: ``"no"`` would read as true), or (sequence
+            modes) no valid frame.
     """
+    for name, value in (("camera_prior", camera_prior), ("measured_root", measured_root)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise InputError(f"rectify: {name}: expected True or False, got {value!r} ({type(value).__name__})")
+    if isinstance(fps, (bool, np.bool_)) or not isinstance(fps, (int, float, np.integer, np.floating)):
+        raise InputError(f"rectify: fps: expected a number (frames per second), got {fps!r} ({type(fps).__name__})")
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
     result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, measured_root=measured_root)
     return replace(result, report=replace(result.report, pelvis_from_hips_frames=int(pelvis_filled.sum())))

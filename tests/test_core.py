@@ -440,3 +440,24 @@ def test_sample_views_mixes_two_distributions_half_and_half():
     assert np.degrees(np.abs(roll)).max() <= 30 + 1e-6
     with pytest.raises(ValueError, match="view distribution"):
         sample_views(3, "paper+fisheye", np.random.default_rng(8))
+
+
+def test_the_core_functions_name_bad_shapes_and_non_rotations():
+    """A user trial got numpy's broadcasting errors from to_canonical and angles for a matrix
+    that is no rotation from decompose_camera_rotation: each now says what it expected."""
+    from pcnet.stages.core.canonical import to_canonical
+    from pcnet.stages.core.errors import InputError
+
+    X = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:5]
+    with pytest.raises(InputError, match=r"R: expected \(3, 3\) or \(5, 3, 3\) rotations for 5 poses, got shape \(4, 3, 3\)"):
+        to_canonical(X, np.tile(np.eye(3), (4, 1, 1)))
+    with pytest.raises(InputError, match=r"joints_cam: expected \(N, J, 3\) poses"):
+        to_canonical(X[..., :2], np.eye(3))
+    assert to_canonical(X, np.eye(3)).shape == X.shape
+    with pytest.raises(InputError, match=r"expected \(\.\.\., 3, 3\) rotations"):
+        rot.decompose_camera_rotation(np.ones(3))
+    with pytest.raises(InputError, match="not one"):
+        rot.decompose_camera_rotation(np.ones((3, 3)))
+    nan = np.full((2, 3, 3), np.nan)
+    nan[0] = np.eye(3)
+    assert np.isnan(rot.decompose_camera_rotation(nan)[1][1])  # a missing rotation stays missing

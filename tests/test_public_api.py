@@ -87,3 +87,14 @@ def test_run_config_example_gives_the_defaults_it_states():
     assert eval(last.split("#")[0], namespace) == eval(stated)
     cfg = namespace["cfg"]
     assert (cfg.lifter, cfg.fps) == ("motionbert", 25.0)
+
+
+@pytest.mark.parametrize("option, value", [("camera_prior", "no"), ("measured_root", 1), ("fps", "30")])
+def test_rectify_refuses_options_of_another_type(option, value):
+    """``camera_prior="no"`` ran with the prior on (a user trial): the options are checked as
+    RunConfig checks its fields."""
+    from pcnet.pipeline import InputError, rectify
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:10]
+    with pytest.raises(InputError, match=f"rectify: {option}: expected"):
+        rectify(joints, mode="sequence", **{option: value})

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .conventions import L_HIP, PELVIS, R_HIP, THORAX, check_poses
+from .errors import InputError
 from .framestore import frame_blocks
 from .rotations import normalize
 
@@ -64,8 +65,17 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
 
     Returns:
         ``(N, J, 3)`` pelvis-centred canonical poses, same units, float32 (``out`` if given).
+
+    Raises:
+        InputError: ``joints_cam`` not ``(N, J, 3)``, or ``R`` neither ``(3, 3)`` nor
+            ``(N, 3, 3)``.
     """
     R = np.asarray(R)
+    shape = tuple(joints_cam.shape)
+    if len(shape) != 3 or shape[-1] != 3:
+        raise InputError(f"joints_cam: expected (N, J, 3) poses, got shape {shape}")
+    if R.shape not in ((3, 3), (shape[0], 3, 3)):
+        raise InputError(f"R: expected (3, 3) or ({shape[0]}, 3, 3) rotations for {shape[0]} poses, got shape {R.shape}")
     out = np.empty(joints_cam.shape, np.float32) if out is None else out
     # A block of frames at a time: each frame's arithmetic is its own, and a long recording's
     # float64 temporaries stay a block long.

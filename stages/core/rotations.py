@@ -184,7 +184,19 @@ def decompose_camera_rotation(R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     vector ``u = R[:, 1]`` in the camera frame: ``pitch = asin(-u_z)``,
     ``roll = atan2(u_x, -u_y)`` (:func:`camera_pitch_roll`); heading is what is left about
     the up axis.
+
+    Raises:
+        InputError: ``R`` not ``(..., 3, 3)``, or a finite matrix that is not a rotation
+            (``R^T R = I`` and ``det R = 1`` within 1e-3; NaN matrices give NaN angles).
     """
+    R = np.asarray(R, np.float64)
+    if R.ndim < 2 or R.shape[-2:] != (3, 3):
+        raise InputError(f"R: expected (..., 3, 3) rotations, got shape {R.shape}")
+    finite = np.isfinite(R).all(axis=(-2, -1))
+    F = R[finite]
+    if len(F) and (np.abs(np.swapaxes(F, -1, -2) @ F - np.eye(3)).max() > 1e-3
+                   or np.abs(np.linalg.det(F) - 1.0).max() > 1e-3):
+        raise InputError("R: expected rotation matrices (orthonormal, determinant +1), got a matrix that is not one")
     pitch, roll = camera_pitch_roll(R[..., :, 1])
     M = np.swapaxes(R_FRONTAL, -1, -2) @ axis_rotation("x", -pitch) @ axis_rotation("z", -roll) @ R
     heading = np.arctan2(M[..., 0, 2], M[..., 0, 0])
