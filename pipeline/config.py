@@ -157,8 +157,10 @@ def _option_flag(option: str) -> str:
 class RunConfig:
     """Inputs and options of the staged pipeline (same names as ``pcnet run``'s options).
 
-    ``lifter_options`` are passed to the 3D adapter (``pixel`` for motionbert,
-    ``hypothesis``/``step`` for ddhpose, ``layout``/``axes``/``units``/``key`` for generic);
+    ``lifter_options`` are passed to the 3D adapter: the keyword arguments its ``load`` takes,
+    checked by :func:`check_lifter_options` (for example ``pixel``/``clip_len`` for motionbert,
+    ``hypothesis``/``step`` for ddhpose, ``layout``/``axes``/``units``/``key``/``delimiter``/
+    ``measured_root`` for generic; each adapter's docstring lists its own);
     ``person`` picks a 2D track (AlphaPose ``idx``, MMPose instance position); ``heading``
     is the heading source of :func:`pcnet.pipeline.rectification.rectify` (``None`` = its default).
     ``fps`` is needed only when neither a video nor an input file gives the frame rate; with
