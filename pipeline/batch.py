@@ -928,10 +928,13 @@ def _finding_lines(records: list[dict] | None, warnings: list[str]) -> list[tupl
 
 def progress_lines(done: int, total: int, item: PlannedRow, result: dict) -> str:
     """What the terminal gets as a row ends: one line (its status, time, and its output
-    folder or its one-line error), then one short line per warning, most severe first, with
+    folder, with why it ran again over its own earlier output, or its one-line error), then
+    one short line per warning, most severe first, with
     the action it asks; the warnings' full text is in the row's report.md and the batch
     report."""
     detail = str(item.out) if result["status"] == "ok" else result["error"]
+    if result["status"] == "ok" and item.rerun:  # the earlier output, an OpenSim fit included, is gone
+        detail += f" (ran again: {item.rerun}; its earlier output replaced)"
     took = f" {result['seconds']:.1f} s" if result.get("seconds") is not None else ""
     head = f"[{done}/{total}] line {item.line} {result['status']}{took}: {detail}"
     found = _finding_lines(result.get(FINDINGS), result.get("warnings") or [])

@@ -238,6 +238,9 @@ def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     res = _invoke(manifest, "--workers", "1")
     assert res.exit_code == 0 and _statuses(manifest) == ["skipped", "ok"], res.output
     assert (tmp_path / "r2" / "kinematics.csv").stat().st_mtime_ns != first
+    # said as it ends: replacing an earlier output (an OpenSim fit among it) had been silent (a user trial)
+    assert ("(ran again: its inputs, settings or pcnet version changed since its earlier output; its earlier "
+            "output replaced)") in res.output, res.output
 
     manifest.write_text(manifest.read_text().replace("r1,geometric", "r1,pcnet"))  # a setting changed
     res = _invoke(manifest, "--workers", "1")
