@@ -350,20 +350,20 @@ def main(argv=None) -> int:
     prov["systematic_pitch_deg"] = prov["systematic_roll_deg"] = f"maximum likelihood of recording summaries' errors, {split}"
     angles = training_trunk_angles(args.data)
     share, sig, k, n = fit_lying(angles)
+    by_cut = {c: fit_lying(angles, c) for c in LYING_CUTS_DEG}
     values.update(lying_elevation_deg=sig)
     prov["lying_elevation_deg"] = (f"training mocap of the shipped weights' mix (Bandai motion-style train, CMU "
                                    f"training subjects, DeepMimic's three floor motions): RMS trunk elevation of the "
                                    f"{k} of {n} frames lying (trunk > {A.LYING_TRUNK_DEG:g} deg from vertical; "
                                    f"decision 0082: 50-70 deg cuts give " + " / ".join(
-                                       f"{fit_lying(angles, c)[1]:.1f}" for c in LYING_CUTS_DEG) + " deg)")
+                                       f"{fit[1]:.1f}" for fit in by_cut.values()) + " deg)")
     prov["lying_prior"] = (f"{LYING_WHY}; the training mocap's share of lying frames, {share:.5f}, does not sample "
                            f"users' recordings (no training clip lies throughout)")
     lying_lines = [f"lying frames (trunk > {A.LYING_TRUNK_DEG:g} deg from vertical) per training clip: "
                    + ", ".join(f"{name} {int(np.sum(a > A.LYING_TRUNK_DEG))}" for name, a in angles
                                if np.any(a > A.LYING_TRUNK_DEG)),
                    "sigma_lie by the cut (deg from vertical -> frames, sigma_lie deg): "
-                   + ", ".join(f"{c:g} -> {fit_lying(angles, c)[2]}, {fit_lying(angles, c)[1]:.2f}"
-                               for c in LYING_CUTS_DEG)]
+                   + ", ".join(f"{c:g} -> {fit[2]}, {fit[1]:.2f}" for c, fit in by_cut.items())]
     params = params_from(values, prov)
 
     doc = {"model": "pcnet.stages.up_model (docs/up_model.md)", "command": COMMAND,

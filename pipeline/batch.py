@@ -972,13 +972,12 @@ def _grouped_findings(report: BatchReport) -> list[str]:
                 _, _, at, texts = seen.setdefault(f.kind or text, (f, text, [], set()))
                 at.append(r["line"])
                 texts.add(text)
-    key_of = {id(first): key for key, (first, _, _, _) in seen.items()}
+    rank = {id(f): i for i, f in enumerate(ranked(first for first, _, _, _ in seen.values()))}
     out = []
-    for f in ranked(first for first, _, _, _ in seen.values()):
-        _, text, at, texts = seen[key_of[id(f)]]
-        where = ", ".join(map(str, at[:SUMMARY_LINES])) + (f" and {len(at) - SUMMARY_LINES} more" if len(at) > SUMMARY_LINES else "")
+    for _, text, at, texts in sorted(seen.values(), key=lambda group: rank[id(group[0])]):
+        more = f" and {len(at) - SUMMARY_LINES} more" if len(at) > SUMMARY_LINES else ""
         differ = f"; {len(at)} rows, the first's numbers shown" if len(texts) > 1 else ""
-        out.append(f"{text} (line{'s' * (len(at) > 1)} {where}{differ})")
+        out.append(f"{text} (line{'s' * (len(at) > 1)} {', '.join(map(str, at[:SUMMARY_LINES]))}{more}{differ})")
     return out
 
 

@@ -557,8 +557,8 @@ def _knee_reading(rot: np.ndarray, knee: np.ndarray, previous: tuple[float, floa
 
 #: The fastest each periodic angle turns in the training motion capture (deg/s), fitted by
 #: ``python -m benchmarks.fit_angle_speeds --data ../shared/data``
-#: (``benchmarks/results/fit_angle_speeds.txt``): :func:`continuous_angles` splits a run where
-#: a step is faster.
+#: (``benchmarks/results/fit_angle_speeds.txt``): :func:`continuous_angles` splits a run that
+#: unwrapping would wind a whole turn from its reading at its steps faster than these.
 ANGLE_SPEED_LIMITS_PATH = Path(__file__).resolve().parent / "data" / "angle_speed_limits.json"
 
 
