@@ -1,0 +1,146 @@
+"""Fit ``--heading auto``'s hip-width threshold on validation data (decision 0085).
+
+    python -m benchmarks.fit_heading_source --data ../shared/data [--heldout]
+
+``auto`` takes each frame's heading from the input's hip line when the recording's hip width
+varies little (:func:`pcnet.stages.heading.hip_width_cv_percent` at most
+``AUTO_MAX_HIP_WIDTH_CV_PERCENT``), else from the rectification's own (predicted) heading. The
+hip line's heading error grows with the hips' noise, which the width's coefficient of variation
+measures (a rigid pelvis keeps its width); the predicted heading's does not depend on it. The
+threshold is where choosing by it errs least.
+
+Recordings: each clip of a set seen by one static "paper" camera
+(:func:`benchmarks.ablation.static_camera_clips`) with the lifter noise of
+:class:`pcnet.models.lifter_noise.LifterNoise` scaled by each of :data:`SCALES` (every size and
+the swap rate times the scale; 0: clean mocap, 1: the laboratory level, 2: beyond it, as real
+in-the-wild lifters are), rectified as ``pcnet run`` does by default (the shipped ensemble,
+sequence mode). Per recording: the hip width's CV and the mean per-frame heading error
+(:func:`pcnet.stages.core.metrics.heading_error_deg`) with the heading predicted and with the
+hip line's.
+
+Fit (validation: the Bandai motion-style val split and the CMU validation subjects, at most
+120 clips each, as benchmarks/fit_up_model.py): the threshold with the least mean heading error
+over all recordings, the midpoint between the two CVs that bound the best interval.
+``--heldout`` also prints, for the held-out sets of benchmarks/ablation.py (Bandai motion-style
+test, CMU test subjects, DeepMimic; at most 200 clips each), each recording's error under the
+fitted and the shipped threshold and their paired difference per clip, averaged over the scales (decision 0061's rule: worse when
+the mean is above 0.10 deg and its 95 % bootstrap interval above zero).
+
+Writes benchmarks/results/fit_heading_source.txt.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import fields, replace
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks import ablation as A
+from benchmarks import fit_up_model as F
+from benchmarks.report import print_and_save, require_mocap
+from pcnet.models.datasets import load_mocap, select_split
+from pcnet.models.lifter_noise import LifterNoise
+from pcnet.pipeline.rectification import NetworkEstimator
+from pcnet.stages.core.metrics import heading_error_deg
+from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, apply_heading, hip_width_cv_percent
+from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence
+
+RESULT = Path(__file__).resolve().parent / "results" / "fit_heading_source.txt"
+COMMAND = "python -m benchmarks.fit_heading_source --data ../shared/data"
+#: Lifter-noise scales (decision 0085): clean, fractions of the laboratory level, and twice it.
+SCALES = (0.0, 0.1, 0.25, 0.5, 1.0, 2.0)
+HELDOUT_MAX_CLIPS = 200
+#: Fields of :class:`LifterNoise` that are not sizes: kept when scaling.
+_NOT_SIZES = ("offset_time_constant_s", "burst_rate_hz")
+
+
+def scaled_noise(scale: float) -> LifterNoise:
+    """:class:`LifterNoise` with every size and the swap rate times ``scale``."""
+    base = LifterNoise()
+    return replace(base, **{f.name: getattr(base, f.name) * scale for f in fields(base) if f.name not in _NOT_SIZES})
+
+
+def recordings(clips: list, max_clips: int, scale: float) -> np.ndarray:
+    """``(N, 3)`` per recording: hip width CV (percent), mean heading error (deg) predicted, from the hips."""
+    rectify = Rectification(NetworkEstimator(), SequenceEvidence("sequence", n_bootstrap=0), HeadingStep("predicted"))
+    rows = []
+    for clip, X, R, _ in A.static_camera_clips(clips, max_clips, noise=scaled_noise(scale)):
+        out = rectify(X, clip.fps)
+        R_hips, _ = apply_heading(X, out.rotation, out.valid, "hips")
+        rows.append((hip_width_cv_percent(X, out.valid), np.nanmean(heading_error_deg(out.rotation, R)),
+                     np.nanmean(heading_error_deg(R_hips, R))))
+    return np.array(rows)
+
+
+def chosen_error(rows: np.ndarray, threshold: float) -> np.ndarray:
+    """Each recording's heading error under ``auto`` with ``threshold`` (percent)."""
+    return np.where(rows[:, 0] <= threshold, rows[:, 2], rows[:, 1])
+
+
+def fit_threshold(rows: np.ndarray) -> tuple[float, float, float]:
+    """``(threshold, lo, hi)``: the midpoint of the interval of thresholds between consecutive
+    CVs with the least mean chosen error (the lowest such interval)."""
+    cvs = np.unique(rows[:, 0])
+    cuts = np.concatenate([[0.0], cvs])
+    means = np.array([chosen_error(rows, c).mean() for c in cuts])
+    i = int(np.argmin(means))
+    lo = cuts[i]
+    hi = cvs[np.searchsorted(cvs, lo, side="right")] if lo < cvs[-1] else lo
+    return float((lo + hi) / 2), float(lo), float(hi)
+
+
+def describe(title: str, rows: np.ndarray, threshold: float) -> list[str]:
+    """One line per scale and one overall: CV range, errors predicted / hips / auto at both thresholds."""
+    return [f"{title:<38}{len(rows):>6}{np.median(rows[:, 0]):>9.2f}{rows[:, 1].mean():>9.2f}{rows[:, 2].mean():>9.2f}"
+            f"{chosen_error(rows, AUTO_MAX_HIP_WIDTH_CV_PERCENT).mean():>9.2f}{chosen_error(rows, threshold).mean():>9.2f}"]
+
+
+HEADER = (f"{'recordings':<38}{'n':>6}{'CV med':>9}{'pred':>9}{'hips':>9}{'auto sh':>9}{'auto fit':>9}   "
+          "(mean heading error, deg; 'auto sh': the shipped threshold, 'auto fit': the fitted one)")
+
+
+def run_sets(sets: list[tuple[str, list]], max_clips: int) -> dict[str, dict[float, np.ndarray]]:
+    return {name: {s: recordings(clips, max_clips, s) for s in SCALES} for name, clips in sets}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--data", type=Path, default=A.DEFAULT)
+    ap.add_argument("--heldout", action="store_true")
+    ap.add_argument("--out", type=Path, default=RESULT)
+    args = ap.parse_args(argv)
+    require_mocap(args.data, "fit_heading_source")
+    t0 = time.time()
+    val = run_sets([(tag, select_split(load_mocap(args.data / "mocap" / file), "val", "motion-style"))
+                    for tag, file in F.VAL_SETS], F.VAL_MAX_CLIPS)
+    rows = np.concatenate([r for by_scale in val.values() for r in by_scale.values()])
+    threshold, lo, hi = fit_threshold(rows)
+    lines = [__doc__.split("\n")[0], "", f"    {COMMAND}{' --heldout' if args.heldout else ''}", "",
+             f"lifter-noise scales {SCALES}; shipped threshold {AUTO_MAX_HIP_WIDTH_CV_PERCENT} %", "",
+             "validation", HEADER]
+    for name, by_scale in val.items():
+        lines += [row for s, r in by_scale.items() for row in describe(f"  {name} x{s:g}", r, threshold)]
+    lines += describe("  all", rows, threshold)
+    lines += ["", f"AUTO_MAX_HIP_WIDTH_CV_PERCENT = {threshold:.2f}   (best interval [{lo:.2f}, {hi:.2f}) %)"]
+    if args.heldout:
+        from benchmarks.view_gate_pieces import worse
+        held = run_sets([(title, select_split(load_mocap(args.data / "mocap" / file), split, "motion-style"))
+                         for title, file, split in A.MOCAP_SETS], HELDOUT_MAX_CLIPS)
+        lines += ["", "held out", HEADER]
+        for name, by_scale in held.items():
+            lines += [row for s, r in by_scale.items() for row in describe(f"  {name} x{s:g}", r, threshold)]
+            # one difference per clip (its mean over the scales): the scales' recordings of a clip are not independent
+            diff = np.mean([chosen_error(r, threshold) - chosen_error(r, AUTO_MAX_HIP_WIDTH_CV_PERCENT)
+                            for r in by_scale.values()], axis=0)
+            bad, cell = worse(diff)
+            lines.append(f"  {name}: fitted - shipped {cell}{': worse' if bad else ''}")
+    lines.append(f"({time.time() - t0:.0f} s)")
+    print_and_save(lines, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
