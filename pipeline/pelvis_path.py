@@ -80,7 +80,7 @@ class PelvisPath:
 
 
 def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: Intrinsics, units: str, fps: float,
-                min_confidence: float) -> PelvisPath:
+                min_confidence: float, segment: np.ndarray | None = None) -> PelvisPath:
     """The run's pelvis path.
 
     Args:
@@ -92,6 +92,8 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
         units: the poses' units; a path is recovered only from metric poses.
         fps: frame rate (Hz).
         min_confidence: the run's 2D confidence threshold.
+        segment: ``(T,)`` int, the one-body stretches of a 2D track that switches person
+            (:func:`pcnet.stages.flags.track_segments`), each fitted on its own; ``None``: one body.
 
     The recovered path's covariance includes a body-size spread of
     :data:`pcnet.models.lifter_noise.BONE_SCALE_SIGMA` (a lifter's limbs are a few percent
@@ -111,7 +113,7 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
         return PelvisPath("not observable", note=f"pelvis path not observable: {camera.source}")
     try:
         path = root_from_keypoints(joints_cam, keypoints2d, camera.matrix, fps, min_confidence=min_confidence,
-                                   size_std_fraction=BONE_SCALE_SIGMA)
+                                   size_std_fraction=BONE_SCALE_SIGMA, segment=segment)
     except InputError as err:  # too few joints seen in 2D and 3D alike: the run goes on without a path
         return PelvisPath("not observable", note=f"pelvis path not observable: {err}")
     position, held = _held_at_the_ends(path.position, present_frames(joints_cam))

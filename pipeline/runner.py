@@ -999,32 +999,39 @@ def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
         _check_measured_root(cfg, camera.root)
 
 
-def _keypoint_path(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled) -> PelvisPath | None:
+def _track(keypoints2d, fps: float) -> tuple[np.ndarray | None, list]:
+    """:func:`pcnet.stages.flags.track_segments` of the run's 2D track (``(None, [])`` without one)."""
+    return track_segments(keypoints2d, fps) if keypoints2d is not None else (None, [])
+
+
+def _keypoint_path(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled,
+                   segment: np.ndarray | None = None) -> PelvisPath | None:
     """The pelvis path fitted to the 2D keypoints before rectification, for the up's floor
     contacts (decision 0044) and the world frame, which reuses it (also where the fit found no
     path: its kind and note say why): in sequence or auto mode, without a measured root, from
     metric poses (the lifter's metres, or ``--height``'s scaling); ``None`` where none was
-    fitted (:func:`pcnet.pipeline.pelvis_path.pelvis_path`)."""
+    fitted (:func:`pcnet.pipeline.pelvis_path.pelvis_path`; ``segment``: the 2D track's
+    one-person stretches, each its own path, where it switches person)."""
     recording, camera = inputs.recording, scaled.camera
     if (camera.root is not None or camera.keypoints2d is None or scaled.units != "m"
             or cfg.mode not in ("sequence", "auto")):
         return None
     return pelvis_path(None, camera.joints, camera.keypoints2d,
                        camera_intrinsics(cfg.focal_px, recording.camera_matrix, inputs.image_size),
-                       scaled.units, recording.fps, cfg.min_confidence)
+                       scaled.units, recording.fps, cfg.min_confidence, segment)
 
 
 def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: FrameStore,
-             keypoint_path: PelvisPath | None = None) -> Rectified:
+             track: tuple[np.ndarray | None, list], keypoint_path: PelvisPath | None = None) -> Rectified:
     """Rectify the camera-frame poses (:func:`pcnet.pipeline.rectification.rectify_checked`),
     located by the measured root or else by the path ``keypoint_path`` found (:func:`_keypoint_path`)
     so that sequence mode weighs the floor contacts, and read the camera's tilt; the report gets
-    the pelvis fill."""
-    fps, kp2d = inputs.recording.fps, camera.keypoints2d
+    the pelvis fill. ``track``: :func:`_track` of the 2D keypoints."""
+    fps = inputs.recording.fps
     root = camera.root
     if root is None and keypoint_path is not None and keypoint_path.kind == "from 2D keypoints":
         root = keypoint_path.camera
-    segment, events = track_segments(kp2d, fps) if kp2d is not None else (None, [])
+    segment, events = track
     # A static camera does not move when the tracker jumps to another person, but the
     # jump and the other body's poses read as camera motion: decide the mode on one
     # person's frames.
@@ -1125,7 +1132,8 @@ def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rec
         else:
             path = pelvis_path(scaled.camera.root, cam, scaled.camera.keypoints2d,
                                camera_intrinsics(cfg.focal_px, inputs.recording.camera_matrix, inputs.image_size),
-                               scaled.units, fps, cfg.min_confidence)
+                               scaled.units, fps, cfg.min_confidence,
+                               rectified.track_segment if rectified.track_events else None)
         joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64),
                                        floor_frames=rectified.one_person())
         return World(joints, frame.rotation, path.world_std(frame.rotation),
@@ -1275,8 +1283,9 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         bar.update()
 
         step("rectify")
-        keypoint_path = _keypoint_path(cfg, inputs, scaled)
-        rectified = _rectify(cfg, inputs, scaled.camera, store, keypoint_path)
+        track = _track(scaled.camera.keypoints2d, inputs.recording.fps)
+        keypoint_path = _keypoint_path(cfg, inputs, scaled, track[0] if track[1] else None)
+        rectified = _rectify(cfg, inputs, scaled.camera, store, track, keypoint_path)
         findings = checks(_check_inputs(cfg, inputs, scaled.camera, rectified))
         bar.update()
 

@@ -341,6 +341,31 @@ def _rts(z: np.ndarray, R: np.ndarray, use: np.ndarray, F: np.ndarray, Q: np.nda
     return pos, 0.5 * (cov + cov.transpose(0, 2, 1))
 
 
+def _stretch_starts(segment, T: int) -> np.ndarray:
+    """The first frame of each stretch of equal ``segment`` ``(T,)`` (``[0]`` for ``None``).
+
+    Raises:
+        InputError: ``segment`` not of shape ``(T,)``.
+    """
+    if segment is None:
+        return np.zeros(1, int)
+    segment = np.asarray(segment)
+    if segment.shape != (T,):
+        raise InputError(f"segment: expected shape ({T},) like joints_cam's frames, got {segment.shape}")
+    return np.concatenate([[0], 1 + np.flatnonzero(segment[1:] != segment[:-1])])
+
+
+def _rts_stretches(z: np.ndarray, R: np.ndarray, use: np.ndarray, F: np.ndarray, Q: np.ndarray, v0: float,
+                   starts: np.ndarray):
+    """:func:`_rts` over each stretch from ``starts[i]`` to the next start, independently."""
+    if len(starts) == 1:
+        return _rts(z, R, use, F, Q, v0)
+    pos, cov = np.full((len(z), 3), np.nan), np.full((len(z), 3, 3), np.nan)
+    for a, b in zip(starts, [*starts[1:], len(z)]):
+        pos[a:b], cov[a:b] = _rts(z[a:b], R[a:b], use[a:b], F, Q, v0)
+    return pos, cov
+
+
 def _outlier_stat(e: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``e^T C^+ e`` ``(n,)`` over the directions where ``C`` ``(n, 3, 3)`` is usable, and
     their count (the chi-square degrees of freedom)."""
@@ -351,7 +376,7 @@ def _outlier_stat(e: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 def root_from_keypoints(joints_cam, keypoints2d, K, fps, *, min_confidence: float = DEFAULT_MIN_CONFIDENCE,
-                        size_std_fraction: float = 0.0) -> RootPath:
+                        size_std_fraction: float = 0.0, segment: np.ndarray | None = None) -> RootPath:
     """The camera-frame pelvis path of a root-relative metric pose sequence seen in 2D.
 
     Args:
@@ -371,6 +396,10 @@ def root_from_keypoints(joints_cam, keypoints2d, K, fps, *, min_confidence: floa
             height known to 5 %); it scales the whole position, depth most, alike in every
             frame, and is added to ``cov``/``std`` after smoothing. 0 (default): the size is
             taken as exact; the caller decides from what the size came from.
+        segment: optional ``(T,)`` int, the stretch of one body each frame belongs to (a 2D
+            track that switches person: :func:`pcnet.stages.flags.track_segments`). The
+            smoother starts afresh wherever it changes, so no stretch's path is pulled towards
+            another body's. ``None``: one body throughout.
 
     Returns:
         :class:`RootPath`: float64 ``position``/``std`` ``(T, 3)`` (and ``cov`` ``(T, 3, 3)``) in
@@ -382,6 +411,7 @@ def root_from_keypoints(joints_cam, keypoints2d, K, fps, *, min_confidence: floa
     Raises:
         InputError: ``joints_cam`` or ``keypoints2d`` not ``(T, 17, 3)`` with the same ``T >= 1``;
             ``K`` not a finite ``(3, 3)`` upper-triangular matrix with positive focal lengths;
+            ``segment`` not ``(T,)``;
             ``fps``, ``min_confidence`` or ``size_std_fraction`` out of range; no frame with
             :data:`MIN_JOINTS` usable joints, or none that could be fitted.
 
@@ -414,6 +444,7 @@ def root_from_keypoints(joints_cam, keypoints2d, K, fps, *, min_confidence: floa
     if not (np.isfinite(size_std_fraction) and size_std_fraction >= 0):
         raise InputError(f"size_std_fraction: expected a number >= 0, got {size_std_fraction}")
     T = shape_j[0]
+    starts = _stretch_starts(segment, T)
 
     class _Pair:  # one sliceable view of both inputs, so per_frame reads them block by block
         def __len__(self):
@@ -449,7 +480,7 @@ def root_from_keypoints(joints_cam, keypoints2d, K, fps, *, min_confidence: floa
     crit = chi2.ppf(OUTLIER_QUANTILE, np.arange(4).clip(1))  # by degrees of freedom 0..3
     seen = [use]
     for _ in range(_MAX_OUTLIER_PASSES):
-        pos, cov = _rts(z, R, use, F, Q, VELOCITY_PRIOR_STD)
+        pos, cov = _rts_stretches(z, R, use, F, Q, VELOCITY_PRIOR_STD, starts)
         # Frames outside the smoothed span (rejected at its ends in an earlier pass) keep
         # their status: there is no path there to test them against.
         test = fitted & np.isfinite(pos).all(1)
@@ -467,12 +498,12 @@ def root_from_keypoints(joints_cam, keypoints2d, K, fps, *, min_confidence: floa
             # Neighbouring frames that reject and re-admit each other in turn: drop every
             # frame rejected anywhere in the cycle (conservative: the path is bridged there).
             use = np.logical_and.reduce(seen[cycle[0]:] + [new])
-            pos, cov = _rts(z, R, use, F, Q, VELOCITY_PRIOR_STD)
+            pos, cov = _rts_stretches(z, R, use, F, Q, VELOCITY_PRIOR_STD, starts)
             break
         use = new
         seen.append(use)
     else:  # not settled within the passes: the path of the last set
-        pos, cov = _rts(z, R, use, F, Q, VELOCITY_PRIOR_STD)
+        pos, cov = _rts_stretches(z, R, use, F, Q, VELOCITY_PRIOR_STD, starts)
 
     if size_std_fraction > 0:
         cov = cov + size_std_fraction**2 * pos[:, :, None] * pos[:, None, :]

@@ -133,6 +133,27 @@ def test_gaps_are_bridged_and_ends_stay_nan():
     assert r.std[55, 0] > 2 * np.median(r.std[10:40, 0])
 
 
+def test_a_switch_to_another_body_does_not_pull_the_path_before_it():
+    """A 2D track that jumps to someone 2 m to the side at frame k: fitted as one body the smoother
+    drags the frames before k towards the other person (the Sports2D demo's main person sank below
+    the floor before the switch); with the track's stretches each is fitted on its own."""
+    P, X, kp = scene()
+    kp = add_noise(kp, np.random.default_rng(5))
+    k = len(P) // 2
+    other = P[k:] + np.array([2.0, 0.0, 0.0])
+    kp[k:, :, :2] = project(other)
+    segment = (np.arange(len(P)) >= k).astype(int)
+    before = root_from_keypoints(X[:k], kp[:k], K, FPS).position
+    split = root_from_keypoints(X, kp, K, FPS, segment=segment).position
+    # as if the first stretch were alone (to 2 cm: the pixel noise level is the recording's)
+    assert np.linalg.norm(split[:k] - before, axis=1).max() < 0.02
+    assert np.linalg.norm(split[k:] - other[:, 0], axis=1).max() < 0.3
+    whole = root_from_keypoints(X, kp, K, FPS).position
+    assert np.linalg.norm(whole[k - 10:k] - P[k - 10:k, 0], axis=1).max() > 0.1  # what the stretches prevent
+    with pytest.raises(InputError, match="segment"):
+        root_from_keypoints(X, kp, K, FPS, segment=segment[1:])
+
+
 def test_low_confidence_joints_are_ignored():
     P, X, kp = scene()
     kp[:, 13:, :2] += 300.0  # wrists and right arm far off, but below the threshold
