@@ -550,6 +550,10 @@ def _knee_reading(rot: np.ndarray, knee: np.ndarray, previous: tuple[float, floa
         else:  # continues the previous chunk's last frame
             flip0 = abs(_wrap180(rot[a] - previous[0])) > 90.0
         flip = (parity == 1) != flip0
+        # A knee cannot hyperextend that far: those frames take the flexed reading even where
+        # it breaks the run's continuity (a lifter's hip line that turns 86 deg in one frame,
+        # under the 90 deg step, had kept a cyclist's knee at -101 deg).
+        flip ^= np.where(flip, knee[a:b], -knee[a:b]) > MAX_KNEE_HYPEREXTENSION_DEG
         rot[a:b] = np.where(flip, rot[a:b] + 180.0, rot[a:b])
         knee[a:b] = np.where(flip, -knee[a:b], knee[a:b])
     return rot, knee

@@ -102,6 +102,12 @@ def test_knee_reading_kept_over_a_run():
                              "left_knee_flexion_deg": np.array([40.0, 40.0, -40.0])})
     assert np.allclose(out["left_knee_flexion_deg"], 40.0)
     assert np.allclose(out["left_hip_internal_rotation"], [10.0, 20.0, 30.0])
+    # ... not even inside a run whose reading continuity keeps: a real MotionBERT cyclist
+    # (clip_b, right leg, frames 377-387) whose hip line turned 86 deg in one frame, under the
+    # 90 deg step that changes the reading, had read a knee hyperextended by up to 101 deg
+    out = continuous_angles({"right_hip_internal_rotation": np.array([-10.0, -11.0, -96.8, 80.0, 70.0]),
+                             "right_knee_flexion": np.array([40.0, 30.0, -15.0, 64.5, 100.0])})
+    assert np.allclose(out["right_knee_flexion"], [40.0, 30.0, -15.0, 64.5, 100.0])
 
 
 def test_angles_figure_draws_no_wrap():
