@@ -528,13 +528,16 @@ def _needs_fps_column(config: dict) -> bool:
 
 def in_manifest_terms(message: str) -> str:
     """A row's error as a manifest user reads it: the ``pcnet run`` flags that the pipeline
-    names (``--fps``, ``pass --fps-override``) as the row's columns (``column fps``, ``set
-    column fps_override to true``); the batch's own ``--overwrite`` stays a flag."""
+    names (``--fps``, ``pass --fps-override``, ``--no-camera-prior``) as the row's columns
+    (``column fps``, ``set column fps_override to true``, ``set column camera_prior to
+    false``); the batch's own ``--overwrite`` stays a flag."""
     def flag(match: re.Match) -> str:
         asked, name, value = match.group(1), match.group(2).replace("-", "_"), match.group(3)
+        rest = f" {value}" if value else ""
+        if name.startswith("no_") and name[3:] in _BOOLEAN_COLUMNS:  # --no-camera-prior: a column set false
+            return f"set column {name[3:]} to false{rest}"
         if name not in manifest_columns() or name == "overwrite":
             return match.group(0)
-        rest = f" {value}" if value else ""
         if value in ("to", "or", "and", "anyway"):  # the sentence goes on: not the flag's value
             value = None
         if asked and name in _BOOLEAN_COLUMNS:
@@ -542,7 +545,8 @@ def in_manifest_terms(message: str) -> str:
         if asked:
             return f"set column {name}" + (f" to {value}" if value else rest)
         return f"{'out' if name == 'out' else 'column ' + name}{rest}"
-    return re.sub(r"(pass )?--([a-z][a-z0-9-]*)(?: ([a-z0-9.]+))?", flag, message)
+    columns = re.sub(r"(pass )?--([a-z][a-z0-9-]*)(?: ([a-z0-9.]+))?", flag, message)
+    return re.sub(r"(column \w+(?: [a-z0-9.]+)?) (?=column )", r"\1, ", columns)  # flags side by side: a list
 
 
 def _as_columns(message: str) -> str:
@@ -970,7 +974,8 @@ def _grouped_findings(report: BatchReport) -> list[str]:
         if r["status"] in DONE:
             for f, text in _finding_lines(report.findings.get(r["row"]), r.get("warnings") or []):
                 _, _, at, texts = seen.setdefault(f.kind or text, (f, text, [], set()))
-                at.append(r["line"])
+                if r["line"] not in at:  # a row with two findings of one kind counts once
+                    at.append(r["line"])
                 texts.add(text)
     rank = {id(f): i for i, f in enumerate(ranked(first for first, _, _, _ in seen.values()))}
     out = []

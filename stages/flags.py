@@ -67,7 +67,8 @@ class Kind(IntEnum):
     NO_OPENSIM = auto()  #: :func:`no_opensim_flag`
     NO_FLOOR = auto()  #: :func:`floor_flag`, no ankle anywhere
     # CHECK: the result stands; some numbers carry an error worth checking
-    IMPLAUSIBLE_MOTION = auto()  #: :func:`implausible_motion_findings`
+    IMPLAUSIBLE_SPEED = auto()  #: :func:`implausible_motion_findings`
+    IMPLAUSIBLE_ACCELERATION = auto()  #: :func:`implausible_motion_findings`
     LIFTER_TURN = auto()  #: :func:`lifter_frame_flag`
     CAMERA_TILT = auto()  #: :func:`orientation_flags`
     LYING = auto()  #: :func:`posture_flag`
@@ -857,7 +858,8 @@ def implausible_motion_findings(found: Sequence[ImplausibleMotion],
                  + (f" +{len(runs) - 2} more" if len(runs) > 2 else ""))
         worst = max(mine, key=lambda f: f.peak / f.limit)
         digits = 1 if quantity == "speed" else 0
-        out.append(_found(Kind.IMPLAUSIBLE_MOTION, Severity.CHECK,
+        kind = Kind.IMPLAUSIBLE_SPEED if quantity == "speed" else Kind.IMPLAUSIBLE_ACCELERATION
+        out.append(_found(kind, Severity.CHECK,
                           f"implausible {quantity} in {where}: {worst.joint.replace('_', ' ')} "
                           f"{worst.peak:.{digits}f} {worst.unit} (limit {worst.limit:.{digits + 1}f})",
                           "leave implausible_frames out", detail, runs))
@@ -952,6 +954,9 @@ NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
      lambda m: f"low-pass cutoff {m['hz']} Hz by residual analysis (Winter; noise {m['noise']})"),
     (r"3D joints remapped from (?P<layout>\S+) to H36M-17 with (?P<built>.*?) built as means",
      lambda m: f"3D joints remapped from {m['layout']} to H36M-17 with {m['built']} built from others"),
+    # the moving-camera note's line keeps its other cause: a static tripod under a side bend
+    (r"per-frame up spreads (?P<spread>\S+) deg",
+     lambda m: f"per-frame up spreads {m['spread']} deg: a moving camera (--mode smooth), or fast or non-upright poses"),
     # which person of several: another choice is another subject, so the way to choose stays
     (r"2D keypoints: track (?P<track>\S+) chosen (?P<how>as the highest summed per-frame score|by person=)(?P<rest>.*)",
      lambda m: shortened(m.string) if m['how'] == "by person=" else

@@ -459,6 +459,40 @@ def test_the_summary_groups_one_kind_of_warning_whose_numbers_differ_by_row():
     assert line.endswith(f"(lines {lines} and {15 - SUMMARY_LINES} more; 15 rows, the first's numbers shown)")
 
 
+def test_the_summary_keeps_speed_and_acceleration_apart_and_counts_each_row_once():
+    """Two rows with implausible speed, one of them with implausible acceleration too: two
+    summary lines, each naming its rows once (a user trial: "lines 3, 3, 5, 5; 4 rows" for two
+    rows, the acceleration folded into the speed line)."""
+    from pcnet.pipeline.batch import BatchReport, format_summary
+    from pcnet.pipeline.batch_worker import finding_records
+    from pcnet.stages.flags import implausible_motion_findings
+    from pcnet.stages.plausibility import ImplausibleMotion
+
+    def motion(quantity, peak):
+        limit, unit = (8.0, "m/s") if quantity == "speed" else (140.0, "m/s^2")
+        return ImplausibleMotion("right_wrist", quantity, 10, 12, peak, 11, limit, unit)
+
+    found = {1: implausible_motion_findings([motion("speed", 9.0), motion("acceleration", 400.0)]),
+             2: implausible_motion_findings([motion("speed", 12.0)])}
+    rows = [{"row": i, "line": i + 2, "out": f"/study/out/r{i}", "status": "ok", "frames": 20, "valid": 20,
+             "mode": "sequence", "seconds": 1.0, "error": "", "warnings": [f.detail for f in fs], "host": "h",
+             "pid": 1, "attempts": 1, "threads": 1} for i, fs in found.items()]
+    report = BatchReport(rows, False, Path("/study/m.json"), 1.0, settings={},
+                         findings={i: finding_records(fs) for i, fs in found.items()})
+    lines = [t for t in format_summary(report).splitlines() if t.startswith("WARNING")]
+    assert len(lines) == 2 and "implausible speed" in lines[0] and "implausible acceleration" in lines[1], lines
+    assert lines[0].endswith("(lines 3, 4; 2 rows, the first's numbers shown)") and lines[1].endswith("(line 3)")
+
+
+def test_run_flags_in_an_action_read_as_manifest_columns():
+    from pcnet.pipeline.batch import in_manifest_terms
+
+    assert in_manifest_terms("check the lifter, or its units (--lifter generic --units)") == \
+        "check the lifter, or its units (column lifter generic, column units)"
+    assert in_manifest_terms("--no-camera-prior if standing under a tilted camera") == \
+        "set column camera_prior to false if standing under a tilted camera"
+
+
 def test_retry_failed_needs_a_previous_summary(tmp_path):
     manifest = _manifest(tmp_path, _row("a"))
     res = _invoke(manifest, "--retry-failed")

@@ -118,6 +118,13 @@ def test_unknown_texts_are_shortened_to_one_line_keeping_the_first_clauses():
     assert "(" not in short
     assert note_finding(text).headline == short
     assert note_finding("a short note") == Finding(Severity.INFO, "a short note", "", "a short note")
+    # the moving-camera note's line keeps the poses as the other cause (a user trial: a side bend under a tripod)
+    from pcnet.pipeline.runner import _moving_camera_note
+    from pcnet.stages.rectification_report import ModeChoice
+
+    (note,) = _moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=21.0))
+    assert note_finding(note).headline == \
+        "per-frame up spreads 21.0 deg: a moving camera (--mode smooth), or fast or non-upright poses"
     fit = {"marker_rms_m": 0.01, "marker_max_m": 0.02, "warnings": ["something new happened: " + "x " * 80]}
     (new,) = opensim_fit_findings(fit)  # a text of no known kind stays a warning, shortened
     assert new.kind is None and new.action == "see report.md" and len(new.headline) <= HEADLINE_WIDTH
