@@ -262,8 +262,13 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     validate_fps(fps, "--fps")
     check_method_weights(method, weights, "--weights")
     joints, nonfinite = read_pose_array(input_path, key)
-    res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading,
-                      camera_prior=camera_prior is not False)
+    try:
+        res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading,
+                          camera_prior=camera_prior is not False)
+    except InputError as err:
+        if weights is not None and str(err).startswith(f"{weights}:"):
+            raise  # the weights file's own error, already naming it
+        raise InputError(f"{input_path}: {err}") from err
     if not res.valid.any():  # the same rule as pcnet run: nothing is written
         raise InputError(f"{input_path}: {no_valid_frame_reason(res.report)}")
     write_npz(out_path, replace=overwrite, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,

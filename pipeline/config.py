@@ -10,7 +10,7 @@ import re
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-from pcnet.models.toml_config import (check_config_keys, check_config_types, read_toml, type_hints, type_name,
+from pcnet.models.toml_config import (check_config_keys, close_names, check_config_types, read_toml, type_hints, type_name,
                                       value_matches)
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
 from pcnet.stages.core.errors import InputError
@@ -246,8 +246,14 @@ class RunConfig:
         row, command-line options), naming ``source`` in errors.
 
         Raises:
-            InputError: :meth:`validate` refuses a value (or the inputs are missing).
+            InputError: a name that is no field, or :meth:`validate` refuses a value (or the
+                inputs are missing).
         """
+        allowed = sorted(f.name for f in fields(cls))
+        unknown = sorted(set(values) - set(allowed))
+        if unknown:
+            raise InputError(f"{field_name(source, *unknown)}: unknown{close_names(unknown, allowed)}; expected some "
+                             f"of {allowed}")
         return cls(**values).validate(source)
 
     def _check_inputs_given(self, source: str) -> None:

@@ -109,9 +109,10 @@ def rectify(
     what ran.
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
-    :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, a single
-    ``(17, 3)`` pose read as one frame, at least
-    one frame and one finite value, non-finite = missing) and the pelvis rule
+    :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least
+    one frame and one finite value, non-finite or masked = missing; here and in ``pcnet
+    rectify`` a single ``(17, 3)`` pose is read as one frame, while ``pcnet run``'s lifter
+    files hold ``(T, J, 3)`` as their formats do) and the pelvis rule
     :func:`pcnet.stages.core.conventions.fill_pelvis_from_hips` (a missing pelvis is the hip
     midpoint; a frame still without a pelvis is invalid). The report's
     ``pelvis_from_hips_frames`` counts the filled frames; its ``weights`` and

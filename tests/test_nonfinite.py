@@ -201,3 +201,19 @@ def test_run_reads_frames_of_zeros_as_missing_in_its_kinematics(tmp_path):
     for row in rows[20:25]:
         assert row["valid"] == "0" and row["head_missing"] == "1" and row["head_y_normalised"] == "", row
     assert all(row["head_missing"] == "0" and row["head_y_normalised"] != "" for row in rows[:20])
+
+
+def test_a_masked_arrays_masked_joints_are_missing():
+    """A numpy masked array's mask marks missing joints: NaN, never the values it hides (a
+    user trial: a masked wrist held at the origin was rectified as a real position)."""
+    from pcnet.pipeline.rectification import rectify
+    from pcnet.stages.core.conventions import check_poses, validate_poses
+
+    poses = np.load(FIXTURES / "boxing_X3D_f000-059.npy").astype(np.float64)
+    mask = np.zeros(poses.shape, bool)
+    mask[10:20, R_WRIST] = True
+    masked = np.ma.array(np.where(mask, 0.0, poses), mask=mask)
+    for checked in (validate_poses(masked), check_poses(masked)):
+        assert np.isnan(checked[10:20, R_WRIST]).all() and np.isfinite(checked[:10]).all()
+    res = rectify(masked)
+    assert np.isnan(res.canonical[10:20, R_WRIST]).all() and res.valid[10:20].all()

@@ -597,6 +597,11 @@ def test_rectify_command_npy_npz_and_bad_input(tmp_path):
     np.save(bad, poses[:, :16])
     res = _invoke("rectify", bad, "--out", tmp_path / "y.npz")
     assert res.exit_code != 0 and "bad.npy" in res.output and "(T, 17, 3)" in res.output
+    hipless = tmp_path / "hipless.npy"
+    np.save(hipless, np.where(np.isin(np.arange(17), [1, 4])[:, None], np.nan, poses))
+    for mode in ("frame", "sequence"):  # sequence mode's own refusal names the file too (a user trial)
+        res = _invoke("rectify", hipless, "--out", tmp_path / "z.npz", "--mode", mode)
+        assert res.exit_code == 1 and f"Error: {hipless}: no frame has the hips" in res.output, res.output
 
 
 def _kinect_walk(path: Path, pitch_deg: float = 0.0) -> np.ndarray:

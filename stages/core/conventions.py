@@ -185,10 +185,19 @@ def get_layout(name: str) -> Layout:
     raise InputError(f"unknown joint layout {name!r}; expected one of {sorted(LAYOUTS)}")
 
 
+def _unmasked(joints) -> np.ndarray:
+    """``joints`` as an array, a numpy masked array's masked values NaN (missing): ``np.asarray``
+    alone would return the values the mask hides."""
+    if np.ma.isMaskedArray(joints) and np.issubdtype(joints.dtype, np.number) and joints.dtype != bool:
+        return np.ma.filled(joints.astype(np.float64), np.nan)
+    return np.asarray(joints)
+
+
 def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -> np.ndarray:
     """Validate and return ``joints`` as float32 ``(N, J, 3)``; a single ``(J, 3)`` pose is
     promoted to ``(1, J, 3)``. A long recording's :class:`~.framestore.FrameArray` (on disk,
-    float) is returned as it is once its shape is checked.
+    float) is returned as it is once its shape is checked. A numpy masked array's masked
+    values are missing: NaN.
 
     Raises:
         ValueError: naming ``name`` and the expected shape when the shape is wrong.
@@ -198,7 +207,7 @@ def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -
             raise InputError(f"{name}: expected float (N, {num_joints}, 3) H36M-17 joints, got "
                              f"{joints.shape} {joints.dtype}")
         return joints
-    arr = np.asarray(joints)
+    arr = _unmasked(joints)
     if arr.ndim == 2:
         arr = arr[None]
     if arr.ndim != 3 or arr.shape[1:] != (num_joints, 3):
@@ -286,14 +295,14 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
             time either way.
 
     Returns:
-        float32 ``(T, J, 3)``; non-finite values (``inf``) and placeholders
-        (:func:`placeholder_joints`) become NaN: missing data.
+        float32 ``(T, J, 3)``; non-finite values (``inf``), a masked array's masked values
+        and placeholders (:func:`placeholder_joints`) become NaN: missing data.
 
     Raises:
         InputError: wrong dtype or shape, no frame, no finite value, or a coordinate beyond
             the bound for ``units`` (naming the frame and joint).
     """
-    arr = np.asarray(joints)
+    arr = _unmasked(joints)
     if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
         raise InputError(f"{source}: expected real-valued (float) joint coordinates, got dtype {arr.dtype}")
     if arr.ndim == 2:
