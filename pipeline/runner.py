@@ -181,7 +181,8 @@ class RunResult:
         in full, every finding's full text in the summary's order, every note in full, the
         rectification report's numbers and the outputs."""
         return report_markdown(title, self.key_facts(long=True), self.ranked_findings, self.note_findings,
-                               self.report.as_record(), [name for name in self.outputs if name != REPORT_NAME])
+                               self.report.as_record(),
+                               [Path(path).name for name, path in self.outputs.items() if name != REPORT_NAME])
 
     def _per_frame_tilt(self) -> str:
         """Where the up may change from frame to frame, the tilt line's one number is that of the

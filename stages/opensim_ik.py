@@ -121,7 +121,7 @@ def opensim_fit_line(result: dict, short: bool = False) -> str:
 #: docs/benchmarks/kinematics.md: their sum agrees with pcnet's thigh-to-thorax angle within
 #: 0.9 deg on mocap).
 UNOBSERVED_NOTE = ("pelvis_tilt and L5_S1_Flex_Ext are not observable from joint centres: read hip_flexion "
-                   "- L5_S1_Flex_Ext (thigh to thorax) instead of either (docs/joint_angles.md)")
+                   "- L5_S1_Flex_Ext (thigh to thorax) instead of either (docs/benchmarks/kinematics.md)")
 
 
 #: The heading of the section ``pcnet opensim`` adds to the run's report.md (:func:`opensim_markdown`).

@@ -8,6 +8,8 @@ clips, CC BY-NC 4.0) seen by known synthetic cameras; real lifter output:
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -158,3 +160,14 @@ def test_cli_rectify_reports_the_heading_source(tmp_path):
     assert bound.shape == valid.shape and (bound[valid] >= 7.0).all()  # the shipped ensemble's calibrated bound
     result = CliRunner().invoke(main, ["rectify", str(tmp_path / "poses.npy"), "--out", str(out), "--heading", "predicted", "--overwrite"])
     assert result.exit_code == 0 and "heading from predicted" in result.output
+
+
+def test_auto_threshold_is_the_fitted_one():
+    """``AUTO_MAX_HIP_WIDTH_CV_PERCENT`` is what ``python -m benchmarks.fit_heading_source``
+    printed (decision 0085)."""
+    import re
+
+    text = (Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "fit_heading_source.txt").read_text()
+    assert "python -m benchmarks.fit_heading_source" in text
+    m = re.search(r"^AUTO_MAX_HIP_WIDTH_CV_PERCENT = ([0-9.]+) ", text, re.M)
+    assert m and AUTO_MAX_HIP_WIDTH_CV_PERCENT == pytest.approx(float(m.group(1)), abs=1e-9)

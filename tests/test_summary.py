@@ -60,7 +60,9 @@ def _every_kind() -> list[Finding]:
             + ensemble_weights_flag(EnsembleWeights(0.8, 5, 10, 100, {"90": 30, "270": 0}))
             + unfiltered_flag(np.zeros((5, 17), bool), np.ones((5, 17), bool), 30.0, 6.0)
             + floor_flag(np.zeros(5, bool), np.ones(5, bool))
-            + implausible_motion_findings([ImplausibleMotion("right_wrist", "speed", 60, 70, 14.9, 68, 8.18, "m/s")])
+            + implausible_motion_findings([ImplausibleMotion("right_wrist", "speed", 60, 70, 14.9, 68, 8.18, "m/s"),
+                                           ImplausibleMotion("left_ankle", "acceleration", 61, 63, 399.0, 62, 141.0,
+                                                             "m/s^2")])
             + size_change_flag(box * np.linspace(1.0, 3.0, len(box))[:, None, None])
             + mirrored_skeleton_flag(box * np.array([1.0, 1.0, -1.0]))
             + side_swap_flag(kp, kp[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]])
@@ -118,13 +120,6 @@ def test_unknown_texts_are_shortened_to_one_line_keeping_the_first_clauses():
     assert "(" not in short
     assert note_finding(text).headline == short
     assert note_finding("a short note") == Finding(Severity.INFO, "a short note", "", "a short note")
-    # the moving-camera note's line keeps the poses as the other cause (a user trial: a side bend under a tripod)
-    from pcnet.pipeline.runner import _moving_camera_note
-    from pcnet.stages.rectification_report import ModeChoice
-
-    (note,) = _moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=21.0))
-    assert note_finding(note).headline == \
-        "per-frame up spreads 21.0 deg: a moving camera (--mode smooth), or fast or non-upright poses"
     fit = {"marker_rms_m": 0.01, "marker_max_m": 0.02, "warnings": ["something new happened: " + "x " * 80]}
     (new,) = opensim_fit_findings(fit)  # a text of no known kind stays a warning, shortened
     assert new.kind is None and new.action == "see report.md" and len(new.headline) <= HEADLINE_WIDTH

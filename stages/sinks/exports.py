@@ -24,7 +24,7 @@ from ..core.atomic import atomic_path
 from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST
 from ..core.errors import InputError, import_extra
 from ..core.framestore import FrameArray, frame_blocks
-from ..kinematics import Kinematics
+from ..kinematics import MIN_PROJECTED_FRACTION, Kinematics
 from .plots import display_samples, new_figure, save_png
 
 
@@ -182,10 +182,19 @@ def _angle_row(name: str) -> tuple[str, str]:
     side, _, rest = bare.partition("_")
     if side in ("left", "right") and rest in _INCLINATIONS:
         frame, text = _INCLINATIONS[rest]
-        return frame, text.format(side=side)
+        return frame, text.format(side=side) + _in_plane_empty(rest)
     if bare in _INCLINATIONS:
-        return _INCLINATIONS[bare]
+        frame, text = _INCLINATIONS[bare]
+        return frame, text + _in_plane_empty(bare)
     return "none", UNDESCRIBED_ANGLE
+
+
+def _in_plane_empty(name: str) -> str:
+    """When an in-plane inclination is empty (:func:`pcnet.stages.kinematics.joint_angles`)."""
+    if not name.endswith(("sagittal_inclination", "frontal_inclination")):
+        return ""
+    near = np.degrees(np.arcsin(MIN_PROJECTED_FRACTION))
+    return f" Empty where the segment lies within {near:.1f} deg of the plane's normal: no angle in that plane."
 
 
 def kinematics_columns(
