@@ -34,7 +34,7 @@ from pathlib import Path
 from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError, close_names
 
-from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker
+from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker, what_changed
 from .batch_worker import FINDINGS, cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, records_frame_rate, RunConfig
 from .interrupt import EXIT_INTERRUPTED
@@ -624,7 +624,7 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
         item.config["overwrite"] = True  # our own earlier output of changed inputs or settings
         missing = listed_files_missing(item.out)
         item.rerun = (f"its earlier output lacks {', '.join(missing[:3])}" if missing else
-                      "its inputs, settings or pcnet version changed since its earlier output")
+                      f"{what_changed(item.out, item.config)} since its earlier output")
 
 
 def _out_folder_problem(manifest: Path, item: PlannedRow, paths: _PathFacts) -> str | None:

@@ -119,3 +119,30 @@ def completed_record(out: Path, config: dict) -> dict | None:
     except OSError:
         return None
     return record if same else None
+
+
+def what_changed(out: Path, config: dict) -> str:
+    """Why ``out``'s batch output is not this row's (:func:`completed_record` returned ``None``
+    for a folder with a batch marker): the pcnet version, the settings that differ (at most
+    three named) or the input files that changed, as one phrase; the input files are hashed
+    only when the version and the settings match."""
+    record = read_batch_marker(out)
+    if record.get("pcnet_version") != pcnet_version():
+        return f"pcnet {record.get('pcnet_version', 'unknown')} -> {pcnet_version()}"
+    old, new = record.get("settings") or {}, settings_of(config)
+    differ = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
+    if differ:
+        more = f" and {len(differ) - 3} more" if len(differ) > 3 else ""
+        return f"setting{'s' * (len(differ) > 1)} {', '.join(differ[:3])}{more} changed"
+    recorded = record.get("inputs") if isinstance(record.get("inputs"), dict) else {}
+    changed = []
+    for name, path in input_files(config).items():
+        entry = recorded.get(name)
+        try:
+            if not isinstance(entry, dict) or sha256_file(path) != entry.get("sha256"):
+                changed.append(name)
+        except OSError:
+            changed.append(name)
+    changed += sorted(set(recorded) - set(input_files(config)))
+    return f"input{'s' * (len(changed) > 1)} {', '.join(changed)} changed" if changed else "its earlier output is incomplete"
+

@@ -239,12 +239,14 @@ def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     assert res.exit_code == 0 and _statuses(manifest) == ["skipped", "ok"], res.output
     assert (tmp_path / "r2" / "kinematics.csv").stat().st_mtime_ns != first
     # said as it ends: replacing an earlier output (an OpenSim fit among it) had been silent (a user trial)
-    assert ("(ran again: its inputs, settings or pcnet version changed since its earlier output; its earlier "
-            "output replaced)") in res.output, res.output
+    # ... naming what changed (a user trial: "its inputs, settings or pcnet version changed")
+    assert "(ran again: input lifter_output changed since its earlier output; its earlier output replaced)" \
+        in res.output, res.output
 
     manifest.write_text(manifest.read_text().replace("r1,geometric", "r1,pcnet"))  # a setting changed
     res = _invoke(manifest, "--workers", "1")
     assert res.exit_code == 0 and _statuses(manifest) == ["ok", "skipped"], res.output
+    assert "(ran again: setting method changed since its earlier output" in res.output, res.output
     assert json.loads((tmp_path / "r1" / BATCH_MARKER).read_text())["settings"]["method"] == "pcnet"
 
     assert _invoke(manifest, "--workers", "2", "--overwrite").exit_code == 0
