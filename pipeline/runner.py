@@ -146,7 +146,10 @@ class RunResult:
             f"{self.frames - self.valid_frames} without a valid pose" + (": kept as NaN rows, valid = 0" * long) + ")"
             if self.valid_frames < self.frames else "every one with a valid pose)")
         mode, heading = self.report.rectification.mode, self.report.rectification.heading
-        spread = f"; spread of per-frame up {mode.spread_deg:.1f} deg" if mode.spread_deg is not None else ""
+        # "from their own mean": not from the recording's one up, which report.md's up_spread_deg measures
+        # (a lying body's per-frame ups agree with each other and lie 88 deg from its up: a user trial)
+        spread = (f"; per-frame ups {mode.spread_deg:.1f} deg from their own mean" + " (median, low-passed)" * long
+                  if mode.spread_deg is not None else "")
         decided = ((f" over the {mode.decided_on_frames} valid frames of the 2D track's longest stretch"
                     if long else f" over the {mode.decided_on_frames} frames of one person")
                    if mode.decided_on_frames is not None else "")

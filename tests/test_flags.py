@@ -271,14 +271,14 @@ def test_the_sports2d_static_camera_is_found_despite_the_track_switch(tmp_path):
                                     str(path), "--keypoints2d-format", "mediapipe", "--no-recording",
                                     "--mode", "auto", "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
-    assert re.search(r"mode sequence \(requested auto; spread of per-frame up [\d.]+ deg over the 166 frames of one "
+    assert re.search(r"mode sequence \(requested auto; per-frame ups [\d.]+ deg from their own mean over the 166 frames of one "
                      r"person\)", res.output), res.output
     assert "kinematics frame  world" in res.output
     default = CliRunner().invoke(main, ["run", "--lifter", "mediapipe", "--lifter-output", str(path), "--keypoints2d",
                                         str(path), "--keypoints2d-format", "mediapipe", "--no-recording",
                                         "--out", str(tmp_path / "d")])
     assert default.exit_code == 0 and "kinematics frame  world" in default.output, default.output
-    assert re.search(r"mode sequence \(requested sequence; spread of per-frame up [\d.]+ deg over the 166 frames of "
+    assert re.search(r"mode sequence \(requested sequence; per-frame ups [\d.]+ deg from their own mean over the 166 frames of "
                      r"one person\)", default.output), default.output
     assert "per-frame up spreads" not in default.output
     # the walking person's pelvis stays at hip height up to the switch at frame 170: the path is
