@@ -34,11 +34,11 @@ from pathlib import Path
 from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError, close_names
 
-from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker, what_changed
+from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker, record_status
 from .batch_worker import FINDINGS, cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, records_frame_rate, RunConfig
 from .interrupt import EXIT_INTERRUPTED
-from .outdir import check_out_folder, clean_stale, foreign_entries, is_within, listed_files_missing
+from .outdir import check_out_folder, clean_stale, foreign_entries, is_within
 
 ENGINES = ("local", "ray")
 STATUSES = ("ok", "skipped", "failed", "cancelled")
@@ -526,27 +526,31 @@ def _needs_fps_column(config: dict) -> bool:
             and (config["keypoints2d_format"] is None or not records_frame_rate("2d", config["keypoints2d_format"])))
 
 
+#: Words after a flag that continue the sentence: not the flag's value.
+_SENTENCE_WORDS = ("to", "or", "and", "anyway", "with", "if", "for", "then")
+_FLAG = r"--([a-z][a-z0-9-]*)(?: (?!(?:" + "|".join(_SENTENCE_WORDS) + r")\b)([a-z0-9.]+))?"
+
+
 def in_manifest_terms(message: str) -> str:
     """A row's error as a manifest user reads it: the ``pcnet run`` flags that the pipeline
     names (``--fps``, ``pass --fps-override``, ``--no-camera-prior``) as the row's columns
-    (``column fps``, ``set column fps_override to true``, ``set column camera_prior to
-    false``); the batch's own ``--overwrite`` stays a flag."""
+    (``column fps``, ``set column fps_override to true``, ``column camera_prior false``), flags
+    side by side as a list (``column lifter generic, column units``); the batch's own
+    ``--overwrite`` stays a flag."""
     def flag(match: re.Match) -> str:
         asked, name, value = match.group(1), match.group(2).replace("-", "_"), match.group(3)
         rest = f" {value}" if value else ""
         if name.startswith("no_") and name[3:] in _BOOLEAN_COLUMNS:  # --no-camera-prior: a column set false
-            return f"set column {name[3:]} to false{rest}"
+            return f"set column {name[3:]} to false{rest}" if asked else f"column {name[3:]} false{rest}"
         if name not in manifest_columns() or name == "overwrite":
             return match.group(0)
-        if value in ("to", "or", "and", "anyway"):  # the sentence goes on: not the flag's value
-            value = None
         if asked and name in _BOOLEAN_COLUMNS:
             return f"set column {name} to true{rest}"
         if asked:
-            return f"set column {name}" + (f" to {value}" if value else rest)
+            return f"set column {name}" + (f" to {value}" if value else "")
         return f"{'out' if name == 'out' else 'column ' + name}{rest}"
-    columns = re.sub(r"(pass )?--([a-z][a-z0-9-]*)(?: ([a-z0-9.]+))?", flag, message)
-    return re.sub(r"(column \w+(?: [a-z0-9.]+)?) (?=column )", r"\1, ", columns)  # flags side by side: a list
+    listed = re.sub(f"({_FLAG}) (?=--)", r"\1, ", message)  # flags side by side: a list
+    return re.sub(f"(pass )?{_FLAG}", flag, listed)
 
 
 def _as_columns(message: str) -> str:
@@ -616,15 +620,13 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
         return
     if not paths.exists(item.config["out"]):
         return
-    record = completed_record(item.out, item.config)
+    record, why = record_status(item.out, item.config)
     if record is not None:
         item.action = "skip"
         item.known = dict(record.get("result") or {})
     elif read_batch_marker(item.out):
         item.config["overwrite"] = True  # our own earlier output of changed inputs or settings
-        missing = listed_files_missing(item.out)
-        item.rerun = (f"its earlier output lacks {', '.join(missing[:3])}" if missing else
-                      f"{what_changed(item.out, item.config)} since its earlier output")
+        item.rerun = why
 
 
 def _out_folder_problem(manifest: Path, item: PlannedRow, paths: _PathFacts) -> str | None:

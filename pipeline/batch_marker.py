@@ -99,50 +99,45 @@ def read_batch_marker(out: Path) -> dict:
 
 
 def completed_record(out: Path, config: dict) -> dict | None:
-    """The batch marker of ``out`` when the folder holds a complete output of exactly this
-    row (every file pcnet wrote there still present; same settings, same pcnet version, the
-    same input files by sha256, wherever they are now), else ``None``. Inputs are hashed only
-    when everything cheaper already matches."""
-    if read_marker(out).get("state") != "complete" or listed_files_missing(out):
-        return None
-    record = read_batch_marker(out)
-    if not record or record.get("pcnet_version") != pcnet_version() or record.get("settings") != settings_of(config):
-        return None
-    recorded = record.get("inputs")
-    files = input_files(config)
-    if not isinstance(recorded, dict) or not all(isinstance(v, dict) for v in recorded.values()):
-        return None
-    if set(recorded) != set(files):
-        return None
-    try:
-        same = all(sha256_file(path) == recorded[name].get("sha256") for name, path in files.items())
-    except OSError:
-        return None
-    return record if same else None
+    """The batch marker of ``out`` when it holds a complete, current output of this row
+    (:func:`record_status`), else ``None``."""
+    return record_status(out, config)[0]
 
 
-def what_changed(out: Path, config: dict) -> str:
-    """Why ``out``'s batch output is not this row's (:func:`completed_record` returned ``None``
-    for a folder with a batch marker): the pcnet version, the settings that differ (at most
-    three named) or the input files that changed, as one phrase; the input files are hashed
-    only when the version and the settings match."""
+def record_status(out: Path, config: dict) -> tuple[dict | None, str]:
+    """``(marker, "")`` when ``out`` holds a complete output of exactly this row (every file
+    pcnet wrote there still present; same settings, same pcnet version, the same input files by
+    sha256, wherever they are now), else ``(None, why)``: one phrase naming what differs (the
+    files missing, the pcnet version, the settings that changed, at most three named, or the
+    input files). Inputs are hashed only when everything cheaper already matches, once each."""
+    if read_marker(out).get("state") != "complete":
+        return None, "its earlier output is incomplete"
+    missing = listed_files_missing(out)
+    if missing:
+        return None, f"its earlier output lacks {', '.join(missing[:3])}"
     record = read_batch_marker(out)
+    if not record:
+        return None, "its earlier output has no batch record"
+    since = "since its earlier output"
     if record.get("pcnet_version") != pcnet_version():
-        return f"pcnet {record.get('pcnet_version', 'unknown')} -> {pcnet_version()}"
-    old, new = record.get("settings") or {}, settings_of(config)
+        return None, f"pcnet {record.get('pcnet_version', 'unknown')} -> {pcnet_version()} {since}"
+    old, new = record.get("settings"), settings_of(config)
+    if not isinstance(old, dict):
+        return None, "its earlier output's settings are unreadable"
     differ = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
     if differ:
         more = f" and {len(differ) - 3} more" if len(differ) > 3 else ""
-        return f"setting{'s' * (len(differ) > 1)} {', '.join(differ[:3])}{more} changed"
-    recorded = record.get("inputs") if isinstance(record.get("inputs"), dict) else {}
-    changed = []
-    for name, path in input_files(config).items():
-        entry = recorded.get(name)
+        return None, f"setting{'s' * (len(differ) > 1)} {', '.join(differ[:3])}{more} changed {since}"
+    recorded, files = record.get("inputs"), input_files(config)
+    if not isinstance(recorded, dict) or not all(isinstance(v, dict) for v in recorded.values()):
+        return None, "its earlier output's inputs are unreadable"
+    changed = sorted(set(recorded) ^ set(files))
+    for name in sorted(set(recorded) & set(files)):
         try:
-            if not isinstance(entry, dict) or sha256_file(path) != entry.get("sha256"):
+            if sha256_file(files[name]) != recorded[name].get("sha256"):
                 changed.append(name)
         except OSError:
             changed.append(name)
-    changed += sorted(set(recorded) - set(input_files(config)))
-    return f"input{'s' * (len(changed) > 1)} {', '.join(changed)} changed" if changed else "its earlier output is incomplete"
-
+    if changed:
+        return None, f"input{'s' * (len(changed) > 1)} {', '.join(changed)} changed {since}"
+    return record, ""

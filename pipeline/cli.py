@@ -266,7 +266,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
         res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading,
                           camera_prior=camera_prior is not False)
     except InputError as err:
-        if weights is not None and str(err).startswith(f"{weights}:"):
+        if weights is not None and str(err).startswith((f"{weights}:", f"{Path(weights)}:")):
             raise  # the weights file's own error, already naming it
         raise InputError(f"{input_path}: {err}") from err
     if not res.valid.any():  # the same rule as pcnet run: nothing is written

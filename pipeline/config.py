@@ -250,7 +250,7 @@ class RunConfig:
                 inputs are missing).
         """
         allowed = sorted(f.name for f in fields(cls))
-        unknown = sorted(set(values) - set(allowed))
+        unknown = sorted(map(str, set(values) - set(allowed)))
         if unknown:
             raise InputError(f"{field_name(source, *unknown)}: unknown{close_names(unknown, allowed)}; expected some "
                              f"of {allowed}")

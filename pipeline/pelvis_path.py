@@ -116,7 +116,7 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
                                    size_std_fraction=BONE_SCALE_SIGMA, segment=segment)
     except InputError as err:  # too few joints seen in 2D and 3D alike: the run goes on without a path
         return PelvisPath("not observable", note=f"pelvis path not observable: {err}")
-    position, held = _held_at_the_ends(path.position, present_frames(joints_cam))
+    position, held = _held_at_the_ends(path.position, present_frames(joints_cam), segment)
     found = np.isfinite(path.position).all(axis=1)
     return PelvisPath("from 2D keypoints", position, path.cov,
                       f"pelvis path from the 2D keypoints ({camera.source}): {int(found.sum())} of {len(found)} "
@@ -128,16 +128,22 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
                          f"follow the body's travel" if held else ""))
 
 
-def _held_at_the_ends(position: np.ndarray, posed: np.ndarray) -> tuple[np.ndarray, int]:
+def _held_at_the_ends(position: np.ndarray, posed: np.ndarray,
+                      segment: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """``position`` ``(T, 3)`` with the frames before the first and after the last known one
     that have a pose (``posed`` ``(T,)`` bool) holding that known position, so their joints
-    stay in the world frame; and how many were held. The smoother bridges gaps inside the
-    fitted span itself (:mod:`pcnet.stages.root_path`)."""
-    known = np.flatnonzero(np.isfinite(position).all(axis=1))
-    if not len(known):
-        return position, 0
-    out = position.copy()
-    head = np.flatnonzero(posed[: known[0]])
-    tail = known[-1] + 1 + np.flatnonzero(posed[known[-1] + 1 :])
-    out[head], out[tail] = position[known[0]], position[known[-1]]
-    return out, len(head) + len(tail)
+    stay in the world frame; and how many were held. With ``segment`` ``(T,)`` (one body per
+    stretch of equal values) each stretch's ends are held to its own path. The smoother
+    bridges gaps inside each fitted span itself (:mod:`pcnet.stages.root_path`)."""
+    out, held = position.copy(), 0
+    bounds = [0, len(position)] if segment is None else \
+        [0, *(1 + np.flatnonzero(np.asarray(segment)[1:] != np.asarray(segment)[:-1])), len(position)]
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        known = a + np.flatnonzero(np.isfinite(position[a:b]).all(axis=1))
+        if not len(known):
+            continue
+        head = a + np.flatnonzero(posed[a: known[0]])
+        tail = known[-1] + 1 + np.flatnonzero(posed[known[-1] + 1: b])
+        out[head], out[tail] = position[known[0]], position[known[-1]]
+        held += len(head) + len(tail)
+    return out, held

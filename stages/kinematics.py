@@ -550,12 +550,13 @@ def _knee_reading(rot: np.ndarray, knee: np.ndarray, previous: tuple[float, floa
         else:  # continues the previous chunk's last frame
             flip0 = abs(_wrap180(rot[a] - previous[0])) > 90.0
         flip = (parity == 1) != flip0
-        # A knee cannot hyperextend that far: those frames take the flexed reading even where
-        # it breaks the run's continuity (a lifter's hip line that turns 86 deg in one frame,
-        # under the 90 deg step, had kept a cyclist's knee at -101 deg).
-        flip ^= np.where(flip, knee[a:b], -knee[a:b]) > MAX_KNEE_HYPEREXTENSION_DEG
-        rot[a:b] = np.where(flip, rot[a:b] + 180.0, rot[a:b])
-        knee[a:b] = np.where(flip, -knee[a:b], knee[a:b])
+        # A knee cannot hyperextend that far: where the run's reading would, the knee is read
+        # flexed and the hip rotation, which the run's reading and the knee then contradict, is
+        # left empty (a lifter's hip line that turned 86 deg in one frame, under the 90 deg
+        # step, had kept a cyclist's knee at -101 deg).
+        impossible = np.where(flip, knee[a:b], -knee[a:b]) > MAX_KNEE_HYPEREXTENSION_DEG
+        rot[a:b] = np.where(impossible, np.nan, np.where(flip, rot[a:b] + 180.0, rot[a:b]))
+        knee[a:b] = np.where(impossible, np.abs(knee[a:b]), np.where(flip, -knee[a:b], knee[a:b]))
     return rot, knee
 
 
@@ -656,8 +657,9 @@ def continuous_angles(angles: Mapping[str, np.ndarray],
       ``isb_joint_angles`` chooses per frame by plausibility; here the reading is kept over
       each run (it switches only where the rotation would otherwise step by more than
       90 deg between two frames, i.e. where the limb plane's normal flipped), and each run
-      takes the reading ``isb_joint_angles`` chose in the majority of its frames, never one
-      with a knee hyperextended beyond ``MAX_KNEE_HYPEREXTENSION_DEG``.
+      takes the reading ``isb_joint_angles`` chose in the majority of its frames; a frame
+      whose kept reading would hyperextend the knee beyond ``MAX_KNEE_HYPEREXTENSION_DEG``
+      reads the knee flexed and leaves the hip rotation empty (NaN).
 
     What is left: a per-frame step of up to 90 deg in hip rotation (from noise where the
     knee is nearly straight) and up to 180 deg in the first/third angle of a sequence near

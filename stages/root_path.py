@@ -403,8 +403,8 @@ def root_from_keypoints(joints_cam, keypoints2d, K, fps, *, min_confidence: floa
 
     Returns:
         :class:`RootPath`: float64 ``position``/``std`` ``(T, 3)`` (and ``cov`` ``(T, 3, 3)``) in
-        the joints' unit, NaN before the first and after the last accepted fit; frames inside
-        that span without a fit (fewer than :data:`MIN_JOINTS` finite joints at or above
+        the joints' unit, NaN before the first and after the last accepted fit (of each
+        ``segment`` stretch); frames inside that span without a fit (fewer than :data:`MIN_JOINTS` finite joints at or above
         ``min_confidence``, or rejected as outliers) are bridged by the smoother with a larger
         std.
 

@@ -108,6 +108,13 @@ def test_knee_reading_kept_over_a_run():
     out = continuous_angles({"right_hip_internal_rotation": np.array([-10.0, -11.0, -96.8, 80.0, 70.0]),
                              "right_knee_flexion": np.array([40.0, 30.0, -15.0, 64.5, 100.0])})
     assert np.allclose(out["right_knee_flexion"], [40.0, 30.0, -15.0, 64.5, 100.0])
+    assert np.isnan(out["right_hip_internal_rotation"][3:]).all()  # the reading contradicts the knee there
+    # one such frame in a steady run leaves a gap, not a 180 deg spike or a wound turn at a low rate (a review)
+    for fps in (30.0, 5.0, None):
+        out = continuous_angles({"right_hip_internal_rotation": np.array([-10.0, -11.0, -11.0, -12.0, -12.0, -13.0]),
+                                 "right_knee_flexion": np.array([20.0, 20.0, -30.0, 20.0, 20.0, 20.0])}, fps=fps)
+        np.testing.assert_allclose(out["right_hip_internal_rotation"], [-10.0, -11.0, np.nan, -12.0, -12.0, -13.0])
+        np.testing.assert_allclose(out["right_knee_flexion"], [20.0, 20.0, 30.0, 20.0, 20.0, 20.0])
 
 
 def test_angles_figure_draws_no_wrap():

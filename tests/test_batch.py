@@ -492,7 +492,13 @@ def test_run_flags_in_an_action_read_as_manifest_columns():
     assert in_manifest_terms("check the lifter, or its units (--lifter generic --units)") == \
         "check the lifter, or its units (column lifter generic, column units)"
     assert in_manifest_terms("--no-camera-prior if standing under a tilted camera") == \
-        "set column camera_prior to false if standing under a tilted camera"
+        "column camera_prior false if standing under a tilted camera"
+    # a sentence's words between flags are no flag's value (a review: "column axes and, column layout")
+    assert in_manifest_terms("check --axes and --layout") == "check column axes and column layout"
+    assert in_manifest_terms("(--axes with --lifter generic)") == "(column axes with column lifter generic)"
+    assert in_manifest_terms("--mode smooth --no-camera-prior") == "column mode smooth, column camera_prior false"
+    assert in_manifest_terms("pass --fps-override to use --fps anyway") == \
+        "set column fps_override to true to use column fps anyway"
 
 
 def test_retry_failed_needs_a_previous_summary(tmp_path):
@@ -926,3 +932,26 @@ def test_checking_a_large_manifest_takes_time_linear_in_its_rows(tmp_path):
     large = _check_cpu_seconds(_study(tmp_path / "large", 20_000), 20_000)
     assert large < 3 * small, f"10,000 rows: {small:.2f} s, 20,000 rows: {large:.2f} s"
     assert large < 20_000 * 150e-6, f"20,000 rows: {large:.2f} s, {large / 20_000 * 1e6:.0f} us a row"
+
+
+def test_record_status_names_what_changed_and_survives_a_damaged_record(tmp_path, monkeypatch):
+    """Why a row's own earlier output is not current, as one phrase; a batch record whose
+    settings are not a table is read as unreadable, not a crash (a review)."""
+    import pcnet.pipeline.batch_marker as bm
+
+    monkeypatch.setattr(bm, "read_marker", lambda out: {"state": "complete"})
+    monkeypatch.setattr(bm, "listed_files_missing", lambda out: [])
+    src = tmp_path / "x.npy"
+    src.write_bytes(BOX_3D.read_bytes())
+    config = {"lifter": "motionbert", "lifter_output": str(src), "method": "pcnet"}
+    record = {"writer": "pcnet batch", "pcnet_version": bm.pcnet_version(), "settings": bm.settings_of(config),
+              "inputs": bm.input_hashes(config)}
+    write = lambda r: (tmp_path / bm.BATCH_MARKER).write_text(json.dumps(r))  # noqa: E731
+    write(record)
+    assert bm.record_status(tmp_path, config) == (record, "")
+    assert bm.record_status(tmp_path, {**config, "method": "geometric"})[1] == \
+        "setting method changed since its earlier output"
+    write({**record, "settings": ["method"]})
+    assert bm.record_status(tmp_path, config) == (None, "its earlier output's settings are unreadable")
+    write({**record, "pcnet_version": "0.0"})
+    assert bm.record_status(tmp_path, config)[1] == f"pcnet 0.0 -> {bm.pcnet_version()} since its earlier output"

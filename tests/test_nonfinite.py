@@ -217,3 +217,5 @@ def test_a_masked_arrays_masked_joints_are_missing():
         assert np.isnan(checked[10:20, R_WRIST]).all() and np.isfinite(checked[:10]).all()
     res = rectify(masked)
     assert np.isnan(res.canonical[10:20, R_WRIST]).all() and res.valid[10:20].all()
+    with pytest.raises(ValueError, match="real-valued"):  # a masked complex array is still no pose
+        validate_poses(np.ma.array(poses.astype(complex), mask=False))

@@ -87,6 +87,11 @@ def test_run_config_example_gives_the_defaults_it_states():
     assert eval(last.split("#")[0], namespace) == eval(stated)
     cfg = namespace["cfg"]
     assert (cfg.lifter, cfg.fps) == ("motionbert", 25.0)
+    # a name that is no field: InputError naming it, as a TOML file's unknown key (a user trial: TypeError)
+    from pcnet.pipeline import InputError, RunConfig
+
+    with pytest.raises(InputError, match=r"trial: fields '3' and 'heigth': unknown \(heigth: height\?\)"):
+        RunConfig.from_values("trial", {"lifter": "motionbert", "lifter_output": "x.npy", "heigth": 1.7, 3: 1})
 
 
 @pytest.mark.parametrize("option, value", [("camera_prior", "no"), ("measured_root", 1), ("fps", "30")])

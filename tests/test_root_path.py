@@ -152,6 +152,14 @@ def test_a_switch_to_another_body_does_not_pull_the_path_before_it():
     assert np.linalg.norm(whole[k - 10:k] - P[k - 10:k, 0], axis=1).max() > 0.1  # what the stretches prevent
     with pytest.raises(InputError, match="segment"):
         root_from_keypoints(X, kp, K, FPS, segment=segment[1:])
+    # a run's pelvis path: a stretch's frames with a pose but no 2D fit at its ends hold its own
+    # first or last position, so no posed frame loses its place (a review: frames 56-62 were NaN)
+    from pcnet.pipeline.pelvis_path import Intrinsics, pelvis_path
+
+    kp[k - 4:k + 3] = np.nan
+    path = pelvis_path(None, X, kp, Intrinsics(K, "test"), "m", FPS, 0.3, segment)
+    assert np.isfinite(path.camera).all() and "held" in path.note
+    np.testing.assert_allclose(path.camera[k - 4:k], np.repeat(path.camera[k - 5:k - 4], 4, axis=0))
 
 
 def test_low_confidence_joints_are_ignored():

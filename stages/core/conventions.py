@@ -188,7 +188,8 @@ def get_layout(name: str) -> Layout:
 def _unmasked(joints) -> np.ndarray:
     """``joints`` as an array, a numpy masked array's masked values NaN (missing): ``np.asarray``
     alone would return the values the mask hides."""
-    if np.ma.isMaskedArray(joints) and np.issubdtype(joints.dtype, np.number) and joints.dtype != bool:
+    if np.ma.isMaskedArray(joints) and (np.issubdtype(joints.dtype, np.floating)
+                                        or np.issubdtype(joints.dtype, np.integer)):  # complex, bool: refused later
         return np.ma.filled(joints.astype(np.float64), np.nan)
     return np.asarray(joints)
 
