@@ -126,7 +126,7 @@ def main(argv=None) -> int:
     for name, by_scale in val.items():
         lines += [row for s, r in by_scale.items() for row in describe(f"  {name} x{s:g}", r, threshold)]
     lines += describe("  all", rows, threshold)
-    lines += ["", f"AUTO_MAX_HIP_WIDTH_CV_PERCENT = {threshold:.2f}   (best interval [{lo:.3f}, {hi:.3f}) %)"]
+    lines += ["", f"AUTO_MAX_HIP_WIDTH_CV_PERCENT = {threshold:.4f}   (best interval [{lo:.4f}, {hi:.4f}) %)"]
     if args.heldout:
         from benchmarks.view_gate_pieces import worse
         held = run_sets([(title, select_split(load_mocap(args.data / "mocap" / file), split, "motion-style"))
