@@ -979,7 +979,8 @@ def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line(
 
     from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 
-    assert f"6.2 deg, above the {MODE_THRESHOLD_DEG:g} deg of a static camera" in line("smooth", "auto")
+    assert (f"per-frame ups 6.2 deg from their own mean, above the {MODE_THRESHOLD_DEG:g} deg of a static camera"
+            in line("smooth", "auto"))
     assert "--mode sequence for a static camera" in line("smooth", "auto")
     assert "static camera" not in line("smooth", "smooth") and "static camera" not in line("sequence", "auto")
 
