@@ -36,7 +36,7 @@ HEADING_SOURCES = ("auto", "predicted", "hips")
 #: of the choice; decision 0085), by ``python -m benchmarks.fit_heading_source --data
 #: ../shared/data`` (``benchmarks/results/fit_heading_source.txt``; tests/test_heading.py checks
 #: the two agree). Where real lifter files fall: ``python -m benchmarks.heading_source``.
-AUTO_MAX_HIP_WIDTH_CV_PERCENT = 1.20
+AUTO_MAX_HIP_WIDTH_CV_PERCENT = 1.2037
 # Fewer valid frames than this give no usable width statistic: "auto" keeps the prediction.
 AUTO_MIN_FRAMES = 10
 
