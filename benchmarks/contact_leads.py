@@ -90,6 +90,18 @@ def files(data: Path, asana: str) -> list[tuple[str, np.ndarray]]:
     return out
 
 
+def section(data: Path, asanas: tuple[str, ...], row, cells, summary) -> list[str]:
+    """One line per file of each asana (``cells`` of its ``row``), then the asana's ``summary`` of its rows."""
+    lines = []
+    for asana in asanas:
+        rows = []
+        for person, joints in files(data, asana):
+            rows.append(row(joints))
+            lines.append(f"{person + ' ' + asana:<28}" + cells(rows[-1]))
+        lines += [f"{asana}: {len(rows)} files; " + summary(np.array(rows)), ""]
+    return lines
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, default=SHARED_DATA)
@@ -97,26 +109,17 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     lines = [__doc__.split("\n")[0], "", f"    {COMMAND}", "", "1. the thigh plane of a body seated on the floor",
              f"{'file':<28}{'plane-trunk':>12}{'pcnet-trunk':>12}   (deg)"]
-    for asana in ("Padmasana", "Tadasana"):
-        rows = []
-        for person, joints in files(args.data, asana):
-            rows.append(seated_row(joints))
-            lines.append(f"{person + ' ' + asana:<28}{rows[-1][0]:>12.1f}{rows[-1][1]:>12.1f}")
-        r = np.array(rows)
-        lines += [f"{asana}: {len(r)} files; trunk within {SEATED_TRUNK_DEG:g} deg of the plane's normal in "
-                  f"{int(np.sum(r[:, 0] <= SEATED_TRUNK_DEG))}, of pcnet's up in {int(np.sum(r[:, 1] <= SEATED_TRUNK_DEG))}; "
-                  f"median plane-trunk {np.median(r[:, 0]):.1f}, pcnet-trunk {np.median(r[:, 1]):.1f}", ""]
+    lines += section(args.data, ("Padmasana", "Tadasana"), seated_row, lambda r: f"{r[0]:>12.1f}{r[1]:>12.1f}",
+                     lambda r: f"trunk within {SEATED_TRUNK_DEG:g} deg of the plane's normal in "
+                               f"{int(np.sum(r[:, 0] <= SEATED_TRUNK_DEG))}, of pcnet's up in "
+                               f"{int(np.sum(r[:, 1] <= SEATED_TRUNK_DEG))}; median plane-trunk "
+                               f"{np.median(r[:, 0]):.1f}, pcnet-trunk {np.median(r[:, 1]):.1f}")
     lines += ["2. the ankle line of a body standing on both feet",
               f"{'file':<28}{'ankles m':>9}{'line roll':>10}{'pcnet roll':>11}   (deg)"]
-    for asana in ("Trikonasana", "Tadasana", "Vrikshasana"):
-        rows = []
-        for person, joints in files(args.data, asana):
-            rows.append(stance_row(joints))
-            lines.append(f"{person + ' ' + asana:<28}{rows[-1][0]:>9.2f}{rows[-1][1]:>10.1f}{rows[-1][2]:>11.1f}")
-        r = np.array(rows)
-        lines += [f"{asana}: {len(r)} files; |line roll| median {np.median(np.abs(r[:, 1])):.1f} (max "
-                  f"{np.max(np.abs(r[:, 1])):.1f}), |pcnet roll| median {np.median(np.abs(r[:, 2])):.1f} (max "
-                  f"{np.max(np.abs(r[:, 2])):.1f})", ""]
+    lines += section(args.data, ("Trikonasana", "Tadasana", "Vrikshasana"), stance_row,
+                     lambda r: f"{r[0]:>9.2f}{r[1]:>10.1f}{r[2]:>11.1f}",
+                     lambda r: f"|line roll| median {np.median(np.abs(r[:, 1])):.1f} (max {np.max(np.abs(r[:, 1])):.1f}), "
+                               f"|pcnet roll| median {np.median(np.abs(r[:, 2])):.1f} (max {np.max(np.abs(r[:, 2])):.1f})")
     print_and_save(lines, args.out)
     return 0
 
