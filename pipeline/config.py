@@ -10,10 +10,10 @@ import re
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-from pcnet.models.toml_config import (check_config_keys, close_names, check_config_types, read_toml, type_hints, type_name,
+from pcnet.models.toml_config import (check_config_keys, check_config_types, read_toml, type_hints, type_name,
                                       value_matches)
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
-from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.errors import InputError, close_names
 
 def _registered(kind: str) -> dict:
     from pcnet.adapters.registry import registered

@@ -19,7 +19,7 @@ from pcnet.models.lifter_noise import BONE_SCALE_SIGMA
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import present_frames
 from pcnet.stages.core.perspective import focal_px_from_35mm, intrinsics
-from pcnet.stages.root_path import root_from_keypoints
+from pcnet.stages.root_path import root_from_keypoints, stretch_starts
 
 #: ``report["root_path"]``: where the pelvis path of a world-frame run came from.
 PATH_KINDS = ("measured", "from 2D keypoints", "not observable")
@@ -136,9 +136,8 @@ def _held_at_the_ends(position: np.ndarray, posed: np.ndarray,
     stretch of equal values) each stretch's ends are held to its own path. The smoother
     bridges gaps inside each fitted span itself (:mod:`pcnet.stages.root_path`)."""
     out, held = position.copy(), 0
-    bounds = [0, len(position)] if segment is None else \
-        [0, *(1 + np.flatnonzero(np.asarray(segment)[1:] != np.asarray(segment)[:-1])), len(position)]
-    for a, b in zip(bounds[:-1], bounds[1:]):
+    starts = stretch_starts(segment, len(position))
+    for a, b in zip(starts, [*starts[1:], len(position)]):
         known = a + np.flatnonzero(np.isfinite(position[a:b]).all(axis=1))
         if not len(known):
             continue

@@ -1015,7 +1015,7 @@ def _keypoint_path(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled,
     path: its kind and note say why): in sequence or auto mode, without a measured root, from
     metric poses (the lifter's metres, or ``--height``'s scaling); ``None`` where none was
     fitted (:func:`pcnet.pipeline.pelvis_path.pelvis_path`; ``segment``: the 2D track's
-    one-person stretches, each its own path, where it switches person)."""
+    one-person stretches, each its own path; a track that never switches is one stretch)."""
     recording, camera = inputs.recording, scaled.camera
     if (camera.root is not None or camera.keypoints2d is None or scaled.units != "m"
             or cfg.mode not in ("sequence", "auto")):
@@ -1136,8 +1136,7 @@ def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rec
         else:
             path = pelvis_path(scaled.camera.root, cam, scaled.camera.keypoints2d,
                                camera_intrinsics(cfg.focal_px, inputs.recording.camera_matrix, inputs.image_size),
-                               scaled.units, fps, cfg.min_confidence,
-                               rectified.track_segment if rectified.track_events else None)
+                               scaled.units, fps, cfg.min_confidence, rectified.track_segment)
         joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64),
                                        floor_frames=rectified.one_person())
         return World(joints, frame.rotation, path.world_std(frame.rotation),
@@ -1288,7 +1287,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
 
         step("rectify")
         track = _track(scaled.camera.keypoints2d, inputs.recording.fps)
-        keypoint_path = _keypoint_path(cfg, inputs, scaled, track[0] if track[1] else None)
+        keypoint_path = _keypoint_path(cfg, inputs, scaled, track[0])
         rectified = _rectify(cfg, inputs, scaled.camera, store, track, keypoint_path)
         findings = checks(_check_inputs(cfg, inputs, scaled.camera, rectified))
         bar.update()

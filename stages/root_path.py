@@ -341,8 +341,10 @@ def _rts(z: np.ndarray, R: np.ndarray, use: np.ndarray, F: np.ndarray, Q: np.nda
     return pos, 0.5 * (cov + cov.transpose(0, 2, 1))
 
 
-def _stretch_starts(segment, T: int) -> np.ndarray:
-    """The first frame of each stretch of equal ``segment`` ``(T,)`` (``[0]`` for ``None``).
+def stretch_starts(segment, T: int) -> np.ndarray:
+    """``(S,)`` int: the first frame of each of the ``S`` stretches of equal values of
+    ``segment`` ``(T,)`` (:func:`pcnet.stages.flags.track_segments`'s one-body stretches;
+    ``[0]`` for ``None``, one stretch).
 
     Raises:
         InputError: ``segment`` not of shape ``(T,)``.
@@ -444,7 +446,7 @@ def root_from_keypoints(joints_cam, keypoints2d, K, fps, *, min_confidence: floa
     if not (np.isfinite(size_std_fraction) and size_std_fraction >= 0):
         raise InputError(f"size_std_fraction: expected a number >= 0, got {size_std_fraction}")
     T = shape_j[0]
-    starts = _stretch_starts(segment, T)
+    starts = stretch_starts(segment, T)
 
     class _Pair:  # one sliceable view of both inputs, so per_frame reads them block by block
         def __len__(self):
