@@ -31,6 +31,7 @@ Writes benchmarks/results/contact_leads.txt.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -107,6 +108,9 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, default=SHARED_DATA)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
+    folder = args.data.joinpath(*FOLDER)
+    if not any(folder.glob("export_*.npy")):
+        sys.exit(f"contact_leads: no export_*.npy files under {folder}; pass --data <data root>")
     lines = [__doc__.split("\n")[0], "", f"    {COMMAND}", "", "1. the thigh plane of a body seated on the floor",
              f"{'file':<28}{'plane-trunk':>12}{'pcnet-trunk':>12}   (deg)"]
     lines += section(args.data, ("Padmasana", "Tadasana"), seated_row, lambda r: f"{r[0]:>12.1f}{r[1]:>12.1f}",
