@@ -35,7 +35,7 @@ from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker, record_status
-from .batch_worker import FINDINGS, cpu_cores, error_line
+from .batch_worker import FINDINGS, RESULT_FIELDS, cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, records_frame_rate, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within
@@ -613,7 +613,7 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
         before = previous.get(str(paths.resolve(item.config["out"])))
         if before is not None and before.get("status") in DONE and item.out.is_dir():
             item.action = "skip"
-            item.known = {k: before.get(k) for k in ("frames", "valid", "mode", "warnings")}
+            item.known = {k: before.get(k) for k in RESULT_FIELDS}
             return
     if options.overwrite:
         item.config["overwrite"] = True
@@ -774,7 +774,7 @@ def _row_summary(item: PlannedRow, result: dict | None, status: str | None = Non
     """A row of the summary: the engine's result, or a skipped / cancelled / pending row."""
     base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": 0, "valid": 0,
             "mode": "", "seconds": None, "error": "", "warnings": [], "host": "", "pid": None, "attempts": 0,
-            "threads": None}
+            "threads": None, "opensim_rms_cm": None}
     if item.action == "skip":
         base.update(status="skipped", **{k: v for k, v in item.known.items() if v is not None})
     elif result is not None:
@@ -996,17 +996,33 @@ def _outputs_line(rows: list[dict]) -> str | None:
     return f"{os.path.commonpath(outs)} ({len(outs)} folders)"
 
 
+def _opensim_line(rows: list[dict]) -> str | None:
+    """The OpenSim fits' marker RMS over the complete outputs that have one: the range and
+    the row of the largest (every row's own: the report)."""
+    fitted = [r for r in rows if r["status"] in DONE and r.get("opensim_rms_cm") is not None]
+    if not fitted:
+        return None
+    worst = max(fitted, key=lambda r: r["opensim_rms_cm"])
+    if len(fitted) == 1:
+        return f"marker RMS {worst['opensim_rms_cm']:.2f} cm (line {worst['line']})"
+    low = min(r["opensim_rms_cm"] for r in fitted)
+    return (f"marker RMS {low:.2f}-{worst['opensim_rms_cm']:.2f} cm over {len(fitted)} rows (largest: line "
+            f"{worst['line']})")
+
+
 def format_summary(report: BatchReport) -> str:
     """The summary that reads in seconds: the counts, one line per failed row (its error),
     one line per distinct warning of the complete outputs (most severe first, with its
-    action and the manifest lines), each list cut at :data:`SUMMARY_LINES`; where the
-    outputs, the JSON summary and the report are. Every row in full: the report."""
+    action and the manifest lines), each list cut at :data:`SUMMARY_LINES`; the OpenSim fits'
+    marker RMS where rows asked for them; where the outputs, the JSON summary and the report
+    are. Every row in full: the report."""
     details = str(report.report_path or report.summary_path)
     lines = [_counts_line(report)] + ([_INTERRUPTED] if report.interrupted else [])
     lines += _lines([f"FAILED   line {r['line']}: {r['error']}" for r in report.rows if r["status"] == "failed"],
                     "failed rows", details)
     lines += _lines(_grouped_findings(report), "warnings", details)
-    outputs = _outputs_line(report.rows)
+    opensim, outputs = _opensim_line(report.rows), _outputs_line(report.rows)
+    lines += [f"{'OpenSim IK':<17} {opensim}"] * bool(opensim)
     lines += [f"{'outputs':<17} {outputs}"] * bool(outputs) + [f"{'summary':<17} {report.summary_path}"]
     if report.report_path is not None:
         lines.append(f"details: {report.report_path}")
@@ -1019,7 +1035,8 @@ def _cell(value) -> str:
 
 def batch_markdown(report: BatchReport) -> str:
     """The batch report: what the terminal summary leaves out. The counts and the batch's
-    settings; a table of every row (status, attempts, frames, valid frames, mode, seconds,
+    settings; a table of every row (status, attempts, frames, valid frames, mode, the OpenSim
+    fit's marker RMS, seconds,
     worker, threads, output folder); every failed row's error in full (and its traceback
     where the failure is a bug of pcnet); every warning of every row in full, most severe
     first, with its action; the restarts of rows whose worker died."""
@@ -1033,13 +1050,14 @@ def batch_markdown(report: BatchReport) -> str:
             f"- **options**: overwrite {s.get('overwrite')}, retry_failed {s.get('retry_failed')}",
             f"- **summary**: {report.summary_path} (every row's fields, docs/cluster.md \"Results\")",
             "", "## Rows", "",
-            "| row | line | status | tries | frames | valid | mode | seconds | worker | threads | output |",
-            "|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| row | line | status | tries | frames | valid | mode | OpenSim RMS cm | seconds | worker | threads | output |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report.rows:
         seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else None
         worker = f"{r['host']}:{r['pid']}" if r.get("pid") else None
         out.append("| " + " | ".join(_cell(v) for v in (r["row"], r["line"], r["status"], r["attempts"], r["frames"],
-                                                          r["valid"], r.get("mode"), seconds, worker, r.get("threads"),
+                                                          r["valid"], r.get("mode"), r.get("opensim_rms_cm"), seconds,
+                                                          worker, r.get("threads"),
                                                           r["out"])) + " |")
     failed = [r for r in report.rows if r["status"] == "failed"]
     out += ["", "## Failed rows", ""] + ([] if failed else ["None."])

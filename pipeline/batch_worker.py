@@ -19,6 +19,10 @@ THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"
 #: The key of a row's result holding its warnings as findings (:func:`finding_records`): kept
 #: in the resume marker for the terminal's lines, left out of the JSON summary's rows.
 FINDINGS = "findings"
+#: What a row's run found that a skipped row shows again (from its resume marker or the
+#: previous summary): frame counts, mode, warnings and, with ``opensim``, the IK fit's marker
+#: RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``).
+RESULT_FIELDS = ("frames", "valid", "mode", "warnings", "opensim_rms_cm")
 #: Test hook, see :func:`_test_hook`.
 TEST_HOOK = "PCNET_BATCH_TEST_HOOK"
 _HOLD_LIMIT_S = 120.0
@@ -93,6 +97,18 @@ def _int_or_none(text: str | None) -> int | None:
         return None
 
 
+def _opensim_rms_cm(staged: Path, outputs: dict[str, Path]) -> float | None:
+    """The OpenSim IK fit's marker RMS (cm, 2 decimals, as the run's note) from the
+    ``opensim_fit.json`` the run wrote into ``staged`` (its ``outputs`` name the folder it is
+    published as); ``None`` without one (no ``opensim``, or no world frame to fit)."""
+    if "opensim_fit.json" not in outputs:
+        return None
+    import json
+
+    rms = json.loads((staged / "opensim_fit.json").read_text()).get("marker_rms_m")  # null where not finite
+    return None if rms is None else round(100 * rms, 2)
+
+
 def execute_row(job: dict) -> dict:
     """Run one row and return its result (the per-row fields of the batch summary, and
     :data:`FINDINGS`, its warnings' short lines).
@@ -106,7 +122,8 @@ def execute_row(job: dict) -> dict:
     """
     result = {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
               "error": "", "warnings": [], "host": socket.gethostname(), "pid": os.getpid(),
-              "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS"))}
+              "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS")),
+              "opensim_rms_cm": None}
     _test_hook(job["row"])
     from pcnet.stages.core.errors import InputError
 
@@ -123,7 +140,7 @@ def execute_row(job: dict) -> dict:
 
         def with_marker(staged: Path, run) -> None:  # published together with the output or not at all
             result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, warnings=list(run.flags),
-                          **{FINDINGS: finding_records(run.findings)})
+                          opensim_rms_cm=_opensim_rms_cm(staged, run.outputs), **{FINDINGS: finding_records(run.findings)})
             write_batch_marker(staged, config, inputs, result)
 
         run_pipeline(RunConfig(**config), progress=False, before_publish=with_marker)

@@ -428,11 +428,28 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
     assert len(text.splitlines()) == 1 + SUMMARY_LINES + 1 + 3 + 3
     md = batch_markdown(report)
     assert md.startswith("# pcnet batch: /study/m.csv\n")
-    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | 1.0 | h:{r['pid']} | 2 | "
+    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | - | 1.0 | h:{r['pid']} | 2 | "
                f"{r['out']} |" in md for r in rows)
+    assert "OpenSim" not in text  # no row asked for a fit
     assert all(r["error"] in md for r in rows[3:]) and "Traceback (most recent call last):\n  boom" in md
     assert md.count(legs) == 3 and md.count(switch) == 1 and md.index(switch) < md.index(legs)
     assert "- line 5: worker process 7 was killed by SIGKILL" in md
+
+
+def test_the_summary_gives_the_opensim_fits_marker_rms():
+    """Rows with an OpenSim fit: its marker RMS in the report's table, and their range with the
+    worst row's line in the terminal summary (a user trial: the summary had no IK fit at all)."""
+    from pcnet.pipeline.batch import BatchReport, batch_markdown, format_summary
+
+    rows = [{"row": i, "line": i + 1, "out": f"/s/r{i}", "status": status, "frames": 9, "valid": 9, "mode": "sequence",
+             "seconds": 1.0, "error": "", "warnings": [], "host": "h", "pid": 1, "attempts": 1, "threads": 1,
+             "opensim_rms_cm": rms} for i, (status, rms) in enumerate(
+        [("ok", 1.74), ("skipped", 3.5), ("ok", None), ("failed", 9.0)], 1)]
+    report = BatchReport(rows, False, Path("/s/m.pcnet_batch.json"), 1.0, settings={})
+    assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3)\n" in format_summary(report)
+    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | 1.74 | 1.0 |" in batch_markdown(report)
+    rows[1]["status"] = "failed"
+    assert "\nOpenSim IK        marker RMS 1.74 cm (line 2)\n" in format_summary(report)
 
 
 def test_the_summary_groups_one_kind_of_warning_whose_numbers_differ_by_row():
