@@ -1041,11 +1041,12 @@ def batch_markdown(report: BatchReport) -> str:
     where the failure is a bug of pcnet); every warning of every row in full, most severe
     first, with its action; the restarts of rows whose worker died."""
     s = report.settings
-    workers = s.get("workers") or "the cluster's CPUs"
+    n = s.get("workers")
+    workers = f"{n} worker{'s' if n != 1 else ''}" if n else "a worker per CPU"
     out = [f"{REPORT_TITLE}: {s.get('manifest', '')}", "", _counts_line(report) + "."]
     out += ["", _INTERRUPTED + "."] if report.interrupted else []
     out += ["", f"- **engine**: {s.get('engine')}" + (f" at {s['address']}" if s.get("address") else "")
-            + f", {workers} workers, retries {s.get('retries')}; started {s.get('started')}, engine start "
+            + f", {workers}, retries {s.get('retries')}; started {s.get('started')}, engine start "
               f"{report.engine_start_seconds:.1f} s",
             f"- **options**: overwrite {s.get('overwrite')}, retry_failed {s.get('retry_failed')}",
             f"- **summary**: {report.summary_path} (every row's fields, docs/cluster.md \"Results\")",

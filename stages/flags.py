@@ -367,7 +367,7 @@ def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -
     off = 100 * min(p95 / p50 - 1, 1 - p5 / p50)  # both tails, so a tenth of the frames
     return [_found(Kind.SIZE_CHANGE, Severity.PROBLEM,
                    f"skeleton size changes {p95 / p5:.1f}-fold; a tenth of the frames off by > {off:.0f} %",
-                   "check the lifter, or its units (--lifter generic --units)",
+                   "check the lifter, or its units (--units with --lifter generic)",
                    f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of "
                    f"the ankle-to-head chain; a body keeps its size): the lifter fails, or its output is in image "
                    f"units (declare them: --units normalised or px with --lifter generic, and pcnet makes the size "
@@ -463,7 +463,7 @@ def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray,
         return []
     return [_found(Kind.SIDE_SWAP, Severity.PROBLEM,
                    f"3D left/right contradict the 2D keypoints (agreement {agreement:+.2f}): sides swapped",
-                   "check the joint order (--lifter generic --layout)",
+                   "check the joint order (--layout with --lifter generic)",
                    f"the 3D poses' left and right contradict the 2D keypoints' (agreement of the hips' and "
                    f"shoulders' left-right extents {agreement:+.2f}, below {lowest:+.2f}, the lowest of any training "
                    f"recording whose sides are right): the 3D output's sides are probably swapped (its joint order "

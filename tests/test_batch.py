@@ -445,7 +445,9 @@ def test_the_summary_gives_the_opensim_fits_marker_rms():
              "seconds": 1.0, "error": "", "warnings": [], "host": "h", "pid": 1, "attempts": 1, "threads": 1,
              "opensim_rms_cm": rms} for i, (status, rms) in enumerate(
         [("ok", 1.74), ("skipped", 3.5), ("ok", None), ("failed", 9.0)], 1)]
-    report = BatchReport(rows, False, Path("/s/m.pcnet_batch.json"), 1.0, settings={})
+    report = BatchReport(rows, False, Path("/s/m.pcnet_batch.json"), 1.0,
+                         settings={"engine": "local", "workers": 1, "retries": 0})
+    assert "- **engine**: local, 1 worker, retries 0;" in batch_markdown(report)  # a user trial: "1 workers"
     assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3)\n" in format_summary(report)
     assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | 1.74 | 1.0 |" in batch_markdown(report)
     rows[1]["status"] = "failed"
@@ -513,6 +515,15 @@ def test_run_flags_in_an_action_read_as_manifest_columns():
     # a sentence's words between flags are no flag's value (a review: "column axes and, column layout")
     assert in_manifest_terms("check --axes and --layout") == "check column axes and column layout"
     assert in_manifest_terms("(--axes with --lifter generic)") == "(column axes with column lifter generic)"
+    # the findings' own actions name a generic lifter's option "with --lifter generic" (a user trial read
+    # "column lifter generic, column units" as garbled)
+    from pcnet.stages.flags import size_change_flag
+
+    joints = np.zeros((40, 17, 3))
+    joints[:, :, 1] = np.linspace(0.0, -1.6, 17)
+    joints[20:] *= 2.0
+    (found,) = size_change_flag(joints)
+    assert in_manifest_terms(found.action) == "check the lifter, or its units (column units with column lifter generic)"
     assert in_manifest_terms("--mode smooth --no-camera-prior") == "column mode smooth, column camera_prior false"
     assert in_manifest_terms("pass --fps-override to use --fps anyway") == \
         "set column fps_override to true to use column fps anyway"
