@@ -163,6 +163,13 @@ def test_placeholder_joints_are_missing_and_the_root_of_root_relative_poses_is_k
     kept[:, [L_WRIST, R_WRIST]] = False
     np.testing.assert_array_equal(out[kept], real[kept].astype(np.float32))  # the pelvis among them
     assert np.isfinite(validate_poses(real, "p.npy", "m")).all()  # the file as written: nothing taken away
+    one = real.copy()
+    one[:, L_WRIST] = 0.0  # one joint never tracked (a user trial: kept at the pelvis in every frame)
+    out = validate_poses(one, "p.npy", "m")
+    assert np.isnan(out[:, L_WRIST]).all() and np.isfinite(np.delete(out, L_WRIST, axis=1)).all()
+    moved = np.load(YOGA)  # not root-relative: the pelvis off the origin, a wrist alone on it
+    moved[:, L_WRIST] = 0.0
+    assert np.isnan(validate_poses(moved, "p.npy", "m")[:, L_WRIST]).all()
 
 
 def test_keypoints_at_pixel_zero_are_missing(tmp_path):

@@ -255,9 +255,11 @@ def placeholder_joints(values: np.ndarray, keep_root: bool = True) -> np.ndarray
     more) at one point (a frame written as zeros, or collapsed onto the root), and two or more
     joints of a frame at exactly ``(0, 0, 0)`` (trackers such as Kinect's write ``(0, 0, 0)``
     for an untracked joint), each of which is then a placeholder. One joint alone at the
-    origin is kept: the root of root-relative poses (MotionBERT, VideoPose3D); with
-    ``keep_root`` (H36M-17, whose root is the pelvis, joint 0) the root is kept beside
-    placeholders at the origin too.
+    origin is kept where the layout's root is unknown: it may be the root of root-relative
+    poses (MotionBERT, VideoPose3D). With ``keep_root`` (H36M-17, whose root is the pelvis,
+    joint 0) the root is that joint: it is kept at the origin, and any other joint there is a
+    placeholder even alone (it would sit on the root of root-relative poses, or on the camera
+    centre of camera-frame ones; a user trial's wrist written as zeros had been kept).
 
     Args:
         values: ``(T, J, D)`` float coordinates (3D poses; 2D keypoints' ``x, y``), NaN = missing.
@@ -273,6 +275,7 @@ def placeholder_joints(values: np.ndarray, keep_root: bool = True) -> np.ndarray
     at_origin = present & np.all(values == 0.0, axis=2)
     placeholder = (at_origin & (at_origin.sum(axis=1) >= 2)[:, None]) | (present & collapsed[:, None])
     if keep_root:
+        placeholder[:, 1:] |= at_origin[:, 1:]
         placeholder[:, 0] &= collapsed
     return placeholder
 
