@@ -53,8 +53,9 @@ def no_valid_frame_reason(report: RectificationReport) -> str:
     if seq is None or not seq.up_spread_deg > HEADING_LIMIT_DEG:
         return NO_VALID_FRAME
     return (f"every frame's own up is more than {HEADING_LIMIT_DEG:.0f} deg from the sequence up (median "
-            f"{seq.up_spread_deg:.0f} deg), so no frame has a heading about it: the camera may be upside down, which "
-            "sequence mode's camera prior reads as a level camera; --mode frame answers each frame alone")
+            f"{seq.up_spread_deg:.0f} deg), so no frame has a heading about it: the input's axes may be wrong (check "
+            "the lifter's axis convention; --axes with --lifter generic), or the camera upside down, which sequence "
+            "mode's camera prior reads as a level camera (--mode frame answers each frame alone)")
 
 #: ``allocate(name, shape, dtype)``: a new NaN-filled ``(T, ...)`` array for a whole-recording
 #: result (the residual, the canonical poses):

@@ -547,3 +547,17 @@ def test_a_body_lying_on_its_side_is_noted_and_keeps_its_heading_free_angles(tmp
         rows = list(csv.DictReader(fh))
     assert sum(r["trunk_sagittal_inclination_deg"] == "" for r in rows) > 0.5 * len(rows)
     assert all(r["trunk_inclination_deg"] and r["left_knee_flexion_unsigned_deg"] for r in rows)
+
+
+def test_no_heading_about_the_sequence_up_names_the_axes_first():
+    """A recording whose every frame's up is beyond the heading limit from the sequence up
+    (a user trial: VideoPose3D output with y and z negated) is refused with the input's axes
+    named before the upside-down camera; a recording with no valid frame says only that."""
+    from types import SimpleNamespace
+
+    from pcnet.stages.rectify import NO_VALID_FRAME, no_valid_frame_reason
+
+    reason = no_valid_frame_reason(SimpleNamespace(sequence=SimpleNamespace(up_spread_deg=170.0)))
+    assert "170 deg" in reason and reason.index("axes may be wrong") < reason.index("camera upside down")
+    assert "--axes with --lifter generic" in reason and "--mode frame" in reason
+    assert no_valid_frame_reason(SimpleNamespace(sequence=None)) == NO_VALID_FRAME
