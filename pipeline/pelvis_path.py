@@ -62,12 +62,13 @@ class PelvisPath:
     positions (m for a recovered path, the input's units for a measured one; NaN where
     unknown) or ``None``; ``covariance``: ``(T, 3, 3)`` camera-frame covariance of a recovered
     path (NaN where unknown) or ``None``; ``note``: one summary line (empty for a measured
-    path)."""
+    path); ``refused``: why given 2D keypoints placed no frame's pelvis (empty otherwise)."""
 
     kind: str
     camera: np.ndarray | None = None
     covariance: np.ndarray | None = None
     note: str = ""
+    refused: str = ""
 
     def world_std(self, rotation: np.ndarray) -> np.ndarray | None:
         """``(T, 3)`` 1-sigma of the path along the world axes of ``rotation`` (``(3, 3)``
@@ -115,7 +116,7 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
         path = root_from_keypoints(joints_cam, keypoints2d, camera.matrix, fps, min_confidence=min_confidence,
                                    size_std_fraction=BONE_SCALE_SIGMA, segment=segment)
     except InputError as err:  # too few joints seen in 2D and 3D alike: the run goes on without a path
-        return PelvisPath("not observable", note=f"pelvis path not observable: {err}")
+        return PelvisPath("not observable", refused=str(err))  # a warning, not a note (stages.flags.keypoints_unused_flag)
     position, held = _held_at_the_ends(path.position, present_frames(joints_cam), segment)
     found = np.isfinite(path.position).all(axis=1)
     return PelvisPath("from 2D keypoints", position, path.cov,

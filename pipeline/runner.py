@@ -34,8 +34,8 @@ from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, pr
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, UNOBSERVED_NOTE as OPENSIM_UNOBSERVED, import_opensim,
                                      opensim_fit_line, scale_and_ik)
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motion_findings, missing_data_line,
-                               no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
+from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motion_findings, keypoints_unused_flag,
+                               missing_data_line, no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
                                opensim_fit_findings, per_frame_tilt_summary, ranked, track_segments, unfiltered_flag)
 from pcnet.stages.floor import Floor
 from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
@@ -1140,7 +1140,8 @@ def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rec
         joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64),
                                        floor_frames=rectified.one_person())
         return World(joints, frame.rotation, path.world_std(frame.rotation),
-                     tuple(floor_flag(feet_visible(cam), present_frames(cam))),
+                     tuple(floor_flag(feet_visible(cam), present_frames(cam))
+                           + (keypoints_unused_flag(path.refused) if path.refused else [])),
                      tuple(n for n in (path.note, floor.note(scaled.units) if floor.kind != "plane" else "") if n),
                      root_path=path.kind, floor=floor)
     if mode.reason == "one valid frame":

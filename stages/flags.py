@@ -78,6 +78,7 @@ class Kind(IntEnum):
     LEG_ASYMMETRY = auto()  #: :func:`leg_asymmetry_flag`
     VIEWS_SET_ASIDE = auto()  #: :func:`ensemble_weights_flag`
     FLOOR_PARTIAL = auto()  #: :func:`floor_flag`, some frames
+    KEYPOINTS_UNUSED = auto()  #: :func:`keypoints_unused_flag`
     MARKER_RMS = auto()  #: :func:`opensim_fit_findings`
     SEGMENTS_UNSCALED = auto()  #: :func:`opensim_fit_findings`
 
@@ -507,6 +508,19 @@ def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], margi
                    f"{share:.0f} % of the 2D keypoints lie outside the video's {w}x{h} frame: keypoints of another "
                    f"video, resolution or crop? the left/right and track-switch checks and the recording's overlay "
                    f"rest on them")]
+
+
+def keypoints_unused_flag(reason: str) -> list[Finding]:
+    """A WARNING when 2D keypoints were given but no frame's pelvis could be placed from them
+    (:func:`pcnet.stages.root_path.root_from_keypoints` refused them: ``reason``, its error):
+    keypoints of another video, with the image's y axis up, or of too few joints. The run goes
+    on without a pelvis path, so without what the user gave them for."""
+    return [_found(Kind.KEYPOINTS_UNUSED, Severity.CHECK,
+                   "2D keypoints unused: no frame's pelvis could be placed from them",
+                   "check the 2D file: this video's, image y down",
+                   f"the 2D keypoints were given but not used: {reason}. Keypoints of another video, with the image's "
+                   f"y axis pointing up, or with too few confident joints give no pelvis path, so the world frame has "
+                   f"no horizontal path and no floor from the feet' contacts (heights per frame)")]
 
 
 def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None) -> list[Finding]:

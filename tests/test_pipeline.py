@@ -1053,3 +1053,23 @@ def test_height_scaled_poses_get_the_pelvis_path_before_rectifying(tmp_path):
     assert not reports["height"]["ground_plane"]["reason"].startswith("no pelvis path")
     assert reports["normalised"]["ground_plane"]["reason"].startswith("no pelvis path")
     np.testing.assert_allclose(rotations["height, frame"], rotations["normalised, frame"], atol=1e-5)
+
+
+def test_2d_keypoints_that_place_no_pelvis_are_a_warning(tmp_path):
+    """2D keypoints written with the image's y axis up (a user trial) place no frame's pelvis:
+    the run goes on without a path, and says so as a warning with the file to check, not as a
+    note among notes."""
+    rows = json.loads(BOX_2D.read_text())
+    for r in rows:
+        r["keypoints"][1::3] = [720.0 - y for y in r["keypoints"][1::3]]
+    flipped = tmp_path / "y_up.json"
+    flipped.write_text(json.dumps(rows))
+    res = _invoke("run", "--keypoints2d", flipped, "--keypoints2d-format", "alphapose", "--image-size", "1280x720",
+                  "--lifter", "motionbert", "--lifter-output", BOX_3D, "--height", "1.75", "--fps", "30",
+                  "--no-recording", "--out", tmp_path / "o")
+    assert res.exit_code == 0, res.output
+    assert ("WARNING  2D keypoints unused: no frame's pelvis could be placed from them -> check the 2D file: this "
+            "video's, image y down") in res.output
+    assert "pelvis path not observable (x = z = 0)" in res.output and "note     pelvis path" not in res.output
+    with np.load(tmp_path / "o" / "canonical.npz", allow_pickle=False) as f:
+        assert any("do not match the 3D poses" in flag for flag in f["flags"])
