@@ -284,8 +284,8 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
     if cfg.fps is not None:
         for source, fps in recorded:
             if abs(cfg.fps - fps) > FPS_TOLERANCE * fps and not cfg.fps_override:
-                raise InputError(f"--fps {cfg.fps:g}: expected the rate {source} records ({fps:g} fps), got a "
-                                 f"mismatch; pass --fps-override to use --fps anyway")
+                raise InputError(f"--fps {cfg.fps:g}: expected the rate {source} records ({fps:g} fps), got "
+                                 f"{cfg.fps:g} fps; pass --fps-override to use --fps anyway")
         return float(cfg.fps), "--fps"
     if recorded:
         source, fps = recorded[0]
@@ -449,7 +449,7 @@ def _check_metric_body(cfg: RunConfig, cam) -> None:
         guess = "centimetres? give " + ("--units cm (or mm)" if cfg.lifter == "generic" else
                                         f"a lifter other than --lifter {cfg.lifter}")
     else:
-        guess = (f"metres declared as --units {cfg.lifter_options.get('units')}? drop --units"
+        guess = (f"metres declared as --units {cfg.lifter_options.get('units')}? declare --units m"
                  if cfg.lifter_options.get("units") in ("cm", "mm") else "a joint order other than the lifter's?")
     raise InputError(f"{cfg.lifter_output}: expected poses in metres (a median thigh length of "
                      f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: {guess}, or --height to scale the "
@@ -688,7 +688,7 @@ def _image_size(cfg: RunConfig, video: VideoInfo | None, keypoint_size: tuple[in
     if video is not None:
         if given is not None and given != (video.width, video.height):
             raise InputError(f"--image-size {cfg.image_size}: expected the size of {cfg.video} as displayed "
-                             f"({video.width}x{video.height}), got a mismatch; leave it out with a video")
+                             f"({video.width}x{video.height}), got {given[0]}x{given[1]}; leave it out with a video")
         return video.width, video.height
     return given or keypoint_size
 

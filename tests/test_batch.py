@@ -839,7 +839,7 @@ def test_a_rows_runtime_error_names_the_manifest_columns(tmp_path):
     res = _invoke(manifest)
     assert res.exit_code == 1, res.output
     (row,) = _summary(manifest)["rows"]
-    assert row["error"].startswith("column fps 25: expected the rate") and \
+    assert row["error"].startswith("column fps 25: expected the rate") and "(30 fps), got 25 fps;" in row["error"] and \
         "set column fps_override to true to use column fps anyway" in row["error"], row["error"]
     # the terminal's summary: the counts, the failed row's one line, where the details are
     assert f"FAILED   line 2: {row['error']}" in res.output

@@ -512,7 +512,7 @@ def test_centimetres_given_as_metres_are_refused_by_the_body_check():
         _check_metric_body(RunConfig(lifter="videopose3d", lifter_output="cm.npy"), pose * 100.0)
     # the reverse mistake too: metres declared as centimetres (a user trial: it had run to the end)
     as_cm = RunConfig(lifter="generic", lifter_output="m.npy", lifter_options={"units": "cm"})
-    with pytest.raises(InputError, match=r"m\.npy: .*got 0\.00\d+ m: metres declared as --units cm\? drop --units"):
+    with pytest.raises(InputError, match=r"m\.npy: .*got 0\.00\d+ m: metres declared as --units cm\? declare --units m"):
         _check_metric_body(as_cm, pose / 100.0)
 
 
