@@ -252,7 +252,7 @@ def body_size_flag(joints: np.ndarray, units: str) -> list[Finding]:
         return []
     return [_found(Kind.BODY_SIZE, Severity.PROBLEM,
                    f"median thigh {median:.3g} m, no person's: the poses are probably not in metres",
-                   "check --units, or give --height",
+                   "check --units or the joint order, or give --height",
                    f"median thigh length {median:.3g} m is outside the {low}-{high} m a person has: the lifter output "
                    f"is probably not in metres (check --units, or give --height to scale it; with --lifter generic "
                    f"also --layout: joints in another order give other bone lengths)")]
