@@ -372,6 +372,22 @@ def mocap_sets(data: Path, n_clips: int, max_frames: int) -> list[tuple[str, lis
     return sets
 
 
+def mocap_trcs(data: Path, n_clips: int, max_frames: int, tmp: Path) -> list[tuple[str, list[tuple[str, Path]]]]:
+    """:func:`mocap_sets` written as TRC files in ``tmp`` (floor frame, :func:`to_floor_frame`):
+    ``[(label, [(clip name, trc path)])]``."""
+    from pcnet.stages.sinks.exports import write_trc
+
+    sets = []
+    for label, clips in mocap_sets(data, n_clips, max_frames):
+        recs = []
+        for name, joints, fps in clips:
+            path = tmp / f"{len(recs)}_{label.split()[0]}.trc"
+            write_trc(path, to_floor_frame(joints), fps)
+            recs.append((name, path))
+        sets.append((label, recs))
+    return sets
+
+
 def run_demo(tmp: Path) -> tuple[Path, Path]:
     out = tmp / "demo"
     subprocess.run([sys.executable, "-m", "pcnet.pipeline.entry", "demo", "--out", str(out)],
@@ -437,7 +453,6 @@ def main() -> None:
     ap.add_argument("--max-frames", type=int, default=300, help="first frames of each mocap clip")
     ap.add_argument("--no-demo", action="store_true")
     args = ap.parse_args()
-    from pcnet.stages.sinks.exports import write_trc
     from pcnet.stages.opensim_ik import import_opensim
 
     t0 = time.perf_counter()
@@ -457,13 +472,7 @@ def main() -> None:
         if not args.no_demo:
             trc, csv = run_demo(tmp)
             sets.append(("demo (pcnet demo: boxing, MotionBERT + AlphaPose, 3DPCNet, world.trc)", [("demo", trc)]))
-        for label, clips in mocap_sets(Path(args.data), args.clips, args.max_frames):
-            recs = []
-            for name, joints, fps in clips:
-                path = tmp / f"{len(recs)}_{label.split()[0]}.trc"
-                write_trc(path, to_floor_frame(joints), fps)
-                recs.append((name, path))
-            sets.append((label, recs))
+        sets += mocap_trcs(Path(args.data), args.clips, args.max_frames, tmp)
         for label, recs in sets:
             per_pair: dict[int, list] = {i: [] for i in range(len(PAIRS))}
             info, n_frames = [], 0

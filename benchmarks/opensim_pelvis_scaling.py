@@ -47,8 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.isb_opensim_agreement import (PAIRS, _wrap, compare_recording, mocap_sets, pair_values, run_demo,
-                                              to_floor_frame)
+from benchmarks.isb_opensim_agreement import PAIRS, _wrap, compare_recording, mocap_trcs, pair_values, run_demo
 from benchmarks.report import SHARED_DATA, print_and_save
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -125,7 +124,6 @@ def main() -> None:
     args = ap.parse_args()
     from pcnet.stages import opensim_ik
     from pcnet.stages.opensim_ik import import_opensim
-    from pcnet.stages.sinks.exports import write_trc
 
     data = Path(args.data)
     if not (data / "real" / "yoga_videopose3d").is_dir():
@@ -143,13 +141,7 @@ def main() -> None:
         tmp = Path(tmpdir)
         arms = {"A": shipped, "B": torso_scaled_setup(shipped, tmp / "setup_B")}
         sets = [("real lifter output (demo, VideoPose3D Tadasana and Trikonasana)", real_trcs(data, tmp))]
-        for label, clips in mocap_sets(data, args.clips, args.max_frames):
-            recs = []
-            for name, joints, fps in clips:
-                path = tmp / f"{len(recs)}_{label.split()[0]}.trc"
-                write_trc(path, to_floor_frame(joints), fps)
-                recs.append((name, path))
-            sets.append((label, recs))
+        sets += mocap_trcs(data, args.clips, args.max_frames, tmp)
         verdicts = []
         for label, recs in sets:
             fits = {}
