@@ -393,6 +393,13 @@ def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None,
     return read
 
 
+def _published(read: dict, staged: Path, out: Path) -> dict:
+    """:func:`_inputs_read`'s record with the files read from the run's ``staged`` folder
+    named where they are published (``out``): the embedded estimator's poses."""
+    return {k: str(out / Path(v).name) if k in ("lifter_output", "keypoints2d") and Path(v).parent == staged else v
+            for k, v in read.items()}
+
+
 def _assumed_inputs(cfg: RunConfig) -> list[str]:
     """Notes on what the run assumed about its inputs because nothing said otherwise: the
     generic lifter's default layout, axes and units, a MediaPipe archive whose own 2D
@@ -1273,6 +1280,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             bar.update()
         step("inputs")
         inputs = _inputs(cfg, estimate_notes)
+        if estimate_notes:  # the estimator's file is read from the staged folder, published as `out`
+            inputs = replace(inputs, recording=replace(inputs.recording, read=_published(inputs.recording.read, tmp, out)))
         bar.update()
 
         step("remap")

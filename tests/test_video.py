@@ -4,6 +4,7 @@ Tests that run the estimator skip where the extra is not installed; CI installs 
 
 from __future__ import annotations
 
+import json
 import sys
 
 import cv2
@@ -45,6 +46,11 @@ def test_a_video_alone_gives_every_output_and_its_poses_for_a_re_run(tmp_path, v
     with np.load(estimate, allow_pickle=False) as f:
         assert f["keypoints_2d"].shape == f["world_3d"].shape == (10, 33, 3)
         assert float(f["fps"]) == 30.0 and int(f["width"]) == 854 and int(f["height"]) == 480
+    # the run's record names the poses where they are kept, not the staged folder they were read from
+    with np.load(tmp_path / "a" / "canonical.npz", allow_pickle=False) as f:
+        report = json.loads(str(f["report"]))
+    assert report["inputs"]["lifter_output"] == report["inputs"]["keypoints2d"] == str(estimate.resolve())
+    assert f"3D {estimate.resolve()} (--lifter mediapipe" in (tmp_path / "a" / "report.md").read_text()
     # the saved poses are a lifter output and 2D keypoints as they stand: the same run again
     again = _invoke("run", "--video", CLIP, "--lifter", "mediapipe", "--lifter-output", estimate, "--keypoints2d",
                     estimate, "--keypoints2d-format", "mediapipe", "--out", tmp_path / "b")
