@@ -1197,9 +1197,8 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
                "angle is 0 by construction")
         result.empty_angles = {name: why for name in NEEDS_SPINE_JOINT}
         notes.append(f"trunk_flexion_to_pelvis_deg left empty: {why}")
-    table = write_kinematics_table(result, tmp, allocate=store.create)
-    findings += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
-    # motion no person makes (joint speeds and accelerations beyond the fitted limits)
+    # motion no person makes (joint speeds and accelerations beyond the fitted limits): before
+    # the table, whose implausible_motion column marks its frames
     unchecked = motion_check_note(units, fps)
     if unchecked:
         notes.append(unchecked)
@@ -1207,6 +1206,8 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         implausible = implausible_motion(rectified_poses, fps, units=units)
         result.implausible_frames = implausible_frames(implausible, len(cam))
         findings += implausible_motion_findings(implausible)
+    table = write_kinematics_table(result, tmp, allocate=store.create)
+    findings += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
     # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)
     nonfinite = inputs.recording.nonfinite
     missing_note = format_flag_counts(result.flag_counts, nonfinite_line(nonfinite))

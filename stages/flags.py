@@ -632,10 +632,11 @@ def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,
     if cutoff_hz is None or not present.any() or not np.asarray(unfiltered, bool)[present].all():
         return []
     return [_found(Kind.TOO_SHORT, Severity.PROBLEM,
-                   f"too short to filter ({len(present)} frames): raw positions, no velocity or acceleration",
+                   f"too short to filter ({len(present)} frame{'s' * (len(present) != 1)}): raw positions, no velocity "
+                   f"or acceleration",
                    "use a longer recording",
                    f"too short to filter: no run of present frames is longer than the {cutoff_hz:g} Hz low-pass "
-                   f"filter needs at {fps:g} fps ({len(present)} frames), so positions are raw and no velocity or "
+                   f"filter needs at {fps:g} fps ({len(present)} frame{'s' * (len(present) != 1)}), so positions are raw and no velocity or "
                    f"acceleration is given")]
 
 
@@ -876,7 +877,7 @@ def implausible_motion_findings(found: Sequence[ImplausibleMotion],
         out.append(_found(kind, Severity.CHECK,
                           f"implausible {quantity} in {where}: {worst.joint.replace('_', ' ')} "
                           f"{worst.peak:.{digits}f} {worst.unit} (limit {worst.limit:.{digits + 1}f})",
-                          "leave implausible_frames out", detail, runs))
+                          "leave those frames out (implausible_motion = 1)", detail, runs))
     return out
 
 

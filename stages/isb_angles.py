@@ -168,11 +168,15 @@ DEFINITIONS: Mapping[str, str] = MappingProxyType({
     **{f"{side}_{key}": text for side in ("left", "right") for key, text in {
         "hip_flexion_deg": "thigh relative to pelvis, intrinsic Z-X'-Y'' (JCS: pelvis Z, floating, thigh Y), first angle",
         "hip_adduction_deg": "thigh relative to pelvis, intrinsic Z-X'-Y'', second angle",
-        "hip_internal_rotation_deg": "thigh relative to pelvis, intrinsic Z-X'-Y'', third angle",
+        "hip_internal_rotation_deg": ("thigh relative to pelvis, intrinsic Z-X'-Y'', third angle; empty where the knee "
+                                      f"bends less than {MIN_BEND_DEG:g} deg (the thigh-shank plane is undefined); from "
+                                      "a monocular lifter it errs more than it varies (docs/joint_angles.md)"),
         "knee_flexion_deg": "shank relative to thigh about the thigh Z (Grood & Suntay flexion axis), minus the first Z-X'-Y'' angle",
         "shoulder_plane_of_elevation_deg": "upper arm relative to thorax, intrinsic Y-X'-Y'' (Wu 2005), first angle (elevation taken positive)",
         "shoulder_elevation_deg": "upper arm relative to thorax, intrinsic Y-X'-Y'', second angle, sign flipped to be >= 0",
-        "shoulder_axial_rotation_deg": "upper arm relative to thorax, intrinsic Y-X'-Y'', third angle (elevation taken positive)",
+        "shoulder_axial_rotation_deg": ("upper arm relative to thorax, intrinsic Y-X'-Y'', third angle (elevation taken "
+                                        f"positive); empty where the elbow bends less than {MIN_BEND_DEG:g} deg or the "
+                                        f"elevation is within {GIMBAL_MARGIN_DEG:g} deg of 0 or 180 (docs/joint_angles.md)"),
         "elbow_flexion_deg": "forearm relative to upper arm about the upper arm Z, first Z-X'-Y'' angle (Wu 2005)",
     }.items()},
 })

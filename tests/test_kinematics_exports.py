@@ -992,6 +992,13 @@ def test_kinematics_columns_csv_describes_every_column_of_a_real_run(tmp_path):
     assert rows["right_wrist_az_m_per_s2"][1] == "m/s^2" and rows["right_wrist_missing"][1:3] == ["0/1", "none"]
     assert rows["heading_deg"][1:3] == ["deg", "camera"] and rows["time_s"][1] == "s"
     assert "positive = thigh flexed" in rows["right_hip_flexion_deg"][3]
+    # the implausible-motion warning's frames, in the CSV a spreadsheet user reads (a user trial: only the npz had them)
+    assert rows["implausible_motion"][1:3] == ["0/1", "none"]
+    with open(out / "kinematics.csv", newline="") as f:
+        marked = [int(r["implausible_motion"]) for r in csv.DictReader(f)]
+    with np.load(out / "canonical.npz", allow_pickle=False) as npz:
+        assert marked == npz["implausible_frames"].astype(int).tolist()
+    assert "empty where the knee bends less than 5 deg" in rows["right_hip_internal_rotation_deg"][3]
 
 
 @pytest.mark.slow

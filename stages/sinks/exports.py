@@ -638,7 +638,8 @@ def plot_wrists(
 
     Args:
         path_png: destination ``.png``.
-        camera: ``(T, 17, 3)`` camera-frame poses (x right, y down, z forward), ``units``.
+        camera: ``(T, 17, 3)`` root-relative camera-frame poses (x right, y down, z forward),
+            ``units``: plotted as positions from the pelvis along the camera's axes.
         canonical: ``(T, 17, 3)`` rectified poses (x anterior, y up, z right: world or
             canonical frame), ``units``.
         fps: frame rate in Hz.
@@ -666,7 +667,7 @@ def plot_wrists(
     t = np.arange(T) / fps
     acc_u = f"{units}/s²"
     columns = (
-        ("camera frame (x right, y down, z forward)", cam, acam, ("x", "y", "z")),
+        ("camera axes, from the pelvis (x right, y down, z forward)", cam, acam, ("x", "y", "z")),
         (frame_label, can, acan, ("x", "y", "z")),
     )
     comp_colors = ("tab:red", "tab:green", "tab:blue")

@@ -149,6 +149,9 @@ EXTRA_COLUMNS = {
                                      "the camera, + counter-clockwise seen from above (empty where not valid)."),
     "track_segment": ("-", "none", "The stretch of the 2D track between jumps to another place (stages/flags.py: "
                                    "track_segments); frames outside the longest stretch are probably another person."),
+    "implausible_motion": ("0/1", "none", "1 where a joint moves faster or accelerates harder than in any training "
+                                          "motion (the implausible-motion warning's frames; canonical.npz "
+                                          "implausible_frames), else 0."),
 }
 
 
@@ -169,7 +172,8 @@ def unobservable_paths(r: RecordingResult) -> dict[str, tuple[str, str]]:
 
 def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> dict[str, Path]:
     """``kinematics.csv`` (:func:`.exports.write_kinematics_csv`, with the ``valid`` and
-    ``heading_deg`` columns, and ``track_segment`` with 2D input) from ``r.kinematics_blocks``, consumed once,
+    ``heading_deg`` columns, ``track_segment`` with 2D input, ``implausible_motion`` where the
+    motion was checked) from ``r.kinematics_blocks``, consumed once,
     and its data dictionary ``kinematics_columns.csv`` (from the same column list; the
     :func:`unobservable_paths` empty in both); fills
     ``r.kinematics`` (:data:`KEPT_JOINTS` only, float32: what a long recording keeps for the
@@ -193,6 +197,8 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
     extra = {"valid": r.valid.astype(int), "heading_deg": r.heading_deg}
     if r.track_segment is not None:  # which person the 2D track followed, as the track-switch flag names it
         extra["track_segment"] = np.asarray(r.track_segment, int)
+    if r.implausible_frames is not None:  # the frames the implausible-motion warning asks to leave out
+        extra["implausible_motion"] = _implausible(r).astype(int)
     write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra,
                          dictionary=dictionary, extra_definitions=EXTRA_COLUMNS, frame=r.kinematics_frame,
                          unobservable=unobservable, empty_angles=r.empty_angles)
