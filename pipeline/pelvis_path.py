@@ -118,13 +118,16 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
     except InputError as err:  # too few joints seen in 2D and 3D alike: the run goes on without a path
         return PelvisPath("not observable", refused=str(err))  # a warning, not a note (stages.flags.keypoints_unused_flag)
     position, held = _held_at_the_ends(path.position, present_frames(joints_cam), segment)
-    found = np.isfinite(path.position).all(axis=1)
+    accepted = path.frames_fitted - path.frames_rejected
+    bridged = int(np.isfinite(path.position).all(axis=1).sum()) - accepted  # gaps and outliers inside the span
     return PelvisPath("from 2D keypoints", position, path.cov,
-                      f"pelvis path from the 2D keypoints ({camera.source}): {int(found.sum())} of {len(found)} "
-                      f"frames, depth 1-sigma median {path.depth_std_median:.2f} m with a "
+                      f"pelvis path from the 2D keypoints ({camera.source}): fitted in {accepted} of "
+                      f"{len(position)} frames, depth 1-sigma median {path.depth_std_median:.2f} m with a "
                       f"{100 * BONE_SCALE_SIGMA:g} % body-size spread (a lower bound on real lifter output)"
-                      + (f"; {path.frames_rejected} frames rejected as outliers" if path.frames_rejected else "")
-                      + (f"; held at its first/last fitted position in {held} frames with a pose but no fit at the "
+                      + (f"; {path.frames_rejected} frame{'s' * (path.frames_rejected != 1)} rejected as outliers"
+                         if path.frames_rejected else "")
+                      + (f"; bridged across {bridged} frame{'s' * (bridged != 1)} without an accepted fit" if bridged > 0 else "")
+                      + (f"; held at its first/last fitted position in {held} frames with a pose but no accepted fit at the "
                          f"ends (pelvis_path_std_world empty there): their world positions and velocities do not "
                          f"follow the body's travel" if held else ""))
 

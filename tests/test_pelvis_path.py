@@ -4,6 +4,8 @@ frames held at the ends of a fitted path."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -51,6 +53,18 @@ def test_a_fitted_path_holds_its_ends_where_the_2d_keypoints_have_no_fit():
     np.testing.assert_array_equal(path.camera[:3], np.repeat(path.camera[3:4], 3, axis=0))
     std = path.world_std(np.eye(3))
     assert std.shape == (90, 3) and np.all(std[3:, 2] > std[3:, 0])  # depth is the weak axis
+
+
+def test_the_path_note_counts_fitted_frames_apart_from_bridged_ones():
+    """Frames with nobody in the 2D keypoints inside the fitted span are bridged by the
+    smoother, not counted as fitted (a user trial read "297 of 301 frames" with ten blanked)."""
+    rel, kp, _, _ = _projected_walk()
+    kp[40:50] = np.nan
+    path = pelvis_path(None, rel, kp, camera_intrinsics(None, None, (1920, 1080)), "m", 30.0, 0.3)
+    fitted = int(re.search(r"fitted in (\d+) of 90 frames", path.note).group(1))
+    bridged = int(re.search(r"bridged across (\d+) frames? without an accepted fit", path.note).group(1))
+    assert fitted <= 80 and bridged >= 10 and fitted + bridged == 90, path.note
+    assert np.isfinite(path.camera[40:50]).all()
 
 
 def test_no_path_without_keypoints_metres_or_an_image_size():
