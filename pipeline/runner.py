@@ -44,7 +44,7 @@ from pcnet.pipeline.rectification import rectify_checked
 from pcnet.stages.rectification_report import ModeChoice, RectificationReport
 from pcnet.stages.rectify import NO_VALID_FRAME, no_valid_frame_reason
 from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG
-from pcnet.stages.remap import built_joints, mask_low_confidence, remap_to_h36m
+from pcnet.stages.remap import built_joints, mask_low_confidence, outside_image, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
                                       write_motion_files, write_rerun)
 from pcnet.stages.sinks.report import REPORT_NAME, report_markdown, write_report
@@ -701,19 +701,21 @@ def _image_size(cfg: RunConfig, video: VideoInfo | None, keypoint_size: tuple[in
 
 
 def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: FrameStore,
-                  orientation: DisplayOrientation):
+                  orientation: DisplayOrientation, image_size: tuple[int, int] | None = None):
     """The remap step a block of frames at a time into ``store``: the pelvis rule, the turn
     into a phone video's displayed frame (``orientation``), the root (kept as a measurement
-    for a depth sensor), root-relative poses and the joints masked by their 2D confidence.
+    for a depth sensor), root-relative poses and the joints masked by their 2D confidence and,
+    where the picture's ``image_size`` (displayed) is known, by their 2D keypoint lying outside
+    it (:func:`pcnet.stages.remap.outside_image`).
     Returns ``(joints_camera, keypoints2d or None, root_cam (T, 3) float64 or None,
-    pelvis-filled frame count)``."""
+    pelvis-filled frame count, joint positions masked as outside the picture)``."""
     T = len(joints)
     cam = store.create("joints_camera", (T, 17, 3), np.float32)
     kp = None if kp2d is None else store.create("keypoints2d", kp2d.shape, np.float32)
     # Only a depth sensor measures where the root is; a monocular lifter's root is zeroed,
     # image-normalised or a fixed depth.
     root_cam = np.full((T, 3), np.nan) if measured_root else None
-    filled, finite = 0, False
+    filled, finite, outside = 0, False, 0
     for rows in frame_blocks(T):
         J, pelvis_filled = fill_pelvis_from_hips(joints[rows])
         J = orientation.joints(J)
@@ -724,6 +726,10 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
         if kp is not None:
             kp[rows] = orientation.pixels(kp2d[rows])
             J = mask_low_confidence(J, kp2d[rows, :, 2], cfg.min_confidence)
+            if image_size is not None:
+                unseen = outside_image(kp[rows], image_size) & np.isfinite(J).all(axis=2)
+                outside += int(unseen.sum())
+                J[unseen] = np.nan
         finite |= bool(np.isfinite(J).any())
         cam[rows] = J
     if not finite:
@@ -732,7 +738,7 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
         raise InputError(f"{cfg.lifter_output}: expected frames with a pelvis or both hips (the poses are centred on "
                          f"them), got every joint of every frame missing (NaN) once centred: no pelvis and no hip pair"
                          f"{masked}")
-    return cam, kp, root_cam, filled
+    return cam, kp, root_cam, filled, outside
 
 
 def _located(cam, root_cam: np.ndarray | None, store: FrameStore):
@@ -988,8 +994,9 @@ def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFr
     video's stored frame where the recording shows them over it."""
     recording, orientation = inputs.recording, inputs.orientation
     notes = [orientation.note] if orientation.note else []
-    cam, kp2d, root_cam, pelvis_filled = _camera_frame(cfg, recording.joints, recording.keypoints2d,
-                                                       recording.measured_root, store, orientation)
+    cam, kp2d, root_cam, pelvis_filled, outside = _camera_frame(cfg, recording.joints, recording.keypoints2d,
+                                                                recording.measured_root, store, orientation,
+                                                                inputs.image_size)
     video_kp2d = None
     if kp2d is not None and cfg.recording and orientation.recording_note:
         video_kp2d = store.create("keypoints2d_video", kp2d.shape, np.float32)
@@ -998,6 +1005,11 @@ def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFr
         notes.append(orientation.recording_note)
     if pelvis_filled:
         notes.append(f"pelvis missing in {pelvis_filled} frame{'s' * (pelvis_filled != 1)}: taken as the hip midpoint")
+    if outside:
+        w, h = inputs.image_size
+        notes.append(f"{outside} joint position{'s' * (outside != 1)} whose 2D keypoint lies outside the {w}x{h} "
+                     f"picture taken as missing: the detector placed {'them' if outside != 1 else 'it'} there "
+                     f"without seeing {'them' if outside != 1 else 'it'}")
     return CameraFrame(cam, kp2d, video_kp2d, root_cam, pelvis_filled, tuple(notes))
 
 

@@ -45,6 +45,23 @@ def built_joints(layout: Layout | str) -> list[str]:
     return [names[k] for k, src in enumerate(lay.to_h36m) if len(src) > 1]
 
 
+def outside_image(keypoints_xy: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
+    """``(T, J)`` bool: 2D keypoints ``(T, J, >=2)`` (pixels, x right, y down) that lie outside
+    the ``(width, height)`` picture. A detector that places a joint there (MediaPipe extrapolates
+    a body cut by the frame's edge, with confidences above any threshold) has not seen it, so
+    the joint is missing, not measured. NaN keypoints are not outside.
+
+    Raises:
+        InputError: ``image_size`` not two positive numbers.
+    """
+    w, h = image_size
+    if not (w > 0 and h > 0):
+        raise InputError(f"image_size: expected (width, height) in pixels > 0, got {image_size!r}")
+    x, y = (np.asarray(keypoints_xy[..., i], np.float64) for i in (0, 1))
+    with np.errstate(invalid="ignore"):
+        return (x < 0) | (x > w) | (y < 0) | (y > h)
+
+
 def mask_low_confidence(joints3d: np.ndarray, confidence: np.ndarray, threshold: float) -> np.ndarray:
     """Set 3D joints ``(T, 17, 3)`` to NaN where the 2D ``confidence`` ``(T, 17)`` is below
     ``threshold`` or NaN. Returns a new float32 array.

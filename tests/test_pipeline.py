@@ -193,6 +193,33 @@ def test_mediapipe_with_nan_frames_runs_and_flags_them(tmp_path):
     assert "virtual camera" in result.summary() and "assumed" in result.summary()
 
 
+def test_joints_whose_keypoints_lie_outside_the_picture_are_missing(tmp_path):
+    """MediaPipe places the joints of a body cut by the frame's edge beyond it, with confidences
+    above the threshold (a user trial: a cropped video's ankle 30 px below a 320 px picture in
+    every frame, counted as measured and used for the floor). Such a joint is missing, and the
+    run says how many positions it took so."""
+    from pcnet.stages.core.conventions import L_ANKLE, L_KNEE, R_ANKLE, R_KNEE
+
+    data = dict(np.load(MEDIAPIPE, allow_pickle=False))
+    below = data["keypoints_2d"].copy()
+    below[20:40, 25:33, 1] += float(data["height"])  # knees, ankles and feet below the picture
+    data["keypoints_2d"] = below
+    legs_out = tmp_path / "legs_out.npz"
+    np.savez(legs_out, **data)
+    runs = {}
+    for name, file in (("as filmed", MEDIAPIPE), ("legs out", legs_out)):
+        cfg = RunConfig(keypoints2d=str(file), keypoints2d_format="mediapipe", lifter="mediapipe",
+                        lifter_output=str(file), fps=30, out=str(tmp_path / name.replace(" ", "_")), recording=False)
+        runs[name] = run_pipeline(cfg, progress=False)
+    with np.load(tmp_path / "legs_out" / "canonical.npz") as npz:
+        legs = npz["joints_camera"][20:40][:, [R_KNEE, R_ANKLE, L_KNEE, L_ANKLE]]
+    with np.load(tmp_path / "as_filmed" / "canonical.npz") as npz:
+        filmed = npz["joints_camera"][20:40][:, [R_KNEE, R_ANKLE, L_KNEE, L_ANKLE]]
+    assert np.isfinite(filmed).all() and np.isnan(legs).all()
+    assert "whose 2D keypoint lies outside the 1768x994 picture taken as missing" in runs["legs out"].summary()
+    assert "outside the" not in runs["as filmed"].summary()
+
+
 def test_focal_length_reaches_the_mediapipe_adapter_from_the_cli_and_a_manifest(tmp_path):
     from pcnet.pipeline.batch import row_to_config
     from pcnet.stages.core.errors import InputError
