@@ -1,5 +1,5 @@
-"""OpenSim scaling of the pelvis: by the hip width on every axis (shipped until decision 0087)
-or by the hip width across and the trunk's hip-to-shoulder length up and forward.
+"""OpenSim scaling of the pelvis: by the hip width on every axis (A, shipped until decision 0087)
+or by the hip width across and the trunk's hip-to-shoulder length up and forward (B, shipped).
 
     python -m benchmarks.opensim_pelvis_scaling [--data ../shared/data] [--clips 20] [--max-frames 300]
 
@@ -14,7 +14,8 @@ the pelvis and sacrum across (Z) by the hip width only, and up and forward (X, Y
 torso's own hip-to-shoulder measurement, so the chain keeps the subject's length.
 
 Recordings (each written once as a TRC, then fitted by both setups with the shipped
-:func:`pcnet.stages.opensim_ik.scale_and_ik`; the rest of the setup is the shipped one):
+:func:`pcnet.stages.opensim_ik.scale_and_ik`; arm A is written from the shipped setup file by
+:func:`hip_width_setup`, everything else in it the shipped one):
 - real lifter output (validation: looked at in the user trial): ``pcnet demo`` (boxing,
   MotionBERT) and every real VideoPose3D Tadasana and Trikonasana file (standing on both feet,
   a world frame), each through ``pcnet run --lifter videopose3d --fps 30`` (its world.trc);
@@ -56,10 +57,10 @@ ASANAS = ("Tadasana", "Trikonasana")
 THIGH_THORAX = [p for p in PAIRS if p[0].startswith("thigh / thorax")]
 
 
-def torso_scaled_setup(shipped: Path, out: Path) -> Path:
-    """A copy of the shipped setup folder whose scaling file is arm B: the ``pelvis``
-    measurement scales ``pelvis`` and ``sacrum`` on Z only, the ``torso`` measurement also
-    scales them on X and Y."""
+def hip_width_setup(shipped: Path, out: Path) -> Path:
+    """A copy of the shipped setup folder (arm B since decision 0087) whose scaling file is
+    arm A, the setup before it: the ``pelvis`` measurement scales ``pelvis`` and ``sacrum`` on
+    X, Y and Z, and the ``torso`` measurement scales neither."""
     out.mkdir(parents=True)
     for f in shipped.iterdir():
         if f.is_file():
@@ -70,15 +71,11 @@ def torso_scaled_setup(shipped: Path, out: Path) -> Path:
     torso = re.search(r'<Measurement name="torso">.*?</Measurement>', text, re.S)
     if pelvis is None or torso is None:
         raise RuntimeError(f"{setup}: no pelvis or torso measurement")
-    new_pelvis = pelvis.group(0).replace("<axes> X Y Z</axes>", "<axes> Z</axes>")
-    body = ('\t\t\t\t\t\t\t\t<BodyScale name="{}">\n\t\t\t\t\t\t\t\t\t<axes> X Y</axes>\n'
-            '\t\t\t\t\t\t\t\t</BodyScale>\n')
-    new_torso = torso.group(0).replace("\t\t\t\t\t\t\t</objects>\n\t\t\t\t\t\t\t<groups />\n\t\t\t\t\t\t</BodyScaleSet>",
-                                       body.format("pelvis") + body.format("sacrum")
-                                       + "\t\t\t\t\t\t\t</objects>\n\t\t\t\t\t\t\t<groups />\n\t\t\t\t\t\t</BodyScaleSet>", 1)
-    if new_pelvis.count("<axes> Z</axes>") != 2 or new_torso.count("<axes> X Y</axes>") != 3:
-        raise RuntimeError(f"{setup}: its layout changed; arm B could not be written")
-    setup.write_text(text.replace(pelvis.group(0), new_pelvis).replace(torso.group(0), new_torso))
+    old_pelvis = pelvis.group(0).replace("<axes> Z</axes>", "<axes> X Y Z</axes>")
+    old_torso = re.sub(r'\s*<BodyScale name="(?:pelvis|sacrum)">\s*<axes> X Y</axes>\s*</BodyScale>', "", torso.group(0))
+    if old_pelvis.count("<axes> X Y Z</axes>") != 2 or "pelvis" in old_torso or "sacrum" in old_torso:
+        raise RuntimeError(f"{setup}: its layout changed; arm A could not be written")
+    setup.write_text(text.replace(pelvis.group(0), old_pelvis).replace(torso.group(0), old_torso))
     return out
 
 
@@ -139,7 +136,7 @@ def main() -> None:
              "of the IK marker RMS (cm).", ""]
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)
-        arms = {"A": shipped, "B": torso_scaled_setup(shipped, tmp / "setup_B")}
+        arms = {"A": hip_width_setup(shipped, tmp / "setup_A"), "B": shipped}
         sets = [("real lifter output (demo, VideoPose3D Tadasana and Trikonasana)", real_trcs(data, tmp))]
         sets += mocap_trcs(data, args.clips, args.max_frames, tmp)
         verdicts = []

@@ -119,7 +119,7 @@ def opensim_fit_line(result: dict, short: bool = False) -> str:
 #: H36M-17 has no ASIS/PSIS, so the split of trunk-to-thigh flexion between ``pelvis_tilt``, the
 #: hips and ``L5_S1_Flex_Ext`` is the model's, not the subject's (docs/joint_angles.md,
 #: docs/benchmarks/kinematics.md: their sum agrees with pcnet's thigh-to-thorax angle within
-#: 0.9 deg on mocap).
+#: 1.1 deg on mocap once each recording's offset is removed).
 UNOBSERVED_NOTE = ("pelvis_tilt and L5_S1_Flex_Ext are not observable from joint centres: read hip_flexion "
                    "- L5_S1_Flex_Ext (thigh to thorax) instead of either (docs/benchmarks/kinematics.md)")
 

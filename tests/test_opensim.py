@@ -251,10 +251,10 @@ def test_a_batch_row_can_ask_for_opensim(tmp_path):
 def test_a_poor_ik_fit_is_flagged():
     """OpenSim's best-practice checklist asks of IK an RMS marker error under ~2 cm; a fit as
     poor as a real cycling MotionBERT file's (17.1 cm RMS, 87.4 cm max, `pcnet run --opensim`)
-    is warned about, the demo's (1.74 / 6.44 cm, benchmarks/results/opensim_ik.txt) is not."""
+    is warned about, the demo's (1.94 / 7.22 cm, benchmarks/results/opensim_ik.txt) is not."""
     from pcnet.stages.opensim_ik import ik_fit_flags, MAX_GOOD_MARKER_RMS_M
 
-    assert ik_fit_flags({"marker_rms_m": 0.0174, "marker_max_m": 0.0644}) == []
+    assert ik_fit_flags({"marker_rms_m": 0.0194, "marker_max_m": 0.0722}) == []
     (line,) = ik_fit_flags({"marker_rms_m": 0.171, "marker_max_m": 0.874})
     assert "marker RMS 17.1 cm (max 87.4 cm)" in line and "check the joint angles" in line
     assert ik_fit_flags({"marker_rms_m": MAX_GOOD_MARKER_RMS_M, "marker_max_m": 0.05}) == []
@@ -306,3 +306,37 @@ def test_pcnet_run_opensim_on_a_real_kinect_v1_recording(tmp_path):
     fit = json.loads((out / "opensim_fit.json").read_text())
     assert fit["markers_left_out"] == ["neck_nose"] and fit["segments_not_scaled"] == []
     assert fit["frames"] == 48 and fit["marker_rms_m"] < 0.03, fit  # measured 2.10 cm RMS
+
+
+@pytest.mark.slow
+def test_a_lifter_with_wide_hips_is_not_folded_at_l5(tmp_path):
+    """Decision 0087: the pelvis is scaled across by the hip width and up and forward by the
+    trunk. Scaled by the hip width on every axis, a real VideoPose3D Tadasana (hip centres 1.5
+    times the model's apart) got a pelvis too tall for its trunk, and IK folded the standing
+    body at L5_S1 (pelvis_tilt +28, L5_S1_Flex_Ext -57 deg; thigh to thorax 28 deg off pcnet's)."""
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    from pcnet.stages.isb_angles import isb_joint_angles
+    from pcnet.stages.opensim_ik import read_trc
+
+    from conftest import FIXTURES
+
+    out = tmp_path / "tadasana"
+    res = _cli("run", "--lifter", "videopose3d", "--lifter-output", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy",
+               "--fps", "30", "--opensim", "--no-recording", "--out", out)
+    assert res.exit_code == 0, res.output
+    lines = (out / "ik.mot").read_text().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.strip() == "endheader") + 1
+    names = lines[start].split()
+    mot = np.array([[float(v) for v in line.split()] for line in lines[start + 1:]])
+    col = {n: mot[:, names.index(n)] for n in ("L5_S1_Flex_Ext", "hip_flexion_r", "hip_flexion_l")}
+    # the fold is at L5 (pelvis_tilt also carries this short clip's 19 deg up error: the world frame's)
+    assert abs(np.median(col["L5_S1_Flex_Ext"])) < 15, np.median(col["L5_S1_Flex_Ext"])
+    _, markers, marker_names, _ = read_trc(out / "world.trc")
+    from pcnet.stages.core.conventions import H36M_JOINTS
+
+    angles = isb_joint_angles(markers[:, [marker_names.index(j) for j in H36M_JOINTS]])
+    for side in ("r", "l"):
+        name = "right" if side == "r" else "left"
+        pcnet = angles[f"{name}_hip_flexion_deg"] + angles["trunk_flexion_to_pelvis_deg"]
+        opensim = col[f"hip_flexion_{side}"] - col["L5_S1_Flex_Ext"]
+        assert abs(np.nanmedian(pcnet - opensim)) < 12, (side, np.nanmedian(pcnet - opensim))
