@@ -11,8 +11,9 @@ from conftest import FIXTURES, camera_up, run_report, sequence_up
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import RunResult, run_pipeline
 from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, body_size_flag, ensemble_weights_flag,
-                                floor_flag, implausible_motion_findings, keypoints_outside_image_flag, missing_data_line,
-                                leg_asymmetry_flag, lifter_frame_flag, mirrored_skeleton_flag, no_opensim_flag,
+                                floor_flag, implausible_motion_findings, keypoints_outside_image_flag,
+                                keypoints_unused_flag, leg_asymmetry_flag, lifter_frame_flag, missing_data_line,
+                                mirrored_skeleton_flag, no_opensim_flag,
                                 no_world_frame_flag, note_finding, opensim_fit_findings,
                                 orientation_flags, posture_flag, ranked, shortened, side_swap_flag, size_change_flag,
                                 track_segments, track_switch_flag, unfiltered_flag)
@@ -67,6 +68,7 @@ def _every_kind() -> list[Finding]:
             + mirrored_skeleton_flag(box * np.array([1.0, 1.0, -1.0]))
             + side_swap_flag(kp, kp[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]])
             + keypoints_outside_image_flag(kp, (100, 100), 0.05)
+            + keypoints_unused_flag("root path: no frame could be fitted (of 60, some with 17 usable joints)")
             + no_world_frame_flag("smooth") + no_opensim_flag()
             + opensim_fit_findings({**fit, "warnings": ik_fit_flags(fit)}))
 
