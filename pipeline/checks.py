@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pcnet.adapters import VideoInfo
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
                                mirrored_skeleton_flag, orientation_flags, posture_flag,
@@ -49,18 +48,19 @@ class CheckInputs:
     recording, which a constant factor leaves alone and image units' per-frame size moves a
     little: the boxing demo's leg asymmetry reads 18 %, 19 % on the unscaled poses);
     keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence in the displayed frame, or
-    ``None``; video: the probed video or ``None``; report: what rectification decided; tilt:
+    ``None``; report: what rectification decided; tilt:
     the camera's tilt; lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; track_segment,
     track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track (``None`` and
     ``[]`` without one); height_given: ``--height`` was given (the body is scaled to it);
     person_option: ``--person`` can choose another track of the 2D file; focal_known: the
-    camera's focal length was known (``--focal-px`` or the lifter file's camera matrix).
+    camera's focal length was known (``--focal-px`` or the lifter file's camera matrix);
+    picture: ``(width, height)`` of the picture ``keypoints2d`` are in, or ``None`` where unknown
+    (``pipeline/runner.py: _keypoint_picture``).
     """
 
     joints_camera: np.ndarray
     units: str
     keypoints2d: np.ndarray | None
-    video: VideoInfo | None
     report: RectificationReport
     tilt: CameraTilt
     lifter_turn_deg: float
@@ -69,6 +69,7 @@ class CheckInputs:
     height_given: bool
     person_option: bool
     focal_known: bool = False
+    picture: tuple[int, int] | None = None
 
 
 def checks(c: CheckInputs) -> list[Finding]:
@@ -76,7 +77,7 @@ def checks(c: CheckInputs) -> list[Finding]:
     camera's orientation, the body's size, legs and size change, keypoints outside the image, a
     side swap (or else a mirrored skeleton), the posture hypotheses, the
     ensemble's weights (outside sequence mode), the lifter's frame and a switch of the 2D track."""
-    report, cam, kp2d, video = c.report, c.joints_camera, c.keypoints2d, c.video
+    report, cam, kp2d = c.report, c.joints_camera, c.keypoints2d
     # The view gate's weights shape the answer only where the per-frame up is the answer.
     weights = report.weights if report.mode.run != "sequence" else None
     return [
@@ -85,9 +86,9 @@ def checks(c: CheckInputs) -> list[Finding]:
         *leg_asymmetry_flag(cam),
         # image-scaled sizes are made constant per frame (the scale step); a metric body should keep its own
         *(size_change_flag(cam) if c.units not in IMAGE_SCALED_UNITS else []),
-        # turned videos: keypoint_frame
-        *(keypoints_outside_image_flag(kp2d, (video.width, video.height), EDGE_MARGIN)
-          if kp2d is not None and video is not None and not video.rotation_deg else []),
+        # the picture the keypoints are in: a video's, --image-size or the 2D file's (unknown for a turned
+        # video whose keypoints' frame is unknown)
+        *(keypoints_outside_image_flag(kp2d, c.picture, EDGE_MARGIN) if kp2d is not None and c.picture else []),
         # a side swap is a mirror image too: said once
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
         *posture_flag(report.sequence),

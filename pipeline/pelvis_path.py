@@ -124,12 +124,14 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
                       f"pelvis path from the 2D keypoints ({camera.source}): fitted in {accepted} of "
                       f"{len(position)} frames, depth 1-sigma median {path.depth_std_median:.2f} m with a "
                       f"{100 * BONE_SCALE_SIGMA:g} % body-size spread (a lower bound on real lifter output)"
-                      + (f"; {path.frames_rejected} frame{'s' * (path.frames_rejected != 1)} rejected as outliers"
+                      + (f"; {path.frames_rejected} frame{'s' * (path.frames_rejected != 1)} rejected as "
+                         f"{'outliers' if path.frames_rejected != 1 else 'an outlier'}"
                          if path.frames_rejected else "")
-                      + (f"; bridged across {bridged} frame{'s' * (bridged != 1)} without an accepted fit" if bridged > 0 else "")
-                      + (f"; held at its first/last fitted position in {held} frames with a pose but no accepted fit at the "
-                         f"ends (pelvis_path_std_world empty there): their world positions and velocities do not "
-                         f"follow the body's travel" if held else ""))
+                      + (f"; bridged across {bridged} frame{'s' * (bridged != 1)} without an accepted fit"
+                         if bridged > 0 else "")
+                      + (f"; held at its first/last fitted position in {held} frame{'s' * (held != 1)} with a pose "
+                         f"but no accepted fit at the ends (pelvis_path_std_world empty there): their world positions "
+                         f"and velocities do not follow the body's travel" if held else ""))
 
 
 def _held_at_the_ends(position: np.ndarray, posed: np.ndarray,

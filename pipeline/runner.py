@@ -701,12 +701,12 @@ def _image_size(cfg: RunConfig, video: VideoInfo | None, keypoint_size: tuple[in
 
 
 def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: FrameStore,
-                  orientation: DisplayOrientation, image_size: tuple[int, int] | None = None):
+                  orientation: DisplayOrientation, picture: tuple[int, int] | None = None):
     """The remap step a block of frames at a time into ``store``: the pelvis rule, the turn
     into a phone video's displayed frame (``orientation``), the root (kept as a measurement
     for a depth sensor), root-relative poses and the joints masked by their 2D confidence and,
-    where the picture's ``image_size`` (displayed) is known, by their 2D keypoint lying outside
-    it (:func:`pcnet.stages.remap.outside_image`).
+    where the ``picture`` the displayed keypoints are in is known (:func:`_keypoint_picture`),
+    by their 2D keypoint lying outside it (:func:`pcnet.stages.remap.outside_image`).
     Returns ``(joints_camera, keypoints2d or None, root_cam (T, 3) float64 or None,
     pelvis-filled frame count, joint positions masked as outside the picture)``."""
     T = len(joints)
@@ -715,7 +715,7 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
     # Only a depth sensor measures where the root is; a monocular lifter's root is zeroed,
     # image-normalised or a fixed depth.
     root_cam = np.full((T, 3), np.nan) if measured_root else None
-    filled, finite, outside = 0, False, 0
+    filled, finite, seen, outside = 0, False, False, 0
     for rows in frame_blocks(T):
         J, pelvis_filled = fill_pelvis_from_hips(joints[rows])
         J = orientation.joints(J)
@@ -726,12 +726,17 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
         if kp is not None:
             kp[rows] = orientation.pixels(kp2d[rows])
             J = mask_low_confidence(J, kp2d[rows, :, 2], cfg.min_confidence)
-            if image_size is not None:
-                unseen = outside_image(kp[rows], image_size) & np.isfinite(J).all(axis=2)
+            seen |= bool(np.isfinite(J).any())
+            if picture is not None:
+                unseen = outside_image(kp[rows], picture) & np.isfinite(J).all(axis=2)
                 outside += int(unseen.sum())
                 J[unseen] = np.nan
         finite |= bool(np.isfinite(J).any())
         cam[rows] = J
+    if not finite and seen and outside:
+        raise InputError(f"{cfg.keypoints2d}: expected 2D keypoints inside the {picture[0]}x{picture[1]} picture, got "
+                         f"every confident keypoint of every frame outside it (keypoints of another video, resolution "
+                         f"or crop, or a wrong --image-size?)")
     if not finite:
         masked = ("" if cfg.keypoints2d is None else
                   f", or every joint masked for 2D confidence in {cfg.keypoints2d} below {cfg.min_confidence:g}")
@@ -874,7 +879,9 @@ class CameraFrame:
     lifter's units until the scale step scales them in place); keypoints2d: ``(T, 17, 3)``
     pixels and confidence in the displayed frame, or ``None``; video_keypoints2d: the same in
     the video's stored frame for the recording, or ``None``; root: ``(T, 3)`` float64 measured
-    pelvis path, or ``None``; pelvis_filled: frames whose pelvis is the hip midpoint; notes.
+    pelvis path, or ``None``; pelvis_filled: frames whose pelvis is the hip midpoint; notes;
+    picture: ``(width, height)`` of the picture ``keypoints2d`` are in (:func:`_keypoint_picture`),
+    or ``None`` where that is not known.
     """
 
     joints: np.ndarray
@@ -883,6 +890,7 @@ class CameraFrame:
     root: np.ndarray | None
     pelvis_filled: int
     notes: tuple[str, ...]
+    picture: tuple[int, int] | None = None
 
 
 @dataclass(frozen=True)
@@ -989,14 +997,25 @@ def _inputs(cfg: RunConfig, estimate_notes: list[str]) -> AlignedInputs:
                          (*estimate_notes, *inputs.notes, *([aligned] if aligned else [])))
 
 
+def _keypoint_picture(inputs: AlignedInputs) -> tuple[int, int] | None:
+    """``(width, height)`` of the picture the displayed-frame 2D keypoints are in: the run's
+    image size, unless a video turned a quarter turn left it unknown whether the keypoints
+    are in its stored or its displayed frame (:func:`display_orientation`); ``None`` without
+    2D keypoints or a size."""
+    o = inputs.orientation
+    if inputs.recording.keypoints2d is None or inputs.image_size is None:
+        return None
+    return None if o.rotation_deg in (90, 270) and o.keypoint_frame == "unknown" else inputs.image_size
+
+
 def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFrame:
     """The poses into the camera frame (:func:`_camera_frame`), and the 2D keypoints into the
     video's stored frame where the recording shows them over it."""
     recording, orientation = inputs.recording, inputs.orientation
     notes = [orientation.note] if orientation.note else []
+    picture = _keypoint_picture(inputs)
     cam, kp2d, root_cam, pelvis_filled, outside = _camera_frame(cfg, recording.joints, recording.keypoints2d,
-                                                                recording.measured_root, store, orientation,
-                                                                inputs.image_size)
+                                                                recording.measured_root, store, orientation, picture)
     video_kp2d = None
     if kp2d is not None and cfg.recording and orientation.recording_note:
         video_kp2d = store.create("keypoints2d_video", kp2d.shape, np.float32)
@@ -1006,11 +1025,11 @@ def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFr
     if pelvis_filled:
         notes.append(f"pelvis missing in {pelvis_filled} frame{'s' * (pelvis_filled != 1)}: taken as the hip midpoint")
     if outside:
-        w, h = inputs.image_size
+        w, h = picture
         notes.append(f"{outside} joint position{'s' * (outside != 1)} whose 2D keypoint lies outside the {w}x{h} "
                      f"picture taken as missing: the detector placed {'them' if outside != 1 else 'it'} there "
                      f"without seeing {'them' if outside != 1 else 'it'}")
-    return CameraFrame(cam, kp2d, video_kp2d, root_cam, pelvis_filled, tuple(notes))
+    return CameraFrame(cam, kp2d, video_kp2d, root_cam, pelvis_filled, tuple(notes), picture)
 
 
 def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
@@ -1100,12 +1119,12 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
     :class:`pcnet.pipeline.checks.CheckInputs`)."""
     recording = inputs.recording
     return CheckInputs(
-        joints_camera=camera.joints, units=recording.units, keypoints2d=camera.keypoints2d, video=recording.video,
+        joints_camera=camera.joints, units=recording.units, keypoints2d=camera.keypoints2d,
         report=rectified.report, tilt=rectified.tilt,
         lifter_turn_deg=recording.lifter_turn_deg, track_segment=rectified.track_segment,
         track_events=rectified.track_events, height_given=cfg.height is not None,
         person_option=cfg.keypoints2d_format in multi_track_formats(),
-        focal_known=cfg.focal_px is not None or recording.camera_matrix is not None)
+        focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture)
 
 
 def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scaled:

@@ -503,9 +503,9 @@ def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], margi
         return []
     share = 100 * outside / present
     return [_found(Kind.OUTSIDE_IMAGE, Severity.PROBLEM,
-                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} video: another video or crop?",
+                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} picture: another video or crop?",
                    "check the 2D file belongs to this video",
-                   f"{share:.0f} % of the 2D keypoints lie outside the video's {w}x{h} frame: keypoints of another "
+                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} picture: keypoints of another "
                    f"video, resolution or crop? the left/right and track-switch checks and the recording's overlay "
                    f"rest on them")]
 
@@ -520,7 +520,7 @@ def keypoints_unused_flag(reason: str) -> list[Finding]:
                    "check the 2D file: this video's, image y down",
                    f"the 2D keypoints were given but not used: {reason}. Keypoints of another video, with the image's "
                    f"y axis pointing up, or with too few confident joints give no pelvis path, so the world frame has "
-                   f"no horizontal path and no floor from the feet' contacts (heights per frame)")]
+                   f"no horizontal path and no floor from the feet's contacts (heights per frame)")]
 
 
 def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None) -> list[Finding]:

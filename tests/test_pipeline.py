@@ -218,6 +218,32 @@ def test_joints_whose_keypoints_lie_outside_the_picture_are_missing(tmp_path):
     assert np.isfinite(filmed).all() and np.isnan(legs).all()
     assert "whose 2D keypoint lies outside the 1768x994 picture taken as missing" in runs["legs out"].summary()
     assert "outside the" not in runs["as filmed"].summary()
+    # the implausible-motion warning's frames are the CSV's implausible_motion (this clip has some)
+    with open(tmp_path / "as_filmed" / "kinematics.csv", newline="") as f:
+        marked = np.array([int(r["implausible_motion"]) for r in csv.DictReader(f)])
+    with np.load(tmp_path / "as_filmed" / "canonical.npz") as npz:
+        np.testing.assert_array_equal(marked, npz["implausible_frames"].astype(int))
+    assert marked.any() and not marked.all()
+
+
+def test_the_keypoints_picture_is_unknown_only_for_a_turned_video_of_unknown_frame():
+    """Joints are masked against the picture the keypoints are in; a video turned a quarter turn
+    whose keypoints may be in its stored or its displayed frame has none (a review: its stored
+    keypoints were tested against the displayed size)."""
+    from types import SimpleNamespace
+
+    from pcnet.pipeline.runner import _keypoint_picture
+
+    def inputs(rotation, frame, size=(1080, 1920), kp=np.zeros((1, 17, 3))):
+        return SimpleNamespace(orientation=SimpleNamespace(rotation_deg=rotation, keypoint_frame=frame),
+                               image_size=size, recording=SimpleNamespace(keypoints2d=kp))
+
+    assert _keypoint_picture(inputs(0, "unknown")) == (1080, 1920)
+    assert _keypoint_picture(inputs(180, "unknown")) == (1080, 1920)
+    assert _keypoint_picture(inputs(90, "stored")) == _keypoint_picture(inputs(270, "displayed")) == (1080, 1920)
+    assert _keypoint_picture(inputs(90, "unknown")) is None and _keypoint_picture(inputs(270, "unknown")) is None
+    assert _keypoint_picture(inputs(0, "unknown", size=None)) is None
+    assert _keypoint_picture(inputs(0, "unknown", kp=None)) is None
 
 
 def test_focal_length_reaches_the_mediapipe_adapter_from_the_cli_and_a_manifest(tmp_path):
