@@ -19,6 +19,7 @@ from pcnet.models.lifter_noise import BONE_SCALE_SIGMA
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import present_frames
 from pcnet.stages.core.perspective import focal_px_from_35mm, intrinsics
+from pcnet.stages.kinematics import frames_phrase
 from pcnet.stages.root_path import root_from_keypoints, stretch_starts
 
 #: ``report["root_path"]``: where the pelvis path of a world-frame run came from.
@@ -124,12 +125,10 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
                       f"pelvis path from the 2D keypoints ({camera.source}): fitted in {accepted} of "
                       f"{len(position)} frames, depth 1-sigma median {path.depth_std_median:.2f} m with a "
                       f"{100 * BONE_SCALE_SIGMA:g} % body-size spread (a lower bound on real lifter output)"
-                      + (f"; {path.frames_rejected} frame{'s' * (path.frames_rejected != 1)} rejected as "
-                         f"{'outliers' if path.frames_rejected != 1 else 'an outlier'}"
-                         if path.frames_rejected else "")
-                      + (f"; bridged across {bridged} frame{'s' * (bridged != 1)} without an accepted fit"
-                         if bridged > 0 else "")
-                      + (f"; held at its first/last fitted position in {held} frame{'s' * (held != 1)} with a pose "
+                      + (f"; {frames_phrase(path.frames_rejected)} rejected as "
+                         f"{'outliers' if path.frames_rejected != 1 else 'an outlier'}" if path.frames_rejected else "")
+                      + (f"; bridged across {frames_phrase(bridged)} without an accepted fit" if bridged > 0 else "")
+                      + (f"; held at its first/last fitted position in {frames_phrase(held)} with a pose "
                          f"but no accepted fit at the ends (pelvis_path_std_world empty there): their world positions "
                          f"and velocities do not follow the body's travel" if held else ""))
 

@@ -715,7 +715,7 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
     # Only a depth sensor measures where the root is; a monocular lifter's root is zeroed,
     # image-normalised or a fixed depth.
     root_cam = np.full((T, 3), np.nan) if measured_root else None
-    filled, finite, seen, outside = 0, False, False, 0
+    filled, finite, outside = 0, False, 0
     for rows in frame_blocks(T):
         J, pelvis_filled = fill_pelvis_from_hips(joints[rows])
         J = orientation.joints(J)
@@ -726,14 +726,13 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
         if kp is not None:
             kp[rows] = orientation.pixels(kp2d[rows])
             J = mask_low_confidence(J, kp2d[rows, :, 2], cfg.min_confidence)
-            seen |= bool(np.isfinite(J).any())
             if picture is not None:
                 unseen = outside_image(kp[rows], picture) & np.isfinite(J).all(axis=2)
                 outside += int(unseen.sum())
                 J[unseen] = np.nan
         finite |= bool(np.isfinite(J).any())
         cam[rows] = J
-    if not finite and seen and outside:
+    if not finite and outside:  # joints were seen, every one of them outside the picture
         raise InputError(f"{cfg.keypoints2d}: expected 2D keypoints inside the {picture[0]}x{picture[1]} picture, got "
                          f"every confident keypoint of every frame outside it (keypoints of another video, resolution "
                          f"or crop, or a wrong --image-size?)")

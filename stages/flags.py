@@ -28,6 +28,7 @@ from .mirror import MIRROR_ODDS, MirrorModel, load_mirror_model, recording_cues
 from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
 from .rectification_report import EnsembleWeights, SequenceUp
+from .remap import outside_image
 from .up_model import camera_outside_probability, default_parameters
 from .scale import height_chain_length, leg_lengths
 
@@ -494,11 +495,9 @@ def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], margi
     present = outside = 0
     for rows in frame_blocks(len(keypoints2d)):
         xy = np.asarray(keypoints2d[rows][..., :2], np.float64).reshape(-1, 2)
-        xy = xy[np.isfinite(xy).all(axis=1)]
-        present += len(xy)
-        out_x = (xy[:, 0] < -margin * w) | (xy[:, 0] > (1 + margin) * w)
-        out_y = (xy[:, 1] < -margin * h) | (xy[:, 1] > (1 + margin) * h)
-        outside += int((out_x | out_y).sum())
+        finite = np.isfinite(xy).all(axis=1)
+        present += int(finite.sum())
+        outside += int((outside_image(xy, (w, h), (margin * w, margin * h)) & finite).sum())
     if not present or outside <= OUTSIDE_IMAGE_SHARE * present:
         return []
     share = 100 * outside / present
@@ -632,12 +631,11 @@ def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,
     if cutoff_hz is None or not present.any() or not np.asarray(unfiltered, bool)[present].all():
         return []
     return [_found(Kind.TOO_SHORT, Severity.PROBLEM,
-                   f"too short to filter ({len(present)} frame{'s' * (len(present) != 1)}): raw positions, no velocity "
-                   f"or acceleration",
+                   f"too short to filter ({frames_phrase(len(present))}): raw positions, no velocity or acceleration",
                    "use a longer recording",
                    f"too short to filter: no run of present frames is longer than the {cutoff_hz:g} Hz low-pass "
-                   f"filter needs at {fps:g} fps ({len(present)} frame{'s' * (len(present) != 1)}), so positions are raw and no velocity or "
-                   f"acceleration is given")]
+                   f"filter needs at {fps:g} fps ({frames_phrase(len(present))}), so positions are raw and no "
+                   f"velocity or acceleration is given")]
 
 
 def floor_flag(feet_visible: np.ndarray, present: np.ndarray) -> list[Finding]:

@@ -45,13 +45,15 @@ def built_joints(layout: Layout | str) -> list[str]:
     return [names[k] for k, src in enumerate(lay.to_h36m) if len(src) > 1]
 
 
-def outside_image(keypoints_xy: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
-    """``(T, J)`` bool: 2D keypoints ``(T, J, >=2)`` (pixels, x right, y down) that lie outside
-    the ``(width, height)`` picture by more than a pixel (pixel coordinates run over ``[0, w]``
-    or, as indices, ``[0, w - 1]``, and a turned video's maps ``y`` to ``w - 1 - y``). A
-    detector that places a joint there (MediaPipe extrapolates a body cut by the frame's edge,
-    with confidences above any threshold) has not seen it, so the joint is missing, not
-    measured. NaN keypoints are not outside.
+def outside_image(keypoints_xy: np.ndarray, image_size: tuple[int, int],
+                  margin_px: tuple[float, float] = (1.0, 1.0)) -> np.ndarray:
+    """``(...)`` bool: 2D keypoints ``(..., >=2)`` (pixels, x right, y down) that lie outside
+    the ``(width, height)`` picture by more than ``margin_px`` ``(x, y)``. The default, a
+    pixel, is the coordinate convention's own slack (pixel coordinates run over ``[0, w]`` or,
+    as indices, ``[0, w - 1]``, and a turned video's maps ``y`` to ``w - 1 - y``): a detector
+    that places a joint beyond it (MediaPipe extrapolates a body cut by the frame's edge, with
+    confidences above any threshold) has not seen it, so the joint is missing, not measured.
+    NaN keypoints are not outside.
 
     Raises:
         InputError: ``image_size`` not two positive numbers.
@@ -59,9 +61,10 @@ def outside_image(keypoints_xy: np.ndarray, image_size: tuple[int, int]) -> np.n
     w, h = image_size
     if not (w > 0 and h > 0):
         raise InputError(f"image_size: expected (width, height) in pixels > 0, got {image_size!r}")
+    mx, my = margin_px
     x, y = (np.asarray(keypoints_xy[..., i], np.float64) for i in (0, 1))
     with np.errstate(invalid="ignore"):
-        return (x < -1) | (x > w + 1) | (y < -1) | (y > h + 1)
+        return (x < -mx) | (x > w + mx) | (y < -my) | (y > h + my)
 
 
 def mask_low_confidence(joints3d: np.ndarray, confidence: np.ndarray, threshold: float) -> np.ndarray:
