@@ -20,11 +20,14 @@ def main() -> None:
     into "Aborted!" and exit 1."""
     signal.signal(signal.SIGTERM, raise_interrupt)
     signal.signal(signal.SIGINT, raise_interrupt)
+    sys.unraisablehook = _quiet_interrupt_hook(sys.unraisablehook)
     try:
         import click
 
         from pcnet.pipeline.cli import main as cli
     except KeyboardInterrupt:
+        _stop("pcnet: interrupted before starting; nothing was written")
+    if was_interrupted():  # swallowed inside the imports (an import lock's weakref callback)
         _stop("pcnet: interrupted before starting; nothing was written")
     try:
         code = cli.main(prog_name="pcnet", standalone_mode=False)
@@ -36,6 +39,17 @@ def main() -> None:
             _stop("Aborted!", status=1)
         _stop("pcnet: interrupted; nothing half-written was left behind")
     raise SystemExit(code if isinstance(code, int) else 0)
+
+
+def _quiet_interrupt_hook(default):
+    """An ``sys.unraisablehook`` that drops a ``KeyboardInterrupt`` raised where Python cannot
+    propagate it (a weakref callback, a destructor: importlib's module-lock clean-up is one)
+    instead of printing its traceback; the interrupt is remembered (:func:`was_interrupted`)
+    and stops the run at the next check. Anything else goes to ``default``."""
+    def hook(unraisable):
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            default(unraisable)
+    return hook
 
 
 def _stop(line: str, status: int = EXIT_INTERRUPTED) -> None:
