@@ -249,8 +249,8 @@ def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     assert "(ran again: setting method changed since its earlier output" in res.output, res.output
     assert json.loads((tmp_path / "r1" / BATCH_MARKER).read_text())["settings"]["method"] == "pcnet"
 
-    assert _invoke(manifest, "--workers", "2", "--overwrite").exit_code == 0
-    assert _statuses(manifest) == ["ok", "ok"]
+    res = _invoke(manifest, "--workers", "2", "--overwrite")
+    assert res.exit_code == 0 and _statuses(manifest) == ["ok", "ok"], (res.output, _statuses(manifest))
 
     # a file of the user's own in an output folder is never deleted: re-running that row is refused
     (tmp_path / "r2" / "notes.txt").write_text("mine")
