@@ -176,6 +176,26 @@ def test_another_persons_frames_are_shaded_and_named_in_both_figures(walk):
             figure(kin, FPS, other_person=other[:-1])
 
 
+def test_a_short_clip_spans_its_own_time_and_empty_series_say_so():
+    """An 8-frame clip (real Bandai walk) has no speed at all (too short to filter): every
+    panel still spans the clip's 0..0.23 s, not matplotlib's default -0.05..0.05, and a
+    series with no value says so in the legend (a user trial: the legend listed lines that
+    were nowhere in the panel)."""
+    X = _world(WALK)[:8]
+    kin = compute_kinematics(X, FPS, 6.0, "m")
+    for figure in (joint_angles_figure, joint_speeds_figure):
+        fig = figure(kin, FPS)
+        for ax in (a for a in fig.axes if a.get_visible()):
+            lo, hi = ax.get_xlim()
+            assert lo < 0.0 < 7 / FPS < hi < 8 / FPS, (lo, hi)
+    speeds = joint_speeds_figure(kin, FPS)
+    labels = [t.get_text() for ax in speeds.axes for t in ax.get_legend().get_texts()]
+    assert labels and all(label.endswith("(no values)") for label in labels)
+    walk = compute_kinematics(_world(WALK), FPS, 6.0, "m")
+    labels = [t.get_text() for ax in joint_speeds_figure(walk, FPS).axes for t in ax.get_legend().get_texts()]
+    assert not any("(no values)" in label for label in labels)
+
+
 def test_plots_refuse_a_wrong_frame_rate_and_leave_nothing(tmp_path, walk):
     _, kin = walk
     with pytest.raises(ValueError, match="fps"):

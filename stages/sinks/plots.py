@@ -247,6 +247,20 @@ def _no_data(ax) -> None:
             color="0.4", fontsize=9)
 
 
+def _series_label(label: str, y: np.ndarray) -> str:
+    """A legend entry; a series with no finite sample says so rather than showing a line
+    that is nowhere in the panel."""
+    return label if np.isfinite(y).any() else f"{label} (no values)"
+
+
+def _time_limits(axes, t: np.ndarray) -> None:
+    """The recording's time span on every panel, so a panel with gaps (or no value at all)
+    still shows where in the recording it is, not matplotlib's default -0.05..0.05 s."""
+    half = 0.5 * (t[1] - t[0]) if len(t) > 1 else 0.5
+    for ax in np.ravel(axes):
+        ax.set_xlim(t[0] - half, t[-1] + half)
+
+
 def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", other_person=None, implausible=None):
     """The figure of :func:`plot_joint_angles` (a :class:`matplotlib.figure.Figure` on an
     Agg canvas), for callers that want to inspect or restyle it.
@@ -275,7 +289,8 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", ot
                 raise InputError(f"plot_joint_angles: angle {n!r} has shape {y.shape}, expected {t.shape}")
             finite |= bool(np.isfinite(y).any())
             style = "--" if side_of(n) == "left" else "-"
-            ax.plot(*display_samples(t, y), style, color=_rgb(colours[n]), lw=1.0, label=_angle_label(n, group))
+            ax.plot(*display_samples(t, y), style, color=_rgb(colours[n]), lw=1.0,
+                    label=_series_label(_angle_label(n, group), y))
         _shade(ax, t, other_person)
         _shade(ax, t, implausible, IMPLAUSIBLE_COLOUR)
         if not finite:
@@ -284,6 +299,7 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", ot
         ax.set_ylabel("angle (deg)")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, ncol=2, loc="upper right")
+    _time_limits(axes, t)
     for ax in axes.flat[len(groups):]:
         ax.set_visible(False)
     for ax in axes[-1]:
@@ -326,7 +342,8 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
             y = np.asarray(speed[:, names.index(j)], np.float64)
             finite |= bool(np.isfinite(y).any())
             style = "--" if side_of(j) == "left" else "-"
-            ax.plot(*display_samples(t, y), style, color=_rgb(colours[j]), lw=1.0, label=j.replace("_", " "))
+            ax.plot(*display_samples(t, y), style, color=_rgb(colours[j]), lw=1.0,
+                    label=_series_label(j.replace("_", " "), y))
         _shade(ax, t, other_person)
         _shade(ax, t, implausible, IMPLAUSIBLE_COLOUR)
         if not finite:
@@ -336,6 +353,7 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
         ax.set_ylim(bottom=0)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8, ncol=2, loc="upper right")
+    _time_limits(axes, t)
     axes[-1, 0].set_xlabel("time (s)")
     fig.suptitle(f"Joint speeds |v| ({unit}) in the {frame_label}; gaps = missing, unfiltered or run edges"
                  + _marks_note(other_person, implausible), fontsize=11)
