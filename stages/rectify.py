@@ -174,10 +174,6 @@ class GeometricEstimator:
         return FrameEstimate(R, residual, valid)
 
 
-#: Shortest one-person stretch (seconds of valid frames) that ``auto`` decides on alone.
-MIN_DECISION_STRETCH_S = 5.0
-
-
 @dataclass(frozen=True)
 class SequenceOutcome:
     """Step 2's output for ``T`` frames: ``rotation`` ``(T, 3, 3)`` canonical->camera (NaN
@@ -234,9 +230,9 @@ class SequenceEvidence:
                 ``None`` (all). fps: frame rate, > 0. decide_on:
                 optional ``(T,)`` bool, one person's stretch of a 2D track that switches
                 people (:func:`pcnet.stages.flags.one_person_frames`): the frames ``"auto"``
-                decides on and sequence and smooth modes' spread is read over (every valid
-                frame when ``None`` or when fewer than
-                :data:`MIN_DECISION_STRETCH_S` seconds of them are valid), and the only frames
+                decides on and sequence and smooth modes' spread is read over, at any length
+                (decision 0089; every valid frame when ``None`` or when fewer than 2 of its
+                frames are valid), and the only frames
                 whose feet the shipped ensemble's floor contacts read (decision 0066). calibrated: the
                 lifter's systematic error is calibrated for the estimator (the shipped ensemble
                 only); otherwise the sequence up has its bootstrap and NaN intervals.
@@ -255,10 +251,10 @@ class SequenceEvidence:
             # One pose shows neither a static nor a moving camera, and pools nothing: its
             # per-frame answer, with the per-frame bound as its uncertainty.
             return SequenceOutcome(R, ok, ModeChoice(self.mode, "frame", reason="one valid frame"))
-        # A short stretch can read as static under a moving camera (choose_mode's caveat for
-        # clips under about 5 s): then every valid frame decides. Sequence mode's spread (its
-        # moving-camera note) is read over the same frames: another person's poses are not this camera's.
-        subset = decide_on is not None and (ok & decide_on).sum() >= max(2, MIN_DECISION_STRETCH_S * fps)
+        # Another person's poses and the jump to them read as camera motion: one person's stretch
+        # decides, whatever its length, as a recording of that length alone would (decision 0089).
+        # Sequence mode's spread (its moving-camera note) is read over the same frames.
+        subset = decide_on is not None and (ok & decide_on).sum() >= 2
         decide = ok & decide_on if subset else ok
         decided_on = int(decide.sum()) if subset else None
         if self.mode == "auto":

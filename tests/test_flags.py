@@ -232,7 +232,7 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
 def test_auto_mode_decides_on_one_persons_frames():
     """Real standing poses whose up readings drift by up to 40 deg after frame 40 (as the
     frames after a track switch can read): auto mode sees a moving camera, unless it decides
-    on the first stretch, when that stretch is long enough to tell."""
+    on the first stretch, at any length (decision 0089)."""
     from pcnet.stages.rectify import SequenceEvidence
     from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 
@@ -243,14 +243,17 @@ def test_auto_mode_decides_on_one_persons_frames():
     drift[:, 0, 0], drift[:, 1, 1], drift[:, 1, 2], drift[:, 2, 1], drift[:, 2, 2] = 1.0, c, -s, s, c
     R = drift @ res.rotation
     auto = SequenceEvidence("auto", n_bootstrap=0)
-    fps = 8.0  # the first 40 frames are 5 s, the shortest stretch auto decides on alone
+    fps = 8.0
     assert auto(None, R, res.valid, fps).mode.run == "smooth"
     first = np.arange(len(R)) < 40
     mode = auto(None, R, res.valid, fps, decide_on=first).mode
     assert mode.run == "sequence" and mode.spread_deg < 5.0 and mode.decided_on_frames == 40
-    # a shorter stretch (1.3 s at 30 fps), or one without a valid frame: every valid frame decides
-    assert auto(None, R, res.valid, 30.0, decide_on=first).mode.run == "smooth"
+    # a short stretch (1.3 s at 30 fps) decides too, as a 1.3 s recording would; one with fewer
+    # than 2 valid frames cannot: every valid frame decides
+    mode = auto(None, R, res.valid, 30.0, decide_on=first).mode
+    assert mode.run == "sequence" and mode.decided_on_frames == 40
     assert auto(None, R, res.valid, fps, decide_on=~res.valid).mode.run == "smooth"
+    assert auto(None, R, res.valid, fps, decide_on=np.arange(len(R)) == 0).mode.run == "smooth"
     # sequence mode's spread (its moving-camera note) is read over the same one person's frames
     sequence = SequenceEvidence("sequence", n_bootstrap=0)
     assert sequence(None, R, res.valid, fps).mode.spread_deg > MODE_THRESHOLD_DEG
