@@ -2,6 +2,12 @@
 
 Frames are BGR ``uint8`` ``(H, W, 3)`` arrays, OpenCV's native order (convert with
 ``frame[..., ::-1]`` for RGB).
+
+OpenCV is imported when pcnet first opens a video, not with :mod:`pcnet.adapters`. At that
+moment pcnet sets ``OPENCV_FFMPEG_LOGLEVEL=-8`` (quiet) for the process unless the variable is
+already set: FFmpeg's decoder messages (thousands of lines for one damaged file) would bury the
+one-line error pcnet gives for a video it cannot decode. A host application that wants FFmpeg's
+diagnostics sets the variable first.
 """
 
 from __future__ import annotations
@@ -10,23 +16,29 @@ import math
 import os
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import TYPE_CHECKING, Iterator
 
-import cv2
 import numpy as np
 
 from .types import AdapterError, VideoInfo
 from .validate import require_file
 
-# FFmpeg's decoder messages (thousands of lines for one damaged file) would bury the one-line
-# error pcnet gives for a video it cannot decode. OpenCV reads the level when its FFmpeg
-# backend opens the first video; a level the user set is kept.
-os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+if TYPE_CHECKING:
+    import cv2
+
+
+def _opencv():
+    """``cv2``, FFmpeg's log quieted unless the user set its level (module docstring; OpenCV
+    reads the level when its FFmpeg backend opens the first video)."""
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+    import cv2
+
+    return cv2
 
 
 @contextmanager
 def _capture(p: Path) -> Iterator[cv2.VideoCapture]:
-    cap = cv2.VideoCapture(str(p))
+    cap = _opencv().VideoCapture(str(p))
     try:
         if not cap.isOpened():
             raise AdapterError(p, "video stream", "a video file OpenCV can open", "it does not open")
@@ -48,7 +60,7 @@ DECODABLE_SHARE = 0.5
 
 
 def _count_by_decoding(cap: cv2.VideoCapture) -> int:
-    cap.set(cv2.CAP_PROP_POS_FRAMES, 0)
+    cap.set(_opencv().CAP_PROP_POS_FRAMES, 0)
     n = 0
     while cap.grab():
         n += 1
@@ -84,6 +96,7 @@ def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
     """
     p = require_file(path, "a video file")
     with _capture(p) as cap:
+        cv2 = _opencv()
         count = int(_prop(cap, cv2.CAP_PROP_FRAME_COUNT))
         fps = _prop(cap, cv2.CAP_PROP_FPS)
         width = int(_prop(cap, cv2.CAP_PROP_FRAME_WIDTH))
@@ -187,7 +200,7 @@ def read_frame(path: str | Path, index: int) -> np.ndarray:
     if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
         raise AdapterError(p, "index", "a non-negative integer frame index", repr(index))
     with _capture(p) as cap:
-        cap.set(cv2.CAP_PROP_POS_FRAMES, int(index))
+        cap.set(_opencv().CAP_PROP_POS_FRAMES, int(index))
         ok, frame = cap.read()
     if not ok or frame is None:
         raise AdapterError(p, "index", f"frame {index} to exist and decode (see probe_video for the count)", "no frame")
@@ -209,7 +222,7 @@ def iter_frames(path: str | Path, start: int = 0, stop: int | None = None) -> It
     def frames() -> Iterator[np.ndarray]:
         with _capture(p) as cap:
             if start:
-                cap.set(cv2.CAP_PROP_POS_FRAMES, int(start))
+                cap.set(_opencv().CAP_PROP_POS_FRAMES, int(start))
             index = start
             while stop is None or index < stop:
                 ok, frame = cap.read()

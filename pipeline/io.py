@@ -71,7 +71,7 @@ def read_pose_array(path: str | Path, key: str | None = None) -> PoseArray:
     return PoseArray(joints, nonfinite_frames(joints, H36M_JOINTS))  # NaN here is the file's inf/NaN only
 
 
-def lifter_joints(poses: Poses3D, source: str) -> np.ndarray:
+def lifter_joints(poses: Poses3D, source: str, in_place: bool = False) -> np.ndarray:
     """H36M-17 camera-frame joints from a 3D adapter's output, as ``pcnet run`` reads every
     lifter: remapped from the adapter's layout (:func:`pcnet.stages.remap.remap_to_h36m`),
     then :func:`pcnet.stages.core.conventions.validate_poses` with the adapter's units.
@@ -79,13 +79,16 @@ def lifter_joints(poses: Poses3D, source: str) -> np.ndarray:
     Args:
         poses: what a registered 3D adapter's ``load`` returned.
         source: the file named in errors.
+        in_place: an H36M-17 float32 ``poses.joints`` is validated in place (a long
+            recording is not copied; its placeholders become NaN there): for arrays the
+            caller owns, as ``pcnet run`` owns what it loaded. Default: a new array, the
+            input untouched.
 
     Returns:
         float32 ``(T, 17, 3)``, camera frame (OpenCV axes), the adapter's units; NaN = missing.
-        An H36M-17 float32 array is validated in place (a long recording is not copied).
 
     Raises:
         InputError: see :func:`pcnet.stages.core.conventions.validate_poses`.
     """
     joints = poses.joints if poses.layout == "h36m17" else remap_to_h36m(poses.joints, poses.layout)
-    return validate_poses(joints, source, poses.units, in_place=joints is poses.joints)
+    return validate_poses(joints, source, poses.units, in_place=in_place and joints is poses.joints)

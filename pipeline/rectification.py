@@ -18,7 +18,7 @@ from pcnet.models.view_gate import quarter_turn_matrices
 from pcnet.stages.core.conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import frame_blocks, in_memory
-from pcnet.stages.rectify import (METHODS, Allocate, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
+from pcnet.stages.rectify import (METHODS, MODES, Allocate, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
                                   Rectification, Rectified, SequenceEvidence, check_method_weights,
                                   resolve_heading_source)
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG
@@ -77,12 +77,17 @@ def make_estimator(method: str = "pcnet", weights: str | None = None) -> FrameEs
     raise InputError(f"unknown rectification method {method!r}; expected one of {METHODS}")
 
 
+#: Frame rate :func:`rectify` assumes in frame mode when none is given: it sets only the view
+#: gate's running window there.
+VIEW_GATE_DEFAULT_FPS = 30.0
+
+
 def rectify(
     joints_cam: np.ndarray,
     method: str = "pcnet",
     weights: str | None = None,
     mode: str = "frame",
-    fps: float = 30.0,
+    fps: float | None = None,
     heading: str | None = None,
     camera_prior: bool = True,
     measured_root: bool = False,
@@ -91,8 +96,11 @@ def rectify(
     (``docs/CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``. NaN joints stay NaN.
 
     ``mode``: ``frame`` (each frame alone, the paper), ``sequence`` (one up direction for a
-    static camera), ``smooth`` (SO(3) smoothing for a moving camera, needs ``fps``) or
-    ``auto`` (:class:`pcnet.stages.rectify.SequenceEvidence`); the steps are
+    static camera), ``smooth`` (SO(3) smoothing for a moving camera) or
+    ``auto`` (:class:`pcnet.stages.rectify.SequenceEvidence`). ``fps``: the recording's frame
+    rate in Hz; every mode but ``frame`` pools frames over seconds, so it needs it (a 60 fps
+    recording read as 30 fps would smooth and decide over twice the time); ``frame`` mode reads
+    it only for the view gate's running window and takes 30 when it is not given. The steps are
     :class:`pcnet.stages.rectify.Rectification`'s with :func:`make_estimator`'s estimator. ``heading``: where the
     heading about that up comes from, ``predicted`` (the method's rotation), ``hips`` (the
     input's hip line, the canonical frame's definition) or ``auto`` (hips when they are
@@ -122,12 +130,15 @@ def rectify(
     Raises:
         InputError (a ValueError): bad input array (see above), unknown method, mode or
             heading source, an option of another type (``camera_prior``, ``measured_root``
-            not a bool; ``fps`` not a number: ``"no"`` would read as true), or (sequence
-            modes) no valid frame.
+            not a bool; ``fps`` not a number: ``"no"`` would read as true), no ``fps`` for a
+            mode other than ``frame``, or (sequence modes) no valid frame.
     """
     for name, value in (("camera_prior", camera_prior), ("measured_root", measured_root)):
         if not isinstance(value, (bool, np.bool_)):
             raise InputError(f"rectify: {name}: expected True or False, got {value!r} ({type(value).__name__})")
+    if fps is None and mode in MODES and mode != "frame":
+        raise InputError(f"rectify: mode {mode!r} pools frames over seconds: give fps, the recording's frame rate (Hz)")
+    fps = VIEW_GATE_DEFAULT_FPS if fps is None else fps
     if isinstance(fps, (bool, np.bool_)) or not isinstance(fps, (int, float, np.integer, np.floating)):
         raise InputError(f"rectify: fps: expected a number (frames per second), got {fps!r} ({type(fps).__name__})")
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))

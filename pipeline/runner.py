@@ -294,7 +294,7 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
                      "(pass --fps)")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RecordingInputs:
     """What :func:`_load_inputs` read for one recording.
 
@@ -354,7 +354,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
         options["focal_px"] = cfg.focal_px  # the camera's: a crop-based lifter turns into it (MediaPipe)
     poses = adapter.load(cfg.lifter_output, **options)
     fps, fps_source = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
-    joints = lifter_joints(poses, str(cfg.lifter_output))
+    joints = lifter_joints(poses, str(cfg.lifter_output), in_place=True)  # loaded here: ours to overwrite
     built = built_joints(poses.layout)
     remapped = built and (f"3D joints remapped from {poses.layout} to H36M-17 with {', '.join(built)} built as means "
                           f"of other joints (stages/remap.py): trunk and shoulder angles rest on them")
@@ -870,7 +870,7 @@ class AlignedInputs:
         return replace(self, recording=replace(self.recording, joints=None, keypoints2d=None))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CameraFrame:
     """Step "remap": the poses in the camera frame (:func:`_camera_frame`).
 
@@ -892,7 +892,7 @@ class CameraFrame:
     picture: tuple[int, int] | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Rectified:
     """Step "rectify": the rectification result and its evidence.
 
@@ -936,7 +936,7 @@ class Scaled:
     notes: tuple[str, ...]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class World:
     """The world frame a static camera gives (part of the kinematics step).
 

@@ -110,7 +110,7 @@ def leg_length(J, frames: np.ndarray) -> float:
     return float(np.median(legs[np.isfinite(legs)])) if np.isfinite(legs).any() else float("nan")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Contacts:
     """Floor contacts of one recording: ``points`` ``(K, 3)`` ankle positions (camera frame),
     ``frames`` ``(K,)`` their frame indices, ``ankle`` ``(K,)`` 0 right / 1 left, ``footfall``
@@ -149,7 +149,7 @@ def detect_contacts(J, ok: np.ndarray, up: np.ndarray) -> Contacts:
     return Contacts(np.concatenate(pts), np.concatenate(frames), np.concatenate(ankle), np.concatenate(footfall))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FloorFit:
     """The floor's evidence fused with the poses' (module docstring).
 
@@ -286,7 +286,7 @@ def fit_floor(c: Contacts, u0: np.ndarray, prior_cov: np.ndarray, leg: float,
     return FloorFit(normalize(u0 + a * e1 + b * e2), cov, k, residual, n_levels)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FloorOutcome:
     """:func:`ground_plane_up`'s answer: ``fit`` (``None`` where no contact was found or the
     joints cannot carry a floor), ``contacts`` (``None`` likewise) and ``info`` the report's
@@ -313,7 +313,7 @@ def _floor_frames(J, ok: np.ndarray) -> tuple[np.ndarray, float, str | None]:
     return fin, leg, None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FloorEnergy:
     """The floor's negative log-likelihood at any candidate up, for the posture's posterior.
 
@@ -400,7 +400,7 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, prior_cov: np.ndarray,
     return FloorOutcome(fit.up, fit, contacts, info, leg)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PostureFloorUp:
     """:func:`posture_and_floor_up`'s answer: the up model's ``posterior`` (posture and
     intervals), the recording's unit ``up`` ``(3,)`` (camera frame: an upright posture's after

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import json
 import warnings
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import lru_cache
 from pathlib import Path
 from types import MappingProxyType
@@ -78,6 +78,8 @@ def _as_2d(x: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 0:
         raise InputError("expected an array with time on axis 0, got a scalar")
+    if x.shape[0] == 0:
+        raise InputError(f"expected at least one sample on axis 0, got shape {x.shape}")
     return x.reshape(x.shape[0], -1), x.shape
 
 
@@ -100,8 +102,7 @@ def _design_cutoff(fps: float, cutoff_hz: float, passes: int, order_per_pass: in
 def _lowpass_design(fps: float, cutoff_hz: float, order: int) -> tuple[np.ndarray, int]:
     """(second-order sections of one pass, ``sosfiltfilt``'s default ``padlen``), after the
     argument checks of :func:`butterworth_lowpass`."""
-    if not fps > 0:
-        raise InputError(f"fps must be > 0, got {fps!r}")
+    fps = validate_fps(fps, "fps")
     if not 0 < cutoff_hz < fps / 2:
         raise InputError(
             f"cutoff_hz must lie in (0, fps/2) = (0, {fps / 2:g}) Hz (Nyquist), got {cutoff_hz!r}"
@@ -156,7 +157,8 @@ def butterworth_lowpass(
         was too short.
 
     Raises:
-        ValueError: ``fps <= 0``, ``cutoff_hz`` not in ``(0, fps/2)``, or ``order`` odd
+        ValueError: ``fps`` not a frame rate (:func:`~pcnet.stages.core.conventions.validate_fps`), no
+            sample, ``cutoff_hz`` not in ``(0, fps/2)``, or ``order`` odd
             or < 2.
     """
     sos, padlen = _lowpass_design(fps, cutoff_hz, order)
@@ -183,7 +185,7 @@ def butterworth_lowpass(
 RESIDUAL_FIT_BAND = (0.5, 0.9)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ResidualAnalysis:
     """Winter's residual analysis of a recording (:func:`residual_analysis`).
 
@@ -301,10 +303,10 @@ def derivatives(
         NaN wherever the stencil is incomplete.
 
     Raises:
-        ValueError: ``fps <= 0`` or an unknown ``edges``.
+        ValueError: ``fps`` not a frame rate (:func:`~pcnet.stages.core.conventions.validate_fps`), no
+            sample, or an unknown ``edges``.
     """
-    if not fps > 0:
-        raise InputError(f"fps must be > 0, got {fps!r}")
+    fps = validate_fps(fps, "fps")
     if edges not in ("nan", "one-sided"):
         raise InputError(f"edges must be 'nan' or 'one-sided', got {edges!r}")
     dt = 1.0 / fps
@@ -700,7 +702,7 @@ def continuous_angles(angles: Mapping[str, np.ndarray],
 # bundle
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Kinematics:
     """Filtered canonical positions and their derivatives and angles, with per-joint flags
     saying which positions are missing or raw.
@@ -713,8 +715,12 @@ class Kinematics:
             (:func:`derivatives`, central differences only).
         acceleration: ``(T, 17, 3)`` float64, ``acceleration_units``; NaN as ``velocity``.
         speed: ``(T, 17)`` float64 ``|velocity|``, ``velocity_units``.
-        angles: ``name -> (T,)`` degrees (:func:`joint_angles` of ``positions``, so an
-            angle uses raw positions where a joint is ``unfiltered``).
+        angles: ``name -> (T,)`` degrees, read-only: the segment inclinations of
+            :func:`joint_angles` (computed in the pelvis-heading frame,
+            :func:`pelvis_heading_frame`, so they do not depend on the world heading and may
+            differ from ``joint_angles(positions)`` by a few degrees) and the ISB joint angles of
+            :func:`pcnet.stages.isb_angles.isb_joint_angles`, all from ``positions`` (so an angle
+            uses raw positions where a joint is ``unfiltered``).
         unfiltered: ``(T, 17)`` bool, True where the joint's position is finite but left
             raw because its run of finite samples (on any of the 3 axes) was too short
             for the Butterworth filter (:func:`butterworth_lowpass`). All False when
@@ -744,6 +750,17 @@ class Kinematics:
     @property
     def num_frames(self) -> int:
         return int(self.positions.shape[0])
+
+    def __reduce__(self):
+        # ``angles`` is a read-only view, which pickle and deepcopy cannot copy: rebuild it (a
+        # worker process returns its Kinematics this way).
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        values["angles"] = dict(self.angles)
+        return _kinematics_from, (values,)
+
+
+def _kinematics_from(values: dict) -> Kinematics:
+    return Kinematics(**{**values, "angles": MappingProxyType(values["angles"])})
 
 
 def pelvis_heading_frame(poses: np.ndarray) -> np.ndarray:
@@ -849,10 +866,12 @@ def compute_kinematics(
         summarise its flags.
 
     Raises:
-        ValueError: wrong shape, ``fps`` not a number in [1, 10000] Hz
+        ValueError: wrong shape, no frame, ``fps`` not a number in [1, 10000] Hz
             (:func:`~pcnet.stages.core.conventions.validate_fps`), or an invalid cutoff/order.
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
+    if not len(X):
+        raise InputError("canonical: expected at least one frame, got 0")
     fps = validate_fps(fps, "fps")
     missing = ~np.isfinite(X).all(axis=-1)
     pos, raw, vel, acc = filtered_derivatives(X, fps, cutoff_hz, order)

@@ -33,7 +33,7 @@ class ModeChoice:
     smooth_time_constant_s: float | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PostureHypotheses:
     """The up model's posterior over the body's posture (docs/up_model.md): ``most_probable``
     the more probable hypothesis (``"upright"`` or ``"lying"``), ``p_lying`` the lying hypothesis's
@@ -67,7 +67,7 @@ class PostureHypotheses:
         return min(self.p_lying, 1.0 - self.p_lying)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SequenceUp:
     """A static camera's one up (sequence mode; :class:`pcnet.stages.rectify.SequenceEvidence`).
 
@@ -149,7 +149,7 @@ class EnsembleWeights:
         return self.body_frame_frames + self.blended_frames
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RectificationReport:
     """Everything :class:`pcnet.stages.rectify.Rectification` decided for one recording of
     ``T`` frames: the ``mode``, the static camera's ``sequence`` up (sequence mode, else

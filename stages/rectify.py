@@ -64,7 +64,7 @@ def no_valid_frame_reason(report: RectificationReport) -> str:
 Allocate = Callable[[str, tuple, type], np.ndarray]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Rectified:
     """Output of :class:`Rectification` for ``T`` frames.
 
@@ -121,7 +121,7 @@ def resolve_heading_source(method: str, heading: str | None) -> str:
     return heading
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FrameEstimate:
     """Step 1's output for ``T`` frames: ``rotation`` ``(T, 3, 3)`` float64 canonical->camera,
     ``residual`` ``(T, 17, 3)`` the non-rigid correction in the canonical frame and the
@@ -174,7 +174,7 @@ class GeometricEstimator:
         return FrameEstimate(R, residual, valid)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SequenceOutcome:
     """Step 2's output for ``T`` frames: ``rotation`` ``(T, 3, 3)`` canonical->camera (NaN
     where not valid; frame mode: as given), ``valid`` ``(T,)`` bool, the ``mode`` choice and,

@@ -101,7 +101,7 @@ _TOL_M = 1e-9
 _MAX_OUTLIER_PASSES = 10
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RootPath:
     """The pelvis path of :func:`root_from_keypoints`.
 

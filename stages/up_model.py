@@ -172,7 +172,7 @@ def default_parameters() -> UpModelParameters:
 # ============================================================================ evidence
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class UpEvidence:
     """What the networks say about one recording of ``T`` frames.
 
@@ -373,7 +373,7 @@ def frames_per_error(fps: float, p: UpModelParameters) -> float:
     return max(1.0, p.error_time_s * fps)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PoseSummary:
     """Laplace summary of the poses' likelihood: ``up`` ``(..., 3)`` its maximiser ``g_hat``,
     ``cov`` ``(..., 2, 2)`` ``C_L`` in the (pitch, roll) tangent basis at ``up`` (rad^2)."""
@@ -507,7 +507,7 @@ def log_lying(g: np.ndarray, s: PoseSummary, p: UpModelParameters) -> np.ndarray
     return -0.5 * e ** 2 / var - 0.5 * np.log(2 * np.pi * var) - np.log(2 * np.pi * np.maximum(np.cos(e), 1e-6))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class StaticPosterior:
     """The static-camera answer (module docstring).
 

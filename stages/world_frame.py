@@ -36,7 +36,7 @@ HEADING_WINDOW_S = 1.0
 MIN_HORIZONTAL = 1e-3
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class WorldFrame:
     """``rotation`` ``(3, 3)`` float64 camera->world (rows: the world X, Y, Z axes in camera
     coordinates), ``heading_frames``: the valid frames whose forward direction was averaged."""
@@ -101,6 +101,19 @@ def to_world(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | N
     return to_world_floor(joints_cam, frame, root_cam, out)[0]
 
 
+def _require_root_relative(J: np.ndarray, rows: slice) -> None:
+    """Refuse a block of poses ``(n, 17, 3)`` whose present pelvis is not at the origin (to
+    float rounding of the largest coordinate)."""
+    pelvis = J[:, PELVIS]
+    off = np.isfinite(pelvis).all(axis=1) & (np.abs(pelvis).max(axis=1, initial=0.0)
+                                             > 1e-6 * max(np.nanmax(np.abs(J), initial=0.0), 1e-30))
+    if off.any():
+        t = int(np.flatnonzero(off)[0]) + (rows.start or 0)
+        raise InputError(f"world frame: joints_cam: expected root-relative poses (pelvis at the origin), got the "
+                         f"pelvis at {np.round(J[t - (rows.start or 0), PELVIS], 4).tolist()} in frame {t}; subtract "
+                         f"it and give its path as root_cam")
+
+
 def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarray | None = None,
                    out: np.ndarray | None = None, floor_frames: np.ndarray | None = None) -> tuple[np.ndarray, Floor]:
     """Pelvis-centred camera-frame poses in the recording's world frame, ground at y = 0,
@@ -145,8 +158,10 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
         NaN.
 
     Raises:
-        InputError: ``joints_cam`` not ``(T, 17, 3)``, ``root_cam`` or ``floor_frames`` of the
-            wrong shape, ``root_cam`` without a finite frame.
+        InputError: ``joints_cam`` not ``(T, 17, 3)`` or not root-relative (a pelvis away from
+            the origin: a lifter's raw output keeps its image position, which would read as a
+            path), ``root_cam`` or ``floor_frames`` of the wrong shape, ``root_cam`` without a
+            finite frame.
     """
     shape = tuple(getattr(joints_cam, "shape", np.shape(joints_cam)))
     if len(shape) != 3 or shape[1:] != (17, 3):
@@ -166,7 +181,9 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
         root[:, [0, 2]] -= root[known[0], [0, 2]]
 
     def rotated(rows: slice) -> np.ndarray:
-        P = np.asarray(joints_cam[rows], np.float64) @ frame.rotation.T
+        J = np.asarray(joints_cam[rows], np.float64)
+        _require_root_relative(J, rows)
+        P = J @ frame.rotation.T
         if root is not None:
             P += root[rows, None]
         return P

@@ -67,7 +67,7 @@ def test_smooth_mode_summary_prints_a_consistent_tilt(tmp_path):
 @pytest.mark.parametrize("degrees", [90, 180])
 def test_rolled_or_upside_down_real_input_is_flagged(method, degrees):
     """A portrait or upside-down camera that nothing corrected: some warning must say so."""
-    res = rectify(_roll(np.load(TADASANA), degrees), method, mode="sequence")
+    res = rectify(_roll(np.load(TADASANA), degrees), method, mode="sequence", fps=30.0)
     tilt, pitch, roll = camera_tilt(res.up, res.valid)
     warnings = orientation_flags(tilt, pitch, roll) + posture_flag(res.report.sequence)
     assert warnings, (method, degrees, tilt)
@@ -106,7 +106,7 @@ def test_the_camera_tilt_flag_fires_where_the_declared_prior_holds_the_camera_un
 
 
 def test_upright_real_input_with_a_level_camera_is_not_flagged():
-    res = rectify(np.load(TADASANA), "geometric", mode="sequence")
+    res = rectify(np.load(TADASANA), "geometric", mode="sequence", fps=30.0)
     assert orientation_flags(*camera_tilt(res.up, res.valid)) == []
 
 
@@ -304,12 +304,12 @@ def test_camera_tilt_matches_the_rotation_decomposition_on_real_poses():
     decompose_camera_rotation on the rectified rotations (same convention, column 1 = up)."""
     from pcnet.stages.core.rotations import decompose_camera_rotation
 
-    res = rectify(_roll(np.load(TADASANA), 20), "geometric", mode="sequence")
+    res = rectify(_roll(np.load(TADASANA), 20), "geometric", mode="sequence", fps=30.0)
     _, pitch, roll = decompose_camera_rotation(res.rotation[res.valid])
     tilt, p, r = camera_tilt(res.rotation[:, :, 1], res.valid)
     assert p == pytest.approx(np.degrees(pitch).mean(), abs=1e-3) and r == pytest.approx(np.degrees(roll).mean(), abs=1e-3)
     assert r == pytest.approx(20 + np.degrees(decompose_camera_rotation(
-        rectify(np.load(TADASANA), "geometric", mode="sequence").rotation[:1])[2][0]), abs=0.5)
+        rectify(np.load(TADASANA), "geometric", mode="sequence", fps=30.0).rotation[:1])[2][0]), abs=0.5)
 
 
 def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
@@ -327,12 +327,12 @@ def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
     not call that figure the tilt's interval."""
     from pcnet.pipeline.checks import tilt_tolerance
 
-    geometric = rectify(np.load(TADASANA), "geometric", mode="sequence").report
+    geometric = rectify(np.load(TADASANA), "geometric", mode="sequence", fps=30.0).report
     tolerance = tilt_tolerance(geometric)
     boot = max(geometric.sequence.camera_pitch_uncertainty_deg, geometric.sequence.camera_roll_uncertainty_deg)
     assert tolerance == (boot, "bootstrap-only uncertainty, no calibrated interval for this method")
     assert f"({boot:.1f} deg, bootstrap-only uncertainty" in lifter_frame_flag(boot + 5.0, *tolerance)[0].detail
-    ensemble = rectify(np.load(TADASANA), "pcnet", mode="sequence").report
+    ensemble = rectify(np.load(TADASANA), "pcnet", mode="sequence", fps=30.0).report
     assert tilt_tolerance(ensemble) == (ensemble.sequence.camera_pitch_interval_deg, "95 % interval")
     frame = rectify(np.load(TADASANA), "pcnet", mode="frame").report
     assert tilt_tolerance(frame) == (frame.frame_tilt_95_deg, "per-frame bound, not calibrated on real lifter output")

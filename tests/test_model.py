@@ -176,7 +176,7 @@ def test_inference_runs_with_torch_blocked():
         joints = load_mocap(sys.argv[1])[0].joints
         res = rectify(joints, "pcnet")
         assert res.valid.all() and res.canonical.shape == joints.shape
-        seq = rectify(joints, "pcnet", mode="sequence")
+        seq = rectify(joints, "pcnet", mode="sequence", fps=30.0)
         assert seq.mode == "sequence" and np.isfinite(seq.up[seq.valid]).all()
         assert "torch" not in sys.modules
         print("ok")

@@ -4,6 +4,7 @@ and gives what it says; ``import pcnet.pipeline`` stays cheap."""
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -102,4 +103,115 @@ def test_rectify_refuses_options_of_another_type(option, value):
 
     joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:10]
     with pytest.raises(InputError, match=f"rectify: {option}: expected"):
-        rectify(joints, mode="sequence", **{option: value})
+        rectify(joints, mode="sequence", **{"fps": 30.0, option: value})
+
+
+@pytest.mark.parametrize("mode", ["sequence", "smooth", "auto"])
+def test_rectify_needs_the_frame_rate_for_modes_that_pool_over_seconds(mode):
+    """``rectify(mode="smooth")`` had quietly read every recording as 30 fps (a library user's
+    trial): a 60 fps recording would be smoothed over twice the time. Frame mode takes 30 for
+    the view gate's window alone."""
+    from pcnet.pipeline import InputError, rectify
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:20]
+    with pytest.raises(InputError, match=f"mode '{mode}' pools frames over seconds: give fps"):
+        rectify(joints, mode=mode)
+    assert rectify(joints, mode=mode, fps=60.0).valid.all()
+    assert rectify(joints).valid.all()
+
+
+# --- what a library user meets (a developer's trial of the Python API) -----------------------
+
+
+def test_results_pickle_for_worker_processes_and_compare_by_identity():
+    """``Kinematics`` could not be pickled ("cannot pickle 'mappingproxy'"), so a process pool
+    could not return it; ``==`` on the results raised numpy's "truth value is ambiguous"."""
+    import copy
+    import pickle
+
+    from pcnet.pipeline import rectify
+    from pcnet.stages.kinematics import compute_kinematics
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:40]
+    res = rectify(joints, mode="sequence", fps=30.0)
+    kin = compute_kinematics(res.canonical, 30.0)
+    for value in (res, res.report, kin):
+        back = pickle.loads(pickle.dumps(value))
+        assert type(back) is type(value)
+        assert value == value and value != back and len({value, back}) == 2  # identity, no exception
+    for back in (pickle.loads(pickle.dumps(kin)), copy.deepcopy(kin)):
+        assert back.angles.keys() == kin.angles.keys()
+        np.testing.assert_array_equal(back.angles["trunk_inclination"], kin.angles["trunk_inclination"])
+        np.testing.assert_array_equal(back.positions, kin.positions)
+        with pytest.raises(TypeError):
+            back.angles["trunk_inclination"] = None  # still read-only
+
+
+def test_kinematics_refuse_empty_input_and_a_frame_rate_that_is_not_a_number():
+    """Empty poses gave numpy's "cannot reshape array of size 0"; ``fps="30"`` was taken by
+    ``compute_kinematics`` but refused by ``rectify``, and ``derivatives(x, "30")`` raised a
+    TypeError; ``fps=True`` read as 1 Hz."""
+    from pcnet.pipeline import InputError
+    from pcnet.stages.kinematics import butterworth_lowpass, compute_kinematics, derivatives
+
+    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:30]
+    with pytest.raises(InputError, match="canonical: expected at least one frame"):
+        compute_kinematics(np.zeros((0, 17, 3)), 30.0)
+    for call in (butterworth_lowpass, derivatives):
+        with pytest.raises(InputError, match="at least one sample"):
+            call(np.zeros((0, 17, 3)), 30.0)
+        with pytest.raises(InputError, match=r"fps: expected a frame rate in Hz \(a number\), got '30' \(str\)"):
+            call(poses, "30")
+    for fps in ("30", True):
+        with pytest.raises(InputError, match="fps: expected a frame rate in Hz"):
+            compute_kinematics(poses, fps)
+    assert compute_kinematics(poses, np.float32(30.0)).fps == 30.0
+
+
+def test_the_world_frame_refuses_poses_that_are_not_root_relative():
+    """Raw MotionBERT output (the pelvis at its image position) given to ``to_world_floor``
+    had its image position read as a path, silently."""
+    from pcnet.adapters import load_motionbert
+    from pcnet.pipeline import InputError, rectify
+    from pcnet.stages.world_frame import to_world_floor, world_frame
+
+    joints = load_motionbert(FIXTURES / "boxing_X3D_f000-059.npy").joints
+    res = rectify(joints, mode="sequence", fps=30.0)
+    frame = world_frame(res.rotation, res.valid, 30.0)
+    with pytest.raises(InputError, match=r"expected root-relative poses \(pelvis at the origin\), got the pelvis at"):
+        to_world_floor(joints, frame)
+    relative = joints - joints[:, :1]
+    world, _ = to_world_floor(relative, frame)
+    assert np.isfinite(world).all()
+
+
+def test_lifter_joints_leave_the_callers_array_as_it_was():
+    """``lifter_joints`` (the step the ``Poses3D`` docs point to) had written NaN over the
+    caller's placeholder joints, in the frozen ``Poses3D``'s array."""
+    from pcnet.adapters import Poses3D
+    from pcnet.pipeline.io import lifter_joints
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float32)
+    joints[5, 3] = joints[5, 6] = 0.0  # two joints at exactly (0, 0, 0): a writer's placeholder
+    before = joints.copy()
+    out = lifter_joints(Poses3D(joints, "h36m17", units="m"), "x")
+    assert np.isnan(out[5, 3]).all() and np.array_equal(joints, before)
+    owned = joints.copy()
+    assert lifter_joints(Poses3D(owned, "h36m17", units="m"), "x", in_place=True) is owned  # pcnet run's own load
+
+
+def test_importing_the_adapters_leaves_opencv_and_the_environment_alone():
+    """``import pcnet.adapters`` imported OpenCV (about a second) and set
+    OPENCV_FFMPEG_LOGLEVEL for the whole process; now only reading a video does, and a level
+    the user set is kept."""
+    code = textwrap.dedent(f"""
+        import os, sys
+        import pcnet.adapters
+        assert "cv2" not in sys.modules and "OPENCV_FFMPEG_LOGLEVEL" not in os.environ
+        pcnet.adapters.probe_video({str(FIXTURES / "boxing2_f000-009.mp4")!r})
+        assert os.environ["OPENCV_FFMPEG_LOGLEVEL"] == "-8"
+        print("ok")
+    """)
+    env = {k: v for k, v in os.environ.items() if k != "OPENCV_FFMPEG_LOGLEVEL"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr

@@ -224,7 +224,7 @@ def test_a_frame_whose_hips_coincide_is_invalid_not_an_error(mode):
     determinant', or in frame mode given a rank-1 'rotation' marked valid."""
     X = np.load(POSES)
     X[10, L_HIP] = X[10, 1]
-    res = rectify(X, "pcnet", mode=mode)
+    res = rectify(X, "pcnet", mode=mode, fps=30.0)
     assert not res.valid[10] and res.valid.sum() == len(X) - 1
     ok = res.rotation[res.valid]
     np.testing.assert_allclose(np.linalg.det(ok), 1.0, atol=1e-6)

@@ -177,7 +177,7 @@ def test_lying_body_reads_as_a_quarter_turned_camera_and_a_set_aside_network_is_
     reads the body as lying (stages/up_model.py). A camera rolled 35 deg, nearer level than a
     quarter turn, goes to the body-frame network, which is flagged."""
     X = np.load(FIXTURES / "yoga_Abhay_Shavasana_f200-299.npy")
-    res = rectify(X, "pcnet", mode="sequence")
+    res = rectify(X, "pcnet", mode="sequence", fps=30.0)
     weights = res.report.weights
     assert weights.frames == 100 and sum(weights.turned_frames.values()) == 100
     assert res.report.lying

@@ -239,11 +239,15 @@ def validate_fps(fps: object, source: str = "fps") -> float:
     Raises:
         InputError: naming ``source``, the range and the value.
     """
+    # A string or bool is refused, not converted: "30" is a parsing slip of the caller's, and
+    # True would read as 1 Hz (every entry point then agrees on what a frame rate is).
+    if isinstance(fps, (bool, np.bool_, str, bytes)):
+        raise InputError(f"{source}: expected a frame rate in Hz (a number), got {fps!r} ({type(fps).__name__})")
     try:
         value = float(fps)
     except (TypeError, ValueError):
         raise InputError(f"{source}: expected a frame rate in Hz, got {fps!r}") from None
-    if isinstance(fps, bool) or not (np.isfinite(value) and MIN_FPS <= value <= MAX_FPS):
+    if not (np.isfinite(value) and MIN_FPS <= value <= MAX_FPS):
         raise InputError(f"{source}: expected a frame rate in [{MIN_FPS:g}, {MAX_FPS:g}] Hz, got {value:g}")
     return value
 
