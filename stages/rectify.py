@@ -68,8 +68,9 @@ Allocate = Callable[[str, tuple, type], np.ndarray]
 class Rectified:
     """Output of :class:`Rectification` for ``T`` frames.
 
-    rotation ``(T, 3, 3)`` canonical->camera; canonical ``(T, 17, 3)`` canonical poses in the
-    input's units, pelvis-centred before the network's residual (with it the pelvis moves a
+    rotation ``(T, 3, 3)`` float64 canonical->camera; canonical ``(T, 17, 3)`` float32 (the
+    input's precision as every lifter writes it, half the memory of a long recording) canonical
+    poses in the input's units, pelvis-centred before the network's residual (with it the pelvis moves a
     few mm off the origin; docs/outputs.md); up ``(T, 3)`` unit up direction in the camera
     frame (``rotation[:, :, 1]``); valid ``(T,)``; method name; report: what was decided and
     why (:class:`~pcnet.stages.rectification_report.RectificationReport`). Invalid frames are NaN.
