@@ -36,7 +36,7 @@ from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker, record_status
 from .batch_worker import FINDINGS, RESULT_FIELDS, cpu_cores, error_line
-from .config import COMMAND_LINE_OPTIONS, parse_hypothesis, records_frame_rate, RunConfig
+from .config import COMMAND_LINE_OPTIONS, FPS_TOLERANCE, parse_hypothesis, records_frame_rate, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within
 
@@ -203,6 +203,10 @@ def _header_problem(manifest: Path, header: list[str]) -> str | None:
     if first.startswith("#"):
         return f"{where}: expected a CSV header of column names, got the comment {first!r} (comments are not allowed)"
     names = [h.strip() for h in header]
+    if "" in names:  # a spreadsheet's export of empty columns beside the table
+        return (f"{where}: expected a name for every column, got {names.count('')} unnamed "
+                f"column{'s' * (names.count('') > 1)} (column {names.index('') + 1}; empty columns a spreadsheet "
+                f"exported? delete them)")
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         return f"{where}: expected each column once, got {', '.join(twice)} more than once"
@@ -213,6 +217,8 @@ def _header_problem(manifest: Path, header: list[str]) -> str | None:
             hint += f" (lifter_options: a manifest gives each as a column of its own, {', '.join(_LIFTER_OPTIONS)})"
         if any(";" in n for n in unknown):
             hint += " (columns separated by ';'? a manifest separates them by commas)"
+        if any("\t" in n for n in unknown):
+            hint += " (columns separated by tabs? a manifest separates them by commas)"
         return (f"{where}: unknown columns {unknown}{hint}; expected columns named like the fields of `pcnet run`: "
                 f"{', '.join(manifest_columns())}")
     return None
@@ -231,7 +237,8 @@ def read_manifest(manifest: Path) -> tuple[list[tuple[int, dict]], dict[int, str
     try:
         text = manifest.read_bytes().decode("utf-8-sig")
     except UnicodeDecodeError as err:
-        raise InputError(f"{manifest}: expected a UTF-8 CSV manifest, got binary data (byte {err.start})") from None
+        raise InputError(f"{manifest}: expected a UTF-8 CSV manifest, got a byte that is not UTF-8 at offset "
+                         f"{err.start} (a spreadsheet's Latin-1 or Windows export? save it as 'CSV UTF-8')") from None
     if "\x00" in text:
         raise InputError(f"{manifest}: expected a UTF-8 CSV manifest, got binary data (NUL bytes)")
     if not text.strip():
@@ -580,10 +587,31 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
         if _needs_fps_column(config):
             found.append(f"{where}: column fps: expected the frame rate (no video is given and {config['lifter']} "
                          f"files do not record one), got none")
+        if not found:
+            found += _video_rate_problem(where, config)
         if found:
             problems[line] = "\n".join(found)
         planned.append(PlannedRow(index, line, config, row))
     return planned, problems
+
+
+def _video_rate_problem(where: str, config: dict) -> list[str]:
+    """A row's ``fps`` that contradicts its video's own rate (without ``fps_override``), found
+    before any row runs as ``pcnet run`` would find it when the row starts (a user trial: a
+    row 2 hours into a batch). The container's rate is read, not its frames."""
+    video, fps = config.get("video"), config.get("fps")
+    if not video or fps is None or config.get("fps_override"):
+        return []
+    from pcnet.adapters import AdapterError, probe_video
+
+    try:
+        recorded = probe_video(video, verify=False).fps
+    except AdapterError:
+        return []  # the row's own run says what is wrong with the video
+    if abs(fps - recorded) <= FPS_TOLERANCE * recorded:
+        return []
+    return [f"{where}: column fps {fps:g}: expected the rate video {video} records ({recorded:g} fps), got {fps:g} fps; "
+            f"set column fps_override to true to use column fps anyway"]
 
 
 def read_previous_summary(path: Path) -> dict[str, dict]:
@@ -1010,6 +1038,24 @@ def _opensim_line(rows: list[dict]) -> str | None:
             f"{worst['line']})")
 
 
+def _units_line(rows: list[dict]) -> str | None:
+    """Where complete outputs are not in metres (a row without ``height`` for a lifter whose
+    output is not metric): their lines, since their columns are named and scaled otherwise
+    (``pelvis_y_normalised``); None when every row is metric (or says nothing)."""
+    done = [r for r in rows if r["status"] in DONE and r.get("units")]
+    other = [r for r in done if r["units"] != "m"]
+    if not other:
+        return None
+    by_unit: dict[str, list[int]] = {}
+    for r in other:
+        by_unit.setdefault(r["units"], []).append(r["line"])
+    parts = [f"{unit} in line{'s' * (len(lines) > 1)} {', '.join(map(str, lines[:SUMMARY_LINES]))}"
+             + (f" and {len(lines) - SUMMARY_LINES} more" if len(lines) > SUMMARY_LINES else "")
+             for unit, lines in by_unit.items()]
+    metric = len(done) - len(other)
+    return (f"{'; '.join(parts)}, not metres (column height scales them){f'; m in {metric} rows' * bool(metric)}")
+
+
 def format_summary(report: BatchReport) -> str:
     """The summary that reads in seconds: the counts, one line per failed row (its error),
     one line per distinct warning of the complete outputs (most severe first, with its
@@ -1021,7 +1067,8 @@ def format_summary(report: BatchReport) -> str:
     lines += _lines([f"FAILED   line {r['line']}: {r['error']}" for r in report.rows if r["status"] == "failed"],
                     "failed rows", details)
     lines += _lines(_grouped_findings(report), "warnings", details)
-    opensim, outputs = _opensim_line(report.rows), _outputs_line(report.rows)
+    opensim, outputs, units = _opensim_line(report.rows), _outputs_line(report.rows), _units_line(report.rows)
+    lines += [f"{'units':<17} {units}"] * bool(units)
     lines += [f"{'OpenSim IK':<17} {opensim}"] * bool(opensim)
     lines += [f"{'outputs':<17} {outputs}"] * bool(outputs) + [f"{'summary':<17} {report.summary_path}"]
     if report.report_path is not None:

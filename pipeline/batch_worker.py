@@ -22,7 +22,7 @@ FINDINGS = "findings"
 #: What a row's run found that a skipped row shows again (from its resume marker or the
 #: previous summary): frame counts, mode, warnings and, with ``opensim``, the IK fit's marker
 #: RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``).
-RESULT_FIELDS = ("frames", "valid", "mode", "warnings", "opensim_rms_cm")
+RESULT_FIELDS = ("frames", "valid", "mode", "units", "warnings", "opensim_rms_cm")
 #: Test hook, see :func:`_test_hook`.
 TEST_HOOK = "PCNET_BATCH_TEST_HOOK"
 _HOLD_LIMIT_S = 120.0
@@ -120,7 +120,7 @@ def execute_row(job: dict) -> dict:
     traceback for unexpected exceptions. ``KeyboardInterrupt`` (the engine stopping the
     worker) propagates after ``run_pipeline`` has removed its half-written folder.
     """
-    result = {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
+    result = {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "units": None, "seconds": None,
               "error": "", "warnings": [], "host": socket.gethostname(), "pid": os.getpid(),
               "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS")),
               "opensim_rms_cm": None}
@@ -139,7 +139,8 @@ def execute_row(job: dict) -> dict:
         inputs = input_hashes(config)  # before the run: the marker must describe what was read
 
         def with_marker(staged: Path, run) -> None:  # published together with the output or not at all
-            result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, warnings=list(run.flags),
+            result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, units=run.units,
+                          warnings=list(run.flags),
                           opensim_rms_cm=_opensim_rms_cm(staged, run.outputs), **{FINDINGS: finding_records(run.findings)})
             write_batch_marker(staged, config, inputs, result)
 

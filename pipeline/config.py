@@ -39,6 +39,10 @@ def multi_track_formats() -> dict[str, str]:
     return {name: entry.multi_track for name, entry in _registered("2d").items() if entry.multi_track}
 
 
+#: Relative difference between ``fps`` and the video's own rate accepted as the same rate.
+FPS_TOLERANCE = 0.01
+
+
 def records_frame_rate(kind: str, name: str) -> bool:
     """Whether files of the registered ``kind`` (``"2d"``/``"3d"``) adapter ``name`` can carry
     their frame rate (``register_2d/3d(records_fps=...)``); ``True`` for an unknown name (the

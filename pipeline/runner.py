@@ -54,7 +54,7 @@ from pcnet.stages.plausibility import implausible_frames, implausible_motion, mo
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import CameraTilt, CheckInputs, checks
-from .config import RunConfig, multi_track_formats
+from .config import FPS_TOLERANCE, RunConfig, multi_track_formats
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -265,10 +265,6 @@ class RunResult:
         return (interval + f"{label}; the poses alone +- "
                 f"{seq.camera_pitch_uncertainty_deg:.1f}/{seq.camera_roll_uncertainty_deg:.1f}; "
                 f"evidence: {seq.evidence})")
-
-
-#: Relative difference between ``--fps`` and the video's own rate accepted as the same rate.
-FPS_TOLERANCE = 0.01
 
 
 def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]) -> tuple[float, str]:
@@ -545,7 +541,9 @@ def _align(cfg: RunConfig, video, kp2d, joints):
                 raise InputError(f"frame counts differ ({detail}), and the 2D keypoints' frame 0 is empty: frame "
                                  f"indices counted from 1? pcnet counts them from 0 (the first frame is 0); "
                                  f"--align truncate would pair each 2D frame with the 3D frame before it")
-            raise InputError(f"frame counts differ ({detail}); pass --align truncate to use the first {n} frames")
+            raise InputError(f"frame counts differ ({detail}); pass --align truncate to use the first {n} frames "
+                             f"(only when every input starts at the video's first frame: truncating pairs frame i "
+                             f"of each)")
         joints = joints[:n]
         kp2d = None if kp2d is None else kp2d[:n]
         cut = ", ".join(f"{k} {c - n}" for k, (_, c) in counts.items() if c > n)

@@ -384,5 +384,6 @@ def implausible_motion_flags(findings: Sequence[ImplausibleMotion], limits: Moti
             f"a tracking or lifting error (a track switch, a left/right swap, a detector jump; or motion the limits "
             f"have not seen, such as sprints, throws, racket sports or flips): check the 2D keypoints and the lifter's poses in "
             f"those frames, and leave them out of speed, acceleration and angle analyses "
-            f"(canonical.npz: implausible_frames)")
+            f"(canonical.npz: implausible_frames). If slow motion is flagged, check the frame rate first: a rate "
+            f"n times the true one makes every {quantity} {'n' if quantity == 'speed' else 'n^2'} times too large")
     return lines

@@ -25,7 +25,7 @@ import pytest
 from click.testing import CliRunner
 from conftest import FIXTURES, ROOT
 
-from pcnet.pipeline.batch import BatchOptions, run_batch
+from pcnet.pipeline.batch import BatchOptions, plan_batch, run_batch
 from pcnet.pipeline.batch_marker import BATCH_MARKER
 from pcnet.pipeline.batch_worker import TEST_HOOK, cpu_cores
 from pcnet.pipeline.cli import main
@@ -454,6 +454,24 @@ def test_the_summary_gives_the_opensim_fits_marker_rms():
     assert "\nOpenSim IK        marker RMS 1.74 cm (line 2)\n" in format_summary(report)
 
 
+def test_the_summary_names_the_rows_whose_outputs_are_not_in_metres():
+    """A row without ``height`` for a lifter whose output is not metric ran "ok" with columns
+    named ``pelvis_y_normalised``, said only in its report.md's notes (a user trial): the
+    summary names those rows and the column that scales them; an all-metric batch has no line."""
+    from pcnet.pipeline.batch import BatchReport, format_summary
+
+    rows = [{"row": i, "line": i + 1, "out": f"/s/r{i}", "status": status, "frames": 9, "valid": 9, "mode": "sequence",
+             "units": units, "seconds": 1.0, "error": "", "warnings": [], "host": "h", "pid": 1, "attempts": 1,
+             "threads": 1, "opensim_rms_cm": None} for i, (status, units) in enumerate(
+        [("ok", "m"), ("ok", "normalised"), ("skipped", "m"), ("failed", None), ("skipped", None)], 1)]
+    report = BatchReport(rows, False, Path("/s/m.pcnet_batch.json"), 1.0,
+                         settings={"engine": "local", "workers": 1, "retries": 0})
+    assert ("\nunits             normalised in line 3, not metres (column height scales them); m in 2 rows\n"
+            in format_summary(report)), format_summary(report)
+    rows[1]["units"] = "m"
+    assert "units " not in format_summary(report)
+
+
 def test_the_summary_groups_one_kind_of_warning_whose_numbers_differ_by_row():
     """Fifteen rows with the same warning but their own numbers make one summary line, not
     fifteen that push every other warning out of the cut (a user trial: 15 Shavasana files)."""
@@ -728,6 +746,16 @@ def test_manifest_layout_mistakes_are_named_by_their_file_line(tmp_path):
     res = _invoke(manifest)
     assert res.output.count("Error: ") == 1 and f"{manifest}: line 1: expected each column once, got lifter more than " \
         "once" in res.output, res.output
+    # a spreadsheet's exports (a user trial): empty columns beside the table, Latin-1, tabs
+    manifest.write_text(f"{HEADER},,\n{_row('a')},,\n")
+    res = _invoke(manifest)
+    assert "line 1: expected a name for every column, got 2 unnamed columns" in res.output, res.output
+    manifest.write_bytes(f"{HEADER}\n{_row('a')}\n".replace("a,", "M\u00fcller,", 1).encode("latin-1"))
+    res = _invoke(manifest)
+    assert "got a byte that is not UTF-8 at offset" in res.output and "CSV UTF-8" in res.output, res.output
+    manifest.write_text(HEADER.replace(",", "\t") + "\n" + _row("a").replace(",", "\t") + "\n")
+    res = _invoke(manifest)
+    assert "columns separated by tabs?" in res.output, res.output
     manifest.write_text(HEADER.replace("fps", "FPS") + f"\n{_row('a')}\n{_row('b')}\n")
     res = _invoke(manifest)
     assert res.output.count("Error: ") == 1 and "line 1: unknown columns ['FPS'] (FPS: fps?)" in res.output, res.output
@@ -829,23 +857,25 @@ def test_a_rows_warnings_reach_the_summary(tmp_path):
     assert all(f"{ln.strip()} (line 2)" in res.output for ln in short) and all(w in _report(manifest) for w in expected)
 
 
-def test_a_rows_runtime_error_names_the_manifest_columns(tmp_path):
-    """The pipeline's own wording (`--fps 25 ...; pass --fps-override`) reaches a manifest user
-    as columns: the real example video records 30 fps, the row says 25."""
+def test_a_frame_rate_that_contradicts_the_video_is_refused_before_any_row_runs(tmp_path):
+    """The real example video records 30 fps, the row says 25: refused with the manifest's
+    columns before any row runs (a user trial: it failed only when its row started, after the
+    rows before it had run; `pcnet run`'s own wording reaches a manifest user in the same terms,
+    ``test_run_flags_in_an_action_read_as_manifest_columns``)."""
     example = Path(__file__).resolve().parent.parent / "pipeline" / "example_data"
     manifest = tmp_path / "f.csv"
     manifest.write_text(f"lifter,lifter_output,video,fps,out,recording\n"
+                        f"motionbert,{example / 'X3D.npy'},{example / 'boxing2.mp4'},30,f0,false\n"
                         f"motionbert,{example / 'X3D.npy'},{example / 'boxing2.mp4'},25,f1,false\n")
     res = _invoke(manifest)
-    assert res.exit_code == 1, res.output
-    (row,) = _summary(manifest)["rows"]
-    assert row["error"].startswith("column fps 25: expected the rate") and "(30 fps), got 25 fps;" in row["error"] and \
-        "set column fps_override to true to use column fps anyway" in row["error"], row["error"]
-    # the terminal's summary: the counts, the failed row's one line, where the details are
-    assert f"FAILED   line 2: {row['error']}" in res.output
-    assert "0 of 1 recordings have complete outputs (0 ok, 0 skipped, 1 failed, 0 cancelled)" in res.output
-    assert f"details: {manifest}.pcnet_batch.md" in res.output and "| 1 | 2 | failed |" in _report(manifest)
-    assert f"### line 2 (row 1)\n\n{row['error']}\n" in _report(manifest)
+    assert res.exit_code == 1 and res.output.count("Error: ") == 1, res.output
+    assert f"{manifest}: line 3: column fps 25: expected the rate video {example / 'boxing2.mp4'} records (30 fps), " \
+        "got 25 fps; set column fps_override to true to use column fps anyway" in res.output, res.output
+    assert not (tmp_path / "f0").exists() and not (tmp_path / "f1").exists()
+    manifest.write_text(manifest.read_text().replace("recording\n", "recording,fps_override\n")
+                        .replace("false\n", "false,true\n"))
+    plan, _ = plan_batch(manifest, BatchOptions())
+    assert [item.action for item in plan] == ["run", "run"]
 
 
 def test_a_row_without_any_frame_rate_is_refused_before_any_work(tmp_path):

@@ -1023,6 +1023,9 @@ def test_an_unobservable_pelvis_path_is_empty_not_zero(tmp_path):
         assert "empty in this run" not in rows[name][3], name
     assert all(r[header.index("pelvis_missing")] == "0" for r in body)  # its height is there
     assert "relative to the pelvis" in rows["right_wrist_x_m"][3]
+    # ... from a per-frame floor, which the dictionary now says (a user trial read it as measured)
+    for name in ("pelvis_y_m", "left_ankle_y_m"):
+        assert "floor placed under each frame's lowest joint" in rows[name][3], name
     out = tmp_path / "canonical"
     _run_boxing(out, "--mode", "smooth")
     _, rows, header, body = _dictionary(out)

@@ -249,6 +249,10 @@ def kinematics_columns(
                 return why + "."
             if j != "pelvis" and axis in relative:
                 return "; relative to the pelvis, whose own path along this axis is not observable in this run."
+            if axis == "y" and frame == "world" and relative:
+                # without a pelvis path the floor is found per frame (stages/world_frame.py: to_world_floor)
+                return ("; measured from a floor placed under each frame's lowest joint (no pelvis path in this run), "
+                        "so a jump or a flight phase reads as standing and a lying body sits an ankle's height up.")
             return "."
 
         for c in "xyz":

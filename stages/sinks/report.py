@@ -64,7 +64,9 @@ def report_markdown(title: str, key_lines: Iterable[tuple[str, str]], findings: 
                 f.detail, ""]
     out += ["", "## Notes", ""]
     out += [f"- {n.detail}" for n in notes] or ["None."]
-    out += ["", "## Report numbers", "", "(`report` in canonical.npz; docs/outputs.md says what each is)", "",
+    out += ["", "## Report numbers", "", "(`report` in canonical.npz; docs/outputs.md says what each is; the intervals "
+            "the key facts print are `camera_pitch_interval_deg` and `camera_roll_interval_deg`, while "
+            "`*_uncertainty_deg` is the poses' part alone)", "",
             "| key | value |", "|---|---|"]
     out += [f"| {k} | {v.replace('|', '/')} |" for k, v in _scalars(report)]
     out += ["", "## Outputs", ""] + [f"- {name}" for name in outputs]
