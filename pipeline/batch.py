@@ -642,6 +642,11 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
         if before is not None and before.get("status") in DONE and item.out.is_dir():
             item.action = "skip"
             item.known = {k: before.get(k) for k in RESULT_FIELDS}
+            # the warnings as raised (kinds, actions) are in the output's marker, not the summary's texts
+            result = read_batch_marker(item.out).get("result")
+            findings = result.get(FINDINGS) if isinstance(result, dict) else None
+            if findings is not None:
+                item.known[FINDINGS] = findings
             return
     if options.overwrite:
         item.config["overwrite"] = True
