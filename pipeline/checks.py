@@ -17,7 +17,8 @@ from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_w
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
                                mirrored_skeleton_flag, orientation_flags, posture_flag,
                                side_swap_flag, size_change_flag, track_switch_flag)
-from pcnet.stages.rectification_report import RectificationReport
+from pcnet.stages.rectification_report import ModeChoice, RectificationReport
+from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
 
 from .video_orientation import EDGE_MARGIN
@@ -99,13 +100,22 @@ def checks(c: CheckInputs) -> list[Finding]:
     ]
 
 
+def spreads_beyond_static(mode: ModeChoice) -> bool:
+    """Whether the per-frame ups spread more than auto mode's threshold
+    (:data:`pcnet.stages.temporal.MODE_THRESHOLD_DEG`, which no static camera of the validation
+    data passed): there the sequence intervals are not calibrated (decision 0090)."""
+    return mode.spread_deg is not None and mode.spread_deg > MODE_THRESHOLD_DEG
+
+
 def tilt_tolerance(report: RectificationReport) -> tuple[float, str]:
     """The camera tilt uncertainty the summary states (deg) and what it is: the larger 95 %
     pitch/roll half-width in sequence mode (the bootstrap's for a method without a calibrated
     interval), else the per-frame bound where the two networks agree."""
     seq = report.sequence
     if seq is not None:
-        for halves, what in (((seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg), "95 % interval"),
+        interval = ("interval, not calibrated for this spread of per-frame ups" if spreads_beyond_static(report.mode)
+                    else "95 % interval")
+        for halves, what in (((seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg), interval),
                              # a method without a calibrated interval states its bootstrap
                              ((seq.camera_pitch_uncertainty_deg, seq.camera_roll_uncertainty_deg),
                               "bootstrap-only uncertainty, no calibrated interval for this method")):

@@ -334,6 +334,12 @@ def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
     assert f"({boot:.1f} deg, bootstrap-only uncertainty" in lifter_frame_flag(boot + 5.0, *tolerance)[0].detail
     ensemble = rectify(np.load(TADASANA), "pcnet", mode="sequence", fps=30.0).report
     assert tilt_tolerance(ensemble) == (ensemble.sequence.camera_pitch_interval_deg, "95 % interval")
+    from dataclasses import replace
+
+    from pcnet.stages.temporal import MODE_THRESHOLD_DEG
+
+    wide = replace(ensemble, mode=replace(ensemble.mode, spread_deg=MODE_THRESHOLD_DEG + 1.0))  # decision 0090
+    assert tilt_tolerance(wide)[1] == "interval, not calibrated for this spread of per-frame ups"
     frame = rectify(np.load(TADASANA), "pcnet", mode="frame").report
     assert tilt_tolerance(frame) == (frame.frame_tilt_95_deg, "per-frame bound, not calibrated on real lifter output")
 
