@@ -172,9 +172,10 @@ def assumed_fps_warning(clips: list[Clip], source: str | Path) -> str | None:
     assumed = sum(not c.fps_stated for c in clips)
     if not assumed:
         return None
-    return (f"{Path(source).with_suffix('.json')}: expected each clip's 'fps' (the lifter-like noise's correlation "
-            f"time and sequence modes' windows are in seconds), found none for {assumed} of {len(clips)} clips: "
-            f"read at {DEFAULT_MOCAP_FPS:g} fps")
+    sidecar = Path(source).with_suffix(".json")
+    found = f"found none for {assumed} of {len(clips)} clips" if sidecar.is_file() else "found no such file"
+    return (f"{sidecar}: expected each clip's 'fps' (the lifter-like noise's correlation time and sequence modes' "
+            f"windows are in seconds), {found}: read at {DEFAULT_MOCAP_FPS:g} fps")
 
 
 def read_sidecar(path: Path) -> dict:

@@ -132,10 +132,12 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None) 
     training data cannot be told from names, so the scores are not called held out; ``None``
     otherwise."""
     listed = [Path(str(d)).name for d in record.get("data", [])]
-    if not listed or overlap is not None:
+    if not listed or Path(data).name in listed:
         return None
+    known = (f"; {overlap['clips_trained_whole']} of its clips are recognised by name among the clips they trained "
+             f"on whole, the others may be among their training files' too" if overlap is not None else "")
     return (f"{Path(data).name} is not among the files the weights trained on ({', '.join(listed)}): whether its "
-            f"clips overlap their training data is unknown (a renamed copy of a training file would look new)")
+            f"clips overlap their training data is unknown (a renamed copy of a training file would look new){known}")
 
 
 def _unknown_training_warning(weights, record: dict) -> str | None:
@@ -233,7 +235,8 @@ def evaluate(
         clips = [c for c in clips if (group_key(c) or c.name) not in seen]
     if not clips:
         extra = f" with no group in the {unseen_by!r} train split" if unseen_by else ""
-        raise InputError(f"{data}: split {split!r} (scheme {split_scheme!r}) has no clips{extra}")
+        raise InputError(f"{data}: split {split!r} (scheme {split_scheme!r}) has no clips{extra}"
+                         + ("; --split all scores every clip" if split != "all" else ""))
     if kind == "lifter" or mode != "frame":
         warnings += [w for w in [assumed_fps_warning(clips, data)] if w]
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=_noise_model(kind))
@@ -309,13 +312,16 @@ def format_table(result: dict) -> str:
         how = [f"{overlap['scheme']}-scheme train split"] if overlap.get("split_trained", True) else []
         if overlap.get("clips_trained_whole"):
             how.append(f"{overlap['clips_trained_whole']} of these clips from a file trained on whole")
+        at_least = ""
         if overlap.get("matched_by") == "clip names":
-            how.append("recognised by their clip names")
-        head += (f"\nthe weights trained on {overlap['clips_trained_on']} of these {overlap['clips']} clips "
+            how.append("recognised by their clip names; the others' overlap unknown")
+            at_least = "at least "
+        head += (f"\nthe weights trained on {at_least}{overlap['clips_trained_on']} of these {overlap['clips']} clips "
                  f"and on takes of {overlap['groups_with_a_trained_take']} of their {overlap['groups']} "
                  f"motion-style groups or subjects ({'; '.join(how)})")
     lines = [head, *(f"WARNING {w}" for w in result.get("warnings", [])),
-             f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}"]
+             f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}   (over the scored frames: a long clip weighs "
+             f"more)"]
     for name in METRICS:
         s = result[name]
         lines.append(f"{name:<14}{s['mean']:>10.2f}{s['median']:>10.2f}{s['p95']:>10.2f}")
