@@ -37,8 +37,11 @@ HEADING_SOURCES = ("auto", "predicted", "hips")
 #: ../shared/data`` (``benchmarks/results/fit_heading_source.txt``; tests/test_heading.py checks
 #: the two agree). Where real lifter files fall: ``python -m benchmarks.heading_source``.
 AUTO_MAX_HIP_WIDTH_CV_PERCENT = 1.2037
-# Fewer valid frames than this give no usable width statistic: "auto" keeps the prediction.
-AUTO_MIN_FRAMES = 10
+#: Fewest valid frames from which "auto" reads the CV (fewer: the prediction): a lifter's errors
+#: are correlated in time, so a few frames' width varies little even on noisy hips. Fitted on the
+#: same validation recordings cut to their first 2-30 frames (the least mean heading error;
+#: decision 0088) by the same command; tests/test_heading.py checks the two agree.
+AUTO_MIN_FRAMES = 8
 
 
 def precise_hips(joints_cam: np.ndarray, valid: np.ndarray, max_cv_percent: float = AUTO_MAX_HIP_WIDTH_CV_PERCENT):

@@ -163,11 +163,14 @@ def test_cli_rectify_reports_the_heading_source(tmp_path):
 
 
 def test_auto_threshold_is_the_fitted_one():
-    """``AUTO_MAX_HIP_WIDTH_CV_PERCENT`` is what ``python -m benchmarks.fit_heading_source``
-    printed (decision 0085)."""
+    """``AUTO_MAX_HIP_WIDTH_CV_PERCENT`` and ``AUTO_MIN_FRAMES`` are what ``python -m
+    benchmarks.fit_heading_source`` printed (decisions 0085, 0088)."""
     import re
 
     text = (Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "fit_heading_source.txt").read_text()
     assert "python -m benchmarks.fit_heading_source" in text
     m = re.search(r"^AUTO_MAX_HIP_WIDTH_CV_PERCENT = ([0-9.]+) ", text, re.M)
     assert m and AUTO_MAX_HIP_WIDTH_CV_PERCENT == pytest.approx(float(m.group(1)), abs=1e-9)
+    from pcnet.stages.heading import AUTO_MIN_FRAMES
+
+    assert re.search(r"^AUTO_MIN_FRAMES = (\d+)$", text, re.M).group(1) == str(AUTO_MIN_FRAMES)  # decision 0088
