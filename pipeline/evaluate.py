@@ -319,6 +319,10 @@ def format_table(result: dict) -> str:
         head += (f"\nthe weights trained on {at_least}{overlap['clips_trained_on']} of these {overlap['clips']} clips "
                  f"and on takes of {overlap['groups_with_a_trained_take']} of their {overlap['groups']} "
                  f"motion-style groups or subjects ({'; '.join(how)})")
+    if result.get("noise") == "none" and result.get("clip_heading_sources", {}).get("hips"):
+        # the canonical frame's heading is defined by the hip line, which clean mocap gives exactly
+        head += ("\nheading from the input's hip line, exact on clean mocap: heading_deg and the rotation scores "
+                 "measure the networks' heading only with --heading predicted")
     lines = [head, *(f"WARNING {w}" for w in result.get("warnings", [])),
              f"{'metric':<14}{'mean':>10}{'median':>10}{'p95':>10}   (over the scored frames: a long clip weighs "
              f"more)"]

@@ -531,6 +531,15 @@ def test_frames_without_a_target_are_counted_and_sequence_modes_need_one_camera_
     result = evaluate("geometric", tmp_path / "holes.npz", "all", max_frames=50)
     assert result["target_undefined_frames"] == sum(len(c.joints) // 2 for c in clips) == 165
     assert "165 frames of the data had no defined target" in format_table(result)
+    # clean mocap with the heading from its hip line: the table says that heading is exact (a user trial
+    # quoted 0.09 deg as pcnet's heading accuracy)
+    clean = evaluate("pcnet", FIXTURES / "mocap_small.npz", "all", max_frames=50)
+    assert clean["clip_heading_sources"] == {"hips": len(clips)}
+    assert "heading from the input's hip line, exact on clean mocap" in format_table(clean)
+    for other in (evaluate("pcnet", FIXTURES / "mocap_small.npz", "all", max_frames=50, heading="predicted"),
+                  evaluate("pcnet", FIXTURES / "mocap_small.npz", "all", max_frames=50, noise="lifter",
+                           camera="per-clip")):
+        assert "exact on clean mocap" not in format_table(other)
     with pytest.raises(InputError, match=r"--mode sequence: expected --camera per-clip or static"):
         evaluate("geometric", FIXTURES / "mocap_small.npz", "all", mode="sequence", camera="per-frame")
 
