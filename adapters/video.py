@@ -27,9 +27,10 @@ if TYPE_CHECKING:
     import cv2
 
 
-def _opencv():
-    """``cv2``, FFmpeg's log quieted unless the user set its level (module docstring; OpenCV
-    reads the level when its FFmpeg backend opens the first video)."""
+def opencv():
+    """``cv2``, FFmpeg's log quieted unless the user set its level (module docstring): call it
+    before opening any video, since OpenCV reads the level when its FFmpeg backend opens the
+    first one (the embedded pose estimator opens its own, ``models/pose_estimator.py``)."""
     os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
     import cv2
 
@@ -38,7 +39,7 @@ def _opencv():
 
 @contextmanager
 def _capture(p: Path) -> Iterator[cv2.VideoCapture]:
-    cap = _opencv().VideoCapture(str(p))
+    cap = opencv().VideoCapture(str(p))
     try:
         if not cap.isOpened():
             raise AdapterError(p, "video stream", "a video file OpenCV can open", "it does not open")
@@ -60,7 +61,7 @@ DECODABLE_SHARE = 0.5
 
 
 def _count_by_decoding(cap: cv2.VideoCapture) -> int:
-    cap.set(_opencv().CAP_PROP_POS_FRAMES, 0)
+    cap.set(opencv().CAP_PROP_POS_FRAMES, 0)
     n = 0
     while cap.grab():
         n += 1
@@ -96,7 +97,7 @@ def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
     """
     p = require_file(path, "a video file")
     with _capture(p) as cap:
-        cv2 = _opencv()
+        cv2 = opencv()
         count = int(_prop(cap, cv2.CAP_PROP_FRAME_COUNT))
         fps = _prop(cap, cv2.CAP_PROP_FPS)
         width = int(_prop(cap, cv2.CAP_PROP_FRAME_WIDTH))
@@ -200,7 +201,7 @@ def read_frame(path: str | Path, index: int) -> np.ndarray:
     if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
         raise AdapterError(p, "index", "a non-negative integer frame index", repr(index))
     with _capture(p) as cap:
-        cap.set(_opencv().CAP_PROP_POS_FRAMES, int(index))
+        cap.set(opencv().CAP_PROP_POS_FRAMES, int(index))
         ok, frame = cap.read()
     if not ok or frame is None:
         raise AdapterError(p, "index", f"frame {index} to exist and decode (see probe_video for the count)", "no frame")
@@ -222,7 +223,7 @@ def iter_frames(path: str | Path, start: int = 0, stop: int | None = None) -> It
     def frames() -> Iterator[np.ndarray]:
         with _capture(p) as cap:
             if start:
-                cap.set(_opencv().CAP_PROP_POS_FRAMES, int(start))
+                cap.set(opencv().CAP_PROP_POS_FRAMES, int(start))
             index = start
             while stop is None or index < stop:
                 ok, frame = cap.read()

@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from pcnet.adapters.video import opencv
 from pcnet.stages.core.errors import InputError, import_extra
 
 #: The model bundle: pose_detector.tflite + pose_landmarks_detector.tflite (BlazePose GHUM
@@ -95,7 +96,7 @@ def _open(video: Path) -> tuple[cv2.VideoCapture, float, int]:
     """
     if not video.is_file():
         raise InputError(f"{video}: expected a video file, got {'a folder' if video.is_dir() else 'no such file'}")
-    capture = cv2.VideoCapture(str(video))
+    capture = opencv().VideoCapture(str(video))  # FFmpeg's log quieted before the first open
     if not capture.isOpened():
         raise InputError(f"{video}: expected a video OpenCV can decode (mp4, mov, avi, ...), got a file it cannot open")
     fps = capture.get(cv2.CAP_PROP_FPS)

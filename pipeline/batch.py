@@ -36,7 +36,7 @@ from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker, record_status
 from .batch_worker import FINDINGS, RESULT_FIELDS, cpu_cores, error_line
-from .config import COMMAND_LINE_OPTIONS, FPS_TOLERANCE, parse_hypothesis, records_frame_rate, RunConfig
+from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, records_frame_rate, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within
 
@@ -234,9 +234,12 @@ def read_manifest(manifest: Path) -> tuple[list[tuple[int, dict]], dict[int, str
         InputError: the file is empty, not UTF-8 text, not CSV, has no header or no rows, or
             a header with a column given twice or not a column of :func:`manifest_columns`.
     """
+    raw = manifest.read_bytes()
     try:
-        text = manifest.read_bytes().decode("utf-8-sig")
+        text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as err:
+        if b"\x00" in raw:
+            raise InputError(f"{manifest}: expected a UTF-8 CSV manifest, got binary data (byte {err.start})") from None
         raise InputError(f"{manifest}: expected a UTF-8 CSV manifest, got a byte that is not UTF-8 at offset "
                          f"{err.start} (a spreadsheet's Latin-1 or Windows export? save it as 'CSV UTF-8')") from None
     if "\x00" in text:
@@ -608,10 +611,8 @@ def _video_rate_problem(where: str, config: dict) -> list[str]:
         recorded = probe_video(video, verify=False).fps
     except AdapterError:
         return []  # the row's own run says what is wrong with the video
-    if abs(fps - recorded) <= FPS_TOLERANCE * recorded:
-        return []
-    return [f"{where}: column fps {fps:g}: expected the rate video {video} records ({recorded:g} fps), got {fps:g} fps; "
-            f"set column fps_override to true to use column fps anyway"]
+    problem = fps_contradiction(fps, video, recorded)
+    return [f"{where}: {in_manifest_terms(problem)}"] if problem else []
 
 
 def read_previous_summary(path: Path) -> dict[str, dict]:
@@ -1058,7 +1059,8 @@ def _units_line(rows: list[dict]) -> str | None:
              + (f" and {len(lines) - SUMMARY_LINES} more" if len(lines) > SUMMARY_LINES else "")
              for unit, lines in by_unit.items()]
     metric = len(done) - len(other)
-    return (f"{'; '.join(parts)}, not metres (column height scales them){f'; m in {metric} rows' * bool(metric)}")
+    metric_rows = f"; m in {metric} row{'s' * (metric != 1)}" if metric else ""
+    return f"{'; '.join(parts)}, not metres (column height scales them){metric_rows}"
 
 
 def format_summary(report: BatchReport) -> str:

@@ -237,9 +237,9 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
 @click.option("--key", default=None, help="Array name inside an .npz input.")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="frame: each frame alone (paper); sequence: one up for a static camera; smooth: moving camera.")
-@click.option("--fps", type=float, default=30.0, show_default=True,
-              help="Frame rate: the pcnet ensemble's view gate reads the camera over 2 s windows in every mode; the "
-                   "sequence modes' smoothing and bootstrap blocks too.")
+@click.option("--fps", type=float, default=None,
+              help="Frame rate (Hz): needed by the modes that pool frames over seconds (sequence, smooth, auto); "
+                   "frame mode reads it only for the pcnet ensemble's 2 s view-gate window (30 when not given).")
 @_heading_option
 @_camera_prior_option
 @click.option("--weights", type=click.Path(dir_okay=False), default=None,
@@ -259,7 +259,10 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     if Path(out_path).suffix.lower() != ".npz":
         raise InputError(f"--out {out_path}: expected a file name ending in .npz (an npz archive is written), got "
                          f"{Path(out_path).suffix or 'no suffix'}")
-    validate_fps(fps, "--fps")
+    if fps is None and mode != "frame":
+        raise InputError(f"--mode {mode} pools frames over seconds: give --fps, the recording's frame rate (Hz)")
+    if fps is not None:
+        validate_fps(fps, "--fps")
     check_method_weights(method, weights, "--weights")
     joints, nonfinite = read_pose_array(input_path, key)
     try:

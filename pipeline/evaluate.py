@@ -128,14 +128,16 @@ def _unlisted_whole_warning(record: dict) -> str | None:
 
 def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None) -> str | None:
     """A warning when the weights' record names their training files but the evaluated file
-    is not one of them (nor holds a clip they trained on whole): whether its clips overlap the
-    training data cannot be told from names, so the scores are not called held out; ``None``
-    otherwise."""
+    is not one of them: whether its clips overlap the training data cannot be told from names,
+    so the scores are not called held out; where some evaluated clips are recognised by name
+    among the clips trained on whole (``overlap``, :func:`_training_overlap`), it says so and
+    that the others may still be among the training files'; ``None`` otherwise."""
     listed = [Path(str(d)).name for d in record.get("data", [])]
     if not listed or Path(data).name in listed:
         return None
-    known = (f"; {overlap['clips_trained_whole']} of its clips are recognised by name among the clips they trained "
-             f"on whole, the others may be among their training files' too" if overlap is not None else "")
+    n = overlap["clips_trained_whole"] if overlap is not None else 0
+    known = (f"; of the evaluated clips, {n} {'is' if n == 1 else 'are'} recognised by name among the clips they "
+             f"trained on whole, and the others may be among their training files' too" if overlap is not None else "")
     return (f"{Path(data).name} is not among the files the weights trained on ({', '.join(listed)}): whether its "
             f"clips overlap their training data is unknown (a renamed copy of a training file would look new){known}")
 

@@ -138,16 +138,14 @@ def rectify(
             raise InputError(f"rectify: {name}: expected True or False, got {value!r} ({type(value).__name__})")
     if fps is None and mode in MODES and mode != "frame":
         raise InputError(f"rectify: mode {mode!r} pools frames over seconds: give fps, the recording's frame rate (Hz)")
-    fps = VIEW_GATE_DEFAULT_FPS if fps is None else fps
-    if isinstance(fps, (bool, np.bool_)) or not isinstance(fps, (int, float, np.integer, np.floating)):
-        raise InputError(f"rectify: fps: expected a number (frames per second), got {fps!r} ({type(fps).__name__})")
+    fps = VIEW_GATE_DEFAULT_FPS if fps is None else validate_fps(fps, "rectify: fps")
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
     result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, measured_root=measured_root)
     return replace(result, report=replace(result.report, pelvis_from_hips_frames=int(pelvis_filled.sum())))
 
 
 def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = None, mode: str = "frame",
-                    fps: float = 30.0, heading: str | None = None, camera_prior: bool = True,
+                    fps: float | None = None, heading: str | None = None, camera_prior: bool = True,
                     allocate: Allocate | None = None, decide_on: np.ndarray | None = None,
                     measured_root: bool = False) -> Rectified:
     """:func:`rectify` of poses that already passed its input rules (``pcnet run`` applies
@@ -156,11 +154,12 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
     canonical arrays (:data:`pcnet.stages.rectify.Allocate`; default in memory); ``decide_on``
     ``(T,)`` bool, one person's stretch of a 2D track that switches people: the frames mode
     ``auto`` decides on and the only ones whose feet the floor contacts read
-    (:class:`pcnet.stages.rectify.SequenceEvidence`).
+    (:class:`pcnet.stages.rectify.SequenceEvidence`). ``fps`` is required in every mode (no
+    default here: the caller knows the rate).
     No ``pelvis_from_hips_frames`` in the report.
 
     Raises:
-        InputError: as :func:`rectify`, but for the input rules.
+        InputError: as :func:`rectify`, but for the input rules; no ``fps``.
     """
     heading_step = HeadingStep(resolve_heading_source(method, heading))
     chain = Rectification(make_estimator(method, weights),

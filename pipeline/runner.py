@@ -54,7 +54,7 @@ from pcnet.stages.plausibility import implausible_frames, implausible_motion, mo
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import CameraTilt, CheckInputs, checks, spreads_beyond_static
-from .config import FPS_TOLERANCE, RunConfig, multi_track_formats
+from .config import RunConfig, fps_contradiction, multi_track_formats
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -283,9 +283,9 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
                          "file records), got none: fps alone sets the rate")
     if cfg.fps is not None:
         for source, fps in recorded:
-            if abs(cfg.fps - fps) > FPS_TOLERANCE * fps and not cfg.fps_override:
-                raise InputError(f"--fps {cfg.fps:g}: expected the rate {source} records ({fps:g} fps), got "
-                                 f"{cfg.fps:g} fps; pass --fps-override to use --fps anyway")
+            problem = fps_contradiction(cfg.fps, source, fps)
+            if problem and not cfg.fps_override:
+                raise InputError(problem)
         return float(cfg.fps), "--fps"
     if recorded:
         source, fps = recorded[0]
@@ -1208,7 +1208,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     acc_cam = filtered_derivatives(cam[:, [H36M_JOINTS.index(n) for n in WRISTS]], fps, cutoff)[3]
     result = RecordingResult(
         fps=fps, units=units, method=cfg.method, rectification=rectified.report, flags=[], notes=notes,
-        joints_camera=cam, root_path=world.root_path,
+        joints_camera=cam, root_path=world.root_path, floor_kind=world.floor.kind if world.floor else None,
         rotation=rectified.rotation, canonical=rectified.canonical, valid=rectified.valid,
         kinematics_frame=world.frame, poses=rectified_poses, world=world.joints, world_rotation=world.rotation,
         keypoints2d=scaled.camera.keypoints2d, track_segment=rectified.track_segment, video=cfg.video,

@@ -227,11 +227,11 @@ def residual_analysis(x: np.ndarray, fps: float, order: int = 4, n_frequencies: 
         :class:`ResidualAnalysis`.
 
     Raises:
-        InputError: ``fps <= 0``, or no signal long enough to filter (more than the filter's
-            pad length of finite samples in a run).
+        InputError: ``fps`` not a frame rate (:func:`~pcnet.stages.core.conventions.validate_fps`),
+            or no signal long enough to filter (more than the filter's pad length of finite
+            samples in a run).
     """
-    if not fps > 0:
-        raise InputError(f"fps must be > 0, got {fps!r}")
+    fps = validate_fps(fps, "fps")
     x2, _ = _as_2d(x)
     nyquist = fps / 2
     freqs = np.linspace(0.5, 0.95 * nyquist, n_frequencies)
@@ -796,10 +796,9 @@ def filtered_derivatives(
         positions, bool raw-sample flags, and their derivatives in units/s and units/s^2.
 
     Raises:
-        InputError: ``fps <= 0`` or an invalid cutoff/order.
+        InputError: ``fps`` not a frame rate or an invalid cutoff/order.
     """
-    if not fps > 0:
-        raise InputError(f"fps must be > 0, got {fps!r}")
+    fps = validate_fps(fps, "fps")
     x = np.asarray(x, np.float64)
     if cutoff_hz is None:
         pos, raw = x.copy(), np.zeros(x.shape, dtype=bool)

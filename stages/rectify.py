@@ -382,7 +382,7 @@ class Rectification:
     heading: HeadingStep = HeadingStep("predicted")
     allocate: Allocate | None = None
 
-    def __call__(self, joints_cam: np.ndarray, fps: float = 30.0, decide_on: np.ndarray | None = None) -> Rectified:
+    def __call__(self, joints_cam: np.ndarray, fps: float, decide_on: np.ndarray | None = None) -> Rectified:
         # An estimator written without ``allocate`` still runs (in memory).
         estimate = self.estimator(joints_cam, fps) if self.allocate is None else \
             self.estimator(joints_cam, fps, self.allocate)

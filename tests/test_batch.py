@@ -874,7 +874,7 @@ def test_a_frame_rate_that_contradicts_the_video_is_refused_before_any_row_runs(
                         f"motionbert,{example / 'X3D.npy'},{example / 'boxing2.mp4'},25,f1,false\n")
     res = _invoke(manifest)
     assert res.exit_code == 1 and res.output.count("Error: ") == 1, res.output
-    assert f"{manifest}: line 3: column fps 25: expected the rate video {example / 'boxing2.mp4'} records (30 fps), " \
+    assert f"{manifest}: line 3: column fps 25: expected the rate {example / 'boxing2.mp4'} records (30 fps), " \
         "got 25 fps; set column fps_override to true to use column fps anyway" in res.output, res.output
     assert not (tmp_path / "f0").exists() and not (tmp_path / "f1").exists()
     manifest.write_text(manifest.read_text().replace("recording\n", "recording,fps_override\n")

@@ -463,7 +463,7 @@ def test_weights_trained_on_a_whole_file_without_its_clip_names_warn(tmp_path):
     # (a user trial: a file mixing such a clip with CMU training takes read as mostly unseen)
     (only,) = evaluate("pcnet", data, "all", max_frames=20)["warnings"]
     assert only.startswith("deepmimic_small.npz is not among the files the weights trained on") and \
-        "1 of its clips are recognised by name among the clips they trained on whole" in only, only
+        "of the evaluated clips, 1 is recognised by name among the clips they trained on whole" in only, only
     assert _unlisted_whole_warning({"data": ["a.npz"], "train_whole": [True], "whole_clips": ["x"]}) is None
 
 

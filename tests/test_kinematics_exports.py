@@ -1052,3 +1052,23 @@ def test_a_measured_pelvis_path_keeps_its_columns_and_an_undescribed_column_is_r
         write_kinematics_csv(tmp_path / "k2.csv", np.arange(T), np.arange(T) / FPS_YOGA, kin,
                              {"tilt_deg": np.zeros(T)}, dictionary=tmp_path / "d2.csv")
     assert not (tmp_path / "k2.csv").exists() and not (tmp_path / "d2.csv").exists()
+
+
+def test_the_heights_definition_says_what_y_0_is_for_each_floor():
+    """Without one fitted ground plane the heights are not above the floor: per frame, y = 0
+    sits under each frame's lowest joint; with no ankle seen, it is the pelvis's height (a user
+    trial read pelvis_y as a measured height; a review found the note keyed on the path, not on
+    the floor used)."""
+    from pcnet.stages.core.conventions import H36M_JOINTS
+    from pcnet.stages.sinks.exports import kinematics_columns
+
+    def definition(floor, column="pelvis_y_m"):
+        rows = kinematics_columns(list(H36M_JOINTS), "m", [], {}, "world", floor=floor)
+        return {name: text for name, _, _, text in rows}[column]
+
+    assert definition("plane").endswith("the height above the floor (y = 0), low-pass filtered (raw where "
+                                        "pelvis_unfiltered = 1, empty where pelvis_missing = 1).")
+    assert definition(None) == definition("plane")
+    assert "floor placed under each frame's lowest joint" in definition("per frame", "left_ankle_y_m")
+    assert "y = 0 is the pelvis's height, not the floor" in definition("pelvis")
+    assert "floor placed" not in definition("per frame", "pelvis_x_m")

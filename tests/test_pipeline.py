@@ -511,7 +511,7 @@ def test_a_sequence_up_opposite_to_every_frame_says_why_no_frame_is_kept(tmp_pat
     assert not (tmp_path / "seq").exists()
     res = _invoke(*args, "--mode", "frame", "--out", tmp_path / "frame")
     assert res.exit_code == 0, res.output
-    res = _invoke("rectify", turned, "--mode", "sequence", "--out", tmp_path / "r.npz")
+    res = _invoke("rectify", turned, "--mode", "sequence", "--fps", "30", "--out", tmp_path / "r.npz")
     assert res.exit_code == 1 and "deg from the sequence up" in res.output and not (tmp_path / "r.npz").exists()
 
 
@@ -635,7 +635,7 @@ def test_rectify_command_npy_npz_and_bad_input(tmp_path):
     src = tmp_path / "poses.npz"
     np.savez(src, joints=poses, other=np.zeros(3))
     out = tmp_path / "out.npz"
-    res = _invoke("rectify", src, "--key", "joints", "--out", out, "--method", "pcnet-rigid", "--mode", "sequence")
+    res = _invoke("rectify", src, "--key", "joints", "--out", out, "--method", "pcnet-rigid", "--mode", "sequence", "--fps", "30")
     assert res.exit_code == 0, res.output
     with np.load(out) as npz:
         R, canonical, up, valid = npz["rotation"], npz["canonical"], npz["up"], npz["valid"]
@@ -654,8 +654,13 @@ def test_rectify_command_npy_npz_and_bad_input(tmp_path):
     hipless = tmp_path / "hipless.npy"
     np.save(hipless, np.where(np.isin(np.arange(17), [1, 4])[:, None], np.nan, poses))
     for mode in ("frame", "sequence"):  # sequence mode's own refusal names the file too (a user trial)
-        res = _invoke("rectify", hipless, "--out", tmp_path / "z.npz", "--mode", mode)
+        res = _invoke("rectify", hipless, "--out", tmp_path / "z.npz", "--mode", mode, "--fps", "30")
         assert res.exit_code == 1 and f"Error: {hipless}: no frame has the hips" in res.output, res.output
+    # the modes that pool over seconds need the frame rate (a 60 fps file had been read as 30 fps)
+    res = _invoke("rectify", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy", "--out", tmp_path / "w.npz", "--mode",
+                  "smooth")
+    assert res.exit_code == 1 and "--mode smooth pools frames over seconds: give --fps" in res.output, res.output
+    assert not (tmp_path / "w.npz").exists()
 
 
 def _kinect_walk(path: Path, pitch_deg: float = 0.0) -> np.ndarray:
@@ -850,8 +855,8 @@ def test_pcnet_run_recovers_the_pelvis_path_before_rectifying(tmp_path):
 
 def test_lifter_joints_is_what_pcnet_run_reads_from_a_lifter():
     """A real MediaPipe file: BlazePose-33 remapped to H36M-17 (pelvis = hip midpoint), float32,
-    NaN kept; an H36M-17 float32 output is validated without a copy, and a bad value is one
-    InputError naming the file."""
+    NaN kept; an H36M-17 float32 output is validated without a copy when the caller owns it
+    (``in_place``, as ``pcnet run`` does), else copied; a bad value is one InputError naming the file."""
     from pcnet.adapters import Poses3D, load_mediapipe_3d
     from pcnet.pipeline.io import lifter_joints
     from pcnet.stages.core.conventions import L_HIP, PELVIS, R_HIP
@@ -864,7 +869,8 @@ def test_lifter_joints_is_what_pcnet_run_reads_from_a_lifter():
     ok = np.isfinite(joints[:, [L_HIP, R_HIP]]).all((1, 2))
     np.testing.assert_allclose(joints[ok, PELVIS], 0.5 * (joints[ok, L_HIP] + joints[ok, R_HIP]), atol=1e-5)
     h36m = Poses3D(joints=joints.copy(), layout="h36m17", units="m", source=str(path))
-    assert lifter_joints(h36m, str(path)) is h36m.joints
+    assert lifter_joints(h36m, str(path), in_place=True) is h36m.joints
+    assert lifter_joints(h36m, str(path)) is not h36m.joints
     h36m.joints[0, 0, 0] = 1e9
     with pytest.raises(InputError, match="mediapipe_blazepose33"):
         lifter_joints(h36m, str(path))
@@ -993,7 +999,7 @@ def test_version_and_rectifys_requested_mode(tmp_path):
     res = _invoke("--version")
     assert res.exit_code == 0 and res.output.strip() == f"pcnet, version {metadata.version('pcnet')}"
     res = _invoke("rectify", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy", "--out", tmp_path / "r.npz", "--mode", "auto",
-                  "--method", "geometric")
+                  "--method", "geometric", "--fps", "30")
     assert res.exit_code == 0 and "mode sequence (requested auto)" in res.output, res.output
 
 

@@ -211,7 +211,7 @@ def test_cli_no_camera_prior_switch(tmp_path):
     trunk = {}
     for name, extra in (("prior", []), ("alone", ["--no-camera-prior"])):
         out = tmp_path / f"{name}.npz"
-        res = CliRunner().invoke(main, ["rectify", str(src), "--out", str(out), "--mode", "sequence", *extra])
+        res = CliRunner().invoke(main, ["rectify", str(src), "--out", str(out), "--mode", "sequence", "--fps", "30", *extra])
         assert res.exit_code == 0, res.output
         with np.load(out, allow_pickle=False) as z:
             trunk[name] = _trunk_from_vertical_deg(z["canonical"])

@@ -141,6 +141,13 @@ _AXES = {
                   "z": "+Z (horizontal: the subject's right along the hip line)"},
 }
 _HEIGHT = {"world": ", the height above the floor (y = 0)", "canonical": ", from the pelvis"}
+#: What a world frame's heights are measured from when its floor is not one fitted plane
+#: (:func:`pcnet.stages.world_frame.to_world_floor`), by the floor's ``kind``.
+_FLOOR_HEIGHT = {
+    "per frame": "; measured from a floor placed under each frame's lowest joint (no ground plane for the "
+                 "recording), so a jump or a flight phase reads as standing and a lying body sits an ankle's height up.",
+    "pelvis": "; no ankle was seen, so y = 0 is the pelvis's height, not the floor.",
+}
 
 #: Segment inclinations and unsigned flexions (:func:`pcnet.stages.kinematics.joint_angles`),
 #: by name without side and ``_deg``: ``(frame, definition)``; ``{side}`` is the column's side.
@@ -205,6 +212,7 @@ def kinematics_columns(
     frame: str = "world",
     unobservable: Mapping[str, tuple[str, str]] | None = None,
     empty_angles: Mapping[str, str] | None = None,
+    floor: str | None = None,
 ) -> list[tuple[str, str, str, str]]:
     """The columns of ``kinematics.csv``, in order, each ``(column, unit, frame, definition)``:
     the one source of its header (:func:`write_kinematics_csv`) and of its data dictionary
@@ -225,6 +233,9 @@ def kinematics_columns(
             clause) is said in their definitions.
         empty_angles: angle name -> why the run leaves it empty (one clause), said in its
             definition.
+        floor: the world frame's floor kind (:class:`~pcnet.stages.floor.Floor`): ``"per
+            frame"`` or ``"pelvis"`` says in the heights' definitions what y = 0 is; ``"plane"``
+            or ``None``: the floor itself.
 
     Returns:
         a list of ``(column, unit, frame, definition)``; ``definition`` is ``None`` for an
@@ -249,10 +260,8 @@ def kinematics_columns(
                 return why + "."
             if j != "pelvis" and axis in relative:
                 return "; relative to the pelvis, whose own path along this axis is not observable in this run."
-            if axis == "y" and frame == "world" and relative:
-                # without a pelvis path the floor is found per frame (stages/world_frame.py: to_world_floor)
-                return ("; measured from a floor placed under each frame's lowest joint (no pelvis path in this run), "
-                        "so a jump or a flight phase reads as standing and a lying body sits an ankle's height up.")
+            if axis == "y" and frame == "world" and floor in _FLOOR_HEIGHT:
+                return _FLOOR_HEIGHT[floor]
             return "."
 
         for c in "xyz":
@@ -347,6 +356,7 @@ def write_kinematics_csv(
     frame: str = "world",
     unobservable: Mapping[str, tuple[str, str]] | None = None,
     empty_angles: Mapping[str, str] | None = None,
+    floor: str | None = None,
 ) -> Path:
     """Write one CSV row per frame with positions, velocities, accelerations, speeds,
     per-joint missing/unfiltered flags and angles of the kinematics (world or canonical frame), atomically.
@@ -390,6 +400,7 @@ def write_kinematics_csv(
             pelvis's horizontal path from a root-relative lifter), written empty, with
             ``reason`` in the dictionary (:func:`kinematics_columns`).
         empty_angles: angle name -> why the run leaves it empty, for the dictionary.
+        floor: the world frame's floor kind, for the heights' definitions (:func:`kinematics_columns`).
 
     Returns:
         the destination path.
@@ -419,7 +430,8 @@ def write_kinematics_csv(
     columns = [names.index(j) for j in chosen]
 
     described = {name: (extra_definitions or {}).get(name) for name in extra}
-    listed = kinematics_columns(chosen, first.units, first.angles, described, frame, unobservable, empty_angles)
+    listed = kinematics_columns(chosen, first.units, first.angles, described, frame, unobservable, empty_angles,
+                                floor)
     header = [c[0] for c in listed]
     dup = {h for h in header if header.count(h) > 1}
     if dup:

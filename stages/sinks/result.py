@@ -51,7 +51,9 @@ class RecordingResult:
         method: rectification method name. rectification: what rectification decided
             (:class:`~pcnet.stages.rectification_report.RectificationReport`). root_path: where a
             world frame's pelvis path came from (``"measured"``, ``"from 2D keypoints"``, ``"not
-            observable"``), ``None`` without a world frame. report: the run's report record
+            observable"``), ``None`` without a world frame. floor_kind: the world frame's floor
+            (:class:`~pcnet.stages.floor.Floor` ``kind``: ``"plane"``, ``"per frame"``,
+            ``"pelvis"``), ``None`` without a world frame. report: the run's report record
             (docs/outputs.md; JSON-able after :func:`jsonable`), which the pipeline sets before
             :func:`write_arrays`. flags: ``WARNING`` texts. notes: run notes; sinks
             append theirs (e.g. frames BVH interpolated).
@@ -112,6 +114,7 @@ class RecordingResult:
     pelvis_path_std: np.ndarray | None = None
     empty_angles: dict = field(default_factory=dict)
     root_path: str | None = None
+    floor_kind: str | None = None
     report: dict = field(default_factory=dict)
 
     @cached_property
@@ -201,7 +204,8 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
         extra["implausible_motion"] = _implausible(r).astype(int)
     write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra,
                          dictionary=dictionary, extra_definitions=EXTRA_COLUMNS, frame=r.kinematics_frame,
-                         unobservable=unobservable, empty_angles=r.empty_angles)
+                         unobservable=unobservable, empty_angles=r.empty_angles,
+                         floor=r.floor_kind if r.kinematics_frame == "world" else None)
     r.kinematics = kept.result()
     r.missing, r.unfiltered = missing, unfiltered
     r.flag_counts = count_flags(r.missing, r.unfiltered)
