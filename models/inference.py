@@ -249,7 +249,7 @@ def _open(weights, default: Path, threads: int):
 
     path = Path(weights) if weights else default
     if not path.is_file():
-        raise InputError(f"{path}: no such file")
+        raise InputError(f"{path}: expected an ONNX weights file, got {'a folder' if path.is_dir() else 'no such file'}")
     opts = ort.SessionOptions()
     # `pcnet batch` gives each worker its share of the cores (pipeline/batch_worker.py).
     threads = threads or int(os.environ.get("PCNET_ORT_THREADS") or 0)

@@ -268,7 +268,11 @@ def test_weights_that_are_not_3dpcnet_onnx_fail_in_one_line(tmp_path):
     out = tmp_path / "out.npz"
     _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", text), "weights.onnx: not an ONNX model (")
     _one_line_failure(_cli("rectify", POSES, "--out", out, "--weights", tmp_path / "gone.onnx"),
-                      "gone.onnx: no such file")
+                      "gone.onnx: expected an ONNX weights file, got no such file")
+    from pcnet.pipeline import rectify  # a folder given in Python (a library user's trial: "no such file")
+
+    with pytest.raises(InputError, match="expected an ONNX weights file, got a folder"):
+        rectify(np.load(POSES)[:5], weights=str(tmp_path))
     # a training checkpoint given as weights names the export that turns it into ONNX
     checkpoint = tmp_path / "best.pt"
     torch.save({"kind": "pcnet", "model": {"w": torch.zeros(2)}}, checkpoint)
