@@ -201,7 +201,9 @@ _heading_option = click.option(
 @_heading_option
 @_camera_prior_option
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
-@click.option("--max-frames", type=int, default=None, help="Evaluate at most N evenly spaced frames.")
+@click.option("--max-frames", type=int, default=None,
+              help="Score at most N evenly spaced frames (every clip is still rectified whole: its sequence modes "
+                   "read the whole recording, so this does not shorten the run).")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --json file.")
