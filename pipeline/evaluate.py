@@ -135,9 +135,11 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None) 
     listed = [Path(str(d)).name for d in record.get("data", [])]
     if not listed or Path(data).name in listed:
         return None
-    n = overlap["clips_trained_whole"] if overlap is not None else 0
-    known = (f"; of the evaluated clips, {n} {'is' if n == 1 else 'are'} recognised by name among the clips they "
-             f"trained on whole, and the others may be among their training files' too" if overlap is not None else "")
+    known = ""
+    if overlap is not None:
+        n = overlap["clips_trained_whole"]
+        known = (f"; of the evaluated clips, {n} {'is' if n == 1 else 'are'} recognised by name among the clips they "
+                 f"trained on whole, and the others may be among their training files' too")
     return (f"{Path(data).name} is not among the files the weights trained on ({', '.join(listed)}): whether its "
             f"clips overlap their training data is unknown (a renamed copy of a training file would look new){known}")
 

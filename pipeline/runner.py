@@ -253,16 +253,20 @@ class RunResult:
         # spread beyond MODE_THRESHOLD_DEG: beyond it they are not called 95 % (decision 0090).
         beyond = spreads_beyond_static(self.report.rectification.mode)
         if not long:
-            label = (("lying posture's interval" if lying else "interval") + " not calibrated: ups spread wide" if beyond
-                     else "95 % posterior interval of the lying posture" if lying else "95 % interval")
+            if beyond:
+                label = ("lying posture's interval" if lying else "interval") + " not calibrated: ups spread wide"
+            else:
+                label = "95 % posterior interval of the lying posture" if lying else "95 % interval"
             if other is not None:
                 label += f", widened to the {'upright' if lying else 'lying'} posture ({100 * other:.0f} %)"
             return interval + label + ")"
-        label = ((("posterior interval of the lying posture" if lying else "posterior interval per axis")
-                  + ", not calibrated for this recording: its per-frame ups spread beyond any static camera's of the "
-                  "validation data (a moving camera, or poses the networks read inconsistently; decision 0090)")
-                 if beyond else "95 % posterior interval of the lying posture" if lying
-                 else "95 % posterior interval per axis") + " (up model, docs/up_model.md)"
+        label = "posterior interval of the lying posture" if lying else "posterior interval per axis"
+        if beyond:
+            label += (", not calibrated for this recording: its per-frame ups spread beyond any static camera's of the "
+                      "validation data (a moving camera, or poses the networks read inconsistently; decision 0090)")
+        else:
+            label = "95 % " + label
+        label += " (up model, docs/up_model.md)"
         if other is not None:
             label += (f"; widened to reach the {'upright' if lying else 'lying'} posture, which keeps "
                       f"{100 * other:.0f} % of the posterior")

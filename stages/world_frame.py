@@ -108,9 +108,9 @@ def _require_root_relative(J: np.ndarray, rows: slice) -> None:
     off = np.isfinite(pelvis).all(axis=1) & (np.abs(pelvis).max(axis=1, initial=0.0)
                                              > 1e-6 * max(np.nanmax(np.abs(J), initial=0.0), 1e-30))
     if off.any():
-        t = int(np.flatnonzero(off)[0]) + (rows.start or 0)
+        i = int(np.flatnonzero(off)[0])
         raise InputError(f"world frame: joints_cam: expected root-relative poses (pelvis at the origin), got the "
-                         f"pelvis at {np.round(J[t - (rows.start or 0), PELVIS], 4).tolist()} in frame {t}; subtract "
+                         f"pelvis at {np.round(pelvis[i], 4).tolist()} in frame {i + (rows.start or 0)}; subtract "
                          f"it and give its path as root_cam")
 
 
@@ -180,9 +180,10 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
             raise InputError("world frame: the root's camera-frame position is missing in every frame")
         root[:, [0, 2]] -= root[known[0], [0, 2]]
 
-    def rotated(rows: slice) -> np.ndarray:
+    def rotated(rows: slice, check: bool = False) -> np.ndarray:
         J = np.asarray(joints_cam[rows], np.float64)
-        _require_root_relative(J, rows)
+        if check:  # once, in the first pass
+            _require_root_relative(J, rows)
         P = J @ frame.rotation.T
         if root is not None:
             P += root[rows, None]
@@ -191,7 +192,7 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
     # Two passes over the frames: the floor needs the whole recording's evidence (the plane,
     # or a gap's neighbours), then every frame is shifted onto it.
     present, lowest, feet, pelvis_y, legs = (np.concatenate(s) for s in zip(
-        *(_floor_evidence(rotated(r)) for r in frame_blocks(T))))
+        *(_floor_evidence(rotated(r, check=True)) for r in frame_blocks(T))))
     leg = float(np.nanmedian(legs)) if np.isfinite(legs).any() else float("nan")
     clearance = ANKLE_CLEARANCE_LEG * leg if np.isfinite(leg) else 0.0
     floor = None

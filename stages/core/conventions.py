@@ -241,7 +241,7 @@ def validate_fps(fps: object, source: str = "fps") -> float:
     """
     # A string or bool is refused, not converted: "30" is a parsing slip of the caller's, and
     # True would read as 1 Hz (every entry point then agrees on what a frame rate is).
-    kind = np.asarray(fps).dtype.kind if isinstance(fps, np.ndarray) else None  # npz["fps"] is a 0-d array
+    kind = fps.dtype.kind if isinstance(fps, np.ndarray) else None  # npz["fps"] is a 0-d array
     if isinstance(fps, (bool, np.bool_, str, bytes)) or kind in ("b", "U", "S", "O"):
         raise InputError(f"{source}: expected a frame rate in Hz (a number), got {fps!r} ({type(fps).__name__})")
     try:
