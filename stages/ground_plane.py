@@ -244,17 +244,19 @@ def fit_floor(c: Contacts, u0: np.ndarray, prior_cov: np.ndarray, leg: float,
     rate = p.footfall_posture_power
     prior_inv = np.linalg.inv(prior_cov)
     tilt = _coarse_tilt(h, q, scale, prior_cov, prior_inv, rate)
+    n_ankles = 2 if p.ankle_offset_leg > 0 else 0  # s_o = 0: no per-ankle errors (decision 0091's trial)
     for _ in range(_IRLS_STEPS):
         level = support_levels(h + q @ tilt, scale)
         n_levels = int(level.max()) + 1
-        n_nuisance = n_levels + 2
-        A = np.column_stack([np.eye(n_levels)[level], np.eye(2)[ankle], -q])
+        n_nuisance = n_levels + n_ankles
+        A = np.column_stack([np.eye(n_levels)[level], np.eye(2)[ankle][:, :n_ankles], -q])
         # The prior (levels flat, the ankles' errors, the poses' tilt), in units of scale^2
         # so that the Tukey weights below enter unscaled.
         ridge = np.zeros((n_nuisance + 2, n_nuisance + 2))
-        ridge[n_levels:n_nuisance, n_levels:n_nuisance] = np.eye(2) * (scale / (p.ankle_offset_leg * leg)) ** 2
+        if n_ankles:
+            ridge[n_levels:n_nuisance, n_levels:n_nuisance] = np.eye(2) * (scale / (p.ankle_offset_leg * leg)) ** 2
         ridge[n_nuisance:, n_nuisance:] = prior_inv * scale ** 2
-        theta = np.r_[[np.median((h + q @ tilt)[level == k]) for k in range(n_levels)], 0.0, 0.0, tilt]
+        theta = np.r_[[np.median((h + q @ tilt)[level == k]) for k in range(n_levels)], np.zeros(n_ankles), tilt]
         for _ in range(_IRLS_STEPS):
             x = (h - A @ theta) / scale
             wts = rate * tukey_weights(x)
