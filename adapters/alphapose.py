@@ -22,7 +22,7 @@ from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout
 
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D
-from .validate import checked_keypoints, frame_count_for, iter_json_array, json_numbers, layout_from_count
+from .validate import as_path, checked_keypoints, frame_count_for, iter_json_array, json_numbers, layout_from_count
 
 # Keypoints per detection -> layout. 133 (COCO-WholeBody) starts with COCO-17 and 136
 # (Halpe-136) with the 26 Halpe body joints, so those keep only their body part.
@@ -203,7 +203,7 @@ def load_alphapose(path: str | Path, person: int | None = None, num_frames: int 
     (``lib/data/dataset_wild.py`` ``read_input``) ignores ``image_id``, which is why this
     adapter groups by it.
     """
-    p = Path(path)
+    p = as_path(path)
     if person is not None and (isinstance(person, bool) or not isinstance(person, int)):
         raise AdapterError(p, "person", "an integer track id or None", repr(person))
     # Two passes over the file, so that only the chosen track's keypoints are ever held (a

@@ -19,8 +19,8 @@ from pcnet.stages.core.framestore import frame_blocks
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, load_npy, nonfinite_frames, pelvis_offset,
-                       rebased_world_frame, require_some_finite)
+from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, as_path, checked_poses, load_npy, nonfinite_frames,
+                       pelvis_offset, rebased_world_frame, require_some_finite)
 
 
 def _pick(p: Path, name: str, value: object, size: int, also: str = "") -> int:
@@ -60,7 +60,7 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
     (``evaluate_diffusion`` zeroes the root) and README "Testing on in-the-wild videos";
     Andyen512/DDHPose ``main.py`` and ``main_3dhp.py`` (the ``.mat`` output).
     """
-    p = Path(path)
+    p = as_path(path)
     if p.suffix.lower() == ".mat":
         raise AdapterError(p, "format", "a .npy in H36M-17 (DDHPose main_3dhp .mat files use MPI-INF-3DHP-17)", ".mat")
     if "_postprocess" in p.name:

@@ -16,7 +16,7 @@ from pcnet.stages.core.conventions import get_layout
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import (checked_poses, load_array_file, nonfinite_frames, require_file, require_numeric,
+from .validate import (as_path, checked_poses, load_array_file, nonfinite_frames, require_file, require_numeric,
                        require_some_finite)
 
 # Letter -> (camera axis, sign) in the OpenCV camera frame: x Right, y Down, z Forward.
@@ -195,7 +195,7 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     Source of the target conventions: docs/CONVENTIONS.md "Camera frame"; the file format is
     the user's declaration, not an upstream fact.
     """
-    p = Path(path)
+    p = as_path(path)
     for option, expected, got in generic_option_problems(layout, axes, units, key, delimiter, measured_root)[:1]:
         raise AdapterError(p, option, expected, got)
     lay, m = get_layout(layout), axes_to_camera(axes)

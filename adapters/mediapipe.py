@@ -205,6 +205,13 @@ def load_mediapipe_3d(path: str | Path, *, focal_px: float | None = None, real_c
 FILE_K = "the file's K"
 
 
+def holds_keypoints_2d(path: str | Path) -> bool:
+    """Whether the MediaPipe archive ``path`` (read by :func:`load_mediapipe_3d` already) holds
+    the ``keypoints_2d`` that :func:`load_mediapipe_2d` reads."""
+    with open_numpy(path) as archive:
+        return "keypoints_2d" in archive.files
+
+
 def focal_problems(focal_px: object = None) -> list[tuple[str, str, str]]:
     """``[(option, expected, found)]`` when ``focal_px`` is given but not a positive finite
     number of pixels (no file needed: a batch manifest's rows are checked before any runs)."""

@@ -24,6 +24,7 @@ from pcnet.stages.core.conventions import get_layout
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D
 from .validate import (
+    as_path,
     checked_keypoints,
     frame_count_for,
     json_numbers,
@@ -129,7 +130,7 @@ def load_mmpose(path: str | Path, person: int | None = None, num_frames: int | N
     ``mmpose/apis/inferencers/base_mmpose_inferencer.py`` L678-691,
     ``mmpose/structures/utils.py`` ``split_instances``.
     """
-    p = Path(path)
+    p = as_path(path)
     person = require_option_int(p, "person", person, 0)
     frames, writer = _frames(p, read_json(p))
     count = None

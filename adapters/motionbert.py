@@ -10,8 +10,8 @@ from pcnet.stages.core.conventions import H36M_JOINTS
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import (ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy, nonfinite_frames, pelvis_offset,
-                       require_option_int)
+from .validate import (ROOT_RELATIVE_MAX, as_path, checked_poses, finite_max_abs, load_npy, nonfinite_frames,
+                       pelvis_offset, require_option_int)
 
 # Default-mode x, y come from 2D input clipped to [-1, 1] (MotionBERT
 # lib/utils/utils_data.py:crop_scale, called from lib/data/dataset_wild.py); the network's
@@ -59,7 +59,7 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
     L65-97 and ``lib/utils/utils_data.py`` ``crop_scale``; maintainer answers in
     Walter0807/MotionBERT issues #9 and #21.
     """
-    p = Path(path)
+    p = as_path(path)
     clip_len = require_option_int(p, "clip_len", clip_len, 1, allow_none=False)
     arr = load_npy(p, ndim=3, num_joints=17, field="X3D")
     nonfinite = nonfinite_frames(arr, H36M_JOINTS)  # the file's inf/NaN, before any check

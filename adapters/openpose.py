@@ -19,7 +19,7 @@ from pcnet.stages.core.conventions import get_layout
 
 from .registry import register_2d
 from .types import AdapterError, Keypoints2D
-from .validate import checked_keypoints, frame_count_for, json_numbers, layout_from_count, read_json
+from .validate import as_path, checked_keypoints, frame_count_for, json_numbers, layout_from_count, read_json
 
 _LAYOUT_BY_COUNT = {25: "body25", 26: "halpe26", 33: "blazepose33", 17: "coco17"}
 # The frame number is the digit run right before "_keypoints.json" (12 digits for OpenPose).
@@ -86,7 +86,7 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
     missing), ``src/openpose/producer/videoCaptureReader.cpp`` L78 (12-digit frame number),
     ``include/openpose/filestream/wPeopleJsonSaver.hpp`` L67 (``_keypoints`` suffix).
     """
-    folder = Path(path)
+    folder = as_path(path, "an OpenPose folder or JSON file")
     if layout is not None:
         try:
             if not isinstance(layout, str):

@@ -53,12 +53,10 @@ class AdapterError(InputError):
 def _check_array(arr: np.ndarray, what: str, source: str, layout: str) -> None:
     lay = get_layout(layout)
     if not isinstance(arr, np.ndarray) or arr.dtype != np.float32:
-        raise ValueError(f"{source}: {what} must be a float32 numpy array")
+        found = f"dtype {arr.dtype}" if isinstance(arr, np.ndarray) else type(arr).__name__
+        raise AdapterError(source, what, "a float32 numpy array", found)
     if arr.ndim != 3 or arr.shape[1:] != (lay.num_joints, 3):
-        raise ValueError(
-            f"{source}: {what} must have shape (T, {lay.num_joints}, 3) for layout "
-            f"{lay.name}, got {arr.shape}"
-        )
+        raise AdapterError(source, what, f"shape (T, {lay.num_joints}, 3) for layout {lay.name}", arr.shape)
 
 
 def _check_fps(fps: object, source: str) -> None:
@@ -122,7 +120,10 @@ class Poses3D:
             image position; D3DP zeroes it): the caller remaps to H36M-17 and subtracts the
             pelvis per frame to get the root-relative poses of ``docs/CONVENTIONS.md``
             (``pcnet.pipeline.io.lifter_joints``, then
-            ``pcnet.stages.core.conventions.root_relative``).
+            ``pcnet.stages.core.conventions.root_relative``). For image-scaled units
+            (``"normalised"``, ``"px"``) ``pcnet run`` then also makes the body's size constant
+            per frame (``pcnet.stages.scale.size_normalising_factors``), so a library chain
+            without that step differs from its output by the lifter's size changes.
         layout: joint layout name (see :class:`Keypoints2D`).
         frame: always ``"camera"``.
         units: ``"m"``, ``"normalised"`` (MotionBERT image-normalised) or ``"px"``.

@@ -27,6 +27,7 @@ import json
 import math
 import os
 import re
+import reprlib
 import struct
 import tokenize
 import zipfile
@@ -75,13 +76,25 @@ def describe_keys(keys: Sequence[str], limit: int = 10) -> str:
     return f"{len(keys)} array{'s' if len(keys) != 1 else ''}: {shown}{more}" if keys else "no arrays"
 
 
+def as_path(path: object, what: str = "a file path") -> Path:
+    """``path`` as a ``Path``.
+
+    Raises:
+        AdapterError: field ``path`` when it is not a ``str`` or path-like (a library caller's
+            number or array), which ``Path`` would refuse with a TypeError.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise AdapterError(path, "path", what, f"{type(path).__name__} {reprlib.repr(path)}")
+    return Path(path)
+
+
 def require_file(path: str | Path, what: str = "a readable file") -> Path:
     """Return ``path`` as a ``Path`` after checking it is an existing, readable file.
 
     Raises:
-        AdapterError: field ``path`` when it is missing, a folder, or unreadable.
+        AdapterError: field ``path`` when it is not a path, missing, a folder, or unreadable.
     """
-    p = Path(path)
+    p = as_path(path, what)
     if not p.exists():
         raise AdapterError(p, "path", what, "no such file")
     if not p.is_file():
@@ -133,11 +146,25 @@ def _json_errors(p: Path) -> Iterator[None]:
     except _FloatOverflow as exc:
         raise AdapterError(p, "content", "JSON numbers within float64 range", _short(exc, 40)) from None
     except json.JSONDecodeError as exc:
-        raise AdapterError(p, "content", "valid JSON", f"{exc.msg.removesuffix(' at')} at line {exc.lineno} column {exc.colno}") from exc
+        binary = _binary_kind(p)
+        raise AdapterError(p, "content", "valid JSON", binary or f"{exc.msg.removesuffix(' at')} at line {exc.lineno} "
+                                                               f"column {exc.colno}") from exc
     except ValueError as exc:  # int digit limit (CVE-2020-10735 guard)
         raise AdapterError(p, "content", "JSON numbers of at most 4300 digits", _short(exc)) from exc
     except RecursionError as exc:
         raise AdapterError(p, "content", "JSON nested at most a few hundred levels deep", "deeper nesting") from exc
+
+
+def _binary_kind(p: Path) -> str:
+    """What a file that is not JSON is, from its first bytes, for a user who named the wrong
+    format (a user trial gave a MediaPipe archive as AlphaPose's JSON); ``""`` for text."""
+    with open(p, "rb") as fh:
+        head = fh.read(6)
+    if head.startswith(b"PK\x03\x04"):
+        return "a zip archive such as numpy's .npz (MediaPipe's archive is read by the mediapipe format)"
+    if head == b"\x93NUMPY":
+        return "a numpy .npy array"
+    return ""
 
 
 #: Characters read at a time by :func:`iter_json_array`.
@@ -531,7 +558,7 @@ def load_array_file(path: str | Path, key: str | None = None, key_option: bool =
         AdapterError: field ``path``, ``content`` (not a numpy file, damaged, pickled) or
             ``key`` (missing or ambiguous; at most 10 names are listed).
     """
-    p = Path(path)
+    p = as_path(path)
     data = open_numpy(p)
     if not isinstance(data, NumpyArchive):
         if key is not None:  # a key that would be silently ignored is a mistake
@@ -590,7 +617,7 @@ def load_npy(path: str | Path, ndim: int | tuple[int, ...] = 3, num_joints: int 
         AdapterError: the file checks of :func:`load_array_file`, then ``field`` for a wrong
             dtype, rank, joint count or an all-NaN array.
     """
-    p = Path(path)
+    p = as_path(path)
     arr = require_numeric(p, field, load_array_file(p, key_option=False))  # its lifters take no --key
     ndims = (ndim,) if isinstance(ndim, int) else tuple(ndim)
     tail = f"(..., {num_joints if num_joints else 'J'}, 3)"

@@ -8,7 +8,7 @@ from pcnet.stages.core.conventions import H36M_JOINTS
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, checked_poses, finite_max_abs, load_npy,
+from .validate import (REBASED_WORLD_FRAME, ROOT_RELATIVE_MAX, as_path, checked_poses, finite_max_abs, load_npy,
                        nonfinite_frames, pelvis_offset, rebased_world_frame)
 
 #: With VideoPose3D's trajectory model, run.py adds the predicted root trajectory before
@@ -40,7 +40,7 @@ def load_videopose3d(path: str | Path) -> Poses3D:
     ``INFERENCE.md`` step 5, ``data/prepare_data_h36m.py`` L73 "Meters instead of
     millimeters", ``common/camera.py`` ``project_to_2d`` (x right, y down, z forward).
     """
-    p = Path(path)
+    p = as_path(path)
     arr = load_npy(p, ndim=3, num_joints=17, field="poses")
     nonfinite = nonfinite_frames(arr, H36M_JOINTS)  # the file's inf/NaN, before any check
     arr = checked_poses(p, "poses", arr, "h36m17", "m")

@@ -21,7 +21,6 @@ from pcnet.stages.rectification_report import ModeChoice, RectificationReport
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
 
-from .video_orientation import EDGE_MARGIN
 
 
 @dataclass(frozen=True)
@@ -89,7 +88,7 @@ def checks(c: CheckInputs) -> list[Finding]:
         *(size_change_flag(cam) if c.units not in IMAGE_SCALED_UNITS else []),
         # the picture the keypoints are in: a video's, --image-size or the 2D file's (unknown for a turned
         # video whose keypoints' frame is unknown)
-        *(keypoints_outside_image_flag(kp2d, c.picture, EDGE_MARGIN) if kp2d is not None and c.picture else []),
+        *(keypoints_outside_image_flag(kp2d, c.picture) if kp2d is not None and c.picture else []),
         # a side swap is a mirror image too: said once
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
         *posture_flag(report.sequence),

@@ -26,9 +26,10 @@ import numpy as np
 from tqdm import tqdm
 
 from pcnet.adapters import AdapterError, VideoInfo, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
+from pcnet.adapters.mediapipe import holds_keypoints_2d
 from pcnet.adapters.validate import ROOT_RELATIVE_MAX, nonfinite_line
-from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, SPINE, THORAX, THIGH_RANGE_M, fill_pelvis_from_hips,
-                                          median_thigh_length, validate_fps)
+from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
+                                          THORAX, fill_pelvis_from_hips, median_thigh_length, validate_fps)
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, UNOBSERVED_NOTE as OPENSIM_UNOBSERVED, import_opensim,
@@ -407,7 +408,7 @@ def _published(read: dict, staged: Path, out: Path) -> dict:
 def _assumed_inputs(cfg: RunConfig) -> list[str]:
     """Notes on what the run assumed about its inputs because nothing said otherwise: the
     generic lifter's default layout, axes and units, a MediaPipe archive whose own 2D
-    keypoints were not given."""
+    keypoints (where it holds them) were not given."""
     notes = []
     if cfg.lifter == "generic":
         defaults = {name: param.default for name, param in inspect.signature(get_3d_adapter("generic").load).parameters.items()
@@ -415,32 +416,30 @@ def _assumed_inputs(cfg: RunConfig) -> list[str]:
         if defaults:
             notes.append("generic lifter read with the default " + ", ".join(f"--{k} {v}" for k, v in defaults.items())
                          + " (not given)")
-    if cfg.lifter == "mediapipe" and cfg.keypoints2d is None:
+    if cfg.lifter == "mediapipe" and cfg.keypoints2d is None and holds_keypoints_2d(cfg.lifter_output):
         notes.append("the MediaPipe archive's own 2D keypoints were not used: give it as --keypoints2d F "
                      "--keypoints2d-format mediapipe too for the left/right and track-switch checks")
     return notes
 
 
-def _no_frame_hint(cfg: RunConfig, error: str) -> str:
+def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame) -> str:
     """What to add to a "no frame can be rectified" error: the default joint layout of a generic
-    file, the likeliest cause there, and the 2D confidence threshold where 2D keypoints mask
-    joints (a threshold near 1 masks every joint)."""
+    file, the likeliest cause there, the picture where joints were masked as outside it (a
+    wrong --image-size), and the 2D confidence threshold where 2D keypoints mask joints (a
+    threshold near 1 masks every joint)."""
     if not error.startswith(NO_VALID_FRAME):
         return ""
     hint = ""
     if cfg.lifter == "generic" and "layout" not in cfg.lifter_options:
         hint += " (read with the default --layout h36m17: is the file in another joint layout?)"
+    if camera.outside and camera.picture is not None:
+        w, h = camera.picture
+        hint += (f" ({camera.outside} joint positions were masked as their 2D keypoints lie outside the {w}x{h} "
+                 f"picture: keypoints of another video or resolution, or width and height swapped in --image-size?)")
     if cfg.keypoints2d is not None:
         hint += (f" (or those joints were masked for 2D confidence in {cfg.keypoints2d} below "
                  f"{cfg.min_confidence:g}: is --confidence-threshold too high?)")
     return hint
-
-
-#: Median thigh lengths (m) outside which poses said to be in metres are refused: a third of
-#: the bottom and 3 times the top of :data:`THIGH_RANGE_M`, beyond any bone of a person even
-#: under a wrong ``--layout``; centimetres given as metres read about 40 m, metres given as
-#: centimetres about 0.004.
-REFUSED_THIGH_M = (THIGH_RANGE_M[0] / 3, 3 * THIGH_RANGE_M[1])
 
 
 def _check_metric_body(cfg: RunConfig, cam) -> None:
@@ -457,8 +456,10 @@ def _check_metric_body(cfg: RunConfig, cam) -> None:
     if not (thigh > high or thigh < low):
         return
     if thigh > high:
-        guess = "centimetres? give " + ("--units cm (or mm)" if cfg.lifter == "generic" else
-                                        f"a lifter other than --lifter {cfg.lifter}")
+        guess = {"generic": "centimetres? give --units cm (or mm)",
+                 "videopose3d": "centimetres? read it with --lifter generic --units cm (VideoPose3D's H36M-17 order "
+                                "and camera axes are the generic reader's defaults)"}.get(
+            cfg.lifter, "centimetres? read it with --lifter generic, the file's --layout and --axes, and --units cm")
     else:
         guess = (f"metres declared as --units {cfg.lifter_options.get('units')}? declare --units m"
                  if cfg.lifter_options.get("units") in ("cm", "mm") else "a joint order other than the lifter's?")
@@ -688,13 +689,18 @@ def _image_size(cfg: RunConfig, video: VideoInfo | None, keypoint_size: tuple[in
     else ``--image-size``, else the keypoint file's, else ``None``.
 
     Raises:
-        InputError: ``--image-size`` contradicting the video's size.
+        InputError: ``--image-size``, or the size the keypoint file states, contradicting the
+            video's size (displayed, or as stored for a turned video).
     """
     given = cfg.image_size_px
     if video is not None:
         if given is not None and given != (video.width, video.height):
             raise InputError(f"--image-size {cfg.image_size}: expected the size of {cfg.video} as displayed "
                              f"({video.width}x{video.height}), got {given[0]}x{given[1]}; leave it out with a video")
+        if keypoint_size is not None and tuple(keypoint_size) not in ((video.width, video.height), video.stored_size):
+            raise InputError(f"file '{cfg.keypoints2d}': field 'width, height': expected the size of {cfg.video} "
+                             f"({video.width}x{video.height}), got {keypoint_size[0]}x{keypoint_size[1]}: 2D keypoints "
+                             f"of another video or resolution?")
         return video.width, video.height
     return given or keypoint_size
 
@@ -879,7 +885,8 @@ class CameraFrame:
     the video's stored frame for the recording, or ``None``; root: ``(T, 3)`` float64 measured
     pelvis path, or ``None``; pelvis_filled: frames whose pelvis is the hip midpoint; notes;
     picture: ``(width, height)`` of the picture ``keypoints2d`` are in (:func:`_keypoint_picture`),
-    or ``None`` where that is not known.
+    or ``None`` where that is not known; outside: joint positions masked because their 2D
+    keypoint lies outside it.
     """
 
     joints: np.ndarray
@@ -889,6 +896,7 @@ class CameraFrame:
     pelvis_filled: int
     notes: tuple[str, ...]
     picture: tuple[int, int] | None = None
+    outside: int = 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -1027,7 +1035,7 @@ def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFr
         notes.append(f"{outside} joint position{'s' * (outside != 1)} whose 2D keypoint lies outside the {w}x{h} "
                      f"picture taken as missing: the detector placed {'them' if outside != 1 else 'it'} there "
                      f"without seeing {'them' if outside != 1 else 'it'}")
-    return CameraFrame(cam, kp2d, video_kp2d, root_cam, pelvis_filled, tuple(notes), picture)
+    return CameraFrame(cam, kp2d, video_kp2d, root_cam, pelvis_filled, tuple(notes), picture, outside)
 
 
 def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
@@ -1083,10 +1091,10 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
             raise  # the weights file's own error, already naming it
-        raise InputError(f"{cfg.lifter_output}: {err}{_no_frame_hint(cfg, str(err))}") from err
+        raise InputError(f"{cfg.lifter_output}: {err}{_no_frame_hint(cfg, str(err), camera)}") from err
     if not res.valid.any():
         reason = no_valid_frame_reason(res.report)
-        raise InputError(f"{cfg.lifter_output}: {reason}{_no_frame_hint(cfg, reason)}")
+        raise InputError(f"{cfg.lifter_output}: {reason}{_no_frame_hint(cfg, reason, camera)}")
     report = replace(res.report, pelvis_from_hips_frames=camera.pelvis_filled)
     notes = _unused_floor_note(inputs.recording.measured_root,
                                report.sequence.ground_plane if report.sequence is not None else None)
@@ -1234,7 +1242,8 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     else:
         implausible = implausible_motion(rectified_poses, fps, units=units)
         result.implausible_frames = implausible_frames(implausible, len(cam))
-        findings += implausible_motion_findings(implausible)
+        # a rate typed with --fps and no video or file to check it against is the likeliest cause
+        findings += implausible_motion_findings(implausible, fps_typed=inputs.recording.fps_source == "--fps")
     table = write_kinematics_table(result, tmp, allocate=store.create)
     findings += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
     # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)

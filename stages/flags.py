@@ -472,41 +472,46 @@ def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray,
                    f"or --layout), so the body faces the wrong way and its knees bend backwards")]
 
 
-#: Share of the present 2D keypoints outside the video's frame (beyond ``margin``) from which
-#: the keypoints are taken to belong to another video, resolution or crop: a detector places
-#: a few joints of a body cut by the edge beyond it, not a fifth of them.
+#: Share of the present 2D keypoints outside the picture from which the keypoints are taken to
+#: belong to another video, resolution or crop (hand-set): a detector places a few joints of a
+#: body cut by the edge beyond it, not a fifth of them.
 OUTSIDE_IMAGE_SHARE = 0.2
 
 
-def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], margin: float) -> list[Finding]:
-    """A WARNING when more than :data:`OUTSIDE_IMAGE_SHARE` of the present 2D keypoints lie
-    outside the video's frame, widened by ``margin`` (a share of its width and height) on
-    every side.
+def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int]) -> list[Finding]:
+    """A PROBLEM when more than :data:`OUTSIDE_IMAGE_SHARE` of the present 2D keypoints lie
+    outside the picture: by :func:`pcnet.stages.remap.outside_image`'s one-pixel slack, the
+    rule by which ``pcnet run`` takes their 3D joints as missing, so the share said is the share
+    masked. Where the picture turned a quarter (``height x width``) would hold more of them, it
+    asks whether width and height were swapped (an ``--image-size`` typed for a portrait video).
 
     Args:
         keypoints2d: ``(T, 17, >=2)`` H36M-17 pixel coordinates in the displayed frame (x right,
             y down), NaN = missing; an array or a frame store read a block at a time.
         image_size: the displayed frame's ``(width, height)`` in pixels; ``(0, 0)`` = unknown.
-        margin: e.g. 0.05.
     """
     w, h = image_size
     if w <= 0 or h <= 0:
         return []
-    present = outside = 0
+    present = outside = outside_turned = 0
     for rows in frame_blocks(len(keypoints2d)):
         xy = np.asarray(keypoints2d[rows][..., :2], np.float64).reshape(-1, 2)
         finite = np.isfinite(xy).all(axis=1)
         present += int(finite.sum())
-        outside += int((outside_image(xy, (w, h), (margin * w, margin * h)) & finite).sum())
+        outside += int((outside_image(xy, (w, h)) & finite).sum())
+        outside_turned += int((outside_image(xy, (h, w)) & finite).sum())
     if not present or outside <= OUTSIDE_IMAGE_SHARE * present:
         return []
     share = 100 * outside / present
+    swapped = w != h and outside_turned < outside
+    cause = "width and height swapped?" if swapped else "another video, resolution or crop?"
+    turned = f" ({100 * outside_turned / present:.0f} % lie outside a {h}x{w} picture)" if swapped else ""
     return [_found(Kind.OUTSIDE_IMAGE, Severity.PROBLEM,
-                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} picture: another video or crop?",
-                   "check the 2D file belongs to this video",
-                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} picture: keypoints of another "
-                   f"video, resolution or crop? the left/right and track-switch checks and the recording's overlay "
-                   f"rest on them")]
+                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} picture: {cause}",
+                   "check --image-size (width x height)" if swapped else "check the 2D file belongs to this video",
+                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} picture, and their joints were taken as "
+                   f"missing: {cause}{turned} The left/right and track-switch checks and the recording's overlay rest "
+                   f"on them")]
 
 
 def keypoints_unused_flag(reason: str) -> list[Finding]:
@@ -630,6 +635,17 @@ def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,
     present = ~np.asarray(missing, bool)
     if cutoff_hz is None or not present.any() or not np.asarray(unfiltered, bool)[present].all():
         return []
+    longest = max(stop - start for joint in present.T for start, stop in true_runs(joint))
+    if longest < len(present):  # gaps, not the recording's length, leave every run short
+        return [_found(Kind.TOO_SHORT, Severity.PROBLEM,
+                       f"gaps too frequent to filter (longest run of a present joint {longest} of "
+                       f"{frames_phrase(len(present))}): raw positions, no velocity or acceleration",
+                       "check why joints are missing (report.md)",
+                       f"no run of present frames is longer than the {cutoff_hz:g} Hz low-pass filter needs at "
+                       f"{fps:g} fps: the longest run of any joint is {longest} of {frames_phrase(len(present))}, "
+                       f"broken by missing frames (2D confidence below --confidence-threshold, joints outside the "
+                       f"picture, or the lifter's own gaps), so positions are raw and no velocity or acceleration "
+                       f"is given")]
     return [_found(Kind.TOO_SHORT, Severity.PROBLEM,
                    f"too short to filter ({frames_phrase(len(present))}): raw positions, no velocity or acceleration",
                    "use a longer recording",
@@ -853,11 +869,13 @@ def no_opensim_flag() -> list[Finding]:
 
 
 def implausible_motion_findings(found: Sequence[ImplausibleMotion],
-                                limits: MotionLimits | None = None) -> list[Finding]:
+                                limits: MotionLimits | None = None, fps_typed: bool = False) -> list[Finding]:
     """One finding per quantity (speed, acceleration) of
     :func:`pcnet.stages.plausibility.implausible_motion`'s runs: the full text of
     :func:`pcnet.stages.plausibility.implausible_motion_flags`, a headline with the first two
-    frame ranges and the joint furthest beyond its limit, and all the runs' frames merged."""
+    frame ranges and the joint furthest beyond its limit, and all the runs' frames merged.
+    ``fps_typed``: the frame rate came from ``--fps`` alone (no video or file stated one), so
+    the action asks to check it first: speeds scale with it, accelerations with its square."""
     details = implausible_motion_flags(found, limits)  # one per quantity found, in QUANTITIES' order
     out = []
     for quantity, detail in zip([q for q in QUANTITIES if any(f.quantity == q for f in found)], details):
@@ -875,7 +893,8 @@ def implausible_motion_findings(found: Sequence[ImplausibleMotion],
         out.append(_found(kind, Severity.CHECK,
                           f"implausible {quantity} in {where}: {worst.joint.replace('_', ' ')} "
                           f"{worst.peak:.{digits}f} {worst.unit} (limit {worst.limit:.{digits + 1}f})",
-                          "leave those frames out (implausible_motion = 1)", detail, runs))
+                          ("check --fps, else " if fps_typed else "") + "leave those frames out (implausible_motion = 1)",
+                          detail, runs))
     return out
 
 
@@ -925,7 +944,7 @@ def missing_data_line(counts: Mapping, nonfinite: Mapping[str, int]) -> str:
     (:func:`pcnet.stages.kinematics.format_flag_counts` with
     :func:`pcnet.adapters.validate.nonfinite_line`): a per-joint list of two or more joints
     becomes a joint count and the joint most affected, ``"missing: 2 joints (most: left_elbow 74
-    of 120 frames); no pose: 8 frames"``; ``''`` when nothing is missing, unfiltered or non-finite.
+    of 120 frames); no joint at all: 8 frames"``; ``''`` when nothing is missing, unfiltered or non-finite.
 
     Args:
         counts: :func:`pcnet.stages.kinematics.flag_counts`' dict (``missing_with_pose``,
@@ -944,7 +963,7 @@ def missing_data_line(counts: Mapping, nonfinite: Mapping[str, int]) -> str:
     if counts["missing_with_pose"]:
         parts.append(per_joint("missing", counts["missing_with_pose"]))
     if counts["frames_without_pose"]:
-        parts.append(f"no pose: {frames_phrase(counts['frames_without_pose'])}")
+        parts.append(f"no joint at all: {frames_phrase(counts['frames_without_pose'])}")
     if len(nonfinite) > 1:
         parts.append(f"inf/NaN in the input: {len(nonfinite)} joints")
     elif nonfinite:

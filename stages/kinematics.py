@@ -43,8 +43,11 @@ from .core.conventions import (
     R_KNEE,
     R_SHOULDER,
     R_WRIST,
+    REFUSED_THIGH_M,
+    THIGH_RANGE_M,
     THORAX,
     check_poses,
+    median_thigh_length,
     validate_fps,
 )
 from .core.canonical import canonical_rotation
@@ -816,6 +819,21 @@ def _angles(pos: np.ndarray, fps: float, continuous: bool = True) -> dict[str, n
     return continuous_angles(out, fps=fps) if continuous else out
 
 
+def _require_units(X: np.ndarray, units: object) -> None:
+    """Refuse a ``units`` that is not a unit's name, and poses said to be in metres whose median
+    thigh is no person's (:data:`~pcnet.stages.core.conventions.REFUSED_THIGH_M`): their speeds
+    would be wrong a hundredfold (a user trial's centimetres gave a wrist at 152 m/s)."""
+    if not isinstance(units, str) or not units:
+        raise InputError(f"units: expected a length unit's name ('m', 'normalised', ...), got {units!r}")
+    thigh = median_thigh_length(X) if units == "m" else float("nan")
+    low, high = REFUSED_THIGH_M
+    if thigh < low or thigh > high:
+        raise InputError(f"canonical: expected poses in metres (units 'm': a median thigh length of "
+                         f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: "
+                         f"{'centimetres or millimetres' if thigh > high else 'another unit or joint order'} "
+                         f"given as metres? scale the poses to metres, or pass their units")
+
+
 def compute_kinematics(
     canonical: np.ndarray,
     fps: float,
@@ -866,12 +884,15 @@ def compute_kinematics(
 
     Raises:
         ValueError: wrong shape, no frame, ``fps`` not a number in [1, 10000] Hz
-            (:func:`~pcnet.stages.core.conventions.validate_fps`), or an invalid cutoff/order.
+            (:func:`~pcnet.stages.core.conventions.validate_fps`), an invalid cutoff/order,
+            ``units`` not a unit's name, or poses in ``"m"`` whose median thigh is no
+            person's (centimetres given as metres).
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
     if not len(X):
         raise InputError("canonical: expected at least one frame, got 0")
     fps = validate_fps(fps, "fps")
+    _require_units(X, units)
     missing = ~np.isfinite(X).all(axis=-1)
     pos, raw, vel, acc = filtered_derivatives(X, fps, cutoff_hz, order)
     return Kinematics(
@@ -1134,7 +1155,7 @@ def frames_phrase(n: int, total: int | None = None) -> str:
 def format_flag_counts(counts: Kinematics | Mapping, input_note: str = "") -> str:
     """One line for a run summary, ``''`` when nothing is flagged.
 
-    Example: ``"missing: right_wrist 1 of 301 frames; no pose: 3 frames; unfiltered: right_wrist
+    Example: ``"missing: right_wrist 1 of 301 frames; no joint at all: 3 frames; unfiltered: right_wrist
     4 of 301 frames (runs shorter than the filter needs; no velocity/acceleration there)"``
     (``"1 frame"`` where the counts do not give the recording's length).
     Joints missing only in frames without any pose are reported once, as ``no pose``.
@@ -1154,7 +1175,7 @@ def format_flag_counts(counts: Kinematics | Mapping, input_note: str = "") -> st
         parts.append("missing: " + ", ".join(f"{j} {frames_phrase(n, total)}"
                                              for j, n in c["missing_with_pose"].items()))
     if c["frames_without_pose"]:
-        parts.append(f"no pose: {frames_phrase(c['frames_without_pose'])}")
+        parts.append(f"no joint at all: {frames_phrase(c['frames_without_pose'])}")
     if input_note:
         parts.append(input_note)
     if c["unfiltered"]:

@@ -907,6 +907,17 @@ def test_empty_or_invalid_json(tmp_path, loader, content, match):
     assert_names_file(err, path)
 
 
+@pytest.mark.parametrize("loader", [load_alphapose, load_mmpose])
+def test_a_numpy_file_given_as_json_is_named_as_numpy(loader):
+    """A user trial gave a MediaPipe archive with the AlphaPose format and read "expected valid
+    JSON, got Expecting value at line 1 column 1"; the message now says what the file is."""
+    with pytest.raises(AdapterError, match=r"expected valid JSON, got a zip archive such as numpy's \.npz \(MediaPipe's "
+                                           r"archive is read by the mediapipe format\)"):
+        loader(MEDIAPIPE)
+    with pytest.raises(AdapterError, match="expected valid JSON, got a numpy .npy array"):
+        loader(FIX / "boxing_X3D_f000-059.npy")
+
+
 def test_wrong_joint_counts(tmp_path):
     entries = raw_entries(BOXING_AP)[:3]
     for n_values, match in ((40, "multiple of 3"), (60, "20 joints")):
@@ -1072,3 +1083,16 @@ def test_keypoints_normalised_by_the_image_size_are_refused(tmp_path):
     with pytest.raises(AdapterError, match=r"norm\.json.*pixel coordinates.*every keypoint within \[-1, 1\]"):
         load_alphapose(tmp_path / "norm.json")
     assert load_alphapose(BOXING_AP).num_frames == 60  # the pixels themselves pass
+
+
+def test_a_library_caller_passing_no_path_gets_the_adapters_error():
+    """A user trial: ``load_motionbert(5)`` raised Python's TypeError and a custom adapter's
+    float64 ``Poses3D`` a bare ValueError; both are now the adapters' one error, naming the
+    field and what was found."""
+    from pcnet.adapters import Poses3D
+
+    with pytest.raises(AdapterError, match=r"file '5': field 'path': expected a file path, got int 5"):
+        load_motionbert(5)
+    with pytest.raises(AdapterError, match=r"field 'joints': expected a float32 numpy array, got dtype float64"):
+        Poses3D(np.load(FIX / "boxing_X3D_f000-059.npy").astype(np.float64), "h36m17", units="normalised",
+                source="vp.npy")

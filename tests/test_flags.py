@@ -507,7 +507,9 @@ def test_2d_keypoints_outside_the_video_are_warned(tmp_path):
     they would mask is unseen, so the run is refused naming the file; a picture given too small
     (--image-size, no video) leaves a third of the keypoints outside it: warned (a review: only a
     note), and those joints are missing."""
+    from pcnet.adapters import load_alphapose
     from pcnet.stages.flags import keypoints_outside_image_flag
+    from pcnet.stages.remap import remap_to_h36m
 
     items = json.loads(BOX_AP.read_text())
     args = ["run", "--lifter", "motionbert", "--lifter-output", str(BOX_X3D), "--keypoints2d-format", "alphapose",
@@ -527,7 +529,23 @@ def test_2d_keypoints_outside_the_video_are_warned(tmp_path):
     res = CliRunner().invoke(main, small)
     assert res.exit_code == 0 and "of the 2D keypoints lie outside the 540x260 picture" in res.output, res.output
     assert "whose 2D keypoint lies outside the 540x260 picture taken as missing" in res.output
-    assert keypoints_outside_image_flag(np.full((3, 17, 3), np.nan), (854, 480), 0.05) == []
+    assert "width and height swapped" not in res.output
+    # A user trial typed the 854x480 video's size the other way round: most joints were masked
+    # by the one-pixel rule while the flag, counting beyond a 5 % margin, stayed silent. Here
+    # no frame keeps its trunk, and the refusal names the picture.
+    swapped = [*small[:small.index("--image-size") + 1], "480x854", *small[small.index("--image-size") + 2:-1],
+               str(tmp_path / "d")]
+    res = CliRunner().invoke(main, swapped)
+    assert res.exit_code == 1 and not (tmp_path / "d").exists(), res.output
+    assert "masked as their 2D keypoints lie outside the 480x854 picture" in res.output, res.output
+    kp = remap_to_h36m(load_alphapose(BOX_AP).points, "halpe26", confidence_channel=True)
+    found = keypoints_outside_image_flag(kp, (480, 854))
+    assert [f.headline for f in found] == [
+        f"{found[0].headline.split(' %')[0]} % of the 2D keypoints lie outside the 480x854 picture: width and height "
+        "swapped?"], found
+    assert "swapped" not in " ".join(f.headline for f in keypoints_outside_image_flag(kp, (540, 260)))
+    assert keypoints_outside_image_flag(kp, (854, 480)) == []
+    assert keypoints_outside_image_flag(np.full((3, 17, 3), np.nan), (854, 480)) == []
 
 
 def test_frames_without_hips_are_not_called_a_body_on_its_side():
@@ -580,3 +598,24 @@ def test_no_heading_about_the_sequence_up_names_the_axes_first():
     assert "170 deg" in reason and reason.index("axes may be wrong") < reason.index("camera upside down")
     assert "--axes with --lifter generic" in reason and "--mode frame" in reason
     assert no_valid_frame_reason(SimpleNamespace(sequence=None)) == NO_VALID_FRAME
+
+
+def test_gaps_that_leave_every_run_unfiltered_are_not_called_a_short_recording():
+    """A user trial set every 10th frame of a 301-frame recording missing: the warning said
+    "too short to filter ... use a longer recording". The gaps are the cause; a recording
+    that is itself short keeps that advice."""
+    from pcnet.stages.flags import unfiltered_flag
+    from pcnet.stages.kinematics import compute_kinematics
+
+    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64)
+    gappy = poses.copy()
+    gappy[::10] = np.nan
+    k = compute_kinematics(gappy, 30.0)
+    (found,) = unfiltered_flag(k.missing, k.unfiltered, 30.0, 6.0)
+    assert found.headline.startswith("gaps too frequent to filter (longest run of a present joint 9 of 100 frames)")
+    assert found.action == "check why joints are missing (report.md)"
+    short = compute_kinematics(poses[:8], 30.0)
+    (found,) = unfiltered_flag(short.missing, short.unfiltered, 30.0, 6.0)
+    assert found.headline.startswith("too short to filter (8 frames)") and found.action == "use a longer recording"
+    whole = compute_kinematics(poses, 30.0)
+    assert unfiltered_flag(whole.missing, whole.unfiltered, 30.0, 6.0) == []

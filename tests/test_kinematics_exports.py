@@ -499,7 +499,7 @@ def test_flag_counts_frames_without_pose_and_nothing_flagged(yoga_level):
     assert c["missing_with_pose"] == {"left_ankle": 3, "left_wrist": 1}
     assert c["frames_without_pose"] == 3 and c["frames_with_missing"] == 7
     assert c["missing_total"] == 17 * 3 + 1 + 3 and c["unfiltered_total"] == 0
-    assert format_flag_counts(c) == "missing: left_ankle 3 of 300 frames, left_wrist 1 of 300 frames; no pose: 3 frames"
+    assert format_flag_counts(c) == "missing: left_ankle 3 of 300 frames, left_wrist 1 of 300 frames; no joint at all: 3 frames"
     import json
 
     assert json.loads(json.dumps(c)) == c  # plain types: fits a JSON report
@@ -629,6 +629,13 @@ def test_png_is_written(tmp_path, yoga_cam, yoga_level):
     path = plot_wrists(tmp_path / "wrists.png", cam, can, FPS_YOGA, acam[:, wrists], acan[:, wrists])
     data = path.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
+    # another person's frames are shaded here too, as in angles.png (a user trial: only the wrists were not)
+    other = np.zeros(300, bool)
+    other[100:150] = True
+    shaded = plot_wrists(tmp_path / "shaded.png", cam, can, FPS_YOGA, acam[:, wrists], acan[:, wrists], other_person=other)
+    assert shaded.read_bytes() != data
+    with pytest.raises(ValueError, match="plot_wrists: other_person has shape"):
+        plot_wrists(tmp_path / "bad.png", cam, can, FPS_YOGA, acam[:, wrists], acan[:, wrists], other_person=other[:-1])
 
 
 @pytest.mark.parametrize("writer", ["npz", "csv", "trc", "png"])

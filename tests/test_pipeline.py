@@ -92,6 +92,8 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
         # the pelvis path from the 2D keypoints: a boxer stays within half a metre of where he starts
         report = json.loads(str(npz["report"]))
         assert report["root_path"] == "from 2D keypoints" and report["floor"]["kind"] == "plane"
+        # the per-frame bound is not called 95 %: it is not calibrated on real lifter output (a user trial)
+        assert report["frame_tilt_bound_base_deg"] > 0 and "frame_tilt_95_deg" not in report
         np.testing.assert_allclose(world[0, PELVIS, [0, 2]], 0.0, atol=1e-9)
         assert np.nanmax(np.abs(world[:, PELVIS, [0, 2]])) < 0.5
         assert npz["pelvis_path_std_world"].shape == (frames, 3)
@@ -341,8 +343,9 @@ def test_the_view_gates_warnings_come_only_where_its_up_is_the_answer(tmp_path):
 def test_a_2d_file_shorter_than_the_video_needs_align(tmp_path):
     """A 5-frame MediaPipe 2D file with a 10-frame video and 10 frames of 3D: the counts
     differ (a wrong file or another rate); it is not padded with missing frames."""
-    with np.load(MEDIAPIPE) as d:
-        np.savez(tmp_path / "short2d.npz", **{k: (d[k][:5] if d[k].ndim == 3 else d[k]) for k in d.files})
+    with np.load(MEDIAPIPE) as d:  # stating the video's picture, as a file of it would
+        np.savez(tmp_path / "short2d.npz", **{k: (d[k][:5] if d[k].ndim == 3 else d[k]) for k in d.files
+                                               if k not in ("width", "height")}, width=854, height=480)
     np.save(tmp_path / "x3d.npy", np.load(BOX_3D)[:10])
     res = _invoke("run", "--keypoints2d", tmp_path / "short2d.npz", "--keypoints2d-format", "mediapipe", "--lifter",
                   "motionbert", "--lifter-output", tmp_path / "x3d.npy", "--video", FIXTURES / "boxing2_f000-009.mp4",
@@ -561,7 +564,8 @@ def test_centimetres_given_as_metres_are_refused_by_the_body_check():
     with pytest.raises(InputError, match=r"cm\.npy: expected poses in metres \(a median thigh length of 0\.2-0\.7 m\), "
                                          r"got \d\d\.\d m: centimetres\? give --units cm \(or mm\), or --height"):
         _check_metric_body(generic, pose * 100.0)
-    with pytest.raises(InputError, match="give a lifter other than --lifter videopose3d, or --height"):
+    with pytest.raises(InputError, match=r"read it with --lifter generic --units cm \(VideoPose3D's H36M-17 order and "
+                                         r"camera axes are the generic reader's defaults\), or --height"):
         _check_metric_body(RunConfig(lifter="videopose3d", lifter_output="cm.npy"), pose * 100.0)
     # the reverse mistake too: metres declared as centimetres (a user trial: it had run to the end)
     as_cm = RunConfig(lifter="generic", lifter_output="m.npy", lifter_options={"units": "cm"})
@@ -569,9 +573,11 @@ def test_centimetres_given_as_metres_are_refused_by_the_body_check():
         _check_metric_body(as_cm, pose / 100.0)
 
 
-def test_what_the_run_assumed_about_its_inputs_is_listed():
+def test_what_the_run_assumed_about_its_inputs_is_listed(tmp_path):
     """The notes behind test_what_the_run_assumed_about_its_inputs_is_noted (slow tier): the
-    generic lifter's defaults not given, and a MediaPipe archive given only as the lifter."""
+    generic lifter's defaults not given, and a MediaPipe archive given only as the lifter; an
+    archive without 2D keypoints is not told to give them (a user trial followed that advice
+    into an error)."""
     from pcnet.pipeline.runner import _assumed_inputs
 
     assert _assumed_inputs(RunConfig(lifter="generic", lifter_output="g.npy", lifter_options={"units": "m"})) == [
@@ -582,6 +588,9 @@ def test_what_the_run_assumed_about_its_inputs_is_listed():
     assert note.startswith("the MediaPipe archive's own 2D keypoints were not used")
     assert _assumed_inputs(RunConfig(lifter="mediapipe", lifter_output=str(MEDIAPIPE), keypoints2d=str(MEDIAPIPE),
                                      keypoints2d_format="mediapipe")) == []
+    with np.load(MEDIAPIPE) as archive:
+        np.savez(tmp_path / "no_2d.npz", **{k: archive[k] for k in archive.files if k != "keypoints_2d"})
+    assert _assumed_inputs(RunConfig(lifter="mediapipe", lifter_output=str(tmp_path / "no_2d.npz"))) == []
 
 
 @pytest.mark.slow
@@ -1132,3 +1141,17 @@ def test_2d_keypoints_that_place_no_pelvis_are_a_warning(tmp_path):
     assert "pelvis path not observable (x = z = 0)" in res.output and "note     pelvis path" not in res.output
     with np.load(tmp_path / "o" / "canonical.npz", allow_pickle=False) as f:
         assert any("do not match the 3D poses" in flag for flag in f["flags"])
+
+
+def test_a_2d_file_stating_another_picture_than_the_video_is_refused(tmp_path):
+    """A user trial gave the Sports2D clip's MediaPipe file (1768x994) with the boxing video
+    (854x480): the run went on with a warning and masked a quarter of the joints. The file
+    states its picture, so the contradiction is refused naming both sizes, before any output."""
+    mp = FIXTURES / "mediapipe_blazepose33_f000-059.npz"
+    res = _invoke("run", "--video", FIXTURES / "boxing2_f000-009.mp4", "--lifter", "mediapipe", "--lifter-output", mp,
+                  "--keypoints2d", mp, "--keypoints2d-format", "mediapipe", "--align", "truncate", "--no-recording",
+                  "--out", tmp_path / "out")
+    assert res.exit_code == 1 and not (tmp_path / "out").exists(), res.output
+    assert (f"file '{mp}': field 'width, height': expected the size of {FIXTURES / 'boxing2_f000-009.mp4'} (854x480), "
+            f"got 1768x994: 2D keypoints of another video or resolution?") in res.output, res.output
+

@@ -168,6 +168,24 @@ def test_kinematics_refuse_empty_input_and_a_frame_rate_that_is_not_a_number():
     assert compute_kinematics(poses, np.float32(30.0)).fps == 30.0
 
 
+def test_kinematics_refuse_centimetres_said_to_be_metres_and_a_unit_that_is_no_name():
+    """A user trial's library chain read a VideoPose3D file in centimetres (the adapter's
+    metres) and got a wrist at 152 m/s: ``pcnet run`` refuses such a body, the library did not.
+    ``units=5`` gave velocities in "5/s"."""
+    from pcnet.pipeline import InputError
+    from pcnet.stages.kinematics import compute_kinematics
+
+    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:30]
+    with pytest.raises(InputError, match=r"canonical: expected poses in metres \(units 'm': a median thigh length of "
+                                         r"0\.2-0\.7 m\), got \d\d\.\d m: centimetres or millimetres given as metres\?"):
+        compute_kinematics(poses * 100.0, 30.0)
+    with pytest.raises(InputError, match="another unit or joint order given as metres"):
+        compute_kinematics(poses / 100.0, 30.0)
+    assert compute_kinematics(poses * 100.0, 30.0, units="cm").units == "cm"
+    with pytest.raises(InputError, match=r"units: expected a length unit's name \('m', 'normalised', \.\.\.\), got 5"):
+        compute_kinematics(poses, 30.0, units=5)
+
+
 def test_the_world_frame_refuses_poses_that_are_not_root_relative():
     """Raw MotionBERT output (the pelvis at its image position) given to ``to_world_floor``
     had its image position read as a path, silently."""

@@ -67,7 +67,7 @@ def _every_kind() -> list[Finding]:
             + size_change_flag(box * np.linspace(1.0, 3.0, len(box))[:, None, None])
             + mirrored_skeleton_flag(box * np.array([1.0, 1.0, -1.0]))
             + side_swap_flag(kp, kp[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]])
-            + keypoints_outside_image_flag(kp, (100, 100), 0.05)
+            + keypoints_outside_image_flag(kp, (100, 100))
             + keypoints_unused_flag("root path: no frame could be fitted (of 60, some with 17 usable joints)")
             + no_world_frame_flag("smooth") + no_opensim_flag()
             + opensim_fit_findings({**fit, "warnings": ik_fit_flags(fit)}))
@@ -96,6 +96,11 @@ def test_findings_about_some_frames_name_them():
     (speed,) = implausible_motion_findings([ImplausibleMotion("right_wrist", "speed", 60, 70, 14.9, 68, 8.18, "m/s"),
                                             ImplausibleMotion("left_wrist", "speed", 71, 72, 9.0, 71, 8.18, "m/s")])
     assert speed.frames == ((60, 73),) and speed.headline.startswith("implausible speed in frames 60-72: right wrist")
+    assert speed.action == "leave those frames out (implausible_motion = 1)"
+    # a frame rate typed with --fps alone is checked first (a user trial's 120 for a 30 fps file)
+    (typed,) = implausible_motion_findings([ImplausibleMotion("right_wrist", "speed", 60, 70, 14.9, 68, 8.18, "m/s")],
+                                           fps_typed=True)
+    assert typed.action == "check --fps, else leave those frames out (implausible_motion = 1)"
     assert floor_flag(np.zeros(5, bool), np.ones(5, bool))[0].frames is None  # the whole recording
     assert lifter_frame_flag(15.5, 8.6)[0].frames is None
 
@@ -146,7 +151,7 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     assert len(warnings) == len(flags) and warnings[0].startswith("WARNING  2D track switches person")
     assert all(" -> " in ln for ln in warnings)
     assert [ln for ln in lines if ln.startswith("note")] == [
-        "note     missing: 3 joints (most: left_elbow 74 frames); no pose: 8 frames",
+        "note     missing: 3 joints (most: left_elbow 74 frames); no joint at all: 8 frames",
         "note     world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time, held "
         "at..."]
     assert all(len(ln) <= LINE_WIDTH for ln in warnings + lines[:6]), max(lines, key=len)

@@ -362,6 +362,11 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
 #: Thigh (hip -> knee) lengths, metres, that a person can have: a small child's 0.2 m to
 #: 0.7 m (adult thighs are about 0.4-0.5 m, Winter's anthropometric table: 0.245 x height).
 THIGH_RANGE_M = (0.2, 0.7)
+#: Median thigh lengths (m) outside which poses said to be in metres are refused: a third of
+#: the bottom and 3 times the top of :data:`THIGH_RANGE_M`, beyond any bone of a person even
+#: under a wrong joint layout; centimetres given as metres read about 40 m, metres given as
+#: centimetres about 0.004.
+REFUSED_THIGH_M = (THIGH_RANGE_M[0] / 3, 3 * THIGH_RANGE_M[1])
 
 
 def median_thigh_length(joints) -> float:

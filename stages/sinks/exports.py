@@ -25,7 +25,7 @@ from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST
 from ..core.errors import InputError, import_extra
 from ..core.framestore import FrameArray, frame_blocks
 from ..kinematics import MIN_PROJECTED_FRACTION, Kinematics
-from .plots import display_samples, new_figure, save_png
+from .plots import display_samples, marked_frames, marks_note, new_figure, save_png, shade_marks
 
 
 # ---------------------------------------------------------------------------------------
@@ -638,6 +638,8 @@ def plot_wrists(
     acc_canonical: np.ndarray,
     units: str = "m",
     frame_label: str = "canonical frame (x anterior, y up, z right)",
+    other_person: np.ndarray | None = None,
+    implausible: np.ndarray | None = None,
 ) -> Path:
     """PNG of wrist trajectories and accelerations before and after rectification.
 
@@ -663,6 +665,8 @@ def plot_wrists(
             ``units/s^2`` (only the wrists, so a long recording need not keep every joint's).
         units: length unit label.
         frame_label: title of the rectified column.
+        other_person, implausible: ``(T,)`` bool frames shaded grey (another person's, after
+            a 2D track switch) and red (motion beyond human limits), as in ``angles.png``.
 
     Returns:
         the destination path.
@@ -681,6 +685,8 @@ def plot_wrists(
     cam, can = (np.asarray(p[:, [L_WRIST, R_WRIST]]) for p in (camera, canonical))
     acam, acan = (np.asarray(a) for a in (acc_camera, acc_canonical))
     t = np.arange(T) / fps
+    other_person = marked_frames(other_person, t, "plot_wrists")
+    implausible = marked_frames(implausible, t, "plot_wrists", "implausible")
     acc_u = f"{units}/s²"
     columns = (
         ("camera axes, from the pelvis (x right, y down, z forward)", cam, acam, ("x", "y", "z")),
@@ -704,7 +710,9 @@ def plot_wrists(
         ax_m.set_ylabel(f"|acceleration| ({acc_u})")
         ax_m.set_xlabel("time (s)")
         for ax in (ax_p, ax_a, ax_m):
+            shade_marks(ax, t, other_person, implausible)
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7, ncol=2, loc="upper right")
-    fig.suptitle(f"Wrists before (camera frame) and after ({frame_label.split(' (')[0]}) rectification")
+    fig.suptitle(f"Wrists before (camera frame) and after ({frame_label.split(' (')[0]}) rectification"
+                 + marks_note(other_person, implausible))
     return save_png(fig, path_png)

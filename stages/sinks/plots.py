@@ -227,7 +227,12 @@ def _shade(ax, t: np.ndarray, marked: np.ndarray | None, color=0.85) -> None:
         ax.axvspan(t[start] - half, t[stop - 1] + half, color=color, lw=0, zorder=0)
 
 
-def _other_person(marked, t: np.ndarray, name: str, what: str = "other_person") -> np.ndarray | None:
+def marked_frames(marked, t: np.ndarray, name: str, what: str = "other_person") -> np.ndarray | None:
+    """``marked`` ``(T,)`` as bool frames at times ``t``, ``None`` when absent or none is marked.
+
+    Raises:
+        InputError: ``marked`` not ``(T,)`` (``name``, ``what`` named).
+    """
     if marked is None:
         return None
     marked = np.asarray(marked, bool)
@@ -236,7 +241,14 @@ def _other_person(marked, t: np.ndarray, name: str, what: str = "other_person") 
     return marked if marked.any() else None
 
 
-def _marks_note(other_person, implausible) -> str:
+def shade_marks(ax, t: np.ndarray, other_person: np.ndarray | None, implausible: np.ndarray | None) -> None:
+    """Grey spans over ``other_person`` frames and red ones over ``implausible`` frames
+    (:func:`marked_frames`' ``(T,)`` bool or ``None``) at times ``t``."""
+    _shade(ax, t, other_person)
+    _shade(ax, t, implausible, IMPLAUSIBLE_COLOUR)
+
+
+def marks_note(other_person, implausible) -> str:
     """The title's second line: what the shaded spans mark (empty when none is drawn)."""
     notes = [n for n, m in ((OTHER_PERSON_NOTE, other_person), (IMPLAUSIBLE_NOTE, implausible)) if m is not None]
     return f"\n{'; '.join(notes)}" if notes else ""
@@ -270,8 +282,8 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", ot
             ``other_person`` or ``implausible`` not ``(T,)``.
     """
     t = _time_axis(kin, fps, "plot_joint_angles")
-    other_person = _other_person(other_person, t, "plot_joint_angles")
-    implausible = _other_person(implausible, t, "plot_joint_angles", "implausible")
+    other_person = marked_frames(other_person, t, "plot_joint_angles")
+    implausible = marked_frames(implausible, t, "plot_joint_angles", "implausible")
     groups = group_angles(kin.angles)
     if not groups:
         raise InputError("plot_joint_angles: the kinematics have no angles")
@@ -291,8 +303,7 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", ot
             style = "--" if side_of(n) == "left" else "-"
             ax.plot(*display_samples(t, y), style, color=_rgb(colours[n]), lw=1.0,
                     label=_series_label(_angle_label(n, group), y))
-        _shade(ax, t, other_person)
-        _shade(ax, t, implausible, IMPLAUSIBLE_COLOUR)
+        shade_marks(ax, t, other_person, implausible)
         if not finite:
             _no_data(ax)
         ax.set_title(ANGLE_GROUPS[group], fontsize=10)
@@ -309,7 +320,7 @@ def joint_angles_figure(kin, fps: float, *, frame_label: str = "world frame", ot
         axes[-2, -1].tick_params(labelbottom=True)
     fig.suptitle(
         f"Joint angles (deg; left dashed, right solid; gaps = undefined or missing), from {frame_label} positions"
-        + _marks_note(other_person, implausible),
+        + marks_note(other_person, implausible),
         fontsize=11,
     )
     return fig
@@ -325,8 +336,8 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
             or ``other_person`` or ``implausible`` not ``(T,)``.
     """
     t = _time_axis(kin, fps, "plot_joint_speeds")
-    other_person = _other_person(other_person, t, "plot_joint_speeds")
-    implausible = _other_person(implausible, t, "plot_joint_speeds", "implausible")
+    other_person = marked_frames(other_person, t, "plot_joint_speeds")
+    implausible = marked_frames(implausible, t, "plot_joint_speeds", "implausible")
     speed = kin.speed  # read a joint at a time (a long recording's is on disk)
     names = list(kin.joint_names)
     if tuple(np.shape(speed)) != (len(t), len(names)):
@@ -344,8 +355,7 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
             style = "--" if side_of(j) == "left" else "-"
             ax.plot(*display_samples(t, y), style, color=_rgb(colours[j]), lw=1.0,
                     label=_series_label(j.replace("_", " "), y))
-        _shade(ax, t, other_person)
-        _shade(ax, t, implausible, IMPLAUSIBLE_COLOUR)
+        shade_marks(ax, t, other_person, implausible)
         if not finite:
             _no_data(ax)
         ax.set_title(title, fontsize=10)
@@ -356,7 +366,7 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
     _time_limits(axes, t)
     axes[-1, 0].set_xlabel("time (s)")
     fig.suptitle(f"Joint speeds |v| ({unit}) in the {frame_label}; gaps = missing, unfiltered or run edges"
-                 + _marks_note(other_person, implausible), fontsize=11)
+                 + marks_note(other_person, implausible), fontsize=11)
     return fig
 
 

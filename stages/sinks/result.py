@@ -272,14 +272,15 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
 
 def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
     """``wrists.png`` (camera frame against ``r.kinematics_frame``), ``angles.png`` and
-    ``speeds.png`` (:mod:`.plots`; frames outside the 2D track's longest one-person stretch
+    ``speeds.png`` (:mod:`.plots`; in each, frames outside the 2D track's longest one-person stretch
     shaded grey, frames of motion beyond human limits, ``r.implausible_frames``, shaded red)."""
     kin = r.kinematics
     wrist_acc = kin.acceleration[:, [KEPT_JOINTS.index(n) for n in WRISTS]]
-    out = {"wrists.png": plot_wrists(folder / "wrists.png", r.joints_camera, r.poses, r.fps,
-                                     r.wrist_acceleration_camera, wrist_acc, r.units, frame_label=r.frame_label)}
     other = None if r.track_segment is None else ~one_person_frames(r.track_segment)
     implausible = None if r.implausible_frames is None else _implausible(r)
+    out = {"wrists.png": plot_wrists(folder / "wrists.png", r.joints_camera, r.poses, r.fps,
+                                     r.wrist_acceleration_camera, wrist_acc, r.units, frame_label=r.frame_label,
+                                     other_person=other, implausible=implausible)}
     for name, plot in (("angles.png", plot_joint_angles), ("speeds.png", plot_joint_speeds)):
         out[name] = plot(folder / name, kin, r.fps, frame_label=r.frame_label, other_person=other,
                          implausible=implausible)
