@@ -1048,18 +1048,14 @@ def floor_table(sets: list[tuple[str, list]]) -> list[str]:
              "a depth sensor measures it, or recovered from simulated 2D keypoints): sequence tilt error (deg) over "
              "clips",
              f"{'set':<28}{'variant':<34}{'mean':>7}{'median':>8}{'p95':>7}{'>20':>5}{'floor':>7}"
-             "  verdict: mean diff vs default (the 2D row: vs floor off; the offsets' 2D row: vs the 2D row) [95 % CI], "
-             "deg; interval coverage"]
-    labels = ("default (floor fused)", "floor contacts off", "path from 2D keypoints", "ankle offsets off",
-              "ankle offsets off, path from 2D")
-    p = default_parameters()
-    no_offsets = replace(p, ankle_offset_leg=0.0)  # decision 0091's trial
+             "  verdict: mean diff vs default (the 2D row: vs floor off) [95 % CI], deg; interval coverage"]
+    labels = ("default (floor fused)", "floor contacts off", "path from 2D keypoints")
     for title, recs in sets:
         rows = {label: ([], 0, []) for label in labels}
         for ev, J, J2d in recs:
             R, ok = shipped_rotations(ev)
-            for label, joints, params in zip(labels, (J, None, J2d, J, J2d), (p, p, p, no_offsets, no_offsets)):
-                _, _, seq = up_model_sequence(R, ok, evidence_of(ev), ev["fps"], joints_cam=joints, params=params)
+            for label, joints in zip(labels, (J, None, J2d)):
+                _, _, seq = up_model_sequence(R, ok, evidence_of(ev), ev["fps"], joints_cam=joints)
                 pitch, roll = camera_pitch_roll(seq.up)
                 up = np.where(ok[:, None], seq.up, np.nan)
                 err, used, out = rows[label]
@@ -1068,12 +1064,10 @@ def floor_table(sets: list[tuple[str, list]]) -> list[str]:
                                                    seq.camera_roll_interval_deg)})
                 rows[label] = (err, used + bool(seq.ground_plane.get("used")), out)
         rows = {label: (np.array(err), used, out) for label, (err, used, out) in rows.items()}
-        base, off, from_2d = rows[labels[0]][0], rows[labels[1]][0], rows[labels[2]][0]
+        base, off = rows[labels[0]][0], rows[labels[1]][0]
         for label, (err, used, out) in rows.items():
-            kind, diff = {labels[0]: ("default", err - base), labels[1]: ("removal", err - base),
-                          labels[2]: ("removal", off - err), labels[3]: ("removal", err - base),
-                          labels[4]: ("removal", err - from_2d)}[label]
-            word = verdict(kind, diff)
+            kind, ref = {labels[0]: ("default", base), labels[1]: ("removal", base), labels[2]: ("removal", off)}[label]
+            word = verdict(kind, (off - err) if label == labels[2] else (err - ref))
             cover = interval_coverage(out, [rec[0] for rec in recs]).split(": ", 1)[1]
             lines.append(f"{title:<28}{label:<34}{err.mean():>7.2f}{np.median(err):>8.2f}{np.percentile(err, 95):>7.2f}"
                          f"{int(np.sum(err > GROSS_DEG)):>5}{used:>7}  {word}; {cover}")
@@ -1095,9 +1089,8 @@ def rolled_floor_table(rolled: list[dict], floor_sets: list[tuple[str, list]]) -
     for s, (title, recs) in enumerate(floor_sets):
         by_index = {ev["index"]: ev for ev in rolled if ev["set"] == s}
         for path in ("measured path", "path from 2D keypoints"):
-            variants = ("default (footfalls in the posture)", "footfalls only in the upright fit", "ankle offsets off")
-            errs = {v: [] for v in variants}
-            lying = {v: 0 for v in variants}
+            errs = {True: [], False: []}
+            lying = {True: 0, False: 0}
             for i, (_, J, J2d) in enumerate(recs):
                 ev, Q = by_index[i], roll_matrix(i, QUARTER_DEG)
                 joints = (J if path == "measured path" else J2d) @ Q.T
@@ -1106,19 +1099,18 @@ def rolled_floor_table(rolled: list[dict], floor_sets: list[tuple[str, list]]) -
                 _, _, seq = up_model_sequence(R, ok, evidence, ev["fps"], joints_cam=joints)
                 old = posture_and_floor_up(summarise_recording(evidence.frames(ok), ev["fps"], p), joints, ok, p,
                                            footfalls=False)
-                _, _, no_offsets = up_model_sequence(R, ok, evidence, ev["fps"], joints_cam=joints,
-                                                     params=replace(p, ankle_offset_leg=0.0))  # decision 0091's trial
-                for v, (up, posture) in zip(variants, ((seq.up, seq.posture.most_probable), (old.up, old.posterior.posture),
-                                                      (no_offsets.up, no_offsets.posture.most_probable))):
-                    errs[v].append(clip_error(np.where(ok[:, None], up, np.nan), ev["true_up"]))
-                    lying[v] += posture == "lying"
-            base = np.array(errs[variants[0]])
-            for v in variants:
-                err = np.array(errs[v])
-                label = f"{path}: {v}"
-                word = "-" if v == variants[0] else verdict("removal", err - base)
+                before = (old.up, old.posterior.posture)
+                for default, (up, posture) in ((True, (seq.up, seq.posture.most_probable)), (False, before)):
+                    errs[default].append(clip_error(np.where(ok[:, None], up, np.nan), ev["true_up"]))
+                    lying[default] += posture == "lying"
+            base = np.array(errs[True])
+            for default in (True, False):
+                err = np.array(errs[default])
+                label = f"{path}: " + ("default (footfalls in the posture)" if default else
+                                       "footfalls only in the upright fit")
+                word = "-" if default else verdict("removal", err - base)
                 lines.append(f"{title:<28}{label:<52}{err.mean():>7.2f}{np.median(err):>8.2f}{np.percentile(err, 95):>7.2f}"
-                             f"{int(np.sum(err > GROSS_DEG)):>5}{lying[v]:>7}  {word}")
+                             f"{int(np.sum(err > GROSS_DEG)):>5}{lying[default]:>7}  {word}")
     return lines
 
 

@@ -3,7 +3,7 @@
     python -m benchmarks.fit_floor_contacts --data ../shared/data [--cache /tmp/pcnet_ablation_cache]
 
 Run after ``python -m benchmarks.fit_up_model`` (the floor is fused with that model's
-posterior). Updates the two footfall error parameters in ``stages/data/up_model.json`` (each
+posterior). Updates the footfall error parameter in ``stages/data/up_model.json`` (with
 with its provenance; the other parameters are left as they are) and writes
 ``benchmarks/results/fit_floor_contacts.txt``. No held-out set is read.
 
@@ -14,11 +14,11 @@ it (:func:`benchmarks.ablation.camera_root_path`).
 
 Fit: the error model of the footfalls' heights along the TRUE up (contacts detected along it,
 :func:`pcnet.stages.ground_plane.detect_contacts`: each frame's lower ankle): per recording,
-``h_f = d + o_k + e_f``; ``footfall_height_sd_leg`` (sigma_f) is the pooled within-ankle
-standard deviation of the footfall heights, ``ankle_offset_leg`` (s_o) from the between-ankle
-mean differences, ``E[(mean_R - mean_L)^2] = 2 s_o^2 + sigma_f^2 (1 / n_R + 1 / n_L)`` (method of
-moments), both in leg lengths. (Until decision 0065 a grid also chose the contact definition's
-height band and speed criterion by the validation tilt error; both went.) Printed: the mean
+``footfall_height_sd_leg`` (sigma_f) is the pooled within-ankle standard deviation of the
+footfall heights, in leg lengths. (Until decision 0065 a grid also chose the contact definition's
+height band and speed criterion by the validation tilt error; both went. Until decision 0091 a
+per-ankle offset ``s_o`` was fitted from the between-ankle mean differences by the method of
+moments; switched off on held-out data it moved nothing, and went.) Printed: the mean
 tilt error over the validation recordings of the up the shipped chain gives (the up model's
 upright posterior fused with the floor, :func:`pcnet.stages.ground_plane.ground_plane_up`;
 recordings the up model reads as lying keep their posterior's up).
@@ -150,15 +150,13 @@ def raised_recordings(data: Path, cache: Path) -> list[Recording]:
 
 @dataclass(frozen=True)
 class FootfallHeights:
-    """One recording's footfall heights along the true up (leg lengths), as step 1 of the module
-    docstring uses them: ``within`` the sum of squares about each ankle's mean, ``within_df``
-    its degrees of freedom, ``between`` the two ankles' mean difference and ``between_factor``
-    ``1 / n_R + 1 / n_L`` (both NaN where an ankle has no footfall)."""
+    """One recording's footfall heights along the true up (leg lengths), as the module
+    docstring's fit uses them: ``within`` the sum of squares about each ankle's mean,
+    ``within_df`` its degrees of freedom, ``both_ankles`` whether each ankle has a footfall."""
 
     within: float
     within_df: int
-    between: float
-    between_factor: float
+    both_ankles: bool
 
 
 def footfall_heights(recs: list[Recording]) -> list[FootfallHeights]:
@@ -174,27 +172,18 @@ def footfall_heights(recs: list[Recording]) -> list[FootfallHeights]:
         groups = [h[ankle == k] for k in (0, 1)]
         within = sum(float(np.sum((g - g.mean()) ** 2)) for g in groups if len(g) > 1)
         df = sum(len(g) - 1 for g in groups if len(g) > 1)
-        both = all(len(g) for g in groups)
-        out.append(FootfallHeights(within, df, groups[0].mean() - groups[1].mean() if both else np.nan,
-                                   1 / len(groups[0]) + 1 / len(groups[1]) if both else np.nan))
+        out.append(FootfallHeights(within, df, all(len(g) for g in groups)))
     return out
 
 
-def offset_moment(heights: list[FootfallHeights]) -> tuple[float, float]:
-    """``(sigma_f^2, 2 s_o^2)`` (leg lengths squared): the pooled within-ankle variance and the
-    method-of-moments estimate ``mean((mean_R - mean_L)^2 - sigma_f^2 (1 / n_R + 1 / n_L))``,
-    not clipped at zero (module docstring)."""
-    sigma2 = sum(h.within for h in heights) / max(sum(h.within_df for h in heights), 1)
-    d = np.array([(h.between, h.between_factor) for h in heights if np.isfinite(h.between)]).reshape(-1, 2)
-    return sigma2, float(np.mean(d[:, 0] ** 2 - sigma2 * d[:, 1])) if len(d) else 0.0
-
-
-def error_model(recs: list[Recording]) -> tuple[float, float, int]:
-    """``(sigma_f, s_o, footfalls)``: the module docstring's fit."""
+def error_model(recs: list[Recording]) -> tuple[float, int]:
+    """``(sigma_f, footfalls)``: the module docstring's fit, the pooled within-ankle standard
+    deviation (leg lengths) and the footfalls it counts (within-ankle degrees of freedom plus
+    the two ankle means of each recording with both)."""
     heights = footfall_heights(recs)
-    sigma2, two_s_o2 = offset_moment(heights)
-    n = sum(h.within_df for h in heights) + 2 * sum(np.isfinite(h.between) for h in heights)
-    return float(np.sqrt(sigma2)), float(np.sqrt(max(two_s_o2 / 2, 1e-8))), int(n)
+    sigma2 = sum(h.within for h in heights) / max(sum(h.within_df for h in heights), 1)
+    n = sum(h.within_df for h in heights) + 2 * sum(h.both_ankles for h in heights)
+    return float(np.sqrt(sigma2)), int(n)
 
 
 def tilt_errors(recs: list[Recording], p: UpModelParameters, from_2d: bool = False) -> np.ndarray:
@@ -240,16 +229,16 @@ def main(argv=None) -> int:
     lines = [__doc__.split("\n")[0], "", f"    {COMMAND}", "",
              f"Validation: {len(recs)} recordings ({counts}), "
              "pelvis path kept (measured root), lifter noise.", ""]
-    sigma_f, s_o, n = error_model(recs)
-    fitted = replace(base, footfall_height_sd_leg=sigma_f, ankle_offset_leg=s_o)
+    sigma_f, n = error_model(recs)
+    fitted = replace(base, footfall_height_sd_leg=sigma_f)
     err = tilt_errors(recs, fitted)
     split = (f"validation ({len(recs)} recordings: Bandai motion-style val + CMU val subjects, paper/wide/rolled static "
              f"cameras, lifter noise, pelvis path kept)")
     prov = {
         "footfall_height_sd_leg": f"pooled within-ankle std of {n} footfall heights along the true up, {split}",
-        "ankle_offset_leg": f"method of moments on the between-ankle mean height differences, {split}",
     }
     doc = json.loads(args.json.read_text())
+    doc["parameters"].pop("ankle_offset_leg", None)  # deleted by decision 0091
     for k in prov:
         doc["parameters"][k] = {"value": round(float(getattr(fitted, k)), 6), "provenance": f"{prov[k]}; {COMMAND}"}
     args.json.write_text(json.dumps(doc, indent=2) + "\n")

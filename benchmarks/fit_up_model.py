@@ -77,7 +77,7 @@ VAL_VIEWS = (("paper", 0), ("wide", 1), ("rolled", 2))
 VAL_MAX_CLIPS = 120
 #: The up model's floor parameters, fitted after this script on its posterior
 #: (benchmarks/fit_floor_contacts.py, then benchmarks/fit_floor_power.py).
-FLOOR_PARAMETERS = ("footfall_height_sd_leg", "ankle_offset_leg", "footfall_posture_power")
+FLOOR_PARAMETERS = ("footfall_height_sd_leg", "footfall_posture_power")
 TRAIN_SETS = ("bandai_h36m17.npz", "cmu_train_h36m17.npz")
 CLIP_SIGMAS = 3.0
 DECLARED = {"camera_prior_pitch_deg": 12.0, "camera_prior_roll_deg": 10.0, "camera_prior_outside": 0.05,

@@ -14,13 +14,11 @@ Floor model, in the tangent basis ``(e1, e2)`` = (pitch, roll) directions of
 :func:`pcnet.stages.up_model.tangent_basis` at the poses' up ``u0``: the floor normal is
 ``n = normalize(u0 + a e1 + b e2)``; a footfall ``f`` of ankle ``k(f)`` lies at height::
 
-    h_f = p_f . u0 = d + o_k(f) - a (p_f . e1) - b (p_f . e2) + e_f
+    h_f = p_f . u0 = d - a (p_f . e1) - b (p_f . e2) + e_f
 
 ``d`` the height of the support level the footfall rests on (flat prior; a stool, a step or a
 platform is a level of its own: all are horizontal, so every level's footfalls carry the same
-normal); ``o_k ~ N(0, (s_o L)^2)`` each ankle's persistent height error (a lifter's or a
-sensor's per-joint bias: with the feet in place, it is what tilts the plane through them);
-``e_f`` the footfall's own error, of scale ``sigma_f L``, with Tukey's biweight loss
+normal); ``e_f`` the footfall's own error, of scale ``sigma_f L``, with Tukey's biweight loss
 ``rho(e_f / (sigma_f L))`` against false contacts (Beaton & Tukey 1974, its 95 %-efficiency
 constant ``c``).
 
@@ -42,16 +40,19 @@ each level beyond the first is a prior over support levels and is not tempered.
 Upright fine fit. With the poses' posterior as the prior of the tilt, ``theta = (a, b) ~ N(0, C0)``,
 the floor's MAP minimises, at the same learning rate (one tempered posterior; decision 0081)::
 
-    t_f sum_f rho(e_f / (sigma_f L)) + o^T o / (2 (s_o L)^2) + theta^T C0^-1 theta / 2
+    t_f sum_f rho(e_f / (sigma_f L)) + theta^T C0^-1 theta / 2
 
 by iteratively reweighted least squares, the levels re-assigned along each new normal until the
-tilt stops moving. Its Laplace approximation, the levels and ``o_k`` marginalised, gives the
+tilt stops moving. Its Laplace approximation, the levels marginalised, gives the
 floor's information ``I`` and the up, ``theta* = (I + C0^-1)^-1 z``. The fused covariance
 ``(I + C0^-1)^-1`` holds the truth too rarely on held-out data (82-90 % on the CMU test subjects
 and DeepMimic, ``benchmarks/results/floor_fine_power.txt``), so the report keeps the up model's
 intervals.
 
-Parameters ``sigma_f``, ``s_o`` and ``t_f`` are the up model's
+A per-ankle persistent height error (``o_k ~ N(0, (s_o L)^2)``, a lifter's per-joint bias) was
+part of the model until decision 0091: switched off, no held-out set moved by more than 0.01 deg.
+
+Parameters ``sigma_f`` and ``t_f`` are the up model's
 (:class:`pcnet.stages.up_model.UpModelParameters`), fitted on validation data with a pelvis
 path by ``python -m benchmarks.fit_floor_contacts --data ../shared/data`` and then
 ``python -m benchmarks.fit_floor_power --data ../shared/data``.
@@ -190,7 +191,7 @@ def support_levels(heights: np.ndarray, scale: float) -> np.ndarray:
 def levels_terms(heights: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
     """``(loss, level cost)`` each ``(...)`` of footfall heights ``(..., F)`` along candidate
     normals: the sum of Tukey's loss of each footfall about its level (:func:`support_levels`;
-    the levels at their medians, the ankles' errors at 0), and ``c^2 / 6`` (one unexplained
+    the levels at their medians), and ``c^2 / 6`` (one unexplained
     footfall's cost) for each level beyond the first, the prior over support levels."""
     S = np.sort(np.asarray(heights, np.float64), axis=-1)
     F = S.shape[-1]
@@ -232,31 +233,27 @@ def fit_floor(c: Contacts, u0: np.ndarray, prior_cov: np.ndarray, leg: float,
     """Fuse the floor contacts ``c`` with the poses' posterior ``N(u0, prior_cov)`` (module
     docstring). ``u0`` ``(3,)`` unit up, camera frame; ``prior_cov`` ``(2, 2)`` rad^2 in the
     (pitch, roll) basis of :func:`pcnet.stages.up_model.tangent_basis` at ``u0``; ``leg`` the
-    leg length (input unit), which scales ``sigma_f`` and ``s_o``. The footfalls' loss enters
-    at the learning rate ``t_f`` (``p.footfall_posture_power``), as in the posture's posterior
-    (decision 0081); the ankles' offsets and the prior at full weight."""
+    leg length (input unit), which scales ``sigma_f``. The footfalls' loss enters at the
+    learning rate ``t_f`` (``p.footfall_posture_power``), as in the posture's posterior
+    (decision 0081); the prior at full weight."""
     e1, e2 = (np.asarray(e, np.float64) for e in tangent_basis(u0))
     if len(c.points) == 0:
         return FloorFit(u0, prior_cov, 0, float("nan"), 0)
-    P, ankle = footfalls(c)
+    P = footfalls(c)[0]
     h, q = P @ u0, np.column_stack([P @ e1, P @ e2])
     scale = p.footfall_height_sd_leg * leg
     rate = p.footfall_posture_power
     prior_inv = np.linalg.inv(prior_cov)
     tilt = _coarse_tilt(h, q, scale, prior_cov, prior_inv, rate)
-    n_ankles = 2 if p.ankle_offset_leg > 0 else 0  # s_o = 0: no per-ankle errors (decision 0091's trial)
     for _ in range(_IRLS_STEPS):
         level = support_levels(h + q @ tilt, scale)
         n_levels = int(level.max()) + 1
-        n_nuisance = n_levels + n_ankles
-        A = np.column_stack([np.eye(n_levels)[level], np.eye(2)[ankle][:, :n_ankles], -q])
-        # The prior (levels flat, the ankles' errors, the poses' tilt), in units of scale^2
-        # so that the Tukey weights below enter unscaled.
-        ridge = np.zeros((n_nuisance + 2, n_nuisance + 2))
-        if n_ankles:
-            ridge[n_levels:n_nuisance, n_levels:n_nuisance] = np.eye(2) * (scale / (p.ankle_offset_leg * leg)) ** 2
-        ridge[n_nuisance:, n_nuisance:] = prior_inv * scale ** 2
-        theta = np.r_[[np.median((h + q @ tilt)[level == k]) for k in range(n_levels)], np.zeros(n_ankles), tilt]
+        A = np.column_stack([np.eye(n_levels)[level], -q])
+        # The prior (levels flat, the poses' tilt), in units of scale^2 so that the Tukey
+        # weights below enter unscaled.
+        ridge = np.zeros((n_levels + 2, n_levels + 2))
+        ridge[n_levels:, n_levels:] = prior_inv * scale ** 2
+        theta = np.r_[[np.median((h + q @ tilt)[level == k]) for k in range(n_levels)], tilt]
         for _ in range(_IRLS_STEPS):
             x = (h - A @ theta) / scale
             wts = rate * tukey_weights(x)
@@ -265,18 +262,17 @@ def fit_floor(c: Contacts, u0: np.ndarray, prior_cov: np.ndarray, leg: float,
             theta = new
             if done:
                 break
-        moved = np.max(np.abs(theta[n_nuisance:] - tilt))
-        tilt = theta[n_nuisance:]
+        moved = np.max(np.abs(theta[n_levels:] - tilt))
+        tilt = theta[n_levels:]
         if moved < 1e-9:
             break
-    # Laplace at the mode: the floor's own information on the tilt, the levels and the
-    # ankles' errors marginalised, fused with the poses' posterior.
+    # Laplace at the mode: the floor's own information on the tilt, the levels (flat prior)
+    # marginalised, fused with the poses' posterior.
     M = (A.T * wts) @ A / scale ** 2
     v = (A.T * wts) @ h / scale ** 2
-    M[:n_nuisance, :n_nuisance] += ridge[:n_nuisance, :n_nuisance] / scale ** 2
-    Mnn_inv, Mnb, Mbb = np.linalg.pinv(M[:n_nuisance, :n_nuisance]), M[:n_nuisance, n_nuisance:], M[n_nuisance:, n_nuisance:]
+    Mnn_inv, Mnb, Mbb = np.linalg.pinv(M[:n_levels, :n_levels]), M[:n_levels, n_levels:], M[n_levels:, n_levels:]
     info = Mbb - Mnb.T @ Mnn_inv @ Mnb
-    z = v[n_nuisance:] - Mnb.T @ Mnn_inv @ v[:n_nuisance]
+    z = v[n_levels:] - Mnb.T @ Mnn_inv @ v[:n_levels]
     info = 0.5 * (info + info.T)
     keep = np.linalg.eigvalsh(info) * np.max(np.linalg.eigvalsh(prior_cov)) > _RANK_TOL
     k = int(keep.sum())

@@ -104,8 +104,8 @@ class UpModelParameters:
         systematic_roll_deg: ``s_pitch``, ``s_roll``. lying_elevation_deg: ``sigma_lie``.
         lying_prior: ``rho``. camera_prior_pitch_deg,
         camera_prior_roll_deg, camera_prior_outside: the declared camera prior.
-        footfall_height_sd_leg, ankle_offset_leg: the floor contacts' ``sigma_f``, ``s_o``
-        (leg lengths); footfall_posture_power: ``t_f``, the
+        footfall_height_sd_leg: the floor contacts' ``sigma_f`` (leg lengths);
+        footfall_posture_power: ``t_f``, the
         footfalls' learning rate in the posture's posterior (:mod:`pcnet.stages.ground_plane`).
         provenance: for each name, where its value comes from (split, command, or "declared").
     """
@@ -123,7 +123,6 @@ class UpModelParameters:
     camera_prior_roll_deg: float
     camera_prior_outside: float
     footfall_height_sd_leg: float
-    ankle_offset_leg: float
     footfall_posture_power: float
     provenance: dict
 
@@ -149,7 +148,7 @@ class UpModelParameters:
         out = cls(**values, provenance=provenance)
         for name in ("network_sigma_deg", "error_time_s", "systematic_pitch_deg",
                      "systematic_roll_deg", "lying_elevation_deg", "camera_prior_pitch_deg", "camera_prior_roll_deg",
-                     "camera_fallback_width_deg", "footfall_height_sd_leg", "ankle_offset_leg", "footfall_posture_power"):
+                     "camera_fallback_width_deg", "footfall_height_sd_leg", "footfall_posture_power"):
             if not getattr(out, name) > 0:
                 raise InputError(f"up_model.json: parameters.{name}: expected > 0, got {getattr(out, name)}")
         for name in ("outlier_share", "lying_prior", "camera_prior_outside"):
