@@ -4,7 +4,7 @@
 
 Run after ``python -m benchmarks.fit_up_model`` (the floor is fused with that model's
 posterior). Updates the footfall error parameter in ``stages/data/up_model.json`` (with
-with its provenance; the other parameters are left as they are) and writes
+its provenance; the other parameters are left as they are) and writes
 ``benchmarks/results/fit_floor_contacts.txt``. No held-out set is read.
 
 Data: the validation recordings of benchmarks/fit_up_model.py (Bandai motion-style val, CMU

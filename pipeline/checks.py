@@ -22,7 +22,6 @@ from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
 
 
-
 @dataclass(frozen=True)
 class CameraTilt:
     """The camera's tilt from level and its pitch and roll (deg) of the recording's mean up
@@ -55,7 +54,8 @@ class CheckInputs:
     person_option: ``--person`` can choose another track of the 2D file; focal_known: the
     camera's focal length was known (``--focal-px`` or the lifter file's camera matrix);
     picture: ``(width, height)`` of the picture ``keypoints2d`` are in, or ``None`` where unknown
-    (``pipeline/runner.py: _keypoint_picture``).
+    (``pipeline/runner.py: _keypoint_picture``); picture_typed: that size is ``--image-size``
+    (no video), which the user may have typed the other way round.
     """
 
     joints_camera: np.ndarray
@@ -70,6 +70,7 @@ class CheckInputs:
     person_option: bool
     focal_known: bool = False
     picture: tuple[int, int] | None = None
+    picture_typed: bool = False
 
 
 def checks(c: CheckInputs) -> list[Finding]:
@@ -88,7 +89,7 @@ def checks(c: CheckInputs) -> list[Finding]:
         *(size_change_flag(cam) if c.units not in IMAGE_SCALED_UNITS else []),
         # the picture the keypoints are in: a video's, --image-size or the 2D file's (unknown for a turned
         # video whose keypoints' frame is unknown)
-        *(keypoints_outside_image_flag(kp2d, c.picture) if kp2d is not None and c.picture else []),
+        *(keypoints_outside_image_flag(kp2d, c.picture, c.picture_typed) if kp2d is not None and c.picture else []),
         # a side swap is a mirror image too: said once
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
         *posture_flag(report.sequence),

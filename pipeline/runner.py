@@ -29,7 +29,7 @@ from pcnet.adapters import AdapterError, VideoInfo, first_shown_frame, get_2d_ad
 from pcnet.adapters.mediapipe import holds_keypoints_2d
 from pcnet.adapters.validate import ROOT_RELATIVE_MAX, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
-                                          THORAX, fill_pelvis_from_hips, median_thigh_length, validate_fps)
+                                          THORAX, fill_pelvis_from_hips, thigh_beyond_metres, validate_fps)
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, UNOBSERVED_NOTE as OPENSIM_UNOBSERVED, import_opensim,
@@ -280,7 +280,8 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
     """The recording's frame rate and where it came from (for the summary): ``--fps``, else the
     video's, else the one an input file carries (MediaPipe npz, a Kinect archive), given as
     ``(file, fps or None)`` pairs. ``--fps`` contradicting the video's or a file's own rate is an
-    error unless ``fps_override``."""
+    error unless ``fps_override``; the source is ``"--fps"`` alone only where nothing recorded a
+    rate to check it against."""
     recorded = [(cfg.video, video.fps)] if video is not None else []
     recorded += [(source, fps) for source, fps in carried if fps is not None]
     if cfg.fps_override and not recorded:
@@ -291,7 +292,11 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
             problem = fps_contradiction(cfg.fps, source, fps)
             if problem and not cfg.fps_override:
                 raise InputError(problem)
-        return float(cfg.fps), "--fps"
+        if not recorded:
+            return float(cfg.fps), "--fps"  # nothing to check it against (the motion warnings ask to)
+        source, fps = recorded[0]
+        said = "overriding" if fps_contradiction(cfg.fps, source, fps) else "as recorded in"
+        return float(cfg.fps), f"--fps, {said} {Path(source).name}"
     if recorded:
         source, fps = recorded[0]
         return validate_fps(fps, f"{source}: frame rate"), f"recorded in {Path(source).name}"
@@ -434,8 +439,9 @@ def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame) -> str:
         hint += " (read with the default --layout h36m17: is the file in another joint layout?)"
     if camera.outside and camera.picture is not None:
         w, h = camera.picture
+        typed = " or width and height swapped in --image-size" if cfg.image_size_px and cfg.video is None else ""
         hint += (f" ({camera.outside} joint positions were masked as their 2D keypoints lie outside the {w}x{h} "
-                 f"picture: keypoints of another video or resolution, or width and height swapped in --image-size?)")
+                 f"picture: keypoints of another video or resolution{typed}?)")
     if cfg.keypoints2d is not None:
         hint += (f" (or those joints were masked for 2D confidence in {cfg.keypoints2d} below "
                  f"{cfg.min_confidence:g}: is --confidence-threshold too high?)")
@@ -444,17 +450,17 @@ def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame) -> str:
 
 def _check_metric_body(cfg: RunConfig, cam) -> None:
     """Refuse H36M-17 camera-frame poses ``cam`` ``(T, 17, 3)`` said to be in metres (after any
-    ``--units``) whose median thigh is outside :data:`REFUSED_THIGH_M`: their metric outputs
+    ``--units``) whose median thigh is no person's (:func:`pcnet.stages.core.conventions.thigh_beyond_metres`): their metric outputs
     (TRC, speeds) would be wrong by a factor of 100 or so. Smaller misfits stay a warning
     (:func:`pcnet.stages.flags.body_size_flag`).
 
     Raises:
         InputError: naming the lifter output, the thigh length and the options that fix it.
     """
-    thigh = median_thigh_length(cam)
-    low, high = REFUSED_THIGH_M
-    if not (thigh > high or thigh < low):
+    thigh = thigh_beyond_metres(cam)
+    if thigh is None:
         return
+    high = REFUSED_THIGH_M[1]
     if thigh > high:
         guess = {"generic": "centimetres? give --units cm (or mm)",
                  "videopose3d": "centimetres? read it with --lifter generic --units cm (VideoPose3D's H36M-17 order "
@@ -690,7 +696,8 @@ def _image_size(cfg: RunConfig, video: VideoInfo | None, keypoint_size: tuple[in
 
     Raises:
         InputError: ``--image-size``, or the size the keypoint file states, contradicting the
-            video's size (displayed, or as stored for a turned video).
+            video's size (displayed, or as stored for a turned video); ``--image-size``
+            contradicting the keypoint file's.
     """
     given = cfg.image_size_px
     if video is not None:
@@ -702,6 +709,9 @@ def _image_size(cfg: RunConfig, video: VideoInfo | None, keypoint_size: tuple[in
                              f"({video.width}x{video.height}), got {keypoint_size[0]}x{keypoint_size[1]}: 2D keypoints "
                              f"of another video or resolution?")
         return video.width, video.height
+    if given is not None and keypoint_size is not None and given != tuple(keypoint_size):
+        raise InputError(f"--image-size {cfg.image_size}: expected the size {cfg.keypoints2d} states "
+                         f"({keypoint_size[0]}x{keypoint_size[1]}), got {given[0]}x{given[1]}; leave it out")
     return given or keypoint_size
 
 
@@ -1130,7 +1140,8 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         lifter_turn_deg=recording.lifter_turn_deg, track_segment=rectified.track_segment,
         track_events=rectified.track_events, height_given=cfg.height is not None,
         person_option=cfg.keypoints2d_format in multi_track_formats(),
-        focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture)
+        focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture,
+        picture_typed=cfg.image_size_px is not None and cfg.video is None)
 
 
 def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scaled:

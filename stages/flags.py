@@ -19,11 +19,11 @@ from types import MappingProxyType
 import numpy as np
 
 from .core.errors import InputError
-from .core.conventions import (L_HIP, L_SHOULDER, PELVIS, R_HIP, R_SHOULDER, THIGH_RANGE_M, THORAX,
-                               median_thigh_length)
+from .core.conventions import (HEAD, L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SHOULDER, SPINE, THIGH_RANGE_M,
+                               THORAX, median_thigh_length)
 from .core.framestore import frame_blocks, true_runs
 from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg
-from .kinematics import frames_phrase
+from .kinematics import frames_phrase, shortest_filtered_run
 from .mirror import MIRROR_ODDS, MirrorModel, load_mirror_model, recording_cues
 from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
@@ -472,30 +472,34 @@ def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray,
                    f"or --layout), so the body faces the wrong way and its knees bend backwards")]
 
 
-#: Share of the present 2D keypoints outside the picture from which the keypoints are taken to
-#: belong to another video, resolution or crop (hand-set): a detector places a few joints of a
-#: body cut by the edge beyond it, not a fifth of them.
+#: H36M-17 joints of the trunk and head, whose 2D keypoints the outside-picture check reads: a
+#: body cut by the frame's edge (a seated patient filmed from the waist up) loses its legs or
+#: arms, not its trunk.
+TRUNK_JOINTS = (PELVIS, R_HIP, L_HIP, SPINE, THORAX, NECK_NOSE, HEAD, L_SHOULDER, R_SHOULDER)
+#: Share of the present trunk keypoints outside the picture from which the keypoints are taken
+#: to belong to another video, resolution or crop (hand-set).
 OUTSIDE_IMAGE_SHARE = 0.2
 
 
-def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int]) -> list[Finding]:
-    """A PROBLEM when more than :data:`OUTSIDE_IMAGE_SHARE` of the present 2D keypoints lie
-    outside the picture: by :func:`pcnet.stages.remap.outside_image`'s one-pixel slack, the
-    rule by which ``pcnet run`` takes their 3D joints as missing, so the share said is the share
-    masked. Where the picture turned a quarter (``height x width``) would hold more of them, it
-    asks whether width and height were swapped (an ``--image-size`` typed for a portrait video).
+def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int], size_typed: bool = False) -> list[Finding]:
+    """A PROBLEM when more than :data:`OUTSIDE_IMAGE_SHARE` of the present trunk keypoints
+    (:data:`TRUNK_JOINTS`) lie outside the picture, by :func:`pcnet.stages.remap.outside_image`'s
+    one-pixel slack, the rule by which ``pcnet run`` takes their 3D joints as missing. Where the
+    size was typed (``size_typed``: ``--image-size``, no video) and the picture turned a quarter
+    (``height x width``) would not be flagged, it asks whether width and height were swapped.
 
     Args:
         keypoints2d: ``(T, 17, >=2)`` H36M-17 pixel coordinates in the displayed frame (x right,
             y down), NaN = missing; an array or a frame store read a block at a time.
         image_size: the displayed frame's ``(width, height)`` in pixels; ``(0, 0)`` = unknown.
+        size_typed: the size is the user's ``--image-size``, not a video's or the file's.
     """
     w, h = image_size
     if w <= 0 or h <= 0:
         return []
     present = outside = outside_turned = 0
     for rows in frame_blocks(len(keypoints2d)):
-        xy = np.asarray(keypoints2d[rows][..., :2], np.float64).reshape(-1, 2)
+        xy = np.asarray(keypoints2d[rows][:, list(TRUNK_JOINTS), :2], np.float64).reshape(-1, 2)
         finite = np.isfinite(xy).all(axis=1)
         present += int(finite.sum())
         outside += int((outside_image(xy, (w, h)) & finite).sum())
@@ -503,15 +507,15 @@ def keypoints_outside_image_flag(keypoints2d, image_size: tuple[int, int]) -> li
     if not present or outside <= OUTSIDE_IMAGE_SHARE * present:
         return []
     share = 100 * outside / present
-    swapped = w != h and outside_turned < outside
+    swapped = size_typed and w != h and outside_turned <= OUTSIDE_IMAGE_SHARE * present
     cause = "width and height swapped?" if swapped else "another video, resolution or crop?"
     turned = f" ({100 * outside_turned / present:.0f} % lie outside a {h}x{w} picture)" if swapped else ""
     return [_found(Kind.OUTSIDE_IMAGE, Severity.PROBLEM,
-                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} picture: {cause}",
+                   f"{share:.0f} % of 2D trunk keypoints lie outside the {w}x{h} picture: {cause}",
                    "check --image-size (width x height)" if swapped else "check the 2D file belongs to this video",
-                   f"{share:.0f} % of the 2D keypoints lie outside the {w}x{h} picture, and their joints were taken as "
-                   f"missing: {cause}{turned} The left/right and track-switch checks and the recording's overlay rest "
-                   f"on them")]
+                   f"{share:.0f} % of the trunk's 2D keypoints (hips, shoulders, spine, neck, head) lie outside the "
+                   f"{w}x{h} picture, and their joints were taken as missing: {cause}{turned} The left/right and "
+                   f"track-switch checks and the recording's overlay rest on them")]
 
 
 def keypoints_unused_flag(reason: str) -> list[Finding]:
@@ -636,7 +640,7 @@ def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,
     if cutoff_hz is None or not present.any() or not np.asarray(unfiltered, bool)[present].all():
         return []
     longest = max(stop - start for joint in present.T for start, stop in true_runs(joint))
-    if longest < len(present):  # gaps, not the recording's length, leave every run short
+    if len(present) >= shortest_filtered_run(fps, cutoff_hz):  # long enough: the gaps leave every run short
         return [_found(Kind.TOO_SHORT, Severity.PROBLEM,
                        f"gaps too frequent to filter (longest run of a present joint {longest} of "
                        f"{frames_phrase(len(present))}): raw positions, no velocity or acceleration",

@@ -47,7 +47,7 @@ from .core.conventions import (
     THIGH_RANGE_M,
     THORAX,
     check_poses,
-    median_thigh_length,
+    thigh_beyond_metres,
     validate_fps,
 )
 from .core.canonical import canonical_rotation
@@ -121,6 +121,16 @@ def _lowpass_design(fps: float, cutoff_hz: float, order: int) -> tuple[np.ndarra
     # sosfiltfilt's own default padlen, so "too short" means what scipy means.
     padlen = 3 * (2 * len(sos) + 1 - min((sos[:, 2] == 0).sum(), (sos[:, 5] == 0).sum()))
     return sos, int(padlen)
+
+
+def shortest_filtered_run(fps: float, cutoff_hz: float, order: int = 4) -> int:
+    """Frames of the shortest run of present samples :func:`butterworth_lowpass` filters
+    (``sosfiltfilt``'s ``padlen`` + 1); shorter runs stay raw and are flagged ``unfiltered``.
+
+    Raises:
+        InputError: as :func:`butterworth_lowpass`'s arguments.
+    """
+    return _lowpass_design(fps, cutoff_hz, order)[1] + 1
 
 
 def butterworth_lowpass(
@@ -819,18 +829,18 @@ def _angles(pos: np.ndarray, fps: float, continuous: bool = True) -> dict[str, n
     return continuous_angles(out, fps=fps) if continuous else out
 
 
-def _require_units(X: np.ndarray, units: object) -> None:
-    """Refuse a ``units`` that is not a unit's name, and poses said to be in metres whose median
-    thigh is no person's (:data:`~pcnet.stages.core.conventions.REFUSED_THIGH_M`): their speeds
-    would be wrong a hundredfold (a user trial's centimetres gave a wrist at 152 m/s)."""
+def _require_units(X, units: object, field: str) -> None:
+    """Refuse a ``units`` that is not a unit's name, and poses ``X`` (argument ``field``) said to
+    be in metres whose median thigh is no person's
+    (:func:`~pcnet.stages.core.conventions.thigh_beyond_metres`): their speeds would be wrong a
+    hundredfold (a user trial's centimetres gave a wrist at 152 m/s)."""
     if not isinstance(units, str) or not units:
         raise InputError(f"units: expected a length unit's name ('m', 'normalised', ...), got {units!r}")
-    thigh = median_thigh_length(X) if units == "m" else float("nan")
-    low, high = REFUSED_THIGH_M
-    if thigh < low or thigh > high:
-        raise InputError(f"canonical: expected poses in metres (units 'm': a median thigh length of "
+    thigh = thigh_beyond_metres(X) if units == "m" else None
+    if thigh is not None:
+        raise InputError(f"{field}: expected poses in metres (units 'm': a median thigh length of "
                          f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: "
-                         f"{'centimetres or millimetres' if thigh > high else 'another unit or joint order'} "
+                         f"{'centimetres or millimetres' if thigh > REFUSED_THIGH_M[1] else 'another unit or joint order'} "
                          f"given as metres? scale the poses to metres, or pass their units")
 
 
@@ -891,8 +901,13 @@ def compute_kinematics(
     X = check_poses(canonical, "canonical").astype(np.float64)
     if not len(X):
         raise InputError("canonical: expected at least one frame, got 0")
-    fps = validate_fps(fps, "fps")
-    _require_units(X, units)
+    _require_units(X, units, "canonical")
+    return _kinematics(X, validate_fps(fps, "fps"), cutoff_hz, units, order, continuous)
+
+
+def _kinematics(X: np.ndarray, fps: float, cutoff_hz: float | None, units: str, order: int,
+                continuous: bool) -> Kinematics:
+    """:func:`compute_kinematics` of checked float64 poses ``X`` ``(T, 17, 3)``."""
     missing = ~np.isfinite(X).all(axis=-1)
     pos, raw, vel, acc = filtered_derivatives(X, fps, cutoff_hz, order)
     return Kinematics(
@@ -1069,20 +1084,25 @@ def kinematics_chunks(
         :class:`Kinematics` of frames ``[0, c), [c, 2c), ...``.
 
     Raises:
-        InputError: as :func:`compute_kinematics`, or ``chunk_frames < 1``.
+        InputError: as :func:`compute_kinematics` (the units checked once, over the whole
+            recording), or ``chunk_frames < 1``.
     """
     X = check_poses(poses, "poses")
     chunk_frames = CHUNK_FRAMES if chunk_frames is None else chunk_frames
     if chunk_frames < 1:
         raise InputError(f"chunk_frames must be >= 1, got {chunk_frames!r}")
+    if not len(X):
+        raise InputError("poses: expected at least one frame, got 0")
+    fps = validate_fps(fps, "fps")
+    _require_units(X, units, "poses")  # once, over the whole recording: a chunk's median is not the recording's
     pad = settle_frames(fps, cutoff_hz, order)
     T = len(X)
     previous: dict[str, float] | None = None  # the last frame's angles, continued by the next chunk
     for start in range(0, T, chunk_frames):
         stop = min(T, start + chunk_frames)
         lo, hi = max(0, start - pad), min(T, stop + pad)
-        k = select_frames(compute_kinematics(check_poses(X[lo:hi], "poses"), fps, cutoff_hz, units, order,
-                                             continuous=False), start - lo, stop - lo)
+        chunk = check_poses(X[lo:hi], "poses").astype(np.float64)
+        k = select_frames(_kinematics(chunk, fps, cutoff_hz, units, order, continuous=False), start - lo, stop - lo)
         angles = continuous_angles(k.angles, previous, fps)
         previous = {name: float(v[-1]) for name, v in angles.items()}
         yield replace(k, angles=MappingProxyType(angles))
@@ -1158,12 +1178,12 @@ def format_flag_counts(counts: Kinematics | Mapping, input_note: str = "") -> st
     Example: ``"missing: right_wrist 1 of 301 frames; no joint at all: 3 frames; unfiltered: right_wrist
     4 of 301 frames (runs shorter than the filter needs; no velocity/acceleration there)"``
     (``"1 frame"`` where the counts do not give the recording's length).
-    Joints missing only in frames without any pose are reported once, as ``no pose``.
+    Joints missing only in frames without any pose are reported once, as ``no joint at all``.
 
     Args:
         counts: the dict of :func:`flag_counts`, or a :class:`Kinematics` (counted here).
         input_note: the caller's words on what the input held as missing (the lifter file's
-            ``inf``/NaN per joint), put after ``missing``/``no pose``; ``''`` for none.
+            ``inf``/NaN per joint), put after ``missing``/``no joint at all``; ``''`` for none.
 
     Returns:
         the line, without a trailing newline.

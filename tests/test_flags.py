@@ -505,10 +505,11 @@ def test_2d_keypoints_outside_the_video_are_warned(tmp_path):
     """The real boxing AlphaPose keypoints with the 10-frame cut of their video pass; the same
     keypoints scaled x3 (another resolution's) lie wholly outside the 854x480 frame: every joint
     they would mask is unseen, so the run is refused naming the file; a picture given too small
-    (--image-size, no video) leaves a third of the keypoints outside it: warned (a review: only a
-    note), and those joints are missing."""
+    (--image-size, no video) leaves a quarter of the trunk's keypoints outside it: warned (a
+    review: only a note), and those joints are missing. Legs below a waist-up picture are not
+    warned: its trunk is inside."""
     from pcnet.adapters import load_alphapose
-    from pcnet.stages.flags import keypoints_outside_image_flag
+    from pcnet.stages.flags import TRUNK_JOINTS, keypoints_outside_image_flag
     from pcnet.stages.remap import remap_to_h36m
 
     items = json.loads(BOX_AP.read_text())
@@ -524,11 +525,11 @@ def test_2d_keypoints_outside_the_video_are_warned(tmp_path):
     assert (f"{tmp_path / 'x3.json'}: expected 2D keypoints inside the 854x480 picture, got every confident keypoint "
             f"of every frame outside it") in res.output
     small = ["run", "--lifter", "motionbert", "--lifter-output", str(BOX_X3D), "--keypoints2d-format", "alphapose",
-             "--keypoints2d", str(BOX_AP), "--image-size", "540x260", "--fps", "30",
+             "--keypoints2d", str(BOX_AP), "--image-size", "500x240", "--fps", "30",
              "--no-recording", "--out", str(tmp_path / "c")]
     res = CliRunner().invoke(main, small)
-    assert res.exit_code == 0 and "of the 2D keypoints lie outside the 540x260 picture" in res.output, res.output
-    assert "whose 2D keypoint lies outside the 540x260 picture taken as missing" in res.output
+    assert res.exit_code == 0 and "of 2D trunk keypoints lie outside the 500x240 picture" in res.output, res.output
+    assert "whose 2D keypoint lies outside the 500x240 picture taken as missing" in res.output
     assert "width and height swapped" not in res.output
     # A user trial typed the 854x480 video's size the other way round: most joints were masked
     # by the one-pixel rule while the flag, counting beyond a 5 % margin, stayed silent. Here
@@ -539,12 +540,18 @@ def test_2d_keypoints_outside_the_video_are_warned(tmp_path):
     assert res.exit_code == 1 and not (tmp_path / "d").exists(), res.output
     assert "masked as their 2D keypoints lie outside the 480x854 picture" in res.output, res.output
     kp = remap_to_h36m(load_alphapose(BOX_AP).points, "halpe26", confidence_channel=True)
-    found = keypoints_outside_image_flag(kp, (480, 854))
+    found = keypoints_outside_image_flag(kp, (480, 854), size_typed=True)
     assert [f.headline for f in found] == [
-        f"{found[0].headline.split(' %')[0]} % of the 2D keypoints lie outside the 480x854 picture: width and height "
+        f"{found[0].headline.split(' %')[0]} % of 2D trunk keypoints lie outside the 480x854 picture: width and height "
         "swapped?"], found
-    assert "swapped" not in " ".join(f.headline for f in keypoints_outside_image_flag(kp, (540, 260)))
+    # a video's own size cannot be typed the other way round
+    assert "swapped" not in keypoints_outside_image_flag(kp, (480, 854))[0].headline
+    assert "swapped" not in " ".join(f.headline for f in keypoints_outside_image_flag(kp, (500, 240), size_typed=True))
     assert keypoints_outside_image_flag(kp, (854, 480)) == []
+    # a body cut by the frame's edge (the legs below a waist-up picture) keeps its trunk inside: no flag
+    waist_up = int(np.nanmax(kp[:, list(TRUNK_JOINTS), 1])) + 2
+    assert np.nanmean(kp[:, [2, 3, 5, 6], 1] > waist_up) > 0.5  # most knee and ankle keypoints lie below it
+    assert keypoints_outside_image_flag(kp, (854, waist_up), size_typed=True) == []
     assert keypoints_outside_image_flag(np.full((3, 17, 3), np.nan), (854, 480)) == []
 
 
@@ -617,5 +624,8 @@ def test_gaps_that_leave_every_run_unfiltered_are_not_called_a_short_recording()
     short = compute_kinematics(poses[:8], 30.0)
     (found,) = unfiltered_flag(short.missing, short.unfiltered, 30.0, 6.0)
     assert found.headline.startswith("too short to filter (8 frames)") and found.action == "use a longer recording"
+    short = compute_kinematics(gappy[:9], 30.0)  # too short even without its gap at frame 0 (10 frames filter)
+    (found,) = unfiltered_flag(short.missing, short.unfiltered, 30.0, 6.0)
+    assert found.headline.startswith("too short to filter (9 frames)"), found.headline
     whole = compute_kinematics(poses, 30.0)
     assert unfiltered_flag(whole.missing, whole.unfiltered, 30.0, 6.0) == []

@@ -630,11 +630,21 @@ def test_png_is_written(tmp_path, yoga_cam, yoga_level):
     data = path.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
     # another person's frames are shaded here too, as in angles.png (a user trial: only the wrists were not)
+    from matplotlib.patches import Rectangle
+
+    from pcnet.stages.sinks.exports import wrists_figure
+    from pcnet.stages.sinks.plots import OTHER_PERSON_NOTE
+
     other = np.zeros(300, bool)
     other[100:150] = True
-    shaded = plot_wrists(tmp_path / "shaded.png", cam, can, FPS_YOGA, acam[:, wrists], acan[:, wrists], other_person=other)
-    assert shaded.read_bytes() != data
-    with pytest.raises(ValueError, match="plot_wrists: other_person has shape"):
+    fig = wrists_figure(cam, can, FPS_YOGA, acam[:, wrists], acan[:, wrists], other_person=other)
+    assert OTHER_PERSON_NOTE in fig._suptitle.get_text() and len(fig.axes) == 6
+    for ax in fig.axes:
+        (span,) = [p for p in ax.patches if isinstance(p, Rectangle)]
+        assert round(span.get_x() * FPS_YOGA + 0.5) == 100
+    plain = wrists_figure(cam, can, FPS_YOGA, acam[:, wrists], acan[:, wrists])
+    assert not any(ax.patches for ax in plain.axes)
+    with pytest.raises(ValueError, match="wrists_figure: other_person has shape"):
         plot_wrists(tmp_path / "bad.png", cam, can, FPS_YOGA, acam[:, wrists], acan[:, wrists], other_person=other[:-1])
 
 

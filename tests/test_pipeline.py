@@ -1154,4 +1154,9 @@ def test_a_2d_file_stating_another_picture_than_the_video_is_refused(tmp_path):
     assert res.exit_code == 1 and not (tmp_path / "out").exists(), res.output
     assert (f"file '{mp}': field 'width, height': expected the size of {FIXTURES / 'boxing2_f000-009.mp4'} (854x480), "
             f"got 1768x994: 2D keypoints of another video or resolution?") in res.output, res.output
+    # without a video, --image-size against the size the file states (it had been used silently)
+    res = _invoke("run", "--lifter", "mediapipe", "--lifter-output", mp, "--keypoints2d", mp, "--keypoints2d-format",
+                  "mediapipe", "--image-size", "854x480", "--no-recording", "--out", tmp_path / "out")
+    assert res.exit_code == 1 and not (tmp_path / "out").exists(), res.output
+    assert f"--image-size 854x480: expected the size {mp} states (1768x994), got 854x480; leave it out" in res.output
 

@@ -380,6 +380,16 @@ def median_thigh_length(joints) -> float:
     return float(np.median(thighs)) if thighs.size else float("nan")
 
 
+def thigh_beyond_metres(joints) -> float | None:
+    """The median thigh (:func:`median_thigh_length`) of H36M-17 poses ``(T, 17, 3)`` said to be
+    in metres when it lies outside :data:`REFUSED_THIGH_M`, no person's (above: centimetres or
+    millimetres read as metres; below: another unit or joint order), else ``None`` (also where no
+    thigh is finite)."""
+    thigh = median_thigh_length(joints)
+    low, high = REFUSED_THIGH_M
+    return thigh if thigh < low or thigh > high else None
+
+
 def fill_pelvis_from_hips(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """H36M-17 pelvis rule: a missing (NaN) pelvis is the midpoint of the hips when both are
     present (H36M's pelvis is the hip-joint midpoint, VideoPose3D ``common/h36m_dataset.py``

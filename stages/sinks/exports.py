@@ -629,8 +629,7 @@ def _fmt_trc(v: float) -> str:
 # PNG
 
 
-def plot_wrists(
-    path_png: str | os.PathLike,
+def wrists_figure(
     camera: np.ndarray,
     canonical: np.ndarray,
     fps: float,
@@ -641,7 +640,8 @@ def plot_wrists(
     other_person: np.ndarray | None = None,
     implausible: np.ndarray | None = None,
 ) -> Path:
-    """PNG of wrist trajectories and accelerations before and after rectification.
+    """The figure of wrist trajectories and accelerations before and after rectification (a
+    :class:`matplotlib.figure.Figure` on an Agg canvas; :func:`plot_wrists` writes it).
 
     Two columns (camera frame | ``frame_label``: the recording's world frame or the
     canonical frame) by three rows: wrist position
@@ -651,11 +651,9 @@ def plot_wrists(
     tilted; canonical-y is vertical). The magnitude row matches between columns only
     when the rotation is constant over time (one rotation per sequence); per-frame
     rotations make the canonical frame a moving frame, and its jitter shows up there.
-    Rendered with matplotlib's Agg canvas (no pyplot, no display needed), written
-    atomically.
+    Rendered with matplotlib's Agg canvas (no pyplot, no display needed).
 
     Args:
-        path_png: destination ``.png``.
         camera: ``(T, 17, 3)`` root-relative camera-frame poses (x right, y down, z forward),
             ``units``: plotted as positions from the pelvis along the camera's axes.
         canonical: ``(T, 17, 3)`` rectified poses (x anterior, y up, z right: world or
@@ -668,25 +666,22 @@ def plot_wrists(
         other_person, implausible: ``(T,)`` bool frames shaded grey (another person's, after
             a 2D track switch) and red (motion beyond human limits), as in ``angles.png``.
 
-    Returns:
-        the destination path.
-
     Raises:
         ValueError: mismatched shapes or ``fps <= 0``.
     """
     shapes = [tuple(np.shape(a)) for a in (camera, canonical, acc_camera, acc_canonical)]
     T = shapes[0][0] if shapes[0] else 0
     if shapes != [(T, 17, 3), (T, 17, 3), (T, 2, 3), (T, 2, 3)]:
-        raise ValueError(f"plot_wrists: expected (T, 17, 3) poses and (T, 2, 3) wrist accelerations, got {shapes}")
+        raise ValueError(f"wrists_figure: expected (T, 17, 3) poses and (T, 2, 3) wrist accelerations, got {shapes}")
     if not fps > 0:
-        raise ValueError(f"plot_wrists: fps must be > 0, got {fps!r}")
+        raise ValueError(f"wrists_figure: fps must be > 0, got {fps!r}")
     # Only the wrists are drawn: two joints read (a long recording's poses are on disk).
     # Kept in their own precision (float32 for a run's): display_samples converts one series at a time.
     cam, can = (np.asarray(p[:, [L_WRIST, R_WRIST]]) for p in (camera, canonical))
     acam, acan = (np.asarray(a) for a in (acc_camera, acc_canonical))
     t = np.arange(T) / fps
-    other_person = marked_frames(other_person, t, "plot_wrists")
-    implausible = marked_frames(implausible, t, "plot_wrists", "implausible")
+    other_person = marked_frames(other_person, t, "wrists_figure")
+    implausible = marked_frames(implausible, t, "wrists_figure", "implausible")
     acc_u = f"{units}/s²"
     columns = (
         ("camera axes, from the pelvis (x right, y down, z forward)", cam, acam, ("x", "y", "z")),
@@ -715,4 +710,20 @@ def plot_wrists(
             ax.legend(fontsize=7, ncol=2, loc="upper right")
     fig.suptitle(f"Wrists before (camera frame) and after ({frame_label.split(' (')[0]}) rectification"
                  + marks_note(other_person, implausible))
-    return save_png(fig, path_png)
+    return fig
+
+
+def plot_wrists(path_png: str | os.PathLike, camera: np.ndarray, canonical: np.ndarray, fps: float,
+                acc_camera: np.ndarray, acc_canonical: np.ndarray, units: str = "m",
+                frame_label: str = "canonical frame (x anterior, y up, z right)", other_person: np.ndarray | None = None,
+                implausible: np.ndarray | None = None) -> Path:
+    """:func:`wrists_figure` as a PNG at ``path_png``, written atomically.
+
+    Returns:
+        the destination path.
+
+    Raises:
+        ValueError: as :func:`wrists_figure`.
+    """
+    return save_png(wrists_figure(camera, canonical, fps, acc_camera, acc_canonical, units, frame_label,
+                                  other_person, implausible), path_png)
