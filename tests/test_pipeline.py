@@ -1160,3 +1160,17 @@ def test_a_2d_file_stating_another_picture_than_the_video_is_refused(tmp_path):
     assert res.exit_code == 1 and not (tmp_path / "out").exists(), res.output
     assert f"--image-size 854x480: expected the size {mp} states (1768x994), got 854x480; leave it out" in res.output
 
+
+
+def test_the_frame_rate_source_says_whether_a_recorded_rate_checked_fps():
+    """The motion warnings ask to check --fps only where nothing recorded a rate to check it
+    against (a review: a --fps the video had confirmed was told to be checked)."""
+    from pcnet.pipeline.runner import _frame_rate
+
+    assert _frame_rate(RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0), None) == (30.0, "--fps")
+    assert _frame_rate(RunConfig(lifter="mediapipe", lifter_output="m.npz", fps=30.0), None,
+                       ("m.npz", 30.0)) == (30.0, "--fps, as recorded in m.npz")
+    assert _frame_rate(RunConfig(lifter="mediapipe", lifter_output="m.npz", fps=60.0, fps_override=True), None,
+                       ("m.npz", 30.0)) == (60.0, "--fps, overriding m.npz")
+    assert _frame_rate(RunConfig(lifter="mediapipe", lifter_output="m.npz"), None, ("m.npz", 30.0)) == (
+        30.0, "recorded in m.npz")
