@@ -288,15 +288,13 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
         raise InputError("fps_override (--fps-override): expected a rate to override (a video's, or one an input "
                          "file records), got none: fps alone sets the rate")
     if cfg.fps is not None:
-        for source, fps in recorded:
-            problem = fps_contradiction(cfg.fps, source, fps)
-            if problem and not cfg.fps_override:
-                raise InputError(problem)
+        problems = [fps_contradiction(cfg.fps, source, fps) for source, fps in recorded]
+        if any(problems) and not cfg.fps_override:
+            raise InputError(next(p for p in problems if p))
         if not recorded:
             return float(cfg.fps), "--fps"  # nothing to check it against (the motion warnings ask to)
-        source, fps = recorded[0]
-        said = "overriding" if fps_contradiction(cfg.fps, source, fps) else "as recorded in"
-        return float(cfg.fps), f"--fps, {said} {Path(source).name}"
+        said = "overriding" if problems[0] else "as recorded in"
+        return float(cfg.fps), f"--fps, {said} {Path(recorded[0][0]).name}"
     if recorded:
         source, fps = recorded[0]
         return validate_fps(fps, f"{source}: frame rate"), f"recorded in {Path(source).name}"
@@ -427,6 +425,12 @@ def _assumed_inputs(cfg: RunConfig) -> list[str]:
     return notes
 
 
+def _picture_typed(cfg: RunConfig) -> bool:
+    """Whether the keypoints' picture size is the user's ``--image-size`` (no video): a size the
+    user may have typed the other way round."""
+    return cfg.image_size_px is not None and cfg.video is None
+
+
 def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame) -> str:
     """What to add to a "no frame can be rectified" error: the default joint layout of a generic
     file, the likeliest cause there, the picture where joints were masked as outside it (a
@@ -439,7 +443,7 @@ def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame) -> str:
         hint += " (read with the default --layout h36m17: is the file in another joint layout?)"
     if camera.outside and camera.picture is not None:
         w, h = camera.picture
-        typed = " or width and height swapped in --image-size" if cfg.image_size_px and cfg.video is None else ""
+        typed = " or width and height swapped in --image-size" if _picture_typed(cfg) else ""
         hint += (f" ({camera.outside} joint positions were masked as their 2D keypoints lie outside the {w}x{h} "
                  f"picture: keypoints of another video or resolution{typed}?)")
     if cfg.keypoints2d is not None:
@@ -1141,7 +1145,7 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         track_events=rectified.track_events, height_given=cfg.height is not None,
         person_option=cfg.keypoints2d_format in multi_track_formats(),
         focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture,
-        picture_typed=cfg.image_size_px is not None and cfg.video is None)
+        picture_typed=_picture_typed(cfg))
 
 
 def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scaled:

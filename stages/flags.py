@@ -639,8 +639,8 @@ def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,
     present = ~np.asarray(missing, bool)
     if cutoff_hz is None or not present.any() or not np.asarray(unfiltered, bool)[present].all():
         return []
-    longest = max(stop - start for joint in present.T for start, stop in true_runs(joint))
     if len(present) >= shortest_filtered_run(fps, cutoff_hz):  # long enough: the gaps leave every run short
+        longest = max(stop - start for joint in present.T for start, stop in true_runs(joint))
         return [_found(Kind.TOO_SHORT, Severity.PROBLEM,
                        f"gaps too frequent to filter (longest run of a present joint {longest} of "
                        f"{frames_phrase(len(present))}): raw positions, no velocity or acceleration",

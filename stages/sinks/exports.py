@@ -639,7 +639,7 @@ def wrists_figure(
     frame_label: str = "canonical frame (x anterior, y up, z right)",
     other_person: np.ndarray | None = None,
     implausible: np.ndarray | None = None,
-) -> Path:
+):
     """The figure of wrist trajectories and accelerations before and after rectification (a
     :class:`matplotlib.figure.Figure` on an Agg canvas; :func:`plot_wrists` writes it).
 
