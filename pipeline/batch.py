@@ -36,7 +36,7 @@ from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker, record_status
 from .batch_worker import FINDINGS, RESULT_FIELDS, cpu_cores, error_line
-from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, records_frame_rate, RunConfig
+from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within
 
@@ -527,15 +527,6 @@ def _shared_out_problems(manifest: Path, planned: list[PlannedRow], paths: _Path
     return problems
 
 
-def _needs_fps_column(config: dict) -> bool:
-    """Whether a row needs its fps column: no video, no fps, and neither its lifter's files nor
-    its 2D format's (if any) can record a frame rate (``register_3d/2d(records_fps=False)``,
-    :mod:`pcnet.adapters.registry`; MediaPipe archives and Kinect skeletons may carry theirs)."""
-    return (config["video"] is None and config["fps"] is None and config["lifter"] is not None
-            and not records_frame_rate("3d", config["lifter"])
-            and (config["keypoints2d_format"] is None or not records_frame_rate("2d", config["keypoints2d_format"])))
-
-
 #: Words after a flag that continue the sentence: not the flag's value.
 _SENTENCE_WORDS = ("to", "or", "and", "anyway", "with", "if", "for", "then")
 _FLAG = r"--([a-z][a-z0-9-]*)(?: (?!(?:" + "|".join(_SENTENCE_WORDS) + r")\b)([a-z0-9.]+))?"
@@ -587,9 +578,6 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
         inputs = input_files(config)
         found = (_input_problems(where, row, inputs, paths) or
                  [p for p in [_out_problem(where, row, config["out"], inputs, paths)] if p])
-        if _needs_fps_column(config):
-            found.append(f"{where}: column fps: expected the frame rate (no video is given and {config['lifter']} "
-                         f"files do not record one), got none")
         if not found:
             found += _video_rate_problem(where, config)
         if found:

@@ -296,6 +296,14 @@ class RunConfig:
                 raise InputError(f"{field_name(source, missing)}: expected a value with {name(given)} "
                                  f"{getattr(self, given)!r}, got none")
 
+    def _no_recorded_rate(self) -> bool:
+        """No video, no fps, and neither the lifter's files nor the 2D format's (if any) can
+        record a frame rate (``register_2d/3d(records_fps=False)``, :mod:`pcnet.adapters.registry`;
+        MediaPipe archives and Kinect skeletons may carry theirs)."""
+        return (self.video is None and self.fps is None and self.lifter is not None
+                and not records_frame_rate("3d", self.lifter)
+                and (self.keypoints2d_format is None or not records_frame_rate("2d", self.keypoints2d_format)))
+
     def validate(self, source: str = "config") -> "RunConfig":
         """Check every field's type (against the annotations), choices, ranges and
         combinations. The path fields (``video``, ``keypoints2d``, ``lifter_output``, ``out``,
@@ -373,6 +381,9 @@ class RunConfig:
                                  f"a fixed world frame keeps the measured pelvis path), got mode {self.mode}")
         if self.fps_override and self.fps is None:
             raise InputError(f"{field_name(source, 'fps_override')}: expected together with fps, got no fps")
+        if self._no_recorded_rate():
+            raise InputError(f"{field_name(source, 'fps')}: expected the frame rate (no video is given and "
+                             f"{self.lifter} files do not record one), got none")
         if self.confidence_threshold is not None and self.keypoints2d is None:
             raise InputError(f"{field_name(source, 'confidence_threshold')}: expected together with 2D keypoints "
                              f"(it masks their low-confidence joints), got {self.confidence_threshold:g} without keypoints2d")

@@ -1174,3 +1174,18 @@ def test_the_frame_rate_source_says_whether_a_recorded_rate_checked_fps():
                        ("m.npz", 30.0)) == (60.0, "--fps, overriding m.npz")
     assert _frame_rate(RunConfig(lifter="mediapipe", lifter_output="m.npz"), None, ("m.npz", 30.0)) == (
         30.0, "recorded in m.npz")
+
+
+def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(tmp_path):
+    """The library's validation refuses it as `pcnet batch` does, naming the field (the run had
+    refused it only after loading its inputs; a library caller's config passed validation)."""
+    from pcnet.stages.core.errors import InputError
+
+    with pytest.raises(InputError, match=r"^config: field 'fps': expected the frame rate \(no video is given and "
+                                         r"motionbert files do not record one\), got none$"):
+        RunConfig(lifter="motionbert", lifter_output="absent.npy").validate()
+    RunConfig(lifter="mediapipe", lifter_output="absent.npz").validate()  # its archives may carry the rate
+    RunConfig(lifter="motionbert", lifter_output="absent.npy", fps=30.0).validate()
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "absent.npy", "--out", tmp_path / "o")
+    assert res.exit_code == 1 and "--fps: expected the frame rate (no video is given and motionbert files do not " \
+        "record one), got none" in res.output and not (tmp_path / "o").exists(), res.output
