@@ -87,6 +87,8 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
     # the file's inf/NaN in the poses kept (the chosen hypothesis; for the mean, in every one)
     nonfinite = nonfinite_frames(arr, H36M_JOINTS)
     require_some_finite(p, "predictions", arr)
+    # the size check first: a millimetre file's pelvis lies 1000 times further from the origin
+    arr = checked_poses(p, "predictions", arr, "h36m17", "m")
     off_origin, _ = pelvis_offset(arr)
     if rebased_world_frame(arr, off_origin):
         raise AdapterError(p, "predictions", "D3DP/DDHPose predictions in the camera frame (the "
@@ -97,8 +99,7 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
                            f"the pelvis {off_origin:.3g} from the origin (median over frames): MotionBERT's infer_wild "
                            "output? (--lifter motionbert)")
     notes.append("root as delivered (D3DP zeroes it)")
-    joints = checked_poses(p, "predictions", arr, "h36m17", "m")
-    return Poses3D(np.ascontiguousarray(joints), "h36m17", units="m", source=str(p), notes="; ".join(notes),
+    return Poses3D(np.ascontiguousarray(arr), "h36m17", units="m", source=str(p), notes="; ".join(notes),
                    nonfinite=nonfinite)
 
 

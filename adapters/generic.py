@@ -94,6 +94,7 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
     """
     rows: list[list[float]] = []
     empty: list[list[bool]] = []
+    row_lines: list[int] = []
     note = ""
     with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
         reader = csv.reader(fh, delimiter=delimiter)
@@ -127,6 +128,7 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
             try:
                 rows.append([_cell(c) for c in cells])
                 empty.append([not c for c in cells])
+                row_lines.append(line_no)
             except ValueError:
                 if delimiter != "," and any("," in c for c in cells) and all(
                         c == "" or _is_number(c.replace(",", ".")) for c in cells):
@@ -151,7 +153,9 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
         raise AdapterError(p, "rows", "at least one data row", "none")
     widths = {len(r) for r in rows}
     if len(widths) != 1:
-        raise AdapterError(p, "columns", "the same number of columns on every row", f"widths {sorted(widths)[:10]}")
+        line, width = next((n, len(r)) for n, r in zip(row_lines, rows) if len(r) != len(rows[0]))
+        raise AdapterError(p, f"line {line}", f"{len(rows[0])} columns, as on line {row_lines[0]}",
+                           f"{width}; widths {sorted(widths)[:10]}")
     if header_width is not None and {header_width} != widths:
         raise AdapterError(p, "header", f"one name per column ({widths.pop()} columns of numbers)",
                            f"{header_width} names")

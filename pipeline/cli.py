@@ -334,15 +334,15 @@ def _run_and_report(cfg) -> None:
 @main.command()
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), default=None,
               help="TOML file with the same fields; command-line options override it.")
-@click.option("--video", type=click.Path(dir_okay=False), default=None,
+@click.option("--video", type=click.Path(exists=True, dir_okay=False), default=None,
               help="The recorded video; alone (no --lifter-output), the embedded MediaPipe estimator makes the poses "
                    '(pip install "pcnet[video]").')
-@click.option("--keypoints2d", type=click.Path(), default=None, help="2D keypoint file (or OpenPose folder).")
+@click.option("--keypoints2d", type=click.Path(exists=True), default=None, help="2D keypoint file (or OpenPose folder).")
 @click.option("--keypoints2d-format", type=_RegisteredChoice(keypoint_formats), default=None,
               help="Which 2D detector wrote --keypoints2d (needed with it).")
 @click.option("--lifter", type=_RegisteredChoice(lifter_names), default=None,
               help="Which 3D lifter wrote --lifter-output.")
-@click.option("--lifter-output", type=click.Path(dir_okay=False), default=None,
+@click.option("--lifter-output", type=click.Path(exists=True, dir_okay=False), default=None,
               help="The 3D lifter's output file (camera-frame poses).")
 @click.option("--method", type=click.Choice(METHODS), default=None, help="Rectification method [pcnet].")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights [shipped].")

@@ -446,30 +446,52 @@ def side_agreement(d2: np.ndarray, d3: np.ndarray) -> float:
 
 
 def side_swap_flag(keypoints2d: np.ndarray, joints_cam: np.ndarray,
-                   limit: SideSwapLimit | None = None) -> list[Finding]:
+                   limit: SideSwapLimit | None = None, model: MirrorModel | None = None) -> list[Finding]:
     """A flag when the 3D lifter's left and right contradict the 2D keypoints': the
     :func:`side_agreement` of their :func:`side_extents` is below ``limit.agreement_limit``
-    (default: the shipped :func:`load_side_swap_limit`, decision 0077). The 3D output's sides
-    are then probably exchanged (a wrong joint order or --layout, or a mirrored lifter input),
-    which no pose-only check can always see: the rotation then faces the body the wrong way,
-    with its knees bent backwards.
+    (default: the shipped :func:`load_side_swap_limit`, decision 0077).
+
+    Which of the two is wrong is read from the 3D skeleton alone, by the mirror test of
+    :func:`mirrored_skeleton_flag` at its odds :data:`pcnet.stages.mirror.MIRROR_ODDS`:
+
+    - unless the 3D skeleton bends its knees and elbows as a body does at those odds, its sides
+      are probably exchanged (a wrong joint order or --layout, or a mirrored lifter input),
+      which no pose-only check can always see: the rotation then faces the body the wrong way,
+      with its knees bent backwards;
+    - where it does, the 3D is a body and its sides are its own: front and back were confused,
+      by the 2D detector (whose left and right then swap, common side-on) or by the lifter
+      (which then turned the whole body round). The joint angles stand; the heading may be
+      half a turn off.
 
     Args:
         keypoints2d: ``(T, 17, 3)`` H36M-17 pixels and confidence (NaN = missing).
         joints_cam: ``(T, 17, 3)`` H36M-17 camera-frame poses, any units.
         limit: the agreement limit; None: the shipped one.
+        model: the mirror test's fitted cue distribution; None: the shipped one.
     """
     agreement = side_agreement(*side_extents(keypoints2d, joints_cam))
     lowest = (limit or load_side_swap_limit()).agreement_limit
     if not agreement < lowest:  # NaN: no hip or shoulder seen in both
         return []
+    said = (f"agreement of the hips' and shoulders' left-right extents {agreement:+.2f}, below {lowest:+.2f}, the "
+            f"lowest of any training recording whose sides are right")
+    cues, counted = recording_cues(joints_cam)
+    body_odds = float(np.exp(min(-(model or load_mirror_model()).log_odds(cues), 50.0))) if counted else 0.0
+    if body_odds >= MIRROR_ODDS:
+        return [_found(Kind.SIDE_SWAP, Severity.CHECK,
+                       f"3D facing contradicts the 2D keypoints (agreement {agreement:+.2f}): front and back confused",
+                       "compare the heading with the video",
+                       f"the 3D poses' left and right contradict the 2D keypoints' ({said}), but the 3D skeleton bends "
+                       f"its knees and elbows as a body does ({body_odds:.0f} times as likely as a mirror image), so its "
+                       f"sides are its own: front and back were confused, by the 2D detector (its left and right "
+                       f"swapped, common for a body seen side-on) or by the lifter (the whole body turned round). The "
+                       f"joint angles stand; if the lifter turned the body, the heading is half a turn off")]
     return [_found(Kind.SIDE_SWAP, Severity.PROBLEM,
                    f"3D left/right contradict the 2D keypoints (agreement {agreement:+.2f}): sides swapped",
                    "check the joint order (--layout with --lifter generic)",
-                   f"the 3D poses' left and right contradict the 2D keypoints' (agreement of the hips' and "
-                   f"shoulders' left-right extents {agreement:+.2f}, below {lowest:+.2f}, the lowest of any training "
-                   f"recording whose sides are right): the 3D output's sides are probably swapped (its joint order "
-                   f"or --layout), so the body faces the wrong way and its knees bend backwards")]
+                   f"the 3D poses' left and right contradict the 2D keypoints' ({said}): the 3D output's sides are "
+                   f"probably swapped (its joint order or --layout), so the body faces the wrong way and its knees "
+                   f"bend backwards")]
 
 
 #: H36M-17 joints of the trunk and head, whose 2D keypoints the outside-picture check reads: a

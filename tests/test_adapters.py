@@ -745,6 +745,10 @@ def test_generic_csv_headers_pandas_numbers_and_widths(tmp_path):
     short.write_text("x,y,z\n" + body)
     with pytest.raises(AdapterError, match=r"header.*one name per column \(51 columns of numbers\), got 3 names"):
         load_generic(short)
+    truncated = tmp_path / "truncated.csv"  # a file cut off mid-row: the line is named (a user trial)
+    truncated.write_text("# exported\n" + body + body.splitlines()[0][:9] + "\n")
+    with pytest.raises(AdapterError, match=r"'line 8': expected 51 columns, as on line 2, got 1; widths \[1, 51\]"):
+        load_generic(truncated)
     bom = tmp_path / "bom.csv"
     bom.write_text("\ufeff" + body, encoding="utf-8")
     np.testing.assert_allclose(load_generic(bom).joints, base, atol=1e-6)

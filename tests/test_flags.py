@@ -14,7 +14,7 @@ from conftest import FIXTURES, ROOT, camera_up, rrd_summary, shared
 
 from pcnet.pipeline.cli import main
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.flags import (Kind, SwitchLimits, camera_tilt, lifter_frame_flag, load_side_swap_limit,
+from pcnet.stages.flags import (Kind, Severity, SwitchLimits, camera_tilt, lifter_frame_flag, load_side_swap_limit,
                                 load_skeleton_limits, load_switch_limits, mirrored_skeleton_flag,
                                 orientation_flags, pelvis_jumps, posture_flag,
                                 side_agreement, side_extents, side_swap_flag, size_change_flag, track_segments,
@@ -430,6 +430,11 @@ def test_3d_sides_that_contradict_the_2d_keypoints_are_flagged():
     swapped = X[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]]
     (flag,) = side_swap_flag(kp2d, swapped)
     assert "agreement -0.90" in flag.headline and "--layout" in flag.detail
+    # the 2D keypoints' sides swapped instead (a detector's front and back confused side-on): the
+    # 3D skeleton is a body by the mirror test, so its angles are not called backwards (a user trial)
+    (flag,) = side_swap_flag(kp2d[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]], X)
+    assert flag.headline == "3D facing contradicts the 2D keypoints (agreement -0.90): front and back confused"
+    assert flag.severity == Severity.CHECK and "joint angles stand" in flag.detail and "--layout" not in flag.detail
     assert side_agreement(*side_extents(kp2d, swapped)) == pytest.approx(-side_agreement(*side_extents(kp2d, X)))
     assert side_swap_flag(kp2d, np.full_like(X, np.nan)) == []  # nothing seen: no reading
 

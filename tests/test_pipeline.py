@@ -1186,6 +1186,10 @@ def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(t
         RunConfig(lifter="motionbert", lifter_output="absent.npy").validate()
     RunConfig(lifter="mediapipe", lifter_output="absent.npz").validate()  # its archives may carry the rate
     RunConfig(lifter="motionbert", lifter_output="absent.npy", fps=30.0).validate()
-    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "absent.npy", "--out", tmp_path / "o")
+    x3d = FIXTURES / "boxing_X3D_f000-059.npy"
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", x3d, "--out", tmp_path / "o")
     assert res.exit_code == 1 and "--fps: expected the frame rate (no video is given and motionbert files do not " \
         "record one), got none" in res.output and not (tmp_path / "o").exists(), res.output
+    # a missing file is named before the frame rate it would not have recorded (a user trial)
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "absent.npy", "--out", tmp_path / "o")
+    assert res.exit_code == 1 and f"'--lifter-output': File '{tmp_path / 'absent.npy'}' does not exist" in res.output
