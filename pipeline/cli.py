@@ -351,7 +351,7 @@ def _run_and_report(cfg) -> None:
                    "spread of the per-frame up) [sequence].")
 @_heading_option
 @_camera_prior_option
-@click.option("--height", type=float, default=None, help="Subject height in metres: every lifter's output is scaled to it (normalised output gets metres; metric output is rescaled to this subject), by one factor from the median ankle-to-head chain.")
+@click.option("--height", type=float, default=None, help="Subject height in metres: every lifter's output is scaled to it (normalised output gets metres; metric output is rescaled to this subject), by one factor from the median ankle-to-head chain, taken as H36M's share of stature (an individual's differs by several per cent).")
 @click.option("--fps", type=float, default=None,
               help="Frame rate when neither the video nor the input files give it.")
 @click.option("--fps-override", is_flag=True, default=None,
@@ -503,7 +503,8 @@ def opensim(out_dir, height, mass, overwrite):
     """
     from pcnet.pipeline.outdir import is_owned, register_files, stale_staging
     from pcnet.stages.flags import opensim_fit_findings, ranked
-    from pcnet.stages.opensim_ik import import_opensim, opensim_fit_line, OUTPUTS, scale_and_ik, UNOBSERVED_NOTE
+    from pcnet.stages.opensim_ik import (import_opensim, locked_note, opensim_fit_line, OUTPUTS, scale_and_ik,
+                                         UNOBSERVED_NOTE)
 
     folder = Path(out_dir)
     if not folder.is_dir():
@@ -532,6 +533,7 @@ def opensim(out_dir, height, mass, overwrite):
     for f in ranked(opensim_fit_findings(result)):
         click.echo(f"WARNING  {f.headline} -> {f.action}")
     click.echo(f"note     {UNOBSERVED_NOTE}")
+    click.echo(f"note     {locked_note()}")
     for name in OUTPUTS:
         click.echo(f"{name:<17} {result['outputs'][name]}")
     click.echo(f"details: {details}")

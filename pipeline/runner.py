@@ -33,7 +33,7 @@ from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, RE
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, UNOBSERVED_NOTE as OPENSIM_UNOBSERVED, import_opensim,
-                                     opensim_fit_line, scale_and_ik)
+                                     locked_note as opensim_locked_note, opensim_fit_line, scale_and_ik)
 from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motion_findings, keypoints_unused_flag,
                                missing_data_line, no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
@@ -849,7 +849,7 @@ def _opensim(cfg: RunConfig, staged: Path, findings: list[Finding], notes: list[
         findings += no_opensim_flag()
         return {}
     fit = scale_and_ik(trc, staged, cfg.height, cfg.mass)
-    notes += [opensim_fit_line(fit), OPENSIM_UNOBSERVED]
+    notes += [opensim_fit_line(fit), OPENSIM_UNOBSERVED, opensim_locked_note()]
     findings += opensim_fit_findings(fit)
     return {name: staged / name for name in OPENSIM_OUTPUTS}
 
@@ -1173,7 +1173,9 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
         factor = height_factor(cam, cfg.height, who=f"{cfg.lifter_output}: --height")
         _scaled_in_place(cam, factor)
         root_cam = None if root_cam is None else root_cam * factor
-        notes.append(f"scaled by {factor:.4g} to a {cfg.height} m subject (from {units})")
+        notes.append(f"scaled by {factor:.4g} to a {cfg.height} m subject (from {units}), taking the subject's "
+                     f"ankle-to-head chain as H36M's share of stature (an individual's share differs by several "
+                     f"per cent, stages/scale.py)")
         units = "m"
     elif units != "m":
         notes.append(f"lifter output is {units}, not metres: give --height for metric kinematics and a TRC file")

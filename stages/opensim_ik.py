@@ -11,8 +11,8 @@ Model and setup files (``pcnet/stages/opensim_data/``, see ``ATTRIBUTION.md`` th
 
 * ``Model_H36M17.osim``: Pose2Sim's ``Model_Pose2Sim_simple.osim`` (Pagnon et al. 2021,
   BSD-3-Clause; after Rajagopal et al. 2016) without mesh geometry, with the coordinates no
-  joint-centre marker constrains locked at 0 (ankle, subtalar, mtp, pronation/supination,
-  wrist flexion/deviation).
+  joint-centre marker constrains locked at their default values (ankle, subtalar, mtp and
+  wrist flexion/deviation at 0, pronation/supination at 90 deg: :func:`locked_note`).
 * ``Markers_H36M17.xml``: one marker per H36M-17 joint at the model's joint centres, read
   from the joints' parent offset frames in the ``.osim`` (hips, knees, ankles, shoulders,
   elbows, wrists; ``pelvis`` at the midpoint of the hip centres). ``spine``, ``thorax``,
@@ -42,6 +42,7 @@ runs, so pcnet works without it.
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import math
 import os
@@ -124,6 +125,22 @@ UNOBSERVED_NOTE = ("pelvis_tilt and L5_S1_Flex_Ext are not observable from joint
                    "- L5_S1_Flex_Ext (thigh to thorax) instead of either (docs/benchmarks/kinematics.md)")
 
 
+@functools.lru_cache(maxsize=1)
+def locked_note() -> str:
+    """What ``ik.mot``'s locked columns are: the coordinates :data:`MODEL_FILE` locks at their
+    default values (no H36M-17 marker constrains them; all rotational, so degrees in
+    ``ik.mot``), read from the model, so that a constant there is not read as a measured
+    neutral joint."""
+    import xml.etree.ElementTree as ET  # the shipped model file, not user input
+
+    by_value: dict[float, list[str]] = {}
+    for c in ET.parse(DATA_DIR / MODEL_FILE).iter("Coordinate"):
+        if (c.findtext("locked") or "").strip() == "true":
+            by_value.setdefault(round(math.degrees(float(c.findtext("default_value") or 0.0)), 2), []).append(c.get("name"))
+    held = "; ".join(f"{', '.join(names)} at {value:g} deg" for value, names in by_value.items())
+    return f"ik.mot: locked in the model (H36M-17 has no foot or hand points), not measured: {held}"
+
+
 #: The heading of the section ``pcnet opensim`` adds to the run's report.md (:func:`opensim_markdown`).
 REPORT_SECTION = "## OpenSim inverse kinematics (pcnet opensim)"
 
@@ -144,7 +161,7 @@ def opensim_markdown(result: dict) -> str:
              f"- **static window** (marker placer): {w0:.3f}-{w1:.3f} s",
              f"- **subject**: height {_or_none(result.get('subject_height_m'), 'm')}, mass "
              f"{_or_none(result.get('subject_mass_kg'), 'kg')} (given to `pcnet opensim`; the markers' scale is "
-             f"`pcnet run --height`'s)", f"- **not observable**: {UNOBSERVED_NOTE}", "", "### OpenSim warnings", ""]
+             f"`pcnet run --height`'s)", f"- **not observable**: {UNOBSERVED_NOTE}; {locked_note()}", "", "### OpenSim warnings", ""]
     findings = ranked(opensim_fit_findings(result))
     for i, f in enumerate(findings, 1):
         lines += [f"#### {i}. {f.headline}", "", f"Severity: {f.severity.name.lower()}. Action: {f.action}.", "",

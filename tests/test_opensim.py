@@ -75,6 +75,18 @@ def test_scale_and_ik_on_a_short_real_clip(short_run, tmp_path):
     cols = lines[end + 1].split("\t")
     assert "knee_angle_r" in cols and "hip_flexion_l" in cols
     assert len([line for line in lines[end + 2:] if line.strip()]) == FRAMES
+    # the columns the note calls locked are 0 in every row, the others not (a user trial read a
+    # locked ankle as a neutral one)
+    from pcnet.stages.opensim_ik import locked_note
+
+    table = np.array([[float(v) for v in line.split("\t")] for line in lines[end + 2:] if line.strip()])
+    held = dict((name.strip(), float(value)) for group in locked_note().split(": ", 2)[2].split("; ")
+                for names, value in [group.rsplit(" at ", 1)] for name in names.split(",")
+                for value in [value.removesuffix(" deg")])
+    assert held["ankle_angle_r"] == 0.0 and held["pro_sup_l"] == 89.95 and "knee_angle_r" not in held
+    for name, value in held.items():
+        np.testing.assert_allclose(table[:, cols.index(name)], value, atol=0.01, err_msg=name)
+    assert np.ptp(table[:, cols.index("knee_angle_r")]) > 1.0
     # Existing outputs are refused without overwrite and replaced with it.
     with pytest.raises(InputError, match="--overwrite"):
         scale_and_ik(short_run / "world.trc", out, 1.75)
