@@ -1,15 +1,14 @@
-"""The lifter-skeleton warnings' limits (leg asymmetry, size change, limb proportions) fitted on training mocap, and their checks.
+"""The lifter-skeleton warnings' limits (leg asymmetry, size change) fitted on training mocap, and their checks.
 
     python -m benchmarks.fit_skeleton_limits --data ../shared/data
 
-Decisions 0075 and 0092 (limb proportions). Fit: the training mix's training split (benchmarks/mocap_sets.py: Bandai
+Decision 0075. Fit: the training mix's training split (benchmarks/mocap_sets.py: Bandai
 motion-style train, CMU training subjects; never validation, test or DeepMimic), each clip seen
 by one static "paper" camera with the lifter-noise model's defaults (models/lifter_noise.py;
 ``make_pairs(camera="static", seed=0)``, :func:`benchmarks.fit_speed_limits.clip_series`): a
 person's skeleton plus an ordinary lifter's error. Per clip the flags' own statistics
 (stages/flags.py ``leg_asymmetry``: the legs' relative length difference, medians over frames;
-``size_percentiles``: the 95th over the 5th percentile of the ankle-to-head chain;
-``limb_proportions``: the largest ``|log(upper / lower)|`` of a limb's segments); each limit is
+``size_percentiles``: the 95th over the 5th percentile of the ankle-to-head chain); each limit is
 the largest over the clips (parameter-free, as the motion limits of decision 0034), recorded
 with the clip that set it. Refitted with noise seeds 1-4 to show the envelope's spread (not
 shipped).
@@ -17,10 +16,9 @@ shipped).
 Checks (decision 0075's rule): with the fitted and the hand-set limits, the recordings each
 flag fires on among the held-out mocap (Bandai motion-style test, CMU test subjects, DeepMimic;
 every clip, seen as in the fit), where every firing is a false alarm (budget: 1 in 20 per set);
-the real lifter outputs known to fail each check (the boxing demo's MotionBERT legs, the
-cycling clip_b's growing rider; for the limb proportions, the boxing file in MPI-INF-3DHP's joint
-order and read as COCO-17), which must still fire; every real lifter file of the shared data,
-listed (judged for the limb proportions, all of whose firings there are false alarms). Writes stages/data/skeleton_limits.json with the limits that pass.
+the two real lifter outputs known to fail each check (the boxing demo's MotionBERT legs, the
+cycling clip_b's growing rider), which must still fire; listed, not judged, every real lifter
+file of the shared data. Writes stages/data/skeleton_limits.json with the limits that pass.
 """
 
 from __future__ import annotations
@@ -38,10 +36,7 @@ from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
 from benchmarks.report import fit_arguments, print_and_save, shipped_limit
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
-from pcnet.adapters import get_3d_adapter
-from pcnet.pipeline.io import lifter_joints
-from pcnet.stages.flags import SKELETON_LIMITS_PATH, leg_asymmetry, limb_proportions, size_percentiles
-from pcnet.stages.remap import remap_to_h36m
+from pcnet.stages.flags import SKELETON_LIMITS_PATH, leg_asymmetry, size_percentiles
 
 RESULT = Path(__file__).resolve().parent / "results" / "fit_skeleton_limits.txt"
 COMMAND = "python -m benchmarks.fit_skeleton_limits --data ../shared/data"
@@ -54,35 +49,17 @@ def size_ratio(joints: np.ndarray) -> float:
     return float(p95 / p5)
 
 
-#: MPI-INF-3DHP's 17 joints (head top, neck, right shoulder, elbow, wrist, left ..., right hip,
-#: knee, ankle, left ..., pelvis, spine, head) as H36M-17 indices: a file in that order is
-#: ``X[:, MPI_INF_3DHP_FROM_H36M]`` of the H36M-17 one.
-MPI_INF_3DHP_FROM_H36M = [10, 8, 14, 15, 16, 11, 12, 13, 1, 2, 3, 4, 5, 6, 0, 7, 9]
-
-
-def known_failures(name: str, real: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """``{description: (T, 17, 3) poses}`` the flag ``name`` must fire on: real lifter files
-    that fail its check (decision 0075), or a real file read in another joint order (0092)."""
-    if name == "limb_proportions":
-        boxing = real["boxing_motionbert/X3D.npy"]
-        return {"boxing X3D.npy in MPI-INF-3DHP's order": boxing[:, MPI_INF_3DHP_FROM_H36M],
-                "boxing X3D.npy read as COCO-17": remap_to_h36m(boxing, "coco17")}
-    known = {"leg_asymmetry": "boxing_motionbert/X3D.npy", "size_change_ratio": "cycling_motionbert/clip_b_X3D.npy"}
-    return {known[name]: real[known[name]]}
-
-
-#: name -> (statistic of one recording, the hand-set limit before decision 0075 (None: a flag
-#: new with its fit, decision 0092)).
+#: name -> (statistic of one recording, the hand-set limit before decision 0075, the real lifter
+#: file known to fail it).
 STATISTICS = {
-    "leg_asymmetry": (lambda X: leg_asymmetry(X)[0], 0.10),
-    "size_change_ratio": (size_ratio, 1.5),
-    "limb_proportions": (lambda X: limb_proportions(X)[0], None),
+    "leg_asymmetry": (lambda X: leg_asymmetry(X)[0], 0.10, "boxing_motionbert/X3D.npy"),
+    "size_change_ratio": (size_ratio, 1.5, "cycling_motionbert/clip_b_X3D.npy"),
 }
 
 
 def statistics(series) -> dict[str, np.ndarray]:
     """``name -> (N,)`` each recording's statistic (NaN where the flag measures nothing)."""
-    return {name: np.array([f(X) for _, _, X in series]) for name, (f, _) in STATISTICS.items()}
+    return {name: np.array([f(X) for _, _, X in series]) for name, (f, _, _) in STATISTICS.items()}
 
 
 def envelope(values: np.ndarray) -> tuple[float, int]:
@@ -91,8 +68,8 @@ def envelope(values: np.ndarray) -> tuple[float, int]:
     return float(values[i]), i
 
 
-def fires(values: np.ndarray, limit: float | None) -> int | str:
-    return "-" if limit is None else int(np.sum(values > limit))
+def fires(values: np.ndarray, limit: float) -> int:
+    return int(np.sum(values > limit))
 
 
 def main() -> None:
@@ -110,8 +87,8 @@ def main() -> None:
              f"Fit: {len(train)} training clips, one static 'paper' camera each, lifter noise (seed 0); each "
              f"limit the largest value, rounded up to 0.0001.", "",
              f"{'limit':20s} {'hand-set':>9s} {'fitted':>8s}  set by; seeds {', '.join(map(str, SPREAD_SEEDS))}"]
-    for name, (_, hand) in STATISTICS.items():
-        lines.append(f"{name:20s} {'-' if hand is None else f'{hand:.3f}':>9s} {fitted[name]:8.3f}  {at[name]}; "
+    for name, (_, hand, _) in STATISTICS.items():
+        lines.append(f"{name:20s} {hand:9.3f} {fitted[name]:8.3f}  {at[name]}; "
                      + ", ".join(f"{np.nanmax(s[name]):.3f}" for s in spread))
     lines += ["", "Recordings a flag fires on (held-out mocap with lifter noise: false alarms, budget 1 in 20 per set):",
               "", f"{'set':30s} {'n':>5s}" + "".join(f" {n + ' fitted':>26s} {'hand-set':>9s}" for n in STATISTICS)]
@@ -120,33 +97,25 @@ def main() -> None:
         clips = select_split(load_mocap(args.data / "mocap" / file), split, "motion-style")
         held = statistics(clip_series(clips, LifterNoise()))
         row = f"{label:30s} {len(clips):5d}"
-        for name, (_, hand) in STATISTICS.items():
+        for name, (_, hand, _) in STATISTICS.items():
             n_fit = fires(held[name], fitted[name])
             passes[name] &= n_fit <= len(clips) / 20
-            row += f" {n_fit:26d} {fires(held[name], hand):>9}"
+            row += f" {n_fit:26d} {fires(held[name], hand):9d}"
         lines.append(row)
-    lines += ["", "Real lifter files (known failures judged: each must still fire with its fitted limit; decision "
-              "0092's flag: at most 1 in 20 of the real files may fire):", ""]
+    lines += ["", "Real lifter files (known failures judged: each must still fire with its fitted limit):", ""]
     real = args.data / "real"
     files = sorted([*real.glob("*motionbert/*.npy"), *real.glob("yoga_videopose3d/*.npy")])
     reals = {f.relative_to(real).as_posix(): np.load(f, allow_pickle=False) for f in files}
-    for f in sorted([*real.glob("pose2sim_gravity/*.npz"), *real.glob("sports2d_demo/*.npz")]):
-        reals[f.relative_to(real).as_posix()] = lifter_joints(get_3d_adapter("mediapipe").load(f), str(f))
-    for name, (f, hand) in STATISTICS.items():
+    for name, (f, hand, known) in STATISTICS.items():
+        value = f(reals[known])
+        passes[name] &= value > fitted[name]
         values = np.array([f(X) for X in reals.values()])
-        if hand is None:  # a new flag: every firing on a real file in H36M-17's order is a false alarm
-            passes[name] &= fires(values, fitted[name]) <= len(values) / 20
-        for known, X in known_failures(name, reals).items():
-            value = f(X)
-            passes[name] &= value > fitted[name]
-            lines.append(f"{name}: {known} {value:.3f} ({'fires' if value > fitted[name] else 'does not fire'})")
-        shown = fitted[name] if hand is None else min(fitted[name], hand)
-        lines.append(f"{name}: of {len(values)} real files {fires(values, fitted[name])} fire with the fitted limit, "
+        lines.append(f"{name}: {known} {value:.3f} ({'fires' if value > fitted[name] else 'does not fire'}); "
+                     f"of {len(values)} real files {fires(values, fitted[name])} fire with the fitted limit, "
                      f"{fires(values, hand)} with the hand-set one: "
                      + ", ".join(f"{k} {v:.3f}" for k, v in sorted(zip(reals, values), key=lambda kv: -kv[1])
-                                 if v > shown))
-    lines += ["", "Decisions 0075's and 0092's rules (each held-out set at most 1 in 20, its known failures still "
-              "fire; a new flag, at most 1 in 20 real files): "
+                                 if v > min(fitted[name], hand)))
+    lines += ["", "Decision 0075's rule (each held-out set at most 1 in 20, its known real failure still fires): "
               + "; ".join(f"{n} {'ships' if ok else 'fails: the flag goes'}" for n, ok in passes.items()),
               "", f"({time.perf_counter() - t0:.0f} s)"]
     print_and_save(lines, args.out)

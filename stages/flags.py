@@ -19,9 +19,8 @@ from types import MappingProxyType
 import numpy as np
 
 from .core.errors import InputError
-from .core.conventions import (HEAD, L_ANKLE, L_ELBOW, L_HIP, L_KNEE, L_SHOULDER, L_WRIST, NECK_NOSE, PELVIS, R_ANKLE,
-                               R_ELBOW, R_HIP, R_KNEE, R_SHOULDER, R_WRIST, SPINE, THIGH_RANGE_M, THORAX,
-                               median_thigh_length)
+from .core.conventions import (HEAD, L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SHOULDER, SPINE, THIGH_RANGE_M,
+                               THORAX, median_thigh_length)
 from .core.framestore import frame_blocks, true_runs
 from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg
 from .kinematics import frames_phrase, shortest_filtered_run
@@ -343,33 +342,6 @@ def leg_asymmetry_flag(joints: np.ndarray, limits: SkeletonLimits | None = None)
                    f"the lifter's left and right legs differ by {100 * difference:.0f} % in length (median over "
                    f"frames; the {shorter} one shorter), more than a person's: heights above the floor (set by the "
                    f"lowest joint) and left/right comparisons carry the lifter's error")]
-
-
-#: The four limbs as (name, proximal joint, middle joint, distal joint) of H36M-17.
-LIMBS = (("right arm", R_SHOULDER, R_ELBOW, R_WRIST), ("left arm", L_SHOULDER, L_ELBOW, L_WRIST),
-         ("right leg", R_HIP, R_KNEE, R_ANKLE), ("left leg", L_HIP, L_KNEE, L_ANKLE))
-
-
-def limb_proportions(joints: np.ndarray) -> tuple[float, str, float]:
-    """How far the limbs of H36M-17 poses ``(T, 17, 3)`` (any units) stray from equal
-    segments: the largest over the four limbs of ``|log(upper / lower)|``, the medians over
-    frames of the upper segment (shoulder -> elbow, hip -> knee) and the lower one (elbow ->
-    wrist, knee -> ankle); with the limb it comes from and its ratio ``upper / lower``. A
-    person's segments are of a size (the H36M skeleton's upper arm is 1.12 forearms, its thigh
-    0.98 shanks); joints in another order than H36M-17's join other points. ``(NaN, "", NaN)``
-    where no limb has a finite frame."""
-    worst = (float("nan"), "", float("nan"))
-    for name, a, b, c in LIMBS:
-        upper = np.linalg.norm(joints[:, b] - joints[:, a], axis=-1)
-        lower = np.linalg.norm(joints[:, c] - joints[:, b], axis=-1)
-        both = np.isfinite(upper) & np.isfinite(lower)
-        if not both.any():
-            continue
-        ratio = float(np.median(upper[both]) / np.median(lower[both])) if np.median(lower[both]) > 0 else np.inf
-        deviation = abs(float(np.log(ratio))) if ratio > 0 else np.inf
-        if not deviation <= worst[0]:  # NaN at first
-            worst = (deviation, name, ratio)
-    return worst
 
 
 def size_percentiles(joints: np.ndarray) -> np.ndarray:
