@@ -6,6 +6,7 @@ and a unit scale (``units=``).
 
 from __future__ import annotations
 
+import collections
 import csv
 import math
 from pathlib import Path
@@ -153,8 +154,10 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
         raise AdapterError(p, "rows", "at least one data row", "none")
     widths = {len(r) for r in rows}
     if len(widths) != 1:
-        line, width = next((n, len(r)) for n, r in zip(row_lines, rows) if len(r) != len(rows[0]))
-        raise AdapterError(p, f"line {line}", f"{len(rows[0])} columns, as on line {row_lines[0]}",
+        counts = collections.Counter(len(r) for r in rows)
+        usual = max(sorted(counts), key=counts.__getitem__)  # the most rows' width (ties: the narrower)
+        line, width = next((n, len(r)) for n, r in zip(row_lines, rows) if len(r) != usual)
+        raise AdapterError(p, f"line {line}", f"{usual} columns, as on {counts[usual]} of the {len(rows)} rows",
                            f"{width}; widths {sorted(widths)[:10]}")
     if header_width is not None and {header_width} != widths:
         raise AdapterError(p, "header", f"one name per column ({widths.pop()} columns of numbers)",

@@ -108,13 +108,14 @@ def up_estimates(joints: np.ndarray, fps: float) -> dict[str, dict]:
 
 def wrist_specific_force(joints: np.ndarray, up: np.ndarray, fps: float, cutoff_hz: float) -> np.ndarray:
     """``|a - g| / 9.81`` ``(T,)`` of the right wrist, g units: ``a`` from
-    :func:`pcnet.stages.kinematics.compute_kinematics` (Butterworth ``cutoff_hz``, central
-    differences) of camera-frame ``joints`` ``(T, 17, 3)`` (static camera), ``g = -9.81 up``
-    with ``up`` ``(T, 3)`` or ``(3,)`` in the camera frame. NaN where either is missing."""
+    :func:`pcnet.stages.kinematics.filtered_derivatives` (``compute_kinematics``' Butterworth
+    ``cutoff_hz`` and central differences, which take Y-up poses) of camera-frame ``joints``
+    ``(T, 17, 3)`` (static camera), ``g = -9.81 up`` with ``up`` ``(T, 3)`` or ``(3,)`` in the
+    camera frame. NaN where either is missing."""
     from pcnet.stages.core.conventions import R_WRIST
-    from pcnet.stages.kinematics import compute_kinematics
+    from pcnet.stages.kinematics import filtered_derivatives
 
-    a = compute_kinematics(joints, fps, cutoff_hz).acceleration[:, R_WRIST]
+    a = filtered_derivatives(np.asarray(joints, np.float64)[:, R_WRIST], fps, cutoff_hz)[3]
     return np.linalg.norm(a + G * np.asarray(up, np.float64), axis=-1) / G
 
 
@@ -128,7 +129,7 @@ def wrist_specific_force_world(joints: np.ndarray, root: np.ndarray, R: np.ndarr
     from pcnet.stages.world_frame import to_world, world_frame
 
     world = to_world(joints, world_frame(R, valid, fps), root_cam=root)
-    a = compute_kinematics(world, fps, cutoff_hz).acceleration[:, R_WRIST]
+    a = compute_kinematics(world, fps, cutoff_hz, check_up=False).acceleration[:, R_WRIST]
     return np.linalg.norm(a - np.array([0.0, -G, 0.0]), axis=-1) / G
 
 

@@ -77,8 +77,8 @@ def clip_errors(inputs, R_true, mocap, fps) -> tuple[dict[str, dict[str, np.ndar
     R_hat, valid = rectified.rotation, rectified.valid
     truth = compute_kinematics(true_world(mocap, R_true, fps), fps)
     frame = world_frame(R_hat, valid, fps)
-    world = compute_kinematics(to_world(inputs, frame), fps)
-    canonical = compute_kinematics(rectified.canonical, fps)
+    world = compute_kinematics(to_world(inputs, frame), fps, check_up=False)
+    canonical = compute_kinematics(rectified.canonical, fps, check_up=False)
     out = {}
     for kind, k in (("world", world), ("canonical", canonical)):
         e = {"speed": np.abs(k.speed - truth.speed),
@@ -93,7 +93,7 @@ def clip_errors(inputs, R_true, mocap, fps) -> tuple[dict[str, dict[str, np.ndar
     # pure per-frame rotation of the same poses).
     true_frame = world_frame(R_true, np.ones(len(R_true), bool), fps)
     world_true = compute_kinematics(to_world(inputs, true_frame), fps)
-    canonical_rigid = compute_kinematics(to_canonical(inputs, R_hat), fps)
+    canonical_rigid = compute_kinematics(to_canonical(inputs, R_hat), fps, check_up=False)
     angles = {kind: dict(k.angles) for kind, k in (
         ("truth", truth), ("world", world), ("canonical", canonical),
         ("world_true_rotation", world_true), ("canonical_no_residual", canonical_rigid))}

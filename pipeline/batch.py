@@ -34,7 +34,8 @@ from pathlib import Path
 from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError, close_names
 
-from .batch_marker import BATCH_MARKER, completed_record, input_files, pcnet_version, read_batch_marker, record_status
+from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, pcnet_version, read_batch_marker,
+                           record_status)
 from .batch_worker import FINDINGS, RESULT_FIELDS, cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, RunConfig
 from .interrupt import EXIT_INTERRUPTED
@@ -573,7 +574,10 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
         try:
             config = configs.config(row)
         except InputError as err:
-            problems[line] = f"{where}: {_as_columns(str(err))}"
+            # a missing input named first: it may be why the settings look wrong (no rate recorded)
+            given = {name: _manifest_path(configs.base, cell) for name in INPUT_FIELDS
+                     if (cell := _given(row.get(name))) is not None}
+            problems[line] = "\n".join([*_input_problems(where, row, given, paths), f"{where}: {_as_columns(str(err))}"])
             continue
         inputs = input_files(config)
         found = (_input_problems(where, row, inputs, paths) or

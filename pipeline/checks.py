@@ -18,6 +18,7 @@ from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_w
                                mirrored_skeleton_flag, orientation_flags, posture_flag,
                                side_swap_flag, size_change_flag, track_switch_flag)
 from pcnet.stages.rectification_report import ModeChoice, RectificationReport
+from pcnet.stages.rectify import Rectified
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
 
@@ -98,6 +99,24 @@ def checks(c: CheckInputs) -> list[Finding]:
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option)
           if c.track_segment is not None else []),
     ]
+
+
+def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding]:
+    """The findings of :func:`checks` that the poses and their rectification alone can give, as
+    ``pcnet rectify`` prints them (no file, unit, 2D keypoints or video to read): the camera's
+    orientation, the legs' asymmetry, a mirrored skeleton, the posture hypotheses and the
+    ensemble's weights (outside sequence mode).
+
+    Args:
+        joints_camera: ``(T, 17, 3)`` camera-frame H36M-17 poses, any units, NaN = missing:
+            what :func:`pcnet.pipeline.rectification.rectify` was given.
+        rectified: its result.
+    """
+    report = rectified.report
+    tilt = CameraTilt.of(rectified.rotation, rectified.valid)
+    return [*orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg), *leg_asymmetry_flag(joints_camera),
+            *mirrored_skeleton_flag(joints_camera), *posture_flag(report.sequence),
+            *ensemble_weights_flag(report.weights if report.mode.run != "sequence" else None)]
 
 
 def spreads_beyond_static(mode: ModeChoice) -> bool:

@@ -59,6 +59,16 @@ class _ErrorBoundary(click.Group):
             raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
 
 
+def _existing(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """An input path that names something (a file, a folder, a link): checked as the option is
+    read, so a missing file is named before any other problem of the run (a user trial was told
+    to pass --fps for a file that did not exist). A link that leads nowhere or loops is left to
+    the readers, which say which."""
+    if value is not None and not os.path.lexists(value):
+        raise click.BadParameter(f"Path '{value}' does not exist.", ctx=ctx, param=param)
+    return value
+
+
 def _caused_by_interrupt(err: BaseException) -> bool:
     """Whether ``err`` was raised while handling (or because of) a ``KeyboardInterrupt``."""
     seen = set()
@@ -252,7 +262,9 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     import numpy as np
 
     from pcnet.adapters.validate import nonfinite_line
+    from pcnet.pipeline.checks import pose_checks
     from pcnet.pipeline.io import read_pose_array
+    from pcnet.stages.flags import ranked
     from pcnet.stages.core.conventions import validate_fps
     from pcnet.stages.sinks.exports import write_npz
     from pcnet.pipeline.rectification import rectify as run_rectify
@@ -286,6 +298,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
                + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
     if nonfinite:  # the file's inf/NaN, which the counts above take as missing joints
         click.echo(nonfinite_line(nonfinite))
+    for f in ranked(pose_checks(joints, res)):  # what pcnet run would say of these poses alone
+        click.echo(f"WARNING  {f.headline} -> {f.action}")
 
 
 @main.command()
@@ -334,15 +348,16 @@ def _run_and_report(cfg) -> None:
 @main.command()
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), default=None,
               help="TOML file with the same fields; command-line options override it.")
-@click.option("--video", type=click.Path(exists=True, dir_okay=False), default=None,
+@click.option("--video", type=click.Path(dir_okay=False), default=None, callback=_existing,
               help="The recorded video; alone (no --lifter-output), the embedded MediaPipe estimator makes the poses "
                    '(pip install "pcnet[video]").')
-@click.option("--keypoints2d", type=click.Path(exists=True), default=None, help="2D keypoint file (or OpenPose folder).")
+@click.option("--keypoints2d", type=click.Path(), default=None, callback=_existing,
+              help="2D keypoint file (or OpenPose folder).")
 @click.option("--keypoints2d-format", type=_RegisteredChoice(keypoint_formats), default=None,
               help="Which 2D detector wrote --keypoints2d (needed with it).")
 @click.option("--lifter", type=_RegisteredChoice(lifter_names), default=None,
               help="Which 3D lifter wrote --lifter-output.")
-@click.option("--lifter-output", type=click.Path(exists=True, dir_okay=False), default=None,
+@click.option("--lifter-output", type=click.Path(dir_okay=False), default=None, callback=_existing,
               help="The 3D lifter's output file (camera-frame poses).")
 @click.option("--method", type=click.Choice(METHODS), default=None, help="Rectification method [pcnet].")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights [shipped].")

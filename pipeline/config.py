@@ -135,21 +135,26 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
 
 
 def _keyword_options(load) -> tuple[bool, list[str]]:
-    """Whether an adapter's ``load`` takes any keyword (``**kwargs``), and the keyword-only
-    options it names, read once per function (a manifest checks one config per row)."""
+    """Whether an adapter's ``load`` takes any keyword (``**kwargs``), and the options it
+    names: its parameters after the path that a keyword can pass (keyword-only, or positional
+    ones with a name), read once per function (a manifest checks one config per row)."""
     func = getattr(load, "__func__", load)  # each adapter instance has its own bound method
+    bound = func is not load
     try:
-        var_keyword, taken = _signature_options(func)
+        var_keyword, taken = _signature_options(func, bound)
     except TypeError:  # unhashable
-        var_keyword, taken = _signature_options.__wrapped__(func)
+        var_keyword, taken = _signature_options.__wrapped__(func, bound)
     return var_keyword, list(taken)
 
 
 @functools.lru_cache(maxsize=64)
-def _signature_options(func) -> tuple[bool, tuple[str, ...]]:
-    params = inspect.signature(func).parameters
-    return (any(p.kind is p.VAR_KEYWORD for p in params.values()),
-            tuple(n for n, p in params.items() if p.kind is p.KEYWORD_ONLY))
+def _signature_options(func, bound: bool) -> tuple[bool, tuple[str, ...]]:
+    params = list(inspect.signature(func).parameters.values())
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    before_options = {p.name for p in positional[:1 + bound]}  # ``self`` of a method, then the path
+    return (any(p.kind is p.VAR_KEYWORD for p in params),
+            tuple(p.name for p in params if p.name not in before_options
+                  and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)))
 
 
 #: The lifter format the embedded estimator of `pcnet run --video` writes
@@ -421,7 +426,8 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
     ``overrides`` (not None) win.
 
     Raises:
-        InputError: unknown keys, values of the wrong type or invalid values, naming the file
+        InputError: unknown keys, values of the wrong type or invalid values, or an input file
+            (``video``, ``keypoints2d``, ``lifter_output``) that does not exist, naming the file
             and the field.
     """
     path = Path(path)
@@ -431,4 +437,8 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
         if isinstance(raw.get(key), str):
             raw[key] = str((path.parent / raw[key]).resolve()) if not Path(raw[key]).is_absolute() else raw[key]
     raw.update({k: v for k, v in overrides.items() if v is not None})
+    for key in ("video", "keypoints2d", "lifter_output"):  # named before the settings they may explain
+        if isinstance(raw.get(key), str) and not os.path.lexists(raw[key]):
+            raise InputError(f"{field_name(str(path), key)}: expected an existing file, got no such file "
+                             f"({raw[key]})")
     return RunConfig.from_values(str(path), raw)

@@ -15,7 +15,8 @@ import numpy as np
 
 from pcnet.models.inference import get_session
 from pcnet.models.view_gate import quarter_turn_matrices
-from pcnet.stages.core.conventions import check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
+from pcnet.adapters.validate import ROOT_RELATIVE_MAX
+from pcnet.stages.core.conventions import PELVIS, check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.rectify import (METHODS, MODES, Allocate, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
@@ -82,6 +83,22 @@ def make_estimator(method: str = "pcnet", weights: str | None = None) -> FrameEs
 VIEW_GATE_DEFAULT_FPS = 30.0
 
 
+def check_measured_root(root_cam: np.ndarray, who: str, advice: str) -> None:
+    """Refuse a "measured" pelvis path ``root_cam`` ``(T, 3)`` (metric, camera frame) that stays at
+    the camera's origin (median distance within
+    :data:`pcnet.adapters.validate.ROOT_RELATIVE_MAX`): a root-relative export has no path to
+    keep, and the floor fit would take the pelvis as standing at the lens.
+
+    Raises:
+        InputError: naming ``who``, the pelvis's median distance and ``advice``.
+    """
+    distance = np.linalg.norm(root_cam, axis=1)
+    distance = distance[np.isfinite(distance)]
+    if len(distance) and np.median(distance) <= ROOT_RELATIVE_MAX:
+        raise InputError(f"{who}: expected a measured pelvis path (the pelvis where the person is), got a pelvis at "
+                         f"the camera's origin (median distance {np.median(distance):.2g}): root-relative joints; {advice}")
+
+
 def rectify(
     joints_cam: np.ndarray,
     method: str = "pcnet",
@@ -125,13 +142,16 @@ def rectify(
     midpoint; a frame still without a pelvis is invalid). The report's
     ``pelvis_from_hips_frames`` counts the filled frames; its ``weights`` and
     ``camera_frame_weight`` ``(T,)`` say how far the shipped camera-frame network was trusted
-    (3DPCNet methods without ``weights``).
+    (3DPCNet methods without ``weights``). The warnings ``pcnet run`` would give these poses
+    alone (a mirrored skeleton, the camera's orientation, ...) are
+    :func:`pcnet.pipeline.checks.pose_checks` of the poses and the result.
 
     Raises:
         InputError (a ValueError): bad input array (see above), unknown method, mode or
             heading source, an option of another type (``camera_prior``, ``measured_root``
             not a bool; ``fps`` not a number: ``"no"`` would read as true), no ``fps`` for a
-            mode other than ``frame``, or (sequence modes) no valid frame.
+            mode other than ``frame``, ``measured_root`` over root-relative joints
+            (:func:`check_measured_root`), or (sequence modes) no valid frame.
     """
     for name, value in (("camera_prior", camera_prior), ("measured_root", measured_root)):
         if not isinstance(value, (bool, np.bool_)):
@@ -140,6 +160,8 @@ def rectify(
         raise InputError(f"rectify: mode {mode!r} pools frames over seconds: give fps, the recording's frame rate (Hz)")
     fps = VIEW_GATE_DEFAULT_FPS if fps is None else validate_fps(fps, "rectify: fps")
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
+    if measured_root:
+        check_measured_root(joints_cam[:, PELVIS], "rectify: measured_root", "pass measured_root=False")
     result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, measured_root=measured_root)
     return replace(result, report=replace(result.report, pelvis_from_hips_frames=int(pelvis_filled.sum())))
 

@@ -25,9 +25,10 @@ from types import MappingProxyType
 import numpy as np
 from tqdm import tqdm
 
-from pcnet.adapters import AdapterError, VideoInfo, first_shown_frame, get_2d_adapter, get_3d_adapter, probe_video
+from pcnet.adapters import (AdapterError, Keypoints2D, Poses3D, VideoInfo, first_shown_frame, get_2d_adapter,
+                            get_3d_adapter, probe_video)
 from pcnet.adapters.mediapipe import holds_keypoints_2d
-from pcnet.adapters.validate import ROOT_RELATIVE_MAX, nonfinite_line
+from pcnet.adapters.validate import nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
                                           THORAX, fill_pelvis_from_hips, thigh_beyond_metres, validate_fps)
 from pcnet.stages.core.errors import InputError
@@ -41,7 +42,7 @@ from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motio
 from pcnet.stages.floor import Floor
 from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
                                      residual_analysis)
-from pcnet.pipeline.rectification import rectify_checked
+from pcnet.pipeline.rectification import check_measured_root, rectify_checked
 from pcnet.stages.rectification_report import ModeChoice, RectificationReport
 from pcnet.stages.rectify import NO_VALID_FRAME, no_valid_frame_reason
 from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG
@@ -334,6 +335,18 @@ class RecordingInputs:
     read: dict
 
 
+def _check_returned(loaded: object, kind: type, adapter: object) -> None:
+    """A registered adapter's ``load`` returned ``kind`` (a custom adapter's bug named here,
+    rather than as an AttributeError further on).
+
+    Raises:
+        TypeError: naming the adapter class and what it returned.
+    """
+    if not isinstance(loaded, kind):
+        raise TypeError(f"{type(adapter).__qualname__}.load: expected to return pcnet.adapters.{kind.__name__}, "
+                        f"got {type(loaded).__name__}")
+
+
 def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     video = probe_video(cfg.video) if cfg.video else None
     kp2d, kp_fps, kp_size, kp_choice, kp_extent, kp_layout = None, None, None, "", None, None
@@ -350,6 +363,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
                 raise
             del options["frame_count"]
             kp = adapter.load(cfg.keypoints2d, **options)
+        _check_returned(kp, Keypoints2D, adapter)
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
         kp_size = getattr(kp, "image_size", None)
         kp_choice, kp_layout = getattr(kp, "choice", ""), kp.layout
@@ -361,6 +375,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     if cfg.focal_px is not None and "focal_px" in inspect.signature(adapter.load).parameters:
         options["focal_px"] = cfg.focal_px  # the camera's: a crop-based lifter turns into it (MediaPipe)
     poses = adapter.load(cfg.lifter_output, **options)
+    _check_returned(poses, Poses3D, adapter)
     fps, fps_source = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output), in_place=True)  # loaded here: ours to overwrite
     built = built_joints(poses.layout)
@@ -479,20 +494,8 @@ def _check_metric_body(cfg: RunConfig, cam) -> None:
 
 
 def _check_measured_root(cfg: RunConfig, root_cam: np.ndarray) -> None:
-    """Refuse ``--measured-root`` over a pelvis ``root_cam`` ``(T, 3)`` (m, camera frame)
-    that stays at the camera's origin (median distance within
-    :data:`pcnet.adapters.validate.ROOT_RELATIVE_MAX`): a root-relative export has no path to
-    keep, and the floor fit would take the pelvis as standing at the lens.
-
-    Raises:
-        InputError: naming the lifter output and the pelvis's median distance.
-    """
-    distance = np.linalg.norm(root_cam, axis=1)
-    distance = distance[np.isfinite(distance)]
-    if len(distance) and np.median(distance) <= ROOT_RELATIVE_MAX:
-        raise InputError(f"{cfg.lifter_output}: --measured-root expected a measured pelvis path (the pelvis where "
-                         f"the person is), got a pelvis at the camera's origin (median {np.median(distance):.2g} m): "
-                         f"a root-relative export; drop --measured-root")
+    """:func:`pcnet.pipeline.rectification.check_measured_root` for ``--measured-root``."""
+    check_measured_root(root_cam, f"{cfg.lifter_output}: --measured-root", "drop --measured-root")
 
 
 def _unused_floor_note(measured_root: bool, ground_plane: dict | None) -> list[str]:

@@ -844,6 +844,34 @@ def _require_units(X, units: object, field: str) -> None:
                          f"given as metres? scale the poses to metres, or pass their units")
 
 
+def inverted_trunk_bound_deg() -> float:
+    """The median trunk inclination (pelvis -> thorax from +Y, deg) beyond which Y-up poses
+    are taken to be upside down rather than lying: ``90 + 1.96 sigma_lie``, the up model's
+    fitted spread of a lying trunk's elevation (``lying_elevation_deg``,
+    :mod:`pcnet.stages.up_model`), its two-sided 95 % quantile (a lying trunk's frame passes it
+    one time in 40). An upright body in a camera frame (+Y down) lies near 180 deg less the
+    camera's pitch."""
+    from .up_model import default_parameters  # the fitted parameter's one source
+
+    return 90.0 + 1.96 * default_parameters().lying_elevation_deg
+
+
+def _require_y_up(X: np.ndarray, field: str) -> None:
+    """Refuse poses ``X`` (argument ``field``) whose trunk points down in most frames (median
+    inclination beyond :func:`inverted_trunk_bound_deg`): camera-frame poses (+Y down) given
+    where Y-up ones are expected (a developer's trial got a trunk inclination of 178 deg)."""
+    trunk = X[:, THORAX] - X[:, PELVIS]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        inclination = np.degrees(np.arccos(np.clip(trunk[:, 1] / np.linalg.norm(trunk, axis=1), -1.0, 1.0)))
+    inclination = inclination[np.isfinite(inclination)]
+    bound = inverted_trunk_bound_deg()
+    if len(inclination) and np.median(inclination) > bound:
+        raise InputError(f"{field}: expected Y-up poses (the world or canonical frame), got a trunk pointing down in "
+                         f"most frames (median inclination {np.median(inclination):.0f} deg, beyond {bound:.0f}): "
+                         f"camera-frame poses (+Y down)? rectify them first (pcnet.pipeline.rectify, to_world); a "
+                         f"body inverted for most of the recording: pass check_up=False")
+
+
 def compute_kinematics(
     canonical: np.ndarray,
     fps: float,
@@ -851,6 +879,7 @@ def compute_kinematics(
     units: str = "m",
     order: int = 4,
     continuous: bool = True,
+    check_up: bool = True,
 ) -> Kinematics:
     """Filter Y-up poses, then differentiate and compute angles.
 
@@ -887,6 +916,10 @@ def compute_kinematics(
         continuous: make the angles continuous in time (:func:`continuous_angles`: unwrapped
             per run of present frames, the knee's reading kept); False leaves each frame's
             own decomposition (what :func:`kinematics_chunks` stitches itself).
+        check_up: refuse poses whose trunk points down in most frames
+            (:func:`inverted_trunk_bound_deg`): camera-frame poses (+Y down) given by mistake;
+            False for a body that is inverted for most of the recording (a handstand), which
+            no trunk angle tells from them, or a world frame under test.
 
     Returns:
         a frozen :class:`Kinematics`; :func:`flag_counts` / :func:`format_flag_counts`
@@ -895,14 +928,18 @@ def compute_kinematics(
     Raises:
         ValueError: wrong shape, no frame, ``fps`` not a number in [1, 10000] Hz
             (:func:`~pcnet.stages.core.conventions.validate_fps`), an invalid cutoff/order,
-            ``units`` not a unit's name, or poses in ``"m"`` whose median thigh is no
-            person's (centimetres given as metres).
+            ``units`` not a unit's name, poses in ``"m"`` whose median thigh is no
+            person's (centimetres given as metres), or (``check_up``) poses whose trunk points
+            down in most frames (:func:`inverted_trunk_bound_deg`: camera-frame poses, +Y down).
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
     if not len(X):
         raise InputError("canonical: expected at least one frame, got 0")
+    fps = validate_fps(fps, "fps")
     _require_units(X, units, "canonical")
-    return _kinematics(X, validate_fps(fps, "fps"), cutoff_hz, units, order, continuous)
+    if check_up:
+        _require_y_up(X, "canonical")
+    return _kinematics(X, fps, cutoff_hz, units, order, continuous)
 
 
 def _kinematics(X: np.ndarray, fps: float, cutoff_hz: float | None, units: str, order: int,

@@ -12,7 +12,7 @@ Model and setup files (``pcnet/stages/opensim_data/``, see ``ATTRIBUTION.md`` th
 * ``Model_H36M17.osim``: Pose2Sim's ``Model_Pose2Sim_simple.osim`` (Pagnon et al. 2021,
   BSD-3-Clause; after Rajagopal et al. 2016) without mesh geometry, with the coordinates no
   joint-centre marker constrains locked at their default values (ankle, subtalar, mtp and
-  wrist flexion/deviation at 0, pronation/supination at 90 deg: :func:`locked_note`).
+  wrist flexion/deviation at 0, pronation/supination at 1.57 rad, 89.95 deg: :func:`locked_note`).
 * ``Markers_H36M17.xml``: one marker per H36M-17 joint at the model's joint centres, read
   from the joints' parent offset frames in the ``.osim`` (hips, knees, ankles, shoulders,
   elbows, wrists; ``pelvis`` at the midpoint of the hip centres). ``spine``, ``thorax``,

@@ -9,7 +9,6 @@ from click.testing import CliRunner
 
 from pcnet.adapters import register_2d, register_3d
 from pcnet.adapters.registry import unregister
-from pcnet.pipeline.batch import _needs_fps_column
 from pcnet.pipeline.cli import main
 from pcnet.pipeline.config import (RunConfig, keypoint_formats, lifter_names, multi_track_formats,
                                    records_frame_rate)
@@ -27,8 +26,16 @@ def test_the_builtin_facts_are_those_the_lists_held():
     assert {n for n in keypoint_formats() if not records_frame_rate("2d", n)} == {"alphapose", "mmpose", "openpose"}
 
 
-def _row(**given) -> dict:
-    return {"video": None, "fps": None, "lifter": None, "keypoints2d_format": None, **given}
+def _needs_fps(**given) -> bool:
+    """Whether RunConfig.validate refuses the config for want of a frame rate (as `pcnet batch`
+    refuses a row before any runs)."""
+    try:
+        RunConfig(lifter_output="p.npy", **({"keypoints2d": "k.json"} if "keypoints2d_format" in given else {}),
+                  **given).validate()
+    except InputError as err:
+        assert "field 'fps': expected the frame rate" in str(err), err
+        return True
+    return False
 
 
 @pytest.fixture
@@ -61,10 +68,38 @@ def test_a_registered_adapter_reaches_the_cli_the_config_and_the_batch_checks(pr
     cfg = RunConfig(lifter="test_probe_lifter", lifter_output="p.npy", keypoints2d="k.json",
                     keypoints2d_format="test_probe_2d", person=1, fps=30.0).validate()
     assert cfg.person == 1
-    assert _needs_fps_column(_row(lifter="test_probe_lifter"))
-    assert _needs_fps_column(_row(lifter="test_probe_lifter", keypoints2d_format="test_probe_2d"))
-    assert not _needs_fps_column(_row(lifter="test_probe_lifter", keypoints2d_format="mediapipe"))
-    assert not _needs_fps_column(_row(lifter="test_probe_lifter", fps=25.0))
+    assert _needs_fps(lifter="test_probe_lifter")
+    assert _needs_fps(lifter="test_probe_lifter", keypoints2d_format="test_probe_2d")
+    assert not _needs_fps(lifter="test_probe_lifter", keypoints2d_format="mediapipe")
+    assert not _needs_fps(lifter="test_probe_lifter", fps=25.0)
+    assert not _needs_fps(lifter="test_probe_lifter", video="v.mp4")
+
+
+def test_a_custom_adapters_options_and_what_it_returns(tmp_path):
+    """A custom adapter's option taken positionally (``load(self, path, scale=1.0)``) is an
+    option like a keyword-only one; an adapter returning a bare array is named as the bug it is
+    (a developer's trial: "expected only options ... (none)", then an AttributeError)."""
+    import numpy as np
+    from pcnet.pipeline.config import check_lifter_options
+    from pcnet.pipeline.runner import run_pipeline
+
+    @register_3d("test_scaled_lifter", records_fps=False)
+    class ScaledLifter:
+        def load(self, path, scale=1.0):
+            return np.load(path) * scale
+
+    try:
+        assert check_lifter_options("config", "test_scaled_lifter", {"scale": 2.0}) == {"scale": 2.0}
+        with pytest.raises(InputError, match=r"expected only options --lifter test_scaled_lifter takes \(scale\)"):
+            check_lifter_options("config", "test_scaled_lifter", {"path": "x"})
+        np.save(tmp_path / "p.npy", np.zeros((3, 17, 3), np.float32))
+        with pytest.raises(TypeError, match=r"ScaledLifter.load: expected to return pcnet.adapters.Poses3D, got "
+                                            r"ndarray"):
+            run_pipeline(RunConfig(lifter="test_scaled_lifter", lifter_output=str(tmp_path / "p.npy"), fps=30.0,
+                                   lifter_options={"scale": 2.0}, out=str(tmp_path / "o"), recording=False))
+        assert not (tmp_path / "o").exists()
+    finally:
+        unregister("test_scaled_lifter", "3d")
 
 
 def test_an_unregistered_adapter_is_refused_everywhere():

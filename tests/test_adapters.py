@@ -747,7 +747,7 @@ def test_generic_csv_headers_pandas_numbers_and_widths(tmp_path):
         load_generic(short)
     truncated = tmp_path / "truncated.csv"  # a file cut off mid-row: the line is named (a user trial)
     truncated.write_text("# exported\n" + body + body.splitlines()[0][:9] + "\n")
-    with pytest.raises(AdapterError, match=r"'line 8': expected 51 columns, as on line 2, got 1; widths \[1, 51\]"):
+    with pytest.raises(AdapterError, match=r"'line 8': expected 51 columns, as on 6 of the 7 rows, got 1; widths \[1, 51\]"):
         load_generic(truncated)
     bom = tmp_path / "bom.csv"
     bom.write_text("\ufeff" + body, encoding="utf-8")

@@ -888,10 +888,13 @@ def test_a_row_without_any_frame_rate_is_refused_before_any_work(tmp_path):
     other rows' problems, not failed after the others ran."""
     manifest = tmp_path / "r.csv"
     manifest.write_text(f"lifter,lifter_output,fps,out\nmotionbert,{BOX_3D},30,a\nmotionbert,{BOX_3D},,b\n"
-                        f"mediapipe,{MEDIAPIPE},,c\n")
+                        f"mediapipe,{MEDIAPIPE},,c\nmotionbert,absent.npy,,d\n")
     res = _invoke(manifest)
-    assert res.exit_code == 1 and res.output.count("Error: ") == 1 and "line 3: column fps: expected the frame rate " \
+    assert res.exit_code == 1 and res.output.count("Error: ") == 3 and "line 3: column fps: expected the frame rate " \
         "(no video is given and motionbert files do not record one), got none" in res.output, res.output
+    # a missing file is named with it, first (a review: the rate's refusal had hidden it)
+    missing = res.output.index("line 5: column lifter_output: expected an existing file, got 'absent.npy'")
+    assert missing < res.output.index("line 5: column fps: expected the frame rate"), res.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv"]
 
 

@@ -619,7 +619,7 @@ def test_gaps_that_leave_every_run_unfiltered_are_not_called_a_short_recording()
     from pcnet.stages.flags import unfiltered_flag
     from pcnet.stages.kinematics import compute_kinematics
 
-    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64)
+    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64) * [1.0, -1.0, -1.0]  # Y up
     gappy = poses.copy()
     gappy[::10] = np.nan
     k = compute_kinematics(gappy, 30.0)

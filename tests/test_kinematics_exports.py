@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import re
 import time
 from pathlib import Path
 
@@ -619,6 +620,35 @@ def test_trc_parses_back_with_missing_markers(tmp_path, yoga_level):
     back = data[:, 2:].reshape(50, 17, 3)
     assert np.array_equal(np.isnan(back), np.isnan(X))
     assert np.allclose(back, X, atol=1e-6, equal_nan=True)
+
+
+def test_camera_frame_poses_are_refused_where_y_up_ones_are_expected(yoga_cam, yoga_level):
+    """A developer's trial passed camera-frame (+Y down) poses and read a trunk inclination of
+    178 deg; the same poses levelled are taken."""
+    with pytest.raises(InputError, match=r"canonical: expected Y-up poses .* \(median inclination 1[5-8]\d deg, "
+                                         r"beyond 128\): camera-frame poses \(\+Y down\)\?"):
+        compute_kinematics(yoga_cam[:100], 30.0)
+    assert compute_kinematics(yoga_level[:100], 30.0).angles
+    # a body inverted for most of the recording (a handstand) looks the same: the caller says so
+    assert compute_kinematics(yoga_cam[:100], 30.0, check_up=False).angles
+
+
+def test_marker_writers_refuse_what_the_pipeline_refuses(tmp_path, yoga_level):
+    """A library caller's marker file gets the checks a run's does (a developer's trial: DataRate
+    inf, True as 1 Hz, millimetres written as metres, an empty file that looked valid)."""
+    X = yoga_level[:10].astype(np.float64)
+    for fps, said in ((float("inf"), "write_trc: fps: expected a frame rate in"),
+                      (True, "write_trc: fps: expected a frame rate in Hz (a number), got True"),
+                      ("30", "write_trc: fps: expected a frame rate in Hz (a number), got '30'")):
+        with pytest.raises(InputError, match=re.escape(said)):
+            write_trc(tmp_path / "a.trc", X, fps)
+    with pytest.raises(InputError, match=r"write_trc: expected markers in 'm', got a median thigh of \d+ m"):
+        write_trc(tmp_path / "a.trc", X * 1000.0, 30.0)
+    write_trc(tmp_path / "a.trc", X * 1000.0, 30.0, units="mm")
+    for empty in (X[:0], np.full_like(X, np.nan)):
+        with pytest.raises(InputError, match="write_trc: expected at least one frame with a finite marker"):
+            write_trc(tmp_path / "b.trc", empty, 30.0)
+    assert not (tmp_path / "b.trc").exists()
 
 
 def test_png_is_written(tmp_path, yoga_cam, yoga_level):

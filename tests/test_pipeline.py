@@ -537,6 +537,7 @@ def test_toml_config_keys_parse_into_the_run_config(tmp_path):
     run's TOML reaches its RunConfig field with its type, and a relative `out` is taken from the
     TOML's folder, not the working directory."""
     from pcnet.pipeline.config import load_run_config
+    from pcnet.stages.core.errors import InputError
 
     cfg = tmp_path / "run.toml"
     cfg.write_text(
@@ -549,6 +550,11 @@ def test_toml_config_keys_parse_into_the_run_config(tmp_path):
     assert run.fps == 30 and run.method == "geometric" and run.recording is False
     assert run.out == str(tmp_path / "from_toml") and run.lifter_options == {}
     assert load_run_config(cfg, method="pcnet").method == "pcnet"  # a command-line option wins
+    gone = tmp_path / "gone.toml"  # a missing input named before the settings it may explain (a review)
+    gone.write_text('lifter = "motionbert"\nlifter_output = "absent.npy"\n')
+    with pytest.raises(InputError, match=r"gone.toml: field 'lifter_output': expected an existing file, got no such "
+                                         r"file \(.*absent.npy\)$"):
+        load_run_config(gone)
 
 
 def test_centimetres_given_as_metres_are_refused_by_the_body_check():
@@ -818,6 +824,14 @@ def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):
     # the root must be declared measured: located joints alone are not taken for a floor
     undeclared = rectify(J, "pcnet", None, "sequence", 30.0).report.sequence
     assert undeclared.evidence == "up model" and "no pelvis path" in undeclared.ground_plane["reason"]
+    # root-relative joints declared measured are refused, as `pcnet run --measured-root` refuses them
+    # (a developer's trial: the library fitted a floor to them)
+    from pcnet.stages.core.errors import InputError
+
+    with pytest.raises(InputError, match=r"^rectify: measured_root: expected a measured pelvis path .* got a pelvis "
+                                         r"at the camera's origin \(median distance 0\): root-relative joints; pass "
+                                         r"measured_root=False$"):
+        rectify(J - J[:, PELVIS : PELVIS + 1], "pcnet", None, "sequence", 30.0, measured_root=True)
 
 
 def test_a_pelvis_path_from_2d_keypoints_lets_sequence_mode_fit_the_floor(tmp_path):
@@ -1192,4 +1206,22 @@ def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(t
         "record one), got none" in res.output and not (tmp_path / "o").exists(), res.output
     # a missing file is named before the frame rate it would not have recorded (a user trial)
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "absent.npy", "--out", tmp_path / "o")
-    assert res.exit_code == 1 and f"'--lifter-output': File '{tmp_path / 'absent.npy'}' does not exist" in res.output
+    assert res.exit_code == 1 and f"'--lifter-output': Path '{tmp_path / 'absent.npy'}' does not exist" in res.output
+
+
+def test_pcnet_rectify_says_what_the_poses_alone_show(tmp_path):
+    """`pcnet rectify` prints the warnings `pcnet run` gives the same poses that need no file,
+    2D keypoints or video (a developer's trial: a mirrored file passed it silently)."""
+    from pcnet.pipeline.checks import pose_checks
+    from pcnet.pipeline.rectification import rectify
+
+    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy", allow_pickle=False)
+    mirrored = tmp_path / "mirrored.npy"
+    np.save(mirrored, poses[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]])
+    res = _invoke("rectify", mirrored, "--mode", "sequence", "--fps", "30", "--out", tmp_path / "m.npz")
+    assert res.exit_code == 0 and "WARNING  3D skeleton mirrored (knees bend forward, elbows backward; odds " \
+        in res.output, res.output
+    res = _invoke("rectify", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy", "--mode", "sequence", "--fps", "30",
+                  "--out", tmp_path / "t.npz")
+    assert res.exit_code == 0 and "WARNING" not in res.output, res.output
+    assert pose_checks(poses, rectify(poses, mode="sequence", fps=30.0)) == []

@@ -154,7 +154,7 @@ def test_kinematics_refuse_empty_input_and_a_frame_rate_that_is_not_a_number():
     from pcnet.pipeline import InputError
     from pcnet.stages.kinematics import butterworth_lowpass, compute_kinematics, derivatives
 
-    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:30]
+    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:30] * np.array([1.0, -1.0, -1.0])  # Y up
     with pytest.raises(InputError, match="canonical: expected at least one frame"):
         compute_kinematics(np.zeros((0, 17, 3)), 30.0)
     for call in (butterworth_lowpass, derivatives):
@@ -175,7 +175,7 @@ def test_kinematics_refuse_centimetres_said_to_be_metres_and_a_unit_that_is_no_n
     from pcnet.pipeline import InputError
     from pcnet.stages.kinematics import compute_kinematics
 
-    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:30]
+    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:30] * np.array([1.0, -1.0, -1.0])  # Y up
     with pytest.raises(InputError, match=r"canonical: expected poses in metres \(units 'm': a median thigh length of "
                                          r"0\.2-0\.7 m\), got \d\d\.\d m: centimetres or millimetres given as metres\?"):
         compute_kinematics(poses * 100.0, 30.0)
@@ -189,9 +189,9 @@ def test_kinematics_refuse_centimetres_said_to_be_metres_and_a_unit_that_is_no_n
     from pcnet.stages.core.conventions import L_KNEE, R_KNEE
     from pcnet.stages.kinematics import kinematics_chunks
 
-    long = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64)
+    long = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64) * [1.0, -1.0, -1.0]  # Y up
     long[50:, [L_KNEE, R_KNEE]] = np.nan
-    long[90:95, [L_KNEE, R_KNEE]] = long[90:95, [1, 4]] + np.array([0.0, 3.0, 0.0])
+    long[90:95, [L_KNEE, R_KNEE]] = long[90:95, [1, 4]] + np.array([0.0, -3.0, 0.0])
     whole = compute_kinematics(long, 30.0)
     chunks = list(kinematics_chunks(long, 30.0, chunk_frames=20))
     np.testing.assert_allclose(np.concatenate([k.positions for k in chunks]), whole.positions, atol=1e-9)

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.atomic import atomic_path
-from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST
+from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST, REFUSED_THIGH_M, median_thigh_length, validate_fps
 from ..core.errors import InputError, import_extra
 from ..core.framestore import FrameArray, frame_blocks
 from ..kinematics import MIN_PROJECTED_FRACTION, Kinematics
@@ -517,10 +517,10 @@ def write_trc(
         the destination path.
 
     Raises:
-        ValueError: shape/name mismatch, a name with a tab/newline, duplicate names,
-            ``fps <= 0``, unknown units, or ``frames`` not ``T`` increasing integers.
+        InputError (a ValueError): as :func:`_checked_markers`.
+        ValueError: ``frames`` not ``T`` increasing integers.
     """
-    X, names = _checked_markers("write_trc", poses, joint_names, fps, units)
+    X, names, fps = _checked_markers("write_trc", poses, joint_names, fps, units)
     T, J = X.shape[:2]
     numbers = np.arange(T) if frames is None else np.asarray(frames)
     if numbers.shape != (T,) or not np.issubdtype(numbers.dtype, np.integer) or (np.diff(numbers) <= 0).any():
@@ -572,11 +572,11 @@ def write_c3d(
         the destination path.
 
     Raises:
-        InputError: ezc3d is not installed (one line naming the extra), a shape or name
-            mismatch, ``fps <= 0`` or unknown units.
+        InputError: ezc3d is not installed (one line naming the extra), or as
+            :func:`_checked_markers`.
     """
     ezc3d = require_ezc3d()
-    X, names = _checked_markers("write_c3d", poses, joint_names, fps, units)
+    X, names, fps = _checked_markers("write_c3d", poses, joint_names, fps, units)
     c3d = ezc3d.c3d()
     c3d["parameters"]["POINT"]["RATE"]["value"] = [float(fps)]
     c3d["parameters"]["POINT"]["LABELS"]["value"] = tuple(names)
@@ -600,13 +600,17 @@ def write_c3d(
     return Path(path)
 
 
-def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tuple[np.ndarray, list[str]]:
-    """``(poses as (T, J, 3) float64, J marker names)`` for a marker file writer (a
-    :class:`~pcnet.stages.core.framestore.FrameArray` stays on disk: read it a block at a time).
+def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tuple[np.ndarray, list[str], float]:
+    """``(poses as (T, J, 3) float64, J marker names, fps as a float)`` for a marker file writer
+    (a :class:`~pcnet.stages.core.framestore.FrameArray` stays on disk: read it a block at a
+    time).
 
     Raises:
-        InputError: a shape/name mismatch, a name with a tab/newline, duplicate or empty
-            names, ``fps <= 0`` or units other than ``"m"``/``"mm"``, naming ``who``.
+        InputError: a shape/name mismatch, no frame or no finite marker, a name with a
+            tab/newline, duplicate or empty names, a frame rate :func:`validate_fps` refuses,
+            units other than ``"m"``/``"mm"``, or H36M-17 markers whose median thigh in those
+            units is no person's (beyond :data:`~pcnet.stages.core.conventions.REFUSED_THIGH_M`:
+            centimetres or millimetres given as metres), naming ``who``.
     """
     X = poses if isinstance(poses, FrameArray) else np.asarray(poses, dtype=np.float64)
     names = [str(n) for n in joint_names]
@@ -614,11 +618,17 @@ def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tu
         raise InputError(f"{who}: expected (T, {len(names)}, 3) markers, got {X.shape}")
     if any(("\t" in n or "\n" in n or not n.strip()) for n in names) or len(set(names)) != len(names):
         raise InputError(f"{who}: marker names must be unique, non-empty, without tabs: {names}")
-    if not fps > 0:
-        raise InputError(f"{who}: fps must be > 0, got {fps!r}")
+    fps = validate_fps(fps, f"{who}: fps")
     if units not in ("m", "mm"):
         raise InputError(f"{who}: units must be 'm' or 'mm', got {units!r}")
-    return X, names
+    if not any(np.isfinite(X[rows]).any() for rows in frame_blocks(len(X))):
+        raise InputError(f"{who}: expected at least one frame with a finite marker, got {len(X)} frames without one")
+    if names == list(H36M_JOINTS):
+        thigh = median_thigh_length(X) / (1000.0 if units == "mm" else 1.0)  # a joint column at a time
+        if not REFUSED_THIGH_M[0] <= thigh <= REFUSED_THIGH_M[1] and np.isfinite(thigh):
+            raise InputError(f"{who}: expected markers in {units!r}, got a median thigh of {thigh:.3g} m in them, no "
+                             f"person's (another unit?)")
+    return X, names, fps
 
 
 def _fmt_trc(v: float) -> str:
