@@ -35,7 +35,7 @@ from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, pcnet_version, read_batch_marker,
-                           record_status)
+                           record_status, settings_change)
 from .batch_worker import FINDINGS, RESULT_FIELDS, cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, RunConfig
 from .interrupt import EXIT_INTERRUPTED
@@ -213,7 +213,9 @@ def _header_problem(manifest: Path, header: list[str]) -> str | None:
         return f"{where}: expected each column once, got {', '.join(twice)} more than once"
     unknown = [n for n in names if n not in manifest_columns()]
     if unknown:
-        hint = close_names([n for n in unknown if n != "lifter_options"], manifest_columns())
+        # a line split by another separator is one "name": the separator is the hint, not a near name
+        hint = close_names([n for n in unknown if n != "lifter_options" and ";" not in n and "\t" not in n],
+                           manifest_columns())
         if "lifter_options" in unknown:
             hint += f" (lifter_options: a manifest gives each as a column of its own, {', '.join(_LIFTER_OPTIONS)})"
         if any(";" in n for n in unknown):
@@ -628,15 +630,22 @@ def read_previous_summary(path: Path) -> dict[str, dict]:
 
 def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] | None, paths: _PathFacts) -> None:
     """Set ``item.action``: skip a row whose output is complete and current (or, with
-    ``--retry-failed``, that succeeded last time); re-run a row over its own previous
+    ``--retry-failed``, that succeeded last time with the row's settings: its inputs are not
+    read); re-run a row over its own previous
     batch output (``overwrite``, which still refuses files pcnet did not write)."""
     if previous is not None:
         before = previous.get(str(paths.resolve(item.config["out"])))
         if before is not None and before.get("status") in DONE and item.out.is_dir():
+            record = read_batch_marker(item.out)
+            changed = settings_change(record, item.config) if record else ""  # cheap: no input is read
+            if changed:  # not the manifest's row any more (a user trial: it was called complete)
+                item.config["overwrite"] = True
+                item.rerun = changed
+                return
             item.action = "skip"
             item.known = {k: before.get(k) for k in RESULT_FIELDS}
             # the warnings as raised (kinds, actions) are in the output's marker, not the summary's texts
-            result = read_batch_marker(item.out).get("result")
+            result = record.get("result")
             findings = result.get(FINDINGS) if isinstance(result, dict) else None
             if findings is not None:
                 item.known[FINDINGS] = findings
@@ -798,7 +807,7 @@ def _engine(options: BatchOptions, on_result, on_retry):
 
 def _row_summary(item: PlannedRow, result: dict | None, status: str | None = None) -> dict:
     """A row of the summary: the engine's result, or a skipped / cancelled / pending row."""
-    base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": 0, "valid": 0,
+    base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": None, "valid": None,
             "mode": "", "seconds": None, "error": "", "warnings": [], "host": "", "pid": None, "attempts": 0,
             "threads": None, "opensim_rms_cm": None}
     if item.action == "skip":
@@ -997,21 +1006,32 @@ def _grouped_findings(report: BatchReport) -> list[str]:
     numbers differ, the line is the first row's and says so."""
     from pcnet.stages.flags import ranked
 
-    seen: dict = {}  # kind (or terminal line) -> (its first finding, its line, the manifest lines, the lines seen)
+    seen: dict = {}  # kind (or terminal line) -> (its first finding, its line, the rows, the lines seen)
     for r in report.rows:
         if r["status"] in DONE:
             for f, text in _finding_lines(report.findings.get(r["row"]), r.get("warnings") or []):
                 _, _, at, texts = seen.setdefault(f.kind or text, (f, text, [], set()))
-                if r["line"] not in at:  # a row with two findings of one kind counts once
-                    at.append(r["line"])
+                if r not in at:  # a row with two findings of one kind counts once
+                    at.append(r)
                 texts.add(text)
     rank = {id(f): i for i, f in enumerate(ranked(first for first, _, _, _ in seen.values()))}
     out = []
     for _, text, at, texts in sorted(seen.values(), key=lambda group: rank[id(group[0])]):
         more = f" and {len(at) - SUMMARY_LINES} more" if len(at) > SUMMARY_LINES else ""
         differ = f"; {len(at)} rows, the first's numbers shown" if len(texts) > 1 else ""
-        out.append(f"{text} (line{'s' * (len(at) > 1)} {', '.join(map(str, at[:SUMMARY_LINES]))}{more}{differ})")
+        label = _row_label if len(at) <= NAMED_ROWS else (lambda r: str(r["line"]))  # many: the report names them
+        out.append(f"{text} (line{'s' * (len(at) > 1)} {', '.join(map(label, at[:SUMMARY_LINES]))}{more}{differ})")
     return out
+
+
+#: Up to this many rows, a grouped warning names each row's output folder beside its line.
+NAMED_ROWS = 3
+
+
+def _row_label(row: dict) -> str:
+    """A row as the summary names it: its manifest line and its output folder's name (a user
+    trial had to look the lines up to know which athlete a warning was about)."""
+    return f"{row['line']}: {Path(row['out']).name}"
 
 
 def _outputs_line(rows: list[dict]) -> str | None:
@@ -1030,10 +1050,10 @@ def _opensim_line(rows: list[dict]) -> str | None:
         return None
     worst = max(fitted, key=lambda r: r["opensim_rms_cm"])
     if len(fitted) == 1:
-        return f"marker RMS {worst['opensim_rms_cm']:.2f} cm (line {worst['line']})"
+        return f"marker RMS {worst['opensim_rms_cm']:.2f} cm (line {_row_label(worst)})"
     low = min(r["opensim_rms_cm"] for r in fitted)
     return (f"marker RMS {low:.2f}-{worst['opensim_rms_cm']:.2f} cm over {len(fitted)} rows (largest: line "
-            f"{worst['line']})")
+            f"{_row_label(worst)})")
 
 
 def _units_line(rows: list[dict]) -> str | None:

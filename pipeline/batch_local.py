@@ -157,7 +157,7 @@ class LocalEngine:
             self.on_retry(job["row"], f"{death_line(worker.process.pid, worker.process.exitcode)}; starting it again "
                                       f"(attempt {job['attempt'] + 1} of {self.retries + 1})")
             return
-        self._finish({"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
+        self._finish({"row": job["row"], "status": "failed", "frames": None, "valid": None, "mode": "", "seconds": None,
                       "error": death_line(worker.process.pid, worker.process.exitcode),
                       "host": socket.gethostname(), "pid": worker.process.pid, "attempts": job["attempt"],
                       "threads": self._threads}, results)

@@ -104,6 +104,22 @@ def completed_record(out: Path, config: dict) -> dict | None:
     return record_status(out, config)[0]
 
 
+_SINCE = "since its earlier output"
+
+
+def settings_change(record: dict, config: dict) -> str:
+    """``""`` when a batch record's settings are those of the row's ``config`` (no input read),
+    else one phrase naming the settings that changed, at most three."""
+    old, new = record.get("settings"), settings_of(config)
+    if not isinstance(old, dict):
+        return "its earlier output's settings are unreadable"
+    differ = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
+    if not differ:
+        return ""
+    more = f" and {len(differ) - 3} more" if len(differ) > 3 else ""
+    return f"setting{'s' * (len(differ) > 1)} {', '.join(differ[:3])}{more} changed {_SINCE}"
+
+
 def record_status(out: Path, config: dict) -> tuple[dict | None, str]:
     """``(marker, "")`` when ``out`` holds a complete output of exactly this row (every file
     pcnet wrote there still present; same settings, same pcnet version, the same input files by
@@ -118,16 +134,11 @@ def record_status(out: Path, config: dict) -> tuple[dict | None, str]:
     record = read_batch_marker(out)
     if not record:
         return None, "its earlier output has no batch record"
-    since = "since its earlier output"
     if record.get("pcnet_version") != pcnet_version():
-        return None, f"pcnet {record.get('pcnet_version', 'unknown')} -> {pcnet_version()} {since}"
-    old, new = record.get("settings"), settings_of(config)
-    if not isinstance(old, dict):
-        return None, "its earlier output's settings are unreadable"
-    differ = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
-    if differ:
-        more = f" and {len(differ) - 3} more" if len(differ) > 3 else ""
-        return None, f"setting{'s' * (len(differ) > 1)} {', '.join(differ[:3])}{more} changed {since}"
+        return None, f"pcnet {record.get('pcnet_version', 'unknown')} -> {pcnet_version()} {_SINCE}"
+    changed_settings = settings_change(record, config)
+    if changed_settings:
+        return None, changed_settings
     recorded, files = record.get("inputs"), input_files(config)
     if not isinstance(recorded, dict) or not all(isinstance(v, dict) for v in recorded.values()):
         return None, "its earlier output's inputs are unreadable"

@@ -213,7 +213,7 @@ class RayEngine:
             return ray.get(ref)
         except ray.exceptions.RayError as err:
             last = ray.get(attempts.last.remote(job["row"]))
-            return {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "seconds": None,
+            return {"row": job["row"], "status": "failed", "frames": None, "valid": None, "mode": "", "seconds": None,
                     "error": _death_line(ray, err, last), "host": last.get("host", ""), "pid": last.get("pid"),
                     "attempts": last["attempts"]}
 

@@ -120,7 +120,7 @@ def execute_row(job: dict) -> dict:
     traceback for unexpected exceptions. ``KeyboardInterrupt`` (the engine stopping the
     worker) propagates after ``run_pipeline`` has removed its half-written folder.
     """
-    result = {"row": job["row"], "status": "failed", "frames": 0, "valid": 0, "mode": "", "units": None, "seconds": None,
+    result = {"row": job["row"], "status": "failed", "frames": None, "valid": None, "mode": "", "units": None, "seconds": None,
               "error": "", "warnings": [], "host": socket.gethostname(), "pid": os.getpid(),
               "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS")),
               "opensim_rms_cm": None}

@@ -215,6 +215,11 @@ def test_retry_failed_runs_a_row_whose_output_was_deleted_since(tmp_path):
     # the skipped row keeps its warnings as raised, action and all (a user trial: "-> see report.md")
     assert warned and sorted(t for t in res.output.splitlines() if t.startswith(("WARNING", "CHECK"))) == warned, \
         (warned, res.output)
+    # a row whose settings changed since is not called complete: it runs again (a user trial)
+    _manifest(tmp_path, _row("a", method="pcnet"), _row("b"))
+    res = _invoke(manifest, "--workers", "1", "--retry-failed")
+    assert res.exit_code == 0 and _statuses(manifest) == ["ok", "skipped"], res.output
+    assert "setting method changed since its earlier output" in res.output, res.output
 
 
 def test_shared_out_is_refused_even_with_several_workers(tmp_path):
@@ -425,9 +430,10 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
         "FAILED   line 5: ValueError: boom"]
     assert f"... and {failed - SUMMARY_LINES} more failed rows: /study/m.csv.pcnet_batch.md" in text
     legs_line = f"WARNING  {legs_found.headline} -> {legs_found.action}"
-    assert (f"\nWARNING  {switch_found.headline} -> check column person (line 2)\n{legs_line} (lines 2, 3)\n"
+    assert (f"\nWARNING  {switch_found.headline} -> check column person (line 2: r1)\n{legs_line} (lines 2: r1, "
+            f"3: r2)\n"
             f"WARNING  the lifter's left and right legs differ by 25 % in length, more than") in text
-    assert "-> see report.md (line 4)\n" in text  # row 3's text, shortened: a line of its own
+    assert "-> see report.md (line 4: r3)\n" in text  # row 3's text, shortened: a line of its own
     assert "\noutputs           /study/out (3 folders)\n" in text
     assert text.endswith("summary           /study/m.csv.pcnet_batch.json\ndetails: /study/m.csv.pcnet_batch.md")
     assert len(text.splitlines()) == 1 + SUMMARY_LINES + 1 + 3 + 3
@@ -453,10 +459,10 @@ def test_the_summary_gives_the_opensim_fits_marker_rms():
     report = BatchReport(rows, False, Path("/s/m.pcnet_batch.json"), 1.0,
                          settings={"engine": "local", "workers": 1, "retries": 0})
     assert "- **engine**: local, 1 worker, retries 0;" in batch_markdown(report)  # a user trial: "1 workers"
-    assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3)\n" in format_summary(report)
+    assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3: r2)\n" in format_summary(report)
     assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | 1.74 | 1.0 |" in batch_markdown(report)
     rows[1]["status"] = "failed"
-    assert "\nOpenSim IK        marker RMS 1.74 cm (line 2)\n" in format_summary(report)
+    assert "\nOpenSim IK        marker RMS 1.74 cm (line 2: r1)\n" in format_summary(report)
 
 
 def test_the_summary_names_the_rows_whose_outputs_are_not_in_metres():
@@ -525,7 +531,8 @@ def test_the_summary_keeps_speed_and_acceleration_apart_and_counts_each_row_once
                          findings={i: finding_records(fs) for i, fs in found.items()})
     lines = [t for t in format_summary(report).splitlines() if t.startswith("WARNING")]
     assert len(lines) == 2 and "implausible speed" in lines[0] and "implausible acceleration" in lines[1], lines
-    assert lines[0].endswith("(lines 3, 4; 2 rows, the first's numbers shown)") and lines[1].endswith("(line 3)")
+    assert lines[0].endswith("(lines 3: r1, 4: r2; 2 rows, the first's numbers shown)"), lines
+    assert lines[1].endswith("(line 3: r1)"), lines
 
 
 def test_run_flags_in_an_action_read_as_manifest_columns():
@@ -761,6 +768,10 @@ def test_manifest_layout_mistakes_are_named_by_their_file_line(tmp_path):
     manifest.write_text(HEADER.replace(",", "\t") + "\n" + _row("a").replace(",", "\t") + "\n")
     res = _invoke(manifest)
     assert "columns separated by tabs?" in res.output, res.output
+    manifest.write_text(HEADER.replace(",", ";") + "\n" + _row("a").replace(",", ";") + "\n")
+    res = _invoke(manifest)  # the separator is the hint, not a near column name (a user trial: "lifter_output?")
+    assert "(columns separated by ';'? a manifest separates them by commas)" in res.output and "?)" not in \
+        res.output.split("(columns separated")[0], res.output
     manifest.write_text(HEADER.replace("fps", "FPS") + f"\n{_row('a')}\n{_row('b')}\n")
     res = _invoke(manifest)
     assert res.output.count("Error: ") == 1 and "line 1: unknown columns ['FPS'] (FPS: fps?)" in res.output, res.output
@@ -859,7 +870,7 @@ def test_a_rows_warnings_reach_the_summary(tmp_path):
     res = _invoke(manifest)  # skipped on a re-run: its warnings stay in the summary, their lines in the terminal's
     (row,) = _summary(manifest)["rows"]
     assert res.exit_code == 0 and row["status"] == "skipped" and row["warnings"] == expected
-    assert all(f"{ln.strip()} (line 2)" in res.output for ln in short) and all(w in _report(manifest) for w in expected)
+    assert all(f"{ln.strip()} (line 2: w1)" in res.output for ln in short) and all(w in _report(manifest) for w in expected)
 
 
 def test_a_frame_rate_that_contradicts_the_video_is_refused_before_any_row_runs(tmp_path):
