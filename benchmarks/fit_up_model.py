@@ -372,7 +372,7 @@ def main(argv=None) -> int:
     UpModelParameters.load(args.json.read_text())  # the written file parses
     width = max(map(len, values))
     lines += [f"{k:<{width}}  {v:10.4f}   {prov[k]}" for k, v in values.items()]
-    lines += ["", *lying_lines, "", f"systematic covariance S (deg^2 diagonal): {np.degrees(np.sqrt(np.diag(systematic_cov(params))))}",
+    lines += ["", *lying_lines, "", f"systematic error S, standard deviations (deg, pitch and roll): {np.degrees(np.sqrt(np.diag(systematic_cov(params))))}",
               f"({time.time() - t0:.0f} s)"]
     print_and_save(lines, args.out)
     return 0
