@@ -150,5 +150,5 @@ def record_status(out: Path, config: dict) -> tuple[dict | None, str]:
         except OSError:
             changed.append(name)
     if changed:
-        return None, f"input{'s' * (len(changed) > 1)} {', '.join(changed)} changed {since}"
+        return None, f"input{'s' * (len(changed) > 1)} {', '.join(changed)} changed {_SINCE}"
     return record, ""
