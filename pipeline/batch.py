@@ -964,7 +964,7 @@ def row_findings(records: list[dict] | None, warnings: list[str]) -> list:
 def _finding_lines(records: list[dict] | None, warnings: list[str]) -> list[tuple]:
     """:func:`row_findings` with each one's terminal line (``WARNING headline -> action``,
     the ``pcnet run`` flags it names as the manifest's columns)."""
-    return [(f, in_manifest_terms(f"WARNING  {f.headline} -> {f.action}")) for f in row_findings(records, warnings)]
+    return [(f, in_manifest_terms(f.terminal_line())) for f in row_findings(records, warnings)]
 
 
 def progress_lines(done: int, total: int, item: PlannedRow, result: dict) -> str:
@@ -1011,7 +1011,7 @@ def _grouped_findings(report: BatchReport) -> list[str]:
         if r["status"] in DONE:
             for f, text in _finding_lines(report.findings.get(r["row"]), r.get("warnings") or []):
                 _, _, at, texts = seen.setdefault(f.kind or text, (f, text, [], set()))
-                if r not in at:  # a row with two findings of one kind counts once
+                if not at or at[-1] is not r:  # a row with two findings of one kind counts once
                     at.append(r)
                 texts.add(text)
     rank = {id(f): i for i, f in enumerate(ranked(first for first, _, _, _ in seen.values()))}

@@ -17,7 +17,7 @@ from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_w
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
                                mirrored_skeleton_flag, orientation_flags, posture_flag,
                                side_swap_flag, size_change_flag, track_switch_flag)
-from pcnet.stages.rectification_report import ModeChoice, RectificationReport
+from pcnet.stages.rectification_report import EnsembleWeights, ModeChoice, RectificationReport
 from pcnet.stages.rectify import Rectified
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
@@ -80,8 +80,6 @@ def checks(c: CheckInputs) -> list[Finding]:
     side swap (or else a mirrored skeleton), the posture hypotheses, the
     ensemble's weights (outside sequence mode), the lifter's frame and a switch of the 2D track."""
     report, cam, kp2d = c.report, c.joints_camera, c.keypoints2d
-    # The view gate's weights shape the answer only where the per-frame up is the answer.
-    weights = report.weights if report.mode.run != "sequence" else None
     return [
         *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg),
         *(body_size_flag(cam, c.units) if not c.height_given else []),
@@ -94,7 +92,7 @@ def checks(c: CheckInputs) -> list[Finding]:
         # a side swap is a mirror image too: said once
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
         *posture_flag(report.sequence),
-        *ensemble_weights_flag(weights),
+        *ensemble_weights_flag(_answering_weights(report)),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report), focal_known=c.focal_known),
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option)
           if c.track_segment is not None else []),
@@ -116,7 +114,13 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
     tilt = CameraTilt.of(rectified.rotation, rectified.valid)
     return [*orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg), *leg_asymmetry_flag(joints_camera),
             *mirrored_skeleton_flag(joints_camera), *posture_flag(report.sequence),
-            *ensemble_weights_flag(report.weights if report.mode.run != "sequence" else None)]
+            *ensemble_weights_flag(_answering_weights(report))]
+
+
+def _answering_weights(report: RectificationReport) -> EnsembleWeights | None:
+    """The view gate's weights where they shape the answer (the per-frame up is the answer:
+    outside sequence mode), else ``None``."""
+    return report.weights if report.mode.run != "sequence" else None
 
 
 def spreads_beyond_static(mode: ModeChoice) -> bool:

@@ -299,7 +299,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     if nonfinite:  # the file's inf/NaN, which the counts above take as missing joints
         click.echo(nonfinite_line(nonfinite))
     for f in ranked(pose_checks(joints, res)):  # what pcnet run would say of these poses alone
-        click.echo(f"WARNING  {f.headline} -> {f.action}")
+        click.echo(f.terminal_line())
 
 
 @main.command()
@@ -546,7 +546,7 @@ def opensim(out_dir, height, mass, overwrite):
     register_files(folder, (*OUTPUTS, details.name))
     click.echo(f"{'fit':<17} {opensim_fit_line(result, short=True)}")
     for f in ranked(opensim_fit_findings(result)):
-        click.echo(f"WARNING  {f.headline} -> {f.action}")
+        click.echo(f.terminal_line())
     click.echo(f"note     {UNOBSERVED_NOTE}")
     click.echo(f"note     {locked_note()}")
     for name in OUTPUTS:

@@ -172,7 +172,7 @@ class RunResult:
         severe first, each with the one action it asks (``WARNING <headline> -> <action>``),
         the notes one line each, the outputs, and where report.md keeps the full text."""
         lines = [f"{label:<17} {text}" for label, text in self.key_facts()]
-        lines += [f"WARNING  {f.headline} -> {f.action}" for f in self.ranked_findings]
+        lines += [f.terminal_line() for f in self.ranked_findings]
         lines += [f"note     {n.headline}" for n in self.note_findings]
         lines += [f"{name:<17} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
         if "recording" in self.outputs:
@@ -491,11 +491,6 @@ def _check_metric_body(cfg: RunConfig, cam) -> None:
     raise InputError(f"{cfg.lifter_output}: expected poses in metres (a median thigh length of "
                      f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: {guess}, or --height to scale the "
                      f"poses")
-
-
-def _check_measured_root(cfg: RunConfig, root_cam: np.ndarray) -> None:
-    """:func:`pcnet.pipeline.rectification.check_measured_root` for ``--measured-root``."""
-    check_measured_root(root_cam, f"{cfg.lifter_output}: --measured-root", "drop --measured-root")
 
 
 def _unused_floor_note(measured_root: bool, ground_plane: dict | None) -> list[str]:
@@ -1057,11 +1052,12 @@ def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFr
 
 def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
     """Refuse a body said to be in metres that is far too large, and ``--measured-root``
-    over a root at the camera (:func:`_check_metric_body`, :func:`_check_measured_root`)."""
+    over a root at the camera (:func:`_check_metric_body`,
+    :func:`pcnet.pipeline.rectification.check_measured_root`)."""
     if units == "m" and cfg.height is None:
         _check_metric_body(cfg, camera.joints)
     if camera.root is not None and cfg.lifter_options.get("measured_root"):
-        _check_measured_root(cfg, camera.root)
+        check_measured_root(camera.root, f"{cfg.lifter_output}: --measured-root", "drop --measured-root")
 
 
 def _track(keypoints2d, fps: float) -> tuple[np.ndarray | None, list]:

@@ -106,6 +106,10 @@ class Finding:
     kind: Kind | None = None
     frames: FrameRanges | None = None
 
+    def terminal_line(self) -> str:
+        """The finding as the terminal summaries print it: ``WARNING  headline -> action``."""
+        return f"WARNING  {self.headline} -> {self.action}"
+
 
 #: Characters a headline (or a shortened note) keeps at most.
 HEADLINE_WIDTH = 100

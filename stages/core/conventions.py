@@ -380,12 +380,12 @@ def median_thigh_length(joints) -> float:
     return float(np.median(thighs)) if thighs.size else float("nan")
 
 
-def thigh_beyond_metres(joints) -> float | None:
-    """The median thigh (:func:`median_thigh_length`) of H36M-17 poses ``(T, 17, 3)`` said to be
-    in metres when it lies outside :data:`REFUSED_THIGH_M`, no person's (above: centimetres or
-    millimetres read as metres; below: another unit or joint order), else ``None`` (also where no
-    thigh is finite)."""
-    thigh = median_thigh_length(joints)
+def thigh_beyond_metres(joints, metres_per_unit: float = 1.0) -> float | None:
+    """The median thigh (:func:`median_thigh_length`) of H36M-17 poses ``(T, 17, 3)``, in
+    metres (the poses' units times ``metres_per_unit``), when it lies outside
+    :data:`REFUSED_THIGH_M`, no person's (above: centimetres or millimetres read as metres;
+    below: another unit or joint order), else ``None`` (also where no thigh is finite)."""
+    thigh = median_thigh_length(joints) * metres_per_unit
     low, high = REFUSED_THIGH_M
     return thigh if thigh < low or thigh > high else None
 

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.atomic import atomic_path
-from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST, REFUSED_THIGH_M, median_thigh_length, validate_fps
+from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST, thigh_beyond_metres, validate_fps
 from ..core.errors import InputError, import_extra
 from ..core.framestore import FrameArray, frame_blocks
 from ..kinematics import MIN_PROJECTED_FRACTION, Kinematics
@@ -609,7 +609,7 @@ def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tu
         InputError: a shape/name mismatch, no frame or no finite marker, a name with a
             tab/newline, duplicate or empty names, a frame rate :func:`validate_fps` refuses,
             units other than ``"m"``/``"mm"``, or H36M-17 markers whose median thigh in those
-            units is no person's (beyond :data:`~pcnet.stages.core.conventions.REFUSED_THIGH_M`:
+            units is no person's (:func:`~pcnet.stages.core.conventions.thigh_beyond_metres`:
             centimetres or millimetres given as metres), naming ``who``.
     """
     X = poses if isinstance(poses, FrameArray) else np.asarray(poses, dtype=np.float64)
@@ -624,8 +624,8 @@ def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tu
     if not any(np.isfinite(X[rows]).any() for rows in frame_blocks(len(X))):
         raise InputError(f"{who}: expected at least one frame with a finite marker, got {len(X)} frames without one")
     if names == list(H36M_JOINTS):
-        thigh = median_thigh_length(X) / (1000.0 if units == "mm" else 1.0)  # a joint column at a time
-        if not REFUSED_THIGH_M[0] <= thigh <= REFUSED_THIGH_M[1] and np.isfinite(thigh):
+        thigh = thigh_beyond_metres(X, 1e-3 if units == "mm" else 1.0)  # a joint column at a time
+        if thigh is not None:
             raise InputError(f"{who}: expected markers in {units!r}, got a median thigh of {thigh:.3g} m in them, no "
                              f"person's (another unit?)")
     return X, names, fps
