@@ -128,6 +128,7 @@ def execute_row(job: dict) -> dict:
     from pcnet.stages.core.errors import InputError
 
     from .batch_marker import input_hashes, write_batch_marker
+    from .interrupt import came_from_interrupt
 
     started = time.perf_counter()
     try:
@@ -147,6 +148,8 @@ def execute_row(job: dict) -> dict:
         run_pipeline(RunConfig(**config), progress=False, before_publish=with_marker)
         result["status"] = "ok"
     except Exception as err:  # one row's failure is its result; the batch goes on
+        if came_from_interrupt(err):  # the engine stopping the worker, not the row failing
+            raise KeyboardInterrupt from err
         result.update(status="failed", error=error_line(err))
         if not isinstance(err, (InputError, OSError)):
             result["traceback"] = traceback.format_exc()

@@ -16,7 +16,7 @@ import click
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import ALIGN, MODES, keypoint_formats, lifter_names, multi_track_formats
-from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, raise_interrupt
+from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, came_from_interrupt, raise_interrupt
 from pcnet.stages.core.errors import InputError, import_extra, one_line
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, check_method_weights, no_valid_frame_reason
@@ -32,32 +32,14 @@ class _ErrorBoundary(click.Group):
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
-        except (InputError, OSError) as err:
-            raise click.ClickException(one_line(err)) from err
-        except (RecursionError, MemoryError) as err:
-            # The readers bound what they parse and name the file; this is the last resort
-            # for whatever slips past them, still one line and no output (the writers clean up).
-            raise click.ClickException(f"pcnet {ctx.invoked_subcommand or ''}: {one_line(err)}") from None
-        except RuntimeError as err:
-            # Path.resolve() on a symlink loop (Python < 3.13 raises RuntimeError, not OSError)
-            if not str(err).startswith("Symlink loop from "):
-                raise
-            path = ast.literal_eval(str(err)[len("Symlink loop from "):])  # the path's repr, as pathlib wrote it
-            raise click.ClickException(f"{path}: expected a file or folder, got a symlink loop") from err
-        except click.UsageError as err:  # a bad option value: one line and exit 1 like any bad input
-            hint = f" (see pcnet {err.ctx.info_name} --help)" if err.ctx is not None and err.ctx.parent else ""
-            raise click.ClickException(one_line(err.format_message()) + hint) from err
         except KeyboardInterrupt:
-            click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
-            raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+            _stop_interrupted()
+        except (click.exceptions.Exit, click.Abort):
+            raise
         except Exception as err:
-            # A Ctrl-C or SIGTERM inside a C extension's import comes out as that module's
-            # error (onnxruntime: "ImportError: initialization failed", caused by it).
-            if not _caused_by_interrupt(err):
-                raise
-            click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
-            raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
-
+            if came_from_interrupt(err):
+                _stop_interrupted()
+            raise click.ClickException(_bad_input_line(ctx, err)) from err
 
 def _existing(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
     """An input path that names something (a file, a folder, a link): checked as the option is
@@ -69,15 +51,31 @@ def _existing(ctx: click.Context, param: click.Parameter, value: str | None) -> 
     return value
 
 
-def _caused_by_interrupt(err: BaseException) -> bool:
-    """Whether ``err`` was raised while handling (or because of) a ``KeyboardInterrupt``."""
-    seen = set()
-    while err is not None and id(err) not in seen:
-        seen.add(id(err))
-        if isinstance(err, KeyboardInterrupt):
-            return True
-        err = err.__cause__ or err.__context__
-    return False
+def _stop_interrupted() -> None:
+    click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
+    raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+
+
+def _bad_input_line(ctx: click.Context, err: Exception) -> str:
+    """The one line for bad input (:class:`InputError`, an ``OSError`` from the user's files
+    or folders or their environment, a bad option value, input too deep or too large for the
+    interpreter); any other exception is a bug of pcnet and is re-raised with its traceback."""
+    if isinstance(err, (InputError, OSError)):
+        return one_line(err)
+    if isinstance(err, (RecursionError, MemoryError)):
+        # The readers bound what they parse and name the file; this is the last resort
+        # for whatever slips past them, still one line and no output (the writers clean up).
+        return f"pcnet {ctx.invoked_subcommand or ''}: {one_line(err)}"
+    if isinstance(err, click.UsageError):  # a bad option value: one line and exit 1 like any bad input
+        hint = f" (see pcnet {err.ctx.info_name} --help)" if err.ctx is not None and err.ctx.parent else ""
+        return one_line(err.format_message()) + hint
+    if isinstance(err, click.ClickException):
+        raise err
+    if isinstance(err, RuntimeError) and str(err).startswith("Symlink loop from "):
+        # Path.resolve() on a symlink loop (Python < 3.13 raises RuntimeError, not OSError)
+        path = ast.literal_eval(str(err)[len("Symlink loop from "):])  # the path's repr, as pathlib wrote it
+        return f"{path}: expected a file or folder, got a symlink loop"
+    raise err
 
 
 @click.group(cls=_ErrorBoundary, context_settings={"help_option_names": ["-h", "--help"]})

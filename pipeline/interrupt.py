@@ -27,3 +27,21 @@ def check_interrupted() -> None:
     published after the user asked to stop."""
     if was_interrupted():
         raise KeyboardInterrupt("interrupted earlier")
+
+
+def came_from_interrupt(err: BaseException) -> bool:
+    """Whether ``err`` is how an interrupt came out: raised while handling (or because of) a
+    ``KeyboardInterrupt``, or raised at all once an interrupt arrived. Libraries turn an
+    interrupt into their own error: a C extension's import into its ImportError
+    ("initialization failed"), numpy's ``fromfile``, interrupted inside its isinstance check
+    of a file object, into "TypeError: expected str, bytes or os.PathLike object" (a SIGTERM
+    in CI). Once the user asked to stop, whatever unwinds is that stop."""
+    if was_interrupted():
+        return True
+    seen = set()
+    while err is not None and id(err) not in seen:
+        seen.add(id(err))
+        if isinstance(err, KeyboardInterrupt):
+            return True
+        err = err.__cause__ or err.__context__
+    return False

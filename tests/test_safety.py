@@ -667,6 +667,36 @@ def test_ctrl_c_while_click_parses_the_arguments_is_exit_130(user_folder, monkey
     assert not (user_folder / "o").exists()
 
 
+def test_an_interrupt_a_library_turns_into_another_error_is_still_exit_130(user_folder, monkeypatch):
+    """numpy's fromfile, interrupted inside its isinstance check of the file object, drops the
+    KeyboardInterrupt and raises "TypeError: expected str, bytes or os.PathLike" (a SIGTERM in
+    CI ended in that traceback and exit 1). Once an interrupt arrived, whatever unwinds is that
+    interrupt: one line, exit 130, no output. Without one, the same TypeError stays a bug with
+    its traceback. Deterministic counterpart of test_sigterm_is_handled_like_ctrl_c."""
+    from pcnet.pipeline import interrupt
+
+    def interrupted_fromfile(*args, **kwargs):
+        try:
+            interrupt.raise_interrupt(signal.SIGTERM, None)
+        except KeyboardInterrupt:
+            pass  # what numpy does with it
+        raise TypeError("expected str, bytes or os.PathLike object, not BufferedRandom")
+
+    monkeypatch.setattr(np, "fromfile", interrupted_fromfile)
+    try:
+        res = _invoke(*RUN, "--out", "o")
+    finally:
+        interrupt._interrupted.clear()
+    assert res.exit_code == 130, (res.output, res.exception)
+    assert res.output.strip() == "pcnet: interrupted; nothing half-written was left behind"
+    assert not (user_folder / "o").exists()
+    assert [p.name for p in user_folder.iterdir() if TMP_TAG in p.name] == []
+
+    monkeypatch.setattr(np, "fromfile", lambda *a, **k: (_ for _ in ()).throw(TypeError("a bug")))
+    res = _invoke(*RUN, "--out", "o")
+    assert isinstance(res.exception, TypeError) and res.exit_code == 1
+
+
 def test_an_interrupt_python_cannot_raise_prints_no_traceback():
     """A Ctrl-C that lands in a weakref callback (importlib's module-lock clean-up while the
     command line imports its libraries, seen in CI) is dropped quietly, not printed as
