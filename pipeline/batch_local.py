@@ -18,6 +18,7 @@ import multiprocessing
 import os
 import signal
 import socket
+import sys
 import time
 from collections import deque
 from collections.abc import Callable
@@ -38,10 +39,11 @@ def _worker_main(conn, threads: int) -> None:
     unwinds as ``KeyboardInterrupt`` like ``pcnet run``'s, so the row's staged output folder
     is removed before the process exits.
     """
-    from .interrupt import raise_interrupt
+    from .interrupt import came_from_interrupt, quiet_interrupt_hook, raise_interrupt
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, raise_interrupt)
+    sys.unraisablehook = quiet_interrupt_hook(sys.unraisablehook)
     try:
         set_opencv_threads(threads)
         import pcnet.pipeline.runner  # noqa: F401 - imported once per worker, not inside the first row's time
@@ -55,6 +57,9 @@ def _worker_main(conn, threads: int) -> None:
             conn.send(execute_row(job))
     except KeyboardInterrupt:
         return
+    except Exception as err:  # a SIGTERM inside an import comes out as the module's ImportError
+        if not came_from_interrupt(err):
+            raise
 
 
 @dataclass

@@ -7,7 +7,7 @@ from __future__ import annotations
 import signal
 import sys
 
-from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, raise_interrupt, was_interrupted
+from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, quiet_interrupt_hook, raise_interrupt, was_interrupted
 
 
 def main() -> None:
@@ -20,7 +20,7 @@ def main() -> None:
     into "Aborted!" and exit 1."""
     signal.signal(signal.SIGTERM, raise_interrupt)
     signal.signal(signal.SIGINT, raise_interrupt)
-    sys.unraisablehook = _quiet_interrupt_hook(sys.unraisablehook)
+    sys.unraisablehook = quiet_interrupt_hook(sys.unraisablehook)
     try:
         import click
 
@@ -39,17 +39,6 @@ def main() -> None:
             _stop("Aborted!", status=1)
         _stop("pcnet: interrupted; nothing half-written was left behind")
     raise SystemExit(code if isinstance(code, int) else 0)
-
-
-def _quiet_interrupt_hook(default):
-    """An ``sys.unraisablehook`` that drops a ``KeyboardInterrupt`` raised where Python cannot
-    propagate it (a weakref callback, a destructor: importlib's module-lock clean-up is one)
-    instead of printing its traceback; the interrupt is remembered (:func:`was_interrupted`)
-    and stops the run at the next check. Anything else goes to ``default``."""
-    def hook(unraisable):
-        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
-            default(unraisable)
-    return hook
 
 
 def _stop(line: str, status: int = EXIT_INTERRUPTED) -> None:

@@ -45,3 +45,14 @@ def came_from_interrupt(err: BaseException) -> bool:
             return True
         err = err.__cause__ or err.__context__
     return False
+
+
+def quiet_interrupt_hook(default):
+    """An ``sys.unraisablehook`` that drops a ``KeyboardInterrupt`` raised where Python cannot
+    propagate it (a weakref callback, a destructor: importlib's module-lock clean-up is one)
+    instead of printing its traceback; the interrupt is remembered (:func:`was_interrupted`)
+    and stops the run at the next check. Anything else goes to ``default``."""
+    def hook(unraisable):
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            default(unraisable)
+    return hook

@@ -704,10 +704,10 @@ def test_an_interrupt_python_cannot_raise_prints_no_traceback():
     Deterministic counterpart of the timed subprocess test below."""
     import weakref
 
-    from pcnet.pipeline import entry
+    from pcnet.pipeline.interrupt import quiet_interrupt_hook
 
     seen = []
-    hook = entry._quiet_interrupt_hook(seen.append)
+    hook = quiet_interrupt_hook(seen.append)
 
     class Target:
         pass
@@ -724,6 +724,31 @@ def test_an_interrupt_python_cannot_raise_prints_no_traceback():
             sys.unraisablehook = previous
         del ref
     assert [type(item.exc_value) for item in seen] == [ValueError]  # the interrupt dropped, the error passed on
+
+
+def test_a_batch_worker_stopped_inside_an_import_exits_without_a_traceback(monkeypatch):
+    """The engine's SIGTERM can land while a fresh worker imports OpenCV or numpy, which report
+    it as their own ImportError (a timed Ctrl-C trial printed the worker's traceback): the
+    worker ends quietly. An ImportError with no interrupt behind it is still raised."""
+    from pcnet.pipeline import batch_local
+
+    def interrupted_import(threads):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as stop:
+            raise ImportError("initialization failed") from stop
+
+    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # the worker replaces it
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        monkeypatch.setattr(batch_local, "set_opencv_threads", interrupted_import)
+        assert batch_local._worker_main(None, 1) is None
+        monkeypatch.setattr(batch_local, "set_opencv_threads", lambda threads: __import__("no_such_module_pcnet"))
+        with pytest.raises(ImportError):
+            batch_local._worker_main(None, 1)
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
 
 
 def _wait_for_pcnet_handlers(pid: int, timeout: float = 60.0) -> None:
