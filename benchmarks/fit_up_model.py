@@ -9,8 +9,9 @@ Data:
 - validation (the shipped weights never trained on it): the Bandai motion-style validation
   split (120 seeded clips, benchmarks/ablation.py's subset rule) and the CMU validation
   subjects, each seen by one static camera with lifter-like noise
-  (``make_pairs(..., camera="static", noise=LifterNoise())``) twice: a "paper" view (seed 0)
-  and a "wide" view (seed 1: pitch up to 45 deg, roll up to 25). The per-frame network ups come
+  (``make_pairs(..., camera="static", noise=LifterNoise())``) three times: a "paper" view
+  (seed 0), a "wide" view (seed 1: pitch up to 45 deg, roll up to 25) and a "paper" view
+  rolled by a uniform angle about the optical axis (seed 2, :data:`VAL_VIEWS`). The per-frame network ups come
   from the shipped estimator exactly as ``pcnet run`` runs it (benchmarks/ablation.py's
   ``extract``, same cache);
 - training motion capture (Bandai motion-style train split, CMU training subjects, DeepMimic's
@@ -44,7 +45,7 @@ N(0, 12 deg), roll N(0, 10 deg)) and a 5 % share of cameras outside them; and th
 probability of a lying body, equal to that share. A lying body under a level camera and an
 upright one under a camera rolled a quarter turn give the same camera-frame skeleton, so
 no likelihood separates them and these two priors decide; the training motion capture's
-lying share (about 0.04 % of frames, no clip lying throughout) samples mocap catalogues, not
+lying share (0.17 % of frames, no clip lying throughout; printed by this script) samples mocap catalogues, not
 the recordings pcnet is used on.
 The floor parameters (:data:`FLOOR_PARAMETERS`) are fitted on this model's posterior
 afterwards, by ``python -m benchmarks.fit_floor_contacts`` and then ``python -m

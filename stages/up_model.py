@@ -34,7 +34,7 @@ the (pitch, roll) directions at ``g``.
 
 Posture. Upright: ``g_hat ~ N(g, C_L + S)``. Lying: both networks read the trunk as up,
 which then lies in the floor plane: ``g_hat`` is uniform in azimuth about ``g`` with elevation
-``asin(g_hat . g) ~ N(0, sigma_lie^2)``. Prior ``P(lying) = rho``.
+``asin(g_hat . g) ~ N(0, sigma_lie^2 + tr(C_L + S) / 2)``. Prior ``P(lying) = rho``.
 
 Camera prior (declared, docs/CONVENTIONS.md "handheld" views): camera pitch
 ``N(0, prior_pitch^2)`` and roll ``N(0, prior_roll^2)`` with a uniform share ``eps_cam`` for
