@@ -303,6 +303,13 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
                      "(pass --fps)")
 
 
+def fps_unchecked(fps_source: str) -> bool:
+    """Whether :func:`_frame_rate`'s rate rests on ``--fps`` alone: nothing recorded a rate, or
+    ``--fps-override`` set it against the recorded one (a user trial's forced rate lost the
+    motion warnings' "check --fps", though a forced rate is the likeliest to be wrong)."""
+    return fps_source == "--fps" or fps_source.startswith("--fps, overriding")
+
+
 @dataclass(frozen=True, eq=False)
 class RecordingInputs:
     """What :func:`_load_inputs` read for one recording.
@@ -1259,7 +1266,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         implausible = implausible_motion(rectified_poses, fps, units=units)
         result.implausible_frames = implausible_frames(implausible, len(cam))
         # a rate typed with --fps and no video or file to check it against is the likeliest cause
-        findings += implausible_motion_findings(implausible, fps_typed=inputs.recording.fps_source == "--fps")
+        findings += implausible_motion_findings(implausible, fps_typed=fps_unchecked(inputs.recording.fps_source))
     table = write_kinematics_table(result, tmp, allocate=store.create)
     findings += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
     # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)

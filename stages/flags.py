@@ -747,6 +747,21 @@ def load_switch_limits(path: str | Path | None = None) -> SwitchLimits:
                         ("jump_torsos", "per_extra_frame"), "person-switch limits", "a positive number of torso lengths")
 
 
+def _track_points(keypoints2d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(pelvis (T, 2) px, torso (T,) px, present (T,) bool)``: the 2D pelvis, the pelvis ->
+    thorax length, and the frames with both (the frames a 2D track has a position in)."""
+    # Two columns read (a long recording's keypoints are on disk, read a block at a time).
+    pelvis, thorax = (np.asarray(keypoints2d[:, j, :2], np.float64) for j in (PELVIS, THORAX))
+    torso = np.linalg.norm(thorax - pelvis, axis=1)
+    return pelvis, torso, np.isfinite(pelvis).all(axis=1) & np.isfinite(torso) & (torso > 0)
+
+
+def track_present(keypoints2d: np.ndarray) -> np.ndarray:
+    """``(T,)`` bool: the frames of ``keypoints2d`` ``(T, 17, >=2)`` (H36M-17 px, NaN =
+    missing) with a pelvis and a thorax, where :func:`track_segments` measures the track."""
+    return _track_points(keypoints2d)[2]
+
+
 def pelvis_jumps(keypoints2d: np.ndarray, fps: float,
                  max_gap_30fps: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The 2D pelvis's jumps in torso lengths (pelvis -> thorax in pixels, the larger of the
@@ -763,10 +778,8 @@ def pelvis_jumps(keypoints2d: np.ndarray, fps: float,
         ``(first, second, gap, jump)``: ``(N,)`` int frame indices, ``(N,)`` float the gap in
         frames at 30 fps, ``(N,)`` float the jump in torso lengths.
     """
-    # Two columns read (a long recording's keypoints are on disk, read a block at a time).
-    pelvis, thorax = (np.asarray(keypoints2d[:, j, :2], np.float64) for j in (PELVIS, THORAX))
-    torso = np.linalg.norm(thorax - pelvis, axis=1)
-    present = np.flatnonzero(np.isfinite(pelvis).all(axis=1) & np.isfinite(torso) & (torso > 0))
+    pelvis, torso, present = _track_points(keypoints2d)
+    present = np.flatnonzero(present)
     pairs = [(present[:-1], present[1:])]
     if max_gap_30fps is not None:
         for step in range(2, len(present)):

@@ -1017,6 +1017,38 @@ def _dictionary(out: Path) -> tuple[list[str], dict[str, list[str]], list[str], 
     return d_header, {row[0]: row for row in d_rows}, header, body
 
 
+def test_status_columns_are_empty_where_there_is_nothing_to_say(tmp_path):
+    """A frame with no pose has no implausible_motion, a frame whose 2D keypoints lack the
+    pelvis or thorax no track_segment: empty cells, never 0 (a user trial's frames with no
+    person passed the track-switch warning's own filter as "track_segment 0, implausible_motion 0")."""
+    import json
+
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+
+    poses = np.load(FIXTURES / "boxing_X3D_f000-059.npy", allow_pickle=False).copy()
+    poses[20:23] = np.nan
+    np.save(tmp_path / "x3d.npy", poses)
+    people = [p for p in json.loads((FIXTURES / "boxing_alphapose_f000-059.json").read_text())
+              if p["image_id"] not in ("30.jpg", "31.jpg")]
+    (tmp_path / "kp.json").write_text(json.dumps(people))
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", "--lifter", "motionbert", "--lifter-output", str(tmp_path / "x3d.npy"),
+                                    "--keypoints2d", str(tmp_path / "kp.json"), "--keypoints2d-format", "alphapose",
+                                    "--fps", "30", "--height", "1.75", "--out", str(out),
+                                    "--no-recording"])
+    assert res.exit_code == 0, res.output
+    with open(out / "kinematics.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    no_pose = [20, 21, 22, 30, 31]  # a frame without 2D keypoints has no pose either
+    assert [i for i, r in enumerate(rows) if r["valid"] == "0"] == no_pose
+    assert [i for i, r in enumerate(rows) if r["implausible_motion"] == ""] == no_pose
+    assert [i for i, r in enumerate(rows) if r["track_segment"] == ""] == [30, 31]
+    assert all(r["implausible_motion"] in ("0", "1") for i, r in enumerate(rows) if i not in no_pose)
+    assert all(r["track_segment"].isdigit() for i, r in enumerate(rows) if i not in (30, 31))
+
+
 def test_kinematics_columns_csv_describes_every_column_of_a_real_run(tmp_path):
     """`kinematics_columns.csv` beside `kinematics.csv`: one row (column, unit, frame,
     definition) per column of the run's CSV, built from the same column list as its header;
@@ -1042,7 +1074,7 @@ def test_kinematics_columns_csv_describes_every_column_of_a_real_run(tmp_path):
     # the implausible-motion warning's frames, in the CSV a spreadsheet user reads (a user trial: only the npz had them)
     assert rows["implausible_motion"][1:3] == ["0/1", "none"]
     with open(out / "kinematics.csv", newline="") as f:
-        marked = [int(r["implausible_motion"]) for r in csv.DictReader(f)]
+        marked = [int(r["implausible_motion"] or 0) for r in csv.DictReader(f)]  # empty: not valid
     with np.load(out / "canonical.npz", allow_pickle=False) as npz:
         assert marked == npz["implausible_frames"].astype(int).tolist()
     assert "empty where the knee bends less than 5 deg" in rows["right_hip_internal_rotation_deg"][3]

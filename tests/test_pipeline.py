@@ -222,7 +222,7 @@ def test_joints_whose_keypoints_lie_outside_the_picture_are_missing(tmp_path):
     assert "outside the" not in runs["as filmed"].summary()
     # the implausible-motion warning's frames are the CSV's implausible_motion (this clip has some)
     with open(tmp_path / "as_filmed" / "kinematics.csv", newline="") as f:
-        marked = np.array([int(r["implausible_motion"]) for r in csv.DictReader(f)])
+        marked = np.array([int(r["implausible_motion"] or 0) for r in csv.DictReader(f)])  # empty: not valid
     with np.load(tmp_path / "as_filmed" / "canonical.npz") as npz:
         np.testing.assert_array_equal(marked, npz["implausible_frames"].astype(int))
     assert marked.any() and not marked.all()
@@ -1188,6 +1188,11 @@ def test_the_frame_rate_source_says_whether_a_recorded_rate_checked_fps():
                        ("m.npz", 30.0)) == (60.0, "--fps, overriding m.npz")
     assert _frame_rate(RunConfig(lifter="mediapipe", lifter_output="m.npz"), None, ("m.npz", 30.0)) == (
         30.0, "recorded in m.npz")
+    # a forced rate is unchecked too (a user trial: --fps-override lost "check --fps")
+    from pcnet.pipeline.runner import fps_unchecked
+
+    assert [fps_unchecked(s) for s in ("--fps", "--fps, overriding m.npz", "--fps, as recorded in m.npz",
+                                       "recorded in m.npz")] == [True, True, False, False]
 
 
 def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(tmp_path):

@@ -23,7 +23,7 @@ import numpy as np
 from ..core.conventions import H36M_JOINTS
 from ..core.rotations import decompose_camera_rotation
 from ..core.framestore import column, per_frame
-from ..flags import one_person_frames
+from ..flags import one_person_frames, track_present
 from ..kinematics import FrameGatherer, count_flags
 from ..rectification_report import RectificationReport
 from .bvh import write_bvh
@@ -151,10 +151,11 @@ EXTRA_COLUMNS = {
     "heading_deg": ("deg", "camera", "The subject's heading in the camera's view from the frame's rotation: 0 = facing "
                                      "the camera, + counter-clockwise seen from above (empty where not valid)."),
     "track_segment": ("-", "none", "The stretch of the 2D track between jumps to another place (stages/flags.py: "
-                                   "track_segments); frames outside the longest stretch are probably another person."),
+                                   "track_segments); frames outside the longest stretch are probably another person "
+                                   "(empty where the 2D keypoints have no pelvis or thorax)."),
     "implausible_motion": ("0/1", "none", "1 where a joint moves faster or accelerates harder than in any training "
                                           "motion (the implausible-motion warning's frames; canonical.npz "
-                                          "implausible_frames), else 0."),
+                                          "implausible_frames), else 0 (empty where not valid)."),
 }
 
 
@@ -198,10 +199,12 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
     frames = np.arange(T)
     path, dictionary = folder / "kinematics.csv", folder / "kinematics_columns.csv"
     extra = {"valid": r.valid.astype(int), "heading_deg": r.heading_deg}
+    # Empty, never 0, where there is nothing to say (a user trial's frames with no person passed
+    # the track-switch warning's own filter as "track_segment 0, implausible_motion 0").
     if r.track_segment is not None:  # which person the 2D track followed, as the track-switch flag names it
-        extra["track_segment"] = np.asarray(r.track_segment, int)
+        extra["track_segment"] = np.where(track_present(r.keypoints2d), r.track_segment, np.nan)
     if r.implausible_frames is not None:  # the frames the implausible-motion warning asks to leave out
-        extra["implausible_motion"] = _implausible(r).astype(int)
+        extra["implausible_motion"] = np.where(r.valid, _implausible(r), np.nan)
     write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra,
                          dictionary=dictionary, extra_definitions=EXTRA_COLUMNS, frame=r.kinematics_frame,
                          unobservable=unobservable, empty_angles=r.empty_angles,
