@@ -387,7 +387,8 @@ def _run_and_report(cfg) -> None:
                    "keep it and one floor for the recording.")
 @click.option("--focal-px", type=float, default=None,
               help="The camera's focal length in pixels: places the pelvis path from the 2D keypoints and turns "
-                   "MediaPipe landmarks into the camera [a MediaPipe file's K, else a phone's 26 mm equivalent].")
+                   "MediaPipe landmarks into the camera [a MediaPipe file's K, else a phone's 26 mm equivalent]. "
+                   "From a 35 mm equivalent f35 on a WxH video: f35 * sqrt(W^2 + H^2) / 43.27 (docs/video.md).")
 @click.option("--image-size", default=None,
               help="WIDTHxHEIGHT of the frames the 2D keypoints came from, without --video when the keypoint file "
                    "does not state it (AlphaPose, OpenPose): needed for the pelvis path from the 2D keypoints.")
@@ -502,7 +503,8 @@ def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, 
 @main.command()
 @click.argument("out_dir", type=click.Path(file_okay=False))
 @click.option("--height", type=float, default=None,
-              help="Subject height in metres, recorded in opensim_fit.json (the markers' scale is `pcnet run --height`'s).")
+              help="Subject height in metres, recorded in opensim_fit.json; default the run's `--height`, which scaled "
+                   "the markers (another value is refused).")
 @click.option("--mass", type=float, default=None, help="Subject mass in kg (sets the scaled model's total mass).")
 @click.option("--overwrite", is_flag=True, help="Replace earlier OpenSim outputs of pcnet in OUT_DIR.")
 def opensim(out_dir, height, mass, overwrite):
@@ -529,6 +531,7 @@ def opensim(out_dir, height, mass, overwrite):
                              f"world frame for IK")
         raise InputError(f"{out_dir}: expected world.trc (from `pcnet run` with a static camera and metric poses: "
                          f"a metric lifter or --height), got none")
+    height = _subject_height(folder, height)
     import_opensim()  # before any work: without OpenSim, one line saying how to get it
 
     for leftover in stale_staging(folder):  # of a killed `pcnet opensim` here
@@ -550,6 +553,28 @@ def opensim(out_dir, height, mass, overwrite):
     for name in OUTPUTS:
         click.echo(f"{name:<17} {result['outputs'][name]}")
     click.echo(f"details: {details}")
+
+
+def _subject_height(folder: Path, height: float | None) -> float | None:
+    """The subject height for ``pcnet opensim``: the run's (``canonical.npz``
+    ``subject_height_m``, which scaled world.trc's markers), or ``height`` where the run had
+    none. A ``height`` that contradicts the run's is refused: opensim_fit.json would record a
+    subject the markers are not scaled to (a user trial)."""
+    import numpy as np
+
+    npz = folder / "canonical.npz"
+    run_height = float("nan")
+    if npz.is_file():
+        with np.load(npz, allow_pickle=False) as arrays:
+            if "subject_height_m" in arrays.files:
+                run_height = float(arrays["subject_height_m"])
+    if not np.isfinite(run_height):
+        return height
+    if height is not None and abs(height - run_height) > 0.005:
+        raise InputError(f"{folder}: --height: expected the run's subject height, {run_height:g} m (pcnet run --height "
+                         f"scaled world.trc's markers to it), got {height:g}; re-run pcnet run --height {height:g}, or "
+                         f"leave --height out")
+    return run_height
 
 
 def _opensim_into_report(folder: Path, result: dict) -> Path:

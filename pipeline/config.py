@@ -353,7 +353,11 @@ class RunConfig:
              "m (the subject's height, as the OpenSim model is scaled)"),
         ):
             if value is not None and not (math.isfinite(value) and low <= value <= high):
-                raise InputError(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got {value!r}")
+                # a height in centimetres is the likely slip (a user trial typed --height 170)
+                hint = (f"; centimetres? give metres: {value / 100:g}" if name == "height" and value is not None
+                        and math.isfinite(value) and low <= value / 100 <= high else "")
+                raise InputError(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got "
+                                 f"{value!r}{hint}")
         if self.focal_px is not None and not (math.isfinite(self.focal_px) and self.focal_px > 0):
             raise InputError(f"{field_name(source, 'focal_px')}: expected a positive finite focal length in pixels, "
                              f"got {self.focal_px!r}")
@@ -369,6 +373,7 @@ class RunConfig:
         multi_track = multi_track_formats()
         if self.person is not None and self.keypoints2d_format not in multi_track:
             got = (f"keypoints2d_format {self.keypoints2d_format!r}" if self.keypoints2d_format is not None
+                   else "pcnet's own pose estimator's (one person per frame)" if self.video is not None
                    else "no 2D keypoints")
             raise InputError(f"{field_name(source, 'person')}: expected 2D keypoints with several tracks "
                              f"({' or '.join(multi_track)}), got {got}")

@@ -1150,6 +1150,7 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         lifter_turn_deg=recording.lifter_turn_deg, track_segment=rectified.track_segment,
         track_events=rectified.track_events, height_given=cfg.height is not None,
         person_option=cfg.keypoints2d_format in multi_track_formats(),
+        own_estimator=cfg.keypoints2d is None and camera.keypoints2d is not None,
         focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture,
         picture_typed=_picture_typed(cfg))
 
@@ -1249,7 +1250,8 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         keypoints2d=scaled.camera.keypoints2d, track_segment=rectified.track_segment, video=cfg.video,
         video_first_frame=first_shown_frame(cfg.video) if cfg.video and cfg.recording else 0,
         video_keypoints2d=scaled.camera.video_keypoints2d,
-        min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=world.pelvis_path_std)
+        min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=world.pelvis_path_std,
+        subject_height_m=float("nan") if cfg.height is None else float(cfg.height))
     result.kinematics_blocks = kinematics_chunks(rectified_poses, fps, cutoff, units)
     if _spine_built_on_trunk_line(cam):  # an angle the layout cannot measure is empty, not 0
         result.kinematics_blocks = _without(result.kinematics_blocks, NEEDS_SPINE_JOINT)

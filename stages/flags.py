@@ -841,7 +841,8 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str =
     if not (turn_deg > 0 and np.isfinite(tolerance_deg)) or turn_deg <= tolerance_deg:
         return []
     advice = ("compare a run with the person near the image centre" if focal_known else
-              "give the video's true focal length (--focal-px), or compare a run with the person near the image centre")
+              "give the video's true focal length (--focal-px; docs/video.md says how to get it from a calibration or "
+              "the phone's 35 mm equivalent), or compare a run with the person near the image centre")
     return [_found(Kind.LIFTER_TURN, Severity.CHECK,
                    f"lifter output turned {turn_deg:.1f} deg into the camera, beyond the tilt's {tolerance_deg:.1f} "
                    f"deg uncertainty", "check the result" if focal_known else "give --focal-px",
@@ -863,7 +864,7 @@ def one_person_frames(segment: np.ndarray) -> np.ndarray:
 
 
 def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
-                      person_option: bool = True) -> list[Finding]:
+                      person_option: bool = True, own_estimator: bool = False) -> list[Finding]:
     """A flag naming the jumps and the frames outside the longest stretch (the finding's
     frames: probably another person).
 
@@ -872,6 +873,9 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
         events: :func:`track_segments`'s ``(frame, jump in torso lengths)`` pairs.
         person_option: the 2D format has several tracks to choose from (``--person``);
             otherwise the advice is to re-run the tracker or leave those frames out.
+        own_estimator: the 2D keypoints are pcnet's own estimator's (``--video`` alone), which
+            follows one person with no track to choose or tracker to re-run: the advice is to
+            crop the video to the person or leave those frames out.
     """
     if not events:
         return []
@@ -880,12 +884,19 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
     suspect = int((~main_frames).sum())
     jumps = ", ".join(f"frame {f} ({j:.1f} torso lengths)" for f, j in events[:5])
     more = f" and {len(events) - 5} more" if len(events) > 5 else ""
-    advice = ("check --person" if person_option else
-              "this 2D format has one track: re-run the tracker on one person, or leave those frames out")
+    if person_option:
+        action = advice = "check --person"
+    elif own_estimator:
+        action = f"crop the video to one person, or drop track_segment != {main}"
+        advice = ("pcnet's pose estimator follows whoever it finds: crop the video to the person, or leave those "
+                  "frames out")
+    else:
+        action = f"track one person, or drop track_segment != {main}"
+        advice = "this 2D format has one track: re-run the tracker on one person, or leave those frames out"
     at = f"frame{'s' * (len(events) > 1)} {', '.join(str(f) for f, _ in events[:5])}{more}"
     return [_found(Kind.TRACK_SWITCH, Severity.PROBLEM,
                    f"2D track switches person at {at}; {suspect} frames probably someone else",
-                   "check --person" if person_option else f"track one person, or drop track_segment != {main}",
+                   action,
                    f"2D track probably switches person: jumps at {jumps}{more}; {suspect} frames lie outside the "
                    f"longest stretch (track_segment != {main} in canonical.npz and kinematics.csv); {advice}",
                    true_runs(~main_frames))]

@@ -174,6 +174,28 @@ def test_cli_opensim_prints_a_line_per_warning_and_writes_it_in_full(short_run, 
     assert (out / "report.md").read_text() == "mine\n"
 
 
+def test_cli_opensim_takes_the_runs_height_and_refuses_another(short_run, tmp_path):
+    """The markers are scaled to `pcnet run --height`: `pcnet opensim --height` with another
+    value is refused before any work (a user trial's opensim_fit.json recorded a 1.5 m subject
+    for markers scaled to 1.70 m), and without --height the run's is recorded."""
+    import shutil
+
+    out = tmp_path / "run"
+    shutil.copytree(short_run, out)
+    with np.load(out / "canonical.npz", allow_pickle=False) as npz:
+        assert float(npz["subject_height_m"]) == 1.75
+    res = _cli("opensim", out, "--height", 1.5)
+    assert res.exit_code == 1
+    assert res.output.strip() == (f"Error: {out}: --height: expected the run's subject height, 1.75 m (pcnet run "
+                                  f"--height scaled world.trc's markers to it), got 1.5; re-run pcnet run --height "
+                                  f"1.5, or leave --height out")
+    assert not (out / "opensim_fit.json").exists()
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    res = _cli("opensim", out)
+    assert res.exit_code == 0, res.output
+    assert json.loads((out / "opensim_fit.json").read_text())["subject_height_m"] == 1.75
+
+
 def test_cli_opensim_without_world_trc(tmp_path):
     res = _cli("opensim", tmp_path / "missing")
     assert res.exit_code == 1 and "no folder" in res.output

@@ -1195,6 +1195,17 @@ def test_the_frame_rate_source_says_whether_a_recorded_rate_checked_fps():
                                        "recorded in m.npz")] == [True, True, False, False]
 
 
+def test_a_height_in_centimetres_is_named_as_such():
+    """A user trial typed --height 170: the range error says what it probably meant."""
+    from pcnet.stages.core.errors import InputError
+
+    with pytest.raises(InputError, match=r"^config: field 'height': expected a value in \[0\.5, 3\] m \(the subject's "
+                                         r"height\), got 170\.0; centimetres\? give metres: 1\.7$"):
+        RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0, height=170.0).validate()
+    with pytest.raises(InputError, match=r"got 5000\.0$"):
+        RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0, height=5000.0).validate()
+
+
 def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(tmp_path):
     """The library's validation refuses it as `pcnet batch` does, naming the field (the run had
     refused it only after loading its inputs; a library caller's config passed validation)."""

@@ -105,6 +105,7 @@ class RecordingResult:
     video_first_frame: int = 0
     min_confidence: float = 0.0
     wrist_acceleration_camera: np.ndarray | None = None
+    subject_height_m: float = float("nan")
     kinematics_blocks: Iterable = ()
     kinematics: object = None
     missing: np.ndarray | None = None
@@ -235,6 +236,7 @@ def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
         joints_world=r.world if r.world is not None else np.zeros((0, 17, 3)), world_rotation=r.world_rotation,
         implausible_frames=_implausible(r) if r.implausible_frames is not None else np.zeros(0, bool),
         pelvis_path_std_world=r.pelvis_path_std if r.pelvis_path_std is not None else np.zeros((0, 3)),
+        subject_height_m=np.float64(r.subject_height_m),
     )
     return {"canonical.npz": path}
 
