@@ -72,6 +72,7 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
     if not pixel and xy_max > _NORMALISED_BOUND:
         raise AdapterError(p, "X3D x/y values", f"normalised coordinates within about [-1, 1] (|x|,|y| <= {_NORMALISED_BOUND})",
                            f"max {xy_max:.1f}, which looks like pixels; use --pixel (pixel=True)")
+    _refuse_keypoints_input(p, arr)
     off_origin, _ = pelvis_offset(arr)
     # infer_wild.py --rootrel zeroes the root, so a root at the origin may be MotionBERT's;
     # it is also what VideoPose3D and D3DP export, in metres, not image-normalised units.
@@ -88,6 +89,20 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
              + f"(frames {shown}), so z may jump there" + rootrel)
     return Poses3D(arr, "h36m17", units=units, source=str(p), notes=notes, summary_note=rootrel.removeprefix("; "),
                    nonfinite=nonfinite)
+
+
+def _refuse_keypoints_input(p: Path, arr: np.ndarray) -> None:
+    """Refuse MotionBERT's 2D input (x, y, confidence) given as its output: X3D.npy's z is a
+    depth relative to the root, which infer_wild.py sets to 0 on the first frame
+    (``predicted_3d_pos[:,0,0,2] = 0``), so joints lie in front of it (z < 0) and behind it;
+    a third channel in [0, 1] everywhere with a root above 0 is confidences (a developer
+    trial passed the 2D file and got a result)."""
+    z = arr[..., 2][np.isfinite(arr[..., 2])]
+    root = arr[:, 0, 2][np.isfinite(arr[:, 0, 2])]
+    if len(z) and z.min() >= 0.0 and z.max() <= 1.0 and len(root) and root[0] > 0.0:
+        raise AdapterError(p, "X3D z", "depths relative to the root (0 at the first frame's root, joints in front of "
+                           "and behind it)", f"z in [{z.min():.2f}, {z.max():.2f}] everywhere, the first root at "
+                           f"{root[0]:.2f}: 2D keypoints with confidences (MotionBERT's input), not its X3D.npy")
 
 
 @register_3d("motionbert", records_fps=False)

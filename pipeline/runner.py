@@ -1179,6 +1179,11 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
     if cfg.height is not None:
         factor = height_factor(cam, cfg.height, who=f"{cfg.lifter_output}: --height")
         _scaled_in_place(cam, factor)
+        thigh = thigh_beyond_metres(cam)
+        if thigh is not None:  # the stature's share came out of the wrong joints (a developer trial's COCO order)
+            raise InputError(f"{cfg.lifter_output}: --height {cfg.height:g}: expected a body whose thigh scales to a "
+                             f"person's ({THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: a joint order "
+                             f"other than H36M-17, the order --lifter {cfg.lifter} reads?")
         root_cam = None if root_cam is None else root_cam * factor
         notes.append(f"scaled by {factor:.4g} to a {cfg.height} m subject (from {units}), taking the subject's "
                      f"ankle-to-head chain as H36M's share of stature (an individual's share differs by several "

@@ -502,6 +502,21 @@ def test_motionbert_fixture_units_and_notes():
     assert np.abs(p3.joints).max() < 1.5
 
 
+def test_motionbert_refuses_its_2d_input_given_as_its_output(tmp_path):
+    """MotionBERT's input (x, y, confidence), passed as X3D.npy, was read as depths and gave a
+    result (a developer trial); the real X3D's z has joints in front of the root."""
+    from pcnet.adapters.types import AdapterError
+
+    x3d = np.load(BOXING_X3D, allow_pickle=False)
+    conf = np.random.default_rng(0).uniform(0.4, 0.98, x3d.shape[:2])
+    as_input = np.concatenate([x3d[..., :2], conf[..., None]], -1).astype(np.float32)
+    np.save(tmp_path / "input2d.npy", as_input)
+    with pytest.raises(AdapterError, match=r"field 'X3D z': .* got z in \[0\.40, 0\.98\] everywhere, the first root at "
+                                           r"0\.\d\d: 2D keypoints with confidences \(MotionBERT's input\)"):
+        load_motionbert(tmp_path / "input2d.npy")
+    assert (x3d[..., 2] < 0).any()  # the real file passes: joints in front of the root
+
+
 def test_motionbert_notes_a_root_at_the_origin():
     """A real VideoPose3D export (pelvis at the origin in every frame) read as MotionBERT passes
     as 'normalised': MotionBERT's --rootrel output looks the same, so it is noted, naming both;

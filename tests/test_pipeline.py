@@ -1195,6 +1195,22 @@ def test_the_frame_rate_source_says_whether_a_recorded_rate_checked_fps():
                                        "recorded in m.npz")] == [True, True, False, False]
 
 
+def test_height_over_another_joint_order_is_refused_naming_the_order(tmp_path):
+    """--height scales by the H36M-17 ankle-to-head chain; a file in COCO-17 order read as
+    H36M-17 came out with a 4 cm thigh, refused by the kinematics as "poses: ... metres" with
+    no file named (a developer trial). The run names the file, --height and the joint order."""
+    x3d = np.load(BOX_3D, allow_pickle=False)
+    coco = x3d[:, [9, 10, 10, 8, 8, 11, 14, 12, 15, 13, 16, 4, 1, 5, 2, 6, 3]]  # COCO-17 (eyes: head, ears: thorax)
+    np.save(tmp_path / "coco.npy", coco)
+    res = CliRunner().invoke(main, ["run", "--lifter", "motionbert", "--lifter-output", str(tmp_path / "coco.npy"),
+                                    "--fps", "30", "--height", "1.75", "--out", str(tmp_path / "o"), "--no-recording"])
+    assert res.exit_code == 1, res.output
+    assert res.output.startswith(f"Error: {tmp_path / 'coco.npy'}: --height 1.75: expected a body whose thigh scales "
+                                 f"to a person's"), res.output
+    assert "a joint order other than H36M-17, the order --lifter motionbert reads?" in res.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_height_in_centimetres_is_named_as_such():
     """A user trial typed --height 170: the range error says what it probably meant."""
     from pcnet.stages.core.errors import InputError
