@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pcnet.stages.core.conventions import get_layout
+from pcnet.stages.core.conventions import LAYOUTS, get_layout
 from pcnet.stages.core.errors import InputError
 
 #: Units a :class:`Poses3D` may carry. ``normalised`` is MotionBERT's image-normalised
@@ -51,6 +51,8 @@ class AdapterError(InputError):
 
 
 def _check_array(arr: np.ndarray, what: str, source: str, layout: str) -> None:
+    if layout not in LAYOUTS:  # a custom adapter's slip, named with its file (a developer trial)
+        raise AdapterError(source, "layout", f"one of {', '.join(sorted(LAYOUTS))}", repr(layout))
     lay = get_layout(layout)
     if not isinstance(arr, np.ndarray) or arr.dtype != np.float32:
         found = f"dtype {arr.dtype}" if isinstance(arr, np.ndarray) else type(arr).__name__

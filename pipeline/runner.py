@@ -495,7 +495,7 @@ def _check_metric_body(cfg: RunConfig, cam) -> None:
     else:
         guess = (f"metres declared as --units {cfg.lifter_options.get('units')}? declare --units m"
                  if cfg.lifter_options.get("units") in ("cm", "mm") else "a joint order other than the lifter's?")
-    raise InputError(f"{cfg.lifter_output}: expected poses in metres (a median thigh length of "
+    raise InputError(f"{cfg.lifter_output}: units: expected poses in metres (a median thigh length of "
                      f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: {guess}, or --height to scale the "
                      f"poses")
 

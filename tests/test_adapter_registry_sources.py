@@ -102,6 +102,18 @@ def test_a_custom_adapters_options_and_what_it_returns(tmp_path):
         unregister("test_scaled_lifter", "3d")
 
 
+def test_a_custom_adapters_unknown_layout_names_its_file(tmp_path):
+    """A custom adapter returning layout "mpi17" got "unknown joint layout 'mpi17'" with no file
+    named (a developer trial): the adapter's error names the file and the field."""
+    import numpy as np
+    from pcnet.adapters import Poses3D
+    from pcnet.adapters.types import AdapterError
+
+    with pytest.raises(AdapterError, match=r"^file 'mine\.npy': field 'layout': expected one of blazepose33, body25, "
+                                           r"coco17, h36m17, halpe26, got 'mpi17'$"):
+        Poses3D(np.zeros((2, 17, 3), np.float32), "mpi17", units="m", source="mine.npy")
+
+
 def test_an_unregistered_adapter_is_refused_everywhere():
     result = CliRunner().invoke(main, ["run", "--lifter", "test_probe_lifter", "--lifter-output", "p.npy"])
     assert result.exit_code != 0 and "'test_probe_lifter' is not one of 'motionbert'" in result.output

@@ -567,7 +567,7 @@ def test_centimetres_given_as_metres_are_refused_by_the_body_check():
     pose = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
     generic = RunConfig(lifter="generic", lifter_output="cm.npy")
     _check_metric_body(generic, pose)
-    with pytest.raises(InputError, match=r"cm\.npy: expected poses in metres \(a median thigh length of 0\.2-0\.7 m\), "
+    with pytest.raises(InputError, match=r"cm\.npy: units: expected poses in metres \(a median thigh length of 0\.2-0\.7 m\), "
                                          r"got \d\d\.\d m: centimetres\? give --units cm \(or mm\), or --height"):
         _check_metric_body(generic, pose * 100.0)
     with pytest.raises(InputError, match=r"read it with --lifter generic --units cm \(VideoPose3D's H36M-17 order and "
@@ -1076,7 +1076,7 @@ def test_centimetres_given_as_metres_are_refused_before_any_output(tmp_path):
     np.save(tmp_path / "cm.npy", pose)
     args = ["run", "--lifter", "generic", "--lifter-output", tmp_path / "cm.npy", "--fps", "30", "--no-recording"]
     res = _invoke(*args, "--out", tmp_path / "a")
-    assert res.exit_code == 1 and "cm.npy: expected poses in metres (a median thigh length of 0.2-0.7 m), got 3" \
+    assert res.exit_code == 1 and "cm.npy: units: expected poses in metres (a median thigh length of 0.2-0.7 m), got 3" \
         in res.output and "give --units cm (or mm), or --height" in res.output, res.output
     assert not (tmp_path / "a").exists()
     assert _invoke(*args, "--units", "cm", "--out", tmp_path / "b").exit_code == 0
