@@ -174,7 +174,9 @@ class RunResult:
         lines = [f"{label:<17} {text}" for label, text in self.key_facts()]
         lines += [f.terminal_line() for f in self.ranked_findings]
         lines += [f"note     {n.headline}" for n in self.note_findings]
-        lines += [f"{name:<17} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
+        # the outputs' paths in one column, past the longest name (kinematics_columns.csv)
+        width = max([17, *(len(name) for name in self.outputs)])
+        lines += [f"{name:<{width}} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
         if "recording" in self.outputs:
             lines.append(f"open the recording with:  rerun {self.outputs['recording']}")
         if REPORT_NAME in self.outputs:
