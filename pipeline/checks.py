@@ -16,7 +16,7 @@ import numpy as np
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
                                mirrored_skeleton_flag, orientation_flags, posture_flag,
-                               side_swap_flag, size_change_flag, track_switch_flag, trunk_lies_flag)
+                               side_swap_flag, size_change_flag, track_switch_flag)
 from pcnet.stages.rectification_report import EnsembleWeights, ModeChoice, RectificationReport
 from pcnet.stages.rectify import Rectified
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG
@@ -94,7 +94,6 @@ def checks(c: CheckInputs) -> list[Finding]:
         # a side swap is a mirror image too: said once
         *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
         *posture_flag(report.sequence),
-        *trunk_lies_flag(report.sequence, cam),
         *ensemble_weights_flag(_answering_weights(report)),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report), focal_known=c.focal_known),
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option,
@@ -106,8 +105,8 @@ def checks(c: CheckInputs) -> list[Finding]:
 def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding]:
     """The findings of :func:`checks` that the poses and their rectification alone can give, as
     ``pcnet rectify`` prints them (no file, unit, 2D keypoints or video to read): the camera's
-    orientation, the legs' asymmetry, a mirrored skeleton, the posture hypotheses, a trunk lying
-    under an upright reading and the ensemble's weights (outside sequence mode).
+    orientation, the legs' asymmetry, a mirrored skeleton, the posture hypotheses and the
+    ensemble's weights (outside sequence mode).
 
     Args:
         joints_camera: ``(T, 17, 3)`` camera-frame H36M-17 poses, any units, NaN = missing:
@@ -118,7 +117,7 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
     tilt = CameraTilt.of(rectified.rotation, rectified.valid)
     return [*orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg), *leg_asymmetry_flag(joints_camera),
             *mirrored_skeleton_flag(joints_camera), *posture_flag(report.sequence),
-            *trunk_lies_flag(report.sequence, joints_camera), *ensemble_weights_flag(_answering_weights(report))]
+            *ensemble_weights_flag(_answering_weights(report))]
 
 
 def _answering_weights(report: RectificationReport) -> EnsembleWeights | None:

@@ -74,7 +74,6 @@ class Kind(IntEnum):
     CAMERA_TILT = auto()  #: :func:`orientation_flags`
     LYING = auto()  #: :func:`posture_flag`
     AMBIGUOUS_ORIENTATION = auto()  #: :func:`posture_flag`
-    TRUNK_LIES = auto()  #: :func:`trunk_lies_flag`
     QUARTER_TURN = auto()  #: :func:`orientation_flags`
     NO_WORLD_FRAME = auto()  #: :func:`no_world_frame_flag`
     LEG_ASYMMETRY = auto()  #: :func:`leg_asymmetry_flag`
@@ -617,51 +616,6 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
                        f"{100 * p:.0f} % posterior probability, so the 95 % intervals reach it (pose-based up "
                        f"{sequence.posture.pose_up_tilt_deg:.0f} deg from a level camera's)")]
     return []
-
-
-def trunk_elevation_deg(joints: np.ndarray, up: np.ndarray) -> float:
-    """Median over frames of the trunk's (pelvis -> thorax) elevation from the plane normal to
-    ``up`` (deg, + towards ``up``); NaN without a frame with both joints.
-
-    Args:
-        joints: ``(T, 17, 3)`` H36M-17 in any frame and units (an on-disk array is read a
-            column at a time).
-        up: ``(3,)`` unit up in the same frame.
-    """
-    trunk = np.asarray(joints[:, THORAX], np.float64) - np.asarray(joints[:, PELVIS], np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sine = trunk @ np.asarray(up, np.float64) / np.linalg.norm(trunk, axis=1)
-    sine = sine[np.isfinite(sine)]
-    return float(np.degrees(np.arcsin(np.clip(np.median(sine), -1.0, 1.0)))) if len(sine) else float("nan")
-
-
-def trunk_lies_flag(sequence: SequenceUp | None, joints: np.ndarray) -> list[Finding]:
-    """A flag when the up model read the body upright (sequence mode) but its trunk lies in the
-    recording's world frame: the median trunk elevation (:func:`trunk_elevation_deg` about
-    ``sequence.up``) within the lying posture's own 95 % band, ``|e| < 1.96 sigma_lie``
-    (``lying_elevation_deg``, :mod:`pcnet.stages.up_model`; decision 0093). A developer's trial
-    passed VideoPose3D's z-up world output as camera-frame poses: read upright under a level
-    camera, the body it wrote lay (trunk 80 deg from vertical) with no warning.
-
-    Args:
-        sequence: the sequence-mode up (``None`` or no posture: no flag).
-        joints: ``(T, 17, 3)`` H36M-17 camera-frame poses.
-    """
-    if sequence is None or sequence.posture is None or sequence.posture.most_probable != "upright":
-        return []
-    band = 1.96 * default_parameters().lying_elevation_deg
-    elevation = trunk_elevation_deg(joints, sequence.up)
-    if not abs(elevation) < band:  # NaN: no trunk
-        return []
-    return [_found(Kind.TRUNK_LIES, Severity.CHECK,
-                   f"trunk {elevation:+.0f} deg from level though read upright: lying, or not camera-frame poses?",
-                   "check the lifter's frame (--axes with --lifter generic)",
-                   f"the body was read as upright (the up model's upright posture), yet its trunk lies in the "
-                   f"recording's world frame: median elevation {elevation:+.0f} deg from the horizontal, within the "
-                   f"lying posture's 95 % band (+-{band:.0f} deg, 1.96 times the up model's fitted lying_elevation_deg). "
-                   f"A body that really lies keeps its result (the posture label aside); a standing body means the "
-                   f"poses are not in the camera frame the lifter is said to give (e.g. VideoPose3D's world output, z "
-                   f"up, rather than its camera-frame prediction; with --lifter generic, check --axes)")]
 
 
 #: Share of valid frames outside the camera-frame network's views above which it is flagged:

@@ -16,7 +16,7 @@ from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, body_si
                                 mirrored_skeleton_flag, no_opensim_flag,
                                 no_world_frame_flag, note_finding, opensim_fit_findings,
                                 orientation_flags, posture_flag, ranked, shortened, side_swap_flag, size_change_flag,
-                                track_segments, track_switch_flag, trunk_lies_flag, unfiltered_flag)
+                                track_segments, track_switch_flag, unfiltered_flag)
 from pcnet.stages.kinematics import format_flag_counts
 from pcnet.stages.opensim_ik import ik_fit_flags
 from pcnet.stages.plausibility import ImplausibleMotion
@@ -58,7 +58,6 @@ def _every_kind() -> list[Finding]:
             + orientation_flags(90.0, 0.0, 90.0) + body_size_flag(box * 100, "m")
             + posture_flag(sequence_up(PostureHypotheses("lying", 0.9, camera_up(0.0, 80.0))))
             + posture_flag(sequence_up(PostureHypotheses("upright", 0.2, camera_up(0.0, 70.0))))
-            + trunk_lies_flag(sequence_up(PostureHypotheses("upright", 0.0, camera_up(0.0, 0.0))), box[..., [0, 2, 1]])
             + ensemble_weights_flag(EnsembleWeights(0.8, 5, 10, 100, {"90": 30, "270": 0}))
             + unfiltered_flag(np.zeros((5, 17), bool), np.ones((5, 17), bool), 30.0, 6.0)
             + floor_flag(np.zeros(5, bool), np.ones(5, bool))
