@@ -43,6 +43,7 @@ from .core.conventions import (
     R_KNEE,
     R_SHOULDER,
     R_WRIST,
+    METRES_PER_LENGTH_UNIT,
     REFUSED_THIGH_M,
     THIGH_RANGE_M,
     THORAX,
@@ -831,17 +832,22 @@ def _angles(pos: np.ndarray, fps: float, continuous: bool = True) -> dict[str, n
 
 def _require_units(X, units: object, field: str) -> None:
     """Refuse a ``units`` that is not a unit's name, and poses ``X`` (argument ``field``) said to
-    be in metres whose median thigh is no person's
+    be in a length unit (:data:`~pcnet.stages.core.conventions.METRES_PER_LENGTH_UNIT`) whose
+    median thigh in it is no person's
     (:func:`~pcnet.stages.core.conventions.thigh_beyond_metres`): their speeds would be wrong a
-    hundredfold (a user trial's centimetres gave a wrist at 152 m/s)."""
+    hundredfold (a user trial's centimetres gave a wrist at 152 m/s; a notebook trial's metres
+    declared as "mm" were labelled mm/s)."""
     if not isinstance(units, str) or not units:
         raise InputError(f"units: expected a length unit's name ('m', 'normalised', ...), got {units!r}")
-    thigh = thigh_beyond_metres(X) if units == "m" else None
+    scale = METRES_PER_LENGTH_UNIT.get(units)
+    thigh = thigh_beyond_metres(X, scale) if scale is not None else None
     if thigh is not None:
-        raise InputError(f"{field}: expected poses in metres (units 'm': a median thigh length of "
+        said = "metres" if units == "m" else f"{units!r}"
+        smaller = "centimetres or millimetres" if units == "m" else "a smaller unit"
+        raise InputError(f"{field}: expected poses in {said} (units {units!r}: a median thigh length of "
                          f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: "
-                         f"{'centimetres or millimetres' if thigh > REFUSED_THIGH_M[1] else 'another unit or joint order'} "
-                         f"given as metres? scale the poses to metres, or pass their units")
+                         f"{smaller if thigh > REFUSED_THIGH_M[1] else 'another unit or joint order'} "
+                         f"given as {said}? scale the poses, or pass their units")
 
 
 def inverted_trunk_bound_deg() -> float:
@@ -856,7 +862,7 @@ def inverted_trunk_bound_deg() -> float:
     return 90.0 + 1.96 * default_parameters().lying_elevation_deg
 
 
-def _require_y_up(X: np.ndarray, field: str) -> None:
+def require_y_up(X: np.ndarray, field: str) -> None:
     """Refuse poses ``X`` (argument ``field``) whose trunk points down in most frames (median
     inclination beyond :func:`inverted_trunk_bound_deg`): camera-frame poses (+Y down) given
     where Y-up ones are expected (a developer's trial got a trunk inclination of 178 deg)."""
@@ -938,7 +944,7 @@ def compute_kinematics(
     fps = validate_fps(fps, "fps")
     _require_units(X, units, "canonical")
     if check_up:
-        _require_y_up(X, "canonical")
+        require_y_up(X, "canonical")
     return _kinematics(X, fps, cutoff_hz, units, order, continuous)
 
 

@@ -443,7 +443,7 @@ def scale_and_ik(
         # complete frames only (their own copy, times renumbered).
         from .sinks.exports import finite_or_null, write_trc
 
-        scale_trc = write_trc(tmp / "scale_frames.trc", joints[complete], fps, used, units)
+        scale_trc = write_trc(tmp / "scale_frames.trc", joints[complete], fps, used, units, check_up=False)
         c_times = np.arange(int(complete.sum())) / fps
         c0, c1 = static_window(c_times, joints[complete], static_seconds)
         kept = np.flatnonzero(complete)
@@ -485,7 +485,7 @@ def scale_and_ik(
         ik_markers = trc
         if not marked.all() or left_out:
             ik_markers = write_trc(tmp / "ik_frames.trc", joints[marked], fps, used, units,
-                                   frames=np.flatnonzero(marked) + int(round(start_s * fps)))
+                                   frames=np.flatnonzero(marked) + int(round(start_s * fps)), check_up=False)
         ik = osim.InverseKinematicsTool(str(data / IK_SETUP))
         _tasks_off(ik.getIKTaskSet(), left_out)
         model = osim.Model(str(tmp / "scaled_model.osim"))

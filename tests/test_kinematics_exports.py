@@ -37,7 +37,7 @@ from pcnet.stages.core.conventions import (
     R_WRIST,
     R_FRONTAL,
 )
-from pcnet.stages.sinks.exports import plot_wrists, write_kinematics_csv, write_npz, write_trc
+from pcnet.stages.sinks.exports import plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
 from pcnet.stages.core.geometric import geometric_rotation
 from pcnet.stages.kinematics import (
     PERIODIC_ANGLES,
@@ -649,6 +649,16 @@ def test_marker_writers_refuse_what_the_pipeline_refuses(tmp_path, yoga_level):
         with pytest.raises(InputError, match="write_trc: expected at least one frame with a finite marker"):
             write_trc(tmp_path / "b.trc", empty, 30.0)
     assert not (tmp_path / "b.trc").exists()
+    # camera-frame poses (+Y down) are an upside-down skeleton for OpenSim (a notebook trial), as
+    # compute_kinematics refuses them; a body inverted throughout is the caller's to declare
+    upside_down = X * [1.0, -1.0, -1.0]
+    with pytest.raises(InputError, match=r"^write_trc: expected Y-up poses"):
+        write_trc(tmp_path / "c.trc", upside_down, 30.0)
+    assert not (tmp_path / "c.trc").exists()
+    write_trc(tmp_path / "c.trc", upside_down, 30.0, check_up=False)
+    pytest.importorskip("ezc3d", reason='ezc3d not installed (pip install "pcnet[c3d]")')
+    with pytest.raises(InputError, match=r"^write_c3d: expected Y-up poses"):
+        write_c3d(tmp_path / "c.c3d", upside_down, 30.0)
 
 
 def test_png_is_written(tmp_path, yoga_cam, yoga_level):

@@ -182,6 +182,10 @@ def test_kinematics_refuse_centimetres_said_to_be_metres_and_a_unit_that_is_no_n
     with pytest.raises(InputError, match="another unit or joint order given as metres"):
         compute_kinematics(poses / 100.0, 30.0)
     assert compute_kinematics(poses * 100.0, 30.0, units="cm").units == "cm"
+    # metres declared as "mm" were labelled mm/s (a notebook trial)
+    with pytest.raises(InputError, match=r"canonical: expected poses in 'mm' \(units 'mm': .*\), got 0\.000\d+ m: "
+                                         r"another unit or joint order given as 'mm'\?"):
+        compute_kinematics(poses, 30.0, units="mm")
     with pytest.raises(InputError, match=r"units: expected a length unit's name \('m', 'normalised', \.\.\.\), got 5"):
         compute_kinematics(poses, 30.0, units=5)
     # a long recording in chunks is judged as a whole, as compute_kinematics judges it (a review:

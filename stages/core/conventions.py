@@ -380,6 +380,11 @@ def median_thigh_length(joints) -> float:
     return float(np.median(thighs)) if thighs.size else float("nan")
 
 
+#: Metres per unit of the length units poses may be in (the others, a lifter's ``normalised``
+#: scale or ``px``, have no fixed length).
+METRES_PER_LENGTH_UNIT = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+
+
 def thigh_beyond_metres(joints, metres_per_unit: float = 1.0) -> float | None:
     """The median thigh (:func:`median_thigh_length`) of H36M-17 poses ``(T, 17, 3)``, in
     metres (the poses' units times ``metres_per_unit``), when it lies outside

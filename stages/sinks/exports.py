@@ -21,10 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from ..core.atomic import atomic_path
-from ..core.conventions import H36M_JOINTS, L_WRIST, R_WRIST, thigh_beyond_metres, validate_fps
+from ..core.conventions import H36M_JOINTS, L_WRIST, METRES_PER_LENGTH_UNIT, R_WRIST, thigh_beyond_metres, validate_fps
 from ..core.errors import InputError, import_extra
 from ..core.framestore import FrameArray, frame_blocks
-from ..kinematics import MIN_PROJECTED_FRACTION, Kinematics
+from ..kinematics import MIN_PROJECTED_FRACTION, Kinematics, require_y_up
 from .plots import display_samples, marked_frames, marks_note, new_figure, save_png, shade_marks
 
 
@@ -479,6 +479,7 @@ def write_trc(
     joint_names: Sequence[str] = H36M_JOINTS,
     units: str = "m",
     frames: np.ndarray | None = None,
+    check_up: bool = True,
 ) -> Path:
     """Write Y-up poses (the recording's world frame, :mod:`pcnet.stages.world_frame`, or the
     canonical frame) as an OpenSim ``.trc`` marker file, atomically.
@@ -512,6 +513,8 @@ def write_trc(
         frames: ``(T,)`` 0-based frame numbers of the rows in the recording they come from
             (increasing), for a file that leaves some frames out: ``Frame#`` is ``frames + 1``
             and the time ``frames / fps``; default ``0 .. T-1``.
+        check_up: refuse H36M-17 markers whose trunk points down in most frames
+            (camera-frame poses, +Y down; :func:`~pcnet.stages.kinematics.require_y_up`).
 
     Returns:
         the destination path.
@@ -520,7 +523,7 @@ def write_trc(
         InputError (a ValueError): as :func:`_checked_markers`.
         ValueError: ``frames`` not ``T`` increasing integers.
     """
-    X, names, fps = _checked_markers("write_trc", poses, joint_names, fps, units)
+    X, names, fps = _checked_markers("write_trc", poses, joint_names, fps, units, check_up)
     T, J = X.shape[:2]
     numbers = np.arange(T) if frames is None else np.asarray(frames)
     if numbers.shape != (T,) or not np.issubdtype(numbers.dtype, np.integer) or (np.diff(numbers) <= 0).any():
@@ -555,6 +558,7 @@ def write_c3d(
     fps: float,
     joint_names: Sequence[str] = H36M_JOINTS,
     units: str = "m",
+    check_up: bool = True,
 ) -> Path:
     """Write Y-up poses (world or canonical frame, as :func:`write_trc`) as a C3D marker file
     with ezc3d (https://github.com/pyomeca/ezc3d), atomically.
@@ -566,7 +570,7 @@ def write_c3d(
 
     Args:
         path: destination ``.c3d``; poses: ``(T, J, 3)`` float; fps: Hz; joint_names: ``J``
-            labels; units: ``"m"`` or ``"mm"``.
+            labels; units: ``"m"`` or ``"mm"``; check_up: as :func:`write_trc`'s.
 
     Returns:
         the destination path.
@@ -576,7 +580,7 @@ def write_c3d(
             :func:`_checked_markers`.
     """
     ezc3d = require_ezc3d()
-    X, names, fps = _checked_markers("write_c3d", poses, joint_names, fps, units)
+    X, names, fps = _checked_markers("write_c3d", poses, joint_names, fps, units, check_up)
     c3d = ezc3d.c3d()
     c3d["parameters"]["POINT"]["RATE"]["value"] = [float(fps)]
     c3d["parameters"]["POINT"]["LABELS"]["value"] = tuple(names)
@@ -600,7 +604,8 @@ def write_c3d(
     return Path(path)
 
 
-def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tuple[np.ndarray, list[str], float]:
+def _checked_markers(who: str, poses, joint_names, fps: float, units: str,
+                     check_up: bool = True) -> tuple[np.ndarray, list[str], float]:
     """``(poses as (T, J, 3) float64, J marker names, fps as a float)`` for a marker file writer
     (a :class:`~pcnet.stages.core.framestore.FrameArray` stays on disk: read it a block at a
     time).
@@ -610,7 +615,9 @@ def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tu
             tab/newline, duplicate or empty names, a frame rate :func:`validate_fps` refuses,
             units other than ``"m"``/``"mm"``, or H36M-17 markers whose median thigh in those
             units is no person's (:func:`~pcnet.stages.core.conventions.thigh_beyond_metres`:
-            centimetres or millimetres given as metres), naming ``who``.
+            centimetres or millimetres given as metres), naming ``who``; with ``check_up``,
+            H36M-17 markers whose trunk points down in most frames (a notebook trial wrote
+            camera-frame poses, +Y down, as an upside-down skeleton for OpenSim).
     """
     X = poses if isinstance(poses, FrameArray) else np.asarray(poses, dtype=np.float64)
     names = [str(n) for n in joint_names]
@@ -624,10 +631,12 @@ def _checked_markers(who: str, poses, joint_names, fps: float, units: str) -> tu
     if not any(np.isfinite(X[rows]).any() for rows in frame_blocks(len(X))):
         raise InputError(f"{who}: expected at least one frame with a finite marker, got {len(X)} frames without one")
     if names == list(H36M_JOINTS):
-        thigh = thigh_beyond_metres(X, 1e-3 if units == "mm" else 1.0)  # a joint column at a time
+        thigh = thigh_beyond_metres(X, METRES_PER_LENGTH_UNIT[units])  # a joint column at a time
         if thigh is not None:
             raise InputError(f"{who}: expected markers in {units!r}, got a median thigh of {thigh:.3g} m in them, no "
                              f"person's (another unit?)")
+        if check_up:
+            require_y_up(X, who)
     return X, names, fps
 
 

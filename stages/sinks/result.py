@@ -259,9 +259,10 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
         return {}
     name = r.kinematics_frame
     out = {f"{name}.trc": folder / f"{name}.trc"}
-    write_trc(out[f"{name}.trc"], r.poses, r.fps)
+    # the run's own estimate of the up: a recording read upside down is written as read
+    write_trc(out[f"{name}.trc"], r.poses, r.fps, check_up=False)
     if c3d:
-        out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", r.poses, r.fps)
+        out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", r.poses, r.fps, check_up=False)
     bvh = f"{name}.bvh"
     incomplete = per_frame(lambda P: ~np.isfinite(P).all(axis=(1, 2)), r.poses)
     if incomplete.all():
