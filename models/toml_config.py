@@ -150,8 +150,12 @@ def check_config_types(source: str | Path, where: str, given: dict, cls) -> None
     hints = type_hints(cls)
     for key, value in given.items():
         if key in hints and type(value) not in _plain_types(hints[key]) and not value_matches(value, hints[key]):
+            shown = repr(value)
+            shown = shown if len(shown) <= 80 else shown[:77] + "..."  # an array's repr runs to pages
+            # a notebook's np.float32(30) or np.load(...)["fps"] (a notebook trial)
+            hint = "; pass a plain Python value (float(x), str(x))" if type(value).__module__ == "numpy" else ""
             raise InputError(f"{source}: {where}field {key!r}: expected {type_name(hints[key])}, "
-                             f"got {value!r} ({type(value).__name__})")
+                             f"got {shown} ({type(value).__name__}){hint}")
 
 
 def check_config_keys(path: str | Path, where: str, given: dict, cls) -> None:

@@ -110,7 +110,7 @@ def _require_root_relative(J: np.ndarray, rows: slice) -> None:
     if off.any():
         i = int(np.flatnonzero(off)[0])
         raise InputError(f"world frame: joints_cam: expected root-relative poses (pelvis at the origin), got the "
-                         f"pelvis at {np.round(pelvis[i], 4).tolist()} in frame {i + (rows.start or 0)}; subtract "
+                         f"pelvis at {[float(f'{v:.3g}') for v in pelvis[i]]} in frame {i + (rows.start or 0)}; subtract "
                          f"it and give its path as root_cam")
 
 
@@ -163,6 +163,9 @@ def to_world_floor(joints_cam: np.ndarray, frame: WorldFrame, root_cam: np.ndarr
             path), ``root_cam`` or ``floor_frames`` of the wrong shape, ``root_cam`` without a
             finite frame.
     """
+    if isinstance(joints_cam, tuple):  # root_relative's (poses, root) passed whole (a notebook trial)
+        raise InputError(f"world frame: joints_cam: expected a (T, 17, 3) array, got a tuple of {len(joints_cam)} "
+                         f"(root_relative returns (poses, root): pass poses, and root as root_cam)")
     shape = tuple(getattr(joints_cam, "shape", np.shape(joints_cam)))
     if len(shape) != 3 or shape[1:] != (17, 3):
         raise InputError(f"world frame: joints_cam must have shape (T, 17, 3), got {shape}")

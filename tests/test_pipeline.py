@@ -1211,6 +1211,19 @@ def test_height_over_another_joint_order_is_refused_naming_the_order(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_a_numpy_value_in_a_config_is_named_in_one_short_line():
+    """A notebook trial passed np.float32 fps (refused with no hint) and an array as
+    lifter_output (a 2,041-character line)."""
+    from pcnet.stages.core.errors import InputError
+
+    with pytest.raises(InputError, match=r"^config: field 'fps': expected float \| None, got np\.float32\(30\.0\) "
+                                         r"\(float32\); pass a plain Python value \(float\(x\), str\(x\)\)$"):
+        RunConfig(lifter="generic", lifter_output="g.npy", fps=np.float32(30.0)).validate()
+    with pytest.raises(InputError, match=r"field 'lifter_output': expected str \| None, got array\(") as refused:
+        RunConfig(lifter="generic", lifter_output=np.zeros((100, 17, 3)), fps=30.0).validate()
+    assert len(str(refused.value)) < 200
+
+
 def test_a_height_in_centimetres_is_named_as_such():
     """A user trial typed --height 170: the range error says what it probably meant."""
     from pcnet.stages.core.errors import InputError

@@ -216,6 +216,11 @@ def test_the_world_frame_refuses_poses_that_are_not_root_relative():
     relative = joints - joints[:, :1]
     world, _ = to_world_floor(relative, frame)
     assert np.isfinite(world).all()
+    # root_relative's (poses, root) passed whole got numpy's "inhomogeneous shape" (a notebook trial)
+    from pcnet.stages.core.conventions import root_relative
+
+    with pytest.raises(InputError, match=r"got a tuple of 2 \(root_relative returns \(poses, root\): pass poses"):
+        to_world_floor(root_relative(joints), frame)
 
 
 def test_lifter_joints_leave_the_callers_array_as_it_was():
