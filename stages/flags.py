@@ -607,7 +607,9 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
                        f"under {camera} (the poses' own reading, without the priors) looks the same (pass "
                        f"--no-camera-prior if that is the camera; a phone video's "
                        f"display rotation tells when --video is given with the 2D keypoints), and so does a file "
-                       f"whose up axis is declared wrongly (check --axes with --lifter generic)")]
+                       f"whose up axis is declared wrongly (check --axes with --lifter generic). A body that really "
+                       f"lies under a camera near level keeps this result: the angles between segments (hip, knee, "
+                       f"elbow) do not depend on the up; angles to gravity and positions rest on the camera prior")]
     if sequence.interval_reaches_other_posture_p is not None:
         return [_found(Kind.AMBIGUOUS_ORIENTATION, Severity.CHECK,
                        f"ambiguous orientation: read upright, but lying keeps {100 * p:.0f} % posterior",
