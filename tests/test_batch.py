@@ -1003,10 +1003,12 @@ def test_checking_a_large_manifest_takes_time_linear_in_its_rows(tmp_path):
     """Issue 53: 100,000 rows are checked in under 10 s (benchmarks/manifest_check.py times
     them). Here 10,000 and 20,000 rows: twice the rows take less than three times as long
     (nothing quadratic, such as each row listing or comparing with all the others) and at
-    most 150 us a row. CPU time, so that other jobs on a loaded machine do not count."""
+    most 150 us a row. CPU time, so that other jobs on a loaded machine do not count, and the
+    least of two checks: on this 2-core machine one check of the same rows varied from 113 to
+    156 us a row (cache and clock contention), the least of two is the usual timing estimate."""
     _check_cpu_seconds(_study(tmp_path / "warm", 1), 1)  # the validation's imports, out of the timing
-    small = _check_cpu_seconds(_study(tmp_path / "small", 10_000), 10_000)
-    large = _check_cpu_seconds(_study(tmp_path / "large", 20_000), 20_000)
+    small = min(_check_cpu_seconds(_study(tmp_path / f"small{i}", 10_000), 10_000) for i in range(2))
+    large = min(_check_cpu_seconds(_study(tmp_path / f"large{i}", 20_000), 20_000) for i in range(2))
     assert large < 3 * small, f"10,000 rows: {small:.2f} s, 20,000 rows: {large:.2f} s"
     assert large < 20_000 * 150e-6, f"20,000 rows: {large:.2f} s, {large / 20_000 * 1e6:.0f} us a row"
 
