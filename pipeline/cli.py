@@ -39,7 +39,11 @@ class _ErrorBoundary(click.Group):
         except Exception as err:
             if came_from_interrupt(err):
                 _stop_interrupted()
-            raise click.ClickException(_bad_input_line(ctx, err)) from err
+            line = _bad_input_line(ctx, err)
+            if line is None:  # a bug of pcnet, or click's own exception: as raised
+                raise
+            raise click.ClickException(line) from err
+
 
 def _existing(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
     """An input path that names something (a file, a folder, a link): checked as the option is
@@ -56,10 +60,11 @@ def _stop_interrupted() -> None:
     raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
 
 
-def _bad_input_line(ctx: click.Context, err: Exception) -> str:
+def _bad_input_line(ctx: click.Context, err: Exception) -> str | None:
     """The one line for bad input (:class:`InputError`, an ``OSError`` from the user's files
     or folders or their environment, a bad option value, input too deep or too large for the
-    interpreter); any other exception is a bug of pcnet and is re-raised with its traceback."""
+    interpreter, a symlink loop); ``None`` for anything else (click's other exceptions, which
+    click prints itself, and pcnet's bugs, which keep their traceback)."""
     if isinstance(err, (InputError, OSError)):
         return one_line(err)
     if isinstance(err, (RecursionError, MemoryError)):
@@ -69,13 +74,11 @@ def _bad_input_line(ctx: click.Context, err: Exception) -> str:
     if isinstance(err, click.UsageError):  # a bad option value: one line and exit 1 like any bad input
         hint = f" (see pcnet {err.ctx.info_name} --help)" if err.ctx is not None and err.ctx.parent else ""
         return one_line(err.format_message()) + hint
-    if isinstance(err, click.ClickException):
-        raise err
     if isinstance(err, RuntimeError) and str(err).startswith("Symlink loop from "):
         # Path.resolve() on a symlink loop (Python < 3.13 raises RuntimeError, not OSError)
         path = ast.literal_eval(str(err)[len("Symlink loop from "):])  # the path's repr, as pathlib wrote it
         return f"{path}: expected a file or folder, got a symlink loop"
-    raise err
+    return None
 
 
 @click.group(cls=_ErrorBoundary, context_settings={"help_option_names": ["-h", "--help"]})

@@ -354,8 +354,8 @@ class RunConfig:
         ):
             if value is not None and not (math.isfinite(value) and low <= value <= high):
                 # a height in centimetres is the likely slip (a user trial typed --height 170)
-                hint = (f"; centimetres? give metres: {value / 100:g}" if name == "height" and value is not None
-                        and math.isfinite(value) and low <= value / 100 <= high else "")
+                hint = (f"; centimetres? give metres: {value / 100:g}"
+                        if name == "height" and math.isfinite(value) and low <= value / 100 <= high else "")
                 raise InputError(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got "
                                  f"{value!r}{hint}")
         if self.focal_px is not None and not (math.isfinite(self.focal_px) and self.focal_px > 0):

@@ -279,6 +279,11 @@ class RunResult:
                 f"evidence: {seq.evidence})")
 
 
+#: :func:`_frame_rate`'s sources of a rate that rests on ``--fps`` alone (:func:`fps_unchecked`).
+_FPS_ALONE = "--fps"
+_FPS_OVERRIDING = "--fps, overriding"
+
+
 def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]) -> tuple[float, str]:
     """The recording's frame rate and where it came from (for the summary): ``--fps``, else the
     video's, else the one an input file carries (MediaPipe npz, a Kinect archive), given as
@@ -295,9 +300,9 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
         if any(problems) and not cfg.fps_override:
             raise InputError(next(p for p in problems if p))
         if not recorded:
-            return float(cfg.fps), "--fps"  # nothing to check it against (the motion warnings ask to)
-        said = "overriding" if problems[0] else "as recorded in"
-        return float(cfg.fps), f"--fps, {said} {Path(recorded[0][0]).name}"
+            return float(cfg.fps), _FPS_ALONE  # nothing to check it against (the motion warnings ask to)
+        said = _FPS_OVERRIDING if problems[0] else "--fps, as recorded in"
+        return float(cfg.fps), f"{said} {Path(recorded[0][0]).name}"
     if recorded:
         source, fps = recorded[0]
         return validate_fps(fps, f"{source}: frame rate"), f"recorded in {Path(source).name}"
@@ -309,7 +314,7 @@ def fps_unchecked(fps_source: str) -> bool:
     """Whether :func:`_frame_rate`'s rate rests on ``--fps`` alone: nothing recorded a rate, or
     ``--fps-override`` set it against the recorded one (a user trial's forced rate lost the
     motion warnings' "check --fps", though a forced rate is the likeliest to be wrong)."""
-    return fps_source == "--fps" or fps_source.startswith("--fps, overriding")
+    return fps_source == _FPS_ALONE or fps_source.startswith(_FPS_OVERRIDING)
 
 
 @dataclass(frozen=True, eq=False)
