@@ -565,12 +565,21 @@ def _subject_height(folder: Path, height: float | None) -> float | None:
     subject the markers are not scaled to (a user trial)."""
     import numpy as np
 
+    from pcnet.adapters.validate import NumpyArchive, open_numpy
+
     npz = folder / "canonical.npz"
     run_height = float("nan")
     if npz.is_file():
-        with np.load(npz, allow_pickle=False) as arrays:
+        arrays = open_numpy(npz)  # a damaged or foreign file: one line naming it
+        if not isinstance(arrays, NumpyArchive):
+            raise InputError(f"{npz}: expected pcnet's canonical.npz archive, got a single .npy array")
+        with arrays:
             if "subject_height_m" in arrays.files:
-                run_height = float(arrays["subject_height_m"])
+                value = arrays["subject_height_m"]
+                if value.shape != () or value.dtype.kind not in "fiu":
+                    raise InputError(f"{npz}: field 'subject_height_m': expected one number (metres), got shape "
+                                     f"{value.shape} of {value.dtype}")
+                run_height = float(value)
     if not np.isfinite(run_height):
         return height
     if height is not None and abs(height - run_height) > 0.005:

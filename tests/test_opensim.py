@@ -190,6 +190,12 @@ def test_cli_opensim_takes_the_runs_height_and_refuses_another(short_run, tmp_pa
                                   f"--height scaled world.trc's markers to it), got 1.5; re-run pcnet run --height "
                                   f"1.5, or leave --height out")
     assert not (out / "opensim_fit.json").exists()
+    # a damaged canonical.npz is one line naming it, not numpy's traceback (a review)
+    good = (out / "canonical.npz").read_bytes()
+    (out / "canonical.npz").write_text("garbage")
+    res = _cli("opensim", out, "--height", 1.75)
+    assert res.exit_code == 1 and "canonical.npz': field 'content': expected a numpy .npy/.npz file" in res.output
+    (out / "canonical.npz").write_bytes(good)
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
     res = _cli("opensim", out)
     assert res.exit_code == 0, res.output
