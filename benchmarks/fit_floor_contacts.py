@@ -14,8 +14,11 @@ it (:func:`benchmarks.ablation.camera_root_path`).
 
 Fit: the error model of the footfalls' heights along the TRUE up (contacts detected along it,
 :func:`pcnet.stages.ground_plane.detect_contacts`: each frame's lower ankle): per recording,
-``footfall_height_sd_leg`` (sigma_f) is the pooled within-ankle standard deviation of the
-footfall heights, in leg lengths. (Until decision 0065 a grid also chose the contact definition's
+``footfall_height_sd_leg`` (sigma_f) is the pooled standard deviation of the footfall heights,
+in leg lengths, about their support level's median with both ankles together, as the floor's
+likelihood measures each footfall (levels by :func:`pcnet.stages.ground_plane.support_levels`
+at sigma_f itself, iterated to a fixed point; decision 0094: until then it was pooled within
+each ankle, which left the spread between the ankles out). (Until decision 0065 a grid also chose the contact definition's
 height band and speed criterion by the validation tilt error; both went. Until decision 0091 a
 per-ankle offset ``s_o`` was fitted from the between-ankle mean differences by the method of
 moments; switched off on held-out data it moved nothing, and went.) Printed: the mean
@@ -49,7 +52,7 @@ from benchmarks.report import print_and_save
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.core.rotations import axis_rotation, camera_pitch_roll
-from pcnet.stages.ground_plane import detect_contacts, footfalls, ground_plane_up, leg_length
+from pcnet.stages.ground_plane import detect_contacts, footfalls, ground_plane_up, leg_length, support_levels
 from pcnet.stages.up_model import (Z95, StaticPosterior, UpModelParameters, default_parameters, static_posterior,
                                    summarise_recording)
 
@@ -148,42 +151,36 @@ def raised_recordings(data: Path, cache: Path) -> list[Recording]:
     return out
 
 
-@dataclass(frozen=True)
-class FootfallHeights:
-    """One recording's footfall heights along the true up (leg lengths), as the module
-    docstring's fit uses them: ``within`` the sum of squares about each ankle's mean,
-    ``within_df`` its degrees of freedom, ``both_ankles`` whether each ankle has a footfall."""
-
-    within: float
-    within_df: int
-    both_ankles: bool
-
-
-def footfall_heights(recs: list[Recording]) -> list[FootfallHeights]:
-    """:class:`FootfallHeights` of each recording with a footfall."""
+def level_residuals(recs: list[Recording], scale: float) -> list[np.ndarray]:
+    """Per recording with a footfall, each footfall's height along the true up about its
+    support level's median (leg lengths; levels by :func:`pcnet.stages.ground_plane.support_levels`
+    at ``scale``, both ankles pooled), as the floor's likelihood measures it."""
     out = []
     for r in recs:
         leg = leg_length(r.joints, r.ok)
         c = detect_contacts(r.joints, r.ok, r.true_up)
         if not len(c.points):
             continue
-        P, ankle = footfalls(c)
-        h = P @ r.true_up / leg
-        groups = [h[ankle == k] for k in (0, 1)]
-        within = sum(float(np.sum((g - g.mean()) ** 2)) for g in groups if len(g) > 1)
-        df = sum(len(g) - 1 for g in groups if len(g) > 1)
-        out.append(FootfallHeights(within, df, all(len(g) for g in groups)))
+        h = footfalls(c)[0] @ r.true_up / leg
+        level = support_levels(h, scale)
+        out.append(h - np.array([np.median(h[level == k]) for k in range(level.max() + 1)])[level])
     return out
 
 
-def error_model(recs: list[Recording]) -> tuple[float, int]:
-    """``(sigma_f, footfalls)``: the module docstring's fit, the pooled within-ankle standard
-    deviation (leg lengths) and the footfalls it counts (within-ankle degrees of freedom plus
-    the two ankle means of each recording with both)."""
-    heights = footfall_heights(recs)
-    sigma2 = sum(h.within for h in heights) / max(sum(h.within_df for h in heights), 1)
-    n = sum(h.within_df for h in heights) + 2 * sum(h.both_ankles for h in heights)
-    return float(np.sqrt(sigma2)), int(n)
+def error_model(recs: list[Recording], start: float) -> tuple[float, int]:
+    """``(sigma_f, footfalls)``: the module docstring's fit, the pooled standard deviation (leg
+    lengths) of the footfall heights about their levels' medians, each level's median costing
+    one degree of freedom, iterated from ``start`` until the levels it assigns stop changing
+    it; and the footfalls it counts."""
+    sigma = start
+    for _ in range(50):
+        res = level_residuals(recs, sigma)
+        df = sum(len(r) - len(np.unique(support_levels(r, sigma))) for r in res)
+        new = float(np.sqrt(sum(float(np.sum(r ** 2)) for r in res) / max(df, 1)))
+        if abs(new - sigma) <= 1e-9:
+            break
+        sigma = new
+    return new, int(sum(len(r) for r in res))
 
 
 def tilt_errors(recs: list[Recording], p: UpModelParameters, from_2d: bool = False) -> np.ndarray:
@@ -229,13 +226,14 @@ def main(argv=None) -> int:
     lines = [__doc__.split("\n")[0], "", f"    {COMMAND}", "",
              f"Validation: {len(recs)} recordings ({counts}), "
              "pelvis path kept (measured root), lifter noise.", ""]
-    sigma_f, n = error_model(recs)
+    sigma_f, n = error_model(recs, base.footfall_height_sd_leg)
     fitted = replace(base, footfall_height_sd_leg=sigma_f)
     err = tilt_errors(recs, fitted)
     split = (f"validation ({len(recs)} recordings: Bandai motion-style val + CMU val subjects, paper/wide/rolled static "
              f"cameras, lifter noise, pelvis path kept)")
     prov = {
-        "footfall_height_sd_leg": f"pooled within-ankle std of {n} footfall heights along the true up, {split}",
+        "footfall_height_sd_leg": f"pooled std of {n} footfall heights along the true up about their support level's median, "
+                                  f"both ankles together, {split}",
     }
     doc = json.loads(args.json.read_text())
     doc["parameters"].pop("ankle_offset_leg", None)  # deleted by decision 0091
