@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 import pcnet.pipeline
-from pcnet.pipeline import rectify
+from pcnet.pipeline import pose_checks, rectify
 from pcnet.stages.core.rotations import decompose_camera_rotation
 
 path = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(pcnet.pipeline.__file__).parent / "example_data" / "X3D.npy"
@@ -21,3 +21,5 @@ heading, pitch, roll = decompose_camera_rotation(res.rotation)
 print(f"{path.name}: {len(joints)} frames, {int(res.valid.sum())} valid")
 print(f"camera pitch {np.degrees(np.nanmean(pitch)):+.1f} deg, roll {np.degrees(np.nanmean(roll)):+.1f} deg")
 print(f"frame 0 canonical head (x anterior, y up, z right): {res.canonical[0, 10].round(3)}")
+for finding in pose_checks(joints, res):  # a wrong joint order, mirroring or axes still rectify: read these
+    print(finding.terminal_line())

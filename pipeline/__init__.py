@@ -1,13 +1,15 @@
-"""pcnet from Python: the three names a script needs, and the error they raise.
+"""pcnet from Python: the names a script needs, and the error they raise.
 
 ``pcnet`` itself is an implicit namespace package (its folders install as ``pcnet.pipeline``,
 ``pcnet.stages``, ...; ``pyproject.toml``), so the public API lives here::
 
-    from pcnet.pipeline import rectify, run_pipeline, RunConfig, InputError
+    from pcnet.pipeline import rectify, pose_checks, run_pipeline, RunConfig, InputError
 
 Bad input (a file, an array, a config value) raises :class:`InputError`
 (:class:`pcnet.stages.core.errors.InputError`, a ``ValueError``) with one line naming the file
-or field, what was expected and what was found.
+or field, what was expected and what was found; an output folder that exists already (without
+``overwrite``) raises ``FileExistsError``. Messages name ``pcnet run``'s options: the
+:class:`RunConfig` field of the same name (``--focal-px`` is ``focal_px``) is what a script sets.
 
 They are imported when first used, so ``import pcnet.pipeline`` stays cheap (no onnxruntime,
 OpenCV or adapters until then).
@@ -25,6 +27,17 @@ camera-frame up, ``valid`` ``(T,)``::
     joints = np.load("tests/fixtures/yoga_Abhay_Tadasana_f000-099.npy")  # (100, 17, 3), metres
     res = rectify(joints, mode="sequence", fps=30.0)  # 3DPCNet; method="geometric": the paper's baseline
     print(res.canonical.shape, res.valid.sum(), res.up[0])  # sequence: one up for a static camera
+
+:func:`rectify` returns a result whatever the poses are: a wrong joint order, a mirrored
+skeleton or other axes still rectify. :func:`pose_checks` (:func:`pcnet.pipeline.checks.pose_checks`)
+gives the warnings ``pcnet run`` would print that the poses alone can give (the camera's
+orientation, leg asymmetry, a mirrored skeleton, the posture), each a
+:class:`~pcnet.stages.flags.Finding` with a ``terminal_line()``::
+
+    from pcnet.pipeline import pose_checks
+
+    for finding in pose_checks(joints, res):
+        print(finding.terminal_line())
 
 :func:`run_pipeline` (:func:`pcnet.pipeline.runner.run_pipeline`) with a :class:`RunConfig`
 (:class:`pcnet.pipeline.config.RunConfig`, the fields of ``pcnet run``'s options) runs what
@@ -55,13 +68,14 @@ import importlib
 #: Public name -> the module that defines it.
 _PUBLIC = {
     "rectify": "pcnet.pipeline.rectification",
+    "pose_checks": "pcnet.pipeline.checks",
     "run_pipeline": "pcnet.pipeline.runner",
     "RunConfig": "pcnet.pipeline.config",
     # what they raise for bad input (a ValueError): one line naming the file or field
     "InputError": "pcnet.stages.core.errors",
 }
 
-__all__ = ["rectify", "run_pipeline", "RunConfig", "InputError"]
+__all__ = ["rectify", "pose_checks", "run_pipeline", "RunConfig", "InputError"]
 
 
 def __getattr__(name: str):

@@ -177,6 +177,15 @@ def _option_flag(option: str) -> str:
 class RunConfig:
     """Inputs and options of the staged pipeline (same names as ``pcnet run``'s options).
 
+    Each field is the ``pcnet run`` option of the same name with ``_`` for ``-`` (``focal_px``
+    is ``--focal-px``, ``overwrite`` is ``--overwrite``); the messages of :class:`InputError`
+    name the option, so a Python caller sets the field of that name. ``out``: the output folder
+    (``docs/outputs.md``), new unless ``overwrite`` (which replaces only a previous pcnet
+    output). ``height``: the subject's standing height in metres, scaling the poses to it
+    (:func:`pcnet.stages.scale.height_factor`). ``mode``: ``sequence`` (one up for a static
+    camera, the default), ``frame``, ``smooth`` or ``auto``. ``recording``: also write the
+    rerun recording (``recording.rrd``).
+
     ``lifter_options`` are passed to the 3D adapter: the keyword arguments its ``load`` takes,
     checked by :func:`check_lifter_options` (for example ``pixel``/``clip_len`` for motionbert,
     ``hypothesis``/``step`` for ddhpose, ``layout``/``axes``/``units``/``key``/``delimiter``/

@@ -28,7 +28,7 @@ from tqdm import tqdm
 from pcnet.adapters import (AdapterError, Keypoints2D, Poses3D, VideoInfo, first_shown_frame, get_2d_adapter,
                             get_3d_adapter, probe_video)
 from pcnet.adapters.mediapipe import holds_keypoints_2d
-from pcnet.adapters.validate import nonfinite_line
+from pcnet.adapters.validate import as_path, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
                                           THORAX, fill_pelvis_from_hips, thigh_beyond_metres, validate_fps)
 from pcnet.stages.core.errors import InputError
@@ -361,11 +361,22 @@ def _check_returned(loaded: object, kind: type, adapter: object) -> None:
                         f"got {type(loaded).__name__}")
 
 
+def _require_input(path, field: str) -> None:
+    """A registered adapter need not check its path (``docs/guide/commands.md``): a missing one
+    is bad input, not the adapter's ``FileNotFoundError``.
+
+    Raises:
+        AdapterError: ``path`` (a file or folder: some formats are folders) does not exist."""
+    if not as_path(path, f"an existing file or folder ({field})").exists():
+        raise AdapterError(path, field, "an existing file or folder", "no such file or folder")
+
+
 def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     video = probe_video(cfg.video) if cfg.video else None
     kp2d, kp_fps, kp_size, kp_choice, kp_extent, kp_layout = None, None, None, "", None, None
     if cfg.keypoints2d:
         adapter = get_2d_adapter(cfg.keypoints2d_format)
+        _require_input(cfg.keypoints2d, "keypoints2d")
         options = {"person": cfg.person} if cfg.keypoints2d_format in multi_track_formats() else {}
         if video is not None and "frame_count" in inspect.signature(adapter.load).parameters:
             options["frame_count"] = video.frame_count
@@ -388,6 +399,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     options = dict(cfg.lifter_options)  # checked by cfg.validate() in run_pipeline
     if cfg.focal_px is not None and "focal_px" in inspect.signature(adapter.load).parameters:
         options["focal_px"] = cfg.focal_px  # the camera's: a crop-based lifter turns into it (MediaPipe)
+    _require_input(cfg.lifter_output, "lifter_output")
     poses = adapter.load(cfg.lifter_output, **options)
     _check_returned(poses, Poses3D, adapter)
     fps, fps_source = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
@@ -653,10 +665,19 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *,
     together with it or not at all. ``progress``: a bar of the stages on stderr where stderr
     is a terminal.
 
+    Returns:
+        :class:`RunResult`: the run's report (:class:`~pcnet.pipeline.run_report.RunReport`),
+        its findings and notes, the written outputs' paths and ``summary()``, the text
+        ``pcnet run`` prints.
+
     Raises:
-        FileExistsError: ``cfg.out`` exists and ``cfg.overwrite`` is False.
+        FileExistsError: ``cfg.out`` exists and ``cfg.overwrite`` is False (not an
+            ``InputError``: catch both to handle every refusal).
         pcnet.stages.core.errors.InputError (``AdapterError`` is one): bad inputs or an unsafe
             ``out`` (:func:`pcnet.pipeline.outdir.check_out_folder`), naming file and field.
+        TypeError: a registered adapter's ``load`` returned something other than the
+            :class:`~pcnet.adapters.Poses3D` or :class:`~pcnet.adapters.Keypoints2D` it
+            must return (a bug in that adapter).
     """
     _freed_arrays_back_to_the_os()
     if cfg.c3d:

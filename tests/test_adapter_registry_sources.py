@@ -98,6 +98,13 @@ def test_a_custom_adapters_options_and_what_it_returns(tmp_path):
             run_pipeline(RunConfig(lifter="test_scaled_lifter", lifter_output=str(tmp_path / "p.npy"), fps=30.0,
                                    lifter_options={"scale": 2.0}, out=str(tmp_path / "o"), recording=False))
         assert not (tmp_path / "o").exists()
+        # a custom adapter need not check its path: a missing file is the user's bad input, one line naming
+        # it, not the adapter's FileNotFoundError (a developer's trial)
+        with pytest.raises(InputError, match=r"^file '.*nope\.csv': field 'lifter_output': expected an existing file "
+                                             r"or folder, got no such file or folder$"):
+            run_pipeline(RunConfig(lifter="test_scaled_lifter", lifter_output=str(tmp_path / "nope.csv"), fps=30.0,
+                                   out=str(tmp_path / "o"), recording=False))
+        assert not (tmp_path / "o").exists()
     finally:
         unregister("test_scaled_lifter", "3d")
 

@@ -9,6 +9,7 @@ import re
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -34,19 +35,21 @@ def in_folder_with_fixtures(tmp_path, monkeypatch):
     return tmp_path
 
 
-def test_the_three_names_are_the_documented_functions():
-    from pcnet.pipeline import RunConfig, rectify, run_pipeline
+def test_the_public_names_are_the_documented_functions():
+    from pcnet.pipeline import RunConfig, pose_checks, rectify, run_pipeline
+    from pcnet.pipeline.checks import pose_checks as checks_pose_checks
     from pcnet.pipeline.config import RunConfig as config_RunConfig
     from pcnet.pipeline.rectification import rectify as rectification_rectify
     from pcnet.pipeline.runner import run_pipeline as runner_run_pipeline
 
-    assert (rectify, run_pipeline, RunConfig) == (rectification_rectify, runner_run_pipeline, config_RunConfig)
-    assert set(pcnet.pipeline.__all__) == {"rectify", "run_pipeline", "RunConfig", "InputError"} \
+    assert (rectify, pose_checks, run_pipeline, RunConfig) == (rectification_rectify, checks_pose_checks,
+                                                               runner_run_pipeline, config_RunConfig)
+    assert set(pcnet.pipeline.__all__) == {"rectify", "pose_checks", "run_pipeline", "RunConfig", "InputError"} \
         <= set(dir(pcnet.pipeline))
     from pcnet.pipeline import InputError
 
     assert issubclass(InputError, ValueError)  # what the three raise for bad input, catchable as documented
-    assert EXAMPLES[0].strip() == "from pcnet.pipeline import rectify, run_pipeline, RunConfig, InputError"
+    assert EXAMPLES[0].strip() == "from pcnet.pipeline import rectify, pose_checks, run_pipeline, RunConfig, InputError"
     with pytest.raises(AttributeError, match="no_such_name"):
         pcnet.pipeline.no_such_name  # noqa: B018
 
@@ -67,6 +70,20 @@ def test_rectify_example(in_folder_with_fixtures, capsys):
     head_above_pelvis = res.canonical[:, 10, 1] - res.canonical[:, 0, 1]  # canonical +Y is up
     assert (head_above_pelvis > 0.3).all()
     assert "(100, 17, 3) 100" in capsys.readouterr().out
+
+
+def test_pose_checks_example_warns_of_a_mirrored_skeleton_that_rectify_accepts(in_folder_with_fixtures, capsys):
+    from pcnet.pipeline.rectification import rectify
+
+    namespace = {}
+    exec(_example("rectify(joints"), namespace)
+    capsys.readouterr()
+    exec(_example("pose_checks(joints"), namespace)
+    assert capsys.readouterr().out == ""  # the fixture as VideoPose3D gives it: nothing to say
+    mirrored = namespace["joints"] * np.array([-1.0, 1.0, 1.0], np.float32)  # x flipped: a left-handed skeleton
+    namespace.update(joints=mirrored, res=rectify(mirrored, mode="sequence", fps=30.0))
+    exec(_example("pose_checks(joints"), namespace)
+    assert "mirrored" in capsys.readouterr().out
 
 
 def test_run_pipeline_example(in_folder_with_fixtures, capsys):
@@ -253,3 +270,12 @@ def test_importing_the_adapters_leaves_opencv_and_the_environment_alone():
     env = {k: v for k, v in os.environ.items() if k != "OPENCV_FFMPEG_LOGLEVEL"}
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr
+
+
+def test_the_rectify_array_example_runs_and_prints_the_pose_checks():
+    """``examples/rectify_array.py`` on the bundled MotionBERT output: its lines, then the
+    warnings the poses alone give (that output's legs differ in length)."""
+    script = Path(__file__).resolve().parent.parent / "examples" / "rectify_array.py"
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, check=True).stdout
+    assert out.startswith("X3D.npy: 301 frames, 301 valid\n") and "camera pitch" in out
+    assert "WARNING  lifter's legs differ" in out

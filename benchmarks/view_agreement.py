@@ -1,0 +1,99 @@
+"""How far four real cameras of one recording agree after pcnet: the canonical poses and the joint angles.
+
+    python -m benchmarks.view_agreement [--data ../shared/data]
+
+Data: real/pose2sim_gravity/statictrial_camXX.npz, the four calibrated cameras of the Pose2Sim
+demo lab (one man standing still in a T-pose, 11 frames at 60 fps), read as ``pcnet run
+--lifter mediapipe`` reads them (:func:`benchmarks.gravity_benchmark.load_camera`). Each camera's
+MediaPipe output is its own 3D estimate of the same body at the same instants.
+
+For every pair of cameras, per frame: the RMS over joints of the distance between the two
+pelvis-centred skeletons, (1) in the camera frames as the lifter gives them, (2) in pcnet's
+canonical frame (``rectify``, sequence mode, the shipped ensemble: up from the poses, heading
+from the hips), (3) in a canonical frame built from the lab's true up (``up_camera``) with the
+same hip heading: what a perfect up would give. Then the angles between two segments at the
+knees, hips and elbows (the 3D angle at the joint, the same in every frame: pcnet's rotation
+cannot change it): their RMS difference between the two cameras. Mean over the six pairs.
+What is left in (3) is the estimator's own disagreement between views; pcnet can at best reach it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.gravity_benchmark import load_camera
+from benchmarks.report import SHARED_DATA, print_and_save
+from pcnet.pipeline.rectification import rectify
+from pcnet.stages.core.conventions import (L_ANKLE, L_ELBOW, L_HIP, L_KNEE, L_SHOULDER, L_WRIST, R_ANKLE, R_ELBOW,
+                                           R_HIP, R_KNEE, R_SHOULDER, R_WRIST, SPINE)
+from pcnet.stages.core.rotations import angle_between, normalize
+
+RESULT = Path(__file__).resolve().parent / "results" / "view_agreement.txt"
+COMMAND = "python -m benchmarks.view_agreement --data ../shared/data"
+CAMERAS = ("cam01", "cam02", "cam03", "cam04")
+#: (name, proximal joint, the joint, distal joint): the 3D angle at the joint.
+SEGMENT_ANGLES = (("left knee", L_HIP, L_KNEE, L_ANKLE), ("right knee", R_HIP, R_KNEE, R_ANKLE),
+                  ("left hip", SPINE, L_HIP, L_KNEE), ("right hip", SPINE, R_HIP, R_KNEE),
+                  ("left elbow", L_SHOULDER, L_ELBOW, L_WRIST), ("right elbow", R_SHOULDER, R_ELBOW, R_WRIST))
+
+
+def canonical_from_up(joints: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """``(T, 17, 3)`` pelvis-centred camera-frame ``joints`` in the canonical frame (x anterior,
+    y up, z right; docs/CONVENTIONS.md) of the up ``up`` ``(3,)`` with the heading of each
+    frame's hip line (right hip minus left hip, made horizontal, is +z)."""
+    y = np.broadcast_to(normalize(up), (len(joints), 3))
+    hips = joints[:, R_HIP] - joints[:, L_HIP]
+    z = normalize(hips - np.sum(hips * y, -1, keepdims=True) * y)
+    x = np.cross(y, z)
+    R = np.stack([x, y, z], -1)  # canonical -> camera, columns the canonical axes
+    return np.einsum("tji,tkj->tki", R, joints)
+
+
+def segment_angles_deg(joints: np.ndarray) -> np.ndarray:
+    """``(T, len(SEGMENT_ANGLES))`` the 3D angle (deg) at each joint of :data:`SEGMENT_ANGLES`."""
+    return np.stack([np.degrees(angle_between(joints[:, a] - joints[:, b], joints[:, c] - joints[:, b]))
+                     for _, a, b, c in SEGMENT_ANGLES], -1)
+
+
+def rms_distance_cm(a: np.ndarray, b: np.ndarray) -> float:
+    """RMS over frames and joints of the distance between ``a`` and ``b`` ``(T, 17, 3)`` (m), cm."""
+    return float(100 * np.sqrt(np.nanmean(np.sum((a - b) ** 2, -1))))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=SHARED_DATA)
+    args = ap.parse_args(argv)
+    t0 = time.time()
+    frames = {}
+    for cam in CAMERAS:
+        joints, up, fps = load_camera(args.data / "real" / "pose2sim_gravity" / f"statictrial_{cam}.npz")
+        res = rectify(joints, mode="sequence", fps=fps)
+        frames[cam] = {"camera frame": joints, "pcnet canonical": np.where(res.valid[:, None, None], res.canonical,
+                                                                          np.nan),
+                       "canonical, true up": canonical_from_up(joints, up)}
+    pairs = list(itertools.combinations(CAMERAS, 2))
+    lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
+             "Pelvis-centred skeletons, RMS distance over joints and frames between two cameras (cm), "
+             "mean and max over the 6 pairs:"]
+    for frame in ("camera frame", "pcnet canonical", "canonical, true up"):
+        d = [rms_distance_cm(frames[a][frame], frames[b][frame]) for a, b in pairs]
+        lines.append(f"  {frame:<20} {np.mean(d):6.1f} {np.max(d):6.1f}")
+    lines += ["", "Angle between two segments (3D, deg; no rotation changes it): "
+                  "RMS difference between two cameras, mean and max over the 6 pairs:"]
+    angles = {cam: segment_angles_deg(frames[cam]["camera frame"]) for cam in CAMERAS}
+    for k, (name, *_) in enumerate(SEGMENT_ANGLES):
+        d = [float(np.sqrt(np.nanmean((angles[a][:, k] - angles[b][:, k]) ** 2))) for a, b in pairs]
+        lines.append(f"  {name:<12} {np.mean(d):6.1f} {np.max(d):6.1f}")
+    lines += ["", f"({time.time() - t0:.0f} s)"]
+    print_and_save(lines, RESULT)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
