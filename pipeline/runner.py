@@ -40,6 +40,7 @@ from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motio
                                missing_data_line, no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
                                opensim_fit_findings, per_frame_tilt_summary, ranked, track_segments, unfiltered_flag)
 from pcnet.stages.floor import Floor
+from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
 from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
                                      residual_analysis)
 from pcnet.pipeline.rectification import check_measured_root, rectify_checked
@@ -201,8 +202,14 @@ class RunResult:
         return f"; of the recording's mean up; per frame median {median:.1f}, 5-95 % {low:.1f}-{high:.1f} deg"
 
     def _hip_width(self) -> str:
-        cv = self.report.rectification.heading.hip_width_cv_percent
-        return f"hip width varies {cv:.1f} %" if np.isfinite(cv) else "hip width variation needs two frames with hips"
+        heading = self.report.rectification.heading
+        cv = heading.hip_width_cv_percent
+        if not np.isfinite(cv):
+            return "hip width variation needs two frames with hips"
+        # what auto decided by: a user comparing cameras saw "hips" in one and "predicted" in another
+        limit = (f", auto's limit for the hips {AUTO_MAX_HIP_WIDTH_CV_PERCENT:.1f} % over {AUTO_MIN_FRAMES}+ frames"
+                 if heading.requested == "auto" else "")
+        return f"hip width varies {cv:.1f} %{limit}"
 
     def _frame_bound(self, long: bool = True) -> list[tuple[str, str]]:
         rect = self.report.rectification

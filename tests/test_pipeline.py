@@ -1067,6 +1067,19 @@ def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line(
     assert "static camera" not in line("smooth", "smooth") and "static camera" not in line("sequence", "auto")
 
 
+def test_the_heading_line_gives_the_limit_auto_decided_by():
+    """A user comparing cameras saw "from hips" in one and "from predicted" in another with no
+    way to tell why: under --heading auto the line gives the hip-width limit and the frames."""
+    from pcnet.pipeline.runner import RunResult
+    from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
+
+    result = RunResult(frames=434, valid_frames=434, units="m", method="pcnet", report=run_report(), fps=30.0,
+                       fps_source="--fps")
+    line = next(ln for ln in result.summary().splitlines() if ln.startswith("heading"))
+    assert line.endswith(f"from predicted (requested auto; hip width varies 3.0 %, auto's limit for the hips "
+                         f"{AUTO_MAX_HIP_WIDTH_CV_PERCENT:.1f} % over {AUTO_MIN_FRAMES}+ frames)")
+
+
 @pytest.mark.slow
 def test_centimetres_given_as_metres_are_refused_before_any_output(tmp_path):
     """A real VideoPose3D standing pose x100 read as metres (--lifter generic, --units not
