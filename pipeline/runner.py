@@ -369,8 +369,8 @@ def _check_returned(loaded: object, kind: type, adapter: object) -> None:
 
 
 def _require_input(path, field: str) -> None:
-    """A registered adapter need not check its path (``docs/guide/commands.md``): a missing one
-    is bad input, not the adapter's ``FileNotFoundError``.
+    """An input path checked before its adapter reads it: a registered adapter may not check
+    its own, and a missing file is bad input, not the adapter's ``FileNotFoundError``.
 
     Raises:
         AdapterError: ``path`` (a file or folder: some formats are folders) does not exist."""
