@@ -12,8 +12,8 @@ pelvis-centred skeletons, (1) in the camera frames as the lifter gives them, (2)
 canonical frame (``rectify``, sequence mode, the shipped ensemble: up from the poses, heading
 from the hips), (3) in a canonical frame built from the lab's true up (``up_camera``) with the
 same hip heading: what a perfect up would give. Then the angles between two segments at the
-knees, hips and elbows (the 3D angle at the joint, the same in every frame: pcnet's rotation
-cannot change it): their RMS difference between the two cameras. Mean over the six pairs.
+knees, hips and elbows (the 3D angle at the joint, the same in any frame of reference: no
+rotation changes it): their RMS difference between the two cameras. Mean over the six pairs.
 What is left in (3) is the estimator's own disagreement between views; pcnet can at best reach it.
 """
 
@@ -31,7 +31,8 @@ from benchmarks.report import SHARED_DATA, print_and_save
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.core.conventions import (L_ANKLE, L_ELBOW, L_HIP, L_KNEE, L_SHOULDER, L_WRIST, R_ANKLE, R_ELBOW,
                                            R_HIP, R_KNEE, R_SHOULDER, R_WRIST, SPINE)
-from pcnet.stages.core.rotations import angle_between, normalize
+from pcnet.stages.core.canonical import canonical_rotation, to_canonical
+from pcnet.stages.core.rotations import angle_between
 
 RESULT = Path(__file__).resolve().parent / "results" / "view_agreement.txt"
 COMMAND = "python -m benchmarks.view_agreement --data ../shared/data"
@@ -40,18 +41,6 @@ CAMERAS = ("cam01", "cam02", "cam03", "cam04")
 SEGMENT_ANGLES = (("left knee", L_HIP, L_KNEE, L_ANKLE), ("right knee", R_HIP, R_KNEE, R_ANKLE),
                   ("left hip", SPINE, L_HIP, L_KNEE), ("right hip", SPINE, R_HIP, R_KNEE),
                   ("left elbow", L_SHOULDER, L_ELBOW, L_WRIST), ("right elbow", R_SHOULDER, R_ELBOW, R_WRIST))
-
-
-def canonical_from_up(joints: np.ndarray, up: np.ndarray) -> np.ndarray:
-    """``(T, 17, 3)`` pelvis-centred camera-frame ``joints`` in the canonical frame (x anterior,
-    y up, z right; docs/CONVENTIONS.md) of the up ``up`` ``(3,)`` with the heading of each
-    frame's hip line (right hip minus left hip, made horizontal, is +z)."""
-    y = np.broadcast_to(normalize(up), (len(joints), 3))
-    hips = joints[:, R_HIP] - joints[:, L_HIP]
-    z = normalize(hips - np.sum(hips * y, -1, keepdims=True) * y)
-    x = np.cross(y, z)
-    R = np.stack([x, y, z], -1)  # canonical -> camera, columns the canonical axes
-    return np.einsum("tji,tkj->tki", R, joints)
 
 
 def segment_angles_deg(joints: np.ndarray) -> np.ndarray:
@@ -76,7 +65,8 @@ def main(argv=None) -> int:
         res = rectify(joints, mode="sequence", fps=fps)
         frames[cam] = {"camera frame": joints, "pcnet canonical": np.where(res.valid[:, None, None], res.canonical,
                                                                           np.nan),
-                       "canonical, true up": canonical_from_up(joints, up)}
+                       # the lab's up with the same hip heading (docs/CONVENTIONS.md canonical frame)
+                       "canonical, true up": to_canonical(joints, canonical_rotation(joints, up)[0])}
     pairs = list(itertools.combinations(CAMERAS, 2))
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              "Pelvis-centred skeletons, RMS distance over joints and frames between two cameras (cm), "
