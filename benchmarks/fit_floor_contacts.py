@@ -151,10 +151,11 @@ def raised_recordings(data: Path, cache: Path) -> list[Recording]:
     return out
 
 
-def level_residuals(recs: list[Recording], scale: float) -> list[np.ndarray]:
-    """Per recording with a footfall, each footfall's height along the true up about its
+def level_residuals(recs: list[Recording], scale: float) -> list[tuple[np.ndarray, int]]:
+    """Per recording with a footfall: each footfall's height along the true up about its
     support level's median (leg lengths; levels by :func:`pcnet.stages.ground_plane.support_levels`
-    at ``scale``, both ankles pooled), as the floor's likelihood measures it."""
+    at ``scale``, both ankles pooled), as the floor's likelihood measures it, and the number of
+    levels."""
     out = []
     for r in recs:
         leg = leg_length(r.joints, r.ok)
@@ -163,7 +164,8 @@ def level_residuals(recs: list[Recording], scale: float) -> list[np.ndarray]:
             continue
         h = footfalls(c)[0] @ r.true_up / leg
         level = support_levels(h, scale)
-        out.append(h - np.array([np.median(h[level == k]) for k in range(level.max() + 1)])[level])
+        n_levels = int(level.max()) + 1
+        out.append((h - np.array([np.median(h[level == k]) for k in range(n_levels)])[level], n_levels))
     return out
 
 
@@ -175,12 +177,12 @@ def error_model(recs: list[Recording], start: float) -> tuple[float, int]:
     sigma = start
     for _ in range(50):
         res = level_residuals(recs, sigma)
-        df = sum(len(r) - len(np.unique(support_levels(r, sigma))) for r in res)
-        new = float(np.sqrt(sum(float(np.sum(r ** 2)) for r in res) / max(df, 1)))
+        df = sum(len(r) - n_levels for r, n_levels in res)
+        new = float(np.sqrt(sum(float(np.sum(r ** 2)) for r, _ in res) / max(df, 1)))
         if abs(new - sigma) <= 1e-9:
             break
         sigma = new
-    return new, int(sum(len(r) for r in res))
+    return new, int(sum(len(r) for r, _ in res))
 
 
 def tilt_errors(recs: list[Recording], p: UpModelParameters, from_2d: bool = False) -> np.ndarray:
