@@ -559,9 +559,11 @@ def in_manifest_terms(message: str) -> str:
 
 def _as_columns(message: str) -> str:
     """RunConfig names its source "manifest row" and its fields quoted; here the row is the
-    line already, and the fields are the manifest's columns."""
-    return re.sub(re.escape(ROW_SOURCE) + r": (fields?) ((?:'\w+'(?: and )?)+)",
-                  lambda m: ("columns " if m.group(1) == "fields" else "column ") + m.group(2).replace("'", ""),
+    line already, and the fields are the manifest's columns (a lifter option, which a config
+    names by its ``lifter_options.`` key, is a column of its own)."""
+    return re.sub(re.escape(ROW_SOURCE) + r": (fields?) ((?:'[\w.]+'(?: and )?)+)",
+                  lambda m: ("columns " if m.group(1) == "fields" else "column ")
+                  + m.group(2).replace("'", "").replace("lifter_options.", ""),
                   message)
 
 

@@ -10,6 +10,8 @@ import re
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+import numpy as np
+
 from pcnet.models.toml_config import (check_config_keys, check_config_types, read_toml, type_hints, type_name,
                                       value_matches)
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
@@ -114,24 +116,30 @@ def check_lifter_options(source: str, lifter: str, options: dict) -> dict:
         return options
     unknown = sorted(set(options) - set(taken))
     if unknown:
+        named = _option_field(source, *unknown)
         if source == COMMAND_LINE:
-            flags = ", ".join(_option_flag(n) for n in unknown)
-            raise InputError(f"{flags}: expected only the options --lifter {lifter} takes "
-                             f"({', '.join(_option_flag(n) for n in taken) or 'none'}), got {flags}")
-        raise InputError(f"{field_name(source, *unknown)}: expected only options --lifter {lifter} takes "
+            raise InputError(f"{named}: expected only the options --lifter {lifter} takes "
+                             f"({', '.join(_option_flag(n) for n in taken) or 'none'}), got {named}")
+        raise InputError(f"{named}: expected only options --lifter {lifter} takes "
                          f"({', '.join(taken) or 'none'}), got {', '.join(unknown)}")
-    def where(option: str) -> str:
-        return _option_flag(option) if source == COMMAND_LINE else field_name(source, option)
-
     hints = type_hints(getattr(load, "__func__", load))
     for option, value in options.items():
         if option in hints and not value_matches(value, hints[option]):
-            raise InputError(f"{where(option)}: expected {type_name(hints[option])} for --lifter {lifter}, got "
-                             f"{value!r} ({type(value).__name__})")
+            raise InputError(f"{_option_field(source, option)}: expected {type_name(hints[option])} for --lifter "
+                             f"{lifter}, got {value!r} ({type(value).__name__})")
     # Values the adapter would refuse only once it reads the file (an adapter may say which).
     for option, expected, got in getattr(adapter, "option_problems", lambda **_: [])(**options)[:1]:
-        raise InputError(f"{where(option)}: expected {expected} for --lifter {lifter}, got {got}")
+        raise InputError(f"{_option_field(source, option)}: expected {expected} for --lifter {lifter}, got {got}")
     return options
+
+
+def _option_field(source: str, *options: str) -> str:
+    """How an error names adapter options: their flags on the command line (``--units``), else
+    their key in the ``lifter_options`` table (``"run.toml: field 'lifter_options.units'"``,
+    TOML's dotted key), not as fields of the config they are not."""
+    if source == COMMAND_LINE:
+        return ", ".join(_option_flag(o) for o in options)
+    return field_name(source, *(f"lifter_options.{o}" for o in options))
 
 
 def _keyword_options(load) -> tuple[bool, list[str]]:
@@ -248,6 +256,15 @@ class RunConfig:
             value = getattr(self, name)
             if isinstance(value, os.PathLike):
                 setattr(self, name, os.fspath(value))
+        # A rate or height computed with numpy is a numpy scalar (np.float32(30)); the config
+        # keeps the plain Python value that the type check, TOML and the report's JSON take.
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, np.generic):
+                setattr(self, f.name, value.item())
+        if isinstance(self.lifter_options, dict):
+            self.lifter_options = {k: v.item() if isinstance(v, np.generic) else v
+                                   for k, v in self.lifter_options.items()}
 
     @property
     def image_size_px(self) -> tuple[int, int] | None:
@@ -374,7 +391,7 @@ class RunConfig:
             raise InputError(f"{field_name(source, 'image_size')}: expected WIDTHxHEIGHT in pixels (e.g. 1920x1080), "
                              f"got {self.image_size!r}")
         if "focal_px" in self.lifter_options:  # one source: the camera's, whatever the lifter
-            raise InputError(f"{field_name(source, 'focal_px')}: expected focal_px as a run option (the camera's focal "
+            raise InputError(f"{_option_field(source, 'focal_px')}: expected focal_px as a run option (the camera's focal "
                              f"length, for every lifter), got it in lifter_options; move it to the top level")
         if self.person is not None and self.person < 0:
             raise InputError(f"{field_name(source, 'person')}: expected a track id >= 0, got {self.person}")
@@ -396,7 +413,7 @@ class RunConfig:
                 raise InputError(f"{name}: expected with mode sequence or auto (the camera prior weighs only sequence "
                                  f"mode's one up for the recording), got mode {self.mode}")
             if self.lifter_options.get("measured_root"):
-                raise InputError(f"{field_name(source, 'measured_root')}: expected with mode sequence or auto (only "
+                raise InputError(f"{_option_field(source, 'measured_root')}: expected with mode sequence or auto (only "
                                  f"a fixed world frame keeps the measured pelvis path), got mode {self.mode}")
         if self.fps_override and self.fps is None:
             raise InputError(f"{field_name(source, 'fps_override')}: expected together with fps, got no fps")

@@ -1056,7 +1056,8 @@ NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
 def shortened(text: str, width: int = HEADLINE_WIDTH) -> str:
     """A note (or a flag of no kind) as one line of at most ``width`` characters: the
     parenthesised asides dropped, then the longest run of whole clauses (ending before a
-    ``"; "``, else a ``": "``) that fits and keeps half the width, else cut at a word boundary."""
+    ``"; "``, else a ``": "``, else a ``", "``) that fits and keeps half the width, else the
+    longest that fits, else cut at a word boundary."""
     if len(text) <= width:
         return text
     depth, kept = 0, []
@@ -1068,10 +1069,13 @@ def shortened(text: str, width: int = HEADLINE_WIDTH) -> str:
     short = re.sub(r"\s+([,;:.])", r"\1", re.sub(r" {2,}", " ", "".join(kept))).strip()
     if len(short) <= width:
         return short
-    for sep in ("; ", ": "):
-        ends = [m.start() for m in re.finditer(re.escape(sep), short) if width // 2 <= m.start() <= width]
-        if ends:
+    clause_ends = {sep: [m.start() for m in re.finditer(re.escape(sep), short) if m.start() <= width]
+                   for sep in ("; ", ": ", ", ")}
+    for ends in clause_ends.values():
+        if ends and ends[-1] >= width // 2:
             return short[:ends[-1]]
+    if any(clause_ends.values()):  # a short whole clause reads better than a phrase cut off
+        return short[:max(max(ends) for ends in clause_ends.values() if ends)]
     return _clipped(short, width)
 
 
@@ -1081,5 +1085,5 @@ def note_finding(text: str) -> Finding:
     for pattern, line in NOTE_LINES:
         m = re.match(pattern, text, re.DOTALL)
         if m:
-            return Finding(Severity.INFO, _clipped(line(m)), "", text)
+            return Finding(Severity.INFO, shortened(line(m)), "", text)
     return Finding(Severity.INFO, shortened(text), "", text)

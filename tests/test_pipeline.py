@@ -471,13 +471,13 @@ def test_a_config_file_names_its_fields_in_errors(tmp_path):
     cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\n[lifter_options]\nunits = "m"\n')
     res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
     assert res.exit_code == 1
-    assert (f"Error: {cfg}: field 'units': expected only options --lifter motionbert takes (pixel, clip_len), "
-            f"got units") in res.output
+    assert (f"Error: {cfg}: field 'lifter_options.units': expected only options --lifter motionbert takes "
+            f"(pixel, clip_len), got units") in res.output
     # the focal length is the camera's, a run option for every lifter: one place for it
     cfg.write_text(f'lifter = "mediapipe"\nlifter_output = "{MEDIAPIPE}"\nfps = 30\n[lifter_options]\nfocal_px = 900.0\n')
     res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
     assert res.exit_code == 1
-    assert f"Error: {cfg}: field 'focal_px': expected focal_px as a run option" in res.output
+    assert f"Error: {cfg}: field 'lifter_options.focal_px': expected focal_px as a run option" in res.output
     assert not (tmp_path / "o").exists()
     cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\nheigth = 1.7\n')
     res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
@@ -1224,14 +1224,19 @@ def test_height_over_another_joint_order_is_refused_naming_the_order(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
-def test_a_numpy_value_in_a_config_is_named_in_one_short_line():
-    """A notebook trial passed np.float32 fps (refused with no hint) and an array as
-    lifter_output (a 2,041-character line)."""
+def test_a_numpy_scalar_in_a_config_is_taken_as_its_python_value_and_an_array_refused_in_one_line():
+    """A notebook trial passed np.float32 fps (refused, while ``rectify`` takes it) and an
+    array as lifter_output (a 2,041-character line)."""
     from pcnet.stages.core.errors import InputError
 
-    with pytest.raises(InputError, match=r"^config: field 'fps': expected float \| None, got np\.float32\(30\.0\) "
-                                         r"\(float32\); pass a plain Python value \(float\(x\), str\(x\)\)$"):
-        RunConfig(lifter="generic", lifter_output="g.npy", fps=np.float32(30.0)).validate()
+    cfg = RunConfig(lifter="generic", lifter_output="g.npy", fps=np.float32(30.0), person=np.int64(0),
+                    overwrite=np.bool_(True), lifter_options={"measured_root": np.bool_(False)})
+    assert (type(cfg.fps), type(cfg.person), type(cfg.overwrite)) == (float, int, bool)
+    assert type(cfg.lifter_options["measured_root"]) is bool
+    # an adapter option is named by its key in lifter_options, not as a field of the config
+    with pytest.raises(InputError, match=r"^config: field 'lifter_options\.scal': expected only options --lifter "
+                                         r"motionbert takes \(pixel, clip_len\), got scal$"):
+        RunConfig(lifter="motionbert", lifter_output="m.npy", fps=30, lifter_options={"scal": 1}).validate()
     with pytest.raises(InputError, match=r"field 'lifter_output': expected str \| None, got array\(") as refused:
         RunConfig(lifter="generic", lifter_output=np.zeros((100, 17, 3)), fps=30.0).validate()
     assert len(str(refused.value)) < 200

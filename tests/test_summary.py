@@ -126,6 +126,11 @@ def test_unknown_texts_are_shortened_to_one_line_keeping_the_first_clauses():
     assert short.startswith("pelvis path from the 2D keypoints: 219 of 230 frames") and len(short) <= HEADLINE_WIDTH
     assert "(" not in short
     assert note_finding(text).headline == short
+    # without "; " or ": " where a cut may fall, a note ends at a whole clause, not mid-phrase
+    # (a user trial read "taking the subject's ankle-to-head chain as H36M's share...")
+    scaled = ("scaled by 0.8458 to a 1.75 m subject (from normalised), taking the subject's ankle-to-head chain as "
+              "H36M's share of stature (an individual's share differs by several per cent, stages/scale.py)")
+    assert shortened(scaled) == "scaled by 0.8458 to a 1.75 m subject"
     assert note_finding("a short note") == Finding(Severity.INFO, "a short note", "", "a short note")
     fit = {"marker_rms_m": 0.01, "marker_max_m": 0.02, "warnings": ["something new happened: " + "x " * 80]}
     (new,) = opensim_fit_findings(fit)  # a text of no known kind stays a warning, shortened
@@ -152,8 +157,7 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     assert all(" -> " in ln for ln in warnings)
     assert [ln for ln in lines if ln.startswith("note")] == [
         "note     missing: 3 joints (most: left_elbow 74 frames); no joint at all: 8 frames",
-        "note     world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time, held "
-        "at..."]
+        "note     world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time"]
     assert all(len(ln) <= LINE_WIDTH for ln in warnings + lines[:6]), max(lines, key=len)
     assert lines[-1] == f"details: {FIXTURES / 'o' / REPORT_NAME}" and "report.md  " not in result.summary()
     assert "camera tilt       8.8 deg from level (pitch +8.6 +- 8.6, roll +2.0 +- 3.5 deg; 95 % interval)" in lines
