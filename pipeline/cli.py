@@ -520,9 +520,8 @@ def opensim(out_dir, height, mass, overwrite):
     warnings in full go into the run's report.md.
     """
     from pcnet.pipeline.outdir import is_owned, register_files, stale_staging
-    from pcnet.stages.flags import opensim_fit_findings, ranked
-    from pcnet.stages.opensim_ik import (import_opensim, locked_note, opensim_fit_line, OUTPUTS, scale_and_ik,
-                                         UNOBSERVED_NOTE)
+    from pcnet.stages.flags import note_finding, opensim_fit_findings, ranked
+    from pcnet.stages.opensim_ik import import_opensim, opensim_fit_line, opensim_notes, OUTPUTS, scale_and_ik
 
     folder = Path(out_dir)
     if not folder.is_dir():
@@ -551,8 +550,8 @@ def opensim(out_dir, height, mass, overwrite):
     click.echo(f"{'fit':<17} {opensim_fit_line(result, short=True)}")
     for f in ranked(opensim_fit_findings(result)):
         click.echo(f.terminal_line())
-    click.echo(f"note     {UNOBSERVED_NOTE}")
-    click.echo(f"note     {locked_note()}")
+    for note in opensim_notes(result):
+        click.echo(f"note     {note_finding(note).headline}")
     for name in OUTPUTS:
         click.echo(f"{name:<17} {result['outputs'][name]}")
     click.echo(f"details: {details}")

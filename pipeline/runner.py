@@ -33,8 +33,8 @@ from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, RE
                                           THORAX, fill_pelvis_from_hips, thigh_beyond_metres, validate_fps)
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
-from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, UNOBSERVED_NOTE as OPENSIM_UNOBSERVED, import_opensim,
-                                     locked_note as opensim_locked_note, opensim_fit_line, scale_and_ik)
+from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, opensim_notes,
+                                     scale_and_ik)
 from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motion_findings, keypoints_unused_flag,
                                missing_data_line, no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
@@ -889,7 +889,7 @@ def _opensim(cfg: RunConfig, staged: Path, findings: list[Finding], notes: list[
         findings += no_opensim_flag()
         return {}
     fit = scale_and_ik(trc, staged, cfg.height, cfg.mass)
-    notes += [opensim_fit_line(fit), OPENSIM_UNOBSERVED, opensim_locked_note()]
+    notes += [opensim_fit_line(fit), *opensim_notes(fit)]
     findings += opensim_fit_findings(fit)
     return {name: staged / name for name in OPENSIM_OUTPUTS}
 

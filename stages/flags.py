@@ -949,7 +949,9 @@ def implausible_motion_findings(found: Sequence[ImplausibleMotion],
         out.append(_found(kind, Severity.CHECK,
                           f"implausible {quantity} in {where}: {worst.joint.replace('_', ' ')} "
                           f"{worst.peak:.{digits}f} {worst.unit} (limit {worst.limit:.{digits + 1}f})",
-                          ("check --fps, else " if fps_typed else "") + "leave those frames out (implausible_motion = 1)",
+                          # a wrong rate scales every frame's speed alike; a few frames' spike is the lifter's
+                          ("check --fps if the speeds are high throughout, else " if fps_typed else "")
+                          + "leave those frames out (implausible_motion = 1)",
                           detail, runs))
     return out
 
@@ -1029,6 +1031,9 @@ def missing_data_line(counts: Mapping, nonfinite: Mapping[str, int]) -> str:
     return _clipped("; ".join(parts))
 
 
+#: An OpenSim coordinate's name in a note (``pro_sup_r``): a word with an underscore.
+_COORDINATE_NAME = r"[A-Za-z]\w*_\w+"
+
 #: ``(pattern, line)``: a note whose text the pattern matches from its start (``re.match``,
 #: DOTALL) is summarised by ``line(match)``.
 NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
@@ -1043,8 +1048,14 @@ NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
     (r"3D joints remapped from (?P<layout>\S+) to H36M-17 with (?P<built>.*?) built as means",
      lambda m: f"3D joints remapped from {m['layout']} to H36M-17 with {m['built']} built from others"),
     # the moving-camera note's line keeps its other cause: a static tripod under a side bend
-    (r"per-frame up spreads (?P<spread>\S+) deg",
-     lambda m: f"per-frame up spreads {m['spread']} deg: a moving camera (--mode smooth), or fast or non-upright poses"),
+    (r"per-frame up spreads (?P<spread>\S+) deg, beyond a static camera's (?P<limit>[0-9.]+)",
+     lambda m: f"per-frame up spreads {m['spread']} deg (a static camera's up to {m['limit']}): a moving camera "
+               f"(--mode smooth), or fast or non-upright poses"),
+    # a list of locked coordinates cut short reads as the whole list (a user trial: "ankle_angle_r,
+    # subtalar_angle_r, mtp_angle_r" of 12)
+    (r"ik\.mot: locked in the model \(.*?\), not measured: (?P<held>.*)",
+     lambda m: f"ik.mot: {len(re.findall(_COORDINATE_NAME, m['held']))} coordinates locked in the model, "
+               f"not measured (report.md names them)"),
     # which person of several: another choice is another subject, so the way to choose stays
     (r"2D keypoints: track (?P<track>\S+) chosen (?P<how>as the highest summed per-frame score|by person=)(?P<rest>.*)",
      lambda m: shortened(m.string) if m['how'] == "by person=" else
@@ -1056,8 +1067,8 @@ NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
 def shortened(text: str, width: int = HEADLINE_WIDTH) -> str:
     """A note (or a flag of no kind) as one line of at most ``width`` characters: the
     parenthesised asides dropped, then the longest run of whole clauses (ending before a
-    ``"; "``, else a ``": "``, else a ``", "``) that fits and keeps half the width, else the
-    longest that fits, else cut at a word boundary."""
+    ``"; "``, else a ``": "``, else a ``", "``, which ends in ``...``) that fits and keeps half the
+    width, else the longest that fits, else cut at a word boundary."""
     if len(text) <= width:
         return text
     depth, kept = 0, []
@@ -1071,12 +1082,19 @@ def shortened(text: str, width: int = HEADLINE_WIDTH) -> str:
         return short
     clause_ends = {sep: [m.start() for m in re.finditer(re.escape(sep), short) if m.start() <= width]
                    for sep in ("; ", ": ", ", ")}
-    for ends in clause_ends.values():
+    for sep, ends in clause_ends.items():
         if ends and ends[-1] >= width // 2:
-            return short[:ends[-1]]
+            return _ended(short[:ends[-1]], sep)
     if any(clause_ends.values()):  # a short whole clause reads better than a phrase cut off
-        return short[:max(max(ends) for ends in clause_ends.values() if ends)]
+        end, sep = max((ends[-1], sep) for sep, ends in clause_ends.items() if ends)
+        return _ended(short[:end], sep)
     return _clipped(short, width)
+
+
+def _ended(kept: str, sep: str) -> str:
+    """A note cut before ``sep``: a ``"; "`` or ``": "`` ends a clause; a ``", "`` may end an
+    item of a list, so the cut says that more follows."""
+    return kept + "..." if sep == ", " else kept
 
 
 def note_finding(text: str) -> Finding:

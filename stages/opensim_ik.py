@@ -109,10 +109,12 @@ def opensim_fit_line(result: dict, short: bool = False) -> str:
     frames, the frames and the markers left out (``short``: without why), IK speed."""
     left_out = result["frames_without_markers"]
     markers = result.get("markers_left_out") or []
+    scaled, total = result.get("scale_frames"), result["frames"] + left_out
     why = "" if short else " (empty in every frame: the input skeleton has no such joint)"
     return (f"OpenSim IK: marker RMS {100 * result['marker_rms_m']:.2f} cm over {result['frames']} frames (max "
             f"{100 * result['marker_max_m']:.2f} cm)" + (f"; {left_out} frames without any marker left out" if left_out else "")
             + (f"; marker{'s' if len(markers) > 1 else ''} {', '.join(markers)} left out{why}" if markers else "")
+            + (f"; scaled on the {scaled} frames with every marker" if scaled is not None and scaled < total else "")
             + f"; {result['frames_per_s']:.1f} frames/s (scaling {result['scale_seconds']:.1f} s)")
 
 
@@ -141,6 +143,29 @@ def locked_note() -> str:
     return f"ik.mot: locked in the model (H36M-17 has no foot or hand points), not measured: {held}"
 
 
+def unobserved_coordinates_note(result: dict) -> str | None:
+    """The note on :func:`scale_and_ik`'s ``result["coordinates_unobserved"]``
+    (:func:`blank_unobserved`): which ``ik.mot`` columns are empty in how many frames, else
+    ``None``."""
+    emptied = result.get("coordinates_unobserved") or {}
+    if not emptied:
+        return None
+    by_count: dict[int, list[str]] = {}
+    for coordinate, n in emptied.items():
+        by_count.setdefault(n, []).append(coordinate)
+    listed = "; ".join(f"{', '.join(names)} empty (NaN) in {n} of {result['frames']} frames"
+                       for n, names in sorted(by_count.items(), reverse=True))
+    return (f"ik.mot: {listed}: no marker beyond the joint was seen there (the solver would carry its last value "
+            f"on, docs/outputs.md)")
+
+
+def opensim_notes(result: dict) -> list[str]:
+    """The notes of a fit (:func:`scale_and_ik`'s ``result``), for the summary and the report:
+    what joint centres cannot observe (:data:`UNOBSERVED_NOTE`), the columns emptied
+    (:func:`unobserved_coordinates_note`) and the locked ones (:func:`locked_note`)."""
+    return [UNOBSERVED_NOTE, *filter(None, [unobserved_coordinates_note(result)]), locked_note()]
+
+
 #: The heading of the section ``pcnet opensim`` adds to the run's report.md (:func:`opensim_markdown`).
 REPORT_SECTION = "## OpenSim inverse kinematics (pcnet opensim)"
 
@@ -161,7 +186,8 @@ def opensim_markdown(result: dict) -> str:
              f"- **static window** (marker placer): {w0:.3f}-{w1:.3f} s",
              f"- **subject**: height {_or_none(result.get('subject_height_m'), 'm')}, mass "
              f"{_or_none(result.get('subject_mass_kg'), 'kg')} (given to `pcnet opensim`; the markers' scale is "
-             f"`pcnet run --height`'s)", f"- **not observable**: {UNOBSERVED_NOTE}; {locked_note()}", "", "### OpenSim warnings", ""]
+             f"`pcnet run --height`'s)", *(f"- **not observable**: {note}" for note in opensim_notes(result)), "",
+             "### OpenSim warnings", ""]
     findings = ranked(opensim_fit_findings(result))
     for i, f in enumerate(findings, 1):
         lines += [f"#### {i}. {f.headline}", "", f"Severity: {f.severity.name.lower()}. Action: {f.action}.", "",
@@ -342,6 +368,87 @@ def staging_owner(name: str) -> tuple[int, str] | None:
     return (int(pid), host) if pid.isdigit() and at and host else None
 
 
+def coordinate_markers(model) -> dict[str, set[str]]:
+    """For each unlocked coordinate of an OpenSim ``model`` (``opensim.Model``), the markers on
+    the bodies its joint moves: the joint's child body and every body distal to it. A frame with
+    none of them present gives inverse kinematics no information on that coordinate (the
+    solver carries its last value on), so :func:`blank_unobserved` empties it there.
+
+    Returns:
+        ``{coordinate name: {marker names}}`` (the pelvis's free joint: every marker).
+    """
+    children: dict[str, list[str]] = {}
+    joints = []
+    for i in range(model.getJointSet().getSize()):
+        joint = model.getJointSet().get(i)
+        parent, child = (joint.getParentFrame().findBaseFrame().getName(),
+                         joint.getChildFrame().findBaseFrame().getName())
+        children.setdefault(parent, []).append(child)
+        joints.append((joint, child))
+    on_body: dict[str, set[str]] = {}
+    for i in range(model.getMarkerSet().getSize()):
+        marker = model.getMarkerSet().get(i)
+        on_body.setdefault(marker.getParentFrame().findBaseFrame().getName(), set()).add(marker.getName())
+
+    def distal(body: str) -> set[str]:
+        found = set(on_body.get(body, ()))
+        for child in children.get(body, ()):
+            found |= distal(child)
+        return found
+
+    out = {}
+    for joint, child in joints:
+        for k in range(joint.numCoordinates()):
+            coordinate = joint.get_coordinates(k)
+            if not coordinate.get_locked():
+                out[coordinate.getName()] = distal(child)
+    return out
+
+
+def blank_unobserved(mot_path: Path, present: np.ndarray, markers: list[str],
+                     by_coordinate: dict[str, set[str]]) -> dict[str, int]:
+    """Write NaN into ``ik.mot`` where a coordinate's frame had none of its markers
+    (:func:`coordinate_markers`): such a value is the solver's carried-on guess, not a
+    measurement (a user trial read a smooth 51-110 deg right elbow in 253 frames where the
+    right elbow and wrist were never seen). The rest of the file is kept byte for byte.
+
+    Args:
+        mot_path: the IK tool's ``.mot`` (header, ``endheader``, a tab-separated column line,
+            one row per IK frame).
+        present: ``(N, M)`` bool, marker ``m`` present in IK row ``n`` (rows in file order).
+        markers: the ``M`` marker names.
+        by_coordinate: :func:`coordinate_markers`' map.
+
+    Returns:
+        ``{coordinate: rows emptied}`` for each coordinate emptied in at least one row.
+
+    Raises:
+        InputError: the file's rows do not match ``present``'s (an IK tool that wrote another
+            frame count).
+    """
+    lines = mot_path.read_text().splitlines()
+    end = next(i for i, line in enumerate(lines) if line.strip() == "endheader")
+    columns = [c.strip() for c in lines[end + 1].split("\t")]
+    rows = [i for i in range(end + 2, len(lines)) if lines[i].strip()]
+    if len(rows) != len(present):
+        raise InputError(f"{mot_path}: expected {len(present)} inverse-kinematics rows, got {len(rows)}")
+    index = {name: m for m, name in enumerate(markers)}
+    emptied = {}
+    for coordinate, its_markers in by_coordinate.items():
+        cols = [m for name, m in index.items() if name in its_markers]
+        unseen = ~present[:, cols].any(axis=1) if cols else np.ones(len(present), bool)
+        if coordinate in columns and unseen.any():
+            emptied[coordinate] = (columns.index(coordinate), unseen)
+    for column, unseen in emptied.values():
+        for row in np.flatnonzero(unseen):
+            values = lines[rows[row]].split("\t")
+            values[column] = "NaN"
+            lines[rows[row]] = "\t".join(values)
+    if emptied:
+        write_text(mot_path, "\n".join(lines) + "\n")
+    return {coordinate: int(unseen.sum()) for coordinate, (_, unseen) in emptied.items()}
+
+
 def scale_and_ik(
     trc_path: str | os.PathLike,
     out_dir: str | os.PathLike,
@@ -507,6 +614,8 @@ def scale_and_ik(
         if not ok or not (tmp / "ik.mot").is_file() or not errors:
             raise InputError(f"{trc}: OpenSim inverse kinematics failed ({_last_message(log)})")
         os.replace(errors[0], tmp / "ik_marker_errors.sto")
+        unobserved = blank_unobserved(tmp / "ik.mot", np.isfinite(joints[marked]).all(axis=2), used,
+                                      coordinate_markers(model))
 
         cols, err = _parse_sto(tmp / "ik_marker_errors.sto")
         rms = err[:, cols.index("marker_error_RMS")]
@@ -517,7 +626,9 @@ def scale_and_ik(
             "marker_rms_median_frame_m": float(np.median(rms)),
             "frames": len(rms),
             "frames_without_markers": int((~marked).sum()),
+            "scale_frames": int(complete.sum()),
             "markers_left_out": left_out,
+            "coordinates_unobserved": unobserved,
             "segments_not_scaled": unscaled,
             "static_window_s": (w0, w1),
             "subject_height_m": None if height_m is None else float(height_m),

@@ -114,6 +114,39 @@ def test_frames_without_any_marker_are_left_out_of_ik(short_run, tmp_path):
     assert r["marker_rms_m"] < 0.02, r
 
 
+def test_coordinates_no_marker_reaches_are_empty_in_ik_mot(short_run, tmp_path):
+    """A user trial read a smooth right elbow in ik.mot over 253 frames in which the right
+    elbow and wrist were never seen (the solver carries its last value on). Such a coordinate
+    is now NaN in those frames and measured in the others; a missing wrist empties the elbow,
+    a missing elbow and wrist the shoulder too, and the note says which."""
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    from pcnet.stages.opensim_ik import _parse_sto, read_trc, scale_and_ik, unobserved_coordinates_note
+    from pcnet.stages.sinks.exports import write_trc
+
+    times, markers, names, units = read_trc(short_run / "world.trc")
+    markers[20:30, names.index("right_wrist")] = np.nan
+    markers[25:30, names.index("right_elbow")] = np.nan
+    trc = write_trc(tmp_path / "world.trc", markers, 30.0, names, units)
+    out = tmp_path / "ik"
+    out.mkdir()
+    r = scale_and_ik(trc, out, 1.75)
+    wrist_gone = ~np.isfinite(markers[:, names.index("right_wrist")]).all(axis=1)
+    arm_gone = wrist_gone & ~np.isfinite(markers[:, names.index("right_elbow")]).all(axis=1)
+    assert wrist_gone.sum() >= 10 and arm_gone.sum() >= 5  # the clip's own gaps besides these
+    n_wrist, n_arm = int(wrist_gone.sum()), int(arm_gone.sum())
+    assert r["coordinates_unobserved"] == {"arm_flex_r": n_arm, "arm_add_r": n_arm, "arm_rot_r": n_arm,
+                                           "elbow_flex_r": n_wrist}
+    cols, rows = _parse_sto(out / "ik.mot")
+    empty = np.isnan(rows)
+    assert (empty[:, cols.index("elbow_flex_r")] == wrist_gone).all()
+    assert (empty[:, cols.index("arm_add_r")] == arm_gone).all()
+    assert empty.sum() == n_wrist + 3 * n_arm  # no other coordinate, the left arm included
+    assert np.isfinite(rows[:20, cols.index("elbow_flex_r")]).sum() >= 15  # measured where the wrist was seen
+    assert unobserved_coordinates_note(r).startswith(
+        f"ik.mot: elbow_flex_r empty (NaN) in {n_wrist} of {FRAMES} frames; arm_flex_r, arm_add_r, arm_rot_r empty "
+        f"(NaN) in {n_arm} of {FRAMES} frames")
+
+
 def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_path):
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
     import shutil

@@ -100,7 +100,8 @@ def test_findings_about_some_frames_name_them():
     # a frame rate typed with --fps alone is checked first (a user trial's 120 for a 30 fps file)
     (typed,) = implausible_motion_findings([ImplausibleMotion("right_wrist", "speed", 60, 70, 14.9, 68, 8.18, "m/s")],
                                            fps_typed=True)
-    assert typed.action == "check --fps, else leave those frames out (implausible_motion = 1)"
+    assert typed.action == ("check --fps if the speeds are high throughout, else leave those frames out "
+                            "(implausible_motion = 1)")
     assert floor_flag(np.zeros(5, bool), np.ones(5, bool))[0].frames is None  # the whole recording
     assert lifter_frame_flag(15.5, 8.6)[0].frames is None
 
@@ -130,7 +131,7 @@ def test_unknown_texts_are_shortened_to_one_line_keeping_the_first_clauses():
     # (a user trial read "taking the subject's ankle-to-head chain as H36M's share...")
     scaled = ("scaled by 0.8458 to a 1.75 m subject (from normalised), taking the subject's ankle-to-head chain as "
               "H36M's share of stature (an individual's share differs by several per cent, stages/scale.py)")
-    assert shortened(scaled) == "scaled by 0.8458 to a 1.75 m subject"
+    assert shortened(scaled) == "scaled by 0.8458 to a 1.75 m subject..."  # "..." as a ", " may split a list
     assert note_finding("a short note") == Finding(Severity.INFO, "a short note", "", "a short note")
     fit = {"marker_rms_m": 0.01, "marker_max_m": 0.02, "warnings": ["something new happened: " + "x " * 80]}
     (new,) = opensim_fit_findings(fit)  # a text of no known kind stays a warning, shortened
@@ -157,7 +158,7 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     assert all(" -> " in ln for ln in warnings)
     assert [ln for ln in lines if ln.startswith("note")] == [
         "note     missing: 3 joints (most: left_elbow 74 frames); no joint at all: 8 frames",
-        "note     world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time"]
+        "note     world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time..."]
     assert all(len(ln) <= LINE_WIDTH for ln in warnings + lines[:6]), max(lines, key=len)
     assert lines[-1] == f"details: {FIXTURES / 'o' / REPORT_NAME}" and "report.md  " not in result.summary()
     assert "camera tilt       8.8 deg from level (pitch +8.6 +- 8.6, roll +2.0 +- 3.5 deg; 95 % interval)" in lines
