@@ -95,17 +95,31 @@ TRAINING_FIELDS = ("data", "data_repeats", "train_whole", "split_scheme", "noise
                    "views", "frame_stride", "epochs", "augment", "seed", "whole_clips")
 
 
-def training_record(checkpoint: str | Path) -> dict:
+#: Fine-tuning runs followed back through their ``init_checkpoint`` at most (a longer chain is cut).
+MAX_FINE_TUNING_CHAIN = 8
+
+
+def training_record(checkpoint: str | Path, _depth: int = 0) -> dict:
     """``{"training_config": {...}}`` from the ``config.json`` that ``pcnet train`` wrote beside
     ``checkpoint`` (:data:`TRAINING_FIELDS`), or ``{}`` when there is none or it is not a JSON
-    object: evaluation reads it to say how much of a dataset the weights trained on."""
+    object: evaluation reads it to say how much of a dataset the weights trained on. A run
+    fine-tuned from another checkpoint also records it (``init_checkpoint``) and that run's own
+    record (``init_training_config``, ``{}`` where its folder has none), followed back up to
+    :data:`MAX_FINE_TUNING_CHAIN` runs: the earlier runs' data trained the weights too (a user
+    trial's export kept only the last epoch's run)."""
     try:
         config = json.loads((Path(checkpoint).parent / "config.json").read_text())
     except (OSError, ValueError, RecursionError):  # RecursionError: nested too deeply
         return {}
     if not isinstance(config, dict):
         return {}
-    return {"training_config": {k: config[k] for k in TRAINING_FIELDS if k in config}}
+    record = {k: config[k] for k in TRAINING_FIELDS if k in config}
+    init = config.get("init_checkpoint")
+    if isinstance(init, str) and init:
+        record["init_checkpoint"] = init
+        if _depth < MAX_FINE_TUNING_CHAIN:
+            record["init_training_config"] = training_record(init, _depth + 1).get("training_config", {})
+    return {"training_config": record}
 
 
 def max_difference(model: PCNet, path: str | Path, x: np.ndarray) -> float:

@@ -144,6 +144,22 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None) 
             f"clips overlap their training data is unknown (a renamed copy of a training file would look new){known}")
 
 
+def _fine_tuned_warning(record: dict) -> str | None:
+    """A warning when the weights were fine-tuned from another checkpoint (``init_checkpoint``
+    in their record, :func:`pcnet.models.export.training_record`): the overlap counted is the
+    last run's data alone, and the earlier runs' data (listed where their records say) trained
+    the weights too; ``None`` otherwise."""
+    chain, earlier = [], record
+    while earlier.get("init_checkpoint"):
+        data = [Path(str(d)).name for d in (earlier.get("init_training_config") or {}).get("data", [])]
+        chain.append(f"{earlier['init_checkpoint']} ({', '.join(data) if data else 'data unknown'})")
+        earlier = earlier.get("init_training_config") or {}
+    if not chain:
+        return None
+    return (f"the weights were fine-tuned from {'; from '.join(chain)}: the overlap above counts the last run's data "
+            f"only, and the earlier runs' trained them too")
+
+
 def _unknown_training_warning(weights, record: dict) -> str | None:
     """A warning when the weights carry no training record (no ``.json`` beside them with a
     ``training_config``, as ``pcnet export`` writes): whether they trained on the evaluated
@@ -269,7 +285,8 @@ def evaluate(
     for name in METRICS:  # a method's invalid frames never count, whatever it returned there
         errors[name] = np.where(valid_k, errors[name], np.nan)
     result = {
-        "method": method, "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
+        "method": method, "weights": None if method == "geometric" else str(weights) if weights else "shipped",
+        "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
         "data": str(data), "seed": seed, "camera": camera, "noise": kind, "mode": mode, "heading": heading,
         "camera_prior": camera_prior, "warnings": warnings,
         "target_undefined_frames": pairs.dropped_frames,
@@ -285,6 +302,7 @@ def evaluate(
         record = _training_config(weights)
         result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
         warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record),
+                                 _fine_tuned_warning(record),
                                  _unknown_file_warning(data, record, result["training_overlap"])] if w]
     else:
         result["training_overlap"] = None
@@ -301,7 +319,8 @@ def format_table(result: dict) -> str:
     and how much of the data the evaluated weights trained on, where their record says."""
     sources = ",".join(f"{k}:{v}" for k, v in result.get("clip_heading_sources", {}).items())
     unseen = f" unseen-by={result['unseen_by']}" if result.get("unseen_by") else ""
-    head = (f"method={result['method']} views={result['views']} split={result['split']} "
+    weights = f" weights={result['weights']}" if result.get("weights") else ""
+    head = (f"method={result['method']}{weights} views={result['views']} split={result['split']} "
             f"scheme={result.get('split_scheme', 'clip')}{unseen} "
             f"camera={result['camera']} noise={result['noise']} mode={result['mode']} "
             f"heading={result.get('heading', 'predicted')} (clips {sources}) seed={result['seed']}\n"

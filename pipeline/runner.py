@@ -156,7 +156,7 @@ class RunResult:
         decided = ((f" over the {mode.decided_on_frames} valid frames of the 2D track's longest stretch"
                     if long else f" over the {mode.decided_on_frames} frames of one person")
                    if mode.decided_on_frames is not None else "")
-        rectification = (f"{self.method}, mode {self.mode} (requested {mode.requested}" + spread
+        rectification = (f"{self._method_label()}, mode {self.mode} (requested {mode.requested}" + spread
                          + (f"; {mode.reason}" if mode.reason else "") + decided
                          + self._auto_smooth_hint(long) + ")")
         heading = f"from {heading.source} (requested {heading.requested}; " + self._hip_width() + ")"
@@ -240,6 +240,12 @@ class RunResult:
         return (f", above the {MODE_THRESHOLD_DEG:g} deg of a static camera"
                 + (": a moving camera, or poses whose up the networks read less steadily" * long)
                 + "; --mode sequence for a static camera")
+
+    def _method_label(self) -> str:
+        """The method, with the weights' file where they are not the shipped ones (a user trial's
+        own network read "pcnet" like the shipped pair)."""
+        weights = (self.report.inputs or {}).get("weights", "shipped")
+        return self.method if weights == "shipped" else f"{self.method} ({Path(weights).name} weights)"
 
     def _pitch_roll(self, long: bool = True) -> str:
         seq = self.report.rectification.sequence

@@ -262,6 +262,27 @@ def test_exported_weights_name_the_clips_of_a_file_trained_on_whole(tmp_path, mo
     assert record["whole_clips"] == sorted(np.load(whole).files)
 
 
+def test_fine_tuned_weights_keep_the_earlier_runs_training_record(tmp_path, mocap):
+    """A user trial fine-tuned from its own best.pt and exported: the .json named only the last
+    run's epoch and data. The record now follows init_checkpoint back, and evaluation warns that
+    the earlier run's data trained the weights too."""
+    from pcnet.pipeline.evaluate import _fine_tuned_warning
+
+    cfg = load_config(_train_config(tmp_path, mocap))
+    best = train(cfg, progress=False)
+    whole = FIXTURES / "deepmimic_small.npz"
+    tuned = train(dataclasses.replace(cfg, out_dir=str(tmp_path / "tuned"), init_checkpoint=str(best),
+                                      data=[str(mocap), str(whole)], train_whole=[False, True]), progress=False)
+    out = tmp_path / "tuned.onnx"
+    assert _cli("export", "--checkpoint", tuned, "--out", out).exit_code == 0
+    record = json.loads(out.with_suffix(".json").read_text())["training_config"]
+    assert record["data"] == [str(mocap), str(whole)] and record["init_checkpoint"] == str(best)
+    assert record["init_training_config"]["data"] == [str(mocap)] and "init_checkpoint" not in record["init_training_config"]
+    assert _fine_tuned_warning(record) == (f"the weights were fine-tuned from {best} ({mocap.name}): the overlap above "
+                                           f"counts the last run's data only, and the earlier runs' trained them too")
+    assert _fine_tuned_warning(record["init_training_config"]) is None
+
+
 def test_weights_that_are_not_3dpcnet_onnx_fail_in_one_line(tmp_path):
     text = tmp_path / "weights.onnx"
     text.write_text("these are not weights\n")

@@ -485,6 +485,12 @@ def test_weights_without_their_training_record_warn_that_overlap_is_unknown(tmp_
     with_record = evaluate("pcnet", data, "all", weights=str(CAMERA_WEIGHTS), max_frames=20)
     assert not any(w.startswith("the weights' training data is unknown") for w in with_record["warnings"])
     assert with_record["tilt_deg"] == result["tilt_deg"]
+    # the result names the weights it scored (a user trial's own network read "method=pcnet" like the pair)
+    from pcnet.pipeline.evaluate import format_table
+
+    assert result["weights"] == str(bare) and f"method=pcnet weights={bare} views=" in format_table(result)
+    shipped = evaluate("pcnet", data, "all", max_frames=20)
+    assert shipped["weights"] == "shipped" and "method=pcnet weights=shipped views=" in format_table(shipped)
 
 
 def test_a_mocap_file_that_is_not_y_up_gets_a_warning(tmp_path):

@@ -191,6 +191,21 @@ def test_intervals_are_not_called_95_percent_where_the_per_frame_ups_spread_beyo
     assert short.endswith("deg; 95 % interval)") and "not calibrated" not in report
 
 
+def test_the_rectification_line_names_weights_that_are_not_the_shipped_ones():
+    """A user trial's own network read "rectification     pcnet, mode sequence", as the shipped
+    pair does; the line now names the weights' file."""
+    import dataclasses
+
+    def line(weights):
+        report = dataclasses.replace(run_report("sequence", "sequence"), inputs={"method": "pcnet", "weights": weights})
+        result = RunResult(frames=60, valid_frames=60, units="m", method="pcnet", fps=30.0, fps_source="--fps",
+                           findings=[], notes=[], outputs={}, report=report)
+        return next(ln for ln in result.summary().splitlines() if ln.startswith("rectification"))
+
+    assert line("/tmp/runs/my_camera.onnx").startswith("rectification     pcnet (my_camera.onnx weights), mode sequence")
+    assert line("shipped").startswith("rectification     pcnet, mode sequence")
+
+
 def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
     """The real 60-frame Sports2D fixture with its 2D track made to jump at frame 30: the
     summary's first warning is the switch, and report.md (published with the outputs, so a
