@@ -14,7 +14,8 @@ Per frame it gives what the legacy ``solutions.pose`` gave (the shared reference
 landmarks (metres, origin between the hips, the axes of the camera the model sees:
 :mod:`pcnet.adapters.mediapipe`). MediaPipe follows one person (``num_poses=1``): where
 several people are in view, it may switch between them, which pcnet's 2D track check flags
-(:func:`pcnet.stages.flags.track_switch_flag`).
+(:func:`pcnet.stages.flags.track_switch_flag`); a region of the picture (``pcnet run --roi``)
+keeps it on the person there.
 """
 
 from __future__ import annotations
@@ -107,19 +108,27 @@ def _open(video: Path) -> tuple[cv2.VideoCapture, float, int]:
     return capture, float(fps), max(int(capture.get(cv2.CAP_PROP_FRAME_COUNT)), 0)
 
 
-def estimate_video(video: str | Path, progress: bool = False) -> BlazePoseTrack:
+def estimate_video(video: str | Path, progress: bool = False,
+                   region: tuple[int, int, int, int] | None = None) -> BlazePoseTrack:
     """Run BlazePose GHUM 3D (full) over every decodable frame of ``video``.
 
     Args:
         video: a video file OpenCV decodes.
         progress: a frame progress bar on stderr (where stderr is a terminal).
+        region: ``(x, y, width, height)`` in pixels of the frames as decoded (displayed): the
+            estimator sees only that part of each frame, so that it follows the person there
+            and not another one elsewhere in view (``pcnet run --roi``). The landmarks are
+            returned in the whole frame's pixels, so the camera's intrinsics (focal length,
+            principal point at the frame's centre) stay the whole frame's. ``None``: the whole
+            frame.
 
     Returns:
         :class:`BlazePoseTrack`.
 
     Raises:
         InputError: the extra is missing (:data:`MISSING_EXTRA`), the video cannot be
-            decoded or has no frame, or nobody was found in any frame.
+            decoded or has no frame, ``region`` does not lie inside the frames, or nobody was
+            found in any frame.
         KeyboardInterrupt: Ctrl-C or SIGTERM (the caller removes what it staged).
     """
     import_extra("mediapipe", MISSING_EXTRA)
@@ -144,12 +153,18 @@ def estimate_video(video: str | Path, progress: bool = False) -> BlazePoseTrack:
                 if not ok:
                     break
                 height, width = frame.shape[:2]
+                x0, y0, seen_w, seen_h = region or (0, 0, width, height)
+                if x0 + seen_w > width or y0 + seen_h > height:
+                    raise InputError(f"--roi {x0},{y0},{seen_w},{seen_h}: expected a region inside {video}'s "
+                                     f"{width}x{height} frames (as displayed), got one reaching x = {x0 + seen_w}, "
+                                     f"y = {y0 + seen_h}")
+                seen = frame[y0:y0 + seen_h, x0:x0 + seen_w]
                 image = mp_image.Image(image_format=mp_image.ImageFormat.SRGB,
-                                       data=np.ascontiguousarray(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB)))
+                                       data=np.ascontiguousarray(cv2.cvtColor(seen, cv2.COLOR_BGR2RGB)))
                 # VIDEO mode needs strictly increasing timestamps (ms): the frame's nominal time
                 result = landmarker.detect_for_video(image, round(len(keypoints) * 1000.0 / fps))
                 if result.pose_landmarks:
-                    keypoints.append(np.array([[p.x * width, p.y * height, p.visibility]
+                    keypoints.append(np.array([[x0 + p.x * seen_w, y0 + p.y * seen_h, p.visibility]
                                                for p in result.pose_landmarks[0]], np.float32))
                     world.append(np.array([[p.x, p.y, p.z] for p in result.pose_world_landmarks[0]], np.float32))
                 else:
@@ -162,6 +177,7 @@ def estimate_video(video: str | Path, progress: bool = False) -> BlazePoseTrack:
         raise InputError(f"{video}: expected decodable frames, got none (a damaged file or a codec OpenCV lacks?)")
     track = BlazePoseTrack(np.stack(keypoints), np.stack(world), fps, width, height)
     if not track.found.any():
-        raise InputError(f"{video}: expected a person in view, got none in any of {len(keypoints)} frames "
+        where = "" if region is None else f" inside --roi {','.join(map(str, region))}"
+        raise InputError(f"{video}: expected a person in view{where}, got none in any of {len(keypoints)} frames "
                          f"(MediaPipe BlazePose)")
     return track

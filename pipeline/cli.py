@@ -395,6 +395,9 @@ def _run_and_report(cfg) -> None:
 @click.option("--image-size", default=None,
               help="WIDTHxHEIGHT of the frames the 2D keypoints came from, without --video when the keypoint file "
                    "does not state it (AlphaPose, OpenPose): needed for the pelvis path from the 2D keypoints.")
+@click.option("--roi", default=None,
+              help="X,Y,W,H in pixels of the video as displayed, with --video alone: the embedded estimator follows "
+                   "the person inside this region, not another one in view.")
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 @click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")

@@ -219,6 +219,9 @@ class RunConfig:
     (:data:`pcnet.stages.core.perspective.DEFAULT_FOCAL_35MM`). ``image_size``: ``"WIDTHxHEIGHT"``
     in pixels of the frames the 2D keypoints were detected in, for a run without a video whose
     keypoint file does not state it (AlphaPose, OpenPose): the principal point of that fit.
+    ``roi``: ``"X,Y,W,H"`` in pixels of the video as displayed, for a video alone: the embedded
+    estimator sees only that region, so it follows the person there, not another one in view
+    (:func:`pcnet.models.pose_estimator.estimate_video`).
     """
 
     lifter: str | None = None
@@ -247,6 +250,7 @@ class RunConfig:
     mass: float | None = None
     focal_px: float | None = None
     image_size: str | None = None
+    roi: str | None = None
     lifter_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -273,6 +277,11 @@ class RunConfig:
             return None
         width, height = self.image_size.lower().split("x")
         return int(width), int(height)
+
+    @property
+    def roi_px(self) -> tuple[int, int, int, int] | None:
+        """``roi`` as ``(x, y, width, height)`` pixels, or ``None`` (checked by :meth:`validate`)."""
+        return None if self.roi is None else tuple(int(v) for v in self.roi.split(","))
 
     @property
     def min_confidence(self) -> float:
@@ -390,6 +399,14 @@ class RunConfig:
         if self.image_size is not None and not re.fullmatch(r"[1-9][0-9]{0,5}[xX][1-9][0-9]{0,5}", self.image_size):
             raise InputError(f"{field_name(source, 'image_size')}: expected WIDTHxHEIGHT in pixels (e.g. 1920x1080), "
                              f"got {self.image_size!r}")
+        if self.roi is not None and not re.fullmatch(r"[0-9]{1,5},[0-9]{1,5},[1-9][0-9]{0,4},[1-9][0-9]{0,4}",
+                                                     self.roi.replace(" ", "")):
+            raise InputError(f"{field_name(source, 'roi')}: expected X,Y,W,H in pixels of the video as displayed "
+                             f"(e.g. 0,450,1768,544), got {self.roi!r}")
+        if self.roi is not None and (self.video is None or self.lifter_output is not None):
+            got = "no video" if self.video is None else "a lifter's output, whose person is already chosen"
+            raise InputError(f"{field_name(source, 'roi')}: expected with a video alone (the embedded estimator "
+                             f"follows the person inside it), got {got}")
         if "focal_px" in self.lifter_options:  # one source: the camera's, whatever the lifter
             raise InputError(f"{_option_field(source, 'focal_px')}: expected focal_px as a run option (the camera's focal "
                              f"length, for every lifter), got it in lifter_options; move it to the top level")

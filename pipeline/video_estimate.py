@@ -32,13 +32,14 @@ def estimated_inputs(cfg: RunConfig, folder: Path, progress: bool = False) -> tu
     Raises:
         InputError: as :func:`~pcnet.models.pose_estimator.estimate_video`.
     """
-    track = estimate_video(cfg.video, progress)
+    track = estimate_video(cfg.video, progress, cfg.roi_px)
     path = write_npz(folder / ESTIMATE_FILE, keypoints_2d=track.keypoints_2d, world_3d=track.world_3d,
                      fps=np.float64(track.fps), width=np.int64(track.width), height=np.int64(track.height),
                      layout=np.array("blazepose33"))
     found = int(track.found.sum())
-    note = (f"poses: MediaPipe BlazePose GHUM 3D (full) on the video, a person in {found} of {len(track.found)} "
-            f"frames; saved as {ESTIMATE_FILE} (re-use it with --lifter mediapipe --lifter-output and --keypoints2d "
+    region = "" if cfg.roi is None else f" inside --roi {cfg.roi}"
+    note = (f"poses: MediaPipe BlazePose GHUM 3D (full) on the video{region}, a person in {found} of "
+            f"{len(track.found)} frames; saved as {ESTIMATE_FILE} (re-use it with --lifter mediapipe --lifter-output and --keypoints2d "
             f"with --keypoints2d-format mediapipe)")
     return dataclasses.replace(cfg, lifter=ESTIMATOR_LIFTER, lifter_output=str(path), keypoints2d=str(path),
                                keypoints2d_format=ESTIMATOR_LIFTER), note

@@ -1041,16 +1041,16 @@ NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
      r"(?P<how>[^:;]*).*turn median (?P<med>\S+),",
      lambda m: f"MediaPipe poses turned from the virtual camera by a median {m['med']} deg "
                f"(focal length {m['f']} px, {m['how']})"),
-    (r"poses: (?P<est>.*?) on the video, a person in (?P<n>\d+) of (?P<of>\d+) frames; saved as (?P<file>\S+)",
-     lambda m: f"poses: {m['est']} on the video, a person in {m['n']} of {m['of']} frames"),
+    (r"poses: (?P<est>.*?) on the video(?P<roi>(?: inside --roi \S+)?), a person in (?P<n>\d+) of (?P<of>\d+) "
+     r"frames; saved as (?P<file>\S+)",
+     lambda m: f"poses: {m['est']} on the video, a person in {m['n']} of {m['of']} frames"),  # --roi: as typed
     (r"low-pass cutoff (?P<hz>\S+) Hz by residual analysis \(Winter; noise (?P<noise>[^;]*);",
      lambda m: f"low-pass cutoff {m['hz']} Hz by residual analysis (Winter; noise {m['noise']})"),
     (r"3D joints remapped from (?P<layout>\S+) to H36M-17 with (?P<built>.*?) built as means",
      lambda m: f"3D joints remapped from {m['layout']} to H36M-17 with {m['built']} built from others"),
     # the moving-camera note's line keeps its other cause: a static tripod under a side bend
-    (r"per-frame up spreads (?P<spread>\S+) deg, beyond a static camera's (?P<limit>[0-9.]+)",
-     lambda m: f"per-frame up spreads {m['spread']} deg (a static camera's up to {m['limit']}): a moving camera "
-               f"(--mode smooth), or fast or non-upright poses"),
+    (r"per-frame up spreads (?P<spread>\S+) deg",
+     lambda m: f"per-frame up spreads {m['spread']} deg: a moving camera (--mode smooth), or fast or non-upright poses"),
     # a list of locked coordinates cut short reads as the whole list (a user trial: "ankle_angle_r,
     # subtalar_angle_r, mtp_angle_r" of 12)
     (r"ik\.mot: locked in the model \(.*?\), not measured: (?P<held>.*)",

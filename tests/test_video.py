@@ -58,6 +58,37 @@ def test_a_video_alone_gives_every_output_and_its_poses_for_a_re_run(tmp_path, v
     assert (tmp_path / "a" / "kinematics.csv").read_bytes() == (tmp_path / "b" / "kinematics.csv").read_bytes()
 
 
+def test_a_region_shows_the_estimator_part_of_the_picture_in_whole_frame_pixels(tmp_path, video_extra):
+    """A coach's trial: the estimator followed the man on a box, not the walker, with no way to
+    choose. --roi shows it one region; its landmarks come back in the whole frame's pixels (the
+    camera geometry stays the whole frame's), and a region without the boxer finds nobody."""
+    from pcnet.models.pose_estimator import estimate_video
+
+    whole = estimate_video(CLIP)
+    x, y = whole.keypoints_2d[..., 0], whole.keypoints_2d[..., 1]
+    region = (250, 40, 400, 420)  # holds the boxer (x 328-555, y 89-404 px in these frames)
+    assert region[0] < np.nanmin(x) and np.nanmax(x) < region[0] + region[2]
+    assert region[1] < np.nanmin(y) and np.nanmax(y) < region[1] + region[3]
+    seen = estimate_video(CLIP, region=region)
+    assert (seen.width, seen.height) == (854, 480) and seen.found.all()
+    moved = np.linalg.norm(seen.keypoints_2d[..., :2] - whole.keypoints_2d[..., :2], axis=-1)
+    assert np.median(moved) < 3.0, np.median(moved)  # the same landmarks, not the region's own pixels
+    res = _invoke("run", "--video", CLIP, "--roi", "250,40,400,420", "--out", tmp_path / "a", "--no-recording")
+    assert res.exit_code == 0, res.output
+    assert "on the video inside --roi 250,40,400,420, a person in 10 of 10 frames" in \
+        (tmp_path / "a" / "report.md").read_text()
+    outside = _one_error_line(_invoke("run", "--video", CLIP, "--roi", "700,0,200,200", "--out", tmp_path / "o"))
+    assert outside.endswith("--roi 700,0,200,200: expected a region inside " + str(CLIP) + "'s 854x480 frames (as "
+                            "displayed), got one reaching x = 900, y = 200")
+    with_lifter = _one_error_line(_invoke("run", "--video", CLIP, "--lifter", "motionbert", "--lifter-output",
+                                          FIXTURES / "boxing_X3D_f000-059.npy", "--roi", "0,0,10,10", "--out",
+                                          tmp_path / "o"))
+    assert "--roi: expected with a video alone (the embedded estimator follows the person inside it)" in with_lifter
+    assert "expected X,Y,W,H in pixels" in _one_error_line(_invoke("run", "--video", CLIP, "--roi", "1,2,3",
+                                                                   "--out", tmp_path / "o"))
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_video_without_anyone_is_one_line(tmp_path, video_extra):
     blank = tmp_path / "empty_room.mp4"
     writer = cv2.VideoWriter(str(blank), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (320, 240))
