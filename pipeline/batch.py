@@ -810,8 +810,8 @@ def _engine(options: BatchOptions, on_result, on_retry):
 def _row_summary(item: PlannedRow, result: dict | None, status: str | None = None) -> dict:
     """A row of the summary: the engine's result, or a skipped / cancelled / pending row."""
     base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": None, "valid": None,
-            "mode": "", "seconds": None, "error": "", "warnings": [], "host": "", "pid": None, "attempts": 0,
-            "threads": None, "opensim_rms_cm": None}
+            "mode": "", "camera_tilt_deg": None, "posture": None, "seconds": None, "error": "", "warnings": [],
+            "host": "", "pid": None, "attempts": 0, "threads": None, "opensim_rms_cm": None}
     if item.action == "skip":
         base.update(status="skipped", **{k: v for k, v in item.known.items() if v is not None})
     elif result is not None:
@@ -1119,13 +1119,15 @@ def batch_markdown(report: BatchReport) -> str:
             f"- **options**: overwrite {s.get('overwrite')}, retry_failed {s.get('retry_failed')}",
             f"- **summary**: {report.summary_path} (every row's fields, docs/cluster.md \"Results\")",
             "", "## Rows", "",
-            "| row | line | status | tries | frames | valid | mode | OpenSim RMS cm | seconds | worker | threads | output |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| row | line | status | tries | frames | valid | mode | tilt deg | posture | OpenSim RMS cm | seconds | worker "
+            "| threads | output |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report.rows:
         seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else None
         worker = f"{r['host']}:{r['pid']}" if r.get("pid") else None
         out.append("| " + " | ".join(_cell(v) for v in (r["row"], r["line"], r["status"], r["attempts"], r["frames"],
-                                                          r["valid"], r.get("mode"), r.get("opensim_rms_cm"), seconds,
+                                                          r["valid"], r.get("mode"), r.get("camera_tilt_deg"),
+                                                          r.get("posture"), r.get("opensim_rms_cm"), seconds,
                                                           worker, r.get("threads"),
                                                           r["out"])) + " |")
     failed = [r for r in report.rows if r["status"] == "failed"]

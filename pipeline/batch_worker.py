@@ -7,6 +7,7 @@ Only the standard library is imported at module level: a worker sets its thread 
 
 from __future__ import annotations
 
+import math
 import os
 import socket
 import time
@@ -22,7 +23,7 @@ FINDINGS = "findings"
 #: What a row's run found that a skipped row shows again (from its resume marker or the
 #: previous summary): frame counts, mode, warnings and, with ``opensim``, the IK fit's marker
 #: RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``).
-RESULT_FIELDS = ("frames", "valid", "mode", "units", "warnings", "opensim_rms_cm")
+RESULT_FIELDS = ("frames", "valid", "mode", "units", "camera_tilt_deg", "posture", "warnings", "opensim_rms_cm")
 #: Test hook, see :func:`_test_hook`.
 TEST_HOOK = "PCNET_BATCH_TEST_HOOK"
 _HOLD_LIMIT_S = 120.0
@@ -97,6 +98,11 @@ def _int_or_none(text: str | None) -> int | None:
         return None
 
 
+def _finite_or_none(value: float) -> float | None:
+    """A number for the summary's JSON: rounded to 0.1, ``None`` where not finite."""
+    return round(float(value), 1) if math.isfinite(value) else None
+
+
 def _opensim_rms_cm(staged: Path, outputs: dict[str, Path]) -> float | None:
     """The OpenSim IK fit's marker RMS (cm, 2 decimals, as the run's note) from the
     ``opensim_fit.json`` the run wrote into ``staged`` (its ``outputs`` name the folder it is
@@ -120,7 +126,8 @@ def execute_row(job: dict) -> dict:
     traceback for unexpected exceptions. ``KeyboardInterrupt`` (the engine stopping the
     worker) propagates after ``run_pipeline`` has removed its half-written folder.
     """
-    result = {"row": job["row"], "status": "failed", "frames": None, "valid": None, "mode": "", "units": None, "seconds": None,
+    result = {"row": job["row"], "status": "failed", "frames": None, "valid": None, "mode": "", "units": None,
+              "camera_tilt_deg": None, "posture": None, "seconds": None,
               "error": "", "warnings": [], "host": socket.gethostname(), "pid": os.getpid(),
               "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS")),
               "opensim_rms_cm": None}
@@ -140,7 +147,10 @@ def execute_row(job: dict) -> dict:
         inputs = input_hashes(config)  # before the run: the marker must describe what was read
 
         def with_marker(staged: Path, run) -> None:  # published together with the output or not at all
+            posture = run.report.rectification.posture
             result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, units=run.units,
+                          camera_tilt_deg=_finite_or_none(run.camera_tilt_deg),
+                          posture=None if posture is None else posture.most_probable,
                           warnings=list(run.flags),
                           opensim_rms_cm=_opensim_rms_cm(staged, run.outputs), **{FINDINGS: finding_records(run.findings)})
             write_batch_marker(staged, config, inputs, result)

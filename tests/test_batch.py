@@ -115,6 +115,11 @@ def test_rows_run_in_workers_and_one_failing_row_does_not_stop_the_others(tmp_pa
     b1, b2, b3 = summary["rows"]
     assert "nan.npy" in b2["error"] and "only NaN" in b2["error"] and "traceback" not in b2
     assert b1["frames"] == 60 and b1["valid"] == 60 and b1["attempts"] == 1 and b1["host"] and b1["pid"] != os.getpid()
+    # the run's camera tilt and posture, as its own summary and canonical.npz give them
+    with np.load(tmp_path / "b1" / "canonical.npz", allow_pickle=False) as f:
+        record = json.loads(str(f["report"]))
+    assert b1["camera_tilt_deg"] == round(record["camera_tilt_deg"], 1) and b1["posture"] == "upright"
+    assert b3["posture"] is None and b3["camera_tilt_deg"] is not None  # geometric: no up model, a tilt all the same
     # the thread count reached the worker's environment (a value the user set is kept)
     assert b1["threads"] == int(os.environ.get("PCNET_ORT_THREADS") or max(1, cpu_cores() // 2))
     assert summary["counts"] == {"ok": 2, "skipped": 0, "failed": 1, "cancelled": 0, "pending": 0}
@@ -412,8 +417,8 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
 
     def row(i, status, warnings=(), error="", **extra):
         return {"row": i, "line": i + 1, "out": f"/study/out/r{i}", "status": status, "frames": 60, "valid": 60,
-                "mode": "sequence", "seconds": 1.0, "error": error, "warnings": list(warnings), "host": "h",
-                "pid": 100 + i, "attempts": 1, "threads": 2, **extra}
+                "mode": "sequence", "camera_tilt_deg": 4.2, "posture": "upright", "seconds": 1.0, "error": error,
+                "warnings": list(warnings), "host": "h", "pid": 100 + i, "attempts": 1, "threads": 2, **extra}
 
     rows = [row(1, "ok", [legs, switch]), row(2, "skipped", [legs]), row(3, "skipped", [legs]),
             row(4, "failed", error="ValueError: boom", traceback="Traceback (most recent call last):\n  boom"),
@@ -439,8 +444,9 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
     assert len(text.splitlines()) == 1 + SUMMARY_LINES + 1 + 3 + 3
     md = batch_markdown(report)
     assert md.startswith("# pcnet batch: /study/m.csv\n")
-    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | - | 1.0 | h:{r['pid']} | 2 | "
-               f"{r['out']} |" in md for r in rows)
+    # the camera tilt and posture of each row beside it (a batch trial compared 34 yoga files by opening each)
+    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | 4.2 | upright | - | 1.0 | "
+               f"h:{r['pid']} | 2 | {r['out']} |" in md for r in rows)
     assert "OpenSim" not in text  # no row asked for a fit
     assert all(r["error"] in md for r in rows[3:]) and "Traceback (most recent call last):\n  boom" in md
     assert md.count(legs) == 3 and md.count(switch) == 1 and md.index(switch) < md.index(legs)
@@ -460,7 +466,7 @@ def test_the_summary_gives_the_opensim_fits_marker_rms():
                          settings={"engine": "local", "workers": 1, "retries": 0})
     assert "- **engine**: local, 1 worker, retries 0;" in batch_markdown(report)  # a user trial: "1 workers"
     assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3: r2)\n" in format_summary(report)
-    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | 1.74 | 1.0 |" in batch_markdown(report)
+    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | 1.74 | 1.0 |" in batch_markdown(report)
     rows[1]["status"] = "failed"
     assert "\nOpenSim IK        marker RMS 1.74 cm (line 2: r1)\n" in format_summary(report)
 

@@ -326,7 +326,7 @@ def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
     # where to find the focal length of a web clip's unknown camera (a user trial found no hint)
     assert lifter_frame_flag(15.5, 7.4)[0].action == "give --focal-px (docs/video.md)"
     (known,) = lifter_frame_flag(15.5, 7.4, focal_known=True)
-    assert known.action == "check the result" and "--focal-px" not in known.detail
+    assert known.action == "take the tilt as uncertain by up to the turn" and "--focal-px" not in known.detail
 
 
 def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
