@@ -196,6 +196,9 @@ _heading_option = click.option(
 @click.option("--unseen-by", type=click.Choice(["motion-style", "clip"]), default=None,
               help="Keep only clips whose motion-style group (CMU: subject) has no take in this scheme's train "
                    "split; --unseen-by clip scores the groups that weights trained on the clip split never saw.")
+@click.option("--untrained-only", is_flag=True, default=False,
+              help="Leave out the clips the weights' training record names as trained on (their train split of this "
+                   "file, or a file trained on whole: DeepMimic's three floor motions for the shipped weights).")
 @click.option("--views", type=click.Choice(["paper", "wide"]), default="paper", show_default=True,
               help="Synthetic camera views (docs/CONVENTIONS.md): paper (3DPCNet's) or wide (any yaw, pitch +-45).")
 @click.option("--camera", type=click.Choice(CAMERAS), default="per-frame", show_default=True,
@@ -218,8 +221,8 @@ _heading_option = click.option(
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --json file.")
-def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise, mode, heading, camera_prior,
-             seed, max_frames, weights, json_out, overwrite):
+def evaluate(method, data, split, split_scheme, unseen_by, untrained_only, views, camera, noise, mode, heading,
+             camera_prior, seed, max_frames, weights, json_out, overwrite):
     """Rotation/tilt/heading error and MPJPE/PA-MPJPE on mocap seen by synthetic cameras.
     --max-frames scores N evenly spaced frames of whole rectified clips (same method, same
     per-clip decisions); invalid frames are counted and excluded."""
@@ -234,7 +237,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, views, camera, noise,
         raise InputError(f"--max-frames: expected a count >= 1, got {max_frames}")
     result = run_eval(method, data, split, views, seed, max_frames, weights, camera, noise,
                       mode, heading, split_scheme=split_scheme, unseen_by=unseen_by,
-                      camera_prior=camera_prior is not False)
+                      camera_prior=camera_prior is not False, untrained_only=untrained_only)
     click.echo(format_table(result))
     if json_out:
         from pcnet.stages.sinks.exports import finite_or_null

@@ -87,6 +87,51 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
     weights took a train split of this file) and ``matched_by`` (``"file name"`` or ``"clip
     names"``). Records from before ``whole_clips`` existed count no clip trained on whole
     unless the evaluated file is the one trained on whole."""
+    found = _trained_clips(data, chosen, record)
+    if found is None:
+        return None
+    trained, whole, split_trained, matched_by = found
+    scheme = record.get("split_scheme", "clip")
+    seen_groups = {group_key(c) or c.name for c in trained}
+    if split_trained:
+        seen_groups |= groups_in_split(all_clips, "train", scheme)
+    groups = {group_key(c) or c.name for c in chosen}
+    return {
+        "scheme": scheme, "split_trained": split_trained, "clips": len(chosen), "clips_trained_on": len(trained),
+        "clips_trained_whole": sum(c.name in whole for c in chosen),
+        "groups": len(groups), "groups_with_a_trained_take": len(groups & seen_groups), "matched_by": matched_by,
+    }
+
+
+def _untrained(data: str | Path, clips: list, method: str, weights: str | None) -> list:
+    """``clips`` less those the weights trained on, by their record (:func:`_trained_clips`).
+
+    Raises:
+        InputError: the geometric method (no weights), or weights whose record cannot tell
+            which clips they trained on.
+    """
+    if method == "geometric":
+        raise InputError("--untrained-only: expected a method with weights (pcnet, pcnet-rigid), got geometric, "
+                         "which trained on nothing")
+    record = _training_config(weights)
+    if not record:
+        raise InputError(f"--untrained-only: expected weights with a training record, got none beside "
+                         f"{weights or 'the shipped weights'} (the .json pcnet export writes)")
+    found = _trained_clips(data, clips, record)
+    if found is not None:
+        trained = {c.name for c in found[0]}
+        return [c for c in clips if c.name not in trained]
+    if Path(data).name in [Path(str(d)).name for d in record.get("data", [])]:
+        raise InputError(f"--untrained-only: expected a training record that says which clips of {Path(data).name} "
+                         f"the weights trained on, got split scheme {record.get('split_scheme')!r}")
+    return clips  # a file the record does not list, no clip it names: none trained on as far as it tells (warned)
+
+
+def _trained_clips(data: str | Path, chosen, record: dict) -> tuple[list, set, bool, str] | None:
+    """The clips of ``chosen`` the weights' ``training_config`` (``record``) says they trained
+    on, as :func:`_training_overlap` counts them: ``(trained, whole clip names, split_trained,
+    matched_by)``, or ``None`` where the record cannot tell (no files listed, an unknown
+    scheme, a file it does not list and no clip it names)."""
     listed = [Path(str(d)).name for d in record.get("data", [])]
     flags = record.get("train_whole") or [False] * len(listed)
     scheme = record.get("split_scheme", "clip")
@@ -104,15 +149,7 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
     else:
         return None
     trained = [c for c in chosen if c.name in whole or split_trained and clip_split_of(c, scheme) == "train"]
-    seen_groups = {group_key(c) or c.name for c in trained}
-    if split_trained:
-        seen_groups |= groups_in_split(all_clips, "train", scheme)
-    groups = {group_key(c) or c.name for c in chosen}
-    return {
-        "scheme": scheme, "split_trained": split_trained, "clips": len(chosen), "clips_trained_on": len(trained),
-        "clips_trained_whole": sum(c.name in whole for c in chosen),
-        "groups": len(groups), "groups_with_a_trained_take": len(groups & seen_groups), "matched_by": matched_by,
-    }
+    return trained, whole, split_trained, matched_by
 
 
 def _unlisted_whole_warning(record: dict) -> str | None:
@@ -187,6 +224,7 @@ def evaluate(
     unseen_by: str | None = None,
     details: bool = False,
     camera_prior: bool = True,
+    untrained_only: bool = False,
 ) -> dict:
     """Evaluate ``method`` on the ``split`` clips of a mocap npz.
 
@@ -197,7 +235,10 @@ def evaluate(
     without one: the clip itself) has no take in that scheme's train split of the same file:
     ``unseen_by="clip"`` scores the groups the old clip split never trained on, most of which
     the shipped weights (motion-style split) did train on (the result's ``training_overlap``
-    says how many).
+    says how many). ``untrained_only`` then leaves out the clips the weights' training record
+    names as trained on (:func:`_trained_clips`: their train split of this file, or clips of a
+    file trained on whole, such as DeepMimic's three floor motions), so that what is scored is
+    held out as far as the record tells.
 
     Pairs come from :func:`pcnet.models.datasets.make_pairs` over whole clips, with ``noise``
     (:data:`NOISE_KINDS`; ``True``/``False`` mean ``"frame"``/``"none"``). ``mode`` other than
@@ -253,8 +294,11 @@ def evaluate(
     if unseen_by is not None:
         seen = groups_in_split(all_clips, "train", unseen_by)
         clips = [c for c in clips if (group_key(c) or c.name) not in seen]
+    if untrained_only:
+        clips = _untrained(data, clips, method, weights)
     if not clips:
         extra = f" with no group in the {unseen_by!r} train split" if unseen_by else ""
+        extra += " that the weights did not train on" if untrained_only else ""
         raise InputError(f"{data}: split {split!r} (scheme {split_scheme!r}) has no clips{extra}"
                          + ("; --split all scores every clip" if split != "all" else ""))
     if kind == "lifter" or mode != "frame":
@@ -287,6 +331,7 @@ def evaluate(
     result = {
         "method": method, "weights": None if method == "geometric" else str(weights) if weights else "shipped",
         "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
+        "untrained_only": untrained_only,
         "data": str(data), "seed": seed, "camera": camera, "noise": kind, "mode": mode, "heading": heading,
         "camera_prior": camera_prior, "warnings": warnings,
         "target_undefined_frames": pairs.dropped_frames,
@@ -319,6 +364,7 @@ def format_table(result: dict) -> str:
     and how much of the data the evaluated weights trained on, where their record says."""
     sources = ",".join(f"{k}:{v}" for k, v in result.get("clip_heading_sources", {}).items())
     unseen = f" unseen-by={result['unseen_by']}" if result.get("unseen_by") else ""
+    unseen += " untrained-only" if result.get("untrained_only") else ""
     weights = f" weights={result['weights']}" if result.get("weights") else ""
     head = (f"method={result['method']}{weights} views={result['views']} split={result['split']} "
             f"scheme={result.get('split_scheme', 'clip')}{unseen} "

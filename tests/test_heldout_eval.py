@@ -493,6 +493,30 @@ def test_weights_without_their_training_record_warn_that_overlap_is_unknown(tmp_
     assert shipped["weights"] == "shipped" and "method=pcnet weights=shipped views=" in format_table(shipped)
 
 
+def test_untrained_only_leaves_out_the_clips_the_weights_trained_on(tmp_path):
+    """A developer's trial found no way to score DeepMimic without the three floor motions the
+    shipped camera-frame weights trained on whole; --untrained-only leaves out what the weights'
+    record names, and refuses where no record can say."""
+    import shutil
+
+    from pcnet.models.inference import CAMERA_WEIGHTS
+    from pcnet.pipeline.evaluate import evaluate, format_table
+    from pcnet.stages.core.errors import InputError
+
+    data = FIXTURES / "deepmimic_small.npz"  # cartwheel, walk and crawl (crawl: trained on whole)
+    every = evaluate("pcnet", data, "all", max_frames=20)
+    assert every["clips"] == 3 and every["training_overlap"]["clips_trained_on"] == 1
+    held_out = evaluate("pcnet", data, "all", max_frames=20, untrained_only=True)
+    assert held_out["clips"] == 2 and held_out["training_overlap"] is None and held_out["untrained_only"]
+    assert " untrained-only " in format_table(held_out)
+    with pytest.raises(InputError, match=r"^--untrained-only: expected a method with weights"):
+        evaluate("geometric", data, "all", max_frames=20, untrained_only=True)
+    bare = tmp_path / "bare.onnx"
+    shutil.copyfile(CAMERA_WEIGHTS, bare)
+    with pytest.raises(InputError, match=r"^--untrained-only: expected weights with a training record, got none"):
+        evaluate("pcnet", data, "all", weights=str(bare), max_frames=20, untrained_only=True)
+
+
 def test_a_mocap_file_that_is_not_y_up_gets_a_warning(tmp_path):
     """Real walking, running and arm-raising clips pass as +Y up; the same clips stored Z-up
     (a lab frame) or Y-down warn on `pcnet evaluate`; floor motions (crawl, roll, get-up)
