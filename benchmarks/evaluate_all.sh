@@ -43,6 +43,10 @@ for model in ${MODELS:-pcnet pcnet-camnet pcnet-bodynet geometric}; do
   ho ${model}_deepmimic_all_lifter_frame $m --data $DEEPMIMIC --split all --noise lifter
   ho ${model}_deepmimic_all_perclip_lifter_sequence $m --data $DEEPMIMIC --split all $LIFTER_SEQ
 done
+# DeepMimic without the three floor motions the shipped camera-frame weights trained on whole
+ho pcnet_deepmimic_untrained_frame --method pcnet --data $DEEPMIMIC --split all --untrained-only
+ho pcnet_deepmimic_untrained_perclip_lifter_sequence --method pcnet --data $DEEPMIMIC --split all --untrained-only \
+  $LIFTER_SEQ
 # Sequence mode without the camera prior (the pose evidence alone), shipped weights
 ho pcnet_deepmimic_all_perclip_lifter_sequence_noprior --method pcnet --data $DEEPMIMIC --split all $LIFTER_SEQ \
   --no-camera-prior

@@ -35,6 +35,8 @@ HELDOUT_ROWS = (  # (file stem without the model, data/split label, protocol lab
     ("deepmimic_all_lifter_frame", "DeepMimic all", "frame, lifter"),
     ("deepmimic_all_perclip_lifter_sequence", "DeepMimic all", "per-clip, lifter, sequence"),
     ("deepmimic_all_perclip_lifter_sequence_noprior", "DeepMimic all", "per-clip, lifter, sequence, no camera prior"),
+    ("deepmimic_untrained_frame", "DeepMimic, clips not trained on", "frame, clean"),
+    ("deepmimic_untrained_perclip_lifter_sequence", "DeepMimic, clips not trained on", "per-clip, lifter, sequence"),
 )
 HELDOUT_METHODS = ("geometric", "pcnet-camnet", "pcnet-bodynet", "pcnet")
 
