@@ -63,7 +63,7 @@ from .video_orientation import DisplayOrientation, display_orientation, keypoint
 from .outdir import check_out_folder, staged_output
 from .pelvis_path import PelvisPath, camera_intrinsics, pelvis_path
 from .run_report import RunReport
-from .video_estimate import estimated_inputs
+from .video_estimate import ESTIMATE_FILE, estimated_inputs
 
 STEPS = ("inputs", "remap", "scale", "rectify", "kinematics", "exports", "recording")
 _WORLD = "world, fixed for the recording: +Y up, +X the subject's forward over the first second, y = 0 the ground; "
@@ -1366,6 +1366,20 @@ def _recording(cfg: RunConfig, result: RecordingResult, findings: list[Finding],
     return outputs
 
 
+@contextmanager
+def _estimate_named_by_its_video(staged_file: Path, video: str | None):
+    """A refusal that names the embedded estimator's staged poses (``staged_file``, gone once the
+    run fails) names the video they came from instead: a user trial's region without a person
+    was refused for a file in a hidden folder that no longer existed."""
+    try:
+        yield
+    except InputError as err:
+        if video is None or str(staged_file) not in str(err):
+            raise
+        raise InputError(str(err).replace(str(staged_file), f"the poses the embedded estimator found in {video}")) \
+            from err
+
+
 def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResult:
     seconds: dict[str, float] = {}
     clock = [time.perf_counter(), None]
@@ -1381,7 +1395,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
     # Whole-recording pose arrays live in a store in the staged output folder and are read a
     # block of frames at a time, so memory does not grow with the recording's length; the
     # store is removed before the folder is swapped in.
-    with staged_output(out, cfg.overwrite) as tmp, FrameStore(tmp) as store:
+    with staged_output(out, cfg.overwrite) as tmp, FrameStore(tmp) as store, \
+            _estimate_named_by_its_video(tmp / ESTIMATE_FILE, cfg.video):
         estimate_notes = []
         if cfg.lifter_output is None:  # the video alone: the embedded estimator's poses, kept with the outputs
             step("estimate")

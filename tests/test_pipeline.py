@@ -1288,3 +1288,18 @@ def test_pcnet_rectify_says_what_the_poses_alone_show(tmp_path):
                   "--out", tmp_path / "t.npz")
     assert res.exit_code == 0 and "WARNING" not in res.output, res.output
     assert pose_checks(poses, rectify(poses, mode="sequence", fps=30.0)) == []
+
+
+def test_a_refusal_of_the_estimators_staged_poses_names_the_video(tmp_path):
+    """A region with no person in it got a refusal naming a file in the run's hidden staging
+    folder, gone once the run failed; it now names the video the poses came from."""
+    from pcnet.pipeline.runner import _estimate_named_by_its_video
+    from pcnet.stages.core.errors import InputError
+
+    staged = tmp_path / ".o.pcnet-tmp-0123" / "mediapipe_blazepose33.npz"
+    with pytest.raises(InputError, match=r"^the poses the embedded estimator found in clip\.mp4: no frame has the hips"):
+        with _estimate_named_by_its_video(staged, "clip.mp4"):
+            raise InputError(f"{staged}: no frame has the hips")
+    with pytest.raises(InputError, match=r"^other\.npy: bad$"):  # another file's refusal is left as it is
+        with _estimate_named_by_its_video(staged, "clip.mp4"):
+            raise InputError("other.npy: bad")
