@@ -260,7 +260,8 @@ def evaluate(
     excluding its own invalid ones.
 
     Returns:
-        ``{"method", "views", "split", "split_scheme", "unseen_by", "data", "seed", "camera",
+        ``{"method", "weights" (the ``weights`` file, ``"shipped"``, or ``None`` for the geometric
+        method), "views", "split", "split_scheme", "unseen_by", "untrained_only", "data", "seed", "camera",
         "noise", "mode", "heading", "camera_prior", "warnings" (lines, e.g.
         :func:`pcnet.models.datasets.world_up_warning`), "clips", "groups", "frames" (scored frames),
         "total_frames" (frames rectified), "target_undefined_frames" (frames of the data left
@@ -275,7 +276,8 @@ def evaluate(
         scored frames).
 
     Raises:
-        InputError: empty split (after ``unseen_by``), unknown method, heading source, noise
+        InputError: empty split (after ``unseen_by`` and ``untrained_only``), ``untrained_only``
+            for the geometric method or for weights whose record cannot tell, unknown method, heading source, noise
             or split scheme, a clip the scheme cannot place, ``max_frames < 1``, a sequence
             mode (``sequence``, ``auto``) with ``camera="per-frame"`` (before any inference).
     """
