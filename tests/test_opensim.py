@@ -313,7 +313,8 @@ def test_a_batch_row_can_ask_for_opensim(tmp_path):
     (row,) = json.loads((tmp_path / "m.csv.pcnet_batch.json").read_text())["rows"]
     assert row["opensim_rms_cm"] == marker["result"]["opensim_rms_cm"] == rms
     assert f"OpenSim IK        marker RMS {rms:.2f} cm (line 2: a)" in res.output, res.output
-    assert f"| sequence | {rms} |" in (tmp_path / "m.csv.pcnet_batch.md").read_text()
+    table = (tmp_path / "m.csv.pcnet_batch.md").read_text()
+    assert f"| sequence | {row['camera_tilt_deg']} | upright | {rms} |" in table
     res = _cli("batch", manifest, "--workers", "1")  # skipped: the marker's fit shown again
     assert res.exit_code == 0 and f"marker RMS {rms:.2f} cm (line 2: a)" in res.output, res.output
     manifest.write_text(f"lifter,lifter_output,fps,height,out,mass\nmotionbert,{x3d},30,1.75,b,70\n")
