@@ -174,7 +174,7 @@ class _Fixed:
 
     estimate: object
     name: str = "pcnet"
-    frame_tilt_95_deg: float = FRAME_TILT_95_DEG
+    frame_tilt_bound_base_deg: float = FRAME_TILT_95_DEG
 
     def __call__(self, joints_cam, fps=30.0, allocate=None):
         return self.estimate

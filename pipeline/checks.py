@@ -147,4 +147,4 @@ def tilt_tolerance(report: RectificationReport) -> tuple[float, str]:
                               "bootstrap-only uncertainty, no calibrated interval for this method")):
             if np.isfinite(halves).all():
                 return float(max(halves)), what
-    return float(report.frame_tilt_95_deg), "per-frame bound, not calibrated on real lifter output"
+    return float(report.frame_tilt_bound_base_deg), "per-frame bound, not calibrated on real lifter output"

@@ -219,7 +219,7 @@ class RunConfig:
     (:data:`pcnet.stages.core.perspective.DEFAULT_FOCAL_35MM`). ``image_size``: ``"WIDTHxHEIGHT"``
     in pixels of the frames the 2D keypoints were detected in, for a run without a video whose
     keypoint file does not state it (AlphaPose, OpenPose): the principal point of that fit.
-    ``roi``: ``"X,Y,W,H"`` in pixels of the video as displayed, for a video alone: the embedded
+    ``roi``: ``"X,Y,W,H"`` (or four ints) in pixels of the video as displayed, for a video alone: the embedded
     estimator sees only that region, so it follows the person there, not another one in view
     (:func:`pcnet.models.pose_estimator.estimate_video`).
     """
@@ -260,6 +260,9 @@ class RunConfig:
             value = getattr(self, name)
             if isinstance(value, os.PathLike):
                 setattr(self, name, os.fspath(value))
+        # A region given as numbers, (x, y, w, h), is the "x,y,w,h" a TOML file or the command line gives.
+        if isinstance(self.roi, (tuple, list)) and all(isinstance(v, (int, np.integer)) for v in self.roi):
+            self.roi = ",".join(str(int(v)) for v in self.roi)
         # A rate or height computed with numpy is a numpy scalar (np.float32(30)); the config
         # keeps the plain Python value that the type check, TOML and the report's JSON take.
         for f in fields(self):
@@ -402,7 +405,8 @@ class RunConfig:
         if self.roi is not None and not re.fullmatch(r"[0-9]{1,5},[0-9]{1,5},[1-9][0-9]{0,4},[1-9][0-9]{0,4}",
                                                      self.roi.replace(" ", "")):
             raise InputError(f"{field_name(source, 'roi')}: expected X,Y,W,H in pixels of the video as displayed "
-                             f"(e.g. 0,450,1768,544), got {self.roi!r}")
+                             f"(whole numbers, the corner X,Y from the top left, width and height at least 1), got "
+                             f"{self.roi!r}")
         if self.roi is not None and (self.video is None or self.lifter_output is not None):
             got = "no video" if self.video is None else "a lifter's output, whose person is already chosen"
             raise InputError(f"{field_name(source, 'roi')}: expected with a video alone (the embedded estimator "

@@ -42,7 +42,7 @@ class NetworkEstimator:
         return "pcnet-rigid" if self.rigid else "pcnet"
 
     @property
-    def frame_tilt_95_deg(self) -> float:
+    def frame_tilt_bound_base_deg(self) -> float:
         return FRAME_TILT_95_DEG if self.weights is None else float("nan")
 
     def __call__(self, joints_cam: np.ndarray, fps: float = 30.0, allocate: Allocate | None = None) -> FrameEstimate:

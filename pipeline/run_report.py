@@ -20,7 +20,8 @@ class RunReport:
     rectification: what rectification decided; tilt: the camera's tilt, pitch and roll from
     level of the recording's mean up (deg; sequence mode: its one up); tilt_per_frame_deg:
     median, 5th and 95th percentile of the per-frame tilt (deg;
-    :func:`pcnet.stages.flags.per_frame_tilt_summary`); display_rotation: how a video stored
+    :func:`pcnet.stages.flags.per_frame_tilt_summary`), ``None`` in sequence mode (its frames share
+    its one up); display_rotation: how a video stored
     turned was read (:meth:`pcnet.pipeline.video_orientation.DisplayOrientation.report`), or
     ``None``; kinematics_frame: ``"world"`` or ``"canonical"``; root_path: where a world
     frame's pelvis path came from (:mod:`pcnet.pipeline.pelvis_path`), ``None`` without a world
@@ -32,7 +33,7 @@ class RunReport:
 
     rectification: RectificationReport
     tilt: CameraTilt
-    tilt_per_frame_deg: list[float]
+    tilt_per_frame_deg: list[float] | None
     display_rotation: dict | None
     kinematics_frame: str
     root_path: str | None
@@ -51,7 +52,7 @@ class RunReport:
         # what the summary's tilt line prints, in every mode (sequence mode: its one up)
         out.update(camera_tilt_deg=self.tilt.tilt_deg, camera_pitch_deg=self.tilt.pitch_deg,
                    camera_roll_deg=self.tilt.roll_deg)
-        if self.rectification.mode.run != "sequence":  # sequence mode's frames share its one up: no spread to give
+        if self.tilt_per_frame_deg is not None:
             out["camera_tilt_per_frame_deg"] = self.tilt_per_frame_deg
         if self.root_path is not None:
             out.update(root_path=self.root_path, floor=None if self.floor is None else asdict(self.floor))

@@ -196,7 +196,7 @@ class RunResult:
         """Where the up may change from frame to frame, the tilt line's one number is that of the
         recording's mean up; the per-frame tilts' median and 5-95 % range say how they spread."""
         stats = self.report.tilt_per_frame_deg
-        if self.mode == "sequence" or not stats or not np.isfinite(stats[0]):
+        if not stats or not np.isfinite(stats[0]):
             return ""
         median, low, high = stats
         return f"; of the recording's mean up; per frame median {median:.1f}, 5-95 % {low:.1f}-{high:.1f} deg"
@@ -213,7 +213,7 @@ class RunResult:
 
     def _frame_bound(self, long: bool = True) -> list[tuple[str, str]]:
         rect = self.report.rectification
-        base = rect.frame_tilt_95_deg
+        base = rect.frame_tilt_bound_base_deg
         # A sequence up whose interval is known says its uncertainty on the tilt line instead.
         if (rect.sequence is not None and np.isfinite(rect.sequence.camera_pitch_interval_deg)) \
                 or not np.isfinite(base):
@@ -452,6 +452,8 @@ def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None,
                     keypoints2d_layout=kp_layout)
     if video is not None:
         read.update(video=str(cfg.video), video_size=[video.width, video.height], video_frames=video.frame_count)
+    if cfg.roi is not None:  # the region the embedded estimator saw: which person its poses are
+        read["roi"] = list(cfg.roi_px)
     return read
 
 
@@ -1332,7 +1334,9 @@ def _run_report(inputs: AlignedInputs, rectified: Rectified, world: World, measu
     """The run's report from what the steps decided and measured."""
     implausible = measured.result.implausible_frames
     return RunReport(
-        rectification=rectified.report, tilt=rectified.tilt, tilt_per_frame_deg=rectified.tilt_per_frame_deg,
+        rectification=rectified.report, tilt=rectified.tilt,
+        # sequence mode's frames share its one up: no spread to give
+        tilt_per_frame_deg=None if rectified.report.mode.run == "sequence" else rectified.tilt_per_frame_deg,
         display_rotation=inputs.orientation.report() if inputs.orientation.note else None,
         kinematics_frame=world.frame, root_path=world.root_path, floor=world.floor, cutoff_hz=measured.cutoff_hz,
         cutoff_source=measured.cutoff_source, implausible_frames=None if implausible is None else int(implausible.sum()),

@@ -155,7 +155,7 @@ class RectificationReport:
     ``T`` frames: the ``mode``, the static camera's ``sequence`` up (sequence mode, else
     ``None``), the ``heading``, the ensemble's ``weights`` (``None`` when one estimator ran),
     ``camera_frame_weight`` ``(T,)`` (the same per frame, ``None`` likewise),
-    ``frame_tilt_95_deg`` the estimator's calibrated per-frame bound where nothing widens it
+    ``frame_tilt_bound_base_deg`` the estimator's calibrated per-frame bound where nothing widens it
     (NaN when uncalibrated) and ``frame_tilt_bound_deg`` ``(T,)`` per frame
     (:func:`pcnet.stages.uncertainty.frame_tilt_bound`; NaN where not valid or uncalibrated);
     ``pelvis_from_hips_frames`` the frames whose missing pelvis the caller took as the hip
@@ -166,7 +166,7 @@ class RectificationReport:
     heading: HeadingChoice
     weights: EnsembleWeights | None
     camera_frame_weight: np.ndarray | None
-    frame_tilt_95_deg: float
+    frame_tilt_bound_base_deg: float
     frame_tilt_bound_deg: np.ndarray
     pelvis_from_hips_frames: int | None = None
 
@@ -216,7 +216,7 @@ class RectificationReport:
             "turned_frames": dict(self.weights.turned_frames)}
         # Not "95": calibrated on simulated lifter noise only, it held in 31-52 % of real frames
         # (issue 49), so its key does not call it a 95 % bound (a user trial).
-        out["frame_tilt_bound_base_deg"] = self.frame_tilt_95_deg
+        out["frame_tilt_bound_base_deg"] = self.frame_tilt_bound_base_deg
         if self.pelvis_from_hips_frames is not None:
             out["pelvis_from_hips_frames"] = self.pelvis_from_hips_frames
         return out

@@ -146,12 +146,12 @@ class FrameEstimate:
 class FrameEstimator(Protocol):
     """Step 1: per-frame canonical->camera rotations of one recording.
 
-    ``name`` is the method name reported (:data:`METHODS`); ``frame_tilt_95_deg`` the
+    ``name`` is the method name reported (:data:`METHODS`); ``frame_tilt_bound_base_deg`` the
     per-frame tilt bound calibrated for it (:data:`pcnet.stages.uncertainty.FRAME_TILT_95_DEG`
     for the shipped weights; NaN when none was calibrated)."""
 
     name: str
-    frame_tilt_95_deg: float
+    frame_tilt_bound_base_deg: float
 
     def __call__(self, joints_cam: np.ndarray, fps: float, allocate: Allocate | None = None) -> FrameEstimate:
         """``allocate`` (optional; only passed when the chain has one) makes the residual
@@ -164,7 +164,7 @@ class GeometricEstimator:
     up from the trunk, heading from the shoulder line, no residual."""
 
     name: str = "geometric"
-    frame_tilt_95_deg: float = float("nan")
+    frame_tilt_bound_base_deg: float = float("nan")
 
     def __call__(self, joints_cam: np.ndarray, fps: float = 30.0, allocate: Allocate | None = None) -> FrameEstimate:
         X = check_poses(joints_cam, "joints_cam")
@@ -387,7 +387,7 @@ class Rectification:
         estimate = self.estimator(joints_cam, fps) if self.allocate is None else \
             self.estimator(joints_cam, fps, self.allocate)
         gate = estimate.camera_frame_weight
-        base = self.estimator.frame_tilt_95_deg
+        base = self.estimator.frame_tilt_bound_base_deg
         seq = self.sequence(joints_cam, estimate.rotation, estimate.valid, fps, decide_on,
                             calibrated=bool(np.isfinite(base)), evidence=estimate.evidence)
         valid = np.ones(len(seq.rotation), bool) if seq.valid is None else seq.valid
@@ -396,7 +396,7 @@ class Rectification:
             mode=seq.mode, sequence=seq.up, heading=heading,
             weights=None if gate is None else EnsembleWeights.of(gate, valid, estimate.quarter_turns),
             camera_frame_weight=None if gate is None else np.where(valid, gate, np.nan),
-            frame_tilt_95_deg=base, frame_tilt_bound_deg=np.where(valid, frame_bound(estimate, base), np.nan))
+            frame_tilt_bound_base_deg=base, frame_tilt_bound_deg=np.where(valid, frame_bound(estimate, base), np.nan))
         canonical = to_canonical(joints_cam, R, estimate.residual,
                                  out=(self.allocate or in_memory)("canonical", joints_cam.shape, np.float32))
         return Rectified(R, canonical, R[:, :, 1].copy(), valid, self.estimator.name, report)

@@ -87,6 +87,6 @@ def run_report(requested: str = "auto", run: str = "sequence", spread_deg: float
                               {"used": False, "reason": NO_PELVIS_PATH})
     rect = RectificationReport(ModeChoice(requested, run, spread_deg=spread_deg), sequence,
                                HeadingChoice("predicted", "auto", 3.0, 4.0), None, None, 4.4, np.full(3, 4.4))
-    return RunReport(rect, CameraTilt(8.8, 8.6, 2.0), [8.0, 7.0, 9.0], None,
+    return RunReport(rect, CameraTilt(8.8, 8.6, 2.0), None if run == "sequence" else [8.0, 7.0, 9.0], None,
                      "world" if run == "sequence" else "canonical", "not observable" if run == "sequence" else None,
                      None, 6.0, "cutoff_hz", None)

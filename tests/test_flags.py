@@ -348,7 +348,7 @@ def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
     wide = replace(ensemble, mode=replace(ensemble.mode, spread_deg=MODE_THRESHOLD_DEG + 1.0))  # decision 0090
     assert tilt_tolerance(wide)[1] == "interval, not calibrated for this spread of per-frame ups"
     frame = rectify(np.load(TADASANA), "pcnet", mode="frame").report
-    assert tilt_tolerance(frame) == (frame.frame_tilt_95_deg, "per-frame bound, not calibrated on real lifter output")
+    assert tilt_tolerance(frame) == (frame.frame_tilt_bound_base_deg, "per-frame bound, not calibrated on real lifter output")
 
 
 @pytest.mark.slow

@@ -77,6 +77,11 @@ def test_a_region_shows_the_estimator_part_of_the_picture_in_whole_frame_pixels(
     assert res.exit_code == 0, res.output
     assert "on the video inside --roi 250,40,400,420, a person in 10 of 10 frames" in \
         (tmp_path / "a" / "report.md").read_text()
+    with np.load(tmp_path / "a" / "canonical.npz", allow_pickle=False) as f:  # which person: in the record
+        assert json.loads(str(f["report"]))["inputs"]["roi"] == [250, 40, 400, 420]
+    from pcnet.pipeline import RunConfig  # a Python caller's four numbers are the command line's text
+
+    assert RunConfig(video=str(CLIP), roi=(250, 40, 400, 420)).validate().roi == "250,40,400,420"
     outside = _one_error_line(_invoke("run", "--video", CLIP, "--roi", "700,0,200,200", "--out", tmp_path / "o"))
     assert outside.endswith("--roi 700,0,200,200: expected a region inside " + str(CLIP) + "'s 854x480 frames (as "
                             "displayed), got one reaching x = 900, y = 200")
