@@ -1303,3 +1303,17 @@ def test_a_refusal_of_the_estimators_staged_poses_names_the_video(tmp_path):
     with pytest.raises(InputError, match=r"^other\.npy: bad$"):  # another file's refusal is left as it is
         with _estimate_named_by_its_video(staged, "clip.mp4"):
             raise InputError("other.npy: bad")
+
+
+def test_joints_masked_for_2d_confidence_are_named_with_the_setting():
+    """A developer's trial lost MediaPipe's right arm in 283 of 301 frames to low 2D
+    confidence; the missing-data line said how much, nothing said why or what decides it."""
+    from pcnet.pipeline.runner import _low_confidence_note
+    from pcnet.stages.core.conventions import H36M_JOINTS
+
+    counts = np.zeros(17, np.int64)
+    counts[[14, 16]] = [253, 283]
+    (note,) = _low_confidence_note(counts, 301, 0.3)
+    assert note == (f"joints masked for 2D confidence below --confidence-threshold 0.3: {H36M_JOINTS[16]} in 283 of "
+                    f"301 frames; {H36M_JOINTS[14]} in 253 of 301 frames")
+    assert _low_confidence_note(np.zeros(17, np.int64), 301, 0.3) == []
