@@ -103,6 +103,12 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
     }
 
 
+def _listed_files(record: dict) -> list[str]:
+    """The names (no folder) of the files a training record's ``data`` lists: a file is matched
+    by its name, wherever it was read from in training."""
+    return [Path(str(d)).name for d in record.get("data", [])]
+
+
 def _untrained(data: str | Path, clips: list, method: str, weights: str | None) -> list:
     """``clips`` less those the weights trained on, by their record (:func:`_trained_clips`).
 
@@ -121,7 +127,7 @@ def _untrained(data: str | Path, clips: list, method: str, weights: str | None) 
     if found is not None:
         trained = {c.name for c in found[0]}
         return [c for c in clips if c.name not in trained]
-    if Path(data).name in [Path(str(d)).name for d in record.get("data", [])]:
+    if Path(data).name in _listed_files(record):
         raise InputError(f"--untrained-only: expected a training record that says which clips of {Path(data).name} "
                          f"the weights trained on, got split scheme {record.get('split_scheme')!r}")
     return clips  # a file the record does not list, no clip it names: none trained on as far as it tells (warned)
@@ -132,7 +138,7 @@ def _trained_clips(data: str | Path, chosen, record: dict) -> tuple[list, set, b
     on, as :func:`_training_overlap` counts them: ``(trained, whole clip names, split_trained,
     matched_by)``, or ``None`` where the record cannot tell (no files listed, an unknown
     scheme, a file it does not list and no clip it names)."""
-    listed = [Path(str(d)).name for d in record.get("data", [])]
+    listed = _listed_files(record)
     flags = record.get("train_whole") or [False] * len(listed)
     scheme = record.get("split_scheme", "clip")
     whole = set(record.get("whole_clips") or [])
@@ -169,7 +175,7 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None) 
     so the scores are not called held out; where some evaluated clips are recognised by name
     among the clips trained on whole (``overlap``, :func:`_training_overlap`), it says so and
     that the others may still be among the training files'; ``None`` otherwise."""
-    listed = [Path(str(d)).name for d in record.get("data", [])]
+    listed = _listed_files(record)
     if not listed or Path(data).name in listed:
         return None
     known = ""

@@ -39,7 +39,7 @@ def estimated_inputs(cfg: RunConfig, folder: Path, progress: bool = False) -> tu
     found = int(track.found.sum())
     region = "" if cfg.roi is None else f" inside --roi {cfg.roi}"
     note = (f"poses: MediaPipe BlazePose GHUM 3D (full) on the video{region}, a person in {found} of "
-            f"{len(track.found)} frames; saved as {ESTIMATE_FILE} (re-use it with --lifter mediapipe --lifter-output and --keypoints2d "
-            f"with --keypoints2d-format mediapipe)")
+            f"{len(track.found)} frames; saved as {ESTIMATE_FILE} (re-use it with --lifter mediapipe --lifter-output "
+            f"and --keypoints2d with --keypoints2d-format mediapipe)")
     return dataclasses.replace(cfg, lifter=ESTIMATOR_LIFTER, lifter_output=str(path), keypoints2d=str(path),
                                keypoints2d_format=ESTIMATOR_LIFTER), note
