@@ -36,7 +36,7 @@ from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, pcnet_version, read_batch_marker,
                            record_status, settings_change)
-from .batch_worker import FINDINGS, RESULT_FIELDS, cpu_cores, error_line
+from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS, cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within
@@ -645,7 +645,8 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
                 item.rerun = changed
                 return
             item.action = "skip"
-            item.known = {k: before.get(k) for k in RESULT_FIELDS}
+            # with how it ran (a trial: a no-op re-run lost every row's timing)
+            item.known = {k: before.get(k) for k in (*RESULT_FIELDS, *RUN_FIELDS)}
             # the warnings as raised (kinds, actions) are in the output's marker, not the summary's texts
             result = record.get("result")
             findings = result.get(FINDINGS) if isinstance(result, dict) else None

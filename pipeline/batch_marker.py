@@ -25,7 +25,7 @@ from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
 
-from .batch_worker import FINDINGS, RESULT_FIELDS
+from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS
 from .outdir import listed_files_missing, read_marker
 
 BATCH_MARKER = ".pcnet_batch.json"
@@ -83,7 +83,7 @@ def write_batch_marker(folder: Path, config: dict, inputs: dict[str, dict], resu
     """
     record = {
         "writer": "pcnet batch", "pcnet_version": pcnet_version(), "settings": settings_of(config),
-        "inputs": inputs, "result": {k: result.get(k) for k in (*RESULT_FIELDS, FINDINGS)},
+        "inputs": inputs, "result": {k: result.get(k) for k in (*RESULT_FIELDS, *RUN_FIELDS, FINDINGS)},
         "host": socket.gethostname(), "pid": os.getpid(), "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
     }
     return write_text(folder / BATCH_MARKER, json.dumps(record, indent=1) + "\n")

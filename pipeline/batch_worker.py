@@ -24,6 +24,9 @@ FINDINGS = "findings"
 #: previous summary): frame counts, mode, warnings and, with ``opensim``, the IK fit's marker
 #: RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``).
 RESULT_FIELDS = ("frames", "valid", "mode", "units", "camera_tilt_deg", "posture", "warnings", "opensim_rms_cm")
+#: How the row's output was made (its output's marker keeps them): a skipped row reports them (a
+#: user trial: a no-op re-run lost every row's timing).
+RUN_FIELDS = ("seconds", "host", "pid", "attempts", "threads")
 #: Test hook, see :func:`_test_hook`.
 TEST_HOOK = "PCNET_BATCH_TEST_HOOK"
 _HOLD_LIMIT_S = 120.0
@@ -153,6 +156,7 @@ def execute_row(job: dict) -> dict:
                           posture=None if posture is None else posture.most_probable,
                           warnings=list(run.flags),
                           opensim_rms_cm=_opensim_rms_cm(staged, run.outputs), **{FINDINGS: finding_records(run.findings)})
+            result["seconds"] = round(time.perf_counter() - started, 3)  # the run, without the publishing
             write_batch_marker(staged, config, inputs, result)
 
         run_pipeline(RunConfig(**config), progress=False, before_publish=with_marker)

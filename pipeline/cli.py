@@ -219,7 +219,7 @@ _heading_option = click.option(
               help="Score at most N evenly spaced frames (every clip is still rectified whole: its sequence modes "
                    "read the whole recording, so this does not shorten the run).")
 @click.option("--weights", type=click.Path(dir_okay=False), default=None, help="ONNX weights (default: shipped).")
-@click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here.")
+@click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Also write the numbers here, each clip's means among them (per_clip).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --json file.")
 def evaluate(method, data, split, split_scheme, unseen_by, untrained_only, views, camera, noise, mode, heading,
              camera_prior, seed, max_frames, weights, json_out, overwrite):

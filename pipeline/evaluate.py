@@ -277,8 +277,10 @@ def evaluate(
         clips and groups the evaluated weights trained on, by split or whole file, by their
         ``training_config``, :func:`_training_overlap`; ``None`` for other data), "<metric>": {"mean", "median", "p95"} ...}`` with the metrics of
         :data:`pcnet.stages.core.metrics.METRICS` (degrees, millimetres), over the valid scored
-        frames. With ``details``: also ``"per_clip"`` (name, heading_source and mode per clip)
-        and ``"per_frame"`` (``clip``, ``frame``, ``valid`` and each metric as arrays over the
+        frames, "per_clip": one dict per rectified clip in order (``name``, ``heading_source``,
+        ``mode``, ``frames`` scored, ``valid`` of them, and each metric's mean over them, ``None``
+        where none is valid; a user trial asked which clips err)}``. With ``details``: also
+        ``"per_frame"`` (``clip``, ``frame``, ``valid`` and each metric as arrays over the
         scored frames).
 
     Raises:
@@ -330,7 +332,7 @@ def evaluate(
         if mode != "frame":
             modes_run[res.mode] = modes_run.get(res.mode, 0) + 1
         headings_run[res.heading_source] = headings_run.get(res.heading_source, 0) + 1
-        per_clip.append({"name": clip.name, "heading_source": res.heading_source, "mode": res.mode})
+        per_clip.append((i, {"name": clip.name, "heading_source": res.heading_source, "mode": res.mode}))
     keep = scored_indices(len(valid), max_frames)
     valid_k = valid[keep]
     errors = evaluate_rotations(R_hat[keep], pairs.R[keep], canon_hat[keep], pairs.canonical[keep])
@@ -360,10 +362,22 @@ def evaluate(
     else:
         result["training_overlap"] = None
     result.update({name: summarize(errors[name]) for name in METRICS})
+    result["per_clip"] = _clip_scores(per_clip, pairs.clip[keep], valid_k, errors)
     if details:
-        result["per_clip"] = per_clip
         result["per_frame"] = {"clip": pairs.clip[keep], "frame": pairs.frame[keep], "valid": valid_k, **errors}
     return result
+
+
+def _clip_scores(per_clip: list[tuple[int, dict]], clip: np.ndarray, valid: np.ndarray, errors: dict) -> list[dict]:
+    """Each rectified clip's entry (its index among the clips, its dict) with its scored and
+    valid frames (``clip``, ``valid``: per scored frame) and its metrics' means over them."""
+    out = []
+    for index, entry in per_clip:
+        mine = clip == index
+        ok = mine & valid
+        means = {name: round(float(np.mean(errors[name][ok])), 4) if ok.any() else None for name in METRICS}
+        out.append({**entry, "frames": int(mine.sum()), "valid": int(ok.sum()), **means})
+    return out
 
 
 def format_table(result: dict) -> str:

@@ -242,10 +242,14 @@ def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     manifest = _manifest(tmp_path, _row("r1"), _row("r2", lifter_output=x3d))
     assert _invoke(manifest, "--workers", "1").exit_code == 0
     first = (tmp_path / "r2" / "kinematics.csv").stat().st_mtime_ns
+    ran = _summary(manifest)["rows"][1]
 
     res = _invoke(manifest, "--workers", "1")  # nothing changed: both skipped, nothing rewritten
     assert res.exit_code == 0 and _statuses(manifest) == ["skipped", "skipped"], res.output
     assert _summary(manifest)["rows"][1]["frames"] == 60  # what the skipped row had produced
+    # ... and how: a no-op re-run had lost every row's timing (a user trial)
+    kept = _summary(manifest)["rows"][1]
+    assert 0 < kept["seconds"] <= ran["seconds"] and (kept["pid"], kept["attempts"]) == (ran["pid"], 1), (kept, ran)
     assert (tmp_path / "r2" / "kinematics.csv").stat().st_mtime_ns == first
 
     poses = np.load(x3d)

@@ -298,6 +298,7 @@ def test_evaluate_cli_json(tmp_path):
     for key in ("rotation_deg", "tilt_deg", "heading_deg", "mpjpe_mm", "pa_mpjpe_mm"):
         assert set(first[key]) == {"mean", "median", "p95"}
         assert f"{first[key]['mean']:.2f}" in res.output
+    assert sum(c["frames"] for c in first["per_clip"]) == 239 and {"name", "tilt_deg"} <= set(first["per_clip"][0])
     again = CliRunner().invoke(main, args)  # an existing --json is the user's until --overwrite
     assert again.exit_code == 1 and "--overwrite" in again.output and json.loads(out.read_text()) == first
     assert CliRunner().invoke(main, [*args, "--overwrite"]).exit_code == 0

@@ -297,7 +297,8 @@ def test_max_frames_keeps_the_per_clip_decisions():
         full = evaluate("pcnet", TEST_CLIPS, "all", details=True, **kw)
         sub = evaluate("pcnet", TEST_CLIPS, "all", max_frames=100, details=True, **kw)
         assert sub["frames"] == 100 and full["frames"] == sub["total_frames"] == 720
-        assert sub["per_clip"] == full["per_clip"]
+        decisions = ("name", "heading_source", "mode")
+        assert [[c[k] for k in decisions] for c in sub["per_clip"]] == [[c[k] for k in decisions] for c in full["per_clip"]]
         assert sub["clip_heading_sources"] == full["clip_heading_sources"]
         assert sub.get("clip_modes") == full.get("clip_modes")
         pos = {(c, f): i for i, (c, f) in enumerate(zip(full["per_frame"]["clip"], full["per_frame"]["frame"]))}
@@ -322,6 +323,12 @@ def test_invalid_frames_are_counted_and_excluded():
         assert res[name] == summarize(pf[name][pf["valid"]])
     other = evaluate("pcnet", TEST_CLIPS, "all", noise="frame")
     assert other["frame_set"] == res["frame_set"]  # both methods scored on the same frames
+    # each clip's scores (a user trial found none to tell which clips err): its valid frames' means
+    assert [c["name"] for c in res["per_clip"]] == [c["name"] for c in other["per_clip"]] and len(res["per_clip"]) == 12
+    for i, clip in enumerate(res["per_clip"]):
+        mine = (pf["clip"] == i) & pf["valid"]
+        assert (clip["frames"], clip["valid"]) == (int((pf["clip"] == i).sum()), int(mine.sum()))
+        assert clip["tilt_deg"] == pytest.approx(np.mean(pf["tilt_deg"][mine]), abs=1e-4)
 
 
 def test_frames_marked_invalid_never_count_even_with_a_rotation(monkeypatch):
