@@ -476,8 +476,8 @@ def _assumed_inputs(cfg: RunConfig) -> list[str]:
             notes.append("generic lifter read with the default " + ", ".join(f"--{k} {v}" for k, v in defaults.items())
                          + " (not given)")
     if cfg.lifter == "mediapipe" and cfg.keypoints2d is None and holds_keypoints_2d(cfg.lifter_output):
-        notes.append("the MediaPipe archive's own 2D keypoints were not used: give it as --keypoints2d F "
-                     "--keypoints2d-format mediapipe too for the left/right and track-switch checks")
+        notes.append("the MediaPipe archive's own 2D keypoints were not used (give the file as --keypoints2d too, "
+                     "with --keypoints2d-format mediapipe, for the left/right and track-switch checks)")
     return notes
 
 

@@ -646,7 +646,7 @@ def ensemble_weights_flag(weights: EnsembleWeights | None) -> list[Finding]:
     return [_found(
         Kind.VIEWS_SET_ASIDE, Severity.CHECK,
         f"camera-frame network set aside in {outside} of {frames} frames: less accurate up there",
-        "see camera_frame_weight",
+        "a static camera: run --mode sequence (the up model weighs both networks); else take the up there as less sure",
         f"camera-frame network set aside, wholly or in part, in {outside} of {frames} frames: the body-frame network "
         f"read the camera as rolled or pitched beyond the view gate's ramps (models/view_gate.py) after any quarter "
         f"turn, and the camera-frame network's own up did not place the camera inside its training views either (a rolled or "

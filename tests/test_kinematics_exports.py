@@ -1088,6 +1088,13 @@ def test_kinematics_columns_csv_describes_every_column_of_a_real_run(tmp_path):
     with np.load(out / "canonical.npz", allow_pickle=False) as npz:
         assert marked == npz["implausible_frames"].astype(int).tolist()
     assert "empty where the knee bends less than 5 deg" in rows["right_hip_internal_rotation_deg"][3]
+    # the angles against gravity say how uncertain their reference is (a four-camera trial read their
+    # spread with no uncertainty given); the joint angles between segments do not depend on it
+    report = json.loads(np.load(out / "canonical.npz", allow_pickle=False)["report"].item())
+    pitch = f"+-{report['camera_pitch_interval_deg']:.1f} deg in the camera's pitch"
+    for name in ("trunk_inclination_deg", "right_thigh_sagittal_inclination_deg", "trunk_flexion_to_gravity_deg"):
+        assert pitch in rows[name][3], (name, rows[name][3])
+    assert "the camera's pitch" not in rows["right_knee_flexion_deg"][3]
 
 
 @pytest.mark.slow

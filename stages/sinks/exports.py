@@ -213,6 +213,7 @@ def kinematics_columns(
     unobservable: Mapping[str, tuple[str, str]] | None = None,
     empty_angles: Mapping[str, str] | None = None,
     floor: str | None = None,
+    up_uncertainty: str | None = None,
 ) -> list[tuple[str, str, str, str]]:
     """The columns of ``kinematics.csv``, in order, each ``(column, unit, frame, definition)``:
     the one source of its header (:func:`write_kinematics_csv`) and of its data dictionary
@@ -236,6 +237,10 @@ def kinematics_columns(
         floor: the world frame's floor kind (:class:`~pcnet.stages.floor.Floor`): ``"per
             frame"`` or ``"pelvis"`` says in the heights' definitions what y = 0 is; ``"plane"``
             or ``None``: the floor itself.
+        up_uncertainty: how uncertain this run's up is (one clause), said in the definitions of
+            the angles measured against it (frame ``canonical``: the up is their reference, so
+            its error is theirs; a user trial read a 15 deg spread of trunk lean between four
+            cameras from columns that gave no uncertainty).
 
     Returns:
         a list of ``(column, unit, frame, definition)``; ``definition`` is ``None`` for an
@@ -290,6 +295,8 @@ def kinematics_columns(
         frame_of, definition = _angle_row(column)
         if name in empty_angles:
             definition = f"{definition.rstrip('.')}; empty in this run: {empty_angles[name]}."
+        elif up_uncertainty and frame_of == "canonical":
+            definition = f"{definition.rstrip('.')}. Against this run's up, which is {up_uncertainty}."
         cols.append((column, "deg", frame_of, definition))
     for name, described in extra.items():
         cols.append((name, *described) if described is not None else (name, "", "", None))
@@ -357,6 +364,7 @@ def write_kinematics_csv(
     unobservable: Mapping[str, tuple[str, str]] | None = None,
     empty_angles: Mapping[str, str] | None = None,
     floor: str | None = None,
+    up_uncertainty: str | None = None,
 ) -> Path:
     """Write one CSV row per frame with positions, velocities, accelerations, speeds,
     per-joint missing/unfiltered flags and angles of the kinematics (world or canonical frame), atomically.
@@ -401,6 +409,7 @@ def write_kinematics_csv(
             ``reason`` in the dictionary (:func:`kinematics_columns`).
         empty_angles: angle name -> why the run leaves it empty, for the dictionary.
         floor: the world frame's floor kind, for the heights' definitions (:func:`kinematics_columns`).
+        up_uncertainty: how uncertain the up is, for the angles against it (:func:`kinematics_columns`).
 
     Returns:
         the destination path.
@@ -431,7 +440,7 @@ def write_kinematics_csv(
 
     described = {name: (extra_definitions or {}).get(name) for name in extra}
     listed = kinematics_columns(chosen, first.units, first.angles, described, frame, unobservable, empty_angles,
-                                floor)
+                                floor, up_uncertainty)
     header = [c[0] for c in listed]
     dup = {h for h in header if header.count(h) > 1}
     if dup:

@@ -209,11 +209,29 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
     write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra,
                          dictionary=dictionary, extra_definitions=EXTRA_COLUMNS, frame=r.kinematics_frame,
                          unobservable=unobservable, empty_angles=r.empty_angles,
-                         floor=r.floor_kind if r.kinematics_frame == "world" else None)
+                         floor=r.floor_kind if r.kinematics_frame == "world" else None,
+                         up_uncertainty=up_uncertainty(r.rectification))
     r.kinematics = kept.result()
     r.missing, r.unfiltered = missing, unfiltered
     r.flag_counts = count_flags(r.missing, r.unfiltered)
     return {"kinematics.csv": path, "kinematics_columns.csv": dictionary}
+
+
+def up_uncertainty(report: RectificationReport) -> str | None:
+    """How uncertain a run's up is, as a clause for the columns measured against it: sequence
+    mode's camera pitch and roll intervals (the summary's), else each frame's tilt bound
+    (``canonical.npz``); ``None`` where the run has neither (a method without them)."""
+    seq = report.sequence
+    if seq is not None:
+        if not (np.isfinite(seq.camera_pitch_interval_deg) and np.isfinite(seq.camera_roll_interval_deg)):
+            return None
+        return (f"uncertain by +-{seq.camera_pitch_interval_deg:.1f} deg in the camera's pitch and "
+                f"+-{seq.camera_roll_interval_deg:.1f} deg in its roll (the summary's interval), an error these angles "
+                f"carry on top of the lifter's own (docs/guide/limits.md)")
+    if np.isfinite(report.frame_tilt_bound_deg).any():
+        return ("uncertain per frame by canonical.npz's frame_tilt_bound_deg, an error these angles carry on top of "
+                "the lifter's own (docs/guide/limits.md)")
+    return None
 
 
 def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
