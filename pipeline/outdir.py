@@ -34,6 +34,7 @@ import os
 import re
 import shutil
 import socket
+import sys
 import threading
 import time
 import uuid
@@ -365,7 +366,7 @@ def _trash_name(target: Path, uid: str) -> Path:
 
 
 @contextlib.contextmanager
-def staged_output(out: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
+def staged_output(out: str | os.PathLike, overwrite: bool = False, left: list[str] | None = None) -> Iterator[Path]:
     """Yield a fresh hidden folder beside ``out`` to write into; on success swap it in as
     ``out`` (see the module docstring), on any exception (``KeyboardInterrupt`` and the
     CLI's SIGTERM included) delete it and the parent folders of ``out`` this call created, and
@@ -428,8 +429,22 @@ def staged_output(out: str | os.PathLike, overwrite: bool = False) -> Iterator[P
         remove_created(created)
         raise
     if trash is not None:
-        shutil.rmtree(trash, ignore_errors=True)
+        failures: list[str] = []
+        _remove_tree(trash, lambda path, err: failures.append(f"{Path(path).name}: {reason(err)}"))
         _set_live(trash, False)
+        if failures and left is not None:  # a bad-input trial: an undeletable old file stayed there unsaid
+            left.append(f"files of the output this run replaced are left in {trash} ({failures[0]}"
+                        f"{'; and more' if len(failures) > 1 else ''}) beside --out {given}: remove that folder "
+                        f"yourself (without its marker, gone with the rest, pcnet cannot tell it is its own)")
+
+
+def _remove_tree(folder: Path, failed) -> None:
+    """``shutil.rmtree(folder)`` that goes on past what it cannot remove, calling ``failed(path,
+    error)`` for each (``onexc`` from Python 3.12, ``onerror`` before it)."""
+    if sys.version_info >= (3, 12):
+        shutil.rmtree(folder, onexc=lambda _, path, err: failed(path, err))
+    else:
+        shutil.rmtree(folder, onerror=lambda _, path, info: failed(path, info[1]))
 
 
 def _swap_in(tmp: Path, target: Path, overwrite: bool, given: str) -> Path | None:

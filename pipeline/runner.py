@@ -1415,7 +1415,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
     # Whole-recording pose arrays live in a store in the staged output folder and are read a
     # block of frames at a time, so memory does not grow with the recording's length; the
     # store is removed before the folder is swapped in.
-    with staged_output(out, cfg.overwrite) as tmp, FrameStore(tmp) as store, \
+    left: list[str] = []  # the earlier output's files that replacing it could not remove
+    with staged_output(out, cfg.overwrite, left) as tmp, FrameStore(tmp) as store, \
             _estimate_named_by_its_video(tmp / ESTIMATE_FILE, cfg.video):
         estimate_notes = []
         if cfg.lifter_output is None:  # the video alone: the embedded estimator's poses, kept with the outputs
@@ -1477,4 +1478,5 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         run.outputs[REPORT_NAME] = out / next(iter(write_report(tmp, run.report_text(f"pcnet run: {out}")).values())).name
         if before_publish is not None:
             before_publish(tmp, run)
+    run.notes += left
     return run

@@ -197,6 +197,33 @@ def test_a_file_the_user_adds_to_the_old_output_during_an_overwrite_is_kept(user
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp folder left
 
 
+def test_an_old_output_file_that_cannot_be_removed_is_said(user_folder, monkeypatch):
+    """--overwrite swaps the new output in and then deletes the old one; a file of the old one
+    that cannot be deleted (a bad-input trial: `chattr +i`) was left in a hidden folder unsaid."""
+    from pcnet.pipeline.outdir import register_files, staged_output
+
+    with staged_output("o") as tmp:
+        (tmp / "world.trc").write_bytes(b"old")
+        register_files(tmp, ["world.trc"])
+    unlink = os.unlink
+
+    def refusing(path, *args, **kwargs):
+        if os.fsdecode(path).endswith("world.trc"):
+            raise PermissionError(1, "Operation not permitted", os.fsdecode(path))
+        return unlink(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "unlink", refusing)
+    left = []
+    with staged_output("o", True, left) as tmp:
+        (tmp / "world.trc").write_bytes(b"new")
+        register_files(tmp, ["world.trc"])
+    monkeypatch.undo()
+    assert (user_folder / "o" / "world.trc").read_bytes() == b"new"
+    trash = [p for p in user_folder.iterdir() if TRASH_TAG in p.name]
+    assert len(trash) == 1 and len(left) == 1 and str(trash[0]) in left[0], (trash, left)
+    assert "world.trc: Operation not permitted" in left[0] and "beside --out o: remove that folder" in left[0], left
+
+
 def test_poses_without_pelvis_or_hips_are_refused_naming_them(user_folder):
     X = np.load(POSES)
     X[:, [PELVIS, L_HIP, 1]] = np.nan
