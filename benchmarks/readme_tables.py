@@ -71,4 +71,8 @@ def heldout() -> None:
 
 
 if __name__ == "__main__":
+    import argparse
+
+    argparse.ArgumentParser(description="Print the README's held-out result table from benchmarks/results/heldout/ "
+                                        "(written by bash benchmarks/evaluate_all.sh).").parse_args()
     heldout()

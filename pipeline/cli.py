@@ -186,7 +186,7 @@ _heading_option = click.option(
 @main.command()
 @click.option("--method", type=click.Choice(METHODS), required=True, help=_METHOD_HELP)
 @click.option("--data", type=click.Path(dir_okay=False), required=True,
-              help="Mocap .npz: one (T, 17, 3) H36M-17 array per clip, metres, world frame +Y up (README, Commands).")
+              help="Mocap .npz: one (T, 17, 3) H36M-17 array per clip, metres, world frame +Y up (docs/guide/commands.md).")
 @click.option("--split", type=click.Choice(["train", "val", "test", "all"]), default="test", show_default=True,
               help="Which clips of --data under --split-scheme; all: every clip (the training split's too: the summary says how much the weights trained on).")
 @click.option("--split-scheme", type=click.Choice(["motion-style", "clip"]), default="motion-style", show_default=True,
@@ -248,7 +248,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, untrained_only, views
 @main.command()
 @click.argument("input_path", type=click.Path(dir_okay=False))
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True,
-              help="The .npz archive to write (rotation, canonical, up, valid, ...: README, Commands).")
+              help="The .npz archive to write (rotation, canonical, up, valid, ...: docs/guide/commands.md).")
 @click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True, help=_METHOD_HELP)
 @click.option("--key", default=None, help="Array name inside an .npz input.")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,

@@ -1,7 +1,7 @@
 """Output folders that never cost the user a file: checked before any work, written beside
 the destination, swapped in by renames.
 
-Rules (README "Safety"):
+Rules (docs/safety.md):
 
 * ``--out`` may not be the current folder or one of its ancestors, may not contain any
   input file (an input's own folder or any folder above it), and may not be an input.

@@ -2,7 +2,7 @@
 many open files, very long paths, signals and racing runs. Under each, pcnet prints one line
 naming the user's path and what to do, exits 1 (130 for a signal), leaves nothing it created
 (parent folders included) and never replaces what it did not write or was not asked to
-overwrite (README "Safety"). Mounts and ``chattr`` need root; those tests skip without it."""
+overwrite (docs/safety.md). Mounts and ``chattr`` need root; those tests skip without it."""
 
 from __future__ import annotations
 
