@@ -1377,9 +1377,12 @@ def _recording(cfg: RunConfig, result: RecordingResult, findings: list[Finding],
                estimated: bool) -> dict[str, Path]:
     """The rerun recording where asked, then canonical.npz (last: the notes every sink added are
     in it), and the estimator's poses when the run made them (for a re-run). Both keep the
-    ``findings``' full texts, as raised."""
+    ``findings``' full texts: canonical.npz as raised, the recording most severe first."""
     result.flags = [f.detail for f in findings]
-    outputs = write_rerun(result, tmp) if cfg.recording else {}
+    # the viewer's document as the summary orders them, most severe first, each with its action
+    # (a user trial: the track switch came second, after a focal-length check)
+    shown = [f"**{f.severity.name.lower()}**: {f.detail} (action: {f.action})" for f in ranked(findings)]
+    outputs = write_rerun(result, tmp, shown) if cfg.recording else {}
     outputs.update(write_arrays(result, tmp))
     if estimated:
         outputs[Path(cfg.lifter_output).name] = Path(cfg.lifter_output)

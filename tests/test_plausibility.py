@@ -312,13 +312,22 @@ def test_the_recording_logs_the_flagged_frames(tmp_path):
     X = _glitched()
     mask = implausible_frames(implausible_motion(X, FPS), len(X))
     R, valid = canonical_rotation(X, (0.0, 1.0, 0.0))
+    assert valid.all()
+    valid[0] = False  # not checked there: nothing logged, as kinematics.csv leaves it empty (a user trial saw 0)
     kw = dict(fps=FPS, joints_cam=X, canonical=to_canonical(X, R), rotations=R, up=R[:, :, 1], valid=valid)
-    path = write_recording(tmp_path / "run.rrd", implausible_frames=mask, **kw)
+    segment = np.where(np.arange(len(X)) < 20, 0.0, 1.0)
+    segment[5] = np.nan  # nobody tracked in that frame
+    path = write_recording(tmp_path / "run.rrd", implausible_frames=mask, track_segment=segment, **kw)
     rows, _, chunks, _ = rrd_summary(path)
-    assert rows["/series/status/implausible_motion"] == len(X)
-    values = np.concatenate([np.asarray(ch.to_record_batch().column("Scalars:scalars").to_pylist(), float).ravel()
-                             for ch in chunks["/series/status/implausible_motion"]])
-    np.testing.assert_array_equal(values, mask.astype(float))
+    assert rows["/series/status/implausible_motion"] == len(X) - 1
+
+    def logged(entity):
+        return np.concatenate([np.asarray(ch.to_record_batch().column("Scalars:scalars").to_pylist(), float).ravel()
+                               for ch in chunks[entity]])
+
+    np.testing.assert_array_equal(logged("/series/status/implausible_motion"), mask[1:].astype(float))
+    # a track switch shows on the timeline (a user trial: the other person's frames looked like the first's)
+    np.testing.assert_array_equal(logged("/series/status/track_segment"), segment[np.isfinite(segment)])
     unchecked = write_recording(tmp_path / "plain.rrd", **kw)
     assert "/series/status/implausible_motion" not in rrd_summary(unchecked)[0]
     with pytest.raises(ValueError, match="implausible_frames"):

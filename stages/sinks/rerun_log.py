@@ -37,7 +37,9 @@ Entity tree (all per-frame data is on the ``frame`` (sequence) and ``video_time`
                                     (``angles_deg/hip``): one plot per group
     /series/status/valid            Scalars: 1 where the rotation is valid, else 0
     /series/status/implausible_motion  Scalars: 1 in frames of motion beyond human limits
-                                    (stages/plausibility.py), else 0 (only when checked)
+                                    (stages/plausibility.py), else 0 (only when checked; valid frames)
+    /series/status/track_segment    Scalars: the 2D track's person segment (0, then 1, 2, ...
+                                    after each switch; only with 2D keypoints)
     /flags                          TextDocument (static, markdown): the run's warnings
 
 Readability: joint labels are off by default (``show_labels=False`` on the 2D and 3D
@@ -269,6 +271,7 @@ def write_recording(
     floor: bool = True,
     notes: list[str] | None = None,
     implausible_frames: np.ndarray | None = None,
+    track_segment: np.ndarray | None = None,
 ) -> Path:
     """Write a ``.rrd`` recording of one sequence with a default blueprint, atomically.
 
@@ -314,8 +317,14 @@ def write_recording(
         notes: where a line about a video left out is appended (the run summary's notes).
         implausible_frames: optional ``(T,)`` bool, frames whose joint speeds or accelerations
             exceed the fitted human limits (:func:`pcnet.stages.plausibility.implausible_frames`),
-            logged as the series ``status/implausible_motion`` (1 there, 0 elsewhere) beside
+            logged as the series ``status/implausible_motion`` (1 there, 0 in the other valid
+            frames, nothing where not valid: not checked there, as ``kinematics.csv``) beside
             ``status/valid``; ``None`` (not checked) logs nothing.
+        track_segment: optional ``(T,)`` float, the 2D track's person segment per frame
+            (``kinematics.csv``'s ``track_segment``: 0 the first person, 1, 2, ... after each
+            switch; NaN where no person), logged as the series ``status/track_segment`` so that
+            a track switch shows on the timeline (a user trial saw the other person's frames
+            drawn like the first's, with nothing marking them).
 
     Returns:
         the destination path.
@@ -343,10 +352,11 @@ def write_recording(
         implausible = np.asarray(implausible_frames, dtype=bool)
         if implausible.shape != (T,):
             raise InputError(f"write_recording: implausible_frames must have shape ({T},), got {implausible.shape}")
+    segment = None if track_segment is None else _check("track_segment", track_segment, (T,))
     series_arrays = {}
     for name, values in dict(series or {}).items():
         key = _series_path(name)
-        if key in series_arrays or key[0] in ("series/status/valid", "series/status/implausible_motion"):
+        if key in series_arrays or key[0].startswith("series/status/"):
             raise InputError(f"write_recording: series {name!r} collides with another series")
         series_arrays[key] = _check(f"series[{name!r}]", values, (T,))
     wld = None if world is None else _check("world", world, (T, 17, 3))
@@ -401,7 +411,7 @@ def write_recording(
             _log_all(
                 rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset,
                 video_ns, canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space,
-                show_labels=bool(show_labels), floor=bool(floor), implausible=implausible,
+                show_labels=bool(show_labels), floor=bool(floor), implausible=implausible, segment=segment,
             )
             text = "\n".join(f"- {f}" for f in flags) if flags else "no warnings"
             rec.log("flags", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True, strict=True)
@@ -420,6 +430,7 @@ def _log_all(
     rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset, video_ns,
     canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space, *,
     show_labels: bool = False, floor: bool = True, implausible: np.ndarray | None = None,
+    segment: np.ndarray | None = None,
 ) -> None:
     # strict=True everywhere: rerun's default turns API misuse into a warning and drops
     # the data, which would yield a silently incomplete recording.
@@ -529,7 +540,9 @@ def _log_all(
     # --- time series
     status = {("series/status/valid", "status"): valid.astype(np.float64)}
     if implausible is not None:
-        status[("series/status/implausible_motion", "status")] = implausible.astype(np.float64)
+        status[("series/status/implausible_motion", "status")] = np.where(valid, implausible, np.nan)
+    if segment is not None:
+        status[("series/status/track_segment", "status")] = segment
     everything = {**series_arrays, **status}
     colours: dict[str, tuple[int, int, int]] = {}
     for group in dict.fromkeys(g for _, g in everything):

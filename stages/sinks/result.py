@@ -203,7 +203,7 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
     # Empty, never 0, where there is nothing to say (a user trial's frames with no person passed
     # the track-switch warning's own filter as "track_segment 0, implausible_motion 0").
     if r.track_segment is not None:  # which person the 2D track followed, as the track-switch flag names it
-        extra["track_segment"] = np.where(track_present(r.keypoints2d), r.track_segment, np.nan)
+        extra["track_segment"] = _track_segment(r)
     if r.implausible_frames is not None:  # the frames the implausible-motion warning asks to leave out
         extra["implausible_motion"] = np.where(r.valid, _implausible(r), np.nan)
     write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra,
@@ -259,6 +259,11 @@ def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
     return {"canonical.npz": path}
 
 
+def _track_segment(r: RecordingResult) -> np.ndarray:
+    """``(T,)`` the 2D track's person segment, NaN where no person is tracked (never 0 there)."""
+    return np.where(track_present(r.keypoints2d), r.track_segment, np.nan)
+
+
 def _implausible(r: RecordingResult) -> np.ndarray:
     """``r.implausible_frames`` as ``(T,)`` bool, checked against the recording's length."""
     marked = np.asarray(r.implausible_frames, bool)
@@ -311,15 +316,18 @@ def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
     return out
 
 
-def write_rerun(r: RecordingResult, folder: Path) -> dict[str, Path]:
+def write_rerun(r: RecordingResult, folder: Path, warnings: list[str] | None = None) -> dict[str, Path]:
     """``recording.rrd`` (:func:`.rerun_log.write_recording`): video, 2D keypoints, camera,
-    canonical and world views, wrist paths, kinematics series, flags and the frames of motion
-    beyond human limits (``r.implausible_frames``)."""
+    canonical and world views, wrist paths, kinematics series, the warnings (``warnings``,
+    default ``r.flags``), the frames of motion beyond human limits (``r.implausible_frames``)
+    and the 2D track's person segments."""
     path = write_recording(
         folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera, canonical=r.canonical,
         rotations=r.rotation, up=column(r.rotation, slice(None), 1), valid=r.valid,
         keypoints2d=r.keypoints2d if r.video_keypoints2d is None else r.video_keypoints2d, video_path=r.video, video_first_frame=r.video_first_frame, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
-        series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence, flags=r.flags, world=r.world,
+        series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence,
+        flags=r.flags if warnings is None else warnings, world=r.world,
         notes=r.notes, implausible_frames=None if r.implausible_frames is None else _implausible(r),
+        track_segment=None if r.track_segment is None else _track_segment(r),
     )
     return {"recording": path}
