@@ -11,7 +11,8 @@ Built in (:func:`available_2d`, :func:`available_3d` list what is registered):
 ``generic``, and the depth-sensor skeletons ``kinect_v1`` (20 joints) and ``azure_kinect`` (32).
 
 Use either the functions (``load_alphapose(path, person=...)``) or the registry
-(``get_2d_adapter("alphapose").load(path, person=...)``); see ``registry`` for adding one.
+(``get_2d_adapter("alphapose").load(path, person=...)``); see ``registry`` for adding one,
+in a package of its own too (the ``pcnet.adapters`` entry point group).
 """
 
 from .types import POSE_UNITS, AdapterError, Keypoints2D, Poses3D, VideoInfo
@@ -38,6 +39,10 @@ from .mediapipe import load_mediapipe_2d, load_mediapipe_3d
 from .generic import axes_to_camera, load_generic
 from .kinect import load_azure_kinect, load_kinect_v1
 from .video import first_shown_frame, iter_frames, probe_video, read_frame
+from .registry import load_plugins
+
+# After the built-ins: a plugin cannot take a built-in's name (the registry refuses it).
+load_plugins()
 
 __all__ = [
     "POSE_UNITS", "AdapterError", "Keypoints2D", "Poses3D", "VideoInfo",

@@ -12,7 +12,7 @@ An adapter is a small class with a ``load(path, **options)`` method returning
     class MyLifter:
         \"\"\"(T, 17, 3) H36M-17, millimetres, x right / y up / z towards the camera.\"\"\"
 
-        def load(self, path, **options):
+        def load(self, path):   # its options as named parameters: a misspelt one is refused
             arr = load_npy(path, ndim=3, num_joints=17)   # raises AdapterError on bad input
             joints = arr * np.array([1e-3, -1e-3, -1e-3], np.float32)   # mm -> m, RUB -> RDF
             return Poses3D(joints, "h36m17", units="m", source=str(path),
@@ -28,12 +28,30 @@ what pcnet needs to know about their formats (:class:`Registered`): ``pcnet run`
 ``--lifter`` and ``--keypoints2d-format`` choices and ``--person`` help,
 :meth:`pcnet.pipeline.config.RunConfig.validate` and ``pcnet batch``'s frame-rate check read
 it. A lifter registered in a Python process is taken by ``run_pipeline(RunConfig(lifter=...))``
-there; the ``pcnet`` command offers those registered when it starts (the built-ins).
+there; the ``pcnet`` command offers those registered when it starts: the built-ins and the
+plugins of installed packages.
+
+A package of its own (a plugin) declares the module that registers its adapters as an entry
+point of the group ``pcnet.adapters`` in its ``pyproject.toml``; ``import pcnet.adapters``
+imports it after the built-ins (:func:`load_plugins`), so ``pcnet run --lifter my_lifter``
+offers it (the mechanism is ``importlib.metadata`` entry points, the packaging standard)::
+
+    [project.entry-points."pcnet.adapters"]
+    my_lifter = "my_package.my_lifter"
+
+An adapter reads one person per file, the same person in every frame: pcnet's checks of a
+track switch need 2D keypoints, so an adapter that picks a person per frame by score can
+blend two people unseen. It raises :class:`~pcnet.adapters.types.AdapterError` (naming file,
+field, expected and found) for bad input, with the helpers of
+:mod:`pcnet.adapters.validate` (``load_npy``, ``read_json``, ``checked_poses``); anything
+else it raises is reported as a bug, with its traceback.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
+from importlib.metadata import entry_points
 from typing import Callable, TypeVar
 
 from pcnet.stages.core.errors import InputError
@@ -161,3 +179,33 @@ def unregister(name: str, kind: str) -> None:
     """Remove ``name`` from the 2D (``kind="2d"``) or 3D (``kind="3d"``) table; for tests
     and plugins that replace a built-in adapter. Unknown names are ignored."""
     _table(kind).pop(name, None)
+
+
+#: The entry point group of adapter plugins (installed packages' modules that register adapters).
+PLUGIN_GROUP = "pcnet.adapters"
+
+
+class PluginWarning(UserWarning):
+    """An installed adapter plugin that could not be imported (the rest of pcnet still works)."""
+
+
+def load_plugins() -> list[str]:
+    """Import every module declared in the ``pcnet.adapters`` entry point group of the
+    installed packages (``importlib.metadata``), so that their ``register_2d`` /
+    ``register_3d`` decorators run; called once by ``import pcnet.adapters``, after the
+    built-ins. A plugin that fails to import (or registers a name taken) gives a
+    :class:`PluginWarning` naming it and its error, and is left out.
+
+    Returns:
+        the names of the entry points imported.
+    """
+    loaded = []
+    for point in entry_points(group=PLUGIN_GROUP):
+        try:
+            point.load()
+        except Exception as err:  # one broken plugin must not stop pcnet: said, and left out
+            warnings.warn(f"pcnet: adapter plugin {point.name!r} ({point.value}) not loaded: "
+                          f"{type(err).__name__}: {err}", PluginWarning, stacklevel=2)
+            continue
+        loaded.append(point.name)
+    return loaded

@@ -58,6 +58,12 @@ IMAGE_UP = np.array([0.0, -1.0, 0.0])
 CONFIGS = (None, *CONFIGURATIONS)  # None: the camera-frame input itself ("input" column)
 # asana -> (comparison, threshold deg) for the whole-trunk angle from vertical
 TARGETS = {"Shavasana": (">=", 80.0), "Padmasana": ("<=", 15.0), "Tadasana": ("<=", 6.0)}
+#: :func:`side_gap_deg`: a frame leans to a side beyond this (deg), and a file holds both sides
+#: where each has this share of its frames. Definitions of the report's reading, not fitted:
+#: they decide only which files the line counts.
+SIDE_LEAN_DEG = 10.0
+SIDE_SHARE = 0.1
+SIDE_BENDS = ("Trikonasana",)
 ASANA_ORDER = ("Tadasana", "Vrikshasana", "Trikonasana", "Padmasana", "Bhujangasana", "Shavasana", "demo")
 
 
@@ -78,6 +84,27 @@ def median_trunk_deg(joints: np.ndarray, valid: np.ndarray | None = None, up: np
         a = a[np.asarray(valid, bool)]
     a = a[np.isfinite(a)]
     return float(np.median(a)) if len(a) else float("nan")
+
+
+def side_gap_deg(joints: np.ndarray, valid: np.ndarray | None = None, camera_frame: bool = False) -> float:
+    """How differently the two sides of a sideways bend read: the trunk's lean towards the
+    subject's right (canonical: atan2 of pelvis -> thorax along +Z and +Y; ``camera_frame``:
+    along image right +x and image up -y), per frame; where at least :data:`SIDE_SHARE` of the
+    frames lean more than :data:`SIDE_LEAN_DEG` to each side, ``|median right lean - median
+    left lean|`` (deg; a person bending alike both ways reads 0 under a static camera read
+    right), else NaN (one side only). A wrong camera roll adds to one side's lean and takes
+    from the other's: the gap is about twice the roll error."""
+    J = np.asarray(joints, np.float64)
+    trunk = J[:, THORAX] - J[:, PELVIS]
+    if valid is not None:
+        trunk = trunk[np.asarray(valid, bool)]
+    side, up = (trunk[:, 0], -trunk[:, 1]) if camera_frame else (trunk[:, 2], trunk[:, 1])
+    lean = np.degrees(np.arctan2(side, up))
+    lean = lean[np.isfinite(lean)]
+    right, left = lean[lean > SIDE_LEAN_DEG], -lean[lean < -SIDE_LEAN_DEG]
+    if min(len(right), len(left)) < SIDE_SHARE * max(len(lean), 1):
+        return float("nan")
+    return float(abs(np.median(right) - np.median(left)))
 
 
 def parse_name(path: Path) -> tuple[str, str]:
@@ -110,12 +137,14 @@ def evaluate_file(joints: np.ndarray, fps: float) -> dict[str, dict]:
     for config in CONFIGS:
         if config is None:
             out["input"] = {"trunk": median_trunk_deg(joints, None, IMAGE_UP),
-                            "lower": median_trunk_deg(joints, None, IMAGE_UP, lower=True), "valid_frac": 1.0}
+                            "lower": median_trunk_deg(joints, None, IMAGE_UP, lower=True), "valid_frac": 1.0,
+                            "side_gap": side_gap_deg(joints, camera_frame=True)}
             continue
         res = config.rectify(joints, fps)
         out[config.label] = {"trunk": median_trunk_deg(res.canonical, res.valid),
                              "lower": median_trunk_deg(res.canonical, res.valid, lower=True),
                              "valid_frac": float(np.mean(res.valid)),
+                             "side_gap": side_gap_deg(res.canonical, res.valid),
                              "pitch_half": (res.report.sequence.camera_pitch_interval_deg
                                             if res.report.sequence is not None else float("nan"))}
     return out
@@ -179,6 +208,18 @@ def run(data: Path, stride: int = 2) -> list[str]:
         v = v[np.isfinite(v)]
         cell = f"{np.median(v):.1f} [{v.min():.1f}, {v.max():.1f}]" if len(v) else "n/a"
         lines.append(f"{asana:<13}{len(rows):>3}  pitch +- {cell}")
+    lines += ["", (f"Sideways bends to both sides in one file ({', '.join(SIDE_BENDS)}): the two sides' trunk lean "
+                   f"differs by |median right - median left| (deg; about twice the camera roll error, 0 for a person "
+                   f"bending alike both ways), median [min, max] over the files with both sides (n of them)"),
+              f"{'asana':<13}{'':>3}  " + "".join(f"{lab:>{LABEL_WIDTH}}" for lab in labels)]
+    for asana in SIDE_BENDS:
+        cells = ""
+        for lab in labels:
+            v = np.array([r[3][lab]["side_gap"] for r in results if r[1] == asana], np.float64)
+            v = v[np.isfinite(v)]
+            cell = f"{np.median(v):.0f} [{v.min():.0f},{v.max():.0f}] {len(v)}" if len(v) else "n/a"
+            cells += f"{cell:>{LABEL_WIDTH}}"
+        lines.append(f"{asana:<13}{'':>3}  {cells}")
     lines += ["", "Physics targets, files PASS / FAIL (n/a = no valid frame)",
               f"{'asana':<13}{'target':>9}  " + "".join(f"{lab:>{LABEL_WIDTH}}" for lab in labels)]
     for asana, (op, thr) in TARGETS.items():

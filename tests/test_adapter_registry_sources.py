@@ -130,3 +130,32 @@ def test_an_unregistered_adapter_is_refused_everywhere():
     with pytest.raises(InputError, match=r"several tracks \(alphapose or mmpose\), got keypoints2d_format 'openpose'"):
         RunConfig(lifter="motionbert", lifter_output="p.npy", keypoints2d="k.json", keypoints2d_format="openpose",
                   person=0, fps=30.0).validate()
+
+
+def test_an_installed_packages_adapter_plugin_reaches_pcnet_run(tmp_path):
+    """A developer trial could register an adapter in Python only: `pcnet run --lifter mine`
+    refused the name. An installed package declares its adapter module in the `pcnet.adapters`
+    entry point group (a dist-info on the path, as pip leaves it); a broken one is named in a
+    warning and left out, and pcnet still starts."""
+    import subprocess
+    import sys
+
+    (tmp_path / "my_plugin.py").write_text(
+        "from pcnet.adapters import register_3d\n"
+        "@register_3d('plugged_lifter', records_fps=False)\n"
+        "class Plugged:\n"
+        "    def load(self, path):\n"
+        "        raise NotImplementedError\n")
+    info = tmp_path / "my_plugin-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: my-plugin\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[pcnet.adapters]\nplugged = my_plugin\nbroken = no_such_module\n")
+    env = {**__import__("os").environ, "PYTHONPATH": str(tmp_path)}
+    res = subprocess.run([sys.executable, "-c", "from pcnet.pipeline.entry import main; main()", "run", "--help"],
+                         capture_output=True, text=True, env=env, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert "plugged_lifter" in res.stdout
+    assert "adapter plugin 'broken' (no_such_module) not loaded: ModuleNotFoundError" in res.stderr
+    from pcnet.adapters import available_3d
+
+    assert "plugged_lifter" not in available_3d()  # not installed in this process
