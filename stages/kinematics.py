@@ -622,12 +622,40 @@ def _unwrap_runs(x: np.ndarray, lower: float, previous: float | None, max_step: 
     jump = np.abs(_wrap180(np.diff(x))) > max_step  # NaN steps are False: the finite runs end there anyway
     for a, b in true_runs(np.isfinite(x)):
         whole = _levelled(x[a:b], lower, previous if a == 0 else None, np.inf)
-        if np.all((whole > lower - 180.0) & (whole <= lower + 540.0)):
+        if _in_band(whole, lower):
             out[a:b] = whole
             continue
         cuts = [a, *(a + 1 + np.flatnonzero(jump[a:b - 1])), b]
         for c, d in zip(cuts[:-1], cuts[1:]):
-            out[c:d] = _levelled(x[c:d], lower, previous if c == 0 else None, max_step)
+            level = _levelled_in_band if np.isfinite(max_step) else _levelled  # no frame rate: no step ends a run
+            out[c:d] = level(x[c:d], lower, previous if c == 0 else None, max_step)
+    return out
+
+
+def _in_band(run: np.ndarray, lower: float) -> bool:
+    """Whether no sample of ``run`` lies more than half a turn beyond ``(lower, lower + 360]``."""
+    return bool(np.all((run > lower - 180.0) & (run <= lower + 540.0)))
+
+
+def _levelled_in_band(x: np.ndarray, lower: float, previous: float | None, max_step: float) -> np.ndarray:
+    """:func:`_levelled`, and where that still leaves the band (:func:`_in_band`: steps no
+    faster than any training motion that wound whole turns, as a recording of several takes
+    joined, or a chunk continuing the previous one's winding, had done, reading the same
+    pose a turn apart in a long session), split at its largest step and each side levelled
+    so in turn (the first continuing ``previous``; a lone sample that cannot, on its own)."""
+    out = np.empty_like(x)
+    pieces = [(0, len(x))]  # a stack, first piece on top: no recursion depth for a long run
+    while pieces:
+        a, b = pieces.pop()
+        run = _levelled(x[a:b], lower, previous if a == 0 else None, max_step)
+        if not _in_band(run, lower):
+            if b - a == 1:
+                run = _levelled(x[a:b], lower, None, max_step)
+            else:
+                cut = a + 1 + int(np.argmax(np.abs(_wrap180(np.diff(x[a:b])))))
+                pieces += [(cut, b), (a, cut)]
+                continue
+        out[a:b] = run
     return out
 
 
@@ -666,7 +694,10 @@ def continuous_angles(angles: Mapping[str, np.ndarray],
       then hold a value more than half a turn beyond its range (unwound a whole turn from its
       own reading) is split at its steps faster than the angle ever turns in the training
       motion capture (:func:`angle_speed_limits`): there a lifter's jump, not motion, had
-      carried the unwrapping round;
+      carried the unwrapping round; a piece still beyond it (steps no faster, as takes joined
+      into one file wind, or a long session's chunks continuing each other had) is split at
+      its largest step, and so on until every piece keeps within half a turn of its range (a
+      long-recording trial read one pose 360 deg apart in a ten-minute session);
     * hip internal rotation and signed knee flexion have two posture hypotheses in every frame
       (:mod:`pcnet.stages.isb_angles`: a flexed knee, or a hyperextended one with the thigh
       turned 180 deg about its axis, ``(rotation, knee) ~ (rotation + 180, -knee)``), which

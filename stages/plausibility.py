@@ -54,8 +54,10 @@ LIMITS_PATH = Path(__file__).resolve().parent / "data" / "motion_limits.json"
 #: Quantities checked, and their units (metric runs only).
 QUANTITIES = ("speed", "acceleration")
 UNITS = MappingProxyType({"speed": "m/s", "acceleration": "m/s^2"})
-#: Frame ranges listed per flag line before "and N more".
-MAX_RANGES_LISTED = 5
+#: Frame ranges listed per flag line (report.md's full text; the terminal's headline lists
+#: fewer) before "and N more": all of a ten-minute session's joins fit (a long-recording trial
+#: found its report cut at 5 of 7); every frame is in canonical.npz and kinematics.csv.
+MAX_RANGES_LISTED = 20
 #: Joints named (with their peak and limit) per flag line before "and N more".
 MAX_JOINTS_LISTED = 4
 

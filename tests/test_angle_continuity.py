@@ -213,3 +213,40 @@ def test_a_fast_step_that_winds_nothing_keeps_the_run_continuous():
     x = np.concatenate([np.full(10, 151.8), np.full(10, -175.5)])
     out = continuous_angles({"right_thigh_frontal_inclination": x}, fps=FPS)["right_thigh_frontal_inclination"]
     assert np.allclose(out, np.concatenate([np.full(10, 151.8), np.full(10, 184.5)]))
+
+
+def test_a_long_session_of_joined_takes_reads_each_pose_within_a_turn():
+    # A long-recording trial joined real takes into a ten-minute file: at each join the arm's
+    # inclination swept slower than any training motion across the wrap, and unwrapping wound a
+    # turn each time, so one pose read 131 deg in one take and 491 in its repeat (-186 to +497
+    # over the session). A run wound beyond half a turn past its range is split at its largest
+    # steps until every piece keeps within it.
+    hold_a, hold_b = np.full(40, 130.0), np.full(40, -30.0)
+    up_a = np.linspace(130.0, 330.0, 8)[1:-1]  # +200 deg in 7 steps of 28.6 (under the 106 limit)
+    up_b = np.linspace(-30.0, 130.0, 8)[1:-1]
+    cycle = np.concatenate([hold_a, up_a, hold_b, up_b])
+    x = _wrap180_array(np.tile(cycle, 12))  # as read per frame: within one 360-deg window
+    name = "left_upper_arm_sagittal_inclination"
+    lower = PERIODIC_ANGLES[name]
+    for out in (continuous_angles({name: x}, fps=FPS)[name],
+                np.concatenate([k.angles[name] for k in _chunked_angles(name, x)])):
+        assert np.all((out > lower - 180.0) & (out <= lower + 540.0)), (out.min(), out.max())
+        np.testing.assert_allclose((out - x + 180.0) % 360.0 - 180.0, 0.0, atol=1e-9)  # only whole turns added
+        holds = np.tile(np.r_[np.ones(40, bool), np.zeros(6, bool), np.ones(40, bool), np.zeros(6, bool)], 12)
+        assert set(np.round(out[holds]).astype(int)) <= {130, -30, 330, -230}
+
+
+def _wrap180_array(x: np.ndarray) -> np.ndarray:
+    return (x + 180.0) % 360.0 - 180.0
+
+
+def _chunked_angles(name: str, x: np.ndarray):
+    """``continuous_angles`` over chunks of 100 frames, each continuing the previous, as
+    ``kinematics_chunks`` runs it on a long recording."""
+    from types import SimpleNamespace
+
+    previous = None
+    for start in range(0, len(x), 100):
+        angles = continuous_angles({name: x[start:start + 100]}, previous, FPS)
+        previous = {name: float(angles[name][-1])}
+        yield SimpleNamespace(angles=angles)
