@@ -62,7 +62,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from importlib import resources
 
 import numpy as np
@@ -375,19 +375,10 @@ def frames_per_error(fps: float, p: UpModelParameters) -> float:
 @dataclass(frozen=True, eq=False)
 class PoseSummary:
     """Laplace summary of the poses' likelihood: ``up`` ``(..., 3)`` its maximiser ``g_hat``,
-    ``cov`` ``(..., 2, 2)`` ``C_L`` in the (pitch, roll) tangent basis at ``up`` (rad^2);
-    ``scatter_deg``: the networks' per-frame scatter ``sigma`` it was read with (the
-    recording's own, :func:`summarise_recording`; NaN where given)."""
+    ``cov`` ``(..., 2, 2)`` ``C_L`` in the (pitch, roll) tangent basis at ``up`` (rad^2)."""
 
     up: np.ndarray
     cov: np.ndarray
-    scatter_deg: float = float("nan")
-
-
-#: The per-frame scatters (deg) over which :func:`summarise_recording` maximises the profile
-#: likelihood: 0.5 to 32 deg in steps of sqrt(2). A numerical search's grid, not a parameter:
-#: the validation recordings' own scatters lie within it (1-16 deg, decision 0095).
-SCATTER_GRID_DEG = tuple(0.5 * 2.0 ** (k / 2) for k in range(13))
 
 
 def pd_inverse(H: np.ndarray) -> np.ndarray:
@@ -418,37 +409,15 @@ def likelihood_grid_start(ev: UpEvidence, p: UpModelParameters) -> np.ndarray:
 
 
 def summarise_recording(ev: UpEvidence, fps: float, p: UpModelParameters) -> PoseSummary:
-    """``g_hat`` and ``C_L`` of the whole recording's power likelihood ``F`` (static camera), with
-    the networks' scatter ``sigma`` the recording's own: the maximum of the profile likelihood
-    ``max_g F(g; sigma)`` over :data:`SCATTER_GRID_DEG` (decision 0095: a fixed validation scatter
-    read a person bending to either side as two clusters of ups and took one of them, a camera
-    rolled 13-30 deg, where the recording's own wider scatter centres the up between them).
+    """``g_hat`` and ``C_L`` of the whole recording's power likelihood ``F`` (static camera): the
+    best of the ascents (:func:`maximise_on_sphere`) from :func:`likelihood_grid_start` and from
+    the robust means of :func:`frame_starts`.
 
     Raises:
         InputError: no valid frame."""
     e = ev.frames(ev.valid)
     if not len(e.valid):
         raise InputError("no frame has an up from either network")
-    tried: dict[int, tuple[float, PoseSummary]] = {}
-
-    def at(k: int) -> tuple[float, PoseSummary]:
-        if k not in tried:
-            q = replace(p, network_sigma_deg=SCATTER_GRID_DEG[k])
-            summary = _summary_at(e, fps, q)
-            tried[k] = (float(frame_log_likelihood(summary.up, e, q).sum()),
-                        replace(summary, scatter_deg=SCATTER_GRID_DEG[k]))
-        return tried[k]
-
-    # every other grid point, then the two between which the best lies (9 ascents, not 13)
-    coarse = max(range(0, len(SCATTER_GRID_DEG), 2), key=lambda k: at(k)[0])
-    fine = [k for k in (coarse - 1, coarse + 1) if 0 <= k < len(SCATTER_GRID_DEG)]
-    return max((at(k) for k in [coarse, *fine]), key=lambda t: t[0])[1]
-
-
-def _summary_at(e: UpEvidence, fps: float, p: UpModelParameters) -> PoseSummary:
-    """``g_hat`` and ``C_L`` of ``F`` at ``p``'s scatter: the best of the ascents
-    (:func:`maximise_on_sphere`) from :func:`likelihood_grid_start` and from the robust means
-    of :func:`frame_starts` (``e``: valid frames only)."""
     m = frames_per_error(fps, p)
     seeds = [likelihood_grid_start(e, p)]
     for start in frame_starts(e):  # starts within 0.5 deg of an earlier one lead to the same maximum
