@@ -12,6 +12,7 @@ from __future__ import annotations
 import ctypes
 import gc
 import inspect
+import os
 import sys
 import threading
 import time
@@ -402,6 +403,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
             del options["frame_count"]
             kp = adapter.load(cfg.keypoints2d, **options)
         _check_returned(kp, Keypoints2D, adapter)
+        _refuse_another_archives_keypoints(cfg, kp.points)
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
         kp_size = getattr(kp, "image_size", None)
         kp_choice, kp_layout = getattr(kp, "choice", ""), kp.layout
@@ -427,6 +429,34 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
                            [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n],
                            poses.frame_turn_deg, poses.nonfinite, poses.camera_matrix,
                            _inputs_read(cfg, poses.layout, poses.units, kp_layout, video))
+
+
+def _refuse_another_archives_keypoints(cfg: RunConfig, points: np.ndarray) -> None:
+    """A MediaPipe lifter output holds the 2D keypoints of its own detection: 2D keypoints of
+    another MediaPipe file that differ from them belong to another camera or another run, and
+    would give the poses another person's left/right, track and pelvis path (a four-camera
+    trial ran cam02's poses with cam01's keypoints unflagged). Identity, not a tolerance: the
+    same detection gives the same numbers.
+
+    Raises:
+        InputError: naming both files and how far apart the keypoints lie.
+    """
+    if not (cfg.lifter == "mediapipe" and cfg.keypoints2d_format == "mediapipe" and cfg.lifter_output
+            and os.path.realpath(cfg.keypoints2d) != os.path.realpath(cfg.lifter_output)
+            and holds_keypoints_2d(cfg.lifter_output)):
+        return
+    own = get_2d_adapter("mediapipe").load(cfg.lifter_output).points
+    if own.shape != points.shape:
+        differ, detail = True, f"{len(points)} frames against {len(own)}"
+    else:
+        gap = np.linalg.norm(own[..., :2] - points[..., :2], axis=-1)
+        both = np.isfinite(gap)
+        differ = bool(np.any(gap[both] > 0)) or not np.array_equal(np.isfinite(own[..., 0]), np.isfinite(points[..., 0]))
+        detail = f"median {np.median(gap[both]):.1f} px apart" if both.any() else "no landmark in common"
+    if differ:
+        raise InputError(f"file '{cfg.keypoints2d}': field 'keypoints_2d': expected the 2D keypoints of the lifter "
+                         f"output's own detection ({cfg.lifter_output} holds them), got others ({detail}): another "
+                         f"camera's or another run's? give {cfg.lifter_output} as --keypoints2d")
 
 
 def _inputs_line(read: dict) -> str:

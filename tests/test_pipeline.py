@@ -985,6 +985,24 @@ def test_what_the_run_assumed_about_its_inputs_is_noted(tmp_path):
     assert "3D joints remapped from blazepose33 to H36M-17 with pelvis, spine, thorax, head built" in res.output
 
 
+def test_another_mediapipe_files_keypoints_are_refused_for_a_mediapipe_lifter_output(tmp_path):
+    """A four-camera trial gave cam02's MediaPipe poses with cam01's 2D keypoints: the run took
+    another camera's left/right, track and pelvis path unflagged. The archive holds its own
+    detection's keypoints: other ones are refused, naming both files; a copy of it is taken."""
+    with np.load(MEDIAPIPE, allow_pickle=False) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    np.savez(tmp_path / "copy.npz", **arrays)
+    np.savez(tmp_path / "other.npz", **{**arrays, "keypoints_2d": arrays["keypoints_2d"] + np.float32([4, 3, 0])})
+    base = ["run", "--lifter", "mediapipe", "--lifter-output", MEDIAPIPE, "--keypoints2d-format", "mediapipe",
+            "--no-recording", "--method", "geometric"]
+    res = _invoke(*base, "--keypoints2d", tmp_path / "other.npz", "--out", tmp_path / "o")
+    assert res.exit_code == 1 and not (tmp_path / "o").exists(), res.output
+    assert res.output.count("\n") == 1 and "other.npz': field 'keypoints_2d'" in res.output, res.output
+    assert "median 5.0 px apart" in res.output and f"give {MEDIAPIPE} as --keypoints2d" in res.output, res.output
+    res = _invoke(*base, "--keypoints2d", tmp_path / "copy.npz", "--out", tmp_path / "c")
+    assert res.exit_code == 0, res.output
+
+
 def test_a_confidence_threshold_that_masks_every_needed_joint_is_named(tmp_path):
     """--confidence-threshold 1 masks every joint with a 2D confidence below 1: the error names
     the threshold and the 2D file, not only the lifter file (found by a CLI fuzz)."""
