@@ -370,14 +370,16 @@ def evaluate(
 
 def _clip_scores(per_clip: list[tuple[int, dict]], clip: np.ndarray, valid: np.ndarray, errors: dict) -> list[dict]:
     """Each rectified clip's entry (its index among the clips, its dict) with its scored and
-    valid frames (``clip``, ``valid``: per scored frame) and its metrics' means over them."""
-    out = []
-    for index, entry in per_clip:
-        mine = clip == index
-        ok = mine & valid
-        means = {name: round(float(np.mean(errors[name][ok])), 4) if ok.any() else None for name in METRICS}
-        out.append({**entry, "frames": int(mine.sum()), "valid": int(ok.sum()), **means})
-    return out
+    valid frames (``clip``, ``valid``: per scored frame) and its metrics' means over them.
+    Counted by clip index in one pass (``np.bincount``), not one mask per clip: thousands of
+    clips over hundreds of thousands of frames."""
+    n = max((index for index, _ in per_clip), default=-1) + 1
+    frames = np.bincount(clip, minlength=n)
+    counted = np.bincount(clip[valid], minlength=n)
+    sums = {name: np.bincount(clip[valid], weights=errors[name][valid], minlength=n) for name in METRICS}
+    return [{**entry, "frames": int(frames[i]), "valid": int(counted[i]),
+             **{name: round(float(sums[name][i] / counted[i]), 4) if counted[i] else None for name in METRICS}}
+            for i, entry in per_clip]
 
 
 def format_table(result: dict) -> str:

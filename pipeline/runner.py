@@ -28,7 +28,7 @@ from tqdm import tqdm
 
 from pcnet.adapters import (AdapterError, Keypoints2D, Poses3D, VideoInfo, first_shown_frame, get_2d_adapter,
                             get_3d_adapter, probe_video)
-from pcnet.adapters.mediapipe import holds_keypoints_2d
+from pcnet.adapters.mediapipe import holds_keypoints_2d, load_mediapipe_2d
 from pcnet.adapters.validate import as_path, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
                                           THORAX, fill_pelvis_from_hips, thigh_beyond_metres, validate_fps)
@@ -445,7 +445,7 @@ def _refuse_another_archives_keypoints(cfg: RunConfig, points: np.ndarray) -> No
             and os.path.realpath(cfg.keypoints2d) != os.path.realpath(cfg.lifter_output)
             and holds_keypoints_2d(cfg.lifter_output)):
         return
-    own = get_2d_adapter("mediapipe").load(cfg.lifter_output).points
+    own = load_mediapipe_2d(cfg.lifter_output).points
     if own.shape != points.shape:
         differ, detail = True, f"{len(points)} frames against {len(own)}"
     else:
