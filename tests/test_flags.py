@@ -231,11 +231,14 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
     with np.load(out / "canonical.npz") as npz:  # the CSV's empty cells: frames the 2D track has no position in
         assert [int(r["track_segment"]) if r["track_segment"] else None for r in rows] == [
             int(s) if present else None for s, present in zip(npz["track_segment"], track_present(kp))]
-    rows_rrd, static, chunks, _ = rrd_summary(out / "recording.rrd")
+    rows_rrd, static, _, _ = rrd_summary(out / "recording.rrd")
     assert "/flags" in static
     # the viewer marks the switch on the timeline, and lists the track switch first (a problem), with its action
     assert rows_rrd["/series/status/track_segment"] == sum(track_present(kp))
-    text = chunks["/flags"][0].to_record_batch().column("TextDocument:text").to_pylist()[0]
+    from rerun.chunk import RrdReader
+
+    flags_chunk = next(ch for ch in RrdReader(out / "recording.rrd").stream() if ch.entity_path == "/flags")
+    text = flags_chunk.to_record_batch().column("TextDocument:text").to_pylist()[0][0]
     assert text.startswith("- **problem**: ") and "switches person" in text.splitlines()[0] and "(action: " in text
 
 
