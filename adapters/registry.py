@@ -44,7 +44,8 @@ track switch need 2D keypoints, so an adapter that picks a person per frame by s
 blend two people unseen. It raises :class:`~pcnet.adapters.types.AdapterError` (naming file,
 field, expected and found) for bad input, with the helpers of
 :mod:`pcnet.adapters.validate` (``load_npy``, ``read_json``, ``checked_poses``); anything
-else it raises is reported as a bug, with its traceback.
+else it raises is reported as a bug in it, with its traceback and a last line naming the
+adapter's class, its package and the file.
 """
 
 from __future__ import annotations

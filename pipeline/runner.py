@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import gc
+import importlib.metadata
 import inspect
 import os
 import sys
@@ -363,16 +364,43 @@ class RecordingInputs:
     read: dict
 
 
-def _check_returned(loaded: object, kind: type, adapter: object) -> None:
-    """A registered adapter's ``load`` returned ``kind`` (a custom adapter's bug named here,
-    rather than as an AttributeError further on).
+def _read_with(adapter: object, path, kind: type, **options):
+    """``adapter.load(path, **options)``, checked to return ``kind``; an exception other than
+    bad input (:class:`InputError`) is a bug in the adapter and keeps its traceback, with a
+    note naming the adapter, its module, the package it came from and the file (a developer
+    trial's plugin failed with a traceback that named none of them).
 
     Raises:
-        TypeError: naming the adapter class and what it returned.
+        InputError: bad input, as the adapter raised it.
+        TypeError: the adapter returned something other than ``kind``.
+        Exception: whatever else the adapter raised, with that note.
     """
-    if not isinstance(loaded, kind):
-        raise TypeError(f"{type(adapter).__qualname__}.load: expected to return pcnet.adapters.{kind.__name__}, "
-                        f"got {type(loaded).__name__}")
+    try:
+        loaded = adapter.load(path, **options)
+        if not isinstance(loaded, kind):
+            raise TypeError(f"{type(adapter).__qualname__}.load: expected to return pcnet.adapters.{kind.__name__}, "
+                            f"got {type(loaded).__name__}")
+    except InputError:
+        raise
+    except Exception as err:
+        err.add_note(f"pcnet: raised by the adapter {_adapter_origin(adapter)} reading {path}: a bug in that "
+                     "adapter, to report to its author with this traceback")
+        raise
+    return loaded
+
+
+def _adapter_origin(adapter: object) -> str:
+    """``pkg.module.Class (package dist 1.0)``: where an adapter's code comes from."""
+    module = type(adapter).__module__
+    dists = importlib.metadata.packages_distributions().get(module.split(".")[0], [])
+    versions = []
+    for dist in dists:
+        try:
+            versions.append(f"{dist} {importlib.metadata.version(dist)}")
+        except importlib.metadata.PackageNotFoundError:
+            versions.append(dist)
+    origin = f" (package {', '.join(versions)})" if versions else ""
+    return f"{module}.{type(adapter).__qualname__}{origin}"
 
 
 def _require_input(path, field: str) -> None:
@@ -395,14 +423,13 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
         if video is not None and "frame_count" in inspect.signature(adapter.load).parameters:
             options["frame_count"] = video.frame_count
         try:
-            kp = adapter.load(cfg.keypoints2d, **options)
+            kp = _read_with(adapter, cfg.keypoints2d, Keypoints2D, **options)
         except AdapterError as err:
             # With --align truncate a 2D file may run past the video: read it whole, _align cuts it.
             if not (cfg.align == "truncate" and "frame_count" in options and "frame_count=" in err.expected):
                 raise
             del options["frame_count"]
-            kp = adapter.load(cfg.keypoints2d, **options)
-        _check_returned(kp, Keypoints2D, adapter)
+            kp = _read_with(adapter, cfg.keypoints2d, Keypoints2D, **options)
         _refuse_another_archives_keypoints(cfg, kp.points)
         kp2d, kp_fps = remap_to_h36m(kp.points, kp.layout, confidence_channel=True), getattr(kp, "fps", None)
         kp_size = getattr(kp, "image_size", None)
@@ -415,8 +442,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     if cfg.focal_px is not None and "focal_px" in inspect.signature(adapter.load).parameters:
         options["focal_px"] = cfg.focal_px  # the camera's: a crop-based lifter turns into it (MediaPipe)
     _require_input(cfg.lifter_output, "lifter_output")
-    poses = adapter.load(cfg.lifter_output, **options)
-    _check_returned(poses, Poses3D, adapter)
+    poses = _read_with(adapter, cfg.lifter_output, Poses3D, **options)
     fps, fps_source = _frame_rate(cfg, video, (cfg.lifter_output, getattr(poses, "fps", None)), (cfg.keypoints2d, kp_fps))
     joints = lifter_joints(poses, str(cfg.lifter_output), in_place=True)  # loaded here: ours to overwrite
     built = built_joints(poses.layout)

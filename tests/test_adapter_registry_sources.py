@@ -159,3 +159,36 @@ def test_an_installed_packages_adapter_plugin_reaches_pcnet_run(tmp_path):
     from pcnet.adapters import available_3d
 
     assert "plugged_lifter" not in available_3d()  # not installed in this process
+
+
+def test_an_adapters_own_error_names_the_adapter_and_its_package(tmp_path):
+    """A developer trial's adapter returned ``Poses3D(units="cm")``: the ValueError's
+    traceback named neither the adapter nor the file. It stays a bug report (traceback, not
+    bad input) and its last line names the adapter's class, its package and the file."""
+    import subprocess
+    import sys
+
+    (tmp_path / "cm_plugin.py").write_text(
+        "import numpy as np\n"
+        "from pcnet.adapters import Poses3D, register_3d\n"
+        "@register_3d('cm_lifter', records_fps=False)\n"
+        "class CentimetreLifter:\n"
+        "    def load(self, path):\n"
+        "        return Poses3D(np.zeros((4, 17, 3), np.float32), 'h36m17', units='cm', source=str(path))\n")
+    info = tmp_path / "cm_plugin-0.3.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: cm-plugin\nVersion: 0.3\n")
+    (info / "RECORD").write_text("cm_plugin.py,,\n")
+    (info / "top_level.txt").write_text("cm_plugin\n")
+    (info / "entry_points.txt").write_text("[pcnet.adapters]\ncm = cm_plugin\n")
+    data = tmp_path / "poses.npy"
+    data.write_bytes(b"")
+    env = {**__import__("os").environ, "PYTHONPATH": str(tmp_path)}
+    res = subprocess.run([sys.executable, "-c", "from pcnet.pipeline.entry import main; main()", "run", "--lifter",
+                          "cm_lifter", "--lifter-output", str(data), "--fps", "30", "--out", str(tmp_path / "o")],
+                         capture_output=True, text=True, env=env, timeout=120)
+    assert res.returncode == 1, res.stderr
+    assert "Traceback" in res.stderr and "units must be one of" in res.stderr
+    assert (f"pcnet: raised by the adapter cm_plugin.CentimetreLifter (package cm-plugin 0.3) reading {data}: "
+            "a bug in that adapter") in res.stderr.splitlines()[-1]
+    assert not (tmp_path / "o").exists()
