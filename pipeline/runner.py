@@ -1369,7 +1369,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         kinematics_frame=world.frame, poses=rectified_poses, world=world.joints, world_rotation=world.rotation,
         keypoints2d=scaled.camera.keypoints2d, track_segment=rectified.track_segment, video=cfg.video,
         video_first_frame=first_shown_frame(cfg.video) if cfg.video and cfg.recording else 0,
-        video_keypoints2d=scaled.camera.video_keypoints2d,
+        video_keypoints2d=scaled.camera.video_keypoints2d, keypoint_picture=scaled.camera.picture,
         min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=world.pelvis_path_std,
         subject_height_m=float("nan") if cfg.height is None else float(cfg.height))
     result.kinematics_blocks = kinematics_chunks(rectified_poses, fps, cutoff, units)

@@ -211,7 +211,8 @@ def test_joints_whose_keypoints_lie_outside_the_picture_are_missing(tmp_path):
     runs = {}
     for name, file in (("as filmed", MEDIAPIPE), ("legs out", legs_out)):
         cfg = RunConfig(keypoints2d=str(file), keypoints2d_format="mediapipe", lifter="mediapipe",
-                        lifter_output=str(file), fps=30, out=str(tmp_path / name.replace(" ", "_")), recording=False)
+                        lifter_output=str(file), fps=30, out=str(tmp_path / name.replace(" ", "_")),
+                        recording=name == "legs out")
         runs[name] = run_pipeline(cfg, progress=False)
     with np.load(tmp_path / "legs_out" / "canonical.npz") as npz:
         legs = npz["joints_camera"][20:40][:, [R_KNEE, R_ANKLE, L_KNEE, L_ANKLE]]
@@ -220,6 +221,14 @@ def test_joints_whose_keypoints_lie_outside_the_picture_are_missing(tmp_path):
     assert np.isfinite(filmed).all() and np.isnan(legs).all()
     assert "whose 2D keypoint lies outside the 1768x994 picture taken as missing" in runs["legs out"].summary()
     assert "outside the" not in runs["as filmed"].summary()
+    # the recording's 2D view draws the keypoints the 3D views use: not those beside the picture
+    drawn = {}
+    for ch in rrd_summary(tmp_path / "legs_out" / "recording.rrd")[2]["/video/keypoints"]:
+        rb = ch.to_record_batch()
+        drawn.update(zip(rb.column("frame").to_pylist(), map(set, rb.column("Points2D:keypoint_ids").to_pylist())))
+    legs_ids = {R_KNEE, R_ANKLE, L_KNEE, L_ANKLE}
+    assert all(not drawn.get(t, set()) & legs_ids for t in range(20, 40))
+    assert sum(bool(ids & legs_ids) for ids in drawn.values()) > 30
     # the implausible-motion warning's frames are the CSV's implausible_motion (this clip has some)
     with open(tmp_path / "as_filmed" / "kinematics.csv", newline="") as f:
         marked = np.array([int(r["implausible_motion"] or 0) for r in csv.DictReader(f)])  # empty: not valid

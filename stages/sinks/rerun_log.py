@@ -14,7 +14,8 @@ Entity tree (all per-frame data is on the ``frame`` (sequence) and ``video_time`
 
     /                               AnnotationContext: H36M-17 keypoint names and colours
     /video                          AssetVideo (static) + VideoFrameReference per video frame
-    /video/keypoints                Points2D, 2D keypoints (px of the video as rerun shows it), keypoint_ids = H36M index
+    /video/keypoints                Points2D, 2D keypoints (px of the video as rerun shows it), keypoint_ids = H36M index;
+                                    those the run did not use (low confidence, outside the picture) are not drawn
     /video/skeleton                 LineStrips2D, one strip per bone
     /camera                         ViewCoordinates RDF (OpenCV camera frame), static
     /camera/skeleton/joints         Points3D
@@ -272,6 +273,7 @@ def write_recording(
     notes: list[str] | None = None,
     implausible_frames: np.ndarray | None = None,
     track_segment: np.ndarray | None = None,
+    keypoints2d_outside: np.ndarray | None = None,
 ) -> Path:
     """Write a ``.rrd`` recording of one sequence with a default blueprint, atomically.
 
@@ -325,6 +327,10 @@ def write_recording(
             switch; NaN where no person), logged as the series ``status/track_segment`` so that
             a track switch shows on the timeline (a user trial saw the other person's frames
             drawn like the first's, with nothing marking them).
+        keypoints2d_outside: optional ``(T, 17)`` bool, 2D keypoints outside the picture,
+            whose joints the run took as missing (:func:`pcnet.stages.remap.outside_image`):
+            not drawn, so that the 2D view shows the keypoints the 3D views use (a user trial
+            saw them drawn beside the picture while their joints were missing in 3D).
 
     Returns:
         the destination path.
@@ -353,6 +359,11 @@ def write_recording(
         if implausible.shape != (T,):
             raise InputError(f"write_recording: implausible_frames must have shape ({T},), got {implausible.shape}")
     segment = None if track_segment is None else _check("track_segment", track_segment, (T,))
+    outside = None
+    if keypoints2d_outside is not None:
+        outside = np.asarray(keypoints2d_outside, dtype=bool)
+        if outside.shape != (T, 17):
+            raise InputError(f"write_recording: keypoints2d_outside must have shape ({T}, 17), got {outside.shape}")
     series_arrays = {}
     for name, values in dict(series or {}).items():
         key = _series_path(name)
@@ -412,6 +423,7 @@ def write_recording(
                 rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset,
                 video_ns, canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space,
                 show_labels=bool(show_labels), floor=bool(floor), implausible=implausible, segment=segment,
+                outside=outside,
             )
             text = "\n".join(f"- {f}" for f in flags) if flags else "no warnings"
             rec.log("flags", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True, strict=True)
@@ -430,7 +442,7 @@ def _log_all(
     rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset, video_ns,
     canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space, *,
     show_labels: bool = False, floor: bool = True, implausible: np.ndarray | None = None,
-    segment: np.ndarray | None = None,
+    segment: np.ndarray | None = None, outside: np.ndarray | None = None,
 ) -> None:
     # strict=True everywhere: rerun's default turns API misuse into a warning and drops
     # the data, which would yield a silently incomplete recording.
@@ -483,6 +495,8 @@ def _log_all(
         for b in blocks:
             kp_b = kp[b]
             conf_ok = np.isfinite(kp_b[..., 2]) & (kp_b[..., 2] > min_confidence)
+            if outside is not None:
+                conf_ok &= ~outside[b]
             send("video/keypoints", _points_columns(rr, kp_b[:, :, :2], conf_ok, dims=2), block_index(b))
             send("video/skeleton", _bones_columns(rr, kp_b[:, :, :2], conf_ok, dims=2), block_index(b))
 

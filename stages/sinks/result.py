@@ -26,6 +26,7 @@ from ..core.framestore import column, per_frame
 from ..flags import one_person_frames, track_present
 from ..kinematics import FrameGatherer, count_flags
 from ..rectification_report import RectificationReport
+from ..remap import outside_image
 from .bvh import write_bvh
 from .exports import blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
 from .plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
@@ -65,7 +66,8 @@ class RecordingResult:
         keypoints2d: ``(T, 17, 3)`` px + confidence or ``None``; track_segment ``(T,)`` int or
             ``None``; video: the video path or ``None``; video_keypoints2d: the same keypoints in
             the pixels the recording shows the video in (a phone video is shown as stored), or
-            ``None`` for ``keypoints2d``; video_first_frame: the stored frame that pose frame 0
+            ``None`` for ``keypoints2d``; keypoint_picture: ``(width, height)`` of the picture
+            ``keypoints2d`` are in, or ``None`` where not known; video_first_frame: the stored frame that pose frame 0
             shows (0 unless an MP4 edit list starts playback later); min_confidence: 2D threshold.
         wrist_acceleration_camera: ``(T, 2, 3)`` filtered camera-frame wrist accelerations.
         kinematics_blocks: iterable of :class:`pcnet.stages.kinematics.Kinematics` blocks in
@@ -102,6 +104,7 @@ class RecordingResult:
     track_segment: np.ndarray | None = None
     video: str | None = None
     video_keypoints2d: np.ndarray | None = None
+    keypoint_picture: tuple[int, int] | None = None
     video_first_frame: int = 0
     min_confidence: float = 0.0
     wrist_acceleration_camera: np.ndarray | None = None
@@ -329,5 +332,7 @@ def write_rerun(r: RecordingResult, folder: Path, warnings: list[str] | None = N
         flags=r.flags if warnings is None else warnings, world=r.world,
         notes=r.notes, implausible_frames=None if r.implausible_frames is None else _implausible(r),
         track_segment=None if r.track_segment is None else _track_segment(r),
+        keypoints2d_outside=(None if r.keypoints2d is None or r.keypoint_picture is None
+                             else per_frame(lambda kp: outside_image(kp, r.keypoint_picture), r.keypoints2d)),
     )
     return {"recording": path}
