@@ -758,11 +758,43 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *,
     cfg.validate()
     out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights), cfg.overwrite)
     # disable=None: no bar where stderr is not a terminal (a log file, a pipe), whose
-    # carriage-return redraws would fill it.
+    # carriage-return redraws would fill it; a long run there says where it is in lines.
     with _collector_skips_older_objects(), \
             tqdm(total=len(STEPS) + (cfg.lifter_output is None), desc="pcnet", disable=None if progress else True,
-                 unit="stage") as bar:
+                 unit="stage") as bar, \
+            _stage_lines(bar, progress, ("estimate",) * (cfg.lifter_output is None) + STEPS):
         return _run_stages(cfg, out, bar, before_publish)
+
+
+#: Seconds between the lines that say which stage a run is in, where stderr is not a terminal.
+STAGE_LINE_INTERVAL_S = 30.0
+
+
+@contextmanager
+def _stage_lines(bar, progress: bool, stages: tuple[str, ...]):
+    """Where ``progress`` is asked for and stderr is not a terminal (a log file, a scheduler's
+    output: ``bar`` is disabled there), a line every :data:`STAGE_LINE_INTERVAL_S` seconds
+    naming the stage the run is in (``bar``'s postfix, one of ``stages``), its number and the
+    seconds since the start (a user trial ran a ten-minute session into a log and saw nothing
+    until it ended). A run shorter than the interval writes nothing."""
+    if not (progress and bar.disable):
+        yield
+        return
+    stop, start, interval_s = threading.Event(), time.perf_counter(), STAGE_LINE_INTERVAL_S
+
+    def say() -> None:
+        while not stop.wait(interval_s):
+            stage = bar.postfix or stages[0]
+            number = f" (stage {stages.index(stage) + 1} of {len(stages)})" if stage in stages else ""
+            print(f"pcnet: {stage}{number}, {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
+
+    thread = threading.Thread(target=say, name="pcnet-stage-lines", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
 
 
 _FREEZE_LOCK = threading.Lock()

@@ -1344,3 +1344,26 @@ def test_joints_masked_for_2d_confidence_are_named_with_the_setting():
     assert note == (f"joints masked for 2D confidence below --confidence-threshold 0.3: {H36M_JOINTS[16]} in 283 of "
                     f"301 frames; {H36M_JOINTS[14]} in 253 of 301 frames")
     assert _low_confidence_note(np.zeros(17, np.int64), 301, 0.3) == []
+
+
+def test_a_run_logged_to_a_file_says_which_stage_it_is_in(tmp_path, monkeypatch, capsys):
+    """Without a terminal the stage bar is off (its redraws would fill a log); a user trial ran
+    a ten-minute session into a log and saw nothing until it ended. A long run writes a line
+    every STAGE_LINE_INTERVAL_S naming its stage; a short one writes nothing."""
+    from dataclasses import replace
+
+    import pcnet.pipeline.runner as runner
+    from pcnet.pipeline import RunConfig, run_pipeline
+
+    cfg = RunConfig(keypoints2d=str(BOX_2D), keypoints2d_format="alphapose", lifter="motionbert",
+                    lifter_output=str(BOX_3D), fps=30, recording=False, out=str(tmp_path / "short"))
+    run_pipeline(cfg, progress=True)
+    assert "pcnet: " not in capsys.readouterr().err
+    monkeypatch.setattr(runner, "STAGE_LINE_INTERVAL_S", 0.02)
+    run_pipeline(replace(cfg, out=str(tmp_path / "long")), progress=True)
+    lines = capsys.readouterr().err.splitlines()
+    found = [re.fullmatch(r"pcnet: (\w+) \(stage (\d) of 7\), \d+ s", line) for line in lines]
+    assert found and all(found[:-1]), lines  # the last may be written as the outputs are published ("done")
+    numbers = [int(m[2]) for m in found if m]
+    assert numbers == sorted(numbers) and len(set(numbers)) >= 3, lines
+    assert all(runner.STEPS[int(m[2]) - 1] == m[1] for m in found if m)
