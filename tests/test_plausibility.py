@@ -338,3 +338,21 @@ def test_findings_are_frozen():
     f = ImplausibleMotion("head", "speed", 1, 2, 6.0, 1, 4.0, "m/s")
     with pytest.raises(dataclasses.FrozenInstanceError):
         f.peak = 1.0  # type: ignore[misc]
+
+
+def test_one_marked_frame_of_a_ten_minute_plot_is_visible(tmp_path):
+    """A user trial's ten-minute session: each flagged frame was under a pixel wide in the
+    saved figure. A span is drawn at least MIN_SPAN_PX wide, so the saved PNG shows it."""
+    import matplotlib.image
+
+    from pcnet.stages.sinks.plots import IMPLAUSIBLE_COLOUR, MIN_SPAN_PX, joint_speeds_figure, save_png
+
+    X = np.tile(_glitched(), (int(np.ceil(600 * FPS / len(_glitched()))), 1, 1))[: int(600 * FPS)]
+    kin = compute_kinematics(X, FPS, 6.0, "m")
+    mask = np.zeros(len(X), bool)
+    mask[len(X) // 2] = True
+    png = save_png(joint_speeds_figure(kin, FPS, implausible=mask), tmp_path / "speeds.png")
+    image = matplotlib.image.imread(png)[..., :3]
+    red = np.all(np.abs(image - np.array(IMPLAUSIBLE_COLOUR)) < 0.02, axis=-1)
+    widest = int(np.max(np.sum(red, axis=1)))
+    assert widest >= MIN_SPAN_PX - 1, widest

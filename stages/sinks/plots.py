@@ -216,15 +216,26 @@ IMPLAUSIBLE_COLOUR = (1.0, 0.8, 0.8)
 IMPLAUSIBLE_NOTE = "red: motion beyond human limits (canonical.npz implausible_frames)"
 
 
+#: Resolution (dots per inch) the figures are saved at.
+SAVE_DPI = 110
+#: Narrowest span drawn, in pixels of the saved figure: one marked frame of a ten-minute plot is
+#: a fifth of a pixel wide, which a user trial could not see.
+MIN_SPAN_PX = 3.0
+
+
 def _shade(ax, t: np.ndarray, marked: np.ndarray | None, color=0.85) -> None:
     """Spans (grey by default) over the runs of ``marked`` ``(T,)`` bool frames at times ``t``
-    ``(T,)`` (each frame spans half a frame either side)."""
+    ``(T,)`` (each frame spans half a frame either side), each at least :data:`MIN_SPAN_PX`
+    wide about its centre."""
     if marked is None or not np.any(marked):
         return
     half = 0.5 * (t[1] - t[0]) if len(t) > 1 else 0.5
+    min_half = 0.5 * MIN_SPAN_PX * (t[-1] - t[0] + 2 * half) / (ax.figure.get_figwidth() * SAVE_DPI)
     color = str(color) if isinstance(color, float) else color
     for start, stop in true_runs(marked):
-        ax.axvspan(t[start] - half, t[stop - 1] + half, color=color, lw=0, zorder=0)
+        lo, hi = t[start] - half, t[stop - 1] + half
+        widen = max(0.0, min_half - 0.5 * (hi - lo))
+        ax.axvspan(lo - widen, hi + widen, color=color, lw=0, zorder=0)
 
 
 def marked_frames(marked, t: np.ndarray, name: str, what: str = "other_person") -> np.ndarray | None:
@@ -371,9 +382,9 @@ def joint_speeds_figure(kin, fps: float, units: str | None = None, *, frame_labe
 
 
 def save_png(fig, path_png: str | os.PathLike) -> Path:
-    """Render ``fig`` to PNG (110 dpi) and write it atomically to ``path_png``."""
+    """Render ``fig`` to PNG (:data:`SAVE_DPI`) and write it atomically to ``path_png``."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    fig.savefig(buf, format="png", dpi=SAVE_DPI)
     with atomic_path(path_png) as tmp:
         tmp.write_bytes(buf.getvalue())
     return Path(path_png)
