@@ -48,7 +48,7 @@ def unlimited_angles(joints: np.ndarray) -> dict[str, np.ndarray]:
     kept = isb.MIN_BEND_DEG
     isb.MIN_BEND_DEG = 0.0
     try:
-        return isb.isb_joint_angles(joints)
+        return isb.isb_joint_angles(joints, check_up=False)  # camera-frame views: between-segment angles only
     finally:
         isb.MIN_BEND_DEG = kept
 

@@ -6,7 +6,7 @@ Needs the project's shared data (not shipped with pcnet), real/sports2d_demo und
 + mediapipe_blazepose33.npz). MediaPipe world
 landmarks are metric, so no --height is needed. The demo video states no focal length, so the
 turn from MediaPipe's virtual camera into the real one assumes a phone's (the summary's note
-says so); ``lifter_options={"focal_px": F}`` gives the real one (``pcnet run --focal-px F``).
+says so); ``RunConfig(focal_px=F)`` gives the real one (``pcnet run --focal-px F``).
 """
 
 import argparse

@@ -7,9 +7,10 @@
 
 Bad input (a file, an array, a config value) raises :class:`InputError`
 (:class:`pcnet.stages.core.errors.InputError`, a ``ValueError``) with one line naming the file
-or field, what was expected and what was found; an output folder that exists already (without
-``overwrite``) raises ``FileExistsError``. Messages name ``pcnet run``'s options: the
-:class:`RunConfig` field of the same name (``--focal-px`` is ``focal_px``) is what a script sets.
+or field, what was expected and what was found; an earlier pcnet output folder (without
+``overwrite``) raises ``FileExistsError``, any other existing folder an :class:`InputError`.
+Messages name ``pcnet run``'s options: the :class:`RunConfig` field of the same name
+(``--focal-px`` is ``focal_px``) is what a script sets.
 
 They are imported when first used, so ``import pcnet.pipeline`` stays cheap (no onnxruntime,
 OpenCV or adapters until then).
@@ -48,7 +49,7 @@ returns a :class:`~pcnet.pipeline.runner.RunResult`::
 
     cfg = RunConfig(lifter="videopose3d", lifter_output="tests/fixtures/yoga_Abhay_Tadasana_f000-099.npy",
                     fps=30.0, height=1.7, recording=False, out="yoga_out")
-    result = run_pipeline(cfg.validate(), progress=False)  # validate(): every field checked first
+    result = run_pipeline(cfg.validate(), progress=False)  # validate(): every field's value first
     print(result.summary())
 
 :class:`RunConfig` can also be read from a TOML file with the same keys

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pcnet.stages.core.conventions import check_poses
+from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
                                mirrored_skeleton_flag, orientation_flags, posture_flag,
@@ -112,7 +114,16 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
         joints_camera: ``(T, 17, 3)`` camera-frame H36M-17 poses, any units, NaN = missing:
             what :func:`pcnet.pipeline.rectification.rectify` was given.
         rectified: its result.
+
+    Raises:
+        InputError: ``joints_camera`` not ``(T, 17, 3)`` numbers (a single ``(17, 3)`` pose is
+            one frame, as :func:`~pcnet.pipeline.rectification.rectify` reads it), or not as many
+            frames as ``rectified`` (the poses of another call).
     """
+    joints_camera = check_poses(joints_camera, "pose_checks: joints_camera")
+    if len(joints_camera) != len(rectified.rotation):
+        raise InputError(f"pose_checks: expected the {len(rectified.rotation)} frames rectify was given, got "
+                         f"{len(joints_camera)} frames of joints_camera")
     report = rectified.report
     tilt = CameraTilt.of(rectified.rotation, rectified.valid)
     return [*orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg), *leg_asymmetry_flag(joints_camera),

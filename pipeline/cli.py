@@ -441,6 +441,25 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, measured_root,
 
 
 @main.command()
+@click.argument("page", required=False)
+def docs(page):
+    """The documentation's pages, as installed: without PAGE a list of them; with PAGE (as the
+    outputs cite it, docs/guide/limits.md, or guide/limits, or limits) its text (Markdown)."""
+    from pcnet.pipeline.doc_pages import find_page, pages, title
+
+    if page is None:
+        shipped = pages()
+        width = max(map(len, shipped))
+        for name, file in shipped.items():
+            click.echo(f"{name:<{width}}  {title(file)}")
+        click.echo("\npcnet docs PAGE prints one (pcnet docs guide/limits | less); the outputs cite them as "
+                   "docs/PAGE.md")
+        return
+    _, file = find_page(page)
+    click.echo(file.read_text(encoding="utf-8"), nl=False)
+
+
+@main.command()
 @click.option("--out", type=click.Path(file_okay=False), default="pcnet_demo", show_default=True)
 @click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True, help=_METHOD_HELP)
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out folder written by pcnet.")

@@ -411,7 +411,7 @@ def _mirror(X: np.ndarray) -> np.ndarray:
     return (X * _MIRROR)[:, _SWAP_LR]
 
 
-def isb_joint_angles(joints: np.ndarray) -> dict[str, np.ndarray]:
+def isb_joint_angles(joints: np.ndarray, check_up: bool = True) -> dict[str, np.ndarray]:
     """ISB joint angles (degrees) of H36M-17 poses.
 
     Sequences and signs (details and the segment-axis approximations: module docstring and
@@ -444,10 +444,20 @@ def isb_joint_angles(joints: np.ndarray) -> dict[str, np.ndarray]:
         rotation's limb plane is undefined (:data:`MIN_BEND_DEG`) or near gimbal lock
         (:data:`GIMBAL_MARGIN_DEG`). Meaning of each sign: :data:`POSITIVE_SIGN`.
 
+        check_up: refuse poses whose trunk points down in most frames
+            (:func:`pcnet.stages.kinematics.require_y_up`: camera-frame poses, +Y down, whose
+            angles against gravity would read upside down); False for a body inverted for most
+            of the recording.
+
     Raises:
-        InputError (a ValueError): ``joints`` of the wrong shape or dtype.
+        InputError (a ValueError): ``joints`` of the wrong shape or dtype; with ``check_up``,
+            poses that are not Y-up.
     """
     X = _check(joints)
+    if check_up:
+        from .kinematics import require_y_up  # kinematics imports this module
+
+        require_y_up(X, "joints")
     with np.errstate(invalid="ignore", divide="ignore"):
         frames = _right_side(X)
         out = _trunk_angles(frames)

@@ -107,6 +107,9 @@ def _lowpass_design(fps: float, cutoff_hz: float, order: int) -> tuple[np.ndarra
     """(second-order sections of one pass, ``sosfiltfilt``'s default ``padlen``), after the
     argument checks of :func:`butterworth_lowpass`."""
     fps = validate_fps(fps, "fps")
+    if isinstance(cutoff_hz, (bool, np.bool_)) or not isinstance(cutoff_hz, (int, float, np.integer, np.floating)):
+        raise InputError(f"cutoff_hz: expected a number of Hz in (0, fps/2) = (0, {fps / 2:g}), got "
+                         f"{type(cutoff_hz).__name__} {cutoff_hz!r}"[:300])
     if not 0 < cutoff_hz < fps / 2:
         raise InputError(
             f"cutoff_hz must lie in (0, fps/2) = (0, {fps / 2:g}) Hz (Nyquist), got {cutoff_hz!r}"
@@ -412,7 +415,8 @@ ANGLE_NAMES: tuple[str, ...] = (
 )
 
 
-def joint_angles(canonical: np.ndarray, heading_free: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+def joint_angles(canonical: np.ndarray, heading_free: dict[str, np.ndarray] | None = None,
+                 check_up: bool = True) -> dict[str, np.ndarray]:
     """Segment inclinations (plane projections of a segment against gravity) and the
     unsigned knee and elbow flexion of canonical poses, in degrees. Named for what they
     are, not as clinical joint angles: those, with ISB conventions, are
@@ -456,14 +460,19 @@ def joint_angles(canonical: np.ndarray, heading_free: dict[str, np.ndarray] | No
         heading_free: :func:`heading_free_angles` already taken from the same poses in another
             Y-up frame (they do not depend on the heading, and need no hip line), used
             instead of computing them from ``canonical``.
+        check_up: refuse poses whose trunk points down in most frames (:func:`require_y_up`:
+            camera-frame poses, +Y down); False for a body inverted for most of the recording.
 
     Returns:
         dict ``name -> (T,)`` float64 degrees, keys in :data:`ANGLE_NAMES` order.
 
     Raises:
         ValueError: wrong shape, or ``heading_free`` arrays not ``(T,)`` like the poses.
+        InputError (a ValueError): with ``check_up``, poses that are not Y-up.
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
+    if check_up:
+        require_y_up(X, "canonical")
     if heading_free is not None:
         wrong = {k: np.shape(v) for k, v in heading_free.items() if np.shape(v) != (len(X),)}
         if wrong:
@@ -856,8 +865,9 @@ def filtered_derivatives(
 def _angles(pos: np.ndarray, fps: float, continuous: bool = True) -> dict[str, np.ndarray]:
     """Every angle of :attr:`Kinematics.angles` from filtered Y-up positions at ``fps``."""
     # the heading-free angles from the poses themselves: a body on its side has no heading
-    out = {**joint_angles(pelvis_heading_frame(pos), heading_free_angles(pos)),
-           **{k.removesuffix("_deg"): v for k, v in isb_joint_angles(pos).items()}}
+    # checked once for the whole recording by compute_kinematics (or not, check_up=False)
+    out = {**joint_angles(pelvis_heading_frame(pos), heading_free_angles(pos), check_up=False),
+           **{k.removesuffix("_deg"): v for k, v in isb_joint_angles(pos, check_up=False).items()}}
     return continuous_angles(out, fps=fps) if continuous else out
 
 

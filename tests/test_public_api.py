@@ -279,3 +279,35 @@ def test_the_rectify_array_example_runs_and_prints_the_pose_checks():
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, check=True).stdout
     assert out.startswith("X3D.npy: 301 frames, 301 valid\n") and "camera pitch" in out
     assert "WARNING  lifter's legs differ" in out
+
+
+def test_library_calls_refuse_what_would_be_silently_wrong_in_one_line():
+    """A developer trial of the Python API: pose_checks took the poses of another call and a
+    list without a word, joint_angles and isb_joint_angles took camera-frame poses (+Y down)
+    and read the trunk at 174 deg, a cutoff given as a string and a ragged list failed with
+    Python's own TypeError / numpy's ValueError."""
+    from pcnet.pipeline import InputError, pose_checks, rectify
+    from pcnet.stages.isb_angles import isb_joint_angles
+    from pcnet.stages.kinematics import butterworth_lowpass, compute_kinematics, joint_angles
+
+    J = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:40]
+    res = rectify(J, mode="sequence", fps=30.0)
+    with pytest.raises(InputError, match="expected the 40 frames rectify was given, got 10"):
+        pose_checks(J[:10], res)
+    with pytest.raises(InputError, match=r"joints_camera: expected shape \(N, 17, 3\)"):
+        pose_checks(J[:, :16], res)
+    assert pose_checks(J.tolist(), res) == pose_checks(J, res)
+    single = J[0]
+    assert isinstance(pose_checks(single, rectify(single)), list)  # one pose is one frame, as rectify reads it
+    for angles in (joint_angles, isb_joint_angles):
+        with pytest.raises(InputError, match="expected Y-up poses"):
+            angles(J)  # camera frame: the trunk points down
+        assert angles(J, check_up=False)  # a body inverted on purpose
+        upright = angles(res.canonical)["trunk_inclination" if angles is joint_angles else "trunk_flexion_to_gravity_deg"]
+        assert abs(np.nanmedian(upright)) < 45  # a standing body, not the 180 deg of the camera frame
+    for call in (lambda: compute_kinematics(res.canonical, 30.0, cutoff_hz="6", units="m"),
+                 lambda: butterworth_lowpass(np.zeros((50, 3)), 30.0, cutoff_hz="6")):
+        with pytest.raises(InputError, match="cutoff_hz: expected a number of Hz in"):
+            call()
+    with pytest.raises(InputError, match="nested sequence of unequal lengths"):
+        rectify([[[0.0, 0.0, 0.0]] * 17, [[0.0, 0.0]] * 17])

@@ -191,7 +191,10 @@ def _unmasked(joints) -> np.ndarray:
     if np.ma.isMaskedArray(joints) and (np.issubdtype(joints.dtype, np.floating)
                                         or np.issubdtype(joints.dtype, np.integer)):  # complex, bool: refused later
         return np.ma.filled(joints.astype(np.float64), np.nan)
-    return np.asarray(joints)
+    try:
+        return np.asarray(joints)
+    except ValueError as err:  # a ragged nested list: numpy's own message names no shape
+        raise InputError(f"poses: expected (N, 17, 3) joints, got a nested sequence of unequal lengths ({err})") from None
 
 
 def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -> np.ndarray:
