@@ -228,9 +228,13 @@ def up_uncertainty(report: RectificationReport) -> str | None:
     if seq is not None:
         if not (np.isfinite(seq.camera_pitch_interval_deg) and np.isfinite(seq.camera_roll_interval_deg)):
             return None
+        # An error along a unit mix of the two axes (the subject's sagittal or frontal plane
+        # at any heading) has a 95 % half-width no larger than the larger axis's.
+        widest = max(seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg)
         return (f"uncertain by +-{seq.camera_pitch_interval_deg:.1f} deg in the camera's pitch and "
-                f"+-{seq.camera_roll_interval_deg:.1f} deg in its roll (the summary's interval), an error these angles "
-                f"carry on top of the lifter's own (docs/guide/limits.md)")
+                f"+-{seq.camera_roll_interval_deg:.1f} deg in its roll (the summary's interval), so by at most "
+                f"+-{widest:.1f} deg in the subject's sagittal or frontal plane at any heading, an error these angles "
+                f"carry on top of the lifter's own and of a lean held for the whole recording (docs/guide/limits.md)")
     if np.isfinite(report.frame_tilt_bound_deg).any():
         return ("uncertain per frame by canonical.npz's frame_tilt_bound_deg, an error these angles carry on top of "
                 "the lifter's own (docs/guide/limits.md)")
