@@ -35,11 +35,12 @@ from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError, close_names
 
 from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, pcnet_version, read_batch_marker,
-                           record_status, settings_change)
+                           record_status, renamed_inputs, settings_change)
 from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS, cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, RunConfig
 from .interrupt import EXIT_INTERRUPTED
-from .outdir import check_out_folder, clean_stale, foreign_entries, is_within
+from .io import close_file
+from .outdir import check_out_folder, clean_stale, foreign_entries, is_within, read_marker
 
 ENGINES = ("local", "ray")
 STATUSES = ("ok", "skipped", "failed", "cancelled")
@@ -310,6 +311,8 @@ class PlannedRow:
     known: dict = field(default_factory=dict)
     #: Why a row runs again over its own earlier output (no --overwrite), for its messages.
     rerun: str = ""
+    #: The manifest that wrote the earlier output this row would run again over, where another.
+    written_by: str = ""
 
     @property
     def out(self) -> Path:
@@ -479,8 +482,9 @@ def _input_problems(where: str, row: dict, inputs: dict[str, str], paths: _PathF
         kind = paths.kind(path)
         if kind != "file":
             found = "a folder" if kind == "folder" else "no such file"
+            near = "" if kind == "folder" else close_file(Path(path))
             problems.append(f"{where}: column {column}: expected an existing file, got "
-                            f"{(row.get(column) or '').strip()!r} ({found}: {path})")
+                            f"{(row.get(column) or '').strip()!r} ({found}: {path}){near}")
     return problems
 
 
@@ -630,19 +634,26 @@ def read_previous_summary(path: Path) -> dict[str, dict]:
     return {str(Path(r["out"]).resolve()): r for r in data["rows"] if isinstance(r, dict) and r.get("out")}
 
 
-def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] | None, paths: _PathFacts) -> None:
+def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] | None, paths: _PathFacts,
+            manifest: Path) -> None:
     """Set ``item.action``: skip a row whose output is complete and current (or, with
     ``--retry-failed``, that succeeded last time with the row's settings: its inputs are not
     read); re-run a row over its own previous
-    batch output (``overwrite``, which still refuses files pcnet did not write)."""
+    batch output (``overwrite``, which still refuses files pcnet did not write), noting in
+    ``item.written_by`` another manifest's output, which only ``--overwrite`` replaces."""
     if previous is not None:
         before = previous.get(str(paths.resolve(item.config["out"])))
         if before is not None and before.get("status") in DONE and item.out.is_dir():
             record = read_batch_marker(item.out)
             changed = settings_change(record, item.config) if record else ""  # cheap: no input is read
+            if record and not changed and renamed_inputs(record, item.config):
+                # another file named (a trial swapped two rows' recordings and got the old numbers):
+                # its bytes decide, as a plain run's check does; a moved study folder still matches
+                changed = record_status(item.out, item.config)[1]
             if changed:  # not the manifest's row any more (a user trial: it was called complete)
                 item.config["overwrite"] = True
                 item.rerun = changed
+                item.written_by = _other_manifest(record, manifest)
                 return
             item.action = "skip"
             # with how it ran (a trial: a no-op re-run lost every row's timing)
@@ -665,11 +676,27 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
     elif read_batch_marker(item.out):
         item.config["overwrite"] = True  # our own earlier output of changed inputs or settings
         item.rerun = why
+        item.written_by = _other_manifest(read_batch_marker(item.out), manifest)
+
+
+def _other_manifest(record: dict, manifest: Path) -> str:
+    """The manifest that wrote a batch record, where it is another than ``manifest`` (by
+    resolved path; ``""`` for this one, or a record from before manifests were recorded)."""
+    wrote = record.get("manifest")
+    if not isinstance(wrote, str) or not wrote:
+        return ""
+    return "" if Path(wrote) == Path(manifest).resolve() else wrote
 
 
 def _out_folder_problem(manifest: Path, item: PlannedRow, paths: _PathFacts) -> str | None:
     """What :func:`~pcnet.pipeline.outdir.check_out_folder` (the rule ``pcnet run`` applies)
-    refuses about a row that will run, as a manifest line, or None."""
+    refuses about a row that will run, as a manifest line, or None; and another manifest's
+    earlier output, which a changed row runs again over only with ``--overwrite`` (a user trial's
+    second manifest replaced the first's result unasked)."""
+    if item.written_by:
+        return (f"{manifest}: line {item.line}: column out: expected this manifest's own earlier output to run "
+                f"this row again ({item.rerun}), got the output of another manifest's row ({item.written_by}); "
+                f"pass --overwrite to replace it, or choose another out")
     try:
         check_out_folder(item.config["out"], input_files(item.config).values(), item.config["overwrite"],
                          resolve=paths.resolve)
@@ -781,7 +808,7 @@ def _plan(manifest: Path, options: BatchOptions) -> tuple[list[PlannedRow], Path
     for item in planned:
         if item.line in problems:
             continue
-        _decide(item, options, previous, paths)
+        _decide(item, options, previous, paths, manifest)
         problem = _out_folder_problem(manifest, item, paths) if item.action == "run" else None
         if problem:
             problems[item.line] = problem
@@ -811,7 +838,8 @@ def _engine(options: BatchOptions, on_result, on_retry):
 def _row_summary(item: PlannedRow, result: dict | None, status: str | None = None) -> dict:
     """A row of the summary: the engine's result, or a skipped / cancelled / pending row."""
     base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": None, "valid": None,
-            "mode": "", "camera_tilt_deg": None, "posture": None, "seconds": None, "error": "", "warnings": [],
+            "mode": "", "units": None, "camera_tilt_deg": None, "posture": None, "seconds": None, "error": "",
+            "warnings": [],
             "host": "", "pid": None, "attempts": 0, "threads": None, "opensim_rms_cm": None}
     if item.action == "skip":
         base.update(status="skipped", **{k: v for k, v in item.known.items() if v is not None})
@@ -860,7 +888,8 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
     planned, summary_path = plan_batch(manifest, options)
     by_row = {item.row: item for item in planned}
     results: dict[int, dict] = {}
-    jobs = [{"row": item.row, "config": item.config} for item in planned if item.action == "run"]
+    jobs = [{"row": item.row, "config": item.config, "manifest": str(Path(manifest).resolve())}
+            for item in planned if item.action == "run"]
     header = _summary_header(manifest, options, len(jobs))
     writer = _SummaryWriter(summary_path, header)
     restarts: list[str] = []
@@ -989,11 +1018,18 @@ def _counts_line(report: BatchReport) -> str:
     counts = report.counts()
     done = counts["ok"] + counts["skipped"]
     # skipped rows ran in an earlier batch: their outputs are complete, but not processed now
-    return (f"{done} of {len(report.rows)} recordings have complete outputs "
+    line = (f"{done} of {len(report.rows)} recordings have complete outputs "
             f"({', '.join(f'{v} {k}' for k, v in counts.items())}) in {report.seconds:.1f} s")
+    # a cancelled row leaves its folder as it was: an earlier complete output there is still whole
+    # (a user trial's Ctrl-C under --overwrite read "0 of 13" with every earlier output intact)
+    kept = sum(r["status"] == "cancelled" and read_marker(Path(r["out"])).get("state") == "complete"
+               for r in report.rows)
+    return line + (f"; {kept} cancelled row{'s' * (kept != 1)} still hold{'s' * (kept == 1)} an earlier complete "
+                   f"output, not this run's" if kept else "")
 
 
-_INTERRUPTED = "interrupted: no further row started; cancelled rows left their output folders as they were"
+_INTERRUPTED = ("interrupted: no further row started; cancelled rows left their output folders as they were; the "
+                "same command runs them")
 
 
 def _lines(items: list[str], what: str, details: str) -> list[str]:
@@ -1086,8 +1122,9 @@ def format_summary(report: BatchReport) -> str:
     are. Every row in full: the report."""
     details = str(report.report_path or report.summary_path)
     lines = [_counts_line(report)] + ([_INTERRUPTED] if report.interrupted else [])
-    lines += _lines([f"FAILED   line {r['line']}: {r['error']}" for r in report.rows if r["status"] == "failed"],
-                    "failed rows", details)
+    failed = [f"FAILED   line {r['line']}: {r['error']}" for r in report.rows if r["status"] == "failed"]
+    lines += _lines(failed, "failed rows", details)
+    lines += ["once fixed, --retry-failed runs the failed and cancelled rows alone"] * bool(failed)
     lines += _lines(_grouped_findings(report), "warnings", details)
     opensim, outputs, units = _opensim_line(report.rows), _outputs_line(report.rows), _units_line(report.rows)
     lines += [f"{'units':<17} {units}"] * bool(units)

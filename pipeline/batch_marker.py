@@ -71,7 +71,7 @@ def input_hashes(config: dict) -> dict[str, dict]:
     return {name: {"path": path, "sha256": sha256_file(path)} for name, path in input_files(config).items()}
 
 
-def write_batch_marker(folder: Path, config: dict, inputs: dict[str, dict], result: dict) -> Path:
+def write_batch_marker(folder: Path, config: dict, inputs: dict[str, dict], result: dict, manifest: str = "") -> Path:
     """Write ``folder/.pcnet_batch.json`` (atomically), ``folder`` being the row's staged
     output (``run_pipeline``'s ``before_publish``): its ``.pcnet-output`` marker then lists it
     when the folder is completed, so that ``--overwrite`` sees a folder holding only pcnet's
@@ -79,12 +79,14 @@ def write_batch_marker(folder: Path, config: dict, inputs: dict[str, dict], resu
 
     ``inputs`` are the hashes taken before the row ran (what the run read), ``result`` the
     row's frames, valid frames, mode, warnings and their findings (shown again when a re-run
-    skips the row).
+    skips the row), ``manifest`` the resolved path of the manifest whose row it is (a re-run of
+    another manifest's row over it needs ``--overwrite``).
     """
     record = {
         "writer": "pcnet batch", "pcnet_version": pcnet_version(), "settings": settings_of(config),
         "inputs": inputs, "result": {k: result.get(k) for k in (*RESULT_FIELDS, *RUN_FIELDS, FINDINGS)},
         "host": socket.gethostname(), "pid": os.getpid(), "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "manifest": manifest,
     }
     return write_text(folder / BATCH_MARKER, json.dumps(record, indent=1) + "\n")
 
@@ -120,6 +122,16 @@ def settings_change(record: dict, config: dict) -> str:
     return f"setting{'s' * (len(differ) > 1)} {', '.join(differ[:3])}{more} changed {_SINCE}"
 
 
+def renamed_inputs(record: dict, config: dict) -> list[str]:
+    """The input fields whose file a row names by another resolved path than its batch record
+    read (no input is read; a field added or dropped counts)."""
+    recorded = record.get("inputs") if isinstance(record.get("inputs"), dict) else {}
+    files = input_files(config)
+    return sorted(name for name in set(recorded) | set(files)
+                  if not isinstance(recorded.get(name), dict) or name not in files
+                  or Path(str(recorded[name].get("path", ""))).resolve() != Path(files[name]).resolve())
+
+
 def record_status(out: Path, config: dict) -> tuple[dict | None, str]:
     """``(marker, "")`` when ``out`` holds a complete output of exactly this row (every file
     pcnet wrote there still present; same settings, same pcnet version, the same input files by
@@ -137,8 +149,9 @@ def record_status(out: Path, config: dict) -> tuple[dict | None, str]:
     if record.get("pcnet_version") != pcnet_version():
         return None, f"pcnet {record.get('pcnet_version', 'unknown')} -> {pcnet_version()} {_SINCE}"
     changed_settings = settings_change(record, config)
-    if changed_settings:
-        return None, changed_settings
+    if changed_settings:  # the inputs named anew too, by path (their bytes are not read: it runs anyway)
+        moved = renamed_inputs(record, config)
+        return None, changed_settings + (f"; it names another {', '.join(moved)}" if moved else "")
     recorded, files = record.get("inputs"), input_files(config)
     if not isinstance(recorded, dict) or not all(isinstance(v, dict) for v in recorded.values()):
         return None, "its earlier output's inputs are unreadable"

@@ -123,7 +123,8 @@ def execute_row(job: dict) -> dict:
     :data:`FINDINGS`, its warnings' short lines).
 
     ``job``: ``row`` (1-based), ``config`` (``dataclasses.asdict`` of the row's
-    :class:`~pcnet.pipeline.config.RunConfig`, absolute paths), ``attempt``.
+    :class:`~pcnet.pipeline.config.RunConfig`, absolute paths), ``attempt``, ``manifest`` (its
+    resolved path, recorded in the output's batch marker).
 
     Never raises for a failing row (bad input, a bug): the error is the result, with its
     traceback for unexpected exceptions. ``KeyboardInterrupt`` (the engine stopping the
@@ -157,7 +158,7 @@ def execute_row(job: dict) -> dict:
                           warnings=list(run.flags),
                           opensim_rms_cm=_opensim_rms_cm(staged, run.outputs), **{FINDINGS: finding_records(run.findings)})
             result["seconds"] = round(time.perf_counter() - started, 3)  # the run, without the publishing
-            write_batch_marker(staged, config, inputs, result)
+            write_batch_marker(staged, config, inputs, result, job.get("manifest", ""))
 
         run_pipeline(RunConfig(**config), progress=False, before_publish=with_marker)
         result["status"] = "ok"

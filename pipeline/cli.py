@@ -51,7 +51,9 @@ def _existing(ctx: click.Context, param: click.Parameter, value: str | None) -> 
     to pass --fps for a file that did not exist). A link that leads nowhere or loops is left to
     the readers, which say which."""
     if value is not None and not os.path.lexists(value):
-        raise click.BadParameter(f"Path '{value}' does not exist.", ctx=ctx, param=param)
+        from pcnet.pipeline.io import close_file
+
+        raise click.BadParameter(f"Path '{value}' does not exist{close_file(Path(value))}.", ctx=ctx, param=param)
     return value
 
 

@@ -3,6 +3,8 @@ as ``pcnet run`` takes it."""
 
 from __future__ import annotations
 
+import difflib
+import os
 from pathlib import Path
 from typing import NamedTuple
 
@@ -92,3 +94,23 @@ def lifter_joints(poses: Poses3D, source: str, in_place: bool = False) -> np.nda
     """
     joints = poses.joints if poses.layout == "h36m17" else remap_to_h36m(poses.joints, poses.layout)
     return validate_poses(joints, source, poses.units, in_place=in_place and joints is poses.joints)
+
+
+#: Files of a folder read to suggest a close name for a missing one (a folder of more is not listed).
+CLOSE_FILE_LISTING = 10_000
+
+
+def close_file(path: Path) -> str:
+    """``"; a close name there: X"`` for the file of ``path``'s folder whose name is closest to
+    its name (difflib's ratio >= 0.8, a typo's distance), ``""`` when none is or the folder is
+    unreadable or too large to list (a batch trial's misspelt recording got no suggestion while
+    a misspelt column did)."""
+    try:
+        with os.scandir(path.parent) as entries:
+            names = [e.name for _, e in zip(range(CLOSE_FILE_LISTING + 1), entries) if e.is_file()]
+    except OSError:
+        return ""
+    if len(names) > CLOSE_FILE_LISTING:
+        return ""
+    match = difflib.get_close_matches(path.name, names, n=1, cutoff=0.8)
+    return f"; a close name there: {match[0]}" if match else ""

@@ -117,8 +117,9 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
         shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
         rule = ("--overwrite replaces only a previous pcnet output" if overwrite else
                 "expected a new folder (or, with --overwrite, a previous pcnet output)")
+        fix = "move those files out of it to replace it, or choose another --out" if overwrite else "choose another --out"
         raise InputError(f"--out {given}: {rule}, got a folder holding files pcnet did not write or that changed "
-                         f"since ({shown}); choose another --out")
+                         f"since ({shown}); {fix}")
     if not overwrite:
         empty = not any(target.iterdir())
         raise FileExistsError(f"{given}: output folder exists{' (empty)' if empty else ''}; choose another --out or "

@@ -373,7 +373,8 @@ def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -
     off = 100 * min(p95 / p50 - 1, 1 - p5 / p50)  # both tails, so a tenth of the frames
     return [_found(Kind.SIZE_CHANGE, Severity.PROBLEM,
                    f"skeleton size changes {p95 / p5:.1f}-fold; a tenth of the frames off by > {off:.0f} %",
-                   "check the lifter, or its units (--units with --lifter generic)",
+                   "check the lifter's output; output in image units is read with --units px or normalised with "
+                   "--lifter generic",
                    f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of "
                    f"the ankle-to-head chain; a body keeps its size): the lifter fails, or its output is in image "
                    f"units (declare them: --units normalised or px with --lifter generic, and pcnet makes the size "

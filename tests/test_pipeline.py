@@ -1297,6 +1297,9 @@ def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(t
     # a missing file is named before the frame rate it would not have recorded (a user trial)
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "absent.npy", "--out", tmp_path / "o")
     assert res.exit_code == 1 and f"'--lifter-output': Path '{tmp_path / 'absent.npy'}' does not exist" in res.output
+    # a misspelt name gets the close one beside it (a batch trial's typo got no suggestion)
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", FIXTURES / "boxing_X3D_f000-058.npy")
+    assert res.exit_code == 1 and "does not exist; a close name there: boxing_X3D_f000-059.npy" in res.output
 
 
 def test_pcnet_rectify_says_what_the_poses_alone_show(tmp_path):
