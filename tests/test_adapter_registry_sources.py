@@ -137,22 +137,13 @@ def test_an_installed_packages_adapter_plugin_reaches_pcnet_run(tmp_path):
     refused the name. An installed package declares its adapter module in the `pcnet.adapters`
     entry point group (a dist-info on the path, as pip leaves it); a broken one is named in a
     warning and left out, and pcnet still starts."""
-    import subprocess
-    import sys
-
-    (tmp_path / "my_plugin.py").write_text(
-        "from pcnet.adapters import register_3d\n"
-        "@register_3d('plugged_lifter', records_fps=False)\n"
-        "class Plugged:\n"
-        "    def load(self, path):\n"
-        "        raise NotImplementedError\n")
-    info = tmp_path / "my_plugin-0.1.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: my-plugin\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text("[pcnet.adapters]\nplugged = my_plugin\nbroken = no_such_module\n")
-    env = {**__import__("os").environ, "PYTHONPATH": str(tmp_path)}
-    res = subprocess.run([sys.executable, "-c", "from pcnet.pipeline.entry import main; main()", "run", "--help"],
-                         capture_output=True, text=True, env=env, timeout=120)
+    source = ("from pcnet.adapters import register_3d\n"
+              "@register_3d('plugged_lifter', records_fps=False)\n"
+              "class Plugged:\n"
+              "    def load(self, path):\n"
+              "        raise NotImplementedError\n")
+    res = _pcnet_with_plugin(tmp_path, "my_plugin", "0.1", source, "plugged = my_plugin\nbroken = no_such_module\n",
+                             "run", "--help")
     assert res.returncode == 0, res.stderr
     assert "plugged_lifter" in res.stdout
     assert "adapter plugin 'broken' (no_such_module) not loaded: ModuleNotFoundError" in res.stderr
@@ -165,30 +156,37 @@ def test_an_adapters_own_error_names_the_adapter_and_its_package(tmp_path):
     """A developer trial's adapter returned ``Poses3D(units="cm")``: the ValueError's
     traceback named neither the adapter nor the file. It stays a bug report (traceback, not
     bad input) and its last line names the adapter's class, its package and the file."""
-    import subprocess
-    import sys
-
-    (tmp_path / "cm_plugin.py").write_text(
-        "import numpy as np\n"
-        "from pcnet.adapters import Poses3D, register_3d\n"
-        "@register_3d('cm_lifter', records_fps=False)\n"
-        "class CentimetreLifter:\n"
-        "    def load(self, path):\n"
-        "        return Poses3D(np.zeros((4, 17, 3), np.float32), 'h36m17', units='cm', source=str(path))\n")
-    info = tmp_path / "cm_plugin-0.3.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: cm-plugin\nVersion: 0.3\n")
-    (info / "RECORD").write_text("cm_plugin.py,,\n")
-    (info / "top_level.txt").write_text("cm_plugin\n")
-    (info / "entry_points.txt").write_text("[pcnet.adapters]\ncm = cm_plugin\n")
+    source = ("import numpy as np\n"
+              "from pcnet.adapters import Poses3D, register_3d\n"
+              "@register_3d('cm_lifter', records_fps=False)\n"
+              "class CentimetreLifter:\n"
+              "    def load(self, path):\n"
+              "        return Poses3D(np.zeros((4, 17, 3), np.float32), 'h36m17', units='cm', source=str(path))\n")
     data = tmp_path / "poses.npy"
     data.write_bytes(b"")
-    env = {**__import__("os").environ, "PYTHONPATH": str(tmp_path)}
-    res = subprocess.run([sys.executable, "-c", "from pcnet.pipeline.entry import main; main()", "run", "--lifter",
-                          "cm_lifter", "--lifter-output", str(data), "--fps", "30", "--out", str(tmp_path / "o")],
-                         capture_output=True, text=True, env=env, timeout=120)
+    res = _pcnet_with_plugin(tmp_path, "cm_plugin", "0.3", source, "cm = cm_plugin\n", "run", "--lifter", "cm_lifter",
+                             "--lifter-output", str(data), "--fps", "30", "--out", str(tmp_path / "o"))
     assert res.returncode == 1, res.stderr
     assert "Traceback" in res.stderr and "units must be one of" in res.stderr
     assert (f"pcnet: raised by the adapter cm_plugin.CentimetreLifter (package cm-plugin 0.3) reading {data}: "
             "a bug in that adapter") in res.stderr.splitlines()[-1]
     assert not (tmp_path / "o").exists()
+
+
+def _pcnet_with_plugin(folder, module: str, version: str, source: str, entry_points: str, *args):
+    """``pcnet *args`` in a fresh process with ``module`` (``source``) installed as the plugin
+    distribution ``module`` (dashes for underscores) ``version`` declaring ``entry_points`` in the
+    ``pcnet.adapters`` group: a dist-info on the path, as pip leaves it."""
+    import os
+    import subprocess
+    import sys
+
+    (folder / f"{module}.py").write_text(source)
+    info = folder / f"{module}-{version}.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {module.replace('_', '-')}\nVersion: {version}\n")
+    (info / "RECORD").write_text(f"{module}.py,,\n")
+    (info / "top_level.txt").write_text(f"{module}\n")
+    (info / "entry_points.txt").write_text(f"[pcnet.adapters]\n{entry_points}")
+    return subprocess.run([sys.executable, "-c", "from pcnet.pipeline.entry import main; main()", *args],
+                          capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(folder)}, timeout=120)
