@@ -55,7 +55,7 @@ from .core.canonical import canonical_rotation
 from .isb_angles import MAX_KNEE_HYPEREXTENSION_DEG, isb_joint_angles
 from .core.rotations import angle_between
 from .core.errors import InputError
-from .core.framestore import true_runs
+from .core.framestore import freeze_arrays, true_runs
 
 # ---------------------------------------------------------------------------------------
 # contiguous finite runs
@@ -759,7 +759,7 @@ def continuous_angles(angles: Mapping[str, np.ndarray],
 @dataclass(frozen=True, eq=False)
 class Kinematics:
     """Filtered canonical positions and their derivatives and angles, with per-joint flags
-    saying which positions are missing or raw.
+    saying which positions are missing or raw; its arrays are read-only.
 
     Attributes:
         positions: ``(T, 17, 3)`` float64 filtered canonical positions, ``units``; raw
@@ -800,6 +800,9 @@ class Kinematics:
     velocity_units: str
     acceleration_units: str
     joint_names: tuple[str, ...] = field(default=H36M_JOINTS)
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
 
     @property
     def num_frames(self) -> int:

@@ -26,7 +26,7 @@ import numpy as np
 from .core.canonical import to_canonical
 from .core.conventions import check_poses
 from .core.errors import InputError
-from .core.framestore import frame_blocks, in_memory
+from .core.framestore import frame_blocks, freeze_arrays, in_memory
 from .core.geometric import geometric_rotation
 from .ground_plane import posture_and_floor_up
 from .core.rotations import angle_between, camera_pitch_roll, normalize
@@ -74,6 +74,7 @@ class Rectified:
     few mm off the origin; docs/outputs.md); up ``(T, 3)`` unit up direction in the camera
     frame (``rotation[:, :, 1]``); valid ``(T,)``; method name; report: what was decided and
     why (:class:`~pcnet.stages.rectification_report.RectificationReport`). Invalid frames are NaN.
+    Its in-memory arrays are read-only (a long recording's on disk are the store's).
     """
 
     rotation: np.ndarray
@@ -82,6 +83,9 @@ class Rectified:
     valid: np.ndarray
     method: str
     report: RectificationReport
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
 
     @property
     def mode(self) -> str:

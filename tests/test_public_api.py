@@ -311,3 +311,8 @@ def test_library_calls_refuse_what_would_be_silently_wrong_in_one_line():
             call()
     with pytest.raises(InputError, match="nested sequence of unequal lengths"):
         rectify([[[0.0, 0.0, 0.0]] * 17, [[0.0, 0.0]] * 17])
+    # the frozen results are frozen: their arrays too (the trial wrote into both unwarned)
+    kin = compute_kinematics(res.canonical, 30.0, units="m")
+    for array in (res.canonical, res.rotation, res.valid, kin.positions, kin.speed, kin.missing):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 0

@@ -19,6 +19,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Iterator
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -165,6 +166,16 @@ def in_memory(name: str, shape: tuple, dtype) -> np.ndarray:
     """:meth:`FrameStore.create`'s in-memory stand-in: a new NaN-filled array (``name``
     unused), what a short recording or an API call without a store gets."""
     return np.full(shape, np.nan, dtype)
+
+
+def freeze_arrays(result: object) -> None:
+    """Make every in-memory array field of a frozen dataclass ``result`` read-only, so that the
+    result is frozen as its class says (a developer trial wrote into a ``Kinematics``' positions);
+    a :class:`FrameArray` on disk is left as it is."""
+    for f in fields(result):
+        value = getattr(result, f.name)
+        if type(value) is np.ndarray:
+            value.setflags(write=False)
 
 
 def frame_blocks(n: int, size: int | None = None) -> Iterator[slice]:
