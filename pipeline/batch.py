@@ -653,7 +653,7 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
             if changed:  # not the manifest's row any more (a user trial: it was called complete)
                 item.config["overwrite"] = True
                 item.rerun = changed
-                item.written_by = _other_manifest(record, manifest)
+                item.written_by = _other_manifest(record, item.out, manifest)
                 return
             item.action = "skip"
             # with how it ran (a trial: a no-op re-run lost every row's timing)
@@ -676,16 +676,24 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
     elif read_batch_marker(item.out):
         item.config["overwrite"] = True  # our own earlier output of changed inputs or settings
         item.rerun = why
-        item.written_by = _other_manifest(read_batch_marker(item.out), manifest)
+        item.written_by = _other_manifest(read_batch_marker(item.out), item.out, manifest)
 
 
-def _other_manifest(record: dict, manifest: Path) -> str:
-    """The manifest that wrote a batch record, where it is another than ``manifest`` (by
-    resolved path; ``""`` for this one, or a record from before manifests were recorded)."""
+def manifest_from(out: str | os.PathLike, manifest: str | os.PathLike) -> str:
+    """Where ``manifest`` lies as seen from the output folder ``out`` (a relative path): what an
+    output's batch record keeps of the manifest whose row made it, so that a study folder moved
+    or copied whole, manifest and outputs together, keeps it."""
+    return os.path.relpath(Path(manifest).resolve(), Path(out).resolve())
+
+
+def _other_manifest(record: dict, out: Path, manifest: Path) -> str:
+    """The manifest that wrote a batch record of ``out``, where it is another than ``manifest``
+    (:func:`manifest_from`; ``""`` for this one, or a record from before manifests were
+    recorded), as a path."""
     wrote = record.get("manifest")
-    if not isinstance(wrote, str) or not wrote:
+    if not isinstance(wrote, str) or not wrote or wrote == manifest_from(out, manifest):
         return ""
-    return "" if Path(wrote) == Path(manifest).resolve() else wrote
+    return os.path.normpath(Path(out).resolve() / wrote)
 
 
 def _out_folder_problem(manifest: Path, item: PlannedRow, paths: _PathFacts) -> str | None:
@@ -888,7 +896,7 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
     planned, summary_path = plan_batch(manifest, options)
     by_row = {item.row: item for item in planned}
     results: dict[int, dict] = {}
-    jobs = [{"row": item.row, "config": item.config, "manifest": str(Path(manifest).resolve())}
+    jobs = [{"row": item.row, "config": item.config, "manifest": manifest_from(item.out, manifest)}
             for item in planned if item.action == "run"]
     header = _summary_header(manifest, options, len(jobs))
     writer = _SummaryWriter(summary_path, header)

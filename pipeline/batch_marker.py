@@ -79,8 +79,9 @@ def write_batch_marker(folder: Path, config: dict, inputs: dict[str, dict], resu
 
     ``inputs`` are the hashes taken before the row ran (what the run read), ``result`` the
     row's frames, valid frames, mode, warnings and their findings (shown again when a re-run
-    skips the row), ``manifest`` the resolved path of the manifest whose row it is (a re-run of
-    another manifest's row over it needs ``--overwrite``).
+    skips the row), ``manifest`` where the manifest whose row it is lies, seen from the output
+    folder (:func:`pcnet.pipeline.batch.manifest_from`; a re-run of another manifest's row over it
+    needs ``--overwrite``).
     """
     record = {
         "writer": "pcnet batch", "pcnet_version": pcnet_version(), "settings": settings_of(config),

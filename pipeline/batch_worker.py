@@ -123,8 +123,8 @@ def execute_row(job: dict) -> dict:
     :data:`FINDINGS`, its warnings' short lines).
 
     ``job``: ``row`` (1-based), ``config`` (``dataclasses.asdict`` of the row's
-    :class:`~pcnet.pipeline.config.RunConfig`, absolute paths), ``attempt``, ``manifest`` (its
-    resolved path, recorded in the output's batch marker).
+    :class:`~pcnet.pipeline.config.RunConfig`, absolute paths), ``attempt``, ``manifest`` (where
+    it lies seen from the output folder, recorded in the output's batch marker).
 
     Never raises for a failing row (bad input, a bug): the error is the result, with its
     traceback for unexpected exceptions. ``KeyboardInterrupt`` (the engine stopping the
