@@ -1,7 +1,7 @@
 """The user documentation's pages as installed with the package (``pcnet docs``): the outputs
 and the run's report cite them as ``docs/<page>.md``, and a pip install has no repository
 folder to find them in (a user trial), so they ship as package data of ``pcnet.docs``
-(``pyproject.toml``): the top level, ``guide/`` and ``benchmarks/``."""
+(``pyproject.toml``): the top level, ``guide/``, ``benchmarks/`` and ``decisions/``."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 from pcnet.stages.core.errors import InputError, close_names
 
 #: The folders of the docs site shipped with the package (the pages the outputs cite).
-SHIPPED_FOLDERS = ("", "guide", "benchmarks")
+SHIPPED_FOLDERS = ("", "guide", "benchmarks", "decisions")
 
 
 def docs_folder() -> Path:
@@ -39,8 +39,8 @@ def pages() -> dict[str, Path]:
 
 def find_page(cited: str) -> tuple[str, Path]:
     """The shipped page ``cited`` names: as the outputs cite it (``docs/guide/limits.md``,
-    with or without a ``#section``), its name (``guide/limits``) or, where no other page has
-    it, its file's name alone (``limits``).
+    with or without a ``#section``), its name (``guide/limits``), where no other page has it its
+    file's name alone (``limits``), or a decision's number (``0090``, as "decision 0090" is cited).
 
     Returns:
         ``(name, file)``.
@@ -52,7 +52,8 @@ def find_page(cited: str) -> tuple[str, Path]:
     name = cited.split("#", 1)[0].strip().removeprefix("docs/").removesuffix(".md")
     if name in known:
         return name, known[name]
-    by_file = [n for n in known if n.rsplit("/", 1)[-1] == name]
+    by_file = [n for n in known if n.rsplit("/", 1)[-1] == name
+               or (name.isdigit() and n.startswith(f"decisions/{int(name):04d}-"))]
     if len(by_file) == 1:
         return by_file[0], known[by_file[0]]
     raise InputError(f"pcnet docs {cited}: expected one of the shipped pages (pcnet docs lists them), got no page "

@@ -45,6 +45,8 @@ def test_pcnet_docs_lists_the_pages_and_refuses_an_unknown_one_in_one_line():
     assert re.search(r"^guide/limits +Limits \(measured\)$", listed.output, re.M), listed.output
     assert len(pages()) == len([line for line in listed.output.splitlines() if line and not line.startswith("pcnet")])
     assert find_page("limits")[0] == "guide/limits"  # a file name no other page has
+    # a decision by its number, as the outputs cite them ("decision 0090"; an audit could not follow one)
+    assert find_page("0090")[0].startswith("decisions/0090-") and find_page("90") == find_page("0090")
     assert docs_folder().samefile(ROOT / "docs")  # this checkout's pages (an editable install)
     refused = runner.invoke(main, ["docs", "limts"])
     assert refused.exit_code == 1 and len(refused.output.strip().splitlines()) == 1
