@@ -1100,6 +1100,11 @@ def test_kinematics_columns_csv_describes_every_column_of_a_real_run(tmp_path):
     for name in ("trunk_inclination_deg", "right_thigh_sagittal_inclination_deg", "trunk_flexion_to_gravity_deg"):
         assert pitch in rows[name][3] and planes in rows[name][3], (name, rows[name][3])
     assert "the camera's pitch" not in rows["right_knee_flexion_deg"][3]
+    # a periodic angle may read beyond its window (a data-dictionary trial would have dropped a
+    # valid 285 deg as impossible); an angle that cannot wrap says nothing of it
+    assert "Continuous over time: each run of frames reads in (-180, 180]" in rows["left_shoulder_plane_of_elevation_deg"][3]
+    assert "reads in (-90, 270]" in rows["left_upper_arm_frontal_inclination_deg"][3]
+    assert "Continuous over time" not in rows["right_knee_flexion_deg"][3]
 
 
 @pytest.mark.slow

@@ -24,7 +24,7 @@ from ..core.atomic import atomic_path
 from ..core.conventions import H36M_JOINTS, L_WRIST, METRES_PER_LENGTH_UNIT, R_WRIST, thigh_beyond_metres, validate_fps
 from ..core.errors import InputError, import_extra
 from ..core.framestore import FrameArray, frame_blocks
-from ..kinematics import MIN_PROJECTED_FRACTION, Kinematics, require_y_up
+from ..kinematics import MIN_PROJECTED_FRACTION, PERIODIC_ANGLES, Kinematics, require_y_up
 from .plots import display_samples, marked_frames, marks_note, new_figure, save_png, shade_marks
 
 
@@ -179,6 +179,11 @@ UNDESCRIBED_ANGLE = "An angle in degrees; no definition recorded for it (docs/jo
 
 def _angle_row(name: str) -> tuple[str, str]:
     """``(frame, definition)`` of the angle column ``name`` (with ``_deg``)."""
+    frame, text = _angle_definition(name)
+    return frame, text + _continuous(name)
+
+
+def _angle_definition(name: str) -> tuple[str, str]:
     from ..isb_angles import DEFINITIONS, POSITIVE_SIGN
 
     if name in DEFINITIONS:
@@ -194,6 +199,17 @@ def _angle_row(name: str) -> tuple[str, str]:
         frame, text = _INCLINATIONS[bare]
         return frame, text + _in_plane_empty(bare)
     return "none", UNDESCRIBED_ANGLE
+
+
+def _continuous(name: str) -> str:
+    """What a periodic angle's values may be (:data:`pcnet.stages.kinematics.PERIODIC_ANGLES`):
+    continuous over time, so beyond its usual window where motion carries it there (a
+    data-dictionary trial would have filtered a valid 285 deg out as impossible)."""
+    level = PERIODIC_ANGLES.get(name.removesuffix("_deg"))
+    if level is None:
+        return ""
+    return (f" Continuous over time: each run of frames reads in ({level:g}, {level + 360:g}] at its median, "
+            f"and motion may carry it beyond (docs/joint_angles.md, Continuity in time).")
 
 
 def _in_plane_empty(name: str) -> str:

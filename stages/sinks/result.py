@@ -254,7 +254,7 @@ def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
         joint_names=np.array(H36M_JOINTS),
         keypoints2d=r.keypoints2d if r.keypoints2d is not None else np.zeros((0, 17, 3), np.float32),
         missing=r.missing, unfiltered=r.unfiltered, flag_counts=r.flag_counts,
-        flags=np.array(r.flags, dtype=str), notes=np.array(r.notes, dtype=str), track_segment=r.track_segment if r.track_segment is not None else np.zeros(0, int),
+        flags=np.array(r.flags, dtype=str), notes=np.array(r.notes, dtype=str), track_segment=_track_segment(r) if r.track_segment is not None else np.zeros(0),
         report=jsonable(r.report),
         camera_frame_weight=empty if r.rectification.camera_frame_weight is None else r.rectification.camera_frame_weight,
         frame_tilt_bound_deg=r.rectification.frame_tilt_bound_deg,
