@@ -3,6 +3,7 @@ with its one action; the full text in the output folder's report.md."""
 
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
@@ -228,6 +229,12 @@ def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
         flags, notes = list(npz["flags"]), list(npz["notes"])
     assert flags and notes and all(text in report for text in flags + notes)
     assert len(flags) == len(warnings) and report.count("\n### ") == len(flags)
+    # every number of the report is in its table, one not defined (JSON null) as n/a (a
+    # data-dictionary trial missed a null from the table that says it lists them all)
+    with np.load(tmp_path / "out" / "canonical.npz") as npz:
+        record = json.loads(npz["report"].item())
+    undefined = [k for k, v in record.items() if v is None]
+    assert undefined and all(f"| {k} | n/a |" in report for k in undefined), undefined
     run_pipeline(cfg, progress=False)  # the folder, report.md included, is pcnet's own: --overwrite replaces it
 
 

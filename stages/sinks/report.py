@@ -26,12 +26,16 @@ def _value(v) -> str:
 
 def _scalars(report: Mapping, prefix: str = "") -> list[tuple[str, str]]:
     """``(key, value)`` of the report's numbers, strings and booleans, nested dictionaries'
-    keys joined with dots; lists of up to 3 numbers as one row, longer ones left out."""
+    keys joined with dots; lists of up to 3 numbers as one row, longer ones left out; a value
+    that is not defined (``None``, the JSON's ``null``) as ``n/a``, as a NaN is (a
+    data-dictionary trial missed ``interval_reaches_other_posture_p`` from the table)."""
     rows = []
     for key, v in report.items():
         name = f"{prefix}{key}"
         if isinstance(v, Mapping):
             rows += _scalars(v, name + ".")
+        elif v is None:
+            rows.append((name, "n/a"))
         elif isinstance(v, (bool, int, float, str)) and not hasattr(v, "shape"):
             rows.append((name, _value(v)))
         elif isinstance(v, (list, tuple)) and len(v) <= 3 and all(isinstance(x, (int, float)) for x in v):
