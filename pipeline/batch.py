@@ -673,10 +673,10 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
     if record is not None:
         item.action = "skip"
         item.known = dict(record.get("result") or {})
-    elif read_batch_marker(item.out):
+    elif earlier := read_batch_marker(item.out):
         item.config["overwrite"] = True  # our own earlier output of changed inputs or settings
         item.rerun = why
-        item.written_by = _other_manifest(read_batch_marker(item.out), item.out, manifest)
+        item.written_by = _other_manifest(earlier, item.out, manifest)
 
 
 def manifest_from(out: str | os.PathLike, manifest: str | os.PathLike) -> str:

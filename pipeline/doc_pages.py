@@ -31,7 +31,8 @@ def docs_folder() -> Path:
 
 def pages() -> dict[str, Path]:
     """``{name: file}`` of the shipped pages, ``name`` as the docs site's path without
-    ``.md`` (``"joint_angles"``, ``"guide/limits"``), sorted."""
+    ``.md`` (``"joint_angles"``, ``"guide/limits"``): folder by folder in
+    :data:`SHIPPED_FOLDERS`' order, each sorted by name."""
     root = docs_folder()
     return {str(p.relative_to(root).with_suffix("")): p
             for folder in SHIPPED_FOLDERS for p in sorted((root / folder).glob("*.md"))}

@@ -67,8 +67,9 @@ class RecordingResult:
             ``None``; video: the video path or ``None``; video_keypoints2d: the same keypoints in
             the pixels the recording shows the video in (a phone video is shown as stored), or
             ``None`` for ``keypoints2d``; keypoint_picture: ``(width, height)`` of the picture
-            ``keypoints2d`` are in, or ``None`` where not known; video_first_frame: the stored frame that pose frame 0
-            shows (0 unless an MP4 edit list starts playback later); min_confidence: 2D threshold.
+            ``keypoints2d`` are in, or ``None`` where not known; video_first_frame: the stored
+            frame that pose frame 0 shows (0 unless an MP4 edit list starts playback later);
+            min_confidence: 2D threshold.
         wrist_acceleration_camera: ``(T, 2, 3)`` filtered camera-frame wrist accelerations.
         kinematics_blocks: iterable of :class:`pcnet.stages.kinematics.Kinematics` blocks in
             frame order, consumed once by :func:`write_kinematics_table`.
@@ -254,7 +255,8 @@ def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
         joint_names=np.array(H36M_JOINTS),
         keypoints2d=r.keypoints2d if r.keypoints2d is not None else np.zeros((0, 17, 3), np.float32),
         missing=r.missing, unfiltered=r.unfiltered, flag_counts=r.flag_counts,
-        flags=np.array(r.flags, dtype=str), notes=np.array(r.notes, dtype=str), track_segment=_track_segment(r) if r.track_segment is not None else np.zeros(0),
+        flags=np.array(r.flags, dtype=str), notes=np.array(r.notes, dtype=str),
+        track_segment=_track_segment(r) if r.track_segment is not None else np.zeros(0),
         report=jsonable(r.report),
         camera_frame_weight=empty if r.rectification.camera_frame_weight is None else r.rectification.camera_frame_weight,
         frame_tilt_bound_deg=r.rectification.frame_tilt_bound_deg,
