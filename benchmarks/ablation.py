@@ -676,6 +676,7 @@ class Variant:
     mode_constants: tuple[float, float, float] | None = None
     #: up model parameters overridden, ``((name, value), ...)``: a term of its likelihood switched off
     params: tuple[tuple[str, float], ...] = ()
+    ankle_lines: bool = False  # the up model also reads the ankle lines of the poses (decision 0096)
 
     def up_parameters(self):
         """The up model's parameters of this row: the shipped ones with :attr:`params` replaced."""
@@ -704,6 +705,7 @@ VARIANTS = (
     Variant("auto with hand-set constants (5 deg, 0.5 s, 0.2 s)", "alternative", auto=True,
             mode_constants=(5.0, 0.5, 0.2)),
     Variant("auto by Bayes factor", "alternative", auto=True, mode_rule="bayes"),
+    Variant("up model: ankle lines on (decision 0096)", "alternative", ankle_lines=True),
 )
 
 
@@ -779,7 +781,8 @@ def run_variant(ev: dict, v: Variant) -> dict:
         return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "posture": None}
     p = v.up_parameters()
     if v.lying:  # the chain's own sequence step
-        _, _, seq = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior, params=p)
+        _, _, seq = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior, params=p,
+                                      poses=ev["J"] if v.ankle_lines else None)
         pitch, roll = camera_pitch_roll(seq.up)
         return {**res, "up": np.where(ok[:, None], seq.up, np.nan), "mode": mode,
                 "posture": "upright" if seq.posture is None else seq.posture.most_probable,
@@ -1138,12 +1141,19 @@ def main(argv=None) -> int:
     ap.add_argument("--cache", type=Path, default=CACHE)
     ap.add_argument("--out", type=Path, default=RESULT)
     ap.add_argument("--skip", nargs="*", default=[], choices=("mocap", "floor", "real", "yoga", "equivariance"))
+    ap.add_argument("--rows", nargs="*", default=None, metavar="LABEL",
+                    help="only the default row and the rows whose label contains one of these (default: every row)")
     args = ap.parse_args(argv)
+    global VARIANTS
+    if args.rows is not None:
+        VARIANTS = tuple(v for v in VARIANTS if v.kind == "default" or v.label == AUTO  # the reproduction check's
+                         or any(r in v.label for r in args.rows))
     require_mocap(args.data, "ablation")
     t0 = time.time()
     lines = [__doc__.splitlines()[0], "",
              f"    python -m benchmarks.ablation --data ../shared/data --max-clips {args.max_clips}"
              + (f" --skip {' '.join(args.skip)}" if args.skip else "")
+             + (" --rows " + " ".join(repr(r) for r in args.rows) if args.rows is not None else "")
              + (f" --out {args.out.resolve().relative_to(RESULT.parents[2])}" if args.out.resolve() != RESULT.resolve()
                 and args.out.resolve().is_relative_to(RESULT.parents[2]) else ""), "",
              "Rows: the default chain of `pcnet run` (sequence mode, camera prior, lying posture), then one piece switched off "

@@ -70,7 +70,8 @@ import numpy as np
 from .core.conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE
 from .core.rotations import angle_between, normalize
 from .spherical import TUKEY_C, tukey_weights
-from .up_model import PoseSummary, StaticPosterior, UpModelParameters, default_parameters, static_posterior, tangent_basis
+from .up_model import (PoseSummary, StaticPosterior, UpModelParameters, default_parameters, frames_per_error,
+                       static_posterior, tangent_basis)
 
 _IRLS_STEPS = 20
 #: Grid points per tilt axis of the coarse search (a resolution of half a prior standard
@@ -399,6 +400,56 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, prior_cov: np.ndarray,
 
 
 @dataclass(frozen=True, eq=False)
+class AnkleLines:
+    """Both feet on the floor: the line between the ankles is level (decision 0096).
+
+    A frame whose feet both rest on a support surface has its two ankles at one height, since
+    both ankles stand the same height above their soles, so the line between them is
+    perpendicular to the up. This holds within a frame, whatever the pelvis path, so it needs
+    root-relative joints only, and in any posture whose feet rest on the floor (standing,
+    kneeling, a body lying with straight legs). Per frame ``t``, with ``d_t`` the left ankle
+    minus the right one in leg lengths ``L`` (camera frame), the height difference along a
+    candidate up ``g`` is ``delta_t = d_t . g``; it is Gaussian with scale ``sigma_c``
+    (``ankle_line_sd_leg``, the RMS of ``delta_t`` at the true up over every validation frame:
+    double stance, a foot in swing and lifter noise pooled). The frames share their errors as
+    the networks' do (``m = max(1, tau fps)`` frames per independent error, the up model's
+    ``tau``), and a held stance errs the same way throughout, so the sum enters at a learning
+    rate ``t_c`` (``ankle_line_power``, the largest validation log score of the true up on a
+    grid): the energy is the quadratic form
+
+        E_c(g) = t_c / (2 sigma_c^2 m) sum_t (d_t . g)^2 = g^T A g,
+
+    ``A`` ``(3, 3)`` :attr:`scatter`. Its minimiser over unit ``g`` is the normal of the plane
+    the ankle lines span. Both parameters: ``python -m benchmarks.fit_ankle_lines --data
+    ../shared/data``. Calling it with unit ups ``(N, 3)`` gives ``E_c`` ``(N,)``."""
+
+    scatter: np.ndarray
+    frames: int
+
+    def __call__(self, ups: np.ndarray) -> np.ndarray:
+        ups = np.asarray(ups, np.float64)
+        return np.einsum("...i,ij,...j->...", ups, self.scatter, ups)
+
+
+def ankle_lines(J, ok: np.ndarray, fps: float, p: UpModelParameters | None = None) -> AnkleLines | None:
+    """The :class:`AnkleLines` energy of poses ``J`` ``(T, 17, 3)`` (camera frame, any length
+    unit, root-relative or with a pelvis path) over the ``ok`` ``(T,)`` bool frames with both
+    legs, at ``fps`` frames per second; ``None`` where no frame has both legs or
+    ``ankle_line_power`` is 0 (switched off)."""
+    p = default_parameters() if p is None else p
+    if p.ankle_line_power == 0:
+        return None
+    legs = np.asarray(J[:, [R_HIP, R_KNEE, R_ANKLE, L_HIP, L_KNEE, L_ANKLE]], np.float64)
+    fin = np.asarray(ok, bool) & np.isfinite(legs).all((1, 2))
+    leg = leg_length(J, fin) if fin.any() else float("nan")
+    if not np.isfinite(leg) or leg <= 0:
+        return None
+    d = (_joint(J, L_ANKLE, fin) - _joint(J, R_ANKLE, fin)) / leg
+    rate = p.ankle_line_power / (2 * p.ankle_line_sd_leg ** 2 * frames_per_error(fps, p))
+    return AnkleLines(rate * d.T @ d, int(fin.sum()))
+
+
+@dataclass(frozen=True, eq=False)
 class PostureFloorUp:
     """:func:`posture_and_floor_up`'s answer: the up model's ``posterior`` (posture and
     intervals), the recording's unit ``up`` ``(3,)`` (camera frame: an upright posture's after
@@ -411,7 +462,8 @@ class PostureFloorUp:
 
 
 def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelParameters,
-                         lying: bool = True, footfalls: bool = True) -> PostureFloorUp:
+                         lying: bool = True, footfalls: bool = True,
+                         lines: AnkleLines | None = None) -> PostureFloorUp:
     """The up of a static camera from the poses and, where ``J`` carries a pelvis path, the
     floor: the footfalls weigh in the posture's posterior (:func:`floor_energy` along the poses'
     up, :func:`pcnet.stages.up_model.static_posterior`; decision 0048), then an upright
@@ -427,6 +479,7 @@ def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelPara
         lying: whether the lying posture is a hypothesis (``False`` with ``--no-camera-prior``).
         footfalls: ``False`` leaves the footfalls out of the posture (the chain before decision
             0048, kept for the ablation).
+        lines: the recording's :class:`AnkleLines` (:func:`ankle_lines`), or ``None``.
     """
     if J is None:
         energy, reason = None, NO_PELVIS_PATH
@@ -435,7 +488,7 @@ def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelPara
     else:  # the reason stands only where the body reads as lying (an upright one gets the fine fit's)
         energy, why = floor_energy(J, ok, summary.up, p)
         reason = LYING_NO_FLOOR if energy is not None else f"body read as lying; no floor: {why}"
-    post = static_posterior(summary, p, lying=lying, floor=energy)
+    post = static_posterior(summary, p, lying=lying, floor=energy, lines=lines)
     if J is not None and post.posture == "upright":
         floor = ground_plane_up(J, ok, post.up, post.upright_cov(), p)
         return PostureFloorUp(post, floor.up, floor.info)
