@@ -107,8 +107,10 @@ class UpModelParameters:
         footfall_height_sd_leg: the floor contacts' ``sigma_f`` (leg lengths);
         footfall_posture_power: ``t_f``, the
         footfalls' learning rate in the posture's posterior (:mod:`pcnet.stages.ground_plane`).
-        ankle_line_sd_leg, ankle_line_power: the ankle lines' ``sigma_c`` (leg lengths) and
-        learning rate ``t_c`` (:class:`pcnet.stages.ground_plane.AnkleLines`; 0 switches them off).
+        ankle_line_sd_leg, ankle_planted_share, ankle_planted_speed_sd, ankle_free_speed_sd,
+        ankle_line_power: the ankle lines' ``sigma_h`` (leg lengths), ``pi``, ``sigma_v``,
+        ``sigma_w`` (leg lengths per second) and learning rate ``t_c``
+        (:class:`pcnet.stages.ground_plane.AnkleLines`; ``t_c`` 0 switches them off).
         provenance: for each name, where its value comes from (split, command, or "declared").
     """
 
@@ -127,6 +129,9 @@ class UpModelParameters:
     footfall_height_sd_leg: float
     footfall_posture_power: float
     ankle_line_sd_leg: float
+    ankle_planted_share: float
+    ankle_planted_speed_sd: float
+    ankle_free_speed_sd: float
     ankle_line_power: float
     provenance: dict
 
@@ -153,10 +158,10 @@ class UpModelParameters:
         for name in ("network_sigma_deg", "error_time_s", "systematic_pitch_deg",
                      "systematic_roll_deg", "lying_elevation_deg", "camera_prior_pitch_deg", "camera_prior_roll_deg",
                      "camera_fallback_width_deg", "footfall_height_sd_leg", "footfall_posture_power",
-                     "ankle_line_sd_leg"):
+                     "ankle_line_sd_leg", "ankle_planted_speed_sd", "ankle_free_speed_sd"):
             if not getattr(out, name) > 0:
                 raise InputError(f"up_model.json: parameters.{name}: expected > 0, got {getattr(out, name)}")
-        for name in ("outlier_share", "lying_prior", "camera_prior_outside"):
+        for name in ("outlier_share", "lying_prior", "camera_prior_outside", "ankle_planted_share"):
             if not 0 <= getattr(out, name) < 1:
                 raise InputError(f"up_model.json: parameters.{name}: expected in [0, 1), got {getattr(out, name)}")
         if not out.ankle_line_power >= 0:
@@ -574,18 +579,17 @@ def posture_log_weights(s: PoseSummary, p: UpModelParameters, lying: bool = True
     weight, and the rest of the grid is left out (-inf). ``lying=False`` gives the lying
     posture no prior mass (an ablation switch). ``lines``: the ankle lines' energy at unit ups
     ``(N, 3) -> (N,)`` (:class:`pcnet.stages.ground_plane.AnkleLines`), the same for both
-    postures, over the whole grid."""
+    postures, evaluated where the floor's is."""
     grid = posterior_grid()
     prior = log_camera_prior(grid, p)
-    if lines is not None:
-        prior = prior - lines(grid)
     lu = np.log1p(-p.lying_prior) + log_upright(grid, s, p) + prior
     ll = np.log(p.lying_prior) + log_lying(grid, s, p) + prior if lying else np.full(len(grid), -np.inf)
-    if floor is not None:
+    terms = [t for t in (floor, lines) if t is not None]
+    if terms:
         top = max(lu.max(), ll.max())
         keep = np.maximum(lu, ll) > top + np.log(_FLOOR_SUPPORT)
         energy = np.full(len(grid), np.inf)
-        energy[keep] = floor(grid[keep])
+        energy[keep] = sum(t(grid[keep]) for t in terms)
         energy -= energy[keep].min()
         lu, ll = lu - energy, ll - energy
     return lu, ll
