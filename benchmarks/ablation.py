@@ -676,7 +676,6 @@ class Variant:
     mode_constants: tuple[float, float, float] | None = None
     #: up model parameters overridden, ``((name, value), ...)``: a term of its likelihood switched off
     params: tuple[tuple[str, float], ...] = ()
-    ankle_lines: bool = False  # the up model also reads the ankle lines of the poses (decision 0096)
 
     def up_parameters(self):
         """The up model's parameters of this row: the shipped ones with :attr:`params` replaced."""
@@ -705,7 +704,6 @@ VARIANTS = (
     Variant("auto with hand-set constants (5 deg, 0.5 s, 0.2 s)", "alternative", auto=True,
             mode_constants=(5.0, 0.5, 0.2)),
     Variant("auto by Bayes factor", "alternative", auto=True, mode_rule="bayes"),
-    Variant("up model: ankle lines on (decision 0096)", "alternative", ankle_lines=True),
 )
 
 
@@ -781,8 +779,7 @@ def run_variant(ev: dict, v: Variant) -> dict:
         return {**res, "up": np.where(ok[:, None], out, np.nan), "mode": mode, "posture": None}
     p = v.up_parameters()
     if v.lying:  # the chain's own sequence step
-        _, _, seq = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior, params=p,
-                                      poses=ev["J"] if v.ankle_lines else None)
+        _, _, seq = up_model_sequence(R, ok, evidence, fps, camera_prior=v.prior, params=p)
         pitch, roll = camera_pitch_roll(seq.up)
         return {**res, "up": np.where(ok[:, None], seq.up, np.nan), "mode": mode,
                 "posture": "upright" if seq.posture is None else seq.posture.most_probable,

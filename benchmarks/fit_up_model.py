@@ -47,10 +47,9 @@ upright one under a camera rolled a quarter turn give the same camera-frame skel
 no likelihood separates them and these two priors decide; the training motion capture's
 lying share (0.17 % of frames, no clip lying throughout; printed by this script) samples mocap catalogues, not
 the recordings pcnet is used on.
-The floor parameters and the ankle lines' (:data:`FLOOR_PARAMETERS`) are fitted on this model's
-posterior afterwards, by ``python -m benchmarks.fit_floor_contacts``, ``python -m
-benchmarks.fit_floor_power`` and ``python -m benchmarks.fit_ankle_lines``; this script carries
-them over.
+The floor parameters (:data:`FLOOR_PARAMETERS`) are fitted on this model's posterior
+afterwards, by ``python -m benchmarks.fit_floor_contacts`` and then ``python -m
+benchmarks.fit_floor_power``; this script carries them over.
 """
 
 from __future__ import annotations
@@ -77,9 +76,9 @@ RESULT = Path(__file__).resolve().parent / "results" / "fit_up_model.txt"
 VAL_SETS = (("bandai", "bandai_h36m17.npz"), ("cmu", "cmu_train_h36m17.npz"))
 VAL_VIEWS = (("paper", 0), ("wide", 1), ("rolled", 2))
 VAL_MAX_CLIPS = 120
-#: The up model's floor and ankle-line parameters, fitted after this script on its posterior
-#: (benchmarks/fit_floor_contacts.py, benchmarks/fit_floor_power.py, benchmarks/fit_ankle_lines.py).
-FLOOR_PARAMETERS = ("footfall_height_sd_leg", "footfall_posture_power", "ankle_line_sd_leg", "ankle_line_power")
+#: The up model's floor parameters, fitted after this script on its posterior
+#: (benchmarks/fit_floor_contacts.py, then benchmarks/fit_floor_power.py).
+FLOOR_PARAMETERS = ("footfall_height_sd_leg", "footfall_posture_power")
 TRAIN_SETS = ("bandai_h36m17.npz", "cmu_train_h36m17.npz")
 CLIP_SIGMAS = 3.0
 DECLARED = {"camera_prior_pitch_deg": 12.0, "camera_prior_roll_deg": 10.0, "camera_prior_outside": 0.05,

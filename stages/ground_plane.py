@@ -70,8 +70,7 @@ import numpy as np
 from .core.conventions import L_ANKLE, L_HIP, L_KNEE, PELVIS, R_ANKLE, R_HIP, R_KNEE
 from .core.rotations import angle_between, normalize
 from .spherical import TUKEY_C, tukey_weights
-from .up_model import (PoseSummary, StaticPosterior, UpModelParameters, default_parameters, frames_per_error,
-                       static_posterior, tangent_basis)
+from .up_model import PoseSummary, StaticPosterior, UpModelParameters, default_parameters, static_posterior, tangent_basis
 
 _IRLS_STEPS = 20
 #: Grid points per tilt axis of the coarse search (a resolution of half a prior standard
@@ -400,96 +399,6 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, prior_cov: np.ndarray,
 
 
 @dataclass(frozen=True, eq=False)
-class AnkleLines:
-    """Both feet planted on the floor: the line between the ankles is level (decision 0096).
-
-    A frame whose feet both rest on a support surface has its two ankles at one height (both
-    stand the same height above their soles), so the line between them is perpendicular to the
-    up. Within a frame this does not depend on the pelvis path, so root-relative joints carry
-    it. Whether both feet are planted is read from the same line: planted feet do not move, so
-    the ankles' relative position ``d_t`` holds still while the pelvis moves, and changes
-    quickly while a foot swings or the body is in flight. Per frame ``t`` with both legs and
-    both neighbours, ``d_t`` is the left ankle minus the right one in leg lengths ``L``
-    (camera frame) and ``v_t`` its central-difference velocity (leg lengths per second). Two
-    states (``pi`` the share of planted frames):
-
-    - planted (``pi``): ``delta_t = d_t . g ~ N(0, sigma_h^2)``, ``v_t ~ N(0, sigma_v^2 I_3)``;
-    - free (``1 - pi``): ``delta_t`` uniform on ``[-1, 1]`` (a swing foot is at most a leg
-      length above the other: the state says nothing about the up), ``v_t ~ N(0, sigma_w^2 I_3)``.
-
-    The frames share their errors as the networks' do (``m = max(1, tau fps)``, the up model's
-    ``tau``), and the sum enters at a learning rate ``t_c``:
-
-        E_c(g) = -(t_c / m) sum_t log[pi N(d_t . g; 0, sigma_h^2) N3(v_t; sigma_v)
-                                      + (1 - pi) / 2 N3(v_t; sigma_w)]
-
-    ``pi``, ``sigma_h``, ``sigma_v`` and ``sigma_w`` by maximum likelihood at the true up over
-    the validation frames, ``t_c`` by the largest validation log score of the true up on a grid
-    (``python -m benchmarks.fit_ankle_lines --data ../shared/data``). Calling it with unit ups
-    ``(N, 3)`` gives ``E_c`` ``(N,)`` (up to a constant)."""
-
-    lines: np.ndarray
-    log_planted: np.ndarray
-    log_free: np.ndarray
-    height_sd: float
-    rate: float
-
-    @property
-    def frames(self) -> int:
-        return len(self.lines)
-
-    def __call__(self, ups: np.ndarray) -> np.ndarray:
-        ups = np.asarray(ups, np.float64)
-        flat = ups.reshape(-1, 3)
-        out = np.empty(len(flat))
-        chunk = max(1, _ENERGY_CHUNK * 500 // len(self.lines))  # bounds the (chunk, frames) arrays
-        for i in range(0, len(flat), chunk):
-            z = flat[i:i + chunk] @ self.lines.T / self.height_sd
-            planted = self.log_planted - 0.5 * z ** 2 - np.log(np.sqrt(2 * np.pi) * self.height_sd)
-            out[i:i + chunk] = -self.rate * np.logaddexp(planted, self.log_free).sum(-1)
-        return out.reshape(ups.shape[:-1])
-
-
-def _log_normal3(v: np.ndarray, sd: float) -> np.ndarray:
-    """``log N3(v; 0, sd^2 I)`` of ``(n, 3)`` vectors."""
-    return -0.5 * np.sum(v ** 2, -1) / sd ** 2 - 3 * np.log(np.sqrt(2 * np.pi) * sd)
-
-
-def ankle_line_frames(J, ok: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(d (n, 3), v (n, 3))``: the ankle lines (left ankle minus right, leg lengths, camera
-    frame) and their central-difference velocities (leg lengths per second) of poses ``J``
-    ``(T, 17, 3)`` (any length unit, root-relative or not) over the ``ok`` ``(T,)`` bool frames
-    whose both neighbours are also ``ok`` and every frame of the three has both legs; empty
-    where no frame has both legs."""
-    legs = np.asarray(J[:, [R_HIP, R_KNEE, R_ANKLE, L_HIP, L_KNEE, L_ANKLE]], np.float64)
-    fin = np.asarray(ok, bool) & np.isfinite(legs).all((1, 2))
-    leg = leg_length(J, fin) if fin.any() else float("nan")
-    if not np.isfinite(leg) or leg <= 0:
-        return np.zeros((0, 3)), np.zeros((0, 3))
-    d = (legs[:, 5] - legs[:, 2]) / leg
-    mid = np.zeros(len(fin), bool)
-    mid[1:-1] = fin[1:-1] & fin[:-2] & fin[2:]
-    idx = np.flatnonzero(mid)
-    return d[idx], (d[idx + 1] - d[idx - 1]) * fps / 2
-
-
-def ankle_lines(J, ok: np.ndarray, fps: float, p: UpModelParameters | None = None) -> AnkleLines | None:
-    """The :class:`AnkleLines` energy of poses ``J`` ``(T, 17, 3)`` (camera frame, any length
-    unit, root-relative or with a pelvis path) over the ``ok`` ``(T,)`` bool frames
-    (:func:`ankle_line_frames`), at ``fps`` frames per second; ``None`` where no frame qualifies
-    or ``ankle_line_power`` is 0 (switched off)."""
-    p = default_parameters() if p is None else p
-    if p.ankle_line_power == 0:
-        return None
-    d, v = ankle_line_frames(J, ok, fps)
-    if not len(d):
-        return None
-    planted = np.log(p.ankle_planted_share) + _log_normal3(v, p.ankle_planted_speed_sd)
-    free = np.log1p(-p.ankle_planted_share) + np.log(0.5) + _log_normal3(v, p.ankle_free_speed_sd)
-    return AnkleLines(d, planted, free, p.ankle_line_sd_leg, p.ankle_line_power / frames_per_error(fps, p))
-
-
-@dataclass(frozen=True, eq=False)
 class PostureFloorUp:
     """:func:`posture_and_floor_up`'s answer: the up model's ``posterior`` (posture and
     intervals), the recording's unit ``up`` ``(3,)`` (camera frame: an upright posture's after
@@ -502,8 +411,7 @@ class PostureFloorUp:
 
 
 def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelParameters,
-                         lying: bool = True, footfalls: bool = True,
-                         lines: AnkleLines | None = None) -> PostureFloorUp:
+                         lying: bool = True, footfalls: bool = True) -> PostureFloorUp:
     """The up of a static camera from the poses and, where ``J`` carries a pelvis path, the
     floor: the footfalls weigh in the posture's posterior (:func:`floor_energy` along the poses'
     up, :func:`pcnet.stages.up_model.static_posterior`; decision 0048), then an upright
@@ -519,7 +427,6 @@ def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelPara
         lying: whether the lying posture is a hypothesis (``False`` with ``--no-camera-prior``).
         footfalls: ``False`` leaves the footfalls out of the posture (the chain before decision
             0048, kept for the ablation).
-        lines: the recording's :class:`AnkleLines` (:func:`ankle_lines`), or ``None``.
     """
     if J is None:
         energy, reason = None, NO_PELVIS_PATH
@@ -528,7 +435,7 @@ def posture_and_floor_up(summary: PoseSummary, J, ok: np.ndarray, p: UpModelPara
     else:  # the reason stands only where the body reads as lying (an upright one gets the fine fit's)
         energy, why = floor_energy(J, ok, summary.up, p)
         reason = LYING_NO_FLOOR if energy is not None else f"body read as lying; no floor: {why}"
-    post = static_posterior(summary, p, lying=lying, floor=energy, lines=lines)
+    post = static_posterior(summary, p, lying=lying, floor=energy)
     if J is not None and post.posture == "upright":
         floor = ground_plane_up(J, ok, post.up, post.upright_cov(), p)
         return PostureFloorUp(post, floor.up, floor.info)

@@ -28,7 +28,7 @@ from .core.conventions import check_poses
 from .core.errors import InputError
 from .core.framestore import frame_blocks, freeze_arrays, in_memory
 from .core.geometric import geometric_rotation
-from .ground_plane import ankle_lines, posture_and_floor_up
+from .ground_plane import posture_and_floor_up
 from .core.rotations import angle_between, camera_pitch_roll, normalize
 from .heading import HEADING_SOURCES, apply_heading
 from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
@@ -294,8 +294,7 @@ class SequenceEvidence:
 
 def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: float, camera_prior: bool = True,
                       joints_cam: np.ndarray | None = None, params: UpModelParameters | None = None,
-                      floor_frames: np.ndarray | None = None,
-                      poses: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
+                      floor_frames: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
     """Sequence mode by the up model (:mod:`pcnet.stages.up_model`): the static posterior's up
     for every valid frame and each frame's heading about it
     (:func:`pcnet.stages.temporal.rotations_about_up` of the per-frame rotations ``R``
@@ -310,11 +309,7 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     (default: the shipped ones; the ablation switches terms off through them). ``floor_frames``:
     ``(T,)`` bool, the only frames whose feet the floor contacts read (one person's stretch of
     a 2D track that switches people, :func:`pcnet.stages.flags.one_person_frames`; decision
-    0066), or ``None`` (every valid frame); the poses' up reads every valid frame. ``poses``:
-    ``(T, 17, 3)`` camera-frame joints, root-relative or not, whose ankle lines weigh in
-    (:func:`pcnet.stages.ground_plane.ankle_lines`), read over the same frames as the floor;
-    ``None``: no ankle lines. Decision 0096: measured on held-out data, not yet the chain's (the
-    ablation's row passes them).
+    0066), or ``None`` (every valid frame); the poses' up reads every valid frame.
 
     Returns:
         ``(rotations (T, 3, 3), valid (T,) bool, up)``: the
@@ -328,8 +323,7 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     summary = summarise_recording(evidence.frames(ok), fps, params)
     J = None if joints_cam is None else check_poses(joints_cam, "joints_cam")
     floor_ok = ok if floor_frames is None else ok & np.asarray(floor_frames, bool)
-    lines = None if poses is None else ankle_lines(check_poses(poses, "poses"), floor_ok, fps, params)
-    chain = posture_and_floor_up(summary, J, floor_ok, params, lying=camera_prior, lines=lines)
+    chain = posture_and_floor_up(summary, J, floor_ok, params, lying=camera_prior)
     post, up, ground = chain.posterior, chain.up, chain.ground
     kind = "up model+ground_plane" if ground["used"] else "up model"
     rotations, heading_ok = rotations_about_up(R, up)

@@ -107,10 +107,6 @@ class UpModelParameters:
         footfall_height_sd_leg: the floor contacts' ``sigma_f`` (leg lengths);
         footfall_posture_power: ``t_f``, the
         footfalls' learning rate in the posture's posterior (:mod:`pcnet.stages.ground_plane`).
-        ankle_line_sd_leg, ankle_planted_share, ankle_planted_speed_sd, ankle_free_speed_sd,
-        ankle_line_power: the ankle lines' ``sigma_h`` (leg lengths), ``pi``, ``sigma_v``,
-        ``sigma_w`` (leg lengths per second) and learning rate ``t_c``
-        (:class:`pcnet.stages.ground_plane.AnkleLines`; ``t_c`` 0 switches them off).
         provenance: for each name, where its value comes from (split, command, or "declared").
     """
 
@@ -128,11 +124,6 @@ class UpModelParameters:
     camera_prior_outside: float
     footfall_height_sd_leg: float
     footfall_posture_power: float
-    ankle_line_sd_leg: float
-    ankle_planted_share: float
-    ankle_planted_speed_sd: float
-    ankle_free_speed_sd: float
-    ankle_line_power: float
     provenance: dict
 
     @classmethod
@@ -157,15 +148,12 @@ class UpModelParameters:
         out = cls(**values, provenance=provenance)
         for name in ("network_sigma_deg", "error_time_s", "systematic_pitch_deg",
                      "systematic_roll_deg", "lying_elevation_deg", "camera_prior_pitch_deg", "camera_prior_roll_deg",
-                     "camera_fallback_width_deg", "footfall_height_sd_leg", "footfall_posture_power",
-                     "ankle_line_sd_leg", "ankle_planted_speed_sd", "ankle_free_speed_sd"):
+                     "camera_fallback_width_deg", "footfall_height_sd_leg", "footfall_posture_power"):
             if not getattr(out, name) > 0:
                 raise InputError(f"up_model.json: parameters.{name}: expected > 0, got {getattr(out, name)}")
-        for name in ("outlier_share", "lying_prior", "camera_prior_outside", "ankle_planted_share"):
+        for name in ("outlier_share", "lying_prior", "camera_prior_outside"):
             if not 0 <= getattr(out, name) < 1:
                 raise InputError(f"up_model.json: parameters.{name}: expected in [0, 1), got {getattr(out, name)}")
-        if not out.ankle_line_power >= 0:
-            raise InputError(f"up_model.json: parameters.ankle_line_power: expected >= 0, got {out.ankle_line_power}")
         return out
 
 
@@ -548,8 +536,7 @@ class StaticPosterior:
 _GRID: np.ndarray | None = None
 
 
-def posterior_grid() -> np.ndarray:
-    """``(G, 3)`` the posterior's ~1 deg Fibonacci sphere grid of unit ups (camera frame), built once."""
+def _grid() -> np.ndarray:
     global _GRID
     if _GRID is None:
         _GRID = fibonacci_sphere(_GRID_POINTS)
@@ -568,8 +555,7 @@ def _half_widths(points: np.ndarray, weights: np.ndarray, mode: np.ndarray) -> t
 
 
 def posture_log_weights(s: PoseSummary, p: UpModelParameters, lying: bool = True,
-                        floor: Callable[[np.ndarray], np.ndarray] | None = None,
-                        lines: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                        floor: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(log upright, log lying)`` each ``(G,)``: the unnormalised log posterior of each
     posture at the points of the ~1 deg sphere grid (:func:`fibonacci_sphere`, camera frame).
 
@@ -577,33 +563,29 @@ def posture_log_weights(s: PoseSummary, p: UpModelParameters, lying: bool = True
     (:class:`pcnet.stages.ground_plane.FloorEnergy`), the same for both postures; it is
     evaluated where either posture holds more than :data:`_FLOOR_SUPPORT` of the largest
     weight, and the rest of the grid is left out (-inf). ``lying=False`` gives the lying
-    posture no prior mass (an ablation switch). ``lines``: the ankle lines' energy at unit ups
-    ``(N, 3) -> (N,)`` (:class:`pcnet.stages.ground_plane.AnkleLines`), the same for both
-    postures, evaluated where the floor's is."""
-    grid = posterior_grid()
+    posture no prior mass (an ablation switch)."""
+    grid = _grid()
     prior = log_camera_prior(grid, p)
     lu = np.log1p(-p.lying_prior) + log_upright(grid, s, p) + prior
     ll = np.log(p.lying_prior) + log_lying(grid, s, p) + prior if lying else np.full(len(grid), -np.inf)
-    terms = [t for t in (floor, lines) if t is not None]
-    if terms:
+    if floor is not None:
         top = max(lu.max(), ll.max())
         keep = np.maximum(lu, ll) > top + np.log(_FLOOR_SUPPORT)
         energy = np.full(len(grid), np.inf)
-        energy[keep] = sum(t(grid[keep]) for t in terms)
+        energy[keep] = floor(grid[keep])
         energy -= energy[keep].min()
         lu, ll = lu - energy, ll - energy
     return lu, ll
 
 
 def static_posterior(s: PoseSummary, p: UpModelParameters, lying: bool = True,
-                     floor: Callable[[np.ndarray], np.ndarray] | None = None,
-                     lines: Callable[[np.ndarray], np.ndarray] | None = None) -> StaticPosterior:
+                     floor: Callable[[np.ndarray], np.ndarray] | None = None) -> StaticPosterior:
     """Posterior over ``g`` and posture given the recording's :class:`PoseSummary` (module
-    docstring), on a ~1 deg sphere grid (:func:`posture_log_weights`; ``lying``, ``floor`` and
-    ``lines`` as there); the upright mode refined by Newton's method on the poses' terms and the
-    ankle lines (the floor's fine fit is :func:`pcnet.stages.ground_plane.ground_plane_up`'s)."""
-    grid = posterior_grid()
-    lu, ll = posture_log_weights(s, p, lying, floor, lines)
+    docstring), on a ~1 deg sphere grid (:func:`posture_log_weights`; ``lying`` and ``floor``
+    as there); the upright mode refined by Newton's method on the poses' terms (the floor's
+    fine fit is :func:`pcnet.stages.ground_plane.ground_plane_up`'s)."""
+    grid = _grid()
+    lu, ll = posture_log_weights(s, p, lying, floor)
     top = max(lu.max(), ll.max())
     w_upright, w_lying = np.exp(lu - top), np.exp(ll - top)
     p_lying = float(w_lying.sum() / (w_upright.sum() + w_lying.sum()))
@@ -612,30 +594,21 @@ def static_posterior(s: PoseSummary, p: UpModelParameters, lying: bool = True,
         up, posture = grid[int(np.argmax(ll))], "lying"
         pitch_half, roll_half = _half_widths(grid, w_upright + w_lying if both else w_lying, up)
     else:
-        up = maximise_on_sphere(lambda G: _log_upright_posterior(G, s, p, lines),
-                                np.stack([s.up, grid[int(np.argmax(lu))]])[:, None])[0][0]
+        objective = lambda G: log_upright(G, s, p) + log_camera_prior(G, p)  # noqa: E731
+        up = maximise_on_sphere(objective, np.stack([s.up, grid[int(np.argmax(lu))]])[:, None])[0][0]
         posture = "upright"
-        local = _local_half_widths(s, p, up, lines)
+        local = _local_half_widths(s, p, up)
         pitch_half, roll_half = _half_widths(grid, w_upright + w_lying, up) if both else local
         return StaticPosterior(up, posture, p_lying, pitch_half, roll_half, s, local)
     return StaticPosterior(up, posture, p_lying, pitch_half, roll_half, s)
 
 
-def _log_upright_posterior(G: np.ndarray, s: PoseSummary, p: UpModelParameters,
-                           lines: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
-    """The upright hypothesis's unnormalised log posterior at unit ups ``G`` ``(..., 3)``: the
-    poses' summary, the camera prior and, where given, the ankle lines."""
-    out = log_upright(G, s, p) + log_camera_prior(G, p)
-    return out if lines is None else out - lines(G)
-
-
-def _local_half_widths(s: PoseSummary, p: UpModelParameters, mode: np.ndarray,
-                       lines: Callable[[np.ndarray], np.ndarray] | None = None, n: int = 121) -> tuple[float, float]:
+def _local_half_widths(s: PoseSummary, p: UpModelParameters, mode: np.ndarray, n: int = 121) -> tuple[float, float]:
     """Upright posterior's 95 % pitch / roll half-widths on a fine tangent grid at ``mode``
     (the global grid is too coarse for intervals of a few degrees)."""
     sd = np.sqrt(np.max(np.linalg.eigvalsh(s.cov + systematic_cov(p))))
     r = np.linspace(-6 * sd, 6 * sd, n)
     X = np.stack(np.meshgrid(r, r, indexing="ij"), -1).reshape(-1, 2)
     pts = exp_map(np.broadcast_to(mode, (len(X), 3)), X)
-    lp = _log_upright_posterior(pts, s, p, lines)
+    lp = log_upright(pts, s, p) + log_camera_prior(pts, p)
     return _half_widths(pts, np.exp(lp - lp.max()), mode)

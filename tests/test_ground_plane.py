@@ -192,34 +192,3 @@ def test_where_the_2d_track_switches_person_the_floor_reads_one_persons_feet():
     assert mixed["n_levels"] >= 2 and mixed["n_contacts"] > len(X), mixed
     assert one.ground_plane["n_levels"] == 1 and one.ground_plane["n_contacts"] <= len(X), one.ground_plane
     assert _deg(one.up, truth) < 3.0, (_deg(one.up, truth), one.ground_plane)
-
-
-def test_the_ankle_lines_of_a_real_walk_favour_the_true_up_with_or_without_a_pelvis_path():
-    """Both feet planted level the line between the ankles (decision 0096): over a real walk the
-    ankle lines' energy is lower at the true up than at any up 20 deg away, the pelvis path
-    changes nothing, and frames whose line moves fast (a foot in swing) weigh less."""
-    from dataclasses import replace
-
-    from pcnet.stages.ground_plane import ankle_line_frames, ankle_lines
-
-    X, up = _seen(WALK)
-    ok = np.ones(len(X), bool)
-    p = replace(default_parameters(), ankle_line_power=1.0)
-    lines = ankle_lines(X, ok, FPS, p)
-    assert lines is not None and lines.frames == len(X) - 2  # both neighbours needed for a velocity
-    ring = exp_map(np.broadcast_to(up, (8, 3)),
-                   np.radians(20.0) * np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], -1))
-    assert lines(up[None])[0] < lines(ring).min()
-    root_relative = ankle_lines(X - X[:, PELVIS:PELVIS + 1], ok, FPS, p)
-    np.testing.assert_allclose(root_relative(ring), lines(ring), rtol=1e-9)
-    _, v = ankle_line_frames(X, ok, FPS)
-    planted_minus_free = lines.log_planted - lines.log_free
-    fast = np.linalg.norm(v, axis=1) > np.median(np.linalg.norm(v, axis=1))
-    assert planted_minus_free[fast].mean() < planted_minus_free[~fast].mean()
-    # the learning rate scales the energy; 0 switches the term off, as do legs that are missing
-    half = ankle_lines(X, ok, FPS, replace(p, ankle_line_power=0.5))
-    np.testing.assert_allclose(half(ring) - half(up[None]), 0.5 * (lines(ring) - lines(up[None])))
-    assert ankle_lines(X, ok, FPS, replace(p, ankle_line_power=0.0)) is None
-    no_legs = X.copy()
-    no_legs[:, 3] = np.nan
-    assert ankle_lines(no_legs, ok, FPS, p) is None
