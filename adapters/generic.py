@@ -9,6 +9,7 @@ from __future__ import annotations
 import collections
 import csv
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -75,11 +76,12 @@ def _is_number(c: str, read=float) -> bool:
     return True
 
 
-def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
-    """``(rows, note, empty)``: the data rows of a pose CSV as float64 ``(T, columns)`` (an
-    empty cell is NaN), a note on how its header was read (empty for none or names), and
+def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray, list[str] | None]:
+    """``(rows, note, empty, names)``: the data rows of a pose CSV as float64 ``(T, columns)``
+    (an empty cell is NaN), a note on how its header was read (empty for none or names),
     bool ``(T, columns)``, True for the empty cells (the format's "missing", unlike a
-    ``nan``/``inf`` cell).
+    ``nan``/``inf`` cell), and the header's column names (``None`` without a header of names;
+    :func:`_columns_by_name` reads them).
 
     Rules: blank lines and lines starting with ``#`` (``numpy.savetxt``'s header and footer,
     comments as ``numpy.loadtxt`` reads them) are skipped; a row of empty cells is a frame with
@@ -97,6 +99,7 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
     empty: list[list[bool]] = []
     row_lines: list[int] = []
     note = ""
+    header: list[str] | None = None
     with p.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
         reader = csv.reader(fh, delimiter=delimiter)
         line_no = 0
@@ -119,6 +122,7 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
                     and (names == [str(i) for i in range(len(names))] or not any(map(_is_number, names)))):
                 header_seen, header_width, index_column = True, len(cells) - 1, True  # pandas' index column
                 note = f"line {line_no}: pandas' header with an index column, dropped"
+                header = names
                 continue
             if not rows and not header_seen and cells == [str(i) for i in range(len(cells))]:
                 header_seen, header_width = True, len(cells)
@@ -149,7 +153,7 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
                                        if not _is_number(c, _cell))
                     raise AdapterError(p, f"line {line_no}, column {column}",
                                        "numbers only after the optional header line of names", repr(bad)[:80]) from None
-                header_seen, header_width = True, len(cells)
+                header_seen, header_width, header = True, len(cells), cells
     if not rows:
         raise AdapterError(p, "rows", "at least one data row", "none")
     widths = {len(r) for r in rows}
@@ -162,7 +166,42 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray]:
     if header_width is not None and {header_width} != widths:
         raise AdapterError(p, "header", f"one name per column ({widths.pop()} columns of numbers)",
                            f"{header_width} names")
-    return np.asarray(rows, np.float64), note, np.asarray(empty, bool)
+    return np.asarray(rows, np.float64), note, np.asarray(empty, bool), header
+
+
+_COLUMN_NAME = re.compile(r"(.+?)[ ._:/-]?([xyz])", re.IGNORECASE)
+
+
+def _columns_by_name(p: Path, header: list[str] | None, lay) -> tuple[np.ndarray | None, str]:
+    """``(order, note)``: where every name of a CSV ``header`` is a joint of layout ``lay``
+    and an axis (``head.x``, ``left_hip_y``, ``nose z``; the layout's own names), the column
+    of each joint's ``x, y, z`` in layout order, and a note saying so; ``(None, "")`` where
+    the header does not name the layout's joints (its columns are read in layout order).
+
+    Raises:
+        AdapterError: a header naming the layout's joints with one missing, repeated or unknown.
+    """
+    if not header:
+        return None, ""
+    parsed = [_COLUMN_NAME.fullmatch(name.strip()) for name in header]
+    if not all(parsed):
+        return None, ""
+    keys = [(m.group(1).strip().lower(), m.group(2).lower()) for m in parsed]
+    known = set(lay.joints)
+    if not any(joint in known for joint, _ in keys):
+        return None, ""
+    wanted = [(joint, axis) for joint in lay.joints for axis in "xyz"]
+    if sorted(keys) != sorted(wanted):
+        unknown = sorted({joint for joint, _ in keys} - known)
+        absent = sorted({f"{j}.{a}" for j, a in wanted} - {f"{j}.{a}" for j, a in keys})
+        found = (f"{', '.join(unknown[:5])} (not {lay.name} joints)" if unknown
+                 else f"no {', '.join(absent[:5])}" if absent else "a name repeated")
+        raise AdapterError(p, "header", f"a name for each {lay.name} joint's x, y and z (e.g. {lay.joints[0]}.x), "
+                           f"or no joint names", found)
+    order = np.array([keys.index(k) for k in wanted])
+    if np.array_equal(order, np.arange(len(order))):
+        return None, ""
+    return order, f"columns read by their header's joint names ({lay.name} order differs from the file's)"
 
 
 def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
@@ -173,7 +212,9 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
         path: ``.npy``; ``.npz`` (``key=`` names the array unless there is only one);
             ``.csv``/``.txt``: one row per frame, ``J*3`` columns ``x, y, z`` per joint in
             layout order, an optional header line (pandas' ``to_csv`` header and index column
-            are recognised), empty cells = missing.
+            are recognised; a header naming every joint's axes, ``head.x`` or ``left_hip_y``
+            with the layout's joint names, puts the columns in layout order by those names:
+            :func:`_columns_by_name`), empty cells = missing.
             Arrays may be ``(T, J, 3)`` or ``(T, J*3)``.
         layout: joint layout name (``h36m17``, ``coco17``, ``halpe26``, ``body25``, ``blazepose33``).
         axes: where the source's x, y, z point in the camera frame, see :func:`axes_to_camera`
@@ -211,7 +252,11 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     header_note = ""
     if suffix in (".csv", ".txt"):
         field = "columns"
-        table, header_note, empty = _read_csv(require_file(p, "a CSV file"), delimiter)
+        table, header_note, empty, names = _read_csv(require_file(p, "a CSV file"), delimiter)
+        order, name_note = _columns_by_name(p, names, get_layout(layout))
+        if order is not None:
+            table, empty = table[:, order], empty[:, order]
+            header_note = "; ".join(n for n in (header_note, name_note) if n)
         arr = require_numeric(p, field, table)
         table = np.where(empty, 0.0, table)  # for the count below: an empty cell is the format's "missing"
     elif suffix in (".npy", ".npz"):

@@ -487,8 +487,10 @@ def _refuse_another_archives_keypoints(cfg: RunConfig, points: np.ndarray) -> No
 
 def _inputs_line(read: dict) -> str:
     """report.md's line of :func:`_inputs_read`'s record."""
+    declared = "".join(f", {option} {value}" for option, value in read.get("lifter_options", {}).items())
     parts = [f"method {read['method']} ({read['weights']} weights)",
-             f"3D {read['lifter_output']} (--lifter {read['lifter']}: {read['lifter_layout']}, {read['lifter_units']})"]
+             f"3D {read['lifter_output']} (--lifter {read['lifter']}: {read['lifter_layout']}, {read['lifter_units']}"
+             f"{declared and '; as declared' + declared})"]
     if "keypoints2d" in read:
         parts.append(f"2D {read['keypoints2d']} ({read['keypoints2d_format']}: {read['keypoints2d_layout']})")
     if "video" in read:
@@ -500,9 +502,14 @@ def _inputs_line(read: dict) -> str:
 def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None, video: VideoInfo | None) -> dict:
     """What a run read, for its report (``inputs``): the method and its weights (``"shipped"``
     or the ``--weights`` file), each file with the format it was read as and the joint layout
-    found in it (an upstream estimator or a model swapped for another shows here)."""
+    found in it (an upstream estimator or a model swapped for another shows here), and the
+    lifter options the file was declared with (``lifter_options``: a generic lifter's axes,
+    units, key), from which the run can be repeated."""
     read = {"method": cfg.method, "weights": str(cfg.weights) if cfg.weights else "shipped", "lifter": cfg.lifter,
             "lifter_output": str(cfg.lifter_output), "lifter_layout": layout, "lifter_units": units}
+    if cfg.lifter_options:  # what the file was declared to be (a generic lifter's axes, units, key)
+        read["lifter_options"] = {option: value if isinstance(value, (str, int, float, bool)) else str(value)
+                                  for option, value in sorted(cfg.lifter_options.items())}
     if cfg.keypoints2d:
         read.update(keypoints2d=str(cfg.keypoints2d), keypoints2d_format=cfg.keypoints2d_format,
                     keypoints2d_layout=kp_layout)

@@ -600,7 +600,8 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
         camera = f"a camera looking {'down' if pitch >= 0 else 'up'} {abs(pitch):.0f} deg and rolled {roll:+.0f} deg"
         return [_found(Kind.LYING, Severity.CHECK,
                        f"body read as lying (posterior {100 * p:.0f} %): up taken from the priors",
-                       f"--no-camera-prior if standing under {camera}",
+                       f"--no-camera-prior if standing under {camera} (or --axes, with --lifter generic, if "
+                       f"the file's up axis is another)",
                        f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is "
                        f"taken from the camera prior (near level; the true up within a "
                        f"{sequence.up_uncertainty_deg:.0f} deg cone, 95 %, if the camera is not upside down: a supine "

@@ -104,15 +104,35 @@ def ik_fit_flags(result: dict) -> list[str]:
     return [text for text in (unscaled_segments_flag(result), marker_rms_flag(result)) if text]
 
 
+def time_spans(times: np.ndarray, flagged: np.ndarray) -> list[tuple[float, float]]:
+    """``[(first, last), ...]`` s: the runs of consecutive ``flagged`` ``(T,)`` bool rows of a
+    table with ``times`` ``(T,)`` s (OpenSim's per-frame marker errors)."""
+    flagged = np.asarray(flagged, bool)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], flagged.astype(np.int8), [0]])))
+    return [(float(times[a]), float(times[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
+
+
+def _spans_text(spans) -> str:
+    """At most three spans as ``a-b s``, and how many more."""
+    text = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in spans[:3])
+    return text + (f" and {len(spans) - 3} more" if len(spans) > 3 else "")
+
+
 def opensim_fit_line(result: dict, short: bool = False) -> str:
     """One summary line of :func:`scale_and_ik`'s fit: marker RMS and maximum over the IK
-    frames, the frames and the markers left out (``short``: without why), IK speed."""
+    frames, the frames above the RMS limit and when, the frames and the markers left out
+    (``short``: without why), IK speed."""
     left_out = result["frames_without_markers"]
+    above = result.get("frames_above_rms_limit", 0)
     markers = result.get("markers_left_out") or []
     scaled, total = result.get("scale_frames"), result["frames"] + left_out
     why = "" if short else " (empty in every frame: the input skeleton has no such joint)"
     return (f"OpenSim IK: marker RMS {100 * result['marker_rms_m']:.2f} cm over {result['frames']} frames (max "
-            f"{100 * result['marker_max_m']:.2f} cm)" + (f"; {left_out} frames without any marker left out" if left_out else "")
+            f"{100 * result['marker_max_m']:.2f} cm)"
+            + (f"; {above} frames above {100 * MAX_GOOD_MARKER_RMS_M:.0f} cm RMS "
+               f"({_spans_text(result.get('above_rms_limit_s') or [])}): their angles do not follow the poses"
+               if above else "")
+            + (f"; {left_out} frames without any marker left out" if left_out else "")
             + (f"; marker{'s' if len(markers) > 1 else ''} {', '.join(markers)} left out{why}" if markers else "")
             + (f"; scaled on the {scaled} frames with every marker" if scaled is not None and scaled < total else "")
             + f"; {result['frames_per_s']:.1f} frames/s (scaling {result['scale_seconds']:.1f} s)")
@@ -186,7 +206,10 @@ def opensim_markdown(result: dict) -> str:
              f"- **static window** (marker placer): {w0:.3f}-{w1:.3f} s",
              f"- **subject**: height {_or_none(result.get('subject_height_m'), 'm')}, mass "
              f"{_or_none(result.get('subject_mass_kg'), 'kg')} (given to `pcnet opensim`; the markers' scale is "
-             f"`pcnet run --height`'s)", *(f"- **not observable**: {note}" for note in opensim_notes(result)), "",
+             f"`pcnet run --height`'s); the scaled model weighs {_or_none(result.get('model_mass_kg'), 'kg')}"
+             + ("" if result.get("subject_mass_kg") is not None else
+                " (the generic model's mass scaled with its segments, not the subject's: give --mass before "
+                "using it for dynamics)"), *(f"- **not observable**: {note}" for note in opensim_notes(result)), "",
              "### OpenSim warnings", ""]
     findings = ranked(opensim_fit_findings(result))
     for i, f in enumerate(findings, 1):
@@ -212,7 +235,7 @@ def read_trc(trc_path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, list[
 
     Returns:
         ``(times (T,) s, markers (T, M, 3) in the file's units with NaN for empty fields,
-        marker names (M,), units)``.
+        marker names (M,), units)``; the header's frame rate is :func:`trc_data_rate`'s.
 
     Raises:
         InputError: the file is not a TRC with at least one frame.
@@ -242,6 +265,21 @@ def read_trc(trc_path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, list[
         raise InputError(f"{path}: expected markers and at least one frame, got none")
     data = np.asarray(rows, dtype=float)
     return data[:, 0], data[:, 1:].reshape(len(rows), len(names), 3), names, units
+
+
+def trc_data_rate(trc_path: str | os.PathLike, times: np.ndarray) -> float:
+    """The frame rate (frames per second) of a ``.trc``: its header's ``DataRate``, else (no
+    positive finite value there) the reciprocal of the median step of its ``times`` ``(T,)`` s.
+    The header's, because a TRC's times are written to a few decimals: a rate worked out from
+    them (30.0003 for 30 fps) moves every later frame's time in the files written from it."""
+    try:
+        lines = Path(trc_path).read_text().splitlines()
+        rate = float(dict(zip(lines[1].split("\t"), lines[2].split("\t")))["DataRate"])
+    except (OSError, IndexError, KeyError, ValueError):
+        rate = math.nan
+    if math.isfinite(rate) and rate > 0:
+        return rate
+    return 1.0 / float(np.median(np.diff(times)))
 
 
 def static_window(times: np.ndarray, markers: np.ndarray, seconds: float = 0.5) -> tuple[float, float]:
@@ -491,7 +529,10 @@ def scale_and_ik(
 
     Returns:
         ``{"marker_rms_m"`` (RMS over all frames and markers), ``"marker_max_m"`` (largest
-        single marker error), ``"marker_rms_median_frame_m"``, ``"frames"`` (IK rows),
+        single marker error), ``"marker_rms_median_frame_m"``, ``"frames_above_rms_limit"`` and
+        ``"above_rms_limit_s"`` (IK rows whose RMS marker error passes
+        :data:`MAX_GOOD_MARKER_RMS_M`, and their time spans), ``"model_mass_kg"`` (the scaled
+        model's total mass), ``"frames"`` (IK rows),
         ``"frames_without_markers"`` (left out), ``"static_window_s"``, ``"warnings"``,
         ``"seconds"`` (IK wall time), ``"frames_per_s"``, ``"scale_seconds"``, ``"outputs"``
         (paths)``}``.
@@ -538,7 +579,7 @@ def scale_and_ik(
     if not complete.any():
         raise InputError(f"{trc}: expected at least one frame with all {len(used)} joint markers the recording has "
                          f"for scaling, got none" + (f" ({', '.join(left_out)} in no frame, left out)" if left_out else ""))
-    fps = 1.0 / float(np.median(np.diff(times)))
+    fps = trc_data_rate(trc, times)
     # OpenSim's IK cannot assemble a frame without a single marker (non-finite marker values
     # make its solver throw): such frames (a lost track) are left out of its marker file.
     marked = np.isfinite(joints).any(axis=(1, 2))
@@ -620,10 +661,14 @@ def scale_and_ik(
         cols, err = _parse_sto(tmp / "ik_marker_errors.sto")
         rms = err[:, cols.index("marker_error_RMS")]
         mx = err[:, cols.index("marker_error_max")]
+        above = rms > MAX_GOOD_MARKER_RMS_M
         result = {
             "marker_rms_m": float(np.sqrt(np.mean(rms ** 2))),
             "marker_max_m": float(np.max(mx)),
             "marker_rms_median_frame_m": float(np.median(rms)),
+            "frames_above_rms_limit": int(above.sum()),
+            "above_rms_limit_s": time_spans(err[:, cols.index("time")], above),
+            "model_mass_kg": float(model.getTotalMass(model.initSystem())),
             "frames": len(rms),
             "frames_without_markers": int((~marked).sum()),
             "scale_frames": int(complete.sum()),

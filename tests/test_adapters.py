@@ -723,6 +723,45 @@ def test_generic_csv_rub_millimetres_with_header_and_gaps(tmp_path):
     assert np.isfinite(p3.joints[3, L_HIP, :2]).all()  # the gap does not spread to x, y
 
 
+def test_generic_csv_columns_follow_their_header_names_not_their_position(tmp_path):
+    """A user trial's CSV named H36M-17's joints in its own order and ran with exit 0, read as
+    a lying body with unequal legs: a header naming every joint's axes now orders the columns
+    by name; one naming a joint the layout lacks, or leaving one out, is refused in one line."""
+    base = np.load(YOGA["Tadasana"])[:20]
+    names = get_layout("h36m17").joints
+    order = np.random.default_rng(3).permutation(17)
+    header = ",".join(f"{names[j]}.{c}" for j in order for c in "xyz")
+    path = tmp_path / "own_order.csv"
+    path.write_text(header + "\n" + "\n".join(",".join(f"{v:.6f}" for v in r)
+                                               for r in base[:, order].reshape(20, -1)) + "\n")
+    p3 = load_generic(path)
+    np.testing.assert_allclose(p3.joints, base, atol=1e-6)
+    assert "columns read by their header's joint names" in p3.notes
+    wrong = tmp_path / "nose.csv"
+    wrong.write_text(header.replace("head.", "nose.") + "\n" + path.read_text().split("\n", 1)[1])
+    with pytest.raises(AdapterError, match=r"field 'header'.*got nose \(not h36m17 joints\)"):
+        load_generic(wrong)
+
+
+def test_generic_zeros_are_missing_before_they_make_a_pelvis(tmp_path):
+    """A user trial's COCO-layout file held a hip written as (0, 0, 0) for "not detected": the
+    pelvis, the mean of the hips, came out halfway to the camera centre with nothing missing. A
+    layout whose pelvis is no single joint has no joint at the origin of root-relative poses,
+    so such a joint is missing even alone; H36M-17's own pelvis at the origin stays."""
+    with np.load(FIXTURES / "mediapipe_blazepose33_f000-059.npz") as d:
+        world = d["world_3d"].astype(np.float64)  # real MediaPipe world landmarks, metres
+    world[10:15, 23] = 0.0  # left hip "not detected"
+    path = tmp_path / "blaze.npy"
+    np.save(path, world)
+    p3 = load_generic(path, layout="blazepose33", axes="RDF", units="m")
+    assert np.isnan(p3.joints[10:15, 23]).all() and np.isfinite(p3.joints[10:15, 24]).all()
+    from pcnet.stages.remap import remap_to_h36m
+    h36m = remap_to_h36m(p3.joints, "blazepose33")
+    both_hips = np.isfinite(world[:, [23, 24]]).all(axis=(1, 2))
+    both_hips[10:15] = False
+    assert np.isnan(h36m[10:15, 0]).all() and np.isfinite(h36m[both_hips, 0]).all() and both_hips.sum() > 40
+
+
 def test_generic_csv_row_of_empty_cells_is_a_missing_frame_not_a_blank_line(tmp_path):
     """pandas' ``to_csv`` writes a frame with every joint NaN as a row of commas: it stays a
     frame (all NaN), so later frames keep their times; blank lines are still skipped."""

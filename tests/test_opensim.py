@@ -110,8 +110,17 @@ def test_frames_without_any_marker_are_left_out_of_ik(short_run, tmp_path):
     assert r["frames"] == FRAMES - 3 and r["frames_without_markers"] == 3
     cols, rows = _parse_sto(out / "ik.mot")
     kept = np.delete(times, [10, 11, 40])
-    np.testing.assert_allclose(rows[:, cols.index("time")], kept, atol=1e-4)  # ik.mot prints 6 decimals
+    # exactly the TRC's times (printed to 6 decimals): a rate worked out again from those 6-decimal
+    # times (30.0003) made them drift, 2e-5 s after 2 s, a frame after minutes at 120 fps
+    np.testing.assert_allclose(rows[:, cols.index("time")], kept, atol=2e-6)
     assert r["marker_rms_m"] < 0.02, r
+    # the frames above the RMS limit are counted from OpenSim's own per-frame errors
+    e_cols, errors = _parse_sto(out / "ik_marker_errors.sto")
+    assert r["frames_above_rms_limit"] == int(np.sum(errors[:, e_cols.index("marker_error_RMS")] > 0.02))
+    assert sum(b - a for a, b in r["above_rms_limit_s"]) <= kept[-1] - kept[0]
+    # without --mass the scaled model's weight is the generic one's scaled, and recorded
+    fit = json.loads((out / "opensim_fit.json").read_text())
+    assert fit["subject_mass_kg"] is None and 30.0 < fit["model_mass_kg"] < 150.0
 
 
 def test_coordinates_no_marker_reaches_are_empty_in_ik_mot(short_run, tmp_path):
@@ -199,6 +208,11 @@ def test_cli_opensim_prints_a_line_per_warning_and_writes_it_in_full(short_run, 
         + ": the model does not follow the poses -> check ik.mot's angles against kinematics.csv's (ik_marker_errors.sto: "
         "which markers)"]
     assert warning not in res.output and warning in (out / "report.md").read_text()
+    # every frame is above the limit here: the fit line counts them and says when
+    fit = json.loads((out / "opensim_fit.json").read_text())
+    assert fit["frames_above_rms_limit"] == fit["frames"] and fit["above_rms_limit_s"][0][0] == 0.0
+    assert f"{fit['frames']} frames above 0 cm RMS (0.00-" in res.output
+    assert "the scaled model weighs" in (out / "report.md").read_text()
     assert _cli("opensim", out, "--overwrite").exit_code == 0
     assert (out / "report.md").read_text().count("pcnet opensim)") == 1
     (out / "report.md").write_text("mine\n")

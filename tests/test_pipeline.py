@@ -730,6 +730,12 @@ def test_a_generic_file_with_a_measured_pelvis_path_keeps_it(tmp_path):
     with np.load(tmp_path / "m" / "canonical.npz") as npz:
         world, report = npz["joints_world"], json.loads(str(npz["report"]))
     assert report["root_path"] == "measured"
+    # what the file was declared to be is recorded, so the run can be repeated (a user trial's
+    # report said only "h36m17, m" of a file declared RUB in centimetres)
+    assert report["inputs"]["lifter_options"] == {"axes": "RDF", "layout": "h36m17", "measured_root": True,
+                                                  "units": "m"}
+    assert "as declared, axes RDF, layout h36m17, measured_root True, units m)" in \
+        (tmp_path / "m" / "report.md").read_text()
     true_path = np.linalg.norm(J[-1, 0, [0, 2]] - J[0, 0, [0, 2]])
     path = np.linalg.norm(world[-1, PELVIS, [0, 2]] - world[0, PELVIS, [0, 2]])
     assert true_path > 2.0 and abs(path - true_path) < 0.05 * true_path

@@ -256,7 +256,7 @@ def validate_fps(fps: object, source: str = "fps") -> float:
     return value
 
 
-def placeholder_joints(values: np.ndarray, keep_root: bool = True) -> np.ndarray:
+def placeholder_joints(values: np.ndarray, keep_root: bool = True, root: int | None = 0) -> np.ndarray:
     """Which joints of 3D poses are a writer's placeholder for "not detected", not a position.
 
     Two exact coincidences that no measured pose has: every present joint of a frame (two or
@@ -267,11 +267,17 @@ def placeholder_joints(values: np.ndarray, keep_root: bool = True) -> np.ndarray
     poses (MotionBERT, VideoPose3D). With ``keep_root`` (H36M-17, whose root is the pelvis,
     joint 0) the root is that joint: it is kept at the origin, and any other joint there is a
     placeholder even alone (it would sit on the root of root-relative poses, or on the camera
-    centre of camera-frame ones; a user trial's wrist written as zeros had been kept).
+    centre of camera-frame ones; a user trial's wrist written as zeros had been kept). A layout
+    whose pelvis is no single joint (COCO-17, BlazePose-33: the mean of the hips) has no joint
+    that root-relative poses put at the origin, so with ``keep_root`` and ``root=None`` every
+    joint there is a placeholder, even alone (a user trial's COCO hip written as zeros had made
+    a pelvis halfway to the camera centre).
 
     Args:
         values: ``(T, J, D)`` float coordinates (3D poses; 2D keypoints' ``x, y``), NaN = missing.
-        keep_root: keep joint 0 at the origin unless its whole frame is collapsed.
+        keep_root: the layout's root is known: ``root``, the joint kept at the origin unless its
+            whole frame is collapsed (H36M-17's pelvis, joint 0), or ``None``, no such joint.
+        root: see ``keep_root``.
 
     Returns:
         ``(T, J)`` bool, True where the joint is a placeholder.
@@ -283,8 +289,9 @@ def placeholder_joints(values: np.ndarray, keep_root: bool = True) -> np.ndarray
     at_origin = present & np.all(values == 0.0, axis=2)
     placeholder = (at_origin & (at_origin.sum(axis=1) >= 2)[:, None]) | (present & collapsed[:, None])
     if keep_root:
-        placeholder[:, 1:] |= at_origin[:, 1:]
-        placeholder[:, 0] &= collapsed
+        placeholder |= at_origin  # even alone, but for the root, kept unless its frame collapsed
+        if root is not None:
+            placeholder[:, root] = present[:, root] & collapsed
     return placeholder
 
 
@@ -327,7 +334,13 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
     in_place = in_place and arr.dtype == np.float32 and arr.flags.writeable and arr.ndim == np.ndim(joints)
     out = arr if in_place else np.empty(arr.shape, np.float32)
     any_finite, seen_finite, first, count = False, False, None, 0
-    keep_root = joint_names is None or tuple(joint_names) == H36M_JOINTS  # the pelvis of root-relative poses
+    # The joint that root-relative poses put at the origin: the layout's pelvis where it is one
+    # joint (H36M-17's, BODY-25's mid-hip), none where it is the hips' mean; unknown for names of
+    # no layout.
+    layout = next((lay for lay in LAYOUTS.values() if joint_names is None and lay is H36M17
+                   or joint_names is not None and lay.joints == tuple(joint_names)), None)
+    keep_root = layout is not None
+    root = layout.to_h36m[PELVIS][0] if layout is not None and len(layout.to_h36m[PELVIS]) == 1 else None
     # A block of frames at a time: float64 copies of a long recording would be hundreds of MB.
     for rows in frame_blocks(len(arr)):
         # The bound is checked on the values as given: a float64 beyond float32's range would
@@ -343,7 +356,7 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
                 first = (rows.start + int(t), int(j), float(values[t, j, axis]))
             count += int(too_big.any(axis=2).sum())
         values = np.where(finite, values, np.nan)
-        values[placeholder_joints(values, keep_root)] = np.nan
+        values[placeholder_joints(values, keep_root, root)] = np.nan
         out[rows] = values
         any_finite |= bool(np.isfinite(values).any())
     if not seen_finite:
