@@ -144,8 +144,8 @@ def _read_csv(p: Path, delimiter: str) -> tuple[np.ndarray, str, np.ndarray, lis
                 if others:
                     found = {",": "','", ";": "';'", "\t": "tabs", " ": "spaces"}[others[0]]
                     raise AdapterError(p, "delimiter", f"{delimiter!r}-separated columns of numbers with a decimal "
-                                       f"point (another separator: delimiter = \"...\" in a --config file's "
-                                       f"[lifter_options])", f"line {line_no} separated by {found}") from None
+                                       f"point (another separator: --delimiter, or delimiter = \"...\" in a "
+                                       f"--config file's [lifter_options])", f"line {line_no} separated by {found}") from None
                 # A header is a first line without a single number; a first line with some
                 # numbers is a damaged data row, which must not vanish as a "header".
                 if rows or header_seen or any(_is_number(c) for c in cells):

@@ -390,6 +390,7 @@ def _run_and_report(cfg) -> None:
 @click.option("--axes", default=None, help="generic lifter: axis letters of the file, e.g. RDF (OpenCV), RUB.")
 @click.option("--units", default=None, help="generic lifter: m, cm, mm, normalised or px.")
 @click.option("--key", default=None, help="generic lifter: array name inside an npz.")
+@click.option("--delimiter", default=None, help="generic lifter: the CSV's column separator [,].")
 @click.option("--measured-root", is_flag=True, default=None,
               help="generic lifter: the file's pelvis positions are a measured camera-frame path (metric units): "
                    "keep it and one floor for the recording.")
@@ -412,8 +413,8 @@ def _run_and_report(cfg) -> None:
               help="Also scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`), "
                    "published with the run's output.")
 @click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")
-def run(config_path, pixel, hypothesis, layout, axes, units, key, measured_root, no_recording, with_opensim,
-        mass, **options):
+def run(config_path, pixel, hypothesis, layout, axes, units, key, delimiter, measured_root, no_recording,
+        with_opensim, mass, **options):
     """Run the pipeline on one recording: a video alone (the embedded MediaPipe estimator), or
     2D keypoints + a lifter's 3D output -> canonical poses, kinematics in the recording's world
     frame, CSV/TRC/NPZ/PNG exports and a rerun recording (with --opensim also OpenSim scaling
@@ -422,7 +423,8 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, measured_root,
                                        parse_hypothesis, RunConfig)
 
     lifter_options = {k: v for k, v in (("pixel", pixel), ("layout", layout), ("axes", axes), ("units", units),
-                                        ("key", key), ("measured_root", measured_root)) if v}
+                                        ("key", key), ("delimiter", delimiter), ("measured_root", measured_root))
+                      if v}
     if hypothesis is not None:
         lifter_options["hypothesis"] = parse_hypothesis(hypothesis)
     if no_recording:

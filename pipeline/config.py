@@ -94,7 +94,7 @@ def field_name(source: str, *names: str) -> str:
 
 #: Adapter options that `pcnet run` has a flag for and a manifest a column for (the others only in a
 #: config's [lifter_options]).
-COMMAND_LINE_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "measured_root")
+COMMAND_LINE_OPTIONS = ("pixel", "hypothesis", "layout", "axes", "units", "key", "delimiter", "measured_root")
 
 
 def check_lifter_options(source: str, lifter: str, options: dict) -> dict:

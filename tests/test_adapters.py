@@ -743,6 +743,28 @@ def test_generic_csv_columns_follow_their_header_names_not_their_position(tmp_pa
         load_generic(wrong)
 
 
+def test_a_semicolon_csv_runs_with_the_delimiter_flag(tmp_path):
+    """A spreadsheet's semicolon CSV needed a --config file for its separator (a user trial):
+    `pcnet run --delimiter ';'` reads it, and without the flag the refusal names it."""
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+
+    base = np.load(YOGA["Tadasana"])[:30]
+    path = tmp_path / "semicolons.csv"
+    path.write_text("\n".join(";".join(f"{v:.6f}" for v in r) for r in base.reshape(30, -1)) + "\n")
+    args = ["run", "--lifter", "generic", "--lifter-output", str(path), "--fps", "30", "--no-recording"]
+    res = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "no")])
+    assert res.exit_code == 1 and "--delimiter" in res.output and "separated by ';'" in res.output, res.output
+    res = CliRunner().invoke(main, [*args, "--delimiter", ";", "--out", str(tmp_path / "yes")])
+    assert res.exit_code == 0, res.output
+    np.save(tmp_path / "same.npy", base.astype(np.float32))  # the same poses as an array: the same run
+    res = CliRunner().invoke(main, [*args[:4], str(tmp_path / "same.npy"), *args[5:], "--out", str(tmp_path / "npy")])
+    assert res.exit_code == 0, res.output
+    with np.load(tmp_path / "yes" / "canonical.npz") as a, np.load(tmp_path / "npy" / "canonical.npz") as b:
+        np.testing.assert_allclose(a["joints_camera"], b["joints_camera"], atol=1e-6)
+
+
 def test_generic_zeros_are_missing_before_they_make_a_pelvis(tmp_path):
     """A user trial's COCO-layout file held a hip written as (0, 0, 0) for "not detected": the
     pelvis, the mean of the hips, came out halfway to the camera centre with nothing missing. A
