@@ -253,7 +253,7 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     if suffix in (".csv", ".txt"):
         field = "columns"
         table, header_note, empty, names = _read_csv(require_file(p, "a CSV file"), delimiter)
-        order, name_note = _columns_by_name(p, names, get_layout(layout))
+        order, name_note = _columns_by_name(p, names, lay)
         if order is not None:
             table, empty = table[:, order], empty[:, order]
             header_note = "; ".join(n for n in (header_note, name_note) if n)

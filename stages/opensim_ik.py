@@ -240,6 +240,11 @@ def read_trc(trc_path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, list[
     Raises:
         InputError: the file is not a TRC with at least one frame.
     """
+    return _read_trc(trc_path)[1:]
+
+
+def _read_trc(trc_path: str | os.PathLike) -> tuple[dict, np.ndarray, np.ndarray, list[str], str]:
+    """:func:`read_trc`'s answer after the header's ``{key: value}`` (strings)."""
     path = Path(trc_path)
     try:
         lines = path.read_text().splitlines()
@@ -264,18 +269,18 @@ def read_trc(trc_path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, list[
     if not rows or not names:
         raise InputError(f"{path}: expected markers and at least one frame, got none")
     data = np.asarray(rows, dtype=float)
-    return data[:, 0], data[:, 1:].reshape(len(rows), len(names), 3), names, units
+    return header, data[:, 0], data[:, 1:].reshape(len(rows), len(names), 3), names, units
 
 
-def trc_data_rate(trc_path: str | os.PathLike, times: np.ndarray) -> float:
-    """The frame rate (frames per second) of a ``.trc``: its header's ``DataRate``, else (no
-    positive finite value there) the reciprocal of the median step of its ``times`` ``(T,)`` s.
-    The header's, because a TRC's times are written to a few decimals: a rate worked out from
-    them (30.0003 for 30 fps) moves every later frame's time in the files written from it."""
+def trc_data_rate(header: dict, times: np.ndarray) -> float:
+    """The frame rate (frames per second) of a ``.trc`` (``header`` its ``{key: value}``,
+    :func:`_read_trc`): its ``DataRate``, else (no positive finite value there) the reciprocal
+    of the median step of its ``times`` ``(T,)`` s. The header's, because a TRC's times are
+    written to a few decimals: a rate worked out from them (30.0003 for 30 fps) moves every
+    later frame's time in the files written from it."""
     try:
-        lines = Path(trc_path).read_text().splitlines()
-        rate = float(dict(zip(lines[1].split("\t"), lines[2].split("\t")))["DataRate"])
-    except (OSError, IndexError, KeyError, ValueError):
+        rate = float(header["DataRate"])
+    except (KeyError, ValueError):
         rate = math.nan
     if math.isfinite(rate) and rate > 0:
         return rate
@@ -552,7 +557,7 @@ def scale_and_ik(
     if mass_kg is not None and not (MASS_RANGE_KG[0] <= float(mass_kg) <= MASS_RANGE_KG[1]):
         raise InputError(f"--mass: expected the subject's mass in kg ({MASS_RANGE_KG[0]:g} to {MASS_RANGE_KG[1]:g}), "
                          f"got {mass_kg}")
-    times, markers, names, units = read_trc(trc)
+    header, times, markers, names, units = _read_trc(trc)
     missing = [j for j in H36M_JOINTS if j not in names]
     if missing:
         raise InputError(f"{trc}: expected the H36M-17 joint markers, got none named {', '.join(missing)}")
@@ -579,7 +584,7 @@ def scale_and_ik(
     if not complete.any():
         raise InputError(f"{trc}: expected at least one frame with all {len(used)} joint markers the recording has "
                          f"for scaling, got none" + (f" ({', '.join(left_out)} in no frame, left out)" if left_out else ""))
-    fps = trc_data_rate(trc, times)
+    fps = trc_data_rate(header, times)
     # OpenSim's IK cannot assemble a frame without a single marker (non-finite marker values
     # make its solver throw): such frames (a lost track) are left out of its marker file.
     marked = np.isfinite(joints).any(axis=(1, 2))

@@ -337,8 +337,8 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
     # The joint that root-relative poses put at the origin: the layout's pelvis where it is one
     # joint (H36M-17's, BODY-25's mid-hip), none where it is the hips' mean; unknown for names of
     # no layout.
-    layout = next((lay for lay in LAYOUTS.values() if joint_names is None and lay is H36M17
-                   or joint_names is not None and lay.joints == tuple(joint_names)), None)
+    names = H36M_JOINTS if joint_names is None else tuple(joint_names)
+    layout = next((lay for lay in LAYOUTS.values() if lay.joints == names), None)
     keep_root = layout is not None
     root = layout.to_h36m[PELVIS][0] if layout is not None and len(layout.to_h36m[PELVIS]) == 1 else None
     # A block of frames at a time: float64 copies of a long recording would be hundreds of MB.
