@@ -13,13 +13,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pcnet.stages.core.conventions import LAYOUTS, get_layout
+from pcnet.stages.core.conventions import LAYOUTS, UNSCALED_UNITS, get_layout
 from pcnet.stages.core.errors import InputError
 
 #: Units a :class:`Poses3D` may carry. ``normalised`` is MotionBERT's image-normalised
 #: scale (about [-1, 1]); ``px`` is image pixels; both stay tagged until a later stage
 #: scales them to metres.
-POSE_UNITS: tuple[str, ...] = ("m", "normalised", "px")
+POSE_UNITS: tuple[str, ...] = ("m", *UNSCALED_UNITS)
 
 
 class AdapterError(InputError):

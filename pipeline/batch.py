@@ -664,8 +664,7 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
             if findings is not None:
                 item.known[FINDINGS] = findings
             return
-    if options.overwrite:
-        item.config["overwrite"] = True
+    if item.config["overwrite"]:  # --overwrite, or the row's own overwrite column (a trial: it did nothing)
         return
     if not paths.exists(item.config["out"]):
         return
@@ -1028,16 +1027,24 @@ def _counts_line(report: BatchReport) -> str:
     # skipped rows ran in an earlier batch: their outputs are complete, but not processed now
     line = (f"{done} of {len(report.rows)} recordings have complete outputs "
             f"({', '.join(f'{v} {k}' for k, v in counts.items())}) in {report.seconds:.1f} s")
-    # a cancelled row leaves its folder as it was: an earlier complete output there is still whole
-    # (a user trial's Ctrl-C under --overwrite read "0 of 13" with every earlier output intact)
-    kept = sum(r["status"] == "cancelled" and read_marker(Path(r["out"])).get("state") == "complete"
-               for r in report.rows)
-    return line + (f"; {kept} cancelled row{'s' * (kept != 1)} still hold{'s' * (kept == 1)} an earlier complete "
-                   f"output, not this run's" if kept else "")
+    # a cancelled or failed row leaves its folder as it was: an earlier complete output there is
+    # still whole (a user trial's Ctrl-C under --overwrite read "0 of 13" with every earlier output
+    # intact; another's killed worker left one unmentioned)
+    kept = {status: sum(r["status"] == status and read_marker(Path(r["out"])).get("state") == "complete"
+                        for r in report.rows) for status in ("cancelled", "failed")}
+    said = [f"{n} {status} row{'s' * (n != 1)}" for status, n in kept.items() if n]
+    total = sum(kept.values())
+    return line + (f"; {' and '.join(said)} still hold{'s' * (total == 1)} an earlier complete output, not this run's"
+                   if said else "")
 
 
-_INTERRUPTED = ("interrupted: no further row started; cancelled rows left their output folders as they were; the "
-                "same command runs them")
+def _interrupted_line(report: BatchReport) -> str:
+    """What an interrupted batch left, and the command that runs the rows it did not finish:
+    with ``--overwrite`` the same command would run the finished rows again too, and a plain
+    one skips a cancelled row that still holds its earlier output (a user trial)."""
+    resume = ("--retry-failed --overwrite runs them alone" if report.settings.get("overwrite")
+              else "the same command runs them")
+    return f"interrupted: no further row started; cancelled rows left their output folders as they were; {resume}"
 
 
 def _lines(items: list[str], what: str, details: str) -> list[str]:
@@ -1129,7 +1136,7 @@ def format_summary(report: BatchReport) -> str:
     marker RMS where rows asked for them; where the outputs, the JSON summary and the report
     are. Every row in full: the report."""
     details = str(report.report_path or report.summary_path)
-    lines = [_counts_line(report)] + ([_INTERRUPTED] if report.interrupted else [])
+    lines = [_counts_line(report)] + ([_interrupted_line(report)] if report.interrupted else [])
     failed = [f"FAILED   line {r['line']}: {r['error']}" for r in report.rows if r["status"] == "failed"]
     lines += _lines(failed, "failed rows", details)
     lines += ["once fixed, --retry-failed runs the failed and cancelled rows alone"] * bool(failed)
@@ -1158,7 +1165,7 @@ def batch_markdown(report: BatchReport) -> str:
     n = s.get("workers")
     workers = f"{n} worker{'s' if n != 1 else ''}" if n else "a worker per CPU"
     out = [f"{REPORT_TITLE}: {s.get('manifest', '')}", "", _counts_line(report) + "."]
-    out += ["", _INTERRUPTED + "."] if report.interrupted else []
+    out += ["", _interrupted_line(report) + "."] if report.interrupted else []
     out += ["", f"- **engine**: {s.get('engine')}" + (f" at {s['address']}" if s.get("address") else "")
             + f", {workers}, retries {s.get('retries')}; started {s.get('started')}, engine start "
               f"{report.engine_start_seconds:.1f} s",

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 
 from .batch_worker import execute_row, set_opencv_threads, thread_env, threads_per_worker
+from .interrupt import STOP_SIGNALS, came_from_interrupt, quiet_interrupt_hook, raise_interrupt
 
 #: Seconds a worker gets to unwind after SIGTERM (remove its half-written folder) before SIGKILL.
 TERMINATE_GRACE_S = 1.0
@@ -35,13 +36,12 @@ _POLL_S = 0.5
 def _worker_main(conn, threads: int) -> None:
     """A worker's loop: receive a job, send back its result; ``None`` or a closed pipe ends it.
 
-    SIGINT is ignored (the supervisor decides what a Ctrl-C at the terminal stops); SIGTERM
-    unwinds as ``KeyboardInterrupt`` like ``pcnet run``'s, so the row's staged output folder
-    is removed before the process exits.
+    SIGINT and SIGHUP are ignored (the supervisor decides what a Ctrl-C or a closed terminal
+    stops); SIGTERM unwinds as ``KeyboardInterrupt`` like ``pcnet run``'s, so the row's staged
+    output folder is removed before the process exits.
     """
-    from .interrupt import came_from_interrupt, quiet_interrupt_hook, raise_interrupt
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for signum in (signal.SIGINT, *(s for s in STOP_SIGNALS if s != signal.SIGTERM)):
+        signal.signal(signum, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, raise_interrupt)
     sys.unraisablehook = quiet_interrupt_hook(sys.unraisablehook)
     try:

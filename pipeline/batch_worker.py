@@ -154,7 +154,7 @@ def execute_row(job: dict) -> dict:
             posture = run.report.rectification.posture
             result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, units=run.units,
                           camera_tilt_deg=_finite_or_none(run.camera_tilt_deg),
-                          posture=None if posture is None else posture.most_probable,
+                          posture=None if posture is None else posture.most_probable + " (declared)" * posture.declared,
                           warnings=list(run.flags),
                           opensim_rms_cm=_opensim_rms_cm(staged, run.outputs), **{FINDINGS: finding_records(run.findings)})
             result["seconds"] = round(time.perf_counter() - started, 3)  # the run, without the publishing

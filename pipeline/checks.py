@@ -85,7 +85,7 @@ def checks(c: CheckInputs) -> list[Finding]:
     ensemble's weights (outside sequence mode), the lifter's frame and a switch of the 2D track."""
     report, cam, kp2d = c.report, c.joints_camera, c.keypoints2d
     return [
-        *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg),
+        *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg, report.posture),
         *(body_size_flag(cam, c.units) if not c.height_given else []),
         *leg_asymmetry_flag(cam),
         # image-scaled sizes are made constant per frame (the scale step); a metric body should keep its own
@@ -126,7 +126,8 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
                          f"{len(joints_camera)} frames of joints_camera")
     report = rectified.report
     tilt = CameraTilt.of(rectified.rotation, rectified.valid)
-    return [*orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg), *leg_asymmetry_flag(joints_camera),
+    return [*orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg, report.posture),
+            *leg_asymmetry_flag(joints_camera),
             *mirrored_skeleton_flag(joints_camera), *posture_flag(report.sequence),
             *ensemble_weights_flag(_answering_weights(report))]
 

@@ -16,10 +16,10 @@ import click
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import ALIGN, MODES, keypoint_formats, lifter_names, multi_track_formats
-from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, came_from_interrupt, raise_interrupt
+from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, STOP_SIGNALS, came_from_interrupt, raise_interrupt
 from pcnet.stages.core.errors import InputError, import_extra, one_line
 from pcnet.stages.heading import HEADING_SOURCES
-from pcnet.stages.rectify import METHODS, check_method_weights, no_valid_frame_reason
+from pcnet.stages.rectify import METHODS, POSTURES, check_method_weights, check_posture, no_valid_frame_reason
 
 
 class _ErrorBoundary(click.Group):
@@ -87,9 +87,11 @@ def _bad_input_line(ctx: click.Context, err: Exception) -> str | None:
 @click.version_option(package_name="pcnet", prog_name="pcnet")
 def main() -> None:
     """pcnet: rectify monocular 3D human poses into a gravity-aligned, body-centred frame."""
-    # SIGTERM (a scheduler's or `kill`'s stop) unwinds like Ctrl-C, so the same clean-up runs.
-    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
-        signal.signal(signal.SIGTERM, raise_interrupt)
+    # SIGTERM (a scheduler's or `kill`'s stop) and SIGHUP (a closed terminal) unwind like Ctrl-C,
+    # so the same clean-up runs.
+    for signum in STOP_SIGNALS:
+        if signal.getsignal(signum) is signal.SIG_DFL:
+            signal.signal(signum, raise_interrupt)
 
 
 def _new_output_file(path: str | os.PathLike, option: str, overwrite: bool = False, inputs=(),
@@ -176,6 +178,12 @@ _camera_prior_option = click.option(
          "lying hypothesis (frame and smooth modes have no camera prior; for the paper's single network, give "
          "one 3DPCNet's ONNX as --weights).")
 
+_posture_option = click.option(
+    "--posture", type=click.Choice(POSTURES), default=None,
+    help="Sequence mode with the shipped ensemble: the body's posture, where you know it. A body lying under a "
+         "level camera and an upright one under a camera turned a quarter turn give the same poses; auto leaves "
+         "it to the priors [auto].")
+
 _METHOD_HELP = ("pcnet: the shipped ensemble of two 3DPCNets (gated by camera view); pcnet-rigid: the same without the residual; "
                 "geometric: the paper's baseline (section 2.3).")
 
@@ -260,10 +268,11 @@ def evaluate(method, data, split, split_scheme, unseen_by, untrained_only, views
                    "frame mode reads it only for the pcnet ensemble's 2 s view-gate window (30 when not given).")
 @_heading_option
 @_camera_prior_option
+@_posture_option
 @click.option("--weights", type=click.Path(dir_okay=False), default=None,
               help="ONNX weights of one 3DPCNet instead of the shipped ensemble (pcnet export).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
-def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior, weights, overwrite):
+def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior, posture, weights, overwrite):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
@@ -284,19 +293,23 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     if fps is not None:
         validate_fps(fps, "--fps")
     check_method_weights(method, weights, "--weights")
+    check_posture(posture or "auto", method, weights, mode, camera_prior is not False, "--posture")
     joints, nonfinite = read_pose_array(input_path, key)
     try:
         res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading,
-                          camera_prior=camera_prior is not False)
+                          camera_prior=camera_prior is not False, posture=posture or "auto")
     except InputError as err:
         if weights is not None and str(err).startswith((f"{weights}:", f"{Path(weights)}:")):
             raise  # the weights file's own error, already naming it
         raise InputError(f"{input_path}: {err}") from err
     if not res.valid.any():  # the same rule as pcnet run: nothing is written
         raise InputError(f"{input_path}: {no_valid_frame_reason(res.report)}")
+    findings = ranked(pose_checks(joints, res))  # what pcnet run would say of these poses alone
+    # the report and the warnings kept with the arrays (a trial's declared posture was printed, then lost)
     write_npz(out_path, replace=overwrite, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
-              frame_tilt_bound_deg=res.report.frame_tilt_bound_deg)
+              frame_tilt_bound_deg=res.report.frame_tilt_bound_deg, report=res.report.as_record(),
+              flags=np.array([f.detail for f in findings], dtype=str))
     cv = res.report.heading.hip_width_cv_percent
     requested = f" (requested {mode})" if mode != res.mode else ""
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}{requested}, "
@@ -304,7 +317,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
                + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
     if nonfinite:  # the file's inf/NaN, which the counts above take as missing joints
         click.echo(nonfinite_line(nonfinite))
-    for f in ranked(pose_checks(joints, res)):  # what pcnet run would say of these poses alone
+    for f in findings:
         click.echo(f.terminal_line())
 
 
@@ -372,6 +385,7 @@ def _run_and_report(cfg) -> None:
                    "spread of the per-frame up) [sequence].")
 @_heading_option
 @_camera_prior_option
+@_posture_option
 @click.option("--height", type=float, default=None, help="Subject height in metres: every lifter's output is scaled to it (normalised output gets metres; metric output is rescaled to this subject), by one factor from the median ankle-to-head chain, taken as H36M's share of stature (an individual's differs by several per cent).")
 @click.option("--fps", type=float, default=None,
               help="Frame rate when neither the video nor the input files give it.")

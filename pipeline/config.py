@@ -203,7 +203,9 @@ class RunConfig:
     ``fps`` is needed only when neither a video nor an input file gives the frame rate; with
     a video it must match the video's rate unless ``fps_override``. ``camera_prior``:
     sequence mode's up model (the shipped ensemble) uses its declared camera prior and its lying
-    reading (:mod:`pcnet.stages.up_model`); False = the poses alone. ``c3d``: also write the markers as a C3D file
+    reading (:mod:`pcnet.stages.up_model`); False = the poses alone. ``posture``: ``auto``, or
+    the body's posture where the user knows it, ``upright`` or ``lying`` (read by the same up
+    model: :func:`pcnet.stages.rectify.check_posture`). ``c3d``: also write the markers as a C3D file
     (needs the ``c3d`` extra, ezc3d). ``residual_cutoff``: choose the low-pass cutoff by
     Winter's residual analysis of the recording (:func:`pcnet.stages.kinematics.residual_analysis`)
     instead of ``cutoff_hz``. ``opensim``: also scale an OpenSim model and solve inverse
@@ -244,6 +246,7 @@ class RunConfig:
     recording: bool = True
     weights: str | None = None
     camera_prior: bool = True
+    posture: str = "auto"
     c3d: bool = False
     residual_cutoff: bool = False
     opensim: bool = False
@@ -360,7 +363,7 @@ class RunConfig:
         """
         from pcnet.stages.heading import HEADING_SOURCES
         from pcnet.stages.opensim_ik import HEIGHT_RANGE_M, MASS_RANGE_KG
-        from pcnet.stages.rectify import METHODS, check_method_weights
+        from pcnet.stages.rectify import METHODS, check_method_weights, check_posture
 
         check_config_types(source, "", {f.name: getattr(self, f.name) for f in fields(self)}, RunConfig)
         self._check_inputs_given(source)
@@ -425,6 +428,8 @@ class RunConfig:
             raise InputError(f"{field_name(source, 'person')}: expected 2D keypoints with several tracks "
                              f"({' or '.join(multi_track)}), got {got}")
         check_method_weights(self.method, self.weights, field_name(source, "weights"))
+        check_posture(self.posture, self.method, self.weights, self.mode, self.camera_prior,
+                      field_name(source, "posture"))
         if self.lifter is not None:
             check_lifter_options(source, self.lifter, self.lifter_options)
         if self.mode in ("frame", "smooth"):

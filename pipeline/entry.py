@@ -11,7 +11,8 @@ from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, quiet_interrupt_hook, rai
 
 
 def main() -> None:
-    """Entry point of ``pcnet`` (``[project.scripts]``): SIGINT and SIGTERM unwind as
+    """Entry point of ``pcnet`` (``[project.scripts]``): SIGINT, SIGTERM and SIGHUP (unless
+    ignored, as ``nohup`` ignores it) unwind as
     ``KeyboardInterrupt`` and are remembered (:func:`check_interrupted`), then
     :func:`pcnet.pipeline.cli.main` runs every command under its error boundary.
 
@@ -20,6 +21,9 @@ def main() -> None:
     into "Aborted!" and exit 1."""
     signal.signal(signal.SIGTERM, raise_interrupt)
     signal.signal(signal.SIGINT, raise_interrupt)
+    hangup = getattr(signal, "SIGHUP", None)  # not on Windows
+    if hangup is not None and signal.getsignal(hangup) is not signal.SIG_IGN:  # nohup: outlive the terminal
+        signal.signal(hangup, raise_interrupt)
     sys.unraisablehook = quiet_interrupt_hook(sys.unraisablehook)
     try:
         import click

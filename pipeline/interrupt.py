@@ -1,13 +1,18 @@
-"""How pcnet remembers and reports an interrupt (Ctrl-C, SIGTERM): the handler the console
-entry point, the CLI and batch workers install, and the check that output-publishing code
-makes before it publishes."""
+"""How pcnet remembers and reports an interrupt (Ctrl-C, SIGTERM, SIGHUP): the handler the
+console entry point, the CLI and batch workers install, and the check that output-publishing
+code makes before it publishes."""
 
 from __future__ import annotations
 
+import signal
 import threading
 
 EXIT_INTERRUPTED = 130
 _interrupted = threading.Event()
+#: Signals that ask a process to stop, besides Ctrl-C's SIGINT: a scheduler's or ``kill``'s
+#: SIGTERM, and SIGHUP from a closed terminal or SSH session (a user trial's batch died at once
+#: on it, leaving its staged folders); SIGHUP does not exist on Windows.
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
 
 
 def raise_interrupt(signum, frame) -> None:

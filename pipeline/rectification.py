@@ -21,7 +21,7 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.rectify import (METHODS, MODES, Allocate, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
                                   Rectification, Rectified, SequenceEvidence, check_method_weights,
-                                  resolve_heading_source)
+                                  check_posture, no_valid_frame_reason, resolve_heading_source)
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG
 from pcnet.stages.up_model import UpEvidence
 
@@ -108,6 +108,7 @@ def rectify(
     heading: str | None = None,
     camera_prior: bool = True,
     measured_root: bool = False,
+    posture: str = "auto",
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
     (``docs/CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``, the residual being the
@@ -129,6 +130,11 @@ def rectify(
     reading; False = the poses alone (a uniform prior, upright). Other methods' sequence mode
     is the robust mean of their per-frame ups with its bootstrap, no prior (with
     ``heading="predicted"`` and ``weights`` one 3DPCNet's ONNX, the paper's model alone).
+    ``posture``: ``auto`` (the up model's priors decide), or ``upright`` / ``lying`` where the
+    user knows it (:data:`pcnet.stages.rectify.POSTURES`): a body lying under a level camera and
+    an upright one under a camera turned a quarter turn give the same poses, so only the priors
+    or the user can tell them apart (docs/up_model.md); only the shipped ensemble's sequence up
+    (``method`` pcnet or pcnet-rigid without ``weights``, mode sequence or auto) reads it.
     ``measured_root``: the joints keep a camera-frame root path (a depth sensor's, or one
     recovered from 2D keypoints by :func:`pcnet.stages.root_path.root_from_keypoints`, as
     ``pcnet run`` does), so sequence mode also weighs the floor contacts
@@ -149,29 +155,37 @@ def rectify(
     :func:`pcnet.pipeline.checks.pose_checks` of the poses and the result.
 
     Raises:
-        InputError (a ValueError): bad input array (see above), unknown method, mode or
-            heading source, an option of another type (``camera_prior``, ``measured_root``
-            not a bool; ``fps`` not a number: ``"no"`` would read as true), no ``fps`` for a
+        InputError (a ValueError): bad input array (see above), unknown method, mode,
+            heading source or posture, a posture declared where nothing reads it
+            (:func:`pcnet.stages.rectify.check_posture`), an option of another type
+            (``camera_prior``, ``measured_root`` not a bool; ``fps`` not a number: ``"no"`` would read as true), no ``fps`` for a
             mode other than ``frame``, ``measured_root`` over root-relative joints
-            (:func:`check_measured_root`), or (sequence modes) no valid frame.
+            (:func:`check_measured_root`), or (modes other than ``frame``) no valid frame,
+            including none with a heading about the sequence up (the input's axes wrong:
+            :func:`pcnet.stages.rectify.no_valid_frame_reason`).
     """
     for name, value in (("camera_prior", camera_prior), ("measured_root", measured_root)):
         if not isinstance(value, (bool, np.bool_)):
             raise InputError(f"rectify: {name}: expected True or False, got {value!r} ({type(value).__name__})")
+    check_posture(posture, method, weights, mode, camera_prior, "rectify: posture")
     if fps is None and mode in MODES and mode != "frame":
         raise InputError(f"rectify: mode {mode!r} pools frames over seconds: give fps, the recording's frame rate (Hz)")
     fps = VIEW_GATE_DEFAULT_FPS if fps is None else validate_fps(fps, "rectify: fps")
     joints_cam, pelvis_filled = fill_pelvis_from_hips(validate_poses(joints_cam, "joints_cam"))
     if measured_root:
         check_measured_root(joints_cam[:, PELVIS], "rectify: measured_root", "pass measured_root=False")
-    result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, measured_root=measured_root)
+    result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, measured_root=measured_root,
+                             posture=posture)
+    if mode != "frame" and not result.valid.any():
+        # the same refusal as pcnet run's: an answer of NaN rows alone reads as a result
+        raise InputError(no_valid_frame_reason(result.report))
     return replace(result, report=replace(result.report, pelvis_from_hips_frames=int(pelvis_filled.sum())))
 
 
 def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = None, mode: str = "frame",
                     fps: float | None = None, heading: str | None = None, camera_prior: bool = True,
                     allocate: Allocate | None = None, decide_on: np.ndarray | None = None,
-                    measured_root: bool = False) -> Rectified:
+                    measured_root: bool = False, posture: str = "auto") -> Rectified:
     """:func:`rectify` of poses that already passed its input rules (``pcnet run`` applies
     them a block at a time), in memory or a
     :class:`~pcnet.stages.core.framestore.FrameArray`; ``allocate`` makes the residual and
@@ -187,5 +201,6 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
     """
     heading_step = HeadingStep(resolve_heading_source(method, heading))
     chain = Rectification(make_estimator(method, weights),
-                          SequenceEvidence(mode, camera_prior, measured_root=measured_root), heading_step, allocate)
+                          SequenceEvidence(mode, camera_prior, measured_root=measured_root, posture=posture),
+                          heading_step, allocate)
     return chain(joints_cam, validate_fps(fps), decide_on)

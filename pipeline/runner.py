@@ -148,7 +148,9 @@ class RunResult:
         heading, camera tilt, the per-frame bound, the kinematics frame, units. ``long``: with
         every qualification (report.md), else one short line each (the terminal)."""
         frames = f"{self.frames} at {self.fps:.4g} fps ({self.fps_source}; " + (
-            f"{self.frames - self.valid_frames} without a valid pose" + (": kept as NaN rows, valid = 0" * long) + ")"
+            f"{self.frames - self.valid_frames} without a valid pose"
+            + (": kept as NaN rows, valid = 0; a pose needs the pelvis, both hips, the thorax and both shoulders, "
+               "and the notes say why any other frame was left out" * long) + ")"
             if self.valid_frames < self.frames else "every one with a valid pose)")
         mode, heading = self.report.rectification.mode, self.report.rectification.heading
         # "from their own mean": not from the recording's one up, which report.md's up_spread_deg measures
@@ -265,6 +267,8 @@ class RunResult:
                         f"calibrated for the shipped 3DPCNet ensemble only, not for method {self.method}{weights})")
             return f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)"
         lying = self.report.rectification.lying
+        posture = self.report.rectification.posture
+        declared = " (declared)" if posture is not None and posture.declared else ""
         other = seq.interval_reaches_other_posture_p
         interval = (f"(pitch {self.camera_pitch_deg:+.1f} +- {pitch_unc:.1f}, roll {self.camera_roll_deg:+.1f} "
                     f"+- {roll_unc:.1f} deg; ")
@@ -275,11 +279,12 @@ class RunResult:
             if beyond:
                 label = ("lying posture's interval" if lying else "interval") + " not calibrated: ups spread wide"
             else:
-                label = "95 % posterior interval of the lying posture" if lying else "95 % interval"
+                label = f"95 % posterior interval of the lying posture{declared}" if lying else "95 % interval"
             if other is not None:
                 label += f", widened to the {'upright' if lying else 'lying'} posture ({100 * other:.0f} %)"
             return interval + label + ")"
-        label = "posterior interval of the lying posture" if lying else "posterior interval per axis"
+        label = (f"posterior interval of the lying posture{declared}" if lying
+                 else f"posterior interval per axis{', upright declared' if declared else ''}")
         if beyond:
             label += (", not calibrated for this recording: its per-frame ups spread beyond any static camera's of the "
                       "validation data (a moving camera, or poses the networks read inconsistently; decision 0090)")
@@ -1262,7 +1267,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     try:
         res = rectify_checked(_located(camera.joints, root, store), cfg.method, cfg.weights, cfg.mode, fps,
                               cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on,
-                              measured_root=root is not None)
+                              measured_root=root is not None, posture=cfg.posture)
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
             raise  # the weights file's own error, already naming it

@@ -27,7 +27,7 @@ from .kinematics import frames_phrase, shortest_filtered_run
 from .mirror import MIRROR_ODDS, MirrorModel, load_mirror_model, recording_cues
 from .opensim_ik import marker_rms_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
-from .rectification_report import EnsembleWeights, SequenceUp
+from .rectification_report import EnsembleWeights, PostureHypotheses, SequenceUp
 from .remap import outside_image
 from .up_model import camera_outside_probability, default_parameters
 from .scale import height_chain_length, leg_lengths
@@ -176,7 +176,8 @@ def _valid_ups(up_cam: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return np.asarray(valid, bool) & np.isfinite(up_cam).all(axis=1)
 
 
-def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None) -> list[Finding]:
+def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg: float | None = None,
+                      posture: PostureHypotheses | None = None) -> list[Finding]:
     """Flags for a camera orientation that real recordings rarely have.
 
     The camera is judged against the image axis nearest the up direction, as the view gate
@@ -196,6 +197,11 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
         tilt_deg, pitch_deg, roll_deg: degrees, from :func:`camera_tilt` (one recording's
             mean up; ``cos(tilt) = cos(pitch) cos(roll)``). Without ``pitch_deg`` and
             ``roll_deg`` only an upside-down tilt is judged.
+        posture: the up model's posture hypotheses, where the run has them (sequence mode of
+            the shipped ensemble with its camera prior, where ``--posture`` is read): a
+            declared posture answers the quarter turn's question (portrait phone or lying
+            body), so no quarter-turn flag; without them the flag's action says where
+            ``--posture`` is read.
 
     Returns:
         zero or one finding.
@@ -230,13 +236,16 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
                        f"them); either the camera was tilted that much or the subject is not upright (lying, seated, "
                        f"bent), which the poses alone cannot tell apart: check the result (and --axes, with --lifter "
                        f"generic)")]
-    if quarter:
+    if quarter and not (posture is not None and posture.declared):
+        declare = ("--posture lying if the subject lay, --posture upright to confirm" if posture is not None
+                   else "if the subject lay: --mode sequence --posture lying, with the camera prior")
         return [_found(Kind.QUARTER_TURN, Severity.CHECK,
                        f"camera read as turned a quarter turn (roll {roll_deg:+.0f} deg): portrait phone or lying "
-                       f"body?", "check the result",
+                       f"body?", declare,
                        f"camera read as turned a quarter turn about its optical axis (roll {roll_deg:+.0f} deg: a "
                        f"phone in portrait, or a body lying across the image under a level camera, which the poses "
-                       f"alone cannot tell apart): check the result")]
+                       f"alone cannot tell apart): {declare}; a lying body's up then comes from the camera prior "
+                       f"across the trunk")]
     return []
 
 
@@ -373,8 +382,8 @@ def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -
     off = 100 * min(p95 / p50 - 1, 1 - p5 / p50)  # both tails, so a tenth of the frames
     return [_found(Kind.SIZE_CHANGE, Severity.PROBLEM,
                    f"skeleton size changes {p95 / p5:.1f}-fold; a tenth of the frames off by > {off:.0f} %",
-                   "check the lifter's output; output in image units is read with --units px or normalised with "
-                   "--lifter generic",
+                   "check the lifter's output; for output in image units give --lifter generic with --units px or "
+                   "normalised",
                    f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of "
                    f"the ankle-to-head chain; a body keeps its size): the lifter fails, or its output is in image "
                    f"units (declare them: --units normalised or px with --lifter generic, and pcnet makes the size "
@@ -591,8 +600,8 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
     hypothesis kept enough posterior probability that the 95 % intervals reach it
     (``interval_reaches_other_posture_p``, :data:`pcnet.stages.up_model.OTHER_POSTURE_P`;
     decision 0060). ``None`` or no posture (frame or smooth mode, another method, or no camera
-    prior) gives none."""
-    if sequence is None or sequence.posture is None:
+    prior) gives none, and so does a posture the user declared (``--posture``)."""
+    if sequence is None or sequence.posture is None or sequence.posture.declared:
         return []
     p = sequence.posture.p_lying
     if sequence.posture.most_probable == "lying":
@@ -600,25 +609,27 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
         camera = f"a camera looking {'down' if pitch >= 0 else 'up'} {abs(pitch):.0f} deg and rolled {roll:+.0f} deg"
         return [_found(Kind.LYING, Severity.CHECK,
                        f"body read as lying (posterior {100 * p:.0f} %): up taken from the priors",
-                       f"--no-camera-prior if standing under {camera} (or --axes, with --lifter generic, if "
-                       f"the file's up axis is another)",
+                       f"--posture upright if standing under {camera}, --posture lying to confirm (or --axes, "
+                       f"with --lifter generic, if the file's up axis is another)",
                        f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is "
                        f"taken from the camera prior (near level; the true up within a "
                        f"{sequence.up_uncertainty_deg:.0f} deg cone, 95 %, if the camera is not upside down: a supine "
                        f"body under an upside-down camera reads as prone) across the trunk; a body standing straight "
                        f"under {camera} (the poses' own reading, without the priors) looks the same (pass "
-                       f"--no-camera-prior if that is the camera; a phone video's "
+                       f"--posture upright if that is the camera; a phone video's "
                        f"display rotation tells when --video is given with the 2D keypoints), and so does a file "
                        f"whose up axis is declared wrongly (check --axes with --lifter generic). A body that really "
-                       f"lies under a camera near level keeps this result: the angles between segments (hip, knee, "
-                       f"elbow) do not depend on the up; angles to gravity and positions rest on the camera prior")]
+                       f"lies under a camera near level keeps this result (--posture lying says so): the angles "
+                       f"between segments (hip, knee, elbow) do not depend on the up; angles to gravity and positions "
+                       f"rest on the camera prior")]
     if sequence.interval_reaches_other_posture_p is not None:
         return [_found(Kind.AMBIGUOUS_ORIENTATION, Severity.CHECK,
                        f"ambiguous orientation: read upright, but lying keeps {100 * p:.0f} % posterior",
-                       "check the result",
+                       "--posture upright or --posture lying, as the subject was",
                        f"ambiguous body orientation: read as upright, but a lying body under a level camera keeps "
                        f"{100 * p:.0f} % posterior probability, so the 95 % intervals reach it (pose-based up "
-                       f"{sequence.posture.pose_up_tilt_deg:.0f} deg from a level camera's)")]
+                       f"{sequence.posture.pose_up_tilt_deg:.0f} deg from a level camera's); the poses cannot tell "
+                       f"the two apart: declaring the posture (--posture upright or lying) settles it")]
     return []
 
 

@@ -47,6 +47,7 @@ from .core.conventions import (
     REFUSED_THIGH_M,
     THIGH_RANGE_M,
     THORAX,
+    UNSCALED_UNITS,
     check_poses,
     thigh_beyond_metres,
     validate_fps,
@@ -881,8 +882,9 @@ def _require_units(X, units: object, field: str) -> None:
     (:func:`~pcnet.stages.core.conventions.thigh_beyond_metres`): their speeds would be wrong a
     hundredfold (a user trial's centimetres gave a wrist at 152 m/s; a notebook trial's metres
     declared as "mm" were labelled mm/s)."""
-    if not isinstance(units, str) or not units:
-        raise InputError(f"units: expected a length unit's name ('m', 'normalised', ...), got {units!r}")
+    known = (*METRES_PER_LENGTH_UNIT, *UNSCALED_UNITS)
+    if not isinstance(units, str) or units not in known:
+        raise InputError(f"units: expected a length unit's name (one of {', '.join(map(repr, known))}), got {units!r}")
     scale = METRES_PER_LENGTH_UNIT.get(units)
     thigh = thigh_beyond_metres(X, scale) if scale is not None else None
     if thigh is not None:

@@ -39,11 +39,13 @@ class PostureHypotheses:
     the more probable hypothesis (``"upright"`` or ``"lying"``), ``p_lying`` the lying hypothesis's
     posterior probability in [0, 1], ``pose_up`` ``(3,)`` the unit up the poses alone give
     (camera frame; the posterior's likelihood mode, without the priors): the camera an upright
-    body implies, whose pitch, roll and tilt the properties give."""
+    body implies, whose pitch, roll and tilt the properties give. ``declared``: the posture was
+    given by the user (``--posture``: a prior of 0 or 1 on lying), not read from the priors."""
 
     most_probable: str
     p_lying: float
     pose_up: np.ndarray
+    declared: bool = False
 
     @property
     def pose_up_pitch_deg(self) -> float:
@@ -202,6 +204,7 @@ class RectificationReport:
                        interval_reaches_other_posture_p=s.interval_reaches_other_posture_p,
                        posture=None if s.posture is None else {
                            "most_probable": s.posture.most_probable, "p_lying": round(s.posture.p_lying, 4),
+                           "declared": s.posture.declared,
                            "pose_up_tilt_deg": round(s.posture.pose_up_tilt_deg, 2),
                            "pose_up_pitch_deg": round(s.posture.pose_up_pitch_deg, 2),
                            "pose_up_roll_deg": round(s.posture.pose_up_roll_deg, 2)},

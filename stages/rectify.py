@@ -41,7 +41,40 @@ from .up_model import (OTHER_POSTURE_P, Z95, UpEvidence, UpModelParameters, defa
                        summarise_recording)
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
+#: The body's posture in sequence mode's up model: ``auto`` (the posterior decides, with the
+#: declared prior ``lying_prior``) or one the user declares (a prior of 0 or 1 on lying).
+POSTURES = ("auto", "upright", "lying")
 NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
+
+
+def check_posture(posture: object, method: str, weights: str | None, mode: str, camera_prior: bool, who: str) -> None:
+    """Refuse a ``posture`` (:data:`POSTURES`) that is not one, or one
+    declared (``upright``/``lying``) where nothing would read it: only the up model's posture
+    hypotheses do, in sequence mode of the shipped ensemble (``method`` pcnet or pcnet-rigid
+    without ``weights``) with its camera prior. Auto mode is refused too: where it chooses
+    smooth mode the declaration would be dropped (a user trial). ``who`` names the option.
+
+    Raises:
+        InputError: one line naming ``who``, what was expected and what was given.
+    """
+    if posture not in POSTURES:
+        raise InputError(f"{who}: expected one of {', '.join(POSTURES)}, got {posture!r}")
+    if posture == "auto":
+        return
+    if method not in ("pcnet", "pcnet-rigid"):
+        why = "another method's sequence up has no posture hypotheses"
+    elif weights is not None:
+        why = "one network's weights have no posture hypotheses"
+    elif mode == "auto":
+        why = "mode auto may choose smooth mode, which has no posture hypotheses"
+    elif mode != "sequence":
+        why = f"mode {mode} has no posture hypotheses"
+    elif not camera_prior:
+        why = "the lying posture's up comes from the camera prior"
+    else:
+        return
+    raise InputError(f"{who}: expected with the shipped ensemble's sequence mode and its camera prior ({why}), "
+                     f"got posture {posture}")
 
 
 def no_valid_frame_reason(report: RectificationReport) -> str:
@@ -203,24 +236,32 @@ class SequenceEvidence:
     :data:`pcnet.stages.temporal.SMOOTH_TIME_CONSTANT_S`) or ``"auto"`` (one of the last two by
     :func:`pcnet.stages.temporal.choose_mode`; ``"frame"`` for a recording with one valid
     frame, with that reason). ``camera_prior``: the up model's declared priors (False: the
-    poses alone). ``n_bootstrap``: replicates of another method's sequence-mode uncertainty
-    (0 = none, NaN; the rotations do not depend on it). ``measured_root``: the joints carry a
+    poses alone). ``posture``: :data:`POSTURES`, the up model's posture hypotheses
+    (:func:`up_model_sequence`). ``n_bootstrap``: replicates of another method's sequence-mode
+    uncertainty (0 = none, NaN; the rotations do not depend on it). ``measured_root``: the joints carry a
     camera-frame pelvis path (a depth sensor's, or one recovered from 2D keypoints,
     :mod:`pcnet.stages.root_path`), so sequence mode fuses the floor contacts
     (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor.
 
     Raises:
-        InputError: unknown ``mode``.
+        InputError: unknown ``mode`` or ``posture``; a declared posture without the camera prior
+            (the lying hypothesis's up comes from it).
     """
 
     mode: str = "frame"
     camera_prior: bool = True
     n_bootstrap: int = BOOTSTRAP_REPLICATES
     measured_root: bool = False
+    posture: str = "auto"
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise InputError(f"unknown mode {self.mode!r}; expected one of {MODES}")
+        if self.posture not in POSTURES:
+            raise InputError(f"posture: expected one of {', '.join(POSTURES)}, got {self.posture!r}")
+        if self.posture != "auto" and not self.camera_prior:
+            raise InputError(f"posture {self.posture}: expected with the camera prior (the lying posture's up comes "
+                             f"from it), got camera_prior False")
 
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
                  fps: float, decide_on: np.ndarray | None = None, calibrated: bool = True,
@@ -276,7 +317,8 @@ class SequenceEvidence:
         located = joints_cam if self.measured_root else None
         if evidence is not None and calibrated:
             # A path that jumps to another person is not one body's: the floor reads one person's feet (decision 0066).
-            out, valid, up = up_model_sequence(R, ok, evidence, fps, self.camera_prior, located, floor_frames=decide_on)
+            out, valid, up = up_model_sequence(R, ok, evidence, fps, self.camera_prior, located, floor_frames=decide_on,
+                                               posture=self.posture)
         else:  # another method's sequence up: its bootstrap, no calibrated interval
             res = sequence_rectify(R, ok, located, fps=fps, n_bootstrap=self.n_bootstrap)
             out, valid = res.rotations, res.valid
@@ -294,17 +336,23 @@ class SequenceEvidence:
 
 def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: float, camera_prior: bool = True,
                       joints_cam: np.ndarray | None = None, params: UpModelParameters | None = None,
-                      floor_frames: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
+                      floor_frames: np.ndarray | None = None,
+                      posture: str = "auto") -> tuple[np.ndarray, np.ndarray, SequenceUp]:
     """Sequence mode by the up model (:mod:`pcnet.stages.up_model`): the static posterior's up
     for every valid frame and each frame's heading about it
     (:func:`pcnet.stages.temporal.rotations_about_up` of the per-frame rotations ``R``
     ``(T, 3, 3)``; ``ok`` ``(T,)`` bool their valid frames).
 
     ``camera_prior`` False: a uniform prior over the up and no lying hypothesis (the poses
-    alone). ``joints_cam`` ``(T, 17, 3)`` with a pelvis path (measured, or from 2D keypoints): the
-    footfalls weigh in the posture's posterior, and an upright posture's up is then fused with the
-    floor contacts (:func:`pcnet.stages.ground_plane.posture_and_floor_up`). The intervals
-    stay the up model's: the fused ones are too narrow on validation
+    alone). ``posture`` (:data:`POSTURES`): ``auto``, or ``upright`` / ``lying`` declared by the
+    user, who knows what the poses cannot tell (docs/up_model.md, "What the poses cannot tell"):
+    the posture prior ``rho`` becomes 0 / 1, and the camera prior stays; a declared lying body
+    whose trunk the answer leaves nearer vertical than horizontal (its trunk runs up and down the
+    image: a portrait camera without its display rotation) is refused. ``joints_cam``
+    ``(T, 17, 3)`` with a pelvis path (measured, or from 2D keypoints): the footfalls weigh in
+    the posture's posterior, and an upright posture's up is then fused with the floor contacts
+    (:func:`pcnet.stages.ground_plane.posture_and_floor_up`). The intervals stay the up model's:
+    the fused ones are too narrow on validation
     (``benchmarks/results/fit_floor_contacts.txt``). ``params``: the up model's parameters
     (default: the shipped ones; the ablation switches terms off through them). ``floor_frames``:
     ``(T,)`` bool, the only frames whose feet the floor contacts read (one person's stretch of
@@ -316,29 +364,42 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
         :class:`~pcnet.stages.rectification_report.SequenceUp` with the posterior's 95 %
         half-widths as intervals, the poses' part alone (Laplace, no systematic error) as the
         uncertainties and the posture hypotheses.
+
+    Raises:
+        InputError: ``posture`` lying where the lying posture's answer leaves the trunk nearer
+            vertical than horizontal (the declaration cannot be met).
     """
     params = default_parameters() if params is None else params
     if not camera_prior:
         params = replace(params, camera_prior_outside=1.0)
+    if posture != "auto":
+        params = replace(params, lying_prior=float(posture == "lying"))
     summary = summarise_recording(evidence.frames(ok), fps, params)
     J = None if joints_cam is None else check_poses(joints_cam, "joints_cam")
     floor_ok = ok if floor_frames is None else ok & np.asarray(floor_frames, bool)
     chain = posture_and_floor_up(summary, J, floor_ok, params, lying=camera_prior)
     post, up, ground = chain.posterior, chain.up, chain.ground
+    trunk_from_vertical = float(np.degrees(np.arccos(min(1.0, abs(float(post.summary.up @ up))))))
+    if posture == "lying" and trunk_from_vertical < 45.0:  # nearer vertical than horizontal: not lying
+        raise InputError(f"posture lying: expected a lying trunk, got one {trunk_from_vertical:.0f} deg from vertical "
+                         f"at the up the camera prior allows: the trunk runs up and down the image, which a lying "
+                         f"body shows only to a camera turned a quarter turn or looking straight down; turn the "
+                         f"input to how it was displayed (a phone's display rotation), or leave the posture to "
+                         f"the priors (auto)")
     kind = "up model+ground_plane" if ground["used"] else "up model"
     rotations, heading_ok = rotations_about_up(R, up)
     pitch, roll = camera_pitch_roll(up)
     pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))
     spread = np.degrees(angle_between(normalize(R[ok, :, 1]), up[None]))
-    posture = PostureHypotheses(post.posture, float(post.p_lying), post.summary.up)
+    hypotheses = PostureHypotheses(post.posture, float(post.p_lying), post.summary.up, declared=posture != "auto")
     return rotations, ok & heading_ok, SequenceUp(
         evidence=kind, up=up, camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
         camera_pitch_interval_deg=post.pitch_half_deg, camera_roll_interval_deg=post.roll_half_deg,
         up_uncertainty_deg=float(np.hypot(post.pitch_half_deg, post.roll_half_deg)),
         camera_pitch_uncertainty_deg=float(Z95 * pose_sd[0]), camera_roll_uncertainty_deg=float(Z95 * pose_sd[1]),
-        interval_reaches_other_posture_p=(round(posture.other_p, 4) if posture.other_p >= OTHER_POSTURE_P
+        interval_reaches_other_posture_p=(round(hypotheses.other_p, 4) if hypotheses.other_p >= OTHER_POSTURE_P
                                           else None),
-        posture=posture if camera_prior else None, up_spread_deg=float(np.median(spread)),
+        posture=hypotheses if camera_prior else None, up_spread_deg=float(np.median(spread)),
         up_spread_p95_deg=float(np.percentile(spread, 95)), ground_plane=ground)
 
 

@@ -566,8 +566,9 @@ def posture_log_weights(s: PoseSummary, p: UpModelParameters, lying: bool = True
     posture no prior mass (an ablation switch)."""
     grid = _grid()
     prior = log_camera_prior(grid, p)
-    lu = np.log1p(-p.lying_prior) + log_upright(grid, s, p) + prior
-    ll = np.log(p.lying_prior) + log_lying(grid, s, p) + prior if lying else np.full(len(grid), -np.inf)
+    with np.errstate(divide="ignore"):  # a declared posture: rho = 0 or 1 (``--posture``)
+        lu = np.log1p(-p.lying_prior) + log_upright(grid, s, p) + prior
+        ll = np.log(p.lying_prior) + log_lying(grid, s, p) + prior if lying else np.full(len(grid), -np.inf)
     if floor is not None:
         top = max(lu.max(), ll.max())
         keep = np.maximum(lu, ll) > top + np.log(_FLOOR_SUPPORT)

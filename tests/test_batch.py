@@ -64,10 +64,14 @@ def _statuses(manifest: Path) -> list[str]:
     return [r["status"] for r in _summary(manifest)["rows"]]
 
 
-def _interrupt(proc) -> tuple[str, str, float]:
-    """Ctrl-C to a running `pcnet batch`: its stdout, stderr and seconds until it exited."""
+def _interrupt(proc, signum: int = signal.SIGINT) -> tuple[str, str, float]:
+    """Ctrl-C to a running `pcnet batch` (or ``signum`` to its whole process group, as a closed
+    terminal sends SIGHUP): its stdout, stderr and seconds until it exited."""
     sent = time.monotonic()
-    proc.send_signal(signal.SIGINT)
+    if signum == signal.SIGINT:
+        proc.send_signal(signum)
+    else:
+        os.killpg(proc.pid, signum)
     out, err = proc.communicate(timeout=30)
     return out, err, time.monotonic() - sent
 
@@ -85,10 +89,16 @@ def _started(hook: Path, row: int) -> list[int]:
 
 
 def _spawn_batch(*args, hook: Path) -> subprocess.Popen:
-    """`pcnet batch` in its own process, as a user starts it (entry point, signal handlers)."""
+    """`pcnet batch` in its own process, as a user starts it (entry point, signal handlers), in a
+    process group of its own as a terminal's job is (a closed terminal signals the group)."""
     env = dict(os.environ, **{TEST_HOOK: str(hook)})
+
+    def child() -> None:  # a terminal's default (a test run under nohup would pass its ignore on)
+        if hasattr(signal, "SIGHUP"):
+            signal.signal(signal.SIGHUP, signal.SIG_DFL)
     return subprocess.Popen([sys.executable, "-m", "pcnet.pipeline.entry", "batch", *[str(a) for a in args]],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, process_group=0,
+                            preexec_fn=child)
 
 
 @pytest.fixture
@@ -287,6 +297,23 @@ def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     res = _invoke(manifest, "--workers", "1")
     assert res.exit_code == 1 and "line 3: column out" in res.output and "notes.txt" in res.output, res.output
     assert (tmp_path / "r2" / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.slow
+def test_a_rows_own_overwrite_column_runs_it_again(tmp_path):
+    """The manifest's ``overwrite`` column is that row's ``--overwrite`` (a user trial: set on
+    one row, it did nothing, the row skipped as complete); it still refuses a file of the
+    user's own."""
+    manifest = _manifest(tmp_path, _row("o1"), _row("o2"))
+    assert _invoke(manifest, "--workers", "1").exit_code == 0
+    header, first, second = manifest.read_text().splitlines()
+    manifest.write_text("\n".join([header + ",overwrite", first + ",false", second + ",true"]) + "\n")
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 0 and _statuses(manifest) == ["skipped", "ok"], res.output
+    (tmp_path / "o2" / "notes.txt").write_text("mine")
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 1 and "notes.txt" in res.output, res.output
+    assert (tmp_path / "o2" / "notes.txt").read_text() == "mine"
 
 
 @pytest.mark.slow
@@ -576,8 +603,10 @@ def test_run_flags_in_an_action_read_as_manifest_columns():
     joints[20:] *= 2.0
     (found,) = size_change_flag(joints)
     # and say when to switch to the generic lifter (a batch trial read it as "always switch")
-    assert in_manifest_terms(found.action) == ("check the lifter's output; output in image units is read with column "
-                                               "units px or normalised with column lifter generic")
+    # ... in an order that reads in both (a trial: "read with column units px or normalised with column lifter
+    # generic" read as garbled)
+    assert in_manifest_terms(found.action) == ("check the lifter's output; for output in image units give column "
+                                               "lifter generic with column units px or normalised")
     assert in_manifest_terms("--mode smooth --no-camera-prior") == "column mode smooth, column camera_prior false"
     assert in_manifest_terms("pass --fps-override to use --fps anyway") == \
         "set column fps_override to true to use column fps anyway"
@@ -591,16 +620,19 @@ def test_retry_failed_needs_a_previous_summary(tmp_path):
 
 
 @pytest.mark.slow
-def test_ctrl_c_stops_at_once_and_prints_what_finished(tmp_path, hook):
+@pytest.mark.parametrize("signum", [signal.SIGINT, getattr(signal, "SIGHUP", signal.SIGINT)], ids=["ctrl-c", "hangup"])
+def test_ctrl_c_stops_at_once_and_prints_what_finished(tmp_path, hook, signum):
     """SIGINT while rows 2 and 3 run (row 1 done, row 4 waiting): exit 130 within ~2 s,
-    the table printed, rows 2-4 cancelled, no output or staged folder left for them."""
+    the table printed, rows 2-4 cancelled, no output or staged folder left for them. A closed
+    terminal's SIGHUP to the batch and its workers stops it the same way (a user trial: the
+    batch died at once, leaving two staged folders and a summary of rows "pending")."""
     manifest = _manifest(tmp_path, *(_row(f"c{i}") for i in range(1, 5)))
     (hook / "hold-2").touch()
     (hook / "hold-3").touch()
     proc = _spawn_batch(manifest, "--workers", "2", hook=hook)
     try:
         _wait_for(lambda: _started(hook, 2) and _started(hook, 3), what="rows 2 and 3 to start")
-        out, err, took = _interrupt(proc)
+        out, err, took = _interrupt(proc, signum)
     finally:
         proc.kill()
     assert proc.returncode == 130, out + err
@@ -1104,3 +1136,21 @@ def test_cancelled_rows_that_keep_an_earlier_complete_output_are_counted_and_eve
         "still holds an earlier complete output, not this run's",
         "interrupted: no further row started; cancelled rows left their output folders as they were; the same command "
         "runs them"]
+    # a failed row (a killed worker) leaves its earlier output too, and was not said to (a batch trial)
+    failed = _row_summary(PlannedRow(row=3, line=4, config={"out": str(kept)}), None, "failed")
+    text = format_summary(BatchReport([*rows, failed], False, tmp_path / "s.json", 1.0))
+    assert text.splitlines()[0].endswith("; 1 cancelled row and 1 failed row still hold an earlier complete output, "
+                                         "not this run's")
+
+
+def test_an_interrupted_overwrite_says_how_to_run_only_the_rows_it_left():
+    """After Ctrl-C under ``--overwrite`` the same command would run the finished rows again,
+    and a plain one skips the cancelled rows that still hold their earlier output (a user
+    trial followed "the same command runs them")."""
+    from types import SimpleNamespace
+
+    from pcnet.pipeline.batch import _interrupted_line
+
+    assert _interrupted_line(SimpleNamespace(settings={"overwrite": True})).endswith(
+        "--retry-failed --overwrite runs them alone")
+    assert _interrupted_line(SimpleNamespace(settings={"overwrite": False})).endswith("the same command runs them")

@@ -82,6 +82,8 @@ def test_a_portrait_camera_is_not_called_upside_down(degrees):
     assert abs(abs(roll) - 90) < 20 and abs(tilt - 90) < 20
     flags = orientation_flags(tilt, pitch, roll)
     assert len(flags) == 1 and "quarter turn" in flags[0].detail and "upside down" not in flags[0].detail, flags
+    # frame mode reads no --posture: the action says where it is read (a trial was refused following it)
+    assert flags[0].action == "if the subject lay: --mode sequence --posture lying, with the camera prior"
 
 
 def test_orientation_flags_judge_the_tilt_beyond_the_nearest_image_axis():

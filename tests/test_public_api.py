@@ -140,6 +140,18 @@ def test_rectify_needs_the_frame_rate_for_modes_that_pool_over_seconds(mode):
 # --- what a library user meets (a developer's trial of the Python API) -----------------------
 
 
+def test_sequence_mode_refuses_poses_whose_every_frame_it_leaves_out():
+    """Poses with their vertical axis flipped (a Y-up export read as camera-frame) keep no frame
+    with a heading about sequence mode's up: ``rectify`` returned NaN rows alone, where ``pcnet
+    run`` refuses them in one line (a developer trial)."""
+    from pcnet.pipeline import InputError, rectify
+
+    flipped = np.load(FIXTURES / "boxing_X3D_f000-059.npy") * np.array([1.0, -1.0, 1.0])
+    assert rectify(flipped, mode="frame").valid.any()
+    with pytest.raises(InputError, match=r"^every frame's own up is more than 143 deg from the sequence up"):
+        rectify(flipped, mode="sequence", fps=30.0)
+
+
 def test_results_pickle_for_worker_processes_and_compare_by_identity():
     """``Kinematics`` could not be pickled ("cannot pickle 'mappingproxy'"), so a process pool
     could not return it; ``==`` on the results raised numpy's "truth value is ambiguous"."""
@@ -203,8 +215,12 @@ def test_kinematics_refuse_centimetres_said_to_be_metres_and_a_unit_that_is_no_n
     with pytest.raises(InputError, match=r"canonical: expected poses in 'mm' \(units 'mm': .*\), got 0\.000\d+ m: "
                                          r"another unit or joint order given as 'mm'\?"):
         compute_kinematics(poses, 30.0, units="mm")
-    with pytest.raises(InputError, match=r"units: expected a length unit's name \('m', 'normalised', \.\.\.\), got 5"):
+    with pytest.raises(InputError, match=r"units: expected a length unit's name \(one of 'm', 'cm', 'mm', "
+                                         r"'normalised', 'px'\), got 5"):
         compute_kinematics(poses, 30.0, units=5)
+    # any other string was taken and labelled the velocities "furlong/s" (a developer trial)
+    with pytest.raises(InputError, match="got 'furlong'"):
+        compute_kinematics(poses, 30.0, units="furlong")
     # a long recording in chunks is judged as a whole, as compute_kinematics judges it (a review:
     # a last chunk holding only a few glitched 3 m thighs was refused alone)
     from pcnet.stages.core.conventions import L_KNEE, R_KNEE

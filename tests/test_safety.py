@@ -17,6 +17,7 @@ import pytest
 from click.testing import CliRunner
 from conftest import FIXTURES
 
+from pcnet.pipeline import interrupt
 from pcnet.pipeline.cli import main
 from pcnet.pipeline.outdir import MARKER, TMP_TAG, TRASH_TAG, read_marker
 from pcnet.stages.core.conventions import L_HIP, PELVIS
@@ -277,9 +278,14 @@ def test_toml_fields_are_type_checked(user_folder, field, value):
     assert (user_folder / "o" / "precious.txt").read_text() == "mine"
 
 
-def _run_cli(folder: Path, *args: str) -> subprocess.Popen:
+def _run_cli(folder: Path, *args: str, hangup: object = getattr(signal, "SIG_DFL")) -> subprocess.Popen:
+    """``pcnet`` in a process of its own, with SIGHUP's handling ``hangup`` (a terminal's default:
+    a test run under nohup would pass its ignore on)."""
+    def child() -> None:
+        if hasattr(signal, "SIGHUP"):
+            signal.signal(signal.SIGHUP, hangup)
     return subprocess.Popen([sys.executable, "-m", "pcnet.pipeline.cli", *args], cwd=folder,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=child)
 
 
 def _complete(out: Path) -> bool:
@@ -314,20 +320,37 @@ def test_sigkill_during_overwrite_leaves_the_old_or_the_new_output_whole(user_fo
     assert (user_folder / "notes.txt").read_text() == "mine"
 
 
-def test_sigterm_is_handled_like_ctrl_c(user_folder):
-    """SIGTERM while the recording is written: exit 130, one line, no temp folder, no out."""
+@pytest.mark.parametrize("signum", interrupt.STOP_SIGNALS)
+def test_sigterm_is_handled_like_ctrl_c(user_folder, signum):
+    """SIGTERM (or a closed terminal's SIGHUP) while the recording is written: exit 130, one
+    line, no temp folder, no out."""
     proc = _run_cli(user_folder, "run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30",
                     "--out", "o")
     deadline = time.time() + 60
     while time.time() < deadline and not list(user_folder.glob(f".o{TMP_TAG}*")):
         time.sleep(0.01)  # wait until it is writing its outputs
     assert list(user_folder.glob(f".o{TMP_TAG}*")), "the run never started writing"
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(signum)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
     assert not (user_folder / "o").exists()
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="no SIGHUP on this platform")
+def test_a_run_under_nohup_keeps_running_after_a_hang_up(user_folder):
+    """``nohup pcnet ...`` ignores SIGHUP so that a run outlives its terminal: pcnet must not
+    turn that ignored hang-up into an interrupt."""
+    proc = _run_cli(user_folder, "run", "--lifter", "generic", "--lifter-output", "poses.npy", "--fps", "30",
+                    "--out", "o", hangup=signal.SIG_IGN)
+    deadline = time.time() + 60
+    while time.time() < deadline and not list(user_folder.glob(f".o{TMP_TAG}*")):
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGHUP)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    assert _complete(user_folder / "o")
 
 
 def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt(user_folder, monkeypatch):
@@ -672,7 +695,7 @@ def test_ctrl_c_while_click_parses_the_arguments_is_exit_130(user_folder, monkey
     """An interrupt that lands while click parses the command line (outside any command's
     body, where click itself would print "Aborted!" and exit 1) still ends in one line and
     exit 130. Deterministic counterpart of the timed subprocess test below."""
-    from pcnet.pipeline import entry, interrupt
+    from pcnet.pipeline import entry
 
     def interrupted_parse(*args, **kwargs):
         entry.raise_interrupt(signal.SIGINT, None)
@@ -680,7 +703,7 @@ def test_ctrl_c_while_click_parses_the_arguments_is_exit_130(user_folder, monkey
     monkeypatch.setattr(main, "make_context", interrupted_parse)
     monkeypatch.setattr(sys, "argv", ["pcnet", *RUN, "--out", "o"])
     monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # entry.main replaces it
-    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, *interrupt.STOP_SIGNALS)}
     try:
         with pytest.raises(SystemExit) as stop:
             entry.main()
@@ -700,7 +723,6 @@ def test_an_interrupt_a_library_turns_into_another_error_is_still_exit_130(user_
     CI ended in that traceback and exit 1). Once an interrupt arrived, whatever unwinds is that
     interrupt: one line, exit 130, no output. Without one, the same TypeError stays a bug with
     its traceback. Deterministic counterpart of test_sigterm_is_handled_like_ctrl_c."""
-    from pcnet.pipeline import interrupt
 
     def interrupted_fromfile(*args, **kwargs):
         try:
@@ -766,7 +788,7 @@ def test_a_batch_worker_stopped_inside_an_import_exits_without_a_traceback(monke
             raise ImportError("initialization failed") from stop
 
     monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # the worker replaces it
-    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, *interrupt.STOP_SIGNALS)}
     try:
         monkeypatch.setattr(batch_local, "set_opencv_threads", interrupted_import)
         assert batch_local._worker_main(None, 1) is None

@@ -167,6 +167,9 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     assert result.flags == [f.detail for f in flags] and all(text in report for text in result.flags + notes)
     assert report.index("2D track probably switches") < report.index("the lifter's output was turned")
     assert "95 % posterior interval per axis (up model, docs/up_model.md)" in report  # the long tilt line
+    # a clinician trial read "12 without a valid pose" against "a person in 221 of 230 frames"
+    assert "3 without a valid pose: kept as NaN rows, valid = 0; a pose needs the pelvis, both hips, the thorax " \
+           "and both shoulders" in report
 
 
 def test_intervals_are_not_called_95_percent_where_the_per_frame_ups_spread_beyond_a_static_camera():

@@ -159,8 +159,9 @@ def test_the_report_record_names_the_posture_hypotheses():
     res = rectify(_yoga("yoga_Abhay_Shavasana_f200-299.npy"), "pcnet", mode="sequence", fps=30.0)
     record = json.loads(json.dumps(jsonable(res.report.as_record())))
     assert record["posture"]["most_probable"] == "lying" and record["posture"]["p_lying"] > 0.5
-    assert set(record["posture"]) == {"most_probable", "p_lying", "pose_up_tilt_deg", "pose_up_pitch_deg",
-                                      "pose_up_roll_deg"}
+    assert set(record["posture"]) == {"most_probable", "p_lying", "declared", "pose_up_tilt_deg",
+                                      "pose_up_pitch_deg", "pose_up_roll_deg"}
+    assert record["posture"]["declared"] is False
     posture = record["posture"]
     assert posture["pose_up_tilt_deg"] == pytest.approx(np.degrees(np.arccos(
         np.cos(np.radians(posture["pose_up_pitch_deg"])) * np.cos(np.radians(posture["pose_up_roll_deg"])))), abs=0.02)
@@ -188,7 +189,7 @@ def test_posture_flags_name_the_posture():
         return sequence_up(posture, (30.0, 30.0), 40.0)
 
     (flag,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, camera_up(2.0, 70.0))))
-    assert "read as lying" in flag.detail and "--no-camera-prior" in flag.detail and "40 deg cone" in flag.detail
+    assert "read as lying" in flag.detail and "--posture upright" in flag.detail and "40 deg cone" in flag.detail
     # The upright alternative's camera, as the poses read it: rolled here, pitched steeply below.
     assert "a camera looking down 2 deg and rolled +70 deg" in flag.action
     (steep,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, camera_up(62.0, -3.0))))
@@ -200,6 +201,46 @@ def test_posture_flags_name_the_posture():
     for p_lying in (0.06, 0.2):
         (flag,) = posture_flag(sequence(PostureHypotheses("upright", p_lying, camera_up(0.0, 70.0))))
         assert "ambiguous" in flag.detail and "70 deg" in flag.detail and "intervals reach it" in flag.detail
+        assert flag.action == "--posture upright or --posture lying, as the subject was"
+    # a posture the user declared (--posture) is no question to warn about
+    assert posture_flag(sequence(PostureHypotheses("lying", 1.0, camera_up(2.0, 70.0), declared=True))) == []
+
+
+def test_a_declared_posture_settles_what_the_poses_cannot_tell():
+    """A body standing under a camera turned a quarter turn and one lying under a level camera
+    give the same poses (docs/up_model.md): the priors read this standing Tadasana, turned a
+    quarter turn, as lying. A clinician trial's portrait clip got two warnings whose action was
+    "check the result"; ``--posture`` is the answer they can give (a prior of 0 or 1 on lying)."""
+    from pcnet.pipeline import pose_checks
+    from pcnet.pipeline.rectification import rectify
+    from pcnet.stages.core.rotations import camera_tilt_deg
+    from pcnet.stages.flags import Kind
+
+    turned = _yoga("yoga_Abhay_Tadasana_f000-099.npy") @ axis_rotation("z", np.pi / 2).T
+    runs = {p: rectify(turned, mode="sequence", fps=30.0, posture=p) for p in ("auto", "upright", "lying")}
+    assert runs["auto"].report.posture.most_probable == "lying"
+    assert {f.kind for f in pose_checks(turned, runs["auto"])} & {Kind.LYING, Kind.QUARTER_TURN}
+    upright, lying = runs["upright"].report.posture, runs["lying"].report.posture
+    assert (upright.most_probable, upright.p_lying, upright.declared) == ("upright", 0.0, True)
+    assert (lying.most_probable, lying.p_lying, lying.declared) == ("lying", 1.0, True)
+    # standing: the camera turned a quarter turn, as the poses read it; lying: a camera near level
+    assert abs(camera_tilt_deg(runs["upright"].report.sequence.up) - 90.0) < 15.0
+    assert camera_tilt_deg(runs["lying"].report.sequence.up) < 15.0
+    for p in ("upright", "lying"):
+        assert not {f.kind for f in pose_checks(turned, runs[p])} & {Kind.LYING, Kind.QUARTER_TURN,
+                                                                    Kind.AMBIGUOUS_ORIENTATION}
+    # a lying body whose trunk runs up and down the image (a portrait phone without its display
+    # rotation) read as standing, with lying declared and no warning (a trial): refused instead
+    portrait_lying = _yoga("yoga_Abhay_Shavasana_f200-299.npy") @ axis_rotation("z", np.pi / 2).T
+    with pytest.raises(InputError, match=r"^posture lying: expected a lying trunk, got one \d+ deg from vertical"):
+        rectify(portrait_lying, mode="sequence", fps=30.0, posture="lying")
+    for kwargs, why in (({"mode": "frame"}, "mode frame has no posture hypotheses"),
+                        ({"mode": "auto", "fps": 30.0}, "mode auto may choose smooth mode"),
+                        ({"mode": "sequence", "fps": 30.0, "camera_prior": False}, "comes from the camera prior"),
+                        ({"mode": "sequence", "fps": 30.0, "method": "geometric"}, "another method's"),
+                        ({"mode": "sequence", "fps": 30.0, "posture": "sitting"}, "expected one of auto, upright, lying")):
+        with pytest.raises(ValueError, match=why):
+            rectify(turned, **{"posture": "lying", **kwargs})
 
 
 def test_cli_no_camera_prior_switch(tmp_path):
@@ -208,14 +249,19 @@ def test_cli_no_camera_prior_switch(tmp_path):
     from pcnet.pipeline.cli import main
 
     src = FIX / "yoga_Abhay_Shavasana_f200-299.npy"
-    trunk = {}
-    for name, extra in (("prior", []), ("alone", ["--no-camera-prior"])):
+    trunk, posture, flags = {}, {}, {}
+    for name, extra in (("prior", []), ("alone", ["--no-camera-prior"]), ("declared", ["--posture", "lying"])):
         out = tmp_path / f"{name}.npz"
         res = CliRunner().invoke(main, ["rectify", str(src), "--out", str(out), "--mode", "sequence", "--fps", "30", *extra])
         assert res.exit_code == 0, res.output
         with np.load(out, allow_pickle=False) as z:
             trunk[name] = _trunk_from_vertical_deg(z["canonical"])
-    assert trunk["prior"] > 75.0 > 30.0 > trunk["alone"]
+            # the report and the warnings stay with the arrays (a trial's declared posture was lost)
+            posture[name] = json.loads(str(z["report"]))["posture"]
+            flags[name] = [str(f) for f in z["flags"]]
+    assert trunk["prior"] > 75.0 > 30.0 > trunk["alone"] and trunk["declared"] > 75.0
+    assert any("body read as lying" in f for f in flags["prior"]) and flags["declared"] == []
+    assert posture["alone"] is None and (posture["prior"]["declared"], posture["declared"]["declared"]) == (False, True)
 
 
 @pytest.mark.slow

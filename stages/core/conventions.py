@@ -399,6 +399,8 @@ def median_thigh_length(joints) -> float:
 #: Metres per unit of the length units poses may be in (the others, a lifter's ``normalised``
 #: scale or ``px``, have no fixed length).
 METRES_PER_LENGTH_UNIT = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+#: Pose units with no metric scale: a lifter's normalised output, and pixels.
+UNSCALED_UNITS = ("normalised", "px")
 
 
 def thigh_beyond_metres(joints, metres_per_unit: float = 1.0) -> float | None:
