@@ -31,9 +31,10 @@ is rebuilt from the cache the same way and checked against the real chain's cach
 "reproduction check" line: the largest angle between the two over every recording).
 
 Data, held out from the shipped weights (their training mix is the Bandai + CMU motion-style
-train split; models/MODEL_CARD.md):
+train split and three DeepMimic floor motions; models/MODEL_CARD.md):
 - mocap: the Bandai motion-style test split, the CMU test subjects (motion-style test split of
-  cmu_train_h36m17.npz) and DeepMimic (all clips), at most ``--max-clips`` clips per set (a
+  cmu_train_h36m17.npz) and DeepMimic ("held out": its clips the weights' training records do
+  not name, 78 of 81), at most ``--max-clips`` clips per set (a
   seeded random subset, sorted), each clip one static camera from the "paper" distribution
   (``make_pairs(..., views="paper", seed=0, camera="static", noise=LifterNoise())``, the
   protocol of benchmarks/calibrate_uncertainty.py and auto_mode_threshold.py); the truth's up
@@ -107,6 +108,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import hashlib
 import os
 import time
@@ -142,7 +144,7 @@ RESULT = Path(__file__).resolve().parent / "results" / "ablation.txt"
 CACHE = Path("/tmp/pcnet_ablation_cache")
 MOCAP_SETS = (("Bandai motion-style test", "bandai_h36m17.npz", "test"),
               ("CMU test subjects", "cmu_train_h36m17.npz", "test"),
-              ("DeepMimic", "deepmimic_h36m17.npz", "all"))
+              ("DeepMimic, held out", "deepmimic_h36m17.npz", "all"))
 REAL_ROLLS_DEG = (0, 90, 180, -90)
 EQUIVARIANCE_ROLLS_DEG = (30, 90)
 YOGA_STRIDE = 2
@@ -438,17 +440,40 @@ def mocap_evidence(data: Path, file: str, split: str, max_clips: int, rest: bool
     return out
 
 
+@functools.cache
+def trained_clip_names() -> frozenset[str]:
+    """The clips the shipped weights trained on whole, by their training records'
+    ``whole_clips`` (the ``.json`` beside each ``.onnx``): DeepMimic's three floor motions,
+    in the camera-frame network's mix. A held-out set leaves them out (:func:`held_out`)."""
+    names = set()
+    for weights in (CAMERA_WEIGHTS, BODY_WEIGHTS):
+        record = get_session(str(weights)).info.get("training_config") or {}
+        names.update(record.get("whole_clips") or [])
+    return frozenset(names)
+
+
+def held_out(recordings: list[dict]) -> list[dict]:
+    """``recordings`` less those of a clip the shipped weights trained on
+    (:func:`trained_clip_names`). The static sets' caches keep every clip, so that a
+    recording's inputs (its view, its lifter noise) do not depend on which clips the weights
+    trained on; the sets made from them (moving, rolled, pitched cameras) are made from the
+    held-out recordings only (their cache keys say ``heldout``)."""
+    trained = trained_clip_names()
+    return [ev for ev in recordings if ev["name"] not in trained]
+
+
 def mocap_set(data: Path, cache: Path, file: str, split: str, max_clips: int, rest: bool = False) -> list[dict]:
-    """One mocap set's recordings through the networks (:func:`mocap_evidence`), :func:`cached`
-    under the key every benchmark shares: ``{dataset}_{split}[_rest]_{max_clips}``."""
+    """One mocap set's held-out recordings through the networks (:func:`mocap_evidence`,
+    :func:`held_out`), :func:`cached` under the key every benchmark shares:
+    ``{dataset}_{split}[_rest]_{max_clips}``."""
     key = f"{file.split('_')[0]}_{split}{'_rest' if rest else ''}_{max_clips}"
-    return cached(cache, key, lambda: mocap_evidence(data, file, split, max_clips, rest=rest))
+    return held_out(cached(cache, key, lambda: mocap_evidence(data, file, split, max_clips, rest=rest)))
 
 
 def heldout_sweep(cache: Path, static: list[list[dict]], max_clips: int) -> list[dict]:
     """The held-out moving camera (:func:`sweep_evidence` of the Bandai test and DeepMimic sets,
-    ``static`` in :data:`MOCAP_SETS` order), :func:`cached` under ``sweep_{max_clips}``."""
-    return cached(cache, f"sweep_{max_clips}", lambda: sweep_evidence([static[0], static[2]]))
+    ``static`` in :data:`MOCAP_SETS` order), :func:`cached` under ``sweep_heldout_{max_clips}``."""
+    return cached(cache, f"sweep_heldout_{max_clips}", lambda: sweep_evidence([static[0], static[2]]))
 
 
 def sweep_evidence(sets: list[list[dict]]) -> list[dict]:
@@ -530,8 +555,8 @@ def rolled_table(rolled: list[dict], runs: dict, static: list[tuple[str, list[di
 
 def rolled_recordings(cache: Path, static: list[list[dict]], max_clips: int, roll_deg: float = ROLL_DEG) -> list[dict]:
     """:func:`rolled_evidence` of the held-out mocap ``static`` (:data:`MOCAP_SETS` order), cached
-    under ``rolled{roll_deg}_{max_clips}``."""
-    return cached(cache, f"rolled{roll_deg:g}_{max_clips}", lambda: rolled_evidence(static, roll_deg))
+    under ``rolled{roll_deg}_heldout_{max_clips}``."""
+    return cached(cache, f"rolled{roll_deg:g}_heldout_{max_clips}", lambda: rolled_evidence(static, roll_deg))
 
 
 def pitched_evidence(sets: list[list[dict]], pitch_deg) -> list[dict]:
@@ -553,8 +578,8 @@ def pitched_evidence(sets: list[list[dict]], pitch_deg) -> list[dict]:
 
 def pitched_recordings(cache: Path, static: list[list[dict]], max_clips: int, pitch_deg: float) -> list[dict]:
     """:func:`pitched_evidence` of the held-out mocap ``static`` (:data:`MOCAP_SETS` order), cached
-    under ``pitched{pitch_deg}_{max_clips}``."""
-    return cached(cache, f"pitched{pitch_deg:g}_{max_clips}", lambda: pitched_evidence(static, pitch_deg))
+    under ``pitched{pitch_deg}_heldout_{max_clips}``."""
+    return cached(cache, f"pitched{pitch_deg:g}_heldout_{max_clips}", lambda: pitched_evidence(static, pitch_deg))
 
 
 def real_recordings(data: Path, cache: Path) -> list[dict]:
@@ -1015,6 +1040,8 @@ def measured_root_recordings(data: Path, file: str, split: str, max_clips: int, 
     out = []
     for clip, X, R, frames in static_camera_clips(select_split(load_mocap(data / "mocap" / file), split, "motion-style"),
                                                   max_clips, rest=rest):
+        if clip.name not in by_name:  # trained on (:func:`held_out`)
+            continue
         ev = by_name[clip.name]
         if not np.array_equal(X, ev["J"]):
             raise SystemExit(f"{clip.name}: the cached inputs differ from make_pairs' (stale cache?)")
