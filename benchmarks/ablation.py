@@ -33,8 +33,8 @@ is rebuilt from the cache the same way and checked against the real chain's cach
 Data, held out from the shipped weights (their training mix is the Bandai + CMU motion-style
 train split and three DeepMimic floor motions; models/MODEL_CARD.md):
 - mocap: the Bandai motion-style test split, the CMU test subjects (motion-style test split of
-  cmu_train_h36m17.npz) and DeepMimic ("held out": its clips the weights' training records do
-  not name, 78 of 81), at most ``--max-clips`` clips per set (a
+  cmu_train_h36m17.npz) and DeepMimic (its clips the weights' training records do not name:
+  78 of 81), at most ``--max-clips`` clips per set (a
   seeded random subset, sorted), each clip one static camera from the "paper" distribution
   (``make_pairs(..., views="paper", seed=0, camera="static", noise=LifterNoise())``, the
   protocol of benchmarks/calibrate_uncertainty.py and auto_mode_threshold.py); the truth's up
@@ -144,7 +144,7 @@ RESULT = Path(__file__).resolve().parent / "results" / "ablation.txt"
 CACHE = Path("/tmp/pcnet_ablation_cache")
 MOCAP_SETS = (("Bandai motion-style test", "bandai_h36m17.npz", "test"),
               ("CMU test subjects", "cmu_train_h36m17.npz", "test"),
-              ("DeepMimic, held out", "deepmimic_h36m17.npz", "all"))
+              ("DeepMimic, clips no shipped weights trained on", "deepmimic_h36m17.npz", "all"))
 REAL_ROLLS_DEG = (0, 90, 180, -90)
 EQUIVARIANCE_ROLLS_DEG = (30, 90)
 YOGA_STRIDE = 2
