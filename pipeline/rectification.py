@@ -134,7 +134,7 @@ def rectify(
     user knows it (:data:`pcnet.stages.rectify.POSTURES`): a body lying under a level camera and
     an upright one under a camera turned a quarter turn give the same poses, so only the priors
     or the user can tell them apart (docs/up_model.md); only the shipped ensemble's sequence up
-    (``method`` pcnet or pcnet-rigid without ``weights``, mode sequence or auto) reads it.
+    (``method`` pcnet or pcnet-rigid without ``weights``, mode sequence) reads it.
     ``measured_root``: the joints keep a camera-frame root path (a depth sensor's, or one
     recovered from 2D keypoints by :func:`pcnet.stages.root_path.root_from_keypoints`, as
     ``pcnet run`` does), so sequence mode also weighs the floor contacts
@@ -158,8 +158,8 @@ def rectify(
         InputError (a ValueError): bad input array (see above), unknown method, mode,
             heading source or posture, a posture declared where nothing reads it
             (:func:`pcnet.stages.rectify.check_posture`), an option of another type
-            (``camera_prior``, ``measured_root`` not a bool; ``fps`` not a number: ``"no"`` would read as true), no ``fps`` for a
-            mode other than ``frame``, ``measured_root`` over root-relative joints
+            (``camera_prior``, ``measured_root`` not a bool; ``fps`` not a number: ``"no"``
+            would read as true), no ``fps`` for a mode other than ``frame``, ``measured_root`` over root-relative joints
             (:func:`check_measured_root`), or (modes other than ``frame``) no valid frame,
             including none with a heading about the sequence up (the input's axes wrong:
             :func:`pcnet.stages.rectify.no_valid_frame_reason`).

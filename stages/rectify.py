@@ -379,13 +379,14 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     floor_ok = ok if floor_frames is None else ok & np.asarray(floor_frames, bool)
     chain = posture_and_floor_up(summary, J, floor_ok, params, lying=camera_prior)
     post, up, ground = chain.posterior, chain.up, chain.ground
-    trunk_from_vertical = float(np.degrees(np.arccos(min(1.0, abs(float(post.summary.up @ up))))))
-    if posture == "lying" and trunk_from_vertical < 45.0:  # nearer vertical than horizontal: not lying
-        raise InputError(f"posture lying: expected a lying trunk, got one {trunk_from_vertical:.0f} deg from vertical "
-                         f"at the up the camera prior allows: the trunk runs up and down the image, which a lying "
-                         f"body shows only to a camera turned a quarter turn or looking straight down; turn the "
-                         f"input to how it was displayed (a phone's display rotation), or leave the posture to "
-                         f"the priors (auto)")
+    if posture == "lying":
+        trunk_from_vertical = float(np.degrees(np.arccos(min(1.0, abs(float(post.summary.up @ up))))))
+        if trunk_from_vertical < 45.0:  # nearer vertical than horizontal: not lying
+            raise InputError(f"posture lying: expected a lying trunk, got one {trunk_from_vertical:.0f} deg from "
+                             f"vertical at the up the camera prior allows: the trunk runs up and down the image, "
+                             f"which a lying body shows only to a camera turned a quarter turn or looking straight "
+                             f"down; turn the input to how it was displayed (a phone's display rotation), or leave "
+                             f"the posture to the priors (auto)")
     kind = "up model+ground_plane" if ground["used"] else "up model"
     rotations, heading_ok = rotations_about_up(R, up)
     pitch, roll = camera_pitch_roll(up)
