@@ -240,6 +240,8 @@ def test_a_declared_posture_settles_what_the_poses_cannot_tell():
     assert min(trunk, 180.0 - trunk) > 90.0 - 35.0, trunk
     seq = run.report.sequence
     assert max(seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg) > 90.0
+    tilt = [f for f in pose_checks(portrait_lying, run) if f.kind is Kind.CAMERA_TILT]
+    assert len(tilt) == 1 and "with lying declared" in tilt[0].headline and "portrait" in tilt[0].action
     for kwargs, why in (({"mode": "frame"}, "mode frame has no posture hypotheses"),
                         ({"mode": "auto", "fps": 30.0}, "mode auto may choose smooth mode"),
                         ({"mode": "sequence", "fps": 30.0, "camera_prior": False}, "comes from the camera prior"),
