@@ -550,7 +550,7 @@ def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, 
 @click.argument("out_dir", type=click.Path(file_okay=False))
 @click.option("--height", type=float, default=None,
               help="Subject height in metres, recorded in opensim_fit.json; default the run's `--height`, which scaled "
-                   "the markers (another value is refused).")
+                   "the markers (another value, or one where the run had none, is refused).")
 @click.option("--mass", type=float, default=None, help="Subject mass in kg (sets the scaled model's total mass).")
 @click.option("--overwrite", is_flag=True, help="Replace earlier OpenSim outputs of pcnet in OUT_DIR.")
 def opensim(out_dir, height, mass, overwrite):
@@ -602,9 +602,10 @@ def opensim(out_dir, height, mass, overwrite):
 
 def _subject_height(folder: Path, height: float | None) -> float | None:
     """The subject height for ``pcnet opensim``: the run's (``canonical.npz``
-    ``subject_height_m``, which scaled world.trc's markers), or ``height`` where the run had
-    none. A ``height`` that contradicts the run's is refused: opensim_fit.json would record a
-    subject the markers are not scaled to (a user trial)."""
+    ``subject_height_m``, which scaled world.trc's markers), or ``None`` where the run had
+    none. A ``height`` that contradicts the run's, or one given where the run had none, is
+    refused: opensim_fit.json would record a subject the markers are not scaled to (user
+    trials, sessions 58 and 60)."""
     import numpy as np
 
     from pcnet.adapters.validate import NumpyArchive, open_numpy
@@ -623,7 +624,11 @@ def _subject_height(folder: Path, height: float | None) -> float | None:
                                      f"{value.shape} of {value.dtype}")
                 run_height = float(value)
     if not np.isfinite(run_height):
-        return height
+        if height is not None:
+            raise InputError(f"{folder}: --height: expected no height, as the run was given none (world.trc's markers "
+                             f"keep the lifter's own scale), got {height:g}; re-run pcnet run --height {height:g} to "
+                             f"scale them, or leave --height out")
+        return None
     if height is not None and abs(height - run_height) > 0.005:
         raise InputError(f"{folder}: --height: expected the run's subject height, {run_height:g} m (pcnet run --height "
                          f"scaled world.trc's markers to it), got {height:g}; re-run pcnet run --height {height:g}, or "

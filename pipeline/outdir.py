@@ -476,7 +476,11 @@ def _swap_in(tmp: Path, target: Path, overwrite: bool, given: str) -> Path | Non
             if info.get("writer") == "pcnet":  # the trash is this live run's until it is removed
                 write_text(target / MARKER, json.dumps({**info, "pid": os.getpid(), "host": socket.gethostname()},
                                                        indent=1) + "\n")
-            os.rename(target, trash)
+            try:
+                os.rename(target, trash)
+            except OSError as err:  # a mount point (EBUSY) cannot be moved aside: a user trial
+                raise InputError(f"--out {given}: cannot move the earlier output aside to replace it ({reason(err)}); "
+                                 f"left as it was, and this run's output not written") from err
         os.rename(tmp, target)
     except BaseException:
         if trash is not None:

@@ -243,6 +243,17 @@ def test_cli_opensim_takes_the_runs_height_and_refuses_another(short_run, tmp_pa
     res = _cli("opensim", out, "--height", 1.75)
     assert res.exit_code == 1 and "canonical.npz': field 'content': expected a numpy .npy/.npz file" in res.output
     (out / "canonical.npz").write_bytes(good)
+    # a run given no height: its markers keep the lifter's scale, so any height is refused (a
+    # trial's opensim_fit.json recorded 1.60 m for markers whose head was 1.28 m up)
+    with np.load(out / "canonical.npz", allow_pickle=False) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    np.savez(out / "canonical.npz", **{**arrays, "subject_height_m": np.float64("nan")})
+    res = _cli("opensim", out, "--height", 1.6)
+    assert res.exit_code == 1 and res.output.strip() == (
+        f"Error: {out}: --height: expected no height, as the run was given none (world.trc's markers keep the "
+        f"lifter's own scale), got 1.6; re-run pcnet run --height 1.6 to scale them, or leave --height out")
+    assert not (out / "opensim_fit.json").exists()
+    (out / "canonical.npz").write_bytes(good)
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
     res = _cli("opensim", out)
     assert res.exit_code == 0, res.output

@@ -198,6 +198,37 @@ def test_a_file_the_user_adds_to_the_old_output_during_an_overwrite_is_kept(user
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp folder left
 
 
+def test_an_out_that_cannot_be_moved_aside_is_one_line_naming_out(user_folder, monkeypatch):
+    """--overwrite of an --out that is a mount point: the old output cannot be renamed aside
+    (EBUSY), and a user trial got the rename's two paths, one of them pcnet's hidden trash."""
+    import errno
+
+    from pcnet.pipeline import outdir
+    from pcnet.pipeline.outdir import register_files, staged_output
+    from pcnet.stages.core.errors import InputError
+
+    with staged_output("o") as tmp:
+        (tmp / "world.trc").write_bytes(b"old")
+        register_files(tmp, ["world.trc"])
+    rename = os.rename
+
+    def busy(src, dst, *args, **kwargs):
+        if os.fsdecode(src).endswith("/o") or os.fsdecode(src) == "o":
+            raise OSError(errno.EBUSY, "Device or resource busy", os.fsdecode(src), os.fsdecode(dst))
+        return rename(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(outdir.os, "rename", busy)
+    with pytest.raises(InputError) as err:
+        with staged_output("o", overwrite=True) as tmp:
+            (tmp / "world.trc").write_bytes(b"new")
+            register_files(tmp, ["world.trc"])
+    assert str(err.value) == ("--out o: cannot move the earlier output aside to replace it (Device or resource busy; "
+                              "a mount point or a folder in use? write into a new folder inside it, or elsewhere); "
+                              "left as it was, and this run's output not written")
+    assert (user_folder / "o" / "world.trc").read_bytes() == b"old"
+    assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp or trash folder left
+
+
 def test_an_old_output_file_that_cannot_be_removed_is_said(user_folder, monkeypatch):
     """--overwrite swaps the new output in and then deletes the old one; a file of the old one
     that cannot be deleted (a bad-input trial: `chattr +i`) was left in a hidden folder unsaid."""

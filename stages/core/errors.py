@@ -52,6 +52,7 @@ _ADVICE = {
     errno.ENFILE: "close programs or raise the system's open-file limit, and run again",
     errno.ENAMETOOLONG: "use a shorter path",
     errno.ELOOP: "a symbolic-link loop? use the real path",
+    errno.EBUSY: "a mount point or a folder in use? write into a new folder inside it, or elsewhere",
 }
 #: Paths longer than this are shown by their start and end: a 4,000-character path is not a
 #: message anyone reads.
@@ -81,7 +82,7 @@ def reason(err: OSError) -> str:
 def environment_advice(code: int | None) -> str:
     """``"; <what to do>"`` for an ``OSError``'s errno that is a failure of the environment
     (full disk or quota, read-only file system, permissions, too many open files, a name too
-    long, a link loop), ``""`` for any other."""
+    long, a link loop, a busy mount point), ``""`` for any other."""
     return f"; {_ADVICE[code]}" if code in _ADVICE else ""
 
 
