@@ -137,18 +137,22 @@ from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, u
 from pcnet.stages.root_path import root_from_keypoints
 from pcnet.stages.spherical import robust_mean_direction
 from pcnet.stages.uncertainty import FRAME_TILT_95_DEG, frame_tilt_bound
-from pcnet.stages.up_model import LYING_TRUNK_DEG, UpEvidence, default_parameters, static_posterior, summarise_recording
+from pcnet.stages.up_model import UpEvidence, default_parameters, static_posterior, summarise_recording
 
 DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "ablation.txt"
 CACHE = Path("/tmp/pcnet_ablation_cache")
 MOCAP_SETS = (("Bandai motion-style test", "bandai_h36m17.npz", "test"),
               ("CMU test subjects", "cmu_train_h36m17.npz", "test"),
-              ("DeepMimic, held out", "deepmimic_h36m17.npz", "all"))
+              ("DeepMimic, clips no shipped weights trained on", "deepmimic_h36m17.npz", "all"))
 REAL_ROLLS_DEG = (0, 90, 180, -90)
 EQUIVARIANCE_ROLLS_DEG = (30, 90)
 YOGA_STRIDE = 2
 GROSS_DEG = 20.0
+#: A clip is truly lying where its median trunk (pelvis -> thorax) is this far from the true
+#: vertical: the benchmarks' definition of the truth, not a constant of the package (its
+#: non-upright warning, which shared it, went with decision 0076).
+LYING_TRUNK_DEG = 60.0
 #: A mean difference smaller than this (deg) is "no effect" whatever its interval.
 NEGLIGIBLE_DEG = 0.05
 #: A clip "changed" when its error moved by more than this (deg).

@@ -35,14 +35,11 @@ Fits, in order (each uses the ones before):
    M >= 5 tau(M)), in seconds.
 4. ``systematic_pitch_deg``, ``systematic_roll_deg``: maximum likelihood of the recording
    summaries' errors ``log_map(g, g_hat)`` under ``N(0, C_L + S)``, S diagonal.
-5. The lying posture's elevation (no parameter; decision 0099): training frames of the shipped
-   weights' mix (with DeepMimic's three floor motions, the only bodies on the floor there;
-   decision 0082) whose trunk (pelvis -> thorax) is more than ``LYING_TRUNK_DEG`` (60 deg) from
-   vertical are lying. The maximum likelihood scale of a normal truncated to the lying
-   elevations ``|e| <= 90 - cut`` is printed for cuts of 50-70 deg with the clips that pass:
-   infinite (the uniform the model uses) wherever their mean square elevation reaches the
-   uniform's ``(90 - cut)^2 / 3``. Their share of frames is printed, not used: ``lying_prior``
-   is declared (below).
+5. ``lying_elevation_deg``: training frames of the shipped weights' mix (with DeepMimic's
+   three floor motions, the only bodies on the floor there; decision 0082) whose trunk (pelvis
+   -> thorax) is more than 60 deg from vertical are lying; sigma_lie is the RMS of their trunk
+   elevation from horizontal, printed too for cuts of 50-70 deg with the clips that pass.
+   Their share of frames is printed, not used: ``lying_prior`` is declared (below).
 Declared, not fitted: the camera prior, docs/CONVENTIONS.md "handheld" views (pitch
 N(0, 12 deg), roll N(0, 10 deg)) and a 5 % share of cameras outside them; and the prior
 probability of a lying body, equal to that share. A lying body under a level camera and an
@@ -63,8 +60,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import brentq, minimize
-from scipy.stats import norm
+from scipy.optimize import minimize
 
 from benchmarks import ablation as A
 from benchmarks.deepmimic_floor_subset import FLOOR_TRAIN
@@ -72,7 +68,7 @@ from benchmarks.report import print_and_save, require_mocap
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.rotations import axis_rotation
-from pcnet.stages.up_model import LYING_TRUNK_DEG, UpModelParameters, camera_view_estimate, log_map, summarise_recording, systematic_cov
+from pcnet.stages.up_model import UpModelParameters, camera_view_estimate, log_map, summarise_recording, systematic_cov
 
 ROOT = Path(__file__).resolve().parents[1]
 JSON_OUT = ROOT / "stages" / "data" / "up_model.json"
@@ -255,8 +251,8 @@ def fit_systematic(es: np.ndarray, covs: np.ndarray, isotropic: bool = False) ->
 #: The training mix's floor motions (the camera-frame network's ``whole_clips``), the only
 #: training frames of a body on the floor (decision 0082).
 FLOOR_FILE = "deepmimic_h36m17.npz"
-#: Cuts (deg of trunk from vertical) whose lying elevation fit is printed beside the definition's
-#: (:data:`pcnet.stages.up_model.LYING_TRUNK_DEG`, plus or minus 10 deg; decision 0082).
+#: Cuts (deg of trunk from vertical) whose ``sigma_lie`` is printed beside the definition's
+#: (:data:`benchmarks.ablation.LYING_TRUNK_DEG`, plus or minus 10 deg; decision 0082).
 LYING_CUTS_DEG = (50.0, 55.0, 60.0, 65.0, 70.0)
 
 
@@ -276,28 +272,14 @@ def training_trunk_angles(data: Path) -> list[tuple[str, np.ndarray]]:
     return out
 
 
-def fit_lying(angles: list[tuple[str, np.ndarray]], cut_deg: float = LYING_TRUNK_DEG) -> tuple[float, float, float, int, int]:
-    """``(share, rms, scale, k, n)``: of the ``n`` training frames of :func:`training_trunk_angles`
+def fit_lying(angles: list[tuple[str, np.ndarray]], cut_deg: float = A.LYING_TRUNK_DEG) -> tuple[float, float, int, int]:
+    """``(share, sigma_lie, k, n)``: of the ``n`` training frames of :func:`training_trunk_angles`
     ``angles``, the ``k`` whose trunk is more than ``cut_deg`` from vertical are lying; their
-    share, the RMS of their trunk elevation ``e`` from the horizontal (deg), and the maximum
-    likelihood scale (deg) of a zero-mean normal truncated to ``|e| <= c = 90 - cut_deg``:
-    ``inf`` where the RMS reaches the uniform's ``c / sqrt(3)`` (the likelihood then grows with
-    the scale), else the root of ``E[e^2 | sigma] = rms^2``, ``E[e^2 | sigma] = sigma^2 (1 - 2 z
-    phi(z) / (2 Phi(z) - 1))``, ``z = c / sigma``."""
+    share, and the RMS of their trunk elevation from the horizontal (deg)."""
     ang = np.concatenate([a for _, a in angles])
     elev = 90.0 - ang[ang > cut_deg]
     k = len(elev)
-    if not k:
-        return 0.0, float("nan"), float("nan"), 0, len(ang)
-    rms, c = float(np.sqrt(np.mean(np.square(elev)))), 90.0 - cut_deg
-    if rms >= c / np.sqrt(3.0):
-        return k / len(ang), rms, float("inf"), k, len(ang)
-
-    def excess(sigma: float) -> float:
-        z = c / sigma
-        return sigma ** 2 * (1.0 - 2.0 * z * norm.pdf(z) / (2.0 * norm.cdf(z) - 1.0)) - rms ** 2
-
-    return k / len(ang), rms, float(brentq(excess, 1e-3 * c, 1e3 * c)), k, len(ang)
+    return k / len(ang), float(np.sqrt(np.mean(np.square(elev)))) if k else float("nan"), k, len(ang)
 
 
 def params_from(values: dict, provenance: dict) -> UpModelParameters:
@@ -344,7 +326,7 @@ def main(argv=None) -> int:
              f"{n_frames} frames")
     values = {"camera_fallback_deg": 90.0, "camera_fallback_width_deg": 10.0, "network_sigma_deg": 3.0,
               "outlier_share": 0.01, "error_time_s": 1.0, "systematic_pitch_deg": 3.0, "systematic_roll_deg": 1.5,
-              **DECLARED}
+              "lying_elevation_deg": 10.0, **DECLARED}
     prov = {k: DECLARED_WHY for k in DECLARED}
     prov["lying_prior"] = LYING_WHY
     # The floor-contact parameters are fitted afterwards, on this model's posterior
@@ -368,17 +350,21 @@ def main(argv=None) -> int:
     values.update(systematic_pitch_deg=sp, systematic_roll_deg=sr)
     prov["systematic_pitch_deg"] = prov["systematic_roll_deg"] = f"maximum likelihood of recording summaries' errors, {split}"
     angles = training_trunk_angles(args.data)
-    share = fit_lying(angles)[0]
+    share, sig, k, n = fit_lying(angles)
     by_cut = {c: fit_lying(angles, c) for c in LYING_CUTS_DEG}
+    values.update(lying_elevation_deg=sig)
+    prov["lying_elevation_deg"] = (f"training mocap of the shipped weights' mix (Bandai motion-style train, CMU "
+                                   f"training subjects, DeepMimic's three floor motions): RMS trunk elevation of the "
+                                   f"{k} of {n} frames lying (trunk > {A.LYING_TRUNK_DEG:g} deg from vertical; "
+                                   f"decision 0082: 50-70 deg cuts give " + " / ".join(
+                                       f"{fit[1]:.1f}" for fit in by_cut.values()) + " deg)")
     prov["lying_prior"] = (f"{LYING_WHY}; the training mocap's share of lying frames, {share:.5f}, does not sample "
                            f"users' recordings (no training clip lies throughout)")
-    lying_lines = [f"lying frames (trunk > {LYING_TRUNK_DEG:g} deg from vertical) per training clip: "
-                   + ", ".join(f"{name} {int(np.sum(a > LYING_TRUNK_DEG))}" for name, a in angles
-                               if np.any(a > LYING_TRUNK_DEG)),
-                   "lying elevation by the cut (deg from vertical -> frames, RMS elevation / the uniform's, maximum "
-                   "likelihood scale of the truncated normal, deg): "
-                   + ", ".join(f"{c:g} -> {fit[3]}, {fit[1]:.2f} / {(90 - c) / np.sqrt(3):.2f}, {fit[2]:.4g}"
-                               for c, fit in by_cut.items())]
+    lying_lines = [f"lying frames (trunk > {A.LYING_TRUNK_DEG:g} deg from vertical) per training clip: "
+                   + ", ".join(f"{name} {int(np.sum(a > A.LYING_TRUNK_DEG))}" for name, a in angles
+                               if np.any(a > A.LYING_TRUNK_DEG)),
+                   "sigma_lie by the cut (deg from vertical -> frames, sigma_lie deg): "
+                   + ", ".join(f"{c:g} -> {fit[2]}, {fit[1]:.2f}" for c, fit in by_cut.items())]
     params = params_from(values, prov)
 
     doc = {"model": "pcnet.stages.up_model (docs/up_model.md)", "command": COMMAND,

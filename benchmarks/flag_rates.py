@@ -11,7 +11,7 @@ Data, held out from the shipped weights (their training mix is the Bandai + CMU 
 train split; models/MODEL_CARD.md), as benchmarks/ablation.py reads it: the CMU test subjects
 (motion-style test split of cmu_train_h36m17.npz), the Bandai motion-style test split and
 DeepMimic (all clips). Clips whose body is lying (median angle of the clean trunk, pelvis ->
-thorax, from the world's up > 60 deg, the up model's ``LYING_TRUNK_DEG``) are skipped; of the
+thorax, from the world's up > 60 deg, ablation.py's ``LYING_TRUNK_DEG``) are skipped; of the
 rest a seeded random subset (``numpy`` seed 0, sorted) of at most ``--max-clips`` per set.
 
 Camera: one static camera per clip from the "paper" distribution (docs/CONVENTIONS.md; pcnet
@@ -63,7 +63,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.ablation import static_camera_clips
+from benchmarks.ablation import LYING_TRUNK_DEG, static_camera_clips
 from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
 from benchmarks.vanishing_gravity import RECORDINGS
 from benchmarks.yoga_physics import FOLDER as YOGA_FOLDER
@@ -76,7 +76,6 @@ from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.rotations import camera_pitch_roll
 from pcnet.stages.flags import Kind, Severity
 from pcnet.stages.scale import CHAIN_TO_STATURE, height_chain_length
-from pcnet.stages.up_model import LYING_TRUNK_DEG
 
 DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "flag_rates.txt"

@@ -382,6 +382,15 @@ def _clip_scores(per_clip: list[tuple[int, dict]], clip: np.ndarray, valid: np.n
             for i, entry in per_clip]
 
 
+def _modes_run(result: dict) -> str:
+    """`` (clips sequence:N,smooth:M)`` where auto mode chose per clip (a user trial found the
+    choice only in the JSON), else ``""``."""
+    modes = result.get("clip_modes") or {}
+    if result.get("mode") != "auto" or not modes:
+        return ""
+    return " (clips " + ",".join(f"{k}:{v}" for k, v in sorted(modes.items())) + ")"
+
+
 def format_table(result: dict) -> str:
     """The result as a plain-text table (one row per metric: mean, median, p95), headed by
     the protocol, the clip and frame counts (invalid frames are excluded from the metrics)
@@ -393,7 +402,7 @@ def format_table(result: dict) -> str:
     head = (f"method={result['method']}{weights} views={result['views']} split={result['split']} "
             f"scheme={result.get('split_scheme', 'clip')}{unseen} "
             f"camera={result['camera']} noise={result['noise']} mode={result['mode']} "
-            f"heading={result.get('heading', 'predicted')} (clips {sources}) seed={result['seed']}\n"
+            f"heading={result.get('heading', 'predicted')} (clips {sources}){_modes_run(result)} seed={result['seed']}\n"
             f"clips={result.get('clips', '?')} groups={result.get('groups', '?')} frames={result['frames']} "
             f"(of {result.get('total_frames', result['frames'])} rectified) invalid={result['invalid_frames']} "
             f"(excluded) frame_set={result.get('frame_set', '?')}")

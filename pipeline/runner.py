@@ -162,7 +162,7 @@ class RunResult:
                    if mode.decided_on_frames is not None else "")
         rectification = (f"{self._method_label()}, mode {self.mode} (requested {mode.requested}" + spread
                          + (f"; {mode.reason}" if mode.reason else "") + decided
-                         + self._auto_smooth_hint(long) + ")")
+                         + self._auto_hint() + ")")
         heading = f"from {heading.source} (requested {heading.requested}; " + self._hip_width() + ")"
         tilt = f"{self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(long) + self._per_frame_tilt()
         kinematics = (WORLD_SUMMARY if long else WORLD_SHORT)[self.report.root_path] \
@@ -235,15 +235,20 @@ class RunResult:
                 f"(frame_tilt_bound_deg in canonical.npz): not a 95 % interval, it held in 81-92 % of frames on "
                 f"held-out mocap with simulated lifter noise and is not calibrated on real lifter output")]
 
-    def _auto_smooth_hint(self, long: bool = True) -> str:
-        """Where auto mode chose smooth: what the spread can mean, and the option for a
-        static camera (lying, seated or cycling bodies spread the per-frame up too)."""
+    def _auto_hint(self) -> str:
+        """What auto mode's spread was measured against: within the threshold, a static camera;
+        above it, what the spread can mean (lying, seated or cycling bodies spread the
+        per-frame up too) and the option for a static camera (a user trial read "above the
+        threshold" alone as "the camera moved")."""
         mode = self.report.rectification.mode
-        if self.mode != "smooth" or mode.requested != "auto" or mode.spread_deg is None:
+        if mode.requested != "auto" or mode.spread_deg is None:
             return ""
-        return (f", above the {MODE_THRESHOLD_DEG:g} deg of a static camera"
-                + (": a moving camera, or poses whose up the networks read less steadily" * long)
-                + "; --mode sequence for a static camera")
+        if self.mode == "sequence" and mode.spread_deg <= MODE_THRESHOLD_DEG:
+            return f", within the {MODE_THRESHOLD_DEG:g} deg of a static camera"
+        if self.mode != "smooth":
+            return ""
+        return (f", above the {MODE_THRESHOLD_DEG:g} deg of a static camera: a moving camera, or poses whose up the "
+                f"networks read less steadily; --mode sequence for a static camera")
 
     def _method_label(self) -> str:
         """The method, with the weights' file where they are not the shipped ones (a user trial's

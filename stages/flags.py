@@ -200,8 +200,7 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
         posture: the up model's posture hypotheses, where the run has them (sequence mode of
             the shipped ensemble with its camera prior, where ``--posture`` is read): a
             declared posture answers the quarter turn's question (portrait phone or lying
-            body), so no quarter-turn flag, and a declared lying body's camera tilt says what
-            a lying trunk leaves open (decision 0099); without them the flag's action says where
+            body), so no quarter-turn flag; without them the flag's action says where
             ``--posture`` is read.
 
     Returns:
@@ -227,16 +226,6 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
             np.cos(np.radians(pitch_deg)) * np.cos(np.radians(roll_beyond)), -1.0, 1.0))))
         turned = "" if quarter == 0 else (f" beyond a quarter turn (roll {roll_deg:+.0f} deg, nearer a camera held in "
                                           f"portrait than a level one)")
-        if posture is not None and posture.declared and posture.most_probable == "lying":
-            return [_found(Kind.CAMERA_TILT, Severity.CHECK,
-                           f"camera tilt {beyond_turn:.0f} deg with lying declared: the trunk does not show how the "
-                           f"camera turned about it", "see the intervals; a phone in portrait: turn the input as displayed",
-                           f"camera tilt {beyond_turn:.0f} deg{turned} (pitch {pitch_deg:+.0f}, roll {roll_beyond:+.0f} "
-                           f"deg) with the lying posture declared: a lying trunk that runs up and down the image is "
-                           f"what a camera looking steeply down or one turned a quarter turn (a phone in portrait "
-                           f"without its display rotation) shows, and the trunk does not tell how the camera turned "
-                           f"about it; the camera intervals say how much is left open; for a phone in portrait, turn "
-                           f"the input to how it was displayed")]
         return [_found(Kind.CAMERA_TILT, Severity.CHECK,
                        f"camera tilt {beyond_turn:.0f} deg{' beyond a quarter turn' if quarter else ''}: a steep "
                        f"camera or a subject not upright", "check the result",

@@ -898,13 +898,14 @@ def _require_units(X, units: object, field: str) -> None:
 
 def inverted_trunk_bound_deg() -> float:
     """The median trunk inclination (pelvis -> thorax from +Y, deg) beyond which Y-up poses
-    are taken to be upside down rather than lying: ``180 - LYING_TRUNK_DEG``, the far edge of
-    the up model's lying trunk (:data:`pcnet.stages.up_model.LYING_TRUNK_DEG`, the definition
-    of lying; decision 0099). An upright body in a camera frame (+Y down) lies near 180 deg
-    less the camera's pitch."""
-    from .up_model import LYING_TRUNK_DEG  # the definition's one source
+    are taken to be upside down rather than lying: ``90 + 1.96 sigma_lie``, the up model's
+    fitted spread of a lying trunk's elevation (``lying_elevation_deg``,
+    :mod:`pcnet.stages.up_model`), its two-sided 95 % quantile (a lying trunk's frame passes it
+    one time in 40). An upright body in a camera frame (+Y down) lies near 180 deg less the
+    camera's pitch."""
+    from .up_model import default_parameters  # the fitted parameter's one source
 
-    return 180.0 - LYING_TRUNK_DEG
+    return 90.0 + 1.96 * default_parameters().lying_elevation_deg
 
 
 def require_y_up(X: np.ndarray, field: str) -> None:

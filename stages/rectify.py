@@ -346,7 +346,9 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     ``camera_prior`` False: a uniform prior over the up and no lying hypothesis (the poses
     alone). ``posture`` (:data:`POSTURES`): ``auto``, or ``upright`` / ``lying`` declared by the
     user, who knows what the poses cannot tell (docs/up_model.md, "What the poses cannot tell"):
-    the posture prior ``rho`` becomes 0 / 1, and the camera prior stays. ``joints_cam``
+    the posture prior ``rho`` becomes 0 / 1, and the camera prior stays; a declared lying body
+    whose trunk the answer leaves nearer vertical than horizontal (its trunk runs up and down the
+    image: a portrait camera without its display rotation) is refused. ``joints_cam``
     ``(T, 17, 3)`` with a pelvis path (measured, or from 2D keypoints): the footfalls weigh in
     the posture's posterior, and an upright posture's up is then fused with the floor contacts
     (:func:`pcnet.stages.ground_plane.posture_and_floor_up`). The intervals stay the up model's:
@@ -362,6 +364,10 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
         :class:`~pcnet.stages.rectification_report.SequenceUp` with the posterior's 95 %
         half-widths as intervals, the poses' part alone (Laplace, no systematic error) as the
         uncertainties and the posture hypotheses.
+
+    Raises:
+        InputError: ``posture`` lying where the lying posture's answer leaves the trunk nearer
+            vertical than horizontal (the declaration cannot be met).
     """
     params = default_parameters() if params is None else params
     if not camera_prior:
@@ -373,6 +379,14 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     floor_ok = ok if floor_frames is None else ok & np.asarray(floor_frames, bool)
     chain = posture_and_floor_up(summary, J, floor_ok, params, lying=camera_prior)
     post, up, ground = chain.posterior, chain.up, chain.ground
+    if posture == "lying":
+        trunk_from_vertical = float(np.degrees(np.arccos(min(1.0, abs(float(post.summary.up @ up))))))
+        if trunk_from_vertical < 45.0:  # nearer vertical than horizontal: not lying
+            raise InputError(f"posture lying: expected a lying trunk, got one {trunk_from_vertical:.0f} deg from "
+                             f"vertical at the up the camera prior allows: the trunk runs up and down the image, "
+                             f"which a lying body shows only to a camera turned a quarter turn or looking straight "
+                             f"down; turn the input to how it was displayed (a phone's display rotation), or leave "
+                             f"the posture to the priors (auto)")
     kind = "up model+ground_plane" if ground["used"] else "up model"
     rotations, heading_ok = rotations_about_up(R, up)
     pitch, roll = camera_pitch_roll(up)

@@ -33,10 +33,8 @@ Systematic error. The lifter's error moves every frame's up the same way, so on 
 the (pitch, roll) directions at ``g``.
 
 Posture. Upright: ``g_hat ~ N(g, C_L + S)``. Lying: both networks read the trunk as up,
-which then lies near the floor plane: ``g_hat`` is uniform in azimuth about ``g``, its
-elevation ``asin(g_hat . g)`` a lying trunk's elevation, uniform on ``|e| <= c`` with ``c = 90
-deg - LYING_TRUNK_DEG`` (the definition of lying), plus the summary's error ``N(0, tr(C_L + S)
-/ 2)`` (:func:`log_lying`). Prior ``P(lying) = rho``.
+which then lies in the floor plane: ``g_hat`` is uniform in azimuth about ``g`` with elevation
+``asin(g_hat . g) ~ N(0, sigma_lie^2 + tr(C_L + S) / 2)``. Prior ``P(lying) = rho``.
 
 Camera prior (declared, docs/CONVENTIONS.md "handheld" views): camera pitch
 ``N(0, prior_pitch^2)`` and roll ``N(0, prior_roll^2)`` with a uniform share ``eps_cam`` for
@@ -68,7 +66,6 @@ from dataclasses import dataclass, fields
 from importlib import resources
 
 import numpy as np
-from scipy.special import log_ndtr
 
 from .core.errors import InputError
 from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg, normalize
@@ -91,11 +88,6 @@ OTHER_POSTURE_P = 0.05
 #: Grid points holding less than this share of the largest weight of the poses' posterior are
 #: left out once the floor weighs in (all of them together hold at most 4e-8 of its largest weight).
 _FLOOR_SUPPORT = 1e-12
-#: A lying trunk (pelvis -> thorax) is more than this far from vertical: the support of the
-#: lying posture's elevation (:func:`log_lying`) and the benchmarks' truth of a lying clip.
-#: A definition, hand-set: decision 0082 found that its value moves results under a camera
-#: rolled a quarter turn over a pelvis path.
-LYING_TRUNK_DEG = 60.0
 
 
 # ============================================================================ parameters
@@ -109,7 +101,7 @@ class UpModelParameters:
         network_sigma_deg: ``sigma``, both networks' scatter. camera_fallback_deg,
         camera_fallback_width_deg: ``psi0``, ``w``.
         outlier_share: ``eps``. error_time_s: ``tau``. systematic_pitch_deg,
-        systematic_roll_deg: ``s_pitch``, ``s_roll``.
+        systematic_roll_deg: ``s_pitch``, ``s_roll``. lying_elevation_deg: ``sigma_lie``.
         lying_prior: ``rho``. camera_prior_pitch_deg,
         camera_prior_roll_deg, camera_prior_outside: the declared camera prior.
         footfall_height_sd_leg: the floor contacts' ``sigma_f`` (leg lengths);
@@ -125,6 +117,7 @@ class UpModelParameters:
     error_time_s: float
     systematic_pitch_deg: float
     systematic_roll_deg: float
+    lying_elevation_deg: float
     lying_prior: float
     camera_prior_pitch_deg: float
     camera_prior_roll_deg: float
@@ -154,7 +147,7 @@ class UpModelParameters:
             values[name], provenance[name] = float(entry["value"]), str(entry.get("provenance", ""))
         out = cls(**values, provenance=provenance)
         for name in ("network_sigma_deg", "error_time_s", "systematic_pitch_deg",
-                     "systematic_roll_deg", "camera_prior_pitch_deg", "camera_prior_roll_deg",
+                     "systematic_roll_deg", "lying_elevation_deg", "camera_prior_pitch_deg", "camera_prior_roll_deg",
                      "camera_fallback_width_deg", "footfall_height_sd_leg", "footfall_posture_power"):
             if not getattr(out, name) > 0:
                 raise InputError(f"up_model.json: parameters.{name}: expected > 0, got {getattr(out, name)}")
@@ -506,22 +499,11 @@ def log_upright(g: np.ndarray, s: PoseSummary, p: UpModelParameters) -> np.ndarr
 
 def log_lying(g: np.ndarray, s: PoseSummary, p: UpModelParameters) -> np.ndarray:
     """Density of ``g_hat`` per steradian at candidate ups ``g`` ``(..., 3)`` under a lying
-    body (decision 0099): azimuth uniform about ``g``; elevation ``e = asin(g_hat . g)`` a
-    lying trunk's elevation, uniform on ``|e| <= c``, ``c = 90 deg -`` :data:`LYING_TRUNK_DEG`,
-    plus the summary's error ``N(0, v)``, ``v = tr(C_L + S) / 2``::
-
-        p(e) = [Phi((c - e) / sqrt(v)) - Phi((-c - e) / sqrt(v))] / (2 c),   per steradian p(e) / (2 pi cos e)
-
-    The uniform is the maximum likelihood normal truncated to ``|e| <= c`` on the training
-    mix's lying frames (its scale runs to infinity at every cut of 50-70 deg:
-    ``python -m benchmarks.fit_up_model``). A normal elevation without the cut put the
-    density's mode at ``g = g_hat`` (the ``1 / cos e`` pole), a "lying" trunk read vertical."""
-    c = np.radians(90.0 - LYING_TRUNK_DEG)
-    sd = np.sqrt(0.5 * np.trace(s.cov + systematic_cov(p)))
-    e = np.abs(np.arcsin(np.clip(np.sum(g * s.up, -1), -1.0, 1.0)))
-    upper, lower = log_ndtr((c - e) / sd), log_ndtr((-c - e) / sd)
-    band = upper + np.log1p(-np.exp(lower - upper)) - np.log(2 * c)
-    return band - np.log(2 * np.pi * np.maximum(np.cos(e), 1e-6))
+    body: uniform azimuth, elevation ``asin(g_hat . g)`` normal with variance
+    ``sigma_lie^2 + tr(C_L + S) / 2``."""
+    var = np.radians(p.lying_elevation_deg) ** 2 + 0.5 * np.trace(s.cov + systematic_cov(p))
+    e = np.arcsin(np.clip(np.sum(g * s.up, -1), -1.0, 1.0))
+    return -0.5 * e ** 2 / var - 0.5 * np.log(2 * np.pi * var) - np.log(2 * np.pi * np.maximum(np.cos(e), 1e-6))
 
 
 @dataclass(frozen=True, eq=False)

@@ -285,6 +285,20 @@ def test_lifter_noise_of_a_frame_does_not_depend_on_subsampling():
 # ---------------------------------------------------------------- pcnet evaluate
 
 
+def test_the_table_says_what_auto_mode_chose_per_clip():
+    """`pcnet evaluate --mode auto` gave the static or moving choice only in the JSON (a user
+    trial): the table's header counts the clips of each mode."""
+    import re
+
+    from pcnet.pipeline.evaluate import evaluate, format_table
+
+    result = evaluate("pcnet", TEST_CLIPS, "all", camera="per-clip", noise="lifter", mode="auto")
+    header = format_table(result).splitlines()[0]
+    counts = dict(re.findall(r"(sequence|smooth):(\d+)", header.split("seed=")[0].split("(clips ")[-1]))
+    assert sum(map(int, counts.values())) == result["clips"] == 12, header
+    assert counts == {k: str(v) for k, v in result["clip_modes"].items()}
+
+
 def test_max_frames_keeps_the_per_clip_decisions():
     """--max-frames scores a subset of whole rectified clips: same heading source and modes
     per clip, same errors on the kept frames. (It used to subsample before

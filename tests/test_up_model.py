@@ -230,18 +230,10 @@ def test_a_declared_posture_settles_what_the_poses_cannot_tell():
         assert not {f.kind for f in pose_checks(turned, runs[p])} & {Kind.LYING, Kind.QUARTER_TURN,
                                                                     Kind.AMBIGUOUS_ORIENTATION}
     # a lying body whose trunk runs up and down the image (a portrait phone without its display
-    # rotation, or a camera looking straight down) read as standing with lying declared (a
-    # trial; decision 0099): now lying, the trunk within the lying definition's band, and the
-    # turn about the trunk that no prior settles left open by the intervals
+    # rotation) read as standing, with lying declared and no warning (a trial): refused instead
     portrait_lying = _yoga("yoga_Abhay_Shavasana_f200-299.npy") @ axis_rotation("z", np.pi / 2).T
-    run = rectify(portrait_lying, mode="sequence", fps=30.0, posture="lying")
-    assert run.report.posture.most_probable == "lying"
-    trunk = _trunk_from_vertical_deg(run.canonical)
-    assert min(trunk, 180.0 - trunk) > 90.0 - 35.0, trunk
-    seq = run.report.sequence
-    assert max(seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg) > 90.0
-    tilt = [f for f in pose_checks(portrait_lying, run) if f.kind is Kind.CAMERA_TILT]
-    assert len(tilt) == 1 and "with lying declared" in tilt[0].headline and "portrait" in tilt[0].action
+    with pytest.raises(InputError, match=r"^posture lying: expected a lying trunk, got one \d+ deg from vertical"):
+        rectify(portrait_lying, mode="sequence", fps=30.0, posture="lying")
     for kwargs, why in (({"mode": "frame"}, "mode frame has no posture hypotheses"),
                         ({"mode": "auto", "fps": 30.0}, "mode auto may choose smooth mode"),
                         ({"mode": "sequence", "fps": 30.0, "camera_prior": False}, "comes from the camera prior"),
