@@ -169,12 +169,15 @@ def _unlisted_whole_warning(record: dict) -> str | None:
             f"not list (exported before pcnet recorded them): clips of this data may be among them")
 
 
-def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None) -> str | None:
+def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None,
+                          untrained_only: bool = False) -> str | None:
     """A warning when the weights' record names their training files but the evaluated file
     is not one of them: whether its clips overlap the training data cannot be told from names,
     so the scores are not called held out; where some evaluated clips are recognised by name
     among the clips trained on whole (``overlap``, :func:`_training_overlap`), it says so and
-    that the others may still be among the training files'; ``None`` otherwise."""
+    that the others may still be among the training files', and with ``untrained_only`` that
+    only those recognised clips could be left out (a user trial read a silent
+    ``--untrained-only`` as "none of these trained on"); ``None`` otherwise."""
     listed = _listed_files(record)
     if not listed or Path(data).name in listed:
         return None
@@ -183,8 +186,11 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None) 
         n = overlap["clips_trained_whole"]
         known = (f"; of the evaluated clips, {n} {'is' if n == 1 else 'are'} recognised by name among the clips they "
                  f"trained on whole, and the others may be among their training files' too")
+    left = ("; --untrained-only could leave out only clips recognised by name, and scored every other"
+            if untrained_only else "")
     return (f"{Path(data).name} is not among the files the weights trained on ({', '.join(listed)}): whether its "
-            f"clips overlap their training data is unknown (a renamed copy of a training file would look new){known}")
+            f"clips overlap their training data is unknown (a renamed copy of a training file would look new)"
+            f"{known}{left}")
 
 
 def _fine_tuned_warning(record: dict) -> str | None:
@@ -358,7 +364,7 @@ def evaluate(
         result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
         warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record),
                                  _fine_tuned_warning(record),
-                                 _unknown_file_warning(data, record, result["training_overlap"])] if w]
+                                 _unknown_file_warning(data, record, result["training_overlap"], untrained_only)] if w]
     else:
         result["training_overlap"] = None
     result.update({name: summarize(errors[name]) for name in METRICS})
@@ -431,4 +437,8 @@ def format_table(result: dict) -> str:
     for name in METRICS:
         s = result[name]
         lines.append(f"{name:<14}{s['mean']:>10.2f}{s['median']:>10.2f}{s['p95']:>10.2f}")
+    if result["method"] in ("pcnet-rigid", "geometric") and result.get("noise") == "none":
+        # a trial read the zeros as a fault: Procrustes undoes any rotation, the method's only change
+        lines.append("pa_mpjpe_mm is 0 for a rigid method on clean input: it only rotates the poses, which the "
+                     "Procrustes alignment undoes (docs/CONVENTIONS.md, metrics)")
     return "\n".join(lines)

@@ -387,6 +387,9 @@ def test_evaluate_cli_noise_and_scheme_options(tmp_path):
         assert result["noise"] == kind, extra
         seen.setdefault(kind, result["mpjpe_mm"])
         assert seen[kind] == result["mpjpe_mm"]  # deterministic
+        # a rigid method's PA-MPJPE is 0 on clean input: said, as a trial read the zeros as a fault
+        assert ("pa_mpjpe_mm is 0 for a rigid method on clean input" in res.output) == (kind == "none")
+        assert (result["pa_mpjpe_mm"]["mean"] < 1e-3) == (kind == "none")
     assert len({json.dumps(v) for v in seen.values()}) == 3
     res = CliRunner().invoke(main, base[:-2] + ["--split", "test"])  # default scheme motion-style
     assert res.exit_code == 0, res.output
@@ -485,6 +488,12 @@ def test_weights_trained_on_a_whole_file_without_its_clip_names_warn(tmp_path):
     (only,) = evaluate("pcnet", data, "all", max_frames=20)["warnings"]
     assert only.startswith("deepmimic_small.npz is not among the files the weights trained on") and \
         "of the evaluated clips, 1 is recognised by name among the clips they trained on whole" in only, only
+    assert "--untrained-only" not in only
+    # --untrained-only leaves out the recognised clip and says that it could do no more (a trial
+    # read a silent --untrained-only on its own file as "none of these trained on")
+    untrained = evaluate("pcnet", data, "all", max_frames=20, untrained_only=True)
+    assert untrained["warnings"][-1].endswith("; --untrained-only could leave out only clips recognised by name, "
+                                              "and scored every other")
     assert _unlisted_whole_warning({"data": ["a.npz"], "train_whole": [True], "whole_clips": ["x"]}) is None
 
 
