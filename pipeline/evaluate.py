@@ -11,6 +11,7 @@ import numpy as np
 from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, assumed_fps_warning, clip_split_of, group_key, groups_in_split,
                                    load_mocap, make_pairs, select_split, world_up_warning)
 from pcnet.models.lifter_noise import LifterNoise
+from pcnet.stages.core.conventions import H36M_JOINTS
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.core.errors import InputError
 from pcnet.pipeline.rectification import make_estimator
@@ -193,6 +194,19 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None,
             f"{known}{left}")
 
 
+def _missing_joints_warning(targets: np.ndarray) -> str | None:
+    """A warning where scored frames ``targets`` ``(N, 17, 3)`` miss joints (NaN) beyond those
+    a target needs: MPJPE and PA-MPJPE are then means over the joints present (a user trial's
+    file without wrists in 60 frames was scored without a word); ``None`` otherwise."""
+    missing = ~np.isfinite(targets).all(-1)
+    frames = missing.any(-1)
+    if not frames.any():
+        return None
+    joints = [H36M_JOINTS[j] for j in np.flatnonzero(missing.any(0))]
+    return (f"{int(frames.sum())} scored frames miss joints ({', '.join(joints[:4])}"
+            f"{' and more' if len(joints) > 4 else ''}): mpjpe_mm and pa_mpjpe_mm there are over the joints present")
+
+
 def _fine_tuned_warning(record: dict) -> str | None:
     """A warning when the weights were fine-tuned from another checkpoint (``init_checkpoint``
     in their record, :func:`pcnet.models.export.training_record`): the overlap counted is the
@@ -344,6 +358,7 @@ def evaluate(
     errors = evaluate_rotations(R_hat[keep], pairs.R[keep], canon_hat[keep], pairs.canonical[keep])
     for name in METRICS:  # a method's invalid frames never count, whatever it returned there
         errors[name] = np.where(valid_k, errors[name], np.nan)
+    warnings += [w for w in [_missing_joints_warning(pairs.canonical[keep][valid_k])] if w]
     result = {
         "method": method, "weights": None if method == "geometric" else str(weights) if weights else "shipped",
         "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,

@@ -580,6 +580,26 @@ def test_a_mocap_file_not_in_metres_is_refused(tmp_path, scale):
         load_mocap(tmp_path / "cm.npz")
 
 
+def test_scored_frames_missing_joints_are_said(tmp_path):
+    """Both wrists missing in the first 20 frames of each real clip (a user trial's file was
+    scored without a word): evaluate scores the joints present and says so."""
+    from pcnet.pipeline.evaluate import evaluate, format_table
+    from pcnet.stages.core.conventions import L_WRIST, R_WRIST
+
+    clips = load_mocap(FIXTURES / "mocap_small.npz")
+    holed = {}
+    for c in clips:
+        j = c.joints.copy()
+        j[:20, [L_WRIST, R_WRIST]] = np.nan
+        holed[c.name] = j
+    np.savez(tmp_path / "wrists.npz", **holed)
+    result = evaluate("geometric", tmp_path / "wrists.npz", "all")
+    assert "60 scored frames miss joints (left_wrist, right_wrist): mpjpe_mm and pa_mpjpe_mm there are over the " \
+           "joints present" in format_table(result)
+    assert np.isfinite(result["mpjpe_mm"]["mean"])
+    assert not any("miss joints" in w for w in evaluate("geometric", FIXTURES / "mocap_small.npz", "all")["warnings"])
+
+
 def test_frames_without_a_target_are_counted_and_sequence_modes_need_one_camera_per_clip(tmp_path):
     """Every other frame of real clips made missing: evaluate says how many frames had no
     target; a sequence mode with a new camera every frame is refused, not scored."""
