@@ -104,6 +104,27 @@ def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict
     }
 
 
+def _split_trained_file(data: str | Path, record: dict) -> bool:
+    """Whether the record lists the evaluated file's name as one the weights took a train split
+    of (not trained on whole)."""
+    listed = _listed_files(record)
+    flags = record.get("train_whole") or [False] * len(listed)
+    return any(n == Path(data).name and not w for n, w in zip(listed, flags))
+
+
+def _unplaceable_clip(clips, scheme: str) -> str | None:
+    """The first of ``clips`` whose split ``scheme`` cannot place (no Bandai name, no CMU
+    subject for ``motion-style``): a file named like a training file that holds such a clip is
+    not that file (a user trial's own clips in a file named ``cmu_train_h36m17.npz``); ``None``
+    where every clip has a split."""
+    for c in clips:
+        try:
+            clip_split_of(c, scheme)
+        except InputError:
+            return c.name
+    return None
+
+
 def _listed_files(record: dict) -> list[str]:
     """The names (no folder) of the files a training record's ``data`` lists: a file is matched
     by its name, wherever it was read from in training."""
@@ -128,7 +149,8 @@ def _untrained(data: str | Path, clips: list, method: str, weights: str | None) 
     if found is not None:
         trained = {c.name for c in found[0]}
         return [c for c in clips if c.name not in trained]
-    if Path(data).name in _listed_files(record):
+    foreign = _split_trained_file(data, record) and _unplaceable_clip(clips, record.get("split_scheme", "clip"))
+    if Path(data).name in _listed_files(record) and not foreign:
         raise InputError(f"--untrained-only: expected a training record that says which clips of {Path(data).name} "
                          f"the weights trained on, got split scheme {record.get('split_scheme')!r}")
     return clips  # a file the record does not list, no clip it names: none trained on as far as it tells (warned)
@@ -138,9 +160,9 @@ def _trained_clips(data: str | Path, chosen, record: dict) -> tuple[list, set, b
     """The clips of ``chosen`` the weights' ``training_config`` (``record``) says they trained
     on, as :func:`_training_overlap` counts them: ``(trained, whole clip names, split_trained,
     matched_by)``, or ``None`` where the record cannot tell (no files listed, an unknown
-    scheme, a file it does not list and no clip it names)."""
+    scheme, a file it does not list and no clip it names, a file named like a split-trained one
+    whose clips its scheme cannot place)."""
     listed = _listed_files(record)
-    flags = record.get("train_whole") or [False] * len(listed)
     scheme = record.get("split_scheme", "clip")
     whole = set(record.get("whole_clips") or [])
     if not listed or scheme not in SPLIT_SCHEMES:
@@ -148,7 +170,9 @@ def _trained_clips(data: str | Path, chosen, record: dict) -> tuple[list, set, b
     split_trained = True  # the evaluated file is one the weights took a train split of
     if Path(data).name in listed:
         matched_by = "file name"
-        split_trained = any(n == Path(data).name and not w for n, w in zip(listed, flags))
+        split_trained = _split_trained_file(data, record)
+        if split_trained and _unplaceable_clip(chosen, scheme) is not None:
+            return None  # named like a training file, but not it (_foreign_file_warning)
         if not split_trained:  # the file itself was trained on whole
             whole |= {c.name for c in chosen}
     elif any(c.name in whole for c in chosen):
@@ -205,6 +229,22 @@ def _missing_joints_warning(targets: np.ndarray) -> str | None:
     joints = [H36M_JOINTS[j] for j in np.flatnonzero(missing.any(0))]
     return (f"{int(frames.sum())} scored frames miss joints ({', '.join(joints[:4])}"
             f"{' and more' if len(joints) > 4 else ''}): mpjpe_mm and pa_mpjpe_mm there are over the joints present")
+
+
+def _foreign_file_warning(data: str | Path, record: dict, clips) -> str | None:
+    """A warning where the evaluated file bears the name of a file the weights trained on but
+    holds clips its record's split scheme cannot place (:func:`_unplaceable_clip`): the name
+    says nothing, and whether the clips overlap the training data is unknown; ``None``
+    otherwise."""
+    name = Path(data).name
+    scheme = record.get("split_scheme", "clip")
+    if not _split_trained_file(data, record):
+        return None
+    foreign = _unplaceable_clip(clips, scheme)
+    if foreign is None:
+        return None
+    return (f"{name} bears the name of a file the weights trained on, but its clip {foreign!r} has no place in that "
+            f"file's {scheme} split: not that file, so whether its clips overlap the training data is unknown")
 
 
 def _fine_tuned_warning(record: dict) -> str | None:
@@ -379,7 +419,8 @@ def evaluate(
         result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
         warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record),
                                  _fine_tuned_warning(record),
-                                 _unknown_file_warning(data, record, result["training_overlap"], untrained_only)] if w]
+                                 _unknown_file_warning(data, record, result["training_overlap"], untrained_only),
+                                 _foreign_file_warning(data, record, clips)] if w]
     else:
         result["training_overlap"] = None
     result.update({name: summarize(errors[name]) for name in METRICS})

@@ -580,6 +580,23 @@ def test_a_mocap_file_not_in_metres_is_refused(tmp_path, scale):
         load_mocap(tmp_path / "cm.npz")
 
 
+def test_a_file_named_like_a_training_file_is_not_taken_for_it(tmp_path):
+    """A user's own clips in a file named cmu_train_h36m17.npz (a trial): evaluate stopped with
+    the motion-style split's advice to pass --split all, which was given. Now the name is
+    said to tell nothing, and every clip is scored, --untrained-only too."""
+    from pcnet.pipeline.evaluate import evaluate
+
+    clips = load_mocap(FIXTURES / "mocap_small.npz")
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    np.savez(folder / "cmu_train_h36m17.npz", **{f"lab_trial_{i}": c.joints for i, c in enumerate(clips)})
+    for untrained in (False, True):
+        result = evaluate("pcnet", folder / "cmu_train_h36m17.npz", "all", max_frames=30, untrained_only=untrained)
+        assert result["clips"] == 3 and result["training_overlap"] is None
+        assert any(w.startswith("cmu_train_h36m17.npz bears the name of a file the weights trained on, but its clip "
+                                "'lab_trial_0' has no place in that file's motion-style split") for w in result["warnings"])
+
+
 def test_scored_frames_missing_joints_are_said(tmp_path):
     """Both wrists missing in the first 20 frames of each real clip (a user trial's file was
     scored without a word): evaluate scores the joints present and says so."""
