@@ -294,7 +294,7 @@ def test_the_sports2d_static_camera_is_found_despite_the_track_switch(tmp_path):
                                     "--mode", "auto", "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
     assert re.search(r"mode sequence \(requested auto; per-frame ups [\d.]+ deg from their own mean over the 166 frames of one "
-                     r"person\)", res.output), res.output
+                     r"person, within the [\d.]+ deg of a static camera\)", res.output), res.output
     assert "kinematics frame  world" in res.output
     default = CliRunner().invoke(main, ["run", "--lifter", "mediapipe", "--lifter-output", str(path), "--keypoints2d",
                                         str(path), "--keypoints2d-format", "mediapipe", "--no-recording",
