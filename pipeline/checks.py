@@ -118,9 +118,13 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
     Raises:
         InputError: ``joints_camera`` not ``(T, 17, 3)`` numbers (a single ``(17, 3)`` pose is
             one frame, as :func:`~pcnet.pipeline.rectification.rectify` reads it), or not as many
-            frames as ``rectified`` (the poses of another call).
+            frames as ``rectified`` (the poses of another call), or ``rectified`` not a
+            :class:`~pcnet.stages.rectify.Rectified`.
     """
     joints_camera = check_poses(joints_camera, "pose_checks: joints_camera")
+    if not isinstance(rectified, Rectified):
+        raise InputError(f"pose_checks: rectified: expected what rectify returned (Rectified), got "
+                         f"{type(rectified).__name__}")
     if len(joints_camera) != len(rectified.rotation):
         raise InputError(f"pose_checks: expected the {len(rectified.rotation)} frames rectify was given, got "
                          f"{len(joints_camera)} frames of joints_camera")

@@ -56,7 +56,7 @@ from .core.canonical import canonical_rotation
 from .isb_angles import MAX_KNEE_HYPEREXTENSION_DEG, isb_joint_angles
 from .core.rotations import angle_between
 from .core.errors import InputError
-from .core.framestore import freeze_arrays, true_runs
+from .core.framestore import freeze_arrays, restore_frozen, true_runs
 
 # ---------------------------------------------------------------------------------------
 # contiguous finite runs
@@ -804,6 +804,9 @@ class Kinematics:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __setstate__(self, state: dict) -> None:
+        restore_frozen(self, state)
 
     @property
     def num_frames(self) -> int:

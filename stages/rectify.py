@@ -26,7 +26,7 @@ import numpy as np
 from .core.canonical import to_canonical
 from .core.conventions import check_poses
 from .core.errors import InputError
-from .core.framestore import frame_blocks, freeze_arrays, in_memory
+from .core.framestore import frame_blocks, freeze_arrays, in_memory, restore_frozen
 from .core.geometric import geometric_rotation
 from .ground_plane import posture_and_floor_up
 from .core.rotations import angle_between, camera_pitch_roll, normalize
@@ -104,10 +104,10 @@ class Rectified:
     rotation ``(T, 3, 3)`` float64 canonical->camera; canonical ``(T, 17, 3)`` float32 (the
     input's precision as every lifter writes it, half the memory of a long recording) canonical
     poses in the input's units, pelvis-centred before the network's residual (with it the pelvis moves a
-    few mm off the origin; docs/outputs.md); up ``(T, 3)`` unit up direction in the camera
-    frame (``rotation[:, :, 1]``); valid ``(T,)``; method name; report: what was decided and
+    few mm off the origin; docs/outputs.md); up ``(T, 3)`` float64 unit up direction in the
+    camera frame (``rotation[:, :, 1]``); valid ``(T,)`` bool; method name; report: what was decided and
     why (:class:`~pcnet.stages.rectification_report.RectificationReport`). Invalid frames are NaN.
-    Its in-memory arrays are read-only (a long recording's on disk are the store's).
+    Its in-memory arrays are read-only, unpickled too (a long recording's on disk are the store's).
     """
 
     rotation: np.ndarray
@@ -119,6 +119,9 @@ class Rectified:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __setstate__(self, state: dict) -> None:
+        restore_frozen(self, state)
 
     @property
     def mode(self) -> str:

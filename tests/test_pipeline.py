@@ -1328,6 +1328,12 @@ def test_pcnet_rectify_says_what_the_poses_alone_show(tmp_path):
                   "--out", tmp_path / "t.npz")
     assert res.exit_code == 0 and "WARNING" not in res.output, res.output
     assert pose_checks(poses, rectify(poses, mode="sequence", fps=30.0)) == []
+    # anything but rectify's result is one line (a developer's trial got an AttributeError for None)
+    from pcnet.stages.core.errors import InputError
+
+    with pytest.raises(InputError, match=r"^pose_checks: rectified: expected what rectify returned \(Rectified\), "
+                                         r"got NoneType$"):
+        pose_checks(poses, None)
 
 
 def test_a_refusal_of_the_estimators_staged_poses_names_the_video(tmp_path):

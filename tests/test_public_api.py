@@ -174,6 +174,11 @@ def test_results_pickle_for_worker_processes_and_compare_by_identity():
         np.testing.assert_array_equal(back.positions, kin.positions)
         with pytest.raises(TypeError):
             back.angles["trunk_inclination"] = None  # still read-only
+        assert not back.positions.flags.writeable
+    # unpickled arrays are read-only again, as the classes say (a developer trial wrote into them)
+    for back in (pickle.loads(pickle.dumps(res)), copy.deepcopy(res)):
+        assert not any(getattr(back, f).flags.writeable for f in ("rotation", "canonical", "up", "valid"))
+        np.testing.assert_array_equal(back.canonical, res.canonical)
 
 
 def test_kinematics_refuse_empty_input_and_a_frame_rate_that_is_not_a_number():

@@ -178,6 +178,14 @@ def freeze_arrays(result: object) -> None:
             value.setflags(write=False)
 
 
+def restore_frozen(result: object, state: dict) -> None:
+    """``__setstate__`` of a frozen dataclass whose arrays :func:`freeze_arrays` made
+    read-only: unpickling (a batch worker's result) gives writeable arrays back, so they are
+    frozen again (a developer trial wrote into an unpickled result)."""
+    result.__dict__.update(state)
+    freeze_arrays(result)
+
+
 def frame_blocks(n: int, size: int | None = None) -> Iterator[slice]:
     """Consecutive slices of at most ``size`` (default :data:`BLOCK_FRAMES`, read at call
     time) frames covering ``n`` frames."""
