@@ -112,11 +112,14 @@ def _split_trained_file(data: str | Path, record: dict) -> bool:
     return any(n == Path(data).name and not w for n, w in zip(listed, flags))
 
 
-def _unplaceable_clip(clips, scheme: str) -> str | None:
-    """The first of ``clips`` whose split ``scheme`` cannot place (no Bandai name, no CMU
-    subject for ``motion-style``): a file named like a training file that holds such a clip is
-    not that file (a user trial's own clips in a file named ``cmu_train_h36m17.npz``); ``None``
-    where every clip has a split."""
+def _foreign_clip(data: str | Path, record: dict, clips) -> str | None:
+    """The first of ``clips`` that shows the evaluated file is not the training file it is
+    named like: the record took a train split of a file of that name, and its split scheme
+    cannot place this clip (no Bandai name, no CMU subject for ``motion-style``; a user
+    trial's own clips in a file named ``cmu_train_h36m17.npz``); ``None`` otherwise."""
+    if not _split_trained_file(data, record):
+        return None
+    scheme = record.get("split_scheme", "clip")
     for c in clips:
         try:
             clip_split_of(c, scheme)
@@ -149,8 +152,7 @@ def _untrained(data: str | Path, clips: list, method: str, weights: str | None) 
     if found is not None:
         trained = {c.name for c in found[0]}
         return [c for c in clips if c.name not in trained]
-    foreign = _split_trained_file(data, record) and _unplaceable_clip(clips, record.get("split_scheme", "clip"))
-    if Path(data).name in _listed_files(record) and not foreign:
+    if Path(data).name in _listed_files(record) and _foreign_clip(data, record, clips) is None:
         raise InputError(f"--untrained-only: expected a training record that says which clips of {Path(data).name} "
                          f"the weights trained on, got split scheme {record.get('split_scheme')!r}")
     return clips  # a file the record does not list, no clip it names: none trained on as far as it tells (warned)
@@ -170,9 +172,9 @@ def _trained_clips(data: str | Path, chosen, record: dict) -> tuple[list, set, b
     split_trained = True  # the evaluated file is one the weights took a train split of
     if Path(data).name in listed:
         matched_by = "file name"
-        split_trained = _split_trained_file(data, record)
-        if split_trained and _unplaceable_clip(chosen, scheme) is not None:
+        if _foreign_clip(data, record, chosen) is not None:
             return None  # named like a training file, but not it (_foreign_file_warning)
+        split_trained = _split_trained_file(data, record)
         if not split_trained:  # the file itself was trained on whole
             whole |= {c.name for c in chosen}
     elif any(c.name in whole for c in chosen):
@@ -233,18 +235,14 @@ def _missing_joints_warning(targets: np.ndarray) -> str | None:
 
 def _foreign_file_warning(data: str | Path, record: dict, clips) -> str | None:
     """A warning where the evaluated file bears the name of a file the weights trained on but
-    holds clips its record's split scheme cannot place (:func:`_unplaceable_clip`): the name
-    says nothing, and whether the clips overlap the training data is unknown; ``None``
-    otherwise."""
-    name = Path(data).name
-    scheme = record.get("split_scheme", "clip")
-    if not _split_trained_file(data, record):
-        return None
-    foreign = _unplaceable_clip(clips, scheme)
+    holds clips its record's split scheme cannot place (:func:`_foreign_clip`): the name says
+    nothing, and whether the clips overlap the training data is unknown; ``None`` otherwise."""
+    foreign = _foreign_clip(data, record, clips)
     if foreign is None:
         return None
-    return (f"{name} bears the name of a file the weights trained on, but its clip {foreign!r} has no place in that "
-            f"file's {scheme} split: not that file, so whether its clips overlap the training data is unknown")
+    return (f"{Path(data).name} bears the name of a file the weights trained on, but its clip {foreign!r} has no "
+            f"place in that file's {record.get('split_scheme', 'clip')} split: not that file, so whether its clips "
+            f"overlap the training data is unknown")
 
 
 def _fine_tuned_warning(record: dict) -> str | None:
