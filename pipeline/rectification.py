@@ -112,8 +112,9 @@ def rectify(
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
     (``docs/CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``, the residual being the
-    network's non-rigid correction (not returned: ``canonical - (X - pelvis) @ R``, a centimetre
-    or so; zero for ``pcnet-rigid`` and ``geometric``). NaN joints stay NaN.
+    network's non-rigid correction (not returned: ``canonical - (X - pelvis) @ R``, about 0.5 cm a
+    joint on upright bodies, over 10 cm on a prone one; zero for ``pcnet-rigid`` and ``geometric``;
+    ``pcnet run``'s kinematics leave it out, decision 0100). NaN joints stay NaN.
 
     ``mode``: ``frame`` (each frame alone, the paper), ``sequence`` (one up direction for a
     static camera), ``smooth`` (SO(3) smoothing for a moving camera) or

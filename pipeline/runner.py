@@ -33,6 +33,7 @@ from pcnet.adapters.mediapipe import holds_keypoints_2d, load_mediapipe_2d
 from pcnet.adapters.validate import as_path, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
                                           THORAX, fill_pelvis_from_hips, thigh_beyond_metres, validate_fps)
+from pcnet.stages.core.canonical import to_canonical
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, opensim_notes,
@@ -1396,7 +1397,10 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     the run's lists, which this step adds to (the sinks add notes; the result carries the
     findings' texts from :func:`_recording` on)."""
     fps, units, cam = inputs.recording.fps, scaled.units, scaled.camera.joints
-    rectified_poses = world.joints if world.joints is not None else rectified.canonical
+    # Decision 0100: the network's residual reshaped bodies it rarely trained on (11.6 cm on a
+    # prone fixture) and made held-out angles no better, so every mode reads the input turned rigidly.
+    rectified_poses = world.joints if world.joints is not None else \
+        to_canonical(cam, rectified.rotation, out=store.create("poses_canonical", cam.shape, np.float32))
     cutoff = cfg.lowpass_hz
     if cfg.residual_cutoff:
         try:

@@ -1178,3 +1178,28 @@ def test_the_heights_definition_says_what_y_0_is_for_each_floor():
     assert "floor placed under each frame's lowest joint" in definition("per frame", "left_ankle_y_m")
     assert "y = 0 is the pelvis's height, not the floor" in definition("pelvis")
     assert "floor placed" not in definition("per frame", "pelvis_x_m")
+
+
+@pytest.mark.parametrize("mode", ["frame", "smooth"])
+def test_the_networks_residual_never_reaches_the_kinematics(tmp_path, mode):
+    """Decision 0100: every mode's kinematics read the input turned rigidly. On the real prone
+    fixture (Bhujangasana, where the residual is centimetres) the default method and
+    ``pcnet-rigid`` (the same rotations, no residual) write the same kinematics.csv, while
+    canonical.npz keeps the network's residual-carrying poses."""
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+
+    outs = {}
+    for method in ("pcnet", "pcnet-rigid"):
+        out = tmp_path / method
+        res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output",
+                                        str(FIXTURES / "yoga_Abhay_Bhujangasana_f150-249.npy"), "--fps", "30",
+                                        "--mode", mode, "--method", method, "--out", str(out), "--no-recording"])
+        assert res.exit_code == 0, res.output
+        outs[method] = out
+    assert read_csv(outs["pcnet"] / "kinematics.csv") == read_csv(outs["pcnet-rigid"] / "kinematics.csv")
+    with np.load(outs["pcnet"] / "canonical.npz") as a, np.load(outs["pcnet-rigid"] / "canonical.npz") as b:
+        np.testing.assert_array_equal(a["rotation"], b["rotation"])
+        moved = np.linalg.norm(a["canonical"] - b["canonical"], axis=-1)
+    assert np.nanmedian(moved) > 0.02  # metres: the residual is there, in canonical.npz only

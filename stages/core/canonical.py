@@ -61,7 +61,7 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
             (3DPCNet's Delta, paper section 2.1.2).
         out: optional float32 ``(N, J, 3)`` array to write into (a
             :class:`~pcnet.stages.core.framestore.FrameArray` for a long recording).
-        ``joints_cam`` and ``residual`` may be on disk too: they are read a block at a time.
+        ``joints_cam``, ``R`` and ``residual`` may be on disk too: they are read a block at a time.
 
     Returns:
         ``(N, J, 3)`` pelvis-centred canonical poses, same units, float32 (``out`` if given).
@@ -70,18 +70,19 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
         InputError: ``joints_cam`` not ``(N, J, 3)``, or ``R`` neither ``(3, 3)`` nor
             ``(N, 3, 3)``.
     """
-    R = np.asarray(R)
+    R = R if hasattr(R, "shape") else np.asarray(R)
     shape = tuple(joints_cam.shape)
     if len(shape) != 3 or shape[-1] != 3:
         raise InputError(f"joints_cam: expected (N, J, 3) poses, got shape {shape}")
-    if R.shape not in ((3, 3), (shape[0], 3, 3)):
-        raise InputError(f"R: expected (3, 3) or ({shape[0]}, 3, 3) rotations for {shape[0]} poses, got shape {R.shape}")
+    if tuple(R.shape) not in ((3, 3), (shape[0], 3, 3)):
+        raise InputError(f"R: expected (3, 3) or ({shape[0]}, 3, 3) rotations for {shape[0]} poses, got shape "
+                         f"{tuple(R.shape)}")
     out = np.empty(joints_cam.shape, np.float32) if out is None else out
     # A block of frames at a time: each frame's arithmetic is its own, and a long recording's
     # float64 temporaries stay a block long.
     for rows in frame_blocks(len(out)):
         X = np.asarray(joints_cam[rows], np.float64)
-        block = (X - X[:, PELVIS : PELVIS + 1]) @ np.asarray(R[rows] if R.ndim == 3 else R, np.float64)
+        block = (X - X[:, PELVIS : PELVIS + 1]) @ np.asarray(R[rows] if len(R.shape) == 3 else R, np.float64)
         if residual is not None:
             block += np.asarray(residual[rows], np.float64)
         out[rows] = block

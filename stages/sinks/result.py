@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.canonical import to_canonical
 from ..core.conventions import H36M_JOINTS
 from ..core.rotations import decompose_camera_rotation
 from ..core.framestore import column, per_frame
@@ -331,7 +332,9 @@ def write_rerun(r: RecordingResult, folder: Path, warnings: list[str] | None = N
     default ``r.flags``), the frames of motion beyond human limits (``r.implausible_frames``)
     and the 2D track's person segments."""
     path = write_recording(
-        folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera, canonical=r.canonical,
+        folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera,
+        # the body the kinematics read (decision 0100: the input turned rigidly, no residual)
+        canonical=to_canonical(r.joints_camera, r.rotation),
         rotations=r.rotation, up=column(r.rotation, slice(None), 1), valid=r.valid,
         keypoints2d=r.keypoints2d if r.video_keypoints2d is None else r.video_keypoints2d, video_path=r.video, video_first_frame=r.video_first_frame, wrist_paths={n: column(r.kinematics.positions, KEPT_JOINTS.index(n)) for n in WRISTS},
         series=series_from_kinematics(r.kinematics), min_confidence=r.min_confidence,
