@@ -206,24 +206,31 @@ def yoga_lines(data: Path, estimator) -> list[str]:
     return lines
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def sets_arguments(argv, doc: str, name: str) -> tuple[argparse.Namespace, Path, list[tuple[str, list]]]:
+    """The command line of a ``--sets validation|heldout`` script ``benchmarks.{name}`` (``--data``,
+    ``--max-clips``, ``--out``, default ``results/{name}_{sets}.txt``), the output path and the
+    sets' ``(title, clips)``: :data:`VALIDATION_SETS`, or the ablation's held-out
+    :data:`benchmarks.ablation.MOCAP_SETS` less the clips the shipped weights trained on."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--data", type=Path, default=SHARED_DATA)
     ap.add_argument("--sets", choices=("validation", "heldout"), required=True)
     ap.add_argument("--max-clips", type=int, default=200, help="per set, as benchmarks/ablation.py's")
-    ap.add_argument("--out", type=Path, default=None,
-                    help="default results/kinematics_residual_{sets}.txt")
+    ap.add_argument("--out", type=Path, default=None, help=f"default results/{name}_{{sets}}.txt")
     args = ap.parse_args(argv)
-    require_mocap(args.data, "benchmarks.kinematics_residual")
-    out = args.out or RESULT_DIR / f"kinematics_residual_{args.sets}.txt"
+    require_mocap(args.data, f"benchmarks.{name}")
+    out = args.out or RESULT_DIR / f"{name}_{args.sets}.txt"
+    if args.sets == "validation":
+        return args, out, [(t, select_split(load_mocap(args.data / "mocap" / f), s, "motion-style"))
+                           for t, f, s in VALIDATION_SETS]
+    trained = trained_clip_names()
+    return args, out, [(t, [c for c in select_split(load_mocap(args.data / "mocap" / f), s, "motion-style")
+                            if c.name not in trained]) for t, f, s in MOCAP_SETS]
+
+
+def main(argv=None) -> None:
+    args, out, sets = sets_arguments(argv, __doc__, "kinematics_residual")
     t0 = time.perf_counter()
     estimator = make_estimator("pcnet")
-    if args.sets == "validation":
-        sets = [(t, select_split(load_mocap(args.data / "mocap" / f), s, "motion-style")) for t, f, s in VALIDATION_SETS]
-    else:
-        trained = trained_clip_names()
-        sets = [(t, [c for c in select_split(load_mocap(args.data / "mocap" / f), s, "motion-style")
-                     if c.name not in trained]) for t, f, s in MOCAP_SETS]
     lines = [__doc__.splitlines()[0], "",
              f"    python -m benchmarks.kinematics_residual --data {args.data} --sets {args.sets} "
              f"--max-clips {args.max_clips}", "",

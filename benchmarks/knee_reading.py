@@ -33,7 +33,6 @@ changes sign between consecutive frames with both beyond ``MIN_BEND_DEG``.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import time
 from pathlib import Path
@@ -42,15 +41,12 @@ import numpy as np
 
 import pcnet.stages.isb_angles as isb
 import pcnet.stages.kinematics as kin
-from benchmarks.ablation import MOCAP_SETS, camera_view_joints, static_camera_clips, trained_clip_names, verdict
-from benchmarks.kinematics_residual import NOISES, VALIDATION_SETS
+from benchmarks.ablation import camera_view_joints, static_camera_clips, verdict
+from benchmarks.kinematics_residual import NOISES, sets_arguments
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import SHARED_DATA, require_mocap
 from benchmarks.world_kinematics import wrapped_diff
-from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.core.canonical import to_canonical
 
-RESULT_DIR = Path(__file__).resolve().parent / "results"
 ANGLES = ("left_knee_flexion", "right_knee_flexion", "left_hip_internal_rotation", "right_hip_internal_rotation")
 READINGS = ("shipped", "always flexed")
 
@@ -154,21 +150,8 @@ def real_lines(data: Path) -> list[str]:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--sets", choices=("validation", "heldout"), required=True)
-    ap.add_argument("--max-clips", type=int, default=200, help="per set, as benchmarks/ablation.py's")
-    ap.add_argument("--out", type=Path, default=None, help="default results/knee_reading_{sets}.txt")
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "benchmarks.knee_reading")
-    out = args.out or RESULT_DIR / f"knee_reading_{args.sets}.txt"
+    args, out, sets = sets_arguments(argv, __doc__, "knee_reading")
     t0 = time.perf_counter()
-    if args.sets == "validation":
-        sets = [(t, select_split(load_mocap(args.data / "mocap" / f), s, "motion-style")) for t, f, s in VALIDATION_SETS]
-    else:
-        trained = trained_clip_names()
-        sets = [(t, [c for c in select_split(load_mocap(args.data / "mocap" / f), s, "motion-style")
-                     if c.name not in trained]) for t, f, s in MOCAP_SETS]
     lines = [__doc__.splitlines()[0], "",
              f"    python -m benchmarks.knee_reading --data {args.data} --sets {args.sets} --max-clips {args.max_clips}",
              "", truth_line(args.data), "",

@@ -19,8 +19,10 @@ OpenCV or adapters until then).
 camera-frame H36M-17 poses ``(T, 17, 3)`` (OpenCV axes: x right, y down, z forward; any
 length unit; NaN = missing) in, a :class:`~pcnet.stages.rectify.Rectified` out: ``rotation``
 ``(T, 3, 3)`` canonical -> camera, ``canonical`` ``(T, 17, 3)`` pelvis-centred poses in the
-canonical frame (x anterior, y up, z right; ``docs/CONVENTIONS.md``), ``up`` ``(T, 3)`` the
-camera-frame up, ``valid`` ``(T,)``::
+canonical frame (x anterior, y up, z right; ``docs/CONVENTIONS.md``) with the network's
+residual, ``up`` ``(T, 3)`` the camera-frame up, ``valid`` ``(T,)``. ``pcnet run``'s kinematics
+read the input turned rigidly instead, ``(X - pelvis) @ R``
+(:func:`pcnet.stages.core.canonical.to_canonical` of ``joints`` and ``rotation``; decision 0100)::
 
     import numpy as np
     from pcnet.pipeline import rectify
