@@ -37,7 +37,7 @@ from typing import IO, Any, Iterator, Mapping, Sequence
 
 import numpy as np
 
-from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout, placeholder_joints, validate_poses
+from pcnet.stages.core.conventions import MAX_ABS_COORDINATE, get_layout, placeholder_joints, shape_hint, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import frame_blocks
 
@@ -622,7 +622,8 @@ def load_npy(path: str | Path, ndim: int | tuple[int, ...] = 3, num_joints: int 
     ndims = (ndim,) if isinstance(ndim, int) else tuple(ndim)
     tail = f"(..., {num_joints if num_joints else 'J'}, 3)"
     if arr.ndim not in ndims or arr.shape[-1] != 3 or (num_joints is not None and arr.shape[-2] != num_joints):
-        raise AdapterError(p, field, f"shape {tail} with {' or '.join(map(str, ndims))} dimensions", f"shape {arr.shape}")
+        raise AdapterError(p, field, f"shape {tail} with {' or '.join(map(str, ndims))} dimensions",
+                           f"shape {arr.shape}{shape_hint(arr.shape, num_joints) if num_joints else ''}")
     require_some_finite(p, field, arr)
     return arr
 

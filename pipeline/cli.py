@@ -572,8 +572,9 @@ def opensim(out_dir, height, mass, overwrite):
     trc = folder / "world.trc"
     if not trc.is_file():
         if (folder / "canonical.trc").is_file():
-            raise InputError(f"{out_dir}: expected world.trc, got only canonical.trc: a moving camera has no fixed "
-                             f"world frame for IK")
+            raise InputError(f"{out_dir}: expected world.trc, got only canonical.trc: the run's frame or smooth mode "
+                             f"(a moving camera) has no fixed world frame for IK; if the camera stood still, rerun "
+                             f"`pcnet run` with --mode sequence (a camera that moved has no route to IK)")
         raise InputError(f"{out_dir}: expected world.trc (from `pcnet run` with a static camera and metric poses: "
                          f"a metric lifter or --height), got none")
     height = _subject_height(folder, height)

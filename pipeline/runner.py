@@ -1291,18 +1291,21 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
 
 
 def _headingless_frames_note(report: RectificationReport, joints, valid: np.ndarray) -> list[str]:
-    """A note on sequence mode's frames that had every joint but were left out: their own up
+    """A note on sequence mode's frames that had every joint but no canonical pose: their own up
     points more than :data:`pcnet.stages.temporal.HEADING_LIMIT_DEG` from the recording's one
-    up, so no heading about it exists (:func:`pcnet.stages.temporal.rotations_about_up`)."""
+    up, so no heading about it exists (:func:`pcnet.stages.temporal.rotations_about_up`); the
+    world frame needs no per-frame heading, so their world poses stay."""
     if report.mode.run != "sequence":
         return []
     dropped = sum(int((np.isfinite(np.asarray(joints[rows])).all(axis=(1, 2)) & ~valid[rows]).sum())
                   for rows in frame_blocks(len(valid)))
     if not dropped:
         return []
-    return [f"{frames_phrase(dropped, len(valid))} with every joint left out (NaN rows, valid = 0): their own up points "
-            f"more than {HEADING_LIMIT_DEG:.0f} deg from the recording's, so no heading about it exists (a body upside "
-            f"down there, or joints in another order than the lifter's: --lifter generic --layout)"]
+    return [f"{frames_phrase(dropped, len(valid))} with every joint have no canonical pose (valid = 0; canonical.npz's "
+            f"canonical and rotation NaN there): their own up points more than {HEADING_LIMIT_DEG:.0f} deg from the "
+            f"recording's, so no heading about it exists (a body upside down there, or joints in another order than the "
+            f"lifter's: --lifter generic --layout); the world-frame poses and kinematics keep them, turned by the "
+            f"recording's one rotation"]
 
 
 def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, rectified: Rectified) -> CheckInputs:

@@ -238,7 +238,8 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
                        f"generic)")]
     if quarter and not (posture is not None and posture.declared):
         declare = ("--posture lying if the subject lay, --posture upright to confirm" if posture is not None
-                   else "if the subject lay: --mode sequence --posture lying, with the camera prior")
+                   else "if the subject lay and the camera stood still: --mode sequence --posture lying, with the "
+                        "camera prior (a handheld camera has no posture option)")
         return [_found(Kind.QUARTER_TURN, Severity.CHECK,
                        f"camera read as turned a quarter turn (roll {roll_deg:+.0f} deg): portrait phone or lying "
                        f"body?", declare,

@@ -103,8 +103,9 @@ class Rectified:
 
     rotation ``(T, 3, 3)`` float64 canonical->camera; canonical ``(T, 17, 3)`` float32 (the
     input's precision as every lifter writes it, half the memory of a long recording) canonical
-    poses in the input's units, pelvis-centred before the network's residual (with it the pelvis moves a
-    few mm off the origin; docs/outputs.md); up ``(T, 3)`` float64 unit up direction in the
+    poses in the input's units, pelvis-centred before the network's residual (turned into this
+    frame; about 0.5 cm a joint on upright bodies, over 10 cm on a prone one, and the pelvis moves
+    with it; docs/outputs.md); up ``(T, 3)`` float64 unit up direction in the
     camera frame (``rotation[:, :, 1]``); valid ``(T,)`` bool; method name; report: what was decided and
     why (:class:`~pcnet.stages.rectification_report.RectificationReport`). Invalid frames are NaN.
     Its in-memory arrays are read-only, unpickled too (a long recording's on disk are the store's).
@@ -466,6 +467,9 @@ class Rectification:
             weights=None if gate is None else EnsembleWeights.of(gate, valid, estimate.quarter_turns),
             camera_frame_weight=None if gate is None else np.where(valid, gate, np.nan),
             frame_tilt_bound_base_deg=base, frame_tilt_bound_deg=np.where(valid, frame_bound(estimate, base), np.nan))
+        # the residual was predicted in the network's own frame; sequence and smooth modes answer
+        # with another rotation, in which it is turned before it is added
         canonical = to_canonical(joints_cam, R, estimate.residual,
-                                 out=(self.allocate or in_memory)("canonical", joints_cam.shape, np.float32))
+                                 out=(self.allocate or in_memory)("canonical", joints_cam.shape, np.float32),
+                                 residual_frame=estimate.rotation)
         return Rectified(R, canonical, R[:, :, 1].copy(), valid, self.estimator.name, report)

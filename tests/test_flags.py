@@ -83,7 +83,8 @@ def test_a_portrait_camera_is_not_called_upside_down(degrees):
     flags = orientation_flags(tilt, pitch, roll)
     assert len(flags) == 1 and "quarter turn" in flags[0].detail and "upside down" not in flags[0].detail, flags
     # frame mode reads no --posture: the action says where it is read (a trial was refused following it)
-    assert flags[0].action == "if the subject lay: --mode sequence --posture lying, with the camera prior"
+    assert flags[0].action == ("if the subject lay and the camera stood still: --mode sequence --posture lying, with "
+                               "the camera prior (a handheld camera has no posture option)")
 
 
 def test_orientation_flags_judge_the_tilt_beyond_the_nearest_image_axis():

@@ -177,6 +177,7 @@ def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_
     assert len(fit["warnings"]) == sum(ln.startswith("WARNING  ") for ln in res.output.splitlines())
     assert fit["subject_height_m"] == 1.75 and fit["subject_mass_kg"] is None  # what was given is recorded
     assert "pelvis_tilt and L5_S1_Flex_Ext are not observable" in res.output
+    assert "ik.mot's angles are not kinematics.csv's" in res.output  # two hip flexions side by side, said why
     # the long form: the run's report.md gets the fit and its warnings in full, still pcnet's own file
     report = (out / "report.md").read_text()
     assert report.count("## OpenSim inverse kinematics (pcnet opensim)") == 1 and f"details: {out / 'report.md'}" \
@@ -272,7 +273,7 @@ def test_cli_opensim_without_world_trc(tmp_path):
     (moving / "canonical.trc").write_text("")
     res = _cli("opensim", moving)
     assert res.exit_code == 1
-    assert "a moving camera has no fixed world frame for IK" in res.output
+    assert "has no fixed world frame for IK; if the camera stood still, rerun `pcnet run` with --mode sequence" in res.output
     assert len(res.output.strip().splitlines()) == 1
 
 

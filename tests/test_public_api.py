@@ -330,8 +330,13 @@ def test_library_calls_refuse_what_would_be_silently_wrong_in_one_line():
                  lambda: butterworth_lowpass(np.zeros((50, 3)), 30.0, cutoff_hz="6")):
         with pytest.raises(InputError, match="cutoff_hz: expected a number of Hz in"):
             call()
-    with pytest.raises(InputError, match="nested sequence of unequal lengths"):
-        rectify([[[0.0, 0.0, 0.0]] * 17, [[0.0, 0.0]] * 17])
+    with pytest.raises(InputError, match="^joints_cam: expected .* nested sequence of unequal lengths$"):
+        rectify([[[0.0, 0.0, 0.0]] * 17, [[0.0, 0.0]] * 17])  # named as rectify's argument, no numpy text
+    # another layout's joints, or swapped axes, are named with the fix (two trials met them)
+    with pytest.raises(InputError, match=r"33 joints: the blazepose33 layout\? remap it first: .*remap_to_h36m"):
+        rectify(np.zeros((5, 33, 3)))
+    with pytest.raises(InputError, match="axes in another order"):
+        rectify(np.swapaxes(J, 1, 2))
     # the frozen results are frozen: their arrays too (the trial wrote into both unwarned)
     kin = compute_kinematics(res.canonical, 30.0, units="m")
     for array in (res.canonical, res.rotation, res.valid, kin.positions, kin.speed, kin.missing):

@@ -260,6 +260,7 @@ def test_frames_left_out_with_every_joint_are_explained():
     valid = np.ones(10, bool)
     valid[[0, 4, 5]] = False
     (note,) = _headingless_frames_note(run_report("sequence", "sequence").rectification, joints, valid)
-    assert note.startswith("2 of 10 frames with every joint left out") and "--layout" in note
+    assert note.startswith("2 of 10 frames with every joint have no canonical pose") and "--layout" in note
+    assert "world-frame poses and kinematics keep them" in note  # a user trial read "NaN rows" beside finite CSV rows
     assert _headingless_frames_note(run_report("frame", "frame").rectification, joints, valid) == []
     assert _headingless_frames_note(run_report("sequence", "sequence").rectification, joints, np.ones(10, bool)) == []

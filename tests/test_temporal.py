@@ -527,3 +527,20 @@ def test_mode_constants_are_the_fitted_ones():
         m = re.search(rf"^{name} = ([0-9.]+)$", text, re.M)
         assert m, name
         assert getattr(tm, name) == pytest.approx(float(m.group(1)), abs=1e-9), name
+
+
+def test_the_residual_reshapes_the_same_body_whichever_mode_places_it():
+    """The network predicts its residual in its own per-frame canonical frame; sequence and smooth
+    modes answer with other rotations (75 deg from frame mode's on this prone fixture), so the
+    residual is turned into theirs before it is added: the canonical body (its joints' pairwise
+    distances) is the same in every mode. Added in the mode's frame unturned, it bent a user
+    trial's right knee 60.4 -> 44.5 deg in sequence mode."""
+    from pcnet.pipeline import rectify
+
+    X = np.load(Path(__file__).parent / "fixtures" / "yoga_Abhay_Bhujangasana_f150-249.npy")
+    bodies = []
+    for mode in ("frame", "sequence", "smooth"):
+        C = np.asarray(rectify(X, mode=mode, fps=30.0).canonical, np.float64)
+        bodies.append(np.linalg.norm(C[:, :, None] - C[:, None], axis=-1))
+    for other in bodies[1:]:
+        np.testing.assert_allclose(other, bodies[0], atol=1e-5)

@@ -51,7 +51,7 @@ def canonical_rotation(joints: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, 
 
 
 def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | None = None,
-                 out: np.ndarray | None = None) -> np.ndarray:
+                 out: np.ndarray | None = None, residual_frame: np.ndarray | None = None) -> np.ndarray:
     """Camera-frame poses -> canonical poses: ``X_canon = (X_cam - pelvis) @ R (+ residual)``.
 
     Args:
@@ -61,6 +61,12 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
             (3DPCNet's Delta, paper section 2.1.2).
         out: optional float32 ``(N, J, 3)`` array to write into (a
             :class:`~pcnet.stages.core.framestore.FrameArray` for a long recording).
+        residual_frame: optional ``(N, 3, 3)`` canonical->camera rotations of the canonical
+            frame ``residual`` is expressed in (the network's own per-frame rotation, where a
+            sequence mode answers with another ``R``): the residual is turned into ``R``'s
+            frame, ``residual @ residual_frame^T @ R``, so that it reshapes the same body
+            whichever rotation places it; where ``residual_frame`` is not finite (a frame the
+            network left out, residual 0) it is added as given.
         ``joints_cam``, ``R`` and ``residual`` may be on disk too: they are read a block at a time.
 
     Returns:
@@ -84,7 +90,12 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
         X = np.asarray(joints_cam[rows], np.float64)
         block = (X - X[:, PELVIS : PELVIS + 1]) @ np.asarray(R[rows] if len(R.shape) == 3 else R, np.float64)
         if residual is not None:
-            block += np.asarray(residual[rows], np.float64)
+            delta = np.asarray(residual[rows], np.float64)
+            if residual_frame is not None:
+                own = np.asarray(residual_frame[rows], np.float64)
+                turned = delta @ np.swapaxes(own, -1, -2) @ np.asarray(R[rows] if len(R.shape) == 3 else R, np.float64)
+                delta = np.where(np.isfinite(own).all(axis=(1, 2))[:, None, None], turned, delta)
+            block += delta
         out[rows] = block
     return out
 

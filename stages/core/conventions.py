@@ -185,7 +185,7 @@ def get_layout(name: str) -> Layout:
     raise InputError(f"unknown joint layout {name!r}; expected one of {sorted(LAYOUTS)}")
 
 
-def _unmasked(joints) -> np.ndarray:
+def _unmasked(joints, name: str = "poses") -> np.ndarray:
     """``joints`` as an array, a numpy masked array's masked values NaN (missing): ``np.asarray``
     alone would return the values the mask hides."""
     if np.ma.isMaskedArray(joints) and (np.issubdtype(joints.dtype, np.floating)
@@ -194,7 +194,22 @@ def _unmasked(joints) -> np.ndarray:
     try:
         return np.asarray(joints)
     except ValueError as err:  # a ragged nested list: numpy's own message names no shape
-        raise InputError(f"poses: expected (N, 17, 3) joints, got a nested sequence of unequal lengths ({err})") from None
+        raise InputError(f"{name}: expected (N, 17, 3) joints, got a nested sequence of unequal lengths") from None
+
+
+def shape_hint(shape: tuple[int, ...], num_joints: int = 17) -> str:
+    """What a wrongly shaped pose array most likely is, as a clause to end an error line with
+    (``""`` where nothing fits): another layout's joint count (:data:`LAYOUTS`), to be remapped to
+    H36M-17 first, or the joint and coordinate axes swapped."""
+    if len(shape) == 3 and shape[-1] == 3 and shape[1] != num_joints:
+        named = [lay.name for lay in LAYOUTS.values() if lay.num_joints == shape[1]]
+        if named:
+            return (f" ({shape[1]} joints: the {' or '.join(named)} layout? remap it first: "
+                    f"pcnet.stages.remap.remap_to_h36m(points, {named[0]!r}), or pcnet run --lifter generic --layout "
+                    f"{named[0]})")
+    if len(shape) == 3 and (shape[1:] == (3, num_joints) or shape[:2] == (num_joints, 3)):
+        return f" (joint and coordinate axes in another order? expected (T, {num_joints}, 3): np.moveaxis)"
+    return ""
 
 
 def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -> np.ndarray:
@@ -211,12 +226,13 @@ def check_poses(joints: np.ndarray, name: str = "poses", num_joints: int = 17) -
             raise InputError(f"{name}: expected float (N, {num_joints}, 3) H36M-17 joints, got "
                              f"{joints.shape} {joints.dtype}")
         return joints
-    arr = _unmasked(joints)
+    arr = _unmasked(joints, name)
     if arr.ndim == 2:
         arr = arr[None]
     if arr.ndim != 3 or arr.shape[1:] != (num_joints, 3):
         raise InputError(
             f"{name}: expected shape (N, {num_joints}, 3) H36M-17 joints, got {tuple(np.shape(joints))}"
+            f"{shape_hint(np.shape(joints), num_joints)}"
         )
     if not np.issubdtype(arr.dtype, np.number):
         raise InputError(f"{name}: expected a numeric array, got dtype {arr.dtype}")
@@ -321,13 +337,14 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
         InputError: wrong dtype or shape, no frame, no finite value, or a coordinate beyond
             the bound for ``units`` (naming the frame and joint).
     """
-    arr = _unmasked(joints)
+    arr = _unmasked(joints, source)
     if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
         raise InputError(f"{source}: expected real-valued (float) joint coordinates, got dtype {arr.dtype}")
     if arr.ndim == 2:
         arr = arr[None]
     if arr.ndim != 3 or arr.shape[1:] != (num_joints, 3):
-        raise InputError(f"{source}: expected shape (T, {num_joints}, 3) joints, got {tuple(np.shape(joints))}")
+        raise InputError(f"{source}: expected shape (T, {num_joints}, 3) joints, got {tuple(np.shape(joints))}"
+                         f"{shape_hint(np.shape(joints), num_joints)}")
     if arr.shape[0] == 0:
         raise InputError(f"{source}: expected at least one frame, got shape {arr.shape}")
     bound = MAX_ABS_COORDINATE[units]
