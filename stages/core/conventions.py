@@ -193,7 +193,7 @@ def _unmasked(joints, name: str = "poses") -> np.ndarray:
         return np.ma.filled(joints.astype(np.float64), np.nan)
     try:
         return np.asarray(joints)
-    except ValueError as err:  # a ragged nested list: numpy's own message names no shape
+    except ValueError:  # a ragged nested list: numpy's own message names no shape
         raise InputError(f"{name}: expected (N, 17, 3) joints, got a nested sequence of unequal lengths") from None
 
 
