@@ -462,3 +462,21 @@ def test_the_core_functions_name_bad_shapes_and_non_rotations():
     nan = np.full((2, 3, 3), np.nan)
     nan[0] = np.eye(3)
     assert np.isnan(rot.decompose_camera_rotation(nan)[1][1])  # a missing rotation stays missing
+
+
+def test_a_residual_from_another_frame_is_turned_into_the_answers_frame():
+    """``to_canonical(..., residual_frame=R_own)`` adds ``residual @ R_own^T @ R``: the same
+    camera-frame correction whichever rotation places the body; a frame whose own rotation is
+    not finite (the network left it out, residual 0) adds the residual as given."""
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(4, 17, 3))
+    R, R_own = (Rotation.random(4, random_state=s).as_matrix() for s in (1, 2))
+    residual = rng.normal(scale=0.05, size=(4, 17, 3))
+    R_own[3] = np.nan
+    got = to_canonical(X, R, residual, residual_frame=R_own)
+    rigid = (X - X[:, :1]) @ R
+    np.testing.assert_allclose(got[:3], (rigid + residual @ np.swapaxes(R_own, 1, 2) @ R)[:3], atol=1e-5)
+    np.testing.assert_allclose(got[3], rigid[3] + residual[3], atol=1e-5)
+    # the body it describes in the camera frame does not depend on R
+    np.testing.assert_allclose(got[:3] @ np.swapaxes(R, 1, 2)[:3],
+                               (to_canonical(X, R_own, residual) @ np.swapaxes(R_own, 1, 2))[:3], atol=1e-5)

@@ -88,12 +88,13 @@ def to_canonical(joints_cam: np.ndarray, R: np.ndarray, residual: np.ndarray | N
     # float64 temporaries stay a block long.
     for rows in frame_blocks(len(out)):
         X = np.asarray(joints_cam[rows], np.float64)
-        block = (X - X[:, PELVIS : PELVIS + 1]) @ np.asarray(R[rows] if len(R.shape) == 3 else R, np.float64)
+        R_block = np.asarray(R[rows] if len(R.shape) == 3 else R, np.float64)
+        block = (X - X[:, PELVIS : PELVIS + 1]) @ R_block
         if residual is not None:
             delta = np.asarray(residual[rows], np.float64)
             if residual_frame is not None:
                 own = np.asarray(residual_frame[rows], np.float64)
-                turned = delta @ np.swapaxes(own, -1, -2) @ np.asarray(R[rows] if len(R.shape) == 3 else R, np.float64)
+                turned = delta @ np.swapaxes(own, -1, -2) @ R_block
                 delta = np.where(np.isfinite(own).all(axis=(1, 2))[:, None, None], turned, delta)
             block += delta
         out[rows] = block
