@@ -845,7 +845,8 @@ def _engine(options: BatchOptions, on_result, on_retry):
 def _row_summary(item: PlannedRow, result: dict | None, status: str | None = None) -> dict:
     """A row of the summary: the engine's result, or a skipped / cancelled / pending row."""
     base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": None, "valid": None,
-            "mode": "", "units": None, "camera_tilt_deg": None, "posture": None, "seconds": None, "error": "",
+            "mode": "", "units": None, "camera_tilt_deg": None, "posture": None, "root_path": None, "floor": None,
+            "seconds": None, "error": "",
             "warnings": [],
             "host": "", "pid": None, "attempts": 0, "threads": None, "opensim_rms_cm": None}
     if item.action == "skip":
@@ -1129,6 +1130,21 @@ def _units_line(rows: list[dict]) -> str | None:
     return f"{'; '.join(parts)}, not metres (column height scales them){metric_rows}"
 
 
+def _world_line(rows: list[dict]) -> str | None:
+    """Where the complete outputs' world frames got their pelvis path and floor (report.md's
+    ``root_path`` and ``floor.kind``), by manifest lines: a metric path and a fitted floor plane
+    or not is what a lab reads first; None where no row has a world frame (or says nothing)."""
+    kinds: dict[str, list[int]] = {}
+    for r in rows:
+        if r["status"] in DONE and r.get("root_path"):
+            kinds.setdefault(f"pelvis path {r['root_path']}, floor {r.get('floor') or '-'}", []).append(r["line"])
+    if not kinds:
+        return None
+    return "; ".join(f"{kind} in line{'s' * (len(lines) > 1)} {', '.join(map(str, lines[:SUMMARY_LINES]))}"
+                     + (f" and {len(lines) - SUMMARY_LINES} more" if len(lines) > SUMMARY_LINES else "")
+                     for kind, lines in kinds.items())
+
+
 def format_summary(report: BatchReport) -> str:
     """The summary that reads in seconds: the counts, one line per failed row (its error),
     one line per distinct warning of the complete outputs (most severe first, with its
@@ -1143,6 +1159,8 @@ def format_summary(report: BatchReport) -> str:
     lines += _lines(_grouped_findings(report), "warnings", details)
     opensim, outputs, units = _opensim_line(report.rows), _outputs_line(report.rows), _units_line(report.rows)
     lines += [f"{'units':<17} {units}"] * bool(units)
+    world = _world_line(report.rows)
+    lines += [f"{'world frame':<17} {world}"] * bool(world)
     lines += [f"{'OpenSim IK':<17} {opensim}"] * bool(opensim)
     lines += [f"{'outputs':<17} {outputs}"] * bool(outputs) + [f"{'summary':<17} {report.summary_path}"]
     if report.report_path is not None:
@@ -1172,15 +1190,16 @@ def batch_markdown(report: BatchReport) -> str:
             f"- **options**: overwrite {s.get('overwrite')}, retry_failed {s.get('retry_failed')}",
             f"- **summary**: {report.summary_path} (every row's fields, docs/cluster.md \"Results\")",
             "", "## Rows", "",
-            "| row | line | status | tries | frames | valid | mode | tilt deg | posture | OpenSim RMS cm | seconds | worker "
-            "| threads | output |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| row | line | status | tries | frames | valid | mode | tilt deg | posture | pelvis path | floor | OpenSim RMS cm "
+            "| seconds | worker | threads | output |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report.rows:
         seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else None
         worker = f"{r['host']}:{r['pid']}" if r.get("pid") else None
         out.append("| " + " | ".join(_cell(v) for v in (r["row"], r["line"], r["status"], r["attempts"], r["frames"],
                                                           r["valid"], r.get("mode"), r.get("camera_tilt_deg"),
-                                                          r.get("posture"), r.get("opensim_rms_cm"), seconds,
+                                                          r.get("posture"), r.get("root_path"), r.get("floor"),
+                                                          r.get("opensim_rms_cm"), seconds,
                                                           worker, r.get("threads"),
                                                           r["out"])) + " |")
     failed = [r for r in report.rows if r["status"] == "failed"]

@@ -21,9 +21,11 @@ THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"
 #: in the resume marker for the terminal's lines, left out of the JSON summary's rows.
 FINDINGS = "findings"
 #: What a row's run found that a skipped row shows again (from its resume marker or the
-#: previous summary): frame counts, mode, warnings and, with ``opensim``, the IK fit's marker
-#: RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``).
-RESULT_FIELDS = ("frames", "valid", "mode", "units", "camera_tilt_deg", "posture", "warnings", "opensim_rms_cm")
+#: previous summary): frame counts, mode, where the world frame's pelvis path and floor came
+#: from (report.md's ``root_path`` and ``floor.kind``), warnings and, with ``opensim``, the IK
+#: fit's marker RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``).
+RESULT_FIELDS = ("frames", "valid", "mode", "units", "camera_tilt_deg", "posture", "root_path", "floor", "warnings",
+                 "opensim_rms_cm")
 #: How the row's output was made (its output's marker keeps them): a skipped row reports them (a
 #: user trial: a no-op re-run lost every row's timing).
 RUN_FIELDS = ("seconds", "host", "pid", "attempts", "threads")
@@ -131,7 +133,7 @@ def execute_row(job: dict) -> dict:
     worker) propagates after ``run_pipeline`` has removed its half-written folder.
     """
     result = {"row": job["row"], "status": "failed", "frames": None, "valid": None, "mode": "", "units": None,
-              "camera_tilt_deg": None, "posture": None, "seconds": None,
+              "camera_tilt_deg": None, "posture": None, "root_path": None, "floor": None, "seconds": None,
               "error": "", "warnings": [], "host": socket.gethostname(), "pid": os.getpid(),
               "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS")),
               "opensim_rms_cm": None}
@@ -155,6 +157,7 @@ def execute_row(job: dict) -> dict:
             result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, units=run.units,
                           camera_tilt_deg=_finite_or_none(run.camera_tilt_deg),
                           posture=None if posture is None else posture.most_probable + " (declared)" * posture.declared,
+                          root_path=run.report.root_path, floor=None if run.report.floor is None else run.report.floor.kind,
                           warnings=list(run.flags),
                           opensim_rms_cm=_opensim_rms_cm(staged, run.outputs), **{FINDINGS: finding_records(run.findings)})
             result["seconds"] = round(time.perf_counter() - started, 3)  # the run, without the publishing

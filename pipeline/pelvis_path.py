@@ -106,8 +106,9 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
     if measured is not None:
         return PelvisPath("measured", measured)
     if keypoints2d is None:
-        return PelvisPath("not observable", note="pelvis path not observable: no 2D keypoints to place the "
-                                                 "root-relative poses in the image (give --keypoints2d)")
+        metres = "" if units == "m" else f", and --height for poses in {units}"
+        return PelvisPath("not observable", note=f"pelvis path not observable: no 2D keypoints to place the "
+                                                 f"root-relative poses in the image (give --keypoints2d{metres})")
     if units != "m":
         return PelvisPath("not observable", note=f"pelvis path not observable: the poses are in {units}, not metres "
                                                  f"(give --height)")

@@ -354,8 +354,8 @@ def leg_asymmetry_flag(joints: np.ndarray, limits: SkeletonLimits | None = None)
                    f"carry it",
                    "compare left and right with care",
                    f"the lifter's left and right legs differ by {100 * difference:.0f} % in length (median over "
-                   f"frames; the {shorter} one shorter), more than a person's: heights above the floor (set by the "
-                   f"lowest joint) and left/right comparisons carry the lifter's error")]
+                   f"frames; the {shorter} one shorter), more than a person's: heights above the floor (the {shorter} "
+                   f"foot can hover above it in stance) and left/right comparisons carry the lifter's error")]
 
 
 def size_percentiles(joints: np.ndarray) -> np.ndarray:

@@ -488,7 +488,7 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
     md = batch_markdown(report)
     assert md.startswith("# pcnet batch: /study/m.csv\n")
     # the camera tilt and posture of each row beside it (a batch trial compared 34 yoga files by opening each)
-    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | 4.2 | upright | - | 1.0 | "
+    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | 4.2 | upright | - | - | - | 1.0 | "
                f"h:{r['pid']} | 2 | {r['out']} |" in md for r in rows)
     assert "OpenSim" not in text  # no row asked for a fit
     assert all(r["error"] in md for r in rows[3:]) and "Traceback (most recent call last):\n  boom" in md
@@ -509,7 +509,7 @@ def test_the_summary_gives_the_opensim_fits_marker_rms():
                          settings={"engine": "local", "workers": 1, "retries": 0})
     assert "- **engine**: local, 1 worker, retries 0;" in batch_markdown(report)  # a user trial: "1 workers"
     assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3: r2)\n" in format_summary(report)
-    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | 1.74 | 1.0 |" in batch_markdown(report)
+    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | - | - | 1.74 | 1.0 |" in batch_markdown(report)
     rows[1]["status"] = "failed"
     assert "\nOpenSim IK        marker RMS 1.74 cm (line 2: r1)\n" in format_summary(report)
 
@@ -530,6 +530,27 @@ def test_the_summary_names_the_rows_whose_outputs_are_not_in_metres():
             in format_summary(report)), format_summary(report)
     rows[1]["units"] = "m"
     assert "units " not in format_summary(report)
+
+
+def test_the_summary_says_which_rows_got_a_metric_pelvis_path_and_a_floor_plane():
+    """A lab's first question of a batch (a user trial opened every report.md to answer it):
+    which rows' world frames have a pelvis path and a fitted floor. The summary groups the
+    complete rows by them; the report's table has a column each."""
+    from pcnet.pipeline.batch import BatchReport, batch_markdown, format_summary
+
+    kinds = [("ok", "from 2D keypoints", "plane"), ("ok", "not observable", "per frame"),
+             ("skipped", "not observable", "per frame"), ("ok", None, None), ("failed", None, None)]
+    rows = [{"row": i, "line": i + 1, "out": f"/s/r{i}", "status": status, "frames": 9, "valid": 9, "mode": "sequence",
+             "units": "m", "root_path": path, "floor": floor, "seconds": 1.0, "error": "", "warnings": [],
+             "host": "h", "pid": 1, "attempts": 1, "threads": 1, "opensim_rms_cm": None}
+            for i, (status, path, floor) in enumerate(kinds, 1)]
+    report = BatchReport(rows, False, Path("/s/m.pcnet_batch.json"), 1.0, settings={})
+    assert ("\nworld frame       pelvis path from 2D keypoints, floor plane in line 2; pelvis path not observable, "
+            "floor per frame in lines 3, 4\n" in format_summary(report)), format_summary(report)
+    assert "| sequence | - | - | from 2D keypoints | plane | - |" in batch_markdown(report)
+    for r in rows:
+        r["root_path"] = None
+    assert "world frame" not in format_summary(report)
 
 
 def test_the_summary_groups_one_kind_of_warning_whose_numbers_differ_by_row():
