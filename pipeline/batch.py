@@ -1119,30 +1119,30 @@ def _units_line(rows: list[dict]) -> str | None:
     other = [r for r in done if r["units"] != "m"]
     if not other:
         return None
-    by_unit: dict[str, list[int]] = {}
-    for r in other:
-        by_unit.setdefault(r["units"], []).append(r["line"])
-    parts = [f"{unit} in line{'s' * (len(lines) > 1)} {', '.join(map(str, lines[:SUMMARY_LINES]))}"
-             + (f" and {len(lines) - SUMMARY_LINES} more" if len(lines) > SUMMARY_LINES else "")
-             for unit, lines in by_unit.items()]
     metric = len(done) - len(other)
     metric_rows = f"; m in {metric} row{'s' * (metric != 1)}" if metric else ""
-    return f"{'; '.join(parts)}, not metres (column height scales them){metric_rows}"
+    return f"{_lines_by(other, lambda r: r['units'])}, not metres (column height scales them){metric_rows}"
+
+
+def _lines_by(rows: list[dict], kind) -> str:
+    """``rows`` grouped by ``kind(row)`` in first-seen order, each group as ``"{kind} in lines
+    a, b and N more"`` (at most :data:`SUMMARY_LINES` lines named), the groups joined by ``"; "``."""
+    groups: dict[str, list[int]] = {}
+    for r in rows:
+        groups.setdefault(kind(r), []).append(r["line"])
+    return "; ".join(f"{k} in line{'s' * (len(lines) > 1)} {', '.join(map(str, lines[:SUMMARY_LINES]))}"
+                     + (f" and {len(lines) - SUMMARY_LINES} more" if len(lines) > SUMMARY_LINES else "")
+                     for k, lines in groups.items())
 
 
 def _world_line(rows: list[dict]) -> str | None:
     """Where the complete outputs' world frames got their pelvis path and floor (report.md's
     ``root_path`` and ``floor.kind``), by manifest lines: a metric path and a fitted floor plane
     or not is what a lab reads first; None where no row has a world frame (or says nothing)."""
-    kinds: dict[str, list[int]] = {}
-    for r in rows:
-        if r["status"] in DONE and r.get("root_path"):
-            kinds.setdefault(f"pelvis path {r['root_path']}, floor {r.get('floor') or '-'}", []).append(r["line"])
-    if not kinds:
+    framed = [r for r in rows if r["status"] in DONE and r.get("root_path")]
+    if not framed:
         return None
-    return "; ".join(f"{kind} in line{'s' * (len(lines) > 1)} {', '.join(map(str, lines[:SUMMARY_LINES]))}"
-                     + (f" and {len(lines) - SUMMARY_LINES} more" if len(lines) > SUMMARY_LINES else "")
-                     for kind, lines in kinds.items())
+    return _lines_by(framed, lambda r: f"pelvis path {r['root_path']}, floor {r.get('floor') or '-'}")
 
 
 def format_summary(report: BatchReport) -> str:
