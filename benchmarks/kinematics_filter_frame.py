@@ -3,18 +3,20 @@
     python -m benchmarks.kinematics_filter_frame --data ../shared/data --sets validation
     python -m benchmarks.kinematics_filter_frame --data ../shared/data --sets heldout
 
-In frame and smooth modes (no world frame) ``pcnet run`` low-passes the poses turned into the
+In frame and smooth modes (no world frame) ``pcnet run`` low-passed the poses turned into the
 canonical frame of each frame, ``(X_t - pelvis_t) @ R_t``, so the filter smooths the
 rotation's frame-to-frame noise into the body as well: the angles between two segments, which
 no frame changes, then depend on the mode that chose ``R_t`` (a user trial: a cycling clip's
 elbow 152.6 deg in one mode, 138.4 in another at a lifter jump). The candidate filters where
 the input lives:
 
-- ``turning`` (shipped): ``lowpass((X - pelvis) @ R)``;
-- ``camera``: ``(lowpass(X) - lowpass(X)_pelvis) @ lowpass(R)``, the camera-frame poses and the
-  rotation (its nine entries, the same zero-phase Butterworth, then the nearest rotation by
-  SVD) low-passed apart and then composed. For one rotation per recording (sequence mode,
-  a world frame) both are the same; angles between segments no longer depend on the mode.
+- ``turning`` (shipped before decision 0102): ``lowpass((X - pelvis) @ R)``;
+- ``camera`` (shipped since decision 0102): ``(lowpass(X) - lowpass(X)_pelvis) @ lowpass(R)``,
+  the camera-frame poses and the rotation (its nine entries, the same zero-phase Butterworth,
+  then the nearest rotation by SVD) low-passed apart and then composed
+  (``compute_kinematics(X, fps, rotation=R)``, stages/kinematics.py: ``lowpass_rotations``).
+  For one rotation per recording (sequence mode, a world frame) both are the same; angles
+  between segments no longer depend on the mode.
 
 Both with ``pcnet run``'s default 6 Hz, 4th-order filter. Scored as benchmarks/kinematics_residual.py
 scores: every angle of ``Kinematics.angles`` against the same angles of the truth (the clean
@@ -49,7 +51,7 @@ from benchmarks.world_kinematics import wrapped_diff
 from pcnet.pipeline.rectification import make_estimator, resolve_heading_source
 from pcnet.stages.core.canonical import to_canonical
 from pcnet.stages.core.rotations import axis_rotation
-from pcnet.stages.kinematics import butterworth_lowpass, compute_kinematics
+from pcnet.stages.kinematics import compute_kinematics
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence
 
 MODES = ("frame", "smooth")
@@ -58,23 +60,10 @@ CUTOFF_HZ = 6.0  # pcnet run's default (RunConfig.lowpass_hz)
 CAMERAS = ("static camera", "moving camera")
 
 
-def lowpass_rotations(R: np.ndarray, fps: float, cutoff_hz: float = CUTOFF_HZ) -> np.ndarray:
-    """``(T, 3, 3)`` rotations low-passed entry by entry (:func:`butterworth_lowpass`), each
-    frame then the nearest rotation (SVD, the orthogonal Procrustes solution); NaN frames stay NaN."""
-    F = butterworth_lowpass(np.asarray(R, np.float64).reshape(len(R), 9), fps, cutoff_hz).reshape(-1, 3, 3)
-    out = np.full(F.shape, np.nan)
-    ok = np.isfinite(F).all(axis=(1, 2))
-    U, _, Vt = np.linalg.svd(F[ok])
-    U[:, :, -1] *= np.sign(np.linalg.det(U @ Vt))[:, None]
-    out[ok] = U @ Vt
-    return out
-
-
 def candidate_angles(X: np.ndarray, R: np.ndarray, fps: float) -> dict[str, dict[str, np.ndarray]]:
     """``{candidate: Kinematics.angles}`` of camera-frame poses ``X`` ``(T, 17, 3)`` placed by ``R``."""
     turning = compute_kinematics(to_canonical(X, R), fps, CUTOFF_HZ, check_up=False, units="normalised")
-    camera = compute_kinematics(to_canonical(butterworth_lowpass(X, fps, CUTOFF_HZ), lowpass_rotations(R, fps)),
-                                fps, None, check_up=False, units="normalised")
+    camera = compute_kinematics(X, fps, CUTOFF_HZ, check_up=False, units="normalised", rotation=R)
     return {"turning": dict(turning.angles), "camera": dict(camera.angles)}
 
 

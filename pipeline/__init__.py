@@ -21,8 +21,9 @@ length unit; NaN = missing) in, a :class:`~pcnet.stages.rectify.Rectified` out: 
 ``(T, 3, 3)`` canonical -> camera, ``canonical`` ``(T, 17, 3)`` pelvis-centred poses in the
 canonical frame (x anterior, y up, z right; ``docs/CONVENTIONS.md``) with the network's
 residual, ``up`` ``(T, 3)`` the camera-frame up, ``valid`` ``(T,)``. ``pcnet run``'s kinematics
-read the input turned rigidly instead, ``(X - pelvis) @ R``
-(:func:`pcnet.stages.core.canonical.to_canonical` of ``joints`` and ``rotation``; decision 0100)::
+read the input turned rigidly instead, ``(X - pelvis) @ R`` (decision 0100), low-passed in the
+camera frame and the rotations apart
+(``pcnet.stages.kinematics.compute_kinematics(joints, fps, rotation=res.rotation)``; decision 0102)::
 
     import numpy as np
     from pcnet.pipeline import rectify

@@ -1404,12 +1404,16 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     # prone fixture) and made held-out angles no better, so every mode reads the input turned rigidly.
     rectified_poses = world.joints if world.joints is not None else \
         to_canonical(cam, rectified.rotation, out=store.create("poses_canonical", cam.shape, np.float32))
+    # Decision 0102: without a world frame, the camera-frame poses and the per-frame rotations are
+    # low-passed apart and then composed, so the rotations' noise never reaches angles between segments.
+    filtered, turn = (world.joints, None) if world.joints is not None else (cam, rectified.rotation)
     cutoff = cfg.lowpass_hz
     if cfg.residual_cutoff:
         try:
             # Winter's residual analysis filters every coordinate whole: the one step
             # that reads the poses into memory (opt-in).
-            analysis = residual_analysis(rectified_poses[:], fps)
+            poses = filtered[:]
+            analysis = residual_analysis(poses if turn is None else poses - poses[:, PELVIS:PELVIS + 1], fps)
         except InputError as err:
             raise InputError(f"{cfg.lifter_output}: {err}") from err
         cutoff = analysis.cutoff_hz
@@ -1429,7 +1433,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         video_keypoints2d=scaled.camera.video_keypoints2d, keypoint_picture=scaled.camera.picture,
         min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=world.pelvis_path_std,
         subject_height_m=float("nan") if cfg.height is None else float(cfg.height))
-    result.kinematics_blocks = kinematics_chunks(rectified_poses, fps, cutoff, units)
+    result.kinematics_blocks = kinematics_chunks(filtered, fps, cutoff, units, rotation=turn)
     if _spine_built_on_trunk_line(cam):  # an angle the layout cannot measure is empty, not 0
         result.kinematics_blocks = _without(result.kinematics_blocks, NEEDS_SPINE_JOINT)
         why = ("the input's spine joint lies on the pelvis-thorax line (built there, no spine of its own), so that "

@@ -6,6 +6,11 @@ The angles here are projections onto the planes of the canonical frame
 depend on that frame: in the camera frame "sagittal" would mean "the image's x-z plane"
 and a camera tilt would read as trunk lean. That is why pcnet rectifies first.
 
+Frame and smooth modes place each frame with its own rotation: :func:`compute_kinematics`'s
+``rotation`` low-passes the camera-frame poses and the rotations apart (:func:`lowpass_rotations`)
+and then composes them, so that the rotations' frame-to-frame noise never reaches the angles
+between segments (decision 0102).
+
 NaN policy: NaN never turns into a number. Filters and derivatives work on each
 contiguous run of finite samples separately and never bridge a gap. Derivatives are
 central differences only, so the first and last sample of every run (the recording's
@@ -52,7 +57,7 @@ from .core.conventions import (
     thigh_beyond_metres,
     validate_fps,
 )
-from .core.canonical import canonical_rotation
+from .core.canonical import canonical_rotation, to_canonical
 from .isb_angles import MAX_KNEE_HYPEREXTENSION_DEG, isb_joint_angles
 from .core.rotations import angle_between
 from .core.errors import InputError
@@ -842,6 +847,41 @@ def pelvis_heading_frame(poses: np.ndarray) -> np.ndarray:
     return X @ R
 
 
+def lowpass_rotations(R: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, order: int = 4
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Low-pass a rotation sequence with the filter of the poses: each of the nine entries
+    through :func:`butterworth_lowpass`, then each frame's nearest rotation in the Frobenius
+    norm, ``U diag(1, 1, det(U V^T)) V^T`` of the filtered matrix's SVD ``U S V^T`` (the
+    orthogonal Procrustes solution; Higham 1989, "Matrix nearness problems", sec. 3). A
+    rotation constant over a run passes unchanged; so does each run's ``unfiltered`` share.
+
+    Args:
+        R: ``(T, 3, 3)`` rotations (e.g. canonical -> camera), NaN = none that frame.
+        fps, cutoff_hz, order: as :func:`butterworth_lowpass` (``cutoff_hz`` None = no filter).
+
+    Returns:
+        ``(rotations, unfiltered)``: float64 ``(T, 3, 3)`` (NaN where ``R`` is not finite) and
+        bool ``(T,)``, True where a frame's run of finite rotations was too short to filter
+        (its rotation kept raw).
+
+    Raises:
+        InputError: ``R`` not ``(T, 3, 3)``; as :func:`butterworth_lowpass` for the filter.
+    """
+    R = np.asarray(R, np.float64)
+    if R.ndim != 3 or R.shape[1:] != (3, 3):
+        raise InputError(f"R: expected (T, 3, 3) rotations, got shape {R.shape}")
+    if cutoff_hz is None:
+        return R.copy(), np.zeros(len(R), dtype=bool)
+    F, raw = butterworth_lowpass(R.reshape(len(R), 9), fps, cutoff_hz, order, return_unfiltered=True)
+    F = F.reshape(-1, 3, 3)
+    out = np.full(F.shape, np.nan)
+    ok = np.isfinite(F).all(axis=(1, 2))
+    U, _, Vt = np.linalg.svd(F[ok])
+    U[:, :, -1] *= np.sign(np.linalg.det(U @ Vt))[:, None]
+    out[ok] = U @ Vt
+    return out, raw.any(axis=1)
+
+
 def filtered_derivatives(
     x: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, order: int = 4
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -935,6 +975,7 @@ def compute_kinematics(
     order: int = 4,
     continuous: bool = True,
     check_up: bool = True,
+    rotation: np.ndarray | None = None,
 ) -> Kinematics:
     """Filter Y-up poses, then differentiate and compute angles.
 
@@ -975,6 +1016,13 @@ def compute_kinematics(
             (:func:`inverted_trunk_bound_deg`): camera-frame poses (+Y down) given by mistake;
             False for a body that is inverted for most of the recording (a handstand), which
             no trunk angle tells from them, or a world frame under test.
+        rotation: optional ``(T, 3, 3)`` canonical -> camera rotations, one per frame (frame
+            and smooth modes' ``Rectified.rotation``): ``canonical`` are then the camera-frame
+            poses (OpenCV axes), low-passed there and turned into the canonical frame,
+            ``(X - pelvis) @ R``, by the rotations low-passed with the same filter
+            (:func:`lowpass_rotations`), so that the rotations' frame-to-frame noise does
+            not reach the angles between segments (decision 0102). For one rotation this
+            equals filtering ``(X - pelvis) @ R``. A frame without a rotation is missing.
 
     Returns:
         a frozen :class:`Kinematics`; :func:`flag_counts` / :func:`format_flag_counts`
@@ -985,23 +1033,47 @@ def compute_kinematics(
             (:func:`~pcnet.stages.core.conventions.validate_fps`), an invalid cutoff/order,
             ``units`` not a unit's name, poses in ``"m"`` whose median thigh is no
             person's (centimetres given as metres), or (``check_up``) poses whose trunk points
-            down in most frames (:func:`inverted_trunk_bound_deg`: camera-frame poses, +Y down).
+            down in most frames (:func:`inverted_trunk_bound_deg`: camera-frame poses, +Y down),
+            ``rotation`` not ``(T, 3, 3)``.
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
     if not len(X):
         raise InputError("canonical: expected at least one frame, got 0")
     fps = validate_fps(fps, "fps")
     _require_units(X, units, "canonical")
+    if rotation is not None:
+        rotation = _checked_rotation(rotation, len(X))
     if check_up:
-        require_y_up(X, "canonical")
-    return _kinematics(X, fps, cutoff_hz, units, order, continuous)
+        require_y_up(X if rotation is None else to_canonical(X, rotation), "canonical")
+    return _kinematics(X, fps, cutoff_hz, units, order, continuous, rotation)
+
+
+def _checked_rotation(rotation, frames: int):
+    """``rotation`` if it is ``(frames, 3, 3)`` (in memory or on disk), else an InputError."""
+    shape = tuple(getattr(rotation, "shape", np.shape(rotation)))
+    if shape != (frames, 3, 3):
+        raise InputError(f"rotation: expected ({frames}, 3, 3) rotations, one per frame of the poses, got shape {shape}")
+    return rotation
 
 
 def _kinematics(X: np.ndarray, fps: float, cutoff_hz: float | None, units: str, order: int,
-                continuous: bool) -> Kinematics:
-    """:func:`compute_kinematics` of checked float64 poses ``X`` ``(T, 17, 3)``."""
-    missing = ~np.isfinite(X).all(axis=-1)
-    pos, raw, vel, acc = filtered_derivatives(X, fps, cutoff_hz, order)
+                continuous: bool, rotation: np.ndarray | None = None) -> Kinematics:
+    """:func:`compute_kinematics` of checked float64 poses ``X`` ``(T, 17, 3)`` (camera-frame
+    ones placed by ``rotation`` ``(T, 3, 3)``, if given)."""
+    if rotation is None:
+        missing = ~np.isfinite(X).all(axis=-1)
+        pos, raw, vel, acc = filtered_derivatives(X, fps, cutoff_hz, order)
+    else:
+        if cutoff_hz is None:
+            cam, raw = X, np.zeros(X.shape, dtype=bool)
+        else:
+            cam, raw = butterworth_lowpass(X, fps, cutoff_hz, order, return_unfiltered=True)
+        R, raw_rotation = lowpass_rotations(rotation, fps, cutoff_hz, order)
+        pos = np.einsum("tjk,tkl->tjl", cam - cam[:, PELVIS:PELVIS + 1], R)
+        missing = ~np.isfinite(pos).all(axis=-1)
+        # a canonical position is raw where its joint, the pelvis or the rotation was
+        raw = raw | raw[:, PELVIS:PELVIS + 1] | raw_rotation[:, None, None]
+        vel, acc = derivatives(np.where(raw, np.nan, pos), fps)
     return Kinematics(
         positions=pos,
         velocity=vel,
@@ -1154,6 +1226,7 @@ def kinematics_chunks(
     units: str = "m",
     order: int = 4,
     chunk_frames: int | None = None,
+    rotation: np.ndarray | None = None,
 ) -> Iterator[Kinematics]:
     """:func:`compute_kinematics` of a long recording as consecutive chunks of at most
     ``chunk_frames`` frames, so memory stays bounded by the chunk, not the recording.
@@ -1171,6 +1244,8 @@ def kinematics_chunks(
             :class:`~pcnet.stages.core.framestore.FrameArray` (read a chunk at a time).
         fps, cutoff_hz, units, order: as :func:`compute_kinematics`.
         chunk_frames: frames per yielded chunk (> 0); default :data:`CHUNK_FRAMES`.
+        rotation: optional ``(T, 3, 3)`` canonical -> camera rotations (in memory or on disk):
+            ``poses`` are then camera-frame poses, as :func:`compute_kinematics`'s ``rotation``.
 
     Yields:
         :class:`Kinematics` of frames ``[0, c), [c, 2c), ...``.
@@ -1180,6 +1255,8 @@ def kinematics_chunks(
             recording), or ``chunk_frames < 1``.
     """
     X = check_poses(poses, "poses")
+    if rotation is not None:
+        rotation = _checked_rotation(rotation, len(X))
     chunk_frames = CHUNK_FRAMES if chunk_frames is None else chunk_frames
     if chunk_frames < 1:
         raise InputError(f"chunk_frames must be >= 1, got {chunk_frames!r}")
@@ -1194,7 +1271,8 @@ def kinematics_chunks(
         stop = min(T, start + chunk_frames)
         lo, hi = max(0, start - pad), min(T, stop + pad)
         chunk = check_poses(X[lo:hi], "poses").astype(np.float64)
-        k = select_frames(_kinematics(chunk, fps, cutoff_hz, units, order, continuous=False), start - lo, stop - lo)
+        turn = None if rotation is None else np.asarray(rotation[lo:hi], np.float64)
+        k = select_frames(_kinematics(chunk, fps, cutoff_hz, units, order, False, turn), start - lo, stop - lo)
         angles = continuous_angles(k.angles, previous, fps)
         previous = {name: float(v[-1]) for name, v in angles.items()}
         yield replace(k, angles=MappingProxyType(angles))

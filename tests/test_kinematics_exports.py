@@ -50,6 +50,7 @@ from pcnet.stages.kinematics import (
     format_flag_counts,
     joint_angles,
     kinematics_chunks,
+    lowpass_rotations,
     residual_analysis,
     settle_frames,
 )
@@ -912,19 +913,38 @@ def test_c3d_without_ezc3d_is_one_line_before_any_work(monkeypatch, tmp_path):
 
 
 # chunk = 1 (a block per frame, about 14 s) is the slow tier's; 13 and 97 cross the same edges in the fast tier
-@pytest.mark.parametrize("fps, cutoff, chunk", [(30.0, 6.0, 97), pytest.param(30.0, 6.0, 1, marks=pytest.mark.slow),
-                                                (60.0, 2.0, 250), (30.0, None, 13)])
-def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff, chunk):
+def wobbling_rotations(T: int, seed: int) -> np.ndarray:
+    """``(T, 3, 3)`` canonical -> camera rotations of a camera looking at a Y-up body (y down)
+    whose orientation wobbles a few degrees from frame to frame, as frame mode's do."""
+    from scipy.spatial.transform import Rotation
+
+    wobble = Rotation.from_rotvec(np.random.default_rng(seed).normal(0.0, np.radians(3.0), (T, 3))).as_matrix()
+    return wobble @ np.diag([1.0, -1.0, -1.0])
+
+
+# chunk = 1 (a block per frame, about 14 s) is the slow tier's; 13 and 97 cross the same edges in the fast tier
+@pytest.mark.parametrize("fps, cutoff, chunk, turned", [
+    (30.0, 6.0, 97, False), pytest.param(30.0, 6.0, 1, False, marks=pytest.mark.slow), (60.0, 2.0, 250, False),
+    (30.0, None, 13, False), (30.0, 6.0, 97, True)])
+def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff, chunk, turned):
     """kinematics_chunks (bounded memory for long recordings) == compute_kinematics of the
     whole recording: values to ~1e-12 relative, identical NaN, missing and unfiltered flags,
-    across gaps that cross chunk edges and runs too short to filter."""
+    across gaps that cross chunk edges and runs too short to filter; ``turned``: camera-frame
+    poses placed by per-frame rotations (some frames without one), low-passed apart."""
     X = yoga_level.astype(np.float64).copy()
     rng = np.random.default_rng(3)
     X[rng.random(X.shape[:2]) < 0.01] = np.nan
     X[300:340] = np.nan  # a gap
     X[345:350, 13] = np.nan  # leaves a short raw run for the wrist
-    whole = compute_kinematics(X, fps, cutoff)
-    parts = list(kinematics_chunks(X, fps, cutoff, chunk_frames=chunk))
+    R = None
+    if turned:
+        R = wobbling_rotations(len(X), 4)
+        R[[120, 121, 500]] = np.nan  # frames without a rotation
+        X = np.einsum("tij,tkj->tki", R, X)  # into the camera frame, X_cam = X R^T
+    whole = compute_kinematics(X, fps, cutoff, rotation=R)
+    if turned:
+        assert whole.missing[[120, 121, 500]].all() and whole.unfiltered.any()
+    parts = list(kinematics_chunks(X, fps, cutoff, chunk_frames=chunk, rotation=R))
     assert [p.num_frames for p in parts[:-1]] == [chunk] * (len(parts) - 1)
     gather = FrameGatherer(len(X))
     for part in parts:
@@ -1178,6 +1198,64 @@ def test_the_heights_definition_says_what_y_0_is_for_each_floor():
     assert "floor placed under each frame's lowest joint" in definition("per frame", "left_ankle_y_m")
     assert "y = 0 is the pelvis's height, not the floor" in definition("pelvis")
     assert "floor placed" not in definition("per frame", "pelvis_x_m")
+
+
+def test_one_rotation_gives_the_same_kinematics_filtered_in_either_frame(yoga_level):
+    """Decision 0102: for one rotation (sequence mode) low-passing the camera-frame poses and
+    then turning them equals low-passing the turned poses; a rotation constant in time passes
+    :func:`lowpass_rotations` unchanged, a wobbling one comes out a rotation, NaN stays NaN."""
+    R = wobbling_rotations(1, 5)[0]
+    X = np.einsum("ij,tkj->tki", R, yoga_level.astype(np.float64))
+    Rs = np.repeat(R[None], len(X), axis=0)
+    a = compute_kinematics(to_canonical(X, R).astype(np.float64), 30.0)
+    b = compute_kinematics(X, 30.0, rotation=Rs)
+    np.testing.assert_allclose(a.positions, b.positions, atol=1e-5)  # to_canonical's float32
+    for name, angle in a.angles.items():
+        np.testing.assert_allclose(angle, b.angles[name], atol=1e-3, equal_nan=True, err_msg=name)
+    kept, raw = lowpass_rotations(Rs, 30.0)
+    np.testing.assert_allclose(kept, Rs, atol=1e-12)
+    assert not raw.any()
+    W = wobbling_rotations(200, 6)
+    W[50] = np.nan
+    F, _ = lowpass_rotations(W, 30.0)
+    ok = np.isfinite(F).all(axis=(1, 2))
+    assert not ok[50] and ok.sum() == 199
+    np.testing.assert_allclose(F[ok] @ np.swapaxes(F[ok], 1, 2), np.broadcast_to(np.eye(3), (199, 3, 3)), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(F[ok]), 1.0, atol=1e-12)
+    with pytest.raises(InputError, match=r"rotation: expected \(100, 3, 3\) rotations"):
+        compute_kinematics(X[:100], 30.0, rotation=Rs)
+
+
+def test_angles_between_segments_do_not_depend_on_the_mode(tmp_path):
+    """Decision 0102: frame and smooth modes place the same camera-frame poses with different
+    rotations; the poses and the rotations are low-passed apart, so every angle between two
+    segments (not those to gravity) is the same in both modes' kinematics.csv (before, the
+    filter of the turned poses mixed the rotations' noise into them: 0.1-1.9 deg on mocap)."""
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+
+    tables = {}
+    for mode in ("frame", "smooth"):
+        out = tmp_path / mode
+        res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output",
+                                        str(FIXTURES / "yoga_Abhay_Bhujangasana_f150-249.npy"), "--fps", "30",
+                                        "--mode", mode, "--out", str(out), "--no-recording"])
+        assert res.exit_code == 0, res.output
+        header, rows = read_csv(out / "kinematics.csv")
+        tables[mode] = {h: np.array([float(r[i]) if r[i] else np.nan for r in rows]) for i, h in enumerate(header)}
+    between = [h for h in tables["frame"] if h.endswith("_deg") and not any(
+        word in h for word in ("inclination", "gravity", "heading"))]
+    assert len(between) >= 20
+    moved = 0.0
+    for h in between:
+        a, b = tables["frame"][h], tables["smooth"][h]
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=h)
+        np.testing.assert_allclose(a, b, atol=2e-3, equal_nan=True, err_msg=h)
+    for h in tables["frame"]:
+        if "inclination" in h:
+            moved = max(moved, float(np.nanmax(np.abs(tables["frame"][h] - tables["smooth"][h]))))
+    assert moved > 0.1  # the modes' rotations do differ: angles to gravity move
 
 
 @pytest.mark.parametrize("mode", ["frame", "smooth"])
