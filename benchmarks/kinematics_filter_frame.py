@@ -47,6 +47,7 @@ import numpy as np
 
 from benchmarks.ablation import SWEEP_DEG, _Fixed, camera_view_joints, static_camera_clips, verdict
 from benchmarks.kinematics_residual import GROUPS, NOISES, _score, group_of, sets_arguments
+from benchmarks.report import print_and_save
 from benchmarks.world_kinematics import wrapped_diff
 from pcnet.pipeline.rectification import make_estimator, resolve_heading_source
 from pcnet.stages.core.canonical import to_canonical
@@ -189,8 +190,7 @@ def main(argv=None) -> None:
         lines += ["", "Real lifter output (no truth): modes' disagreement, angles between segments (deg):", ""]
         lines += real_lines(args.data, estimator)
     lines += ["", f"run time {time.perf_counter() - t0:.0f} s"]
-    out.write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    print_and_save(lines, out)
 
 
 if __name__ == "__main__":

@@ -48,7 +48,7 @@ import numpy as np
 
 from benchmarks.ablation import (LYING_TRUNK_DEG, MOCAP_SETS, _Fixed, camera_view_joints, static_camera_clips,
                                  trained_clip_names, verdict)
-from benchmarks.report import SHARED_DATA, require_mocap
+from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
 from benchmarks.world_kinematics import wrapped_diff
 from pcnet.models.datasets import Noise, load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
@@ -255,8 +255,7 @@ def main(argv=None) -> None:
         lines += ["", "Yoga (real VideoPose3D, no truth): the files auto mode reads as smooth:", ""]
         lines += yoga_lines(args.data, estimator)
     lines += ["", f"run time {time.perf_counter() - t0:.0f} s"]
-    out.write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    print_and_save(lines, out)
 
 
 if __name__ == "__main__":

@@ -44,6 +44,7 @@ import pcnet.stages.kinematics as kin
 from benchmarks.ablation import camera_view_joints, static_camera_clips, verdict
 from benchmarks.kinematics_residual import NOISES, sets_arguments
 from benchmarks.mocap_sets import training_mix_splits
+from benchmarks.report import print_and_save
 from benchmarks.world_kinematics import wrapped_diff
 from pcnet.stages.core.canonical import to_canonical
 
@@ -166,8 +167,7 @@ def main(argv=None) -> None:
             lines += set_lines(f"{title}, {noise_name}", rows)
             print(f"  {title}, {noise_name}: {len(rows)} clips ({time.perf_counter() - t0:.0f} s)", flush=True)
     lines += [""] + real_lines(args.data) + ["", f"run time {time.perf_counter() - t0:.0f} s"]
-    out.write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    print_and_save(lines, out)
 
 
 if __name__ == "__main__":

@@ -22,8 +22,8 @@ length unit; NaN = missing) in, a :class:`~pcnet.stages.rectify.Rectified` out: 
 canonical frame (x anterior, y up, z right; ``docs/CONVENTIONS.md``) with the network's
 residual, ``up`` ``(T, 3)`` the camera-frame up, ``valid`` ``(T,)``. ``pcnet run``'s kinematics
 read the input turned rigidly instead, ``(X - pelvis) @ R`` (decision 0100), low-passed in the
-camera frame and the rotations apart
-(``pcnet.stages.kinematics.compute_kinematics(joints, fps, rotation=res.rotation)``; decision 0102)::
+camera frame and the rotations apart (``pcnet.stages.kinematics.compute_kinematics(joints, 30.0,
+rotation=res.rotation)`` gives a frame or smooth mode run's angles; decision 0102)::
 
     import numpy as np
     from pcnet.pipeline import rectify

@@ -1446,7 +1446,8 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     if unchecked:
         notes.append(unchecked)
     else:
-        implausible = implausible_motion(rectified_poses, fps, units=units)
+        # pelvis-relative motion in a fixed frame: the per-frame canonical frame adds its rotations' noise
+        implausible = implausible_motion(filtered, fps, units=units)
         result.implausible_frames = implausible_frames(implausible, len(cam))
         # a rate typed with --fps and no video or file to check it against is the likeliest cause
         findings += implausible_motion_findings(implausible, fps_typed=fps_unchecked(inputs.recording.fps_source))

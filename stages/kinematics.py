@@ -54,6 +54,7 @@ from .core.conventions import (
     THORAX,
     UNSCALED_UNITS,
     check_poses,
+    fill_pelvis_from_hips,
     thigh_beyond_metres,
     validate_fps,
 )
@@ -1022,7 +1023,9 @@ def compute_kinematics(
             ``(X - pelvis) @ R``, by the rotations low-passed with the same filter
             (:func:`lowpass_rotations`), so that the rotations' frame-to-frame noise does
             not reach the angles between segments (decision 0102). For one rotation this
-            equals filtering ``(X - pelvis) @ R``. A frame without a rotation is missing.
+            equals filtering ``(X - pelvis) @ R``. A missing pelvis is the hips' midpoint (the
+            H36M rule rectification applies, :func:`~pcnet.stages.core.conventions.fill_pelvis_from_hips`);
+            a frame without a rotation (any entry not finite) is missing in every joint.
 
     Returns:
         a frozen :class:`Kinematics`; :func:`flag_counts` / :func:`format_flag_counts`
@@ -1034,7 +1037,8 @@ def compute_kinematics(
             ``units`` not a unit's name, poses in ``"m"`` whose median thigh is no
             person's (centimetres given as metres), or (``check_up``) poses whose trunk points
             down in most frames (:func:`inverted_trunk_bound_deg`: camera-frame poses, +Y down),
-            ``rotation`` not ``(T, 3, 3)``.
+            ``rotation`` not ``(T, 3, 3)`` or a frame of it not a proper rotation (a reflection,
+            zeros, a scaled matrix; within :data:`ROTATION_TOLERANCE`).
     """
     X = check_poses(canonical, "canonical").astype(np.float64)
     if not len(X):
@@ -1042,10 +1046,38 @@ def compute_kinematics(
     fps = validate_fps(fps, "fps")
     _require_units(X, units, "canonical")
     if rotation is not None:
-        rotation = _checked_rotation(rotation, len(X))
+        rotation = _proper_rotations(_checked_rotation(rotation, len(X)))
     if check_up:
-        require_y_up(X if rotation is None else to_canonical(X, rotation), "canonical")
+        require_y_up(X if rotation is None else to_canonical(fill_pelvis_from_hips(X)[0], rotation), "canonical")
     return _kinematics(X, fps, cutoff_hz, units, order, continuous, rotation)
+
+
+#: Largest entry of ``R R^T - I`` a rotation may carry: float32 rounding (about 1e-7) with room
+#: to spare; a matrix beyond it is not a rotation (zeros, a scaled or sheared matrix).
+ROTATION_TOLERANCE = 1e-4
+
+
+def _proper_rotations(R: np.ndarray, first_frame: int = 0) -> np.ndarray:
+    """``R`` ``(T, 3, 3)`` (frames from ``first_frame`` on) as float64, a frame with any
+    non-finite entry all NaN (no rotation).
+
+    Raises:
+        InputError: a finite frame that is not a proper rotation (orthonormal within
+            :data:`ROTATION_TOLERANCE`, determinant +1): a reflection, zeros, a scaled matrix.
+    """
+    R = np.array(R, np.float64)
+    ok = np.isfinite(R).all(axis=(1, 2))
+    R[~ok] = np.nan
+    if ok.any():
+        off = np.abs(R[ok] @ np.swapaxes(R[ok], 1, 2) - np.eye(3)).max(axis=(1, 2))
+        det = np.linalg.det(R[ok])
+        bad = (off > ROTATION_TOLERANCE) | (det < 0)
+        if bad.any():
+            i = int(np.argmax(bad))
+            frame = first_frame + int(np.flatnonzero(ok)[i])
+            raise InputError(f"rotation: expected proper rotations (R R^T = I, det +1), got frame {frame} with "
+                             f"R R^T - I up to {off[i]:.3g} and det {det[i]:.3g}")
+    return R
 
 
 def _checked_rotation(rotation, frames: int):
@@ -1064,6 +1096,7 @@ def _kinematics(X: np.ndarray, fps: float, cutoff_hz: float | None, units: str, 
         missing = ~np.isfinite(X).all(axis=-1)
         pos, raw, vel, acc = filtered_derivatives(X, fps, cutoff_hz, order)
     else:
+        X = fill_pelvis_from_hips(X)[0]  # the H36M pelvis rule, as rectification placed the poses
         if cutoff_hz is None:
             cam, raw = X, np.zeros(X.shape, dtype=bool)
         else:
@@ -1271,7 +1304,7 @@ def kinematics_chunks(
         stop = min(T, start + chunk_frames)
         lo, hi = max(0, start - pad), min(T, stop + pad)
         chunk = check_poses(X[lo:hi], "poses").astype(np.float64)
-        turn = None if rotation is None else np.asarray(rotation[lo:hi], np.float64)
+        turn = None if rotation is None else _proper_rotations(rotation[lo:hi], lo)
         k = select_frames(_kinematics(chunk, fps, cutoff_hz, units, order, False, turn), start - lo, stop - lo)
         angles = continuous_angles(k.angles, previous, fps)
         previous = {name: float(v[-1]) for name, v in angles.items()}

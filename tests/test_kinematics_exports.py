@@ -1224,6 +1224,16 @@ def test_one_rotation_gives_the_same_kinematics_filtered_in_either_frame(yoga_le
     np.testing.assert_allclose(np.linalg.det(F[ok]), 1.0, atol=1e-12)
     with pytest.raises(InputError, match=r"rotation: expected \(100, 3, 3\) rotations"):
         compute_kinematics(X[:100], 30.0, rotation=Rs)
+    # a user trial's matrices that are not rotations gave angles to gravity 80-170 deg off, silently
+    for not_rotation in (np.zeros_like(Rs), Rs * np.array([1.0, 1.0, -1.0]), 1.01 * Rs):
+        with pytest.raises(InputError, match=r"rotation: expected proper rotations .* got frame 0"):
+            compute_kinematics(X, 30.0, rotation=not_rotation)
+    # a missing pelvis is the hips' midpoint, as rectification and pcnet run place it
+    gap = X.copy()
+    gap[20:25, 0] = np.nan
+    filled = compute_kinematics(gap, 30.0, rotation=Rs)
+    assert not filled.missing[20:25].any()
+    np.testing.assert_allclose(filled.angles["left_knee_flexion"], b.angles["left_knee_flexion"], atol=1.0)
 
 
 def test_angles_between_segments_do_not_depend_on_the_mode(tmp_path):
@@ -1256,6 +1266,25 @@ def test_angles_between_segments_do_not_depend_on_the_mode(tmp_path):
         if "inclination" in h:
             moved = max(moved, float(np.nanmax(np.abs(tables["frame"][h] - tables["smooth"][h]))))
     assert moved > 0.1  # the modes' rotations do differ: angles to gravity move
+
+
+def test_the_motion_check_reads_the_same_frames_in_every_mode(tmp_path):
+    """The motion check compares pelvis-relative speeds and accelerations with limits fitted in
+    a fixed frame (stages/plausibility.py: ``implausible_motion``); without a world frame it
+    reads the camera frame, not the per-frame canonical frame whose rotations' noise moved what
+    it flagged (real MediaPipe fixture: frames 4 and 12 in frame mode, 4 and 5 in sequence mode)."""
+    from pcnet.pipeline import RunConfig, run_pipeline
+
+    flagged = {}
+    for mode in ("sequence", "frame", "smooth"):
+        out = tmp_path / mode
+        run_pipeline(RunConfig(lifter="mediapipe", lifter_output=str(FIXTURES / "mediapipe_blazepose33_f000-059.npz"),
+                               mode=mode, out=str(out), recording=False), progress=False)
+        header, rows = read_csv(out / "kinematics.csv")
+        column = header.index("implausible_motion")
+        flagged[mode] = [i for i, r in enumerate(rows) if r[column] == "1"]
+    assert flagged["sequence"], "the fixture's lifter jump is flagged"
+    assert flagged["frame"] == flagged["smooth"] == flagged["sequence"]
 
 
 @pytest.mark.parametrize("mode", ["frame", "smooth"])
