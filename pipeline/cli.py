@@ -277,9 +277,10 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     import numpy as np
 
     from pcnet.adapters.validate import nonfinite_line
-    from pcnet.pipeline.checks import pose_checks
+    from pcnet.pipeline.checks import CameraTilt, pose_checks
     from pcnet.pipeline.io import read_pose_array
-    from pcnet.stages.flags import ranked
+    from pcnet.pipeline.run_report import camera_record
+    from pcnet.stages.flags import per_frame_tilt_summary, ranked
     from pcnet.stages.core.conventions import validate_fps
     from pcnet.stages.sinks.exports import write_npz
     from pcnet.pipeline.rectification import rectify as run_rectify
@@ -305,16 +306,24 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     if not res.valid.any():  # the same rule as pcnet run: nothing is written
         raise InputError(f"{input_path}: {no_valid_frame_reason(res.report)}")
     findings = ranked(pose_checks(joints, res))  # what pcnet run would say of these poses alone
+    # the camera's tilt, pitch and roll as pcnet run's report gives them (a trial found them missing)
+    tilt = CameraTilt.of(res.rotation, res.valid)
+    per_frame = None if res.mode == "sequence" else per_frame_tilt_summary(res.rotation[:, :, 1], res.valid)
     # the report and the warnings kept with the arrays (a trial's declared posture was printed, then lost)
     write_npz(out_path, replace=overwrite, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),
-              frame_tilt_bound_deg=res.report.frame_tilt_bound_deg, report=res.report.as_record(),
+              frame_tilt_bound_deg=res.report.frame_tilt_bound_deg,
+              report={**res.report.as_record(), **camera_record(tilt, per_frame)},
               flags=np.array([f.detail for f in findings], dtype=str))
     cv = res.report.heading.hip_width_cv_percent
     requested = f" (requested {mode})" if mode != res.mode else ""
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}{requested}, "
                f"heading from {res.heading_source} (hip width CV "
                + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
+    click.echo(f"camera tilt {tilt.tilt_deg:.1f} deg from level (pitch {tilt.pitch_deg:+.1f}, roll {tilt.roll_deg:+.1f} "
+               f"deg, of the {'one' if res.mode == 'sequence' else 'mean'} up"
+               + (f"; per frame median {per_frame[0]:.1f}, 5-95 % {per_frame[1]:.1f}-{per_frame[2]:.1f}" if per_frame else "")
+               + ("; its intervals in the archive's report, docs/outputs.md)" if res.mode == "sequence" else ")"))
     if nonfinite:  # the file's inf/NaN, which the counts above take as missing joints
         click.echo(nonfinite_line(nonfinite))
     for f in findings:

@@ -197,14 +197,15 @@ def _unlisted_whole_warning(record: dict) -> str | None:
 
 
 def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None,
-                          untrained_only: bool = False) -> str | None:
+                          left_out: list[str] | None = None) -> str | None:
     """A warning when the weights' record names their training files but the evaluated file
     is not one of them: whether its clips overlap the training data cannot be told from names,
     so the scores are not called held out; where some evaluated clips are recognised by name
     among the clips trained on whole (``overlap``, :func:`_training_overlap`), it says so and
-    that the others may still be among the training files', and with ``untrained_only`` that
-    only those recognised clips could be left out (a user trial read a silent
-    ``--untrained-only`` as "none of these trained on"); ``None`` otherwise."""
+    that the others may still be among the training files', and with ``--untrained-only``
+    (``left_out``: the clips it left out, by name) which recognised clips it left out and
+    that it scored every other (user trials read a silent ``--untrained-only`` as "none of
+    these trained on"); ``None`` otherwise."""
     listed = _listed_files(record)
     if not listed or Path(data).name in listed:
         return None
@@ -213,8 +214,11 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None,
         n = overlap["clips_trained_whole"]
         known = (f"; of the evaluated clips, {n} {'is' if n == 1 else 'are'} recognised by name among the clips they "
                  f"trained on whole, and the others may be among their training files' too")
-    left = ("; --untrained-only could leave out only clips recognised by name, and scored every other"
-            if untrained_only else "")
+    left = ""
+    if left_out is not None:
+        named = (f"{len(left_out)} clip{'s' * (len(left_out) != 1)} recognised by name among the clips they "
+                 f"trained on whole ({', '.join(left_out)})" if left_out else "no clip recognised by name")
+        left = f"; --untrained-only left out {named} and scored every other"
     return (f"{Path(data).name} is not among the files the weights trained on ({', '.join(listed)}): whether its "
             f"clips overlap their training data is unknown (a renamed copy of a training file would look new)"
             f"{known}{left}")
@@ -362,8 +366,11 @@ def evaluate(
     if unseen_by is not None:
         seen = groups_in_split(all_clips, "train", unseen_by)
         clips = [c for c in clips if (group_key(c) or c.name) not in seen]
+    left_out: list[str] = []
     if untrained_only:
-        clips = _untrained(data, clips, method, weights)
+        kept = _untrained(data, clips, method, weights)
+        left_out = [c.name for c in clips if c not in kept]
+        clips = kept
     if not clips:
         extra = f" with no group in the {unseen_by!r} train split" if unseen_by else ""
         extra += " that the weights did not train on" if untrained_only else ""
@@ -400,7 +407,7 @@ def evaluate(
     result = {
         "method": method, "weights": None if method == "geometric" else str(weights) if weights else "shipped",
         "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
-        "untrained_only": untrained_only,
+        "untrained_only": untrained_only, "left_out_trained_clips": left_out,
         "data": str(data), "seed": seed, "camera": camera, "noise": kind, "mode": mode, "heading": heading,
         "camera_prior": camera_prior, "warnings": warnings,
         "target_undefined_frames": pairs.dropped_frames,
@@ -417,7 +424,8 @@ def evaluate(
         result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
         warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record),
                                  _fine_tuned_warning(record),
-                                 _unknown_file_warning(data, record, result["training_overlap"], untrained_only),
+                                 _unknown_file_warning(data, record, result["training_overlap"],
+                                                       left_out if untrained_only else None),
                                  _foreign_file_warning(data, record, clips)] if w]
     else:
         result["training_overlap"] = None

@@ -49,11 +49,7 @@ class RunReport:
         out.update(self.rectification.as_record())
         if self.display_rotation is not None:
             out["display_rotation"] = self.display_rotation
-        # what the summary's tilt line prints, in every mode (sequence mode: its one up)
-        out.update(camera_tilt_deg=self.tilt.tilt_deg, camera_pitch_deg=self.tilt.pitch_deg,
-                   camera_roll_deg=self.tilt.roll_deg)
-        if self.tilt_per_frame_deg is not None:
-            out["camera_tilt_per_frame_deg"] = self.tilt_per_frame_deg
+        out.update(camera_record(self.tilt, self.tilt_per_frame_deg))
         if self.root_path is not None:
             out.update(root_path=self.root_path, floor=None if self.floor is None else asdict(self.floor))
         out.update(kinematics_frame=self.kinematics_frame, cutoff_hz=self.cutoff_hz, cutoff_source=self.cutoff_source)
@@ -62,4 +58,14 @@ class RunReport:
         return out
 
 
-__all__ = ["RunReport"]
+def camera_record(tilt: CameraTilt, tilt_per_frame_deg: list[float] | None) -> dict:
+    """The report's camera keys, what the summary's tilt line prints, in every mode (sequence
+    mode: its one up): ``camera_tilt_deg``, ``camera_pitch_deg``, ``camera_roll_deg`` and, where
+    given (frame and smooth modes), ``camera_tilt_per_frame_deg`` (docs/outputs.md)."""
+    out = dict(camera_tilt_deg=tilt.tilt_deg, camera_pitch_deg=tilt.pitch_deg, camera_roll_deg=tilt.roll_deg)
+    if tilt_per_frame_deg is not None:
+        out["camera_tilt_per_frame_deg"] = tilt_per_frame_deg
+    return out
+
+
+__all__ = ["RunReport", "camera_record"]

@@ -26,3 +26,30 @@ def test_a_level_camera_a_downward_look_and_nan():
     np.testing.assert_allclose(roll[:2], [0.0, 0.0], atol=1e-12)
     assert np.isnan(pitch[2]) and np.isnan(roll[2])
     assert np.shape(camera_pitch_roll(np.array([0.0, -1.0, 0.0]))[0]) == ()
+
+
+def test_pcnet_rectify_reports_the_cameras_tilt_pitch_and_roll_as_pcnet_run(tmp_path):
+    """A user trial: `pcnet rectify` printed no tilt and its frame-mode report had none of the
+    camera keys docs/outputs.md lists for every mode. Both modes now carry them, equal to the
+    rotations' own mean (frame) or one (sequence) up, and the terminal says them."""
+    import json
+
+    from click.testing import CliRunner
+    from conftest import FIXTURES
+
+    from pcnet.pipeline.cli import main
+
+    src = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"
+    for mode, extra in (("frame", []), ("sequence", ["--fps", "30"])):
+        out = tmp_path / f"{mode}.npz"
+        res = CliRunner().invoke(main, ["rectify", str(src), "--out", str(out), "--mode", mode, *extra])
+        assert res.exit_code == 0, res.output
+        with np.load(out, allow_pickle=False) as z:
+            report = json.loads(str(z["report"]))
+            up = z["rotation"][:, :, 1][z["valid"]].mean(axis=0)
+        pitch, roll = np.degrees(camera_pitch_roll(up / np.linalg.norm(up)))
+        assert abs(report["camera_pitch_deg"] - float(pitch)) < 1e-6 and abs(report["camera_roll_deg"] - float(roll)) < 1e-6
+        assert abs(report["camera_tilt_deg"] - float(camera_tilt_deg(up / np.linalg.norm(up)))) < 1e-6
+        assert ("camera_tilt_per_frame_deg" in report) == (mode == "frame")
+        assert f"camera tilt {report['camera_tilt_deg']:.1f} deg from level (pitch {report['camera_pitch_deg']:+.1f}" \
+            in res.output

@@ -492,8 +492,9 @@ def test_weights_trained_on_a_whole_file_without_its_clip_names_warn(tmp_path):
     # --untrained-only leaves out the recognised clip and says that it could do no more (a trial
     # read a silent --untrained-only on its own file as "none of these trained on")
     untrained = evaluate("pcnet", data, "all", max_frames=20, untrained_only=True)
-    assert untrained["warnings"][-1].endswith("; --untrained-only could leave out only clips recognised by name, "
-                                              "and scored every other")
+    assert untrained["warnings"][-1].endswith("; --untrained-only left out 1 clip recognised by name among the clips "
+                                              "they trained on whole (humanoid3d_crawl.txt) and scored every other")
+    assert untrained["left_out_trained_clips"] == ["humanoid3d_crawl.txt"]
     assert _unlisted_whole_warning({"data": ["a.npz"], "train_whole": [True], "whole_clips": ["x"]}) is None
 
 
