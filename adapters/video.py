@@ -60,11 +60,13 @@ def _prop(cap: cv2.VideoCapture, prop: int) -> float:
 DECODABLE_SHARE = 0.5
 
 
-def _count_by_decoding(cap: cv2.VideoCapture) -> int:
-    cap.set(opencv().CAP_PROP_POS_FRAMES, 0)
+def _count_by_decoding(p: Path) -> int:
+    """Frames of ``p`` that decode from its start, read by a capture of their own: seeking
+    back to frame 0 fails in some files (a one-frame MP4 counted 0 after its frame was read)."""
     n = 0
-    while cap.grab():
-        n += 1
+    with _capture(p) as cap:
+        while cap.grab():
+            n += 1
     return n
 
 
@@ -105,12 +107,12 @@ def probe_video(path: str | Path, verify: bool = True) -> VideoInfo:
         rotation = int(round(_prop(cap, cv2.CAP_PROP_ORIENTATION_META) / 90.0)) * 90 % 360
         ok, _ = cap.read()
         if ok and verify:
-            last_ok = False
-            if count > 0:
+            last_ok = count == 1  # the one frame, just read
+            if count > 1:
                 cap.set(cv2.CAP_PROP_POS_FRAMES, count - 1)
                 last_ok = cap.grab()
             if not last_ok:
-                stated, count = count, _count_by_decoding(cap)
+                stated, count = count, _count_by_decoding(p)
                 if 0 < count < DECODABLE_SHARE * stated:
                     raise AdapterError(p, "frame_count", f"most of the {stated} frames its container states",
                                        f"{count} decodable, then a decoding error: a damaged or truncated file")

@@ -32,7 +32,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
-from pcnet.stages.core.errors import InputError, close_names
+from pcnet.stages.core.errors import InputError, close_names, refuse
 
 from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, pcnet_version, read_batch_marker,
                            record_status, renamed_inputs, settings_change)
@@ -74,43 +74,57 @@ def _boolean(key: str, raw: str) -> bool:
         raise InputError(f"column {key}: expected true/false (1/0, yes/no), got {raw!r}") from None
 
 
+def _number(key: str, raw: str) -> float | int:
+    try:
+        return _NUMERIC[key](raw)
+    except ValueError:
+        raise InputError(f"column {key}: expected a number, got {raw!r}") from None
+
+
 def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
     """A :class:`RunConfig` from one manifest row (empty cells = defaults; relative paths are
     relative to ``base``, the manifest's folder; no ``out`` = ``base/pcnet_out``).
 
     Raises:
-        InputError: an unknown column, or a value the column does not take (naming it).
+        InputError: an unknown column, or the values the columns do not take (naming each: the
+            cells no column reads, then the first value the config refuses; a user trial fixed
+            one row three times, one cell a run).
     """
     # lifter_options is a table in TOML; in a manifest its entries are columns of their own.
     unknown = sorted(set(row).difference(_column_set()))
     if unknown:
         raise InputError(f"unknown columns {unknown}; expected some of {', '.join(manifest_columns())}")
-    values, options = {}, {}
+    values, options, problems, unread = {}, {}, [], set()
     for key, raw in row.items():
         if raw is None or str(raw).strip() == "":
             continue
         raw = str(raw).strip()
-        if key in _PATH_COLUMNS:
-            values[key] = _manifest_path(base, raw)
-        elif key in _NUMERIC:
-            try:
-                number = _NUMERIC[key](raw)
-            except ValueError:
-                raise InputError(f"column {key}: expected a number, got {raw!r}") from None
-            (options if key in _LIFTER_OPTIONS else values)[key] = number
-        elif key in ("pixel", "measured_root"):
-            options[key] = _boolean(key, raw)
-        elif key == "hypothesis":
-            options[key] = parse_hypothesis(raw)
-        elif key in _LIFTER_OPTIONS:
-            options[key] = raw
-        elif key in _BOOLEAN_COLUMNS:
-            values[key] = _boolean(key, raw)
-        else:
-            values[key] = raw
+        try:
+            if key in _PATH_COLUMNS:
+                values[key] = _manifest_path(base, raw)
+            elif key in _NUMERIC:
+                (options if key in _LIFTER_OPTIONS else values)[key] = _number(key, raw)
+            elif key in ("pixel", "measured_root"):
+                options[key] = _boolean(key, raw)
+            elif key == "hypothesis":
+                options[key] = parse_hypothesis(raw)
+            elif key in _LIFTER_OPTIONS:
+                options[key] = raw
+            elif key in _BOOLEAN_COLUMNS:
+                values[key] = _boolean(key, raw)
+            else:
+                values[key] = raw
+        except InputError as err:
+            problems.append(str(err))
+            unread.add(key)
     values.setdefault("overwrite", overwrite)
     values.setdefault("out", str(base / "pcnet_out"))  # beside the manifest, like every relative path
-    return RunConfig.from_values(ROW_SOURCE, {**values, "lifter_options": options})
+    try:
+        config = RunConfig.from_values(ROW_SOURCE, {**values, "lifter_options": options})
+    except InputError as err:  # less what follows from a cell already refused (a missing rate after fps 'abc')
+        problems += [p for p in getattr(err, "problems", [str(err)]) if not any(f"'{k}'" in p for k in unread)]
+    refuse(problems)
+    return config
 
 
 class _RowConfigs:
@@ -585,7 +599,8 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
             # a missing input named first: it may be why the settings look wrong (no rate recorded)
             given = {name: _manifest_path(configs.base, cell) for name in INPUT_FIELDS
                      if (cell := _given(row.get(name))) is not None}
-            problems[line] = "\n".join([*_input_problems(where, row, given, paths), f"{where}: {_as_columns(str(err))}"])
+            problems[line] = "\n".join([*_input_problems(where, row, given, paths),
+                                        *(f"{where}: {_as_columns(p)}" for p in getattr(err, "problems", [str(err)]))])
             continue
         inputs = input_files(config)
         found = (_input_problems(where, row, inputs, paths) or

@@ -19,6 +19,7 @@ import os
 import signal
 import socket
 import sys
+import threading
 import time
 from collections import deque
 from collections.abc import Callable
@@ -44,6 +45,9 @@ def _worker_main(conn, threads: int) -> None:
         signal.signal(signum, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, raise_interrupt)
     sys.unraisablehook = quiet_interrupt_hook(sys.unraisablehook)
+    parent = multiprocessing.parent_process()
+    if parent is not None:
+        threading.Thread(target=_stop_with, args=(parent.sentinel,), daemon=True).start()
     try:
         set_opencv_threads(threads)
         import pcnet.pipeline.runner  # noqa: F401 - imported once per worker, not inside the first row's time
@@ -60,6 +64,14 @@ def _worker_main(conn, threads: int) -> None:
     except Exception as err:  # a SIGTERM inside an import comes out as the module's ImportError
         if not came_from_interrupt(err):
             raise
+
+
+def _stop_with(parent_sentinel) -> None:
+    """Unwind this worker as SIGTERM does once the supervisor is gone (killed by SIGKILL, which
+    it cannot pass on): a user trial's orphaned worker ran its row on and published it, racing
+    the batch started again."""
+    wait([parent_sentinel])
+    os.kill(os.getpid(), signal.SIGTERM)
 
 
 @dataclass

@@ -15,7 +15,7 @@ import numpy as np
 from pcnet.models.toml_config import (check_config_keys, check_config_types, read_toml, type_hints, type_name,
                                       value_matches)
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
-from pcnet.stages.core.errors import InputError, close_names
+from pcnet.stages.core.errors import InputError, close_names, refuse
 
 def _registered(kind: str) -> dict:
     from pcnet.adapters.registry import registered
@@ -367,6 +367,8 @@ class RunConfig:
 
         check_config_types(source, "", {f.name: getattr(self, f.name) for f in fields(self)}, RunConfig)
         self._check_inputs_given(source)
+        # the choices and ranges, each a field of its own: all of their problems at once
+        problems = []
         # (field, value, choices, None allowed)
         for name, value, choices, optional in (
             ("lifter", self.lifter, lifter_names(), self.lifter_output is None), ("method", self.method, METHODS, False),
@@ -375,13 +377,13 @@ class RunConfig:
             ("keypoints2d_format", self.keypoints2d_format, keypoint_formats(), True),
         ):
             if not (optional and value is None) and value not in choices:
-                raise InputError(f"{field_name(source, name)}: expected one of {choices}, got {value!r}")
+                problems.append(f"{field_name(source, name)}: expected one of {choices}, got {value!r}")
         if (self.keypoints2d is None) != (self.keypoints2d_format is None):
             given = "keypoints2d" if self.keypoints2d is not None else "keypoints2d_format"
             missing = "keypoints2d_format" if given == "keypoints2d" else "keypoints2d"
-            raise InputError(f"{field_name(source, 'keypoints2d', 'keypoints2d_format')}: expected both or neither, "
-                             f"got {_flag(given) if source == COMMAND_LINE else given} "
-                             f"{getattr(self, given)!r} without {_flag(missing) if source == COMMAND_LINE else missing}")
+            problems.append(f"{field_name(source, 'keypoints2d', 'keypoints2d_format')}: expected both or neither, "
+                            f"got {_flag(given) if source == COMMAND_LINE else given} "
+                            f"{getattr(self, given)!r} without {_flag(missing) if source == COMMAND_LINE else missing}")
         # (field, value, low, high, unit): ranges that a real recording can have
         for name, value, low, high, unit in (
             ("height", self.height, MIN_HEIGHT_M, MAX_HEIGHT_M, "m (the subject's height)"),
@@ -395,10 +397,11 @@ class RunConfig:
         ):
             if value is not None and not (math.isfinite(value) and low <= value <= high):
                 # a height in centimetres is the likely slip (a user trial typed --height 170)
-                hint = (f"; centimetres? give metres: {value / 100:g}"
+                hint = (f" (centimetres? give metres: {value / 100:g})"
                         if name == "height" and math.isfinite(value) and low <= value / 100 <= high else "")
-                raise InputError(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got "
-                                 f"{value!r}{hint}")
+                problems.append(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got "
+                                f"{value!r}{hint}")
+        refuse(problems)
         if self.focal_px is not None and not (math.isfinite(self.focal_px) and self.focal_px > 0):
             raise InputError(f"{field_name(source, 'focal_px')}: expected a positive finite focal length in pixels, "
                              f"got {self.focal_px!r}")

@@ -60,7 +60,7 @@ from pcnet.stages.plausibility import implausible_frames, implausible_motion, mo
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import CameraTilt, CheckInputs, checks, spreads_beyond_static
-from .config import RunConfig, fps_contradiction, multi_track_formats
+from .config import FPS_TOLERANCE, RunConfig, fps_contradiction, multi_track_formats
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -331,6 +331,11 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
         return float(cfg.fps), f"{said} {Path(recorded[0][0]).name}"
     if recorded:
         source, fps = recorded[0]
+        for other, other_fps in recorded[1:]:  # a trial's 25 fps video read a 30 fps file's poses without a word
+            if abs(other_fps - fps) > FPS_TOLERANCE * fps:
+                raise InputError(f"frame rate: expected {Path(source).name} and {Path(other).name} to record the same "
+                                 f"rate, got {fps:g} and {other_fps:g} fps: give the recording's rate with --fps and "
+                                 f"--fps-override")
         return validate_fps(fps, f"{source}: frame rate"), f"recorded in {Path(source).name}"
     raise InputError("fps: needed when no video is given and the input files do not carry their frame rate "
                      "(pass --fps)")
@@ -1360,6 +1365,13 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
         units = "m"
     elif units != "m":
         notes.append(f"lifter output is {units}, not metres: give --height for metric kinematics and a TRC file")
+    elif camera.root is None:  # a monocular lifter's metres are its guess at the size (a depth sensor's measure it)
+        try:
+            stature = 1.0 / height_factor(cam, 1.0)
+            notes.append(f"body size as the lifter's: a {stature:.2f} m stature (a monocular lifter's guess at the "
+                         f"size); give --height for the subject's, which positions, speeds and the TRC scale with")
+        except InputError:  # no frame with the ankle-to-head chain: no stature to state
+            pass
     return Scaled(replace(camera, root=root_cam), units, tuple(notes))
 
 

@@ -212,9 +212,9 @@ def opensim_markdown(result: dict) -> str:
     lines = [REPORT_SECTION, "", "(Where the notes above hold an OpenSim IK line of `pcnet run --opensim`, this fit "
              "replaced it.)", "", f"- **fit**: {opensim_fit_line(result)}",
              f"- **static window** (marker placer): {w0:.3f}-{w1:.3f} s",
-             f"- **subject**: height {_or_none(result.get('subject_height_m'), 'm')}, mass "
-             f"{_or_none(result.get('subject_mass_kg'), 'kg')} (given to `pcnet opensim`; the markers' scale is "
-             f"`pcnet run --height`'s); the scaled model weighs {_or_none(result.get('model_mass_kg'), 'kg')}"
+             f"- **subject** (as `pcnet opensim`'s --height and --mass; the markers' scale is `pcnet run "
+             f"--height`'s): height {_or_none(result.get('subject_height_m'), 'm')}, mass "
+             f"{_or_none(result.get('subject_mass_kg'), 'kg')}; the scaled model weighs {_or_none(result.get('model_mass_kg'), 'kg')}"
              + ("" if result.get("subject_mass_kg") is not None else
                 " (the generic model's mass scaled with its segments, not the subject's: give --mass before "
                 "using it for dynamics)"), *(f"- **note**: {note}" for note in opensim_notes(result)), "",

@@ -1073,6 +1073,21 @@ def test_video_probe_read_and_iterate_fixture_clip():
         assert_names_file(err, CLIP)
 
 
+@pytest.mark.parametrize("frames", [1, 2])
+def test_a_video_of_one_or_two_real_frames_is_probed_whole(tmp_path, frames):
+    """A user trial's one-frame clip of the real boxing video was refused as "0 frames, first
+    frame read": the check of its last frame sought back to frame 0, which the file refuses."""
+    import cv2
+
+    short = tmp_path / f"short{frames}.mp4"
+    writer = cv2.VideoWriter(str(short), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (854, 480))
+    for frame in list(iter_frames(CLIP))[:frames]:
+        writer.write(frame)
+    writer.release()
+    info = probe_video(short)
+    assert (info.frame_count, info.fps, info.width, info.height) == (frames, 30.0, 854, 480)
+
+
 def test_unreadable_and_missing_video(tmp_path):
     junk = tmp_path / "junk.mp4"
     junk.write_bytes(b"\x00\x01 definitely not a video" * 50)

@@ -185,6 +185,28 @@ def test_the_whole_manifest_is_checked_before_any_work(tmp_path):
     assert (tmp_path / "theirs" / "notes.txt").read_text() == "mine"
 
 
+def test_every_bad_cell_of_a_row_is_named_at_once(tmp_path):
+    """A user trial fixed one row three times, one refused cell per run: every cell no column
+    reads and every choice or range the config refuses is named, one line each; a cell that
+    did not read (fps 'abc') is not named again as missing."""
+    manifest = tmp_path / "m.csv"
+    manifest.write_text("lifter,lifter_output,fps,recording,mode,out,height\n"
+                        f"lifterx,{BOX_3D},30,maybe,sideways,a,170\n"
+                        f"motionbert,{BOX_3D},abc,false,frame,b,\n")
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and "Traceback" not in res.output, res.output
+    errors = [ln for ln in res.output.splitlines() if ln.startswith("Error: ")]
+    expected = [("line 2", "column recording", "expected true/false", "'maybe'"),
+                ("line 2", "column lifter", "expected one of", "'lifterx'"),
+                ("line 2", "column mode", "expected one of", "'sideways'"),
+                ("line 2", "column height", "expected a value in [0.5, 3] m", "centimetres? give metres: 1.7"),
+                ("line 3", "column fps", "expected a number, got 'abc'")]
+    assert len(errors) == len(expected), res.output
+    for needles in expected:
+        assert any(all(n in e for n in needles) for e in errors), (needles, errors)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
+
+
 def test_settings_a_row_would_ignore_are_refused_before_any_work(tmp_path):
     """A 2D confidence threshold without 2D keypoints, a fixed cutoff beside the residual
     analysis, a lifter option the lifter does not take, a cutoff at or above Nyquist, a rate
@@ -378,6 +400,35 @@ def test_a_row_published_just_before_ctrl_c_is_ok_not_cancelled(tmp_path):
     assert found[1]["status"] == "ok" and found[1]["frames"] == 60 and found[1]["pid"] == os.getpid()
     assert _published_before_the_stop(planned, {}, since=time.time() + 1) == {}
     assert _published_before_the_stop(planned, {1: {"status": "failed"}}, since=started) == {}
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (Linux ``/proc``)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="reads process states from Linux /proc")
+def test_workers_stop_when_the_batch_is_killed(tmp_path, hook):
+    """The batch killed by SIGKILL (which it cannot pass on) while a worker runs row 1: the
+    worker unwinds as on SIGTERM instead of running its row on and publishing it (a user
+    trial's orphan published a row and raced the batch started again)."""
+    manifest = _manifest(tmp_path, _row("s1"), _row("s2"))
+    (hook / "hold-1").touch()
+    proc = _spawn_batch(manifest, "--workers", "1", hook=hook)
+    try:
+        _wait_for(lambda: _started(hook, 1), what="row 1 to start")
+        worker = _started(hook, 1)[0]
+        proc.kill()
+        proc.communicate(timeout=30)
+        _wait_for(lambda: not _running(worker), timeout=30, what=f"worker {worker} to stop")
+    finally:
+        proc.kill()
+        (hook / "hold-1").unlink(missing_ok=True)
+    assert not (tmp_path / "s1").exists() and not list(tmp_path.glob(f".*{TMP_TAG}*"))
 
 
 @pytest.mark.parametrize("retries", [0, 1])

@@ -46,14 +46,14 @@ def test_rectify_names_the_joints_and_frames_the_file_held_as_inf_or_nan(tmp_pat
     assert res.exit_code == 0, res.output
     lines = [line for line in res.output.splitlines() if not line.startswith("WARNING  ")]  # the poses' own
     assert lines[-1] == LINE, res.output
-    assert len(lines) == 2  # the rectification's line, and this one
+    assert len(lines) == 3 and lines[1].startswith("camera tilt ")  # the rectification's lines, and this one
     assert np.load(tmp_path / "r.npz")["valid"].all()  # one missing ankle does not cost the frame
 
     # a file without inf/NaN: no such line
     clean = _invoke("rectify", EXAMPLE_DIR / "X3D.npy", "--out", tmp_path / "c.npz")
     assert clean.exit_code == 0, clean.output
     assert "non-finite" not in clean.output
-    assert len([line for line in clean.output.splitlines() if not line.startswith("WARNING  ")]) == 1
+    assert len([line for line in clean.output.splitlines() if not line.startswith("WARNING  ")]) == 2  # and the tilt
 
 
 def test_read_pose_array_counts_per_joint_from_an_npz_key(tmp_path):

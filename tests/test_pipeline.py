@@ -1238,6 +1238,20 @@ def test_the_frame_rate_source_says_whether_a_recorded_rate_checked_fps():
                        ("m.npz", 30.0)) == (60.0, "--fps, overriding m.npz")
     assert _frame_rate(RunConfig(lifter="mediapipe", lifter_output="m.npz"), None, ("m.npz", 30.0)) == (
         30.0, "recorded in m.npz")
+    # a video and a file that record different rates (a trial's 25 fps video read the 30 fps
+    # file's poses at 25 without a word) are refused until --fps says which
+    from types import SimpleNamespace
+
+    from pcnet.stages.core.errors import InputError
+
+    video = SimpleNamespace(fps=25.0)
+    both = RunConfig(lifter="mediapipe", lifter_output="m.npz", video="v.mp4")
+    with pytest.raises(InputError, match=r"^frame rate: expected v.mp4 and m.npz to record the same rate, got 25 and "
+                                         r"30 fps: give the recording's rate with --fps and --fps-override$"):
+        _frame_rate(both, video, ("m.npz", 30.0))
+    assert _frame_rate(both, video, ("m.npz", 25.1)) == (25.0, "recorded in v.mp4")  # within 1 %
+    forced = RunConfig(lifter="mediapipe", lifter_output="m.npz", video="v.mp4", fps=30.0, fps_override=True)
+    assert _frame_rate(forced, video, ("m.npz", 30.0)) == (30.0, "--fps, overriding v.mp4")
     # a forced rate is unchecked too (a user trial: --fps-override lost "check --fps")
     from pcnet.pipeline.runner import fps_unchecked
 
@@ -1284,7 +1298,7 @@ def test_a_height_in_centimetres_is_named_as_such():
     from pcnet.stages.core.errors import InputError
 
     with pytest.raises(InputError, match=r"^config: field 'height': expected a value in \[0\.5, 3\] m \(the subject's "
-                                         r"height\), got 170\.0; centimetres\? give metres: 1\.7$"):
+                                         r"height\), got 170\.0 \(centimetres\? give metres: 1\.7\)$"):
         RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0, height=170.0).validate()
     with pytest.raises(InputError, match=r"got 5000\.0$"):
         RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0, height=5000.0).validate()

@@ -26,6 +26,20 @@ class InputError(ValueError):
         super().__init__(" ".join(str(message).split()))
 
 
+def refuse(problems: list[str]) -> None:
+    """Raise the ``problems`` of one input at once (nothing when there are none): an
+    :class:`InputError` whose message joins them with ``"; "`` and whose ``problems`` keeps
+    them apart (``pcnet batch`` names each on a line of its own).
+
+    Raises:
+        InputError: with ``problems``, when there is at least one.
+    """
+    if problems:
+        err = InputError("; ".join(problems))
+        err.problems = tuple(" ".join(str(p).split()) for p in problems)
+        raise err
+
+
 def close_names(unknown, known) -> str:
     """``" (heigth: height?)"`` for each unknown name with a close known one (difflib's
     ratio >= 0.6, case and ``-``/``_`` ignored), ``""`` when none is close: the hint a
