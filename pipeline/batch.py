@@ -1189,7 +1189,8 @@ def _cell(value) -> str:
 
 def batch_markdown(report: BatchReport) -> str:
     """The batch report: what the terminal summary leaves out. The counts and the batch's
-    settings; a table of every row (status, attempts, frames, valid frames, mode, the OpenSim
+    settings; a table of every row (status, attempts, frames, valid frames, mode, units (a row
+    without ``height`` may not be in metres), tilt, posture, pelvis path, floor, the OpenSim
     fit's marker RMS, seconds,
     worker, threads, output folder); every failed row's error in full (and its traceback
     where the failure is a bug of pcnet); every warning of every row in full, most severe
@@ -1205,14 +1206,15 @@ def batch_markdown(report: BatchReport) -> str:
             f"- **options**: overwrite {s.get('overwrite')}, retry_failed {s.get('retry_failed')}",
             f"- **summary**: {report.summary_path} (every row's fields, docs/cluster.md \"Results\")",
             "", "## Rows", "",
-            "| row | line | status | tries | frames | valid | mode | tilt deg | posture | pelvis path | floor | OpenSim RMS cm "
-            "| seconds | worker | threads | output |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| row | line | status | tries | frames | valid | mode | units | tilt deg | posture | pelvis path | floor "
+            "| OpenSim RMS cm | seconds | worker | threads | output |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report.rows:
         seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else None
         worker = f"{r['host']}:{r['pid']}" if r.get("pid") else None
         out.append("| " + " | ".join(_cell(v) for v in (r["row"], r["line"], r["status"], r["attempts"], r["frames"],
-                                                          r["valid"], r.get("mode"), r.get("camera_tilt_deg"),
+                                                          r["valid"], r.get("mode"), r.get("units"),
+                                                          r.get("camera_tilt_deg"),
                                                           r.get("posture"), r.get("root_path"), r.get("floor"),
                                                           r.get("opensim_rms_cm"), seconds,
                                                           worker, r.get("threads"),

@@ -509,7 +509,8 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
 
     def row(i, status, warnings=(), error="", **extra):
         return {"row": i, "line": i + 1, "out": f"/study/out/r{i}", "status": status, "frames": 60, "valid": 60,
-                "mode": "sequence", "camera_tilt_deg": 4.2, "posture": "upright", "seconds": 1.0, "error": error,
+                "mode": "sequence", "units": "m", "camera_tilt_deg": 4.2, "posture": "upright", "seconds": 1.0,
+                "error": error,
                 "warnings": list(warnings), "host": "h", "pid": 100 + i, "attempts": 1, "threads": 2, **extra}
 
     rows = [row(1, "ok", [legs, switch]), row(2, "skipped", [legs]), row(3, "skipped", [legs]),
@@ -538,8 +539,9 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
     assert len(text.splitlines()) == 1 + SUMMARY_LINES + 1 + 1 + 3 + 3
     md = batch_markdown(report)
     assert md.startswith("# pcnet batch: /study/m.csv\n")
-    # the camera tilt and posture of each row beside it (a batch trial compared 34 yoga files by opening each)
-    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | 4.2 | upright | - | - | - | 1.0 | "
+    # the units, camera tilt and posture of each row beside it (a batch trial compared 34 yoga files by opening
+    # each; another could not tell a row without height was not in metres)
+    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | m | 4.2 | upright | - | - | - | 1.0 | "
                f"h:{r['pid']} | 2 | {r['out']} |" in md for r in rows)
     assert "OpenSim" not in text  # no row asked for a fit
     assert all(r["error"] in md for r in rows[3:]) and "Traceback (most recent call last):\n  boom" in md
@@ -560,7 +562,7 @@ def test_the_summary_gives_the_opensim_fits_marker_rms():
                          settings={"engine": "local", "workers": 1, "retries": 0})
     assert "- **engine**: local, 1 worker, retries 0;" in batch_markdown(report)  # a user trial: "1 workers"
     assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3: r2)\n" in format_summary(report)
-    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | - | - | 1.74 | 1.0 |" in batch_markdown(report)
+    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | - | - | - | 1.74 | 1.0 |" in batch_markdown(report)
     rows[1]["status"] = "failed"
     assert "\nOpenSim IK        marker RMS 1.74 cm (line 2: r1)\n" in format_summary(report)
 
@@ -598,7 +600,7 @@ def test_the_summary_says_which_rows_got_a_metric_pelvis_path_and_a_floor_plane(
     report = BatchReport(rows, False, Path("/s/m.pcnet_batch.json"), 1.0, settings={})
     assert ("\nworld frame       pelvis path from 2D keypoints, floor plane in line 2; pelvis path not observable, "
             "floor per frame in lines 3, 4\n" in format_summary(report)), format_summary(report)
-    assert "| sequence | - | - | from 2D keypoints | plane | - |" in batch_markdown(report)
+    assert "| sequence | m | - | - | from 2D keypoints | plane | - |" in batch_markdown(report)
     for r in rows:
         r["root_path"] = None
     assert "world frame" not in format_summary(report)
