@@ -76,8 +76,10 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
     off_origin, _ = pelvis_offset(arr)
     # infer_wild.py --rootrel zeroes the root, so a root at the origin may be MotionBERT's;
     # it is also what VideoPose3D and D3DP export, in metres, not image-normalised units.
-    rootrel = (f"; pelvis at the origin (median {off_origin:.2g}): infer_wild --rootrel output, or another lifter's "
-               f"root-relative export in metres (--lifter videopose3d / ddhpose)") if off_origin <= ROOT_RELATIVE_MAX else ""
+    # the hint first: a summary keeps a note's first clauses (a trial's summary cut it off)
+    rootrel = (f"; pelvis at the origin: root-relative metres of another lifter? try --lifter videopose3d or ddhpose; "
+               f"else infer_wild --rootrel output (median pelvis offset {off_origin:.2g})") \
+        if off_origin <= ROOT_RELATIVE_MAX else ""
     clip_starts = list(range(0, arr.shape[0], clip_len))
     shown = ", ".join(map(str, clip_starts[:6])) + (", ..." if len(clip_starts) > 6 else "")
     units = "px" if pixel else "normalised"

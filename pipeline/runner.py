@@ -31,7 +31,8 @@ from pcnet.adapters import (AdapterError, Keypoints2D, Poses3D, VideoInfo, first
                             get_3d_adapter, probe_video)
 from pcnet.adapters.mediapipe import holds_keypoints_2d, load_mediapipe_2d
 from pcnet.adapters.validate import as_path, nonfinite_line
-from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, PELVIS, R_HIP, REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
+from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, METRES_PER_LENGTH_UNIT, PELVIS, R_HIP,
+                                          REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
                                           THORAX, fill_pelvis_from_hips, thigh_beyond_metres, validate_fps)
 from pcnet.stages.core.canonical import to_canonical
 from pcnet.stages.core.errors import InputError
@@ -587,6 +588,9 @@ def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame) -> str:
     return hint
 
 
+_UNIT_NAMES = {"m": "metres", "cm": "centimetres", "mm": "millimetres"}
+
+
 def _check_metric_body(cfg: RunConfig, cam) -> None:
     """Refuse H36M-17 camera-frame poses ``cam`` ``(T, 17, 3)`` said to be in metres (after any
     ``--units``) whose median thigh is no person's (:func:`pcnet.stages.core.conventions.thigh_beyond_metres`): their metric outputs
@@ -600,9 +604,15 @@ def _check_metric_body(cfg: RunConfig, cam) -> None:
     if thigh is None:
         return
     high = REFUSED_THIGH_M[1]
-    if thigh > high:
-        guess = {"generic": "centimetres? give --units cm (or mm)",
-                 "videopose3d": "centimetres? read it with --lifter generic --units cm (VideoPose3D's H36M-17 order "
+    if thigh > high and cfg.lifter == "generic":
+        # the unit whose thigh would be a person's (a trial's millimetres declared as cm were told "give --units cm")
+        declared = cfg.lifter_options.get("units") or "m"
+        fits = [u for u, metres in METRES_PER_LENGTH_UNIT.items()
+                if THIGH_RANGE_M[0] <= thigh * metres / METRES_PER_LENGTH_UNIT[declared] <= THIGH_RANGE_M[1]]
+        guess = (f"{_UNIT_NAMES[fits[0]]}? give --units {fits[0]}" if fits
+                 else "another unit? give --units m, cm or mm as the file holds")
+    elif thigh > high:
+        guess = {"videopose3d": "centimetres? read it with --lifter generic --units cm (VideoPose3D's H36M-17 order "
                                 "and camera axes are the generic reader's defaults)"}.get(
             cfg.lifter, "centimetres? read it with --lifter generic, the file's --layout and --axes, and --units cm")
     else:
@@ -1368,8 +1378,8 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
     elif camera.root is None:  # a monocular lifter's metres are its guess at the size (a depth sensor's measure it)
         try:
             stature = 1.0 / height_factor(cam, 1.0)
-            notes.append(f"body size as the lifter's: a {stature:.2f} m stature (a monocular lifter's guess at the "
-                         f"size); give --height for the subject's, which positions, speeds and the TRC scale with")
+            notes.append(f"body size as the lifter's, a {stature:.2f} m stature: give --height for the subject's; "
+                         f"positions, speeds and the TRC scale with it (a monocular lifter's guess at the size)")
         except InputError:  # no frame with the ankle-to-head chain: no stature to state
             pass
     return Scaled(replace(camera, root=root_cam), units, tuple(notes))

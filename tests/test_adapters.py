@@ -525,6 +525,9 @@ def test_motionbert_notes_a_root_at_the_origin():
     assert poses.summary_note in poses.notes  # shown as a note line of the run summary
     assert poses.summary_note.startswith("pelvis at the origin") and "infer_wild --rootrel" in poses.summary_note \
         and "--lifter videopose3d" in poses.summary_note
+    from pcnet.stages.flags import shortened  # the summary's form keeps the hint (a trial's was cut off before it)
+
+    assert "--lifter videopose3d" in shortened(poses.summary_note)
     assert load_motionbert(BOXING_X3D).summary_note == ""
 
 

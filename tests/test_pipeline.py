@@ -1127,13 +1127,18 @@ def test_centimetres_given_as_metres_are_refused_before_any_output(tmp_path):
     args = ["run", "--lifter", "generic", "--lifter-output", tmp_path / "cm.npy", "--fps", "30", "--no-recording"]
     res = _invoke(*args, "--out", tmp_path / "a")
     assert res.exit_code == 1 and "cm.npy: units: expected poses in metres (a median thigh length of 0.2-0.7 m), got 3" \
-        in res.output and "give --units cm (or mm), or --height" in res.output, res.output
+        in res.output and "centimetres? give --units cm, or --height" in res.output, res.output
     assert not (tmp_path / "a").exists()
     assert _invoke(*args, "--units", "cm", "--out", tmp_path / "b").exit_code == 0
     assert _invoke(*args, "--height", "1.7", "--out", tmp_path / "c").exit_code == 0
     np.save(tmp_path / "mm.npy", pose * 10.0)  # millimetres: beyond the 100 m coordinate bound already
     res = _invoke(*[a if a != tmp_path / "cm.npy" else tmp_path / "mm.npy" for a in args], "--out", tmp_path / "d")
     assert res.exit_code == 1 and "millimetres or centimetres given as metres?" in res.output, res.output
+    # millimetres declared as centimetres: the hint names the unit that fits (a trial was told "give --units cm")
+    res = _invoke(*[a if a != tmp_path / "cm.npy" else tmp_path / "mm.npy" for a in args], "--units", "cm",
+                  "--out", tmp_path / "e")
+    assert res.exit_code == 1 and "got 3" in res.output and "millimetres? give --units mm, or --height" in res.output, \
+        res.output
 
 
 def test_a_measured_pelvis_path_without_a_fitted_floor_is_noted():
