@@ -577,7 +577,7 @@ def test_centimetres_given_as_metres_are_refused_by_the_body_check():
     generic = RunConfig(lifter="generic", lifter_output="cm.npy")
     _check_metric_body(generic, pose)
     with pytest.raises(InputError, match=r"cm\.npy: units: expected poses in metres \(a median thigh length of 0\.2-0\.7 m\), "
-                                         r"got \d\d\.\d m: centimetres\? give --units cm \(or mm\), or --height"):
+                                         r"got \d\d\.\d m: centimetres\? give --units cm, or --height"):
         _check_metric_body(generic, pose * 100.0)
     with pytest.raises(InputError, match=r"read it with --lifter generic --units cm \(VideoPose3D's H36M-17 order and "
                                          r"camera axes are the generic reader's defaults\), or --height"):
