@@ -122,7 +122,7 @@ def row_to_config(row: dict, base: Path, overwrite: bool) -> RunConfig:
     try:
         config = RunConfig.from_values(ROW_SOURCE, {**values, "lifter_options": options})
     except InputError as err:  # less what follows from a cell already refused (a missing rate after fps 'abc')
-        problems += [p for p in getattr(err, "problems", [str(err)]) if not any(f"'{k}'" in p for k in unread)]
+        problems += [p for p in err.problems if not any(f"'{k}'" in p for k in unread)]
     refuse(problems)
     return config
 
@@ -600,7 +600,7 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
             given = {name: _manifest_path(configs.base, cell) for name in INPUT_FIELDS
                      if (cell := _given(row.get(name))) is not None}
             problems[line] = "\n".join([*_input_problems(where, row, given, paths),
-                                        *(f"{where}: {_as_columns(p)}" for p in getattr(err, "problems", [str(err)]))])
+                                        *(f"{where}: {_as_columns(p)}" for p in err.problems)])
             continue
         inputs = input_files(config)
         found = (_input_problems(where, row, inputs, paths) or

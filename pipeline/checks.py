@@ -17,7 +17,7 @@ from pcnet.stages.core.conventions import check_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
-                               mirrored_skeleton_flag, orientation_flags, posture_flag,
+                               mirrored_skeleton_flag, orientation_flags, per_frame_tilt_summary, posture_flag,
                                side_swap_flag, size_change_flag, track_switch_flag)
 from pcnet.stages.rectification_report import EnsembleWeights, ModeChoice, RectificationReport
 from pcnet.stages.rectify import Rectified
@@ -38,6 +38,14 @@ class CameraTilt:
     def of(cls, rotation, valid) -> CameraTilt:
         """From ``(T, 3, 3)`` camera-to-canonical rotations and the ``(T,)`` valid frames."""
         return cls(*camera_tilt(rotation[:, :, 1], valid))
+
+
+def per_frame_tilt(rotation, valid, mode: str) -> list[float] | None:
+    """The per-frame tilts' median and 5-95 % range (deg,
+    :func:`pcnet.stages.flags.per_frame_tilt_summary`) of ``(T, 3, 3)`` rotations over the
+    ``(T,)`` valid frames, or ``None`` in sequence mode (``mode``, the one that ran), whose
+    frames share its one up."""
+    return None if mode == "sequence" else per_frame_tilt_summary(rotation[:, :, 1], valid)
 
 
 @dataclass(frozen=True)

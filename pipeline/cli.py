@@ -277,10 +277,10 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     import numpy as np
 
     from pcnet.adapters.validate import nonfinite_line
-    from pcnet.pipeline.checks import CameraTilt, pose_checks
+    from pcnet.pipeline.checks import CameraTilt, per_frame_tilt, pose_checks
     from pcnet.pipeline.io import read_pose_array
     from pcnet.pipeline.run_report import camera_record
-    from pcnet.stages.flags import per_frame_tilt_summary, ranked
+    from pcnet.stages.flags import ranked
     from pcnet.stages.core.conventions import validate_fps
     from pcnet.stages.sinks.exports import write_npz
     from pcnet.pipeline.rectification import rectify as run_rectify
@@ -308,7 +308,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     findings = ranked(pose_checks(joints, res))  # what pcnet run would say of these poses alone
     # the camera's tilt, pitch and roll as pcnet run's report gives them (a trial found them missing)
     tilt = CameraTilt.of(res.rotation, res.valid)
-    per_frame = None if res.mode == "sequence" else per_frame_tilt_summary(res.rotation[:, :, 1], res.valid)
+    per_frame = per_frame_tilt(res.rotation, res.valid, res.mode)
     # the report and the warnings kept with the arrays (a trial's declared posture was printed, then lost)
     write_npz(out_path, replace=overwrite, rotation=res.rotation, canonical=res.canonical, up=res.up, valid=res.valid,
               method=np.array(method), mode=np.array(res.mode), heading_source=np.array(res.heading_source),

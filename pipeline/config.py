@@ -45,12 +45,17 @@ def multi_track_formats() -> dict[str, str]:
 FPS_TOLERANCE = 0.01
 
 
+def rates_agree(fps: float, recorded: float) -> bool:
+    """Whether a frame rate ``fps`` is the rate ``recorded`` within :data:`FPS_TOLERANCE` of it."""
+    return abs(fps - recorded) <= FPS_TOLERANCE * recorded
+
+
 def fps_contradiction(fps: float, source, recorded: float) -> str | None:
     """The refusal of a given frame rate ``fps`` that contradicts the rate ``recorded`` in
     ``source`` (a video's, or an input file's own) by more than :data:`FPS_TOLERANCE`, in
     `pcnet run`'s terms (a manifest's: ``pcnet.pipeline.batch.in_manifest_terms``); ``None``
     when they agree."""
-    if abs(fps - recorded) <= FPS_TOLERANCE * recorded:
+    if rates_agree(fps, recorded):
         return None
     return (f"--fps {fps:g}: expected the rate {source} records ({recorded:g} fps), got {fps:g} fps; pass "
             f"--fps-override to use --fps anyway")

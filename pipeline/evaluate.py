@@ -366,7 +366,7 @@ def evaluate(
     if unseen_by is not None:
         seen = groups_in_split(all_clips, "train", unseen_by)
         clips = [c for c in clips if (group_key(c) or c.name) not in seen]
-    left_out: list[str] = []
+    left_out: list[str] | None = None  # the clips --untrained-only left out, by name
     if untrained_only:
         kept = _untrained(data, clips, method, weights)
         left_out = [c.name for c in clips if c not in kept]
@@ -407,7 +407,7 @@ def evaluate(
     result = {
         "method": method, "weights": None if method == "geometric" else str(weights) if weights else "shipped",
         "views": views, "split": split, "split_scheme": split_scheme, "unseen_by": unseen_by,
-        "untrained_only": untrained_only, "left_out_trained_clips": left_out,
+        "untrained_only": untrained_only, "left_out_trained_clips": left_out or [],
         "data": str(data), "seed": seed, "camera": camera, "noise": kind, "mode": mode, "heading": heading,
         "camera_prior": camera_prior, "warnings": warnings,
         "target_undefined_frames": pairs.dropped_frames,
@@ -424,8 +424,7 @@ def evaluate(
         result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
         warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record),
                                  _fine_tuned_warning(record),
-                                 _unknown_file_warning(data, record, result["training_overlap"],
-                                                       left_out if untrained_only else None),
+                                 _unknown_file_warning(data, record, result["training_overlap"], left_out),
                                  _foreign_file_warning(data, record, clips)] if w]
     else:
         result["training_overlap"] = None

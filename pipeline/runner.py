@@ -42,7 +42,7 @@ from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, import_opensim,
 from pcnet.stages.sinks.exports import require_ezc3d
 from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motion_findings, keypoints_unused_flag,
                                missing_data_line, no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
-                               opensim_fit_findings, per_frame_tilt_summary, ranked, track_segments, unfiltered_flag)
+                               opensim_fit_findings, ranked, track_segments, unfiltered_flag)
 from pcnet.stages.floor import Floor
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
 from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
@@ -60,8 +60,8 @@ from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
-from .checks import CameraTilt, CheckInputs, checks, spreads_beyond_static
-from .config import FPS_TOLERANCE, RunConfig, fps_contradiction, multi_track_formats
+from .checks import CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
+from .config import RunConfig, fps_contradiction, multi_track_formats, rates_agree
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -333,7 +333,7 @@ def _frame_rate(cfg: RunConfig, video, *carried: tuple[str | None, float | None]
     if recorded:
         source, fps = recorded[0]
         for other, other_fps in recorded[1:]:  # a trial's 25 fps video read a 30 fps file's poses without a word
-            if abs(other_fps - fps) > FPS_TOLERANCE * fps:
+            if not rates_agree(other_fps, fps):
                 raise InputError(f"frame rate: expected {Path(source).name} and {Path(other).name} to record the same "
                                  f"rate, got {fps:g} and {other_fps:g} fps: give the recording's rate with --fps and "
                                  f"--fps-override")
@@ -1105,7 +1105,8 @@ class Rectified:
     rotation: ``(T, 3, 3)`` camera-to-canonical rotations; canonical: ``(T, 17, 3)`` poses in
     the store; valid: ``(T,)`` bool; report: what rectification decided (with the frames whose
     pelvis was filled from the hips); tilt: the camera's tilt from level; tilt_per_frame_deg:
-    the per-frame tilts' median and 5-95 % range (:func:`pcnet.stages.flags.per_frame_tilt_summary`);
+    the per-frame tilts' median and 5-95 % range, ``None`` in sequence mode
+    (:func:`pcnet.pipeline.checks.per_frame_tilt`);
     track_segment, track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track
     (``None``, ``[]`` without one); notes.
     """
@@ -1115,7 +1116,7 @@ class Rectified:
     valid: np.ndarray
     report: RectificationReport
     tilt: CameraTilt
-    tilt_per_frame_deg: list[float]
+    tilt_per_frame_deg: list[float] | None
     track_segment: np.ndarray | None
     track_events: list
     notes: tuple[str, ...]
@@ -1302,7 +1303,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     notes += _moving_camera_note(report.mode)
     notes += _headingless_frames_note(report, camera.joints, res.valid)
     return Rectified(res.rotation, res.canonical, res.valid, report, CameraTilt.of(res.rotation, res.valid),
-                     per_frame_tilt_summary(res.rotation[:, :, 1], res.valid), segment, events, tuple(notes))
+                     per_frame_tilt(res.rotation, res.valid, report.mode.run), segment, events, tuple(notes))
 
 
 def _headingless_frames_note(report: RectificationReport, joints, valid: np.ndarray) -> list[str]:
@@ -1492,7 +1493,7 @@ def _run_report(inputs: AlignedInputs, rectified: Rectified, world: World, measu
     return RunReport(
         rectification=rectified.report, tilt=rectified.tilt,
         # sequence mode's frames share its one up: no spread to give
-        tilt_per_frame_deg=None if rectified.report.mode.run == "sequence" else rectified.tilt_per_frame_deg,
+        tilt_per_frame_deg=rectified.tilt_per_frame_deg,
         display_rotation=inputs.orientation.report() if inputs.orientation.note else None,
         kinematics_frame=world.frame, root_path=world.root_path, floor=world.floor, cutoff_hz=measured.cutoff_hz,
         cutoff_source=measured.cutoff_source, implausible_frames=None if implausible is None else int(implausible.sum()),

@@ -60,7 +60,7 @@ from .core.conventions import (
 )
 from .core.canonical import canonical_rotation, to_canonical
 from .isb_angles import MAX_KNEE_HYPEREXTENSION_DEG, isb_joint_angles
-from .core.rotations import angle_between
+from .core.rotations import angle_between, procrustes_rotation
 from .core.errors import InputError
 from .core.framestore import freeze_arrays, restore_frozen, true_runs
 
@@ -853,7 +853,8 @@ def lowpass_rotations(R: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, 
     """Low-pass a rotation sequence with the filter of the poses: each of the nine entries
     through :func:`butterworth_lowpass`, then each frame's nearest rotation in the Frobenius
     norm, ``U diag(1, 1, det(U V^T)) V^T`` of the filtered matrix's SVD ``U S V^T`` (the
-    orthogonal Procrustes solution; Higham 1989, "Matrix nearness problems", sec. 3). A
+    orthogonal Procrustes solution, :func:`~pcnet.stages.core.rotations.procrustes_rotation`;
+    Higham 1989, "Matrix nearness problems", sec. 3). A
     rotation constant over a run passes unchanged; so does each run's ``unfiltered`` share.
 
     Args:
@@ -877,9 +878,8 @@ def lowpass_rotations(R: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, 
     F = F.reshape(-1, 3, 3)
     out = np.full(F.shape, np.nan)
     ok = np.isfinite(F).all(axis=(1, 2))
-    U, _, Vt = np.linalg.svd(F[ok])
-    U[:, :, -1] *= np.sign(np.linalg.det(U @ Vt))[:, None]
-    out[ok] = U @ Vt
+    # the rotation nearest F: Kabsch's best turn of the identity's rows onto F's
+    out[ok] = procrustes_rotation(np.broadcast_to(np.eye(3), F[ok].shape), F[ok])[0]
     return out, raw.any(axis=1)
 
 

@@ -25,6 +25,11 @@ class InputError(ValueError):
     def __init__(self, message: str):
         super().__init__(" ".join(str(message).split()))
 
+    @property
+    def problems(self) -> tuple[str, ...]:
+        """The message's problems one by one where :func:`refuse` raised several, else the message."""
+        return getattr(self, "_problems", (str(self),))
+
 
 def refuse(problems: list[str]) -> None:
     """Raise the ``problems`` of one input at once (nothing when there are none): an
@@ -36,7 +41,7 @@ def refuse(problems: list[str]) -> None:
     """
     if problems:
         err = InputError("; ".join(problems))
-        err.problems = tuple(" ".join(str(p).split()) for p in problems)
+        err._problems = tuple(" ".join(str(p).split()) for p in problems)
         raise err
 
 
