@@ -862,7 +862,7 @@ def _row_summary(item: PlannedRow, result: dict | None, status: str | None = Non
     base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": None, "valid": None,
             "mode": "", "units": None, "camera_tilt_deg": None, "posture": None, "root_path": None, "floor": None,
             "seconds": None, "error": "",
-            "warnings": [],
+            "warnings": [], "notes": [],
             "host": "", "pid": None, "attempts": 0, "threads": None, "opensim_rms_cm": None}
     if item.action == "skip":
         base.update(status="skipped", **{k: v for k, v in item.known.items() if v is not None})
@@ -1194,7 +1194,8 @@ def batch_markdown(report: BatchReport) -> str:
     fit's marker RMS, seconds,
     worker, threads, output folder); every failed row's error in full (and its traceback
     where the failure is a bug of pcnet); every warning of every row in full, most severe
-    first, with its action; the restarts of rows whose worker died."""
+    first, with its action; every row's notes (a trial found a file of another lifter named
+    only in one row's report.md); the restarts of rows whose worker died."""
     s = report.settings
     n = s.get("workers")
     workers = f"{n} worker{'s' if n != 1 else ''}" if n else "a worker per CPU"
@@ -1232,5 +1233,11 @@ def batch_markdown(report: BatchReport) -> str:
         for i, f in enumerate(row_findings(report.findings.get(r["row"]), r["warnings"]), 1):  # as report.md's
             out += [f"#### {i}. {f.headline}", "", f"Severity: {f.severity.name.lower()}. Action: "
                     f"{in_manifest_terms(f.action)}.", "", f.detail, ""]
+    noted = [r for r in report.rows if r.get("notes")]
+    out += ["", "## Notes", "", "Each row's in full (also in its report.md): what it assumed and what to check."
+            if noted else "None."]
+    for r in noted:
+        out += ["", f"### line {r['line']} (row {r['row']}, {r['status']}): {r['out']}", ""]
+        out += [f"- {in_manifest_terms(n)}" for n in r["notes"]]
     out += ["", "## Restarts", ""] + ([f"- {line}" for line in report.restarts] or ["None."])
     return re.sub(r"\n{3,}", "\n\n", "\n".join(out)).rstrip() + "\n"

@@ -22,10 +22,10 @@ THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"
 FINDINGS = "findings"
 #: What a row's run found that a skipped row shows again (from its resume marker or the
 #: previous summary): frame counts, mode, where the world frame's pelvis path and floor came
-#: from (report.md's ``root_path`` and ``floor.kind``), warnings and, with ``opensim``, the IK
-#: fit's marker RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``).
+#: from (report.md's ``root_path`` and ``floor.kind``), warnings, notes and, with ``opensim``, the
+#: IK fit's marker RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``).
 RESULT_FIELDS = ("frames", "valid", "mode", "units", "camera_tilt_deg", "posture", "root_path", "floor", "warnings",
-                 "opensim_rms_cm")
+                 "notes", "opensim_rms_cm")
 #: How the row's output was made (its output's marker keeps them): a skipped row reports them (a
 #: user trial: a no-op re-run lost every row's timing).
 RUN_FIELDS = ("seconds", "host", "pid", "attempts", "threads")
@@ -134,7 +134,7 @@ def execute_row(job: dict) -> dict:
     """
     result = {"row": job["row"], "status": "failed", "frames": None, "valid": None, "mode": "", "units": None,
               "camera_tilt_deg": None, "posture": None, "root_path": None, "floor": None, "seconds": None,
-              "error": "", "warnings": [], "host": socket.gethostname(), "pid": os.getpid(),
+              "error": "", "warnings": [], "notes": [], "host": socket.gethostname(), "pid": os.getpid(),
               "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS")),
               "opensim_rms_cm": None}
     _test_hook(job["row"])
@@ -154,11 +154,13 @@ def execute_row(job: dict) -> dict:
 
         def with_marker(staged: Path, run) -> None:  # published together with the output or not at all
             posture = run.report.rectification.posture
-            result.update(frames=run.frames, valid=run.valid_frames, mode=run.mode, units=run.units,
+            # auto's choice beside what it chose (a trial read an auto row as a sequence-mode request)
+            mode = run.mode + " (auto)" * (config.get("mode") == "auto")
+            result.update(frames=run.frames, valid=run.valid_frames, mode=mode, units=run.units,
                           camera_tilt_deg=_finite_or_none(run.camera_tilt_deg),
                           posture=None if posture is None else posture.most_probable + " (declared)" * posture.declared,
                           root_path=run.report.root_path, floor=None if run.report.floor is None else run.report.floor.kind,
-                          warnings=list(run.flags),
+                          warnings=list(run.flags), notes=list(run.notes),
                           opensim_rms_cm=_opensim_rms_cm(staged, run.outputs), **{FINDINGS: finding_records(run.findings)})
             result["seconds"] = round(time.perf_counter() - started, 3)  # the run, without the publishing
             write_batch_marker(staged, config, inputs, result, job.get("manifest", ""))

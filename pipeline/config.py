@@ -449,6 +449,10 @@ class RunConfig:
             if self.lifter_options.get("measured_root"):
                 raise InputError(f"{_option_field(source, 'measured_root')}: expected with mode sequence or auto (only "
                                  f"a fixed world frame keeps the measured pelvis path), got mode {self.mode}")
+            if self.opensim:  # a user trial got a whole run, then a warning that no fit was made
+                raise InputError(f"{field_name(source, 'opensim')}: expected with mode sequence or auto (OpenSim's "
+                                 f"inverse kinematics reads world.trc, which only a fixed world frame gives), got mode "
+                                 f"{self.mode}")
         if self.fps_override and self.fps is None:
             raise InputError(f"{field_name(source, 'fps_override')}: expected together with fps, got no fps")
         if self._no_recorded_rate():

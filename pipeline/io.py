@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import re
 from pathlib import Path
 from typing import NamedTuple
 
@@ -100,6 +101,10 @@ def lifter_joints(poses: Poses3D, source: str, in_place: bool = False) -> np.nda
 CLOSE_FILE_LISTING = 10_000
 
 
+def _numbers_unpadded(name: str) -> str:
+    return re.sub(r"\d+", lambda m: str(int(m.group())), name)
+
+
 def close_file(path: Path) -> str:
     """``"; a close name there: X"`` for the file of ``path``'s folder whose name is closest to
     its name (difflib's ratio >= 0.8, a typo's distance), ``""`` when none is or the folder is
@@ -112,5 +117,8 @@ def close_file(path: Path) -> str:
         return ""
     if len(names) > CLOSE_FILE_LISTING:
         return ""
-    match = difflib.get_close_matches(path.name, names, n=1, cutoff=0.8)
+    # the same numbers written with other leading zeros first (a trial's a7_s1_t1.npz got a17_s1_t1.npz,
+    # one character away as a07_s1_t1.npz is)
+    same = [n for n in names if _numbers_unpadded(n) == _numbers_unpadded(path.name)]
+    match = same or difflib.get_close_matches(path.name, names, n=1, cutoff=0.8)
     return f"; a close name there: {match[0]}" if match else ""

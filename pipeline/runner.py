@@ -40,7 +40,7 @@ from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, pr
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, opensim_notes,
                                      scale_and_ik)
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (Finding, Severity, floor_flag, implausible_motion_findings, keypoints_unused_flag,
+from pcnet.stages.flags import (Finding, Severity, absent_joints_flag, floor_flag, implausible_motion_findings, keypoints_unused_flag,
                                missing_data_line, no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
                                opensim_fit_findings, ranked, track_segments, unfiltered_flag)
 from pcnet.stages.floor import Floor
@@ -1475,7 +1475,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         # a rate typed with --fps and no video or file to check it against is the likeliest cause
         findings += implausible_motion_findings(implausible, fps_typed=fps_unchecked(inputs.recording.fps_source))
     table = write_kinematics_table(result, tmp, allocate=store.create)
-    findings += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff)
+    findings += unfiltered_flag(result.missing, result.unfiltered, fps, cutoff) + absent_joints_flag(result.missing)
     # what is missing, and what of it the lifter's file held as inf/NaN (counted where it was read)
     nonfinite = inputs.recording.nonfinite
     missing_note = format_flag_counts(result.flag_counts, nonfinite_line(nonfinite))

@@ -19,8 +19,8 @@ from types import MappingProxyType
 import numpy as np
 
 from .core.errors import InputError
-from .core.conventions import (HEAD, L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SHOULDER, SPINE, THIGH_RANGE_M,
-                               THORAX, median_thigh_length)
+from .core.conventions import (H36M_JOINTS, HEAD, L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_HIP, R_SHOULDER, SPINE,
+                               THIGH_RANGE_M, THORAX, median_thigh_length)
 from .core.framestore import frame_blocks, true_runs
 from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg
 from .kinematics import frames_phrase, shortest_filtered_run
@@ -76,6 +76,7 @@ class Kind(IntEnum):
     AMBIGUOUS_ORIENTATION = auto()  #: :func:`posture_flag`
     QUARTER_TURN = auto()  #: :func:`orientation_flags`
     NO_WORLD_FRAME = auto()  #: :func:`no_world_frame_flag`
+    JOINT_ABSENT = auto()  #: :func:`absent_joints_flag`
     LEG_ASYMMETRY = auto()  #: :func:`leg_asymmetry_flag`
     VIEWS_SET_ASIDE = auto()  #: :func:`ensemble_weights_flag`
     FLOOR_PARTIAL = auto()  #: :func:`floor_flag`, some frames
@@ -667,6 +668,37 @@ def ensemble_weights_flag(weights: EnsembleWeights | None) -> list[Finding]:
         f"steep camera, or a body leaning sideways, upside down or across the image; the poses alone cannot tell "
         f"which): the rotation-equivariant body-frame network was used there ({weights.body_frame_frames} frames "
         f"alone, {weights.blended_frames} blended), less accurate on held-out mocap (models/MODEL_CARD.md)")]
+
+
+#: The limb joints H36M-17's joint angles are measured at (hips, knees, ankles, shoulders,
+#: elbows, wrists); a head joint the format lacks (Kinect v1 has no nose) empties no angle.
+LIMB_JOINTS = tuple(j for j in H36M_JOINTS if j.split("_")[-1] in ("hip", "knee", "ankle", "shoulder", "elbow", "wrist"))
+
+
+def absent_joints_flag(missing: np.ndarray) -> list[Finding]:
+    """A flag naming the limb joints (:data:`LIMB_JOINTS`) missing in every frame that has
+    a pose: their joint angles are empty throughout, which a user trial read only in a
+    shortened missing-data note (a lifter file whose left knee was NaN: exit 0, the left knee
+    and hip angle columns empty, the leg-asymmetry warning gone).
+
+    Args:
+        missing: ``(T, 17)`` bool flags of :class:`pcnet.stages.kinematics.Kinematics`.
+    """
+    missing = np.asarray(missing, bool)
+    with_pose = ~missing.all(axis=1)
+    if not with_pose.any():
+        return []
+    absent = [j for j in LIMB_JOINTS if missing[with_pose, H36M_JOINTS.index(j)].all()]
+    if not absent:
+        return []
+    names, its = ", ".join(absent), "their" if len(absent) > 1 else "its"
+    return [_found(Kind.JOINT_ABSENT, Severity.CHECK,
+                   f"{names} missing in every frame: {its} joint angles are empty",
+                   "check the lifter output (its joint order, or a joint it left empty)",
+                   f"{names} missing in every one of the {int(with_pose.sum())} frames with a pose (NaN or "
+                   f"placeholder values in the lifter output, or masked by the 2D confidence), so every joint angle "
+                   f"and segment measured at {'them' if len(absent) > 1 else 'it'} is empty; check the lifter "
+                   f"output's joint order and that joint's values")]
 
 
 def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,

@@ -1032,7 +1032,7 @@ def compute_kinematics(
         summarise its flags.
 
     Raises:
-        ValueError: wrong shape, no frame, ``fps`` not a number in [1, 10000] Hz
+        ValueError: wrong shape, no frame or no finite coordinate, ``fps`` not a number in [1, 10000] Hz
             (:func:`~pcnet.stages.core.conventions.validate_fps`), an invalid cutoff/order,
             ``units`` not a unit's name, poses in ``"m"`` whose median thigh is no
             person's (centimetres given as metres), or (``check_up``) poses whose trunk points
@@ -1043,6 +1043,8 @@ def compute_kinematics(
     X = check_poses(canonical, "canonical").astype(np.float64)
     if not len(X):
         raise InputError("canonical: expected at least one frame, got 0")
+    if not np.isfinite(X).any():  # rectify refuses the same input; an all-NaN result says nothing
+        raise InputError("canonical: expected some finite joint coordinates, got only NaN/inf")
     fps = validate_fps(fps, "fps")
     _require_units(X, units, "canonical")
     if rotation is not None:

@@ -383,6 +383,31 @@ def test_the_resume_marker_is_published_with_the_output(tmp_path, monkeypatch):
     assert json.loads((tmp_path / "o" / BATCH_MARKER).read_text())["result"]["frames"] == 60
 
 
+def test_a_rows_notes_and_auto_modes_choice_reach_the_summary_and_report(tmp_path):
+    """A developer's trial read a VideoPose3D file as MotionBERT's in a batch: the note naming
+    the likely lifter was in that row's report.md alone; and an auto row read as if sequence
+    mode had been asked for. The row keeps its notes (the report lists them, flags as columns)
+    and its mode says auto chose it."""
+    from pcnet.pipeline.batch import BatchReport, PlannedRow, _row_summary, batch_markdown
+    from pcnet.pipeline.batch_worker import execute_row
+    from pcnet.pipeline.config import RunConfig
+
+    vp3d = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"  # real VideoPose3D output: metres, pelvis at the origin
+    config = RunConfig(lifter="motionbert", lifter_output=str(vp3d), fps=30.0, out=str(tmp_path / "o"),
+                       mode="auto", recording=False)
+    result = execute_row({"row": 1, "config": dataclasses.asdict(config), "attempt": 1})
+    assert result["status"] == "ok", result
+    assert result["mode"] in ("sequence (auto)", "smooth (auto)")
+    (note,) = [n for n in result["notes"] if "pelvis at the origin" in n]
+    item = PlannedRow(1, 2, config=dataclasses.asdict(config))
+    row = _row_summary(item, result, "ok")
+    assert row["notes"] == result["notes"]
+    md = batch_markdown(BatchReport([row], False, tmp_path / "m.csv.pcnet_batch.json", 1.0, settings={}))
+    notes = md[md.index("## Notes"):md.index("## Restarts")]
+    assert "column lifter videopose3d" in notes and "### line 2 (row 1, ok)" in notes, notes
+    assert f"| {result['mode']} | normalised |" in md
+
+
 def test_a_row_published_just_before_ctrl_c_is_ok_not_cancelled(tmp_path):
     """Ctrl-C between a worker publishing a row's output and its result reaching the batch:
     the output and this run's marker are complete, so the row is ok, not cancelled ("left as

@@ -238,6 +238,17 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
     with np.load(out / "canonical.npz") as npz:  # the CSV's empty cells: frames the 2D track has no position in
         assert [int(r["track_segment"]) if r["track_segment"] else None for r in rows] == [
             None if np.isnan(s) else int(s) for s in npz["track_segment"]]
+    # the marker files, which have no track_segment column, hold the longest stretch alone (a trial
+    # found the other person 1.4 m below the ground in world.trc); the CSV keeps every frame
+    from pcnet.stages.opensim_ik import read_trc
+
+    _, markers, _, _ = read_trc(out / "world.trc")
+    empty = np.isnan(markers).all(axis=(1, 2))
+    assert empty[segment > 0].all()  # the other person's, beside frames no pose was read in
+    assert np.isfinite(markers[segment == 0]).any(axis=(1, 2)).all()
+    assert sum(bool(r["pelvis_y_m"]) for r, s in zip(rows, segment) if s > 0) > 50  # the CSV keeps them
+    assert "the 60 frames outside the 2D track's longest one-person stretch are left empty" in \
+        (out / "report.md").read_text()
     rows_rrd, static, _, _ = rrd_summary(out / "recording.rrd")
     assert "/flags" in static
     # the viewer marks the switch on the timeline, and lists the track switch first (a problem), with its action

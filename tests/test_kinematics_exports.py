@@ -636,6 +636,16 @@ def test_camera_frame_poses_are_refused_where_y_up_ones_are_expected(yoga_cam, y
     assert compute_kinematics(yoga_cam[:100], 30.0, check_up=False).angles
 
 
+def test_poses_without_a_finite_coordinate_are_refused_as_rectify_refuses_them(yoga_level):
+    """A developer's trial got a Kinematics of NaN, every frame missing, without a word, where
+    rectify refuses the same input; a recording with one finite frame is taken."""
+    empty = np.full((50, 17, 3), np.nan, np.float32)
+    with pytest.raises(InputError, match=r"^canonical: expected some finite joint coordinates, got only NaN/inf$"):
+        compute_kinematics(empty, 30.0)
+    empty[20] = yoga_level[20]
+    assert compute_kinematics(empty, 30.0).missing[20].sum() == 0
+
+
 def test_marker_writers_refuse_what_the_pipeline_refuses(tmp_path, yoga_level):
     """A library caller's marker file gets the checks a run's does (a developer's trial: DataRate
     inf, True as 1 Hz, millimetres written as metres, an empty file that looked valid)."""

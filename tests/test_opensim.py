@@ -304,8 +304,8 @@ def test_pcnet_run_with_opensim_writes_the_ik_beside_the_run(tmp_path):
 @pytest.mark.slow
 def test_the_fits_warning_reaches_the_npz_and_a_moving_camera_is_said(tmp_path, poor_fit):
     """With --opensim the fit runs before the npz and the recording are written, so its
-    warning is in them (not only on the terminal); a moving camera has no world.trc, said by
-    a flag rather than a failure after the run."""
+    warning is in them (not only on the terminal); a mode that gives no world.trc is refused
+    before any work (a user trial got a whole run, then a warning that no fit was made)."""
     pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
     x3d = tmp_path / "X3D_60.npy"
     np.save(x3d, np.load(EXAMPLE / "X3D.npy")[:FRAMES])
@@ -316,10 +316,9 @@ def test_the_fits_warning_reaches_the_npz_and_a_moving_camera_is_said(tmp_path, 
     with np.load(tmp_path / "a" / "canonical.npz") as npz:
         assert any(f.startswith("marker RMS") for f in npz["flags"])
     assert "WARNING  OpenSim marker RMS" in res.output
-    res = _cli(*args, "--mode", "smooth", "--out", tmp_path / "b")
-    assert res.exit_code == 0, res.output
-    assert "WARNING  no OpenSim IK: a moving camera" in res.output
-    assert not (tmp_path / "b" / "ik.mot").exists()
+    res = _cli(*args, "--mode", "smooth", "--out", tmp_path / "b")  # asked for no world frame: refused before work
+    assert res.exit_code == 1 and "--opensim: expected with mode sequence or auto" in res.output, res.output
+    assert not (tmp_path / "b").exists()
 
 
 @pytest.mark.slow

@@ -1157,7 +1157,7 @@ def test_a_measured_pelvis_path_without_a_fitted_floor_is_noted():
 
 @pytest.mark.parametrize("mode", ["frame", "smooth"])
 def test_sequence_only_options_outside_sequence_mode_are_refused(tmp_path, mode):
-    """--no-camera-prior and --measured-root act only on sequence mode's fixed world frame:
+    """--no-camera-prior, --measured-root and --opensim act only on sequence mode's fixed world frame:
     with --mode frame or smooth they were silently ignored (identical outputs, the pelvis
     path dropped); now one line each, before any output."""
     args = ["run", "--lifter", "generic", "--lifter-output", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy",
@@ -1166,7 +1166,31 @@ def test_sequence_only_options_outside_sequence_mode_are_refused(tmp_path, mode)
     assert res.exit_code == 1 and "--no-camera-prior: expected with mode sequence or auto" in res.output, res.output
     res = _invoke(*args, "--measured-root")
     assert res.exit_code == 1 and "--measured-root: expected with mode sequence or auto" in res.output, res.output
+    # OpenSim reads world.trc, which these modes do not write (a trial: a whole run, then a warning)
+    res = _invoke(*args, "--opensim")
+    assert res.exit_code == 1 and "--opensim: expected with mode sequence or auto" in res.output, res.output
     assert not (tmp_path / "o").exists()
+
+
+def test_a_limb_joint_missing_in_every_frame_is_warned_of(tmp_path):
+    """A user trial's lifter file with the left knee NaN throughout ran with exit 0, its knee and
+    hip angle columns empty and only a shortened missing-data note; now a warning names the
+    joint. A joint missing in some frames only, or a head joint, is the note's alone."""
+    poses = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
+    damaged = tmp_path / "no_knee.npy"
+    knee = poses.copy()
+    knee[:, 5] = np.nan  # H36M-17 left_knee
+    knee[:, 9] = np.nan  # neck_nose: no angle is measured at it
+    np.save(damaged, knee)
+    args = ["run", "--lifter", "generic", "--lifter-output", damaged, "--fps", "30", "--no-recording"]
+    res = _invoke(*args, "--out", tmp_path / "a")
+    assert res.exit_code == 0, res.output
+    assert "WARNING  left_knee missing in every frame: its joint angles are empty -> check the lifter output" \
+        in res.output, res.output
+    knee[:50, 5] = poses[:50, 5]
+    np.save(damaged, knee)
+    res = _invoke(*args, "--out", tmp_path / "b")
+    assert res.exit_code == 0 and "missing in every frame" not in res.output, res.output
 
 
 def test_height_scaled_poses_get_the_pelvis_path_before_rectifying(tmp_path):
@@ -1329,6 +1353,11 @@ def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(t
     # a misspelt name gets the close one beside it (a batch trial's typo got no suggestion)
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", FIXTURES / "boxing_X3D_f000-058.npy")
     assert res.exit_code == 1 and "does not exist; a close name there: boxing_X3D_f000-059.npy" in res.output
+    # the same numbers without their leading zeros before another number one character away (a trial's a7 got a17)
+    for name in ("a07_s1.npy", "a17_s1.npy"):
+        np.save(tmp_path / name, np.zeros(1))
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "a7_s1.npy")
+    assert res.exit_code == 1 and "does not exist; a close name there: a07_s1.npy" in res.output, res.output
 
 
 def test_pcnet_rectify_says_what_the_poses_alone_show(tmp_path):

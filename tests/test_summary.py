@@ -11,7 +11,8 @@ from conftest import FIXTURES, camera_up, run_report, sequence_up
 
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import RunResult, run_pipeline
-from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, body_size_flag, ensemble_weights_flag,
+from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, absent_joints_flag, body_size_flag,
+                                ensemble_weights_flag,
                                 floor_flag, implausible_motion_findings, keypoints_outside_image_flag,
                                 keypoints_unused_flag, leg_asymmetry_flag, lifter_frame_flag, missing_data_line,
                                 mirrored_skeleton_flag, no_opensim_flag,
@@ -61,6 +62,7 @@ def _every_kind() -> list[Finding]:
             + posture_flag(sequence_up(PostureHypotheses("upright", 0.2, camera_up(0.0, 70.0))))
             + ensemble_weights_flag(EnsembleWeights(0.8, 5, 10, 100, {"90": 30, "270": 0}))
             + unfiltered_flag(np.zeros((5, 17), bool), np.ones((5, 17), bool), 30.0, 6.0)
+            + absent_joints_flag(np.eye(17, dtype=bool)[[5] * 5])
             + floor_flag(np.zeros(5, bool), np.ones(5, bool))
             + implausible_motion_findings([ImplausibleMotion("right_wrist", "speed", 60, 70, 14.9, 68, 8.18, "m/s"),
                                            ImplausibleMotion("left_ankle", "acceleration", 61, 63, 399.0, 62, 141.0,

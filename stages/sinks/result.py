@@ -23,7 +23,7 @@ import numpy as np
 from ..core.canonical import to_canonical
 from ..core.conventions import H36M_JOINTS
 from ..core.rotations import decompose_camera_rotation
-from ..core.framestore import column, per_frame
+from ..core.framestore import column, frame_blocks, in_memory, per_frame
 from ..flags import one_person_frames, track_present
 from ..kinematics import FrameGatherer, count_flags
 from ..rectification_report import RectificationReport
@@ -285,28 +285,52 @@ def _implausible(r: RecordingResult) -> np.ndarray:
 def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allocate=None) -> dict[str, Path]:
     """Metric runs only (``r.units == "m"``): ``<frame>.trc``, ``<frame>.c3d`` (``c3d``) and
     ``<frame>.bvh`` of ``r.poses`` (:func:`.exports.write_trc`, :func:`.exports.write_c3d`,
-    :func:`.bvh.write_bvh`); a BVH needs one frame with all 17 joints (else a note, no file)
+    :func:`.bvh.write_bvh`), only the 2D track's longest one-person stretch where it switches
+    person (:func:`_one_persons_poses`); a BVH needs one frame with all 17 joints (else a note, no file)
     and interpolates gaps (a note counts them). ``allocate`` makes the BVH skeleton's
     per-frame samples (:func:`.bvh.write_bvh`)."""
     if r.units != "m":
         return {}
     name = r.kinematics_frame
+    poses = _one_persons_poses(r, name, allocate or in_memory)
     out = {f"{name}.trc": folder / f"{name}.trc"}
     # the run's own estimate of the up: a recording read upside down is written as read
-    write_trc(out[f"{name}.trc"], r.poses, r.fps, check_up=False)
+    write_trc(out[f"{name}.trc"], poses, r.fps, check_up=False)
     if c3d:
-        out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", r.poses, r.fps, check_up=False)
+        out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", poses, r.fps, check_up=False)
     bvh = f"{name}.bvh"
-    incomplete = per_frame(lambda P: ~np.isfinite(P).all(axis=(1, 2)), r.poses)
+    incomplete = per_frame(lambda P: ~np.isfinite(P).all(axis=(1, 2)), poses)
     if incomplete.all():
         r.notes.append(f"{bvh} not written: no frame has all 17 joints (BVH needs one for the bone lengths)")
         return out
-    out[bvh] = write_bvh(folder / bvh, r.poses, r.fps, allocate=allocate)
+    out[bvh] = write_bvh(folder / bvh, poses, r.fps, allocate=allocate)
     if incomplete.any():
         r.notes.append(f"{bvh}: {int(incomplete.sum())} of {len(incomplete)} frames had missing joints, "
                        f"filled by linear interpolation in time, held at the ends (BVH cannot hold NaN; the CSV, TRC and "
                        f"npz keep them missing)")
     return out
+
+
+def _one_persons_poses(r: RecordingResult, name: str, allocate) -> np.ndarray:
+    """``r.poses`` with the frames outside the 2D track's longest one-person stretch missing
+    (NaN), where the track switches person, with a note; ``r.poses`` itself otherwise. The
+    marker files carry no ``track_segment`` column, and OpenSim or a BVH viewer would animate
+    whoever the track jumped to in the frame fitted to the first person (a user trial: another
+    person 1.4 m below the ground in world.trc)."""
+    if r.track_segment is None:
+        return r.poses
+    other = ~one_person_frames(r.track_segment)
+    if not other.any():
+        return r.poses
+    poses = allocate(f"{name}_one_person", r.poses.shape, np.float32)
+    for rows in frame_blocks(len(other)):
+        block = np.array(r.poses[rows], np.float32)
+        block[other[rows]] = np.nan
+        poses[rows] = block
+    r.notes.append(f"marker files ({name}.trc, .bvh, .c3d): the {int(other.sum())} frames outside the 2D track's longest one-person "
+                   f"stretch are left empty (probably another person; kinematics.csv and canonical.npz keep them, "
+                   f"with track_segment)")
+    return poses
 
 
 def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
