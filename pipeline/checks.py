@@ -67,7 +67,8 @@ class CheckInputs:
     camera's focal length was known (``--focal-px`` or the lifter file's camera matrix);
     picture: ``(width, height)`` of the picture ``keypoints2d`` are in, or ``None`` where unknown
     (``pipeline/runner.py: _keypoint_picture``); picture_typed: that size is ``--image-size``
-    (no video), which the user may have typed the other way round.
+    (no video), which the user may have typed the other way round; units_declared: the user
+    declared the poses' units (``--lifter generic``) rather than the lifter's format fixing them.
     """
 
     joints_camera: np.ndarray
@@ -84,6 +85,7 @@ class CheckInputs:
     focal_known: bool = False
     picture: tuple[int, int] | None = None
     picture_typed: bool = False
+    units_declared: bool = True
 
 
 def checks(c: CheckInputs) -> list[Finding]:
@@ -97,7 +99,7 @@ def checks(c: CheckInputs) -> list[Finding]:
         *(body_size_flag(cam, c.units) if not c.height_given else []),
         *leg_asymmetry_flag(cam),
         # image-scaled sizes are made constant per frame (the scale step); a metric body should keep its own
-        *(size_change_flag(cam) if c.units not in IMAGE_SCALED_UNITS else []),
+        *(size_change_flag(cam, units_declared=c.units_declared) if c.units not in IMAGE_SCALED_UNITS else []),
         # the picture the keypoints are in: a video's, --image-size or the 2D file's (unknown for a turned
         # video whose keypoints' frame is unknown)
         *(keypoints_outside_image_flag(kp2d, c.picture, c.picture_typed) if kp2d is not None and c.picture else []),

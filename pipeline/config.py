@@ -77,6 +77,8 @@ MODES = ("auto", "frame", "sequence", "smooth")
 ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
 MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0
+#: One international foot, metres (a height typed in feet gets its conversion as a hint).
+FOOT_M = 0.3048
 
 #: What ``confidence_threshold`` and ``cutoff_hz`` mean when not given (None): they are
 #: optional so that validate() can refuse them given where they would be ignored.
@@ -401,9 +403,11 @@ class RunConfig:
              "m (the subject's height, as the OpenSim model is scaled)"),
         ):
             if value is not None and not (math.isfinite(value) and low <= value <= high):
-                # a height in centimetres is the likely slip (a user trial typed --height 170)
-                hint = (f" (centimetres? give metres: {value / 100:g})"
-                        if name == "height" and math.isfinite(value) and low <= value / 100 <= high else "")
+                # a height in centimetres or feet is the likely slip (user trials typed --height 170 and 5.6)
+                hint = ""
+                for other, per_unit in (("centimetres", 0.01), ("feet", FOOT_M)):
+                    if name == "height" and math.isfinite(value) and low <= value * per_unit <= high and not hint:
+                        hint = f" ({other}? give metres: {value * per_unit:.3g})"
                 problems.append(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got "
                                 f"{value!r}{hint}")
         refuse(problems)

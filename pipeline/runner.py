@@ -1337,7 +1337,7 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         person_option=cfg.keypoints2d_format in multi_track_formats(),
         own_estimator=cfg.keypoints2d is None and camera.keypoints2d is not None,
         focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture,
-        picture_typed=_picture_typed(cfg))
+        picture_typed=_picture_typed(cfg), units_declared=cfg.lifter == "generic")
 
 
 def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scaled:

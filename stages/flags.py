@@ -368,7 +368,8 @@ def size_percentiles(joints: np.ndarray) -> np.ndarray:
     return np.percentile(chain, [5, 50, 95]) if len(chain) >= 2 else np.full(3, np.nan)
 
 
-def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -> list[Finding]:
+def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None,
+                     units_declared: bool = True) -> list[Finding]:
     """A flag when the body of metric H36M-17 poses ``(T, 17, 3)`` changes size over the
     recording by more than ``limits.size_change_ratio`` (5th to 95th percentile of the
     ankle-to-head chain, :func:`size_percentiles`; default: the shipped
@@ -377,20 +378,25 @@ def size_change_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -
     distance by design, is made constant per frame instead
     (:func:`pcnet.stages.scale.size_normalising_factors`); metric output is scaled by one
     factor (:func:`pcnet.stages.scale.height_factor`, the median), so its positions, speeds
-    and bone lengths are off by the ratio's deviation from the median."""
+    and bone lengths are off by the ratio's deviation from the median. ``units_declared``: the
+    user declared the units (``--lifter generic``), so image units read as metres are a likely
+    cause and the action names the fix; False for a lifter whose format fixes its units
+    (VideoPose3D's metres: a clinician's trial was told to declare image units for them)."""
     p5, p50, p95 = size_percentiles(joints)
     if not p95 / p5 > (limits or load_skeleton_limits()).size_change_ratio:  # NaN: fewer than two frames measured
         return []
     off = 100 * min(p95 / p50 - 1, 1 - p5 / p50)  # both tails, so a tenth of the frames
+    cause = ("the lifter fails, or its output is in image units (declare them: --units normalised or px with "
+             "--lifter generic, and pcnet makes the size constant per frame)" if units_declared else
+             "the lifter fails on part of the recording (its format is metric, so the size should hold)")
     return [_found(Kind.SIZE_CHANGE, Severity.PROBLEM,
                    f"skeleton size changes {p95 / p5:.1f}-fold; a tenth of the frames off by > {off:.0f} %",
                    "check the lifter's output; for output in image units give --lifter generic with --units px or "
-                   "normalised",
+                   "normalised" if units_declared else "check the lifter's output on the frames it sizes differently",
                    f"the skeleton's size changes {p95 / p5:.1f}-fold over the recording (5th to 95th percentile of "
-                   f"the ankle-to-head chain; a body keeps its size): the lifter fails, or its output is in image "
-                   f"units (declare them: --units normalised or px with --lifter generic, and pcnet makes the size "
-                   f"constant per frame). One scale factor (the median) leaves a tenth of the frames' positions, "
-                   f"speeds and bone lengths off by more than {off:.0f} % in the metric exports")]
+                   f"the ankle-to-head chain; a body keeps its size): {cause}. One scale factor (the median) leaves "
+                   f"a tenth of the frames' positions, speeds and bone lengths off by more than {off:.0f} % in the "
+                   f"metric exports")]
 
 
 #: The fitted agreement limit of :func:`side_swap_flag` (decision 0077).
@@ -694,11 +700,12 @@ def absent_joints_flag(missing: np.ndarray) -> list[Finding]:
     names, its = ", ".join(absent), "their" if len(absent) > 1 else "its"
     return [_found(Kind.JOINT_ABSENT, Severity.CHECK,
                    f"{names} missing in every frame: {its} joint angles are empty",
-                   "check the lifter output (its joint order, or a joint it left empty)",
+                   "check the input's joint order, or why the joint is never seen",
                    f"{names} missing in every one of the {int(with_pose.sum())} frames with a pose (NaN or "
-                   f"placeholder values in the lifter output, or masked by the 2D confidence), so every joint angle "
-                   f"and segment measured at {'them' if len(absent) > 1 else 'it'} is empty; check the lifter "
-                   f"output's joint order and that joint's values")]
+                   f"placeholder values in the lifter output, its 2D keypoint outside the picture or below the "
+                   f"confidence threshold in every frame), so every joint angle and segment measured at "
+                   f"{'them' if len(absent) > 1 else 'it'} is empty; check the input's joint order and that "
+                   f"joint's values, or film the whole body")]
 
 
 def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,
@@ -1020,7 +1027,7 @@ def opensim_fit_findings(fit: dict) -> list[Finding]:
         out.append(_found(Kind.MARKER_RMS, Severity.CHECK,
                           f"OpenSim marker RMS {100 * fit['marker_rms_m']:.1f} cm (max {100 * fit['marker_max_m']:.1f} "
                           f"cm): the model does not follow the poses",
-                          "check ik.mot's angles against kinematics.csv's (ik_marker_errors.sto: which markers)", rms))
+                          "read ik.mot's angles with care (ik_marker_errors.sto: which markers it misses)", rms))
     known = {f.detail for f in out}
     return out + [Finding(Severity.CHECK, shortened(text), "see report.md", text) for text in fit["warnings"]
                   if text not in known]

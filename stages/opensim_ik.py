@@ -202,6 +202,14 @@ def _or_none(value, unit: str) -> str:
     return "not given" if value is None else f"{value:g} {unit}"
 
 
+def _body_mass_index(result: dict) -> str:
+    """`` (body-mass index B kg/m^2)`` where the fit had the subject's height and mass, else
+    ``""``: a mass typed in pounds reads as a BMI no one has (a clinician's 154 "kg" at 1.72 m:
+    52), which the kilograms alone hide."""
+    height, mass = result.get("subject_height_m"), result.get("subject_mass_kg")
+    return "" if height is None or mass is None else f" (body-mass index {mass / height ** 2:.1f} kg/m^2)"
+
+
 def opensim_markdown(result: dict) -> str:
     """The long form of ``pcnet opensim``'s terminal lines, a section of the run's report.md:
     the fit in full, the marker placer's static window, every warning in full (most severe
@@ -214,7 +222,8 @@ def opensim_markdown(result: dict) -> str:
              f"- **static window** (marker placer): {w0:.3f}-{w1:.3f} s",
              f"- **subject** (as `pcnet opensim`'s --height and --mass; the markers' scale is `pcnet run "
              f"--height`'s): height {_or_none(result.get('subject_height_m'), 'm')}, mass "
-             f"{_or_none(result.get('subject_mass_kg'), 'kg')}; the scaled model weighs {_or_none(result.get('model_mass_kg'), 'kg')}"
+             f"{_or_none(result.get('subject_mass_kg'), 'kg')}{_body_mass_index(result)}; the scaled model weighs "
+             f"{_or_none(result.get('model_mass_kg'), 'kg')}"
              + ("" if result.get("subject_mass_kg") is not None else
                 " (the generic model's mass scaled with its segments, not the subject's: give --mass before "
                 "using it for dynamics)"), *(f"- **note**: {note}" for note in opensim_notes(result)), "",

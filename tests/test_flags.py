@@ -416,6 +416,9 @@ def test_a_skeleton_that_changes_size_is_flagged():
     grown = X * np.linspace(1.0, 3.0, len(X), dtype=np.float32)[:, None, None]
     (flag,) = size_change_flag(grown)
     assert "changes 2.7-fold" in flag.detail and "metric exports" in flag.detail
+    # a lifter whose format fixes metres (not --lifter generic) is not told to declare image units
+    (flag,) = size_change_flag(grown, units_declared=False)
+    assert "--units" not in flag.action + flag.detail and "changes 2.7-fold" in flag.headline
 
 
 @pytest.mark.slow
@@ -446,6 +449,10 @@ def test_real_lifter_files_beyond_an_ordinary_lifters_size_change_are_flagged():
     assert not size_change_flag(np.load(real / "cycling_motionbert" / "clip_a_X3D.npy"))
     (flag,) = size_change_flag(np.load(real / "yoga_videopose3d" / "export_Veena_Shavasana.npy"))
     assert "changes 1.4-fold" in flag.detail
+    # VideoPose3D's format is metric: no advice to declare image units (a clinician's trial)
+    (flag,) = size_change_flag(np.load(real / "yoga_videopose3d" / "export_Veena_Shavasana.npy"), units_declared=False)
+    assert flag.action == "check the lifter's output on the frames it sizes differently"
+    assert "--units" not in flag.detail and "its format is metric" in flag.detail
 
 
 def test_3d_sides_that_contradict_the_2d_keypoints_are_flagged():

@@ -206,8 +206,8 @@ def test_cli_opensim_prints_a_line_per_warning_and_writes_it_in_full(short_run, 
     (warning,) = json.loads((out / "opensim_fit.json").read_text())["warnings"]
     assert [ln for ln in res.output.splitlines() if ln.startswith("WARNING")] == [
         "WARNING  OpenSim marker RMS " + warning.split("marker RMS ")[1].split(":")[0]
-        + ": the model does not follow the poses -> check ik.mot's angles against kinematics.csv's (ik_marker_errors.sto: "
-        "which markers)"]
+        + ": the model does not follow the poses -> read ik.mot's angles with care (ik_marker_errors.sto: "
+        "which markers it misses)"]
     assert warning not in res.output and warning in (out / "report.md").read_text()
     # every frame is above the limit here: the fit line counts them and says when
     fit = json.loads((out / "opensim_fit.json").read_text())
@@ -442,3 +442,12 @@ def test_a_lifter_with_wide_hips_is_not_folded_at_l5(tmp_path):
         pcnet = angles[f"{name}_hip_flexion_deg"] + angles["trunk_flexion_to_pelvis_deg"]
         opensim = col[f"hip_flexion_{side}"] - col["L5_S1_Flex_Ext"]
         assert abs(np.nanmedian(pcnet - opensim)) < 12, (side, np.nanmedian(pcnet - opensim))
+
+
+def test_the_report_gives_the_subjects_body_mass_index():
+    """A clinician's trial typed a mass in pounds (154 at 1.72 m) and nothing showed it; the
+    report's subject line gives the body-mass index where height and mass are both known."""
+    from pcnet.stages.opensim_ik import _body_mass_index
+
+    assert _body_mass_index({"subject_height_m": 1.72, "subject_mass_kg": 154.0}) == " (body-mass index 52.1 kg/m^2)"
+    assert _body_mass_index({"subject_height_m": 1.72, "subject_mass_kg": None}) == ""

@@ -1185,7 +1185,7 @@ def test_a_limb_joint_missing_in_every_frame_is_warned_of(tmp_path):
     args = ["run", "--lifter", "generic", "--lifter-output", damaged, "--fps", "30", "--no-recording"]
     res = _invoke(*args, "--out", tmp_path / "a")
     assert res.exit_code == 0, res.output
-    assert "WARNING  left_knee missing in every frame: its joint angles are empty -> check the lifter output" \
+    assert "WARNING  left_knee missing in every frame: its joint angles are empty -> check the input's joint order" \
         in res.output, res.output
     knee[:50, 5] = poses[:50, 5]
     np.save(damaged, knee)
@@ -1323,7 +1323,7 @@ def test_a_numpy_scalar_in_a_config_is_taken_as_its_python_value_and_an_array_re
 
 
 def test_a_height_in_centimetres_is_named_as_such():
-    """A user trial typed --height 170: the range error says what it probably meant."""
+    """User trials typed --height 170 and 5.6: the range error says what each probably meant."""
     from pcnet.stages.core.errors import InputError
 
     with pytest.raises(InputError, match=r"^config: field 'height': expected a value in \[0\.5, 3\] m \(the subject's "
@@ -1331,6 +1331,9 @@ def test_a_height_in_centimetres_is_named_as_such():
         RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0, height=170.0).validate()
     with pytest.raises(InputError, match=r"got 5000\.0$"):
         RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0, height=5000.0).validate()
+    # and one in feet (a clinician's trial typed 5.6)
+    with pytest.raises(InputError, match=r"got 5\.6 \(feet\? give metres: 1\.71\)$"):
+        RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0, height=5.6).validate()
 
 
 def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(tmp_path):
