@@ -34,10 +34,10 @@ from pathlib import Path
 from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.errors import InputError, close_names, refuse
 
-from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, pcnet_version, read_batch_marker,
+from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, read_batch_marker,
                            record_status, renamed_inputs, settings_change)
 from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS, cpu_cores, error_line
-from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, RunConfig
+from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, pcnet_version, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .io import close_file
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within, read_marker

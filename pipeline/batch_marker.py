@@ -20,12 +20,12 @@ import json
 import os
 import socket
 import time
-from importlib import metadata
 from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
 
 from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS
+from .config import pcnet_version
 from .outdir import listed_files_missing, read_marker
 
 BATCH_MARKER = ".pcnet_batch.json"
@@ -35,15 +35,6 @@ INPUT_FIELDS = ("lifter_output", "keypoints2d", "video", "weights")
 #: the input files count by their bytes, not their paths).
 _NOT_SETTINGS = ("out", "overwrite", *INPUT_FIELDS)
 _CHUNK = 1 << 20
-
-
-def pcnet_version() -> str:
-    """The installed pcnet distribution's version (``unknown`` when pcnet is not installed,
-    e.g. imported from a bare checkout)."""
-    try:
-        return metadata.version("pcnet")
-    except metadata.PackageNotFoundError:
-        return "unknown"
 
 
 def input_files(config: dict) -> dict[str, str]:

@@ -36,6 +36,11 @@ class _ErrorBoundary(click.Group):
             _stop_interrupted()
         except (click.exceptions.Exit, click.Abort):
             raise
+        except BrokenPipeError:  # the reader stopped reading (pcnet docs PAGE | head): no error line for it
+            # as the Python docs advise (library/signal, "Note on SIGPIPE"): the interpreter's own flush at exit
+            # would raise again
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            raise click.exceptions.Exit(1) from None
         except Exception as err:
             if came_from_interrupt(err):
                 _stop_interrupted()
@@ -173,8 +178,8 @@ class _PersonOption(click.Option):
 
 
 _camera_prior_option = click.option(
-    "--no-camera-prior", "camera_prior", flag_value=False, default=None,
-    help="Sequence mode: up from the poses (and floor contacts) alone, without the camera prior and the "
+    "--camera-prior/--no-camera-prior", "camera_prior", default=None,
+    help="--no-camera-prior: sequence mode's up from the poses (and floor contacts) alone, without the camera prior and the "
          "lying hypothesis (frame and smooth modes have no camera prior; for the paper's single network, give "
          "one 3DPCNet's ONNX as --weights).")
 
@@ -429,15 +434,16 @@ def _run_and_report(cfg) -> None:
                    "the person inside this region, not another one in view.")
 @click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
-@click.option("--no-recording", is_flag=True, default=False, help="Skip the rerun recording.")
-@click.option("--c3d", is_flag=True, default=None,
-              help="Also write the markers as C3D (world.c3d or canonical.c3d; metric poses; pip install \"pcnet[c3d]\").")
-@click.option("--opensim", "with_opensim", is_flag=True, default=False,
+# on / off pairs, so that the command line overrides a --config file either way (a trial could not
+# turn a file's `recording = false` back on)
+@click.option("--recording/--no-recording", default=None, help="Write the rerun recording [on].")
+@click.option("--c3d/--no-c3d", default=None,
+              help="Also write the markers as C3D (world.c3d or canonical.c3d; metric poses; pip install \"pcnet[c3d]\") [off].")
+@click.option("--opensim/--no-opensim", default=None,
               help="Also scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`), "
-                   "published with the run's output.")
+                   "published with the run's output [off].")
 @click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")
-def run(config_path, pixel, hypothesis, layout, axes, units, key, delimiter, measured_root, no_recording,
-        with_opensim, mass, **options):
+def run(config_path, pixel, hypothesis, layout, axes, units, key, delimiter, measured_root, mass, **options):
     """Run the pipeline on one recording: a video alone (the embedded MediaPipe estimator), or
     2D keypoints + a lifter's 3D output -> canonical poses, kinematics in the recording's world
     frame, CSV/TRC/NPZ/PNG exports and a rerun recording (with --opensim also OpenSim scaling
@@ -450,10 +456,6 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, delimiter, mea
                       if v}
     if hypothesis is not None:
         lifter_options["hypothesis"] = parse_hypothesis(hypothesis)
-    if no_recording:
-        options["recording"] = False
-    if with_opensim:
-        options["opensim"] = True
     options["mass"] = mass
     if config_path:
         cfg = load_run_config(config_path, **options)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import inspect
 import math
+from importlib import metadata
 import os
 import re
 from dataclasses import dataclass, field, fields
@@ -266,7 +267,7 @@ class RunConfig:
     def __post_init__(self) -> None:
         # Python callers hold paths as pathlib.Path; the config keeps the str a TOML file,
         # a manifest and the command line give.
-        for name in ("video", "keypoints2d", "lifter_output", "out", "weights"):
+        for name in PATH_FIELDS:
             value = getattr(self, name)
             if isinstance(value, os.PathLike):
                 setattr(self, name, os.fspath(value))
@@ -484,6 +485,35 @@ class RunConfig:
             raise InputError(f"{field_name(source, 'cutoff_hz', 'residual_cutoff')}: expected one of the two (the "
                              f"residual analysis chooses the cutoff), got cutoff_hz {self.cutoff_hz:g} and residual_cutoff")
         return self
+
+
+def pcnet_version() -> str:
+    """The installed pcnet distribution's version (``unknown`` when pcnet is not installed,
+    e.g. imported from a bare checkout)."""
+    try:
+        return metadata.version("pcnet")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+#: The fields of :class:`RunConfig` that name files or folders.
+PATH_FIELDS = ("video", "keypoints2d", "lifter_output", "out", "weights")
+
+
+def settings_record(cfg: RunConfig) -> dict:
+    """Every field of ``cfg`` as a run used it (JSON-able; paths absolute, so that a colleague
+    repeats the run from anywhere; a lifter option that is not a plain value as its text):
+    the report's ``inputs.settings`` (a trial could not tell a run's height or confidence
+    threshold from its outputs)."""
+    out = {}
+    for f in fields(cfg):
+        value = getattr(cfg, f.name)
+        if f.name in PATH_FIELDS and value is not None:
+            value = str(Path(value).resolve())
+        elif f.name == "lifter_options":
+            value = {k: v if isinstance(v, (str, int, float, bool)) else str(v) for k, v in sorted(value.items())}
+        out[f.name] = value
+    return out
 
 
 def parse_hypothesis(text: str) -> int | str:

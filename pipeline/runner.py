@@ -61,7 +61,7 @@ from pcnet.stages.plausibility import implausible_frames, implausible_motion, mo
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
-from .config import RunConfig, fps_contradiction, multi_track_formats, rates_agree
+from .config import RunConfig, fps_contradiction, multi_track_formats, pcnet_version, rates_agree, settings_record
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -521,27 +521,36 @@ def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None,
     or the ``--weights`` file), each file with the format it was read as and the joint layout
     found in it (an upstream estimator or a model swapped for another shows here), and the
     lifter options the file was declared with (``lifter_options``: a generic lifter's axes,
-    units, key), from which the run can be repeated."""
-    read = {"method": cfg.method, "weights": str(cfg.weights) if cfg.weights else "shipped", "lifter": cfg.lifter,
-            "lifter_output": str(cfg.lifter_output), "lifter_layout": layout, "lifter_units": units}
+    units, key), the installed pcnet's version and every setting of ``cfg`` (``settings``,
+    :func:`~pcnet.pipeline.config.settings_record`), from which the run can be repeated; paths
+    absolute (a trial's relative command-line path read as typed)."""
+    read = {"method": cfg.method, "weights": str(Path(cfg.weights).resolve()) if cfg.weights else "shipped",
+            "lifter": cfg.lifter, "lifter_output": str(Path(cfg.lifter_output).resolve()), "lifter_layout": layout,
+            "lifter_units": units}
     if cfg.lifter_options:  # what the file was declared to be (a generic lifter's axes, units, key)
         read["lifter_options"] = {option: value if isinstance(value, (str, int, float, bool)) else str(value)
                                   for option, value in sorted(cfg.lifter_options.items())}
     if cfg.keypoints2d:
-        read.update(keypoints2d=str(cfg.keypoints2d), keypoints2d_format=cfg.keypoints2d_format,
+        read.update(keypoints2d=str(Path(cfg.keypoints2d).resolve()), keypoints2d_format=cfg.keypoints2d_format,
                     keypoints2d_layout=kp_layout)
     if video is not None:
-        read.update(video=str(cfg.video), video_size=[video.width, video.height], video_frames=video.frame_count)
+        read.update(video=str(Path(cfg.video).resolve()), video_size=[video.width, video.height],
+                    video_frames=video.frame_count)
     if cfg.roi is not None:  # the region the embedded estimator saw: which person its poses are
         read["roi"] = list(cfg.roi_px)
+    # what repeats the run: every setting as used (absolute paths) and the version that ran them
+    read.update(pcnet_version=pcnet_version(), settings=settings_record(cfg))
     return read
 
 
 def _published(read: dict, staged: Path, out: Path) -> dict:
     """:func:`_inputs_read`'s record with the files read from the run's ``staged`` folder
-    named where they are published (``out``): the embedded estimator's poses."""
-    return {k: str(out / Path(v).name) if k in ("lifter_output", "keypoints2d") and Path(v).parent == staged else v
-            for k, v in read.items()}
+    named where they are published (``out``): the embedded estimator's poses (in its
+    ``settings`` too)."""
+    def named(record: dict) -> dict:
+        return {k: str(out / Path(v).name) if k in ("lifter_output", "keypoints2d") and v and Path(v).parent == staged
+                else named(v) if k == "settings" else v for k, v in record.items()}
+    return named(read)
 
 
 def _assumed_inputs(cfg: RunConfig) -> list[str]:

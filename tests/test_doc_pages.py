@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import fnmatch
 import re
+import subprocess
+import sys
 import tomllib
 
 from click.testing import CliRunner
@@ -51,3 +53,13 @@ def test_pcnet_docs_lists_the_pages_and_refuses_an_unknown_one_in_one_line():
     refused = runner.invoke(main, ["docs", "limts"])
     assert refused.exit_code == 1 and len(refused.output.strip().splitlines()) == 1
     assert "got no page 'limts' (limts: limits?)" in refused.output
+
+
+def test_a_reader_that_stops_reading_gets_no_error_line():
+    """`pcnet docs PAGE | head` (a trial's pipe closed early) printed "Error: [Errno 32] Broken
+    pipe"; the reader stopping is not an error of the input: no line on stderr."""
+    proc = subprocess.Popen([sys.executable, "-m", "pcnet.pipeline.entry", "docs", "CONVENTIONS"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # before pcnet has written anything (it imports first)
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 1 and err == "", err

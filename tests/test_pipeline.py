@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import glob
 import re
@@ -386,6 +387,19 @@ def test_the_report_names_what_was_read(tmp_path):
     assert res.exit_code == 0, res.output
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         read = json.loads(str(npz["report"]))["inputs"]
+    # and what repeats the run (a trial found neither the version nor the height or threshold used)
+    from pcnet.pipeline.config import pcnet_version
+
+    settings = read.pop("settings")
+    assert read.pop("pcnet_version") == pcnet_version()
+    assert settings["out"] == str((tmp_path / "o").resolve()) and settings["fps"] == 30.0
+    assert settings["lifter_output"] == str(BOX_3D.resolve()) and settings["confidence_threshold"] is None
+    assert set(settings) == {f.name for f in dataclasses.fields(RunConfig)}
+    # a relative command-line path is recorded absolute (a trial's report read it as typed)
+    from pcnet.pipeline.config import settings_record
+
+    relative = settings_record(RunConfig(lifter="motionbert", lifter_output="x/X3D.npy", out="o"))
+    assert relative["lifter_output"] == str(Path("x/X3D.npy").resolve()) and relative["out"] == str(Path("o").resolve())
     assert read == {"method": "pcnet", "weights": "shipped", "lifter": "motionbert", "lifter_output": str(BOX_3D), "lifter_layout": "h36m17",
                     "lifter_units": "normalised", "keypoints2d": str(BOX_2D), "keypoints2d_format": "alphapose",
                     "keypoints2d_layout": "halpe26"}
@@ -539,6 +553,10 @@ def test_toml_config(tmp_path):
     res = _invoke("run", "--config", cfg)
     assert res.exit_code == 0, res.output
     assert (tmp_path / "from_toml" / "kinematics.csv").is_file()
+    assert not (tmp_path / "from_toml" / "recording.rrd").exists()
+    # the command line overrides the file's booleans either way (a trial could not turn recording back on)
+    res = _invoke("run", "--config", cfg, "--recording", "--out", tmp_path / "on")
+    assert res.exit_code == 0 and (tmp_path / "on" / "recording.rrd").is_file(), res.output
 
 
 def test_toml_config_keys_parse_into_the_run_config(tmp_path):
