@@ -535,6 +535,10 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
     """
     path = Path(path)
     raw = read_toml(path)
+    misplaced = sorted(set(raw) & set(COMMAND_LINE_OPTIONS))
+    if misplaced:  # a manifest's column, the command line's flag: a table of its own here (a trial's `pixel = true`)
+        raise InputError(f"{path}: {', '.join(map(repr, misplaced))}: expected in a [lifter_options] table (options "
+                         f"of the lifter's file), got {'it' if len(misplaced) == 1 else 'them'} at the top level")
     check_config_keys(path, "", raw, RunConfig)
     for key in ("video", "keypoints2d", "lifter_output", "out", "weights"):
         if isinstance(raw.get(key), str):

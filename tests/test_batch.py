@@ -185,6 +185,16 @@ def test_the_whole_manifest_is_checked_before_any_work(tmp_path):
     assert (tmp_path / "theirs" / "notes.txt").read_text() == "mine"
 
 
+def test_a_row_with_a_missing_file_and_a_shared_out_is_told_both(tmp_path):
+    """A trial fixed a missing file and was then told the row's out was another row's: both
+    problems of a row are named in the first pass."""
+    manifest = _manifest(tmp_path, _row("same"), _row("same", lifter_output=tmp_path / "absent.npy"))
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and "line 3: column lifter_output" in res.output, res.output
+    assert "line 3: column out: expected a folder of its own, got 'same', which line 2 also writes" in res.output
+    assert not (tmp_path / "same").exists()
+
+
 def test_every_bad_cell_of_a_row_is_named_at_once(tmp_path):
     """A user trial fixed one row three times, one refused cell per run: every cell no column
     reads and every choice or range the config refuses is named, one line each; a cell that

@@ -158,6 +158,10 @@ def test_long_recordings_in_chunks_give_the_outputs_of_one_piece(tmp_path, monke
         for key in na.files:
             if na[key].dtype.kind in "fc":
                 np.testing.assert_allclose(na[key], nb[key], rtol=1e-9, atol=1e-12, equal_nan=True, err_msg=key)
+            elif key == "report":  # the same but for the output folder each run's settings record
+                ra, rb = (json.loads(str(n[key])) for n in (na, nb))
+                assert ra["inputs"]["settings"].pop("out") != rb["inputs"]["settings"].pop("out")
+                assert ra == rb
             else:
                 assert np.array_equal(na[key], nb[key]), key
     assert rrd_summary(a / "recording.rrd")[0] == rrd_summary(b / "recording.rrd")[0]
@@ -505,6 +509,11 @@ def test_a_config_file_names_its_fields_in_errors(tmp_path):
     cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\nheigth = 1.7\n')
     res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
     assert res.exit_code == 1 and f"Error: {cfg}: unknown keys ['heigth'] (heigth: height?); expected" in res.output
+    # a lifter option at the top level, where a manifest has its column (a trial's `pixel = true`)
+    cfg.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nfps = 30\npixel = true\n')
+    res = _invoke("run", "--config", cfg, "--out", tmp_path / "o")
+    assert res.exit_code == 1 and (f"Error: {cfg}: 'pixel': expected in a [lifter_options] table (options of the "
+                                   f"lifter's file), got it at the top level") in res.output, res.output
 
 
 def test_nan_only_sequence_is_a_clear_error(tmp_path):
