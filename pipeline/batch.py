@@ -822,8 +822,10 @@ def _plan(manifest: Path, options: BatchOptions) -> tuple[list[PlannedRow], Path
     paths = _PathFacts()  # for this check only: the file system as it is now
     planned, problems = _parse_rows(manifest, rows, options.overwrite, paths)
     problems.update(miscounted)
-    for line, problem in _shared_out_problems(manifest, planned, paths).items():  # every problem at once (a trial)
-        problems[line] = f"{problems[line]}\n{problem}" if line in problems else problem
+    for line, problem in _shared_out_problems(manifest, planned, paths).items():
+        # every cell's problem at once (a trial fixed a missing file, then heard of its shared out); one per cell
+        if "column out:" not in problems.get(line, ""):
+            problems[line] = f"{problems[line]}\n{problem}" if line in problems else problem
     summary = Path(options.summary_json) if options.summary_json else default_summary_path(manifest)
     _check_summary_path(summary, manifest, [item for item in planned if item.line not in problems], paths)
     previous = read_previous_summary(summary) if options.retry_failed else None
