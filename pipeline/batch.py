@@ -1208,6 +1208,10 @@ def batch_markdown(report: BatchReport) -> str:
               f"{report.engine_start_seconds:.1f} s",
             f"- **options**: overwrite {s.get('overwrite')}, retry_failed {s.get('retry_failed')}",
             f"- **summary**: {report.summary_path} (every row's fields, docs/cluster.md \"Results\")",
+            # where a row's provenance lies (a trial found none in the summary or this report)
+            f"- **provenance**: pcnet {s.get('pcnet_version', 'unknown')}; each complete row's input digests "
+            f"(sha256), settings and pcnet version in its output's {BATCH_MARKER}, and its report.md's "
+            f"inputs.settings",
             "", "## Rows", "",
             "| row | line | status | tries | frames | valid | mode | units | tilt deg | posture | pelvis path | floor "
             "| OpenSim RMS cm | seconds | worker | threads | output |",

@@ -1032,6 +1032,11 @@ def test_a_rows_warnings_reach_the_summary(tmp_path):
     assert lines[at + 1:at + 1 + len(short)] == short, res.output
     assert all(w not in res.output for w in expected if len(w) > 100)
     assert all(w in _report(manifest) for w in expected)
+    # where each row's provenance lies (a trial found none in the summary or the report)
+    from pcnet.pipeline.config import pcnet_version
+
+    assert f"- **provenance**: pcnet {pcnet_version()}; each complete row's input digests (sha256), settings and " \
+        f"pcnet version in its output's {BATCH_MARKER}" in _report(manifest)
     res = _invoke(manifest)  # skipped on a re-run: its warnings stay in the summary, their lines in the terminal's
     (row,) = _summary(manifest)["rows"]
     assert res.exit_code == 0 and row["status"] == "skipped" and row["warnings"] == expected
