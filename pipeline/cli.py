@@ -179,9 +179,9 @@ class _PersonOption(click.Option):
 
 _camera_prior_option = click.option(
     "--camera-prior/--no-camera-prior", "camera_prior", default=None,
-    help="--no-camera-prior: sequence mode's up from the poses (and floor contacts) alone, without the camera prior and the "
-         "lying hypothesis (frame and smooth modes have no camera prior; for the paper's single network, give "
-         "one 3DPCNet's ONNX as --weights).")
+    help="--no-camera-prior: sequence mode's up from the poses (and floor contacts) alone, without the camera "
+         "prior and the lying hypothesis (frame and smooth modes have no camera prior; for the paper's single "
+         "network, give one 3DPCNet's ONNX as --weights).")
 
 _posture_option = click.option(
     "--posture", type=click.Choice(POSTURES), default=None,
@@ -438,7 +438,8 @@ def _run_and_report(cfg) -> None:
 # turn a file's `recording = false` back on)
 @click.option("--recording/--no-recording", default=None, help="Write the rerun recording [on].")
 @click.option("--c3d/--no-c3d", default=None,
-              help="Also write the markers as C3D (world.c3d or canonical.c3d; metric poses; pip install \"pcnet[c3d]\") [off].")
+              help="Also write the markers as C3D (world.c3d or canonical.c3d; metric poses; "
+                   "pip install \"pcnet[c3d]\") [off].")
 @click.option("--opensim/--no-opensim", default=None,
               help="Also scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`), "
                    "published with the run's output [off].")

@@ -5,10 +5,10 @@ from __future__ import annotations
 import functools
 import inspect
 import math
-from importlib import metadata
 import os
 import re
 from dataclasses import dataclass, field, fields
+from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -405,10 +405,9 @@ class RunConfig:
         ):
             if value is not None and not (math.isfinite(value) and low <= value <= high):
                 # a height in centimetres or feet is the likely slip (user trials typed --height 170 and 5.6)
-                hint = ""
-                for other, per_unit in (("centimetres", 0.01), ("feet", FOOT_M)):
-                    if name == "height" and math.isfinite(value) and low <= value * per_unit <= high and not hint:
-                        hint = f" ({other}? give metres: {value * per_unit:.3g})"
+                hint = next((f" ({other}? give metres: {value * per_unit:.3g})"
+                             for other, per_unit in (("centimetres", 0.01), ("feet", FOOT_M))
+                             if name == "height" and math.isfinite(value) and low <= value * per_unit <= high), "")
                 problems.append(f"{field_name(source, name)}: expected a value in [{low:g}, {high:g}] {unit}, got "
                                 f"{value!r}{hint}")
         refuse(problems)
@@ -511,9 +510,14 @@ def settings_record(cfg: RunConfig) -> dict:
         if f.name in PATH_FIELDS and value is not None:
             value = str(Path(value).resolve())
         elif f.name == "lifter_options":
-            value = {k: v if isinstance(v, (str, int, float, bool)) else str(v) for k, v in sorted(value.items())}
+            value = plain_options(value)
         out[f.name] = value
     return out
+
+
+def plain_options(options: dict) -> dict:
+    """Lifter ``options`` sorted by name, a value that is not a plain JSON value as its text."""
+    return {k: v if isinstance(v, (str, int, float, bool)) else str(v) for k, v in sorted(options.items())}
 
 
 def parse_hypothesis(text: str) -> int | str:
@@ -540,7 +544,7 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
         raise InputError(f"{path}: {', '.join(map(repr, misplaced))}: expected in a [lifter_options] table (options "
                          f"of the lifter's file), got {'it' if len(misplaced) == 1 else 'them'} at the top level")
     check_config_keys(path, "", raw, RunConfig)
-    for key in ("video", "keypoints2d", "lifter_output", "out", "weights"):
+    for key in PATH_FIELDS:
         if isinstance(raw.get(key), str):
             raw[key] = str((path.parent / raw[key]).resolve()) if not Path(raw[key]).is_absolute() else raw[key]
     raw.update({k: v for k, v in overrides.items() if v is not None})

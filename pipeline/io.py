@@ -119,6 +119,7 @@ def close_file(path: Path) -> str:
         return ""
     # the same numbers written with other leading zeros first (a trial's a7_s1_t1.npz got a17_s1_t1.npz,
     # one character away as a07_s1_t1.npz is)
-    same = [n for n in names if _numbers_unpadded(n) == _numbers_unpadded(path.name)]
+    wanted = _numbers_unpadded(path.name)
+    same = [n for n in names if _numbers_unpadded(n) == wanted]
     match = same or difflib.get_close_matches(path.name, names, n=1, cutoff=0.8)
     return f"; a close name there: {match[0]}" if match else ""

@@ -40,9 +40,10 @@ from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, pr
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, opensim_notes,
                                      scale_and_ik)
 from pcnet.stages.sinks.exports import require_ezc3d
-from pcnet.stages.flags import (Finding, Severity, absent_joints_flag, floor_flag, implausible_motion_findings, keypoints_unused_flag,
-                               missing_data_line, no_opensim_flag, no_world_frame_flag, note_finding, one_person_frames,
-                               opensim_fit_findings, ranked, track_segments, unfiltered_flag)
+from pcnet.stages.flags import (Finding, Severity, absent_joints_flag, floor_flag, implausible_motion_findings,
+                               keypoints_unused_flag, missing_data_line, no_opensim_flag, no_world_frame_flag,
+                               note_finding, one_person_frames, opensim_fit_findings, ranked, track_segments,
+                               unfiltered_flag)
 from pcnet.stages.floor import Floor
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
 from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
@@ -524,22 +525,19 @@ def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None,
     units, key), the installed pcnet's version and every setting of ``cfg`` (``settings``,
     :func:`~pcnet.pipeline.config.settings_record`), from which the run can be repeated; paths
     absolute (a trial's relative command-line path read as typed)."""
-    read = {"method": cfg.method, "weights": str(Path(cfg.weights).resolve()) if cfg.weights else "shipped",
-            "lifter": cfg.lifter, "lifter_output": str(Path(cfg.lifter_output).resolve()), "lifter_layout": layout,
-            "lifter_units": units}
+    settings = settings_record(cfg)  # what repeats the run: every setting as used, paths absolute
+    read = {"method": cfg.method, "weights": settings["weights"] or "shipped", "lifter": cfg.lifter,
+            "lifter_output": settings["lifter_output"], "lifter_layout": layout, "lifter_units": units}
     if cfg.lifter_options:  # what the file was declared to be (a generic lifter's axes, units, key)
-        read["lifter_options"] = {option: value if isinstance(value, (str, int, float, bool)) else str(value)
-                                  for option, value in sorted(cfg.lifter_options.items())}
+        read["lifter_options"] = settings["lifter_options"]
     if cfg.keypoints2d:
-        read.update(keypoints2d=str(Path(cfg.keypoints2d).resolve()), keypoints2d_format=cfg.keypoints2d_format,
+        read.update(keypoints2d=settings["keypoints2d"], keypoints2d_format=cfg.keypoints2d_format,
                     keypoints2d_layout=kp_layout)
     if video is not None:
-        read.update(video=str(Path(cfg.video).resolve()), video_size=[video.width, video.height],
-                    video_frames=video.frame_count)
+        read.update(video=settings["video"], video_size=[video.width, video.height], video_frames=video.frame_count)
     if cfg.roi is not None:  # the region the embedded estimator saw: which person its poses are
         read["roi"] = list(cfg.roi_px)
-    # what repeats the run: every setting as used (absolute paths) and the version that ran them
-    read.update(pcnet_version=pcnet_version(), settings=settings_record(cfg))
+    read.update(pcnet_version=pcnet_version(), settings=settings)
     return read
 
 
