@@ -24,6 +24,7 @@ import json
 import operator
 import os
 import re
+import socket
 import stat
 import time
 from collections.abc import Callable
@@ -945,7 +946,7 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
     except KeyboardInterrupt:  # arrived outside the engine's loop (e.g. while Ray started)
         interrupted = True
     except Exception as err:  # the engine itself failed (Ray refused to start): no row stays "pending"
-        writer.write(rows("cancelled"), force=True, error=error_line(err))
+        writer.write(rows("cancelled"), force=True, finished=True, error=error_line(err))
         raise
     if interrupted:
         results.update(_published_before_the_stop(planned, results, since=wall_start))
@@ -954,7 +955,7 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
         _clean_cancelled(planned, results)
     seconds = time.perf_counter() - started
     start_s = getattr(engine, "start_seconds", 0.0)
-    writer.write(final, force=True, interrupted=interrupted, seconds=round(seconds, 3),
+    writer.write(final, force=True, finished=True, interrupted=interrupted, seconds=round(seconds, 3),
                  engine_start_seconds=round(start_s, 3))
     findings = {item.row: (item.known if item.action == "skip" else results.get(item.row) or {}).get(FINDINGS)
                 for item in planned}
@@ -969,7 +970,10 @@ def _summary_header(manifest, options: BatchOptions, jobs: int) -> dict:
     return {"writer": "pcnet batch", "pcnet_version": pcnet_version(), "manifest": str(Path(manifest).resolve()),
             "engine": options.engine, "address": options.address, "workers": workers, "rows_to_run": jobs,
             "retries": options.retries, "overwrite": options.overwrite, "retry_failed": options.retry_failed,
-            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "interrupted": False}
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "interrupted": False,
+            # A driver killed outright (SIGKILL, a lost node) cannot rewrite its rows' "pending":
+            # False here and no such process says so.
+            "finished": False, "driver_host": socket.gethostname(), "driver_pid": os.getpid()}
 
 
 def _published_before_the_stop(planned: list[PlannedRow], results: dict[int, dict], since: float) -> dict[int, dict]:

@@ -464,6 +464,11 @@ def test_workers_stop_when_the_batch_is_killed(tmp_path, hook):
         proc.kill()
         (hook / "hold-1").unlink(missing_ok=True)
     assert not (tmp_path / "s1").exists() and not list(tmp_path.glob(f".*{TMP_TAG}*"))
+    # The summary it could not finish says so and names the driver that no longer runs (a
+    # user's "pending" rows read as still running).
+    summary = _summary(manifest)
+    assert summary["finished"] is False and _statuses(manifest) == ["pending", "pending"]
+    assert summary["driver_pid"] == proc.pid and not _running(proc.pid)
 
 
 @pytest.mark.parametrize("retries", [0, 1])
@@ -1003,6 +1008,7 @@ def test_an_engine_that_fails_to_start_leaves_no_pending_rows(tmp_path, monkeypa
     assert res.exit_code == 1 and "expected a Ray cluster" in res.output
     summary = _summary(manifest)
     assert _statuses(manifest) == ["cancelled", "cancelled"] and "expected a Ray cluster" in summary["error"]
+    assert summary["finished"] is True and summary["driver_pid"] == os.getpid()
 
 
 @pytest.mark.slow
