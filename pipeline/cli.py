@@ -19,7 +19,7 @@ from pcnet.pipeline.config import ALIGN, MODES, keypoint_formats, lifter_names, 
 from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, STOP_SIGNALS, came_from_interrupt, raise_interrupt
 from pcnet.stages.core.errors import InputError, import_extra, one_line
 from pcnet.stages.heading import HEADING_SOURCES
-from pcnet.stages.rectify import METHODS, POSTURES, check_method_weights, check_posture, no_valid_frame_reason
+from pcnet.stages.rectify import METHODS, POSTURES, check_method_weights, check_posture
 
 
 class _ErrorBoundary(click.Group):
@@ -308,8 +308,6 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
         if weights is not None and str(err).startswith((f"{weights}:", f"{Path(weights)}:")):
             raise  # the weights file's own error, already naming it
         raise InputError(f"{input_path}: {err}") from err
-    if not res.valid.any():  # the same rule as pcnet run: nothing is written
-        raise InputError(f"{input_path}: {no_valid_frame_reason(res.report)}")
     findings = ranked(pose_checks(joints, res))  # what pcnet run would say of these poses alone
     # the camera's tilt, pitch and roll as pcnet run's report gives them (a trial found them missing)
     tilt = CameraTilt.of(res.rotation, res.valid)

@@ -161,9 +161,9 @@ def rectify(
             (:func:`pcnet.stages.rectify.check_posture`), an option of another type
             (``camera_prior``, ``measured_root`` not a bool; ``fps`` not a number: ``"no"``
             would read as true), no ``fps`` for a mode other than ``frame``, ``measured_root`` over root-relative joints
-            (:func:`check_measured_root`), or (modes other than ``frame``) no valid frame,
-            including none with a heading about the sequence up (the input's axes wrong:
-            :func:`pcnet.stages.rectify.no_valid_frame_reason`).
+            (:func:`check_measured_root`), or no valid frame (none with the hips, thorax and
+            shoulders; in sequence mode also none with a heading about the sequence up, the
+            input's axes wrong: :func:`pcnet.stages.rectify.no_valid_frame_reason`).
     """
     for name, value in (("camera_prior", camera_prior), ("measured_root", measured_root)):
         if not isinstance(value, (bool, np.bool_)):
@@ -177,8 +177,9 @@ def rectify(
         check_measured_root(joints_cam[:, PELVIS], "rectify: measured_root", "pass measured_root=False")
     result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, measured_root=measured_root,
                              posture=posture)
-    if mode != "frame" and not result.valid.any():
-        # the same refusal as pcnet run's: an answer of NaN rows alone reads as a result
+    if not result.valid.any():
+        # the same refusal as pcnet run's, in every mode: an answer of NaN rows alone reads as a
+        # result (a trial's frame-mode call without hips returned one, and no finding)
         raise InputError(no_valid_frame_reason(result.report))
     return replace(result, report=replace(result.report, pelvis_from_hips_frames=int(pelvis_filled.sum())))
 

@@ -62,7 +62,7 @@ from .core.canonical import canonical_rotation, to_canonical
 from .isb_angles import MAX_KNEE_HYPEREXTENSION_DEG, isb_joint_angles
 from .core.rotations import angle_between, procrustes_rotation
 from .core.errors import InputError
-from .core.framestore import freeze_arrays, restore_frozen, true_runs
+from .core.framestore import arrays_repr, freeze_arrays, restore_frozen, true_runs
 
 # ---------------------------------------------------------------------------------------
 # contiguous finite runs
@@ -813,6 +813,9 @@ class Kinematics:
 
     def __setstate__(self, state: dict) -> None:
         restore_frozen(self, state)
+
+    def __repr__(self) -> str:
+        return arrays_repr(self)
 
     @property
     def num_frames(self) -> int:

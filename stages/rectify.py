@@ -26,7 +26,7 @@ import numpy as np
 from .core.canonical import to_canonical
 from .core.conventions import check_poses
 from .core.errors import InputError
-from .core.framestore import frame_blocks, freeze_arrays, in_memory, restore_frozen
+from .core.framestore import arrays_repr, frame_blocks, freeze_arrays, in_memory, restore_frozen
 from .core.geometric import geometric_rotation
 from .ground_plane import posture_and_floor_up
 from .core.rotations import angle_between, camera_pitch_roll, normalize
@@ -123,6 +123,9 @@ class Rectified:
 
     def __setstate__(self, state: dict) -> None:
         restore_frozen(self, state)
+
+    def __repr__(self) -> str:
+        return arrays_repr(self)
 
     @property
     def mode(self) -> str:

@@ -137,6 +137,36 @@ def test_rectify_needs_the_frame_rate_for_modes_that_pool_over_seconds(mode):
     assert rectify(joints).valid.all()
 
 
+@pytest.mark.parametrize("mode", ["frame", "sequence", "smooth", "auto"])
+def test_rectify_refuses_poses_without_a_frame_it_can_rectify_in_every_mode(mode):
+    """Frame mode returned every frame NaN for poses without hips, and ``pose_checks`` found
+    nothing (a library user's trial); the other modes refused. Every mode refuses, as
+    ``pcnet run`` and ``pcnet rectify`` do."""
+    from pcnet.pipeline import InputError, rectify
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:20].copy()
+    joints[:, [0, 1, 4]] = np.nan  # pelvis and hips
+    with pytest.raises(InputError, match="^no frame has the hips, thorax and shoulders"):
+        rectify(joints, mode=mode, fps=30.0)
+    joints[5] = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[5]
+    assert rectify(joints, mode=mode, fps=30.0).valid.sum() == 1
+
+
+def test_results_print_their_arrays_as_shapes():
+    """``repr`` of a ``Rectified`` of 100 frames printed every value of ``up`` and ``valid``
+    (about 300 lines in a developer trial's log): arrays print as shape and dtype."""
+    from pcnet.pipeline import rectify
+    from pcnet.stages.kinematics import compute_kinematics
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
+    res = rectify(joints, mode="sequence", fps=30.0)
+    kin = compute_kinematics(joints - joints[:, :1], 30.0, rotation=res.rotation)
+    for text in (repr(res), repr(kin)):
+        assert "\n" not in text and len(text) < 1000, text
+    assert "up=<100x3 float64>" in repr(res) and "report=RectificationReport(...)" in repr(res)
+    assert "positions=<100x17x3 float64>" in repr(kin) and "36 in all}" in repr(kin) and "cutoff_hz=6.0" in repr(kin)
+
+
 # --- what a library user meets (a developer's trial of the Python API) -----------------------
 
 

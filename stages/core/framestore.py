@@ -18,8 +18,8 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
-from dataclasses import fields
+from collections.abc import Iterator, Mapping
+from dataclasses import fields, is_dataclass
 from pathlib import Path
 
 import numpy as np
@@ -176,6 +176,23 @@ def freeze_arrays(result: object) -> None:
         value = getattr(result, f.name)
         if type(value) is np.ndarray:
             value.setflags(write=False)
+
+
+def arrays_repr(result: object) -> str:
+    """``repr`` of a dataclass ``result`` with each array field (and each mapping of arrays) as its
+    shape and dtype and each nested dataclass as its class name: a result of a few hundred frames
+    printed every value (a developer trial's log filled 300 lines)."""
+    def brief(value: object) -> str:
+        if isinstance(value, np.ndarray) or hasattr(value, "shape") and hasattr(value, "dtype"):
+            return f"<{'x'.join(map(str, value.shape))} {value.dtype}>"
+        if is_dataclass(value):
+            return f"{type(value).__name__}(...)"
+        if isinstance(value, Mapping) and any(isinstance(v, np.ndarray) for v in value.values()):
+            return "{" + ", ".join(f"{k!r}: {brief(v)}" for k, v in list(value.items())[:3]) + \
+                (f", ... {len(value)} in all" if len(value) > 3 else "") + "}"
+        return repr(value)
+    return f"{type(result).__name__}(" + ", ".join(f"{f.name}={brief(getattr(result, f.name))}"
+                                                   for f in fields(result) if f.repr) + ")"
 
 
 def restore_frozen(result: object, state: dict) -> None:
