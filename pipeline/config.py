@@ -503,10 +503,20 @@ def settings_record(cfg: RunConfig) -> dict:
     """Every field of ``cfg`` as a run used it (JSON-able; paths absolute, so that a colleague
     repeats the run from anywhere; a lifter option that is not a plain value as its text):
     the report's ``inputs.settings`` (a trial could not tell a run's height or confidence
-    threshold from its outputs)."""
+    threshold from its outputs). A default the config resolves itself is written as its value
+    (a trial read ``heading n/a`` and ``cutoff_hz n/a`` for a run with auto and 6 Hz): the heading
+    source, the low-pass cutoff unless the residual analysis chooses it, and the 2D confidence
+    threshold where 2D keypoints are read."""
+    from pcnet.stages.rectify import resolve_heading_source  # SciPy and the stages: only once a run is recorded
+
+    resolved = {"heading": resolve_heading_source(cfg.method, cfg.heading)}
+    if not cfg.residual_cutoff:
+        resolved["cutoff_hz"] = cfg.lowpass_hz
+    if cfg.keypoints2d is not None or cfg.video is not None:
+        resolved["confidence_threshold"] = cfg.min_confidence
     out = {}
     for f in fields(cfg):
-        value = getattr(cfg, f.name)
+        value = resolved.get(f.name, getattr(cfg, f.name))
         if f.name in PATH_FIELDS and value is not None:
             value = str(Path(value).resolve())
         elif f.name == "lifter_options":

@@ -397,13 +397,19 @@ def test_the_report_names_what_was_read(tmp_path):
     settings = read.pop("settings")
     assert read.pop("pcnet_version") == pcnet_version()
     assert settings["out"] == str((tmp_path / "o").resolve()) and settings["fps"] == 30.0
-    assert settings["lifter_output"] == str(BOX_3D.resolve()) and settings["confidence_threshold"] is None
+    assert settings["lifter_output"] == str(BOX_3D.resolve())
+    # the defaults the run resolved, as used (a trial read "heading n/a" and "cutoff_hz n/a")
+    from pcnet.pipeline.config import DEFAULT_CONFIDENCE, DEFAULT_CUTOFF_HZ
+
+    assert (settings["heading"], settings["cutoff_hz"], settings["confidence_threshold"]) == (
+        "auto", DEFAULT_CUTOFF_HZ, DEFAULT_CONFIDENCE)
     assert set(settings) == {f.name for f in dataclasses.fields(RunConfig)}
     # a relative command-line path is recorded absolute (a trial's report read it as typed)
     from pcnet.pipeline.config import settings_record
 
     relative = settings_record(RunConfig(lifter="motionbert", lifter_output="x/X3D.npy", out="o"))
     assert relative["lifter_output"] == str(Path("x/X3D.npy").resolve()) and relative["out"] == str(Path("o").resolve())
+    assert relative["confidence_threshold"] is None  # no 2D keypoints: no threshold used
     assert read == {"method": "pcnet", "weights": "shipped", "lifter": "motionbert", "lifter_output": str(BOX_3D), "lifter_layout": "h36m17",
                     "lifter_units": "normalised", "keypoints2d": str(BOX_2D), "keypoints2d_format": "alphapose",
                     "keypoints2d_layout": "halpe26"}
