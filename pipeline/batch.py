@@ -587,11 +587,12 @@ def _as_columns(message: str) -> str:
 
 
 def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
-                paths: _PathFacts) -> tuple[list[PlannedRow], dict[int, str]]:
-    """Every row's config (absolute paths), and ``{line: problem}`` for the rows whose
-    settings, input files or ``out`` (against the inputs) are wrong."""
+                paths: _PathFacts) -> tuple[list[PlannedRow], list[PlannedRow], dict[int, str]]:
+    """Every row's config (absolute paths), the rows whose settings were refused (their config
+    only their ``out``, which other rows must still not share), and ``{line: problem}`` for the
+    rows whose settings, input files or ``out`` (against the inputs) are wrong."""
     configs = _RowConfigs(manifest.resolve().parent, overwrite)
-    planned, problems = [], {}
+    planned, refused, problems = [], [], {}
     for index, (line, row) in enumerate(rows, start=1):
         where = f"{manifest}: line {line}"
         try:
@@ -602,6 +603,8 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
                      if (cell := _given(row.get(name))) is not None}
             problems[line] = "\n".join([*_input_problems(where, row, given, paths),
                                         *(f"{where}: {_as_columns(p)}" for p in err.problems)])
+            out = _manifest_path(configs.base, _given(row.get("out")) or RunConfig.out)
+            refused.append(PlannedRow(index, line, {"out": out}, row))
             continue
         inputs = input_files(config)
         found = (_input_problems(where, row, inputs, paths) or
@@ -611,7 +614,7 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
         if found:
             problems[line] = "\n".join(found)
         planned.append(PlannedRow(index, line, config, row))
-    return planned, problems
+    return planned, refused, problems
 
 
 def _video_rate_problem(where: str, config: dict) -> list[str]:
@@ -821,9 +824,10 @@ def _plan(manifest: Path, options: BatchOptions) -> tuple[list[PlannedRow], Path
     """:func:`plan_batch` past the cluster's address."""
     rows, miscounted = read_manifest(manifest)
     paths = _PathFacts()  # for this check only: the file system as it is now
-    planned, problems = _parse_rows(manifest, rows, options.overwrite, paths)
+    planned, refused, problems = _parse_rows(manifest, rows, options.overwrite, paths)
     problems.update(miscounted)
-    for line, problem in _shared_out_problems(manifest, planned, paths).items():
+    every_row = sorted([*planned, *refused], key=operator.attrgetter("line"))
+    for line, problem in _shared_out_problems(manifest, every_row, paths).items():
         # every cell's problem at once (a trial fixed a missing file, then heard of its shared out); one per cell
         if "column out:" not in problems.get(line, ""):
             problems[line] = f"{problems[line]}\n{problem}" if line in problems else problem

@@ -158,11 +158,12 @@ def _exported_model(file: Path) -> bool:
 class _RegisteredChoice(click.Choice):
     """``click.Choice`` over the names ``names()`` returns (the adapter registry's, through
     :mod:`pcnet.pipeline.config`), read when click first needs them: the registry is the one
-    list, and a command that takes no adapter never imports the adapters (OpenCV)."""
+    list, and a command that takes no adapter never imports the adapters (OpenCV). Any case
+    (``VideoPose3D``, as its authors write it) reads as the registered name."""
 
     def __init__(self, names) -> None:  # no super().__init__(): ``choices`` is computed
         self._names = names
-        self.case_sensitive = True
+        self.case_sensitive = False
 
     @property
     def choices(self) -> tuple[str, ...]:

@@ -384,8 +384,13 @@ class RunConfig:
             ("heading", self.heading, HEADING_SOURCES, True),
             ("keypoints2d_format", self.keypoints2d_format, keypoint_formats(), True),
         ):
+            if isinstance(value, str) and value not in choices and value.lower() in choices:
+                # any case reads as the name (a yoga trial's manifest gave "VideoPose3D", as its authors write it)
+                value = value.lower()
+                setattr(self, name, value)
             if not (optional and value is None) and value not in choices:
-                problems.append(f"{field_name(source, name)}: expected one of {choices}, got {value!r}")
+                problems.append(f"{field_name(source, name)}: expected one of {', '.join(choices)}, got "
+                                f"{value!r}{close_names([value], choices)}")
         if (self.keypoints2d is None) != (self.keypoints2d_format is None):
             given = "keypoints2d" if self.keypoints2d is not None else "keypoints2d_format"
             missing = "keypoints2d_format" if given == "keypoints2d" else "keypoints2d"

@@ -193,6 +193,13 @@ def test_a_row_with_a_missing_file_and_a_shared_out_is_told_both(tmp_path):
     assert res.exit_code == 1 and "line 3: column lifter_output" in res.output, res.output
     assert "line 3: column out: expected a folder of its own, got 'same', which line 2 also writes" in res.output
     assert not (tmp_path / "same").exists()
+    # a row whose settings are refused still writes its out: the row after it sharing that out is
+    # told so at once (a yoga trial's missing file and rate hid the shared out until both were fixed)
+    manifest = _manifest(tmp_path, _row("same", lifter_output=tmp_path / "absent.npy").replace(",30,", ",,"),
+                         _row("same"), name="m2.csv")
+    res = _invoke(manifest)
+    assert res.exit_code == 1 and "line 2: column fps" in res.output, res.output
+    assert "line 3: column out: expected a folder of its own, got 'same', which line 2 also writes" in res.output
 
 
 def test_every_bad_cell_of_a_row_is_named_at_once(tmp_path):
@@ -945,6 +952,15 @@ def test_manifest_layout_mistakes_are_named_by_their_file_line(tmp_path):
     manifest.write_text(HEADER.replace("fps", "FPS") + f"\n{_row('a')}\n{_row('b')}\n")
     res = _invoke(manifest)
     assert res.output.count("Error: ") == 1 and "line 1: unknown columns ['FPS'] (FPS: fps?)" in res.output, res.output
+    manifest.write_text(HEADER.replace("fps", "frame_rate") + f"\n{_row('a')}\n")  # another name spelling misses
+    assert "unknown columns ['frame_rate'] (frame_rate: fps?)" in _invoke(manifest).output
+    # a choice in any case reads as the name (a yoga trial's "VideoPose3D", as its authors write it);
+    # a misspelt one lists the choices plainly with the close one
+    manifest.write_text(f"{HEADER}\n{_row('a').replace('motionbert', 'MotionBERT')}\n"
+                        f"{_row('b').replace('motionbert', 'MotionBRT')}\n")
+    res = _invoke(manifest)
+    assert res.output.count("Error: ") == 1 and "line 3: column lifter: expected one of motionbert, ddhpose" in \
+        res.output and "got 'MotionBRT' (MotionBRT: motionbert?)" in res.output, res.output
     manifest.write_text(f"{HEADER}\n{_row('a').rsplit(',', 3)[0]}\n")
     res = _invoke(manifest)
     assert f"{manifest}: line 2: expected 8 cells (the header's), got 5" in res.output, res.output

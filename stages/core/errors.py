@@ -45,14 +45,21 @@ def refuse(problems: list[str]) -> None:
         raise err
 
 
+#: Names users give to a run setting's field that spelling does not reach (a yoga trial's
+#: manifest column ``frame_rate`` got no hint).
+SAME_MEANING = {"frame_rate": "fps", "framerate": "fps", "rate": "fps", "sample_rate": "fps", "hz": "fps",
+                "output": "out", "output_dir": "out", "outdir": "out"}
+
+
 def close_names(unknown, known) -> str:
     """``" (heigth: height?)"`` for each unknown name with a close known one (difflib's
-    ratio >= 0.6, case and ``-``/``_`` ignored), ``""`` when none is close: the hint a
-    refused key, column or option gives."""
+    ratio >= 0.6, case and ``-``/``_`` ignored, or another name of it, :data:`SAME_MEANING`),
+    ``""`` when none is close: the hint a refused key, column or option gives."""
     known = list(known)
     hints = []
     for name in unknown:
-        match = difflib.get_close_matches(str(name).lower().replace("-", "_"), known, n=1)
+        plain = str(name).lower().replace("-", "_")
+        match = [SAME_MEANING[plain]] if SAME_MEANING.get(plain) in known else difflib.get_close_matches(plain, known, n=1)
         if match:
             hints.append(f" ({name}: {match[0]}?)")
     return "".join(hints)
