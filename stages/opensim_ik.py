@@ -94,8 +94,8 @@ def marker_rms_flag(result: dict) -> str | None:
         return None
     return (f"marker RMS {100 * rms:.1f} cm (max {100 * worst:.1f} cm): above the ~{100 * MAX_GOOD_MARKER_RMS_M:.0f} cm "
             f"OpenSim's best-practice checklist asks of inverse kinematics; the model does not follow these poses "
-            f"(most often the lifter's own error: bone lengths that change from frame to frame, a limb read in a "
-            f"pose no body takes; else a skeleton unlike a human body, a different person, or missing joints): check the "
+            f"(the lifter's own error: bone lengths that change from frame to frame, a limb read in a pose no body "
+            f"takes; or a skeleton unlike a human body, a different person, missing joints): check the "
             f"joint angles before using them")
 
 
