@@ -32,6 +32,20 @@ rotation=res.rotation)`` gives a frame or smooth mode run's angles; decision 010
     res = rectify(joints, mode="sequence", fps=30.0)  # 3DPCNet; method="geometric": the paper's baseline
     print(res.canonical.shape, res.valid.sum(), res.up[0])  # sequence: one up for a static camera
 
+Three things ``pcnet run`` does beyond :func:`rectify`, for a script that wants its numbers
+from arrays (a developer trial's chain differed from the command line's on both counts):
+:func:`rectify`'s ``mode`` defaults to ``frame`` (each frame alone, the paper), ``pcnet run``'s
+to ``sequence`` (one up for a static camera): pass ``mode="sequence", fps=...``. A lifter whose
+output is not metric (MotionBERT's normalised units, pixels) lifts in the image's scale, so its
+skeleton grows as the person nears the camera: ``pcnet run`` first gives every frame the
+recording's median body size, ``joints * pcnet.stages.scale.size_normalising_factors(joints,
+fps)[:, None, None]`` (root-relative joints; the rotations hardly change, positions and speeds
+do: a wrist's speed by up to 46 % of its mean on a real MotionBERT clip). The world frame, one
+fixed gravity-aligned frame for the recording, is
+``pcnet.stages.world_frame.to_world(joints - joints[:, :1], world_frame(res.rotation, res.valid,
+fps))``; ``canonical.npz``'s ``joints_world`` also has the floor under the body
+(``to_world_floor``) and, with 2D keypoints, the pelvis path.
+
 :func:`rectify` returns a result whatever the poses are: a wrong joint order, a mirrored
 skeleton or other axes still rectify. :func:`pose_checks` (:func:`pcnet.pipeline.checks.pose_checks`)
 gives the warnings ``pcnet run`` would print that the poses alone can give (the camera's

@@ -101,8 +101,8 @@ Allocate = Callable[[str, tuple, type], np.ndarray]
 class Rectified:
     """Output of :class:`Rectification` for ``T`` frames.
 
-    rotation ``(T, 3, 3)`` float64 canonical->camera; canonical ``(T, 17, 3)`` float32 (the
-    input's precision as every lifter writes it, half the memory of a long recording) canonical
+    rotation ``(T, 3, 3)`` float64 canonical->camera; canonical ``(T, 17, 3)`` float32 whatever
+    the input's dtype (the precision every lifter writes, half the memory of a long recording) canonical
     poses in the input's units, pelvis-centred before the network's residual (turned into this
     frame; about 0.5 cm a joint on upright bodies, over 10 cm on a prone one, and the pelvis moves
     with it; docs/outputs.md); up ``(T, 3)`` float64 unit up direction in the
