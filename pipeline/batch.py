@@ -8,7 +8,7 @@ stopped row leaves no half-written folder); a row that succeeded gets a resume m
 and the pcnet version are unchanged. The JSON summary (default ``MANIFEST.pcnet_batch.json``)
 records every row: its fields are in docs/cluster.md, "Results". The terminal gets one short
 line per row and per finding, then a short summary (:func:`format_summary`); the long form
-(every row, its error or warnings in full, restarts) goes to the Markdown report beside the
+(every row, its error in full, its warnings, restarts) goes to the Markdown report beside the
 JSON summary (:func:`report_path`, :func:`batch_markdown`).
 """
 
@@ -1203,8 +1203,9 @@ def batch_markdown(report: BatchReport) -> str:
     without ``height`` may not be in metres), tilt, posture, pelvis path, floor, the OpenSim
     fit's marker RMS, seconds,
     worker, threads, output folder); every failed row's error in full (and its traceback
-    where the failure is a bug of pcnet); every warning of every row in full, most severe
-    first, with its action; every row's notes (a trial found a file of another lifter named
+    where the failure is a bug of pcnet); every warning of every row, most severe
+    first, with its action and its full text once (where an earlier row's says the same with
+    other numbers, a pointer to that row's); every row's notes (a trial found a file of another lifter named
     only in one row's report.md); the restarts of rows whose worker died."""
     s = report.settings
     n = s.get("workers")
@@ -1241,12 +1242,21 @@ def batch_markdown(report: BatchReport) -> str:
         if r.get("traceback"):
             out += ["```", r["traceback"].rstrip(), "```", ""]
     warned = [r for r in report.rows if r.get("warnings")]
-    out += ["", "## Warnings", "", "Each row's in full (also in its report.md), most severe first." if warned else "None."]
+    out += ["", "## Warnings", "", "Each row's, most severe first, with its full text where an earlier row's does not "
+            "say the same (every row's in full in its report.md)." if warned else "None."]
+    said: dict[str, int] = {}  # a full text with its numbers masked -> the first line giving it
     for r in warned:
         out += ["", f"### line {r['line']} (row {r['row']}, {r['status']}): {r['out']}", ""]
         for i, f in enumerate(row_findings(report.findings.get(r["row"]), r["warnings"]), 1):  # as report.md's
             out += [f"#### {i}. {f.headline}", "", f"Severity: {f.severity.name.lower()}. Action: "
-                    f"{in_manifest_terms(f.action)}.", "", f.detail, ""]
+                    f"{in_manifest_terms(f.action)}.", ""]
+            # a study's rows repeat a warning's paragraph with other numbers (a yoga trial read 120 words a row)
+            masked = re.sub(r"\d+(?:\.\d+)?", "#", f.detail)
+            if masked in said:
+                out += [f"The text of line {said[masked]}'s, with this row's numbers.", ""]
+            else:
+                said[masked] = r["line"]
+                out += [f.detail, ""]
     noted = [r for r in report.rows if r.get("notes")]
     out += ["", "## Notes", "", "Each row's in full (also in its report.md): what it assumed and what to check."
             if noted else "None."]
