@@ -1334,10 +1334,12 @@ def _headingless_frames_note(report: RectificationReport, joints, valid: np.ndar
             f"recording's one rotation"]
 
 
-def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, rectified: Rectified) -> CheckInputs:
+def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, rectified: Rectified,
+                  estimated: bool) -> CheckInputs:
     """What :func:`pcnet.pipeline.checks.checks` reads of the steps so far: the scaled camera
     frame, with the lifter's own units (what the scale step moves in the checks:
-    :class:`pcnet.pipeline.checks.CheckInputs`)."""
+    :class:`pcnet.pipeline.checks.CheckInputs`); ``estimated``: the poses are the embedded
+    estimator's, run on the video alone (``cfg`` then names its saved file as the 2D keypoints)."""
     recording = inputs.recording
     return CheckInputs(
         joints_camera=camera.joints, units=recording.units, keypoints2d=camera.keypoints2d,
@@ -1345,7 +1347,7 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         lifter_turn_deg=recording.lifter_turn_deg, track_segment=rectified.track_segment,
         track_events=rectified.track_events, height_given=cfg.height is not None,
         person_option=cfg.keypoints2d_format in multi_track_formats(),
-        own_estimator=cfg.keypoints2d is None and camera.keypoints2d is not None,
+        own_estimator=estimated,
         focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture,
         picture_typed=_picture_typed(cfg), units_declared=cfg.lifter == "generic")
 
@@ -1599,7 +1601,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         track = _track(scaled.camera.keypoints2d, inputs.recording.fps)
         keypoint_path = _keypoint_path(cfg, inputs, scaled, track[0])
         rectified = _rectify(cfg, inputs, scaled.camera, store, track, keypoint_path)
-        findings = checks(_check_inputs(cfg, inputs, scaled.camera, rectified))
+        findings = checks(_check_inputs(cfg, inputs, scaled.camera, rectified, estimated=bool(estimate_notes)))
         bar.update()
 
         step("kinematics")

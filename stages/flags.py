@@ -932,8 +932,8 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
         person_option: the 2D format has several tracks to choose from (``--person``);
             otherwise the advice is to re-run the tracker or leave those frames out.
         own_estimator: the 2D keypoints are pcnet's own estimator's (``--video`` alone), which
-            follows one person with no track to choose or tracker to re-run: the advice is to
-            crop the video to the person or leave those frames out.
+            follows one person with no track to choose or tracker to re-run: the advice is
+            ``--roi`` around the person, or to leave those frames out.
     """
     if not events:
         return []
@@ -945,9 +945,9 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
     if person_option:
         action = advice = "check --person"
     elif own_estimator:
-        action = f"crop the video to one person, or drop track_segment != {main}"
-        advice = ("pcnet's pose estimator follows whoever it finds: crop the video to the person, or leave those "
-                  "frames out")
+        action = f"--roi X,Y,W,H around the person, or drop track_segment != {main}"
+        advice = ("pcnet's pose estimator follows whoever it finds: run again with --roi X,Y,W,H, the region of the "
+                  "video (pixels, as displayed) the person stays in (docs/video.md), or leave those frames out")
     else:
         action = f"track one person, or drop track_segment != {main}"
         advice = "this 2D format has one track: re-run the tracker on one person, or leave those frames out"

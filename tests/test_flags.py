@@ -130,8 +130,8 @@ def test_a_track_that_jumps_to_another_place_is_split():
     assert "re-run the tracker" in track_switch_flag(segment, events, person_option=False)[0].detail
     # pcnet's own estimator (--video alone) has no track to choose and no tracker to re-run (a user trial)
     (own,) = track_switch_flag(segment, events, person_option=False, own_estimator=True)
-    assert own.action == "crop the video to one person, or drop track_segment != 0"
-    assert "crop the video to the person" in own.detail and "tracker" not in own.detail
+    assert own.action == "--roi X,Y,W,H around the person, or drop track_segment != 0"
+    assert "run again with --roi X,Y,W,H" in own.detail and "tracker" not in own.detail
 
 
 def test_pelvis_jumps_measure_torso_lengths_over_gaps_at_30_fps():

@@ -172,3 +172,17 @@ def test_calibrated_videos_agree_with_the_stored_files_and_the_lab(tmp_path, vid
         apart.append(degrees(*ups))
         assert degrees(ups[0], truth) <= degrees(ups[1], truth) + 0.5, (cam, ups, truth)
     assert sum(a <= 1.0 for a in apart) >= 3 and max(apart) < 2.0, apart
+
+
+@pytest.mark.slow
+def test_a_video_whose_estimator_follows_another_person_points_to_roi(tmp_path, video_extra):
+    """The real Sports2D video alone: the embedded estimator follows the man on the box, then
+    the walker. The track-switch warning asks for ``--roi`` around the person (a clinician's
+    trial was told to re-run a tracker the run does not have: the run read the estimator's saved
+    file as any 2D format's)."""
+    video = shared("real", "sports2d_demo", "demo.mp4")  # skips without ../shared/data
+    res = _invoke("run", "--video", video, "--out", tmp_path / "o", "--no-recording")
+    assert res.exit_code == 0, res.output
+    (line,) = [ln for ln in res.output.splitlines() if "switches person" in ln]
+    assert "-> --roi X,Y,W,H around the person, or drop track_segment != " in line, line
+    assert "tracker" not in (tmp_path / "o" / "report.md").read_text()
