@@ -213,10 +213,13 @@ class RunResult:
         cv = heading.hip_width_cv_percent
         if not np.isfinite(cv):
             return "hip width variation needs two frames with hips"
-        # what auto decided by: a user comparing cameras saw "hips" in one and "predicted" in another
-        limit = (f", auto's limit for the hips {AUTO_MAX_HIP_WIDTH_CV_PERCENT:.1f} % over {AUTO_MIN_FRAMES}+ frames"
-                 if heading.requested == "auto" else "")
-        return f"hip width varies {cv:.1f} %{limit}"
+        if heading.requested != "auto":
+            return f"hip width varies {cv:.1f} %"
+        # what auto decided by (a user comparing cameras saw "hips" in one and "predicted" in
+        # another), in as many decimals as tell the two apart (an IMU trial read "1.2 %, limit 1.2 %")
+        places = next((d for d in range(1, 4) if round(cv, d) != round(AUTO_MAX_HIP_WIDTH_CV_PERCENT, d)), 4)
+        return (f"hip width varies {cv:.{places}f} %, auto's limit for the hips {AUTO_MAX_HIP_WIDTH_CV_PERCENT:.{places}f} "
+                f"% over {AUTO_MIN_FRAMES}+ frames")
 
     def _frame_bound(self, long: bool = True) -> list[tuple[str, str]]:
         rect = self.report.rectification

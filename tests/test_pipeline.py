@@ -1151,6 +1151,14 @@ def test_the_heading_line_gives_the_limit_auto_decided_by():
     line = next(ln for ln in result.summary().splitlines() if ln.startswith("heading"))
     assert line.endswith(f"from predicted (requested auto; hip width varies 3.0 %, auto's limit for the hips "
                          f"{AUTO_MAX_HIP_WIDTH_CV_PERCENT:.1f} % over {AUTO_MIN_FRAMES}+ frames)")
+    # a variation that rounds to the limit gets the decimals that tell them apart (an IMU trial read
+    # "hip width varies 1.2 %, auto's limit for the hips 1.2 %" and the heading from predicted)
+    report = run_report()
+    rect = dataclasses.replace(report.rectification, heading=dataclasses.replace(
+        report.rectification.heading, hip_width_cv_percent=1.18))
+    close = dataclasses.replace(result, report=dataclasses.replace(report, rectification=rect))
+    line = next(ln for ln in close.summary().splitlines() if ln.startswith("heading"))
+    assert "hip width varies 1.18 %, auto's limit for the hips 1.20 % over" in line, line
 
 
 @pytest.mark.slow
