@@ -296,7 +296,8 @@ def kinematics_columns(
         for c in "xyz":
             cols.append((f"{j}_a{c}_{a}", f"{units}/s^2", frame, f"Acceleration of the {joint} along "
                          f"{_AXES[frame][c]}, the second central difference of the filtered positions (empty where "
-                         f"the velocity is)" + note(c)))
+                         f"the velocity is); kinematic, without gravity (an accelerometer reads it plus 9.81 m/s^2 "
+                         f"up)" + note(c)))
         speed_note = why if gone else ("; it includes the rotating frame's terms (the canonical frame turns with "
                                        "the pelvis)" if frame == "canonical" else "")
         cols.append((f"{j}_speed_{v}", f"{units}/s", frame, f"Speed of the {joint}, the norm of its velocity (empty "
