@@ -392,7 +392,10 @@ def ground_plane_up(J, ok: np.ndarray, u0: np.ndarray, prior_cov: np.ndarray,
     if not len(contacts.points):
         info["reason"] = NO_CONTACTS
     elif not fit.informative:
-        info["reason"] = "the contacts constrain no floor tilt"
+        # a subject standing in place: its feet give the floor's height, not its tilt (an IMU
+        # trial read "constrain no floor tilt" beside a fitted floor plane)
+        info["reason"] = ("one footfall: feet that stay in one place give the floor's height, not its tilt"
+                          if info["n_footfalls"] == 1 else "the contacts constrain no floor tilt")
     else:
         info["reason"] = "ok"
     return FloorOutcome(fit.up, fit, contacts, info, leg)
