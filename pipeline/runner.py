@@ -585,8 +585,10 @@ def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame) -> str:
     if not error.startswith(NO_VALID_FRAME):
         return ""
     hint = ""
-    if cfg.lifter == "generic" and "layout" not in cfg.lifter_options:
-        hint += " (read with the default --layout h36m17: is the file in another joint layout?)"
+    if cfg.lifter == "generic":  # a declared layout can be the wrong one too (a trial's COCO file declared h36m17)
+        layout = cfg.lifter_options.get("layout")
+        hint += (f" (read with {'the default --layout h36m17' if layout is None else f'--layout {layout}'}: is the "
+                 f"file in another joint layout?)")
     if camera.outside and camera.picture is not None:
         w, h = camera.picture
         typed = " or width and height swapped in --image-size" if _picture_typed(cfg) else ""

@@ -214,9 +214,10 @@ def orientation_flags(tilt_deg: float, pitch_deg: float | None = None, roll_deg:
     if abs(quarter) == 2 or (quarter == 0 and tilt_deg > UPSIDE_DOWN_TILT_DEG):
         return [_found(Kind.UPSIDE_DOWN, Severity.PROBLEM,
                        f"up points {tilt_deg:.0f} deg from image-up: input upside down or its axes wrong",
-                       "check the lifter's axes (--axes with --lifter generic)",
-                       f"up points {tilt_deg:.0f} deg away from image-up: the input is probably upside down or its "
-                       f"axes are wrong (check the lifter's axis convention; --axes with --lifter generic)")]
+                       "check the lifter's axes and joint order (--axes, --layout with --lifter generic)",
+                       f"up points {tilt_deg:.0f} deg away from image-up: the input is probably upside down, its "
+                       f"axes are wrong or its joints in another order (check the lifter's axis convention and joint "
+                       f"layout; --axes and --layout with --lifter generic)")]
     if not oriented:
         return []
     roll_beyond = roll_deg - 90.0 * quarter

@@ -89,6 +89,8 @@ def test_a_portrait_camera_is_not_called_upside_down(degrees):
 
 def test_orientation_flags_judge_the_tilt_beyond_the_nearest_image_axis():
     assert "upside down" in orientation_flags(179.0, 0.0, 179.0)[0].detail
+    # a joint order read as another is as likely as axes (a custom-lifter trial's H36M file read as COCO)
+    assert "--layout" in orientation_flags(179.0, 0.0, 179.0)[0].action
     assert "upside down" in orientation_flags(100.0)[0].detail  # the tilt alone: beyond 90 deg from image-up
     assert "camera tilt 50 deg beyond a quarter turn" in orientation_flags(90.0, 50.0, 90.0)[0].detail
     assert "camera tilt 50 deg (" in orientation_flags(50.0, 50.0, 0.0)[0].detail

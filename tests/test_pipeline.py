@@ -1080,6 +1080,9 @@ def test_a_coco_layout_3d_file_is_noted_and_its_misreading_names_layout(tmp_path
     res = _invoke(*args, "--out", tmp_path / "d")
     assert res.exit_code == 1 and "is the file in another joint layout?" in res.output, res.output
     assert not (tmp_path / "d").exists()
+    # the layout declared, and wrong, gets the same question (a trial's COCO file declared h36m17)
+    res = _invoke(*args, "--layout", "h36m17", "--out", tmp_path / "e")
+    assert res.exit_code == 1 and "(read with --layout h36m17: is the file in another joint layout?)" in res.output
 
 
 def test_version_and_rectifys_requested_mode(tmp_path):
