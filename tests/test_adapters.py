@@ -927,6 +927,20 @@ def test_generic_npz_key_and_axis_permutation(tmp_path):
     assert load_generic(YOGA["Tadasana"], units="px").units == "px"
 
 
+def test_a_generic_files_pelvis_path_is_noted_where_the_run_drops_it(tmp_path):
+    """Real root-relative poses put 3.5 m in front of the camera (a lifter that estimates the
+    trajectory): read without measured_root, the path is dropped, and the note says how to keep
+    it (a custom-lifter trial lost it without a word); root-relative and measured files get none."""
+    base = np.load(YOGA["Tadasana"])
+    path = tmp_path / "trajectory.npy"
+    np.save(path, base + np.array([0.0, 0.9, 3.5], np.float32))
+    note = load_generic(path).summary_note
+    assert note.startswith(f"{path}: pelvis 3.61 m from the camera: give --measured-root to keep its path"), note
+    assert load_generic(path, measured_root=True).summary_note == ""
+    assert load_generic(YOGA["Tadasana"]).summary_note == ""
+    assert load_generic(path, units="normalised").summary_note == ""  # no metric path to keep
+
+
 def test_axes_to_camera_spec():
     np.testing.assert_array_equal(axes_to_camera("RDF"), np.eye(3))
     assert np.linalg.det(axes_to_camera("RUB")) == 1.0
