@@ -384,8 +384,8 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
     if first is not None:
         t, j, value = first
         name = H36M_JOINTS[j] if joint_names is None else joint_names[j]
-        unit_hint = ("; millimetres or centimetres given as metres? scale the file to metres (pcnet run: or "
-                     "--lifter generic with --units mm or cm)" if units == "m" else "")
+        unit_hint = ("; millimetres or centimetres given as metres? scale the file to metres, or read it with "
+                     "pcnet run --lifter generic --units mm (or cm)" if units == "m" else "")
         raise InputError(f"{source}: frame {t}, joint {name}: expected |coordinate| <= {bound:g} "
                          f"{units or '(any unit)'}, got {value:.4g} ({count} joint value{'s' if count != 1 else ''} "
                          f"beyond it{unit_hint})")
