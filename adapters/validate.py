@@ -159,12 +159,28 @@ def _binary_kind(p: Path) -> str:
     """What a file that is not JSON is, from its first bytes, for a user who named the wrong
     format (a user trial gave a MediaPipe archive as AlphaPose's JSON); ``""`` for text."""
     with open(p, "rb") as fh:
-        head = fh.read(6)
+        head = fh.read(16)
     if head.startswith(b"PK\x03\x04"):
         return "a zip archive such as numpy's .npz (MediaPipe's archive is read by the mediapipe format)"
-    if head == b"\x93NUMPY":
+    if head.startswith(b"\x93NUMPY"):
         return "a numpy .npy array"
-    return ""
+    return _video_kind(head)
+
+
+def _video_kind(head: bytes) -> str:
+    """``"a video (...): give it as --video"`` when the first bytes ``head`` (16 or more) are a
+    video container's signature (ISO base media ``ftyp`` box: MP4 / MOV, ISO/IEC 14496-12;
+    RIFF ``AVI ``; EBML: Matroska / WebM), else ``""``: a coach gave the video as the lifter
+    output and read a message about its bytes."""
+    if head[4:8] == b"ftyp":
+        kind = "MP4 / MOV"
+    elif head[:4] == b"RIFF" and head[8:12] == b"AVI ":
+        kind = "AVI"
+    elif head[:4] == b"\x1aE\xdf\xa3":
+        kind = "Matroska / WebM"
+    else:
+        return ""
+    return f"a video ({kind}): give it as --video"
 
 
 #: Characters read at a time by :func:`iter_json_array`.
@@ -517,8 +533,8 @@ def open_numpy(path: str | Path) -> np.ndarray | NumpyArchive:
     p = require_file(path, "a .npy or .npz file")
     try:
         with p.open("rb") as fp:
-            head = fp.read(len(_NPY_MAGIC))
-            if head == _NPY_MAGIC:
+            head = fp.read(16)
+            if head.startswith(_NPY_MAGIC):
                 fp.seek(0)
                 return _read_npy(p, "content", fp, p.stat().st_size)
     except OSError as exc:
@@ -531,7 +547,10 @@ def open_numpy(path: str | Path) -> np.ndarray | NumpyArchive:
         except _PARSE_ERRORS as exc:
             raise AdapterError(p, "content", "a numpy .npz archive",
                                _short(f"a damaged zip ({type(exc).__name__}: {exc})", 160)) from exc
-    got = "an empty file" if not head else f"a file that is not numpy (it starts with {head!r})"
+    text = head.lstrip(b"\xef\xbb\xbf \t\r\n")
+    got = ("an empty file" if not head else _video_kind(head) or
+           ("a JSON file: 2D keypoints go to --keypoints2d with their --keypoints2d-format"
+            if text[:1] in (b"[", b"{") else f"a file that is not numpy (it starts with {head[:6]!r})"))
     raise AdapterError(p, "content", "a numpy .npy/.npz file", got)
 
 

@@ -1015,6 +1015,21 @@ def test_a_numpy_file_given_as_json_is_named_as_numpy(loader):
         loader(FIX / "boxing_X3D_f000-059.npy")
 
 
+def test_a_video_or_2d_json_given_as_a_lifter_output_is_named_as_such():
+    """A coach's trial gave the video, then AlphaPose's JSON, as the lifter output and read a
+    message about the file's first bytes: the message says what the file is and where it goes."""
+    from pcnet.adapters.validate import load_array_file
+
+    with pytest.raises(AdapterError, match=r"expected a numpy \.npy/\.npz file, got a video \(MP4 / MOV\): give it "
+                                           r"as --video$"):
+        load_array_file(CLIP)
+    with pytest.raises(AdapterError, match=r"got a JSON file: 2D keypoints go to --keypoints2d with their "
+                                           r"--keypoints2d-format$"):
+        load_array_file(FIX / "boxing_alphapose_f000-059.json")
+    with pytest.raises(AdapterError, match=r"expected valid JSON, got a video \(MP4 / MOV\): give it as --video$"):
+        load_alphapose(CLIP)
+
+
 def test_wrong_joint_counts(tmp_path):
     entries = raw_entries(BOXING_AP)[:3]
     for n_values, match in ((40, "multiple of 3"), (60, "20 joints")):
