@@ -14,6 +14,7 @@ import gc
 import importlib.metadata
 import inspect
 import os
+import shlex
 import sys
 import threading
 import time
@@ -186,7 +187,8 @@ class RunResult:
         width = max([17, *(len(name) for name in self.outputs)])
         lines += [f"{name:<{width}} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
         if "recording" in self.outputs:
-            lines.append(f"open the recording with:  rerun {self.outputs['recording']}")
+            # quoted as a shell needs it (a coach's path with a space did not paste)
+            lines.append(f"open the recording with:  rerun {shlex.quote(str(self.outputs['recording']))}")
         if REPORT_NAME in self.outputs:
             lines.append(f"details: {self.outputs[REPORT_NAME]}")
         return "\n".join(lines)

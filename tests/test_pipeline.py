@@ -1143,6 +1143,20 @@ def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line(
         in line("sequence", "auto", 1.2)
 
 
+def test_the_recording_command_pastes_into_a_shell():
+    """A coach's output folder "Séance 1" printed ``rerun /x/Séance 1/recording.rrd``, which a
+    shell splits in two: the path is quoted where it needs it."""
+    from pcnet.pipeline.runner import RunResult
+
+    def line(path: str) -> str:
+        result = RunResult(frames=1, valid_frames=1, units="m", method="pcnet", report=run_report(), fps=30.0,
+                           fps_source="--fps", outputs={"recording": Path(path)})
+        return next(ln for ln in result.summary().splitlines() if ln.startswith("open the recording"))
+
+    assert line("/x/Séance 1/recording.rrd") == "open the recording with:  rerun '/x/Séance 1/recording.rrd'"
+    assert line("/x/out/recording.rrd") == "open the recording with:  rerun /x/out/recording.rrd"
+
+
 def test_the_heading_line_gives_the_limit_auto_decided_by():
     """A user comparing cameras saw "from hips" in one and "from predicted" in another with no
     way to tell why: under --heading auto the line gives the hip-width limit and the frames."""
