@@ -431,7 +431,7 @@ def _run_and_report(cfg) -> None:
 @click.option("--roi", default=None,
               help="X,Y,W,H in pixels of the video as displayed, with --video alone: the embedded estimator follows "
                    "the person inside this region, not another one in view.")
-@click.option("--out", type=click.Path(file_okay=False), default=None, help="Output folder [pcnet_out].")
+@click.option("--out", type=click.Path(), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 # on / off pairs, so that the command line overrides a --config file either way (a trial could not
 # turn a file's `recording = false` back on)
@@ -489,7 +489,7 @@ def docs(page):
 
 
 @main.command()
-@click.option("--out", type=click.Path(file_okay=False), default="pcnet_demo", show_default=True)
+@click.option("--out", type=click.Path(), default="pcnet_demo", show_default=True)
 @click.option("--method", type=click.Choice(METHODS), default="pcnet", show_default=True, help=_METHOD_HELP)
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out folder written by pcnet.")
 def demo(out, method, overwrite):

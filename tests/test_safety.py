@@ -495,6 +495,12 @@ def test_an_output_under_a_file_names_that_file(user_folder):
     assert f"run1: cannot create the output folder there ({user_folder / 'notes.txt'} is a file, not a folder)" \
         in res.output
     assert (user_folder / "notes.txt").read_text() == "mine"
+    # the file itself as --out: pcnet's line with the way out, not click's "Directory 'notes.txt' is a file." (a
+    # coach's trial), with or without --overwrite, for run and demo; the file is left as it was
+    for args in (RUN, (*RUN, "--overwrite"), ("demo", "--method", "geometric")):
+        _one_line_error(_invoke(*args, "--out", "notes.txt"),
+                        "--out notes.txt: expected a folder for pcnet's outputs, got an existing file; choose another --out")
+    assert (user_folder / "notes.txt").read_text() == "mine"
 
 
 @pytest.mark.slow
