@@ -6,6 +6,7 @@ import ast
 import dataclasses
 import json
 import os
+import re
 import shutil
 import signal
 import sys
@@ -170,6 +171,32 @@ class _RegisteredChoice(click.Choice):
         return tuple(self._names())
 
 
+class _Number(click.ParamType):
+    """A float option whose refusal shows the value a user meant: a decimal comma (``1,75``,
+    usual in much of Europe) or a unit typed after the number (``30fps``, ``1.75m``) are named
+    with the number to give (a coach's trial read click's "'1,75' is not a valid float")."""
+
+    name = "float"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float):
+            return value
+        text = str(value).strip()
+        try:
+            return float(text)
+        except ValueError:
+            pass
+        hint = ""
+        if re.fullmatch(r"[+-]?\d+,\d+", text):
+            hint = f" (a decimal comma? give {text.replace(',', '.')})"
+        elif m := re.fullmatch(r"([+-]?\d+(?:[.,]\d+)?)\s*[A-Za-z/%]+", text):
+            hint = f" (a unit after the number? give {m.group(1).replace(',', '.')}, in the option's own unit)"
+        self.fail(f"expected a number, got {text!r}{hint}", param, ctx)
+
+
+_NUMBER = _Number()
+
+
 class _PersonOption(click.Option):
     """``--person``, whose help names the registered multi-track 2D formats' track ids."""
 
@@ -269,7 +296,7 @@ def evaluate(method, data, split, split_scheme, unseen_by, untrained_only, views
 @click.option("--key", default=None, help="Array name inside an .npz input.")
 @click.option("--mode", type=click.Choice(["frame", "sequence", "smooth", "auto"]), default="frame", show_default=True,
               help="frame: each frame alone (paper); sequence: one up for a static camera; smooth: moving camera.")
-@click.option("--fps", type=float, default=None,
+@click.option("--fps", type=_NUMBER, default=None,
               help="Frame rate (Hz): needed by the modes that pool frames over seconds (sequence, smooth, auto); "
                    "frame mode reads it only for the pcnet ensemble's 2 s view-gate window (30 when not given).")
 @_heading_option
@@ -399,14 +426,14 @@ def _run_and_report(cfg) -> None:
 @_heading_option
 @_camera_prior_option
 @_posture_option
-@click.option("--height", type=float, default=None, help="Subject height in metres: every lifter's output is scaled to it (normalised output gets metres; metric output is rescaled to this subject), by one factor from the median ankle-to-head chain, taken as H36M's share of stature (an individual's differs by several per cent).")
-@click.option("--fps", type=float, default=None,
+@click.option("--height", type=_NUMBER, default=None, help="Subject height in metres: every lifter's output is scaled to it (normalised output gets metres; metric output is rescaled to this subject), by one factor from the median ankle-to-head chain, taken as H36M's share of stature (an individual's differs by several per cent).")
+@click.option("--fps", type=_NUMBER, default=None,
               help="Frame rate when neither the video nor the input files give it.")
 @click.option("--fps-override", is_flag=True, default=None,
               help="Use --fps even though it differs from the video's own rate.")
 @click.option("--person", cls=_PersonOption, type=int, default=None)
-@click.option("--confidence-threshold", type=float, default=None, help="2D confidence below which 3D joints become NaN [0.3].")
-@click.option("--cutoff-hz", type=float, default=None, help="Butterworth low-pass cutoff [6 Hz].")
+@click.option("--confidence-threshold", type=_NUMBER, default=None, help="2D confidence below which 3D joints become NaN [0.3].")
+@click.option("--cutoff-hz", type=_NUMBER, default=None, help="Butterworth low-pass cutoff [6 Hz].")
 @click.option("--residual-cutoff", is_flag=True, default=None,
               help="Choose the cutoff by Winter's residual analysis of the recording instead of --cutoff-hz.")
 @click.option("--align", type=click.Choice(ALIGN), default=None, help="How to match differing frame counts [none = error; an AlphaPose file that "
@@ -421,7 +448,7 @@ def _run_and_report(cfg) -> None:
 @click.option("--measured-root", is_flag=True, default=None,
               help="generic lifter: the file's pelvis positions are a measured camera-frame path (metric units): "
                    "keep it and one floor for the recording.")
-@click.option("--focal-px", type=float, default=None,
+@click.option("--focal-px", type=_NUMBER, default=None,
               help="The camera's focal length in pixels: places the pelvis path from the 2D keypoints and turns "
                    "MediaPipe landmarks into the camera [a MediaPipe file's K, else a phone's 26 mm equivalent]. "
                    "From a 35 mm equivalent f35 on a WxH video: f35 * sqrt(W^2 + H^2) / 43.27 (docs/video.md).")
@@ -442,7 +469,7 @@ def _run_and_report(cfg) -> None:
 @click.option("--opensim/--no-opensim", default=None,
               help="Also scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`), "
                    "published with the run's output [off].")
-@click.option("--mass", type=float, default=None, help="With --opensim: subject mass in kg.")
+@click.option("--mass", type=_NUMBER, default=None, help="With --opensim: subject mass in kg.")
 def run(config_path, pixel, hypothesis, layout, axes, units, key, delimiter, measured_root, mass, **options):
     """Run the pipeline on one recording: a video alone (the embedded MediaPipe estimator), or
     2D keypoints + a lifter's 3D output -> canonical poses, kinematics in the recording's world
@@ -559,10 +586,10 @@ def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, 
 
 @main.command()
 @click.argument("out_dir", type=click.Path(file_okay=False))
-@click.option("--height", type=float, default=None,
+@click.option("--height", type=_NUMBER, default=None,
               help="Subject height in metres, recorded in opensim_fit.json; default the run's `--height`, which scaled "
                    "the markers (another value, or one where the run had none, is refused).")
-@click.option("--mass", type=float, default=None, help="Subject mass in kg (sets the scaled model's total mass).")
+@click.option("--mass", type=_NUMBER, default=None, help="Subject mass in kg (sets the scaled model's total mass).")
 @click.option("--overwrite", is_flag=True, help="Replace earlier OpenSim outputs of pcnet in OUT_DIR.")
 def opensim(out_dir, height, mass, overwrite):
     """Scale an OpenSim model to the subject and solve inverse kinematics on OUT_DIR/world.trc

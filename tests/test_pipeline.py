@@ -1397,6 +1397,21 @@ def test_a_height_in_centimetres_is_named_as_such():
         RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0, height=5.6).validate()
 
 
+@pytest.mark.parametrize("option, typed, needle", [
+    ("--height", "1,75", "got '1,75' (a decimal comma? give 1.75)"),
+    ("--fps", "30fps", "got '30fps' (a unit after the number? give 30, in the option's own unit)"),
+    ("--height", "abc", "got 'abc' (see"),
+])
+def test_a_number_typed_as_a_person_writes_it_is_named(tmp_path, option, typed, needle):
+    """A coach typed --height 1,75 and --fps 30fps and read click's "is not a valid float": the
+    refusal names the number to give."""
+    args = {"--fps": "30", "--height": "1.75", option: typed}
+    res = _invoke("run", "--lifter", "videopose3d", "--lifter-output", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy",
+                  *[x for kv in args.items() for x in kv], "--out", tmp_path / "o")
+    assert res.exit_code == 1 and f"Invalid value for '{option}': expected a number, {needle}" in res.output, res.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(tmp_path):
     """The library's validation refuses it as `pcnet batch` does, naming the field (the run had
     refused it only after loading its inputs; a library caller's config passed validation)."""
