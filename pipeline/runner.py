@@ -63,7 +63,8 @@ from pcnet.stages.plausibility import implausible_frames, implausible_motion, mo
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
-from .config import RunConfig, fps_contradiction, multi_track_formats, pcnet_version, rates_agree, settings_record
+from .config import (RunConfig, fps_contradiction, keypoint_formats, multi_track_formats, pcnet_version, rates_agree,
+                     settings_record)
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -450,7 +451,10 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
         except AdapterError as err:
             # With --align truncate a 2D file may run past the video: read it whole, _align cuts it.
             if not (cfg.align == "truncate" and "frame_count" in options and "frame_count=" in err.expected):
-                raise
+                hint = _other_2d_format(cfg.keypoints2d, cfg.keypoints2d_format)
+                if not hint:
+                    raise
+                raise InputError(f"{err}{hint}") from err
             del options["frame_count"]
             kp = _read_with(adapter, cfg.keypoints2d, Keypoints2D, **options)
         _refuse_another_archives_keypoints(cfg, kp.points)
@@ -478,6 +482,21 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
                            [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n],
                            poses.frame_turn_deg, poses.nonfinite, poses.camera_matrix,
                            _inputs_read(cfg, poses.layout, poses.units, kp_layout, video))
+
+
+def _other_2d_format(path, tried: str) -> str:
+    """``"; it reads as alphapose: --keypoints2d-format alphapose"`` where a 2D file refused by
+    the format ``tried`` reads as another registered one (a coach's trial gave AlphaPose's JSON
+    as MMPose's and read MMPose's expected keys), else ``""``. Only on that error path."""
+    for name in keypoint_formats():
+        if name == tried:
+            continue
+        try:
+            get_2d_adapter(name).load(path)
+        except Exception:  # noqa: BLE001 - any format that cannot read the file is simply not it
+            continue
+        return f"; it reads as {name}: --keypoints2d-format {name}"
+    return ""
 
 
 def _refuse_another_archives_keypoints(cfg: RunConfig, points: np.ndarray) -> None:

@@ -1397,6 +1397,17 @@ def test_a_height_in_centimetres_is_named_as_such():
         RunConfig(lifter="generic", lifter_output="g.npy", fps=30.0, height=5.6).validate()
 
 
+@pytest.mark.parametrize("given", ["mmpose", "openpose"])
+def test_a_2d_file_read_as_another_format_names_the_format_it_reads_as(tmp_path, given):
+    """A coach's trial gave AlphaPose's real JSON as MMPose's and read MMPose's expected keys with
+    no way out: the refusal adds the registered format that reads the file."""
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", BOX_3D, "--keypoints2d", BOX_2D,
+                  "--keypoints2d-format", given, "--fps", "30", "--out", tmp_path / "o")
+    assert res.exit_code == 1 and res.output.count("Error: ") == 1, res.output
+    assert res.output.rstrip().endswith("; it reads as alphapose: --keypoints2d-format alphapose"), res.output
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize("option, typed, needle", [
     ("--height", "1,75", "got '1,75' (a decimal comma? give 1.75)"),
     ("--fps", "30fps", "got '30fps' (a unit after the number? give 30, in the option's own unit)"),
