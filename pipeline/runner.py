@@ -187,6 +187,8 @@ class RunResult:
         # the outputs' paths in one column, past the longest name (kinematics_columns.csv)
         width = max([17, *(len(name) for name in self.outputs)])
         lines += [f"{name:<{width}} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
+        if "kinematics.csv" in self.outputs:  # a coach's trial looked for the angles among 246 columns
+            lines.append("joint angles: kinematics.csv's *_deg columns (each defined in kinematics_columns.csv)")
         if "recording" in self.outputs:
             # quoted as a shell needs it (a coach's path with a space did not paste)
             lines.append(f"open the recording with:  rerun {shlex.quote(str(self.outputs['recording']))}")
