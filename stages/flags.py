@@ -904,7 +904,9 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str =
                    f"deg uncertainty",
                    # with the focal length given there is nothing left to give (a coach's trial read
                    # "check the result" as a task with no content)
-                   "take the tilt as uncertain by up to the turn" if focal_known else "give --focal-px (docs/video.md)",
+                   "take the tilt as uncertain by up to the turn" if focal_known
+                   # a coach knew no focal length in pixels: the page turns a phone's 35 mm equivalent into one
+                   else "give --focal-px (docs/video.md: from the phone's 35 mm equivalent)",
                    f"the lifter's output was turned by a median {turn_deg:.1f} deg into the real camera "
                    f"({'with its known focal length; ' * focal_known}MediaPipe's landmarks taken as seen from a "
                    f"virtual camera aimed at the person, an assumption the file cannot confirm), more than the tilt's "

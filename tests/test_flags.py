@@ -351,7 +351,7 @@ def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
     assert lifter_frame_flag(0.0, 1.0) == [] and lifter_frame_flag(15.0, float("nan")) == []
     # with the focal length known (--focal-px or the file's K) it no longer asks for it
     # where to find the focal length of a web clip's unknown camera (a user trial found no hint)
-    assert lifter_frame_flag(15.5, 7.4)[0].action == "give --focal-px (docs/video.md)"
+    assert lifter_frame_flag(15.5, 7.4)[0].action == "give --focal-px (docs/video.md: from the phone's 35 mm equivalent)"
     (known,) = lifter_frame_flag(15.5, 7.4, focal_known=True)
     assert known.action == "take the tilt as uncertain by up to the turn" and "--focal-px" not in known.detail
 
