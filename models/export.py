@@ -91,8 +91,8 @@ def export_checkpoint(checkpoint: str | Path, path: str | Path, replace: bool = 
 
 
 #: Fields of a run's ``config.json`` copied beside exported weights (what they trained on).
-TRAINING_FIELDS = ("data", "data_repeats", "train_whole", "split_scheme", "noise", "noise_model", "noise_fraction",
-                   "views", "frame_stride", "epochs", "augment", "seed", "whole_clips")
+TRAINING_FIELDS = ("data", "data_sha256", "data_repeats", "train_whole", "split_scheme", "noise", "noise_model",
+                   "noise_fraction", "views", "frame_stride", "epochs", "augment", "seed", "whole_clips")
 
 
 #: Fine-tuning runs followed back through their ``init_checkpoint`` at most (a longer chain is cut).

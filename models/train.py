@@ -21,6 +21,7 @@ from tqdm import tqdm
 from pcnet.stages.core.atomic import make_parents, remove_created, write_text
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.canonical import trunk_lean_deg
+from pcnet.stages.core.digest import sha256_file
 from pcnet.stages.core.metrics import rotation_error_deg, summarize, tilt_error_deg
 
 from .checkpoint import (check_run_folder, config_from_dict, load_checkpoint_dict, load_state, not_a_checkpoint,
@@ -276,6 +277,9 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
     check_run_folder(out)
     repeats = cfg.data_repeats or [1] * len(cfg.data)
     loaded = [load_mocap(path) for path in cfg.data]
+    # What the files held, so that a resume over other data is refused and an evaluation can
+    # tell a training file from another of its name (an ML trial's decoy read "trained on 12 of 14").
+    data_sha256 = [sha256_file(path) for path in cfg.data]
     for path, clips in zip(cfg.data, loaded):
         if warning := world_up_warning(clips, path):
             tqdm.write(f"WARNING {warning}")
@@ -308,6 +312,7 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
         load_state(last, opt, ck["optimizer"], "optimizer")
         load_state(last, sched, ck["scheduler"], "scheduler")
         _check_same_run(last, ck.get("config"), cfg)
+        _check_same_data(last, ck.get("data_sha256"), cfg.data, data_sha256)
         start, best = resume_point(last, ck)
         if start >= cfg.epochs and progress:
             tqdm.write(f"{last}: all {cfg.epochs} epochs of this run already ran")
@@ -319,7 +324,7 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
         # Clips trained on whole are named so that evaluation can say when a test set holds them
         # (a cross-dataset file whose subset was moved into training: pcnet.pipeline.evaluate).
         whole_clips = sorted({c.name for clips, w in zip(loaded, cfg.train_whole or []) if w for c in clips})
-        record = {**asdict(cfg), **({"whole_clips": whole_clips} if whole_clips else {})}
+        record = {**asdict(cfg), "data_sha256": data_sha256, **({"whole_clips": whole_clips} if whole_clips else {})}
         write_text(out / "config.json", json.dumps(record, indent=2))
 
         for epoch in range(start, cfg.epochs):
@@ -359,7 +364,7 @@ def train(cfg: TrainConfig, resume: bool = True, progress: bool = True) -> Path:
             save_checkpoint({"kind": "pcnet", "model": model.state_dict(), "optimizer": opt.state_dict(),
                              "scheduler": sched.state_dict(), "epoch": epoch,
                              "best": min(best, metrics["val_rotation_deg"]), "model_config": cfg.model.to_dict(),
-                             "config": asdict(cfg)}, last)
+                             "config": asdict(cfg), "data_sha256": data_sha256}, last)
             if metrics["val_rotation_deg"] < best:
                 best = metrics["val_rotation_deg"]
                 save_checkpoint({"kind": "pcnet", "model": model.state_dict(), "model_config": cfg.model.to_dict(),
@@ -399,6 +404,24 @@ def _check_same_run(last: Path, saved, cfg: TrainConfig) -> None:
         more = f"; and {len(changed) - 4} more" if len(changed) > 4 else ""
         raise InputError(f"{last}: expected to resume the run of the same config, got changes ({shown}{more}); give "
                          f"a new out_dir (--out-dir), or --no-resume to train this config from the start")
+
+
+def _check_same_data(last: Path, saved, data: list, now: list[str]) -> None:
+    """Refuse to resume ``last`` over data files whose content differs from what its run began
+    with (``saved``: its ``data_sha256``, the files' sha256 in ``data`` order; checkpoints from
+    before pcnet recorded them are not checked): the weights would have learnt from two data
+    sets and their record name one (an ML trial resumed over a rewritten file without a word).
+
+    Raises:
+        InputError: naming ``last`` and the first changed file.
+    """
+    if not isinstance(saved, list) or len(saved) != len(now):
+        return
+    for path, old, new in zip(data, saved, now):
+        if old != new:
+            raise InputError(f"{last}: expected to resume over the data its run began with, got {path} changed since "
+                             f"(sha256 {new[:12]}..., not {old[:12]}...); give a new out_dir (--out-dir), or "
+                             f"--no-resume to train on this data from the start")
 
 
 def load_checkpoint(path: str | Path) -> PCNet:

@@ -15,7 +15,6 @@ set their thread counts, which must happen before numpy is imported.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import socket
@@ -23,6 +22,7 @@ import time
 from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
+from pcnet.stages.core.digest import sha256_file
 
 from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS
 from .config import pcnet_version
@@ -34,7 +34,6 @@ INPUT_FIELDS = ("lifter_output", "keypoints2d", "video", "weights")
 #: RunConfig fields that do not change what a row writes (``out`` is where the marker lives;
 #: the input files count by their bytes, not their paths).
 _NOT_SETTINGS = ("out", "overwrite", *INPUT_FIELDS)
-_CHUNK = 1 << 20
 
 
 def input_files(config: dict) -> dict[str, str]:
@@ -46,15 +45,6 @@ def settings_of(config: dict) -> dict:
     """The part of a row's config (``dataclasses.asdict(RunConfig)``) that decides its
     outputs, as JSON-comparable values."""
     return json.loads(json.dumps({k: v for k, v in config.items() if k not in _NOT_SETTINGS}, sort_keys=True))
-
-
-def sha256_file(path: str | os.PathLike) -> str:
-    """Hex sha256 of a file's bytes, read in 1 MiB chunks (bounded memory for long videos)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        while chunk := fh.read(_CHUNK):
-            digest.update(chunk)
-    return digest.hexdigest()
 
 
 def input_hashes(config: dict) -> dict[str, dict]:

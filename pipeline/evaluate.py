@@ -3,6 +3,7 @@ method on mocap with synthetic camera views (deterministic for a given seed)."""
 
 from __future__ import annotations
 
+import functools
 import hashlib
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, assumed_fps_warning, cl
                                    load_mocap, make_pairs, select_split, world_up_warning)
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.conventions import H36M_JOINTS
+from pcnet.stages.core.digest import sha256_file
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.core.errors import InputError
 from pcnet.pipeline.rectification import make_estimator
@@ -128,6 +130,25 @@ def _foreign_clip(data: str | Path, record: dict, clips) -> str | None:
     return None
 
 
+def _other_content(data: str | Path, record: dict) -> bool:
+    """Whether the evaluated file bears the name of a file the weights trained on but not its
+    content: the record gives the training files' sha256 (``data_sha256``, which ``pcnet
+    train`` records) and none of the files of that name had this file's (an ML trial's decoy,
+    its test clips copied under the training file's name, read "trained on 12 of these 14");
+    False where the record gives no digests or names no such file."""
+    hashes = record.get("data_sha256")
+    if not isinstance(hashes, list) or len(hashes) != len(record.get("data", [])):
+        return False
+    named = [h for d, h in zip(record.get("data", []), hashes) if Path(str(d)).name == Path(data).name]
+    return bool(named) and _sha256(str(Path(data).resolve())) not in named
+
+
+@functools.lru_cache(maxsize=8)
+def _sha256(path: str) -> str:
+    """:func:`pcnet.stages.core.digest.sha256_file`, once per file an evaluation reads."""
+    return sha256_file(path)
+
+
 def _listed_files(record: dict) -> list[str]:
     """The names (no folder) of the files a training record's ``data`` lists: a file is matched
     by its name, wherever it was read from in training."""
@@ -152,7 +173,8 @@ def _untrained(data: str | Path, clips: list, method: str, weights: str | None) 
     if found is not None:
         trained = {c.name for c in found[0]}
         return [c for c in clips if c.name not in trained]
-    if Path(data).name in _listed_files(record) and _foreign_clip(data, record, clips) is None:
+    if (Path(data).name in _listed_files(record) and not _other_content(data, record)
+            and _foreign_clip(data, record, clips) is None):
         raise InputError(f"--untrained-only: expected a training record that says which clips of {Path(data).name} "
                          f"the weights trained on, got split scheme {record.get('split_scheme')!r}")
     return clips  # a file the record does not list, no clip it names: none trained on as far as it tells (warned)
@@ -172,7 +194,7 @@ def _trained_clips(data: str | Path, chosen, record: dict) -> tuple[list, set, b
     split_trained = True  # the evaluated file is one the weights took a train split of
     if Path(data).name in listed:
         matched_by = "file name"
-        if _foreign_clip(data, record, chosen) is not None:
+        if _other_content(data, record) or _foreign_clip(data, record, chosen) is not None:
             return None  # named like a training file, but not it (_foreign_file_warning)
         split_trained = _split_trained_file(data, record)
         if not split_trained:  # the file itself was trained on whole
@@ -241,6 +263,10 @@ def _foreign_file_warning(data: str | Path, record: dict, clips) -> str | None:
     """A warning where the evaluated file bears the name of a file the weights trained on but
     holds clips its record's split scheme cannot place (:func:`_foreign_clip`): the name says
     nothing, and whether the clips overlap the training data is unknown; ``None`` otherwise."""
+    if _other_content(data, record):
+        return (f"{Path(data).name} bears the name of a file the weights trained on, but not its content (its sha256 "
+                f"is not the one their training record gives): not that file, so whether its clips overlap the "
+                f"training data is unknown")
     foreign = _foreign_clip(data, record, clips)
     if foreign is None:
         return None

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import zipfile
 
 import numpy as np
@@ -207,13 +208,19 @@ def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, 
     res = _cli("export", "--checkpoint", best, "--out", out)
     assert res.exit_code == 0, res.output
     assert json.loads(out.with_suffix(".json").read_text())["model_config"]["hidden"] == 16
+    # what the data files held, beside the weights: evaluation tells a training file from a decoy of its name
+    from pcnet.stages.core.digest import sha256_file
+
+    assert json.loads(out.with_suffix(".json").read_text())["training_config"]["data_sha256"] == [sha256_file(mocap)]
     R, _, valid = PCNetSession(out).predict(np.load(POSES)[:8])
     assert valid.all() and np.allclose(R @ np.swapaxes(R, 1, 2), np.eye(3), atol=1e-5)
 
     # a run interrupted after its first epoch resumes from last.pt and runs only the epoch left
     from pcnet.models import train as training
 
-    two = dataclasses.replace(cfg, epochs=2, out_dir=str(tmp_path / "interrupted"))
+    data = tmp_path / "lab.npz"  # the run's own copy: rewritten below
+    data.write_bytes(mocap.read_bytes())
+    two = dataclasses.replace(cfg, epochs=2, out_dir=str(tmp_path / "interrupted"), data=[str(data)])
     validate, calls = training.validate, []
 
     def interrupt_the_second_epoch(*args, **kwargs):
@@ -230,6 +237,15 @@ def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, 
     folder = tmp_path / "interrupted"
     assert [json.loads(line)["epoch"] for line in (folder / "metrics.jsonl").read_text().splitlines()] == [1, 2]
     assert torch.load(folder / "last.pt", weights_only=True)["epoch"] == 1
+    # resuming over data rewritten since would train on two data sets under one record (an ML
+    # trial's resume went on without a word): refused, naming the file
+    with np.load(data) as arrays:
+        other = {name: arrays[name][::-1].copy() for name in arrays.files}
+    np.savez(data, **other)
+    with pytest.raises(InputError, match=rf"last\.pt: expected to resume over the data its run began with, got "
+                                         rf"{re.escape(str(data))} changed since \(sha256 "):
+        train(two, progress=False)
+    np.savez(data, **{name: other[name][::-1].copy() for name in other})  # its first content again
     # resuming under another config would mix two runs (and restart the cosine schedule's
     # decay midway): refused; --no-resume starts the new config afresh, its metrics alone
     with pytest.raises(InputError, match=r"last\.pt: expected to resume the run of the same config, got changes "

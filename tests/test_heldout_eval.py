@@ -598,6 +598,37 @@ def test_a_file_named_like_a_training_file_is_not_taken_for_it(tmp_path):
                                 "'lab_trial_0' has no place in that file's motion-style split") for w in result["warnings"])
 
 
+def test_a_file_with_a_training_files_name_but_other_content_is_not_taken_for_it(tmp_path):
+    """An ML trial copied its test clips under its training file's name and read "the weights
+    trained on 12 of these 14 clips" (the clip scheme places any name): a record with the
+    training files' sha256 (``pcnet train`` writes them) tells the two apart; the same bytes
+    under another folder still count."""
+    import shutil
+
+    from pcnet.models.datasets import select_split
+    from pcnet.pipeline.evaluate import _foreign_file_warning, _training_overlap
+    from pcnet.stages.core.digest import sha256_file
+
+    trained = FIXTURES / "mocap_small.npz"
+    record = {"data": ["runs/data/mocap_small.npz"], "split_scheme": "clip", "data_sha256": [sha256_file(trained)]}
+    (tmp_path / "same").mkdir()
+    (tmp_path / "decoy").mkdir()
+    same = tmp_path / "same" / "mocap_small.npz"
+    shutil.copyfile(trained, same)
+    decoy = tmp_path / "decoy" / "mocap_small.npz"
+    np.savez(decoy, **{f"lab_trial_{i}": c.joints for i, c in enumerate(load_mocap(trained))})
+    for path, known in ((same, True), (decoy, False)):
+        clips = load_mocap(path)
+        overlap = _training_overlap(path, clips, select_split(clips, "all"), record)
+        assert (overlap is not None) is known, (path, overlap)
+        warning = _foreign_file_warning(path, record, clips)
+        assert (warning is None) is known, warning
+    assert warning.startswith("mocap_small.npz bears the name of a file the weights trained on, but not its content")
+    # a record from before the digests names the file alone: taken for it, as before
+    clips = load_mocap(decoy)
+    assert _training_overlap(decoy, clips, select_split(clips, "all"), {**record, "data_sha256": None}) is not None
+
+
 def test_scored_frames_missing_joints_are_said(tmp_path):
     """Both wrists missing in the first 20 frames of each real clip (a user trial's file was
     scored without a word): evaluate scores the joints present and says so."""
