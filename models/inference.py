@@ -238,6 +238,14 @@ def get_session(weights: str | None = None) -> PCNetSession | ViewGatedPCNet:
     return ViewGatedPCNet() if weights is None else PCNetSession(weights)
 
 
+def training_config(weights: str | None = None) -> dict:
+    """What ``weights`` (``None``: the shipped pair) trained on: the ``training_config`` of the
+    ``.json`` beside them that their cached session read (``pcnet export`` writes it), or ``{}``
+    where there is none."""
+    record = get_session(None if weights is None else str(weights)).info.get("training_config", {})
+    return record if isinstance(record, dict) else {}
+
+
 def _open(weights, default: Path, threads: int):
     """(path, onnxruntime session, the ``.json`` beside the weights or {}).
 

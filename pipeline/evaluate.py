@@ -11,6 +11,7 @@ import numpy as np
 
 from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, assumed_fps_warning, clip_split_of, group_key, groups_in_split,
                                    load_mocap, make_pairs, select_split, world_up_warning)
+from pcnet.models.inference import training_config
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.conventions import H36M_JOINTS
 from pcnet.stages.core.digest import sha256_file
@@ -64,15 +65,6 @@ def frame_set_id(clip_names: tuple[str, ...], clip: np.ndarray, frame: np.ndarra
     h.update(np.ascontiguousarray(clip, np.int64).tobytes())
     h.update(np.ascontiguousarray(frame, np.int64).tobytes())
     return h.hexdigest()[:16]
-
-
-def _training_config(weights: str | None) -> dict:
-    """The evaluated weights' ``training_config`` from the ``.json`` their cached session
-    already read (:class:`pcnet.models.inference.PCNetSession` ``info``); ``{}`` if absent."""
-    from pcnet.models.inference import get_session
-
-    record = get_session(None if weights is None else str(weights)).info.get("training_config", {})
-    return record if isinstance(record, dict) else {}
 
 
 def _training_overlap(data: str | Path, all_clips, chosen, record: dict) -> dict | None:
@@ -165,7 +157,7 @@ def _untrained(data: str | Path, clips: list, method: str, weights: str | None) 
     if method == "geometric":
         raise InputError("--untrained-only: expected a method with weights (pcnet, pcnet-rigid), got geometric, "
                          "which trained on nothing")
-    record = _training_config(weights)
+    record = training_config(weights)
     if not record:
         raise InputError(f"--untrained-only: expected weights with a training record, got none beside "
                          f"{weights or 'the shipped weights'} (the .json pcnet export writes)")
@@ -287,8 +279,9 @@ def _fine_tuned_warning(record: dict) -> str | None:
         earlier = earlier.get("init_training_config") or {}
     if not chain:
         return None
-    return (f"the weights were fine-tuned from {'; from '.join(chain)}: the overlap above counts the last run's data "
-            f"only, and the earlier runs' trained them too")
+    # no "overlap above" where none was counted (an ML trial read it beside "overlap unknown")
+    return (f"the weights were fine-tuned from {'; from '.join(chain)}: the earlier runs' data trained them too, and "
+            f"any overlap counted here is the last run's data's alone")
 
 
 def _unknown_training_warning(weights, record: dict) -> str | None:
@@ -446,7 +439,7 @@ def evaluate(
         result["clip_modes"] = modes_run
     result["clip_heading_sources"] = headings_run
     if method != "geometric":
-        record = _training_config(weights)
+        record = training_config(weights)
         result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
         warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record),
                                  _fine_tuned_warning(record),

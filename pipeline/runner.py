@@ -31,6 +31,7 @@ from tqdm import tqdm
 from pcnet.adapters import (AdapterError, Keypoints2D, Poses3D, VideoInfo, first_shown_frame, get_2d_adapter,
                             get_3d_adapter, probe_video)
 from pcnet.adapters.mediapipe import holds_keypoints_2d, load_mediapipe_2d
+from pcnet.models.inference import training_config
 from pcnet.adapters.validate import as_path, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, METRES_PER_LENGTH_UNIT, PELVIS, R_HIP,
                                           REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
@@ -591,6 +592,10 @@ def _assumed_inputs(cfg: RunConfig) -> list[str]:
     if cfg.lifter == "mediapipe" and cfg.keypoints2d is None and holds_keypoints_2d(cfg.lifter_output):
         notes.append("the MediaPipe archive's own 2D keypoints were not used (give the file as --keypoints2d too, "
                      "with --keypoints2d-format mediapipe, for the left/right and track-switch checks)")
+    if cfg.weights is not None and cfg.method != "geometric" and not training_config(cfg.weights):
+        # pcnet evaluate warns of it; a run said nothing (an ML trial's weights without their .json)
+        notes.append(f"--weights {Path(cfg.weights).name}: no training record beside them (the .json pcnet export "
+                     f"writes), so what they trained on is unknown")
     return notes
 
 

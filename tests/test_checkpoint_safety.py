@@ -212,6 +212,19 @@ def test_a_real_checkpoint_round_trips_resumes_fine_tunes_and_exports(tmp_path, 
     from pcnet.stages.core.digest import sha256_file
 
     assert json.loads(out.with_suffix(".json").read_text())["training_config"]["data_sha256"] == [sha256_file(mocap)]
+    # a run with weights whose record is not beside them says what it cannot know (pcnet evaluate
+    # warned of it; a run said nothing to an ML trial)
+    from pcnet.pipeline.config import RunConfig
+    from pcnet.pipeline.runner import _assumed_inputs
+
+    bare = tmp_path / "bare" / "tiny.onnx"
+    bare.parent.mkdir()
+    bare.write_bytes(out.read_bytes())
+    config = dict(lifter="videopose3d", lifter_output=str(POSES), fps=30.0)
+    assert _assumed_inputs(RunConfig(**config, weights=str(bare))) == [
+        "--weights tiny.onnx: no training record beside them (the .json pcnet export writes), so what they trained on "
+        "is unknown"]
+    assert _assumed_inputs(RunConfig(**config, weights=str(out))) == []
     R, _, valid = PCNetSession(out).predict(np.load(POSES)[:8])
     assert valid.all() and np.allclose(R @ np.swapaxes(R, 1, 2), np.eye(3), atol=1e-5)
 
@@ -294,8 +307,9 @@ def test_fine_tuned_weights_keep_the_earlier_runs_training_record(tmp_path, moca
     record = json.loads(out.with_suffix(".json").read_text())["training_config"]
     assert record["data"] == [str(mocap), str(whole)] and record["init_checkpoint"] == str(best)
     assert record["init_training_config"]["data"] == [str(mocap)] and "init_checkpoint" not in record["init_training_config"]
-    assert _fine_tuned_warning(record) == (f"the weights were fine-tuned from {best} ({mocap.name}): the overlap above "
-                                           f"counts the last run's data only, and the earlier runs' trained them too")
+    assert _fine_tuned_warning(record) == (f"the weights were fine-tuned from {best} ({mocap.name}): the earlier runs' "
+                                           f"data trained them too, and any overlap counted here is the last run's "
+                                           f"data's alone")
     assert _fine_tuned_warning(record["init_training_config"]) is None
 
 
