@@ -118,12 +118,15 @@ def _new_output_file(path: str | os.PathLike, option: str, overwrite: bool = Fal
         if item is not None and Path(item).resolve() in written:
             raise InputError(f"{option} {path}: expected a new file, got the input {item} itself")
     for file in written:
+        # a file this command did not write is named as such first: "pass --overwrite" would only be
+        # refused next (an ML trial's mocap sidecar ft.json beside --out ft.onnx)
+        if file.exists() and written_by_pcnet is not None and not written_by_pcnet(file):
+            raise InputError(f"{option} {path}: expected a new file or one this command wrote, got an existing "
+                             f"{file.name} that it did not write; choose another {option} (--overwrite replaces only "
+                             f"pcnet's own files)")
         if file.exists() and not overwrite:
             raise InputError(f"{option} {path}: expected a new file, got an existing {file.name}; "
                              f"pass --overwrite to replace it")
-        if file.exists() and written_by_pcnet is not None and not written_by_pcnet(file):
-            raise InputError(f"{option} {path}: expected a new file or one this command wrote, got an existing "
-                             f"{file.name} that it did not write; --overwrite replaces only pcnet's own files")
 
 
 def _json_object_with(file: Path, keys: set[str]) -> bool:

@@ -155,6 +155,10 @@ def test_overwrite_of_an_export_refuses_a_users_file_of_the_same_name(user_folde
                     "theirs.json", "did not write")
     _one_line_error(_invoke("export", "--checkpoint", "notes.txt", "--out", "model.onnx", "--overwrite"),
                     "model.onnx", "did not write")
+    # without --overwrite too: not told to pass a flag that would be refused next (an ML trial's
+    # mocap sidecar ft.json beside --out ft.onnx)
+    _one_line_error(_invoke("export", "--checkpoint", "notes.txt", "--out", "theirs.onnx"),
+                    "theirs.json that it did not write; choose another --out")
     assert _contents(user_folder) == before
 
 
