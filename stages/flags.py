@@ -904,9 +904,7 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str =
                    f"deg uncertainty",
                    # with the focal length given there is nothing left to give (a coach's trial read
                    # "check the result" as a task with no content)
-                   "take the tilt as uncertain by up to the turn" if focal_known
-                   # a coach knew no focal length in pixels: the page turns a phone's 35 mm equivalent into one
-                   else "give --focal-px (docs/video.md: from the phone's 35 mm equivalent)",
+                   "take the tilt as uncertain by up to the turn" if focal_known else "give --focal-px (docs/video.md)",
                    f"the lifter's output was turned by a median {turn_deg:.1f} deg into the real camera "
                    f"({'with its known focal length; ' * focal_known}MediaPipe's landmarks taken as seen from a "
                    f"virtual camera aimed at the person, an assumption the file cannot confirm), more than the tilt's "
@@ -948,7 +946,7 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
     if person_option:
         action = advice = "check --person"
     elif own_estimator:
-        action = f"--roi X,Y,W,H around the person, or drop track_segment != {main}"
+        action = "give --roi around the person (docs/video.md)"
         advice = ("pcnet's pose estimator follows whoever it finds: run again with --roi X,Y,W,H, the region of the "
                   "video (pixels, as displayed) the person stays in (docs/video.md), or leave those frames out")
     else:

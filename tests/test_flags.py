@@ -132,7 +132,7 @@ def test_a_track_that_jumps_to_another_place_is_split():
     assert "re-run the tracker" in track_switch_flag(segment, events, person_option=False)[0].detail
     # pcnet's own estimator (--video alone) has no track to choose and no tracker to re-run (a user trial)
     (own,) = track_switch_flag(segment, events, person_option=False, own_estimator=True)
-    assert own.action == "--roi X,Y,W,H around the person, or drop track_segment != 0"
+    assert own.action == "give --roi around the person (docs/video.md)"
     assert "run again with --roi X,Y,W,H" in own.detail and "tracker" not in own.detail
 
 
@@ -351,7 +351,7 @@ def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
     assert lifter_frame_flag(0.0, 1.0) == [] and lifter_frame_flag(15.0, float("nan")) == []
     # with the focal length known (--focal-px or the file's K) it no longer asks for it
     # where to find the focal length of a web clip's unknown camera (a user trial found no hint)
-    assert lifter_frame_flag(15.5, 7.4)[0].action == "give --focal-px (docs/video.md: from the phone's 35 mm equivalent)"
+    assert lifter_frame_flag(15.5, 7.4)[0].action == "give --focal-px (docs/video.md)"
     (known,) = lifter_frame_flag(15.5, 7.4, focal_known=True)
     assert known.action == "take the tilt as uncertain by up to the turn" and "--focal-px" not in known.detail
 

@@ -184,5 +184,5 @@ def test_a_video_whose_estimator_follows_another_person_points_to_roi(tmp_path, 
     res = _invoke("run", "--video", video, "--out", tmp_path / "o", "--no-recording")
     assert res.exit_code == 0, res.output
     (line,) = [ln for ln in res.output.splitlines() if "switches person" in ln]
-    assert "-> --roi X,Y,W,H around the person, or drop track_segment != " in line, line
+    assert line.endswith("-> give --roi around the person (docs/video.md)") and len(line) <= 135, line
     assert "tracker" not in (tmp_path / "o" / "report.md").read_text()
