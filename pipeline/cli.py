@@ -17,7 +17,7 @@ import click
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import ALIGN, MODES, keypoint_formats, lifter_names, multi_track_formats
-from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, STOP_SIGNALS, came_from_interrupt, raise_interrupt
+from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, STOP_SIGNALS, came_from_interrupt, quiet_interrupt_hook, raise_interrupt
 from pcnet.stages.core.errors import InputError, import_extra, one_line
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, POSTURES, check_method_weights, check_posture
@@ -98,6 +98,9 @@ def main() -> None:
     for signum in STOP_SIGNALS:
         if signal.getsignal(signum) is signal.SIG_DFL:
             signal.signal(signum, raise_interrupt)
+    # and one landing in an import lock's weakref callback prints no traceback, as under the
+    # entry point (a fresh clone's test run of `python -m pcnet.pipeline.cli` printed one)
+    sys.unraisablehook = quiet_interrupt_hook(sys.unraisablehook)
 
 
 def _new_output_file(path: str | os.PathLike, option: str, overwrite: bool = False, inputs=(),

@@ -57,7 +57,11 @@ def quiet_interrupt_hook(default):
     propagate it (a weakref callback, a destructor: importlib's module-lock clean-up is one)
     instead of printing its traceback; the interrupt is remembered (:func:`was_interrupted`)
     and stops the run at the next check. Anything else goes to ``default``."""
+    if getattr(default, "quiet_interrupts", False):  # installed already (the CLI's group under the entry point)
+        return default
+
     def hook(unraisable):
         if not isinstance(unraisable.exc_value, KeyboardInterrupt):
             default(unraisable)
+    hook.quiet_interrupts = True
     return hook

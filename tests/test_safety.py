@@ -787,6 +787,20 @@ def test_an_interrupt_a_library_turns_into_another_error_is_still_exit_130(user_
     assert isinstance(res.exception, TypeError) and res.exit_code == 1
 
 
+def test_the_command_line_installs_the_quiet_hook_once(monkeypatch):
+    """`python -m pcnet.pipeline.cli` (what the timed signal tests run) had the signal handlers
+    but not the entry point's quiet hook: a fresh clone's SIGHUP landing in an import lock's
+    callback printed "Exception ignored ... Traceback". The group installs it, once however many
+    commands run in one process."""
+    from pcnet.pipeline.cli import main
+
+    monkeypatch.setattr(sys, "unraisablehook", sys.__unraisablehook__)
+    assert CliRunner().invoke(main, ["docs"]).exit_code == 0
+    installed = sys.unraisablehook
+    assert getattr(installed, "quiet_interrupts", False)
+    assert CliRunner().invoke(main, ["docs"]).exit_code == 0 and sys.unraisablehook is installed
+
+
 def test_an_interrupt_python_cannot_raise_prints_no_traceback():
     """A Ctrl-C that lands in a weakref callback (importlib's module-lock clean-up while the
     command line imports its libraries, seen in CI) is dropped quietly, not printed as
