@@ -18,8 +18,8 @@ from pcnet.stages.core.conventions import get_layout
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
-from .validate import (ROOT_RELATIVE_MAX, as_path, checked_poses, load_array_file, nonfinite_frames, require_file,
-                       require_numeric, require_some_finite)
+from .validate import (ROOT_RELATIVE_MAX, as_path, checked_poses, load_array_file, nonfinite_frames, pelvis_offset,
+                       require_file, require_numeric, require_some_finite)
 
 # Letter -> (camera axis, sign) in the OpenCV camera frame: x Right, y Down, z Forward.
 _AXIS_LETTERS = {"R": (0, 1.0), "L": (0, -1.0), "D": (1, 1.0), "U": (1, -1.0), "F": (2, 1.0), "B": (2, -1.0)}
@@ -286,25 +286,24 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     notes.append(f"units {units}" + (f" x {scale:g} -> m" if scale != 1.0 else ""))
     notes.append("root as delivered" + (": a measured path (measured_root)" if measured_root else ""))
     joints = checked_poses(p, field, joints, lay.name, unit_tag)
-    kept = "" if measured_root else _unkept_path_note(joints, lay.joints, unit_tag)
+    kept = "" if measured_root else _unkept_path_note(joints, lay.name, unit_tag)
     said = "; ".join(n for n in (header_note, kept) if n)
     return Poses3D(joints, lay.name, units=unit_tag, source=str(p), notes="; ".join(notes + [said] * bool(said)),
                    root_translation=bool(measured_root), summary_note=said and f"{p}: {said}",
                    nonfinite=nonfinite)
 
 
-def _unkept_path_note(joints: np.ndarray, names: tuple[str, ...], units: str) -> str:
-    """The note of a metric file whose pelvis (the hips' midpoint) lies away from the origin
+def _unkept_path_note(joints: np.ndarray, layout: str, units: str) -> str:
+    """The note of a metric file whose pelvis (:func:`pelvis_offset`) lies away from the origin
     without ``measured_root``: a path the run reads root-relative, so it does not keep it (a
     custom-lifter trial's trajectory was dropped without a word); ``""`` otherwise."""
-    if units != "m" or not {"left_hip", "right_hip"} <= set(names):
+    if units != "m" or not {"left_hip", "right_hip"} <= set(get_layout(layout).joints):
         return ""
-    mid = 0.5 * (joints[:, names.index("left_hip")] + joints[:, names.index("right_hip")]).astype(np.float64)
-    distance = np.linalg.norm(mid[np.isfinite(mid).all(axis=1)], axis=1)
-    if not len(distance) or np.median(distance) <= ROOT_RELATIVE_MAX:
+    distance, _ = pelvis_offset(joints, layout)
+    if not distance > ROOT_RELATIVE_MAX:  # NaN: no frame with a pelvis
         return ""
-    return (f"pelvis {np.median(distance):.2f} m from the camera: give --measured-root to keep its path (median "
-            f"distance; read root-relative here, the path dropped; kept, it gives the world frame's travel and one floor)")
+    return (f"pelvis {distance:.2f} m from the camera: give --measured-root to keep its path (median distance; "
+            f"read root-relative here, the path dropped; kept, it gives the world frame's travel and one floor)")
 
 
 def generic_option_problems(layout: object = "h36m17", axes: object = "RDF", units: object = "m",

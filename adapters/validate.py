@@ -720,15 +720,20 @@ def nonfinite_line(counts: Mapping[str, int], limit: int = 6) -> str:
 ROOT_RELATIVE_MAX = 0.01
 
 
-def pelvis_offset(joints: np.ndarray) -> tuple[float, float]:
-    """``(distance, depth)``: medians over the frames with a finite pelvis (joint 0 of
-    H36M-17 poses ``(T, 17, 3)``; where it is missing, the hip midpoint, which root-relative
-    exports put within 0.1 mm of it: VideoPose3D's yoga files) of its distance from the
-    origin and of its z; NaN, NaN without such a frame. Tells a root-relative export
-    (distance under :data:`ROOT_RELATIVE_MAX`) from one that keeps the root where the
-    person is."""
-    pelvis = np.asarray(joints[:, 0], np.float64)
-    hips = 0.5 * (np.asarray(joints[:, 1], np.float64) + np.asarray(joints[:, 4], np.float64))
+def pelvis_offset(joints: np.ndarray, layout: str = "h36m17") -> tuple[float, float]:
+    """``(distance, depth)``: medians over the frames with a finite pelvis (the ``pelvis``
+    joint of poses ``(T, J, 3)`` in ``layout``, H36M-17 by default; where it is missing, or in a
+    layout without one such as COCO-17, the hip midpoint, which root-relative exports put within
+    0.1 mm of it: VideoPose3D's yoga files) of its distance from the origin and of its z; NaN,
+    NaN without such a frame. Tells a root-relative export (distance under
+    :data:`ROOT_RELATIVE_MAX`) from one that keeps the root where the person is.
+
+    Raises:
+        ValueError: a ``layout`` without both hips (:func:`get_layout` for an unknown name)."""
+    names = get_layout(layout).joints
+    hips = 0.5 * (np.asarray(joints[:, names.index("left_hip")], np.float64)
+                  + np.asarray(joints[:, names.index("right_hip")], np.float64))
+    pelvis = np.asarray(joints[:, names.index("pelvis")], np.float64) if "pelvis" in names else hips
     pelvis = np.where(np.isfinite(pelvis).all(axis=1, keepdims=True), pelvis, hips)
     pelvis = pelvis[np.isfinite(pelvis).all(axis=1)]
     if not len(pelvis):
