@@ -132,12 +132,18 @@ def _other_content(data: str | Path, record: dict) -> bool:
     if not isinstance(hashes, list) or len(hashes) != len(record.get("data", [])):
         return False
     named = [h for d, h in zip(record.get("data", []), hashes) if Path(str(d)).name == Path(data).name]
-    return bool(named) and _sha256(str(Path(data).resolve())) not in named
+    if not named:
+        return False
+    path = Path(data).resolve()
+    stat = path.stat()
+    return _sha256(str(path), stat.st_mtime_ns, stat.st_size) not in named
 
 
 @functools.lru_cache(maxsize=8)
-def _sha256(path: str) -> str:
-    """:func:`pcnet.stages.core.digest.sha256_file`, once per file an evaluation reads."""
+def _sha256(path: str, mtime_ns: int, size: int) -> str:
+    """:func:`pcnet.stages.core.digest.sha256_file`, once per file version an evaluation reads
+    (its checks ask up to three times; a file rewritten between two calls in one session is
+    read again: ``mtime_ns`` and ``size`` are in the key)."""
     return sha256_file(path)
 
 
