@@ -50,10 +50,10 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
     Raises:
         AdapterError: missing/unreadable file, a ``.mat`` (DDHPose's 3DHP output is in the
             MPI-INF-3DHP-17 layout), a ``_postprocess`` file (world z-up frame for display),
-            wrong rank, dtype or joint count, a bad ``step``/``hypothesis``, all NaN, a
-            coordinate beyond 100 m (naming frame and joint), a pelvis farther than
-            :data:`~pcnet.adapters.validate.ROOT_RELATIVE_MAX` from the origin (median over
-            frames: not root-relative, so not D3DP's output). ``inf`` is missing data (NaN).
+            wrong rank, dtype or joint count, more hypotheses than frames (the axes swapped), a
+            bad ``step``/``hypothesis``, all NaN, a coordinate beyond 100 m (naming frame and
+            joint), a pelvis farther than :data:`~pcnet.adapters.validate.ROOT_RELATIVE_MAX` from
+            the origin (median over frames: not root-relative, so not D3DP's output). ``inf`` is missing data (NaN).
 
     Source of the format facts: paTRICK-swk/D3DP (commit afcdd05)
     ``in_the_wild/videopose_diffusion.py``, ``in_the_wild/utils.py`` L286
@@ -73,6 +73,10 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         notes.append(f"sampling step {k} of 0..{arr.shape[0] - 1}")
         arr = arr[k]
     if arr.ndim == 4:
+        if arr.shape[0] > arr.shape[1]:  # D3DP draws a handful of hypotheses (num_proposals) per frame
+            raise AdapterError(p, "predictions", "(hypotheses, frames, 17, 3), fewer hypotheses than "
+                               "frames", f"{arr.shape[0]} 'hypotheses' of {arr.shape[1]} frames: frames first? "
+                               f"np.swapaxes(a, -4, -3) puts the hypotheses first")
         if isinstance(hypothesis, str) and hypothesis == "mean":
             hypotheses = arr.shape[0]
             arr, partial = _mean_over_hypotheses(arr)

@@ -639,10 +639,14 @@ def load_npy(path: str | Path, ndim: int | tuple[int, ...] = 3, num_joints: int 
     p = as_path(path)
     arr = require_numeric(p, field, load_array_file(p, key_option=False))  # its lifters take no --key
     ndims = (ndim,) if isinstance(ndim, int) else tuple(ndim)
-    tail = f"(..., {num_joints if num_joints else 'J'}, 3)"
-    if arr.ndim not in ndims or arr.shape[-1] != 3 or (num_joints is not None and arr.shape[-2] != num_joints):
-        raise AdapterError(p, field, f"shape {tail} with {' or '.join(map(str, ndims))} dimensions",
-                           f"shape {arr.shape}{shape_hint(arr.shape, num_joints) if num_joints else ''}")
+    joints = num_joints if num_joints else 'J'
+    tail = f"(T, {joints}, 3)" if ndims == (3,) else f"(..., {joints}, 3) with {' or '.join(map(str, ndims))} dimensions"
+    fits = arr.shape[-1:] == (3,) and (num_joints is None or arr.shape[-2] == num_joints)
+    if arr.ndim not in ndims or not fits:
+        batch = arr.ndim - 1 in ndims and arr.shape[0] == 1 and fits  # a batch of one recording
+        raise AdapterError(p, field, f"shape {tail}", f"shape {arr.shape}"
+                           + (" (a leading batch axis of one? save a[0])" if batch else "")
+                           + (shape_hint(arr.shape, num_joints) if num_joints else ""))
     require_some_finite(p, field, arr)
     return arr
 

@@ -36,7 +36,8 @@ class CameraTilt:
 
     @classmethod
     def of(cls, rotation, valid) -> CameraTilt:
-        """From ``(T, 3, 3)`` camera-to-canonical rotations and the ``(T,)`` valid frames."""
+        """From ``(T, 3, 3)`` canonical -> camera rotations (column 1: the up in the camera frame)
+        and the ``(T,)`` valid frames."""
         return cls(*camera_tilt(rotation[:, :, 1], valid))
 
 

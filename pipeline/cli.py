@@ -7,6 +7,7 @@ import dataclasses
 import json
 import os
 import re
+import shlex
 import shutil
 import signal
 import sys
@@ -591,7 +592,7 @@ def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, 
 
 
 @main.command()
-@click.argument("out_dir", type=click.Path(file_okay=False))
+@click.argument("out_dir", type=click.Path())
 @click.option("--height", type=_NUMBER, default=None,
               help="Subject height in metres, recorded in opensim_fit.json; default the run's `--height`, which scaled "
                    "the markers (another value, or one where the run had none, is refused).")
@@ -611,6 +612,9 @@ def opensim(out_dir, height, mass, overwrite):
     from pcnet.stages.opensim_ik import import_opensim, opensim_fit_line, opensim_notes, OUTPUTS, scale_and_ik
 
     folder = Path(out_dir)
+    if folder.is_file():  # an OpenSim user's reflex: the TRC itself
+        raise InputError(f"{out_dir}: expected a `pcnet run` output folder, got a file: give its folder, "
+                         f"{shlex.quote(str(folder.parent))}")
     if not folder.is_dir():
         raise InputError(f"{out_dir}: expected a `pcnet run` output folder, got no folder")
     trc = folder / "world.trc"

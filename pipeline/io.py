@@ -61,10 +61,12 @@ def read_pose_array(path: str | Path, key: str | None = None) -> PoseArray:
         with data:
             if key is None:
                 if len(data.files) != 1:
-                    raise InputError(f"{path}: holds {describe_keys(data.files)}; choose one with --key")
+                    raise InputError(f"file '{path}': field 'key': expected one array or --key naming one, got "
+                                     f"{describe_keys(data.files)}")
                 key = data.files[0]
             if key not in data.files:
-                raise InputError(f"{path}: no array {key!r}; it holds {describe_keys(data.files)}")
+                raise InputError(f"file '{path}': field 'key': expected an array named {key!r}, got "
+                                 f"{describe_keys(data.files)}")
             arr = data[key]
     else:
         if key is not None:  # a key that would be silently ignored is a mistake

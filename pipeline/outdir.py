@@ -122,8 +122,9 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
                          f"since ({shown}); {fix}")
     if not overwrite:
         empty = not any(target.iterdir())
-        raise FileExistsError(f"{given}: output folder exists{' (empty)' if empty else ''}; choose another --out or "
-                              f"pass --overwrite")
+        raise FileExistsError(f"--out {given}: expected a new folder, got one that exists"
+                              f"{' (empty)' if empty else ' (a previous pcnet output)'}; choose another --out or pass "
+                              f"--overwrite")
     return target
 
 

@@ -123,8 +123,10 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
     accepted = path.frames_fitted - path.frames_rejected
     bridged = int(np.isfinite(path.position).all(axis=1).sum()) - accepted  # gaps and outliers inside the span
     return PelvisPath("from 2D keypoints", position, path.cov,
-                      f"pelvis path from the 2D keypoints ({camera.source}): fitted in {accepted} of "
-                      f"{len(position)} frames, depth 1-sigma median {path.depth_std_median:.2f} m with a "
+                      # the focal length's source outside parentheses: the summary's headline keeps it (a
+                      # boxing analyst's read "fitted in 294 of 301 frames..." and missed the assumed focal)
+                      f"pelvis path fitted to the 2D keypoints in {accepted} of {len(position)} frames, "
+                      f"{camera.source}: depth 1-sigma median {path.depth_std_median:.2f} m with a "
                       f"{100 * BONE_SCALE_SIGMA:g} % body-size spread (a lower bound on real lifter output)"
                       + (f"; {frames_phrase(path.frames_rejected)} rejected as "
                          f"{'outliers' if path.frames_rejected != 1 else 'an outlier'}" if path.frames_rejected else "")

@@ -176,7 +176,19 @@ class RunResult:
             else "canonical (turns with the pelvis; no fixed frame without a static camera)"
         read = [("inputs", _inputs_line(self.report.inputs))] if long and self.report.inputs else []
         return [*read, ("frames", frames), ("rectification", rectification), ("heading", heading),
-                ("camera tilt", tilt), *self._frame_bound(long), ("kinematics frame", kinematics), ("units", self.units)]
+                ("camera tilt", tilt), *self._frame_bound(long), ("kinematics frame", kinematics),
+                ("units", self.units + self._cutoff(long))]
+
+    def _cutoff(self, long: bool) -> str:
+        """``"; low-pass 6 Hz (--cutoff-hz)"``: the cutoff that sets every speed and acceleration
+        (a boxing analyst read 3.4 m/s punches without seeing it); ``""`` with no kinematics."""
+        hz = self.report.cutoff_hz
+        if hz is None or not np.isfinite(hz):
+            return ""
+        source = "residual analysis" if self.report.cutoff_source == "residual analysis" else "--cutoff-hz"
+        why = ("; Winter's for gait: the peak speeds of faster movements, a punch or a throw, need a higher one"
+               if long and source == "--cutoff-hz" else "")
+        return f"; low-pass {hz:.3g} Hz ({source}{why})"
 
     def summary(self) -> str:
         """A summary that reads in seconds: the key facts, then one line per finding, most
@@ -605,10 +617,11 @@ def _picture_typed(cfg: RunConfig) -> bool:
     return cfg.image_size_px is not None and cfg.video is None
 
 
-def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame) -> str:
-    """What to add to a "no frame can be rectified" error: the default joint layout of a generic
-    file, the likeliest cause there, the picture where joints were masked as outside it (a
-    wrong --image-size), and the 2D confidence threshold where 2D keypoints mask joints (a
+def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame, layout: str = "") -> str:
+    """What to add to a "no frame can be rectified" error: the joint layout a file was read in (a
+    generic file's default or declared one, a named lifter's own ``layout``), the likeliest
+    cause there, the picture where joints were masked as outside it (a wrong --image-size),
+    and the 2D confidence threshold where 2D keypoints mask joints (a
     threshold near 1 masks every joint)."""
     if not error.startswith(NO_VALID_FRAME):
         return ""
@@ -617,6 +630,8 @@ def _no_frame_hint(cfg: RunConfig, error: str, camera: CameraFrame) -> str:
         layout = cfg.lifter_options.get("layout")
         hint += (f" (read with {'the default --layout h36m17' if layout is None else f'--layout {layout}'}: is the "
                  f"file in another joint layout?)")
+    elif layout:
+        hint += f" (read in {cfg.lifter}'s joint order, {layout}: is the file in another joint order?)"
     if camera.outside and camera.picture is not None:
         w, h = camera.picture
         typed = " or width and height swapped in --image-size" if _picture_typed(cfg) else ""
@@ -658,7 +673,7 @@ def _check_metric_body(cfg: RunConfig, cam) -> None:
     else:
         guess = (f"metres declared as --units {cfg.lifter_options.get('units')}? declare --units m"
                  if cfg.lifter_options.get("units") in ("cm", "mm") else "a joint order other than the lifter's?")
-    raise InputError(f"{cfg.lifter_output}: units: expected poses in metres (a median thigh length of "
+    raise InputError(f"file '{cfg.lifter_output}': field 'units': expected poses in metres (a median thigh length of "
                      f"{THIGH_RANGE_M[0]}-{THIGH_RANGE_M[1]} m), got {thigh:.3g} m: {guess}, or --height to scale the "
                      f"poses")
 
@@ -1145,8 +1160,8 @@ class CameraFrame:
 class Rectified:
     """Step "rectify": the rectification result and its evidence.
 
-    rotation: ``(T, 3, 3)`` camera-to-canonical rotations; canonical: ``(T, 17, 3)`` poses in
-    the store; valid: ``(T,)`` bool; report: what rectification decided (with the frames whose
+    rotation: ``(T, 3, 3)`` canonical -> camera rotations (docs/CONVENTIONS.md); canonical:
+    ``(T, 17, 3)`` poses in the store; valid: ``(T,)`` bool; report: what rectification decided (with the frames whose
     pelvis was filled from the hips); tilt: the camera's tilt from level; tilt_per_frame_deg:
     the per-frame tilts' median and 5-95 % range, ``None`` in sequence mode
     (:func:`pcnet.pipeline.checks.per_frame_tilt`);
@@ -1329,6 +1344,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     # jump and the other body's poses read as camera motion: decide the mode on one
     # person's frames.
     decide_on = _one_person(segment, events)
+    layout = inputs.recording.read.get("lifter_layout") or ""
     try:
         res = rectify_checked(_located(camera.joints, root, store), cfg.method, cfg.weights, cfg.mode, fps,
                               cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on,
@@ -1336,10 +1352,10 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
             raise  # the weights file's own error, already naming it
-        raise InputError(f"{cfg.lifter_output}: {err}{_no_frame_hint(cfg, str(err), camera)}") from err
+        raise InputError(f"{cfg.lifter_output}: {err}{_no_frame_hint(cfg, str(err), camera, layout)}") from err
     if not res.valid.any():
         reason = no_valid_frame_reason(res.report)
-        raise InputError(f"{cfg.lifter_output}: {reason}{_no_frame_hint(cfg, reason, camera)}")
+        raise InputError(f"{cfg.lifter_output}: {reason}{_no_frame_hint(cfg, reason, camera, layout)}")
     report = replace(res.report, pelvis_from_hips_frames=camera.pelvis_filled)
     notes = _unused_floor_note(inputs.recording.measured_root,
                                report.sequence.ground_plane if report.sequence is not None else None)

@@ -357,7 +357,9 @@ def leg_asymmetry_flag(joints: np.ndarray, limits: SkeletonLimits | None = None)
                    "compare left and right with care",
                    f"the lifter's left and right legs differ by {100 * difference:.0f} % in length (median over "
                    f"frames; the {shorter} one shorter), more than a person's: heights above the floor (the {shorter} "
-                   f"foot can hover above it in stance) and left/right comparisons carry the lifter's error")]
+                   f"foot can hover above it in stance) and left/right comparisons carry the lifter's error; a file in "
+                   f"another joint order read as H36M-17 (COCO-17's eyes and ears as hips and knees) also makes the "
+                   f"legs differ: check the joint order its lifter writes")]
 
 
 def size_percentiles(joints: np.ndarray) -> np.ndarray:

@@ -177,7 +177,9 @@ DEFINITIONS: Mapping[str, str] = MappingProxyType({
         "shoulder_axial_rotation_deg": ("upper arm relative to thorax, intrinsic Y-X'-Y'', third angle (elevation taken "
                                         f"positive); empty where the elbow bends less than {MIN_BEND_DEG:g} deg or the "
                                         f"elevation is within {GIMBAL_MARGIN_DEG:g} deg of 0 or 180 (docs/joint_angles.md)"),
-        "elbow_flexion_deg": "forearm relative to upper arm about the upper arm Z, first Z-X'-Y'' angle (Wu 2005)",
+        "elbow_flexion_deg": ("forearm relative to upper arm about the upper arm Z, first Z-X'-Y'' angle (Wu 2005); "
+                              "the Z being the shoulder-elbow-wrist plane's normal, the same values as "
+                              f"{side}_elbow_flexion_unsigned"),
     }.items()},
 })
 

@@ -128,8 +128,8 @@ def opensim_fit_line(result: dict, short: bool = False) -> str:
     markers = result.get("markers_left_out") or []
     scaled, total = result.get("scale_frames"), result["frames"] + left_out
     why = "" if short else " (empty in every frame: the input skeleton has no such joint)"
-    return (f"OpenSim IK: marker RMS {100 * result['marker_rms_m']:.2f} cm over {result['frames']} frames (max "
-            f"{100 * result['marker_max_m']:.2f} cm)"
+    return (f"OpenSim IK: marker RMS {100 * result['marker_rms_m']:.2f} cm to the lifter's joints over "
+            f"{result['frames']} frames (max {100 * result['marker_max_m']:.2f} cm)"
             + (f"; {above} frames above {100 * MAX_GOOD_MARKER_RMS_M:.0f} cm RMS "
                f"({_spans_text(result.get('above_rms_limit_s') or [])}): their angles do not follow the poses"
                if above else "")

@@ -55,7 +55,9 @@ ensemble's per-frame estimate (:mod:`pcnet.models.view_gate`).
 
 Every number above but the declared camera and posture priors is fitted on validation or training data by
 ``python -m benchmarks.fit_up_model --data ../shared/data`` into ``stages/data/up_model.json``,
-which records each value's provenance (:class:`UpModelParameters`).
+which records each value's provenance (:class:`UpModelParameters`), except the floor contacts'
+``sigma_f`` and ``t_f``, fitted on its posterior by ``benchmarks.fit_floor_contacts`` and then
+``benchmarks.fit_floor_power``.
 """
 
 from __future__ import annotations

@@ -44,8 +44,9 @@ from conftest import FIXTURES, shared
 
 from pcnet.adapters.registry import unregister
 from pcnet.stages.core.conventions import (
-    HEAD, L_ANKLE, L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_ANKLE, R_HIP, R_SHOULDER, THORAX, get_layout,
+    HEAD, L_ANKLE, L_HIP, L_SHOULDER, NECK_NOSE, PELVIS, R_ANKLE, R_HIP, R_SHOULDER, THORAX, get_layout, validate_poses,
 )
+from pcnet.stages.core.errors import InputError
 from pcnet.stages.remap import remap_to_h36m
 
 FIX = FIXTURES
@@ -628,6 +629,51 @@ def test_ddhpose_bad_options_and_files(tmp_path):
     mat.write_bytes(b"MATLAB 5.0")
     with pytest.raises(AdapterError, match="MPI-INF-3DHP"):
         load_ddhpose(mat)
+    # frames and hypotheses swapped, as user code often stores them: averaged 100 "hypotheses"
+    # into 3 frames before (a developer trial's exit 0 with 5 frames of a 1521-frame clip)
+    swapped = tmp_path / "frames_first.npy"
+    np.save(swapped, np.swapaxes(np.load(p5)[-1], 0, 1))
+    with pytest.raises(AdapterError, match=r"fewer hypotheses than frames, got 100 'hypotheses' of 3 frames: frames "
+                                           r"first\? np\.swapaxes\(a, -4, -3\)") as err:
+        load_ddhpose(swapped)
+    assert_names_file(err, swapped)
+
+
+def test_lifter_files_shaped_as_upstream_code_saves_them_name_the_fix(tmp_path):
+    """A batch of one recording and joints-first arrays get the line that says what they
+    look like (a developer trial read "(..., 17, 3) with 3 dimensions")."""
+    x3d = np.load(BOXING_X3D)
+    np.save(tmp_path / "batch.npy", x3d[None])
+    np.save(tmp_path / "joints_first.npy", np.swapaxes(x3d, 0, 1))
+    with pytest.raises(AdapterError, match=r"expected shape \(T, 17, 3\), got shape \(1, 60, 17, 3\) \(a leading "
+                                           r"batch axis of one\? save a\[0\]\)"):
+        load_motionbert(tmp_path / "batch.npy")
+    with pytest.raises(AdapterError, match=r"got shape \(17, 60, 3\) \(joints first\? .*np\.swapaxes\(a, 0, 1\)\)"):
+        load_motionbert(tmp_path / "joints_first.npy")
+
+
+def test_a_flat_skeleton_or_2d_keypoints_given_as_3d_poses_are_refused(tmp_path):
+    """A 2D projection saved with z = 0 ran to exit 0 with a "95 %" interval missing the real
+    file's pitch, and 2D keypoints with confidences given to a metric lifter read "millimetres
+    or centimetres given as metres?" (a developer trial)."""
+    flat = np.load(YOGA["Tadasana"])
+    flat[..., 2] = 0.0
+    np.save(tmp_path / "flat.npy", flat)
+    with pytest.raises(AdapterError, match=r"expected 3D joints .* got every frame's joints at one z \(z = 0 in frame "
+                                           r"0\): a 2D projection or 2D keypoints given as 3D poses\?") as err:
+        load_videopose3d(tmp_path / "flat.npy")
+    assert_names_file(err, tmp_path / "flat.npy")
+    with pytest.raises(InputError, match="at one z"):
+        validate_poses(flat)
+    validate_poses(np.load(YOGA["Tadasana"]))  # a real skeleton has depth
+    keypoints = np.load(YOGA["Tadasana"]) * np.float32([900, 900, 0]) + np.float32([960, 540, 0.0])
+    keypoints[..., 2] = np.random.default_rng(0).uniform(0.2, 1.1, keypoints.shape[:2])  # AlphaPose scores pass 1
+    np.save(tmp_path / "keypoints.npy", keypoints)
+    with pytest.raises(AdapterError, match=r"2D keypoints \(x, y pixels and a confidence\) given as 3D poses\?"):
+        load_videopose3d(tmp_path / "keypoints.npy")
+    np.save(tmp_path / "mm.npy", np.load(YOGA["Tadasana"]) * 1000)  # depths in front of the root: millimetres
+    with pytest.raises(AdapterError, match=r"millimetres or centimetres given as metres\?"):
+        load_videopose3d(tmp_path / "mm.npy")
 
 
 # --------------------------------------------------------------------------- VideoPose3D

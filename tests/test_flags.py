@@ -408,6 +408,9 @@ def test_a_lifters_asymmetric_legs_are_flagged():
     assert leg_asymmetry_flag(np.load(TADASANA)) == []
     mirrored = boxing[:, [0, 4, 5, 6, 1, 2, 3, *range(7, 17)]]  # legs swapped: the left one shorter
     assert "the left one shorter" in leg_asymmetry_flag(mirrored)[0].detail
+    # a COCO-17 file read as MotionBERT's H36M-17 had legs of eyes and ears, told only to
+    # "compare left and right with care" (a developer trial): the full text names the joint order
+    assert "another joint order read as H36M-17" in flag.detail
 
 
 def test_a_skeleton_that_changes_size_is_flagged():

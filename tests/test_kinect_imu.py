@@ -201,7 +201,9 @@ def test_azure_kinect_mm_to_m_no_axis_flip_and_nose():
 def test_azure_kinect_file_and_wrong_count(tmp_path):
     joints = np.zeros((2, 32, 3), np.float32)
     joints[..., 0] = np.linspace(-300.0, 300.0, 32)  # distinct joints: one point for all is a placeholder frame
-    joints[..., 2] = 2000.0
+    joints[..., 1] = 300.0 * np.cos(np.arange(32))  # and a body in 3D, not on one plane (a 2D projection)
+    joints[..., 2] = 2000.0 + 50.0 * np.sin(np.arange(32))
+    joints[:, [18, 22], 2] = 2000.0  # the hips, whose midpoint is H36M-17's pelvis
     np.savez(tmp_path / "bt.npz", joints=joints)
     p = load_azure_kinect(tmp_path / "bt.npz")
     assert p.joints.shape == (2, 17, 3) and np.allclose(p.joints[:, PELVIS, 2], 2.0)

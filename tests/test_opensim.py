@@ -173,7 +173,8 @@ def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_
     listed = json.loads((out / ".pcnet-output").read_text())["files"]
     assert {"scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "opensim_fit.json"} <= set(listed)
     fit = json.loads((out / "opensim_fit.json").read_text())  # the fit and its warning, kept with the outputs
-    assert f"OpenSim IK: marker RMS {100 * fit['marker_rms_m']:.2f} cm over {fit['frames']} frames" in res.output
+    assert (f"OpenSim IK: marker RMS {100 * fit['marker_rms_m']:.2f} cm to the lifter's joints over {fit['frames']} "
+            f"frames") in res.output
     assert len(fit["warnings"]) == sum(ln.startswith("WARNING  ") for ln in res.output.splitlines())
     assert fit["subject_height_m"] == 1.75 and fit["subject_mass_kg"] is None  # what was given is recorded
     assert "pelvis_tilt and L5_S1_Flex_Ext are not observable" in res.output
@@ -275,6 +276,10 @@ def test_cli_opensim_without_world_trc(tmp_path):
     assert res.exit_code == 1
     assert "has no fixed world frame for IK; if the camera stood still, rerun `pcnet run` with --mode sequence" in res.output
     assert len(res.output.strip().splitlines()) == 1
+    # an OpenSim user gave the TRC itself and read click's "Directory ... is a file"
+    res = _cli("opensim", moving / "canonical.trc")
+    assert res.exit_code == 1 and len(res.output.strip().splitlines()) == 1
+    assert f"expected a `pcnet run` output folder, got a file: give its folder, {moving}" in res.output
 
 
 def test_missing_opensim_is_one_line(short_run, monkeypatch):

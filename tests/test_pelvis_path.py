@@ -14,6 +14,7 @@ from conftest import FIXTURES
 from pcnet.pipeline.cli import main
 from pcnet.pipeline.pelvis_path import camera_intrinsics, pelvis_path
 from pcnet.stages.core.perspective import focal_px_from_35mm
+from pcnet.stages.flags import note_finding
 
 BOX_2D = FIXTURES / "boxing_alphapose_f000-059.json"
 BOX_3D = FIXTURES / "boxing_X3D_f000-059.npy"
@@ -61,10 +62,14 @@ def test_the_path_note_counts_fitted_frames_apart_from_bridged_ones():
     rel, kp, _, _ = _projected_walk()
     kp[40:50] = np.nan
     path = pelvis_path(None, rel, kp, camera_intrinsics(None, None, (1920, 1080)), "m", 30.0, 0.3)
-    fitted = int(re.search(r"fitted in (\d+) of 90 frames", path.note).group(1))
+    fitted = int(re.search(r"keypoints in (\d+) of 90 frames", path.note).group(1))
     bridged = int(re.search(r"bridged across (\d+) frames? without an accepted fit", path.note).group(1))
     assert fitted <= 80 and bridged >= 10 and fitted + bridged == 90, path.note
     assert np.isfinite(path.camera[40:50]).all()
+    # the summary's headline keeps the assumed focal length (a boxing analyst's read only the frames)
+    focal = round(focal_px_from_35mm(1920, 1080))
+    assert note_finding(path.note).headline == (f"pelvis path fitted to the 2D keypoints in {fitted} of 90 frames, "
+                                                f"focal length {focal} px assumed")
 
 
 def test_no_path_without_keypoints_metres_or_an_image_size():

@@ -403,6 +403,10 @@ def test_the_report_names_what_was_read(tmp_path):
 
     assert (settings["heading"], settings["cutoff_hz"], settings["confidence_threshold"]) == (
         "auto", DEFAULT_CUTOFF_HZ, DEFAULT_CONFIDENCE)
+    # the cutoff that sets every speed is in the summary (a boxing analyst found it only in report.md)
+    assert f"\nunits             normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (--cutoff-hz)\n" in res.output
+    assert (f"- **units**: normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (--cutoff-hz; Winter's for gait: the peak "
+            f"speeds of faster movements") in (tmp_path / "o" / "report.md").read_text()
     assert set(settings) == {f.name for f in dataclasses.fields(RunConfig)}
     # a relative command-line path is recorded absolute (a trial's report read it as typed)
     from pcnet.pipeline.config import settings_record
@@ -609,7 +613,7 @@ def test_centimetres_given_as_metres_are_refused_by_the_body_check():
     pose = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
     generic = RunConfig(lifter="generic", lifter_output="cm.npy")
     _check_metric_body(generic, pose)
-    with pytest.raises(InputError, match=r"cm\.npy: units: expected poses in metres \(a median thigh length of 0\.2-0\.7 m\), "
+    with pytest.raises(InputError, match=r"cm\.npy': field 'units': expected poses in metres \(a median thigh length of 0\.2-0\.7 m\), "
                                          r"got \d\d\.\d m: centimetres\? give --units cm, or --height"):
         _check_metric_body(generic, pose * 100.0)
     with pytest.raises(InputError, match=r"read it with --lifter generic --units cm \(VideoPose3D's H36M-17 order and "
@@ -617,7 +621,7 @@ def test_centimetres_given_as_metres_are_refused_by_the_body_check():
         _check_metric_body(RunConfig(lifter="videopose3d", lifter_output="cm.npy"), pose * 100.0)
     # the reverse mistake too: metres declared as centimetres (a user trial: it had run to the end)
     as_cm = RunConfig(lifter="generic", lifter_output="m.npy", lifter_options={"units": "cm"})
-    with pytest.raises(InputError, match=r"m\.npy: .*got 0\.00\d+ m: metres declared as --units cm\? declare --units m"):
+    with pytest.raises(InputError, match=r"m\.npy': .*got 0\.00\d+ m: metres declared as --units cm\? declare --units m"):
         _check_metric_body(as_cm, pose / 100.0)
 
 
@@ -1083,6 +1087,15 @@ def test_a_coco_layout_3d_file_is_noted_and_its_misreading_names_layout(tmp_path
     # the layout declared, and wrong, gets the same question (a trial's COCO file declared h36m17)
     res = _invoke(*args, "--layout", "h36m17", "--out", tmp_path / "e")
     assert res.exit_code == 1 and "(read with --layout h36m17: is the file in another joint layout?)" in res.output
+    # a named lifter reads one joint order: the same question names it (a developer trial's COCO
+    # file as VideoPose3D's read only "no frame has the hips, thorax and shoulders")
+    box = np.load(BOX_3D)
+    np.save(tmp_path / "coco_x3d.npy", np.stack([box[:, names.index(eyes_ears.get(j, j))]
+                                                 for j in get_layout("coco17").joints], 1))
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "coco_x3d.npy", "--fps", "30",
+                  "--no-recording", "--method", "geometric", "--out", tmp_path / "f")
+    assert res.exit_code == 1 and ("(read in motionbert's joint order, h36m17: is the file in another joint order?)"
+                                   in res.output), res.output
 
 
 def test_version_and_rectifys_requested_mode(tmp_path):
@@ -1191,7 +1204,7 @@ def test_centimetres_given_as_metres_are_refused_before_any_output(tmp_path):
     np.save(tmp_path / "cm.npy", pose)
     args = ["run", "--lifter", "generic", "--lifter-output", tmp_path / "cm.npy", "--fps", "30", "--no-recording"]
     res = _invoke(*args, "--out", tmp_path / "a")
-    assert res.exit_code == 1 and "cm.npy: units: expected poses in metres (a median thigh length of 0.2-0.7 m), got 3" \
+    assert res.exit_code == 1 and "cm.npy': field 'units': expected poses in metres (a median thigh length of 0.2-0.7 m), got 3" \
         in res.output and "centimetres? give --units cm, or --height" in res.output, res.output
     assert not (tmp_path / "a").exists()
     assert _invoke(*args, "--units", "cm", "--out", tmp_path / "b").exit_code == 0

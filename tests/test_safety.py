@@ -90,6 +90,9 @@ def test_overwrite_replaces_a_previous_output_and_refuses_once_the_user_added_a_
     marker = read_marker(user_folder / "o")
     assert marker["state"] == "complete" and "canonical.npz" in marker["files"]
     assert sorted(p.name for p in (user_folder / "o").iterdir()) == sorted([*marker["files"], MARKER])
+    # a boxing analyst's rerun read "output folder exists", the one line without expected and got
+    _one_line_error(_invoke(*RUN, "--out", "o"), "--out o: expected a new folder, got one that exists (a previous "
+                    "pcnet output); choose another --out or pass --overwrite")
     res = _invoke(*RUN, "--out", "o", "--overwrite")
     assert res.exit_code == 0, res.output
     # An output the user edited (opened in a spreadsheet and saved) is theirs now.

@@ -200,7 +200,7 @@ def _unmasked(joints, name: str = "poses") -> np.ndarray:
 def shape_hint(shape: tuple[int, ...], num_joints: int = 17) -> str:
     """What a wrongly shaped pose array most likely is, as a clause to end an error line with
     (``""`` where nothing fits): another layout's joint count (:data:`LAYOUTS`), to be remapped to
-    H36M-17 first, or the joint and coordinate axes swapped."""
+    H36M-17 first, or the joint and coordinate axes swapped, or the joint and frame axes."""
     if len(shape) == 3 and shape[-1] == 3 and shape[1] != num_joints:
         named = [lay.name for lay in LAYOUTS.values() if lay.num_joints == shape[1]]
         if named:
@@ -209,6 +209,8 @@ def shape_hint(shape: tuple[int, ...], num_joints: int = 17) -> str:
                     f"{named[0]})")
     if len(shape) == 3 and (shape[1:] == (3, num_joints) or shape[:2] == (num_joints, 3)):
         return f" (joint and coordinate axes in another order? expected (T, {num_joints}, 3): np.moveaxis)"
+    if len(shape) == 3 and shape[0] == num_joints and shape[-1] == 3:
+        return f" (joints first? expected frames first, (T, {num_joints}, 3): np.swapaxes(a, 0, 1))"
     return ""
 
 
@@ -334,8 +336,9 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
         and placeholders (:func:`placeholder_joints`) become NaN: missing data.
 
     Raises:
-        InputError: wrong dtype or shape, no frame, no finite value, or a coordinate beyond
-            the bound for ``units`` (naming the frame and joint).
+        InputError: wrong dtype or shape, no frame, no finite value, a coordinate beyond
+            the bound for ``units`` (naming the frame and joint), or joints with one coordinate
+            the same in every frame that has three or more (a 2D projection saved as 3D).
     """
     arr = _unmasked(joints, source)
     if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
@@ -351,6 +354,11 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
     in_place = in_place and arr.dtype == np.float32 and arr.flags.writeable and arr.ndim == np.ndim(joints)
     out = arr if in_place else np.empty(arr.shape, np.float32)
     any_finite, seen_finite, first, count = False, False, None, 0
+    # per axis: whether some frame's joints (three or more) spread along it; the first such frame's value
+    spread_along, flat_value = np.zeros(3, bool), None
+    # x, y beyond the bound beside a third channel never negative and within it: confidences, not
+    # depths (millimetres have joints in front of a root-relative root, or depths of a metre and more)
+    z_range = [np.inf, -np.inf]
     # The joint that root-relative poses put at the origin: the layout's pelvis where it is one
     # joint (H36M-17's, BODY-25's mid-hip), none where it is the hips' mean; unknown for names of
     # no layout.
@@ -375,7 +383,16 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
         values = np.where(finite, values, np.nan)
         values[placeholder_joints(values, keep_root, root)] = np.nan
         out[rows] = values
+        three = np.isfinite(values).all(axis=2).sum(axis=1) >= 3
+        if three.any():
+            extent = np.nanmax(values[three], axis=1) - np.nanmin(values[three], axis=1)
+            spread_along |= (extent > 0).any(axis=0)
+            if flat_value is None:
+                flat_value = (rows.start + int(np.flatnonzero(three)[0]), np.nanmin(values[three][0], axis=0))
         any_finite |= bool(np.isfinite(values).any())
+        z = values[..., 2][np.isfinite(values[..., 2])]
+        if z.size:
+            z_range = [min(z_range[0], float(z.min())), max(z_range[1], float(z.max()))]
     if not seen_finite:
         raise InputError(f"{source}: expected some finite joint coordinates, got only NaN/inf")
     if not any_finite:
@@ -384,11 +401,19 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
     if first is not None:
         t, j, value = first
         name = H36M_JOINTS[j] if joint_names is None else joint_names[j]
-        unit_hint = ("; millimetres or centimetres given as metres? scale the file to metres, or read it with "
+        confidences = 0.0 <= z_range[0] and z_range[1] <= bound
+        unit_hint = ("; 2D keypoints (x, y pixels and a confidence) given as 3D poses?" if confidences and units == "m"
+                     else "; millimetres or centimetres given as metres? scale the file to metres, or read it with "
                      "pcnet run --lifter generic --units mm (or cm)" if units == "m" else "")
         raise InputError(f"{source}: frame {t}, joint {name}: expected |coordinate| <= {bound:g} "
                          f"{units or '(any unit)'}, got {value:.4g} ({count} joint value{'s' if count != 1 else ''} "
                          f"beyond it{unit_hint})")
+    if flat_value is not None and not spread_along.all():
+        axis = int(np.flatnonzero(~spread_along)[0])
+        t, at = flat_value
+        raise InputError(f"{source}: expected 3D joints, got every frame's joints at one {'xyz'[axis]} "
+                         f"({'xyz'[axis]} = {at[axis]:.4g} in frame {t}): a 2D projection or 2D keypoints given as 3D "
+                         f"poses?")
     return out
 
 

@@ -171,7 +171,9 @@ _INCLINATIONS = {
                                                    "down, in the frontal plane of the pelvis heading frame: + away from "
                                                    "the midline, 90 = horizontal sideways."),
     "knee_flexion_unsigned": ("none", "180 minus the {side} hip-knee-ankle angle: 0 = straight, unsigned."),
-    "elbow_flexion_unsigned": ("none", "180 minus the {side} shoulder-elbow-wrist angle: 0 = straight, unsigned."),
+    "elbow_flexion_unsigned": ("none", "180 minus the {side} shoulder-elbow-wrist angle: 0 = straight, unsigned; "
+                                       "the same values as {side}_elbow_flexion_deg, ISB's elbow flexion (the upper "
+                                       "arm's Z is that angle's plane normal), kept for the same name as the knee's."),
 }
 #: Definition of an angle column no table above describes (a test keeps it unused).
 UNDESCRIBED_ANGLE = "An angle in degrees; no definition recorded for it (docs/joint_angles.md)."
