@@ -14,6 +14,11 @@ Recordings (per data set, one table each):
 - demo: ``pcnet demo`` (bundled boxing clip, MotionBERT + AlphaPose, 3DPCNet, 1.75 m), its
   world.trc (its kinematics.csv ISB columns are checked against isb_joint_angles of the csv's
   own, 6 Hz filtered, positions; world.trc holds the unfiltered poses OpenSim fits);
+- real MediaPipe (Pose2Sim's static trial, four calibrated cameras,
+  ``real/pose2sim_gravity``): ``pcnet run --lifter mediapipe`` on each camera's stored
+  landmarks, its world.trc (the metric lifter a clinic runs from a video; MediaPipe has no spine
+  joint, so pcnet's trunk flexion to the pelvis is 0 and its hip flexion is the thigh relative
+  to the trunk, docs/joint_angles.md);
 - Bandai motion-style test clips and CMU validation subjects (12, 60): the held-out splits of
   benchmarks/world_kinematics.py (:func:`pcnet.models.datasets.select_split`, scheme
   "motion-style"), ``--clips`` clips per data set evenly spaced over the split, the first
@@ -395,6 +400,23 @@ def run_demo(tmp: Path) -> tuple[Path, Path]:
     return out / "world.trc", out / "kinematics.csv"
 
 
+def pose2sim_trcs(data: Path, tmp: Path) -> list[tuple[str, list[tuple[str, Path]]]]:
+    """``pcnet run`` on each Pose2Sim camera's MediaPipe landmarks (with its video, for the
+    frame rate and picture): ``[(label, [(camera, world.trc)])]``, empty where the data lacks
+    them."""
+    folder = data / "real" / "pose2sim_gravity"
+    recs = []
+    for npz in sorted(folder.glob("statictrial_cam*.npz")):
+        out = tmp / f"pose2sim_{npz.stem}"
+        subprocess.run([sys.executable, "-m", "pcnet.pipeline.entry", "run", "--lifter", "mediapipe",
+                        "--lifter-output", str(npz), "--keypoints2d", str(npz), "--keypoints2d-format", "mediapipe",
+                        "--video", str(npz.with_suffix(".mp4")), "--out", str(out), "--no-recording"],
+                       check=True, capture_output=True, text=True)
+        recs.append((npz.stem.removeprefix("statictrial_"), out / "world.trc"))
+    return [("real MediaPipe (Pose2Sim static trial, four cameras: pcnet run --lifter mediapipe, world.trc)", recs)] \
+        if recs else []
+
+
 def compare_recording(osim, trc: Path, work: Path) -> tuple[dict, dict, dict]:
     """pcnet angles of the TRC's poses, OpenSim's (coordinates + derived) and scale_and_ik's result."""
     from pcnet.stages.core.conventions import H36M_JOINTS
@@ -472,6 +494,7 @@ def main() -> None:
         if not args.no_demo:
             trc, csv = run_demo(tmp)
             sets.append(("demo (pcnet demo: boxing, MotionBERT + AlphaPose, 3DPCNet, world.trc)", [("demo", trc)]))
+        sets += pose2sim_trcs(Path(args.data), tmp)
         sets += mocap_trcs(Path(args.data), args.clips, args.max_frames, tmp)
         for label, recs in sets:
             per_pair: dict[int, list] = {i: [] for i in range(len(PAIRS))}

@@ -870,7 +870,9 @@ def _row_summary(item: PlannedRow, result: dict | None, status: str | None = Non
             "mode": "", "units": None, "camera_tilt_deg": None, "posture": None, "root_path": None, "floor": None,
             "seconds": None, "error": "",
             "warnings": [], "notes": [],
-            "host": "", "pid": None, "attempts": 0, "threads": None, "opensim_rms_cm": None}
+            "host": "", "pid": None, "attempts": 0, "threads": None, "opensim_rms_cm": None,
+            # why it ran over its own earlier output (a study manager found it only on stderr)
+            "ran_again": item.rerun if item.action != "skip" else ""}
     if item.action == "skip":
         base.update(status="skipped", **{k: v for k, v in item.known.items() if v is not None})
     elif result is not None:
@@ -1202,7 +1204,7 @@ def batch_markdown(report: BatchReport) -> str:
     settings; a table of every row (status, attempts, frames, valid frames, mode, units (a row
     without ``height`` may not be in metres), tilt, posture, pelvis path, floor, the OpenSim
     fit's marker RMS, seconds,
-    worker, threads, output folder); every failed row's error in full (and its traceback
+    worker, threads, output folder); the rows run again over their earlier output and why; every failed row's error in full (and its traceback
     where the failure is a bug of pcnet); every warning of every row, most severe
     first, with its action and its full text once (where an earlier row's says the same with
     other numbers, a pointer to that row's); every row's notes (a trial found a file of another lifter named
@@ -1235,6 +1237,10 @@ def batch_markdown(report: BatchReport) -> str:
                                                           r.get("opensim_rms_cm"), seconds,
                                                           worker, r.get("threads"),
                                                           r["out"])) + " |")
+    again = [r for r in report.rows if r.get("ran_again")]
+    if again:
+        out += ["", "## Rows run again over their earlier output", ""]
+        out += [f"- line {r['line']} (row {r['row']}, {r['status']}): {r['ran_again']}" for r in again]
     failed = [r for r in report.rows if r["status"] == "failed"]
     out += ["", "## Failed rows", ""] + ([] if failed else ["None."])
     for r in failed:

@@ -1567,7 +1567,8 @@ def _exports(cfg: RunConfig, measured: Measured, findings: list[Finding], tmp: P
     carry its warning; added to ``findings``) and the figures; with the kinematics tables, the
     files written."""
     result = measured.result
-    outputs = {**measured.outputs, **write_motion_files(result, tmp, c3d=cfg.c3d, allocate=store.create)}
+    motion = write_motion_files(result, tmp, c3d=cfg.c3d, allocate=store.create, software=f"pcnet {pcnet_version()}")
+    outputs = {**measured.outputs, **motion}
     _trim_heap()
     if cfg.opensim:
         outputs.update(_opensim(cfg, tmp, findings, result.notes))

@@ -595,13 +595,14 @@ def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None) -> list
         return []
     odds = float(np.exp(min(log_odds, 50.0)))
     return [_found(Kind.MIRRORED, Severity.PROBLEM,
-                   f"3D skeleton mirrored (knees bend forward, elbows backward; odds {odds:.0f}:1): angles flip sign",
-                   "check --axes and --layout",
+                   f"3D skeleton mirrored (knees bend forward; odds {odds:.0f}:1): angles flip sign",
+                   # the generic reader's options: a named lifter such as kinect_v1 takes no --axes (a batch trial)
+                   "check --axes, --layout (--lifter generic)",
                    f"the 3D skeleton is a mirror image of a body: over {counted} frames its knees bend forward and its "
                    f"elbows backward (median bend sines {m[0]:+.2f}, {m[1]:+.2f}; a body's {model.mean[0]:+.2f}, "
                    f"{model.mean[1]:+.2f}), {odds:.0f} times as likely for a mirror image as for a body; its depth "
                    f"axis has the wrong sign (--axes) or its left and right are exchanged (--layout), so every "
-                   f"sagittal angle has the wrong sign")]
+                   f"sagittal angle has the wrong sign; read the file with --lifter generic, which takes both")]
 
 
 def posture_flag(sequence: SequenceUp | None) -> list[Finding]:

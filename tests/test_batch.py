@@ -320,6 +320,10 @@ def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     # ... naming what changed (a user trial: "its inputs, settings or pcnet version changed")
     assert "(ran again: input lifter_output changed since its earlier output; its earlier output replaced)" \
         in res.output, res.output
+    # ... and kept: a study manager found the reason only on stderr, not in the saved summaries
+    assert [r["ran_again"] for r in _summary(manifest)["rows"]] == ["", "input lifter_output changed since its "
+                                                                       "earlier output"]
+    assert "- line 3 (row 2, ok): input lifter_output changed since its earlier output" in _report(manifest)
 
     manifest.write_text(manifest.read_text().replace("r1,geometric", "r1,pcnet"))  # a setting changed
     res = _invoke(manifest, "--workers", "1")
@@ -716,6 +720,8 @@ def test_run_flags_in_an_action_read_as_manifest_columns():
         "column camera_prior false if standing under a tilted camera"
     # a sentence's words between flags are no flag's value (a review: "column axes and, column layout")
     assert in_manifest_terms("check --axes and --layout") == "check column axes and column layout"
+    assert in_manifest_terms("check --axes, --layout (--lifter generic)") == ("check column axes, column layout "
+                                                                             "(column lifter generic)")
     assert in_manifest_terms("(--axes with --lifter generic)") == "(column axes with column lifter generic)"
     # the findings' own actions name a generic lifter's option "with --lifter generic" (a user trial read
     # "column lifter generic, column units" as garbled)

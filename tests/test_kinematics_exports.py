@@ -897,6 +897,13 @@ def test_c3d_export_round_trips_real_world_frame_markers(tmp_path):
     assert c3d["parameters"]["POINT"]["UNITS"]["value"] == ["m"]
     # viewers told that +Y is up (a Z-up default would show the body lying down)
     assert [c3d["parameters"]["POINT"][k]["value"] for k in ("X_SCREEN", "Y_SCREEN")] == [["+X"], ["+Y"]]
+    # what the markers are and who wrote them, for a lab tool (a C3D user found ezc3d's defaults only)
+    from pcnet.pipeline.config import pcnet_version
+
+    assert set(c3d["parameters"]["POINT"]["DESCRIPTIONS"]["value"]) == {
+        "H36M-17 joint centre, world frame (x forward at the start, y up, z right; floor y = 0)"}
+    assert c3d["parameters"]["MANUFACTURER"]["SOFTWARE"]["value"] == ["pcnet"]
+    assert c3d["parameters"]["MANUFACTURER"]["VERSION_LABEL"]["value"] == [pcnet_version()]
     with np.load(out / "canonical.npz") as npz:
         world = npz["joints_world"]
     points = np.transpose(c3d["data"]["points"][:3], (2, 1, 0))

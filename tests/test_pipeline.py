@@ -1477,8 +1477,8 @@ def test_pcnet_rectify_says_what_the_poses_alone_show(tmp_path):
     mirrored = tmp_path / "mirrored.npy"
     np.save(mirrored, poses[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]])
     res = _invoke("rectify", mirrored, "--mode", "sequence", "--fps", "30", "--out", tmp_path / "m.npz")
-    assert res.exit_code == 0 and "WARNING  3D skeleton mirrored (knees bend forward, elbows backward; odds " \
-        in res.output, res.output
+    assert res.exit_code == 0 and "WARNING  3D skeleton mirrored (knees bend forward; odds " in res.output, res.output
+    assert "angles flip sign -> check --axes, --layout (--lifter generic)" in res.output  # options its reader takes
     res = _invoke("rectify", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy", "--mode", "sequence", "--fps", "30",
                   "--out", tmp_path / "t.npz")
     assert res.exit_code == 0 and "WARNING" not in res.output, res.output

@@ -587,6 +587,8 @@ def write_c3d(
     joint_names: Sequence[str] = H36M_JOINTS,
     units: str = "m",
     check_up: bool = True,
+    description: str = "",
+    software: str = "",
 ) -> Path:
     """Write Y-up poses (world or canonical frame, as :func:`write_trc`) as a C3D marker file
     with ezc3d (https://github.com/pyomeca/ezc3d), atomically.
@@ -595,10 +597,14 @@ def write_c3d(
     coordinates are written unchanged (X forward, Y up, Z right; POINT:X_SCREEN ``+X`` and
     POINT:Y_SCREEN ``+Y`` say so to viewers); a missing marker is passed to ezc3d as NaN,
     which stores it with residual -1 (C3D's invalid sample), a present one with residual 0.
+    POINT:DESCRIPTIONS gives every marker ``description`` and MANUFACTURER:SOFTWARE /
+    VERSION_LABEL the writer ``software`` ("name version") where given (C3D User Guide's
+    MANUFACTURER group): a lab tool shows what the markers are and where they came from.
 
     Args:
         path: destination ``.c3d``; poses: ``(T, J, 3)`` float; fps: Hz; joint_names: ``J``
-            labels; units: ``"m"`` or ``"mm"``; check_up: as :func:`write_trc`'s.
+            labels; units: ``"m"`` or ``"mm"``; check_up: as :func:`write_trc`'s;
+            description: the markers' frame and meaning; software: ``"pcnet 1.2.3"``.
 
     Returns:
         the destination path.
@@ -617,6 +623,12 @@ def write_c3d(
     # viewers that assume a Z-up lab would otherwise show this Y-up body lying down.
     c3d.add_parameter("POINT", "X_SCREEN", ["+X"])
     c3d.add_parameter("POINT", "Y_SCREEN", ["+Y"])
+    if description:
+        c3d["parameters"]["POINT"]["DESCRIPTIONS"]["value"] = [description] * len(names)
+    if software:
+        name, _, version = software.partition(" ")
+        c3d.add_parameter("MANUFACTURER", "SOFTWARE", [name])
+        c3d.add_parameter("MANUFACTURER", "VERSION_LABEL", [version or "unknown"])
     points = np.ones((4, X.shape[1], X.shape[0]))
     # ezc3d takes the whole point array: the C3D export (opt-in, --c3d) holds the recording.
     for rows in frame_blocks(len(X)):

@@ -282,8 +282,10 @@ def _implausible(r: RecordingResult) -> np.ndarray:
     return marked
 
 
-def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allocate=None) -> dict[str, Path]:
-    """Metric runs only (``r.units == "m"``): ``<frame>.trc``, ``<frame>.c3d`` (``c3d``) and
+def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allocate=None,
+                       software: str = "") -> dict[str, Path]:
+    """Metric runs only (``r.units == "m"``): ``<frame>.trc``, ``<frame>.c3d`` (``c3d``, its
+    markers described by their frame and its writer named ``software``) and
     ``<frame>.bvh`` of ``r.poses`` (:func:`.exports.write_trc`, :func:`.exports.write_c3d`,
     :func:`.bvh.write_bvh`), only the 2D track's longest one-person stretch where it switches
     person (:func:`_one_persons_poses`); a BVH needs one frame with all 17 joints (else a note, no file)
@@ -297,7 +299,11 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
     # the run's own estimate of the up: a recording read upside down is written as read
     write_trc(out[f"{name}.trc"], poses, r.fps, check_up=False)
     if c3d:
-        out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", poses, r.fps, check_up=False)
+        # a lab tool reads the frame in the file: a canonical C3D has no path and no floor
+        described = f"H36M-17 joint centre, {FRAME_LABELS[name]}" + (
+            "; pelvis at the origin, no path, no floor" if name == "canonical" else "")
+        out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", poses, r.fps, check_up=False, description=described,
+                                       software=software)
     bvh = f"{name}.bvh"
     incomplete = per_frame(lambda P: ~np.isfinite(P).all(axis=(1, 2)), poses)
     if incomplete.all():
