@@ -51,14 +51,29 @@ def cues_of(series) -> tuple[list[str], np.ndarray]:
     return names, np.array(rows).reshape(-1, 2)
 
 
-def reading(model: MirrorModel, series, label: str) -> list[str]:
+#: Decision 0103's trial: the mirror hypothesis must also fit the recording's cues, their
+#: Mahalanobis distance to ``-mu`` under ``S`` within the chi-square 95 % quantile of 2 degrees
+#: of freedom, ``-2 ln 0.05`` (the level of MIRROR_ODDS): a knee read hyperextended with elbows
+#: bent as a body's is neither a body nor its mirror image.
+FIT_D2 = -2.0 * np.log(0.05)
+
+
+def fires(model: MirrorModel, m: np.ndarray, fit_check: bool = False) -> bool:
+    """The shipped test (odds of at least MIRROR_ODDS), and with ``fit_check`` decision
+    0103's condition that the mirror hypothesis fits ``m`` (:data:`FIT_D2`)."""
+    if model.log_odds(m) < np.log(MIRROR_ODDS):
+        return False
+    d = m + model.mean
+    return not fit_check or float(d @ np.linalg.solve(model.cov, d)) <= FIT_D2
+
+
+def reading(model: MirrorModel, series, label: str, fit_check: bool = False) -> list[str]:
     """One line: false alarms on ``series`` and detections of its mirror images, with the
-    names of the false alarms."""
+    names of the false alarms (``fit_check``: decision 0103's test, :func:`fires`)."""
     names, m = cues_of(series)
     _, mirrored = cues_of((n, X * MIRROR_Z) for n, X in series)
-    t = np.log(MIRROR_ODDS)
-    fa = [n for n, row in zip(names, m) if model.log_odds(row) >= t]
-    hit = sum(model.log_odds(row) >= t for row in mirrored)
+    fa = [n for n, row in zip(names, m) if fires(model, row, fit_check)]
+    hit = sum(fires(model, row, fit_check) for row in mirrored)
     line = (f"  {label:<44} false alarms {len(fa):>3} / {len(m):<5} ({100 * len(fa) / max(len(m), 1):4.1f} %)   "
             f"mirror images detected {hit:>4} / {len(mirrored):<5} ({100 * hit / max(len(mirrored), 1):5.1f} %)")
     return [line] + [f"      false alarm: {n}" for n in fa[:10]] + ([f"      ... {len(fa) - 10} more"] if len(fa) > 10 else [])

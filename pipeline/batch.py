@@ -1058,12 +1058,21 @@ def _counts_line(report: BatchReport) -> str:
     # a cancelled or failed row leaves its folder as it was: an earlier complete output there is
     # still whole (a user trial's Ctrl-C under --overwrite read "0 of 13" with every earlier output
     # intact; another's killed worker left one unmentioned)
-    kept = {status: sum(r["status"] == status and read_marker(Path(r["out"])).get("state") == "complete"
-                        for r in report.rows) for status in ("cancelled", "failed")}
-    said = [f"{n} {status} row{'s' * (n != 1)}" for status, n in kept.items() if n]
-    total = sum(kept.values())
+    kept = {status: [r["line"] for r in report.rows
+                     if r["status"] == status and read_marker(Path(r["out"])).get("state") == "complete"]
+            for status in ("cancelled", "failed")}
+    # which rows, by their manifest lines (a study manager had to look them up)
+    said = [f"{len(lines)} {status} row{'s' * (len(lines) != 1)} ({_lines_text(lines)})"
+            for status, lines in kept.items() if lines]
+    total = sum(map(len, kept.values()))
     return line + (f"; {' and '.join(said)} still hold{'s' * (total == 1)} an earlier complete output, not this run's"
                    if said else "")
+
+
+def _lines_text(lines: list[int], shown: int = 5) -> str:
+    """``"line 5"``, ``"lines 3, 7"``, ``"lines 3, 7, 9, 12, 15 and 4 more"``."""
+    text = ", ".join(map(str, lines[:shown])) + (f" and {len(lines) - shown} more" if len(lines) > shown else "")
+    return f"line{'s' * (len(lines) != 1)} {text}"
 
 
 def _interrupted_line(report: BatchReport) -> str:

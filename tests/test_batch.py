@@ -1279,14 +1279,17 @@ def test_cancelled_rows_that_keep_an_earlier_complete_output_are_counted_and_eve
     text = format_summary(BatchReport(rows, True, tmp_path / "s.json", 1.0))
     assert text.splitlines()[:2] == [
         "0 of 2 recordings have complete outputs (0 ok, 0 skipped, 0 failed, 2 cancelled) in 1.0 s; 1 cancelled row "
-        "still holds an earlier complete output, not this run's",
+        "(line 2) still holds an earlier complete output, not this run's",
         "interrupted: no further row started; cancelled rows left their output folders as they were; the same command "
         "runs them"]
     # a failed row (a killed worker) leaves its earlier output too, and was not said to (a batch trial)
     failed = _row_summary(PlannedRow(row=3, line=4, config={"out": str(kept)}), None, "failed")
     text = format_summary(BatchReport([*rows, failed], False, tmp_path / "s.json", 1.0))
-    assert text.splitlines()[0].endswith("; 1 cancelled row and 1 failed row still hold an earlier complete output, "
-                                         "not this run's")
+    assert text.splitlines()[0].endswith("; 1 cancelled row (line 2) and 1 failed row (line 4) still hold an earlier "
+                                         "complete output, not this run's")
+    from pcnet.pipeline.batch import _lines_text
+
+    assert _lines_text([3, 7, 9, 12, 15, 20, 21]) == "lines 3, 7, 9, 12, 15 and 2 more"
 
 
 def test_an_interrupted_overwrite_says_how_to_run_only_the_rows_it_left():
