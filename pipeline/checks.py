@@ -64,7 +64,8 @@ class CheckInputs:
     track_events: :func:`pcnet.stages.flags.track_segments` of the 2D track (``None`` and
     ``[]`` without one); height_given: ``--height`` was given (the body is scaled to it);
     person_option: ``--person`` can choose another track of the 2D file; own_estimator: the 2D
-    keypoints are pcnet's own estimator's (``--video`` without a 2D file); focal_known: the
+    keypoints are pcnet's own estimator's (``--video`` without a 2D file); roi_given: that
+    estimator saw a ``--roi``; focal_known: the
     camera's focal length was known (``--focal-px`` or the lifter file's camera matrix);
     picture: ``(width, height)`` of the picture ``keypoints2d`` are in, or ``None`` where unknown
     (``pipeline/runner.py: _keypoint_picture``); picture_typed: that size is ``--image-size``
@@ -83,6 +84,7 @@ class CheckInputs:
     height_given: bool
     person_option: bool
     own_estimator: bool = False
+    roi_given: bool = False
     focal_known: bool = False
     picture: tuple[int, int] | None = None
     picture_typed: bool = False
@@ -110,7 +112,7 @@ def checks(c: CheckInputs) -> list[Finding]:
         *ensemble_weights_flag(_answering_weights(report)),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report), focal_known=c.focal_known),
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option,
-                            own_estimator=c.own_estimator)
+                            own_estimator=c.own_estimator, roi_given=c.roi_given)
           if c.track_segment is not None else []),
     ]
 

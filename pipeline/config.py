@@ -542,10 +542,15 @@ def parse_hypothesis(text: str) -> int | str:
     return int(text) if re.fullmatch(r"-?[0-9]+", text) else text
 
 
+#: Settings that choose one of two ways: an override of one drops the file's other.
+ALTERNATIVES = (("cutoff_hz", "residual_cutoff"),)
+
+
 def load_run_config(path: str | Path, **overrides) -> RunConfig:
     """Read a TOML file whose top-level keys are :class:`RunConfig` fields (plus an optional
     ``[lifter_options]`` table); relative paths are resolved against the file's folder;
-    ``overrides`` (not None) win.
+    ``overrides`` (not None) win, and one of :data:`ALTERNATIVES` given there replaces the file's
+    other.
 
     Raises:
         InputError: unknown keys, values of the wrong type or invalid values, or an input file
@@ -562,7 +567,12 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
     for key in PATH_FIELDS:
         if isinstance(raw.get(key), str):
             raw[key] = str((path.parent / raw[key]).resolve()) if not Path(raw[key]).is_absolute() else raw[key]
-    raw.update({k: v for k, v in overrides.items() if v is not None})
+    given = {k: v for k, v in overrides.items() if v is not None}
+    for a, b in ALTERNATIVES:  # the command line's choice replaces the file's other one (a trial's
+        for mine, other in ((a, b), (b, a)):  # --cutoff-hz over a file's residual_cutoff was refused)
+            if mine in given and other not in given:
+                raw.pop(other, None)
+    raw.update(given)
     for key in ("video", "keypoints2d", "lifter_output"):  # named before the settings they may explain
         if isinstance(raw.get(key), str) and not os.path.lexists(raw[key]):
             raise InputError(f"{field_name(str(path), key)}: expected an existing file, got no such file "

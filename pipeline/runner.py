@@ -31,12 +31,13 @@ from tqdm import tqdm
 from pcnet.adapters import (AdapterError, Keypoints2D, Poses3D, VideoInfo, first_shown_frame, get_2d_adapter,
                             get_3d_adapter, probe_video)
 from pcnet.adapters.mediapipe import holds_keypoints_2d, load_mediapipe_2d
-from pcnet.models.inference import training_config
+from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, training_config
 from pcnet.adapters.validate import as_path, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, METRES_PER_LENGTH_UNIT, PELVIS, R_HIP,
                                           REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
                                           THORAX, fill_pelvis_from_hips, thigh_beyond_metres, validate_fps)
 from pcnet.stages.core.canonical import to_canonical
+from pcnet.stages.core.digest import sha256_file
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, opensim_notes,
@@ -576,8 +577,20 @@ def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None,
         read.update(video=settings["video"], video_size=[video.width, video.height], video_frames=video.frame_count)
     if cfg.roi is not None:  # the region the embedded estimator saw: which person its poses are
         read["roi"] = list(cfg.roi_px)
-    read.update(pcnet_version=pcnet_version(), settings=settings)
+    read.update(pcnet_version=pcnet_version(), sha256=_digests(settings), settings=settings)
     return read
+
+
+def _digests(settings: dict) -> dict:
+    """``{setting: sha256}`` of every file a run read (the lifter output, 2D keypoints, video and
+    the weights: a ``--weights`` file, or the shipped pair by file name where the method runs a
+    network): the content a report's paths alone do not pin down (a reproducibility trial ran
+    copies and could not tell them from the originals)."""
+    out = {key: sha256_file(settings[key]) for key in ("lifter_output", "keypoints2d", "video", "weights")
+           if settings.get(key)}
+    if not settings.get("weights") and settings.get("method") != "geometric":
+        out.update({f"weights {path.name}": sha256_file(path) for path in (CAMERA_WEIGHTS, BODY_WEIGHTS)})
+    return out
 
 
 def _published(read: dict, staged: Path, out: Path) -> dict:
@@ -1396,7 +1409,7 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         lifter_turn_deg=recording.lifter_turn_deg, track_segment=rectified.track_segment,
         track_events=rectified.track_events, height_given=cfg.height is not None,
         person_option=cfg.keypoints2d_format in multi_track_formats(),
-        own_estimator=estimated,
+        own_estimator=estimated, roi_given=cfg.roi is not None,
         focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture,
         picture_typed=_picture_typed(cfg), units_declared=cfg.lifter == "generic")
 

@@ -926,7 +926,8 @@ def one_person_frames(segment: np.ndarray) -> np.ndarray:
 
 
 def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
-                      person_option: bool = True, own_estimator: bool = False) -> list[Finding]:
+                      person_option: bool = True, own_estimator: bool = False,
+                      roi_given: bool = False) -> list[Finding]:
     """A flag naming the jumps and the frames outside the longest stretch (the finding's
     frames: probably another person).
 
@@ -938,6 +939,8 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
         own_estimator: the 2D keypoints are pcnet's own estimator's (``--video`` alone), which
             follows one person with no track to choose or tracker to re-run: the advice is
             ``--roi`` around the person, or to leave those frames out.
+        roi_given: that estimator already saw a ``--roi``, which the other person enters: the
+            advice is a narrower one (a coach's run with a ``--roi`` was told to give one).
     """
     if not events:
         return []
@@ -948,6 +951,11 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
     more = f" and {len(events) - 5} more" if len(events) > 5 else ""
     if person_option:
         action = advice = "check --person"
+    elif own_estimator and roi_given:
+        action = "narrow --roi to where the person stays (docs/video.md)"
+        advice = ("pcnet's pose estimator follows whoever it finds, and another person enters the --roi given: run "
+                  "again with a narrower --roi X,Y,W,H, the region the person stays in and the other does not enter "
+                  "(pixels, as displayed; docs/video.md), or leave those frames out")
     elif own_estimator:
         action = "give --roi around the person (docs/video.md)"
         advice = ("pcnet's pose estimator follows whoever it finds: run again with --roi X,Y,W,H, the region of the "

@@ -134,6 +134,10 @@ def test_a_track_that_jumps_to_another_place_is_split():
     (own,) = track_switch_flag(segment, events, person_option=False, own_estimator=True)
     assert own.action == "give --roi around the person (docs/video.md)"
     assert "run again with --roi X,Y,W,H" in own.detail and "tracker" not in own.detail
+    # ... and one that saw a --roi already is told to narrow it (a coach's run was told to give one)
+    (narrow,) = track_switch_flag(segment, events, person_option=False, own_estimator=True, roi_given=True)
+    assert narrow.action == "narrow --roi to where the person stays (docs/video.md)"
+    assert "another person enters the --roi given" in narrow.detail
 
 
 def test_pelvis_jumps_measure_torso_lengths_over_gaps_at_30_fps():

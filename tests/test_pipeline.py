@@ -396,6 +396,13 @@ def test_the_report_names_what_was_read(tmp_path):
 
     settings = read.pop("settings")
     assert read.pop("pcnet_version") == pcnet_version()
+    # what the files held, not only where they were (a reproducibility trial ran copies)
+    from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS
+    from pcnet.stages.core.digest import sha256_file
+
+    assert read.pop("sha256") == {"lifter_output": sha256_file(BOX_3D), "keypoints2d": sha256_file(BOX_2D),
+                                  "weights pcnet_camera.onnx": sha256_file(CAMERA_WEIGHTS),
+                                  "weights pcnet_body.onnx": sha256_file(BODY_WEIGHTS)}
     assert settings["out"] == str((tmp_path / "o").resolve()) and settings["fps"] == 30.0
     assert settings["lifter_output"] == str(BOX_3D.resolve())
     # the defaults the run resolved, as used (a trial read "heading n/a" and "cutoff_hz n/a")
@@ -596,6 +603,20 @@ def test_toml_config_keys_parse_into_the_run_config(tmp_path):
     assert run.fps == 30 and run.method == "geometric" and run.recording is False
     assert run.out == str(tmp_path / "from_toml") and run.lifter_options == {}
     assert load_run_config(cfg, method="pcnet").method == "pcnet"  # a command-line option wins
+    # ... also over the file's other way of choosing the same thing (a reproducibility trial's
+    # --cutoff-hz 8 over a file's residual_cutoff was refused, naming the file)
+    choosing = tmp_path / "residual.toml"
+    choosing.write_text(cfg.read_text() + "residual_cutoff = true\n")
+    chosen = load_run_config(choosing, cutoff_hz=8.0)
+    assert (chosen.cutoff_hz, chosen.residual_cutoff) == (8.0, False)
+    cutoff = tmp_path / "cutoff.toml"
+    cutoff.write_text(cfg.read_text() + "cutoff_hz = 6.0\n")
+    chosen = load_run_config(cutoff, residual_cutoff=True)
+    assert (chosen.cutoff_hz, chosen.residual_cutoff) == (None, True)
+    with pytest.raises(InputError, match="cutoff_hz"):  # both in one file is still one mistake
+        both = tmp_path / "both.toml"
+        both.write_text(cfg.read_text() + "cutoff_hz = 6.0\nresidual_cutoff = true\n")
+        load_run_config(both)
     gone = tmp_path / "gone.toml"  # a missing input named before the settings it may explain (a review)
     gone.write_text('lifter = "motionbert"\nlifter_output = "absent.npy"\n')
     with pytest.raises(InputError, match=r"gone.toml: field 'lifter_output': expected an existing file, got no such "
