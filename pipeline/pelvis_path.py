@@ -17,7 +17,7 @@ import numpy as np
 
 from pcnet.models.lifter_noise import BONE_SCALE_SIGMA
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.framestore import present_frames
+from pcnet.stages.core.framestore import per_frame, present_frames
 from pcnet.stages.core.perspective import focal_px_from_35mm, intrinsics
 from pcnet.stages.kinematics import frames_phrase
 from pcnet.stages.root_path import root_from_keypoints, stretch_starts
@@ -81,6 +81,31 @@ class PelvisPath:
         return np.sqrt(np.einsum("ij,tjk,ik->ti", W, self.covariance, W))
 
 
+def _require_body_in_front(position_z: np.ndarray, joints_cam, camera: Intrinsics) -> None:
+    """Refuse a focal length whose pelvis path puts the body behind the camera: a pinhole
+    camera sees only points in front of it, so where the nearest joint of the median fitted
+    frame lies at a depth of 0 or less, the focal length (or the picture it was given for) is
+    wrong, by far (a sprint coach's ``--focal-px 26``, the lens's millimetres, read 17 m/s walks).
+
+    Raises:
+        InputError: naming the focal length's source and the pixels a phone's lens would give.
+    """
+    nearest_rel = per_frame(lambda J: np.min(J[..., 2], axis=1, initial=np.inf, where=np.isfinite(J[..., 2])),
+                            joints_cam)
+    nearest = np.asarray(position_z, np.float64) + np.where(np.isfinite(nearest_rel), nearest_rel, np.nan)
+    fitted = nearest[np.isfinite(nearest)]
+    if not len(fitted) or np.median(fitted) > 0:
+        return
+    width, height = 2 * camera.matrix[0, 2], 2 * camera.matrix[1, 2]
+    phone = focal_px_from_35mm(width, height)
+    given = f"--focal-px {camera.matrix[0, 0]:g}" if camera.source.endswith(", given") else camera.source
+    raise InputError(f"{given}: expected a focal length that puts the body in front of the camera, got "
+                     f"one that puts its nearest joint {-np.median(fitted):.2f} m behind it in the median frame: a "
+                     f"focal length in millimetres? in pixels it is the 35 mm-equivalent focal length x the "
+                     f"picture's diagonal / 43.27 (a phone's 26 mm: {phone:.0f} px on this {width:.0f}x{height:.0f} "
+                     f"picture)")
+
+
 def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: Intrinsics, units: str, fps: float,
                 min_confidence: float, segment: np.ndarray | None = None) -> PelvisPath:
     """The run's pelvis path.
@@ -119,6 +144,7 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
                                    size_std_fraction=BONE_SCALE_SIGMA, segment=segment)
     except InputError as err:  # too few joints seen in 2D and 3D alike: the run goes on without a path
         return PelvisPath("not observable", refused=str(err))  # a warning, not a note (stages.flags.keypoints_unused_flag)
+    _require_body_in_front(position_z=path.position[:, 2], joints_cam=joints_cam, camera=camera)
     position, held = _held_at_the_ends(path.position, present_frames(joints_cam), segment)
     accepted = path.frames_fitted - path.frames_rejected
     bridged = int(np.isfinite(path.position).all(axis=1).sum()) - accepted  # gaps and outliers inside the span

@@ -13,6 +13,7 @@ from conftest import FIXTURES
 
 from pcnet.pipeline.cli import main
 from pcnet.pipeline.pelvis_path import camera_intrinsics, pelvis_path
+from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.perspective import focal_px_from_35mm
 from pcnet.stages.flags import note_finding
 
@@ -110,3 +111,18 @@ def test_the_path_std_is_turned_into_the_world_by_the_camera_to_world_rotation()
     W = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # rows: world X, Y, Z in camera coordinates
     std = PelvisPath("from 2D keypoints", np.zeros((1, 3)), cov).world_std(W)
     np.testing.assert_allclose(std, [[10.0, 1.0, 2.0]])
+
+
+def test_a_focal_length_that_puts_the_body_behind_the_camera_is_refused():
+    """A sprint coach gave the lens's millimetres as --focal-px 26 and read a walker at 17 m/s:
+    a pinhole camera sees nothing behind it, so the path's body must lie in front of it."""
+    rel, kp, pelvis, K = _projected_walk()
+    with pytest.raises(InputError, match=r"^--focal-px 26: expected a focal length that puts the body in front of the "
+                                         r"camera, got one that puts its nearest joint 0\.\d\d m behind it in the median "
+                                         r"frame: a focal length in millimetres\? .* \(a phone's 26 mm: "
+                                         rf"{focal_px_from_35mm(1920, 1080):.0f} px on this 1920x1080 picture\)"):
+        pelvis_path(None, rel, kp, camera_intrinsics(26.0, None, (1920, 1080)), "m", 30.0, 0.3)
+    # the true focal length, and one a fifth of it, keep the body in front: a path, no error
+    for focal in (K[0, 0], K[0, 0] / 5):
+        assert pelvis_path(None, rel, kp, camera_intrinsics(focal, None, (1920, 1080)), "m", 30.0, 0.3).kind == \
+            "from 2D keypoints"
