@@ -43,9 +43,18 @@ An adapter reads one person per file, the same person in every frame: pcnet's ch
 track switch need 2D keypoints, so an adapter that picks a person per frame by score can
 blend two people unseen. It raises :class:`~pcnet.adapters.types.AdapterError` (naming file,
 field, expected and found) for bad input, with the helpers of
-:mod:`pcnet.adapters.validate` (``load_npy``, ``read_json``, ``checked_poses``); anything
-else it raises is reported as a bug in it, with its traceback and a last line naming the
-adapter's class, its package and the file.
+:mod:`pcnet.adapters.validate` (``load_npy``, ``read_json``, ``json_numbers`` for a JSON
+file's numbers: ``np.asarray`` of its lists would take strings and booleans, ``checked_poses``
+last); anything else it raises is reported as a bug in it, with its traceback and a last line
+naming the adapter's class, its package and the file.
+
+A file in a joint layout of its own is remapped to H36M-17 by the adapter itself before
+``checked_poses`` (as ``kinect.py`` does: :class:`Poses3D` takes only the layouts pcnet
+knows), whose errors then name H36M-17's joints; say the file's own names in ``notes``, which
+the run's report keeps (``inputs.lifter_notes``, with the adapter's class and package version
+in ``inputs.lifter_adapter``). ``records_fps`` is ``True`` unless given: an adapter whose
+files hold no frame rate must say ``False``, or ``pcnet batch`` does not ask its rows for
+``fps`` before running them.
 """
 
 from __future__ import annotations
@@ -137,7 +146,7 @@ def get_2d_adapter(name: str):
     """Return a new instance of the 2D adapter registered as ``name``.
 
     Raises:
-        ValueError: unknown name (the message lists the available ones).
+        InputError (a ValueError): unknown name (the message lists the available ones).
     """
     return _get(_ADAPTERS_2D, "2D", name)
 
@@ -146,7 +155,7 @@ def get_3d_adapter(name: str):
     """Return a new instance of the 3D adapter registered as ``name``.
 
     Raises:
-        ValueError: unknown name (the message lists the available ones).
+        InputError (a ValueError): unknown name (the message lists the available ones).
     """
     return _get(_ADAPTERS_3D, "3D", name)
 

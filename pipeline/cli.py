@@ -368,6 +368,11 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
         click.echo(f.terminal_line())
 
 
+#: Where pip finds torch's CPU build: without it pip fetches the CUDA build, several GB (a
+#: plain-install trial followed the one-line hint literally).
+TORCH_CPU = " --extra-index-url https://download.pytorch.org/whl/cpu (the CPU build)"
+
+
 @main.command()
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), required=True)
 @click.option("--no-resume", is_flag=True, help="Start again even if a checkpoint exists.")
@@ -377,7 +382,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
               help="Write the run here instead of the config's out_dir.")
 def train(config_path, no_resume, seed, out_dir):
     """Train 3DPCNet (needs the [train] extra: torch)."""
-    import_extra("torch", 'pcnet train needs torch: pip install "pcnet[train]"')
+    import_extra("torch", f'pcnet train needs torch: pip install "pcnet[train]"{TORCH_CPU}')
     from pcnet.models.train import load_config, train as run_train
 
     overrides = {k: v for k, v in (("seed", seed), ("out_dir", out_dir)) if v is not None}
@@ -393,8 +398,8 @@ def train(config_path, no_resume, seed, out_dir):
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file (and its .json).")
 def export(checkpoint, out_path, overwrite):
     """Export a 3DPCNet checkpoint to ONNX (dynamic batch) with its .json metadata beside
-    it."""
-    import_extra("torch", 'pcnet export needs torch: pip install "pcnet[train]"')
+    it (needs the [train] extra: torch)."""
+    import_extra("torch", f'pcnet export needs torch: pip install "pcnet[train]"{TORCH_CPU}')
     from pcnet.models.export import export_checkpoint
 
     _new_output_file(out_path, "--out", overwrite, inputs=(checkpoint,), companions=(".json",),

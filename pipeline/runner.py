@@ -497,7 +497,8 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     return RecordingInputs(video, fps, fps_source, kp2d, kp_size, kp_extent, joints, poses.units, poses.root_translation,
                            [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n],
                            poses.frame_turn_deg, poses.nonfinite, poses.camera_matrix,
-                           _inputs_read(cfg, poses.layout, poses.units, kp_layout, video))
+                           _inputs_read(cfg, poses.layout, poses.units, kp_layout, video, poses.notes,
+                                        _adapter_origin(adapter)))
 
 
 def _other_2d_format(path, tried: str) -> str:
@@ -557,12 +558,16 @@ def _inputs_line(read: dict) -> str:
     return "; ".join(parts)
 
 
-def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None, video: VideoInfo | None) -> dict:
+def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None, video: VideoInfo | None,
+                 lifter_notes: str = "", lifter_adapter: str = "") -> dict:
     """What a run read, for its report (``inputs``): the method and its weights (``"shipped"``
     or the ``--weights`` file), each file with the format it was read as and the joint layout
     found in it (an upstream estimator or a model swapped for another shows here), and the
     lifter options the file was declared with (``lifter_options``: a generic lifter's axes,
-    units, key), the installed pcnet's version and every setting of ``cfg`` (``settings``,
+    units, key), how the adapter converted the file (``lifter_notes``, :attr:`Poses3D.notes`: its
+    own layout and axes where it remapped them) and which code read it (``lifter_adapter``,
+    module, class and package version: a plug-in's), the installed pcnet's version and every
+    setting of ``cfg`` (``settings``,
     :func:`~pcnet.pipeline.config.settings_record`), from which the run can be repeated; paths
     absolute (a trial's relative command-line path read as typed)."""
     settings = settings_record(cfg)  # what repeats the run: every setting as used, paths absolute
@@ -570,6 +575,8 @@ def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None,
             "lifter_output": settings["lifter_output"], "lifter_layout": layout, "lifter_units": units}
     if cfg.lifter_options:  # what the file was declared to be (a generic lifter's axes, units, key)
         read["lifter_options"] = settings["lifter_options"]
+    # an in-house adapter's conversion and version had reached no output (a plug-in trial)
+    read.update({k: v for k, v in (("lifter_notes", lifter_notes), ("lifter_adapter", lifter_adapter)) if v})
     if cfg.keypoints2d:
         read.update(keypoints2d=settings["keypoints2d"], keypoints2d_format=cfg.keypoints2d_format,
                     keypoints2d_layout=kp_layout)

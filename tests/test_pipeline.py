@@ -421,6 +421,9 @@ def test_the_report_names_what_was_read(tmp_path):
     relative = settings_record(RunConfig(lifter="motionbert", lifter_output="x/X3D.npy", out="o"))
     assert relative["lifter_output"] == str(Path("x/X3D.npy").resolve()) and relative["out"] == str(Path("o").resolve())
     assert relative["confidence_threshold"] is None  # no 2D keypoints: no threshold used
+    # how the adapter converted the file and which code read it (a plug-in trial found neither)
+    assert read.pop("lifter_notes").startswith("MotionBERT X3D.npy (infer_wild.py), H36M-17, units normalised")
+    assert read.pop("lifter_adapter").startswith("pcnet.adapters.motionbert.MotionBERTAdapter (package pcnet ")
     assert read == {"method": "pcnet", "weights": "shipped", "lifter": "motionbert", "lifter_output": str(BOX_3D), "lifter_layout": "h36m17",
                     "lifter_units": "normalised", "keypoints2d": str(BOX_2D), "keypoints2d_format": "alphapose",
                     "keypoints2d_layout": "halpe26"}

@@ -921,6 +921,8 @@ def test_training_and_export_without_torch_end_in_one_line(user_folder, monkeypa
     say which extra they need, as the other extras do, instead of a traceback."""
     monkeypatch.setitem(sys.modules, "torch", None)  # `import torch` raises ImportError
     _one_line_error(_invoke("export", "--checkpoint", "notes.txt", "--out", "m.onnx"),
-                    'pcnet export needs torch: pip install "pcnet[train]"')
+                    'pcnet export needs torch: pip install "pcnet[train]" --extra-index-url '
+                    'https://download.pytorch.org/whl/cpu (the CPU build)')
     (user_folder / "t.toml").write_text("")
-    _one_line_error(_invoke("train", "--config", "t.toml"), 'pcnet train needs torch: pip install "pcnet[train]"')
+    _one_line_error(_invoke("train", "--config", "t.toml"), 'pcnet train needs torch: pip install "pcnet[train]" '
+                    '--extra-index-url https://download.pytorch.org/whl/cpu (the CPU build)')
