@@ -554,8 +554,8 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
 
     Raises:
         InputError: unknown keys, values of the wrong type or invalid values, or an input file
-            (``video``, ``keypoints2d``, ``lifter_output``) that does not exist, naming the file
-            and the field.
+            (``video``, ``keypoints2d``, ``lifter_output``, ``weights``) that does not exist,
+            naming the file and the field.
     """
     path = Path(path)
     raw = read_toml(path)
@@ -573,7 +573,8 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
             if mine in given and other not in given:
                 raw.pop(other, None)
     raw.update(given)
-    for key in ("video", "keypoints2d", "lifter_output"):  # named before the settings they may explain
+    # named before the settings they may explain; the weights too (a trial's read only the resolved path)
+    for key in ("video", "keypoints2d", "lifter_output", "weights"):
         if isinstance(raw.get(key), str) and not os.path.lexists(raw[key]):
             raise InputError(f"{field_name(str(path), key)}: expected an existing file, got no such file "
                              f"({raw[key]})")

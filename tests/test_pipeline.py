@@ -625,6 +625,11 @@ def test_toml_config_keys_parse_into_the_run_config(tmp_path):
     with pytest.raises(InputError, match=r"gone.toml: field 'lifter_output': expected an existing file, got no such "
                                          r"file \(.*absent.npy\)$"):
         load_run_config(gone)
+    # weights read from the TOML's folder are named as its field too (a trial read only the resolved path)
+    gone.write_text(f'lifter = "motionbert"\nlifter_output = "{BOX_3D}"\nweights = "nope.onnx"\n')
+    with pytest.raises(InputError, match=r"gone.toml: field 'weights': expected an existing file, got no such file "
+                                         rf"\({tmp_path / 'nope.onnx'}\)$"):
+        load_run_config(gone)
 
 
 def test_centimetres_given_as_metres_are_refused_by_the_body_check():
