@@ -1166,9 +1166,7 @@ def _lines_by(rows: list[dict], kind) -> str:
     groups: dict[str, list[int]] = {}
     for r in rows:
         groups.setdefault(kind(r), []).append(r["line"])
-    return "; ".join(f"{k} in line{'s' * (len(lines) > 1)} {', '.join(map(str, lines[:SUMMARY_LINES]))}"
-                     + (f" and {len(lines) - SUMMARY_LINES} more" if len(lines) > SUMMARY_LINES else "")
-                     for k, lines in groups.items())
+    return "; ".join(f"{k} in {_lines_text(lines, SUMMARY_LINES)}" for k, lines in groups.items())
 
 
 def _world_line(rows: list[dict]) -> str | None:

@@ -3,7 +3,6 @@ method on mocap with synthetic camera views (deterministic for a given seed)."""
 
 from __future__ import annotations
 
-import functools
 import hashlib
 from pathlib import Path
 
@@ -14,7 +13,7 @@ from pcnet.models.datasets import (SPLIT_SCHEMES, Noise, assumed_fps_warning, cl
 from pcnet.models.inference import training_config
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.conventions import H36M_JOINTS
-from pcnet.stages.core.digest import sha256_file
+from pcnet.stages.core.digest import sha256_file_version
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.core.errors import InputError
 from pcnet.pipeline.rectification import make_estimator
@@ -134,17 +133,7 @@ def _other_content(data: str | Path, record: dict) -> bool:
     named = [h for d, h in zip(record.get("data", []), hashes) if Path(str(d)).name == Path(data).name]
     if not named:
         return False
-    path = Path(data).resolve()
-    stat = path.stat()
-    return _sha256(str(path), stat.st_mtime_ns, stat.st_size) not in named
-
-
-@functools.lru_cache(maxsize=8)
-def _sha256(path: str, mtime_ns: int, size: int) -> str:
-    """:func:`pcnet.stages.core.digest.sha256_file`, once per file version an evaluation reads
-    (its checks ask up to three times; a file rewritten between two calls in one session is
-    read again: ``mtime_ns`` and ``size`` are in the key)."""
-    return sha256_file(path)
+    return sha256_file_version(data) not in named
 
 
 def _listed_files(record: dict) -> list[str]:

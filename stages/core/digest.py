@@ -3,8 +3,10 @@ another of the same name."""
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
+from pathlib import Path
 
 #: Bytes read at a time: bounded memory for a long video or a large mocap archive.
 _CHUNK = 1 << 20
@@ -21,3 +23,22 @@ def sha256_file(path: str | os.PathLike) -> str:
         while chunk := fh.read(_CHUNK):
             digest.update(chunk)
     return digest.hexdigest()
+
+
+def sha256_file_version(path: str | os.PathLike) -> str:
+    """:func:`sha256_file`, read once per version of a file in a process: keyed by the resolved
+    path, its modification time (ns) and size, so a file rewritten since is read again (the
+    shipped weights, hashed by every run of a batch worker; a file an evaluation checks up to
+    three times).
+
+    Raises:
+        OSError: the file cannot be read.
+    """
+    resolved = Path(path).resolve()
+    stat = resolved.stat()
+    return _sha256_of(str(resolved), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=64)
+def _sha256_of(path: str, mtime_ns: int, size: int) -> str:
+    return sha256_file(path)
