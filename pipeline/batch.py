@@ -5,7 +5,7 @@ The manifest is validated whole before any work; each row then runs the ``pcnet 
 pipeline into its own output folder (written beside it and renamed in, so a failed or
 stopped row leaves no half-written folder); a row that succeeded gets a resume marker
 (:mod:`pcnet.pipeline.batch_marker`) so that a re-run skips it while its inputs, settings
-and the pcnet version are unchanged. The JSON summary (default ``MANIFEST.pcnet_batch.json``)
+and the pcnet version (with its code digest) are unchanged. The JSON summary (default ``MANIFEST.pcnet_batch.json``)
 records every row: its fields are in docs/cluster.md, "Results". The terminal gets one short
 line per row and per finding, then a short summary (:func:`format_summary`); the long form
 (every row, its error in full, its warnings, restarts) goes to the Markdown report beside the

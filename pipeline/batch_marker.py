@@ -1,10 +1,10 @@
 """The resume marker of ``pcnet batch``: ``OUT/.pcnet_batch.json``, written into a row's
 staged output before it is swapped in (so the output never appears without it), says which
-inputs (sha256), settings and pcnet version produced that output.
+inputs (sha256), settings and pcnet version (with a digest of its code) produced that output.
 
 A re-run skips a row whose output folder is complete (pcnet's own output marker says
 ``complete``) and whose batch marker matches the row's input bytes, settings and the
-installed pcnet version. Input files are compared by content, not by path, so a study folder
+installed pcnet version and code. Input files are compared by content, not by path, so a study folder
 moved or mounted elsewhere (a manifest with relative paths) is still complete. The marker is
 listed in the output folder's ``.pcnet-output`` file list, so a later ``--overwrite`` (or a
 re-run after an input changed) may replace the folder.
@@ -104,6 +104,16 @@ def settings_change(record: dict, config: dict) -> str:
     return f"setting{'s' * (len(differ) > 1)} {', '.join(differ[:3])}{more} changed {_SINCE}"
 
 
+def version_change(recorded: str) -> str:
+    """One phrase saying how the pcnet that wrote an earlier output (``recorded``, its
+    :func:`~pcnet.pipeline.config.pcnet_version`) differs from the installed one: its code alone
+    where the release version is the same."""
+    now = pcnet_version()
+    if recorded.split("+")[0] == now.split("+")[0]:
+        return f"pcnet's code changed {_SINCE} (pcnet {recorded} -> {now})"
+    return f"pcnet {recorded} -> {now} {_SINCE}"
+
+
 def renamed_inputs(record: dict, config: dict) -> list[str]:
     """The input fields whose file a row names by another resolved path than its batch record
     read (no input is read; a field added or dropped counts)."""
@@ -129,7 +139,7 @@ def record_status(out: Path, config: dict) -> tuple[dict | None, str]:
     if not record:
         return None, "its earlier output has no batch record"
     if record.get("pcnet_version") != pcnet_version():
-        return None, f"pcnet {record.get('pcnet_version', 'unknown')} -> {pcnet_version()} {_SINCE}"
+        return None, version_change(str(record.get("pcnet_version", "unknown")))
     changed_settings = settings_change(record, config)
     if changed_settings:  # the inputs named anew too, by path (their bytes are not read: it runs anyway)
         moved = renamed_inputs(record, config)

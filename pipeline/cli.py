@@ -17,7 +17,7 @@ import click
 
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
-from pcnet.pipeline.config import ALIGN, MODES, keypoint_formats, lifter_names, multi_track_formats
+from pcnet.pipeline.config import ALIGN, MODES, keypoint_formats, lifter_names, multi_track_formats, pcnet_version
 from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, STOP_SIGNALS, came_from_interrupt, quiet_interrupt_hook, raise_interrupt
 from pcnet.stages.core.errors import InputError, import_extra, one_line
 from pcnet.stages.heading import HEADING_SOURCES
@@ -90,8 +90,15 @@ def _bad_input_line(ctx: click.Context, err: Exception) -> str | None:
     return None
 
 
+def _print_version(ctx: click.Context, _param: click.Parameter, value: bool) -> None:
+    if value and not ctx.resilient_parsing:
+        click.echo(f"pcnet, version {pcnet_version()}")
+        ctx.exit()
+
+
 @click.group(cls=_ErrorBoundary, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="pcnet", prog_name="pcnet")
+@click.option("--version", is_flag=True, expose_value=False, is_eager=True, callback=_print_version,
+              help="Show the version (the release and a digest of its code, as reports record it) and exit.")
 def main() -> None:
     """pcnet: rectify monocular 3D human poses into a gravity-aligned, body-centred frame."""
     # SIGTERM (a scheduler's or `kill`'s stop) and SIGHUP (a closed terminal) unwind like Ctrl-C,

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import functools
+import hashlib
+import importlib.util
 import inspect
 import math
 import os
@@ -16,6 +18,7 @@ import numpy as np
 from pcnet.models.toml_config import (check_config_keys, check_config_types, read_toml, type_hints, type_name,
                                       value_matches)
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
+from pcnet.stages.core.digest import sha256_file
 from pcnet.stages.core.errors import InputError, close_names, refuse
 
 def _registered(kind: str) -> dict:
@@ -491,13 +494,46 @@ class RunConfig:
         return self
 
 
+#: The packages whose files decide what a run writes: their code, weights and data tables (not
+#: the docs pages, which outputs only cite, nor the bundled example, an input).
+_CODE_PACKAGES = ("pcnet.pipeline", "pcnet.stages", "pcnet.adapters", "pcnet.models")
+_NOT_CODE = ("__pycache__", "example_data")
+
+
+@functools.cache
 def pcnet_version() -> str:
-    """The installed pcnet distribution's version (``unknown`` when pcnet is not installed,
-    e.g. imported from a bare checkout)."""
+    """The installed pcnet's version and its code: ``"0.1.0+code.3f2a9c1d0b7e"``, the
+    distribution's version (``unknown`` when pcnet is not installed, e.g. imported from a bare
+    checkout) with, as a PEP 440 local label, the first 12 hex digits of a sha256 over the
+    relative path and bytes of every file of its packages (code, weights, data tables).
+
+    The distribution's version alone stays the same across changes of the code (an editable
+    install, a reinstall from a newer checkout), so a batch re-run would keep outputs that
+    older code wrote (:mod:`pcnet.pipeline.batch_marker`); the digest changes with any of its
+    files. Read once per process.
+    """
     try:
-        return metadata.version("pcnet")
+        version = metadata.version("pcnet")
     except metadata.PackageNotFoundError:
-        return "unknown"
+        version = "unknown"
+    roots = {package: Path(importlib.util.find_spec(package).origin).parent for package in _CODE_PACKAGES}
+    return f"{version}+code.{code_digest(roots)[:12]}"
+
+
+def code_digest(roots: dict[str, Path]) -> str:
+    """Hex sha256 over ``{name: folder}``'s files: each file's ``name/relative path`` and the
+    sha256 of its bytes, in sorted order, leaving out ``__pycache__`` and ``example_data``
+    folders (:func:`pcnet_version`).
+
+    Raises:
+        OSError: a file cannot be read.
+    """
+    digest = hashlib.sha256()
+    for name, root in sorted(roots.items()):
+        for path in sorted(p for p in root.rglob("*") if p.is_file() and not set(_NOT_CODE) & set(p.relative_to(root).parts)):
+            digest.update(f"{name}/{path.relative_to(root).as_posix()}\0".encode())
+            digest.update(bytes.fromhex(sha256_file(path)))
+    return digest.hexdigest()
 
 
 #: The fields of :class:`RunConfig` that name files or folders.

@@ -1215,6 +1215,24 @@ def test_checking_a_large_manifest_takes_time_linear_in_its_rows(tmp_path):
     assert large < 40_000 * 150e-6, f"40,000 rows: {large:.2f} s, {large / 40_000 * 1e6:.0f} us a row"
 
 
+def test_the_code_digest_changes_with_any_package_file_but_not_with_caches_or_the_example(tmp_path):
+    from pcnet.pipeline.config import code_digest
+    (tmp_path / "pkg" / "data").mkdir(parents=True)
+    (tmp_path / "pkg" / "run.py").write_text("x = 1\n")
+    (tmp_path / "pkg" / "data" / "up_model.json").write_text("{}")
+    roots = {"pcnet.pkg": tmp_path / "pkg"}
+    first = code_digest(roots)
+    for ignored in ("__pycache__/run.cpython-311.pyc", "example_data/X3D.npy"):
+        (tmp_path / "pkg" / ignored).parent.mkdir()
+        (tmp_path / "pkg" / ignored).write_bytes(b"\0")
+    assert code_digest(roots) == first
+    (tmp_path / "pkg" / "data" / "up_model.json").write_text('{"sigma": 1}')
+    changed = code_digest(roots)
+    assert changed != first
+    (tmp_path / "pkg" / "data" / "up_model.json").rename(tmp_path / "pkg" / "data" / "up_model2.json")
+    assert code_digest(roots) not in (first, changed)
+
+
 def test_record_status_names_what_changed_and_survives_a_damaged_record(tmp_path, monkeypatch):
     """Why a row's own earlier output is not current, as one phrase; a batch record whose
     settings are not a table is read as unreadable, not a crash (a review)."""
@@ -1236,6 +1254,13 @@ def test_record_status_names_what_changed_and_survives_a_damaged_record(tmp_path
     assert bm.record_status(tmp_path, config) == (None, "its earlier output's settings are unreadable")
     write({**record, "pcnet_version": "0.0"})
     assert bm.record_status(tmp_path, config)[1] == f"pcnet 0.0 -> {bm.pcnet_version()} since its earlier output"
+    # The same release with other code (an editable install, a reinstall from a newer checkout)
+    # runs again: the version carries a digest of the package's files.
+    release, code = bm.pcnet_version().split("+code.")
+    write({**record, "pcnet_version": f"{release}+code.000000000000"})
+    assert bm.record_status(tmp_path, config)[1] == \
+        f"pcnet's code changed since its earlier output (pcnet {release}+code.000000000000 -> {bm.pcnet_version()})"
+    assert len(code) == 12 and int(code, 16) >= 0
 
 
 @pytest.mark.slow
