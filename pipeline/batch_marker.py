@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
-from pcnet.stages.core.digest import sha256_file
+from pcnet.stages.core.digest import sha256_file, sha256_file_version
 
 from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS
 from .config import pcnet_version
@@ -48,8 +48,9 @@ def settings_of(config: dict) -> dict:
 
 
 def input_hashes(config: dict) -> dict[str, dict]:
-    """``{field: {"path", "sha256"}}`` for every input file of a row."""
-    return {name: {"path": path, "sha256": sha256_file(path)} for name, path in input_files(config).items()}
+    """``{field: {"path", "sha256"}}`` for every input file of a row (each file read once per
+    version in the worker: the run's report reads the same digests)."""
+    return {name: {"path": path, "sha256": sha256_file_version(path)} for name, path in input_files(config).items()}
 
 
 def write_batch_marker(folder: Path, config: dict, inputs: dict[str, dict], result: dict, manifest: str = "") -> Path:

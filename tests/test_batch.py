@@ -396,12 +396,26 @@ def test_the_resume_marker_is_published_with_the_output(tmp_path, monkeypatch):
         return swap(tmp, *rest)
 
     monkeypatch.setattr(outdir, "_swap_in", checking_swap)
-    config = RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30.0, out=str(tmp_path / "o"),
+    import pcnet.pipeline.batch_marker as bm
+    import pcnet.stages.core.digest as digest
+    read = []
+    hash_file = digest.sha256_file
+    for module in (digest, bm):
+        monkeypatch.setattr(module, "sha256_file", lambda path: read.append(Path(path).name) or hash_file(path))
+    lifter_output = tmp_path / "x.npy"  # a file of its own: no earlier test's digest of it is kept
+    shutil.copyfile(BOX_3D, lifter_output)
+    config = RunConfig(lifter="motionbert", lifter_output=str(lifter_output), fps=30.0, out=str(tmp_path / "o"),
                        method="geometric", recording=False)
     result = execute_row({"row": 1, "config": dataclasses.asdict(config), "attempt": 1})
     assert result["status"] == "ok", result
     assert seen == {"marker": True, "listed": True}
-    assert json.loads((tmp_path / "o" / BATCH_MARKER).read_text())["result"]["frames"] == 60
+    marker = json.loads((tmp_path / "o" / BATCH_MARKER).read_text())
+    assert marker["result"]["frames"] == 60
+    # the input is read once for the marker and the run's report alike
+    assert read.count("x.npy") == 1, read
+    with np.load(tmp_path / "o" / "canonical.npz") as npz:
+        report = json.loads(str(npz["report"]))
+    assert report["inputs"]["sha256"]["lifter_output"] == marker["inputs"]["lifter_output"]["sha256"]
 
 
 def test_a_rows_notes_and_auto_modes_choice_reach_the_summary_and_report(tmp_path):
