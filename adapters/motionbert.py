@@ -42,7 +42,9 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
         The root is **not** root-relative: it keeps its image position, and MotionBERT set
         the root z of the first frame of every ``clip_len``-frame clip to 0
         (``predicted_3d_pos[:,0,0,2] = 0``), so z can jump at frames ``clip_len``,
-        ``2*clip_len``, ... Subtract the pelvis per frame before use.
+        ``2*clip_len``, ... Each clip is lifted without the frames of the one before it
+        (``infer_wild.py`` splits the video into ``clip_len``-frame clips), so the
+        pelvis-relative pose can jump there too. Subtract the pelvis per frame before use.
 
         ``inf`` values are missing data (NaN) and are ignored when checking the units.
 
@@ -87,8 +89,8 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
     notes = (f"MotionBERT X3D.npy (infer_wild.py), H36M-17, units {units}"
              + (" (x, y image pixels, z pixels)" if pixel else " (image-normalised, about [-1, 1])")
              + "; axes x right, y down, z away from the camera (z sign derived); no axis changed"
-             + f"; root not centred: MotionBERT zeroed the root z of the first frame of each {clip_len}-frame clip "
-             + f"(frames {shown}), so z may jump there" + rootrel)
+             + f"; root not centred: MotionBERT lifts each {clip_len}-frame clip on its own and zeroes its first "
+             + f"frame's root z (frames {shown}), so the root's depth and the whole pose may jump there" + rootrel)
     return Poses3D(arr, "h36m17", units=units, source=str(p), notes=notes, summary_note=rootrel.removeprefix("; "),
                    nonfinite=nonfinite)
 

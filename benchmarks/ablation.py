@@ -462,6 +462,15 @@ def held_out(recordings: list[dict]) -> list[dict]:
     return [ev for ev in recordings if ev["name"] not in trained]
 
 
+def heldout_clips(data: Path, file: str, split: str) -> list:
+    """The clips of one :data:`MOCAP_SETS` entry (``DATA/mocap/file``, its motion-style
+    ``split``) less those the shipped weights trained on (:func:`trained_clip_names`): what
+    a fit's held-out check reads, so that its table's label ("clips no shipped weights trained
+    on") holds."""
+    trained = trained_clip_names()
+    return [c for c in select_split(load_mocap(data / "mocap" / file), split, "motion-style") if c.name not in trained]
+
+
 def mocap_set(data: Path, cache: Path, file: str, split: str, max_clips: int, rest: bool = False) -> list[dict]:
     """One mocap set's held-out recordings through the networks (:func:`mocap_evidence`,
     :func:`held_out`), :func:`cached` under the key every benchmark shares:

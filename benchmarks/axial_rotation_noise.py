@@ -92,7 +92,7 @@ def main(argv=None) -> int:
     val = [select_split(load_mocap(mocap / file), "val", "motion-style") for _, file in F.VAL_SETS]
     lines += table("validation (Bandai val + CMU val)", _merged([set_rows(c, F.VAL_MAX_CLIPS) for c in val]))
     for title, file, split in A.MOCAP_SETS:
-        lines += table(title, set_rows(select_split(load_mocap(mocap / file), split, "motion-style"), 200))
+        lines += table(title, set_rows(A.heldout_clips(args.data, file, split), 200))
     print_and_save(lines, args.out)
     return 0
 

@@ -186,7 +186,7 @@ def main(argv=None) -> int:
               f"AUTO_MIN_FRAMES = {floor}"]
     if args.heldout:
         from benchmarks.view_gate_pieces import worse
-        held = run_sets([(title, select_split(load_mocap(args.data / "mocap" / file), split, "motion-style"))
+        held = run_sets([(title, A.heldout_clips(args.data, file, split))
                          for title, file, split in A.MOCAP_SETS], HELDOUT_MAX_CLIPS)
         lines += ["", "held out", HEADER]
         for name, by_scale in held.items():

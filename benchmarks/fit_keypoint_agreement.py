@@ -25,12 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.ablation import MOCAP_SETS
+from benchmarks.ablation import MOCAP_SETS, heldout_clips
 from benchmarks.fit_side_swap import MAX_CLIPS, recordings
 from benchmarks.mocap_sets import training_mix_splits
 from benchmarks.report import fit_arguments, print_and_save, shipped_limit, write_detector_fit
 from pcnet.adapters import get_2d_adapter
-from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.core.framestore import frame_blocks
 from pcnet.stages.remap import remap_to_h36m
 
@@ -98,7 +97,7 @@ def main() -> None:
              f"{'set':30s} {'n':>5s} {'false alarms':>13s} {'detected':>9s} {'mismatch median as is / paired':>32s}"]
     sets_ok = True
     for label, file, split in MOCAP_SETS:
-        clips = select_split(load_mocap(args.data / "mocap" / file), split, "motion-style")
+        clips = heldout_clips(args.data, file, split)
         recs = list(recordings(clips, MAX_CLIPS, np.random.default_rng(0)))
         own = np.array([keypoint_mismatch(kp, X) for _, kp, X in recs])
         paired = []

@@ -26,11 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.ablation import MOCAP_SETS, detected_keypoints_2d, static_camera_clips
+from benchmarks.ablation import MOCAP_SETS, detected_keypoints_2d, heldout_clips, static_camera_clips
 from benchmarks.mocap_sets import training_mix_splits
 from benchmarks.report import fit_arguments, print_and_save, shipped_limit, write_detector_fit
 from pcnet.adapters import get_2d_adapter
-from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.flags import side_agreement, side_extents
 from pcnet.stages.remap import remap_to_h36m
 
@@ -84,7 +83,7 @@ def main() -> None:
              f"{'set':30s} {'n':>5s} {'false: fitted':>14s} {'hand-set':>9s} {'detected: fitted':>17s} {'hand-set':>9s}"]
     false_ok, detected = True, {"fitted": 0, "hand-set": 0}
     for label, file, split in MOCAP_SETS:
-        clips = select_split(load_mocap(args.data / "mocap" / file), split, "motion-style")
+        clips = heldout_clips(args.data, file, split)
         n = fa_fit = fa_hand = de_fit = de_hand = 0
         for _, kp, X in recordings(clips, MAX_CLIPS, np.random.default_rng(0)):
             a = agreement(kp, X)

@@ -30,11 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.ablation import MOCAP_SETS
+from benchmarks.ablation import MOCAP_SETS, heldout_clips
 from benchmarks.fit_speed_limits import clip_series
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
 from benchmarks.report import fit_arguments, print_and_save, shipped_limit
-from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.flags import SKELETON_LIMITS_PATH, leg_asymmetry, size_percentiles
 
@@ -94,7 +93,7 @@ def main() -> None:
               "", f"{'set':30s} {'n':>5s}" + "".join(f" {n + ' fitted':>26s} {'hand-set':>9s}" for n in STATISTICS)]
     passes = dict.fromkeys(STATISTICS, True)
     for label, file, split in MOCAP_SETS:
-        clips = select_split(load_mocap(args.data / "mocap" / file), split, "motion-style")
+        clips = heldout_clips(args.data, file, split)
         held = statistics(clip_series(clips, LifterNoise()))
         row = f"{label:30s} {len(clips):5d}"
         for name, (_, hand, _) in STATISTICS.items():

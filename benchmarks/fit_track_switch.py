@@ -37,11 +37,10 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.ablation import MOCAP_SETS, detected_keypoints_2d, static_camera_clips
+from benchmarks.ablation import MOCAP_SETS, detected_keypoints_2d, heldout_clips, static_camera_clips
 from benchmarks.mocap_sets import training_mix_splits
 from benchmarks.report import fit_arguments, print_and_save, shipped_limit
 from pcnet.adapters import get_2d_adapter
-from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.remap import remap_to_h36m
 from pcnet.stages.flags import SWITCH_LIMITS_PATH, SwitchLimits, pelvis_jumps, track_segments
 
@@ -116,7 +115,7 @@ def false_switches(tracks, candidates: dict[str, SwitchLimits]) -> dict[str, lis
 
 
 def heldout_tracks(data: Path, file: str, split: str, rng: np.random.Generator):
-    clips = select_split(load_mocap(data / "mocap" / file), split, "motion-style")
+    clips = heldout_clips(data, file, split)
     for clip, _, R, frames in static_camera_clips(clips, MAX_CLIPS):
         yield clip.name, detected_keypoints_2d(clip, frames, R, rng), clip.fps
 

@@ -26,12 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.ablation import MOCAP_SETS
+from benchmarks.ablation import MOCAP_SETS, heldout_clips
 from benchmarks.fit_mirror_flag import noisy, reading
 from benchmarks.mocap_sets import training_mix_splits
 from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
 from pcnet.adapters import load_kinect_v1
-from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.mirror import load_mirror_model
 
@@ -55,7 +54,7 @@ def validation_sets(data: Path) -> list[tuple[str, list]]:
 
 
 def heldout_sets(data: Path) -> list[tuple[str, list]]:
-    return [(f"{label}, lifter noise", noisy(select_split(load_mocap(data / "mocap" / file), split, "motion-style")))
+    return [(f"{label}, lifter noise", noisy(heldout_clips(data, file, split)))
             for label, file, split in MOCAP_SETS]
 
 

@@ -7,8 +7,9 @@
 
 Bad input (a file, an array, a config value) raises :class:`InputError`
 (:class:`pcnet.stages.core.errors.InputError`, a ``ValueError``) with one line naming the file
-or field, what was expected and what was found; an earlier pcnet output folder (without
-``overwrite``) raises ``FileExistsError``, any other existing folder an :class:`InputError`.
+or field, what was expected and what was found; an earlier pcnet output folder or an empty
+one (``tempfile.mkdtemp()``'s; without ``overwrite``, which replaces either) raises
+``FileExistsError``, any other existing folder an :class:`InputError`.
 Messages name ``pcnet run``'s options: the :class:`RunConfig` field of the same name
 (``--focal-px`` is ``focal_px``) is what a script sets.
 

@@ -268,6 +268,12 @@ class RunConfig:
     lifter_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        self._plain_values()
+
+    def _plain_values(self) -> None:
+        """Turn the values a Python caller holds into the plain ones the config keeps, when it
+        is made and again when it is validated (a service's trial set ``cfg.out = Path(...)``
+        on a config made once)."""
         # Python callers hold paths as pathlib.Path; the config keeps the str a TOML file,
         # a manifest and the command line give.
         for name in PATH_FIELDS:
@@ -376,6 +382,7 @@ class RunConfig:
         from pcnet.stages.opensim_ik import HEIGHT_RANGE_M, MASS_RANGE_KG
         from pcnet.stages.rectify import METHODS, check_method_weights, check_posture
 
+        self._plain_values()
         check_config_types(source, "", {f.name: getattr(self, f.name) for f in fields(self)}, RunConfig)
         self._check_inputs_given(source)
         # the choices and ranges, each a field of its own: all of their problems at once

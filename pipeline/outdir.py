@@ -103,6 +103,7 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
             raise InputError(f"--out {given}: expected a folder apart from the inputs, got one that "
                              f"{'is' if source == target else 'contains' if is_within(source, target) else 'lies inside'}"
                              f" the input {item}")
+    _check_writable(target, given)
     if not target.exists() and not target.is_symlink():
         return target
     if not target.is_dir():
@@ -126,6 +127,26 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
                               f"{' (empty)' if empty else ' (a previous pcnet output)'}; choose another --out or pass "
                               f"--overwrite")
     return target
+
+
+def _check_writable(target: Path, given: str) -> None:
+    """Refuse, before any work, an output whose folder this process cannot write in: the
+    output is staged beside ``target`` and renamed in at the end (:func:`staged_output`), so
+    the nearest existing folder above it must take new entries (``access(2)``: permissions,
+    and a read-only file system even for root). A run had computed everything before the
+    staging folder met a read-only parent."""
+    folder = next((p for p in target.parents if p.is_dir()), None)
+    if folder is not None and not os.access(folder, os.W_OK | os.X_OK):
+        why = "a read-only file system" if _read_only_mount(folder) else "permission denied"
+        raise InputError(f"--out {given}: expected a place pcnet can write in, got {short_path(folder)} ({why}); "
+                         f"choose another --out")
+
+
+def _read_only_mount(folder: Path) -> bool:
+    try:
+        return bool(os.statvfs(folder).f_flag & os.ST_RDONLY)
+    except OSError:
+        return False
 
 
 @functools.lru_cache(maxsize=256)

@@ -853,9 +853,9 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *,
         ``pcnet run`` prints.
 
     Raises:
-        FileExistsError: ``cfg.out`` is an earlier pcnet output and ``cfg.overwrite`` is False
-            (not an ``InputError``: catch both to handle every refusal; any other existing
-            folder is an ``InputError``).
+        FileExistsError: ``cfg.out`` is an earlier pcnet output or an empty folder and
+            ``cfg.overwrite`` is False (not an ``InputError``: catch both to handle every
+            refusal; any other existing folder is an ``InputError``).
         pcnet.stages.core.errors.InputError (``AdapterError`` is one): bad inputs or an unsafe
             ``out`` (:func:`pcnet.pipeline.outdir.check_out_folder`), naming file and field.
         TypeError: a registered adapter's ``load`` returned something other than the

@@ -96,7 +96,7 @@ class Floor:
                     f"(residual {self.residual:.3g}{unit}); ankle centres stand {self.clearance:.3g}{unit} above it")
         if self.kind == "per frame":
             return (f"floor per frame ({self.reason}): y = 0 is {self.clearance:.3g}{unit} below each frame's "
-                    f"lowest joint centre")
+                    f"lowest joint centre, assumed on the floor")
         return f"no floor ({self.reason}): heights are relative to the pelvis"
 
 

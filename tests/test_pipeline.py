@@ -1422,6 +1422,10 @@ def test_a_numpy_scalar_in_a_config_is_taken_as_its_python_value_and_an_array_re
                     overwrite=np.bool_(True), lifter_options={"measured_root": np.bool_(False)})
     assert (type(cfg.fps), type(cfg.person), type(cfg.overwrite)) == (float, int, bool)
     assert type(cfg.lifter_options["measured_root"]) is bool
+    # and set on a config made once (a service's trial: validate refused what the constructor takes)
+    cfg.fps, cfg.out, cfg.lifter_output, cfg.person = np.float32(25.0), Path("/tmp/o"), Path("g2.npy"), None
+    cfg.validate()
+    assert (cfg.fps, cfg.out, cfg.lifter_output) == (25.0, "/tmp/o", "g2.npy") and type(cfg.fps) is float
     # an adapter option is named by its key in lifter_options, not as a field of the config
     with pytest.raises(InputError, match=r"^config: field 'lifter_options\.scal': expected only options --lifter "
                                          r"motionbert takes \(pixel, clip_len\), got scal$"):

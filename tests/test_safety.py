@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -495,6 +496,23 @@ def test_a_full_disk_is_one_line_and_leaves_no_output(user_folder):
     assert not [p for p in user_folder.iterdir() if TMP_TAG in p.name]
 
 
+def test_an_output_where_pcnet_cannot_write_is_refused_before_any_work(user_folder, monkeypatch):
+    """An API trial running as another user computed the whole run before the staging folder
+    met a read-only parent. The nearest existing folder above --out is checked first
+    (``access(2)``: as root only a read-only file system fails it, so the test denies it)."""
+    import pcnet.pipeline.runner as runner
+
+    (user_folder / "locked").mkdir()
+    access = os.access
+    monkeypatch.setattr(os, "access", lambda path, mode, **kw: Path(path) != user_folder / "locked" and access(path, mode))
+    monkeypatch.setattr(runner, "get_3d_adapter", lambda *a, **kw: pytest.fail("read the input before refusing"))
+    for out in ("locked/run1", "locked/new/run1"):
+        _one_line_error(_invoke(*RUN, "--out", out),
+                        f"--out {out}: expected a place pcnet can write in, got {user_folder / 'locked'} "
+                        f"(permission denied); choose another --out")
+    assert sorted(p.name for p in (user_folder / "locked").iterdir()) == []
+
+
 def test_an_output_under_a_file_names_that_file(user_folder):
     (user_folder / "notes.txt").write_text("mine")
     res = _invoke(*RUN, "--out", "notes.txt/run1")
@@ -611,6 +629,15 @@ def test_rectify_api_and_cli_refuse_the_same_arrays(user_folder, bad, needles):
     np.save(user_folder / "bad.npy", X)
     _one_line_error(_invoke("rectify", "bad.npy", "--out", "r.npz", "--method", "geometric"), "bad.npy", *needles)
     assert not (user_folder / "r.npz").exists()
+
+
+def test_rectify_given_a_path_or_none_says_it_takes_an_array():
+    """An API trial passed a file's path and None, and was told "got dtype object"."""
+    for given, got in ((POSES, f"a path ('{POSES}')"), (str(POSES), f"a path ('{POSES}')"), (None, "None")):
+        with pytest.raises(ValueError, match=r"^joints_cam: expected an array of joint coordinates \(T, 17, 3\), got "
+                                             + re.escape(got) + r"; load it first \(np\.load for such an array; "
+                                             r"run_pipeline reads a lifter's own file\)$"):
+            rectify(given, "geometric")
 
 
 @pytest.mark.slow

@@ -255,6 +255,9 @@ def test_too_few_contacts_fall_back_to_the_per_frame_floor_and_say_so():
     world, floor = to_world_floor(cam, frame, sparse)
     assert floor.kind == "per frame" and "fewer than" in floor.reason and "per frame" in floor.note("m")
     assert f"{floor.clearance:.3g} m below" in floor.note("m")
+    # a cycling trial read the pelvis bobbing with the pedals as saddle motion: the note says
+    # what every height rests on, in the summary too
+    assert shortened(floor.note("m")).endswith("lowest joint centre, assumed on the floor")
     assert f"{floor.clearance:.3g} normalised units below" in floor.note("normalised")
     assert "normalised units below" in shortened(floor.note("normalised"))  # the summary line keeps the unit
     ok = np.isfinite(world).all(axis=(1, 2))

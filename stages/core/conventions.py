@@ -22,6 +22,7 @@ BODY_25 and BlazePose-33 follow the same mid-point recipe with their own indices
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -340,6 +341,11 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
             the bound for ``units`` (naming the frame and joint), or joints with one coordinate
             the same in every frame that has three or more (a 2D projection saved as 3D).
     """
+    if joints is None or isinstance(joints, (str, bytes, os.PathLike)):
+        # an API trial passed a file's path (and None) and was told "got dtype object"
+        got = "None" if joints is None else f"a path ({os.fsdecode(joints)!r})"
+        raise InputError(f"{source}: expected an array of joint coordinates (T, {num_joints}, 3), got {got}; load it "
+                         f"first (np.load for such an array; run_pipeline reads a lifter's own file)")
     arr = _unmasked(joints, source)
     if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
         raise InputError(f"{source}: expected real-valued (float) joint coordinates, got dtype {arr.dtype}")

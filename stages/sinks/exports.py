@@ -145,7 +145,8 @@ _HEIGHT = {"world": ", the height above the floor (y = 0)", "canonical": ", from
 #: (:func:`pcnet.stages.world_frame.to_world_floor`), by the floor's ``kind``.
 _FLOOR_HEIGHT = {
     "per frame": "; measured from a floor placed under each frame's lowest joint (no ground plane for the "
-                 "recording), so a jump or a flight phase reads as standing and a lying body sits an ankle's height up.",
+                 "recording), so a jump or a flight phase reads as standing, feet off the floor (on a bike's pedals, "
+                 "raised while seated) move the pelvis up and down with them, and a lying body sits an ankle's height up.",
     "pelvis": "; no ankle was seen, so y = 0 is the pelvis's height, not the floor.",
 }
 
