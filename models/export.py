@@ -90,9 +90,12 @@ def export_checkpoint(checkpoint: str | Path, path: str | Path, replace: bool = 
     return export_onnx(model, path, {"checkpoint": str(checkpoint), **training_record(checkpoint)}, replace)
 
 
-#: Fields of a run's ``config.json`` copied beside exported weights (what they trained on).
-TRAINING_FIELDS = ("data", "data_sha256", "data_repeats", "train_whole", "split_scheme", "noise", "noise_model",
-                   "noise_fraction", "views", "frame_stride", "epochs", "augment", "seed", "whole_clips")
+#: Fields of a run's ``config.json`` not copied beside exported weights: where and on what
+#: device it ran (not what shaped the weights), the architecture (``model_config`` holds it) and
+#: the run it started from (its own record follows). Every other field is: the data, the
+#: noise and augmentation, the optimiser and the loss (a review found the learning rate and
+#: the posture augmentation's sigmas missing).
+NOT_TRAINING_FIELDS = ("out_dir", "threads", "device", "model", "init_checkpoint")
 
 
 #: Fine-tuning runs followed back through their ``init_checkpoint`` at most (a longer chain is cut).
@@ -101,8 +104,9 @@ MAX_FINE_TUNING_CHAIN = 8
 
 def training_record(checkpoint: str | Path, _depth: int = 0) -> dict:
     """``{"training_config": {...}}`` from the ``config.json`` that ``pcnet train`` wrote beside
-    ``checkpoint`` (:data:`TRAINING_FIELDS`), or ``{}`` when there is none or it is not a JSON
-    object: evaluation reads it to say how much of a dataset the weights trained on. A run
+    ``checkpoint`` (every field but :data:`NOT_TRAINING_FIELDS`), or ``{}`` when there is none
+    or it is not a JSON object: evaluation reads it to say how much
+    of a dataset the weights trained on, and it repeats the training. A run
     fine-tuned from another checkpoint also records it (``init_checkpoint``) and that run's own
     record (``init_training_config``, ``{}`` where its folder has none), followed back up to
     :data:`MAX_FINE_TUNING_CHAIN` runs: the earlier runs' data trained the weights too (a user
@@ -113,7 +117,7 @@ def training_record(checkpoint: str | Path, _depth: int = 0) -> dict:
         return {}
     if not isinstance(config, dict):
         return {}
-    record = {k: config[k] for k in TRAINING_FIELDS if k in config}
+    record = {k: v for k, v in config.items() if k not in NOT_TRAINING_FIELDS}
     init = config.get("init_checkpoint")
     if isinstance(init, str) and init:
         record["init_checkpoint"] = init

@@ -307,6 +307,10 @@ def test_fine_tuned_weights_keep_the_earlier_runs_training_record(tmp_path, moca
     record = json.loads(out.with_suffix(".json").read_text())["training_config"]
     assert record["data"] == [str(mocap), str(whole)] and record["init_checkpoint"] == str(best)
     assert record["init_training_config"]["data"] == [str(mocap)] and "init_checkpoint" not in record["init_training_config"]
+    # every setting that shaped the weights (a review found the learning rate and the posture sigmas missing)
+    for name in ("lr", "batch_size", "weight_decay", "trunk_sagittal_sigma_deg", "loss", "val_frames"):
+        assert record[name] == dataclasses.asdict(cfg)[name], name
+    assert not {"out_dir", "threads", "device", "model"} & set(record)
     assert _fine_tuned_warning(record) == (f"the weights were fine-tuned from {best} ({mocap.name}): the earlier runs' "
                                            f"data trained them too, and any overlap counted here is the last run's "
                                            f"data's alone")
