@@ -70,6 +70,18 @@ returns a :class:`~pcnet.pipeline.runner.RunResult`::
     result = run_pipeline(cfg.validate(), progress=False)  # validate(): every field's value first
     print(result.summary())
 
+The result holds counts, the report and the written files' paths (``result.outputs``, by file
+name), not the arrays: a long recording's arrays stay on disk. Read them back from the files
+(``docs/outputs.md`` lists every array and column)::
+
+    import csv
+
+    with np.load(result.outputs["canonical.npz"], allow_pickle=False) as npz:
+        world = npz["joints_world"]  # (T, 17, 3) float64, metres, the world frame (y up, floor y = 0)
+    with open(result.outputs["kinematics.csv"], newline="") as fh:
+        rows = list(csv.DictReader(fh))  # one per frame; an empty cell is missing
+    knee = [float(r["left_knee_flexion_deg"] or "nan") for r in rows]
+
 :class:`RunConfig` can also be read from a TOML file with the same keys
 (:func:`pcnet.pipeline.config.load_run_config`), or built from a dict of values checked in one
 go::

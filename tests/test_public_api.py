@@ -94,6 +94,13 @@ def test_run_pipeline_example(in_folder_with_fixtures, capsys):
     out = in_folder_with_fixtures / "yoga_out"
     assert (out / "canonical.npz").is_file() and (out / "kinematics.csv").is_file()
     assert "frames            100 at 30 fps" in capsys.readouterr().out
+    # reading the arrays back, as the docstring shows (a service's trial found no arrays on the result)
+    namespace["np"] = np
+    exec(_example("joints_world"), namespace)
+    assert namespace["world"].shape == (100, 17, 3) and namespace["world"].dtype == np.float64
+    assert np.nanmin(namespace["world"][..., 1]) >= 0.0  # above the floor, y up
+    knee = np.array(namespace["knee"])
+    assert knee.shape == (100,) and np.isfinite(knee).all() and 0.0 < np.median(knee) < 90.0
 
 
 def test_run_config_example_gives_the_defaults_it_states():
