@@ -10,14 +10,16 @@ MediaPipe output is its own 3D estimate of the same body at the same instants.
 For every pair of cameras, per frame: the RMS over joints of the distance between the two
 pelvis-centred skeletons, (1) in the camera frames as the lifter gives them, (2) in pcnet's
 canonical frame (``rectify``, sequence mode, the shipped ensemble: up from the poses, heading
-from the hips), (3) in a canonical frame built from the lab's true up (``up_camera``) with the
-same hip heading: what a perfect up would give. Then the angles between two segments at the
+from the hips), as ``canonical.npz``'s ``canonical`` holds it (the network's pose, its residual
+included) and as the input turned rigidly, ``(X - pelvis) @ R`` (what ``pcnet run``'s world
+frame and kinematics read, decision 0100), (3) in a canonical frame built from the lab's true
+up (``up_camera``) with the same hip heading: what a perfect up would give. Then the angles between two segments at the
 knees, hips and elbows (the 3D angle at the joint, the same in any frame of reference: no
 rotation changes it): their RMS difference between the two cameras. Mean over the six pairs.
 What is left in (3) is the estimator's own disagreement between views; pcnet can at best reach it.
 Then the signed columns of ``kinematics.csv`` that users read (:data:`ISB_COLUMNS`, from
-``compute_kinematics`` on each camera's pcnet canonical poses, unfiltered: 11 frames of a
-still body): their RMS difference between two cameras. Knee flexion's sign and the hip's
+``compute_kinematics`` on each camera's input turned rigidly, as ``pcnet run`` reads it,
+unfiltered: 11 frames of a still body): their RMS difference between two cameras. Knee flexion's sign and the hip's
 flexion and adduction read the lifter's limb planes and pelvis (``stages/isb_angles.py``), and
 trunk flexion to gravity adds each camera's up error, so they may agree less than the 3D angles
 (a multi-camera user trial: a knee read flexed by three cameras and hyperextended by the fourth).
@@ -74,15 +76,17 @@ def main(argv=None) -> int:
     for cam in CAMERAS:
         joints, up, fps = load_camera(args.data / "real" / "pose2sim_gravity" / f"statictrial_{cam}.npz")
         res = rectify(joints, mode="sequence", fps=fps)
+        centred = joints - joints[:, :1]
         frames[cam] = {"camera frame": joints, "pcnet canonical": np.where(res.valid[:, None, None], res.canonical,
                                                                           np.nan),
+                       "pcnet, input turned": np.where(res.valid[:, None, None], centred @ res.rotation, np.nan),
                        # the lab's up with the same hip heading (docs/CONVENTIONS.md canonical frame)
                        "canonical, true up": to_canonical(joints, canonical_rotation(joints, up)[0])}
     pairs = list(itertools.combinations(CAMERAS, 2))
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              "Pelvis-centred skeletons, RMS distance over joints and frames between two cameras (cm), "
              "mean and max over the 6 pairs:"]
-    for frame in ("camera frame", "pcnet canonical", "canonical, true up"):
+    for frame in ("camera frame", "pcnet canonical", "pcnet, input turned", "canonical, true up"):
         d = [rms_distance_cm(frames[a][frame], frames[b][frame]) for a, b in pairs]
         lines.append(f"  {frame:<20} {np.mean(d):6.1f} {np.max(d):6.1f}")
     lines += ["", "Angle between two segments (3D, deg; no rotation changes it): "
@@ -91,9 +95,11 @@ def main(argv=None) -> int:
     for k, (name, *_) in enumerate(SEGMENT_ANGLES):
         d = [float(np.sqrt(np.nanmean((angles[a][:, k] - angles[b][:, k]) ** 2))) for a, b in pairs]
         lines.append(f"  {name:<12} {np.mean(d):6.1f} {np.max(d):6.1f}")
-    lines += ["", "kinematics.csv's signed columns (deg; pcnet canonical poses): RMS difference between two cameras, "
-                  "mean and max over the 6 pairs, and each camera's mean (cam01 / cam02 / cam03 / cam04):"]
-    columns = {cam: compute_kinematics(frames[cam]["pcnet canonical"], fps, cutoff_hz=None).angles for cam in CAMERAS}
+    lines += ["", "kinematics.csv's signed columns (deg; each camera's input turned rigidly, as pcnet run reads it): "
+                  "RMS difference between two cameras, mean and max over the 6 pairs, and each camera's mean "
+                  "(cam01 / cam02 / cam03 / cam04):"]
+    columns = {cam: compute_kinematics(frames[cam]["pcnet, input turned"], fps, cutoff_hz=None).angles
+               for cam in CAMERAS}
     for name in ISB_COLUMNS:
         d = [float(np.sqrt(np.nanmean((columns[a][name] - columns[b][name]) ** 2))) for a, b in pairs]
         means = " / ".join(f"{np.nanmean(columns[cam][name]):+6.1f}" for cam in CAMERAS)

@@ -70,7 +70,9 @@ class CheckInputs:
     picture: ``(width, height)`` of the picture ``keypoints2d`` are in, or ``None`` where unknown
     (``pipeline/runner.py: _keypoint_picture``); picture_typed: that size is ``--image-size``
     (no video), which the user may have typed the other way round; units_declared: the user
-    declared the poses' units (``--lifter generic``) rather than the lifter's format fixing them.
+    declared the poses' units (``--lifter generic``) rather than the lifter's format fixing them;
+    depth_sensor: a depth sensor's skeleton read by its own reader (a measured root, a lifter
+    other than ``generic``), whose axes and sides the reader fixes.
     """
 
     joints_camera: np.ndarray
@@ -89,6 +91,7 @@ class CheckInputs:
     picture: tuple[int, int] | None = None
     picture_typed: bool = False
     units_declared: bool = True
+    depth_sensor: bool = False
 
 
 def checks(c: CheckInputs) -> list[Finding]:
@@ -107,7 +110,7 @@ def checks(c: CheckInputs) -> list[Finding]:
         # video whose keypoints' frame is unknown)
         *(keypoints_outside_image_flag(kp2d, c.picture, c.picture_typed) if kp2d is not None and c.picture else []),
         # a side swap is a mirror image too: said once
-        *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam)),
+        *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam, depth_sensor=c.depth_sensor)),
         *posture_flag(report.sequence),
         *ensemble_weights_flag(_answering_weights(report)),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report), focal_known=c.focal_known),

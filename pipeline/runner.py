@@ -1418,7 +1418,9 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         person_option=cfg.keypoints2d_format in multi_track_formats(),
         own_estimator=estimated, roi_given=cfg.roi is not None,
         focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture,
-        picture_typed=_picture_typed(cfg), units_declared=cfg.lifter == "generic")
+        picture_typed=_picture_typed(cfg), units_declared=cfg.lifter == "generic",
+        # a named reader of a measured root: a depth sensor's skeleton, its axes and sides the reader's
+        depth_sensor=recording.measured_root and cfg.lifter != "generic")
 
 
 def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scaled:

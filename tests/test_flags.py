@@ -500,6 +500,11 @@ def test_a_mirrored_3d_skeleton_is_flagged_from_the_pose_alone():
         assert "mirror image" in flag.detail and "--axes" in flag.detail and "knees bend forward" in flag.detail, name
         assert mirrored_skeleton_flag(X[:, swap]), name
     assert mirrored_skeleton_flag(np.full((50, 17, 3), np.nan)) == []
+    # a depth sensor's reader fixes axes and sides: asked whether the subject faced away, not told
+    # to set the generic reader's options (an IMU trial's kinect_v1 run)
+    (flag,) = mirrored_skeleton_flag(X * np.array([1.0, 1.0, -1.0]), depth_sensor=True)
+    assert flag.action == "did the subject face away from the sensor?" and "--axes" not in flag.detail
+    assert "36 of 671" in flag.detail and len(flag.terminal_line()) <= 135
 
 
 def test_the_mirror_flag_keeps_every_real_lifter_file_apart_from_its_mirror_image_and_spares_noseless_mocap():

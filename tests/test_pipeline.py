@@ -1576,3 +1576,16 @@ def test_a_run_logged_to_a_file_says_which_stage_it_is_in(tmp_path, monkeypatch,
     numbers = [int(m[2]) for m in found if m]
     assert numbers == sorted(numbers) and len(set(numbers)) >= 3, lines
     assert all(runner.STEPS[int(m[2]) - 1] == m[1] for m in found if m)
+
+
+def test_a_depth_sensors_mirrored_skeleton_is_asked_about_the_subject_not_the_readers_options(tmp_path):
+    """An IMU trial's UTD-MHAD file (Kinect v1, subject facing the sensor, knees read
+    hyperextended) got the mirror warning with the generic reader's options, which kinect_v1
+    does not take; a depth sensor's reader fixes axes and sides."""
+    path = shared("real", "utd_mhad_imu", "a01_s2_t1.npz")
+    res = _invoke("run", "--lifter", "kinect_v1", "--lifter-output", path, "--method", "geometric",
+                  "--no-recording", "--out", tmp_path / "o")
+    assert res.exit_code == 0, res.output
+    assert "3D skeleton mirrored (knees bend forward; odds 53:1): angles flip sign -> did the subject face away " \
+           "from the sensor?" in res.output, res.output
+    assert "--axes" not in res.output
