@@ -21,7 +21,7 @@ import numpy as np
 from pcnet.models.lifter_noise import LifterNoise, apply_lifter_noise
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
 from pcnet.stages.core.conventions import (
-    H36M_MIRROR_ORDER, H36M_PARENTS, HEAD, NECK_NOSE, PELVIS, SPINE, THIGH_RANGE_M, THORAX, median_thigh_length,
+    H36M_JOINTS, H36M_MIRROR_ORDER, H36M_PARENTS, HEAD, NECK_NOSE, PELVIS, SPINE, THIGH_RANGE_M, THORAX, median_thigh_length,
     validate_fps, validate_poses)
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.rotations import axis_rotation, sample_camera_rotations
@@ -86,9 +86,11 @@ def load_mocap(path: str | Path) -> list[Clip]:
 
     Raises:
         FileNotFoundError: missing file.
-        ValueError: not a readable npz, no arrays, an array that is not ``(T, 17, 3)``, or a
+        ValueError: not a readable npz, no arrays, an array that is not ``(T, 17, 3)``, a
             clip whose median thigh is outside :data:`~pcnet.stages.core.conventions.THIGH_RANGE_M`
-            (not metres; the message names the file and the key).
+            (not metres; the message names the file and the key), no frame with all 17 joints
+            (naming the joints missing in every frame), or a ``.json`` entry whose ``frames``
+            is not the clip's frame count.
     """
     path = Path(path)
     data = load_numpy_file(path, "mocap .npz")
@@ -104,9 +106,11 @@ def load_mocap(path: str | Path) -> list[Clip]:
             raise InputError(f"{path.with_suffix('.json')}: expected clip names of {path.name}, got {len(unknown)} "
                              f"it does not hold: {', '.join(unknown[:3])}{' ...' if len(unknown) > 3 else ''}")
         for name in sorted(data.files):
-            arr = validate_poses(data[name], f"{path} [clip {name}]", units="m")
+            arr = validate_poses(data[name], f"{path} [clip {name}]", units="m", metres_only=True)
             if not np.isfinite(arr).all(axis=(1, 2)).any():
-                raise InputError(f"{path} [clip {name}]: expected at least one frame with all 17 joints, got none")
+                never = [H36M_JOINTS[j] for j in np.flatnonzero(~np.isfinite(arr).all(axis=2).any(axis=0))]
+                raise InputError(f"{path} [clip {name}]: expected at least one frame with all 17 joints, got none"
+                                 + (f" ({', '.join(never)} missing in every frame)" if never else ""))
             thigh = median_thigh_length(arr)
             if not THIGH_RANGE_M[0] <= thigh <= THIGH_RANGE_M[1]:
                 raise InputError(f"{path} [clip {name}]: expected metres (a median thigh of {THIGH_RANGE_M[0]}-"
@@ -115,6 +119,11 @@ def load_mocap(path: str | Path) -> list[Clip]:
             info = meta.get(name, {})
             if not isinstance(info, dict):
                 raise InputError(f"{path.with_suffix('.json')}: field {name!r}: expected an object, got {info!r}")
+            # a sidecar of another version of the file (resampled, cut) would give its clips a wrong frame rate
+            if "frames" in info and info["frames"] != len(arr):
+                raise InputError(f"{path.with_suffix('.json')}: clip {name}: field 'frames': expected {len(arr)} (the "
+                                 f"clip's frames in {path.name}), got {info['frames']!r}: the sidecar of another "
+                                 f"version of the file?")
             subject = info.get("subject")
             fps = validate_fps(info.get("fps", DEFAULT_MOCAP_FPS),
                                f"{path.with_suffix('.json')}: clip {name}: field 'fps'")

@@ -16,6 +16,7 @@ from pcnet.stages.core.conventions import H36M_JOINTS
 from pcnet.stages.core.digest import sha256_file_version
 from pcnet.stages.core.metrics import METRICS, evaluate_rotations, summarize
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.flags import mirrored_skeleton_flag
 from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages.rectify import HeadingStep, Rectification, SequenceEvidence, resolve_heading_source
 
@@ -206,7 +207,8 @@ def _unlisted_whole_warning(record: dict) -> str | None:
 
 
 def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None,
-                          left_out: list[str] | None = None) -> str | None:
+                          left_out: list[str] | None = None, split: str = "all", scored: tuple[int, int] = (0, 0)
+                          ) -> str | None:
     """A warning when the weights' record names their training files but the evaluated file
     is not one of them: whether its clips overlap the training data cannot be told from names,
     so the scores are not called held out; where some evaluated clips are recognised by name
@@ -214,7 +216,10 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None,
     that the others may still be among the training files', and with ``--untrained-only``
     (``left_out``: the clips it left out, by name) which recognised clips it left out and
     that it scored every other (user trials read a silent ``--untrained-only`` as "none of
-    these trained on"); ``None`` otherwise."""
+    these trained on"), and where ``split`` (not ``all``) scored ``scored`` = ``(chosen, all)``
+    clips, that the split chose them by their names as it splits the training files, which
+    means nothing for this file (a lab's trial scored 1 of its 4 clips, named like CMU's test
+    subjects, as "test"); ``None`` otherwise."""
     listed = _listed_files(record)
     if not listed or Path(data).name in listed:
         return None
@@ -228,9 +233,13 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None,
         named = (f"{len(left_out)} clip{'s' * (len(left_out) != 1)} recognised by name among the clips they "
                  f"trained on whole ({', '.join(left_out)})" if left_out else "no clip recognised by name")
         left = f"; --untrained-only left out {named} and scored every other"
+    chosen = ""
+    if split != "all" and scored[0] < scored[1]:
+        chosen = (f"; --split {split} scored {scored[0]} of its {scored[1]} clips, chosen by their names as the "
+                  f"training files are split, which means nothing for this file: --split all scores every clip")
     return (f"{Path(data).name} is not among the files the weights trained on ({', '.join(listed)}): whether its "
             f"clips overlap their training data is unknown (a renamed copy of a training file would look new)"
-            f"{known}{left}")
+            f"{known}{left}{chosen}")
 
 
 def _missing_joints_warning(targets: np.ndarray) -> str | None:
@@ -244,6 +253,21 @@ def _missing_joints_warning(targets: np.ndarray) -> str | None:
     joints = [H36M_JOINTS[j] for j in np.flatnonzero(missing.any(0))]
     return (f"{int(frames.sum())} scored frames miss joints ({', '.join(joints[:4])}"
             f"{' and more' if len(joints) > 4 else ''}): mpjpe_mm and pa_mpjpe_mm there are over the joints present")
+
+
+def _mirrored_clips_warning(clips) -> str | None:
+    """A warning where evaluated clips' ground truth is a mirror image of a body
+    (:func:`pcnet.stages.flags.mirrored_skeleton_flag`: knees bending forward, elbows
+    backward): a file whose left and right joints are exchanged, whose targets' sides are then
+    wrong, so the scores are not the method's (a lab's trial: 9.8 deg mean rotation error where
+    its correctly labelled clips gave 1.8, without a word; the test fires on none of the 3,258
+    shared mocap clips); ``None`` otherwise."""
+    mirrored = [c.name for c in clips if mirrored_skeleton_flag(c.joints)]
+    if not mirrored:
+        return None
+    return (f"{len(mirrored)} of {len(clips)} clips are mirror images of a body (knees bend forward, elbows backward: "
+            f"{', '.join(mirrored[:3])}{' ...' if len(mirrored) > 3 else ''}): left and right exchanged in the file? "
+            f"Their targets' sides are then wrong, and their scores are not the method's")
 
 
 def _foreign_file_warning(data: str | Path, record: dict, clips) -> str | None:
@@ -377,6 +401,7 @@ def evaluate(
     all_clips = load_mocap(data)
     warnings = [w for w in [world_up_warning(all_clips, data)] if w]
     clips = select_split(all_clips, split, split_scheme)
+    in_split = len(clips)
     if unseen_by is not None:
         seen = groups_in_split(all_clips, "train", unseen_by)
         clips = [c for c in clips if (group_key(c) or c.name) not in seen]
@@ -392,6 +417,7 @@ def evaluate(
                          + ("; --split all scores every clip" if split != "all" else ""))
     if kind == "lifter" or mode != "frame":
         warnings += [w for w in [assumed_fps_warning(clips, data)] if w]
+    warnings += [w for w in [_mirrored_clips_warning(clips)] if w]
     pairs = make_pairs(clips, views=views, seed=seed, camera=camera, noise=_noise_model(kind))
     # Scores need the rotations only, not the camera-tilt uncertainty (bootstrap).
     chain = Rectification(make_estimator(method, weights), SequenceEvidence(mode, camera_prior, n_bootstrap=0),
@@ -438,7 +464,8 @@ def evaluate(
         result["training_overlap"] = _training_overlap(data, all_clips, clips, record)
         warnings += [w for w in [_unlisted_whole_warning(record), _unknown_training_warning(weights, record),
                                  _fine_tuned_warning(record),
-                                 _unknown_file_warning(data, record, result["training_overlap"], left_out),
+                                 _unknown_file_warning(data, record, result["training_overlap"], left_out,
+                                                       split, (in_split, len(all_clips))),
                                  _foreign_file_warning(data, record, clips)] if w]
     else:
         result["training_overlap"] = None

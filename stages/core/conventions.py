@@ -316,7 +316,7 @@ def placeholder_joints(values: np.ndarray, keep_root: bool = True, root: int | N
 
 def validate_poses(joints: object, source: str = "poses", units: str | None = None,
                    num_joints: int = 17, joint_names: tuple[str, ...] | None = None,
-                   in_place: bool = False) -> np.ndarray:
+                   in_place: bool = False, metres_only: bool = False) -> np.ndarray:
     """The one check every entry point applies to 3D poses (``pcnet rectify``,
     :func:`pcnet.pipeline.rectification.rectify`, ``pcnet run`` after its adapter).
 
@@ -331,6 +331,9 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
         in_place: write the result into ``joints`` when it is a writable float32 array (the
             caller's own: a long recording is not copied). Checked a block of frames at a
             time either way.
+        metres_only: the caller reads metres alone (mocap for evaluation and training), so a
+            millimetre file is told to scale to metres, not to read it with ``pcnet run``'s
+            generic reader's ``--units``, which that command does not have.
 
     Returns:
         float32 ``(T, J, 3)``; non-finite values (``inf``), a masked array's masked values
@@ -409,8 +412,9 @@ def validate_poses(joints: object, source: str = "poses", units: str | None = No
         name = H36M_JOINTS[j] if joint_names is None else joint_names[j]
         confidences = 0.0 <= z_range[0] and z_range[1] <= bound
         unit_hint = ("; 2D keypoints (x, y pixels and a confidence) given as 3D poses?" if confidences and units == "m"
-                     else "; millimetres or centimetres given as metres? scale the file to metres, or read it with "
-                     "pcnet run --lifter generic --units mm (or cm)" if units == "m" else "")
+                     else "; millimetres or centimetres given as metres? scale the file to metres"
+                     + ("" if metres_only else ", or read it with pcnet run --lifter generic --units mm (or cm)")
+                     if units == "m" else "")
         raise InputError(f"{source}: frame {t}, joint {name}: expected |coordinate| <= {bound:g} "
                          f"{units or '(any unit)'}, got {value:.4g} ({count} joint value{'s' if count != 1 else ''} "
                          f"beyond it{unit_hint})")
