@@ -942,9 +942,11 @@ def one_person_frames(segment: np.ndarray) -> np.ndarray:
 
 def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
                       person_option: bool = True, own_estimator: bool = False,
-                      roi_given: bool = False) -> list[Finding]:
+                      roi_given: bool = False, keypoints2d: np.ndarray | None = None) -> list[Finding]:
     """A flag naming the jumps and the frames outside the longest stretch (the finding's
-    frames: probably another person).
+    frames: probably another person), and, with the 2D keypoints, where in the picture the
+    person followed is: a physiotherapist's run followed a bystander for its longest stretch
+    and was not told whose numbers it gave.
 
     Args:
         segment: ``(T,)`` int, :func:`track_segments`'s stretch of each frame.
@@ -956,12 +958,16 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
             ``--roi`` around the person, or to leave those frames out.
         roi_given: that estimator already saw a ``--roi``, which the other person enters: the
             advice is a narrower one (a coach's run with a ``--roi`` was told to give one).
+        keypoints2d: ``(T, 17, 3)`` H36M-17 pixels (as displayed) and confidence of the track,
+            or ``None``: the median pelvis of the stretch followed is then named.
     """
     if not events:
         return []
     main_frames = one_person_frames(segment)
     main = int(segment[np.argmax(main_frames)])
     suspect = int((~main_frames).sum())
+    followed = np.flatnonzero(main_frames)
+    pelvis = None if keypoints2d is None else _median_pelvis_px(keypoints2d, main_frames)
     jumps = ", ".join(f"frame {f} ({j:.1f} torso lengths)" for f, j in events[:5])
     more = f" and {len(events) - 5} more" if len(events) > 5 else ""
     if person_option:
@@ -979,12 +985,30 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
         action = f"track one person, or drop track_segment != {main}"
         advice = "this 2D format has one track: re-run the tracker on one person, or leave those frames out"
     at = f"frame{'s' * (len(events) > 1)} {', '.join(str(f) for f, _ in events[:5])}{more}"
-    return [_found(Kind.TRACK_SWITCH, Severity.PROBLEM,
-                   f"2D track switches person at {at}; {suspect} frames probably someone else",
-                   action,
+    if pelvis is None:
+        headline, whom = f"2D track switches person at {at}; {suspect} frames probably someone else", ""
+    else:
+        x, y = (int(round(v)) for v in pelvis)
+        headline = f"2D track switches at {at}; followed the person at ({x}, {y}) px"
+        whom = (f"; the results (the up, the floor, the world frame's axes) follow the longest stretch, frames "
+                f"{followed[0]}-{followed[-1]}, whose pelvis lies at about ({x}, {y}) px in the picture (x right, y "
+                f"down, as displayed): if that is not the subject, the run measured someone else")
+    return [_found(Kind.TRACK_SWITCH, Severity.PROBLEM, headline, action,
                    f"2D track probably switches person: jumps at {jumps}{more}; {suspect} frames lie outside the "
-                   f"longest stretch (track_segment != {main} in canonical.npz and kinematics.csv); {advice}",
+                   f"longest stretch (track_segment != {main} in canonical.npz and kinematics.csv){whom}; {advice}",
                    true_runs(~main_frames))]
+
+
+def _median_pelvis_px(keypoints2d, frames: np.ndarray) -> np.ndarray | None:
+    """``(2,)`` the median 2D pelvis (px) of ``keypoints2d`` ``(T, 17, 3)`` (read a block of
+    frames at a time: may be on disk) over the ``(T,)`` bool ``frames``; ``None`` where it is
+    nowhere finite."""
+    picked = []
+    for rows in frame_blocks(len(frames)):
+        pelvis = np.asarray(keypoints2d[rows])[frames[rows], PELVIS, :2]
+        picked.append(pelvis[np.isfinite(pelvis).all(-1)])
+    picked = np.concatenate(picked) if picked else np.empty((0, 2))
+    return np.median(picked, axis=0) if len(picked) else None
 
 
 def no_world_frame_flag(mode: str) -> list[Finding]:

@@ -15,7 +15,7 @@ from conftest import FIXTURES, ROOT, camera_up, rrd_summary, shared
 from pcnet.pipeline.cli import main
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import (Kind, Severity, SwitchLimits, camera_tilt, lifter_frame_flag, load_side_swap_limit,
-                                load_skeleton_limits, load_switch_limits, mirrored_skeleton_flag,
+                                load_skeleton_limits, load_switch_limits, mirrored_skeleton_flag, one_person_frames,
                                 orientation_flags, pelvis_jumps, posture_flag,
                                 side_agreement, side_extents, side_swap_flag, size_change_flag, track_present, track_segments,
                                 track_switch_flag)
@@ -138,6 +138,13 @@ def test_a_track_that_jumps_to_another_place_is_split():
     (narrow,) = track_switch_flag(segment, events, person_option=False, own_estimator=True, roi_given=True)
     assert narrow.action == "narrow --roi to where the person stays (docs/video.md)"
     assert "another person enters the --roi given" in narrow.detail
+    # with the keypoints, whom the results follow: a physiotherapist's run followed a bystander unsaid
+    (named,) = track_switch_flag(segment, events, person_option=False, own_estimator=True, keypoints2d=jumped)
+    followed = np.flatnonzero(one_person_frames(segment))
+    x, y = np.round(np.nanmedian(jumped[followed, 0, :2], axis=0)).astype(int)
+    assert named.headline == f"2D track switches at frame 30; followed the person at ({x}, {y}) px"
+    assert f"frames {followed[0]}-{followed[-1]}, whose pelvis lies at about ({x}, {y}) px" in named.detail
+    assert len(named.terminal_line()) <= 135
 
 
 def test_pelvis_jumps_measure_torso_lengths_over_gaps_at_30_fps():
@@ -230,7 +237,7 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
                                     str(path), "--keypoints2d-format", "mediapipe", "--method", "geometric",
                                     "--out", str(out)])
     assert res.exit_code == 0, res.output
-    assert "WARNING  2D track switches person at frames 170, 202; 60 frames probably someone else" in res.output
+    assert "WARNING  2D track switches at frames 170, 202; followed the person at (646, 260) px" in res.output
     assert "--person" not in res.output  # MediaPipe has one track: nothing to choose
     with np.load(out / "canonical.npz") as npz:
         assert any("switches person" in str(f) for f in npz["flags"])
