@@ -383,7 +383,8 @@ def implausible_motion_flags(findings: Sequence[ImplausibleMotion], limits: Moti
         lines.append(
             f"joint {quantity} beyond human limits in {frames} {_frames_text(ranges)}: {named}. The limits are the "
             f"largest pelvis-relative {quantity} per joint group in {limits.source}; faster motion there is probably "
-            f"a tracking or lifting error (a track switch, a left/right swap, a detector jump; or motion the limits "
+            f"a tracking or lifting error (a track switch, a left/right swap, a detector jump, joints jittering by "
+            f"centimetres from frame to frame, which the low-pass lets through at its cutoff; or motion the limits "
             f"have not seen, such as sprints, throws, racket sports or flips): check the input's poses (and 2D keypoints, "
             f"where given) in those frames, and leave them out of speed, acceleration and angle analyses "
             f"(canonical.npz: implausible_frames). If slow motion is flagged, check the frame rate first: a rate "
