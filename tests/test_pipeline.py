@@ -1589,3 +1589,24 @@ def test_a_depth_sensors_mirrored_skeleton_is_asked_about_the_subject_not_the_re
     assert "3D skeleton mirrored (knees bend forward; odds 53:1): angles flip sign -> did the subject face away " \
            "from the sensor?" in res.output, res.output
     assert "--axes" not in res.output
+
+
+def test_frames_without_ankles_are_flagged_only_where_the_floor_is_per_frame(tmp_path):
+    """A physiotherapist's run with one ground plane (a pelvis path from 2D keypoints) was told
+    that a frame without ankles had its floor height interpolated: the plane holds in every
+    frame. Without a path the floor is per frame and is interpolated there."""
+    x3d = np.load(BOX_3D)
+    x3d[10:13, [3, 6]] = np.nan  # both ankles (H36M-17) in three frames
+    np.save(tmp_path / "x.npy", x3d)
+    base = ("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "x.npy", "--fps", "30", "--height", "1.75",
+            "--method", "geometric", "--no-recording")
+    res = _invoke(*base, "--keypoints2d", BOX_2D, "--keypoints2d-format", "alphapose", "--image-size", "854x480",
+                  "--out", tmp_path / "plane")  # the boxing video's size: a pelvis path, so one ground plane
+    assert res.exit_code == 0, res.output
+    floor_kind = lambda out: json.loads(str(np.load(out / "canonical.npz")["report"]))["floor"]["kind"]  # noqa: E731
+    assert floor_kind(tmp_path / "plane") == "plane"
+    assert "no ankle in" not in res.output
+    res = _invoke(*base, "--out", tmp_path / "per_frame")
+    assert res.exit_code == 0, res.output
+    assert floor_kind(tmp_path / "per_frame") == "per frame"
+    assert "WARNING  no ankle in 3 of 60 frames: the floor height is interpolated there" in res.output
