@@ -1462,8 +1462,10 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
     elif camera.root is None:  # a monocular lifter's metres are its guess at the size (a depth sensor's measure it)
         try:
             stature = 1.0 / height_factor(cam, 1.0)
-            notes.append(f"body size as the lifter's, a {stature:.2f} m stature: give --height for the subject's; "
-                         f"positions, speeds and the TRC scale with it (a monocular lifter's guess at the size)")
+            # speeds first: a physiotherapist's trial read a walking speed without seeing it rests on the guess
+            notes.append(f"speeds and lengths scaled to the lifter's guess of a {stature:.2f} m stature: give --height "
+                         f"for the subject's; positions, speeds and the TRC scale with it (a monocular lifter's guess "
+                         f"at the size)")
         except InputError:  # no frame with the ankle-to-head chain: no stature to state
             pass
     return Scaled(replace(camera, root=root_cam), units, tuple(notes))

@@ -1610,3 +1610,14 @@ def test_frames_without_ankles_are_flagged_only_where_the_floor_is_per_frame(tmp
     assert res.exit_code == 0, res.output
     assert floor_kind(tmp_path / "per_frame") == "per frame"
     assert "WARNING  no ankle in 3 of 60 frames: the floor height is interpolated there" in res.output
+
+
+def test_speeds_scaled_to_the_lifters_guess_of_the_size_are_said_so_in_the_summary(tmp_path):
+    """A physiotherapist read a walking speed without seeing that it rests on the lifter's guess
+    of the stature: the note's summary line says so first."""
+    res = _invoke("run", "--lifter", "videopose3d", "--lifter-output", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy",
+                  "--fps", "30", "--method", "geometric", "--no-recording", "--out", tmp_path / "o")
+    assert res.exit_code == 0, res.output
+    (line,) = [ln for ln in res.output.splitlines() if "stature" in ln]
+    assert re.fullmatch(r"note     speeds and lengths scaled to the lifter's guess of a \d\.\d\d m stature: give "
+                        r"--height for the subject's", line), line
