@@ -156,6 +156,9 @@ class Poses3D:
             (pixels; OpenCV convention) when the file states them (a MediaPipe archive of a
             calibrated camera), else ``None``; the pipeline places the pelvis path from the
             2D keypoints with it.
+        depth_sensor: the file is a depth sensor's own skeleton (Kinect v1, Azure Kinect),
+            whose tracker labels the sides as if the subject faced the sensor: a mirrored
+            skeleton then asks whether the subject faced away, not for other axes or layout.
     """
 
     joints: np.ndarray
@@ -170,6 +173,7 @@ class Poses3D:
     frame_turn_deg: float = 0.0
     nonfinite: dict[str, int] = field(default_factory=dict)
     camera_matrix: np.ndarray | None = None
+    depth_sensor: bool = False
 
     def __post_init__(self) -> None:
         _check_array(self.joints, "joints", self.source, self.layout)

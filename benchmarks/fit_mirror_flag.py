@@ -15,6 +15,8 @@ of recordings called mirrored (false alarms) and of their mirror images (``z -> 
 mirrored (detections) on
 - the fit's own clips;
 - the training mix's validation split, with the same noise and clean;
+- every clip of the shared mocap files, clean, as ``pcnet evaluate`` reads them (its warning
+  of a file whose clips are mirror images: left and right exchanged);
 - every real lifter file of the shared data: 90 VideoPose3D yoga files (standing, seated,
   lying, prone) and the MotionBERT boxing and cycling files.
 """
@@ -32,6 +34,7 @@ import numpy as np
 from benchmarks.fit_speed_limits import clip_series
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
 from benchmarks.report import fit_arguments, print_and_save
+from pcnet.models.datasets import load_mocap
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.mirror import CUES, MIRROR_ODDS, MIRROR_PATH, MirrorModel, recording_cues
 
@@ -110,6 +113,10 @@ def main() -> None:
     lines += reading(model, train_series, "training split, lifter noise (the fit's own)")
     lines += reading(model, noisy(val), "validation split, lifter noise")
     lines += reading(model, [(c.name, c.joints) for c in val], "validation split, clean")
+    # every clip as pcnet evaluate reads it (its mirrored-clips warning): clean, the mocap's own frame
+    for name in ("bandai_h36m17.npz", "cmu_train_h36m17.npz", "deepmimic_h36m17.npz"):
+        lines += reading(model, [(c.name, c.joints) for c in load_mocap(args.data / "mocap" / name)],
+                         f"{name}, every clip, clean (pcnet evaluate)")
     real = args.data / "real"
     for label, pattern in (("real VideoPose3D yoga files", "yoga_videopose3d/*.npy"),
                            ("real MotionBERT files (boxing, cycling)", "*motionbert/*.npy")):

@@ -77,7 +77,7 @@ name), not the arrays: a long recording's arrays stay on disk. Read them back fr
     import csv
 
     with np.load(result.outputs["canonical.npz"], allow_pickle=False) as npz:
-        world = npz["joints_world"]  # (T, 17, 3) float64, metres, the world frame (y up, floor y = 0)
+        world = npz["joints_world"]  # (T, 17, 3) float64, the world frame (y up, floor y = 0), in the run's units: m
     with open(result.outputs["kinematics.csv"], newline="") as fh:
         rows = list(csv.DictReader(fh))  # one per frame; an empty cell is missing
     knee = [float(r["left_knee_flexion_deg"] or "nan") for r in rows]

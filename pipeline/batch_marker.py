@@ -25,7 +25,7 @@ from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.digest import sha256_file, sha256_file_version
 
 from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS
-from .config import pcnet_version
+from .config import UNKNOWN_CODE, pcnet_version
 from .outdir import listed_files_missing, read_marker
 
 BATCH_MARKER = ".pcnet_batch.json"
@@ -110,6 +110,8 @@ def version_change(recorded: str) -> str:
     :func:`~pcnet.pipeline.config.pcnet_version`) differs from the installed one: its code alone
     where the release version is the same."""
     now = pcnet_version()
+    if now.endswith(f"+code.{UNKNOWN_CODE}"):
+        return f"pcnet's code cannot be read to compare with its earlier output's (pcnet {now})"
     if recorded.split("+")[0] == now.split("+")[0]:
         return f"pcnet's code changed {_SINCE} (pcnet {recorded} -> {now})"
     return f"pcnet {recorded} -> {now} {_SINCE}"
@@ -139,7 +141,7 @@ def record_status(out: Path, config: dict) -> tuple[dict | None, str]:
     record = read_batch_marker(out)
     if not record:
         return None, "its earlier output has no batch record"
-    if record.get("pcnet_version") != pcnet_version():
+    if record.get("pcnet_version") != pcnet_version() or pcnet_version().endswith(f"+code.{UNKNOWN_CODE}"):
         return None, version_change(str(record.get("pcnet_version", "unknown")))
     changed_settings = settings_change(record, config)
     if changed_settings:  # the inputs named anew too, by path (their bytes are not read: it runs anyway)

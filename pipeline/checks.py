@@ -71,8 +71,8 @@ class CheckInputs:
     (``pipeline/runner.py: _keypoint_picture``); picture_typed: that size is ``--image-size``
     (no video), which the user may have typed the other way round; units_declared: the user
     declared the poses' units (``--lifter generic``) rather than the lifter's format fixing them;
-    depth_sensor: a depth sensor's skeleton read by its own reader (a measured root, a lifter
-    other than ``generic``), whose axes and sides the reader fixes.
+    depth_sensor: a depth sensor's own skeleton (:attr:`pcnet.adapters.Poses3D.depth_sensor`),
+    whose axes and sides its reader fixes.
     """
 
     joints_camera: np.ndarray

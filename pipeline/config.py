@@ -501,10 +501,15 @@ class RunConfig:
         return self
 
 
-#: The packages whose files decide what a run writes: their code, weights and data tables (not
-#: the docs pages, which outputs only cite, nor the bundled example, an input).
+#: The packages whose files decide what a run writes, and those files' kinds: code, weights,
+#: data tables, the OpenSim model (not pages, licences or the bundled example, an input; not an
+#: editor's or a system's hidden files, which would make every batch row run again).
 _CODE_PACKAGES = ("pcnet.pipeline", "pcnet.stages", "pcnet.adapters", "pcnet.models")
+_CODE_SUFFIXES = (".py", ".json", ".onnx", ".task", ".osim", ".xml")
 _NOT_CODE = ("__pycache__", "example_data")
+#: The code digest of an installed pcnet whose package files cannot be read (a zip import, a file
+#: gone): never equal to an earlier output's, so a batch runs every row again.
+UNKNOWN_CODE = "unknown"
 
 
 @functools.cache
@@ -517,27 +522,38 @@ def pcnet_version() -> str:
     The distribution's version alone stays the same across changes of the code (an editable
     install, a reinstall from a newer checkout), so a batch re-run would keep outputs that
     older code wrote (:mod:`pcnet.pipeline.batch_marker`); the digest changes with any of its
-    files. Read once per process.
+    files. Read once per process. Where the package's files cannot be read (not plain files on
+    disk, or one unreadable), the label is ``+code.unknown`` (:data:`UNKNOWN_CODE`), which a
+    batch never takes for the code of an earlier output.
     """
     try:
         version = metadata.version("pcnet")
     except metadata.PackageNotFoundError:
         version = "unknown"
     roots = {package: Path(importlib.util.find_spec(package).origin).parent for package in _CODE_PACKAGES}
-    return f"{version}+code.{code_digest(roots)[:12]}"
+    try:
+        digest = code_digest(roots)[:12]
+    except OSError:
+        digest = UNKNOWN_CODE
+    return f"{version}+code.{digest}"
 
 
 def code_digest(roots: dict[str, Path]) -> str:
-    """Hex sha256 over ``{name: folder}``'s files: each file's ``name/relative path`` and the
-    sha256 of its bytes, in sorted order, leaving out ``__pycache__`` and ``example_data``
-    folders (:func:`pcnet_version`).
+    """Hex sha256 over ``{name: folder}``'s code files (suffixes :data:`_CODE_SUFFIXES`, not
+    hidden, outside ``__pycache__`` and ``example_data``): each file's ``name/relative path``
+    and the sha256 of its bytes, in sorted order (:func:`pcnet_version`).
 
     Raises:
-        OSError: a file cannot be read.
+        OSError: a folder holds no such file (not a folder on disk: a zip import), or a file
+            cannot be read.
     """
     digest = hashlib.sha256()
     for name, root in sorted(roots.items()):
-        for path in sorted(p for p in root.rglob("*") if p.is_file() and not set(_NOT_CODE) & set(p.relative_to(root).parts)):
+        files = sorted(p for p in root.rglob("*") if p.suffix in _CODE_SUFFIXES and not p.name.startswith(".")
+                       and not set(_NOT_CODE) & set(p.relative_to(root).parts) and p.is_file())
+        if not files:
+            raise OSError(f"{root}: no code files to read")
+        for path in files:
             digest.update(f"{name}/{path.relative_to(root).as_posix()}\0".encode())
             digest.update(bytes.fromhex(sha256_file(path)))
     return digest.hexdigest()

@@ -216,8 +216,8 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None,
     that the others may still be among the training files', and with ``--untrained-only``
     (``left_out``: the clips it left out, by name) which recognised clips it left out and
     that it scored every other (user trials read a silent ``--untrained-only`` as "none of
-    these trained on"), and where ``split`` (not ``all``) scored ``scored`` = ``(chosen, all)``
-    clips, that the split chose them by their names as it splits the training files, which
+    these trained on"), and where ``split`` (not ``all``) chose ``scored`` = ``(chosen, all)``
+    clips, that it chose them by their names as it splits the training files, which
     means nothing for this file (a lab's trial scored 1 of its 4 clips, named like CMU's test
     subjects, as "test"); ``None`` otherwise."""
     listed = _listed_files(record)
@@ -235,8 +235,8 @@ def _unknown_file_warning(data: str | Path, record: dict, overlap: dict | None,
         left = f"; --untrained-only left out {named} and scored every other"
     chosen = ""
     if split != "all" and scored[0] < scored[1]:
-        chosen = (f"; --split {split} scored {scored[0]} of its {scored[1]} clips, chosen by their names as the "
-                  f"training files are split, which means nothing for this file: --split all scores every clip")
+        chosen = (f"; --split {split} chose {scored[0]} of its {scored[1]} clips by their names, as the training "
+                  f"files are split, which means nothing for this file: --split all takes every clip")
     return (f"{Path(data).name} is not among the files the weights trained on ({', '.join(listed)}): whether its "
             f"clips overlap their training data is unknown (a renamed copy of a training file would look new)"
             f"{known}{left}{chosen}")
@@ -260,8 +260,9 @@ def _mirrored_clips_warning(clips) -> str | None:
     (:func:`pcnet.stages.flags.mirrored_skeleton_flag`: knees bending forward, elbows
     backward): a file whose left and right joints are exchanged, whose targets' sides are then
     wrong, so the scores are not the method's (a lab's trial: 9.8 deg mean rotation error where
-    its correctly labelled clips gave 1.8, without a word; the test fires on none of the 3,258
-    shared mocap clips); ``None`` otherwise."""
+    its correctly labelled clips gave 1.8, without a word; the test fires on none of the shared
+    mocap files' clips: ``python -m benchmarks.fit_mirror_flag --data ../shared/data``);
+    ``None`` otherwise."""
     mirrored = [c.name for c in clips if mirrored_skeleton_flag(c.joints)]
     if not mirrored:
         return None

@@ -381,7 +381,8 @@ class RecordingInputs:
     keypoint_image_size: ``(width, height)`` the 2D file states, or ``None``; keypoint_extent:
     :func:`keypoints_extent` of a turned video's keypoints, or ``None``; joints: ``(T, 17, 3)``
     H36M-17 camera-frame lifter poses in ``units``; measured_root: the lifter's root is a
-    measured path (:attr:`pcnet.adapters.Poses3D.root_translation`); notes: summary lines about
+    measured path (:attr:`pcnet.adapters.Poses3D.root_translation`); depth_sensor: the file is a
+    depth sensor's own skeleton (:attr:`pcnet.adapters.Poses3D.depth_sensor`); notes: summary lines about
     the inputs; lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; nonfinite:
     :attr:`pcnet.adapters.Poses3D.nonfinite`; camera_matrix: the lifter file's ``(3, 3)`` ``K``
     or ``None`` (:attr:`pcnet.adapters.Poses3D.camera_matrix`); read: what was read, as the
@@ -397,6 +398,7 @@ class RecordingInputs:
     joints: np.ndarray | None
     units: str
     measured_root: bool
+    depth_sensor: bool
     notes: list
     lifter_turn_deg: float
     nonfinite: dict
@@ -495,7 +497,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     person_hint = "" if "--person" in kp_choice else " (--person chooses another)"
     choice = kp_choice and f"2D keypoints: {kp_choice}{person_hint}"
     return RecordingInputs(video, fps, fps_source, kp2d, kp_size, kp_extent, joints, poses.units, poses.root_translation,
-                           [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n],
+                           poses.depth_sensor, [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n],
                            poses.frame_turn_deg, poses.nonfinite, poses.camera_matrix,
                            _inputs_read(cfg, poses.layout, poses.units, kp_layout, video, poses.notes,
                                         _adapter_origin(adapter)))
@@ -1419,8 +1421,7 @@ def _check_inputs(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, re
         own_estimator=estimated, roi_given=cfg.roi is not None,
         focal_known=cfg.focal_px is not None or recording.camera_matrix is not None, picture=camera.picture,
         picture_typed=_picture_typed(cfg), units_declared=cfg.lifter == "generic",
-        # a named reader of a measured root: a depth sensor's skeleton, its axes and sides the reader's
-        depth_sensor=recording.measured_root and cfg.lifter != "generic")
+        depth_sensor=recording.depth_sensor)
 
 
 def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scaled:

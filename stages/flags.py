@@ -587,9 +587,9 @@ def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None, depth_s
         joints_cam: ``(T, 17, 3)`` H36M-17 poses in any frame and units, NaN = missing (read a
             block of frames at a time: may be on disk).
         model: the fitted cue distribution (default: the shipped one).
-        depth_sensor: the poses are a depth sensor's skeleton, read by its own reader (a
-            measured root, a lifter other than ``generic``): its axes and sides are the reader's,
-            so the action asks whether the subject faced away from the sensor (whose tracker
+        depth_sensor: the poses are a depth sensor's own skeleton (its reader says so:
+            ``pcnet.adapters.Poses3D.depth_sensor``): its axes and sides are the reader's, so the
+            action asks whether the subject faced away from the sensor (whose tracker
             labels the sides as if facing it) and says how often the flag fires on real
             skeletons of subjects facing it, instead of naming the generic reader's options
             (an IMU trial's ``kinect_v1`` run was told to check ``--axes``).
@@ -606,10 +606,9 @@ def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None, depth_s
     if depth_sensor:
         action = "did the subject face away from the sensor?"
         detail = (f"{evidence}; a depth sensor's tracker labels the sides as if the subject faced it, so a subject "
-                  f"turned away comes out mirrored, and every sagittal angle then has the wrong sign; on real Kinect v1 "
-                  f"skeletons of subjects facing the sensor (UTD-MHAD) it fires on 36 of 671 files, 33 of them one "
-                  f"subject whose knees the sensor reads hyperextended, so where the subject faced the sensor it says "
-                  f"little (docs/guide/warnings.md)")
+                  f"turned away comes out mirrored, and every sagittal angle then has the wrong sign; it also fires on "
+                  f"real Kinect skeletons of subjects who faced the sensor, whose knees it reads hyperextended "
+                  f"(docs/guide/warnings.md says how often), so there it says little")
     else:
         # the generic reader's options: a named lifter such as kinect_v1 takes no --axes (a batch trial)
         action = "check --axes, --layout (--lifter generic)"
@@ -989,7 +988,10 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
         headline, whom = f"2D track switches person at {at}; {suspect} frames probably someone else", ""
     else:
         x, y = (int(round(v)) for v in pelvis)
-        headline = f"2D track switches at {at}; followed the person at ({x}, {y}) px"
+        # two frames at most, so that the person followed stays within the headline's width
+        first = f"frame{'s' * (len(events) > 1)} {', '.join(str(f) for f, _ in events[:2])}" + \
+            (f" +{len(events) - 2} more" if len(events) > 2 else "")
+        headline = f"2D track switches at {first}; followed the person at ({x}, {y}) px"
         whom = (f"; the results (the up, the floor, the world frame's axes) follow the longest stretch, frames "
                 f"{followed[0]}-{followed[-1]}, whose pelvis lies at about ({x}, {y}) px in the picture (x right, y "
                 f"down, as displayed): if that is not the subject, the run measured someone else")

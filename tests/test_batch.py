@@ -1236,8 +1236,10 @@ def test_the_code_digest_changes_with_any_package_file_but_not_with_caches_or_th
     (tmp_path / "pkg" / "data" / "up_model.json").write_text("{}")
     roots = {"pcnet.pkg": tmp_path / "pkg"}
     first = code_digest(roots)
-    for ignored in ("__pycache__/run.cpython-311.pyc", "example_data/X3D.npy"):
-        (tmp_path / "pkg" / ignored).parent.mkdir()
+    # caches, the bundled example, pages, licences and an editor's or a system's hidden files are not code
+    for ignored in ("__pycache__/run.cpython-311.pyc", "example_data/X3D.npy", "MODEL_CARD.md", "LICENSE-x.txt",
+                    ".run.py.swp", "data/.DS_Store"):
+        (tmp_path / "pkg" / ignored).parent.mkdir(exist_ok=True)
         (tmp_path / "pkg" / ignored).write_bytes(b"\0")
     assert code_digest(roots) == first
     (tmp_path / "pkg" / "data" / "up_model.json").write_text('{"sigma": 1}')
@@ -1245,6 +1247,9 @@ def test_the_code_digest_changes_with_any_package_file_but_not_with_caches_or_th
     assert changed != first
     (tmp_path / "pkg" / "data" / "up_model.json").rename(tmp_path / "pkg" / "data" / "up_model2.json")
     assert code_digest(roots) not in (first, changed)
+    # a package that is no folder of files (a zip import) has no digest, rather than the empty one
+    with pytest.raises(OSError, match="no code files"):
+        code_digest({**roots, "pcnet.zipped": tmp_path / "pcnet.zip" / "pcnet" / "models"})
 
 
 def test_record_status_names_what_changed_and_survives_a_damaged_record(tmp_path, monkeypatch):
@@ -1275,6 +1280,11 @@ def test_record_status_names_what_changed_and_survives_a_damaged_record(tmp_path
     assert bm.record_status(tmp_path, config)[1] == \
         f"pcnet's code changed since its earlier output (pcnet {release}+code.000000000000 -> {bm.pcnet_version()})"
     assert len(code) == 12 and int(code, 16) >= 0
+    # code that cannot be read is never taken for an earlier output's, even where the labels agree
+    monkeypatch.setattr(bm, "pcnet_version", lambda: f"{release}+code.unknown")
+    write({**record, "pcnet_version": f"{release}+code.unknown"})
+    assert bm.record_status(tmp_path, config)[1] == \
+        f"pcnet's code cannot be read to compare with its earlier output's (pcnet {release}+code.unknown)"
 
 
 @pytest.mark.slow

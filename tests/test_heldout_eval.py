@@ -427,8 +427,8 @@ def test_unseen_by_keeps_groups_the_weights_never_saw():
         is None
     # a split of such a file chose its clips by names that mean nothing for it (a lab's trial: 1 of 4 clips scored)
     assert _unknown_file_warning("my_copy.npz", clip_record, None, split="test", scored=(1, 4)).endswith(
-        "; --split test scored 1 of its 4 clips, chosen by their names as the training files are split, which means "
-        "nothing for this file: --split all scores every clip")
+        "; --split test chose 1 of its 4 clips by their names, as the training files are split, which means nothing "
+        "for this file: --split all takes every clip")
     assert "--split" not in _unknown_file_warning("my_copy.npz", clip_record, None, split="all", scored=(4, 4))
     assert unseen_names  # clips outside the clip-scheme train split exist
     assert Counter(test["clip_heading_sources"]) == Counter({"predicted": 910})
