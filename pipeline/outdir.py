@@ -35,6 +35,7 @@ import re
 import shutil
 import socket
 import sys
+import tempfile
 import threading
 import time
 import uuid
@@ -132,21 +133,19 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
 def _check_writable(target: Path, given: str) -> None:
     """Refuse, before any work, an output whose folder this process cannot write in: the
     output is staged beside ``target`` and renamed in at the end (:func:`staged_output`), so
-    the nearest existing folder above it must take new entries (``access(2)``: permissions,
-    and a read-only file system even for root). A run had computed everything before the
-    staging folder met a read-only parent."""
+    the nearest existing folder above it must take new entries. ``access(2)`` answers at no
+    cost (permissions, and a read-only file system or an immutable folder even for root);
+    where it says no, a folder made there and removed again gives the reason the run would
+    have met, and decides (access cannot see every rule, an ACL for one). A run had computed
+    everything before the staging folder met a read-only parent."""
     folder = next((p for p in target.parents if p.is_dir()), None)
-    if folder is not None and not os.access(folder, os.W_OK | os.X_OK):
-        why = "a read-only file system" if _read_only_mount(folder) else "permission denied"
-        raise InputError(f"--out {given}: expected a place pcnet can write in, got {short_path(folder)} ({why}); "
-                         f"choose another --out")
-
-
-def _read_only_mount(folder: Path) -> bool:
+    if folder is None or os.access(folder, os.W_OK | os.X_OK):
+        return
     try:
-        return bool(os.statvfs(folder).f_flag & os.ST_RDONLY)
-    except OSError:
-        return False
+        os.rmdir(tempfile.mkdtemp(prefix=".pcnet-probe-", dir=folder))
+    except OSError as err:
+        raise InputError(f"--out {given}: expected a place pcnet can write in, got {short_path(folder)} "
+                         f"({reason(err)}); choose another --out") from None
 
 
 @functools.lru_cache(maxsize=256)

@@ -502,15 +502,31 @@ def test_an_output_where_pcnet_cannot_write_is_refused_before_any_work(user_fold
     (``access(2)``: as root only a read-only file system fails it, so the test denies it)."""
     import pcnet.pipeline.runner as runner
 
+    import errno
+    import tempfile
+
     (user_folder / "locked").mkdir()
-    access = os.access
+    access, mkdtemp = os.access, tempfile.mkdtemp
     monkeypatch.setattr(os, "access", lambda path, mode, **kw: Path(path) != user_folder / "locked" and access(path, mode))
+
+    def denied(*args, dir=None, **kwargs):
+        if Path(dir) == user_folder / "locked":
+            raise PermissionError(errno.EACCES, "Permission denied", str(dir))
+        return mkdtemp(*args, dir=dir, **kwargs)
+
+    monkeypatch.setattr(tempfile, "mkdtemp", denied)
+    real_adapter = runner.get_3d_adapter
     monkeypatch.setattr(runner, "get_3d_adapter", lambda *a, **kw: pytest.fail("read the input before refusing"))
     for out in ("locked/run1", "locked/new/run1"):
         _one_line_error(_invoke(*RUN, "--out", out),
                         f"--out {out}: expected a place pcnet can write in, got {user_folder / 'locked'} "
-                        f"(permission denied); choose another --out")
+                        f"(Permission denied; ", "); choose another --out")
     assert sorted(p.name for p in (user_folder / "locked").iterdir()) == []
+    # where access(2) says no but the folder takes a new entry after all (an ACL it cannot read), the run goes on
+    monkeypatch.setattr(tempfile, "mkdtemp", mkdtemp)
+    monkeypatch.setattr(runner, "get_3d_adapter", real_adapter)
+    assert _invoke(*RUN, "--out", "locked/run1").exit_code == 0
+    assert sorted(p.name for p in (user_folder / "locked").iterdir()) == ["run1"]
 
 
 def test_an_output_under_a_file_names_that_file(user_folder):
