@@ -313,8 +313,8 @@ def load_kinect_v1(path: str | Path, layout: str | None = None, key: str | None 
     notes = (f"Kinect v1 skeleton ({layout} joint order) -> H36M-17: (x, y, z)_cv = (-x, -y, z)_kinect, metres; "
              "pelvis = hip midpoint, spine = mean(pelvis, thorax), thorax = shoulder_center, head = head centre, "
              "neck_nose NaN (no nose); not root-centred; gravity only approximately -y (sensor tilt unknown)")
-    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, fps=fps, root_translation=True, depth_sensor=True,
-                   nonfinite=nonfinite)
+    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, fps=fps, root_translation=True,
+                   depth_sensor=True, nonfinite=nonfinite)
 
 
 def _archive_scalar(p: Path, name: str) -> float | None:
@@ -356,8 +356,8 @@ def load_azure_kinect(path: str | Path, key: str | None = None, fps: float | Non
     notes = ("Azure Kinect Body Tracking (32 joints, k4abt order) -> H36M-17: mm -> m, depth-camera axes are "
              "already x right / y down / z forward; pelvis = hip midpoint, spine = mean(pelvis, thorax), "
              "thorax = shoulder midpoint, neck_nose = NOSE, head = HEAD; not root-centred")
-    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, fps=fps, root_translation=True, depth_sensor=True,
-                   nonfinite=nonfinite)
+    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, fps=fps, root_translation=True,
+                   depth_sensor=True, nonfinite=nonfinite)
 
 
 @register_3d("kinect_v1")

@@ -110,7 +110,8 @@ def checks(c: CheckInputs) -> list[Finding]:
         # video whose keypoints' frame is unknown)
         *(keypoints_outside_image_flag(kp2d, c.picture, c.picture_typed) if kp2d is not None and c.picture else []),
         # a side swap is a mirror image too: said once
-        *((side_swap_flag(kp2d, cam) if kp2d is not None else []) or mirrored_skeleton_flag(cam, depth_sensor=c.depth_sensor)),
+        *((side_swap_flag(kp2d, cam) if kp2d is not None else [])
+          or mirrored_skeleton_flag(cam, depth_sensor=c.depth_sensor)),
         *posture_flag(report.sequence),
         *ensemble_weights_flag(_answering_weights(report)),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report), focal_known=c.focal_known),

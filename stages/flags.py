@@ -590,7 +590,7 @@ def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None, depth_s
         depth_sensor: the poses are a depth sensor's own skeleton (its reader says so:
             ``pcnet.adapters.Poses3D.depth_sensor``): its axes and sides are the reader's, so the
             action asks whether the subject faced away from the sensor (whose tracker
-            labels the sides as if facing it) and says how often the flag fires on real
+            labels the sides as if facing it) and points to how often the flag fires on real
             skeletons of subjects facing it, instead of naming the generic reader's options
             (an IMU trial's ``kinect_v1`` run was told to check ``--axes``).
     """
@@ -957,8 +957,9 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
             ``--roi`` around the person, or to leave those frames out.
         roi_given: that estimator already saw a ``--roi``, which the other person enters: the
             advice is a narrower one (a coach's run with a ``--roi`` was told to give one).
-        keypoints2d: ``(T, 17, 3)`` H36M-17 pixels (as displayed) and confidence of the track,
-            or ``None``: the median pelvis of the stretch followed is then named.
+        keypoints2d: ``(T, 17, 3)`` H36M-17 pixels (as displayed) and confidence of the track
+            (may be on disk: read a block of frames at a time), or ``None``; with them the
+            headline names the followed stretch's median pelvis.
     """
     if not events:
         return []
