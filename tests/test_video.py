@@ -5,6 +5,7 @@ Tests that run the estimator skip where the extra is not installed; CI installs 
 from __future__ import annotations
 
 import json
+import re
 import sys
 
 import cv2
@@ -183,6 +184,9 @@ def test_a_video_whose_estimator_follows_another_person_points_to_roi(tmp_path, 
     video = shared("real", "sports2d_demo", "demo.mp4")  # skips without ../shared/data
     res = _invoke("run", "--video", video, "--out", tmp_path / "o", "--no-recording")
     assert res.exit_code == 0, res.output
-    (line,) = [ln for ln in res.output.splitlines() if "switches person" in ln]
+    (line,) = [ln for ln in res.output.splitlines() if "2D track switches" in ln]
     assert line.endswith("-> give --roi around the person (docs/video.md)") and len(line) <= 135, line
+    # whom the results follow: the man on the box, up in the picture (a physiotherapist's trial was not told)
+    x, y = map(int, re.search(r"followed the person at \((\d+), (\d+)\) px", line).groups())
+    assert y < 994 / 2, line
     assert "tracker" not in (tmp_path / "o" / "report.md").read_text()
