@@ -18,7 +18,7 @@ import numpy as np
 from pcnet.models.toml_config import (check_config_keys, check_config_types, read_toml, type_hints, type_name,
                                       value_matches)
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
-from pcnet.stages.core.digest import sha256_file
+from pcnet.stages.core.digest import sha256_file_version
 from pcnet.stages.core.errors import InputError, close_names, refuse
 
 def _registered(kind: str) -> dict:
@@ -555,7 +555,8 @@ def code_digest(roots: dict[str, Path]) -> str:
             raise OSError(f"{root}: no code files to read")
         for path in files:
             digest.update(f"{name}/{path.relative_to(root).as_posix()}\0".encode())
-            digest.update(bytes.fromhex(sha256_file(path)))
+            # per version of a file: a run's report digests the shipped weights again
+            digest.update(bytes.fromhex(sha256_file_version(path)))
     return digest.hexdigest()
 
 

@@ -1490,12 +1490,13 @@ def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rec
                                scaled.units, fps, cfg.min_confidence, rectified.track_segment)
         joints, floor = to_world_floor(cam, frame, path.camera, out=store.create("joints_world", cam.shape, np.float64),
                                        floor_frames=rectified.one_person())
+        # one ground plane for the recording holds in every frame, seen feet or not: only a per-frame
+        # floor is interpolated where no ankle shows (a trial's plane run was told so), and noted
+        per_frame_floor = floor.kind != "plane"
         return World(joints, frame.rotation, path.world_std(frame.rotation),
-                     # one ground plane for the recording holds in every frame, seen feet or not: only a
-                     # per-frame floor is interpolated where no ankle shows (a trial's plane run was told so)
-                     tuple((floor_flag(feet_visible(cam), present_frames(cam)) if floor.kind != "plane" else [])
+                     tuple((floor_flag(feet_visible(cam), present_frames(cam)) if per_frame_floor else [])
                            + (keypoints_unused_flag(path.refused) if path.refused else [])),
-                     tuple(n for n in (path.note, floor.note(scaled.units) if floor.kind != "plane" else "") if n),
+                     tuple(n for n in (path.note, floor.note(scaled.units) if per_frame_floor else "") if n),
                      root_path=path.kind, floor=floor)
     if mode.reason == "one valid frame":
         return World(None, np.full((3, 3), np.nan), None, (), (

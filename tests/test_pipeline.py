@@ -1621,3 +1621,24 @@ def test_speeds_scaled_to_the_lifters_guess_of_the_size_are_said_so_in_the_summa
     (line,) = [ln for ln in res.output.splitlines() if "stature" in ln]
     assert re.fullmatch(r"note     speeds and lengths scaled to the lifter's guess of a \d\.\d\d m stature: give "
                         r"--height for the subject's", line), line
+
+
+def test_a_run_reads_the_shipped_weights_once_for_the_code_digest_and_the_report(tmp_path):
+    """The version's code digest and the report's digests both cover the shipped weights (14
+    MB): a fresh process reads each file once (the digest was read twice per run)."""
+    import subprocess
+    import sys
+
+    code = f"""
+import pcnet.stages.core.digest as digest
+from pathlib import Path
+read = []
+hash_file = digest.sha256_file
+digest.sha256_file = lambda path: read.append(Path(path).name) or hash_file(path)
+from pcnet.pipeline import RunConfig, run_pipeline
+run_pipeline(RunConfig(lifter="videopose3d", lifter_output={str(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")!r},
+                       fps=30.0, recording=False, out={str(tmp_path / "o")!r}).validate(), progress=False)
+print(sorted((name, read.count(name)) for name in set(read) if name.endswith(".onnx")))
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[('pcnet_body.onnx', 1), ('pcnet_camera.onnx', 1)]", out

@@ -28,8 +28,8 @@ def sha256_file(path: str | os.PathLike) -> str:
 def sha256_file_version(path: str | os.PathLike) -> str:
     """:func:`sha256_file`, read once per version of a file in a process: keyed by the resolved
     path, its modification time (ns) and size, so a file rewritten since is read again (the
-    shipped weights, hashed by every run of a batch worker; a file an evaluation checks up to
-    three times).
+    shipped weights, hashed for the code digest and by every run of a batch worker; a file an
+    evaluation checks up to three times).
 
     Raises:
         OSError: the file cannot be read.
@@ -39,6 +39,8 @@ def sha256_file_version(path: str | os.PathLike) -> str:
     return _sha256_of(str(resolved), stat.st_mtime_ns, stat.st_size)
 
 
-@functools.lru_cache(maxsize=64)
+#: Room for pcnet's own code files (about 100, :func:`pcnet.pipeline.config.code_digest`) and a
+#: run's inputs, so that digesting the code does not evict the weights a report digests next.
+@functools.lru_cache(maxsize=256)
 def _sha256_of(path: str, mtime_ns: int, size: int) -> str:
     return sha256_file(path)
