@@ -725,7 +725,7 @@ def _out_folder_problem(manifest: Path, item: PlannedRow, paths: _PathFacts) -> 
                 f"pass --overwrite to replace it, or choose another out")
     try:
         check_out_folder(item.config["out"], input_files(item.config).values(), item.config["overwrite"],
-                         resolve=paths.resolve)
+                         resolve=paths.resolve, exists=paths.exists)
     except (InputError, OSError) as err:
         text = " ".join(str(err).split()).removeprefix(f"--out {item.config['out']}: ")
         text = text.replace("choose another --out", "choose another out")

@@ -50,6 +50,8 @@ from .interrupt import check_interrupted
 MARKER = ".pcnet-output"
 TMP_TAG = ".pcnet-tmp-"
 TRASH_TAG = ".pcnet-trash-"
+#: What :func:`_trash_name` appends to an output's name, with a 12-hex id.
+_TRASH_TAIL = f"{TRASH_TAG}{'0' * 12}"
 #: An empty staged folder without a marker is a leftover only once it is this old (s): a row
 #: that has just created its folder writes its marker within microseconds, and another row's
 #: clean-up running in that window must not remove it (as Ray rows starting together did).
@@ -62,17 +64,20 @@ INSIDE_OUT_BYTES = 200
 DEFAULT_PATH_MAX = 4096
 
 
-def is_within(path: Path, folder: Path) -> bool:
+def is_within(path: str | os.PathLike, folder: str | os.PathLike) -> bool:
     """``path == folder or folder in path.parents`` for absolute resolved paths, compared as
     text (a manifest's 100,000 rows check this several times each; building every parent
     Path cost most of it)."""
-    p, f = os.path.normcase(str(path)), os.path.normcase(str(folder))
-    return p == f or p.startswith(f if f.endswith(os.sep) else f + os.sep)
+    p, f = os.fspath(path), os.fspath(folder)
+    if os.sep != "/":
+        p, f = os.path.normcase(p), os.path.normcase(f)
+    return p == f or (p.startswith(f) and (f.endswith(os.sep) or p[len(f)] == os.sep))
 
 
 def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike | None] = (),
                      overwrite: bool = False, *,
-                     resolve: Callable[[str | os.PathLike], Path] | None = None) -> Path:
+                     resolve: Callable[[str | os.PathLike], Path] | None = None,
+                     exists: Callable[[str], bool] | None = None) -> Path:
     """Check that ``out`` may be written (and, with ``overwrite``, replaced) before any work.
 
     Args:
@@ -81,6 +86,8 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
         overwrite: the user asked to replace an existing output.
         resolve: ``Path(p).resolve()`` or a cache of it (``pcnet batch`` checks many rows
             sharing folders and inputs).
+        exists: ``Path(p).exists()`` of ``out`` as given, or a cache of it (``pcnet batch``
+            has resolved each row's ``out`` before, and a ``stat`` is its costliest step).
 
     Returns:
         the resolved absolute output path.
@@ -91,21 +98,21 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
     resolve = resolve or (lambda p: Path(p).resolve())
     given = short_path(out)
     target = resolve(out)
-    _check_path_length(target, given)
-    cwd = resolve(os.getcwd())
-    if is_within(cwd, target):
+    text = str(target)  # compared as text below: a batch checks 100,000 rows
+    _check_path_length(text, given)
+    if is_within(resolve(os.getcwd()), text):
         raise InputError(f"--out {given}: expected a new folder for pcnet's outputs, got the current folder "
                          f"or one above it ({target})")
     for item in inputs:
         if item is None:
             continue
-        source = resolve(item)
-        if is_within(source, target) or is_within(target, source):
+        source = str(resolve(item))
+        if is_within(source, text) or is_within(text, source):
             raise InputError(f"--out {given}: expected a folder apart from the inputs, got one that "
-                             f"{'is' if source == target else 'contains' if is_within(source, target) else 'lies inside'}"
+                             f"{'is' if source == text else 'contains' if is_within(source, text) else 'lies inside'}"
                              f" the input {item}")
-    _check_writable(target, given)
-    if not target.exists() and not target.is_symlink():
+    _check_writable(text, given)
+    if not (exists(os.fspath(out)) if exists else target.exists()):
         return target
     if not target.is_dir():
         raise InputError(f"--out {given}: expected a folder for pcnet's outputs, got an existing file; choose "
@@ -136,7 +143,7 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
 _WRITABLE_PARENTS: set[str] = set()
 
 
-def _check_writable(target: Path, given: str) -> None:
+def _check_writable(target: str, given: str) -> None:
     """Refuse, before any work, an output whose folder this process cannot write in: the
     output is staged beside ``target`` and renamed in at the end (:func:`staged_output`), so
     the nearest existing folder above it must take new entries. ``access(2)`` answers at no
@@ -144,7 +151,7 @@ def _check_writable(target: Path, given: str) -> None:
     where it says no, a folder made there and removed again gives the reason the run would
     have met, and decides (access cannot see every rule, an ACL for one). A run had computed
     everything before the staging folder met a read-only parent."""
-    parent = os.path.dirname(target)  # os.path, not pathlib: a batch checks 100,000 rows
+    parent = os.path.dirname(target)
     if parent in _WRITABLE_PARENTS:
         return
     folder = parent
@@ -165,36 +172,44 @@ def _check_writable(target: Path, given: str) -> None:
 
 
 @functools.lru_cache(maxsize=256)
-def _path_limits(folder: Path) -> tuple[int, int]:
-    """``(NAME_MAX, PATH_MAX)`` of the file system holding ``folder`` or, where it does not
-    exist yet, its nearest existing parent (``pathconf``; Linux's 255 and 4096 where it cannot
-    tell)."""
+def _folder_limits(folder: str) -> tuple[int, int, int, int]:
+    """``(NAME_MAX, PATH_MAX, longest name, length)`` for outputs inside the absolute ``folder``: the
+    limits of the file system holding it or, where it does not exist yet, its nearest existing
+    parent (``pathconf``; Linux's 255 and 4096 where it cannot tell), and the byte length of
+    the longest name in ``folder`` and of ``folder`` itself (a batch's rows share a few
+    folders, so a row's check looks at its own name only)."""
     existing = Path("/")
-    for parent in (folder, *folder.parents):
+    for parent in (Path(folder), *Path(folder).parents):
         with contextlib.suppress(OSError):  # a name beyond the limit: ENAMETOOLONG from stat
             if parent.is_dir():
                 existing = parent
                 break
+    longest = max((len(os.fsencode(part)) for part in folder.split(os.sep)), default=0)
+    length = len(os.fsencode(folder.rstrip(os.sep)))  # "/" joins its names without another separator
     try:
-        return os.pathconf(existing, "PC_NAME_MAX"), os.pathconf(existing, "PC_PATH_MAX")
+        return os.pathconf(existing, "PC_NAME_MAX"), os.pathconf(existing, "PC_PATH_MAX"), longest, length
     except (OSError, ValueError):
-        return NAME_MAX, DEFAULT_PATH_MAX
+        return NAME_MAX, DEFAULT_PATH_MAX, longest, length
 
 
-def _check_path_length(target: Path, given: str) -> None:
+def _check_path_length(target: str, given: str) -> None:
     """Refuse, before any work, an output path the file system cannot hold with pcnet's files
     inside it: a name in it beyond the file system's name limit, or a whole path within
-    :data:`INSIDE_OUT_BYTES` of the longest path a call may name (:func:`_path_limits`)."""
-    name_max, path_max = _path_limits(target.parent)
-    too_long = next((part for part in target.parts if len(os.fsencode(part)) > name_max), None)
-    if too_long is not None:
+    :data:`INSIDE_OUT_BYTES` of the longest path a call may name (:func:`_folder_limits`)."""
+    folder, name = os.path.split(target)
+    name_max, path_max, longest, folder_bytes = _folder_limits(folder)
+    name_bytes = len(name) if name.isascii() else len(os.fsencode(name))
+    if max(longest, name_bytes) > name_max:
         raise InputError(f"--out {given}: expected folder names of at most {name_max} bytes (this file system's "
-                         f"limit), got one of {len(os.fsencode(too_long))} bytes; choose a shorter --out")
+                         f"limit), got one of {max(longest, name_bytes)} bytes; choose a shorter --out")
     # the longest path a run names: a file inside the trash folder, the longer of the two hidden names
-    longest = len(os.fsencode(str(_trash_name(target, "0" * 12)))) + 1 + INSIDE_OUT_BYTES
-    if longest >= path_max:
+    trash = 1 + name_bytes + len(_TRASH_TAIL)  # hidden_name's ".<name><tail>" where it fits
+    if trash > NAME_MAX:
+        trash = len(os.fsencode(hidden_name(name, _TRASH_TAIL)))
+    longest_path = folder_bytes + 1 + trash + 1 + INSIDE_OUT_BYTES
+    if longest_path >= path_max:
         raise InputError(f"--out {given}: expected a path short enough for pcnet's files inside it (this system "
-                         f"names at most {path_max - 1} bytes in one path), got {len(os.fsencode(str(target)))} bytes "
+                         f"names at most {path_max - 1} bytes in one path), got {len(os.fsencode(target))} bytes "
                          f"for the folder; choose a shorter --out")
 
 
