@@ -61,6 +61,7 @@ from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, wr
 from pcnet.stages.sinks.report import REPORT_NAME, report_markdown, write_report
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG
+from pcnet.stages.angle_ranges import AngleRanges, angle_ranges
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
@@ -99,7 +100,9 @@ class RunResult:
     findings: the flags as raised (:class:`pcnet.stages.flags.Finding`), notes: the notes' texts;
     note_lines: the summary line of a note made from the data it words rather than from its
     text (the missing-data note's, :func:`pcnet.stages.flags.missing_data_line`), keyed by the
-    note's text."""
+    note's text; angle_ranges: each joint angle's range over the recording
+    (:class:`pcnet.stages.angle_ranges.AngleRanges`, report.md's joint-angle table; ``None``
+    from a run without kinematics)."""
 
     frames: int
     valid_frames: int
@@ -113,6 +116,7 @@ class RunResult:
     fps: float = float("nan")
     fps_source: str = ""
     note_lines: dict[str, str] = field(default_factory=dict)
+    angle_ranges: AngleRanges | None = None
 
     @property
     def mode(self) -> str:
@@ -202,7 +206,8 @@ class RunResult:
         width = max([17, *(len(name) for name in self.outputs)])
         lines += [f"{name:<{width}} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
         if "kinematics.csv" in self.outputs:  # a coach's trial looked for the angles among 246 columns
-            lines.append("joint angles: kinematics.csv's *_deg columns (each defined in kinematics_columns.csv)")
+            lines.append("joint angles: kinematics.csv's *_deg columns (each defined in kinematics_columns.csv; "
+                         "their ranges in report.md)")
         if "recording" in self.outputs:
             # quoted as a shell needs it (a coach's path with a space did not paste)
             lines.append(f"open the recording with:  rerun {shlex.quote(str(self.outputs['recording']))}")
@@ -216,7 +221,8 @@ class RunResult:
         rectification report's numbers and the outputs."""
         return report_markdown(title, self.key_facts(long=True), self.ranked_findings, self.note_findings,
                                self.report.as_record(),
-                               [Path(path).name for name, path in self.outputs.items() if name != REPORT_NAME])
+                               [Path(path).name for name, path in self.outputs.items() if name != REPORT_NAME],
+                               self.angle_ranges)
 
     def _per_frame_tilt(self) -> str:
         """Where the up may change from frame to frame, the tilt line's one number is that of the
@@ -1260,6 +1266,7 @@ class Measured:
     cutoff_hz: float
     cutoff_source: str
     note_lines: dict[str, str]
+    angle_ranges: AngleRanges | None = None
 
 
 def _inputs(cfg: RunConfig, estimate_notes: list[str]) -> AlignedInputs:
@@ -1573,7 +1580,10 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         notes.append(missing_note)
         note_lines[missing_note] = missing_data_line(result.flag_counts, nonfinite)
     notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)
-    return Measured(result, table, cutoff, "residual analysis" if cfg.residual_cutoff else "cutoff_hz", note_lines)
+    other = None if result.track_segment is None else ~one_person_frames(result.track_segment)
+    ranges = angle_ranges(result.kinematics.angles, fps, result.implausible_frames, other)
+    return Measured(result, table, cutoff, "residual analysis" if cfg.residual_cutoff else "cutoff_hz", note_lines,
+                    ranges)
 
 
 def _run_report(inputs: AlignedInputs, rectified: Rectified, world: World, measured: Measured) -> RunReport:
@@ -1706,7 +1716,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             method=cfg.method, findings=findings, fps=inputs.recording.fps,
             fps_source=inputs.recording.fps_source, report=report,
             outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
-            note_lines=measured.note_lines,
+            note_lines=measured.note_lines, angle_ranges=measured.angle_ranges,
         )
         # the long form of the summary, published with the rest
         run.outputs[REPORT_NAME] = out / next(iter(write_report(tmp, run.report_text(f"pcnet run: {out}")).values())).name

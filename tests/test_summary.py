@@ -240,6 +240,17 @@ def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
         record = json.loads(npz["report"].item())
     undefined = [k for k, v in record.items() if v is None]
     assert undefined and all(f"| {k} | n/a |" in report for k in undefined), undefined
+    # the joint angles' ranges leave out the other person's frames, as the switch's warning asks
+    from pcnet.stages.flags import one_person_frames
+
+    with np.load(tmp_path / "out" / "canonical.npz") as npz:
+        segment = npz["track_segment"]
+    tracked = np.isfinite(segment)
+    other = int((tracked & ~one_person_frames(np.where(tracked, segment, 0).astype(int))).sum())
+    assert other >= 27 and result.angle_ranges.other_person_frames == other
+    assert (f"the {other} frames outside the 2D track's longest one-person stretch (the track-switch "
+            f"warning's)") in report
+    assert all(r.frames <= 60 - other for r in result.angle_ranges.rows) and result.angle_ranges.rows
     run_pipeline(cfg, progress=False)  # the folder, report.md included, is pcnet's own: --overwrite replaces it
 
 
