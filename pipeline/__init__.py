@@ -33,6 +33,12 @@ rotation=res.rotation)`` gives a frame or smooth mode run's angles; decision 010
     res = rectify(joints, mode="sequence", fps=30.0)  # 3DPCNet; method="geometric": the paper's baseline
     print(res.canonical.shape, res.valid.sum(), res.up[0])  # sequence: one up for a static camera
 
+    from pcnet.pipeline.checks import CameraTilt
+
+    tilt = CameraTilt.of(res.rotation, res.valid)  # pcnet run's "camera tilt" line, deg
+    seq = res.report.sequence  # sequence mode's up and its 95 % intervals, deg
+    print(tilt.pitch_deg, seq.camera_pitch_interval_deg, tilt.roll_deg, seq.camera_roll_interval_deg)
+
 Three things ``pcnet run`` does beyond :func:`rectify`, for a script that wants its numbers
 from arrays (a developer trial's chain differed from the command line's on both counts):
 :func:`rectify`'s ``mode`` defaults to ``frame`` (each frame alone, the paper), ``pcnet run``'s

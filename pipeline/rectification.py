@@ -140,7 +140,12 @@ def rectify(
     recovered from 2D keypoints by :func:`pcnet.stages.root_path.root_from_keypoints`, as
     ``pcnet run`` does), so sequence mode also weighs the floor contacts
     (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor. ``report`` says
-    what ran.
+    what ran (:class:`pcnet.stages.rectification_report.RectificationReport`; ``as_record()``
+    gives the keys of docs/outputs.md's ``report`` that rectification sets, and sequence mode's
+    intervals are ``report.sequence.camera_pitch_interval_deg`` and ``..._roll_...``); the
+    camera's tilt, pitch and roll, which ``pcnet run`` adds to its report, are
+    ``pcnet.pipeline.checks.CameraTilt.of(result.rotation, result.valid)`` (a developer trial
+    looked for ``camera_tilt_deg`` in ``as_record()``).
 
     Input rules shared with ``pcnet run`` and ``pcnet rectify``:
     :func:`pcnet.stages.core.conventions.validate_poses` (real-valued ``(T, 17, 3)``, at least

@@ -70,6 +70,14 @@ def test_rectify_example(in_folder_with_fixtures, capsys):
     head_above_pelvis = res.canonical[:, 10, 1] - res.canonical[:, 0, 1]  # canonical +Y is up
     assert (head_above_pelvis > 0.3).all()
     assert "(100, 17, 3) 100" in capsys.readouterr().out
+    # the camera's pitch and roll and their intervals, as pcnet run's summary gives them
+    from pcnet.pipeline.checks import CameraTilt
+    from pcnet.stages.core.rotations import camera_pitch_roll
+
+    tilt = namespace["tilt"]
+    assert tilt == CameraTilt.of(res.rotation, res.valid) and "camera_tilt_deg" not in res.report.as_record()
+    assert np.allclose((tilt.pitch_deg, tilt.roll_deg), np.degrees(camera_pitch_roll(res.up[0])))
+    assert 0 < namespace["seq"].camera_pitch_interval_deg < 20 and 0 < namespace["seq"].camera_roll_interval_deg < 20
 
 
 def test_pose_checks_example_warns_of_a_mirrored_skeleton_that_rectify_accepts(in_folder_with_fixtures, capsys):
