@@ -1,4 +1,4 @@
-"""The lifter-skeleton warnings' limits (leg asymmetry, size change) fitted on training mocap, and their checks.
+"""The lifter-skeleton warnings' limits (leg asymmetry, size change, limb proportions) fitted on training mocap, and their checks.
 
     python -m benchmarks.fit_skeleton_limits --data ../shared/data
 
@@ -8,7 +8,8 @@ by one static "paper" camera with the lifter-noise model's defaults (models/lift
 ``make_pairs(camera="static", seed=0)``, :func:`benchmarks.fit_speed_limits.clip_series`): a
 person's skeleton plus an ordinary lifter's error. Per clip the flags' own statistics
 (stages/flags.py ``leg_asymmetry``: the legs' relative length difference, medians over frames;
-``size_percentiles``: the 95th over the 5th percentile of the ankle-to-head chain); each limit is
+``size_percentiles``: the 95th over the 5th percentile of the ankle-to-head chain;
+``limb_proportions``: the longest limb bone's median length over the shortest's); each limit is
 the largest over the clips (parameter-free, as the motion limits of decision 0034), recorded
 with the clip that set it. Refitted with noise seeds 1-4 to show the envelope's spread (not
 shipped).
@@ -16,9 +17,13 @@ shipped).
 Checks (decision 0075's rule): with the fitted and the hand-set limits, the recordings each
 flag fires on among the held-out mocap (Bandai motion-style test, CMU test subjects, DeepMimic;
 every clip, seen as in the fit), where every firing is a false alarm (budget: 1 in 20 per set);
-the two real lifter outputs known to fail each check (the boxing demo's MotionBERT legs, the
-cycling clip_b's growing rider), which must still fire; listed, not judged, every real lifter
-file of the shared data. Writes stages/data/skeleton_limits.json with the limits that pass.
+the real lifter outputs known to fail each check (the boxing demo's MotionBERT legs, the
+cycling clip_b's growing rider, the yoga Vrikshasana file whose right arm VideoPose3D
+collapsed to 6-8 cm bones), which must still fire; listed, not judged, every real lifter file
+of the shared data. Limb proportions also: how many of the real files fire read in another
+joint order (five random orders each, and COCO-17's order read as H36M-17's), a check of what
+the flag is for, not part of the rule. Writes stages/data/skeleton_limits.json with the
+limits that pass.
 """
 
 from __future__ import annotations
@@ -35,7 +40,7 @@ from benchmarks.fit_speed_limits import clip_series
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
 from benchmarks.report import fit_arguments, print_and_save, shipped_limit
 from pcnet.models.lifter_noise import LifterNoise
-from pcnet.stages.flags import SKELETON_LIMITS_PATH, leg_asymmetry, size_percentiles
+from pcnet.stages.flags import SKELETON_LIMITS_PATH, leg_asymmetry, limb_proportions, size_percentiles
 
 RESULT = Path(__file__).resolve().parent / "results" / "fit_skeleton_limits.txt"
 COMMAND = "python -m benchmarks.fit_skeleton_limits --data ../shared/data"
@@ -48,12 +53,35 @@ def size_ratio(joints: np.ndarray) -> float:
     return float(p95 / p5)
 
 
-#: name -> (statistic of one recording, the hand-set limit before decision 0075, the real lifter
-#: file known to fail it).
+#: name -> (statistic of one recording, the hand-set limit before decision 0075 (NaN: none, the
+#: flag came with its fit), the real lifter file known to fail it).
 STATISTICS = {
     "leg_asymmetry": (lambda X: leg_asymmetry(X)[0], 0.10, "boxing_motionbert/X3D.npy"),
     "size_change_ratio": (size_ratio, 1.5, "cycling_motionbert/clip_b_X3D.npy"),
+    "limb_length_ratio": (lambda X: limb_proportions(X).ratio, float("nan"),
+                          "yoga_videopose3d/export_Veena_Vrikshasana.npy"),
 }
+#: COCO-17's joints in its own order, as H36M-17's indices would read them (the likeliest wrong order;
+#: metres, as the real files are).
+COCO17_AS_H36M = ("nose", "left_eye", "right_eye", "left_ear", "right_ear", "left_shoulder", "right_shoulder",
+                  "left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_hip", "right_hip", "left_knee",
+                  "right_knee", "left_ankle", "right_ankle")
+
+
+def coco_order(joints: np.ndarray) -> np.ndarray:
+    """H36M-17 poses rewritten in COCO-17's joint order, then read as H36M-17: a COCO-17
+    lifter's file passed as H36M-17. COCO-17's face points, which H36M-17 lacks, are placed
+    about its head joint along the shoulder line: the eyes 3.15 cm and the ears 7.25 cm to
+    each side (half the mean interpupillary and bitragion breadths of adults, Gordon et al.
+    1989, ANSUR), the nose at H36M's neck_nose."""
+    from pcnet.stages.core.conventions import H36M_JOINTS, HEAD, L_SHOULDER, NECK_NOSE, R_SHOULDER
+
+    across = joints[:, L_SHOULDER] - joints[:, R_SHOULDER]
+    across = across / np.linalg.norm(across, axis=-1, keepdims=True)
+    face = {"nose": joints[:, NECK_NOSE],
+            **{f"{side}_{part}": joints[:, HEAD] + sign * half * across
+               for part, half in (("eye", 0.0315), ("ear", 0.0725)) for side, sign in (("left", 1), ("right", -1))}}
+    return np.stack([face[n] if n in face else joints[:, H36M_JOINTS.index(n)] for n in COCO17_AS_H36M], 1)
 
 
 def statistics(series) -> dict[str, np.ndarray]:
@@ -114,6 +142,14 @@ def main() -> None:
                      f"{fires(values, hand)} with the hand-set one: "
                      + ", ".join(f"{k} {v:.3f}" for k, v in sorted(zip(reals, values), key=lambda kv: -kv[1])
                                  if v > min(fitted[name], hand)))
+    rng = np.random.default_rng(0)
+    shuffled = np.array([limb_proportions(X[:, rng.permutation(17)]).ratio for X in reals.values() for _ in range(5)])
+    as_coco = np.array([limb_proportions(coco_order(X)).ratio for X in reals.values()])
+    limit = fitted["limb_length_ratio"]
+    lines += ["", f"Another joint order, limb_length_ratio with its fitted limit: {fires(shuffled, limit)} of "
+              f"{len(shuffled)} random orders of the real files fire (5 each, seed 0), {fires(as_coco, limit)} of "
+              f"{len(as_coco)} read in COCO-17's order (as the unshuffled files: "
+              f"{fires(np.array([STATISTICS['limb_length_ratio'][0](X) for X in reals.values()]), limit)})"]
     lines += ["", "Decision 0075's rule (each held-out set at most 1 in 20, its known real failure still fires): "
               + "; ".join(f"{n} {'ships' if ok else 'fails: the flag goes'}" for n, ok in passes.items()),
               "", f"({time.perf_counter() - t0:.0f} s)"]

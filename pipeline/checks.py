@@ -17,7 +17,7 @@ from pcnet.stages.core.conventions import check_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
-                               mirrored_skeleton_flag, orientation_flags, per_frame_tilt_summary, posture_flag,
+                               limb_proportions_flag, mirrored_skeleton_flag, orientation_flags, per_frame_tilt_summary, posture_flag,
                                side_swap_flag, size_change_flag, track_switch_flag)
 from pcnet.stages.rectification_report import EnsembleWeights, ModeChoice, RectificationReport
 from pcnet.stages.rectify import Rectified
@@ -96,13 +96,14 @@ class CheckInputs:
 
 def checks(c: CheckInputs) -> list[Finding]:
     """The findings of a rectified recording, in the order canonical.npz keeps their texts: the
-    camera's orientation, the body's size, legs and size change, keypoints outside the image, a
+    camera's orientation, the body's size, limbs, legs and size change, keypoints outside the image, a
     side swap (or else a mirrored skeleton), the posture hypotheses, the
     ensemble's weights (outside sequence mode), the lifter's frame and a switch of the 2D track."""
     report, cam, kp2d = c.report, c.joints_camera, c.keypoints2d
     return [
         *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg, report.posture),
         *(body_size_flag(cam, c.units) if not c.height_given else []),
+        *limb_proportions_flag(cam),
         *leg_asymmetry_flag(cam),
         # image-scaled sizes are made constant per frame (the scale step); a metric body should keep its own
         *(size_change_flag(cam, units_declared=c.units_declared) if c.units not in IMAGE_SCALED_UNITS else []),
@@ -124,8 +125,8 @@ def checks(c: CheckInputs) -> list[Finding]:
 def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding]:
     """The findings of :func:`checks` that the poses and their rectification alone can give, as
     ``pcnet rectify`` prints them (no file, unit, 2D keypoints or video to read): the camera's
-    orientation, the legs' asymmetry, a mirrored skeleton, the posture hypotheses and the
-    ensemble's weights (outside sequence mode).
+    orientation, the limbs' proportions (a wrong joint order), the legs' asymmetry, a mirrored
+    skeleton, the posture hypotheses and the ensemble's weights (outside sequence mode).
 
     Args:
         joints_camera: ``(T, 17, 3)`` camera-frame H36M-17 poses, any units, NaN = missing:
@@ -148,7 +149,7 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
     report = rectified.report
     tilt = CameraTilt.of(rectified.rotation, rectified.valid)
     return [*orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg, report.posture),
-            *leg_asymmetry_flag(joints_camera),
+            *limb_proportions_flag(joints_camera), *leg_asymmetry_flag(joints_camera),
             *mirrored_skeleton_flag(joints_camera), *posture_flag(report.sequence),
             *ensemble_weights_flag(_answering_weights(report))]
 

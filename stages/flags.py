@@ -30,7 +30,7 @@ from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausib
 from .rectification_report import EnsembleWeights, PostureHypotheses, SequenceUp
 from .remap import outside_image
 from .up_model import camera_outside_probability, default_parameters
-from .scale import height_chain_length, leg_lengths
+from .scale import LIMB_BONES, height_chain_length, leg_lengths, limb_lengths
 
 #: The fitted person-switch limits of :func:`track_segments` (decision 0072).
 SWITCH_LIMITS_PATH = Path(__file__).resolve().parent / "data" / "track_switch.json"
@@ -77,6 +77,7 @@ class Kind(IntEnum):
     QUARTER_TURN = auto()  #: :func:`orientation_flags`
     NO_WORLD_FRAME = auto()  #: :func:`no_world_frame_flag`
     JOINT_ABSENT = auto()  #: :func:`absent_joints_flag`
+    LIMB_PROPORTIONS = auto()  #: :func:`limb_proportions_flag`
     LEG_ASYMMETRY = auto()  #: :func:`leg_asymmetry_flag`
     VIEWS_SET_ASIDE = auto()  #: :func:`ensemble_weights_flag`
     FLOOR_PARTIAL = auto()  #: :func:`floor_flag`, some frames
@@ -290,25 +291,29 @@ class SkeletonLimits:
             (:func:`leg_asymmetry`), a fraction of the longer leg.
         size_change_ratio: the largest 95th over 5th percentile of the ankle-to-head chain
             (:func:`size_percentiles`).
+        limb_length_ratio: the largest ratio of the longest to the shortest limb bone
+            (:func:`limb_proportions`).
         provenance: the fit's command, data, split and the clip that set each value.
     """
 
     leg_asymmetry: float
     size_change_ratio: float
+    limb_length_ratio: float
     provenance: Mapping = field(default_factory=dict)
 
 
 @lru_cache(maxsize=4)
 def load_skeleton_limits(path: str | Path | None = None) -> SkeletonLimits:
     """Read :class:`SkeletonLimits` from JSON (``leg_asymmetry``, ``size_change_ratio``,
-    ``provenance``; default: the shipped :data:`SKELETON_LIMITS_PATH`).
+    ``limb_length_ratio``, ``provenance``; default: the shipped :data:`SKELETON_LIMITS_PATH`).
 
     Raises:
         FileNotFoundError: no such file.
         InputError: not JSON, or a field missing or not a positive finite number (named).
     """
     return _read_limits(SkeletonLimits, SKELETON_LIMITS_PATH if path is None else path,
-                        ("leg_asymmetry", "size_change_ratio"), "lifter-skeleton limits", "a positive number")
+                        ("leg_asymmetry", "size_change_ratio", "limb_length_ratio"), "lifter-skeleton limits",
+                        "a positive number")
 
 
 def _read_limits(cls, path: str | Path, names: Sequence[str], what: str, expected: str,
@@ -360,6 +365,60 @@ def leg_asymmetry_flag(joints: np.ndarray, limits: SkeletonLimits | None = None)
                    f"foot can hover above it in stance) and left/right comparisons carry the lifter's error; a file in "
                    f"another joint order read as H36M-17 (COCO-17's eyes and ears as hips and knees) also makes the "
                    f"legs differ: check the joint order its lifter writes")]
+
+
+@dataclass(frozen=True)
+class LimbProportions:
+    """The longest and the shortest limb bone of a recording (:func:`limb_proportions`):
+    ratio: longest over shortest (NaN with fewer than two bones measured); longest, shortest:
+    their names (:data:`pcnet.stages.scale.LIMB_BONES`); longest_length, shortest_length:
+    their median lengths over frames (the poses' units)."""
+
+    ratio: float
+    longest: str = ""
+    longest_length: float = float("nan")
+    shortest: str = ""
+    shortest_length: float = float("nan")
+
+
+def limb_proportions(joints: np.ndarray) -> LimbProportions:
+    """The longest and the shortest of the eight limb bones (thighs, shanks, upper arms,
+    forearms; :func:`pcnet.stages.scale.limb_lengths`) of H36M-17 poses ``(T, 17, 3)`` (any
+    units), each by its median length over the frames where it is finite and positive. A
+    person's limb bones differ at most about twofold (forearm to thigh); a joint order other
+    than H36M-17's joins joints that are not neighbours (a wrist to an ankle, one eye to the
+    other), and a lifter that collapses a limb it cannot see shortens one bone to centimetres."""
+    lengths = limb_lengths(joints)
+    medians = {}
+    for name, column in zip(LIMB_BONES, lengths.T):
+        column = column[np.isfinite(column) & (column > 0)]
+        if len(column):
+            medians[name] = float(np.median(column))
+    if len(medians) < 2:
+        return LimbProportions(float("nan"))
+    longest, shortest = max(medians, key=medians.get), min(medians, key=medians.get)
+    return LimbProportions(medians[longest] / medians[shortest], longest, medians[longest], shortest,
+                           medians[shortest])
+
+
+def limb_proportions_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -> list[Finding]:
+    """A flag when the longest limb bone of H36M-17 poses ``(T, 17, 3)`` (any units) is more
+    than ``limits.limb_length_ratio`` times the shortest (:func:`limb_proportions`; default:
+    the shipped :func:`load_skeleton_limits`, the largest over training mocap through the
+    lifter-noise model): a joint order other than H36M-17's, or a limb the lifter collapsed."""
+    found = limb_proportions(joints)
+    if not found.ratio > (limits or load_skeleton_limits()).limb_length_ratio:  # NaN: fewer than two bones
+        return []
+    shorter = 100 * found.shortest_length / found.longest_length
+    return [_found(Kind.LIMB_PROPORTIONS, Severity.CHECK,
+                   f"lifter's {found.shortest} is {shorter:.0f} % of its {found.longest}'s length",
+                   f"check the joint order; treat the {found.shortest}'s angles with care",
+                   f"the lifter's {found.shortest} is {shorter:.0f} % of the length of its {found.longest} (medians "
+                   f"over frames), {found.ratio:.1f}-fold where a person's limb bones differ at most "
+                   f"{(limits or load_skeleton_limits()).limb_length_ratio:.1f}-fold through an ordinary lifter's "
+                   f"error: a file in another joint order than H36M-17's joins joints that are not neighbours (check "
+                   f"the joint order its lifter writes, --layout with --lifter generic), or the lifter collapsed a limb "
+                   f"it could not see, whose angles and speeds then fail")]
 
 
 def size_percentiles(joints: np.ndarray) -> np.ndarray:

@@ -44,13 +44,19 @@ from scipy.ndimage import median_filter
 from .core.conventions import (
     HEAD,
     L_ANKLE,
+    L_ELBOW,
     L_HIP,
     L_KNEE,
+    L_SHOULDER,
+    L_WRIST,
     NECK_NOSE,
     PELVIS,
     R_ANKLE,
+    R_ELBOW,
     R_HIP,
     R_KNEE,
+    R_SHOULDER,
+    R_WRIST,
     SPINE,
     THORAX,
     check_poses,
@@ -82,6 +88,20 @@ def leg_lengths(joints: np.ndarray) -> np.ndarray:
     and units, in memory or on disk): ``(T, 2)`` float64, right then left; NaN where a
     joint of that leg is missing."""
     return np.stack([sum(_bone_length(joints, a, b) for a, b in side) for side in _LEG_BONES], -1)
+
+
+#: The limbs' long bones of H36M-17, by name: (proximal joint, distal joint).
+LIMB_BONES = {"right thigh": (R_HIP, R_KNEE), "right shank": (R_KNEE, R_ANKLE), "left thigh": (L_HIP, L_KNEE),
+              "left shank": (L_KNEE, L_ANKLE), "right upper arm": (R_SHOULDER, R_ELBOW),
+              "right forearm": (R_ELBOW, R_WRIST), "left upper arm": (L_SHOULDER, L_ELBOW),
+              "left forearm": (L_ELBOW, L_WRIST)}
+
+
+def limb_lengths(joints: np.ndarray) -> np.ndarray:
+    """Per-frame lengths of the :data:`LIMB_BONES` of H36M-17 poses ``(T, 17, 3)`` (any frame
+    and units, in memory or on disk): ``(T, 8)`` float64 in that order; NaN where a joint is
+    missing."""
+    return np.stack([_bone_length(joints, a, b) for a, b in LIMB_BONES.values()], -1)
 
 
 def mean_leg_length(joints: np.ndarray) -> np.ndarray:

@@ -414,6 +414,31 @@ def test_a_large_mediapipe_turn_is_flagged_and_a_negligible_one_is_not(tmp_path)
     assert res.exit_code == 0 and "lifter output turned" in res.output, res.output
 
 
+def test_limbs_out_of_proportion_are_flagged_a_wrong_joint_order_and_a_collapsed_arm():
+    """A developer trial's joints in a shuffled order rectified without a word (roll 24.6 deg
+    where the right order gives 0.6). Real VideoPose3D output: the standing Tadasana passes; the
+    Vrikshasana whose right arm the lifter collapsed to 4 cm bones fires, naming it; the same
+    Tadasana read in another joint order (shuffled, or COCO-17's order read as H36M-17's) fires."""
+    from benchmarks.fit_skeleton_limits import coco_order
+
+    from pcnet.stages.flags import limb_proportions, limb_proportions_flag, load_skeleton_limits
+
+    tadasana = np.load(TADASANA).astype(np.float64)
+    assert limb_proportions_flag(tadasana) == [] and limb_proportions(tadasana).ratio < 2.5
+    (flag,) = limb_proportions_flag(np.load(FIXTURES / "yoga_Veena_Vrikshasana_f000-099.npy"))
+    assert flag.headline.startswith("lifter's right upper arm is 10 % of its left thigh's length"), flag.headline
+    assert flag.action == "check the joint order; treat the right upper arm's angles with care"
+    assert "another joint order than H36M-17's" in flag.detail and "collapsed a limb" in flag.detail
+    limit = load_skeleton_limits().limb_length_ratio
+    assert f"at most {limit:.1f}-fold" in flag.detail
+    assert limb_proportions_flag(coco_order(tadasana))
+    rng = np.random.default_rng(0)
+    fired = sum(bool(limb_proportions_flag(tadasana[:, rng.permutation(17)])) for _ in range(20))
+    assert fired >= 15, fired
+    assert np.isnan(limb_proportions(np.full((5, 17, 3), np.nan)).ratio)  # nothing measured: no flag
+    assert limb_proportions_flag(np.full((5, 17, 3), np.nan)) == []
+
+
 def test_a_lifters_asymmetric_legs_are_flagged():
     """MotionBERT's boxing output has a right leg about a fifth shorter than the left (its
     skeleton, not the boxer's); real VideoPose3D standing poses have near-equal legs."""

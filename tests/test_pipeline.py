@@ -1519,6 +1519,10 @@ def test_pcnet_rectify_says_what_the_poses_alone_show(tmp_path):
                   "--out", tmp_path / "t.npz")
     assert res.exit_code == 0 and "WARNING" not in res.output, res.output
     assert pose_checks(poses, rectify(poses, mode="sequence", fps=30.0)) == []
+    # a developer trial's shuffled joint order rectified without a word
+    shuffled = poses[:, np.random.default_rng(1).permutation(17)]
+    found = pose_checks(shuffled, rectify(shuffled, mode="sequence", fps=30.0))
+    assert any(f.action.startswith("check the joint order") for f in found), [f.headline for f in found]
     # anything but rectify's result is one line (a developer's trial got an AttributeError for None)
     from pcnet.stages.core.errors import InputError
 
