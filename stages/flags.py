@@ -406,8 +406,8 @@ def limb_proportions_flag(joints: np.ndarray, limits: SkeletonLimits | None = No
     than ``limits.limb_length_ratio`` times the shortest (:func:`limb_proportions`; default:
     the shipped :func:`load_skeleton_limits`, the largest over training mocap through the
     lifter-noise model): a joint order other than H36M-17's, or a limb the lifter collapsed."""
-    found = limb_proportions(joints)
-    if not found.ratio > (limits or load_skeleton_limits()).limb_length_ratio:  # NaN: fewer than two bones
+    found, limit = limb_proportions(joints), (limits or load_skeleton_limits()).limb_length_ratio
+    if not found.ratio > limit:  # NaN: fewer than two bones
         return []
     shorter = 100 * found.shortest_length / found.longest_length
     return [_found(Kind.LIMB_PROPORTIONS, Severity.CHECK,
@@ -415,7 +415,7 @@ def limb_proportions_flag(joints: np.ndarray, limits: SkeletonLimits | None = No
                    f"check the joint order; treat the {found.shortest}'s angles with care",
                    f"the lifter's {found.shortest} is {shorter:.0f} % of the length of its {found.longest} (medians "
                    f"over frames), {found.ratio:.1f}-fold where a person's limb bones differ at most "
-                   f"{(limits or load_skeleton_limits()).limb_length_ratio:.1f}-fold through an ordinary lifter's "
+                   f"{limit:.1f}-fold through an ordinary lifter's "
                    f"error: a file in another joint order than H36M-17's joins joints that are not neighbours (check "
                    f"the joint order its lifter writes, --layout with --lifter generic), or the lifter collapsed a limb "
                    f"it could not see, whose angles and speeds then fail")]
