@@ -14,7 +14,8 @@ from pcnet.pipeline.runner import RunResult, run_pipeline
 from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, absent_joints_flag, body_size_flag,
                                 ensemble_weights_flag,
                                 floor_flag, implausible_motion_findings, keypoints_outside_image_flag,
-                                keypoints_unused_flag, leg_asymmetry_flag, lifter_frame_flag, missing_data_line,
+                                keypoints_unused_flag, leg_asymmetry_flag, lifter_frame_flag, limb_proportions_flag,
+                                missing_data_line,
                                 mirrored_skeleton_flag, no_opensim_flag,
                                 no_world_frame_flag, note_finding, opensim_fit_findings,
                                 orientation_flags, posture_flag, ranked, shortened, side_swap_flag, size_change_flag,
@@ -68,6 +69,7 @@ def _every_kind() -> list[Finding]:
                                            ImplausibleMotion("left_ankle", "acceleration", 61, 63, 399.0, 62, 141.0,
                                                              "m/s^2")])
             + size_change_flag(box * np.linspace(1.0, 3.0, len(box))[:, None, None])
+            + limb_proportions_flag(np.load(FIXTURES / "yoga_Veena_Vrikshasana_f000-099.npy"))
             + mirrored_skeleton_flag(box * np.array([1.0, 1.0, -1.0]))
             + side_swap_flag(kp, kp[:, [0, 4, 5, 6, 1, 2, 3, 7, 8, 9, 10, 14, 15, 16, 11, 12, 13]])
             + keypoints_outside_image_flag(kp, (100, 100))
