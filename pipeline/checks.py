@@ -17,8 +17,9 @@ from pcnet.stages.core.conventions import check_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
-                               limb_proportions_flag, mirrored_skeleton_flag, orientation_flags, per_frame_tilt_summary, posture_flag,
-                               side_swap_flag, size_change_flag, track_switch_flag)
+                               limb_proportions_flag, mirrored_skeleton_flag, orientation_flags,
+                               per_frame_tilt_summary, posture_flag, side_swap_flag, size_change_flag,
+                               track_switch_flag)
 from pcnet.stages.rectification_report import EnsembleWeights, ModeChoice, RectificationReport
 from pcnet.stages.rectify import Rectified
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG

@@ -56,7 +56,7 @@ from pcnet.stages.rectification_report import ModeChoice, RectificationReport
 from pcnet.stages.rectify import NO_VALID_FRAME, no_valid_frame_reason
 from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, outside_image, remap_to_h36m
-from pcnet.stages.sinks.result import (WRISTS, RecordingResult, write_arrays, write_figures, write_kinematics_table,
+from pcnet.stages.sinks.result import (WRISTS, RecordingResult, other_persons_frames, write_arrays, write_figures, write_kinematics_table,
                                       write_motion_files, write_rerun)
 from pcnet.stages.sinks.report import REPORT_NAME, report_markdown, write_report
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
@@ -1580,8 +1580,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         notes.append(missing_note)
         note_lines[missing_note] = missing_data_line(result.flag_counts, nonfinite)
     notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)
-    other = None if result.track_segment is None else ~one_person_frames(result.track_segment)
-    ranges = angle_ranges(result.kinematics.angles, fps, result.implausible_frames, other)
+    ranges = angle_ranges(result.kinematics.angles, fps, result.implausible_frames, other_persons_frames(result))
     return Measured(result, table, cutoff, "residual analysis" if cfg.residual_cutoff else "cutoff_hz", note_lines,
                     ranges)
 

@@ -75,7 +75,12 @@ IMAGE_SCALED_UNITS = ("normalised", "px")
 #: camera (1.5 m/s from 6 m to 2 m triples the size in under 3 s).
 SIZE_WINDOW_S = 1.0
 
-_LEG_BONES = (((R_ANKLE, R_KNEE), (R_KNEE, R_HIP)), ((L_ANKLE, L_KNEE), (L_KNEE, L_HIP)))
+#: The limbs' long bones of H36M-17, by name: (proximal joint, distal joint).
+LIMB_BONES = {"right thigh": (R_HIP, R_KNEE), "right shank": (R_KNEE, R_ANKLE), "left thigh": (L_HIP, L_KNEE),
+              "left shank": (L_KNEE, L_ANKLE), "right upper arm": (R_SHOULDER, R_ELBOW),
+              "right forearm": (R_ELBOW, R_WRIST), "left upper arm": (L_SHOULDER, L_ELBOW),
+              "left forearm": (L_ELBOW, L_WRIST)}
+_LEG_BONES = tuple((LIMB_BONES[f"{side} thigh"], LIMB_BONES[f"{side} shank"]) for side in ("right", "left"))
 _AXIAL_BONES = ((PELVIS, SPINE), (SPINE, THORAX), (THORAX, NECK_NOSE), (NECK_NOSE, HEAD))
 
 
@@ -88,13 +93,6 @@ def leg_lengths(joints: np.ndarray) -> np.ndarray:
     and units, in memory or on disk): ``(T, 2)`` float64, right then left; NaN where a
     joint of that leg is missing."""
     return np.stack([sum(_bone_length(joints, a, b) for a, b in side) for side in _LEG_BONES], -1)
-
-
-#: The limbs' long bones of H36M-17, by name: (proximal joint, distal joint).
-LIMB_BONES = {"right thigh": (R_HIP, R_KNEE), "right shank": (R_KNEE, R_ANKLE), "left thigh": (L_HIP, L_KNEE),
-              "left shank": (L_KNEE, L_ANKLE), "right upper arm": (R_SHOULDER, R_ELBOW),
-              "right forearm": (R_ELBOW, R_WRIST), "left upper arm": (L_SHOULDER, L_ELBOW),
-              "left forearm": (L_ELBOW, L_WRIST)}
 
 
 def limb_lengths(joints: np.ndarray) -> np.ndarray:

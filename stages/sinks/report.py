@@ -88,7 +88,9 @@ def _angle_table(ranges: AngleRanges) -> list[str]:
     """The joint-angle section's lines: which frames the ranges cover, then one row per angle."""
     if not ranges.rows:
         return ["None: no angle has a value in any frame counted."]
-    left_out = [f"the {n} frames the implausible-motion warning names" for n in [ranges.implausible_frames] if n]
+    left_out = []
+    if ranges.implausible_frames:
+        left_out.append(f"the {ranges.implausible_frames} frames the implausible-motion warning names")
     if ranges.other_person_frames:
         left_out.append(f"the {ranges.other_person_frames} frames outside the 2D track's longest one-person stretch "
                         f"(the track-switch warning's)")

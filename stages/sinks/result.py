@@ -317,7 +317,7 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
     return out
 
 
-def _other_persons_frames(r: RecordingResult) -> np.ndarray | None:
+def other_persons_frames(r: RecordingResult) -> np.ndarray | None:
     """``(T,)`` bool, the frames outside the 2D track's longest one-person stretch
     (:func:`pcnet.stages.flags.one_person_frames`); ``None`` without a 2D track."""
     return None if r.track_segment is None else ~one_person_frames(r.track_segment)
@@ -329,7 +329,7 @@ def _one_persons_poses(r: RecordingResult, name: str, allocate) -> np.ndarray:
     marker files carry no ``track_segment`` column, and OpenSim or a BVH viewer would animate
     whoever the track jumped to in the frame fitted to the first person (a user trial: another
     person 1.4 m below the ground in world.trc)."""
-    other = _other_persons_frames(r)
+    other = other_persons_frames(r)
     if other is None or not other.any():
         return r.poses
     poses = allocate(f"{name}_one_person", r.poses.shape, np.float32)
@@ -349,7 +349,7 @@ def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
     shaded grey, frames of motion beyond human limits, ``r.implausible_frames``, shaded red)."""
     kin = r.kinematics
     wrist_acc = kin.acceleration[:, [KEPT_JOINTS.index(n) for n in WRISTS]]
-    other = _other_persons_frames(r)
+    other = other_persons_frames(r)
     implausible = None if r.implausible_frames is None else _implausible(r)
     out = {"wrists.png": plot_wrists(folder / "wrists.png", r.joints_camera, r.poses, r.fps,
                                      r.wrist_acceleration_camera, wrist_acc, r.units, frame_label=r.frame_label,
