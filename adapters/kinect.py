@@ -67,6 +67,7 @@ the caller subtracts the pelvis, as for every :class:`Poses3D`.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -174,13 +175,36 @@ def kinect_v1_to_h36m(skeleton: np.ndarray, layout: str = "utd", source: str | P
 
     Raises:
         AdapterError: unknown ``layout`` (field ``layout``); ``field`` when ``skeleton`` is
-            not ``(T, 20, 3)`` real numbers or holds no finite value.
+            not ``(T, 20, 3)`` real numbers, holds no finite value, or reads as the other
+            joint order (hip_center farther from the hips than head, medians over frames).
     """
     if layout not in KINECT_V1_LAYOUTS:
         raise AdapterError(source, "layout", f"one of {sorted(KINECT_V1_LAYOUTS)}", repr(layout))
     a = _check_joint_array(source, field, skeleton, 20, "Kinect v1")
     cv = _missing_depth_to_nan(a * _V1_TO_CV)
+    _check_v1_order(cv, layout, source, field)
     return _to_h36m(cv, KINECT_V1_LAYOUTS[layout], _V1_RULES)
+
+
+def _check_v1_order(joints: np.ndarray, layout: str, source: str | Path, field: str) -> None:
+    """Refuse joints that read as the other Kinect v1 order: the two orders differ by
+    exchanging hip_center with head and spine with shoulder_center, and whatever the posture,
+    hip_center lies beside the hips (about 7 cm above their midpoint) and the head far from
+    them (UTD-MHAD data: at most 0.08 m against at least 0.60 m, medians over each of its 671
+    sequences). Compared by their medians over frames; no constant."""
+    names = KINECT_V1_LAYOUTS[layout]
+    at = {name: joints[:, names.index(name)] for name in ("hip_center", "head", "left_hip", "right_hip")}
+    hips = 0.5 * (at["left_hip"] + at["right_hip"])
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a joint never tracked: all-NaN median
+        centre, head = (float(np.nanmedian(np.linalg.norm(at[n] - hips, axis=-1))) for n in ("hip_center", "head"))
+    if centre > head:  # False where either is NaN: nothing to compare
+        other = next(name for name in KINECT_V1_LAYOUTS if name != layout)
+        raise AdapterError(source, field, f"Kinect v1 joints in the {layout!r} order (hip_center, joint "
+                                          f"{names.index('hip_center')}, beside the hips; head, joint "
+                                          f"{names.index('head')}, far from them)",
+                           f"joint {names.index('hip_center')} {centre:.2f} m from the hips' midpoint and joint "
+                           f"{names.index('head')} {head:.2f} m: the {other!r} order (--layout {other})")
 
 
 def azure_kinect_to_h36m(joints_mm: np.ndarray, source: str | Path = "<array>", field: str = "joints") -> np.ndarray:
@@ -294,8 +318,9 @@ def load_kinect_v1(path: str | Path, layout: str | None = None, key: str | None 
     Raises:
         AdapterError: missing/unreadable/non-numpy file, missing ``key``, wrong shape or joint
             count (naming file, field, expected and found), unknown ``layout``, a
-            ``joint_names`` that is no Kinect v1 order or contradicts ``layout``, a coordinate
-            beyond 100 m, or no finite value.
+            ``joint_names`` that is no Kinect v1 order or contradicts ``layout``, joints that
+            read as the other order (:func:`kinect_v1_to_h36m`), a coordinate beyond 100 m, or
+            no finite value.
 
     Source of the format facts: Kinect for Windows SDK 1.8 ``NUI_SKELETON_DATA`` /
     ``NUI_SKELETON_POSITION_INDEX`` (metres, skeleton space); UTD-MHAD (Chen, Jafari,

@@ -459,10 +459,11 @@ def _run_and_report(cfg) -> None:
               "ends before the video and the 3D output is padded with undetected frames either way].")
 @click.option("--pixel", is_flag=True, default=None, help="MotionBERT output made with --pixel.")
 @click.option("--hypothesis", default=None, help="DDHPose: 'mean' or a hypothesis index.")
-@click.option("--layout", default=None, help="generic lifter: joint layout of the file (h36m17, coco17, ...).")
+@click.option("--layout", default=None, help="generic lifter: joint layout of the file (h36m17, coco17, ...); kinect_v1: utd (UTD-MHAD's "
+                   "order, a .npy's default) or sdk (the Kinect SDK's).")
 @click.option("--axes", default=None, help="generic lifter: axis letters of the file, e.g. RDF (OpenCV), RUB.")
 @click.option("--units", default=None, help="generic lifter: m, cm, mm, normalised or px.")
-@click.option("--key", default=None, help="generic lifter: array name inside an npz.")
+@click.option("--key", default=None, help="generic, kinect_v1 and azure_kinect lifters: array name inside an npz.")
 @click.option("--delimiter", default=None, help="generic lifter: the CSV's column separator [,].")
 @click.option("--measured-root", is_flag=True, default=None,
               help="generic lifter: the file's pelvis positions are a measured camera-frame path (metric units): "

@@ -92,9 +92,25 @@ def test_kinect_v1_axes_and_mapping():
 
 def test_kinect_v1_sdk_order_gives_the_same_pose():
     np.testing.assert_array_equal(kinect_v1_to_h36m(_v1(KINECT_V1_JOINTS_SDK), layout="sdk"), kinect_v1_to_h36m(_v1()))
-    # reading SDK order as UTD swaps head and hip_center: the thorax would land on spine
-    wrong = kinect_v1_to_h36m(_v1(KINECT_V1_JOINTS_SDK), layout="utd")
-    assert not np.allclose(wrong[0, HEAD], kinect_v1_to_h36m(_v1())[0, HEAD])
+
+def test_kinect_v1_joints_in_the_other_order_are_refused(tmp_path):
+    """A user trial read UTD-MHAD's order as the SDK's: head on hip_center, the thorax on the
+    spine, and pcnet ran with no word but a tilt 2.5 deg off. Each order read as the other is
+    refused, naming the order the joints read as."""
+    for joints, stated, found in ((KINECT_V1_JOINTS_SDK, "utd", "sdk"), (KINECT_V1_JOINTS_UTD, "sdk", "utd")):
+        with pytest.raises(AdapterError, match=rf"'{stated}' order.*joint \d \d\.\d\d m from the hips' midpoint "
+                                               rf"and joint \d \d\.\d\d m: the '{found}' order \(--layout {found}\)"):
+            kinect_v1_to_h36m(_v1(joints), layout=stated)
+
+
+def test_a_real_utd_sequence_in_the_sdk_order_is_refused(tmp_path):
+    real = shared(*UTD, "a05_s1_t1.npz")
+    skeleton = np.load(real, allow_pickle=False)["skeleton"]
+    np.save(tmp_path / "a05_s1_t1.npy", skeleton)
+    assert load_kinect_v1(tmp_path / "a05_s1_t1.npy").joints.shape == (len(skeleton), 17, 3)
+    with pytest.raises(AdapterError, match=r"a05_s1_t1\.npy.*joint 0 0\.[6-9]\d m .* joint 3 0\.0\d m: "
+                                           r"the 'utd' order"):
+        load_kinect_v1(tmp_path / "a05_s1_t1.npy", layout="sdk")
 
 
 def test_kinect_v1_untracked_zero_joints_become_nan():
