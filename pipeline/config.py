@@ -345,9 +345,12 @@ class RunConfig:
         name = _flag if cli else (lambda n: n)
         if self.lifter_output is None and self.lifter is None:
             if self.video is None:
+                got = "none of them" if self.keypoints2d is None else (
+                    f"only 2D keypoints ({name('keypoints2d')}): pcnet does not lift 2D keypoints to 3D; run a "
+                    f"lifter (MotionBERT, VideoPose3D, DDHPose) on them first, or give the video")
                 raise InputError(f"{field_name(source, 'lifter', 'lifter_output')}: expected {name('lifter')} and "
                                  f"{name('lifter_output')} (a 3D lifter's file), or {name('video')} alone (the embedded "
-                                 f"estimator, pip install \"pcnet[video]\"), got none of them")
+                                 f"estimator, pip install \"pcnet[video]\"), got {got}")
             if self.keypoints2d is not None:
                 raise InputError(f"{field_name(source, 'keypoints2d')}: expected none with {name('video')} alone (the "
                                  f"embedded estimator makes its own 2D keypoints and 3D poses), got "

@@ -768,8 +768,8 @@ def _align(cfg: RunConfig, video, kp2d, joints):
                                  f"indices counted from 1? pcnet counts them from 0 (the first frame is 0); "
                                  f"--align truncate would pair each 2D frame with the 3D frame before it")
             raise InputError(f"frame counts differ ({detail}); pass --align truncate to use the first {n} frames "
-                             f"(only when every input starts at the video's first frame: truncating pairs frame i "
-                             f"of each)")
+                             f"(only when every input is of this recording and starts at its first frame: "
+                             f"truncating pairs frame i of each)")
         joints = joints[:n]
         kp2d = None if kp2d is None else kp2d[:n]
         cut = ", ".join(f"{k} {c - n}" for k, (_, c) in counts.items() if c > n)

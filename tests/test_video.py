@@ -123,6 +123,8 @@ def test_without_the_extra_the_line_names_it(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("args, needle", [
     ((), "expected --lifter and --lifter-output (a 3D lifter's file), or --video alone"),
+    (("--keypoints2d", FIXTURES / "alphapose809_f130-159.json", "--keypoints2d-format", "alphapose"),
+     "got only 2D keypoints (--keypoints2d): pcnet does not lift 2D keypoints to 3D; run a lifter"),
     (("--video", CLIP, "--keypoints2d", CLIP, "--keypoints2d-format", "mediapipe"),
      "--keypoints2d: expected none with --video alone"),
     (("--video", CLIP, "--lifter", "mediapipe"), "--lifter-output: expected a value with --lifter 'mediapipe'"),
