@@ -42,7 +42,7 @@ from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, opensim_notes,
                                      scale_and_ik)
-from pcnet.stages.sinks.exports import require_ezc3d
+from pcnet.stages.sinks.exports import require_ezc3d, unit_token
 from pcnet.stages.flags import (Finding, Severity, absent_joints_flag, floor_flag, implausible_motion_findings,
                                keypoints_unused_flag, missing_data_line, no_opensim_flag, no_world_frame_flag,
                                note_finding, one_person_frames, opensim_fit_findings, ranked, track_segments,
@@ -61,7 +61,7 @@ from pcnet.stages.sinks.result import (WRISTS, RecordingResult, other_persons_fr
 from pcnet.stages.sinks.report import REPORT_NAME, report_markdown, write_report
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG
-from pcnet.stages.angle_ranges import AngleRanges, angle_ranges
+from pcnet.stages.column_ranges import ColumnRanges, column_ranges
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
@@ -100,9 +100,9 @@ class RunResult:
     findings: the flags as raised (:class:`pcnet.stages.flags.Finding`), notes: the notes' texts;
     note_lines: the summary line of a note made from the data it words rather than from its
     text (the missing-data note's, :func:`pcnet.stages.flags.missing_data_line`), keyed by the
-    note's text; angle_ranges: each joint angle's range over the recording
-    (:class:`pcnet.stages.angle_ranges.AngleRanges`, report.md's joint-angle table; ``None``
-    from a run without kinematics)."""
+    note's text; angle_ranges, speed_ranges: each joint angle's and each plotted joint's
+    speed's range over the recording (:class:`pcnet.stages.column_ranges.ColumnRanges`,
+    report.md's joint-angle and joint-speed tables; ``None`` from a run without kinematics)."""
 
     frames: int
     valid_frames: int
@@ -116,7 +116,8 @@ class RunResult:
     fps: float = float("nan")
     fps_source: str = ""
     note_lines: dict[str, str] = field(default_factory=dict)
-    angle_ranges: AngleRanges | None = None
+    angle_ranges: ColumnRanges | None = None
+    speed_ranges: ColumnRanges | None = None
 
     @property
     def mode(self) -> str:
@@ -207,7 +208,7 @@ class RunResult:
         lines += [f"{name:<{width}} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
         if "kinematics.csv" in self.outputs:  # a coach's trial looked for the angles among 246 columns
             lines.append("joint angles: kinematics.csv's *_deg columns (each defined in kinematics_columns.csv; "
-                         "their ranges in report.md)")
+                         "their ranges, and the joints' peak speeds, in report.md)")
         if "recording" in self.outputs:
             # quoted as a shell needs it (a coach's path with a space did not paste)
             lines.append(f"open the recording with:  rerun {shlex.quote(str(self.outputs['recording']))}")
@@ -222,7 +223,7 @@ class RunResult:
         return report_markdown(title, self.key_facts(long=True), self.ranked_findings, self.note_findings,
                                self.report.as_record(),
                                [Path(path).name for name, path in self.outputs.items() if name != REPORT_NAME],
-                               self.angle_ranges)
+                               self.angle_ranges, self.speed_ranges)
 
     def _per_frame_tilt(self) -> str:
         """Where the up may change from frame to frame, the tilt line's one number is that of the
@@ -1259,14 +1260,15 @@ class Measured:
     """Step "kinematics": result: what the sinks write (its kinematics are computed a block
     at a time as they read them); outputs: the kinematics tables written; cutoff_hz,
     cutoff_source: the low-pass cutoff (Hz) and where it came from (``"cutoff_hz"`` or
-    ``"residual analysis"``); note_lines: :attr:`RunResult.note_lines`."""
+    ``"residual analysis"``); note_lines, angle_ranges, speed_ranges: :class:`RunResult`'s."""
 
     result: RecordingResult
     outputs: dict[str, Path]
     cutoff_hz: float
     cutoff_source: str
     note_lines: dict[str, str]
-    angle_ranges: AngleRanges | None = None
+    angle_ranges: ColumnRanges | None = None
+    speed_ranges: ColumnRanges | None = None
 
 
 def _inputs(cfg: RunConfig, estimate_notes: list[str]) -> AlignedInputs:
@@ -1580,9 +1582,12 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         notes.append(missing_note)
         note_lines[missing_note] = missing_data_line(result.flag_counts, nonfinite)
     notes += _headingless_note(result.kinematics.angles, result.kinematics.positions)
-    ranges = angle_ranges(result.kinematics.angles, fps, result.implausible_frames, other_persons_frames(result))
+    k, left_out = result.kinematics, (result.implausible_frames, other_persons_frames(result))
+    angles = column_ranges({f"{name}_deg": values for name, values in k.angles.items()}, "deg", fps, *left_out)
+    speeds = column_ranges({f"{joint}_speed_{unit_token(k.velocity_units)}": k.speed[:, i]
+                            for i, joint in enumerate(k.joint_names)}, k.velocity_units, fps, *left_out)
     return Measured(result, table, cutoff, "residual analysis" if cfg.residual_cutoff else "cutoff_hz", note_lines,
-                    ranges)
+                    angles, speeds)
 
 
 def _run_report(inputs: AlignedInputs, rectified: Rectified, world: World, measured: Measured) -> RunReport:
@@ -1716,6 +1721,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             fps_source=inputs.recording.fps_source, report=report,
             outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
             note_lines=measured.note_lines, angle_ranges=measured.angle_ranges,
+            speed_ranges=measured.speed_ranges,
         )
         # the long form of the summary, published with the rest
         run.outputs[REPORT_NAME] = out / next(iter(write_report(tmp, run.report_text(f"pcnet run: {out}")).values())).name

@@ -242,7 +242,7 @@ def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
         record = json.loads(npz["report"].item())
     undefined = [k for k, v in record.items() if v is None]
     assert undefined and all(f"| {k} | n/a |" in report for k in undefined), undefined
-    # the joint angles' ranges leave out the other person's frames, as the switch's warning asks
+    # the joint angles' ranges and speeds' peaks leave out the other person's frames, as the switch's warning asks
     from pcnet.stages.flags import one_person_frames
 
     with np.load(tmp_path / "out" / "canonical.npz") as npz:
@@ -252,7 +252,9 @@ def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
     assert other >= 27 and result.angle_ranges.other_person_frames == other
     assert (f"the {other} frames outside the 2D track's longest one-person stretch (the track-switch "
             f"warning's)") in report
-    assert all(r.frames <= 60 - other for r in result.angle_ranges.rows) and result.angle_ranges.rows
+    for ranges in (result.angle_ranges, result.speed_ranges):  # the joint speeds' peaks too
+        assert ranges.other_person_frames == other and ranges.rows
+        assert all(r.frames <= 60 - other for r in ranges.rows)
     run_pipeline(cfg, progress=False)  # the folder, report.md included, is pcnet's own: --overwrite replaces it
 
 

@@ -3,7 +3,7 @@
 The terminal summary gives each finding one line (:class:`pcnet.stages.flags.Finding`'s
 headline and action); this file keeps what the lines leave out: every finding's full text
 in the summary's order, every note in full, the key facts in their long form, each joint
-angle's range (:mod:`pcnet.stages.angle_ranges`) and the rectification report's scalar
+angle's and joint speed's range (:mod:`pcnet.stages.column_ranges`) and the rectification report's scalar
 numbers.
 """
 
@@ -14,7 +14,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from ..core.atomic import write_text
-from ..angle_ranges import AngleRanges
+from ..column_ranges import ColumnRanges
 from ..flags import Finding
 
 REPORT_NAME = "report.md"
@@ -49,7 +49,7 @@ def _scalars(report: Mapping, prefix: str = "") -> list[tuple[str, str]]:
 
 def report_markdown(title: str, key_lines: Iterable[tuple[str, str]], findings: Iterable[Finding],
                     notes: Iterable[Finding], report: Mapping, outputs: Iterable[str],
-                    ranges: AngleRanges | None = None) -> str:
+                    angle_ranges: ColumnRanges | None = None, speed_ranges: ColumnRanges | None = None) -> str:
     """The text of ``report.md``.
 
     Args:
@@ -59,8 +59,9 @@ def report_markdown(title: str, key_lines: Iterable[tuple[str, str]], findings: 
         notes: the notes' findings, in the summary's order.
         report: the rectification report (``canonical.npz``'s ``report``).
         outputs: the output files' names.
-        ranges: each angle's range (:func:`pcnet.stages.angle_ranges.angle_ranges`), or
-            ``None`` (no kinematics: no joint-angle section).
+        angle_ranges, speed_ranges: each angle's and each joint speed's range
+            (:func:`pcnet.stages.column_ranges.column_ranges`), or ``None`` (no kinematics: no
+            joint-angle or joint-speed section).
     """
     findings, notes = list(findings), list(notes)
     out = [f"# {title}", "", "## Key facts", ""]
@@ -73,8 +74,10 @@ def report_markdown(title: str, key_lines: Iterable[tuple[str, str]], findings: 
                 f.detail, ""]
     out += ["", "## Notes", ""]
     out += [f"- {n.detail}" for n in notes] or ["None."]
-    if ranges is not None:
-        out += ["", "## Joint angles", "", *_angle_table(ranges)]
+    if angle_ranges is not None:
+        out += ["", "## Joint angles", "", *_angle_table(angle_ranges)]
+    if speed_ranges is not None:
+        out += ["", "## Joint speeds", "", *_speed_table(speed_ranges)]
     out += ["", "## Report numbers", "", "(`report` in canonical.npz; docs/outputs.md says what each is; the intervals "
             "the key facts print are `camera_pitch_interval_deg` and `camera_roll_interval_deg`, while "
             "`*_uncertainty_deg` is the poses' part alone)", "",
@@ -84,26 +87,45 @@ def report_markdown(title: str, key_lines: Iterable[tuple[str, str]], findings: 
     return "\n".join(out).rstrip() + "\n"
 
 
-def _angle_table(ranges: AngleRanges) -> list[str]:
-    """The joint-angle section's lines: which frames the ranges cover, then one row per angle."""
-    if not ranges.rows:
-        return ["None: no angle has a value in any frame counted."]
+def _frames_counted(ranges: ColumnRanges) -> str:
+    """Which frames a section's ranges cover."""
     left_out = []
     if ranges.implausible_frames:
         left_out.append(f"the {ranges.implausible_frames} frames the implausible-motion warning names")
     if ranges.other_person_frames:
         left_out.append(f"the {ranges.other_person_frames} frames outside the 2D track's longest one-person stretch "
                         f"(the track-switch warning's)")
-    over = "every frame with a value" + (f", leaving out {' and '.join(left_out)}" if left_out else "") + (
+    return "every frame with a value" + (f", leaving out {' and '.join(left_out)}" if left_out else "") + (
         " (the motion was not checked; the notes say why)" if ranges.implausible_frames is None else "")
-    return [f"Each angle of kinematics.csv (defined in kinematics_columns.csv, filtered as it is) over {over}: its "
-            f"least and greatest value, the time each is first reached, the range between them and the median. "
-            f"Angles against gravity (`*_inclination_deg`, `*_to_gravity_deg`) also carry the up's uncertainty, "
-            f"which kinematics_columns.csv states.", "",
+
+
+def _angle_table(ranges: ColumnRanges) -> list[str]:
+    """The joint-angle section's lines: which frames the ranges cover, then one row per angle."""
+    if not ranges.rows:
+        return ["None: no angle has a value in any frame counted."]
+    return [f"Each angle of kinematics.csv (defined in kinematics_columns.csv, filtered as it is) over "
+            f"{_frames_counted(ranges)}: its least and greatest value, the time each is first reached, the range "
+            f"between them and the median. Angles against gravity (`*_inclination_deg`, `*_to_gravity_deg`) also "
+            f"carry the up's uncertainty, which kinematics_columns.csv states.", "",
             "| angle | frames | min (deg) | at (s) | max (deg) | at (s) | range (deg) | median (deg) |",
             "|---|---|---|---|---|---|---|---|",
-            *(f"| {r.name} | {r.frames} | {r.minimum_deg:.1f} | {r.minimum_s:.2f} | {r.maximum_deg:.1f} | "
-              f"{r.maximum_s:.2f} | {r.range_deg:.1f} | {r.median_deg:.1f} |" for r in ranges.rows)]
+            *(f"| {r.name} | {r.frames} | {r.minimum:.1f} | {r.minimum_s:.2f} | {r.maximum:.1f} | "
+              f"{r.maximum_s:.2f} | {r.range:.1f} | {r.median:.1f} |" for r in ranges.rows)]
+
+
+def _speed_table(ranges: ColumnRanges) -> list[str]:
+    """The joint-speed section's lines: which frames the peaks cover, what lowers a fast peak,
+    then one row per joint."""
+    if not ranges.rows:
+        return ["None: no joint has a speed in any frame counted."]
+    unit = ranges.rows[0].unit
+    return [f"The speed of each joint speeds.png shows (kinematics.csv's `*_speed_*` columns, filtered as they are) "
+            f"over {_frames_counted(ranges)}: its peak, the time it is first reached, and its median. A fast "
+            f"movement's peak (a punch, a throw, a kick) reads low: the low-pass filter and the lifter's own "
+            f"smoothing over frames cut it, and no cutoff gives back what the frame rate and the lifter did not "
+            f"keep (docs/guide/kinematics.md).", "",
+            f"| speed | frames | peak ({unit}) | at (s) | median ({unit}) |", "|---|---|---|---|---|",
+            *(f"| {r.name} | {r.frames} | {r.maximum:.2f} | {r.maximum_s:.2f} | {r.median:.2f} |" for r in ranges.rows)]
 
 
 def write_report(folder: Path, text: str) -> dict[str, Path]:
