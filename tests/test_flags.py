@@ -542,6 +542,7 @@ def test_a_mirrored_3d_skeleton_is_flagged_from_the_pose_alone():
     # to set the generic reader's options (an IMU trial's kinect_v1 run)
     (flag,) = mirrored_skeleton_flag(X * np.array([1.0, 1.0, -1.0]), depth_sensor=True)
     assert flag.action == "did the subject face away from the sensor?" and "--axes" not in flag.detail
+    assert flag.severity == Severity.CHECK and "odds" not in flag.headline and "weak on a depth sensor" in flag.headline
     assert "docs/guide/warnings.md says how often" in flag.detail and len(flag.terminal_line()) <= 135
 
 
