@@ -1473,8 +1473,8 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
         try:
             stature = 1.0 / height_factor(cam, 1.0)
             # speeds first: a physiotherapist's trial read a walking speed without seeing it rests on the guess
-            notes.append(f"speeds and lengths scaled to the lifter's guess of a {stature:.2f} m stature: give --height "
-                         f"for the subject's; positions, speeds and the TRC scale with it (a monocular lifter's guess "
+            notes.append(f"speeds and lengths rest on the lifter's guess of a {stature:.2f} m stature: --height sets "
+                         f"the subject's; positions, speeds and the TRC scale with it (a monocular lifter's guess "
                          f"at the size)")
         except InputError:  # no frame with the ankle-to-head chain: no stature to state
             pass

@@ -1244,8 +1244,10 @@ NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
 def shortened(text: str, width: int = HEADLINE_WIDTH) -> str:
     """A note (or a flag of no kind) as one line of at most ``width`` characters: the
     parenthesised asides dropped, then the longest run of whole clauses (ending before a
-    ``"; "``, else a ``": "``, else a ``", "``, which ends in ``...``) that fits and keeps half the
-    width, else the longest that fits, else cut at a word boundary."""
+    ``"; "``, else a ``": "``, else a ``", "``) that fits and keeps half the width, else the
+    longest that fits, else cut at a word boundary; a line that drops a clause ends in ``...``
+    (report.md has the rest: an OpenSim trial's terminal line dropped the frames whose fit
+    failed without a sign that more followed)."""
     if len(text) <= width:
         return text
     depth, kept = 0, []
@@ -1257,21 +1259,14 @@ def shortened(text: str, width: int = HEADLINE_WIDTH) -> str:
     short = re.sub(r"\s+([,;:.])", r"\1", re.sub(r" {2,}", " ", "".join(kept))).strip()
     if len(short) <= width:
         return short
-    clause_ends = {sep: [m.start() for m in re.finditer(re.escape(sep), short) if m.start() <= width]
+    clause_ends = {sep: [m.start() for m in re.finditer(re.escape(sep), short) if m.start() <= width - 3]
                    for sep in ("; ", ": ", ", ")}
-    for sep, ends in clause_ends.items():
+    for ends in clause_ends.values():
         if ends and ends[-1] >= width // 2:
-            return _ended(short[:ends[-1]], sep)
+            return short[:ends[-1]] + "..."
     if any(clause_ends.values()):  # a short whole clause reads better than a phrase cut off
-        end, sep = max((ends[-1], sep) for sep, ends in clause_ends.items() if ends)
-        return _ended(short[:end], sep)
+        return short[:max(ends[-1] for ends in clause_ends.values() if ends)] + "..."
     return _clipped(short, width)
-
-
-def _ended(kept: str, sep: str) -> str:
-    """A note cut before ``sep``: a ``"; "`` or ``": "`` ends a clause; a ``", "`` may end an
-    item of a list, so the cut says that more follows."""
-    return kept + "..." if sep == ", " else kept
 
 
 def note_finding(text: str) -> Finding:

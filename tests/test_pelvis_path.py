@@ -70,7 +70,7 @@ def test_the_path_note_counts_fitted_frames_apart_from_bridged_ones():
     # the summary's headline keeps the assumed focal length (a boxing analyst's read only the frames)
     focal = round(focal_px_from_35mm(1920, 1080))
     assert note_finding(path.note).headline == (f"pelvis path fitted to the 2D keypoints in {fitted} of 90 frames, "
-                                                f"focal length {focal} px assumed")
+                                                f"focal length {focal} px assumed...")  # report.md has the rest
 
 
 def test_no_path_without_keypoints_metres_or_an_image_size():

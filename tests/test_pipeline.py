@@ -1625,8 +1625,8 @@ def test_speeds_scaled_to_the_lifters_guess_of_the_size_are_said_so_in_the_summa
                   "--fps", "30", "--method", "geometric", "--no-recording", "--out", tmp_path / "o")
     assert res.exit_code == 0, res.output
     (line,) = [ln for ln in res.output.splitlines() if "stature" in ln]
-    assert re.fullmatch(r"note     speeds and lengths scaled to the lifter's guess of a \d\.\d\d m stature: give "
-                        r"--height for the subject's", line), line
+    assert re.fullmatch(r"note     speeds and lengths rest on the lifter's guess of a \d\.\d\d m stature: --height "
+                        r"sets the subject's\.\.\.", line), line
 
 
 def test_a_run_reads_the_shipped_weights_once_for_the_code_digest_and_the_report(tmp_path):

@@ -106,7 +106,10 @@ def _angle_table(ranges: ColumnRanges) -> list[str]:
     return [f"Each angle of kinematics.csv (defined in kinematics_columns.csv, filtered as it is) over "
             f"{_frames_counted(ranges)}: its least and greatest value, the time each is first reached, the range "
             f"between them and the median. Angles against gravity (`*_inclination_deg`, `*_to_gravity_deg`) also "
-            f"carry the up's uncertainty, which kinematics_columns.csv states.", "",
+            f"carry the up's uncertainty, which kinematics_columns.csv states. Every angle also carries the lifter's "
+            f"own error, which no warning measures in one recording: four calibrated cameras of one standing subject "
+            f"read its hips and knees tens of degrees apart, and the hips' internal rotations err more than they vary "
+            f"(docs/guide/limits.md, docs/joint_angles.md).", "",
             "| angle | frames | min (deg) | at (s) | max (deg) | at (s) | range (deg) | median (deg) |",
             "|---|---|---|---|---|---|---|---|",
             *(f"| {r.name} | {r.frames} | {r.minimum:.1f} | {r.minimum_s:.2f} | {r.maximum:.1f} | "
