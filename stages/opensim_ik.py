@@ -57,6 +57,7 @@ import numpy as np
 from .core.conventions import H36M_JOINTS
 from .core.atomic import write_text, writing_failed
 from .core.errors import InputError, import_extra
+from .isb_angles import GIMBAL_MARGIN_DEG
 
 MISSING_OPENSIM = 'OpenSim scaling and inverse kinematics (--opensim, pcnet opensim) need OpenSim: pip install "pcnet[opensim]"'
 DATA_DIR = Path(__file__).resolve().parent / "opensim_data"
@@ -175,24 +176,37 @@ def unobserved_coordinates_note(result: dict) -> str | None:
     """The note on :func:`scale_and_ik`'s ``result["coordinates_unobserved"]``
     (:func:`blank_unobserved`): which ``ik.mot`` columns are empty in how many frames, else
     ``None``."""
-    emptied = result.get("coordinates_unobserved") or {}
-    if not emptied:
-        return None
+    listed = _emptied_columns(result, "coordinates_unobserved")
+    return listed and (f"ik.mot: {listed}: no marker beyond the joint was seen there (the solver would carry its last "
+                       f"value on, docs/outputs.md)")
+
+
+def gimbal_lock_note(result: dict) -> str | None:
+    """The note on :func:`scale_and_ik`'s ``result["coordinates_gimbal_lock"]``
+    (:func:`blank_gimbal_lock`), else ``None``."""
+    listed = _emptied_columns(result, "coordinates_gimbal_lock")
+    return listed and (f"ik.mot: {listed}: the joint's middle angle (arm_add for the shoulder, an arm held out "
+                       f"sideways) lay within {GIMBAL_MARGIN_DEG:g} deg of +-90, where the two turn about one axis "
+                       f"(gimbal lock, docs/joint_angles.md)")
+
+
+def _emptied_columns(result: dict, key: str) -> str | None:
+    """``result[key]``'s ``{coordinate: rows emptied}`` as one clause per count, most first."""
     by_count: dict[int, list[str]] = {}
-    for coordinate, n in emptied.items():
+    for coordinate, n in (result.get(key) or {}).items():
         by_count.setdefault(n, []).append(coordinate)
-    listed = "; ".join(f"{', '.join(names)} empty (NaN) in {n} of {result['frames']} frames"
-                       for n, names in sorted(by_count.items(), reverse=True))
-    return (f"ik.mot: {listed}: no marker beyond the joint was seen there (the solver would carry its last value "
-            f"on, docs/outputs.md)")
+    return "; ".join(f"{', '.join(names)} empty (NaN) in {n} of {result['frames']} frames"
+                     for n, names in sorted(by_count.items(), reverse=True)) or None
 
 
 def opensim_notes(result: dict) -> list[str]:
     """The notes of a fit (:func:`scale_and_ik`'s ``result``), for the summary and the report:
     what joint centres cannot observe (:data:`UNOBSERVED_NOTE`), that the columns are not
     kinematics.csv's angles (:data:`NOT_ISB_NOTE`), the columns emptied
-    (:func:`unobserved_coordinates_note`) and the locked ones (:func:`locked_note`)."""
-    return [UNOBSERVED_NOTE, NOT_ISB_NOTE, *filter(None, [unobserved_coordinates_note(result)]), locked_note()]
+    (:func:`unobserved_coordinates_note`, :func:`gimbal_lock_note`) and the locked ones
+    (:func:`locked_note`)."""
+    return [UNOBSERVED_NOTE, NOT_ISB_NOTE, *filter(None, [unobserved_coordinates_note(result), gimbal_lock_note(result)]),
+            locked_note()]
 
 
 #: The heading of the section ``pcnet opensim`` adds to the run's report.md (:func:`opensim_markdown`).
@@ -487,27 +501,106 @@ def blank_unobserved(mot_path: Path, present: np.ndarray, markers: list[str],
         InputError: the file's rows do not match ``present``'s (an IK tool that wrote another
             frame count).
     """
-    lines = mot_path.read_text().splitlines()
-    end = next(i for i, line in enumerate(lines) if line.strip() == "endheader")
-    columns = [c.strip() for c in lines[end + 1].split("\t")]
-    rows = [i for i in range(end + 2, len(lines)) if lines[i].strip()]
-    if len(rows) != len(present):
-        raise InputError(f"{mot_path}: expected {len(present)} inverse-kinematics rows, got {len(rows)}")
+    table = _MotTable.read(mot_path)
+    if len(table.rows) != len(present):
+        raise InputError(f"{mot_path}: expected {len(present)} inverse-kinematics rows, got {len(table.rows)}")
     index = {name: m for m, name in enumerate(markers)}
     emptied = {}
     for coordinate, its_markers in by_coordinate.items():
         cols = [m for name, m in index.items() if name in its_markers]
         unseen = ~present[:, cols].any(axis=1) if cols else np.ones(len(present), bool)
-        if coordinate in columns and unseen.any():
-            emptied[coordinate] = (columns.index(coordinate), unseen)
-    for column, unseen in emptied.values():
-        for row in np.flatnonzero(unseen):
-            values = lines[rows[row]].split("\t")
-            values[column] = "NaN"
-            lines[rows[row]] = "\t".join(values)
-    if emptied:
-        write_text(mot_path, "\n".join(lines) + "\n")
-    return {coordinate: int(unseen.sum()) for coordinate, (_, unseen) in emptied.items()}
+        if coordinate in table.columns and unseen.any():
+            emptied[coordinate] = unseen
+    return table.blank(emptied)
+
+
+def euler_triplets(model) -> list[tuple[str, str, str]]:
+    """The coordinates of each joint of an OpenSim ``model`` (``opensim.Model``) that turns
+    by three successive rotations about orthogonal axes, one coordinate each (a
+    ``CustomJoint``'s ``rotation1-3``: the shipped model's pelvis, hips, L5/S1, neck and
+    shoulders, Z then X then Y), as ``(first, middle, third)``. Where the middle angle
+    nears +-90 deg the first and third axes line up and the two angles are not separately
+    defined (gimbal lock), as for pcnet's own Euler angles (:mod:`pcnet.stages.isb_angles`)."""
+    osim = import_opensim()
+    triplets = []
+    for i in range(model.getJointSet().getSize()):
+        joint = osim.CustomJoint.safeDownCast(model.getJointSet().get(i))
+        if joint is None:
+            continue
+        names, axes = [], []
+        for k in range(3):
+            axis = joint.getSpatialTransform().getTransformAxis(k)
+            coordinates = axis.getCoordinateNamesInArray()
+            names += [coordinates.get(n) for n in range(coordinates.getSize())]
+            axes.append([axis.getAxis().get(n) for n in range(3)])
+        if len(names) == len(set(names)) == 3 and np.allclose(np.abs(np.asarray(axes) @ np.transpose(axes)), np.eye(3)):
+            triplets.append(tuple(names))
+    return triplets
+
+
+def blank_gimbal_lock(mot_path: Path, triplets: list[tuple[str, str, str]],
+                      margin_deg: float = GIMBAL_MARGIN_DEG) -> dict[str, int]:
+    """Write NaN into ``ik.mot``'s first and third angle of each of :func:`euler_triplets`
+    in the rows where its middle angle lies within ``margin_deg`` of +-90 deg: there the two
+    turn about one axis, so the solver's split between them is arbitrary (an OpenSim trial's
+    T-pose read ``arm_flex`` and ``arm_rot`` 86-113 deg apart between four cameras of one
+    standing subject). pcnet's own angles are NaN there too (``isb_angles.GIMBAL_MARGIN_DEG``).
+
+    Args:
+        mot_path: the IK tool's ``.mot`` (rotations in degrees, or radians where its header
+            says ``inDegrees=no``).
+        triplets: ``(first, middle, third)`` coordinate names.
+        margin_deg: half-width (deg) of the band about +-90 deg.
+
+    Returns:
+        ``{coordinate: rows emptied}`` for each coordinate emptied in at least one row.
+    """
+    table = _MotTable.read(mot_path)
+    emptied: dict[str, np.ndarray] = {}
+    for first, middle, third in triplets:
+        if middle not in table.columns:
+            continue
+        with np.errstate(invalid="ignore"):
+            locked = np.abs(np.abs(table.degrees(middle)) - 90.0) < margin_deg  # NaN (not observed): False
+        for name in (first, third):
+            if name in table.columns and locked.any():
+                emptied[name] = emptied.get(name, np.zeros(len(locked), bool)) | locked
+    return table.blank(emptied)
+
+
+class _MotTable:
+    """An IK ``.mot`` file's lines, column names and data rows, rewritten in place by
+    :meth:`blank` (every other byte kept)."""
+
+    def __init__(self, path: Path, lines: list[str], end: int):
+        self.path, self.lines = path, lines
+        self.columns = [c.strip() for c in lines[end + 1].split("\t")]
+        self.rows = [i for i in range(end + 2, len(lines)) if lines[i].strip()]
+        self.in_degrees = not any(line.replace(" ", "").lower() == "indegrees=no" for line in lines[:end])
+
+    @classmethod
+    def read(cls, path: Path) -> "_MotTable":
+        lines = Path(path).read_text().splitlines()
+        return cls(Path(path), lines, next(i for i, line in enumerate(lines) if line.strip() == "endheader"))
+
+    def degrees(self, name: str) -> np.ndarray:
+        """``(N,)`` the column ``name`` in degrees (NaN where empty)."""
+        k = self.columns.index(name)
+        values = np.array([float(self.lines[i].split("\t")[k]) for i in self.rows])
+        return values if self.in_degrees else np.degrees(values)
+
+    def blank(self, emptied: dict[str, np.ndarray]) -> dict[str, int]:
+        """NaN in the ``(N,)`` True rows of each named column; the file rewritten atomically
+        where anything changed. Returns ``{name: rows emptied}``."""
+        for name, rows in emptied.items():
+            column = self.columns.index(name)
+            for row in np.flatnonzero(rows):
+                values = self.lines[self.rows[row]].split("\t")
+                values[column] = "NaN"
+                self.lines[self.rows[row]] = "\t".join(values)
+        if emptied:
+            write_text(self.path, "\n".join(self.lines) + "\n")
+        return {name: int(rows.sum()) for name, rows in emptied.items()}
 
 
 def scale_and_ik(
@@ -680,6 +773,7 @@ def scale_and_ik(
         os.replace(errors[0], tmp / "ik_marker_errors.sto")
         unobserved = blank_unobserved(tmp / "ik.mot", np.isfinite(joints[marked]).all(axis=2), used,
                                       coordinate_markers(model))
+        gimbal_lock = blank_gimbal_lock(tmp / "ik.mot", euler_triplets(model))
 
         cols, err = _parse_sto(tmp / "ik_marker_errors.sto")
         rms = err[:, cols.index("marker_error_RMS")]
@@ -697,6 +791,7 @@ def scale_and_ik(
             "scale_frames": int(complete.sum()),
             "markers_left_out": left_out,
             "coordinates_unobserved": unobserved,
+            "coordinates_gimbal_lock": gimbal_lock,
             "segments_not_scaled": unscaled,
             "static_window_s": (w0, w1),
             "subject_height_m": None if height_m is None else float(height_m),

@@ -456,3 +456,49 @@ def test_the_report_gives_the_subjects_body_mass_index():
 
     assert _body_mass_index({"subject_height_m": 1.72, "subject_mass_kg": 154.0}) == " (body-mass index 52.1 kg/m^2)"
     assert _body_mass_index({"subject_height_m": 1.72, "subject_mass_kg": None}) == ""
+
+
+_MOT_HEADER = "ik\nversion=1\nnRows=5\nnColumns=5\ninDegrees={}\nendheader\n"
+
+
+def test_ik_angles_in_gimbal_lock_are_empty(tmp_path):
+    """An OpenSim trial's T-pose read arm_flex and arm_rot 86-113 deg apart between four
+    cameras of one standing subject: with arm_add near -90 deg the shoulder's first and third
+    axes line up and the solver's split between them is arbitrary. Those two are NaN where the
+    middle angle lies within GIMBAL_MARGIN_DEG of +-90 (pcnet's own Euler angles' rule), the
+    rest of the file byte for byte; radians are read as such."""
+    from pcnet.stages.isb_angles import GIMBAL_MARGIN_DEG
+    from pcnet.stages.opensim_ik import blank_gimbal_lock, gimbal_lock_note
+
+    middle = [-84.0, -78.0, float("nan"), 95.0, 30.0]  # within 10 deg of -90, not, not observed, of +90, not
+    for unit, scale in (("yes", 1.0), ("no", np.pi / 180)):
+        rows = "".join(f"{0.1 * i:.1f}\t{10.0 + i}\t{m * scale}\t{20.0 + i}\t{i}\n" for i, m in enumerate(middle))
+        mot = tmp_path / f"ik_{unit}.mot"
+        mot.write_text(_MOT_HEADER.format(unit) + "time\tarm_flex_l\tarm_add_l\tarm_rot_l\televation\n" + rows)
+        before = mot.read_text().splitlines()
+        emptied = blank_gimbal_lock(mot, [("arm_flex_l", "arm_add_l", "arm_rot_l"), ("a", "absent", "b")])
+        assert emptied == {"arm_flex_l": 2, "arm_rot_l": 2}, unit
+        after = mot.read_text().splitlines()
+        changed = [i for i, (a, b) in enumerate(zip(before, after)) if a != b]
+        assert changed == [7, 10] and len(after) == len(before)  # the rows of -84 and 95 deg only
+        assert [after[7].split("\t")[k] for k in (1, 2, 3, 4)] == ["NaN", str(middle[0] * scale), "NaN", "0"]
+    assert blank_gimbal_lock(mot, [("elevation", "time", "arm_flex_l")]) == {}  # time never near 90: untouched
+    note = gimbal_lock_note({"coordinates_gimbal_lock": emptied, "frames": 5})
+    assert note.startswith("ik.mot: arm_flex_l, arm_rot_l empty (NaN) in 2 of 5 frames: the joint's middle angle")
+    assert f"within {GIMBAL_MARGIN_DEG:g} deg of +-90" in note
+    assert gimbal_lock_note({"coordinates_gimbal_lock": {}, "frames": 5}) is None
+
+
+def test_the_shipped_models_euler_joints():
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    import opensim as osim
+
+    from pcnet.stages.opensim_ik import MODEL_FILE, euler_triplets
+
+    model = osim.Model(str(Path(__file__).resolve().parent.parent / "stages" / "opensim_data" / MODEL_FILE))
+    assert euler_triplets(model) == [
+        ("pelvis_tilt", "pelvis_list", "pelvis_rotation"), ("hip_flexion_r", "hip_adduction_r", "hip_rotation_r"),
+        ("hip_flexion_l", "hip_adduction_l", "hip_rotation_l"),
+        ("L5_S1_Flex_Ext", "L5_S1_Lat_Bending", "L5_S1_axial_rotation"),
+        ("neck_flexion", "neck_bending", "neck_rotation"), ("arm_flex_r", "arm_add_r", "arm_rot_r"),
+        ("arm_flex_l", "arm_add_l", "arm_rot_l")]  # not the knees (one coordinate on three axes)
