@@ -1,6 +1,6 @@
 """How far four real cameras of one recording agree after pcnet: the canonical poses and the joint angles.
 
-    python -m benchmarks.view_agreement [--data ../shared/data]
+    python -m benchmarks.view_agreement [--data ../shared/data] [--out FILE]
 
 Data: real/pose2sim_gravity/statictrial_camXX.npz, the four calibrated cameras of the Pose2Sim
 demo lab (one man standing still in a T-pose, 11 frames at 60 fps), read as ``pcnet run
@@ -70,6 +70,7 @@ def rms_distance_cm(a: np.ndarray, b: np.ndarray) -> float:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=SHARED_DATA)
+    ap.add_argument("--out", type=Path, default=RESULT, help="the results file [benchmarks/results/view_agreement.txt]")
     args = ap.parse_args(argv)
     t0 = time.time()
     frames = {}
@@ -105,7 +106,7 @@ def main(argv=None) -> int:
         means = " / ".join(f"{np.nanmean(columns[cam][name]):+6.1f}" for cam in CAMERAS)
         lines.append(f"  {name:<30} {np.mean(d):6.1f} {np.max(d):6.1f}   {means}")
     lines += ["", f"({time.time() - t0:.0f} s)"]
-    print_and_save(lines, RESULT)
+    print_and_save(lines, args.out)
     return 0
 
 
