@@ -665,9 +665,9 @@ def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None, depth_s
                 f"elbows backward (median bend sines {m[0]:+.2f}, {m[1]:+.2f}; a body's {model.mean[0]:+.2f}, "
                 f"{model.mean[1]:+.2f}), {odds:.0f} times as likely for a mirror image as for a body")
     if depth_sensor:
-        # The odds are the mocap's: on real Kinect v1 skeletons the flag fires on about as many
-        # files of subjects facing the sensor as it catches mirror images (36 and 86 of 671,
-        # benchmarks/results/mirror_fit_check_validation.txt), so it asks for a check, without odds.
+        # The odds are the mocap's: on real Kinect v1 skeletons the flag fires on 36 of 671 files
+        # of subjects facing the sensor and catches only 86 of their 671 mirror images
+        # (benchmarks/results/mirror_fit_check_validation.txt), so it asks for a check, without odds.
         return [_found(Kind.MIRRORED, Severity.CHECK,
                        "3D skeleton may be mirrored (knees bend forward; weak on a depth sensor)",
                        "did the subject face away from the sensor?",
