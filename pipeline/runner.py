@@ -56,8 +56,8 @@ from pcnet.stages.rectification_report import ModeChoice, RectificationReport
 from pcnet.stages.rectify import NO_VALID_FRAME, no_valid_frame_reason
 from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, outside_image, remap_to_h36m
-from pcnet.stages.sinks.result import (WRISTS, RecordingResult, other_persons_frames, write_arrays, write_figures, write_kinematics_table,
-                                      write_motion_files, write_rerun)
+from pcnet.stages.sinks.result import (WRISTS, RecordingResult, other_persons_frames, write_arrays, write_figures,
+                                      write_kinematics_table, write_motion_files, write_rerun)
 from pcnet.stages.sinks.report import REPORT_NAME, report_markdown, write_report
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG

@@ -391,11 +391,9 @@ def _last_message(log: Path) -> str:
 
 
 def _parse_sto(path: Path) -> tuple[list[str], np.ndarray]:
-    lines = path.read_text().splitlines()
-    end = next(i for i, line in enumerate(lines) if line.strip() == "endheader")
-    cols = lines[end + 1].split("\t")
-    rows = [[float(x) for x in line.split("\t")] for line in lines[end + 2:] if line.strip()]
-    return [c.strip() for c in cols], np.asarray(rows, dtype=float).reshape(-1, len(cols))
+    """An OpenSim ``.sto`` / ``.mot`` file's column names and ``(N, C)`` float values."""
+    table = _MotTable.read(path)
+    return table.columns, table.values()
 
 
 def _tasks_off(tasks, markers: list[str]) -> None:
@@ -556,12 +554,13 @@ def blank_gimbal_lock(mot_path: Path, triplets: list[tuple[str, str, str]],
         ``{coordinate: rows emptied}`` for each coordinate emptied in at least one row.
     """
     table = _MotTable.read(mot_path)
+    values = table.values() if table.in_degrees else np.degrees(table.values())  # only rotations are read below
     emptied: dict[str, np.ndarray] = {}
     for first, middle, third in triplets:
         if middle not in table.columns:
             continue
-        with np.errstate(invalid="ignore"):
-            locked = np.abs(np.abs(table.degrees(middle)) - 90.0) < margin_deg  # NaN (not observed): False
+        with np.errstate(invalid="ignore"):  # NaN (not observed): not locked
+            locked = np.abs(np.abs(values[:, table.columns.index(middle)]) - 90.0) < margin_deg
         for name in (first, third):
             if name in table.columns and locked.any():
                 emptied[name] = emptied.get(name, np.zeros(len(locked), bool)) | locked
@@ -569,8 +568,8 @@ def blank_gimbal_lock(mot_path: Path, triplets: list[tuple[str, str, str]],
 
 
 class _MotTable:
-    """An IK ``.mot`` file's lines, column names and data rows, rewritten in place by
-    :meth:`blank` (every other byte kept)."""
+    """An OpenSim ``.sto`` / ``.mot`` file's lines, column names and data rows, read by
+    :meth:`values` and rewritten in place by :meth:`blank` (every other byte kept)."""
 
     def __init__(self, path: Path, lines: list[str], end: int):
         self.path, self.lines = path, lines
@@ -583,11 +582,10 @@ class _MotTable:
         lines = Path(path).read_text().splitlines()
         return cls(Path(path), lines, next(i for i, line in enumerate(lines) if line.strip() == "endheader"))
 
-    def degrees(self, name: str) -> np.ndarray:
-        """``(N,)`` the column ``name`` in degrees (NaN where empty)."""
-        k = self.columns.index(name)
-        values = np.array([float(self.lines[i].split("\t")[k]) for i in self.rows])
-        return values if self.in_degrees else np.degrees(values)
+    def values(self) -> np.ndarray:
+        """``(N, C)`` float64, the data rows as written (NaN where empty)."""
+        rows = [[float(x) for x in self.lines[i].split("\t")] for i in self.rows]
+        return np.asarray(rows, dtype=float).reshape(-1, len(self.columns))
 
     def blank(self, emptied: dict[str, np.ndarray]) -> dict[str, int]:
         """NaN in the ``(N,)`` True rows of each named column; the file rewritten atomically
