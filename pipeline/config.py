@@ -478,8 +478,14 @@ class RunConfig:
         if self.fps_override and self.fps is None:
             raise InputError(f"{field_name(source, 'fps_override')}: expected together with fps, got no fps")
         if self._no_recorded_rate():
+            # the metric check needs the loaded file; its requirement is named here, or a user
+            # trial met it only on the next attempt
+            metric = [f for f in ("c3d", "opensim") if getattr(self, f)] if self.height is None else []
+            cli = source == COMMAND_LINE
+            also = (f"; {' and '.join(_flag(f) if cli else f for f in metric)} will also expect metric poses (a "
+                    f"lifter writing metres, or {_flag('height') if cli else 'height'})") if metric else ""
             raise InputError(f"{field_name(source, 'fps')}: expected the frame rate (no video is given and "
-                             f"{self.lifter} files do not record one), got none")
+                             f"{self.lifter} files do not record one), got none{also}")
         if self.confidence_threshold is not None and self.keypoints2d is None:
             raise InputError(f"{field_name(source, 'confidence_threshold')}: expected together with 2D keypoints "
                              f"(it masks their low-confidence joints), got {self.confidence_threshold:g} without keypoints2d")

@@ -1485,11 +1485,20 @@ def test_a_lifter_whose_files_record_no_rate_needs_fps_before_any_file_is_read(t
                                          r"motionbert files do not record one\), got none$"):
         RunConfig(lifter="motionbert", lifter_output="absent.npy").validate()
     RunConfig(lifter="mediapipe", lifter_output="absent.npz").validate()  # its archives may carry the rate
+    # --opensim's need of metres is named with it, not on the next attempt (a user trial)
+    with pytest.raises(InputError, match=r"got none; opensim will also expect metric poses \(a lifter writing "
+                                         r"metres, or height\)$"):
+        RunConfig(lifter="motionbert", lifter_output="absent.npy", opensim=True).validate()
+    with pytest.raises(InputError, match=r"got none$"):
+        RunConfig(lifter="motionbert", lifter_output="absent.npy", opensim=True, height=1.7).validate()
     RunConfig(lifter="motionbert", lifter_output="absent.npy", fps=30.0).validate()
     x3d = FIXTURES / "boxing_X3D_f000-059.npy"
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", x3d, "--out", tmp_path / "o")
     assert res.exit_code == 1 and "--fps: expected the frame rate (no video is given and motionbert files do not " \
         "record one), got none" in res.output and not (tmp_path / "o").exists(), res.output
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", x3d, "--out", tmp_path / "o", "--opensim", "--c3d")
+    assert res.exit_code == 1 and "got none; --c3d and --opensim will also expect metric poses (a lifter writing " \
+        "metres, or --height)" in res.output, res.output
     # a missing file is named before the frame rate it would not have recorded (a user trial)
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "absent.npy", "--out", tmp_path / "o")
     assert res.exit_code == 1 and f"'--lifter-output': Path '{tmp_path / 'absent.npy'}' does not exist" in res.output
