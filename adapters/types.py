@@ -122,7 +122,8 @@ class Poses3D:
             image position; D3DP zeroes it): the caller remaps to H36M-17 and subtracts the
             pelvis per frame to get the root-relative poses of ``docs/CONVENTIONS.md``
             (``pcnet.pipeline.io.lifter_joints``, then
-            ``pcnet.stages.core.conventions.root_relative``). For image-scaled units
+            ``pcnet.stages.core.conventions.root_relative``, which returns the poses and a
+            per-frame flag: take ``[0]``). For image-scaled units
             (``"normalised"``, ``"px"``) ``pcnet run`` then also makes the body's size constant
             per frame (``pcnet.stages.scale.size_normalising_factors``), so a library chain
             without that step differs from its output by the lifter's size changes.

@@ -49,8 +49,12 @@ recording's median body size, ``joints * pcnet.stages.scale.size_normalising_fac
 fps)[:, None, None]`` (root-relative joints; the rotations hardly change, positions and speeds
 do: a wrist's speed by up to 46 % of its mean on a real MotionBERT clip). The world frame, one
 fixed gravity-aligned frame for the recording, is
-``pcnet.stages.world_frame.to_world(joints - joints[:, :1], world_frame(res.rotation, res.valid,
-fps))``; ``canonical.npz``'s ``joints_world`` also has the floor under the body
+``pcnet.stages.world_frame.to_world(pcnet.stages.core.conventions.root_relative(joints)[0],
+world_frame(res.rotation, res.valid, fps))``, with ``joints`` as :func:`rectify` read them:
+``joints = pcnet.stages.core.conventions.validate_poses(joints)`` (its missing joints NaN,
+a writer's placeholders for them too: a joint or frame of zeros; ``root_relative`` and the
+kinematics take a zero as a position, and a developer trial's wrist written as zeros read
+18.6 m/s); ``canonical.npz``'s ``joints_world`` also has the floor under the body
 (``to_world_floor``) and, with 2D keypoints, the pelvis path.
 
 :func:`rectify` returns a result whatever the poses are: a wrong joint order, a mirrored

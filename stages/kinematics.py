@@ -1006,7 +1006,10 @@ def compute_kinematics(
 
     Args:
         canonical: ``(T, 17, 3)`` H36M-17 poses with +Y up (world frame, or canonical:
-            pelvis origin), NaN for missing.
+            pelvis origin), NaN for missing; a writer's placeholder (a joint written as
+            zeros) must be NaN before they were turned into this frame (what
+            :func:`pcnet.stages.core.conventions.validate_poses` does to camera-frame poses):
+            here it is a position.
         fps: sampling rate in Hz.
         cutoff_hz: -3 dB cutoff of the zero-phase filter; None skips filtering (then
             nothing is flagged ``unfiltered`` and every finite run is differentiated).

@@ -387,3 +387,42 @@ def test_library_calls_refuse_what_would_be_silently_wrong_in_one_line():
     for array in (res.canonical, res.rotation, res.valid, kin.positions, kin.speed, kin.missing):
         with pytest.raises(ValueError, match="read-only"):
             array[0] = 0
+
+
+def test_rectify_names_a_root_relative_tuple_and_2d_keypoints():
+    """A developer trial passed ``root_relative``'s (poses, flag) whole, and (T, 17, 2)
+    keypoints: numpy's "nested sequence" and a bare shape did not say what was wrong."""
+    from pcnet.pipeline import InputError, rectify
+    from pcnet.stages.core.conventions import root_relative
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")[:20]
+    with pytest.raises(InputError, match=r"got a tuple of 2 arrays \(root_relative returns \(poses, pelvis "
+                                         r"filled\): pass poses, its \[0\]\)$"):
+        rectify(root_relative(joints))
+    with pytest.raises(InputError, match=r"got \(20, 17, 2\) \(2D keypoints\? pcnet takes a lifter's 3D poses: "
+                                         r"lift them first\)$"):
+        rectify(joints[..., :2])
+
+
+def test_the_documented_world_frame_chain_reads_a_writers_zeros_as_missing():
+    """The package docstring's chain to the world frame and kinematics: a developer trial
+    followed it with a wrist written as zeros, which read 18.6 m/s; through ``validate_poses``
+    (as the docstring now says) the zeros are missing, as ``rectify`` reads them."""
+    from pcnet.pipeline import rectify
+    from pcnet.stages.core.conventions import R_WRIST, root_relative, validate_poses
+    from pcnet.stages.kinematics import compute_kinematics
+    from pcnet.stages.world_frame import to_world, world_frame
+
+    raw = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float32)
+    zeros = raw.copy()
+    zeros[40:60, R_WRIST] = 0.0
+    res = rectify(zeros, mode="sequence", fps=30.0)
+    frame = world_frame(res.rotation, res.valid, 30.0)
+    read = compute_kinematics(to_world(root_relative(validate_poses(zeros))[0], frame), 30.0)
+    assert read.missing[40:60, R_WRIST].all() and not read.missing[:30, R_WRIST].any()
+    as_positions = compute_kinematics(to_world(root_relative(zeros)[0], frame), 30.0)
+    assert not as_positions.missing[:, R_WRIST].any()  # what the chain gave without validate_poses
+    clean = compute_kinematics(to_world(root_relative(raw)[0], frame), 30.0)
+    peak = {name: np.nanmax(k.speed[:, R_WRIST]) for name, k in (("read", read), ("clean", clean),
+                                                                   ("as positions", as_positions))}
+    assert peak["read"] <= peak["clean"] * 1.01 and peak["as positions"] > 1.5 * peak["clean"], peak

@@ -192,6 +192,9 @@ def _unmasked(joints, name: str = "poses") -> np.ndarray:
     if np.ma.isMaskedArray(joints) and (np.issubdtype(joints.dtype, np.floating)
                                         or np.issubdtype(joints.dtype, np.integer)):  # complex, bool: refused later
         return np.ma.filled(joints.astype(np.float64), np.nan)
+    if isinstance(joints, tuple) and len(joints) == 2 and np.ndim(joints[0]) == 3:  # a developer trial's rectify(root_relative(x))
+        raise InputError(f"{name}: expected a (T, 17, 3) array, got a tuple of 2 arrays (root_relative returns "
+                         f"(poses, pelvis filled): pass poses, its [0])")
     try:
         return np.asarray(joints)
     except ValueError:  # a ragged nested list: numpy's own message names no shape
@@ -210,6 +213,8 @@ def shape_hint(shape: tuple[int, ...], num_joints: int = 17) -> str:
                     f"{named[0]})")
     if len(shape) == 3 and (shape[1:] == (3, num_joints) or shape[:2] == (num_joints, 3)):
         return f" (joint and coordinate axes in another order? expected (T, {num_joints}, 3): np.moveaxis)"
+    if len(shape) == 3 and shape[1] == num_joints and shape[-1] == 2:  # a developer trial passed 2D keypoints
+        return " (2D keypoints? pcnet takes a lifter's 3D poses: lift them first)"
     if len(shape) == 3 and shape[0] == num_joints and shape[-1] == 3:
         return f" (joints first? expected frames first, (T, {num_joints}, 3): np.swapaxes(a, 0, 1))"
     return ""
