@@ -76,7 +76,8 @@ from .run_report import RunReport
 from .video_estimate import ESTIMATE_FILE, estimated_inputs
 
 STEPS = ("inputs", "remap", "scale", "rectify", "kinematics", "exports", "recording")
-_WORLD = "world, fixed for the recording: +Y up, +X the subject's forward over the first second, y = 0 the ground; "
+_WORLD = ("world, fixed for the recording: +Y up, +X the subject's forward over the first second, y = 0 the surface "
+          "the tracked person stands on (the ground, or a box's top where they stand on one); ")
 WORLD_SUMMARY = {
     "not observable": _WORLD + "the pelvis's horizontal path is not observable (x = z = 0; its horizontal columns in "
                                "kinematics.csv are empty)",
@@ -84,7 +85,7 @@ WORLD_SUMMARY = {
     "from 2D keypoints": _WORLD + "the pelvis follows the path fitted to the 2D keypoints (x = z = 0 at the start; "
                                   "depth is its weak axis: pelvis_path_std_world in canonical.npz)",
 }
-_WORLD_SHORT = "world, fixed for the recording (+Y up, y = 0 ground); "
+_WORLD_SHORT = "world, fixed for the recording (+Y up, y = 0 under the feet); "
 #: The kinematics frame line of the terminal summary (:data:`WORLD_SUMMARY` in report.md).
 WORLD_SHORT = {
     "not observable": _WORLD_SHORT + "pelvis path not observable (x = z = 0)",

@@ -1209,8 +1209,9 @@ def test_the_heights_definition_says_what_y_0_is_for_each_floor():
         rows = kinematics_columns(list(H36M_JOINTS), "m", [], {}, "world", floor=floor)
         return {name: text for name, _, _, text in rows}[column]
 
-    assert definition("plane").endswith("the height above the floor (y = 0), low-pass filtered (raw where "
-                                        "pelvis_unfiltered = 1, empty where pelvis_missing = 1).")
+    assert definition("plane").endswith("the height above the surface the feet stand on (y = 0: the ground, or a "
+                                        "box's top), low-pass filtered (raw where pelvis_unfiltered = 1, empty where "
+                                        "pelvis_missing = 1).")
     assert definition(None) == definition("plane")
     assert "floor placed under each frame's lowest joint" in definition("per frame", "left_ankle_y_m")
     assert "y = 0 is the pelvis's height, not the floor" in definition("pelvis")

@@ -140,7 +140,7 @@ _AXES = {
     "canonical": {"x": "+X (horizontal: the subject's anterior, pelvis heading)", "y": "+Y (up)",
                   "z": "+Z (horizontal: the subject's right along the hip line)"},
 }
-_HEIGHT = {"world": ", the height above the floor (y = 0)", "canonical": ", from the pelvis"}
+_HEIGHT = {"world": ", the height above the surface the feet stand on (y = 0: the ground, or a box's top)", "canonical": ", from the pelvis"}
 #: What a world frame's heights are measured from when its floor is not one fitted plane
 #: (:func:`pcnet.stages.world_frame.to_world_floor`), by the floor's ``kind``.
 _FLOOR_HEIGHT = {
