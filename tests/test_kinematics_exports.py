@@ -1328,3 +1328,61 @@ def test_the_networks_residual_never_reaches_the_kinematics(tmp_path, mode):
         np.testing.assert_array_equal(a["rotation"], b["rotation"])
         moved = np.linalg.norm(a["canonical"] - b["canonical"], axis=-1)
     assert np.nanmedian(moved) > 0.02  # metres: the residual is there, in canonical.npz only
+
+
+def test_frames_with_a_pose_but_no_fitted_pelvis_path_have_no_positions(yoga_level):
+    """A held pelvis path is no measurement: a two-person trial's pelvis stayed 0.66 m up through
+    a backflip in kinematics.csv. Such frames (``pelvis_path_std`` NaN with a pose) keep their
+    angles and lose every position, velocity, acceleration and speed, and the dictionary says so."""
+    from types import SimpleNamespace
+
+    from pcnet.stages.sinks.exports import blank_frames, kinematics_columns
+    from pcnet.stages.sinks.result import unplaced_frames
+
+    k = compute_kinematics(yoga_level, 30.0)
+    rows = np.zeros(k.num_frames, bool)
+    rows[:3] = True
+    out = blank_frames(k, rows)
+    assert np.isnan(out.positions[:3]).all() and np.isnan(out.speed[:3]).all()
+    np.testing.assert_array_equal(out.positions[3:], k.positions[3:])
+    for name, values in k.angles.items():
+        np.testing.assert_array_equal(out.angles[name], values)
+    assert blank_frames(k, np.zeros(k.num_frames, bool)) is k
+
+    T = k.num_frames
+    std = np.full((T, 3), 0.05)
+    std[:3] = np.nan
+    cam = np.ones((T, 17, 3))
+    cam[0] = np.nan  # no pose at all: missing, not unplaced
+    run = SimpleNamespace(root_path="from 2D keypoints", pelvis_path_std=std, world=cam, joints_camera=cam)
+    np.testing.assert_array_equal(np.flatnonzero(unplaced_frames(run)), [1, 2])
+    assert unplaced_frames(SimpleNamespace(**{**vars(run), "root_path": "measured"})) is None
+
+    cols = {c[0]: c[3] for c in kinematics_columns(["pelvis"], "m", [], {}, "world", unplaced="the 2 frames X")}
+    assert cols["pelvis_y_m"].endswith(" Empty in the 2 frames X.") and cols["pelvis_speed_m_per_s"].endswith(
+        " Empty in the 2 frames X.") and not cols["pelvis_missing"].endswith("X.")
+
+
+@pytest.mark.slow
+def test_a_real_run_leaves_the_unplaced_frames_positions_empty(tmp_path):
+    """The sports2d demo from its MediaPipe file: the frames whose pelvis path has no fit
+    (pelvis_path_std_world NaN) have empty positions in kinematics.csv and keep their angles."""
+    from pcnet.pipeline import RunConfig, run_pipeline
+
+    folder = shared("real", "sports2d_demo")
+    mp = folder / "mediapipe_blazepose33.npz"
+    cfg = RunConfig(video=str(folder / "demo.mp4"), lifter="mediapipe", lifter_output=str(mp), keypoints2d=str(mp),
+                    keypoints2d_format="mediapipe", recording=False, out=str(tmp_path / "o"))
+    result = run_pipeline(cfg.validate(), progress=False)
+    with np.load(result.outputs["canonical.npz"], allow_pickle=False) as npz:
+        std, world = npz["pelvis_path_std_world"], npz["joints_world"]
+    unplaced = ~np.isfinite(std).all(axis=1) & np.isfinite(world).any(axis=(1, 2))
+    with open(result.outputs["kinematics.csv"], newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert unplaced.any()
+    for i in np.flatnonzero(unplaced):
+        assert rows[i]["pelvis_y_m"] == rows[i]["left_ankle_speed_m_per_s"] == "", i
+    assert any(rows[i]["trunk_inclination_deg"] for i in np.flatnonzero(unplaced))
+    assert all(rows[i]["pelvis_y_m"] for i in np.flatnonzero(~unplaced & np.isfinite(std).all(axis=1))
+               if rows[i]["pelvis_missing"] == "0")
+    assert "leaves their positions and speeds empty" in (tmp_path / "o" / "report.md").read_text()

@@ -233,6 +233,7 @@ def kinematics_columns(
     empty_angles: Mapping[str, str] | None = None,
     floor: str | None = None,
     up_uncertainty: str | None = None,
+    unplaced: str | None = None,
 ) -> list[tuple[str, str, str, str]]:
     """The columns of ``kinematics.csv``, in order, each ``(column, unit, frame, definition)``:
     the one source of its header (:func:`write_kinematics_csv`) and of its data dictionary
@@ -260,6 +261,9 @@ def kinematics_columns(
             the angles measured against it (frame ``canonical``: the up is their reference, so
             its error is theirs; a user trial read a 15 deg spread of trunk lean between four
             cameras from columns that gave no uncertainty).
+        unplaced: which frames have a pose but no place in the world frame (one clause), said
+            in every position, velocity, acceleration and speed definition: written empty there
+            (:func:`blank_frames`).
 
     Returns:
         a list of ``(column, unit, frame, definition)``; ``definition`` is ``None`` for an
@@ -305,6 +309,8 @@ def kinematics_columns(
                                        "the pelvis)" if frame == "canonical" else "")
         cols.append((f"{j}_speed_{v}", f"{units}/s", frame, f"Speed of the {joint}, the norm of its velocity (empty "
                      f"where the velocity is){speed_note}."))
+        if unplaced:
+            cols[-10:] = [(name, unit, of, f"{text} Empty in {unplaced}.") for name, unit, of, text in cols[-10:]]
         cols.append((f"{j}_missing", "0/1", "none", f"1 where the {joint} position is missing in this frame (NaN "
                      f"input, or masked by low 2D confidence), else 0."))
         cols.append((f"{j}_unfiltered", "0/1", "none", f"1 where the {joint} position is finite but raw (its run of "
@@ -337,6 +343,18 @@ def blank_unobservable(k: Kinematics, unobservable: Mapping[str, tuple[str, str]
         i, c = names.index(j), ["xyz".index(ax) for ax in axes]
         pos[:, i, c] = vel[:, i, c] = acc[:, i, c] = np.nan
         speed[:, i] = np.nan
+    return replace(k, positions=pos, velocity=vel, acceleration=acc, speed=speed)
+
+
+def blank_frames(k: Kinematics, rows: np.ndarray) -> Kinematics:
+    """``k`` with every joint's positions, velocities, accelerations and speed set to NaN in
+    ``rows`` (``(k.num_frames,)`` bool), its angles kept: frames whose place in the world frame
+    is not known though the pose is; ``k`` itself when no row is set."""
+    rows = np.asarray(rows, bool)
+    if not rows.any():
+        return k
+    pos, vel, acc, speed = (np.array(x, dtype=np.float64) for x in (k.positions, k.velocity, k.acceleration, k.speed))
+    pos[rows] = vel[rows] = acc[rows] = speed[rows] = np.nan
     return replace(k, positions=pos, velocity=vel, acceleration=acc, speed=speed)
 
 
@@ -385,6 +403,7 @@ def write_kinematics_csv(
     empty_angles: Mapping[str, str] | None = None,
     floor: str | None = None,
     up_uncertainty: str | None = None,
+    unplaced: str | None = None,
 ) -> Path:
     """Write one CSV row per frame with positions, velocities, accelerations, speeds,
     per-joint missing/unfiltered flags and angles of the kinematics (world or canonical frame), atomically.
@@ -430,6 +449,8 @@ def write_kinematics_csv(
         empty_angles: angle name -> why the run leaves it empty, for the dictionary.
         floor: the world frame's floor kind, for the heights' definitions (:func:`kinematics_columns`).
         up_uncertainty: how uncertain the up is, for the angles against it (:func:`kinematics_columns`).
+        unplaced: which frames the caller's kinematics leave without positions, for the
+            dictionary (:func:`kinematics_columns`).
 
     Returns:
         the destination path.
@@ -460,7 +481,7 @@ def write_kinematics_csv(
 
     described = {name: (extra_definitions or {}).get(name) for name in extra}
     listed = kinematics_columns(chosen, first.units, first.angles, described, frame, unobservable, empty_angles,
-                                floor, up_uncertainty)
+                                floor, up_uncertainty, unplaced)
     header = [c[0] for c in listed]
     dup = {h for h in header if header.count(h) > 1}
     if dup:

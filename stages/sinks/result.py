@@ -23,13 +23,13 @@ import numpy as np
 from ..core.canonical import to_canonical
 from ..core.conventions import H36M_JOINTS
 from ..core.rotations import decompose_camera_rotation
-from ..core.framestore import column, frame_blocks, in_memory, per_frame
+from ..core.framestore import column, frame_blocks, in_memory, per_frame, present_frames
 from ..flags import one_person_frames, track_present
-from ..kinematics import FrameGatherer, count_flags
+from ..kinematics import FrameGatherer, count_flags, frames_phrase
 from ..rectification_report import RectificationReport
 from ..remap import outside_image
 from .bvh import write_bvh
-from .exports import blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
+from .exports import blank_frames, blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
 from .plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
 from .rerun_log import series_from_kinematics, write_recording
 
@@ -180,6 +180,17 @@ def unobservable_paths(r: RecordingResult) -> dict[str, tuple[str, str]]:
     return {}
 
 
+def unplaced_frames(r: RecordingResult) -> np.ndarray | None:
+    """``(T,)`` bool: the frames with a pose whose pelvis path from 2D keypoints has no fit
+    (``pelvis_path_std`` NaN): the world frame holds them at their stretch's first or last
+    fitted position (:func:`pcnet.pipeline.pelvis_path.pelvis_path`), so their positions and
+    motion are not the body's (a trial's pelvis stayed 0.66 m up through a backflip);
+    ``None`` without such a path."""
+    if r.root_path != "from 2D keypoints" or r.pelvis_path_std is None or r.world is None:
+        return None
+    return ~np.isfinite(r.pelvis_path_std).all(axis=1) & present_frames(r.joints_camera)
+
+
 def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> dict[str, Path]:
     """``kinematics.csv`` (:func:`.exports.write_kinematics_csv`, with the ``valid`` and
     ``heading_deg`` columns, ``track_segment`` with 2D input, ``implausible_motion`` where the
@@ -193,11 +204,15 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
     kept = FrameGatherer(T, KEPT_JOINTS, np.float32, allocate)
     missing, unfiltered = np.zeros((T, 17), bool), np.zeros((T, 17), bool)
     unobservable = unobservable_paths(r)
+    unplaced = unplaced_frames(r)
+    unplaced = unplaced if unplaced is not None and unplaced.any() else None
 
     def keeping(blocks):
         for k in blocks:
-            k = blank_unobservable(k, unobservable)  # the plots and the recording show what the CSV has
             rows = slice(kept.filled, kept.filled + k.num_frames)
+            k = blank_unobservable(k, unobservable)  # the plots and the recording show what the CSV has
+            if unplaced is not None:
+                k = blank_frames(k, unplaced[rows])
             kept.add(k)
             missing[rows], unfiltered[rows] = k.missing, k.unfiltered
             yield k
@@ -215,7 +230,11 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
                          dictionary=dictionary, extra_definitions=EXTRA_COLUMNS, frame=r.kinematics_frame,
                          unobservable=unobservable, empty_angles=r.empty_angles,
                          floor=r.floor_kind if r.kinematics_frame == "world" else None,
-                         up_uncertainty=up_uncertainty(r.rectification))
+                         up_uncertainty=up_uncertainty(r.rectification),
+                         unplaced=None if unplaced is None else
+                         f"the {frames_phrase(int(unplaced.sum()))} with a pose but no fitted pelvis path (held at its "
+                         f"first or last fitted position in the world frame, so their place is not known; the angles "
+                         f"are kept)")
     r.kinematics = kept.result()
     r.missing, r.unfiltered = missing, unfiltered
     r.flag_counts = count_flags(r.missing, r.unfiltered)
