@@ -1385,4 +1385,8 @@ def test_a_real_run_leaves_the_unplaced_frames_positions_empty(tmp_path):
     assert any(rows[i]["trunk_inclination_deg"] for i in np.flatnonzero(unplaced))
     assert all(rows[i]["pelvis_y_m"] for i in np.flatnonzero(~unplaced & np.isfinite(std).all(axis=1))
                if rows[i]["pelvis_missing"] == "0")
-    assert "leaves their positions and speeds empty" in (tmp_path / "o" / "report.md").read_text()
+    assert "kinematics.csv and the marker files leave their positions empty" in (
+        tmp_path / "o" / "report.md").read_text()
+    trc = read_trc(result.outputs["world.trc"])[3][:, 2:]  # the marker files agree with the CSV (an export trial)
+    assert len(trc) == len(rows) and np.isnan(trc[unplaced]).all()
+    assert np.isfinite(trc[~unplaced]).all(axis=1).sum() > 100

@@ -307,13 +307,13 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
     markers described by their frame and its writer named ``software``) and
     ``<frame>.bvh`` of ``r.poses`` (:func:`.exports.write_trc`, :func:`.exports.write_c3d`,
     :func:`.bvh.write_bvh`), only the 2D track's longest one-person stretch where it switches
-    person (:func:`_one_persons_poses`); a BVH needs one frame with all 17 joints (else a note, no file)
+    person, and the frames without a place (:func:`_marker_poses`); a BVH needs one frame with all 17 joints (else a note, no file)
     and interpolates gaps (a note counts them). ``allocate`` makes the BVH skeleton's
     per-frame samples (:func:`.bvh.write_bvh`)."""
     if r.units != "m":
         return {}
     name = r.kinematics_frame
-    poses = _one_persons_poses(r, name, allocate or in_memory)
+    poses = _marker_poses(r, name, allocate or in_memory)
     out = {f"{name}.trc": folder / f"{name}.trc"}
     # the run's own estimate of the up: a recording read upside down is written as read
     write_trc(out[f"{name}.trc"], poses, r.fps, check_up=False)
@@ -342,23 +342,29 @@ def other_persons_frames(r: RecordingResult) -> np.ndarray | None:
     return None if r.track_segment is None else ~one_person_frames(r.track_segment)
 
 
-def _one_persons_poses(r: RecordingResult, name: str, allocate) -> np.ndarray:
-    """``r.poses`` with the frames outside the 2D track's longest one-person stretch missing
-    (NaN), where the track switches person, with a note; ``r.poses`` itself otherwise. The
-    marker files carry no ``track_segment`` column, and OpenSim or a BVH viewer would animate
-    whoever the track jumped to in the frame fitted to the first person (a user trial: another
-    person 1.4 m below the ground in world.trc)."""
-    other = other_persons_frames(r)
-    if other is None or not other.any():
+def _marker_poses(r: RecordingResult, name: str, allocate) -> np.ndarray:
+    """``r.poses`` with two kinds of frames missing (NaN); ``r.poses`` itself where there are
+    none. The frames outside the 2D track's longest one-person stretch, where the track switches
+    person (with a note): the marker files carry no ``track_segment`` column, and OpenSim or a
+    BVH viewer would animate whoever the track jumped to in the frame fitted to the first
+    person (a user trial: another person 1.4 m below the ground in world.trc). The
+    :func:`unplaced_frames` (the pelvis path's note says so): their place is no measurement
+    (an export trial found the pelvis frozen in world.trc and the C3D where kinematics.csv was
+    empty)."""
+    no_mask = np.zeros(len(r.poses), bool)
+    other, unplaced = (no_mask if m is None else m for m in (other_persons_frames(r), unplaced_frames(r)))
+    gone = other | unplaced
+    if not gone.any():
         return r.poses
-    poses = allocate(f"{name}_one_person", r.poses.shape, np.float32)
-    for rows in frame_blocks(len(other)):
+    poses = allocate(f"{name}_markers", r.poses.shape, np.float32)
+    for rows in frame_blocks(len(gone)):
         block = np.array(r.poses[rows], np.float32)
-        block[other[rows]] = np.nan
+        block[gone[rows]] = np.nan
         poses[rows] = block
-    r.notes.append(f"marker files ({name}.trc, .bvh, .c3d): the {int(other.sum())} frames outside the 2D track's longest one-person "
-                   f"stretch are left empty (probably another person; kinematics.csv and canonical.npz keep them, "
-                   f"with track_segment)")
+    if other.any():
+        r.notes.append(f"marker files ({name}.trc, .bvh, .c3d): the {int(other.sum())} frames outside the 2D track's "
+                       f"longest one-person stretch are left empty (probably another person; kinematics.csv and "
+                       f"canonical.npz keep them, with track_segment)")
     return poses
 
 
