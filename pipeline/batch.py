@@ -864,13 +864,17 @@ def _engine(options: BatchOptions, on_result, on_retry):
     return LocalEngine(options.workers or cpu_cores(), options.retries, on_result, on_retry)
 
 
+def _tilt_uncertainty(row: dict) -> str | None:
+    """The report's cell for a row's camera-tilt uncertainty: ``"6.9 (95 % interval)"``."""
+    half = row.get("camera_tilt_uncertainty_deg")
+    return None if half is None else f"{half:.1f} ({row.get('camera_tilt_uncertainty')})"
+
+
 def _row_summary(item: PlannedRow, result: dict | None, status: str | None = None) -> dict:
     """A row of the summary: the engine's result, or a skipped / cancelled / pending row."""
-    base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, "frames": None, "valid": None,
-            "mode": "", "units": None, "camera_tilt_deg": None, "posture": None, "root_path": None, "floor": None,
-            "seconds": None, "error": "",
-            "warnings": [], "notes": [],
-            "host": "", "pid": None, "attempts": 0, "threads": None, "opensim_rms_cm": None,
+    base = {"row": item.row, "line": item.line, "out": str(item.out), "status": status, **dict.fromkeys(RESULT_FIELDS),
+            "mode": "", "seconds": None, "error": "", "warnings": [], "notes": [],
+            "host": "", "pid": None, "attempts": 0, "threads": None,
             # why it ran over its own earlier output (a study manager found it only on stderr)
             "ran_again": item.rerun if item.action != "skip" else ""}
     if item.action == "skip":
@@ -1209,7 +1213,7 @@ def _cell(value) -> str:
 def batch_markdown(report: BatchReport) -> str:
     """The batch report: what the terminal summary leaves out. The counts and the batch's
     settings; a table of every row (status, attempts, frames, valid frames, mode, units (a row
-    without ``height`` may not be in metres), tilt, posture, pelvis path, floor, the OpenSim
+    without ``height`` may not be in metres), tilt and its uncertainty, posture, pelvis path, floor, the OpenSim
     fit's marker RMS, seconds,
     worker, threads, output folder); the rows run again over their earlier output and why; every failed row's error in full (and its traceback
     where the failure is a bug of pcnet); every warning of every row, most severe
@@ -1231,15 +1235,15 @@ def batch_markdown(report: BatchReport) -> str:
             f"(sha256), settings and pcnet version in its output's {BATCH_MARKER}, and its report.md's "
             f"inputs.settings",
             "", "## Rows", "",
-            "| row | line | status | tries | frames | valid | mode | units | tilt deg | posture | pelvis path | floor "
-            "| OpenSim RMS cm | seconds | worker | threads | output |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| row | line | status | tries | frames | valid | mode | units | tilt deg | tilt +- deg (what) | posture "
+            "| pelvis path | floor | OpenSim RMS cm | seconds | worker | threads | output |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report.rows:
         seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else None
         worker = f"{r['host']}:{r['pid']}" if r.get("pid") else None
         out.append("| " + " | ".join(_cell(v) for v in (r["row"], r["line"], r["status"], r["attempts"], r["frames"],
                                                           r["valid"], r.get("mode"), r.get("units"),
-                                                          r.get("camera_tilt_deg"),
+                                                          r.get("camera_tilt_deg"), _tilt_uncertainty(r),
                                                           r.get("posture"), r.get("root_path"), r.get("floor"),
                                                           r.get("opensim_rms_cm"), seconds,
                                                           worker, r.get("threads"),

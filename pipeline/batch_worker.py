@@ -23,9 +23,14 @@ FINDINGS = "findings"
 #: What a row's run found that a skipped row shows again (from its resume marker or the
 #: previous summary): frame counts, mode, where the world frame's pelvis path and floor came
 #: from (report.md's ``root_path`` and ``floor.kind``), warnings, notes and, with ``opensim``, the
-#: IK fit's marker RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``).
-RESULT_FIELDS = ("frames", "valid", "mode", "units", "camera_tilt_deg", "posture", "root_path", "floor", "warnings",
-                 "notes", "opensim_rms_cm")
+#: IK fit's marker RMS in centimetres (``opensim_fit.json``'s ``marker_rms_m``); the camera
+#: tilt's uncertainty and what it is (:func:`pcnet.pipeline.checks.tilt_tolerance`: a batch trial
+#: found "not calibrated for this recording" only by opening each report.md); each joint angle's
+#: median, least and greatest value (report.md's table: a lab trial opened every kinematics.csv
+#: to compare subjects).
+RESULT_FIELDS = ("frames", "valid", "mode", "units", "camera_tilt_deg", "camera_tilt_uncertainty_deg",
+                 "camera_tilt_uncertainty", "posture", "root_path", "floor", "warnings", "notes", "opensim_rms_cm",
+                 "angles")
 #: How the row's output was made (its output's marker keeps them): a skipped row reports them (a
 #: user trial: a no-op re-run lost every row's timing).
 RUN_FIELDS = ("seconds", "host", "pid", "attempts", "threads")
@@ -120,6 +125,16 @@ def _opensim_rms_cm(staged: Path, outputs: dict[str, Path]) -> float | None:
     return None if rms is None else round(100 * rms, 2)
 
 
+def angle_summary(ranges) -> dict[str, dict[str, float]] | None:
+    """``{column: {"median", "min", "max"}}`` (deg, 0.1) of a run's
+    :class:`~pcnet.stages.column_ranges.ColumnRanges` (report.md's joint-angle table, over the
+    same frames), ``None`` without."""
+    if ranges is None:
+        return None
+    return {r.name: {"median": round(r.median, 1), "min": round(r.minimum, 1), "max": round(r.maximum, 1)}
+            for r in ranges.rows}
+
+
 def execute_row(job: dict) -> dict:
     """Run one row and return its result (the per-row fields of the batch summary, and
     :data:`FINDINGS`, its warnings' short lines).
@@ -132,11 +147,9 @@ def execute_row(job: dict) -> dict:
     traceback for unexpected exceptions. ``KeyboardInterrupt`` (the engine stopping the
     worker) propagates after ``run_pipeline`` has removed its half-written folder.
     """
-    result = {"row": job["row"], "status": "failed", "frames": None, "valid": None, "mode": "", "units": None,
-              "camera_tilt_deg": None, "posture": None, "root_path": None, "floor": None, "seconds": None,
+    result = {"row": job["row"], "status": "failed", **dict.fromkeys(RESULT_FIELDS), "mode": "", "seconds": None,
               "error": "", "warnings": [], "notes": [], "host": socket.gethostname(), "pid": os.getpid(),
-              "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS")),
-              "opensim_rms_cm": None}
+              "attempts": job.get("attempt", 1), "threads": _int_or_none(os.environ.get("PCNET_ORT_THREADS"))}
     _test_hook(job["row"])
     from pcnet.stages.core.errors import InputError
 
@@ -145,6 +158,7 @@ def execute_row(job: dict) -> dict:
 
     started = time.perf_counter()
     try:
+        from pcnet.pipeline.checks import tilt_tolerance
         from pcnet.pipeline.config import RunConfig
         from pcnet.pipeline.runner import run_pipeline
 
@@ -156,8 +170,12 @@ def execute_row(job: dict) -> dict:
             posture = run.report.rectification.posture
             # auto's choice beside what it chose (a trial read an auto row as a sequence-mode request)
             mode = run.mode + " (auto)" * (config.get("mode") == "auto")
+            tolerance, what = tilt_tolerance(run.report.rectification)
             result.update(frames=run.frames, valid=run.valid_frames, mode=mode, units=run.units,
                           camera_tilt_deg=_finite_or_none(run.camera_tilt_deg),
+                          camera_tilt_uncertainty_deg=_finite_or_none(tolerance),
+                          camera_tilt_uncertainty=what if math.isfinite(tolerance) else None,
+                          angles=angle_summary(run.angle_ranges),
                           posture=None if posture is None else posture.most_probable + " (declared)" * posture.declared,
                           root_path=run.report.root_path, floor=None if run.report.floor is None else run.report.floor.kind,
                           warnings=list(run.flags), notes=list(run.notes),

@@ -9,6 +9,7 @@ Rows that must be killed or interrupted at a known moment use the worker's test 
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import json
 import math
@@ -26,7 +27,7 @@ import pytest
 from click.testing import CliRunner
 from conftest import FIXTURES, ROOT
 
-from pcnet.pipeline.batch import BatchOptions, plan_batch, run_batch
+from pcnet.pipeline.batch import BatchOptions, plan_batch, report_path, run_batch
 from pcnet.pipeline.batch_marker import BATCH_MARKER
 from pcnet.pipeline.batch_worker import TEST_HOOK, cpu_cores
 from pcnet.pipeline.cli import main
@@ -131,6 +132,18 @@ def test_rows_run_in_workers_and_one_failing_row_does_not_stop_the_others(tmp_pa
         record = json.loads(str(f["report"]))
     assert b1["camera_tilt_deg"] == round(record["camera_tilt_deg"], 1) and b1["posture"] == "upright"
     assert b3["posture"] is None and b3["camera_tilt_deg"] is not None  # geometric: no up model, a tilt all the same
+    # how far the tilt may be off, and what that number is (a lab trial found "not calibrated" only in report.md)
+    assert b1["camera_tilt_uncertainty"] == "95 % interval" and b1["camera_tilt_uncertainty_deg"] == round(max(
+        record["camera_pitch_interval_deg"], record["camera_roll_interval_deg"]), 1)
+    assert b3["camera_tilt_uncertainty"].startswith("bootstrap-only") and b2["camera_tilt_uncertainty"] is None
+    # each angle's median and extremes, as the row's kinematics.csv gives them (a lab trial opened each one)
+    with open(tmp_path / "b1" / "kinematics.csv", newline="") as fh:
+        knee = np.array([float(r["left_knee_flexion_deg"] or "nan") for r in csv.DictReader(fh)])
+    assert b1["angles"]["left_knee_flexion_deg"] == {"median": round(float(np.nanmedian(knee)), 1),
+                                                     "min": round(float(np.nanmin(knee)), 1),
+                                                     "max": round(float(np.nanmax(knee)), 1)}
+    assert b2["angles"] is None
+    assert "| tilt +- deg (what) |" in report_path(tmp_path / "m.csv.pcnet_batch.json").read_text()
     # the thread count reached the worker's environment (a value the user set is kept)
     assert b1["threads"] == int(os.environ.get("PCNET_ORT_THREADS") or max(1, cpu_cores() // 2))
     assert summary["counts"] == {"ok": 2, "skipped": 0, "failed": 1, "cancelled": 0, "pending": 0}
@@ -607,7 +620,7 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
     assert md.startswith("# pcnet batch: /study/m.csv\n")
     # the units, camera tilt and posture of each row beside it (a batch trial compared 34 yoga files by opening
     # each; another could not tell a row without height was not in metres)
-    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | m | 4.2 | upright | - | - | - | 1.0 | "
+    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | m | 4.2 | - | upright | - | - | - | 1.0 | "
                f"h:{r['pid']} | 2 | {r['out']} |" in md for r in rows)
     assert "OpenSim" not in text  # no row asked for a fit
     assert all(r["error"] in md for r in rows[3:]) and "Traceback (most recent call last):\n  boom" in md
@@ -630,7 +643,7 @@ def test_the_summary_gives_the_opensim_fits_marker_rms():
                          settings={"engine": "local", "workers": 1, "retries": 0})
     assert "- **engine**: local, 1 worker, retries 0;" in batch_markdown(report)  # a user trial: "1 workers"
     assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3: r2)\n" in format_summary(report)
-    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | - | - | - | 1.74 | 1.0 |" in batch_markdown(report)
+    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | - | - | - | - | 1.74 | 1.0 |" in batch_markdown(report)
     rows[1]["status"] = "failed"
     assert "\nOpenSim IK        marker RMS 1.74 cm (line 2: r1)\n" in format_summary(report)
 
@@ -668,7 +681,7 @@ def test_the_summary_says_which_rows_got_a_metric_pelvis_path_and_a_floor_plane(
     report = BatchReport(rows, False, Path("/s/m.pcnet_batch.json"), 1.0, settings={})
     assert ("\nworld frame       pelvis path from 2D keypoints, floor plane in line 2; pelvis path not observable, "
             "floor per frame in lines 3, 4\n" in format_summary(report)), format_summary(report)
-    assert "| sequence | m | - | - | from 2D keypoints | plane | - |" in batch_markdown(report)
+    assert "| sequence | m | - | - | - | from 2D keypoints | plane | - |" in batch_markdown(report)
     for r in rows:
         r["root_path"] = None
     assert "world frame" not in format_summary(report)
