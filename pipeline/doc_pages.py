@@ -57,6 +57,10 @@ def find_page(cited: str) -> tuple[str, Path]:
                or (name.isdigit() and n.startswith(f"decisions/{int(name):04d}-"))]
     if len(by_file) == 1:
         return by_file[0], known[by_file[0]]
+    if name == "api" or name.startswith("api/"):  # the site renders these from docstrings (a developer trial)
+        module = "pcnet." + (name.removeprefix("api/") if name != "api" else "pipeline")
+        raise InputError(f"pcnet docs {cited}: expected one of the shipped pages (pcnet docs lists them), got the "
+                         f"Python API, which the modules' docstrings are: python -m pydoc {module}")
     raise InputError(f"pcnet docs {cited}: expected one of the shipped pages (pcnet docs lists them), got no page "
                      f"{name!r}{close_names([name], [*known, *(n.rsplit('/', 1)[-1] for n in known)])}")
 

@@ -53,6 +53,9 @@ def test_pcnet_docs_lists_the_pages_and_refuses_an_unknown_one_in_one_line():
     refused = runner.invoke(main, ["docs", "limts"])
     assert refused.exit_code == 1 and len(refused.output.strip().splitlines()) == 1
     assert "got no page 'limts' (limts: limits?)" in refused.output
+    # the site's API pages are rendered docstrings: pydoc shows them (a developer trial looked here)
+    api = runner.invoke(main, ["docs", "api/pipeline"])
+    assert api.exit_code == 1 and api.output.strip().endswith("python -m pydoc pcnet.pipeline"), api.output
 
 
 def test_a_reader_that_stops_reading_gets_no_error_line():
