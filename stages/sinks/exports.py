@@ -140,7 +140,8 @@ _AXES = {
     "canonical": {"x": "+X (horizontal: the subject's anterior, pelvis heading)", "y": "+Y (up)",
                   "z": "+Z (horizontal: the subject's right along the hip line)"},
 }
-_HEIGHT = {"world": ", the height above the surface the feet stand on (y = 0: the ground, or a box's top)", "canonical": ", from the pelvis"}
+_HEIGHT = {"world": ", the height above the surface the feet stand on (y = 0: the ground, or a box's top)",
+           "canonical": ", from the pelvis"}
 #: What a world frame's heights are measured from when its floor is not one fitted plane
 #: (:func:`pcnet.stages.world_frame.to_world_floor`), by the floor's ``kind``.
 _FLOOR_HEIGHT = {
@@ -292,6 +293,7 @@ def kinematics_columns(
                 return _FLOOR_HEIGHT[floor]
             return "."
 
+        motion = len(cols)  # the joint's positions, velocities, accelerations and speed start here
         for c in "xyz":
             cols.append((f"{j}_{c}_{u}", units, frame, f"Position of the {joint} joint centre along {_AXES[frame][c]}"
                          f"{_HEIGHT[frame] if c == 'y' else ''}, low-pass filtered (raw where {j}_unfiltered = 1, "
@@ -310,7 +312,7 @@ def kinematics_columns(
         cols.append((f"{j}_speed_{v}", f"{units}/s", frame, f"Speed of the {joint}, the norm of its velocity (empty "
                      f"where the velocity is){speed_note}."))
         if unplaced:
-            cols[-10:] = [(name, unit, of, f"{text} Empty in {unplaced}.") for name, unit, of, text in cols[-10:]]
+            cols[motion:] = [(name, unit, of, f"{text} Empty in {unplaced}.") for name, unit, of, text in cols[motion:]]
         cols.append((f"{j}_missing", "0/1", "none", f"1 where the {joint} position is missing in this frame (NaN "
                      f"input, or masked by low 2D confidence), else 0."))
         cols.append((f"{j}_unfiltered", "0/1", "none", f"1 where the {joint} position is finite but raw (its run of "
