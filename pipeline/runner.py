@@ -210,6 +210,9 @@ class RunResult:
         if "kinematics.csv" in self.outputs:  # a coach's trial looked for the angles among 246 columns
             lines.append("joint angles: kinematics.csv's *_deg columns (each defined in kinematics_columns.csv; "
                          "their ranges, and the joints' peak speeds, in report.md)")
+            # how far to trust them, in the terminal (a clinician's trial found it only in report.md)
+            lines.append("angles carry the lifter's own error: 4 calibrated views of one subject read knees and hips "
+                         "tens of deg apart (docs/guide/limits.md)")
         if "recording" in self.outputs:
             # quoted as a shell needs it (a coach's path with a space did not paste)
             lines.append(f"open the recording with:  rerun {shlex.quote(str(self.outputs['recording']))}")

@@ -1203,7 +1203,8 @@ def test_the_recording_command_pastes_into_a_shell():
     result = RunResult(frames=1, valid_frames=1, units="m", method="pcnet", report=run_report(), fps=30.0,
                        fps_source="--fps", outputs={"kinematics.csv": Path("/x/out/kinematics.csv")})
     assert ("\njoint angles: kinematics.csv's *_deg columns (each defined in kinematics_columns.csv; their ranges, "
-            "and the joints' peak speeds, in report.md)") in result.summary()
+            "and the joints' peak speeds, in report.md)\nangles carry the lifter's own error: 4 calibrated views of one "
+            "subject read knees and hips tens of deg apart (docs/guide/limits.md)") in result.summary()
 
 
 def test_the_heading_line_gives_the_limit_auto_decided_by():
