@@ -173,20 +173,21 @@ _COLUMN_NAME = re.compile(r"(.+?)[ ._:/-]?([xyz])", re.IGNORECASE)
 
 
 def _columns_by_name(p: Path, header: list[str] | None, lay) -> tuple[np.ndarray | None, str]:
-    """``(order, note)``: where every name of a CSV ``header`` is a joint of layout ``lay``
-    and an axis (``head.x``, ``left_hip_y``, ``nose z``; the layout's own names), the column
-    of each joint's ``x, y, z`` in layout order, and a note saying so; ``(None, "")`` where
-    the header does not name the layout's joints (its columns are read in layout order).
+    """``(order, note)``: where a CSV ``header`` names every joint of layout ``lay`` with an
+    axis (``head.x``, ``left_hip_y``, ``nose z``; the layout's own names), the column of each
+    joint's ``x, y, z`` in layout order, and a note saying so; other columns whose names are
+    no joint axis (``frame``, ``time``) are left out, named in the note (a plugin trial's
+    ``frame`` column had made the whole header unread); ``(None, "")`` where the header does
+    not name the layout's joints (its columns are read in layout order).
 
     Raises:
         AdapterError: a header naming the layout's joints with one missing, repeated or unknown.
     """
     if not header:
         return None, ""
-    parsed = [_COLUMN_NAME.fullmatch(name.strip()) for name in header]
-    if not all(parsed):
-        return None, ""
-    keys = [(m.group(1).strip().lower(), m.group(2).lower()) for m in parsed]
+    parsed = {i: _COLUMN_NAME.fullmatch(name.strip()) for i, name in enumerate(header)}
+    columns = [i for i, m in parsed.items() if m]
+    keys = [(parsed[i].group(1).strip().lower(), parsed[i].group(2).lower()) for i in columns]
     known = set(lay.joints)
     if not any(joint in known for joint, _ in keys):
         return None, ""
@@ -198,10 +199,15 @@ def _columns_by_name(p: Path, header: list[str] | None, lay) -> tuple[np.ndarray
                  else f"no {', '.join(absent[:5])}" if absent else "a name repeated")
         raise AdapterError(p, "header", f"a name for each {lay.name} joint's x, y and z (e.g. {lay.joints[0]}.x), "
                            f"or no joint names", found)
-    order = np.array([keys.index(k) for k in wanted])
-    if np.array_equal(order, np.arange(len(order))):
+    order = np.array([columns[keys.index(k)] for k in wanted])
+    left_out = [header[i].strip() for i, m in parsed.items() if not m]
+    if np.array_equal(order, np.arange(len(header))):
         return None, ""
-    return order, f"columns read by their header's joint names ({lay.name} order differs from the file's)"
+    notes = [f"columns read by their header's joint names ({lay.name} order differs from the file's)"
+             if np.any(np.diff(order) < 0) else "",
+             f"column{'s' * (len(left_out) != 1)} {', '.join(map(repr, left_out))} left out (no joint axis)"
+             if left_out else ""]
+    return order, "; ".join(n for n in notes if n)
 
 
 def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", units: str = "m",
@@ -213,7 +219,8 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
             ``.csv``/``.txt``: one row per frame, ``J*3`` columns ``x, y, z`` per joint in
             layout order, an optional header line (pandas' ``to_csv`` header and index column
             are recognised; a header naming every joint's axes, ``head.x`` or ``left_hip_y``
-            with the layout's joint names, puts the columns in layout order by those names:
+            with the layout's joint names, puts the columns in layout order by those names
+            and leaves out columns that name no joint axis, such as ``frame``:
             :func:`_columns_by_name`), empty cells = missing.
             Arrays may be ``(T, J, 3)`` or ``(T, J*3)``.
         layout: joint layout name (``h36m17``, ``coco17``, ``halpe26``, ``body25``, ``blazepose33``).

@@ -791,6 +791,14 @@ def test_generic_csv_columns_follow_their_header_names_not_their_position(tmp_pa
     wrong.write_text(header.replace("head.", "nose.") + "\n" + path.read_text().split("\n", 1)[1])
     with pytest.raises(AdapterError, match=r"field 'header'.*got nose \(not h36m17 joints\)"):
         load_generic(wrong)
+    # a frame and a time column beside the joints' (a plugin trial's CSV): left out, and said
+    named = ",".join(f"{n}_{c}" for n in names for c in "xyz")
+    rows = "\n".join(f"{i},{i / 30:.4f}," + ",".join(f"{v:.6f}" for v in r) for i, r in enumerate(base.reshape(20, -1)))
+    framed = tmp_path / "framed.csv"
+    framed.write_text(f"frame,time_s,{named}\n{rows}\n")
+    p4 = load_generic(framed)
+    np.testing.assert_allclose(p4.joints, base, atol=1e-6)
+    assert "columns 'frame', 'time_s' left out (no joint axis)" in p4.notes and "order differs" not in p4.notes
 
 
 def test_a_semicolon_csv_runs_with_the_delimiter_flag(tmp_path):
