@@ -6,7 +6,7 @@ An adapter is a small class with a ``load(path, **options)`` method returning
 
     import numpy as np
     from pcnet.adapters import Poses3D, register_3d
-    from pcnet.adapters.validate import load_npy
+    from pcnet.adapters.validate import checked_poses, load_npy
 
     @register_3d("my_lifter", records_fps=False)   # its files hold no frame rate
     class MyLifter:
@@ -15,6 +15,7 @@ An adapter is a small class with a ``load(path, **options)`` method returning
         def load(self, path):   # its options as named parameters: a misspelt one is refused
             arr = load_npy(path, ndim=3, num_joints=17)   # raises AdapterError on bad input
             joints = arr * np.array([1e-3, -1e-3, -1e-3], np.float32)   # mm -> m, RUB -> RDF
+            joints = checked_poses(path, "poses", joints, "h36m17", "m")   # the shared checks, last
             return Poses3D(joints, "h36m17", units="m", source=str(path),
                            notes="my_lifter: mm -> m, y and z flipped to the camera frame")
 
@@ -48,9 +49,11 @@ file's numbers: ``np.asarray`` of its lists would take strings and booleans, ``c
 last); anything else it raises is reported as a bug in it, with its traceback and a last line
 naming the adapter's class, its package and the file.
 
-A file in a joint layout of its own is remapped to H36M-17 by the adapter itself before
-``checked_poses`` (as ``kinect.py`` does: :class:`Poses3D` takes only the layouts pcnet
-knows), whose errors then name H36M-17's joints; say the file's own names in ``notes``, which
+H36M-17's joints, in their order, are ``pcnet.stages.core.conventions.H36M_JOINTS`` (pelvis,
+right_hip, ..., neck_nose, head, ..., right_wrist; ``docs/CONVENTIONS.md``), the names a CSV
+header gives ``--lifter generic``. A file in a joint layout of its own is remapped to H36M-17
+by the adapter itself before ``checked_poses`` (as ``kinect.py`` does: :class:`Poses3D` takes
+only the layouts pcnet knows), whose errors then name H36M-17's joints; say the file's own names in ``notes``, which
 the run's report keeps (``inputs.lifter_notes``, with the adapter's class and package version
 in ``inputs.lifter_adapter``). ``records_fps`` is ``True`` unless given: an adapter whose
 files hold no frame rate must say ``False``, or ``pcnet batch`` does not ask its rows for

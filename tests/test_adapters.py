@@ -1278,3 +1278,28 @@ def test_a_library_caller_passing_no_path_gets_the_adapters_error():
     with pytest.raises(AdapterError, match=r"field 'joints': expected a float32 numpy array, got dtype float64"):
         Poses3D(np.load(FIX / "boxing_X3D_f000-059.npy").astype(np.float64), "h36m17", units="normalised",
                 source="vp.npy")
+
+
+def test_the_registry_docstrings_adapter_example_reads_its_format(tmp_path):
+    """The adapter example of ``pcnet.adapters.registry`` (a plugin trial wrote its adapter from
+    it): run as written, in a process of its own, on H36M-17 millimetres with y up and z towards
+    the camera, it gives the camera-frame metres, and its placeholder zeros are missing."""
+    import re
+    import subprocess
+    import sys
+    import textwrap
+
+    import pcnet.adapters.registry as registry
+
+    example = textwrap.dedent(re.search(r"::\n\n((?:    .*\n|\n)+)", registry.__doc__).group(1))
+    base = np.load(YOGA["Tadasana"])[:30].astype(np.float32)
+    written = base * np.array([1e3, -1e3, -1e3], np.float32)
+    written[4, 16] = 0.0  # an undetected wrist, as such a lifter writes it
+    np.save(tmp_path / "out.npy", written)
+    assert 'get_3d_adapter("my_lifter").load("out.npy")' in example
+    code = example + 'np.save("read.npy", poses.joints)\n'
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, cwd=tmp_path)
+    read = np.load(tmp_path / "read.npy")
+    assert np.isnan(read[4, 16]).all()
+    read[4, 16] = base[4, 16]
+    np.testing.assert_allclose(read, base, atol=1e-5)
