@@ -276,6 +276,15 @@ def test_rerun_world_view_has_a_floor_under_the_whole_walk(tmp_path):
     assert (lo <= xz.min(0)).all() and (hi >= xz.max(0)).all()  # the walk (about 3.5 m) stays on it
     assert ((hi - lo) < (xz.max(0) - xz.min(0)) + 5.0).all()  # and it is not absurdly large
     assert rows["/world/skeleton/joints"] == len(W)
+    # floor_frames: the grid spans those frames' joints only (another person's frames left out)
+    first = np.arange(len(W)) < len(W) // 4
+    part = tmp_path / "part"
+    part.mkdir()
+    path3, _, _ = _recording(part, WALK, floor_frames=first)
+    pts3 = np.concatenate([np.array(s) for s in _column(_static_batch(path3, "/world/floor"), "LineStrips3D:strips")[0]])
+    span = W[first][..., [0, 2]].reshape(-1, 2)
+    lo3, hi3 = pts3[:, [0, 2]].min(0), pts3[:, [0, 2]].max(0)
+    assert (lo3 <= span.min(0)).all() and (hi3 >= span.max(0)).all() and ((hi3 - lo3) < (hi - lo)).any()
     # floor=False leaves it out
     off = tmp_path / "off"
     off.mkdir()

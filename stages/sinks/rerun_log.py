@@ -169,14 +169,16 @@ def _median_torso(X: np.ndarray) -> float:
     return float(np.median(torso)) if torso.size else float("nan")
 
 
-def _floor_grid(world: np.ndarray, torso: float) -> list[np.ndarray]:
+def _floor_grid(world: np.ndarray, torso: float, frames: np.ndarray | None = None) -> list[np.ndarray]:
     """Line strips of a square grid on the floor plane y = 0 of the world frame, covering
-    the horizontal extent of every finite joint plus a margin of about one and a half torso
-    lengths; spacing a round number (1, 2 or 5 x 10^k) near the torso length (0.5 for a
-    metric adult), at most 100 lines per direction. Empty when no joint is finite."""
+    the horizontal extent of every finite joint of ``frames`` (``(T,)`` bool; ``None``: all)
+    plus a margin of about one and a half torso lengths; spacing a round number (1, 2 or 5 x
+    10^k) near the torso length (0.5 for a metric adult), at most 100 lines per direction.
+    Empty when no joint is finite."""
     extents = []  # per block of frames: the finite joints' (min, max) of x and z
     for rows in frame_blocks(len(world)):
-        xz = world[rows][..., [0, 2]].reshape(-1, 2)
+        block = world[rows] if frames is None else world[rows][frames[rows]]
+        xz = block[..., [0, 2]].reshape(-1, 2)
         xz = xz[np.isfinite(xz).all(-1)]
         if xz.size:
             extents.append((xz.min(0), xz.max(0)))
@@ -274,6 +276,7 @@ def write_recording(
     implausible_frames: np.ndarray | None = None,
     track_segment: np.ndarray | None = None,
     keypoints2d_outside: np.ndarray | None = None,
+    floor_frames: np.ndarray | None = None,
 ) -> Path:
     """Write a ``.rrd`` recording of one sequence with a default blueprint, atomically.
 
@@ -331,6 +334,9 @@ def write_recording(
             whose joints the run took as missing (:func:`pcnet.stages.remap.outside_image`):
             not drawn, so that the 2D view shows the keypoints the 3D views use (a user trial
             saw them drawn beside the picture while their joints were missing in 3D).
+        floor_frames: optional ``(T,)`` bool, the frames whose joints the floor grid spans
+            (the tracked person's: a trial's grid also spanned the frames where the 2D track
+            had switched to another person); default every frame.
 
     Returns:
         the destination path.
@@ -359,6 +365,7 @@ def write_recording(
         if implausible.shape != (T,):
             raise InputError(f"write_recording: implausible_frames must have shape ({T},), got {implausible.shape}")
     segment = None if track_segment is None else _check("track_segment", track_segment, (T,))
+    floor_frames = None if floor_frames is None else _check("floor_frames", floor_frames, (T,)).astype(bool)
     outside = None
     if keypoints2d_outside is not None:
         outside = np.asarray(keypoints2d_outside, dtype=bool)
@@ -423,7 +430,7 @@ def write_recording(
                 rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset,
                 video_ns, canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space,
                 show_labels=bool(show_labels), floor=bool(floor), implausible=implausible, segment=segment,
-                outside=outside,
+                outside=outside, floor_frames=floor_frames,
             )
             text = "\n".join(f"- {f}" for f in flags) if flags else "no warnings"
             rec.log("flags", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True, strict=True)
@@ -442,7 +449,7 @@ def _log_all(
     rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset, video_ns,
     canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space, *,
     show_labels: bool = False, floor: bool = True, implausible: np.ndarray | None = None,
-    segment: np.ndarray | None = None, outside: np.ndarray | None = None,
+    segment: np.ndarray | None = None, outside: np.ndarray | None = None, floor_frames: np.ndarray | None = None,
 ) -> None:
     # strict=True everywhere: rerun's default turns API misuse into a warning and drops
     # the data, which would yield a silently incomplete recording.
@@ -508,7 +515,7 @@ def _log_all(
     if wld is not None:
         log("world", rr.ViewCoordinates.FUR)  # the world frame has the canonical frame's axis roles
         spaces.append(("world", wld))
-        grid = _floor_grid(wld, _median_torso(wld)) if floor else []
+        grid = _floor_grid(wld, _median_torso(wld), floor_frames) if floor else []
         if grid:
             log("world/floor", rr.LineStrips3D(grid, colors=[_FLOOR_C], radii=rr.Radius.ui_points(0.75)))
     for space, X in spaces:

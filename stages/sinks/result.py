@@ -400,6 +400,7 @@ def write_rerun(r: RecordingResult, folder: Path, warnings: list[str] | None = N
         flags=r.flags if warnings is None else warnings, world=r.world,
         notes=r.notes, implausible_frames=None if r.implausible_frames is None else _implausible(r),
         track_segment=None if r.track_segment is None else _track_segment(r),
+        floor_frames=None if r.track_segment is None else one_person_frames(r.track_segment),
         keypoints2d_outside=(None if r.keypoints2d is None or r.keypoint_picture is None
                              else per_frame(lambda kp: outside_image(kp, r.keypoint_picture), r.keypoints2d)),
     )
