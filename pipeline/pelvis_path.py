@@ -158,9 +158,9 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
                          f"{'outliers' if path.frames_rejected != 1 else 'an outlier'}" if path.frames_rejected else "")
                       + (f"; bridged across {frames_phrase(bridged)} without an accepted fit" if bridged > 0 else "")
                       + (f"; held at its first/last fitted position in {frames_phrase(held)} with a pose "
-                         f"but no accepted fit at the ends (pelvis_path_std_world empty there): their world positions "
-                         f"do not follow the body's travel, so kinematics.csv and the marker files leave their positions "
-                         f"empty (the angles are kept; joints_world holds them)" if held else ""))
+                         f"but no accepted fit at the ends (pelvis_path_std_world empty there): their world "
+                         f"positions do not follow the body's travel, so kinematics.csv and the marker files leave "
+                         f"their positions empty (the angles are kept; joints_world holds them)" if held else ""))
 
 
 def _held_at_the_ends(position: np.ndarray, posed: np.ndarray,

@@ -192,7 +192,8 @@ def _unmasked(joints, name: str = "poses") -> np.ndarray:
     if np.ma.isMaskedArray(joints) and (np.issubdtype(joints.dtype, np.floating)
                                         or np.issubdtype(joints.dtype, np.integer)):  # complex, bool: refused later
         return np.ma.filled(joints.astype(np.float64), np.nan)
-    if isinstance(joints, tuple) and len(joints) == 2 and np.ndim(joints[0]) == 3:  # a developer trial's rectify(root_relative(x))
+    # a developer trial's rectify(root_relative(x)) got numpy's "nested sequence" message
+    if isinstance(joints, tuple) and len(joints) == 2 and np.ndim(joints[0]) == 3:
         raise InputError(f"{name}: expected a (T, 17, 3) array, got a tuple of 2 arrays (root_relative returns "
                          f"(poses, pelvis filled): pass poses, its [0])")
     try:

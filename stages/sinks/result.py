@@ -29,7 +29,8 @@ from ..kinematics import FrameGatherer, count_flags, frames_phrase
 from ..rectification_report import RectificationReport
 from ..remap import outside_image
 from .bvh import write_bvh
-from .exports import blank_frames, blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
+from .exports import (blank_frames, blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz,
+                      write_trc)
 from .plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
 from .rerun_log import series_from_kinematics, write_recording
 
