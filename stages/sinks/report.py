@@ -105,11 +105,11 @@ def _angle_table(ranges: ColumnRanges) -> list[str]:
         return ["None: no angle has a value in any frame counted."]
     # the trust statement first and the columns a clinician looks for named (a clinician's trial
     # found the one mid-paragraph and four trunk columns with no word on which to read)
-    return [f"**Every angle carries the lifter's own error**, which no warning measures in one recording: four "
-            f"calibrated cameras of one standing subject read its hips and knees tens of degrees apart, and the hips' "
-            f"internal rotations err more than they vary (docs/guide/limits.md, docs/joint_angles.md). Angles against "
-            f"gravity (`*_inclination_deg`, `*_to_gravity_deg`) also carry the up's uncertainty, which "
-            f"kinematics_columns.csv states.", "",
+    return ["**Every angle carries the lifter's own error**, which no warning measures in one recording: four "
+            "calibrated cameras of one standing subject read its hips and knees tens of degrees apart, and the hips' "
+            "internal rotations err more than they vary (docs/guide/limits.md, docs/joint_angles.md). Angles against "
+            "gravity (`*_inclination_deg`, `*_to_gravity_deg`) also carry the up's uncertainty, which "
+            "kinematics_columns.csv states.", "",
             "Trunk lean from vertical: `trunk_inclination_deg` (0 upright, 90 lying); forward and sideways: "
             "`trunk_sagittal_inclination_deg` (positive forward) and `trunk_frontal_inclination_deg` (positive to the "
             "subject's right). Knees and elbows: `*_flexion_deg` (ISB, 0 straight; a negative knee reads "
