@@ -177,14 +177,16 @@ def world_up_warning(clips: list[Clip], source: str | Path) -> str | None:
 def assumed_fps_warning(clips: list[Clip], source: str | Path) -> str | None:
     """A one-line warning when some ``clips`` have no ``fps`` in the ``.json`` beside
     ``source`` and were read at :data:`DEFAULT_MOCAP_FPS`, else ``None``. Callers warn only
-    where time matters (lifter-like noise, sequence modes); per-frame scores do not use it."""
+    where time matters: lifter-like noise, sequence modes, and frame mode's view gate, whose
+    quarter turns are read over a window in seconds (``models/view_gate.py: WINDOW_S``); the
+    geometric method's frame mode does not use it."""
     assumed = sum(not c.fps_stated for c in clips)
     if not assumed:
         return None
     sidecar = Path(source).with_suffix(".json")
     found = f"found none for {assumed} of {len(clips)} clips" if sidecar.is_file() else "found no such file"
-    return (f"{sidecar}: expected each clip's 'fps' (the lifter-like noise's correlation time and sequence modes' "
-            f"windows are in seconds), {found}: read at {DEFAULT_MOCAP_FPS:g} fps")
+    return (f"{sidecar}: expected each clip's 'fps' (the lifter-like noise's correlation time, sequence modes' "
+            f"windows and the view gate's are in seconds), {found}: read at {DEFAULT_MOCAP_FPS:g} fps")
 
 
 def read_sidecar(path: Path) -> dict:
@@ -304,8 +306,9 @@ def motion_style_split(clip: Clip) -> str:
                 return split
         return "train"
     raise InputError(f"clip {clip.name!r}: split scheme 'motion-style' expected a Bandai name "
-                     f"<dataset>_<motion>_<style>_<take> or a CMU subject (name <subject>_<trial> or json "
-                     f"'subject'), got neither; use split 'all' (cross-dataset) or split scheme 'clip'")
+                     f"<dataset>_<motion>_<style>_<take> or a CMU subject number (name <subject>_<trial> or an "
+                     f"integer json 'subject'), got neither; use split 'all' (cross-dataset) "
+                     f"or split scheme 'clip'")
 
 
 def clip_split_of(clip: Clip, scheme: str = "clip") -> str:

@@ -705,8 +705,10 @@ def test_frames_without_a_target_are_counted_and_sequence_modes_need_one_camera_
 
 def test_a_mocap_file_without_frame_rates_is_read_at_30_fps_with_a_warning(tmp_path):
     """Real clips with their json (30 and 60 fps) keep it; the same clips without a json are
-    read at 30 fps, and evaluate warns where seconds matter (lifter noise, sequence modes)
-    and not for clean per-frame scores, which do not depend on time."""
+    read at 30 fps, and evaluate warns where seconds matter (lifter noise, sequence modes, the
+    networks' frame mode: its view gate's window is in seconds, and an evaluation trial's file
+    without rates scored 22.1 deg where it scores 10.9) and not for the geometric method's clean
+    per-frame scores, which do not depend on time."""
     from pcnet.models.datasets import DEFAULT_MOCAP_FPS
     from pcnet.pipeline.evaluate import evaluate
 
@@ -721,6 +723,8 @@ def test_a_mocap_file_without_frame_rates_is_read_at_30_fps_with_a_warning(tmp_p
     noisy = evaluate(**common, noise="lifter", camera="per-clip")["warnings"]
     assert len(noisy) == 1 and "found no such file: read at 30 fps" in noisy[0]  # no json at all (a user trial)
     assert noisy[0].startswith(f"{tmp_path / 'bare.json'}: expected each clip's 'fps'")
+    networks = evaluate(**{**common, "method": "pcnet"})["warnings"]
+    assert sum("the view gate's are in seconds" in w for w in networks) == 1  # beside the training-overlap one
 
 
 def test_an_empty_split_of_a_lab_file_points_to_split_all(tmp_path):
@@ -751,3 +755,17 @@ def test_a_mocap_file_with_left_and_right_exchanged_is_warned_about(tmp_path):
     (warning,) = [w for w in evaluate("geometric", tmp_path / "lab_swapped.npz", "all")["warnings"] if "mirror" in w]
     assert warning.startswith(f"{len(clips)} of {len(clips)} clips are mirror images of a body (knees bend forward")
     assert "left and right exchanged in the file?" in warning
+
+
+def test_a_lab_subject_that_is_not_a_cmu_number_is_named_as_such(tmp_path):
+    """An evaluation trial's json gave each clip a subject "S01": the motion-style split's
+    refusal had said it found no json 'subject' at all."""
+    from pcnet.models.datasets import motion_style_split
+
+    clip = load_mocap(FIXTURES / "deepmimic_small.npz")[0]
+    np.savez(tmp_path / "lab.npz", S01_walk_01=clip.joints)
+    (tmp_path / "lab.json").write_text(json.dumps({"S01_walk_01": {"subject": "S01", "fps": clip.fps}}))
+    (lab,) = load_mocap(tmp_path / "lab.npz")
+    with pytest.raises(InputError, match=r"a CMU subject number \(name <subject>_<trial> or an integer json "
+                                         r"'subject'\), got neither; use split 'all'"):
+        motion_style_split(lab)
