@@ -889,8 +889,9 @@ def _row_summary(item: PlannedRow, result: dict | None, status: str | None = Non
 class _SummaryWriter:
     """Writes the JSON summary atomically while the batch runs, so that a driver that dies
     still leaves what finished (at every result, or at most every :data:`SUMMARY_EVERY_S`
-    for batches over :data:`SUMMARY_EVERY_RESULT_ROWS` rows, whose rewrites would add up),
-    and at the end."""
+    for batches over :data:`SUMMARY_EVERY_RESULT_ROWS` rows, whose rewrites would add up;
+    these rewrites also leave out the rows' ``angles``, five times the rest of a row: 10,000
+    rows took 5.8 s to write with them), and at the end, in full."""
 
     def __init__(self, path: Path, header: dict):
         self.path, self.header, self.last = path, header, 0.0
@@ -900,6 +901,8 @@ class _SummaryWriter:
         if not force and len(rows) > SUMMARY_EVERY_RESULT_ROWS and now - self.last < SUMMARY_EVERY_S:
             return
         self.last = now
+        if len(rows) > SUMMARY_EVERY_RESULT_ROWS and not extra.get("finished"):
+            rows = [{k: v for k, v in r.items() if k != "angles"} for r in rows]
         counts = {status: sum(r["status"] == status for r in rows) for status in (*STATUSES, "pending")}
         data = {**self.header, **extra, "counts": counts, "rows": rows}
         write_text(self.path, json.dumps(data, indent=1) + "\n")
