@@ -1336,18 +1336,18 @@ def test_frames_with_a_pose_but_no_fitted_pelvis_path_have_no_positions(yoga_lev
     angles and lose every position, velocity, acceleration and speed, and the dictionary says so."""
     from types import SimpleNamespace
 
-    from pcnet.stages.sinks.exports import blank_frames, kinematics_columns
+    from pcnet.stages.sinks.exports import blank_unobservable, kinematics_columns
     from pcnet.stages.sinks.result import unplaced_frames
 
     k = compute_kinematics(yoga_level, 30.0)
     rows = np.zeros(k.num_frames, bool)
     rows[:3] = True
-    out = blank_frames(k, rows)
+    out = blank_unobservable(k, None, rows)
     assert np.isnan(out.positions[:3]).all() and np.isnan(out.speed[:3]).all()
     np.testing.assert_array_equal(out.positions[3:], k.positions[3:])
     for name, values in k.angles.items():
         np.testing.assert_array_equal(out.angles[name], values)
-    assert blank_frames(k, np.zeros(k.num_frames, bool)) is k
+    assert blank_unobservable(k, None, np.zeros(k.num_frames, bool)) is k
 
     T = k.num_frames
     std = np.full((T, 3), 0.05)

@@ -264,7 +264,7 @@ def kinematics_columns(
             cameras from columns that gave no uncertainty).
         unplaced: which frames have a pose but no place in the world frame (one clause), said
             in every position, velocity, acceleration and speed definition: written empty there
-            (:func:`blank_frames`).
+            (:func:`blank_unobservable`'s ``rows``).
 
     Returns:
         a list of ``(column, unit, frame, definition)``; ``definition`` is ``None`` for an
@@ -331,32 +331,25 @@ def kinematics_columns(
     return cols
 
 
-def blank_unobservable(k: Kinematics, unobservable: Mapping[str, tuple[str, str]] | None) -> Kinematics:
+def blank_unobservable(k: Kinematics, unobservable: Mapping[str, tuple[str, str]] | None,
+                       rows: np.ndarray | None = None) -> Kinematics:
     """``k`` with the unobservable axes' positions, velocities and accelerations and those
-    joints' speeds set to NaN (``unobservable`` as :func:`kinematics_columns`'); ``k`` itself
-    when there are none."""
-    if not unobservable:
+    joints' speeds set to NaN (``unobservable`` as :func:`kinematics_columns`'), and every
+    joint's in ``rows`` (``(k.num_frames,)`` bool: frames whose place in the world frame is not
+    known though the pose is; their angles kept); ``k`` itself when there is nothing to blank."""
+    rows = None if rows is None or not np.any(rows) else np.asarray(rows, bool)
+    if not unobservable and rows is None:
         return k
     names = list(k.joint_names)
     pos, vel, acc, speed = (np.array(x, dtype=np.float64) for x in (k.positions, k.velocity, k.acceleration, k.speed))
-    for j, (axes, _) in unobservable.items():
+    for j, (axes, _) in (unobservable or {}).items():
         if j not in names:
             continue
         i, c = names.index(j), ["xyz".index(ax) for ax in axes]
         pos[:, i, c] = vel[:, i, c] = acc[:, i, c] = np.nan
         speed[:, i] = np.nan
-    return replace(k, positions=pos, velocity=vel, acceleration=acc, speed=speed)
-
-
-def blank_frames(k: Kinematics, rows: np.ndarray) -> Kinematics:
-    """``k`` with every joint's positions, velocities, accelerations and speed set to NaN in
-    ``rows`` (``(k.num_frames,)`` bool), its angles kept: frames whose place in the world frame
-    is not known though the pose is; ``k`` itself when no row is set."""
-    rows = np.asarray(rows, bool)
-    if not rows.any():
-        return k
-    pos, vel, acc, speed = (np.array(x, dtype=np.float64) for x in (k.positions, k.velocity, k.acceleration, k.speed))
-    pos[rows] = vel[rows] = acc[rows] = speed[rows] = np.nan
+    if rows is not None:
+        pos[rows] = vel[rows] = acc[rows] = speed[rows] = np.nan
     return replace(k, positions=pos, velocity=vel, acceleration=acc, speed=speed)
 
 

@@ -29,8 +29,7 @@ from ..kinematics import FrameGatherer, count_flags, frames_phrase
 from ..rectification_report import RectificationReport
 from ..remap import outside_image
 from .bvh import write_bvh
-from .exports import (blank_frames, blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz,
-                      write_trc)
+from .exports import blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
 from .plots import SPEED_GROUPS, plot_joint_angles, plot_joint_speeds
 from .rerun_log import series_from_kinematics, write_recording
 
@@ -125,6 +124,12 @@ class RecordingResult:
     report: dict = field(default_factory=dict)
 
     @cached_property
+    def unplaced(self) -> np.ndarray | None:
+        """:func:`unplaced_frames` of this run, read once (the table and the marker files both
+        need it, and it reads every frame's joints)."""
+        return unplaced_frames(self)
+
+    @cached_property
     def heading_deg(self) -> np.ndarray:
         """``(T,)`` camera heading of each frame's rotation, degrees
         (:func:`pcnet.stages.core.rotations.decompose_camera_rotation`)."""
@@ -205,15 +210,13 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
     kept = FrameGatherer(T, KEPT_JOINTS, np.float32, allocate)
     missing, unfiltered = np.zeros((T, 17), bool), np.zeros((T, 17), bool)
     unobservable = unobservable_paths(r)
-    unplaced = unplaced_frames(r)
-    unplaced = unplaced if unplaced is not None and unplaced.any() else None
+    unplaced = r.unplaced if r.unplaced is not None and r.unplaced.any() else None
 
     def keeping(blocks):
         for k in blocks:
             rows = slice(kept.filled, kept.filled + k.num_frames)
-            k = blank_unobservable(k, unobservable)  # the plots and the recording show what the CSV has
-            if unplaced is not None:
-                k = blank_frames(k, unplaced[rows])
+            # the plots and the recording show what the CSV has
+            k = blank_unobservable(k, unobservable, None if unplaced is None else unplaced[rows])
             kept.add(k)
             missing[rows], unfiltered[rows] = k.missing, k.unfiltered
             yield k
@@ -353,7 +356,7 @@ def _marker_poses(r: RecordingResult, name: str, allocate) -> np.ndarray:
     (an export trial found the pelvis frozen in world.trc and the C3D where kinematics.csv was
     empty)."""
     no_mask = np.zeros(len(r.poses), bool)
-    other, unplaced = (no_mask if m is None else m for m in (other_persons_frames(r), unplaced_frames(r)))
+    other, unplaced = (no_mask if m is None else m for m in (other_persons_frames(r), r.unplaced))
     gone = other | unplaced
     if not gone.any():
         return r.poses
