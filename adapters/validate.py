@@ -699,8 +699,9 @@ def nonfinite_frames(arr: np.ndarray, joint_names: Sequence[str], skip_empty_fra
     return {name: int(n) for name, n in zip(joint_names, counts) if n}
 
 
-def nonfinite_line(counts: Mapping[str, int], limit: int = 6) -> str:
-    """One summary line for :func:`nonfinite_frames`' counts, ``''`` for none; the ``limit``
+def nonfinite_line(counts: Mapping[str, int], limit: int = 6, what: str = "non-finite values (inf/NaN)") -> str:
+    """One summary line for :func:`nonfinite_frames`' counts (or another per-joint count of
+    frames read as missing, ``what`` the file held there), ``''`` for none; the ``limit``
     joints with the most frames are named, the others counted.
 
     Example: ``"input: non-finite values (inf/NaN) read as missing: right_ankle 10 frames,
@@ -714,7 +715,7 @@ def nonfinite_line(counts: Mapping[str, int], limit: int = 6) -> str:
     if rest:
         more = sum(n for _, n in rest)
         shown += f", {len(rest)} more joint{'s' * (len(rest) != 1)} ({more} frame{'s' * (more != 1)})"
-    return f"input: non-finite values (inf/NaN) read as missing: {shown}"
+    return f"input: {what} read as missing: {shown}"
 
 
 #: The farthest a root-relative export's pelvis lies from the origin, median over frames (in

@@ -45,6 +45,28 @@ MISSING_EXTRA = ('pcnet run --video without a lifter output needs the embedded e
 BLAZEPOSE_JOINTS = 33
 
 
+def estimator_record() -> dict:
+    """What identifies the embedded estimator in a run's report (``inputs.pose_estimator``): its
+    model, the bundle's file name and sha256, and the installed MediaPipe's version (``None``
+    where it is not installed). A product that swaps estimators can tell a video-alone run from
+    a MediaPipe file given to ``--lifter mediapipe`` by it (an estimator-swapping trial found
+    the two recorded alike).
+
+    Raises:
+        OSError: the shipped model bundle cannot be read.
+    """
+    import importlib.metadata
+
+    from pcnet.stages.core.digest import sha256_file_version
+
+    try:
+        version = importlib.metadata.version("mediapipe")
+    except importlib.metadata.PackageNotFoundError:
+        version = None
+    return {"model": "MediaPipe BlazePose GHUM 3D (full), pcnet's embedded estimator", "bundle": POSE_TASK.name,
+            "bundle_sha256": sha256_file_version(POSE_TASK), "mediapipe_version": version}
+
+
 @dataclass(frozen=True)
 class BlazePoseTrack:
     """BlazePose-33 landmarks of one person over a video.

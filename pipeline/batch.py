@@ -572,6 +572,9 @@ def in_manifest_terms(message: str) -> str:
         if asked:
             return f"set column {name}" + (f" to {value}" if value else "")
         return f"{'out' if name == 'out' else 'column ' + name}{rest}"
+    # "pcnet run --lifter generic" is the row's columns: no command (a bad-input trial read
+    # "read it with pcnet run column lifter generic, column units mm")
+    message = message.replace("pcnet run --", "--")
     listed = re.sub(f"({_FLAG}) (?=--)", r"\1, ", message)  # flags side by side: a list
     return re.sub(f"(pass )?{_FLAG}", flag, listed)
 

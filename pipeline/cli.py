@@ -342,7 +342,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
         validate_fps(fps, "--fps")
     check_method_weights(method, weights, "--weights")
     check_posture(posture or "auto", method, weights, mode, camera_prior is not False, "--posture")
-    joints, nonfinite = read_pose_array(input_path, key)
+    joints, nonfinite, placeholders = read_pose_array(input_path, key)
     try:
         res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading,
                           camera_prior=camera_prior is not False, posture=posture or "auto")
@@ -369,8 +369,10 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
                f"deg, of the {'one' if res.mode == 'sequence' else 'mean'} up"
                + (f"; per frame median {per_frame[0]:.1f}, 5-95 % {per_frame[1]:.1f}-{per_frame[2]:.1f}" if per_frame else "")
                + ("; its intervals in the archive's report, docs/outputs.md)" if res.mode == "sequence" else ")"))
-    if nonfinite:  # the file's inf/NaN, which the counts above take as missing joints
-        click.echo(nonfinite_line(nonfinite))
+    for counts, what in ((nonfinite, "non-finite values (inf/NaN)"),  # which the counts above take as missing
+                         (placeholders, "a writer's placeholders for joints not found (zeros, or a frame on one point)")):
+        if counts:
+            click.echo(nonfinite_line(counts, what=what))
     for f in findings:
         click.echo(f.terminal_line())
 

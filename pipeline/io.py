@@ -21,11 +21,14 @@ from pcnet.stages.remap import remap_to_h36m
 
 class PoseArray(NamedTuple):
     """What :func:`read_pose_array` read: the poses, and per H36M-17 joint the number of
-    frames in which the file held a non-finite value (``inf``, NaN) for it, read as
-    missing (only joints with one; :func:`pcnet.adapters.validate.nonfinite_line` words it)."""
+    frames in which the file held a non-finite value (``inf``, NaN) for it (``nonfinite``) or
+    a writer's placeholder for a joint not found (``placeholders``: zeros, or a frame on one
+    point; :func:`pcnet.stages.core.conventions.placeholder_joints`), each read as missing (only
+    joints with one; :func:`pcnet.adapters.validate.nonfinite_line` words them)."""
 
     joints: np.ndarray
     nonfinite: dict[str, int]
+    placeholders: dict[str, int]
 
 
 def load_pose_array(path: str | Path, key: str | None = None) -> np.ndarray:
@@ -73,7 +76,12 @@ def read_pose_array(path: str | Path, key: str | None = None) -> PoseArray:
             raise InputError(f"{path}: --key {key!r}: expected no key for a single-array .npy file, got one")
         arr = data
     joints = validate_poses(arr, source=f"{path}{f' [{key}]' if key else ''}", units=None)
-    return PoseArray(joints, nonfinite_frames(joints, H36M_JOINTS))  # NaN here is the file's inf/NaN only
+    # counted on the file's values: validation turned its placeholders into NaN too (a trial's
+    # wrists written as zeros were called inf/NaN)
+    held = np.isfinite(np.asarray(arr, np.float64).reshape(joints.shape)).all(axis=2)
+    blanked = np.isnan(joints).any(axis=2) & held
+    placeholders = {name: int(n) for name, n in zip(H36M_JOINTS, blanked.sum(axis=0)) if n}
+    return PoseArray(joints, nonfinite_frames(np.where(held[..., None], 0.0, np.nan), H36M_JOINTS), placeholders)
 
 
 def lifter_joints(poses: Poses3D, source: str, in_place: bool = False) -> np.ndarray:

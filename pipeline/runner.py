@@ -32,6 +32,7 @@ from pcnet.adapters import (AdapterError, Keypoints2D, Poses3D, VideoInfo, first
                             get_3d_adapter, probe_video)
 from pcnet.adapters.mediapipe import holds_keypoints_2d, load_mediapipe_2d
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, training_config
+from pcnet.models.pose_estimator import estimator_record
 from pcnet.adapters.validate import as_path, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, METRES_PER_LENGTH_UNIT, PELVIS, R_HIP,
                                           REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
@@ -193,7 +194,10 @@ class RunResult:
         if hz is None or not np.isfinite(hz):
             return ""
         source = "residual analysis" if self.report.cutoff_source == "residual analysis" else "--cutoff-hz"
-        why = ("; Winter's for gait: the peak speeds of faster movements, a punch or a throw, need a higher one"
+        # the rate's own limit: a wrist-IMU trial at 15 fps was told to raise a 6 Hz cutoff that
+        # sat at 0.8 of what its rate resolves
+        why = (f"; {self.fps:.4g} fps resolves up to {self.fps / 2:.3g} Hz; Winter's for gait: the peak speeds of "
+               f"faster movements, a punch or a throw, need a higher one, --residual-cutoff fits one to the recording"
                if long and source == "--cutoff-hz" else "")
         return f"; low-pass {hz:.3g} Hz ({source}{why})"
 
@@ -563,6 +567,8 @@ def _inputs_line(read: dict) -> str:
     parts = [f"method {read['method']} ({read['weights']} weights)",
              f"3D {read['lifter_output']} (--lifter {read['lifter']}: {read['lifter_layout']}, {read['lifter_units']}"
              f"{declared and '; as declared' + declared})"]
+    if "pose_estimator" in read:  # a video-alone run's file, not one the user gave
+        parts[-1] += f", made from the video by pcnet's embedded estimator (mediapipe {read['pose_estimator']['mediapipe_version']})"
     if "keypoints2d" in read:
         parts.append(f"2D {read['keypoints2d']} ({read['keypoints2d_format']}: {read['keypoints2d_layout']})")
     if "video" in read:
@@ -1029,15 +1035,25 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
     return cam, kp, root_cam, filled, outside, low_confidence
 
 
-def _low_confidence_note(low_confidence: np.ndarray, frames: int, threshold: float) -> list[str]:
+#: What MediaPipe's 2D score is (``pcnet.adapters.mediapipe.load_mediapipe_2d``): an estimator
+#: swap's trial saw the far arm masked in 283 of 301 frames, where AlphaPose's detection
+#: confidence kept the same arm.
+VISIBILITY_SCORE = ("MediaPipe's score is visibility, the chance a landmark is in view: an arm hidden behind the body "
+                    "is masked though MediaPipe estimates it; --confidence-threshold 0 keeps the estimate")
+
+
+def _low_confidence_note(low_confidence: np.ndarray, frames: int, threshold: float,
+                         keypoints2d_format: str | None = None) -> list[str]:
     """A note naming the joints masked for their 2D confidence, most first: the missing-data
     line says how much is missing, this one why and which setting decides it (a developer's
-    trial lost MediaPipe's right arm in 283 of 301 frames with no cause given)."""
+    trial lost MediaPipe's right arm in 283 of 301 frames with no cause given); for MediaPipe's
+    keypoints, what its score is (:data:`VISIBILITY_SCORE`)."""
     order = [j for j in np.argsort(-low_confidence, kind="stable") if low_confidence[j]]
     if not order:
         return []
     listed = "; ".join(f"{H36M_JOINTS[j]} in {low_confidence[j]} of {frames} frames" for j in order)
-    return [f"joints masked for 2D confidence below --confidence-threshold {threshold:g}: {listed}"]
+    score = f" ({VISIBILITY_SCORE})" if keypoints2d_format == "mediapipe" else ""
+    return [f"joints masked for 2D confidence below --confidence-threshold {threshold:g}: {listed}{score}"]
 
 
 def _located(cam, root_cam: np.ndarray | None, store: FrameStore):
@@ -1315,7 +1331,7 @@ def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFr
     picture = _keypoint_picture(inputs)
     cam, kp2d, root_cam, pelvis_filled, outside, low_confidence = _camera_frame(
         cfg, recording.joints, recording.keypoints2d, recording.measured_root, store, orientation, picture)
-    notes += _low_confidence_note(low_confidence, len(cam), cfg.min_confidence)
+    notes += _low_confidence_note(low_confidence, len(cam), cfg.min_confidence, cfg.keypoints2d_format)
     video_kp2d = None
     if kp2d is not None and cfg.recording and orientation.recording_note:
         video_kp2d = store.create("keypoints2d_video", kp2d.shape, np.float32)
@@ -1679,7 +1695,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         step("inputs")
         inputs = _inputs(cfg, estimate_notes)
         if estimate_notes:  # the estimator's file is read from the staged folder, published as `out`
-            inputs = replace(inputs, recording=replace(inputs.recording, read=_published(inputs.recording.read, tmp, out)))
+            read = {**_published(inputs.recording.read, tmp, out), "pose_estimator": estimator_record()}
+            inputs = replace(inputs, recording=replace(inputs.recording, read=read))
         bar.update()
 
         step("remap")

@@ -751,6 +751,8 @@ def test_run_flags_in_an_action_read_as_manifest_columns():
     assert in_manifest_terms("check --axes, --layout (--lifter generic)") == ("check column axes, column layout "
                                                                              "(column lifter generic)")
     assert in_manifest_terms("(--axes with --lifter generic)") == "(column axes with column lifter generic)"
+    assert in_manifest_terms("millimetres? --units mm, or read it with pcnet run --lifter generic --units mm") == \
+        "millimetres? column units mm, or read it with column lifter generic, column units mm"
     # the findings' own actions name a generic lifter's option "with --lifter generic" (a user trial read
     # "column lifter generic, column units" as garbled)
     from pcnet.stages.flags import size_change_flag

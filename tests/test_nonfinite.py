@@ -60,9 +60,26 @@ def test_read_pose_array_counts_per_joint_from_an_npz_key(tmp_path):
     poses = np.load(BOX_3D)
     poses[3, 0, 0] = np.inf  # the pelvis, one frame
     np.savez(tmp_path / "p.npz", poses=poses, other=np.zeros(3))
-    joints, counts = read_pose_array(tmp_path / "p.npz", key="poses")
-    assert counts == {"pelvis": 1} and np.isnan(joints[3, 0, 0])
+    joints, counts, placeholders = read_pose_array(tmp_path / "p.npz", key="poses")
+    assert counts == {"pelvis": 1} and np.isnan(joints[3, 0, 0]) and placeholders == {}
     assert nonfinite_line(counts) == "input: non-finite values (inf/NaN) read as missing: pelvis 1 frame"
+
+
+def test_pcnet_rectify_names_a_writers_zeros_as_placeholders_not_inf_or_nan(tmp_path):
+    """A bad-input trial's wrists written as zeros were read as missing (right) but called
+    "non-finite values (inf/NaN)" (wrong)."""
+    poses = np.load(BOX_3D)
+    poses[:, [13, 16]] = 0.0  # both wrists, every frame
+    poses[5, 2, 1] = np.nan  # and one knee's NaN
+    np.save(tmp_path / "zeros.npy", poses)
+    joints, counts, placeholders = read_pose_array(tmp_path / "zeros.npy")
+    assert counts == {"right_knee": 1} and placeholders == {"left_wrist": len(poses), "right_wrist": len(poses)}
+    assert np.isnan(joints[:, [13, 16]]).all()
+    res = _invoke("rectify", tmp_path / "zeros.npy", "--out", tmp_path / "r.npz")
+    assert res.exit_code == 0, res.output
+    assert "input: non-finite values (inf/NaN) read as missing: right_knee 1 frame\n" in res.output
+    assert (f"input: a writer's placeholders for joints not found (zeros, or a frame on one point) read as missing: "
+            f"left_wrist {len(poses)} frames, right_wrist {len(poses)} frames") in res.output
 
 
 def test_run_summary_extends_its_missing_line_with_the_files_nonfinite_values(tmp_path):

@@ -412,8 +412,8 @@ def test_the_report_names_what_was_read(tmp_path):
         "auto", DEFAULT_CUTOFF_HZ, DEFAULT_CONFIDENCE)
     # the cutoff that sets every speed is in the summary (a boxing analyst found it only in report.md)
     assert f"\nunits             normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (--cutoff-hz)\n" in res.output
-    assert (f"- **units**: normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (--cutoff-hz; Winter's for gait: the peak "
-            f"speeds of faster movements") in (tmp_path / "o" / "report.md").read_text()
+    assert (f"- **units**: normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (--cutoff-hz; 30 fps resolves up to 15 Hz; "
+            f"Winter's for gait: the peak speeds of faster movements") in (tmp_path / "o" / "report.md").read_text()
     assert set(settings) == {f.name for f in dataclasses.fields(RunConfig)}
     # a relative command-line path is recorded absolute (a trial's report read it as typed)
     from pcnet.pipeline.config import settings_record
@@ -1568,6 +1568,12 @@ def test_joints_masked_for_2d_confidence_are_named_with_the_setting():
     assert note == (f"joints masked for 2D confidence below --confidence-threshold 0.3: {H36M_JOINTS[16]} in 283 of "
                     f"301 frames; {H36M_JOINTS[14]} in 253 of 301 frames")
     assert _low_confidence_note(np.zeros(17, np.int64), 301, 0.3) == []
+    # MediaPipe's score is no detection confidence (an estimator-swap trial lost the far arm)
+    (mediapipe,) = _low_confidence_note(counts, 301, 0.3, "mediapipe")
+    assert mediapipe == note + (" (MediaPipe's score is visibility, the chance a landmark is in view: an arm hidden "
+                                "behind the body is masked though MediaPipe estimates it; --confidence-threshold 0 "
+                                "keeps the estimate)")
+    assert _low_confidence_note(counts, 301, 0.3, "alphapose") == [note]
 
 
 def test_a_run_logged_to_a_file_says_which_stage_it_is_in(tmp_path, monkeypatch, capsys):

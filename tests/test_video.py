@@ -57,6 +57,8 @@ def test_a_video_alone_gives_every_output_and_its_poses_for_a_re_run(tmp_path, v
                     estimate, "--keypoints2d-format", "mediapipe", "--out", tmp_path / "b")
     assert again.exit_code == 0, again.output
     assert (tmp_path / "a" / "kinematics.csv").read_bytes() == (tmp_path / "b" / "kinematics.csv").read_bytes()
+    with np.load(tmp_path / "b" / "canonical.npz", allow_pickle=False) as f:  # poses from a file: no estimator ran
+        assert "pose_estimator" not in json.loads(str(f["report"]))["inputs"] and "pose_estimator" in report["inputs"]
 
 
 def test_a_region_shows_the_estimator_part_of_the_picture_in_whole_frame_pixels(tmp_path, video_extra):
@@ -79,7 +81,17 @@ def test_a_region_shows_the_estimator_part_of_the_picture_in_whole_frame_pixels(
     assert "on the video inside --roi 250,40,400,420, a person in 10 of 10 frames" in \
         (tmp_path / "a" / "report.md").read_text()
     with np.load(tmp_path / "a" / "canonical.npz", allow_pickle=False) as f:  # which person: in the record
-        assert json.loads(str(f["report"]))["inputs"]["roi"] == [250, 40, 400, 420]
+        inputs = json.loads(str(f["report"]))["inputs"]
+    assert inputs["roi"] == [250, 40, 400, 420]
+    # which estimator made the poses (a swap trial found a video-alone run recorded as a MediaPipe file)
+    import importlib.metadata
+
+    from pcnet.models.pose_estimator import POSE_TASK
+    from pcnet.stages.core.digest import sha256_file
+    assert inputs["pose_estimator"]["bundle_sha256"] == sha256_file(POSE_TASK)
+    assert inputs["pose_estimator"]["mediapipe_version"] == importlib.metadata.version("mediapipe")
+    assert f"made from the video by pcnet's embedded estimator (mediapipe {importlib.metadata.version('mediapipe')})" \
+        in (tmp_path / "a" / "report.md").read_text()
     from pcnet.pipeline import RunConfig  # a Python caller's four numbers are the command line's text
 
     assert RunConfig(video=str(CLIP), roi=(250, 40, 400, 420)).validate().roi == "250,40,400,420"
