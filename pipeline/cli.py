@@ -64,6 +64,21 @@ def _existing(ctx: click.Context, param: click.Parameter, value: str | None) -> 
     return value
 
 
+#: ``--strict``'s exit status: every output written, and at least one WARNING (1 is bad input
+#: with nothing written, 130 an interrupted run).
+EXIT_WARNED = 3
+_STRICT_HELP = (f"Exit with status {EXIT_WARNED} where a WARNING is printed (every output still written): for scripts "
+                "that gate on the exit status; 0 then means no warning, 1 bad input with nothing written.")
+
+
+def _strict_exit(warnings: int) -> None:
+    """``--strict``'s end of a command that printed ``warnings`` WARNING lines (an automated
+    pipeline's trial found a shuffled joint order written with exit 0, said only in warnings)."""
+    if warnings:
+        click.echo(f"--strict: {warnings} WARNING{'s' * (warnings != 1)} above: exit {EXIT_WARNED}", err=True)
+        raise click.exceptions.Exit(EXIT_WARNED)
+
+
 def _stop_interrupted() -> None:
     click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
     raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
@@ -319,7 +334,8 @@ def evaluate(method, data, split, split_scheme, unseen_by, untrained_only, views
 @click.option("--weights", type=click.Path(dir_okay=False), default=None,
               help="ONNX weights of one 3DPCNet instead of the shipped ensemble (pcnet export).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
-def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior, posture, weights, overwrite):
+@click.option("--strict", is_flag=True, help=_STRICT_HELP)
+def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior, posture, weights, overwrite, strict):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
@@ -375,6 +391,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
             click.echo(nonfinite_line(counts, what=what))
     for f in findings:
         click.echo(f.terminal_line())
+    if strict:
+        _strict_exit(len(findings))
 
 
 #: Where pip finds torch's CPU build: without it pip fetches the CUDA build, several GB (a
@@ -419,10 +437,13 @@ def export(checkpoint, out_path, overwrite):
 EXAMPLE_DIR = Path(__file__).parent / "example_data"
 
 
-def _run_and_report(cfg) -> None:
+def _run_and_report(cfg, strict: bool = False) -> None:
     from pcnet.pipeline.runner import run_pipeline
 
-    click.echo(run_pipeline(cfg).summary())
+    result = run_pipeline(cfg)
+    click.echo(result.summary())
+    if strict:
+        _strict_exit(len(result.ranked_findings))
 
 
 @main.command()
@@ -492,7 +513,8 @@ def _run_and_report(cfg) -> None:
               help="Also scale an OpenSim model and solve IK on the world-frame TRC (as `pcnet opensim OUT`), "
                    "published with the run's output [off].")
 @click.option("--mass", type=_NUMBER, default=None, help="With --opensim: subject mass in kg.")
-def run(config_path, pixel, hypothesis, layout, axes, units, key, delimiter, measured_root, mass, **options):
+@click.option("--strict", is_flag=True, help=_STRICT_HELP)
+def run(config_path, pixel, hypothesis, layout, axes, units, key, delimiter, measured_root, mass, strict, **options):
     """Run the pipeline on one recording: a video alone (the embedded MediaPipe estimator), or
     2D keypoints + a lifter's 3D output -> canonical poses, kinematics in the recording's world
     frame, CSV/TRC/NPZ/PNG exports and a rerun recording (with --opensim also OpenSim scaling
@@ -515,7 +537,7 @@ def run(config_path, pixel, hypothesis, layout, axes, units, key, delimiter, mea
     else:
         given = {k: v for k, v in options.items() if v is not None}
         cfg = RunConfig.from_values(COMMAND_LINE, {**given, "lifter_options": lifter_options})
-    _run_and_report(cfg)
+    _run_and_report(cfg, strict)
 
 
 @main.command()

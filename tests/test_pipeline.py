@@ -1664,3 +1664,29 @@ print(sorted((name, read.count(name)) for name in set(read) if name.endswith(".o
 """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[('pcnet_body.onnx', 1), ('pcnet_camera.onnx', 1)]", out
+
+
+def test_strict_exits_3_after_writing_every_output_where_a_warning_is_printed(tmp_path):
+    """A bad-input trial for an automated pipeline: a mirrored or shuffled skeleton ran to exit 0,
+    said only in WARNING lines. --strict keeps the outputs and exits 3; a run without warnings
+    exits 0; bad input stays exit 1 with nothing written."""
+    from pcnet.pipeline.cli import EXIT_WARNED
+    from pcnet.stages.core.conventions import H36M_JOINTS
+
+    names = list(H36M_JOINTS)
+    mirrored = [names.index(n.replace("left", "@").replace("right", "left").replace("@", "right")) for n in names]
+    np.save(tmp_path / "mirrored.npy", np.load(BOX_3D)[:, mirrored])
+    res = _invoke("rectify", tmp_path / "mirrored.npy", "--out", tmp_path / "m.npz", "--strict")
+    assert res.exit_code == EXIT_WARNED == 3 and (tmp_path / "m.npz").is_file(), res.output
+    warnings = [ln for ln in res.output.splitlines() if ln.startswith("WARNING  ")]
+    assert any("mirrored" in ln for ln in warnings)
+    assert f"--strict: {len(warnings)} WARNINGs above: exit 3" in res.output
+    clean = FIXTURES / "yoga_vp3d_Bhumi_Tadasana.npy"
+    res = _invoke("rectify", clean, "--out", tmp_path / "c.npz", "--strict")
+    assert res.exit_code == 0 and "WARNING" not in res.output, res.output
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "mirrored.npy", "--fps", "30",
+                  "--no-recording", "--out", tmp_path / "run", "--strict")
+    assert res.exit_code == 3 and (tmp_path / "run" / "kinematics.csv").is_file(), res.output
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "missing.npy", "--fps", "30",
+                  "--out", tmp_path / "bad", "--strict")
+    assert res.exit_code == 1 and not (tmp_path / "bad").exists()  # bad input: no such file
