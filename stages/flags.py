@@ -704,8 +704,9 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
                        f"--posture upright if standing under {camera}, --posture lying to confirm (or --axes, "
                        f"with --lifter generic, if the file's up axis is another)",
                        f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is "
-                       f"taken from the camera prior (near level; the true up within a "
-                       f"{sequence.up_uncertainty_deg:.0f} deg cone, 95 %, if the camera is not upside down: a supine "
+                       f"taken from the camera prior (near level; the true up within about "
+                       f"{sequence.up_uncertainty_deg:.0f} deg, the pitch and roll 95 % half-widths combined, if the "
+                       f"camera is not upside down: a supine "
                        f"body under an upside-down camera reads as prone) across the trunk; a body standing straight "
                        f"under {camera} (the poses' own reading, without the priors) looks the same (pass "
                        f"--posture upright if that is the camera; a phone video's "
