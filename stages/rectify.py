@@ -38,7 +38,7 @@ from .temporal import (BOOTSTRAP_REPLICATES, HEADING_LIMIT_DEG, MODE_THRESHOLD_D
                        up_spread_deg)
 from .uncertainty import frame_tilt_bound
 from .up_model import (OTHER_POSTURE_P, Z95, UpEvidence, UpModelParameters, default_parameters,
-                       summarise_recording)
+                       summarise_recording, tangent_per_pitch_roll)
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
 #: The body's posture in sequence mode's up model: ``auto`` (the posterior decides, with the
@@ -397,14 +397,15 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     kind = "up model+ground_plane" if ground["used"] else "up model"
     rotations, heading_ok = rotations_about_up(R, up)
     pitch, roll = camera_pitch_roll(up)
-    pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))
+    # the summary's covariance is in tangent radians; the printed figures are pitch and roll angles
+    pose_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)) / tangent_per_pitch_roll(post.summary.up))
     spread = np.degrees(angle_between(normalize(R[ok, :, 1]), up[None]))
     hypotheses = PostureHypotheses(post.posture, float(post.p_lying), post.summary.up, declared=posture != "auto")
     return rotations, ok & heading_ok, SequenceUp(
         evidence=kind, up=up, camera_pitch_deg=float(np.degrees(pitch)), camera_roll_deg=float(np.degrees(roll)),
         camera_pitch_interval_deg=post.pitch_half_deg, camera_roll_interval_deg=post.roll_half_deg,
         up_uncertainty_deg=float(np.hypot(post.pitch_half_deg, post.roll_half_deg)),
-        camera_pitch_uncertainty_deg=float(Z95 * pose_sd[0]), camera_roll_uncertainty_deg=float(Z95 * pose_sd[1]),
+        camera_pitch_uncertainty_deg=float(Z95 * pose_sd[0]), camera_roll_uncertainty_deg=float(min(180.0, Z95 * pose_sd[1])),
         interval_reaches_other_posture_p=(round(hypotheses.other_p, 4) if hypotheses.other_p >= OTHER_POSTURE_P
                                           else None),
         posture=hypotheses if camera_prior else None, up_spread_deg=float(np.median(spread)),

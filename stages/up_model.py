@@ -36,9 +36,9 @@ Posture. Upright: ``g_hat ~ N(g, C_L + S)``. Lying: both networks read the trunk
 which then lies in the floor plane: ``g_hat`` is uniform in azimuth about ``g`` with elevation
 ``asin(g_hat . g) ~ N(0, sigma_lie^2 + tr(C_L + S) / 2)``. Prior ``P(lying) = rho``.
 
-Camera prior (declared, docs/CONVENTIONS.md "handheld" views): camera pitch
-``N(0, prior_pitch^2)`` and roll ``N(0, prior_roll^2)`` with a uniform share ``eps_cam`` for
-cameras outside them.
+Camera prior (declared, docs/CONVENTIONS.md's "paper" frontal pitch and "handheld" roll): camera
+pitch ``N(0, prior_pitch^2)`` and roll ``N(0, prior_roll^2)`` with a uniform share ``eps_cam``
+for cameras outside them (declared from no data: decision 0038).
 
 Floor contacts. Where the joints carry a pelvis path (a depth sensor's, or one recovered from
 2D keypoints), the resting ankles trace the floor, whose normal is ``g``. Their likelihood, at
@@ -233,6 +233,17 @@ def tangent_basis(g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     d = np.where(n > 1e-6, d, alt)
     d_roll = normalize(d)
     return np.cross(g, d_roll), d_roll
+
+
+def tangent_per_pitch_roll(g: np.ndarray) -> np.ndarray:
+    """``(2,)`` radians of arc along the tangent basis at unit ``g`` ``(3,)`` (camera frame,
+    :func:`tangent_basis`) per radian of camera pitch and of camera roll
+    (:func:`pcnet.stages.core.rotations.camera_pitch_roll`): ``(1, cos pitch)``. Roll turns
+    ``g`` about the optical axis, on a circle of radius ``cos pitch``, so a roll interval is
+    ``1 / cos pitch`` times wider than the same spread of ups along the tangent; pitch moves
+    ``g`` along a great circle."""
+    pitch, _ = camera_pitch_roll(np.asarray(g, np.float64))
+    return np.array([1.0, np.cos(pitch)])
 
 
 def exp_map(g: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -529,10 +540,11 @@ class StaticPosterior:
     upright_half_deg: tuple[float, float] = (float("nan"), float("nan"))
 
     def upright_cov(self) -> np.ndarray:
-        """``(2, 2)`` rad^2: the normal covariance in the (pitch, roll) basis at :attr:`up`
-        whose 95 % half-widths are the upright hypothesis's own (``upright_half_deg``, not
-        widened to the other posture): the prior the floor contacts are fused with."""
-        return np.diag(np.radians(self.upright_half_deg) ** 2) / Z95 ** 2
+        """``(2, 2)`` rad^2: the normal covariance in the (pitch, roll) tangent basis at
+        :attr:`up` whose 95 % half-widths are the upright hypothesis's own (``upright_half_deg``,
+        camera pitch and roll angles, not widened to the other posture), turned into tangent
+        radians by :func:`tangent_per_pitch_roll`: the prior the floor contacts are fused with."""
+        return np.diag((np.radians(self.upright_half_deg) * tangent_per_pitch_roll(self.up)) ** 2) / Z95 ** 2
 
 
 _GRID: np.ndarray | None = None

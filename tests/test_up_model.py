@@ -10,7 +10,8 @@ import pytest
 from conftest import camera_up, sequence_up
 from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.rotations import axis_rotation, normalize
+from pcnet.stages.core.rotations import axis_rotation, camera_pitch_roll, normalize
+from pcnet.stages.rectify import up_model_sequence
 from pcnet.stages.up_model import (LEVEL_UP, UpEvidence, UpModelParameters, default_parameters, exp_map, log_map,
                                    static_posterior, summarise_recording)
 
@@ -70,6 +71,30 @@ def test_static_posterior_recovers_a_tilted_camera_and_its_interval_holds_it():
     assert err < 2.0
     assert 0 < post.roll_half_deg < post.pitch_half_deg  # depth (pitch) is the less certain axis
     assert err < np.hypot(post.pitch_half_deg, post.roll_half_deg)
+
+
+def test_the_floors_prior_and_the_poses_figures_keep_roll_in_roll_angles_under_a_steep_camera():
+    """The roll interval is an angle about the optical axis: under a camera pitched 60 deg the
+    same spread of ups is twice as wide in roll as along the tangent (a statistician's review
+    found the floor's prior built from it as if it were tangent radians, and the summary's
+    "poses alone" roll figure in tangent radians beside a roll-angle interval)."""
+    rng = np.random.default_rng(3)
+    truth = _camera(60.0, 5.0)
+    ev = UpEvidence.of(_noisy(truth, 300, 3.0, rng), _noisy(truth, 300, 3.0, rng))
+    p = default_parameters()
+    post = static_posterior(summarise_recording(ev, 30.0, p), p)
+    assert post.posture == "upright"
+    # ups drawn from the floor's prior, read back as camera pitch and roll angles
+    x = rng.multivariate_normal(np.zeros(2), post.upright_cov(), size=20000)
+    pitch, roll = np.degrees(camera_pitch_roll(exp_map(np.broadcast_to(post.up, (len(x), 3)), x)))
+    p0, r0 = np.degrees(camera_pitch_roll(post.up))
+    half = np.percentile(np.abs(pitch - p0), 95), np.percentile(np.abs(roll - r0), 95)
+    np.testing.assert_allclose(half, post.upright_half_deg, rtol=0.05)
+    # the poses' own roll figure: tangent scatter over cos(pitch), as the interval is
+    _, _, rep = up_model_sequence(np.tile(np.eye(3), (300, 1, 1)), np.ones(300, bool), ev, 30.0)
+    tangent_sd = np.degrees(np.sqrt(np.diag(post.summary.cov)))
+    pitch_s = camera_pitch_roll(post.summary.up)[0]
+    assert rep.camera_roll_uncertainty_deg == pytest.approx(1.959964 * tangent_sd[1] / np.cos(pitch_s), rel=1e-6)
 
 
 def test_an_upside_down_camera_follows_the_body_frame_network():
@@ -189,7 +214,7 @@ def test_posture_flags_name_the_posture():
         return sequence_up(posture, (30.0, 30.0), 40.0)
 
     (flag,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, camera_up(2.0, 70.0))))
-    assert "read as lying" in flag.detail and "--posture upright" in flag.detail and "40 deg cone" in flag.detail
+    assert "read as lying" in flag.detail and "--posture upright" in flag.detail and "within about 40 deg, the pitch and roll 95 % half-widths combined" in flag.detail
     # The upright alternative's camera, as the poses read it: rolled here, pitched steeply below.
     assert "a camera looking down 2 deg and rolled +70 deg" in flag.action
     (steep,) = posture_flag(sequence(PostureHypotheses("lying", 0.9, camera_up(62.0, -3.0))))
