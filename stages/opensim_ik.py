@@ -172,13 +172,19 @@ def locked_note() -> str:
     return f"ik.mot: locked in the model (H36M-17 has no foot or hand points), not measured: {held}"
 
 
+#: What an empty cell of ``ik.mot`` does to OpenSim's next tool (an OpenSim trial's inverse
+#: dynamics stopped on one NaN with "GCVSpline: there must be 6 or more data points").
+DYNAMICS_NEEDS_CELLS = ("OpenSim's inverse dynamics needs every cell (its GCVSpline error names none): fill or cut "
+                        "those frames first")
+
+
 def unobserved_coordinates_note(result: dict) -> str | None:
     """The note on :func:`scale_and_ik`'s ``result["coordinates_unobserved"]``
     (:func:`blank_unobserved`): which ``ik.mot`` columns are empty in how many frames, else
     ``None``."""
     listed = _emptied_columns(result, "coordinates_unobserved")
     return listed and (f"ik.mot: {listed}: no marker beyond the joint was seen there (the solver would carry its last "
-                       f"value on, docs/outputs.md)")
+                       f"value on, docs/outputs.md); {DYNAMICS_NEEDS_CELLS}")
 
 
 def gimbal_lock_note(result: dict) -> str | None:
@@ -187,7 +193,7 @@ def gimbal_lock_note(result: dict) -> str | None:
     listed = _emptied_columns(result, "coordinates_gimbal_lock")
     return listed and (f"ik.mot: {listed}: the joint's middle angle (arm_add for the shoulder, an arm held out "
                        f"sideways) lay within {GIMBAL_MARGIN_DEG:g} deg of +-90, where the two turn about one axis "
-                       f"(gimbal lock, docs/joint_angles.md)")
+                       f"(gimbal lock, docs/joint_angles.md); {DYNAMICS_NEEDS_CELLS}")
 
 
 def _emptied_columns(result: dict, key: str) -> str | None:

@@ -487,6 +487,9 @@ def test_ik_angles_in_gimbal_lock_are_empty(tmp_path):
     note = gimbal_lock_note({"coordinates_gimbal_lock": emptied, "frames": 5})
     assert note.startswith("ik.mot: arm_flex_l, arm_rot_l empty (NaN) in 2 of 5 frames: the joint's middle angle")
     assert f"within {GIMBAL_MARGIN_DEG:g} deg of +-90" in note
+    # what an empty cell does to the next OpenSim tool (an OpenSim trial's inverse dynamics stopped on one)
+    assert note.endswith("OpenSim's inverse dynamics needs every cell (its GCVSpline error names none): fill or cut "
+                         "those frames first")
     assert gimbal_lock_note({"coordinates_gimbal_lock": {}, "frames": 5}) is None
 
 
