@@ -255,10 +255,10 @@ def motion_check_note(units: str, fps: float, limits: MotionLimits | None = None
     not above the limits' cutoff (the motion cannot be filtered as the limits were)."""
     limits = load_motion_limits() if limits is None else limits
     if units != "m":
-        return (f"joint speeds and accelerations not checked against human limits: the poses are in {units}, "
+        return (f"joint speeds and accelerations not checked against the training motion's fastest: the poses are in {units}, "
                 f"not metres (give --height)")
     if not fps > 2 * limits.cutoff_hz:
-        return (f"joint speeds and accelerations not checked against human limits: {fps:g} fps cannot be filtered at "
+        return (f"joint speeds and accelerations not checked against the training motion's fastest: {fps:g} fps cannot be filtered at "
                 f"the limits' {limits.cutoff_hz:g} Hz cutoff (its Nyquist frequency is {fps / 2:g} Hz)")
     return None
 
@@ -381,7 +381,7 @@ def implausible_motion_flags(findings: Sequence[ImplausibleMotion], limits: Moti
         named += f"; and {more} more joint{'s' * (more != 1)}" if more > 0 else ""
         frames = "frame" + ("s" if len(ranges) > 1 or ranges[0][0] != ranges[0][1] else "")
         lines.append(
-            f"joint {quantity} beyond human limits in {frames} {_frames_text(ranges)}: {named}. The limits are the "
+            f"joint {quantity} beyond any training motion's in {frames} {_frames_text(ranges)}: {named}. The limits are the "
             f"largest pelvis-relative {quantity} per joint group in {limits.source}; faster motion there is probably "
             f"a tracking or lifting error (a track switch, a left/right swap, a detector jump, joints jittering by "
             f"centimetres from frame to frame, which the low-pass lets through at its cutoff; or motion the limits "

@@ -740,7 +740,7 @@ def wrists_figure(
         units: length unit label.
         frame_label: title of the rectified column.
         other_person, implausible: ``(T,)`` bool frames shaded grey (another person's, after
-            a 2D track switch) and red (motion beyond human limits), as in ``angles.png``.
+            a 2D track switch) and red (motion faster than any training motion), as in ``angles.png``.
 
     Raises:
         ValueError: mismatched shapes or ``fps <= 0``.

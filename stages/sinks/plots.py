@@ -211,9 +211,9 @@ def new_figure(rows: int, cols: int, height_per_row: float):
 
 #: What the grey spans of the angle and speed figures mark.
 OTHER_PERSON_NOTE = "grey: another person's frames (the 2D track switched)"
-#: Colour (RGB 0-1) of the spans marking motion beyond human limits, and what they mark.
+#: Colour (RGB 0-1) of the spans marking motion faster than any training motion, and what they mark.
 IMPLAUSIBLE_COLOUR = (1.0, 0.8, 0.8)
-IMPLAUSIBLE_NOTE = "red: motion beyond human limits (canonical.npz implausible_frames)"
+IMPLAUSIBLE_NOTE = "red: motion faster than any training motion (canonical.npz implausible_frames)"
 
 
 #: Resolution (dots per inch) the figures are saved at.
@@ -415,7 +415,7 @@ def plot_joint_angles(path_png: str | os.PathLike, kin, fps: float, *, frame_lab
             between-segment angles do not depend on it, the angles to gravity use its +Y.
         other_person: ``(T,)`` bool, frames of another person than the recording's main one
             (the 2D track switched: :func:`pcnet.stages.flags.one_person_frames`), shaded grey.
-        implausible: ``(T,)`` bool, frames whose motion exceeds the fitted human limits
+        implausible: ``(T,)`` bool, frames whose motion exceeds the training motion's fastest
             (:func:`pcnet.stages.plausibility.implausible_frames`), shaded red
             (:data:`IMPLAUSIBLE_COLOUR`).
 
@@ -452,7 +452,7 @@ def plot_joint_speeds(
         frame_label: the frame of the positions, shown in the title.
         other_person: ``(T,)`` bool, frames of another person, shaded grey (as
             :func:`plot_joint_angles`).
-        implausible: ``(T,)`` bool, frames of motion beyond human limits, shaded red (as
+        implausible: ``(T,)`` bool, frames of motion faster than any training motion, shaded red (as
             :func:`plot_joint_angles`).
 
     Returns:

@@ -37,7 +37,7 @@ Entity tree (all per-frame data is on the ``frame`` (sequence) and ``video_time`
                                     where the value is finite; ``group`` may be nested
                                     (``angles_deg/hip``): one plot per group
     /series/status/valid            Scalars: 1 where the rotation is valid, else 0
-    /series/status/implausible_motion  Scalars: 1 in frames of motion beyond human limits
+    /series/status/implausible_motion  Scalars: 1 in frames of motion faster than any training motion
                                     (stages/plausibility.py), else 0 (only when checked; valid frames)
     /series/status/track_segment    Scalars: the 2D track's person segment (0, then 1, 2, ...
                                     after each switch; only with 2D keypoints)
@@ -321,7 +321,7 @@ def write_recording(
         floor: draw the floor grid ``/world/floor`` at y = 0 (only with ``world``).
         notes: where a line about a video left out is appended (the run summary's notes).
         implausible_frames: optional ``(T,)`` bool, frames whose joint speeds or accelerations
-            exceed the fitted human limits (:func:`pcnet.stages.plausibility.implausible_frames`),
+            exceed the training motion's fastest (:func:`pcnet.stages.plausibility.implausible_frames`),
             logged as the series ``status/implausible_motion`` (1 there, 0 in the other valid
             frames, nothing where not valid: not checked there, as ``kinematics.csv``) beside
             ``status/valid``; ``None`` (not checked) logs nothing.

@@ -77,7 +77,7 @@ class RecordingResult:
         kinematics: :data:`KEPT_JOINTS`' kinematics, float32 (after the table); missing, unfiltered
             ``(T, 17)`` bool; flag_counts: :func:`pcnet.stages.kinematics.count_flags`.
         implausible_frames: ``(T,)`` bool, frames where a joint's pelvis-relative speed or
-            acceleration exceeds the fitted human limits
+            acceleration exceeds the training motion's fastest
             (:func:`pcnet.stages.plausibility.implausible_frames`), or ``None`` when the motion
             was not checked (non-metric poses); written to the npz, shaded in the angle and
             speed plots, logged in the recording.
@@ -375,7 +375,7 @@ def _marker_poses(r: RecordingResult, name: str, allocate) -> np.ndarray:
 def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
     """``wrists.png`` (camera frame against ``r.kinematics_frame``), ``angles.png`` and
     ``speeds.png`` (:mod:`.plots`; in each, frames outside the 2D track's longest one-person stretch
-    shaded grey, frames of motion beyond human limits, ``r.implausible_frames``, shaded red)."""
+    shaded grey, frames of motion faster than any training motion, ``r.implausible_frames``, shaded red)."""
     kin = r.kinematics
     wrist_acc = kin.acceleration[:, [KEPT_JOINTS.index(n) for n in WRISTS]]
     other = other_persons_frames(r)
@@ -392,7 +392,7 @@ def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
 def write_rerun(r: RecordingResult, folder: Path, warnings: list[str] | None = None) -> dict[str, Path]:
     """``recording.rrd`` (:func:`.rerun_log.write_recording`): video, 2D keypoints, camera,
     canonical and world views, wrist paths, kinematics series, the warnings (``warnings``,
-    default ``r.flags``), the frames of motion beyond human limits (``r.implausible_frames``)
+    default ``r.flags``), the frames of motion faster than any training motion (``r.implausible_frames``)
     and the 2D track's person segments."""
     path = write_recording(
         folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera,
