@@ -1,0 +1,126 @@
+"""Left/right limb swaps found by path continuity and undone (stages/side_swaps.py), on held-out
+mocap through the lifter-noise model and on real lifter output (decision 0106).
+
+    python -m benchmarks.side_swap_repair --data ../shared/data
+
+Per clip, the root-relative joints through ``models/lifter_noise.py`` (seed = the clip's index in
+its set) three ways: with the model's swaps, with its swaps switched off, and clean. For each,
+the root-relative MPJPE against the clean joints (mm) before and after
+:func:`pcnet.stages.side_swaps.repair_side_swaps`, and the share of frames it exchanged.
+
+Rule (decision 0106, fixed before the first run on the CMU test subjects): it ships if, on the
+CMU test subjects (motion-style split), (a) with the swaps the repair lowers the MPJPE (paired
+mean difference over clips below 0, its 95 % bootstrap interval below 0), and (b) without the
+swaps and on clean joints it exchanges at most 0.1 % of the frames and raises the MPJPE by at
+most 0.1 mm (paired mean). The Bandai motion-style test split (its first 150 clips) and
+DeepMimic were seen while the candidate was chosen: printed as validation, not part of the rule.
+Real lifter output (the yoga VideoPose3D exports, MotionBERT's boxing and cycling clips) has no
+truth: the frames exchanged there are listed, not judged. Writes
+benchmarks/results/side_swap_repair.txt.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.ablation import paired_interval
+from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from pcnet.models.datasets import load_mocap, select_split
+from pcnet.models.lifter_noise import apply_lifter_errors, sample_lifter_errors
+from pcnet.stages.side_swaps import repair_side_swaps
+
+RESULT = Path(__file__).resolve().parent / "results" / "side_swap_repair.txt"
+#: The rule's bounds on inputs without swaps: share of frames exchanged, MPJPE added (mm).
+MAX_FALSE_SHARE = 0.001
+MAX_ADDED_MM = 0.1
+VALIDATION_BANDAI_CLIPS = 150
+
+
+def _mpjpe(a: np.ndarray, b: np.ndarray) -> float:
+    return float(1000 * np.nanmean(np.linalg.norm(a - b, axis=-1)))
+
+
+def measure(clips) -> dict[str, np.ndarray]:
+    """Per input (``swaps``, ``no swaps``, ``clean``): ``(n_clips, 4)`` MPJPE before, after,
+    frames exchanged, frames."""
+    out: dict[str, list] = {"swaps": [], "no swaps": [], "clean": []}
+    for i, c in enumerate(clips):
+        J = c.joints.astype(np.float64)
+        J = J - J[:, :1]
+        if len(J) < 10:
+            continue
+        errors = sample_lifter_errors(len(J), c.fps, np.random.default_rng(i))
+        inputs = {"swaps": apply_lifter_errors(J, errors),
+                  "no swaps": apply_lifter_errors(J, replace(errors, swap=np.full(len(J), -1))), "clean": J}
+        for name, X in inputs.items():
+            r = repair_side_swaps(X)
+            exchanged = np.logical_or.reduce(list(r.swapped.values()))
+            out[name].append((_mpjpe(X, J), _mpjpe(r.joints, J), int(exchanged.sum()), len(J)))
+    return {k: np.array(v, np.float64) for k, v in out.items()}
+
+
+def rows(label: str, m: dict[str, np.ndarray]) -> tuple[list[str], dict[str, tuple]]:
+    lines, stats = [], {}
+    for name, a in m.items():
+        mean, lo, hi = paired_interval(a[:, 1] - a[:, 0])
+        share = a[:, 2].sum() / a[:, 3].sum()
+        stats[name] = (mean, lo, hi, share)
+        lines.append(f"| {label} | {name} | {len(a)} | {a[:, 0].mean():.2f} | {a[:, 1].mean():.2f} | "
+                     f"{mean:+.3f} [{lo:+.3f}, {hi:+.3f}] | {100 * share:.3f} % |")
+    return lines, stats
+
+
+def real_files(data: Path) -> list[tuple[str, np.ndarray]]:
+    """The real H36M-17 lifter outputs: yoga VideoPose3D exports, MotionBERT boxing and cycling."""
+    real = data / "real"
+    paths = sorted((real / "yoga_videopose3d").glob("export_*.npy")) + [real / "boxing_motionbert" / "X3D.npy"] \
+        + sorted((real / "cycling_motionbert").glob("clip_*_X3D*.npy"))
+    return [(p.name, np.load(p, allow_pickle=False).astype(np.float64)) for p in paths]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=SHARED_DATA)
+    ap.add_argument("--out", type=Path, default=RESULT)
+    args = ap.parse_args(argv)
+    require_mocap(args.data, "side_swap_repair")
+    t0 = time.time()
+    cmu = load_mocap(args.data / "mocap" / "cmu_train_h36m17.npz")
+    bandai = select_split(load_mocap(args.data / "mocap" / "bandai_h36m17.npz"), "test", "motion-style")
+    lines = [__doc__.splitlines()[0], "", "    python -m benchmarks.side_swap_repair --data ../shared/data", "",
+             "| data | input | clips | MPJPE before (mm) | after | after - before [95 % CI] | frames exchanged |",
+             "|---|---|---:|---:|---:|---|---:|"]
+    held, stats = rows("CMU test subjects (held out)", measure(select_split(cmu, "test", "motion-style")))
+    lines += held
+    for label, clips in ((f"Bandai test, first {VALIDATION_BANDAI_CLIPS} (validation)", bandai[:VALIDATION_BANDAI_CLIPS]),
+                         ("DeepMimic (validation)", load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz"))):
+        lines += rows(label, measure(clips))[0]
+    mean, lo, hi, _ = stats["swaps"]
+    better = mean < 0 and hi < 0
+    quiet = all(stats[k][3] <= MAX_FALSE_SHARE and stats[k][0] <= MAX_ADDED_MM for k in ("no swaps", "clean"))
+    lines += ["", "Real lifter output (no truth; frames exchanged per limb, files with any):"]
+    files = real_files(args.data)
+    total = exchanged = 0
+    for name, X in files:
+        r = repair_side_swaps(X)
+        total += len(X)
+        hit = {limb: int(m.sum()) for limb, m in r.swapped.items() if m.any()}
+        exchanged += int(np.logical_or.reduce(list(r.swapped.values())).sum())
+        if hit:
+            lines.append(f"  {name} ({len(X)} frames): " + ", ".join(f"{k} {v}" for k, v in hit.items()))
+    lines += [f"  {len(files)} files, {exchanged} of {total} frames exchanged ({100 * exchanged / total:.2f} %)", "",
+              f"verdict: with swaps {'better' if better else 'not better'} ({mean:+.3f} mm [{lo:+.3f}, {hi:+.3f}]); "
+              f"without swaps and clean {'within' if quiet else 'beyond'} {100 * MAX_FALSE_SHARE:g} % of frames and "
+              f"{MAX_ADDED_MM:g} mm: " + ("ships" if better and quiet else "does not ship"), "",
+              f"({time.time() - t0:.0f} s)"]
+    print_and_save(lines, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
