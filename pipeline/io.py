@@ -78,7 +78,7 @@ def read_pose_array(path: str | Path, key: str | None = None) -> PoseArray:
     joints = validate_poses(arr, source=f"{path}{f' [{key}]' if key else ''}", units=None)
     # counted on the file's values: validation turned its placeholders into NaN too (a trial's
     # wrists written as zeros were called inf/NaN)
-    held = np.isfinite(np.asarray(arr, np.float64).reshape(joints.shape)).all(axis=2)
+    held = np.isfinite(np.asarray(arr)).reshape(joints.shape).all(axis=2)  # no cast: any real dtype validation let in
     blanked = np.isnan(joints).any(axis=2) & held
     placeholders = {name: int(n) for name, n in zip(H36M_JOINTS, blanked.sum(axis=0)) if n}
     return PoseArray(joints, nonfinite_frames(np.where(held[..., None], 0.0, np.nan), H36M_JOINTS), placeholders)
