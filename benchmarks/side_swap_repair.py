@@ -1,12 +1,12 @@
-"""Left/right limb swaps found by path continuity and undone (stages/side_swaps.py), on held-out
-mocap through the lifter-noise model and on real lifter output (decision 0106).
+"""Left/right limb swaps found by path continuity and undone (decision 0106's candidate, here since
+it was withdrawn), on held-out mocap through the lifter-noise model and on real lifter output.
 
     python -m benchmarks.side_swap_repair --data ../shared/data
 
 Per clip, the root-relative joints through ``models/lifter_noise.py`` (seed = the clip's index in
 its set) three ways: with the model's swaps, with its swaps switched off, and clean. For each,
 the root-relative MPJPE against the clean joints (mm) before and after
-:func:`pcnet.stages.side_swaps.repair_side_swaps`, and the share of frames it exchanged.
+:func:`repair_side_swaps`, and the share of frames it exchanged.
 
 Rule (decision 0106, fixed before the first run on the CMU test subjects): it ships if, on the
 CMU test subjects (motion-style split), (a) with the swaps the repair lowers the MPJPE (paired
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import argparse
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -32,9 +32,113 @@ from benchmarks.ablation import paired_interval
 from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import apply_lifter_errors, sample_lifter_errors
-from pcnet.stages.side_swaps import repair_side_swaps
+from pcnet.stages.core.conventions import (L_ANKLE, L_ELBOW, L_HIP, L_KNEE, L_SHOULDER, L_WRIST, R_ANKLE, R_ELBOW, R_HIP,
+                                           R_KNEE, R_SHOULDER, R_WRIST)
+from pcnet.stages.core.framestore import frame_blocks, true_runs
 
 RESULT = Path(__file__).resolve().parent / "results" / "side_swap_repair.txt"
+
+
+#: The limbs whose sides a swap exchanges: (left joints, right joints).
+LIMBS: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {
+    "legs": ((L_HIP, L_KNEE, L_ANKLE), (R_HIP, R_KNEE, R_ANKLE)),
+    "arms": ((L_SHOULDER, L_ELBOW, L_WRIST), (R_SHOULDER, R_ELBOW, R_WRIST)),
+}
+
+
+@dataclass(frozen=True)
+class SideSwaps:
+    """What :func:`repair_side_swaps` found and undid.
+
+    joints: ``(T, 17, 3)`` float64, the input with each swapped frame's limbs exchanged back.
+    swapped: ``{limb: (T,) bool}`` for each of :data:`LIMBS`, the frames whose sides were
+    exchanged."""
+
+    joints: np.ndarray
+    swapped: dict[str, np.ndarray]
+
+    @property
+    def any(self) -> bool:
+        """Whether any frame of any limb was exchanged."""
+        return any(bool(s.any()) for s in self.swapped.values())
+
+
+def _labelling(run: np.ndarray) -> np.ndarray:
+    """``(n,)`` bool, True = exchanged: the least total squared displacement path of ``run``
+    ``(n, 2, k, 3)`` (each frame's two labellings), the majority kept as given."""
+    n = len(run)
+    # step[t, i, j]: squared displacement from labelling i at frame t to labelling j at t + 1
+    step = np.sum((run[1:, None] - run[:-1, :, None]) ** 2, axis=(3, 4)).tolist()
+    c0, c1 = 0.0, 0.0
+    back = np.zeros((n, 2), bool)  # back[t, j]: the previous frame's labelling on the best path to j
+    for t, ((s00, s01), (s10, s11)) in enumerate(step, start=1):
+        to0, to1 = (c0 + s00, c1 + s10), (c0 + s01, c1 + s11)
+        back[t] = to0[1] < to0[0], to1[1] < to1[0]
+        c0, c1 = min(to0), min(to1)
+    state = np.empty(n, bool)
+    state[-1] = c1 < c0
+    for t in range(n - 1, 0, -1):
+        state[t - 1] = back[t, int(state[t])]
+    return ~state if 2 * int(state.sum()) > n else state
+
+
+def side_swap_frames(joints) -> dict[str, np.ndarray]:
+    """``{limb: (T,) bool}``: the frames whose sides of each of :data:`LIMBS` the lifter
+    exchanged (module docstring), from ``(T, 17, 3)`` H36M-17 ``joints`` (an array, or a
+    :class:`~pcnet.stages.core.framestore.FrameArray`: only the limbs' joints are read).
+
+    Raises:
+        ValueError: ``joints`` not ``(T, 17, 3)``.
+    """
+    if len(joints.shape) != 3 or tuple(joints.shape[1:]) != (17, 3):
+        raise ValueError(f"joints: expected (T, 17, 3), got {tuple(joints.shape)}")
+    swapped = {}
+    for limb, (left, right) in LIMBS.items():
+        given = np.asarray(joints[:, list(left + right)], np.float64)
+        both = np.stack([given, given[:, [*range(3, 6), *range(3)]]], axis=1)
+        mask = np.zeros(len(given), bool)
+        for a, b in true_runs(np.isfinite(given).all(axis=(1, 2))):
+            mask[a:b] = _labelling(both[a:b])
+        swapped[limb] = mask
+    return swapped
+
+
+def exchange_sides(joints, swapped: dict[str, np.ndarray]) -> None:
+    """Exchange, in place, the left and right joints of each limb of ``joints`` ``(T, 17, 3)``
+    (an array or a :class:`~pcnet.stages.core.framestore.FrameArray`) in its ``swapped``
+    frames (:func:`side_swap_frames`)."""
+    any_frame = np.logical_or.reduce([np.asarray(m, bool) for m in swapped.values()])
+    for rows in frame_blocks(len(joints)):  # a block at a time: a store's array is not read whole
+        if not any_frame[rows].any():
+            continue
+        block = np.array(joints[rows])
+        for limb, mask in swapped.items():
+            left, right = LIMBS[limb]
+            here = np.asarray(mask[rows], bool)
+            block[np.ix_(here, left + right)] = block[np.ix_(here, right + left)]
+        joints[rows] = block
+
+
+def repair_side_swaps(joints: np.ndarray) -> SideSwaps:
+    """Find and undo the frames whose left and right limbs a lifter exchanged (module
+    docstring): :func:`side_swap_frames`, then :func:`exchange_sides` on a copy.
+
+    Args:
+        joints: ``(T, 17, 3)`` H36M-17 poses, any frame and units; NaN = missing.
+
+    Returns:
+        :class:`SideSwaps`: the repaired joints (a new float64 array) and the exchanged frames
+        per limb.
+
+    Raises:
+        ValueError: ``joints`` not ``(T, 17, 3)``.
+    """
+    J = np.array(joints, np.float64)
+    swapped = side_swap_frames(J)
+    exchange_sides(J, swapped)
+    return SideSwaps(J, swapped)
+
+
 #: The rule's bounds on inputs without swaps: share of frames exchanged, MPJPE added (mm).
 MAX_FALSE_SHARE = 0.001
 MAX_ADDED_MM = 0.1

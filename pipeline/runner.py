@@ -64,7 +64,6 @@ from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor,
 from pcnet.stages.uncertainty import FRAME_TILT_95_BODY_DEG
 from pcnet.stages.column_ranges import ColumnRanges, column_ranges
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
-from pcnet.stages.side_swaps import LIMBS, exchange_sides, side_swap_frames, side_swaps_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
@@ -1204,7 +1203,6 @@ class CameraFrame:
     notes: tuple[str, ...]
     picture: tuple[int, int] | None = None
     outside: int = 0
-    side_swaps: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -1334,9 +1332,6 @@ def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFr
     cam, kp2d, root_cam, pelvis_filled, outside, low_confidence = _camera_frame(
         cfg, recording.joints, recording.keypoints2d, recording.measured_root, store, orientation, picture)
     notes += _low_confidence_note(low_confidence, len(cam), cfg.min_confidence, cfg.keypoints2d_format)
-    swapped = side_swap_frames(cam)  # a lifter's limbs exchanged for a few frames, undone (decision 0106)
-    exchange_sides(cam, swapped)
-    notes += [n for n in (side_swaps_note(swapped),) if n]
     video_kp2d = None
     if kp2d is not None and cfg.recording and orientation.recording_note:
         video_kp2d = store.create("keypoints2d_video", kp2d.shape, np.float32)
@@ -1350,8 +1345,7 @@ def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFr
         notes.append(f"{outside} joint position{'s' * (outside != 1)} whose 2D keypoint lies outside the {w}x{h} "
                      f"picture taken as missing: the detector placed {'them' if outside != 1 else 'it'} there "
                      f"without seeing {'them' if outside != 1 else 'it'}")
-    return CameraFrame(cam, kp2d, video_kp2d, root_cam, pelvis_filled, tuple(notes), picture, outside,
-                       np.stack([swapped[limb] for limb in LIMBS], axis=1))
+    return CameraFrame(cam, kp2d, video_kp2d, root_cam, pelvis_filled, tuple(notes), picture, outside)
 
 
 def _refuse_unusable(cfg: RunConfig, camera: CameraFrame, units: str) -> None:
@@ -1579,7 +1573,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         video_first_frame=first_shown_frame(cfg.video) if cfg.video and cfg.recording else 0,
         video_keypoints2d=scaled.camera.video_keypoints2d, keypoint_picture=scaled.camera.picture,
         min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=world.pelvis_path_std,
-        subject_height_m=float("nan") if cfg.height is None else float(cfg.height), side_swaps=scaled.camera.side_swaps)
+        subject_height_m=float("nan") if cfg.height is None else float(cfg.height))
     result.kinematics_blocks = kinematics_chunks(filtered, fps, cutoff, units, rotation=turn)
     if _spine_built_on_trunk_line(cam):  # an angle the layout cannot measure is empty, not 0
         result.kinematics_blocks = _without(result.kinematics_blocks, NEEDS_SPINE_JOINT)

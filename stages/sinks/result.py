@@ -81,9 +81,6 @@ class RecordingResult:
             (:func:`pcnet.stages.plausibility.implausible_frames`), or ``None`` when the motion
             was not checked (non-metric poses); written to the npz, shaded in the angle and
             speed plots, logged in the recording.
-        side_swaps: ``(T, 2)`` bool, the frames whose legs (column 0) or arms (column 1) the
-            lifter had exchanged and the run exchanged back
-            (:func:`pcnet.stages.side_swaps.side_swap_frames`), or ``None``; written to the npz.
         pelvis_path_std: ``(T, 3)`` float64 1-sigma (the poses' units) of a pelvis path
             recovered from the 2D keypoints along the world axes X, Y, Z (depth is the weak
             axis), or ``None`` for a measured or unobservable path; written to the npz.
@@ -120,7 +117,6 @@ class RecordingResult:
     unfiltered: np.ndarray | None = None
     flag_counts: dict = field(default_factory=dict)
     implausible_frames: np.ndarray | None = None
-    side_swaps: np.ndarray | None = None
     pelvis_path_std: np.ndarray | None = None
     empty_angles: dict = field(default_factory=dict)
     root_path: str | None = None
@@ -290,7 +286,6 @@ def write_arrays(r: RecordingResult, folder: Path) -> dict[str, Path]:
         frame_tilt_bound_deg=r.rectification.frame_tilt_bound_deg,
         joints_world=r.world if r.world is not None else np.zeros((0, 17, 3)), world_rotation=r.world_rotation,
         implausible_frames=_implausible(r) if r.implausible_frames is not None else np.zeros(0, bool),
-        side_swaps=np.asarray(r.side_swaps, bool) if r.side_swaps is not None else np.zeros((0, 2), bool),
         pelvis_path_std_world=r.pelvis_path_std if r.pelvis_path_std is not None else np.zeros((0, 3)),
         subject_height_m=np.float64(r.subject_height_m),
     )
