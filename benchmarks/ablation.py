@@ -127,7 +127,7 @@ from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
 from benchmarks.fit_root_path import K as K_VIEW
 from benchmarks.fit_root_path import detected_keypoints
-from benchmarks.report import BOOTSTRAP, SHARED_DATA, require_mocap
+from benchmarks.report import BOOTSTRAP, SHARED_DATA, require_folder
 from pcnet.stages.core.canonical import canonical_rotation
 from pcnet.stages.core.conventions import PELVIS, THORAX, check_poses
 from pcnet.stages.core.rotations import angle_between, axis_rotation, camera_pitch_roll, normalize, with_up
@@ -610,7 +610,7 @@ def heldout_arguments(argv, doc: str, script: str, result: Path | None,
     for name, text in flags:
         ap.add_argument(name, action="store_true", help=text)
     args = ap.parse_args(argv)
-    require_mocap(args.data, script)
+    require_folder(args.data, script)
     return args
 
 
@@ -1184,7 +1184,7 @@ def main(argv=None) -> int:
     if args.rows is not None:
         VARIANTS = tuple(v for v in VARIANTS if v.kind == "default" or v.label == AUTO  # the reproduction check's
                          or any(r in v.label for r in args.rows))
-    require_mocap(args.data, "ablation")
+    require_folder(args.data, "ablation")
     t0 = time.time()
     lines = [__doc__.splitlines()[0], "",
              f"    python -m benchmarks.ablation --data ../shared/data --max-clips {args.max_clips}"

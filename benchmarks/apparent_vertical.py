@@ -47,7 +47,7 @@ from scipy.signal import savgol_filter
 from benchmarks.balance_evidence import centre_of_mass
 from benchmarks.calibrate_frame_bound import DEEPMIMIC_GROUPS, canonical_pitch_roll, deepmimic_group
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import SHARED_DATA, data_arguments, print_and_save, require_mocap
+from benchmarks.report import SHARED_DATA, data_arguments, print_and_save, require_folder
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.pipeline.rectification import make_estimator, rectify
@@ -142,7 +142,7 @@ def explained(e: np.ndarray, a: np.ndarray, beta: np.ndarray) -> tuple[np.ndarra
 
 def main() -> int:
     args = data_arguments(__doc__, DEFAULT, RESULT, stride=1)
-    require_mocap(args.data, "apparent_vertical")
+    require_folder(args.data, "apparent_vertical")
     estimator = make_estimator("pcnet")
     val, test = training_mix_splits(args.data, "val", "test")
     deepmimic_clips = load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz")

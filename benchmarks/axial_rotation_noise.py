@@ -23,7 +23,6 @@ Writes benchmarks/results/axial_rotation_noise.txt.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +30,7 @@ import numpy as np
 import pcnet.stages.isb_angles as isb
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save, trial_arguments
 from pcnet.models.datasets import load_mocap, select_split
 
 RESULT = Path(__file__).resolve().parent / "results" / "axial_rotation_noise.txt"
@@ -82,11 +81,7 @@ def table(title: str, rows: dict[str, np.ndarray]) -> list[str]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--data", type=Path, default=A.DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "axial_rotation_noise")
+    args = trial_arguments(__doc__, RESULT, argv, script="axial_rotation_noise")
     mocap = args.data / "mocap"
     lines = [__doc__.split("\n")[0], "", f"    {COMMAND}", ""]
     val = [select_split(load_mocap(mocap / file), "val", "motion-style") for _, file in F.VAL_SETS]

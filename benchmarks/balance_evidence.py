@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import SHARED_DATA, print_and_save, require_folder
 from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.pipeline.rectification import make_estimator
@@ -153,7 +153,7 @@ def main() -> None:
     ap.add_argument("--cache", type=Path, default=None,
                     help="the ablation's evidence cache (--correlation; default: the ablation's)")
     args = ap.parse_args()
-    require_mocap(args.data, "balance_evidence")
+    require_folder(args.data, "balance_evidence")
     t0 = time.time()
     if args.correlation:
         from benchmarks.ablation import CACHE

@@ -33,14 +33,13 @@ signed pitch and roll. Writes benchmarks/results/frame_bound.txt.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.gravity_benchmark import load_camera
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.models.lifter_noise import LifterNoise
@@ -49,7 +48,6 @@ from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages import uncertainty
 from pcnet.stages.core.rotations import angle_between, axis_rotation
 
-DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "frame_bound.txt"
 COMMAND = "python -m benchmarks.calibrate_frame_bound --data ../shared/data"
 LEVEL = 0.95
@@ -167,10 +165,7 @@ def covers(e, d, w, base, k, body) -> tuple[float, float, float]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
+    args = trial_arguments(__doc__, RESULT, argv, script="calibrate_frame_bound")
     estimator = make_estimator("pcnet")
     val, test = training_mix_splits(args.data, "val", "test")
     cal_all = frames_of(estimator, mocap_views(val))

@@ -30,13 +30,12 @@ Writes benchmarks/results/contact_leads.txt.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.report import SHARED_DATA, print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 from benchmarks.yoga_physics import FOLDER, FPS, parse_name, plain_export
 from pcnet.adapters import load_videopose3d
 from pcnet.pipeline.rectification import rectify
@@ -104,10 +103,7 @@ def section(data: Path, asanas: tuple[str, ...], row, cells, summary) -> list[st
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
+    args = trial_arguments(__doc__, RESULT, argv)
     folder = args.data.joinpath(*FOLDER)
     if not any(folder.glob("export_*.npy")):
         sys.exit(f"contact_leads: no export_*.npy files under {folder}; pass --data <data root>")

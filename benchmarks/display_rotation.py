@@ -25,7 +25,6 @@ turn cannot reproduce: a detector run on turned pixels gives slightly different 
 
 from __future__ import annotations
 
-import argparse
 import json
 import struct
 import sys
@@ -38,7 +37,7 @@ import numpy as np
 
 from benchmarks.gravity_benchmark import deg_between, pitch_roll_deg
 from benchmarks.vanishing_gravity import LINES, RECORDINGS, truth
-from benchmarks.report import SHARED_DATA
+from benchmarks.report import trial_arguments
 from pcnet.adapters import iter_frames, probe_video
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
@@ -46,7 +45,6 @@ from pcnet.pipeline.video_orientation import display_turn, stored_pixels
 from pcnet.stages.core.perspective import focal_px_from_35mm
 
 HERE = Path(__file__).resolve().parent
-DEFAULT = SHARED_DATA
 RESULT = HERE / "results" / "display_rotation.txt"
 COMMAND = "python -m benchmarks.display_rotation --data ../shared/data"
 #: cv2.rotate code that stores a displayed frame for each clockwise display rotation.
@@ -166,10 +164,7 @@ def run_case(label: str, video_src: Path, inputs: dict, tmp: Path, case: tuple, 
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT, help="data root (default ../shared/data)")
-    ap.add_argument("--out", type=Path, default=RESULT, help=f"where the table is written too (default {RESULT})")
-    args = ap.parse_args()
+    args = trial_arguments(__doc__, RESULT)
     run = RECORDINGS["boxing"]["run"]
     if not (args.data / run["lifter_output"]).is_file():
         sys.exit(f"display_rotation: {args.data / run['lifter_output']} not found; pass --data <data root>")

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.mocap_sets import TRAINING_MIX, training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import SHARED_DATA, print_and_save, require_folder
 from pcnet.pipeline.config import DEFAULT_CUTOFF_HZ
 from pcnet.stages.kinematics import ANGLE_SPEED_LIMITS_PATH, PERIODIC_ANGLES, angle_kind, compute_kinematics
 
@@ -63,7 +63,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=RESULT)
     ap.add_argument("--limits", type=Path, default=ANGLE_SPEED_LIMITS_PATH, help="where to write the limits JSON")
     args = ap.parse_args(argv)
-    require_mocap(args.data, "fit_angle_speeds")
+    require_folder(args.data, "fit_angle_speeds")
     t0 = time.time()
     (train,) = training_mix_splits(args.data, "train")
     limits = fit(train)

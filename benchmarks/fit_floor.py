@@ -31,14 +31,13 @@ Writes benchmarks/results/fit_floor.txt.
 
 from __future__ import annotations
 
-import argparse
 import time
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.report import SHARED_DATA, print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.models.datasets import group_key, load_mocap, select_split
 from pcnet.models.lifter_noise import apply_lifter_errors, sample_lifter_errors
@@ -49,7 +48,6 @@ from pcnet.stages.floor import ANKLE_CLEARANCE_LEG, tukey_location
 from pcnet.stages.spherical import TUKEY_C
 from pcnet.stages.world_frame import _floor_evidence, to_world_floor, world_frame
 
-DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "fit_floor.txt"
 # world -> OpenCV camera: x right, y down, z forward, looking along world +Z, pitched 10 deg down
 CAMERA = axis_rotation("x", np.radians(-10.0)) @ np.diag([1.0, -1.0, -1.0]) @ axis_rotation("y", np.pi)
@@ -133,10 +131,7 @@ def held_out_rows(clips, label: str) -> list[str]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args()
+    args = trial_arguments(__doc__, RESULT, script="fit_floor")
     t0 = time.perf_counter()
     mocap = args.data / "mocap"
     cmu = load_mocap(mocap / "cmu_train_h36m17.npz")

@@ -50,7 +50,7 @@ import numpy as np
 
 from benchmarks import ablation as A
 from benchmarks import fit_up_model as F
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save, require_folder
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.pipeline.rectification import NetworkEstimator
@@ -166,7 +166,7 @@ def main(argv=None) -> int:
     ap.add_argument("--heldout", action="store_true")
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
-    require_mocap(args.data, "fit_heading_source")
+    require_folder(args.data, "fit_heading_source")
     t0 = time.time()
     val = run_sets([(tag, select_split(load_mocap(args.data / "mocap" / file), "val", "motion-style"))
                     for tag, file in F.VAL_SETS], F.VAL_MAX_CLIPS)

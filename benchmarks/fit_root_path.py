@@ -39,21 +39,19 @@ were exact and Gaussian).
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
 import numpy as np
 from scipy.linalg import solveh_banded
 
-from benchmarks.report import SHARED_DATA
+from benchmarks.report import trial_arguments
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import BONE_SCALE_SIGMA, apply_lifter_errors, sample_lifter_errors
 from pcnet.stages import root_path
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.root_path import _fit_block, root_from_keypoints
 
-DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "fit_root_path.txt"
 K = np.array([[1400.0, 0.0, 960.0], [0.0, 1400.0, 540.0], [0.0, 0.0, 1.0]])
 PIXEL_SIGMA = 2.0
@@ -161,10 +159,7 @@ def evaluate(clips, condition: str, seed: int = 0, size_std: float = 0.0) -> dic
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args()
+    args = trial_arguments(__doc__, RESULT, script="fit_root_path")
     clips = load_mocap(args.data / "mocap" / "cmu_train_h36m17.npz")
     train = select_split(clips, "train", "motion-style")
     val = select_split(clips, "val", "motion-style")

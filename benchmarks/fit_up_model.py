@@ -64,7 +64,7 @@ from scipy.optimize import minimize
 
 from benchmarks import ablation as A
 from benchmarks.deepmimic_floor_subset import FLOOR_TRAIN
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save, require_folder
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.stages.core.conventions import PELVIS, THORAX
 from pcnet.stages.core.rotations import axis_rotation
@@ -317,7 +317,7 @@ def fit_arguments(argv, doc: str, script: str, result: Path, writes_json: bool =
         ap.add_argument("--json", type=Path, default=JSON_OUT)
     ap.add_argument("--out", type=Path, default=result)
     args = ap.parse_args(argv)
-    require_mocap(args.data, script)
+    require_folder(args.data, script)
     return args
 
 

@@ -64,7 +64,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.ablation import LYING_TRUNK_DEG, static_camera_clips
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import SHARED_DATA, print_and_save, require_folder
 from benchmarks.vanishing_gravity import RECORDINGS
 from benchmarks.yoga_physics import FOLDER as YOGA_FOLDER
 from benchmarks.yoga_physics import FPS as YOGA_FPS
@@ -224,7 +224,7 @@ def main(argv=None) -> int:
         return 0
     out = args.out or (RESULT_NO_SWAPS if args.no_swaps else RESULT)
     noise = LifterNoise(swap_rate_hz=0.0) if args.no_swaps else LifterNoise()
-    require_mocap(args.data, "flag_rates")
+    require_folder(args.data, "flag_rates")
     t0 = time.time()
     per_clip: list[str] = []
 

@@ -25,7 +25,6 @@ printed as the case the candidate is for. Writes benchmarks/results/floor_lowest
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import time
 from collections import defaultdict
@@ -40,7 +39,7 @@ import pcnet.stages.floor as floor_module
 import pcnet.stages.world_frame as world_frame_module
 from benchmarks import fit_floor as FF
 from benchmarks.ablation import paired_interval
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import print_and_save, trial_arguments
 from pcnet.models.datasets import group_key, load_mocap, select_split
 from pcnet.stages.world_frame import to_world_floor
 
@@ -151,11 +150,7 @@ def errors(clips, candidate: bool, clearance: float) -> dict[str, dict[str, floa
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "floor_lowest_mode")
+    args = trial_arguments(__doc__, RESULT, argv, script="floor_lowest_mode")
     t0 = time.time()
     cmu = load_mocap(args.data / "mocap" / "cmu_train_h36m17.npz")
     clearance = refitted_clearance(cmu)

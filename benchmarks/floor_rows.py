@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import ablation as A
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save, require_folder
 from benchmarks.view_gate_pieces import MARGIN_DEG, worse
 from pcnet.stages.rectify import up_model_sequence
 
@@ -86,7 +86,7 @@ def main(argv=None) -> int:
     what.add_argument("--save", type=Path, help="write this run's per-clip errors to this .npz")
     what.add_argument("--against", type=Path, help="a --save file of an earlier run: compare clip by clip")
     args = ap.parse_args(argv)
-    require_mocap(args.data, "floor_rows")
+    require_folder(args.data, "floor_rows")
     before = None if args.against is None else saved_rows(args.against)  # read first: a bad file fails at once
     t0 = time.time()
     now = rows(args.data, args.cache, args.max_clips)

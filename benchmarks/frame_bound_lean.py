@@ -20,14 +20,13 @@ own errors. The rule to ship it was written before any held-out number (models/M
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.calibrate_frame_bound import conformal, DEFAULT, mocap_views, pose2sim_views
+from benchmarks.calibrate_frame_bound import conformal, mocap_views, pose2sim_views
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.models.datasets import load_mocap
 from pcnet.models.inference import BODY_WEIGHTS
@@ -69,10 +68,7 @@ def fit_lean(e, d, lam, k: float) -> tuple[float, float]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
+    args = trial_arguments(__doc__, RESULT, argv, script="frame_bound_lean")
     pair, body = make_estimator("pcnet"), make_estimator("pcnet", str(BODY_WEIGHTS))
     val, test = training_mix_splits(args.data, "val", "test")
     cal = lean_frames(pair, mocap_views(val))

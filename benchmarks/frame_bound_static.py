@@ -15,20 +15,18 @@ own coverage: median, 10th percentile, and the share of clips covered in fewer t
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.calibrate_frame_bound import frames_of, mocap_views
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.models.datasets import load_mocap
 from pcnet.pipeline.rectification import make_estimator
 from pcnet.stages import uncertainty
 
-DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "frame_bound_static.txt"
 COMMAND = "python -m benchmarks.frame_bound_static --data ../shared/data"
 
@@ -44,10 +42,7 @@ def clip_coverage(estimator, clips, camera: str) -> list[np.ndarray]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
+    args = trial_arguments(__doc__, RESULT, argv, script="frame_bound_static")
     estimator = make_estimator("pcnet")
     (test,) = training_mix_splits(args.data, "test")
     sets = {"motion-style test": test, "DeepMimic": load_mocap(args.data / "mocap" / "deepmimic_h36m17.npz")}

@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.headings import circular_mean_deg, heading_arguments, pair_headings
-from benchmarks.report import print_and_save
+from benchmarks.headings import circular_mean_deg, pair_headings
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.adapters import load_kinect_v1
 from pcnet.models.inference import ViewGatedPCNet
@@ -48,7 +48,7 @@ def signed_heading_error_deg(forward: np.ndarray, target: np.ndarray, up: np.nda
 
 
 def main(argv=None) -> int:
-    args = heading_arguments(__doc__, RESULT, argv)
+    args = trial_arguments(__doc__, RESULT, argv, script="heading_facing", needs="real/utd_mhad_imu")
     pair = ViewGatedPCNet()
     per_sequence: dict[str, list[float]] = {row: [] for row in ROWS}
     per_frame: dict[str, list[np.ndarray]] = {row: [] for row in ROWS}

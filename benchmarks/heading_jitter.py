@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.headings import heading_arguments, pair_headings, wrapped_deg
-from benchmarks.report import print_and_save
+from benchmarks.headings import pair_headings, wrapped_deg
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.adapters import load_motionbert, load_videopose3d
 from pcnet.models.inference import ViewGatedPCNet
@@ -52,7 +52,7 @@ def jitter(h: np.ndarray) -> tuple[float, float]:
 
 
 def main(argv=None) -> int:
-    args = heading_arguments(__doc__, RESULT, argv)
+    args = trial_arguments(__doc__, RESULT, argv, script="heading_jitter", needs="real")
     pair = ViewGatedPCNet()
     real = args.data / "real"
     files = [(load_videopose3d, p) for p in sorted((real / "yoga_videopose3d").glob("*.npy"))]

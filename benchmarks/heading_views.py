@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.gravity_benchmark import load_camera
-from benchmarks.headings import circular_mean_deg, heading_arguments, pair_headings, wrapped_deg
-from benchmarks.report import print_and_save
+from benchmarks.headings import circular_mean_deg, pair_headings, wrapped_deg
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.models.inference import ViewGatedPCNet
 
@@ -41,7 +41,7 @@ def lab_headings(R: np.ndarray, R_world_to_cam: np.ndarray) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    args = heading_arguments(__doc__, RESULT, argv)
+    args = trial_arguments(__doc__, RESULT, argv, script="heading_views", needs="real/pose2sim_gravity")
     pair = ViewGatedPCNet()
     means: dict[str, dict[str, float]] = {row: {} for row in ROWS}
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",

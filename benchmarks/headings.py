@@ -1,27 +1,12 @@
-"""What the heading benchmarks share: their command line, each network's heading on the shipped
-pair's up, and angles on a circle in degrees."""
+"""What the heading benchmarks share: each network's heading on the shipped pair's up, and angles
+on a circle in degrees."""
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
 import numpy as np
 
-from benchmarks.report import SHARED_DATA
 from pcnet.models.inference import ViewGatedPCNet
 from pcnet.stages.core.rotations import with_up
-
-DEFAULT_DATA = SHARED_DATA
-
-
-def heading_arguments(doc: str, out: Path, argv=None) -> argparse.Namespace:
-    """``--data`` (the data root) and ``--out`` (the results file, default ``out``), parsed from
-    ``argv``; the description is ``doc``'s first line."""
-    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
-    ap.add_argument("--out", type=Path, default=out)
-    return ap.parse_args(argv)
 
 
 def wrapped_deg(d):

@@ -48,7 +48,7 @@ import numpy as np
 
 from benchmarks.ablation import (LYING_TRUNK_DEG, MOCAP_SETS, _Fixed, camera_view_joints, static_camera_clips,
                                  trained_clip_names, verdict)
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import SHARED_DATA, print_and_save, require_folder
 from benchmarks.world_kinematics import wrapped_diff
 from pcnet.models.datasets import Noise, load_mocap, select_split
 from pcnet.models.lifter_noise import LifterNoise
@@ -217,7 +217,7 @@ def sets_arguments(argv, doc: str, name: str) -> tuple[argparse.Namespace, Path,
     ap.add_argument("--max-clips", type=int, default=200, help="per set, as benchmarks/ablation.py's")
     ap.add_argument("--out", type=Path, default=None, help=f"default results/{name}_{{sets}}.txt")
     args = ap.parse_args(argv)
-    require_mocap(args.data, f"benchmarks.{name}")
+    require_folder(args.data, f"benchmarks.{name}")
     out = args.out or RESULT_DIR / f"{name}_{args.sets}.txt"
     if args.sets == "validation":
         return args, out, [(t, select_split(load_mocap(args.data / "mocap" / f), s, "motion-style"))

@@ -32,7 +32,7 @@ import pcnet.stages.up_model as up_model
 from benchmarks import ablation as A
 from benchmarks import real_intervals as RI
 from benchmarks.fit_up_model import LYING_CUTS_DEG, fit_lying, training_trunk_angles
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save, require_folder
 
 RESULT = Path(__file__).resolve().parent / "results" / "lying_scale.txt"
 COMMAND = "python -m benchmarks.lying_scale --data ../shared/data"
@@ -71,7 +71,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cache", type=Path, default=A.CACHE)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
-    require_mocap(args.data, "lying_scale")
+    require_folder(args.data, "lying_scale")
     t0 = time.time()
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", ""]
 

@@ -29,7 +29,7 @@ import numpy as np
 from benchmarks.ablation import MOCAP_SETS, heldout_clips
 from benchmarks.fit_mirror_flag import noisy, reading
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import SHARED_DATA, print_and_save, require_folder
 from pcnet.adapters import load_kinect_v1
 from pcnet.stages.core.conventions import PELVIS
 from pcnet.stages.mirror import load_mirror_model
@@ -64,7 +64,7 @@ def main() -> None:
     ap.add_argument("--sets", choices=("validation", "heldout"), required=True)
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
-    require_mocap(args.data, "mirror_fit_check")
+    require_folder(args.data, "mirror_fit_check")
     t0 = time.perf_counter()
     model = load_mirror_model()
     sets = validation_sets(args.data) if args.sets == "validation" else heldout_sets(args.data)

@@ -19,13 +19,12 @@ most 40,000 frames per set (evenly spaced, ``make_pairs(max_frames=...)``).
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, PCNetSession
@@ -33,7 +32,6 @@ from pcnet.models.lifter_noise import LifterNoise
 from pcnet.stages.core.conventions import H36M_MIRROR_ORDER
 from pcnet.stages.core.rotations import angle_between
 
-DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "mirror_tta.txt"
 COMMAND = "python -m benchmarks.mirror_tta --data ../shared/data"
 MIRROR_X = np.array([-1.0, 1.0, 1.0])
@@ -62,10 +60,7 @@ def rows_for(name: str, clips, sessions) -> list[str]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args()
+    args = trial_arguments(__doc__, RESULT, script="mirror_tta")
     sessions = [("camera-frame", PCNetSession(CAMERA_WEIGHTS)), ("body-frame", PCNetSession(BODY_WEIGHTS))]
     (val,) = training_mix_splits(args.data, "val")
     lines = [COMMAND, "", "Per-frame tilt error, deg, mean / p95, on frames both passes call valid.", "",

@@ -13,14 +13,12 @@ benchmarks/results/network_blend.txt.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.calibrate_frame_bound import DEFAULT
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.models.datasets import make_pairs
 from pcnet.models.inference import BODY_WEIGHTS
@@ -53,10 +51,7 @@ def blend_errors(clips, noise) -> tuple[dict[float, float], int]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
+    args = trial_arguments(__doc__, RESULT, argv, script="network_blend")
     (val,) = training_mix_splits(args.data, "val")
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              "Motion-style validation split, frames with w = 1; mean per-frame tilt error (deg) per alpha:",

@@ -23,9 +23,7 @@ decision 0080's rule.
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.gravity_benchmark import deg_between, pitch_roll_deg
-from benchmarks.report import SHARED_DATA
+from benchmarks.report import trial_arguments
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import run_pipeline
 from pcnet.stages.core.rotations import compose_camera_rotation
@@ -135,12 +133,7 @@ def recordings(data: Path) -> list[tuple[str, str, RunConfig, np.ndarray]]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA, help="data root (default ../shared/data)")
-    ap.add_argument("--out", type=Path, default=RESULT, help=f"where the report is written too (default {RESULT})")
-    args = ap.parse_args(argv)
-    if not args.data.joinpath(*POSE2SIM).is_dir():
-        sys.exit(f"real_intervals: {args.data.joinpath(*POSE2SIM)} not found; pass --data <data root>")
+    args = trial_arguments(__doc__, RESULT, argv, script="real_intervals", needs="real/pose2sim_gravity")
     lines = [__doc__.splitlines()[0], "", f"    {COMMAND}", "",
              f"{'scene':<16}{'source':<34}{'mode':<10}{'pitch':>16}{'true':>7}{'roll':>16}{'true':>7}"
              f"{'both hold':>11}{'tilt err':>10}"]

@@ -27,6 +27,20 @@ def data_arguments(doc: str, data: Path, out: Path, stride: int) -> argparse.Nam
     return args
 
 
+def trial_arguments(doc: str, out: Path, argv=None, script: str | None = None,
+                    needs: str = "mocap") -> argparse.Namespace:
+    """``--data`` (the data root, default ``../shared/data``) and ``--out`` (the results file,
+    default ``out``), parsed from ``argv``; the description is ``doc``'s first line. With
+    ``script``, exits with one line naming it where ``--data`` has no ``needs`` folder."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=SHARED_DATA)
+    ap.add_argument("--out", type=Path, default=out)
+    args = ap.parse_args(argv)
+    if script is not None:
+        require_folder(args.data, script, needs)
+    return args
+
+
 def fit_arguments(doc: str, script: str, out: Path, written: Path, option: str = "--json") -> argparse.Namespace:
     """The command line of a script that fits shipped numbers on the mocap: ``--data`` (the
     data root; exits with one line where it has no ``mocap/``), ``--out`` (the results file) and
@@ -37,7 +51,7 @@ def fit_arguments(doc: str, script: str, out: Path, written: Path, option: str =
     ap.add_argument("--out", type=Path, default=out)
     ap.add_argument(option, type=Path, default=written, help="where the fit's JSON is written")
     args = ap.parse_args()
-    require_mocap(args.data, script)
+    require_folder(args.data, script)
     return args
 
 
@@ -57,10 +71,11 @@ def print_and_save(lines: list[str], out: Path) -> None:
     out.write_text(text)
 
 
-def require_mocap(data: Path, script: str) -> None:
-    """Exit with one line when ``data`` (the data root) has no ``mocap/`` folder."""
-    if not (Path(data) / "mocap").is_dir():
-        sys.exit(f"{script}: no mocap/ folder under {data}; pass --data <data root>")
+def require_folder(data: Path, script: str, needs: str = "mocap") -> None:
+    """Exit with one line naming ``script`` when ``data`` (the data root) has no ``needs``
+    folder."""
+    if not (Path(data) / needs).is_dir():
+        sys.exit(f"{script}: no {needs}/ folder under {data}; pass --data <data root>")
 
 
 def write_detector_fit(path: Path, description: str, key: str, value: float, command: str, clips: int,

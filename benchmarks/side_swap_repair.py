@@ -21,7 +21,6 @@ benchmarks/results/side_swap_repair.txt.
 
 from __future__ import annotations
 
-import argparse
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -29,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.ablation import paired_interval
-from benchmarks.report import SHARED_DATA, print_and_save, require_mocap
+from benchmarks.report import print_and_save, trial_arguments
 from pcnet.models.datasets import load_mocap, select_split
 from pcnet.models.lifter_noise import apply_lifter_errors, sample_lifter_errors
 from pcnet.stages.core.conventions import (L_ANKLE, L_ELBOW, L_HIP, L_KNEE, L_SHOULDER, L_WRIST, R_ANKLE, R_ELBOW, R_HIP,
@@ -188,11 +187,7 @@ def real_files(data: Path) -> list[tuple[str, np.ndarray]]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
-    require_mocap(args.data, "side_swap_repair")
+    args = trial_arguments(__doc__, RESULT, argv, script="side_swap_repair")
     t0 = time.time()
     cmu = load_mocap(args.data / "mocap" / "cmu_train_h36m17.npz")
     bandai = select_split(load_mocap(args.data / "mocap" / "bandai_h36m17.npz"), "test", "motion-style")

@@ -30,13 +30,12 @@ reaches the output) and the intervals' coverage per lean. Nothing is fitted: a d
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.gravity_benchmark import FOLDER, deg_between, load_camera, pitch_roll_deg
-from benchmarks.report import SHARED_DATA, print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 from pcnet.pipeline import rectify
 from pcnet.stages.core.conventions import L_HIP, PELVIS, R_HIP, SPINE, THORAX
 from pcnet.stages.core.rotations import normalize
@@ -74,10 +73,7 @@ def trunk_inclination(joints: np.ndarray, up: np.ndarray) -> float:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args(argv)
+    args = trial_arguments(__doc__, RESULT, argv)
     paths = sorted(args.data.joinpath(*FOLDER).glob("statictrial_cam*.npz"))
     if not paths:
         raise SystemExit(f"{args.data.joinpath(*FOLDER)}: expected the Pose2Sim statictrial files, got none")

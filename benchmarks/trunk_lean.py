@@ -29,19 +29,17 @@ DeepMimic (another dataset; the camera-frame network trained on three of its flo
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.mocap_sets import training_mix_splits
-from benchmarks.report import SHARED_DATA, print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 
 from pcnet.models.datasets import load_mocap, make_pairs
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.core.conventions import PELVIS, THORAX
 
-DEFAULT = SHARED_DATA
 RESULT = Path(__file__).resolve().parent / "results" / "trunk_lean.txt"
 COMMAND = "python -m benchmarks.trunk_lean --data ../shared/data"
 TRAIN_EVERY = 8
@@ -80,10 +78,7 @@ def summary(name: str, rows: np.ndarray) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT)
-    ap.add_argument("--out", type=Path, default=RESULT)
-    args = ap.parse_args()
+    args = trial_arguments(__doc__, RESULT, script="trunk_lean")
     train, test = training_mix_splits(args.data, "train", "test")
     sets = [("training mix, motion-style train (every 8th clip)", train[::TRAIN_EVERY]),
             ("training mix, motion-style test", test),

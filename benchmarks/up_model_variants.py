@@ -28,7 +28,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from benchmarks import ablation as A
-from benchmarks.report import print_and_save, require_mocap
+from benchmarks.report import print_and_save, require_folder
 from benchmarks import fit_up_model as F
 from pcnet.stages.up_model import (PoseSummary, UpEvidence, UpModelParameters, default_parameters, exp_map,
                                    frame_log_likelihood, frame_starts, frames_per_error, log_camera_prior, log_map,
@@ -180,7 +180,7 @@ def main(argv=None) -> int:
     ap.add_argument("--max-clips", type=int, default=200)
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
-    require_mocap(args.data, "up_model_variants")
+    require_folder(args.data, "up_model_variants")
     t0 = time.time()
     p = default_parameters()
     val = F.validation_sets(args.data, args.cache)

@@ -27,7 +27,6 @@ trunk flexion to gravity adds each camera's up error, so they may agree less tha
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import time
 from pathlib import Path
@@ -35,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.gravity_benchmark import load_camera
-from benchmarks.report import SHARED_DATA, print_and_save
+from benchmarks.report import print_and_save, trial_arguments
 from pcnet.pipeline.rectification import rectify
 from pcnet.stages.core.conventions import (L_ANKLE, L_ELBOW, L_HIP, L_KNEE, L_SHOULDER, L_WRIST, R_ANKLE, R_ELBOW,
                                            R_HIP, R_KNEE, R_SHOULDER, R_WRIST, SPINE)
@@ -68,10 +67,7 @@ def rms_distance_cm(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--out", type=Path, default=RESULT, help="the results file [benchmarks/results/view_agreement.txt]")
-    args = ap.parse_args(argv)
+    args = trial_arguments(__doc__, RESULT, argv, script="view_agreement", needs="real/pose2sim_gravity")
     t0 = time.time()
     frames = {}
     for cam in CAMERAS:
