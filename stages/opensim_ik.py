@@ -66,7 +66,9 @@ MARKER_FILE = "Markers_H36M17.xml"
 SCALE_SETUP = "Scaling_Setup_H36M17.xml"
 IK_SETUP = "IK_Setup_H36M17.xml"
 #: What :func:`scale_and_ik` writes; the last is its fit (marker errors and the fit's warning).
-OUTPUTS = ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "opensim_fit.json")
+#: The two setups and their marker files are what the tools ran, for a re-run in OpenSim.
+OUTPUTS = ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "scale_setup.xml", "scale_markers.trc",
+           "ik_setup.xml", "ik_markers.trc", "opensim_fit.json")
 #: Subject heights (m) and masses (kg) the shipped model is scaled to.
 HEIGHT_RANGE_M = (0.5, 2.5)
 MASS_RANGE_KG = (10.0, 300.0)
@@ -632,9 +634,12 @@ def scale_and_ik(
     Writes into ``out_dir`` (which must exist): ``scaled_model.osim``, ``ik.mot`` (generalised
     coordinates per frame; rotations in degrees, pelvis translations in metres, ground frame =
     the TRC's frame), ``ik_marker_errors.sto`` (OpenSim's per-frame
-    ``total_squared_error``, ``marker_error_RMS``, ``marker_error_max`` in metres) and
-    ``opensim_fit.json`` (the returned fit: marker errors, frames, static window and
-    :func:`ik_fit_flags`' ``warnings``). The tools run in a hidden temporary folder inside
+    ``total_squared_error``, ``marker_error_RMS``, ``marker_error_max`` in metres), the two
+    tools' setups as they ran with their marker files (``scale_setup.xml`` on
+    ``scale_markers.trc``, the complete frames; ``ik_setup.xml`` on ``ik_markers.trc``, the
+    frames with a marker; file names relative to the folder, the generic model's absolute in
+    the installed package) and ``opensim_fit.json`` (the returned fit: marker errors, frames,
+    static window and :func:`ik_fit_flags`' ``warnings``). The tools run in a hidden temporary folder inside
     ``out_dir``; the files are renamed into place only when both tools succeeded, and only that
     temporary folder is ever deleted.
 
@@ -711,7 +716,7 @@ def scale_and_ik(
         # complete frames only (their own copy, times renumbered).
         from .sinks.exports import finite_or_null, write_trc
 
-        scale_trc = write_trc(tmp / "scale_frames.trc", joints[complete], fps, used, units, check_up=False)
+        write_trc(tmp / "scale_markers.trc", joints[complete], fps, used, units, check_up=False)
         c_times = np.arange(int(complete.sum())) / fps
         c0, c1 = static_window(c_times, joints[complete], static_seconds)
         kept = np.flatnonzero(complete)
@@ -719,6 +724,9 @@ def scale_and_ik(
         w1 = float(times[kept[round(c1 * fps)]])
         # --- scaling -------------------------------------------------------------------
         t_scale = time.perf_counter()
+        # The tools' file names are relative to their setup's folder, as written, so that the
+        # setups re-run in OpenSim beside their outputs; the ScaleTool runs from its written
+        # setup (it reads relative names against that folder) so that the file is what ran.
         tool = osim.ScaleTool(str(data / SCALE_SETUP))
         tool.setPathToSubject("")
         tool.setSubjectMass(float(mass_kg) if mass_kg is not None else -1.0)
@@ -727,18 +735,20 @@ def scale_and_ik(
         gmm.setModelFileName(str(data / MODEL_FILE))
         gmm.setMarkerSetFileName(str(data / MARKER_FILE))
         scaler = tool.getModelScaler()
-        scaler.setMarkerFileName(str(scale_trc))
+        scaler.setMarkerFileName("scale_markers.trc")
         scaler.setTimeRange(_array(osim, float(c_times[0]), float(c_times[-1])))
         scaler.setPreserveMassDist(mass_kg is not None)
-        scaler.setOutputModelFileName(str(tmp / "scaled_only.osim"))
-        scaler.setOutputScaleFileName(str(tmp / "scale_factors.xml"))
+        scaler.setOutputModelFileName("")
+        scaler.setOutputScaleFileName("")
         placer = tool.getMarkerPlacer()
-        placer.setMarkerFileName(str(scale_trc))
+        placer.setMarkerFileName("scale_markers.trc")
         placer.setTimeRange(_array(osim, c0, c1))
-        placer.setOutputModelFileName(str(tmp / "scaled_model.osim"))
-        placer.setOutputMotionFileName(str(tmp / "static_pose.mot"))
+        placer.setOutputModelFileName("scaled_model.osim")
+        placer.setOutputMotionFileName("")
         placer.setMaxMarkerMovement(-1.0)
         unscaled = _leave_markers_out(tool, left_out)
+        tool.printToXML(str(tmp / "scale_setup.xml"))
+        tool = osim.ScaleTool(str(tmp / "scale_setup.xml"))
         with _stdout_to(tmp / "opensim_scale.log") as log:
             try:
                 ok = tool.run()
@@ -750,20 +760,26 @@ def scale_and_ik(
         scale_seconds = time.perf_counter() - t_scale
 
         # --- inverse kinematics ----------------------------------------------------------
-        ik_markers = trc
-        if not marked.all() or left_out:
-            ik_markers = write_trc(tmp / "ik_frames.trc", joints[marked], fps, used, units,
-                                   frames=np.flatnonzero(marked) + int(round(start_s * fps)), check_up=False)
+        write_trc(tmp / "ik_markers.trc", joints[marked], fps, used, units,
+                  frames=np.flatnonzero(marked) + int(round(start_s * fps)), check_up=False)
         ik = osim.InverseKinematicsTool(str(data / IK_SETUP))
         _tasks_off(ik.getIKTaskSet(), left_out)
-        model = osim.Model(str(tmp / "scaled_model.osim"))
-        ik.setModel(model)
-        ik.set_marker_file(str(ik_markers))
+        ik.set_model_file("scaled_model.osim")
+        ik.set_marker_file("ik_markers.trc")
         ik.setStartTime(float(times[marked][0]))
         ik.setEndTime(float(times[marked][-1]))
+        ik.setResultsDir(".")
+        ik.setOutputMotionFileName("ik.mot")
+        ik.set_report_errors(True)
+        ik.printToXML(str(tmp / "ik_setup.xml"))
+        # The InverseKinematicsTool reads relative names against the working folder (a re-run
+        # starts in the output folder): this run gives it absolute ones instead of changing
+        # this process's folder.
+        model = osim.Model(str(tmp / "scaled_model.osim"))
+        ik.setModel(model)
+        ik.set_marker_file(str(tmp / "ik_markers.trc"))
         ik.setResultsDir(str(tmp))
         ik.setOutputMotionFileName(str(tmp / "ik.mot"))
-        ik.set_report_errors(True)
         t_ik = time.perf_counter()
         with _stdout_to(tmp / "opensim_ik.log") as log:
             try:

@@ -15,6 +15,7 @@ import pytest
 from click.testing import CliRunner
 from pcnet.pipeline.cli import main
 from pcnet.stages.core.errors import InputError
+from pcnet.stages.opensim_ik import OUTPUTS
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "pipeline" / "example_data"
 FRAMES = 60  # 2 s of the bundled boxing clip
@@ -56,10 +57,9 @@ def test_scale_and_ik_on_a_short_real_clip(short_run, tmp_path):
     out = tmp_path / "ik"
     out.mkdir()
     r = scale_and_ik(short_run / "world.trc", out, 1.75)
-    for name in ("scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "opensim_fit.json"):
-        assert (out / name).is_file() and (out / name).stat().st_size > 0, name
-    assert sorted(p.name for p in out.iterdir()) == ["ik.mot", "ik_marker_errors.sto", "opensim_fit.json",
-                                                     "scaled_model.osim"]
+    assert sorted(p.name for p in out.iterdir()) == sorted(OUTPUTS)
+    for name in OUTPUTS:
+        assert (out / name).stat().st_size > 0, name
     fit = json.loads((out / "opensim_fit.json").read_text())
     assert fit["marker_rms_m"] == pytest.approx(r["marker_rms_m"]) and fit["warnings"] == r["warnings"] == []
     assert r["frames"] == FRAMES
@@ -91,6 +91,33 @@ def test_scale_and_ik_on_a_short_real_clip(short_run, tmp_path):
     with pytest.raises(InputError, match="--overwrite"):
         scale_and_ik(short_run / "world.trc", out, 1.75)
     scale_and_ik(short_run / "world.trc", out, 1.75, 70.0, overwrite=True)
+
+
+def test_the_written_setups_re_run_in_opensim_to_the_same_fit(short_run, tmp_path, monkeypatch):
+    """An OpenSim modeller had no setup files to re-run or edit the fit with. The ScaleTool's
+    and the InverseKinematicsTool's setups are written as they ran, with their marker files:
+    a copy of the folder re-runs both to pcnet's scaled model and ik.mot."""
+    osim = pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    from pcnet.stages.opensim_ik import _parse_sto, scale_and_ik
+
+    out = tmp_path / "ik"
+    out.mkdir()
+    scale_and_ik(short_run / "world.trc", out, 1.75, 70.0)
+    again = tmp_path / "moved"
+    again.mkdir()
+    for name in ("scale_setup.xml", "scale_markers.trc", "ik_setup.xml", "ik_markers.trc"):
+        (again / name).write_bytes((out / name).read_bytes())
+    monkeypatch.chdir(tmp_path)  # the ScaleTool reads its names against its setup's folder
+    assert osim.ScaleTool(str(again / "scale_setup.xml")).run()
+    assert sorted(p.name for p in again.iterdir()) == ["ik_markers.trc", "ik_setup.xml", "scale_markers.trc",
+                                                       "scale_setup.xml", "scaled_model.osim"]
+    monkeypatch.chdir(again)  # the InverseKinematicsTool reads them against the working folder
+    assert osim.InverseKinematicsTool("ik_setup.xml").run()
+    (columns, ours), (rerun_columns, rerun) = _parse_sto(out / "ik.mot"), _parse_sto(again / "ik.mot")
+    assert columns == rerun_columns and ours.shape == rerun.shape == (FRAMES, len(columns))
+    kept = np.isfinite(ours)  # pcnet empties the cells no marker reaches; OpenSim writes them
+    assert kept.mean() > 0.5
+    np.testing.assert_allclose(rerun[kept], ours[kept], atol=1e-3)
 
 
 def test_frames_without_any_marker_are_left_out_of_ik(short_run, tmp_path):
@@ -300,7 +327,7 @@ def test_pcnet_run_with_opensim_writes_the_ik_beside_the_run(tmp_path):
                "--out", out, "--no-recording", "--opensim", "--mass", 70)
     assert res.exit_code == 0, res.output
     assert "note     OpenSim IK: marker RMS" in res.output
-    written = {"world.trc", "scaled_model.osim", "ik.mot", "ik_marker_errors.sto", "opensim_fit.json"}
+    written = {"world.trc", *OUTPUTS}
     assert written <= {p.name for p in out.iterdir()}
     # published with the run: pcnet's marker lists the OpenSim files, so --overwrite may replace them
     assert written <= set(json.loads((out / ".pcnet-output").read_text())["files"])
