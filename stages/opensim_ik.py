@@ -724,9 +724,9 @@ def scale_and_ik(
         w1 = float(times[kept[round(c1 * fps)]])
         # --- scaling -------------------------------------------------------------------
         t_scale = time.perf_counter()
-        # The tools' file names are relative to their setup's folder, as written, so that the
-        # setups re-run in OpenSim beside their outputs; the ScaleTool runs from its written
-        # setup (it reads relative names against that folder) so that the file is what ran.
+        # The setups name their files relative to the output folder, so that they re-run in
+        # OpenSim beside their outputs; the ScaleTool runs from its written setup (it reads
+        # relative names against the setup's folder), so that the file is what ran.
         tool = osim.ScaleTool(str(data / SCALE_SETUP))
         tool.setPathToSubject("")
         tool.setSubjectMass(float(mass_kg) if mass_kg is not None else -1.0)
