@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from conftest import FIXTURES, rrd_summary
 from pcnet.stages.core.canonical import canonical_rotation, to_canonical
-from pcnet.stages.core.conventions import L_WRIST
+from pcnet.stages.core.conventions import L_WRIST, R_WRIST
 from pcnet.stages.isb_angles import NAMES as ISB_NAMES
 from pcnet.stages.kinematics import ANGLE_NAMES, compute_kinematics
 from pcnet.stages.sinks.plots import (
@@ -174,6 +174,57 @@ def test_another_persons_frames_are_shaded_and_named_in_both_figures(walk):
         assert not any(a.patches for a in plain.axes if a.get_visible())
         with pytest.raises(ValueError, match="other_person"):
             figure(kin, FPS, other_person=other[:-1])
+
+
+def _panel_boxes(fig) -> list:
+    """The drawn extent (display pixels) of each visible panel of ``fig``: its axes, title,
+    tick labels and axis labels."""
+    from matplotlib.transforms import Bbox
+
+    renderer = fig.canvas.get_renderer()
+    fig.draw(renderer)
+    boxes = []
+    for ax in (a for a in fig.axes if a.get_visible()):
+        parts = [ax.bbox, ax.xaxis.get_tightbbox(renderer), ax.yaxis.get_tightbbox(renderer)]
+        if ax.get_title():
+            parts.append(ax.title.get_window_extent(renderer))
+        boxes.append(Bbox.union([b for b in parts if b is not None]))
+    return boxes
+
+
+def test_no_panels_text_overlaps_another_panel_the_title_or_the_picture_edge(walk):
+    """The figures' layout is fixed in inches (``plots.new_figure``): every panel's title, tick
+    labels and axis labels stay clear of the other panels and of a two-line suptitle, and
+    inside the picture, for the three figures and an angle grid with its bottom-right panel
+    hidden."""
+    import dataclasses
+
+    from pcnet.stages.sinks.exports import wrists_figure
+
+    X, kin = walk
+    marked = np.zeros(kin.num_frames, bool)
+    marked[20:30] = True
+    no_elbow = dataclasses.replace(kin, angles={n: a for n, a in kin.angles.items() if angle_group(n) != "elbow"})
+    wrists = [L_WRIST, R_WRIST]
+    acc = np.nan_to_num(kin.acceleration[:, wrists])
+    figures = {
+        "angles": joint_angles_figure(kin, FPS, other_person=marked, implausible=marked),
+        "angles, odd panel count": joint_angles_figure(no_elbow, FPS),
+        "speeds": joint_speeds_figure(kin, FPS, other_person=marked, implausible=marked),
+        "wrists": wrists_figure(X - X[:, :1], X, FPS, acc, acc, other_person=marked, implausible=marked),
+    }
+    for name, fig in figures.items():
+        boxes = _panel_boxes(fig)
+        assert len(boxes) >= 2, name
+        picture = fig.bbox
+        title = fig._suptitle.get_window_extent(fig.canvas.get_renderer())
+        assert "\n" in fig._suptitle.get_text() or name == "angles, odd panel count"
+        for i, box in enumerate(boxes):
+            assert picture.x0 <= box.x0 and box.x1 <= picture.x1 and picture.y0 <= box.y0 and box.y1 <= picture.y1, (name, i)
+            assert not box.overlaps(title), (name, i)
+            for j, other in enumerate(boxes[i + 1:], i + 1):
+                assert not box.overlaps(other), (name, i, j)
+        assert picture.y0 <= title.y0 and title.y1 <= picture.y1, name
 
 
 def test_a_short_clip_spans_its_own_time_and_empty_series_say_so():

@@ -25,7 +25,7 @@ from ..core.conventions import H36M_JOINTS, L_WRIST, METRES_PER_LENGTH_UNIT, R_W
 from ..core.errors import InputError, import_extra
 from ..core.framestore import FrameArray, frame_blocks
 from ..kinematics import MIN_PROJECTED_FRACTION, PERIODIC_ANGLES, Kinematics, require_y_up
-from .plots import display_samples, marked_frames, marks_note, new_figure, save_png, shade_marks
+from .plots import display_samples, marked_frames, marks_note, new_figure, save_png, set_panel_title, shade_marks
 
 
 # ---------------------------------------------------------------------------------------
@@ -764,7 +764,9 @@ def wrists_figure(
         (frame_label, can, acan, ("x", "y", "z")),
     )
     comp_colors = ("tab:red", "tab:green", "tab:blue")
-    fig, axes = new_figure(3, 2, 8.0 / 3.0)
+    fig, axes = new_figure(3, 2, 8.0 / 3.0,
+                           f"Wrists before (camera frame) and after ({frame_label.split(' (')[0]}) rectification"
+                           + marks_note(other_person, implausible), title_size=12.0)
     for col, (title, pos, acc, labels) in enumerate(columns):
         ax_p, ax_a, ax_m = axes[:, col]
         for w, (side, style) in enumerate((("left", "--"), ("right", "-"))):
@@ -775,7 +777,7 @@ def wrists_figure(
                           label=f"{side} wrist a{labels[c]}")
             ax_m.plot(*display_samples(t, np.linalg.norm(acc[:, w].astype(np.float64), axis=-1)), style, color="k", lw=0.8,
                       label=f"{side} wrist |a|")
-        ax_p.set_title(title)
+        set_panel_title(ax_p, title, 12.0)
         ax_p.set_ylabel(f"position ({units})")
         ax_a.set_ylabel(f"acceleration ({acc_u})")
         ax_m.set_ylabel(f"|acceleration| ({acc_u})")
@@ -784,8 +786,6 @@ def wrists_figure(
             shade_marks(ax, t, other_person, implausible)
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7, ncol=2, loc="upper right")
-    fig.suptitle(f"Wrists before (camera frame) and after ({frame_label.split(' (')[0]}) rectification"
-                 + marks_note(other_person, implausible))
     return fig
 
 
