@@ -74,7 +74,8 @@ class Floor:
     clearance: height of the ankle-centre (contact) plane above the ground, in the poses'
         units (``ANKLE_CLEARANCE_LEG`` x ``leg_length``; 0 for ``"pelvis"``).
     leg_length: the subject's median leg length, poses' units (NaN when no leg was measured).
-    n_contacts: contact frames the plane was fitted to (0 unless ``"plane"``).
+    n_contacts: stance contacts the plane was fitted to: usable frames inside the biweight's
+        support at the fit (a weight above 0; a flight frame's is 0), 0 unless ``"plane"``.
     residual: robust scale (1.4826 MAD) of the contact heights about the plane, poses' units
         (NaN unless ``"plane"``).
     reason: why the floor is not a fitted plane (``""`` for ``"plane"``).
@@ -141,4 +142,5 @@ def fit_ground(lowest: np.ndarray, usable: np.ndarray, leg_length: float) -> tup
         return float("nan"), Floor("per frame", clearance, leg_length,
                                    reason=f"{n} stance contacts along the pelvis path, fewer than {MIN_CONTACTS}")
     level, scale = tukey_location(lowest[c])
-    return level - clearance, Floor("plane", clearance, leg_length, n, scale)
+    held = int(np.count_nonzero(tukey_weights((lowest[c] - level) / max(scale, 1e-12))))
+    return level - clearance, Floor("plane", clearance, leg_length, held, scale)

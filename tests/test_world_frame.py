@@ -101,6 +101,26 @@ def test_missing_joints_stay_missing_and_an_empty_frame_stays_nan():
     assert np.isnan(world[7]).all()
 
 
+def test_a_runs_flight_frames_are_not_counted_as_stance_contacts():
+    """``Floor.n_contacts`` counts the frames that weighed in the ground fit: a real run's
+    flight apexes (the lowest joint 8 cm or more above its lowest, by the mocap itself) are
+    not among them (it counted every frame with an ankle), while a walk, always on a foot,
+    keeps nearly all of its frames."""
+    for clip, kept in (("dataset-2_run_masculine_037", None), ("dataset-2_walk-turn-left_active_001", 0.9)):
+        with np.load(FIXTURES / "mocap_small.npz") as d:
+            J = d[clip].astype(np.float64)  # real, metres, Y up
+        cam, R = _filmed(J)
+        root_cam = J[:, PELVIS] @ CAMERA.T + np.array([0.1, -0.2, 3.0])
+        _, floor = to_world_floor(cam, world_frame(R, np.ones(len(R), bool), FPS), root_cam)
+        assert floor.kind == "plane", clip
+        lowest = J[..., 1].min(axis=1)
+        if kept is None:
+            flight = int(np.sum(lowest - lowest.min() >= 0.08))
+            assert flight >= 5 and floor.n_contacts <= len(J) - flight, (floor.n_contacts, flight)
+        else:
+            assert kept * len(J) <= floor.n_contacts <= len(J), floor.n_contacts
+
+
 def test_a_measured_root_path_is_kept_above_one_floor():
     """A depth sensor measures the pelvis (Poses3D.root_translation): the world frame keeps the
     real walk's path (turned about the vertical, starting at x = z = 0) and one floor for the
