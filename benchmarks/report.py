@@ -27,28 +27,30 @@ def data_arguments(doc: str, data: Path, out: Path, stride: int) -> argparse.Nam
     return args
 
 
-def trial_arguments(doc: str, out: Path, argv=None, script: str | None = None,
-                    needs: str = "mocap") -> argparse.Namespace:
-    """``--data`` (the data root, default ``../shared/data``) and ``--out`` (the results file,
-    default ``out``), parsed from ``argv``; the description is ``doc``'s first line. With
-    ``script``, exits with one line naming it where ``--data`` has no ``needs`` folder."""
+def _data_and_out(doc: str, out: Path) -> argparse.ArgumentParser:
+    """A parser with ``--data`` (the data root, default ``../shared/data``) and ``--out`` (the
+    results file, default ``out``), described by ``doc``'s first line."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--data", type=Path, default=SHARED_DATA)
     ap.add_argument("--out", type=Path, default=out)
-    args = ap.parse_args(argv)
+    return ap
+
+
+def trial_arguments(doc: str, out: Path, argv=None, script: str | None = None,
+                    needs: str = "mocap") -> argparse.Namespace:
+    """``--data`` and ``--out`` (:func:`_data_and_out`), parsed from ``argv``. With ``script``,
+    exits with one line naming it where ``--data`` has no ``needs`` folder."""
+    args = _data_and_out(doc, out).parse_args(argv)
     if script is not None:
         require_folder(args.data, script, needs)
     return args
 
 
 def fit_arguments(doc: str, script: str, out: Path, written: Path, option: str = "--json") -> argparse.Namespace:
-    """The command line of a script that fits shipped numbers on the mocap: ``--data`` (the
-    data root; exits with one line where it has no ``mocap/``), ``--out`` (the results file) and
-    ``option`` (where the fit's JSON is written, default ``written``); the description is
-    ``doc``'s first line."""
-    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=SHARED_DATA)
-    ap.add_argument("--out", type=Path, default=out)
+    """The command line of a script that fits shipped numbers on the mocap: ``--data`` and
+    ``--out`` (:func:`_data_and_out`; exits with one line where the data root has no
+    ``mocap/``) and ``option`` (where the fit's JSON is written, default ``written``)."""
+    ap = _data_and_out(doc, out)
     ap.add_argument(option, type=Path, default=written, help="where the fit's JSON is written")
     args = ap.parse_args()
     require_folder(args.data, script)
