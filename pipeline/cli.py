@@ -634,10 +634,14 @@ def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, 
               help="Subject height in metres, recorded in opensim_fit.json; default the run's `--height`, which scaled "
                    "the markers (another value, or one where the run had none, is refused).")
 @click.option("--mass", type=_NUMBER, default=None, help="Subject mass in kg (sets the scaled model's total mass).")
+@click.option("--static-trial", type=click.Path(), default=None,
+              help="Scale on this static trial of the same subject instead of the recording: another `pcnet run` "
+                   "output folder (its world.trc, e.g. the subject standing still) or a marker file (.trc).")
 @click.option("--overwrite", is_flag=True, help="Replace earlier OpenSim outputs of pcnet in OUT_DIR.")
-def opensim(out_dir, height, mass, overwrite):
+def opensim(out_dir, height, mass, static_trial, overwrite):
     """Scale an OpenSim model to the subject and solve inverse kinematics on OUT_DIR/world.trc
-    (a `pcnet run` output with a static camera; pip install "pcnet[opensim]").
+    (a `pcnet run` output with a static camera; pip install "pcnet[opensim]"). The model is
+    scaled on the recording itself, or on a separate static trial (--static-trial).
 
     Writes OUT_DIR/scaled_model.osim, ik.mot, ik_marker_errors.sto and opensim_fit.json (the
     marker errors and the fit's warning, if any) and prints the marker RMS / max error and the
@@ -663,6 +667,7 @@ def opensim(out_dir, height, mass, overwrite):
         raise InputError(f"{out_dir}: expected world.trc (from `pcnet run` with a static camera and metric poses: "
                          f"a metric lifter or --height), got none")
     height = _subject_height(folder, height)
+    static_trc = None if static_trial is None else _static_trial_trc(Path(static_trial))
     import_opensim()  # before any work: without OpenSim, one line saying how to get it
 
     for leftover in stale_staging(folder):  # of a killed `pcnet opensim` here
@@ -672,7 +677,7 @@ def opensim(out_dir, height, mass, overwrite):
     if foreign:
         raise InputError(f"{out_dir}: --overwrite replaces only OpenSim outputs pcnet wrote, got "
                          f"{', '.join(foreign)} written or changed by someone else; move them away")
-    result = scale_and_ik(trc, folder, height, mass, overwrite=overwrite)
+    result = scale_and_ik(trc, folder, height, mass, static_trc=static_trc, overwrite=overwrite)
     details = _opensim_into_report(folder, result)
     # so that `pcnet run --overwrite` still recognises the whole folder as pcnet's output
     register_files(folder, (*OUTPUTS, details.name))
@@ -684,6 +689,24 @@ def opensim(out_dir, height, mass, overwrite):
     for name in OUTPUTS:
         click.echo(f"{name:<17} {result['outputs'][name]}")
     click.echo(f"details: {details}")
+
+
+def _static_trial_trc(path: Path) -> Path:
+    """The marker file of ``pcnet opensim --static-trial``: ``path`` itself (a ``.trc``) or a
+    `pcnet run` output folder's ``world.trc``.
+
+    Raises:
+        InputError: neither exists.
+    """
+    if path.is_dir():
+        if not (path / "world.trc").is_file():
+            raise InputError(f"--static-trial {path}: expected a `pcnet run` output folder with world.trc (a static "
+                             f"camera, metric poses), got a folder without one")
+        return path / "world.trc"
+    if path.suffix.lower() != ".trc" or not path.is_file():
+        raise InputError(f"--static-trial {path}: expected a `pcnet run` output folder or a .trc marker file, got "
+                         + ("no such file or folder" if not path.exists() else f"a {path.suffix or 'suffix-less'} file"))
+    return path
 
 
 def _subject_height(folder: Path, height: float | None) -> float | None:

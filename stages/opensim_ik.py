@@ -122,6 +122,13 @@ def _spans_text(spans) -> str:
     return text + (f" and {len(spans) - 3} more" if len(spans) > 3 else "")
 
 
+def _trial_name(path: str) -> str:
+    """A marker file named by its folder and name (``standing/world.trc``): pcnet's are all
+    ``world.trc``."""
+    p = Path(path)
+    return f"{p.parent.name}/{p.name}" if p.parent.name else p.name
+
+
 def opensim_fit_line(result: dict, short: bool = False) -> str:
     """One summary line of :func:`scale_and_ik`'s fit: marker RMS and maximum over the IK
     frames, the frames above the RMS limit and when, the frames and the markers left out
@@ -131,6 +138,11 @@ def opensim_fit_line(result: dict, short: bool = False) -> str:
     markers = result.get("markers_left_out") or []
     scaled, total = result.get("scale_frames"), result["frames"] + left_out
     why = "" if short else " (empty in every frame: the input skeleton has no such joint)"
+    trial = result.get("scale_trial")
+    if trial:
+        scaled_on = f"; scaled on the static trial {_trial_name(trial)} ({scaled} frames with every marker)"
+    else:
+        scaled_on = f"; scaled on the {scaled} frames with every marker" if scaled is not None and scaled < total else ""
     return (f"OpenSim IK: marker RMS {100 * result['marker_rms_m']:.2f} cm to the lifter's joints over "
             f"{result['frames']} frames (max {100 * result['marker_max_m']:.2f} cm)"
             + (f"; {above} frames above {100 * MAX_GOOD_MARKER_RMS_M:.0f} cm RMS "
@@ -138,7 +150,7 @@ def opensim_fit_line(result: dict, short: bool = False) -> str:
                if above else "")
             + (f"; {left_out} frames without any marker left out" if left_out else "")
             + (f"; marker{'s' if len(markers) > 1 else ''} {', '.join(markers)} left out{why}" if markers else "")
-            + (f"; scaled on the {scaled} frames with every marker" if scaled is not None and scaled < total else "")
+            + scaled_on
             + f"; {result['frames_per_s']:.1f} frames/s (scaling {result['scale_seconds']:.1f} s)")
 
 
@@ -242,7 +254,8 @@ def opensim_markdown(result: dict) -> str:
     w0, w1 = result["static_window_s"]
     lines = [REPORT_SECTION, "", "(Where the notes above hold an OpenSim IK line of `pcnet run --opensim`, this fit "
              "replaced it.)", "", f"- **fit**: {opensim_fit_line(result)}",
-             f"- **static window** (marker placer): {w0:.3f}-{w1:.3f} s",
+             f"- **scaling trial**: {result.get('scale_trial') or 'the recording itself (world.trc)'}",
+             f"- **static window** (marker placer, in the scaling trial): {w0:.3f}-{w1:.3f} s",
              f"- **subject** (as `pcnet opensim`'s --height and --mass; the markers' scale is `pcnet run "
              f"--height`'s): height {_or_none(result.get('subject_height_m'), 'm')}, mass "
              f"{_or_none(result.get('subject_mass_kg'), 'kg')}{_body_mass_index(result)}; the scaled model weighs "
@@ -609,21 +622,43 @@ class _MotTable:
         return {name: int(rows.sum()) for name, rows in emptied.items()}
 
 
+def _read_h36m_trc(path: Path, use: str) -> tuple[dict, np.ndarray, np.ndarray, str]:
+    """``(header, times (T,), joints (T, 17, 3) in H36M-17 order, units)`` of a marker file
+    with the H36M-17 joint markers, for ``use`` (named in the errors).
+
+    Raises:
+        InputError: unreadable, a joint marker missing, fewer than 2 frames, units not m or mm.
+    """
+    header, times, markers, names, units = _read_trc(path)
+    missing = [j for j in H36M_JOINTS if j not in names]
+    if missing:
+        raise InputError(f"{path}: expected the H36M-17 joint markers, got none named {', '.join(missing)}")
+    if len(times) < 2:
+        raise InputError(f"{path}: expected at least 2 frames for {use}, got {len(times)}")
+    if units not in ("m", "mm"):
+        raise InputError(f"{path}: expected Units m or mm, got {units!r}")
+    return header, times, markers[:, [names.index(j) for j in H36M_JOINTS]], units
+
+
 def scale_and_ik(
     trc_path: str | os.PathLike,
     out_dir: str | os.PathLike,
     height_m: float | None,
     mass_kg: float | None = None,
     *,
+    static_trc: str | os.PathLike | None = None,
     static_seconds: float = 0.5,
     overwrite: bool = False,
 ) -> dict:
-    """Scale the shipped model to the subject of ``trc_path`` and solve inverse kinematics.
+    """Scale the shipped model to the subject of ``trc_path`` (or of a separate static trial,
+    ``static_trc``) and solve inverse kinematics on ``trc_path``.
 
     1. ScaleTool (opensim-core): measurement-based scale factors from marker-pair distances
-       averaged over the whole recording (``Scaling_Setup_H36M17.xml``), then the marker
-       placer on the :func:`static_window` (``static_seconds``) moves the four trunk/head
-       markers that have no joint in the model. ``mass_kg`` sets the total mass with the
+       averaged over the scaling trial's frames with every marker (``Scaling_Setup_H36M17.xml``;
+       the scaling trial is ``static_trc`` where given, as in OpenSim's own workflow of a
+       standing trial, else the recording itself), then the marker placer on that trial's
+       :func:`static_window` (``static_seconds``) moves the four trunk/head markers that have
+       no joint in the model. ``mass_kg`` sets the total mass with the
        generic model's mass distribution; without it the segment masses scale with the
        segments. ``height_m`` is recorded in ``opensim_fit.json`` and given to the ScaleTool,
        which does not scale by it: pcnet's TRC is already scaled by ``pcnet run --height``.
@@ -647,6 +682,10 @@ def scale_and_ik(
         trc_path: an OpenSim marker file with the H36M-17 joint centres (pcnet's
             ``world.trc``: ``(T, 17, 3)`` markers, metres, Y up, X forward, Z right).
         out_dir: existing destination folder.
+        static_trc: the scaling trial, a marker file like ``trc_path`` of the same subject
+            in the same units (e.g. another ``pcnet run``'s ``world.trc`` of the subject
+            standing still), or ``None`` to scale on ``trc_path``. A marker that either trial
+            has in no frame is left out of both.
         height_m: the subject's height in metres (recorded), or ``None``.
         mass_kg: the subject's mass in kg, or ``None``.
         static_seconds: length of the marker placer's static window in seconds.
@@ -658,13 +697,15 @@ def scale_and_ik(
         ``"above_rms_limit_s"`` (IK rows whose RMS marker error passes
         :data:`MAX_GOOD_MARKER_RMS_M`, and their time spans), ``"model_mass_kg"`` (the scaled
         model's total mass), ``"frames"`` (IK rows),
-        ``"frames_without_markers"`` (left out), ``"static_window_s"``, ``"warnings"``,
+        ``"frames_without_markers"`` (left out), ``"scale_trial"`` (``static_trc``'s path, or
+        ``None``), ``"scale_frames"``, ``"static_window_s"`` (in the scaling trial's time), ``"warnings"``,
         ``"seconds"`` (IK wall time), ``"frames_per_s"``, ``"scale_seconds"``, ``"outputs"``
         (paths)``}``.
 
     Raises:
-        InputError: opensim is missing, the TRC is unreadable or lacks H36M-17 markers, the
-            outputs exist without ``overwrite``, or a tool failed.
+        InputError: opensim is missing, a TRC is unreadable or lacks H36M-17 markers, the
+            static trial's units differ from the recording's, the outputs exist without
+            ``overwrite``, or a tool failed.
     """
     osim = import_opensim()
     trc = Path(trc_path).resolve()
@@ -677,14 +718,16 @@ def scale_and_ik(
     if mass_kg is not None and not (MASS_RANGE_KG[0] <= float(mass_kg) <= MASS_RANGE_KG[1]):
         raise InputError(f"--mass: expected the subject's mass in kg ({MASS_RANGE_KG[0]:g} to {MASS_RANGE_KG[1]:g}), "
                          f"got {mass_kg}")
-    header, times, markers, names, units = _read_trc(trc)
-    missing = [j for j in H36M_JOINTS if j not in names]
-    if missing:
-        raise InputError(f"{trc}: expected the H36M-17 joint markers, got none named {', '.join(missing)}")
-    if len(times) < 2:
-        raise InputError(f"{trc}: expected at least 2 frames for scaling and IK, got {len(times)}")
-    if units not in ("m", "mm"):
-        raise InputError(f"{trc}: expected Units m or mm, got {units!r}")
+    header, times, joints, units = _read_h36m_trc(trc, "scaling and IK")
+    fps = trc_data_rate(header, times)
+    if static_trc is None:
+        scale_source, s_times, s_joints, s_fps = trc, times, joints, fps
+    else:
+        scale_source = Path(static_trc).resolve()
+        s_header, s_times, s_joints, s_units = _read_h36m_trc(scale_source, "scaling")
+        if s_units != units:
+            raise InputError(f"{scale_source}: Units: expected the recording's {units!r} ({trc}), got {s_units!r}")
+        s_fps = trc_data_rate(s_header, s_times)
     existing = [name for name in OUTPUTS if (out / name).exists()]
     if existing and not overwrite:
         raise InputError(f"{out_dir}: expected no earlier OpenSim outputs, got {', '.join(existing)}; "
@@ -692,19 +735,17 @@ def scale_and_ik(
 
     data = DATA_DIR
     start_s = float(times[0])
-    order = [names.index(j) for j in H36M_JOINTS]
-    joints = markers[:, order]  # (T, 17, 3)
     # A marker missing in every frame (a Kinect v1 has no nose: neck_nose is empty throughout)
     # is left out of the run: out of the marker files, its IK tasks off, its marker pairs gone.
-    seen = np.isfinite(joints).all(axis=2).any(axis=0)  # (17,)
+    seen = np.isfinite(joints).all(axis=2).any(axis=0) & np.isfinite(s_joints).all(axis=2).any(axis=0)  # (17,)
     left_out = [j for j, ok in zip(H36M_JOINTS, seen) if not ok]
     used = [j for j, ok in zip(H36M_JOINTS, seen) if ok]
-    joints = joints[:, seen]  # (T, M, 3)
-    complete = np.isfinite(joints).all(axis=(1, 2))
+    joints, s_joints = joints[:, seen], s_joints[:, seen]  # (T, M, 3)
+    complete = np.isfinite(s_joints).all(axis=(1, 2))
     if not complete.any():
-        raise InputError(f"{trc}: expected at least one frame with all {len(used)} joint markers the recording has "
-                         f"for scaling, got none" + (f" ({', '.join(left_out)} in no frame, left out)" if left_out else ""))
-    fps = trc_data_rate(header, times)
+        raise InputError(f"{scale_source}: expected at least one frame with all {len(used)} joint markers the "
+                         f"recording has for scaling, got none"
+                         + (f" ({', '.join(left_out)} in no frame, left out)" if left_out else ""))
     # OpenSim's IK cannot assemble a frame without a single marker (non-finite marker values
     # make its solver throw): such frames (a lost track) are left out of its marker file.
     marked = np.isfinite(joints).any(axis=(1, 2))
@@ -716,12 +757,12 @@ def scale_and_ik(
         # complete frames only (their own copy, times renumbered).
         from .sinks.exports import finite_or_null, write_trc
 
-        write_trc(tmp / "scale_markers.trc", joints[complete], fps, used, units, check_up=False)
-        c_times = np.arange(int(complete.sum())) / fps
-        c0, c1 = static_window(c_times, joints[complete], static_seconds)
+        write_trc(tmp / "scale_markers.trc", s_joints[complete], s_fps, used, units, check_up=False)
+        c_times = np.arange(int(complete.sum())) / s_fps
+        c0, c1 = static_window(c_times, s_joints[complete], static_seconds)
         kept = np.flatnonzero(complete)
-        w0 = float(times[kept[round(c0 * fps)]])
-        w1 = float(times[kept[round(c1 * fps)]])
+        w0 = float(s_times[kept[round(c0 * s_fps)]])
+        w1 = float(s_times[kept[round(c1 * s_fps)]])
         # --- scaling -------------------------------------------------------------------
         t_scale = time.perf_counter()
         # The setups name their files relative to the output folder, so that they re-run in
@@ -756,7 +797,7 @@ def scale_and_ik(
                 ok = False
         unused = [line.strip() for line in log.read_text().splitlines() if "not used to scale" in line]
         if not ok or not (tmp / "scaled_model.osim").is_file() or unused:
-            raise InputError(f"{trc}: OpenSim scaling failed ({_last_message(log)})")
+            raise InputError(f"{scale_source}: OpenSim scaling failed ({_last_message(log)})")
         scale_seconds = time.perf_counter() - t_scale
 
         # --- inverse kinematics ----------------------------------------------------------
@@ -808,6 +849,7 @@ def scale_and_ik(
             "model_mass_kg": float(model.getTotalMass(model.initSystem())),
             "frames": len(rms),
             "frames_without_markers": int((~marked).sum()),
+            "scale_trial": None if static_trc is None else str(scale_source),
             "scale_frames": int(complete.sum()),
             "markers_left_out": left_out,
             "coordinates_unobserved": unobserved,

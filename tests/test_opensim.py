@@ -123,6 +123,58 @@ def test_the_written_setups_re_run_in_opensim_to_the_same_fit(short_run, tmp_pat
     np.testing.assert_allclose(rerun[kept], ours[kept], atol=1e-3)
 
 
+def _marker_distance(model_path: Path, a: str, b: str) -> float:
+    """Distance (m) between two markers of an OpenSim model in its default pose."""
+    import opensim as osim
+
+    model = osim.Model(str(model_path))
+    state = model.initSystem()
+    ga, gb = (model.getMarkerSet().get(n).getLocationInGround(state) for n in (a, b))
+    return float(np.linalg.norm([ga.get(i) - gb.get(i) for i in range(3)]))
+
+
+def test_a_separate_static_trial_scales_the_model(short_run, tmp_path):
+    """OpenSim's own workflow scales the model on a static standing trial, then solves IK on the
+    motion; `pcnet opensim` could only scale on the recording itself. With --static-trial the
+    ScaleTool reads the static trial (here the subject stands still in the recording's first
+    pose, 10 % taller about the pelvis) and IK still solves every frame of the recording."""
+    pytest.importorskip("opensim", reason='OpenSim not installed (pip install "pcnet[opensim]")')
+    import shutil
+
+    from pcnet.stages.opensim_ik import read_trc
+    from pcnet.stages.sinks.exports import write_trc
+
+    run = tmp_path / "run"
+    shutil.copytree(short_run, run)
+    times, markers, names, units = read_trc(run / "world.trc")
+    pelvis = markers[0, names.index("pelvis")]
+    standing = np.repeat(pelvis + 1.1 * (markers[:1] - pelvis), 30, axis=0)
+    static = tmp_path / "standing"
+    static.mkdir()
+    write_trc(static / "world.trc", standing, 30.0, names, units)
+    res = _cli("opensim", run, "--static-trial", static)
+    assert res.exit_code == 0, res.output
+    assert "scaled on the static trial standing/world.trc (30 frames with every marker)" in res.output
+    fit = json.loads((run / "opensim_fit.json").read_text())
+    assert fit["scale_trial"] == str((static / "world.trc").resolve()) and fit["scale_frames"] == 30
+    assert fit["frames"] == FRAMES
+    assert len(read_trc(run / "scale_markers.trc")[0]) == 30
+    taller = _marker_distance(run / "scaled_model.osim", "right_hip", "right_ankle")
+    res = _cli("opensim", run, "--overwrite")  # scaled on the recording itself again
+    assert res.exit_code == 0, res.output
+    assert json.loads((run / "opensim_fit.json").read_text())["scale_trial"] is None
+    own = _marker_distance(run / "scaled_model.osim", "right_hip", "right_ankle")
+    assert taller / own == pytest.approx(1.1, abs=0.02), (taller, own)
+    for bad, found in ((tmp_path / "none", "no such file or folder"), (tmp_path, "a folder without one"),
+                       (run / "kinematics.csv", "a .csv file")):
+        res = _cli("opensim", run, "--static-trial", bad, "--overwrite")
+        assert res.exit_code == 1 and found in res.output, res.output
+    mm = tmp_path / "mm.trc"
+    write_trc(mm, standing * 1000.0, 30.0, names, "mm")
+    res = _cli("opensim", run, "--static-trial", mm, "--overwrite")
+    assert res.exit_code == 1 and "Units: expected the recording's 'm'" in res.output, res.output
+
+
 def test_frames_without_any_marker_are_left_out_of_ik(short_run, tmp_path):
     """A frame with no marker at all (a lost track: the Sports2D demo has 8) made OpenSim's
     IK throw, a traceback; such frames now have no row in ik.mot, whose other rows keep the
