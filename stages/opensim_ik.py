@@ -245,6 +245,13 @@ def _body_mass_index(result: dict) -> str:
     return "" if height is None or mass is None else f" (body-mass index {mass / height ** 2:.1f} kg/m^2)"
 
 
+def _limb_lengths(result: dict) -> str:
+    """``thigh 0.412 / 0.398, shank ...`` from ``result["segment_lengths_m"]``."""
+    lengths = result.get("segment_lengths_m") or {}
+    return ", ".join(f"{name.replace('_', ' ')} {lengths[f'left_{name}']:.3f} / {lengths[f'right_{name}']:.3f}"
+                     for name in LIMB_SEGMENTS if f"left_{name}" in lengths and f"right_{name}" in lengths) or "none"
+
+
 def opensim_markdown(result: dict) -> str:
     """The long form of ``pcnet opensim``'s terminal lines, a section of the run's report.md:
     the fit in full, the marker placer's static window, every warning in full (most severe
@@ -256,6 +263,7 @@ def opensim_markdown(result: dict) -> str:
              "replaced it.)", "", f"- **fit**: {opensim_fit_line(result)}",
              f"- **scaling trial**: {result.get('scale_trial') or 'the recording itself (world.trc)'}",
              f"- **static window** (marker placer, in the scaling trial): {w0:.3f}-{w1:.3f} s",
+             f"- **scaled limb lengths** (m, left / right): {_limb_lengths(result)}",
              f"- **subject** (as `pcnet opensim`'s --height and --mass; the markers' scale is `pcnet run "
              f"--height`'s): height {_or_none(result.get('subject_height_m'), 'm')}, mass "
              f"{_or_none(result.get('subject_mass_kg'), 'kg')}{_body_mass_index(result)}; the scaled model weighs "
@@ -499,6 +507,29 @@ def coordinate_markers(model) -> dict[str, set[str]]:
     return out
 
 
+#: The limb segments whose scaled lengths ``opensim_fit.json`` records: ``name -> (proximal,
+#: distal)`` joint-centre markers of the shipped model, per side.
+LIMB_SEGMENTS = {"thigh": ("hip", "knee"), "shank": ("knee", "ankle"),
+                 "upper_arm": ("shoulder", "elbow"), "forearm": ("elbow", "wrist")}
+
+
+def segment_lengths(model) -> dict[str, float]:
+    """Lengths (m) of the scaled model's limb segments (:data:`LIMB_SEGMENTS`), the distance
+    between their joint-centre markers in the model's default pose: ``{"left_thigh": ...,
+    "right_thigh": ..., ...}``, less a segment whose marker was left out of the run. The ScaleTool scales each side on its own marker pairs, so a
+    lifter's leg that is shorter on one side is shorter in the model too: these show it."""
+    state = model.initSystem()
+    markers = model.getMarkerSet()
+    out = {}
+    for side in ("left", "right"):
+        for name, (a, b) in LIMB_SEGMENTS.items():
+            ends = [f"{side}_{j}" for j in (a, b)]
+            if all(markers.contains(m) for m in ends):  # a marker left out of the run is not in the model
+                pa, pb = (markers.get(m).getLocationInGround(state) for m in ends)
+                out[f"{side}_{name}"] = float(np.linalg.norm([pa.get(i) - pb.get(i) for i in range(3)]))
+    return out
+
+
 def blank_unobserved(mot_path: Path, present: np.ndarray, markers: list[str],
                      by_coordinate: dict[str, set[str]]) -> dict[str, int]:
     """Write NaN into ``ik.mot`` where a coordinate's frame had none of its markers
@@ -696,10 +727,10 @@ def scale_and_ik(
         single marker error), ``"marker_rms_median_frame_m"``, ``"frames_above_rms_limit"`` and
         ``"above_rms_limit_s"`` (IK rows whose RMS marker error passes
         :data:`MAX_GOOD_MARKER_RMS_M`, and their time spans), ``"model_mass_kg"`` (the scaled
-        model's total mass), ``"frames"`` (IK rows),
-        ``"frames_without_markers"`` (left out), ``"scale_trial"`` (``static_trc``'s path, or
-        ``None``), ``"scale_frames"``, ``"static_window_s"`` (in the scaling trial's time), ``"warnings"``,
-        ``"seconds"`` (IK wall time), ``"frames_per_s"``, ``"scale_seconds"``, ``"outputs"``
+        model's total mass), ``"segment_lengths_m"`` (:func:`segment_lengths`), ``"frames"``
+        (IK rows), ``"frames_without_markers"`` (left out), ``"scale_trial"`` (``static_trc``'s
+        path, or ``None``), ``"scale_frames"``, ``"static_window_s"`` (in the scaling trial's
+        time), ``"warnings"``, ``"seconds"`` (IK wall time), ``"frames_per_s"``, ``"scale_seconds"``, ``"outputs"``
         (paths)``}``.
 
     Raises:
@@ -855,6 +886,7 @@ def scale_and_ik(
             "coordinates_unobserved": unobserved,
             "coordinates_gimbal_lock": gimbal_lock,
             "segments_not_scaled": unscaled,
+            "segment_lengths_m": segment_lengths(model),
             "static_window_s": (w0, w1),
             "subject_height_m": None if height_m is None else float(height_m),
             "subject_mass_kg": None if mass_kg is None else float(mass_kg),
