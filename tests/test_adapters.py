@@ -801,6 +801,7 @@ def test_generic_csv_columns_follow_their_header_names_not_their_position(tmp_pa
     assert "columns 'frame', 'time_s' left out (no joint axis)" in p4.notes and "order differs" not in p4.notes
 
 
+@pytest.mark.slow
 def test_a_semicolon_csv_runs_with_the_delimiter_flag(tmp_path):
     """A spreadsheet's semicolon CSV needed a --config file for its separator (a user trial):
     `pcnet run --delimiter ';'` reads it, and without the flag the refusal names it."""

@@ -1253,6 +1253,7 @@ def _stat_each_output_cpu_seconds(folder: Path, rows: int) -> float:
     return time.process_time() - started
 
 
+@pytest.mark.slow
 def test_checking_a_large_manifest_takes_time_linear_in_its_rows(tmp_path):
     """Issue 53: 100,000 rows are checked in seconds (benchmarks/manifest_check.py times them).
     Here 5,000 and 40,000 rows: eight times the rows take less than sixteen times as long

@@ -299,6 +299,7 @@ def test_the_table_says_what_auto_mode_chose_per_clip():
     assert counts == {k: str(v) for k, v in result["clip_modes"].items()}
 
 
+@pytest.mark.slow
 def test_max_frames_keeps_the_per_clip_decisions():
     """--max-frames scores a subset of whole rectified clips: same heading source and modes
     per clip, same errors on the kept frames. (It used to subsample before

@@ -1254,6 +1254,7 @@ def test_one_rotation_gives_the_same_kinematics_filtered_in_either_frame(yoga_le
     np.testing.assert_allclose(filled.angles["left_knee_flexion"], b.angles["left_knee_flexion"], atol=1.0)
 
 
+@pytest.mark.slow
 def test_angles_between_segments_do_not_depend_on_the_mode(tmp_path):
     """Decision 0102: frame and smooth modes place the same camera-frame poses with different
     rotations; the poses and the rotations are low-passed apart, so every angle between two
@@ -1286,6 +1287,7 @@ def test_angles_between_segments_do_not_depend_on_the_mode(tmp_path):
     assert moved > 0.1  # the modes' rotations do differ: angles to gravity move
 
 
+@pytest.mark.slow
 def test_the_motion_check_reads_the_same_frames_in_every_mode(tmp_path):
     """The motion check compares pelvis-relative speeds and accelerations with limits fitted in
     a fixed frame (stages/plausibility.py: ``implausible_motion``); without a world frame it
@@ -1305,6 +1307,7 @@ def test_the_motion_check_reads_the_same_frames_in_every_mode(tmp_path):
     assert flagged["frame"] == flagged["smooth"] == flagged["sequence"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["frame", "smooth"])
 def test_the_networks_residual_never_reaches_the_kinematics(tmp_path, mode):
     """Decision 0100: every mode's kinematics read the input turned rigidly. On the real prone

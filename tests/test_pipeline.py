@@ -200,6 +200,7 @@ def test_mediapipe_with_nan_frames_runs_and_flags_them(tmp_path):
     assert "virtual camera" in result.summary() and "assumed" in result.summary()
 
 
+@pytest.mark.slow
 def test_joints_whose_keypoints_lie_outside_the_picture_are_missing(tmp_path):
     """MediaPipe places the joints of a body cut by the frame's edge beyond it, with confidences
     above the threshold (a user trial: a cropped video's ankle 30 px below a 320 px picture in
@@ -340,6 +341,7 @@ def test_a_method_without_calibration_prints_no_95_percent_interval(tmp_path):
     assert report["camera_pitch_interval_deg"] is None and report["camera_pitch_uncertainty_deg"] > 0
 
 
+@pytest.mark.slow
 def test_the_view_gates_warnings_come_only_where_its_up_is_the_answer(tmp_path):
     """Real VideoPose3D Shavasana under a level camera: per frame, the view gate reads a camera
     turned a quarter turn, which the orientation flag says once (the gate's own quarter-turn
@@ -941,6 +943,7 @@ def test_a_pelvis_path_from_2d_keypoints_lets_sequence_mode_fit_the_floor(tmp_pa
     assert errors["path from 2D"] < 0.6 * errors["root-relative"] and errors["path from 2D"] < 1.0
 
 
+@pytest.mark.slow
 def test_pcnet_run_recovers_the_pelvis_path_before_rectifying(tmp_path):
     """With 2D keypoints and metric poses, ``pcnet run``'s sequence mode hands the up's floor
     contacts the path recovered from the 2D keypoints (real MediaPipe, the Sports2D demo's first
@@ -1283,6 +1286,7 @@ def test_sequence_only_options_outside_sequence_mode_are_refused(tmp_path, mode)
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_a_limb_joint_missing_in_every_frame_is_warned_of(tmp_path):
     """A user trial's lifter file with the left knee NaN throughout ran with exit 0, its knee and
     hip angle columns empty and only a shortened missing-data note; now a warning names the
@@ -1304,6 +1308,7 @@ def test_a_limb_joint_missing_in_every_frame_is_warned_of(tmp_path):
     assert res.exit_code == 0 and "missing in every frame" not in res.output, res.output
 
 
+@pytest.mark.slow
 def test_height_scaled_poses_get_the_pelvis_path_before_rectifying(tmp_path):
     """MotionBERT's normalised units are not metres; with ``--height`` the scale step, which
     runs before rectification (decision 0047), makes them metric, so the path recovered from
@@ -1576,6 +1581,7 @@ def test_joints_masked_for_2d_confidence_are_named_with_the_setting():
     assert _low_confidence_note(counts, 301, 0.3, "alphapose") == [note]
 
 
+@pytest.mark.slow
 def test_a_run_logged_to_a_file_says_which_stage_it_is_in(tmp_path, monkeypatch, capsys):
     """Without a terminal the stage bar is off (its redraws would fill a log); a user trial ran
     a ten-minute session into a log and saw nothing until it ended. A long run writes a line
@@ -1613,6 +1619,7 @@ def test_a_depth_sensors_mirrored_skeleton_is_asked_about_the_subject_not_the_re
     assert "--axes" not in res.output
 
 
+@pytest.mark.slow
 def test_frames_without_ankles_are_flagged_only_where_the_floor_is_per_frame(tmp_path):
     """A physiotherapist's run with one ground plane (a pelvis path from 2D keypoints) was told
     that a frame without ankles had its floor height interpolated: the plane holds in every

@@ -377,6 +377,7 @@ def test_sigterm_is_handled_like_ctrl_c(user_folder, signum):
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="no SIGHUP on this platform")
 def test_a_run_under_nohup_keeps_running_after_a_hang_up(user_folder):
     """``nohup pcnet ...`` ignores SIGHUP so that a run outlives its terminal: pcnet must not

@@ -7,6 +7,7 @@ import json
 import re
 
 import numpy as np
+import pytest
 from conftest import FIXTURES, camera_up, run_report, sequence_up
 
 from pcnet.pipeline.config import RunConfig
@@ -214,6 +215,7 @@ def test_the_rectification_line_names_weights_that_are_not_the_shipped_ones():
     assert line("shipped").startswith("rectification     pcnet, mode sequence")
 
 
+@pytest.mark.slow
 def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
     """The real 60-frame Sports2D fixture with its 2D track made to jump at frame 30: the
     summary's first warning is the switch, and report.md (published with the outputs, so a

@@ -61,6 +61,7 @@ def test_a_video_alone_gives_every_output_and_its_poses_for_a_re_run(tmp_path, v
         assert "pose_estimator" not in json.loads(str(f["report"]))["inputs"] and "pose_estimator" in report["inputs"]
 
 
+@pytest.mark.slow
 def test_a_region_shows_the_estimator_part_of_the_picture_in_whole_frame_pixels(tmp_path, video_extra):
     """A coach's trial: the estimator followed the man on a box, not the walker, with no way to
     choose. --roi shows it one region; its landmarks come back in the whole frame's pixels (the
