@@ -195,8 +195,8 @@ def _panel_boxes(fig) -> list:
 def test_no_panels_text_overlaps_another_panel_the_title_or_the_picture_edge(walk):
     """The figures' layout is fixed in inches (``plots.new_figure``): every panel's title, tick
     labels and axis labels stay clear of the other panels and of a two-line suptitle, and
-    inside the picture, for the three figures and an angle grid with its bottom-right panel
-    hidden."""
+    inside the picture, for the three figures, an angle grid with its bottom-right panel
+    hidden and tick labels of six characters."""
     import dataclasses
 
     from pcnet.stages.sinks.exports import wrists_figure
@@ -212,6 +212,9 @@ def test_no_panels_text_overlaps_another_panel_the_title_or_the_picture_edge(wal
         "angles, odd panel count": joint_angles_figure(no_elbow, FPS),
         "speeds": joint_speeds_figure(kin, FPS, other_person=marked, implausible=marked),
         "wrists": wrists_figure(X - X[:, :1], X, FPS, acc, acc, other_person=marked, implausible=marked),
+        # six-character tick labels: millimetres and accelerations of -10000 mm/s^2
+        "wrists in mm": wrists_figure(1000 * (X - X[:, :1]), 1000 * X, FPS, 12000 * np.sin(acc), 12000 * np.sin(acc),
+                                      "mm", other_person=marked, implausible=marked),
     }
     for name, fig in figures.items():
         boxes = _panel_boxes(fig)

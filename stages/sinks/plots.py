@@ -202,8 +202,8 @@ def _time_axis(kin, fps: float, who: str) -> np.ndarray:
 #: between rows. Fixed rather than matplotlib's constrained layout, which measured every text
 #: of every panel at each save: with it and auto-placed panel titles, ``pcnet demo``'s three
 #: figures took 4.0 s of its 5 s run, 2.3 s without (``write_figures`` timed on 2 cores).
-MARGIN_LEFT_IN, MARGIN_RIGHT_IN, MARGIN_BOTTOM_IN = 0.85, 0.15, 0.55
-ROW_GAP_IN, COLUMN_GAP_IN = 0.4, 0.85
+MARGIN_LEFT_IN, MARGIN_RIGHT_IN, MARGIN_BOTTOM_IN = 1.0, 0.15, 0.55
+ROW_GAP_IN, COLUMN_GAP_IN = 0.4, 1.05
 
 
 def new_figure(rows: int, cols: int, height_per_row: float, title: str, title_size: float = 11.0):
@@ -211,7 +211,7 @@ def new_figure(rows: int, cols: int, height_per_row: float, title: str, title_si
     ``(rows, cols)`` grid of axes sharing x under the suptitle ``title`` (its lines set the top
     margin); ``(fig, axes (rows, cols))``. Margins are fixed in inches (:data:`MARGIN_LEFT_IN`
     and the others), so each panel keeps room for its title, axis labels and tick labels of up
-    to five characters whatever the figure's height."""
+    to six characters (-10000, 0.0025) whatever the figure's height."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
