@@ -667,7 +667,7 @@ def opensim(out_dir, height, mass, static_trial, overwrite):
         raise InputError(f"{out_dir}: expected world.trc (from `pcnet run` with a static camera and metric poses: "
                          f"a metric lifter or --height), got none")
     height = _subject_height(folder, height)
-    static_trc = None if static_trial is None else _static_trial_trc(Path(static_trial))
+    static_trc = None if static_trial is None else _static_trial_trc(Path(static_trial), height)
     import_opensim()  # before any work: without OpenSim, one line saying how to get it
 
     for leftover in stale_staging(folder):  # of a killed `pcnet opensim` here
@@ -691,17 +691,26 @@ def opensim(out_dir, height, mass, static_trial, overwrite):
     click.echo(f"details: {details}")
 
 
-def _static_trial_trc(path: Path) -> Path:
+def _static_trial_trc(path: Path, height: float | None) -> Path:
     """The marker file of ``pcnet opensim --static-trial``: ``path`` itself (a ``.trc``) or a
-    `pcnet run` output folder's ``world.trc``.
+    `pcnet run` output folder's ``world.trc``, whose run (where its ``canonical.npz`` says) must
+    have scaled its markers to the recording's subject height ``height`` (m, ``None``: the
+    recording's run had none).
 
     Raises:
-        InputError: neither exists.
+        InputError: neither exists, or the static run's height is not ``height``.
     """
     if path.is_dir():
         if not (path / "world.trc").is_file():
             raise InputError(f"--static-trial {path}: expected a `pcnet run` output folder with world.trc (a static "
                              f"camera, metric poses), got a folder without one")
+        if not (path / "canonical.npz").is_file():  # no run record: its height is unknown, as a .trc's
+            return path / "world.trc"
+        static_height = _subject_height(path, None)
+        if (static_height is None) != (height is None) or (height is not None and abs(static_height - height) > 0.005):
+            said, found = ("none" if h is None else f"{h:g} m" for h in (height, static_height))
+            raise InputError(f"--static-trial {path}: expected a run scaled to the recording's subject height "
+                             f"({said}: pcnet run --height), got {found}; re-run one of them with the other's --height")
         return path / "world.trc"
     if path.suffix.lower() != ".trc" or not path.is_file():
         raise InputError(f"--static-trial {path}: expected a `pcnet run` output folder or a .trc marker file, got "

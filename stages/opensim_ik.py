@@ -516,8 +516,9 @@ LIMB_SEGMENTS = {"thigh": ("hip", "knee"), "shank": ("knee", "ankle"),
 def segment_lengths(model) -> dict[str, float]:
     """Lengths (m) of the scaled model's limb segments (:data:`LIMB_SEGMENTS`), the distance
     between their joint-centre markers in the model's default pose: ``{"left_thigh": ...,
-    "right_thigh": ..., ...}``, less a segment whose marker was left out of the run. The ScaleTool scales each side on its own marker pairs, so a
-    lifter's leg that is shorter on one side is shorter in the model too: these show it."""
+    "right_thigh": ..., ...}``, less a segment whose marker was left out of the run. The
+    ScaleTool scales each side on its own marker pairs, so a lifter's leg that is shorter on
+    one side is shorter in the model too: these show it."""
     state = model.initSystem()
     markers = model.getMarkerSet()
     out = {}
@@ -730,8 +731,8 @@ def scale_and_ik(
         model's total mass), ``"segment_lengths_m"`` (:func:`segment_lengths`), ``"frames"``
         (IK rows), ``"frames_without_markers"`` (left out), ``"scale_trial"`` (``static_trc``'s
         path, or ``None``), ``"scale_frames"``, ``"static_window_s"`` (in the scaling trial's
-        time), ``"warnings"``, ``"seconds"`` (IK wall time), ``"frames_per_s"``, ``"scale_seconds"``, ``"outputs"``
-        (paths)``}``.
+        time), ``"warnings"``, ``"seconds"`` (IK wall time), ``"frames_per_s"``,
+        ``"scale_seconds"``, ``"outputs"`` (paths)``}``.
 
     Raises:
         InputError: opensim is missing, a TRC is unreadable or lacks H36M-17 markers, the

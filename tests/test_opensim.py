@@ -180,6 +180,12 @@ def test_a_separate_static_trial_scales_the_model(short_run, tmp_path):
                        (run / "kinematics.csv", "a .csv file")):
         res = _cli("opensim", run, "--static-trial", bad, "--overwrite")
         assert res.exit_code == 1 and found in res.output, res.output
+    (static / "canonical.npz").write_bytes((run / "canonical.npz").read_bytes())
+    assert _cli("opensim", run, "--static-trial", static, "--overwrite").exit_code == 0  # the same --height
+    np.savez(static / "canonical.npz", subject_height_m=np.float64(1.6))
+    res = _cli("opensim", run, "--static-trial", static, "--overwrite")
+    assert res.exit_code == 1 and "expected a run scaled to the recording's subject height (1.75 m" in res.output, \
+        res.output
     mm = tmp_path / "mm.trc"
     write_trc(mm, standing * 1000.0, 30.0, names, "mm")
     res = _cli("opensim", run, "--static-trial", mm, "--overwrite")
