@@ -201,7 +201,7 @@ def _time_axis(kin, fps: float, who: str) -> np.ndarray:
 #: two columns), the time axis label and tick labels at the bottom, a panel's one-line title
 #: between rows. Fixed rather than matplotlib's constrained layout, which measured every text
 #: of every panel at each save: with it and auto-placed panel titles, ``pcnet demo``'s three
-#: figures took 4.0 s of its 5 s run, 2.3 s without (``write_figures`` timed on 2 cores).
+#: figures took 4.0 s, 2.3 s without (``write_figures`` timed on 2 cores).
 MARGIN_LEFT_IN, MARGIN_RIGHT_IN, MARGIN_BOTTOM_IN = 1.0, 0.15, 0.55
 ROW_GAP_IN, COLUMN_GAP_IN = 0.4, 1.05
 
