@@ -555,6 +555,7 @@ def test_the_summary_replaces_only_an_earlier_summary(tmp_path):
     assert theirs.read_text() == "my notes" and not (tmp_path / "a").exists()
 
 
+@pytest.mark.slow
 def test_the_report_replaces_only_an_earlier_report(tmp_path):
     """The Markdown report beside the summary is refused before any work where a file pcnet
     did not write has its name, and replaced where it is an earlier batch's."""

@@ -573,6 +573,7 @@ def test_the_mirror_flag_keeps_every_real_lifter_file_apart_from_its_mirror_imag
     assert mirrored_skeleton_flag(kick * np.array([1.0, 1.0, -1.0]))
 
 
+@pytest.mark.slow
 def test_a_wrong_depth_sign_is_warned_about_in_a_run(tmp_path):
     res = CliRunner().invoke(main, ["run", "--lifter", "generic", "--lifter-output", str(TADASANA), "--axes", "RDB",
                                     "--fps", "30", "--method", "geometric", "--no-recording", "--out", str(tmp_path / "o")])

@@ -292,6 +292,7 @@ def test_cli_opensim_reports_and_keeps_the_folder_a_pcnet_output(short_run, tmp_
     assert (out / "ik.mot").read_text() == "mine\n"
 
 
+@pytest.mark.slow
 def test_cli_opensim_prints_a_line_per_warning_and_writes_it_in_full(short_run, tmp_path, poor_fit):
     """A poor fit: the terminal gets the warning's headline and its action, report.md its full
     text (a rerun replaces the section); a report.md pcnet did not write is left alone, the

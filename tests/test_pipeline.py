@@ -545,6 +545,7 @@ def test_nan_only_sequence_is_a_clear_error(tmp_path):
     assert res.exit_code != 0 and "nan.npy" in res.output
 
 
+@pytest.mark.slow
 def test_a_sequence_up_opposite_to_every_frame_says_why_no_frame_is_kept(tmp_path, monkeypatch):
     """Where the sequence up is more than 143 deg from every frame's own up, no frame has a
     heading about it: the error says so (not "no frame has the hips"), names the file and
@@ -1069,6 +1070,7 @@ def test_what_the_run_assumed_about_its_inputs_is_noted(tmp_path):
     assert "3D joints remapped from blazepose33 to H36M-17 with pelvis, spine, thorax, head built" in res.output
 
 
+@pytest.mark.slow
 def test_another_mediapipe_files_keypoints_are_refused_for_a_mediapipe_lifter_output(tmp_path):
     """A four-camera trial gave cam02's MediaPipe poses with cam01's 2D keypoints: the run took
     another camera's left/right, track and pelvis path unflagged. The archive holds its own
@@ -1098,6 +1100,7 @@ def test_a_confidence_threshold_that_masks_every_needed_joint_is_named(tmp_path)
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_a_coco_layout_3d_file_is_noted_and_its_misreading_names_layout(tmp_path):
     """Real poses stored in COCO-17 order: read with --layout coco17 the summary says which
     joints were built; read with the default layout the error points at --layout."""
@@ -1652,6 +1655,7 @@ def test_speeds_scaled_to_the_lifters_guess_of_the_size_are_said_so_in_the_summa
                         r"sets the subject's\.\.\.", line), line
 
 
+@pytest.mark.slow
 def test_a_run_reads_the_shipped_weights_once_for_the_code_digest_and_the_report(tmp_path):
     """The version's code digest and the report's digests both cover the shipped weights (14
     MB): a fresh process reads each file once (the digest was read twice per run)."""
@@ -1673,6 +1677,7 @@ print(sorted((name, read.count(name)) for name in set(read) if name.endswith(".o
     assert out.strip() == "[('pcnet_body.onnx', 1), ('pcnet_camera.onnx', 1)]", out
 
 
+@pytest.mark.slow
 def test_strict_exits_3_after_writing_every_output_where_a_warning_is_printed(tmp_path):
     """A bad-input trial for an automated pipeline: a mirrored or shuffled skeleton ran to exit 0,
     said only in WARNING lines. --strict keeps the outputs and exits 3; a run without warnings
