@@ -137,8 +137,9 @@ def opensim_fit_line(result: dict, short: bool = False) -> str:
     above = result.get("frames_above_rms_limit", 0)
     markers = result.get("markers_left_out") or []
     scaled, total = result.get("scale_frames"), result["frames"] + left_out
-    why = "" if short else " (empty in every frame: the input skeleton has no such joint)"
     trial = result.get("scale_trial")
+    why = ("" if short else " (empty in every frame of the recording or of its static trial)" if trial
+           else " (empty in every frame: the input skeleton has no such joint)")
     if trial:
         scaled_on = f"; scaled on the static trial {_trial_name(trial)} ({scaled} frames with every marker)"
     else:

@@ -180,6 +180,14 @@ def test_a_separate_static_trial_scales_the_model(short_run, tmp_path):
                        (run / "kinematics.csv", "a .csv file")):
         res = _cli("opensim", run, "--static-trial", bad, "--overwrite")
         assert res.exit_code == 1 and found in res.output, res.output
+    noseless = standing.copy()
+    noseless[:, names.index("neck_nose")] = np.nan
+    res = _cli("opensim", run, "--static-trial", write_trc(tmp_path / "noseless.trc", noseless, 30.0, names, units),
+               "--overwrite")
+    assert res.exit_code == 0, res.output
+    assert json.loads((run / "opensim_fit.json").read_text())["markers_left_out"] == ["neck_nose"]
+    assert "marker neck_nose left out (empty in every frame of the recording or of its static trial)" in \
+        (run / "report.md").read_text()
     (static / "canonical.npz").write_bytes((run / "canonical.npz").read_bytes())
     assert _cli("opensim", run, "--static-trial", static, "--overwrite").exit_code == 0  # the same --height
     np.savez(static / "canonical.npz", subject_height_m=np.float64(1.6))
