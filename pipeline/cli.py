@@ -691,6 +691,10 @@ def opensim(out_dir, height, mass, static_trial, overwrite):
     click.echo(f"details: {details}")
 
 
+#: Two subject heights (m) no further apart than this are one height (heights are typed to the centimetre).
+HEIGHT_AGREEMENT_M = 0.005
+
+
 def _static_trial_trc(path: Path, height: float | None) -> Path:
     """The marker file of ``pcnet opensim --static-trial``: ``path`` itself (a ``.trc``) or a
     `pcnet run` output folder's ``world.trc``, whose run (where its ``canonical.npz`` says) must
@@ -707,7 +711,9 @@ def _static_trial_trc(path: Path, height: float | None) -> Path:
         if not (path / "canonical.npz").is_file():  # no run record: its height is unknown, as a .trc's
             return path / "world.trc"
         static_height = _subject_height(path, None)
-        if (static_height is None) != (height is None) or (height is not None and abs(static_height - height) > 0.005):
+        agree = static_height is None if height is None else (
+            static_height is not None and abs(static_height - height) <= HEIGHT_AGREEMENT_M)
+        if not agree:
             said, found = ("none" if h is None else f"{h:g} m" for h in (height, static_height))
             raise InputError(f"--static-trial {path}: expected a run scaled to the recording's subject height "
                              f"({said}: pcnet run --height), got {found}; re-run one of them with the other's --height")
@@ -747,7 +753,7 @@ def _subject_height(folder: Path, height: float | None) -> float | None:
                              f"keep the lifter's own scale), got {height:g}; re-run pcnet run --height {height:g} to "
                              f"scale them, or leave --height out")
         return None
-    if height is not None and abs(height - run_height) > 0.005:
+    if height is not None and abs(height - run_height) > HEIGHT_AGREEMENT_M:
         raise InputError(f"{folder}: --height: expected the run's subject height, {run_height:g} m (pcnet run --height "
                          f"scaled world.trc's markers to it), got {height:g}; re-run pcnet run --height {height:g}, or "
                          f"leave --height out")

@@ -101,6 +101,10 @@ class Floor:
         return f"no floor ({self.reason}): heights are relative to the pelvis"
 
 
+#: The least scale :func:`tukey_location` divides by, so that equal heights give that height.
+MIN_SCALE = 1e-12
+
+
 def tukey_location(x: np.ndarray, max_iter: int = 100) -> tuple[float, float]:
     """Tukey-biweight M-estimate of location of the finite values of ``x`` (``(N,)``, N >= 1)
     and the scale used (1.4826 MAD about the median, fixed; floored at 1e-12 so that equal
@@ -109,7 +113,7 @@ def tukey_location(x: np.ndarray, max_iter: int = 100) -> tuple[float, float]:
     x = x[np.isfinite(x)]
     mu = float(np.median(x))
     scale = float(1.4826 * np.median(np.abs(x - mu)))
-    s = max(scale, 1e-12)
+    s = max(scale, MIN_SCALE)
     for _ in range(max_iter):
         w = tukey_weights((x - mu) / s)
         if not w.sum() > 0:
@@ -142,5 +146,5 @@ def fit_ground(lowest: np.ndarray, usable: np.ndarray, leg_length: float) -> tup
         return float("nan"), Floor("per frame", clearance, leg_length,
                                    reason=f"{n} stance contacts along the pelvis path, fewer than {MIN_CONTACTS}")
     level, scale = tukey_location(lowest[c])
-    held = int(np.count_nonzero(tukey_weights((lowest[c] - level) / max(scale, 1e-12))))
+    held = int(np.count_nonzero(tukey_weights((lowest[c] - level) / max(scale, MIN_SCALE))))
     return level - clearance, Floor("plane", clearance, leg_length, held, scale)

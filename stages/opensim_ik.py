@@ -514,13 +514,13 @@ LIMB_SEGMENTS = {"thigh": ("hip", "knee"), "shank": ("knee", "ankle"),
                  "upper_arm": ("shoulder", "elbow"), "forearm": ("elbow", "wrist")}
 
 
-def segment_lengths(model) -> dict[str, float]:
+def segment_lengths(model, state) -> dict[str, float]:
     """Lengths (m) of the scaled model's limb segments (:data:`LIMB_SEGMENTS`), the distance
     between their joint-centre markers in the model's default pose: ``{"left_thigh": ...,
     "right_thigh": ..., ...}``, less a segment whose marker was left out of the run. The
     ScaleTool scales each side on its own marker pairs, so a lifter's leg that is shorter on
-    one side is shorter in the model too: these show it."""
-    state = model.initSystem()
+    one side is shorter in the model too: these show it. ``state``: the model's initialised
+    default state (``model.initSystem()``)."""
     markers = model.getMarkerSet()
     out = {}
     for side in ("left", "right"):
@@ -873,13 +873,14 @@ def scale_and_ik(
         rms = err[:, cols.index("marker_error_RMS")]
         mx = err[:, cols.index("marker_error_max")]
         above = rms > MAX_GOOD_MARKER_RMS_M
+        state = model.initSystem()
         result = {
             "marker_rms_m": float(np.sqrt(np.mean(rms ** 2))),
             "marker_max_m": float(np.max(mx)),
             "marker_rms_median_frame_m": float(np.median(rms)),
             "frames_above_rms_limit": int(above.sum()),
             "above_rms_limit_s": time_spans(err[:, cols.index("time")], above),
-            "model_mass_kg": float(model.getTotalMass(model.initSystem())),
+            "model_mass_kg": float(model.getTotalMass(state)),
             "frames": len(rms),
             "frames_without_markers": int((~marked).sum()),
             "scale_trial": None if static_trc is None else str(scale_source),
@@ -888,7 +889,7 @@ def scale_and_ik(
             "coordinates_unobserved": unobserved,
             "coordinates_gimbal_lock": gimbal_lock,
             "segments_not_scaled": unscaled,
-            "segment_lengths_m": segment_lengths(model),
+            "segment_lengths_m": segment_lengths(model, state),
             "static_window_s": (w0, w1),
             "subject_height_m": None if height_m is None else float(height_m),
             "subject_mass_kg": None if mass_kg is None else float(mass_kg),
