@@ -691,6 +691,54 @@ def opensim(out_dir, height, mass, static_trial, overwrite):
     click.echo(f"details: {details}")
 
 
+@main.command()
+@click.argument("out_dir", type=click.Path())
+@click.option("--overwrite", is_flag=True, help="Replace earlier gait outputs of pcnet in OUT_DIR.")
+def gait(out_dir, overwrite):
+    """Gait events (foot strike, foot off) and spatiotemporal parameters of a walk or run in
+    OUT_DIR, a `pcnet run` output with a static camera (stages/gait.py: Zeni et al. 2008's
+    coordinate method on the world-frame ankles).
+
+    Writes OUT_DIR/gait_events.csv (every event, with step and stride times, stance and step
+    length) and gait.json (per-foot means, cadence, walking speed), adds a Gait section to the
+    run's report.md and prints cadence, speed and per-foot step length and stance. Step
+    lengths and speed need the pelvis path (2D keypoints or a measured root) and metric poses.
+    """
+    from pcnet.pipeline.gait import analyse, gait_markdown, OUTPUTS, REPORT_SECTION
+    from pcnet.pipeline.outdir import is_owned, register_files
+
+    folder = Path(out_dir)
+    if not folder.is_dir():
+        raise InputError(f"{out_dir}: expected a `pcnet run` output folder, got "
+                         + ("a file" if folder.exists() else "no folder"))
+    result = analyse(folder)
+    existing = [name for name in OUTPUTS if (folder / name).exists()]
+    if existing and not overwrite:
+        raise InputError(f"{out_dir}: expected no earlier gait outputs, got {', '.join(existing)}: pass --overwrite "
+                         f"to replace them")
+    foreign = [name for name in existing if not is_owned(folder, name)]
+    if foreign:
+        raise InputError(f"{out_dir}: --overwrite replaces only gait outputs pcnet wrote, got {', '.join(foreign)} "
+                         f"written or changed by someone else; move them away")
+    from pcnet.pipeline.gait import write_gait
+    written = write_gait(folder, result)
+    details = _section_into_report(folder, REPORT_SECTION, gait_markdown(result)) or written["gait.json"]
+    register_files(folder, (*OUTPUTS, details.name))
+    summary, unit = result.summary, result.run.units
+    click.echo(f"{'cadence':<17} {summary.cadence_steps_per_min:.1f} steps/min (stride {summary.stride_period_s:.2f} s)")
+    if result.length_empty_because:
+        click.echo(f"{'speed':<17} empty: {result.length_empty_because}")
+    else:
+        click.echo(f"{'speed':<17} {summary.walking_speed:.2f} {unit}/s")
+    for side in ("left", "right"):
+        s = getattr(summary, side)
+        click.echo(f"{side + ' foot':<17} {s.strikes} strikes, stance {s.stance_percent:.1f} % of stride, "
+                   f"step length {s.step_length:.3f} {unit}")
+    for name, path in written.items():
+        click.echo(f"{name:<17} {path}")
+    click.echo(f"details: {details}")
+
+
 #: Two subject heights (m) no further apart than this are one height (heights are typed to the centimetre).
 HEIGHT_AGREEMENT_M = 0.005
 
@@ -760,22 +808,32 @@ def _subject_height(folder: Path, height: float | None) -> float | None:
     return run_height
 
 
-def _opensim_into_report(folder: Path, result: dict) -> Path:
-    """The fit and its warnings in full (:func:`pcnet.stages.opensim_ik.opensim_markdown`)
-    as the last section of the run's report.md, replacing an earlier one; where that file
-    is missing or not pcnet's (edited since), opensim_fit.json, which holds the fit and its
-    warnings, is the details' place. Returns the file holding the details."""
+def _section_into_report(folder: Path, heading: str, markdown: str) -> Path | None:
+    """``markdown`` (starting with the line ``heading``) as the last section of the run's
+    report.md, replacing an earlier section of that heading (up to the next ``## ``); ``None``
+    where that file is missing or not pcnet's (edited since), and the caller's own output
+    holds the details. Returns the report's path."""
     from pcnet.pipeline.outdir import is_owned
     from pcnet.stages.core.atomic import write_text
-    from pcnet.stages.opensim_ik import opensim_markdown, REPORT_SECTION
     from pcnet.stages.sinks.report import REPORT_NAME
 
     report = folder.resolve() / REPORT_NAME
     if not is_owned(folder, REPORT_NAME):
-        return Path(result["outputs"]["opensim_fit.json"])
-    text = report.read_text(encoding="utf-8").partition(f"\n{REPORT_SECTION}\n")[0]
-    return write_text(report, text.rstrip() + "\n\n" + opensim_markdown(result))
+        return None
+    before, found, after = report.read_text(encoding="utf-8").partition(f"\n{heading}\n")
+    later_sections = after[after.find("\n## "):] if found and "\n## " in after else ""
+    return write_text(report, (before.rstrip() + "\n" + later_sections).rstrip() + "\n\n" + markdown)
 
+
+def _opensim_into_report(folder: Path, result: dict) -> Path:
+    """The fit and its warnings in full (:func:`pcnet.stages.opensim_ik.opensim_markdown`)
+    as the last section of the run's report.md (:func:`_section_into_report`); where that
+    file is missing or not pcnet's, opensim_fit.json, which holds the fit and its warnings,
+    is the details' place. Returns the file holding the details."""
+    from pcnet.stages.opensim_ik import opensim_markdown, REPORT_SECTION
+
+    return (_section_into_report(folder, REPORT_SECTION, opensim_markdown(result))
+            or Path(result["outputs"]["opensim_fit.json"]))
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -1,0 +1,241 @@
+"""Gait events and spatiotemporal parameters (``pcnet gait``, ``stages/gait.py``) against motion capture.
+
+    python -m benchmarks.gait_validation --data ../shared/data [--max-clips 8] [--max-seconds 20]
+        [--seed 0] [--out benchmarks/results/gait_validation.txt]
+
+Nothing in ``stages/gait.py`` is fitted, so no clip here chose anything; the data are still the
+held-out ones (never trained on by the shipped networks, whose rectification the runs use).
+
+1. **Antiphase screen** (every clip of the Bandai and DeepMimic mocap, clean): how many clips
+   ``gait_events`` accepts, per kind of motion. Walks and runs (Bandai walk, walk-turn-*, run,
+   dash; DeepMimic clips named walk, jog or run) should be accepted, in-place motion (bows,
+   waves, raised hands, calls; DeepMimic's other clips) refused; sideways and backwards walks
+   (Bandai walk-left, walk-right, walk-back) are listed apart: the method assumes forward gait.
+2. **Through `pcnet run`** (a user's path): the Bandai motion-style test split's walks and runs
+   (``select_split(..., "test", "motion-style")``: walk, walk-turn-*, run, dash) and DeepMimic's
+   forward walks and runs, at most ``--max-clips`` of each set evenly spaced over the clips of at
+   least 3 s, the first ``--max-seconds`` of each. Each clip is filmed by one static camera and
+   run through ``pcnet run`` clean and with lifter-like noise, both exactly as in
+   ``benchmarks/world_validation.py`` (its camera, inputs and runner: 3D from VideoPose3D's
+   export, 2D AlphaPose keypoints, the pelvis path fitted to them, the rectification's world
+   frame; a black video of the camera's size gives the image size). ``pcnet gait``'s analysis (``pipeline/gait.py: analyse``) reads the run's folder.
+   Truth: the same analysis on the true joints (``world_validation.truth_world``, low-passed with
+   the run's cutoff, the pelvis path known in every frame).
+
+Metrics per clip (truth events matched to the run's by side, each to the nearest within half
+the true stride):
+- strike / off time error (ms): median over matched events of |run time - true time|;
+- matched: the share of true strikes with a run strike matched; extra: run strikes without one;
+- cadence (steps/min), stance (% of stride), step length (m) and walking speed (m/s): the run's
+  summary value minus the truth's (``pcnet gait``'s gait.json), signed and absolute;
+- refused: clips whose run ``pcnet gait`` refused (no antiphase, no cycle, no step).
+Summaries over clips: median and 95th percentile of |error|, mean of the signed error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import sys
+import tempfile
+import time
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.report import SHARED_DATA
+from benchmarks.world_validation import (FOCAL_PX, focal_route, make_inputs, place_camera, run_pcnet,
+                                         truth_world)
+from pcnet.models.datasets import load_mocap, select_split
+from pcnet.pipeline.gait import analyse
+from pcnet.stages.gait import GaitError, gait_events, SIDES, steps, summarise
+from pcnet.stages.kinematics import butterworth_lowpass
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULT = ROOT / "benchmarks" / "results" / "gait_validation.txt"
+MIN_SECONDS = 3.0
+BANDAI_GAIT = ("walk", "walk-turn-left", "walk-turn-right", "run", "dash")
+BANDAI_NOT_FORWARD = ("walk-left", "walk-right", "walk-back")
+DEEPMIMIC_GAIT = ("walk", "jog", "run")
+CONDITIONS = ("clean", "lifter noise")
+
+
+def bandai_kind(name: str) -> str:
+    return name.split("_")[1]
+
+
+def screen_group(set_name: str, name: str) -> str:
+    """"gait", "not forward" or "in place" for the antiphase screen."""
+    if set_name == "bandai":
+        kind = bandai_kind(name)
+        return "gait" if kind in BANDAI_GAIT else "not forward" if kind in BANDAI_NOT_FORWARD else "in place"
+    lowered = name.lower()
+    if "ready" in lowered:  # walk <-> stand transitions: partly gait, listed apart
+        return "not forward"
+    return "gait" if any(w in lowered for w in DEEPMIMIC_GAIT) else "in place"
+
+
+def antiphase_screen(data: Path) -> list[str]:
+    lines = ["## 1. Antiphase screen: clips gait_events accepts (clean mocap, every clip)", "",
+             "| set | motion | clips | accepted | refused |", "|---|---|---|---|---|"]
+    for set_name, file in (("bandai", "bandai_h36m17.npz"), ("deepmimic", "deepmimic_h36m17.npz")):
+        counts = collections.defaultdict(lambda: [0, 0])
+        for clip in load_mocap(data / "mocap" / file):
+            group = screen_group(set_name, clip.name)
+            try:
+                gait_events(np.asarray(clip.joints, np.float64), clip.fps)
+                counts[group][0] += 1
+            except GaitError:
+                counts[group][1] += 1
+        for group in ("gait", "not forward", "in place"):
+            a, r = counts[group]
+            lines.append(f"| {set_name} | {group} | {a + r} | {a} | {r} |")
+    return lines + [""]
+
+
+def held_out_clips(data: Path, max_clips: int, max_seconds: float):
+    bandai = [c for c in select_split(load_mocap(data / "mocap" / "bandai_h36m17.npz"), "test", "motion-style")
+              if bandai_kind(c.name) in BANDAI_GAIT]
+    deepmimic = [c for c in load_mocap(data / "mocap" / "deepmimic_h36m17.npz")
+                 if screen_group("deepmimic", c.name) == "gait"]
+    for label, clips in (("Bandai motion-style test walks and runs", bandai),
+                         ("DeepMimic walks and runs (another data set)", deepmimic)):
+        long_enough = [c for c in clips if len(c.joints) / c.fps >= MIN_SECONDS]
+        picks = np.unique(np.linspace(0, len(long_enough) - 1, min(max_clips, len(long_enough))).round().astype(int))
+        for i in picks:
+            c = long_enough[i]
+            n = min(len(c.joints), int(round(max_seconds * c.fps)))
+            yield label, c.name, np.asarray(c.joints[:n], np.float64), float(c.fps)
+
+
+def truth_analysis(world: np.ndarray, fps: float, cutoff_hz: float | None):
+    joints = butterworth_lowpass(world, fps, cutoff_hz) if cutoff_hz else world
+    events = gait_events(joints, fps)
+    step_list = steps(events, joints, np.ones(len(joints), bool))
+    return events, summarise(events, step_list)
+
+
+def matched(true_t: np.ndarray, run_t: np.ndarray, window: float) -> tuple[np.ndarray, int, int]:
+    """|time difference| of each true event's nearest run event within ``window`` (s); counts matched, extra."""
+    dts = []
+    used = set()
+    for t in true_t:
+        if run_t.size == 0:
+            continue
+        k = int(np.argmin(np.abs(run_t - t)))
+        if abs(run_t[k] - t) <= window:
+            dts.append(abs(run_t[k] - t))
+            used.add(k)
+    return np.asarray(dts), len(dts), run_t.size - len(used)
+
+
+def clip_metrics(out: Path, world: np.ndarray, fps: float, cutoff_hz: float | None) -> dict:
+    try:
+        result = analyse(out)
+    except GaitError:
+        return {"refused": 1}
+    events, truth = truth_analysis(world, fps, cutoff_hz)
+    window = truth.stride_period_s / 2
+    strike_dt, off_dt, n_true, n_matched, extra = [], [], 0, 0, 0
+    for side in SIDES:
+        dt, m, x = matched(events.foot(side).strikes_s, result.events.foot(side).strikes_s, window)
+        strike_dt.append(dt)
+        n_true += events.foot(side).strikes_s.size
+        n_matched += m
+        extra += x
+        off_dt.append(matched(events.foot(side).offs_s, result.events.foot(side).offs_s, window)[0])
+    strike_dt, off_dt = np.concatenate(strike_dt), np.concatenate(off_dt)
+
+    def both(summary, key):
+        return float(np.nanmean([getattr(getattr(summary, s), key) for s in SIDES]))
+
+    run = result.summary
+    return {
+        "refused": 0,
+        "strike_ms": 1000 * float(np.median(strike_dt)) if strike_dt.size else np.nan,
+        "off_ms": 1000 * float(np.median(off_dt)) if off_dt.size else np.nan,
+        "matched": n_matched / max(n_true, 1), "extra": extra / max(n_true, 1),
+        "cadence": run.cadence_steps_per_min - truth.cadence_steps_per_min,
+        "stance": both(run, "stance_percent") - both(truth, "stance_percent"),
+        "step_length": both(run, "step_length") - both(truth, "step_length"),
+        "speed": run.walking_speed - truth.walking_speed,
+        "true_cadence": truth.cadence_steps_per_min, "true_speed": truth.walking_speed,
+    }
+
+
+METRICS = (("strike_ms", "foot strike time error (ms)", ".0f", False), ("off_ms", "foot off time error (ms)", ".0f", False),
+           ("matched", "true strikes matched", ".2f", False), ("extra", "extra run strikes per true", ".2f", False),
+           ("cadence", "cadence error (steps/min)", ".1f", True), ("stance", "stance error (% of stride)", ".1f", True),
+           ("step_length", "step length error (m)", ".3f", True), ("speed", "walking speed error (m/s)", ".3f", True))
+
+
+def summary_rows(label: str, cond: str, ms: list[dict]) -> list[str]:
+    ok = [m for m in ms if not m["refused"]]
+    rows = []
+    for key, name, f, signed in METRICS:
+        x = np.asarray([m[key] for m in ok], np.float64)
+        x = x[np.isfinite(x)]
+        if not x.size:
+            rows.append(f"| {label} | {cond} | {name} | - | - | - |")
+            continue
+        a = np.abs(x)
+        mean = f"{x.mean():+{f}}" if signed else f"{x.mean():{f}}"
+        rows.append(f"| {label} | {cond} | {name} | {np.median(a):{f}} | {np.percentile(a, 95):{f}} | {mean} |")
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=SHARED_DATA)
+    ap.add_argument("--max-clips", type=int, default=8, help="per data set")
+    ap.add_argument("--max-seconds", type=float, default=20.0)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=RESULT)
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    command = "python -m benchmarks.gait_validation" + "".join(f" {a}" for a in sys.argv[1:])
+    lines = [f"# Gait events against motion capture\n\ncommand: `{command}`\n"]
+    lines += antiphase_screen(args.data)
+    print("\n".join(lines), flush=True)
+    route, _ = focal_route()
+    per = collections.defaultdict(list)
+    clip_rows = ["| set | clip | condition | refused | strike (ms) | off (ms) | cadence err | true cadence | "
+                 "step length err (m) | speed err (m/s) | true speed (m/s) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, name, joints, fps in held_out_clips(args.data, args.max_clips, args.max_seconds):
+            world = truth_world(joints, fps)
+            seed = zlib.crc32(name.encode()) + args.seed
+            cam = place_camera(world, np.random.default_rng(seed))
+            if cam is None:
+                print(f"{name}: no camera keeps it in view; skipped", flush=True)
+                continue
+            for cond in CONDITIONS:
+                rel, px = make_inputs(world, cam, fps, cond != "clean", np.random.default_rng(seed + 1))
+                out, _ = run_pcnet(Path(tmp) / f"{zlib.crc32(name.encode())}_{cond[0]}", rel, px, fps, False,
+                                   route, blank_video=True, mode="sequence")
+                with np.load(out / "canonical.npz", allow_pickle=False) as z:
+                    cutoff = json.loads(str(z["report"])).get("cutoff_hz")
+                m = clip_metrics(out, world, fps, cutoff)
+                per[(label, cond)].append(m)
+                cells = ["yes" if m["refused"] else "no"] + (["-"] * 7 if m["refused"] else [
+                    f"{m['strike_ms']:.0f}", f"{m['off_ms']:.0f}", f"{m['cadence']:+.1f}", f"{m['true_cadence']:.1f}",
+                    f"{m['step_length']:+.3f}", f"{m['speed']:+.3f}", f"{m['true_speed']:.2f}"])
+                clip_rows.append(f"| {label} | {name} | {cond} | " + " | ".join(cells) + " |")
+                print(clip_rows[-1], flush=True)
+    table = ["## 2. Through `pcnet run` (one static camera per clip, `--mode sequence`)", "",
+             f"Focal length {FOCAL_PX:.1f} px given to the runs; truth = the same analysis on the true joints.", "",
+             "| set | condition | metric | median abs | p95 abs | mean (signed) |", "|---|---|---|---|---|---|"]
+    for (label, cond), ms in per.items():
+        refused = sum(m["refused"] for m in ms)
+        table.append(f"| {label} | {cond} | clips (refused) | {len(ms)} ({refused}) | | |")
+        table += summary_rows(label, cond, ms)
+    lines += table + ["", "Per clip:", ""] + clip_rows + ["", f"({time.perf_counter() - t0:.0f} s)"]
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text("\n".join(lines) + "\n")
+    print("\n".join(table), flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,231 @@
+"""``pcnet gait``: gait events and spatiotemporal parameters of a `pcnet run` output folder
+(:mod:`pcnet.stages.gait`), written beside the run's outputs.
+
+Reads ``canonical.npz`` (``joints_world``, ``fps``, ``units``, ``pelvis_path_std_world``, the
+``report``'s ``root_path`` and ``cutoff_hz``), low-passes the world poses with the run's own
+cutoff (``stages/kinematics.py: butterworth_lowpass``, as kinematics.csv), and writes
+``gait_events.csv`` (one row per event), ``gait.json`` (the summary) and a "Gait" section of
+the run's report.md.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pcnet.adapters.validate import NumpyArchive, open_numpy
+from pcnet.stages.core.atomic import write_text
+from pcnet.stages.core.conventions import METRES_PER_LENGTH_UNIT
+from pcnet.stages.core.errors import InputError
+from pcnet.stages.flags import one_person_frames
+from pcnet.stages.gait import gait_events, GaitError, GaitEvents, GaitSummary, SIDES, Step, steps, summarise
+from pcnet.stages.kinematics import butterworth_lowpass
+
+EVENTS_NAME = "gait_events.csv"
+SUMMARY_NAME = "gait.json"
+OUTPUTS = (EVENTS_NAME, SUMMARY_NAME)
+#: The heading of report.md's gait section (replaced, not repeated, by a second `pcnet gait`).
+REPORT_SECTION = "## Gait (pcnet gait)"
+METHOD = ("Zeni et al. 2008 coordinate method (foot strike = the ankle furthest ahead of the pelvis, foot off = "
+          "furthest behind; stages/gait.py)")
+
+
+@dataclass(frozen=True)
+class RunPoses:
+    """What ``pcnet gait`` needs of a run.
+
+    Attributes:
+        joints: ``(T, 17, 3)`` float64 world-frame poses, low-passed as the run's kinematics.
+        fps: frame rate (Hz).
+        units: the poses' length unit (``"m"``, ``"cm"``, ``"mm"``) or ``"normalised"`` / ``"px"``.
+        on_path: ``(T,)`` bool, frames whose pelvis follows an observed path.
+        root_path: the run's pelvis path source (``"measured"``, ``"from 2D keypoints"``,
+            ``"not observable"``).
+        one_person_frames: frames analysed: all, or the 2D track's longest stretch where it
+            jumped between people (``track_segment``; the others are NaN in ``joints``).
+    """
+
+    joints: np.ndarray
+    fps: float
+    units: str
+    on_path: np.ndarray
+    root_path: str
+    one_person_frames: int
+
+
+def _field(arrays: NumpyArchive, npz: Path, name: str) -> np.ndarray:
+    if name not in arrays.files:
+        raise InputError(f"{npz}: field '{name}': expected it in a `pcnet run` output, got none (an older or "
+                         f"foreign file: rerun pcnet run)")
+    return arrays[name]
+
+
+def read_run(folder: Path) -> RunPoses:
+    """The world poses of the `pcnet run` output ``folder``.
+
+    Raises:
+        InputError: no ``canonical.npz``, a field missing or of the wrong kind, or a run
+            without a world frame (a moving camera: frame or smooth mode).
+    """
+    npz = folder / "canonical.npz"
+    if not npz.is_file():
+        raise InputError(f"{folder}: expected a `pcnet run` output folder with canonical.npz, got none")
+    arrays = open_numpy(npz)
+    if not isinstance(arrays, NumpyArchive):
+        raise InputError(f"{npz}: expected pcnet's canonical.npz archive, got a single .npy array")
+    with arrays:
+        joints = np.asarray(_field(arrays, npz, "joints_world"), np.float64)
+        fps = float(_field(arrays, npz, "fps"))
+        units = str(_field(arrays, npz, "units"))
+        path_std = np.asarray(_field(arrays, npz, "pelvis_path_std_world"), np.float64)
+        report = json.loads(str(_field(arrays, npz, "report")))
+        segment = np.asarray(arrays["track_segment"], np.float64) if "track_segment" in arrays.files else None
+    if joints.ndim != 3 or joints.shape[1:] != (17, 3) or joints.shape[0] == 0:
+        raise InputError(f"{npz}: field 'joints_world': expected world-frame poses (a static camera: pcnet run --mode "
+                         f"sequence), got shape {joints.shape}: the run kept the canonical frame (a moving camera), "
+                         f"which has no fixed forward for gait events")
+    one_person = np.ones(len(joints), bool)
+    tracked = np.isfinite(segment) if segment is not None and segment.shape == (len(joints),) else one_person
+    if len(np.unique(segment[tracked])) > 1:
+        # the 2D track jumped between people: the longest stretch alone, as world.trc holds it
+        one_person = np.zeros(len(joints), bool)
+        one_person[tracked] = one_person_frames(segment[tracked].astype(int))
+        joints = np.where(one_person[:, None, None], joints, np.nan)
+    root_path = report.get("root_path") or "not observable"
+    pelvis_seen = np.isfinite(joints[:, 0]).all(axis=1)
+    if root_path == "from 2D keypoints" and path_std.shape == (len(joints), 3):
+        on_path = pelvis_seen & np.isfinite(path_std).all(axis=1)
+    else:
+        on_path = pelvis_seen & (root_path == "measured")
+    cutoff = report.get("cutoff_hz")
+    if cutoff:
+        joints = butterworth_lowpass(joints, fps, float(cutoff))
+    return RunPoses(joints, fps, units, on_path, root_path, int(one_person.sum()))
+
+
+def _number(x: float, digits: int) -> float | None:
+    return round(float(x), digits) if math.isfinite(x) else None
+
+
+def _cell(x: float, digits: int) -> str:
+    return "" if not math.isfinite(x) else f"{x:.{digits}f}"
+
+
+def events_csv(step_list: list[Step], offs: dict[str, np.ndarray], fps: float, unit: str) -> str:
+    """``gait_events.csv``: one row per event in time order; the step columns on foot-strike
+    rows only (:class:`pcnet.stages.gait.Step`; empty where a value does not exist)."""
+    rows = [(s.time_s, s.side, "foot_strike", s) for s in step_list]
+    rows += [(t, side, "foot_off", None) for side in SIDES for t in offs[side]]
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(["time_s", "frame", "side", "event", "step_time_s", "stride_time_s", "stance_percent",
+                     f"step_length_{unit}"])
+    for t, side, event, s in sorted(rows, key=lambda r: r[0]):
+        values = ["", "", "", ""] if s is None else [
+            _cell(s.step_time_s, 3), _cell(s.stride_time_s, 3), _cell(s.stance_percent, 1), _cell(s.step_length, 3)]
+        writer.writerow([f"{t:.3f}", int(round(t * fps)), side, event, *values])
+    return out.getvalue()
+
+
+@dataclass(frozen=True)
+class GaitResult:
+    """One run's gait analysis (:func:`analyse`).
+
+    Attributes:
+        run: :class:`RunPoses`.
+        events: :class:`pcnet.stages.gait.GaitEvents`.
+        steps: :class:`pcnet.stages.gait.Step` per foot strike.
+        summary: :class:`pcnet.stages.gait.GaitSummary`.
+        length_empty_because: why step lengths and speed are empty, or ``None``.
+    """
+
+    run: RunPoses
+    events: GaitEvents
+    steps: list[Step]
+    summary: GaitSummary
+    length_empty_because: str | None
+
+
+def summary_dict(result: GaitResult) -> dict:
+    """``gait.json``: the method, the run's path source and units, and :class:`GaitSummary`."""
+    run, summary = result.run, result.summary
+    sides = {side: {k: (_number(v, 4) if isinstance(v, float) else v)
+                    for k, v in dataclasses.asdict(getattr(summary, side)).items()} for side in SIDES}
+    return {
+        "method": METHOD,
+        "fps": run.fps,
+        "length_unit": run.units if run.units in METRES_PER_LENGTH_UNIT else None,
+        "root_path": run.root_path,
+        "frames": len(run.joints),
+        "frames_of_the_tracked_person": run.one_person_frames,
+        "steps_with_length": sum(math.isfinite(s.step_length) for s in result.steps),
+        "step_length_empty_because": result.length_empty_because,
+        "cadence_steps_per_min": _number(summary.cadence_steps_per_min, 2),
+        "walking_speed_per_s": _number(summary.walking_speed, 4),
+        "stride_period_s": _number(summary.stride_period_s, 4),
+        **sides,
+    }
+
+
+def step_length_reason(run: RunPoses) -> str | None:
+    """Why step lengths and speed are empty, or ``None`` where they are measured."""
+    if run.units not in METRES_PER_LENGTH_UNIT:
+        return (f"poses in {run.units} units, not a length: step lengths and speed need a metric lifter or "
+                f"pcnet run --height")
+    if not run.on_path.any():
+        return ("the run has no pelvis path (report.md's notes say why: no 2D keypoints, no image size or focal "
+                "length, ...): step lengths and speed need footprints in the world")
+    return None
+
+
+def analyse(folder: Path) -> GaitResult:
+    """Events, steps and summary of the run in ``folder`` (nothing written).
+
+    Raises:
+        InputError: :func:`read_run`'s; :class:`pcnet.stages.gait.GaitError` (an InputError)
+            naming the file where no gait cycle is found.
+    """
+    run = read_run(folder)
+    try:
+        events = gait_events(run.joints, run.fps)
+    except GaitError as err:
+        raise GaitError(f"{folder / 'canonical.npz'}: field 'joints_world': {err}") from None
+    reason = step_length_reason(run)
+    step_list = steps(events, run.joints, run.on_path if reason is None else np.zeros_like(run.on_path))
+    return GaitResult(run, events, step_list, summarise(events, step_list), reason)
+
+
+def write_gait(folder: Path, result: GaitResult) -> dict[str, Path]:
+    """Write ``gait_events.csv`` and ``gait.json`` into ``folder`` (each atomically)."""
+    summary = summary_dict(result)
+    offs = {side: result.events.foot(side).offs_s for side in SIDES}
+    unit = summary["length_unit"] or result.run.units
+    return {EVENTS_NAME: write_text(folder / EVENTS_NAME, events_csv(result.steps, offs, result.run.fps, unit)),
+            SUMMARY_NAME: write_text(folder / SUMMARY_NAME, json.dumps(summary, indent=1) + "\n")}
+
+
+def gait_markdown(result: GaitResult) -> str:
+    """report.md's gait section: the method, cadence, speed and the per-foot table."""
+    summary = summary_dict(result)
+    u = summary["length_unit"] or "-"
+    lines = [REPORT_SECTION, "",
+             f"{METHOD}. Cadence {_cell(result.summary.cadence_steps_per_min, 1)} steps/min, walking speed "
+             f"{_cell(result.summary.walking_speed, 2)} {u}/s"
+             + (f" (empty: {result.length_empty_because})" if result.length_empty_because else "")
+             + ". Every event: gait_events.csv; the summary: gait.json.", "",
+             f"| foot | strikes | stride time (s) | stride time SD (s) | step time (s) | stance (% of stride) | "
+             f"step length ({u}) |", "|---|---|---|---|---|---|---|"]
+    for side in SIDES:
+        s = getattr(result.summary, side)
+        cells = [_cell(getattr(s, k), d) for k, d in (
+            ("stride_time_s", 3), ("stride_time_sd_s", 3), ("step_time_s", 3), ("stance_percent", 1),
+            ("step_length", 3))]
+        lines.append(f"| {side} | {s.strikes} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"

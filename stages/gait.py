@@ -1,0 +1,385 @@
+"""Gait events and spatiotemporal parameters from world-frame H36M-17 poses.
+
+Frame and units: pcnet's world frame (docs/CONVENTIONS.md, "World frame": +Y up, fixed for the
+recording), the poses' own length unit; times in seconds. NaN = missing.
+
+Events (Zeni, Richards & Higginson 2008, "Two simple methods for determining gait events
+during treadmill and overground walking using kinematic data", Gait & Posture 27(4):710-714,
+the coordinate-based method): in each frame ``t`` let ``f_t`` be the subject's horizontal
+forward direction (the canonical +X of the frame's own hip line,
+:func:`forward_axes`) and
+
+    s_t = (ankle_t - pelvis_t) . f_t
+
+each foot's anterior position relative to the pelvis. A foot strike is a local maximum of
+``s`` (the foot furthest ahead), a foot off a local minimum (furthest behind). Zeni et al.
+use the heel for strikes, the toe for foot-off and the sacrum as reference; H36M-17 has
+neither heel nor toe, so the ankle joint centre stands for both and the pelvis (mid-hip) for
+the sacrum. Turning the reference with the hips each frame, not with one lab axis, keeps the
+method on a curved path and on a treadmill alike (Zeni et al.'s lab axis assumes straight
+walking).
+
+Walking and running move the two feet in antiphase: while one swings forward relative to the
+pelvis the other, on the ground, moves back. A recording whose two signals are not
+negatively correlated (Pearson, over the frames with both) is refused: standing, jumping or
+turning on the spot moves both ankles together with the pelvis. (On the Bandai mocap,
+clean, with the rest of this method: 1,019 of 1,022 forward walks and runs accepted and 1,998
+of 2,009 in-place clips refused; `python -m benchmarks.gait_validation`.)
+
+A step carries the swing foot from behind the stance foot to ahead of it, so a maximum of
+``s`` counts as a strike only where that foot is then ahead of the other (``s`` larger) and
+a minimum as a foot off only where it is behind: a fencer's or boxer's stance, one foot
+always ahead, has extrema but no steps.
+
+Nothing is tuned. Two extrema of the same kind on one foot are at least half a stride
+apart, the stride ``P`` being the lag of the highest peak of the signals' biased
+autocorrelation (both feet averaged) below half the longest run of frames with both
+signals; half the period is the separation that leaves equal room either side. A recording
+without a positive autocorrelation peak there has no gait cycle to find (:class:`GaitError`).
+Event times are refined within the frame by the parabola through the extremum and its two
+neighbours (the standard three-point peak interpolation).
+
+Spatiotemporal parameters (the usual definitions, e.g. Whittle's *Gait Analysis*, 4th ed.,
+2007, sec. 2.3): stride time between successive strikes of one foot; step time from a strike
+of one foot to the next strike of the other; cadence = 60 / mean step time (steps/min);
+stance = strike to the same foot's next off, as a percentage of that stride; step length =
+the forward distance from one foot's placement to the other's next, each ankle taken at its
+own strike in the world frame (footprint to footprint, as a lab measures it from heel
+markers), so it needs the pelvis path (a root-relative pose alone gives the two ankles'
+separation at the strike, which falls short of the footprints: the trailing heel has
+lifted by then); walking speed = the steps' summed lengths over
+their summed times.
+
+Limits: the events assume the whole recording is walking or running forward; standing or
+turning on the spot also has extrema of ``s``, which this method reads as events. Walking
+backwards swaps strikes and offs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import find_peaks
+
+from .core.canonical import canonical_rotation
+from .core.conventions import L_ANKLE, PELVIS, R_ANKLE
+from .core.errors import InputError
+
+SIDES = ("left", "right")
+_ANKLE = {"left": L_ANKLE, "right": R_ANKLE}
+
+
+class GaitError(InputError):
+    """The poses hold no gait cycle the method can find (too short, no periodic foot motion)."""
+
+
+@dataclass(frozen=True)
+class FootEvents:
+    """One foot's events.
+
+    Attributes:
+        side: ``"left"`` or ``"right"``.
+        strikes_s: ``(n,)`` float64 foot-strike times (s from frame 0), ascending.
+        offs_s: ``(m,)`` float64 foot-off times (s), ascending.
+    """
+
+    side: str
+    strikes_s: np.ndarray
+    offs_s: np.ndarray
+
+
+@dataclass(frozen=True)
+class GaitEvents:
+    """Both feet's events of one recording.
+
+    Attributes:
+        left, right: :class:`FootEvents`.
+        stride_period_s: the stride the events were separated by (s; autocorrelation, above).
+        fps: frame rate (Hz).
+    """
+
+    left: FootEvents
+    right: FootEvents
+    stride_period_s: float
+    fps: float
+
+    def foot(self, side: str) -> FootEvents:
+        return self.left if side == "left" else self.right
+
+
+@dataclass(frozen=True)
+class Step:
+    """One foot strike and what it ends or begins.
+
+    Attributes:
+        side: the striking foot.
+        time_s: the strike's time (s).
+        step_time_s: time since the other foot's previous strike (s), NaN where that strike is
+            not the previous event of either foot's strikes (the first strike, or two strikes of
+            one foot in a row).
+        stride_time_s: time to this foot's next strike (s), NaN for its last strike.
+        stance_percent: this foot's stance in the stride it begins (strike to its next off, %
+            of the stride), NaN where the stride does not hold exactly one off of this foot.
+        step_length: forward distance (along the two strikes' mean ``f``) from the other foot's
+            ankle at its previous strike to this one's at this strike: footprint to footprint,
+            the poses' unit; NaN where ``step_time_s`` is, where either strike's frame is off
+            the observed pelvis path, or an ankle or the hips are missing there.
+    """
+
+    side: str
+    time_s: float
+    step_time_s: float
+    stride_time_s: float
+    stance_percent: float
+    step_length: float
+
+
+def forward_axes(joints: np.ndarray) -> np.ndarray:
+    """Each frame's horizontal forward direction ``f_t``: the canonical +X of the frame's hip
+    line (docs/CONVENTIONS.md; :func:`pcnet.stages.core.canonical.canonical_rotation` with up
+    = +Y).
+
+    Args:
+        joints: ``(T, 17, 3)`` H36M-17 poses, world frame (+Y up), any length unit.
+
+    Returns:
+        ``(T, 3)`` float64 unit vectors in the world frame; NaN where the hip line is missing
+        or near vertical.
+    """
+    R, _ = canonical_rotation(np.asarray(joints, np.float64), (0.0, 1.0, 0.0))
+    return R[:, :, 0]
+
+
+def anterior_ankle_signals(joints: np.ndarray) -> dict[str, np.ndarray]:
+    """Each ankle's forward position relative to the pelvis, ``s_t`` of the module docstring.
+
+    Args:
+        joints: ``(T, 17, 3)`` H36M-17 poses, world frame (+Y up), any length unit.
+
+    Returns:
+        ``{"left": (T,), "right": (T,)}`` float64 in the poses' unit; NaN where the ankle, the
+        pelvis or the hip line is missing.
+    """
+    joints = np.asarray(joints, np.float64)
+    f = forward_axes(joints)
+    return {side: np.einsum("ti,ti->t", joints[:, _ANKLE[side]] - joints[:, PELVIS], f) for side in SIDES}
+
+
+def _runs(finite: np.ndarray) -> list[tuple[int, int]]:
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], finite.astype(np.int8), [0]))))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def stride_period_frames(signals: dict[str, np.ndarray]) -> int:
+    """The stride in frames: the lag of the highest local maximum of the two feet's mean biased
+    autocorrelation, over the longest run of frames where both signals are finite, at lags
+    below half that run (at least two strides in view).
+
+    Args:
+        signals: :func:`anterior_ankle_signals`.
+
+    Raises:
+        GaitError: no positive local maximum there (too few frames in a row, or no periodic
+            foot motion).
+    """
+    both = np.isfinite(signals["left"]) & np.isfinite(signals["right"])
+    runs = _runs(both)
+    start, stop = max(runs, key=lambda r: r[1] - r[0], default=(0, 0))
+    n = stop - start
+    acf = np.zeros(n)
+    for side in SIDES:
+        x = signals[side][start:stop] - np.mean(signals[side][start:stop]) if n else np.zeros(0)
+        energy = float(x @ x)
+        if energy > 0:
+            acf += np.correlate(x, x, "full")[n - 1:] / energy / len(SIDES)
+    lags, _ = find_peaks(acf[: n // 2 + 1])
+    lags = lags[acf[lags] > 0]
+    if lags.size == 0:
+        raise GaitError(f"expected a walk or run (the feet moving back and forth relative to the pelvis, at least "
+                        f"two strides without a gap), got {n} frames in a row with both ankles and no periodic foot "
+                        f"motion")
+    return int(lags[np.argmax(acf[lags])])
+
+
+def _refined(y: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Sub-frame extremum positions of ``y`` at interior frames ``k`` (three-point parabola)."""
+    if k.size == 0:
+        return k.astype(np.float64)
+    a, b, c = y[k - 1], y[k], y[k + 1]
+    curvature = a - 2 * b + c
+    with np.errstate(invalid="ignore", divide="ignore"):
+        delta = np.where(curvature != 0, 0.5 * (a - c) / curvature, 0.0)
+    return k + np.clip(delta, -0.5, 0.5)
+
+
+def _extrema(s: np.ndarray, distance: int) -> tuple[np.ndarray, np.ndarray]:
+    """Maxima and minima of ``s`` (frames, sub-frame refined) within each run of finite frames:
+    an extremum at a run's edge is not one (the motion before it is unseen)."""
+    maxima, minima = [], []
+    for start, stop in _runs(np.isfinite(s)):
+        run = s[start:stop]
+        for out, sign in ((maxima, 1.0), (minima, -1.0)):
+            k, _ = find_peaks(sign * run, distance=distance)
+            out.append(start + _refined(run, k))
+    return np.concatenate(maxima or [np.zeros(0)]), np.concatenate(minima or [np.zeros(0)])
+
+
+def gait_events(joints: np.ndarray, fps: float) -> GaitEvents:
+    """Foot strikes and foot offs of both feet (Zeni et al. 2008, module docstring).
+
+    Args:
+        joints: ``(T, 17, 3)`` H36M-17 poses, world frame (+Y up), any length unit, low-passed
+            as the kinematics are (the extrema of raw lifter jitter are not events).
+        fps: frame rate (Hz, > 0).
+
+    Returns:
+        :class:`GaitEvents`.
+
+    Raises:
+        InputError: ``joints`` is not ``(T, 17, 3)`` or ``fps`` is not positive.
+        GaitError: the feet not in antiphase, no gait cycle (:func:`stride_period_frames`),
+            or no step (no strike of one foot after a strike of the other).
+    """
+    joints = np.asarray(joints, np.float64)
+    if joints.ndim != 3 or joints.shape[1:] != (17, 3):
+        raise InputError(f"joints: expected (T, 17, 3) H36M-17 poses, got shape {joints.shape}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise InputError(f"fps: expected a positive frame rate, got {fps}")
+    signals = anterior_ankle_signals(joints)
+    both = np.isfinite(signals["left"]) & np.isfinite(signals["right"])
+    phase = np.corrcoef(signals["left"][both], signals["right"][both])[0, 1] if both.sum() > 2 else np.nan
+    if not phase < 0:
+        raise GaitError(f"expected a walk or run, its feet moving in antiphase (their forward positions relative to "
+                        f"the pelvis negatively correlated), got a correlation of {phase:+.2f} over {both.sum()} "
+                        f"frames: the feet move together (standing, jumping, turning on the spot) or barely move")
+    period = stride_period_frames(signals)
+    feet = {}
+    for side, other in zip(SIDES, SIDES[::-1]):
+        ahead = signals[side] - signals[other]  # > 0: this foot ahead of the other
+        strikes, offs = _extrema(signals[side], max(1, period // 2))
+        strikes = strikes[_at(ahead, strikes) > 0]
+        offs = offs[_at(ahead, offs) < 0]
+        feet[side] = FootEvents(side, strikes / fps, offs / fps)
+    events = GaitEvents(feet["left"], feet["right"], period / fps, float(fps))
+    order = sorted((t, side) for side in SIDES for t in events.foot(side).strikes_s)
+    if not any(a[1] != b[1] for a, b in zip(order, order[1:])):
+        raise GaitError(f"expected steps (a foot striking ahead of the other after the other's strike), got "
+                        f"{len(feet['left'].strikes_s)} left and {len(feet['right'].strikes_s)} right foot strikes "
+                        f"ahead of the other foot and no step between them")
+    return events
+
+
+def _at(x: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``x`` (T, ...) at fractional frames ``t`` by linear interpolation (NaN propagates)."""
+    k = np.clip(np.floor(t).astype(int), 0, len(x) - 1)
+    k1 = np.clip(k + 1, 0, len(x) - 1)
+    w = (t - k).reshape((-1,) + (1,) * (x.ndim - 1))
+    return (1 - w) * x[k] + w * x[k1]
+
+
+def steps(events: GaitEvents, joints: np.ndarray, on_path: np.ndarray) -> list[Step]:
+    """Every foot strike with its step, stride, stance and step length, in time order.
+
+    Args:
+        events: :func:`gait_events` of ``joints``.
+        joints: the same ``(T, 17, 3)`` world-frame poses.
+        on_path: ``(T,)`` bool, the frames whose pelvis follows an observed path (measured or
+            fitted to 2D keypoints): a step length needs both its strikes' frames on it.
+
+    Returns:
+        :class:`Step` per strike of either foot, ascending in time.
+    """
+    joints = np.asarray(joints, np.float64)
+    forward = forward_axes(joints)
+    strikes = sorted((t, side) for side in SIDES for t in events.foot(side).strikes_s)
+    out = []
+    for i, (t, side) in enumerate(strikes):
+        other = "right" if side == "left" else "left"
+        previous = strikes[i - 1] if i and strikes[i - 1][1] == other else None
+        own = events.foot(side).strikes_s
+        later = own[own > t]
+        stride = later[0] - t if later.size else np.nan
+        offs = events.foot(side).offs_s
+        inside = offs[(offs > t) & (offs < t + stride)] if np.isfinite(stride) else offs[:0]
+        stance = 100.0 * (inside[0] - t) / stride if inside.size == 1 else np.nan
+        length = np.nan
+        if previous is not None:
+            frames = np.array([previous[0], t]) * events.fps
+            if on_path[np.round(frames).astype(int)].all():
+                before, now = _at(joints[:, _ANKLE[other]], frames[:1])[0], _at(joints[:, _ANKLE[side]], frames[1:])[0]
+                f = _at(forward, frames).sum(axis=0)
+                f[1] = 0.0
+                length = float((now - before) @ f / np.linalg.norm(f))
+        out.append(Step(side, float(t), float(t - previous[0]) if previous else np.nan, float(stride),
+                        float(stance), length))
+    return out
+
+
+@dataclass(frozen=True)
+class SideSummary:
+    """One foot's means over its steps (NaN where it has none).
+
+    Attributes:
+        strikes: number of foot strikes.
+        step_time_s, stride_time_s, stance_percent, step_length: means over the steps that
+            have the value (:class:`Step`); step_length in the poses' unit.
+        stride_time_sd_s: sample standard deviation of the stride times (s; NaN below two).
+    """
+
+    strikes: int
+    step_time_s: float
+    stride_time_s: float
+    stride_time_sd_s: float
+    stance_percent: float
+    step_length: float
+
+
+@dataclass(frozen=True)
+class GaitSummary:
+    """A recording's spatiotemporal parameters.
+
+    Attributes:
+        left, right: :class:`SideSummary`.
+        cadence_steps_per_min: 60 / mean step time over both feet (NaN without a step).
+        walking_speed: the steps' summed lengths over their summed step times (poses' unit per
+            s; NaN without a step length: no observed pelvis path).
+        stride_period_s: :attr:`GaitEvents.stride_period_s`.
+    """
+
+    left: SideSummary
+    right: SideSummary
+    cadence_steps_per_min: float
+    walking_speed: float
+    stride_period_s: float
+
+
+def _mean(values) -> float:
+    x = np.asarray([v for v in values if np.isfinite(v)], np.float64)
+    return float(x.mean()) if x.size else float("nan")
+
+
+def summarise(events: GaitEvents, step_list: list[Step]) -> GaitSummary:
+    """Means per foot, both feet's cadence and the walking speed (definitions: module
+    docstring).
+
+    Args:
+        events: :func:`gait_events`.
+        step_list: :func:`steps` of the same events.
+    """
+    sides = {}
+    for side in SIDES:
+        own = [s for s in step_list if s.side == side]
+        strides = np.asarray([s.stride_time_s for s in own if np.isfinite(s.stride_time_s)])
+        sides[side] = SideSummary(
+            strikes=len(own),
+            step_time_s=_mean(s.step_time_s for s in own),
+            stride_time_s=_mean(strides),
+            stride_time_sd_s=float(strides.std(ddof=1)) if strides.size >= 2 else float("nan"),
+            stance_percent=_mean(s.stance_percent for s in own),
+            step_length=_mean(s.step_length for s in own))
+    step_time = _mean(s.step_time_s for s in step_list)
+    cadence = 60.0 / step_time if np.isfinite(step_time) and step_time > 0 else float("nan")
+    measured = [s for s in step_list if np.isfinite(s.step_length)]
+    speed = (sum(s.step_length for s in measured) / sum(s.step_time_s for s in measured)) if measured else float("nan")
+    return GaitSummary(sides["left"], sides["right"], cadence, float(speed), events.stride_period_s)

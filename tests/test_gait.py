@@ -1,0 +1,183 @@
+"""Gait events and spatiotemporal parameters (stages/gait.py) and `pcnet gait` (pipeline/gait.py).
+
+Real motion: the Bandai walk-turn clip of tests/fixtures/mocap_small.npz (120 frames at 30 fps,
+about 3.5 m walked while turning), its in-place raise-both-hands clip, and the twelve Bandai
+test-split clips of bandai_test_clips.npz (fixtures/README.md).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from pcnet.pipeline.cli import main
+from pcnet.stages.core.conventions import L_ANKLE, PELVIS, R_ANKLE
+from pcnet.stages.gait import gait_events, GaitError, SIDES, steps, summarise
+
+FIXTURES = Path(__file__).resolve().parent / "fixtures"
+WALK = "dataset-2_walk-turn-left_active_001"
+FPS = 30.0
+
+
+def _clip(name: str, file: str = "mocap_small.npz") -> np.ndarray:
+    with np.load(FIXTURES / file) as d:
+        return np.asarray(d[name], np.float64)
+
+
+def _walk_summary(joints: np.ndarray, fps: float = FPS):
+    events = gait_events(joints, fps)
+    step_list = steps(events, joints, np.ones(len(joints), bool))
+    return events, step_list, summarise(events, step_list)
+
+
+def test_a_walks_strikes_alternate_and_land_near_the_ground():
+    joints = _clip(WALK)
+    events, step_list, summary = _walk_summary(joints)
+    order = [s.side for s in step_list]
+    assert len(order) >= 6 and all(a != b for a, b in zip(order, order[1:])), order
+    lowest = {"left": np.nanmin(joints[:, L_ANKLE, 1]), "right": np.nanmin(joints[:, R_ANKLE, 1])}
+    for s in step_list:  # a strike: the foot on the ground, not mid-swing (swing lifts the ankle ~10 cm)
+        ankle = joints[int(round(s.time_s * FPS)), L_ANKLE if s.side == "left" else R_ANKLE, 1]
+        assert ankle - lowest[s.side] < 0.04, (s, ankle)
+    # every foot off lies inside the stance that the strike before it began
+    for side in SIDES:
+        strikes, offs = events.foot(side).strikes_s, events.foot(side).offs_s
+        for a, b in zip(strikes, strikes[1:]):
+            assert ((offs > a) & (offs < b)).sum() == 1
+    assert 55 < summary.left.stance_percent < 70 and 55 < summary.right.stance_percent < 70  # walking: ~60 %
+
+
+def test_footprint_step_lengths_give_the_pelvis_speed():
+    """Step length (footprint to footprint) and step time give the speed at which the pelvis
+    itself travels: two independent readings of one walk."""
+    joints = _clip(WALK)
+    _, step_list, summary = _walk_summary(joints)
+    timed = [s for s in step_list if np.isfinite(s.step_length)]
+    t0, t1 = timed[0].time_s - timed[0].step_time_s, timed[-1].time_s
+    k = np.arange(int(round(t0 * FPS)), int(round(t1 * FPS)) + 1)
+    path = np.linalg.norm(np.diff(joints[k, PELVIS][:, [0, 2]], axis=0), axis=1).sum()
+    assert summary.walking_speed == pytest.approx(path / (k[-1] - k[0]) * FPS, rel=0.05)
+    assert 0.5 < np.mean([s.step_length for s in timed]) < 1.0
+    # without a path (a root-relative pose) there is no step length, and no speed
+    unseen = summarise(*(lambda e: (e, steps(e, joints, np.zeros(len(joints), bool))))(gait_events(joints, FPS)))
+    assert np.isnan(unseen.walking_speed) and np.isnan(unseen.left.step_length)
+    assert unseen.cadence_steps_per_min == pytest.approx(summary.cadence_steps_per_min)
+
+
+def test_events_hold_between_frames_at_half_the_rate():
+    """The three-point refinement: every other frame (15 fps) moves the strikes by less than
+    half a frame at 15 fps (a frame's quantisation alone would be up to 33 ms)."""
+    joints = _clip(WALK)
+    full, half = gait_events(joints, FPS), gait_events(joints[::2], FPS / 2)
+    for side in SIDES:
+        a, b = full.foot(side).strikes_s, half.foot(side).strikes_s
+        near = np.array([np.min(np.abs(a - t)) for t in b])
+        assert near.max() < 0.5 / (FPS / 2), (side, near)
+        assert np.median(near) < 0.02, (side, near)
+
+
+@pytest.mark.parametrize("name,file", [("dataset-2_raise-up-both-hands_elderly_024", "mocap_small.npz"),
+                                       ("dataset-1_bow_active_001", "bandai_small.npz"),
+                                       ("dataset-2_wave-both-hands_active_032", "bandai_test_clips.npz")])
+def test_motion_in_place_is_refused(name, file):
+    with pytest.raises(GaitError, match="expected a walk or run"):
+        gait_events(_clip(name, file), FPS)
+
+
+def test_a_stance_with_one_foot_always_ahead_has_no_steps():
+    """A boxer's or fencer's stance: the feet in antiphase, one always ahead. Built from the
+    walk with its right ankle moved a metre back (more than the feet ever part): its maxima come behind the left foot."""
+    joints = _clip(WALK)
+    from pcnet.stages.gait import forward_axes
+
+    moved = joints.copy()
+    moved[:, R_ANKLE] -= 1.0 * forward_axes(joints)
+    with pytest.raises(GaitError, match="expected steps"):
+        gait_events(moved, FPS)
+
+
+def test_bad_input():
+    with pytest.raises(GaitError, match="expected a walk or run"):
+        gait_events(np.full((60, 17, 3), np.nan), FPS)
+    with pytest.raises(ValueError, match=r"expected \(T, 17, 3\)"):
+        gait_events(np.zeros((60, 16, 3)), FPS)
+    with pytest.raises(ValueError, match="positive frame rate"):
+        gait_events(_clip(WALK), 0.0)
+
+
+def _cli(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def walk_run(tmp_path_factory) -> Path:
+    """`pcnet run --mode sequence` on the walk filmed by one static camera (VideoPose3D 3D,
+    AlphaPose 2D, a black video for the image size: benchmarks/world_validation.py's inputs)."""
+    pytest.importorskip("cv2", reason="OpenCV writes the black video that gives the image size")
+    from benchmarks.world_validation import focal_route, make_inputs, place_camera, run_pcnet, truth_world
+
+    world = truth_world(_clip(WALK), FPS)
+    cam = place_camera(world, np.random.default_rng(0))
+    rel, px = make_inputs(world, cam, FPS, False, np.random.default_rng(1))
+    out, _ = run_pcnet(tmp_path_factory.mktemp("gait_run"), rel, px, FPS, False, focal_route()[0], True,
+                       mode="sequence")
+    return out
+
+
+@pytest.mark.slow
+def test_pcnet_gait_on_a_run(walk_run):
+    res = _cli("gait", walk_run)
+    assert res.exit_code == 0, res.output
+    assert "cadence" in res.output and "steps/min" in res.output
+    summary = json.loads((walk_run / "gait.json").read_text())
+    _, _, truth = _walk_summary(_clip(WALK))
+    assert summary["cadence_steps_per_min"] == pytest.approx(truth.cadence_steps_per_min, rel=0.03)
+    assert summary["walking_speed_per_s"] == pytest.approx(truth.walking_speed, rel=0.1)
+    assert summary["root_path"] == "from 2D keypoints" and summary["length_unit"] == "m"
+    rows = (walk_run / "gait_events.csv").read_text().splitlines()
+    assert rows[0] == "time_s,frame,side,event,step_time_s,stride_time_s,stance_percent,step_length_m"
+    assert {r.split(",")[3] for r in rows[1:]} == {"foot_strike", "foot_off"}
+    report = (walk_run / "report.md").read_text()
+    assert report.count("## Gait (pcnet gait)") == 1
+    again = _cli("gait", walk_run)  # earlier outputs: refused without --overwrite, replaced with it
+    assert again.exit_code == 1 and "pass --overwrite" in again.output
+    assert _cli("gait", walk_run, "--overwrite").exit_code == 0
+    assert (walk_run / "report.md").read_text().count("## Gait (pcnet gait)") == 1
+    # pcnet still owns the folder: `pcnet run --overwrite` may replace it
+    from pcnet.pipeline.outdir import is_owned
+    assert all(is_owned(walk_run, n) for n in ("gait.json", "gait_events.csv", "report.md"))
+    (walk_run / "gait.json").write_text("{}\n")  # someone else's edit: not replaced
+    foreign = _cli("gait", walk_run, "--overwrite")
+    assert foreign.exit_code == 1 and "written or changed by someone else" in foreign.output
+
+
+def test_another_report_section_survives_a_new_gait_section(tmp_path):
+    """report.md's appended sections (OpenSim, gait) replace only their own heading's text."""
+    from pcnet.pipeline.cli import _section_into_report
+    from pcnet.pipeline.outdir import _write_marker, register_files
+
+    (tmp_path / "report.md").write_text("# run\n\nbody\n")
+    _write_marker(tmp_path, "done")
+    register_files(tmp_path, ["report.md"])
+    _section_into_report(tmp_path, "## A", "## A\n\nfirst\n")
+    register_files(tmp_path, ["report.md"])
+    _section_into_report(tmp_path, "## B", "## B\n\nb\n")
+    register_files(tmp_path, ["report.md"])
+    _section_into_report(tmp_path, "## A", "## A\n\nsecond\n")
+    text = (tmp_path / "report.md").read_text()
+    assert text == "# run\n\nbody\n\n## B\n\nb\n\n## A\n\nsecond\n", text
+
+
+def test_pcnet_gait_refuses_what_it_cannot_read(tmp_path):
+    res = _cli("gait", tmp_path / "none")
+    assert res.exit_code == 1 and "expected a `pcnet run` output folder, got no folder" in res.output
+    res = _cli("gait", tmp_path)
+    assert res.exit_code == 1 and "with canonical.npz, got none" in res.output
+    np.savez(tmp_path / "canonical.npz", joints_world=np.zeros((0, 17, 3)), fps=30.0, units="m",
+             pelvis_path_std_world=np.zeros((0, 3)), report=json.dumps({"root_path": None}))
+    res = _cli("gait", tmp_path)
+    assert res.exit_code == 1 and "field 'joints_world': expected world-frame poses" in res.output
+    assert len(res.output.strip().splitlines()) == 1
