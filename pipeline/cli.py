@@ -692,35 +692,72 @@ def opensim(out_dir, height, mass, static_trial, overwrite):
 
 
 @main.command()
-@click.argument("out_dir", type=click.Path())
-@click.option("--overwrite", is_flag=True, help="Replace earlier gait outputs of pcnet in OUT_DIR.")
-def gait(out_dir, overwrite):
+@click.argument("out_dirs", nargs=-1, required=True, type=click.Path(), metavar="OUT_DIR...")
+@click.option("--table", type=click.Path(), default=None,
+              help="Also write one row per OUT_DIR into this CSV (cadence, speed, per-foot means; why a recording "
+                   "was refused): a study's table.")
+@click.option("--overwrite", is_flag=True, help="Replace earlier gait outputs of pcnet in OUT_DIR (and --table).")
+def gait(out_dirs, table, overwrite):
     """Gait events (foot strike, foot off) and spatiotemporal parameters of a walk or run in
-    OUT_DIR, a `pcnet run` output with a static camera (stages/gait.py: Zeni et al. 2008's
-    coordinate method on the world-frame ankles).
+    each OUT_DIR, a `pcnet run` output with a static camera (stages/gait.py: Zeni et al.
+    2008's coordinate method on the world-frame ankles).
 
     Writes OUT_DIR/gait_events.csv (every event, with step and stride times, stance and step
     length) and gait.json (per-foot means, cadence, walking speed), adds a Gait section to the
     run's report.md and prints cadence, speed and per-foot step length and stance. Step
     lengths and speed need the pelvis path (2D keypoints or a measured root) and metric poses.
+    A folder that fails gets one line and the others go on; the exit status is then 1.
     """
-    from pcnet.pipeline.gait import analyse, gait_markdown, OUTPUTS, REPORT_SECTION
+    from pcnet.pipeline.gait import summary_row, TABLE_COLUMNS, table_written_by_pcnet
+
+    if table is not None:
+        _new_output_file(table, "--table", overwrite, written_by_pcnet=table_written_by_pcnet)
+    rows, failed = [], 0
+    for out_dir in out_dirs:
+        if len(out_dirs) > 1:
+            click.echo(f"{out_dir}:")
+        try:
+            result = _gait_of(Path(out_dir), overwrite)
+            rows.append(summary_row(out_dir, result, None))
+        except (InputError, OSError) as err:
+            if len(out_dirs) == 1 and table is None:
+                raise
+            failed += 1
+            click.echo(f"Error: {one_line(err)}", err=True)
+            rows.append(summary_row(out_dir, None, one_line(err)))
+    if table is not None:
+        import csv
+        import io
+
+        from pcnet.stages.core.atomic import write_text
+
+        text = io.StringIO()
+        writer = csv.DictWriter(text, TABLE_COLUMNS, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+        click.echo(f"{'table':<17} {write_text(table, text.getvalue())}")
+    if failed:
+        raise click.exceptions.Exit(1)
+
+
+def _gait_of(folder: Path, overwrite: bool):
+    """``pcnet gait`` on one run folder: analyse, write, report, print. Returns the
+    :class:`pcnet.pipeline.gait.GaitResult`."""
+    from pcnet.pipeline.gait import analyse, gait_markdown, OUTPUTS, REPORT_SECTION, write_gait
     from pcnet.pipeline.outdir import is_owned, register_files
 
-    folder = Path(out_dir)
     if not folder.is_dir():
-        raise InputError(f"{out_dir}: expected a `pcnet run` output folder, got "
+        raise InputError(f"{folder}: expected a `pcnet run` output folder, got "
                          + ("a file" if folder.exists() else "no folder"))
     result = analyse(folder)
     existing = [name for name in OUTPUTS if (folder / name).exists()]
     if existing and not overwrite:
-        raise InputError(f"{out_dir}: expected no earlier gait outputs, got {', '.join(existing)}: pass --overwrite "
+        raise InputError(f"{folder}: expected no earlier gait outputs, got {', '.join(existing)}: pass --overwrite "
                          f"to replace them")
     foreign = [name for name in existing if not is_owned(folder, name)]
     if foreign:
-        raise InputError(f"{out_dir}: --overwrite replaces only gait outputs pcnet wrote, got {', '.join(foreign)} "
+        raise InputError(f"{folder}: --overwrite replaces only gait outputs pcnet wrote, got {', '.join(foreign)} "
                          f"written or changed by someone else; move them away")
-    from pcnet.pipeline.gait import write_gait
     written = write_gait(folder, result)
     details = _section_into_report(folder, REPORT_SECTION, gait_markdown(result)) or written["gait.json"]
     register_files(folder, (*OUTPUTS, details.name))
@@ -737,6 +774,7 @@ def gait(out_dir, overwrite):
     for name, path in written.items():
         click.echo(f"{name:<17} {path}")
     click.echo(f"details: {details}")
+    return result
 
 
 #: Two subject heights (m) no further apart than this are one height (heights are typed to the centimetre).

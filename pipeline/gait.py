@@ -92,12 +92,13 @@ def read_run(folder: Path) -> RunPoses:
                          f"sequence), got shape {joints.shape}: the run kept the canonical frame (a moving camera), "
                          f"which has no fixed forward for gait events")
     one_person = np.ones(len(joints), bool)
-    tracked = np.isfinite(segment) if segment is not None and segment.shape == (len(joints),) else one_person
-    if len(np.unique(segment[tracked])) > 1:
-        # the 2D track jumped between people: the longest stretch alone, as world.trc holds it
-        one_person = np.zeros(len(joints), bool)
-        one_person[tracked] = one_person_frames(segment[tracked].astype(int))
-        joints = np.where(one_person[:, None, None], joints, np.nan)
+    if segment is not None and segment.shape == (len(joints),):  # (0,) without 2D keypoints
+        tracked = np.isfinite(segment)
+        if len(np.unique(segment[tracked])) > 1:
+            # the 2D track jumped between people: the longest stretch alone, as world.trc holds it
+            one_person = np.zeros(len(joints), bool)
+            one_person[tracked] = one_person_frames(segment[tracked].astype(int))
+            joints = np.where(one_person[:, None, None], joints, np.nan)
     root_path = report.get("root_path") or "not observable"
     pelvis_seen = np.isfinite(joints[:, 0]).all(axis=1)
     if root_path == "from 2D keypoints" and path_std.shape == (len(joints), 3):
@@ -229,3 +230,36 @@ def gait_markdown(result: GaitResult) -> str:
             ("step_length", 3))]
         lines.append(f"| {side} | {s.strikes} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+#: ``pcnet gait --table``'s columns: one row per run folder.
+TABLE_COLUMNS = ("folder", "cadence_steps_per_min", "walking_speed_per_s", "length_unit", "root_path",
+                 *(f"{side}_{key}" for side in SIDES for key in (
+                     "strikes", "stride_time_s", "stride_time_sd_s", "step_time_s", "stance_percent", "step_length")),
+                 "refused")
+
+
+def summary_row(folder: str, result: GaitResult | None, refused: str | None) -> dict:
+    """One ``--table`` row: :func:`summary_dict`'s numbers flattened, or only the folder and
+    why it was refused (empty cells elsewhere)."""
+    row = dict.fromkeys(TABLE_COLUMNS, "")
+    row["folder"] = folder
+    if result is None:
+        row["refused"] = refused
+        return row
+    summary = summary_dict(result)
+    for key in ("cadence_steps_per_min", "walking_speed_per_s", "length_unit", "root_path"):
+        row[key] = "" if summary[key] is None else summary[key]
+    for side in SIDES:
+        for key, value in summary[side].items():
+            row[f"{side}_{key}"] = "" if value is None else value
+    return row
+
+
+def table_written_by_pcnet(file: Path) -> bool:
+    """Whether ``file`` is a ``pcnet gait --table`` (its header is :data:`TABLE_COLUMNS`)."""
+    try:
+        with open(file, newline="", encoding="utf-8") as f:
+            return next(csv.reader(f), None) == list(TABLE_COLUMNS)
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return False

@@ -40,19 +40,19 @@ Event times are refined within the frame by the parabola through the extremum an
 neighbours (the standard three-point peak interpolation).
 
 Spatiotemporal parameters (the usual definitions, e.g. Whittle's *Gait Analysis*, 4th ed.,
-2007, sec. 2.3): stride time between successive strikes of one foot; step time from a strike
+2007): stride time between successive strikes of one foot; step time from a strike
 of one foot to the next strike of the other; cadence = 60 / mean step time (steps/min);
 stance = strike to the same foot's next off, as a percentage of that stride; step length =
 the forward distance from one foot's placement to the other's next, each ankle taken at its
 own strike in the world frame (footprint to footprint, as a lab measures it from heel
 markers), so it needs the pelvis path (a root-relative pose alone gives the two ankles'
 separation at the strike, which falls short of the footprints: the trailing heel has
-lifted by then); walking speed = the steps' summed lengths over
-their summed times.
+lifted by then); walking speed = the steps' summed lengths over their summed times.
 
-Limits: the events assume the whole recording is walking or running forward; standing or
-turning on the spot also has extrema of ``s``, which this method reads as events. Walking
-backwards swaps strikes and offs.
+Limits: the events assume the whole recording is walking or running forward; stretches of
+standing or turning on the spot within it also have extrema of ``s``, which this method reads
+as events. Walking backwards swaps strikes and offs. Pedalling (a stationary bike, an
+elliptical trainer) moves the feet as steps do and reads as gait.
 """
 
 from __future__ import annotations

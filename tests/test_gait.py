@@ -154,6 +154,31 @@ def test_pcnet_gait_on_a_run(walk_run):
     assert foreign.exit_code == 1 and "written or changed by someone else" in foreign.output
 
 
+@pytest.mark.slow
+def test_pcnet_gait_on_several_folders_writes_a_study_table(walk_run, tmp_path):
+    import shutil
+
+    walk_run = Path(shutil.copytree(walk_run, tmp_path / "run"))  # the other test's gait files may be there
+    for name in ("gait.json", "gait_events.csv"):
+        (walk_run / name).unlink(missing_ok=True)
+    table = tmp_path / "study.csv"
+    res = _cli("gait", walk_run, tmp_path / "none", "--table", table, "--overwrite")
+    assert res.exit_code == 1, res.output  # one folder failed: the other is still done
+    import csv
+    with open(table, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["folder"] for r in rows] == [str(walk_run), str(tmp_path / "none")]
+    assert float(rows[0]["cadence_steps_per_min"]) == pytest.approx(
+        json.loads((walk_run / "gait.json").read_text())["cadence_steps_per_min"])
+    assert rows[0]["refused"] == "" and rows[1]["cadence_steps_per_min"] == ""
+    assert "expected a `pcnet run` output folder, got no folder" in rows[1]["refused"]
+    again = _cli("gait", walk_run, "--table", table, "--overwrite")
+    assert again.exit_code == 0, again.output  # its own table is replaced
+    table.write_text("a,b\n1,2\n")  # someone else's file: not replaced
+    foreign = _cli("gait", walk_run, "--table", table, "--overwrite")
+    assert foreign.exit_code == 1 and "that it did not write" in foreign.output
+
+
 def test_another_report_section_survives_a_new_gait_section(tmp_path):
     """report.md's appended sections (OpenSim, gait) replace only their own heading's text."""
     from pcnet.pipeline.cli import _section_into_report
@@ -169,6 +194,41 @@ def test_another_report_section_survives_a_new_gait_section(tmp_path):
     _section_into_report(tmp_path, "## A", "## A\n\nsecond\n")
     text = (tmp_path / "report.md").read_text()
     assert text == "# run\n\nbody\n\n## B\n\nb\n\n## A\n\nsecond\n", text
+
+
+def _run_folder(folder: Path, joints: np.ndarray, segment: np.ndarray, root_path: str | None = None) -> Path:
+    """A run folder with only the canonical.npz fields ``pcnet gait`` reads (no path: NaN
+    pelvis_path_std_world)."""
+    folder.mkdir()
+    np.savez(folder / "canonical.npz", joints_world=joints, fps=FPS, units="m",
+             pelvis_path_std_world=np.full((len(joints), 3), np.nan), track_segment=segment,
+             report=json.dumps({"root_path": root_path, "cutoff_hz": 6.0}))
+    return folder
+
+
+def test_a_run_without_2d_keypoints_has_cadence_but_no_step_length(tmp_path):
+    """No 2D keypoints: track_segment is empty (0,) and the pelvis path not observable (a
+    trial's cycling run crashed here)."""
+    from pcnet.pipeline.gait import analyse
+
+    result = analyse(_run_folder(tmp_path / "r", _clip(WALK), np.zeros(0), "not observable"))
+    assert "no pelvis path" in result.length_empty_because
+    assert np.isnan(result.summary.walking_speed) and result.summary.cadence_steps_per_min > 60
+    assert result.run.one_person_frames == len(_clip(WALK))
+
+
+def test_only_the_longest_stretch_of_a_jumping_2d_track_is_analysed(tmp_path):
+    """A 2D track that jumped to another person for the first 30 frames: those frames are
+    another body's, left out as world.trc leaves them out."""
+    from pcnet.pipeline.gait import analyse
+
+    joints = _clip(WALK)
+    segment = np.where(np.arange(len(joints)) < 30, 0.0, 1.0)
+    segment[:3] = np.nan  # frames without a 2D position
+    result = analyse(_run_folder(tmp_path / "r", joints, segment))
+    assert result.run.one_person_frames == len(joints) - 30
+    assert np.isnan(result.run.joints[:30]).all() and np.isfinite(result.run.joints[30:, 0]).all()
+    assert min(s.time_s for s in result.steps) > 30 / FPS
 
 
 def test_pcnet_gait_refuses_what_it_cannot_read(tmp_path):
