@@ -26,8 +26,8 @@ held-out ones (never trained on by the shipped networks, whose rectification the
    5 s while a man stands and jumps on a box behind her): ``pcnet run --video demo.mp4 --roi
    0,470,1768,524 --height 1.65`` (the embedded MediaPipe, shown only the band she walks in; her
    height is assumed, and step lengths and speed scale with it), then ``pcnet gait``'s summary
-   and events. Skipped without the ``video`` extra. No truth here: the events' frames are for
-   checking against the video by eye.
+   and events, and each knee's peak flexion over the mean gait cycle. Skipped without the
+   ``video`` extra. No truth here: the events' frames are for checking against the video by eye.
 
 Metrics per clip (truth events matched to the run's by side, each to the nearest within half
 the true stride):
@@ -218,6 +218,8 @@ def real_walk(data: Path, tmp: Path) -> list[str]:
     for side in SIDES:
         f = getattr(s, side)
         lines.append(f"| {side} | {f.strikes} | {f.stride_time_s:.3f} | {f.stance_percent:.1f} | {f.step_length:.3f} |")
+    peaks = {side: float(np.nanmax(np.nanmean(result.cycles[f"{side}_knee_flexion_deg"], axis=0))) for side in SIDES}
+    lines += ["", "mean knee flexion's peak over the cycle (deg): " + ", ".join(f"{k} {v:.1f}" for k, v in peaks.items())]
     lines += ["", "foot strikes (frame, side): " + ", ".join(
         f"{round(st.time_s * result.run.fps)} {st.side}" for st in result.steps), ""]
     return lines

@@ -4,8 +4,9 @@
 Reads ``canonical.npz`` (``joints_world``, ``fps``, ``units``, ``pelvis_path_std_world``, the
 ``report``'s ``root_path`` and ``cutoff_hz``), low-passes the world poses with the run's own
 cutoff (``stages/kinematics.py: butterworth_lowpass``, as kinematics.csv), and writes
-``gait_events.csv`` (one row per event), ``gait.json`` (the summary) and a "Gait" section of
-the run's report.md.
+``gait_events.csv`` (one row per event), ``gait.json`` (the summary), ``gait_cycles.csv`` and
+``gait_cycles.png`` (hip and knee angles of kinematics.csv over each stride, 0-100 %) and a "Gait"
+section of the run's report.md.
 """
 
 from __future__ import annotations
@@ -15,8 +16,10 @@ import dataclasses
 import io
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -25,12 +28,20 @@ from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.conventions import METRES_PER_LENGTH_UNIT
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import one_person_frames
-from pcnet.stages.gait import gait_events, GaitError, GaitEvents, GaitSummary, SIDES, Step, steps, summarise
+from pcnet.stages.gait import (cycle_normalised, CYCLE_POINTS, gait_events, GaitError, GaitEvents, GaitSummary, SIDES,
+                               Step, steps, summarise)
 from pcnet.stages.kinematics import butterworth_lowpass
+from pcnet.stages.sinks.plots import gait_cycles_figure, save_png
 
 EVENTS_NAME = "gait_events.csv"
 SUMMARY_NAME = "gait.json"
-OUTPUTS = (EVENTS_NAME, SUMMARY_NAME)
+CYCLES_NAME = "gait_cycles.csv"
+FIGURE_NAME = "gait_cycles.png"
+OUTPUTS = (EVENTS_NAME, SUMMARY_NAME, CYCLES_NAME, FIGURE_NAME)
+#: The ISB joint angles (kinematics.csv's ``{side}_{angle}_deg``) cut into gait cycles: the
+#: sagittal and frontal hip and the knee, the clinical gait graph's joints that H36M-17 has
+#: (no foot: no ankle angle).
+CYCLE_ANGLES = ("hip_flexion", "hip_adduction", "knee_flexion")
 #: The heading of report.md's gait section (replaced, not repeated, by a second `pcnet gait`).
 REPORT_SECTION = "## Gait (pcnet gait)"
 METHOD = ("Zeni et al. 2008 coordinate method (foot strike = the ankle furthest ahead of the pelvis, foot off = "
@@ -82,11 +93,21 @@ def read_run(folder: Path) -> RunPoses:
         raise InputError(f"{npz}: expected pcnet's canonical.npz archive, got a single .npy array")
     with arrays:
         joints = np.asarray(_field(arrays, npz, "joints_world"), np.float64)
-        fps = float(_field(arrays, npz, "fps"))
+        fps_field = _field(arrays, npz, "fps")
         units = str(_field(arrays, npz, "units"))
         path_std = np.asarray(_field(arrays, npz, "pelvis_path_std_world"), np.float64)
-        report = json.loads(str(_field(arrays, npz, "report")))
+        report_text = str(_field(arrays, npz, "report"))
         segment = np.asarray(arrays["track_segment"], np.float64) if "track_segment" in arrays.files else None
+    if fps_field.shape != () or fps_field.dtype.kind not in "fiu" or not float(fps_field) > 0:
+        raise InputError(f"{npz}: field 'fps': expected one positive frame rate, got shape {fps_field.shape} of "
+                         f"{fps_field.dtype}")
+    fps = float(fps_field)
+    try:
+        report = json.loads(report_text)
+    except json.JSONDecodeError:
+        report = None
+    if not isinstance(report, dict):
+        raise InputError(f"{npz}: field 'report': expected the run's report (a JSON object), got {report_text[:40]!r}")
     if joints.ndim != 3 or joints.shape[1:] != (17, 3) or joints.shape[0] == 0:
         raise InputError(f"{npz}: field 'joints_world': expected world-frame poses (a static camera: pcnet run --mode "
                          f"sequence), got shape {joints.shape}: the run kept the canonical frame (a moving camera), "
@@ -109,6 +130,39 @@ def read_run(folder: Path) -> RunPoses:
     if cutoff:
         joints = butterworth_lowpass(joints, fps, float(cutoff))
     return RunPoses(joints, fps, units, on_path, root_path, int(one_person.sum()))
+
+
+def read_cycle_angles(folder: Path, frames: int) -> dict[str, np.ndarray]:
+    """kinematics.csv's :data:`CYCLE_ANGLES` columns of both sides, ``"{side}_{angle}_deg" ->
+    (frames,)`` float64 (empty cells NaN).
+
+    Raises:
+        InputError: no kinematics.csv, a column missing, a cell not a number, or another
+            number of rows than ``frames`` (canonical.npz's).
+    """
+    path = folder / "kinematics.csv"
+    names = [f"{side}_{angle}_deg" for side in SIDES for angle in CYCLE_ANGLES]
+    if not path.is_file():
+        raise InputError(f"{folder}: expected kinematics.csv (pcnet run writes it), got none")
+    with open(path, newline="", encoding="utf-8") as f:
+        reader = csv.reader(f)
+        header = next(reader, [])
+        absent = [n for n in names if n not in header]
+        if absent:
+            raise InputError(f"{path}: field '{absent[0]}': expected the ISB joint angle column pcnet run writes, "
+                             f"got none")
+        columns = [header.index(n) for n in names]
+        rows = []
+        for line, row in enumerate(reader, start=2):
+            try:
+                rows.append([float(row[i]) if row[i].strip() else math.nan for i in columns])
+            except (ValueError, IndexError):
+                raise InputError(f"{path}: line {line}: expected a number or an empty cell in each angle column, "
+                                 f"got {row[:3]}...") from None
+    if len(rows) != frames:
+        raise InputError(f"{path}: expected {frames} rows, one per frame of canonical.npz, got {len(rows)}")
+    values = np.asarray(rows, np.float64).reshape(len(rows), len(names))
+    return {name: values[:, k] for k, name in enumerate(names)}
 
 
 def _number(x: float, digits: int) -> float | None:
@@ -145,6 +199,9 @@ class GaitResult:
         steps: :class:`pcnet.stages.gait.Step` per foot strike.
         summary: :class:`pcnet.stages.gait.GaitSummary`.
         length_empty_because: why step lengths and speed are empty, or ``None``.
+        cycles: ``"{side}_{angle}_deg" -> (strides, CYCLE_POINTS)`` degrees: kinematics.csv's
+            :data:`CYCLE_ANGLES` over each stride of that foot
+            (:func:`pcnet.stages.gait.cycle_normalised`).
     """
 
     run: RunPoses
@@ -152,6 +209,7 @@ class GaitResult:
     steps: list[Step]
     summary: GaitSummary
     length_empty_because: str | None
+    cycles: Mapping[str, np.ndarray]
 
 
 def summary_dict(result: GaitResult) -> dict:
@@ -200,16 +258,38 @@ def analyse(folder: Path) -> GaitResult:
         raise GaitError(f"{folder / 'canonical.npz'}: field 'joints_world': {err}") from None
     reason = step_length_reason(run)
     step_list = steps(events, run.joints, run.on_path if reason is None else np.zeros_like(run.on_path))
-    return GaitResult(run, events, step_list, summarise(events, step_list), reason)
+    angles = read_cycle_angles(folder, len(run.joints))
+    cycles = {name: cycle_normalised(x, events, name.split("_", 1)[0]) for name, x in angles.items()}
+    return GaitResult(run, events, step_list, summarise(events, step_list), reason, MappingProxyType(cycles))
+
+
+def cycles_csv(result: GaitResult) -> str:
+    """``gait_cycles.csv``: one row per angle, stride and point of the stride (long format)."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(["side", "angle", "stride", "strike_time_s", "percent", "value_deg"])
+    percent = np.linspace(0.0, 100.0, CYCLE_POINTS)
+    for name, curves in result.cycles.items():
+        side, angle = name.removesuffix("_deg").split("_", 1)
+        strikes = result.events.foot(side).strikes_s
+        for i, curve in enumerate(curves):
+            for p, v in zip(percent, curve):
+                writer.writerow([side, angle, i + 1, f"{strikes[i]:.3f}", f"{p:g}", _cell(v, 2)])
+    return out.getvalue()
 
 
 def write_gait(folder: Path, result: GaitResult) -> dict[str, Path]:
-    """Write ``gait_events.csv`` and ``gait.json`` into ``folder`` (each atomically)."""
+    """Write :data:`OUTPUTS` into ``folder`` (each atomically)."""
     summary = summary_dict(result)
     offs = {side: result.events.foot(side).offs_s for side in SIDES}
     unit = summary["length_unit"] or result.run.units
+    figure = gait_cycles_figure(result.cycles, CYCLE_ANGLES,
+                                {side: getattr(result.summary, side).stance_percent for side in SIDES},
+                                f"Gait cycles: {folder.name}\nmean and 1 SD over strides; vertical lines: mean foot off")
     return {EVENTS_NAME: write_text(folder / EVENTS_NAME, events_csv(result.steps, offs, result.run.fps, unit)),
-            SUMMARY_NAME: write_text(folder / SUMMARY_NAME, json.dumps(summary, indent=1) + "\n")}
+            SUMMARY_NAME: write_text(folder / SUMMARY_NAME, json.dumps(summary, indent=1) + "\n"),
+            CYCLES_NAME: write_text(folder / CYCLES_NAME, cycles_csv(result)),
+            FIGURE_NAME: save_png(figure, folder / FIGURE_NAME)}
 
 
 def gait_markdown(result: GaitResult) -> str:
@@ -220,7 +300,8 @@ def gait_markdown(result: GaitResult) -> str:
              f"{METHOD}. Cadence {_cell(result.summary.cadence_steps_per_min, 1)} steps/min, walking speed "
              f"{_cell(result.summary.walking_speed, 2)} {u}/s"
              + (f" (empty: {result.length_empty_because})" if result.length_empty_because else "")
-             + ". Every event: gait_events.csv; the summary: gait.json.", "",
+             + ". Every event: gait_events.csv; the summary: gait.json; hip and knee angles over each stride: "
+             "gait_cycles.csv and gait_cycles.png.", "",
              f"| foot | strikes | stride time (s) | stride time SD (s) | step time (s) | stance (% of stride) | "
              f"step length ({u}) |", "|---|---|---|---|---|---|---|"]
     for side in SIDES:

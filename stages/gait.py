@@ -33,8 +33,8 @@ always ahead, has extrema but no steps.
 
 Nothing is tuned. Two extrema of the same kind on one foot are at least half a stride
 apart, the stride ``P`` being the lag of the highest peak of the signals' biased
-autocorrelation (both feet averaged) below half the longest run of frames with both
-signals; half the period is the separation that leaves equal room either side. A recording
+autocorrelation (both feet averaged, pooled over the runs of frames with both signals) below
+half those frames; half the period is the separation that leaves equal room either side. A recording
 without a positive autocorrelation peak there has no gait cycle to find (:class:`GaitError`).
 Event times are refined within the frame by the parabola through the extremum and its two
 neighbours (the standard three-point peak interpolation).
@@ -97,15 +97,24 @@ class GaitEvents:
         left, right: :class:`FootEvents`.
         stride_period_s: the stride the events were separated by (s; autocorrelation, above).
         fps: frame rate (Hz).
+        present: ``(T,)`` bool, the frames with both feet's signals (both ankles, the pelvis
+            and the hip line): the events were read on their runs.
     """
 
     left: FootEvents
     right: FootEvents
     stride_period_s: float
     fps: float
+    present: np.ndarray
 
     def foot(self, side: str) -> FootEvents:
         return self.left if side == "left" else self.right
+
+    def unbroken(self, t0: float, t1: float) -> bool:
+        """Whether every frame from time ``t0`` to ``t1`` (s) is :attr:`present`: a step or a
+        stride across a gap (the person occluded, another person's frames) is not one."""
+        a, b = int(np.floor(t0 * self.fps)), int(np.ceil(t1 * self.fps))
+        return bool(0 <= a <= b < len(self.present) and self.present[a:b + 1].all())
 
 
 @dataclass(frozen=True)
@@ -117,8 +126,9 @@ class Step:
         time_s: the strike's time (s).
         step_time_s: time since the other foot's previous strike (s), NaN where that strike is
             not the previous event of either foot's strikes (the first strike, or two strikes of
-            one foot in a row).
-        stride_time_s: time to this foot's next strike (s), NaN for its last strike.
+            one foot in a row) or a gap lies between (:meth:`GaitEvents.unbroken`).
+        stride_time_s: time to this foot's next strike (s), NaN for its last strike or across a
+            gap.
         stance_percent: this foot's stance in the stride it begins (strike to its next off, %
             of the stride), NaN where the stride does not hold exactly one off of this foot.
         step_length: forward distance (along the two strikes' mean ``f``) from the other foot's
@@ -173,32 +183,35 @@ def _runs(finite: np.ndarray) -> list[tuple[int, int]]:
 
 def stride_period_frames(signals: dict[str, np.ndarray]) -> int:
     """The stride in frames: the lag of the highest local maximum of the two feet's mean biased
-    autocorrelation, over the longest run of frames where both signals are finite, at lags
-    below half that run (at least two strides in view).
+    autocorrelation, pooled over the runs of frames where both signals are finite (each run
+    demeaned; lagged products only within a run), at lags below half the frames with both
+    signals (two strides in view in all).
 
     Args:
         signals: :func:`anterior_ankle_signals`.
 
     Raises:
-        GaitError: no positive local maximum there (too few frames in a row, or no periodic
-            foot motion).
+        GaitError: no positive local maximum there (too few frames, or no periodic foot
+            motion).
     """
     both = np.isfinite(signals["left"]) & np.isfinite(signals["right"])
     runs = _runs(both)
-    start, stop = max(runs, key=lambda r: r[1] - r[0], default=(0, 0))
-    n = stop - start
-    acf = np.zeros(n)
+    longest = max((stop - start for start, stop in runs), default=0)
+    acf = np.zeros(longest)
     for side in SIDES:
-        x = signals[side][start:stop] - np.mean(signals[side][start:stop]) if n else np.zeros(0)
-        energy = float(x @ x)
+        products, energy = np.zeros(longest), 0.0
+        for start, stop in runs:
+            x = signals[side][start:stop] - np.mean(signals[side][start:stop])
+            products[: stop - start] += np.correlate(x, x, "full")[stop - start - 1:]
+            energy += float(x @ x)
         if energy > 0:
-            acf += np.correlate(x, x, "full")[n - 1:] / energy / len(SIDES)
-    lags, _ = find_peaks(acf[: n // 2 + 1])
+            acf += products / energy / len(SIDES)
+    lags, _ = find_peaks(acf[: min(longest, int(both.sum()) // 2 + 1)])
     lags = lags[acf[lags] > 0]
     if lags.size == 0:
         raise GaitError(f"expected a walk or run (the feet moving back and forth relative to the pelvis, at least "
-                        f"two strides without a gap), got {n} frames in a row with both ankles and no periodic foot "
-                        f"motion")
+                        f"two strides), got {int(both.sum())} frames with both ankles (at most {longest} in a row) and "
+                        f"no periodic foot motion")
     return int(lags[np.argmax(acf[lags])])
 
 
@@ -261,7 +274,7 @@ def gait_events(joints: np.ndarray, fps: float) -> GaitEvents:
         strikes = strikes[_at(ahead, strikes) > 0]
         offs = offs[_at(ahead, offs) < 0]
         feet[side] = FootEvents(side, strikes / fps, offs / fps)
-    events = GaitEvents(feet["left"], feet["right"], period / fps, float(fps))
+    events = GaitEvents(feet["left"], feet["right"], period / fps, float(fps), both)
     order = sorted((t, side) for side in SIDES for t in events.foot(side).strikes_s)
     if not any(a[1] != b[1] for a, b in zip(order, order[1:])):
         raise GaitError(f"expected steps (a foot striking ahead of the other after the other's strike), got "
@@ -297,9 +310,11 @@ def steps(events: GaitEvents, joints: np.ndarray, on_path: np.ndarray) -> list[S
     for i, (t, side) in enumerate(strikes):
         other = "right" if side == "left" else "left"
         previous = strikes[i - 1] if i and strikes[i - 1][1] == other else None
+        if previous is not None and not events.unbroken(previous[0], t):
+            previous = None
         own = events.foot(side).strikes_s
         later = own[own > t]
-        stride = later[0] - t if later.size else np.nan
+        stride = later[0] - t if later.size and events.unbroken(t, later[0]) else np.nan
         offs = events.foot(side).offs_s
         inside = offs[(offs > t) & (offs < t + stride)] if np.isfinite(stride) else offs[:0]
         stance = 100.0 * (inside[0] - t) / stride if inside.size == 1 else np.nan
@@ -383,3 +398,32 @@ def summarise(events: GaitEvents, step_list: list[Step]) -> GaitSummary:
     measured = [s for s in step_list if np.isfinite(s.step_length)]
     speed = (sum(s.step_length for s in measured) / sum(s.step_time_s for s in measured)) if measured else float("nan")
     return GaitSummary(sides["left"], sides["right"], cadence, float(speed), events.stride_period_s)
+
+
+#: Samples per normalised gait cycle: 0, 1, ..., 100 % of the stride (the gait literature's
+#: time normalisation, foot strike to the same foot's next strike).
+CYCLE_POINTS = 101
+
+
+def cycle_normalised(x: np.ndarray, events: GaitEvents, side: str) -> np.ndarray:
+    """A series cut into one foot's strides and each resampled to :data:`CYCLE_POINTS` points,
+    0 to 100 % of the stride (linear interpolation between frames).
+
+    Args:
+        x: ``(T,)`` float, one value per frame (an angle in degrees); NaN = missing.
+        events: :func:`gait_events` of the same frames.
+        side: ``"left"`` or ``"right"``: whose strikes cut the strides.
+
+    Returns:
+        ``(n - 1, CYCLE_POINTS)`` float64 for ``n`` strikes; NaN where a point's neighbouring
+        frames are missing in ``x``, and the whole row for a stride across a gap
+        (:meth:`GaitEvents.unbroken`).
+    """
+    x = np.asarray(x, np.float64)
+    strikes = events.foot(side).strikes_s
+    out = np.full((max(len(strikes) - 1, 0), CYCLE_POINTS), np.nan)
+    share = np.linspace(0.0, 1.0, CYCLE_POINTS)
+    for i, (a, b) in enumerate(zip(strikes, strikes[1:])):
+        if events.unbroken(a, b):
+            out[i] = _at(x, np.clip((a + share * (b - a)) * events.fps, 0, len(x) - 1))
+    return out

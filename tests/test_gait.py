@@ -137,6 +137,9 @@ def test_pcnet_gait_on_a_run(walk_run):
     assert summary["cadence_steps_per_min"] == pytest.approx(truth.cadence_steps_per_min, rel=0.03)
     assert summary["walking_speed_per_s"] == pytest.approx(truth.walking_speed, rel=0.1)
     assert summary["root_path"] == "from 2D keypoints" and summary["length_unit"] == "m"
+    cycles = (walk_run / "gait_cycles.csv").read_text().splitlines()
+    assert cycles[0] == "side,angle,stride,strike_time_s,percent,value_deg" and len(cycles) > 6 * 101
+    assert (walk_run / "gait_cycles.png").stat().st_size > 10_000
     rows = (walk_run / "gait_events.csv").read_text().splitlines()
     assert rows[0] == "time_s,frame,side,event,step_time_s,stride_time_s,stance_percent,step_length_m"
     assert {r.split(",")[3] for r in rows[1:]} == {"foot_strike", "foot_off"}
@@ -159,7 +162,7 @@ def test_pcnet_gait_on_several_folders_writes_a_study_table(walk_run, tmp_path):
     import shutil
 
     walk_run = Path(shutil.copytree(walk_run, tmp_path / "run"))  # the other test's gait files may be there
-    for name in ("gait.json", "gait_events.csv"):
+    for name in ("gait.json", "gait_events.csv", "gait_cycles.csv", "gait_cycles.png"):
         (walk_run / name).unlink(missing_ok=True)
     table = tmp_path / "study.csv"
     res = _cli("gait", walk_run, tmp_path / "none", "--table", table, "--overwrite")
@@ -197,13 +200,39 @@ def test_another_report_section_survives_a_new_gait_section(tmp_path):
 
 
 def _run_folder(folder: Path, joints: np.ndarray, segment: np.ndarray, root_path: str | None = None) -> Path:
-    """A run folder with only the canonical.npz fields ``pcnet gait`` reads (no path: NaN
-    pelvis_path_std_world)."""
+    """A run folder with only what ``pcnet gait`` reads: canonical.npz's fields (no path: NaN
+    pelvis_path_std_world) and kinematics.csv's hip and knee angles (the run's code,
+    stages/kinematics.py: compute_kinematics)."""
+    from pcnet.pipeline.gait import CYCLE_ANGLES
+    from pcnet.stages.kinematics import compute_kinematics
+
     folder.mkdir()
     np.savez(folder / "canonical.npz", joints_world=joints, fps=FPS, units="m",
              pelvis_path_std_world=np.full((len(joints), 3), np.nan), track_segment=segment,
              report=json.dumps({"root_path": root_path, "cutoff_hz": 6.0}))
+    angles = compute_kinematics(joints, FPS).angles
+    names = [f"{side}_{a}" for side in SIDES for a in CYCLE_ANGLES]
+    rows = [",".join(f"{n}_deg" for n in names)] + [
+        ",".join("" if np.isnan(angles[n][t]) else f"{angles[n][t]:.3f}" for n in names) for t in range(len(joints))]
+    (folder / "kinematics.csv").write_text("\n".join(rows) + "\n")
     return folder
+
+
+def test_the_knee_flexes_most_in_swing(tmp_path):
+    """The gait cycle's shape: cut at the strikes, the knee's largest flexion comes after the
+    foot off (in swing), the hip's largest flexion near the strikes (the leg reaching forward);
+    strikes and offs swapped, or cycles cut elsewhere, would put them wrong."""
+    from pcnet.pipeline.gait import analyse
+
+    result = analyse(_run_folder(tmp_path / "r", _clip(WALK), np.zeros(0)))
+    for side in SIDES:
+        stance = getattr(result.summary, side).stance_percent
+        knee = np.nanmean(result.cycles[f"{side}_knee_flexion_deg"], axis=0)
+        hip = np.nanmean(result.cycles[f"{side}_hip_flexion_deg"], axis=0)
+        assert result.cycles[f"{side}_knee_flexion_deg"].shape[1] == 101
+        assert stance < np.argmax(knee) < 95, (side, stance, np.argmax(knee))
+        assert np.argmax(hip) > 80 or np.argmax(hip) < 10, (side, np.argmax(hip))
+        assert np.argmin(hip) == pytest.approx(stance, abs=15)  # the hip most extended at foot off
 
 
 def test_a_run_without_2d_keypoints_has_cadence_but_no_step_length(tmp_path):
@@ -241,3 +270,41 @@ def test_pcnet_gait_refuses_what_it_cannot_read(tmp_path):
     res = _cli("gait", tmp_path)
     assert res.exit_code == 1 and "field 'joints_world': expected world-frame poses" in res.output
     assert len(res.output.strip().splitlines()) == 1
+    walk = _clip(WALK)
+    for field, value, said in (("fps", np.zeros(3), "field 'fps': expected one positive frame rate"),
+                               ("report", "not json", "field 'report': expected the run's report")):
+        fields = dict(joints_world=walk, fps=FPS, units="m", pelvis_path_std_world=np.zeros((len(walk), 3)),
+                      report=json.dumps({}))
+        np.savez(tmp_path / "canonical.npz", **{**fields, field: value})
+        res = _cli("gait", tmp_path)
+        assert res.exit_code == 1 and said in res.output and "Traceback" not in res.output, res.output
+
+
+def test_a_stride_across_a_gap_is_not_one(tmp_path):
+    """The person out of view for 20 frames in mid-walk: no step, stride or cycle spans the gap."""
+    from pcnet.pipeline.gait import analyse
+
+    joints = _clip(WALK).copy()
+    joints[50:70] = np.nan
+    result = analyse(_run_folder(tmp_path / "r", joints, np.zeros(0)))
+    gap = (50 / FPS, 70 / FPS)
+    for s in result.steps:
+        for start in (s.time_s - s.step_time_s, s.time_s):
+            end = s.time_s if start < s.time_s else s.time_s + s.stride_time_s
+            if np.isfinite(start) and np.isfinite(end):
+                assert end <= gap[0] or start >= gap[1], s
+    assert max(s.stride_time_s for s in result.steps if np.isfinite(s.stride_time_s)) < 1.5
+    for side in SIDES:
+        strikes = result.events.foot(side).strikes_s
+        rows = result.cycles[f"{side}_knee_flexion_deg"]
+        for (a, b), row in zip(zip(strikes, strikes[1:]), rows):
+            assert np.isnan(row).all() == (a < gap[1] and b > gap[0])
+
+
+def test_pcnet_gait_names_a_kinematics_csv_without_the_angles(tmp_path):
+    folder = _run_folder(tmp_path / "r", _clip(WALK), np.zeros(0))
+    (folder / "kinematics.csv").write_text("frame,time_s\n0,0.0\n")
+    res = _cli("gait", folder)
+    assert res.exit_code == 1
+    assert "kinematics.csv: field 'left_hip_flexion_deg': expected the ISB joint angle column" in res.output
+    assert not (folder / "gait.json").exists()  # nothing half-written

@@ -200,6 +200,7 @@ def test_no_panels_text_overlaps_another_panel_the_title_or_the_picture_edge(wal
     import dataclasses
 
     from pcnet.stages.sinks.exports import wrists_figure
+    from pcnet.stages.sinks.plots import gait_cycles_figure
 
     X, kin = walk
     marked = np.zeros(kin.num_frames, bool)
@@ -215,6 +216,12 @@ def test_no_panels_text_overlaps_another_panel_the_title_or_the_picture_edge(wal
         # six-character tick labels: millimetres and accelerations of -10000 mm/s^2
         "wrists in mm": wrists_figure(1000 * (X - X[:, :1]), 1000 * X, FPS, 12000 * np.sin(acc), 12000 * np.sin(acc),
                                       "mm", other_person=marked, implausible=marked),
+        # pcnet gait's figure (one row of three panels), its title as long as the others'
+        "gait cycles": gait_cycles_figure(
+            {f"{s}_{a}_deg": 40 * np.sin(np.linspace(0, 6, 303)).reshape(3, 101) for s in ("left", "right")
+             for a in ("hip_flexion", "hip_adduction", "knee_flexion")},
+            ("hip_flexion", "hip_adduction", "knee_flexion"), {"left": 60.0, "right": 61.0},
+            "Gait cycles: a_run_folder_named_at_length\nmean and 1 SD over strides; vertical lines: mean foot off"),
     }
     for name, fig in figures.items():
         boxes = _panel_boxes(fig)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import io
 import os
 import re
+import warnings
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from types import MappingProxyType
@@ -492,3 +493,50 @@ def plot_joint_speeds(
     """
     return save_png(joint_speeds_figure(kin, fps, units, frame_label=frame_label, other_person=other_person,
                                         implausible=implausible), path_png)
+
+
+def gait_cycles_figure(cycles: Mapping[str, np.ndarray], angles: Iterable[str],
+                       foot_off_percent: Mapping[str, float], title: str):
+    """The clinical gait graph: per joint angle one panel over 0-100 % of the stride, each
+    foot's mean (left dashed blue, right solid red, as the other figures) with a band of one
+    standard deviation over its strides, and a vertical line at its mean foot off (stance to
+    its left, swing to its right).
+
+    Args:
+        cycles: ``"{side}_{angle}_deg" -> (n_strides, P)`` degrees over ``P`` points from 0 to
+            100 % (:func:`pcnet.stages.gait.cycle_normalised`); NaN = missing.
+        angles: the angle names (no side, no ``_deg``), one panel each, in order.
+        foot_off_percent: ``side -> `` mean stance in % of the stride (NaN: no line).
+        title: the figure's title.
+
+    Returns:
+        the matplotlib figure (:func:`save_png` writes it).
+    """
+    angles = list(angles)
+    fig, axes = new_figure(1, len(angles), 3.2, title)
+    for ax, angle in zip(axes[0], angles):
+        set_panel_title(ax, angle.replace("_", " ") + " (deg)")
+        drawn = False
+        for side, colour, style in (("left", LEFT_COLOURS[0], "--"), ("right", RIGHT_COLOURS[0], "-")):
+            curves = np.asarray(cycles.get(f"{side}_{angle}_deg", np.zeros((0, 2))), np.float64)
+            counted = np.isfinite(curves).sum(axis=0)
+            if not counted.any():
+                continue
+            x = np.linspace(0.0, 100.0, curves.shape[1])
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN point: a gap
+                mean, sd = np.nanmean(curves, axis=0), np.nanstd(curves, axis=0)
+            ax.fill_between(x, mean - sd, mean + sd, color=_rgb(colour), alpha=0.15, linewidth=0)
+            ax.plot(x, mean, style, color=_rgb(colour), label=f"{side} ({curves.shape[0]} strides)")
+            off = foot_off_percent.get(side, float("nan"))
+            if np.isfinite(off):
+                ax.axvline(off, color=_rgb(colour), linestyle=style, linewidth=0.8)
+            drawn = True
+        if drawn:
+            ax.legend(fontsize=8, loc="best")
+        else:
+            _no_data(ax)
+        ax.set_xlim(0, 100)
+        ax.set_xlabel("% of stride (foot strike to foot strike)")
+        ax.grid(alpha=0.3)
+    return fig
