@@ -703,7 +703,8 @@ def gait(out_dirs, table, overwrite):
     2008's coordinate method on the world-frame ankles).
 
     Writes OUT_DIR/gait_events.csv (every event, with step and stride times, stance and step
-    length) and gait.json (per-foot means, cadence, walking speed), adds a Gait section to the
+    length), gait.json (per-foot means, cadence, walking speed), gait_cycles.csv and
+    gait_cycles.png (hip and knee angles over each stride, 0-100 %), adds a Gait section to the
     run's report.md and prints cadence, speed and per-foot step length and stance. Step
     lengths and speed need the pelvis path (2D keypoints or a measured root) and metric poses.
     A folder that fails gets one line and the others go on; the exit status is then 1.
@@ -872,6 +873,7 @@ def _opensim_into_report(folder: Path, result: dict) -> Path:
 
     return (_section_into_report(folder, REPORT_SECTION, opensim_markdown(result))
             or Path(result["outputs"]["opensim_fit.json"]))
+
 
 if __name__ == "__main__":
     sys.exit(main())
