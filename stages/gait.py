@@ -68,6 +68,7 @@ from scipy.signal import find_peaks
 from .core.canonical import canonical_rotation
 from .core.conventions import L_ANKLE, PELVIS, R_ANKLE
 from .core.errors import InputError
+from .core.framestore import true_runs
 
 SIDES = ("left", "right")
 _ANKLE = {"left": L_ANKLE, "right": R_ANKLE}
@@ -179,11 +180,6 @@ def anterior_ankle_signals(joints: np.ndarray) -> dict[str, np.ndarray]:
     return {side: np.einsum("ti,ti->t", joints[:, _ANKLE[side]] - joints[:, PELVIS], f) for side in SIDES}
 
 
-def _runs(finite: np.ndarray) -> list[tuple[int, int]]:
-    edges = np.flatnonzero(np.diff(np.concatenate(([0], finite.astype(np.int8), [0]))))
-    return list(zip(edges[::2], edges[1::2]))
-
-
 def stride_period_frames(signals: dict[str, np.ndarray]) -> int:
     """The stride in frames: the lag of the highest local maximum of the two feet's mean biased
     autocorrelation, pooled over the runs of frames where both signals are finite (each run
@@ -198,7 +194,7 @@ def stride_period_frames(signals: dict[str, np.ndarray]) -> int:
             motion).
     """
     both = np.isfinite(signals["left"]) & np.isfinite(signals["right"])
-    runs = _runs(both)
+    runs = true_runs(both)
     longest = max((stop - start for start, stop in runs), default=0)
     acf = np.zeros(longest)
     for side in SIDES:
@@ -233,7 +229,7 @@ def _extrema(s: np.ndarray, distance: int) -> tuple[np.ndarray, np.ndarray]:
     """Maxima and minima of ``s`` (frames, sub-frame refined) within each run of finite frames:
     an extremum at a run's edge is not one (the motion before it is unseen)."""
     maxima, minima = [], []
-    for start, stop in _runs(np.isfinite(s)):
+    for start, stop in true_runs(np.isfinite(s)):
         run = s[start:stop]
         for out, sign in ((maxima, 1.0), (minima, -1.0)):
             k, _ = find_peaks(sign * run, distance=distance)
