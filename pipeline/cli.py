@@ -648,7 +648,7 @@ def opensim(out_dir, height, mass, static_trial, overwrite):
     IK speed, one line per warning and the outputs (stages/opensim_ik.py); the fit and its
     warnings in full go into the run's report.md.
     """
-    from pcnet.pipeline.outdir import is_owned, register_files, stale_staging
+    from pcnet.pipeline.outdir import register_files, stale_staging
     from pcnet.stages.flags import note_finding, opensim_fit_findings, ranked
     from pcnet.stages.opensim_ik import import_opensim, opensim_fit_line, opensim_notes, OUTPUTS, scale_and_ik
 
@@ -673,10 +673,8 @@ def opensim(out_dir, height, mass, static_trial, overwrite):
     for leftover in stale_staging(folder):  # of a killed `pcnet opensim` here
         shutil.rmtree(leftover, ignore_errors=True)
     # scale_and_ik refuses earlier outputs without --overwrite; with it, only pcnet's own go
-    foreign = [name for name in OUTPUTS if overwrite and (folder / name).exists() and not is_owned(folder, name)]
-    if foreign:
-        raise InputError(f"{out_dir}: --overwrite replaces only OpenSim outputs pcnet wrote, got "
-                         f"{', '.join(foreign)} written or changed by someone else; move them away")
+    if overwrite:
+        _refuse_foreign_outputs(out_dir, folder, OUTPUTS, "OpenSim")
     result = scale_and_ik(trc, folder, height, mass, static_trc=static_trc, overwrite=overwrite)
     details = _opensim_into_report(folder, result)
     # so that `pcnet run --overwrite` still recognises the whole folder as pcnet's output
@@ -745,7 +743,7 @@ def _gait_of(folder: Path, overwrite: bool):
     """``pcnet gait`` on one run folder: analyse, write, report, print. Returns the
     :class:`pcnet.pipeline.gait.GaitResult`."""
     from pcnet.pipeline.gait import analyse, gait_markdown, OUTPUTS, REPORT_SECTION, write_gait
-    from pcnet.pipeline.outdir import is_owned, register_files
+    from pcnet.pipeline.outdir import register_files
 
     if not folder.is_dir():
         raise InputError(f"{folder}: expected a `pcnet run` output folder, got "
@@ -755,10 +753,7 @@ def _gait_of(folder: Path, overwrite: bool):
     if existing and not overwrite:
         raise InputError(f"{folder}: expected no earlier gait outputs, got {', '.join(existing)}: pass --overwrite "
                          f"to replace them")
-    foreign = [name for name in existing if not is_owned(folder, name)]
-    if foreign:
-        raise InputError(f"{folder}: --overwrite replaces only gait outputs pcnet wrote, got {', '.join(foreign)} "
-                         f"written or changed by someone else; move them away")
+    _refuse_foreign_outputs(folder, folder, existing, "gait")
     written = write_gait(folder, result)
     details = _section_into_report(folder, REPORT_SECTION, gait_markdown(result)) or written["gait.json"]
     register_files(folder, (*OUTPUTS, details.name))
@@ -776,6 +771,18 @@ def _gait_of(folder: Path, overwrite: bool):
         click.echo(f"{name:<17} {path}")
     click.echo(f"details: {details}")
     return result
+
+
+def _refuse_foreign_outputs(shown, folder: Path, names, what: str) -> None:
+    """Refuse ``--overwrite`` of a command's outputs ``names`` in the run folder ``folder``
+    (named as ``shown``) where one exists that pcnet did not write or that changed since: it
+    replaces only its own files."""
+    from pcnet.pipeline.outdir import is_owned
+
+    foreign = [name for name in names if (folder / name).exists() and not is_owned(folder, name)]
+    if foreign:
+        raise InputError(f"{shown}: --overwrite replaces only {what} outputs pcnet wrote, got {', '.join(foreign)} "
+                         f"written or changed by someone else; move them away")
 
 
 #: Two subject heights (m) no further apart than this are one height (heights are typed to the centimetre).

@@ -70,6 +70,11 @@ class RunPoses:
     root_path: str
     one_person_frames: int
 
+    @property
+    def length_unit(self) -> str | None:
+        """:attr:`units` where it is a length (``"m"``, ``"cm"``, ``"mm"``), else ``None``."""
+        return self.units if self.units in METRES_PER_LENGTH_UNIT else None
+
 
 def _field(arrays: NumpyArchive, npz: Path, name: str) -> np.ndarray:
     if name not in arrays.files:
@@ -220,7 +225,7 @@ def summary_dict(result: GaitResult) -> dict:
     return {
         "method": METHOD,
         "fps": run.fps,
-        "length_unit": run.units if run.units in METRES_PER_LENGTH_UNIT else None,
+        "length_unit": run.length_unit,
         "root_path": run.root_path,
         "frames": len(run.joints),
         "frames_of_the_tracked_person": run.one_person_frames,
@@ -235,7 +240,7 @@ def summary_dict(result: GaitResult) -> dict:
 
 def step_length_reason(run: RunPoses) -> str | None:
     """Why step lengths and speed are empty, or ``None`` where they are measured."""
-    if run.units not in METRES_PER_LENGTH_UNIT:
+    if run.length_unit is None:
         return (f"poses in {run.units} units, not a length: step lengths and speed need a metric lifter or "
                 f"pcnet run --height")
     if not run.on_path.any():
@@ -282,7 +287,7 @@ def write_gait(folder: Path, result: GaitResult) -> dict[str, Path]:
     """Write :data:`OUTPUTS` into ``folder`` (each atomically)."""
     summary = summary_dict(result)
     offs = {side: result.events.foot(side).offs_s for side in SIDES}
-    unit = summary["length_unit"] or result.run.units
+    unit = result.run.length_unit or result.run.units
     figure = gait_cycles_figure(result.cycles, CYCLE_ANGLES,
                                 {side: getattr(result.summary, side).stance_percent for side in SIDES},
                                 f"Gait cycles: {folder.name}\nmean and 1 SD over strides; vertical lines: mean foot off")
@@ -294,8 +299,7 @@ def write_gait(folder: Path, result: GaitResult) -> dict[str, Path]:
 
 def gait_markdown(result: GaitResult) -> str:
     """report.md's gait section: the method, cadence, speed and the per-foot table."""
-    summary = summary_dict(result)
-    u = summary["length_unit"] or "-"
+    u = result.run.length_unit or "-"
     lines = [REPORT_SECTION, "",
              f"{METHOD}. Cadence {_cell(result.summary.cadence_steps_per_min, 1)} steps/min, walking speed "
              f"{_cell(result.summary.walking_speed, 2)} {u}/s"

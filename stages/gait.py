@@ -114,6 +114,10 @@ class GaitEvents:
     def foot(self, side: str) -> FootEvents:
         return self.left if side == "left" else self.right
 
+    def strikes_in_order(self) -> list[tuple[float, str]]:
+        """Both feet's strikes as ``(time_s, side)``, ascending in time."""
+        return sorted((t, side) for side in SIDES for t in self.foot(side).strikes_s)
+
     def unbroken(self, t0: float, t1: float) -> bool:
         """Whether every frame from time ``t0`` to ``t1`` (s) is :attr:`present`: a step or a
         stride across a gap (the person occluded, another person's frames) is not one."""
@@ -274,7 +278,7 @@ def gait_events(joints: np.ndarray, fps: float) -> GaitEvents:
         offs = offs[_at(ahead, offs) < 0]
         feet[side] = FootEvents(side, strikes / fps, offs / fps)
     events = GaitEvents(feet["left"], feet["right"], period / fps, float(fps), both)
-    order = [side for _, side in sorted((t, side) for side in SIDES for t in events.foot(side).strikes_s)]
+    order = [side for _, side in events.strikes_in_order()]
     turns = sum(a != b for a, b in zip(order, order[1:]))
     if turns == 0 or 2 * turns < len(order) - 1:
         raise GaitError(f"expected steps, the feet striking in turn (left, right, left, ...: each strike ahead of the "
@@ -305,7 +309,7 @@ def steps(events: GaitEvents, joints: np.ndarray, on_path: np.ndarray) -> list[S
     """
     joints = np.asarray(joints, np.float64)
     forward = forward_axes(joints)
-    strikes = sorted((t, side) for side in SIDES for t in events.foot(side).strikes_s)
+    strikes = events.strikes_in_order()
     out = []
     for i, (t, side) in enumerate(strikes):
         other = "right" if side == "left" else "left"
