@@ -12,9 +12,9 @@ on:
   (stages/world_frame.py, from the estimated rotations);
 - canonical (what pcnet wrote before): the noisy poses in the per-frame canonical frame;
 - truth: the mocap's own trajectories (true vertical pelvis motion, incl. flight phases; the
-  horizontal root path removed, as no root-relative lifter has it; the floor at the 5th
-  percentile of the clip's lowest joint centre) turned into the world frame built from the
-  true rotations.
+  horizontal root path removed, as no root-relative lifter has it; heights above the mocap's
+  own ground, y = 0, as pcnet's world frame puts its floor under the ankle centres, not at
+  them) turned into the world frame built from the true rotations.
 Errors over the valid frames with finite values, per joint group: position (world only;
 the canonical frame has no floor), speed |v| and acceleration magnitude |a| (scalar, so a
 constant heading offset between the estimated and the true world frame does not count),
@@ -30,6 +30,13 @@ plane angles, e.g. axial rotations, the plane of elevation, limb plane angles in
 (-90, 270]). Angles between two segments do not depend on the frame (world and canonical
 differ only by the canonical residual and by filtering in a rotating frame); inclinations
 to gravity depend on the estimated up direction.
+
+Angle rates (the same file, ``kinematics.csv``'s ``*_deg_per_s``,
+``Kinematics.angle_rates``): per angle, world against the truth's rate, the mean absolute
+difference in deg/s over the valid frames where both are defined, beside the truth's own
+mean absolute rate (the scale an error compares with), and each clip's peak absolute rate
+against the truth's (median over clips of the ratio, clips whose true peak is at least
+30 deg/s): how far a peak angular velocity read from the table can be trusted.
 """
 
 from __future__ import annotations
@@ -63,8 +70,7 @@ def true_world(mocap: np.ndarray, R_true: np.ndarray, fps: float) -> np.ndarray:
     R_world, _ = canonical_rotation(mocap, (0.0, 1.0, 0.0))
     to_camera = R_true[0] @ R_world[0].T  # the static camera's world->camera rotation
     W = world_frame(R_true, np.ones(len(R_true), bool), fps).rotation
-    floor = np.percentile(np.nanmin(mocap[..., 1], axis=1), 5)
-    rooted = mocap - np.stack([mocap[:, PELVIS, 0], np.full(len(mocap), floor), mocap[:, PELVIS, 2]], -1)[:, None]
+    rooted = mocap - np.stack([mocap[:, PELVIS, 0], np.zeros(len(mocap)), mocap[:, PELVIS, 2]], -1)[:, None]
     return rooted @ (W @ to_camera).T
 
 
@@ -97,6 +103,7 @@ def clip_errors(inputs, R_true, mocap, fps) -> tuple[dict[str, dict[str, np.ndar
     angles = {kind: dict(k.angles) for kind, k in (
         ("truth", truth), ("world", world), ("canonical", canonical),
         ("world_true_rotation", world_true), ("canonical_no_residual", canonical_rigid))}
+    angles["truth_rate"], angles["world_rate"] = dict(truth.angle_rates), dict(world.angle_rates)
     angles["valid"] = np.asarray(valid, bool)
     # Angle between the estimated up and the true camera's up (camera coordinates).
     angles["up_error_deg"] = float(np.degrees(np.arccos(np.clip(frame.rotation[1] @ true_frame.rotation[1], -1.0, 1.0))))
@@ -146,6 +153,39 @@ def angle_rows(acc: dict) -> list[dict]:
             row[key] = np.abs(wrapped_diff(est["world"][ok], o[ok])).mean()
         rows.append(row)
     return rows
+
+
+#: A clip's true peak rate below this (deg/s) is no peak to compare: the angle barely moves.
+PEAK_FLOOR_DEG_S = 30.0
+
+
+def _peak(rate: np.ndarray, valid: np.ndarray) -> float:
+    """Largest absolute rate over the valid frames with one; NaN without any."""
+    r = np.abs(rate[valid & np.isfinite(rate)])
+    return float(r.max()) if len(r) else float("nan")
+
+
+def rate_table(label: str, short_label: str, acc: dict) -> list[str]:
+    """Markdown table of the angle rates' errors (module docstring) for one data set."""
+    lines = [f"{label}: angle rates (deg/s) against the truth's, over the valid frames where both are defined;",
+             "  truth |rate| = the truth's mean absolute rate; MAE = mean absolute error of pcnet's (world);",
+             f"  peak ratio = median over clips of pcnet's peak |rate| / the truth's (clips whose true peak >= "
+             f"{PEAK_FLOOR_DEG_S:.0f} deg/s).", "",
+             "| data | group | angle | truth mean abs rate | MAE | peak ratio | clips |", "|---|---|---|---:|---:|---:|---:|"]
+    short = {GROUP_ORDER[0]: "ISB joint", GROUP_ORDER[1]: "seg-to-seg unsigned", GROUP_ORDER[2]: "inclination"}
+    rows = []
+    for name in acc["truth_rate"]:
+        truth, est, valid = acc["truth_rate"][name], acc["world_rate"][name], acc["valid"]
+        t, e, ok = (np.concatenate(x) for x in (truth, est, valid))
+        ok = ok & np.isfinite(t) & np.isfinite(e)
+        peaks = [(_peak(a, v), _peak(b, v)) for a, b, v in zip(truth, est, valid)]
+        ratios = [b / a for a, b in peaks if a >= PEAK_FLOOR_DEG_S and np.isfinite(b)]
+        rows.append((angle_group(name), name, np.abs(t[ok]).mean(), np.abs(e[ok] - t[ok]).mean(),
+                     np.median(ratios) if ratios else np.nan, len(ratios)))
+    for group in GROUP_ORDER:
+        lines += [f"| {short_label} | {short[group]} | {name} | {scale:.0f} | {mae:.0f} | {ratio:.2f} | {n} |"
+                  for g, name, scale, mae, ratio, n in rows if g == group]
+    return lines
 
 
 def angle_table(label: str, short_label: str, rows: list[dict]) -> list[str]:
@@ -204,7 +244,8 @@ def main() -> None:
         clips = [clips[i] for i in keep]
         pairs = make_pairs(clips, views="paper", seed=0, camera="static", noise=LifterNoise())
         acc: dict = {}
-        ang: dict = {kind: {} for kind in ("truth", "world", "canonical", "world_true_rotation", "canonical_no_residual")} | {"valid": [], "up_error_deg": []}
+        ang: dict = {kind: {} for kind in ("truth", "world", "canonical", "world_true_rotation", "canonical_no_residual",
+                                           "truth_rate", "world_rate")} | {"valid": [], "up_error_deg": []}
         for i, clip in enumerate(clips):
             sel = np.flatnonzero(pairs.clip == i)
             if len(sel) < 30:
@@ -216,7 +257,8 @@ def main() -> None:
                     acc.setdefault((kind, q), []).append(v)
             ang["valid"].append(angles["valid"])
             ang["up_error_deg"].append(angles["up_error_deg"])
-            for kind in ("truth", "world", "canonical", "world_true_rotation", "canonical_no_residual"):
+            for kind in ("truth", "world", "canonical", "world_true_rotation", "canonical_no_residual",
+                         "truth_rate", "world_rate"):
                 for name, v in angles[kind].items():
                     ang[kind].setdefault(name, []).append(v)
         frames = sum(len(v) for v in acc[("world", "speed")])
@@ -241,7 +283,8 @@ def main() -> None:
         block = [f"{label}: {len(clips)} clips, {len(valid)} frames, {valid.sum()} with a valid rotation "
                  f"({100 * valid.mean():.1f}%); angle between the estimated up and the true camera's up over clips: mean "
                  f"{np.mean(ang['up_error_deg']):.2f} deg, median {np.median(ang['up_error_deg']):.2f}, "
-                 f"max {np.max(ang['up_error_deg']):.2f}", ""] + angle_table(label, short_label, angle_rows(ang)) + [""]
+                 f"max {np.max(ang['up_error_deg']):.2f}", ""] + angle_table(label, short_label, angle_rows(ang)) + [""] \
+            + rate_table(label, short_label, ang) + [""]
         angle_lines += block
         print("\n".join(block), flush=True)
     run_time = f"run time {time.perf_counter() - t0:.0f} s"

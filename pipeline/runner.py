@@ -212,8 +212,8 @@ class RunResult:
         width = max([17, *(len(name) for name in self.outputs)])
         lines += [f"{name:<{width}} {path}" for name, path in self.outputs.items() if name != REPORT_NAME]
         if "kinematics.csv" in self.outputs:  # a coach's trial looked for the angles among 246 columns
-            lines.append("joint angles: kinematics.csv's *_deg columns (each defined in kinematics_columns.csv; "
-                         "their ranges, and the joints' peak speeds, in report.md)")
+            lines.append("joint angles: kinematics.csv's *_deg columns, their rates *_deg_per_s (each defined in "
+                         "kinematics_columns.csv; their ranges, and the joints' peak speeds, in report.md)")
             # how far to trust them, in the terminal (a clinician's trial found it only in report.md)
             lines.append("angles carry the lifter's own error: 4 calibrated views of one subject read knees and hips "
                          "tens of deg apart (docs/guide/limits.md)")
@@ -1126,10 +1126,12 @@ def _spine_built_on_trunk_line(cam) -> bool:
 
 
 def _without(blocks, names: tuple[str, ...]):
-    """The kinematics blocks with the angles ``names`` empty (NaN)."""
+    """The kinematics blocks with the angles ``names`` and their rates empty (NaN)."""
+    def emptied(angles):
+        return MappingProxyType({n: np.full_like(v, np.nan) if n in names else v for n, v in angles.items()})
+
     for k in blocks:
-        yield replace(k, angles=MappingProxyType(
-            {n: np.full_like(v, np.nan) if n in names else v for n, v in k.angles.items()}))
+        yield replace(k, angles=emptied(k.angles), angle_rates=emptied(k.angle_rates))
 
 
 def _opensim(cfg: RunConfig, staged: Path, findings: list[Finding], notes: list[str]) -> dict[str, Path]:

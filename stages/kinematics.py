@@ -792,6 +792,10 @@ class Kinematics:
         fps, cutoff_hz: sampling rate and filter cutoff (None = not filtered).
         units, velocity_units, acceleration_units: e.g. ``"m"``, ``"m/s"``, ``"m/s^2"``.
         joint_names: H36M-17 names, index-aligned with axis 1.
+        angle_rates: ``name -> (T,)`` deg/s, read-only, the same names as ``angles``: each
+            angle's rate of change (:func:`angle_rates`), the joint angular velocity of an ISB
+            angle; empty (no names) where not computed (``compute_kinematics(...,
+            continuous=False)``).
     """
 
     positions: np.ndarray
@@ -807,6 +811,7 @@ class Kinematics:
     velocity_units: str
     acceleration_units: str
     joint_names: tuple[str, ...] = field(default=H36M_JOINTS)
+    angle_rates: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -825,12 +830,60 @@ class Kinematics:
         # ``angles`` is a read-only view, which pickle and deepcopy cannot copy: rebuild it (a
         # worker process returns its Kinematics this way).
         values = {f.name: getattr(self, f.name) for f in fields(self)}
-        values["angles"] = dict(self.angles)
+        values.update(angles=dict(self.angles), angle_rates=dict(self.angle_rates))
         return _kinematics_from, (values,)
 
 
 def _kinematics_from(values: dict) -> Kinematics:
-    return Kinematics(**{**values, "angles": MappingProxyType(values["angles"])})
+    return Kinematics(**{**values, "angles": MappingProxyType(values["angles"]),
+                         "angle_rates": MappingProxyType(values["angle_rates"])})
+
+
+def angle_rates(k: Kinematics, before: Kinematics | None = None, after: Kinematics | None = None
+                ) -> dict[str, np.ndarray]:
+    """Each angle's rate of change, deg/s: the central difference of the angle at the frames
+    either side, ``(theta[t+1] - theta[t-1]) * fps / 2`` (the positions' rule,
+    :func:`derivatives`), for a periodic angle (:data:`PERIODIC_ANGLES`) taken modulo 360 deg
+    into (-180, 180] so that a run :func:`continuous_angles` split at a lifter's jump, whose
+    pieces may sit a turn apart, does not read a turn as motion. Applied to the ISB angles it
+    is the joint angular velocity of their rotation sequence's coordinate (Wu et al. 2002,
+    J Biomech 35:543), for the inclinations the segment's in-plane angular velocity.
+
+    Empty (NaN) where either neighbouring angle is (a run's first and last frame, a gap), and
+    where any joint's position in the frame or its neighbours is raw (``unfiltered``): the
+    difference of angles from unfiltered positions amplifies their noise, as the positions'
+    velocity would (:func:`compute_kinematics`), so none is given.
+
+    Args:
+        k: a :class:`Kinematics` whose ``angles`` are continuous in time (:func:`continuous_angles`).
+        before, after: the blocks just before and after ``k`` of the same recording
+            (:func:`kinematics_chunks`), whose last and first frame are ``k``'s first and last
+            frame's neighbours; ``None`` at the recording's start or end.
+
+    Returns:
+        ``name -> (T,)`` float64 deg/s, the names and order of ``k.angles``.
+    """
+    def frames(block: Kinematics | None, at: int) -> tuple[dict[str, float], bool]:
+        if block is None or not block.num_frames:
+            return {}, False
+        return {n: float(v[at]) for n, v in block.angles.items()}, bool(block.unfiltered[at].any())
+
+    (first, raw_before), (last, raw_after) = frames(before, -1), frames(after, 0)
+    raw = np.concatenate([[raw_before], np.asarray(k.unfiltered).any(axis=1), [raw_after]])
+    raw_near = raw[:-2] | raw[1:-1] | raw[2:]
+    out = {}
+    for name, v in k.angles.items():
+        theta = np.concatenate([[first.get(name, np.nan)], np.asarray(v, np.float64), [last.get(name, np.nan)]])
+        step = theta[2:] - theta[:-2]
+        if name.removesuffix("_deg") in PERIODIC_ANGLES:
+            step = 180.0 - np.mod(180.0 - step, 360.0)
+        out[name] = np.where(raw_near, np.nan, step * k.fps / 2.0)
+    return out
+
+
+def with_angle_rates(k: Kinematics, before: Kinematics | None = None, after: Kinematics | None = None) -> Kinematics:
+    """``k`` with its :attr:`Kinematics.angle_rates` (:func:`angle_rates`)."""
+    return replace(k, angle_rates=MappingProxyType(angle_rates(k, before, after)))
 
 
 def pelvis_heading_frame(poses: np.ndarray) -> np.ndarray:
@@ -1115,7 +1168,7 @@ def _kinematics(X: np.ndarray, fps: float, cutoff_hz: float | None, units: str, 
         # a canonical position is raw where its joint, the pelvis or the rotation was
         raw = raw | raw[:, PELVIS:PELVIS + 1] | raw_rotation[:, None, None]
         vel, acc = derivatives(np.where(raw, np.nan, pos), fps)
-    return Kinematics(
+    k = Kinematics(
         positions=pos,
         velocity=vel,
         acceleration=acc,
@@ -1130,6 +1183,8 @@ def _kinematics(X: np.ndarray, fps: float, cutoff_hz: float | None, units: str, 
         velocity_units=f"{units}/s",
         acceleration_units=f"{units}/s^2",
     )
+    # a rate needs the angles' final continuity: kinematics_chunks adds them after stitching
+    return with_angle_rates(k) if continuous else k
 
 
 # ---------------------------------------------------------------------------------------
@@ -1197,6 +1252,8 @@ def select_frames(kinematics: Kinematics, start: int, stop: int, joints: Iterabl
         k, positions=take(k.positions), velocity=take(k.velocity),
         acceleration=take(k.acceleration), speed=take(k.speed),
         angles=MappingProxyType({n: v[cut] if dtype is None else v[cut].astype(dtype) for n, v in k.angles.items()}),
+        angle_rates=MappingProxyType({n: v[cut] if dtype is None else v[cut].astype(dtype)
+                                      for n, v in k.angle_rates.items()}),
         unfiltered=k.unfiltered[cut][:, idx], missing=k.missing[cut][:, idx], joint_names=tuple(chosen),
     )
 
@@ -1231,6 +1288,7 @@ class FrameGatherer:
         self._first: Kinematics | None = None
         self._arrays: dict[str, np.ndarray] = {}
         self._angles: dict[str, np.ndarray] = {}
+        self._rates: dict[str, np.ndarray] = {}
 
     def add(self, block: Kinematics) -> None:
         k = select_frames(block, 0, block.num_frames, self.joints, self.dtype)
@@ -1240,9 +1298,11 @@ class FrameGatherer:
                                              getattr(k, n).dtype) for n in _FRAME_ARRAYS}
             self._angles = {n: self.allocate(f"kept_angle_{n}", (self.num_frames,), v.dtype)
                             for n, v in k.angles.items()}
-        elif (k.joint_names, tuple(k.angles), k.units, k.fps, k.cutoff_hz) != (
-                self._first.joint_names, tuple(self._first.angles), self._first.units, self._first.fps,
-                self._first.cutoff_hz):
+            self._rates = {n: self.allocate(f"kept_angle_rate_{n}", (self.num_frames,), v.dtype)
+                           for n, v in k.angle_rates.items()}
+        elif (k.joint_names, tuple(k.angles), tuple(k.angle_rates), k.units, k.fps, k.cutoff_hz) != (
+                self._first.joint_names, tuple(self._first.angles), tuple(self._first.angle_rates),
+                self._first.units, self._first.fps, self._first.cutoff_hz):
             raise RuntimeError("FrameGatherer: blocks differ in joints, angles, units, rate or cutoff")
         stop = self.filled + k.num_frames
         if stop > self.num_frames:
@@ -1252,12 +1312,15 @@ class FrameGatherer:
             self._arrays[n][rows] = getattr(k, n)
         for n, v in k.angles.items():
             self._angles[n][rows] = v
+        for n, v in k.angle_rates.items():
+            self._rates[n][rows] = v
         self.filled = stop
 
     def result(self) -> Kinematics:
         if self._first is None or self.filled != self.num_frames:
             raise RuntimeError(f"FrameGatherer: {self.filled} of {self.num_frames} frames gathered")
-        return replace(self._first, **self._arrays, angles=MappingProxyType(self._angles))
+        return replace(self._first, **self._arrays, angles=MappingProxyType(self._angles),
+                       angle_rates=MappingProxyType(self._rates))
 
 
 def kinematics_chunks(
@@ -1289,7 +1352,9 @@ def kinematics_chunks(
             ``poses`` are then camera-frame poses, as :func:`compute_kinematics`'s ``rotation``.
 
     Yields:
-        :class:`Kinematics` of frames ``[0, c), [c, 2c), ...``.
+        :class:`Kinematics` of frames ``[0, c), [c, 2c), ...``, with their
+        :attr:`~Kinematics.angle_rates` across the chunks' seams (each chunk is yielded once
+        the next is computed: its last frame's rate needs the next one's first angle).
 
     Raises:
         InputError: as :func:`compute_kinematics` (the units checked once, over the whole
@@ -1308,6 +1373,8 @@ def kinematics_chunks(
     pad = settle_frames(fps, cutoff_hz, order)
     T = len(X)
     previous: dict[str, float] | None = None  # the last frame's angles, continued by the next chunk
+    # a chunk's last angle rate needs the next chunk's first angle: each is yielded one chunk late
+    before = held = None
     for start in range(0, T, chunk_frames):
         stop = min(T, start + chunk_frames)
         lo, hi = max(0, start - pad), min(T, stop + pad)
@@ -1316,7 +1383,12 @@ def kinematics_chunks(
         k = select_frames(_kinematics(chunk, fps, cutoff_hz, units, order, False, turn), start - lo, stop - lo)
         angles = continuous_angles(k.angles, previous, fps)
         previous = {name: float(v[-1]) for name, v in angles.items()}
-        yield replace(k, angles=MappingProxyType(angles))
+        k = replace(k, angles=MappingProxyType(angles))
+        if held is not None:
+            yield with_angle_rates(held, before, k)
+            before = select_frames(held, held.num_frames - 1, held.num_frames)
+        held = k
+    yield with_angle_rates(held, before, None)
 
 
 # ---------------------------------------------------------------------------------------

@@ -41,6 +41,7 @@ from pcnet.stages.sinks.exports import plot_wrists, write_c3d, write_kinematics_
 from pcnet.stages.core.geometric import geometric_rotation
 from pcnet.stages.kinematics import (
     PERIODIC_ANGLES,
+    angle_rates,
     butterworth_lowpass,
     compute_kinematics,
     FrameGatherer,
@@ -562,7 +563,13 @@ def test_csv_rows_headers_units_and_values(tmp_path, kin):
                 "right_wrist_az_m_per_s2", "right_wrist_speed_m_per_s", "trunk_inclination_deg",
                 "left_knee_flexion_unsigned_deg", "valid", "tilt_deg"):
         assert col in header, col
-    assert len(header) == 2 + 17 * 12 + len(kin.angles) + 2
+    assert len(header) == 2 + 17 * 12 + 2 * len(kin.angles) + 2
+    assert header[-2 - len(kin.angles):-2] == [f"{name}_deg_per_s" for name in kin.angles]
+    # each rate is the central difference of its angle column as written (7 digits)
+    knee, rate = (np.array([float(r[header.index(n)]) if r[header.index(n)] else np.nan for r in body])
+                  for n in ("left_knee_flexion_deg", "left_knee_flexion_deg_per_s"))
+    np.testing.assert_allclose(rate[1:-1], (knee[2:] - knee[:-2]) * FPS_YOGA / 2, atol=1e-3 * FPS_YOGA)
+    assert np.isnan(rate[[0, -1]]).all() and np.isfinite(rate[1:-1]).all() and np.nanmax(np.abs(rate)) > 10.0
     assert header[header.index("right_wrist_speed_m_per_s") + 1 :][:2] == [
         "right_wrist_missing", "right_wrist_unfiltered"]
     c = header.index("right_wrist_vx_m_per_s")
@@ -571,6 +578,23 @@ def test_csv_rows_headers_units_and_values(tmp_path, kin):
     assert body[0][c] == "" and body[1][c] != ""  # the first frame has no central difference
     assert body[0][0] == "100" and body[5][header.index("valid")] == "0"
     assert all(r[header.index("tilt_deg")] == "" for r in body)  # NaN -> empty field
+
+
+def test_angle_rates_read_a_turn_as_no_motion_and_leave_raw_frames_empty(kin):
+    """A periodic angle whose run continuous_angles split at a lifter's jump may hold pieces a
+    turn apart: the rate there is the motion's, not 360 deg per two frames. A frame with a raw
+    (unfiltered) joint position gives its own and its neighbours' rates no value."""
+    name = "right_shoulder_plane_of_elevation"
+    assert name in PERIODIC_ANGLES
+    turned = np.asarray(kin.angles[name]).copy()
+    turned[100:] += 360.0
+    raw = np.asarray(kin.unfiltered).copy()
+    raw[50, 3] = True
+    rates = angle_rates(dataclasses.replace(kin, angles={**kin.angles, name: turned}, unfiltered=raw))
+    away = np.r_[0:49, 52:len(turned)]
+    np.testing.assert_allclose(rates[name][away], kin.angle_rates[name][away], atol=1e-9, equal_nan=True)
+    assert np.isnan(rates[name][49:52]).all() and np.isfinite(rates[name][[48, 52]]).all()
+    assert np.isfinite(kin.angle_rates[name][49:52]).all()
 
 
 def test_csv_rejects_wrong_lengths(tmp_path, kin):
@@ -979,6 +1003,9 @@ def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff,
         if name in PERIODIC_ANGLES:  # a run's 360-deg level is chosen in the chunk where it starts
             other = np.where(np.isfinite(other), angle + (other - angle + 180.0) % 360.0 - 180.0, other)
         np.testing.assert_allclose(angle, other, rtol=1e-9, atol=1e-9, equal_nan=True, err_msg=name)
+    assert list(joined.angle_rates) == list(whole.angles)
+    for name, rate in whole.angle_rates.items():  # across the chunks' seams too
+        np.testing.assert_allclose(rate, joined.angle_rates[name], rtol=1e-9, atol=1e-9, equal_nan=True, err_msg=name)
     assert count_flags(joined.missing, joined.unfiltered) == flag_counts(whole)
     with pytest.raises(RuntimeError, match="more than the"):
         gather.add(parts[0])  # more frames than announced

@@ -1208,7 +1208,7 @@ def test_the_recording_command_pastes_into_a_shell():
     # and where the joint angles are among the CSV's columns (a coach's trial looked through 246)
     result = RunResult(frames=1, valid_frames=1, units="m", method="pcnet", report=run_report(), fps=30.0,
                        fps_source="--fps", outputs={"kinematics.csv": Path("/x/out/kinematics.csv")})
-    assert ("\njoint angles: kinematics.csv's *_deg columns (each defined in kinematics_columns.csv; their ranges, "
+    assert ("\njoint angles: kinematics.csv's *_deg columns, their rates *_deg_per_s (each defined in kinematics_columns.csv; their ranges, "
             "and the joints' peak speeds, in report.md)\nangles carry the lifter's own error: 4 calibrated views of one "
             "subject read knees and hips tens of deg apart (docs/guide/limits.md)") in result.summary()
 

@@ -235,6 +235,7 @@ def kinematics_columns(
     floor: str | None = None,
     up_uncertainty: str | None = None,
     unplaced: str | None = None,
+    rates: Iterable[str] = (),
 ) -> list[tuple[str, str, str, str]]:
     """The columns of ``kinematics.csv``, in order, each ``(column, unit, frame, definition)``:
     the one source of its header (:func:`write_kinematics_csv`) and of its data dictionary
@@ -265,6 +266,8 @@ def kinematics_columns(
         unplaced: which frames have a pose but no place in the world frame (one clause), said
             in every position, velocity, acceleration and speed definition: written empty there
             (:func:`blank_unobservable`'s ``rows``).
+        rates: the angle names with a rate column ``{name}_deg_per_s``
+            (:attr:`Kinematics.angle_rates`' keys), after the angles.
 
     Returns:
         a list of ``(column, unit, frame, definition)``; ``definition`` is ``None`` for an
@@ -326,6 +329,16 @@ def kinematics_columns(
         elif up_uncertainty and frame_of == "canonical":
             definition = f"{definition.rstrip('.')}. Against this run's up, which is {up_uncertainty}."
         cols.append((column, "deg", frame_of, definition))
+    for name in rates:
+        column = f"{name}_deg"
+        periodic = ", taken modulo 360 deg (a turn is not motion)" if name in PERIODIC_ANGLES else ""
+        definition = (f"Rate of change of {column} (for an ISB angle, the joint angular velocity): the difference "
+                      f"of its values at the frames either side over 2 / fps{periodic}; empty at a run's first and "
+                      f"last frame, where a neighbouring angle is empty, and where a joint position in those three "
+                      f"frames is raw (unfiltered).")
+        if name in empty_angles:
+            definition = f"{definition.rstrip('.')}; empty in this run: {empty_angles[name]}."
+        cols.append((f"{column}_per_s", "deg/s", _angle_row(column)[0], definition))
     for name, described in extra.items():
         cols.append((name, *described) if described is not None else (name, "", "", None))
     return cols
@@ -406,7 +419,8 @@ def write_kinematics_csv(
     Columns, in order: ``frame``, ``time_s``; per joint ``{joint}_{x,y,z}_{u}``,
     ``{joint}_{vx,vy,vz}_{u}_per_s``, ``{joint}_{ax,ay,az}_{u}_per_s2``,
     ``{joint}_speed_{u}_per_s``, ``{joint}_missing``, ``{joint}_unfiltered``
-    (``u`` = ``kinematics.units``, e.g. ``m``); per angle ``{angle}_deg``; then
+    (``u`` = ``kinematics.units``, e.g. ``m``); per angle ``{angle}_deg``; per angle
+    rate (:attr:`Kinematics.angle_rates`) ``{angle}_deg_per_s``; then
     ``extra_columns`` under their own names (put the unit in the name, e.g.
     ``tilt_error_deg``). Axes: x anterior, y up, z subject's right (the world frame of a static camera, else canonical).
     Missing values (NaN) are empty fields. Comma-separated, ``\\n`` line ends, UTF-8,
@@ -476,7 +490,7 @@ def write_kinematics_csv(
 
     described = {name: (extra_definitions or {}).get(name) for name in extra}
     listed = kinematics_columns(chosen, first.units, first.angles, described, frame, unobservable, empty_angles,
-                                floor, up_uncertainty, unplaced)
+                                floor, up_uncertainty, unplaced, first.angle_rates)
     header = [c[0] for c in listed]
     dup = {h for h in header if header.count(h) > 1}
     if dup:
@@ -501,6 +515,7 @@ def write_kinematics_csv(
                     blocks += [k.positions[lo:hi, i], k.velocity[lo:hi, i], k.acceleration[lo:hi, i],
                                k.speed[lo:hi, i, None], k.missing[lo:hi, i, None], k.unfiltered[lo:hi, i, None]]
                 blocks += [np.asarray(ang, np.float64)[lo:hi, None] for ang in k.angles.values()]
+                blocks += [np.asarray(rate, np.float64)[lo:hi, None] for rate in k.angle_rates.values()]
                 blocks += [np.asarray(col, np.float64)[rows, None] for col in extra.values()]
                 table = np.concatenate(blocks, axis=1)
                 for f, row in zip(frame_index[rows].tolist(), table.tolist()):
