@@ -25,7 +25,7 @@ from .core.framestore import frame_blocks, true_runs
 from .core.rotations import UPSIDE_DOWN_TILT_DEG, camera_pitch_roll, camera_tilt_deg
 from .kinematics import frames_phrase, shortest_filtered_run
 from .mirror import MIRROR_ODDS, MirrorModel, load_mirror_model, recording_cues
-from .opensim_ik import marker_rms_flag, unscaled_segments_flag
+from .opensim_ik import marker_rms_flag, model_leg_asymmetry, model_leg_asymmetry_flag, unscaled_segments_flag
 from .plausibility import QUANTITIES, ImplausibleMotion, MotionLimits, implausible_motion_flags
 from .rectification_report import EnsembleWeights, PostureHypotheses, SequenceUp
 from .remap import outside_image
@@ -1135,10 +1135,12 @@ def implausible_motion_findings(found: Sequence[ImplausibleMotion],
 
 def opensim_fit_findings(fit: dict) -> list[Finding]:
     """The findings of OpenSim's fit (:func:`pcnet.stages.opensim_ik.scale_and_ik`'s result):
-    segments left unscaled (:func:`pcnet.stages.opensim_ik.unscaled_segments_flag`) and a marker
-    RMS above the best-practice bound (:func:`pcnet.stages.opensim_ik.marker_rms_flag`), each
-    with that function's text as its detail. Any other text of the fit's ``warnings`` is kept as
-    a :data:`Severity.CHECK` finding of no kind (:func:`shortened`)."""
+    segments left unscaled (:func:`pcnet.stages.opensim_ik.unscaled_segments_flag`), a marker
+    RMS above the best-practice bound (:func:`pcnet.stages.opensim_ik.marker_rms_flag`) and the
+    scaled model's legs out of proportion (:func:`pcnet.stages.opensim_ik.model_leg_asymmetry_flag`,
+    of the kind :data:`Kind.LEG_ASYMMETRY`, which a run that already has the poses' own drops),
+    each with that function's text as its detail. Any other text of the fit's ``warnings`` is
+    kept as a :data:`Severity.CHECK` finding of no kind (:func:`shortened`)."""
     out = []
     if unscaled := unscaled_segments_flag(fit):
         out.append(_found(Kind.SEGMENTS_UNSCALED, Severity.CHECK,
@@ -1149,6 +1151,11 @@ def opensim_fit_findings(fit: dict) -> list[Finding]:
                           f"OpenSim marker RMS {100 * fit['marker_rms_m']:.1f} cm (max {100 * fit['marker_max_m']:.1f} "
                           f"cm): the model does not follow the poses",
                           "read ik.mot's angles with care (ik_marker_errors.sto: which markers it misses)", rms))
+    if legs := model_leg_asymmetry_flag(fit):
+        difference, shorter = model_leg_asymmetry(fit)
+        out.append(_found(Kind.LEG_ASYMMETRY, Severity.CHECK,
+                          f"OpenSim model's legs differ {100 * difference:.0f} % in length ({shorter} shorter): the "
+                          f"lifter's", "compare left and right with care", legs))
     known = {f.detail for f in out}
     return out + [Finding(Severity.CHECK, shortened(text), "see report.md", text) for text in fit["warnings"]
                   if text not in known]

@@ -102,10 +102,40 @@ def marker_rms_flag(result: dict) -> str | None:
             f"joint angles before using them")
 
 
+def model_leg_asymmetry(result: dict) -> tuple[float, str]:
+    """The relative difference of the scaled model's legs (thigh plus shank, from
+    ``result["segment_lengths_m"]``, :func:`segment_lengths`): ``|left - right| / max(left,
+    right)`` and the shorter side, as :func:`pcnet.stages.flags.leg_asymmetry` measures the
+    poses'; NaN and ``""`` without both legs."""
+    lengths = result.get("segment_lengths_m") or {}
+    legs = {side: sum(lengths.get(f"{side}_{s}", float("nan")) for s in ("thigh", "shank")) for side in ("left", "right")}
+    longer = max(legs.values())
+    if not (np.isfinite(list(legs.values())).all() and longer > 0):
+        return float("nan"), ""
+    return abs(legs["left"] - legs["right"]) / longer, min(legs, key=legs.get)
+
+
+def model_leg_asymmetry_flag(result: dict) -> str | None:
+    """The warning when the scaled model's legs differ (:func:`model_leg_asymmetry`) by more
+    than a person's do: the lifter-skeleton limit ``leg_asymmetry`` the run's own check uses
+    (:func:`pcnet.stages.flags.load_skeleton_limits`, fitted on training mocap, decision 0075),
+    else ``None``. The ScaleTool scales each side on its own markers, so a lifter's short leg
+    becomes the model's (a user trial's 18 % went into the model with no word in its fit)."""
+    from .flags import load_skeleton_limits  # flags reads this module's fit; imported when asked
+
+    difference, shorter = model_leg_asymmetry(result)
+    if not difference > load_skeleton_limits().leg_asymmetry:
+        return None
+    return (f"the scaled model's legs differ by {100 * difference:.0f} % in length ({shorter} shorter; limb lengths "
+            f"in the fit), more than a person's: the markers' (the lifter's) error, not the subject's; the {shorter} "
+            f"side's joint angles and any model quantity that depends on segment lengths carry it")
+
+
 def ik_fit_flags(result: dict) -> list[str]:
-    """:func:`scale_and_ik`'s warnings: :func:`unscaled_segments_flag`, then
-    :func:`marker_rms_flag`, those that apply."""
-    return [text for text in (unscaled_segments_flag(result), marker_rms_flag(result)) if text]
+    """:func:`scale_and_ik`'s warnings: :func:`unscaled_segments_flag`,
+    :func:`marker_rms_flag`, then :func:`model_leg_asymmetry_flag`, those that apply."""
+    return [text for text in (unscaled_segments_flag(result), marker_rms_flag(result),
+                              model_leg_asymmetry_flag(result)) if text]
 
 
 def time_spans(times: np.ndarray, flagged: np.ndarray) -> list[tuple[float, float]]:
