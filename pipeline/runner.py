@@ -102,9 +102,10 @@ class RunResult:
     findings: the flags as raised (:class:`pcnet.stages.flags.Finding`), notes: the notes' texts;
     note_lines: the summary line of a note made from the data it words rather than from its
     text (the missing-data note's, :func:`pcnet.stages.flags.missing_data_line`), keyed by the
-    note's text; angle_ranges, speed_ranges: each joint angle's and each plotted joint's
-    speed's range over the recording (:class:`pcnet.stages.column_ranges.ColumnRanges`,
-    report.md's joint-angle and joint-speed tables; ``None`` from a run without kinematics)."""
+    note's text; angle_ranges, rate_ranges, speed_ranges: each joint angle's, each angle
+    rate's and each plotted joint's speed's range over the recording
+    (:class:`pcnet.stages.column_ranges.ColumnRanges`, report.md's joint-angle,
+    angular-velocity and joint-speed tables; ``None`` from a run without kinematics)."""
 
     frames: int
     valid_frames: int
@@ -120,6 +121,7 @@ class RunResult:
     note_lines: dict[str, str] = field(default_factory=dict)
     angle_ranges: ColumnRanges | None = None
     speed_ranges: ColumnRanges | None = None
+    rate_ranges: ColumnRanges | None = None
 
     @property
     def mode(self) -> str:
@@ -231,7 +233,7 @@ class RunResult:
         return report_markdown(title, self.key_facts(long=True), self.ranked_findings, self.note_findings,
                                self.report.as_record(),
                                [Path(path).name for name, path in self.outputs.items() if name != REPORT_NAME],
-                               self.angle_ranges, self.speed_ranges)
+                               self.angle_ranges, self.speed_ranges, self.rate_ranges)
 
     def _per_frame_tilt(self) -> str:
         """Where the up may change from frame to frame, the tilt line's one number is that of the
@@ -1283,7 +1285,8 @@ class Measured:
     """Step "kinematics": result: what the sinks write (its kinematics are computed a block
     at a time as they read them); outputs: the kinematics tables written; cutoff_hz,
     cutoff_source: the low-pass cutoff (Hz) and where it came from (``"cutoff_hz"`` or
-    ``"residual analysis"``); note_lines, angle_ranges, speed_ranges: :class:`RunResult`'s."""
+    ``"residual analysis"``); note_lines, angle_ranges, speed_ranges, rate_ranges:
+    :class:`RunResult`'s."""
 
     result: RecordingResult
     outputs: dict[str, Path]
@@ -1292,6 +1295,7 @@ class Measured:
     note_lines: dict[str, str]
     angle_ranges: ColumnRanges | None = None
     speed_ranges: ColumnRanges | None = None
+    rate_ranges: ColumnRanges | None = None
 
 
 def _inputs(cfg: RunConfig, estimate_notes: list[str]) -> AlignedInputs:
@@ -1609,8 +1613,10 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
     angles = column_ranges({f"{name}_deg": values for name, values in k.angles.items()}, "deg", fps, *left_out)
     speeds = column_ranges({f"{joint}_speed_{unit_token(k.velocity_units)}": k.speed[:, i]
                             for i, joint in enumerate(k.joint_names)}, k.velocity_units, fps, *left_out)
+    rates = column_ranges({f"{name}_deg_per_s": values for name, values in k.angle_rates.items()}, "deg/s", fps,
+                          *left_out)
     return Measured(result, table, cutoff, "residual analysis" if cfg.residual_cutoff else "cutoff_hz", note_lines,
-                    angles, speeds)
+                    angles, speeds, rates)
 
 
 def _run_report(inputs: AlignedInputs, rectified: Rectified, world: World, measured: Measured) -> RunReport:
@@ -1745,7 +1751,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             fps_source=inputs.recording.fps_source, report=report,
             outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
             note_lines=measured.note_lines, angle_ranges=measured.angle_ranges,
-            speed_ranges=measured.speed_ranges,
+            speed_ranges=measured.speed_ranges, rate_ranges=measured.rate_ranges,
         )
         # the long form of the summary, published with the rest
         run.outputs[REPORT_NAME] = out / next(iter(write_report(tmp, run.report_text(f"pcnet run: {out}")).values())).name

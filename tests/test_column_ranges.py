@@ -84,6 +84,29 @@ def test_the_report_gives_each_plotted_joints_peak_speed_as_kinematics_csv_holds
         assert f"| {name} | {r.frames} | {r.maximum:.2f} | {r.maximum_s:.2f} | {r.median:.2f} |" in section
 
 
+def test_the_report_gives_each_angle_rates_peaks_as_kinematics_csv_holds_them(mediapipe_run):
+    """A coach's peak knee extension velocity: each ``*_deg_per_s`` column's least and greatest
+    value (the fastest motion each way) and when, over the frames the angles' ranges cover."""
+    result, rows, report = mediapipe_run
+    left_out = _column(rows, "implausible_motion") == 1
+    time_s = _column(rows, "time_s")
+    peaks = {r.name: r for r in result.rate_ranges.rows}
+    assert list(peaks) == [f"{r.name}_per_s" for r in result.angle_ranges.rows]  # every angle with a rate
+    assert result.rate_ranges.implausible_frames == left_out.sum()
+    section = report[report.index("## Joint angular velocities"):report.index("## Joint speeds")]
+    assert "| angle rate | frames | min (deg/s) | at (s) | max (deg/s) | at (s) |" in section
+    assert "the axial rotations and the shoulder's plane of elevation up to 4 times" in section
+    for name, r in peaks.items():
+        values = np.where(left_out, np.nan, _column(rows, name))
+        assert r.unit == "deg/s" and r.frames == np.isfinite(values).sum()
+        assert math.isclose(r.minimum, np.nanmin(values), rel_tol=1e-5, abs_tol=1e-4), name
+        assert math.isclose(r.minimum_s, time_s[np.nanargmin(values)], rel_tol=1e-5, abs_tol=1e-5), name
+        assert math.isclose(r.maximum, np.nanmax(values), rel_tol=1e-5, abs_tol=1e-4), name
+        assert f"| {name} | {r.frames} | {r.minimum:.0f} | {r.minimum_s:.2f} | {r.maximum:.0f} | " in section
+    knee = peaks["left_knee_flexion_deg_per_s"]
+    assert knee.minimum < 0 < knee.maximum  # flexes and extends
+
+
 def test_ranges_leave_out_the_frames_the_warnings_name_and_angles_without_a_value(mediapipe_run):
     _, rows, _ = mediapipe_run
     knee = _column(rows, "left_knee_flexion_deg")
