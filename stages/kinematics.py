@@ -849,13 +849,18 @@ def angle_rates(k: Kinematics, before: Kinematics | None = None, after: Kinemati
     is the joint angular velocity of their rotation sequence's coordinate (Wu et al. 2002,
     J Biomech 35:543), for the inclinations the segment's in-plane angular velocity.
 
-    Empty (NaN) where either neighbouring angle is (a run's first and last frame, a gap), and
-    where any joint's position in the frame or its neighbours is raw (``unfiltered``): the
-    difference of angles from unfiltered positions amplifies their noise, as the positions'
-    velocity would (:func:`compute_kinematics`), so none is given.
+    Empty (NaN), as the positions' velocities are within their runs of present frames
+    (:func:`derivatives`), where the angle is empty in the frame or either neighbour (a run's
+    first and last frame, a gap: a frame without a pose between two people of a switched 2D
+    track has no rate), and where the angle in any of those three frames is computed from a raw
+    (``unfiltered``) joint position: the difference of angles from unfiltered positions
+    amplifies their noise, as the positions' velocity would (:func:`compute_kinematics`), so
+    none is given. Which angles a raw joint reaches is read from the angles themselves: those
+    that have no value once the raw positions are taken out.
 
     Args:
-        k: a :class:`Kinematics` whose ``angles`` are continuous in time (:func:`continuous_angles`).
+        k: a :class:`Kinematics` of all 17 H36M-17 joints whose ``angles`` are continuous in
+            time (:func:`continuous_angles`).
         before, after: the blocks just before and after ``k`` of the same recording
             (:func:`kinematics_chunks`), whose last and first frame are ``k``'s first and last
             frame's neighbours; ``None`` at the recording's start or end.
@@ -863,22 +868,33 @@ def angle_rates(k: Kinematics, before: Kinematics | None = None, after: Kinemati
     Returns:
         ``name -> (T,)`` float64 deg/s, the names and order of ``k.angles``.
     """
-    def frames(block: Kinematics | None, at: int) -> tuple[dict[str, float], bool]:
+    def edge(block: Kinematics | None, at: int) -> dict[str, float]:
+        """The angles of one frame of a neighbouring block, NaN where raw."""
         if block is None or not block.num_frames:
-            return {}, False
-        return {n: float(v[at]) for n, v in block.angles.items()}, bool(block.unfiltered[at].any())
+            return {}
+        one = select_frames(block, at % block.num_frames, at % block.num_frames + 1)
+        raw = _angles_from_raw(one)
+        return {n: np.nan if raw[n][0] else float(v[0]) for n, v in one.angles.items()}
 
-    (first, raw_before), (last, raw_after) = frames(before, -1), frames(after, 0)
-    raw = np.concatenate([[raw_before], np.asarray(k.unfiltered).any(axis=1), [raw_after]])
-    raw_near = raw[:-2] | raw[1:-1] | raw[2:]
+    first, last, raw = edge(before, -1), edge(after, 0), _angles_from_raw(k)
     out = {}
     for name, v in k.angles.items():
-        theta = np.concatenate([[first.get(name, np.nan)], np.asarray(v, np.float64), [last.get(name, np.nan)]])
+        theta = np.concatenate([[first.get(name, np.nan)], np.where(raw[name], np.nan, v), [last.get(name, np.nan)]])
         step = theta[2:] - theta[:-2]
         if name.removesuffix("_deg") in PERIODIC_ANGLES:
             step = 180.0 - np.mod(180.0 - step, 360.0)
-        out[name] = np.where(raw_near, np.nan, step * k.fps / 2.0)
+        out[name] = np.where(np.isfinite(theta[1:-1]), step * k.fps / 2.0, np.nan)
     return out
+
+
+def _angles_from_raw(k: Kinematics) -> dict[str, np.ndarray]:
+    """``name -> (T,)`` bool: where ``k``'s angle has a value that needs a raw (``unfiltered``)
+    joint position, i.e. has none from the filtered positions alone."""
+    raw = np.asarray(k.unfiltered, bool)
+    if not raw.any():
+        return {name: np.zeros(k.num_frames, dtype=bool) for name in k.angles}
+    filtered_only = _angles(np.where(raw[..., None], np.nan, np.asarray(k.positions, np.float64)), k.fps, False)
+    return {name: np.isfinite(v) & ~np.isfinite(filtered_only[name]) for name, v in k.angles.items()}
 
 
 def with_angle_rates(k: Kinematics, before: Kinematics | None = None, after: Kinematics | None = None) -> Kinematics:

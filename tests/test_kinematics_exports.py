@@ -580,21 +580,30 @@ def test_csv_rows_headers_units_and_values(tmp_path, kin):
     assert all(r[header.index("tilt_deg")] == "" for r in body)  # NaN -> empty field
 
 
-def test_angle_rates_read_a_turn_as_no_motion_and_leave_raw_frames_empty(kin):
+def test_angle_rates_read_a_turn_as_no_motion_and_leave_raw_and_empty_frames_empty(kin):
     """A periodic angle whose run continuous_angles split at a lifter's jump may hold pieces a
-    turn apart: the rate there is the motion's, not 360 deg per two frames. A frame with a raw
-    (unfiltered) joint position gives its own and its neighbours' rates no value."""
+    turn apart: the rate there is the motion's, not 360 deg per two frames. A raw (unfiltered)
+    joint position empties the rates of the angles it reaches, in its frame and the two
+    beside it, and no other angle's (a user trial lost every knee rate to a raw wrist). A
+    frame whose angle is empty has no rate, though both neighbours have an angle (a trial read
+    534 deg/s at a frame without a pose, between two people of a switched 2D track)."""
     name = "right_shoulder_plane_of_elevation"
     assert name in PERIODIC_ANGLES
     turned = np.asarray(kin.angles[name]).copy()
     turned[100:] += 360.0
     raw = np.asarray(kin.unfiltered).copy()
-    raw[50, 3] = True
-    rates = angle_rates(dataclasses.replace(kin, angles={**kin.angles, name: turned}, unfiltered=raw))
+    raw[50, R_ELBOW] = True
+    knee = np.asarray(kin.angles["left_knee_flexion"]).copy()
+    knee[150] = np.nan
+    rates = angle_rates(dataclasses.replace(kin, angles={**kin.angles, name: turned, "left_knee_flexion": knee},
+                                            unfiltered=raw))
     away = np.r_[0:49, 52:len(turned)]
     np.testing.assert_allclose(rates[name][away], kin.angle_rates[name][away], atol=1e-9, equal_nan=True)
     assert np.isnan(rates[name][49:52]).all() and np.isfinite(rates[name][[48, 52]]).all()
     assert np.isfinite(kin.angle_rates[name][49:52]).all()
+    np.testing.assert_allclose(rates["right_elbow_flexion"][49:52], np.nan)  # the elbow's own angle
+    assert np.isfinite(rates["left_knee_flexion"][49:52]).all()  # a knee does not read the right elbow
+    assert np.isnan(rates["left_knee_flexion"][149:152]).all() and np.isfinite(rates["left_knee_flexion"][[148, 152]]).all()
 
 
 def test_csv_rejects_wrong_lengths(tmp_path, kin):

@@ -333,9 +333,9 @@ def kinematics_columns(
         column = f"{name}_deg"
         periodic = ", taken modulo 360 deg (a turn is not motion)" if name in PERIODIC_ANGLES else ""
         definition = (f"Rate of change of {column} (for an ISB angle, the joint angular velocity): the difference "
-                      f"of its values at the frames either side over 2 / fps{periodic}; empty at a run's first and "
-                      f"last frame, where a neighbouring angle is empty, and where a joint position in those three "
-                      f"frames is raw (unfiltered).")
+                      f"of its values at the frames either side over 2 / fps{periodic}; empty where the angle is "
+                      f"empty in the frame or either neighbour (a run's first and last frame, a gap) and where it "
+                      f"needs a raw (unfiltered) joint position in any of those three frames.")
         if name in empty_angles:
             definition = f"{definition.rstrip('.')}; empty in this run: {empty_angles[name]}."
         cols.append((f"{column}_per_s", "deg/s", _angle_row(column)[0], definition))
