@@ -23,7 +23,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
-from types import MappingProxyType
 
 import numpy as np
 from tqdm import tqdm
@@ -35,8 +34,8 @@ from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, training_config
 from pcnet.models.pose_estimator import estimator_record
 from pcnet.adapters.validate import as_path, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, METRES_PER_LENGTH_UNIT, PELVIS, R_HIP,
-                                          REFUSED_THIGH_M, SPINE, THIGH_RANGE_M,
-                                          THORAX, fill_pelvis_from_hips, thigh_beyond_metres, validate_fps)
+                                          REFUSED_THIGH_M, THIGH_RANGE_M, fill_pelvis_from_hips,
+                                          thigh_beyond_metres, validate_fps)
 from pcnet.stages.core.canonical import to_canonical
 from pcnet.stages.core.digest import sha256_file_version
 from pcnet.stages.core.errors import InputError
@@ -49,6 +48,7 @@ from pcnet.stages.flags import (Finding, Severity, absent_joints_flag, floor_fla
                                note_finding, one_person_frames, opensim_fit_findings, ranked, track_segments,
                                unfiltered_flag)
 from pcnet.stages.floor import Floor
+from pcnet.stages.isb_angles import NEEDS_SPINE_JOINT, SPINE_ON_LINE_FRACTION, spine_off_trunk_line
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
 from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
                                      residual_analysis)
@@ -1101,39 +1101,12 @@ def _headingless_note(angles, positions) -> list[str]:
             f"the shoulder line is vertical too); trunk inclination and the unsigned knee and elbow flexion are kept"]
 
 
-#: A spine joint within this fraction of the trunk's length (pelvis -> thorax) of that line in
-#: every frame is not a measured joint but built on the line (Kinect's and MediaPipe's
-#: conversions put it at the midpoint): float32 rounding is ~1e-6 of it, a lifter's own spine
-#: joint is centimetres off the line.
-SPINE_ON_LINE_FRACTION = 1e-4
-
-#: Angles that need a spine joint off the pelvis-thorax line: with the spine on the line the
-#: pelvis Y and thorax Y share the plane of the trunk and the hip line, so the thorax's flexion
-#: relative to the pelvis is 0 by construction, not measured.
-NEEDS_SPINE_JOINT = ("trunk_flexion_to_pelvis",)
-
-
 def _spine_built_on_trunk_line(cam) -> bool:
     """True when every frame with a pelvis, spine and thorax has the spine on the pelvis-thorax
-    line (:data:`SPINE_ON_LINE_FRACTION`), and at least one frame has them."""
-    def off_line(J: np.ndarray) -> np.ndarray:
-        J = np.asarray(J, np.float64)
-        trunk, spine = J[:, THORAX] - J[:, PELVIS], J[:, SPINE] - J[:, PELVIS]
-        length = np.linalg.norm(trunk, axis=-1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.linalg.norm(np.cross(spine, trunk), axis=-1) / length ** 2  # distance / length
-    ratio = per_frame(off_line, cam)
+    line (:data:`~pcnet.stages.isb_angles.SPINE_ON_LINE_FRACTION`), and at least one frame has them."""
+    ratio = per_frame(spine_off_trunk_line, cam)
     finite = np.isfinite(ratio)
     return bool(finite.any() and (ratio[finite] <= SPINE_ON_LINE_FRACTION).all())
-
-
-def _without(blocks, names: tuple[str, ...]):
-    """The kinematics blocks with the angles ``names`` and their rates empty (NaN)."""
-    def emptied(angles):
-        return MappingProxyType({n: np.full_like(v, np.nan) if n in names else v for n, v in angles.items()})
-
-    for k in blocks:
-        yield replace(k, angles=emptied(k.angles), angle_rates=emptied(k.angle_rates))
 
 
 def _opensim(cfg: RunConfig, staged: Path, findings: list[Finding], notes: list[str]) -> dict[str, Path]:
@@ -1581,13 +1554,13 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         video_keypoints2d=scaled.camera.video_keypoints2d, keypoint_picture=scaled.camera.picture,
         min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=world.pelvis_path_std,
         subject_height_m=float("nan") if cfg.height is None else float(cfg.height))
-    result.kinematics_blocks = kinematics_chunks(filtered, fps, cutoff, units, rotation=turn)
-    if _spine_built_on_trunk_line(cam):  # an angle the layout cannot measure is empty, not 0
-        result.kinematics_blocks = _without(result.kinematics_blocks, NEEDS_SPINE_JOINT)
+    # rectification put the poses up (a body inverted for most of a take is read as such)
+    result.kinematics_blocks = kinematics_chunks(filtered, fps, cutoff, units, rotation=turn, check_up=False)
+    if _spine_built_on_trunk_line(cam):  # the kinematics leave that angle empty, not 0: say why
         why = ("the input's spine joint lies on the pelvis-thorax line (built there, no spine of its own), so that "
                "angle is 0 by construction")
-        result.empty_angles = {name: why for name in NEEDS_SPINE_JOINT}
-        notes.append(f"trunk_flexion_to_pelvis_deg left empty: {why}")
+        result.empty_angles = {name.removesuffix("_deg"): why for name in NEEDS_SPINE_JOINT}
+        notes.append(f"{', '.join(NEEDS_SPINE_JOINT)} left empty: {why}")
     # motion no person makes (joint speeds and accelerations beyond the fitted limits): before
     # the table, whose implausible_motion column marks its frames
     unchecked = motion_check_note(units, fps)

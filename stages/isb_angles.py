@@ -160,7 +160,9 @@ POSITIVE_SIGN: Mapping[str, str] = MappingProxyType({
 
 #: Frames and rotation sequence of every column (for the data dictionary).
 DEFINITIONS: Mapping[str, str] = MappingProxyType({
-    "trunk_flexion_to_pelvis_deg": "thorax relative to pelvis, intrinsic Z-X'-Y'' (JCS: pelvis Z, floating, thorax Y), minus the first angle",
+    "trunk_flexion_to_pelvis_deg": "thorax relative to pelvis, intrinsic Z-X'-Y'' (JCS: pelvis Z, floating, thorax Y), "
+                                   "minus the first angle; empty where the spine joint lies on the pelvis-thorax line "
+                                   "(built there, as Kinect's and MediaPipe's conversions do: 0 by construction)",
     "trunk_lateral_bending_to_pelvis_deg": "thorax relative to pelvis, intrinsic Z-X'-Y'', second angle",
     "trunk_axial_rotation_to_pelvis_deg": "thorax relative to pelvis, intrinsic Z-X'-Y'', third angle",
     "trunk_flexion_to_gravity_deg": "thorax relative to the heading frame (+Y up, Z = horizontal part of the thorax Z), intrinsic Z-X'-Y'', minus the first angle",
@@ -413,6 +415,26 @@ def _mirror(X: np.ndarray) -> np.ndarray:
     return (X * _MIRROR)[:, _SWAP_LR]
 
 
+#: A spine joint within this fraction of the trunk's length (pelvis -> thorax) of that line is
+#: not a measured joint but built on the line (Kinect's and MediaPipe's conversions put it at
+#: the midpoint): float32 rounding is ~1e-6 of it, a lifter's own spine joint is centimetres
+#: off the line. There the pelvis Y and the thorax Y share the plane of the trunk and the hip
+#: line, so the thorax's flexion relative to the pelvis is 0 by construction, not measured.
+SPINE_ON_LINE_FRACTION = 1e-4
+#: The angles that need a spine joint off the pelvis-thorax line (:data:`SPINE_ON_LINE_FRACTION`).
+NEEDS_SPINE_JOINT = ("trunk_flexion_to_pelvis_deg",)
+
+
+def spine_off_trunk_line(joints: np.ndarray) -> np.ndarray:
+    """The spine joint's distance from the pelvis-thorax line over the trunk's length, per frame,
+    of H36M-17 poses ``(T, 17, 3)`` (any frame, any unit): ``(T,)`` float64, NaN where the
+    pelvis, spine or thorax is missing."""
+    J = np.asarray(joints, np.float64)
+    trunk, spine = J[:, THORAX] - J[:, PELVIS], J[:, SPINE] - J[:, PELVIS]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.linalg.norm(np.cross(spine, trunk), axis=-1) / np.sum(trunk * trunk, axis=-1)
+
+
 def isb_joint_angles(joints: np.ndarray, check_up: bool = True) -> dict[str, np.ndarray]:
     """ISB joint angles (degrees) of H36M-17 poses.
 
@@ -444,7 +466,9 @@ def isb_joint_angles(joints: np.ndarray, check_up: bool = True) -> dict[str, np.
         dict ``name -> (T,)`` float64 degrees, keys in :data:`NAMES` order; NaN where a
         needed joint is NaN, a frame is degenerate (:data:`MIN_AXIS_ANGLE_DEG`), an axial
         rotation's limb plane is undefined (:data:`MIN_BEND_DEG`) or near gimbal lock
-        (:data:`GIMBAL_MARGIN_DEG`). Meaning of each sign: :data:`POSITIVE_SIGN`.
+        (:data:`GIMBAL_MARGIN_DEG`), and, for :data:`NEEDS_SPINE_JOINT`, where the spine
+        joint lies on the pelvis-thorax line (:data:`SPINE_ON_LINE_FRACTION`: built there, so
+        the angle would be 0 by construction). Meaning of each sign: :data:`POSITIVE_SIGN`.
 
         check_up: refuse poses whose trunk points down in most frames
             (:func:`pcnet.stages.kinematics.require_y_up`: camera-frame poses, +Y down, whose
@@ -468,6 +492,9 @@ def isb_joint_angles(joints: np.ndarray, check_up: bool = True) -> dict[str, np.
     for key in right:
         out[f"left_{key}"] = left[key]
         out[f"right_{key}"] = right[key]
+    built = spine_off_trunk_line(X) <= SPINE_ON_LINE_FRACTION
+    for name in NEEDS_SPINE_JOINT:
+        out[name] = np.where(built, np.nan, out[name])
     return {name: np.asarray(out[name], dtype=np.float64) for name in NAMES}
 
 

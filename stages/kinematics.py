@@ -62,7 +62,7 @@ from .core.canonical import canonical_rotation, to_canonical
 from .isb_angles import MAX_KNEE_HYPEREXTENSION_DEG, isb_joint_angles
 from .core.rotations import angle_between, procrustes_rotation
 from .core.errors import InputError
-from .core.framestore import arrays_repr, freeze_arrays, restore_frozen, true_runs
+from .core.framestore import arrays_repr, frame_blocks, freeze_arrays, restore_frozen, true_runs
 
 # ---------------------------------------------------------------------------------------
 # contiguous finite runs
@@ -121,10 +121,10 @@ def _lowpass_design(fps: float, cutoff_hz: float, order: int) -> tuple[np.ndarra
         raise InputError(
             f"cutoff_hz must lie in (0, fps/2) = (0, {fps / 2:g}) Hz (Nyquist), got {cutoff_hz!r}"
         )
-    if order < 2 or order % 2:
+    if not isinstance(order, (int, np.integer)) or isinstance(order, bool) or order < 2 or order % 2:
         raise InputError(
-            f"order is the order of the zero-phase (dual-pass) result and must be even and "
-            f">= 2, got {order!r}"
+            f"order is the order of the zero-phase (dual-pass) result and must be an even integer "
+            f">= 2, got {type(order).__name__} {order!r}"[:300]
         )
     per_pass = order // 2
     design = _design_cutoff(fps, cutoff_hz, passes=2, order_per_pass=per_pass)
@@ -1134,6 +1134,17 @@ def compute_kinematics(
 ROTATION_TOLERANCE = 1e-4
 
 
+def _canonical_in_blocks(X, rotation) -> np.ndarray:
+    """Camera-frame poses ``X`` turned into the canonical frame by ``rotation`` (each ``(T, ...)``,
+    in memory or on disk) a block of frames at a time, as :func:`compute_kinematics`' up check
+    reads them (a frame without a proper rotation NaN)."""
+    out = np.full((len(X), *np.shape(X)[1:]), np.nan)
+    for rows in frame_blocks(len(X)):
+        turn = _proper_rotations(rotation[rows], rows.start)
+        out[rows] = to_canonical(fill_pelvis_from_hips(np.asarray(X[rows], np.float64))[0], turn)
+    return out
+
+
 def _proper_rotations(R: np.ndarray, first_frame: int = 0) -> np.ndarray:
     """``R`` ``(T, 3, 3)`` (frames from ``first_frame`` on) as float64, a frame with any
     non-finite entry all NaN (no rotation).
@@ -1347,6 +1358,7 @@ def kinematics_chunks(
     order: int = 4,
     chunk_frames: int | None = None,
     rotation: np.ndarray | None = None,
+    check_up: bool = True,
 ) -> Iterator[Kinematics]:
     """:func:`compute_kinematics` of a long recording as consecutive chunks of at most
     ``chunk_frames`` frames, so memory stays bounded by the chunk, not the recording.
@@ -1366,6 +1378,8 @@ def kinematics_chunks(
         chunk_frames: frames per yielded chunk (> 0); default :data:`CHUNK_FRAMES`.
         rotation: optional ``(T, 3, 3)`` canonical -> camera rotations (in memory or on disk):
             ``poses`` are then camera-frame poses, as :func:`compute_kinematics`'s ``rotation``.
+        check_up: as :func:`compute_kinematics`' (over the whole recording, before the first
+            chunk).
 
     Yields:
         :class:`Kinematics` of frames ``[0, c), [c, 2c), ...``, with their
@@ -1373,19 +1387,24 @@ def kinematics_chunks(
         the next is computed: its last frame's rate needs the next one's first angle).
 
     Raises:
-        InputError: as :func:`compute_kinematics` (the units checked once, over the whole
-            recording), or ``chunk_frames < 1``.
+        InputError: as :func:`compute_kinematics` (the units, the finite coordinates and the
+            up checked once, over the whole recording, before the first chunk), or
+            ``chunk_frames`` not an integer >= 1.
     """
     X = check_poses(poses, "poses")
     if rotation is not None:
         rotation = _checked_rotation(rotation, len(X))
     chunk_frames = CHUNK_FRAMES if chunk_frames is None else chunk_frames
-    if chunk_frames < 1:
-        raise InputError(f"chunk_frames must be >= 1, got {chunk_frames!r}")
+    if not isinstance(chunk_frames, (int, np.integer)) or isinstance(chunk_frames, bool) or chunk_frames < 1:
+        raise InputError(f"chunk_frames: expected an integer >= 1, got {type(chunk_frames).__name__} {chunk_frames!r}"[:300])
     if not len(X):
         raise InputError("poses: expected at least one frame, got 0")
     fps = validate_fps(fps, "fps")
+    if not any(np.isfinite(X[rows]).any() for rows in frame_blocks(len(X))):  # as compute_kinematics
+        raise InputError("poses: expected some finite joint coordinates, got only NaN/inf")
     _require_units(X, units, "poses")  # once, over the whole recording: a chunk's median is not the recording's
+    if check_up:
+        require_y_up(X if rotation is None else _canonical_in_blocks(X, rotation), "poses")
     pad = settle_frames(fps, cutoff_hz, order)
     T = len(X)
     previous: dict[str, float] | None = None  # the last frame's angles, continued by the next chunk

@@ -10,6 +10,7 @@ from conftest import FIXTURES, shared
 from pcnet.models.datasets import load_mocap
 from pcnet.stages.core.conventions import (
     L_ANKLE,
+    PELVIS,
     L_ELBOW,
     L_HIP,
     L_KNEE,
@@ -29,9 +30,12 @@ from pcnet.stages.isb_angles import (
     MAX_KNEE_HYPEREXTENSION_DEG,
     MIN_BEND_DEG,
     NAMES,
+    NEEDS_SPINE_JOINT,
     POSITIVE_SIGN,
+    SPINE_ON_LINE_FRACTION,
     isb_joint_angles,
     isb_segment_frames,
+    spine_off_trunk_line,
 )
 from scipy.spatial.transform import Rotation
 
@@ -107,9 +111,10 @@ def test_neutral_skeleton_is_zero():
         assert a[f"{side}_knee_flexion_deg"] == pytest.approx(20, abs=1e-6)
         assert a[f"{side}_shoulder_elevation_deg"] == pytest.approx(0, abs=1e-6)
         assert a[f"{side}_elbow_flexion_deg"] == pytest.approx(0, abs=1e-6)
-    for name in ("trunk_flexion_to_pelvis_deg", "trunk_lateral_bending_to_pelvis_deg",
-                 "trunk_axial_rotation_to_pelvis_deg", *GRAVITY):
+    for name in ("trunk_lateral_bending_to_pelvis_deg", "trunk_axial_rotation_to_pelvis_deg", *GRAVITY):
         assert a[name] == pytest.approx(0, abs=1e-6)
+    # this skeleton's spine lies on the pelvis-thorax line, where that flexion is 0 by construction
+    assert np.isnan(a["trunk_flexion_to_pelvis_deg"])
 
 
 # ---------------------------------------------------------------------------------------
@@ -318,7 +323,7 @@ def test_trunk_relative_to_pelvis_and_gravity():
     whole = Rotation.from_rotvec(np.radians(-25) * Z_AXIS).apply(neutral())
     a = angles(whole)
     assert a["trunk_flexion_to_gravity_deg"] == pytest.approx(25, abs=1e-6)
-    assert a["trunk_flexion_to_pelvis_deg"] == pytest.approx(0, abs=1e-6)
+    assert np.isnan(a["trunk_flexion_to_pelvis_deg"])  # the spine on the trunk line: not measured
     assert a["right_hip_flexion_deg"] == pytest.approx(0, abs=1e-6)
 
 
@@ -405,7 +410,8 @@ def test_segment_frames_are_rotations_and_match_angles():
 
 
 def test_nan_joint_gives_nan_angles_only_where_needed():
-    pose = rotate(neutral(), [R_ANKLE], R_KNEE, Z_AXIS, -30)
+    pose = rotate(neutral(), UPPER_BODY, SPINE, Z_AXIS, -10)  # a spine off the trunk line: every angle measured
+    pose = rotate(pose, [R_ANKLE], R_KNEE, Z_AXIS, -30)
     pose = rotate(pose, [L_ANKLE], L_KNEE, Z_AXIS, -30)
     pose = rotate(pose, R_ARM, R_SHOULDER, X_AXIS, -45)
     pose = rotate(pose, L_ARM, L_SHOULDER, X_AXIS, 45)
@@ -454,10 +460,10 @@ def test_degenerate_frames_are_nan():
     assert np.isnan(out["right_hip_internal_rotation_deg"])
     assert out["right_knee_flexion_deg"] == pytest.approx(MIN_BEND_DEG - 1, abs=1e-6)
     # Thorax lying on its side (thorax Z vertical): no heading, trunk-to-gravity NaN
-    side = Rotation.from_rotvec(np.radians(90) * X_AXIS).apply(neutral())
+    side = Rotation.from_rotvec(np.radians(90) * X_AXIS).apply(rotate(neutral(), UPPER_BODY, SPINE, Z_AXIS, -10))
     out = angles(side)
     assert np.isnan(out["trunk_flexion_to_gravity_deg"])
-    assert out["trunk_flexion_to_pelvis_deg"] == pytest.approx(0, abs=1e-6)
+    assert out["trunk_flexion_to_pelvis_deg"] == pytest.approx(10, abs=1e-6)  # relative to the pelvis: kept
 
 
 @pytest.mark.parametrize("bad", [np.zeros((5, 16, 3)), np.zeros((5, 17, 2)), np.zeros(17), np.zeros((2, 3, 17, 3))])
@@ -489,7 +495,11 @@ def test_empty_and_integer_input():
 @pytest.mark.parametrize("clip", real_clips(), ids=lambda c: c.name)
 def test_real_mocap_ranges(clip):
     out = isb_joint_angles(clip.joints)
+    built = np.nanmax(spine_off_trunk_line(clip.joints)) <= SPINE_ON_LINE_FRACTION  # DeepMimic's H36M-17 spine
     for n, v in out.items():
+        if built and n in NEEDS_SPINE_JOINT:
+            assert np.isnan(v).all(), f"{clip.name}: {n} measured without a spine of its own"
+            continue
         assert np.isfinite(v).any(), f"{clip.name}: {n} is all NaN"
     for side in ("left", "right"):
         knee = out[f"{side}_knee_flexion_deg"]
@@ -508,3 +518,22 @@ def test_real_mocap_ranges(clip):
             assert np.nanmin(hip) < 0 and 20 < np.nanmax(hip) < 45
             assert np.nanmax(out[f"{side}_knee_flexion_deg"]) > 50
         assert np.nanmax(np.abs(out["trunk_flexion_to_gravity_deg"])) < 15
+
+
+def test_a_spine_built_on_the_trunk_line_leaves_trunk_flexion_to_pelvis_empty():
+    """Kinect's and MediaPipe's conversions build the spine on the pelvis-thorax line, where the
+    thorax's flexion relative to the pelvis is 0 by construction: a developer trial got that
+    constant from the API while `pcnet run` left the column empty. Real mocap keeps it."""
+    from pcnet.stages.kinematics import compute_kinematics
+
+    clip = next(c for c in load_mocap(FIXTURES / "bandai_small.npz") if "bow" in c.name)
+    X = clip.joints.astype(np.float64)
+    built = X.copy()
+    built[:, SPINE] = 0.5 * (X[:, PELVIS] + X[:, THORAX])
+    built[:10, SPINE] += 0.02  # a spine of its own in the first frames
+    own, on_line = isb_joint_angles(X)["trunk_flexion_to_pelvis_deg"], isb_joint_angles(built)["trunk_flexion_to_pelvis_deg"]
+    assert np.isfinite(own).all() and np.ptp(own) > 5.0
+    assert np.isfinite(on_line[:10]).all() and np.isnan(on_line[10:]).all()
+    rates = compute_kinematics(built, clip.fps, cutoff_hz=None).angle_rates["trunk_flexion_to_pelvis"]
+    assert np.isnan(rates[10:]).all()
+    assert np.isfinite(isb_joint_angles(built)["trunk_axial_rotation_to_pelvis_deg"]).all()

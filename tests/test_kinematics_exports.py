@@ -1024,6 +1024,27 @@ def test_kinematics_in_chunks_equal_the_whole_recording(yoga_level, fps, cutoff,
         short.result()
 
 
+def test_kinematics_in_chunks_refuse_what_the_whole_recording_refuses(yoga_level, yoga_cam):
+    """A developer trial fed kinematics_chunks camera-frame poses (+Y down) and all-NaN poses,
+    which compute_kinematics refuses, and got a trunk inclination of 175 deg and an empty
+    chunk; an order or chunk size of the wrong type raised a bare TypeError."""
+    X = yoga_cam[:200].astype(np.float64)
+    with pytest.raises(InputError, match="expected Y-up poses"):
+        compute_kinematics(X, 30.0)
+    with pytest.raises(InputError, match="poses: expected Y-up poses"):
+        next(kinematics_chunks(X, 30.0, chunk_frames=50))
+    assert len(list(kinematics_chunks(X, 30.0, chunk_frames=50, check_up=False))) == 4  # an inverted body, said
+    with pytest.raises(InputError, match="expected some finite joint coordinates"):
+        next(kinematics_chunks(np.full((50, 17, 3), np.nan), 30.0))
+    level = yoga_level[:100]
+    for bad in (2.5, "50", 0, True):
+        with pytest.raises(InputError, match="chunk_frames: expected an integer >= 1"):
+            next(kinematics_chunks(level, 30.0, chunk_frames=bad))
+    for bad in ("4", 3, 4.0):
+        with pytest.raises(InputError, match="order is the order"):
+            compute_kinematics(level, 30.0, order=bad)
+
+
 def test_a_body_lying_on_its_side_keeps_its_heading_free_angles(yoga_cam):
     """A real standing pose laid on its side (hip line vertical): the pelvis-heading frame
     and the plane inclinations are undefined, but the trunk's inclination (about 90 deg) and
