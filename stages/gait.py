@@ -230,13 +230,17 @@ def _refined(y: np.ndarray, k: np.ndarray) -> np.ndarray:
 
 
 def _extrema(s: np.ndarray, distance: int) -> tuple[np.ndarray, np.ndarray]:
-    """Maxima and minima of ``s`` (frames, sub-frame refined) within each run of finite frames:
-    an extremum at a run's edge is not one (the motion before it is unseen)."""
+    """Maxima and minima of ``s`` (frames, sub-frame refined) within each run of finite frames,
+    each the extremum of the ``distance`` frames either side: one nearer a run's edge is not
+    known to be one (the motion beyond the edge is unseen, and a person entering the picture
+    or a track starting gives its first frames' settling; a real walk's first strike came a
+    third of a step early)."""
     maxima, minima = [], []
     for start, stop in true_runs(np.isfinite(s)):
         run = s[start:stop]
         for out, sign in ((maxima, 1.0), (minima, -1.0)):
             k, _ = find_peaks(sign * run, distance=distance)
+            k = k[(k >= distance) & (k < len(run) - distance)]
             out.append(start + _refined(run, k))
     return np.concatenate(maxima or [np.zeros(0)]), np.concatenate(minima or [np.zeros(0)])
 

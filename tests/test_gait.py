@@ -50,16 +50,21 @@ def test_a_walks_strikes_alternate_and_land_near_the_ground():
     assert 55 < summary.left.stance_percent < 70 and 55 < summary.right.stance_percent < 70  # walking: ~60 %
 
 
-def test_footprint_step_lengths_give_the_pelvis_speed():
+@pytest.mark.parametrize("name", [WALK, "dataset-2_run_masculine_037"])
+def test_footprint_step_lengths_give_the_pelvis_speed(name):
     """Step length (footprint to footprint) and step time give the speed at which the pelvis
-    itself travels: two independent readings of one walk."""
-    joints = _clip(WALK)
+    itself travels: two independent readings of one walk or run. They agree within 6 % on
+    this turning walk's five steps (its curve) and 2 % on the straight run; the ankles'
+    separation at the strikes, which the footprints replaced, falls further short."""
+    joints = _clip(name)
     _, step_list, summary = _walk_summary(joints)
     timed = [s for s in step_list if np.isfinite(s.step_length)]
     t0, t1 = timed[0].time_s - timed[0].step_time_s, timed[-1].time_s
     k = np.arange(int(round(t0 * FPS)), int(round(t1 * FPS)) + 1)
     path = np.linalg.norm(np.diff(joints[k, PELVIS][:, [0, 2]], axis=0), axis=1).sum()
-    assert summary.walking_speed == pytest.approx(path / (k[-1] - k[0]) * FPS, rel=0.05)
+    assert summary.walking_speed == pytest.approx(path / (k[-1] - k[0]) * FPS, rel=0.07 if name == WALK else 0.02)
+    if name != WALK:
+        return
     assert 0.5 < np.mean([s.step_length for s in timed]) < 1.0
     # without a path (a root-relative pose) there is no step length, and no speed
     unseen = summarise(*(lambda e: (e, steps(e, joints, np.zeros(len(joints), bool))))(gait_events(joints, FPS)))
@@ -281,13 +286,17 @@ def test_pcnet_gait_refuses_what_it_cannot_read(tmp_path):
 
 
 def test_a_stride_across_a_gap_is_not_one(tmp_path):
-    """The person out of view for 20 frames in mid-walk: no step, stride or cycle spans the gap."""
+    """The person out of view for half a second in mid-walk: no step, stride or cycle spans the
+    gap (the walk, the gap, then the walk again: each side has strikes)."""
     from pcnet.pipeline.gait import analyse
 
-    joints = _clip(WALK).copy()
-    joints[50:70] = np.nan
+    walk = _clip(WALK)
+    joints = np.concatenate([walk, np.full((15, 17, 3), np.nan), walk])
     result = analyse(_run_folder(tmp_path / "r", joints, np.zeros(0)))
-    gap = (50 / FPS, 70 / FPS)
+    gap = (len(walk) / FPS, (len(walk) + 15) / FPS)
+    for side in SIDES:
+        strikes = result.events.foot(side).strikes_s
+        assert (strikes < gap[0]).sum() >= 2 and (strikes > gap[1]).sum() >= 2
     for s in result.steps:
         for start in (s.time_s - s.step_time_s, s.time_s):
             end = s.time_s if start < s.time_s else s.time_s + s.stride_time_s
