@@ -23,7 +23,7 @@ Walking and running move the two feet in antiphase: while one swings forward rel
 pelvis the other, on the ground, moves back. A recording whose two signals are not
 negatively correlated (Pearson, over the frames with both) is refused: standing, jumping or
 turning on the spot moves both ankles together with the pelvis. (On the Bandai mocap,
-clean, with the rest of this method: 1,019 of 1,022 forward walks and runs accepted and 1,999
+clean, with the rest of this method: 1,019 of 1,022 forward walks and runs accepted and 2,000
 of 2,009 in-place clips refused; `python -m benchmarks.gait_validation`.)
 
 A step carries the swing foot from behind the stance foot to ahead of it, so a maximum of
@@ -37,7 +37,9 @@ and held-out walks are unchanged by it) is refused.
 Nothing is tuned. Two extrema of the same kind on one foot are at least half a stride
 apart, the stride ``P`` being the lag of the highest peak of the signals' biased
 autocorrelation (both feet averaged, pooled over the runs of frames with both signals) below
-half those frames; half the period is the separation that leaves equal room either side. A recording
+half those frames; half the period is the separation that leaves equal room either side, and
+an extremum counts only with that room inside its run of frames (nearer a run's edge the
+motion beyond it is unseen). A recording
 without a positive autocorrelation peak there has no gait cycle to find (:class:`GaitError`).
 Event times are refined within the frame by the parabola through the extremum and its two
 neighbours (the standard three-point peak interpolation).
