@@ -468,7 +468,7 @@ def _run_and_report(cfg, strict: bool = False) -> None:
 @_heading_option
 @_camera_prior_option
 @_posture_option
-@click.option("--height", type=_NUMBER, default=None, help="Subject height in metres: every lifter's output is scaled to it (normalised output gets metres; metric output is rescaled to this subject), by one factor from the median ankle-to-head chain, taken as H36M's share of stature (an individual's differs by several per cent).")
+@click.option("--height", type=_NUMBER, default=None, help="Subject height in metres: every lifter's output is scaled to it (normalised output gets metres; metric output is rescaled to this subject), by one factor from the median ankle-to-head chain, taken as H36M's share of stature (an individual's differs by several per cent); a skeleton without that chain's joints (Kinect v1 has no nose) cannot be, and a depth sensor's is in metres already.")
 @click.option("--fps", type=_NUMBER, default=None,
               help="Frame rate when neither the video nor the input files give it.")
 @click.option("--fps-override", is_flag=True, default=None,

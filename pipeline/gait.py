@@ -260,7 +260,8 @@ def analyse(folder: Path) -> GaitResult:
     try:
         events = gait_events(run.joints, run.fps)
     except GaitError as err:
-        raise GaitError(f"{folder / 'canonical.npz'}: field 'joints_world': {err}") from None
+        raise GaitError(f"{folder / 'canonical.npz'}: field 'joints_world' (the run's world-frame poses): {err}") \
+            from None
     reason = step_length_reason(run)
     step_list = steps(events, run.joints, run.on_path if reason is None else np.zeros_like(run.on_path))
     angles = read_cycle_angles(folder, len(run.joints))

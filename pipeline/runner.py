@@ -1455,7 +1455,14 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
                          f"{change:.2f}-fold (the person's size in the image; largest to smallest of its "
                          f"running median over {SIZE_WINDOW_S:g} s, stages/scale.py: size_normalising_factors)")
     if cfg.height is not None:
-        factor = height_factor(cam, cfg.height, who=f"{cfg.lifter_output}: --height")
+        try:
+            factor = height_factor(cam, cfg.height, who=f"{cfg.lifter_output}: --height")
+        except InputError as err:
+            if root_cam is None:
+                raise
+            # a trial gave Kinect v1 (no nose joint) a height, which --height's chain cannot measure
+            raise InputError(f"{err}; --lifter {cfg.lifter} is a depth sensor's skeleton, in metres already: leave "
+                             f"out --height") from None
         _scaled_in_place(cam, factor)
         thigh = thigh_beyond_metres(cam)
         if thigh is not None:  # the stature's share came out of the wrong joints (a developer trial's COCO order)

@@ -1003,6 +1003,9 @@ def _require_units(X, units: object, field: str) -> None:
         raise InputError(f"units: expected a length unit's name (one of {', '.join(map(repr, known))}), got {units!r}")
     scale = METRES_PER_LENGTH_UNIT.get(units)
     thigh = thigh_beyond_metres(X, scale) if scale is not None else None
+    if thigh == 0.0:  # rectify calls these placeholders too (validate_poses)
+        raise InputError(f"{field}: expected poses with a body's size, got every thigh 0 long: a writer's "
+                         f"placeholders (zeros) for missing joints? give missing joints as NaN")
     if thigh is not None:
         said = "metres" if units == "m" else f"{units!r}"
         smaller = "centimetres or millimetres" if units == "m" else "a smaller unit"

@@ -148,7 +148,7 @@ def time_spans(times: np.ndarray, flagged: np.ndarray) -> list[tuple[float, floa
 
 def _spans_text(spans) -> str:
     """At most three spans as ``a-b s``, and how many more."""
-    text = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in spans[:3])
+    text = ", ".join(f"{a:.2f} s" if f"{a:.2f}" == f"{b:.2f}" else f"{a:.2f}-{b:.2f} s" for a, b in spans[:3])
     return text + (f" and {len(spans) - 3} more" if len(spans) > 3 else "")
 
 

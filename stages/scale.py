@@ -42,6 +42,7 @@ import numpy as np
 from scipy.ndimage import median_filter
 
 from .core.conventions import (
+    H36M_JOINTS,
     HEAD,
     L_ANKLE,
     L_ELBOW,
@@ -139,8 +140,16 @@ def _measurable_chain(joints: np.ndarray, who: str) -> tuple[np.ndarray, np.ndar
     chain = height_chain_length(joints)
     good = np.isfinite(chain) & (chain > 0)
     if not good.any():
+        X = check_poses(joints, "joints")
+        seen = {j: bool(np.isfinite(np.asarray(X[:, j], np.float64)).all(axis=-1).any())
+                for j in {*(j for bones in _LEG_BONES for bone in bones for j in bone), *np.ravel(_AXIAL_BONES)}}
+        legs = [[j for bone in bones for j in bone] for bones in _LEG_BONES]
+        absent = [H36M_JOINTS[j] for bones in _AXIAL_BONES for j in bones if not seen[j]] + \
+            ([f"{H36M_JOINTS[j]}/{H36M_JOINTS[k]}" for j, k in zip(*legs) if not (seen[j] or seen[k])])
+        why = f": {', '.join(dict.fromkeys(absent))} missing in every frame (the input's skeleton has no such joint)" \
+            if absent else ""
         raise InputError(f"{who}: no frame has a complete ankle-knee-hip / pelvis-spine-thorax-neck_nose-head chain, "
-                         f"so the skeleton size cannot be estimated")
+                         f"so the skeleton size cannot be estimated{why}")
     return chain, good
 
 

@@ -1043,6 +1043,9 @@ def test_kinematics_in_chunks_refuse_what_the_whole_recording_refuses(yoga_level
     for bad in ("4", 3, 4.0):
         with pytest.raises(InputError, match="order is the order"):
             compute_kinematics(level, 30.0, order=bad)
+    # a writer's zeros for every joint are placeholders, as rectify calls them, not a unit
+    with pytest.raises(InputError, match="placeholders"):
+        compute_kinematics(np.zeros((5, 17, 3)), 30.0)
 
 
 def test_a_body_lying_on_its_side_keeps_its_heading_free_angles(yoga_cam):

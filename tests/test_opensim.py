@@ -473,6 +473,15 @@ def test_a_batch_row_can_ask_for_opensim(tmp_path):
     assert res.exit_code == 1 and "column mass: expected together with opensim" in res.output, res.output
 
 
+def test_the_fit_line_gives_a_one_frame_span_as_one_time():
+    """A trial read "1.52-1.52 s" for one frame above the RMS limit."""
+    from pcnet.stages.opensim_ik import opensim_fit_line
+
+    fit = {"frames_without_markers": 0, "frames_above_rms_limit": 2, "above_rms_limit_s": [(1.52, 1.52), (2.0, 2.5)],
+           "frames": 60, "marker_rms_m": 0.015, "marker_max_m": 0.04, "frames_per_s": 30.0, "scale_seconds": 1.0}
+    assert "2 frames above 2 cm RMS (1.52 s, 2.00-2.50 s)" in opensim_fit_line(fit)
+
+
 def test_a_poor_ik_fit_is_flagged():
     """OpenSim's best-practice checklist asks of IK an RMS marker error under ~2 cm; a fit as
     poor as a real cycling MotionBERT file's (17.1 cm RMS, 87.4 cm max, `pcnet run --opensim`)

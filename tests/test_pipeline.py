@@ -885,6 +885,7 @@ def test_short_recordings_and_hidden_feet_are_flagged(tmp_path):
                   "--height", "1.75", "--no-recording", "--out", tmp_path / "c")
     assert res.exit_code == 1 and not (tmp_path / "c").exists()
     assert f"{tmp_path / 'no_feet.npy'}: --height: no frame has a complete ankle" in res.output
+    assert "right_ankle/left_ankle missing in every frame" in res.output and "depth sensor" not in res.output
 
 
 def test_a_measured_root_lets_sequence_mode_fit_the_floor(tmp_path):
@@ -1613,6 +1614,17 @@ def test_a_run_logged_to_a_file_says_which_stage_it_is_in(tmp_path, monkeypatch,
     assert all(runner.STEPS[int(m[2]) - 1] == m[1] for m in found)
 
 
+def test_height_for_a_depth_sensor_without_a_nose_says_why_and_what_to_do(tmp_path):
+    """A trial gave a Kinect v1 recording (no nose joint) --height, which the ankle-to-head
+    chain cannot measure there: the line names the joint and says the skeleton is metric."""
+    path = shared("real", "utd_mhad_imu", "a05_s1_t1.npz")
+    res = _invoke("run", "--lifter", "kinect_v1", "--lifter-output", path, "--height", "1.75", "--no-recording",
+                  "--out", tmp_path / "k")
+    assert res.exit_code == 1 and not (tmp_path / "k").exists()
+    assert "neck_nose missing in every frame (the input's skeleton has no such joint); --lifter kinect_v1 is a " \
+           "depth sensor's skeleton, in metres already: leave out --height" in res.output, res.output
+
+
 def test_a_depth_sensors_mirrored_skeleton_is_asked_about_the_subject_not_the_readers_options(tmp_path):
     """An IMU trial's UTD-MHAD file (Kinect v1, subject facing the sensor, knees read
     hyperextended) got the mirror warning with the generic reader's options, which kinect_v1
@@ -1625,6 +1637,8 @@ def test_a_depth_sensors_mirrored_skeleton_is_asked_about_the_subject_not_the_re
            "face away from the sensor?" in res.output, res.output
     assert "odds" not in res.output.split("did the subject face away")[0].splitlines()[-1]  # the mocap's, not here
     assert "--axes" not in res.output
+    report = (tmp_path / "o" / "report.md").read_text()  # an action asked as a question ends with its mark
+    assert "Action: did the subject face away from the sensor?\n" in report and "sensor?." not in report
 
 
 @pytest.mark.slow
