@@ -37,7 +37,7 @@ from pcnet.stages.core.errors import InputError, close_names, refuse
 
 from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, read_batch_marker,
                            record_status, renamed_inputs, settings_change)
-from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS, cpu_cores, error_line
+from .batch_worker import FINDINGS, PER_COLUMN_FIELDS, RESULT_FIELDS, RUN_FIELDS, cpu_cores, error_line
 from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, pcnet_version, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .io import close_file
@@ -328,6 +328,8 @@ class PlannedRow:
     rerun: str = ""
     #: The manifest that wrote the earlier output this row would run again over, where another.
     written_by: str = ""
+    #: What `pcnet gait` and `pcnet opensim` made from that earlier output, gone with it.
+    made_from_it: tuple[str, ...] = ()
 
     @property
     def out(self) -> Path:
@@ -676,6 +678,7 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
                 item.config["overwrite"] = True
                 item.rerun = changed
                 item.written_by = _other_manifest(record, item.out, manifest)
+                item.made_from_it = _made_from_the_output(item.out, item.config)
                 return
             item.action = "skip"
             # with how it ran (a trial: a no-op re-run lost every row's timing)
@@ -698,6 +701,19 @@ def _decide(item: PlannedRow, options: BatchOptions, previous: dict[str, dict] |
         item.config["overwrite"] = True  # our own earlier output of changed inputs or settings
         item.rerun = why
         item.written_by = _other_manifest(earlier, item.out, manifest)
+        item.made_from_it = _made_from_the_output(item.out, item.config)
+
+
+def _made_from_the_output(out: Path, config: dict) -> tuple[str, ...]:
+    """The files of ``out`` that `pcnet gait` and `pcnet opensim` made from a row's earlier
+    output, which replacing it removes (a study trial lost its gait table's sources with no
+    word), less those the row's own run writes again (its ``opensim``)."""
+    from pcnet.stages.opensim_ik import OUTPUTS as OPENSIM_OUTPUTS
+
+    from .gait import OUTPUTS as GAIT_OUTPUTS
+
+    names = GAIT_OUTPUTS + (() if config.get("opensim") else OPENSIM_OUTPUTS)
+    return tuple(name for name in names if (out / name).is_file())
 
 
 def manifest_from(out: str | os.PathLike, manifest: str | os.PathLike) -> str:
@@ -905,7 +921,7 @@ class _SummaryWriter:
             return
         self.last = now
         if len(rows) > SUMMARY_EVERY_RESULT_ROWS and not extra.get("finished"):
-            rows = [{k: v for k, v in r.items() if k != "angles"} for r in rows]
+            rows = [{k: v for k, v in r.items() if k not in PER_COLUMN_FIELDS} for r in rows]
         counts = {status: sum(r["status"] == status for r in rows) for status in (*STATUSES, "pending")}
         data = {**self.header, **extra, "counts": counts, "rows": rows}
         write_text(self.path, json.dumps(data, indent=1) + "\n")
@@ -1052,7 +1068,11 @@ def progress_lines(done: int, total: int, item: PlannedRow, result: dict) -> str
     report."""
     detail = str(item.out) if result["status"] == "ok" else result["error"]
     if result["status"] == "ok" and item.rerun:  # the earlier output, an OpenSim fit included, is gone
-        detail += f" (ran again: {item.rerun}; its earlier output replaced)"
+        made = item.made_from_it
+        shown = ", ".join(made[:4]) + (f" and {len(made) - 4} more" if len(made) > 4 else "")
+        detail += (f" (ran again: {item.rerun}; its earlier output replaced"
+                   + (f", with what pcnet gait or pcnet opensim made from it ({shown}): run them again" if made else "")
+                   + ")")
     took = f" {result['seconds']:.1f} s" if result.get("seconds") is not None else ""
     head = f"[{done}/{total}] line {item.line} {result['status']}{took}: {detail}"
     found = _finding_lines(result.get(FINDINGS), result.get("warnings") or [])

@@ -27,10 +27,13 @@ FINDINGS = "findings"
 #: tilt's uncertainty and what it is (:func:`pcnet.pipeline.checks.tilt_tolerance`: a batch trial
 #: found "not calibrated for this recording" only by opening each report.md); each joint angle's
 #: median, least and greatest value (report.md's table: a lab trial opened every kinematics.csv
-#: to compare subjects).
+#: to compare subjects), and each angle rate's least and greatest (its peaks either way: a study
+#: trial opened every report.md for the peak angular velocities).
 RESULT_FIELDS = ("frames", "valid", "mode", "units", "camera_tilt_deg", "camera_tilt_uncertainty_deg",
                  "camera_tilt_uncertainty", "posture", "root_path", "floor", "warnings", "notes", "opensim_rms_cm",
-                 "angles")
+                 "angles", "angle_rates")
+#: The fields that make a row's result large, left out of a big batch's rewrites while it runs.
+PER_COLUMN_FIELDS = ("angles", "angle_rates")
 #: How the row's output was made (its output's marker keeps them): a skipped row reports them (a
 #: user trial: a no-op re-run lost every row's timing).
 RUN_FIELDS = ("seconds", "host", "pid", "attempts", "threads")
@@ -125,14 +128,15 @@ def _opensim_rms_cm(staged: Path, outputs: dict[str, Path]) -> float | None:
     return None if rms is None else round(100 * rms, 2)
 
 
-def angle_summary(ranges) -> dict[str, dict[str, float]] | None:
-    """``{column: {"median", "min", "max"}}`` (deg, 0.1) of a run's
-    :class:`~pcnet.stages.column_ranges.ColumnRanges` (report.md's joint-angle table, over the
-    same frames), ``None`` without."""
+def angle_summary(ranges, median: bool = True) -> dict[str, dict[str, float]] | None:
+    """``{column: {"median", "min", "max"}}`` (the columns' unit, 0.1; without ``median`` for
+    rates, whose median says little) of a run's
+    :class:`~pcnet.stages.column_ranges.ColumnRanges` (report.md's joint-angle or angular-velocity
+    table, over the same frames), ``None`` without."""
     if ranges is None:
         return None
-    return {r.name: {"median": round(r.median, 1), "min": round(r.minimum, 1), "max": round(r.maximum, 1)}
-            for r in ranges.rows}
+    return {r.name: {**({"median": round(r.median, 1)} if median else {}), "min": round(r.minimum, 1),
+                     "max": round(r.maximum, 1)} for r in ranges.rows}
 
 
 def execute_row(job: dict) -> dict:
@@ -176,6 +180,7 @@ def execute_row(job: dict) -> dict:
                           camera_tilt_uncertainty_deg=_finite_or_none(tolerance),
                           camera_tilt_uncertainty=what if math.isfinite(tolerance) else None,
                           angles=angle_summary(run.angle_ranges),
+                          angle_rates=angle_summary(run.rate_ranges, median=False),
                           posture=None if posture is None else posture.most_probable + " (declared)" * posture.declared,
                           root_path=run.report.root_path, floor=None if run.report.floor is None else run.report.floor.kind,
                           warnings=list(run.flags), notes=list(run.notes),

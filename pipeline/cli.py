@@ -636,7 +636,8 @@ def batch(manifest, engine, address, workers, retries, overwrite, retry_failed, 
 @click.option("--mass", type=_NUMBER, default=None, help="Subject mass in kg (sets the scaled model's total mass).")
 @click.option("--static-trial", type=click.Path(), default=None,
               help="Scale on this static trial of the same subject instead of the recording: another `pcnet run` "
-                   "output folder (its world.trc, e.g. the subject standing still) or a marker file (.trc).")
+                   "output folder (its world.trc, e.g. the subject standing still; its --height must be the "
+                   "recording's) or a marker file (.trc; one from elsewhere is taken at its own scale, unchecked).")
 @click.option("--overwrite", is_flag=True, help="Replace earlier OpenSim outputs of pcnet in OUT_DIR.")
 def opensim(out_dir, height, mass, static_trial, overwrite):
     """Scale an OpenSim model to the subject and solve inverse kinematics on OUT_DIR/world.trc
@@ -793,11 +794,17 @@ def _static_trial_trc(path: Path, height: float | None) -> Path:
     """The marker file of ``pcnet opensim --static-trial``: ``path`` itself (a ``.trc``) or a
     `pcnet run` output folder's ``world.trc``, whose run (where its ``canonical.npz`` says) must
     have scaled its markers to the recording's subject height ``height`` (m, ``None``: the
-    recording's run had none).
+    recording's run had none). A ``.trc`` in a `pcnet run` output folder is that run's and is
+    checked the same way (a study trial's folder was refused and its world.trc taken).
 
     Raises:
         InputError: neither exists, or the static run's height is not ``height``.
     """
+    if path.is_file() and path.suffix.lower() == ".trc" and (path.parent / "canonical.npz").is_file():
+        if path.name != "world.trc":
+            raise InputError(f"--static-trial {path}: expected the run's world.trc (its world frame), got "
+                             f"{path.name}; give the run's folder, {shlex.quote(str(path.parent))}")
+        return _static_trial_trc(path.parent, height)
     if path.is_dir():
         if not (path / "world.trc").is_file():
             raise InputError(f"--static-trial {path}: expected a `pcnet run` output folder with world.trc (a static "

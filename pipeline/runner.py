@@ -67,8 +67,8 @@ from pcnet.stages.plausibility import implausible_frames, implausible_motion, mo
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
-from .config import (RunConfig, fps_contradiction, keypoint_formats, multi_track_formats, pcnet_version, rates_agree,
-                     settings_record)
+from .config import (DEFAULT_CUTOFF_HZ, RunConfig, fps_contradiction, keypoint_formats, multi_track_formats,
+                     pcnet_version, rates_agree, settings_record)
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -198,8 +198,10 @@ class RunResult:
         source = "residual analysis" if self.report.cutoff_source == "residual analysis" else "--cutoff-hz"
         # the rate's own limit: a wrist-IMU trial at 15 fps was told to raise a 6 Hz cutoff that
         # sat at 0.8 of what its rate resolves
-        why = (f"; {self.fps:.4g} fps resolves up to {self.fps / 2:.3g} Hz; Winter's for gait: the peak speeds of "
-               f"faster movements, a punch or a throw, need a higher one, --residual-cutoff fits one to the recording"
+        # Winter's gait cutoff is the default's reason, not any cutoff's (a study trial's 3 Hz was called it)
+        gait = "Winter's for gait: " if hz == DEFAULT_CUTOFF_HZ else ""
+        why = (f"; {self.fps:.4g} fps resolves up to {self.fps / 2:.3g} Hz; {gait}the peak speeds of faster "
+               f"movements, a punch or a throw, need a higher one, --residual-cutoff fits one to the recording"
                if long and source == "--cutoff-hz" else "")
         return f"; low-pass {hz:.3g} Hz ({source}{why})"
 

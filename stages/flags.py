@@ -112,6 +112,14 @@ class Finding:
         """The finding as the terminal summaries print it: ``WARNING  headline -> action``."""
         return f"WARNING  {self.headline} -> {self.action}"
 
+    def report_lines(self, number: int, level: str = "###") -> list[str]:
+        """The finding as a report.md section: its numbered headline, severity and action (a
+        full stop added unless the action ends with its own mark, as a question does) and its
+        full text."""
+        end = "" if self.action.endswith(("?", ".", "!")) else "."
+        return [f"{level} {number}. {self.headline}", "", f"Severity: {self.severity.name.lower()}. Action: "
+                f"{self.action}{end}", "", self.detail, ""]
+
 
 #: Characters a headline (or a shortened note) keeps at most.
 HEADLINE_WIDTH = 100

@@ -250,14 +250,23 @@ def _emptied_columns(result: dict, key: str) -> str | None:
                      for n, names in sorted(by_count.items(), reverse=True)) or None
 
 
+def model_mass_note(result: dict) -> str | None:
+    """Without the subject's mass, what the scaled model weighs and why it is not the subject's
+    (a study trial's `pcnet run --opensim` rows got 85-89 kg models with no word), else ``None``."""
+    if result.get("subject_mass_kg") is not None or result.get("model_mass_kg") is None:
+        return None
+    return (f"the scaled model weighs {result['model_mass_kg']:.1f} kg: the generic model's mass scaled with its "
+            f"segments, not the subject's; give --mass before using it for dynamics")
+
+
 def opensim_notes(result: dict) -> list[str]:
     """The notes of a fit (:func:`scale_and_ik`'s ``result``), for the summary and the report:
     what joint centres cannot observe (:data:`UNOBSERVED_NOTE`), that the columns are not
     kinematics.csv's angles (:data:`NOT_ISB_NOTE`), the columns emptied
-    (:func:`unobserved_coordinates_note`, :func:`gimbal_lock_note`) and the locked ones
-    (:func:`locked_note`)."""
+    (:func:`unobserved_coordinates_note`, :func:`gimbal_lock_note`), the locked ones
+    (:func:`locked_note`) and, without the subject's mass, the model's (:func:`model_mass_note`)."""
     return [UNOBSERVED_NOTE, NOT_ISB_NOTE, *filter(None, [unobserved_coordinates_note(result), gimbal_lock_note(result)]),
-            locked_note()]
+            locked_note(), *filter(None, [model_mass_note(result)])]
 
 
 #: The heading of the section ``pcnet opensim`` adds to the run's report.md (:func:`opensim_markdown`).
@@ -298,15 +307,12 @@ def opensim_markdown(result: dict) -> str:
              f"- **subject** (as `pcnet opensim`'s --height and --mass; the markers' scale is `pcnet run "
              f"--height`'s): height {_or_none(result.get('subject_height_m'), 'm')}, mass "
              f"{_or_none(result.get('subject_mass_kg'), 'kg')}{_body_mass_index(result)}; the scaled model weighs "
-             f"{_or_none(result.get('model_mass_kg'), 'kg')}"
-             + ("" if result.get("subject_mass_kg") is not None else
-                " (the generic model's mass scaled with its segments, not the subject's: give --mass before "
-                "using it for dynamics)"), *(f"- **note**: {note}" for note in opensim_notes(result)), "",
+             f"{_or_none(result.get('model_mass_kg'), 'kg')}", *(f"- **note**: {note}" for note in opensim_notes(result)),
+             "",
              "### OpenSim warnings", ""]
     findings = ranked(opensim_fit_findings(result))
     for i, f in enumerate(findings, 1):
-        lines += [f"#### {i}. {f.headline}", "", f"Severity: {f.severity.name.lower()}. Action: {f.action}.", "",
-                  f.detail, ""]
+        lines += f.report_lines(i, "####")
     lines += [] if findings else ["None.", ""]
     lines += ["### OpenSim outputs", ""] + [f"- {name}" for name in OUTPUTS]
     return "\n".join(lines) + "\n"

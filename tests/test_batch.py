@@ -143,6 +143,11 @@ def test_rows_run_in_workers_and_one_failing_row_does_not_stop_the_others(tmp_pa
                                                      "min": round(float(np.nanmin(knee)), 1),
                                                      "max": round(float(np.nanmax(knee)), 1)}
     assert b2["angles"] is None
+    with open(tmp_path / "b1" / "kinematics.csv", newline="") as fh:
+        rate = np.array([float(r["left_knee_flexion_deg_per_s"] or "nan") for r in csv.DictReader(fh)])
+    assert b1["angle_rates"]["left_knee_flexion_deg_per_s"] == {"min": round(float(np.nanmin(rate)), 1),
+                                                                "max": round(float(np.nanmax(rate)), 1)}
+    assert b2["angle_rates"] is None
     assert "| tilt +- deg (what) |" in report_path(tmp_path / "m.csv.pcnet_batch.json").read_text()
     # the thread count reached the worker's environment (a value the user set is kept)
     assert b1["threads"] == int(os.environ.get("PCNET_ORT_THREADS") or max(1, cpu_cores() // 2))
@@ -339,10 +344,17 @@ def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
                                                                        "earlier output"]
     assert "- line 3 (row 2, ok): input lifter_output changed since its earlier output" in _report(manifest)
 
+    from pcnet.pipeline.outdir import register_files
+
+    (tmp_path / "r1" / "gait.json").write_text("{}")  # as `pcnet gait r1` leaves it, made from r1's run
+    register_files(tmp_path / "r1", ("gait.json",))
     manifest.write_text(manifest.read_text().replace("r1,geometric", "r1,pcnet"))  # a setting changed
     res = _invoke(manifest, "--workers", "1")
     assert res.exit_code == 0 and _statuses(manifest) == ["ok", "skipped"], res.output
     assert "(ran again: setting method changed since its earlier output" in res.output, res.output
+    # what was made from the replaced output goes with it, said (a study trial lost its gait results unsaid)
+    assert "with what pcnet gait or pcnet opensim made from it (gait.json): run them again)" in res.output, res.output
+    assert not (tmp_path / "r1" / "gait.json").exists()
     assert json.loads((tmp_path / "r1" / BATCH_MARKER).read_text())["settings"]["method"] == "pcnet"
 
     res = _invoke(manifest, "--workers", "2", "--overwrite")
@@ -1412,11 +1424,12 @@ def test_a_large_batchs_rewrites_leave_the_angles_for_the_final_summary(tmp_path
     from pcnet.pipeline.batch import SUMMARY_EVERY_RESULT_ROWS, _SummaryWriter
 
     def rows(n):
-        return [{"row": i, "status": "ok", "angles": {"left_knee_flexion_deg": {"median": 1.0}}} for i in range(n)]
+        return [{"row": i, "status": "ok", "angles": {"left_knee_flexion_deg": {"median": 1.0}},
+                 "angle_rates": {"left_knee_flexion_deg_per_s": {"min": -1.0, "max": 1.0}}} for i in range(n)]
 
     path = tmp_path / "s.json"
     for n, finished, kept in ((SUMMARY_EVERY_RESULT_ROWS + 1, False, False), (SUMMARY_EVERY_RESULT_ROWS + 1, True, True),
                               (3, False, True)):
         _SummaryWriter(path, {"writer": "test"}).write(rows(n), force=True, **({"finished": True} if finished else {}))
         written = json.loads(path.read_text())["rows"]
-        assert len(written) == n and all(("angles" in r) == kept for r in written), (n, finished)
+        assert len(written) == n and all(("angles" in r) == ("angle_rates" in r) == kept for r in written), (n, finished)

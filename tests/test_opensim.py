@@ -197,6 +197,10 @@ def test_a_separate_static_trial_scales_the_model(short_run, tmp_path):
     res = _cli("opensim", run, "--static-trial", static, "--overwrite")
     assert res.exit_code == 1 and "expected a run scaled to the recording's subject height (1.75 m" in res.output, \
         res.output
+    # its world.trc named instead of its folder is the same run's (a study trial's was taken unchecked)
+    res = _cli("opensim", run, "--static-trial", static / "world.trc", "--overwrite")
+    assert res.exit_code == 1 and "expected a run scaled to the recording's subject height (1.75 m" in res.output, \
+        res.output
     mm = tmp_path / "mm.trc"
     write_trc(mm, standing * 1000.0, 30.0, names, "mm")
     res = _cli("opensim", run, "--static-trial", mm, "--overwrite")
@@ -471,6 +475,17 @@ def test_a_batch_row_can_ask_for_opensim(tmp_path):
     manifest.write_text(f"lifter,lifter_output,fps,height,out,mass\nmotionbert,{x3d},30,1.75,b,70\n")
     res = _cli("batch", manifest)
     assert res.exit_code == 1 and "column mass: expected together with opensim" in res.output, res.output
+
+
+def test_a_fit_without_the_subjects_mass_says_what_the_model_weighs():
+    """A study trial's `pcnet run --opensim` rows without a mass got 85-89 kg models and no word
+    of it (only `pcnet opensim`'s report section said so)."""
+    from pcnet.stages.opensim_ik import opensim_notes
+
+    fit = {"model_mass_kg": 89.31, "subject_mass_kg": None, "frames": 10}
+    (note,) = [n for n in opensim_notes(fit) if "weighs" in n]
+    assert note.startswith("the scaled model weighs 89.3 kg: the generic model's mass") and "--mass" in note
+    assert not [n for n in opensim_notes({**fit, "subject_mass_kg": 70.0}) if "weighs" in n]
 
 
 def test_the_fit_line_gives_a_one_frame_span_as_one_time():

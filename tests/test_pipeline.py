@@ -1212,6 +1212,14 @@ def test_the_recording_command_pastes_into_a_shell():
     assert ("\njoint angles: kinematics.csv's *_deg columns, their rates *_deg_per_s (each defined in kinematics_columns.csv; their ranges, "
             "and the joints' peak speeds, in report.md)\nangles carry the lifter's own error: 4 calibrated views of one "
             "subject read knees and hips tens of deg apart (docs/guide/limits.md)") in result.summary()
+    # Winter's gait cutoff is the default's reason, not a study's own 3 Hz (a study trial)
+    from dataclasses import replace
+
+    for hz, said in ((6.0, True), (3.0, False)):
+        report = replace(run_report(), cutoff_hz=hz, cutoff_source="cutoff_hz")
+        units = dict(RunResult(frames=1, valid_frames=1, units="m", method="pcnet", report=report, fps=30.0,
+                               fps_source="--fps").key_facts(long=True))["units"]
+        assert units.startswith(f"m; low-pass {hz:g} Hz (--cutoff-hz; 30 fps") and ("Winter's for gait" in units) == said
 
 
 def test_the_heading_line_gives_the_limit_auto_decided_by():

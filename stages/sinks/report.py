@@ -73,9 +73,7 @@ def report_markdown(title: str, key_lines: Iterable[tuple[str, str]], findings: 
     if not findings:
         out.append("None.")
     for i, f in enumerate(findings, 1):
-        end = "" if f.action.endswith(("?", ".", "!")) else "."  # an action asked as a question keeps its mark
-        out += [f"### {i}. {f.headline}", "", f"Severity: {f.severity.name.lower()}. Action: {f.action}{end}", "",
-                f.detail, ""]
+        out += f.report_lines(i)
     out += ["", "## Notes", ""]
     out += [f"- {n.detail}" for n in notes] or ["None."]
     if angle_ranges is not None:
