@@ -35,6 +35,17 @@ def _column(rows: list[dict], name: str) -> np.ndarray:
     return np.array([float(r[name]) if r[name] else np.nan for r in rows])
 
 
+def _as_the_csv_holds_it(r, rows: list[dict], unit: str) -> None:
+    """A range row ``r`` against its kinematics.csv column (6-7 significant digits), over the
+    frames the implausible-motion warning leaves in."""
+    values = np.where(_column(rows, "implausible_motion") == 1, np.nan, _column(rows, r.name))
+    time_s = _column(rows, "time_s")
+    assert r.unit == unit and r.frames == np.isfinite(values).sum(), r.name
+    for got, want in ((r.minimum, np.nanmin(values)), (r.maximum, np.nanmax(values)), (r.median, np.nanmedian(values)),
+                      (r.minimum_s, time_s[np.nanargmin(values)]), (r.maximum_s, time_s[np.nanargmax(values)])):
+        assert math.isclose(got, want, rel_tol=1e-5, abs_tol=1e-4), r.name
+
+
 def test_the_report_gives_each_angles_range_as_kinematics_csv_holds_it(mediapipe_run):
     result, rows, report = mediapipe_run
     columns = [c for c in rows[0] if c.endswith("_deg") and c != "heading_deg"]
@@ -67,7 +78,6 @@ def test_the_report_gives_each_angles_range_as_kinematics_csv_holds_it(mediapipe
 def test_the_report_gives_each_plotted_joints_peak_speed_as_kinematics_csv_holds_it(mediapipe_run):
     result, rows, report = mediapipe_run
     left_out = _column(rows, "implausible_motion") == 1
-    time_s = _column(rows, "time_s")
     peaks = {r.name: r for r in result.speed_ranges.rows}
     assert list(peaks)[:2] == ["left_wrist_speed_m_per_s", "right_wrist_speed_m_per_s"]  # metres: the fixture's
     assert {"left_ankle_speed_m_per_s", "head_speed_m_per_s"} <= set(peaks)
@@ -76,11 +86,7 @@ def test_the_report_gives_each_plotted_joints_peak_speed_as_kinematics_csv_holds
     assert "| speed | frames | peak (m/s) | at (s) | median (m/s) |" in section
     assert "A fast movement's peak (a punch, a throw, a kick) reads low" in section
     for name, r in peaks.items():
-        values = np.where(left_out, np.nan, _column(rows, name))
-        assert r.unit == "m/s" and r.frames == np.isfinite(values).sum()
-        assert math.isclose(r.maximum, np.nanmax(values), rel_tol=1e-5, abs_tol=1e-5), name
-        assert math.isclose(r.maximum_s, time_s[np.nanargmax(values)], rel_tol=1e-5, abs_tol=1e-5), name
-        assert math.isclose(r.median, np.nanmedian(values), rel_tol=1e-5, abs_tol=1e-5), name
+        _as_the_csv_holds_it(r, rows, "m/s")
         assert f"| {name} | {r.frames} | {r.maximum:.2f} | {r.maximum_s:.2f} | {r.median:.2f} |" in section
 
 
@@ -89,7 +95,6 @@ def test_the_report_gives_each_angle_rates_peaks_as_kinematics_csv_holds_them(me
     value (the fastest motion each way) and when, over the frames the angles' ranges cover."""
     result, rows, report = mediapipe_run
     left_out = _column(rows, "implausible_motion") == 1
-    time_s = _column(rows, "time_s")
     peaks = {r.name: r for r in result.rate_ranges.rows}
     assert list(peaks) == [f"{r.name}_per_s" for r in result.angle_ranges.rows]  # every angle with a rate
     assert result.rate_ranges.implausible_frames == left_out.sum()
@@ -97,11 +102,7 @@ def test_the_report_gives_each_angle_rates_peaks_as_kinematics_csv_holds_them(me
     assert "| angle rate | frames | min (deg/s) | at (s) | max (deg/s) | at (s) |" in section
     assert "the axial rotations and the shoulder's plane of elevation up to 4 times" in section
     for name, r in peaks.items():
-        values = np.where(left_out, np.nan, _column(rows, name))
-        assert r.unit == "deg/s" and r.frames == np.isfinite(values).sum()
-        assert math.isclose(r.minimum, np.nanmin(values), rel_tol=1e-5, abs_tol=1e-4), name
-        assert math.isclose(r.minimum_s, time_s[np.nanargmin(values)], rel_tol=1e-5, abs_tol=1e-5), name
-        assert math.isclose(r.maximum, np.nanmax(values), rel_tol=1e-5, abs_tol=1e-4), name
+        _as_the_csv_holds_it(r, rows, "deg/s")
         assert f"| {name} | {r.frames} | {r.minimum:.0f} | {r.minimum_s:.2f} | {r.maximum:.0f} | " in section
     knee = peaks["left_knee_flexion_deg_per_s"]
     assert knee.minimum < 0 < knee.maximum  # flexes and extends
