@@ -273,6 +273,8 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
     assert sum(bool(r["pelvis_y_m"]) for r, s in zip(rows, segment) if s > 0) > 50  # the CSV keeps them
     assert "the 60 frames outside the 2D track's longest one-person stretch are left empty" in \
         (out / "report.md").read_text()
+    # a BVH holds a pose there instead, which the note says (a trial's Blender body stood frozen)
+    assert "world.bvh, which cannot leave a frame empty, interpolates across them" in (out / "report.md").read_text()
     rows_rrd, static, _, _ = rrd_summary(out / "recording.rrd")
     assert "/flags" in static
     # the viewer marks the switch on the timeline, and lists the track switch first (a problem), with its action

@@ -933,8 +933,9 @@ def test_c3d_export_round_trips_real_world_frame_markers(tmp_path):
     # what the markers are and who wrote them, for a lab tool (a C3D user found ezc3d's defaults only)
     from pcnet.pipeline.config import pcnet_version
 
-    assert set(c3d["parameters"]["POINT"]["DESCRIPTIONS"]["value"]) == {
-        "H36M-17 joint centre, world frame (x forward at the start, y up, z right; floor y = 0)"}
+    assert set(c3d["parameters"]["POINT"]["DESCRIPTIONS"]["value"]) == {  # root-relative: no horizontal path
+        "H36M-17 joint centre, world frame (x forward at the start, y up, z right; floor y = 0); pelvis held at "
+        "x = z = 0, its horizontal path not observed"}
     assert c3d["parameters"]["MANUFACTURER"]["SOFTWARE"]["value"] == ["pcnet"]
     assert c3d["parameters"]["MANUFACTURER"]["VERSION_LABEL"]["value"] == [pcnet_version()]
     with np.load(out / "canonical.npz") as npz:

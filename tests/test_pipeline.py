@@ -1647,6 +1647,11 @@ def test_a_depth_sensors_mirrored_skeleton_is_asked_about_the_subject_not_the_re
     assert "--axes" not in res.output
     report = (tmp_path / "o" / "report.md").read_text()  # an action asked as a question ends with its mark
     assert "Action: did the subject face away from the sensor?\n" in report and "sensor?." not in report
+    # the data dictionary says which columns the skeleton can never fill (a trial read the generic text)
+    rows = {r[0]: r[3] for r in csv.reader(open(tmp_path / "o" / "kinematics_columns.csv"))}
+    assert rows["neck_nose_x_m"].endswith("empty in this run: the input's skeleton has no such joint (missing in "
+                                          "every frame).")
+    assert "no such joint" not in rows["head_x_m"]
 
 
 @pytest.mark.slow

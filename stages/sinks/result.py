@@ -186,6 +186,17 @@ def unobservable_paths(r: RecordingResult) -> dict[str, tuple[str, str]]:
     return {}
 
 
+def absent_joints(r: RecordingResult) -> dict[str, tuple[str, str]]:
+    """The joints missing in every frame of the input (Kinect v1's skeleton has no nose), as
+    :func:`unobservable_paths` gives the unobserved axes: their columns' definitions say so (a
+    trial found the generic text beside columns empty throughout)."""
+    seen = np.zeros(len(H36M_JOINTS), dtype=bool)
+    for rows in frame_blocks(len(r.joints_camera)):
+        seen |= np.isfinite(np.asarray(r.joints_camera[rows], np.float64)).all(axis=-1).any(axis=0)
+    return {H36M_JOINTS[j]: ("xyz", "the input's skeleton has no such joint (missing in every frame)")
+            for j in np.flatnonzero(~seen)}
+
+
 def unplaced_frames(r: RecordingResult) -> np.ndarray | None:
     """``(T,)`` bool: the frames with a pose whose pelvis path from 2D keypoints has no fit
     (``pelvis_path_std`` NaN): the world frame holds them at their stretch's first or last
@@ -209,7 +220,7 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
     T = len(r.joints_camera)
     kept = FrameGatherer(T, KEPT_JOINTS, np.float32, allocate)
     missing, unfiltered = np.zeros((T, 17), bool), np.zeros((T, 17), bool)
-    unobservable = unobservable_paths(r)
+    unobservable = {**absent_joints(r), **unobservable_paths(r)}
     unplaced = r.unplaced if r.unplaced is not None and r.unplaced.any() else None
 
     def keeping(blocks):
@@ -322,9 +333,12 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
     # the run's own estimate of the up: a recording read upside down is written as read
     write_trc(out[f"{name}.trc"], poses, r.fps, check_up=False)
     if c3d:
-        # a lab tool reads the frame in the file: a canonical C3D has no path and no floor
+        # a lab tool reads the frame in the file: a canonical C3D has no path and no floor, and a
+        # world C3D of a root-relative lifter no horizontal path (a trial read its zeros as a path)
         described = f"H36M-17 joint centre, {FRAME_LABELS[name]}" + (
-            "; pelvis at the origin, no path, no floor" if name == "canonical" else "")
+            "; pelvis at the origin, no path, no floor" if name == "canonical" else
+            "; pelvis held at x = z = 0, its horizontal path not observed" if "pelvis" in unobservable_paths(r)
+            else "")
         out[f"{name}.c3d"] = write_c3d(folder / f"{name}.c3d", poses, r.fps, check_up=False, description=described,
                                        software=software)
     bvh = f"{name}.bvh"
@@ -366,9 +380,11 @@ def _marker_poses(r: RecordingResult, name: str, allocate) -> np.ndarray:
         block[gone[rows]] = np.nan
         poses[rows] = block
     if other.any():
-        r.notes.append(f"marker files ({name}.trc, .bvh, .c3d): the {int(other.sum())} frames outside the 2D track's "
+        # a BVH cannot leave a frame empty (stages/sinks/bvh.py): a trial's Blender body stood frozen there
+        r.notes.append(f"marker files ({name}.trc, .c3d): the {int(other.sum())} frames outside the 2D track's "
                        f"longest one-person stretch are left empty (probably another person; kinematics.csv and "
-                       f"canonical.npz keep them, with track_segment)")
+                       f"canonical.npz keep them, with track_segment); {name}.bvh, which cannot leave a frame empty, "
+                       f"interpolates across them between kept frames and holds the nearest kept pose at its ends")
     return poses
 
 
