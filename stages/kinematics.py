@@ -891,10 +891,14 @@ def _angles_from_raw(k: Kinematics) -> dict[str, np.ndarray]:
     """``name -> (T,)`` bool: where ``k``'s angle has a value that needs a raw (``unfiltered``)
     joint position, i.e. has none from the filtered positions alone."""
     raw = np.asarray(k.unfiltered, bool)
-    if not raw.any():
-        return {name: np.zeros(k.num_frames, dtype=bool) for name in k.angles}
-    filtered_only = _angles(np.where(raw[..., None], np.nan, np.asarray(k.positions, np.float64)), k.fps, False)
-    return {name: np.isfinite(v) & ~np.isfinite(filtered_only[name]) for name, v in k.angles.items()}
+    out = {name: np.zeros(k.num_frames, dtype=bool) for name in k.angles}
+    rows = np.flatnonzero(raw.any(axis=1))  # each frame's angles are its own: only these can need one
+    if rows.size:
+        positions = np.asarray(k.positions, np.float64)[rows]
+        filtered_only = _angles(np.where(raw[rows, :, None], np.nan, positions), k.fps, False)
+        for name, v in k.angles.items():
+            out[name][rows] = np.isfinite(np.asarray(v)[rows]) & ~np.isfinite(filtered_only[name])
+    return out
 
 
 def with_angle_rates(k: Kinematics, before: Kinematics | None = None, after: Kinematics | None = None) -> Kinematics:

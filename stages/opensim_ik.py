@@ -57,6 +57,7 @@ import numpy as np
 from .core.conventions import H36M_JOINTS
 from .core.atomic import write_text, writing_failed
 from .core.errors import InputError, import_extra
+from .core.framestore import seen_joints
 from .isb_angles import GIMBAL_MARGIN_DEG
 
 MISSING_OPENSIM = 'OpenSim scaling and inverse kinematics (--opensim, pcnet opensim) need OpenSim: pip install "pcnet[opensim]"'
@@ -806,7 +807,7 @@ def scale_and_ik(
     start_s = float(times[0])
     # A marker missing in every frame (a Kinect v1 has no nose: neck_nose is empty throughout)
     # is left out of the run: out of the marker files, its IK tasks off, its marker pairs gone.
-    seen = np.isfinite(joints).all(axis=2).any(axis=0) & np.isfinite(s_joints).all(axis=2).any(axis=0)  # (17,)
+    seen = seen_joints(joints) & seen_joints(s_joints)  # (17,)
     left_out = [j for j, ok in zip(H36M_JOINTS, seen) if not ok]
     used = [j for j, ok in zip(H36M_JOINTS, seen) if ok]
     joints, s_joints = joints[:, seen], s_joints[:, seen]  # (T, M, 3)

@@ -63,6 +63,7 @@ from .core.conventions import (
     check_poses,
 )
 from .core.errors import InputError
+from .core.framestore import seen_joints
 
 #: Head-to-ankle bone chain divided by stature (module docstring: H36M reference
 #: skeleton + Drillis & Contini ankle height 0.039 H).
@@ -140,14 +141,13 @@ def _measurable_chain(joints: np.ndarray, who: str) -> tuple[np.ndarray, np.ndar
     chain = height_chain_length(joints)
     good = np.isfinite(chain) & (chain > 0)
     if not good.any():
-        X = check_poses(joints, "joints")
-        seen = {j: bool(np.isfinite(np.asarray(X[:, j], np.float64)).all(axis=-1).any())
-                for j in {*(j for bones in _LEG_BONES for bone in bones for j in bone), *np.ravel(_AXIAL_BONES)}}
-        legs = [[j for bone in bones for j in bone] for bones in _LEG_BONES]
-        absent = [H36M_JOINTS[j] for bones in _AXIAL_BONES for j in bones if not seen[j]] + \
-            ([f"{H36M_JOINTS[j]}/{H36M_JOINTS[k]}" for j, k in zip(*legs) if not (seen[j] or seen[k])])
-        why = f": {', '.join(dict.fromkeys(absent))} missing in every frame (the input's skeleton has no such joint)" \
-            if absent else ""
+        seen = seen_joints(check_poses(joints, "joints"))
+        # the trunk's joints are each needed; a leg's, on one side or the other
+        absent = [H36M_JOINTS[j] for j in dict.fromkeys(np.ravel(_AXIAL_BONES)) if not seen[j]]
+        right, left = ([j for bone in bones for j in bone] for bones in _LEG_BONES)
+        absent += [f"{H36M_JOINTS[r]}/{H36M_JOINTS[lf]}" for r, lf in dict.fromkeys(zip(right, left))
+                   if not (seen[r] or seen[lf])]
+        why = f": {', '.join(absent)} missing in every frame (the input's skeleton has no such joint)" if absent else ""
         raise InputError(f"{who}: no frame has a complete ankle-knee-hip / pelvis-spine-thorax-neck_nose-head chain, "
                          f"so the skeleton size cannot be estimated{why}")
     return chain, good

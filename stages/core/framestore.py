@@ -232,6 +232,16 @@ def present_frames(poses) -> np.ndarray:
     return per_frame(lambda P: np.isfinite(P).any(axis=(1, 2)), poses)
 
 
+def seen_joints(poses) -> np.ndarray:
+    """``(J,)`` bool: the joints of ``(T, J, 3)`` poses (in memory or a :class:`FrameArray`)
+    with all three coordinates finite in at least one frame, read a block of frames at a
+    time; False for a joint the input's skeleton never has (Kinect v1's nose)."""
+    seen = np.zeros(np.shape(poses)[1], dtype=bool)
+    for rows in frame_blocks(len(poses)):
+        seen |= np.isfinite(np.asarray(poses[rows], np.float64)).all(axis=-1).any(axis=0)
+    return seen
+
+
 class FrameStore:
     """A folder of :class:`FrameArray` files for one recording; ``close()`` deletes the folder,
     which the store created (``tempfile.mkdtemp``) and nothing else writes into.

@@ -23,7 +23,7 @@ import numpy as np
 from ..core.canonical import to_canonical
 from ..core.conventions import H36M_JOINTS
 from ..core.rotations import decompose_camera_rotation
-from ..core.framestore import column, frame_blocks, in_memory, per_frame, present_frames
+from ..core.framestore import column, frame_blocks, in_memory, per_frame, present_frames, seen_joints
 from ..flags import one_person_frames, track_present
 from ..kinematics import FrameGatherer, count_flags, frames_phrase
 from ..rectification_report import RectificationReport
@@ -190,11 +190,8 @@ def absent_joints(r: RecordingResult) -> dict[str, tuple[str, str]]:
     """The joints missing in every frame of the input (Kinect v1's skeleton has no nose), as
     :func:`unobservable_paths` gives the unobserved axes: their columns' definitions say so (a
     trial found the generic text beside columns empty throughout)."""
-    seen = np.zeros(len(H36M_JOINTS), dtype=bool)
-    for rows in frame_blocks(len(r.joints_camera)):
-        seen |= np.isfinite(np.asarray(r.joints_camera[rows], np.float64)).all(axis=-1).any(axis=0)
     return {H36M_JOINTS[j]: ("xyz", "the input's skeleton has no such joint (missing in every frame)")
-            for j in np.flatnonzero(~seen)}
+            for j in np.flatnonzero(~seen_joints(r.joints_camera))}
 
 
 def unplaced_frames(r: RecordingResult) -> np.ndarray | None:
