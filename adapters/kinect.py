@@ -385,7 +385,7 @@ def load_azure_kinect(path: str | Path, key: str | None = None, fps: float | Non
                    depth_sensor=True, nonfinite=nonfinite)
 
 
-@register_3d("kinect_v1")
+@register_3d("kinect_v1", absent_joints=("neck_nose",))
 class KinectV1Adapter:
     """Registry entry for :func:`load_kinect_v1` (options ``layout``, ``key``, ``fps``)."""
 

@@ -109,7 +109,7 @@ def _refuse_keypoints_input(p: Path, arr: np.ndarray) -> None:
                            f"{root[0]:.2f}: 2D keypoints with confidences (MotionBERT's input), not its X3D.npy")
 
 
-@register_3d("motionbert", records_fps=False)
+@register_3d("motionbert", records_fps=False, never_metric=True)
 class MotionBERTAdapter:
     """Registry entry for :func:`load_motionbert` (options: ``pixel``, ``clip_len``)."""
 

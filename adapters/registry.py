@@ -84,11 +84,18 @@ class Registered:
         multi_track: 2D only: what a track id is in a format that holds several people's
             tracks, one of which ``person`` picks (``"AlphaPose idx"``), as ``pcnet run
             --person``'s help says it; ``None`` for a single-track format.
+        never_metric: 3D only: the format's poses are never in metres (MotionBERT's
+            image-normalised or pixel units), so a run asking for metric outputs needs
+            ``height``; ``False`` where the file or its options decide, or it is metres.
+        absent_joints: 3D only: the H36M-17 joints (names) the format never has, NaN in
+            every frame (Kinect v1's ``neck_nose``).
     """
 
     cls: type
     records_fps: bool = True
     multi_track: str | None = None
+    never_metric: bool = False
+    absent_joints: tuple[str, ...] = ()
 
 
 # Name -> entry, in registration order (the order `pcnet run --help` offers them in).
@@ -127,15 +134,20 @@ def register_2d(name: str, *, records_fps: bool = True, multi_track: str | None 
     return _register(_ADAPTERS_2D, "2D", name, records_fps=records_fps, multi_track=multi_track)
 
 
-def register_3d(name: str, *, records_fps: bool = True) -> Callable[[T], T]:
-    """Class decorator: register a 3D adapter (``load`` returns ``Poses3D``) under ``name``;
-    ``records_fps=False`` for files that never record a frame rate (:class:`Registered`).
+def register_3d(name: str, *, records_fps: bool = True, never_metric: bool = False,
+                absent_joints: tuple[str, ...] = ()) -> Callable[[T], T]:
+    """Class decorator: register a 3D adapter (``load`` returns ``Poses3D``) under ``name``,
+    with its format's facts (:class:`Registered`): ``records_fps=False`` for files that never
+    record a frame rate, ``never_metric=True`` for poses never in metres, ``absent_joints``
+    the H36M-17 joints its files never have; ``pcnet run`` and ``pcnet batch``'s manifest
+    check refuse what these rule out before reading a file.
 
     Raises:
         TypeError: the class has no ``load`` method.
         ValueError: ``name`` is taken by a different class.
     """
-    return _register(_ADAPTERS_3D, "3D", name, records_fps=records_fps)
+    return _register(_ADAPTERS_3D, "3D", name, records_fps=records_fps, never_metric=never_metric,
+                     absent_joints=tuple(absent_joints))
 
 
 def _get(table: dict[str, Registered], kind: str, name: str):

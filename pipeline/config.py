@@ -370,6 +370,26 @@ class RunConfig:
                 and not records_frame_rate("3d", self.lifter)
                 and (self.keypoints2d_format is None or not records_frame_rate("2d", self.keypoints2d_format)))
 
+    def _check_lifter_facts(self, source: str) -> None:
+        """Refuse what the lifter's registered format facts rule out before its file is read
+        (``register_3d(never_metric=..., absent_joints=...)``): a study's manifest check let such
+        rows through, each to fail as soon as it ran."""
+        from pcnet.stages.core.conventions import H36M_JOINTS
+        from pcnet.stages.scale import HEIGHT_CHAIN, chain_joints_lacking
+
+        facts = _registered("3d").get(self.lifter)
+        if facts is None:
+            return
+        metric = [f for f in ("c3d", "opensim") if getattr(self, f)]
+        if facts.never_metric and metric and self.height is None:
+            raise InputError(f"{field_name(source, *metric)}: expected metric poses (a lifter writing metres, or "
+                             f"{field_name(source, 'height')}), got lifter {self.lifter}, whose poses are never in metres")
+        lacking = chain_joints_lacking(np.array([j not in facts.absent_joints for j in H36M_JOINTS]))
+        if self.height is not None and lacking:
+            raise InputError(f"{field_name(source, 'height')}: expected a skeleton with the {HEIGHT_CHAIN} its size "
+                             f"is measured on, got lifter {self.lifter}, whose skeleton never has {', '.join(lacking)}; "
+                             f"leave out {field_name(source, 'height')}")
+
     def validate(self, source: str = "config") -> "RunConfig":
         """Check every field's type (against the annotations), choices, ranges and
         combinations. The path fields (``video``, ``keypoints2d``, ``lifter_output``, ``out``,
@@ -486,6 +506,8 @@ class RunConfig:
                     f"lifter writing metres, or {_flag('height') if cli else 'height'})") if metric else ""
             raise InputError(f"{field_name(source, 'fps')}: expected the frame rate (no video is given and "
                              f"{self.lifter} files do not record one), got none{also}")
+        if self.lifter is not None:
+            self._check_lifter_facts(source)
         if self.confidence_threshold is not None and self.keypoints2d is None:
             raise InputError(f"{field_name(source, 'confidence_threshold')}: expected together with 2D keypoints "
                              f"(it masks their low-confidence joints), got {self.confidence_threshold:g} without keypoints2d")

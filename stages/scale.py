@@ -141,16 +141,33 @@ def _measurable_chain(joints: np.ndarray, who: str) -> tuple[np.ndarray, np.ndar
     chain = height_chain_length(joints)
     good = np.isfinite(chain) & (chain > 0)
     if not good.any():
-        seen = seen_joints(check_poses(joints, "joints"))
-        # the trunk's joints are each needed; a leg's, on one side or the other
-        absent = [H36M_JOINTS[j] for j in dict.fromkeys(np.ravel(_AXIAL_BONES)) if not seen[j]]
-        right, left = ([j for bone in bones for j in bone] for bones in _LEG_BONES)
-        absent += [f"{H36M_JOINTS[r]}/{H36M_JOINTS[lf]}" for r, lf in dict.fromkeys(zip(right, left))
-                   if not (seen[r] or seen[lf])]
+        absent = chain_joints_lacking(seen_joints(check_poses(joints, "joints")))
         why = f": {', '.join(absent)} missing in every frame (the input's skeleton has no such joint)" if absent else ""
-        raise InputError(f"{who}: no frame has a complete ankle-knee-hip / pelvis-spine-thorax-neck_nose-head chain, "
-                         f"so the skeleton size cannot be estimated{why}")
+        raise InputError(f"{who}: no frame has a complete {HEIGHT_CHAIN}, so the skeleton size cannot be "
+                         f"estimated{why}")
     return chain, good
+
+
+#: The joints :func:`height_chain_length` measures, as messages name them.
+HEIGHT_CHAIN = "ankle-knee-hip / pelvis-spine-thorax-neck_nose-head chain"
+
+
+def chain_joints_lacking(seen: np.ndarray) -> list[str]:
+    """The joints of :func:`height_chain_length`'s chain that a skeleton never has, by name:
+    each trunk joint not ``seen``, and ``"<right>/<left>"`` for a leg joint seen on neither
+    side (one leg is enough).
+
+    Args:
+        seen: ``(17,)`` bool, whether each H36M-17 joint is present in some frame
+            (:func:`pcnet.stages.core.framestore.seen_joints`).
+
+    Returns:
+        The names, empty when the chain can be complete.
+    """
+    absent = [H36M_JOINTS[j] for j in dict.fromkeys(np.ravel(_AXIAL_BONES)) if not seen[j]]
+    right, left = ([j for bone in bones for j in bone] for bones in _LEG_BONES)
+    return absent + [f"{H36M_JOINTS[r]}/{H36M_JOINTS[lf]}" for r, lf in dict.fromkeys(zip(right, left))
+                     if not (seen[r] or seen[lf])]
 
 
 def height_factor(joints: np.ndarray, height_m: float, who: str = "joints") -> float:

@@ -1624,12 +1624,41 @@ def test_a_run_logged_to_a_file_says_which_stage_it_is_in(tmp_path, monkeypatch,
 
 def test_height_for_a_depth_sensor_without_a_nose_says_why_and_what_to_do(tmp_path):
     """A trial gave a Kinect v1 recording (no nose joint) --height, which the ankle-to-head
-    chain cannot measure there: the line names the joint and says the skeleton is metric."""
+    chain cannot measure there: the line names the joint and says to leave the height out.
+    Kinect v1 never has a nose (its registered facts), so the run is refused before its file is
+    read and a manifest row at the manifest's check; an Azure Kinect recording whose chain is
+    missing in its data is refused once read, saying the skeleton is metric."""
     path = shared("real", "utd_mhad_imu", "a05_s1_t1.npz")
     res = _invoke("run", "--lifter", "kinect_v1", "--lifter-output", path, "--height", "1.75", "--no-recording",
                   "--out", tmp_path / "k")
     assert res.exit_code == 1 and not (tmp_path / "k").exists()
-    assert "neck_nose missing in every frame (the input's skeleton has no such joint); --lifter kinect_v1 is a " \
+    assert "--height: expected a skeleton with the ankle-knee-hip / pelvis-spine-thorax-neck_nose-head chain its " \
+           "size is measured on, got lifter kinect_v1, whose skeleton never has neck_nose; leave out --height" \
+           in res.output, res.output
+    (tmp_path / "runs.csv").write_text(f"lifter,lifter_output,height,out\nkinect_v1,{path},1.75,k\n")
+    res = _invoke("batch", tmp_path / "runs.csv")
+    assert res.exit_code == 1 and "line 2: column height: expected a skeleton" in res.output, res.output
+    assert not (tmp_path / "k").exists()
+
+
+def test_height_for_a_depth_sensor_whose_data_lack_the_chain_says_the_skeleton_is_metric(tmp_path):
+    """Azure Kinect has a nose joint, so its run is read; where the recording never tracks it
+    (written as zeros, which the reader makes NaN), the refusal names the joint and says a depth
+    sensor's skeleton is in metres already."""
+    from pcnet.adapters.kinect import AZURE_KINECT_JOINTS, _AZURE_RULES
+
+    h36m = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")  # real VideoPose3D poses, metres
+    azure = np.zeros((len(h36m), len(AZURE_KINECT_JOINTS), 3), np.float32)
+    azure[:] = (h36m[:, :1] + [0.0, 0.0, 2.5]) * 1000.0  # joints no rule reads: at the pelvis, in mm
+    for j, sources in enumerate(_AZURE_RULES):
+        if len(sources) == 1 and sources[0] != "nose":  # the nose stays untracked
+            azure[:, AZURE_KINECT_JOINTS.index(sources[0])] = (h36m[:, j] + [0.0, 0.0, 2.5]) * 1000.0
+    azure[:, AZURE_KINECT_JOINTS.index("nose")] = 0.0
+    np.save(tmp_path / "bt.npy", azure)
+    res = _invoke("run", "--lifter", "azure_kinect", "--lifter-output", tmp_path / "bt.npy", "--fps", "30",
+                  "--height", "1.75", "--no-recording", "--out", tmp_path / "k")
+    assert res.exit_code == 1 and not (tmp_path / "k").exists()
+    assert "neck_nose missing in every frame (the input's skeleton has no such joint); --lifter azure_kinect is a " \
            "depth sensor's skeleton, in metres already: leave out --height" in res.output, res.output
 
 

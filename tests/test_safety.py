@@ -275,12 +275,17 @@ def test_poses_without_pelvis_or_hips_are_refused_naming_them(user_folder):
 
 @pytest.mark.parametrize("option", ["--c3d", "--opensim"])
 def test_metric_exports_of_unscaled_poses_are_refused_before_anything_is_written(user_folder, option):
-    """MotionBERT's normalised output without --height has no metric poses: the C3D file was
-    silently left out, and --opensim failed after a complete output had been written."""
+    """Poses in pixels without --height are not metric: the C3D file was silently left out, and
+    --opensim failed after a complete output had been written. MotionBERT's poses are never in
+    metres, which its registered facts say, so that run is refused before its file is read (a
+    study's manifest check let such rows through to fail at once); the generic reader's units
+    are known only once its file and options are read."""
     pytest.importorskip("ezc3d" if option == "--c3d" else "opensim", reason="the extra is not installed")
-    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", FIXTURES / "boxing_X3D_f000-059.npy", "--fps",
-                  "30", "--no-recording", option, "--out", "o")
-    _one_line_error(res, option, "expected metric poses", "normalised")
+    res = _invoke("run", "--lifter", "motionbert", "--lifter-output", "poses.npy", "--fps", "30", "--no-recording",
+                  option, "--out", "o")
+    _one_line_error(res, option, "expected metric poses", "lifter motionbert, whose poses are never in metres")
+    res = _invoke(*RUN, "--units", "px", option, "--out", "o")
+    _one_line_error(res, "poses.npy", option, "expected metric poses", "got px poses")
     assert not (user_folder / "o").exists()
 
 
