@@ -200,8 +200,11 @@ class RunResult:
         # sat at 0.8 of what its rate resolves
         # Winter's gait cutoff is the default's reason, not any cutoff's (a study trial's 3 Hz was called it)
         gait = "Winter's for gait: " if hz == DEFAULT_CUTOFF_HZ else ""
-        why = (f"; {self.fps:.4g} fps resolves up to {self.fps / 2:.3g} Hz; {gait}the peak speeds of faster "
-               f"movements, a punch or a throw, need a higher one, --residual-cutoff fits one to the recording"
+        # both ways: a wrist-IMU trial's Kinect accelerations were twice the IMU's at 6 Hz, and a
+        # sports trial's --residual-cutoff, offered for punches, chose a lower cutoff
+        why = (f"; {self.fps:.4g} fps resolves up to {self.fps / 2:.3g} Hz; {gait}a higher one keeps more of a "
+               f"punch's or a throw's peak speed, a lower one steadies a noisy input's accelerations; "
+               f"--residual-cutoff fits one to the recording's noise"
                if long and source == "--cutoff-hz" else "")
         return f"; low-pass {hz:.3g} Hz ({source}{why})"
 

@@ -198,8 +198,9 @@ UNOBSERVED_NOTE = ("pelvis_tilt and L5_S1_Flex_Ext are not observable from joint
 #: Two sets of angles side by side: a user trial read ik.mot's hip flexion 11 deg from
 #: kinematics.csv's on the boxing demo with nothing in the output saying why.
 NOT_ISB_NOTE = ("ik.mot's angles are not kinematics.csv's: they are the scaled model's coordinates, not ISB angles "
-                "from joint centres; their pelvis and limb frames differ, and so do the angles, by several degrees at "
-                "the hips and elbows (docs/joint_angles.md, 'Pelvic tilt against ASIS/PSIS'): compare each with itself")
+                "from joint centres; their pelvis and limb frames differ, and so do the angles: hip flexion by 4-8 deg "
+                "on mocap and 11 on the boxing demo (docs/joint_angles.md, 'Pelvic tilt against ASIS/PSIS'): compare "
+                "each with itself")
 
 
 @functools.lru_cache(maxsize=1)

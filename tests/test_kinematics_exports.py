@@ -1227,6 +1227,10 @@ def test_an_unobservable_pelvis_path_is_empty_not_zero(tmp_path):
         assert "empty in this run" not in rows[name][3], name
     assert all(r[header.index("pelvis_missing")] == "0" for r in body)  # its height is there
     assert "relative to the pelvis" in rows["right_wrist_x_m"][3]
+    # and so are the speeds (a sports trial read a wrist's speed without the pelvis's travel as the whole)
+    assert "along x and z relative to the pelvis, whose own path is not observable" \
+        in rows["right_wrist_speed_m_per_s"][3]
+    assert "Horizontally they are relative to the pelvis" in (out / "report.md").read_text()
     # ... from a per-frame floor, which the dictionary now says (a user trial read it as measured)
     for name in ("pelvis_y_m", "left_ankle_y_m"):
         assert "floor placed under each frame's lowest joint" in rows[name][3], name

@@ -415,7 +415,8 @@ def test_the_report_names_what_was_read(tmp_path):
     # the cutoff that sets every speed is in the summary (a boxing analyst found it only in report.md)
     assert f"\nunits             normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (--cutoff-hz)\n" in res.output
     assert (f"- **units**: normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (--cutoff-hz; 30 fps resolves up to 15 Hz; "
-            f"Winter's for gait: the peak speeds of faster movements") in (tmp_path / "o" / "report.md").read_text()
+            f"Winter's for gait: a higher one keeps more of a punch's or a throw's peak speed, a lower one steadies "
+            f"a noisy input's accelerations; --residual-cutoff fits one to the recording's noise)") in (tmp_path / "o" / "report.md").read_text()
     assert set(settings) == {f.name for f in dataclasses.fields(RunConfig)}
     # a relative command-line path is recorded absolute (a trial's report read it as typed)
     from pcnet.pipeline.config import settings_record

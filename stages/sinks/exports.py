@@ -311,7 +311,10 @@ def kinematics_columns(
                          f"the velocity is); kinematic, without gravity (an accelerometer reads it plus 9.81 m/s^2 "
                          f"up)" + note(c)))
         speed_note = why if gone else ("; it includes the rotating frame's terms (the canonical frame turns with "
-                                       "the pelvis)" if frame == "canonical" else "")
+                                       "the pelvis)" if frame == "canonical" else
+                                       # a sports trial read a wrist's speed as the whole body's
+                                       f"; along {' and '.join(relative)} relative to the pelvis, whose own path "
+                                       f"is not observable in this run" if relative and j != "pelvis" else "")
         cols.append((f"{j}_speed_{v}", f"{units}/s", frame, f"Speed of the {joint}, the norm of its velocity (empty "
                      f"where the velocity is){speed_note}."))
         if unplaced:

@@ -81,7 +81,7 @@ def report_markdown(title: str, key_lines: Iterable[tuple[str, str]], findings: 
     if rate_ranges is not None:
         out += ["", "## Joint angular velocities", "", *_rate_table(rate_ranges)]
     if speed_ranges is not None:
-        out += ["", "## Joint speeds", "", *_speed_table(speed_ranges)]
+        out += ["", "## Joint speeds", "", *_speed_table(speed_ranges, report.get("root_path") == "not observable")]
     out += ["", "## Report numbers", "", "(`report` in canonical.npz; docs/outputs.md says what each is; the intervals "
             "the key facts print are `camera_pitch_interval_deg` and `camera_roll_interval_deg`, while "
             "`*_uncertainty_deg` is the poses' part alone)", "",
@@ -144,14 +144,17 @@ def _rate_table(ranges: ColumnRanges) -> list[str]:
               for r in ranges.rows)]
 
 
-def _speed_table(ranges: ColumnRanges) -> list[str]:
-    """The joint-speed section's lines: which frames the peaks cover, what lowers a fast peak,
-    then one row per joint."""
+def _speed_table(ranges: ColumnRanges, pelvis_relative: bool) -> list[str]:
+    """The joint-speed section's lines: which frames the peaks cover, what they are relative to
+    (the pelvis, horizontally, where its path is not observed: ``pelvis_relative``), what
+    lowers a fast peak, then one row per joint."""
     if not ranges.rows:
         return ["None: no joint has a speed in any frame counted."]
     unit = ranges.rows[0].unit
+    relative = (" Horizontally they are relative to the pelvis, whose own path this run could not observe (no 2D "
+                "keypoints or measured root), so the body's own travel is not in them." if pelvis_relative else "")
     return [f"The speed of each joint speeds.png shows (kinematics.csv's `*_speed_*` columns, filtered as they are) "
-            f"over {_frames_counted(ranges)}: its peak, the time it is first reached, and its median. A fast "
+            f"over {_frames_counted(ranges)}: its peak, the time it is first reached, and its median.{relative} A fast "
             f"movement's peak (a punch, a throw, a kick) reads low: the low-pass filter and the lifter's own "
             f"smoothing over frames cut it, and no cutoff gives back what the frame rate and the lifter did not "
             f"keep (docs/guide/kinematics.md).", "",
