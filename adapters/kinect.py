@@ -338,8 +338,15 @@ def load_kinect_v1(path: str | Path, layout: str | None = None, key: str | None 
     notes = (f"Kinect v1 skeleton ({layout} joint order) -> H36M-17: (x, y, z)_cv = (-x, -y, z)_kinect, metres; "
              "pelvis = hip midpoint, spine = mean(pelvis, thorax), thorax = shoulder_center, head = head centre, "
              "neck_nose NaN (no nose); not root-centred; gravity only approximately -y (sensor tilt unknown)")
-    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, fps=fps, root_translation=True,
-                   depth_sensor=True, nonfinite=nonfinite)
+    return Poses3D(joints, "h36m17", units="m", source=str(p), notes=notes, summary_note=KINECT_V1_REST_NOTE,
+                   fps=fps, root_translation=True, depth_sensor=True, nonfinite=nonfinite)
+
+
+#: What its skeleton reads at rest, measured (a wrist-IMU trial read every subject standing
+#: still as leaning back with hips and knees overextended, and took it for the subjects').
+KINECT_V1_REST_NOTE = ("compare Kinect v1 angles with the subject's own rest, not with norms: its skeleton reads "
+                       "people standing at rest with hips 14 deg extended, knees 5 deg hyperextended and the trunk "
+                       "9 deg back (medians of 168 UTD-MHAD recordings, benchmarks/kinect_standing.py)")
 
 
 def _archive_scalar(p: Path, name: str) -> float | None:

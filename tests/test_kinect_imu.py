@@ -324,3 +324,18 @@ def test_imu_check_one_real_sequence():
                                     "methods": res}], imu_check.METHODS)
     assert summary["overall"]["sequences"] == 1
     assert "| **overall (median)** | 1 |" in imu_check.markdown_table(summary)
+
+
+def test_the_rest_note_gives_the_numbers_its_benchmark_printed():
+    """A Kinect v1 run's note on how its skeleton reads quiet standing (a wrist-IMU trial took
+    the skeleton's extended hips for the subjects') quotes benchmarks/kinect_standing.py's
+    committed result, rounded to the degree."""
+    import re
+
+    from pcnet.adapters.kinect import KINECT_V1_REST_NOTE
+
+    text = (ROOT / "benchmarks" / "results" / "kinect_standing.txt").read_text()
+    row = next(ln for ln in text.splitlines() if ln.startswith("Kinect v1, UTD-MHAD, pcnet run"))
+    n, trunk, hip, knee = (float(v) for v in re.findall(r"(-?\d+(?:\.\d+)?)(?: \[|\s*$| )", row.split("run", 1)[1])[:4])
+    assert f"hips {-hip:.0f} deg extended, knees {-knee:.0f} deg hyperextended and the trunk {-trunk:.0f} deg back " \
+           f"(medians of {n:.0f} UTD-MHAD recordings" in KINECT_V1_REST_NOTE, (row, KINECT_V1_REST_NOTE)
