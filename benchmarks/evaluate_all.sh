@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Re-run every `pcnet evaluate` behind the README's held-out table: JSON and printed tables in
 # benchmarks/results/heldout/; then `python -m benchmarks.readme_tables` prints the table.
-# Needs ../shared/data (the mocap); about 45 minutes on 2 cores.
+# Needs ../shared/data (the mocap); 45 pcnet evaluate runs of several minutes each on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=benchmarks/results

@@ -1242,8 +1242,8 @@ NOTE_LINES: tuple[tuple[str, Callable[[re.Match], str]], ...] = (
      lambda m: f"3D joints remapped from {m['layout']} to H36M-17 with {m['built']} built from others"),
     # the moving-camera note's line keeps its other cause: a static tripod under a side bend
     (r"per-frame up spreads (?P<spread>\S+) deg",
-     lambda m: f"per-frame up spreads {m['spread']} deg: non-upright poses (tripod: fine) or a moving camera "
-               f"(--mode smooth)"),
+     lambda m: f"per-frame up spreads {m['spread']} deg: a leaning body (no action) or a moving "
+               f"camera (--mode smooth)"),
     # a list of locked coordinates cut short reads as the whole list (a user trial: "ankle_angle_r,
     # subtalar_angle_r, mtp_angle_r" of 12)
     (r"ik\.mot: locked in the model \(.*?\), not measured: (?P<held>.*)",

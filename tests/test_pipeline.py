@@ -1163,10 +1163,10 @@ def test_the_default_mode_is_sequence_and_a_wide_spread_of_the_ups_gets_a_note()
     assert "spreads 6.2 deg" in note and "far from upright" in note and "nothing changes but the interval" in note
     # the summary's line keeps the action and the other cause first (user trials: a side bend under a
     # tripod; yoga and cycling under a tripod told "use --mode smooth")
-    assert note_finding(note).headline == ("per-frame up spreads 6.2 deg: non-upright poses (tripod: fine) or a moving "
-                                           "camera (--mode smooth)")
+    assert note_finding(note).headline == ("per-frame up spreads 6.2 deg: a leaning body (no action) or a "
+                                           "moving camera (--mode smooth)")
     (wide,) = _moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=26.7))  # a wider number keeps both asides
-    assert note_finding(wide).headline.endswith("(tripod: fine) or a moving camera (--mode smooth)")
+    assert note_finding(wide).headline.endswith("a leaning body (no action) or a moving camera (--mode smooth)")
     assert _moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=MODE_THRESHOLD_DEG)) == []
     assert _moving_camera_note(ModeChoice("auto", "smooth", spread_deg=6.2)) == []
     assert _moving_camera_note(ModeChoice("smooth", "smooth", spread_deg=6.2)) == []
