@@ -160,7 +160,7 @@ def load_openpose(path: str | Path, layout: str | None = None, num_frames: int |
     return Keypoints2D(points, layout, str(folder), track_id=None, notes="; ".join(notes), choice=choice)
 
 
-@register_2d("openpose", records_fps=False)
+@register_2d("openpose", records_fps=False, folder_input=True)
 class OpenPoseAdapter:
     """Registry entry for :func:`load_openpose` (options: ``layout``, ``num_frames``,
     ``frame_count``)."""

@@ -84,6 +84,8 @@ class Registered:
         multi_track: 2D only: what a track id is in a format that holds several people's
             tracks, one of which ``person`` picks (``"AlphaPose idx"``), as ``pcnet run
             --person``'s help says it; ``None`` for a single-track format.
+        folder_input: 2D only: the format's input is a folder of files (OpenPose's
+            ``--write_json`` folder), not one file.
         never_metric: 3D only: the format's poses are never in metres (MotionBERT's
             image-normalised or pixel units), so a run asking for metric outputs needs
             ``height``; ``False`` where the file or its options decide, or it is metres.
@@ -94,6 +96,7 @@ class Registered:
     cls: type
     records_fps: bool = True
     multi_track: str | None = None
+    folder_input: bool = False
     never_metric: bool = False
     absent_joints: tuple[str, ...] = ()
 
@@ -121,17 +124,20 @@ def _register(table: dict[str, Registered], kind: str, name: str, **facts) -> Ca
     return deco
 
 
-def register_2d(name: str, *, records_fps: bool = True, multi_track: str | None = None) -> Callable[[T], T]:
+def register_2d(name: str, *, records_fps: bool = True, multi_track: str | None = None,
+                folder_input: bool = False) -> Callable[[T], T]:
     """Class decorator: register a 2D adapter (``load`` returns ``Keypoints2D``) under ``name``,
     with its format's facts (:class:`Registered`): ``records_fps=False`` for files that never
     record a frame rate, ``multi_track="<what a track id is>"`` for files holding several
-    people's tracks (then ``load`` takes ``person``).
+    people's tracks (then ``load`` takes ``person``), ``folder_input=True`` for a format read
+    from a folder of files.
 
     Raises:
         TypeError: the class has no ``load`` method.
         ValueError: ``name`` is taken by a different class.
     """
-    return _register(_ADAPTERS_2D, "2D", name, records_fps=records_fps, multi_track=multi_track)
+    return _register(_ADAPTERS_2D, "2D", name, records_fps=records_fps, multi_track=multi_track,
+                     folder_input=folder_input)
 
 
 def register_3d(name: str, *, records_fps: bool = True, never_metric: bool = False,

@@ -493,16 +493,27 @@ def _config_dict(cfg: RunConfig) -> dict:
 
 def _input_problems(where: str, row: dict, inputs: dict[str, str], paths: _PathFacts) -> list[str]:
     """Input files a row names (``inputs``, :func:`input_files`) that do not exist (or are
-    folders), one line each."""
+    folders, but for a 2D format read from a folder), one line each."""
     problems = []
     for column, path in inputs.items():
         kind = paths.kind(path)
+        if kind == "folder" and column == "keypoints2d" and _reads_folders(row):
+            continue
         if kind != "file":
             found = "a folder" if kind == "folder" else "no such file"
             near = "" if kind == "folder" else close_file(Path(path))
             problems.append(f"{where}: column {column}: expected an existing file, got "
                             f"{(row.get(column) or '').strip()!r} ({found}: {path}){near}")
     return problems
+
+
+def _reads_folders(row: dict) -> bool:
+    """Whether the row's 2D format reads a folder (``register_2d(folder_input=True)``: an
+    OpenPose ``--write_json`` folder, which a user trial's row could not name)."""
+    from pcnet.adapters.registry import registered
+
+    entry = registered("2d").get((_given(row.get("keypoints2d_format")) or "").lower())
+    return entry is not None and entry.folder_input
 
 
 def _out_problem(where: str, row: dict, out: str, inputs: dict[str, str], paths: _PathFacts) -> str | None:

@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 from pcnet.stages.core.atomic import write_text
-from pcnet.stages.core.digest import sha256_file, sha256_file_version
+from pcnet.stages.core.digest import sha256_path
 
 from .batch_worker import FINDINGS, RESULT_FIELDS, RUN_FIELDS
 from .config import UNKNOWN_CODE, pcnet_version
@@ -50,7 +50,7 @@ def settings_of(config: dict) -> dict:
 def input_hashes(config: dict) -> dict[str, dict]:
     """``{field: {"path", "sha256"}}`` for every input file of a row (each file read once per
     version in the worker: the run's report reads the same digests)."""
-    return {name: {"path": path, "sha256": sha256_file_version(path)} for name, path in input_files(config).items()}
+    return {name: {"path": path, "sha256": sha256_path(path)} for name, path in input_files(config).items()}
 
 
 def write_batch_marker(folder: Path, config: dict, inputs: dict[str, dict], result: dict, manifest: str = "") -> Path:
@@ -153,7 +153,7 @@ def record_status(out: Path, config: dict) -> tuple[dict | None, str]:
     changed = sorted(set(recorded) ^ set(files))
     for name in sorted(set(recorded) & set(files)):
         try:
-            if sha256_file(files[name]) != recorded[name].get("sha256"):
+            if sha256_path(files[name], cached=False) != recorded[name].get("sha256"):
                 changed.append(name)
         except OSError:
             changed.append(name)

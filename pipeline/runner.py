@@ -37,7 +37,7 @@ from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, METRES_PER_LENGTH
                                           REFUSED_THIGH_M, THIGH_RANGE_M, fill_pelvis_from_hips,
                                           thigh_beyond_metres, validate_fps)
 from pcnet.stages.core.canonical import to_canonical
-from pcnet.stages.core.digest import sha256_file_version
+from pcnet.stages.core.digest import sha256_file_version, sha256_path
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import FrameStore, frame_blocks, per_frame, present_frames
 from pcnet.stages.opensim_ik import (OUTPUTS as OPENSIM_OUTPUTS, import_opensim, opensim_fit_line, opensim_notes,
@@ -619,7 +619,7 @@ def _digests(settings: dict) -> dict:
     the weights: a ``--weights`` file, or the shipped pair by file name where the method runs a
     network): the content a report's paths alone do not pin down (a reproducibility trial ran
     copies and could not tell them from the originals)."""
-    out = {key: sha256_file_version(settings[key]) for key in ("lifter_output", "keypoints2d", "video", "weights")
+    out = {key: sha256_path(settings[key]) for key in ("lifter_output", "keypoints2d", "video", "weights")
            if settings.get(key)}
     if not settings.get("weights") and settings.get("method") != "geometric":
         out.update({f"weights {path.name}": sha256_file_version(path) for path in (CAMERA_WEIGHTS, BODY_WEIGHTS)})

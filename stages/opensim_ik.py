@@ -347,9 +347,10 @@ def _read_trc(trc_path: str | os.PathLike) -> tuple[dict, np.ndarray, np.ndarray
     """:func:`read_trc`'s answer after the header's ``{key: value}`` (strings)."""
     path = Path(trc_path)
     try:
-        lines = path.read_text().splitlines()
+        text = path.read_text()
     except OSError as err:
         raise InputError(f"{path}: cannot read it ({err.strerror or err})") from err
+    lines = text.splitlines()
     try:
         keys, values = lines[1].split("\t"), lines[2].split("\t")
         header = dict(zip(keys, values))
@@ -368,6 +369,15 @@ def _read_trc(trc_path: str | os.PathLike) -> tuple[dict, np.ndarray, np.ndarray
                          f"got unreadable content ({err})") from err
     if not rows or not names:
         raise InputError(f"{path}: expected markers and at least one frame, got none")
+    # a file cut short (a copy or a disk that filled) still parses: a bad-input trial's IK ran on
+    # its first 41 of 100 frames, the last of them cut mid-number
+    declared = header.get("NumFrames", "").strip()
+    if declared.isdigit() and int(declared) != len(rows):
+        raise InputError(f"{path}: NumFrames: expected as many frame rows as the header's {declared}, got "
+                         f"{len(rows)} (a file cut short or edited?)")
+    if not text.endswith("\n"):  # a row cut inside its last number parses as a shorter number
+        raise InputError(f"{path}: its last frame row: expected a line ending after it, got none (a file cut "
+                         f"short?)")
     data = np.asarray(rows, dtype=float)
     return header, data[:, 0], data[:, 1:].reshape(len(rows), len(names), 3), names, units
 

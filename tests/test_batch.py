@@ -1433,3 +1433,31 @@ def test_a_large_batchs_rewrites_leave_the_angles_for_the_final_summary(tmp_path
         _SummaryWriter(path, {"writer": "test"}).write(rows(n), force=True, **({"finished": True} if finished else {}))
         written = json.loads(path.read_text())["rows"]
         assert len(written) == n and all(("angles" in r) == ("angle_rates" in r) == kept for r in written), (n, finished)
+
+
+def test_an_openpose_folder_runs_and_a_change_to_one_of_its_files_runs_the_row_again(tmp_path):
+    """OpenPose writes one JSON file per frame (``--write_json``): a bad-input trial's folder
+    stopped `pcnet run` at the report's digest ("Is a directory") and was refused by `pcnet
+    batch` as "expected an existing file". The folder is one input: its digest covers every file,
+    so a changed frame file runs the row again."""
+    from pcnet.stages.core.digest import sha256_path
+
+    folder = tmp_path / "op"
+    folder.mkdir()
+    for entry in json.loads(BOX_2D.read_text()):
+        doc = {"version": 1.3, "people": [{"person_id": [-1], "pose_keypoints_2d": entry["keypoints"]}]}
+        (folder / f"box_{int(entry['image_id'][:-4]):012d}_keypoints.json").write_text(json.dumps(doc))
+    manifest = tmp_path / "m.csv"
+    manifest.write_text("lifter,lifter_output,keypoints2d,keypoints2d_format,image_size,fps,out,method,recording\n"
+                        f"motionbert,{BOX_3D},{folder},openpose,854x480,30,o,geometric,false\n")
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 0 and _statuses(manifest) == ["ok"], res.output
+    digest = sha256_path(folder)
+    assert f"| inputs.sha256.keypoints2d | {digest} |" in (tmp_path / "o" / "report.md").read_text()
+    assert _invoke(manifest, "--workers", "1").exit_code == 0 and _statuses(manifest) == ["skipped"]
+    first = sorted(folder.iterdir())[0]
+    first.write_text(first.read_text().replace('"version": 1.3', '"version": 1.4'))
+    assert sha256_path(folder, cached=False) != digest
+    res = _invoke(manifest, "--workers", "1")
+    assert res.exit_code == 0 and _statuses(manifest) == ["ok"], res.output
+    assert "input keypoints2d changed" in res.output, res.output

@@ -638,6 +638,27 @@ def read_trc(path: Path):
     return meta, labels, xyz, np.array(rows)
 
 
+def test_a_trc_cut_short_is_refused_not_read_as_a_shorter_recording(tmp_path, yoga_level):
+    """A bad-input trial cut a run's world.trc in frame 41's row: `pcnet opensim` solved IK on
+    41 of its 100 frames, the last one's marker read from a number cut in half, with exit 0.
+    The header's NumFrames and the last line's missing line ending tell a file cut short."""
+    from pcnet.stages.core.errors import InputError
+    from pcnet.stages.opensim_ik import read_trc as read_markers
+
+    path = write_trc(tmp_path / "poses.trc", yoga_level[:50].astype(np.float64), FPS_YOGA)
+    assert read_markers(path)[1].shape == (50, 17, 3)
+    text = path.read_text()
+    cut = text.index("\n", text.index("\n41\t") + 1) - 7  # inside frame 41's last number
+    (tmp_path / "cut.trc").write_text(text[:cut])
+    with pytest.raises(InputError, match=r"cut\.trc: NumFrames: expected as many frame rows as the header's 50, got "
+                                         r"41 \(a file cut short or edited\?\)"):
+        read_markers(tmp_path / "cut.trc")
+    header = text.splitlines()[2]  # the header made to agree: the missing line ending still tells
+    (tmp_path / "cut41.trc").write_text(text[:cut].replace(header, header.replace("\t50\t17\t", "\t41\t17\t", 1)))
+    with pytest.raises(InputError, match=r"its last frame row: expected a line ending"):
+        read_markers(tmp_path / "cut41.trc")
+
+
 def test_trc_parses_back_with_missing_markers(tmp_path, yoga_level):
     X = yoga_level[:50].astype(np.float64).copy()
     X[3, R_WRIST] = np.nan  # the last marker: the hardest case for the tokenizer

@@ -39,6 +39,25 @@ def sha256_file_version(path: str | os.PathLike) -> str:
     return _sha256_of(str(resolved), stat.st_mtime_ns, stat.st_size)
 
 
+def sha256_path(path: str | os.PathLike, cached: bool = True) -> str:
+    """The digest of an input: a file's :func:`sha256_file_version` (``cached``) or
+    :func:`sha256_file`; a folder's (an OpenPose ``--write_json`` folder, read as one input), the
+    hex sha256 of one line per regular file under it, ``<relative POSIX path> NUL <its sha256>``,
+    in sorted order, so that a file added, removed, renamed or changed changes it.
+
+    Raises:
+        OSError: a file cannot be read.
+    """
+    digest_of = sha256_file_version if cached else sha256_file
+    folder = Path(path)
+    if not folder.is_dir():
+        return digest_of(folder)
+    digest = hashlib.sha256()
+    for file in sorted(f for f in folder.rglob("*") if f.is_file()):
+        digest.update(f"{file.relative_to(folder).as_posix()}\0{digest_of(file)}\n".encode())
+    return digest.hexdigest()
+
+
 #: Room for pcnet's own code files (about 100, :func:`pcnet.pipeline.config.code_digest`) and a
 #: run's inputs, so that digesting the code does not evict the weights a report digests next.
 @functools.lru_cache(maxsize=256)
