@@ -138,11 +138,16 @@ def _to_h36m(joints_cv: np.ndarray, names: tuple[str, ...], rules) -> np.ndarray
     return out
 
 
-def _missing_depth_to_nan(arr: np.ndarray) -> np.ndarray:
-    """NaN for joints not in front of the sensor (z <= 0, e.g. the (0, 0, 0) of untracked joints)."""
+def _missing_depth_to_nan(arr: np.ndarray, source: str | Path, field: str) -> np.ndarray:
+    """NaN for joints not in front of the sensor (z <= 0, e.g. the (0, 0, 0) of untracked
+    joints); an :class:`AdapterError` when that leaves none of the finite joints (a bad-input
+    trial's all-zero file was called "only NaN/inf")."""
     out = np.array(arr, np.float32, copy=True)
     with np.errstate(invalid="ignore"):
         behind = ~(out[..., 2] > 0)
+    if behind.all() and np.isfinite(out).all(axis=-1).any():
+        raise AdapterError(source, field, "some joints in front of the sensor (z > 0)",
+                           "every finite joint at z <= 0 (an untracked joint is written as (0, 0, 0))")
     out[behind] = np.nan
     return out
 
@@ -181,7 +186,7 @@ def kinect_v1_to_h36m(skeleton: np.ndarray, layout: str = "utd", source: str | P
     if layout not in KINECT_V1_LAYOUTS:
         raise AdapterError(source, "layout", f"one of {sorted(KINECT_V1_LAYOUTS)}", repr(layout))
     a = _check_joint_array(source, field, skeleton, 20, "Kinect v1")
-    cv = _missing_depth_to_nan(a * _V1_TO_CV)
+    cv = _missing_depth_to_nan(a * _V1_TO_CV, source, field)
     _check_v1_order(cv, layout, source, field)
     return _to_h36m(cv, KINECT_V1_LAYOUTS[layout], _V1_RULES)
 
@@ -226,7 +231,7 @@ def azure_kinect_to_h36m(joints_mm: np.ndarray, source: str | Path = "<array>", 
             finite value.
     """
     a = _check_joint_array(source, field, joints_mm, 32, "Azure Kinect")
-    cv = _missing_depth_to_nan(a * np.float32(1e-3))
+    cv = _missing_depth_to_nan(a * np.float32(1e-3), source, field)
     return _to_h36m(cv, AZURE_KINECT_JOINTS, _AZURE_RULES)
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pcnet.stages.core.conventions import check_poses
+from pcnet.stages.core.conventions import validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
@@ -140,7 +140,8 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
             frames as ``rectified`` (the poses of another call), or ``rectified`` not a
             :class:`~pcnet.stages.rectify.Rectified`.
     """
-    joints_camera = check_poses(joints_camera, "pose_checks: joints_camera")
+    # read as rectify read them: inf and placeholders missing (a trial's inf printed numpy warnings)
+    joints_camera = validate_poses(joints_camera, "pose_checks: joints_camera")
     if not isinstance(rectified, Rectified):
         raise InputError(f"pose_checks: rectified: expected what rectify returned (Rectified), got "
                          f"{type(rectified).__name__}")

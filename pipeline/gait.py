@@ -104,8 +104,9 @@ def read_run(folder: Path) -> RunPoses:
         report_text = str(_field(arrays, npz, "report"))
         segment = np.asarray(arrays["track_segment"], np.float64) if "track_segment" in arrays.files else None
     if fps_field.shape != () or fps_field.dtype.kind not in "fiu" or not float(fps_field) > 0:
-        raise InputError(f"{npz}: field 'fps': expected one positive frame rate, got shape {fps_field.shape} of "
-                         f"{fps_field.dtype}")
+        got = (f"{fps_field.item()!r}" if fps_field.shape == () and fps_field.dtype.kind in "fiu"
+               else f"shape {fps_field.shape} of {fps_field.dtype}")  # a trial's 0 read "shape () of float64"
+        raise InputError(f"{npz}: field 'fps': expected one positive frame rate, got {got}")
     fps = float(fps_field)
     try:
         report = json.loads(report_text)

@@ -67,8 +67,8 @@ from pcnet.stages.plausibility import implausible_frames, implausible_motion, mo
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
-from .config import (DEFAULT_CUTOFF_HZ, RunConfig, fps_contradiction, keypoint_formats, multi_track_formats,
-                     pcnet_version, rates_agree, settings_record)
+from .config import (COMMAND_LINE, DEFAULT_CUTOFF_HZ, RunConfig, field_name, fps_contradiction, keypoint_formats,
+                     multi_track_formats, pcnet_version, rates_agree, settings_record)
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -475,6 +475,24 @@ def _require_input(path, field: str) -> None:
         AdapterError: ``path`` (a file or folder: some formats are folders) does not exist."""
     if not as_path(path, f"an existing file or folder ({field})").exists():
         raise AdapterError(path, field, "an existing file or folder", "no such file or folder")
+
+
+def _refuse_input_folders(cfg: RunConfig) -> None:
+    """A folder given for an input that is a file (all but a 2D format read from a folder,
+    ``register_2d(folder_input=True)``): named as such before the output folder is checked
+    against the inputs (a bad-input trial's folder given as the API's ``lifter_output`` was
+    refused as an ``--out`` inside it).
+
+    Raises:
+        InputError: the first such input, naming its field.
+    """
+    from pcnet.adapters.registry import registered
+
+    reads_folder = cfg.keypoints2d_format is not None and registered("2d")[cfg.keypoints2d_format].folder_input
+    for name in ("video", "keypoints2d", "lifter_output", "weights"):
+        path = getattr(cfg, name)
+        if path is not None and Path(path).is_dir() and not (name == "keypoints2d" and reads_folder):
+            raise InputError(f"{field_name(COMMAND_LINE, name)}: expected a file, got a folder ({path})")
 
 
 def _load_inputs(cfg: RunConfig) -> RecordingInputs:
@@ -894,6 +912,7 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *,
     if cfg.opensim:
         import_opensim()  # the same for OpenSim
     cfg.validate()
+    _refuse_input_folders(cfg)
     out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights), cfg.overwrite)
     # disable=None: no bar where stderr is not a terminal (a log file, a pipe), whose
     # carriage-return redraws would fill it; a long run there says where it is in lines.

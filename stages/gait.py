@@ -270,7 +270,9 @@ def gait_events(joints: np.ndarray, fps: float) -> GaitEvents:
         raise InputError(f"fps: expected a positive frame rate, got {fps}")
     signals = anterior_ankle_signals(joints)
     both = np.isfinite(signals["left"]) & np.isfinite(signals["right"])
-    phase = np.corrcoef(signals["left"][both], signals["right"][both])[0, 1] if both.sum() > 2 else np.nan
+    if both.sum() < 3:  # a correlation needs three frames (a trial's one-frame run read "+nan")
+        raise GaitError(f"expected a walk or run, several frames with both ankles, got {both.sum()}")
+    phase = np.corrcoef(signals["left"][both], signals["right"][both])[0, 1]
     if not phase < 0:
         raise GaitError(f"expected a walk or run, its feet moving in antiphase (their forward positions relative to "
                         f"the pelvis negatively correlated), got a correlation of {phase:+.2f} over {both.sum()} "

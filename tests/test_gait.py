@@ -111,6 +111,9 @@ def test_bad_input():
         gait_events(np.zeros((60, 16, 3)), FPS)
     with pytest.raises(ValueError, match="positive frame rate"):
         gait_events(_clip(WALK), 0.0)
+    # a one-frame run read "a correlation of +nan over 1 frames"
+    with pytest.raises(GaitError, match="expected a walk or run, several frames with both ankles, got 1$"):
+        gait_events(_clip(WALK)[:1], FPS)
 
 
 def _cli(*args):
@@ -276,7 +279,8 @@ def test_pcnet_gait_refuses_what_it_cannot_read(tmp_path):
     assert res.exit_code == 1 and "field 'joints_world': expected world-frame poses" in res.output
     assert len(res.output.strip().splitlines()) == 1
     walk = _clip(WALK)
-    for field, value, said in (("fps", np.zeros(3), "field 'fps': expected one positive frame rate"),
+    for field, value, said in (("fps", np.zeros(3), "field 'fps': expected one positive frame rate, got shape (3,)"),
+                               ("fps", 0.0, "field 'fps': expected one positive frame rate, got 0.0"),
                                ("report", "not json", "field 'report': expected the run's report")):
         fields = dict(joints_world=walk, fps=FPS, units="m", pelvis_path_std_world=np.zeros((len(walk), 3)),
                       report=json.dumps({}))

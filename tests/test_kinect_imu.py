@@ -121,6 +121,10 @@ def test_kinect_v1_untracked_zero_joints_become_nan():
     assert np.isnan(h[1, R_ELBOW]).all() and np.isfinite(h[0, R_ELBOW]).all()
     assert np.isnan(h[2, L_HIP]).all() and np.isnan(h[2, PELVIS]).all() and np.isnan(h[2, SPINE]).all()
     assert np.isfinite(h[2, R_HIP]).all()
+    # nothing in front of the sensor is said as such, not as "only NaN/inf" (a bad-input trial)
+    with pytest.raises(AdapterError, match=r"expected some joints in front of the sensor \(z > 0\), got every "
+                                           r"finite joint at z <= 0"):
+        kinect_v1_to_h36m(np.zeros_like(sk))
 
 
 def test_kinect_v1_files_npy_npz_mat_and_registry(tmp_path):

@@ -975,3 +975,15 @@ def test_training_and_export_without_torch_end_in_one_line(user_folder, monkeypa
     (user_folder / "t.toml").write_text("")
     _one_line_error(_invoke("train", "--config", "t.toml"), 'pcnet train needs torch: pip install "pcnet[train]" '
                     '--extra-index-url https://download.pytorch.org/whl/cpu (the CPU build)')
+
+
+def test_a_folder_given_for_an_input_file_is_named_as_such(user_folder):
+    """A bad-input trial gave the Python API a folder as ``lifter_output``: it was refused as an
+    ``--out`` lying inside the input, which hid the real mistake."""
+    from pcnet.pipeline import InputError, RunConfig, run_pipeline
+
+    (user_folder / "poses_dir").mkdir()
+    with pytest.raises(InputError, match=r"^--lifter-output: expected a file, got a folder \(.*poses_dir\)$"):
+        run_pipeline(RunConfig(lifter="videopose3d", lifter_output=str(user_folder / "poses_dir"), fps=30.0,
+                               out=str(user_folder / "poses_dir" / "o"), recording=False), progress=False)
+    assert not (user_folder / "poses_dir" / "o").exists()
