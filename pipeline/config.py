@@ -384,8 +384,10 @@ class RunConfig:
         if facts.never_metric and metric and self.height is None:
             raise InputError(f"{field_name(source, *metric)}: expected metric poses (a lifter writing metres, or "
                              f"{field_name(source, 'height')}), got lifter {self.lifter}, whose poses are never in metres")
+        if self.height is None:
+            return
         lacking = chain_joints_lacking(np.array([j not in facts.absent_joints for j in H36M_JOINTS]))
-        if self.height is not None and lacking:
+        if lacking:
             raise InputError(f"{field_name(source, 'height')}: expected a skeleton with the {HEIGHT_CHAIN} its size "
                              f"is measured on, got lifter {self.lifter}, whose skeleton never has {', '.join(lacking)}; "
                              f"leave out {field_name(source, 'height')}")
