@@ -351,7 +351,7 @@ def load_kinect_v1(path: str | Path, layout: str | None = None, key: str | None 
 #: still as leaning back with hips and knees overextended, and took it for the subjects').
 KINECT_V1_REST_NOTE = ("compare Kinect v1 angles with the subject's own rest, not with norms: its skeleton reads "
                        "people standing at rest with hips 14 deg extended, knees 5 deg hyperextended and the trunk "
-                       "9 deg back (medians of 168 UTD-MHAD recordings, benchmarks/kinect_standing.py)")
+                       "9 deg back (medians of 168 UTD-MHAD recordings, docs/guide/limits.md)")
 
 
 def _archive_scalar(p: Path, name: str) -> float | None:
