@@ -135,8 +135,9 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
         rectified: its result.
 
     Raises:
-        InputError: ``joints_camera`` not ``(T, 17, 3)`` numbers (a single ``(17, 3)`` pose is
-            one frame, as :func:`~pcnet.pipeline.rectification.rectify` reads it), or not as many
+        InputError: ``joints_camera`` not ``(T, 17, 3)`` numbers with a finite value (a single
+            ``(17, 3)`` pose is one frame; ``inf`` is missing, as
+            :func:`~pcnet.pipeline.rectification.rectify` reads them), or not as many
             frames as ``rectified`` (the poses of another call), or ``rectified`` not a
             :class:`~pcnet.stages.rectify.Rectified`.
     """

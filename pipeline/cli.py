@@ -501,6 +501,10 @@ def _run_and_report(cfg, strict: bool = False) -> None:
 @click.option("--roi", default=None,
               help="X,Y,W,H in pixels of the video as displayed, with --video alone: the embedded estimator follows "
                    "the person inside this region, not another one in view.")
+@click.option("--camera-up", default=None,
+              help="X,Y,Z: the static camera's up (against gravity) in its own frame (x right, y down, z forward; "
+                   "a level camera's is 0,-1,0), where it is known (a calibration, the filming phone's gravity "
+                   "sensor): sequence mode takes it instead of estimating one.")
 @click.option("--out", type=click.Path(), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 # on / off pairs, so that the command line overrides a --config file either way (a trial could not

@@ -234,7 +234,12 @@ class RunConfig:
     keypoint file does not state it (AlphaPose, OpenPose): the principal point of that fit.
     ``roi``: ``"X,Y,W,H"`` (or four ints) in pixels of the video as displayed, for a video alone: the embedded
     estimator sees only that region, so it follows the person there, not another one in view
-    (:func:`pcnet.models.pose_estimator.estimate_video`).
+    (:func:`pcnet.models.pose_estimator.estimate_video`). ``camera_up``: ``"X,Y,Z"`` (or three
+    numbers), the static camera's up direction (against gravity) in its own frame (OpenCV axes:
+    x right, y down, z forward; a level camera's is ``0,-1,0``; any length), where it is known
+    (a calibration, the gravity sensor of the phone that filmed, another run's
+    ``canonical.npz`` ``report`` ``sequence.up``): sequence mode takes it instead of estimating
+    one (:class:`pcnet.stages.rectify.SequenceEvidence`).
     """
 
     lifter: str | None = None
@@ -265,6 +270,7 @@ class RunConfig:
     focal_px: float | None = None
     image_size: str | None = None
     roi: str | None = None
+    camera_up: str | None = None
     lifter_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -283,6 +289,10 @@ class RunConfig:
         # A region given as numbers, (x, y, w, h), is the "x,y,w,h" a TOML file or the command line gives.
         if isinstance(self.roi, (tuple, list)) and all(isinstance(v, (int, np.integer)) for v in self.roi):
             self.roi = ",".join(str(int(v)) for v in self.roi)
+        # and an up given as numbers (a numpy array, a tuple) the "x,y,z" they give
+        if isinstance(self.camera_up, (tuple, list, np.ndarray)) and all(
+                isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) for v in self.camera_up):
+            self.camera_up = ",".join(repr(float(v)) for v in self.camera_up)
         # A rate or height computed with numpy is a numpy scalar (np.float32(30)); the config
         # keeps the plain Python value that the type check, TOML and the report's JSON take.
         for f in fields(self):
@@ -305,6 +315,15 @@ class RunConfig:
     def roi_px(self) -> tuple[int, int, int, int] | None:
         """``roi`` as ``(x, y, width, height)`` pixels, or ``None`` (checked by :meth:`validate`)."""
         return None if self.roi is None else tuple(int(v) for v in self.roi.split(","))
+
+    @property
+    def camera_up_vector(self) -> tuple[float, float, float] | None:
+        """``camera_up`` as a unit ``(x, y, z)`` in the camera frame, or ``None`` (checked by
+        :meth:`validate`)."""
+        if self.camera_up is None:
+            return None
+        v = np.array([float(c) for c in self.camera_up.split(",")])
+        return tuple(float(c) for c in v / np.linalg.norm(v))
 
     @property
     def min_confidence(self) -> float:
@@ -391,6 +410,23 @@ class RunConfig:
             raise InputError(f"{field_name(source, 'height')}: expected a skeleton with the {HEIGHT_CHAIN} its size "
                              f"is measured on, got lifter {self.lifter}, whose skeleton never has {', '.join(lacking)}; "
                              f"leave out {field_name(source, 'height')}")
+
+    def _check_camera_up(self, source: str) -> None:
+        """``camera_up``: three finite numbers, not all 0, for sequence mode (one up for a static
+        camera) with the posture the up leaves to the poses (``auto``)."""
+        name = field_name(source, "camera_up")
+        try:
+            v = np.array([float(c) for c in self.camera_up.split(",")])
+        except ValueError:
+            v = np.array([])
+        if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
+            raise InputError(f"{name}: expected X,Y,Z, the camera's up in its own frame (x right, y down, z forward; "
+                             f"a level camera's is 0,-1,0), got {self.camera_up!r}")
+        if self.mode != "sequence":
+            raise InputError(f"{name}: expected with mode sequence (one up for a static camera), got mode {self.mode}")
+        if self.posture != "auto":
+            raise InputError(f"{field_name(source, 'posture')}: expected auto with {name} (the given up decides the "
+                             f"frame; the posture is what the poses then show), got {self.posture}")
 
     def validate(self, source: str = "config") -> "RunConfig":
         """Check every field's type (against the annotations), choices, ranges and
@@ -510,6 +546,8 @@ class RunConfig:
                              f"{self.lifter} files do not record one), got none{also}")
         if self.lifter is not None:
             self._check_lifter_facts(source)
+        if self.camera_up is not None:
+            self._check_camera_up(source)
         if self.confidence_threshold is not None and self.keypoints2d is None:
             raise InputError(f"{field_name(source, 'confidence_threshold')}: expected together with 2D keypoints "
                              f"(it masks their low-confidence joints), got {self.confidence_threshold:g} without keypoints2d")

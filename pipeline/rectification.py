@@ -109,6 +109,7 @@ def rectify(
     camera_prior: bool = True,
     measured_root: bool = False,
     posture: str = "auto",
+    camera_up=None,
 ) -> Rectified:
     """Rectify camera-frame H36M-17 poses ``(T, 17, 3)`` into the canonical frame
     (``docs/CONVENTIONS.md``): ``canonical = (X - pelvis) @ R + residual``, the residual being the
@@ -139,7 +140,10 @@ def rectify(
     ``measured_root``: the joints keep a camera-frame root path (a depth sensor's, or one
     recovered from 2D keypoints by :func:`pcnet.stages.root_path.root_from_keypoints`, as
     ``pcnet run`` does), so sequence mode also weighs the floor contacts
-    (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor. ``report`` says
+    (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor. ``camera_up``: the
+    static camera's up where it is known, ``(3,)`` in the camera frame (any length; a
+    calibration's, a gravity sensor's), for mode ``sequence``: each frame's rotation is turned to
+    it instead of an estimated one (:class:`pcnet.stages.rectify.SequenceEvidence`). ``report`` says
     what ran (:class:`pcnet.stages.rectification_report.RectificationReport`; ``as_record()``
     gives the keys of docs/outputs.md's ``report`` that rectification sets, and sequence mode's
     intervals are ``report.sequence.camera_pitch_interval_deg`` and ``..._roll_...``); the
@@ -165,7 +169,9 @@ def rectify(
             heading source or posture, a posture declared where nothing reads it
             (:func:`pcnet.stages.rectify.check_posture`), an option of another type
             (``camera_prior``, ``measured_root`` not a bool; ``fps`` not a number: ``"no"``
-            would read as true), no ``fps`` for a mode other than ``frame``, ``measured_root`` over root-relative joints
+            would read as true), no ``fps`` for a mode other than ``frame``, ``camera_up`` not three
+            finite numbers, not all 0, or outside mode ``sequence`` or with a declared posture,
+            ``measured_root`` over root-relative joints
             (:func:`check_measured_root`), or no valid frame (none with the hips, thorax and
             shoulders; in sequence mode also none with a heading about the sequence up, the
             input's axes wrong: :func:`pcnet.stages.rectify.no_valid_frame_reason`).
@@ -181,7 +187,7 @@ def rectify(
     if measured_root:
         check_measured_root(joints_cam[:, PELVIS], "rectify: measured_root", "pass measured_root=False")
     result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, measured_root=measured_root,
-                             posture=posture)
+                             posture=posture, camera_up=None if camera_up is None else unit_up(camera_up))
     if not result.valid.any():
         # the same refusal as pcnet run's, in every mode: an answer of NaN rows alone reads as a
         # result (a trial's frame-mode call without hips returned one, and no finding)
@@ -189,10 +195,27 @@ def rectify(
     return replace(result, report=replace(result.report, pelvis_from_hips_frames=int(pelvis_filled.sum())))
 
 
+def unit_up(camera_up) -> tuple[float, float, float]:
+    """A given camera up (three numbers, any length) as a unit ``(x, y, z)``.
+
+    Raises:
+        InputError: not three finite numbers, or all 0.
+    """
+    try:
+        v = np.asarray(camera_up, np.float64)
+    except (TypeError, ValueError):
+        v = np.array([])
+    if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
+        raise InputError(f"rectify: camera_up: expected (x, y, z), the camera's up in its own frame (x right, y down, "
+                         f"z forward; a level camera's is (0, -1, 0)), got {camera_up!r}")
+    return tuple(float(c) for c in v / np.linalg.norm(v))
+
+
 def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = None, mode: str = "frame",
                     fps: float | None = None, heading: str | None = None, camera_prior: bool = True,
                     allocate: Allocate | None = None, decide_on: np.ndarray | None = None,
-                    measured_root: bool = False, posture: str = "auto") -> Rectified:
+                    measured_root: bool = False, posture: str = "auto",
+                    camera_up: tuple[float, float, float] | None = None) -> Rectified:
     """:func:`rectify` of poses that already passed its input rules (``pcnet run`` applies
     them a block at a time), in memory or a
     :class:`~pcnet.stages.core.framestore.FrameArray`; ``allocate`` makes the residual and
@@ -200,7 +223,7 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
     ``(T,)`` bool, one person's stretch of a 2D track that switches people: the frames mode
     ``auto`` decides on and the only ones whose feet the floor contacts read
     (:class:`pcnet.stages.rectify.SequenceEvidence`). ``fps`` is required in every mode (no
-    default here: the caller knows the rate).
+    default here: the caller knows the rate); ``camera_up`` a unit ``(x, y, z)`` (:func:`unit_up`).
     No ``pelvis_from_hips_frames`` in the report.
 
     Raises:
@@ -208,6 +231,7 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
     """
     heading_step = HeadingStep(resolve_heading_source(method, heading))
     chain = Rectification(make_estimator(method, weights),
-                          SequenceEvidence(mode, camera_prior, measured_root=measured_root, posture=posture),
+                          SequenceEvidence(mode, camera_prior, measured_root=measured_root, posture=posture,
+                                           camera_up=camera_up),
                           heading_step, allocate)
     return chain(joints_cam, validate_fps(fps), decide_on)

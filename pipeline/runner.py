@@ -54,7 +54,7 @@ from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, f
                                      residual_analysis)
 from pcnet.pipeline.rectification import check_measured_root, rectify_checked
 from pcnet.stages.rectification_report import ModeChoice, RectificationReport
-from pcnet.stages.rectify import NO_VALID_FRAME, no_valid_frame_reason
+from pcnet.stages.rectify import GIVEN_UP, NO_VALID_FRAME, no_valid_frame_reason
 from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, outside_image, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, other_persons_frames, write_arrays, write_figures,
@@ -265,9 +265,10 @@ class RunResult:
     def _frame_bound(self, long: bool = True) -> list[tuple[str, str]]:
         rect = self.report.rectification
         base = rect.frame_tilt_bound_base_deg
-        # A sequence up whose interval is known says its uncertainty on the tilt line instead.
-        if (rect.sequence is not None and np.isfinite(rect.sequence.camera_pitch_interval_deg)) \
-                or not np.isfinite(base):
+        # A sequence up whose interval is known says its uncertainty on the tilt line instead; a
+        # given one reads no per-frame up.
+        if (rect.sequence is not None and (np.isfinite(rect.sequence.camera_pitch_interval_deg)
+                                           or rect.sequence.evidence == GIVEN_UP)) or not np.isfinite(base):
             return []
         bound = np.asarray(rect.frame_tilt_bound_deg, np.float64)
         bound = bound[np.isfinite(bound)]
@@ -305,6 +306,9 @@ class RunResult:
 
     def _pitch_roll(self, long: bool = True) -> str:
         seq = self.report.rectification.sequence
+        if seq is not None and seq.evidence == GIVEN_UP:
+            return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; given, --camera-up; "
+                    f"the networks' per-frame ups lie a median {seq.up_spread_deg:.1f} deg from it)")
         nan = float("nan")
         pitch_unc, roll_unc = (seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg) if seq else (nan, nan)
         if not (np.isfinite(pitch_unc) and np.isfinite(roll_unc)):
@@ -1403,7 +1407,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     try:
         res = rectify_checked(_located(camera.joints, root, store), cfg.method, cfg.weights, cfg.mode, fps,
                               cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on,
-                              measured_root=root is not None, posture=cfg.posture)
+                              measured_root=root is not None, posture=cfg.posture, camera_up=cfg.camera_up_vector)
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
             raise  # the weights file's own error, already naming it
@@ -1412,8 +1416,9 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
         reason = no_valid_frame_reason(res.report)
         raise InputError(f"{cfg.lifter_output}: {reason}{_no_frame_hint(cfg, reason, camera, layout)}")
     report = replace(res.report, pelvis_from_hips_frames=camera.pelvis_filled)
-    notes = _unused_floor_note(inputs.recording.measured_root,
-                               report.sequence.ground_plane if report.sequence is not None else None)
+    # a given up is not refined by anything
+    notes = _unused_floor_note(inputs.recording.measured_root, report.sequence.ground_plane
+                               if report.sequence is not None and report.sequence.evidence != GIVEN_UP else None)
     notes += _moving_camera_note(report.mode)
     notes += _headingless_frames_note(report, camera.joints, res.valid)
     return Rectified(res.rotation, res.canonical, res.valid, report, CameraTilt.of(res.rotation, res.valid),

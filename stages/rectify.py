@@ -41,6 +41,8 @@ from .up_model import (OTHER_POSTURE_P, Z95, UpEvidence, UpModelParameters, defa
                        summarise_recording, tangent_per_pitch_roll)
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
+#: :class:`SequenceUp`'s ``evidence`` where the camera's up was given (``camera_up``).
+GIVEN_UP = "given"
 #: The body's posture in sequence mode's up model: ``auto`` (the posterior decides, with the
 #: declared prior ``lying_prior``) or one the user declares (a prior of 0 or 1 on lying).
 POSTURES = ("auto", "upright", "lying")
@@ -248,11 +250,17 @@ class SequenceEvidence:
     uncertainty (0 = none, NaN; the rotations do not depend on it). ``measured_root``: the joints carry a
     camera-frame pelvis path (a depth sensor's, or one recovered from 2D keypoints,
     :mod:`pcnet.stages.root_path`), so sequence mode fuses the floor contacts
-    (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor.
+    (:mod:`pcnet.stages.ground_plane`); root-relative joints carry no floor. ``camera_up``: the
+    static camera's up where it is known, a unit ``(x, y, z)`` in the camera frame (a
+    calibration's, a gravity sensor's): sequence mode then turns each frame's rotation to it
+    (:func:`pcnet.stages.temporal.rotations_about_up`, each keeping its heading) instead of
+    estimating one; its :class:`SequenceUp` has ``evidence`` ``"given"``, no interval (NaN), and
+    the per-frame ups' angles from it as its spread.
 
     Raises:
         InputError: unknown ``mode`` or ``posture``; a declared posture without the camera prior
-            (the lying hypothesis's up comes from it).
+            (the lying hypothesis's up comes from it); ``camera_up`` not a unit 3-vector, or
+            given outside sequence mode or with a declared posture.
     """
 
     mode: str = "frame"
@@ -260,6 +268,7 @@ class SequenceEvidence:
     n_bootstrap: int = BOOTSTRAP_REPLICATES
     measured_root: bool = False
     posture: str = "auto"
+    camera_up: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -269,6 +278,13 @@ class SequenceEvidence:
         if self.posture != "auto" and not self.camera_prior:
             raise InputError(f"posture {self.posture}: expected with the camera prior (the lying posture's up comes "
                              f"from it), got camera_prior False")
+        if self.camera_up is not None:
+            up = np.asarray(self.camera_up, np.float64)
+            if up.shape != (3,) or not np.isfinite(up).all() or abs(np.linalg.norm(up) - 1.0) > 1e-6:
+                raise InputError(f"camera_up: expected a unit (x, y, z) in the camera frame, got {self.camera_up!r}")
+            if self.mode != "sequence" or self.posture != "auto":
+                raise InputError(f"camera_up: expected with mode sequence and posture auto (one given up for a static "
+                                 f"camera), got mode {self.mode}, posture {self.posture}")
 
     def __call__(self, joints_cam: np.ndarray | None, R: np.ndarray, valid: np.ndarray | None,
                  fps: float, decide_on: np.ndarray | None = None, calibrated: bool = True,
@@ -321,6 +337,9 @@ class SequenceEvidence:
             valid = ok & np.isfinite(out).all((1, 2))
             return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode)
         mode = ModeChoice(self.mode, run, spread_deg=spread, decided_on_frames=decided_on)
+        if self.camera_up is not None:
+            out, valid, up = given_up_sequence(R, ok, np.asarray(self.camera_up, np.float64))
+            return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode, up)
         located = joints_cam if self.measured_root else None
         if evidence is not None and calibrated:
             # A path that jumps to another person is not one body's: the floor reads one person's feet (decision 0066).
@@ -339,6 +358,30 @@ class SequenceEvidence:
                 ground_plane=res.ground_plane)
         valid = ok & np.asarray(valid, bool)
         return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode, up)
+
+
+def given_up_sequence(R: np.ndarray, ok: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
+    """Sequence mode with the camera's up given: each valid frame's rotation turned to ``up``
+    (:func:`pcnet.stages.temporal.rotations_about_up`, its heading kept), ``(T, 3, 3)``; the
+    frames where that is defined ``(T,)`` bool; and the :class:`SequenceUp` (``evidence``
+    ``"given"``, pitch and roll of ``up``, no interval or uncertainty: NaN; the spread the
+    median and 95th percentile angle of the valid per-frame ups from ``up``, deg).
+
+    Args:
+        R: ``(T, 3, 3)`` per-frame canonical->camera rotations; ok: ``(T,)`` bool, the valid ones.
+        up: ``(3,)`` unit up, camera frame (OpenCV axes).
+    """
+    out, made = rotations_about_up(R, up)
+    valid = ok & made
+    angles = np.degrees(angle_between(R[ok][:, :, 1], up))
+    pitch, roll = (float(np.degrees(a)) + 0.0 for a in camera_pitch_roll(up))  # + 0.0: no "-0.0"
+    nan = float("nan")
+    return out, valid, SequenceUp(
+        evidence=GIVEN_UP, up=up.copy(), camera_pitch_deg=pitch, camera_roll_deg=roll, camera_pitch_interval_deg=nan,
+        camera_roll_interval_deg=nan, up_uncertainty_deg=nan, camera_pitch_uncertainty_deg=nan,
+        camera_roll_uncertainty_deg=nan, interval_reaches_other_posture_p=None, posture=None,
+        up_spread_deg=float(np.median(angles)), up_spread_p95_deg=float(np.percentile(angles, 95)),
+        ground_plane={"used": False, "reason": "the camera's up was given"})
 
 
 def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: float, camera_prior: bool = True,

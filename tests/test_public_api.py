@@ -366,7 +366,7 @@ def test_library_calls_refuse_what_would_be_silently_wrong_in_one_line():
     res = rectify(J, mode="sequence", fps=30.0)
     with pytest.raises(InputError, match="expected the 40 frames rectify was given, got 10"):
         pose_checks(J[:10], res)
-    with pytest.raises(InputError, match=r"joints_camera: expected shape \(N, 17, 3\)"):
+    with pytest.raises(InputError, match=r"joints_camera: expected shape \(T, 17, 3\)"):
         pose_checks(J[:, :16], res)
     assert pose_checks(J.tolist(), res) == pose_checks(J, res)
     single = J[0]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -325,3 +326,61 @@ def test_where_the_2d_track_switches_person_one_persons_feet_place_the_ground():
     assert abs(_ground_error(J, world[walker])) < 0.02 and abs(_ground_error(O, world[:k])) < 0.02
     with pytest.raises(InputError, match="floor_frames"):
         to_world_floor(both, frame, path, floor_frames=walker[1:])
+
+
+# --------------------------------------------------------------------------- a given camera up
+
+
+def test_a_given_camera_up_is_the_world_frames_up_and_each_frame_keeps_its_heading():
+    """A developer comparing estimators had no way to give the camera's known up (a calibration,
+    the filming phone's gravity sensor): each estimator's poses moved the estimated up, and with
+    it every angle against gravity. With ``camera_up`` sequence mode takes it: every frame's up
+    column is that up, each frame's heading is its own estimate's turned about it, and nothing
+    is called an interval."""
+    from pcnet.pipeline import rectify
+    from pcnet.stages.rectify import GIVEN_UP
+    from pcnet.stages.temporal import rotations_about_up
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")  # real VideoPose3D, camera frame
+    given = np.array([0.1, -0.9, 0.3])
+    up = given / np.linalg.norm(given)
+    estimated = rectify(joints, mode="sequence", fps=30.0)
+    res = rectify(joints, mode="sequence", fps=30.0, camera_up=given)  # any length
+    assert res.valid.all() and res.report.sequence.evidence == GIVEN_UP
+    np.testing.assert_allclose(res.rotation[:, :, 1], np.broadcast_to(up, (100, 3)), atol=1e-9)
+    # the heading: each frame's own about the given up (within the turn between the two ups)
+    turned = rotations_about_up(estimated.rotation, up)[0]
+    heading_gap = np.degrees(np.arccos(np.clip(np.sum(res.rotation[:, :, 0] * turned[:, :, 0], -1), -1, 1)))
+    assert heading_gap.max() < 1.0, heading_gap.max()
+    seq = res.report.sequence
+    assert np.isnan([seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg, seq.up_uncertainty_deg]).all()
+    assert 0 < seq.up_spread_deg < 90 and seq.ground_plane["used"] is False
+    for bad, said in (((0, 0, 0), "expected \\(x, y, z\\)"), ((0, -1), "expected \\(x, y, z\\)"),
+                      ((0, np.nan, 1), "expected \\(x, y, z\\)")):
+        with pytest.raises(InputError, match=said):
+            rectify(joints, mode="sequence", fps=30.0, camera_up=bad)
+    with pytest.raises(InputError, match="camera_up: expected with mode sequence"):
+        rectify(joints, mode="frame", fps=30.0, camera_up=given)
+
+
+def test_pcnet_run_with_a_given_camera_up_says_so_and_its_world_heights_are_along_it(tmp_path):
+    """`pcnet run --camera-up`: the tilt line says the up was given and how far the networks'
+    ups lie from it; the world frame's heights are the camera-frame positions along it."""
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+
+    poses = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"
+    res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output", str(poses), "--fps", "30",
+                                    "--camera-up", "0,-1,0", "--no-recording", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert re.search(r"camera tilt +0\.0 deg from level \(pitch [+-]0\.0, roll \+0\.0 deg; given, --camera-up; "
+                     r"the networks' per-frame ups lie a median \d+\.\d deg from it\)", res.output), res.output
+    assert not re.search(r"^per-frame up +bound", res.output, re.M)  # no per-frame up is read
+    with np.load(tmp_path / "o" / "canonical.npz", allow_pickle=False) as run:
+        world = run["joints_world"]
+    camera = np.load(poses).astype(np.float64)
+    np.testing.assert_allclose(world[..., 1] - world[:, :1, 1], -(camera[..., 1] - camera[:, :1, 1]), atol=1e-5)
+    res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output", str(poses), "--fps", "30",
+                                    "--camera-up", "0,-1,0", "--mode", "smooth", "--out", str(tmp_path / "s")])
+    assert res.exit_code == 1 and "--camera-up: expected with mode sequence" in res.output
