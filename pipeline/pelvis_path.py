@@ -132,8 +132,11 @@ def pelvis_path(measured: np.ndarray | None, joints_cam, keypoints2d, camera: In
         return PelvisPath("measured", measured)
     if keypoints2d is None:
         metres = "" if units == "m" else f", and --height for poses in {units}"
+        # what else the keypoints would check, said once here (an estimator-swapping trial never read it)
         return PelvisPath("not observable", note=f"pelvis path not observable: no 2D keypoints to place the "
-                                                 f"root-relative poses in the image (give --keypoints2d{metres})")
+                                                 f"root-relative poses in the image (give --keypoints2d{metres}); "
+                                                 f"without them the left and right sides and a switch to another "
+                                                 f"person are not checked either")
     if units != "m":
         return PelvisPath("not observable", note=f"pelvis path not observable: the poses are in {units}, not metres "
                                                  f"(give --height)")

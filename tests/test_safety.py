@@ -987,3 +987,13 @@ def test_a_folder_given_for_an_input_file_is_named_as_such(user_folder):
         run_pipeline(RunConfig(lifter="videopose3d", lifter_output=str(user_folder / "poses_dir"), fps=30.0,
                                out=str(user_folder / "poses_dir" / "o"), recording=False), progress=False)
     assert not (user_folder / "poses_dir" / "o").exists()
+
+
+def test_a_run_without_2d_keypoints_says_which_checks_it_lacks(user_folder):
+    """An estimator-swapping trial never read that a run without 2D keypoints checks neither the
+    left and right sides nor a switch to another person: the pelvis-path note says so."""
+    res = _invoke(*RUN, "--out", "o")
+    assert res.exit_code == 0, res.output
+    assert ("no 2D keypoints to place the root-relative poses in the image (give --keypoints2d); without them the left "
+            "and right sides and a switch to another person are not checked either") in \
+        (user_folder / "o" / "report.md").read_text()

@@ -152,8 +152,8 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     # the summary's line says how much of the recording the worst joint lacks, where it knows the length
     assert missing_data_line({**counts, "frames": 120}, {}).startswith("missing: 3 joints (most: left_elbow 74 of 120 frames)")
     notes = [missing,
-             "world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time, held at the "
-             "ends (BVH cannot hold NaN; the CSV, TRC and npz keep them missing)"]
+             "world.bvh: 94 of 230 frames had missing joints or no place (no fitted pelvis path), filled by linear "
+             "interpolation in time, held at the ends (BVH cannot hold NaN; the CSV, TRC and npz keep them missing)"]
     result = RunResult(frames=60, valid_frames=57, units="m", method="pcnet", fps=30.0, fps_source="--fps", findings=flags,
                        notes=notes, note_lines={missing: missing_data_line(counts, {})},
                        report=run_report("auto", "sequence", intervals_deg=(8.6, 3.5)),
@@ -164,7 +164,7 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     assert all(" -> " in ln for ln in warnings)
     assert [ln for ln in lines if ln.startswith("note")] == [
         "note     missing: 3 joints (most: left_elbow 74 frames); no joint at all: 8 frames",
-        "note     world.bvh: 94 of 230 frames had missing joints, filled by linear interpolation in time..."]
+        "note     world.bvh: 94 of 230 frames had missing joints or no place..."]
     assert all(len(ln) <= LINE_WIDTH for ln in warnings + lines[:6]), max(lines, key=len)
     assert lines[-1] == f"details: {FIXTURES / 'o' / REPORT_NAME}" and "report.md  " not in result.summary()
     assert "camera tilt       8.8 deg from level (pitch +8.6 +- 8.6, roll +2.0 +- 3.5 deg; 95 % interval)" in lines

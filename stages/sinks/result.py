@@ -345,7 +345,9 @@ def write_motion_files(r: RecordingResult, folder: Path, c3d: bool = False, allo
         return out
     out[bvh] = write_bvh(folder / bvh, poses, r.fps, allocate=allocate)
     if incomplete.any():
-        r.notes.append(f"{bvh}: {int(incomplete.sum())} of {len(incomplete)} frames had missing joints, "
+        # the unplaced frames (no fitted pelvis path) are empty in the TRC too: counted here, not as missing joints
+        r.notes.append(f"{bvh}: {int(incomplete.sum())} of {len(incomplete)} frames had missing joints or no place "
+                       f"(no fitted pelvis path), "
                        f"filled by linear interpolation in time, held at the ends (BVH cannot hold NaN; the CSV, TRC and "
                        f"npz keep them missing)")
     return out
