@@ -17,7 +17,8 @@ import click
 
 from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
-from pcnet.pipeline.config import ALIGN, MODES, keypoint_formats, lifter_names, multi_track_formats, pcnet_version
+from pcnet.pipeline.config import (ALIGN, MODES, check_camera_up_use, keypoint_formats, lifter_names,
+                                   multi_track_formats, parse_camera_up, pcnet_version)
 from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, STOP_SIGNALS, came_from_interrupt, quiet_interrupt_hook, raise_interrupt
 from pcnet.stages.core.errors import InputError, import_extra, one_line
 from pcnet.stages.heading import HEADING_SOURCES
@@ -234,6 +235,11 @@ class _PersonOption(click.Option):
         return super().get_help_record(ctx)
 
 
+_camera_up_option = click.option(
+    "--camera-up", default=None,
+    help="X,Y,Z: the static camera's up (against gravity) in its own frame (x right, y down, z forward; a level "
+         "camera's is 0,-1,0), where it is known (a calibration, the filming phone's gravity sensor): sequence mode "
+         "takes it instead of estimating one.")
 _camera_prior_option = click.option(
     "--camera-prior/--no-camera-prior", "camera_prior", default=None,
     help="--no-camera-prior: sequence mode's up from the poses (and floor contacts) alone, without the camera "
@@ -333,9 +339,11 @@ def evaluate(method, data, split, split_scheme, unseen_by, untrained_only, views
 @_posture_option
 @click.option("--weights", type=click.Path(dir_okay=False), default=None,
               help="ONNX weights of one 3DPCNet instead of the shipped ensemble (pcnet export).")
+@_camera_up_option
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
 @click.option("--strict", is_flag=True, help=_STRICT_HELP)
-def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior, posture, weights, overwrite, strict):
+def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior, posture, weights, camera_up,
+            overwrite, strict):
     """Rectify (T,17,3) H36M-17 camera-frame poses (OpenCV axes) from a .npy/.npz file."""
     import numpy as np
 
@@ -358,10 +366,14 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
         validate_fps(fps, "--fps")
     check_method_weights(method, weights, "--weights")
     check_posture(posture or "auto", method, weights, mode, camera_prior is not False, "--posture")
+    up = None if camera_up is None else parse_camera_up(camera_up, "--camera-up")
+    if up is not None:
+        check_camera_up_use(mode, posture or "auto", "--camera-up", "--posture")
     joints, nonfinite, placeholders = read_pose_array(input_path, key)
     try:
         res = run_rectify(joints, method, weights, mode=mode, fps=fps, heading=heading,
-                          camera_prior=camera_prior is not False, posture=posture or "auto")
+                          camera_prior=camera_prior is not False, posture=posture or "auto",
+                          camera_up=up)
     except InputError as err:
         if weights is not None and str(err).startswith((f"{weights}:", f"{Path(weights)}:")):
             raise  # the weights file's own error, already naming it
@@ -384,7 +396,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     click.echo(f"camera tilt {tilt.tilt_deg:.1f} deg from level (pitch {tilt.pitch_deg:+.1f}, roll {tilt.roll_deg:+.1f} "
                f"deg, of the {'one' if res.mode == 'sequence' else 'mean'} up"
                + (f"; per frame median {per_frame[0]:.1f}, 5-95 % {per_frame[1]:.1f}-{per_frame[2]:.1f}" if per_frame else "")
-               + ("; its intervals in the archive's report, docs/outputs.md)" if res.mode == "sequence" else ")"))
+               + ("; given, --camera-up)" if up is not None else
+                  "; its intervals in the archive's report, docs/outputs.md)" if res.mode == "sequence" else ")"))
     for counts, what in ((nonfinite, "non-finite values (inf/NaN)"),  # which the counts above take as missing
                          (placeholders, "a writer's placeholders for joints not found (zeros, or a frame on one point)")):
         if counts:
@@ -501,10 +514,7 @@ def _run_and_report(cfg, strict: bool = False) -> None:
 @click.option("--roi", default=None,
               help="X,Y,W,H in pixels of the video as displayed, with --video alone: the embedded estimator follows "
                    "the person inside this region, not another one in view.")
-@click.option("--camera-up", default=None,
-              help="X,Y,Z: the static camera's up (against gravity) in its own frame (x right, y down, z forward; "
-                   "a level camera's is 0,-1,0), where it is known (a calibration, the filming phone's gravity "
-                   "sensor): sequence mode takes it instead of estimating one.")
+@_camera_up_option
 @click.option("--out", type=click.Path(), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 # on / off pairs, so that the command line overrides a --config file either way (a trial could not

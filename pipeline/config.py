@@ -78,6 +78,37 @@ def records_frame_rate(kind: str, name: str) -> bool:
 
 
 MODES = ("auto", "frame", "sequence", "smooth")
+
+
+def parse_camera_up(text: str, name: str) -> tuple[float, float, float]:
+    """A given camera up, ``"X,Y,Z"`` (camera frame, OpenCV axes, any length), as a unit
+    ``(x, y, z)``.
+
+    Raises:
+        InputError: not three finite numbers, or all 0, naming ``name``.
+    """
+    try:
+        v = np.array([float(c) for c in str(text).split(",")])
+    except ValueError:
+        v = np.array([])
+    if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
+        raise InputError(f"{name}: expected X,Y,Z, the camera's up in its own frame (x right, y down, z forward; a "
+                         f"level camera's is 0,-1,0), got {text!r}")
+    return tuple(float(c) for c in v / np.linalg.norm(v))
+
+
+def check_camera_up_use(mode: str, posture: str, name: str, posture_name: str) -> None:
+    """A given camera up is for sequence mode (one up for a static camera) with the posture the
+    up leaves to the poses (``auto``).
+
+    Raises:
+        InputError: another mode or posture, naming ``name`` or ``posture_name``.
+    """
+    if mode != "sequence":
+        raise InputError(f"{name}: expected with mode sequence (one up for a static camera), got mode {mode}")
+    if posture != "auto":
+        raise InputError(f"{posture_name}: expected auto with {name} (the given up decides the frame; the posture is "
+                         f"what the poses then show), got {posture}")
 ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
 MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0
@@ -320,10 +351,7 @@ class RunConfig:
     def camera_up_vector(self) -> tuple[float, float, float] | None:
         """``camera_up`` as a unit ``(x, y, z)`` in the camera frame, or ``None`` (checked by
         :meth:`validate`)."""
-        if self.camera_up is None:
-            return None
-        v = np.array([float(c) for c in self.camera_up.split(",")])
-        return tuple(float(c) for c in v / np.linalg.norm(v))
+        return None if self.camera_up is None else parse_camera_up(self.camera_up, "camera_up")
 
     @property
     def min_confidence(self) -> float:
@@ -412,21 +440,9 @@ class RunConfig:
                              f"leave out {field_name(source, 'height')}")
 
     def _check_camera_up(self, source: str) -> None:
-        """``camera_up``: three finite numbers, not all 0, for sequence mode (one up for a static
-        camera) with the posture the up leaves to the poses (``auto``)."""
-        name = field_name(source, "camera_up")
-        try:
-            v = np.array([float(c) for c in self.camera_up.split(",")])
-        except ValueError:
-            v = np.array([])
-        if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
-            raise InputError(f"{name}: expected X,Y,Z, the camera's up in its own frame (x right, y down, z forward; "
-                             f"a level camera's is 0,-1,0), got {self.camera_up!r}")
-        if self.mode != "sequence":
-            raise InputError(f"{name}: expected with mode sequence (one up for a static camera), got mode {self.mode}")
-        if self.posture != "auto":
-            raise InputError(f"{field_name(source, 'posture')}: expected auto with {name} (the given up decides the "
-                             f"frame; the posture is what the poses then show), got {self.posture}")
+        """``camera_up``: :func:`parse_camera_up` and :func:`check_camera_up_use`."""
+        parse_camera_up(self.camera_up, field_name(source, "camera_up"))
+        check_camera_up_use(self.mode, self.posture, field_name(source, "camera_up"), field_name(source, "posture"))
 
     def validate(self, source: str = "config") -> "RunConfig":
         """Check every field's type (against the annotations), choices, ranges and

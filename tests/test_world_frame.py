@@ -384,3 +384,10 @@ def test_pcnet_run_with_a_given_camera_up_says_so_and_its_world_heights_are_alon
     res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output", str(poses), "--fps", "30",
                                     "--camera-up", "0,-1,0", "--mode", "smooth", "--out", str(tmp_path / "s")])
     assert res.exit_code == 1 and "--camera-up: expected with mode sequence" in res.output
+    # pcnet rectify takes it too
+    res = CliRunner().invoke(main, ["rectify", str(poses), "--out", str(tmp_path / "r.npz"), "--mode", "sequence",
+                                    "--fps", "30", "--camera-up", "0,-2,0"])
+    assert res.exit_code == 0 and "deg, of the one up; given, --camera-up)" in res.output, res.output
+    with np.load(tmp_path / "r.npz", allow_pickle=False) as archive:
+        np.testing.assert_allclose(archive["up"][archive["valid"]], np.broadcast_to([0.0, -1.0, 0.0], (100, 3)),
+                                   atol=1e-6)
