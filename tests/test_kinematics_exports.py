@@ -1479,3 +1479,25 @@ def test_a_real_run_leaves_the_unplaced_frames_positions_empty(tmp_path):
     trc = read_trc(result.outputs["world.trc"])[3][:, 2:]  # the marker files agree with the CSV (an export trial)
     assert len(trc) == len(rows) and np.isnan(trc[unplaced]).all()
     assert np.isfinite(trc[~unplaced]).all(axis=1).sum() > 100
+
+
+def test_angles_between_segments_do_not_depend_on_the_pelvis_path_next_to_a_gap(yoga_level):
+    """An estimator-swapping trial: where a masked wrist left a run of frames too short for the
+    filter (kept raw), elbow flexion moved by up to 1.2 deg when only the fitted pelvis path
+    changed (--height). A raw joint beside a filtered one carried the path's own filter
+    residual into their segment; about the pelvis, the joints' positions are the path's
+    filtered positions plus their own, raw or filtered, and a segment no longer sees the path."""
+    X = yoga_level[:90].astype(np.float64)  # real poses, pelvis at the origin
+    X[[40, 43], R_WRIST] = np.nan  # frames 41-42: a two-frame run, too short for the filter
+    t = np.arange(len(X)) / FPS_YOGA
+    paths = [np.stack([0.8 * t, 0.02 * np.sin(9 * t), 0.1 * t ** 2], -1),  # a walk with a bounce
+             np.stack([0.3 * t + 0.2 * np.sin(5 * t), 0.0 * t, -0.5 * t], -1)]
+    kin = [compute_kinematics(X + p[:, None], FPS_YOGA) for p in paths]
+    assert kin[0].unfiltered[41:43, R_WRIST].all()
+    # filtered whole, the elbow moved 0.16 deg between the two paths; what is left is the poses'
+    # float32 rounding (3e-5 deg)
+    for name in ("right_elbow_flexion", "right_shoulder_elevation", "left_knee_flexion"):
+        np.testing.assert_allclose(kin[0].angles[name], kin[1].angles[name], atol=1e-3, equal_nan=True, err_msg=name)
+    # the pelvis is its path low-passed, as before
+    pelvis = (X + paths[0][:, None]).astype(np.float32).astype(np.float64)[:, PELVIS]
+    np.testing.assert_allclose(kin[0].positions[:, PELVIS], butterworth_lowpass(pelvis, FPS_YOGA, 6.0), atol=1e-9)
