@@ -381,7 +381,9 @@ def implausible_motion_flags(findings: Sequence[ImplausibleMotion], limits: Moti
         named += f"; and {more} more joint{'s' * (more != 1)}" if more > 0 else ""
         frames = "frame" + ("s" if len(ranges) > 1 or ranges[0][0] != ranges[0][1] else "")
         lines.append(
-            f"joint {quantity} beyond any training motion's in {frames} {_frames_text(ranges)}: {named}. The limits are the "
+            f"joint {quantity} beyond any training motion's in {frames} {_frames_text(ranges)}: {named}. These are "
+            # a trial compared them with kinematics.csv's world-frame columns, empty at that frame
+            f"{quantity}s relative to the pelvis, not kinematics.csv's world-frame columns, and the limits the "
             f"largest pelvis-relative {quantity} per joint group in {limits.source}; faster motion there is probably "
             f"a tracking or lifting error (a track switch, a left/right swap, a detector jump, joints jittering by "
             f"centimetres from frame to frame, which the low-pass lets through at its cutoff; or motion the limits "

@@ -233,6 +233,8 @@ def test_flag_lines_name_ranges_peaks_limits_source_and_what_to_do():
     assert "check the input's poses (and 2D keypoints, where given)" in speed  # a Kinect run has none
     # the limits are the training motion's fastest, not a human's (a sprint coach's 3.7 m/s jog passed them)
     assert speed.startswith("joint speed beyond any training motion's in frames") and "human" not in speed
+    # measured about the pelvis, which kinematics.csv's world-frame columns are not (a trial compared them)
+    assert "These are speeds relative to the pelvis, not kinematics.csv's world-frame columns" in speed
     assert implausible_motion_flags([]) == []
 
 
