@@ -896,8 +896,8 @@ def _engine(options: BatchOptions, on_result, on_retry):
 
 def _tilt_uncertainty(row: dict) -> str | None:
     """The report's cell for a row's camera-tilt uncertainty: ``"6.9 (95 % interval)"``."""
-    half = row.get("camera_tilt_uncertainty_deg")
-    return None if half is None else f"{half:.1f} ({row.get('camera_tilt_uncertainty')})"
+    half, what = row.get("camera_tilt_uncertainty_deg"), row.get("camera_tilt_uncertainty")
+    return what if half is None else f"{half:.1f} ({what})"
 
 
 def _row_summary(item: PlannedRow, result: dict | None, status: str | None = None) -> dict:

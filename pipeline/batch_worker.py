@@ -162,7 +162,7 @@ def execute_row(job: dict) -> dict:
 
     started = time.perf_counter()
     try:
-        from pcnet.pipeline.checks import tilt_tolerance
+        from pcnet.pipeline.checks import GIVEN_TILT, tilt_tolerance
         from pcnet.pipeline.config import RunConfig
         from pcnet.pipeline.runner import run_pipeline
 
@@ -178,7 +178,8 @@ def execute_row(job: dict) -> dict:
             result.update(frames=run.frames, valid=run.valid_frames, mode=mode, units=run.units,
                           camera_tilt_deg=_finite_or_none(run.camera_tilt_deg),
                           camera_tilt_uncertainty_deg=_finite_or_none(tolerance),
-                          camera_tilt_uncertainty=what if math.isfinite(tolerance) else None,
+                          # a given up has no uncertainty of pcnet's, and says so
+                          camera_tilt_uncertainty=what if math.isfinite(tolerance) or what == GIVEN_TILT else None,
                           angles=angle_summary(run.angle_ranges),
                           angle_rates=angle_summary(run.rate_ranges, median=False),
                           posture=None if posture is None else posture.most_probable + " (declared)" * posture.declared,

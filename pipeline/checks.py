@@ -15,13 +15,13 @@ import numpy as np
 
 from pcnet.stages.core.conventions import validate_poses
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag,
+from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag, given_up_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
                                limb_proportions_flag, mirrored_skeleton_flag, orientation_flags,
                                per_frame_tilt_summary, posture_flag, side_swap_flag, size_change_flag,
                                track_switch_flag)
 from pcnet.stages.rectification_report import EnsembleWeights, ModeChoice, RectificationReport
-from pcnet.stages.rectify import Rectified
+from pcnet.stages.rectify import GIVEN_UP, Rectified
 from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 from pcnet.stages.scale import IMAGE_SCALED_UNITS
 
@@ -102,7 +102,7 @@ def checks(c: CheckInputs) -> list[Finding]:
     ensemble's weights (outside sequence mode), the lifter's frame and a switch of the 2D track."""
     report, cam, kp2d = c.report, c.joints_camera, c.keypoints2d
     return [
-        *orientation_flags(c.tilt.tilt_deg, c.tilt.pitch_deg, c.tilt.roll_deg, report.posture),
+        *_orientation_flags(report, c.tilt),
         *(body_size_flag(cam, c.units) if not c.height_given else []),
         *limb_proportions_flag(cam),
         *leg_asymmetry_flag(cam),
@@ -151,10 +151,20 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
                          f"{len(joints_camera)} frames of joints_camera")
     report = rectified.report
     tilt = CameraTilt.of(rectified.rotation, rectified.valid)
-    return [*orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg, report.posture),
+    return [*_orientation_flags(report, tilt),
             *limb_proportions_flag(joints_camera), *leg_asymmetry_flag(joints_camera),
             *mirrored_skeleton_flag(joints_camera), *posture_flag(report.sequence),
             *ensemble_weights_flag(_answering_weights(report))]
+
+
+def _orientation_flags(report: RectificationReport, tilt: "CameraTilt") -> list[Finding]:
+    """The camera orientation's flags (:func:`pcnet.stages.flags.orientation_flags`), or, where
+    the camera's up was given, whether the poses contradict it (:func:`given_up_flag`): the
+    camera prior's and the posture's questions are then the user's answer (a trial's given up
+    drew the prior's odds and a --posture advice --camera-up refuses)."""
+    if report.sequence is not None and report.sequence.evidence == GIVEN_UP:
+        return given_up_flag(report.sequence)
+    return orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg, report.posture)
 
 
 def _answering_weights(report: RectificationReport) -> EnsembleWeights | None:
@@ -170,11 +180,18 @@ def spreads_beyond_static(mode: ModeChoice) -> bool:
     return mode.spread_deg is not None and mode.spread_deg > MODE_THRESHOLD_DEG
 
 
+#: :func:`tilt_tolerance`'s word for a tilt the user gave (``--camera-up``): no uncertainty of pcnet's.
+GIVEN_TILT = "given, --camera-up"
+
+
 def tilt_tolerance(report: RectificationReport) -> tuple[float, str]:
     """The camera tilt uncertainty the summary states (deg) and what it is: the larger 95 %
     pitch/roll half-width in sequence mode (the bootstrap's for a method without a calibrated
-    interval), else the per-frame bound where the two networks agree."""
+    interval), else the per-frame bound where the two networks agree; NaN and
+    :data:`GIVEN_TILT` for a given up."""
     seq = report.sequence
+    if seq is not None and seq.evidence == GIVEN_UP:
+        return float("nan"), GIVEN_TILT
     if seq is not None:
         interval = ("interval, not calibrated for this spread of per-frame ups" if spreads_beyond_static(report.mode)
                     else "95 % interval")

@@ -91,6 +91,8 @@ def parse_camera_up(text: str, name: str) -> tuple[float, float, float]:
         v = np.array([float(c) for c in str(text).split(",")])
     except ValueError:
         v = np.array([])
+    if v.shape == (3,) and np.isfinite(v).all() and np.abs(v).max() > 0:
+        v = v / np.abs(v).max()  # no overflow in the norm (a trial's 1e200)
     if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
         raise InputError(f"{name}: expected X,Y,Z, the camera's up in its own frame (x right, y down, z forward; a "
                          f"level camera's is 0,-1,0), got {text!r}")
@@ -107,8 +109,8 @@ def check_camera_up_use(mode: str, posture: str, name: str, posture_name: str) -
     if mode != "sequence":
         raise InputError(f"{name}: expected with mode sequence (one up for a static camera), got mode {mode}")
     if posture != "auto":
-        raise InputError(f"{posture_name}: expected auto with {name} (the given up decides the frame; the posture is "
-                         f"what the poses then show), got {posture}")
+        raise InputError(f"{posture_name}: expected auto with a given camera up (the given up decides which way is "
+                         f"up), got {posture}")
 ALIGN = ("none", "truncate")
 # Plausible heights: the shortest to the tallest adult recorded (Guinness: 0.55-2.72 m).
 MIN_HEIGHT_M, MAX_HEIGHT_M = 0.5, 3.0

@@ -205,6 +205,8 @@ def unit_up(camera_up) -> tuple[float, float, float]:
         v = np.asarray(camera_up, np.float64)
     except (TypeError, ValueError):
         v = np.array([])
+    if v.shape == (3,) and np.isfinite(v).all() and np.abs(v).max() > 0:
+        v = v / np.abs(v).max()  # no overflow in the norm
     if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
         raise InputError(f"rectify: camera_up: expected (x, y, z), the camera's up in its own frame (x right, y down, "
                          f"z forward; a level camera's is (0, -1, 0)), got {camera_up!r}")

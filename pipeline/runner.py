@@ -66,7 +66,7 @@ from pcnet.stages.column_ranges import ColumnRanges, column_ranges
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
-from .checks import CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
+from .checks import GIVEN_TILT, CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
 from .config import (COMMAND_LINE, DEFAULT_CUTOFF_HZ, RunConfig, field_name, fps_contradiction, keypoint_formats,
                      multi_track_formats, pcnet_version, rates_agree, settings_record)
 from .io import lifter_joints
@@ -307,8 +307,8 @@ class RunResult:
     def _pitch_roll(self, long: bool = True) -> str:
         seq = self.report.rectification.sequence
         if seq is not None and seq.evidence == GIVEN_UP:
-            return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; given, --camera-up; "
-                    f"the networks' per-frame ups lie a median {seq.up_spread_deg:.1f} deg from it)")
+            return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; {GIVEN_TILT}; "
+                    f"the per-frame ups lie a median {seq.up_spread_deg:.1f} deg from it)")
         nan = float("nan")
         pitch_unc, roll_unc = (seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg) if seq else (nan, nan)
         if not (np.isfinite(pitch_unc) and np.isfinite(roll_unc)):
@@ -1411,6 +1411,8 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
             raise  # the weights file's own error, already naming it
+        if str(err).startswith("camera_up:"):  # the given up's own error (a sign flipped), named as given
+            raise InputError(f"{field_name(COMMAND_LINE, 'camera_up')}{str(err)[len('camera_up'):]}") from None
         raise InputError(f"{cfg.lifter_output}: {err}{_no_frame_hint(cfg, str(err), camera, layout)}") from err
     if not res.valid.any():
         reason = no_valid_frame_reason(res.report)

@@ -71,6 +71,7 @@ class Kind(IntEnum):
     IMPLAUSIBLE_SPEED = auto()  #: :func:`implausible_motion_findings`
     IMPLAUSIBLE_ACCELERATION = auto()  #: :func:`implausible_motion_findings`
     LIFTER_TURN = auto()  #: :func:`lifter_frame_flag`
+    GIVEN_UP = auto()  #: :func:`given_up_flag`
     CAMERA_TILT = auto()  #: :func:`orientation_flags`
     LYING = auto()  #: :func:`posture_flag`
     AMBIGUOUS_ORIENTATION = auto()  #: :func:`posture_flag`
@@ -691,6 +692,28 @@ def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None, depth_s
                    f"{evidence}; its depth axis has the wrong sign (--axes) or its left and right are exchanged "
                    f"(--layout), so every sagittal angle has the wrong sign; read the file with --lifter generic, "
                    f"which takes both")]
+
+
+def given_up_flag(sequence: SequenceUp | None) -> list[Finding]:
+    """A flag where the camera's up was given (``--camera-up``) and the poses' own up lies
+    outside its 95 % interval on either axis (``SequenceUp.poses_estimate``): a given up in
+    another frame, with a sign flipped or a calibration's row for its column reads every angle
+    against gravity wrong (a trial's pasted row read a standing trunk 127 deg from vertical).
+    ``None``, an estimated up, or no calibrated interval gives none."""
+    est = None if sequence is None else sequence.poses_estimate
+    if est is None or not est["outside_interval"]:
+        return []
+    return [_found(Kind.GIVEN_UP, Severity.CHECK,
+                   f"given camera up {est['angle_from_given_deg']:.0f} deg from the poses' own, outside their 95 % "
+                   f"interval",
+                   "check --camera-up's frame and signs",
+                   f"the camera's up given with --camera-up (pitch {sequence.camera_pitch_deg:+.1f}, roll "
+                   f"{sequence.camera_roll_deg:+.1f} deg) lies {est['angle_from_given_deg']:.1f} deg from the poses' "
+                   f"own (pitch {est['pitch_deg']:+.1f} +- {est['pitch_interval_deg']:.1f}, roll {est['roll_deg']:+.1f} "
+                   f"+- {est['roll_interval_deg']:.1f} deg, 95 % intervals of the up model): the run used the given "
+                   f"one; check that it is in the camera's own frame (OpenCV: x right, y down, z forward), with its "
+                   f"signs, and a calibration's column (R_world_to_cam applied to the world's up), not a row; or "
+                   f"that the body stood upright")]
 
 
 def posture_flag(sequence: SequenceUp | None) -> list[Finding]:

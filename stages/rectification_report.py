@@ -85,9 +85,13 @@ class SequenceUp:
     :class:`PostureHypotheses` (``None`` for another method or without the camera prior's
     lying hypothesis); ``up_spread_deg`` / ``up_spread_p95_deg`` the median / 95th percentile
     angle of the per-frame ups from ``up``; ``evidence`` what made it (``"up model"``,
-    ``"poses"``, each ``+ground_plane`` where a measured root's floor contacts refined it);
-    ``ground_plane`` whether and why (not) they did
-    (:func:`pcnet.stages.ground_plane.ground_plane_up`'s diagnostics)."""
+    ``"poses"``, each ``+ground_plane`` where a measured root's floor contacts refined it;
+    ``"given"`` where the camera's up was given); ``ground_plane`` whether and why (not) they did
+    (:func:`pcnet.stages.ground_plane.ground_plane_up`'s diagnostics); ``poses_estimate``, for a
+    given up, what the poses' own up (the up model's) reads beside it: ``pitch_deg``,
+    ``roll_deg``, their 95 % half-widths ``pitch_interval_deg`` / ``roll_interval_deg``,
+    ``angle_from_given_deg`` and ``outside_interval`` (the given up outside them on either
+    axis); ``None`` where no calibrated interval exists (another method) or nothing was given."""
 
     evidence: str
     up: np.ndarray
@@ -103,6 +107,7 @@ class SequenceUp:
     up_spread_deg: float
     up_spread_p95_deg: float
     ground_plane: dict
+    poses_estimate: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -210,6 +215,8 @@ class RectificationReport:
                            "pose_up_roll_deg": round(s.posture.pose_up_roll_deg, 2)},
                        up_spread_deg=s.up_spread_deg, up_spread_p95_deg=s.up_spread_p95_deg,
                        ground_plane=dict(s.ground_plane))
+            if s.poses_estimate is not None:
+                out["poses_estimate"] = dict(s.poses_estimate)
         out.update(requested_heading_source=h.requested, heading_source=h.source,
                    hip_width_cv_percent=h.hip_width_cv_percent, heading_difference_median_deg=h.difference_median_deg,
                    hip_heading_undefined_frames=h.hip_undefined_frames)

@@ -337,10 +337,13 @@ class SequenceEvidence:
             valid = ok & np.isfinite(out).all((1, 2))
             return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode)
         mode = ModeChoice(self.mode, run, spread_deg=spread, decided_on_frames=decided_on)
-        if self.camera_up is not None:
-            out, valid, up = given_up_sequence(R, ok, np.asarray(self.camera_up, np.float64))
-            return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode, up)
         located = joints_cam if self.measured_root else None
+        if self.camera_up is not None:
+            # the poses' own reading beside it, so that a given up the poses contradict is told
+            estimate = up_model_sequence(R, ok, evidence, fps, self.camera_prior, located, floor_frames=decide_on)[2] \
+                if evidence is not None and calibrated else None
+            out, valid, up = given_up_sequence(R, ok, np.asarray(self.camera_up, np.float64), estimate)
+            return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode, up)
         if evidence is not None and calibrated:
             # A path that jumps to another person is not one body's: the floor reads one person's feet (decision 0066).
             out, valid, up = up_model_sequence(R, ok, evidence, fps, self.camera_prior, located, floor_frames=decide_on,
@@ -360,28 +363,48 @@ class SequenceEvidence:
         return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode, up)
 
 
-def given_up_sequence(R: np.ndarray, ok: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
+def given_up_sequence(R: np.ndarray, ok: np.ndarray, up: np.ndarray,
+                      estimate: SequenceUp | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
     """Sequence mode with the camera's up given: each valid frame's rotation turned to ``up``
     (:func:`pcnet.stages.temporal.rotations_about_up`, its heading kept), ``(T, 3, 3)``; the
     frames where that is defined ``(T,)`` bool; and the :class:`SequenceUp` (``evidence``
     ``"given"``, pitch and roll of ``up``, no interval or uncertainty: NaN; the spread the
-    median and 95th percentile angle of the valid per-frame ups from ``up``, deg).
+    median and 95th percentile angle of the valid per-frame ups from ``up``, deg;
+    ``poses_estimate`` from ``estimate``, the poses' own up, where it has a 95 % interval).
 
     Args:
         R: ``(T, 3, 3)`` per-frame canonical->camera rotations; ok: ``(T,)`` bool, the valid ones.
         up: ``(3,)`` unit up, camera frame (OpenCV axes).
+        estimate: the up model's reading of the same poses, or ``None``.
+
+    Raises:
+        InputError: no valid frame can be turned to ``up`` (it points nearly opposite to every
+            frame's own up: a sign flipped).
     """
     out, made = rotations_about_up(R, up)
     valid = ok & made
     angles = np.degrees(angle_between(R[ok][:, :, 1], up))
+    if not valid.any():
+        raise InputError(f"camera_up: expected an up the poses can be turned to, got one {np.median(angles):.0f} deg "
+                         f"from their own in every frame (its sign flipped? a level camera's is 0,-1,0)")
     pitch, roll = (float(np.degrees(a)) + 0.0 for a in camera_pitch_roll(up))  # + 0.0: no "-0.0"
+    poses = None
+    if estimate is not None and np.isfinite([estimate.camera_pitch_interval_deg, estimate.camera_roll_interval_deg]).all():
+        pitch_gap = pitch - estimate.camera_pitch_deg
+        roll_gap = (roll - estimate.camera_roll_deg + 180.0) % 360.0 - 180.0
+        poses = {"pitch_deg": estimate.camera_pitch_deg, "roll_deg": estimate.camera_roll_deg,
+                 "pitch_interval_deg": estimate.camera_pitch_interval_deg,
+                 "roll_interval_deg": estimate.camera_roll_interval_deg,
+                 "angle_from_given_deg": float(np.degrees(angle_between(estimate.up, up))),
+                 "outside_interval": bool(abs(pitch_gap) > estimate.camera_pitch_interval_deg
+                                          or abs(roll_gap) > estimate.camera_roll_interval_deg)}
     nan = float("nan")
     return out, valid, SequenceUp(
         evidence=GIVEN_UP, up=up.copy(), camera_pitch_deg=pitch, camera_roll_deg=roll, camera_pitch_interval_deg=nan,
         camera_roll_interval_deg=nan, up_uncertainty_deg=nan, camera_pitch_uncertainty_deg=nan,
         camera_roll_uncertainty_deg=nan, interval_reaches_other_posture_p=None, posture=None,
         up_spread_deg=float(np.median(angles)), up_spread_p95_deg=float(np.percentile(angles, 95)),
-        ground_plane={"used": False, "reason": "the camera's up was given"})
+        ground_plane={"used": False, "reason": "the camera's up was given"}, poses_estimate=poses)
 
 
 def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: float, camera_prior: bool = True,

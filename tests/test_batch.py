@@ -422,12 +422,10 @@ def test_the_resume_marker_is_published_with_the_output(tmp_path, monkeypatch):
         return swap(tmp, *rest)
 
     monkeypatch.setattr(outdir, "_swap_in", checking_swap)
-    import pcnet.pipeline.batch_marker as bm
     import pcnet.stages.core.digest as digest
     read = []
     hash_file = digest.sha256_file
-    for module in (digest, bm):
-        monkeypatch.setattr(module, "sha256_file", lambda path: read.append(Path(path).name) or hash_file(path))
+    monkeypatch.setattr(digest, "sha256_file", lambda path: read.append(Path(path).name) or hash_file(path))
     lifter_output = tmp_path / "x.npy"  # a file of its own: no earlier test's digest of it is kept
     shutil.copyfile(BOX_3D, lifter_output)
     config = RunConfig(lifter="motionbert", lifter_output=str(lifter_output), fps=30.0, out=str(tmp_path / "o"),
