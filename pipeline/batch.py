@@ -62,7 +62,7 @@ _NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold"
             "focal_px": float, "mass": float}
 _LIFTER_OPTIONS = COMMAND_LINE_OPTIONS  # the lifter options a row gives as columns of their own
 _BOOLEAN = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}
-_BOOLEAN_COLUMNS = ("overwrite", "recording", "fps_override", "c3d", "camera_prior", "residual_cutoff", "opensim")
+_BOOLEAN_COLUMNS = ("overwrite", "recording", "plots", "fps_override", "c3d", "camera_prior", "residual_cutoff", "opensim")
 #: Columns naming files or folders: relative to the manifest's folder; RunConfig.validate checks
 #: only whether they are given (their files are checked here, per row).
 _PATH_COLUMNS = ("video", "keypoints2d", "lifter_output", "out", "weights")
@@ -1150,7 +1150,8 @@ def _grouped_findings(report: BatchReport) -> list[str]:
     out = []
     for _, text, at, texts in sorted(seen.values(), key=lambda group: rank[id(group[0])]):
         more = f" and {len(at) - SUMMARY_LINES} more" if len(at) > SUMMARY_LINES else ""
-        differ = f"; {len(at)} rows, the first's numbers shown" if len(texts) > 1 else ""
+        # the rows differ in the numbers, and may in what they name (a scale trial: another limb)
+        differ = f"; {len(at)} rows, the first's text shown, the batch report has each" if len(texts) > 1 else ""
         label = _row_label if len(at) <= NAMED_ROWS else (lambda r: str(r["line"]))  # many: the report names them
         out.append(f"{text} (line{'s' * (len(at) > 1)} {', '.join(map(label, at[:SUMMARY_LINES]))}{more}{differ})")
     return out

@@ -520,6 +520,9 @@ def _run_and_report(cfg, strict: bool = False) -> None:
 # on / off pairs, so that the command line overrides a --config file either way (a trial could not
 # turn a file's `recording = false` back on)
 @click.option("--recording/--no-recording", default=None, help="Write the rerun recording [on].")
+@click.option("--plots/--no-plots", default=None,
+              help="Write the PNG plots (wrists.png, angles.png, speeds.png) [on]; off speeds up batches of short "
+                   "recordings.")
 @click.option("--c3d/--no-c3d", default=None,
               help="Also write the markers as C3D (world.c3d or canonical.c3d; metric poses; "
                    "pip install \"pcnet[c3d]\") [off].")

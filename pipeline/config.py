@@ -236,7 +236,8 @@ class RunConfig:
     output). ``height``: the subject's standing height in metres, scaling the poses to it
     (:func:`pcnet.stages.scale.height_factor`). ``mode``: ``sequence`` (one up for a static
     camera, the default), ``frame``, ``smooth`` or ``auto``. ``recording``: also write the
-    rerun recording (``recording.rrd``).
+    rerun recording (``recording.rrd``). ``plots``: also write the PNG plots (``wrists.png``,
+    ``angles.png``, ``speeds.png``; about half of a short recording's output time).
 
     ``lifter_options`` are passed to the 3D adapter: the keyword arguments its ``load`` takes,
     checked by :func:`check_lifter_options` (for example ``pixel``/``clip_len`` for motionbert,
@@ -293,6 +294,7 @@ class RunConfig:
     align: str = "none"
     overwrite: bool = False
     recording: bool = True
+    plots: bool = True
     weights: str | None = None
     camera_prior: bool = True
     posture: str = "auto"

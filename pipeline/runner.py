@@ -1654,7 +1654,8 @@ def _exports(cfg: RunConfig, measured: Measured, findings: list[Finding], tmp: P
     _trim_heap()
     if cfg.opensim:
         outputs.update(_opensim(cfg, tmp, findings, result.notes))
-    outputs.update(write_figures(result, tmp))
+    if cfg.plots:  # a batch of short recordings spent half its output time on them (a scale trial)
+        outputs.update(write_figures(result, tmp))
     return outputs
 
 

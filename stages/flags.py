@@ -708,7 +708,7 @@ def given_up_flag(sequence: SequenceUp | None) -> list[Finding]:
                    f"interval",
                    "check --camera-up's frame and signs",
                    f"the camera's up given with --camera-up (pitch {sequence.camera_pitch_deg:+.1f}, roll "
-                   f"{sequence.camera_roll_deg:+.1f} deg) lies {est['angle_from_given_deg']:.1f} deg from the poses' "
+                   f"{sequence.camera_roll_deg:+.1f} deg) lies {est['angle_from_given_deg']:.0f} deg from the poses' "
                    f"own (pitch {est['pitch_deg']:+.1f} +- {est['pitch_interval_deg']:.1f}, roll {est['roll_deg']:+.1f} "
                    f"+- {est['roll_interval_deg']:.1f} deg, 95 % intervals of the up model): the run used the given "
                    f"one; check that it is in the camera's own frame (OpenCV: x right, y down, z forward), with its "

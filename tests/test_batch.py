@@ -721,7 +721,7 @@ def test_the_summary_groups_one_kind_of_warning_whose_numbers_differ_by_row():
     (line,) = [t for t in format_summary(report).splitlines() if t.startswith("WARNING")]
     assert line.startswith(f"WARNING  {found[1].headline}")
     lines = ", ".join(str(i + 1) for i in range(1, 1 + SUMMARY_LINES))
-    assert line.endswith(f"(lines {lines} and {15 - SUMMARY_LINES} more; 15 rows, the first's numbers shown)")
+    assert line.endswith(f"(lines {lines} and {15 - SUMMARY_LINES} more; 15 rows, the first's text shown, the batch report has each)")
 
 
 def test_the_summary_keeps_speed_and_acceleration_apart_and_counts_each_row_once():
@@ -746,7 +746,7 @@ def test_the_summary_keeps_speed_and_acceleration_apart_and_counts_each_row_once
                          findings={i: finding_records(fs) for i, fs in found.items()})
     lines = [t for t in format_summary(report).splitlines() if t.startswith("WARNING")]
     assert len(lines) == 2 and "implausible speed" in lines[0] and "implausible acceleration" in lines[1], lines
-    assert lines[0].endswith("(lines 3: r1, 4: r2; 2 rows, the first's numbers shown)"), lines
+    assert lines[0].endswith("(lines 3: r1, 4: r2; 2 rows, the first's text shown, the batch report has each)"), lines
     assert lines[1].endswith("(line 3: r1)"), lines
 
 

@@ -997,3 +997,14 @@ def test_a_run_without_2d_keypoints_says_which_checks_it_lacks(user_folder):
     assert ("no 2D keypoints to place the root-relative poses in the image (give --keypoints2d); without them the left "
             "and right sides and a switch to another person are not checked either") in \
         (user_folder / "o" / "report.md").read_text()
+
+
+def test_no_plots_leaves_the_png_files_out(user_folder):
+    """A scale trial's batch of short Kinect files spent about half of each file's output time
+    on the three PNG plots: --no-plots (a manifest's plots column) leaves them out."""
+    res = _invoke(*RUN, "--no-plots", "--out", "o")
+    assert res.exit_code == 0, res.output
+    assert not list((user_folder / "o").glob("*.png")) and (user_folder / "o" / "kinematics.csv").is_file()
+    assert ".png" not in res.output
+    res = _invoke(*RUN, "--out", "p")
+    assert sorted(p.name for p in (user_folder / "p").glob("*.png")) == ["angles.png", "speeds.png", "wrists.png"]

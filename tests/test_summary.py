@@ -13,6 +13,7 @@ from conftest import FIXTURES, camera_up, run_report, sequence_up
 from pcnet.pipeline.config import RunConfig
 from pcnet.pipeline.runner import RunResult, run_pipeline
 from pcnet.stages.flags import (HEADLINE_WIDTH, Finding, Kind, Severity, absent_joints_flag, body_size_flag,
+                               given_up_flag,
                                 ensemble_weights_flag,
                                 floor_flag, implausible_motion_findings, keypoints_outside_image_flag,
                                 keypoints_unused_flag, leg_asymmetry_flag, lifter_frame_flag, limb_proportions_flag,
@@ -76,7 +77,16 @@ def _every_kind() -> list[Finding]:
             + keypoints_outside_image_flag(kp, (100, 100))
             + keypoints_unused_flag("root path: no frame could be fitted (of 60, some with 17 usable joints)")
             + no_world_frame_flag("smooth") + no_opensim_flag()
-            + opensim_fit_findings({**fit, "warnings": ik_fit_flags(fit)}))
+            + opensim_fit_findings({**fit, "warnings": ik_fit_flags(fit)})
+            + given_up_flag(_given_level_up()))
+
+
+def _given_level_up():
+    """The sequence up of a real recording whose camera looks 19 deg up, given a level camera's."""
+    from pcnet.pipeline import rectify
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
+    return rectify(joints, mode="sequence", fps=30.0, camera_up=(0.0, -1.0, 0.0)).report.sequence
 
 
 def test_every_flag_function_says_its_kind_with_numbers_in_its_headline():
