@@ -46,7 +46,8 @@ GIVEN_UP = "given"
 #: The body's posture in sequence mode's up model: ``auto`` (the posterior decides, with the
 #: declared prior ``lying_prior``) or one the user declares (a prior of 0 or 1 on lying).
 POSTURES = ("auto", "upright", "lying")
-NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify"
+# "apart": a bad-input trial's coinciding hips read as hips missing
+NO_VALID_FRAME = "no frame has the hips, thorax and shoulders needed to rectify (each present, the two hips apart)"
 
 
 def check_posture(posture: object, method: str, weights: str | None, mode: str, camera_prior: bool, who: str) -> None:

@@ -206,9 +206,9 @@ def unplaced_frames(r: RecordingResult) -> np.ndarray | None:
 
 
 def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> dict[str, Path]:
-    """``kinematics.csv`` (:func:`.exports.write_kinematics_csv`, with the ``valid`` and
-    ``heading_deg`` columns, ``track_segment`` with 2D input, ``implausible_motion`` where the
-    motion was checked) from ``r.kinematics_blocks``, consumed once,
+    """``kinematics.csv`` (:func:`.exports.write_kinematics_csv`, with the ``valid``,
+    ``heading_deg``, ``track_segment`` and ``implausible_motion`` columns, the last two empty
+    without 2D input or where the motion was not checked) from ``r.kinematics_blocks``, consumed once,
     and its data dictionary ``kinematics_columns.csv`` (from the same column list; the
     :func:`unobservable_paths` empty in both); fills
     ``r.kinematics`` (:data:`KEPT_JOINTS` only, float32: what a long recording keeps for the
@@ -232,14 +232,23 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
     frames = np.arange(T)
     path, dictionary = folder / "kinematics.csv", folder / "kinematics_columns.csv"
     extra = {"valid": r.valid.astype(int), "heading_deg": r.heading_deg}
+    definitions = dict(EXTRA_COLUMNS)
     # Empty, never 0, where there is nothing to say (a user trial's frames with no person passed
-    # the track-switch warning's own filter as "track_segment 0, implausible_motion 0").
-    if r.track_segment is not None:  # which person the 2D track followed, as the track-switch flag names it
-        extra["track_segment"] = _track_segment(r)
-    if r.implausible_frames is not None:  # the frames the implausible-motion warning asks to leave out
-        extra["implausible_motion"] = np.where(r.valid, _implausible(r), np.nan)
+    # the track-switch warning's own filter as "track_segment 0, implausible_motion 0"); the same
+    # columns whatever the input (an estimator-swapping trial's code met columns that came and went).
+    nothing = np.full(T, np.nan)
+    for name, values, why in (
+            # which person the 2D track followed, as the track-switch flag names it
+            ("track_segment", None if r.track_segment is None else _track_segment(r), "no 2D keypoints, no 2D track"),
+            # the frames the implausible-motion warning asks to leave out
+            ("implausible_motion", None if r.implausible_frames is None else np.where(r.valid, _implausible(r), np.nan),
+             "the motion was not checked (the run's notes say why)")):
+        extra[name] = nothing if values is None else values
+        if values is None:
+            unit, of, text = EXTRA_COLUMNS[name]
+            definitions[name] = (unit, of, f"{text.rstrip('.')}; empty in this run: {why}.")
     write_kinematics_csv(path, frames, frames / r.fps, keeping(r.kinematics_blocks), extra_columns=extra,
-                         dictionary=dictionary, extra_definitions=EXTRA_COLUMNS, frame=r.kinematics_frame,
+                         dictionary=dictionary, extra_definitions=definitions, frame=r.kinematics_frame,
                          unobservable=unobservable, empty_angles=r.empty_angles,
                          floor=r.floor_kind if r.kinematics_frame == "world" else None,
                          up_uncertainty=up_uncertainty(r.rectification),
