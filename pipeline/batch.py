@@ -38,7 +38,7 @@ from pcnet.stages.core.errors import InputError, close_names, refuse
 from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, read_batch_marker,
                            record_status, renamed_inputs, settings_change)
 from .batch_worker import FINDINGS, PER_COLUMN_FIELDS, RESULT_FIELDS, RUN_FIELDS, cpu_cores, error_line
-from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, pcnet_version, RunConfig
+from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, pcnet_version, reads_folder, RunConfig
 from .interrupt import EXIT_INTERRUPTED
 from .io import close_file
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within, read_marker
@@ -497,7 +497,9 @@ def _input_problems(where: str, row: dict, inputs: dict[str, str], paths: _PathF
     problems = []
     for column, path in inputs.items():
         kind = paths.kind(path)
-        if kind == "folder" and column == "keypoints2d" and _reads_folders(row):
+        # an OpenPose --write_json folder, which a user trial's row could not name
+        if kind == "folder" and column == "keypoints2d" and reads_folder(
+                (_given(row.get("keypoints2d_format")) or "").lower()):
             continue
         if kind != "file":
             found = "a folder" if kind == "folder" else "no such file"
@@ -505,15 +507,6 @@ def _input_problems(where: str, row: dict, inputs: dict[str, str], paths: _PathF
             problems.append(f"{where}: column {column}: expected an existing file, got "
                             f"{(row.get(column) or '').strip()!r} ({found}: {path}){near}")
     return problems
-
-
-def _reads_folders(row: dict) -> bool:
-    """Whether the row's 2D format reads a folder (``register_2d(folder_input=True)``: an
-    OpenPose ``--write_json`` folder, which a user trial's row could not name)."""
-    from pcnet.adapters.registry import registered
-
-    entry = registered("2d").get((_given(row.get("keypoints2d_format")) or "").lower())
-    return entry is not None and entry.folder_input
 
 
 def _out_problem(where: str, row: dict, out: str, inputs: dict[str, str], paths: _PathFacts) -> str | None:

@@ -77,26 +77,50 @@ def records_frame_rate(kind: str, name: str) -> bool:
     return entry is None or entry.records_fps
 
 
+def reads_folder(keypoints2d_format: str | None) -> bool:
+    """Whether the registered 2D format ``keypoints2d_format`` reads a folder of files, not one
+    file (``register_2d(folder_input=True)``: OpenPose's ``--write_json`` folder); ``False`` for
+    ``None`` or an unknown name (the choice checks refuse it)."""
+    entry = _registered("2d").get(keypoints2d_format)
+    return entry is not None and entry.folder_input
+
+
 MODES = ("auto", "frame", "sequence", "smooth")
 
 
-def parse_camera_up(text: str, name: str) -> tuple[float, float, float]:
-    """A given camera up, ``"X,Y,Z"`` (camera frame, OpenCV axes, any length), as a unit
+def unit_camera_up(values, name: str, form: str = "X,Y,Z", given=None) -> tuple[float, float, float]:
+    """A given camera up (three numbers, camera frame, OpenCV axes, any length) as a unit
     ``(x, y, z)``.
+
+    Raises:
+        InputError: not three finite numbers, or all 0, naming ``name``, the ``form`` expected
+            and what was ``given`` (default ``values``).
+    """
+    try:
+        v = np.asarray(values, np.float64)
+    except (TypeError, ValueError):
+        v = np.array([])
+    if v.shape == (3,) and np.isfinite(v).all() and np.abs(v).max() > 0:
+        v = v / np.abs(v).max()  # no overflow in the norm (a trial's 1e200)
+    if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
+        level = "0,-1,0" if form == "X,Y,Z" else "(0, -1, 0)"
+        raise InputError(f"{name}: expected {form}, the camera's up in its own frame (x right, y down, z forward; a "
+                         f"level camera's is {level}), got {values if given is None else given!r}")
+    return tuple(float(c) for c in v / np.linalg.norm(v))
+
+
+def parse_camera_up(text: str, name: str) -> tuple[float, float, float]:
+    """A given camera up written ``"X,Y,Z"`` (a command line's, a manifest's, a TOML file's) as
+    :func:`unit_camera_up` reads it.
 
     Raises:
         InputError: not three finite numbers, or all 0, naming ``name``.
     """
     try:
-        v = np.array([float(c) for c in str(text).split(",")])
+        values = [float(c) for c in str(text).split(",")]
     except ValueError:
-        v = np.array([])
-    if v.shape == (3,) and np.isfinite(v).all() and np.abs(v).max() > 0:
-        v = v / np.abs(v).max()  # no overflow in the norm (a trial's 1e200)
-    if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
-        raise InputError(f"{name}: expected X,Y,Z, the camera's up in its own frame (x right, y down, z forward; a "
-                         f"level camera's is 0,-1,0), got {text!r}")
-    return tuple(float(c) for c in v / np.linalg.norm(v))
+        values = []
+    return unit_camera_up(values, name, given=text)
 
 
 def check_camera_up_use(mode: str, posture: str, name: str, posture_name: str) -> None:

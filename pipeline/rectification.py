@@ -16,6 +16,7 @@ import numpy as np
 from pcnet.models.inference import get_session
 from pcnet.models.view_gate import quarter_turn_matrices
 from pcnet.adapters.validate import ROOT_RELATIVE_MAX
+from pcnet.pipeline.config import unit_camera_up
 from pcnet.stages.core.conventions import PELVIS, check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import frame_blocks, in_memory
@@ -187,30 +188,14 @@ def rectify(
     if measured_root:
         check_measured_root(joints_cam[:, PELVIS], "rectify: measured_root", "pass measured_root=False")
     result = rectify_checked(joints_cam, method, weights, mode, fps, heading, camera_prior, measured_root=measured_root,
-                             posture=posture, camera_up=None if camera_up is None else unit_up(camera_up))
+                             posture=posture,
+                             camera_up=None if camera_up is None else unit_camera_up(camera_up, "rectify: camera_up",
+                                                                                     "(x, y, z)"))
     if not result.valid.any():
         # the same refusal as pcnet run's, in every mode: an answer of NaN rows alone reads as a
         # result (a trial's frame-mode call without hips returned one, and no finding)
         raise InputError(no_valid_frame_reason(result.report))
     return replace(result, report=replace(result.report, pelvis_from_hips_frames=int(pelvis_filled.sum())))
-
-
-def unit_up(camera_up) -> tuple[float, float, float]:
-    """A given camera up (three numbers, any length) as a unit ``(x, y, z)``.
-
-    Raises:
-        InputError: not three finite numbers, or all 0.
-    """
-    try:
-        v = np.asarray(camera_up, np.float64)
-    except (TypeError, ValueError):
-        v = np.array([])
-    if v.shape == (3,) and np.isfinite(v).all() and np.abs(v).max() > 0:
-        v = v / np.abs(v).max()  # no overflow in the norm
-    if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
-        raise InputError(f"rectify: camera_up: expected (x, y, z), the camera's up in its own frame (x right, y down, "
-                         f"z forward; a level camera's is (0, -1, 0)), got {camera_up!r}")
-    return tuple(float(c) for c in v / np.linalg.norm(v))
 
 
 def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = None, mode: str = "frame",
@@ -225,7 +210,8 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
     ``(T,)`` bool, one person's stretch of a 2D track that switches people: the frames mode
     ``auto`` decides on and the only ones whose feet the floor contacts read
     (:class:`pcnet.stages.rectify.SequenceEvidence`). ``fps`` is required in every mode (no
-    default here: the caller knows the rate); ``camera_up`` a unit ``(x, y, z)`` (:func:`unit_up`).
+    default here: the caller knows the rate); ``camera_up`` a unit ``(x, y, z)``
+    (:func:`pcnet.pipeline.config.unit_camera_up`).
     No ``pelvis_from_hips_frames`` in the report.
 
     Raises:

@@ -68,7 +68,7 @@ from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import GIVEN_TILT, CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
 from .config import (COMMAND_LINE, DEFAULT_CUTOFF_HZ, RunConfig, field_name, fps_contradiction, keypoint_formats,
-                     multi_track_formats, pcnet_version, rates_agree, settings_record)
+                     multi_track_formats, pcnet_version, rates_agree, reads_folder, settings_record)
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -490,12 +490,10 @@ def _refuse_input_folders(cfg: RunConfig) -> None:
     Raises:
         InputError: the first such input, naming its field.
     """
-    from pcnet.adapters.registry import registered
-
-    reads_folder = cfg.keypoints2d_format is not None and registered("2d")[cfg.keypoints2d_format].folder_input
     for name in ("video", "keypoints2d", "lifter_output", "weights"):
         path = getattr(cfg, name)
-        if path is not None and Path(path).is_dir() and not (name == "keypoints2d" and reads_folder):
+        if path is not None and Path(path).is_dir() and not (name == "keypoints2d"
+                                                             and reads_folder(cfg.keypoints2d_format)):
             raise InputError(f"{field_name(COMMAND_LINE, name)}: expected a file, got a folder ({path})")
 
 
