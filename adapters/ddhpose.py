@@ -50,7 +50,8 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
     Raises:
         AdapterError: missing/unreadable file, a ``.mat`` (DDHPose's 3DHP output is in the
             MPI-INF-3DHP-17 layout), a ``_postprocess`` file (world z-up frame for display),
-            wrong rank, dtype or joint count, more hypotheses than frames (the axes swapped), a
+            wrong rank, dtype or joint count, more hypotheses than frames (the axes swapped, or a
+            clip shorter than its hypotheses count, which the shape cannot tell apart), a
             bad ``step``/``hypothesis``, all NaN, a coordinate beyond 100 m (naming frame and
             joint), a pelvis farther than :data:`~pcnet.adapters.validate.ROOT_RELATIVE_MAX` from
             the origin (median over frames: not root-relative, so not D3DP's output). ``inf`` is missing data (NaN).
@@ -76,7 +77,8 @@ def load_ddhpose(path: str | Path, step: int = -1, hypothesis: int | str = "mean
         if arr.shape[0] > arr.shape[1]:  # D3DP draws a handful of hypotheses (num_proposals) per frame
             raise AdapterError(p, "predictions", "(hypotheses, frames, 17, 3), fewer hypotheses than "
                                "frames", f"{arr.shape[0]} 'hypotheses' of {arr.shape[1]} frames: frames first? "
-                               f"np.swapaxes(a, -4, -3) puts the hypotheses first")
+                               f"np.swapaxes(a, -4, -3) puts the hypotheses first; a clip shorter than its "
+                               f"hypotheses count looks the same: save one of them, a[h], or their mean as (N, 17, 3)")
         if isinstance(hypothesis, str) and hypothesis == "mean":
             hypotheses = arr.shape[0]
             arr, partial = _mean_over_hypotheses(arr)

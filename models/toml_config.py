@@ -158,15 +158,20 @@ def check_config_types(source: str | Path, where: str, given: dict, cls) -> None
                              f"got {shown} ({type(value).__name__}){hint}")
 
 
-def check_config_keys(path: str | Path, where: str, given: dict, cls) -> None:
+def check_unknown_keys(path: str | Path, where: str, given: dict, cls) -> None:
     """Raise :class:`InputError` naming ``path`` (and ``where`` in it) if ``given`` has keys
-    that are not fields of the dataclass ``cls``, or values whose type does not fit the
-    field's (:func:`check_config_types`)."""
+    that are not fields of the dataclass ``cls``."""
     allowed = {f.name for f in dataclasses.fields(cls)}
     unknown = set(given) - allowed
     if unknown:
         raise InputError(f"{path}: {where}unknown keys {sorted(unknown)}{close_names(sorted(unknown), sorted(allowed))}; "
                          f"expected some of {sorted(allowed)}")
+
+
+def check_config_keys(path: str | Path, where: str, given: dict, cls) -> None:
+    """:func:`check_unknown_keys`, then :func:`check_config_types`: raise :class:`InputError`
+    for a key that is no field of the dataclass ``cls`` or a value whose type does not fit."""
+    check_unknown_keys(path, where, given, cls)
     check_config_types(path, where, given, cls)
 
 

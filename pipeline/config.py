@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.models.toml_config import (check_config_keys, check_config_types, read_toml, type_hints, type_name,
+from pcnet.models.toml_config import (check_config_types, check_unknown_keys, read_toml, type_hints, type_name,
                                       value_matches)
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
 from pcnet.stages.core.digest import sha256_file_version
@@ -738,7 +738,8 @@ def load_run_config(path: str | Path, **overrides) -> RunConfig:
     if misplaced:  # a manifest's column, the command line's flag: a table of its own here (a trial's `pixel = true`)
         raise InputError(f"{path}: {', '.join(map(repr, misplaced))}: expected in a [lifter_options] table (options "
                          f"of the lifter's file), got {'it' if len(misplaced) == 1 else 'them'} at the top level")
-    check_config_keys(path, "", raw, RunConfig)
+    # the types are the config's to check, after it reads an array of numbers (roi, camera_up) as its text
+    check_unknown_keys(path, "", raw, RunConfig)
     for key in PATH_FIELDS:
         if isinstance(raw.get(key), str):
             raw[key] = str((path.parent / raw[key]).resolve()) if not Path(raw[key]).is_absolute() else raw[key]

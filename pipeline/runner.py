@@ -1022,8 +1022,9 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
     where the ``picture`` the displayed keypoints are in is known (:func:`_keypoint_picture`),
     by their 2D keypoint lying outside it (:func:`pcnet.stages.remap.outside_image`).
     Returns ``(joints_camera, keypoints2d or None, root_cam (T, 3) float64 or None,
-    pelvis-filled frame count, joint positions masked as outside the picture, (17,) frames each
-    joint was masked for its 2D confidence)``."""
+    pelvis-filled frame count, joint positions masked as outside the picture, (2, 17) frames each
+    joint was masked for its 2D confidence below the threshold (row 0) and for its 2D keypoint
+    missing from the file (row 1))``."""
     T = len(joints)
     cam = store.create("joints_camera", (T, 17, 3), np.float32)
     kp = None if kp2d is None else store.create("keypoints2d", kp2d.shape, np.float32)
@@ -1031,7 +1032,7 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
     # image-normalised or a fixed depth.
     root_cam = np.full((T, 3), np.nan) if measured_root else None
     filled, finite, outside = 0, False, 0
-    low_confidence = np.zeros(17, np.int64)
+    masked_2d = np.zeros((2, 17), np.int64)
     for rows in frame_blocks(T):
         J, pelvis_filled = fill_pelvis_from_hips(joints[rows])
         J = orientation.joints(J)
@@ -1043,7 +1044,12 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
             kp[rows] = orientation.pixels(kp2d[rows])
             present = np.isfinite(J).all(axis=2)
             J = mask_low_confidence(J, kp2d[rows, :, 2], cfg.min_confidence)
-            low_confidence += (present & ~np.isfinite(J).all(axis=2)).sum(axis=0)
+            masked = present & ~np.isfinite(J).all(axis=2)
+            # a keypoint the file does not have (NaN, inf: no score) is not a low score (a bad-input
+            # trial's Infinity read as "confidence below 0.3")
+            no_keypoint = ~np.isfinite(kp2d[rows, :, 2])
+            masked_2d[0] += (masked & ~no_keypoint).sum(axis=0)
+            masked_2d[1] += (masked & no_keypoint).sum(axis=0)
             if picture is not None:
                 unseen = outside_image(kp[rows], picture) & np.isfinite(J).all(axis=2)
                 outside += int(unseen.sum())
@@ -1060,7 +1066,7 @@ def _camera_frame(cfg: RunConfig, joints, kp2d, measured_root: bool, store: Fram
         raise InputError(f"{cfg.lifter_output}: expected frames with a pelvis or both hips (the poses are centred on "
                          f"them), got every joint of every frame missing (NaN) once centred: no pelvis and no hip pair"
                          f"{masked}")
-    return cam, kp, root_cam, filled, outside, low_confidence
+    return cam, kp, root_cam, filled, outside, masked_2d
 
 
 #: What MediaPipe's 2D score is (``pcnet.adapters.mediapipe.load_mediapipe_2d``): an estimator
@@ -1070,18 +1076,26 @@ VISIBILITY_SCORE = ("MediaPipe's score is visibility, the chance a landmark is i
                     "is masked though MediaPipe estimates it; --confidence-threshold 0 keeps the estimate")
 
 
-def _low_confidence_note(low_confidence: np.ndarray, frames: int, threshold: float,
+def _masked_2d_notes(masked_2d: np.ndarray, frames: int, threshold: float,
                          keypoints2d_format: str | None = None) -> list[str]:
-    """A note naming the joints masked for their 2D confidence, most first: the missing-data
-    line says how much is missing, this one why and which setting decides it (a developer's
-    trial lost MediaPipe's right arm in 283 of 301 frames with no cause given); for MediaPipe's
-    keypoints, what its score is (:data:`VISIBILITY_SCORE`)."""
-    order = [j for j in np.argsort(-low_confidence, kind="stable") if low_confidence[j]]
-    if not order:
-        return []
-    listed = "; ".join(f"{H36M_JOINTS[j]} in {low_confidence[j]} of {frames} frames" for j in order)
-    score = f" ({VISIBILITY_SCORE})" if keypoints2d_format == "mediapipe" else ""
-    return [f"joints masked for 2D confidence below --confidence-threshold {threshold:g}: {listed}{score}"]
+    """Notes naming the joints masked by their 2D keypoint, most first, from ``masked_2d``
+    ``(2, 17)`` (:func:`_camera_frame`): those below the confidence threshold, and those the 2D
+    file lacks. The missing-data line says how much is missing, these why and which setting
+    decides it (a developer's trial lost MediaPipe's right arm in 283 of 301 frames with no
+    cause given); for MediaPipe's keypoints, what its score is (:data:`VISIBILITY_SCORE`)."""
+    def listed(counts: np.ndarray) -> str:
+        order = [j for j in np.argsort(-counts, kind="stable") if counts[j]]
+        return "; ".join(f"{H36M_JOINTS[j]} in {counts[j]} of {frames} frames" for j in order)
+
+    notes = []
+    if masked_2d[0].any():
+        score = f" ({VISIBILITY_SCORE})" if keypoints2d_format == "mediapipe" else ""
+        notes.append(f"joints masked for 2D confidence below --confidence-threshold {threshold:g}: "
+                     f"{listed(masked_2d[0])}{score}")
+    if masked_2d[1].any():
+        notes.append(f"joints masked where the 2D keypoints lack them (no finite position or score): "
+                     f"{listed(masked_2d[1])}")
+    return notes
 
 
 def _located(cam, root_cam: np.ndarray | None, store: FrameStore):
@@ -1335,9 +1349,9 @@ def _remap(cfg: RunConfig, inputs: AlignedInputs, store: FrameStore) -> CameraFr
     recording, orientation = inputs.recording, inputs.orientation
     notes = [orientation.note] if orientation.note else []
     picture = _keypoint_picture(inputs)
-    cam, kp2d, root_cam, pelvis_filled, outside, low_confidence = _camera_frame(
+    cam, kp2d, root_cam, pelvis_filled, outside, masked_2d = _camera_frame(
         cfg, recording.joints, recording.keypoints2d, recording.measured_root, store, orientation, picture)
-    notes += _low_confidence_note(low_confidence, len(cam), cfg.min_confidence, cfg.keypoints2d_format)
+    notes += _masked_2d_notes(masked_2d, len(cam), cfg.min_confidence, cfg.keypoints2d_format)
     video_kp2d = None
     if kp2d is not None and cfg.recording and orientation.recording_note:
         video_kp2d = store.create("keypoints2d_video", kp2d.shape, np.float32)

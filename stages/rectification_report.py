@@ -69,6 +69,10 @@ class PostureHypotheses:
         return min(self.p_lying, 1.0 - self.p_lying)
 
 
+#: :class:`SequenceUp`'s ``evidence`` where the camera's up was given (``camera_up``).
+GIVEN_UP = "given"
+
+
 @dataclass(frozen=True, eq=False)
 class SequenceUp:
     """A static camera's one up (sequence mode; :class:`pcnet.stages.rectify.SequenceEvidence`).

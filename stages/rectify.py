@@ -31,7 +31,7 @@ from .core.geometric import geometric_rotation
 from .ground_plane import posture_and_floor_up
 from .core.rotations import angle_between, camera_pitch_roll, normalize
 from .heading import HEADING_SOURCES, apply_heading
-from .rectification_report import (EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
+from .rectification_report import (GIVEN_UP, EnsembleWeights, HeadingChoice, ModeChoice, PostureHypotheses,
                                    RectificationReport, SequenceUp)
 from .temporal import (BOOTSTRAP_REPLICATES, HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG, MODES, SMOOTH_TIME_CONSTANT_S,
                        check_rotations, choose_mode, rotations_about_up, sequence_rectify, smooth_rotations,
@@ -41,8 +41,6 @@ from .up_model import (OTHER_POSTURE_P, Z95, UpEvidence, UpModelParameters, defa
                        summarise_recording, tangent_per_pitch_roll)
 
 METHODS = ("pcnet", "pcnet-rigid", "geometric")
-#: :class:`SequenceUp`'s ``evidence`` where the camera's up was given (``camera_up``).
-GIVEN_UP = "given"
 #: The body's posture in sequence mode's up model: ``auto`` (the posterior decides, with the
 #: declared prior ``lying_prior``) or one the user declares (a prior of 0 or 1 on lying).
 POSTURES = ("auto", "upright", "lying")

@@ -638,6 +638,15 @@ def test_ddhpose_bad_options_and_files(tmp_path):
                                            r"first\? np\.swapaxes\(a, -4, -3\)") as err:
         load_ddhpose(swapped)
     assert_names_file(err, swapped)
+    # a clip shorter than its hypotheses count has the same shape (a bad-input trial's 3-frame clip of 100 read
+    # only as swapped): the line says how to give it, and that way is read
+    assert "a clip shorter than its hypotheses count looks the same: save one of them, a[h]" in str(err.value)
+    short = np.load(p5)[-1, :, :2]  # 3 hypotheses of 2 frames
+    np.save(tmp_path / "short.npy", short)
+    with pytest.raises(AdapterError, match="a clip shorter than its hypotheses count"):
+        load_ddhpose(tmp_path / "short.npy")
+    np.save(tmp_path / "short_mean.npy", short.mean(axis=0))
+    np.testing.assert_allclose(load_ddhpose(tmp_path / "short_mean.npy").joints, short.mean(axis=0), atol=1e-6)
 
 
 def test_lifter_files_shaped_as_upstream_code_saves_them_name_the_fix(tmp_path):

@@ -1577,21 +1577,39 @@ def test_a_refusal_of_the_estimators_staged_poses_names_the_video(tmp_path):
 def test_joints_masked_for_2d_confidence_are_named_with_the_setting():
     """A developer's trial lost MediaPipe's right arm in 283 of 301 frames to low 2D
     confidence; the missing-data line said how much, nothing said why or what decides it."""
-    from pcnet.pipeline.runner import _low_confidence_note
+    from pcnet.pipeline.runner import _masked_2d_notes
     from pcnet.stages.core.conventions import H36M_JOINTS
 
-    counts = np.zeros(17, np.int64)
-    counts[[14, 16]] = [253, 283]
-    (note,) = _low_confidence_note(counts, 301, 0.3)
+    counts = np.zeros((2, 17), np.int64)
+    counts[0, [14, 16]] = [253, 283]
+    (note,) = _masked_2d_notes(counts, 301, 0.3)
     assert note == (f"joints masked for 2D confidence below --confidence-threshold 0.3: {H36M_JOINTS[16]} in 283 of "
                     f"301 frames; {H36M_JOINTS[14]} in 253 of 301 frames")
-    assert _low_confidence_note(np.zeros(17, np.int64), 301, 0.3) == []
+    assert _masked_2d_notes(np.zeros((2, 17), np.int64), 301, 0.3) == []
     # MediaPipe's score is no detection confidence (an estimator-swap trial lost the far arm)
-    (mediapipe,) = _low_confidence_note(counts, 301, 0.3, "mediapipe")
+    (mediapipe,) = _masked_2d_notes(counts, 301, 0.3, "mediapipe")
     assert mediapipe == note + (" (MediaPipe's score is visibility, the chance a landmark is in view: an arm hidden "
                                 "behind the body is masked though MediaPipe estimates it; --confidence-threshold 0 "
                                 "keeps the estimate)")
-    assert _low_confidence_note(counts, 301, 0.3, "alphapose") == [note]
+    assert _masked_2d_notes(counts, 301, 0.3, "alphapose") == [note]
+
+
+def test_a_2d_keypoint_the_file_lacks_is_not_called_low_confidence(tmp_path):
+    """A bad-input trial's AlphaPose file with ``Infinity`` for a wrist's x read "masked for 2D
+    confidence below 0.3": the file has no keypoint there, whatever the threshold."""
+    results = json.loads((FIXTURES / "boxing_alphapose_f000-059.json").read_text())
+    for detection in results[:20]:
+        detection["keypoints"][9 * 3] = float("inf")  # Halpe-26 joint 9, the left wrist's x
+    (tmp_path / "ap.json").write_text(json.dumps(results))
+    res = CliRunner().invoke(main, ["run", "--lifter", "motionbert", "--lifter-output",
+                                    str(FIXTURES / "boxing_X3D_f000-059.npy"), "--keypoints2d", str(tmp_path / "ap.json"),
+                                    "--keypoints2d-format", "alphapose", "--fps", "30", "--no-recording", "--no-plots",
+                                    "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    report = (tmp_path / "o" / "report.md").read_text()
+    assert "joints masked where the 2D keypoints lack them (no finite position or score): left_wrist in 20 of 60 frames" \
+        in report, report
+    assert not re.search(r"below --confidence-threshold 0\.3: [^\n]*left_wrist", report)
 
 
 @pytest.mark.slow

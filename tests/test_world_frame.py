@@ -381,6 +381,16 @@ def test_pcnet_run_with_a_given_camera_up_says_so_and_its_world_heights_are_alon
         world = run["joints_world"]
     camera = np.load(poses).astype(np.float64)
     np.testing.assert_allclose(world[..., 1] - world[:, :1, 1], -(camera[..., 1] - camera[:, :1, 1]), atol=1e-5)
+    # report.md names no interval the run has not got (a trial read the sequence intervals' keys, all n/a)
+    report = (tmp_path / "o" / "report.md").read_text()
+    assert "the camera's up was given, so it has no interval" in report and "key facts print" not in report
+    # a TOML file gives it as an array of numbers too, as its docstring says (a trial's was refused as not a str)
+    (tmp_path / "run.toml").write_text(f'lifter = "videopose3d"\nlifter_output = "{poses.as_posix()}"\nfps = 30\n'
+                                       'camera_up = [0, -2, 0]\nrecording = false\nplots = false\n')
+    res = CliRunner().invoke(main, ["run", "--config", str(tmp_path / "run.toml"), "--out", str(tmp_path / "t")])
+    assert res.exit_code == 0 and "given, --camera-up" in res.output, res.output
+    with np.load(tmp_path / "t" / "canonical.npz", allow_pickle=False) as run:
+        np.testing.assert_allclose(run["joints_world"], world, atol=1e-6)
     res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output", str(poses), "--fps", "30",
                                     "--camera-up", "0,-1,0", "--mode", "smooth", "--out", str(tmp_path / "s")])
     assert res.exit_code == 1 and "--camera-up: expected with mode sequence" in res.output
