@@ -23,6 +23,9 @@ unfiltered: 11 frames of a still body): their RMS difference between two cameras
 flexion and adduction read the lifter's limb planes and pelvis (``stages/isb_angles.py``), and
 trunk flexion to gravity adds each camera's up error, so they may agree less than the 3D angles
 (a multi-camera user trial: a knee read flexed by three cameras and hyperextended by the fourth).
+Last, the columns against gravity with each camera's true up (what ``--camera-up`` gives): the
+up from the poses partly follows the lifter's own trunk, so a true up need not make them agree
+better (a multi-camera trial's finding).
 """
 
 from __future__ import annotations
@@ -49,6 +52,8 @@ CAMERAS = ("cam01", "cam02", "cam03", "cam04")
 ISB_COLUMNS = ("left_knee_flexion", "right_knee_flexion", "left_hip_flexion", "right_hip_flexion",
                "left_hip_adduction", "right_hip_adduction", "left_elbow_flexion", "right_elbow_flexion",
                "trunk_flexion_to_gravity", "trunk_lateral_tilt_to_gravity")
+#: Those of :data:`ISB_COLUMNS` read against gravity: compared again with each camera's true up.
+GRAVITY_COLUMNS = ISB_COLUMNS[-2:]
 #: (name, proximal joint, the joint, distal joint): the 3D angle at the joint.
 SEGMENT_ANGLES = (("left knee", L_HIP, L_KNEE, L_ANKLE), ("right knee", R_HIP, R_KNEE, R_ANKLE),
                   ("left hip", SPINE, L_HIP, L_KNEE), ("right hip", SPINE, R_HIP, R_KNEE),
@@ -100,6 +105,13 @@ def main(argv=None) -> int:
     for name in ISB_COLUMNS:
         d = [float(np.sqrt(np.nanmean((columns[a][name] - columns[b][name]) ** 2))) for a, b in pairs]
         means = " / ".join(f"{np.nanmean(columns[cam][name]):+6.1f}" for cam in CAMERAS)
+        lines.append(f"  {name:<30} {np.mean(d):6.1f} {np.max(d):6.1f}   {means}")
+    lines += ["", "The angles against gravity with each camera's true up instead (`pcnet run --camera-up`), the same "
+                  "columns:"]
+    true_up = {cam: compute_kinematics(frames[cam]["canonical, true up"], fps, cutoff_hz=None).angles for cam in CAMERAS}
+    for name in GRAVITY_COLUMNS:
+        d = [float(np.sqrt(np.nanmean((true_up[a][name] - true_up[b][name]) ** 2))) for a, b in pairs]
+        means = " / ".join(f"{np.nanmean(true_up[cam][name]):+6.1f}" for cam in CAMERAS)
         lines.append(f"  {name:<30} {np.mean(d):6.1f} {np.max(d):6.1f}   {means}")
     lines += ["", f"({time.time() - t0:.0f} s)"]
     print_and_save(lines, args.out)

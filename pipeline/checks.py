@@ -194,7 +194,7 @@ def tilt_tolerance(report: RectificationReport) -> tuple[float, str]:
         return float("nan"), GIVEN_TILT
     if seq is not None:
         interval = ("interval, not calibrated for this spread of per-frame ups" if spreads_beyond_static(report.mode)
-                    else "95 % interval")
+                    else "95 % interval, the larger of pitch and roll")
         for halves, what in (((seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg), interval),
                              # a method without a calibrated interval states its bootstrap
                              ((seq.camera_pitch_uncertainty_deg, seq.camera_roll_uncertainty_deg),

@@ -133,7 +133,7 @@ def test_rows_run_in_workers_and_one_failing_row_does_not_stop_the_others(tmp_pa
     assert b1["camera_tilt_deg"] == round(record["camera_tilt_deg"], 1) and b1["posture"] == "upright"
     assert b3["posture"] is None and b3["camera_tilt_deg"] is not None  # geometric: no up model, a tilt all the same
     # how far the tilt may be off, and what that number is (a lab trial found "not calibrated" only in report.md)
-    assert b1["camera_tilt_uncertainty"] == "95 % interval" and b1["camera_tilt_uncertainty_deg"] == round(max(
+    assert b1["camera_tilt_uncertainty"] == "95 % interval, the larger of pitch and roll" and b1["camera_tilt_uncertainty_deg"] == round(max(
         record["camera_pitch_interval_deg"], record["camera_roll_interval_deg"]), 1)
     assert b3["camera_tilt_uncertainty"].startswith("bootstrap-only") and b2["camera_tilt_uncertainty"] is None
     # each angle's median and extremes, as the row's kinematics.csv gives them (a lab trial opened each one)

@@ -391,7 +391,7 @@ def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
     assert tolerance == (boot, "bootstrap-only uncertainty, no calibrated interval for this method")
     assert f"({boot:.1f} deg, bootstrap-only uncertainty" in lifter_frame_flag(boot + 5.0, *tolerance)[0].detail
     ensemble = rectify(np.load(TADASANA), "pcnet", mode="sequence", fps=30.0).report
-    assert tilt_tolerance(ensemble) == (ensemble.sequence.camera_pitch_interval_deg, "95 % interval")
+    assert tilt_tolerance(ensemble) == (ensemble.sequence.camera_pitch_interval_deg, "95 % interval, the larger of pitch and roll")
     from dataclasses import replace
 
     from pcnet.stages.temporal import MODE_THRESHOLD_DEG

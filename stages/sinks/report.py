@@ -113,7 +113,8 @@ def _angle_table(ranges: ColumnRanges) -> list[str]:
     # found the one mid-paragraph and four trunk columns with no word on which to read)
     return ["**Every angle carries the lifter's own error**, which no warning measures in one recording: four "
             "calibrated cameras of one standing subject read its hips and knees tens of degrees apart, and the hips' "
-            "internal rotations err more than they vary (docs/guide/limits.md, docs/joint_angles.md). Angles against "
+            "internal rotations, and the shoulders' axial rotations with the elbow bent less than about 30 deg, err "
+            "more than they vary (docs/guide/limits.md, docs/joint_angles.md). Angles against "
             "gravity (`*_inclination_deg`, `*_to_gravity_deg`) also carry the up's uncertainty, which "
             "kinematics_columns.csv states.", "",
             "Trunk lean from vertical: `trunk_inclination_deg` (0 upright, 90 lying); forward and sideways: "
