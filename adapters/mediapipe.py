@@ -49,6 +49,7 @@ from pcnet.stages.core.conventions import BLAZEPOSE33, PELVIS
 from pcnet.stages.core.perspective import (
     DEFAULT_FOCAL_35MM,
     focal_px_from_35mm,
+    focal_px_problem,
     intrinsics,
     virtual_camera_rotation,
 )
@@ -232,6 +233,9 @@ def _intrinsics(p: Path, scalars: dict, focal_px: float | None, K: np.ndarray | 
         if width is None or height is None:
             raise AdapterError(p, "width/height", "the image size, to place the principal point for --focal-px",
                                "no such field")
+        problem = focal_px_problem(float(focal_px), width, height)
+        if problem is not None:
+            raise AdapterError(p, "focal_px", *problem)
         return intrinsics(width, height, float(focal_px)), "given"
     if K is not None:
         K = require_numeric(p, "K", K).astype(np.float64)

@@ -5,7 +5,8 @@ MediaPipe's Tasks ``PoseLandmarker`` (google-ai-edge/mediapipe
 ``mediapipe/tasks/python/vision/pose_landmarker.py``, release 1.2.3) runs in ``VIDEO`` mode:
 the detector finds the person once, then the landmark model tracks them from frame to frame
 (re-running the detector where the track is lost), with MediaPipe's landmark smoothing
-between frames. The model bundle ships with pcnet (:data:`POSE_TASK`, built by
+between frames. A frame whose pose came from the detector's box is seen once more, from the
+crop its own landmarks give, as every tracked frame is. The model bundle ships with pcnet (:data:`POSE_TASK`, built by
 ``benchmarks/build_pose_task.py`` from the Apache-2.0 models of MediaPipe 0.10.21), so
 nothing is downloaded at run time.
 
@@ -166,6 +167,7 @@ def estimate_video(video: str | Path, progress: bool = False,
         num_poses=1, output_segmentation_masks=False)
     keypoints, world = [], []
     width = height = 0
+    calls, tracked = 0, False
     try:
         with _native_logs_silenced() as stderr, pose_landmarker.PoseLandmarker.create_from_options(options) as landmarker, \
                 tqdm(total=count or None, desc="MediaPipe", unit="frame", file=stderr,
@@ -183,8 +185,18 @@ def estimate_video(video: str | Path, progress: bool = False,
                 seen = frame[y0:y0 + seen_h, x0:x0 + seen_w]
                 image = mp_image.Image(image_format=mp_image.ImageFormat.SRGB,
                                        data=np.ascontiguousarray(cv2.cvtColor(seen, cv2.COLOR_BGR2RGB)))
-                # VIDEO mode needs strictly increasing timestamps (ms): the frame's nominal time
-                result = landmarker.detect_for_video(image, round(len(keypoints) * 1000.0 / fps))
+                # Where no pose was tracked into this frame, the detector's box is the landmark
+                # model's crop; every later frame's crop comes from the landmarks before it. The
+                # frame is seen again from its own landmarks' crop, so that every frame's pose is
+                # a tracked one (a first frame 3-10 times further from the next than any later
+                # step read as a still subject's peak speed: two user trials).
+                for _ in range(1 if tracked else 2):
+                    # VIDEO mode needs strictly increasing timestamps (ms), one frame interval apart
+                    result = landmarker.detect_for_video(image, round(calls * 1000.0 / fps))
+                    calls += 1
+                    tracked = bool(result.pose_landmarks)
+                    if not tracked:
+                        break
                 if result.pose_landmarks:
                     keypoints.append(np.array([[x0 + p.x * seen_w, y0 + p.y * seen_h, p.visibility]
                                                for p in result.pose_landmarks[0]], np.float32))

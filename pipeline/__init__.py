@@ -105,6 +105,14 @@ go::
 from __future__ import annotations
 
 import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # what a type checker reads for the names __getattr__ imports on first use
+    from pcnet.pipeline.checks import pose_checks
+    from pcnet.pipeline.config import RunConfig
+    from pcnet.pipeline.rectification import rectify
+    from pcnet.pipeline.runner import run_pipeline
+    from pcnet.stages.core.errors import InputError
 
 #: Public name -> the module that defines it.
 _PUBLIC = {

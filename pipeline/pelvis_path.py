@@ -18,7 +18,7 @@ import numpy as np
 from pcnet.models.lifter_noise import BONE_SCALE_SIGMA
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.core.framestore import per_frame, present_frames
-from pcnet.stages.core.perspective import focal_px_from_35mm, intrinsics
+from pcnet.stages.core.perspective import focal_px_from_35mm, focal_px_problem, intrinsics
 from pcnet.stages.kinematics import frames_phrase
 from pcnet.stages.root_path import root_from_keypoints, stretch_starts
 
@@ -44,8 +44,15 @@ def camera_intrinsics(focal_px: float | None, file_matrix: np.ndarray | None,
         file_matrix: the lifter file's ``(3, 3)`` ``K`` or ``None``
             (:attr:`pcnet.adapters.Poses3D.camera_matrix`).
         image_size: ``(width, height)`` in pixels of the frames the keypoints are in, or ``None``.
+
+    Raises:
+        InputError: a given focal length shorter than any rectilinear lens's on that picture
+            (:func:`pcnet.stages.core.perspective.focal_px_problem`).
     """
     if focal_px is not None and image_size is not None:
+        problem = focal_px_problem(focal_px, *image_size)
+        if problem is not None:
+            raise InputError(f"--focal-px {focal_px:g}: expected {problem[0]}, got {problem[1]}")
         return Intrinsics(intrinsics(*image_size, focal_px), f"focal length {focal_px:g} px, given")
     if file_matrix is not None:
         return Intrinsics(np.asarray(file_matrix, np.float64), f"the lifter file's K (focal length "

@@ -1701,6 +1701,19 @@ def _estimate_named_by_its_video(staged_file: Path, video: str | None):
             from err
 
 
+def _check_video_before_estimating(cfg: RunConfig) -> None:
+    """What a video alone can be refused for before the embedded estimator spends its time on
+    every frame: ``--fps`` contradicting the video's rate, ``--focal-px`` shorter than any
+    lens's on its frames (a coach's trial waited 10 s for the first, 20 s for the second).
+
+    Raises:
+        InputError: as :func:`_frame_rate` and :func:`camera_intrinsics`.
+    """
+    video = probe_video(cfg.video)
+    _frame_rate(cfg, video)
+    camera_intrinsics(cfg.focal_px, None, (video.width, video.height))
+
+
 def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResult:
     seconds: dict[str, float] = {}
     clock = [time.perf_counter(), None]
@@ -1721,6 +1734,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             _estimate_named_by_its_video(tmp / ESTIMATE_FILE, cfg.video):
         estimate_notes = []
         if cfg.lifter_output is None:  # the video alone: the embedded estimator's poses, kept with the outputs
+            _check_video_before_estimating(cfg)
             step("estimate")
             cfg, note = estimated_inputs(cfg, tmp, progress=not bar.disable)
             estimate_notes.append(note)

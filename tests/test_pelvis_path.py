@@ -12,9 +12,9 @@ from click.testing import CliRunner
 from conftest import FIXTURES
 
 from pcnet.pipeline.cli import main
-from pcnet.pipeline.pelvis_path import camera_intrinsics, pelvis_path
+from pcnet.pipeline.pelvis_path import Intrinsics, camera_intrinsics, pelvis_path
 from pcnet.stages.core.errors import InputError
-from pcnet.stages.core.perspective import focal_px_from_35mm
+from pcnet.stages.core.perspective import focal_px_from_35mm, intrinsics
 from pcnet.stages.flags import note_finding
 
 BOX_2D = FIXTURES / "boxing_alphapose_f000-059.json"
@@ -117,12 +117,34 @@ def test_a_focal_length_that_puts_the_body_behind_the_camera_is_refused():
     """A sprint coach gave the lens's millimetres as --focal-px 26 and read a walker at 17 m/s:
     a pinhole camera sees nothing behind it, so the path's body must lie in front of it."""
     rel, kp, pelvis, K = _projected_walk()
+
+    def given(focal: float) -> Intrinsics:  # past camera_intrinsics' lens bound, which refuses 26 px first
+        return Intrinsics(intrinsics(1920, 1080, focal), f"focal length {focal:g} px, given")
+
     with pytest.raises(InputError, match=r"^--focal-px 26: expected a focal length that puts the body in front of the "
                                          r"camera, got one that puts its nearest joint 0\.\d\d m behind it in the median "
                                          r"frame: a focal length in millimetres\? .* \(a phone's 26 mm: "
                                          rf"{focal_px_from_35mm(1920, 1080):.0f} px on this 1920x1080 picture\)"):
-        pelvis_path(None, rel, kp, camera_intrinsics(26.0, None, (1920, 1080)), "m", 30.0, 0.3)
+        pelvis_path(None, rel, kp, given(26.0), "m", 30.0, 0.3)
     # the true focal length, and one a fifth of it, keep the body in front: a path, no error
     for focal in (K[0, 0], K[0, 0] / 5):
-        assert pelvis_path(None, rel, kp, camera_intrinsics(focal, None, (1920, 1080)), "m", 30.0, 0.3).kind == \
-            "from 2D keypoints"
+        assert pelvis_path(None, rel, kp, given(focal), "m", 30.0, 0.3).kind == "from 2D keypoints"
+
+
+def test_a_focal_length_shorter_than_any_lenss_is_refused_before_the_estimator(tmp_path):
+    """A coach gave a phone's "26 mm" as --focal-px 26: the body stayed in front of the camera,
+    the walker read 18 m/s and the warnings blamed the axes. No rectilinear lens is wider than
+    a 9 mm 35 mm equivalent (135 deg across the diagonal), so a shorter focal length is refused
+    with the pixels a phone's lens gives; a video alone is refused before the estimator runs."""
+    shortest = focal_px_from_35mm(1920, 1080, 9.0)
+    assert camera_intrinsics(shortest, None, (1920, 1080)).matrix[0, 0] == shortest  # the widest lens is one
+    with pytest.raises(InputError, match=rf"^--focal-px 26: expected a focal length in pixels of at least "
+                                         rf"{shortest:.0f} px on this 1920x1080 picture \(a 9 mm 35 mm equivalent, 135 deg "
+                                         r"across the diagonal: the widest rectilinear lenses\), got 26 px, a 0\.51 mm "
+                                         r"equivalent: a focal length in millimetres\? .*\(a phone's 26 mm: 1324 px here\)"):
+        camera_intrinsics(26.0, None, (1920, 1080))
+    res = CliRunner().invoke(main, ["run", "--lifter", "motionbert", "--lifter-output", str(BOX_3D), "--keypoints2d",
+                                    str(BOX_2D), "--keypoints2d-format", "alphapose", "--fps", "30", "--image-size",
+                                    "854x480", "--focal-px", "26", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 1 and "--focal-px 26: expected a focal length in pixels of at least 204 px" in res.output
+    assert not (tmp_path / "o").exists()

@@ -123,7 +123,8 @@ def test_a_file_that_is_no_video_is_one_line(tmp_path, video_extra):
     fake = tmp_path / "notes.mp4"
     fake.write_text("not a video")
     line = _one_error_line(_invoke("run", "--video", fake, "--out", tmp_path / "o"))
-    assert "notes.mp4: expected a video OpenCV can decode" in line
+    # read before the estimator (its frame rate and size are checked first), as a lifter run reads it
+    assert re.search(r"notes\.mp4': field 'video stream': expected a video file OpenCV can open", line), line
     assert not (tmp_path / "o").exists()
 
 
@@ -146,6 +147,24 @@ def test_without_the_extra_the_line_names_it(tmp_path, monkeypatch):
 def test_inputs_that_do_not_make_a_run_are_refused(tmp_path, args, needle):
     line = _one_error_line(_invoke("run", *args, "--out", tmp_path / "o"))
     assert needle in line, line
+
+
+@pytest.mark.parametrize("args, needle", [
+    (("--focal-px", "26"), "--focal-px 26: expected a focal length in pixels of at least 204 px on this 854x480 picture"),
+    (("--fps", "60"), "--fps 60: expected the rate"),
+])
+def test_a_video_alone_is_refused_before_the_estimator_runs(tmp_path, monkeypatch, args, needle):
+    """A coach's trial waited 10-20 s of estimation for a --fps or --focal-px that the video's
+    own rate and size refuse; both are read before the estimator is called."""
+    import pcnet.pipeline.video_estimate as video_estimate
+
+    def estimator_called(*_args, **_kwargs):
+        raise AssertionError("the estimator ran")
+
+    monkeypatch.setattr(video_estimate, "estimate_video", estimator_called)
+    line = _one_error_line(_invoke("run", "--video", CLIP, *args, "--out", tmp_path / "o"))
+    assert needle in line, line
+    assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.slow

@@ -34,6 +34,32 @@ FULL_FRAME_DIAGONAL_MM = math.hypot(36.0, 24.0)
 DEFAULT_FOCAL_35MM = 26.0
 
 
+#: The shortest 35 mm-equivalent focal length (mm) of a rectilinear (pinhole) lens: 9 mm, 135 deg
+#: across the diagonal, as the widest full-frame rectilinear lenses made (Venus Optics Laowa
+#: 9 mm f/5.6 FF RL, 2019). A shorter one is a fisheye's, which no pinhole model describes, or
+#: a focal length in millimetres given as pixels (a coach's ``--focal-px 26``).
+WIDEST_RECTILINEAR_35MM = 9.0
+
+
+def focal_px_problem(focal_px: float, width: float, height: float) -> tuple[str, str] | None:
+    """``(expected, found)`` where ``focal_px`` (pixels) is shorter than any rectilinear
+    lens's on a ``width`` x ``height`` px picture (:data:`WIDEST_RECTILINEAR_35MM`), else
+    ``None``: the two halves of the caller's refusal, which names the option or field.
+
+    Raises:
+        InputError: a size that is not a positive finite number (:func:`focal_px_from_35mm`).
+    """
+    shortest = focal_px_from_35mm(width, height, WIDEST_RECTILINEAR_35MM)
+    if focal_px >= shortest:
+        return None
+    equivalent = focal_px / math.hypot(width, height) * FULL_FRAME_DIAGONAL_MM
+    return (f"a focal length in pixels of at least {shortest:.0f} px on this {width:g}x{height:g} picture (a "
+            f"{WIDEST_RECTILINEAR_35MM:g} mm 35 mm equivalent, 135 deg across the diagonal: the widest rectilinear "
+            f"lenses)", f"{focal_px:g} px, a {equivalent:.2g} mm equivalent: a focal length in millimetres? In pixels it "
+            f"is the 35 mm-equivalent focal length x the picture's diagonal / 43.27 (a phone's "
+            f"{DEFAULT_FOCAL_35MM:g} mm: {focal_px_from_35mm(width, height):.0f} px here)")
+
+
 def focal_px_from_35mm(width: float, height: float, focal_35mm: float = DEFAULT_FOCAL_35MM) -> float:
     """Focal length in pixels of an image ``width`` x ``height`` px whose lens has the 35 mm
     equivalent focal length ``focal_35mm`` (mm): ``f = focal_35mm / 43.27 * hypot(width, height)``
