@@ -132,7 +132,7 @@ def _open(video: Path) -> tuple[cv2.VideoCapture, float, int]:
 
 
 def estimate_video(video: str | Path, progress: bool = False,
-                   region: tuple[int, int, int, int] | None = None) -> BlazePoseTrack:
+                   region: tuple[int, int, int, int] | None = None, *, relook: bool = True) -> BlazePoseTrack:
     """Run BlazePose GHUM 3D (full) over every decodable frame of ``video``.
 
     Args:
@@ -144,6 +144,9 @@ def estimate_video(video: str | Path, progress: bool = False,
             returned in the whole frame's pixels, so the camera's intrinsics (focal length,
             principal point at the frame's centre) stay the whole frame's. ``None``: the whole
             frame.
+        relook: a frame whose pose came from the detector's box is seen once more, from the
+            crop its own landmarks give (module docstring); ``False`` keeps the detector's
+            frame as it came (the ablation of ``benchmarks/video_estimator.py``).
 
     Returns:
         :class:`BlazePoseTrack`.
@@ -190,7 +193,7 @@ def estimate_video(video: str | Path, progress: bool = False,
                 # frame is seen again from its own landmarks' crop, so that every frame's pose is
                 # a tracked one (a first frame 3-10 times further from the next than any later
                 # step read as a still subject's peak speed: two user trials).
-                for _ in range(1 if tracked else 2):
+                for _ in range(1 if tracked or not relook else 2):
                     # VIDEO mode needs strictly increasing timestamps (ms), one frame interval apart
                     result = landmarker.detect_for_video(image, round(calls * 1000.0 / fps))
                     calls += 1
