@@ -999,7 +999,7 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str =
     roll 95 % half-widths, or the per-frame bound where no interval is printed;
     ``tolerance_is`` names which, as the summary states it). ``focal_known``: the turn used the
     camera's focal length (``--focal-px`` or the file's own camera matrix), so the flag does
-    not ask for it.
+    not ask for it and is a note (:attr:`Severity.INFO`), not a warning.
 
     The turn rests on an assumption the file cannot confirm (MediaPipe's world landmarks
     answer in a virtual camera aimed at the person: adapters/mediapipe.py). On real videos
@@ -1014,7 +1014,9 @@ def lifter_frame_flag(turn_deg: float, tolerance_deg: float, tolerance_is: str =
     advice = ("compare a run with the person near the image centre" if focal_known else
               "give the video's true focal length (--focal-px; docs/video.md says how to get it from a calibration or "
               "the phone's 35 mm equivalent), or compare a run with the person near the image centre")
-    return [_found(Kind.LIFTER_TURN, Severity.CHECK,
+    # with the focal length known nothing is left to act on: a note, not a warning (a coach's
+    # trial met it on every phone clip and again after giving --focal-px)
+    return [_found(Kind.LIFTER_TURN, Severity.INFO if focal_known else Severity.CHECK,
                    f"lifter output turned {turn_deg:.1f} deg into the camera, beyond the tilt's {tolerance_deg:.1f} "
                    f"deg uncertainty",
                    # with the focal length given there is nothing left to give (a coach's trial read

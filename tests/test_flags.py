@@ -378,6 +378,8 @@ def test_lifter_frame_flag_fires_only_beyond_the_stated_uncertainty():
     assert lifter_frame_flag(15.5, 7.4)[0].action == "give --focal-px (docs/video.md)"
     (known,) = lifter_frame_flag(15.5, 7.4, focal_known=True)
     assert known.action == "take the tilt as uncertain by up to the turn" and "--focal-px" not in known.detail
+    # and with nothing left to give it is a note, not a warning (a coach's trial met it on every phone clip)
+    assert known.severity == Severity.INFO and lifter_frame_flag(15.5, 7.4)[0].severity == Severity.CHECK
 
 
 def test_the_lifter_frame_flag_names_a_bootstrap_only_uncertainty_as_such():
