@@ -17,7 +17,7 @@ from pcnet.stages.core.conventions import validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag, given_up_flag,
                                keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
-                               limb_proportions_flag, mirrored_skeleton_flag, orientation_flags,
+                               limb_proportions_flag, mirrored_skeleton_flag, note_finding, orientation_flags,
                                per_frame_tilt_summary, posture_flag, side_swap_flag, size_change_flag,
                                track_switch_flag)
 from pcnet.stages.rectification_report import EnsembleWeights, ModeChoice, RectificationReport
@@ -127,7 +127,9 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
     """The findings of :func:`checks` that the poses and their rectification alone can give, as
     ``pcnet rectify`` prints them (no file, unit, 2D keypoints or video to read): the camera's
     orientation, the limbs' proportions (a wrong joint order), the legs' asymmetry, a mirrored
-    skeleton, the posture hypotheses and the ensemble's weights (outside sequence mode).
+    skeleton, the posture hypotheses, the ensemble's weights (outside sequence mode) and, as a
+    note, per-frame ups spread beyond a static camera's (sequence mode's intervals are then not
+    calibrated: :func:`moving_camera_note`).
 
     Args:
         joints_camera: ``(T, 17, 3)`` camera-frame H36M-17 poses, any units, NaN = missing:
@@ -154,7 +156,10 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
     return [*_orientation_flags(report, tilt),
             *limb_proportions_flag(joints_camera), *leg_asymmetry_flag(joints_camera),
             *mirrored_skeleton_flag(joints_camera), *posture_flag(report.sequence),
-            *ensemble_weights_flag(_answering_weights(report))]
+            *ensemble_weights_flag(_answering_weights(report)),
+            # the intervals' own caveat, which pcnet run's summary gives (an API trial's gate trusted an interval
+            # of a 12 deg spread)
+            *map(note_finding, moving_camera_note(report.mode))]
 
 
 def _orientation_flags(report: RectificationReport, tilt: "CameraTilt") -> list[Finding]:
@@ -178,6 +183,19 @@ def spreads_beyond_static(mode: ModeChoice) -> bool:
     (:data:`pcnet.stages.temporal.MODE_THRESHOLD_DEG`, which no static camera of the validation
     data passed): there the sequence intervals are not calibrated (decision 0090)."""
     return mode.spread_deg is not None and mode.spread_deg > MODE_THRESHOLD_DEG
+
+
+def moving_camera_note(mode: ModeChoice) -> list[str]:
+    """A note when sequence mode was asked for (the default) and the per-frame ups spread beyond
+    a static camera's (:func:`spreads_beyond_static`): a camera that moved gets one up that is
+    wrong where it turned; a body moving fast or far from upright spreads them too (decision 0041)."""
+    if mode.requested != "sequence" or not spreads_beyond_static(mode):
+        return []
+    # The static camera's case first: yoga and cycling trials under a tripod read "use --mode
+    # smooth" as an instruction; what they can act on is whether their camera moved.
+    return [f"per-frame up spreads {mode.spread_deg:.1f} deg, beyond the {MODE_THRESHOLD_DEG:g} of any static "
+            f"validation camera: a body far from upright or moving fast spreads it too, and under a static camera "
+            f"(a tripod) nothing changes but the interval, not called 95 %; a camera that moved needs --mode smooth"]
 
 
 #: :func:`tilt_tolerance`'s word for a tilt the user gave (``--camera-up``): no uncertainty of pcnet's.

@@ -53,7 +53,7 @@ from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
 from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
                                      residual_analysis)
 from pcnet.pipeline.rectification import check_measured_root, rectify_checked
-from pcnet.stages.rectification_report import ModeChoice, RectificationReport
+from pcnet.stages.rectification_report import RectificationReport
 from pcnet.stages.rectify import GIVEN_UP, NO_VALID_FRAME, no_valid_frame_reason
 from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, outside_image, remap_to_h36m
@@ -66,7 +66,8 @@ from pcnet.stages.column_ranges import ColumnRanges, column_ranges
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
-from .checks import GIVEN_TILT, CameraTilt, CheckInputs, checks, per_frame_tilt, spreads_beyond_static
+from .checks import (GIVEN_TILT, CameraTilt, CheckInputs, checks, moving_camera_note, per_frame_tilt,
+                     spreads_beyond_static)
 from .config import (COMMAND_LINE, DEFAULT_CUTOFF_HZ, RunConfig, field_name, fps_contradiction, keypoint_formats,
                      multi_track_formats, pcnet_version, rates_agree, reads_folder, settings_record)
 from .io import lifter_joints
@@ -754,19 +755,6 @@ def _unused_floor_note(measured_root: bool, ground_plane: dict | None) -> list[s
             f"it comes from the poses alone (stages/ground_plane.py)"]
 
 
-def _moving_camera_note(mode: ModeChoice) -> list[str]:
-    """A note when sequence mode was asked for (the default) and the per-frame ups spread beyond
-    a static camera's (:func:`pcnet.pipeline.checks.spreads_beyond_static`): a camera that moved gets one up that is
-    wrong where it turned; a body moving fast or far from upright spreads them too (decision 0041)."""
-    if mode.requested != "sequence" or not spreads_beyond_static(mode):
-        return []
-    # The static camera's case first: yoga and cycling trials under a tripod read "use --mode
-    # smooth" as an instruction; what they can act on is whether their camera moved.
-    return [f"per-frame up spreads {mode.spread_deg:.1f} deg, beyond the {MODE_THRESHOLD_DEG:g} of any static "
-            f"validation camera: a body far from upright or moving fast spreads it too, and under a static camera "
-            f"(a tripod) nothing changes but the interval, not called 95 %; a camera that moved needs --mode smooth"]
-
-
 #: 2D formats that write nothing for a frame without a detected person: AlphaPose's results
 #: JSON lists detections, each with its ``image_id`` (adapters/alphapose.py), so a file that ends
 #: before the video ends in undetected frames. Other formats write every frame (a MediaPipe file
@@ -1433,7 +1421,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     # a given up is not refined by anything
     notes = _unused_floor_note(inputs.recording.measured_root, report.sequence.ground_plane
                                if report.sequence is not None and report.sequence.evidence != GIVEN_UP else None)
-    notes += _moving_camera_note(report.mode)
+    notes += moving_camera_note(report.mode)
     notes += _headingless_frames_note(report, camera.joints, res.valid)
     return Rectified(res.rotation, res.canonical, res.valid, report, CameraTilt.of(res.rotation, res.valid),
                      per_frame_tilt(res.rotation, res.valid, report.mode.run), segment, events, tuple(notes))

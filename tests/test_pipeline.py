@@ -1153,23 +1153,44 @@ def test_the_default_mode_is_sequence_and_a_wide_spread_of_the_ups_gets_a_note()
     showed on validation, a note names --mode smooth, and a requested auto or smooth mode
     gets none."""
     from pcnet.pipeline.config import RunConfig
-    from pcnet.pipeline.runner import _moving_camera_note
+    from pcnet.pipeline.checks import moving_camera_note
     from pcnet.stages.flags import note_finding
     from pcnet.stages.rectification_report import ModeChoice
     from pcnet.stages.temporal import MODE_THRESHOLD_DEG
 
     assert RunConfig().mode == "sequence"
-    (note,) = _moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=6.2))
+    (note,) = moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=6.2))
     assert "spreads 6.2 deg" in note and "far from upright" in note and "nothing changes but the interval" in note
     # the summary's line keeps the action and the other cause first (user trials: a side bend under a
     # tripod; yoga and cycling under a tripod told "use --mode smooth")
     assert note_finding(note).headline == ("per-frame up spreads 6.2 deg: a leaning body (no action) or a "
                                            "moving camera (--mode smooth)")
-    (wide,) = _moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=26.7))  # a wider number keeps both asides
+    (wide,) = moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=26.7))  # a wider number keeps both asides
     assert note_finding(wide).headline.endswith("a leaning body (no action) or a moving camera (--mode smooth)")
-    assert _moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=MODE_THRESHOLD_DEG)) == []
-    assert _moving_camera_note(ModeChoice("auto", "smooth", spread_deg=6.2)) == []
-    assert _moving_camera_note(ModeChoice("smooth", "smooth", spread_deg=6.2)) == []
+    assert moving_camera_note(ModeChoice("sequence", "sequence", spread_deg=MODE_THRESHOLD_DEG)) == []
+    assert moving_camera_note(ModeChoice("auto", "smooth", spread_deg=6.2)) == []
+    assert moving_camera_note(ModeChoice("smooth", "smooth", spread_deg=6.2)) == []
+
+
+def test_pose_checks_gives_the_wide_spread_note_the_summary_gives():
+    """An API trial's script trusted the sequence interval of a clip whose per-frame ups spread
+    12 deg, which ``pcnet run``'s summary calls not calibrated; ``pose_checks`` now gives the
+    same note. Here a real clip under a camera rolling 40 deg over its 100 frames."""
+    from scipy.spatial.transform import Rotation
+
+    from pcnet.pipeline import pose_checks, rectify
+    from pcnet.stages.flags import Severity
+    from pcnet.stages.temporal import MODE_THRESHOLD_DEG
+
+    joints = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy").astype(np.float64)
+    still = rectify(joints, mode="sequence", fps=30.0)
+    assert not any("per-frame up spreads" in f.headline for f in pose_checks(joints, still))
+    rolls = Rotation.from_euler("z", np.linspace(0.0, 40.0, len(joints))[:, None], degrees=True).as_matrix()
+    rolling = np.einsum("tij,tkj->tki", rolls, joints)
+    res = rectify(rolling, mode="sequence", fps=30.0)
+    assert res.report.mode.spread_deg > MODE_THRESHOLD_DEG
+    (spread,) = [f for f in pose_checks(rolling, res) if "per-frame up spreads" in f.headline]
+    assert spread.severity == Severity.INFO and "not called 95 %" in spread.detail
 
 
 def test_auto_mode_choosing_smooth_says_why_and_names_sequence_mode_on_its_line():
