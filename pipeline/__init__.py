@@ -29,6 +29,8 @@ rotation=res.rotation)`` gives a frame or smooth mode run's angles; decision 010
     import numpy as np
     from pcnet.pipeline import rectify
 
+    # a clone's test fixture; an installed pcnet carries one real lifter output of its own,
+    # Path(pcnet.pipeline.__file__).parent / "example_data" / "X3D.npy" (MotionBERT, normalised units)
     joints = np.load("tests/fixtures/yoga_Abhay_Tadasana_f000-099.npy")  # (100, 17, 3), metres
     res = rectify(joints, mode="sequence", fps=30.0)  # 3DPCNet; method="geometric": the paper's baseline
     print(res.canonical.shape, res.valid.sum(), res.up[0])  # sequence: one up for a static camera
