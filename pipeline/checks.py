@@ -118,7 +118,8 @@ def checks(c: CheckInputs) -> list[Finding]:
         *ensemble_weights_flag(_answering_weights(report)),
         *lifter_frame_flag(c.lifter_turn_deg, *tilt_tolerance(report), focal_known=c.focal_known),
         *(track_switch_flag(c.track_segment, c.track_events, person_option=c.person_option,
-                            own_estimator=c.own_estimator, roi_given=c.roi_given, keypoints2d=kp2d)
+                            own_estimator=c.own_estimator, roi_given=c.roi_given, keypoints2d=kp2d,
+                            picture=c.picture)
           if c.track_segment is not None else []),
     ]
 

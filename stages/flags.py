@@ -1041,7 +1041,8 @@ def one_person_frames(segment: np.ndarray) -> np.ndarray:
 
 def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
                       person_option: bool = True, own_estimator: bool = False,
-                      roi_given: bool = False, keypoints2d: np.ndarray | None = None) -> list[Finding]:
+                      roi_given: bool = False, keypoints2d: np.ndarray | None = None,
+                      picture: tuple[int, int] | None = None) -> list[Finding]:
     """A flag naming the jumps and the frames outside the longest stretch (the finding's
     frames: probably another person), and, with the 2D keypoints, where in the picture the
     person followed is: a physiotherapist's run followed a bystander for its longest stretch
@@ -1060,6 +1061,9 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
         keypoints2d: ``(T, 17, 3)`` H36M-17 pixels (as displayed) and confidence of the track
             (may be on disk: read a block of frames at a time), or ``None``; with them the
             headline names the followed stretch's median pelvis.
+        picture: ``(width, height)`` px of the picture the keypoints are in, or ``None``; with
+            it the pelvis's place is also said in words (:func:`place_in_picture`: a coach's
+            trial could not tell whom ``(644, 260) px`` was).
     """
     if not events:
         return []
@@ -1089,17 +1093,29 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
         headline, whom = f"2D track switches person at {at}; {suspect} frames probably someone else", ""
     else:
         x, y = (int(round(v)) for v in pelvis)
+        place = "" if picture is None else f", {place_in_picture(pelvis, picture)}"
         # two frames at most, so that the person followed stays within the headline's width
         first = f"frame{'s' * (len(events) > 1)} {', '.join(str(f) for f, _ in events[:2])}" + \
             (f" +{len(events) - 2} more" if len(events) > 2 else "")
-        headline = f"2D track switches at {first}; followed the person at ({x}, {y}) px"
+        headline = f"2D track switches at {first}; followed the person at ({x}, {y}) px{place}"
         whom = (f"; the results (the up, the floor, the world frame's axes) follow the longest stretch, frames "
-                f"{followed[0]}-{followed[-1]}, whose pelvis lies at about ({x}, {y}) px in the picture (x right, y "
-                f"down, as displayed): if that is not the subject, the run measured someone else")
+                f"{followed[0]}-{followed[-1]}, whose pelvis lies at about ({x}, {y}) px in the picture{place} (x "
+                f"right, y down, as displayed): if that is not the subject, the run measured someone else")
     return [_found(Kind.TRACK_SWITCH, Severity.PROBLEM, headline, action,
                    f"2D track probably switches person: jumps at {jumps}{more}; {suspect} frames lie outside the "
                    f"longest stretch (track_segment != {main} in canonical.npz and kinematics.csv){whom}; {advice}",
                    true_runs(~main_frames))]
+
+
+def place_in_picture(point: np.ndarray, picture: tuple[int, int]) -> str:
+    """Where the pixel ``point`` ``(x, y)`` (x right, y down) lies in a ``(width, height)``
+    picture, in words: its third across (left, centre, right) and down (top, middle, bottom),
+    ``"top left"`` ... ``"centre"`` ... ``"bottom right"``; outside the picture, the nearest
+    third's words."""
+    col, row = (min(max(int(3 * v / size), 0), 2) for v, size in zip(point, picture))
+    if (col, row) == (1, 1):
+        return "centre"
+    return f"{('top', 'middle', 'bottom')[row]} {('left', 'centre', 'right')[col]}"
 
 
 def _median_pelvis_px(keypoints2d, frames: np.ndarray) -> np.ndarray | None:

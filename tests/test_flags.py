@@ -16,7 +16,7 @@ from pcnet.pipeline.cli import main
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import (Kind, Severity, SwitchLimits, camera_tilt, lifter_frame_flag, load_side_swap_limit,
                                 load_skeleton_limits, load_switch_limits, mirrored_skeleton_flag, one_person_frames,
-                                orientation_flags, pelvis_jumps, posture_flag, shortened,
+                                orientation_flags, pelvis_jumps, place_in_picture, posture_flag, shortened,
                                 side_agreement, side_extents, side_swap_flag, size_change_flag, track_present, track_segments,
                                 track_switch_flag)
 from pcnet.pipeline.rectification import rectify
@@ -145,6 +145,14 @@ def test_a_track_that_jumps_to_another_place_is_split():
     assert named.headline == f"2D track switches at frame 30; followed the person at ({x}, {y}) px"
     assert f"frames {followed[0]}-{followed[-1]}, whose pelvis lies at about ({x}, {y}) px" in named.detail
     assert len(named.terminal_line()) <= 135
+    # and with the picture's size, where that is in words (a coach could not tell whom "(644, 260) px" was)
+    (placed,) = track_switch_flag(segment, events, person_option=False, own_estimator=True, keypoints2d=jumped,
+                                  picture=(1920, 1080))
+    assert placed.headline == f"2D track switches at frame 30; followed the person at ({x}, {y}) px, " \
+        f"{place_in_picture((x, y), (1920, 1080))}" and f"px in the picture, {place_in_picture((x, y), (1920, 1080))} (x" \
+        in placed.detail
+    assert [place_in_picture(p, (900, 300)) for p in ((10, 10), (450, 150), (899, 299), (-5, 150), (450, 400))] == \
+        ["top left", "centre", "bottom right", "middle left", "bottom centre"]
     # many switches in a long recording: the person followed stays in the headline (a review)
     many = [(1000 * k, 3.0) for k in range(1, 7)]
     (long,) = track_switch_flag(np.repeat(np.arange(7), 1000), many, person_option=False, own_estimator=True,
