@@ -98,12 +98,31 @@ def _bad_input_line(ctx: click.Context, err: Exception) -> str | None:
         return f"pcnet {ctx.invoked_subcommand or ''}: {one_line(err)}"
     if isinstance(err, click.UsageError):  # a bad option value: one line and exit 1 like any bad input
         hint = f" (see pcnet {err.ctx.info_name} --help)" if err.ctx is not None and err.ctx.parent else ""
+        if err.ctx is not None and err.ctx.info_name == "run":
+            hint = _input_option_hint(err.format_message()) or hint
         return one_line(err.format_message()) + hint
     if isinstance(err, RuntimeError) and str(err).startswith("Symlink loop from "):
         # Path.resolve() on a symlink loop (Python < 3.13 raises RuntimeError, not OSError)
         path = ast.literal_eval(str(err)[len("Symlink loop from "):])  # the path's repr, as pathlib wrote it
         return f"{path}: expected a file or folder, got a symlink loop"
     return None
+
+
+#: A file's suffix -> the `pcnet run` option it is given with (a coach's trial typed `pcnet run demo.mp4`).
+_INPUT_OPTIONS = {**dict.fromkeys((".mp4", ".mov", ".avi", ".mkv", ".m4v", ".webm"), "--video"),
+                  **dict.fromkeys((".npy", ".npz", ".csv", ".mat", ".trc", ".c3d"), "--lifter-output"),
+                  ".json": "--keypoints2d"}
+
+
+def _input_option_hint(message: str) -> str:
+    """``" (did you mean --video demo.mp4?)"`` for `pcnet run`'s "unexpected extra argument"
+    naming a file whose suffix says which input it is (:data:`_INPUT_OPTIONS`), else ``""``."""
+    found = re.fullmatch(r"Got unexpected extra arguments? \((.+)\)", message.strip())
+    if not found:
+        return ""
+    first = found.group(1).split()[0]
+    option = _INPUT_OPTIONS.get(Path(first).suffix.lower())
+    return f" (did you mean {option} {first}? see pcnet run --help)" if option else ""
 
 
 def _print_version(ctx: click.Context, _param: click.Parameter, value: bool) -> None:

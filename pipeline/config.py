@@ -434,7 +434,9 @@ class RunConfig:
             check_lifter_options(source, ESTIMATOR_LIFTER, self.lifter_options)  # --focal-px: the camera's
         for given, missing in (("lifter", "lifter_output"), ("lifter_output", "lifter")):
             if getattr(self, given) is not None and getattr(self, missing) is None:
-                raise InputError(f"{field_name(source, missing)}: expected a value with {name(given)} "
+                # which lifter made the file is the user's to say: the choices (a coach's trial read only "a value")
+                choices = f" (one of {', '.join(lifter_names())})" if missing == "lifter" else ""
+                raise InputError(f"{field_name(source, missing)}: expected a value{choices} with {name(given)} "
                                  f"{getattr(self, given)!r}, got none")
 
     def _no_recorded_rate(self) -> bool:

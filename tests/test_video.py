@@ -142,11 +142,22 @@ def test_without_the_extra_the_line_names_it(tmp_path, monkeypatch):
     (("--video", CLIP, "--keypoints2d", CLIP, "--keypoints2d-format", "mediapipe"),
      "--keypoints2d: expected none with --video alone"),
     (("--video", CLIP, "--lifter", "mediapipe"), "--lifter-output: expected a value with --lifter 'mediapipe'"),
+    # the lifter's name is the user's to give: its choices (a coach's trial read only "expected a value")
+    (("--lifter-output", FIXTURES / "boxing_X3D_f000-059.npy"),
+     "--lifter: expected a value (one of motionbert, ddhpose, videopose3d, mediapipe,"),
     (("--video", CLIP, "--pixel"), "--pixel"),  # a MotionBERT option: not the estimator's
 ])
 def test_inputs_that_do_not_make_a_run_are_refused(tmp_path, args, needle):
     line = _one_error_line(_invoke("run", *args, "--out", tmp_path / "o"))
     assert needle in line, line
+
+
+def test_a_file_given_without_its_option_is_named_with_the_option():
+    """A coach typed `pcnet run demo.mp4` and read only "Got unexpected extra argument"."""
+    line = _one_error_line(_invoke("run", "demo.mp4"))
+    assert line == "Error: Got unexpected extra argument (demo.mp4) (did you mean --video demo.mp4? see pcnet run --help)"
+    assert "did you mean --lifter-output X3D.npy?" in _one_error_line(_invoke("run", "X3D.npy", "--lifter", "motionbert"))
+    assert _one_error_line(_invoke("run", "a", "b")).endswith("(a b) (see pcnet run --help)")
 
 
 @pytest.mark.parametrize("args, needle", [
