@@ -5,6 +5,7 @@ from __future__ import annotations
 import ast
 import dataclasses
 import json
+import math
 import os
 import re
 import shlex
@@ -802,8 +803,12 @@ def _gait_of(folder: Path, overwrite: bool):
         click.echo(f"{'speed':<17} {summary.walking_speed:.2f} {unit}/s")
     for side in ("left", "right"):
         s = getattr(summary, side)
-        click.echo(f"{side + ' foot':<17} {s.strikes} strikes, stance {s.stance_percent:.1f} % of stride, "
-                   f"step length {s.step_length:.3f} {unit}")
+        # an empty value as gait.json's null says it, not "nan" (a gait trial)
+        stance = f"{s.stance_percent:.1f} %" if math.isfinite(s.stance_percent) else "empty"
+        length = f"{s.step_length:.3f} {unit}" if math.isfinite(s.step_length) else "empty"
+        click.echo(f"{side + ' foot':<17} {s.strikes} strikes, stance {stance} of stride, step length {length}")
+    if result.backward_note:
+        click.echo(f"{'note':<17} {result.backward_note}")
     for name, path in written.items():
         click.echo(f"{name:<17} {path}")
     click.echo(f"details: {details}")

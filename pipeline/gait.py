@@ -28,8 +28,8 @@ from pcnet.stages.core.atomic import write_text
 from pcnet.stages.core.conventions import METRES_PER_LENGTH_UNIT
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import one_person_frames
-from pcnet.stages.gait import (cycle_normalised, CYCLE_POINTS, gait_events, GaitError, GaitEvents, GaitSummary, SIDES,
-                               Step, steps, summarise)
+from pcnet.stages.gait import (backward_steps, check_forward, cycle_normalised, CYCLE_POINTS, gait_events, GaitError,
+                               GaitEvents, GaitSummary, SIDES, Step, steps, summarise)
 from pcnet.stages.kinematics import butterworth_lowpass
 from pcnet.stages.sinks.plots import gait_cycles_figure, save_png
 
@@ -205,6 +205,8 @@ class GaitResult:
         steps: :class:`pcnet.stages.gait.Step` per foot strike.
         summary: :class:`pcnet.stages.gait.GaitSummary`.
         length_empty_because: why step lengths and speed are empty, or ``None``.
+        backward_note: the note on backward steps (:func:`pcnet.stages.gait.check_forward`), or
+            ``None``.
         cycles: ``"{side}_{angle}_deg" -> (strides, CYCLE_POINTS)`` degrees: kinematics.csv's
             :data:`CYCLE_ANGLES` over each stride of that foot
             (:func:`pcnet.stages.gait.cycle_normalised`).
@@ -215,6 +217,7 @@ class GaitResult:
     steps: list[Step]
     summary: GaitSummary
     length_empty_because: str | None
+    backward_note: str | None
     cycles: Mapping[str, np.ndarray]
 
 
@@ -231,6 +234,8 @@ def summary_dict(result: GaitResult) -> dict:
         "frames": len(run.joints),
         "frames_of_the_tracked_person": run.one_person_frames,
         "steps_with_length": sum(math.isfinite(s.step_length) for s in result.steps),
+        "steps_backward": backward_steps(result.steps)[0],
+        "note": result.backward_note,
         "step_length_empty_because": result.length_empty_because,
         "cadence_steps_per_min": _number(summary.cadence_steps_per_min, 2),
         "walking_speed_per_s": _number(summary.walking_speed, 4),
@@ -265,9 +270,15 @@ def analyse(folder: Path) -> GaitResult:
             from None
     reason = step_length_reason(run)
     step_list = steps(events, run.joints, run.on_path if reason is None else np.zeros_like(run.on_path))
+    try:
+        backward = check_forward(step_list)
+    except GaitError as err:
+        raise GaitError(f"{folder / 'canonical.npz'}: field 'joints_world' (the run's world-frame poses): {err}") \
+            from None
     angles = read_cycle_angles(folder, len(run.joints))
     cycles = {name: cycle_normalised(x, events, name.split("_", 1)[0]) for name, x in angles.items()}
-    return GaitResult(run, events, step_list, summarise(events, step_list), reason, MappingProxyType(cycles))
+    return GaitResult(run, events, step_list, summarise(events, step_list), reason, backward,
+                      MappingProxyType(cycles))
 
 
 def cycles_csv(result: GaitResult) -> str:
@@ -306,7 +317,8 @@ def gait_markdown(result: GaitResult) -> str:
              f"{METHOD}. Cadence {_cell(result.summary.cadence_steps_per_min, 1)} steps/min, walking speed "
              f"{_cell(result.summary.walking_speed, 2)} {u}/s"
              + (f" (empty: {result.length_empty_because})" if result.length_empty_because else "")
-             + ". Every event: gait_events.csv; the summary: gait.json; hip and knee angles over each stride: "
+             + ". " + (f"Note: {result.backward_note}. " if result.backward_note else "")
+             + "Every event: gait_events.csv; the summary: gait.json; hip and knee angles over each stride: "
              "gait_cycles.csv and gait_cycles.png.", "",
              f"| foot | strikes | stride time (s) | stride time SD (s) | step time (s) | stance (% of stride) | "
              f"step length ({u}) |", "|---|---|---|---|---|---|---|"]

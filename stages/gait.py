@@ -23,7 +23,7 @@ Walking and running move the two feet in antiphase: while one swings forward rel
 pelvis the other, on the ground, moves back. A recording whose two signals are not
 negatively correlated (Pearson, over the frames with both) is refused: standing, jumping or
 turning on the spot moves both ankles together with the pelvis. (On the Bandai mocap,
-clean, with the rest of this method: 1,019 of 1,022 forward walks and runs accepted and 2,000
+clean, with the rest of this method: 1,019 of 1,022 forward walks and runs accepted and 2,003
 of 2,009 in-place clips refused; `python -m benchmarks.gait_validation`.)
 
 A step carries the swing foot from behind the stance foot to ahead of it, so a maximum of
@@ -56,7 +56,11 @@ lifted by then); walking speed = the steps' summed lengths over their summed tim
 
 Limits: the events assume the whole recording is walking or running forward; stretches of
 standing or turning on the spot within it also have extrema of ``s``, which this method reads
-as events. Walking backwards swaps strikes and offs. Pedalling (a stationary bike, an
+as events. Walking backwards swaps strikes and offs: with step lengths (an observed pelvis
+path), a walk whose steps mostly go backward is refused and one with some is noted
+(:func:`check_forward`). Zeni et al. validated the method on walking; in running the ankle is
+furthest behind the pelvis after the foot has left the ground, so stance reads longer than
+the foot's contact and no flight phase shows. Pedalling (a stationary bike, an
 elliptical trainer) moves the feet as steps do and reads as gait.
 """
 
@@ -292,6 +296,14 @@ def gait_events(joints: np.ndarray, fps: float) -> GaitEvents:
         raise GaitError(f"expected steps, the feet striking in turn (left, right, left, ...: each strike ahead of the "
                         f"other foot, after the other's strike), got {len(feet['left'].strikes_s)} left and "
                         f"{len(feet['right'].strikes_s)} right foot strikes of which {turns} follow the other foot's")
+    # a stride is what stance, stride time and the gait cycle are of (a gait trial's 2.3 s walk gave a
+    # cadence from one step, empty strides and an empty gait-cycle plot)
+    if not any(events.unbroken(a, b) for side in SIDES for a, b in zip(events.foot(side).strikes_s,
+                                                                      events.foot(side).strikes_s[1:])):
+        raise GaitError(f"expected at least one stride (a foot striking twice with both ankles in view between), got "
+                        f"{len(feet['left'].strikes_s)} left and {len(feet['right'].strikes_s)} right foot strikes "
+                        f"over {len(joints) / fps:.1f} s: an event needs half a stride of poses either side, so a "
+                        f"recording needs about two strides")
     return events
 
 
@@ -341,6 +353,40 @@ def steps(events: GaitEvents, joints: np.ndarray, on_path: np.ndarray) -> list[S
         out.append(Step(side, float(t), float(t - previous[0]) if previous else np.nan, float(stride),
                         float(stance), length))
     return out
+
+
+def backward_steps(step_list: list[Step]) -> tuple[int, int]:
+    """``(backward, measured)``: the steps whose length is negative (the new footprint behind
+    the other: the pelvis travels against the hips' facing) and the steps with a length.
+
+    A walk mostly backward reads its strikes as foot offs and the reverse (module docstring),
+    so :func:`check_forward` refuses it; a few backward steps (a turn, a step back) are a walk
+    that changes direction, whose means mix them in.
+    """
+    lengths = np.asarray([s.step_length for s in step_list], np.float64)
+    measured = lengths[np.isfinite(lengths)]
+    return int((measured < 0).sum()), int(measured.size)
+
+
+def check_forward(step_list: list[Step]) -> str | None:
+    """Refuse a walk whose steps mostly go backward (:func:`backward_steps`; more than half,
+    the majority rule of :func:`gait_events`); ``None`` for a forward walk, else the note on
+    the backward steps it has.
+
+    Raises:
+        GaitError: more than half of the steps with a length are backward (a gait trial's
+            backward walk gave a speed of -1.06 m/s and swapped strikes and offs, unflagged).
+    """
+    backward, measured = backward_steps(step_list)
+    if 2 * backward > measured:
+        raise GaitError(f"expected a walk or run forward, got {backward} of {measured} steps going backward (each "
+                        f"footprint behind the other's: the pelvis travels against the hips' facing), where this "
+                        f"method reads foot strikes as foot offs")
+    if backward:
+        return (f"{backward} of {measured} steps go backward (a footprint behind the other's: a turn, a step back, "
+                f"walking backward): the means mix them with the forward steps; gait_events.csv's negative "
+                f"step lengths are those steps")
+    return None
 
 
 @dataclass(frozen=True)

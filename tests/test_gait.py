@@ -104,6 +104,39 @@ def test_a_stance_with_one_foot_always_ahead_has_no_steps():
         gait_events(moved, FPS)
 
 
+def test_a_walk_backward_is_refused_and_a_few_backward_steps_are_noted():
+    """A gait trial's backward walk read a speed of -1.06 m/s with strikes and offs swapped,
+    unflagged. The walk played backward is a backward walk (the body faces where it came
+    from): its steps all go backward and it is refused; the walk with a reversed stretch at
+    its end keeps a minority of backward steps, which the note counts."""
+    from pcnet.stages.gait import backward_steps, check_forward
+
+    joints = _clip(WALK)
+    _, forward_steps, _ = _walk_summary(joints)
+    assert check_forward(forward_steps) is None and backward_steps(forward_steps)[0] == 0
+    reversed_walk = joints[::-1].copy()
+    _, back, _ = _walk_summary(reversed_walk)
+    with pytest.raises(GaitError, match=r"expected a walk or run forward, got (\d+) of \1 steps going backward"):
+        check_forward(back)
+    there_and_back = np.concatenate([joints, joints[::-1][:45]])
+    _, mixed, _ = _walk_summary(there_and_back)
+    backward, measured = backward_steps(mixed)
+    assert 0 < 2 * backward <= measured
+    assert check_forward(mixed).startswith(f"{backward} of {measured} steps go backward")
+
+
+def test_a_recording_without_a_stride_is_refused():
+    """A gait trial's 2.3 s walk kept one strike of each foot: a cadence from one step, no
+    stride, stance or gait cycle. A foot must strike twice."""
+    joints = _clip(WALK)
+    events, _, _ = _walk_summary(joints)
+    first = {side: events.foot(side).strikes_s[0] for side in SIDES}
+    # cut after the first strike of each foot, plus half a stride: no foot strikes twice
+    end = int((max(first.values()) + events.stride_period_s * 0.75) * FPS)
+    with pytest.raises(GaitError, match=r"expected at least one stride \(a foot striking twice"):
+        gait_events(joints[:end], FPS)
+
+
 def test_bad_input():
     with pytest.raises(GaitError, match="expected a walk or run"):
         gait_events(np.full((60, 17, 3), np.nan), FPS)
