@@ -6,9 +6,9 @@ MediaPipe's Tasks ``PoseLandmarker`` (google-ai-edge/mediapipe
 the detector finds the person once, then the landmark model tracks them from frame to frame
 (re-running the detector where the track is lost), with MediaPipe's landmark smoothing
 between frames. A frame whose pose came from the detector's box is seen once more, from the
-crop its own landmarks give, as every tracked frame is. The model bundle ships with pcnet (:data:`POSE_TASK`, built by
-``benchmarks/build_pose_task.py`` from the Apache-2.0 models of MediaPipe 0.10.21), so
-nothing is downloaded at run time.
+crop its own landmarks give, as every tracked frame is. The model bundle ships with pcnet
+(:data:`POSE_TASK`, built by ``benchmarks/build_pose_task.py`` from the Apache-2.0 models of
+MediaPipe 0.10.21), so nothing is downloaded at run time.
 
 Per frame it gives what the legacy ``solutions.pose`` gave (the shared reference files'
 ``mediapipe_extract.py``): 33 image landmarks (normalised x, y; visibility) and 33 world
@@ -191,7 +191,7 @@ def estimate_video(video: str | Path, progress: bool = False,
                 # Where no pose was tracked into this frame, the detector's box is the landmark
                 # model's crop; every later frame's crop comes from the landmarks before it. The
                 # frame is seen again from its own landmarks' crop, so that every frame's pose is
-                # a tracked one (a first frame 3-10 times further from the next than any later
+                # a tracked one (a first frame 3-6 times further from the next than the median
                 # step read as a still subject's peak speed: two user trials).
                 for _ in range(1 if tracked or not relook else 2):
                     # VIDEO mode needs strictly increasing timestamps (ms), one frame interval apart

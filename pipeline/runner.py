@@ -1065,7 +1065,7 @@ VISIBILITY_SCORE = ("MediaPipe's score is visibility, the chance a landmark is i
 
 
 def _masked_2d_notes(masked_2d: np.ndarray, frames: int, threshold: float,
-                         keypoints2d_format: str | None = None) -> list[str]:
+                     keypoints2d_format: str | None = None) -> list[str]:
     """Notes naming the joints masked by their 2D keypoint, most first, from ``masked_2d``
     ``(2, 17)`` (:func:`_camera_frame`): those below the confidence threshold, and those the 2D
     file lacks. The missing-data line says how much is missing, these why and which setting

@@ -53,11 +53,13 @@ def focal_px_problem(focal_px: float, width: float, height: float) -> tuple[str,
     if focal_px >= shortest:
         return None
     equivalent = focal_px / math.hypot(width, height) * FULL_FRAME_DIAGONAL_MM
-    return (f"a focal length in pixels of at least {shortest:.0f} px on this {width:g}x{height:g} picture (a "
-            f"{WIDEST_RECTILINEAR_35MM:g} mm 35 mm equivalent, 135 deg across the diagonal: the widest rectilinear "
-            f"lenses)", f"{focal_px:g} px, a {equivalent:.2g} mm equivalent: a focal length in millimetres? In pixels it "
-            f"is the 35 mm-equivalent focal length x the picture's diagonal / 43.27 (a phone's "
-            f"{DEFAULT_FOCAL_35MM:g} mm: {focal_px_from_35mm(width, height):.0f} px here)")
+    expected = (f"a focal length in pixels of at least {shortest:.0f} px on this {width:g}x{height:g} picture (a "
+                f"{WIDEST_RECTILINEAR_35MM:g} mm 35 mm equivalent, 135 deg across the diagonal: the widest "
+                f"rectilinear lenses)")
+    found = (f"{focal_px:g} px, a {equivalent:.2g} mm equivalent: a focal length in millimetres? In pixels it is the "
+             f"35 mm-equivalent focal length x the picture's diagonal / 43.27 (a phone's {DEFAULT_FOCAL_35MM:g} mm: "
+             f"{focal_px_from_35mm(width, height):.0f} px here)")
+    return expected, found
 
 
 def focal_px_from_35mm(width: float, height: float, focal_35mm: float = DEFAULT_FOCAL_35MM) -> float:

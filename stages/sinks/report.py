@@ -84,9 +84,10 @@ def report_markdown(title: str, key_lines: Iterable[tuple[str, str]], findings: 
     if speed_ranges is not None:
         out += ["", "## Joint speeds", "", *_speed_table(speed_ranges, report.get("root_path") == "not observable")]
     intervals = ("; the intervals the key facts print are `camera_pitch_interval_deg` and `camera_roll_interval_deg`, "
-                 "while `*_uncertainty_deg` is the poses' part alone" if report.get("evidence") != GIVEN_UP
-                 else "; the camera's up was given, so it has no interval: `poses_estimate` is the poses' own up beside it")
-    out += ["", "## Report numbers", "", f"(`report` in canonical.npz; docs/outputs.md says what each is{intervals})", "",
+                 "while `*_uncertainty_deg` is the poses' part alone" if report.get("evidence") != GIVEN_UP else
+                 "; the camera's up was given, so it has no interval: `poses_estimate` is the poses' own up beside it")
+    out += ["", "## Report numbers", "",
+            f"(`report` in canonical.npz; docs/outputs.md says what each is{intervals})", "",
             "| key | value |", "|---|---|"]
     out += [f"| {k} | {v.replace('|', '/')} |" for k, v in _scalars(report)]
     out += ["", "## Outputs", ""] + [f"- {name}" for name in outputs]
