@@ -1062,8 +1062,8 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
             (may be on disk: read a block of frames at a time), or ``None``; with them the
             headline names the followed stretch's median pelvis.
         picture: ``(width, height)`` px of the picture the keypoints are in, or ``None``; with
-            it the pelvis's place is also said in words (:func:`place_in_picture`: a coach's
-            trial could not tell whom ``(644, 260) px`` was).
+            it the headline says the pelvis's place in words (:func:`place_in_picture`: a
+            coach's trial could not tell whom ``(644, 260) px`` was) and the detail both.
     """
     if not events:
         return []
@@ -1094,10 +1094,12 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
     else:
         x, y = (int(round(v)) for v in pelvis)
         place = "" if picture is None else f", {place_in_picture(pelvis, picture)}"
-        # two frames at most, so that the person followed stays within the headline's width
+        # two frames at most, so that the person followed stays within the headline's width; the place in
+        # words where the picture is known (a coach could not tell whom "(644, 260) px" was), its pixels in the detail
         first = f"frame{'s' * (len(events) > 1)} {', '.join(str(f) for f, _ in events[:2])}" + \
             (f" +{len(events) - 2} more" if len(events) > 2 else "")
-        headline = f"2D track switches at {first}; followed the person at ({x}, {y}) px{place}"
+        whereabouts = f"({x}, {y}) px" if picture is None else f"the {place_in_picture(pelvis, picture)}"
+        headline = f"2D track switches at {first}; followed the person at {whereabouts}"
         whom = (f"; the results (the up, the floor, the world frame's axes) follow the longest stretch, frames "
                 f"{followed[0]}-{followed[-1]}, whose pelvis lies at about ({x}, {y}) px in the picture{place} (x "
                 f"right, y down, as displayed): if that is not the subject, the run measured someone else")

@@ -148,9 +148,9 @@ def test_a_track_that_jumps_to_another_place_is_split():
     # and with the picture's size, where that is in words (a coach could not tell whom "(644, 260) px" was)
     (placed,) = track_switch_flag(segment, events, person_option=False, own_estimator=True, keypoints2d=jumped,
                                   picture=(1920, 1080))
-    assert placed.headline == f"2D track switches at frame 30; followed the person at ({x}, {y}) px, " \
-        f"{place_in_picture((x, y), (1920, 1080))}" and f"px in the picture, {place_in_picture((x, y), (1920, 1080))} (x" \
-        in placed.detail
+    place = place_in_picture((x, y), (1920, 1080))
+    assert placed.headline == f"2D track switches at frame 30; followed the person at the {place}"
+    assert f"whose pelvis lies at about ({x}, {y}) px in the picture, {place} (x" in placed.detail
     assert [place_in_picture(p, (900, 300)) for p in ((10, 10), (450, 150), (899, 299), (-5, 150), (450, 400))] == \
         ["top left", "centre", "bottom right", "middle left", "bottom centre"]
     # many switches in a long recording: the person followed stays in the headline (a review)
@@ -251,7 +251,8 @@ def test_the_sports2d_track_switch_is_found_and_reported(tmp_path):
                                     str(path), "--keypoints2d-format", "mediapipe", "--method", "geometric",
                                     "--out", str(out)])
     assert res.exit_code == 0, res.output
-    assert "WARNING  2D track switches at frames 170, 202; followed the person at (646, 260) px" in res.output
+    assert "WARNING  2D track switches at frames 170, 202; followed the person at the top centre" in res.output
+    assert "about (646, 260) px in the picture, top centre" in (out / "report.md").read_text()
     assert "--person" not in res.output  # MediaPipe has one track: nothing to choose
     with np.load(out / "canonical.npz") as npz:
         assert any("switches person" in str(f) for f in npz["flags"])

@@ -240,7 +240,7 @@ def test_a_run_publishes_report_md_with_every_flag_and_note_in_full(tmp_path):
     result = run_pipeline(cfg, progress=False)
     lines = result.summary().splitlines()
     warnings = [ln for ln in lines if ln.startswith("WARNING")]
-    assert warnings[0].startswith("WARNING  2D track switches at frame 30; followed the person at ("), warnings
+    assert warnings[0].startswith("WARNING  2D track switches at frame 30; followed the person at the "), warnings
     assert all(len(ln) <= LINE_WIDTH for ln in lines if ln.startswith(("WARNING", "note"))), lines
     assert lines[-1] == f"details: {tmp_path / 'out' / 'report.md'}"
     report = (tmp_path / "out" / "report.md").read_text()
