@@ -106,7 +106,8 @@ class RunResult:
     note's text; angle_ranges, rate_ranges, speed_ranges: each joint angle's, each angle
     rate's and each plotted joint's speed's range over the recording
     (:class:`pcnet.stages.column_ranges.ColumnRanges`, report.md's joint-angle,
-    angular-velocity and joint-speed tables; ``None`` from a run without kinematics)."""
+    angular-velocity and joint-speed tables; ``None`` from a run without kinematics);
+    guessed_stature_m: :attr:`Scaled.guessed_stature_m`, which the units line names."""
 
     frames: int
     valid_frames: int
@@ -123,6 +124,7 @@ class RunResult:
     angle_ranges: ColumnRanges | None = None
     speed_ranges: ColumnRanges | None = None
     rate_ranges: ColumnRanges | None = None
+    guessed_stature_m: float | None = None
 
     @property
     def mode(self) -> str:
@@ -188,7 +190,17 @@ class RunResult:
         read = [("inputs", _inputs_line(self.report.inputs))] if long and self.report.inputs else []
         return [*read, ("frames", frames), ("rectification", rectification), ("heading", heading),
                 ("camera tilt", tilt), *self._frame_bound(long), ("kinematics frame", kinematics),
-                ("units", self.units + self._cutoff(long))]
+                ("units", self.units + self._guessed_size(long) + self._cutoff(long))]
+
+    def _guessed_size(self, long: bool) -> str:
+        """``" (the lifter's guess of a 1.53 m stature: --height sets it)"`` where the metres are
+        a monocular lifter's guess at the size, else ``""``: on the units line, not in a note of
+        its own (a physiotherapist's trial read a walking speed without seeing that it rests on
+        the guess; a coach's read plain "m" and every speed was 1/1.14 of the boxer's)."""
+        if self.guessed_stature_m is None:
+            return ""
+        scales = ", and positions, speeds and the TRC scale with it" * long
+        return f" (the lifter's guess of a {self.guessed_stature_m:.2f} m stature: --height sets it{scales})"
 
     def _cutoff(self, long: bool) -> str:
         """``"; low-pass 6 Hz (--cutoff-hz)"``: the cutoff that sets every speed and acceleration
@@ -1249,11 +1261,13 @@ def _one_person(segment: np.ndarray | None, events: list) -> np.ndarray | None:
 class Scaled:
     """Step "scale" (before rectification, so that the up's floor contacts see metres where
     ``--height`` gives them): camera: the camera frame, its joints scaled in place, its root
-    scaled; units: the poses' units after scaling; notes."""
+    scaled; units: the poses' units after scaling; notes; guessed_stature_m: the stature (m)
+    a monocular lifter's metres imply where no ``--height`` set the size, else ``None``."""
 
     camera: CameraFrame
     units: str
     notes: tuple[str, ...]
+    guessed_stature_m: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -1468,7 +1482,7 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
     """A body keeps its size: image-scaled poses are made constant per frame, then scaled to
     ``--height``; the camera-frame poses are scaled in place. The networks are scale-free
     (models/preprocess.py), so the rotations do not change."""
-    cam, root_cam, notes = camera.joints, camera.root, []
+    cam, root_cam, notes, guessed = camera.joints, camera.root, [], None
     # A body keeps its size; in image units it grows as the person comes closer.
     sizes = None
     if units in IMAGE_SCALED_UNITS:
@@ -1509,14 +1523,10 @@ def _scale(cfg: RunConfig, camera: CameraFrame, units: str, fps: float) -> Scale
         notes.append(f"lifter output is {units}, not metres: give --height for metric kinematics and a TRC file")
     elif camera.root is None:  # a monocular lifter's metres are its guess at the size (a depth sensor's measure it)
         try:
-            stature = 1.0 / height_factor(cam, 1.0)
-            # speeds first: a physiotherapist's trial read a walking speed without seeing it rests on the guess
-            notes.append(f"speeds and lengths rest on the lifter's guess of a {stature:.2f} m stature: --height sets "
-                         f"the subject's; positions, speeds and the TRC scale with it (a monocular lifter's guess "
-                         f"at the size)")
+            guessed = 1.0 / height_factor(cam, 1.0)  # the units line states it (RunResult._guessed_size)
         except InputError:  # no frame with the ankle-to-head chain: no stature to state
             pass
-    return Scaled(replace(camera, root=root_cam), units, tuple(notes))
+    return Scaled(replace(camera, root=root_cam), units, tuple(notes), guessed)
 
 
 def _world(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified: Rectified, store: FrameStore,
@@ -1778,6 +1788,7 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
             outputs={k: out / v.name for k, v in outputs.items()}, notes=notes, seconds=seconds,
             note_lines=measured.note_lines, angle_ranges=measured.angle_ranges,
             speed_ranges=measured.speed_ranges, rate_ranges=measured.rate_ranges,
+            guessed_stature_m=scaled.guessed_stature_m,
         )
         # the long form of the summary, published with the rest
         run.outputs[REPORT_NAME] = out / next(iter(write_report(tmp, run.report_text(f"pcnet run: {out}")).values())).name

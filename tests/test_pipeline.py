@@ -1172,6 +1172,24 @@ def test_the_default_mode_is_sequence_and_a_wide_spread_of_the_ups_gets_a_note()
     assert moving_camera_note(ModeChoice("smooth", "smooth", spread_deg=6.2)) == []
 
 
+def test_the_units_line_says_when_the_metres_are_the_lifters_guess(tmp_path):
+    """A physiotherapist read a walking speed without seeing that it rests on the lifter's guess
+    of the stature, and a coach's trial read plain "m" for MediaPipe's metres (every speed 1/1.14
+    of the boxer's): the units line says so where no --height set the size, and not where one
+    did; report.md's says what scales with it."""
+    poses = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy"
+    common = ["run", "--lifter", "videopose3d", "--lifter-output", poses, "--fps", "30", "--no-recording", "--no-plots"]
+    guessed = _invoke(*common, "--out", tmp_path / "g")
+    assert guessed.exit_code == 0, guessed.output
+    assert re.search(r"^units +m \(the lifter's guess of a 1\.\d\d m stature: --height sets it\); low-pass",
+                     guessed.output, re.M), guessed.output
+    assert "--height sets it, and positions, speeds and the TRC scale with it); low-pass" in \
+        (tmp_path / "g" / "report.md").read_text()
+    assert "stature" not in "".join(ln for ln in guessed.output.splitlines() if ln.startswith("note"))  # said once
+    given = _invoke(*common, "--height", "1.7", "--out", tmp_path / "h")
+    assert re.search(r"^units +m; low-pass", given.output, re.M), given.output
+
+
 def test_pose_checks_gives_the_wide_spread_note_the_summary_gives():
     """An API trial's script trusted the sequence interval of a clip whose per-frame ups spread
     12 deg, which ``pcnet run``'s summary calls not calibrated; ``pose_checks`` now gives the
@@ -1743,17 +1761,6 @@ def test_frames_without_ankles_are_flagged_only_where_the_floor_is_per_frame(tmp
     assert res.exit_code == 0, res.output
     assert floor_kind(tmp_path / "per_frame") == "per frame"
     assert "WARNING  no ankle in 3 of 60 frames: the floor height is interpolated there" in res.output
-
-
-def test_speeds_scaled_to_the_lifters_guess_of_the_size_are_said_so_in_the_summary(tmp_path):
-    """A physiotherapist read a walking speed without seeing that it rests on the lifter's guess
-    of the stature: the note's summary line says so first."""
-    res = _invoke("run", "--lifter", "videopose3d", "--lifter-output", FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy",
-                  "--fps", "30", "--method", "geometric", "--no-recording", "--out", tmp_path / "o")
-    assert res.exit_code == 0, res.output
-    (line,) = [ln for ln in res.output.splitlines() if "stature" in ln]
-    assert re.fullmatch(r"note     speeds and lengths rest on the lifter's guess of a \d\.\d\d m stature: --height "
-                        r"sets the subject's\.\.\.", line), line
 
 
 @pytest.mark.slow
