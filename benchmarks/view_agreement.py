@@ -71,6 +71,19 @@ def rms_distance_cm(a: np.ndarray, b: np.ndarray) -> float:
     return float(100 * np.sqrt(np.nanmean(np.sum((a - b) ** 2, -1))))
 
 
+def column_rows(frames: dict, frame: str, names, fps: float, pairs) -> list[str]:
+    """One line per ``kinematics.csv`` column of ``names``, computed on each camera's poses in
+    ``frame`` (unfiltered): the RMS difference between two cameras, mean and max over ``pairs``,
+    and each camera's mean."""
+    columns = {cam: compute_kinematics(frames[cam][frame], fps, cutoff_hz=None).angles for cam in CAMERAS}
+    lines = []
+    for name in names:
+        d = [float(np.sqrt(np.nanmean((columns[a][name] - columns[b][name]) ** 2))) for a, b in pairs]
+        means = " / ".join(f"{np.nanmean(columns[cam][name]):+6.1f}" for cam in CAMERAS)
+        lines.append(f"  {name:<30} {np.mean(d):6.1f} {np.max(d):6.1f}   {means}")
+    return lines
+
+
 def main(argv=None) -> int:
     args = trial_arguments(__doc__, RESULT, argv, script="view_agreement", needs="real/pose2sim_gravity")
     t0 = time.time()
@@ -100,19 +113,10 @@ def main(argv=None) -> int:
     lines += ["", "kinematics.csv's signed columns (deg; each camera's input turned rigidly, as pcnet run reads it): "
                   "RMS difference between two cameras, mean and max over the 6 pairs, and each camera's mean "
                   "(cam01 / cam02 / cam03 / cam04):"]
-    columns = {cam: compute_kinematics(frames[cam]["pcnet, input turned"], fps, cutoff_hz=None).angles
-               for cam in CAMERAS}
-    for name in ISB_COLUMNS:
-        d = [float(np.sqrt(np.nanmean((columns[a][name] - columns[b][name]) ** 2))) for a, b in pairs]
-        means = " / ".join(f"{np.nanmean(columns[cam][name]):+6.1f}" for cam in CAMERAS)
-        lines.append(f"  {name:<30} {np.mean(d):6.1f} {np.max(d):6.1f}   {means}")
+    lines += column_rows(frames, "pcnet, input turned", ISB_COLUMNS, fps, pairs)
     lines += ["", "The angles against gravity with each camera's true up instead (`pcnet run --camera-up`), the same "
                   "columns:"]
-    true_up = {cam: compute_kinematics(frames[cam]["canonical, true up"], fps, cutoff_hz=None).angles for cam in CAMERAS}
-    for name in GRAVITY_COLUMNS:
-        d = [float(np.sqrt(np.nanmean((true_up[a][name] - true_up[b][name]) ** 2))) for a, b in pairs]
-        means = " / ".join(f"{np.nanmean(true_up[cam][name]):+6.1f}" for cam in CAMERAS)
-        lines.append(f"  {name:<30} {np.mean(d):6.1f} {np.max(d):6.1f}   {means}")
+    lines += column_rows(frames, "canonical, true up", GRAVITY_COLUMNS, fps, pairs)
     lines += ["", f"({time.time() - t0:.0f} s)"]
     print_and_save(lines, args.out)
     return 0

@@ -263,14 +263,10 @@ def analyse(folder: Path) -> GaitResult:
             naming the file where no gait cycle is found.
     """
     run = read_run(folder)
-    try:
-        events = gait_events(run.joints, run.fps)
-    except GaitError as err:
-        raise GaitError(f"{folder / 'canonical.npz'}: field 'joints_world' (the run's world-frame poses): {err}") \
-            from None
     reason = step_length_reason(run)
-    step_list = steps(events, run.joints, run.on_path if reason is None else np.zeros_like(run.on_path))
-    try:
+    try:  # the events' refusals and the steps' direction, each naming the poses they read
+        events = gait_events(run.joints, run.fps)
+        step_list = steps(events, run.joints, run.on_path if reason is None else np.zeros_like(run.on_path))
         backward = check_forward(step_list)
     except GaitError as err:
         raise GaitError(f"{folder / 'canonical.npz'}: field 'joints_world' (the run's world-frame poses): {err}") \

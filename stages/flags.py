@@ -1093,12 +1093,13 @@ def track_switch_flag(segment: np.ndarray, events: list[tuple[int, float]], *,
         headline, whom = f"2D track switches person at {at}; {suspect} frames probably someone else", ""
     else:
         x, y = (int(round(v)) for v in pelvis)
-        place = "" if picture is None else f", {place_in_picture(pelvis, picture)}"
+        where = None if picture is None else place_in_picture(pelvis, picture)
+        place = "" if where is None else f", {where}"
         # two frames at most, so that the person followed stays within the headline's width; the place in
         # words where the picture is known (a coach could not tell whom "(644, 260) px" was), its pixels in the detail
         first = f"frame{'s' * (len(events) > 1)} {', '.join(str(f) for f, _ in events[:2])}" + \
             (f" +{len(events) - 2} more" if len(events) > 2 else "")
-        whereabouts = f"({x}, {y}) px" if picture is None else f"the {place_in_picture(pelvis, picture)}"
+        whereabouts = f"({x}, {y}) px" if where is None else f"the {where}"
         headline = f"2D track switches at {first}; followed the person at {whereabouts}"
         whom = (f"; the results (the up, the floor, the world frame's axes) follow the longest stretch, frames "
                 f"{followed[0]}-{followed[-1]}, whose pelvis lies at about ({x}, {y}) px in the picture{place} (x "
