@@ -816,12 +816,13 @@ def absent_joints_flag(missing: np.ndarray) -> list[Finding]:
     names, its = ", ".join(absent), "their" if len(absent) > 1 else "its"
     return [_found(Kind.JOINT_ABSENT, Severity.CHECK,
                    f"{names} missing in every frame: {its} joint angles are empty",
-                   "check the input's joint order, or why the joint is never seen",
+                   # a video's 6-frame clip with an arm hidden read "check the joint order" (a coach's trial)
+                   "film the whole body in view, or check the input's joint order",
                    f"{names} missing in every one of the {int(with_pose.sum())} frames with a pose (NaN or "
                    f"placeholder values in the lifter output, its 2D keypoint outside the picture or below the "
                    f"confidence threshold in every frame), so every joint angle and segment measured at "
-                   f"{'them' if len(absent) > 1 else 'it'} is empty; check the input's joint order and that "
-                   f"joint's values, or film the whole body")]
+                   f"{'them' if len(absent) > 1 else 'it'} is empty: a joint out of the picture or hidden throughout, "
+                   f"or (a lifter file) another joint order than the lifter's")]
 
 
 def unfiltered_flag(missing: np.ndarray, unfiltered: np.ndarray, fps: float,

@@ -278,9 +278,11 @@ def gait_events(joints: np.ndarray, fps: float) -> GaitEvents:
         raise GaitError(f"expected a walk or run, several frames with both ankles, got {both.sum()}")
     phase = np.corrcoef(signals["left"][both], signals["right"][both])[0, 1]
     if not phase < 0:
-        raise GaitError(f"expected a walk or run, its feet moving in antiphase (their forward positions relative to "
-                        f"the pelvis negatively correlated), got a correlation of {phase:+.2f} over {both.sum()} "
-                        f"frames: the feet move together (standing, jumping, turning on the spot) or barely move")
+        # plain words first: a coach's trial could not read "antiphase" (the numbers stay for the record)
+        raise GaitError(f"expected a walk or run, the feet taking turns (one moving forward while the other moves "
+                        f"back), got feet that move together or barely move (standing, jumping, turning on the "
+                        f"spot): their forward positions relative to the pelvis correlate {phase:+.2f} over "
+                        f"{both.sum()} frames, where steps give a negative correlation")
     period = stride_period_frames(signals)
     feet = {}
     for side, other in zip(SIDES, SIDES[::-1]):

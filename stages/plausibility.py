@@ -389,6 +389,6 @@ def implausible_motion_flags(findings: Sequence[ImplausibleMotion], limits: Moti
             f"centimetres from frame to frame, which the low-pass lets through at its cutoff; or motion the limits "
             f"have not seen, such as sprints, throws, racket sports or flips): check the input's poses (and 2D keypoints, "
             f"where given) in those frames, and leave them out of speed, acceleration and angle analyses "
-            f"(canonical.npz: implausible_frames). If slow motion is flagged, check the frame rate first: a rate "
+            f"(canonical.npz: implausible_frames). If a slow movement is flagged, check the frame rate first: a rate "
             f"n times the true one makes every {quantity} {'n' if quantity == 'speed' else 'n^2'} times too large")
     return lines
