@@ -52,12 +52,14 @@ class ColumnRanges:
     rows: :class:`ColumnRange` per column with a value; implausible_frames: frames the
     implausible-motion warning names, left out (``None``: the motion was not checked);
     other_person_frames: frames outside the 2D track's longest one-person stretch (probably
-    another person, the track-switch warning's), left out.
+    another person, the track-switch warning's), left out; counted_frames: the recording's
+    frames less those left out, what each row's ``frames`` is a share of.
     """
 
     rows: tuple[ColumnRange, ...]
     implausible_frames: int | None
     other_person_frames: int
+    counted_frames: int
 
 
 def column_ranges(columns: Mapping[str, np.ndarray], unit: str, fps: float, implausible: np.ndarray | None = None,
@@ -105,7 +107,8 @@ def column_ranges(columns: Mapping[str, np.ndarray], unit: str, fps: float, impl
         rows.append(ColumnRange(name, unit, int(counted.sum()), float(values[low]), low / fps, float(values[high]),
                                 high / fps, float(np.nanmedian(values))))
     return ColumnRanges(tuple(rows), None if implausible is None else int(np.count_nonzero(implausible)),
-                        0 if other_person is None else int(np.count_nonzero(other_person)))
+                        0 if other_person is None else int(np.count_nonzero(other_person)),
+                        int(frames - np.count_nonzero(left_out)))
 
 
 __all__ = ["ColumnRange", "ColumnRanges", "column_ranges"]

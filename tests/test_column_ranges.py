@@ -55,6 +55,9 @@ def test_the_report_gives_each_angles_range_as_kinematics_csv_holds_it(mediapipe
     ranges = {r.name: r for r in result.angle_ranges.rows}
     assert result.angle_ranges.implausible_frames == result.report.implausible_frames == left_out.sum()
     assert result.angle_ranges.other_person_frames == 0  # one person throughout
+    # what each row's frames are a share of (a coach read an arm seen in 6 % of frames as any other row)
+    assert result.angle_ranges.counted_frames == len(rows) - left_out.sum() == 60 - left_out.sum()
+    assert f"| angle | frames of {result.angle_ranges.counted_frames} | min (deg) |" in report
     with_values = [c for c in columns if np.isfinite(np.where(left_out, np.nan, _column(rows, c))).any()]
     assert list(ranges) == with_values and "left_knee_flexion_deg" in ranges and "trunk_inclination_deg" in ranges
     for name, r in ranges.items():
@@ -83,7 +86,7 @@ def test_the_report_gives_each_plotted_joints_peak_speed_as_kinematics_csv_holds
     assert {"left_ankle_speed_m_per_s", "head_speed_m_per_s"} <= set(peaks)
     assert result.speed_ranges.implausible_frames == left_out.sum()
     section = report[report.index("## Joint speeds"):report.index("## Report numbers")]
-    assert "| speed | frames | peak (m/s) | at (s) | median (m/s) |" in section
+    assert f"| speed | frames of {60 - left_out.sum()} | peak (m/s) | at (s) | median (m/s) |" in section
     assert "A fast movement's peak (a punch, a throw, a kick) reads low" in section
     # relative to the pelvis only where its path is not observed (here it is fitted to the 2D keypoints)
     assert result.report.root_path == "from 2D keypoints" and "relative to the pelvis" not in section
@@ -101,7 +104,7 @@ def test_the_report_gives_each_angle_rates_peaks_as_kinematics_csv_holds_them(me
     assert list(peaks) == [f"{r.name}_per_s" for r in result.angle_ranges.rows]  # every angle with a rate
     assert result.rate_ranges.implausible_frames == left_out.sum()
     section = report[report.index("## Joint angular velocities"):report.index("## Joint speeds")]
-    assert "| angle rate | frames | min (deg/s) | at (s) | max (deg/s) | at (s) |" in section
+    assert f"| angle rate | frames of {60 - left_out.sum()} | min (deg/s) | at (s) | max (deg/s) | at (s) |" in section
     assert "the axial rotations and the shoulder's plane of elevation up to 4 times" in section
     for name, r in peaks.items():
         _as_the_csv_holds_it(r, rows, "deg/s")
@@ -121,6 +124,7 @@ def test_ranges_leave_out_the_frames_the_warnings_name_and_angles_without_a_valu
     left = column_ranges(angles, "deg", 30.0, implausible, other)
     (without,) = left.rows
     assert (left.implausible_frames, left.other_person_frames) == (1, 1)
+    assert (left.counted_frames, column_ranges(angles, "deg", 30.0).counted_frames) == (len(knee) - 2, len(knee))
     assert column_ranges(angles, "deg", 30.0).implausible_frames is None  # not checked
     assert kept.name == "left_knee_flexion_deg" and kept.maximum_s == pytest.approx(top / 30.0)
     assert without.frames == kept.frames - 2

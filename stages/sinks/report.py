@@ -125,7 +125,7 @@ def _angle_table(ranges: ColumnRanges) -> list[str]:
             f"Each angle of kinematics.csv (defined in kinematics_columns.csv, filtered as it is) over "
             f"{_frames_counted(ranges)}: its least and greatest value, the time each is first reached, the range "
             f"between them and the median.", "",
-            "| angle | frames | min (deg) | at (s) | max (deg) | at (s) | range (deg) | median (deg) |",
+            f"| angle | frames of {ranges.counted_frames} | min (deg) | at (s) | max (deg) | at (s) | range (deg) | median (deg) |",
             "|---|---|---|---|---|---|---|---|",
             *(f"| {r.name} | {r.frames} | {r.minimum:.1f} | {r.minimum_s:.2f} | {r.maximum:.1f} | "
               f"{r.maximum_s:.2f} | {r.range:.1f} | {r.median:.1f} |" for r in ranges.rows)]
@@ -143,7 +143,7 @@ def _rate_table(ranges: ColumnRanges) -> list[str]:
             f"reached. Peaks read high where the lifter's noise dominates: on held-out mocap with lifter-like noise, knee "
             f"and hip flexion peaks 1-19 % above the truth's, elbow flexion 29-73 %, the axial rotations and the "
             f"shoulder's plane of elevation up to 4 times (docs/benchmarks/kinematics.md).", "",
-            "| angle rate | frames | min (deg/s) | at (s) | max (deg/s) | at (s) |", "|---|---|---|---|---|---|",
+            f"| angle rate | frames of {ranges.counted_frames} | min (deg/s) | at (s) | max (deg/s) | at (s) |", "|---|---|---|---|---|---|",
             *(f"| {r.name} | {r.frames} | {r.minimum:.0f} | {r.minimum_s:.2f} | {r.maximum:.0f} | {r.maximum_s:.2f} |"
               for r in ranges.rows)]
 
@@ -162,7 +162,7 @@ def _speed_table(ranges: ColumnRanges, pelvis_relative: bool) -> list[str]:
             f"movement's peak (a punch, a throw, a kick) reads low: the low-pass filter and the lifter's own "
             f"smoothing over frames cut it, and no cutoff gives back what the frame rate and the lifter did not "
             f"keep (docs/guide/kinematics.md).", "",
-            f"| speed | frames | peak ({unit}) | at (s) | median ({unit}) |", "|---|---|---|---|---|",
+            f"| speed | frames of {ranges.counted_frames} | peak ({unit}) | at (s) | median ({unit}) |", "|---|---|---|---|---|",
             *(f"| {r.name} | {r.frames} | {r.maximum:.2f} | {r.maximum_s:.2f} | {r.median:.2f} |" for r in ranges.rows)]
 
 
