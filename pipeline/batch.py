@@ -1241,10 +1241,19 @@ def _cell(value) -> str:
     return "-" if value is None or value == "" else str(value).replace("|", "/").replace("\n", " ")
 
 
+def _trunk_median(row: dict) -> float | None:
+    """The row's median trunk lean from vertical (``trunk_inclination_deg``, report.md's
+    joint-angle table), ``None`` without: a seated row read 26 deg from vertical looked as
+    trustworthy as a standing one with only the camera's tilt beside it (a physiotherapist's trial)."""
+    trunk = (row.get("angles") or {}).get("trunk_inclination_deg")
+    return None if trunk is None else trunk.get("median")
+
+
 def batch_markdown(report: BatchReport) -> str:
     """The batch report: what the terminal summary leaves out. The counts and the batch's
     settings; a table of every row (status, attempts, frames, valid frames, mode, units (a row
-    without ``height`` may not be in metres), tilt and its uncertainty, posture, pelvis path, floor, the OpenSim
+    without ``height`` may not be in metres), tilt and its uncertainty, posture, the trunk's median lean from
+    vertical, pelvis path, floor, the OpenSim
     fit's marker RMS, seconds,
     worker, threads, output folder); the rows run again over their earlier output and why; every failed row's error in full (and its traceback
     where the failure is a bug of pcnet); every warning of every row, most severe
@@ -1267,15 +1276,17 @@ def batch_markdown(report: BatchReport) -> str:
             f"inputs.settings",
             "", "## Rows", "",
             "| row | line | status | tries | frames | valid | mode | units | tilt deg | tilt +- deg (what) | posture "
-            "| pelvis path | floor | OpenSim RMS cm | seconds | worker | threads | output |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| trunk from vertical deg (median) | pelvis path | floor | OpenSim RMS cm | seconds | worker | threads "
+            "| output |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report.rows:
         seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else None
         worker = f"{r['host']}:{r['pid']}" if r.get("pid") else None
         out.append("| " + " | ".join(_cell(v) for v in (r["row"], r["line"], r["status"], r["attempts"], r["frames"],
                                                           r["valid"], r.get("mode"), r.get("units"),
                                                           r.get("camera_tilt_deg"), _tilt_uncertainty(r),
-                                                          r.get("posture"), r.get("root_path"), r.get("floor"),
+                                                          r.get("posture"), _trunk_median(r), r.get("root_path"),
+                                                          r.get("floor"),
                                                           r.get("opensim_rms_cm"), seconds,
                                                           worker, r.get("threads"),
                                                           r["out"])) + " |")

@@ -348,7 +348,9 @@ class RunResult:
             if beyond:
                 label = ("lying posture's interval" if lying else "interval") + " not calibrated: ups spread wide"
             else:
-                label = f"95 % posterior interval of the lying posture{declared}" if lying else "95 % interval"
+                # the posture read either way (a physiotherapist's trial found "upright" said nowhere)
+                upright = "" if posture is None else ", upright declared" if declared else ", body read upright"
+                label = f"95 % posterior interval of the lying posture{declared}" if lying else "95 % interval" + upright
             if other is not None:
                 label += f", widened to the {'upright' if lying else 'lying'} posture ({100 * other:.0f} %)"
             return interval + label + ")"

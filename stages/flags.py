@@ -732,8 +732,10 @@ def posture_flag(sequence: SequenceUp | None) -> list[Finding]:
         camera = f"a camera looking {'down' if pitch >= 0 else 'up'} {abs(pitch):.0f} deg and rolled {roll:+.0f} deg"
         return [_found(Kind.LYING, Severity.CHECK,
                        f"body read as lying (posterior {100 * p:.0f} %): up taken from the priors",
-                       f"--posture upright if standing under {camera}, --posture lying to confirm (or --axes, "
-                       f"with --lifter generic, if the file's up axis is another)",
+                       # the reading first: a physiotherapist's five supine patients were told first of a
+                       # camera rolled a quarter turn
+                       f"--posture lying if the subject lay, --posture upright if standing under {camera} (or "
+                       f"--axes, with --lifter generic, if the file's up axis is another)",
                        f"body read as lying (posterior {100 * p:.0f} %): the trunk lies across the image, so up is "
                        f"taken from the camera prior (near level; the true up within about "
                        f"{sequence.up_uncertainty_deg:.0f} deg, the pitch and roll 95 % half-widths combined, if the "

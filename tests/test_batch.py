@@ -631,7 +631,7 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
     assert md.startswith("# pcnet batch: /study/m.csv\n")
     # the units, camera tilt and posture of each row beside it (a batch trial compared 34 yoga files by opening
     # each; another could not tell a row without height was not in metres)
-    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | m | 4.2 | - | upright | - | - | - | 1.0 | "
+    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | m | 4.2 | - | upright | - | - | - | - | 1.0 | "
                f"h:{r['pid']} | 2 | {r['out']} |" in md for r in rows)
     assert "OpenSim" not in text  # no row asked for a fit
     assert all(r["error"] in md for r in rows[3:]) and "Traceback (most recent call last):\n  boom" in md
@@ -654,7 +654,7 @@ def test_the_summary_gives_the_opensim_fits_marker_rms():
                          settings={"engine": "local", "workers": 1, "retries": 0})
     assert "- **engine**: local, 1 worker, retries 0;" in batch_markdown(report)  # a user trial: "1 workers"
     assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3: r2)\n" in format_summary(report)
-    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | - | - | - | - | 1.74 | 1.0 |" in batch_markdown(report)
+    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | - | - | - | - | - | 1.74 | 1.0 |" in batch_markdown(report)
     rows[1]["status"] = "failed"
     assert "\nOpenSim IK        marker RMS 1.74 cm (line 2: r1)\n" in format_summary(report)
 
@@ -692,7 +692,10 @@ def test_the_summary_says_which_rows_got_a_metric_pelvis_path_and_a_floor_plane(
     report = BatchReport(rows, False, Path("/s/m.pcnet_batch.json"), 1.0, settings={})
     assert ("\nworld frame       pelvis path from 2D keypoints, floor plane in line 2; pelvis path not observable, "
             "floor per frame in lines 3, 4\n" in format_summary(report)), format_summary(report)
-    assert "| sequence | m | - | - | - | from 2D keypoints | plane | - |" in batch_markdown(report)
+    assert "| sequence | m | - | - | - | - | from 2D keypoints | plane | - |" in batch_markdown(report)
+    # the trunk's median lean beside the posture (a seated row read 26 deg looked as sound as a standing one)
+    rows[0]["angles"] = {"trunk_inclination_deg": {"median": 25.8, "min": 20.1, "max": 31.0}}
+    assert "| sequence | m | - | - | - | 25.8 | from 2D keypoints | plane | - |" in batch_markdown(report)
     for r in rows:
         r["root_path"] = None
     assert "world frame" not in format_summary(report)

@@ -177,7 +177,9 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
         "note     world.bvh: 94 of 230 frames had missing joints or no place..."]
     assert all(len(ln) <= LINE_WIDTH for ln in warnings + lines[:6]), max(lines, key=len)
     assert lines[-1] == f"details: {FIXTURES / 'o' / REPORT_NAME}" and "report.md  " not in result.summary()
-    assert "camera tilt       8.8 deg from level (pitch +8.6 +- 8.6, roll +2.0 +- 3.5 deg; 95 % interval)" in lines
+    # the posture read either way (a physiotherapist's trial found "upright" said nowhere)
+    assert ("camera tilt       8.8 deg from level (pitch +8.6 +- 8.6, roll +2.0 +- 3.5 deg; 95 % interval, body read "
+            "upright)") in lines
     report = result.report_text()
     assert result.flags == [f.detail for f in flags] and all(text in report for text in result.flags + notes)
     assert report.index("2D track probably switches") < report.index("the lifter's output was turned")
@@ -207,7 +209,7 @@ def test_intervals_are_not_called_95_percent_where_the_per_frame_ups_spread_beyo
     assert "posterior interval per axis, not calibrated for this recording: its per-frame ups spread beyond any " \
         "static camera's of the validation data" in report and "95 % posterior interval per axis" not in report
     short, report = tilt_lines(MODE_THRESHOLD_DEG - 1.0)
-    assert short.endswith("deg; 95 % interval)") and "not calibrated" not in report
+    assert short.endswith("deg; 95 % interval, body read upright)") and "not calibrated" not in report
 
 
 def test_the_rectification_line_names_weights_that_are_not_the_shipped_ones():

@@ -118,9 +118,13 @@ def _angle_table(ranges: ColumnRanges) -> list[str]:
             "more than they vary (docs/guide/limits.md, docs/joint_angles.md). Angles against "
             "gravity (`*_inclination_deg`, `*_to_gravity_deg`) also carry the up's uncertainty, which "
             "kinematics_columns.csv states.", "",
+            # the thorax's own planes, as docs/joint_angles.md says (an ergonomist's trial read a Kinect pick-up's
+            # hip-line planes, lost in the bend: 17.5 deg forward and 41.7 sideways for 43.4 and -1.6)
             "Trunk lean from vertical: `trunk_inclination_deg` (0 upright, 90 lying); forward and sideways: "
-            "`trunk_sagittal_inclination_deg` (positive forward) and `trunk_frontal_inclination_deg` (positive to the "
-            "subject's right). Knees and elbows: `*_flexion_deg` (ISB, 0 straight; a negative knee reads "
+            "`trunk_flexion_to_gravity_deg` (positive forward) and `trunk_lateral_tilt_to_gravity_deg` (positive to "
+            "the subject's right), in the thorax's own planes (`trunk_sagittal_inclination_deg` and "
+            "`trunk_frontal_inclination_deg` split the lean in the planes of the hip line, which a bend or a lifter's "
+            "hips can turn). Knees and elbows: `*_flexion_deg` (ISB, 0 straight; a negative knee reads "
             "hyperextended) and `*_flexion_unsigned_deg` (the angle between the two segments).", "",
             f"Each angle of kinematics.csv (defined in kinematics_columns.csv, filtered as it is) over "
             f"{_frames_counted(ranges)}: its least and greatest value, the time each is first reached, the range "
