@@ -55,7 +55,7 @@ from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, f
 from pcnet.pipeline.rectification import check_measured_root, rectify_checked
 from pcnet.stages.rectification_report import RectificationReport
 from pcnet.stages.rectify import GIVEN_UP, NO_VALID_FRAME, no_valid_frame_reason
-from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_THRESHOLD_DEG
+from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_SMOOTHING_S, MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, outside_image, remap_to_h36m
 from pcnet.stages.sinks.result import (WRISTS, RecordingResult, other_persons_frames, write_arrays, write_figures,
                                       write_kinematics_table, write_motion_files, write_rerun)
@@ -176,6 +176,13 @@ class RunResult:
         # (a lying body's per-frame ups agree with each other and lie 88 deg from its up: a user trial)
         spread = (f"; per-frame ups {mode.spread_deg:.1f} deg from their own mean" + " (median, low-passed)" * long
                   if mode.spread_deg is not None else "")
+        # The spread reads the ups' slow drift through a low-pass: a recording shorter than the
+        # low-pass's own time scale shows none whatever the ups do (an 11-frame lab trial read "0.0 deg")
+        seconds = (mode.decided_on_frames if mode.decided_on_frames is not None else self.valid_frames) / self.fps
+        if mode.spread_deg is not None and seconds < MODE_SMOOTHING_S:
+            spread = (f"; the per-frame ups' drift not measured: {seconds:.2f} s of poses, shorter than the "
+                      f"{MODE_SMOOTHING_S:g} s low-pass (kernel standard deviation) that reads it" if long else
+                      f"; per-frame ups' drift unmeasured in {seconds:.2f} s (low-pass {MODE_SMOOTHING_S:g} s)")
         decided = ((f" over the {mode.decided_on_frames} valid frames of the 2D track's longest stretch"
                     if long else f" over the {mode.decided_on_frames} frames of one person")
                    if mode.decided_on_frames is not None else "")

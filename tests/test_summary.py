@@ -295,3 +295,25 @@ def test_frames_left_out_with_every_joint_are_explained():
     assert "world-frame poses and kinematics keep them" in note  # a user trial read "NaN rows" beside finite CSV rows
     assert _headingless_frames_note(run_report("frame", "frame").rectification, joints, valid) == []
     assert _headingless_frames_note(run_report("sequence", "sequence").rectification, joints, np.ones(10, bool)) == []
+
+
+def test_a_recording_shorter_than_the_spreads_low_pass_says_its_drift_is_not_measured():
+    """The per-frame ups' spread reads their slow drift through a 0.25 s low-pass: an 11-frame
+    (0.18 s) lab trial printed "per-frame ups 0.0 deg from their own mean" whatever its ups did
+    (a multi-camera trial read it as the networks agreeing perfectly). Shorter than the
+    low-pass, the line says the drift is not measured; a longer recording keeps the number."""
+    from pcnet.stages.temporal import MODE_SMOOTHING_S
+
+    def rectification_lines(frames: int, fps: float) -> tuple[str, str]:
+        result = RunResult(frames=frames, valid_frames=frames, units="m", method="pcnet", fps=fps, fps_source="--fps",
+                           findings=[], notes=[], outputs={},
+                           report=run_report("sequence", "sequence", spread_deg=0.0, intervals_deg=(7.7, 5.7)))
+        short = next(ln for ln in result.summary().splitlines() if ln.startswith("rectification"))
+        return short, result.report_text()
+
+    short, report = rectification_lines(11, 60.0)
+    assert f"per-frame ups' drift unmeasured in 0.18 s (low-pass {MODE_SMOOTHING_S:g} s)" in short, short
+    assert len(short) <= LINE_WIDTH and "0.0 deg" not in short
+    assert "the per-frame ups' drift not measured: 0.18 s of poses, shorter than the" in report
+    short, _ = rectification_lines(60, 60.0)  # 1 s: the spread is read
+    assert "per-frame ups 0.0 deg from their own mean" in short and "unmeasured" not in short
