@@ -38,7 +38,8 @@ from pcnet.stages.core.errors import InputError, close_names, refuse
 from .batch_marker import (BATCH_MARKER, INPUT_FIELDS, completed_record, input_files, read_batch_marker,
                            record_status, renamed_inputs, settings_change)
 from .batch_worker import FINDINGS, PER_COLUMN_FIELDS, RESULT_FIELDS, RUN_FIELDS, cpu_cores, error_line
-from .config import COMMAND_LINE_OPTIONS, fps_contradiction, parse_hypothesis, pcnet_version, reads_folder, RunConfig
+from .config import (COMMAND_LINE_OPTIONS, PATH_FIELDS, fps_contradiction, parse_hypothesis, pcnet_version,
+                     reads_folder, RunConfig)
 from .interrupt import EXIT_INTERRUPTED
 from .io import close_file
 from .outdir import check_out_folder, clean_stale, foreign_entries, is_within, read_marker
@@ -63,9 +64,8 @@ _NUMERIC = {"height": float, "fps": float, "person": int, "confidence_threshold"
 _LIFTER_OPTIONS = COMMAND_LINE_OPTIONS  # the lifter options a row gives as columns of their own
 _BOOLEAN = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}
 _BOOLEAN_COLUMNS = ("overwrite", "recording", "plots", "fps_override", "c3d", "camera_prior", "residual_cutoff", "opensim")
-#: Columns naming files or folders: relative to the manifest's folder; RunConfig.validate checks
-#: only whether they are given (their files are checked here, per row).
-_PATH_COLUMNS = ("video", "keypoints2d", "lifter_output", "out", "weights")
+#: Columns naming files or folders (the config's path fields): relative to the manifest's folder.
+_PATH_COLUMNS = PATH_FIELDS
 
 
 def _boolean(key: str, raw: str) -> bool:

@@ -535,6 +535,9 @@ def _run_and_report(cfg, strict: bool = False) -> None:
               help="X,Y,W,H in pixels of the video as displayed, with --video alone: the embedded estimator follows "
                    "the person inside this region, not another one in view.")
 @_camera_up_option
+@click.option("--camera-up-from", type=click.Path(), default=None,
+              help="DIR: an earlier `pcnet run` output folder of the same static camera, unmoved (a standing trial "
+                   "before a floor exercise): its up, as --camera-up.")
 @click.option("--out", type=click.Path(), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 # on / off pairs, so that the command line overrides a --config file either way (a trial could not

@@ -123,6 +123,57 @@ def parse_camera_up(text: str, name: str) -> tuple[float, float, float]:
     return unit_camera_up(values, name, given=text)
 
 
+def trial_up_record(folder, name: str) -> dict:
+    """An earlier ``pcnet run`` of the same static camera whose up its poses read, as the run
+    that takes it records it: ``{"folder", "up", "camera_pitch_interval_deg",
+    "camera_roll_interval_deg"}`` (its ``canonical.npz`` ``report``'s, camera frame; the
+    intervals its 95 % ones, NaN where that run's up was itself given); the checks are
+    :func:`pcnet.stages.rectification_report.why_up_not_reusable`'s.
+
+    Raises:
+        InputError: not such a folder, or a run whose up is not one to reuse, naming ``name``.
+    """
+    import json
+
+    from pcnet.stages.rectification_report import why_up_not_reusable
+
+    path = Path(folder) / "canonical.npz"
+    if not path.is_file():
+        raise InputError(f"{name}: expected a pcnet run output folder with canonical.npz (a run of the same static "
+                         f"camera), got {folder}" + (" (no canonical.npz in it)" if Path(folder).is_dir() else ""))
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            report = json.loads(str(z["report"]))
+    except (OSError, ValueError, KeyError) as err:
+        raise InputError(f"{name}: {path}: expected a pcnet run's canonical.npz with its report, got one that does "
+                         f"not read ({err})") from None
+    why = why_up_not_reusable(report)
+    if why is not None:
+        raise InputError(f"{name}: {folder}: expected a run whose up its poses read (sequence mode, a body read "
+                         f"upright, a static camera), got {why}")
+    up = np.asarray(report.get("up", []), np.float64)
+    if up.shape != (3,) or not np.isfinite(up).all():
+        raise InputError(f"{name}: {path}: expected the report's up, three finite numbers, got {report.get('up')!r}")
+
+    def interval(key: str) -> float:
+        value = report.get(key)
+        return float(value) if isinstance(value, (int, float)) else float("nan")
+
+    return {"folder": str(Path(folder).resolve()), "up": list(unit_camera_up(up, name)),
+            "camera_pitch_interval_deg": interval("camera_pitch_interval_deg"),
+            "camera_roll_interval_deg": interval("camera_roll_interval_deg")}
+
+
+def camera_up_of_run(folder, name: str) -> tuple[float, float, float]:
+    """The camera's up that an earlier ``pcnet run`` of the same static camera, unmoved,
+    estimated (:func:`trial_up_record`'s ``up``): a standing trial before a floor exercise.
+
+    Raises:
+        InputError: as :func:`trial_up_record`.
+    """
+    return tuple(trial_up_record(folder, name)["up"])
+
+
 def check_camera_up_use(mode: str, posture: str, name: str, posture_name: str) -> None:
     """A given camera up is for sequence mode (one up for a static camera) with the posture the
     up leaves to the poses (``auto``).
@@ -296,8 +347,10 @@ class RunConfig:
     numbers), the static camera's up direction (against gravity) in its own frame (OpenCV axes:
     x right, y down, z forward; a level camera's is ``0,-1,0``; any length), where it is known
     (a calibration, the gravity sensor of the phone that filmed, another run's
-    ``canonical.npz`` ``report`` ``sequence.up``): sequence mode takes it instead of estimating
-    one (:class:`pcnet.stages.rectify.SequenceEvidence`).
+    ``canonical.npz`` ``report`` ``up``): sequence mode takes it instead of estimating
+    one (:class:`pcnet.stages.rectify.SequenceEvidence`). ``camera_up_from``: instead of
+    ``camera_up``, an earlier run's output folder of the same static camera, unmoved, whose up
+    its poses read (:func:`camera_up_of_run`: a standing trial before a floor exercise).
     """
 
     lifter: str | None = None
@@ -330,6 +383,7 @@ class RunConfig:
     image_size: str | None = None
     roi: str | None = None
     camera_up: str | None = None
+    camera_up_from: str | None = None
     lifter_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -377,8 +431,11 @@ class RunConfig:
 
     @property
     def camera_up_vector(self) -> tuple[float, float, float] | None:
-        """``camera_up`` as a unit ``(x, y, z)`` in the camera frame, or ``None`` (checked by
+        """``camera_up`` (or the up of the run ``camera_up_from`` names, :func:`camera_up_of_run`)
+        as a unit ``(x, y, z)`` in the camera frame, or ``None`` (checked by
         :meth:`validate`)."""
+        if self.camera_up_from is not None:
+            return camera_up_of_run(self.camera_up_from, "camera_up_from")
         return None if self.camera_up is None else parse_camera_up(self.camera_up, "camera_up")
 
     @property
@@ -470,9 +527,17 @@ class RunConfig:
                              f"leave out {field_name(source, 'height')}")
 
     def _check_camera_up(self, source: str) -> None:
-        """``camera_up``: :func:`parse_camera_up` and :func:`check_camera_up_use`."""
-        parse_camera_up(self.camera_up, field_name(source, "camera_up"))
-        check_camera_up_use(self.mode, self.posture, field_name(source, "camera_up"), field_name(source, "posture"))
+        """``camera_up`` or ``camera_up_from`` (one of them): :func:`parse_camera_up` or
+        :func:`camera_up_of_run`, and :func:`check_camera_up_use`."""
+        if self.camera_up is not None and self.camera_up_from is not None:
+            raise InputError(f"{field_name(source, 'camera_up_from')}: expected instead of "
+                             f"{field_name(source, 'camera_up')} (one known up), got both")
+        name = field_name(source, "camera_up" if self.camera_up is not None else "camera_up_from")
+        if self.camera_up is not None:
+            parse_camera_up(self.camera_up, name)
+        else:
+            camera_up_of_run(self.camera_up_from, name)
+        check_camera_up_use(self.mode, self.posture, name, field_name(source, "posture"))
 
     def validate(self, source: str = "config") -> "RunConfig":
         """Check every field's type (against the annotations), choices, ranges and
@@ -592,7 +657,7 @@ class RunConfig:
                              f"{self.lifter} files do not record one), got none{also}")
         if self.lifter is not None:
             self._check_lifter_facts(source)
-        if self.camera_up is not None:
+        if self.camera_up is not None or self.camera_up_from is not None:
             self._check_camera_up(source)
         if self.confidence_threshold is not None and self.keypoints2d is None:
             raise InputError(f"{field_name(source, 'confidence_threshold')}: expected together with 2D keypoints "
@@ -678,7 +743,7 @@ def code_digest(roots: dict[str, Path]) -> str:
 
 
 #: The fields of :class:`RunConfig` that name files or folders.
-PATH_FIELDS = ("video", "keypoints2d", "lifter_output", "out", "weights")
+PATH_FIELDS = ("video", "keypoints2d", "lifter_output", "out", "weights", "camera_up_from")
 
 
 def settings_record(cfg: RunConfig) -> dict:

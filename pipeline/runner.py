@@ -69,7 +69,7 @@ from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 from .checks import (GIVEN_TILT, CameraTilt, CheckInputs, checks, moving_camera_note, per_frame_tilt,
                      spreads_beyond_static)
 from .config import (COMMAND_LINE, DEFAULT_CUTOFF_HZ, RunConfig, field_name, fps_contradiction, keypoint_formats,
-                     multi_track_formats, pcnet_version, rates_agree, reads_folder, settings_record)
+                     multi_track_formats, pcnet_version, rates_agree, reads_folder, settings_record, trial_up_record)
 from .io import lifter_joints
 from .video_orientation import DisplayOrientation, display_orientation, keypoints_extent
 from .outdir import check_out_folder, staged_output
@@ -327,7 +327,11 @@ class RunResult:
     def _pitch_roll(self, long: bool = True) -> str:
         seq = self.report.rectification.sequence
         if seq is not None and seq.evidence == GIVEN_UP:
-            return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; {GIVEN_TILT}; "
+            trial = (self.report.inputs or {}).get("camera_up_from")
+            given = GIVEN_TILT if trial is None else (
+                f"given, --camera-up-from {trial['folder']}, whose 95 % interval was "
+                f"+- {trial['camera_pitch_interval_deg']:.1f} / {trial['camera_roll_interval_deg']:.1f}")
+            return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; {given}; "
                     f"the per-frame ups lie a median {seq.up_spread_deg:.1f} deg from it)")
         nan = float("nan")
         pitch_unc, roll_unc = (seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg) if seq else (nan, nan)
@@ -652,6 +656,8 @@ def _inputs_read(cfg: RunConfig, layout: str, units: str, kp_layout: str | None,
         read.update(video=settings["video"], video_size=[video.width, video.height], video_frames=video.frame_count)
     if cfg.roi is not None:  # the region the embedded estimator saw: which person its poses are
         read["roi"] = list(cfg.roi_px)
+    if cfg.camera_up_from is not None:  # the trial's up and how uncertain it was: the given up's own
+        read["camera_up_from"] = trial_up_record(cfg.camera_up_from, "camera_up_from")
     read.update(pcnet_version=pcnet_version(), sha256=_digests(settings), settings=settings)
     return read
 

@@ -695,7 +695,7 @@ def mirrored_skeleton_flag(joints_cam, model: MirrorModel | None = None, depth_s
 
 
 def given_up_flag(sequence: SequenceUp | None) -> list[Finding]:
-    """A flag where the camera's up was given (``--camera-up``) and the poses' own up lies
+    """A flag where the camera's up was given (``--camera-up``, ``--camera-up-from``) and the poses' own up lies
     outside its 95 % interval on either axis (``SequenceUp.poses_estimate``): a given up in
     another frame, with a sign flipped or a calibration's row for its column reads every angle
     against gravity wrong (a trial's pasted row read a standing trunk 127 deg from vertical).
@@ -706,14 +706,15 @@ def given_up_flag(sequence: SequenceUp | None) -> list[Finding]:
     return [_found(Kind.GIVEN_UP, Severity.CHECK,
                    f"given camera up {est['angle_from_given_deg']:.0f} deg from the poses' own, outside their 95 % "
                    f"interval",
-                   "check --camera-up's frame and signs",
-                   f"the camera's up given with --camera-up (pitch {sequence.camera_pitch_deg:+.1f}, roll "
-                   f"{sequence.camera_roll_deg:+.1f} deg) lies {est['angle_from_given_deg']:.0f} deg from the poses' "
+                   "check --camera-up's frame and signs, or that --camera-up-from's run had this camera, unmoved",
+                   f"the camera's up given with --camera-up or --camera-up-from (pitch "
+                   f"{sequence.camera_pitch_deg:+.1f}, roll {sequence.camera_roll_deg:+.1f} deg) lies {est['angle_from_given_deg']:.0f} deg from the poses' "
                    f"own (pitch {est['pitch_deg']:+.1f} +- {est['pitch_interval_deg']:.1f}, roll {est['roll_deg']:+.1f} "
                    f"+- {est['roll_interval_deg']:.1f} deg, 95 % intervals of the up model): the run used the given "
                    f"one; check that it is in the camera's own frame (OpenCV: x right, y down, z forward), with its "
-                   f"signs, and a calibration's column (R_world_to_cam applied to the world's up), not a row; or "
-                   f"that the body stood upright")]
+                   f"signs, and a calibration's column (R_world_to_cam applied to the world's up), not a row; for "
+                   f"--camera-up-from, that its run was filmed by this camera, unmoved; or that the body stood "
+                   f"upright")]
 
 
 def posture_flag(sequence: SequenceUp | None) -> list[Finding]:

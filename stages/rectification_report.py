@@ -238,3 +238,30 @@ class RectificationReport:
 
 __all__ = ["ModeChoice", "PostureHypotheses", "SequenceUp", "HeadingChoice", "EnsembleWeights",
            "RectificationReport"]
+
+
+def why_up_not_reusable(record: dict) -> str | None:
+    """Why a run's up cannot be another recording's known up (``--camera-up-from``), or
+    ``None`` where it can: ``record`` is :meth:`RectificationReport.as_record`'s
+    (``canonical.npz``'s ``report``). Only an up the poses read: sequence mode (one up for a
+    static camera), the body read upright with intervals that do not reach the lying posture (a
+    lying body's up is the camera prior's), per-frame ups within a static camera's spread
+    (:data:`pcnet.stages.temporal.MODE_THRESHOLD_DEG`: a moving camera has no one up); an up that
+    run was itself given is taken as it is."""
+    from .temporal import MODE_THRESHOLD_DEG
+
+    posture = record.get("posture") or {}
+    spread = record.get("spread_deg")
+    if record.get("mode") != "sequence":
+        return f"mode {record.get('mode')}, which has no one up for the recording"
+    if record.get("evidence") == GIVEN_UP:
+        return None
+    if posture.get("most_probable") != "upright":
+        return "a body read lying, whose up is the camera prior's, not its poses'"
+    if record.get("interval_reaches_other_posture_p") is not None:
+        return "intervals that reach the lying posture (the poses cannot tell which way is up)"
+    if spread is not None and not spread <= MODE_THRESHOLD_DEG:
+        return (f"per-frame ups spread {spread:.1f} deg, beyond the {MODE_THRESHOLD_DEG:g} of a static camera (a "
+                f"moving camera has no one up)")
+    return None
+

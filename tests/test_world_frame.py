@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -433,3 +434,51 @@ def test_a_given_up_the_poses_contradict_is_flagged_and_a_flipped_one_named(tmp_
     assert res.exit_code == 1 and not (tmp_path / "o").exists()
     assert re.search(r"^Error: --camera-up: expected an up the poses can be turned to, got one \d+ deg from their own "
                      r"in every frame \(its sign flipped\?", res.output, re.M), res.output
+
+
+def test_camera_up_from_takes_a_standing_runs_up_and_refuses_one_its_poses_did_not_read(tmp_path):
+    """A clinic films a standing trial, then a floor exercise, from one tripod: ``--camera-up-from``
+    gives the second run the first one's up (its canonical.npz report's), and the tilt line names
+    where it came from. A run whose up the poses did not read is refused with one line: a body
+    read lying (its up is the camera prior's), a folder without a run, both options together."""
+    from click.testing import CliRunner
+
+    from pcnet.pipeline.cli import main
+    from pcnet.pipeline.config import RunConfig
+    from pcnet.stages.rectification_report import why_up_not_reusable
+
+    def run(poses: str, out: str, *more: str):
+        return CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output", str(FIXTURES / poses),
+                                         "--fps", "30", "--no-recording", "--no-plots", "--out", str(tmp_path / out),
+                                         *more])
+
+    res = run("yoga_Abhay_Tadasana_f000-099.npy", "standing")
+    assert res.exit_code == 0, res.output
+    with np.load(tmp_path / "standing" / "canonical.npz", allow_pickle=False) as z:
+        standing = json.loads(str(z["report"]))
+    assert why_up_not_reusable(standing) is None
+    res = run("yoga_Abhay_Padmasana_f200-299.npy", "seated", "--camera-up-from", str(tmp_path / "standing"))
+    assert res.exit_code == 0, res.output
+    # the trial's own uncertainty beside the given up (a given up prints no interval of this run's)
+    assert re.search(rf"given, --camera-up-from {re.escape(str(tmp_path / 'standing'))}, whose 95 % interval was "
+                     rf"\+- {standing['camera_pitch_interval_deg']:.1f} / {standing['camera_roll_interval_deg']:.1f};",
+                     res.output), res.output
+    with np.load(tmp_path / "seated" / "canonical.npz", allow_pickle=False) as z:
+        seated = json.loads(str(z["report"]))
+    np.testing.assert_allclose(seated["up"], standing["up"], atol=1e-6)
+    assert seated["evidence"] == "given" and seated["inputs"]["settings"]["camera_up_from"] == str(tmp_path / "standing")
+    assert seated["inputs"]["camera_up_from"]["up"] == pytest.approx(standing["up"])
+    # a supine body's up is the camera prior's: not one to give another recording
+    assert run("yoga_Abhay_Shavasana_f200-299.npy", "lying").exit_code == 0
+    res = run("yoga_Abhay_Padmasana_f200-299.npy", "x", "--camera-up-from", str(tmp_path / "lying"))
+    assert res.exit_code == 1 and not (tmp_path / "x").exists()
+    assert f"Error: --camera-up-from: {tmp_path / 'lying'}: expected a run whose up its poses read" in res.output
+    assert "a body read lying, whose up is the camera prior's" in res.output, res.output
+    res = run("yoga_Abhay_Padmasana_f200-299.npy", "x", "--camera-up-from", str(tmp_path))
+    assert res.exit_code == 1 and "expected a pcnet run output folder with canonical.npz" in res.output
+    res = run("yoga_Abhay_Padmasana_f200-299.npy", "x", "--camera-up-from", str(tmp_path / "standing"),
+              "--camera-up", "0,-1,0")
+    assert res.exit_code == 1 and "--camera-up-from: expected instead of --camera-up (one known up), got both" in res.output
+    with pytest.raises(InputError, match="field 'camera_up_from': expected with mode sequence"):
+        RunConfig(lifter="videopose3d", lifter_output=str(FIXTURES / "yoga_Abhay_Padmasana_f200-299.npy"), fps=30,
+                  mode="frame", camera_up_from=str(tmp_path / "standing")).validate()
