@@ -349,6 +349,8 @@ def load_kinect_v1(path: str | Path, layout: str | None = None, key: str | None 
 
 #: What its skeleton reads at rest, measured (a wrist-IMU trial read every subject standing
 #: still as leaning back with hips and knees overextended, and took it for the subjects').
+#: Kinect v1's nominal skeleton rate (Kinect for Windows SDK 1.x): what its recorders do not reach.
+KINECT_V1_NOMINAL_FPS = 30.0
 KINECT_V1_REST_NOTE = ("compare Kinect v1 angles with the subject's own rest, not with norms: its skeleton reads "
                        "people standing at rest with hips 14 deg extended, knees 5 deg hyperextended and the trunk "
                        "9 deg back (medians of 168 UTD-MHAD recordings, docs/guide/limits.md)")

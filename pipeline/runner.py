@@ -565,7 +565,8 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
     person_hint = "" if "--person" in kp_choice else " (--person chooses another)"
     choice = kp_choice and f"2D keypoints: {kp_choice}{person_hint}"
     return RecordingInputs(video, fps, fps_source, kp2d, kp_size, kp_extent, joints, poses.units, poses.root_translation,
-                           poses.depth_sensor, [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg)) if n],
+                           poses.depth_sensor, [n for n in (poses.summary_note, choice, remapped, *_assumed_inputs(cfg),
+                                                            _nominal_rate_note(cfg, fps_source)) if n],
                            poses.frame_turn_deg, poses.nonfinite, poses.camera_matrix,
                            _inputs_read(cfg, poses.layout, poses.units, kp_layout, video, poses.notes,
                                         _adapter_origin(adapter)))
@@ -682,6 +683,19 @@ def _published(read: dict, staged: Path, out: Path) -> dict:
         return {k: str(out / Path(v).name) if k in ("lifter_output", "keypoints2d") and v and Path(v).parent == staged
                 else named(v) if k == "settings" else v for k, v in record.items()}
     return named(read)
+
+
+def _nominal_rate_note(cfg: RunConfig, fps_source: str) -> str | None:
+    """A note where a Kinect v1 skeleton's rate is ``--fps`` alone and exactly the sensor's
+    nominal 30 fps, which its recorders do not reach (an ergonomist's trial read UTD-MHAD's
+    92 frames as 3.07 s, not 5.02: every held posture's time 39 % short)."""
+    from pcnet.adapters.kinect import KINECT_V1_NOMINAL_FPS
+
+    if cfg.lifter != "kinect_v1" or not fps_unchecked(fps_source) or cfg.fps != KINECT_V1_NOMINAL_FPS:
+        return None
+    return (f"--fps {KINECT_V1_NOMINAL_FPS:g} is Kinect v1's nominal rate, which its recorders do not reach (they "
+            f"drop frames: UTD-MHAD's files record 14-21 fps): frames / the recording's duration is its rate, and "
+            f"every time, speed and held posture's duration scales with it")
 
 
 def _assumed_inputs(cfg: RunConfig) -> list[str]:

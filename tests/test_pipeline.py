@@ -837,6 +837,7 @@ def test_a_depth_sensor_keeps_the_pelvis_path_in_the_world_frame(tmp_path):
                   "--mode", "sequence", "--no-recording", "--out", tmp_path / "o")
     assert res.exit_code == 0, res.output
     assert "the pelvis follows the path the input measured" in res.output
+    assert "--fps 30 is Kinect v1's nominal rate" in res.output  # this mocap is 30 fps; a recorder's is not
     with np.load(tmp_path / "o" / "canonical.npz") as npz:
         world, report = npz["joints_world"], json.loads(str(npz["report"]))
     assert report["root_path"] == "measured"
@@ -1810,3 +1811,19 @@ def test_strict_exits_3_after_writing_every_output_where_a_warning_is_printed(tm
     res = _invoke("run", "--lifter", "motionbert", "--lifter-output", tmp_path / "missing.npy", "--fps", "30",
                   "--out", tmp_path / "bad", "--strict")
     assert res.exit_code == 1 and not (tmp_path / "bad").exists()  # bad input: no such file
+
+
+def test_kinect_v1_at_its_nominal_30_fps_given_alone_gets_a_note():
+    """An ergonomist's trial gave UTD-MHAD's Kinect v1 skeleton (about 19 fps effective) the
+    sensor's nominal --fps 30: 92 frames read as 3.07 s, not 5.02, every held posture 39 %
+    short, with no word. Kinect v1 at exactly 30 fps from --fps alone gets a note; a rate the
+    file records, another rate or another lifter none."""
+    from pcnet.pipeline.runner import _FPS_ALONE, _nominal_rate_note
+
+    def note(lifter: str, fps: float, source: str = _FPS_ALONE):
+        return _nominal_rate_note(RunConfig(lifter=lifter, lifter_output="x.npy", fps=fps), source)
+
+    assert note("kinect_v1", 30.0).startswith("--fps 30 is Kinect v1's nominal rate, which its recorders do not reach")
+    assert note("kinect_v1", 19.1) is None and note("videopose3d", 30.0) is None
+    assert note("kinect_v1", 30.0, "--fps, as recorded in a.npz") is None
+
