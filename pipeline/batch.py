@@ -595,6 +595,13 @@ def _as_columns(message: str) -> str:
                   message)
 
 
+def _written_by(rows: list[tuple[int, dict]], base: Path) -> dict[str, int]:
+    """``{resolved out folder: manifest line}`` of the rows' outputs (a row without ``out``
+    writes ``pcnet_out`` beside the manifest)."""
+    return {str(Path(_manifest_path(base, _given(row.get("out")) or RunConfig.out)).resolve()): line
+            for line, row in rows}
+
+
 def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
                 paths: _PathFacts) -> tuple[list[PlannedRow], list[PlannedRow], dict[int, str]]:
     """Every row's config (absolute paths), the rows whose settings were refused (their config
@@ -602,6 +609,7 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
     rows whose settings, input files or ``out`` (against the inputs) are wrong."""
     configs = _RowConfigs(manifest.resolve().parent, overwrite)
     planned, refused, problems = [], [], {}
+    writes = _written_by(rows, configs.base) if any(_given(r.get("camera_up_from")) for _, r in rows) else {}
     for index, (line, row) in enumerate(rows, start=1):
         where = f"{manifest}: line {line}"
         try:
@@ -610,8 +618,14 @@ def _parse_rows(manifest: Path, rows: list[tuple[int, dict]], overwrite: bool,
             # a missing input named first: it may be why the settings look wrong (no rate recorded)
             given = {name: _manifest_path(configs.base, cell) for name in INPUT_FIELDS
                      if (cell := _given(row.get(name))) is not None}
-            problems[line] = "\n".join([*_input_problems(where, row, given, paths),
-                                        *(f"{where}: {_as_columns(p)}" for p in err.problems)])
+            trial = _given(row.get("camera_up_from"))
+            writer = writes.get(str(Path(_manifest_path(configs.base, trial)).resolve())) if trial else None
+            # a clinic's manifest put the standing trial and its exercises in one batch
+            first = [f"{where}: column camera_up_from: line {writer} of this manifest writes {trial!r}: run that row "
+                     f"in a batch of its own first, then this one"] if writer is not None else []
+            problems[line] = "\n".join([*_input_problems(where, row, given, paths), *first,
+                                        *(f"{where}: {_as_columns(p)}" for p in err.problems
+                                          if not (first and "camera_up_from" in p))])
             out = _manifest_path(configs.base, _given(row.get("out")) or RunConfig.out)
             refused.append(PlannedRow(index, line, {"out": out}, row))
             continue

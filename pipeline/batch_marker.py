@@ -33,12 +33,17 @@ BATCH_MARKER = ".pcnet_batch.json"
 INPUT_FIELDS = ("lifter_output", "keypoints2d", "video", "weights")
 #: RunConfig fields that do not change what a row writes (``out`` is where the marker lives;
 #: the input files count by their bytes, not their paths).
-_NOT_SETTINGS = ("out", "overwrite", *INPUT_FIELDS)
+_NOT_SETTINGS = ("out", "overwrite", "camera_up_from", *INPUT_FIELDS)
 
 
 def input_files(config: dict) -> dict[str, str]:
-    """``{field: path}`` of the input files a row's config names (fields left empty omitted)."""
-    return {name: str(config[name]) for name in INPUT_FIELDS if config.get(name)}
+    """``{field: path}`` of the input files a row's config names (fields left empty omitted),
+    ``camera_up_from``'s the trial run's ``canonical.npz`` (a clinic's re-filmed standing trial
+    left its exercises' rows skipped on the old up)."""
+    files = {name: str(config[name]) for name in INPUT_FIELDS if config.get(name)}
+    if config.get("camera_up_from"):
+        files["camera_up_from"] = str(Path(config["camera_up_from"]) / "canonical.npz")
+    return files
 
 
 def settings_of(config: dict) -> dict:

@@ -16,7 +16,7 @@ import numpy as np
 from pcnet.stages.core.conventions import validate_poses
 from pcnet.stages.core.errors import InputError
 from pcnet.stages.flags import (Finding, body_size_flag, camera_tilt, ensemble_weights_flag, given_up_flag,
-                               keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
+                               given_up_note, keypoints_outside_image_flag, leg_asymmetry_flag, lifter_frame_flag,
                                limb_proportions_flag, mirrored_skeleton_flag, note_finding, orientation_flags,
                                per_frame_tilt_summary, posture_flag, side_swap_flag, size_change_flag,
                                track_switch_flag)
@@ -160,7 +160,9 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
             *ensemble_weights_flag(_answering_weights(report)),
             # the intervals' own caveat, which pcnet run's summary gives (an API trial's gate trusted an interval
             # of a 12 deg spread)
-            *map(note_finding, moving_camera_note(report.mode))]
+            # not where the up was given: its interval is not this spread's, and smooth mode takes no given up
+            *map(note_finding, given_up_note(report.sequence) if up_was_given(report)
+                 else moving_camera_note(report.mode))]
 
 
 def _orientation_flags(report: RectificationReport, tilt: "CameraTilt") -> list[Finding]:
@@ -168,7 +170,7 @@ def _orientation_flags(report: RectificationReport, tilt: "CameraTilt") -> list[
     the camera's up was given, whether the poses contradict it (:func:`given_up_flag`): the
     camera prior's and the posture's questions are then the user's answer (a trial's given up
     drew the prior's odds and a --posture advice --camera-up refuses)."""
-    if report.sequence is not None and report.sequence.evidence == GIVEN_UP:
+    if up_was_given(report):
         return given_up_flag(report.sequence)
     return orientation_flags(tilt.tilt_deg, tilt.pitch_deg, tilt.roll_deg, report.posture)
 
@@ -184,6 +186,11 @@ def spreads_beyond_static(mode: ModeChoice) -> bool:
     (:data:`pcnet.stages.temporal.MODE_THRESHOLD_DEG`, which no static camera of the validation
     data passed): there the sequence intervals are not calibrated (decision 0090)."""
     return mode.spread_deg is not None and mode.spread_deg > MODE_THRESHOLD_DEG
+
+
+def up_was_given(report: RectificationReport) -> bool:
+    """Whether the run's one up was given (``--camera-up``, ``--camera-up-from``), not estimated."""
+    return report.sequence is not None and report.sequence.evidence == GIVEN_UP
 
 
 def moving_camera_note(mode: ModeChoice) -> list[str]:
@@ -210,6 +217,9 @@ def tilt_tolerance(report: RectificationReport) -> tuple[float, str]:
     :data:`GIVEN_TILT` for a given up."""
     seq = report.sequence
     if seq is not None and seq.evidence == GIVEN_UP:
+        if np.isfinite([seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg]).all():
+            return (max(seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg),
+                    "the standing trial's 95 % interval (camera_up_from), the larger of pitch and roll")
         return float("nan"), GIVEN_TILT
     if seq is not None:
         interval = ("interval, not calibrated for this spread of per-frame ups" if spreads_beyond_static(report.mode)

@@ -537,7 +537,7 @@ def _run_and_report(cfg, strict: bool = False) -> None:
 @_camera_up_option
 @click.option("--camera-up-from", type=click.Path(), default=None,
               help="DIR: an earlier `pcnet run` output folder of the same static camera, unmoved (a standing trial "
-                   "before a floor exercise): its up, as --camera-up.")
+                   "before a floor exercise): its up, as --camera-up, with its 95 % interval.")
 @click.option("--out", type=click.Path(), default=None, help="Output folder [pcnet_out].")
 @click.option("--overwrite", is_flag=True, default=None, help="Replace an existing output folder.")
 # on / off pairs, so that the command line overrides a --config file either way (a trial could not

@@ -139,8 +139,11 @@ def trial_up_record(folder, name: str) -> dict:
 
     path = Path(folder) / "canonical.npz"
     if not path.is_file():
+        given = Path(folder)
+        what = (" (no canonical.npz in it)" if given.is_dir() else " (a file: give the run's folder)"
+                if given.is_file() else " (no such folder)")
         raise InputError(f"{name}: expected a pcnet run output folder with canonical.npz (a run of the same static "
-                         f"camera), got {folder}" + (" (no canonical.npz in it)" if Path(folder).is_dir() else ""))
+                         f"camera), got {folder}{what}")
     try:
         with np.load(path, allow_pickle=False) as z:
             report = json.loads(str(z["report"]))

@@ -202,7 +202,8 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
                     fps: float | None = None, heading: str | None = None, camera_prior: bool = True,
                     allocate: Allocate | None = None, decide_on: np.ndarray | None = None,
                     measured_root: bool = False, posture: str = "auto",
-                    camera_up: tuple[float, float, float] | None = None) -> Rectified:
+                    camera_up: tuple[float, float, float] | None = None,
+                    camera_up_interval_deg: tuple[float, float] | None = None) -> Rectified:
     """:func:`rectify` of poses that already passed its input rules (``pcnet run`` applies
     them a block at a time), in memory or a
     :class:`~pcnet.stages.core.framestore.FrameArray`; ``allocate`` makes the residual and
@@ -211,7 +212,8 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
     ``auto`` decides on and the only ones whose feet the floor contacts read
     (:class:`pcnet.stages.rectify.SequenceEvidence`). ``fps`` is required in every mode (no
     default here: the caller knows the rate); ``camera_up`` a unit ``(x, y, z)``
-    (:func:`pcnet.pipeline.config.unit_camera_up`).
+    (:func:`pcnet.pipeline.config.unit_camera_up`), ``camera_up_interval_deg`` its own 95 %
+    pitch and roll half-widths where it is another run's estimate (``--camera-up-from``).
     No ``pelvis_from_hips_frames`` in the report.
 
     Raises:
@@ -220,6 +222,6 @@ def rectify_checked(joints_cam, method: str = "pcnet", weights: str | None = Non
     heading_step = HeadingStep(resolve_heading_source(method, heading))
     chain = Rectification(make_estimator(method, weights),
                           SequenceEvidence(mode, camera_prior, measured_root=measured_root, posture=posture,
-                                           camera_up=camera_up),
+                                           camera_up=camera_up, camera_up_interval_deg=camera_up_interval_deg),
                           heading_step, allocate)
     return chain(joints_cam, validate_fps(fps), decide_on)

@@ -46,7 +46,7 @@ from pcnet.stages.sinks.exports import require_ezc3d, unit_token
 from pcnet.stages.flags import (Finding, Severity, absent_joints_flag, floor_flag, implausible_motion_findings,
                                keypoints_unused_flag, missing_data_line, no_opensim_flag, no_world_frame_flag,
                                note_finding, one_person_frames, opensim_fit_findings, ranked, track_segments,
-                               unfiltered_flag)
+                               unfiltered_flag, given_up_note)
 from pcnet.stages.floor import Floor
 from pcnet.stages.isb_angles import NEEDS_SPINE_JOINT, SPINE_ON_LINE_FRACTION, spine_off_trunk_line
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
@@ -66,7 +66,7 @@ from pcnet.stages.column_ranges import ColumnRanges, column_ranges
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
-from .checks import (GIVEN_TILT, CameraTilt, CheckInputs, checks, moving_camera_note, per_frame_tilt,
+from .checks import (GIVEN_TILT, CameraTilt, CheckInputs, checks, moving_camera_note, per_frame_tilt, up_was_given,
                      spreads_beyond_static)
 from .config import (COMMAND_LINE, DEFAULT_CUTOFF_HZ, RunConfig, field_name, fps_contradiction, keypoint_formats,
                      multi_track_formats, pcnet_version, rates_agree, reads_folder, settings_record, trial_up_record)
@@ -328,9 +328,11 @@ class RunResult:
         seq = self.report.rectification.sequence
         if seq is not None and seq.evidence == GIVEN_UP:
             trial = (self.report.inputs or {}).get("camera_up_from")
+            interval = None if trial is None else _trial_interval(self.report.inputs)
             given = GIVEN_TILT if trial is None else (
-                f"given, --camera-up-from {trial['folder']}, whose 95 % interval was "
-                f"+- {trial['camera_pitch_interval_deg']:.1f} / {trial['camera_roll_interval_deg']:.1f}")
+                f"given, --camera-up-from {trial['folder']}, " + ("whose own up was given" if interval is None else
+                                                                 f"whose 95 % interval was +- {interval[0]:.1f} / "
+                                                                 f"{interval[1]:.1f}"))
             return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; {given}; "
                     f"the per-frame ups lie a median {seq.up_spread_deg:.1f} deg from it)")
         nan = float("nan")
@@ -670,6 +672,8 @@ def _digests(settings: dict) -> dict:
     copies and could not tell them from the originals)."""
     out = {key: sha256_path(settings[key]) for key in ("lifter_output", "keypoints2d", "video", "weights")
            if settings.get(key)}
+    if settings.get("camera_up_from"):  # the standing trial's up: its run's report (a re-filmed trial changes it)
+        out["camera_up_from canonical.npz"] = sha256_path(Path(settings["camera_up_from"]) / "canonical.npz")
     if not settings.get("weights") and settings.get("method") != "geometric":
         out.update({f"weights {path.name}": sha256_file_version(path) for path in (CAMERA_WEIGHTS, BODY_WEIGHTS)})
     return out
@@ -683,6 +687,17 @@ def _published(read: dict, staged: Path, out: Path) -> dict:
         return {k: str(out / Path(v).name) if k in ("lifter_output", "keypoints2d") and v and Path(v).parent == staged
                 else named(v) if k == "settings" else v for k, v in record.items()}
     return named(read)
+
+
+def _trial_interval(read: dict) -> tuple[float, float] | None:
+    """The 95 % pitch and roll half-widths (deg) of the standing trial ``--camera-up-from``
+    took the up from (the inputs record's ``camera_up_from``), ``None`` without one or where
+    that trial's up was itself given without one."""
+    trial = read.get("camera_up_from")
+    if trial is None:
+        return None
+    interval = (trial["camera_pitch_interval_deg"], trial["camera_roll_interval_deg"])
+    return interval if np.isfinite(interval).all() else None
 
 
 def _nominal_rate_note(cfg: RunConfig, fps_source: str) -> str | None:
@@ -944,7 +959,10 @@ def run_pipeline(cfg: RunConfig, progress: bool = True, *,
         import_opensim()  # the same for OpenSim
     cfg.validate()
     _refuse_input_folders(cfg)
-    out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights), cfg.overwrite)
+    out = check_out_folder(cfg.out, (cfg.video, cfg.keypoints2d, cfg.lifter_output, cfg.weights,
+                                     # the standing trial's run: never overwritten by the one taking its up
+                                     cfg.camera_up_from and Path(cfg.camera_up_from) / "canonical.npz"),
+                           cfg.overwrite)
     # disable=None: no bar where stderr is not a terminal (a log file, a pipe), whose
     # carriage-return redraws would fill it; a long run there says where it is in lines.
     with _collector_skips_older_objects(), \
@@ -1450,7 +1468,8 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     try:
         res = rectify_checked(_located(camera.joints, root, store), cfg.method, cfg.weights, cfg.mode, fps,
                               cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on,
-                              measured_root=root is not None, posture=cfg.posture, camera_up=cfg.camera_up_vector)
+                              measured_root=root is not None, posture=cfg.posture, camera_up=cfg.camera_up_vector,
+                              camera_up_interval_deg=_trial_interval(inputs.recording.read))
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
             raise  # the weights file's own error, already naming it
@@ -1464,7 +1483,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     # a given up is not refined by anything
     notes = _unused_floor_note(inputs.recording.measured_root, report.sequence.ground_plane
                                if report.sequence is not None and report.sequence.evidence != GIVEN_UP else None)
-    notes += moving_camera_note(report.mode)
+    notes += given_up_note(report.sequence) if up_was_given(report) else moving_camera_note(report.mode)  # as pose_checks
     notes += _headingless_frames_note(report, camera.joints, res.valid)
     return Rectified(res.rotation, res.canonical, res.valid, report, CameraTilt.of(res.rotation, res.valid),
                      per_frame_tilt(res.rotation, res.valid, report.mode.run), segment, events, tuple(notes))

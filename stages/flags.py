@@ -699,10 +699,13 @@ def given_up_flag(sequence: SequenceUp | None) -> list[Finding]:
     outside its 95 % interval on either axis (``SequenceUp.poses_estimate``): a given up in
     another frame, with a sign flipped or a calibration's row for its column reads every angle
     against gravity wrong (a trial's pasted row read a standing trunk 127 deg from vertical).
-    ``None``, an estimated up, or no calibrated interval gives none."""
+    ``None``, an estimated up, no calibrated interval, or a standing trial's up (its own
+    interval: :func:`given_up_note`) gives none."""
     est = None if sequence is None else sequence.poses_estimate
     if est is None or not est["outside_interval"]:
         return []
+    if np.isfinite(sequence.camera_pitch_interval_deg):
+        return []  # a standing trial's up: :func:`given_up_note`
     return [_found(Kind.GIVEN_UP, Severity.CHECK,
                    f"given camera up {est['angle_from_given_deg']:.0f} deg from the poses' own, outside their 95 % "
                    f"interval",
@@ -715,6 +718,22 @@ def given_up_flag(sequence: SequenceUp | None) -> list[Finding]:
                    f"signs, and a calibration's column (R_world_to_cam applied to the world's up), not a row; for "
                    f"--camera-up-from, that its run was filmed by this camera, unmoved; or that the body stood "
                    f"upright")]
+
+
+def given_up_note(sequence: SequenceUp | None) -> list[str]:
+    """A note, not a warning, where the up came from a standing trial (``--camera-up-from``:
+    the given up has its own interval) and the poses' own up lies outside its 95 % interval:
+    such an up is given exactly where a recording's poses read the up poorly, so their
+    disagreement is expected (a clinic's trial had a warning on 12 of 19 seated, tree and
+    triangle exercises whose readings the trial's up set right)."""
+    est = None if sequence is None else sequence.poses_estimate
+    if est is None or not est["outside_interval"] or not np.isfinite(sequence.camera_pitch_interval_deg):
+        return []
+    return [f"the poses' own up (pitch {est['pitch_deg']:+.1f} +- {est['pitch_interval_deg']:.1f}, roll "
+            f"{est['roll_deg']:+.1f} +- {est['roll_interval_deg']:.1f} deg) lies {est['angle_from_given_deg']:.0f} deg "
+            f"from the standing trial's (--camera-up-from), which the run used: expected where the body is not "
+            f"standing (seated, lying, bent sideways: the poses then read the up poorly, which is why the trial's is "
+            f"given); for a standing body, the camera moved between the trial and this recording"]
 
 
 def posture_flag(sequence: SequenceUp | None) -> list[Finding]:

@@ -244,8 +244,8 @@ def why_up_not_reusable(record: dict) -> str | None:
     """Why a run's up cannot be another recording's known up (``--camera-up-from``), or
     ``None`` where it can: ``record`` is :meth:`RectificationReport.as_record`'s
     (``canonical.npz``'s ``report``). Only an up the poses read: sequence mode (one up for a
-    static camera), the body read upright with intervals that do not reach the lying posture (a
-    lying body's up is the camera prior's), per-frame ups within a static camera's spread
+    static camera), the body not read lying, with intervals that do not reach the lying posture
+    (a lying body's up is the camera prior's), per-frame ups within a static camera's spread
     (:data:`pcnet.stages.temporal.MODE_THRESHOLD_DEG`: a moving camera has no one up); an up that
     run was itself given is taken as it is."""
     from .temporal import MODE_THRESHOLD_DEG
@@ -256,7 +256,7 @@ def why_up_not_reusable(record: dict) -> str | None:
         return f"mode {record.get('mode')}, which has no one up for the recording"
     if record.get("evidence") == GIVEN_UP:
         return None
-    if posture.get("most_probable") != "upright":
+    if posture.get("most_probable") == "lying":  # no posture: the poses alone (--no-camera-prior, another method)
         return "a body read lying, whose up is the camera prior's, not its poses'"
     if record.get("interval_reaches_other_posture_p") is not None:
         return "intervals that reach the lying posture (the poses cannot tell which way is up)"

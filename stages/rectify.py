@@ -253,8 +253,9 @@ class SequenceEvidence:
     static camera's up where it is known, a unit ``(x, y, z)`` in the camera frame (a
     calibration's, a gravity sensor's): sequence mode then turns each frame's rotation to it
     (:func:`pcnet.stages.temporal.rotations_about_up`, each keeping its heading) instead of
-    estimating one; its :class:`SequenceUp` has ``evidence`` ``"given"``, no interval (NaN), and
-    the per-frame ups' angles from it as its spread.
+    estimating one; its :class:`SequenceUp` has ``evidence`` ``"given"``, no interval (NaN)
+    unless ``camera_up_interval_deg`` gives the given up's own 95 % pitch and roll half-widths
+    (another run's estimate), and the per-frame ups' angles from it as its spread.
 
     Raises:
         InputError: unknown ``mode`` or ``posture``; a declared posture without the camera prior
@@ -268,6 +269,7 @@ class SequenceEvidence:
     measured_root: bool = False
     posture: str = "auto"
     camera_up: tuple[float, float, float] | None = None
+    camera_up_interval_deg: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -341,7 +343,8 @@ class SequenceEvidence:
             # the poses' own reading beside it, so that a given up the poses contradict is told
             estimate = up_model_sequence(R, ok, evidence, fps, self.camera_prior, located, floor_frames=decide_on)[2] \
                 if evidence is not None and calibrated else None
-            out, valid, up = given_up_sequence(R, ok, np.asarray(self.camera_up, np.float64), estimate)
+            out, valid, up = given_up_sequence(R, ok, np.asarray(self.camera_up, np.float64), estimate,
+                                               self.camera_up_interval_deg)
             return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode, up)
         if evidence is not None and calibrated:
             # A path that jumps to another person is not one body's: the floor reads one person's feet (decision 0066).
@@ -362,14 +365,17 @@ class SequenceEvidence:
         return SequenceOutcome(np.where(valid[:, None, None], out, np.nan), valid, mode, up)
 
 
-def given_up_sequence(R: np.ndarray, ok: np.ndarray, up: np.ndarray,
-                      estimate: SequenceUp | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
+def given_up_sequence(R: np.ndarray, ok: np.ndarray, up: np.ndarray, estimate: SequenceUp | None = None,
+                      interval_deg: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray, SequenceUp]:
     """Sequence mode with the camera's up given: each valid frame's rotation turned to ``up``
     (:func:`pcnet.stages.temporal.rotations_about_up`, its heading kept), ``(T, 3, 3)``; the
     frames where that is defined ``(T,)`` bool; and the :class:`SequenceUp` (``evidence``
     ``"given"``, pitch and roll of ``up``, no interval or uncertainty: NaN; the spread the
     median and 95th percentile angle of the valid per-frame ups from ``up``, deg;
     ``poses_estimate`` from ``estimate``, the poses' own up, where it has a 95 % interval).
+    ``interval_deg``: the given up's own 95 % pitch and roll half-widths where it is an
+    estimate (another run's: ``--camera-up-from``), its interval then; ``up_uncertainty_deg``
+    their combination, as an estimated up's.
 
     Args:
         R: ``(T, 3, 3)`` per-frame canonical->camera rotations; ok: ``(T,)`` bool, the valid ones.
@@ -398,9 +404,11 @@ def given_up_sequence(R: np.ndarray, ok: np.ndarray, up: np.ndarray,
                  "outside_interval": bool(abs(pitch_gap) > estimate.camera_pitch_interval_deg
                                           or abs(roll_gap) > estimate.camera_roll_interval_deg)}
     nan = float("nan")
+    pitch_int, roll_int = (float(v) for v in interval_deg) if interval_deg is not None else (nan, nan)
     return out, valid, SequenceUp(
-        evidence=GIVEN_UP, up=up.copy(), camera_pitch_deg=pitch, camera_roll_deg=roll, camera_pitch_interval_deg=nan,
-        camera_roll_interval_deg=nan, up_uncertainty_deg=nan, camera_pitch_uncertainty_deg=nan,
+        evidence=GIVEN_UP, up=up.copy(), camera_pitch_deg=pitch, camera_roll_deg=roll,
+        camera_pitch_interval_deg=pitch_int, camera_roll_interval_deg=roll_int,
+        up_uncertainty_deg=float(np.hypot(pitch_int, roll_int)), camera_pitch_uncertainty_deg=nan,
         camera_roll_uncertainty_deg=nan, interval_reaches_other_posture_p=None, posture=None,
         up_spread_deg=float(np.median(angles)), up_spread_p95_deg=float(np.percentile(angles, 95)),
         ground_plane={"used": False, "reason": "the camera's up was given"}, poses_estimate=poses)

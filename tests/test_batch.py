@@ -1462,3 +1462,33 @@ def test_an_openpose_folder_runs_and_a_change_to_one_of_its_files_runs_the_row_a
     res = _invoke(manifest, "--workers", "1")
     assert res.exit_code == 0 and _statuses(manifest) == ["ok"], res.output
     assert "input keypoints2d changed" in res.output, res.output
+
+
+def test_a_row_taking_a_standing_trials_up_runs_again_when_the_trial_changes(tmp_path):
+    """A clinic re-filmed a bad standing trial and re-ran its batch: the exercise row that took
+    its up (``camera_up_from``) was skipped, its report naming a folder that held another up.
+    The trial's canonical.npz is one of the row's inputs now; and a trial written by another row
+    of the same manifest is named as such."""
+    tadasana, padmasana = FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy", FIXTURES / "yoga_Abhay_Padmasana_f200-299.npy"
+    trial = tmp_path / "trial.csv"
+    trial.write_text(f"lifter,lifter_output,fps,out,plots,recording\nvideopose3d,{tadasana},30,tad,false,false\n")
+    exercise = tmp_path / "exercise.csv"
+    exercise.write_text("lifter,lifter_output,fps,out,camera_up_from,plots,recording\n"
+                        f"videopose3d,{padmasana},30,pad,tad,false,false\n")
+    both = tmp_path / "both.csv"
+    both.write_text("lifter,lifter_output,fps,out,camera_up_from,plots,recording\n"
+                    f"videopose3d,{tadasana},30,tad2,,false,false\nvideopose3d,{padmasana},30,pad2,tad2,false,false\n")
+    res = _invoke(both)
+    assert res.exit_code == 1 and (f"{both}: line 3: column camera_up_from: line 2 of this manifest writes 'tad2': run "
+                                   f"that row in a batch of its own first, then this one") in res.output, res.output
+    assert _invoke(trial).exit_code == 0 and _invoke(exercise).exit_code == 0
+    assert _statuses(exercise) == ["ok"] and _invoke(exercise).exit_code == 0 and _statuses(exercise) == ["skipped"]
+    trial.write_text(trial.read_text().replace(str(tadasana), str(FIXTURES / "yoga_vp3d_Bhumi_Tadasana.npy")))
+    assert _invoke(trial, "--overwrite").exit_code == 0
+    res = _invoke(exercise)
+    assert res.exit_code == 0 and _statuses(exercise) == ["ok"], res.output
+    assert "ran again: input camera_up_from changed" in res.output, res.output
+    with np.load(tmp_path / "tad" / "canonical.npz", allow_pickle=False) as z:
+        up = json.loads(str(z["report"]))["up"]
+    with np.load(tmp_path / "pad" / "canonical.npz", allow_pickle=False) as z:
+        assert json.loads(str(z["report"]))["up"] == pytest.approx(up)

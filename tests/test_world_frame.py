@@ -474,8 +474,27 @@ def test_camera_up_from_takes_a_standing_runs_up_and_refuses_one_its_poses_did_n
     assert res.exit_code == 1 and not (tmp_path / "x").exists()
     assert f"Error: --camera-up-from: {tmp_path / 'lying'}: expected a run whose up its poses read" in res.output
     assert "a body read lying, whose up is the camera prior's" in res.output, res.output
+    # the trial's interval is the given up's: in the columns' uncertainty and the report's numbers
+    columns = (tmp_path / "seated" / "kinematics_columns.csv").read_text()
+    assert (f"uncertain by +-{standing['camera_pitch_interval_deg']:.1f} deg in the camera's pitch and "
+            f"+-{standing['camera_roll_interval_deg']:.1f} deg in its roll (the standing trial's interval, "
+            f"--camera-up-from)") in columns
+    assert seated["camera_pitch_interval_deg"] == pytest.approx(standing["camera_pitch_interval_deg"])
+    # a run that took a trial's up passes it on with its interval; one without the camera prior is a trial too
+    res = run("yoga_Abhay_Padmasana_f200-299.npy", "chained", "--camera-up-from", str(tmp_path / "seated"))
+    assert res.exit_code == 0 and "whose 95 % interval was +- " in res.output, res.output
+    assert run("yoga_Abhay_Tadasana_f000-099.npy", "no_prior", "--no-camera-prior").exit_code == 0
+    assert run("yoga_Abhay_Padmasana_f200-299.npy", "p2", "--camera-up-from", str(tmp_path / "no_prior")).exit_code == 0
+    # never written over the trial it reads
+    res = run("yoga_Abhay_Padmasana_f200-299.npy", "standing", "--camera-up-from", str(tmp_path / "standing"),
+              "--overwrite")
+    assert res.exit_code == 1 and "standing" in res.output and (tmp_path / "standing" / "canonical.npz").exists()
+    with np.load(tmp_path / "standing" / "canonical.npz", allow_pickle=False) as z:
+        assert json.loads(str(z["report"]))["up"] == standing["up"]
     res = run("yoga_Abhay_Padmasana_f200-299.npy", "x", "--camera-up-from", str(tmp_path))
     assert res.exit_code == 1 and "expected a pcnet run output folder with canonical.npz" in res.output
+    res = run("yoga_Abhay_Padmasana_f200-299.npy", "x", "--camera-up-from", str(tmp_path / "nowhere"))
+    assert res.exit_code == 1 and "(no such folder)" in res.output
     res = run("yoga_Abhay_Padmasana_f200-299.npy", "x", "--camera-up-from", str(tmp_path / "standing"),
               "--camera-up", "0,-1,0")
     assert res.exit_code == 1 and "--camera-up-from: expected instead of --camera-up (one known up), got both" in res.output

@@ -83,8 +83,13 @@ def report_markdown(title: str, key_lines: Iterable[tuple[str, str]], findings: 
         out += ["", "## Joint angular velocities", "", *_rate_table(rate_ranges)]
     if speed_ranges is not None:
         out += ["", "## Joint speeds", "", *_speed_table(speed_ranges, report.get("root_path") == "not observable")]
+    given_interval = isinstance(report.get("camera_pitch_interval_deg"), float) and math.isfinite(
+        report["camera_pitch_interval_deg"])
     intervals = ("; the intervals the key facts print are `camera_pitch_interval_deg` and `camera_roll_interval_deg`, "
                  "while `*_uncertainty_deg` is the poses' part alone" if report.get("evidence") != GIVEN_UP else
+                 "; the camera's up came from a standing trial (--camera-up-from): `camera_pitch_interval_deg` and "
+                 "`camera_roll_interval_deg` are that trial's, and `poses_estimate` is this recording's poses' own up "
+                 "beside it" if given_interval else
                  "; the camera's up was given, so it has no interval: `poses_estimate` is the poses' own up beside it")
     out += ["", "## Report numbers", "",
             f"(`report` in canonical.npz; docs/outputs.md says what each is{intervals})", "",

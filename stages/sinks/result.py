@@ -26,7 +26,7 @@ from ..core.rotations import decompose_camera_rotation
 from ..core.framestore import column, frame_blocks, in_memory, per_frame, present_frames, seen_joints
 from ..flags import one_person_frames, track_present
 from ..kinematics import FrameGatherer, count_flags, frames_phrase
-from ..rectification_report import RectificationReport
+from ..rectification_report import GIVEN_UP, RectificationReport
 from ..remap import outside_image
 from .bvh import write_bvh
 from .exports import blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
@@ -264,7 +264,8 @@ def write_kinematics_table(r: RecordingResult, folder: Path, allocate=None) -> d
 
 def up_uncertainty(report: RectificationReport) -> str | None:
     """How uncertain a run's up is, as a clause for the columns measured against it: sequence
-    mode's camera pitch and roll intervals (the summary's), else each frame's tilt bound
+    mode's camera pitch and roll intervals (the summary's, or for a standing trial's given up,
+    ``--camera-up-from``, that trial's), else each frame's tilt bound
     (``canonical.npz``); ``None`` where the run has neither (a method without them)."""
     seq = report.sequence
     if seq is not None:
@@ -273,8 +274,10 @@ def up_uncertainty(report: RectificationReport) -> str | None:
         # An error along a unit mix of the two axes (the subject's sagittal or frontal plane
         # at any heading) has a 95 % half-width no larger than the larger axis's.
         widest = max(seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg)
+        whose = ("the standing trial's interval, --camera-up-from" if seq.evidence == GIVEN_UP
+                 else "the summary's interval")
         return (f"uncertain by +-{seq.camera_pitch_interval_deg:.1f} deg in the camera's pitch and "
-                f"+-{seq.camera_roll_interval_deg:.1f} deg in its roll (the summary's interval), so by at most "
+                f"+-{seq.camera_roll_interval_deg:.1f} deg in its roll ({whose}), so by at most "
                 f"+-{widest:.1f} deg in the subject's sagittal or frontal plane at any heading, an error these angles "
                 f"carry on top of the lifter's own and of a lean held for the whole recording (docs/guide/limits.md)")
     if np.isfinite(report.frame_tilt_bound_deg).any():
