@@ -133,7 +133,9 @@ def _angle_table(ranges: ColumnRanges) -> list[str]:
             "hyperextended) and `*_flexion_unsigned_deg` (the angle between the two segments).", "",
             f"Each angle of kinematics.csv (defined in kinematics_columns.csv, filtered as it is) over "
             f"{_frames_counted(ranges)}: its least and greatest value, the time each is first reached, the range "
-            f"between them and the median.", "",
+            f"between them and the median. `frames of {ranges.counted_frames}`: how many of the "
+            f"{ranges.counted_frames} frames counted give the angle a value (an angle with none is not listed; "
+            f"kinematics.csv has its empty column).", "",
             f"| angle | frames of {ranges.counted_frames} | min (deg) | at (s) | max (deg) | at (s) | range (deg) | median (deg) |",
             "|---|---|---|---|---|---|---|---|",
             *(f"| {r.name} | {r.frames} | {r.minimum:.1f} | {r.minimum_s:.2f} | {r.maximum:.1f} | "
