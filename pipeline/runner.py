@@ -696,8 +696,16 @@ def _trial_interval(read: dict) -> tuple[float, float] | None:
     trial = read.get("camera_up_from")
     if trial is None:
         return None
-    interval = (trial["camera_pitch_interval_deg"], trial["camera_roll_interval_deg"])
+    interval = tuple(float("nan") if trial.get(k) is None else float(trial[k])  # JSON writes NaN as null
+                     for k in ("camera_pitch_interval_deg", "camera_roll_interval_deg"))
     return interval if np.isfinite(interval).all() else None
+
+
+def _given_up(cfg: RunConfig, inputs: AlignedInputs) -> tuple[float, float, float] | None:
+    """The up the run is given: ``--camera-up``'s, or the standing trial's as the inputs record
+    read it once (its interval beside it, :func:`_trial_interval`)."""
+    trial = inputs.recording.read.get("camera_up_from")
+    return tuple(trial["up"]) if trial is not None else cfg.camera_up_vector
 
 
 def _nominal_rate_note(cfg: RunConfig, fps_source: str) -> str | None:
@@ -1468,7 +1476,7 @@ def _rectify(cfg: RunConfig, inputs: AlignedInputs, camera: CameraFrame, store: 
     try:
         res = rectify_checked(_located(camera.joints, root, store), cfg.method, cfg.weights, cfg.mode, fps,
                               cfg.heading, camera_prior=cfg.camera_prior, allocate=store.create, decide_on=decide_on,
-                              measured_root=root is not None, posture=cfg.posture, camera_up=cfg.camera_up_vector,
+                              measured_root=root is not None, posture=cfg.posture, camera_up=_given_up(cfg, inputs),
                               camera_up_interval_deg=_trial_interval(inputs.recording.read))
     except ValueError as err:
         if cfg.weights is not None and str(err).startswith(f"{cfg.weights}:"):
