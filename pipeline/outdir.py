@@ -11,7 +11,9 @@ Rules (docs/safety.md):
   else is refused, whatever the flag says.
 * A run writes into a hidden sibling ``.<out>.pcnet-tmp-<id>`` (with the marker), then
   renames the old output to ``.<out>.pcnet-trash-<id>``, the new one to ``out``, and only
-  then deletes the trash. A kill at any instant leaves either the whole old or the whole new
+  then deletes from the trash the files its marker lists, unchanged, by name: anything the user
+  put into the old output during the run (after the check above) stays, with the trash folder,
+  unmarked, and the run says where. A kill at any instant leaves either the whole old or the whole new
   output at ``out`` (or, between the two renames, the whole old one in the trash, which the
   next run renames back); the next run removes leftovers whose marker names a process that
   is no longer running. Hidden names stay within the file system's name limit however long
@@ -404,7 +406,10 @@ def clean_stale(target: Path) -> list[Path]:
         if kind == "trash" and not target.exists() and not target.is_symlink():
             os.rename(entry, target)
             continue
-        shutil.rmtree(entry, ignore_errors=True)
+        if kind == "trash":  # a replaced output: only pcnet's own files go (the user may have added one)
+            remove_owned(entry, lambda path, err: None)
+        else:
+            shutil.rmtree(entry, ignore_errors=True)
         removed.append(entry)
     return removed
 
@@ -483,12 +488,47 @@ def staged_output(out: str | os.PathLike, overwrite: bool = False, left: list[st
         raise
     if trash is not None:
         failures: list[str] = []
-        _remove_tree(trash, lambda path, err: failures.append(f"{Path(path).name}: {reason(err)}"))
+        kept = remove_owned(trash, lambda path, err: failures.append(f"{Path(path).name}: {reason(err)}"))
         _set_live(trash, False)
+        if kept and left is not None:  # a file-safety trial's note, written as the run ended, was deleted
+            left.append(f"{', '.join(kept[:5])}{' ...' if len(kept) > 5 else ''} appeared in --out {given} while this "
+                        f"run replaced it: kept, not deleted, in {trash} (hidden, beside it): move them back")
         if failures and left is not None:  # a bad-input trial: an undeletable old file stayed there unsaid
             left.append(f"files of the output this run replaced are left in {trash} ({failures[0]}"
                         f"{'; and more' if len(failures) > 1 else ''}) beside --out {given}: remove that folder "
-                        f"yourself (without its marker, gone with the rest, pcnet cannot tell it is its own)")
+                        f"yourself (without its marker, pcnet cannot tell it is its own)")
+
+
+def remove_owned(folder: Path, failed) -> list[str]:
+    """Delete from ``folder`` (a replaced output, renamed to its trash name) what pcnet wrote
+    there, by name: the files its marker lists, unchanged (:func:`foreign_entries`' judgement),
+    and a killed `pcnet opensim`'s staging; then the marker and the folder, where nothing else
+    is left. Anything else (a file the user added or edited while a run replaced the folder)
+    stays, and so does the folder, without its marker: pcnet never touches a folder without
+    one. ``failed(path, error)`` is called for what cannot be removed.
+
+    Returns:
+        the names kept that pcnet did not write (sorted).
+    """
+    listed = owned_files(folder)
+    stale = {entry.name for entry in stale_staging(folder)}
+    for entry in sorted(folder.iterdir()):
+        if entry.name in stale:
+            _remove_tree(entry, failed)
+        elif entry.name != MARKER and _listed_unchanged(entry, listed):
+            try:
+                entry.unlink()
+            except OSError as err:
+                failed(entry, err)
+    with contextlib.suppress(OSError):
+        (folder / MARKER).unlink()
+    try:
+        folder.rmdir()
+    except OSError:  # not empty: the user's files (or ones that arrived after the scan), left unmarked
+        pass
+    if not folder.exists():
+        return []
+    return sorted(e.name for e in folder.iterdir() if not _listed_unchanged(e, listed) and e.name not in stale)
 
 
 def _remove_tree(folder: Path, failed) -> None:

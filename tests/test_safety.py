@@ -206,6 +206,44 @@ def test_a_file_the_user_adds_to_the_old_output_during_an_overwrite_is_kept(user
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp folder left
 
 
+def test_a_file_added_after_the_last_check_of_an_overwrite_is_kept_and_said(user_folder, monkeypatch):
+    """A file-safety trial wrote a note into the old output just as a run replacing it ended,
+    after its last look for the user's files: the swap renamed the folder aside and deleted it
+    whole, the note with it, exit 0 and nothing said (6 of 11 tries). The trash now loses only
+    the files its marker lists, unchanged; what else is there stays, unmarked (so no later run
+    deletes it), and the run says where."""
+    from pcnet.pipeline import outdir
+    from pcnet.pipeline.outdir import clean_stale, register_files, staged_output
+
+    with staged_output("o") as tmp:
+        (tmp / "world.trc").write_bytes(b"old")
+        register_files(tmp, ["world.trc"])
+    swap_in = outdir._swap_in
+
+    def note_first(tmp, target, overwrite, given):  # the user's write lands between the check and the swap
+        (target / "notes.txt").write_text("mine")
+        return swap_in(tmp, target, overwrite, given)
+
+    monkeypatch.setattr(outdir, "_swap_in", note_first)
+    left = []
+    with staged_output("o", True, left) as tmp:
+        (tmp / "world.trc").write_bytes(b"new")
+        register_files(tmp, ["world.trc"])
+    monkeypatch.undo()
+    assert (user_folder / "o" / "world.trc").read_bytes() == b"new"
+    (trash,) = [p for p in user_folder.iterdir() if TRASH_TAG in p.name]
+    assert sorted(p.name for p in trash.iterdir()) == ["notes.txt"] and (trash / "notes.txt").read_text() == "mine"
+    assert left == [f"notes.txt appeared in --out o while this run replaced it: kept, not deleted, in {trash} "
+                    f"(hidden, beside it): move them back"], left
+    # no marker: the next run of that output leaves it alone
+    assert clean_stale(user_folder / "o") == [] and (trash / "notes.txt").read_text() == "mine"
+    # an output nobody touched goes whole, marker and folder
+    with staged_output("o", True, left) as tmp:
+        (tmp / "world.trc").write_bytes(b"newer")
+        register_files(tmp, ["world.trc"])
+    assert [p for p in user_folder.iterdir() if TRASH_TAG in p.name] == [trash] and len(left) == 1
+
+
 def test_an_out_that_cannot_be_moved_aside_is_one_line_naming_out(user_folder, monkeypatch):
     """--overwrite of an --out that is a mount point: the old output cannot be renamed aside
     (EBUSY), and a user trial got the rename's two paths, one of them pcnet's hidden trash."""
