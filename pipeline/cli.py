@@ -51,7 +51,21 @@ class _ErrorBoundary(click.Group):
             line = _bad_input_line(ctx, err)
             if line is None:  # a bug of pcnet, or click's own exception: as raised
                 raise
+            _leave_if_writer_stopped(line)
             raise click.ClickException(line) from err
+
+
+def _leave_if_writer_stopped(line: str) -> None:
+    """Print the error ``line`` and leave at once (exit 1) where a recording's rerun file writer
+    stopped (:func:`pcnet.stages.sinks.rerun_log.writer_stopped`): the run's own clean-up has run,
+    and rerun's shutdown at exit would wait on the stopped writer forever."""
+    from pcnet.stages.sinks.rerun_log import writer_stopped
+
+    if writer_stopped():
+        click.echo(f"Error: {line}", err=True)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(1)
 
 
 def _existing(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:

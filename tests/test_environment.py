@@ -258,3 +258,19 @@ def test_memory_and_recursion_errors_are_one_line(user_folder, monkeypatch, erro
     line = _error_line(_invoke("rectify", "poses.npy", "--out", "r.npz"))
     assert line.startswith("Error: pcnet rectify: ") and ("out of memory" in line or "nested too deeply" in line), line
     assert _listing(user_folder) == ["poses.npy"]
+
+
+def test_a_disk_that_fills_while_the_recording_is_written_is_one_line_and_ends(user_folder):
+    """A file-safety trial's disk filled while recording.rrd was written: rerun's writer stopped,
+    its flush waited forever, deaf to SIGTERM, until SIGKILL left the temp folder on the full
+    disk. The CSVs fit in this 1000 kB tmpfs and the recording does not: one line naming --out,
+    exit 1, the disk left empty, within a bound (a subprocess: the run leaves with os._exit)."""
+    with _mounted(user_folder / "disk", "-t", "tmpfs", "-o", "size=1000k", "tmpfs"):
+        done = subprocess.run([sys.executable, "-m", "pcnet.pipeline.cli", "run", "--lifter", "generic", "--fps", "30",
+                               "--method", "geometric", "--no-plots", "--lifter-output", "poses.npy", "--out",
+                               "disk/run1"], capture_output=True, text=True, timeout=150)
+        lines = [ln for ln in done.stderr.splitlines() if ln.startswith("Error: ")]
+        assert done.returncode == 1 and len(lines) == 1 and "Traceback" not in done.stderr, done.stderr[-2000:]
+        assert lines[0].startswith(f"Error: --out {user_folder / 'disk' / 'run1'}: cannot write ") and \
+            "free space there or write elsewhere" in lines[0], lines[0]
+        assert _listing(user_folder / "disk") == []

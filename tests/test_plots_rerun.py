@@ -404,3 +404,40 @@ def test_long_series_are_drawn_from_their_extremes():
     assert len(gap_t) >= 1 and np.all(np.abs(gap_t - 150_020 / 30.0) < 5.0)
     short_t, short_y = display_samples(t[:300], y[:300])
     np.testing.assert_array_equal(short_y, y[:300])
+
+
+def test_a_stopped_recording_writer_is_an_oserror_not_a_wait_forever(tmp_path, monkeypatch):
+    """rerun's file writer stops on a full disk, and its flush then waited forever, deaf to
+    SIGTERM (a file-safety trial's run hung 10 minutes on a 4 MB tmpfs; a file size limit gave a
+    60-line traceback). The flush now waits a second at a time and turns a writer that shut
+    down, or a file that stopped growing, into an OSError the run reports in one line."""
+    import errno
+
+    from pcnet.stages.sinks import rerun_log
+
+    path = tmp_path / "r.rrd"
+    path.write_bytes(b"x")
+
+    class Stream:
+        def __init__(self, message: str):
+            self.message, self.calls = message, 0
+
+        def flush(self, *, timeout_sec: float) -> None:
+            assert timeout_sec <= 1.0  # short waits: signals are heard between them
+            self.calls += 1
+            raise RuntimeError(self.message)
+
+    with pytest.raises(OSError) as err:
+        rerun_log._flusher(Stream("File-writer thread shut down prematurely"), path)()
+    assert err.value.errno in (errno.ENOSPC, errno.EFBIG, errno.EIO) and err.value.filename == str(path)
+    monkeypatch.setattr(rerun_log, "STALLED_WRITER_S", 0.05)
+    stalled = Stream("flush timed out")
+    with pytest.raises(OSError, match="rerun's file writer stopped"):
+        rerun_log._flusher(stalled, path)()
+    assert stalled.calls >= 2  # it waited again while the file might still grow
+
+    class Done:
+        def flush(self, *, timeout_sec: float) -> None:
+            return None
+
+    rerun_log._flusher(Done(), path)()  # a writer that keeps up returns at once

@@ -57,8 +57,11 @@ frame (an empty batch on a frame clears the previous one).
 
 from __future__ import annotations
 
+import errno
 import os
-from collections.abc import Mapping, Sequence
+import resource
+import time
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +81,64 @@ _LEFT_C, _RIGHT_C, _MID_C = LEFT_COLOURS[0], RIGHT_COLOURS[0], (170, 170, 170)
 _FLOOR_C = (105, 105, 105)
 #: Frames per send_columns call.
 SEND_BLOCK_FRAMES = 4096
+#: Seconds a flush may wait while the recording's file does not grow before its writer counts as
+#: stopped: rerun's file writer stops on a full disk and a flush then waits forever, deaf to Ctrl-C
+#: and SIGTERM (a file-safety trial's run hung over 10 minutes on a 4 MB tmpfs). An I/O setting, not a model
+#: parameter: long enough for a slow network share to write one block.
+STALLED_WRITER_S = 30.0
+
+
+#: Set once a recording's file writer stopped in this process: rerun's own shutdown at exit then
+#: waits on it forever (:func:`writer_stopped`).
+_WRITER_STOPPED: list[Path] = []
+
+
+def writer_stopped() -> bool:
+    """Whether a recording's rerun file writer stopped in this process (a full disk, a file size
+    limit): its queued data can never be written, and rerun's shutdown at interpreter exit waits
+    on it, so the command line leaves with ``os._exit`` once its own clean-up and error line are
+    done (measured: a full 5 MB tmpfs held the process after its error line until SIGKILL)."""
+    return bool(_WRITER_STOPPED)
+
+
+def _writer_stopped(path: Path, err: Exception | None) -> OSError:
+    """The ``OSError`` a stopped rerun file writer stands for (rerun logs the cause, it does
+    not return it): a full disk or quota where no room is left beside ``path``, a file size limit
+    where ``path`` reached it, else an input/output error naming rerun's message."""
+    try:
+        room = os.statvfs(path.parent)
+        full = room.f_bavail * room.f_frsize < max(room.f_frsize, 1) or room.f_favail == 0
+    except OSError:
+        full = False
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    size = path.stat().st_size if path.exists() else 0
+    code = (errno.ENOSPC if full else errno.EFBIG if limit != resource.RLIM_INFINITY and size >= limit - (1 << 20)
+            else errno.EIO)
+    _WRITER_STOPPED.append(path)
+    text = os.strerror(code) if code != errno.EIO else f"rerun's file writer stopped: {err or 'it wrote nothing'}"
+    return OSError(code, text, str(path))
+
+
+def _flusher(rec, path: Path) -> Callable[[], None]:
+    """``rec.flush()`` for a recording saved to ``path``, waited on a second at a time (so that
+    Ctrl-C and SIGTERM are heard between the waits), and raised as :func:`_writer_stopped`'s
+    ``OSError`` where rerun says its writer shut down or the file stops growing for
+    :data:`STALLED_WRITER_S` (``pcnet run`` then names its ``--out`` in one line)."""
+    def flush() -> None:
+        size, since = None, time.monotonic()
+        while True:
+            try:
+                rec.flush(timeout_sec=1.0)
+                return
+            except RuntimeError as err:
+                if "shut down" in str(err):  # rerun's "File-writer thread shut down prematurely"
+                    raise _writer_stopped(path, err) from err
+            now = path.stat().st_size if path.exists() else -1
+            if now != size:
+                size, since = now, time.monotonic()
+            elif time.monotonic() - since > STALLED_WRITER_S:
+                raise _writer_stopped(path, None)
+    return flush
 
 
 def _side_colour(name: str) -> tuple[int, int, int]:
@@ -424,20 +485,27 @@ def write_recording(
 
     rec = rr.RecordingStream(application_id, default_enabled=True)
     with atomic_path(path_rrd, suffix=".rrd") as tmp:
+        flush = _flusher(rec, tmp)
         try:
-            rec.save(tmp, default_blueprint=blueprint)
+            try:
+                rec.save(tmp, default_blueprint=blueprint)
+            except RuntimeError as err:  # rerun's encoder on a disk already full, as an OSError
+                raise _writer_stopped(tmp, err) from err
             _log_all(
-                rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset,
+                rr, rec, flush, index, frames, seconds, cam, can, R, up, valid, kp, asset,
                 video_ns, canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space,
                 show_labels=bool(show_labels), floor=bool(floor), implausible=implausible, segment=segment,
                 outside=outside, floor_frames=floor_frames,
             )
             text = "\n".join(f"- {f}" for f in flags) if flags else "no warnings"
             rec.log("flags", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True, strict=True)
-        finally:
-            # disconnect() flushes and closes the file sink before the rename.
-            rec.flush()
+            flush()  # all of it written before the rename (a stopped writer raises here, not in disconnect)
+        except OSError:
+            raise  # a stopped writer: disconnect() would wait on it forever
+        except BaseException:
             rec.disconnect()
+            raise
+        rec.disconnect()  # closes the file sink
         if not tmp.is_file():
             raise RuntimeError(
                 "rerun wrote no recording (is logging disabled, e.g. RERUN=off?)"
@@ -446,7 +514,7 @@ def write_recording(
 
 
 def _log_all(
-    rr, rec, index, frames, seconds, cam, can, R, up, valid, kp, asset, video_ns,
+    rr, rec, flush, index, frames, seconds, cam, can, R, up, valid, kp, asset, video_ns,
     canon_paths, series_arrays, arrow_len, min_confidence, wld, path_space, *,
     show_labels: bool = False, floor: bool = True, implausible: np.ndarray | None = None,
     segment: np.ndarray | None = None, outside: np.ndarray | None = None, floor_frames: np.ndarray | None = None,
@@ -457,7 +525,7 @@ def _log_all(
         rec.send_columns(path, indexes=idx or index(), columns=columns, strict=True)
         # Wait for the file sink: without it rerun's batcher queues a long recording's blocks
         # faster than they are written (measured: +490 MB vs +250 MB for 2 hours at 30 fps).
-        rec.flush()
+        flush()
 
     def log(path: str, *items, static: bool = True) -> None:
         rec.log(path, *items, static=static, strict=True)
