@@ -116,6 +116,11 @@ def _bad_input_line(ctx: click.Context, err: Exception) -> str | None:
         if err.ctx is not None and err.ctx.info_name == "run":
             hint = _input_option_hint(err.format_message()) or hint
         return one_line(err.format_message()) + hint
+    if isinstance(err, UnicodeEncodeError) and "surrogates not allowed" in str(err):
+        # a path holding bytes that are not UTF-8 (a Latin-1 name), which writers of UTF-8 text and
+        # rerun cannot encode (a file-safety trial's got a 60-line traceback)
+        return (f"pcnet {ctx.invoked_subcommand or ''}: expected input and output file and folder names in UTF-8, "
+                f"got one with other bytes ({one_line(err)}): rename it")
     if isinstance(err, RuntimeError) and str(err).startswith("Symlink loop from "):
         # Path.resolve() on a symlink loop (Python < 3.13 raises RuntimeError, not OSError)
         path = ast.literal_eval(str(err)[len("Symlink loop from "):])  # the path's repr, as pathlib wrote it

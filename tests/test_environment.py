@@ -274,3 +274,20 @@ def test_a_disk_that_fills_while_the_recording_is_written_is_one_line_and_ends(u
         assert lines[0].startswith(f"Error: --out {user_folder / 'disk' / 'run1'}: cannot write ") and \
             "free space there or write elsewhere" in lines[0], lines[0]
         assert _listing(user_folder / "disk") == []
+
+
+def test_a_file_name_that_is_not_utf8_is_one_line(user_folder):
+    """A Latin-1 file name (bytes that are not UTF-8) as the input or as --out: a file-safety
+    trial got a 60-line UnicodeEncodeError traceback from the report's and rerun's writers.
+    One line asking to rename it, exit 1, nothing written."""
+    latin = b"lat\xe9in"
+    (user_folder / os.fsdecode(latin + b".npy")).write_bytes(POSES.read_bytes())
+    for source, out in ((latin + b".npy", b"o1"), (b"poses.npy", latin)):
+        done = subprocess.run([sys.executable, "-m", "pcnet.pipeline.cli", "run", "--lifter", "videopose3d",
+                               "--lifter-output", source, "--fps", "30", "--no-plots", "--no-recording", "--out", out],
+                              capture_output=True, timeout=150)
+        err = done.stderr.decode("utf-8", "replace")
+        lines = [ln for ln in err.splitlines() if ln.startswith("Error: ")]
+        assert done.returncode == 1 and len(lines) == 1 and "Traceback" not in err, err[-2000:]
+        assert "expected input and output file and folder names in UTF-8" in lines[0] and "rename it" in lines[0]
+    assert sorted(os.listdir(os.fsencode(user_folder))) == sorted([latin + b".npy", b"poses.npy"])
