@@ -417,6 +417,7 @@ def test_a_stopped_recording_writer_is_an_oserror_not_a_wait_forever(tmp_path, m
 
     path = tmp_path / "r.rrd"
     path.write_bytes(b"x")
+    monkeypatch.setattr(rerun_log, "_WRITER_STOPPED", [])  # this process's own flag: not the test's
 
     class Stream:
         def __init__(self, message: str):

@@ -206,6 +206,20 @@ def test_a_file_the_user_adds_to_the_old_output_during_an_overwrite_is_kept(user
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp folder left
 
 
+def _replace_world_trc(user_folder: Path, monkeypatch) -> list[str]:
+    """Replace output ``o`` with a new world.trc under ``--overwrite`` while ``monkeypatch``'s
+    patches hold, then undo them; the new file is there; returns what the run said it left."""
+    from pcnet.pipeline.outdir import register_files, staged_output
+
+    left: list[str] = []
+    with staged_output("o", True, left) as tmp:
+        (tmp / "world.trc").write_bytes(b"new")
+        register_files(tmp, ["world.trc"])
+    monkeypatch.undo()
+    assert (user_folder / "o" / "world.trc").read_bytes() == b"new"
+    return left
+
+
 def test_a_file_added_after_the_last_check_of_an_overwrite_is_kept_and_said(user_folder, monkeypatch):
     """A file-safety trial wrote a note into the old output just as a run replacing it ended,
     after its last look for the user's files: the swap renamed the folder aside and deleted it
@@ -225,12 +239,7 @@ def test_a_file_added_after_the_last_check_of_an_overwrite_is_kept_and_said(user
         return swap_in(tmp, target, overwrite, given)
 
     monkeypatch.setattr(outdir, "_swap_in", note_first)
-    left = []
-    with staged_output("o", True, left) as tmp:
-        (tmp / "world.trc").write_bytes(b"new")
-        register_files(tmp, ["world.trc"])
-    monkeypatch.undo()
-    assert (user_folder / "o" / "world.trc").read_bytes() == b"new"
+    left = _replace_world_trc(user_folder, monkeypatch)
     (trash,) = [p for p in user_folder.iterdir() if TRASH_TAG in p.name]
     assert sorted(p.name for p in trash.iterdir()) == ["notes.txt"] and (trash / "notes.txt").read_text() == "mine"
     assert left == [f"notes.txt appeared in --out o while this run replaced it: kept, not deleted, in {trash} "
@@ -291,12 +300,7 @@ def test_an_old_output_file_that_cannot_be_removed_is_said(user_folder, monkeypa
         return unlink(path, *args, **kwargs)
 
     monkeypatch.setattr(os, "unlink", refusing)
-    left = []
-    with staged_output("o", True, left) as tmp:
-        (tmp / "world.trc").write_bytes(b"new")
-        register_files(tmp, ["world.trc"])
-    monkeypatch.undo()
-    assert (user_folder / "o" / "world.trc").read_bytes() == b"new"
+    left = _replace_world_trc(user_folder, monkeypatch)
     trash = [p for p in user_folder.iterdir() if TRASH_TAG in p.name]
     assert len(trash) == 1 and len(left) == 1 and str(trash[0]) in left[0], (trash, left)
     assert "world.trc: Operation not permitted" in left[0] and "beside --out o: remove that folder" in left[0], left

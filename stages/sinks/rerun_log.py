@@ -119,6 +119,36 @@ def _writer_stopped(path: Path, err: Exception | None) -> OSError:
     return OSError(code, text, str(path))
 
 
+def _bounded(call: Callable[[], None], path: Path) -> None:
+    """``call()`` (a rerun call that may wait on the file writer inside native code: ``save``
+    hands the queued blueprint to it) run in a daemon thread and waited on a second at a time;
+    :func:`_writer_stopped`'s ``OSError`` where ``path`` stops growing for
+    :data:`STALLED_WRITER_S` before it returns (the thread is then left to the process's exit,
+    which :func:`writer_stopped` makes immediate)."""
+    import threading
+
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            call()
+        except BaseException as err:  # handed to the waiting thread
+            failure.append(err)
+
+    worker = threading.Thread(target=run, name="pcnet-rerun-save", daemon=True)
+    worker.start()
+    size, since = None, time.monotonic()
+    while worker.is_alive():
+        worker.join(1.0)
+        now = path.stat().st_size if path.exists() else -1
+        if now != size:
+            size, since = now, time.monotonic()
+        elif worker.is_alive() and time.monotonic() - since > STALLED_WRITER_S:
+            raise _writer_stopped(path, None)
+    if failure:
+        raise failure[0]
+
+
 def _flusher(rec, path: Path) -> Callable[[], None]:
     """``rec.flush()`` for a recording saved to ``path``, waited on a second at a time (so that
     Ctrl-C and SIGTERM are heard between the waits), and raised as :func:`_writer_stopped`'s
@@ -488,7 +518,7 @@ def write_recording(
         flush = _flusher(rec, tmp)
         try:
             try:
-                rec.save(tmp, default_blueprint=blueprint)
+                _bounded(lambda: rec.save(tmp, default_blueprint=blueprint), tmp)
             except RuntimeError as err:  # rerun's encoder on a disk already full, as an OSError
                 raise _writer_stopped(tmp, err) from err
             _log_all(
