@@ -469,7 +469,8 @@ def test_a_batch_row_can_ask_for_opensim(tmp_path):
     assert (row["root_path"], row["floor"]) == (marker["result"]["root_path"], marker["result"]["floor"]) == \
         ("not observable", "per frame")
     assert (f"| sequence | {row['units']} | {row['camera_tilt_deg']} | {row['camera_tilt_uncertainty_deg']} "
-            f"({row['camera_tilt_uncertainty']}) | upright | not observable | per frame | {rms} |") in table
+            f"({row['camera_tilt_uncertainty']}) | upright | {row['angles']['trunk_inclination_deg']['median']} | "
+            f"not observable | per frame | {rms} |") in table
     res = _cli("batch", manifest, "--workers", "1")  # skipped: the marker's fit shown again
     assert res.exit_code == 0 and f"marker RMS {rms:.2f} cm (line 2: a)" in res.output, res.output
     manifest.write_text(f"lifter,lifter_output,fps,height,out,mass\nmotionbert,{x3d},30,1.75,b,70\n")

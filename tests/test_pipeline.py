@@ -52,7 +52,8 @@ def test_demo_end_to_end_on_the_bundled_real_example(tmp_path):
     # a static camera: one tilt for the whole video, with its calibrated 95 % interval
     # (bootstrap + the lifter's systematic error, stages/uncertainty.py) and the bootstrap alone
     assert "mode sequence (requested sequence" in res.output  # the default (decision 0041)
-    assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval\)", res.output)
+    assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval, body read "
+                     r"upright\)", res.output)
     assert re.search(r"pitch \+\d+\.\d \+- \d+\.\d, roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % posterior interval per "
                      r"axis \(up model, docs/up_model\.md\); the poses alone \+- \d+\.\d/\d+\.\d",
                      (out / "report.md").read_text())  # in full
@@ -1004,7 +1005,8 @@ def test_a_one_frame_recording_states_its_per_frame_uncertainty(tmp_path, mode):
         assert re.search(r"per-frame up\s+bound 7\.4 deg where the two networks agree.* this recording median [\d.]+",
                          res.output), res.output
     else:
-        assert re.search(r"roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval\)", res.output), res.output
+        assert re.search(r"roll [+-]\d+\.\d \+- \d+\.\d deg; 95 % interval, body read upright\)", res.output), \
+            res.output
     assert "no fixed world frame" not in res.output
 
 
@@ -1353,8 +1355,8 @@ def test_a_limb_joint_missing_in_every_frame_is_warned_of(tmp_path):
     args = ["run", "--lifter", "generic", "--lifter-output", damaged, "--fps", "30", "--no-recording"]
     res = _invoke(*args, "--out", tmp_path / "a")
     assert res.exit_code == 0, res.output
-    assert "WARNING  left_knee missing in every frame: its joint angles are empty -> check the input's joint order" \
-        in res.output, res.output
+    assert ("WARNING  left_knee missing in every frame: its joint angles are empty -> film the whole body in view, or "
+            "check the input's joint order") in res.output, res.output
     knee[:50, 5] = poses[:50, 5]
     np.save(damaged, knee)
     res = _invoke(*args, "--out", tmp_path / "b")
