@@ -107,7 +107,8 @@ def _writer_stopped(path: Path, err: Exception | None) -> OSError:
     where ``path`` reached it, else an input/output error naming rerun's message."""
     try:
         room = os.statvfs(path.parent)
-        full = room.f_bavail * room.f_frsize < max(room.f_frsize, 1) or room.f_favail == 0
+        # no block left, or an inode table that is full (a file system without one reports 0 of 0)
+        full = room.f_bavail * room.f_frsize < max(room.f_frsize, 1) or (room.f_files > 0 and room.f_favail == 0)
     except OSError:
         full = False
     limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
