@@ -99,6 +99,11 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
     """
     resolve = resolve or (lambda p: Path(p).resolve())
     given = short_path(out)
+    if os.path.islink(out) and not os.path.exists(out):
+        # followed, the output would be made wherever the link points (in a shared folder, where
+        # someone else put it: a file-safety trial's); a link to an existing folder is that folder
+        raise InputError(f"--out {given}: expected a new folder or an existing one, got a symbolic link to a missing "
+                         f"path ({os.readlink(out)}); give the folder itself")
     target = resolve(out)
     text = str(target)  # compared as text below: a batch checks 100,000 rows
     _check_path_length(text, given)

@@ -1051,3 +1051,16 @@ def test_no_plots_leaves_the_png_files_out(user_folder):
     assert ".png" not in res.output
     res = _invoke(*RUN, "--out", "p")
     assert sorted(p.name for p in (user_folder / "p").glob("*.png")) == ["angles.png", "speeds.png", "wrists.png"]
+
+
+def test_a_dangling_symlink_as_out_is_refused(user_folder):
+    """A file-safety trial planted `dangling -> target_not_there` and ran `--out dangling`: the
+    output was made at the link's target, exit 0 (in a shared folder, anyone could redirect a
+    colleague's output). Refused in one line; nothing made."""
+    os.symlink(user_folder / "target_not_there", user_folder / "dangling")
+    res = CliRunner().invoke(main, ["run", "--lifter", "videopose3d", "--lifter-output", "poses.npy", "--fps", "30",
+                                    "--no-recording", "--out", "dangling"])
+    assert res.exit_code == 1 and "Error: --out dangling: expected a new folder or an existing one, got a symbolic " \
+        "link to a missing path" in res.output, res.output
+    assert not (user_folder / "target_not_there").exists() and os.path.islink(user_folder / "dangling")
+
