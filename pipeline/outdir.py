@@ -99,7 +99,7 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
     """
     resolve = resolve or (lambda p: Path(p).resolve())
     given = short_path(out)
-    if os.path.islink(out) and not os.path.exists(out):
+    if os.path.islink(out) and not os.path.exists(out) and _dangling(out):
         # followed, the output would be made wherever the link points (in a shared folder, where
         # someone else put it: a file-safety trial's); a link to an existing folder is that folder
         raise InputError(f"--out {given}: expected a new folder or an existing one, got a symbolic link to a missing "
@@ -142,6 +142,18 @@ def check_out_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike 
                               f"{' (empty)' if empty else ' (a previous pcnet output)'}; choose another --out or pass "
                               f"--overwrite")
     return target
+
+
+def _dangling(link: str | os.PathLike) -> bool:
+    """Whether the symbolic link ``link`` leads to a missing path (not a loop, which resolving
+    names as one)."""
+    try:
+        Path(link).resolve(strict=True)
+    except FileNotFoundError:
+        return True
+    except (OSError, RuntimeError):
+        return False
+    return False
 
 
 #: Folders an output's parent was found writable in, so that a batch's rows sharing one are
