@@ -217,7 +217,7 @@ def tilt_tolerance(report: RectificationReport) -> tuple[float, str]:
     :data:`GIVEN_TILT` for a given up."""
     seq = report.sequence
     if seq is not None and seq.evidence == GIVEN_UP:
-        if np.isfinite([seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg]).all():
+        if seq.given_from_run:
             return (max(seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg),
                     "the standing trial's 95 % interval (camera_up_from), the larger of pitch and roll")
         return float("nan"), GIVEN_TILT

@@ -167,16 +167,6 @@ def trial_up_record(folder, name: str) -> dict:
             "camera_roll_interval_deg": interval("camera_roll_interval_deg")}
 
 
-def camera_up_of_run(folder, name: str) -> tuple[float, float, float]:
-    """The camera's up that an earlier ``pcnet run`` of the same static camera, unmoved,
-    estimated (:func:`trial_up_record`'s ``up``): a standing trial before a floor exercise.
-
-    Raises:
-        InputError: as :func:`trial_up_record`.
-    """
-    return tuple(trial_up_record(folder, name)["up"])
-
-
 def check_camera_up_use(mode: str, posture: str, name: str, posture_name: str) -> None:
     """A given camera up is for sequence mode (one up for a static camera) with the posture the
     up leaves to the poses (``auto``).
@@ -353,7 +343,7 @@ class RunConfig:
     ``canonical.npz`` ``report`` ``up``): sequence mode takes it instead of estimating
     one (:class:`pcnet.stages.rectify.SequenceEvidence`). ``camera_up_from``: instead of
     ``camera_up``, an earlier run's output folder of the same static camera, unmoved, whose up
-    its poses read (:func:`camera_up_of_run`: a standing trial before a floor exercise).
+    its poses read (:func:`trial_up_record`: a standing trial before a floor exercise).
     """
 
     lifter: str | None = None
@@ -434,11 +424,11 @@ class RunConfig:
 
     @property
     def camera_up_vector(self) -> tuple[float, float, float] | None:
-        """``camera_up`` (or the up of the run ``camera_up_from`` names, :func:`camera_up_of_run`)
+        """``camera_up`` (or the up of the run ``camera_up_from`` names, :func:`trial_up_record`)
         as a unit ``(x, y, z)`` in the camera frame, or ``None`` (checked by
         :meth:`validate`)."""
         if self.camera_up_from is not None:
-            return camera_up_of_run(self.camera_up_from, "camera_up_from")
+            return tuple(trial_up_record(self.camera_up_from, "camera_up_from")["up"])
         return None if self.camera_up is None else parse_camera_up(self.camera_up, "camera_up")
 
     @property
@@ -531,7 +521,7 @@ class RunConfig:
 
     def _check_camera_up(self, source: str) -> None:
         """``camera_up`` or ``camera_up_from`` (one of them): :func:`parse_camera_up` or
-        :func:`camera_up_of_run`, and :func:`check_camera_up_use`."""
+        :func:`trial_up_record`, and :func:`check_camera_up_use`."""
         if self.camera_up is not None and self.camera_up_from is not None:
             raise InputError(f"{field_name(source, 'camera_up_from')}: expected instead of "
                              f"{field_name(source, 'camera_up')} (one known up), got both")
@@ -539,7 +529,7 @@ class RunConfig:
         if self.camera_up is not None:
             parse_camera_up(self.camera_up, name)
         else:
-            camera_up_of_run(self.camera_up_from, name)
+            trial_up_record(self.camera_up_from, name)
         check_camera_up_use(self.mode, self.posture, name, field_name(source, "posture"))
 
     def validate(self, source: str = "config") -> "RunConfig":

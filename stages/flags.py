@@ -704,14 +704,15 @@ def given_up_flag(sequence: SequenceUp | None) -> list[Finding]:
     est = None if sequence is None else sequence.poses_estimate
     if est is None or not est["outside_interval"]:
         return []
-    if np.isfinite(sequence.camera_pitch_interval_deg):
+    if sequence.given_from_run:
         return []  # a standing trial's up: :func:`given_up_note`
     return [_found(Kind.GIVEN_UP, Severity.CHECK,
                    f"given camera up {est['angle_from_given_deg']:.0f} deg from the poses' own, outside their 95 % "
                    f"interval",
                    "check --camera-up's frame and signs, or that --camera-up-from's run had this camera, unmoved",
                    f"the camera's up given with --camera-up or --camera-up-from (pitch "
-                   f"{sequence.camera_pitch_deg:+.1f}, roll {sequence.camera_roll_deg:+.1f} deg) lies {est['angle_from_given_deg']:.0f} deg from the poses' "
+                   f"{sequence.camera_pitch_deg:+.1f}, roll {sequence.camera_roll_deg:+.1f} deg) lies "
+                   f"{est['angle_from_given_deg']:.0f} deg from the poses' "
                    f"own (pitch {est['pitch_deg']:+.1f} +- {est['pitch_interval_deg']:.1f}, roll {est['roll_deg']:+.1f} "
                    f"+- {est['roll_interval_deg']:.1f} deg, 95 % intervals of the up model): the run used the given "
                    f"one; check that it is in the camera's own frame (OpenCV: x right, y down, z forward), with its "
@@ -727,7 +728,7 @@ def given_up_note(sequence: SequenceUp | None) -> list[str]:
     disagreement is expected (a clinic's trial had a warning on 12 of 19 seated, tree and
     triangle exercises whose readings the trial's up set right)."""
     est = None if sequence is None else sequence.poses_estimate
-    if est is None or not est["outside_interval"] or not np.isfinite(sequence.camera_pitch_interval_deg):
+    if est is None or not est["outside_interval"] or not sequence.given_from_run:
         return []
     return [f"the poses' own up (pitch {est['pitch_deg']:+.1f} +- {est['pitch_interval_deg']:.1f}, roll "
             f"{est['roll_deg']:+.1f} +- {est['roll_interval_deg']:.1f} deg) lies {est['angle_from_given_deg']:.0f} deg "

@@ -113,6 +113,13 @@ class SequenceUp:
     ground_plane: dict
     poses_estimate: dict | None = None
 
+    @property
+    def given_from_run(self) -> bool:
+        """Whether the up was given with its own 95 % interval: another run's estimate
+        (``--camera-up-from``), not a calibration's (``--camera-up``, no interval)."""
+        return self.evidence == GIVEN_UP and bool(
+            np.isfinite([self.camera_pitch_interval_deg, self.camera_roll_interval_deg]).all())
+
 
 @dataclass(frozen=True)
 class HeadingChoice:

@@ -120,6 +120,22 @@ def _writer_stopped(path: Path, err: Exception | None) -> OSError:
     return OSError(code, text, str(path))
 
 
+class _Growth:
+    """Whether the recording's file at ``path`` has stopped growing: :meth:`stalled` is asked
+    after each one-second wait of :func:`_bounded` and :func:`_flusher`, and is true once the
+    file's size has not changed for :data:`STALLED_WRITER_S`."""
+
+    def __init__(self, path: Path) -> None:
+        self.path, self.size, self.since = path, None, time.monotonic()
+
+    def stalled(self) -> bool:
+        now = self.path.stat().st_size if self.path.exists() else -1
+        if now != self.size:
+            self.size, self.since = now, time.monotonic()
+            return False
+        return time.monotonic() - self.since > STALLED_WRITER_S
+
+
 def _bounded(call: Callable[[], None], path: Path) -> None:
     """``call()`` (a rerun call that may wait on the file writer inside native code: ``save``
     hands the queued blueprint to it) run in a daemon thread and waited on a second at a time;
@@ -138,13 +154,10 @@ def _bounded(call: Callable[[], None], path: Path) -> None:
 
     worker = threading.Thread(target=run, name="pcnet-rerun-save", daemon=True)
     worker.start()
-    size, since = None, time.monotonic()
+    growth = _Growth(path)
     while worker.is_alive():
         worker.join(1.0)
-        now = path.stat().st_size if path.exists() else -1
-        if now != size:
-            size, since = now, time.monotonic()
-        elif worker.is_alive() and time.monotonic() - since > STALLED_WRITER_S:
+        if growth.stalled() and worker.is_alive():
             raise _writer_stopped(path, None)
     if failure:
         raise failure[0]
@@ -156,7 +169,7 @@ def _flusher(rec, path: Path) -> Callable[[], None]:
     ``OSError`` where rerun says its writer shut down or the file stops growing for
     :data:`STALLED_WRITER_S` (``pcnet run`` then names its ``--out`` in one line)."""
     def flush() -> None:
-        size, since = None, time.monotonic()
+        growth = _Growth(path)
         while True:
             try:
                 rec.flush(timeout_sec=1.0)
@@ -164,10 +177,7 @@ def _flusher(rec, path: Path) -> Callable[[], None]:
             except RuntimeError as err:
                 if "shut down" in str(err):  # rerun's "File-writer thread shut down prematurely"
                     raise _writer_stopped(path, err) from err
-            now = path.stat().st_size if path.exists() else -1
-            if now != size:
-                size, since = now, time.monotonic()
-            elif time.monotonic() - since > STALLED_WRITER_S:
+            if growth.stalled():
                 raise _writer_stopped(path, None)
     return flush
 

@@ -26,7 +26,7 @@ from ..core.rotations import decompose_camera_rotation
 from ..core.framestore import column, frame_blocks, in_memory, per_frame, present_frames, seen_joints
 from ..flags import one_person_frames, track_present
 from ..kinematics import FrameGatherer, count_flags, frames_phrase
-from ..rectification_report import GIVEN_UP, RectificationReport
+from ..rectification_report import RectificationReport
 from ..remap import outside_image
 from .bvh import write_bvh
 from .exports import blank_unobservable, plot_wrists, write_c3d, write_kinematics_csv, write_npz, write_trc
@@ -274,8 +274,7 @@ def up_uncertainty(report: RectificationReport) -> str | None:
         # An error along a unit mix of the two axes (the subject's sagittal or frontal plane
         # at any heading) has a 95 % half-width no larger than the larger axis's.
         widest = max(seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg)
-        whose = ("the standing trial's interval, --camera-up-from" if seq.evidence == GIVEN_UP
-                 else "the summary's interval")
+        whose = "the standing trial's interval, --camera-up-from" if seq.given_from_run else "the summary's interval"
         return (f"uncertain by +-{seq.camera_pitch_interval_deg:.1f} deg in the camera's pitch and "
                 f"+-{seq.camera_roll_interval_deg:.1f} deg in its roll ({whose}), so by at most "
                 f"+-{widest:.1f} deg in the subject's sagittal or frontal plane at any heading, an error these angles "
