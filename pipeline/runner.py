@@ -46,7 +46,7 @@ from pcnet.stages.sinks.exports import require_ezc3d, unit_token
 from pcnet.stages.flags import (Finding, Severity, absent_joints_flag, floor_flag, implausible_motion_findings,
                                keypoints_unused_flag, missing_data_line, no_opensim_flag, no_world_frame_flag,
                                note_finding, one_person_frames, opensim_fit_findings, ranked, track_segments,
-                               unfiltered_flag, given_up_note)
+                               unfiltered_flag, given_up_note, looking, signed_deg)
 from pcnet.stages.floor import Floor
 from pcnet.stages.isb_angles import NEEDS_SPINE_JOINT, SPINE_ON_LINE_FRACTION, spine_off_trunk_line
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
@@ -190,7 +190,7 @@ class RunResult:
                          + (f"; {mode.reason}" if mode.reason else "") + decided
                          + self._auto_hint() + ")")
         heading = f"from {heading.source} (requested {heading.requested}; " + self._hip_width() + ")"
-        tilt = f"{self.camera_tilt_deg:.1f} deg from level " + self._pitch_roll(long) + self._per_frame_tilt()
+        tilt = f"{self.camera_tilt_deg:.1f} deg from level{looking(self.camera_pitch_deg)} " + self._pitch_roll(long) + self._per_frame_tilt()
         kinematics = (WORLD_SUMMARY if long else WORLD_SHORT)[self.report.root_path] \
             if self.report.kinematics_frame == "world" \
             else "canonical (turns with the pelvis; no fixed frame without a static camera)"
@@ -333,7 +333,7 @@ class RunResult:
                 f"given, --camera-up-from {trial['folder']}, " + ("whose own up was given" if interval is None else
                                                                  f"whose 95 % interval was +- {interval[0]:.1f} / "
                                                                  f"{interval[1]:.1f}"))
-            return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; {given}; "
+            return (f"(pitch {signed_deg(self.camera_pitch_deg)}, roll {signed_deg(self.camera_roll_deg)} deg; {given}; "
                     f"the per-frame ups lie a median {seq.up_spread_deg:.1f} deg from it)")
         nan = float("nan")
         pitch_unc, roll_unc = (seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg) if seq else (nan, nan)
@@ -341,18 +341,18 @@ class RunResult:
             boot = (seq.camera_pitch_uncertainty_deg, seq.camera_roll_uncertainty_deg) if seq else (nan, nan)
             weights = f"{' with --weights' if self.method != 'geometric' else ''}"
             if np.isfinite(boot).all() and not long:
-                return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; bootstrap alone "
+                return (f"(pitch {signed_deg(self.camera_pitch_deg)}, roll {signed_deg(self.camera_roll_deg)} deg; bootstrap alone "
                         f"+- {boot[0]:.1f}/{boot[1]:.1f}; a 95 % interval is not for method {self.method}{weights})")
             if np.isfinite(boot).all():
-                return (f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg; bootstrap alone "
+                return (f"(pitch {signed_deg(self.camera_pitch_deg)}, roll {signed_deg(self.camera_roll_deg)} deg; bootstrap alone "
                         f"+- {boot[0]:.1f}/{boot[1]:.1f}, no 95 % interval: the lifter's systematic error is "
                         f"calibrated for the shipped 3DPCNet ensemble only, not for method {self.method}{weights})")
-            return f"(pitch {self.camera_pitch_deg:+.1f}, roll {self.camera_roll_deg:+.1f} deg)"
+            return f"(pitch {signed_deg(self.camera_pitch_deg)}, roll {signed_deg(self.camera_roll_deg)} deg)"
         lying = self.report.rectification.lying
         posture = self.report.rectification.posture
         declared = " (declared)" if posture is not None and posture.declared else ""
         other = seq.interval_reaches_other_posture_p
-        interval = (f"(pitch {self.camera_pitch_deg:+.1f} +- {pitch_unc:.1f}, roll {self.camera_roll_deg:+.1f} "
+        interval = (f"(pitch {signed_deg(self.camera_pitch_deg)} +- {pitch_unc:.1f}, roll {signed_deg(self.camera_roll_deg)} "
                     f"+- {roll_unc:.1f} deg; ")
         # The intervals are calibrated on static validation cameras, none of whose per-frame ups
         # spread beyond MODE_THRESHOLD_DEG: beyond it they are not called 95 % (decision 0090).

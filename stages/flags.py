@@ -164,6 +164,22 @@ def camera_tilt(up_cam: np.ndarray, valid: np.ndarray) -> tuple[float, float, fl
     return float(tilt), float(pitch), float(roll)
 
 
+def signed_deg(deg: float, digits: int = 1) -> str:
+    """``deg`` printed with its sign and ``digits`` decimals, ``+0.0`` where it rounds to zero (a
+    level camera's pitch printed "-0.0" in an ergonomist's trial)."""
+    return f"{round(deg, digits) + 0.0:+.{digits}f}"
+
+
+def looking(pitch_deg: float) -> str:
+    """``", looking down"`` or ``", looking up"`` by the sign of a camera pitch in degrees
+    (:func:`pcnet.stages.core.rotations.camera_pitch_roll`: positive = the camera looks down),
+    ``""`` where it prints as level (``+0.0``) or is NaN: the tilt line's words, since a signed
+    pitch alone left an ergonomist asking which way the camera pointed."""
+    if not np.isfinite(pitch_deg) or signed_deg(pitch_deg) == "+0.0":
+        return ""
+    return ", looking down" if pitch_deg > 0 else ", looking up"
+
+
 def per_frame_tilt_summary(up_cam: np.ndarray, valid: np.ndarray) -> list[float]:
     """Median, 5th and 95th percentile (degrees) of the per-frame camera tilt
     ``arccos(-u_y)`` over the valid frames, for the summary of a recording whose up may

@@ -51,5 +51,6 @@ def test_pcnet_rectify_reports_the_cameras_tilt_pitch_and_roll_as_pcnet_run(tmp_
         assert abs(report["camera_pitch_deg"] - float(pitch)) < 1e-6 and abs(report["camera_roll_deg"] - float(roll)) < 1e-6
         assert abs(report["camera_tilt_deg"] - float(camera_tilt_deg(up / np.linalg.norm(up)))) < 1e-6
         assert ("camera_tilt_per_frame_deg" in report) == (mode == "frame")
-        assert f"camera tilt {report['camera_tilt_deg']:.1f} deg from level (pitch {report['camera_pitch_deg']:+.1f}" \
-            in res.output
+        pitch = report["camera_pitch_deg"]
+        assert (f"camera tilt {report['camera_tilt_deg']:.1f} deg from level, looking {'down' if pitch > 0 else 'up'} "
+                f"(pitch {pitch:+.1f}") in res.output

@@ -51,7 +51,7 @@ def test_smooth_mode_summary_prints_a_consistent_tilt(tmp_path):
     res = CliRunner().invoke(main, ["run", "--lifter", "generic", "--lifter-output", str(TADASANA), "--fps", "30",
                                     "--mode", "smooth", "--no-recording", "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
-    tilt, pitch, roll = map(float, re.search(r"camera tilt\s+([\d.]+) deg from level \(pitch ([+-][\d.]+), roll "
+    tilt, pitch, roll = map(float, re.search(r"camera tilt\s+([\d.]+) deg from level(?:, looking (?:down|up))? \(pitch ([+-][\d.]+), roll "
                                              r"([+-][\d.]+)", res.output).groups())
     assert np.cos(np.radians(tilt)) == pytest.approx(np.cos(np.radians(pitch)) * np.cos(np.radians(roll)), abs=2e-3)
     # the up moves from frame to frame: the line says its number is the mean up's, and how the frames spread
@@ -761,3 +761,12 @@ def test_videopose3d_world_output_given_as_camera_frame_is_warned_as_lying():
     w, x, y, z = 0.14070565, -0.15007018, -0.7552408, 0.62232804
     world = Rotation.from_quat([x, y, z, w]).apply(camera.reshape(-1, 3)).reshape(camera.shape)
     assert Kind.LYING in {f.kind for f in pose_checks(world, rectify(world, mode="sequence", fps=30.0))}
+
+
+def test_a_level_pitch_prints_plus_zero_and_a_pitch_says_which_way_the_camera_looks():
+    from pcnet.stages.flags import looking, signed_deg
+
+    # an ergonomist's trial read "-0.0" for a level camera and could not tell "+8.6" down from up
+    assert signed_deg(-0.04) == "+0.0" and signed_deg(-0.06) == "-0.1" and signed_deg(0.0) == "+0.0"
+    assert looking(8.6) == ", looking down" and looking(-3.0) == ", looking up"
+    assert looking(-0.04) == "" and looking(float("nan")) == ""

@@ -178,7 +178,7 @@ def test_summary_prints_one_line_per_finding_and_points_to_the_report():
     assert all(len(ln) <= LINE_WIDTH for ln in warnings + lines[:6]), max(lines, key=len)
     assert lines[-1] == f"details: {FIXTURES / 'o' / REPORT_NAME}" and "report.md  " not in result.summary()
     # the posture read either way (a physiotherapist's trial found "upright" said nowhere)
-    assert ("camera tilt       8.8 deg from level (pitch +8.6 +- 8.6, roll +2.0 +- 3.5 deg; 95 % interval, body read "
+    assert ("camera tilt       8.8 deg from level, looking down (pitch +8.6 +- 8.6, roll +2.0 +- 3.5 deg; 95 % interval, body read "
             "upright)") in lines
     report = result.report_text()
     assert result.flags == [f.detail for f in flags] and all(text in report for text in result.flags + notes)
