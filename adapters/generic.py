@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcnet.stages.core.conventions import get_layout
+from pcnet.stages.core.conventions import get_layout, shape_hint
 
 from .registry import register_3d
 from .types import AdapterError, Poses3D
@@ -277,7 +277,8 @@ def load_generic(path: str | Path, layout: str = "h36m17", axes: str = "RDF", un
     if arr.ndim == 2 and arr.shape[1] == 3 * j:
         arr = arr.reshape(arr.shape[0], j, 3)
     if arr.ndim != 3 or arr.shape[1:] != (j, 3):
-        raise AdapterError(p, field, f"(T, {j}, 3) or (T, {3 * j}) values for layout {lay.name}", f"shape {arr.shape}")
+        raise AdapterError(p, field, f"(T, {j}, 3) or (T, {3 * j}) values for layout {lay.name}",
+                           f"shape {arr.shape}" + shape_hint(arr.shape, j))
     require_some_finite(p, field, arr)
     nonfinite = nonfinite_frames(table.reshape(arr.shape), lay.joints)  # the file's inf/NaN
 

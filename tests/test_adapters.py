@@ -12,6 +12,7 @@ skip without ../shared/data.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -658,8 +659,17 @@ def test_lifter_files_shaped_as_upstream_code_saves_them_name_the_fix(tmp_path):
     with pytest.raises(AdapterError, match=r"expected shape \(T, 17, 3\), got shape \(1, 60, 17, 3\) \(a leading "
                                            r"batch axis of one\? save a\[0\]\)"):
         load_motionbert(tmp_path / "batch.npy")
-    with pytest.raises(AdapterError, match=r"got shape \(17, 60, 3\) \(joints first\? .*np\.swapaxes\(a, 0, 1\)\)"):
+    with pytest.raises(AdapterError, match=r"got shape \(17, 60, 3\) \(axes in another order\? np\.transpose\(a, "
+                                           r"\(1, 0, 2\)\) gives \(T, 17, 3\)\)"):
         load_motionbert(tmp_path / "joints_first.npy")
+    # every order of the three axes gets the transpose that undoes it (an ergonomist's (20, 3, T) got no hint)
+    for axes in ((1, 2, 0), (2, 1, 0), (0, 2, 1), (2, 0, 1)):
+        shuffled = np.transpose(x3d, axes)
+        np.save(tmp_path / "shuffled.npy", shuffled)
+        with pytest.raises(AdapterError, match=r"np\.transpose\(a, \((\d), (\d), (\d)\)\)") as caught:
+            load_generic(tmp_path / "shuffled.npy")
+        undo = tuple(int(a) for a in re.search(r"transpose\(a, \((\d), (\d), (\d)\)", str(caught.value)).groups())
+        np.testing.assert_array_equal(np.transpose(shuffled, undo), x3d)
 
 
 def test_a_flat_skeleton_or_2d_keypoints_given_as_3d_poses_are_refused(tmp_path):

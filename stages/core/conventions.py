@@ -205,19 +205,20 @@ def _unmasked(joints, name: str = "poses") -> np.ndarray:
 def shape_hint(shape: tuple[int, ...], num_joints: int = 17) -> str:
     """What a wrongly shaped pose array most likely is, as a clause to end an error line with
     (``""`` where nothing fits): another layout's joint count (:data:`LAYOUTS`), to be remapped to
-    H36M-17 first, or the joint and coordinate axes swapped, or the joint and frame axes."""
+    H36M-17 first, or the frame, joint and coordinate axes in another order (the transpose that
+    orders them), or 2D keypoints."""
     if len(shape) == 3 and shape[-1] == 3 and shape[1] != num_joints:
         named = [lay.name for lay in LAYOUTS.values() if lay.num_joints == shape[1]]
         if named:
             return (f" ({shape[1]} joints: the {' or '.join(named)} layout? remap it first: "
                     f"pcnet.stages.remap.remap_to_h36m(points, {named[0]!r}), or pcnet run --lifter generic --layout "
                     f"{named[0]})")
-    if len(shape) == 3 and (shape[1:] == (3, num_joints) or shape[:2] == (num_joints, 3)):
-        return f" (joint and coordinate axes in another order? expected (T, {num_joints}, 3): np.moveaxis)"
     if len(shape) == 3 and shape[1] == num_joints and shape[-1] == 2:  # a developer trial passed 2D keypoints
         return " (2D keypoints? pcnet takes a lifter's 3D poses: lift them first)"
-    if len(shape) == 3 and shape[0] == num_joints and shape[-1] == 3:
-        return f" (joints first? expected frames first, (T, {num_joints}, 3): np.swapaxes(a, 0, 1))"
+    # the exact axes, since an ergonomist's (20, 3, T) array was told only "another order"
+    for axes in ((2, 0, 1), (2, 1, 0), (0, 2, 1), (1, 0, 2), (1, 2, 0)):
+        if len(shape) == 3 and (shape[axes[1]], shape[axes[2]]) == (num_joints, 3):
+            return f" (axes in another order? np.transpose(a, {axes}) gives (T, {num_joints}, 3))"
     return ""
 
 
