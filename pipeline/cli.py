@@ -91,7 +91,9 @@ def _strict_exit(warnings: int) -> None:
     """``--strict``'s end of a command that printed ``warnings`` WARNING lines (an automated
     pipeline's trial found a shuffled joint order written with exit 0, said only in warnings)."""
     if warnings:
-        click.echo(f"--strict: {warnings} WARNING{'s' * (warnings != 1)} above: exit {EXIT_WARNED}", err=True)
+        # on stderr, where "above" pointed at lines a script had sent elsewhere (a file-safety trial)
+        click.echo(f"--strict: exit {EXIT_WARNED}: {warnings} WARNING{'s' * (warnings != 1)} in the summary on stdout",
+                   err=True)
         raise click.exceptions.Exit(EXIT_WARNED)
 
 

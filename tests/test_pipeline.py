@@ -1803,7 +1803,7 @@ def test_strict_exits_3_after_writing_every_output_where_a_warning_is_printed(tm
     assert res.exit_code == EXIT_WARNED == 3 and (tmp_path / "m.npz").is_file(), res.output
     warnings = [ln for ln in res.output.splitlines() if ln.startswith("WARNING  ")]
     assert any("mirrored" in ln for ln in warnings)
-    assert f"--strict: {len(warnings)} WARNINGs above: exit 3" in res.output
+    assert f"--strict: exit 3: {len(warnings)} WARNINGs in the summary on stdout" in res.output
     clean = FIXTURES / "yoga_vp3d_Bhumi_Tadasana.npy"
     res = _invoke("rectify", clean, "--out", tmp_path / "c.npz", "--strict")
     assert res.exit_code == 0 and "WARNING" not in res.output, res.output
