@@ -36,6 +36,7 @@ import os
 import re
 import shutil
 import socket
+import stat
 import sys
 import tempfile
 import threading
@@ -557,6 +558,24 @@ def _remove_tree(folder: Path, failed) -> None:
         shutil.rmtree(folder, onerror=lambda _, path, info: failed(path, info[1]))
 
 
+def _carry_folder_attributes(old: Path, new: Path) -> None:
+    """Give ``new``, the staged output about to replace the folder ``old``, what a folder
+    rewritten in place would have kept: ``old``'s permission bits (setgid included), group and
+    extended attributes (POSIX ACLs; :func:`shutil.copystat`, which skips those the file system
+    or the user may not set), with ``new``'s own times; where ``old`` is setgid, its files take
+    its group as files made inside it would. A file-safety trial's shared group folder lost its
+    group and setgid bit to ``--overwrite``. Best effort: a group the user does not belong to
+    stays the one the folder was made with."""
+    st = old.stat()
+    with contextlib.suppress(OSError):
+        os.chown(new, -1, st.st_gid)  # before the mode: a change of group clears the setgid bit
+        shutil.copystat(old, new)
+        os.utime(new)
+        if st.st_mode & stat.S_ISGID:
+            for path in new.rglob("*"):
+                os.chown(path, -1, st.st_gid, follow_symlinks=False)
+
+
 def _swap_in(tmp: Path, target: Path, overwrite: bool, given: str) -> Path | None:
     """Publish ``tmp`` as ``target``. With ``overwrite``: rename ``target`` (if any) to a
     trash name, then ``tmp`` to ``target``; if the second rename fails or is interrupted, the
@@ -581,6 +600,7 @@ def _swap_in(tmp: Path, target: Path, overwrite: bool, given: str) -> Path | Non
         if target.exists():
             trash = _trash_name(target, uuid.uuid4().hex[:12])
             _set_live(trash, True)  # another thread's clean_stale must not take it for a leftover
+            _carry_folder_attributes(target, tmp)
             info = read_marker(target)
             if info.get("writer") == "pcnet":  # the trash is this live run's until it is removed
                 write_text(target / MARKER, json.dumps({**info, "pid": os.getpid(), "host": socket.gethostname()},

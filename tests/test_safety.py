@@ -253,6 +253,35 @@ def test_a_file_added_after_the_last_check_of_an_overwrite_is_kept_and_said(user
     assert [p for p in user_folder.iterdir() if TRASH_TAG in p.name] == [trash] and len(left) == 1
 
 
+def test_overwrite_keeps_the_folders_permissions_group_and_extended_attributes(user_folder):
+    """A file-safety trial's shared output folder (group-writable, setgid to the team's group)
+    came back from --overwrite with the umask's mode and the user's own group: later writes by
+    the team failed. The new output takes the old folder's mode, group and extended attributes
+    (ACLs are such), and its files the group, as a folder rewritten in place would."""
+    from pcnet.pipeline.outdir import register_files, staged_output
+
+    with staged_output("o") as tmp:
+        (tmp / "world.trc").write_bytes(b"old")
+        register_files(tmp, ["world.trc"])
+    out = user_folder / "o"
+    group = next((g for g in os.getgroups() if g != os.stat(out).st_gid), None) if os.geteuid() else 12345
+    if group is None:
+        pytest.skip("needs a second group to give the folder (root, or a user in two groups)")
+    os.chown(out, -1, group)
+    os.chmod(out, 0o2770)
+    try:
+        os.setxattr(out, "user.team", b"gait lab")
+    except OSError:
+        pytest.skip("the file system keeps no user extended attributes")
+    with staged_output("o", True) as tmp:
+        (tmp / "world.trc").write_bytes(b"new")
+        register_files(tmp, ["world.trc"])
+    assert (out / "world.trc").read_bytes() == b"new"
+    assert oct(os.stat(out).st_mode & 0o7777) == oct(0o2770) and os.stat(out).st_gid == group
+    assert os.getxattr(out, "user.team") == b"gait lab" and os.stat(out / "world.trc").st_gid == group
+    assert time.time() - os.stat(out).st_mtime < 60  # the new output's own times, not the old folder's
+
+
 def test_an_out_that_cannot_be_moved_aside_is_one_line_naming_out(user_folder, monkeypatch):
     """--overwrite of an --out that is a mount point: the old output cannot be renamed aside
     (EBUSY), and a user trial got the rename's two paths, one of them pcnet's hidden trash."""
