@@ -21,7 +21,7 @@ from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import (ALIGN, MODES, check_camera_up_use, keypoint_formats, lifter_names,
                                    multi_track_formats, parse_camera_up, pcnet_version)
 from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, STOP_SIGNALS, came_from_interrupt, quiet_interrupt_hook, raise_interrupt
-from pcnet.stages.core.errors import InputError, import_extra, one_line
+from pcnet.stages.core.errors import InputError, import_extra, one_line, short_path
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, POSTURES, check_method_weights, check_posture
 
@@ -496,7 +496,12 @@ def _run_and_report(cfg, strict: bool = False) -> None:
     from pcnet.pipeline.runner import run_pipeline
 
     result = run_pipeline(cfg)
-    click.echo(result.summary())
+    try:
+        click.echo(result.summary())
+    except KeyboardInterrupt:  # a file-safety trial read "nothing half-written" for a complete output
+        click.echo(f"pcnet: interrupted after --out {short_path(cfg.out)} was written whole (its report.md holds the "
+                   f"summary)", err=True)
+        raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
     if strict:
         _strict_exit(len(result.ranked_findings))
 

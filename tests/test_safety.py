@@ -470,6 +470,22 @@ def test_a_run_under_nohup_keeps_running_after_a_hang_up(user_folder):
     assert _complete(user_folder / "o")
 
 
+def test_an_interrupt_after_the_output_is_published_says_it_is_whole(user_folder, monkeypatch):
+    """SIGTERM in the moment after a run published its output, while the summary was made, read
+    "interrupted; nothing half-written was left behind" with exit 130 (a file-safety trial):
+    the output is whole, and the line says so."""
+    from pcnet.pipeline.runner import RunResult
+
+    def interrupted(self, *args, **kwargs):
+        raise KeyboardInterrupt("signal 15")
+
+    monkeypatch.setattr(RunResult, "summary", interrupted)
+    res = _invoke(*RUN, "--out", "o")
+    assert res.exit_code == 130 and "Traceback" not in res.output, res.output
+    assert "pcnet: interrupted after --out o was written whole (its report.md holds the summary)" in res.output
+    assert _complete(user_folder / "o") and (user_folder / "o" / "report.md").is_file()
+
+
 def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt(user_folder, monkeypatch):
     """SIGTERM during onnxruntime's import came out as its "ImportError: initialization
     failed" (caused by the KeyboardInterrupt): exit 130 and one line, like any interrupt."""
