@@ -959,7 +959,41 @@ def run_batch(manifest: str | os.PathLike, options: BatchOptions | None = None,
     Raises:
         InputError, ManifestError: see :func:`plan_batch`; nothing has run then.
     """
-    options = options or BatchOptions()
+    with _only_batch_of(manifest):
+        return _run_batch(manifest, options or BatchOptions(), progress)
+
+
+@contextlib.contextmanager
+def _only_batch_of(manifest: str | os.PathLike):
+    """Hold an exclusive ``flock(2)`` on ``manifest`` while its batch runs, so that a second
+    ``pcnet batch`` of it is refused in one line before it plans anything: a file-safety
+    trial's two batches of one manifest both failed every row the other was writing and wrote
+    one summary, wrong, between them. Released with the file when the batch ends or its
+    process dies. Where the file cannot be opened (:func:`plan_batch` says why) or the platform
+    has no ``flock`` (Windows), nothing is held.
+
+    Raises:
+        InputError: another process holds the manifest.
+    """
+    try:
+        import fcntl
+        held = open(manifest, "rb")
+    except (ImportError, OSError):
+        yield
+        return
+    with held:
+        try:
+            fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"{manifest}: expected no other pcnet batch of this manifest running, got one running "
+                             f"it now; let it finish (or stop it), then run again") from None
+        except OSError:  # a file system without locks (some network shares): as before
+            pass
+        yield
+
+
+def _run_batch(manifest: str | os.PathLike, options: BatchOptions,
+               progress: Callable[[str], None] | None) -> BatchReport:
     started, wall_start = time.perf_counter(), time.time()
     planned, summary_path = plan_batch(manifest, options)
     by_row = {item.row: item for item in planned}

@@ -313,6 +313,23 @@ def test_shared_out_is_refused_even_with_several_workers(tmp_path):
     assert not (tmp_path / "a").exists()
 
 
+def test_a_second_batch_of_a_running_manifest_is_refused_before_any_work(tmp_path):
+    """A file-safety trial started one manifest's batch twice: both failed the rows the other
+    was writing, and one summary, wrong, was left between them. While a batch holds the
+    manifest (flock), another is one line, exit 1, and writes nothing."""
+    fcntl = pytest.importorskip("fcntl", reason="flock(2) is POSIX's")
+    manifest = _manifest(tmp_path, _row("a"))
+    with open(manifest, "rb") as running:  # what the first batch holds while it runs
+        fcntl.flock(running, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        res = _invoke(manifest, "--workers", "1")
+        assert res.exit_code == 1 and "Traceback" not in res.output, res.output
+        assert (f"{manifest}: expected no other pcnet batch of this manifest running, got one running it now; let "
+                f"it finish (or stop it), then run again") in res.output
+        assert not (tmp_path / "a").exists() and not manifest.with_name(manifest.name + ".pcnet_batch.json").exists()
+    res = _invoke(manifest, "--workers", "1")  # once it ended, the manifest runs
+    assert res.exit_code == 0 and (tmp_path / "a").is_dir(), res.output
+
+
 @pytest.mark.slow
 def test_resume_skips_complete_rows_and_reruns_changed_ones(tmp_path):
     x3d = tmp_path / "x.npy"
