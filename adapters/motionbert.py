@@ -92,7 +92,7 @@ def load_motionbert(path: str | Path, pixel: bool = False, clip_len: int = 243) 
              + f"; root not centred: MotionBERT lifts each {clip_len}-frame clip on its own and zeroes its first "
              + f"frame's root z (frames {shown}), so the root's depth and the whole pose may jump there" + rootrel)
     return Poses3D(arr, "h36m17", units=units, source=str(p), notes=notes, summary_note=rootrel.removeprefix("; "),
-                   nonfinite=nonfinite)
+                   nonfinite=nonfinite, breaks=tuple(clip_starts[1:]))
 
 
 def _refuse_keypoints_input(p: Path, arr: np.ndarray) -> None:

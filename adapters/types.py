@@ -160,6 +160,9 @@ class Poses3D:
         depth_sensor: the file is a depth sensor's own skeleton (Kinect v1, Azure Kinect),
             whose tracker labels the sides as if the subject faced the sensor: a mirrored
             skeleton then asks whether the subject faced away, not for other axes or layout.
+        breaks: frames (ascending, in ``1..T-1``) where the lifter's output restarts, so the
+            pose may jump there (MotionBERT lifts each 243-frame clip on its own: frames 243,
+            486, ...); the pipeline takes no speed, acceleration or angle rate across one.
     """
 
     joints: np.ndarray
@@ -175,9 +178,14 @@ class Poses3D:
     nonfinite: dict[str, int] = field(default_factory=dict)
     camera_matrix: np.ndarray | None = None
     depth_sensor: bool = False
+    breaks: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         _check_array(self.joints, "joints", self.source, self.layout)
+        if list(self.breaks) != sorted(set(self.breaks)) or not all(
+                isinstance(b, int) and not isinstance(b, bool) and 0 < b < self.num_frames for b in self.breaks):
+            raise ValueError(f"{self.source}: breaks must be ascending frame indices in 1..{self.num_frames - 1}, "
+                             f"got {self.breaks!r}"[:300])
         if self.camera_matrix is not None and np.shape(self.camera_matrix) != (3, 3):
             raise ValueError(f"{self.source}: camera_matrix must be (3, 3), got {np.shape(self.camera_matrix)}")
         _check_fps(self.fps, self.source)

@@ -42,6 +42,16 @@ class CameraTilt:
         return cls(*camera_tilt(rotation[:, :, 1], valid))
 
 
+def pitch_half_width(report: RectificationReport) -> float:
+    """The camera pitch's printed +- in degrees: sequence mode's 95 % interval, else its
+    bootstrap's, else 0 (an up given without one, another mode). The tilt line names the
+    camera's direction only beyond it (:func:`pcnet.stages.flags.looking`; a docs trial read
+    "looking up" for -0.2 +- 6.9)."""
+    seq = report.sequence
+    halves = () if seq is None else (seq.camera_pitch_interval_deg, seq.camera_pitch_uncertainty_deg)
+    return float(next((h for h in halves if np.isfinite(h)), 0.0))
+
+
 def per_frame_tilt(rotation, valid, mode: str) -> list[float] | None:
     """The per-frame tilts' median and 5-95 % range (deg,
     :func:`pcnet.stages.flags.per_frame_tilt_summary`) of ``(T, 3, 3)`` rotations over the

@@ -389,7 +389,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     import numpy as np
 
     from pcnet.adapters.validate import nonfinite_line
-    from pcnet.pipeline.checks import CameraTilt, per_frame_tilt, pose_checks
+    from pcnet.pipeline.checks import CameraTilt, per_frame_tilt, pitch_half_width, pose_checks
     from pcnet.pipeline.io import read_pose_array
     from pcnet.pipeline.run_report import camera_record
     from pcnet.stages.flags import looking, ranked, signed_deg
@@ -434,7 +434,8 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}{requested}, "
                f"heading from {res.heading_source} (hip width CV "
                + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
-    click.echo(f"camera tilt {tilt.tilt_deg:.1f} deg from level{looking(tilt.pitch_deg)} (pitch {signed_deg(tilt.pitch_deg)}, "
+    click.echo(f"camera tilt {tilt.tilt_deg:.1f} deg from level{looking(tilt.pitch_deg, pitch_half_width(res.report))} "
+               f"(pitch {signed_deg(tilt.pitch_deg)}, "
                f"roll {signed_deg(tilt.roll_deg)} "
                f"deg, of the {'one' if res.mode == 'sequence' else 'mean'} up"
                + (f"; per frame median {per_frame[0]:.1f}, 5-95 % {per_frame[1]:.1f}-{per_frame[2]:.1f}" if per_frame else "")

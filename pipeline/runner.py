@@ -66,7 +66,8 @@ from pcnet.stages.column_ranges import ColumnRanges, column_ranges
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
-from .checks import (GIVEN_TILT, CameraTilt, CheckInputs, checks, moving_camera_note, per_frame_tilt, up_was_given,
+from .checks import (GIVEN_TILT, CameraTilt, CheckInputs, checks, moving_camera_note, per_frame_tilt, pitch_half_width,
+                     up_was_given,
                      spreads_beyond_static)
 from .config import (COMMAND_LINE, DEFAULT_CUTOFF_HZ, RunConfig, field_name, fps_contradiction, keypoint_formats,
                      multi_track_formats, pcnet_version, rates_agree, reads_folder, settings_record, trial_up_record)
@@ -190,7 +191,8 @@ class RunResult:
                          + (f"; {mode.reason}" if mode.reason else "") + decided
                          + self._auto_hint() + ")")
         heading = f"from {heading.source} (requested {heading.requested}; " + self._hip_width() + ")"
-        tilt = f"{self.camera_tilt_deg:.1f} deg from level{looking(self.camera_pitch_deg)} " + self._pitch_roll(long) + self._per_frame_tilt()
+        tilt = (f"{self.camera_tilt_deg:.1f} deg from level{looking(self.camera_pitch_deg, pitch_half_width(self.report.rectification))} "
+                + self._pitch_roll(long)) + self._per_frame_tilt()
         kinematics = (WORLD_SUMMARY if long else WORLD_SHORT)[self.report.root_path] \
             if self.report.kinematics_frame == "world" \
             else "canonical (turns with the pelvis; no fixed frame without a static camera)"
@@ -440,7 +442,7 @@ class RecordingInputs:
     the inputs; lifter_turn_deg: :attr:`pcnet.adapters.Poses3D.frame_turn_deg`; nonfinite:
     :attr:`pcnet.adapters.Poses3D.nonfinite`; camera_matrix: the lifter file's ``(3, 3)`` ``K``
     or ``None`` (:attr:`pcnet.adapters.Poses3D.camera_matrix`); read: what was read, as the
-    report's ``inputs`` (:func:`_inputs_read`).
+    report's ``inputs`` (:func:`_inputs_read`); breaks: :attr:`pcnet.adapters.Poses3D.breaks`.
     """
 
     video: VideoInfo | None
@@ -458,6 +460,7 @@ class RecordingInputs:
     nonfinite: dict
     camera_matrix: np.ndarray | None
     read: dict
+    breaks: tuple[int, ...] = ()
 
 
 def _read_with(adapter: object, path, kind: type, **options):
@@ -571,7 +574,7 @@ def _load_inputs(cfg: RunConfig) -> RecordingInputs:
                                                             _nominal_rate_note(cfg, fps_source)) if n],
                            poses.frame_turn_deg, poses.nonfinite, poses.camera_matrix,
                            _inputs_read(cfg, poses.layout, poses.units, kp_layout, video, poses.notes,
-                                        _adapter_origin(adapter)))
+                                        _adapter_origin(adapter)), poses.breaks)
 
 
 def _other_2d_format(path, tried: str) -> str:
@@ -1659,7 +1662,12 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         min_confidence=cfg.min_confidence, wrist_acceleration_camera=acc_cam, pelvis_path_std=world.pelvis_path_std,
         subject_height_m=float("nan") if cfg.height is None else float(cfg.height))
     # rectification put the poses up (a body inverted for most of a take is read as such)
-    result.kinematics_blocks = kinematics_chunks(filtered, fps, cutoff, units, rotation=turn, check_up=False)
+    # the lifter's restarts (MotionBERT's clip seams) end the filter's stretches as a recording's ends do
+    breaks = tuple(b for b in inputs.recording.breaks if b < len(cam))
+    if breaks:
+        notes.append(_breaks_note(breaks, cfg.lifter))
+    result.kinematics_blocks = kinematics_chunks(filtered, fps, cutoff, units, rotation=turn, check_up=False,
+                                                 breaks=breaks)
     if _spine_built_on_trunk_line(cam):  # the kinematics leave that angle empty, not 0: say why
         why = ("the input's spine joint lies on the pelvis-thorax line (built there, no spine of its own), so that "
                "angle is 0 by construction")
@@ -1672,7 +1680,7 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
         notes.append(unchecked)
     else:
         # pelvis-relative motion in a fixed frame: the per-frame canonical frame adds its rotations' noise
-        implausible = implausible_motion(filtered, fps, units=units)
+        implausible = implausible_motion(filtered, fps, units=units, breaks=breaks)
         result.implausible_frames = implausible_frames(implausible, len(cam))
         # a rate typed with --fps and no video or file to check it against is the likeliest cause
         findings += implausible_motion_findings(implausible, fps_typed=fps_unchecked(inputs.recording.fps_source))
@@ -1694,6 +1702,13 @@ def _kinematics(cfg: RunConfig, inputs: AlignedInputs, scaled: Scaled, rectified
                           *left_out)
     return Measured(result, table, cutoff, "residual analysis" if cfg.residual_cutoff else "cutoff_hz", note_lines,
                     angles, speeds, rates)
+
+
+def _breaks_note(breaks: tuple[int, ...], lifter: str) -> str:
+    """The note for a lifter's restarts (:attr:`pcnet.adapters.Poses3D.breaks`)."""
+    shown = ", ".join(map(str, breaks[:4])) + (", ..." if len(breaks) > 4 else "")
+    return (f"{lifter} restarts at frame{'s' * (len(breaks) > 1)} {shown} (each clip lifted on its own), where the "
+            f"pose may jump: filtered, speeds and rates taken on each side apart, none across")
 
 
 def _run_report(inputs: AlignedInputs, rectified: Rectified, world: World, measured: Measured) -> RunReport:

@@ -170,12 +170,14 @@ def signed_deg(deg: float, digits: int = 1) -> str:
     return f"{round(deg, digits) + 0.0:+.{digits}f}"
 
 
-def looking(pitch_deg: float) -> str:
+def looking(pitch_deg: float, half_width_deg: float = 0.0) -> str:
     """``", looking down"`` or ``", looking up"`` by the sign of a camera pitch in degrees
     (:func:`pcnet.stages.core.rotations.camera_pitch_roll`: positive = the camera looks down),
-    ``""`` where it prints as level (``+0.0``) or is NaN: the tilt line's words, since a signed
-    pitch alone left an ergonomist asking which way the camera pointed."""
-    if not np.isfinite(pitch_deg) or signed_deg(pitch_deg) == "+0.0":
+    ``""`` where it prints as level (``+0.0``), is NaN, or lies within ``half_width_deg`` of
+    level (its interval's half-width: an interval that holds both directions says neither). The
+    tilt line's words, since a signed pitch alone left an ergonomist asking which way the
+    camera pointed."""
+    if not np.isfinite(pitch_deg) or signed_deg(pitch_deg) == "+0.0" or abs(pitch_deg) <= half_width_deg:
         return ""
     return ", looking down" if pitch_deg > 0 else ", looking up"
 

@@ -959,8 +959,16 @@ def lowpass_rotations(R: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, 
     return out, raw.any(axis=1)
 
 
+def stretches(num_frames: int, breaks: tuple[int, ...] = ()) -> list[tuple[int, int]]:
+    """The ``[start, stop)`` stretches of ``num_frames`` frames between ``breaks`` (frames where
+    a lifter's output restarts, :attr:`pcnet.adapters.Poses3D.breaks`; those outside
+    ``1..num_frames - 1`` ignored); one stretch where there is none."""
+    edges = sorted({0, num_frames, *(int(b) for b in breaks if 0 < b < num_frames)})
+    return list(zip(edges[:-1], edges[1:]))
+
+
 def filtered_derivatives(
-    x: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, order: int = 4
+    x: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, order: int = 4, breaks: tuple[int, ...] = ()
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Low-pass, then differentiate, with :func:`compute_kinematics`'s rules: samples the
     filter left raw get no velocity or acceleration.
@@ -968,6 +976,9 @@ def filtered_derivatives(
     Args:
         x: ``(T, ...)`` samples along axis 0 (e.g. some joints' positions), NaN = missing.
         fps, cutoff_hz, order: as :func:`compute_kinematics` (``cutoff_hz`` None = no filter).
+        breaks: frames where the samples restart (:attr:`pcnet.adapters.Poses3D.breaks`):
+            each stretch between two is filtered and differentiated on its own, as the runs
+            between missing frames are.
 
     Returns:
         ``(positions, unfiltered, velocity, acceleration)`` shaped like ``x``: float64 filtered
@@ -978,6 +989,10 @@ def filtered_derivatives(
     """
     fps = validate_fps(fps, "fps")
     x = np.asarray(x, np.float64)
+    edges = stretches(len(x), breaks)
+    if len(edges) > 1:
+        parts = [filtered_derivatives(x[a:b], fps, cutoff_hz, order) for a, b in edges]
+        return tuple(np.concatenate(arrays) for arrays in zip(*parts))
     if cutoff_hz is None:
         pos, raw = x.copy(), np.zeros(x.shape, dtype=bool)
     else:
@@ -1392,6 +1407,7 @@ def kinematics_chunks(
     chunk_frames: int | None = None,
     rotation: np.ndarray | None = None,
     check_up: bool = True,
+    breaks: tuple[int, ...] = (),
 ) -> Iterator[Kinematics]:
     """:func:`compute_kinematics` of a long recording as consecutive chunks of at most
     ``chunk_frames`` frames, so memory stays bounded by the chunk, not the recording.
@@ -1413,6 +1429,11 @@ def kinematics_chunks(
             ``poses`` are then camera-frame poses, as :func:`compute_kinematics`'s ``rotation``.
         check_up: as :func:`compute_kinematics`' (over the whole recording, before the first
             chunk).
+        breaks: frames where the lifter's output restarts (:attr:`pcnet.adapters.Poses3D.breaks`,
+            MotionBERT's clip starts): a chunk ends at each and takes no context across it, so
+            the filter, the velocities, accelerations and angle rates treat it as a recording's
+            end (a trial's cycling clip read a knee extending at 397 deg/s across one). Angles
+            stay continuous across it.
 
     Yields:
         :class:`Kinematics` of frames ``[0, c), [c, 2c), ...``, with their
@@ -1443,19 +1464,21 @@ def kinematics_chunks(
     previous: dict[str, float] | None = None  # the last frame's angles, continued by the next chunk
     # a chunk's last angle rate needs the next chunk's first angle: each is yielded one chunk late
     before = held = None
-    for start in range(0, T, chunk_frames):
-        stop = min(T, start + chunk_frames)
-        lo, hi = max(0, start - pad), min(T, stop + pad)
-        chunk = check_poses(X[lo:hi], "poses").astype(np.float64)
-        turn = None if rotation is None else _proper_rotations(rotation[lo:hi], lo)
-        k = select_frames(_kinematics(chunk, fps, cutoff_hz, units, order, False, turn), start - lo, stop - lo)
-        angles = continuous_angles(k.angles, previous, fps)
-        previous = {name: float(v[-1]) for name, v in angles.items()}
-        k = replace(k, angles=MappingProxyType(angles))
-        if held is not None:
-            yield with_angle_rates(held, before, k)
-            before = select_frames(held, held.num_frames - 1, held.num_frames)
-        held = k
+    for first, last in stretches(T, breaks):
+        for start in range(first, last, chunk_frames):
+            stop = min(last, start + chunk_frames)
+            lo, hi = max(first, start - pad), min(last, stop + pad)
+            chunk = check_poses(X[lo:hi], "poses").astype(np.float64)
+            turn = None if rotation is None else _proper_rotations(rotation[lo:hi], lo)
+            k = select_frames(_kinematics(chunk, fps, cutoff_hz, units, order, False, turn), start - lo, stop - lo)
+            angles = continuous_angles(k.angles, previous, fps)
+            previous = {name: float(v[-1]) for name, v in angles.items()}
+            k = replace(k, angles=MappingProxyType(angles))
+            if held is not None:
+                across = start == first  # a break between them: no rate across it
+                yield with_angle_rates(held, before, None if across else k)
+                before = None if across else select_frames(held, held.num_frames - 1, held.num_frames)
+            held = k
     yield with_angle_rates(held, before, None)
 
 

@@ -183,7 +183,8 @@ def load_motion_limits(path: str | Path | None = None) -> MotionLimits:
 
 
 def pelvis_relative_motion(positions, fps: float, cutoff_hz: float | None, order: int = 4,
-                           joints: Sequence[str] = H36M_JOINTS) -> tuple[np.ndarray, np.ndarray]:
+                           joints: Sequence[str] = H36M_JOINTS,
+                           breaks: tuple[int, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Speed and acceleration magnitude of ``joints`` relative to the pelvis.
 
     Each joint's path minus the pelvis's, low-passed and differentiated by
@@ -197,6 +198,8 @@ def pelvis_relative_motion(positions, fps: float, cutoff_hz: float | None, order
         fps: frame rate, Hz (> 0). cutoff_hz: -3 dB cutoff, Hz (None: no filter).
         order: even order of the zero-phase filter.
         joints: the joint names to measure.
+        breaks: frames where the lifter's output restarts (:attr:`pcnet.adapters.Poses3D.breaks`):
+            no derivative across them (NaN there, as at a run's ends).
 
     Returns:
         ``(speed, acceleration)``, each ``(T, len(joints))`` float64, m/s and m/s^2.
@@ -221,7 +224,7 @@ def pelvis_relative_motion(positions, fps: float, cutoff_hz: float | None, order
             rel = np.where(np.isfinite(pelvis), 0.0, np.nan)
         else:
             rel = np.asarray(positions[:, j], np.float64) - pelvis
-        _, _, v, a = filtered_derivatives(rel, fps, cutoff_hz, order)
+        _, _, v, a = filtered_derivatives(rel, fps, cutoff_hz, order, breaks)
         speed[:, k] = np.linalg.norm(v, axis=-1)
         acc[:, k] = np.linalg.norm(a, axis=-1)
     return speed, acc
@@ -264,7 +267,7 @@ def motion_check_note(units: str, fps: float, limits: MotionLimits | None = None
 
 
 def implausible_motion(positions, fps: float, cutoff_hz: float | None = None, limits: MotionLimits | None = None,
-                       *, units: str = "m") -> list[ImplausibleMotion]:
+                       *, units: str = "m", breaks: tuple[int, ...] = ()) -> list[ImplausibleMotion]:
     """Runs of frames where a joint's pelvis-relative speed or acceleration exceeds its limit.
 
     Args:
@@ -280,6 +283,8 @@ def implausible_motion(positions, fps: float, cutoff_hz: float | None = None, li
         units: the poses' length unit; anything but ``"m"`` is not checked (returns ``[]``;
             :func:`motion_check_note` gives the note), nor is a frame rate whose Nyquist
             frequency is not above the cutoff.
+        breaks: frames where the lifter's output restarts (:attr:`pcnet.adapters.Poses3D.breaks`):
+            the jump of a restart is the lifter's, not motion, and is not measured.
 
     Returns:
         findings sorted by quantity (speed first), joint (H36M order) and first frame; one
@@ -296,7 +301,7 @@ def implausible_motion(positions, fps: float, cutoff_hz: float | None = None, li
     if units != "m" or not fps > 2 * cutoff:
         return []
     joints = [j for j in H36M_JOINTS if limits.group_of(j) is not None]
-    speed, acc = pelvis_relative_motion(positions, fps, cutoff, limits.order, joints)
+    speed, acc = pelvis_relative_motion(positions, fps, cutoff, limits.order, joints, breaks)
     gap = merge_gap_frames(fps, cutoff)
     out = []
     for quantity, values in (("speed", speed), ("acceleration", acc)):

@@ -650,6 +650,20 @@ def test_ddhpose_bad_options_and_files(tmp_path):
     np.testing.assert_allclose(load_ddhpose(tmp_path / "short_mean.npy").joints, short.mean(axis=0), atol=1e-6)
 
 
+def test_motionbert_clip_starts_are_the_poses_breaks():
+    """MotionBERT lifts each clip_len-frame clip on its own, so the pose may jump where the
+    next starts: those frames are the Poses3D's breaks, which the pipeline differentiates
+    nothing across (a cycling trial's seam read as a 397 deg/s knee)."""
+    from pcnet.adapters import Poses3D
+
+    assert load_motionbert(BOXING_X3D).breaks == ()  # 60 frames: one clip
+    assert load_motionbert(BOXING_X3D, clip_len=20).breaks == (20, 40)
+    joints = np.zeros((5, 17, 3), np.float32)
+    for bad in ((0,), (5,), (3, 2), (2, 2), (True,)):
+        with pytest.raises(ValueError, match="breaks must be ascending frame indices in 1..4"):
+            Poses3D(joints, "h36m17", breaks=bad)
+
+
 def test_lifter_files_shaped_as_upstream_code_saves_them_name_the_fix(tmp_path):
     """A batch of one recording and joints-first arrays get the line that says what they
     look like (a developer trial read "(..., 17, 3) with 3 dimensions")."""

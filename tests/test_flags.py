@@ -770,3 +770,5 @@ def test_a_level_pitch_prints_plus_zero_and_a_pitch_says_which_way_the_camera_lo
     assert signed_deg(-0.04) == "+0.0" and signed_deg(-0.06) == "-0.1" and signed_deg(0.0) == "+0.0"
     assert looking(8.6) == ", looking down" and looking(-3.0) == ", looking up"
     assert looking(-0.04) == "" and looking(float("nan")) == ""
+    # a docs trial read "looking up" for -0.2 +- 6.9: an interval holding both directions says neither
+    assert looking(-0.2, 6.9) == "" and looking(8.6, 6.9) == ", looking down"

@@ -984,6 +984,35 @@ def test_c3d_without_ezc3d_is_one_line_before_any_work(monkeypatch, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_a_lifters_restart_ends_the_filters_stretch_and_no_rate_crosses_it(yoga_level):
+    """A trial's MotionBERT cycling clip: the pose jumps where the lifter starts its next
+    243-frame clip, and the jump read as a knee extending at 397 deg/s and as implausible motion
+    blamed on --fps. With the restart as a break, each side is filtered and differentiated as a
+    recording of its own: the chunks equal each stretch's kinematics computed alone, no
+    velocity or rate reaches across, and the jump is not measured as motion."""
+    from pcnet.stages.plausibility import implausible_motion
+
+    X = yoga_level.astype(np.float64)[:400].copy()
+    X[243:] = X[243:] @ axis_rotation("z", np.radians(90.0)).T  # the whole pose tips over at the restart
+    parts = list(kinematics_chunks(X, 30.0, 6.0, chunk_frames=97, breaks=(243,)))
+    assert [p.num_frames for p in parts] == [97, 97, 49, 97, 60]  # a chunk ends at the break
+    gather = FrameGatherer(len(X))
+    for part in parts:
+        gather.add(part)
+    joined = gather.result()
+    for (a, b) in ((0, 243), (243, 400)):
+        alone = compute_kinematics(X[a:b], 30.0, 6.0)
+        for name in ("positions", "velocity", "acceleration", "speed"):
+            np.testing.assert_allclose(getattr(alone, name), getattr(joined, name)[a:b], rtol=1e-9, atol=1e-9,
+                                       equal_nan=True, err_msg=name)
+        for name, rate in alone.angle_rates.items():
+            np.testing.assert_allclose(rate, joined.angle_rates[name][a:b], rtol=1e-9, atol=1e-9, equal_nan=True,
+                                       err_msg=name)
+    assert np.isnan(joined.velocity[[242, 243]]).all() and np.isnan(joined.angle_rates["right_knee_flexion"][[242, 243]]).all()
+    # the jump alone is implausible motion; as a restart it is not motion
+    assert implausible_motion(X, 30.0) and not implausible_motion(X, 30.0, breaks=(243,))
+
+
 # chunk = 1 (a block per frame, about 14 s) is the slow tier's; 13 and 97 cross the same edges in the fast tier
 def wobbling_rotations(T: int, seed: int) -> np.ndarray:
     """``(T, 3, 3)`` canonical -> camera rotations of a camera looking at a Y-up body (y down)

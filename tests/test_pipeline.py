@@ -1788,6 +1788,26 @@ print(sorted((name, read.count(name)) for name in set(read) if name.endswith(".o
     assert out.strip() == "[('pcnet_body.onnx', 1), ('pcnet_camera.onnx', 1)]", out
 
 
+
+def test_a_lifters_restarts_are_said_and_crossed_by_no_rate(tmp_path):
+    """MotionBERT's clip starts (here every 20 frames, lifter_options.clip_len) are said in a
+    note, and kinematics.csv has no speed or angle rate on either side of one (a cycling
+    trial's seam read as a knee extending at 397 deg/s and as wrist motion blamed on --fps)."""
+    import csv
+
+    from pcnet.pipeline import RunConfig, run_pipeline
+
+    run = run_pipeline(RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30.0, recording=False,
+                                 plots=False, lifter_options={"clip_len": 20}, out=str(tmp_path / "o")),
+                       progress=False)
+    assert ("motionbert restarts at frames 20, 40 (each clip lifted on its own), where the pose may jump: filtered, "
+            "speeds and rates taken on each side apart, none across") in run.notes
+    rows = list(csv.DictReader(open(tmp_path / "o" / "kinematics.csv")))
+    rate = [row["right_knee_flexion_deg_per_s"] for row in rows]
+    speed = [row["right_wrist_speed_normalised_per_s"] for row in rows]  # MotionBERT's units without --height
+    assert [rate[t] for t in (19, 20, 39, 40)] == [""] * 4 and all(rate[t] for t in (10, 30, 50))
+    assert [speed[t] for t in (19, 20, 39, 40)] == [""] * 4 and all(speed[t] for t in (10, 30, 50))
+
 @pytest.mark.slow
 def test_strict_exits_3_after_writing_every_output_where_a_warning_is_printed(tmp_path):
     """A bad-input trial for an automated pipeline: a mirrored or shuffled skeleton ran to exit 0,
