@@ -81,7 +81,8 @@ class CheckInputs:
     picture: ``(width, height)`` of the picture ``keypoints2d`` are in, or ``None`` where unknown
     (``pipeline/runner.py: _keypoint_picture``); picture_typed: that size is ``--image-size``
     (no video), which the user may have typed the other way round; units_declared: the user
-    declared the poses' units (``--lifter generic``) rather than the lifter's format fixing them;
+    declared the poses' units and joint order (``--lifter generic``) rather than the lifter's
+    format fixing them;
     depth_sensor: a depth sensor's own skeleton (:attr:`pcnet.adapters.Poses3D.depth_sensor`),
     whose axes and sides its reader fixes.
     """
@@ -114,7 +115,7 @@ def checks(c: CheckInputs) -> list[Finding]:
     return [
         *_orientation_flags(report, c.tilt),
         *(body_size_flag(cam, c.units) if not c.height_given else []),
-        *limb_proportions_flag(cam),
+        *limb_proportions_flag(cam, order_fixed=not c.units_declared),
         *leg_asymmetry_flag(cam),
         # image-scaled sizes are made constant per frame (the scale step); a metric body should keep its own
         *(size_change_flag(cam, units_declared=c.units_declared) if c.units not in IMAGE_SCALED_UNITS else []),

@@ -428,24 +428,31 @@ def limb_proportions(joints: np.ndarray) -> LimbProportions:
                            medians[shortest])
 
 
-def limb_proportions_flag(joints: np.ndarray, limits: SkeletonLimits | None = None) -> list[Finding]:
+def limb_proportions_flag(joints: np.ndarray, limits: SkeletonLimits | None = None,
+                          order_fixed: bool = False) -> list[Finding]:
     """A flag when the longest limb bone of H36M-17 poses ``(T, 17, 3)`` (any units) is more
     than ``limits.limb_length_ratio`` times the shortest (:func:`limb_proportions`; default:
     the shipped :func:`load_skeleton_limits`, the largest over training mocap through the
-    lifter-noise model): a joint order other than H36M-17's, or a limb the lifter collapsed."""
+    lifter-noise model): a joint order other than H36M-17's, or a limb the lifter collapsed.
+    ``order_fixed``: the lifter's reader fixes the joint order (not ``--lifter generic``), so
+    only the collapsed limb is left to say (a first-reader trial looked for a joint-order error
+    in a VideoPose3D file)."""
     found, limit = limb_proportions(joints), (limits or load_skeleton_limits()).limb_length_ratio
     if not found.ratio > limit:  # NaN: fewer than two bones
         return []
     shorter = 100 * found.shortest_length / found.longest_length
+    measured = (f"the lifter's {found.shortest} is {shorter:.0f} % of the length of its {found.longest} (medians "
+                f"over frames), {found.ratio:.1f}-fold where a person's limb bones differ at most {limit:.1f}-fold "
+                f"through an ordinary lifter's error: ")
+    collapsed = "the lifter collapsed a limb it could not see, whose angles and speeds then fail"
     return [_found(Kind.LIMB_PROPORTIONS, Severity.CHECK,
                    f"lifter's {found.shortest} is {shorter:.0f} % of its {found.longest}'s length",
-                   f"check the joint order; treat the {found.shortest}'s angles with care",
-                   f"the lifter's {found.shortest} is {shorter:.0f} % of the length of its {found.longest} (medians "
-                   f"over frames), {found.ratio:.1f}-fold where a person's limb bones differ at most "
-                   f"{limit:.1f}-fold through an ordinary lifter's "
-                   f"error: a file in another joint order than H36M-17's joins joints that are not neighbours (check "
-                   f"the joint order its lifter writes, --layout with --lifter generic), or the lifter collapsed a limb "
-                   f"it could not see, whose angles and speeds then fail")]
+                   (f"treat the {found.shortest}'s angles and speeds with care: the lifter collapsed it" if order_fixed
+                    else f"check the joint order; treat the {found.shortest}'s angles with care"),
+                   measured + (collapsed + " (the joint order is the lifter's format's)" if order_fixed else
+                               f"a file in another joint order than H36M-17's joins joints that are not neighbours "
+                               f"(check the joint order its lifter writes, --layout with --lifter generic), or "
+                               + collapsed))]
 
 
 def size_percentiles(joints: np.ndarray) -> np.ndarray:
