@@ -67,8 +67,7 @@ from pcnet.stages.plausibility import implausible_frames, implausible_motion, mo
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
 from .checks import (GIVEN_TILT, CameraTilt, CheckInputs, checks, moving_camera_note, per_frame_tilt, pitch_half_width,
-                     up_was_given,
-                     spreads_beyond_static)
+                     spreads_beyond_static, tilt_tolerance, up_was_given)
 from .config import (COMMAND_LINE, DEFAULT_CUTOFF_HZ, RunConfig, field_name, fps_contradiction, keypoint_formats,
                      multi_track_formats, pcnet_version, rates_agree, reads_folder, settings_record, trial_up_record)
 from .io import lifter_joints
@@ -198,8 +197,27 @@ class RunResult:
             else "canonical (turns with the pelvis; no fixed frame without a static camera)"
         read = [("inputs", _inputs_line(self.report.inputs))] if long and self.report.inputs else []
         return [*read, ("frames", frames), ("rectification", rectification), ("heading", heading),
-                ("camera tilt", tilt), *self._frame_bound(long), ("kinematics frame", kinematics),
+                ("camera tilt", tilt), *self._frame_bound(long), *self._trunk(long), ("kinematics frame", kinematics),
                 ("units", self.units + self._guessed_size(long) + self._cutoff(long))]
+
+    def _trunk(self, long: bool) -> list[tuple[str, str]]:
+        """``("trunk lean", ...)``: the thorax's median lean from vertical, forward and to the
+        right (report.md's angle table), with the up's uncertainty, which reaches them whole;
+        none without those angles. A clinic trial found them at rows 19-20 of a 36-row table,
+        and a first reader could not find the trunk lean or how sure it is."""
+        rows = {r.name: r for r in self.angle_ranges.rows} if self.angle_ranges is not None else {}
+        forward, right = rows.get("trunk_flexion_to_gravity_deg"), rows.get("trunk_lateral_tilt_to_gravity_deg")
+        if forward is None or right is None:
+            return []
+        tolerance, what = tilt_tolerance(self.report.rectification)
+        calibrated = "not calibrated" not in what and "no calibrated" not in what
+        sure = ("" if not np.isfinite(tolerance) else
+                f"; +- {tolerance:.1f} from the up's {what}" if long else
+                f"; +- {tolerance:.1f} from the up" + ("" if calibrated else ", not calibrated"))
+        columns = (" (kinematics.csv's trunk_flexion_to_gravity_deg and trunk_lateral_tilt_to_gravity_deg, medians "
+                   f"over the {forward.frames} frames of the angle table") if long else " (thorax, medians"
+        return [("trunk lean", f"forward {signed_deg(forward.median)}, to the right {signed_deg(right.median)} deg "
+                               f"from vertical{columns}{sure})")]
 
     def _guessed_size(self, long: bool) -> str:
         """``" (the lifter's guess of a 1.53 m stature: --height sets it)"`` where the metres are
