@@ -50,7 +50,7 @@ from pcnet.stages.flags import (Finding, Severity, absent_joints_flag, floor_fla
 from pcnet.stages.floor import Floor
 from pcnet.stages.isb_angles import NEEDS_SPINE_JOINT, SPINE_ON_LINE_FRACTION, spine_off_trunk_line
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
-from pcnet.stages.kinematics import (filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
+from pcnet.stages.kinematics import (FILTER_ORDER, filtered_derivatives, format_flag_counts, frames_phrase, kinematics_chunks,
                                      residual_analysis)
 from pcnet.pipeline.rectification import check_measured_root, rectify_checked
 from pcnet.stages.rectification_report import RectificationReport
@@ -246,7 +246,9 @@ class RunResult:
                f"punch's or a throw's peak speed, a lower one steadies a noisy input's accelerations; "
                f"--residual-cutoff fits one to the recording's noise"
                if long and source == "--cutoff-hz" else "")
-        return f"; low-pass {hz:.3g} Hz ({source}{why})"
+        # the filter itself, for a methods section (a sports biomechanist's trial found only "low-pass 6 Hz")
+        design = f"zero-lag Butterworth, order {FILTER_ORDER} over its 2 passes, -3 dB at the cutoff; " * long
+        return f"; low-pass {hz:.3g} Hz ({design}{source}{why})"
 
     def summary(self) -> str:
         """A summary that reads in seconds: the key facts, then one line per finding, most

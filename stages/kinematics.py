@@ -134,7 +134,14 @@ def _lowpass_design(fps: float, cutoff_hz: float, order: int) -> tuple[np.ndarra
     return sos, int(padlen)
 
 
-def shortest_filtered_run(fps: float, cutoff_hz: float, order: int = 4) -> int:
+#: The low-pass's order as applied: a 2nd-order Butterworth run forward and backward (zero
+#: lag), its cutoff corrected so that the pair is -3 dB there (:func:`_design_cutoff`, Winter's
+#: correction for multiple passes): the "4th-order zero-lag Butterworth" of gait analysis,
+#: every pcnet filter's default.
+FILTER_ORDER = 4
+
+
+def shortest_filtered_run(fps: float, cutoff_hz: float, order: int = FILTER_ORDER) -> int:
     """Frames of the shortest run of present samples :func:`butterworth_lowpass` filters
     (``sosfiltfilt``'s ``padlen`` + 1); shorter runs stay raw and are flagged ``unfiltered``.
 
@@ -148,7 +155,7 @@ def butterworth_lowpass(
     x: np.ndarray,
     fps: float,
     cutoff_hz: float = 6.0,
-    order: int = 4,
+    order: int = FILTER_ORDER,
     *,
     return_unfiltered: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
@@ -228,7 +235,7 @@ class ResidualAnalysis:
     noise: float
 
 
-def residual_analysis(x: np.ndarray, fps: float, order: int = 4, n_frequencies: int = 40) -> ResidualAnalysis:
+def residual_analysis(x: np.ndarray, fps: float, order: int = FILTER_ORDER, n_frequencies: int = 40) -> ResidualAnalysis:
     """The low-pass cutoff by Winter's residual analysis (Winter, *Biomechanics and Motor
     Control of Human Movement*, 4th ed., 2009, sec. 3.4.4.3), per signal.
 
@@ -924,7 +931,7 @@ def pelvis_heading_frame(poses: np.ndarray) -> np.ndarray:
     return X @ R
 
 
-def lowpass_rotations(R: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, order: int = 4
+def lowpass_rotations(R: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, order: int = FILTER_ORDER
                       ) -> tuple[np.ndarray, np.ndarray]:
     """Low-pass a rotation sequence with the filter of the poses: each of the nine entries
     through :func:`butterworth_lowpass`, then each frame's nearest rotation in the Frobenius
@@ -968,7 +975,7 @@ def stretches(num_frames: int, breaks: tuple[int, ...] = ()) -> list[tuple[int, 
 
 
 def filtered_derivatives(
-    x: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, order: int = 4, breaks: tuple[int, ...] = ()
+    x: np.ndarray, fps: float, cutoff_hz: float | None = 6.0, order: int = FILTER_ORDER, breaks: tuple[int, ...] = ()
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Low-pass, then differentiate, with :func:`compute_kinematics`'s rules: samples the
     filter left raw get no velocity or acceleration.
@@ -1091,7 +1098,7 @@ def compute_kinematics(
     fps: float,
     cutoff_hz: float | None = 6.0,
     units: str = "m",
-    order: int = 4,
+    order: int = FILTER_ORDER,
     continuous: bool = True,
     check_up: bool = True,
     rotation: np.ndarray | None = None,
@@ -1270,7 +1277,7 @@ def _kinematics(X: np.ndarray, fps: float, cutoff_hz: float | None, units: str, 
 CHUNK_FRAMES = 4096
 
 
-def settle_frames(fps: float, cutoff_hz: float | None, order: int = 4, tol: float = 1e-12) -> int:
+def settle_frames(fps: float, cutoff_hz: float | None, order: int = FILTER_ORDER, tol: float = 1e-12) -> int:
     """Frames of context on each side that make a chunk's kinematics equal those of the whole
     recording to a relative ``tol``.
 
@@ -1403,7 +1410,7 @@ def kinematics_chunks(
     fps: float,
     cutoff_hz: float | None = 6.0,
     units: str = "m",
-    order: int = 4,
+    order: int = FILTER_ORDER,
     chunk_frames: int | None = None,
     rotation: np.ndarray | None = None,
     check_up: bool = True,

@@ -47,7 +47,7 @@ import numpy as np
 from .core.conventions import H36M_JOINTS, PELVIS
 from .core.errors import InputError
 from .core.framestore import true_runs
-from .kinematics import filtered_derivatives
+from .kinematics import FILTER_ORDER, filtered_derivatives
 
 #: The shipped limits (``pcnet/stages/data/motion_limits.json``).
 LIMITS_PATH = Path(__file__).resolve().parent / "data" / "motion_limits.json"
@@ -182,7 +182,7 @@ def load_motion_limits(path: str | Path | None = None) -> MotionLimits:
         order=order, source=str(source), provenance=MappingProxyType(dict(provenance)), path=str(path))
 
 
-def pelvis_relative_motion(positions, fps: float, cutoff_hz: float | None, order: int = 4,
+def pelvis_relative_motion(positions, fps: float, cutoff_hz: float | None, order: int = FILTER_ORDER,
                            joints: Sequence[str] = H36M_JOINTS,
                            breaks: tuple[int, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Speed and acceleration magnitude of ``joints`` relative to the pelvis.
