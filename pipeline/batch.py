@@ -1289,19 +1289,23 @@ def _cell(value) -> str:
     return "-" if value is None or value == "" else str(value).replace("|", "/").replace("\n", " ")
 
 
-def _trunk_median(row: dict) -> float | None:
-    """The row's median trunk lean from vertical (``trunk_inclination_deg``, report.md's
-    joint-angle table), ``None`` without: a seated row read 26 deg from vertical looked as
+def _trunk_lean(row: dict) -> str | None:
+    """The row's thorax median lean forward and to the right from vertical (deg,
+    ``trunk_flexion_to_gravity_deg`` and ``trunk_lateral_tilt_to_gravity_deg``, the run
+    summary's trunk lean), ``None`` without: a seated row read 26 deg from vertical looked as
     trustworthy as a standing one with only the camera's tilt beside it (a physiotherapist's trial)."""
-    trunk = (row.get("angles") or {}).get("trunk_inclination_deg")
-    return None if trunk is None else trunk.get("median")
+    angles = row.get("angles") or {}
+    forward, right = (angles.get(f"trunk_{name}_to_gravity_deg") for name in ("flexion", "lateral_tilt"))
+    if forward is None or right is None:
+        return None
+    return f"{forward['median']:+.1f} / {right['median']:+.1f}"
 
 
 def batch_markdown(report: BatchReport) -> str:
     """The batch report: what the terminal summary leaves out. The counts and the batch's
-    settings; a table of every row (status, attempts, frames, valid frames, mode, units (a row
-    without ``height`` may not be in metres), tilt and its uncertainty, posture, the trunk's median lean from
-    vertical, pelvis path, floor, the OpenSim
+    settings; a table of every row (status, its warnings' count, attempts, frames, valid frames, mode,
+    units (a row without ``height`` may not be in metres), tilt and its uncertainty, posture, the
+    thorax's median lean forward and to the right, pelvis path, floor, the OpenSim
     fit's marker RMS, seconds,
     worker, threads, output folder); the rows run again over their earlier output and why; every failed row's error in full (and its traceback
     where the failure is a bug of pcnet); every warning of every row, most severe
@@ -1323,17 +1327,20 @@ def batch_markdown(report: BatchReport) -> str:
             f"(sha256), settings and pcnet version in its output's {BATCH_MARKER}, and its report.md's "
             f"inputs.settings",
             "", "## Rows", "",
-            "| row | line | status | tries | frames | valid | mode | units | tilt deg | tilt +- deg (what) | posture "
-            "| trunk from vertical deg (median) | pelvis path | floor | OpenSim RMS cm | seconds | worker | threads "
-            "| output |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| row | line | status | warnings | tries | frames | valid | mode | units | tilt deg | tilt +- deg (what) "
+            "| posture | trunk forward / right deg (medians) | pelvis path | floor | OpenSim RMS cm | seconds | worker "
+            "| threads | output |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report.rows:
         seconds = f"{r['seconds']:.1f}" if r.get("seconds") is not None else None
         worker = f"{r['host']}:{r['pid']}" if r.get("pid") else None
-        out.append("| " + " | ".join(_cell(v) for v in (r["row"], r["line"], r["status"], r["attempts"], r["frames"],
+        # how many, at a glance (a physiotherapist's trial found no row's trouble in the table)
+        warned = len(r.get("warnings") or []) if r["status"] in DONE else None
+        out.append("| " + " | ".join(_cell(v) for v in (r["row"], r["line"], r["status"], warned, r["attempts"],
+                                                          r["frames"],
                                                           r["valid"], r.get("mode"), r.get("units"),
                                                           r.get("camera_tilt_deg"), _tilt_uncertainty(r),
-                                                          r.get("posture"), _trunk_median(r), r.get("root_path"),
+                                                          r.get("posture"), _trunk_lean(r), r.get("root_path"),
                                                           r.get("floor"),
                                                           r.get("opensim_rms_cm"), seconds,
                                                           worker, r.get("threads"),
