@@ -648,8 +648,9 @@ def test_the_terminal_summary_is_short_and_the_report_has_every_row():
     assert md.startswith("# pcnet batch: /study/m.csv\n")
     # the units, camera tilt and posture of each row beside it (a batch trial compared 34 yoga files by opening
     # each; another could not tell a row without height was not in metres)
-    assert all(f"| {r['row']} | {r['line']} | {r['status']} | 1 | 60 | 60 | sequence | m | 4.2 | - | upright | - | - | - | - | 1.0 | "
-               f"h:{r['pid']} | 2 | {r['out']} |" in md for r in rows)
+    warned = {r["row"]: len(r.get("warnings") or []) if r["status"] in ("ok", "skipped") else "-" for r in rows}
+    assert all(f"| {r['row']} | {r['line']} | {r['status']} | {warned[r['row']]} | 1 | 60 | 60 | sequence | m | 4.2 | - "
+               f"| upright | - | - | - | - | 1.0 | h:{r['pid']} | 2 | {r['out']} |" in md for r in rows)
     assert "OpenSim" not in text  # no row asked for a fit
     assert all(r["error"] in md for r in rows[3:]) and "Traceback (most recent call last):\n  boom" in md
     # a warning's full text once, the rows after it pointing to it (a yoga trial read 120 words a row)
@@ -671,7 +672,7 @@ def test_the_summary_gives_the_opensim_fits_marker_rms():
                          settings={"engine": "local", "workers": 1, "retries": 0})
     assert "- **engine**: local, 1 worker, retries 0;" in batch_markdown(report)  # a user trial: "1 workers"
     assert "\nOpenSim IK        marker RMS 1.74-3.50 cm over 2 rows (largest: line 3: r2)\n" in format_summary(report)
-    assert "| 1 | 2 | ok | 1 | 9 | 9 | sequence | - | - | - | - | - | - | - | 1.74 | 1.0 |" in batch_markdown(report)
+    assert "| 1 | 2 | ok | 0 | 1 | 9 | 9 | sequence | - | - | - | - | - | - | - | 1.74 | 1.0 |" in batch_markdown(report)
     rows[1]["status"] = "failed"
     assert "\nOpenSim IK        marker RMS 1.74 cm (line 2: r1)\n" in format_summary(report)
 
