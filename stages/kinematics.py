@@ -1439,8 +1439,8 @@ def kinematics_chunks(
         breaks: frames where the lifter's output restarts (:attr:`pcnet.adapters.Poses3D.breaks`,
             MotionBERT's clip starts): a chunk ends at each and takes no context across it, so
             the filter, the velocities, accelerations and angle rates treat it as a recording's
-            end (a trial's cycling clip read a knee extending at 397 deg/s across one). Angles
-            stay continuous across it.
+            end (a trial's cycling clip read a knee extending at 397 deg/s across one), and the
+            angles after it are levelled and read (the knee's posture hypothesis) on their own.
 
     Yields:
         :class:`Kinematics` of frames ``[0, c), [c, 2c), ...``, with their
@@ -1478,7 +1478,9 @@ def kinematics_chunks(
             chunk = check_poses(X[lo:hi], "poses").astype(np.float64)
             turn = None if rotation is None else _proper_rotations(rotation[lo:hi], lo)
             k = select_frames(_kinematics(chunk, fps, cutoff_hz, units, order, False, turn), start - lo, stop - lo)
-            angles = continuous_angles(k.angles, previous, fps)
+            # a stretch after a break starts afresh: the jump there is the lifter's, and carrying the
+            # knee's reading over it flipped a cyclist's knee (an API trial)
+            angles = continuous_angles(k.angles, None if start == first else previous, fps)
             previous = {name: float(v[-1]) for name, v in angles.items()}
             k = replace(k, angles=MappingProxyType(angles))
             if held is not None:

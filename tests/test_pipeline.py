@@ -1793,8 +1793,6 @@ def test_a_lifters_restarts_are_said_and_crossed_by_no_rate(tmp_path):
     """MotionBERT's clip starts (here every 20 frames, lifter_options.clip_len) are said in a
     note, and kinematics.csv has no speed or angle rate on either side of one (a cycling
     trial's seam read as a knee extending at 397 deg/s and as wrist motion blamed on --fps)."""
-    import csv
-
     from pcnet.pipeline import RunConfig, run_pipeline
 
     run = run_pipeline(RunConfig(lifter="motionbert", lifter_output=str(BOX_3D), fps=30.0, recording=False,
@@ -1807,6 +1805,25 @@ def test_a_lifters_restarts_are_said_and_crossed_by_no_rate(tmp_path):
     speed = [row["right_wrist_speed_normalised_per_s"] for row in rows]  # MotionBERT's units without --height
     assert [rate[t] for t in (19, 20, 39, 40)] == [""] * 4 and all(rate[t] for t in (10, 30, 50))
     assert [speed[t] for t in (19, 20, 39, 40)] == [""] * 4 and all(speed[t] for t in (10, 30, 50))
+
+
+def test_a_restart_reads_the_knee_afresh_as_the_whole_recording_does(tmp_path):
+    """An API trial: after MotionBERT's restart at frame 243 of the real cycling clip_b, pcnet
+    run's right knee read -24 deg in 21 frames (the knee's posture reading carried over the
+    jump) where the same poses kinematics'd whole read it flexed in every frame but one. The
+    stretch after a restart is read afresh."""
+    from pcnet.pipeline import RunConfig, run_pipeline
+    from pcnet.stages.kinematics import compute_kinematics
+
+    clip = shared("real", "cycling_motionbert", "clip_b_X3D.npy")
+    run_pipeline(RunConfig(lifter="motionbert", lifter_output=str(clip), fps=30.0, height=1.75, recording=False,
+                           plots=False, out=str(tmp_path / "o")), progress=False)
+    with np.load(tmp_path / "o" / "canonical.npz") as out:
+        world = out["joints_world"]
+    whole = compute_kinematics(world, 30.0)  # no break: the reading of the recording as one
+    rows = list(csv.DictReader(open(tmp_path / "o" / "kinematics.csv")))
+    knee = np.array([float(r["right_knee_flexion_deg"] or "nan") for r in rows])
+    assert np.sum(knee[243:] < 0) <= max(1, np.sum(whole.angles["right_knee_flexion"][243:] < 0)), np.where(knee < 0)
 
 @pytest.mark.slow
 def test_strict_exits_3_after_writing_every_output_where_a_warning_is_printed(tmp_path):
