@@ -448,7 +448,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     for f in findings:
         click.echo(f.terminal_line())
     if strict:
-        _strict_exit(len(findings))
+        _strict_exit(sum(f.is_warning for f in findings))
 
 
 #: Where pip finds torch's CPU build: without it pip fetches the CUDA build, several GB (a
@@ -504,7 +504,7 @@ def _run_and_report(cfg, strict: bool = False) -> None:
                    f"summary)", err=True)
         raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
     if strict:
-        _strict_exit(len(result.ranked_findings))
+        _strict_exit(sum(f.is_warning for f in result.ranked_findings))
 
 
 @main.command()

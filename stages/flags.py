@@ -110,8 +110,17 @@ class Finding:
     frames: FrameRanges | None = None
 
     def terminal_line(self) -> str:
-        """The finding as the terminal summaries print it: ``WARNING  headline -> action``."""
+        """The finding as the terminal summaries print it: ``WARNING  headline -> action``, a
+        note (:data:`Severity.INFO`) ``note     headline`` (an API trial's ``pcnet rectify``
+        printed a note as a WARNING, and ``--strict`` counted it)."""
+        if self.severity is Severity.INFO:
+            return f"note     {self.headline}"
         return f"WARNING  {self.headline} -> {self.action}"
+
+    @property
+    def is_warning(self) -> bool:
+        """Whether the finding is a WARNING (what ``--strict`` counts), not a note."""
+        return self.severity is not Severity.INFO
 
     def report_lines(self, number: int, level: str = "###") -> list[str]:
         """The finding as a report.md section: its numbered headline, severity and action (a

@@ -777,3 +777,15 @@ def test_a_level_pitch_prints_plus_zero_and_a_pitch_says_which_way_the_camera_lo
     assert looking(-0.04) == "" and looking(float("nan")) == ""
     # a docs trial read "looking up" for -0.2 +- 6.9: an interval holding both directions says neither
     assert looking(-0.2, 6.9) == "" and looking(8.6, 6.9) == ", looking down"
+
+
+def test_a_note_prints_as_a_note_and_is_no_warning_for_strict():
+    """An API trial: pcnet rectify printed pose_checks' note on spread ups as "WARNING ... -> "
+    with an empty action, and --strict exited 3 on it where pcnet run printed it as a note."""
+    from pcnet.stages.flags import Finding, Severity, note_finding
+
+    note = note_finding("per-frame up spreads 7.5 deg: a leaning body (no action) or a moving camera (--mode smooth)")
+    assert note.severity is Severity.INFO and not note.is_warning
+    assert note.terminal_line() == f"note     {note.headline}"
+    warning = Finding(Severity.CHECK, "legs differ", "compare with care", "the legs differ")
+    assert warning.is_warning and warning.terminal_line() == "WARNING  legs differ -> compare with care"
