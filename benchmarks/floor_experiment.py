@@ -53,7 +53,7 @@ def use_network(kind: str, path: Path) -> None:
     """Make the pair (``--method pcnet`` without weights) use ``path`` as its ``kind``
     (``"body"`` or ``"camera"``) network."""
     setattr(inference, f"{kind.upper()}_WEIGHTS", Path(path))
-    inference.get_session.cache_clear()
+    inference._cached_session.cache_clear()
 
 
 def deepmimic_groups(result: dict) -> dict[str, dict[str, float]]:

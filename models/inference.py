@@ -231,10 +231,23 @@ class ViewGatedPCNet:
         return StaticCameraUps(camera, R_body[:, :, 1].copy(), own)
 
 
-@lru_cache(maxsize=4)
 def get_session(weights: str | None = None) -> PCNetSession | ViewGatedPCNet:
     """A cached :class:`PCNetSession` of ``weights``, or for ``None`` the shipped
-    :class:`ViewGatedPCNet`."""
+    :class:`ViewGatedPCNet`; opened again where the file changed since (its size or
+    modification time: a developer trial's retrained weights, saved over the old file, kept
+    answering as the old ones in the same process)."""
+    if weights is None:
+        return _cached_session(None, None)
+    try:
+        st = os.stat(weights)
+        stamp = (st.st_mtime_ns, st.st_size)
+    except OSError:
+        stamp = None  # opening it says what is wrong
+    return _cached_session(str(weights), stamp)
+
+
+@lru_cache(maxsize=4)
+def _cached_session(weights: str | None, stamp: tuple[int, int] | None) -> PCNetSession | ViewGatedPCNet:
     return ViewGatedPCNet() if weights is None else PCNetSession(weights)
 
 

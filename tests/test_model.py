@@ -5,6 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -186,3 +187,20 @@ def test_inference_runs_with_torch_blocked():
                          capture_output=True, text=True, cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+def test_a_weights_file_saved_over_is_opened_again(tmp_path, monkeypatch):
+    """A developer trial retrained, saved the ONNX over the old file and rectified again in the
+    same process: the cached session answered with the old network. The cache is keyed by the
+    file's size and modification time too."""
+    from pcnet.models import inference
+
+    opened = []
+    monkeypatch.setattr(inference, "PCNetSession", lambda path: opened.append(Path(path).read_bytes()) or len(opened))
+    inference._cached_session.cache_clear()
+    weights = tmp_path / "w.onnx"
+    weights.write_bytes(b"first")
+    assert inference.get_session(str(weights)) == inference.get_session(str(weights)) == 1  # cached
+    weights.write_bytes(b"retrained")
+    assert inference.get_session(str(weights)) == 2 and opened == [b"first", b"retrained"]
+    inference._cached_session.cache_clear()
