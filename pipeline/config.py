@@ -19,7 +19,7 @@ from pcnet.models.toml_config import (check_config_types, check_unknown_keys, re
                                       value_matches)
 from pcnet.stages.core.conventions import MAX_FPS, MIN_FPS
 from pcnet.stages.core.digest import sha256_file_version
-from pcnet.stages.core.errors import InputError, close_names, refuse
+from pcnet.stages.core.errors import InputError, close_names, refuse, shown_value
 
 def _registered(kind: str) -> dict:
     from pcnet.adapters.registry import registered
@@ -105,7 +105,7 @@ def unit_camera_up(values, name: str, form: str = "X,Y,Z", given=None) -> tuple[
     if v.shape != (3,) or not np.isfinite(v).all() or not np.linalg.norm(v) > 0:
         level = "0,-1,0" if form == "X,Y,Z" else "(0, -1, 0)"
         raise InputError(f"{name}: expected {form}, the camera's up in its own frame (x right, y down, z forward; a "
-                         f"level camera's is {level}), got {values if given is None else given!r}")
+                         f"level camera's is {level}), got {shown_value(values) if given is None else repr(given)}")
     return tuple(float(c) for c in v / np.linalg.norm(v))
 
 

@@ -9,6 +9,7 @@ It lives in the pipeline because it is the one room allowed to use both ``models
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -18,7 +19,7 @@ from pcnet.models.view_gate import quarter_turn_matrices
 from pcnet.adapters.validate import ROOT_RELATIVE_MAX
 from pcnet.pipeline.config import unit_camera_up
 from pcnet.stages.core.conventions import PELVIS, check_poses, fill_pelvis_from_hips, validate_fps, validate_poses
-from pcnet.stages.core.errors import InputError
+from pcnet.stages.core.errors import InputError, shown_value
 from pcnet.stages.core.framestore import frame_blocks, in_memory
 from pcnet.stages.rectify import (METHODS, MODES, Allocate, FrameEstimate, FrameEstimator, GeometricEstimator, HeadingStep,
                                   Rectification, Rectified, SequenceEvidence, check_method_weights,
@@ -179,7 +180,16 @@ def rectify(
     """
     for name, value in (("camera_prior", camera_prior), ("measured_root", measured_root)):
         if not isinstance(value, (bool, np.bool_)):
-            raise InputError(f"rectify: {name}: expected True or False, got {value!r} ({type(value).__name__})")
+            raise InputError(f"rectify: {name}: expected True or False, got {shown_value(value)} "
+                             f"({type(value).__name__})")
+    # names before anything compares them (a developer trial's arrays met numpy's "truth value
+    # is ambiguous" and, as weights, "File name too long")
+    for name, value in (("method", method), ("mode", mode), ("heading", heading), ("posture", posture)):
+        if not isinstance(value, str) and not (name == "heading" and value is None):
+            raise InputError(f"rectify: {name}: expected a name (str), got {shown_value(value)}")
+    if weights is not None and not isinstance(weights, (str, os.PathLike)):
+        raise InputError(f"rectify: weights: expected None or the path of an .onnx file (str or Path), got "
+                         f"{shown_value(weights)}")
     check_posture(posture, method, weights, mode, camera_prior, "rectify: posture")
     if fps is None and mode in MODES and mode != "frame":
         raise InputError(f"rectify: mode {mode!r} pools frames over seconds: give fps, the recording's frame rate (Hz)")

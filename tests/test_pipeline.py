@@ -415,7 +415,8 @@ def test_the_report_names_what_was_read(tmp_path):
         "auto", DEFAULT_CUTOFF_HZ, DEFAULT_CONFIDENCE)
     # the cutoff that sets every speed is in the summary (a boxing analyst found it only in report.md)
     assert f"\nunits             normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (--cutoff-hz)\n" in res.output
-    assert (f"- **units**: normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (--cutoff-hz; 30 fps resolves up to 15 Hz; "
+    assert (f"- **units**: normalised; low-pass {DEFAULT_CUTOFF_HZ:g} Hz (zero-lag Butterworth, order 4 over its 2 passes, "
+            f"-3 dB at the cutoff; --cutoff-hz; 30 fps resolves up to 15 Hz; "
             f"Winter's for gait: a higher one keeps more of a punch's or a throw's peak speed, a lower one steadies "
             f"a noisy input's accelerations; --residual-cutoff fits one to the recording's noise)") in (tmp_path / "o" / "report.md").read_text()
     assert set(settings) == {f.name for f in dataclasses.fields(RunConfig)}
@@ -1262,7 +1263,8 @@ def test_the_recording_command_pastes_into_a_shell():
         report = replace(run_report(), cutoff_hz=hz, cutoff_source="cutoff_hz")
         units = dict(RunResult(frames=1, valid_frames=1, units="m", method="pcnet", report=report, fps=30.0,
                                fps_source="--fps").key_facts(long=True))["units"]
-        assert units.startswith(f"m; low-pass {hz:g} Hz (--cutoff-hz; 30 fps") and ("Winter's for gait" in units) == said
+        assert units.startswith(f"m; low-pass {hz:g} Hz (zero-lag Butterworth, order 4 over its 2 passes, -3 dB at the "
+                                f"cutoff; --cutoff-hz; 30 fps") and ("Winter's for gait" in units) == said
 
 
 def test_the_heading_line_gives_the_limit_auto_decided_by():

@@ -450,3 +450,22 @@ def test_the_documented_world_frame_chain_reads_a_writers_zeros_as_missing():
     peak = {name: np.nanmax(k.speed[:, R_WRIST]) for name, k in (("read", read), ("clean", clean),
                                                                    ("as positions", as_positions))}
     assert peak["read"] <= peak["clean"] * 1.01 and peak["as positions"] > 1.5 * peak["clean"], peak
+
+
+def test_rectify_refuses_arrays_for_its_options_in_one_short_line():
+    """A developer trial passed per-frame arrays where rectify takes one value: a (T, 3)
+    camera_up made a 4,059-character error line, arrays for mode, heading or posture met numpy's
+    "truth value is ambiguous", and one for weights "File name too long"."""
+    from pcnet.pipeline.rectification import rectify
+    from pcnet.stages.core.errors import InputError
+
+    X = np.load(FIXTURES / "yoga_Abhay_Tadasana_f000-099.npy")
+    cases = {"camera_up": dict(camera_up=np.tile([0.0, -1.0, 0.0], (100, 1)), mode="sequence", fps=30.0),
+             "fps": dict(fps=np.full(100, 30.0), mode="sequence"), "camera_prior": dict(camera_prior=np.ones(100)),
+             "mode": dict(mode=np.array(["sequence"] * 100)), "heading": dict(heading=np.array(["auto"] * 100)),
+             "posture": dict(posture=np.array(["auto"] * 100)), "weights": dict(weights=np.zeros(300))}
+    for name, options in cases.items():
+        shape = rf"^rectify: {name}: expected .*, got an array of shape \(\d+(, 3)?,?\)"
+        with pytest.raises(InputError, match=shape) as caught:
+            rectify(X, **options)
+        assert len(str(caught.value)) < 200 and "\n" not in str(caught.value), str(caught.value)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, shown_value
 from .framestore import FrameArray, frame_blocks
 
 H36M_JOINTS: tuple[str, ...] = (
@@ -272,11 +272,12 @@ def validate_fps(fps: object, source: str = "fps") -> float:
     # True would read as 1 Hz (every entry point then agrees on what a frame rate is).
     kind = fps.dtype.kind if isinstance(fps, np.ndarray) else None  # npz["fps"] is a 0-d array
     if isinstance(fps, (bool, np.bool_, str, bytes)) or kind in ("b", "U", "S", "O"):
-        raise InputError(f"{source}: expected a frame rate in Hz (a number), got {fps!r} ({type(fps).__name__})")
+        raise InputError(f"{source}: expected a frame rate in Hz (a number), got {shown_value(fps)} "
+                         f"({type(fps).__name__})")
     try:
         value = float(fps)
     except (TypeError, ValueError):
-        raise InputError(f"{source}: expected a frame rate in Hz, got {fps!r}") from None
+        raise InputError(f"{source}: expected a frame rate in Hz, got {shown_value(fps)}") from None
     if not (np.isfinite(value) and MIN_FPS <= value <= MAX_FPS):
         raise InputError(f"{source}: expected a frame rate in [{MIN_FPS:g}, {MAX_FPS:g}] Hz, got {value:g}")
     return value

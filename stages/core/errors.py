@@ -11,6 +11,7 @@ from __future__ import annotations
 import difflib
 import errno
 import importlib
+import math
 import re
 
 
@@ -120,6 +121,16 @@ def short_path(path: object) -> str:
         return text
     half = _SHOWN_PATH_CHARS // 2 - 2
     return f"{text[:half]}...{text[-half:]} ({len(text)} characters)"
+
+
+def shown_value(value: object) -> str:
+    """A wrong argument as an error line shows it: an array of more than one value by its shape
+    and dtype (a developer trial's per-frame ``camera_up`` made a 4,059-character line), else
+    its ``repr``, at most about :data:`_SHOWN_PATH_CHARS` characters."""
+    shape = getattr(value, "shape", None)
+    if isinstance(shape, tuple) and math.prod(shape) > 1:
+        return f"an array of shape {shape} of {getattr(value, 'dtype', type(value).__name__)}"
+    return short_path(repr(value))
 
 
 def one_line(err: BaseException) -> str:
