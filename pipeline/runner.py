@@ -57,7 +57,7 @@ from pcnet.stages.rectification_report import RectificationReport
 from pcnet.stages.rectify import GIVEN_UP, NO_VALID_FRAME, no_valid_frame_reason
 from pcnet.stages.temporal import HEADING_LIMIT_DEG, MODE_SMOOTHING_S, MODE_THRESHOLD_DEG
 from pcnet.stages.remap import built_joints, mask_low_confidence, outside_image, remap_to_h36m
-from pcnet.stages.sinks.result import (WRISTS, RecordingResult, other_persons_frames, write_arrays, write_figures,
+from pcnet.stages.sinks.result import (RECORDING_NAME, WRISTS, RecordingResult, other_persons_frames, write_arrays, write_figures,
                                       write_kinematics_table, write_motion_files, write_rerun)
 from pcnet.stages.sinks.report import REPORT_NAME, report_markdown, write_report
 from pcnet.stages.scale import IMAGE_SCALED_UNITS, SIZE_WINDOW_S, height_factor, size_normalising_factors
@@ -266,9 +266,9 @@ class RunResult:
             # how far to trust them, in the terminal (a clinician's trial found it only in report.md)
             lines.append("angles carry the lifter's own error: 4 calibrated views of one subject read knees and hips "
                          "tens of deg apart (docs/guide/limits.md)")
-        if "recording" in self.outputs:
+        if RECORDING_NAME in self.outputs:
             # quoted as a shell needs it (a coach's path with a space did not paste)
-            lines.append(f"open the recording with:  rerun {shlex.quote(str(self.outputs['recording']))}")
+            lines.append(f"open the recording with:  rerun {shlex.quote(str(self.outputs[RECORDING_NAME]))}")
         if REPORT_NAME in self.outputs:
             lines.append(f"details: {self.outputs[REPORT_NAME]}")
         return "\n".join(lines)

@@ -1245,7 +1245,7 @@ def test_the_recording_command_pastes_into_a_shell():
 
     def line(path: str) -> str:
         result = RunResult(frames=1, valid_frames=1, units="m", method="pcnet", report=run_report(), fps=30.0,
-                           fps_source="--fps", outputs={"recording": Path(path)})
+                           fps_source="--fps", outputs={"recording.rrd": Path(path)})
         return next(ln for ln in result.summary().splitlines() if ln.startswith("open the recording"))
 
     assert line("/x/Séance 1/recording.rrd") == "open the recording with:  rerun '/x/Séance 1/recording.rrd'"

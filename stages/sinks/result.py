@@ -415,13 +415,18 @@ def write_figures(r: RecordingResult, folder: Path) -> dict[str, Path]:
     return out
 
 
+#: The rerun recording's file name, also its key in a run's outputs (an API trial's
+#: ``outputs["recording.rrd"]`` met a KeyError where every other output is keyed by its name).
+RECORDING_NAME = "recording.rrd"
+
+
 def write_rerun(r: RecordingResult, folder: Path, warnings: list[str] | None = None) -> dict[str, Path]:
     """``recording.rrd`` (:func:`.rerun_log.write_recording`): video, 2D keypoints, camera,
     canonical and world views, wrist paths, kinematics series, the warnings (``warnings``,
     default ``r.flags``), the frames of motion faster than any training motion (``r.implausible_frames``)
     and the 2D track's person segments."""
     path = write_recording(
-        folder / "recording.rrd", fps=r.fps, joints_cam=r.joints_camera,
+        folder / RECORDING_NAME, fps=r.fps, joints_cam=r.joints_camera,
         # the body the kinematics read (decision 0100: the input turned rigidly, no residual)
         canonical=to_canonical(r.joints_camera, r.rotation),
         rotations=r.rotation, up=column(r.rotation, slice(None), 1), valid=r.valid,
@@ -434,4 +439,4 @@ def write_rerun(r: RecordingResult, folder: Path, warnings: list[str] | None = N
         keypoints2d_outside=(None if r.keypoints2d is None or r.keypoint_picture is None
                              else per_frame(lambda kp: outside_image(kp, r.keypoint_picture), r.keypoints2d)),
     )
-    return {"recording": path}
+    return {RECORDING_NAME: path}
