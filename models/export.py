@@ -129,9 +129,9 @@ def training_record(checkpoint: str | Path, _depth: int = 0) -> dict:
 def max_difference(model: PCNet, path: str | Path, x: np.ndarray) -> float:
     """Largest absolute difference on ``rotation`` between torch and onnxruntime for the
     normalised inputs ``x`` ``(N, 17, 3)``."""
-    import onnxruntime as ort
+    from .inference import import_onnxruntime
 
-    sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    sess = import_onnxruntime().InferenceSession(str(path), providers=["CPUExecutionProvider"])
     with torch.no_grad():
         R_torch = model.eval()(torch.from_numpy(x.astype(np.float32)))[0].numpy()
     R_ort = sess.run(["rotation"], {"x": x.astype(np.float32)})[0]

@@ -259,6 +259,19 @@ def training_config(weights: str | None = None) -> dict:
     return record if isinstance(record, dict) else {}
 
 
+def import_onnxruntime():
+    """onnxruntime, with its telemetry off unless the user's environment says otherwise:
+    onnxruntime 1.32 writes a device id and an event queue for upload to Microsoft under
+    ``~/.cache/Microsoft/DeveloperTools/.onnxruntime`` at its first session (its
+    docs/Privacy.md); ``ORT_DISABLE_TELEMETRY=1`` (set here where unset; read when its
+    environment is created) writes and sends nothing. A pipeline stage should not (a developer
+    trial found the files)."""
+    os.environ.setdefault("ORT_DISABLE_TELEMETRY", "1")
+    import onnxruntime
+
+    return onnxruntime
+
+
 def _open(weights, default: Path, threads: int):
     """(path, onnxruntime session, the ``.json`` beside the weights or {}).
 
@@ -266,8 +279,7 @@ def _open(weights, default: Path, threads: int):
         InputError: the file is missing, not an ONNX model onnxruntime can run, or its
             ``.json`` is not a JSON object.
     """
-    import onnxruntime as ort
-
+    ort = import_onnxruntime()
     path = Path(weights) if weights else default
     if not path.is_file():
         raise InputError(f"{path}: expected an ONNX weights file, got {'a folder' if path.is_dir() else 'no such file'}")

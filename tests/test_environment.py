@@ -291,3 +291,16 @@ def test_a_file_name_that_is_not_utf8_is_one_line(user_folder):
         assert done.returncode == 1 and len(lines) == 1 and "Traceback" not in err, err[-2000:]
         assert "expected input and output file and folder names in UTF-8" in lines[0] and "rename it" in lines[0]
     assert sorted(os.listdir(os.fsencode(user_folder))) == sorted([latin + b".npy", b"poses.npy"])
+
+
+def test_rectifying_writes_nothing_into_home(tmp_path):
+    """A developer trial found onnxruntime's device id and telemetry queue under
+    ~/.cache/Microsoft after one rectify: pcnet opens its sessions with telemetry off
+    (ORT_DISABLE_TELEMETRY, unless the user set it), so nothing is written there."""
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {k: v for k, v in os.environ.items() if k != "ORT_DISABLE_TELEMETRY"}
+    code = ("import numpy as np; from pcnet.pipeline import rectify; "
+            f"rectify(np.load({str(FIXTURES / 'yoga_Abhay_Tadasana_f000-099.npy')!r}))")
+    subprocess.run([sys.executable, "-c", code], env={**env, "HOME": str(home)}, check=True, timeout=120)
+    assert [p for p in home.rglob("*")] == []
