@@ -29,7 +29,6 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 from tqdm import tqdm
 
@@ -112,7 +111,7 @@ def _native_logs_silenced() -> Iterator[object]:
         os.close(saved)
 
 
-def _open(video: Path) -> tuple[cv2.VideoCapture, float, int]:
+def _open(video: Path) -> tuple[object, float, int]:
     """The opened video, its frame rate and its frame count (0 where the container does not say).
 
     Raises:
@@ -120,7 +119,8 @@ def _open(video: Path) -> tuple[cv2.VideoCapture, float, int]:
     """
     if not video.is_file():
         raise InputError(f"{video}: expected a video file, got {'a folder' if video.is_dir() else 'no such file'}")
-    capture = opencv().VideoCapture(str(video))  # FFmpeg's log quieted before the first open
+    cv2 = opencv()  # imported here: a run without a video never loads OpenCV (an API trial's 1 s)
+    capture = cv2.VideoCapture(str(video))  # FFmpeg's log quieted before the first open
     if not capture.isOpened():
         raise InputError(f"{video}: expected a video OpenCV can decode (mp4, mov, avi, ...), got a file it cannot open")
     fps = capture.get(cv2.CAP_PROP_FPS)
@@ -187,7 +187,7 @@ def estimate_video(video: str | Path, progress: bool = False,
                                      f"y = {y0 + seen_h}")
                 seen = frame[y0:y0 + seen_h, x0:x0 + seen_w]
                 image = mp_image.Image(image_format=mp_image.ImageFormat.SRGB,
-                                       data=np.ascontiguousarray(cv2.cvtColor(seen, cv2.COLOR_BGR2RGB)))
+                                       data=np.ascontiguousarray(opencv().cvtColor(seen, opencv().COLOR_BGR2RGB)))
                 # Where no pose was tracked into this frame, the detector's box is the landmark
                 # model's crop; every later frame's crop comes from the landmarks before it. The
                 # frame is seen again from its own landmarks' crop, so that every frame's pose is

@@ -31,7 +31,6 @@ from pcnet.adapters import (AdapterError, Keypoints2D, Poses3D, VideoInfo, first
                             get_3d_adapter, probe_video)
 from pcnet.adapters.mediapipe import holds_keypoints_2d, load_mediapipe_2d
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, training_config
-from pcnet.models.pose_estimator import estimator_record
 from pcnet.adapters.validate import as_path, nonfinite_line
 from pcnet.stages.core.conventions import (H36M_JOINTS, L_HIP, METRES_PER_LENGTH_UNIT, PELVIS, R_HIP,
                                           REFUSED_THIGH_M, THIGH_RANGE_M, fill_pelvis_from_hips,
@@ -1831,6 +1830,8 @@ def _run_stages(cfg: RunConfig, out: Path, bar, before_publish=None) -> RunResul
         step("inputs")
         inputs = _inputs(cfg, estimate_notes)
         if estimate_notes:  # the estimator's file is read from the staged folder, published as `out`
+            from pcnet.models.pose_estimator import estimator_record  # OpenCV's import: only for a video run
+
             read = {**_published(inputs.recording.read, tmp, out), "pose_estimator": estimator_record()}
             inputs = replace(inputs, recording=replace(inputs.recording, read=read))
         bar.update()

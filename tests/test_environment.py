@@ -304,3 +304,11 @@ def test_rectifying_writes_nothing_into_home(tmp_path):
             f"rectify(np.load({str(FIXTURES / 'yoga_Abhay_Tadasana_f000-099.npy')!r}))")
     subprocess.run([sys.executable, "-c", code], env={**env, "HOME": str(home)}, check=True, timeout=120)
     assert [p for p in home.rglob("*")] == []
+
+
+def test_the_pipeline_imports_no_opencv_until_a_video_is_read():
+    """An API trial: importing run_pipeline loaded OpenCV (about 1 s), whose wheel also set
+    LD_LIBRARY_PATH and Qt variables in the host's environment, for runs without a video."""
+    code = "import sys; from pcnet.pipeline import run_pipeline, rectify; print('cv2' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
+    assert out.stdout.strip() == "False", out.stdout
