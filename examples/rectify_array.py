@@ -16,7 +16,8 @@ from pcnet.stages.core.rotations import decompose_camera_rotation
 
 path = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(pcnet.pipeline.__file__).parent / "example_data" / "X3D.npy"
 joints = np.load(path, allow_pickle=False)  # (T, 17, 3), camera frame: x right, y down, z forward
-res = rectify(joints, method="pcnet")  # or "pcnet-rigid", "geometric"
+# sequence mode, one up for the recording, as `pcnet run` reads it (the default, frame mode, gives each frame its own)
+res = rectify(joints, method="pcnet", mode="sequence", fps=30.0)  # or "pcnet-rigid", "geometric"
 heading, pitch, roll = decompose_camera_rotation(res.rotation)
 print(f"{path.name}: {len(joints)} frames, {int(res.valid.sum())} valid")
 print(f"camera pitch {np.degrees(np.nanmean(pitch)):+.1f} deg, roll {np.degrees(np.nanmean(roll)):+.1f} deg")

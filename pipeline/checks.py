@@ -162,7 +162,7 @@ def pose_checks(joints_camera: np.ndarray, rectified: Rectified) -> list[Finding
                          f"{type(rectified).__name__}")
     if len(joints_camera) != len(rectified.rotation):
         raise InputError(f"pose_checks: expected the {len(rectified.rotation)} frames rectify was given, got "
-                         f"{len(joints_camera)} frames of joints_camera")
+                         f"{len(joints_camera)} frame{'s' * (len(joints_camera) != 1)} of joints_camera")
     report = rectified.report
     tilt = CameraTilt.of(rectified.rotation, rectified.valid)
     return [*_orientation_flags(report, tilt),

@@ -160,9 +160,10 @@ def rectify(
     files hold ``(T, J, 3)`` as their formats do) and the pelvis rule
     :func:`pcnet.stages.core.conventions.fill_pelvis_from_hips` (a missing pelvis is the hip
     midpoint; a frame still without a pelvis is invalid). The report's
-    ``pelvis_from_hips_frames`` counts the filled frames; its ``weights`` and
-    ``camera_frame_weight`` ``(T,)`` say how far the shipped camera-frame network was trusted
-    (3DPCNet methods without ``weights``). The warnings ``pcnet run`` would give these poses
+    ``pelvis_from_hips_frames`` counts the filled frames; its ``weights``
+    (:class:`~pcnet.stages.rectification_report.EnsembleWeights`, a summary) and
+    ``camera_frame_weight`` (``(T,)`` per frame) say how far the shipped camera-frame network
+    was trusted (3DPCNet methods without ``weights``). The warnings ``pcnet run`` would give these poses
     alone (a mirrored skeleton, the camera's orientation, ...) are
     :func:`pcnet.pipeline.checks.pose_checks` of the poses and the result.
 
