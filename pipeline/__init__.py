@@ -59,6 +59,17 @@ kinematics take a zero as a position, and a developer trial's wrist written as z
 18.6 m/s); ``canonical.npz``'s ``joints_world`` also has the floor under the body
 (``to_world_floor``) and, with 2D keypoints, the pelvis path.
 
+What else ``pcnet run`` does that an array chain must do itself (an API trial measured each):
+a lifter's file is read by its adapter (:mod:`pcnet.adapters`), which may change the poses
+(MediaPipe's are turned from its virtual camera into the real one:
+``pcnet.adapters.mediapipe.load_mediapipe_3d``, 7 deg of up on a real clip) and give the
+lifter's restarts (``Poses3D.breaks``, MotionBERT's clip starts, which the kinematics take no
+derivative across: ``kinematics_chunks(..., breaks=...)``); joints whose 2D keypoint's
+confidence is under ``confidence_threshold`` are missing (``pcnet.stages.remap.mask_low_confidence``);
+with 2D keypoints, frames of another person (a switched 2D track) are left out of the ranges,
+and the pelvis path's floor contacts correct the up (``pcnet.pipeline.pelvis_path``). For
+all of it in one call, :func:`run_pipeline` below.
+
 :func:`rectify` returns a result whatever the poses are: a wrong joint order, a mirrored
 skeleton or other axes still rectify. :func:`pose_checks` (:func:`pcnet.pipeline.checks.pose_checks`)
 gives the warnings ``pcnet run`` would print that the poses alone can give (the camera's
