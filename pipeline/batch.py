@@ -1289,23 +1289,19 @@ def _cell(value) -> str:
     return "-" if value is None or value == "" else str(value).replace("|", "/").replace("\n", " ")
 
 
-def _trunk_lean(row: dict) -> str | None:
-    """The row's thorax median lean forward and to the right from vertical (deg,
-    ``trunk_flexion_to_gravity_deg`` and ``trunk_lateral_tilt_to_gravity_deg``, the run
-    summary's trunk lean), ``None`` without: a seated row read 26 deg from vertical looked as
+def _trunk_lean(row: dict) -> float | None:
+    """The row's median trunk lean from vertical (``trunk_inclination_deg``, the run summary's
+    trunk lean), ``None`` without: a seated row read 26 deg from vertical looked as
     trustworthy as a standing one with only the camera's tilt beside it (a physiotherapist's trial)."""
-    angles = row.get("angles") or {}
-    forward, right = (angles.get(f"trunk_{name}_to_gravity_deg") for name in ("flexion", "lateral_tilt"))
-    if forward is None or right is None:
-        return None
-    return f"{forward['median']:+.1f} / {right['median']:+.1f}"
+    trunk = (row.get("angles") or {}).get("trunk_inclination_deg")
+    return None if trunk is None else trunk.get("median")
 
 
 def batch_markdown(report: BatchReport) -> str:
     """The batch report: what the terminal summary leaves out. The counts and the batch's
     settings; a table of every row (status, its warnings' count, attempts, frames, valid frames, mode,
     units (a row without ``height`` may not be in metres), tilt and its uncertainty, posture, the
-    thorax's median lean forward and to the right, pelvis path, floor, the OpenSim
+    trunk's median lean from vertical, pelvis path, floor, the OpenSim
     fit's marker RMS, seconds,
     worker, threads, output folder); the rows run again over their earlier output and why; every failed row's error in full (and its traceback
     where the failure is a bug of pcnet); every warning of every row, most severe
@@ -1328,7 +1324,7 @@ def batch_markdown(report: BatchReport) -> str:
             f"inputs.settings",
             "", "## Rows", "",
             "| row | line | status | warnings | tries | frames | valid | mode | units | tilt deg | tilt +- deg (what) "
-            "| posture | trunk forward / right deg (medians) | pelvis path | floor | OpenSim RMS cm | seconds | worker "
+            "| posture | trunk from vertical deg (median) | pelvis path | floor | OpenSim RMS cm | seconds | worker "
             "| threads | output |",
             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in report.rows:

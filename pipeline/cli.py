@@ -392,7 +392,7 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     from pcnet.pipeline.checks import CameraTilt, per_frame_tilt, pitch_half_width, pose_checks
     from pcnet.pipeline.io import read_pose_array
     from pcnet.pipeline.run_report import camera_record
-    from pcnet.stages.flags import looking, ranked, signed_deg
+    from pcnet.stages.flags import ranked, signed_deg, with_looking
     from pcnet.stages.core.conventions import validate_fps
     from pcnet.stages.sinks.exports import write_npz
     from pcnet.pipeline.rectification import rectify as run_rectify
@@ -434,13 +434,14 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
     click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}{requested}, "
                f"heading from {res.heading_source} (hip width CV "
                + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
-    click.echo(f"camera tilt {tilt.tilt_deg:.1f} deg from level{looking(tilt.pitch_deg, pitch_half_width(res.report))} "
-               f"(pitch {signed_deg(tilt.pitch_deg)}, "
-               f"roll {signed_deg(tilt.roll_deg)} "
-               f"deg, of the {'one' if res.mode == 'sequence' else 'mean'} up"
-               + (f"; per frame median {per_frame[0]:.1f}, 5-95 % {per_frame[1]:.1f}-{per_frame[2]:.1f}" if per_frame else "")
-               + ("; given, --camera-up)" if up is not None else
-                  "; its intervals in the archive's report, docs/outputs.md)" if res.mode == "sequence" else ")"))
+    pitch_roll = (f"(pitch {signed_deg(tilt.pitch_deg)}, roll {signed_deg(tilt.roll_deg)} deg, of the "
+                  f"{'one' if res.mode == 'sequence' else 'mean'} up"
+                  + (f"; per frame median {per_frame[0]:.1f}, 5-95 % {per_frame[1]:.1f}-{per_frame[2]:.1f}"
+                     if per_frame else "")
+                  + ("; given, --camera-up)" if up is not None else
+                     "; its intervals in the archive's report, docs/outputs.md)" if res.mode == "sequence" else ")"))
+    click.echo(f"camera tilt {tilt.tilt_deg:.1f} deg from level "
+               + with_looking(pitch_roll, tilt.pitch_deg, pitch_half_width(res.report)))
     for counts, what in ((nonfinite, "non-finite values (inf/NaN)"),  # which the counts above take as missing
                          (placeholders, "a writer's placeholders for joints not found (zeros, or a frame on one point)")):
         if counts:

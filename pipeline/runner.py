@@ -45,7 +45,7 @@ from pcnet.stages.sinks.exports import require_ezc3d, unit_token
 from pcnet.stages.flags import (Finding, Severity, absent_joints_flag, floor_flag, implausible_motion_findings,
                                keypoints_unused_flag, missing_data_line, no_opensim_flag, no_world_frame_flag,
                                note_finding, one_person_frames, opensim_fit_findings, ranked, track_segments,
-                               unfiltered_flag, given_up_note, looking, signed_deg)
+                               unfiltered_flag, given_up_note, signed_deg, with_looking)
 from pcnet.stages.floor import Floor
 from pcnet.stages.isb_angles import NEEDS_SPINE_JOINT, SPINE_ON_LINE_FRACTION, spine_off_trunk_line
 from pcnet.stages.heading import AUTO_MAX_HIP_WIDTH_CV_PERCENT, AUTO_MIN_FRAMES
@@ -65,8 +65,8 @@ from pcnet.stages.column_ranges import ColumnRanges, column_ranges
 from pcnet.stages.plausibility import implausible_frames, implausible_motion, motion_check_note
 from pcnet.stages.world_frame import feet_visible, to_world_floor, world_frame
 
-from .checks import (GIVEN_TILT, CameraTilt, CheckInputs, checks, moving_camera_note, per_frame_tilt, pitch_half_width,
-                     spreads_beyond_static, tilt_tolerance, up_was_given)
+from .checks import (GIVEN_TILT, CameraTilt, CheckInputs, calibrated_tilt_interval, checks, moving_camera_note,
+                     per_frame_tilt, pitch_half_width, spreads_beyond_static, up_was_given)
 from .config import (COMMAND_LINE, DEFAULT_CUTOFF_HZ, RunConfig, field_name, fps_contradiction, keypoint_formats,
                      multi_track_formats, pcnet_version, rates_agree, reads_folder, settings_record, trial_up_record)
 from .io import lifter_joints
@@ -189,8 +189,8 @@ class RunResult:
                          + (f"; {mode.reason}" if mode.reason else "") + decided
                          + self._auto_hint() + ")")
         heading = f"from {heading.source} (requested {heading.requested}; " + self._hip_width() + ")"
-        tilt = (f"{self.camera_tilt_deg:.1f} deg from level{looking(self.camera_pitch_deg, pitch_half_width(self.report.rectification))} "
-                + self._pitch_roll(long)) + self._per_frame_tilt()
+        tilt = f"{self.camera_tilt_deg:.1f} deg from level " + with_looking(
+            self._pitch_roll(long), self.camera_pitch_deg, pitch_half_width(self.report.rectification)) + self._per_frame_tilt()
         kinematics = (WORLD_SUMMARY if long else WORLD_SHORT)[self.report.root_path] \
             if self.report.kinematics_frame == "world" \
             else "canonical (turns with the pelvis; no fixed frame without a static camera)"
@@ -200,23 +200,32 @@ class RunResult:
                 ("units", self.units + self._guessed_size(long) + self._cutoff(long))]
 
     def _trunk(self, long: bool) -> list[tuple[str, str]]:
-        """``("trunk lean", ...)``: the thorax's median lean from vertical, forward and to the
-        right (report.md's angle table), with the up's uncertainty, which reaches them whole;
-        none without those angles. A clinic trial found them at rows 19-20 of a 36-row table,
-        and a first reader could not find the trunk lean or how sure it is."""
+        """``("trunk lean", ...)``: the pelvis-thorax line's median angle from vertical, with the
+        up's calibrated 95 % half-width where there is one (:func:`calibrated_tilt_interval`),
+        which reaches it whole, and what it leaves out; report.md adds its direction in the
+        pelvis's and the thorax's planes. None without the angle. A clinic trial found the
+        trunk's columns at rows 19-20 of a 36-row table; a second read a side bend as a forward
+        one in the thorax's planes, the direction this line therefore leaves to report.md."""
         rows = {r.name: r for r in self.angle_ranges.rows} if self.angle_ranges is not None else {}
-        forward, right = rows.get("trunk_flexion_to_gravity_deg"), rows.get("trunk_lateral_tilt_to_gravity_deg")
-        if forward is None or right is None:
+        lean = rows.get("trunk_inclination_deg")
+        if lean is None:
             return []
-        tolerance, what = tilt_tolerance(self.report.rectification)
-        calibrated = "not calibrated" not in what and "no calibrated" not in what
-        sure = ("" if not np.isfinite(tolerance) else
-                f"; +- {tolerance:.1f} from the up's {what}" if long else
-                f"; +- {tolerance:.1f} from the up" + ("" if calibrated else ", not calibrated"))
-        columns = (" (kinematics.csv's trunk_flexion_to_gravity_deg and trunk_lateral_tilt_to_gravity_deg, medians "
-                   f"over the {forward.frames} frames of the angle table") if long else " (thorax, medians"
-        return [("trunk lean", f"forward {signed_deg(forward.median)}, to the right {signed_deg(right.median)} deg "
-                               f"from vertical{columns}{sure})")]
+        half = calibrated_tilt_interval(self.report.rectification)
+        sure = ("; no calibrated uncertainty in this mode or method" if half is None else
+                "; the up was given" if half == 0.0 else
+                f"; +- {half:.1f} from the up's 95 % interval, the lifter's own trunk error not included")
+        text = f"{lean.median:.1f} deg from vertical (pelvis-thorax line, median{sure})"
+        if long:
+            parts = [(rows.get(f"trunk_{a}_deg"), rows.get(f"trunk_{b}_deg"), where) for a, b, where in (
+                ("sagittal_inclination", "frontal_inclination", "the pelvis's planes"),
+                ("flexion_to_gravity", "lateral_tilt_to_gravity", "the thorax's"))]
+            split = "; ".join(f"forward {signed_deg(f.median)}, to the right {signed_deg(r.median)} in {where}"
+                              for f, r, where in parts if f is not None and r is not None)
+            if split:
+                text += (f"; {split} (medians of kinematics.csv's trunk_* columns over the {lean.frames} frames of "
+                         f"the angle table; the two part where the shoulders turn against the hips or the trunk "
+                         f"bends sideways: docs/joint_angles.md)")
+        return [("trunk lean", text)]
 
     def _guessed_size(self, long: bool) -> str:
         """``" (the lifter's guess of a 1.53 m stature: --height sets it)"`` where the metres are

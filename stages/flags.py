@@ -179,16 +179,18 @@ def signed_deg(deg: float, digits: int = 1) -> str:
     return f"{round(deg, digits) + 0.0:+.{digits}f}"
 
 
-def looking(pitch_deg: float, half_width_deg: float = 0.0) -> str:
-    """``", looking down"`` or ``", looking up"`` by the sign of a camera pitch in degrees
-    (:func:`pcnet.stages.core.rotations.camera_pitch_roll`: positive = the camera looks down),
-    ``""`` where it prints as level (``+0.0``), is NaN, or lies within ``half_width_deg`` of
-    level (its interval's half-width: an interval that holds both directions says neither). The
-    tilt line's words, since a signed pitch alone left an ergonomist asking which way the
-    camera pointed."""
+def with_looking(pitch_roll: str, pitch_deg: float, half_width_deg: float = 0.0) -> str:
+    """A tilt line's parenthesis ``"(pitch ..., roll ...)"`` led by the direction the camera
+    looks, ``"(looking down: pitch ..."`` or ``"(looking up: ..."`` by the pitch's sign
+    (:func:`pcnet.stages.core.rotations.camera_pitch_roll`: positive = down), unchanged where
+    the pitch prints as level (``+0.0``), is NaN, or lies within ``half_width_deg`` (its
+    calibrated interval's half-width; an interval that holds both directions says neither).
+    Beside the pitch it names, not the tilt: an ergonomist could not tell which way a signed
+    pitch pointed, and a clinic trial read "22 deg from level, looking up" as 22 deg up where
+    the camera was pitched 8 and rolled 21."""
     if not np.isfinite(pitch_deg) or signed_deg(pitch_deg) == "+0.0" or abs(pitch_deg) <= half_width_deg:
-        return ""
-    return ", looking down" if pitch_deg > 0 else ", looking up"
+        return pitch_roll
+    return f"(looking {'down' if pitch_deg > 0 else 'up'}: " + pitch_roll.removeprefix("(")
 
 
 def per_frame_tilt_summary(up_cam: np.ndarray, valid: np.ndarray) -> list[float]:
@@ -459,8 +461,8 @@ def limb_proportions_flag(joints: np.ndarray, limits: SkeletonLimits | None = No
                    (f"treat the {found.shortest}'s angles and speeds with care: the lifter collapsed it" if order_fixed
                     else f"check the joint order; treat the {found.shortest}'s angles with care"),
                    measured + (collapsed + " (the joint order is the lifter's format's)" if order_fixed else
-                               f"a file in another joint order than H36M-17's joins joints that are not neighbours "
-                               f"(check the joint order its lifter writes, --layout with --lifter generic), or "
+                               "a file in another joint order than H36M-17's joins joints that are not neighbours "
+                               "(check the joint order its lifter writes, --layout with --lifter generic), or "
                                + collapsed))]
 
 

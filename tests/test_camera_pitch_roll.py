@@ -52,5 +52,7 @@ def test_pcnet_rectify_reports_the_cameras_tilt_pitch_and_roll_as_pcnet_run(tmp_
         assert abs(report["camera_tilt_deg"] - float(camera_tilt_deg(up / np.linalg.norm(up)))) < 1e-6
         assert ("camera_tilt_per_frame_deg" in report) == (mode == "frame")
         pitch = report["camera_pitch_deg"]
-        assert (f"camera tilt {report['camera_tilt_deg']:.1f} deg from level, looking {'down' if pitch > 0 else 'up'} "
-                f"(pitch {pitch:+.1f}") in res.output
+        # the direction only beside a calibrated interval that excludes level (frame mode has none)
+        named = mode == "sequence" and abs(pitch) > report["camera_pitch_interval_deg"]
+        looking = f"looking {'down' if pitch > 0 else 'up'}: " if named else ""
+        assert f"camera tilt {report['camera_tilt_deg']:.1f} deg from level ({looking}pitch {pitch:+.1f}" in res.output

@@ -769,14 +769,17 @@ def test_videopose3d_world_output_given_as_camera_frame_is_warned_as_lying():
 
 
 def test_a_level_pitch_prints_plus_zero_and_a_pitch_says_which_way_the_camera_looks():
-    from pcnet.stages.flags import looking, signed_deg
+    from pcnet.stages.flags import signed_deg, with_looking
 
     # an ergonomist's trial read "-0.0" for a level camera and could not tell "+8.6" down from up
     assert signed_deg(-0.04) == "+0.0" and signed_deg(-0.06) == "-0.1" and signed_deg(0.0) == "+0.0"
-    assert looking(8.6) == ", looking down" and looking(-3.0) == ", looking up"
-    assert looking(-0.04) == "" and looking(float("nan")) == ""
+    line = "(pitch +8.6, roll +21.0 deg)"
+    # beside the pitch it names (a clinic trial read "22 deg from level, looking up" as 22 deg up)
+    assert with_looking(line, 8.6) == "(looking down: pitch +8.6, roll +21.0 deg)"
+    assert with_looking(line, -3.0).startswith("(looking up: pitch")
+    assert with_looking(line, -0.04) == line and with_looking(line, float("nan")) == line
     # a docs trial read "looking up" for -0.2 +- 6.9: an interval holding both directions says neither
-    assert looking(-0.2, 6.9) == "" and looking(8.6, 6.9) == ", looking down"
+    assert with_looking(line, -0.2, 6.9) == line and with_looking(line, 8.6, float("inf")) == line
 
 
 def test_a_note_prints_as_a_note_and_is_no_warning_for_strict():
