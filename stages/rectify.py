@@ -462,11 +462,13 @@ def up_model_sequence(R: np.ndarray, ok: np.ndarray, evidence: UpEvidence, fps: 
     if posture == "lying":
         trunk_from_vertical = float(np.degrees(np.arccos(min(1.0, abs(float(post.summary.up @ up))))))
         if trunk_from_vertical < 45.0:  # nearer vertical than horizontal: not lying
+            # the likeliest cause first: a clinic trial's seated lotus was told to turn its input
             raise InputError(f"posture lying: expected a lying trunk, got one {trunk_from_vertical:.0f} deg from "
                              f"vertical at the up the camera prior allows: the trunk runs up and down the image, "
-                             f"which a lying body shows only to a camera turned a quarter turn or looking straight "
-                             f"down; turn the input to how it was displayed (a phone's display rotation), or leave "
-                             f"the posture to the priors (auto)")
+                             f"as a sitting or standing body's does (leave the posture to the priors, auto, or "
+                             f"declare upright); a lying body shows that only to a camera turned a quarter turn or "
+                             f"looking straight down (turn the input to how it was displayed: a phone's display "
+                             f"rotation)")
     kind = "up model+ground_plane" if ground["used"] else "up model"
     rotations, heading_ok = rotations_about_up(R, up)
     pitch, roll = camera_pitch_roll(up)
