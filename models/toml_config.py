@@ -58,6 +58,8 @@ def read_toml(path: str | Path) -> dict:
             :data:`MAX_TOML_NESTING` levels (named in the message).
     """
     path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():  # reading a pipe waits forever
+        raise InputError(f"{path}: expected a TOML config file, got a special file (a named pipe or device)")
     try:
         text = path.read_text()
         if toml_nesting(text) > MAX_TOML_NESTING:

@@ -253,6 +253,8 @@ def read_manifest(manifest: Path) -> tuple[list[tuple[int, dict]], dict[int, str
         InputError: the file is empty, not UTF-8 text, not CSV, has no header or no rows, or
             a header with a column given twice or not a column of :func:`manifest_columns`.
     """
+    if manifest.exists() and not manifest.is_file() and not manifest.is_dir():  # reading a pipe waits forever
+        raise InputError(f"{manifest}: expected a CSV manifest file, got a special file (a named pipe or device)")
     raw = manifest.read_bytes()
     try:
         text = raw.decode("utf-8-sig")
@@ -977,8 +979,11 @@ def _only_batch_of(manifest: str | os.PathLike):
     """
     try:
         import fcntl
-        held = open(manifest, "rb")
+        # a named pipe's open would wait for a writer (a file-safety trial); read_manifest refuses it
+        held = open(manifest, "rb") if os.path.isfile(manifest) else None
     except (ImportError, OSError):
+        held = None
+    if held is None:
         yield
         return
     with held:

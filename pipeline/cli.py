@@ -20,7 +20,8 @@ from pcnet.models.datasets import CAMERAS
 from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import (ALIGN, MODES, check_camera_up_use, keypoint_formats, lifter_names,
                                    multi_track_formats, parse_camera_up, pcnet_version)
-from pcnet.pipeline.interrupt import EXIT_INTERRUPTED, STOP_SIGNALS, came_from_interrupt, quiet_interrupt_hook, raise_interrupt
+from pcnet.pipeline.interrupt import (EXIT_INTERRUPTED, STOP_SIGNALS, InterruptedAfterPublishing, came_from_interrupt,
+                                      quiet_interrupt_hook, raise_interrupt)
 from pcnet.stages.core.errors import InputError, import_extra, one_line, short_path
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, POSTURES, check_method_weights, check_posture
@@ -36,8 +37,8 @@ class _ErrorBoundary(click.Group):
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
-        except KeyboardInterrupt:
-            _stop_interrupted()
+        except KeyboardInterrupt as stop:
+            _stop_interrupted(stop)
         except (click.exceptions.Exit, click.Abort):
             raise
         except BrokenPipeError:  # the reader stopped reading (pcnet docs PAGE | head): no error line for it
@@ -47,7 +48,7 @@ class _ErrorBoundary(click.Group):
             raise click.exceptions.Exit(1) from None
         except Exception as err:
             if came_from_interrupt(err):
-                _stop_interrupted()
+                _stop_interrupted(err)
             line = _bad_input_line(ctx, err)
             if line is None:  # a bug of pcnet, or click's own exception: as raised
                 raise
@@ -97,7 +98,20 @@ def _strict_exit(warnings: int) -> None:
         raise click.exceptions.Exit(EXIT_WARNED)
 
 
-def _stop_interrupted() -> None:
+def _stop_after_writing(what: str, where: str = "") -> None:
+    """Exit 130 for an interrupt that came after ``what`` (``--out OUT``, a file) was written
+    whole, saying so."""
+    click.echo(f"pcnet: interrupted after {what} was written whole{where}", err=True)
+    raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+
+
+def _stop_interrupted(stop: BaseException | None = None) -> None:
+    seen = set()
+    while stop is not None and id(stop) not in seen:  # the interrupt itself, or what it caused
+        if isinstance(stop, InterruptedAfterPublishing):  # the output was published whole just before
+            _stop_after_writing(stop.path)
+        seen.add(id(stop))
+        stop = stop.__cause__ or stop.__context__
     click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
     raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
 
@@ -429,25 +443,28 @@ def rectify(input_path, out_path, method, key, mode, fps, heading, camera_prior,
               frame_tilt_bound_deg=res.report.frame_tilt_bound_deg,
               report={**res.report.as_record(), **camera_record(tilt, per_frame)},
               flags=np.array([f.detail for f in findings], dtype=str))
-    cv = res.report.heading.hip_width_cv_percent
-    requested = f" (requested {mode})" if mode != res.mode else ""
-    click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}{requested}, "
-               f"heading from {res.heading_source} (hip width CV "
-               + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
-    pitch_roll = (f"(pitch {signed_deg(tilt.pitch_deg)}, roll {signed_deg(tilt.roll_deg)} deg, of the "
-                  f"{'one' if res.mode == 'sequence' else 'mean'} up"
-                  + (f"; per frame median {per_frame[0]:.1f}, 5-95 % {per_frame[1]:.1f}-{per_frame[2]:.1f}"
-                     if per_frame else "")
-                  + ("; given, --camera-up)" if up is not None else
-                     "; its intervals in the archive's report, docs/outputs.md)" if res.mode == "sequence" else ")"))
-    click.echo(f"camera tilt {tilt.tilt_deg:.1f} deg from level "
-               + with_looking(pitch_roll, tilt.pitch_deg, pitch_half_width(res.report)))
-    for counts, what in ((nonfinite, "non-finite values (inf/NaN)"),  # which the counts above take as missing
-                         (placeholders, "a writer's placeholders for joints not found (zeros, or a frame on one point)")):
-        if counts:
-            click.echo(nonfinite_line(counts, what=what))
-    for f in findings:
-        click.echo(f.terminal_line())
+    try:  # the archive is written: an interrupt from here on says so (a file-safety trial)
+        cv = res.report.heading.hip_width_cv_percent
+        requested = f" (requested {mode})" if mode != res.mode else ""
+        click.echo(f"{out_path}: {len(res.valid)} frames, {int(res.valid.sum())} valid, method {method}, mode {res.mode}{requested}, "
+                   f"heading from {res.heading_source} (hip width CV "
+                   + (f"{cv:.2f} %)" if np.isfinite(cv) else "needs two frames)"))
+        pitch_roll = (f"(pitch {signed_deg(tilt.pitch_deg)}, roll {signed_deg(tilt.roll_deg)} deg, of the "
+                      f"{'one' if res.mode == 'sequence' else 'mean'} up"
+                      + (f"; per frame median {per_frame[0]:.1f}, 5-95 % {per_frame[1]:.1f}-{per_frame[2]:.1f}"
+                         if per_frame else "")
+                      + ("; given, --camera-up)" if up is not None else
+                         "; its intervals in the archive's report, docs/outputs.md)" if res.mode == "sequence" else ")"))
+        click.echo(f"camera tilt {tilt.tilt_deg:.1f} deg from level "
+                   + with_looking(pitch_roll, tilt.pitch_deg, pitch_half_width(res.report)))
+        for counts, what in ((nonfinite, "non-finite values (inf/NaN)"),  # which the counts above take as missing
+                             (placeholders, "a writer's placeholders for joints not found (zeros, or a frame on one point)")):
+            if counts:
+                click.echo(nonfinite_line(counts, what=what))
+        for f in findings:
+            click.echo(f.terminal_line())
+    except KeyboardInterrupt:
+        _stop_after_writing(str(out_path))
     if strict:
         _strict_exit(sum(f.is_warning for f in findings))
 
@@ -501,9 +518,7 @@ def _run_and_report(cfg, strict: bool = False) -> None:
     try:
         click.echo(result.summary())
     except KeyboardInterrupt:  # a file-safety trial read "nothing half-written" for a complete output
-        click.echo(f"pcnet: interrupted after --out {short_path(cfg.out)} was written whole (its report.md holds the "
-                   f"summary)", err=True)
-        raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+        _stop_after_writing(f"--out {short_path(cfg.out)}", " (its report.md holds the summary)")
     if strict:
         _strict_exit(sum(f.is_warning for f in result.ranked_findings))
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import signal
 import threading
+from contextlib import contextmanager
 
 EXIT_INTERRUPTED = 130
 _interrupted = threading.Event()
@@ -19,6 +20,45 @@ def raise_interrupt(signum, frame) -> None:
     """Signal handler: remember the interrupt, then unwind like Ctrl-C."""
     _interrupted.set()
     raise KeyboardInterrupt(f"signal {signum}")
+
+
+class InterruptedAfterPublishing(KeyboardInterrupt):
+    """An interrupt that came once the output ``path`` was published whole: the command says
+    so, not that nothing was written (a file-safety trial's signals at publication read
+    "nothing half-written was left behind" beside the new output)."""
+
+    def __init__(self, path: str):
+        super().__init__(f"interrupted after {path} was published")
+        self.path = path
+
+
+@contextmanager
+def interrupts_deferred():
+    """Hold Ctrl-C, SIGTERM and SIGHUP while the block runs, then raise the first that came as
+    ``KeyboardInterrupt``: for a publication and its clean-up, which an interrupt between two
+    steps left half done (a replaced output's trash folder without its marker, which no run
+    removes: a file-safety trial). Only signals whose handler is Python's (:func:`raise_interrupt`,
+    Ctrl-C's default) are held; an ignored or default one keeps its meaning. Python runs signal
+    handlers in the main thread, so elsewhere (a Ray task's thread) nothing is held."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    came: list[int] = []
+
+    def remember(signum, frame) -> None:
+        came.append(signum)
+        _interrupted.set()
+
+    held = {s: h for s in (signal.SIGINT, *STOP_SIGNALS) if callable(h := signal.getsignal(s))}
+    for signum in held:
+        signal.signal(signum, remember)
+    try:
+        yield
+    finally:
+        for signum, handler in held.items():
+            signal.signal(signum, handler)
+    if came:
+        raise KeyboardInterrupt(f"signal {came[0]}")
 
 
 def was_interrupted() -> bool:

@@ -48,7 +48,7 @@ from pathlib import Path
 from pcnet.stages.core.atomic import NAME_MAX, hidden_name, make_parents, remove_created, write_text, writing_failed
 from pcnet.stages.core.errors import InputError, reason, short_path
 
-from .interrupt import check_interrupted
+from .interrupt import InterruptedAfterPublishing, check_interrupted, interrupts_deferred
 
 MARKER = ".pcnet-output"
 TMP_TAG = ".pcnet-tmp-"
@@ -492,7 +492,18 @@ def staged_output(out: str | os.PathLike, overwrite: bool = False, left: list[st
                                  f"{', '.join(appeared[:5])}{' ...' if len(appeared) > 5 else ''} added or changed "
                                  f"during the run; left as they are, and this run's output not written: move them and "
                                  f"run again")
-            trash = _swap_in(tmp, target, overwrite, given)
+            published = False
+            try:
+                # the swap and the old output's removal run whole: an interrupt waits for them
+                with interrupts_deferred():
+                    trash = _swap_in(tmp, target, overwrite, given)
+                    published = True
+                    if trash is not None:
+                        _discard_replaced(trash, given, left)
+            except KeyboardInterrupt as stop:
+                if published:
+                    raise InterruptedAfterPublishing(f"--out {given}") from stop
+                raise
         except (OSError, InputError) as err:
             refusal = writing_failed(err, tmp, f"--out {given}")
             if refusal is None:
@@ -504,17 +515,21 @@ def staged_output(out: str | os.PathLike, overwrite: bool = False, left: list[st
         shutil.rmtree(tmp, ignore_errors=True)
         remove_created(created)
         raise
-    if trash is not None:
-        failures: list[str] = []
-        kept = remove_owned(trash, lambda path, err: failures.append(f"{Path(path).name}: {reason(err)}"))
-        _set_live(trash, False)
-        if kept and left is not None:  # a file-safety trial's note, written as the run ended, was deleted
-            left.append(f"{', '.join(kept[:5])}{' ...' if len(kept) > 5 else ''} appeared in --out {given} while this "
-                        f"run replaced it: kept, not deleted, in {trash} (hidden, beside it): move them back")
-        if failures and left is not None:  # a bad-input trial: an undeletable old file stayed there unsaid
-            left.append(f"files of the output this run replaced are left in {trash} ({failures[0]}"
-                        f"{'; and more' if len(failures) > 1 else ''}) beside --out {given}: remove that folder "
-                        f"yourself (without its marker, pcnet cannot tell it is its own)")
+
+
+def _discard_replaced(trash: Path, given: str, left: list[str] | None) -> None:
+    """Remove from ``trash``, the output an ``--overwrite`` replaced, what pcnet wrote there
+    (:func:`remove_owned`), and add to ``left`` what stays and why."""
+    failures: list[str] = []
+    kept = remove_owned(trash, lambda path, err: failures.append(f"{Path(path).name}: {reason(err)}"))
+    _set_live(trash, False)
+    if kept and left is not None:  # a file-safety trial's note, written as the run ended, was deleted
+        left.append(f"{', '.join(kept[:5])}{' ...' if len(kept) > 5 else ''} appeared in --out {given} while this "
+                    f"run replaced it: kept, not deleted, in {trash} (hidden, beside it): move them back")
+    if failures and left is not None:  # a bad-input trial: an undeletable old file stayed there unsaid
+        left.append(f"files of the output this run replaced are left in {trash} ({failures[0]}"
+                    f"{'; and more' if len(failures) > 1 else ''}) beside --out {given}: remove that folder "
+                    f"yourself (without its marker, pcnet cannot tell it is its own)")
 
 
 def remove_owned(folder: Path, failed) -> list[str]:
@@ -567,12 +582,19 @@ def _carry_folder_attributes(old: Path, new: Path) -> None:
     group and setgid bit to ``--overwrite``. Best effort: a group the user does not belong to
     stays the one the folder was made with."""
     st = old.stat()
+    # each step on its own: a group the user is not in must not cost the mode (a second
+    # file-safety trial's private 0700 folder came back 0755, readable by anyone)
     with contextlib.suppress(OSError):
         os.chown(new, -1, st.st_gid)  # before the mode: a change of group clears the setgid bit
+    with contextlib.suppress(OSError):
         shutil.copystat(old, new)
+    with contextlib.suppress(OSError):
+        os.chmod(new, stat.S_IMODE(st.st_mode))  # copystat's, unless it stopped before it
+    with contextlib.suppress(OSError):
         os.utime(new)
-        if st.st_mode & stat.S_ISGID:
-            for path in new.rglob("*"):
+    if st.st_mode & stat.S_ISGID and os.stat(new).st_gid == st.st_gid:
+        for path in new.rglob("*"):
+            with contextlib.suppress(OSError):
                 os.chown(path, -1, st.st_gid, follow_symlinks=False)
 
 

@@ -282,6 +282,54 @@ def test_overwrite_keeps_the_folders_permissions_group_and_extended_attributes(u
     assert time.time() - os.stat(out).st_mtime < 60  # the new output's own times, not the old folder's
 
 
+def test_overwrite_keeps_a_private_folders_mode_where_its_group_cannot_be_given(user_folder, monkeypatch):
+    """A second file-safety trial: a private 0700 output folder whose group the user is not in
+    came back 0755, readable by anyone, because the failed change of group skipped the mode too."""
+    from pcnet.pipeline import outdir
+    from pcnet.pipeline.outdir import register_files, staged_output
+
+    with staged_output("o") as tmp:
+        (tmp / "world.trc").write_bytes(b"old")
+        register_files(tmp, ["world.trc"])
+    os.chmod(user_folder / "o", 0o700)
+
+    def not_a_member(*args, **kwargs):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(outdir.os, "chown", not_a_member)
+    with staged_output("o", True) as tmp:
+        (tmp / "world.trc").write_bytes(b"new")
+        register_files(tmp, ["world.trc"])
+    assert oct(os.stat(user_folder / "o").st_mode & 0o7777) == oct(0o700)
+
+
+def test_an_interrupt_during_publication_waits_for_it_and_says_the_output_is_whole(user_folder, monkeypatch):
+    """A second file-safety trial signalled runs at the instant they published: "nothing
+    half-written was left behind" beside the new output, and with --overwrite a trash folder
+    left without its marker, which no run removes. The swap and the old output's removal now
+    run whole, and the interrupt then says the output is whole (exit 130)."""
+    from pcnet.pipeline import outdir
+
+    assert _invoke(*RUN, "--out", "o").exit_code == 0
+    swap_in = outdir._swap_in
+
+    def signalled(tmp, target, overwrite, given):  # SIGTERM arrives as the swap starts
+        os.kill(os.getpid(), signal.SIGTERM)
+        return swap_in(tmp, target, overwrite, given)
+
+    monkeypatch.setattr(outdir, "_swap_in", signalled)
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, *interrupt.STOP_SIGNALS)}
+    try:
+        res = _invoke(*RUN, "--out", "o", "--overwrite")
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+        interrupt._interrupted.clear()
+    assert res.exit_code == 130 and "Traceback" not in res.output, (res.output, res.exception)
+    assert re.search(r"^pcnet: interrupted after --out \S*o was written whole$", res.output, re.M), res.output
+    assert _complete(user_folder / "o") and not [p for p in user_folder.iterdir() if TRASH_TAG in p.name]
+
+
 def test_an_out_that_cannot_be_moved_aside_is_one_line_naming_out(user_folder, monkeypatch):
     """--overwrite of an --out that is a mount point: the old output cannot be renamed aside
     (EBUSY), and a user trial got the rename's two paths, one of them pcnet's hidden trash."""
@@ -484,6 +532,21 @@ def test_an_interrupt_after_the_output_is_published_says_it_is_whole(user_folder
     assert res.exit_code == 130 and "Traceback" not in res.output, res.output
     assert "pcnet: interrupted after --out o was written whole (its report.md holds the summary)" in res.output
     assert _complete(user_folder / "o") and (user_folder / "o" / "report.md").is_file()
+
+
+def test_an_interrupt_after_rectify_wrote_its_archive_says_it_is_whole(user_folder, monkeypatch):
+    """pcnet rectify interrupted while printing its summary said "nothing half-written was
+    left behind" beside its complete .npz (a second file-safety trial)."""
+    from pcnet.stages import flags
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt("signal 15")
+
+    monkeypatch.setattr(flags, "with_looking", interrupted)
+    res = _invoke("rectify", "poses.npy", "--out", "r.npz", "--method", "geometric")
+    assert res.exit_code == 130 and "pcnet: interrupted after r.npz was written whole" in res.output, res.output
+    with np.load(user_folder / "r.npz", allow_pickle=False) as archive:
+        assert archive["rotation"].shape == (100, 3, 3)
 
 
 def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt(user_folder, monkeypatch):
@@ -1109,3 +1172,13 @@ def test_a_dangling_symlink_as_out_is_refused(user_folder):
         "link to a missing path" in res.output, res.output
     assert not (user_folder / "target_not_there").exists() and os.path.islink(user_folder / "dangling")
 
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX's")
+def test_a_named_pipe_as_manifest_or_config_is_one_line_not_a_wait(user_folder):
+    """A second file-safety trial: a named pipe with no writer given as the batch manifest or
+    the --config waited forever (the lifter output's was refused)."""
+    for name in ("m.csv", "run.toml"):
+        os.mkfifo(name)
+    _one_line_error(CliRunner().invoke(main, ["batch", "m.csv"]), "m.csv", "a special file (a named pipe or device)")
+    _one_line_error(_invoke("run", "--config", "run.toml"), "run.toml", "a special file (a named pipe or device)")
