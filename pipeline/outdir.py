@@ -625,11 +625,15 @@ def _swap_in(tmp: Path, target: Path, overwrite: bool, given: str) -> Path | Non
             _carry_folder_attributes(target, tmp)
             info = read_marker(target)
             if info.get("writer") == "pcnet":  # the trash is this live run's until it is removed
+                before = (target / MARKER).read_bytes()
                 write_text(target / MARKER, json.dumps({**info, "pid": os.getpid(), "host": socket.gethostname()},
                                                        indent=1) + "\n")
             try:
                 os.rename(target, trash)
             except OSError as err:  # a mount point (EBUSY) cannot be moved aside: a user trial
+                if info.get("writer") == "pcnet":  # left as it was, its marker too (a second file-safety trial)
+                    with contextlib.suppress(OSError):
+                        write_text(target / MARKER, before.decode("utf-8"))
                 raise InputError(f"--out {given}: cannot move the earlier output aside to replace it ({reason(err)}); "
                                  f"left as it was, and this run's output not written") from err
         os.rename(tmp, target)

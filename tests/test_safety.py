@@ -342,6 +342,7 @@ def test_an_out_that_cannot_be_moved_aside_is_one_line_naming_out(user_folder, m
     with staged_output("o") as tmp:
         (tmp / "world.trc").write_bytes(b"old")
         register_files(tmp, ["world.trc"])
+    marker = (user_folder / "o" / MARKER).read_bytes()
     rename = os.rename
 
     def busy(src, dst, *args, **kwargs):
@@ -358,6 +359,8 @@ def test_an_out_that_cannot_be_moved_aside_is_one_line_naming_out(user_folder, m
                               "a mount point or a folder in use? write into a new folder inside it, or elsewhere); "
                               "left as it was, and this run's output not written")
     assert (user_folder / "o" / "world.trc").read_bytes() == b"old"
+    # its marker too, which claimed it for this run (a second file-safety trial found it rewritten)
+    assert (user_folder / "o" / MARKER).read_bytes() == marker
     assert not [p for p in user_folder.iterdir() if p.name.startswith(".")]  # no temp or trash folder left
 
 

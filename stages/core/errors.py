@@ -74,7 +74,9 @@ _ADVICE = {
     **dict.fromkeys(_NO_ROOM, "the disk, its inodes or your quota are full: free space there or write elsewhere"),
     errno.EROFS: "write elsewhere",
     errno.EACCES: "check the permissions of that path, or use another",
-    errno.EPERM: "an immutable or append-only file or folder? use another path",
+    # a second file-safety trial's cause was the sticky bit: another user's folder in /tmp
+    errno.EPERM: "an immutable or append-only file or folder, or another user's in a sticky folder such as /tmp? "
+                 "use another path",
     errno.EMFILE: "raise the open-file limit (ulimit -n) and run again",
     errno.ENFILE: "close programs or raise the system's open-file limit, and run again",
     errno.ENAMETOOLONG: "use a shorter path",
