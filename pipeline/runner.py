@@ -203,7 +203,7 @@ class RunResult:
         """``("trunk lean", ...)``: the pelvis-thorax line's median angle from vertical, with the
         up's calibrated 95 % half-width where there is one (:func:`calibrated_tilt_interval`),
         which reaches it whole, and what it leaves out; report.md adds its direction in the
-        pelvis's and the thorax's planes. None without the angle. A clinic trial found the
+        pelvis's and the thorax's planes; nothing without the angle. A clinic trial found the
         trunk's columns at rows 19-20 of a 36-row table; a second read a side bend as a forward
         one in the thorax's planes, the direction this line therefore leaves to report.md."""
         rows = {r.name: r for r in self.angle_ranges.rows} if self.angle_ranges is not None else {}
