@@ -122,8 +122,7 @@ from pcnet.models.datasets import load_mocap, make_pairs, select_split
 from pcnet.models.inference import BODY_WEIGHTS, CAMERA_WEIGHTS, get_session
 from pcnet.models.lifter_noise import LifterNoise
 from pcnet.models.preprocess import normalize_input
-from pcnet.models.view_gate import (BODY_ESTIMATE_LIMIT_PITCH_DEG, PITCH_RAMP_DEG, blend_rotations, camera_frame_weight,
-                                    camera_view_estimate, frame_quarter_turns, quarter_turn_matrices, window_frames)
+from pcnet.models.view_gate import blend_rotations, camera_frame_weight, frame_quarter_turns, quarter_turn_matrices
 from pcnet.pipeline.rectification import NetworkEstimator
 from benchmarks.camera_motion_model import decide_camera_motion
 from benchmarks.fit_root_path import K as K_VIEW
@@ -762,27 +761,6 @@ def gate_inputs(ev: dict, turns: bool = True):
     return Rb, Rc, valid, Qb, Qc
 
 
-def pitch_ramps_weight(Rb: np.ndarray, valid: np.ndarray, fps: float, Rc: np.ndarray) -> np.ndarray:
-    """:func:`pcnet.models.view_gate.camera_frame_weight` with its roll ramps taken out (its
-    :data:`~pcnet.models.view_gate.ROLL_RAMP_DEG` and ``BODY_ESTIMATE_LIMIT_ROLL_DEG``, hand-set,
-    decision 0040): ``w = max(in(body), in(camera) * near(body))`` in pitch alone, whose ramps
-    were fitted (decision 0063)."""
-    w = np.full(len(valid), np.nan)
-    idx = np.flatnonzero(valid)
-    if len(idx) == 0:
-        return w
-    size = window_frames(fps)
-    _, pitch_b = camera_view_estimate(Rb[idx], size)
-    _, pitch_c = camera_view_estimate(Rc[idx], size)
-
-    def ramp(x, full, none):
-        return np.clip((none - x) / (none - full), 0.0, 1.0)
-
-    w[idx] = np.maximum(ramp(pitch_b, *PITCH_RAMP_DEG),
-                        ramp(pitch_c, *PITCH_RAMP_DEG) * ramp(pitch_b, *BODY_ESTIMATE_LIMIT_PITCH_DEG))
-    return w
-
-
 def per_frame(ev: dict, v: Variant):
     """``(R (T,3,3), valid, weight, disagreement)``: the pair's per-frame estimate under ``v``
     (ViewGatedPCNet.predict_gated's arithmetic on the cached network outputs)."""
@@ -792,8 +770,8 @@ def per_frame(ev: dict, v: Variant):
         w = camera_frame_weight(Qb, valid, fps, Qc)
     elif v.gate == "body-estimate":
         w = camera_frame_weight(Qb, valid, fps)
-    elif v.gate == "pitch":
-        w = pitch_ramps_weight(Qb, valid, fps, Qc)
+    elif v.gate == "pitch":  # |roll| <= 180, so ramps from 180 to 360 deg are 1: roll taken out
+        w = camera_frame_weight(Qb, valid, fps, Qc, roll_ramp_deg=(180.0, 360.0), body_roll_limit_deg=(180.0, 360.0))
     else:
         w = np.where(valid, {"half": 0.5, "body": 0.0, "camera": 1.0}[v.gate], np.nan)
     R = with_up(Rb, blend_rotations(Rb, Rc, w)[:, :, 1])

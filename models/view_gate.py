@@ -62,7 +62,8 @@ from pcnet.stages.core.rotations import axis_rotation, decompose_camera_rotation
 #: (module docstring); chosen between 5-15 and 10-20 deg (benchmarks/view_gate_rule.py) with the
 #: CMU test subjects and DeepMimic in view as well as the validation split (README, view-gate
 #: section); hand-set: fitted on the validation split the roll constants and the window lose on
-#: held-out data (decision 0040, ``python -m benchmarks.fit_view_gate``).
+#: held-out data (decision 0040, ``python -m benchmarks.fit_view_gate``); taken out, per-frame
+#: tilt on held-out rolled cameras worsens (decision 0110, ``benchmarks/results/ablation_view_gate.txt``).
 ROLL_RAMP_DEG = (10.0, 20.0)
 #: Pitch: fitted on the validation split's "paper", "wide", fully rolled and steep views (a
 #: further 30-80 deg down) by ``python -m benchmarks.fit_gate_pitch --data ../shared/data``
@@ -100,7 +101,8 @@ def camera_view_estimate(R: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarr
 
 def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 30.0,
                         R_camera_net: np.ndarray | None = None,
-                        roll_ramp_deg: tuple[float, float] = ROLL_RAMP_DEG) -> np.ndarray:
+                        roll_ramp_deg: tuple[float, float] = ROLL_RAMP_DEG,
+                        body_roll_limit_deg: tuple[float, float] = BODY_ESTIMATE_LIMIT_ROLL_DEG) -> np.ndarray:
     """Weight of the camera-frame network per frame, from both networks' camera view estimates.
 
     ``w = max(in(body), in(camera) * near(body))``: ``in`` is 1 inside the training views
@@ -118,6 +120,9 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
             body-frame estimate alone (``w = in(body)``).
         roll_ramp_deg: the roll ramp of ``in`` (default :data:`ROLL_RAMP_DEG`; earlier
             releases used ``(20, 30)``, benchmarks/view_gate_rule.py).
+        body_roll_limit_deg: the roll ramp of ``near`` (default
+            :data:`BODY_ESTIMATE_LIMIT_ROLL_DEG`). Both at ``(180, 360)`` take roll out of the
+            gate, which then reads pitch alone (the ablation's row, decision 0110).
 
     Returns:
         ``(T,)`` float64 in [0, 1]; NaN where not valid. Pitch and roll are
@@ -134,7 +139,7 @@ def camera_frame_weight(R_body_net: np.ndarray, valid: np.ndarray, fps: float = 
     if R_camera_net is not None:
         roll_c, pitch_c = camera_view_estimate(R_camera_net[idx], size)
         kept_in = (_ramp(roll_c, *roll_ramp_deg) * _ramp(pitch_c, *PITCH_RAMP_DEG)
-                   * _ramp(roll_b, *BODY_ESTIMATE_LIMIT_ROLL_DEG) * _ramp(pitch_b, *BODY_ESTIMATE_LIMIT_PITCH_DEG))
+                   * _ramp(roll_b, *body_roll_limit_deg) * _ramp(pitch_b, *BODY_ESTIMATE_LIMIT_PITCH_DEG))
         weight[idx] = np.maximum(weight[idx], kept_in)
     return weight
 
