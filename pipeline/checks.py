@@ -47,7 +47,7 @@ def pitch_half_width(report: RectificationReport) -> float:
     static camera's spread (or a standing trial's, ``camera_up_from``), 0 for an up given
     exactly (``--camera-up``), else ``inf`` (frame and smooth modes, another method, ups spread
     beyond a static camera's). The tilt line names the camera's direction only beyond it
-    (:func:`pcnet.stages.flags.looking`; a docs trial read "looking up" for -0.2 +- 6.9, a
+    (:func:`pcnet.stages.flags.with_looking`; a docs trial read "looking up" for -0.2 +- 6.9, a
     clinic trial "looking down" from a bootstrap of +-0.1)."""
     seq = report.sequence
     if seq is None:

@@ -448,7 +448,11 @@ def staged_output(out: str | os.PathLike, overwrite: bool = False, left: list[st
     CLI's SIGTERM included) delete it and the parent folders of ``out`` this call created, and
     leave ``out`` as it was.
 
-    Folders are created with the process umask (as ``mkdir`` does), not ``0700``. Call
+    Folders are created with the process umask (as ``mkdir`` does), not ``0700``; one that
+    replaces an earlier output takes that folder's mode, group and extended attributes
+    (:func:`_carry_folder_attributes`). The swap and the earlier output's removal run whole
+    (:func:`~.interrupt.interrupts_deferred`): an interrupt during them is raised after, as
+    :class:`~.interrupt.InterruptedAfterPublishing` once the output is in place. Call
     :func:`check_out_folder` first; this function does not re-check its rules, except that
     without ``overwrite`` the output is published only where ``out`` is still free when the
     run ends (another run may have finished there meanwhile), and an output that
