@@ -165,6 +165,7 @@ def estimate_video(video: str | Path, progress: bool = False,
 
     video = Path(video)
     capture, fps, count = _open(video)
+    cv2 = opencv()  # imported by _open; bound once for the frame loop
     options = pose_landmarker.PoseLandmarkerOptions(
         base_options=BaseOptions(model_asset_path=str(POSE_TASK)), running_mode=VisionTaskRunningMode.VIDEO,
         num_poses=1, output_segmentation_masks=False)
@@ -187,7 +188,7 @@ def estimate_video(video: str | Path, progress: bool = False,
                                      f"y = {y0 + seen_h}")
                 seen = frame[y0:y0 + seen_h, x0:x0 + seen_w]
                 image = mp_image.Image(image_format=mp_image.ImageFormat.SRGB,
-                                       data=np.ascontiguousarray(opencv().cvtColor(seen, opencv().COLOR_BGR2RGB)))
+                                       data=np.ascontiguousarray(cv2.cvtColor(seen, cv2.COLOR_BGR2RGB)))
                 # Where no pose was tracked into this frame, the detector's box is the landmark
                 # model's crop; every later frame's crop comes from the landmarks before it. The
                 # frame is seen again from its own landmarks' crop, so that every frame's pose is

@@ -42,38 +42,38 @@ class CameraTilt:
         return cls(*camera_tilt(rotation[:, :, 1], valid))
 
 
-def pitch_half_width(report: RectificationReport) -> float:
-    """The camera pitch's calibrated 95 % half-width in degrees: sequence mode's interval over a
-    static camera's spread (or a standing trial's, ``camera_up_from``), 0 for an up given
-    exactly (``--camera-up``), else ``inf`` (frame and smooth modes, another method, ups spread
-    beyond a static camera's). The tilt line names the camera's direction only beyond it
-    (:func:`pcnet.stages.flags.with_looking`; a docs trial read "looking up" for -0.2 +- 6.9, a
-    clinic trial "looking down" from a bootstrap of +-0.1)."""
-    seq = report.sequence
-    if seq is None:
-        return float("inf")
-    if seq.evidence == GIVEN_UP and not seq.given_from_run:
-        return 0.0
-    if seq.evidence != GIVEN_UP and spreads_beyond_static(report.mode):
-        return float("inf")
-    return float(seq.camera_pitch_interval_deg) if np.isfinite(seq.camera_pitch_interval_deg) else float("inf")
-
-
-def calibrated_tilt_interval(report: RectificationReport) -> float | None:
-    """The up's calibrated 95 % half-width in degrees, the larger of pitch and roll, where
-    there is one (as :func:`pitch_half_width`: sequence mode over a static camera's spread, or
-    a standing trial's); 0 for an up given exactly; ``None`` otherwise. What a printed "+-" on a
-    lean against gravity may claim: a clinic trial read a bootstrap's +-0.1 and a frame-mode
-    bound's +-7.4 beside a per-frame bound of 30 deg as sure."""
+def _calibrated_halves(report: RectificationReport) -> tuple[float, float] | None:
+    """The up's calibrated 95 % pitch and roll half-widths (deg): sequence mode's intervals over
+    a static camera's spread, or a standing trial's (``camera_up_from``); ``(0, 0)`` for an up
+    given exactly (``--camera-up``); ``None`` otherwise (frame and smooth modes, another method,
+    ups spread beyond a static camera's)."""
     seq = report.sequence
     if seq is None:
         return None
     if seq.evidence == GIVEN_UP and not seq.given_from_run:
-        return 0.0
+        return 0.0, 0.0
     if seq.evidence != GIVEN_UP and spreads_beyond_static(report.mode):
         return None
     halves = (seq.camera_pitch_interval_deg, seq.camera_roll_interval_deg)
-    return float(max(halves)) if np.isfinite(halves).all() else None
+    return (float(halves[0]), float(halves[1])) if np.isfinite(halves).all() else None
+
+
+def pitch_half_width(report: RectificationReport) -> float:
+    """The camera pitch's calibrated 95 % half-width in degrees (:func:`_calibrated_halves`),
+    ``inf`` where there is none. The tilt line names the camera's direction only beyond it
+    (:func:`pcnet.stages.flags.with_looking`; a docs trial read "looking up" for -0.2 +- 6.9, a
+    clinic trial "looking down" from a bootstrap of +-0.1)."""
+    halves = _calibrated_halves(report)
+    return float("inf") if halves is None else halves[0]
+
+
+def calibrated_tilt_interval(report: RectificationReport) -> float | None:
+    """The up's calibrated 95 % half-width in degrees, the larger of pitch and roll
+    (:func:`_calibrated_halves`), 0 for an up given exactly, ``None`` where there is none. What
+    a printed "+-" on a lean against gravity may claim: a clinic trial read a bootstrap's +-0.1
+    and a frame-mode bound's +-7.4 beside a per-frame bound of 30 deg as sure."""
+    halves = _calibrated_halves(report)
+    return None if halves is None else max(halves)
 
 
 def per_frame_tilt(rotation, valid, mode: str) -> list[float] | None:

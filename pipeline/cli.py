@@ -21,7 +21,7 @@ from pcnet.pipeline.batch import ENGINES
 from pcnet.pipeline.config import (ALIGN, MODES, check_camera_up_use, keypoint_formats, lifter_names,
                                    multi_track_formats, parse_camera_up, pcnet_version)
 from pcnet.pipeline.interrupt import (EXIT_INTERRUPTED, STOP_SIGNALS, InterruptedAfterPublishing, came_from_interrupt,
-                                      quiet_interrupt_hook, raise_interrupt)
+                                      exception_chain, quiet_interrupt_hook, raise_interrupt)
 from pcnet.stages.core.errors import InputError, import_extra, one_line, short_path
 from pcnet.stages.heading import HEADING_SOURCES
 from pcnet.stages.rectify import METHODS, POSTURES, check_method_weights, check_posture
@@ -106,12 +106,10 @@ def _stop_after_writing(what: str, where: str = "") -> None:
 
 
 def _stop_interrupted(stop: BaseException | None = None) -> None:
-    seen = set()
-    while stop is not None and id(stop) not in seen:  # the interrupt itself, or what it caused
-        if isinstance(stop, InterruptedAfterPublishing):  # the output was published whole just before
-            _stop_after_writing(stop.path)
-        seen.add(id(stop))
-        stop = stop.__cause__ or stop.__context__
+    # the interrupt itself, or what it caused, may say the output was published whole just before
+    for err in exception_chain(stop):
+        if isinstance(err, InterruptedAfterPublishing):
+            _stop_after_writing(err.path)
     click.echo("pcnet: interrupted; nothing half-written was left behind", err=True)
     raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
 

@@ -81,15 +81,17 @@ def came_from_interrupt(err: BaseException) -> bool:
     ("initialization failed"), numpy's ``fromfile``, interrupted inside its isinstance check
     of a file object, into "TypeError: expected str, bytes or os.PathLike object" (a SIGTERM
     in CI). Once the user asked to stop, whatever unwinds is that stop."""
-    if was_interrupted():
-        return True
+    return was_interrupted() or any(isinstance(e, KeyboardInterrupt) for e in exception_chain(err))
+
+
+def exception_chain(err: BaseException | None):
+    """``err``, then what it was raised from or while handling (``__cause__``, else
+    ``__context__``), and so on, each once."""
     seen = set()
     while err is not None and id(err) not in seen:
         seen.add(id(err))
-        if isinstance(err, KeyboardInterrupt):
-            return True
+        yield err
         err = err.__cause__ or err.__context__
-    return False
 
 
 def quiet_interrupt_hook(default):
